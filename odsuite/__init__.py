@@ -1,0 +1,21 @@
+"""odsuite: experimental vibration analysis of rigid plates, with model comparison and diagnosis."""
+
+from importlib.metadata import PackageNotFoundError, version
+
+from odsuite.core.errors import OdsuiteError
+from odsuite.core.hookspecs import hookimpl
+
+try:
+    __version__ = version("odsuite")
+except PackageNotFoundError:  # running from a source tree without installation
+    __version__ = "0+unknown"
+
+
+def open_project(path, mode: str = "r"):
+    """Open an odsuite project file (``mode`` "r" to read, "a" to read and write)."""
+    from odsuite.core.project import open_project as _open
+
+    return _open(path, mode)
+
+
+__all__ = ["OdsuiteError", "hookimpl", "open_project", "__version__"]

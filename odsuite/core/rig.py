@@ -1,0 +1,222 @@
+"""Rig definitions: the bodies, plates and sensors of a test rig, read from TOML data files.
+
+A lab describes its own rig by copying a rig file (see ``projects/rigs/``) and editing it. All
+lengths are metres in the rig frame, which the file states (for the thesis rig: origin at the
+platform's centre of mass G at rest, platform axes, z pointing down into the platform).
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from odsuite.core.errors import ConfigError
+
+#: Roles of the nine-accelerometer set, in Table E.2 row 33 / Eq. 4.13 order.
+NINE_ROLES = ("xC", "yC", "zC", "x1", "z1", "y2", "z2", "x3", "y3")
+
+
+@dataclass(frozen=True)
+class Plate:
+    """A box drawn for a body: size (L, W, H along body x, y, z) and its corner of least x, y, z."""
+
+    size: np.ndarray
+    corner: np.ndarray
+
+
+@dataclass(frozen=True)
+class NineSensorSet:
+    """Nine single-axis accelerometers on three corners (thesis Fig. 4.9, Eq. 4.13).
+
+    ``corner`` is corner C; corner 1 = C + (0, ry, 0), corner 2 = C + (rx, 0, 0),
+    corner 3 = C + (0, 0, rz). ``sensors`` maps each role of NINE_ROLES to a sensor name.
+    """
+
+    corner: np.ndarray
+    rx: float
+    ry: float
+    rz: float
+    sensors: dict[str, str]
+
+
+@dataclass(frozen=True)
+class Body:
+    name: str
+    com: np.ndarray  # centre of mass at rest, rig frame
+    mass: float | None = None  # None: not modelled as a moving rigid body (e.g. a fixed reference)
+    inertia: np.ndarray | None = None  # 3x3 about the centre of mass, body axes
+    plate: Plate | None = None
+    nine_sensor_set: NineSensorSet | None = None
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """A single-axis sensor: volts = sign * sensitivity * (quantity at ``position`` along ``axis``)."""
+
+    name: str
+    channel: int
+    body: str
+    position: np.ndarray
+    axis: np.ndarray
+    sign: float = 1.0
+    kind: str = "accelerometer"
+    serial: str = ""
+    sensitivity: float | None = None  # V per SI unit (e.g. V/(m/s^2)); None: from the Systeminfo
+
+
+@dataclass(frozen=True)
+class Rig:
+    name: str
+    description: str
+    frame: str
+    bodies: tuple[Body, ...]
+    sensors: tuple[Sensor, ...]
+    force_channel: int | None
+    channel_count: int
+    default_model: str | None
+    systeminfo_file: Path | None = None  # a legacy .CTR with the rig's default Systeminfo
+    source: Path | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def body(self, name: str) -> Body:
+        for b in self.bodies:
+            if b.name == name:
+                return b
+        raise ConfigError(f"rig {self.name!r}: no body named {name!r}")
+
+    def sensor(self, name: str) -> Sensor:
+        for s in self.sensors:
+            if s.name == name:
+                return s
+        raise ConfigError(f"rig {self.name!r}: no sensor named {name!r}")
+
+    def sensor_on_channel(self, channel: int) -> Sensor | None:
+        return next((s for s in self.sensors if s.channel == channel), None)
+
+    @property
+    def moving_bodies(self) -> tuple[Body, ...]:
+        return tuple(b for b in self.bodies if b.mass is not None)
+
+
+def _vector(where: str, value: Any, n: int = 3) -> np.ndarray:
+    arr = np.asarray(value, dtype=float) if isinstance(value, list) else None
+    if arr is None or arr.shape != (n,) or not np.all(np.isfinite(arr)):
+        raise ConfigError(f"{where}: expected {n} finite numbers, got {value!r}")
+    return arr
+
+
+def _number(where: str, value: Any, *, positive: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+        raise ConfigError(f"{where}: expected a finite number, got {value!r}")
+    if positive and value <= 0:
+        raise ConfigError(f"{where}: must be > 0, got {value!r}")
+    return float(value)
+
+
+def rig_from_dict(data: dict[str, Any], source: Path | None = None) -> Rig:
+    """Build and validate a rig from parsed TOML; errors name the file, field and value."""
+    where0 = str(source) if source else "rig"
+    try:
+        name = data["name"]
+    except KeyError:
+        raise ConfigError(f"{where0}: missing field 'name'") from None
+    bodies = []
+    for i, b in enumerate(data.get("bodies", [])):
+        w = f"{where0}: bodies[{i}]"
+        if "name" not in b:
+            raise ConfigError(f"{w}: missing field 'name'")
+        w = f"{where0}: body {b['name']!r}"
+        mass = b.get("mass")
+        inertia = None
+        if mass is not None:
+            mass = _number(f"{w} field 'mass'", mass, positive=True)
+            inertia = np.asarray(b.get("inertia", np.zeros((3, 3)).tolist()), dtype=float)
+            if inertia.shape != (3, 3) or not np.allclose(inertia, inertia.T):
+                raise ConfigError(f"{w} field 'inertia': expected a symmetric 3x3 matrix, got {b.get('inertia')!r}")
+            if np.linalg.eigvalsh(inertia).min() <= 0:
+                raise ConfigError(f"{w} field 'inertia': not positive definite (eigenvalues {np.linalg.eigvalsh(inertia)})")
+        plate = None
+        if "plate" in b:
+            p = b["plate"]
+            size = _vector(f"{w} field 'plate.size'", p.get("size"))
+            if np.any(size <= 0):
+                raise ConfigError(f"{w} field 'plate.size': must be > 0, got {p.get('size')!r}")
+            plate = Plate(size=size, corner=_vector(f"{w} field 'plate.corner'", p.get("corner")))
+        nine = None
+        if "nine_sensor_set" in b:
+            n = b["nine_sensor_set"]
+            missing = [r for r in NINE_ROLES if r not in n.get("sensors", {})]
+            if missing:
+                raise ConfigError(f"{w} field 'nine_sensor_set.sensors': missing role(s) {', '.join(missing)}")
+            nine = NineSensorSet(
+                corner=_vector(f"{w} field 'nine_sensor_set.corner'", n.get("corner")),
+                rx=_number(f"{w} field 'nine_sensor_set.rx'", n.get("rx"), positive=True),
+                ry=_number(f"{w} field 'nine_sensor_set.ry'", n.get("ry"), positive=True),
+                rz=_number(f"{w} field 'nine_sensor_set.rz'", n.get("rz"), positive=True),
+                sensors=dict(n["sensors"]),
+            )
+        bodies.append(Body(
+            name=b["name"], com=_vector(f"{w} field 'com'", b.get("com", [0.0, 0.0, 0.0])),
+            mass=mass, inertia=inertia, plate=plate, nine_sensor_set=nine,
+        ))
+    body_names = {b.name for b in bodies}
+    sensors = []
+    for i, s in enumerate(data.get("sensors", [])):
+        w = f"{where0}: sensor {s.get('name', i)!r}"
+        if s.get("body") not in body_names:
+            raise ConfigError(f"{w} field 'body': no body named {s.get('body')!r}")
+        axis = _vector(f"{w} field 'axis'", s.get("axis"))
+        if np.linalg.norm(axis) == 0:
+            raise ConfigError(f"{w} field 'axis': zero vector")
+        sign = s.get("sign", 1)
+        if sign not in (1, -1):
+            raise ConfigError(f"{w} field 'sign': must be 1 or -1, got {sign!r}")
+        channel = s.get("channel")
+        if not isinstance(channel, int) or channel < 0:
+            raise ConfigError(f"{w} field 'channel': expected a channel index >= 0, got {channel!r}")
+        sensors.append(Sensor(
+            name=s["name"], channel=channel, body=s["body"],
+            position=_vector(f"{w} field 'position'", s.get("position")),
+            axis=axis / np.linalg.norm(axis), sign=float(sign),
+            kind=s.get("kind", "accelerometer"), serial=str(s.get("serial", "")),
+            sensitivity=(None if s.get("sensitivity") is None
+                         else _number(f"{w} field 'sensitivity'", s["sensitivity"], positive=True)),
+        ))
+    sensor_names = {s.name for s in sensors}
+    channels = [s.channel for s in sensors]
+    if len(set(channels)) != len(channels):
+        raise ConfigError(f"{where0}: two sensors share a channel ({sorted(channels)})")
+    for b in bodies:
+        if b.nine_sensor_set:
+            unknown = [v for v in b.nine_sensor_set.sensors.values() if v not in sensor_names]
+            if unknown:
+                raise ConfigError(f"{where0}: body {b.name!r} nine_sensor_set names unknown sensor(s) {unknown}")
+    systeminfo_file = None
+    if data.get("systeminfo"):
+        base = source.parent if source else Path.cwd()
+        systeminfo_file = base / data["systeminfo"]
+    known = {"name", "description", "frame", "bodies", "sensors", "force_channel", "channel_count",
+             "default_model", "systeminfo"}
+    return Rig(
+        name=name, description=data.get("description", ""), frame=data.get("frame", ""),
+        bodies=tuple(bodies), sensors=tuple(sensors), force_channel=data.get("force_channel"),
+        channel_count=int(data.get("channel_count", max(channels, default=-1) + 1)),
+        default_model=data.get("default_model"), systeminfo_file=systeminfo_file, source=source,
+        extra={k: v for k, v in data.items() if k not in known},
+    )
+
+
+def load_rig(path: str | Path) -> Rig:
+    path = Path(path)
+    try:
+        with path.open("rb") as f:
+            data = tomllib.load(f)
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: rig file not found") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    return rig_from_dict(data, source=path)

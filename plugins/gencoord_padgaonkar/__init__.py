@@ -1,0 +1,1 @@
+"""odsuite built-in plugin: gencoord_padgaonkar."""
