@@ -25,6 +25,11 @@ console = Console()
 err_console = Console(stderr=True)
 
 
+@app.callback()
+def _root() -> None:
+    """Experimental vibration analysis: impact tests, rigid-plate motion, model comparison."""
+
+
 @app.command("plugins")
 def plugins_cmd() -> None:
     """List registered plugins, their versions and what each registers."""
@@ -66,14 +71,10 @@ def main(argv: list[str] | None = None) -> int:
     except typer.Abort:
         err_console.print("aborted")
         return 1
-    except Exception as exc:
-        # click's own usage errors carry their exit code; anything else is a bug
-        import click
-
-        if isinstance(exc, click.ClickException):
-            exc.show()
-            return exc.exit_code
-        raise
+    except typer.TyperException as exc:
+        # usage errors (unknown option, missing argument) carry their own exit code
+        exc.show()
+        return exc.exit_code
     return 0
 
 
