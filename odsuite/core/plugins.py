@@ -66,7 +66,8 @@ def make_plugin_manager(*, load_entry_points: bool = True, extra_plugins: tuple 
     try:
         pm.check_pending()
     except pluggy.PluginValidationError as exc:
-        raise PluginLoadError(f"plugin {exc.plugin!r} implements an unknown hook: {exc}") from None
+        name = pm.get_name(exc.plugin) or repr(exc.plugin)
+        raise PluginLoadError(f"plugin {name!r}: {exc}") from None
     if load_entry_points:
         missing = [n for n in REQUIRED_BUILTINS if n not in blocked and pm.get_plugin(n) is None]
         if missing:
