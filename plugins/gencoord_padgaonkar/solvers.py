@@ -42,6 +42,10 @@ _PAIRS = {
 }
 
 
+def _term(sign: int, far: str, near: str, spacing: str) -> str:
+    return f"{'-' if sign < 0 else ''}({far} - {near})/{spacing}"
+
+
 def _nine_set(rig: Rig, body: Body) -> NineSensorSet:
     nine = body.nine_sensor_set
     if nine is None:
@@ -140,9 +144,8 @@ def rigidity_check(rig: Rig, body: Body, accelerations: Mapping[str, np.ndarray]
     flagged = tuple(a for a in "xyz" if fractions[a] > threshold)
     worst_axis = max(fractions, key=fractions.get)
     (s1, f1, n1, r1, eq1), (s2, f2, n2, r2, eq2) = _PAIRS[worst_axis]
-    term = lambda sign, far, near, r: f"{'-' if sign < 0 else ''}({far} - {near})/{r}"  # noqa: E731
-    worst = (f"angular acceleration about {worst_axis}: Eq. {eq1} {term(s1, f1, n1, r1)} and Eq. {eq2} "
-             f"{term(s2, f2, n2, r2)} disagree by {fractions[worst_axis]:.1%} of its RMS")
+    worst = (f"angular acceleration about {worst_axis}: Eq. {eq1} {_term(s1, f1, n1, r1)} and Eq. {eq2} "
+             f"{_term(s2, f2, n2, r2)} disagree by {fractions[worst_axis]:.1%} of its RMS")
     suspects: tuple[str, ...] = ()
     if flagged:
         uses = {role: {a for a, pair in _PAIRS.items() for p in pair if role in p[1:3]} for role in NINE_ROLES}
