@@ -1,0 +1,287 @@
+"""The project file: schema, round trips, derived data, transactions, revisions, summaries."""
+
+from __future__ import annotations
+
+import dataclasses
+import shutil
+import subprocess
+
+import h5py
+import numpy as np
+import pytest
+
+from odsuite.core.errors import ConfigError, DimensionError, ProjectFileError
+from odsuite.core.project import (
+    FORMAT_NAME,
+    FORMAT_VERSION,
+    DerivedArray,
+    Excitation,
+    _rig_to_dict,
+    create_project,
+    open_project,
+)
+from odsuite.core.systeminfo import (
+    ChannelInfo,
+    FilterFamily,
+    FilterType,
+    Integration,
+    RigInfo,
+    SensorType,
+    Systeminfo,
+)
+
+HIT = Excitation(0, np.array([0.01, -0.02, -0.011]), np.array([0.0, 0.0, 1.0]))
+
+
+def systeminfo(n: int = 11) -> Systeminfo:
+    return Systeminfo([ChannelInfo(sensor_type=SensorType.ACCELEROMETER, sampling_rate=1000.0) for _ in range(n)])
+
+
+def odd_systeminfo() -> Systeminfo:
+    """Every field away from its default, None and non-None cut-offs, unicode text, lists."""
+    chans = []
+    for i in range(3):
+        chans.append(ChannelInfo(
+            sensor_type=list(SensorType)[i + 1], location=f"corner C, ±x {i}", serial=f"S{i}",
+            sensitivity=0.0201 + i, integration=Integration.DOUBLE, filter_type=FilterType.BANDSTOP,
+            filter_order=4 + i, sampling_rate=2048.5, cutoff_high=None if i == 0 else 300.0 + i,
+            cutoff_low=None if i == 1 else 0.5 * i, ripple_db=0.5, attenuation_db=40.0 + i,
+            filters_on=16, micro_units=True, invert=bool(i % 2), offset_start=3 + i, offset_length=50,
+            daq_gain=2.5, filter_family=FilterFamily.BUTTERWORTH, limit_high=5.0, limit_low=-5.0 - i,
+            zero_phase=True, integration_rule="trapezoid",
+        ))
+    rig = RigInfo(use_in_gcc=True, use_in_ag=True, plate_sizes=[(0.1, 0.2, 0.03), (0.5, 0.5, 0.0254)],
+                  plate_origins=[(0.0, 0.0, 0.0), (-0.25, -0.25, 0.03)], plot_from_corner=True,
+                  coordinate_columns=[1, 4], rx=0.09846, ry=None, rz=0.0221,
+                  nine_channels=[2, 3, 4, 5, 6, 7, 8, 9, 10])
+    return Systeminfo(chans, rig)
+
+
+def test_every_systeminfo_field_round_trips(tmp_path):
+    si = odd_systeminfo()
+    # the fixture really differs from the defaults in every field, so the round trip tests them all
+    for f in dataclasses.fields(ChannelInfo):
+        assert any(getattr(c, f.name) != f.default for c in si.channels), f.name
+    for f in dataclasses.fields(RigInfo):
+        if f.name == "ry":  # kept None here: the None <-> NaN path
+            continue
+        assert getattr(si.rig, f.name) != (f.default_factory() if f.default_factory is not dataclasses.MISSING
+                                           else f.default), f.name
+    raw = np.arange(30.0).reshape(10, 3)
+    with create_project(tmp_path / "p.h5", rig=None) as p:
+        p.add_experiment("e", raw, sampling_rate=2048.5, systeminfo=si, excitation=None)
+        p.add_experiment("defaults", raw, sampling_rate=1.0, systeminfo=systeminfo(3), excitation=None)
+    with open_project(tmp_path / "p.h5") as p:
+        back = p.experiment("e").systeminfo
+        assert p.experiment("defaults").systeminfo == systeminfo(3)
+    assert back == si
+    for c in back.channels:
+        assert type(c.sensor_type) is SensorType and type(c.filter_family) is FilterFamily
+    assert back.rig.plate_sizes == [(0.1, 0.2, 0.03), (0.5, 0.5, 0.0254)]
+    assert back.rig.ry is None and back.rig.rx == 0.09846
+
+
+def test_schema_attrs_and_experiment_round_trip(tmp_path, thesis_rig):
+    rng = np.random.default_rng(1)
+    raw = rng.normal(size=(3000, 11))
+    with create_project(tmp_path / "p.h5", rig=thesis_rig) as p:
+        e = p.add_experiment("hit 1", raw, sampling_rate=1000, systeminfo=systeminfo(), pretrigger=100,
+                             excitation=Excitation(0, np.array([0.01, 0.0, -0.011]), np.array([0, 0, 4.0])),
+                             source="test")
+        assert e.n_samples == 3000
+    with h5py.File(tmp_path / "p.h5", "r") as f:
+        a = f.attrs
+        assert a["odsuite_format"] == FORMAT_NAME and a["odsuite_format_version"] == FORMAT_VERSION
+        assert a["hdf5_version"] == h5py.version.hdf5_version and a["h5py_version"] == h5py.version.version
+        assert a["creator"] == "odsuite" and a["creator_version"]
+        assert a["file_time"][-6] in "+-"  # tz-aware ISO 8601
+        g = f["experiments/hit 1"]
+        assert g.attrs["odsuite_type"] == "experiment" and len(g.attrs["object_id"]) == 36
+        ds = g["raw"]
+        assert ds.fletcher32 and ds.chunks is not None and ds.dtype == np.float64
+        assert ds.attrs["units"] == "V" and list(ds.attrs["dims"]) == ["sample", "channel"]
+        # per-channel metadata readable by name without odsuite
+        assert list(g["systeminfo/channels"]["name"][[0, 2]]) == [b"force", b"xC"]
+    with open_project(tmp_path / "p.h5") as p:
+        e = p.experiment("hit 1")
+        assert np.array_equal(e.raw(), raw)
+        assert np.array_equal(e.raw(10, 20, channels=["y3", 0]), raw[10:20][:, [10, 0]])
+        assert np.array_equal(e.raw(5, 6, channels="xC"), raw[5:6, 2])
+        assert e.channel_names[:3] == ["force", "ch1", "xC"]  # from the rig's sensors
+        assert np.array_equal(e.excitation.direction, [0, 0, 1.0])  # stored as a unit vector
+        assert (e.sampling_rate, e.pretrigger, e.rig_name, e.source) == (1000.0, 100, "thesis-dynamometer", "test")
+
+
+def test_rig_sources(tmp_path, thesis_rig):
+    # by registered name and by path: the stored TOML text parses back to the same rig
+    for i, rig in enumerate(["thesis-dynamometer", thesis_rig.source]):
+        with create_project(tmp_path / f"n{i}.h5", rig=rig) as p:
+            assert _rig_to_dict(p.rig) == _rig_to_dict(thesis_rig)
+        with h5py.File(tmp_path / f"n{i}.h5", "r") as f:
+            assert f["rig"].attrs["definition"] == thesis_rig.source.read_text()
+    # a rig built in code has no TOML: stored as JSON, still self-contained
+    code_rig = dataclasses.replace(thesis_rig, name="code-rig", source=None)
+    with create_project(tmp_path / "c.h5", rig=code_rig) as p:
+        pass
+    with open_project(tmp_path / "c.h5") as p:
+        back = p.rig
+    assert back.name == "code-rig"
+    assert np.allclose(back.body("platform").inertia, thesis_rig.body("platform").inertia)
+    assert [s.position.tolist() for s in back.sensors] == [s.position.tolist() for s in thesis_rig.sensors]
+    for none in (None, "none"):
+        with create_project(tmp_path / f"x{none}.h5", rig=none) as p:
+            assert p.rig is None and p.model_revisions() == [] and p.current_revision is None
+    with pytest.raises(ConfigError, match="no-such-rig"):
+        create_project(tmp_path / "u.h5", rig="no-such-rig")
+    assert not (tmp_path / "u.h5").exists()
+
+
+def test_streamed_add_equals_array_add(tmp_path):
+    rng = np.random.default_rng(2)
+    raw = rng.normal(size=(10_007, 4))
+    with create_project(tmp_path / "p.h5", rig=None) as p:
+        p.add_experiment("known", (raw[i:i + 1000] for i in range(0, len(raw), 1000)), n_samples=len(raw),
+                         sampling_rate=500.0, systeminfo=systeminfo(4), excitation=None)
+        p.add_experiment("unknown", (raw[i:i + 999] for i in range(0, len(raw), 999)),
+                         sampling_rate=500.0, systeminfo=systeminfo(4), excitation=None)
+        assert p.experiment("known").channel_names == ["ch0", "ch1", "ch2", "ch3"]
+        assert np.array_equal(p.experiment("known").raw(), raw)
+        assert np.array_equal(p.experiment("unknown").raw(), raw)
+        with pytest.raises(DimensionError, match="10007 rows, expected 20000"):
+            p.add_experiment("short", iter([raw]), n_samples=20_000, sampling_rate=500.0,
+                             systeminfo=systeminfo(4), excitation=None)
+        assert p.experiment_names() == ["known", "unknown"]
+
+
+def test_derived_write_replace_stream_and_provenance(tmp_path):
+    with create_project(tmp_path / "p.h5", rig=None) as p:
+        e = p.add_experiment("e", np.zeros((100, 2)), sampling_rate=100.0, systeminfo=systeminfo(2),
+                             excitation=None)
+        acc = np.linspace(0, 1, 200).reshape(100, 2)
+        p.write_derived("e", "processed", {"acc": DerivedArray(acc, "m/s^2", ("sample", "channel")),
+                                           "frf": DerivedArray(np.array([1 + 2j, 3j]), "m/s^2/N", ("f",))},
+                        provenance={"plugin": "filters", "version": "0.1", "parameters": {"order": 4}},
+                        attrs={"note": "ok", "chain": {"a": [1, 2]}})
+        d = p.read_derived("e", "processed")
+        assert np.array_equal(d["acc"], acc) and np.array_equal(d["frf"], [1 + 2j, 3j])
+        info = p.derived_info("e", "processed")
+        assert info["provenance"]["plugin"] == "filters" and info["provenance"]["parameters"] == {"order": 4}
+        assert info["provenance"]["inputs"] == [e.object_id]
+        assert info["units"] == {"acc": "m/s^2", "frf": "m/s^2/N"} and info["attrs"]["note"] == "ok"
+        # replace with a streamed group; a failing writer leaves the previous group intact
+        with p.derived_writer("e", "processed", provenance={"plugin": "filters"}) as w:
+            ds = w.create("acc", (100, 2), np.float64, "m/s^2", ("sample", "channel"))
+            ds[:50] = acc[:50] * 2
+            ds[50:] = acc[50:] * 2
+        with pytest.raises(RuntimeError), p.derived_writer("e", "processed", provenance={"plugin": "x"}) as w:
+            w.create("acc", (100, 2), np.float64, "m/s^2", ("sample", "channel"))[:] = 0
+            raise RuntimeError("plugin failed")
+        assert p.derived_kinds("e") == ["processed"]
+        assert np.array_equal(p.read_derived("e", "processed")["acc"], acc * 2)
+        assert list(p.read_derived("e", "processed")) == ["acc"]
+        with pytest.raises(DimensionError, match="2 dims"):
+            p.write_derived("e", "bad", {"x": DerivedArray(np.zeros(3), "1", ("a", "b"))},
+                            provenance={"plugin": "t"})
+        with pytest.raises(ConfigError, match="provenance needs the plugin"):
+            p.write_derived("e", "bad", {}, provenance={})
+        assert p.derived_kinds("e") == ["processed"]
+
+
+def test_transaction_batches_into_one_copy(tmp_path, monkeypatch):
+    copies = []
+    real = shutil.copyfile
+    monkeypatch.setattr(shutil, "copyfile", lambda a, b: copies.append(a) or real(a, b))
+    with create_project(tmp_path / "p.h5", rig=None) as p:
+        copies.clear()
+        with p.transaction():
+            for i in range(5):
+                p.add_experiment(f"e{i}", np.full((10, 2), i), sampling_rate=10.0, systeminfo=systeminfo(2),
+                                 excitation=None)
+            with open_project(tmp_path / "p.h5") as reader:  # nothing visible before the commit
+                assert reader.experiment_names() == []
+            # a failed add inside the batch leaves no trace, the batch goes on
+            with pytest.raises(ConfigError, match="channel 1"):
+                p.add_experiment("bad", iter([np.zeros((3, 2)), np.array([[0, np.nan]])]),
+                                 sampling_rate=10.0, systeminfo=systeminfo(2), excitation=None)
+        assert len(copies) == 1
+        with open_project(tmp_path / "p.h5") as reader:
+            assert reader.experiment_names() == [f"e{i}" for i in range(5)]
+            assert reader.experiment("e3").raw()[0, 0] == 3.0
+
+
+def test_read_only_project_refuses_writes(tmp_path):
+    create_project(tmp_path / "p.h5", rig=None).close()
+    with open_project(tmp_path / "p.h5") as p, pytest.raises(ProjectFileError, match="read-only"):
+        p.add_experiment("e", np.zeros((2, 2)), sampling_rate=1.0, systeminfo=systeminfo(2), excitation=None)
+
+
+def test_model_revisions(tmp_path, thesis_rig):
+    with create_project(tmp_path / "p.h5", rig=thesis_rig) as p:
+        (r0,) = p.model_revisions()
+        assert (r0["revision"], r0["effects"], r0["parameters"], r0["model"], r0["parent"]) == \
+            (0, [], {}, "thesis-dynamometer", None)
+        n = p.add_model_revision([{"effect": "stiffness", "k": 1.5e6}], {"k": 1.5e6}, {"error": 0.2}, parent=0)
+        assert n == 1 and p.current_revision == 1
+        p.set_revision_metrics(0, {"error": 0.4})
+        p.set_current_revision(0)
+        with pytest.raises(ConfigError, match="parent revision 7"):
+            p.add_model_revision([], {}, {}, parent=7)
+        with pytest.raises(ConfigError, match="no model revision 9"):
+            p.set_current_revision(9)
+        with pytest.raises(ConfigError, match="JSON"):
+            p.add_model_revision([object()], {}, {}, parent=0)
+    with open_project(tmp_path / "p.h5") as p:
+        revs = p.model_revisions()
+        assert [r["revision"] for r in revs] == [0, 1] and p.current_revision == 0
+        assert revs[1]["effects"] == [{"effect": "stiffness", "k": 1.5e6}] and revs[1]["parent"] == 0
+        assert revs[1]["model"] == "thesis-dynamometer" and revs[0]["metrics"] == {"error": 0.4}
+
+
+def test_info_peaks_and_clipping(tmp_path):
+    rng = np.random.default_rng(3)
+    raw = rng.uniform(-4, 4, size=(20_000, 3))
+    raw[100, 1] = 9.9995  # a 16-bit converter's top code on a +-10 V range
+    raw[200, 2] = -5.0  # exactly at this channel's lower limit
+    si = systeminfo(3)
+    si.channels[2].limit_low = -5.0
+    with create_project(tmp_path / "p.h5", rig=None) as p:
+        p.add_experiment("e", raw, sampling_rate=2000.0, systeminfo=si, excitation=None)
+        info = p.info()
+    e = info["experiments"]["e"]
+    assert e["n_samples"] == 20_000 and e["duration"] == 10.0 and e["sampling_rate"] == 2000.0
+    assert np.allclose(list(e["peak_volts"].values()), np.abs(raw).max(axis=0), rtol=0, atol=0)
+    assert e["clipped"] == ["ch1", "ch2"] and e["clipped_samples"] == {"ch1": 1, "ch2": 1}
+    assert info["rig"] is None and info["format_version"] == FORMAT_VERSION
+
+
+def _numeric_datasets(f: h5py.File) -> list[h5py.Dataset]:
+    found = []
+    f.visititems(lambda _n, o: found.append(o) if isinstance(o, h5py.Dataset) and o.dtype.kind != "O" else None)
+    return found
+
+
+def test_every_numeric_dataset_has_units_and_dims(tmp_path, thesis_rig):
+    with create_project(tmp_path / "p.h5", rig=thesis_rig) as p:
+        p.add_experiment("e", np.zeros((50, 11)), sampling_rate=100.0, systeminfo=odd_systeminfo_11(),
+                         excitation=HIT)
+        p.write_derived("e", "d", {"x": DerivedArray(np.zeros(5), "s", ("t",))}, provenance={"plugin": "t"})
+    with h5py.File(tmp_path / "p.h5", "r") as f:
+        datasets = _numeric_datasets(f)
+        assert len(datasets) >= 9  # raw, channel table, 7 RigInfo datasets, derived
+        for ds in datasets:
+            assert "units" in ds.attrs and "dims" in ds.attrs, ds.name
+            assert len(ds.attrs["dims"]) == ds.ndim, ds.name
+        groups = []
+        f.visititems(lambda _n, o: groups.append(o) if isinstance(o, h5py.Group) else None)
+        for g in groups:
+            assert "odsuite_type" in g.attrs and "object_id" in g.attrs, g.name
+    h5dump = shutil.which("h5dump")
+    if h5dump is None:
+        pytest.skip("h5dump not installed (apt-get install hdf5-tools) - the h5py walk above passed")
+    out = subprocess.run([h5dump, "-A", str(tmp_path / "p.h5")], capture_output=True, text=True, check=True).stdout
+    assert "odsuite_format" in out and '"odsuite.project"' in out and "units" in out and '"V"' in out
+
+
+def odd_systeminfo_11() -> Systeminfo:
+    si = odd_systeminfo()
+    return Systeminfo([si.channels[i % 3] for i in range(11)], si.rig)
