@@ -52,3 +52,7 @@ class PluginConflictError(PluginError):
 
 class HardwareError(OdsuiteError, RuntimeError):
     """The acquisition hardware or its driver failed."""
+
+
+class OdsuiteWarning(UserWarning):
+    """Input odsuite accepts but reads with an assumption the user should know about."""
