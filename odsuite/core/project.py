@@ -145,6 +145,14 @@ def _to_json(where: str, value: Any) -> str:
         raise ConfigError(f"{where}: value is not JSON-serialisable ({exc}): {value!r}") from None
 
 
+def _show(value: Any) -> str:
+    """A value for a one-line message (arrays as plain lists)."""
+    try:
+        return str(np.asarray(value, dtype=float).tolist())
+    except (TypeError, ValueError):
+        return repr(value)
+
+
 def _check_name(where: str, what: str, name: Any) -> str:
     if not isinstance(name, str) or not name.strip() or "/" in name or name.startswith("."):
         raise ConfigError(f"{where}: {what} name must be a non-empty string without '/' and not "
@@ -484,7 +492,7 @@ def _check_chunk(where: str, chunk: Any, n_channels: int | None, row0: int, name
     if bad.any():
         i, c = np.argwhere(bad)[0]
         label = f" ({names[c]})" if names else ""
-        raise ConfigError(f"{where}: raw sample {row0 + i}, channel {c}{label} is {arr[i, c]!r}; "
+        raise ConfigError(f"{where}: raw sample {row0 + i}, channel {c}{label} is {float(arr[i, c])}; "
                           "raw volts must be finite numbers")
     return arr
 
@@ -696,8 +704,10 @@ class Project:
         first = next(chunks, None)
         if first is None:
             raise DimensionError(f"{where}: raw data are empty (no chunks)")
-        first = _check_chunk(where, first, None, 0, channel_names)
-        n_ch = first.shape[1]
+        first = np.asarray(first)
+        n_ch = first.shape[1] if first.ndim == 2 else 0
+        names = self._default_channel_names(n_ch) if channel_names is None else [str(c) for c in channel_names]
+        first = _check_chunk(where, first, None, 0, names if len(names) == n_ch else None)
         if not streamed:
             n_samples = first.shape[0]
         if first.shape[0] == 0 and not streamed:
@@ -705,7 +715,6 @@ class Project:
         if len(systeminfo.channels) != n_ch:
             raise DimensionError(f"{where}: systeminfo describes {len(systeminfo.channels)} channels but the "
                                  f"raw data have {n_ch}")
-        names = self._default_channel_names(n_ch) if channel_names is None else [str(c) for c in channel_names]
         if len(names) != n_ch or len(set(names)) != n_ch:
             raise DimensionError(f"{where}: channel_names must be {n_ch} distinct names, got {channel_names!r}")
         exc_attrs = self._excitation_attrs(where, excitation, n_ch)
@@ -735,12 +744,12 @@ class Project:
             raise ConfigError(f"{where}: force channel must be a channel index 0..{n_ch - 1}, got {fc!r}")
         point = np.asarray(excitation.point, dtype=float)
         if point.shape != (3,) or not np.all(np.isfinite(point)):
-            raise ConfigError(f"{where}: force point must be 3 finite numbers (m), got {excitation.point!r}")
+            raise ConfigError(f"{where}: force point must be 3 finite numbers (m), got {_show(excitation.point)}")
         direction = np.asarray(excitation.direction, dtype=float)
         norm = np.linalg.norm(direction) if direction.shape == (3,) else np.nan
         if not np.isfinite(norm) or norm == 0:
             raise ConfigError(f"{where}: force direction must be a non-zero vector of 3 finite numbers, "
-                              f"got {excitation.direction!r}")
+                              f"got {_show(excitation.direction)}")
         return {"force_channel": int(fc), "force_point": point, "force_point_units": "m",
                 "force_direction": direction / norm}
 
@@ -1082,6 +1091,7 @@ def open_project(path: str | Path, mode: str = "r") -> Project:
         except BaseException:
             tmp.unlink(missing_ok=True)
             raise
+    _check_format(path)  # before locking: no lock file beside a file that is not a project
     lock = _acquire_lock(path)
     try:
         version = _check_format(path)
