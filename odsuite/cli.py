@@ -7,6 +7,7 @@ exception is a bug and keeps its traceback.
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 import typer
 from rich.console import Console
@@ -51,6 +52,96 @@ def plugins_cmd() -> None:
                 provided.append(f"{f.name.replace('_', ' ')}: {', '.join(names)}")
         table.add_row(name, pm.versions.get(name, "-"), "\n".join(provided) or "-")
     console.print(table)
+
+
+def _print_warnings(caught: list) -> None:
+    for w in caught:
+        err_console.print(f"warning: {w.message}", style="yellow", highlight=False, soft_wrap=True)
+
+
+@app.command("new")
+def new_cmd(
+    project: Path = typer.Argument(..., help="Project file to create (.h5)."),
+    rig: str = typer.Option("thesis-dynamometer", "--rig",
+                            help="Registered rig name, a rig .toml file, or 'none' (no rig geometry)."),
+) -> None:
+    """Create a new project file on a rig."""
+    from odsuite.core.project import create_project
+
+    created = create_project(project, rig)
+    name = created.rig.name if created.rig else "none"
+    created.close()
+    console.print(f"created {project} (rig: {name})", highlight=False)
+
+
+@app.command("info")
+def info_cmd(project: Path = typer.Argument(..., help="Project file.")) -> None:
+    """Experiments, rig and model revisions of a project."""
+    from odsuite.core.project import open_project
+
+    with open_project(project) as p:
+        info = p.info()
+        revisions = p.model_revisions()
+    console.print(f"{info['path']}  format {info['format_version']}  rig: {info['rig'] or 'none'}",
+                  highlight=False)
+    table = Table(title="experiments")
+    for col in ("name", "channels", "sampling rate", "samples", "length", "peak |V|", "clipped", "derived"):
+        table.add_column(col)
+    for name, e in info["experiments"].items():
+        peak_channel = max(e["peak_volts"], key=e["peak_volts"].get)
+        clipped = ", ".join(f"{c} ({n})" for c, n in e["clipped_samples"].items())
+        table.add_row(name, str(len(e["channels"])), f"{e['sampling_rate']:g} Hz",
+                      str(e["n_samples"]), f"{e['duration']:.4g} s",
+                      f"{e['peak_volts'][peak_channel]:.4g} ({peak_channel})",
+                      f"[red]{clipped}[/red]" if clipped else "-", ", ".join(e["derived"]) or "-")
+    console.print(table)
+    if revisions:
+        rt = Table(title=f"model revisions (current: {info['current_revision']})")
+        for col in ("revision", "model", "effects", "error"):
+            rt.add_column(col)
+        for r in revisions:
+            effects = ", ".join(str(e.get("effect", e.get("name", e))) if isinstance(e, dict) else str(e)
+                                for e in r["effects"])
+            error = r["metrics"].get("error")
+            rt.add_row(str(r["revision"]), r["model"] or "-", effects or "-",
+                       "-" if error is None else f"{error:.4g}")
+        console.print(rt)
+
+
+@app.command("import-legacy")
+def import_legacy_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    datfile: Path = typer.Argument(..., help="Legacy .DAT/.VIZ data file (volts, samples x channels)."),
+    systeminfo: Path = typer.Option(..., "--systeminfo", help="Legacy .CTR Systeminfo file."),
+    name: str = typer.Option(..., "--name", help="Experiment name."),
+    force_point: str = typer.Option(..., "--force-point",
+                                    help="X,Y,Z in mm from the platform's centre of mass, platform axes."),
+    force_dir: str = typer.Option(..., "--force-dir", help="+x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
+) -> None:
+    """Import a thesis-era .DAT/.VIZ record with its .CTR Systeminfo as a new experiment."""
+    import warnings
+
+    from odsuite.core.importing import import_legacy
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        import_legacy(project, datfile, systeminfo, name, force_point, force_dir)
+    _print_warnings(caught)
+    console.print(f"imported {datfile} as experiment {name!r}", highlight=False)
+
+
+@app.command("export-legacy")
+def export_legacy_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    experiment: str = typer.Argument(..., help="Experiment name."),
+    cod: Path = typer.Option(..., "--cod", help=".COD file to write."),
+    at: str = typer.Option("center", "--at", help="center (centre of mass G) or corner (corner C)."),
+) -> None:
+    """Write an experiment's generalized coordinates as a thesis .COD file (6 columns per body)."""
+    from odsuite.core.importing import export_legacy
+
+    export_legacy(project, experiment, cod, at)
+    console.print(f"wrote {cod}", highlight=False)
 
 
 def _register_plugin_commands() -> None:
