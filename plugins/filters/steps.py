@@ -1,0 +1,379 @@
+"""Processing steps of the thesis's Signal Processor (Ch. 4.3, Eq. 4.2-4.8, Table E.2).
+
+Each provider is called as ``provider(fs=<Hz>, **params)`` and returns a step (or, for zero-phase
+filtering, a list of steps and markers). All steps are float64 and work on one channel.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.signal
+
+from odsuite.core.errors import ConfigError
+from odsuite.core.pipeline import Reverse, Step
+
+_EMPTY = np.empty(0)
+
+
+def _positive(step: str, name: str, value, *, integer: bool = False) -> float:
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value) and value > 0
+    if ok and integer and float(value) != int(value):
+        ok = False
+    if not ok:
+        kind = "a positive integer" if integer else "a finite number > 0"
+        raise ConfigError(f"step {step!r} parameter {name!r}: expected {kind}, got {value!r}")
+    return float(value)
+
+
+# ------------------------------------------------------------------------------------ scaling
+
+
+@dataclass(frozen=True)
+class Scale(Step):
+    """y = factor * x (unit conversion, sign inversion, micro-units)."""
+
+    factor: float
+
+    def process(self, chunk, state):
+        return chunk * self.factor, state
+
+    def fuse(self, following):
+        if isinstance(following, Scale):
+            return Scale(self.factor * following.factor)
+        if isinstance(following, (WindowOffset, MovingAverageOffset)):
+            # the mean of a scaled window is the scaled mean: the offset step scales as it goes
+            return following.scaled(self.factor)
+        if isinstance(following, Sos):
+            return following.scaled(self.factor)
+        return None
+
+
+def convert(fs: float, sensitivity: float, daq_gain: float = 1.0) -> Scale:
+    """Volts to physical units, Eq. 4.3 in SI: value = volts / (sensitivity [V/unit] * daq_gain)."""
+    s = _positive("convert", "sensitivity", sensitivity)
+    g = _positive("convert", "daq_gain", daq_gain)
+    return Scale(1.0 / (s * g))
+
+
+def invert(fs: float) -> Scale:
+    """Sign inversion (Table E.2 row 14)."""
+    return Scale(-1.0)
+
+
+def micro(fs: float) -> Scale:
+    """Micro-units, x1e6 (Table E.2 row 13)."""
+    return Scale(1e6)
+
+
+def scale(fs: float, factor: float) -> Scale:
+    """Multiply by a constant."""
+    if not (isinstance(factor, (int, float)) and np.isfinite(factor)):
+        raise ConfigError(f"step 'scale' parameter 'factor': expected a finite number, got {factor!r}")
+    return Scale(float(factor))
+
+
+# ------------------------------------------------------------------------------------ offsets
+
+
+@dataclass
+class _OffsetState:
+    held: list = field(default_factory=list)
+    seen: int = 0
+    mean: float | None = None
+
+
+@dataclass(frozen=True)
+class WindowOffset(Step):
+    """Subtract the mean of samples [start, start + length) (Table E.2 rows 15-16).
+
+    Streaming holds samples back until the window is complete. ``factor`` scales the input first
+    (a fused unit conversion)."""
+
+    start: int
+    length: int
+    factor: float = 1.0
+
+    def scaled(self, k: float) -> WindowOffset:
+        return WindowOffset(self.start, self.length, self.factor * k)
+
+    def init_state(self):
+        return _OffsetState()
+
+    def process(self, chunk, state):
+        x = chunk * self.factor if self.factor != 1.0 else chunk
+        if state.mean is not None:
+            return x - state.mean, state
+        state.held.append(x)
+        state.seen += x.size
+        if state.seen < self.start + self.length:
+            return _EMPTY, state
+        held = np.concatenate(state.held)
+        state.held = []
+        state.mean = float(np.mean(held[self.start:self.start + self.length]))
+        return held - state.mean, state
+
+    def finish(self, state):
+        if state.mean is None:
+            raise ConfigError(f"step 'offset': window samples {self.start}..{self.start + self.length - 1} "
+                              f"lies outside the record of {state.seen} samples")
+        return _EMPTY
+
+
+def offset(fs: float, start: int = 0, length: int = 0) -> WindowOffset:
+    """Subtract the mean of the window [start, start + length)."""
+    if not (isinstance(start, int) and start >= 0):
+        raise ConfigError(f"step 'offset' parameter 'start': expected an integer >= 0, got {start!r}")
+    _positive("offset", "length", length, integer=True)
+    return WindowOffset(int(start), int(length))
+
+
+@dataclass
+class _MovingState:
+    history: np.ndarray = field(default_factory=lambda: _EMPTY)
+
+
+@dataclass(frozen=True)
+class MovingAverageOffset(Step):
+    """Subtract the trailing moving average of ``length`` samples (fewer at the record's start)."""
+
+    length: int
+    factor: float = 1.0
+
+    def scaled(self, k: float) -> MovingAverageOffset:
+        return MovingAverageOffset(self.length, self.factor * k)
+
+    def init_state(self):
+        return _MovingState()
+
+    def process(self, chunk, state):
+        if not chunk.size:
+            return _EMPTY, state
+        x = chunk * self.factor if self.factor != 1.0 else chunk
+        h = state.history
+        full = np.concatenate([h, x])
+        csum = np.concatenate([[0.0], np.cumsum(full)])
+        idx = np.arange(h.size, full.size) + 1  # window ends (exclusive) in csum
+        lo = np.maximum(idx - self.length, 0)
+        out = x - (csum[idx] - csum[lo]) / (idx - lo)
+        state.history = full[-(self.length - 1):] if self.length > 1 else _EMPTY
+        return out, state
+
+
+def moving_average(fs: float, length: int) -> MovingAverageOffset:
+    """Subtract a trailing moving average (the thesis's "moving average" offset, §3.2)."""
+    return MovingAverageOffset(int(_positive("moving-average", "length", length, integer=True)))
+
+
+# ------------------------------------------------------------------------------------ IIR
+
+
+@dataclass
+class _SosState:
+    zi: np.ndarray | None = None
+    skip: int = 0
+
+
+@dataclass(frozen=True, eq=False)
+class Sos(Step):
+    """A cascade of second-order sections run with ``scipy.signal.sosfilt``.
+
+    ``delay``: the output lags the input by this many samples (one per Eq. 4.5 integrator); the
+    first ``delay`` outputs are dropped and ``finish`` feeds ``delay`` zeros (x[m] = 0).
+    ``zi_x0``: initial state per unit first input sample (sosfiltfilt's steady-state start, or an
+    integrator's start at zero), or None for a zero initial state (causal, as in the thesis).
+    ``zero_lead``: the dropped outputs are zero by construction, so later sections may share the
+    cascade (they then see those zeros first, which leaves them at rest).
+    """
+
+    sos: np.ndarray
+    delay: int = 0
+    zi_x0: np.ndarray | None = None
+    zero_lead: bool = False
+
+    def scaled(self, k: float) -> Sos:
+        sos = self.sos.copy()
+        sos[0, :3] *= k
+        return Sos(sos, self.delay, None if self.zi_x0 is None else self.zi_x0 * k, self.zero_lead)
+
+    def fuse(self, following):
+        # a delayed section must come first: its closing zero (x[m] = 0) is fed at the cascade input
+        if not isinstance(following, Sos) or following.delay or (self.delay and not self.zero_lead):
+            return None
+        n1, n2 = len(self.sos), len(following.sos)
+        if following.zi_x0 is None:
+            zi = None if self.zi_x0 is None else np.vstack([self.zi_x0, np.zeros((n2, 2))])
+        elif self.zi_x0 is None and not self.delay:
+            # at rest, the cascade's first output is the product of the sections' b0 times x[0]
+            zi = np.vstack([np.zeros((n1, 2)), following.zi_x0 * np.prod(self.sos[:, 0])])
+        else:
+            return None
+        return Sos(np.vstack([self.sos, following.sos]), self.delay, zi, self.zero_lead)
+
+    def init_state(self):
+        return _SosState(skip=self.delay)
+
+    def process(self, chunk, state):
+        if not chunk.size:
+            return _EMPTY, state
+        if state.zi is None:
+            state.zi = (np.zeros((len(self.sos), 2)) if self.zi_x0 is None else self.zi_x0 * chunk[0])
+        y, state.zi = scipy.signal.sosfilt(self.sos, chunk, zi=state.zi)
+        if state.skip:
+            drop = min(state.skip, y.size)
+            state.skip -= drop
+            y = y[drop:]
+        return y, state
+
+    def finish(self, state):
+        if not self.delay or state.zi is None:
+            return _EMPTY
+        y, state = self.process(np.zeros(self.delay), state)
+        return y
+
+
+FAMILIES = ("elliptic", "butterworth")
+TYPES = {"lowpass": "lowpass", "highpass": "highpass", "bandpass": "bandpass", "bandstop": "bandstop"}
+
+
+def design_sos(*, fs: float, family: str = "elliptic", type: str = "highpass", order: int = 8,
+               cutoff_low: float | None = None, cutoff_high: float | None = None,
+               ripple_db: float = 0.1, attenuation_db: float = 60.0) -> np.ndarray:
+    """Second-order sections of the Table E.2 filter: ``scipy.signal.ellip`` or ``butter``.
+
+    Low-pass uses ``cutoff_high`` (row 8), high-pass ``cutoff_low`` (row 9), band filters both;
+    the cut-off a type does not use is ignored (Table E.3 leaves row 8 at Nyquist under high-pass).
+    """
+    fam = str(family).lower()
+    if fam not in FAMILIES:
+        raise ConfigError(f"step 'iir' parameter 'family': expected one of {', '.join(FAMILIES)}, got {family!r}")
+    btype = TYPES.get(str(type).lower())
+    if btype is None:
+        raise ConfigError(f"step 'iir' parameter 'type': expected one of {', '.join(TYPES)}, got {type!r}")
+    n = int(_positive("iir", "order", order, integer=True))
+    nyq = fs / 2
+    need = {"lowpass": ("cutoff_high",), "highpass": ("cutoff_low",)}.get(btype, ("cutoff_low", "cutoff_high"))
+    values = {"cutoff_low": cutoff_low, "cutoff_high": cutoff_high}
+    for name in need:
+        v = values[name]
+        if not (isinstance(v, (int, float)) and not isinstance(v, bool) and 0 < v < nyq):
+            raise ConfigError(f"step 'iir' parameter {name!r}: a {btype} filter needs a cut-off in "
+                              f"(0, {nyq:g}) Hz (Nyquist at fs = {fs:g} Hz), got {v!r}")
+    wn = values[need[0]] if len(need) == 1 else [cutoff_low, cutoff_high]
+    if len(need) == 2 and cutoff_low >= cutoff_high:
+        raise ConfigError(f"step 'iir': cutoff_low {cutoff_low!r} Hz must be below cutoff_high {cutoff_high!r} Hz")
+    if fam == "elliptic":
+        rp = _positive("iir", "ripple_db", ripple_db)
+        rs = _positive("iir", "attenuation_db", attenuation_db)
+        return scipy.signal.ellip(n, rp, rs, wn, btype=btype, fs=fs, output="sos")
+    return scipy.signal.butter(n, wn, btype=btype, fs=fs, output="sos")
+
+
+@dataclass(frozen=True)
+class _OddPad(Step):
+    """sosfiltfilt's odd extension: ``edge`` reflected samples before and after the record."""
+
+    edge: int
+
+    def init_state(self):
+        return {"head": [], "seen": 0, "started": False, "tail": _EMPTY}
+
+    def process(self, chunk, state):
+        e = self.edge
+        if state["started"]:
+            state["tail"] = np.concatenate([state["tail"], chunk])[-(e + 1):]
+            return chunk, state
+        state["head"].append(chunk)
+        state["seen"] += chunk.size
+        if state["seen"] <= e:
+            return _EMPTY, state
+        x = np.concatenate(state["head"])
+        state["head"], state["started"], state["tail"] = [], True, x[-(e + 1):]
+        return np.concatenate([2 * x[0] - x[e:0:-1], x]), state
+
+    def finish(self, state):
+        if not state["started"]:
+            raise ConfigError(f"zero-phase filter: the record ({state['seen']} samples) must be longer "
+                              f"than its edge padding of {self.edge} samples")
+        t = state["tail"]
+        return 2 * t[-1] - t[-2::-1]
+
+
+@dataclass(frozen=True)
+class _DropHead(Step):
+    """Drop the first ``count`` samples."""
+
+    count: int
+
+    def init_state(self):
+        return self.count
+
+    def process(self, chunk, state):
+        drop = min(state, chunk.size)
+        return chunk[drop:], state - drop
+
+
+def zero_phase_steps(sos: np.ndarray) -> list:
+    """Forward-backward filtering equal to ``scipy.signal.sosfiltfilt(sos, x)`` (odd padding,
+    steady-state initial conditions), as streaming steps around two time reversals."""
+    ntaps = 2 * len(sos) + 1 - min(int((sos[:, 2] == 0).sum()), int((sos[:, 5] == 0).sum()))
+    edge = 3 * ntaps
+    zi = scipy.signal.sosfilt_zi(sos)
+    # the forward outputs over the leading pad never reach the kept backward outputs: drop them
+    return [_OddPad(edge), Sos(sos, zi_x0=zi), _DropHead(edge), Reverse(),
+            Sos(sos, zi_x0=zi), _DropHead(edge), Reverse()]
+
+
+def iir(fs: float, family: str = "elliptic", type: str = "highpass", order: int = 8,
+        cutoff_low: float | None = None, cutoff_high: float | None = None, ripple_db: float = 0.1,
+        attenuation_db: float = 60.0, zero_phase: bool = False) -> Step | list:
+    """An IIR filter (Eq. 4.4): causal ``sosfilt`` from rest as in the thesis, or zero-phase."""
+    sos = design_sos(fs=fs, family=family, type=type, order=order, cutoff_low=cutoff_low,
+                     cutoff_high=cutoff_high, ripple_db=ripple_db, attenuation_db=attenuation_db)
+    return zero_phase_steps(sos) if zero_phase else Sos(sos)
+
+
+# ------------------------------------------------------------------------------------ integration
+
+RULES = ("thesis", "trapezoid")
+
+
+def integrator_sos(rule: str, fs: float) -> tuple[np.ndarray, int, np.ndarray]:
+    """The integrator as one second-order section, and its output delay in samples.
+
+    ``"thesis"``: Eq. 4.5 (LabVIEW's Integral x(t)), y[i] = sum_{j<=i} (x[j-1] + 4x[j] + x[j+1]) dt/6
+    with x[-1] = x[m] = 0, i.e. y[i] = y[i-1] + (x[i-1] + 4x[i] + x[i+1]) dt/6: a section with
+    b = dt/6 [1, 4, 1], a = [1, -1], delayed one sample (it reads x[i+1]). Its sum runs to
+    t_i + dt/2, so the result LEADS the true integral by half a sample; two integrations advance the
+    signal by one sample, a phase error of 2 pi f dt (0.16 rad at 500 Hz, 20 kHz). The sum starts at
+    j = 0, so the section starts from the state that makes its (dropped) first output zero.
+    ``"trapezoid"``: y[0] = 0, y[i] = y[i-1] + (x[i-1] + x[i]) dt/2, i.e.
+    ``scipy.integrate.cumulative_trapezoid(x, dx=dt, initial=0)``: centred on the sample times.
+    Returns (sos, delay, zi_x0).
+    """
+    dt = 1.0 / fs
+    if rule == "thesis":
+        return np.array([[dt / 6, 4 * dt / 6, dt / 6, 1.0, -1.0, 0.0]]), 1, np.array([[-dt / 6, 0.0]])
+    if rule == "trapezoid":
+        return np.array([[dt / 2, dt / 2, 0.0, 1.0, -1.0, 0.0]]), 0, np.array([[-dt / 2, 0.0]])
+    raise ConfigError(f"step 'integrate' parameter 'rule': expected one of {', '.join(RULES)}, got {rule!r}")
+
+
+def integrate(fs: float, rule: str = "thesis") -> Sos:
+    """Numerical integration: the thesis's Eq. 4.5 rule (default) or the centred trapezoid rule."""
+    sos, delay, zi = integrator_sos(rule, fs)
+    return Sos(sos, delay, zi, zero_lead=True)
+
+
+#: name -> provider, registered by the plugin.
+PROVIDERS = {
+    "convert": convert,
+    "invert": invert,
+    "micro": micro,
+    "scale": scale,
+    "offset": offset,
+    "moving-average": moving_average,
+    "iir": iir,
+    "integrate": integrate,
+}
