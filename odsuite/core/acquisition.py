@@ -1,0 +1,144 @@
+"""Acquisition: the backend protocol and ``acquire``, which stores a record into a project.
+
+Every backend (the simulated rig ``sim``, NI-DAQmx ``ni``, a lab's own) returns a
+:class:`Recording`: raw volts delivered as row chunks plus the Systeminfo, excitation and trigger
+facts that describe them. :func:`acquire` streams those chunks into the project, so the stored
+layout is the same whichever backend produced it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+from odsuite.core.errors import ConfigError
+from odsuite.core.project import Excitation, Experiment, Project
+from odsuite.core.rig import Rig
+from odsuite.core.systeminfo import Systeminfo
+
+#: ``progress(stage, done, total)``: stage is "waiting for trigger" or "reading"; counts in samples.
+Progress = Callable[[str, int, int], None]
+
+WAITING = "waiting for trigger"
+READING = "reading"
+
+
+@dataclass(frozen=True)
+class AcquisitionSettings:
+    """What the experimenter sets before a record (thesis §5.1, App. D.1).
+
+    ``trigger_level`` is in newtons on the force channel (converted to volts with the force
+    channel's sensitivity and gain); ``pretrigger`` samples precede the trigger sample.
+    ``mode`` "finite" arms a reference trigger; "continuous" streams until a capture is requested.
+    """
+
+    sampling_rate: float = 20_000.0
+    n_samples: int = 4096
+    pretrigger: int = 512
+    trigger_level: float = 1.0
+    trigger_slope: str = "rising"
+    trigger_timeout: float = 10.0
+    mode: str = "finite"
+    chunk_size: int = 1024
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.sampling_rate) and self.sampling_rate > 0):
+            raise ConfigError(f"acquisition setting 'sampling_rate': must be > 0 Hz, got {self.sampling_rate!r}")
+        if int(self.n_samples) != self.n_samples or self.n_samples < 2:
+            raise ConfigError(f"acquisition setting 'n_samples': must be an integer >= 2, got {self.n_samples!r}")
+        if int(self.pretrigger) != self.pretrigger or not 0 <= self.pretrigger < self.n_samples:
+            raise ConfigError(
+                f"acquisition setting 'pretrigger': must be an integer in [0, n_samples={self.n_samples}), "
+                f"got {self.pretrigger!r}"
+            )
+        if self.trigger_slope not in ("rising", "falling"):
+            raise ConfigError(f"acquisition setting 'trigger_slope': 'rising' or 'falling', got {self.trigger_slope!r}")
+        if not self.trigger_timeout > 0:
+            raise ConfigError(f"acquisition setting 'trigger_timeout': must be > 0 s, got {self.trigger_timeout!r}")
+        if self.mode not in ("finite", "continuous"):
+            raise ConfigError(f"acquisition setting 'mode': 'finite' or 'continuous', got {self.mode!r}")
+        if int(self.chunk_size) != self.chunk_size or self.chunk_size < 1:
+            raise ConfigError(f"acquisition setting 'chunk_size': must be an integer >= 1, got {self.chunk_size!r}")
+
+
+@dataclass
+class Recording:
+    """A record being delivered by a backend: ``chunks`` yields float64 volts, rows x channels."""
+
+    chunks: Iterator[np.ndarray]
+    n_samples: int
+    sampling_rate: float
+    pretrigger: int
+    systeminfo: Systeminfo
+    excitation: Excitation | None
+    channel_names: list[str]
+    source: str
+    #: filled while the chunks are consumed: per channel index, samples at the ADC's limits
+    clipped: dict[int, int] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+
+class DaqBackend(Protocol):
+    """What a registered acquisition backend provides."""
+
+    def record(
+        self, rig: Rig | None, settings: AcquisitionSettings, *, progress: Progress | None = None,
+        **options: Any,
+    ) -> Recording:
+        """Arm the acquisition and return the record (its chunks are read lazily)."""
+        ...
+
+
+def force_volts_per_newton(systeminfo: Systeminfo, force_channel: int) -> float:
+    """Volts at the ADC per newton of hammer force: sensitivity x gain of the force channel."""
+    if not 0 <= force_channel < len(systeminfo.channels):
+        raise ConfigError(
+            f"force channel {force_channel} is not among the Systeminfo's {len(systeminfo.channels)} channels"
+        )
+    ch = systeminfo.channels[force_channel]
+    return ch.sensitivity * ch.daq_gain
+
+
+def resolve_backend(backend: str | DaqBackend) -> DaqBackend:
+    """A backend object, or the registered backend of that name."""
+    if isinstance(backend, str):
+        from odsuite.core.plugins import registries
+
+        return registries().daq_backends.get(backend)
+    return backend
+
+
+def acquire(
+    project: Project,
+    backend: str | DaqBackend,
+    name: str,
+    settings: AcquisitionSettings | None = None,
+    *,
+    progress: Progress | None = None,
+    **options: Any,
+) -> tuple[Experiment, Recording]:
+    """Record one experiment with ``backend`` and stream it into ``project`` as ``name``.
+
+    ``options`` go to the backend (the simulator's scenario and seed, NI device names, a force point
+    and direction, ...). Chunks are written as they arrive; the experiment becomes visible only
+    once complete. Returns the stored experiment and the recording (its clipping counts, notes).
+    """
+    if name in project.experiment_names():
+        raise ConfigError(f"{project.path}: experiment {name!r} already exists; choose another --name")
+    settings = settings or AcquisitionSettings()
+    rec = resolve_backend(backend).record(project.rig, settings, progress=progress, **options)
+    exp = project.add_experiment(
+        name,
+        raw=rec.chunks,
+        n_samples=rec.n_samples,
+        sampling_rate=rec.sampling_rate,
+        systeminfo=rec.systeminfo,
+        excitation=rec.excitation,
+        pretrigger=rec.pretrigger,
+        source=rec.source,
+        channel_names=rec.channel_names,
+    )
+    return exp, rec

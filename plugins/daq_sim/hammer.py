@@ -1,0 +1,41 @@
+"""The impact hammer: half-sine force pulses at one point and direction of the platform."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from odsuite.core.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class Hit:
+    """One impact: starts ``time`` s after the first hit, ``peak`` N, ``width`` s (contact time)."""
+
+    time: float = 0.0
+    peak: float = 20.0
+    width: float = 0.5e-3
+
+    def validate(self, where: str) -> None:
+        if not (np.isfinite(self.time) and self.time >= 0):
+            raise ConfigError(f"{where}: hit field 'time' must be >= 0 s, got {self.time!r}")
+        if not (np.isfinite(self.peak) and self.peak > 0):
+            raise ConfigError(f"{where}: hit field 'peak' must be > 0 N, got {self.peak!r}")
+        if not 0.2e-3 <= self.width <= 1e-3:
+            raise ConfigError(f"{where}: hit field 'width' must be 0.2-1 ms (a hammer's contact time), got {self.width!r} s")
+
+
+def half_sine_force(t: np.ndarray, hits: list[Hit], t0: float = 0.0) -> np.ndarray:
+    """Force (N) at times ``t``: the sum of half-sine pulses, the first starting at ``t0``."""
+    f = np.zeros_like(np.asarray(t, dtype=float))
+    for h in hits:
+        tau = t - t0 - h.time
+        on = (tau >= 0) & (tau <= h.width)
+        f[on] += h.peak * np.sin(np.pi * tau[on] / h.width)
+    return f
+
+
+def impulse(hits: list[Hit]) -> float:
+    """Total impulse (N s): a half-sine pulse carries 2 peak width / pi."""
+    return sum(2.0 * h.peak * h.width / np.pi for h in hits)

@@ -1,0 +1,273 @@
+"""The virtual rig: a truth model struck by a hammer, seen through the measurement chain and the DAQ.
+
+The DAQ runs continuously; the trigger fires on the first force sample that crosses the level with
+the set slope once ``pretrigger`` samples are in the buffer, and the record holds ``pretrigger``
+samples before that sample and the rest after it, as an NI reference trigger does. Everything random
+(when the first hit arrives, noise, offsets, drift, hum phase) comes from one numpy Generator seeded
+by ``seed``: one seed, one record.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from odsuite.core.acquisition import READING, WAITING, AcquisitionSettings, Progress, Recording
+from odsuite.core.errors import ConfigError, HardwareError
+from odsuite.core.project import Excitation
+from odsuite.core.rig import Rig
+from odsuite.core.systeminfo import (
+    ChannelInfo,
+    FilterFamily,
+    FilterType,
+    Integration,
+    RigInfo,
+    SensorType,
+    Systeminfo,
+)
+from odsuite_plugins.daq_sim.chain import ChannelChain, adc_input_disturbances, run_analog
+from odsuite_plugins.daq_sim.hammer import Hit, half_sine_force
+from odsuite_plugins.daq_sim.scenarios import scenario as get_scenario
+
+#: ``truth(force, fs, point, direction) -> accelerations``: force (N) sampled at fs; returns
+#: (samples x sensors) m/s^2 along each rig sensor's axis at its position, in ``rig.sensors`` order.
+Truth = Callable[[np.ndarray, float, np.ndarray, np.ndarray], np.ndarray]
+
+LOADCELL_SENSITIVITY = 2.248e-3  # V/N, PCB 208B03 (Table A.1)
+
+# Table E.3 rows 19-20 (ADC input limits, V) of the thesis rig. Row 20 prints -0.5 under row 19's 5
+# for channel 6 (z1); like the other z channels it is taken as +-5 V.
+THESIS_LIMITS = {0: (-5.0, 5.0), 1: (-2.0, 3.0), 2: (-0.5, 0.5), 3: (-0.5, 0.5), 4: (-5.0, 5.0),
+                 5: (-0.5, 0.5), 6: (-5.0, 5.0), 7: (-0.5, 0.5), 8: (-5.0, 5.0), 9: (-0.5, 0.5),
+                 10: (-0.5, 0.5)}
+# Table E.3 row 16: offset-removal lengths (samples) per channel
+THESIS_OFFSET_LENGTH = {0: 400, 1: 400, 2: 400, 5: 400}
+
+
+def default_chains(rig: Rig, *, noise: bool = True) -> dict[int, ChannelChain]:
+    """The thesis's chain for every channel of ``rig``: ICP sensors, 1 kHz 8th-order anti-aliasing
+    with gain 10 (§5.1), 12-bit ADC (AT-MIO-16E-2), Table E.3 input limits for the thesis rig.
+
+    Noise levels are typical of the thesis's Fig. A.1 floor (a few LSB); offsets and drift are the
+    scale of their random per-record values (drawn from the seed).
+    """
+    thesis = rig.name == "thesis-dynamometer"
+    chains: dict[int, ChannelChain] = {}
+    for ch in range(rig.channel_count):
+        lo, hi = THESIS_LIMITS.get(ch, (-5.0, 5.0)) if thesis else (-5.0, 5.0)
+        sensor = rig.sensor_on_channel(ch)
+        if ch == rig.force_channel:
+            chain = ChannelChain(sensitivity=LOADCELL_SENSITIVITY, sensor_tc=50.0, coupler_tc=None,
+                                 resonance_hz=36_000.0, noise_rms=1.0e-3, offset=3e-3)
+        elif sensor is not None:
+            if sensor.sensitivity is None:
+                raise ConfigError(f"rig {rig.name!r}: sensor {sensor.name!r} (channel {ch}) has no sensitivity")
+            chain = ChannelChain(sensitivity=sensor.sensitivity, sign=sensor.sign,
+                                 noise_rms=0.3e-3, offset=5e-3, drift=1e-3)
+        else:  # an unused input (Table E.3 channel 1): noise only
+            chain = ChannelChain(sensitivity=1.0, gain=1.0, sensor_tc=None, coupler_tc=None,
+                                 resonance_hz=None, noise_rms=1.0e-3)
+        chain = replace(chain, limit_low=lo, limit_high=hi)
+        if not noise:
+            chain = replace(chain, noise_rms=0.0, offset=0.0, drift=0.0, hum_amplitude=0.0)
+        chain.validate(f"rig {rig.name!r} channel {ch}")
+        chains[ch] = chain
+    return chains
+
+
+def experimenter_systeminfo(rig: Rig, chains: Mapping[int, ChannelChain], sampling_rate: float) -> Systeminfo:
+    """The Systeminfo an experimenter writes for this record: nominal sensitivities from the rig,
+    the chain's gains and limits, Table E.3's processing settings (double integration, 8th-order
+    elliptic 20 Hz high-pass, 0.1 dB / 60 dB, filters 1 and 2 on, accelerometers inverted)."""
+    channels = []
+    for ch in range(rig.channel_count):
+        chain = chains[ch]
+        sensor = rig.sensor_on_channel(ch)
+        common = dict(
+            sampling_rate=sampling_rate, filter_type=FilterType.HIGHPASS, filter_order=8,
+            cutoff_high=sampling_rate / 2, cutoff_low=20.0, ripple_db=0.1, attenuation_db=60.0,
+            filter_family=FilterFamily.ELLIPTIC, offset_start=0,
+            offset_length=THESIS_OFFSET_LENGTH.get(ch, 100), daq_gain=chain.gain,
+            limit_high=chain.limit_high, limit_low=chain.limit_low,
+        )
+        if ch == rig.force_channel:
+            info = ChannelInfo(sensor_type=SensorType.LOADCELL, location="force", serial="1519",
+                               sensitivity=LOADCELL_SENSITIVITY, **common)
+        elif sensor is not None:
+            info = ChannelInfo(sensor_type=SensorType.ACCELEROMETER, location=sensor.name,
+                               serial=sensor.serial, sensitivity=float(sensor.sensitivity),
+                               integration=Integration.DOUBLE, filters_on=3, invert=sensor.sign < 0,
+                               **common)
+        else:
+            info = ChannelInfo(sensor_type=SensorType.AUXILIARY, location=f"ai{ch}", sensitivity=1.0,
+                               **common)
+        channels.append(info)
+    return Systeminfo(channels=channels, rig=_rig_info(rig))
+
+
+def _rig_info(rig: Rig) -> RigInfo:
+    info = RigInfo(use_in_gcc=True, use_in_ag=True)
+    for body in rig.bodies:
+        if body.plate is not None:
+            info.plate_sizes.append(tuple(float(v) for v in body.plate.size))
+            info.plate_origins.append(tuple(float(v) for v in body.plate.corner))
+        nine = body.nine_sensor_set
+        if nine is not None and info.rx is None:
+            from odsuite.core.rig import NINE_ROLES
+
+            info.rx, info.ry, info.rz = nine.rx, nine.ry, nine.rz
+            info.nine_channels = [rig.sensor(nine.sensors[r]).channel for r in NINE_ROLES]
+    return info
+
+
+def find_trigger(force_volts: np.ndarray, level: float, slope: str, start: int) -> int | None:
+    """Index of the first sample ``i >= max(start, 1)`` where the force crosses ``level``:
+    rising ``x[i-1] < level <= x[i]``, falling ``x[i-1] > level >= x[i]``; None if it never does."""
+    start = max(start, 1)
+    prev, cur = force_volts[start - 1:-1], force_volts[start:]
+    hit = (prev < level) & (cur >= level) if slope == "rising" else (prev > level) & (cur <= level)
+    idx = np.flatnonzero(hit)
+    return int(idx[0]) + start if idx.size else None
+
+
+class SimulatedRig:
+    """The ``sim`` acquisition backend."""
+
+    name = "sim"
+
+    def __init__(self, truth_factory: Callable[..., Truth] | None = None) -> None:
+        self._truth_factory = truth_factory
+
+    def record(
+        self,
+        rig: Rig | None,
+        settings: AcquisitionSettings,
+        *,
+        progress: Progress | None = None,
+        scenario: str | None = "T1",
+        seed: int | None = 0,
+        point: Sequence[float] | None = None,
+        direction: Sequence[float] | None = None,
+        hits: Sequence[Hit] | None = None,
+        truth: Truth | None = None,
+        effects: Sequence[tuple[str, Mapping[str, Any]]] = (),
+        chains: Mapping[int, ChannelChain] | None = None,
+        oversample: int = 8,
+        noise: bool = True,
+    ) -> Recording:
+        """Strike the virtual rig and return the triggered record.
+
+        ``scenario`` ("T1".."T8") gives point, direction and hits; ``point`` (m, rig frame),
+        ``direction`` and ``hits`` override it. ``truth`` replaces the rig's default model (with
+        ``effects`` applied: hidden from the Systeminfo). ``chains`` replaces channels' chains
+        (e.g. a sensor whose true sensitivity differs from its nominal one).
+        """
+        if rig is None:
+            raise ConfigError("the simulated rig needs a project with a rig (created without --rig none)")
+        if settings.mode != "finite":
+            raise ConfigError("acquisition setting 'mode': the simulated rig records finite triggered records only")
+        if int(oversample) != oversample or oversample < 1:
+            raise ConfigError(f"simulator option 'oversample': an integer >= 1, got {oversample!r}")
+        sc = get_scenario(scenario) if scenario else None
+        if sc is None and (point is None or direction is None):
+            raise ConfigError("simulator: give a scenario or both a force point and a direction")
+        point = np.asarray(point if point is not None else sc.point, dtype=float)
+        direction = np.asarray(direction if direction is not None else sc.direction, dtype=float)
+        if point.shape != (3,) or direction.shape != (3,) or not np.linalg.norm(direction) > 0:
+            raise ConfigError(f"simulator: force point {point.tolist()} / direction {direction.tolist()} must be 3-vectors, direction non-zero")
+        direction = direction / np.linalg.norm(direction)
+        hits = list(hits if hits is not None else sc.hits)
+        if not hits:
+            raise ConfigError("simulator: at least one hit is needed")
+        for i, h in enumerate(hits):
+            h.validate(f"simulator hit {i}")
+        all_chains = default_chains(rig, noise=noise)
+        for ch, chain in (chains or {}).items():
+            if ch not in all_chains:
+                raise ConfigError(f"simulator option 'chains': rig {rig.name!r} has no channel {ch}")
+            chain.validate(f"simulator chain of channel {ch}")
+            all_chains[ch] = chain
+        if truth is None:
+            truth = self._default_truth(rig, effects)
+        elif effects:
+            raise ConfigError("simulator: give either a truth or effects on the rig's default model, not both")
+
+        rng = np.random.default_rng(seed)
+        fs, n, pre = settings.sampling_rate, settings.n_samples, settings.pretrigger
+        fine = fs * oversample
+        # the hammer arrives a random while after the buffer holds the pre-trigger samples
+        lead = pre + int(rng.integers(20, 400)) + rng.uniform(0.0, 1.0)
+        span = max(h.time + h.width for h in hits)
+        # room after the last hit for the analog filters' delay before a late trigger
+        n_stream = int(np.ceil(lead + (span + 0.05) * fs)) + n
+        t_fine = np.arange(n_stream * oversample) / fine
+        force = half_sine_force(t_fine, hits, t0=lead / fs)
+        acc = np.asarray(truth(force, fine, point, direction), dtype=float)
+        sensors = rig.sensors
+        if acc.shape != (force.size, len(sensors)):
+            raise HardwareError(f"simulator: the truth model returned shape {acc.shape}, expected {(force.size, len(sensors))}")
+
+        volts = np.empty((n_stream, rig.channel_count))
+        for ch in range(rig.channel_count):
+            chain = all_chains[ch]
+            if ch == rig.force_channel:
+                quantity = force
+            else:
+                idx = next((i for i, s in enumerate(sensors) if s.channel == ch), None)
+                quantity = acc[:, idx] if idx is not None else np.zeros_like(force)
+            analog = run_analog(chain, quantity, fine)[::oversample]
+            volts[:, ch] = analog + adc_input_disturbances(chain, n_stream, fs, rng)
+
+        fch = rig.force_channel
+        level_v = settings.trigger_level * all_chains[fch].sensitivity * all_chains[fch].gain
+        codes = all_chains[fch].quantise(volts[:, fch])
+        trig = find_trigger(codes, level_v, settings.trigger_slope, pre)
+        if trig is None or trig - pre + n > n_stream:
+            peak = (codes.max() - all_chains[fch].offset) / (all_chains[fch].sensitivity * all_chains[fch].gain)
+            raise HardwareError(
+                f"trigger timeout: force channel {fch} never crossed {settings.trigger_level:g} N "
+                f"({settings.trigger_slope}); the hammer peaked near {peak:.3g} N"
+            )
+        record = volts[trig - pre: trig - pre + n]
+        clipped = {ch: all_chains[ch].clipped(record[:, ch]) for ch in range(rig.channel_count)}
+        raw = np.column_stack([all_chains[ch].quantise(record[:, ch]) for ch in range(rig.channel_count)])
+
+        systeminfo = experimenter_systeminfo(rig, all_chains, fs)
+        names = [_channel_name(rig, ch) for ch in range(rig.channel_count)]
+        label = sc.name if sc is not None and hits == list(sc.hits) else "custom"
+        rec = Recording(
+            chunks=_chunks(raw, settings.chunk_size, progress),
+            n_samples=n, sampling_rate=fs, pretrigger=pre, systeminfo=systeminfo,
+            excitation=Excitation(force_channel=fch, point=point, direction=direction),
+            channel_names=names,
+            source=f"daq_sim scenario={label} seed={seed} hits={len(hits)} oversample={oversample}",
+            clipped={ch: c for ch, c in clipped.items() if c},
+        )
+        if progress:
+            progress(WAITING, 0, n)
+        return rec
+
+    def _default_truth(self, rig: Rig, effects: Sequence[tuple[str, Mapping[str, Any]]]) -> Truth:
+        if self._truth_factory is None:
+            from odsuite_plugins.daq_sim.truth import model_truth
+
+            return model_truth(rig, effects)
+        return self._truth_factory(rig, effects)
+
+
+def _channel_name(rig: Rig, ch: int) -> str:
+    if ch == rig.force_channel:
+        return "force"
+    sensor = rig.sensor_on_channel(ch)
+    return sensor.name if sensor is not None else f"ai{ch}"
+
+
+def _chunks(raw: np.ndarray, size: int, progress: Progress | None) -> Iterator[np.ndarray]:
+    for start in range(0, raw.shape[0], size):
+        chunk = raw[start:start + size]
+        yield chunk
+        if progress:
+            progress(READING, start + chunk.shape[0], raw.shape[0])

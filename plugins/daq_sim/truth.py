@@ -1,0 +1,40 @@
+"""The simulator's truth: the rig's registered default model, optionally altered by registered effects."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from odsuite.core.errors import ConfigError
+from odsuite.core.rig import Rig
+
+
+def truth_model(rig: Rig, effects: Sequence[tuple[str, Mapping[str, Any]]] = ()):
+    """The rig's default model with ``effects`` [(name, parameters), ...] applied in order."""
+    from odsuite.core.plugins import registries
+
+    if not rig.default_model:
+        raise ConfigError(f"rig {rig.name!r} names no default_model; the simulator needs one as its truth")
+    regs = registries()
+    model = regs.models.get(rig.default_model)(rig)
+    for name, params in effects:
+        model = regs.effects.get(name).apply(model, rig, **dict(params))
+    return model
+
+
+def model_truth(rig: Rig, effects: Sequence[tuple[str, Mapping[str, Any]]] = ()):
+    """A truth function for :class:`~odsuite_plugins.daq_sim.simulator.SimulatedRig`: accelerations
+    of every rig sensor (along its axis, at its position) to a force record, simulated exactly with a
+    first-order hold."""
+    from odsuite_plugins.models.multibody import Input, Output
+    from odsuite_plugins.models.simulation import simulate
+
+    model = truth_model(rig, effects)
+    outputs = [Output.sensor(s) for s in rig.sensors]
+
+    def truth(force: np.ndarray, fs: float, point: np.ndarray, direction: np.ndarray) -> np.ndarray:
+        return simulate(model, [Input.force(point, direction)], force, fs, outputs, hold="foh")
+
+    return truth
