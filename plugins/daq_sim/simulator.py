@@ -15,19 +15,18 @@ from typing import Any
 
 import numpy as np
 
-from odsuite.core.acquisition import READING, WAITING, AcquisitionSettings, Progress, Recording
+from odsuite.core.acquisition import (
+    READING,
+    WAITING,
+    AcquisitionSettings,
+    Progress,
+    Recording,
+    rig_systeminfo,
+)
 from odsuite.core.errors import ConfigError, HardwareError
 from odsuite.core.project import Excitation
 from odsuite.core.rig import Rig
-from odsuite.core.systeminfo import (
-    ChannelInfo,
-    FilterFamily,
-    FilterType,
-    Integration,
-    RigInfo,
-    SensorType,
-    Systeminfo,
-)
+from odsuite.core.systeminfo import Systeminfo
 from odsuite_plugins.daq_sim.chain import ChannelChain, adc_input_disturbances, run_analog
 from odsuite_plugins.daq_sim.hammer import Hit, half_sine_force
 from odsuite_plugins.daq_sim.scenarios import scenario as get_scenario
@@ -36,31 +35,32 @@ from odsuite_plugins.daq_sim.scenarios import scenario as get_scenario
 #: (samples x sensors) m/s^2 along each rig sensor's axis at its position, in ``rig.sensors`` order.
 Truth = Callable[[np.ndarray, float, np.ndarray, np.ndarray], np.ndarray]
 
-LOADCELL_SENSITIVITY = 2.248e-3  # V/N, PCB 208B03 (Table A.1)
-
-# Table E.3 rows 19-20 (ADC input limits, V) of the thesis rig. Row 20 prints -0.5 under row 19's 5
-# for channel 6 (z1); like the other z channels it is taken as +-5 V.
-THESIS_LIMITS = {0: (-5.0, 5.0), 1: (-2.0, 3.0), 2: (-0.5, 0.5), 3: (-0.5, 0.5), 4: (-5.0, 5.0),
-                 5: (-0.5, 0.5), 6: (-5.0, 5.0), 7: (-0.5, 0.5), 8: (-5.0, 5.0), 9: (-0.5, 0.5),
-                 10: (-0.5, 0.5)}
-# Table E.3 row 16: offset-removal lengths (samples) per channel
-THESIS_OFFSET_LENGTH = {0: 400, 1: 400, 2: 400, 5: 400}
+#: bipolar input ranges (V) of an NI E-series card (AT-MIO-16E-2): the card uses the smallest one
+#: that holds the limits the experimenter sets, e.g. -2..3 V is read on +-5 V
+E_SERIES_RANGES = (0.05, 0.1, 0.25, 0.5, 1.0, 2.5, 5.0, 10.0)
 
 
-def default_chains(rig: Rig, *, noise: bool = True) -> dict[int, ChannelChain]:
-    """The thesis's chain for every channel of ``rig``: ICP sensors, 1 kHz 8th-order anti-aliasing
-    with gain 10 (§5.1), 12-bit ADC (AT-MIO-16E-2), Table E.3 input limits for the thesis rig.
+def adc_range(low: float, high: float) -> float:
+    """Half-width of the smallest E-series range holding [low, high] (the largest if none does)."""
+    need = max(abs(low), abs(high))
+    return next((r for r in E_SERIES_RANGES if r >= need), E_SERIES_RANGES[-1])
 
-    Noise levels are typical of the thesis's Fig. A.1 floor (a few LSB); offsets and drift are the
+
+def default_chains(rig: Rig, systeminfo: Systeminfo, *, noise: bool = True) -> dict[int, ChannelChain]:
+    """The thesis's chain for every channel: ICP sensors (sensitivities: the rig's sensors, the
+    Systeminfo's load cell), 1 kHz 8th-order anti-aliasing with the Systeminfo's gain (§5.1), a
+    12-bit ADC on the E-series range that holds the Systeminfo's limits.
+
+    Noise levels are typical of the thesis's Fig. A.1 floor (a few LSB); offsets and drift set the
     scale of their random per-record values (drawn from the seed).
     """
-    thesis = rig.name == "thesis-dynamometer"
     chains: dict[int, ChannelChain] = {}
     for ch in range(rig.channel_count):
-        lo, hi = THESIS_LIMITS.get(ch, (-5.0, 5.0)) if thesis else (-5.0, 5.0)
+        info = systeminfo.channels[ch]
+        r = adc_range(info.limit_low, info.limit_high)
         sensor = rig.sensor_on_channel(ch)
         if ch == rig.force_channel:
-            chain = ChannelChain(sensitivity=LOADCELL_SENSITIVITY, sensor_tc=50.0, coupler_tc=None,
+            chain = ChannelChain(sensitivity=info.sensitivity, sensor_tc=50.0, coupler_tc=None,
                                  resonance_hz=36_000.0, noise_rms=1.0e-3, offset=3e-3)
         elif sensor is not None:
             if sensor.sensitivity is None:
@@ -68,59 +68,14 @@ def default_chains(rig: Rig, *, noise: bool = True) -> dict[int, ChannelChain]:
             chain = ChannelChain(sensitivity=sensor.sensitivity, sign=sensor.sign,
                                  noise_rms=0.3e-3, offset=5e-3, drift=1e-3)
         else:  # an unused input (Table E.3 channel 1): noise only
-            chain = ChannelChain(sensitivity=1.0, gain=1.0, sensor_tc=None, coupler_tc=None,
-                                 resonance_hz=None, noise_rms=1.0e-3)
-        chain = replace(chain, limit_low=lo, limit_high=hi)
+            chain = ChannelChain(sensitivity=1.0, sensor_tc=None, coupler_tc=None, resonance_hz=None,
+                                 noise_rms=1.0e-3)
+        chain = replace(chain, gain=info.daq_gain, limit_low=-r, limit_high=r)
         if not noise:
             chain = replace(chain, noise_rms=0.0, offset=0.0, drift=0.0, hum_amplitude=0.0)
         chain.validate(f"rig {rig.name!r} channel {ch}")
         chains[ch] = chain
     return chains
-
-
-def experimenter_systeminfo(rig: Rig, chains: Mapping[int, ChannelChain], sampling_rate: float) -> Systeminfo:
-    """The Systeminfo an experimenter writes for this record: nominal sensitivities from the rig,
-    the chain's gains and limits, Table E.3's processing settings (double integration, 8th-order
-    elliptic 20 Hz high-pass, 0.1 dB / 60 dB, filters 1 and 2 on, accelerometers inverted)."""
-    channels = []
-    for ch in range(rig.channel_count):
-        chain = chains[ch]
-        sensor = rig.sensor_on_channel(ch)
-        common = dict(
-            sampling_rate=sampling_rate, filter_type=FilterType.HIGHPASS, filter_order=8,
-            cutoff_high=sampling_rate / 2, cutoff_low=20.0, ripple_db=0.1, attenuation_db=60.0,
-            filter_family=FilterFamily.ELLIPTIC, offset_start=0,
-            offset_length=THESIS_OFFSET_LENGTH.get(ch, 100), daq_gain=chain.gain,
-            limit_high=chain.limit_high, limit_low=chain.limit_low,
-        )
-        if ch == rig.force_channel:
-            info = ChannelInfo(sensor_type=SensorType.LOADCELL, location="force", serial="1519",
-                               sensitivity=LOADCELL_SENSITIVITY, **common)
-        elif sensor is not None:
-            info = ChannelInfo(sensor_type=SensorType.ACCELEROMETER, location=sensor.name,
-                               serial=sensor.serial, sensitivity=float(sensor.sensitivity),
-                               integration=Integration.DOUBLE, filters_on=3, invert=sensor.sign < 0,
-                               **common)
-        else:
-            info = ChannelInfo(sensor_type=SensorType.AUXILIARY, location=f"ai{ch}", sensitivity=1.0,
-                               **common)
-        channels.append(info)
-    return Systeminfo(channels=channels, rig=_rig_info(rig))
-
-
-def _rig_info(rig: Rig) -> RigInfo:
-    info = RigInfo(use_in_gcc=True, use_in_ag=True)
-    for body in rig.bodies:
-        if body.plate is not None:
-            info.plate_sizes.append(tuple(float(v) for v in body.plate.size))
-            info.plate_origins.append(tuple(float(v) for v in body.plate.corner))
-        nine = body.nine_sensor_set
-        if nine is not None and info.rx is None:
-            from odsuite.core.rig import NINE_ROLES
-
-            info.rx, info.ry, info.rz = nine.rx, nine.ry, nine.rz
-            info.nine_channels = [rig.sensor(nine.sensors[r]).channel for r in NINE_ROLES]
-    return info
 
 
 def find_trigger(force_volts: np.ndarray, level: float, slope: str, start: int) -> int | None:
@@ -184,7 +139,8 @@ class SimulatedRig:
             raise ConfigError("simulator: at least one hit is needed")
         for i, h in enumerate(hits):
             h.validate(f"simulator hit {i}")
-        all_chains = default_chains(rig, noise=noise)
+        systeminfo = rig_systeminfo(rig, settings.sampling_rate)
+        all_chains = default_chains(rig, systeminfo, noise=noise)
         for ch, chain in (chains or {}).items():
             if ch not in all_chains:
                 raise ConfigError(f"simulator option 'chains': rig {rig.name!r} has no channel {ch}")
@@ -235,7 +191,6 @@ class SimulatedRig:
         clipped = {ch: all_chains[ch].clipped(record[:, ch]) for ch in range(rig.channel_count)}
         raw = np.column_stack([all_chains[ch].quantise(record[:, ch]) for ch in range(rig.channel_count)])
 
-        systeminfo = experimenter_systeminfo(rig, all_chains, fs)
         names = [_channel_name(rig, ch) for ch in range(rig.channel_count)]
         label = sc.name if sc is not None and hits == list(sc.hits) else "custom"
         rec = Recording(

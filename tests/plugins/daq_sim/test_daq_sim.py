@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from odsuite.core.acquisition import AcquisitionSettings, acquire
+from odsuite.core.acquisition import AcquisitionSettings, acquire, rig_systeminfo
 from odsuite.core.errors import ConfigError, HardwareError
 from odsuite_plugins.daq_sim.chain import ChannelChain, run_analog
 from odsuite_plugins.daq_sim.hammer import Hit, half_sine_force, impulse
 from odsuite_plugins.daq_sim.scenarios import SCENARIOS
-from odsuite_plugins.daq_sim.simulator import SimulatedRig, default_chains, find_trigger
+from odsuite_plugins.daq_sim.simulator import SimulatedRig, adc_range, default_chains, find_trigger
 
 FORCE = 0
 
@@ -30,6 +30,10 @@ def free_mass_truth(mass: float):
         return truth
 
     return factory
+
+
+def thesis_chains(rig):
+    return default_chains(rig, rig_systeminfo(rig, 20_000.0))
 
 
 @pytest.fixture
@@ -93,11 +97,12 @@ def test_adc_quantisation_and_clipping_by_hand():
 
 def test_recorded_values_are_adc_codes_and_clip_at_limits(sim, thesis_rig):
     # channel 4 (zC) with a +-0.05 V range: T1's z response overflows it
-    chains = {4: replace(default_chains(thesis_rig)[4], limit_low=-0.05, limit_high=0.05)}
+    chains = {4: replace(thesis_chains(thesis_rig)[4], limit_low=-0.05, limit_high=0.05)}
     rec, raw = record(sim, thesis_rig, scenario="T1", seed=1, chains=chains)
-    for ch, info in enumerate(rec.systeminfo.channels):
-        lsb = (info.limit_high - info.limit_low) / 2**12
-        k = (raw[:, ch] - info.limit_low) / lsb
+    for ch, chain in thesis_chains(thesis_rig).items():
+        lo = -0.05 if ch == 4 else chain.limit_low
+        lsb = -2 * lo / 2**12
+        k = (raw[:, ch] - lo) / lsb
         np.testing.assert_allclose(k, np.round(k), atol=1e-6)
         assert k.min() >= -1e-6 and k.max() <= 4095 + 1e-6
     z = raw[:, 4]
@@ -105,6 +110,16 @@ def test_recorded_values_are_adc_codes_and_clip_at_limits(sim, thesis_rig):
     assert z.min() == pytest.approx(-0.05, abs=1e-12) and z.max() == pytest.approx(top, abs=1e-12)
     assert rec.clipped[4] == np.count_nonzero(np.isclose(z, -0.05, rtol=0, atol=1e-12) | np.isclose(z, top, rtol=0, atol=1e-12))
     assert set(rec.clipped) == {4}  # the other channels of T1 stay in range
+
+
+def test_adc_range_is_the_smallest_e_series_range_holding_the_limits(thesis_rig):
+    assert adc_range(-2.0, 3.0) == 5.0  # Table E.3 channel 1
+    assert adc_range(-0.5, 5.0) == 5.0  # Table E.3 channel 6
+    assert adc_range(-0.5, 0.5) == 0.5
+    assert adc_range(-0.3, 0.2) == 0.5
+    assert adc_range(-50.0, 50.0) == 10.0
+    ranges = {ch: c.limit_high for ch, c in thesis_chains(thesis_rig).items()}
+    assert ranges == {0: 5, 1: 5, 2: 0.5, 3: 0.5, 4: 5, 5: 0.5, 6: 5, 7: 0.5, 8: 5, 9: 0.5, 10: 0.5}
 
 
 def test_one_seed_one_record_two_seeds_differ(sim, thesis_rig):
@@ -168,7 +183,7 @@ def test_accelerometer_volts_follow_sign_sensitivity_gain(sim, thesis_rig):
 
 
 def test_systeminfo_is_the_experimenters_view(sim, thesis_rig):
-    chains = {4: replace(default_chains(thesis_rig)[4], sensitivity=0.03)}  # hidden sensor fault
+    chains = {4: replace(thesis_chains(thesis_rig)[4], sensitivity=0.03)}  # hidden sensor fault
     rec, _ = record(sim, thesis_rig, scenario="T1", seed=0, chains=chains)
     si = rec.systeminfo
     assert si.channels[4].sensitivity == thesis_rig.sensor("zC").sensitivity
@@ -209,3 +224,20 @@ def test_acquire_streams_into_project(sim, thesis_rig, tmp_path):
             acquire(project, sim, "T6", s, scenario="T6")
     assert stages[0][0] == "waiting for trigger"
     assert [d for st, d, _ in stages if st == "reading"] == [256, 512, 768, 1024, 1280, 1500]
+
+
+@pytest.mark.parametrize("name", sorted(SCENARIOS))
+def test_scenarios_on_the_rigs_default_model_stay_in_range(thesis_rig, name):
+    rec, raw = record(SimulatedRig(), thesis_rig, scenario=name, seed=0)
+    assert rec.clipped == {}
+    si = rec.systeminfo
+    # pass-band physical units (thesis Eq. 4.3) without the sensor sign; offsets removed
+    acc = {s.name: (raw[:, s.channel] - raw[:100, s.channel].mean()) / (s.sign * si.channels[s.channel].sensitivity * 10)
+           for s in thesis_rig.sensors}
+    rms = {k: float(np.sqrt(np.mean(v**2))) for k, v in acc.items()}
+    z = max(rms["zC"], rms["z1"], rms["z2"])
+    xy = max(rms[k] for k in ("xC", "yC", "x1", "y2", "x3", "y3"))
+    if SCENARIOS[name].direction[2] > 0:  # vertical blows: z sensors dominate (Table 5.1, 5.3)
+        assert z > 3 * xy
+    else:  # side blows along x: x sensors dominate
+        assert max(rms["xC"], rms["x1"], rms["x3"]) > 3 * z
