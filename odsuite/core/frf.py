@@ -1,0 +1,147 @@
+"""Frequency response functions from hammer hits: H1, H2 and Hv with coherence, averaged over hits
+(and over experiments with the same force point: pass all their hits together).
+
+Spectra are one-sided ``numpy.fft.rfft`` of each record; the FRF of response o to the force is
+complex, in (response unit)/(force unit), e.g. ``(m/s^2)/N``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from odsuite.core.errors import ConfigError, DimensionError
+
+ESTIMATORS = ("H1", "H2", "Hv")
+#: power of (i omega) that turns a receptance (displacement/force) into each FRF form
+FORM_POWER = {"receptance": 0, "mobility": 1, "accelerance": 2}
+
+
+@dataclass(frozen=True)
+class FrfSet:
+    """FRFs of several responses to one force: ``H`` and ``coherence`` are outputs x frequencies."""
+
+    frequency: np.ndarray  # Hz
+    H: np.ndarray  # complex
+    coherence: np.ndarray
+    estimator: str
+    units: list[str]  # per output, e.g. "(m/s^2)/N"
+    output_names: list[str]
+    n_averages: int
+
+    def at(self, frequency_hz: float) -> np.ndarray:
+        """Complex FRF of every output at one frequency (linear interpolation between lines)."""
+        f = self.frequency
+        if not f[0] <= frequency_hz <= f[-1]:
+            raise ConfigError(f"frequency {frequency_hz} Hz lies outside the FRFs' {f[0]}..{f[-1]} Hz")
+        re = [np.interp(frequency_hz, f, h.real) for h in self.H]
+        im = [np.interp(frequency_hz, f, h.imag) for h in self.H]
+        return np.asarray(re) + 1j * np.asarray(im)
+
+    def band(self, f_low: float, f_high: float) -> FrfSet:
+        """The lines with f_low <= f <= f_high."""
+        keep = (self.frequency >= f_low) & (self.frequency <= f_high)
+        if keep.sum() < 2:
+            raise ConfigError(f"band {f_low}..{f_high} Hz holds fewer than 2 frequency lines")
+        return FrfSet(
+            self.frequency[keep], self.H[:, keep], self.coherence[:, keep], self.estimator,
+            self.units, self.output_names, self.n_averages,
+        )
+
+
+def spectra(
+    forces: Sequence[np.ndarray], responses: Sequence[np.ndarray], window: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Averaged auto and cross spectra over hits: Gff (f), Gxx (o x f), Gfx = sum conj(F) X
+    (o x f) and the number of hits. ``window`` (samples, or samples x (1 + outputs) with the force
+    window first) multiplies each record before the FFT."""
+    if len(forces) != len(responses) or not forces:
+        raise DimensionError(f"{len(forces)} force records but {len(responses)} response records")
+    n = np.asarray(forces[0]).shape[0]
+    gff = 0.0
+    gxx = 0.0
+    gfx = 0.0
+    for k, (f, x) in enumerate(zip(forces, responses, strict=True)):
+        f = np.asarray(f, dtype=float)
+        x = np.asarray(x, dtype=float)
+        x = x[:, None] if x.ndim == 1 else x
+        if f.shape != (n,) or x.shape[0] != n:
+            raise DimensionError(
+                f"hit {k}: force {f.shape} and response {x.shape} records must all have {n} samples"
+            )
+        if window is not None:
+            w = np.asarray(window, dtype=float)
+            wf, wx = (w, w[:, None]) if w.ndim == 1 else (w[:, 0], w[:, 1:])
+            f, x = f * wf, x * wx
+        F = np.fft.rfft(f)
+        X = np.fft.rfft(x, axis=0).T
+        gff = gff + np.abs(F) ** 2
+        gxx = gxx + np.abs(X) ** 2
+        gfx = gfx + np.conj(F) * X
+    return np.asarray(gff), np.asarray(gxx), np.asarray(gfx), np.asarray(len(forces))
+
+
+def estimate_frf(
+    forces: Sequence[np.ndarray],
+    responses: Sequence[np.ndarray],
+    fs: float,
+    *,
+    estimator: str = "H1",
+    window: np.ndarray | None = None,
+    force_unit: str = "N",
+    response_units: Sequence[str] | None = None,
+    output_names: Sequence[str] | None = None,
+) -> FrfSet:
+    """FRFs of every response to the force, averaged over the given hits (equal-length records).
+
+    H1 = Gfx/Gff (noise on the response), H2 = Gxx/Gxf (noise on the force), Hv the total-least-
+    squares estimate between them; coherence = |Gfx|^2/(Gff Gxx)."""
+    if estimator not in ESTIMATORS:
+        raise ConfigError(f"FRF estimator {estimator!r} is not one of {', '.join(ESTIMATORS)}")
+    gff, gxx, gfx, count = spectra(forces, responses, window)
+    n = np.asarray(forces[0]).shape[0]
+    tiny = np.finfo(float).tiny
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if estimator == "H1":
+            H = gfx / np.maximum(gff, tiny)
+        elif estimator == "H2":
+            H = gxx / np.conj(gfx)
+        else:
+            H = (gxx - gff + np.sqrt((gff - gxx) ** 2 + 4 * np.abs(gfx) ** 2)) / (2 * np.conj(gfx))
+        coh = np.abs(gfx) ** 2 / (gff * gxx)
+    H = np.where(np.isfinite(H), H, 0)
+    coh = np.where(np.isfinite(coh), coh, 0)
+    n_out = gxx.shape[0]
+    runits = list(response_units) if response_units is not None else ["m/s^2"] * n_out
+    names = list(output_names) if output_names is not None else [f"response {k}" for k in range(n_out)]
+    if len(runits) != n_out or len(names) != n_out:
+        raise DimensionError(f"{n_out} responses but {len(runits)} units and {len(names)} names")
+    return FrfSet(
+        frequency=np.fft.rfftfreq(n, 1.0 / fs),
+        H=H,
+        coherence=coh,
+        estimator=estimator,
+        units=[f"{_group(u)}/{_group(force_unit)}" for u in runits],
+        output_names=names,
+        n_averages=int(count),
+    )
+
+
+def _group(unit: str) -> str:
+    """Parenthesise a compound unit so it can be divided: m/s^2 -> (m/s^2), N stays N."""
+    return f"({unit})" if any(c in unit for c in "/^* ") else unit
+
+
+def convert_form(frequency: np.ndarray, H: np.ndarray, source: str, target: str) -> np.ndarray:
+    """Convert FRFs between receptance, mobility and accelerance (multiply by (i omega)^k). Lines
+    at 0 Hz become 0 when dividing."""
+    for name in (source, target):
+        if name not in FORM_POWER:
+            raise ConfigError(f"FRF form {name!r} is not one of {', '.join(FORM_POWER)}")
+    k = FORM_POWER[target] - FORM_POWER[source]
+    iw = 2j * np.pi * np.asarray(frequency, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = np.asarray(H) * iw**k
+    return np.where(np.isfinite(out), out, 0)

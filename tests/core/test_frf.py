@@ -1,0 +1,180 @@
+"""Hammer-test quality and FRF estimators against a simulated 3-DOF system with exact FRFs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import mck_threedof as mck
+from odsuite.core.errors import ConfigError, DimensionError
+from odsuite.core.frf import convert_form, estimate_frf
+from odsuite.core.hammer import (
+    assess_hits,
+    correct_exponential_window,
+    exponential_window,
+    force_window,
+    is_clipped,
+)
+
+FS = 1024.0
+REC = 8192
+AMPS = [100.0, 70.0, 130.0, 90.0, 110.0, 80.0, 120.0, 95.0]
+
+
+@pytest.fixture(scope="module")
+def record():
+    """Eight clean hits 8 s apart, then a double hit (rebound 8 ms later)."""
+    pulses = [(0.1 + 8 * k, 0.004, a) for k, a in enumerate(AMPS)]
+    t_double = 0.1 + 8 * len(AMPS)
+    pulses += [(t_double, 0.004, 100.0), (t_double + 0.008, 0.004, 40.0)]
+    return mck.simulate(FS, 8 * len(AMPS) + 8.1, pulses)
+
+
+def _noisy(record, level, seed, force_level=None):
+    f, a = record
+    rng = np.random.default_rng(seed)
+    fl = level if force_level is None else force_level
+    return (
+        f + fl * f.max() * rng.standard_normal(f.shape),
+        a + level * np.abs(a).max(axis=0) * rng.standard_normal(a.shape),
+    )
+
+
+def test_hits_split_and_double_hit_rejected(record):
+    f, a = _noisy(record, 1e-5, 0)
+    hits = assess_hits(f, a, FS, record_length=REC, pretrigger=50)
+    assert len(hits) == 9
+    assert [h.accepted for h in hits] == [True] * 8 + [False]
+    assert hits[-1].reasons == ("double hit",)
+    peaks = [h.peak_index for h in hits[:8]]
+    np.testing.assert_allclose(np.diff(peaks), 8 * FS, atol=1)
+    assert all(h.trigger == 50 and h.stop - h.start == REC for h in hits)
+    # the hammer pulse is 4 ms wide: about 4 samples above 5 % of its peak at 1024 Hz
+    assert all(3 <= h.pulse_width <= 6 for h in hits)
+
+
+def test_clipped_force_and_response_rejected(record):
+    f, a = _noisy(record, 1e-5, 1)
+    f = f.copy()
+    a = a.copy()
+    f[:REC] = np.clip(f[:REC], -150.0, 150.0) * 2  # hit 0 drives the force input to its range end
+    a[REC : 2 * REC, 1] = np.clip(a[REC : 2 * REC, 1], -5.0, 5.0)  # response 1 flat-tops on hit 1
+    hits = assess_hits(f, a, FS, record_length=REC, pretrigger=50, force_limits=(-150.0, 150.0))
+    assert "force clipped/overloaded" in hits[0].reasons
+    assert hits[1].reasons == ("response channel 1 clipped/overloaded",)
+    assert hits[2].accepted
+    assert is_clipped(np.array([0.0, 1.0, 2.0]), limits=(-2.0, 2.0))
+    assert not is_clipped(np.sin(np.linspace(0, 6, 500)))
+
+
+def test_h1_matches_exact_frf_where_coherence_is_high(record):
+    f, a = _noisy(record, 1e-5, 2)
+    hits = [h for h in assess_hits(f, a, FS, record_length=REC, pretrigger=50) if h.accepted]
+    frf = estimate_frf(
+        [f[h.start : h.stop] for h in hits], [a[h.start : h.stop] for h in hits], FS,
+        response_units=["m/s^2"] * 3,
+    )
+    assert frf.units == ["(m/s^2)/N"] * 3 and frf.n_averages == 8
+    exact = mck.accelerance(frf.frequency)
+    band = (frf.frequency > 2) & (frf.frequency < 300)
+    # Bendat & Piersol random error of |H1| from coherence and number of averages
+    rel = np.abs(frf.H[:, band] - exact[:, band]) / np.abs(exact[:, band])
+    g = frf.coherence[:, band]
+    eps = np.sqrt((1 - g) / g / (2 * frf.n_averages))
+    high = eps < 2e-4  # 5 sigma below 1e-3
+    assert high.sum() > 100
+    assert rel[high].max() < 1e-3
+    # the high-coherence lines include each resonance peak of every output
+    true_f = np.abs(mck.modes()[0]) / (2 * np.pi)
+    for fr in true_f:
+        k = np.argmin(np.abs(frf.frequency[band] - fr))
+        assert high[:, k].all()
+        assert rel[:, k].max() < 1e-3
+    # the error stays within a few times the coherence-predicted random error wherever gamma^2 > 0.99
+    ok = g > 0.99
+    assert np.percentile(rel[ok] / eps[ok], 99) < 6
+
+
+def test_noise_free_h1_is_exact():
+    f, a = mck.simulate(FS, 8.0, [(0.1, 0.004, 100.0)])
+    frf = estimate_frf([f], [a], FS)
+    exact = mck.accelerance(frf.frequency)
+    band = (frf.frequency > 5) & (frf.frequency < 200)
+    # away from antiresonances (|H| > 1 % of its peak) the error is the simulation's own hold error
+    big = band[None, :] & (np.abs(exact) > 0.01 * np.abs(exact).max(axis=1, keepdims=True))
+    assert (np.abs(frf.H - exact) / np.abs(exact))[big].max() < 1e-3
+    assert (np.abs(frf.H - exact)[:, band] / np.abs(exact).max(axis=1, keepdims=True)).max() < 2e-4
+    np.testing.assert_allclose(frf.coherence[:, band], 1.0, atol=1e-12)  # one average
+
+
+def test_force_noise_biases_h1_low_but_not_h2(record):
+    f, a = _noisy(record, 1e-6, 3, force_level=4e-3)
+    hits = [h for h in assess_hits(f, a, FS, record_length=REC, pretrigger=50) if h.accepted]
+    fs_, rs_ = [f[h.start : h.stop] for h in hits], [a[h.start : h.stop] for h in hits]
+    est = {e: estimate_frf(fs_, rs_, FS, estimator=e) for e in ("H1", "H2", "Hv")}
+    freq = est["H1"].frequency
+    # expected H1 bias: Gff/(Gff + Gnn), with the noise power known from how it was added
+    f_clean = record[0]
+    gff = np.mean([np.abs(np.fft.rfft(f_clean[h.start : h.stop])) ** 2 for h in hits], axis=0)
+    gnn = REC * (4e-3 * f_clean.max()) ** 2
+    exact = mck.accelerance(freq)
+    lines = ((freq > 5) & (freq < 200))[None, :] & (
+        np.abs(exact) > 0.05 * np.abs(exact).max(axis=1, keepdims=True)
+    )
+    r = {e: np.abs(est[e].H / exact)[lines] for e in est}
+    bias = np.broadcast_to(gff / (gff + gnn), exact.shape)[lines]
+    # H1 carries the predicted bias; H2 scatters (finite averages) around 1 without it
+    assert np.median(r["H1"]) < 0.97
+    np.testing.assert_allclose(np.median(r["H1"] / bias), 1.0, atol=0.01)
+    assert abs(np.median(r["H2"]) - 1) < 0.01
+    assert np.median(r["H1"]) < np.median(r["Hv"]) < np.median(r["H2"])
+
+
+def test_exponential_window_shifts_poles_exactly():
+    """A record cut before the response has decayed: with the exponential window on force and
+    response, the FRF is the exact FRF of the system with poles shifted by -1/tau."""
+    f, a = mck.simulate(FS, 1.0, [(0.02, 0.004, 100.0)])
+    w, tau = exponential_window(f.size, FS, trigger=20, end_value=1e-4)
+    assert w[-1] == pytest.approx(1e-4) and w[20] == pytest.approx(1.0)
+    frf = estimate_frf([f], [a], FS, window=w)
+    # exact windowed FRF: evaluate the accelerance at s = i omega - 1/tau
+    s = 2j * np.pi * frf.frequency + 1.0 / tau
+    exact = np.empty((3, s.size), dtype=complex)
+    for i, sk in enumerate(s):
+        exact[:, i] = sk**2 * np.linalg.solve(mck.K + sk * mck.C + sk**2 * mck.M, np.eye(3)[:, mck.INPUT])
+    band = (frf.frequency > 5) & (frf.frequency < 200)
+    rel = np.abs(frf.H[:, band] - exact[:, band]) / np.abs(exact[:, band])
+    assert rel.max() < 2e-3
+    lam = mck.modes()[0]
+    np.testing.assert_allclose(correct_exponential_window(lam - 1 / tau, tau), lam)
+
+
+def test_force_window_and_form_conversion():
+    w = force_window(100, 10, 20, taper=4)
+    assert w[10:20].tolist() == [1.0] * 10 and w[:5].sum() == 0 and w[25:].sum() == 0
+    assert 0 < w[21] < 1 and w[21] > w[23] and w[6:10].tolist() == w[20:24][::-1].tolist()
+    with pytest.raises(ConfigError, match="does not fit"):
+        force_window(100, 90, 120)
+    freq = np.array([0.0, 10.0, 20.0])
+    H = np.array([[1.0, 2.0 + 1j, -3.0]])
+    acc = convert_form(freq, H, "receptance", "accelerance")
+    np.testing.assert_allclose(acc, H * (2j * np.pi * freq) ** 2)
+    np.testing.assert_allclose(convert_form(freq, acc, "accelerance", "receptance")[:, 1:], H[:, 1:])
+
+
+def test_bad_inputs_raise_one_line_errors():
+    with pytest.raises(ConfigError, match="estimator 'H3'"):
+        estimate_frf([np.ones(8)], [np.ones(8)], 100.0, estimator="H3")
+    with pytest.raises(DimensionError, match="hit 1"):
+        estimate_frf([np.ones(8), np.ones(7)], [np.ones(8), np.ones(7)], 100.0)
+    with pytest.raises(DimensionError, match="responses have shape"):
+        assess_hits(np.ones(10), np.ones((9, 2)), 100.0)
+
+
+def test_reference_simulation_agrees_with_scipy_lsim():
+    from scipy import signal
+
+    t = np.arange(4000) / 16384.0
+    u = mck.hann_pulse(t, 0.01, 0.004, 100.0)
+    _, ref, _ = signal.lsim(mck.state_space(), u, t)
+    np.testing.assert_allclose(mck.lsim_exact(u, t[1]), ref, atol=1e-10 * np.abs(ref).max())
