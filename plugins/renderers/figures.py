@@ -1,0 +1,234 @@
+"""Static matplotlib figures (Agg, no display): the thesis projection and model-vs-measurement plots.
+
+Lengths are drawn in mm (a display edge); every function takes SI arrays.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from odsuite.core.errors import ConfigError, DimensionError
+from odsuite.core.rig import Rig
+from odsuite.core.rigidbody import COORDINATE_UNITS, COORDINATES, PLOT_INDEX, plate_corners, rotation_matrix
+
+from .motion import characteristic_instant, check_coords, contact_index, corners, default_magnification
+
+FIGURE_FORMATS = (".png", ".svg", ".pdf")
+#: Screen (right, up) unit vectors for an eye on each rig axis looking at the origin; "up" is -z
+#: in the z-down rig frame, and the eye on z sits above the plates.
+EYES = {
+    "x": (np.array([0.0, -1.0, 0.0]), np.array([0.0, 0.0, -1.0])),
+    "y": (np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, -1.0])),
+    "z": (np.array([1.0, 0.0, 0.0]), np.array([0.0, -1.0, 0.0])),
+}
+#: Thesis Sec. 5.3.2: the initial position is taken 50 samples before the impact.
+INITIAL_LEAD = 50
+
+
+@dataclass(frozen=True)
+class FigureResult:
+    """The written file, the matplotlib Figure (for inspection) and what was chosen."""
+
+    path: Path
+    figure: object
+    instants: tuple[int, ...] = ()
+    magnify: tuple[float, float] | None = None
+
+
+def _new_figure(size: tuple[float, float]):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=size, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _save(fig, path: str | Path, dpi: int) -> Path:
+    path = Path(path)
+    if path.suffix.lower() not in FIGURE_FORMATS:
+        raise ConfigError(f"{path}: figure format must be one of {', '.join(FIGURE_FORMATS)}, "
+                          f"got {path.suffix or 'no suffix'!r}")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    return path
+
+
+def project(points: np.ndarray, eye: str = "x", view_angles: Sequence[float] = (0.0, 0.0, 0.0)) -> np.ndarray:
+    """Screen coordinates (..., 2) of rig-frame points (..., 3).
+
+    Eq. 4.25: the points are first rotated by the viewpoint angles (theta_V, phi_V, psi_V, degrees)
+    with the odsuite rotation convention, then projected along the ``eye`` axis.
+    """
+    if eye not in EYES:
+        raise ConfigError(f"eye: expected one of {', '.join(EYES)}, got {eye!r}")
+    rv = rotation_matrix(np.radians(np.asarray(view_angles, dtype=float)))
+    p = np.asarray(points, dtype=float) @ rv.T
+    right, up = EYES[eye]
+    return np.stack([p @ right, p @ up], axis=-1)
+
+
+def _axis_label(vector: np.ndarray) -> str:
+    k = int(np.argmax(np.abs(vector)))
+    return f"{'−' if vector[k] < 0 else ''}{'xyz'[k]}  [mm]"
+
+
+def projection_figure(
+    rig: Rig,
+    coords: Mapping[str, np.ndarray],
+    fs: float,
+    path: str | Path,
+    *,
+    force: np.ndarray | None = None,
+    instants: tuple[int, int] | None = None,
+    eye: str = "x",
+    view_angles: Sequence[float] = (0.0, 0.0, 0.0),
+    magnify: tuple[float, float] | None = None,
+    dpi: int = 150,
+    title: str | None = None,
+) -> FigureResult:
+    """The thesis's Table 5.2 picture: initial position dash-dotted, the CFR solid.
+
+    Each plate is drawn as the Table 4.2 corner polyline, rotated by the viewpoint (Eq. 4.25)
+    and projected along ``eye``. ``instants`` = (initial, response) sample indices; by default
+    the response is the Characteristic Forced Response (first response peak after the hammer
+    contact found in ``force``) and the initial position 50 samples before the contact.
+    """
+    coords = check_coords(rig, coords)
+    if magnify is None:
+        magnify = default_magnification(rig, coords)
+    if instants is None:
+        contact = contact_index(force) if force is not None else None
+        cfr = characteristic_instant(rig, coords, contact=contact)
+        start = contact if contact is not None else cfr
+        instants = (max(0, start - INITIAL_LEAD), cfr)
+    n = next(iter(coords.values())).shape[0]
+    for i in instants:
+        if not 0 <= i < n:
+            raise ConfigError(f"instants: sample {i} outside the record of {n} samples")
+    fig = _new_figure((6.4, 4.8))
+    ax = fig.add_subplot()
+    for body in rig.bodies:
+        if body.plate is None:
+            continue
+        if body.name not in coords:
+            xy = project(plate_corners(body.plate)[list(PLOT_INDEX)], eye, view_angles) * 1e3
+            ax.plot(xy[:, 0], xy[:, 1], color="0.6", lw=0.8, label=f"{body.name} (fixed)")
+            continue
+        d = coords[body.name][list(instants)]
+        poly = corners(body, d, magnify)[:, list(PLOT_INDEX)]
+        for k, (ls, what) in enumerate((("-.", "initial position"), ("-", "characteristic forced response"))):
+            xy = project(poly[k], eye, view_angles) * 1e3
+            ax.plot(xy[:, 0], xy[:, 1], ls, color="k", lw=1.2 if k else 0.9,
+                    label=f"{body.name}: {what} (t = {1e3 * instants[k] / fs:.2f} ms)")
+    right, up = EYES[eye]
+    ax.set_xlabel(_axis_label(right))
+    ax.set_ylabel(_axis_label(up))
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_title(title or f"eye on {eye}, view angles {tuple(float(a) for a in view_angles)} deg, "
+                 f"H_t = {magnify[0]:.3g}, H_r = {magnify[1]:.3g}", fontsize=9)
+    ax.legend(fontsize=7, loc="best")
+    return FigureResult(_save(fig, path, dpi), fig, tuple(int(i) for i in instants), magnify)
+
+
+def _pair(measured: np.ndarray, model: np.ndarray, what: str) -> tuple[np.ndarray, np.ndarray]:
+    a, b = np.asarray(measured, dtype=float), np.asarray(model, dtype=float)
+    if a.ndim == 1 and b.ndim == 1:
+        a, b = a[:, None], b[:, None]
+    if a.ndim != 2 or a.shape != b.shape:
+        raise DimensionError(f"{what}: measured {a.shape} and model {b.shape} must both be (n, k)")
+    return a, b
+
+
+def comparison_figure(
+    t: np.ndarray,
+    measured: np.ndarray,
+    model: np.ndarray,
+    path: str | Path,
+    *,
+    names: Sequence[str] = COORDINATES,
+    units: Sequence[str] = COORDINATE_UNITS,
+    title: str = "",
+    dpi: int = 150,
+) -> FigureResult:
+    """Measured vs model, one panel per column (thesis Fig. 5.8-5.11: model solid, measured dashed).
+
+    Defaults label the six generalized coordinates; pass ``names``/``units`` for sensor channels.
+    """
+    from matplotlib.ticker import EngFormatter
+
+    a, b = _pair(measured, model, "comparison")
+    t = np.asarray(t, dtype=float)
+    if t.shape != (a.shape[0],):
+        raise DimensionError(f"comparison: time has shape {t.shape}, the signals have {a.shape[0]} samples")
+    k = a.shape[1]
+    if len(names) != k or len(units) != k:
+        raise DimensionError(f"comparison: {k} columns but {len(names)} names and {len(units)} units")
+    cols = 2 if k > 3 else 1
+    rows = -(-k // cols)
+    fig = _new_figure((4.2 * cols, 1.6 * rows + 0.6))
+    axes = fig.subplots(rows, cols, sharex=True, squeeze=False).T.ravel()  # column-major, as the thesis
+    for j in range(k):
+        ax = axes[j]
+        ax.plot(t * 1e3, b[:, j], "-", color="k", lw=1.0, label="model")
+        ax.plot(t * 1e3, a[:, j], "--", color="tab:blue", lw=1.0, label="measured")
+        ax.set_ylabel(names[j])
+        ax.yaxis.set_major_formatter(EngFormatter(unit=units[j]))
+        ax.grid(alpha=0.3)
+    for ax in axes[k:]:
+        ax.set_visible(False)
+    for j in range(k):
+        if j % rows == rows - 1 or j == k - 1:  # the lowest panel of each column
+            axes[j].set_xlabel("t [ms]")
+    axes[0].legend(fontsize=7, loc="upper right")
+    if title:
+        fig.suptitle(title, fontsize=10)
+    return FigureResult(_save(fig, path, dpi), fig)
+
+
+def residual_spectra_figure(
+    fs: float,
+    measured: np.ndarray,
+    model: np.ndarray,
+    path: str | Path,
+    *,
+    names: Sequence[str],
+    units: Sequence[str],
+    nperseg: int | None = None,
+    title: str = "",
+    dpi: int = 150,
+) -> FigureResult:
+    """Welch power spectral densities of each measured channel and of its residual (measured - model)."""
+    from scipy.signal import welch
+
+    a, b = _pair(measured, model, "residual spectra")
+    k = a.shape[1]
+    if len(names) != k or len(units) != k:
+        raise DimensionError(f"residual spectra: {k} channels but {len(names)} names and {len(units)} units")
+    nper = min(a.shape[0], nperseg or 1024)
+    f, pa = welch(a, fs=fs, nperseg=nper, axis=0)
+    _, pr = welch(a - b, fs=fs, nperseg=nper, axis=0)
+    cols = 3 if k > 4 else 1
+    rows = -(-k // cols)
+    fig = _new_figure((3.6 * cols, 1.9 * rows + 0.6))
+    axes = fig.subplots(rows, cols, sharex=True, squeeze=False).ravel()
+    tiny = np.finfo(float).tiny
+    for j in range(k):
+        ax = axes[j]
+        ax.semilogy(f, np.maximum(pa[:, j], tiny), color="tab:blue", lw=0.9, label="measured")
+        ax.semilogy(f, np.maximum(pr[:, j], tiny), color="tab:red", lw=0.9, label="residual")
+        ax.set_title(names[j], fontsize=8)
+        ax.set_ylabel(f"PSD [({units[j]})²/Hz]", fontsize=7)
+        ax.grid(alpha=0.3, which="both")
+    for ax in axes[k:]:
+        ax.set_visible(False)
+    for ax in axes[max(0, k - cols):k]:
+        ax.set_xlabel("f [Hz]")
+    axes[0].legend(fontsize=7)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    return FigureResult(_save(fig, path, dpi), fig)

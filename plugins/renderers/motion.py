@@ -1,0 +1,115 @@
+"""Magnified plate motion shared by the movie and the figures (thesis Eq. 4.15, Table 4.1)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from odsuite.core.errors import ConfigError, DimensionError
+from odsuite.core.rig import Body, Rig
+from odsuite.core.rigidbody import body_corners, plate_corners, point_displacements
+
+#: Default largest corner excursion on screen, as a fraction of the largest moving plate's size.
+DEFAULT_EXCURSION = 0.15
+
+
+def check_coords(rig: Rig, coords: Mapping[str, np.ndarray], what: str = "coords") -> dict[str, np.ndarray]:
+    """Validate ``{body: (n, 6)}`` against the rig: known bodies with plates, finite, equal lengths."""
+    out: dict[str, np.ndarray] = {}
+    lengths = set()
+    for name, d in coords.items():
+        body = rig.body(name)
+        if body.plate is None:
+            raise ConfigError(f"{what}: body {name!r} of rig {rig.name!r} has no plate to draw")
+        d = np.asarray(d, dtype=float)
+        if d.ndim != 2 or d.shape[1] != 6:
+            raise DimensionError(f"{what}[{name!r}]: expected generalized coordinates (n, 6), got {d.shape}")
+        if not np.all(np.isfinite(d)):
+            bad = int(np.argwhere(~np.isfinite(d))[0, 0])
+            raise ConfigError(f"{what}[{name!r}]: non-finite value at sample {bad}")
+        out[name] = d
+        lengths.add(d.shape[0])
+    if not out:
+        raise ConfigError(f"{what}: no body to animate")
+    if len(lengths) != 1:
+        raise DimensionError(f"{what}: bodies have different sample counts {sorted(lengths)}")
+    return out
+
+
+def magnified(d: np.ndarray, magnify: tuple[float, float]) -> np.ndarray:
+    """``H o d`` of Eq. 4.15: translations times H_t, rotations times H_r."""
+    out = np.array(d, dtype=float, copy=True)
+    out[..., :3] *= magnify[0]
+    out[..., 3:] *= magnify[1]
+    return out
+
+
+def corners(body: Body, d: np.ndarray, magnify: tuple[float, float]) -> np.ndarray:
+    """Rig-frame plate corners (n, 8, 3) of a body moving with ``d`` (n, 6) at G, magnified."""
+    return body_corners(body, magnified(d, magnify))
+
+
+def plate_scale(rig: Rig, bodies: list[str] | None = None) -> float:
+    """Largest plate dimension among ``bodies`` (default: those with plates that move)."""
+    names = bodies or [b.name for b in rig.moving_bodies if b.plate is not None]
+    sizes = [float(rig.body(n).plate.size.max()) for n in names if rig.body(n).plate is not None]
+    if not sizes:
+        sizes = [float(b.plate.size.max()) for b in rig.bodies if b.plate is not None]
+    if not sizes:
+        raise ConfigError(f"rig {rig.name!r} has no plate to draw")
+    return max(sizes)
+
+
+def default_magnification(rig: Rig, *coord_sets: Mapping[str, np.ndarray],
+                          excursion: float = DEFAULT_EXCURSION) -> tuple[float, float]:
+    """(H_t, H_r), equal, so that the largest corner excursion is ``excursion`` x the plate size.
+
+    The excursion is measured with the small-angle form (the magnified drawing uses finite
+    rotations, which are close for the 15 % default). No motion at all gives (1, 1).
+    """
+    peak = 0.0
+    for coords in coord_sets:
+        for name, d in coords.items():
+            body = rig.body(name)
+            r = plate_corners(body.plate) - body.com
+            disp = point_displacements(np.asarray(d, dtype=float), r, linear=True)
+            peak = max(peak, float(np.linalg.norm(disp, axis=-1).max(initial=0.0)))
+    if peak == 0.0:
+        return (1.0, 1.0)
+    h = excursion * plate_scale(rig, list(coord_sets[0])) / peak
+    return (h, h)
+
+
+def contact_index(force: np.ndarray, fraction: float = 0.1) -> int:
+    """First sample where |force| reaches ``fraction`` of its peak: the hammer's contact."""
+    f = np.abs(np.asarray(force, dtype=float))
+    if f.ndim != 1 or f.size == 0 or f.max() == 0:
+        raise ConfigError("force: expected a non-zero 1-D force signal to find the hammer contact")
+    return int(np.argmax(f >= fraction * f.max()))
+
+
+def characteristic_instant(rig: Rig, coords: Mapping[str, np.ndarray], *, contact: int | None = None,
+                           prominence: float = 0.1) -> int:
+    """Sample of the Characteristic Forced Response (Table 5.2, Fig. 5.7).
+
+    The first peak, after the hammer contact, of the largest corner excursion of the moving
+    plates; a peak counts when its prominence is at least ``prominence`` x the record's maximum.
+    Without ``contact`` the contact is taken where the excursion first reaches 5 % of its maximum.
+    """
+    from scipy.signal import find_peaks
+
+    excursion = None
+    for name, d in coords.items():
+        body = rig.body(name)
+        disp = point_displacements(np.asarray(d, dtype=float), plate_corners(body.plate) - body.com,
+                                   linear=True)
+        e = np.linalg.norm(disp, axis=-1).max(axis=-1)
+        excursion = e if excursion is None else np.maximum(excursion, e)
+    if excursion is None or excursion.max() == 0:
+        raise ConfigError("coords: the plates do not move; there is no forced response to show")
+    start = contact if contact is not None else int(np.argmax(excursion >= 0.05 * excursion.max()))
+    peaks, _ = find_peaks(excursion[start:], prominence=prominence * excursion.max())
+    if peaks.size == 0:
+        return start + int(np.argmax(excursion[start:]))
+    return start + int(peaks[0])

@@ -1,0 +1,315 @@
+"""Wireframe movies of the rig's plates (thesis Sec. 4.6, App. D.4): MP4 (H.264) or GIF.
+
+Frames are rendered off-screen by pyvista. With ``workers`` > 1 the frame range is split into
+contiguous parts rendered by separate processes; for MP4 each part is encoded to its own H.264
+segment by imageio-ffmpeg's ffmpeg (raw frames piped in) and the segments are joined without
+re-encoding. GIF is the fallback when no H.264 encoder is available.
+"""
+
+from __future__ import annotations
+
+import functools
+import multiprocessing as mp
+import os
+import queue
+import shutil
+import subprocess
+import tempfile
+import traceback
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from odsuite.core.errors import ConfigError, OdsuiteError
+from odsuite.core.rig import Rig
+
+from .motion import check_coords, default_magnification
+from .scene import Scene, Style
+
+FORMATS = ("mp4", "gif")
+#: Below this many frames per worker, starting a process costs more than it saves.
+MIN_FRAMES_PER_WORKER = 40
+
+
+@dataclass(frozen=True)
+class MovieResult:
+    """What was written: the file (a .gif when MP4 encoding was unavailable), its frame count and
+    rate, the magnification (H_t, H_r) and the sample step between frames."""
+
+    path: Path
+    format: str
+    n_frames: int
+    fps: float
+    magnify: tuple[float, float]
+    frame_step: int
+    slowdown: float
+    notes: list[str] = field(default_factory=list)
+
+
+@functools.cache
+def mp4_available() -> bool:
+    """True when imageio-ffmpeg's ffmpeg exists and has the libx264 H.264 encoder."""
+    try:
+        import imageio_ffmpeg
+
+        exe = imageio_ffmpeg.get_ffmpeg_exe()
+        out = subprocess.run([exe, "-hide_banner", "-encoders"], capture_output=True, text=True, timeout=30)
+    except (ImportError, RuntimeError, OSError, subprocess.SubprocessError):
+        return False
+    return "libx264" in out.stdout
+
+
+def frame_plan(n_samples: int, fs: float, *, fps: float, start: float = 0.0, stop: float | None = None,
+               frame_step: int | None = None, slowdown: float | None = None) -> tuple[np.ndarray, int, float]:
+    """Sample indices of the frames, the step between them and the slow-motion factor.
+
+    ``slowdown`` = movie seconds per second of the record; it sets the step as fs / (fps x
+    slowdown). Default: every sample is a frame.
+    """
+    if fs <= 0 or not np.isfinite(fs):
+        raise ConfigError(f"sampling rate: must be > 0 Hz, got {fs!r}")
+    if fps <= 0:
+        raise ConfigError(f"fps: must be > 0, got {fps!r}")
+    if frame_step is not None and slowdown is not None:
+        raise ConfigError("give either frame_step or slowdown, not both")
+    if slowdown is not None:
+        if slowdown <= 0:
+            raise ConfigError(f"slowdown: must be > 0, got {slowdown!r}")
+        exact = fs / (fps * slowdown)
+        if exact < 0.5:
+            raise ConfigError(f"slowdown {slowdown:g} needs {1 / exact:.1f} frames per sample at {fps:g} fps "
+                              f"and {fs:g} Hz; the largest is {fs / fps:g}")
+        frame_step = max(1, int(round(exact)))
+    step = 1 if frame_step is None else int(frame_step)
+    if step < 1:
+        raise ConfigError(f"frame_step: must be >= 1 sample, got {frame_step!r}")
+    i0 = int(round(start * fs))
+    i1 = n_samples if stop is None else min(n_samples, int(round(stop * fs)) + 1)
+    if not 0 <= i0 < i1:
+        raise ConfigError(f"time window: start {start:g} s, stop {stop} s select no sample of a "
+                          f"{n_samples / fs:g} s record")
+    return np.arange(i0, i1, step), step, fs / (fps * step)
+
+
+def _even(size: tuple[int, int]) -> tuple[int, int]:
+    w, h = (int(v) for v in size)
+    if w < 16 or h < 16:
+        raise ConfigError(f"size: at least 16 x 16 pixels, got {w} x {h}")
+    return (w - w % 2, h - h % 2)  # yuv420p needs even sizes
+
+
+def _mp4_writer(path: Path, size: tuple[int, int], fps: float):
+    import imageio_ffmpeg
+
+    writer = imageio_ffmpeg.write_frames(
+        str(path), size, fps=fps, codec="libx264", pix_fmt_out="yuv420p", quality=None,
+        macro_block_size=2, ffmpeg_log_level="error",
+        output_params=["-preset", "veryfast", "-crf", "20", "-tune", "animation"])
+    writer.send(None)
+    return writer
+
+
+def _render_part(job: dict, frames: np.ndarray, first: int, sink: str, target: str,
+                 report: Callable[[int], None]) -> None:
+    """Render ``frames`` (sample indices) and write them to ``target``.
+
+    ``sink`` "mp4": an H.264 file; "npy": rows ``first:first+len(frames)`` of a frame memmap.
+    """
+    scene = Scene(job["rig"], job["coords"], **job["scene"])
+    try:
+        if sink == "mp4":
+            writer = _mp4_writer(Path(target), scene.size, job["fps"])
+        else:
+            store = np.load(target, mmap_mode="r+")
+        for k, i in enumerate(frames):
+            img = scene.frame(int(i), job["labels"][first + k], (first + k + 1) / job["n_frames"])
+            if sink == "mp4":
+                writer.send(img)
+            else:
+                store[first + k] = img
+            report(1)
+        if sink == "mp4":
+            writer.close()
+        else:
+            store.flush()
+    finally:
+        scene.close()
+
+
+def _worker(job, frames, first, sink, target, q) -> None:
+    try:
+        _render_part(job, frames, first, sink, target, lambda n: q.put(("done", n)))
+        q.put(("finished", first))
+    except BaseException as exc:  # the parent re-raises it with the worker's traceback
+        q.put(("error", f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}",
+               str(exc) if isinstance(exc, OdsuiteError) else None))
+
+
+def _write_gif(frames: np.ndarray, path: Path, fps: float) -> None:
+    from PIL import Image
+
+    images = [Image.fromarray(f).quantize(colors=128, method=Image.Quantize.MEDIANCUT) for f in frames]
+    # GIF delays are whole centiseconds
+    images[0].save(path, save_all=True, append_images=images[1:], duration=max(20, round(1000 / fps)),
+                   loop=0, optimize=False, disposal=1)
+
+
+def _concat(parts: list[Path], path: Path, tmp: Path) -> None:
+    import imageio_ffmpeg
+
+    listing = tmp / "parts.txt"
+    listing.write_text("".join(f"file '{p.as_posix()}'\n" for p in parts))
+    cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-hide_banner", "-loglevel", "error", "-f", "concat",
+           "-safe", "0", "-i", str(listing), "-c", "copy", "-movflags", "+faststart", str(path)]
+    run = subprocess.run(cmd, capture_output=True, text=True)
+    if run.returncode != 0:
+        raise OdsuiteError(f"{path}: joining the movie segments failed: {run.stderr.strip()[:300]}")
+
+
+def render_movie(
+    rig: Rig,
+    coords: Mapping[str, np.ndarray],
+    fs: float,
+    path: str | Path,
+    *,
+    model_coords: Mapping[str, np.ndarray] | None = None,
+    layout: str = "overlay",
+    magnify: tuple[float, float] | None = None,
+    view: tuple[float, float] = (60.0, 25.0),
+    parallel: bool = False,
+    solid: bool = False,
+    axes: bool = True,
+    ghost: bool = True,
+    start: float = 0.0,
+    stop: float | None = None,
+    frame_step: int | None = None,
+    slowdown: float | None = None,
+    fps: float = 25.0,
+    size: tuple[int, int] = (1280, 720),
+    workers: int | None = None,
+    progress: bool = True,
+    style: Style = Style(),
+) -> MovieResult:
+    """Animate every plate of ``rig`` from generalized coordinates and write an MP4 or GIF.
+
+    ``coords``: ``{body: (n, 6)}`` at each body's centre of mass (m, rad; rig frame), sampled at
+    ``fs`` Hz. ``model_coords``: the model's motion, overlaid in another colour or shown
+    side by side (``layout``). ``magnify`` (H_t, H_r): default makes the largest corner excursion
+    15 % of the moving plate's size. ``view`` (azimuth, elevation) in degrees; ``parallel`` for a
+    parallel projection. ``start``/``stop`` (s) choose the window; ``frame_step`` (samples per
+    frame) or ``slowdown`` (movie time / real time) the playback speed at ``fps``. A path ending in
+    .mp4 falls back to a .gif beside it when no H.264 encoder is available (see ``notes``).
+    """
+    path = Path(path)
+    fmt = path.suffix.lower().lstrip(".")
+    if fmt not in FORMATS:
+        raise ConfigError(f"{path}: movie format must be .mp4 or .gif, got {path.suffix or 'no suffix'!r}")
+    coords = check_coords(rig, coords)
+    n = next(iter(coords.values())).shape[0]
+    if model_coords is not None:
+        model_coords = check_coords(rig, model_coords, "model_coords")
+        if next(iter(model_coords.values())).shape[0] != n:
+            raise ConfigError(f"model_coords: {next(iter(model_coords.values())).shape[0]} samples, "
+                              f"the measurement has {n}")
+    if magnify is None:
+        magnify = default_magnification(rig, coords, *([model_coords] if model_coords else []))
+    magnify = (float(magnify[0]), float(magnify[1]))
+    frames, step, slow = frame_plan(n, fs, fps=fps, start=start, stop=stop, frame_step=frame_step,
+                                    slowdown=slowdown)
+    notes = []
+    if fmt == "mp4" and not mp4_available():
+        path = path.with_suffix(".gif")
+        fmt = "gif"
+        notes.append(f"no H.264 encoder (imageio-ffmpeg with libx264) available: wrote {path.name} instead")
+    size = _even(size)
+    speed = f"{slow:.0f}x slower" if slow >= 1.5 else f"{slow:.2f}x"
+    labels = [f"t = {1e3 * i / fs:9.3f} ms    {speed}    H_t = {magnify[0]:.3g}, H_r = {magnify[1]:.3g}"
+              for i in frames]
+    job = {"rig": rig, "coords": coords, "fps": fps, "labels": labels, "n_frames": len(frames),
+           "scene": dict(model_coords=model_coords, layout=layout, magnify=magnify, view=tuple(view),
+                         parallel=parallel, solid=solid, axes=axes, ghost=ghost, size=size, style=style)}
+    if workers is None:
+        workers = min(2, os.cpu_count() or 1)
+    workers = max(1, min(int(workers), len(frames) // MIN_FRAMES_PER_WORKER or 1))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="odsuite-movie-", dir=path.parent) as tmpdir:
+        tmp = Path(tmpdir)
+        parts = np.array_split(np.arange(len(frames)), workers)
+        if fmt == "mp4":
+            targets = [str(tmp / f"part{k}.mp4") for k in range(workers)] if workers > 1 else [str(tmp / "movie.mp4")]
+        else:
+            store = tmp / "frames.npy"
+            np.lib.format.open_memmap(store, mode="w+", dtype=np.uint8, shape=(len(frames), size[1], size[0], 3)).flush()
+            targets = [str(store)] * workers
+        with _progress_bar(progress, len(frames), path.name) as advance:
+            if workers == 1:
+                _render_part(job, frames, 0, "mp4" if fmt == "mp4" else "npy", targets[0], advance)
+            else:
+                _run_workers(job, frames, parts, "mp4" if fmt == "mp4" else "npy", targets, advance)
+        if fmt == "mp4":
+            if workers == 1:
+                shutil.move(targets[0], path)
+            else:
+                _concat([Path(t) for t in targets], path, tmp)
+        else:
+            _write_gif(np.load(targets[0], mmap_mode="r"), path, fps)
+    return MovieResult(path=path, format=fmt, n_frames=len(frames), fps=fps, magnify=magnify,
+                       frame_step=step, slowdown=slow, notes=notes)
+
+
+def _run_workers(job, frames, parts, sink, targets, advance) -> None:
+    # spawn: a forked child would inherit the parent's OpenGL state
+    ctx = mp.get_context("spawn")
+    q = ctx.Queue()
+    procs = [ctx.Process(target=_worker, args=(job, frames[p], int(p[0]), sink, targets[k], q), daemon=True)
+             for k, p in enumerate(parts)]
+    for p in procs:
+        p.start()
+    finished = 0
+    try:
+        while finished < len(procs):
+            try:
+                msg = q.get(timeout=1.0)
+            except queue.Empty:
+                dead = [p for p in procs if p.exitcode not in (None, 0)]
+                if dead:
+                    raise OdsuiteError(f"a render process exited with code {dead[0].exitcode}") from None
+                continue
+            if msg[0] == "done":
+                advance(msg[1])
+            elif msg[0] == "finished":
+                finished += 1
+            else:
+                if msg[2] is not None:
+                    raise OdsuiteError(msg[2])
+                raise RuntimeError(f"render process failed: {msg[1]}")
+    finally:
+        for p in procs:
+            if p.is_alive() and finished < len(procs):
+                p.terminate()
+            p.join()
+
+
+class _progress_bar:
+    """A rich progress bar (or nothing) exposing ``advance(n)``."""
+
+    def __init__(self, show: bool, total: int, name: str) -> None:
+        self.show, self.total, self.name = show, total, name
+
+    def __enter__(self) -> Callable[[int], None]:
+        if not self.show:
+            return lambda n: None
+        from rich.console import Console
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+        self._p = Progress(TextColumn("rendering {task.description}"), BarColumn(), MofNCompleteColumn(),
+                           TimeRemainingColumn(), transient=True, console=Console(stderr=True))
+        self._p.__enter__()
+        task = self._p.add_task(self.name, total=self.total)
+        return lambda n: self._p.advance(task, n)
+
+    def __exit__(self, *exc) -> None:
+        if self.show:
+            self._p.__exit__(*exc)

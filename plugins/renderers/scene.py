@@ -1,0 +1,254 @@
+"""An off-screen pyvista scene of the rig's plates, posed frame by frame from generalized coordinates.
+
+pyvista is imported inside the functions so the plugin loads on machines without it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from odsuite.core.errors import ConfigError
+from odsuite.core.rig import Rig
+from odsuite.core.rigidbody import PLOT_INDEX, plate_corners
+
+from .motion import check_coords, corners, plate_scale
+
+#: The 12 edges of a box as corner-index pairs, taken from the Table 4.2 polyline (retraces dropped).
+EDGES = tuple(dict.fromkeys(tuple(sorted(p)) for p in zip(PLOT_INDEX[:-1], PLOT_INDEX[1:])))
+#: The 6 faces of a box in CORNER_NAMES indices (FRU FRL FLU FLL RRU RRL RLU RLL).
+FACES = ((3, 1, 0, 2), (7, 5, 4, 6), (3, 1, 5, 7), (2, 0, 4, 6), (3, 2, 6, 7), (1, 0, 4, 5))
+
+LAYOUTS = ("overlay", "side-by-side")
+
+
+@dataclass(frozen=True)
+class Style:
+    """Colours (RGB 0-1) and sizes; the defaults print well on white."""
+
+    background: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    measured: tuple[float, float, float] = (0.05, 0.15, 0.55)
+    model: tuple[float, float, float] = (0.85, 0.35, 0.0)
+    static: tuple[float, float, float] = (0.55, 0.55, 0.55)
+    ghost: tuple[float, float, float] = (0.35, 0.35, 0.35)
+    text: tuple[float, float, float] = (0.1, 0.1, 0.1)
+    marker: tuple[float, float, float] = (1.0, 0.0, 0.0)
+    line_width: float = 2.0
+    font_size: int = 14
+
+
+def view_direction(azimuth: float, elevation: float) -> np.ndarray:
+    """Unit vector from the focal point to the camera in a z-down rig frame (degrees).
+
+    Azimuth is measured in the horizontal x-y plane from +x towards +y; elevation is the angle
+    above that plane ("above" is -z, so the top of the platform faces the camera for elevation > 0).
+    """
+    a, e = np.radians(azimuth), np.radians(elevation)
+    return np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), -np.sin(e)])
+
+
+def dash_dot_segments(p0: np.ndarray, p1: np.ndarray, period: float) -> np.ndarray:
+    """A dash-dotted line from p0 to p1 as segments (k, 2, 3): dash 55 %, gap, dot 10 %, gap."""
+    length = float(np.linalg.norm(p1 - p0))
+    if length == 0:
+        return np.empty((0, 2, 3))
+    n = max(1, int(round(length / period)))
+    step = length / n
+    pattern = ((0.0, 0.55), (0.7, 0.8))  # (start, end) as fractions of one period
+    u = (p1 - p0) / length
+    segs = [(p0 + u * (k + a) * step, p0 + u * (k + b) * step) for k in range(n) for a, b in pattern]
+    return np.array(segs)
+
+
+def _lines_polydata(points: np.ndarray, edges) -> "pyvista.PolyData":  # noqa: F821
+    import pyvista as pv
+
+    lines = np.hstack([[2, a, b] for a, b in edges]).astype(np.int64)
+    return pv.PolyData(np.asarray(points, dtype=float), lines=lines)
+
+
+class Scene:
+    """Plates of a rig drawn off-screen; :meth:`frame` poses them at one sample and returns RGB.
+
+    ``coords`` and ``model_coords`` map body names to (n, 6) generalized coordinates at each
+    body's centre of mass (rig frame); bodies with a plate but no coordinates are drawn still.
+    """
+
+    def __init__(
+        self,
+        rig: Rig,
+        coords: Mapping[str, np.ndarray],
+        *,
+        model_coords: Mapping[str, np.ndarray] | None = None,
+        layout: str = "overlay",
+        magnify: tuple[float, float] = (1.0, 1.0),
+        view: tuple[float, float] = (60.0, 25.0),
+        parallel: bool = False,
+        solid: bool = False,
+        axes: bool = True,
+        ghost: bool = True,
+        markers: bool = False,
+        size: tuple[int, int] = (1280, 720),
+        style: Style = Style(),
+    ) -> None:
+        import pyvista as pv
+
+        if layout not in LAYOUTS:
+            raise ConfigError(f"layout: expected one of {', '.join(LAYOUTS)}, got {layout!r}")
+        coords = check_coords(rig, coords)
+        if model_coords is not None:
+            model_coords = check_coords(rig, model_coords, "model_coords")
+        self.size = (int(size[0]), int(size[1]))
+        self.style = style
+        side = model_coords is not None and layout == "side-by-side"
+        # No MSAA: llvmpipe resolves it at several times the cost of the frame; smoothed lines
+        # give the same look for a wireframe.
+        self.plotter = pv.Plotter(off_screen=True, window_size=self.size, shape=(1, 2) if side else (1, 1),
+                                  line_smoothing=True, border=False)
+        self.plotter.ren_win.SetMultiSamples(0)
+        self.plotter.set_background(style.background)
+        self._moving: list[tuple[object, np.ndarray]] = []  # (polydata, corners (n, 8, 3))
+        sets = [(coords, style.measured, 0)]
+        if model_coords is not None:
+            sets.append((model_coords, style.model, 1 if side else 0))
+        scale = plate_scale(rig, list(coords))
+        for k in range(2 if side else 1):
+            self.plotter.subplot(0, k)
+            self._static_plates(rig, set().union(*(c for c, _, v in sets if v == k)), scale, ghost, solid, axes)
+        for c, colour, viewport in sets:
+            self.plotter.subplot(0, viewport)
+            for name, d in c.items():
+                body = rig.body(name)
+                series = corners(body, d, magnify)
+                self._moving.append((self._add_plate(series[0], colour, solid, markers), series))
+        self.plotter.subplot(0, 0)
+        self._label = self.plotter.add_text(" ", position=(12, self.size[1] - 12 - 2 * style.font_size),
+                                            font_size=style.font_size, color=style.text)
+        if model_coords is not None:
+            self._legend(side)
+        self._camera(rig, coords, view, parallel, side)
+
+    # -- construction ------------------------------------------------------------------------
+    def _add_plate(self, pts: np.ndarray, colour, solid: bool, markers: bool, opacity: float = 1.0):
+        import pyvista as pv
+
+        lines = _lines_polydata(pts, EDGES)
+        if solid:
+            faces = np.hstack([[4, *f] for f in FACES]).astype(np.int64)
+            shell = pv.PolyData(lines.points, faces=faces)
+            # the shell shares the wireframe's vtkPoints, so posing one poses both
+            shell.SetPoints(lines.GetPoints())
+            self.plotter.add_mesh(shell, color=tuple(0.35 + 0.65 * np.asarray(colour)), opacity=opacity,
+                                  smooth_shading=False, show_edges=False)
+        self.plotter.add_mesh(lines, color=colour, line_width=self.style.line_width, lighting=False)
+        if markers:
+            dots = pv.PolyData(lines.points)
+            dots.SetPoints(lines.GetPoints())
+            self.plotter.add_mesh(dots, color=self.style.marker, point_size=5,
+                                  render_points_as_spheres=False, lighting=False)
+        return lines
+
+    def _static_plates(self, rig: Rig, moving: set[str], scale: float, ghost: bool, solid: bool,
+                       axes: bool) -> None:
+        import pyvista as pv
+
+        for body in rig.bodies:
+            if body.plate is None:
+                continue
+            rest = plate_corners(body.plate)
+            if body.name not in moving:
+                self._add_plate(rest, self.style.static, solid, False, opacity=0.25)
+            elif ghost:
+                segs = np.concatenate([dash_dot_segments(rest[a], rest[b], 0.08 * scale) for a, b in EDGES])
+                n = len(segs)
+                mesh = pv.PolyData(segs.reshape(-1, 3),
+                                   lines=np.column_stack([np.full(n, 2), 2 * np.arange(n), 2 * np.arange(n) + 1]).ravel())
+                self.plotter.add_mesh(mesh, color=self.style.ghost, line_width=1.0, lighting=False)
+        if axes:
+            bounds = self._bounds(rig, moving)
+            origin = np.array([bounds[0], bounds[2], bounds[4]]) - 0.25 * scale
+            tips = origin + 0.3 * scale * np.eye(3)
+            for tip, colour in zip(tips, ((0.8, 0, 0), (0, 0.6, 0), (0, 0, 0.8))):
+                self.plotter.add_mesh(pv.Line(origin, tip), color=colour, line_width=2.0, lighting=False)
+            self.plotter.add_point_labels(tips, ["x", "y", "z"], shape=None, show_points=False,
+                                          font_size=self.style.font_size, text_color=self.style.text,
+                                          always_visible=True)
+
+    def _legend(self, side: bool) -> None:
+        fs = self.style.font_size
+        if side:
+            self.plotter.subplot(0, 0)
+            self.plotter.add_text("measured", position="upper_right", font_size=fs, color=self.style.measured)
+            self.plotter.subplot(0, 1)
+            self.plotter.add_text("model", position="upper_right", font_size=fs, color=self.style.model)
+        else:
+            self.plotter.add_text("measured", position=(12, 12 + 2 * fs), font_size=fs, color=self.style.measured)
+            self.plotter.add_text("model", position=(12, 12 + 4 * fs), font_size=fs, color=self.style.model)
+        self.plotter.subplot(0, 0)
+
+    @staticmethod
+    def _bounds(rig: Rig, names) -> np.ndarray:
+        """x/y/z bounds of the plates of ``names`` and of every plate not much larger than them."""
+        scale = plate_scale(rig, list(names) or None)
+        pts = [plate_corners(b.plate) for b in rig.bodies
+               if b.plate is not None and (b.name in names or b.plate.size.max() <= 2 * scale)]
+        p = np.concatenate(pts)
+        return np.column_stack([p.min(0), p.max(0)]).ravel()
+
+    def _camera(self, rig: Rig, coords, view, parallel: bool, side: bool) -> None:
+        bounds = self._bounds(rig, set(coords))
+        centre = bounds.reshape(3, 2).mean(1)
+        # room for the magnified motion and the axes beside the plates
+        pad = 0.35 * plate_scale(rig, list(coords))
+        padded = bounds + np.array([-pad, pad] * 3)
+        direction = view_direction(*view)
+        for k in range(2 if side else 1):
+            self.plotter.subplot(0, k)
+            cam = self.plotter.camera
+            cam.focal_point = centre
+            cam.position = centre + direction
+            cam.up = (0.0, 0.0, -1.0)
+            if parallel:
+                self.plotter.enable_parallel_projection()
+            self.plotter.reset_camera(bounds=padded)
+        if side:
+            self.plotter.link_views()
+        self.plotter.subplot(0, 0)
+
+    # -- drawing -----------------------------------------------------------------------------
+    @property
+    def n_samples(self) -> int:
+        return self._moving[0][1].shape[0]
+
+    def renderer(self, k: int = 0):
+        """The vtkRenderer of viewport ``k`` (0: measured, 1: model when side by side)."""
+        return self.plotter.renderers[k]
+
+    def frame(self, index: int, label: str = "", progress: float | None = None) -> np.ndarray:
+        """Pose every moving plate at sample ``index`` and return the frame (H, W, 3) uint8.
+
+        ``progress`` in [0, 1] draws a bar along the bottom edge of the frame.
+        """
+        from vtkmodules.util.numpy_support import vtk_to_numpy
+        from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
+
+        for poly, series in self._moving:
+            poly.points[:] = series[index]
+            poly.GetPoints().Modified()
+        self._label.SetInput(label or " ")
+        rw = self.plotter.ren_win
+        rw.Render()
+        w, h = self.size
+        buf = vtkUnsignedCharArray()
+        rw.GetPixelData(0, 0, w - 1, h - 1, 0, buf, 0)
+        img = vtk_to_numpy(buf).reshape(h, w, 3)[::-1].copy()  # OpenGL rows run bottom-up
+        if progress is not None:
+            bar = max(4, h // 120)
+            img[h - bar:, :, :] = (np.asarray(self.style.background) * 255 * 0.85).astype(np.uint8)
+            img[h - bar:, : int(round(np.clip(progress, 0, 1) * w)), :] = (np.asarray(self.style.measured) * 255).astype(np.uint8)
+        return img
+
+    def close(self) -> None:
+        self.plotter.close()

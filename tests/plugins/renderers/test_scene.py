@@ -1,0 +1,114 @@
+"""Rendered frames put every plate corner where the camera's projection of the posed corner says."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import ndimage
+from scipy.spatial.transform import Rotation
+
+from odsuite.core.errors import ConfigError, DimensionError
+
+pytestmark = pytest.mark.render
+
+POSE = np.array([1.0e-6, -2.0e-6, 1.5e-6, 2.0e-5, -1.0e-5, 3.0e-5])  # m, rad at G
+H = (4000.0, 5000.0)
+
+
+def expected_corners(body, d, magnify):
+    """Posed corners from the plate's own numbers and scipy's rotation (R = Rz Ry Rx)."""
+    size, c0 = body.plate.size, body.plate.corner
+    rest = np.array([c0 + size * np.array([i, j, k]) for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+    R = Rotation.from_euler("ZYX", magnify[1] * d[[5, 4, 3]]).as_matrix()
+    return body.com + magnify[0] * d[:3] + (rest - body.com) @ R.T
+
+
+def world_to_pixel(renderer, points, height):
+    """Image (column, row) of world points by VTK's own camera transform (vtkCoordinate)."""
+    from vtkmodules.vtkRenderingCore import vtkCoordinate
+
+    c = vtkCoordinate()
+    c.SetCoordinateSystemToWorld()
+    out = []
+    for p in points:
+        c.SetValue(*p)
+        x, y = c.GetComputedDoubleDisplayValue(renderer)
+        out.append((x - 0.5, height - y - 0.5))  # display y runs up from the bottom edge
+    return np.array(out)
+
+
+def marker_centroids(img, colour=(255, 0, 0)):
+    """Centres of the square corner markers; edges drawn across a marker may hide some of its
+    pixels, so pieces of one 5 x 5 marker are merged and each marker's bounding box is used."""
+    mask = np.all(img == np.array(colour, dtype=np.uint8), axis=-1)
+    labels, n = ndimage.label(ndimage.binary_dilation(mask, iterations=2))
+    boxes = ndimage.find_objects(labels * mask)
+    return np.array([((b[1].start + b[1].stop - 1) / 2, (b[0].start + b[0].stop - 1) / 2) for b in boxes if b])
+
+
+@pytest.mark.parametrize("parallel, view", [(False, (60.0, 25.0)), (True, (-35.0, 40.0))])
+def test_corners_land_on_projected_pixels(thesis_rig, parallel, view):
+    from odsuite_plugins.renderers.scene import Scene
+
+    body = thesis_rig.body("platform")
+    scene = Scene(thesis_rig, {"platform": POSE[None, :]}, magnify=H, view=view, parallel=parallel,
+                  axes=False, ghost=False, markers=True, size=(800, 600))
+    try:
+        img = scene.frame(0)
+        want = world_to_pixel(scene.renderer(), expected_corners(body, POSE, H), 600)
+    finally:
+        scene.close()
+    got = marker_centroids(img)
+    assert len(got) == 8
+    dist = np.linalg.norm(want[:, None, :] - got[None, :, :], axis=-1)
+    nearest = dist.min(axis=1)
+    assert nearest.max() < 2.0, nearest
+    # the pose moved the corners visibly: the rest corners are not where the markers are
+    rest = world_to_pixel(scene.renderer(), expected_corners(body, np.zeros(6), H), 600)
+    assert np.linalg.norm(rest - want, axis=1).max() > 10
+
+
+def test_frame_is_top_up_and_shows_progress(thesis_rig):
+    """With the default view the platform (z down in the rig frame) is drawn above the base."""
+    from odsuite_plugins.renderers.scene import Scene
+
+    coords = {"platform": np.zeros((3, 6))}
+    scene = Scene(thesis_rig, coords, axes=False, ghost=False, markers=True, size=(640, 480))
+    try:
+        img = scene.frame(1, "t = 0", progress=0.5)
+        top = world_to_pixel(scene.renderer(), [thesis_rig.body("platform").com], 480)[0]
+        base = world_to_pixel(scene.renderer(), [thesis_rig.body("base").com], 480)[0]
+    finally:
+        scene.close()
+    assert top[1] < base[1]  # image rows grow downwards
+    bar = img[-3, :, :].astype(int)
+    filled = np.all(bar == (np.array(scene.style.measured) * 255).astype(np.uint8), axis=-1)
+    assert filled[:315].all() and not filled[325:].any()
+
+
+def test_side_by_side_draws_model_in_second_viewport(thesis_rig):
+    from odsuite_plugins.renderers.scene import Scene
+
+    d = np.zeros((1, 6))
+    scene = Scene(thesis_rig, {"platform": d}, model_coords={"platform": d}, layout="side-by-side",
+                  axes=False, size=(640, 240))
+    try:
+        img = scene.frame(0).astype(int)
+    finally:
+        scene.close()
+    model = np.all(np.abs(img - np.array(scene.style.model) * 255) < 2, axis=-1)
+    measured = np.all(np.abs(img - np.array(scene.style.measured) * 255) < 2, axis=-1)
+    assert model[:, 320:].sum() > 100 and model[:, :320].sum() == 0
+    assert measured[:, :320].sum() > 100 and measured[:, 320:].sum() == 0
+
+
+def test_bad_coordinates_are_named(thesis_rig):
+    from odsuite_plugins.renderers.scene import Scene
+
+    with pytest.raises(DimensionError, match="platform"):
+        Scene(thesis_rig, {"platform": np.zeros((4, 5))})
+    with pytest.raises(ConfigError, match="wing"):
+        Scene(thesis_rig, {"wing": np.zeros((4, 6))})
+    with pytest.raises(ConfigError, match="layout"):
+        Scene(thesis_rig, {"platform": np.zeros((4, 6))}, model_coords={"platform": np.zeros((4, 6))},
+              layout="stacked")
