@@ -409,6 +409,16 @@ def _check_format(path: Path) -> str:
     return version
 
 
+def _write_revision(f: h5py.File, n: int, model: str | None, parent: int | None, texts: dict[str, str]) -> None:
+    """Model revision ``n`` (effects, parameters, metrics as JSON text), made current."""
+    if "models" not in f:
+        _typed_group(_typed_group(f, "models", "models"), "revisions", "model_revisions", track_order=True)
+    g = _typed_group(f["models"]["revisions"], str(n), "model_revision")
+    g.attrs.update({"model": model or "", "parent": -1 if parent is None else int(parent), "created": _now(),
+                    **texts})
+    f["models"].attrs["current_revision"] = n
+
+
 # ----------------------------------------------------------------------------- experiments
 
 
@@ -468,7 +478,7 @@ class Experiment:
                                    f"(corrupted?): {exc}") from None
         if channels is None:
             return block
-        if isinstance(channels, int | str):
+        if isinstance(channels, int | np.integer | str):
             return block[:, self.channel_index(channels)]
         return block[:, [self.channel_index(c) for c in channels]]
 
@@ -899,14 +909,7 @@ class Project:
                  (("effects", list(effects)), ("parameters", dict(parameters)), ("metrics", dict(metrics)))}
         n = max(known, default=-1) + 1
         with self.transaction():
-            if "models" not in self._tx:
-                _typed_group(_typed_group(self._tx, "models", "models"), "revisions", "model_revisions",
-                             track_order=True)
-            models = self._tx["models"]
-            g = _typed_group(models["revisions"], str(n), "model_revision")
-            g.attrs.update({"model": model or "", "parent": -1 if parent is None else int(parent),
-                            "created": _now(), **texts})
-            models.attrs["current_revision"] = n
+            _write_revision(self._tx, n, model, parent, texts)
         return n
 
     def model_revisions(self) -> list[dict]:
@@ -1030,6 +1033,7 @@ def _write_skeleton(f: h5py.File, rig: Rig | None) -> None:
     _typed_group(f, "experiments", "experiments", track_order=True)
     if rig is not None:
         _write_rig(f, rig)
+        _write_revision(f, 0, rig.default_model, None, {"effects": "[]", "parameters": "{}", "metrics": "{}"})
 
 
 def create_project(path: str | Path, rig: Rig | str | None = "thesis-dynamometer") -> Project:
@@ -1060,8 +1064,6 @@ def create_project(path: str | Path, rig: Rig | str | None = "thesis-dynamometer
     except BaseException:
         _release_lock(lock)
         raise
-    if rig is not None:
-        project.add_model_revision([], {}, {}, None, model=rig.default_model)
     return project
 
 
