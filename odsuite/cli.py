@@ -71,7 +71,7 @@ def new_cmd(
     created = create_project(project, rig)
     name = created.rig.name if created.rig else "none"
     created.close()
-    console.print(f"created {project} (rig: {name})", highlight=False)
+    console.print(f"created {project} (rig: {name})", highlight=False, soft_wrap=True)
 
 
 @app.command("info")
@@ -83,15 +83,16 @@ def info_cmd(project: Path = typer.Argument(..., help="Project file.")) -> None:
         info = p.info()
         revisions = p.model_revisions()
     console.print(f"{info['path']}  format {info['format_version']}  rig: {info['rig'] or 'none'}",
-                  highlight=False)
+                  highlight=False, soft_wrap=True)
     table = Table(title="experiments")
-    for col in ("name", "channels", "sampling rate", "samples", "length", "peak |V|", "clipped", "derived"):
+    for col in ("name", "channels", "fs (Hz)", "samples", "length (s)", "peak |V|", "clipped",
+                "derived"):
         table.add_column(col)
     for name, e in info["experiments"].items():
         peak_channel = max(e["peak_volts"], key=e["peak_volts"].get)
         clipped = ", ".join(f"{c} ({n})" for c, n in e["clipped_samples"].items())
-        table.add_row(name, str(len(e["channels"])), f"{e['sampling_rate']:g} Hz",
-                      str(e["n_samples"]), f"{e['duration']:.4g} s",
+        table.add_row(name, str(len(e["channels"])), f"{e['sampling_rate']:g}",
+                      str(e["n_samples"]), f"{e['duration']:.4g}",
                       f"{e['peak_volts'][peak_channel]:.4g} ({peak_channel})",
                       f"[red]{clipped}[/red]" if clipped else "-", ", ".join(e["derived"]) or "-")
     console.print(table)
@@ -127,7 +128,7 @@ def import_legacy_cmd(
         warnings.simplefilter("always")
         import_legacy(project, datfile, systeminfo, name, force_point, force_dir)
     _print_warnings(caught)
-    console.print(f"imported {datfile} as experiment {name!r}", highlight=False)
+    console.print(f"imported {datfile} as experiment {name!r}", highlight=False, soft_wrap=True)
 
 
 @app.command("export-legacy")
@@ -141,7 +142,30 @@ def export_legacy_cmd(
     from odsuite.core.importing import export_legacy
 
     export_legacy(project, experiment, cod, at)
-    console.print(f"wrote {cod}", highlight=False)
+    console.print(f"wrote {cod}", highlight=False, soft_wrap=True)
+
+
+@app.command("process")
+def process_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    experiment: list[str] = typer.Option(None, "--experiment", help="Experiment name (repeatable; default: all)."),
+) -> None:
+    """Run each experiment's Table E.2 processing chain and the generalized-coordinate solver."""
+    from rich.progress import Progress
+
+    from odsuite.core.pipeline import process_experiment
+    from odsuite.core.project import open_project
+
+    with open_project(project, "a") as p, Progress(console=err_console, transient=True) as bar:
+        for name in experiment or p.experiment_names():
+            task = bar.add_task(f"processing {name}", total=None)
+            summary = process_experiment(p, name, progress=lambda a, b, t=task: bar.update(t, completed=a, total=b))
+            bodies = "; ".join(f"{b}: rigidity {', '.join(f'{k} {v:.1%}' for k, v in r['rigidity'].items())}"
+                               + (f" FLAGGED {','.join(r['flagged'])}" if r["flagged"] else "")
+                               for b, r in summary["bodies"].items())
+            console.print(f"{name}: {', '.join(summary['datasets'])} for channels "
+                          f"{', '.join(map(str, summary['channels']))}" + (f"; {bodies}" if bodies else ""),
+                          highlight=False, soft_wrap=True)
 
 
 def _register_plugin_commands() -> None:

@@ -199,3 +199,15 @@ def test_process_experiment_table_e3_chunked_equals_in_memory(tmp_path, thesis_r
         for tap in ("acceleration", "velocity", "displacement"):
             _close(proc[tap][:, j], ref[tap])
     project.close()
+
+
+def test_cli_process(tmp_path, thesis_rig, capsys):
+    from odsuite.cli import main
+
+    project, *_ = _pulse_project(tmp_path, thesis_rig, n=2000)
+    project.close()
+    assert main(["process", str(tmp_path / "p.odsp"), "--experiment", "pulse"]) == 0
+    out = capsys.readouterr().out
+    assert "pulse: acceleration, displacement, force, velocity for channels 2, 3, 4" in out
+    assert main(["process", str(tmp_path / "p.odsp"), "--experiment", "nope"]) == 1
+    assert "no experiment" in capsys.readouterr().err.lower()
