@@ -334,9 +334,9 @@ def read_table(path: str | Path, what: str = "data") -> np.ndarray:
     bad = ~np.isfinite(data)
     if bad.any():
         row, col = (int(i) for i in np.argwhere(bad)[0])
-        numbers = [i for i, line in enumerate(text.splitlines(), start=1) if line.strip()]
-        raise ConfigError(f"{path}: line {numbers[row]}, column {col}: not a finite number "
-                          f"({data[row, col]!r})")
+        lines = [(i, line) for i, line in enumerate(text.splitlines(), start=1) if line.strip()]
+        number, line = lines[row]
+        raise ConfigError(f"{path}: line {number}, column {col}: not a finite number: {line.split()[col]!r}")
     return data
 
 
