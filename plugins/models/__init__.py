@@ -5,7 +5,16 @@ from pathlib import Path
 from odsuite import hookimpl
 from odsuite.core.rig import load_rig
 
+from .multibody import (COORDS, Chain, FlexibleMode, Input, Model, Modes, Output, RigidBody,
+                        SensorDynamics, SpringDamper, StateSpace, Structure, point_map)
+from .simulation import simulate, simulate_state_space
+from .thesis import thesis_car_2dof, thesis_dynamometer
+
 RIG_DIR = Path(__file__).with_name("rigs")
+
+__all__ = ["COORDS", "Chain", "FlexibleMode", "Input", "Model", "Modes", "Output", "RigidBody",
+           "SensorDynamics", "SpringDamper", "StateSpace", "Structure", "point_map", "simulate",
+           "simulate_state_space", "thesis_car_2dof", "thesis_dynamometer"]
 
 
 @hookimpl
@@ -13,3 +22,9 @@ def odsuite_register_rigs(registry):
     for path in sorted(RIG_DIR.glob("*.toml")):
         rig = load_rig(path)
         registry.add(rig.name, rig)
+
+
+@hookimpl
+def odsuite_register_models(registry):
+    registry.add("thesis-dynamometer", thesis_dynamometer)
+    registry.add("thesis-car-2dof", thesis_car_2dof)
