@@ -285,3 +285,18 @@ def test_every_numeric_dataset_has_units_and_dims(tmp_path, thesis_rig):
 def odd_systeminfo_11() -> Systeminfo:
     si = odd_systeminfo()
     return Systeminfo([si.channels[i % 3] for i in range(11)], si.rig)
+
+
+def test_failed_transaction_commits_nothing(tmp_path):
+    path = tmp_path / "p.h5"
+    with create_project(path, rig=None) as p:
+        p.add_experiment("keep", np.ones((5, 2)), sampling_rate=1.0, systeminfo=systeminfo(2), excitation=None)
+        before = path.read_bytes()
+        with pytest.raises(KeyError), p.transaction():
+            p.add_experiment("lost", np.ones((5, 2)), sampling_rate=1.0, systeminfo=systeminfo(2), excitation=None)
+            p.write_derived("keep", "d", {"x": DerivedArray(np.zeros(2), "1", ("a",))}, provenance={"plugin": "t"})
+            assert p.experiment_names() == ["keep", "lost"]  # the transaction sees its own writes
+            raise KeyError("a plugin failed half-way")
+        assert p.experiment_names() == ["keep"] and p.derived_kinds("keep") == []
+    assert path.read_bytes() == before
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["p.h5", "p.h5.lock"]
