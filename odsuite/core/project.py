@@ -59,6 +59,7 @@ from odsuite.core.errors import (
     ConfigError,
     DimensionError,
     NotAProjectError,
+    OdsuiteError,
     ProjectFileError,
     ProjectLockedError,
     ProjectVersionError,
@@ -600,10 +601,12 @@ class Project:
             os.replace(tmp, self.path)
             _crash_point("replaced")
             _fsync_path(self.path.parent, directory=True)
-        except BaseException:
+        except BaseException as exc:
             if self._tx:
                 self._tx.close()
             tmp.unlink(missing_ok=True)
+            if isinstance(exc, OSError) and not isinstance(exc, OdsuiteError):  # e.g. disk full
+                raise ProjectFileError(f"{self.path}: write failed, project left unchanged: {exc}") from exc
             raise
         finally:
             self._tx = None

@@ -176,3 +176,18 @@ def test_corrupted_raw_chunk_is_named_by_verify(project_path, tmp_path):
         assert np.array_equal(p.experiment("e2").raw(0, rows), np.arange(3.0 * rows).reshape(rows, 3))
         with pytest.raises(ProjectFileError, match="experiment 'e2': raw data cannot be read"):
             p.experiment("e2").raw(rows, rows + 10)
+
+
+def test_failed_write_is_a_project_error_and_changes_nothing(project_path, monkeypatch):
+    before = _digest(project_path)
+    with open_project(project_path, "a") as p:
+        def disk_full(*_a, **_k):
+            raise OSError(28, "No space left on device")
+
+        monkeypatch.setattr("odsuite.core.project._fsync_path", disk_full)
+        with pytest.raises(ProjectFileError, match="write failed, project left unchanged: .*No space left"):
+            _add(p)
+        monkeypatch.undo()
+        assert p.experiment_names() == ["e1", "e2"]
+    assert _digest(project_path) == before
+    assert sorted(x.name for x in project_path.parent.iterdir()) == ["p.h5", "p.h5.lock"]
