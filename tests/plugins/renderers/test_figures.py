@@ -1,0 +1,101 @@
+"""Projection (Eq. 4.25, Table 4.2), comparison and residual-spectrum figures."""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+from PIL import Image
+from scipy.spatial.transform import Rotation
+
+from odsuite.core.errors import ConfigError, DimensionError
+from odsuite_plugins.renderers.figures import (comparison_figure, projection_figure,
+                                               residual_spectra_figure)
+
+# Table 4.2 plotting order and Table 4.1 corner vectors (units of l, w, h from corner C)
+TABLE_4_2 = ["FRL", "RRL", "RRU", "RRL", "RLL", "RLU", "RLL", "FLL", "FLU", "FLL", "FRL", "FRU",
+             "RRU", "RLU", "FLU", "FRU"]
+TABLE_4_1 = {"FRU": (1, 0, 1), "FRL": (1, 0, 0), "FLU": (0, 0, 1), "FLL": (0, 0, 0),
+             "RRU": (1, 1, 1), "RRL": (1, 1, 0), "RLU": (0, 1, 1), "RLL": (0, 1, 0)}
+
+
+def polyline(body, d, h):
+    p = body.plate
+    rest = np.array([p.corner + p.size * np.array(TABLE_4_1[c]) for c in TABLE_4_2])
+    R = Rotation.from_euler("ZYX", h * d[[5, 4, 3]]).as_matrix()
+    return body.com + h * d[:3] + (rest - body.com) @ R.T
+
+
+def test_projection_draws_table_4_2_polylines(thesis_rig, tmp_path):
+    n = 600
+    d = np.zeros((n, 6))
+    d[300:, 3] = 2e-5 * np.sin(np.linspace(0, 6, 300))  # roll starting at sample 300
+    d[300:, 2] = 1e-6 * np.sin(np.linspace(0, 6, 300))
+    h = 3000.0
+    view = (20.0, -10.0, 35.0)
+    res = projection_figure(thesis_rig, {"platform": d}, 20000.0, tmp_path / "p.png", eye="x",
+                            view_angles=view, magnify=(h, h), instants=(250, 400))
+    ax = res.figure.axes[0]
+    lines = {ln.get_label(): ln for ln in ax.lines}
+    body = thesis_rig.body("platform")
+    rv = Rotation.from_euler("ZYX", np.radians(view[::-1])).as_matrix()  # Eq. 4.25, R = Rz Ry Rx
+    for k, (instant, style) in enumerate(((250, "-."), (400, "-"))):
+        ln = next(v for name, v in lines.items() if name.startswith("platform") and f"{instant / 20:.2f} ms" in name)
+        assert ln.get_linestyle() == style
+        p = polyline(body, d[instant], h) @ rv.T
+        # eye on +x looking at the origin with -z up: screen right is -y, screen up is -z
+        np.testing.assert_allclose(ln.get_xydata(), np.column_stack([-p[:, 1], -p[:, 2]]) * 1e3, atol=1e-9)
+    assert any(name.startswith("reference") for name in lines)
+    with Image.open(res.path) as im:
+        assert im.format == "PNG"
+
+
+def test_projection_default_instants_use_the_force(thesis_rig, tmp_path):
+    n, n0 = 800, 300
+    d = np.zeros((n, 6))
+    tau = np.arange(n - n0) / 20000.0
+    d[n0:, 2] = 1e-6 * np.exp(-50 * tau) * np.sin(2 * np.pi * 200 * tau)
+    force = np.zeros(n)
+    force[n0] = 100.0
+    res = projection_figure(thesis_rig, {"platform": d}, 20000.0, tmp_path / "p.svg", force=force, eye="y")
+    # initial position 50 samples before the contact; CFR at the quarter period of 200 Hz (25 samples)
+    assert res.instants[0] == n0 - 50
+    assert res.instants[1] == pytest.approx(n0 + 25, abs=1)
+    ET.parse(res.path)  # valid SVG (XML)
+
+
+def test_comparison_figure_model_solid_measured_dashed(tmp_path):
+    t = np.arange(200) / 20000.0
+    model = np.column_stack([np.sin(2 * np.pi * 100 * t * (j + 1)) * 1e-6 for j in range(6)])
+    measured = 1.1 * model
+    res = comparison_figure(t, measured, model, tmp_path / "c.png")
+    axes = {ax.get_ylabel(): ax for ax in res.figure.axes if ax.get_visible()}
+    assert len(axes) == 6
+    for j, name in enumerate(["x", "y", "z", "theta", "phi", "psi"]):
+        ax = axes[name]
+        mod, meas = ax.lines
+        assert mod.get_linestyle() == "-" and meas.get_linestyle() == "--"
+        np.testing.assert_array_equal(mod.get_ydata(), model[:, j])
+        np.testing.assert_array_equal(meas.get_ydata(), measured[:, j])
+        np.testing.assert_allclose(mod.get_xdata(), t * 1e3)
+    with pytest.raises(DimensionError, match="comparison"):
+        comparison_figure(t, measured[:, :5], model, tmp_path / "c.png")
+    with pytest.raises(ConfigError, match=r"c\.jpg"):
+        comparison_figure(t, measured, model, tmp_path / "c.jpg")
+
+
+def test_residual_spectrum_peaks_at_the_unmodelled_frequency(tmp_path):
+    fs = 20000.0
+    t = np.arange(8192) / fs
+    model = np.column_stack([np.sin(2 * np.pi * 120 * t), np.sin(2 * np.pi * 150 * t)])
+    measured = model.copy()
+    measured[:, 1] += 0.2 * np.sin(2 * np.pi * 625 * t)  # what the model lacks, on channel 2 only
+    res = residual_spectra_figure(fs, measured, model, tmp_path / "r.svg", names=["a", "b"],
+                                  units=["m/s²", "m/s²"], nperseg=2048)
+    ax_a, ax_b = [ax for ax in res.figure.axes if ax.get_visible()]
+    f, residual_b = ax_b.lines[1].get_xydata().T
+    assert f[np.argmax(residual_b)] == pytest.approx(625, abs=fs / 2048)
+    f, measured_a = ax_a.lines[0].get_xydata().T
+    assert f[np.argmax(measured_a)] == pytest.approx(120, abs=fs / 2048)
+    assert ax_a.lines[1].get_ydata().max() < 1e-20  # channel 1 fits exactly

@@ -1,0 +1,98 @@
+"""Movies: frame counts, decoding, frame order across processes, the GIF fallback, playback plans."""
+
+from __future__ import annotations
+
+import imageio_ffmpeg
+import numpy as np
+import pytest
+from PIL import Image
+
+from odsuite.core.errors import ConfigError
+from odsuite_plugins.renderers import movie
+from odsuite_plugins.renderers.movie import frame_plan, render_movie
+
+FS = 20000.0
+
+
+def decaying_motion(n: int) -> dict[str, np.ndarray]:
+    t = np.arange(n) / FS
+    d = np.zeros((n, 6))
+    env = np.exp(-60 * t)
+    d[:, 2] = 2e-6 * env * np.sin(2 * np.pi * 150 * t)
+    d[:, 3] = 3e-5 * env * np.sin(2 * np.pi * 220 * t)
+    return {"platform": d}
+
+
+def decode(path):
+    gen = imageio_ffmpeg.read_frames(str(path))
+    meta = next(gen)
+    w, h = meta["size"]
+    return meta, np.array([np.frombuffer(f, np.uint8).reshape(h, w, 3) for f in gen])
+
+
+@pytest.mark.render
+def test_mp4_has_expected_frames_and_decodes(thesis_rig, tmp_path):
+    res = render_movie(thesis_rig, decaying_motion(300), FS, tmp_path / "m.mp4", frame_step=10,
+                       size=(320, 240), workers=1, progress=False)
+    assert res.format == "mp4" and res.n_frames == 30 and res.frame_step == 10
+    assert res.slowdown == pytest.approx(FS / (25 * 10))
+    meta, frames = decode(res.path)
+    assert frames.shape == (30, 240, 320, 3)
+    assert meta["fps"] == pytest.approx(25)
+    # the plate moves: successive frames differ, and the first frame (rest) differs from a moving one
+    assert np.abs(frames[0].astype(int) - frames[3].astype(int)).max() > 100
+
+
+@pytest.mark.render
+def test_two_processes_give_the_same_movie_in_order(thesis_rig, tmp_path):
+    n_frames = 2 * movie.MIN_FRAMES_PER_WORKER
+    coords = decaying_motion(n_frames * 4)
+    one = render_movie(thesis_rig, coords, FS, tmp_path / "one.mp4", frame_step=4, size=(192, 128),
+                       workers=1, progress=False)
+    two = render_movie(thesis_rig, coords, FS, tmp_path / "two.mp4", frame_step=4, size=(192, 128),
+                       workers=2, progress=False)
+    _, a = decode(one.path)
+    _, b = decode(two.path)
+    assert a.shape == b.shape == (n_frames, 128, 192, 3)
+    # same frames in the same order (H.264 is lossy: compare to the neighbours)
+    diff = np.abs(a.astype(float) - b.astype(float)).mean(axis=(1, 2, 3))
+    shifted = np.abs(a[1:].astype(float) - b[:-1].astype(float)).mean(axis=(1, 2, 3))
+    assert diff.max() < 2.0
+    assert shifted.mean() > 2 * diff.mean()
+
+
+@pytest.mark.render
+def test_gif_when_mp4_encoding_is_unavailable(thesis_rig, tmp_path, monkeypatch):
+    monkeypatch.setattr(movie, "mp4_available", lambda: False)
+    res = render_movie(thesis_rig, decaying_motion(60), FS, tmp_path / "m.mp4", frame_step=5,
+                       size=(160, 120), workers=1, progress=False)
+    assert res.format == "gif" and res.path == tmp_path / "m.gif" and "m.gif" in res.notes[0]
+    assert not (tmp_path / "m.mp4").exists()
+    with Image.open(res.path) as im:
+        assert im.n_frames == 12 and im.size == (160, 120)
+        assert im.info["duration"] == 40  # 25 fps
+
+
+def test_mp4_available_here():
+    assert movie.mp4_available()
+
+
+def test_frame_plan():
+    frames, step, slow = frame_plan(1000, FS, fps=25, slowdown=200)
+    assert step == 4 and slow == pytest.approx(200) and frames[:3].tolist() == [0, 4, 8]
+    frames, step, slow = frame_plan(1000, FS, fps=25, start=0.01, stop=0.02)
+    assert frames[0] == 200 and frames[-1] == 400 and step == 1 and slow == pytest.approx(800)
+    with pytest.raises(ConfigError, match="slowdown"):
+        frame_plan(1000, FS, fps=25, slowdown=5000)
+    with pytest.raises(ConfigError, match="time window"):
+        frame_plan(1000, FS, fps=25, start=1.0)
+    with pytest.raises(ConfigError, match="either"):
+        frame_plan(1000, FS, fps=25, slowdown=10, frame_step=2)
+
+
+def test_bad_output_names_the_file(thesis_rig, tmp_path):
+    with pytest.raises(ConfigError, match=r"m\.avi"):
+        render_movie(thesis_rig, decaying_motion(10), FS, tmp_path / "m.avi", progress=False)
+    with pytest.raises(ConfigError, match="model_coords"):
+        render_movie(thesis_rig, decaying_motion(10), FS, tmp_path / "m.mp4",
+                     model_coords=decaying_motion(12), progress=False)
