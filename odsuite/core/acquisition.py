@@ -158,14 +158,12 @@ def _rig_info(rig: Rig) -> RigInfo:
     return info
 
 
-def force_volts_per_newton(systeminfo: Systeminfo, force_channel: int) -> float:
-    """Volts at the ADC per newton of hammer force: sensitivity x gain of the force channel."""
-    if not 0 <= force_channel < len(systeminfo.channels):
-        raise ConfigError(
-            f"force channel {force_channel} is not among the Systeminfo's {len(systeminfo.channels)} channels"
-        )
-    ch = systeminfo.channels[force_channel]
-    return ch.sensitivity * ch.daq_gain
+def channel_name(rig: Rig, channel: int) -> str:
+    """"force" for the force channel, the sensor's name, or "ai<k>" for an unused input."""
+    if channel == rig.force_channel:
+        return "force"
+    sensor = rig.sensor_on_channel(channel)
+    return sensor.name if sensor is not None else f"ai{channel}"
 
 
 def resolve_backend(backend: str | DaqBackend) -> DaqBackend:

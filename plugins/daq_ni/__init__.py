@@ -1,1 +1,13 @@
-"""odsuite built-in plugin: daq_ni."""
+"""odsuite built-in plugin: daq_ni, acquisition with National Instruments cards through NI-DAQmx.
+
+``nidaqmx`` is imported only when a record is taken, so this plugin loads on machines without it.
+"""
+
+from odsuite import hookimpl
+
+
+@hookimpl
+def odsuite_register_daq_backends(registry):
+    from odsuite_plugins.daq_ni.backend import NiDaq
+
+    registry.add("ni", NiDaq())

@@ -21,6 +21,7 @@ from odsuite.core.acquisition import (
     AcquisitionSettings,
     Progress,
     Recording,
+    channel_name,
     rig_systeminfo,
 )
 from odsuite.core.errors import ConfigError, HardwareError
@@ -191,7 +192,7 @@ class SimulatedRig:
         clipped = {ch: all_chains[ch].clipped(record[:, ch]) for ch in range(rig.channel_count)}
         raw = np.column_stack([all_chains[ch].quantise(record[:, ch]) for ch in range(rig.channel_count)])
 
-        names = [_channel_name(rig, ch) for ch in range(rig.channel_count)]
+        names = [channel_name(rig, ch) for ch in range(rig.channel_count)]
         label = sc.name if sc is not None and hits == list(sc.hits) else "custom"
         rec = Recording(
             chunks=_chunks(raw, settings.chunk_size, progress),
@@ -211,13 +212,6 @@ class SimulatedRig:
 
             return model_truth(rig, effects)
         return self._truth_factory(rig, effects)
-
-
-def _channel_name(rig: Rig, ch: int) -> str:
-    if ch == rig.force_channel:
-        return "force"
-    sensor = rig.sensor_on_channel(ch)
-    return sensor.name if sensor is not None else f"ai{ch}"
 
 
 def _chunks(raw: np.ndarray, size: int, progress: Progress | None) -> Iterator[np.ndarray]:
