@@ -116,7 +116,8 @@ class SimulatedRig:
     ) -> Recording:
         """Strike the virtual rig and return the triggered record.
 
-        ``scenario`` ("T1".."T8") gives point, direction and hits; ``point`` (m, rig frame),
+        ``scenario`` ("T1".."T8") gives point, direction and hits (without one: a 20 N, 0.5 ms
+        hit); ``point`` (m, rig frame),
         ``direction`` and ``hits`` override it. ``truth`` replaces the rig's default model (with
         ``effects`` applied: hidden from the Systeminfo). ``chains`` replaces channels' chains
         (e.g. a sensor whose true sensitivity differs from its nominal one).
@@ -135,7 +136,7 @@ class SimulatedRig:
         if point.shape != (3,) or direction.shape != (3,) or not np.linalg.norm(direction) > 0:
             raise ConfigError(f"simulator: force point {point.tolist()} / direction {direction.tolist()} must be 3-vectors, direction non-zero")
         direction = direction / np.linalg.norm(direction)
-        hits = list(hits if hits is not None else sc.hits)
+        hits = list(hits if hits is not None else sc.hits if sc is not None else (Hit(),))
         if not hits:
             raise ConfigError("simulator: at least one hit is needed")
         for i, h in enumerate(hits):
