@@ -11,6 +11,7 @@ in metres and radians, platform first.
 from __future__ import annotations
 
 import re
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from decimal import Decimal
@@ -323,18 +324,22 @@ def read_table(path: str | Path, what: str = "data") -> np.ndarray:
     """Read a whitespace/tab-delimited numeric table (rows x columns, float64). Missing file, empty
     file, ragged rows, non-numeric cells and NaN/Inf raise one-line ConfigErrors."""
     path = Path(path)
-    text = _read_text(path, what)
-    if not text.strip():
-        raise ConfigError(f"{path}: empty file, expected a {what} table")
+    if not path.is_file():
+        _read_text(path, what)  # raises the one-line "not found" / "is a directory" error
     try:
-        # numpy >= 1.23 parses text tables in C: as fast as a hand-written reader, and exact
-        data = np.loadtxt(text.splitlines(), dtype=np.float64, comments=None, ndmin=2)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # "input contained no data": checked below
+            # numpy >= 1.23 parses text tables in C: as fast as a hand-written reader, and exact
+            data = np.loadtxt(path, dtype=np.float64, comments=None, ndmin=2, encoding="latin-1")
     except ValueError:
-        raise _diagnose(path, text) from None
+        raise _diagnose(path, _read_text(path, what)) from None
+    if data.size == 0:
+        raise ConfigError(f"{path}: empty file, expected a {what} table")
     bad = ~np.isfinite(data)
     if bad.any():
         row, col = (int(i) for i in np.argwhere(bad)[0])
-        lines = [(i, line) for i, line in enumerate(text.splitlines(), start=1) if line.strip()]
+        lines = [(i, line) for i, line in enumerate(_read_text(path, what).splitlines(), start=1)
+                 if line.strip()]
         number, line = lines[row]
         raise ConfigError(f"{path}: line {number}, column {col}: not a finite number: {line.split()[col]!r}")
     return data

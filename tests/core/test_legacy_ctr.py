@@ -149,3 +149,10 @@ def test_unwritable_text_cell_is_refused():
     si.channels[1].location = "a\tb"
     with pytest.raises(ConfigError, match=r"row 1 \(sensor location\), channel 1: 'a\\tb' cannot be written"):
         format_ctr(si)
+
+
+def test_windows_spreadsheet_text_reads_the_same():
+    """LabVIEW on Windows: CRLF line ends and a tab after the last cell of every row."""
+    si = read_ctr(TABLE_E3)
+    text = "".join(line + "\t\r\n" for line in format_ctr(si).splitlines())
+    assert parse_ctr(text) == si

@@ -92,3 +92,9 @@ def test_cod_errors(tmp_path):
         read_cod(tmp_path / "s.COD")
     with pytest.raises(DimensionError, match=r"plate 1 has shape \(9, 6\), expected \(10, 6\)"):
         write_cod(tmp_path / "o.COD", [np.zeros((10, 6)), np.zeros((9, 6))])
+
+
+def test_windows_line_ends(tmp_path, volts):
+    text = "".join("\t".join(map(repr, row)) + "\r\n" for row in volts.tolist())
+    (tmp_path / "w.DAT").write_bytes(text.encode())
+    np.testing.assert_array_equal(read_dat(tmp_path / "w.DAT", 11).data, volts)
