@@ -105,17 +105,21 @@ class Chain:
         if x.ndim != 1:
             raise DimensionError(f"chain input: expected one channel (1-D samples), got shape {x.shape}")
         out: dict[str, np.ndarray] = {}
-        backwards = False
-        for seg in self.segments():
+        segs = self.segments()
+        for k, seg in enumerate(segs):
             runner = _SegmentRunner(seg)
             taps, y = runner.push(x)
             taps2, y2 = runner.finish()
             for name, arr in taps.items():
-                full = np.concatenate([arr, taps2[name]])
-                out[name] = full[::-1].copy() if backwards else full
-            x = np.concatenate([y, y2])[::-1].copy()
-            backwards = not backwards
+                full = _join(arr, taps2[name])
+                out[name] = full[::-1].copy() if k % 2 else full
+            if k + 1 < len(segs):
+                x = _join(y, y2)[::-1].copy()
         return out
+
+
+def _join(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.concatenate([a, b]) if b.size else a
 
 
 class _SegmentRunner:
@@ -142,8 +146,7 @@ class _SegmentRunner:
                 taps[item.name] = x
             else:
                 out, self.states[k] = item.process(x, self.states[k])
-                tail = item.finish(self.states[k])
-                x = np.concatenate([out, tail]) if tail.size else out
+                x = _join(out, item.finish(self.states[k]))
         return taps, x
 
 
@@ -623,3 +626,49 @@ def _gencoords(project, name, exp, dsets, accel, regs, chunk, where, version) ->
             out[body.name] = {"rigidity": rig_check.fractions, "flagged": list(rig_check.flagged),
                               "worst": rig_check.worst}
     return out
+
+
+def run_array_parallel(chains: Sequence[Chain], raw: np.ndarray, *, workers: int | None = None
+                       ) -> list[dict[str, np.ndarray]]:
+    """:meth:`Chain.run` of each column of ``raw`` with channels split over worker processes.
+
+    ``scipy.signal.sosfilt`` holds the GIL, so threads do not help; forked workers write into
+    shared memory. Falls back to one process where ``fork`` is unavailable.
+    """
+    import mmap
+    import multiprocessing
+
+    raw = np.asarray(raw, dtype=float)
+    if raw.ndim != 2 or raw.shape[1] != len(chains):
+        raise DimensionError(f"raw: expected samples x {len(chains)} channels, got shape {raw.shape}")
+    workers = max(1, min(workers or os.cpu_count() or 1, len(chains)))
+    if workers == 1 or "fork" not in multiprocessing.get_all_start_methods():
+        return [c.run(raw[:, k]) for k, c in enumerate(chains)]
+    n = raw.shape[0]
+    slots = [(k, t) for k, c in enumerate(chains) for t in c.taps]
+    shared = mmap.mmap(-1, max(1, len(slots) * n * 8))
+    out = np.frombuffer(shared, dtype=np.float64, count=len(slots) * n).reshape(len(slots), n)
+    index = {s: i for i, s in enumerate(slots)}
+    cols = np.ascontiguousarray(raw.T)
+    groups = [list(range(w, len(chains), workers)) for w in range(workers)]
+    pids = []
+    for group in groups[1:]:
+        pid = os.fork()
+        if pid == 0:  # worker: fill its channels' rows of the shared block, then leave at once
+            code = 0
+            try:
+                for k in group:
+                    for t, y in chains[k].run(cols[k]).items():
+                        out[index[(k, t)]] = y
+            except BaseException:
+                code = 1
+            os._exit(code)
+        pids.append(pid)
+    for k in groups[0]:
+        for t, y in chains[k].run(cols[k]).items():
+            out[index[(k, t)]] = y
+    failed = [pid for pid in pids if os.waitpid(pid, 0)[1] != 0]
+    if failed:
+        raise RuntimeError(f"processing worker(s) {failed} failed")
+    # views into the shared block, which lives as long as they do
+    return [{t: out[index[(k, t)]] for t in c.taps} for k, c in enumerate(chains)]

@@ -14,7 +14,23 @@ import scipy.signal
 from odsuite.core.errors import ConfigError
 from odsuite.core.pipeline import Reverse, Step
 
+try:  # the in-place kernel behind scipy.signal.sosfilt: saves the copy sosfilt makes of its input
+    from scipy.signal._sosfilt import _sosfilt as _sosfilt_inplace
+except ImportError:  # a SciPy that moved it: the public function, one copy more
+    _sosfilt_inplace = None
+
 _EMPTY = np.empty(0)
+
+
+def _sosfilt(sos: np.ndarray, x: np.ndarray, zi: np.ndarray, owned: bool) -> tuple[np.ndarray, np.ndarray]:
+    """``scipy.signal.sosfilt(sos, x, zi=zi)``; filters ``x`` in place when ``owned`` (a buffer no
+    one else holds)."""
+    if _sosfilt_inplace is None or x.dtype != np.float64:
+        return scipy.signal.sosfilt(sos, x, zi=zi)
+    y = x if owned and x.flags.c_contiguous and x.flags.writeable else np.array(x, dtype=np.float64)
+    zf = np.array(zi, dtype=np.float64).reshape(1, -1, 2)
+    _sosfilt_inplace(np.ascontiguousarray(sos, dtype=np.float64), y.reshape(1, -1), zf)
+    return y, zf[0]
 
 
 def _positive(step: str, name: str, value, *, integer: bool = False) -> float:
@@ -98,21 +114,28 @@ class WindowOffset(Step):
     def scaled(self, k: float) -> WindowOffset:
         return WindowOffset(self.start, self.length, self.factor * k)
 
+    def fuse(self, following):
+        if isinstance(following, Sos) and not following.delay:
+            return _OwnedThenSos(self, following)
+        return None
+
     def init_state(self):
         return _OffsetState()
 
     def process(self, chunk, state):
-        x = chunk * self.factor if self.factor != 1.0 else chunk
+        x = chunk * self.factor if self.factor != 1.0 else chunk.copy()  # owned: shifted in place
         if state.mean is not None:
-            return x - state.mean, state
+            x -= state.mean
+            return x, state
         state.held.append(x)
         state.seen += x.size
         if state.seen < self.start + self.length:
             return _EMPTY, state
-        held = np.concatenate(state.held)
+        held = np.concatenate(state.held) if len(state.held) > 1 else x
         state.held = []
         state.mean = float(np.mean(held[self.start:self.start + self.length]))
-        return held - state.mean, state
+        held -= state.mean
+        return held, state
 
     def finish(self, state):
         if state.mean is None:
@@ -219,7 +242,7 @@ class Sos(Step):
             return _EMPTY, state
         if state.zi is None:
             state.zi = (np.zeros((len(self.sos), 2)) if self.zi_x0 is None else self.zi_x0 * chunk[0])
-        y, state.zi = scipy.signal.sosfilt(self.sos, chunk, zi=state.zi)
+        y, state.zi = _sosfilt(self.sos, chunk, state.zi, owned=False)
         if state.skip:
             drop = min(state.skip, y.size)
             state.skip -= drop
@@ -231,6 +254,31 @@ class Sos(Step):
             return _EMPTY
         y, state = self.process(np.zeros(self.delay), state)
         return y
+
+
+@dataclass(frozen=True, eq=False)
+class _OwnedThenSos(Step):
+    """A step that returns fresh arrays, then a filter run in place on them (one copy fewer)."""
+
+    first: Step
+    sos: Sos
+
+    def init_state(self):
+        return [self.first.init_state(), self.sos.init_state()]
+
+    def process(self, chunk, state):
+        x, state[0] = self.first.process(chunk, state[0])
+        if not x.size:
+            return _EMPTY, state
+        st = state[1]
+        if st.zi is None:
+            st.zi = np.zeros((len(self.sos.sos), 2)) if self.sos.zi_x0 is None else self.sos.zi_x0 * x[0]
+        y, st.zi = _sosfilt(self.sos.sos, x, st.zi, owned=True)
+        return y, state
+
+    def finish(self, state):
+        tail = self.first.finish(state[0])
+        return self.sos.process(tail, state[1])[0] if tail.size else _EMPTY
 
 
 FAMILIES = ("elliptic", "butterworth")
