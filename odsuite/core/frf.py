@@ -31,15 +31,6 @@ class FrfSet:
     output_names: list[str]
     n_averages: int
 
-    def at(self, frequency_hz: float) -> np.ndarray:
-        """Complex FRF of every output at one frequency (linear interpolation between lines)."""
-        f = self.frequency
-        if not f[0] <= frequency_hz <= f[-1]:
-            raise ConfigError(f"frequency {frequency_hz} Hz lies outside the FRFs' {f[0]}..{f[-1]} Hz")
-        re = [np.interp(frequency_hz, f, h.real) for h in self.H]
-        im = [np.interp(frequency_hz, f, h.imag) for h in self.H]
-        return np.asarray(re) + 1j * np.asarray(im)
-
     def band(self, f_low: float, f_high: float) -> FrfSet:
         """The lines with f_low <= f <= f_high."""
         keep = (self.frequency >= f_low) & (self.frequency <= f_high)
