@@ -7,6 +7,7 @@ frequencies in Hz. The legacy ``.CTR`` codec converts the thesis's mV and mm at 
 from __future__ import annotations
 
 import math
+import numbers
 import warnings
 from dataclasses import dataclass, field, replace
 from enum import IntEnum
@@ -156,12 +157,10 @@ def where(source: str | Path, row: int, channel: int | None = None) -> str:
 
 
 def _integer(value: object, place: str) -> int:
-    if isinstance(value, bool):
+    if isinstance(value, numbers.Integral):
         return int(value)
-    if isinstance(value, float) and value.is_integer():
+    if isinstance(value, numbers.Real) and float(value).is_integer():
         return int(value)
-    if isinstance(value, int):
-        return value
     raise ConfigError(f"{place}: expected an integer, got {value!r}")
 
 
@@ -196,7 +195,7 @@ def filters_on_code(value: object, place: str) -> int:
 
 
 def _finite(value: object) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    return isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
 
 
 #: Cut-off rows each filter type reads: low-pass the high cut-off, high-pass the low one.
@@ -297,7 +296,7 @@ class Systeminfo:
         if nine and len(nine) != 9:
             raise ConfigError(f"{where(source, 33)}: expected 9 channels, got {len(nine)} ({nine})")
         for i, c in enumerate(nine):
-            if not isinstance(c, int) or not 0 <= c < len(self.channels):
+            if not isinstance(c, numbers.Integral) or not 0 <= c < len(self.channels):
                 raise ConfigError(f"{where(source, 33, i)}: channel {c!r} is not one of the "
                                   f"{len(self.channels)} channels")
         for row, value in ((30, self.rig.rx), (31, self.rig.ry), (32, self.rig.rz)):
