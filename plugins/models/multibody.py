@@ -21,7 +21,7 @@ import numpy as np
 import scipy.signal
 
 from odsuite.core.errors import ConfigError
-from odsuite.core.rig import Body, Sensor
+from odsuite.core.rig import Body, Rig, Sensor
 
 #: Generalized coordinates of one body, in order.
 COORDS = ("x", "y", "z", "theta", "phi", "psi")
@@ -169,7 +169,7 @@ class Input:
 
     kinds: "force" (N, at ``point`` along ``direction``), "moment" (N m about ``direction``),
     "base_translation" (m, ground displacement along ``direction``), "base_rotation" (rad, ground
-    rotation about ``direction`` through the rig origin).
+    rotation about ``direction`` through the rig origin). ``body`` None: the model's first body.
     """
 
     kind: str
@@ -335,10 +335,8 @@ class Structure:
         return len(self.dof_names)
 
     def body(self, name: str | None) -> RigidBody:
-        if name is None:
-            if len(self.bodies) == 1:
-                return self.bodies[0]
-            raise ConfigError(f"model has {len(self.bodies)} bodies: name the body of the point")
+        if name is None:  # the first body is the main one (effects append bodies after it)
+            return self.bodies[0]
         try:
             return self._body[name]
         except KeyError:
@@ -516,15 +514,17 @@ class Model:
     """A linear model: a structure plus a measurement chain.
 
     ``name`` says which factory built it, ``effects`` which effects were applied (in order) and
-    ``parameters`` their values; ``info`` holds the factory's physical parameters (for display).
+    ``parameters`` their values; ``info`` holds the factory's physical parameters (for display);
+    ``rig`` is the rig it describes (sensors and plates for the effects), if any.
     """
 
     def __init__(self, structure: Structure, chain: Chain | None = None, *, name: str = "",
                  effects: tuple[str, ...] = (), parameters: Mapping[str, Mapping[str, float]] | None = None,
-                 info: Mapping | None = None) -> None:
+                 info: Mapping | None = None, rig: Rig | None = None) -> None:
         self.structure = structure
         self.chain = chain or Chain()
         self.name = name
+        self.rig = rig
         self.effects = tuple(effects)
         self.parameters = dict(parameters or {})
         self.info = dict(info or {})
@@ -543,7 +543,12 @@ class Model:
             effects = effects + (effect,)
             params[effect] = dict(values or {})
         return Model(structure or self.structure, chain or self.chain, name=self.name,
-                     effects=effects, parameters=params, info=self.info)
+                     effects=effects, parameters=params, info=self.info, rig=self.rig)
+
+    @property
+    def sensors(self) -> tuple[Sensor, ...]:
+        """The rig's sensors (empty without a rig)."""
+        return self.rig.sensors if self.rig is not None else ()
 
     # -- structure shortcuts -------------------------------------------------------------------
     @property

@@ -66,7 +66,7 @@ def thesis_dynamometer(rig: Rig | None = None, *, inertia_products: str = "app-b
     c = np.array([p["cx"], p["cy"], p["cz"]])
     springs = dynamometer_springs(p["a"], p["b"], p["h"], k, c, body.name, body.com)
     return Model.build([body], springs, name="thesis-dynamometer",
-                       info={"inertia_products": inertia_products, "source": "thesis App. B.2"})
+                       info={"inertia_products": inertia_products, "source": "thesis App. B.2"}, rig=rig)
 
 
 # §2.1 (Thomson): m = 3220 lb, J = 51 520 lb ft^2, k1 = 2400 lb/ft at l1 = 4.5 ft (front),

@@ -1,0 +1,412 @@
+"""Physical effects: named, parametrised changes of a model that a fitting loop can try.
+
+Each effect lists its parameters for a given model (``parameters(model)``: name, unit, nominal
+value that leaves the model unchanged, bounds, scope "shared" or "per_experiment") and applies
+itself (``apply(model, values) -> Model``; missing values take their nominal). ``target`` says
+whether it changes the structure ("model": M, C, K, modes) or only the measurement chain ("chain":
+sensor and force-gauge signals; the structure and its cached matrices are reused). Apply is cheap
+enough to call in a fitting loop: nothing is recomputed that the effect does not change.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from odsuite.core.errors import ConfigError
+
+from .multibody import FlexibleMode, Model, RigidBody, SensorDynamics, SpringDamper, Structure
+
+#: density used where a rig gives a plate but no mass (steel, as App. C's inertia listing)
+STEEL_DENSITY = 7841.0
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One effect parameter. ``choices`` marks a discrete parameter (e.g. polarity +1/-1)."""
+
+    name: str
+    unit: str
+    nominal: float
+    lower: float
+    upper: float
+    scope: str = "shared"
+    description: str = ""
+    choices: tuple[float, ...] | None = None
+
+    def as_dict(self) -> dict:
+        return {"name": self.name, "unit": self.unit, "nominal": self.nominal, "lower": self.lower,
+                "upper": self.upper, "scope": self.scope, "description": self.description,
+                **({"choices": list(self.choices)} if self.choices else {})}
+
+
+class Effect:
+    """Base class of effects: resolves values against the parameters, then calls ``_apply``."""
+
+    name: str = ""
+    target: str = "model"  # "model" or "chain"
+    description: str = ""
+
+    def parameters(self, model: Model) -> list[Parameter]:
+        raise NotImplementedError
+
+    def _apply(self, model: Model, v: dict[str, float]) -> Model:
+        raise NotImplementedError
+
+    def values(self, model: Model, values: Mapping[str, float] | None = None) -> dict[str, float]:
+        """Complete ``values`` with nominals; refuse unknown names and values outside the bounds."""
+        params = {p.name: p for p in self.parameters(model)}
+        values = dict(values or {})
+        unknown = sorted(set(values) - set(params))
+        if unknown:
+            raise ConfigError(f"effect {self.name!r}: unknown parameter(s) {unknown} (known: {sorted(params)})")
+        out = {}
+        for name, p in params.items():
+            v = float(values.get(name, p.nominal))
+            if p.choices is not None:
+                if v not in p.choices:
+                    raise ConfigError(f"effect {self.name!r} parameter {name!r}: expected one of {p.choices}, got {v!r}")
+            elif not (p.lower <= v <= p.upper):
+                raise ConfigError(f"effect {self.name!r} parameter {name!r}: {v!r} {p.unit} is outside "
+                                  f"[{p.lower}, {p.upper}]")
+            out[name] = v
+        return out
+
+    def apply(self, model: Model, values: Mapping[str, float] | None = None) -> Model:
+        """The model with this effect at ``values`` (nominal where missing)."""
+        v = self.values(model, values)
+        return self._apply(model, v).replace(effect=self.name, values=v)
+
+    def __repr__(self) -> str:
+        return f"<effect {self.name!r} ({self.target})>"
+
+
+def _with_structure(model: Model, **changes) -> Model:
+    st = model.structure
+    kw = {"bodies": st.bodies, "springs": st.springs, "flexible_modes": st.flexible_modes}
+    kw.update(changes)
+    return model.replace(structure=Structure(**kw))
+
+
+def _sensors(model: Model) -> tuple:
+    if not model.sensors:
+        raise ConfigError(f"model {model.name!r} has no rig sensors: sensor effects need a rig")
+    return model.sensors
+
+
+AXES = ("x", "y", "z")
+
+
+class _SpringScale(Effect):
+    """Scale spring coefficients per axis (all springs) and per spring (all axes)."""
+
+    field = ""
+    unit_bounds = (0.05, 20.0)
+
+    def parameters(self, model):
+        lo, hi = self.unit_bounds
+        return ([Parameter(f"scale_{a}", "1", 1.0, lo, hi, description=f"{self.field} along {a}, every spring")
+                 for a in AXES]
+                + [Parameter(f"scale_{s.name}", "1", 1.0, lo, hi, description=f"{self.field} of {s.name}, every axis")
+                   for s in model.springs])
+
+    def _apply(self, model, v):
+        axis = np.array([v[f"scale_{a}"] for a in AXES])
+        springs = []
+        for s in model.springs:
+            f = axis * v[f"scale_{s.name}"]
+            # rotational terms follow the spring's overall scale
+            rf = v[f"scale_{s.name}"]
+            if self.field == "stiffness":
+                springs.append(replace(s, stiffness=s.stiffness * f, rot_stiffness=s.rot_stiffness * rf))
+            else:
+                springs.append(replace(s, damping=s.damping * f, rot_damping=s.rot_damping * rf))
+        return _with_structure(model, springs=tuple(springs))
+
+
+class Stiffness(_SpringScale):
+    name = "stiffness"
+    field = "stiffness"
+    unit_bounds = (0.25, 4.0)
+    description = "Spring stiffness scaled per axis (all springs) and per spring (all axes)."
+
+
+class Damping(_SpringScale):
+    name = "damping"
+    field = "damping"
+    unit_bounds = (0.0, 20.0)
+    description = "Spring damping scaled per axis (all springs) and per spring (all axes)."
+
+
+class MassProperties(Effect):
+    """Mass, inertia and centre of mass of one body; springs, sensors and force points keep their
+    places (they are rig-frame points), so only their arms about the centre of mass change."""
+
+    name = "mass_properties"
+    description = "Body mass and inertia scales, added products of inertia, centre-of-mass offset."
+
+    def __init__(self, body: str | None = None) -> None:
+        self.body = body
+
+    def _body(self, model) -> RigidBody:
+        return model.structure.body(self.body) if self.body else model.bodies[0]
+
+    def parameters(self, model):
+        b = self._body(model)
+        prod = 0.5 * float(np.sqrt(np.min(np.diag(b.inertia)) * np.max(np.diag(b.inertia))))
+        return ([Parameter("mass_scale", "1", 1.0, 0.5, 2.0, description=f"mass of {b.name}")]
+                + [Parameter(f"{n}_scale", "1", 1.0, 0.5, 2.0, description=f"moment of inertia {n} of {b.name}")
+                   for n in ("Ixx", "Iyy", "Izz")]
+                + [Parameter(n, "kg m^2", 0.0, -prod, prod, description=f"added product of inertia {n}")
+                   for n in ("Ixy", "Iyz", "Ixz")]
+                + [Parameter(f"com_d{a}", "m", 0.0, -0.02, 0.02, description=f"centre of mass offset along {a}")
+                   for a in AXES])
+
+    def _apply(self, model, v):
+        b = self._body(model)
+        scale = np.sqrt([v["Ixx_scale"], v["Iyy_scale"], v["Izz_scale"]])
+        inertia = b.inertia * np.outer(scale, scale)  # scales moments, keeps the products' proportion
+        inertia = inertia - np.array([[0, v["Ixy"], v["Ixz"]], [v["Ixy"], 0, v["Iyz"]], [v["Ixz"], v["Iyz"], 0]])
+        new = RigidBody(b.name, b.mass * v["mass_scale"], inertia,
+                        b.com + np.array([v["com_dx"], v["com_dy"], v["com_dz"]]), b.dofs)
+        return _with_structure(model, bodies=tuple(new if x is b else x for x in model.bodies))
+
+
+class PlateFlexibility(Effect):
+    """An added flexible mode of the platform (the rigid model lacks it; thesis §5.4.2, Fig. 5.12).
+
+    ``shape="kirchhoff"``: out-of-plane deflection ``w = twist xi eta + bend_x (xi^2 - 1/3) +
+    bend_y (eta^2 - 1/3)`` over the plate (xi, eta in [-1, 1] from its centre), the lowest
+    free-plate shapes of Kirchhoff theory in polynomial (Rayleigh-Ritz) form, orthogonal to the
+    rigid motions; in-plane motion ``-(z - z_mid) grad w`` (normals stay normal). ``shape="free"``:
+    one participation value per sensor (along its axis) and one for the force points.
+    Participations are per unit mass-normalised modal coordinate (1/sqrt(kg)); all zero = no mode.
+    """
+
+    target = "model"
+
+    def __init__(self, shape: str = "kirchhoff", body: str = "platform") -> None:
+        if shape not in ("kirchhoff", "free"):
+            raise ConfigError(f"plate flexibility shape: expected 'kirchhoff' or 'free', got {shape!r}")
+        self.shape = shape
+        self.body = body
+        self.name = "plate_flexibility" if shape == "kirchhoff" else "plate_flexibility_free"
+        self.description = ("A flexible platform mode with a Kirchhoff-plate twist/bending shape."
+                            if shape == "kirchhoff" else
+                            "A flexible platform mode with free participation at each sensor and force point.")
+
+    def parameters(self, model):
+        common = [Parameter("frequency_hz", "Hz", 400.0, 20.0, 5000.0, description="natural frequency as mounted"),
+                  Parameter("damping_ratio", "1", 0.02, 0.0, 0.5, description="modal damping ratio")]
+        if self.shape == "kirchhoff":
+            return common + [Parameter(n, "kg^-1/2", 0.0, -5.0, 5.0, description=f"{n} amplitude")
+                             for n in ("twist", "bend_x", "bend_y")]
+        return common + [Parameter(f"phi_{s.name}", "kg^-1/2", 0.0, -5.0, 5.0,
+                                   description=f"participation at sensor {s.name} along its axis")
+                         for s in _sensors(model)] + [
+            Parameter("phi_force", "kg^-1/2", 0.0, -5.0, 5.0, description="participation at the force points")]
+
+    def _plate(self, model):
+        if model.rig is None:
+            raise ConfigError(f"model {model.name!r} has no rig: plate flexibility needs the plate geometry")
+        plate = model.rig.body(self.body).plate
+        if plate is None:
+            raise ConfigError(f"rig {model.rig.name!r} body {self.body!r} has no plate")
+        return plate
+
+    def _apply(self, model, v):
+        amps = {k: val for k, val in v.items() if k not in ("frequency_hz", "damping_ratio")}
+        if not any(amps.values()):
+            return model
+        if self.shape == "kirchhoff":
+            plate = self._plate(model)
+            centre = plate.corner + plate.size / 2
+            half = plate.size[:2] / 2
+            t, bx, by = amps["twist"], amps["bend_x"], amps["bend_y"]
+
+            def shape(point, direction, tag):
+                xi, eta = (point[:2] - centre[:2]) / half
+                w = t * xi * eta + bx * (xi * xi - 1 / 3) + by * (eta * eta - 1 / 3)
+                dw = np.array([t * eta + 2 * bx * xi, t * xi + 2 * by * eta]) / half
+                dz = point[2] - centre[2]
+                return float(direction @ np.array([-dz * dw[0], -dz * dw[1], w]))
+        else:
+            table = {s.name: amps[f"phi_{s.name}"] for s in _sensors(model)}
+            table["force"] = amps["phi_force"]
+
+            def shape(point, direction, tag):
+                return table.get(tag, 0.0)
+
+        mode = FlexibleMode(f"{self.name}{len(model.structure.flexible_modes) + 1}", self.body,
+                            v["frequency_hz"], v["damping_ratio"], shape)
+        return _with_structure(model, flexible_modes=model.structure.flexible_modes + (mode,))
+
+
+class _PerSensor(Effect):
+    target = "chain"
+    per_sensor: tuple[tuple[str, str, float, float, float, str], ...] = ()  # suffix, unit, nominal, lo, hi, text
+
+    def parameters(self, model):
+        return [Parameter(f"{s.name}_{suffix}" if suffix else s.name, unit, nom, lo, hi,
+                          description=f"{text} of sensor {s.name} (channel {s.channel})")
+                for s in _sensors(model) for suffix, unit, nom, lo, hi, text in self.per_sensor]
+
+
+class SensorGain(_PerSensor):
+    name = "sensor_gain"
+    description = "A sensor's sensitivity differs from its calibration: its signal is scaled."
+    per_sensor = (("gain", "1", 1.0, 0.5, 2.0, "gain error"),)
+
+    def _apply(self, model, v):
+        g = {s.name: model.chain.gain.get(s.name, 1.0) * v[f"{s.name}_gain"] for s in _sensors(model)}
+        return model.replace(chain=model.chain.with_items("gain", g))
+
+
+class SensorPolarity(_PerSensor):
+    name = "sensor_polarity"
+    description = "A sensor is mounted or wired backwards: its signal is negated."
+
+    def parameters(self, model):
+        return [Parameter(f"{s.name}_polarity", "1", 1.0, -1.0, 1.0, choices=(1.0, -1.0),
+                          description=f"polarity of sensor {s.name} (channel {s.channel})")
+                for s in _sensors(model)]
+
+    def _apply(self, model, v):
+        g = {s.name: model.chain.gain.get(s.name, 1.0) * v[f"{s.name}_polarity"] for s in _sensors(model)}
+        return model.replace(chain=model.chain.with_items("gain", g))
+
+
+def _perpendicular(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    helper = np.eye(3)[np.argmin(np.abs(axis))]
+    e1 = np.cross(axis, helper)
+    e1 /= np.linalg.norm(e1)
+    return e1, np.cross(axis, e1)
+
+
+class SensorOrientation(_PerSensor):
+    name = "sensor_orientation"
+    description = "A sensor's axis is tilted: small rotations about two axes perpendicular to it."
+    per_sensor = (("tilt_a", "rad", 0.0, -0.3, 0.3, "tilt about the first perpendicular axis"),
+                  ("tilt_b", "rad", 0.0, -0.3, 0.3, "tilt about the second perpendicular axis"))
+
+    def _apply(self, model, v):
+        tilts = {}
+        for s in _sensors(model):
+            e1, e2 = _perpendicular(s.axis)
+            tilts[s.name] = (model.chain.tilt.get(s.name, np.zeros(3))
+                             + v[f"{s.name}_tilt_a"] * e1 + v[f"{s.name}_tilt_b"] * e2)
+        return model.replace(chain=model.chain.with_items("tilt", tilts))
+
+
+class SensorPosition(_PerSensor):
+    name = "sensor_position"
+    description = "A sensor sits elsewhere on the plate than the rig file says."
+    per_sensor = tuple((f"d{a}", "m", 0.0, -0.02, 0.02, f"position offset along {a}") for a in AXES)
+
+    def _apply(self, model, v):
+        off = {s.name: model.chain.offset.get(s.name, np.zeros(3))
+               + np.array([v[f"{s.name}_d{a}"] for a in AXES]) for s in _sensors(model)}
+        return model.replace(chain=model.chain.with_items("offset", off))
+
+
+class SensorDynamicsEffect(Effect):
+    """Thesis Eq. 2.2 for every accelerometer: ICP high-passes (amplifier TC and coupler TC1, as
+    corner frequencies; 0 = none) and the sensor's resonance (as its period 1/fn; 0 = none)."""
+
+    name = "sensor_dynamics"
+    target = "chain"
+    description = "Accelerometer dynamics (Eq. 2.2): ICP high-pass time constants and sensor resonance."
+
+    def parameters(self, model):
+        return [Parameter("highpass_hz", "Hz", 0.0, 0.0, 50.0, description="1/(2 pi TC), built-in amplifier"),
+                Parameter("coupler_highpass_hz", "Hz", 0.0, 0.0, 50.0, description="1/(2 pi TC1), coupler"),
+                Parameter("resonance_period_s", "s", 0.0, 0.0, 2e-3, description="1/fn of the sensor resonance"),
+                Parameter("resonance_damping", "1", 0.05, 0.001, 0.7, description="damping ratio of the resonance")]
+
+    def _apply(self, model, v):
+        dyn = SensorDynamics(v["highpass_hz"], v["coupler_highpass_hz"], v["resonance_period_s"],
+                             v["resonance_damping"])
+        return model.replace(chain=model.chain.with_items("dynamics", {"*": dyn}))
+
+
+class ImpactLocation(Effect):
+    name = "impact_location"
+    target = "chain"
+    description = "The hammer hit elsewhere than recorded (one offset per experiment)."
+
+    def parameters(self, model):
+        return [Parameter(f"d{a}", "m", 0.0, -0.03, 0.03, scope="per_experiment",
+                          description=f"force point offset along {a}") for a in AXES]
+
+    def _apply(self, model, v):
+        off = model.chain.force_offset + np.array([v[f"d{a}"] for a in AXES])
+        return model.replace(chain=replace(model.chain, force_offset=off))
+
+
+class ForceGain(Effect):
+    name = "force_gain"
+    target = "chain"
+    description = "The force gauge's sensitivity differs from its calibration."
+
+    def parameters(self, model):
+        return [Parameter("gain", "1", 1.0, 0.5, 2.0, description="true force / recorded force")]
+
+    def _apply(self, model, v):
+        return model.replace(chain=replace(model.chain, force_gain=model.chain.force_gain * v["gain"]))
+
+
+class BaseMotion(Effect):
+    """The base is not rigid ground: it is a rigid body on four mounts at its bottom corners, and
+    the springs that held the platform to the ground hold it to the base. Compliance 0 = ground."""
+
+    name = "base_motion"
+    target = "model"
+    description = "The base moves on its own mounts (compliance per mount, base mass, mount damping)."
+
+    def __init__(self, body: str = "base") -> None:
+        self.body = body
+
+    def _rig_base(self, model):
+        if model.rig is None:
+            raise ConfigError(f"model {model.name!r} has no rig: base motion needs the base geometry")
+        base = model.rig.body(self.body)
+        if base.plate is None:
+            raise ConfigError(f"rig {model.rig.name!r} body {self.body!r} has no plate for its mounts")
+        return base
+
+    def parameters(self, model):
+        base = self._rig_base(model)
+        mass = base.mass if base.mass is not None else float(np.prod(base.plate.size)) * STEEL_DENSITY
+        return [Parameter("compliance", "m/N", 0.0, 0.0, 1e-5, description="compliance of each mount, every axis"),
+                Parameter("base_mass", "kg", mass, 0.1 * mass, 100 * mass, description="mass of the base"),
+                Parameter("mount_damping_ratio", "1", 0.05, 0.0, 1.0, description="damping ratio of the mounts")]
+
+    def _apply(self, model, v):
+        if v["compliance"] == 0:
+            return model
+        base = self._rig_base(model)
+        size, corner = base.plate.size, base.plate.corner
+        m = v["base_mass"]
+        if base.mass is not None and base.inertia is not None and v["base_mass"] == base.mass:
+            inertia = base.inertia
+        else:  # uniform box
+            L, W, H = size
+            inertia = m / 12 * np.diag([W * W + H * H, L * L + H * H, L * L + W * W])
+        body = RigidBody(self.body, m, inertia, base.com)
+        k = 1.0 / v["compliance"]
+        c = 2 * v["mount_damping_ratio"] * np.sqrt(k * m / 4)
+        bottom = corner[2] + size[2]  # z points down: the bottom face has the largest z
+        mounts = [SpringDamper(f"mount{i + 1}", (corner[0] + fx * size[0], corner[1] + fy * size[1], bottom),
+                               self.body, None, (k, k, k), (c, c, c))
+                  for i, (fx, fy) in enumerate(((0, 0), (1, 0), (0, 1), (1, 1)))]
+        springs = [replace(s, other=self.body) if s.other is None and s.body is not None else s
+                   for s in model.springs]
+        return _with_structure(model, bodies=model.bodies + (body,), springs=tuple(springs) + tuple(mounts))
+
+
+def builtin_effects() -> list[Effect]:
+    return [Stiffness(), Damping(), MassProperties(), PlateFlexibility("kirchhoff"), PlateFlexibility("free"),
+            SensorGain(), SensorPolarity(), SensorOrientation(), SensorPosition(), SensorDynamicsEffect(),
+            ImpactLocation(), ForceGain(), BaseMotion()]
