@@ -1,0 +1,120 @@
+"""UFF import/export through pyuff: the pyuff sample files (values listed in their README) and
+lossless round trips of our own exports."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import pyuff
+
+from odsuite.core.errors import ConfigError
+from odsuite.core.uff import UffFunction, UffGeometry, read_uff, time_function, write_uff
+
+
+@pytest.fixture
+def samples(shared_real):
+    return shared_real / "pyuff_uff_samples"
+
+
+def test_time_record_ascii_and_binary_58b(samples):
+    a = read_uff(samples / "Sample_UFF58_ascii.uff").functions[0]
+    b = read_uff(samples / "Sample_UFF58b_bin.uff").functions[0]
+    for f in (a, b):
+        assert f.name == "Mic 01.0Scalar" and f.rsp_dir == 1 and f.is_time and f.unit == "Pa"
+        assert f.data.size == 79292
+        assert f.data[0] == pytest.approx(-1.47553e-2, rel=1e-5)
+        assert f.data[-1] == pytest.approx(-4.31469e-3, rel=1e-5)
+        np.testing.assert_allclose(f.x, np.arange(f.data.size) * f.x[1])
+        assert f.x[1] == pytest.approx(1.52588e-5)
+    np.testing.assert_allclose(a.data, b.data, rtol=1e-5, atol=1e-9)
+
+
+def test_frf_non_ascii_header_and_8_byte_binary(samples):
+    f = read_uff(samples / "non_ascii_header.uff").functions[0]
+    assert f.name == "ref6_23_Mar" and f.rsp_dir == 0 and f.func_type == 4
+    assert f.data[0] == pytest.approx(0.407994 + 0j, rel=1e-5)
+    assert f.data[-1] == pytest.approx(3.75037 + 2.93363j, rel=1e-5)
+    assert f.x[1] - f.x[0] == pytest.approx(0.195313, rel=1e-5)
+    s = read_uff(samples / "binary8byte.uff").functions[0]
+    assert s.data.size == 250
+    assert s.x[1] == pytest.approx(0.01)
+    # the README says sin(2 pi t); the samples are a 5 Hz sine (20 samples a period), single precision
+    np.testing.assert_allclose(s.data, np.sin(2 * np.pi * 5 * s.x), atol=1e-5)
+
+
+def test_four_channel_58b_accelerations(samples):
+    c = read_uff(samples / "mpstd_set001_58b_4ch_accel.uff")
+    assert [f.name for f in c.functions] == [f"MPS set1 Dof{k}" for k in range(1, 5)]
+    assert [(f.rsp_node, f.rsp_dir) for f in c.functions] == [(1, 3), (2, 3), (3, 3), (1, 3)]
+    for f in c.functions:
+        assert f.data.size == 222400 and f.unit == "m/s2"
+        assert f.x[1] == pytest.approx(3.125e-4)
+        assert 0.01 < np.std(f.data) < 0.04  # low-level ambient vibration about an offset
+
+
+def test_geometry_artemis_and_testlab_local_systems(samples):
+    art = read_uff(samples / "artemis_geometry_15_82_2412.uff").geometry
+    assert art.node_nums[:4].tolist() == [16, 17, 18, 19]
+    np.testing.assert_allclose(art.xyz[:11, 0], [0, 1.53, 0, -1.53, 0, 1.53, 0, 1.53, 4.296, 5.616, 4.296])
+    np.testing.assert_allclose(art.xyz[:11, 1], [0, 0, 3.84, 3.84, 0, 0, 3.84, 3.84, 0.382, 0.382, 1.102])
+    np.testing.assert_allclose(art.xyz[:9, 2], [0, 0, 0, 0, 1.83, 1.83, 1.83, 1.83, 0.4])
+    assert [len(n) for _, n in art.trace_lines] == [249, 75]
+
+    tl = read_uff(samples / "testlab_geometry_151_164_18_15_82.uff").geometry
+    assert len(tl.cs_rotation) == 36 and tl.node_nums.size == 36
+    np.testing.assert_allclose(tl.cs_origin[1], [-2.4, -0.95, 0.0])
+    # SYS1: x point (-3.4, -0.95, ~0), xz point (-3.4, -0.95, -1) -> x = -X, z = -Z, y = +Y
+    R = tl.cs_rotation[1]
+    np.testing.assert_allclose(R, np.diag([-1.0, 1.0, -1.0]), atol=1e-6)
+    np.testing.assert_allclose(R.T @ R, np.eye(3), atol=1e-12)
+    assert np.linalg.det(R) == pytest.approx(1.0)
+    np.testing.assert_allclose(tl.direction(1, 3), [0, 0, -1], atol=1e-6)
+    np.testing.assert_allclose(tl.direction(1, -1), [1, 0, 0], atol=1e-6)
+    assert [(name, len(n)) for name, n in tl.trace_lines] == [("Massif", 9), ("Stator", 32), ("Dalle", 11)]
+    assert tl.xyz[:, 0].min() == pytest.approx(-2.6) and tl.xyz[:, 1].max() == pytest.approx(8.4)
+
+
+@pytest.mark.parametrize("binary", [True, False])
+@pytest.mark.parametrize("node_dataset", [15, 2411])
+def test_export_reads_back_identically(tmp_path, samples, binary, node_dataset):
+    rng = np.random.default_rng(3)
+    geo = read_uff(samples / "testlab_geometry_151_164_18_15_82.uff").geometry
+    funcs = [
+        time_function("force", rng.standard_normal(300), 1e-3, "N", node=5, direction=-3),
+        time_function("acc 1", rng.standard_normal(300), 1e-3, "m/s^2", node=1, direction=3),
+        UffFunction("H 1/5", 4, np.arange(64) * 0.5, rng.standard_normal(64) + 1j * rng.standard_normal(64),
+                    "(m/s^2)/N", "Hz", 1, 3, 5, -3),
+    ]
+    path = tmp_path / "out.uff"
+    write_uff(path, functions=funcs, geometry=geo, binary=binary, node_dataset=node_dataset)
+    # pyuff itself reads the same numbers
+    raw = pyuff.UFF(str(path)).read_sets()
+    fsets = [s for s in raw if s["type"] == 58]
+    assert [s["id1"].strip() for s in fsets] == ["force", "acc 1", "H 1/5"]
+    back = read_uff(path)
+    assert back.dataset_types == [18, node_dataset, 82, 82, 82, 58, 58, 58]
+    tol = 0 if binary else 1e-10  # ASCII doubles carry 12 significant digits
+    for a, b in zip(funcs, back.functions, strict=True):
+        assert (a.name, a.func_type, a.unit, a.x_unit, a.rsp_node, a.rsp_dir, a.ref_node, a.ref_dir) == (
+            b.name, b.func_type, b.unit, b.x_unit, b.rsp_node, b.rsp_dir, b.ref_node, b.ref_dir)
+        np.testing.assert_allclose(b.data, a.data, rtol=tol, atol=0)
+        np.testing.assert_allclose(b.x, a.x, rtol=1e-12)
+    np.testing.assert_array_equal(back.geometry.node_nums, geo.node_nums)
+    np.testing.assert_allclose(back.geometry.xyz, geo.xyz, atol=1e-9)
+    assert back.geometry.trace_lines == geo.trace_lines
+    for n, d in [(1, 3), (7, 1), (36, -2)]:
+        np.testing.assert_allclose(back.geometry.direction(n, d), geo.direction(n, d), atol=1e-9)
+
+
+def test_errors(tmp_path, samples):
+    with pytest.raises(ConfigError, match="UFF file not found"):
+        read_uff(tmp_path / "missing.uff")
+    out = tmp_path / "x.uff"
+    out.write_text("")
+    with pytest.raises(ConfigError, match="refusing to overwrite"):
+        write_uff(out, functions=[time_function("a", np.ones(4), 1.0, "V")])
+    geo = UffGeometry(np.array([1]), np.zeros((1, 3)), np.array([0]))
+    with pytest.raises(ConfigError, match="node 2 is not among"):
+        geo.direction(2, 1)
+    with pytest.raises(ConfigError, match="direction 4 at node 1"):
+        geo.direction(1, 4)
