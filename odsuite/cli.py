@@ -233,6 +233,30 @@ def acquire_cmd(
                   f"{exp.pretrigger} before the trigger ({rec.source})", highlight=False, soft_wrap=True)
 
 
+@app.command("model")
+def model_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+) -> None:
+    """The project's current model: revision, effects, parameters and modes (ascending)."""
+    import json
+
+    from odsuite_plugins.models.revision import project_model_report
+
+    report = project_model_report(project)
+    if as_json:
+        print(json.dumps(report))
+        return
+    console.print(f"model {report['model']!r}, revision {report['revision']}, effects: "
+                  f"{', '.join(report['effects']) or 'none'}", highlight=False, soft_wrap=True)
+    table = Table(title="modes")
+    for col in ("mode", "frequency (Hz)", "damping ratio"):
+        table.add_column(col)
+    for i, m in enumerate(report["modes"], 1):
+        table.add_row(str(i), f"{m['frequency_hz']:.2f}", f"{m['damping_ratio']:.4f}")
+    console.print(table)
+
+
 def _register_plugin_commands() -> None:
     from odsuite.core.plugins import default_manager
 
