@@ -20,7 +20,7 @@ def truth_model(rig: Rig, effects: Sequence[tuple[str, Mapping[str, Any]]] = ())
     regs = registries()
     model = regs.models.get(rig.default_model)(rig)
     for name, params in effects:
-        model = regs.effects.get(name).apply(model, rig, **dict(params))
+        model = regs.effects.get(name).apply(model, dict(params))
     return model
 
 

@@ -241,3 +241,19 @@ def test_scenarios_on_the_rigs_default_model_stay_in_range(thesis_rig, name):
         assert z > 3 * xy
     else:  # side blows along x: x sensors dominate
         assert max(rms["xC"], rms["x1"], rms["x3"]) > 3 * z
+
+
+def test_hidden_effect_changes_the_truth_not_the_systeminfo(thesis_rig):
+    s = AcquisitionSettings(n_samples=4096, pretrigger=100)
+    nominal, a = record(SimulatedRig(), thesis_rig, s, scenario="T1", seed=4, noise=False)
+    hidden, b = record(SimulatedRig(), thesis_rig, s, scenario="T1", seed=4, noise=False,
+                       effects=[("stiffness", {"scale_z": 1.44})])
+    assert nominal.systeminfo == hidden.systeminfo
+    # T1 excites the bounce mode, whose frequency goes as sqrt(kz): 1.2 x with kz x 1.44
+    def peak_hz(x):
+        spec = np.abs(np.fft.rfft(x[100:] - x[100:].mean(), 1 << 18))
+        f = np.fft.rfftfreq(1 << 18, 1 / s.sampling_rate)
+        band = (f > 50) & (f < 800)
+        return f[band][np.argmax(spec[band])]
+    zc = thesis_rig.sensor("zC").channel
+    assert peak_hz(b[:, zc]) / peak_hz(a[:, zc]) == pytest.approx(1.2, rel=0.02)
