@@ -257,6 +257,70 @@ def model_cmd(
     console.print(table)
 
 
+@app.command("import-lvm")
+def import_lvm_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    lvmfile: Path = typer.Argument(..., help="LabVIEW .lvm text file."),
+    name: str = typer.Option(..., "--name", help="Experiment name."),
+    force_channel: str = typer.Option(None, "--force-channel", help="Name of the force channel."),
+) -> None:
+    """Import a LabVIEW .lvm hammer record as a new experiment."""
+    from odsuite.core.modal_project import import_lvm
+
+    import_lvm(project, lvmfile, name, force_channel)
+    console.print(f"imported {lvmfile} as experiment {name!r}", highlight=False, soft_wrap=True)
+
+
+@app.command("frf")
+def frf_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    experiment: str = typer.Option(..., "--experiment", help="Experiment name."),
+    estimator: str = typer.Option("H1", "--estimator", help="H1, H2 or Hv."),
+) -> None:
+    """FRFs over the accepted hammer hits of an experiment (stored as derived 'frf')."""
+    from odsuite.core.modal_project import experiment_frf
+
+    frf, hits = experiment_frf(project, experiment, estimator=estimator)
+    for h in hits:
+        state = "accepted" if h.accepted else "rejected: " + ", ".join(h.reasons)
+        console.print(f"hit at sample {h.peak_index} ({h.peak_force:.4g}): {state}", highlight=False)
+    console.print(f"{estimator} FRFs of {len(frf.output_names)} channels, {frf.n_averages} averages, "
+                  f"{frf.frequency.size} lines", highlight=False)
+
+
+@app.command("modes")
+def modes_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    experiment: str = typer.Option(..., "--experiment", help="Experiment name."),
+    f_min: float = typer.Option(None, "--fmin", help="Lowest frequency of the fit band (Hz)."),
+    f_max: float = typer.Option(None, "--fmax", help="Highest frequency of the fit band (Hz)."),
+    max_order: int = typer.Option(50, "--max-order", help="Highest LSCF model order."),
+    at: str = typer.Option(None, "--at", help="Pick poles nearest these frequencies: f1,f2,... (Hz)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+) -> None:
+    """Natural frequencies, damping ratios and mode shapes identified from measured FRFs."""
+    import json
+
+    from odsuite.core.errors import ConfigError
+    from odsuite.core.modal_project import experiment_modes
+
+    try:
+        freqs = [float(v) for v in at.split(",")] if at else None
+    except ValueError:
+        raise ConfigError(f"--at {at!r}: expected comma-separated frequencies in Hz") from None
+    band = None if f_min is None and f_max is None else (f_min or 0.0, f_max or float("inf"))
+    res = experiment_modes(project, experiment, f_band=band, max_order=max_order, frequencies=freqs)
+    if as_json:
+        print(json.dumps(res.to_dict()))
+        return
+    table = Table(title=f"modes of {experiment}")
+    for col in ("mode", "f (Hz)", "damping ratio"):
+        table.add_column(col)
+    for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio), start=1):
+        table.add_row(str(k), f"{f:.2f}", f"{z:.5f}")
+    console.print(table)
+
+
 def _register_plugin_commands() -> None:
     from odsuite.core.plugins import default_manager
 

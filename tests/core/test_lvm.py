@@ -114,3 +114,22 @@ def test_unknown_channel_name(shared_real):
     d = read_lvm(shared_real / "lvm_read_impacts" / "short.lvm")
     with pytest.raises(ConfigError, match="no channel 'Force'.*Excitation"):
         d.channel("Force")
+
+
+def test_cli_import_lvm_frf_modes(shared_real, tmp_path, capsys):
+    import json
+
+    from odsuite.cli import main
+
+    proj = tmp_path / "beam.h5"
+    lvm = shared_real / "ladisk_beam_impact" / "acceleration.lvm"
+    assert main(["new", str(proj), "--rig", "none"]) == 0
+    assert main(["import-lvm", str(proj), str(lvm), "--name", "beam"]) == 0
+    capsys.readouterr()
+    assert main(["modes", str(proj), "--experiment", "beam", "--fmin", "1", "--fmax", "4000", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    f = [m["frequency_hz"] for m in doc["modes"]]
+    np.testing.assert_allclose(f, [695.0, 1897.6, 2777.3, 3671.2], rtol=0.005)
+    multi = shared_real / "lvm_read_impacts" / "long_single_header_multi_ch.lvm"
+    assert main(["import-lvm", str(proj), str(multi), "--name", "lab"]) == 1
+    assert "give --force-channel" in capsys.readouterr().err

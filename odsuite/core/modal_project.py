@@ -1,0 +1,118 @@
+"""Hammer-test workflow on a project: import LabVIEW records, FRFs per experiment, identified modes.
+
+Experiments imported from engineering-unit files store those values as the raw column with a
+sensitivity that converts them to SI (1 V per unit, g -> m/s^2 through 1/9.81 V per m/s^2).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from odsuite import __version__
+from odsuite.core.errors import ConfigError
+from odsuite.core.frf import FrfSet, estimate_frf
+from odsuite.core.hammer import assess_hits
+from odsuite.core.lvm import read_lvm
+from odsuite.core.modal import ModalResult, identify_modes
+from odsuite.core.project import DerivedArray, Excitation, open_project
+from odsuite.core.systeminfo import ChannelInfo, SensorType, Systeminfo
+
+G = 9.80665
+#: LabVIEW unit labels -> (sensor type, volts per SI unit of the stored value)
+_UNITS = {
+    "n": (SensorType.LOADCELL, 1.0), "newtons": (SensorType.LOADCELL, 1.0),
+    "m/s^2": (SensorType.ACCELEROMETER, 1.0), "m/s2": (SensorType.ACCELEROMETER, 1.0),
+    "g": (SensorType.ACCELEROMETER, 1.0 / G), "volts": (SensorType.VOLTAGE, 1.0), "v": (SensorType.VOLTAGE, 1.0),
+}
+
+
+def _force_index(names: list[str], units: list[str], force_channel: str | None, where: str) -> int:
+    if force_channel is not None:
+        if force_channel not in names:
+            raise ConfigError(f"{where}: no channel {force_channel!r}; channels are {', '.join(names)}")
+        return names.index(force_channel)
+    cand = [i for i, (n, u) in enumerate(zip(names, units)) if u.lower() in ("n", "newtons") or "force" in n.lower()]
+    if len(cand) != 1:
+        raise ConfigError(f"{where}: cannot tell the force channel among {', '.join(names)}; give --force-channel")
+    return cand[0]
+
+
+def import_lvm(project: str | Path, lvm_path: str | Path, name: str, force_channel: str | None = None) -> str:
+    """Add a LabVIEW ``.lvm`` record to a project as experiment ``name``; returns the name."""
+    d = read_lvm(lvm_path)
+    fidx = _force_index(d.channel_names, d.units, force_channel, str(lvm_path))
+    channels = []
+    for k, (n, u) in enumerate(zip(d.channel_names, d.units)):
+        stype, sens = _UNITS.get(u.strip().lower(), (SensorType.NONE, 1.0))
+        if k == fidx:
+            stype, sens = SensorType.LOADCELL, 1.0  # force values are newtons whatever the label says
+        channels.append(ChannelInfo(sensor_type=stype, location=n, sensitivity=sens, sampling_rate=d.sampling_rate))
+    with open_project(project, "a") as p:
+        p.add_experiment(
+            name, d.data, sampling_rate=d.sampling_rate, systeminfo=Systeminfo(channels),
+            # a .lvm file holds no geometry: point at the origin, direction +z by convention
+            excitation=Excitation(fidx, np.zeros(3), np.array([0.0, 0.0, 1.0])), source=str(Path(lvm_path).name),
+            channel_names=list(d.channel_names),
+        )
+    return name
+
+
+def _physical(exp) -> np.ndarray:
+    raw = exp.raw()
+    scale = np.array([(-1 if c.invert else 1) / (c.sensitivity * c.daq_gain) for c in exp.systeminfo.channels])
+    return raw * scale
+
+
+def experiment_frf(
+    project: str | Path, experiment: str, *, estimator: str = "H1", record_length: int | None = None
+) -> tuple[FrfSet, list]:
+    """FRFs of every channel to the force channel over the experiment's accepted hits; stored as
+    the derived group ``frf`` (H real/imag, coherence). Returns the FRFs and the hit list."""
+    with open_project(project, "a") as p:
+        exp = p.experiment(experiment)
+        if exp.excitation is None:
+            raise ConfigError(f"{project}: experiment {experiment!r} has no force channel")
+        data = _physical(exp)
+        fidx = exp.excitation.force_channel
+        outs = [k for k in range(exp.n_channels) if k != fidx]
+        hits = assess_hits(data[:, fidx], data[:, outs], exp.sampling_rate, record_length=record_length)
+        good = [h for h in hits if h.accepted]
+        if not good:
+            reasons = "; ".join(f"hit at sample {h.peak_index}: {', '.join(h.reasons)}" for h in hits) or "no hits found"
+            raise ConfigError(f"{project}: experiment {experiment!r} has no acceptable hit ({reasons})")
+        units = [exp.systeminfo.channels[k].unit for k in outs]
+        frf = estimate_frf(
+            [data[h.start : h.stop, fidx] for h in good], [data[h.start : h.stop, outs] for h in good],
+            exp.sampling_rate, estimator=estimator, response_units=units,
+            output_names=[exp.channel_names[k] for k in outs],
+        )
+        dims = ("output", "frequency")
+        p.write_derived(
+            experiment, "frf",
+            {
+                "frequency": DerivedArray(frf.frequency, "Hz", ("frequency",)),
+                "H_real": DerivedArray(frf.H.real, ";".join(frf.units), dims),
+                "H_imag": DerivedArray(frf.H.imag, ";".join(frf.units), dims),
+                "coherence": DerivedArray(frf.coherence, "1", dims),
+            },
+            provenance={"plugin": "odsuite.frf", "version": __version__,
+                        "parameters": json.dumps({"estimator": estimator, "record_length": record_length}),
+                        "inputs": experiment},
+            attrs={"outputs": json.dumps(frf.output_names), "n_averages": frf.n_averages,
+                   "hits": json.dumps([{"peak": h.peak_index, "accepted": h.accepted, "reasons": list(h.reasons)}
+                                       for h in hits])},
+        )
+    return frf, hits
+
+
+def experiment_modes(
+    project: str | Path, experiment: str, *, f_band: tuple[float, float] | None = None,
+    max_order: int = 50, frequencies: list[float] | None = None,
+) -> ModalResult:
+    """Modes identified from the experiment's FRFs (computed first when not stored)."""
+    frf, _ = experiment_frf(project, experiment)
+    return identify_modes(frf.frequency, frf.H, f_band=f_band, max_order=max_order,
+                          frequencies=frequencies, output_names=frf.output_names)
