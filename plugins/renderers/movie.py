@@ -1,9 +1,11 @@
 """Wireframe movies of the rig's plates (thesis Sec. 4.6, App. D.4): MP4 (H.264) or GIF.
 
-Frames are rendered off-screen by pyvista. With ``workers`` > 1 the frame range is split into
-contiguous parts rendered by separate processes; for MP4 each part is encoded to its own H.264
-segment by imageio-ffmpeg's ffmpeg (raw frames piped in) and the segments are joined without
-re-encoding. GIF is the fallback when no H.264 encoder is available.
+Frames are rendered off-screen by pyvista and piped raw into imageio-ffmpeg's ffmpeg, which
+encodes H.264 in its own process while the next frame renders. With ``workers`` > 1 the frame range
+is split into contiguous parts rendered by separate processes, each encoding its own segment; the
+segments are joined without re-encoding. One process already keeps two cores busy (the software
+rasteriser is multi-threaded), so the default is one worker per two cores. GIF is the fallback
+when no H.264 encoder is available.
 """
 
 from __future__ import annotations
@@ -139,6 +141,8 @@ def _render_part(job: dict, frames: np.ndarray, first: int, sink: str, target: s
 
 
 def _worker(job, frames, first, sink, target, q) -> None:
+    # one software-rasteriser thread per process: the processes already fill the cores
+    os.environ.setdefault("LP_NUM_THREADS", "1")
     try:
         _render_part(job, frames, first, sink, target, lambda n: q.put(("done", n)))
         q.put(("finished", first))
@@ -231,7 +235,8 @@ def render_movie(
            "scene": dict(model_coords=model_coords, layout=layout, magnify=magnify, view=tuple(view),
                          parallel=parallel, solid=solid, axes=axes, ghost=ghost, size=size, style=style)}
     if workers is None:
-        workers = min(2, os.cpu_count() or 1)
+        # one process keeps about two cores busy (multi-threaded rasteriser + the encoder process)
+        workers = max(1, min(4, (os.cpu_count() or 1) // 2))
     workers = max(1, min(int(workers), len(frames) // MIN_FRAMES_PER_WORKER or 1))
     path.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="odsuite-movie-", dir=path.parent) as tmpdir:
