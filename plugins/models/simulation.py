@@ -1,9 +1,9 @@
 """Simulation of a linear model to a sampled input record, by exact discretisation.
 
-The state space is split into its modes (x = V z); each mode is a first-order complex recursion
-``z[k+1] = p z[k] + ...`` with ``p = exp(lambda T)`` whose hold-exact coefficients are the phi
-functions of ``lambda T``; scipy.signal.lfilter runs the recursion in C. One mode of each conjugate
-pair is run and its real part doubled. Zero-order hold (input constant over a sample, scipy
+The state space is split into its modes (x = V z); each mode and input is a first-order complex
+recursion ``z[k+1] = p z[k] + ...`` with ``p = exp(lambda T)`` whose hold-exact coefficients are the phi
+functions of ``lambda T``; scipy.signal.lfilter runs it in C as two real second-order filters. One
+mode of each conjugate pair is run and its real part doubled. Zero-order hold (input constant over a sample, scipy
 ``lsim(..., interp=False)``) and first-order hold (linear between samples, ``lsim`` default) are
 exact, not approximations. When the mode matrix is ill-conditioned (nearly repeated, defective
 eigenvalues) the matrix-exponential discretisation (as in scipy.signal.lsim) is used, slowly.
@@ -82,20 +82,32 @@ def simulate_state_space(ss: StateSpace, u, fs: float, hold: str = "zoh") -> np.
     x = lk * T
     p = np.exp(x)
     g0 = T * _phi(x, 1)
-    # rows = modes, columns = samples: contiguous for lfilter; few inputs, so broadcast, not matmul
+    # per (mode, input): the complex first-order recursion b(q)/(1 - p q^-1) run as two real
+    # second-order filters (its real and imaginary parts, denominator |1 - p q^-1|^2) on the real
+    # input; the modal input weight is folded into the output weights
     ut = np.ascontiguousarray(u.T)
-    W = sum(Bm[:, j:j + 1] * ut[j] for j in range(ut.shape[0]))  # modal forcing, n_modes x n_samples
-    nm = len(lk)
-    Zri = np.empty((2 * nm, len(u)))  # real parts, then imaginary parts
+    nm, ni = len(lk), ut.shape[0]
+    Zri = np.empty((2 * nm * ni, len(u)))  # real parts, then imaginary parts
     for i in range(nm):
         if hold == "zoh":
-            z = scipy.signal.lfilter([0.0, g0[i]], [1.0, -p[i]], W[i])
+            b0, b1 = 0.0, g0[i]
         else:
             g1 = T * _phi(x[i:i + 1], 2)[0]
-            # zi makes z[0] = 0: the system starts from rest whatever u[0] is
-            z, _ = scipy.signal.lfilter([g1, g0[i] - g1], [1.0, -p[i]], W[i], zi=[-g1 * W[i, 0]])
-        Zri[i], Zri[nm + i] = z.real, z.imag
-    yt = np.hstack([Cm.real, -Cm.imag]) @ Zri  # Re(Cm z), outputs x samples
+            b0, b1 = g1, g0[i] - g1
+        pc = np.conj(p[i])
+        num = np.array([b0, b1 - b0 * pc, -b1 * pc])
+        den = np.array([1.0, -2 * p[i].real, abs(p[i]) ** 2])
+        for j in range(ni):
+            for part, row in ((np.real, i * ni + j), (np.imag, (nm + i) * ni + j)):
+                if hold == "foh":
+                    # start from rest whatever u[0] is: cancel the homogeneous response b0 u0 p^n
+                    c = b0 * ut[j, 0]
+                    zi = [-part(c), -part(c * p[i]) - den[1] * part(c)]
+                    Zri[row], _ = scipy.signal.lfilter(part(num), den, ut[j], zi=zi)
+                else:
+                    Zri[row] = scipy.signal.lfilter(part(num), den, ut[j])
+    fold = (Cm[:, :, None] * Bm[None, :, :]).reshape(len(Cm), nm * ni)  # output x (mode, input)
+    yt = np.hstack([fold.real, -fold.imag]) @ Zri  # Re(sum Cm Bm z), outputs x samples
     for k, j in zip(*np.nonzero(ss.D)):
         yt[k] += ss.D[k, j] * ut[j]
     return yt.T  # samples x outputs (a transposed view: no copy)

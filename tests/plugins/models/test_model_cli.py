@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 
 import numpy as np
-import pytest
 
 from odsuite.cli import main
 from odsuite.core.project import create_project, open_project

@@ -8,7 +8,8 @@ import pytest
 from odsuite import hookimpl
 from odsuite.core.errors import ConfigError
 from odsuite.core.plugins import build_registries, make_plugin_manager
-from odsuite_plugins.models import Effect, Input, Model, Output, Parameter, RigidBody, SpringDamper, simulate
+from odsuite_plugins.models import (Effect, Input, Model, Output, Parameter, RigidBody, SpringDamper, Structure,
+                                   simulate)
 
 FREQS = np.array([20.0, 97.4, 150.0, 222.0, 400.0, 900.0])
 T5 = Input.force((0.050025, -0.075761, -0.00632), (-1, 0, 0))  # Table 5.3 test 5
@@ -232,7 +233,6 @@ class AddedMass(Effect):
         d_b, d_p = b.com - com, b.com + r - com
         inertia = (b.inertia + b.mass * (d_b @ d_b * np.eye(3) - np.outer(d_b, d_b))
                    + v["mass"] * (d_p @ d_p * np.eye(3) - np.outer(d_p, d_p)))
-        from odsuite_plugins.models import Structure
         return model.replace(structure=Structure([RigidBody(b.name, m, inertia, com)], model.springs))
 
 
