@@ -200,3 +200,19 @@ def test_invalid_models_are_refused(make, match):
 
 def test_inertia_tensor_convention():
     assert np.array_equal(inertia_tensor(1, 2, 3, 4, 5, 6), [[1, -4, -6], [-4, 2, -5], [-6, -5, 3]])
+
+
+def test_base_translation_gives_sdof_transmissibility():
+    m, c, k = 2.0, 30.0, 8e5
+    model = Model.build([RigidBody("m", m, np.eye(3), dofs=("z",))],
+                        [SpringDamper("k", (0, 0, 0.1), "m", None, (0, 0, k), (0, 0, c))])
+    f = np.array([5.0, 80.0, 100.7, 300.0])
+    w = 2 * np.pi * f
+    base = [Input.base_translation((0, 0, 1))]
+    disp = model.transfer(base, [Output.at_point((0, 0, 0), (0, 0, 1), "displacement")], f)[:, 0, 0]
+    vel = model.transfer(base, [Output.at_point((0, 0, 0), (0, 0, 1), "velocity")], f)[:, 0, 0]
+    ref = (k + 1j * w * c) / (k - m * w * w + 1j * w * c)
+    assert np.allclose(disp, ref, rtol=1e-12)
+    assert np.allclose(vel, 1j * w * ref, rtol=1e-12)  # the D term of the damper path
+    with pytest.raises(ConfigError, match="base-motion"):
+        model.state_space(base, [Output.at_point((0, 0, 0), (0, 0, 1), "acceleration")])
