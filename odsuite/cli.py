@@ -321,6 +321,34 @@ def modes_cmd(
     console.print(table)
 
 
+@app.command("render")
+def render_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    experiment: str = typer.Argument(..., help="Experiment name."),
+    output: Path = typer.Option(..., "-o", "--output", help="Movie (.mp4, .gif) or figure (.png, .svg, .pdf)."),
+    model: bool = typer.Option(False, "--model", help="Overlay the model's motion (derived 'model_gencoords')."),
+    magnify: str = typer.Option(None, "--magnify", help="H_t,H_r (default: largest corner motion = 15 % of the plate)."),
+    view: str = typer.Option(None, "--view", help="Movie: AZ,EL degrees. Projection: EYE[,THETA,PHI,PSI] (eye x|y|z)."),
+    figure: str = typer.Option(None, "--figure", help="overlay | projection | residuals (default: a movie)."),
+    workers: int = typer.Option(None, "--workers", help="Render processes for a movie (default: one per two cores)."),
+    frame_step: int = typer.Option(None, "--frame-step", help="Samples per movie frame (default 1)."),
+    slowdown: float = typer.Option(None, "--slowdown", help="Slow-motion factor: movie time / real time."),
+) -> None:
+    """Wireframe movie of an experiment's plates, or the thesis projection / comparison figures."""
+    from odsuite_plugins.renderers.experiment import parse_pair, render_experiment
+
+    res = render_experiment(project, experiment, output, model=model, magnify=parse_pair(magnify, "--magnify"),
+                            view=view, figure=figure, workers=workers, frame_step=frame_step,
+                            slowdown=slowdown)
+    if figure is None:
+        for note in res.notes:
+            err_console.print(f"note: {note}", highlight=False)
+        console.print(f"wrote {res.path} ({res.n_frames} frames at {res.fps:g} fps, {res.slowdown:.0f}x slower "
+                      f"than real time, H_t = {res.magnify[0]:.3g}, H_r = {res.magnify[1]:.3g})", highlight=False)
+    else:
+        console.print(f"wrote {res}", highlight=False)
+
+
 def _register_plugin_commands() -> None:
     from odsuite.core.plugins import default_manager
 

@@ -1,0 +1,108 @@
+"""Render a stored experiment: its generalized coordinates (derived kind "gencoords") as a movie
+or a figure, optionally with the model's motion (derived kind "model_gencoords")."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from odsuite.core.errors import ConfigError
+from odsuite.core.rigidbody import COORDINATE_UNITS, COORDINATES
+
+from .figures import comparison_figure, projection_figure, residual_spectra_figure
+from .movie import MovieResult, render_movie
+
+MEASURED_KIND = "gencoords"
+MODEL_KIND = "model_gencoords"
+FIGURES = ("overlay", "projection", "residuals")
+SUFFIX = "_at_g"
+
+
+def _coords(project, experiment: str, kind: str, hint: str) -> dict[str, np.ndarray]:
+    if kind not in project.derived_kinds(experiment):
+        raise ConfigError(f"{project.path}: experiment {experiment!r} has no {kind!r} data; {hint}")
+    arrays = project.read_derived(experiment, kind)
+    coords = {k[: -len(SUFFIX)]: np.asarray(v) for k, v in arrays.items() if k.endswith(SUFFIX)}
+    if not coords:
+        raise ConfigError(f"{project.path}: experiment {experiment!r}: {kind!r} holds no '<body>{SUFFIX}' dataset")
+    return coords
+
+
+def parse_pair(text: str | None, what: str) -> tuple[float, float] | None:
+    """'A,B' -> (A, B) floats; None stays None."""
+    if text is None:
+        return None
+    try:
+        a, b = (float(v) for v in text.split(","))
+    except ValueError:
+        raise ConfigError(f"{what}: expected two numbers 'A,B', got {text!r}") from None
+    return (a, b)
+
+
+def render_experiment(
+    project_path: str | Path,
+    experiment: str,
+    output: str | Path,
+    *,
+    model: bool = False,
+    magnify: tuple[float, float] | None = None,
+    view: str | None = None,
+    figure: str | None = None,
+    workers: int | None = None,
+    frame_step: int | None = None,
+    slowdown: float | None = None,
+    progress: bool = True,
+) -> MovieResult | Path:
+    """A movie (``figure`` None) or a figure of one experiment of a project.
+
+    ``view``: for movies "AZ,EL" in degrees; for the projection figure "EYE[,THETA,PHI,PSI]" (eye
+    axis x, y or z and the Eq. 4.25 viewpoint angles in degrees). ``model`` adds the model's
+    motion (overlay and residual figures always need it).
+    """
+    from odsuite.core.project import open_project
+
+    if figure is not None and figure not in FIGURES:
+        raise ConfigError(f"--figure: expected one of {', '.join(FIGURES)}, got {figure!r}")
+    with open_project(project_path) as project:
+        if project.rig is None:
+            raise ConfigError(f"{project.path}: the project has no rig geometry to draw (created with --rig none)")
+        if experiment not in project.experiment_names():
+            raise ConfigError(f"{project.path}: no experiment {experiment!r} "
+                              f"(experiments: {', '.join(project.experiment_names()) or 'none'})")
+        exp = project.experiment(experiment)
+        fs = exp.sampling_rate
+        coords = _coords(project, experiment, MEASURED_KIND, "run `odsuite process` first")
+        model_coords = None
+        if model or figure in ("overlay", "residuals"):
+            model_coords = _coords(project, experiment, MODEL_KIND, "run `odsuite compare` first")
+        force = None
+        if figure == "projection" and exp.excitation is not None:
+            force = exp.raw(channels=exp.excitation.force_channel)
+        rig = project.rig
+    if figure is None:
+        return render_movie(rig, coords, fs, output, model_coords=model_coords, magnify=magnify,
+                            view=parse_pair(view, "--view") or (60.0, 25.0), workers=workers,
+                            frame_step=frame_step, slowdown=slowdown, progress=progress)
+    if figure == "projection":
+        parts = (view or "x").split(",")
+        if len(parts) not in (1, 4):
+            raise ConfigError(f"--view: for the projection expected 'EYE' or 'EYE,THETA,PHI,PSI', got {view!r}")
+        try:
+            angles = tuple(float(v) for v in parts[1:]) or (0.0, 0.0, 0.0)
+        except ValueError:
+            raise ConfigError(f"--view: viewpoint angles must be numbers, got {view!r}") from None
+        return projection_figure(rig, coords, fs, output, force=force, eye=parts[0], view_angles=angles,
+                                 magnify=magnify, title=f"{experiment}").path
+    body = next(iter(coords))
+    if body not in model_coords:
+        raise ConfigError(f"{MODEL_KIND!r} of experiment {experiment!r} has no body {body!r}")
+    measured, predicted = coords[body], model_coords[body]
+    if measured.shape != predicted.shape:
+        raise ConfigError(f"experiment {experiment!r}: measured {measured.shape} and model {predicted.shape} "
+                          f"coordinates of {body!r} differ in shape")
+    if figure == "overlay":
+        t = np.arange(measured.shape[0]) / fs
+        return comparison_figure(t, measured, predicted, output, title=f"{experiment}: {body} at G").path
+    return residual_spectra_figure(fs, measured, predicted, output, names=COORDINATES, units=COORDINATE_UNITS,
+                                   title=f"{experiment}: {body} at G").path

@@ -1,0 +1,86 @@
+"""`odsuite render` on a project: movie, projection and comparison figures, clear errors."""
+
+from __future__ import annotations
+
+import imageio_ffmpeg
+import numpy as np
+import pytest
+from PIL import Image
+
+from odsuite.cli import main
+from odsuite.core.legacy import write_dat
+from odsuite.core.project import DerivedArray, open_project
+from tests.core.test_legacy_import import legacy_volts
+from tests.core.test_systeminfo import TABLE_E3
+
+
+def run(capsys, *args):
+    code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def project(tmp_path, capsys):
+    data = legacy_volts()
+    write_dat(tmp_path / "T5.DAT", data)
+    path = tmp_path / "p.h5"
+    assert run(capsys, "new", path)[0] == 0
+    code, _, err = run(capsys, "import-legacy", path, tmp_path / "T5.DAT", "--systeminfo", TABLE_E3, "--name",
+                       "T5", "--force-point=50.025,-75.761,-6.320", "--force-dir=-x")
+    assert code == 0, err
+    with open_project(path, "a") as p:
+        n = p.experiment("T5").n_samples
+        t = np.arange(n) / p.experiment("T5").sampling_rate
+        d = np.zeros((n, 6))
+        d[:, 0] = 1e-6 * np.sin(2 * np.pi * 150 * t)
+        d[:, 5] = 1e-5 * np.sin(2 * np.pi * 210 * t)
+        prov = {"plugin": "test", "version": "0", "parameters": {}}
+        p.write_derived("T5", "gencoords", {"platform_at_g": DerivedArray(d, "m m m rad rad rad", ("sample", "coordinate"))},
+                        provenance=prov)
+    return path, d
+
+
+def write_model(path, d):
+    with open_project(path, "a") as p:
+        p.write_derived("T5", "model_gencoords",
+                        {"platform_at_g": DerivedArray(0.8 * d, "m m m rad rad rad", ("sample", "coordinate"))},
+                        provenance={"plugin": "test", "version": "0", "parameters": {}})
+
+
+@pytest.mark.render
+def test_render_movie(project, tmp_path, capsys):
+    path, d = project
+    out = tmp_path / "T5.mp4"
+    code, stdout, err = run(capsys, "render", path, "T5", "-o", out, "--magnify", "2000,3000", "--view", "30,20",
+                            "--workers", "1", "--frame-step", "64")
+    assert code == 0, err
+    assert "H_t = 2e+03, H_r = 3e+03" in stdout
+    frames, _ = imageio_ffmpeg.count_frames_and_secs(str(out))
+    assert frames == -(-d.shape[0] // 64)
+
+
+def test_render_figures(project, tmp_path, capsys):
+    path, d = project
+    code, stdout, err = run(capsys, "render", path, "T5", "-o", tmp_path / "proj.png", "--figure", "projection",
+                            "--view", "z,0,0,15")
+    assert code == 0, err
+    with Image.open(tmp_path / "proj.png") as im:
+        assert im.format == "PNG"
+    code, _, err = run(capsys, "render", path, "T5", "-o", tmp_path / "cmp.svg", "--figure", "overlay")
+    assert code == 1 and "model_gencoords" in err and "odsuite compare" in err and len(err.strip().splitlines()) == 1
+    write_model(path, d)
+    for fig in ("overlay", "residuals"):
+        code, _, err = run(capsys, "render", path, "T5", "-o", tmp_path / f"{fig}.svg", "--figure", fig)
+        assert code == 0, err
+        assert (tmp_path / f"{fig}.svg").read_text().lstrip().startswith("<?xml")
+
+
+def test_render_errors_are_one_line(project, tmp_path, capsys):
+    path, _ = project
+    for args, words in (((path, "T9", "-o", tmp_path / "m.mp4"), "T9"),
+                        ((path, "T5", "-o", tmp_path / "m.avi"), "m.avi"),
+                        ((path, "T5", "-o", tmp_path / "m.mp4", "--magnify", "10"), "--magnify"),
+                        ((path, "T5", "-o", tmp_path / "m.png", "--figure", "bars"), "--figure")):
+        code, _, err = run(capsys, "render", *args)
+        assert code == 1 and words in err and len(err.strip().splitlines()) == 1, err
