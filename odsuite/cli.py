@@ -349,6 +349,17 @@ def render_cmd(
         console.print(f"wrote {res}", highlight=False)
 
 
+@app.command("verify")
+def verify_cmd(project: Path = typer.Argument(..., help="Project file.")) -> None:
+    """Read every checksummed dataset; a corrupted one is named (exit code 1)."""
+    from odsuite.core.project import open_project
+
+    with open_project(project) as p:
+        checked = p.verify()
+    console.print(f"{project}: {sum(checked.values())} checksummed datasets in {len(checked)} experiments "
+                  "read back intact", highlight=False, soft_wrap=True)
+
+
 def _register_plugin_commands() -> None:
     from odsuite.core.plugins import default_manager
 

@@ -1,0 +1,80 @@
+"""Data checks: a byte flipped anywhere inside stored raw or derived data is caught by its checksum
+and named by `odsuite verify` and `odsuite info`; the intact experiments stay readable."""
+
+from __future__ import annotations
+
+import h5py
+import numpy as np
+import pytest
+
+from odsuite.cli import main
+from odsuite.core.errors import ProjectFileError
+from odsuite.core.project import DerivedArray, create_project, open_project
+from odsuite.core.systeminfo import ChannelInfo, Systeminfo
+
+CHANNELS = 3
+
+
+@pytest.fixture
+def project(tmp_path):
+    path = tmp_path / "p.h5"
+    rng = np.random.default_rng(5)
+    with create_project(path, rig=None) as p:
+        for name in ("a", "b"):
+            # 2 raw chunks of 1 MiB each plus a part: several chunks to damage
+            p.add_experiment(name, rng.normal(size=(100_000, CHANNELS)), sampling_rate=1000.0,
+                             systeminfo=Systeminfo([ChannelInfo() for _ in range(CHANNELS)]), excitation=None)
+        p.write_derived("a", "velocity", {"v": DerivedArray(rng.normal(size=(5000, CHANNELS)), "m/s",
+                                                             ("sample", "channel"))},
+                        provenance={"plugin": "test"})
+    return path
+
+
+def _chunks(path, dataset):
+    with h5py.File(path, "r") as f:
+        ds = f[dataset]
+        return [(ds.id.get_chunk_info(i).byte_offset, ds.id.get_chunk_info(i).size)
+                for i in range(ds.id.get_num_chunks())]
+
+
+def _flip(path, offset):
+    with open(path, "r+b") as fh:
+        fh.seek(offset)
+        byte = fh.read(1)[0]
+        fh.seek(offset)
+        fh.write(bytes([byte ^ 0xFF]))
+
+
+def test_intact_project_verifies(project, capsys):
+    assert main(["verify", str(project)]) == 0
+    assert capsys.readouterr().out.strip() == f"{project}: 3 checksummed datasets in 2 experiments read back intact"
+
+
+@pytest.mark.parametrize("dataset, experiment", [
+    ("/experiments/b/raw", "b"),
+    ("/experiments/a/derived/velocity/v", "a"),
+])
+def test_flipped_byte_is_found_and_named(project, capsys, dataset, experiment):
+    rng = np.random.default_rng(11)
+    chunks = _chunks(project, dataset)
+    clean = project.read_bytes()
+    # first byte, last byte (the stored checksum) and seeded bytes in between, each on its own
+    for k, (offset, size) in enumerate(chunks):
+        for at in sorted({0, size - 1, *rng.integers(0, size, 3).tolist()}):
+            project.write_bytes(clean)
+            _flip(project, offset + at)
+            assert main(["verify", str(project)]) == 1, (k, at)
+            err = capsys.readouterr().err
+            assert err.count("\n") == 1 and "Traceback" not in err
+            assert err.startswith(f"error: {project}: experiment {experiment!r}: dataset {dataset} is corrupted "
+                                  "(checksum failed:"), err
+    if dataset.endswith("raw"):
+        assert main(["info", str(project)]) == 1  # info reads the raw data too, and says which
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1
+        assert f"experiment {experiment!r}: raw data cannot be read (corrupted?)" in err
+    with open_project(project) as p:  # the intact experiment stays readable
+        intact = "a" if experiment == "b" else "b"
+        assert p.experiment(intact).raw().shape == (100_000, CHANNELS)
+        with pytest.raises(ProjectFileError):
+            p.verify()
