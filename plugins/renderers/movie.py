@@ -229,7 +229,7 @@ def render_movie(
         notes.append(f"no H.264 encoder (imageio-ffmpeg with libx264) available: wrote {path.name} instead")
     size = _even(size)
     speed = f"{slow:.0f}x slower" if slow >= 1.5 else f"{slow:.2f}x"
-    labels = [f"t = {1e3 * i / fs:9.3f} ms    {speed}    H_t = {magnify[0]:.3g}, H_r = {magnify[1]:.3g}"
+    labels = [f"t = {1e3 * i / fs:.3f} ms    {speed}    H_t = {magnify[0]:.3g}, H_r = {magnify[1]:.3g}"
               for i in frames]
     job = {"rig": rig, "coords": coords, "fps": fps, "labels": labels, "n_frames": len(frames),
            "scene": dict(model_coords=model_coords, layout=layout, magnify=magnify, view=tuple(view),

@@ -5,6 +5,7 @@ pyvista is imported inside the functions so the plugin loads on machines without
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -62,6 +63,18 @@ def dash_dot_segments(p0: np.ndarray, p1: np.ndarray, period: float) -> np.ndarr
     return np.array(segs)
 
 
+def offscreen_pyvista():
+    """pyvista, with VTK told to render through EGL when there is no display.
+
+    Without the hint VTK first tries an X window and logs a "bad X server connection" warning.
+    """
+    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    import pyvista
+
+    return pyvista
+
+
 def _lines_polydata(points: np.ndarray, edges) -> "pyvista.PolyData":  # noqa: F821
     import pyvista as pv
 
@@ -93,7 +106,7 @@ class Scene:
         size: tuple[int, int] = (1280, 720),
         style: Style = Style(),
     ) -> None:
-        import pyvista as pv
+        pv = offscreen_pyvista()
 
         if layout not in LAYOUTS:
             raise ConfigError(f"layout: expected one of {', '.join(LAYOUTS)}, got {layout!r}")
@@ -213,6 +226,7 @@ class Scene:
             if parallel:
                 self.plotter.enable_parallel_projection()
             self.plotter.reset_camera(bounds=padded)
+            cam.zoom(1.25)  # reset_camera leaves a wide margin around the bounding sphere
         if side:
             self.plotter.link_views()
         self.plotter.subplot(0, 0)
