@@ -156,7 +156,8 @@ def process_cmd(
     from odsuite.core.pipeline import process_experiment
     from odsuite.core.project import open_project
 
-    with open_project(project, "a") as p, Progress(console=err_console, transient=True) as bar:
+    with open_project(project, "a") as p, Progress(console=err_console, transient=True,
+                                                   disable=not err_console.is_terminal) as bar:
         for name in experiment or p.experiment_names():
             task = bar.add_task(f"processing {name}", total=None)
             summary = process_experiment(p, name, progress=lambda a, b, t=task: bar.update(t, completed=a, total=b))
@@ -217,7 +218,7 @@ def acquire_cmd(
             err_console.print("streaming: press Enter to capture", highlight=False)
     with open_project(project, "a") as p, Progress(
             TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-            console=err_console, transient=True) as bar:
+            console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
         task = bar.add_task("arming", total=samples)
 
         def progress(stage: str, done: int, total: int) -> None:

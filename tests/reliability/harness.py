@@ -39,6 +39,8 @@ from odsuite.core.project import CRASH_ENV, open_project
 ODSUITE = Path(sys.executable).with_name("odsuite")
 REPO = Path(__file__).resolve().parents[2]
 TABLE_E3 = REPO / "plugins" / "models" / "rigs" / "thesis-table-e3.CTR"
+#: A real hammer record (LADISK beam, LabVIEW .lvm), beside the repository when available.
+LVM_SOURCE = REPO.parent / "shared" / "data" / "real" / "ladisk_beam_impact" / "acceleration.lvm"
 #: Named stages of a commit (see ``Project.transaction`` and ``Project._write_raw``).
 CRASH_POINTS = ("copied", "chunk-1", "written", "synced", "replaced")
 #: Attributes that differ between two otherwise identical writes.
@@ -62,11 +64,13 @@ class Context:
 @dataclass(frozen=True)
 class WritingCommand:
     """A command that writes into the project; ``argv`` builds its arguments (without ``odsuite``).
-    ``program`` replaces ``odsuite`` (the harness's own tests run deliberately unsafe writers)."""
+    ``program`` replaces ``odsuite`` (the harness's own tests run deliberately unsafe writers);
+    ``needs`` names an input file without which the command is left out."""
 
     name: str
     argv: Callable[[Context], list[str]]
     program: tuple[str, ...] | None = None
+    needs: str | None = None
 
 
 WRITING_COMMANDS: tuple[WritingCommand, ...] = (
@@ -77,7 +81,12 @@ WRITING_COMMANDS: tuple[WritingCommand, ...] = (
         "acquire", str(c.project), "--daq", "sim", "--name", f"acq{c.index}", "--seed", str(c.index % 5),
         "--samples", "4096"]),
     WritingCommand("process", lambda c: [
-        "process", str(c.project), "--experiment", c.rng.choice(c.experiments)]),
+        "process", str(c.project), "--experiment", c.rng.choice([e for e in c.experiments if "lvm" not in e])]),
+    WritingCommand("import-lvm", lambda c: [
+        "import-lvm", str(c.project), str(c.inputs / "beam.lvm"), "--name", f"lvm{c.index}"], needs="beam.lvm"),
+    WritingCommand("frf", lambda c: [
+        "frf", str(c.project), "--experiment", c.rng.choice([e for e in c.experiments if "lvm" in e])],
+        needs="beam.lvm"),
 )
 
 
@@ -101,7 +110,14 @@ def prepare_inputs(folder: Path) -> Path:
 
     folder.mkdir(parents=True, exist_ok=True)
     write_dat(folder / "T8.DAT", legacy_volts())
+    if LVM_SOURCE.is_file():
+        shutil.copyfile(LVM_SOURCE, folder / "beam.lvm")
     return folder
+
+
+def available(commands: Sequence[WritingCommand], inputs: Path) -> list[WritingCommand]:
+    """The commands whose input files are present."""
+    return [c for c in commands if c.needs is None or (inputs / c.needs).is_file()]
 
 
 # ----------------------------------------------------------------------------- project state
@@ -344,6 +360,7 @@ def run_kills(project: Path, inputs: Path, scratch: Path, n: int, seed: int, *,
               progress: Callable[[Run], None] | None = None) -> Report:
     """``n`` seeded kills over ``commands`` (cycled in a shuffled order) on ``project``."""
     rng = random.Random(seed)
+    commands = available(commands, inputs)
     scratch.mkdir(parents=True, exist_ok=True)
     if timings is None and "any" in modes:
         timings = measure(commands, project, inputs, scratch / "measure", seed)
@@ -385,7 +402,7 @@ def run_kills(project: Path, inputs: Path, scratch: Path, n: int, seed: int, *,
 
 def seed_project(path: Path, inputs: Path) -> Path:
     """A thesis-rig project holding earlier experiments: one legacy import, two simulated
-    acquisitions, one of them processed."""
+    acquisitions, one of them processed, and a real .lvm hammer record when available."""
     from odsuite.cli import main
 
     steps = [
@@ -397,6 +414,8 @@ def seed_project(path: Path, inputs: Path) -> Path:
          "--samples", "4096"],
         ["process", str(path), "--experiment", "old-T1"],
     ]
+    if (inputs / "beam.lvm").is_file():
+        steps.append(["import-lvm", str(path), str(inputs / "beam.lvm"), "--name", "old-lvm"])
     for argv in steps:
         if main(argv) != 0:
             raise RuntimeError(f"odsuite {' '.join(argv)} failed")

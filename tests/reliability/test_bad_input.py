@@ -1,0 +1,316 @@
+"""The bad-input catalogue: every malformed input in ``docs/bad-input.md`` gives its one-line
+OdsuiteError (through the CLI: exit code 1, one line on stderr, no traceback) and leaves a project
+given to the command byte-identical. The table there and ``CASES`` here must list the same cases."""
+
+from __future__ import annotations
+
+import re
+import shutil
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from odsuite.cli import main
+from odsuite.core.errors import OdsuiteError
+from tests.reliability.harness import REPO, TABLE_E3, legacy_volts
+
+DOC = REPO / "docs" / "bad-input.md"
+CTR_TEXT = TABLE_E3.read_text(encoding="utf-8")
+LEGACY = ["--force-point", "0,4.122,-11.399", "--force-dir", "+z"]
+
+LVM_TEXT = (
+    "LabVIEW Measurement\t\nWriter_Version\t2\nReader_Version\t2\nSeparator\tTab\nDecimal_Separator\t,\n"
+    "Multi_Headings\tYes\nX_Columns\tNo\nTime_Pref\tAbsolute\n***End_of_Header***\t\n\t\n"
+    "Channels\t2\t\t\nSamples\t4\t4\t\nY_Unit_Label\tNewtons\tm/s^2\t\nX_Dimension\tTime\tTime\t\n"
+    "X0\t0,0E+0\t0,0E+0\t\nDelta_X\t1,0E-4\t1,0E-4\t\n***End_of_Header***\t\t\t\n"
+    "X_Value\tForce\tResponse\tComment\n\t0,5\t1,0\n\t1,5\t2,0\n\t0,1\t-1,0\n\t0,0\t0,5\n"
+)
+
+RIG_TOML = """
+name = "bench"
+force_channel = 0
+[[bodies]]
+name = "plate"
+mass = 2.0
+inertia = [[0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]]
+plate = { size = [0.2, 0.2, 0.02], corner = [-0.1, -0.1, 0.0] }
+[[sensors]]
+name = "a1"
+channel = 1
+body = "plate"
+position = [0.0, 0.0, 0.0]
+axis = [0.0, 0.0, 1.0]
+"""
+
+
+def ctr_with(row: int, channel: int, value: str) -> str:
+    """The Table E.3 Systeminfo with one cell replaced (row number and channel as in Table E.2)."""
+    lines = CTR_TEXT.splitlines()
+    for i, line in enumerate(lines):
+        cells = line.split("|")
+        if len(cells) > 2 and cells[1].strip() == str(row):
+            cells[2 + channel] = f" {value} "
+            lines[i] = "|".join(cells)
+            return "\n".join(lines) + "\n"
+    raise AssertionError(f"no row {row}")
+
+
+def dat_text(data: np.ndarray) -> str:
+    return "".join("\t".join(map(repr, r)) + "\n" for r in data.tolist())
+
+
+GOOD_DAT = dat_text(legacy_volts())
+
+
+def dat_edit(index: int, change: Callable[[str], str]) -> str:
+    """The good .DAT text with line ``index`` (0-based) changed."""
+    lines = GOOD_DAT.splitlines()
+    lines[index] = change(lines[index])
+    return "\n".join(lines) + "\n"
+
+
+@dataclass(frozen=True)
+class Case:
+    """One malformed input. ``argv`` (a CLI command line) or ``call`` (a Python API call) gets the
+    working folder; ``files`` are written there first. ``{dir}`` and ``{project}`` in ``expected``
+    stand for the folder and the project."""
+
+    name: str
+    input: str
+    expected: str
+    argv: Callable[[Path], list[str]] | None = None
+    call: Callable[[Path], object] | None = None
+    files: dict[str, str | bytes] = field(default_factory=dict)
+
+
+def legacy(ctr: str = "bad.CTR", dat: str = "good.DAT", name: str = "new", point: str = "0,4.122,-11.399",
+           direction: str = "+z") -> Callable[[Path], list[str]]:
+    return lambda d: ["import-legacy", str(d / "p.h5"), str(d / dat), "--systeminfo", str(d / ctr),
+                      "--name", name, "--force-point", point, "--force-dir", direction]
+
+
+def lvm(text: str, *extra: str) -> dict:
+    return {"argv": lambda d: ["import-lvm", str(d / "p.h5"), str(d / "bad.lvm"), "--name", "new", *extra],
+            "files": {"bad.lvm": text}}
+
+
+def new_rig(toml: str) -> dict:
+    return {"argv": lambda d: ["new", str(d / "q.h5"), "--rig", str(d / "bad.toml")], "files": {"bad.toml": toml}}
+
+
+def _read_uff(d: Path, name: str):
+    from odsuite.core.uff import read_uff
+
+    return read_uff(d / name)
+
+
+def _uff_undefined_cs(d: Path):
+    import pyuff
+
+    nodes = pyuff.prepare_15(node_nums=[1, 2], def_cs=[0, 5], disp_cs=[0, 0], color=[8, 8], x=[0.0, 1.0],
+                             y=[0.0, 0.0], z=[0.0, 0.0], return_full_dict=True)
+    pyuff.UFF(str(d / "bad.uff")).write_sets([nodes], mode="overwrite")
+    return _read_uff(d, "bad.uff")
+
+
+def _read_cod(d: Path):
+    from odsuite.core.legacy import read_cod
+
+    return read_cod(d / "bad.COD")
+
+
+def _validate(**changes):
+    def run(_d: Path):
+        import dataclasses
+
+        from odsuite.core.systeminfo import ChannelInfo, Systeminfo
+
+        Systeminfo([dataclasses.replace(ChannelInfo(), **changes)]).validate(source="si")
+    return run
+
+
+def _body(**kw):
+    def run(_d: Path):
+        from odsuite_plugins.models.multibody import RigidBody
+
+        RigidBody(**{"name": "platform", "mass": 10.0, "inertia": np.eye(3), **kw})
+    return run
+
+
+def _spring(**kw):
+    def run(_d: Path):
+        from odsuite_plugins.models.multibody import SpringDamper
+
+        SpringDamper(**{"name": "k1", "point": np.zeros(3), "body": "platform", **kw})
+    return run
+
+
+def _effect(effect: str, values: dict):
+    def run(_d: Path):
+        from odsuite.core.plugins import registries
+        from odsuite_plugins.models.thesis import thesis_dynamometer
+
+        registries().effects.get(effect).values(thesis_dynamometer(), values)
+    return run
+
+
+CASES: list[Case] = [
+    # legacy .CTR Systeminfo (Table E.2), through `odsuite import-legacy`
+    Case("ctr-missing", "--systeminfo names a file that does not exist", "{dir}/bad.CTR: Systeminfo (.CTR) file not found",
+         argv=legacy()),
+    Case("ctr-empty", "empty .CTR file", "{dir}/bad.CTR: empty file", argv=legacy(), files={"bad.CTR": ""}),
+    Case("ctr-33-rows", ".CTR with row 33 missing", "{dir}/bad.CTR: expected 34 rows (Table E.2), found 33",
+         argv=legacy(), files={"bad.CTR": "\n".join(line for line in CTR_TEXT.splitlines()
+                                                    if not line.startswith("| 33 |")) + "\n"}),
+    Case("ctr-text-cell", "sensitivity of channel 4 is `abc`", "{dir}/bad.CTR: row 3 (sensitivity), channel 4: not a number: 'abc'", argv=legacy(),
+         files={"bad.CTR": ctr_with(3, 4, "abc")}),
+    Case("ctr-nan-cell", "sampling rate of channel 2 is `nan`", "{dir}/bad.CTR: row 7 (sampling frequency), channel 2: not a finite number: 'nan'", argv=legacy(),
+         files={"bad.CTR": ctr_with(7, 2, "nan")}),
+    Case("ctr-sensor-type", "sensor type 99 on channel 5", '{dir}/bad.CTR: row 0 (sensor type), channel 5: unknown code 99.0 (known: 0 = none, 1 = loadcell, 2 = proximity, 3 = voltage, 4 = accelerometer, 6 = auxiliary)', argv=legacy(), files={"bad.CTR": ctr_with(0, 5, "99")}),
+    Case("ctr-flag", "invert flag 2 on channel 3", "{dir}/bad.CTR: row 13 (micro-units), channel 3: expected 0 (no) or 1 (yes), got '2'", argv=legacy(), files={"bad.CTR": ctr_with(13, 3, "2")}),
+    Case("ctr-fractional-order", "filter order 2.5 on channel 6", "{dir}/bad.CTR: row 6 (filter order), channel 6: expected an integer, got '2.5'", argv=legacy(),
+         files={"bad.CTR": ctr_with(6, 6, "2.5")}),
+    Case("ctr-nine-channels", "row 33 lists 8 channels", '{dir}/bad.CTR: row 33 (nine-accelerometer channel assignment), channel 8: missing value', argv=legacy(), files={"bad.CTR": ctr_with(33, 8, "-")}),
+    # Systeminfo checks, through the .CTR or the API
+    Case("si-zero-sensitivity", "accelerometer channel 2 with sensitivity 0 mV/unit", '{dir}/bad.CTR: row 3 (sensitivity), channel 2: sensitivity must be > 0 on a accelerometer channel, got 0.0 V/m/s^2', argv=legacy(),
+         files={"bad.CTR": ctr_with(3, 2, "0")}),
+    Case("si-rate-mismatch", "channel 3 sampled at 10000 Hz, channel 0 at 20000 Hz", "{dir}/bad.CTR: row 7 (sampling frequency), channel 3: sampling rate 10000.0 Hz differs from channel 0's 20000.0 Hz", argv=legacy(),
+         files={"bad.CTR": ctr_with(7, 3, "10000")}),
+    Case("si-limits-inverted", "DAQ low limit 5 V above the high limit on channel 7", '{dir}/bad.CTR: row 20 (DAQ low limit), channel 7: DAQ low limit 6.0 V must be below the high limit 0.5 V', argv=legacy(),
+         files={"bad.CTR": ctr_with(20, 7, "6")}),
+    Case("si-cutoff-above-nyquist", "high-pass cut-off 15000 Hz at 20000 Hz sampling on channel 2", '{dir}/bad.CTR: row 9 (low cut-off frequency), channel 2: cut-off must be > 0 and below the Nyquist frequency 10000 Hz, got 15000.0 Hz',
+         argv=legacy(), files={"bad.CTR": ctr_with(9, 2, "15000")}),
+    Case("si-offset-window", "offset window of 400 samples starting at 5000 in a 4096-sample record", '{dir}/bad.CTR: row 16 (offset length), channel 2: offset window samples 5000..5399 lies outside the record of 4096 samples',
+         argv=legacy(), files={"bad.CTR": ctr_with(15, 2, "5000")}),
+    Case("si-negative-gain", "Systeminfo channel with DAQ gain -1 (API)", 'si: row 17 (DAQ gain), channel 0: DAQ gain must be > 0, got -1.0', call=_validate(sampling_rate=1000.0, daq_gain=-1.0)),
+    # legacy .DAT data
+    Case("dat-missing", "data file that does not exist", '{dir}/none.DAT: data (.DAT/.VIZ) file not found', argv=legacy(ctr="good.CTR", dat="none.DAT")),
+    Case("dat-empty", "empty .DAT file", '{dir}/bad.DAT: empty file, expected a data (.DAT/.VIZ) table', argv=legacy(ctr="good.CTR", dat="bad.DAT"), files={"bad.DAT": ""}),
+    Case("dat-text-cell", ".DAT with `1.0e` in line 3", "{dir}/bad.DAT: line 3, column 0: not a number: '1.0e'", argv=legacy(ctr="good.CTR", dat="bad.DAT"),
+         files={"bad.DAT": dat_edit(2, lambda line: "1.0e" + line[line.index("\t"):])}),
+    Case("dat-ragged", ".DAT whose line 2 has one cell fewer", '{dir}/bad.DAT: line 2: ragged row, expected 11 cells (as line 1), found 10', argv=legacy(ctr="good.CTR", dat="bad.DAT"),
+         files={"bad.DAT": dat_edit(1, lambda line: line.rsplit("\t", 1)[0])}),
+    Case("dat-inf", ".DAT with `inf` in line 5", "{dir}/bad.DAT: line 5, column 0: not a finite number: 'inf'", argv=legacy(ctr="good.CTR", dat="bad.DAT"),
+         files={"bad.DAT": dat_edit(4, lambda line: "inf" + line[line.index("\t"):])}),
+    Case("dat-columns", ".DAT with 10 columns for an 11-channel Systeminfo", '{dir}/bad.DAT: 10 columns, but the Systeminfo describes 11 channels',
+         argv=legacy(ctr="good.CTR", dat="bad.DAT"), files={"bad.DAT": dat_text(legacy_volts()[:, :10])}),
+    # .COD generalized coordinates (API)
+    Case("cod-columns", ".COD with 7 columns (API)", '{dir}/bad.COD: 7 columns, expected 6 per plate (x y z theta phi psi)', call=_read_cod, files={"bad.COD": "1 2 3 4 5 6 7\n"}),
+    Case("cod-text", ".COD with `x` in line 1 (API)", "{dir}/bad.COD: line 1, column 3: not a number: 'x'", call=_read_cod, files={"bad.COD": "1 2 3 x 5 6\n"}),
+    # LabVIEW .lvm, through `odsuite import-lvm`
+    Case("lvm-not-lvm", ".lvm whose first line is not `LabVIEW Measurement`", "{dir}/bad.lvm: line 1 is 'hello', not 'LabVIEW Measurement' (not an .lvm file)", **lvm("hello\n1\t2\n")),
+    Case("lvm-no-end-of-header", ".lvm without `***End_of_Header***`", '{dir}/bad.lvm: file header has no ***End_of_Header*** line',
+         **lvm(LVM_TEXT.split("***End_of_Header***")[0])),
+    Case("lvm-separator", ".lvm with Separator `Pipe`", "{dir}/bad.lvm: header field Separator has unknown value 'Pipe'", **lvm(LVM_TEXT.replace("Separator\tTab", "Separator\tPipe"))),
+    Case("lvm-bad-number", ".lvm with data value `1,x`", "{dir}/bad.lvm: line 20, column 2: '1,x' is not a number", **lvm(LVM_TEXT.replace("\t1,5\t", "\t1,x\t"))),
+    Case("lvm-delta-x", ".lvm with Delta_X 0", "{dir}/bad.lvm: field Delta_X of channel 0 is '0'; it must be > 0", **lvm(LVM_TEXT.replace("1,0E-4\t1,0E-4", "0\t0"))),
+    Case("lvm-no-data", ".lvm with a channel header and no rows", '{dir}/bad.lvm: no data rows after the channel header',
+         **lvm(LVM_TEXT[:LVM_TEXT.index("\t0,5")])),
+    Case("lvm-force-channel", "--force-channel names no channel of the file", "{dir}/bad.lvm: no channel 'Hammer'; channels are Force, Response", **lvm(LVM_TEXT, "--force-channel", "Hammer")),
+    # UFF (API)
+    Case("uff-missing", "UFF file that does not exist (API)", '{dir}/none.uff: UFF file not found', call=lambda d: _read_uff(d, "none.uff")),
+    Case("uff-undefined-cs", "UFF node 2 defined in coordinate system 5, which the file lacks (API)", '{dir}/bad.uff: node 2 uses undefined coordinate system 5',
+         call=_uff_undefined_cs),
+    # CLI options
+    Case("force-point-two-numbers", "--force-point=1,2", "--force-point: expected three numbers X,Y,Z, got '1,2'", argv=legacy(ctr="good.CTR", point="1,2")),
+    Case("force-point-text", "--force-point=a,b,c", "--force-point: expected three numbers X,Y,Z, got 'a,b,c'", argv=legacy(ctr="good.CTR", point="a,b,c")),
+    Case("force-point-nan", "--force-point=nan,0,0", "--force-point: expected finite numbers, got 'nan,0,0'", argv=legacy(ctr="good.CTR", point="nan,0,0")),
+    Case("force-dir-zero", "--force-dir=0,0,0", "--force-dir: the zero vector '0,0,0' has no direction", argv=legacy(ctr="good.CTR", direction="0,0,0")),
+    Case("force-dir-axis", "--force-dir=+w", "--force-dir: expected three numbers X,Y,Z, got '+w'", argv=legacy(ctr="good.CTR", direction="+w")),
+    Case("experiment-exists", "--name of an experiment the project holds", "{dir}/p.h5: experiment 'e1' already exists; choose another name", argv=legacy(ctr="good.CTR", name="e1")),
+    Case("experiment-slash", "--name a/b", "{dir}/p.h5: experiment name must be a non-empty string without '/' and not starting with '.', got 'a/b'", argv=legacy(ctr="good.CTR", name="a/b")),
+    Case("unknown-experiment", "process --experiment nosuch", "{dir}/p.h5: no experiment named 'nosuch' (experiments: e1)",
+         argv=lambda d: ["process", str(d / "p.h5"), "--experiment", "nosuch"]),
+    Case("unknown-rig", "new --rig nosuch", "unknown rig 'nosuch': not a registered rig (known: thesis-dynamometer) and not a .toml rig file", argv=lambda d: ["new", str(d / "q.h5"), "--rig", "nosuch"]),
+    Case("unknown-daq", "acquire --daq foo", "unknown daq backend 'foo' (known: ni, sim)",
+         argv=lambda d: ["acquire", str(d / "p.h5"), "--daq", "foo", "--name", "new"]),
+    Case("unknown-scenario", "acquire --daq sim --scenario T99", "unknown scenario 'T99' (known: T1, T2, T3, T4, T5, T6, T7, T8)",
+         argv=lambda d: ["acquire", str(d / "p.h5"), "--daq", "sim", "--scenario", "T99", "--name", "new"]),
+    Case("acquire-samples", "acquire --samples 0", "acquisition setting 'n_samples': must be an integer >= 2, got 0",
+         argv=lambda d: ["acquire", str(d / "p.h5"), "--daq", "sim", "--samples", "0", "--name", "new"]),
+    Case("magnify-one-number", "render --magnify 5", "--magnify: expected two numbers 'A,B', got '5'",
+         argv=lambda d: ["render", str(d / "p.h5"), "e1", "-o", str(d / "m.gif"), "--magnify", "5"]),
+    Case("magnify-text", "render --magnify big,2", "--magnify: expected two numbers 'A,B', got 'big,2'",
+         argv=lambda d: ["render", str(d / "p.h5"), "e1", "-o", str(d / "m.gif"), "--magnify", "big,2"]),
+    Case("not-a-project", "info on a text file", '{dir}/notes.h5: not an HDF5 file, so not an odsuite project', argv=lambda d: ["info", str(d / "notes.h5")],
+         files={"notes.h5": "just notes\n"}),
+    # rig definitions (TOML), through `odsuite new --rig FILE`
+    Case("rig-invalid-toml", "rig file with `name = ` and no value", '{dir}/bad.toml: not valid TOML: Invalid value (at line 1, column 8)', **new_rig('name = \n')),
+    Case("rig-missing-name", "rig file without `name`", "{dir}/bad.toml: missing field 'name'", **new_rig(RIG_TOML.replace('name = "bench"\n', ""))),
+    Case("rig-bad-vector", "sensor position with 2 numbers", "{dir}/bad.toml: sensor 'a1' field 'position': expected 3 finite numbers, got [0.0, 0.0]",
+         **new_rig(RIG_TOML.replace("position = [0.0, 0.0, 0.0]", "position = [0.0, 0.0]"))),
+    Case("rig-zero-axis", "sensor axis [0, 0, 0]", "{dir}/bad.toml: sensor 'a1' field 'axis': zero vector",
+         **new_rig(RIG_TOML.replace("axis = [0.0, 0.0, 1.0]", "axis = [0.0, 0.0, 0.0]"))),
+    Case("rig-unknown-body", "sensor on body `table`, not defined", "{dir}/bad.toml: sensor 'a1' field 'body': no body named 'table'",
+         **new_rig(RIG_TOML.replace('body = "plate"', 'body = "table"'))),
+    Case("rig-duplicate-channel", "two sensors on channel 1", '{dir}/bad.toml: two sensors share a channel ([1, 1])',
+         **new_rig(RIG_TOML + RIG_TOML[RIG_TOML.index("[[sensors]]"):].replace('"a1"', '"a2"'))),
+    Case("rig-negative-mass", "body mass -2 kg", "{dir}/bad.toml: body 'plate' field 'mass': must be > 0, got -2.0", **new_rig(RIG_TOML.replace("mass = 2.0", "mass = -2.0"))),
+    Case("rig-inertia", "inertia not positive definite", "{dir}/bad.toml: body 'plate' field 'inertia': not positive definite",
+         **new_rig(RIG_TOML.replace("[0, 0, 0.1]]", "[0, 0, -0.1]]"))),
+    # models (API)
+    Case("model-negative-mass", "rigid body with mass -1 kg (API)", "body 'platform' field 'mass': must be a finite number > 0 kg, got -1.0", call=_body(mass=-1.0)),
+    Case("model-inertia-asymmetric", "rigid body inertia with Ixy != Iyx (API)", "body 'platform' field 'inertia': not symmetric",
+         call=_body(inertia=np.array([[1.0, 0.2, 0], [0, 1, 0], [0, 0, 1]]))),
+    Case("model-negative-stiffness", "spring with stiffness [-1, 0, 0] N/m (API)", "spring 'k1' field 'stiffness': must be >= 0, got [-1.0, 0.0, 0.0]",
+         call=_spring(stiffness=np.array([-1.0, 0, 0]))),
+    Case("effect-unknown-parameter", "stiffness effect with parameter `foo` (API)", "effect 'stiffness': unknown parameter(s) ['foo'] (known: ['scale_spring1'", call=_effect("stiffness", {"foo": 1.0})),
+]
+
+
+@pytest.fixture(scope="module")
+def master(tmp_path_factory):
+    """A thesis-rig project holding experiment e1 (a legacy import), and the good input files."""
+    d = tmp_path_factory.mktemp("master")
+    (d / "good.DAT").write_text(GOOD_DAT)
+    (d / "good.CTR").write_text(CTR_TEXT)
+    assert main(["new", str(d / "p.h5")]) == 0
+    assert main(legacy(ctr="good.CTR", name="e1")(d)) == 0
+    return d
+
+
+@pytest.mark.filterwarnings("ignore::odsuite.core.errors.OdsuiteWarning")
+@pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
+def test_bad_input(case, master, tmp_path, capsys):
+    for f in ("p.h5", "good.DAT", "good.CTR"):
+        shutil.copyfile(master / f, tmp_path / f)
+    for name, content in case.files.items():
+        (tmp_path / name).write_bytes(content if isinstance(content, bytes) else content.encode())
+    project = tmp_path / "p.h5"
+    before = project.read_bytes()
+    capsys.readouterr()
+    if case.argv is not None:
+        assert main(case.argv(tmp_path)) == 1
+        out, err = capsys.readouterr()
+        assert err.count("\n") == 1 and "Traceback" not in err, err
+        assert err.startswith("error: "), err
+        message = err[len("error: "):].rstrip("\n")
+    else:
+        with pytest.raises(OdsuiteError) as info:
+            case.call(tmp_path)
+        message = str(info.value)
+        assert "\n" not in message
+    expected = case.expected.format(dir=tmp_path, project=project)
+    print(f"ACTUAL {case.name}: {message.replace(str(tmp_path), '{dir}')}")
+    assert expected in message
+    assert project.read_bytes() == before
+    assert not (tmp_path / "q.h5").exists()
+
+
+def _doc_rows() -> list[tuple[str, str, str]]:
+    rows = []
+    for line in DOC.read_text(encoding="utf-8").splitlines():
+        cells = [c.strip() for c in re.split(r"(?<!\\)\|", line.strip())[1:-1]]
+        if len(cells) == 3 and cells[0] not in ("name", "") and not set(cells[0]) <= set("-: "):
+            rows.append(tuple(c.replace("\\|", "|") for c in cells))
+    return rows
+
+
+def test_catalogue_and_tests_agree():
+    doc = _doc_rows()
+    assert [r[0] for r in doc] == [c.name for c in CASES]
+    assert doc == [(c.name, c.input, c.expected) for c in CASES]
+    assert len(CASES) >= 30 and len({c.name for c in CASES}) == len(CASES)
