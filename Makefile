@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: venv demo test bench stress clean
+.PHONY: venv demo test bench stress fuzz clean
 
 venv: $(STAMP)
 
@@ -26,6 +26,9 @@ bench: venv
 
 stress: venv
 	$(BIN)/python -m pytest -q -m slow
+
+fuzz: venv
+	FUZZ_EXAMPLES=10000 $(BIN)/python -m pytest -q tests/reliability/test_fuzz_readers.py
 
 clean:
 	rm -rf $(VENV) demo-output .pytest_cache
