@@ -242,9 +242,11 @@ def model_cmd(
     """The project's current model: revision, effects, parameters and modes (ascending)."""
     import json
 
-    from odsuite_plugins.models.revision import project_model_report
+    from odsuite.core.modelrev import model_report
+    from odsuite.core.project import open_project
 
-    report = project_model_report(project)
+    with open_project(project) as p:
+        report = model_report(p)
     if as_json:
         print(json.dumps(report))
         return

@@ -34,8 +34,9 @@ def test_model_json_follows_the_current_revision(tmp_path, capsys):
     create_project(path).close()
     base = run_json(capsys, path)
     with open_project(path, "a") as p:
-        p.add_model_revision([{"effect": "stiffness", "parameters": {"scale_x": 1.21, "scale_y": 1.21, "scale_z": 1.21}},
-                              "damping"], {"damping": {"scale_x": 1.1, "scale_y": 1.1, "scale_z": 1.1}}, {}, None)
+        p.add_model_revision([{"effect": "stiffness", "values": {"scale_x": 1.21, "scale_y": 1.21, "scale_z": 1.21}},
+                              {"effect": "damping", "values": {"scale_x": 1.1, "scale_y": 1.1, "scale_z": 1.1}}],
+                             {}, {}, None)
     doc = run_json(capsys, path)
     assert doc["revision"] == 1 and doc["effects"] == ["stiffness", "damping"]
     assert doc["parameters"]["damping"] == {"scale_x": 1.1, "scale_y": 1.1, "scale_z": 1.1}
@@ -47,7 +48,7 @@ def test_model_errors_are_one_line(tmp_path, capsys):
     path = tmp_path / "p.h5"
     create_project(path).close()
     with open_project(path, "a") as p:
-        p.add_model_revision([{"effect": "stiffness", "parameters": {"scale_q": 2.0}}], {}, {}, None)
+        p.add_model_revision([{"effect": "stiffness", "values": {"scale_q": 2.0}}], {}, {}, None)
     assert main(["model", str(path), "--json"]) == 1
     captured = capsys.readouterr()
     assert captured.out == ""

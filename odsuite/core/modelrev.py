@@ -1,0 +1,89 @@
+"""Model revisions: the rig's default model plus a list of fitted physical effects.
+
+A revision's ``effects`` is a list of ``{"effect": name, "values": {...}, "per_experiment":
+{experiment: {...}}, "uncertainties": {...}}``: shared values apply to every experiment, the
+per-experiment ones (e.g. an impact location) only when predicting that experiment.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from odsuite.core.errors import ConfigError
+
+
+def base_model(rig, model_name: str | None = None):
+    """The model a project starts from (revision 0): the rig's default model."""
+    from odsuite.core.plugins import registries
+
+    name = model_name or rig.default_model
+    if not name:
+        raise ConfigError(f"rig {rig.name!r} names no default model (field 'default_model')")
+    return registries().models.get(name)(rig)
+
+
+@dataclass
+class RevisionModel:
+    """A model with its effects applied; ``for_experiment`` adds that experiment's own values."""
+
+    shared: Any  # odsuite_plugins.models.Model
+    per_experiment: list[tuple[Any, dict[str, dict[str, float]]]] = field(default_factory=list)
+
+    def for_experiment(self, name: str):
+        model = self.shared
+        for effect, table in self.per_experiment:
+            if name in table:
+                model = effect.apply(model, table[name])
+        return model
+
+
+def apply_effects(model, effects: Sequence[Mapping[str, Any]]) -> RevisionModel:
+    from odsuite.core.plugins import registries
+
+    regs = registries()
+    per = []
+    for entry in effects:
+        effect = regs.effects.get(entry["effect"])
+        values = entry.get("values") or {}
+        if values or not entry.get("per_experiment"):
+            model = effect.apply(model, values)
+        if entry.get("per_experiment"):
+            per.append((effect, {k: dict(v) for k, v in entry["per_experiment"].items()}))
+    return RevisionModel(model, per)
+
+
+def current_revision(project) -> dict[str, Any]:
+    """The project's current revision as stored (revision 0 when none is marked current)."""
+    revs = {r["revision"]: r for r in project.model_revisions()}
+    if not revs:
+        raise ConfigError(f"{project.path}: the project has no model revisions (was it created with --rig none?)")
+    n = project.current_revision
+    return revs[n if n in revs else min(revs)]
+
+
+def revision_model(project, revision: Mapping[str, Any] | None = None) -> RevisionModel:
+    rev = revision or current_revision(project)
+    if project.rig is None:
+        raise ConfigError(f"{project.path}: the project has no rig, so it has no model")
+    return apply_effects(base_model(project.rig, rev.get("model")), rev.get("effects", []))
+
+
+def model_report(project) -> dict[str, Any]:
+    """The ``odsuite model --json`` document of the current revision: revision, model, parameters
+    (per effect), effects, modes (ascending; f = |lambda|/2 pi, zeta = -Re lambda/|lambda|)."""
+    rev = current_revision(project)
+    rmodel = revision_model(project, rev)
+    model = rmodel.shared
+    effects = rev.get("effects", [])
+    return {
+        "revision": int(rev["revision"]),
+        "model": model.name,
+        "parameters": {e["effect"]: {**e.get("values", {}),
+                                     **({"per_experiment": e["per_experiment"]} if e.get("per_experiment") else {})}
+                       for e in effects},
+        "effects": [e["effect"] for e in effects],
+        "modes": model.modes().as_list(),
+        "description": model.describe(),
+    }
