@@ -363,6 +363,161 @@ def verify_cmd(project: Path = typer.Argument(..., help="Project file.")) -> Non
                   "read back intact", highlight=False, soft_wrap=True)
 
 
+
+def _print_json(doc) -> None:
+    """Exactly one JSON document on stdout (NaN/inf become null, which JSON lacks)."""
+    import json
+    import math
+
+    def clean(x):
+        if isinstance(x, float) and not math.isfinite(x):
+            return None
+        if isinstance(x, dict):
+            return {str(k): clean(v) for k, v in x.items()}
+        if isinstance(x, (list, tuple)):
+            return [clean(v) for v in x]
+        return x
+
+    print(json.dumps(clean(doc)))
+
+
+def _loop_progress():
+    from rich.progress import BarColumn, Progress, TextColumn
+
+    return Progress(TextColumn("{task.description}"), BarColumn(), console=err_console, transient=True,
+                    disable=not err_console.is_terminal)
+
+
+@app.command("compare")
+def compare_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+) -> None:
+    """Compare the current model revision with every experiment (like with like)."""
+    from odsuite.core.comparison import compare
+    from odsuite.core.project import open_project
+
+    with open_project(project) as p:
+        result = compare(p).as_dict()
+    if as_json:
+        _print_json(result)
+        return
+    console.print(f"revision {result['revision']}: error {result['error']:.4f} "
+                  f"(noise floor {result['noise_floor_error']:.4f})", highlight=False)
+    table = Table(title="error per experiment and channel (NRMSE, acceleration stage)")
+    names = list(result["channels"])
+    table.add_column("experiment")
+    table.add_column("all")
+    for n in names:
+        table.add_column(n)
+    for exp, d in result["experiments"].items():
+        table.add_row(exp, f"{d['error']:.3f}", *(f"{d['channels'].get(n, float('nan')):.3f}" for n in names))
+    table.add_row("all", f"{result['error']:.3f}", *(f"{result['channels'][n]:.3f}" for n in names))
+    console.print(table)
+    worst = Table(title="where the model fails most")
+    for col in ("kind", "name", "error"):
+        worst.add_column(col)
+    for w in result["worst"]:
+        worst.add_row(w["kind"], w["name"], f"{w['error']:.3f}")
+    console.print(worst)
+    for peak in result["residual_peaks"]:
+        if peak["lacking"]:
+            console.print(f"residual peak at {peak['frequency_hz']:.0f} Hz in {', '.join(peak['channels'])}: "
+                          "no model mode there", highlight=False)
+
+
+@app.command("diagnose")
+def diagnose_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+    effect: list[str] = typer.Option(None, "--effect", help="Try only these effects (repeatable)."),
+) -> None:
+    """Rank every registered physical effect by the error it removes (validated), best first."""
+    from odsuite.core.diagnosis import diagnose
+    from odsuite.core.project import open_project
+
+    with open_project(project) as p, _loop_progress() as bar:
+        task = bar.add_task("diagnosing", total=None)
+        result = diagnose(p, effects=effect or None,
+                          progress=lambda what, i, n: bar.update(task, description=what, completed=i, total=n))
+    doc = result.as_dict()
+    if as_json:
+        _print_json(doc)
+        return
+    console.print(f"revision {doc['revision']}: error {doc['baseline_error']:.4f} "
+                  f"(noise floor {doc['noise_floor_error']:.4f})", highlight=False)
+    table = Table(title="candidate effects, best first")
+    for col in ("effect", "significant", "error after", "validated", "evidence"):
+        table.add_column(col)
+    for c in doc["candidates"]:
+        table.add_row(c["effect"], "yes" if c["significant"] else "no", f"{c['error_after']:.4f}",
+                      "-" if c["validated_error"] != c["validated_error"] else f"{c['validated_error']:.4f}",
+                      c["evidence"])
+    console.print(table)
+
+
+@app.command("add-effect")
+def add_effect_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    effect: str = typer.Argument(..., help="Registered effect name (see `odsuite diagnose`)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+) -> None:
+    """Fit an effect together with the current ones and store a new model revision."""
+    from odsuite.core.diagnosis import add_effect
+    from odsuite.core.project import open_project
+
+    with open_project(project, "a") as p, _loop_progress() as bar:
+        task = bar.add_task(f"adding {effect}", total=None)
+        result = add_effect(p, effect, progress=lambda what, i, n: bar.update(task, description=what,
+                                                                                completed=i, total=n))
+    if as_json:
+        _print_json(result)
+        return
+    console.print(f"revision {result['revision']}: + {effect}; error {result['previous_error']:.4f} -> "
+                  f"{result['error']:.4f} (noise floor {result['noise_floor_error']:.4f})", highlight=False)
+
+
+@app.command("history")
+def history_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+    figure: Path = typer.Option(None, "--figure", help="Also draw the error per revision (PNG or SVG)."),
+) -> None:
+    """Model revisions with their effects and errors."""
+    from odsuite.core.modelrev import history
+    from odsuite.core.project import open_project
+
+    with open_project(project) as p:
+        doc = history(p)
+    if figure is not None:
+        from odsuite.core.modelrev import history_figure
+
+        history_figure(doc, figure)
+    if as_json:
+        _print_json(doc)
+        return
+    table = Table(title=f"model revisions (current: {doc['current']})")
+    for col in ("revision", "parent", "effects", "error"):
+        table.add_column(col)
+    for r in doc["revisions"]:
+        table.add_row(str(r["revision"]), "-" if r["parent"] is None else str(r["parent"]),
+                      ", ".join(r["effects"]) or "-", "-" if r["error"] is None else f"{r['error']:.4f}")
+    console.print(table)
+
+
+@app.command("revert")
+def revert_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    revision: int = typer.Argument(..., help="Revision to make current again."),
+) -> None:
+    """Make an earlier model revision current (nothing is deleted)."""
+    from odsuite.core.project import open_project
+
+    with open_project(project, "a") as p:
+        p.set_current_revision(revision)
+    console.print(f"current model revision: {revision}")
+
+
 def _register_plugin_commands() -> None:
     from odsuite.core.plugins import default_manager
 
