@@ -1,0 +1,176 @@
+"""compare: like with like, checked against an independent simulation (scipy.signal.lsim) and
+hand-computed errors."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import scipy.signal
+
+from odsuite.core.comparison import (
+    compare,
+    find_trigger,
+    prepare,
+    stage_operators,
+    windowed_force,
+)
+from odsuite.core.pipeline import chain_for_channel
+from odsuite.core.project import Excitation, create_project
+from odsuite.core.systeminfo import Systeminfo
+
+FS = 20000.0
+N = 4096
+PRE = 400
+
+
+def _half_sine(n: int, start: int, width_s: float, peak: float) -> np.ndarray:
+    t = (np.arange(n) - start) / FS
+    return np.where((t >= 0) & (t <= width_s), peak * np.sin(np.pi * t / width_s), 0.0)
+
+
+def _independent_record(rig, model, point, direction, force):
+    """Raw volts of the force and the nine accelerometers, the sensors' accelerations computed by
+    scipy.signal.lsim (first-order hold) of the model's own state space, then turned into volts the
+    way the thesis rig records them (sensor sign -1, Table E.3 sensitivities and DAQ gains)."""
+    from odsuite_plugins.models import Input, Output
+
+    si = Systeminfo.for_rig(rig, FS)
+    ss = model.state_space([Input.force(point, direction)], [Output.sensor(s) for s in rig.sensors])
+    t = np.arange(len(force)) / FS
+    _, acc, _ = scipy.signal.lsim((ss.A, ss.B, ss.C, ss.D), force, t)
+    raw = np.zeros((len(force), rig.channel_count))
+    fch = si.channels[rig.force_channel]
+    raw[:, rig.force_channel] = force * fch.sensitivity * fch.daq_gain
+    for j, s in enumerate(rig.sensors):
+        ch = si.channels[s.channel]
+        raw[:, s.channel] = s.sign * acc[:, j] * ch.sensitivity * ch.daq_gain
+    return raw, si
+
+
+@pytest.fixture(scope="module")
+def nominal(tmp_path_factory, ):
+    from odsuite.core.modelrev import base_model
+
+    path = tmp_path_factory.mktemp("cmp") / "p.h5"
+    p = create_project(path)
+    rig = p.rig
+    model = base_model(rig)
+    point, direction = np.array([0.0, 0.004122, -0.011399]), np.array([0.0, 0.0, 1.0])
+    force = _half_sine(N, PRE, 1e-3, 50.0)
+    raw, si = _independent_record(rig, model, point, direction, force)
+    p.add_experiment("T8", raw, sampling_rate=FS, systeminfo=si,
+                     excitation=Excitation(rig.force_channel, point, direction), pretrigger=PRE)
+    stiff = model.replace(structure=model.structure.__class__(
+        model.bodies, [replace(s, stiffness=s.stiffness * 1.21) for s in model.springs]))
+    raw2, _ = _independent_record(rig, stiff, point, direction, force)
+    p.add_experiment("T8stiff", raw2, sampling_rate=FS, systeminfo=si,
+                     excitation=Excitation(rig.force_channel, point, direction), pretrigger=PRE)
+    p.close()
+    return path, rig, si
+
+
+def test_stage_operators_equal_the_channel_chains():
+    rng = np.random.default_rng(1)
+    from odsuite.core.plugins import registries
+
+    rig = registries().rigs.get("thesis-dynamometer")
+    si = Systeminfo.for_rig(rig, FS)
+    chans = [si.channels[s.channel] for s in rig.sensors]
+    chans[1] = replace(chans[1], zero_phase=True)
+    chans[2] = replace(chans[2], micro_units=True)
+    x = rng.standard_normal((N, len(chans)))
+    ops = stage_operators(chans)
+    got = np.empty_like(x)
+    for op in ops:
+        got[:, list(op.columns)] = op.apply(x[:, list(op.columns)])
+    for j, ch in enumerate(chans):
+        # the chain takes volts; the operator physical units with the measured sign
+        volts = x[:, j] * ch.sensitivity * ch.daq_gain * (-1.0 if ch.invert else 1.0)
+        want = chain_for_channel(ch).run(volts)["acceleration"]
+        # the 20 Hz poles sit 2e-3 from z = 1: rounding grows ~1e4-fold in any cascade order
+        assert np.max(np.abs(got[:, j] - want)) <= 1e-9 * np.abs(want).max(), j
+
+
+def test_model_equal_to_the_truth_gives_zero_error(nominal):
+    path, _, _ = nominal
+    import odsuite
+
+    with odsuite.open_project(path) as p:
+        result = compare(p, experiments=["T8"])
+    # lsim and the modal first-order-hold simulation are both exact for a piecewise-linear force
+    assert result.error < 1e-6
+    assert set(result.channels) == {"xC", "yC", "zC", "x1", "z1", "y2", "z2", "x3", "y3"}
+
+
+def test_error_is_the_pooled_nrmse_after_the_filter_chain(nominal):
+    """Stiffer truth: the error equals sqrt(sum (m - p)^2 / sum m^2) computed here by hand with
+    scipy's own elliptic design and sosfilt, over the nine accelerometers."""
+    path, rig, si = nominal
+    import odsuite
+    from odsuite.core.modelrev import base_model
+    from odsuite_plugins.models import Input, Output
+
+    with odsuite.open_project(path) as p:
+        result = compare(p, experiments=["T8stiff"])
+        exp = p.experiment("T8stiff")
+        raw = exp.raw()
+        point, direction = exp.excitation.point, exp.excitation.direction
+    model = base_model(rig)
+    ss = model.state_space([Input.force(point, direction)], [Output.sensor(s) for s in rig.sensors])
+    t = np.arange(N) / FS
+    force = raw[:, 0] / (si.channels[0].sensitivity * si.channels[0].daq_gain)
+    _, pred, _ = scipy.signal.lsim((ss.A, ss.B, ss.C, ss.D), force, t)
+    num = den = 0.0
+    for j, s in enumerate(rig.sensors):
+        ch = si.channels[s.channel]
+        sos = scipy.signal.ellip(ch.filter_order, ch.ripple_db, ch.attenuation_db, ch.cutoff_low,
+                                 btype="highpass", fs=FS, output="sos")
+        meas = -raw[:, s.channel] / (ch.sensitivity * ch.daq_gain)
+        a, n = ch.offset_start, ch.offset_length
+        m = scipy.signal.sosfilt(sos, meas - meas[a:a + n].mean())
+        q = scipy.signal.sosfilt(sos, pred[:, j] - pred[a:a + n, j].mean())
+        num += np.sum((m - q) ** 2)
+        den += np.sum(m**2)
+    assert result.error == pytest.approx(np.sqrt(num / den), rel=1e-6)
+    assert result.error > 0.1  # a 10 % frequency shift is a large time-domain error
+
+
+def test_noise_floor_from_the_pretrigger(nominal, tmp_path):
+    """White noise of known RMS on every accelerometer: the noise floor estimate matches the
+    expected noise energy over the signal energy, and a perfect model's error sits on it."""
+    path, rig, si = nominal
+    import odsuite
+
+    with odsuite.open_project(path) as p:
+        exp = p.experiment("T8")
+        raw = exp.raw().copy()
+    rng = np.random.default_rng(7)
+    sigma_phys = 0.05  # m/s^2
+    for s in rig.sensors:
+        ch = si.channels[s.channel]
+        raw[:, s.channel] += rng.standard_normal(N) * sigma_phys * ch.sensitivity * ch.daq_gain
+    q = create_project(tmp_path / "noisy.h5")
+    q.add_experiment("T8n", raw, sampling_rate=FS, systeminfo=si, excitation=exp.excitation, pretrigger=PRE)
+    e = prepare(q)[0]
+    result = compare(q)
+    # the 20 Hz high-pass removes a negligible part of white noise's band
+    expected = np.sqrt(N * len(rig.sensors) * sigma_phys**2 / np.sum(e.measured**2))
+    assert result.noise_floor_error == pytest.approx(expected, rel=0.15)
+    assert result.error == pytest.approx(result.noise_floor_error, rel=0.15)
+    q.close()
+
+
+def test_force_window_keeps_every_hit_and_drops_the_noise_between():
+    rng = np.random.default_rng(3)
+    f = _half_sine(N, 500, 5e-4, 40.0) + _half_sine(N, 2500, 5e-4, 25.0)
+    noisy = f + 0.2 * rng.standard_normal(N)
+    w = windowed_force(noisy, FS)
+    assert np.all(w[:480] == 0) and np.all(w[3000:] == 0)
+    assert np.all(w[1000:2400] == 0)
+    hit1 = slice(500, 511)
+    hit2 = slice(2500, 2511)
+    base = np.median(noisy)
+    assert np.allclose(w[hit1], noisy[hit1] - base) and np.allclose(w[hit2], noisy[hit2] - base)
+    assert find_trigger(noisy) in range(495, 503)
