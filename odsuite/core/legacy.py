@@ -44,15 +44,21 @@ _SEPARATOR_LINE = re.compile(r"^[\s|:+-]*-{3,}[\s|:+-]*$")
 # .CTR (Systeminfo, Table E.2)
 
 
-def _split(line: str) -> list[str]:
-    """Cells of one line: ``|``-separated (a table copied from the thesis), tab-separated
-    (the LabVIEW spreadsheet format; empty cells kept) or whitespace-separated."""
-    if "|" in line:
+def _separator(text: str) -> str | None:
+    """The file's cell separator: ``|`` (a table copied from the thesis), a tab (the LabVIEW
+    spreadsheet format) or None (whitespace). Decided once per file: a tab-delimited cell may
+    hold spaces (a sensor location such as "corner C x")."""
+    return "|" if "|" in text else "\t" if "\t" in text else None
+
+
+def _split(line: str, sep: str | None) -> list[str]:
+    """Cells of one line; with a separator, empty cells are kept."""
+    if sep == "|":
         body = line.strip()
         body = body[1:] if body.startswith("|") else body
         body = body[:-1] if body.endswith("|") else body
         return [c.strip() for c in body.split("|")]
-    if "\t" in line:
+    if sep == "\t":
         return [c.strip() for c in line.split("\t")]
     return line.split()
 
@@ -67,17 +73,18 @@ def _ctr_rows(text: str, source: str | Path) -> list[list[str]]:
         lines.pop(0)
     if not lines:
         raise ConfigError(f"{source}: empty file")
+    sep = _separator(text)
     labelled = next((i for i, line in enumerate(lines)
-                     if (_split(line) or [""])[0].lower() == "row"), None)
+                     if (_split(line, sep) or [""])[0].lower() == "row"), None)
     if labelled is None:
         if len(lines) != N_ROWS:
             raise ConfigError(f"{source}: expected {N_ROWS} rows (Table E.2), found {len(lines)}")
-        return [_split(line) for line in lines]
+        return [_split(line, sep) for line in lines]
     rows: dict[int, list[str]] = {}
     for number, line in enumerate(lines[labelled + 1:], start=labelled + 2):
         if not line.strip() or _SEPARATOR_LINE.match(line):
             continue
-        cells = _split(line)
+        cells = _split(line, sep)
         if not cells[0].isdigit() or int(cells[0]) != len(rows):
             raise ConfigError(f"{source}: line {number}: expected row number {len(rows)}, "
                               f"got {cells[0]!r}")
