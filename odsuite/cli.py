@@ -329,7 +329,7 @@ def render_cmd(
     project: Path = typer.Argument(..., help="Project file."),
     experiment: str = typer.Argument(..., help="Experiment name."),
     output: Path = typer.Option(..., "-o", "--output", help="Movie (.mp4, .gif) or figure (.png, .svg, .pdf)."),
-    model: bool = typer.Option(False, "--model", help="Overlay the model's motion (derived 'model_gencoords')."),
+    model: bool = typer.Option(False, "--model", help="Overlay the current model revision's motion (computed like `odsuite compare`)."),
     magnify: str = typer.Option(None, "--magnify", help="H_t,H_r (default: largest corner motion = 15 % of the plate)."),
     view: str = typer.Option(None, "--view", help="Movie: AZ,EL degrees. Projection: EYE[,THETA,PHI,PSI] (eye x|y|z)."),
     figure: str = typer.Option(None, "--figure", help="overlay | projection | residuals (default: a movie)."),

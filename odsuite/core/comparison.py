@@ -399,16 +399,17 @@ def noise_floor_error(exps: Sequence[PreparedExperiment]) -> float:
     return float(np.sqrt(min(num, den) / den)) if den > 0 else float("nan")
 
 
-def _coordinates(rig: Rig, exp: PreparedExperiment, model) -> tuple[dict, dict]:
-    """Generalized coordinates of measured and predicted signals after the full chain, and the
-    rigidity check on the measured accelerations, for every nine-sensor body."""
+def coordinate_series(rig: Rig, exp: PreparedExperiment, model) -> dict[str, tuple[np.ndarray, np.ndarray, list[int]]]:
+    """Per nine-sensor body: measured and model generalized coordinates at its G (samples x 6; m,
+    rad), both from displacements after the full chain and the same solver, and the body's columns
+    in ``exp``. Empty when some channel is not integrated twice (no displacements)."""
     from odsuite.core.plugins import registries
 
     solver = registries().coordinate_solvers.get("padgaonkar-nine")
     taps = stage_names("acceleration")
-    coords, rigidity = {}, {}
+    out: dict[str, tuple[np.ndarray, np.ndarray, list[int]]] = {}
     if not all(t in chain.taps for chain in exp.chains for t in taps):
-        return coords, rigidity  # some channel is not integrated twice: no displacements
+        return out
     predicted = through_chain(exp, simulate_sensors(model, exp), taps)
     measured = {t: np.empty_like(exp.measured) for t in taps}
     for j, chain in enumerate(exp.chains):
@@ -422,14 +423,40 @@ def _coordinates(rig: Rig, exp: PreparedExperiment, model) -> tuple[dict, dict]:
         idx = {s.name: j for j, s in enumerate(exp.sensors) if s.name in names}
         if len(idx) < len(names):
             continue
-        disp_m = {n: measured["displacement"][:, j] for n, j in idx.items()}
-        disp_p = {n: predicted["displacement"][:, j] for n, j in idx.items()}
-        gm = solver.solve(rig, body, disp_m).at_g
-        gp = solver.solve(rig, body, disp_p).at_g
-        coords[body.name] = {c: float(nrmse(gm[:, i], gp[:, i])) for i, c in enumerate(COORDINATE_NAMES)}
-        rig_check = solver.rigidity_check(rig, body, {n: exp.measured[:, j] for n, j in idx.items()})
-        rigidity[body.name] = {"fractions": {k: float(v) for k, v in rig_check.fractions.items()},
-                               "flagged": list(rig_check.flagged), "worst": rig_check.worst}
+        gm = solver.solve(rig, body, {n: measured["displacement"][:, j] for n, j in idx.items()}).at_g
+        gp = solver.solve(rig, body, {n: predicted["displacement"][:, j] for n, j in idx.items()}).at_g
+        out[body.name] = (gm, gp, list(idx.values()))
+    return out
+
+
+def experiment_coordinates(project, name: str, revision: Mapping[str, Any] | None = None
+                           ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Measured and model generalized coordinates of one experiment per nine-sensor body, for the
+    current model revision (or ``revision``): the model driven by the measured force, predicted at
+    the sensors and put through the experiment's chain and solver like the measurement."""
+    from odsuite.core.modelrev import current_revision, revision_model
+
+    exp = prepare_experiment(project, name)
+    model = revision_model(project, revision or current_revision(project)).for_experiment(name)
+    series = coordinate_series(project.rig, exp, model)
+    if not series:
+        raise ConfigError(f"{project.path}: experiment {name!r}: the chains do not integrate every "
+                          "accelerometer to displacement, so there are no generalized coordinates")
+    return {body: (gm, gp) for body, (gm, gp, _) in series.items()}
+
+
+def _coordinates(rig: Rig, exp: PreparedExperiment, model) -> tuple[dict, dict]:
+    """Per-coordinate errors of the generalized coordinates and the rigidity check on the measured
+    accelerations, for every nine-sensor body."""
+    from odsuite.core.plugins import registries
+
+    solver = registries().coordinate_solvers.get("padgaonkar-nine")
+    coords, rigidity = {}, {}
+    for name, (gm, gp, cols) in coordinate_series(rig, exp, model).items():
+        coords[name] = {c: float(nrmse(gm[:, i], gp[:, i])) for i, c in enumerate(COORDINATE_NAMES)}
+        rig_check = solver.rigidity_check(rig, rig.body(name), {exp.sensors[j].name: exp.measured[:, j] for j in cols})
+        rigidity[name] = {"fractions": {k: float(v) for k, v in rig_check.fractions.items()},
+                          "flagged": list(rig_check.flagged), "worst": rig_check.worst}
     return coords, rigidity
 
 

@@ -1,5 +1,7 @@
 """Render a stored experiment: its generalized coordinates (derived kind "gencoords") as a movie
-or a figure, optionally with the model's motion (derived kind "model_gencoords")."""
+or a figure, optionally with the model's motion, computed by the comparison (the current model
+revision driven by the measured force, predicted at the sensors, through the same chain and solver
+as the measurement)."""
 
 from __future__ import annotations
 
@@ -14,7 +16,6 @@ from .figures import comparison_figure, projection_figure, residual_spectra_figu
 from .movie import MovieResult, render_movie
 
 MEASURED_KIND = "gencoords"
-MODEL_KIND = "model_gencoords"
 FIGURES = ("overlay", "projection", "residuals")
 SUFFIX = "_at_g"
 
@@ -58,8 +59,10 @@ def render_experiment(
 
     ``view``: for movies "AZ,EL" in degrees; for the projection figure "EYE[,THETA,PHI,PSI]" (eye
     axis x, y or z and the Eq. 4.25 viewpoint angles in degrees). ``model`` adds the model's
-    motion (overlay and residual figures always need it).
+    motion (overlay and residual figures always need it); the measured motion then comes from the
+    comparison too, so both sides went through the same chain and solver.
     """
+    from odsuite.core.comparison import experiment_coordinates
     from odsuite.core.project import open_project
 
     if figure is not None and figure not in FIGURES:
@@ -72,10 +75,13 @@ def render_experiment(
                               f"(experiments: {', '.join(project.experiment_names()) or 'none'})")
         exp = project.experiment(experiment)
         fs = exp.sampling_rate
-        coords = _coords(project, experiment, MEASURED_KIND, "run `odsuite process` first")
         model_coords = None
         if model or figure in ("overlay", "residuals"):
-            model_coords = _coords(project, experiment, MODEL_KIND, "run `odsuite compare` first")
+            pairs = experiment_coordinates(project, experiment)
+            coords = {b: m for b, (m, _) in pairs.items()}
+            model_coords = {b: p for b, (_, p) in pairs.items()}
+        else:
+            coords = _coords(project, experiment, MEASURED_KIND, "run `odsuite process` first")
         force = None
         if figure == "projection" and exp.excitation is not None:
             force = exp.raw(channels=exp.excitation.force_channel)
@@ -95,12 +101,7 @@ def render_experiment(
         return projection_figure(rig, coords, fs, output, force=force, eye=parts[0], view_angles=angles,
                                  magnify=magnify, title=f"{experiment}").path
     body = next(iter(coords))
-    if body not in model_coords:
-        raise ConfigError(f"{MODEL_KIND!r} of experiment {experiment!r} has no body {body!r}")
     measured, predicted = coords[body], model_coords[body]
-    if measured.shape != predicted.shape:
-        raise ConfigError(f"experiment {experiment!r}: measured {measured.shape} and model {predicted.shape} "
-                          f"coordinates of {body!r} differ in shape")
     if figure == "overlay":
         t = np.arange(measured.shape[0]) / fs
         return comparison_figure(t, measured, predicted, output, title=f"{experiment}: {body} at G").path
