@@ -8,7 +8,6 @@ layout is the same whichever backend produced it.
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
@@ -17,14 +16,8 @@ import numpy as np
 
 from odsuite.core.errors import ConfigError
 from odsuite.core.project import Excitation, Experiment, Project
-from odsuite.core.rig import NINE_ROLES, Rig
+from odsuite.core.rig import Rig
 from odsuite.core.systeminfo import (
-    ChannelInfo,
-    FilterFamily,
-    FilterType,
-    Integration,
-    RigInfo,
-    SensorType,
     Systeminfo,
 )
 
@@ -102,60 +95,14 @@ class DaqBackend(Protocol):
 
 
 def rig_systeminfo(rig: Rig, sampling_rate: float) -> Systeminfo:
-    """The Systeminfo an experimenter writes for a record on ``rig`` at ``sampling_rate``.
-
-    The rig's own Systeminfo file (the thesis rig: Table E.3 as printed) when it names one;
-    otherwise one built from the rig: nominal sensitivities, a load cell on the force channel,
-    Table E.3's processing settings (double integration, 8th-order elliptic 20 Hz high-pass,
-    0.1 dB / 60 dB, filters 1 and 2 on, sensors with sign -1 inverted), gain 10, +-5 V.
-    """
-    if rig.systeminfo_file is not None:
-        from odsuite.core.legacy import read_ctr
-
-        with warnings.catch_warnings():
-            warnings.filterwarnings("ignore", message=".*sensor type 6")  # erratum 9, an aux channel
-            si = read_ctr(rig.systeminfo_file)
-        if len(si.channels) != rig.channel_count:
-            raise ConfigError(
-                f"{rig.systeminfo_file}: {len(si.channels)} channels, but rig {rig.name!r} has {rig.channel_count}"
-            )
-    else:
-        si = Systeminfo(channels=[_channel_info(rig, ch) for ch in range(rig.channel_count)], rig=_rig_info(rig))
+    """The Systeminfo an experimenter writes for a record on ``rig`` at ``sampling_rate``: the
+    rig's own (``Systeminfo.for_rig``: the thesis rig's Table E.3), with low-pass cut-offs that the
+    rate cannot hold brought down to Nyquist."""
+    si = Systeminfo.for_rig(rig, sampling_rate)
     nyquist = sampling_rate / 2
-    channels = [replace(c, sampling_rate=sampling_rate,
-                        cutoff_high=None if c.cutoff_high is None else min(c.cutoff_high, nyquist))
+    channels = [replace(c, cutoff_high=None if c.cutoff_high is None else min(c.cutoff_high, nyquist))
                 for c in si.channels]
     return Systeminfo(channels=channels, rig=si.rig)
-
-
-def _channel_info(rig: Rig, ch: int) -> ChannelInfo:
-    common = dict(filter_type=FilterType.HIGHPASS, filter_order=8, cutoff_low=20.0, ripple_db=0.1,
-                  attenuation_db=60.0, filter_family=FilterFamily.ELLIPTIC, offset_length=100,
-                  daq_gain=10.0, limit_high=5.0, limit_low=-5.0)
-    sensor = rig.sensor_on_channel(ch)
-    if ch == rig.force_channel:
-        return ChannelInfo(sensor_type=SensorType.LOADCELL, location="force", sensitivity=2.248e-3, **common)
-    if sensor is None:
-        return ChannelInfo(sensor_type=SensorType.VOLTAGE, location=f"ai{ch}", **common)
-    if sensor.sensitivity is None:
-        raise ConfigError(f"rig {rig.name!r}: sensor {sensor.name!r} (channel {ch}) has no sensitivity")
-    kind = SensorType.ACCELEROMETER if sensor.kind == "accelerometer" else SensorType.VOLTAGE
-    return ChannelInfo(sensor_type=kind, location=sensor.name, serial=sensor.serial,
-                       sensitivity=sensor.sensitivity, integration=Integration.DOUBLE, filters_on=3,
-                       invert=sensor.sign < 0, **common)
-
-
-def _rig_info(rig: Rig) -> RigInfo:
-    info = RigInfo(use_in_gcc=True, use_in_ag=True)
-    for body in rig.bodies:
-        if body.plate is not None:
-            info.plate_sizes.append(tuple(float(v) for v in body.plate.size))
-            info.plate_origins.append(tuple(float(v) for v in body.plate.corner))
-        nine = body.nine_sensor_set
-        if nine is not None and info.rx is None:
-            info.rx, info.ry, info.rz = nine.rx, nine.ry, nine.rz
-            info.nine_channels = [rig.sensor(nine.sensors[r]).channel for r in NINE_ROLES]
-    return info
 
 
 def channel_name(rig: Rig, channel: int) -> str:

@@ -34,7 +34,6 @@ from odsuite.core.comparison import (
     noise_floor_error,
     predict,
     prepare,
-    residual_peaks,
 )
 from odsuite.core.errors import ConfigError
 from odsuite.core.modelrev import RevisionModel, current_revision, revision_model

@@ -325,30 +325,44 @@ class Systeminfo:
         return cls(channels=channels, rig=rig_info)
 
 
+#: what the thesis's experimenter set on every channel (Table E.3): DAQ gain 10, +-5 V, offset
+#: from the first 100 samples, 8th-order elliptic 20 Hz high-pass (0.1 dB, 60 dB)
+_THESIS_CHANNEL = dict(filter_type=FilterType.HIGHPASS, filter_order=8, cutoff_low=20.0, ripple_db=0.1,
+                       attenuation_db=60.0, filter_family=FilterFamily.ELLIPTIC, offset_length=100,
+                       daq_gain=10.0, limit_high=5.0, limit_low=-5.0)
+#: the thesis's load cell (PCB 208B03, Table A.1), for a rig that names no force sensitivity
+_THESIS_LOADCELL_V_PER_N = 2.248e-3
+
+
 def _channel_for_rig(rig: Rig, k: int, fs: float) -> ChannelInfo:
-    """Channel ``k`` described from the rig; accelerometers get the thesis's SPF settings (§5.2:
-    8th-order elliptic high-pass at 20 Hz, 0.1 dB, 60 dB, filters 1 and 2 around double integration)."""
+    """Channel ``k`` described from the rig with the thesis's settings; accelerometers are
+    integrated twice with filters 1 and 2 on (§5.2), sensors with sign -1 inverted."""
     sensor = rig.sensor_on_channel(k)
     if sensor is None:
         if k == rig.force_channel:
-            return ChannelInfo(sensor_type=SensorType.LOADCELL, location="force", sampling_rate=fs)
-        return ChannelInfo(sampling_rate=fs)
+            return ChannelInfo(sensor_type=SensorType.LOADCELL, location="force", sampling_rate=fs,
+                               sensitivity=_THESIS_LOADCELL_V_PER_N, **_THESIS_CHANNEL)
+        return ChannelInfo(sensor_type=SensorType.VOLTAGE, location=f"ai{k}", sampling_rate=fs,
+                           **_THESIS_CHANNEL)
     sensor_type = _KIND_TO_SENSOR_TYPE.get(sensor.kind, SensorType.NONE)
+    if sensor.sensitivity is None and sensor_type is not SensorType.VOLTAGE:
+        raise ConfigError(f"rig {rig.name!r}: sensor {sensor.name!r} (channel {k}) has no sensitivity")
     ch = ChannelInfo(sensor_type=sensor_type, location=sensor.name, serial=sensor.serial,
                      sensitivity=sensor.sensitivity or 1.0, sampling_rate=fs,
-                     invert=sensor.sign < 0)
+                     invert=sensor.sign < 0, **_THESIS_CHANNEL)
     if sensor_type is SensorType.ACCELEROMETER:
-        ch = replace(ch, integration=Integration.DOUBLE, filter_type=FilterType.HIGHPASS,
-                     filter_order=8, cutoff_low=20.0, filters_on=3)
+        ch = replace(ch, integration=Integration.DOUBLE, filters_on=3)
     return ch
 
 
 def _rig_info_from_geometry(rig: Rig) -> RigInfo:
-    info = RigInfo(plate_sizes=[tuple(float(v) for v in b.plate.size) for b in rig.bodies if b.plate])
-    platform = next((b for b in rig.bodies if b.nine_sensor_set is not None), None)
-    if platform is not None:
-        nine = platform.nine_sensor_set
-        info.use_in_gcc = True
-        info.rx, info.ry, info.rz = nine.rx, nine.ry, nine.rz
-        info.nine_channels = [rig.sensor(nine.sensors[role]).channel for role in NINE_ROLES]
+    info = RigInfo(use_in_gcc=True, use_in_ag=True)
+    for body in rig.bodies:
+        if body.plate is not None:
+            info.plate_sizes.append(tuple(float(v) for v in body.plate.size))
+            info.plate_origins.append(tuple(float(v) for v in body.plate.corner))
+        nine = body.nine_sensor_set
+        if nine is not None and info.rx is None:
+            info.rx, info.ry, info.rz = nine.rx, nine.ry, nine.rz
+            info.nine_channels = [rig.sensor(nine.sensors[r]).channel for r in NINE_ROLES]
     return info
