@@ -149,6 +149,10 @@ def export_legacy_cmd(
 def process_cmd(
     project: Path = typer.Argument(..., help="Project file."),
     experiment: list[str] = typer.Option(None, "--experiment", help="Experiment name (repeatable; default: all)."),
+    corrected: bool = typer.Option(False, "--corrected", help="Also store model-corrected coordinates "
+                                   "(gencoords_corrected): no high-pass, drift removed against the current model revision."),
+    cutoff: float = typer.Option(None, "--cutoff", help="--corrected: Hz below which the model replaces the "
+                                 "measurement (default: half the model's lowest natural frequency)."),
 ) -> None:
     """Run each experiment's Table E.2 processing chain and the generalized-coordinate solver."""
     from rich.progress import Progress
@@ -167,6 +171,12 @@ def process_cmd(
             console.print(f"{name}: {', '.join(summary['datasets'])} for channels "
                           f"{', '.join(map(str, summary['channels']))}" + (f"; {bodies}" if bodies else ""),
                           highlight=False, soft_wrap=True)
+        if corrected:
+            from odsuite.core.correction import process_corrected
+
+            for name, res in process_corrected(p, experiment or None, cutoff_hz=cutoff).items():
+                console.print(f"{name}: gencoords_corrected (model revision {res['revision']}, cutoff "
+                              f"{res['cutoff_hz']:.1f} Hz)", highlight=False, soft_wrap=True)
 
 
 @app.command("acquire")

@@ -26,7 +26,7 @@ from odsuite.core.correction import (
 )
 from odsuite.core.errors import ConfigError
 from odsuite.core.pipeline import process_experiment
-from odsuite.core.project import create_project
+from odsuite.core.project import create_project, open_project
 from odsuite_plugins.daq_sim.chain import ChannelChain, run_analog
 from odsuite_plugins.daq_sim.hammer import Hit
 from odsuite_plugins.daq_sim.simulator import SimulatedRig, default_chains
@@ -172,11 +172,28 @@ def test_drift_estimate_takes_the_cubic_and_the_slow_part_only():
     assert np.sqrt(np.mean((rest - fast) ** 2)) < 0.01 * np.sqrt(np.mean(fast**2))
 
 
-def test_bad_cutoff_and_single_integration(tmp_path):
-    project, _, _ = _record(tmp_path / "p.h5", "T1", 20.0, noise=False)
-    with project:
-        with pytest.raises(ConfigError, match=r"experiment 'hit'.*cutoff.*10000.*12000"):
-            correct_experiment(project, "hit", cutoff_hz=12_000.0)
-        ch = replace(project.experiment("hit").systeminfo.channels[2], integration=0)
-        with pytest.raises(ConfigError, match=r"channel 2.*integration.*NONE"):
-            corrected_chain_spec(ch, where="channel 2")
+def test_bad_cutoff_and_single_integration(weak_t3):
+    project = weak_t3[0]
+    with pytest.raises(ConfigError, match=r"experiment 'hit'.*cutoff.*10000.*12000"):
+        correct_experiment(project, "hit", cutoff_hz=12_000.0)
+    ch = replace(project.experiment("hit").systeminfo.channels[2], integration=0)
+    with pytest.raises(ConfigError, match=r"channel 2.*integration.*NONE"):
+        corrected_chain_spec(ch, where="channel 2")
+
+
+def test_cli_process_corrected(tmp_path, capsys):
+    from odsuite.cli import main
+
+    path = tmp_path / "p.h5"
+    with create_project(path) as project:
+        acquire(project, SimulatedRig(), "T1", AcquisitionSettings(n_samples=4096), scenario="T1", seed=1)
+    assert main(["process", str(path), "--corrected", "--cutoff", "40"]) == 0
+    out = capsys.readouterr().out
+    assert "T1: gencoords_corrected (model revision 0, cutoff 40.0 Hz)" in out
+    with open_project(path) as project:
+        info = project.derived_info("T1", KIND)
+        assert info["provenance"]["parameters"]["cutoff_hz"] == 40.0
+        assert {"gencoords", KIND} <= set(project.derived_kinds("T1"))
+    assert main(["process", str(path), "--corrected", "--cutoff", "-1"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cutoff" in err[0] and "-1" in err[0], err
