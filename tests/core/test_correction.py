@@ -14,6 +14,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 import scipy.signal
+from odsuite_plugins.daq_sim.chain import ChannelChain, run_analog
+from odsuite_plugins.daq_sim.hammer import Hit
+from odsuite_plugins.daq_sim.simulator import SimulatedRig, default_chains
+from odsuite_plugins.daq_sim.truth import truth_model
+from odsuite_plugins.models.multibody import Input, Output
+from odsuite_plugins.models.simulation import simulate
 
 from odsuite.core.acquisition import AcquisitionSettings, acquire, rig_systeminfo
 from odsuite.core.correction import (
@@ -27,12 +33,6 @@ from odsuite.core.correction import (
 from odsuite.core.errors import ConfigError
 from odsuite.core.pipeline import process_experiment
 from odsuite.core.project import create_project, open_project
-from odsuite_plugins.daq_sim.chain import ChannelChain, run_analog
-from odsuite_plugins.daq_sim.hammer import Hit
-from odsuite_plugins.daq_sim.simulator import SimulatedRig, default_chains
-from odsuite_plugins.daq_sim.truth import truth_model
-from odsuite_plugins.models.multibody import Input, Output
-from odsuite_plugins.models.simulation import simulate
 
 FS = 20_000.0
 OVERSAMPLE = 8
@@ -167,7 +167,7 @@ def test_drift_estimate_takes_the_cubic_and_the_slow_part_only():
     window = np.zeros(n)
     window[1000:3000] = scipy.signal.windows.hann(2000)
     fast = 1e-4 * window * np.sin(2 * np.pi * 200 * t)
-    est, coef = drift_estimate(np.column_stack([cubic + slow + fast]), fs, 50.0)
+    est, _ = drift_estimate(np.column_stack([cubic + slow + fast]), fs, 50.0)
     rest = (cubic + slow + fast) - est[:, 0]
     assert np.sqrt(np.mean((rest - fast) ** 2)) < 0.01 * np.sqrt(np.mean(fast**2))
 
