@@ -5,9 +5,24 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: venv demo test bench stress fuzz clean
+.PHONY: venv sysdeps demo test bench stress fuzz clean
 
 venv: $(STAMP)
+
+# Optional system tools some tests use (h5dump; headless Chromium for the report page). Installed
+# with apt-get when running as root on Debian/Ubuntu; elsewhere those tests skip and say what to
+# install. VTK renders off-screen through EGL (libegl1, libgl1-mesa-dri), present on most systems.
+SYSDEPS := hdf5-tools chromium
+sysdeps:
+	@missing=""; command -v h5dump >/dev/null || missing="$$missing hdf5-tools"; \
+	 command -v chromium >/dev/null || missing="$$missing chromium"; \
+	 if [ -n "$$missing" ]; then \
+	   if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	     echo "installing system packages:$$missing"; \
+	     (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing >/dev/null) \
+	       || echo "could not install$$missing: the tests that need them will skip"; \
+	   else echo "optional system packages missing:$$missing (install them to run every test)"; fi; \
+	 fi
 
 $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -18,7 +33,7 @@ $(STAMP): pyproject.toml
 demo: venv
 	$(BIN)/odsuite demo --out demo-output
 
-test: venv
+test: venv sysdeps
 	$(BIN)/python -m pytest -q -m "not slow and not hardware"
 
 bench: venv
