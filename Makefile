@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: venv sysdeps demo test bench stress fuzz clean
+.PHONY: venv sysdeps demo test bench stress fuzz report-check clean
 
 venv: $(STAMP)
 
@@ -44,6 +44,11 @@ stress: venv
 
 fuzz: venv
 	FUZZ_EXAMPLES=10000 $(BIN)/python -m pytest -q tests/reliability/test_fuzz_readers.py
+
+# the report page: numbers equal compare's, self-contained, renders in headless Chromium (skips
+# with the apt-get line when /usr/bin/chromium is absent)
+report-check: venv
+	$(BIN)/python -m pytest -q -m "slow or render or not slow" tests/core/test_report.py
 
 clean:
 	rm -rf $(VENV) demo-output .pytest_cache

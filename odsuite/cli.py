@@ -528,6 +528,31 @@ def revert_cmd(
     console.print(f"current model revision: {revision}")
 
 
+@app.command("report")
+def report_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    output: Path = typer.Option(..., "-o", "--output", help="The HTML page to write (self-contained)."),
+    diagnosis: Path = typer.Option(None, "--diagnosis", help="Show this `odsuite diagnose --json` output "
+                                   "instead of diagnosing now."),
+    no_diagnose: bool = typer.Option(False, "--no-diagnose", help="Leave the candidate effects out (diagnosis takes ~20 s)."),
+    no_movie: bool = typer.Option(False, "--no-movie", help="Leave the movie out."),
+    movie_experiment: str = typer.Option(None, "--movie-experiment", help="Experiment of the movie "
+                                         "(default: the one the model fits worst)."),
+) -> None:
+    """One self-contained HTML page: experiments, model against measurement, failures, candidate
+    effects, error across revisions and a movie."""
+    from odsuite.core.report import build_report
+
+    with _loop_progress() as bar:
+        task = bar.add_task("report", total=None)
+        res = build_report(project, output, diagnosis=diagnosis, run_diagnosis=not no_diagnose, movie=not no_movie,
+                           movie_experiment=movie_experiment, progress=lambda what: bar.update(task, description=what))
+    for note in res.notes:
+        err_console.print(f"note: {note}", highlight=False)
+    console.print(f"wrote {res.path} ({res.size_bytes / 2**20:.1f} MiB; error {res.error:.4f})", highlight=False,
+                  soft_wrap=True)
+
+
 def _register_plugin_commands() -> None:
     from odsuite.core.plugins import default_manager
 

@@ -1,0 +1,428 @@
+"""One self-contained HTML page telling a project's story: the rig and experiments, measured against
+model per generalized coordinate and per channel, where the model fails, the candidate effects,
+the error across revisions and a movie of one experiment with the model's motion overlaid.
+
+Figures are embedded as base64 PNG and the movie as a base64 GIF: the page needs no network and no
+JavaScript. Every number shown comes from ``compare``, ``diagnose`` and ``history`` unchanged.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import math
+import tempfile
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from odsuite.core.errors import ConfigError
+
+#: Movie: frame size (pixels), frames per second, about this many frames, this long after the hit.
+MOVIE_SIZE = (640, 360)
+MOVIE_FPS = 15.0
+MOVIE_FRAMES = 90
+MOVIE_AFTER_S = 0.06
+MOVIE_BEFORE_S = 0.002
+FIGURE_DPI = 90
+#: The page should stay below this size; beyond it a note says what made it large.
+SIZE_BUDGET = 10 * 1024 * 1024
+
+SECTIONS = ("summary", "experiments", "overlays", "failures", "candidates", "history", "movie")
+
+
+@dataclass
+class ReportResult:
+    """The written page, its size, the error it reports and what was left out (and why)."""
+
+    path: Path
+    size_bytes: int
+    error: float
+    sections: list[str]
+    movie_experiment: str | None = None
+    notes: list[str] = field(default_factory=list)
+
+
+def _fmt(v: Any, spec: str = ".4f") -> str:
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "–"
+    return format(v, spec)
+
+
+def _esc(v: Any) -> str:
+    return html.escape(str(v))
+
+
+def _data_uri(path: Path, mime: str) -> str:
+    return f"data:{mime};base64,{base64.b64encode(path.read_bytes()).decode('ascii')}"
+
+
+def _img(path: Path, alt: str) -> str:
+    return f'<figure><img src="{_data_uri(path, "image/png")}" alt="{_esc(alt)}"><figcaption>{_esc(alt)}</figcaption></figure>'
+
+
+def _table(header: Sequence[str], rows: Sequence[Sequence[Any]], *, id: str | None = None, caption: str = "") -> str:
+    """An HTML table; cells are escaped unless given as ``("raw", html)``."""
+    def cell(c: Any, tag: str) -> str:
+        if isinstance(c, tuple) and c and c[0] == "raw":
+            return f"<{tag}>{c[1]}</{tag}>"
+        return f"<{tag}>{_esc(c)}</{tag}>"
+
+    head = "".join(cell(h, "th") for h in header)
+    body = "".join("<tr>" + "".join(cell(c, "td") for c in r) + "</tr>" for r in rows)
+    cap = f"<caption>{_esc(caption)}</caption>" if caption else ""
+    ident = f' id="{_esc(id)}"' if id else ""
+    return f"<table{ident}>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def _heatmap(values: np.ndarray, rows: Sequence[str], cols: Sequence[str], path: Path, *, xlabel: str,
+             ylabel: str, title: str) -> Path:
+    """A labelled heat map of NRMSE values with the number in every cell."""
+    from matplotlib.figure import Figure
+
+    v = np.asarray(values, dtype=float)
+    fig = Figure(figsize=(1.0 + 0.75 * len(cols), 1.2 + 0.4 * len(rows)), layout="constrained")
+    ax = fig.add_subplot()
+    im = ax.imshow(np.ma.masked_invalid(v), cmap="magma_r", aspect="auto", vmin=0.0,
+                   vmax=max(1e-12, float(np.nanmax(v))) if np.isfinite(v).any() else 1.0)
+    ax.set_xticks(range(len(cols)), cols, rotation=30, ha="right", fontsize=8)
+    ax.set_yticks(range(len(rows)), rows, fontsize=8)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=10)
+    top = np.nanmax(v) if np.isfinite(v).any() else 1.0
+    for i in range(v.shape[0]):
+        for j in range(v.shape[1]):
+            if np.isfinite(v[i, j]):
+                ax.text(j, i, f"{v[i, j]:.3f}", ha="center", va="center", fontsize=7,
+                        color="white" if v[i, j] > 0.5 * top else "black")
+    fig.colorbar(im, ax=ax, label="NRMSE [–]")
+    fig.savefig(path, dpi=FIGURE_DPI)
+    return path
+
+
+def _mark_peaks(result, peaks: Sequence[Mapping[str, Any]], modes_hz: Sequence[float], path: Path) -> Path:
+    """Mark the residual peaks (red: no model mode near, the model lacks them) and the model's modes
+    (grey) on every panel of a residual spectra figure, and save it again."""
+    fig = result.figure
+    fig.set_layout_engine("none")  # laid out once already; keep the panels where they are
+    panels = [ax for ax in fig.axes if ax.get_visible()]
+    for ax in panels:
+        for f in modes_hz:
+            ax.axvline(f, color="0.6", lw=0.7, ls=":")
+        for p in peaks:
+            ax.axvline(p["frequency_hz"], color="red" if p["lacking"] else "tab:green", lw=0.8, ls="--")
+    if panels:
+        from matplotlib.lines import Line2D
+
+        handles = panels[0].get_legend_handles_labels()[0] + [
+            Line2D([], [], color="red", ls="--", label="residual peak, no model mode"),
+            Line2D([], [], color="tab:green", ls="--", label="residual peak near a model mode"),
+            Line2D([], [], color="0.6", ls=":", label="model mode")]
+        panels[0].legend(handles=handles, fontsize=6, loc="upper right")
+    fig.savefig(path, dpi=FIGURE_DPI)
+    return path
+
+
+def load_diagnosis(source: str | Path | Mapping[str, Any]) -> dict[str, Any]:
+    """A diagnosis document (``odsuite diagnose --json``) from a file or a mapping, checked."""
+    where = str(source) if not isinstance(source, Mapping) else "diagnosis"
+    if isinstance(source, Mapping):
+        doc = dict(source)
+    else:
+        try:
+            doc = json.loads(Path(source).read_text())
+        except OSError as exc:
+            raise ConfigError(f"{where}: cannot read the diagnosis ({exc.strerror or exc})") from None
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise ConfigError(f"{where}: not a JSON document from `odsuite diagnose --json` ({exc})") from None
+    if not isinstance(doc, dict) or not isinstance(doc.get("candidates"), list):
+        raise ConfigError(f"{where}: field 'candidates' missing or not a list (expected `odsuite diagnose --json` output)")
+    for i, c in enumerate(doc["candidates"]):
+        if not isinstance(c, Mapping) or not isinstance(c.get("effect"), str):
+            raise ConfigError(f"{where}: candidates[{i}] has no 'effect' name, got {c!r:.80}")
+    return doc
+
+
+def _experiments_section(project, exps, comparison) -> str:
+    from odsuite.core.hammer import assess_hits
+
+    info = project.info()["experiments"]
+    rows = []
+    for e in exps:
+        d = info[e.name]
+        hits = assess_hits(e.force, e.measured, e.fs, decay_limit=None)
+        rejected = sorted({r for h in hits for r in h.reasons})
+        clipped = ", ".join(f"{c} ({n} samples)" for c, n in d["clipped_samples"].items()) or "none"
+        p = 1e3 * e.point
+        rows.append([e.name, f"({p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f})",
+                     "(" + ", ".join(f"{v:+.2f}" for v in e.direction) + ")", d["n_samples"],
+                     f"{d['sampling_rate']:g}", f"{np.max(np.abs(e.force)):.1f}",
+                     f"{len(hits)}" + (f" (rejected: {', '.join(rejected)})" if rejected else ""), clipped,
+                     _fmt(comparison.experiments[e.name]["error"])])
+    rig = project.rig
+    bodies = ", ".join(f"{b.name}" + (f" ({b.mass:g} kg)" if b.mass is not None else "") for b in rig.bodies)
+    sensors = ", ".join(s.name for s in exps[0].sensors)
+    return (f"<p>Rig <b>{_esc(rig.name)}</b>: bodies {_esc(bodies)}; accelerometers {_esc(sensors)}. "
+            "Force points in mm from the platform's centre of mass, platform axes (z down).</p>"
+            + _table(["experiment", "force point [mm]", "force direction", "samples", "rate [Hz]",
+                      "peak force [N]", "hits", "clipped channels", "error (NRMSE)"], rows, id="experiments"))
+
+
+def build_report(
+    project_path: str | Path,
+    output: str | Path,
+    *,
+    diagnosis: str | Path | Mapping[str, Any] | None = None,
+    run_diagnosis: bool = True,
+    movie: bool = True,
+    movie_experiment: str | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> ReportResult:
+    """Write the project's report to ``output`` (one self-contained HTML file).
+
+    ``diagnosis``: a stored ``odsuite diagnose --json`` document (file or mapping) to show; without
+    it the diagnosis runs now unless ``run_diagnosis`` is False. ``movie``: embed a GIF of
+    ``movie_experiment`` (default: the experiment the model fits worst) with the model overlaid.
+    """
+    from odsuite_plugins.renderers.figures import comparison_figure
+
+    from odsuite.core.comparison import (
+        COORDINATE_NAMES,
+        compare,
+        coordinate_series,
+        predict,
+        prepare,
+    )
+    from odsuite.core.modelrev import (
+        current_revision,
+        history,
+        history_figure,
+        revision_model,
+    )
+    from odsuite.core.project import open_project
+
+    output = Path(output)
+    if output.suffix.lower() not in (".html", ".htm"):
+        raise ConfigError(f"{output}: the report is an HTML page; give a name ending in .html")
+    say = progress or (lambda what: None)
+    diag_doc = load_diagnosis(diagnosis) if diagnosis is not None else None
+    notes: list[str] = []
+    with open_project(project_path) as project, tempfile.TemporaryDirectory(prefix="odsuite-report-") as tmpdir:
+        tmp = Path(tmpdir)
+        if project.rig is None:
+            raise ConfigError(f"{project.path}: the project has no rig, so there is no model to report on")
+        if movie_experiment is not None and movie_experiment not in project.experiment_names():
+            raise ConfigError(f"{project.path}: --movie-experiment: no experiment {movie_experiment!r} "
+                              f"(experiments: {', '.join(project.experiment_names()) or 'none'})")
+        say("comparing")
+        exps = prepare(project)
+        rev = current_revision(project)
+        rmodel = revision_model(project, rev)
+        cmp = compare(project, revision=rev, prepared=exps)
+        doc = cmp.as_dict()
+        rig = project.rig
+        modes_hz = [m["frequency_hz"] for m in doc["modes"]["model"]]
+
+        experiments_html = _experiments_section(project, exps, cmp)
+        say("drawing the overlays")
+        overlays, coord_series, preds = [], {}, {}
+        for e in exps:
+            model = rmodel.for_experiment(e.name)
+            pred = preds[e.name] = predict(model, e)
+            t = np.arange(e.n_samples) / e.fs
+            series = coordinate_series(rig, e, model)
+            coord_series[e.name] = series
+            parts = [f"<h3 id='overlay-{_esc(e.name)}'>{_esc(e.name)} (error {_fmt(cmp.experiments[e.name]['error'])})</h3>"]
+            for body, (gm, gp, _) in series.items():
+                f = comparison_figure(t, gm, gp, tmp / f"{e.name}-{body}.png", title=f"{e.name}: {body} at G",
+                                      dpi=FIGURE_DPI)
+                parts.append(_img(f.path, f"{e.name}: generalized coordinates of the {body} at its centre of "
+                                  "mass, model (solid) and measured (dashed)"))
+            names = [s.name for s in e.sensors]
+            f = comparison_figure(t, e.measured, pred, tmp / f"{e.name}-channels.png", names=names, units=e.units,
+                                  title=f"{e.name}: accelerometers (acceleration stage)", dpi=FIGURE_DPI)
+            parts.append(_img(f.path, f"{e.name}: every accelerometer after filter 1, model (solid) and "
+                              "measured (dashed)"))
+            overlays.append("".join(parts))
+
+        say("where the model fails")
+        failures = _failures_section(doc, exps, preds, modes_hz, tmp, COORDINATE_NAMES)
+
+        if diag_doc is None and run_diagnosis:
+            from odsuite.core.diagnosis import diagnose
+
+            say("diagnosing")
+            diag_doc = diagnose(project, prepared=exps).as_dict()
+        elif diag_doc is None:
+            notes.append("diagnosis skipped (--no-diagnose)")
+        candidates = _candidates_section(diag_doc, doc["revision"], notes)
+
+        say("history")
+        hist = history(project)
+        history_figure(hist, tmp / "history.png")
+        hist_html = (_img(tmp / "history.png", "pooled error per model revision")
+                     + _table(["revision", "parent", "effects", "error (NRMSE)"],
+                              [[r["revision"], "–" if r["parent"] is None else r["parent"],
+                                ", ".join(r["effects"]) or "rigid model", _fmt(r["error"])] for r in hist["revisions"]],
+                              id="history", caption=f"current revision: {hist['current']}"))
+
+        movie_html, chosen = "<p>Movie left out (--no-movie).</p>", None
+        if movie:
+            chosen = movie_experiment or max(cmp.experiments, key=lambda n: cmp.experiments[n]["error"])
+            say(f"rendering the movie of {chosen}")
+            movie_html = _movie_section(rig, next(e for e in exps if e.name == chosen), coord_series[chosen], tmp)
+        else:
+            notes.append("movie skipped (--no-movie)")
+
+        effects = ", ".join(e["effect"] for e in rev.get("effects", [])) or "none (the rig's rigid model)"
+        worst_band = next((w for w in doc["worst"] if w["kind"] == "band"), None)
+        worst_ch = next((w for w in doc["worst"] if w["kind"] == "channel"), None)
+        story = (f"Model revision <span id='revision'>{_esc(doc['revision'])}</span> (effects: {_esc(effects)}) "
+                 f"against {len(exps)} experiment(s): pooled error <b id='error'>{_fmt(doc['error'])}</b>, "
+                 f"noise floor <span id='noise-floor'>{_fmt(doc['noise_floor_error'])}</span> "
+                 "(what a perfect model would leave).")
+        if worst_ch and worst_band:
+            story += (f" The worst channel is {_esc(worst_ch['name'])} ({_fmt(worst_ch['error'])}); the band "
+                      f"{_esc(worst_band['name'])} holds {100 * worst_band['residual_share']:.0f} % of the residual.")
+        lacking = [p for p in doc["residual_peaks"] if p["lacking"]]
+        if lacking:
+            story += (" Residual peaks without a model mode: "
+                      + ", ".join(f"{p['frequency_hz']:.0f} Hz" for p in lacking) + ".")
+        summary = f"<p>{story}</p>" + _table(
+            ["quantity", "value"],
+            [["project", project.path.name], ["rig", rig.name], ["current revision", doc["revision"]],
+             ["effects in the model", effects], ["error (pooled NRMSE, acceleration stage)", _fmt(doc["error"])],
+             ["noise floor", _fmt(doc["noise_floor_error"])],
+             ["model modes [Hz]", ", ".join(f"{f:.1f}" for f in modes_hz)]], id="summary-table")
+
+    sections = [
+        ("summary", "Summary", summary),
+        ("experiments", "Rig and experiments", experiments_html),
+        ("overlays", "Measured against model", "".join(overlays)),
+        ("failures", "Where the model fails", failures),
+        ("candidates", "Candidate effects", candidates),
+        ("history", "Error across model revisions", hist_html),
+        ("movie", "Movie" + (f" of {chosen} with the model" if chosen else ""), movie_html),
+    ]
+    page = _page(f"odsuite report: {Path(project_path).name}", sections, notes)
+    output.parent.mkdir(parents=True, exist_ok=True)
+    output.write_text(page, encoding="utf-8")
+    size = output.stat().st_size
+    if size > SIZE_BUDGET:
+        notes.append(f"the page is {size / 2**20:.1f} MiB (budget {SIZE_BUDGET / 2**20:.0f} MiB); "
+                     "--no-movie makes it smaller")
+    return ReportResult(path=output, size_bytes=size, error=float(doc["error"]), sections=[s[0] for s in sections],
+                        movie_experiment=chosen, notes=notes)
+
+
+CSS = """
+body{font-family:system-ui,sans-serif;max-width:1180px;margin:1em auto;padding:0 1em;color:#222}
+h1{font-size:1.5em}h2{border-bottom:2px solid #ccd;padding-bottom:.2em;margin-top:2em}h3{font-size:1.05em}
+table{border-collapse:collapse;margin:.6em 0;font-size:.85em}caption{text-align:left;font-style:italic}
+th,td{border:1px solid #ccd;padding:.2em .5em;text-align:left;vertical-align:top}th{background:#eef}
+figure{margin:.8em 0}figure img{max-width:100%;border:1px solid #eee}figcaption{font-size:.8em;color:#555}
+nav a{margin-right:1em}.notes{color:#a50}.lacking{color:#b00;font-weight:bold}
+"""
+
+
+def _page(title: str, sections: Sequence[tuple[str, str, str]], notes: Sequence[str]) -> str:
+    nav = "".join(f'<a href="#{key}">{_esc(heading)}</a>' for key, heading, _ in sections)
+    body = "".join(f'<section id="{key}"><h2>{_esc(heading)}</h2>{content}</section>'
+                   for key, heading, content in sections)
+    note = "".join(f"<li>{_esc(n)}</li>" for n in notes)
+    return (f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>{_esc(title)}</title>'
+            f"<style>{CSS}</style></head><body><h1>{_esc(title)}</h1><nav>{nav}</nav>"
+            + (f'<ul class="notes">{note}</ul>' if note else "") + body + "</body></html>\n")
+
+
+def _failures_section(doc: Mapping[str, Any], exps, preds: Mapping[str, np.ndarray], modes_hz: Sequence[float],
+                      tmp: Path, coordinate_names: Sequence[str]) -> str:
+    from odsuite_plugins.renderers.figures import residual_spectra_figure
+
+    names = list(doc["channels"])
+    per_channel = _table(["experiment", "all", *names],
+                         [[en, _fmt(d["error"]), *(_fmt(d["channels"].get(n)) for n in names)]
+                          for en, d in doc["experiments"].items()]
+                         + [["all", _fmt(doc["error"]), *(_fmt(doc["channels"][n]) for n in names)]],
+                         id="channel-errors", caption="error per experiment and channel (NRMSE, acceleration stage)")
+    worst = _table(["kind", "name", "error (NRMSE)", "share of the residual"],
+                   [[w["kind"], w["name"], _fmt(w["error"]),
+                     f"{100 * w['residual_share']:.1f} %" if "residual_share" in w else "–"] for w in doc["worst"]],
+                   id="worst", caption="worst channels, generalized coordinates and frequency bands")
+    bands = doc["bands"]
+    band_err = np.array([[np.nan if v is None else v for v in row] for row in bands["error"]], dtype=float)
+    heat_bands = _heatmap(band_err.T, bands["channels"], bands["labels"], tmp / "bands.png",
+                          xlabel="frequency band [Hz]", ylabel="channel",
+                          title="error per channel and band (all experiments)")
+    rows = [(en, body) for en, bd in doc["coordinates"].items() for body in bd]
+    parts = [per_channel, worst, _img(heat_bands, "NRMSE of each channel in each frequency band, pooled over the experiments")]
+    if rows:
+        coord = np.array([[doc["coordinates"][en][body][c] for c in coordinate_names] for en, body in rows])
+        labels = [en if len({b for _, b in rows}) == 1 else f"{en}/{body}" for en, body in rows]
+        heat_coords = _heatmap(coord, labels, list(coordinate_names), tmp / "coords.png",
+                               xlabel="generalized coordinate (x, y, z [m]; θ, φ, ψ [rad])", ylabel="experiment",
+                               title="error per experiment and generalized coordinate")
+        parts.append(_img(heat_coords, "NRMSE of each generalized coordinate (displacements at G) per experiment"))
+    e = max(exps, key=lambda x: doc["experiments"][x.name]["error"])
+    r = residual_spectra_figure(e.fs, e.measured, preds[e.name], tmp / "spectra.png", names=[s.name for s in e.sensors], units=e.units,
+                                title=f"{e.name} (the worst fit): measured and residual spectra", dpi=FIGURE_DPI)
+    parts.append(_img(_mark_peaks(r, doc["residual_peaks"], modes_hz, r.path),
+                      f"{e.name}: PSD of each channel and of its residual; dashed: peaks of the pooled residual "
+                      "(red where the model has no mode within 5 %), dotted: model modes"))
+    peaks = [[f"{p['frequency_hz']:.1f}", f"{100 * p['share']:.2f} %", ", ".join(p["channels"]),
+              "–" if p["model_mode_hz"] is None else f"{p['model_mode_hz']:.1f}",
+              ("raw", '<span class="lacking">yes: the model lacks it</span>') if p["lacking"] else "no"]
+             for p in doc["residual_peaks"]]
+    parts.append(_table(["frequency [Hz]", "share of the residual PSD", "strongest in", "model mode near [Hz]",
+                         "lacking"], peaks, id="residual-peaks",
+                        caption="peaks of the pooled residual spectrum (also marked on the spectra above)"))
+    rig_rows = [[en, body, ", ".join(f"{k}: {100 * v:.1f} %" for k, v in r["fractions"].items()),
+                 ", ".join(r["flagged"]) or "none", r["worst"]]
+                for en, bd in doc["rigidity"].items() for body, r in bd.items()]
+    parts.append("<h3>Rigidity check (thesis Eq. 4.12)</h3><p>Each angular acceleration follows from two sensor "
+                 "pairs; on a rigid body they agree. The fractions are their disagreement relative to the RMS.</p>"
+                 + _table(["experiment", "body", "disagreement", "flagged", "worst"], rig_rows, id="rigidity"))
+    return "".join(parts)
+
+
+def _candidates_section(diag: Mapping[str, Any] | None, revision: Any, notes: list[str]) -> str:
+    if diag is None:
+        return "<p>Diagnosis not run (--no-diagnose); run <code>odsuite diagnose</code> or drop the option.</p>"
+    text = (f"<p>Baseline error {_fmt(diag.get('baseline_error'))} (noise floor {_fmt(diag.get('noise_floor_error'))}) "
+            f"on revision {_esc(diag.get('revision'))}. Each physical effect is fitted and validated on data "
+            "the fit did not see; significant ones are listed first.</p>")
+    if diag.get("revision") != revision:
+        notes.append(f"the diagnosis was made on revision {diag.get('revision')}, the current one is {revision}")
+    rows = []
+    for rank, c in enumerate(diag["candidates"], start=1):
+        units = c.get("units") or {}
+        params = ", ".join(f"{k} = {_fmt(v, '.4g')}" + (f" {units[k]}" if units.get(k) else "")
+                           for k, v in (c.get("parameters") or {}).items())
+        rows.append([rank, c["effect"], "yes" if c.get("significant") else "no", _fmt(c.get("error_after")),
+                     _fmt(c.get("validated_error")), params or "–", c.get("evidence", "")])
+    return text + _table(["rank", "effect", "significant", "error after", "validated error", "parameters",
+                          "evidence"], rows, id="candidates")
+
+
+def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path) -> str:
+    from odsuite_plugins.renderers.movie import render_movie
+    from odsuite_plugins.renderers.scene import Style
+
+    if not series:
+        return "<p>No movie: the chains give no displacements, so there are no generalized coordinates.</p>"
+    start = max(0.0, exp.trigger / exp.fs - MOVIE_BEFORE_S)
+    stop = min((exp.n_samples - 1) / exp.fs, start + MOVIE_AFTER_S)
+    step = max(1, round((stop - start) * exp.fs / MOVIE_FRAMES))
+    res = render_movie(rig, {b: gm for b, (gm, _, _) in series.items()}, exp.fs, tmp / "movie.gif",
+                       model_coords={b: gp for b, (_, gp, _) in series.items()}, size=MOVIE_SIZE, fps=MOVIE_FPS,
+                       start=start, stop=stop, frame_step=step, workers=1, progress=False,
+                       style=Style(font_size=8, line_width=1.5))
+    return (f'<figure><img src="{_data_uri(res.path, "image/gif")}" alt="movie of {_esc(exp.name)}">'
+            f"<figcaption>{_esc(exp.name)}: measured motion with the model's overlaid, {res.n_frames} frames from "
+            f"{1e3 * start:.1f} ms to {1e3 * stop:.1f} ms, {res.slowdown:.0f}x slower than real time, "
+            f"magnification H_t = {res.magnify[0]:.3g}, H_r = {res.magnify[1]:.3g}.</figcaption></figure>")

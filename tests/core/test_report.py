@@ -1,0 +1,259 @@
+"""`odsuite report`: one self-contained HTML page whose numbers are compare's, diagnose's and
+history's, with embedded figures and movie, that renders in headless Chromium without errors.
+
+The project: the simulated thesis rig with a hidden stiffer z suspension (scale 1.6), three
+experiments of 4096 samples, a diagnosis at revision 0 and the stiffness added as revision 1.
+Building it and the page takes tens of seconds on a shared machine: those tests are marked slow
+(`make report-check` runs them with the Chromium check).
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+import json
+import re
+import subprocess
+from html.parser import HTMLParser
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from odsuite.core.errors import ConfigError
+
+CHROMIUM = Path("/usr/bin/chromium")
+
+
+class _Page(HTMLParser):
+    """Collects the page's images, links, scripts, section ids and table cells by table id."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.images: list[str] = []
+        self.urls: list[str] = []
+        self.scripts = 0
+        self.ids: list[str] = []
+        self.tables: dict[str, list[list[str]]] = {}
+        self._table: str | None = None
+        self._cell: list[str] | None = None
+        self.text: dict[str, str] = {}
+        self._span: str | None = None
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if "id" in a:
+            self.ids.append(a["id"])
+        if tag == "img":
+            self.images.append(a.get("src", ""))
+        for k in ("href", "src"):
+            if k in a and tag != "img":
+                self.urls.append(a[k])
+        if tag == "script":
+            self.scripts += 1
+        if tag == "table" and "id" in a:
+            self._table = a["id"]
+            self.tables[self._table] = []
+        if self._table and tag == "tr":
+            self.tables[self._table].append([])
+        if self._table and tag in ("td", "th"):
+            self._cell = []
+        if tag in ("span", "b") and "id" in a:
+            self._span = a["id"]
+            self.text[self._span] = ""
+
+    def handle_endtag(self, tag):
+        if tag == "table":
+            self._table = None
+        if self._table and tag in ("td", "th") and self._cell is not None:
+            self.tables[self._table][-1].append("".join(self._cell).strip())
+            self._cell = None
+        if tag in ("span", "b"):
+            self._span = None
+
+    def handle_data(self, data):
+        if self._cell is not None:
+            self._cell.append(data)
+        if self._span is not None:
+            self.text[self._span] += data
+
+
+def parse(path: Path) -> _Page:
+    page = _Page()
+    page.feed(path.read_text(encoding="utf-8"))
+    return page
+
+
+@pytest.fixture(scope="module")
+def story(tmp_path_factory):
+    """The project, the diagnosis made at revision 0 and the report built with them."""
+    from odsuite.core.diagnosis import add_effect, diagnose
+    from odsuite.core.project import open_project
+    from odsuite.core.report import build_report
+    from tests.core.hidden_effects import make_project
+
+    tmp = tmp_path_factory.mktemp("report")
+    path = make_project(tmp / "p.h5", [("stiffness", {"scale_z": 1.6})], n_samples=4096,
+                        scenarios=("T1", "T3", "T5"))
+    with open_project(path, "a") as p:
+        diag = diagnose(p, effects=["stiffness", "damping"]).as_dict()
+        added = add_effect(p, "stiffness")
+    (tmp / "diagnosis.json").write_text(json.dumps(diag))
+    result = build_report(path, tmp / "report.html", diagnosis=tmp / "diagnosis.json")
+    return path, diag, added, result
+
+
+@pytest.mark.slow
+def test_report_numbers_are_compares(story):
+    from odsuite.core.comparison import compare
+    from odsuite.core.modelrev import history
+    from odsuite.core.project import open_project
+    from odsuite.core.report import SECTIONS
+
+    path, diag, added, result = story
+    with open_project(path) as p:
+        cmp = compare(p).as_dict()
+        hist = history(p)
+    page = parse(result.path)
+    assert all(s in page.ids for s in SECTIONS)
+    assert result.error == cmp["error"] and cmp["revision"] == added["revision"] == 1
+    # the hidden stiffness explains nearly all of the rigid model's error
+    assert cmp["error"] < 0.05 and added["previous_error"] > 0.5
+    assert page.text["error"] == f"{cmp['error']:.4f}"
+    assert page.text["noise-floor"] == f"{cmp['noise_floor_error']:.4f}"
+    rows = page.tables["channel-errors"]
+    names = rows[0][2:]
+    assert names == list(cmp["channels"])
+    for row in rows[1:]:
+        d = cmp if row[0] == "all" else cmp["experiments"][row[0]]
+        chans = cmp["channels"] if row[0] == "all" else d["channels"]
+        assert row[1] == f"{d['error']:.4f}"
+        assert row[2:] == [f"{chans[n]:.4f}" for n in names]
+    assert [r[0] for r in page.tables["experiments"][1:]] == ["T1", "T3", "T5"]
+    worst = page.tables["worst"][1:]
+    assert [(r[0], r[1], r[2]) for r in worst] == [(w["kind"], w["name"], f"{w['error']:.4f}") for w in cmp["worst"]]
+    assert [r[3] for r in page.tables["history"][1:]] == [f"{r['error']:.4f}" for r in hist["revisions"]]
+    # the ranking is the diagnosis's, and the stiffness (the hidden effect) leads it
+    cands = page.tables["candidates"][1:]
+    assert [r[1] for r in cands] == [c["effect"] for c in diag["candidates"]]
+    assert cands[0][1] == "stiffness" and cands[0][2] == "yes"
+    assert any("revision 0" in n and "current one is 1" in n for n in result.notes)
+
+
+@pytest.mark.slow
+def test_report_is_self_contained(story):
+    from PIL import Image
+
+    *_, result = story
+    page = parse(result.path)
+    assert 0 < result.size_bytes < 10 * 2**20
+    assert page.scripts == 0
+    assert all(u.startswith("#") for u in page.urls), page.urls
+    kinds = []
+    for src in page.images:
+        m = re.fullmatch(r"data:image/(png|gif);base64,(.+)", src, flags=re.DOTALL)
+        assert m, src[:60]
+        with Image.open(io.BytesIO(base64.b64decode(m.group(2)))) as im:
+            kinds.append((im.format, getattr(im, "n_frames", 1), im.size))
+    # three experiments x (coordinates + channels), two heat maps, residual spectra, history, movie
+    assert sum(k[0] == "PNG" for k in kinds) == 3 * 2 + 2 + 1 + 1
+    gif = [k for k in kinds if k[0] == "GIF"]
+    assert len(gif) == 1 and gif[0][1] > 30 and gif[0][2] == (640, 360)
+    assert result.movie_experiment in ("T1", "T3", "T5")
+
+
+@pytest.mark.slow
+def test_model_coordinates_match_compare(story):
+    """The on-the-fly model motion (render --model, the movie) gives compare's per-coordinate errors."""
+    from odsuite.core.comparison import (
+        COORDINATE_NAMES,
+        compare,
+        experiment_coordinates,
+        nrmse,
+    )
+    from odsuite.core.project import open_project
+
+    path, *_ = story
+    with open_project(path) as p:
+        cmp = compare(p).as_dict()
+        for name in p.experiment_names():
+            pairs = experiment_coordinates(p, name)
+            assert set(pairs) == {"platform"}
+            gm, gp = pairs["platform"]
+            assert gm.shape == gp.shape == (4096, 6)
+            got = [float(nrmse(gm[:, i], gp[:, i])) for i in range(6)]
+            want = [cmp["coordinates"][name]["platform"][c] for c in COORDINATE_NAMES]
+            assert got == pytest.approx(want, rel=1e-12)
+        # the fitted model follows the measured motion along the force (x for T5, z for T1)
+        gm, gp = experiment_coordinates(p, "T5")["platform"]
+        assert nrmse(gm[:, 0], gp[:, 0]) < 0.1
+        gm, gp = experiment_coordinates(p, "T1")["platform"]
+        assert nrmse(gm[:, 2], gp[:, 2]) < 0.1
+
+
+@pytest.mark.slow
+def test_cli_report_without_diagnosis_and_movie(story, tmp_path, capsys):
+    from odsuite.cli import main
+    from odsuite.core.comparison import compare
+    from odsuite.core.project import open_project
+
+    path, *_ = story
+    out = tmp_path / "r.html"
+    assert main(["report", str(path), "-o", str(out), "--no-diagnose", "--no-movie"]) == 0
+    stdout, err = capsys.readouterr()
+    with open_project(path) as p:
+        error = compare(p).error
+    assert f"error {error:.4f}" in stdout
+    assert "diagnosis skipped" in err and "movie skipped" in err
+    page = parse(out)
+    assert "candidates" not in page.tables and not any(s.startswith("data:image/gif") for s in page.images)
+
+
+@pytest.mark.render
+@pytest.mark.slow
+def test_report_renders_in_chromium(story, tmp_path):
+    if not CHROMIUM.exists():
+        pytest.skip(f"{CHROMIUM} not found: `apt-get update && apt-get install -y chromium` to check the page")
+    from PIL import Image
+
+    *_, result = story
+    shot = tmp_path / "shot.png"
+    run = subprocess.run(
+        [str(CHROMIUM), "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync",
+         f"--user-data-dir={tmp_path / 'profile'}", "--enable-logging=stderr", "--v=0",
+         f"--screenshot={shot}", "--window-size=1280,4000", result.path.resolve().as_uri()],
+        capture_output=True, text=True, timeout=180, check=False)
+    assert run.returncode == 0, run.stderr[-2000:]
+    console = [ln for ln in run.stderr.splitlines() if ":CONSOLE" in ln or "Uncaught" in ln]
+    assert not console, console
+    with Image.open(shot) as im:
+        a = np.asarray(im.convert("RGB")).astype(int)
+    assert a.shape == (4000, 1280, 3)
+    # the overlays are on screen: the measured traces' blue (tab:blue 31,119,180) and the model's black
+    blue = (np.abs(a - [31, 119, 180]).sum(axis=2) < 60).sum()
+    black = (a.sum(axis=2) < 60).sum()
+    assert blue > 2000 and black > 20000, (blue, black)
+
+
+def test_bad_input_is_one_line(tmp_path):
+    from odsuite.core.project import create_project
+    from odsuite.core.report import build_report, load_diagnosis
+
+    bad = tmp_path / "d.json"
+    bad.write_text("{not json")
+    with pytest.raises(ConfigError, match=r"d\.json: not a JSON document"):
+        load_diagnosis(bad)
+    bad.write_text(json.dumps({"baseline_error": 0.1}))
+    with pytest.raises(ConfigError, match=r"d\.json: field 'candidates' missing"):
+        load_diagnosis(bad)
+    with pytest.raises(ConfigError, match=r"candidates\[1\] has no 'effect'"):
+        load_diagnosis({"candidates": [{"effect": "stiffness"}, {"name": 3}]})
+    with pytest.raises(ConfigError, match="missing.json: cannot read"):
+        load_diagnosis(tmp_path / "missing.json")
+    with pytest.raises(ConfigError, match=r"r\.pdf: the report is an HTML page"):
+        build_report(tmp_path / "p.h5", tmp_path / "r.pdf")
+    create_project(tmp_path / "none.h5", rig=None).close()
+    with pytest.raises(ConfigError, match="no rig"):
+        build_report(tmp_path / "none.h5", tmp_path / "r.html", run_diagnosis=False, movie=False)
+    assert not (tmp_path / "r.html").exists()
