@@ -13,7 +13,7 @@ from __future__ import annotations
 import re
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from decimal import Decimal
 from pathlib import Path
 
@@ -35,6 +35,11 @@ from odsuite.core.systeminfo import (
 )
 
 N_ROWS = 34
+#: Rows odsuite adds after Table E.2's 34, per channel, written only when a channel departs from
+#: the thesis's behaviour (so thesis files stay 34 rows): 34 zero-phase filtering (0 no, 1 yes),
+#: 35 integration rule (0 the thesis's Eq. 4.5, 1 trapezoid).
+EXTRA_ROWS = ("zero_phase", "integration_rule")
+INTEGRATION_RULES = ("thesis", "trapezoid")
 NO_VALUE = ("", "-")
 
 _SEPARATOR_LINE = re.compile(r"^[\s|:+-]*-{3,}[\s|:+-]*$")
@@ -77,7 +82,7 @@ def _ctr_rows(text: str, source: str | Path) -> list[list[str]]:
     labelled = next((i for i, line in enumerate(lines)
                      if (_split(line, sep) or [""])[0].lower() == "row"), None)
     if labelled is None:
-        if len(lines) != N_ROWS:
+        if len(lines) not in (N_ROWS, N_ROWS + len(EXTRA_ROWS)):
             raise ConfigError(f"{source}: expected {N_ROWS} rows (Table E.2), found {len(lines)}")
         return [_split(line, sep) for line in lines]
     rows: dict[int, list[str]] = {}
@@ -214,7 +219,24 @@ def parse_ctr(text: str, source: str | Path = "systeminfo") -> Systeminfo:
                               f"{extra[0]!r} beyond them")
         rows[r] = rows[r] + [""] * (n - len(rows[r]))
     channels = [_channel([rows[r][k] for r in range(21)], k, source) for k in range(n)]
+    if len(rows) > N_ROWS:
+        channels = [_extra(ch, [rows[r][k] if k < len(rows[r]) else "" for r in range(N_ROWS, len(rows))],
+                           k, source) for k, ch in enumerate(channels)]
     return Systeminfo(channels=channels, rig=_rig(rows, source))
+
+
+def _extra(ch: ChannelInfo, cells: list[str], k: int, source: str | Path) -> ChannelInfo:
+    """Rows 34-35 (see EXTRA_ROWS) of column ``k``; an empty cell keeps the thesis's behaviour."""
+    zero_phase = _flag(cells[0], where(source, N_ROWS, k)) if cells[0] not in NO_VALUE else False
+    rule = ch.integration_rule
+    if cells[1] not in NO_VALUE:
+        place = where(source, N_ROWS + 1, k)
+        code = _number(cells[1], place)
+        if code not in (0, 1):
+            raise ConfigError(f"{place}: integration rule must be 0 (thesis Eq. 4.5) or 1 (trapezoid), "
+                              f"got {cells[1]!r}")
+        rule = INTEGRATION_RULES[int(code)]
+    return replace(ch, zero_phase=bool(zero_phase), integration_rule=rule)
 
 
 def _read_text(path: str | Path, what: str) -> str:
@@ -295,6 +317,9 @@ def format_ctr(si: Systeminfo) -> str:
     ]
     for cells in rig_rows:
         rows.append(cells + ["-"] * (n - len(cells)))
+    if any(ch.zero_phase or ch.integration_rule != "thesis" for ch in si.channels):
+        rows.append([_fmt(ch.zero_phase) for ch in si.channels])
+        rows.append([_fmt(INTEGRATION_RULES.index(ch.integration_rule)) for ch in si.channels])
     return "".join("\t".join(cells) + "\n" for cells in rows)
 
 

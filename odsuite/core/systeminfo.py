@@ -130,6 +130,7 @@ ROW_LABELS: dict[int, str] = {
     26: "plate widths from origin", 27: "plate heights from origin", 28: "plot option",
     29: "generalized coordinate columns", 30: "rx", 31: "ry", 32: "rz",
     33: "nine-accelerometer channel assignment",
+    34: "zero-phase filtering (odsuite)", 35: "integration rule (odsuite)",
 }
 
 #: ChannelInfo attribute of each per-channel row 0-20 (index = row number).

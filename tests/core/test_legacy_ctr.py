@@ -156,3 +156,32 @@ def test_windows_spreadsheet_text_reads_the_same():
     si = read_ctr(TABLE_E3)
     text = "".join(line + "\t\r\n" for line in format_ctr(si).splitlines())
     assert parse_ctr(text) == si
+
+
+def test_zero_phase_and_integration_rule_rows_round_trip(tmp_path):
+    """odsuite's two extra rows (34 zero-phase, 35 integration rule) are written only when a
+    channel departs from the thesis's behaviour, and read back exactly; 34-row files keep it."""
+    from dataclasses import replace
+
+    from odsuite.core.legacy import format_ctr, parse_ctr, read_ctr
+    from odsuite.core.plugins import registries
+
+    table = read_ctr(registries().rigs.get("thesis-dynamometer").systeminfo_file)
+    assert len(format_ctr(table).splitlines()) == 34
+    assert all(not ch.zero_phase and ch.integration_rule == "thesis" for ch in table.channels)
+    changed = replace(table, channels=[replace(ch, zero_phase=(k % 2 == 0),
+                                               integration_rule="trapezoid" if k > 3 else "thesis")
+                                       for k, ch in enumerate(table.channels)])
+    text = format_ctr(changed)
+    assert len(text.splitlines()) == 36
+    back = parse_ctr(text)
+    assert [ch.zero_phase for ch in back.channels] == [k % 2 == 0 for k in range(len(table.channels))]
+    assert [ch.integration_rule for ch in back.channels] == ["thesis"] * 4 + ["trapezoid"] * (len(table.channels) - 4)
+    lines = text.splitlines()
+    lines[35] = "\t".join(["2"] + lines[35].split("\t")[1:])
+    import pytest
+
+    from odsuite.core.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=r"row 35 \(integration rule \(odsuite\)\), channel 0: .*'2'"):
+        parse_ctr("\n".join(lines) + "\n")
