@@ -14,6 +14,7 @@ over the measured energy.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -267,17 +268,27 @@ def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "accelerati
         exp._cache = (st, key, simulate_state_space(ss, exp.force, exp.fs, hold="foh"))
     _, rows = model.output_rows(outputs)
     y = exp._cache[2] @ rows.T
+    # the sensors' own dynamics in series, on their sampled signals (one small system per sensor:
+    # identical sensors would make one big system's modes repeated and defective); sensors with
+    # equal dynamics are filtered in one call
+    groups: dict[Any, list[int]] = {}
     for j, s in enumerate(exp.sensors):
         dyn = chain.sensor_dynamics(s.name)
         if dyn is not None:
-            # the sensor's own dynamics in series, on its sampled signal (one small system per
-            # sensor: identical sensors would make one big system's modes repeated and defective)
-            # first-order-hold discretisation in transfer-function form: a few states, run by lfilter
-            ad, bd, cd, dd, _ = scipy.signal.cont2discrete(scipy.signal.zpk2ss(*dyn.zpk()), 1 / exp.fs,
-                                                           method="foh")
-            num, den = scipy.signal.ss2tf(ad, bd, cd, dd)
-            y[:, j] = scipy.signal.lfilter(num[0], den, y[:, j])
+            groups.setdefault(dyn, []).append(j)
+    for dyn, cols in groups.items():
+        num, den = _sensor_filter(dyn, exp.fs)
+        y[:, cols] = scipy.signal.lfilter(num, den, y[:, cols], axis=0)
     return y
+
+
+@functools.lru_cache(maxsize=256)
+def _sensor_filter(dyn, fs: float) -> tuple[np.ndarray, np.ndarray]:
+    """First-order-hold discretisation of a sensor's dynamics in transfer-function form (a few
+    states, run by lfilter); cached, as scipy's matrix exponential dominates a fitting loop."""
+    ad, bd, cd, dd, _ = scipy.signal.cont2discrete(scipy.signal.zpk2ss(*dyn.zpk()), 1 / fs, method="foh")
+    num, den = scipy.signal.ss2tf(ad, bd, cd, dd)
+    return num[0], den
 
 
 def through_chain(exp: PreparedExperiment, physical: np.ndarray, taps: Sequence[str] | None = None
@@ -386,6 +397,70 @@ class Comparison:
                 "modes": self.modes, "residual_peaks": self.residual_peaks, "worst": self.worst}
 
 
+#: band of the FRF comparison and of the modes identified from measured FRFs (Hz)
+FRF_BAND_HZ = (20.0, 1000.0)
+
+
+def frf_comparison(exps: Sequence[PreparedExperiment], predictions: Sequence[np.ndarray],
+                   model_modes) -> dict[str, Any]:
+    """Measured and model FRFs (acceleration stage over the windowed force, so both include the
+    channel's filters) compared per channel, and resonances identified from both by the same LSCF
+    method (odsuite.core.modal), paired with each other and with the model's exact modes.
+
+    Each record holds one force point, so an FRF is one average: coherence needs repeated hits
+    (``odsuite frf``) and is not reported here."""
+    from odsuite.core.frf import estimate_frf
+    from odsuite.core.modal import identify_modes, pair_modes
+
+    lo, hi = FRF_BAND_HZ[0], min(FRF_BAND_HZ[1], 0.45 * exps[0].fs)
+    errors: dict[str, dict[str, float]] = {}
+    stacks: dict[str, list[np.ndarray]] = {"measured": [], "model": []}
+    freq = None
+    for e, p in zip(exps, predictions):
+        fm = estimate_frf([e.force], [e.measured], e.fs)
+        fp = estimate_frf([e.force], [p], e.fs)
+        keep = (fm.frequency >= lo) & (fm.frequency <= hi)
+        if freq is None:
+            freq = fm.frequency[keep]
+        elif len(fm.frequency[keep]) != len(freq) or not np.allclose(fm.frequency[keep], freq):
+            continue  # records of another length: their lines do not stack
+        hm, hp = fm.H[:, keep], fp.H[:, keep]
+        # lines where a channel barely responds (a z hit seen by an x sensor on the symmetry line)
+        # carry no information: they are left out, and a silent channel gets no value
+        seen = np.abs(hm) > 1e-6 * np.abs(hm).max()
+        with np.errstate(divide="ignore", invalid="ignore"):
+            db = np.where(seen, 20 * np.log10(np.abs(hp) / np.abs(hm)), np.nan)
+        errors[e.name] = {s.name: (float(np.sqrt(np.nanmean(row**2))) if np.isfinite(row).any() else None)
+                          for s, row in zip(e.sensors, db)}
+        stacks["measured"].append(hm)
+        stacks["model"].append(hp)
+    identified: dict[str, list[dict[str, float]]] = {}
+    notes = []
+    for side, parts in stacks.items():
+        try:
+            res = identify_modes(freq, np.vstack(parts), f_band=(lo, hi), max_order=40)
+            identified[side] = [{"frequency_hz": float(f), "damping_ratio": float(z)}
+                                for f, z in zip(res.frequency_hz, res.damping_ratio)]
+        except (ValueError, np.linalg.LinAlgError) as exc:  # ConfigError is a ValueError
+            identified[side] = []
+            notes.append(f"{side} modes not identified: {exc}")
+    exact = [m for m in model_modes.as_list() if lo <= m["frequency_hz"] <= hi]
+
+    def pairs(a, b):
+        if not a or not b:
+            return []
+        rows = pair_modes([m["frequency_hz"] for m in a], [m["damping_ratio"] for m in a],
+                          [m["frequency_hz"] for m in b], [m["damping_ratio"] for m in b])
+        return [{k: (float(v) if isinstance(v, (float, np.floating)) else v) for k, v in r.items()}
+                for r in rows]
+
+    return {"band_hz": [lo, hi], "magnitude_error_db": errors, "measured_modes": identified["measured"],
+            "model_identified_modes": identified["model"],
+            "measured_vs_model": pairs(identified["measured"], exact),
+            "measured_vs_model_identified": pairs(identified["measured"], identified["model"]),
+            "notes": notes}
+
+
 def pooled_error(exps: Sequence[PreparedExperiment], predictions: Sequence[np.ndarray]) -> float:
     num = sum(float(np.sum((e.measured - p) ** 2)) for e, p in zip(exps, predictions))
     den = sum(float(np.sum(e.measured**2)) for e in exps)
@@ -461,8 +536,10 @@ def _coordinates(rig: Rig, exp: PreparedExperiment, model) -> tuple[dict, dict]:
 
 
 def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapping[str, Any] | None = None,
-            prepared: Sequence[PreparedExperiment] | None = None) -> Comparison:
-    """Compare the current model revision (or ``revision``) with every experiment."""
+            prepared: Sequence[PreparedExperiment] | None = None, resonances: bool = True) -> Comparison:
+    """Compare the current model revision (or ``revision``) with every experiment. ``resonances``:
+    also identify measured and model resonances from FRFs (a few seconds; the fitting loop, which
+    needs only the errors, leaves it out)."""
     from odsuite.core.modelrev import current_revision, revision_model
 
     rev = revision or current_revision(project)
@@ -517,6 +594,7 @@ def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapp
         error=pooled_error(exps, preds), noise_floor_error=noise_floor_error(exps),
         revision=rev.get("revision"), experiments=per_exp, channels=channels, coordinates=coords,
         bands=bands, rigidity=rigidity,
-        modes={"model": model_modes.as_list()},
+        modes={"model": model_modes.as_list(),
+               **(frf_comparison(exps, preds, model_modes) if resonances else {})},
         residual_peaks=residual_peaks(exps, preds, modes_hz), worst=worst,
     )

@@ -101,7 +101,7 @@ def history(project) -> dict[str, Any]:
         error = r.get("metrics", {}).get("error")
         if error is None and project.rig is not None and project.experiment_names():
             exps = exps or prepare(project)
-            error = compare(project, revision=r, prepared=exps).error
+            error = compare(project, revision=r, prepared=exps, resonances=False).error
         out.append({"revision": r["revision"], "parent": r["parent"], "effects": [e["effect"] for e in r["effects"]],
                     "error": error, "created": r["created"]})
     return {"current": project.current_revision, "revisions": out}
