@@ -1,7 +1,8 @@
 """Processing steps of the thesis's Signal Processor (Ch. 4.3, Eq. 4.2-4.8, Table E.2).
 
 Each provider is called as ``provider(fs=<Hz>, **params)`` and returns a step (or, for zero-phase
-filtering, a list of steps and markers). All steps are float64 and work on one channel.
+filtering, a list of steps and markers). All steps are float64 and run along the last axis: one
+channel (1-D samples) or several channels with the same settings at once (channels x samples).
 """
 
 from __future__ import annotations
@@ -14,23 +15,27 @@ import scipy.signal
 from odsuite.core.errors import ConfigError
 from odsuite.core.pipeline import Reverse, Step
 
-try:  # the in-place kernel behind scipy.signal.sosfilt: saves the copy sosfilt makes of its input
+try:  # the in-place kernel behind scipy.signal.sosfilt (releases the GIL): no copy of the input
     from scipy.signal._sosfilt import _sosfilt as _sosfilt_inplace
 except ImportError:  # a SciPy that moved it: the public function, one copy more
     _sosfilt_inplace = None
 
-_EMPTY = np.empty(0)
+
+def _none(x: np.ndarray) -> np.ndarray:
+    """No samples, with the channel axes of ``x``."""
+    return x[..., :0]
 
 
-def _sosfilt(sos: np.ndarray, x: np.ndarray, zi: np.ndarray, owned: bool) -> tuple[np.ndarray, np.ndarray]:
-    """``scipy.signal.sosfilt(sos, x, zi=zi)``; filters ``x`` in place when ``owned`` (a buffer no
-    one else holds)."""
-    if _sosfilt_inplace is None or x.dtype != np.float64:
-        return scipy.signal.sosfilt(sos, x, zi=zi)
-    y = x if owned and x.flags.c_contiguous and x.flags.writeable else np.array(x, dtype=np.float64)
-    zf = np.array(zi, dtype=np.float64).reshape(1, -1, 2)
-    _sosfilt_inplace(np.ascontiguousarray(sos, dtype=np.float64), y.reshape(1, -1), zf)
-    return y, zf[0]
+def _sosfilt_owned(sos: np.ndarray, x: np.ndarray, zi: np.ndarray) -> np.ndarray:
+    """``scipy.signal.sosfilt`` of ``x`` (channels x samples, C-contiguous float64) overwriting
+    ``x``; ``zi`` (channels x sections x 2) is updated in place."""
+    if _sosfilt_inplace is None:
+        y, zf = scipy.signal.sosfilt(sos, x, axis=-1, zi=zi.transpose(1, 0, 2))
+        x[...] = y
+        zi[...] = zf.transpose(1, 0, 2)
+        return x
+    _sosfilt_inplace(sos, x, zi)
+    return x
 
 
 def _positive(step: str, name: str, value, *, integer: bool = False) -> float:
@@ -51,9 +56,14 @@ class Scale(Step):
     """y = factor * x (unit conversion, sign inversion, micro-units)."""
 
     factor: float
+    batched = True
 
     def process(self, chunk, state):
         return chunk * self.factor, state
+
+    def process_owned(self, chunk, state):
+        chunk *= self.factor
+        return chunk, state
 
     def fuse(self, following):
         if isinstance(following, Scale):
@@ -97,7 +107,7 @@ def scale(fs: float, factor: float) -> Scale:
 class _OffsetState:
     held: list = field(default_factory=list)
     seen: int = 0
-    mean: float | None = None
+    mean: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -110,30 +120,31 @@ class WindowOffset(Step):
     start: int
     length: int
     factor: float = 1.0
+    batched = True
 
     def scaled(self, k: float) -> WindowOffset:
         return WindowOffset(self.start, self.length, self.factor * k)
-
-    def fuse(self, following):
-        if isinstance(following, Sos) and not following.delay:
-            return _OwnedThenSos(self, following)
-        return None
 
     def init_state(self):
         return _OffsetState()
 
     def process(self, chunk, state):
-        x = chunk * self.factor if self.factor != 1.0 else chunk.copy()  # owned: shifted in place
+        return self.process_owned(np.array(chunk, dtype=np.float64), state)
+
+    def process_owned(self, chunk, state):
+        x = chunk
+        if self.factor != 1.0:
+            x *= self.factor
         if state.mean is not None:
             x -= state.mean
             return x, state
         state.held.append(x)
-        state.seen += x.size
+        state.seen += x.shape[-1]
         if state.seen < self.start + self.length:
-            return _EMPTY, state
-        held = np.concatenate(state.held) if len(state.held) > 1 else x
+            return _none(x), state
+        held = np.concatenate(state.held, axis=-1) if len(state.held) > 1 else x
         state.held = []
-        state.mean = float(np.mean(held[self.start:self.start + self.length]))
+        state.mean = np.mean(held[..., self.start:self.start + self.length], axis=-1, keepdims=True)
         held -= state.mean
         return held, state
 
@@ -141,7 +152,7 @@ class WindowOffset(Step):
         if state.mean is None:
             raise ConfigError(f"step 'offset': window samples {self.start}..{self.start + self.length - 1} "
                               f"lies outside the record of {state.seen} samples")
-        return _EMPTY
+        return _none(state.mean)
 
 
 def offset(fs: float, start: int = 0, length: int = 0) -> WindowOffset:
@@ -154,7 +165,7 @@ def offset(fs: float, start: int = 0, length: int = 0) -> WindowOffset:
 
 @dataclass
 class _MovingState:
-    history: np.ndarray = field(default_factory=lambda: _EMPTY)
+    history: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -163,6 +174,7 @@ class MovingAverageOffset(Step):
 
     length: int
     factor: float = 1.0
+    batched = True
 
     def scaled(self, k: float) -> MovingAverageOffset:
         return MovingAverageOffset(self.length, self.factor * k)
@@ -171,16 +183,17 @@ class MovingAverageOffset(Step):
         return _MovingState()
 
     def process(self, chunk, state):
-        if not chunk.size:
-            return _EMPTY, state
+        if not chunk.shape[-1]:
+            return chunk, state
         x = chunk * self.factor if self.factor != 1.0 else chunk
-        h = state.history
-        full = np.concatenate([h, x])
-        csum = np.concatenate([[0.0], np.cumsum(full)])
-        idx = np.arange(h.size, full.size) + 1  # window ends (exclusive) in csum
+        h = _none(x) if state.history is None else state.history
+        full = np.concatenate([h, x], axis=-1)
+        csum = np.cumsum(full, axis=-1)
+        csum = np.concatenate([np.zeros_like(csum[..., :1]), csum], axis=-1)
+        idx = np.arange(h.shape[-1], full.shape[-1]) + 1  # window ends (exclusive) in csum
         lo = np.maximum(idx - self.length, 0)
-        out = x - (csum[idx] - csum[lo]) / (idx - lo)
-        state.history = full[-(self.length - 1):] if self.length > 1 else _EMPTY
+        out = x - (csum[..., idx] - csum[..., lo]) / (idx - lo)
+        state.history = full[..., max(full.shape[-1] - (self.length - 1), 0):]
         return out, state
 
 
@@ -194,8 +207,9 @@ def moving_average(fs: float, length: int) -> MovingAverageOffset:
 
 @dataclass
 class _SosState:
-    zi: np.ndarray | None = None
+    zi: np.ndarray | None = None  # channels x sections x 2
     skip: int = 0
+    channels: tuple = ()  # the leading axes of the input: () for one channel, (k,) for k
 
 
 @dataclass(frozen=True, eq=False)
@@ -214,6 +228,7 @@ class Sos(Step):
     delay: int = 0
     zi_x0: np.ndarray | None = None
     zero_lead: bool = False
+    batched = True
 
     def scaled(self, k: float) -> Sos:
         sos = self.sos.copy()
@@ -238,47 +253,29 @@ class Sos(Step):
         return _SosState(skip=self.delay)
 
     def process(self, chunk, state):
-        if not chunk.size:
-            return _EMPTY, state
+        return self.process_owned(np.array(chunk, dtype=np.float64, order="C"), state)
+
+    def process_owned(self, chunk, state):
+        if not chunk.shape[-1]:
+            return chunk, state
         if state.zi is None:
-            state.zi = (np.zeros((len(self.sos), 2)) if self.zi_x0 is None else self.zi_x0 * chunk[0])
-        y, state.zi = _sosfilt(self.sos, chunk, state.zi, owned=False)
+            state.channels = chunk.shape[:-1]
+            first = chunk[..., 0].reshape(-1, 1, 1)
+            state.zi = (np.zeros((first.shape[0], len(self.sos), 2)) if self.zi_x0 is None
+                        else np.ascontiguousarray(self.zi_x0 * first))
+        x = chunk if chunk.flags.c_contiguous and chunk.dtype == np.float64 else np.ascontiguousarray(chunk, np.float64)
+        y = _sosfilt_owned(self.sos, x.reshape(-1, x.shape[-1]), state.zi).reshape(x.shape)
         if state.skip:
-            drop = min(state.skip, y.size)
+            drop = min(state.skip, y.shape[-1])
             state.skip -= drop
-            y = y[drop:]
+            y = y[..., drop:]
         return y, state
 
     def finish(self, state):
         if not self.delay or state.zi is None:
-            return _EMPTY
-        y, state = self.process(np.zeros(self.delay), state)
+            return np.empty(state.channels + (0,))
+        y, state = self.process_owned(np.zeros(state.channels + (self.delay,)), state)
         return y
-
-
-@dataclass(frozen=True, eq=False)
-class _OwnedThenSos(Step):
-    """A step that returns fresh arrays, then a filter run in place on them (one copy fewer)."""
-
-    first: Step
-    sos: Sos
-
-    def init_state(self):
-        return [self.first.init_state(), self.sos.init_state()]
-
-    def process(self, chunk, state):
-        x, state[0] = self.first.process(chunk, state[0])
-        if not x.size:
-            return _EMPTY, state
-        st = state[1]
-        if st.zi is None:
-            st.zi = np.zeros((len(self.sos.sos), 2)) if self.sos.zi_x0 is None else self.sos.zi_x0 * x[0]
-        y, st.zi = _sosfilt(self.sos.sos, x, st.zi, owned=True)
-        return y, state
-
-    def finish(self, state):
-        tail = self.first.finish(state[0])
-        return self.sos.process(tail, state[1])[0] if tail.size else _EMPTY
 
 
 FAMILIES = ("elliptic", "butterworth")
@@ -323,29 +320,30 @@ class _OddPad(Step):
     """sosfiltfilt's odd extension: ``edge`` reflected samples before and after the record."""
 
     edge: int
+    batched = True
 
     def init_state(self):
-        return {"head": [], "seen": 0, "started": False, "tail": _EMPTY}
+        return {"head": [], "seen": 0, "started": False, "tail": None}
 
     def process(self, chunk, state):
         e = self.edge
         if state["started"]:
-            state["tail"] = np.concatenate([state["tail"], chunk])[-(e + 1):]
+            state["tail"] = np.concatenate([state["tail"], chunk], axis=-1)[..., -(e + 1):]
             return chunk, state
         state["head"].append(chunk)
-        state["seen"] += chunk.size
+        state["seen"] += chunk.shape[-1]
         if state["seen"] <= e:
-            return _EMPTY, state
-        x = np.concatenate(state["head"])
-        state["head"], state["started"], state["tail"] = [], True, x[-(e + 1):]
-        return np.concatenate([2 * x[0] - x[e:0:-1], x]), state
+            return _none(chunk), state
+        x = np.concatenate(state["head"], axis=-1)
+        state["head"], state["started"], state["tail"] = [], True, x[..., -(e + 1):]
+        return np.concatenate([2 * x[..., :1] - x[..., e:0:-1], x], axis=-1), state
 
     def finish(self, state):
         if not state["started"]:
             raise ConfigError(f"zero-phase filter: the record ({state['seen']} samples) must be longer "
                               f"than its edge padding of {self.edge} samples")
         t = state["tail"]
-        return 2 * t[-1] - t[-2::-1]
+        return 2 * t[..., -1:] - t[..., -2::-1]
 
 
 @dataclass(frozen=True)
@@ -353,13 +351,14 @@ class _DropHead(Step):
     """Drop the first ``count`` samples."""
 
     count: int
+    batched = True
 
     def init_state(self):
         return self.count
 
     def process(self, chunk, state):
-        drop = min(state, chunk.size)
-        return chunk[drop:], state - drop
+        drop = min(state, chunk.shape[-1])
+        return chunk[..., drop:], state - drop
 
 
 def zero_phase_steps(sos: np.ndarray) -> list:

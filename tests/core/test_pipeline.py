@@ -17,6 +17,7 @@ from odsuite.core.pipeline import (
     channel_chain_spec,
     process_experiment,
     run_array,
+    run_array_parallel,
 )
 from odsuite.core.systeminfo import ChannelInfo, FilterType, Integration, SensorType, Systeminfo
 
@@ -110,6 +111,59 @@ def test_chunked_equals_in_memory(chunk):
         assert set(got[c]) == set(ref)
         for tap in ref:
             _close(got[c][tap], ref[tap])
+
+
+def _clip_chain(registries):
+    from odsuite.core.pipeline import Step
+
+    class Clip(Step):  # a lab's step written for one channel
+        def process(self, chunk, state):
+            return np.clip(chunk, -1.0, 1.0), state
+
+    registries.processing_steps.add("clip", lambda fs: Clip())
+    return build_chain([{"step": "clip"}, {"step": "integrate"}], fs=FS, registry=registries.processing_steps)
+
+
+@pytest.mark.parametrize("chunk", [613, 100_000])
+def test_channels_with_the_same_chain_run_as_one_block(registries, chunk):
+    # identical chains run together (channels x samples); each column still equals its own chain
+    # run alone, in any order and mixed with chains that run alone (another gain, a lab's 1-D step)
+    from odsuite.core.pipeline import _groups
+
+    zp = replace(TABLE_E3, zero_phase=True, offset_start=250, offset_length=1200)
+    chains = [chain_for_channel(TABLE_E3), chain_for_channel(zp), chain_for_channel(TABLE_E3),
+              _clip_chain(registries), chain_for_channel(replace(TABLE_E3, daq_gain=5.0)),
+              chain_for_channel(zp), chain_for_channel(TABLE_E3)]
+    assert _groups(chains) == [[0, 2, 6], [1, 5], [3], [4]]
+    raw = np.random.default_rng(9).standard_normal((20_000, len(chains))) * 0.05 + 0.01
+    got = run_array(chains, raw, chunk=chunk)
+    for c, chain in enumerate(chains):
+        ref = chain.run(raw[:, c])
+        assert set(got[c]) == set(ref)
+        for tap in ref:
+            np.testing.assert_array_equal(got[c][tap], ref[tap])
+    # the same numbers from the steps applied one after the other with scipy (as in the first test)
+    sos = scipy.signal.ellip(8, 0.1, 60.0, 20.0, "highpass", fs=FS, output="sos")
+    for c, gain in ((6, 10.0), (4, 5.0)):
+        x1 = -raw[:, c] / (0.020292 * gain)
+        acc = scipy.signal.sosfilt(sos, x1 - x1[:400].mean())
+        _close(got[c]["acceleration"], acc)
+        _close(got[c]["displacement"], _eq45(scipy.signal.sosfilt(sos, _eq45(acc))), rel=1e-9)
+
+
+def test_threads_equal_one_thread():
+    chains = [chain_for_channel(TABLE_E3) for _ in range(5)] + [chain_for_channel(replace(TABLE_E3, invert=False))]
+    raw = np.random.default_rng(10).standard_normal((9000, len(chains))) * 0.05
+    raw[:, 5] = raw[:, 0]
+    one = run_array(chains, raw, chunk=2048)
+    for workers in (2, 3):
+        many = run_array_parallel(chains, raw, workers=workers, chunk=2048)
+        for a, b in zip(one, many):
+            assert set(a) == set(b)
+            for tap in a:
+                np.testing.assert_array_equal(a[tap], b[tap])
+    # IEEE arithmetic is symmetric in sign: the uninverted channel is exactly the negative
+    np.testing.assert_array_equal(one[5]["velocity"], -one[0]["velocity"])
 
 
 def test_zero_phase_chain_is_sosfiltfilt_between_integrations():
