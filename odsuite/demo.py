@@ -1,0 +1,312 @@
+"""``odsuite demo``: the whole story on the simulated thesis rig, no hardware.
+
+A project is created on the thesis rig; five impact tests like the thesis's are recorded on the
+simulated rig whose truth hides two effects the project's model does not know (a stiffer vertical
+suspension and a flexible twist mode of the platform); the records are processed to generalized
+coordinates; the model-measurement loop (compare, diagnose, add the best effect) runs until no
+significant candidate is left or the round limit is reached; a report, a movie with the model
+overlaid and the history figure are written; finally the hidden truth is written beside them and
+set against what the loop found.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn
+from rich.table import Table
+
+from odsuite_plugins.daq_sim.hammer import Hit
+
+#: The truth's hidden effects: a 30 % stiffer vertical suspension and a platform twist mode at
+#: 640 Hz, 2 % damping (well inside the accelerometer and filter bands, beyond every rigid mode)
+HIDDEN_EFFECTS: tuple[tuple[str, dict[str, float]], ...] = (
+    ("stiffness", {"scale_z": 1.3}),
+    ("plate_flexibility", {"frequency_hz": 640.0, "damping_ratio": 0.02, "twist": 0.4}),
+)
+#: Thesis tests: +z at the centre, near the +y edge, near the -x edge; -x on a side; +z near a corner
+SCENARIOS = ("T1", "T2", "T3", "T5", "T6")
+#: T3 (20 N in the thesis) is struck at 15 N: the stiffer truth would overload accelerometer x3's range
+HITS = {"T3": (Hit(0.0, 15.0, 0.5e-3),)}
+SAMPLES = 4096
+QUICK_SCENARIOS = ("T2", "T3", "T6")
+QUICK_SAMPLES = 2048
+SAMPLING_RATE = 20_000.0
+ADC_BITS = 16
+#: at most this many rounds; the last one normally only confirms that no significant candidate is left
+ROUNDS = 3
+PROJECT_NAME = "demo.h5"
+#: The movie: this experiment, from 5 ms before the hit to 60 ms after, one frame per 0.25 ms
+MOVIE_EXPERIMENT = "T6"
+MOVIE_WINDOW_S = (-0.005, 0.06)
+MOVIE_FRAME_STEP = 5
+MOVIE_SIZE = (960, 540)
+
+
+@dataclass
+class DemoResult:
+    """What the demo did: the errors of revisions 0, 1, ..., the effects found with their values,
+    the hidden truth and the files written."""
+
+    out: Path
+    project: Path
+    errors: list[float]
+    noise_floor: float
+    added: list[str]
+    found: dict[str, dict[str, float]]
+    hidden: dict[str, dict[str, float]]
+    files: dict[str, Path] = field(default_factory=dict)
+
+
+def _progress() -> Progress:
+    err = Console(stderr=True)
+    return Progress(TextColumn("{task.description}"), BarColumn(), console=err, transient=True,
+                    disable=not err.is_terminal)
+
+
+def _step(console: Console, n: int, title: str, started: float) -> None:
+    console.rule(f"[bold]{n}. {title}[/bold] ({time.monotonic() - started:.0f} s)", align="left")
+
+
+def effective_scales(effect_name: str, values: Mapping[str, float], model) -> dict[str, float]:
+    """Key values of an effect for the summary. A spring scale's per-axis and per-spring factors
+    multiply (only their products are identifiable), so it is summarised as the total spring
+    coefficient along each axis relative to the nominal one; other effects by their own values."""
+    from odsuite.core.plugins import registries
+
+    effect = registries().effects.get(effect_name)
+    quantity = getattr(effect, "field", None)
+    if quantity not in ("stiffness", "damping"):
+        return dict(values)
+    changed = effect.apply(model, dict(values))
+    before = sum(np.asarray(getattr(s, quantity), dtype=float) for s in model.springs)
+    after = sum(np.asarray(getattr(s, quantity), dtype=float) for s in changed.springs)
+    return {f"total_{a}": float(r) for a, r in zip("xyz", after / before)}
+
+
+def _record(project, scenarios: Sequence[str], n_samples: int, console: Console) -> None:
+    from odsuite.core.acquisition import AcquisitionSettings, acquire, rig_systeminfo
+    from odsuite_plugins.daq_sim.scenarios import scenario
+    from odsuite_plugins.daq_sim.simulator import default_chains
+
+    chains = {k: replace(c, adc_bits=ADC_BITS)
+              for k, c in default_chains(project.rig, rig_systeminfo(project.rig, SAMPLING_RATE)).items()}
+    settings = AcquisitionSettings(sampling_rate=SAMPLING_RATE, n_samples=n_samples)
+    for i, name in enumerate(scenarios):
+        hits = HITS.get(name, scenario(name).hits)
+        exp, rec = acquire(project, "sim", name, settings, scenario=name, hits=hits, seed=10 + i,
+                           effects=[(e, dict(v)) for e, v in HIDDEN_EFFECTS], chains=chains)
+        clipped = "".join(f", [red]{n} samples of {rec.channel_names[ch]} clipped[/red]" for ch, n in rec.clipped.items())
+        console.print(f"  {name}: {scenario(name).description}; {max(h.peak for h in hits):g} N hammer, "
+                      f"{exp.n_samples} samples x {exp.n_channels} channels{clipped}", highlight=False, soft_wrap=True)
+
+
+def _print_comparison(console: Console, doc: Mapping[str, Any]) -> None:
+    worst = ", ".join(f"{w['name']} {w['error']:.3f}" for w in doc["worst"] if w["kind"] == "channel")
+    console.print(f"  compare: error [bold]{doc['error']:.4f}[/bold] (noise floor {doc['noise_floor_error']:.4f}); "
+                  f"worst channels: {worst}", highlight=False, soft_wrap=True)
+    for peak in doc["residual_peaks"]:
+        if peak["lacking"]:
+            console.print(f"  residual peak at {peak['frequency_hz']:.0f} Hz in {', '.join(peak['channels'])}: "
+                          "the model has no mode there", highlight=False, soft_wrap=True)
+
+
+def _print_candidates(console: Console, doc: Mapping[str, Any], rows: int = 6) -> None:
+    table = Table(title=f"diagnose (revision {doc['revision']}): candidate effects, best first", title_justify="left")
+    for col in ("effect", "significant", "error after", "validated", "key values"):
+        table.add_column(col)
+    for c in doc["candidates"][:rows]:
+        validated = c["validated_error"]
+        shown = [(k, v) for k, v in c["parameters"].items() if isinstance(v, float) and "/" not in k]
+        values = ", ".join(f"{k} {v:.3g}" for k, v in shown[:3]) + (", ..." if len(shown) > 3 else "")
+        table.add_row(c["effect"], "[green]yes[/green]" if c["significant"] else "no", f"{c['error_after']:.4f}",
+                      "-" if validated is None or validated != validated else f"{validated:.4f}",
+                      values or "-")
+    console.print(table)
+    rest = doc["candidates"][rows:]
+    if rest:
+        significant = sum(c["significant"] for c in rest)
+        console.print(f"  ({len(rest)} more candidates, {significant or 'none'} significant)", highlight=False,
+                      soft_wrap=True)
+
+
+def _write_outputs(out: Path, project_path: Path, diagnosis: Mapping[str, Any] | None, scenarios: Sequence[str],
+                   console: Console) -> dict[str, Path]:
+    """Report (when ``odsuite.core.report`` is installed), movie of one test with the model and the
+    history figure."""
+    from odsuite.core.comparison import experiment_coordinates
+    from odsuite.core.modelrev import history, history_figure
+    from odsuite.core.project import open_project
+    from odsuite_plugins.renderers.movie import render_movie
+
+    files: dict[str, Path] = {}
+    movie_exp = MOVIE_EXPERIMENT if MOVIE_EXPERIMENT in scenarios else scenarios[-1]
+    with open_project(project_path) as p:
+        files["history"] = out / "history.png"
+        history_figure(history(p), files["history"])
+        exp = p.experiment(movie_exp)
+        pairs = experiment_coordinates(p, movie_exp)
+        rig = p.rig
+    hit = exp.pretrigger / exp.sampling_rate
+    movie = render_movie(rig, {b: m for b, (m, _) in pairs.items()}, exp.sampling_rate, out / f"{movie_exp}.mp4",
+                         model_coords={b: q for b, (_, q) in pairs.items()}, start=max(0.0, hit + MOVIE_WINDOW_S[0]),
+                         stop=hit + MOVIE_WINDOW_S[1], frame_step=MOVIE_FRAME_STEP, size=MOVIE_SIZE, progress=False)
+    files["movie"] = Path(movie.path)
+    console.print(f"  movie: {movie.path} ({movie.n_frames} frames, {movie.slowdown:.0f}x slower than real time; "
+                  "measured and model motion overlaid)", highlight=False, soft_wrap=True)
+    for note in movie.notes:
+        console.print(f"  note: {note}", highlight=False, soft_wrap=True)
+    console.print(f"  history figure: {files['history']}", highlight=False, soft_wrap=True)
+    try:
+        from odsuite.core.report import build_report
+    except ImportError:
+        console.print("  report: this installation has no HTML report module; the movie and figures above "
+                      "are the outputs", highlight=False, soft_wrap=True)
+        return files
+    res = build_report(project_path, out / "report.html", diagnosis=diagnosis, run_diagnosis=False,
+                       movie_experiment=movie_exp)
+    files["report"] = Path(res.path)
+    console.print(f"  report: {res.path} ({res.size_bytes / 2**20:.1f} MiB)", highlight=False, soft_wrap=True)
+    for note in res.notes:
+        console.print(f"  note: {note}", highlight=False, soft_wrap=True)
+    return files
+
+
+def _summary_table(result: DemoResult, model) -> Table:
+    table = Table(title="hidden in the simulated rig vs found by the loop", title_justify="left")
+    for col in ("effect", "quantity", "hidden", "found"):
+        table.add_column(col)
+    for name in list(result.hidden) + [n for n in result.found if n not in result.hidden]:
+        hidden = effective_scales(name, result.hidden[name], model) if name in result.hidden else {}
+        found = effective_scales(name, result.found[name], model) if name in result.found else {}
+        keys = list(hidden) or list(found)
+        if name in result.hidden and name not in result.found:
+            table.add_row(name, "", "present", "[red]not found[/red]")
+            continue
+        for i, k in enumerate(keys):
+            table.add_row(name if i == 0 else "", k, f"{hidden[k]:.4g}" if k in hidden else "absent",
+                          f"{found[k]:.4g}" if k in found else "-")
+    return table
+
+
+def run_demo(out: str | Path = "demo-output", *, quick: bool = False, rounds: int = ROUNDS,
+             console: Console | None = None, progress: Callable[[str], None] | None = None) -> DemoResult:
+    """Run the demo into directory ``out`` (its ``demo.h5``, report, movie and figures are replaced).
+
+    ``quick``: three tests of 2048 samples instead of five of 4096 (for tests). ``rounds``: at most
+    this many diagnose/add-effect rounds; the loop stops earlier when no candidate is significant.
+    """
+    from odsuite.core.comparison import compare, prepare
+    from odsuite.core.diagnosis import add_effect, diagnose
+    from odsuite.core.modelrev import current_revision, revision_model
+    from odsuite.core.pipeline import process_experiment
+    from odsuite.core.project import create_project, open_project
+
+    started = time.monotonic()
+    console = console or Console()
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / PROJECT_NAME
+    for old in [path, out / "hidden-truth.json"]:
+        old.unlink(missing_ok=True)
+    scenarios = QUICK_SCENARIOS if quick else SCENARIOS
+    n_samples = QUICK_SAMPLES if quick else SAMPLES
+
+    _step(console, 1, "a project on the thesis rig", started)
+    p = create_project(path, "thesis-dynamometer")
+    try:
+        modes = revision_model(p).shared.modes().frequency_hz
+        console.print(f"  {path}: rig {p.rig.name}, model {p.rig.default_model!r} (rigid platform on four "
+                      f"springs), modes {', '.join(f'{f:.0f}' for f in modes)} Hz", highlight=False, soft_wrap=True)
+
+        _step(console, 2, "impact tests on the simulated rig", started)
+        console.print(f"  {len(scenarios)} hammer tests at {SAMPLING_RATE:g} Hz, {ADC_BITS}-bit ADC; the simulated "
+                      "rig differs from the model in two ways the loop has to find", highlight=False, soft_wrap=True)
+        _record(p, scenarios, n_samples, console)
+
+        _step(console, 3, "process to generalized coordinates", started)
+        for name in p.experiment_names():
+            s = process_experiment(p, name)
+            console.print(f"  {name}: {', '.join(s['datasets'])} (channels {s['channels'][0]}..{s['channels'][-1]})",
+                          highlight=False, soft_wrap=True)
+        info = p.info()
+        near = {}
+        for name, e in info["experiments"].items():
+            for ch in e["clipped"]:
+                near.setdefault(ch, []).append(name)
+        near_txt = "; ".join(f"{ch} in {', '.join(names)}" for ch, names in near.items()) or "none"
+        console.print(f"  info: {len(info['experiments'])} experiments, "
+                      f"{sum(e['n_samples'] for e in info['experiments'].values())} samples per channel in all, "
+                      f"derived {', '.join(sorted({d for e in info['experiments'].values() for d in e['derived']}))}; "
+                      f"channels reaching their Systeminfo input limits: {near_txt}", highlight=False, soft_wrap=True)
+    finally:
+        p.close()
+
+    _step(console, 4, "the loop: compare, diagnose, add the best effect", started)
+    errors: list[float] = []
+    added: list[str] = []
+    diagnosis_doc = None
+    noise = math.nan
+    with open_project(path, "a") as p, _progress() as bar:
+        task = bar.add_task("", total=None)
+
+        def report(what: str, i: int = 0, n: int = 0) -> None:
+            bar.update(task, description=what, completed=i, total=n or None)
+            if progress:
+                progress(what)
+
+        exps = prepare(p)
+        for r in range(1, rounds + 1):
+            console.print(f"[bold]  round {r}[/bold]")
+            cmp = compare(p, prepared=exps).as_dict()
+            if not errors:
+                errors.append(cmp["error"])
+            noise = cmp["noise_floor_error"]
+            _print_comparison(console, cmp)
+            diagnosis_doc = diagnose(p, prepared=exps, progress=report).as_dict()
+            _print_candidates(console, diagnosis_doc)
+            best = next((c for c in diagnosis_doc["candidates"] if c["significant"]), None)
+            if best is None:
+                console.print("  no candidate is significant: the loop stops", highlight=False, soft_wrap=True)
+                break
+            res = add_effect(p, best["effect"], progress=report)
+            added.append(best["effect"])
+            errors.append(res["error"])
+            console.print(f"  add-effect {best['effect']}: revision {res['revision']}, error "
+                          f"{res['previous_error']:.4f} -> [bold]{res['error']:.4f}[/bold]", highlight=False, soft_wrap=True)
+        final = compare(p, prepared=exps).as_dict()
+        console.print(f"  final: error {final['error']:.4f} (noise floor {final['noise_floor_error']:.4f})",
+                      highlight=False)
+        found = {e["effect"]: dict(e["values"]) for e in current_revision(p).get("effects", [])}
+        base = revision_model(p, {"effects": []}).shared
+    console.print("  error per revision: " + " -> ".join(f"{e:.3f}" for e in errors), highlight=False, soft_wrap=True)
+
+    _step(console, 5, "report, movie and history figure", started)
+    files = _write_outputs(out, path, diagnosis_doc, scenarios, console)
+
+    _step(console, 6, "what was hidden and what was found", started)
+    hidden = {e: dict(v) for e, v in HIDDEN_EFFECTS}
+    truth_file = out / "hidden-truth.json"
+    truth_file.write_text(json.dumps({
+        "effects": [{"effect": e, "values": v} for e, v in hidden.items()],
+        "scenarios": list(scenarios), "n_samples": n_samples, "sampling_rate_hz": SAMPLING_RATE,
+        "adc_bits": ADC_BITS}, indent=2) + "\n")
+    files["hidden_truth"] = truth_file
+    result = DemoResult(out=out, project=path, errors=errors, noise_floor=noise, added=added, found=found,
+                        hidden=hidden, files=files)
+    console.print(_summary_table(result, base))
+    missed = [n for n in hidden if n not in found]
+    extra = [n for n in found if n not in hidden]
+    verdict = ("both hidden effects found" if not missed and not extra else
+               f"missed: {', '.join(missed) or 'none'}; not hidden but added: {', '.join(extra) or 'none'}")
+    console.print(f"  {verdict}; hidden truth written to {truth_file}; {time.monotonic() - started:.0f} s in all",
+                  highlight=False, soft_wrap=True)
+    return result
