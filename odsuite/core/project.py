@@ -43,6 +43,7 @@ import tempfile
 import tomllib
 import typing
 import uuid
+import weakref
 from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -341,6 +342,20 @@ def _tmp_path(path: Path) -> Path:
     return path.with_name(f"{path.name}.tmp-{os.getpid()}")
 
 
+#: Lock files this process holds open. A forked child shares their flock, which would outlive a
+#: killed parent, so the child closes its copies (closing never unlocks the parent's descriptor).
+_HELD_LOCKS: weakref.WeakSet[IO[str]] = weakref.WeakSet()
+
+
+def _close_inherited_locks() -> None:
+    for fh in list(_HELD_LOCKS):
+        fh.close()
+    _HELD_LOCKS.clear()
+
+
+os.register_at_fork(after_in_child=_close_inherited_locks)
+
+
 def _acquire_lock(path: Path) -> IO[str]:
     """Take the writer lock of ``path`` (flock: released by the OS if the process dies)."""
     try:
@@ -361,6 +376,7 @@ def _acquire_lock(path: Path) -> IO[str]:
     fh.truncate(0)
     fh.write(f"{os.getpid()} {socket.gethostname()}\n")
     fh.flush()
+    _HELD_LOCKS.add(fh)
     for stale in sorted(path.parent.glob(f"{path.name}.tmp-*")):
         log.warning("%s: removing %s left by an interrupted write", path, stale.name)
         stale.unlink(missing_ok=True)
@@ -368,6 +384,9 @@ def _acquire_lock(path: Path) -> IO[str]:
 
 
 def _release_lock(fh: IO[str]) -> None:
+    _HELD_LOCKS.discard(fh)
+    if fh.closed:  # closed in a forked child: the lock belongs to the parent
+        return
     fh.truncate(0)
     fh.flush()
     fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
