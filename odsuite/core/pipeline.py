@@ -19,7 +19,9 @@ from __future__ import annotations
 import json
 import os
 import tempfile
+import threading
 from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from typing import Any
@@ -302,16 +304,21 @@ def chain_for_channel(ch: ChannelInfo, *, registry=None, where: str = "channel")
 BLOCK_BYTES = 1 << 19
 
 
-def _groups(chains: Sequence[Chain]) -> list[list[int]]:
+def _groups(chains: Sequence[Chain], parts: int = 1) -> list[list[int]]:
     """Indices of chains that run together as one block: the same specification, sampling rate
-    and step types, all steps batched. Other chains run alone."""
+    and step types, all steps batched (other chains run alone); each group cut into up to
+    ``parts`` consecutive pieces, so that threads can share it."""
     groups: dict[Any, list[int]] = {}
     for c, chain in enumerate(chains):
         batched = all(i.batched for i in chain.items if isinstance(i, Step))
         key = ((json.dumps(chain.spec, sort_keys=True, default=repr), chain.fs,
                 tuple(type(i) for i in chain.items)) if batched else ("alone", c))
         groups.setdefault(key, []).append(c)
-    return list(groups.values())
+    out = []
+    for members in groups.values():
+        cuts = np.linspace(0, len(members), min(parts, len(members)) + 1).round().astype(int)
+        out += [members[a:b] for a, b in zip(cuts[:-1], cuts[1:])]
+    return out
 
 
 class _Scratch:
@@ -475,36 +482,52 @@ def run_chains(chains: Sequence[Chain], n: int, read: Callable[[int, int], np.nd
                targets: Mapping[str, Sequence[tuple[int, str]]],
                write: Callable[[str, int, np.ndarray], None], *, chunk: int = DEFAULT_CHUNK,
                progress: Callable[[int, int], None] | None = None,
-               scratch_dir: str | None = None) -> None:
+               scratch_dir: str | None = None, workers: int = 1) -> None:
     """Run one chain per input column over a record of ``n`` rows, chunk by chunk.
 
     ``read(start, stop)`` returns rows of the input (rows x len(chains)); outputs named in
     ``targets`` are handed to ``write`` in whole rows (``write`` copies them: the block is
-    reused). ``progress(done, total)`` is called after each chunk (total counts every pass).
-    Chains with the same settings run together, channels x samples, in cache-sized blocks.
-    Peak memory is a few chunks, whatever ``n``.
+    reused; with ``workers`` > 1 it is called from worker threads, one call at a time).
+    ``progress(done, total)`` is called after each chunk (total counts every pass). Chains with
+    the same settings run together, channels x samples, in cache-sized blocks; ``workers``
+    threads share the channels (the filter kernel and numpy's copies release the GIL). Results
+    do not depend on ``chunk`` or ``workers``. Peak memory is a few chunks, whatever ``n``.
     """
     if chunk < 1:
         raise ConfigError(f"chunk size must be >= 1 sample, got {chunk}")
-    groups = [tuple(g) for g in _groups(chains)]
+    if workers < 1:
+        raise ConfigError(f"workers must be >= 1 thread, got {workers}")
+    groups = [tuple(g) for g in _groups(chains, workers)]
     cols = [_columns(g) for g in groups]
     segs = [chains[g[0]].segments() for g in groups]
     passes = max(len(s) for s in segs) if segs else 0
     sink = _Sink(n, targets, write, direct=passes <= 1, chunk=chunk, scratch_dir=scratch_dir)
+    lock = threading.Lock()
+    pool = ThreadPoolExecutor(min(workers, len(groups))) if workers > 1 and len(groups) > 1 else None
+
+    def each(fn: Callable[[int], int], gs: Sequence[int]) -> int:
+        """``fn`` of every group (in the pool when there is one); the largest result."""
+        return max(pool.map(fn, gs) if pool else map(fn, gs), default=0)
+
     scratch: dict[int, _Scratch] = {}
     total, done = n * passes, 0
     try:
         for p in range(passes):
             backwards = p % 2 == 1
             active = [g for g in range(len(groups)) if len(segs[g]) > p]
-            runners = {g: _SegmentRunner(segs[g][p], lambda tap, x, m=groups[g]: sink.push(m, tap, x, backwards))
-                       for g in active}
+
+            def emit(members: tuple[int, ...], tap: str, x: np.ndarray) -> None:
+                with lock:
+                    sink.push(members, tap, x, backwards)
+
+            runners = {g: _SegmentRunner(segs[g][p], lambda tap, x, m=groups[g]: emit(m, tap, x)) for g in active}
             new_scratch = {g: _Scratch(len(groups[g]), scratch_dir) for g in active if len(segs[g]) > p + 1}
 
-            def run(g: int, x: np.ndarray) -> None:
+            def run(g: int, x: np.ndarray) -> int:
                 y = runners[g].push(x)
                 if g in new_scratch:
                     new_scratch[g].append(y)
+                return x.shape[-1]
 
             if p == 0:
                 for a in range(0, n, chunk):
@@ -512,21 +535,21 @@ def run_chains(chains: Sequence[Chain], n: int, read: Callable[[int, int], np.nd
                     if block.ndim != 2 or block.shape[1] != len(chains):
                         raise DimensionError(f"input rows {a}..: expected {len(chains)} channels, "
                                              f"got shape {block.shape}")
-                    for g in active:
+
+                    def feed(g: int, block: np.ndarray = block) -> int:
                         step = max(1024, BLOCK_BYTES // (8 * len(groups[g])))
                         for s in range(0, block.shape[0], step):
                             run(g, np.array(block[s:s + step, cols[g]].T, order="C"))
+                        return block.shape[0]
+
+                    each(feed, active)
                     sink.flush()
                     done += block.shape[0]
                     if progress:
                         progress(done, total)
             else:
                 while any(scratch[g].n for g in active):
-                    step = 0
-                    for g in active:
-                        x = scratch[g].pop_back(chunk)
-                        step = max(step, x.shape[-1])
-                        run(g, x)
+                    step = each(lambda g: run(g, scratch[g].pop_back(chunk)), active)
                     sink.flush()
                     done = min(done + step, total)
                     if progress:
@@ -541,27 +564,33 @@ def run_chains(chains: Sequence[Chain], n: int, read: Callable[[int, int], np.nd
             scratch = new_scratch
         sink.close()
     finally:
+        if pool:
+            pool.shutdown()
         for s in scratch.values():
             s.close()
 
 
 def run_array(chains: Sequence[Chain], raw: np.ndarray, *, chunk: int = DEFAULT_CHUNK,
-              scratch_dir: str | None = None) -> list[dict[str, np.ndarray]]:
-    """Run one chain per column of ``raw`` (samples x channels) chunk by chunk; every tap of every
-    chain is returned (list of {tap: samples})."""
+              scratch_dir: str | None = None, workers: int = 1) -> list[dict[str, np.ndarray]]:
+    """Run one chain per column of ``raw`` (samples x channels) chunk by chunk, on ``workers``
+    threads; every tap of every chain is returned (list of {tap: samples})."""
     raw = np.asarray(raw, dtype=float)
     if raw.ndim != 2 or raw.shape[1] != len(chains):
         raise DimensionError(f"raw: expected samples x {len(chains)} channels, got shape {raw.shape}")
     n = raw.shape[0]
-    groups = _groups(chains)
+    groups = _groups(chains, workers)
     targets = {f"{g}:{t}": [(c, t) for c in members]
                for g, members in enumerate(groups) for t in chains[members[0]].taps}
-    out = {name: np.empty((len(cols), n)) for name, cols in targets.items()}
+    # one array per channel and tap: each result is contiguous and lives on its own
+    out = {name: [np.empty(n) for _ in cols] for name, cols in targets.items()}
 
     def write(name: str, start: int, block: np.ndarray) -> None:
-        out[name][:, start:start + block.shape[0]] = block.T
+        stop = start + block.shape[0]
+        for j, arr in enumerate(out[name]):
+            arr[start:stop] = block[:, j]
 
-    run_chains(chains, n, lambda a, b: raw[a:b], targets, write, chunk=chunk, scratch_dir=scratch_dir)
+    run_chains(chains, n, lambda a, b: raw[a:b], targets, write, chunk=chunk, scratch_dir=scratch_dir,
+               workers=workers)
     result: list[dict[str, np.ndarray]] = [{} for _ in chains]
     for g, members in enumerate(groups):
         for j, c in enumerate(members):
@@ -590,7 +619,7 @@ def _sensor_chain_spec(specs: Sequence[Mapping[str, Any]], ch: ChannelInfo) -> l
 
 def process_experiment(project, name: str, *, chain: Sequence[Mapping[str, Any]] | None = None,
                        progress: Callable[[int, int], None] | None = None,
-                       chunk: int = DEFAULT_CHUNK) -> dict[str, Any]:
+                       chunk: int = DEFAULT_CHUNK, workers: int | None = None) -> dict[str, Any]:
     """Process one experiment of an open (writable) project and store the results.
 
     Stores derived kind "processed": "acceleration", "velocity", "displacement" (samples x
@@ -600,6 +629,7 @@ def process_experiment(project, name: str, *, chain: Sequence[Mapping[str, Any]]
     solver "padgaonkar-nine" on the displacements) and "<body>_rigidity" (the Eq. 4.12 check on
     the accelerations). ``chain`` replaces the Table E.2 chain of every accelerometer channel by
     an explicit step list (taps "acceleration", "velocity", "displacement" name the outputs).
+    ``workers`` threads share the channels (default: one per core; the results do not change).
     Returns a summary (datasets, channels, rigidity per body).
     """
     from odsuite import __version__
@@ -661,7 +691,7 @@ def process_experiment(project, name: str, *, chain: Sequence[Mapping[str, Any]]
                 dsets[tap][start:start + block.shape[0]] = block[:, 0] if tap == "force" else block
 
             run_chains(chains, n, lambda a, b: exp.raw(a, b)[:, cols], targets, write,
-                       chunk=chunk, progress=progress)
+                       chunk=chunk, progress=progress, workers=workers or os.cpu_count() or 1)
             w.attrs.update({"channels": np.asarray(accel, dtype=np.int64),
                             "channel_names": ", ".join(exp.channel_names[k] for k in accel)})
             if project.rig is not None and "displacement" in dsets and "acceleration" in dsets:
@@ -709,25 +739,3 @@ def _gencoords(project, name, exp, dsets, accel, regs, chunk, where, version) ->
             out[body.name] = {"rigidity": rig_check.fractions, "flagged": list(rig_check.flagged),
                               "worst": rig_check.worst}
     return out
-
-
-def run_array_parallel(chains: Sequence[Chain], raw: np.ndarray, *, workers: int | None = None,
-                       chunk: int = DEFAULT_CHUNK) -> list[dict[str, np.ndarray]]:
-    """:func:`run_array` with the channels split over ``workers`` threads (default: one per core).
-
-    The filter kernel (``scipy.signal.sosfilt``'s) and numpy's copies release the GIL, so threads
-    run the channels' filters on all cores without copying the record to other processes.
-    """
-    from concurrent.futures import ThreadPoolExecutor
-
-    raw = np.asarray(raw, dtype=float)
-    if raw.ndim != 2 or raw.shape[1] != len(chains):
-        raise DimensionError(f"raw: expected samples x {len(chains)} channels, got shape {raw.shape}")
-    workers = max(1, min(workers or os.cpu_count() or 1, len(chains)))
-    bounds = np.linspace(0, len(chains), workers + 1).round().astype(int)
-    parts = [(lo, hi) for lo, hi in zip(bounds[:-1], bounds[1:]) if hi > lo]
-    if len(parts) == 1:
-        return run_array(chains, raw, chunk=chunk)
-    with ThreadPoolExecutor(len(parts)) as pool:
-        done = pool.map(lambda p: run_array(chains[p[0]:p[1]], raw[:, p[0]:p[1]], chunk=chunk), parts)
-        return [res for part in done for res in part]

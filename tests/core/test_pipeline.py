@@ -17,7 +17,6 @@ from odsuite.core.pipeline import (
     channel_chain_spec,
     process_experiment,
     run_array,
-    run_array_parallel,
 )
 from odsuite.core.systeminfo import ChannelInfo, FilterType, Integration, SensorType, Systeminfo
 
@@ -151,13 +150,15 @@ def test_channels_with_the_same_chain_run_as_one_block(registries, chunk):
         _close(got[c]["displacement"], _eq45(scipy.signal.sosfilt(sos, _eq45(acc))), rel=1e-9)
 
 
-def test_threads_equal_one_thread():
-    chains = [chain_for_channel(TABLE_E3) for _ in range(5)] + [chain_for_channel(replace(TABLE_E3, invert=False))]
+def test_threads_equal_one_thread(registries):
+    zp = replace(TABLE_E3, zero_phase=True, offset_start=250, offset_length=1200)
+    chains = ([chain_for_channel(TABLE_E3) for _ in range(5)] + [chain_for_channel(replace(TABLE_E3, invert=False))]
+              + [chain_for_channel(zp), _clip_chain(registries), chain_for_channel(zp)])
     raw = np.random.default_rng(10).standard_normal((9000, len(chains))) * 0.05
     raw[:, 5] = raw[:, 0]
     one = run_array(chains, raw, chunk=2048)
     for workers in (2, 3):
-        many = run_array_parallel(chains, raw, workers=workers, chunk=2048)
+        many = run_array(chains, raw, workers=workers, chunk=2048)
         for a, b in zip(one, many):
             assert set(a) == set(b)
             for tap in a:
