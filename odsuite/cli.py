@@ -34,12 +34,11 @@ def _root() -> None:
 @app.command("demo")
 def demo_cmd(
     out: Path = typer.Option(Path("demo-output"), "--out", help="Directory for the project, report, movie and figures."),
-    quick: bool = typer.Option(False, "--quick", help="Three shorter tests instead of five (about half the time)."),
 ) -> None:
     """The whole story on the simulated rig, no hardware: record, process, find two hidden effects."""
     from odsuite.demo import run_demo
 
-    run_demo(out, quick=quick, console=console)
+    run_demo(out, console=console)
 
 
 @app.command("plugins")

@@ -14,17 +14,16 @@ from __future__ import annotations
 import json
 import math
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from odsuite_plugins.daq_sim.hammer import Hit
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn
 from rich.table import Table
-
-from odsuite_plugins.daq_sim.hammer import Hit
 
 #: The truth's hidden effects: a 30 % stiffer vertical suspension and a platform twist mode at
 #: 640 Hz, 2 % damping (well inside the accelerometer and filter bands, beyond every rigid mode)
@@ -37,8 +36,6 @@ SCENARIOS = ("T1", "T2", "T3", "T5", "T6")
 #: T3 (20 N in the thesis) is struck at 15 N: the stiffer truth would overload accelerometer x3's range
 HITS = {"T3": (Hit(0.0, 15.0, 0.5e-3),)}
 SAMPLES = 4096
-QUICK_SCENARIOS = ("T2", "T3", "T6")
-QUICK_SAMPLES = 2048
 SAMPLING_RATE = 20_000.0
 ADC_BITS = 16
 #: at most this many rounds; the last one normally only confirms that no significant candidate is left
@@ -92,19 +89,21 @@ def effective_scales(effect_name: str, values: Mapping[str, float], model) -> di
     return {f"total_{a}": float(r) for a, r in zip("xyz", after / before)}
 
 
-def _record(project, scenarios: Sequence[str], n_samples: int, console: Console) -> None:
-    from odsuite.core.acquisition import AcquisitionSettings, acquire, rig_systeminfo
+def _record(project, console: Console) -> None:
     from odsuite_plugins.daq_sim.scenarios import scenario
     from odsuite_plugins.daq_sim.simulator import default_chains
 
+    from odsuite.core.acquisition import AcquisitionSettings, acquire, rig_systeminfo
+
     chains = {k: replace(c, adc_bits=ADC_BITS)
               for k, c in default_chains(project.rig, rig_systeminfo(project.rig, SAMPLING_RATE)).items()}
-    settings = AcquisitionSettings(sampling_rate=SAMPLING_RATE, n_samples=n_samples)
-    for i, name in enumerate(scenarios):
+    settings = AcquisitionSettings(sampling_rate=SAMPLING_RATE, n_samples=SAMPLES)
+    for i, name in enumerate(SCENARIOS):
         hits = HITS.get(name, scenario(name).hits)
         exp, rec = acquire(project, "sim", name, settings, scenario=name, hits=hits, seed=10 + i,
                            effects=[(e, dict(v)) for e, v in HIDDEN_EFFECTS], chains=chains)
-        clipped = "".join(f", [red]{n} samples of {rec.channel_names[ch]} clipped[/red]" for ch, n in rec.clipped.items())
+        clipped = "".join(f", [red]{n} samples of {rec.channel_names[ch]} clipped[/red]"
+                          for ch, n in rec.clipped.items())
         console.print(f"  {name}: {scenario(name).description}; {max(h.peak for h in hits):g} N hammer, "
                       f"{exp.n_samples} samples x {exp.n_channels} channels{clipped}", highlight=False, soft_wrap=True)
 
@@ -120,15 +119,17 @@ def _print_comparison(console: Console, doc: Mapping[str, Any]) -> None:
 
 
 def _print_candidates(console: Console, doc: Mapping[str, Any], rows: int = 6) -> None:
-    table = Table(title=f"diagnose (revision {doc['revision']}): candidate effects, best first", title_justify="left")
-    for col in ("effect", "significant", "error after", "validated", "key values"):
+    table = Table(title=f"diagnose (revision {doc['revision']}): candidate effects, best first "
+                        "(errors after the fit)", title_justify="left")
+    table.add_column("effect", no_wrap=True)
+    for col in ("signif.", "fitted", "validated", "key values"):
         table.add_column(col)
     for c in doc["candidates"][:rows]:
         validated = c["validated_error"]
         shown = [(k, v) for k, v in c["parameters"].items() if isinstance(v, float) and "/" not in k]
-        values = ", ".join(f"{k} {v:.3g}" for k, v in shown[:3]) + (", ..." if len(shown) > 3 else "")
+        values = ", ".join(f"{k} {v:.3g}" for k, v in shown[:2]) + (", ..." if len(shown) > 2 else "")
         table.add_row(c["effect"], "[green]yes[/green]" if c["significant"] else "no", f"{c['error_after']:.4f}",
-                      "-" if validated is None or validated != validated else f"{validated:.4f}",
+                      "-" if validated is None or math.isnan(validated) else f"{validated:.4f}",
                       values or "-")
     console.print(table)
     rest = doc["candidates"][rows:]
@@ -138,17 +139,18 @@ def _print_candidates(console: Console, doc: Mapping[str, Any], rows: int = 6) -
                       soft_wrap=True)
 
 
-def _write_outputs(out: Path, project_path: Path, diagnosis: Mapping[str, Any] | None, scenarios: Sequence[str],
+def _write_outputs(out: Path, project_path: Path, diagnosis: Mapping[str, Any] | None,
                    console: Console) -> dict[str, Path]:
-    """Report (when ``odsuite.core.report`` is installed), movie of one test with the model and the
-    history figure."""
+    """The history figure, a movie of one test with the model's motion and the HTML report."""
+    from odsuite_plugins.renderers.movie import render_movie
+
     from odsuite.core.comparison import experiment_coordinates
     from odsuite.core.modelrev import history, history_figure
     from odsuite.core.project import open_project
-    from odsuite_plugins.renderers.movie import render_movie
+    from odsuite.core.report import build_report
 
     files: dict[str, Path] = {}
-    movie_exp = MOVIE_EXPERIMENT if MOVIE_EXPERIMENT in scenarios else scenarios[-1]
+    movie_exp = MOVIE_EXPERIMENT
     with open_project(project_path) as p:
         files["history"] = out / "history.png"
         history_figure(history(p), files["history"])
@@ -165,12 +167,6 @@ def _write_outputs(out: Path, project_path: Path, diagnosis: Mapping[str, Any] |
     for note in movie.notes:
         console.print(f"  note: {note}", highlight=False, soft_wrap=True)
     console.print(f"  history figure: {files['history']}", highlight=False, soft_wrap=True)
-    try:
-        from odsuite.core.report import build_report
-    except ImportError:
-        console.print("  report: this installation has no HTML report module; the movie and figures above "
-                      "are the outputs", highlight=False, soft_wrap=True)
-        return files
     res = build_report(project_path, out / "report.html", diagnosis=diagnosis, run_diagnosis=False,
                        movie_experiment=movie_exp)
     files["report"] = Path(res.path)
@@ -197,12 +193,11 @@ def _summary_table(result: DemoResult, model) -> Table:
     return table
 
 
-def run_demo(out: str | Path = "demo-output", *, quick: bool = False, rounds: int = ROUNDS,
-             console: Console | None = None, progress: Callable[[str], None] | None = None) -> DemoResult:
+def run_demo(out: str | Path = "demo-output", *, rounds: int = ROUNDS, console: Console | None = None) -> DemoResult:
     """Run the demo into directory ``out`` (its ``demo.h5``, report, movie and figures are replaced).
 
-    ``quick``: three tests of 2048 samples instead of five of 4096 (for tests). ``rounds``: at most
-    this many diagnose/add-effect rounds; the loop stops earlier when no candidate is significant.
+    ``rounds``: at most this many diagnose/add-effect rounds; the loop stops earlier when no
+    candidate is significant.
     """
     from odsuite.core.comparison import compare, prepare
     from odsuite.core.diagnosis import add_effect, diagnose
@@ -217,8 +212,6 @@ def run_demo(out: str | Path = "demo-output", *, quick: bool = False, rounds: in
     path = out / PROJECT_NAME
     for old in [path, out / "hidden-truth.json"]:
         old.unlink(missing_ok=True)
-    scenarios = QUICK_SCENARIOS if quick else SCENARIOS
-    n_samples = QUICK_SAMPLES if quick else SAMPLES
 
     _step(console, 1, "a project on the thesis rig", started)
     p = create_project(path, "thesis-dynamometer")
@@ -228,9 +221,9 @@ def run_demo(out: str | Path = "demo-output", *, quick: bool = False, rounds: in
                       f"springs), modes {', '.join(f'{f:.0f}' for f in modes)} Hz", highlight=False, soft_wrap=True)
 
         _step(console, 2, "impact tests on the simulated rig", started)
-        console.print(f"  {len(scenarios)} hammer tests at {SAMPLING_RATE:g} Hz, {ADC_BITS}-bit ADC; the simulated "
+        console.print(f"  {len(SCENARIOS)} hammer tests at {SAMPLING_RATE:g} Hz, {ADC_BITS}-bit ADC; the simulated "
                       "rig differs from the model in two ways the loop has to find", highlight=False, soft_wrap=True)
-        _record(p, scenarios, n_samples, console)
+        _record(p, console)
 
         _step(console, 3, "process to generalized coordinates", started)
         for name in p.experiment_names():
@@ -260,8 +253,6 @@ def run_demo(out: str | Path = "demo-output", *, quick: bool = False, rounds: in
 
         def report(what: str, i: int = 0, n: int = 0) -> None:
             bar.update(task, description=what, completed=i, total=n or None)
-            if progress:
-                progress(what)
 
         exps = prepare(p)
         for r in range(1, rounds + 1):
@@ -281,23 +272,22 @@ def run_demo(out: str | Path = "demo-output", *, quick: bool = False, rounds: in
             added.append(best["effect"])
             errors.append(res["error"])
             console.print(f"  add-effect {best['effect']}: revision {res['revision']}, error "
-                          f"{res['previous_error']:.4f} -> [bold]{res['error']:.4f}[/bold]", highlight=False, soft_wrap=True)
-        final = compare(p, prepared=exps).as_dict()
-        console.print(f"  final: error {final['error']:.4f} (noise floor {final['noise_floor_error']:.4f})",
-                      highlight=False)
+                          f"{res['previous_error']:.4f} -> [bold]{res['error']:.4f}[/bold]", highlight=False,
+                          soft_wrap=True)
         found = {e["effect"]: dict(e["values"]) for e in current_revision(p).get("effects", [])}
         base = revision_model(p, {"effects": []}).shared
-    console.print("  error per revision: " + " -> ".join(f"{e:.3f}" for e in errors), highlight=False, soft_wrap=True)
+    console.print("  error per revision: " + " -> ".join(f"{e:.3f}" for e in errors) + f" (noise floor {noise:.4f})",
+                  highlight=False, soft_wrap=True)
 
     _step(console, 5, "report, movie and history figure", started)
-    files = _write_outputs(out, path, diagnosis_doc, scenarios, console)
+    files = _write_outputs(out, path, diagnosis_doc, console)
 
     _step(console, 6, "what was hidden and what was found", started)
     hidden = {e: dict(v) for e, v in HIDDEN_EFFECTS}
     truth_file = out / "hidden-truth.json"
     truth_file.write_text(json.dumps({
         "effects": [{"effect": e, "values": v} for e, v in hidden.items()],
-        "scenarios": list(scenarios), "n_samples": n_samples, "sampling_rate_hz": SAMPLING_RATE,
+        "scenarios": list(SCENARIOS), "n_samples": SAMPLES, "sampling_rate_hz": SAMPLING_RATE,
         "adc_bits": ADC_BITS}, indent=2) + "\n")
     files["hidden_truth"] = truth_file
     result = DemoResult(out=out, project=path, errors=errors, noise_floor=noise, added=added, found=found,
