@@ -51,6 +51,32 @@ CONFOUNDED_COSINE = 0.9
 HEADS_S = (0.01, 0.04)
 
 
+#: fits stop where the measured response has decayed into the noise: the record after that point
+#: holds less excess energy (above the noise) than this fraction of the record's noise energy
+TAIL_FRACTION = 0.05
+#: ... plus a margin of this fraction of the response's length, and at least WINDOW_MIN_S
+WINDOW_MARGIN = 0.25
+WINDOW_MIN_S = 0.04
+
+
+def fit_windows(exps: Sequence[PreparedExperiment]) -> list[PreparedExperiment]:
+    """Each experiment cut where its response has died away into the noise (a hammer response
+    decays within tens of milliseconds of records that last far longer): fits and screening see
+    the same information for a fraction of the cost. The sum of squares of the rest is added back
+    where an error is reported."""
+    out = []
+    for e in exps:
+        power = np.sum(e.measured**2, axis=1)
+        var = float(np.sum(e.noise_var))
+        n = len(power)
+        tail = np.cumsum(power[::-1])[::-1] - (n - np.arange(n)) * var
+        above = np.flatnonzero(tail > TAIL_FRACTION * n * var)
+        last = int(above[-1]) if above.size else e.trigger
+        end = last + max(WINDOW_MARGIN * max(last - e.trigger, 0), WINDOW_MIN_S * e.fs)
+        out.append(e.head(int(math.ceil(end))))
+    return out
+
+
 def heads(exps: Sequence[PreparedExperiment]) -> list[list[PreparedExperiment]]:
     """The experiments cut to each of HEADS_S after their hit, then whole."""
     stages = [[e.head(e.trigger + int(round(t * e.fs))) for e in exps] for t in HEADS_S]
@@ -93,8 +119,12 @@ class Problem:
     """Residuals of one candidate effect on top of the current revision, over all experiments."""
 
     def __init__(self, base: RevisionModel, effect, exps: Sequence[PreparedExperiment],
-                 fixed: Mapping[str, float] | None = None, prior: float = 0.0, stride: int = 1) -> None:
+                 fixed: Mapping[str, float] | None = None, prior: float = 0.0, stride: int = 1,
+                 full: Sequence[PreparedExperiment] | None = None) -> None:
         self.base = base
+        # ``exps`` are what the fit sees (usually fit windows); ``full`` the whole records they
+        # were cut from, for reported errors
+        self.full = list(full) if full is not None else list(exps)
         # fits see every stride-th sample: the signals are band-limited far below Nyquist, so the
         # sum of squares keeps its shape while the Jacobian shrinks
         self.stride = stride
@@ -162,6 +192,16 @@ class Problem:
         r = self.residual(u, exps, stride=1)
         return float(r @ r)
 
+    def tail_sse(self, u: np.ndarray) -> float:
+        """Sum of squares of the records outside the fit windows (nearly all noise)."""
+        if all(f is e for f, e in zip(self.full, self.exps)):
+            return 0.0
+        return self.sse(u, self.full) - self.sse(u)
+
+    def derived(self, fixed: Mapping[str, float]) -> Problem:
+        """The same problem with other parameters fixed."""
+        return Problem(self.base, self.effect, self.exps, fixed, self.prior, self.stride, self.full)
+
     def jacobian(self, u: np.ndarray, r0: np.ndarray, **kw) -> np.ndarray:
         J = np.empty((r0.size, len(self.free)))
         for i, f in enumerate(self.free):
@@ -192,13 +232,21 @@ def _lm_step(problem: Problem, J: np.ndarray, r: np.ndarray, u: np.ndarray, exps
     """The first damped Gauss-Newton step (r = measured - model, J = d model / d u) that lowers
     the error on ``exps``, clipped to the bounds; ``u`` when none does."""
     lo, hi = problem.lower_upper()
-    JtJ = J.T @ J + problem.prior * np.eye(len(u))
-    g = J.T @ r - problem.prior * u
+    # parameters the residual cannot see here stay put (a mode's frequency while its amplitudes are
+    # zero): the linearisation says nothing about them
+    act = ~_tiny(J, r)
+    if not act.any():
+        return u
+    Ja, ua = J[:, act], u[act]
+    JtJ = Ja.T @ Ja + problem.prior * np.eye(len(ua))
+    g = Ja.T @ r - problem.prior * ua
     diag = np.diag(JtJ).copy()
     diag[diag <= 0] = max(float(diag.max(initial=0.0)), 1e-300)
     cost = float(r @ r) + problem.prior * float(u @ u)
     for lam in LM_DAMPING:
-        u1 = np.clip(u + np.linalg.solve(JtJ + lam * np.diag(diag), g), lo, hi)
+        u1 = u.copy()
+        u1[act] += np.linalg.solve(JtJ + lam * np.diag(diag), g)
+        u1 = np.clip(u1, lo, hi)
         if float(np.sum(problem.residual(u1, exps) ** 2)) + problem.prior * float(u1 @ u1) < cost:
             return u1
     return u
@@ -217,12 +265,18 @@ class Screened:
     problem: Problem
 
 
+def _tiny(J: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Columns of a Jacobian that are zero (but for round-off) next to the others and the residual."""
+    norms = np.linalg.norm(J, axis=0)
+    scale = max(float(np.max(norms, initial=0.0)), float(np.linalg.norm(r)))
+    return norms <= 1e-7 * (scale if scale > 0 else 1.0)
+
+
 def _grid_starts(problem: Problem, r0: np.ndarray, J: np.ndarray, peaks_hz: Sequence[float]) -> list[np.ndarray]:
     """Starting points for parameters the residual cannot see at their nominal value: frequencies
     (unit Hz) and periods (unit s) from the residual's peaks and a logarithmic grid."""
     starts = []
-    norms = np.linalg.norm(J, axis=0)
-    tiny = norms <= 1e-9 * (np.max(norms) if norms.size and np.max(norms) > 0 else 1.0)
+    tiny = _tiny(J, r0)
     for i, f in enumerate(problem.free):
         if not tiny[i] or f.param.unit not in ("Hz", "s") or f.experiment is not None:
             continue
@@ -238,6 +292,28 @@ def _grid_starts(problem: Problem, r0: np.ndarray, J: np.ndarray, peaks_hz: Sequ
                 u[i] = (c - f.param.nominal) / f.scale
                 starts.append(u)
     return starts
+
+
+def _activation(problem: Problem, start: np.ndarray, r: np.ndarray, J: np.ndarray, exps
+                ) -> tuple[int, float] | None:
+    """Products of amplitudes (a mode's participation at a sensor times at the force point) are
+    invisible at zero, one at a time. Among the amplitudes (nominal 0) that are still invisible at
+    ``start``, the one whose Jacobian column is largest when all of them are moved at once couples
+    to the most others: moved alone, it makes the rest linear. Returns its index and value."""
+    tiny = _tiny(J, r)
+    amp = [i for i, f in enumerate(problem.free)
+           if tiny[i] and f.param.nominal == 0 and f.param.unit not in ("Hz", "s") and f.experiment is None]
+    if len(amp) < 2:
+        return None
+    lo, hi = problem.lower_upper()
+    probe = start.copy()
+    probe[amp] = np.minimum(0.1 * (hi[amp] - lo[amp]), hi[amp])
+    Jp = problem.jacobian(probe, problem.residual(probe, exps), exps=exps)
+    norms = np.linalg.norm(Jp[:, amp], axis=0)
+    if not np.max(norms) > 0:
+        return None
+    k = amp[int(np.argmax(norms))]
+    return k, float(probe[k])
 
 
 def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened:
@@ -256,8 +332,7 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
             for c in p.choices:
                 if c == p.nominal:
                     continue
-                trial = Problem(problem.base, effect, problem.exps, {**chosen, p.name: c}, problem.prior,
-                                problem.stride)
+                trial = problem.derived({**chosen, p.name: c})
                 sse = trial.sse(trial.zero())
                 if trial_best is None or sse < trial_best[0]:
                     trial_best = (sse, p.name, c)
@@ -267,7 +342,7 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
         chosen[trial_best[1]] = trial_best[2]
         best_fixed = dict(chosen)
     if best_fixed:
-        problem = Problem(problem.base, effect, problem.exps, best_fixed, problem.prior, problem.stride)
+        problem = problem.derived(best_fixed)
     if problem.free:
         stages = heads(problem.exps)
         first = stages[0]
@@ -276,9 +351,17 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
         J0 = problem.jacobian(u0, r0, exps=first)
         # the best start on the shortest head, then one damped step on each longer head
         best_start, best_head = u0, float(r0 @ r0)
+        activation: tuple[int, float] | None = None
         for start in [u0] + _grid_starts(problem, r0, J0, peaks_hz):
             r = r0 if start is u0 else problem.residual(start, first)
             J = J0 if start is u0 else problem.jacobian(start, r, exps=first)
+            if start is not u0:
+                activation = activation or _activation(problem, start, r, J, first)
+                if activation is not None and _tiny(J, r)[activation[0]]:
+                    start = start.copy()
+                    start[activation[0]] = activation[1]
+                    r = problem.residual(start, first)
+                    J = problem.jacobian(start, r, exps=first)
             u = _lm_step(problem, J, r, start, first)
             sse = float(np.sum(problem.residual(u, first) ** 2))
             if sse < best_head:
@@ -513,11 +596,14 @@ class Diagnosis:
 
 
 def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: float, noise: float,
-                   peaks, rigidity, modes_before) -> Candidate:
+                   peaks, rigidity, modes_before, tail0: float = 0.0) -> Candidate:
+    """Fit, validate and describe one screened candidate. Sums of squares of ``screened`` are over
+    the fit windows; ``tail0`` is the rest of the records' at the nominal model, ``sse0`` whole."""
     problem = screened.problem
     effect = problem.effect
     if problem.free:
-        res = fit(problem, screened.u0)
+        # screening has already stepped through the short heads to the whole windows
+        res = fit(problem, screened.u0, continuation=False)
         u = res.x
         sds, corr, groups = _uncertainties(problem, res, n_eff)
         unident = [f.label for f, sd in zip(problem.free, sds)
@@ -527,10 +613,9 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
             held = {f.param.name: f.param.nominal for f in problem.free
                     if f.label in unident and f.experiment is None}
             if held:
-                problem = Problem(problem.base, effect, exps, {**screened.fixed, **held}, problem.prior,
-                                  problem.stride)
+                problem = problem.derived({**screened.fixed, **held})
                 keep = [i for i, f in enumerate(screened.problem.free) if f.param.name not in held]
-                res = fit(problem, u[keep])
+                res = fit(problem, u[keep], continuation=False)
                 u = res.x
                 sds, corr, groups = _uncertainties(problem, res, n_eff)
         sse = problem.sse(u)
@@ -543,6 +628,9 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         u = problem.zero()
         sse = screened.sse
         sds, unident, confounded = np.zeros(0), [], []
+    sse_win = sse
+    tail = problem.tail_sse(u)
+    sse += tail
     shared, per = problem.values(u)
     params: dict[str, float | None] = {}
     uncert: dict[str, float | None] = {}
@@ -557,6 +645,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         params[name] = c
         uncert[name] = None
     sse_val, how = _validate(problem, u, res if problem.free else None)
+    sse_val += tail
     k = len(problem.free) + len(problem.fixed)
     bic = n_eff * math.log(max(sse_val, 1e-300) / den) + k * math.log(n_eff)
     modes_after = None
@@ -565,11 +654,11 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
     cand = Candidate(
         effect=effect.name, significant=False, error_after=math.sqrt(sse / den),
         validated_error=math.sqrt(sse_val / den), parameters=params, uncertainties=uncert, units=units,
-        evidence="", n_parameters=k, bic=bic, screened_error=math.sqrt(screened.sse / den),
+        evidence="", n_parameters=k, bic=bic, screened_error=math.sqrt((screened.sse + tail0) / den),
         unidentifiable=unident, confounded_parameters=confounded, validation=how,
         per_experiment=per, values={n: v for n, v in shared.items()},
     )
-    cand._problem, cand._u = problem, u  # kept for the confounding check
+    cand._problem, cand._u, cand._sse_win = problem, u, sse_win  # kept for the confounding check
     baseline = math.sqrt(sse0 / den)
     cand.evidence = _evidence(problem, cand, baseline, noise, peaks, rigidity, modes_before, modes_after)
     return cand
@@ -599,9 +688,12 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     if not names:
         raise ConfigError(f"{project.path}: no candidate effects left to try (registered: "
                           f"{', '.join(regs.effects.names()) or 'none'})")
-    cmp = compare(project, revision=rev, prepared=exps)
+    cmp = compare(project, revision=rev, prepared=exps, resonances=False)
     den = sum(float(np.sum(e.measured**2)) for e in exps)
     sse0 = cmp.error**2 * den
+    windows = fit_windows(exps)
+    sse0_win = sum(float(np.sum((w.measured - predict(base.for_experiment(w.name), w)) ** 2)) for w in windows)
+    tail0 = max(sse0 - sse0_win, 0.0)
     noise = noise_floor_error(exps)
     n_eff, f99 = _effective_samples(exps)
     stride = max(1, int(exps[0].fs / (5.0 * f99)))
@@ -620,29 +712,40 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
             progress(f"screening {name}", i, len(names))
         effect = regs.effects.get(name)
         try:
-            problem = Problem(base, effect, exps, prior=prior / stride, stride=stride)
+            problem = Problem(base, effect, windows, prior=prior / stride, stride=stride, full=exps)
         except ConfigError:
             continue  # the effect does not apply to this rig (e.g. no base plate)
-        s = screen(problem, sse0, peak_hz)
-        evaluations += problem.evaluations + s.problem.evaluations
+        s = screen(problem, sse0_win, peak_hz)
+        evaluations += problem.evaluations + (s.problem.evaluations if s.problem is not problem else 0)
         screened.append(s)
     screened.sort(key=lambda s: s.sse)
     candidates: list[Candidate] = []
     top = screened[:full_fits]
+    best_win = sse0_win
+    fitted = []
     for i, s in enumerate(top):
+        # a candidate whose screening took up less than half of what the best fit so far explains
+        # cannot compete: screening only ranks it
+        if i and s.sse > best_win + 0.5 * (sse0_win - best_win):
+            continue
+        fitted.append(s)
         if progress:
             progress(f"fitting {s.effect.name}", i, len(top))
-        cand = _fit_candidate(s, exps, sse0, den, n_eff, noise, peaks, rigidity, modes_before)
+        cand = _fit_candidate(s, windows, sse0, den, n_eff, noise, peaks, rigidity, modes_before, tail0)
+        best_win = min(best_win, cand._sse_win)
         evaluations += cand._problem.evaluations
         bic0 = n_eff * math.log(max(sse0, 1e-300) / den)
         cand.significant = is_significant(cmp.error, cand.validated_error, noise, bic0 - cand.bic)
         candidates.append(cand)
-    for s in screened[full_fits:]:
+    for s in screened:
+        if any(s is f for f in fitted):
+            continue
+        err = math.sqrt((s.sse + tail0) / den)
         candidates.append(Candidate(
-            effect=s.effect.name, significant=False, error_after=math.sqrt(s.sse / den),
+            effect=s.effect.name, significant=False, error_after=err,
             validated_error=float("nan"), parameters={}, uncertainties={}, units={},
-            evidence=f"screening only: one linearised step reaches error {math.sqrt(s.sse / den):.3g}",
-            n_parameters=len(s.problem.free), bic=float("inf"), screened_error=math.sqrt(s.sse / den),
+            evidence=f"screening only: one linearised step reaches error {err:.3g}",
+            n_parameters=len(s.problem.free), bic=float("inf"), screened_error=err,
             fitted=False))
     _mark_confounded([c for c in candidates if c.fitted], exps)
     candidates.sort(key=lambda c: (not c.significant, c.bic if c.fitted else math.inf, c.screened_error))
@@ -733,18 +836,21 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     n_eff, f99 = _effective_samples(exps)
     stride = max(1, int(exps[0].fs / (5.0 * f99)))
     prior = 1e-3 * max(noise**2, 1e-8) * den / stride
-    before = compare(project, revision=rev, prepared=exps).error
+    cmp = compare(project, revision=rev, prepared=exps, resonances=False)
+    before = cmp.error
+    windows = fit_windows(exps)
     if progress:
         progress(f"screening {name}", 0, 3)
     current = revision_model(project, {**rev, "effects": entries})
-    single = Problem(current, effect, exps, prior=prior, stride=stride)
-    screened = screen(single, single.sse(single.zero()), [])
+    single = Problem(current, effect, windows, prior=prior, stride=stride, full=exps)
+    screened = screen(single, single.sse(single.zero()),
+                      [p["frequency_hz"] for p in cmp.residual_peaks if p["lacking"]])
     joint_effects = [regs.effects.get(e["effect"]) for e in entries] + [effect]
     fixed = {f"{e['effect']}.{k}": v for e in entries for k, v in e.get("values", {}).items()
              if any(p.name == k and p.choices for p in regs.effects.get(e["effect"]).parameters(current.shared))}
     fixed.update({f"{name}.{k}": v for k, v in screened.fixed.items()})
-    joint = Problem(RevisionModel(base_model(project.rig, rev.get("model"))), _Joint(joint_effects), exps,
-                    fixed, prior, stride)
+    joint = Problem(RevisionModel(base_model(project.rig, rev.get("model"))), _Joint(joint_effects), windows,
+                    fixed, prior, stride, full=exps)
     u0 = _start(joint, entries)
     for i, f in enumerate(joint.free):  # the new effect starts where screening left it
         if f.param.name.startswith(f"{name}."):
@@ -772,7 +878,7 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     if progress:
         progress("comparing", 2, 3)
     candidate_rev = {"model": rev.get("model"), "effects": new_entries}
-    after = compare(project, revision=candidate_rev, prepared=exps)
+    after = compare(project, revision=candidate_rev, prepared=exps, resonances=False)
     metrics = {"error": after.error, "noise_floor_error": after.noise_floor_error, "added": name,
                "previous_error": before}
     n = project.add_model_revision(new_entries, flat, metrics, rev["revision"], model=rev.get("model"))

@@ -1,0 +1,128 @@
+"""The diagnosis finds effects hidden in the simulator's truth (the model starts without them).
+
+For each hidden effect: it is the top significant candidate (or named among the confounded set of
+the top one, for effects that mimic each other), and after ``add_effect`` the error is within 2x of
+the error of the true model (a revision holding the hidden effect at its true values). With nothing
+hidden, no candidate is significant. The long matrix over every built-in effect is marked slow.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+from pathlib import Path
+
+import pytest
+
+from hidden_effects import CASES, make_project
+
+@pytest.fixture(scope="module")
+def hidden(tmp_path_factory):
+    """``hidden(key, effects)``: a working copy of a generated project, generated once per module."""
+    store = tmp_path_factory.mktemp("hidden")
+    made: dict[str, Path] = {}
+    count = [0]
+
+    def get(key: str, effects) -> Path:
+        if key not in made:
+            made[key] = make_project(store / f"{key}.odsp", effects)
+        count[0] += 1
+        work = store / f"work{count[0]}-{key}.odsp"
+        shutil.copy(made[key], work)
+        return work
+
+    return get
+
+
+def _true_error(project, effects, exps) -> float:
+    from odsuite.core.comparison import compare
+
+    rev = {"model": None, "effects": [{"effect": n, "values": dict(v), "per_experiment": {}} for n, v in effects]}
+    return compare(project, revision=rev, prepared=exps).error
+
+
+def _check_found(path: Path, effects) -> None:
+    """Rounds of diagnose + add_effect of the top candidate find every hidden effect, and the
+    error ends within 2x of the true model's."""
+    from odsuite.core.comparison import prepare
+    from odsuite.core.diagnosis import add_effect, diagnose
+    from odsuite.core.project import open_project
+
+    hidden = {n for n, _ in effects}
+    with open_project(path, "a") as p:
+        exps = prepare(p)
+        true_error = _true_error(p, effects, exps)
+        found: set[str] = set()
+        for _ in effects:
+            d = diagnose(p, prepared=exps)
+            top = d.candidates[0]
+            assert top.significant, [(c.effect, c.error_after, c.validated_error) for c in d.candidates[:4]]
+            named = ({top.effect} | set(top.confounded_with)) & (hidden - found)
+            assert named, (f"top {top.effect} (confounded with {top.confounded_with}) is not one of "
+                           f"{sorted(hidden - found)}")
+            if top.effect not in hidden:
+                # a stand-in may only be named when the diagnosis says it is confounded
+                assert top.confounded_with
+            found |= named
+            result = add_effect(p, top.effect)
+            assert result["error"] < result["previous_error"]
+        assert found == hidden
+        assert d.baseline_error > 3 * true_error  # the hidden effect was clearly detectable
+        assert result["error"] <= 2 * true_error, (result["error"], true_error)
+        assert math.isclose(result["noise_floor_error"], d.noise_floor_error, rel_tol=1e-9)
+
+
+def test_nominal_truth_nothing_significant(hidden):
+    """Nothing hidden: the rigid model is the truth and no candidate may claim an improvement."""
+    from odsuite.core.diagnosis import diagnose
+    from odsuite.core.project import open_project
+
+    with open_project(hidden("nominal", []), "r") as p:
+        d = diagnose(p)
+    assert [c.effect for c in d.candidates if c.significant] == []
+    # the fitted candidates cannot beat the baseline by more than the noise allows
+    for c in d.candidates:
+        if c.fitted:
+            assert d.baseline_error**2 - c.validated_error**2 < max(d.noise_floor_error**2, 1e-4)
+    doc = d.as_dict()
+    assert doc["model_evaluations"] == d.evaluations > 0
+    assert {c["effect"] for c in doc["candidates"]} >= {"stiffness", "plate_flexibility", "sensor_gain"}
+
+
+@pytest.mark.parametrize("name", ["stiffness", "plate_flexibility"])
+def test_hidden_effect_found(hidden, name):
+    effects = [(name, CASES[name])]
+    _check_found(hidden(name, effects), effects)
+
+
+def test_fitted_values_near_truth(hidden):
+    """The top candidate's fitted parameters reproduce the hidden stiffness change: the z bounce
+    frequency of the fitted model matches the true model's within 1 %."""
+    from odsuite.core.diagnosis import diagnose
+    from odsuite.core.modelrev import base_model
+    from odsuite.core.plugins import registries
+    from odsuite.core.project import open_project
+
+    effects = [("stiffness", CASES["stiffness"])]
+    with open_project(hidden("stiffness", effects), "r") as p:
+        d = diagnose(p, effects=["stiffness", "damping"])
+        model = base_model(p.rig)
+    top = d.candidates[0]
+    assert top.effect == "stiffness" and top.significant
+    eff = registries().effects.get("stiffness")
+    true_modes = eff.apply(model, CASES["stiffness"]).modes().frequency_hz
+    fitted_modes = eff.apply(model, top.values).modes().frequency_hz
+    assert abs(fitted_modes / true_modes - 1).max() < 0.01
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", [n for n in CASES if n not in ("stiffness", "plate_flexibility")])
+def test_hidden_effect_matrix(hidden, name):
+    effects = [(name, CASES[name])]
+    _check_found(hidden(name, effects), effects)
+
+
+@pytest.mark.slow
+def test_two_hidden_effects_two_rounds(hidden):
+    effects = [("plate_flexibility", CASES["plate_flexibility"]), ("stiffness", CASES["stiffness"])]
+    _check_found(hidden("plate_flexibility+stiffness", effects), effects)
