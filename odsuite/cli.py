@@ -358,9 +358,9 @@ def render_cmd(
     slowdown: float = typer.Option(None, "--slowdown", help="Slow-motion factor: movie time / real time."),
 ) -> None:
     """Wireframe movie of an experiment's plates, or the thesis projection / comparison figures."""
-    from odsuite_plugins.renderers.experiment import parse_pair, render_experiment
+    from odsuite_plugins.renderers.experiment import parse_magnify, render_experiment
 
-    res = render_experiment(project, experiment, output, model=model, magnify=parse_pair(magnify, "--magnify"),
+    res = render_experiment(project, experiment, output, model=model, magnify=parse_magnify(magnify),
                             view=view, figure=figure, workers=workers, frame_step=frame_step,
                             slowdown=slowdown)
     if figure is None:

@@ -27,14 +27,14 @@ _AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 COD_POINTS = {"center": "_at_g", "corner": "_at_c"}
 
 
-def _three_numbers(value: str | Sequence[float], option: str) -> np.ndarray:
+def _three_numbers(value: str | Sequence[float], option: str, expected: str = "three numbers X,Y,Z") -> np.ndarray:
     parts = value.split(",") if isinstance(value, str) else list(value)
     try:
         numbers = np.array([float(p) for p in parts], dtype=float)
     except (TypeError, ValueError):
-        raise ConfigError(f"{option}: expected three numbers X,Y,Z, got {value!r}") from None
+        raise ConfigError(f"{option}: expected {expected}, got {value!r}") from None
     if numbers.shape != (3,):
-        raise ConfigError(f"{option}: expected three numbers X,Y,Z, got {value!r}")
+        raise ConfigError(f"{option}: expected {expected}, got {value!r}")
     if not np.all(np.isfinite(numbers)):
         raise ConfigError(f"{option}: expected finite numbers, got {value!r}")
     return numbers
@@ -52,7 +52,8 @@ def parse_force_direction(value: str | Sequence[float]) -> np.ndarray:
         sign, axis = (text[0], text[1:]) if text[:1] in "+-" and len(text) == 2 else ("+", text)
         if axis in _AXES:
             return np.array(_AXES[axis]) * (-1.0 if sign == "-" else 1.0) + 0.0  # no -0.0
-    vector = _three_numbers(value, "--force-dir")
+    vector = _three_numbers(value, "--force-dir",
+                            "an axis +x, -x, +y, -y, +z, -z or three numbers dx,dy,dz")
     norm = math.hypot(*vector)
     if norm == 0:
         raise ConfigError(f"--force-dir: the zero vector {value!r} has no direction")

@@ -224,7 +224,8 @@ def _validate_channel(ch: ChannelInfo, k: int, source: str | Path, n_samples: in
     if fs != fs0:
         raise ConfigError(f"{at(7)}: sampling rate {fs!r} Hz differs from channel 0's {fs0!r} Hz")
     if sensor_type is not SensorType.NONE and (not _finite(ch.sensitivity) or ch.sensitivity <= 0):
-        raise ConfigError(f"{at(3)}: sensitivity must be > 0 on a {sensor_type.name.lower()} channel, "
+        kind = sensor_type.name.lower()
+        raise ConfigError(f"{at(3)}: sensitivity must be > 0 on {'an' if kind[0] in 'aeiou' else 'a'} {kind} channel, "
                           f"got {ch.sensitivity!r} V/{ch.unit}")
     if not _finite(ch.daq_gain) or ch.daq_gain <= 0:
         raise ConfigError(f"{at(17)}: DAQ gain must be > 0, got {ch.daq_gain!r}")

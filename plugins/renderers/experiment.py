@@ -5,6 +5,7 @@ as the measurement)."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -39,6 +40,15 @@ def parse_pair(text: str | None, what: str) -> tuple[float, float] | None:
     except ValueError:
         raise ConfigError(f"{what}: expected two numbers 'A,B', got {text!r}") from None
     return (a, b)
+
+
+def parse_magnify(text: str | None) -> tuple[float, float] | None:
+    """``--magnify`` 'H_t,H_r' -> (H_t, H_r), both finite and >= 0 (a negative factor would mirror
+    the motion); None stays None."""
+    pair = parse_pair(text, "--magnify")
+    if pair is not None and not all(math.isfinite(v) and v >= 0 for v in pair):
+        raise ConfigError(f"--magnify: magnification factors must be finite numbers >= 0, got {text!r}")
+    return pair
 
 
 def render_experiment(

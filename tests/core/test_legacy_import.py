@@ -82,7 +82,7 @@ def test_force_point_and_direction_parsing():
     ("a,b,c", "+z", r"--force-point: expected three numbers X,Y,Z, got 'a,b,c'"),
     ("nan,0,0", "+z", r"--force-point: expected finite numbers, got 'nan,0,0'"),
     ("0,0,0", "0,0,0", r"--force-dir: the zero vector '0,0,0' has no direction"),
-    ("0,0,0", "+w", r"--force-dir: expected three numbers X,Y,Z, got '\+w'"),
+    ("0,0,0", "+w", r"--force-dir: expected an axis \+x, -x, \+y, -y, \+z, -z or three numbers dx,dy,dz, got '\+w'"),
     ("0,0,0", "inf,0,0", r"--force-dir: expected finite numbers, got 'inf,0,0'"),
 ])
 def test_bad_excitation_options(project, legacy_set, point, direction, message):

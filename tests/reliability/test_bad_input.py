@@ -175,7 +175,7 @@ CASES: list[Case] = [
          files={"bad.CTR": ctr_with(6, 6, "2.5")}),
     Case("ctr-nine-channels", "row 33 lists 8 channels", '{dir}/bad.CTR: row 33 (nine-accelerometer channel assignment), channel 8: missing value', argv=legacy(), files={"bad.CTR": ctr_with(33, 8, "-")}),
     # Systeminfo checks, through the .CTR or the API
-    Case("si-zero-sensitivity", "accelerometer channel 2 with sensitivity 0 mV/unit", '{dir}/bad.CTR: row 3 (sensitivity), channel 2: sensitivity must be > 0 on a accelerometer channel, got 0.0 V/m/s^2', argv=legacy(),
+    Case("si-zero-sensitivity", "accelerometer channel 2 with sensitivity 0 mV/unit", '{dir}/bad.CTR: row 3 (sensitivity), channel 2: sensitivity must be > 0 on an accelerometer channel, got 0.0 V/m/s^2', argv=legacy(),
          files={"bad.CTR": ctr_with(3, 2, "0")}),
     Case("si-rate-mismatch", "channel 3 sampled at 10000 Hz, channel 0 at 20000 Hz", "{dir}/bad.CTR: row 7 (sampling frequency), channel 3: sampling rate 10000.0 Hz differs from channel 0's 20000.0 Hz", argv=legacy(),
          files={"bad.CTR": ctr_with(7, 3, "10000")}),
@@ -219,7 +219,7 @@ CASES: list[Case] = [
     Case("force-point-text", "--force-point=a,b,c", "--force-point: expected three numbers X,Y,Z, got 'a,b,c'", argv=legacy(ctr="good.CTR", point="a,b,c")),
     Case("force-point-nan", "--force-point=nan,0,0", "--force-point: expected finite numbers, got 'nan,0,0'", argv=legacy(ctr="good.CTR", point="nan,0,0")),
     Case("force-dir-zero", "--force-dir=0,0,0", "--force-dir: the zero vector '0,0,0' has no direction", argv=legacy(ctr="good.CTR", direction="0,0,0")),
-    Case("force-dir-axis", "--force-dir=+w", "--force-dir: expected three numbers X,Y,Z, got '+w'", argv=legacy(ctr="good.CTR", direction="+w")),
+    Case("force-dir-axis", "--force-dir=+w", "--force-dir: expected an axis +x, -x, +y, -y, +z, -z or three numbers dx,dy,dz, got '+w'", argv=legacy(ctr="good.CTR", direction="+w")),
     Case("experiment-exists", "--name of an experiment the project holds", "{dir}/p.h5: experiment 'e1' already exists; choose another name", argv=legacy(ctr="good.CTR", name="e1")),
     Case("experiment-slash", "--name a/b", "{dir}/p.h5: experiment name must be a non-empty string without '/' and not starting with '.', got 'a/b'", argv=legacy(ctr="good.CTR", name="a/b")),
     Case("unknown-experiment", "process --experiment nosuch", "{dir}/p.h5: no experiment named 'nosuch' (experiments: e1)",
@@ -235,6 +235,8 @@ CASES: list[Case] = [
          argv=lambda d: ["render", str(d / "p.h5"), "e1", "-o", str(d / "m.gif"), "--magnify", "5"]),
     Case("magnify-text", "render --magnify big,2", "--magnify: expected two numbers 'A,B', got 'big,2'",
          argv=lambda d: ["render", str(d / "p.h5"), "e1", "-o", str(d / "m.gif"), "--magnify", "big,2"]),
+    Case("magnify-negative", "render --magnify=-5,2", "--magnify: magnification factors must be finite numbers >= 0, got '-5,2'",
+         argv=lambda d: ["render", str(d / "p.h5"), "e1", "-o", str(d / "m.gif"), "--magnify=-5,2"]),
     Case("not-a-project", "info on a text file", '{dir}/notes.h5: not an HDF5 file, so not an odsuite project', argv=lambda d: ["info", str(d / "notes.h5")],
          files={"notes.h5": "just notes\n"}),
     # rig definitions (TOML), through `odsuite new --rig FILE`
