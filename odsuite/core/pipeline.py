@@ -12,6 +12,11 @@ intermediate signal, e.g. "acceleration" after filter 1) and :class:`Reverse` (t
 record is finished, then run backwards; zero-phase filtering is forward - reverse - forward -
 reverse). Long records run chunk by chunk with states carried across chunks; between reversals the
 intermediate record goes to a temporary file, so peak memory does not grow with record length.
+
+Speed: channels whose chains are identical run together as one channels x samples block per
+``sosfilt`` call, in blocks that stay in the L2 cache; built-in steps are ``batched`` and filter
+the runner's own buffers in place; filters and integrators with no tap between them are one
+cascade; threads share the channels (``workers``).
 """
 
 from __future__ import annotations
@@ -389,30 +394,35 @@ class _Sink:
                 self.where[key] = (name, j)
         self.ncols = {name: len(cols) for name, cols in targets.items()}
         self.pos = dict.fromkeys(self.where, 0)
-        self.routes: dict[tuple[tuple[int, ...], str], tuple[list, str | None]] = {}
-        if direct:
+        self.routes: dict[tuple[tuple[int, ...], str], tuple[list, list]] = {}
+        if direct:  # rows waiting for other columns: buf[:, head:fill[col]] per target
             self.buf = {name: np.empty((k, 0)) for name, k in self.ncols.items()}
             self.fill = {name: np.zeros(k, dtype=np.int64) for name, k in self.ncols.items()}
+            self.head = dict.fromkeys(self.ncols, 0)
             self.written = dict.fromkeys(self.ncols, 0)
         else:
             self.stores = {name: _ColumnStore(n, k, scratch_dir) for name, k in self.ncols.items()}
 
-    def _route(self, members: tuple[int, ...], tap: str) -> tuple[list, str | None]:
+    def _route(self, members: tuple[int, ...], tap: str) -> tuple[list, list]:
         """Where the rows of ``members``' tap go: [(row, (chain, tap), target, column)], and the
-        target they fill entirely, row r in column r (or None)."""
+        same as runs of rows that go to consecutive columns of one target:
+        [(row0, row1, target, col0, col1)]."""
         key = (members, tap)
         if key not in self.routes:
             route = [(r, (c, tap), *self.where[(c, tap)]) for r, c in enumerate(members)
                      if (c, tap) in self.where]
-            name = route[0][2] if route else None
-            whole = name if (len(route) == self.ncols.get(name, -1)
-                             and all(t == name and col == r for r, _, t, col in route)) else None
-            self.routes[key] = (route, whole)
+            runs: list[list] = []
+            for r, _, name, col in route:
+                if runs and runs[-1][1] == r and runs[-1][2] == name and runs[-1][4] == col:
+                    runs[-1][1], runs[-1][4] = r + 1, col + 1
+                else:
+                    runs.append([r, r + 1, name, col, col + 1])
+            self.routes[key] = (route, [tuple(run) for run in runs])
         return self.routes[key]
 
     def push(self, members: tuple[int, ...], tap: str, x: np.ndarray, backwards: bool) -> None:
         """Samples ``x`` (len(members) x k) of ``tap`` of the chains ``members``."""
-        route, whole = self._route(members, tap)
+        route, runs = self._route(members, tap)
         k = x.shape[-1]
         if not route or not k:
             return
@@ -429,35 +439,52 @@ class _Sink:
                 else:
                     self.stores[name].put(col, end - k, x[r])
             return
-        if whole is not None and not self.fill[whole].any():
-            self.write(whole, self.written[whole], x.T)
-            self.written[whole] += k
-            return
-        for r, _, name, col in route:
-            fill = self.fill[name]
-            buf = self.buf[name]
-            f = int(fill[col])
-            if f + k > buf.shape[1]:
-                grown = np.empty((buf.shape[0], max(2 * buf.shape[1], f + k, self.chunk)))
-                grown[:, :buf.shape[1]] = buf
-                self.buf[name] = buf = grown
-            buf[col, f:f + k] = x[r]
-            fill[col] = f + k
+        for r0, r1, name, c0, c1 in runs:
+            fill, head = self.fill[name], self.head[name]
+            if c1 - c0 == len(fill) and fill[0] == head:  # whole rows, nothing waiting: straight on
+                self.write(name, self.written[name], x[r0:r1].T)
+                self.written[name] += k
+                continue
+            f = int(fill[c0])  # the rows of a run always arrive together
+            if f + k > self.buf[name].shape[1]:
+                f -= self._room(name, f + k)
+            self.buf[name][c0:c1, f:f + k] = x[r0:r1]
+            fill[c0:c1] = f + k
+            self._flush(name)  # as soon as whole rows are there: the buffer stays small
+
+    def _room(self, name: str, need: int) -> int:
+        """Move waiting rows to the buffer's start and grow it to hold ``need`` - (the shift)
+        samples per column; returns the shift."""
+        buf, fill, head = self.buf[name], self.fill[name], self.head[name]
+        top = int(fill.max())
+        if head:
+            buf[:, :top - head] = buf[:, head:top].copy()
+            fill -= head
+            self.head[name] = 0
+        if need - head > buf.shape[1]:
+            grown = np.empty((buf.shape[0], max(2 * buf.shape[1], need - head, self.chunk)))
+            grown[:, :top - head] = buf[:, :top - head]
+            self.buf[name] = grown
+        return head
 
     def flush(self) -> None:
-        if not self.direct:
+        """Write the rows every column of a target has."""
+        if self.direct:
+            for name in self.fill:
+                self._flush(name)
+
+    def _flush(self, name: str) -> None:
+        fill, head = self.fill[name], self.head[name]
+        have = int(fill.min()) - head
+        if have <= 0:
             return
-        for name, fill in self.fill.items():
-            have = int(fill.min())
-            if have == 0:
-                continue
-            buf = self.buf[name]
-            self.write(name, self.written[name], buf[:, :have].T)
-            self.written[name] += have
-            rest = int(fill.max()) - have
-            if rest:
-                buf[:, :rest] = buf[:, have:have + rest].copy()
-            fill -= have
+        self.write(name, self.written[name], self.buf[name][:, head:head + have].T)
+        self.written[name] += have
+        if fill[0] == head + have and (fill == fill[0]).all():  # all written: start again at 0
+            fill[:] = 0
+            self.head[name] = 0
+        else:
+            self.head[name] = head + have
 
     def close(self) -> None:
         for key, pos in self.pos.items():
