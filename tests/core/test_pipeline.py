@@ -167,6 +167,34 @@ def test_threads_equal_one_thread(registries):
     np.testing.assert_array_equal(one[5]["velocity"], -one[0]["velocity"])
 
 
+@pytest.mark.parametrize("workers", [1, 2])
+def test_targets_mixing_groups_get_whole_rows(workers):
+    # one dataset whose columns come from different groups in scrambled order, and taps that lag
+    # their inputs (Eq. 4.5): written in whole rows, in order, equal to each chain alone
+    from odsuite.core.pipeline import run_chains
+
+    chains = [chain_for_channel(TABLE_E3) for _ in range(4)] + [chain_for_channel(replace(TABLE_E3, daq_gain=2.0))]
+    raw = np.random.default_rng(11).standard_normal((7000, len(chains))) * 0.05
+    order = [3, 4, 0, 2, 1]
+    targets = {"d": [(c, "displacement") for c in order], "a": [(4, "acceleration"), (1, "velocity")]}
+    out = {name: np.full((7000, len(cols)), np.nan) for name, cols in targets.items()}
+    starts = {name: [] for name in targets}
+
+    def write(name, start, block):
+        starts[name].append((start, block.shape[0]))
+        out[name][start:start + block.shape[0]] = block
+
+    run_chains(chains, 7000, lambda a, b: raw[a:b], targets, write, chunk=1500, workers=workers)
+    for name, got in starts.items():  # consecutive rows, each once
+        assert [a for a, _ in got] == list(np.cumsum([0] + [k for _, k in got[:-1]]))
+        assert sum(k for _, k in got) == 7000
+    ref = run_array(chains, raw)
+    for j, c in enumerate(order):
+        np.testing.assert_array_equal(out["d"][:, j], ref[c]["displacement"])
+    np.testing.assert_array_equal(out["a"][:, 0], ref[4]["acceleration"])
+    np.testing.assert_array_equal(out["a"][:, 1], ref[1]["velocity"])
+
+
 def test_zero_phase_chain_is_sosfiltfilt_between_integrations():
     ch = replace(TABLE_E3, zero_phase=True, integration_rule="trapezoid")
     v = np.random.default_rng(7).standard_normal(6000) * 0.05
