@@ -128,7 +128,9 @@ def rigidity_check(rig: Rig, body: Body, accelerations: Mapping[str, np.ndarray]
 
     For a rigid body the two estimates differ only by 2 omega_i omega_j, which this check
     neglects: for vibrations of 1e-5 rad at 500 Hz that is about 1e-5 of the angular acceleration.
-    Per axis it reports RMS(difference) / RMS(mean estimate) and flags axes above ``threshold``.
+    Per axis it reports RMS(difference) / RMS of the angular acceleration vector (all three axes'
+    mean estimates), and flags axes above ``threshold``: an axis the test hardly excites (yaw
+    under a vertical blow) would otherwise divide its sensors' noise by almost nothing.
     The same combination works on displacements. A faulty or sign-flipped sensor shows on the axes
     whose pairs use it; the sensors used by exactly the flagged axes are named as suspects.
     """
@@ -137,15 +139,15 @@ def rigidity_check(rig: Rig, body: Body, accelerations: Mapping[str, np.ndarray]
     nine = _nine_set(rig, body)
     est = _estimates(_role_columns(rig, body, nine, accelerations), nine)
     fractions = {}
+    scale = np.sqrt(sum(np.mean((0.5 * (e1 + e2)) ** 2) for e1, e2 in est.values()))
     for axis, (e1, e2) in est.items():
         diff = np.sqrt(np.mean((e1 - e2) ** 2))
-        mean = np.sqrt(np.mean((0.5 * (e1 + e2)) ** 2))
-        fractions[axis] = float(diff / mean) if mean > 0 else (0.0 if diff == 0 else float("inf"))
+        fractions[axis] = float(diff / scale) if scale > 0 else (0.0 if diff == 0 else float("inf"))
     flagged = tuple(a for a in "xyz" if fractions[a] > threshold)
     worst_axis = max(fractions, key=fractions.get)
     (s1, f1, n1, r1, eq1), (s2, f2, n2, r2, eq2) = _PAIRS[worst_axis]
     worst = (f"angular acceleration about {worst_axis}: Eq. {eq1} {_term(s1, f1, n1, r1)} and Eq. {eq2} "
-             f"{_term(s2, f2, n2, r2)} disagree by {fractions[worst_axis]:.1%} of its RMS")
+             f"{_term(s2, f2, n2, r2)} disagree by {fractions[worst_axis]:.1%} of the angular acceleration's RMS")
     suspects: tuple[str, ...] = ()
     if flagged:
         uses = {role: {a for a, pair in _PAIRS.items() for p in pair if role in p[1:3]} for role in NINE_ROLES}
