@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy import signal
+import scipy  # scipy.signal and scipy.linalg load on first use: fast `odsuite plugins`
 
 from odsuite.core.errors import ConfigError
 
@@ -83,7 +83,7 @@ class ChannelChain:
             poles += [wn * (-z + 1j * np.sqrt(1 - z * z)), wn * (-z - 1j * np.sqrt(1 - z * z))]
             k *= wn * wn
         if self.aaf_cutoff_hz is not None:
-            _, p, kb = signal.buttap(self.aaf_order)
+            _, p, kb = scipy.signal.buttap(self.aaf_order)
             wc = 2 * np.pi * self.aaf_cutoff_hz
             poles += list(p * wc)
             k *= kb * wc**self.aaf_order
@@ -92,7 +92,7 @@ class ChannelChain:
     def frequency_response(self, f_hz: np.ndarray) -> np.ndarray:
         """Analog response (V per SI unit) at ``f_hz``: Eq. 2.2 times the filter, gain and sign."""
         z, p, k = self.analog_zpk()
-        _, h = signal.freqs_zpk(z, p, k, worN=2 * np.pi * np.asarray(f_hz, dtype=float))
+        _, h = scipy.signal.freqs_zpk(z, p, k, worN=2 * np.pi * np.asarray(f_hz, dtype=float))
         return h
 
     def discrete_sos(self, fs: float) -> np.ndarray:
@@ -108,8 +108,8 @@ class ChannelChain:
         rows = []
         for zs, ps in sections:
             ks = float(np.real(np.prod([-q for q in ps]))) if not zs else 1.0  # unit DC gain
-            num, den = signal.zpk2tf(np.asarray(zs), np.asarray(ps), ks)
-            bd, ad, _ = signal.cont2discrete((np.real(num), np.real(den)), 1.0 / fs, method="foh")
+            num, den = scipy.signal.zpk2tf(np.asarray(zs), np.asarray(ps), ks)
+            bd, ad, _ = scipy.signal.cont2discrete((np.real(num), np.real(den)), 1.0 / fs, method="foh")
             bd = np.ravel(bd)
             rows.append(np.concatenate([np.pad(bd, (0, 3 - len(bd))), np.pad(ad, (0, 3 - len(ad)))]))
         sos = np.array(rows) if rows else np.array([[1.0, 0.0, 0.0, 1.0, 0.0, 0.0]])
@@ -143,7 +143,7 @@ def check_chains(chains: dict[int, ChannelChain]) -> None:
 
 def run_analog(chain: ChannelChain, quantity: np.ndarray, fs: float) -> np.ndarray:
     """Analog output volts (before offset, noise and ADC) for ``quantity`` sampled at ``fs``."""
-    return signal.sosfilt(chain.discrete_sos(fs), quantity)
+    return scipy.signal.sosfilt(chain.discrete_sos(fs), quantity)
 
 
 def adc_input_disturbances(chain: ChannelChain, n: int, fs: float, rng: np.random.Generator) -> np.ndarray:

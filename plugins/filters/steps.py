@@ -7,18 +7,25 @@ channel (1-D samples) or several channels with the same settings at once (channe
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.signal
+import scipy  # scipy.signal and scipy.linalg load on first use: fast `odsuite plugins`
 
 from odsuite.core.errors import ConfigError
 from odsuite.core.pipeline import Reverse, Step
 
-try:  # the in-place kernel behind scipy.signal.sosfilt (releases the GIL): no copy of the input
-    from scipy.signal._sosfilt import _sosfilt as _sosfilt_inplace
-except ImportError:  # a SciPy that moved it: the public function, one copy more
-    _sosfilt_inplace = None
+
+@functools.cache
+def _sosfilt_inplace():
+    """The in-place kernel behind scipy.signal.sosfilt (releases the GIL): no copy of the input.
+    None in a SciPy that moved it: the public function, one copy more."""
+    try:
+        from scipy.signal._sosfilt import _sosfilt
+    except ImportError:
+        return None
+    return _sosfilt
 
 
 def _none(x: np.ndarray) -> np.ndarray:
@@ -29,12 +36,13 @@ def _none(x: np.ndarray) -> np.ndarray:
 def _sosfilt_owned(sos: np.ndarray, x: np.ndarray, zi: np.ndarray) -> np.ndarray:
     """``scipy.signal.sosfilt`` of ``x`` (channels x samples, C-contiguous float64) overwriting
     ``x``; ``zi`` (channels x sections x 2) is updated in place."""
-    if _sosfilt_inplace is None:
+    kernel = _sosfilt_inplace()
+    if kernel is None:
         y, zf = scipy.signal.sosfilt(sos, x, axis=-1, zi=zi.transpose(1, 0, 2))
         x[...] = y
         zi[...] = zf.transpose(1, 0, 2)
         return x
-    _sosfilt_inplace(sos, x, zi)
+    kernel(sos, x, zi)
     return x
 
 

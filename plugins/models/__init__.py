@@ -1,21 +1,31 @@
 """odsuite built-in plugin: models, physical effects and the rigs they describe."""
 
+import importlib
 from pathlib import Path
 
 from odsuite import hookimpl
 from odsuite.core.rig import load_rig
 
-from .multibody import (COORDS, Chain, FlexibleMode, Input, Model, Modes, Output, RigidBody,
-                        SensorDynamics, SpringDamper, StateSpace, Structure, point_map)
-from .effects import Effect, Parameter, builtin_effects
-from .simulation import simulate, simulate_state_space
-from .thesis import thesis_car_2dof, thesis_dynamometer
+#: Public names and the module defining them, imported on first use (`odsuite --help` starts fast).
+_LAZY = {
+    **dict.fromkeys(["COORDS", "Chain", "FlexibleMode", "Input", "Model", "Modes", "Output", "RigidBody",
+                     "SensorDynamics", "SpringDamper", "StateSpace", "Structure", "point_map"], "multibody"),
+    **dict.fromkeys(["Effect", "Parameter", "builtin_effects"], "effects"),
+    **dict.fromkeys(["simulate", "simulate_state_space"], "simulation"),
+    **dict.fromkeys(["thesis_car_2dof", "thesis_dynamometer"], "thesis"),
+}
 
 RIG_DIR = Path(__file__).with_name("rigs")
 
 __all__ = ["COORDS", "Chain", "Effect", "Parameter", "builtin_effects", "FlexibleMode", "Input", "Model", "Modes", "Output", "RigidBody",
            "SensorDynamics", "SpringDamper", "StateSpace", "Structure", "point_map", "simulate",
            "simulate_state_space", "thesis_car_2dof", "thesis_dynamometer"]
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        return getattr(importlib.import_module(f"{__name__}.{_LAZY[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 @hookimpl
@@ -27,11 +37,15 @@ def odsuite_register_rigs(registry):
 
 @hookimpl
 def odsuite_register_models(registry):
+    from .thesis import thesis_car_2dof, thesis_dynamometer
+
     registry.add("thesis-dynamometer", thesis_dynamometer)
     registry.add("thesis-car-2dof", thesis_car_2dof)
 
 
 @hookimpl
 def odsuite_register_effects(registry):
+    from .effects import builtin_effects
+
     for effect in builtin_effects():
         registry.add(effect.name, effect)

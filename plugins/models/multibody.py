@@ -18,7 +18,7 @@ from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 
 import numpy as np
-import scipy.signal
+import scipy  # scipy.signal and scipy.linalg load on first use: fast `odsuite plugins`
 
 from odsuite.core.errors import ConfigError
 from odsuite.core.rig import Body, Rig, Sensor

@@ -14,8 +14,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import scipy.linalg
-import scipy.signal
+import scipy  # scipy.signal and scipy.linalg load on first use: fast `odsuite plugins`
 
 from odsuite.core.errors import ConfigError, DimensionError
 

@@ -8,12 +8,12 @@
 
 from odsuite import hookimpl
 
-from .figures import comparison_figure, projection_figure, residual_spectra_figure
-from .movie import render_movie
-
 
 @hookimpl
 def odsuite_register_renderers(registry):
+    from .figures import comparison_figure, projection_figure, residual_spectra_figure  # on first use
+    from .movie import render_movie
+
     registry.add("movie", render_movie)
     registry.add("projection", projection_figure)
     registry.add("overlay", comparison_figure)
