@@ -33,6 +33,8 @@ from __future__ import annotations
 
 import dataclasses
 import fcntl
+import functools
+import inspect
 import json
 import logging
 import os
@@ -44,7 +46,7 @@ import tomllib
 import typing
 import uuid
 import weakref
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -401,6 +403,45 @@ def _open_h5(path: Path, where: Path, mode: str = "r") -> h5py.File:
         raise ProjectFileError(f"{where}: file is truncated or damaged and cannot be opened ({first})") from None
 
 
+#: What h5py raises on damaged bytes: an object that cannot be found or opened (KeyError), an HDF5
+#: read error (OSError, RuntimeError), metadata of the wrong type or shape (ValueError, TypeError,
+#: IndexError; JSON and UTF-8 decoding errors are ValueErrors).
+_DAMAGE = (KeyError, OSError, RuntimeError, ValueError, TypeError, IndexError)
+
+
+@contextmanager
+def _reading(path: Path, what: str = "") -> Iterator[None]:
+    """Turn h5py/HDF5 errors raised while reading ``path`` into a one-line ProjectFileError
+    "<path>: project file is damaged (<what>: <error>)"; odsuite's own errors pass unchanged."""
+    try:
+        yield
+    except OdsuiteError:
+        raise
+    except _DAMAGE as exc:
+        text = exc.args[0] if len(exc.args) == 1 and isinstance(exc.args[0], str) else str(exc)
+        text = (text.strip().splitlines() or [type(exc).__name__])[0]
+        raise ProjectFileError(f"{path}: project file is damaged ({what + ': ' if what else ''}{text})") from None
+
+
+def _reads(what: str = "") -> Callable:
+    """Decorator: run a reading method of Project/Experiment under :func:`_reading`; ``what`` is
+    formatted with the call's arguments, e.g. ``"experiment {experiment!r}"``."""
+
+    def wrap(fn: Callable) -> Callable:
+        signature = inspect.signature(fn)
+
+        @functools.wraps(fn)
+        def method(self, *args, **kw):
+            bound = signature.bind(self, *args, **kw).arguments
+            project = self if isinstance(self, Project) else bound.get("project", getattr(self, "_project", None))
+            with _reading(project.path, what.format(**bound)):
+                return fn(self, *args, **kw)
+
+        return method
+
+    return wrap
+
+
 def _check_format(path: Path) -> str:
     """Check that ``path`` is an odsuite project this version can read; returns its version."""
     if not path.exists():
@@ -409,7 +450,7 @@ def _check_format(path: Path) -> str:
         raise ProjectFileError(f"{path}: not a file")
     if not h5py.is_hdf5(path):
         raise NotAProjectError(f"{path}: not an HDF5 file, so not an odsuite project")
-    with _open_h5(path, path) as f:
+    with _open_h5(path, path) as f, _reading(path, "root attributes"):
         fmt = f.attrs.get("odsuite_format")
         version = f.attrs.get("odsuite_format_version")
     if fmt is None or _text(fmt) != FORMAT_NAME:
@@ -455,6 +496,7 @@ class Experiment:
     n_samples: int
     n_channels: int
 
+    @_reads("experiment {name!r}")
     def __init__(self, project: Project, name: str) -> None:
         self._project = project
         self.name = name
@@ -489,6 +531,7 @@ class Experiment:
                               f"(0..{self.n_channels - 1})")
         return int(channel)
 
+    @_reads("experiment {self.name!r} raw data")
     def raw(self, start: int = 0, stop: int | None = None, channels=None) -> np.ndarray:
         """Raw volts, samples x channels (a slice of rows and optionally of channels, by index or name)."""
         try:
@@ -656,6 +699,7 @@ class Project:
     # -- file-level information
 
     @property
+    @_reads("/rig")
     def rig(self) -> Rig | None:
         if self._rig_cache is None:
             f = self._file()
@@ -673,15 +717,18 @@ class Project:
         return self._rig_cache[0]
 
     @property
+    @_reads("root attributes")
     def format_version(self) -> str:
         return _text(self._file().attrs["odsuite_format_version"])
 
     # -- experiments
 
+    @_reads("/experiments")
     def experiment_names(self) -> list[str]:
         """Names of the stored experiments, in the order they were added."""
         return list(self._file()["experiments"].keys())
 
+    @_reads("experiment {name!r}")
     def experiment(self, name: str) -> Experiment:
         if name not in self._file()["experiments"]:
             known = ", ".join(self.experiment_names()) or "none"
@@ -880,6 +927,7 @@ class Project:
                 del derived[kind]
             derived.move(partial, kind)
 
+    @_reads("experiment {experiment!r} derived {kind!r}")
     def read_derived(self, experiment: str, kind: str) -> dict[str, np.ndarray]:
         """Every dataset of a derived group, read into memory."""
         g = self._derived_group(experiment, kind)
@@ -889,6 +937,7 @@ class Project:
             raise ProjectFileError(f"{self.path}: experiment {experiment!r} derived {kind!r} cannot be read "
                                    f"(corrupted?): {exc}") from None
 
+    @_reads("experiment {experiment!r} derived {kind!r}")
     def derived_info(self, experiment: str, kind: str) -> dict[str, Any]:
         """Provenance, extra attributes, units and dims of a derived group."""
         g = self._derived_group(experiment, kind)
@@ -903,6 +952,7 @@ class Project:
                 "units": {n: _text(ds.attrs["units"]) for n, ds in g.items()},
                 "dims": {n: tuple(_text(d) for d in ds.attrs["dims"]) for n, ds in g.items()}}
 
+    @_reads("experiment {experiment!r} derived")
     def derived_kinds(self, experiment: str) -> list[str]:
         g = self.experiment(experiment)._group()
         return [k for k in g["derived"] if not k.startswith(".")] if "derived" in g else []
@@ -934,6 +984,7 @@ class Project:
             _write_revision(self._tx, n, model, parent, texts)
         return n
 
+    @_reads("model revisions")
     def model_revisions(self) -> list[dict]:
         """Every revision as a dict: revision, model, effects, parameters, metrics, parent, created."""
         revs = self._revisions()
@@ -952,6 +1003,7 @@ class Project:
         return sorted(out, key=lambda r: r["revision"])
 
     @property
+    @_reads("/models")
     def current_revision(self) -> int | None:
         f = self._file()
         n = int(f["models"].attrs.get("current_revision", -1)) if "models" in f else -1
@@ -978,6 +1030,7 @@ class Project:
 
     # -- checks and summaries
 
+    @_reads()
     def verify(self) -> dict[str, int]:
         """Read every checksummed dataset; ProjectFileError names the first corrupted experiment.
 
@@ -998,6 +1051,7 @@ class Project:
             checked[name] = len(datasets)
         return checked
 
+    @_reads()
     def info(self) -> dict[str, Any]:
         """A plain-dict summary: file attributes, rig, revisions and per experiment: channels,
         sampling rate, samples, duration, peak |volts| per channel and clipped channels.

@@ -144,12 +144,7 @@ READERS = {
 
 
 @pytest.mark.filterwarnings("ignore::odsuite.core.errors.OdsuiteWarning")
-@pytest.mark.parametrize("reader", [
-    *(r for r in READERS if r != "project"),
-    # damaged HDF5 metadata (object headers, the global heap of string attributes) still escapes as
-    # h5py's KeyError/OSError from the attribute and group reads in project.py
-    pytest.param("project", marks=pytest.mark.xfail(strict=True, reason="h5py errors escape project.py readers")),
-])
+@pytest.mark.parametrize("reader", list(READERS))
 def test_corrupted_bytes_end_in_a_result_or_an_odsuite_error(reader, tmp_path):
     read, make_bases, name = READERS[reader]
     bases = make_bases(tmp_path)
@@ -165,3 +160,29 @@ def test_corrupted_bytes_end_in_a_result_or_an_odsuite_error(reader, tmp_path):
         _run(path, read)
 
     case()
+
+
+@pytest.mark.parametrize(("damage", "expected"), [
+    (lambda f: f["experiments"]["e"].attrs.__delitem__("sampling_rate"),
+     r"project file is damaged \(experiment 'e': .*sampling_rate"),
+    (lambda f: f["experiments"]["e"]["derived"]["v"].attrs.__setitem__("parameters", "{not json"),
+     r"project file is damaged \(experiment 'e' derived 'v': Expecting property name"),
+    (lambda f: f["experiments"]["e"].__delitem__("systeminfo"),
+     r"project file is damaged \(experiment 'e': .*systeminfo"),
+])
+def test_damaged_metadata_is_named(tmp_path, damage, expected):
+    """Metadata a reader needs, removed or garbled behind odsuite's back: one line naming the
+    experiment and derived group."""
+    import h5py
+
+    from odsuite.core.errors import ProjectFileError
+
+    path = tmp_path / "x.h5"
+    path.write_bytes(_project_base(tmp_path))
+    with h5py.File(path, "r+") as f:
+        damage(f)
+    before = path.read_bytes()
+    with pytest.raises(ProjectFileError, match=expected) as info:
+        _read_project(path)
+    assert str(info.value).startswith(f"{path}: ") and "\n" not in str(info.value)
+    assert path.read_bytes() == before
