@@ -294,6 +294,35 @@ def import_lvm_cmd(
     console.print(f"imported {lvmfile} as experiment {name!r}", highlight=False, soft_wrap=True)
 
 
+@app.command("import-uff")
+def import_uff_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    ufffile: Path = typer.Argument(..., help="UFF file (.uff/.unv) with time records (dataset 58)."),
+    name: str = typer.Option(..., "--name", help="Experiment name."),
+    force_channel: str = typer.Option(None, "--force-channel", help="Name of the force record."),
+) -> None:
+    """Import a UFF file's time records as a new experiment (its FRFs as derived 'frf')."""
+    from odsuite.core.uff_project import import_uff
+
+    import_uff(project, ufffile, name, force_channel)
+    console.print(f"imported {ufffile} as experiment {name!r}", highlight=False, soft_wrap=True)
+
+
+@app.command("export-uff")
+def export_uff_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    experiment: str = typer.Argument(None, help="Experiment name (default: the only one)."),
+    output: Path = typer.Option(..., "-o", "--output", help="UFF file to write."),
+    ascii_: bool = typer.Option(False, "--ascii", help="ASCII dataset 58 instead of binary 58b."),
+    nodes: int = typer.Option(15, "--nodes", help="Node dataset: 15 or 2411."),
+) -> None:
+    """Write an experiment as UFF: time records, FRFs, the rig's nodes and trace lines."""
+    from odsuite.core.uff_project import export_uff
+
+    export_uff(project, output, experiment, binary=not ascii_, node_dataset=nodes)
+    console.print(f"wrote {output}", highlight=False, soft_wrap=True)
+
+
 @app.command("frf")
 def frf_cmd(
     project: Path = typer.Argument(..., help="Project file."),

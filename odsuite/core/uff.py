@@ -245,4 +245,7 @@ def write_uff(
         sets.append(d)
     if not sets:
         raise ConfigError(f"{path}: nothing to write (no functions and no geometry)")
-    pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
+    # pyuff's "overwrite" mode truncates the file again after a first binary 58 set's header and data:
+    # start from an empty file and add every set
+    path.write_bytes(b"")
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")

@@ -118,3 +118,134 @@ def test_errors(tmp_path, samples):
         geo.direction(2, 1)
     with pytest.raises(ConfigError, match="direction 4 at node 1"):
         geo.direction(1, 4)
+
+
+# ----------------------------------------------------------------------------- projects <-> UFF
+
+#: Dataset 15 writes coordinates as E13.5 (6 significant digits): 0.5 um on the rig's ~0.3 m
+#: (dataset 2411 writes doubles).
+XYZ_15 = 1e-6
+
+
+@pytest.fixture(scope="module")
+def thesis_record(tmp_path_factory):
+    """A simulated thesis-rig record (nine accelerometers, force on channel 0) and its UFF export."""
+    from odsuite.core.acquisition import AcquisitionSettings, acquire
+    from odsuite.core.project import create_project
+    from odsuite.core.uff_project import export_uff
+
+    d = tmp_path_factory.mktemp("uff")
+    with create_project(d / "p.h5") as p:
+        acquire(p, "sim", "e1", AcquisitionSettings(n_samples=1024), scenario="T3", seed=1)
+    export_uff(d / "p.h5", d / "e1.uff")
+    return d
+
+
+def test_export_holds_physical_records_and_the_rigs_geometry(thesis_record):
+    from odsuite.core.modal_project import _physical
+    from odsuite.core.project import open_project
+
+    with open_project(thesis_record / "p.h5") as p:
+        exp, rig = p.experiment("e1"), p.rig
+        physical = _physical(exp)
+    sets = pyuff.UFF(str(thesis_record / "e1.uff")).read_sets()  # pyuff alone, not our reader
+    plated = [b for b in rig.bodies if b.plate is not None]
+    sensed = [b for b in rig.bodies if sum(s.body == b.name for s in rig.sensors) > 1]
+    assert [s["type"] for s in sets] == [15] + [82] * (len(plated) + len(sensed)) + [58] * exp.n_channels
+    c = read_uff(thesis_record / "e1.uff")
+    geo = c.geometry
+    for k, f in enumerate(c.functions):
+        assert f.name == exp.channel_names[k] and f.unit == exp.systeminfo.channels[k].unit
+        np.testing.assert_array_equal(f.data, physical[:, k])  # binary doubles: lossless
+        assert f.x[1] == pytest.approx(1 / exp.sampling_rate, rel=1e-12)
+    outlines = {name: nodes for name, nodes in geo.trace_lines}
+    for b in plated:  # the plate's top face (body z points down: z = corner z), one closed outline
+        ids = outlines[f"{b.name} plate"]
+        assert len(ids) == 5 and ids[0] == ids[-1]
+        top = geo.xyz[np.searchsorted(geo.node_nums, ids[:4])]
+        np.testing.assert_allclose(top[:, 2], b.plate.corner[2], atol=XYZ_15)
+        np.testing.assert_allclose(top.min(axis=0)[:2], b.plate.corner[:2], atol=XYZ_15)
+        np.testing.assert_allclose(top.max(axis=0)[:2] - top.min(axis=0)[:2], b.plate.size[:2], atol=2 * XYZ_15)
+        # consecutive corners share an edge: one coordinate changes
+        assert all(np.count_nonzero(~np.isclose(top[i], top[(i + 1) % 4])) == 1 for i in range(4))
+    for s in rig.sensors:
+        f = c.functions[s.channel]
+        node = np.flatnonzero(geo.node_nums == f.rsp_node)[0]
+        np.testing.assert_allclose(geo.xyz[node], s.position, atol=XYZ_15)
+        np.testing.assert_allclose(geo.direction(f.rsp_node, f.rsp_dir), s.axis, atol=1e-12)
+    force = c.functions[exp.excitation.force_channel]
+    np.testing.assert_allclose(geo.xyz[np.flatnonzero(geo.node_nums == force.rsp_node)[0]], exp.excitation.point,
+                               atol=XYZ_15)
+    np.testing.assert_allclose(geo.direction(force.rsp_node, force.rsp_dir), exp.excitation.direction, atol=1e-12)
+
+
+@pytest.mark.parametrize("binary", [True, False], ids=["58b", "ascii"])
+def test_import_of_an_export_gives_the_experiment_back(thesis_record, tmp_path, binary):
+    from odsuite.core.modal_project import _physical
+    from odsuite.core.project import create_project, open_project
+    from odsuite.core.uff_project import export_uff, import_uff
+
+    src = thesis_record / "e1.uff"
+    if not binary:
+        src = export_uff(thesis_record / "p.h5", tmp_path / "e1-ascii.uff", binary=False, node_dataset=2411)
+    create_project(tmp_path / "q.h5", rig=None).close()
+    import_uff(tmp_path / "q.h5", src, "back")
+    with open_project(thesis_record / "p.h5") as p, open_project(tmp_path / "q.h5") as q:
+        a, b = p.experiment("e1"), q.experiment("back")
+        assert b.channel_names == a.channel_names and b.sampling_rate == pytest.approx(a.sampling_rate, rel=1e-9)
+        # ASCII 58 keeps 13 significant digits
+        np.testing.assert_allclose(_physical(b), _physical(a), rtol=0 if binary else 1e-11, atol=0 if binary else 1e-9)
+        assert b.excitation.force_channel == a.excitation.force_channel
+        np.testing.assert_allclose(b.excitation.point, a.excitation.point, atol=XYZ_15 if binary else 1e-15)
+        np.testing.assert_allclose(b.excitation.direction, a.excitation.direction, atol=1e-12)
+        assert [c.sensor_type.name for c in b.systeminfo.channels] == [
+            "LOADCELL" if k == a.excitation.force_channel else {"m/s^2": "ACCELEROMETER", "V": "VOLTAGE"}[c.unit]
+            for k, c in enumerate(a.systeminfo.channels)]
+        assert q.info()["experiments"]["back"]["clipped"] == []
+
+
+def test_tilted_sensor_gets_a_local_displacement_system(tmp_path):
+    from odsuite.core.uff_project import _Nodes
+
+    axis = np.array([1.0, 2.0, -2.0]) / 3.0
+    nodes = _Nodes()
+    node, code = nodes.add(np.array([0.1, 0.2, 0.3]), axis)
+    write_uff(tmp_path / "t.uff", geometry=nodes.geometry([]), binary=False)
+    geo = read_uff(tmp_path / "t.uff").geometry
+    np.testing.assert_allclose(geo.direction(node, code), axis, atol=1e-6)  # dataset 18 writes E13.5
+    np.testing.assert_allclose(geo.xyz[0], [0.1, 0.2, 0.3])
+
+
+def test_frfs_travel_with_the_record(shared_real, tmp_path):
+    from odsuite.core.modal_project import experiment_frf, import_lvm
+    from odsuite.core.project import create_project, open_project
+    from odsuite.core.uff_project import export_uff, import_uff
+
+    create_project(tmp_path / "p.h5", rig=None).close()
+    import_lvm(tmp_path / "p.h5", shared_real / "ladisk_beam_impact" / "acceleration.lvm", "beam")
+    frf, _ = experiment_frf(tmp_path / "p.h5", "beam")
+    export_uff(tmp_path / "p.h5", tmp_path / "beam.uff")
+    c = read_uff(tmp_path / "beam.uff")
+    assert [f.func_type for f in c.functions].count(4) == len(frf.output_names) and c.geometry is None
+    create_project(tmp_path / "q.h5", rig=None).close()
+    import_uff(tmp_path / "q.h5", tmp_path / "beam.uff", "back")
+    with open_project(tmp_path / "q.h5") as q:
+        back = q.read_derived("back", "frf")
+    # the dataset-58 header holds the line spacing as E13.5: 6 significant digits
+    np.testing.assert_allclose(back["frequency"], frf.frequency, rtol=1e-5, atol=0)
+    np.testing.assert_array_equal(back["H_real"] + 1j * back["H_imag"], frf.H)
+
+
+def test_files_without_datasets_are_refused(tmp_path, thesis_record):
+    from odsuite.core.project import create_project
+    from odsuite.core.uff_project import import_uff
+
+    create_project(tmp_path / "q.h5", rig=None).close()
+    before = (tmp_path / "q.h5").read_bytes()
+    (tmp_path / "notes.uff").write_text("measured on Monday\nhammer on the corner\n")
+    with pytest.raises(ConfigError, match=r"notes.uff: no UFF datasets found \(not a UFF file, or cut short\)$"):
+        import_uff(tmp_path / "q.h5", tmp_path / "notes.uff", "x")
+    (tmp_path / "cut.uff").write_bytes((thesis_record / "e1.uff").read_bytes()[:40])
+    with pytest.raises(ConfigError, match="cut.uff: "):
+        import_uff(tmp_path / "q.h5", tmp_path / "cut.uff", "x")
+    assert (tmp_path / "q.h5").read_bytes() == before

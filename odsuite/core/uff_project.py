@@ -1,0 +1,199 @@
+"""UFF files and projects: time records (dataset 58, time abscissa) imported as an experiment,
+FRFs (dataset 58, function type 4) stored beside them as derived "frf"; an experiment exported as
+time records, FRFs, geometry (15 or 2411) and trace lines (82) of the rig's plates and sensors.
+
+Imported values are stored as the raw column in the file's units with a sensitivity that converts
+them to SI (as for LabVIEW files, see :mod:`odsuite.core.modal_project`).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from odsuite import __version__
+from odsuite.core.errors import ConfigError
+from odsuite.core.modal_project import _UNITS, _force_index, _physical
+from odsuite.core.project import DerivedArray, Excitation, Project, open_project
+from odsuite.core.rigidbody import CORNERS, plate_corners
+from odsuite.core.systeminfo import ChannelInfo, SensorType, Systeminfo
+from odsuite.core.uff import FUNC_FRF, UffFunction, UffGeometry, read_uff, time_function, write_uff
+
+#: Corners of a plate's top face (body z points down into the plate: z = 0 is the top) in drawing order.
+_TOP_FACE = ("FLL", "FRL", "RRL", "RLL")
+
+
+def _node_point(geometry: UffGeometry | None, node: int, direction: int) -> tuple[np.ndarray, np.ndarray] | None:
+    if geometry is None or node not in geometry.node_nums or abs(direction) not in (1, 2, 3):
+        return None
+    return geometry.xyz[np.flatnonzero(geometry.node_nums == node)[0]], geometry.direction(node, direction)
+
+
+def import_uff(project: str | Path, uff_path: str | Path, name: str, force_channel: str | None = None) -> str:
+    """Add the time records of a UFF file as experiment ``name``; FRFs in the file are stored as
+    its derived "frf" (frequency, H_real, H_imag). Returns ``name``.
+
+    All time records must share their length and sampling interval. The force channel is
+    ``force_channel`` (a record's name), else the one record in newtons or named "force"; the hit's
+    point and direction come from the force record's node when the file has geometry.
+    """
+    uff_path = Path(uff_path)
+    content = read_uff(uff_path)
+    if not content.dataset_types:
+        raise ConfigError(f"{uff_path}: no UFF datasets found (not a UFF file, or cut short)")
+    records = [f for f in content.functions if f.is_time]
+    if not records:
+        raise ConfigError(f"{uff_path}: no time records (dataset 58 with a time abscissa) among datasets "
+                          f"{sorted(set(content.dataset_types))}")
+    first = records[0]
+    dt = float(first.x[1] - first.x[0]) if first.x.size > 1 else 0.0
+    if not dt > 0:
+        raise ConfigError(f"{uff_path}: time record {first.name!r}: sampling interval must be > 0 s, got {dt!r}")
+    names: list[str] = []
+    for k, f in enumerate(records):
+        if f.data.shape != first.data.shape:
+            raise ConfigError(f"{uff_path}: time record {f.name!r} has {f.data.size} samples, "
+                              f"record {first.name!r} {first.data.size}; records must be of one length")
+        if np.iscomplexobj(f.data):
+            raise ConfigError(f"{uff_path}: time record {f.name!r} holds complex values")
+        step = float(f.x[1] - f.x[0]) if f.x.size > 1 else dt
+        if not np.isclose(step, dt, rtol=1e-6):
+            raise ConfigError(f"{uff_path}: time record {f.name!r} is sampled every {step!r} s, "
+                              f"record {first.name!r} every {dt!r} s")
+        label = f.name if f.name and f.name != "NONE" else f"ch{k}"
+        names.append(label if label not in names else f"{label}#{k}")
+    units = [f.unit for f in records]
+    fidx = _force_index(names, units, force_channel, str(uff_path))
+    fs = 1.0 / dt
+    raw = np.column_stack([f.data for f in records]).astype(float)
+    # values in engineering units, not volts: converter limits well above the peaks, so no false clipping
+    limits = np.maximum(10.0, np.ceil(2 * np.abs(raw).max(axis=0)))
+    channels = []
+    for k, (n, u) in enumerate(zip(names, units, strict=True)):
+        stype, sens = _UNITS.get(u.strip().lower(), (SensorType.NONE, 1.0))
+        if k == fidx:
+            stype, sens = SensorType.LOADCELL, 1.0
+        channels.append(ChannelInfo(sensor_type=stype, location=n, sensitivity=sens, sampling_rate=fs,
+                                    limit_high=float(limits[k]), limit_low=-float(limits[k])))
+    hit = _node_point(content.geometry, records[fidx].rsp_node, records[fidx].rsp_dir)
+    point, direction = hit if hit is not None else (np.zeros(3), np.array([0.0, 0.0, 1.0]))
+    frfs = [f for f in content.functions if f.func_type == FUNC_FRF]
+    with open_project(project, "a") as p, p.transaction():
+        p.add_experiment(name, raw, sampling_rate=fs,
+                         systeminfo=Systeminfo(channels), excitation=Excitation(fidx, point, direction),
+                         source=uff_path.name, channel_names=names)
+        if frfs:
+            _store_frfs(p, name, frfs, uff_path)
+    return name
+
+
+def _store_frfs(p: Project, name: str, frfs: list[UffFunction], uff_path: Path) -> None:
+    freq = frfs[0].x
+    for f in frfs:
+        if f.x.shape != freq.shape or not np.allclose(f.x, freq):
+            raise ConfigError(f"{uff_path}: FRF {f.name!r} has other frequency lines than FRF {frfs[0].name!r}")
+    H = np.array([np.asarray(f.data, dtype=complex) for f in frfs])
+    dims = ("output", "frequency")
+    units = ";".join(f.unit for f in frfs)
+    p.write_derived(
+        name, "frf",
+        {"frequency": DerivedArray(freq, "Hz", ("frequency",)),
+         "H_real": DerivedArray(H.real, units, dims), "H_imag": DerivedArray(H.imag, units, dims)},
+        provenance={"plugin": "odsuite.uff", "version": __version__, "parameters": {"source": uff_path.name},
+                    "inputs": [p.experiment(name).object_id]},
+        attrs={"outputs": json.dumps([f.name for f in frfs]), "n_averages": 0,
+               "nodes": json.dumps([[f.rsp_node, f.rsp_dir, f.ref_node, f.ref_dir] for f in frfs])})
+
+
+def _direction_code(axis: np.ndarray) -> int:
+    """+-1, +-2, +-3 when ``axis`` is a global axis, else 0 (needs a local system)."""
+    k = int(np.argmax(np.abs(axis)))
+    return int(np.sign(axis[k])) * (k + 1) if np.isclose(abs(axis[k]), 1.0) else 0
+
+
+def _local_system(axis: np.ndarray) -> np.ndarray:
+    """Rotation whose x column is ``axis`` (a sensor's measuring direction)."""
+    ex = axis / np.linalg.norm(axis)
+    helper = np.eye(3)[int(np.argmin(np.abs(ex)))]
+    ez = np.cross(ex, helper)
+    ez /= np.linalg.norm(ez)
+    return np.column_stack([ex, np.cross(ez, ex), ez])
+
+
+class _Nodes:
+    """Nodes of an export: a point and a measuring direction each, direction codes in the node's
+    displacement system (a local one when the direction is not a global axis)."""
+
+    def __init__(self) -> None:
+        self.xyz: list[np.ndarray] = []
+        self.disp_cs: list[int] = []
+        self.rotation: dict[int, np.ndarray] = {}
+
+    def add(self, point: np.ndarray, axis: np.ndarray | None = None) -> tuple[int, int]:
+        code, cs = 0, 0
+        if axis is not None:
+            code = _direction_code(axis)
+            if code == 0:
+                cs = len(self.rotation) + 1
+                self.rotation[cs] = _local_system(axis)
+                code = 1
+        self.xyz.append(np.asarray(point, dtype=float))
+        self.disp_cs.append(cs)
+        return len(self.xyz), code
+
+    def geometry(self, traces: list[tuple[str, list[int]]]) -> UffGeometry:
+        return UffGeometry(node_nums=np.arange(1, len(self.xyz) + 1), xyz=np.array(self.xyz),
+                           disp_cs=np.array(self.disp_cs, dtype=int), cs_rotation=self.rotation,
+                           cs_origin={c: np.zeros(3) for c in self.rotation}, trace_lines=traces)
+
+
+def export_uff(project: str | Path, out: str | Path, experiment: str | None = None, *, binary: bool = True,
+               node_dataset: int = 15) -> Path:
+    """Write an experiment (default: the only one) as UFF: its channels in SI units as time records,
+    its derived "frf" when present, and with a rig the nodes (plate top corners, sensors, hammer
+    point; metres, rig frame) and trace lines of each plate outline and each body's sensors."""
+    out = Path(out)
+    with open_project(project) as p:
+        names = p.experiment_names()
+        if experiment is None:
+            if len(names) != 1:
+                raise ConfigError(f"{p.path}: name the experiment to export (experiments: {', '.join(names) or 'none'})")
+            experiment = names[0]
+        exp = p.experiment(experiment)
+        rig = p.rig
+        frf = p.read_derived(experiment, "frf") if "frf" in p.derived_kinds(experiment) else None
+        frf_outputs = json.loads(p.derived_info(experiment, "frf")["attrs"]["outputs"]) if frf else []
+        data = _physical(exp)
+    nodes = _Nodes()
+    traces: list[tuple[str, list[int]]] = []
+    at: dict[int, tuple[int, int]] = {}  # channel -> (node, direction code)
+    if rig is not None:
+        for body in rig.bodies:
+            if body.plate is not None:
+                corners = plate_corners(body.plate)[[list(CORNERS).index(c) for c in _TOP_FACE]]
+                ids = [nodes.add(c)[0] for c in corners]
+                traces.append((f"{body.name} plate", ids + ids[:1]))
+            sensors = [s for s in rig.sensors if s.body == body.name and s.channel < exp.n_channels]
+            for s in sensors:
+                at[s.channel] = nodes.add(s.position, np.asarray(s.axis, dtype=float))
+            if len(sensors) > 1:
+                traces.append((f"{body.name} sensors", [at[s.channel][0] for s in sensors]))
+        if exp.excitation is not None:
+            at[exp.excitation.force_channel] = nodes.add(exp.excitation.point, exp.excitation.direction)
+    functions = [time_function(exp.channel_names[k], data[:, k], 1.0 / exp.sampling_rate,
+                               exp.systeminfo.channels[k].unit, node=at.get(k, (0, 0))[0],
+                               direction=at.get(k, (0, 0))[1]) for k in range(exp.n_channels)]
+    if frf is not None:
+        ref = at.get(exp.excitation.force_channel, (0, 0)) if exp.excitation else (0, 0)
+        H = frf["H_real"] + 1j * frf["H_imag"]
+        for row, out_name in enumerate(frf_outputs):
+            k = exp.channel_names.index(out_name) if out_name in exp.channel_names else -1
+            rsp = at.get(k, (0, 0))
+            functions.append(UffFunction(f"H {out_name}", FUNC_FRF, frf["frequency"], H[row],
+                                         f"{exp.systeminfo.channels[k].unit}/N" if k >= 0 else "", "Hz",
+                                         rsp[0], rsp[1], ref[0], ref[1], description=experiment))
+    geometry = nodes.geometry(traces) if nodes.xyz else None
+    write_uff(out, functions=functions, geometry=geometry, binary=binary, node_dataset=node_dataset)
+    return out
