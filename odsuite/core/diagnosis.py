@@ -1,14 +1,19 @@
 """Which physical effect does the model lack? Fit every registered effect, validate, rank.
 
-Every registered effect (built-in or a lab's own) is a candidate. The search runs in three passes:
+Every registered effect (built-in or a lab's own) is a candidate. Fits see each record only up to
+where its response has decayed into the noise (the rest is added back to reported errors). The
+search runs in three passes:
 
 1. *Screening*: each candidate's parameters are moved one small step from their nominal values
    (finite differences); one Gauss-Newton step, evaluated for real, says how much of the residual
    the candidate can take up. Parameters that the residual cannot see at their nominal value (a
    resonance frequency while its amplitude is zero) get a start from a grid and from the peaks of
-   the residual spectrum; discrete parameters (a sensor's polarity) are tried one choice at a time.
+   the residual spectrum; amplitudes that only act in products (a mode's participation at a
+   sensor times at the force point) get one of them moved first; discrete parameters (a sensor's
+   polarity) are tried one choice at a time.
 2. *Fitting*: the promising candidates are fitted by output-error least squares over all
-   experiments (scipy.optimize.least_squares, bounded).
+   experiments (scipy.optimize.least_squares, bounded); a candidate whose screening took up less
+   than half of what the best fit explains is ranked by its screening alone.
 3. *Validation*: shared parameters are validated by leaving one experiment out; per-experiment
    parameters (an impact location) on held-out channels. Candidates are ranked by validated error
    with a BIC penalty for their number of parameters. A candidate is ``significant`` only when its
