@@ -42,6 +42,18 @@ def test_kills_across_writing_commands(project, seeded, tmp_path):
     assert any(r.recovered for r in report.runs)
 
 
+def test_kills_in_the_model_loop(tmp_path_factory, tmp_path):
+    """add-effect (fit, then one commit of the new revision) killed at crash points and at random
+    moments: the project opens, earlier revisions and experiments stay bit-identical."""
+    work = tmp_path_factory.mktemp("loop")
+    project = harness.seed_loop_project(work / "p.h5")
+    report = run_kills(project, harness.prepare_inputs(work / "inputs"), tmp_path / "scratch", 4, seed=1,
+                       commands=harness.LOOP_COMMANDS, modes=("point", "write"))
+    assert [r.problems for r in report.runs] == [[]] * 4, report.summary()
+    assert report.lost == 0
+    assert any(r.killed and not r.changed for r in report.runs)
+
+
 # Deliberately unsafe writers: they change the project in place and kill themselves halfway
 # when the crash variable is set. The harness must see the damage.
 UNSAFE = textwrap.dedent("""
