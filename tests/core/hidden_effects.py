@@ -27,7 +27,7 @@ CASES: dict[str, dict[str, float]] = {
     "sensor_polarity": {"x1_polarity": -1.0},
     "sensor_orientation": {"yC_tilt_a": 0.2, "yC_tilt_b": 0.2, "x1_tilt_a": 0.2, "x1_tilt_b": 0.2},
     "sensor_position": {"z1_dx": 0.015},
-    "sensor_dynamics": {"highpass_hz": 8.0},
+    "sensor_dynamics": {"highpass_hz": 20.0},
     "impact_location": {"dx": 0.02, "dy": -0.015},
     "force_gain": {"gain": 1.2},
     "base_motion": {"compliance": 2e-7},
