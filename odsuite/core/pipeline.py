@@ -395,7 +395,8 @@ class _Sink:
         self.ncols = {name: len(cols) for name, cols in targets.items()}
         self.pos = dict.fromkeys(self.where, 0)
         self.routes: dict[tuple[tuple[int, ...], str], tuple[list, list]] = {}
-        if direct:  # rows waiting for other columns: buf[:, head:fill[col]] per target
+        if direct:  # rows waiting for other columns: buf[head:fill[col], col] per target (rows
+            # contiguous: whole rows go out as one block)
             self.buf = {name: np.empty((k, 0)) for name, k in self.ncols.items()}
             self.fill = {name: np.zeros(k, dtype=np.int64) for name, k in self.ncols.items()}
             self.head = dict.fromkeys(self.ncols, 0)
@@ -462,7 +463,8 @@ class _Sink:
             fill -= head
             self.head[name] = 0
         if need - head > buf.shape[1]:
-            grown = np.empty((buf.shape[0], max(2 * buf.shape[1], need - head, self.chunk)))
+            # an odd row length: rows a power of two apart would share cache sets
+            grown = np.empty((buf.shape[0], max(2 * buf.shape[1], need - head, self.chunk) | 1))
             grown[:, :top - head] = buf[:, :top - head]
             self.buf[name] = grown
         return head
