@@ -395,8 +395,7 @@ class _Sink:
         self.ncols = {name: len(cols) for name, cols in targets.items()}
         self.pos = dict.fromkeys(self.where, 0)
         self.routes: dict[tuple[tuple[int, ...], str], tuple[list, list]] = {}
-        if direct:  # rows waiting for other columns: buf[head:fill[col], col] per target (rows
-            # contiguous: whole rows go out as one block)
+        if direct:  # rows waiting for other columns: buf[col, head:fill[col]] per target
             self.buf = {name: np.empty((k, 0)) for name, k in self.ncols.items()}
             self.fill = {name: np.zeros(k, dtype=np.int64) for name, k in self.ncols.items()}
             self.head = dict.fromkeys(self.ncols, 0)
