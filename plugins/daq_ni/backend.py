@@ -269,7 +269,7 @@ def _channel_kind(rig: Rig, si: Systeminfo, k: int, iepe: bool) -> str:
 def available(*_: Any) -> bool:
     """True when the nidaqmx package and the NI-DAQmx driver are both present."""
     try:
-        nidaqmx = import_nidaqmx()
+        import_nidaqmx()
         import nidaqmx.system
 
         nidaqmx.system.System.local().driver_version  # noqa: B018 - raises without the driver
