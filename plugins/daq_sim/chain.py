@@ -136,11 +136,6 @@ class ChannelChain:
         return int(np.count_nonzero((volts < self.limit_low - half) | (volts >= self.limit_high - half)))
 
 
-def check_chains(chains: dict[int, ChannelChain]) -> None:
-    for ch, chain in chains.items():
-        chain.validate(f"channel {ch}")
-
-
 def run_analog(chain: ChannelChain, quantity: np.ndarray, fs: float) -> np.ndarray:
     """Analog output volts (before offset, noise and ADC) for ``quantity`` sampled at ``fs``."""
     return scipy.signal.sosfilt(chain.discrete_sos(fs), quantity)
