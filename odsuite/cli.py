@@ -385,13 +385,14 @@ def render_cmd(
     workers: int = typer.Option(None, "--workers", help="Render processes for a movie (default: one per two cores)."),
     frame_step: int = typer.Option(None, "--frame-step", help="Samples per movie frame (default 1)."),
     slowdown: float = typer.Option(None, "--slowdown", help="Slow-motion factor: movie time / real time."),
+    ods: float = typer.Option(None, "--ods", help="Animate the operating deflection shape at this frequency (Hz)."),
 ) -> None:
     """Wireframe movie of an experiment's plates, or the thesis projection / comparison figures."""
     from odsuite_plugins.renderers.experiment import parse_magnify, render_experiment
 
     res = render_experiment(project, experiment, output, model=model, magnify=parse_magnify(magnify),
                             view=view, figure=figure, workers=workers, frame_step=frame_step,
-                            slowdown=slowdown)
+                            slowdown=slowdown, ods_hz=ods)
     if figure is None:
         for note in res.notes:
             err_console.print(f"note: {note}", highlight=False)

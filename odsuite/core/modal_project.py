@@ -116,3 +116,52 @@ def experiment_modes(
     frf, _ = experiment_frf(project, experiment)
     return identify_modes(frf.frequency, frf.H, f_band=f_band, max_order=max_order,
                           frequencies=frequencies, output_names=frf.output_names)
+
+
+def ods_coordinates(project, experiment: str, frequency_hz: float) -> dict[str, np.ndarray]:
+    """Operating deflection shape at ``frequency_hz`` as rigid-body motion: per nine-sensor body,
+    complex generalized coordinates at G (m and rad per newton of a harmonic force at the
+    experiment's force point), from the measured accelerance FRFs (H1 over the windowed force,
+    with the channels' own filters divided out) divided by -omega^2 and solved like any
+    displacement record."""
+    import scipy.signal
+
+    from odsuite.core.comparison import prepare_experiment
+    from odsuite.core.modal import ods
+    from odsuite.core.plugins import registries
+
+    if not (np.isfinite(frequency_hz) and frequency_hz > 0):
+        raise ConfigError(f"ODS frequency: must be > 0 Hz, got {frequency_hz!r}")
+    exp = prepare_experiment(project, experiment)
+    frf = estimate_frf([exp.force], [exp.measured], exp.fs)
+    accel = ods(frf.frequency, frf.H, frequency_hz)
+    for op in exp.operators or ():
+        # the chain's filter 1 shaped the measured stage: take its response out (a zero-phase pair
+        # acts as |H|^2)
+        response = 1.0 / op.factor
+        for sos, zero_phase in op.filters:
+            h = scipy.signal.sosfreqz(sos, worN=[frequency_hz], fs=exp.fs)[1][0]
+            response *= abs(h) ** 2 if zero_phase else h
+        accel[list(op.columns)] /= response
+    disp = -accel / (2 * np.pi * frequency_hz) ** 2
+    solver = registries().coordinate_solvers.get("padgaonkar-nine")
+    shapes = {}
+    for body in project.rig.bodies:
+        if body.nine_sensor_set is None:
+            continue
+        # the solver is linear in its input: real and imaginary parts as a two-sample record
+        signals = {s.name: np.array([d.real, d.imag]) for s, d in zip(exp.sensors, disp)}
+        at_g = solver.solve(project.rig, body, signals).at_g
+        shapes[body.name] = at_g[0] + 1j * at_g[1]
+    if not shapes:
+        raise ConfigError(f"{project.path}: rig {project.rig.name!r} has no body with a nine-sensor set for an ODS")
+    return shapes
+
+
+def ods_motion(shapes: dict[str, np.ndarray], frequency_hz: float, *, cycles: int = 3,
+               frames_per_cycle: int = 40) -> tuple[dict[str, np.ndarray], float]:
+    """Time histories Re(D e^{i omega t}) of ODS shapes over a few cycles, and their sample rate."""
+    fs = frames_per_cycle * frequency_hz
+    t = np.arange(cycles * frames_per_cycle) / fs
+    phasor = np.exp(2j * np.pi * frequency_hz * t)
+    return {b: np.real(phasor[:, None] * d[None, :]) for b, d in shapes.items()}, fs

@@ -64,13 +64,15 @@ def render_experiment(
     frame_step: int | None = None,
     slowdown: float | None = None,
     progress: bool = True,
+    ods_hz: float | None = None,
 ) -> MovieResult | Path:
     """A movie (``figure`` None) or a figure of one experiment of a project.
 
     ``view``: for movies "AZ,EL" in degrees; for the projection figure "EYE[,THETA,PHI,PSI]" (eye
     axis x, y or z and the Eq. 4.25 viewpoint angles in degrees). ``model`` adds the model's
     motion (overlay and residual figures always need it); the measured motion then comes from the
-    comparison too, so both sides went through the same chain and solver.
+    comparison too, so both sides went through the same chain and solver. ``ods_hz``: animate the
+    operating deflection shape at that frequency (from the measured FRFs) instead of the record.
     """
     from odsuite.core.comparison import experiment_coordinates
     from odsuite.core.project import open_project
@@ -86,7 +88,13 @@ def render_experiment(
         exp = project.experiment(experiment)
         fs = exp.sampling_rate
         model_coords = None
-        if model or figure in ("overlay", "residuals"):
+        if ods_hz is not None:
+            from odsuite.core.modal_project import ods_coordinates, ods_motion
+
+            if figure is not None or model:
+                raise ConfigError("--ods draws a movie of the measured shape: drop --figure and --model")
+            coords, fs = ods_motion(ods_coordinates(project, experiment, ods_hz), ods_hz)
+        elif model or figure in ("overlay", "residuals"):
             pairs = experiment_coordinates(project, experiment)
             coords = {b: m for b, (m, _) in pairs.items()}
             model_coords = {b: p for b, (_, p) in pairs.items()}
