@@ -18,7 +18,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import h5py
+import numpy as np
 
+from odsuite.core import h5text
 from odsuite.core.errors import ProjectVersionError, SchemaError
 
 
@@ -71,10 +73,39 @@ def migration_path(from_version: str, to_version: str, where: str = "project") -
 
 def migrate(f: h5py.File, to_version: str, where: str = "project") -> list[str]:
     """Upgrade the writable file ``f`` in place to ``to_version``; returns the versions passed."""
-    from_version = str(f.attrs["odsuite_format_version"])
+    from_version = h5text.text(f.attrs["odsuite_format_version"])
     passed = []
     for step in migration_path(from_version, to_version, where):
         step.apply(f)
-        f.attrs["odsuite_format_version"] = step.to_version
+        h5text.set_attrs(f, {"odsuite_format_version": step.to_version})
         passed.append(step.from_version)
     return passed
+
+
+@migration("1.0.0", "1.1.0")
+def _fixed_length_text(f: h5py.File) -> None:
+    """1.1.0 stores text as fixed-length strings (see ``h5text``): rewrite every variable-length
+    string attribute and every table with variable-length string columns."""
+    objects: list[h5py.HLObject] = [f]
+    f.visititems(lambda _name, obj: objects.append(obj))
+    for obj in objects:
+        for key in list(obj.attrs):
+            if h5text.is_variable_text(obj.attrs.get_id(key).dtype):
+                h5text.set_attrs(obj, {key: obj.attrs[key]})
+        if isinstance(obj, h5py.Dataset) and h5text.is_variable_text(obj.dtype):
+            _rewrite_table(obj)
+
+
+def _rewrite_table(ds: h5py.Dataset) -> None:
+    """Replace a compound dataset's variable-length string columns by fixed-length ones."""
+    table, attrs = ds[()], {k: ds.attrs[k] for k in ds.attrs}
+    names = table.dtype.names or ()
+    columns = {n: [h5text.text(v) for v in table[n]] for n in names if h5text.is_variable_text(table.dtype[n])}
+    dtype = np.dtype([(n, h5text.fixed_dtype(columns[n]) if n in columns else table.dtype[n]) for n in names])
+    fixed = np.zeros(table.shape, dtype=dtype)
+    for n in names:
+        fixed[n] = [v.encode("utf-8") for v in columns[n]] if n in columns else table[n]
+    parent, name = ds.parent, ds.name.rsplit("/", 1)[1]
+    del parent[name]
+    new = parent.create_dataset(name, data=fixed)
+    h5text.set_attrs(new, attrs)

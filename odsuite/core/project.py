@@ -57,7 +57,7 @@ from typing import IO, Any
 import h5py
 import numpy as np
 
-from odsuite.core import migrations
+from odsuite.core import h5text, migrations
 from odsuite.core.errors import (
     ConfigError,
     DimensionError,
@@ -72,7 +72,7 @@ from odsuite.core.rig import Rig, load_rig, rig_from_dict
 from odsuite.core.systeminfo import ChannelInfo, RigInfo, Systeminfo
 
 FORMAT_NAME = "odsuite.project"
-FORMAT_VERSION = "1.0.0"
+FORMAT_VERSION = "1.1.0"
 
 #: Tests set this to a crash-point name (see ``_crash_point``) to SIGKILL the writer there.
 CRASH_ENV = "ODSUITE_TEST_CRASH_AT"
@@ -80,7 +80,6 @@ CRASH_ENV = "ODSUITE_TEST_CRASH_AT"
 CHUNK_BYTES = 1 << 20
 
 log = logging.getLogger(__name__)
-_STR = h5py.string_dtype()
 
 
 @dataclass(frozen=True)
@@ -115,25 +114,15 @@ def _crash_point(name: str) -> None:
         os.kill(os.getpid(), signal.SIGKILL)
 
 
-def _strings(values: Iterable[str]) -> np.ndarray:
-    return np.array(list(values), dtype=_STR)
-
-
-def _text(value: Any) -> str:
-    return value.decode("utf-8") if isinstance(value, bytes) else str(value)
-
-
 def _typed_group(parent: h5py.Group, name: str, odsuite_type: str, **kw) -> h5py.Group:
     g = parent.create_group(name, **kw)
-    g.attrs["odsuite_type"] = odsuite_type
-    g.attrs["object_id"] = str(uuid.uuid4())
+    h5text.set_attrs(g, {"odsuite_type": odsuite_type, "object_id": str(uuid.uuid4())})
     return g
 
 
 def _dataset(parent: h5py.Group, name: str, data: Any, units: str, dims: Iterable[str], **kw) -> h5py.Dataset:
     ds = parent.create_dataset(name, data=data, **kw)
-    ds.attrs["units"] = units
-    ds.attrs["dims"] = _strings(dims)
+    h5text.set_attrs(ds, {"units": units, "dims": h5text.fixed(list(dims))})
     return ds
 
 
@@ -192,31 +181,32 @@ def _column_dtype(hint: Any) -> Any:
         return np.bool_
     if hint is int:
         return np.int64
-    if hint is str:
-        return _STR
     return np.float64  # float and float | None (None stored as NaN)
 
 
 def _write_systeminfo(parent: h5py.Group, si: Systeminfo, names: list[str]) -> None:
     g = _typed_group(parent, "systeminfo", "systeminfo")
     fields = [f.name for f in dataclasses.fields(ChannelInfo)]
-    dtype = np.dtype([("name", _STR), ("unit", _STR)]
-                     + [(n, _column_dtype(_CHANNEL_HINTS[n])) for n in fields])
+    text_columns = {"name": names, "unit": [ch.unit for ch in si.channels]}
+    text_columns |= {n: [getattr(ch, n) for ch in si.channels] for n in fields if _CHANNEL_HINTS[n] is str}
+    dtype = np.dtype([(n, h5text.fixed_dtype(text_columns[n])) for n in ("name", "unit")]
+                     + [(n, h5text.fixed_dtype(text_columns[n]) if n in text_columns
+                         else _column_dtype(_CHANNEL_HINTS[n])) for n in fields])
     table = np.zeros(len(si.channels), dtype=dtype)
     for i, ch in enumerate(si.channels):
-        row = [names[i], ch.unit]
+        row = [names[i].encode(), ch.unit.encode()]
         for n in fields:
             v = getattr(ch, n)
-            row.append(np.nan if v is None else (int(v) if isinstance(v, IntEnum) else v))
+            row.append(v.encode() if isinstance(v, str) else np.nan if v is None
+                       else int(v) if isinstance(v, IntEnum) else v)
         table[i] = tuple(row)
     _dataset(g, "channels", table, "", ["channel"])
-    g["channels"].attrs["units"] = _strings(["", ""] + [_CHANNEL_UNITS.get(n, "") for n in fields])
+    g["channels"].attrs["units"] = h5text.fixed(["", ""] + [_CHANNEL_UNITS.get(n, "") for n in fields])
 
     r = si.rig
     rg = _typed_group(g, "rig", "riginfo")
-    rg.attrs["use_in_gcc"] = r.use_in_gcc
-    rg.attrs["use_in_ag"] = r.use_in_ag
-    rg.attrs["plot_from_corner"] = r.plot_from_corner
+    h5text.set_attrs(rg, {"use_in_gcc": r.use_in_gcc, "use_in_ag": r.use_in_ag,
+                          "plot_from_corner": r.plot_from_corner})
     for n in ("plate_sizes", "plate_origins"):
         _dataset(rg, n, np.asarray(getattr(r, n), dtype=float).reshape(-1, 3), "m", ["plate", "xyz"])
     for n in ("coordinate_columns", "nine_channels"):
@@ -243,7 +233,7 @@ def _read_systeminfo(g: h5py.Group) -> Systeminfo:
             elif hint is int:
                 kw[f.name] = int(v)
             elif hint is str:
-                kw[f.name] = _text(v)
+                kw[f.name] = h5text.text(v)
             elif hint is float:
                 kw[f.name] = float(v)
             else:  # float | None
@@ -322,15 +312,12 @@ def _resolve_rig(rig: Rig | str | Path | None) -> Rig | None:
 
 def _write_rig(f: h5py.File, rig: Rig) -> None:
     g = _typed_group(f, "rig", "rig")
-    g.attrs["name"] = rig.name
     if rig.source is not None and Path(rig.source).is_file():
-        g.attrs["definition"] = Path(rig.source).read_text(encoding="utf-8")
-        g.attrs["definition_format"] = "toml"
-        g.attrs["source"] = str(rig.source)
+        h5text.set_attrs(g, {"name": rig.name, "definition": Path(rig.source).read_text(encoding="utf-8"),
+                             "definition_format": "toml", "source": str(rig.source)})
     else:
-        g.attrs["definition"] = _to_json(f"rig {rig.name!r}", _rig_to_dict(rig))
-        g.attrs["definition_format"] = "json"
-        g.attrs["source"] = ""
+        h5text.set_attrs(g, {"name": rig.name, "definition": _to_json(f"rig {rig.name!r}", _rig_to_dict(rig)),
+                             "definition_format": "json", "source": ""})
 
 
 # ----------------------------------------------------------------------------- file checks
@@ -453,14 +440,14 @@ def _check_format(path: Path) -> str:
     with _open_h5(path, path) as f, _reading(path, "root attributes"):
         fmt = f.attrs.get("odsuite_format")
         version = f.attrs.get("odsuite_format_version")
-    if fmt is None or _text(fmt) != FORMAT_NAME:
+    if fmt is None or h5text.text(fmt) != FORMAT_NAME:
         raise NotAProjectError(
             f"{path}: HDF5 file without the root attribute odsuite_format={FORMAT_NAME!r} "
             f"(found {fmt!r}); not an odsuite project"
         )
     if version is None:
         raise SchemaError(f"{path}: root attribute odsuite_format_version is missing")
-    version = _text(version)
+    version = h5text.text(version)
     have, ours = migrations.parse_version(version, str(path)), migrations.parse_version(FORMAT_VERSION)
     if have[0] > ours[0]:
         raise ProjectVersionError(
@@ -475,8 +462,8 @@ def _write_revision(f: h5py.File, n: int, model: str | None, parent: int | None,
     if "models" not in f:
         _typed_group(_typed_group(f, "models", "models"), "revisions", "model_revisions", track_order=True)
     g = _typed_group(f["models"]["revisions"], str(n), "model_revision")
-    g.attrs.update({"model": model or "", "parent": -1 if parent is None else int(parent), "created": _now(),
-                    **texts})
+    h5text.set_attrs(g, {"model": model or "", "parent": -1 if parent is None else int(parent),
+                         "created": _now(), **texts})
     f["models"].attrs["current_revision"] = n
 
 
@@ -502,13 +489,13 @@ class Experiment:
         self.name = name
         g = self._group()
         a = g.attrs
-        self.object_id = _text(a["object_id"])
+        self.object_id = h5text.text(a["object_id"])
         self.sampling_rate = float(a["sampling_rate"])
         self.pretrigger = int(a["pretrigger"])
-        self.created = _text(a["created"])
-        self.source = _text(a.get("source", ""))
-        self.rig_name = _text(a["rig"]) or None
-        self.channel_names = [_text(n) for n in a["channel_names"]]
+        self.created = h5text.text(a["created"])
+        self.source = h5text.text(a.get("source", ""))
+        self.rig_name = h5text.text(a["rig"]) or None
+        self.channel_names = [h5text.text(n) for n in a["channel_names"]]
         self.n_samples, self.n_channels = g["raw"].shape
         self.excitation = None
         if "force_channel" in a:
@@ -592,13 +579,11 @@ class DerivedWriter:
         if name in self._group:
             raise ConfigError(f"{self._where}: dataset {name!r} created twice")
         dtype = np.dtype(dtype)
-        if dtype.kind in "USO":
-            dtype = _STR
-        ds = self._group.create_dataset(name, shape=shape, dtype=dtype,
-                                        fletcher32=bool(np.prod(shape)) and dtype != _STR)
-        ds.attrs["units"] = units
-        ds.attrs["dims"] = _strings(dims)
-        return ds
+        if dtype.kind not in "biufc":
+            raise ConfigError(f"{self._where}: dataset {name!r}: derived datasets hold numbers, got dtype "
+                              f"{dtype} (put text in the group's attrs)")
+        return _dataset(self._group, name, None, units, dims, shape=shape, dtype=dtype,
+                        fletcher32=bool(np.prod(shape)))
 
 
 # ----------------------------------------------------------------------------- the project
@@ -655,7 +640,7 @@ class Project:
             raise ProjectFileError(f"{self.path}: cannot start a write ({exc})") from None
         try:
             yield self
-            self._tx.attrs["file_update_time"] = _now()
+            h5text.set_attrs(self._tx, {"file_update_time": _now()})
             self._tx.close()
             _crash_point("written")
             _fsync_path(tmp)
@@ -706,12 +691,12 @@ class Project:
             rig = None
             if "rig" in f:
                 a = f["rig"].attrs
-                text, fmt = _text(a["definition"]), _text(a["definition_format"])
+                text, fmt = h5text.text(a["definition"]), h5text.text(a["definition_format"])
                 try:
                     data = tomllib.loads(text) if fmt == "toml" else json.loads(text)
                 except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:
                     raise SchemaError(f"{self.path}: /rig definition is not valid {fmt}: {exc}") from None
-                source = _text(a.get("source", ""))
+                source = h5text.text(a.get("source", ""))
                 rig = rig_from_dict(data, source=Path(source) if source else None)
             self._rig_cache = (rig,)
         return self._rig_cache[0]
@@ -719,7 +704,7 @@ class Project:
     @property
     @_reads("root attributes")
     def format_version(self) -> str:
-        return _text(self._file().attrs["odsuite_format_version"])
+        return h5text.text(self._file().attrs["odsuite_format_version"])
 
     # -- experiments
 
@@ -805,9 +790,9 @@ class Project:
                 self._write_raw(g, where, first, chunks, n_ch, n_samples, names)
                 for k, v in {"sampling_rate": float(sampling_rate), "sampling_rate_units": "Hz",
                              "pretrigger": int(pretrigger), "rig": self.rig.name if self.rig else "",
-                             "channel_names": _strings(names), "created": _now(), "source": source,
+                             "channel_names": h5text.fixed(names), "created": _now(), "source": source,
                              **exc_attrs}.items():
-                    g.attrs[k] = v
+                    h5text.set_attrs(g, {k: v})
                 _write_systeminfo(g, systeminfo, names)
             except BaseException:
                 del experiments[name]  # keep an enclosing transaction free of a half experiment
@@ -840,9 +825,8 @@ class Project:
             rows = min(rows, n_samples)
         ds = g.create_dataset("raw", shape=(n_samples or 0, n_ch), maxshape=(n_samples, n_ch),
                               chunks=(rows, n_ch), dtype=np.float64, fletcher32=True)
-        ds.attrs["units"] = "V"
-        ds.attrs["dims"] = _strings(["sample", "channel"])
-        ds.attrs["channel_names"] = _strings(names)
+        h5text.set_attrs(ds, {"units": "V", "dims": h5text.fixed(["sample", "channel"]),
+                              "channel_names": h5text.fixed(names)})
         row, k, chunk = 0, 0, first
         while chunk is not None:
             if k:
@@ -912,14 +896,14 @@ class Project:
             if partial in derived:
                 del derived[partial]
             g = _typed_group(derived, partial, "derived")
-            g.attrs.update({"plugin": plugin, "plugin_version": str(provenance.get("version", "")),
-                            "parameters": params, "inputs": _strings(str(i) for i in inputs),
-                            "created": _now()})
+            h5text.set_attrs(g, {"plugin": plugin, "plugin_version": str(provenance.get("version", "")),
+                                 "parameters": params, "inputs": h5text.fixed([str(i) for i in inputs]),
+                                 "created": _now()})
             writer = DerivedWriter(g, where)
             try:
                 yield writer
-                for k, v in writer.attrs.items():
-                    g.attrs[k] = _to_json(f"{where} attr {k!r}", v) if isinstance(v, dict | None) else v
+                h5text.set_attrs(g, {k: _to_json(f"{where} attr {k!r}", v) if isinstance(v, dict | None) else v
+                                     for k, v in writer.attrs.items()})
             except BaseException:
                 del derived[partial]
                 raise
@@ -942,15 +926,15 @@ class Project:
         """Provenance, extra attributes, units and dims of a derived group."""
         g = self._derived_group(experiment, kind)
         a = dict(g.attrs)
-        prov = {"plugin": _text(a.pop("plugin")), "version": _text(a.pop("plugin_version")),
-                "parameters": json.loads(_text(a.pop("parameters"))),
-                "inputs": [_text(i) for i in a.pop("inputs")], "created": _text(a.pop("created"))}
-        object_id = _text(a.pop("object_id"))
+        prov = {"plugin": h5text.text(a.pop("plugin")), "version": h5text.text(a.pop("plugin_version")),
+                "parameters": json.loads(h5text.text(a.pop("parameters"))),
+                "inputs": [h5text.text(i) for i in a.pop("inputs")], "created": h5text.text(a.pop("created"))}
+        object_id = h5text.text(a.pop("object_id"))
         a.pop("odsuite_type")
         return {"object_id": object_id, "provenance": prov,
-                "attrs": {k: _text(v) if isinstance(v, bytes) else v for k, v in a.items()},
-                "units": {n: _text(ds.attrs["units"]) for n, ds in g.items()},
-                "dims": {n: tuple(_text(d) for d in ds.attrs["dims"]) for n, ds in g.items()}}
+                "attrs": {k: h5text.text(v) if isinstance(v, bytes) else v for k, v in a.items()},
+                "units": {n: h5text.text(ds.attrs["units"]) for n, ds in g.items()},
+                "dims": {n: tuple(h5text.text(d) for d in ds.attrs["dims"]) for n, ds in g.items()}}
 
     @_reads("experiment {experiment!r} derived")
     def derived_kinds(self, experiment: str) -> list[str]:
@@ -994,12 +978,12 @@ class Project:
         for key, g in revs.items():
             a = g.attrs
             parent = int(a["parent"])
-            out.append({"revision": int(key), "model": _text(a["model"]) or None,
-                        "effects": json.loads(_text(a["effects"])),
-                        "parameters": json.loads(_text(a["parameters"])),
-                        "metrics": json.loads(_text(a["metrics"])),
-                        "parent": None if parent < 0 else parent, "created": _text(a["created"]),
-                        "object_id": _text(a["object_id"])})
+            out.append({"revision": int(key), "model": h5text.text(a["model"]) or None,
+                        "effects": json.loads(h5text.text(a["effects"])),
+                        "parameters": json.loads(h5text.text(a["parameters"])),
+                        "metrics": json.loads(h5text.text(a["metrics"])),
+                        "parent": None if parent < 0 else parent, "created": h5text.text(a["created"]),
+                        "object_id": h5text.text(a["object_id"])})
         return sorted(out, key=lambda r: r["revision"])
 
     @property
@@ -1026,7 +1010,7 @@ class Project:
             raise ConfigError(f"{self.path}: no model revision {n!r} (revisions: {sorted(revs) or 'none'})")
         text = _to_json(f"{self.path}: model revision {n} metrics", {**revs[n]["metrics"], **metrics})
         with self.transaction():
-            self._tx["models"]["revisions"][str(n)].attrs["metrics"] = text
+            h5text.set_attrs(self._tx["models"]["revisions"][str(n)], {"metrics": text})
 
     # -- checks and summaries
 
@@ -1061,9 +1045,9 @@ class Project:
         """
         a = self._file().attrs
         out: dict[str, Any] = {
-            "path": str(self.path), "format_version": _text(a["odsuite_format_version"]),
-            "creator": f"{_text(a['creator'])} {_text(a['creator_version'])}",
-            "file_time": _text(a["file_time"]), "file_update_time": _text(a.get("file_update_time", "")),
+            "path": str(self.path), "format_version": h5text.text(a["odsuite_format_version"]),
+            "creator": f"{h5text.text(a['creator'])} {h5text.text(a['creator_version'])}",
+            "file_time": h5text.text(a["file_time"]), "file_update_time": h5text.text(a.get("file_update_time", "")),
             "rig": self.rig.name if self.rig else None, "experiments": {},
             "revisions": len(self.model_revisions()), "current_revision": self.current_revision,
         }
@@ -1099,13 +1083,12 @@ class Project:
 def _write_skeleton(f: h5py.File, rig: Rig | None) -> None:
     from odsuite import __version__
 
-    f.attrs.update({"odsuite_format": FORMAT_NAME, "odsuite_format_version": FORMAT_VERSION,
-                    "creator": "odsuite", "creator_version": __version__,
-                    "hdf5_version": h5py.version.hdf5_version, "h5py_version": h5py.version.version,
-                    "file_time": _now()})
-    f.attrs["file_update_time"] = f.attrs["file_time"]
-    f.attrs["object_id"] = str(uuid.uuid4())
-    f.attrs["odsuite_type"] = "project"
+    now = _now()
+    h5text.set_attrs(f, {"odsuite_format": FORMAT_NAME, "odsuite_format_version": FORMAT_VERSION,
+                         "creator": "odsuite", "creator_version": __version__,
+                         "hdf5_version": h5py.version.hdf5_version, "h5py_version": h5py.version.version,
+                         "file_time": now, "file_update_time": now, "object_id": str(uuid.uuid4()),
+                         "odsuite_type": "project"})
     _typed_group(f, "experiments", "experiments", track_order=True)
     if rig is not None:
         _write_rig(f, rig)

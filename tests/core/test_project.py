@@ -89,17 +89,17 @@ def test_schema_attrs_and_experiment_round_trip(tmp_path, thesis_rig):
                              excitation=Excitation(0, np.array([0.01, 0.0, -0.011]), np.array([0, 0, 4.0])),
                              source="test")
         assert e.n_samples == 3000
-    with h5py.File(tmp_path / "p.h5", "r") as f:
-        a = f.attrs
+    with h5py.File(tmp_path / "p.h5", "r") as f:  # text is fixed-length UTF-8: h5py reads bytes
+        a = {k: v.decode() if isinstance(v, bytes) else v for k, v in f.attrs.items()}
         assert a["odsuite_format"] == FORMAT_NAME and a["odsuite_format_version"] == FORMAT_VERSION
         assert a["hdf5_version"] == h5py.version.hdf5_version and a["h5py_version"] == h5py.version.version
         assert a["creator"] == "odsuite" and a["creator_version"]
         assert a["file_time"][-6] in "+-"  # tz-aware ISO 8601
         g = f["experiments/hit 1"]
-        assert g.attrs["odsuite_type"] == "experiment" and len(g.attrs["object_id"]) == 36
+        assert g.attrs["odsuite_type"] == b"experiment" and len(g.attrs["object_id"]) == 36
         ds = g["raw"]
         assert ds.fletcher32 and ds.chunks is not None and ds.dtype == np.float64
-        assert ds.attrs["units"] == "V" and list(ds.attrs["dims"]) == ["sample", "channel"]
+        assert ds.attrs["units"] == b"V" and list(ds.attrs["dims"]) == [b"sample", b"channel"]
         # per-channel metadata readable by name without odsuite
         assert list(g["systeminfo/channels"]["name"][[0, 2]]) == [b"force", b"xC"]
     with open_project(tmp_path / "p.h5") as p:
@@ -118,7 +118,7 @@ def test_rig_sources(tmp_path, thesis_rig):
         with create_project(tmp_path / f"n{i}.h5", rig=rig) as p:
             assert _rig_to_dict(p.rig) == _rig_to_dict(thesis_rig)
         with h5py.File(tmp_path / f"n{i}.h5", "r") as f:
-            assert f["rig"].attrs["definition"] == thesis_rig.source.read_text()
+            assert f["rig"].attrs["definition"].decode() == thesis_rig.source.read_text()
     # a rig built in code has no TOML: stored as JSON, still self-contained
     code_rig = dataclasses.replace(thesis_rig, name="code-rig", source=None)
     with create_project(tmp_path / "c.h5", rig=code_rig) as p:
@@ -280,6 +280,33 @@ def test_every_numeric_dataset_has_units_and_dims(tmp_path, thesis_rig):
         pytest.skip("h5dump not installed (apt-get install hdf5-tools) - the h5py walk above passed")
     out = subprocess.run([h5dump, "-A", str(tmp_path / "p.h5")], capture_output=True, text=True, check=True).stdout
     assert "odsuite_format" in out and '"odsuite.project"' in out and "units" in out and '"V"' in out
+
+
+def test_text_is_stored_as_fixed_length_utf8(tmp_path, thesis_rig):
+    """No variable-length strings anywhere: they live in HDF5's global heap, whose damaged bytes
+    can hang the HDF5 reader (a fuzzing find); non-ASCII text round-trips."""
+    from odsuite.core.h5text import is_variable_text
+
+    si = odd_systeminfo_11()
+    with create_project(tmp_path / "p.h5", rig=thesis_rig) as p:
+        p.add_experiment("Prüfung ζ", np.zeros((50, 11)), sampling_rate=100.0, systeminfo=si, excitation=HIT,
+                         source="Prüfstand")
+        p.write_derived("Prüfung ζ", "d", {"x": DerivedArray(np.zeros(5), "µm", ("t",))},
+                        provenance={"plugin": "t"}, attrs={"note": "Δf = 2 Hz", "empty": ""})
+        p.add_model_revision([{"effect": "stiffness"}], {"k": 1.0}, {"error": 0.5}, None)
+    with h5py.File(tmp_path / "p.h5", "r") as f:
+        objects = [f]
+        f.visititems(lambda _n, o: objects.append(o))
+        attrs = [(o.name, k, o.attrs.get_id(k).dtype) for o in objects for k in o.attrs]
+        assert len(attrs) > 60
+        assert [a for a in attrs if is_variable_text(a[2])] == []
+        assert [o.name for o in objects if isinstance(o, h5py.Dataset) and is_variable_text(o.dtype)] == []
+        assert h5py.check_string_dtype(f.attrs.get_id("odsuite_format").dtype).encoding == "utf-8"
+    with open_project(tmp_path / "p.h5") as p:
+        e = p.experiment("Prüfung ζ")
+        assert e.source == "Prüfstand" and e.systeminfo == si
+        info = p.derived_info("Prüfung ζ", "d")
+        assert info["units"] == {"x": "µm"} and info["attrs"] == {"note": "Δf = 2 Hz", "empty": ""}
 
 
 def odd_systeminfo_11() -> Systeminfo:

@@ -1,4 +1,5 @@
-"""Older project files: the frozen 1.0.0 file still reads with equal values; migrations run on read."""
+"""Older project files: the frozen file of every format version still reads with equal values;
+migrations run on read."""
 
 from __future__ import annotations
 
@@ -26,12 +27,21 @@ def _make_files():
     return module
 
 
-def test_frozen_1_0_0_file_reads_with_equal_values(tmp_path):
-    frozen = tmp_path / "project-1.0.0.h5"
-    shutil.copyfile(BACK_COMPAT / "project-1.0.0.h5", frozen)
+FROZEN = sorted(BACK_COMPAT.glob("project-*.h5"))
+
+
+def test_a_frozen_file_exists_for_the_current_version():
+    assert f"project-{FORMAT_VERSION}.h5" in [f.name for f in FROZEN]
+
+
+@pytest.mark.parametrize("mode", ["r", "a"])
+@pytest.mark.parametrize("frozen_file", FROZEN, ids=lambda f: f.stem)
+def test_frozen_file_reads_with_equal_values(frozen_file, mode, tmp_path):
+    frozen = tmp_path / frozen_file.name
+    shutil.copyfile(frozen_file, frozen)
     e = _make_files().expected()
-    with open_project(frozen) as p:
-        assert p.format_version == "1.0.0"
+    with open_project(frozen, mode) as p:
+        assert p.format_version == FORMAT_VERSION  # migrated: a private copy in "r", the file itself in "a"
         assert p.rig.name == "thesis-dynamometer" and len(p.rig.sensors) == 9
         x = p.experiment("hit-z")
         assert np.array_equal(x.raw(), e["raw"])
@@ -47,6 +57,26 @@ def test_frozen_1_0_0_file_reads_with_equal_values(tmp_path):
         assert (r["effects"], r["parameters"], r["metrics"], r["parent"]) == (effects, params, metrics, 0)
         assert p.current_revision == 1
         assert p.verify() == {"hit-z": 2}
+
+
+def test_1_0_0_variable_length_text_becomes_fixed_length(tmp_path):
+    """1.0.0 stored text as variable-length strings (HDF5's global heap); the 1.1.0 migration
+    rewrites every such attribute and table column."""
+    from odsuite.core.h5text import is_variable_text
+
+    def variable(path):
+        with h5py.File(path, "r") as f:
+            objects = [f]
+            f.visititems(lambda _n, o: objects.append(o))
+            return ([(o.name, k) for o in objects for k in o.attrs if is_variable_text(o.attrs.get_id(k).dtype)]
+                    + [o.name for o in objects if isinstance(o, h5py.Dataset) and is_variable_text(o.dtype)])
+
+    old = tmp_path / "old.h5"
+    shutil.copyfile(BACK_COMPAT / "project-1.0.0.h5", old)
+    assert len(variable(old)) > 50 and "/experiments/hit-z/systeminfo/channels" in variable(old)
+    with open_project(old, "a"):
+        pass
+    assert variable(old) == []
 
 
 @pytest.fixture
@@ -86,12 +116,12 @@ def test_write_mode_upgrades_the_file(old_file):
     with open_project(old_file, "a") as p:
         assert p.experiment("e").sampling_rate == 250.0
     with h5py.File(old_file, "r") as f:
-        assert f.attrs["odsuite_format_version"] == FORMAT_VERSION and "fs" not in f["experiments/e"].attrs
+        assert f.attrs["odsuite_format_version"].decode() == FORMAT_VERSION and "fs" not in f["experiments/e"].attrs
 
 
 def test_version_without_migration_is_refused(old_file):
     with h5py.File(old_file, "r+") as f:
         f.attrs["odsuite_format_version"] = "0.8.0"
     for mode in ("r", "a"):
-        with pytest.raises(ProjectVersionError, match="format 0.8.0 is older than 1.0.0 and no migration from 0.8.0"):
+        with pytest.raises(ProjectVersionError, match=f"format 0.8.0 is older than {FORMAT_VERSION} and no migration from 0.8.0"):
             open_project(old_file, mode)

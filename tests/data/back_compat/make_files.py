@@ -24,7 +24,7 @@ RIG_FILE = "plugins/models/rigs/thesis-dynamometer.toml"
 
 
 def expected() -> dict:
-    """The content of the 1.0.0 file, regenerated from fixed seeds."""
+    """The content of every frozen file, regenerated from fixed seeds."""
     rng = np.random.default_rng(1997)
     channels = [ChannelInfo(sensor_type=SensorType.LOADCELL, sensitivity=0.0022, cutoff_high=500.0, serial="F1")]
     channels += [ChannelInfo(sensor_type=SensorType.ACCELEROMETER, sensitivity=0.02 + 1e-4 * i, cutoff_high=None,
@@ -41,7 +41,7 @@ def expected() -> dict:
     }
 
 
-def make_1_0_0(path: Path) -> None:
+def make_frozen(path: Path) -> None:
     e = expected()
     os.chdir(REPO)  # a relative rig path: the file holds no path of the machine that made it
     with create_project(path, rig=load_rig(RIG_FILE)) as p:
@@ -58,5 +58,5 @@ if __name__ == "__main__":
     target = HERE / f"project-{FORMAT_VERSION}.h5"
     if target.exists():
         sys.exit(f"{target} exists: frozen files are never rewritten")
-    make_1_0_0(target)
+    make_frozen(target)
     print(f"wrote {target}")
