@@ -43,7 +43,7 @@ stress: venv
 	$(BIN)/python -m pytest -q -m slow
 
 fuzz: venv
-	FUZZ_EXAMPLES=10000 $(BIN)/python -m pytest -q tests/reliability/test_fuzz_readers.py
+	FUZZ_EXAMPLES=10000 $(BIN)/python -m pytest -q -s tests/reliability/test_fuzz_readers.py
 
 # the report page: numbers equal compare's, self-contained, renders in headless Chromium (skips
 # with the apt-get line when /usr/bin/chromium is absent)

@@ -381,12 +381,18 @@ class _Sink:
     In single-pass runs rows are written as soon as every column has them (a group's block that
     fills a whole target goes straight through); otherwise outputs go to a temporary column store
     first.
+
+    ``concurrent``: groups push from several threads at once, each into its own columns, without a
+    lock; the caller then ``reserve``s room before each input chunk and ``flush``es after it, while
+    no thread pushes (rows are written from the calling thread only).
     """
 
     def __init__(self, n: int, targets: Mapping[str, Sequence[tuple[int, str]]],
                  write: Callable[[str, int, np.ndarray], None], *, direct: bool,
-                 chunk: int, scratch_dir: str | None) -> None:
+                 chunk: int, scratch_dir: str | None, concurrent: bool = False) -> None:
         self.n, self.write, self.direct, self.chunk = n, write, direct, chunk
+        self.concurrent = concurrent
+        self._write_lock = threading.Lock()
         self.where: dict[tuple[int, str], tuple[str, int]] = {}
         for name, cols in targets.items():
             for j, key in enumerate(cols):
@@ -441,15 +447,35 @@ class _Sink:
         for r0, r1, name, c0, c1 in runs:
             fill, head = self.fill[name], self.head[name]
             if c1 - c0 == len(fill) and fill[0] == head:  # whole rows, nothing waiting: straight on
-                self.write(name, self.written[name], x[r0:r1].T)
+                self.write(name, self.written[name], x[r0:r1].T)  # no other group writes this target
                 self.written[name] += k
                 continue
             f = int(fill[c0])  # the rows of a run always arrive together
             if f + k > self.buf[name].shape[1]:
+                if self.concurrent:  # reserve() made room for every sample fed so far
+                    raise DimensionError(f"tap {tap!r} of chain {members[r0]} produced more samples than "
+                                         "its input so far")
                 f -= self._room(name, f + k)
             self.buf[name][c0:c1, f:f + k] = x[r0:r1]
             fill[c0:c1] = f + k
-            self._flush(name)  # as soon as whole rows are there: the buffer stays small
+            # as soon as whole rows are there, while they are in the cache; with threads, whoever
+            # finds the writer free writes them (the others go on filtering)
+            if not self.concurrent:
+                self._flush(name)
+            elif self._write_lock.acquire(blocking=False):
+                try:
+                    self._flush(name)
+                finally:
+                    self._write_lock.release()
+
+    def reserve(self, fed: int) -> None:
+        """Room in the buffers for every column to reach input sample ``fed`` (a single-pass chain
+        never emits ahead of its input), so that concurrent pushes never move a buffer."""
+        if self.direct:
+            for name in self.fill:
+                need = fed - self.written[name] + self.head[name]
+                if need > self.buf[name].shape[1]:
+                    self._room(name, need)
 
     def _room(self, name: str, need: int) -> int:
         """Move waiting rows to the buffer's start and grow it to hold ``need`` - (the shift)
@@ -480,7 +506,8 @@ class _Sink:
             return
         self.write(name, self.written[name], self.buf[name][:, head:head + have].T)
         self.written[name] += have
-        if fill[0] == head + have and (fill == fill[0]).all():  # all written: start again at 0
+        # all written: start again at 0 (with threads, reserve() moves the rows between chunks)
+        if not self.concurrent and fill[0] == head + have and (fill == fill[0]).all():
             fill[:] = 0
             self.head[name] = 0
         else:
@@ -514,7 +541,8 @@ def run_chains(chains: Sequence[Chain], n: int, read: Callable[[int, int], np.nd
 
     ``read(start, stop)`` returns rows of the input (rows x len(chains)); outputs named in
     ``targets`` are handed to ``write`` in whole rows (``write`` copies them: the block is
-    reused; with ``workers`` > 1 it is called from worker threads, one call at a time).
+    reused; with ``workers`` > 1 it is called from worker threads, at the same time for different
+    targets, one call at a time for one target).
     ``progress(done, total)`` is called after each chunk (total counts every pass). Chains with
     the same settings run together, channels x samples, in cache-sized blocks; ``workers``
     threads share the channels (the filter kernel and numpy's copies release the GIL). Results
@@ -528,9 +556,9 @@ def run_chains(chains: Sequence[Chain], n: int, read: Callable[[int, int], np.nd
     cols = [_columns(g) for g in groups]
     segs = [chains[g[0]].segments() for g in groups]
     passes = max(len(s) for s in segs) if segs else 0
-    sink = _Sink(n, targets, write, direct=passes <= 1, chunk=chunk, scratch_dir=scratch_dir)
-    lock = threading.Lock()
     pool = ThreadPoolExecutor(min(workers, len(groups))) if workers > 1 and len(groups) > 1 else None
+    sink = _Sink(n, targets, write, direct=passes <= 1, chunk=chunk, scratch_dir=scratch_dir,
+                 concurrent=pool is not None)
 
     def each(fn: Callable[[int], int], gs: Sequence[int]) -> int:
         """``fn`` of every group (in the pool when there is one); the largest result."""
@@ -543,11 +571,8 @@ def run_chains(chains: Sequence[Chain], n: int, read: Callable[[int, int], np.nd
             backwards = p % 2 == 1
             active = [g for g in range(len(groups)) if len(segs[g]) > p]
 
-            def emit(members: tuple[int, ...], tap: str, x: np.ndarray) -> None:
-                with lock:
-                    sink.push(members, tap, x, backwards)
-
-            runners = {g: _SegmentRunner(segs[g][p], lambda tap, x, m=groups[g]: emit(m, tap, x)) for g in active}
+            runners = {g: _SegmentRunner(segs[g][p], lambda tap, x, m=groups[g], b=backwards: sink.push(m, tap, x, b))
+                       for g in active}
             new_scratch = {g: _Scratch(len(groups[g]), scratch_dir) for g in active if len(segs[g]) > p + 1}
 
             def run(g: int, x: np.ndarray) -> int:
@@ -562,6 +587,7 @@ def run_chains(chains: Sequence[Chain], n: int, read: Callable[[int, int], np.nd
                     if block.ndim != 2 or block.shape[1] != len(chains):
                         raise DimensionError(f"input rows {a}..: expected {len(chains)} channels, "
                                              f"got shape {block.shape}")
+                    sink.reserve(a + block.shape[0])
 
                     def feed(g: int, block: np.ndarray = block) -> int:
                         step = max(1024, BLOCK_BYTES // (8 * len(groups[g])))

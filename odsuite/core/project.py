@@ -1,8 +1,10 @@
-"""The odsuite project file (HDF5, schema 1.0.0).
+"""The odsuite project file (HDF5, schema 1.1.0).
 
-Layout (every group has ``odsuite_type`` and ``object_id``; numeric datasets have ``units``, ``dims``)::
+Layout (every group has ``odsuite_type`` and ``object_id``; numeric datasets have ``units``, ``dims``;
+all text is fixed-length UTF-8, see ``h5text``: 1.0.0 files stored it variable-length and are
+migrated on open)::
 
-    /                         odsuite_format="odsuite.project", odsuite_format_version="1.0.0",
+    /                         odsuite_format="odsuite.project", odsuite_format_version="1.1.0",
                               creator, creator_version, hdf5_version, h5py_version, file_time,
                               file_update_time (ISO 8601, tz-aware)
     /rig                      the rig definition the project was created on: attrs name,

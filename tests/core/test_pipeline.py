@@ -170,12 +170,14 @@ def test_threads_equal_one_thread(registries):
 @pytest.mark.parametrize("workers", [1, 2])
 def test_targets_mixing_groups_get_whole_rows(workers):
     # one dataset whose columns come from different groups in scrambled order, and taps that lag
-    # their inputs (Eq. 4.5): written in whole rows, in order, equal to each chain alone
+    # their inputs (Eq. 4.5) or hold them back over several chunks (an offset window late in the
+    # record): written in whole rows, in order, equal to each chain alone
     from odsuite.core.pipeline import run_chains
 
-    chains = [chain_for_channel(TABLE_E3) for _ in range(4)] + [chain_for_channel(replace(TABLE_E3, daq_gain=2.0))]
+    chains = [chain_for_channel(TABLE_E3) for _ in range(4)] + [chain_for_channel(replace(TABLE_E3, daq_gain=2.0)),
+                                                                chain_for_channel(replace(TABLE_E3, offset_start=5000))]
     raw = np.random.default_rng(11).standard_normal((7000, len(chains))) * 0.05
-    order = [3, 4, 0, 2, 1]
+    order = [3, 5, 4, 0, 2, 1]
     targets = {"d": [(c, "displacement") for c in order], "a": [(4, "acceleration"), (1, "velocity")]}
     out = {name: np.full((7000, len(cols)), np.nan) for name, cols in targets.items()}
     starts = {name: [] for name in targets}

@@ -5,7 +5,8 @@ and reading never changes the file.
 Each case runs in a forked worker process: a hang inside HDF5's C code cannot be interrupted from
 Python, so the parent waits ``CASE_TIMEOUT`` seconds, counts the case as a hang and replaces the worker.
 ``FUZZ_EXAMPLES`` sets the cases per reader (default 200; ``make fuzz`` runs 10 000 and prints the
-outcome counts); ``FUZZ_KEEP`` names a directory where failing cases are saved.
+outcome counts); ``FUZZ_SEED`` draws other cases than the fixed default sequence; ``FUZZ_KEEP``
+names a directory where failing cases are saved.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, given, seed, settings
 from hypothesis import strategies as st
 
 from odsuite.core.errors import OdsuiteError
@@ -26,7 +27,8 @@ from tests.reliability.harness import TABLE_E3, legacy_volts
 
 EXAMPLES = int(os.environ.get("FUZZ_EXAMPLES", "200"))
 CASE_TIMEOUT = 10.0  # s per case: longer is a hang
-FUZZ = settings(max_examples=EXAMPLES, deadline=None, derandomize=True, database=None,
+SEED = os.environ.get("FUZZ_SEED")
+FUZZ = settings(max_examples=EXAMPLES, deadline=None, derandomize=SEED is None, database=None,
                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow,
                                        HealthCheck.data_too_large])
 
@@ -198,7 +200,7 @@ def test_corrupted_bytes_end_in_a_result_or_an_odsuite_error(reader, tmp_path):
                 (Path(keep) / f"{reader}-{len(failures)}{Path(name).suffix}").write_bytes(data)
 
     try:
-        case()
+        (seed(int(SEED))(case) if SEED else case)()
     finally:
         worker.close()
     print(f"\nfuzz {reader}: {sum(counts.values())} cases: "
