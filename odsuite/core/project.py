@@ -43,6 +43,8 @@ import os
 import shutil
 import signal
 import socket
+import subprocess
+import sys
 import tempfile
 import tomllib
 import typing
@@ -431,6 +433,37 @@ def _reads(what: str = "") -> Callable:
     return wrap
 
 
+#: Seconds a child process may take to read the text of a file written before format 1.1.0.
+HEAP_TEXT_TIMEOUT = 60.0
+
+_READ_ALL_TEXT = """
+import sys, h5py
+def read(obj):
+    for key in obj.attrs:
+        obj.attrs[key]
+    if isinstance(obj, h5py.Dataset) and (obj.dtype.kind == "O" or obj.dtype.names):
+        obj[()]
+with h5py.File(sys.argv[1], "r", locking=False) as f:
+    read(f)
+    f.visititems(lambda _name, obj: read(obj))
+"""
+
+
+def _read_heap_text_aside(path: Path) -> None:
+    """Files written before format 1.1.0 keep their text in HDF5's global heap, whose damaged bytes
+    can send the HDF5 library into an endless loop: read all of it first in a child process that
+    can be stopped. An ordinary read error is left to the reader that follows."""
+    try:
+        done = subprocess.run([sys.executable, "-c", _READ_ALL_TEXT, str(path)], capture_output=True,
+                              timeout=HEAP_TEXT_TIMEOUT, check=False)
+    except subprocess.TimeoutExpired:
+        raise ProjectFileError(f"{path}: project file is damaged (reading its text did not finish within "
+                               f"{HEAP_TEXT_TIMEOUT:g} s)") from None
+    if done.returncode < 0:
+        raise ProjectFileError(f"{path}: project file is damaged (reading its text crashed the HDF5 library "
+                               f"with signal {-done.returncode})")
+
+
 def _check_format(path: Path) -> str:
     """Check that ``path`` is an odsuite project this version can read; returns its version."""
     if not path.exists():
@@ -440,12 +473,16 @@ def _check_format(path: Path) -> str:
     if not h5py.is_hdf5(path):
         raise NotAProjectError(f"{path}: not an HDF5 file, so not an odsuite project")
     with _open_h5(path, path) as f, _reading(path, "root attributes"):
+        heap_text = "odsuite_format" in f.attrs and h5text.is_variable_text(f.attrs.get_id("odsuite_format").dtype)
+    if heap_text:
+        _read_heap_text_aside(path)
+    with _open_h5(path, path) as f, _reading(path, "root attributes"):
         fmt = f.attrs.get("odsuite_format")
         version = f.attrs.get("odsuite_format_version")
     if fmt is None or h5text.text(fmt) != FORMAT_NAME:
         raise NotAProjectError(
             f"{path}: HDF5 file without the root attribute odsuite_format={FORMAT_NAME!r} "
-            f"(found {fmt!r}); not an odsuite project"
+            f"(found {None if fmt is None else h5text.text(fmt)!r}); not an odsuite project"
         )
     if version is None:
         raise SchemaError(f"{path}: root attribute odsuite_format_version is missing")

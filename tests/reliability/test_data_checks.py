@@ -3,6 +3,9 @@ and named by `odsuite verify` and `odsuite info`; the intact experiments stay re
 
 from __future__ import annotations
 
+import shutil
+from pathlib import Path
+
 import h5py
 import numpy as np
 import pytest
@@ -78,3 +81,23 @@ def test_flipped_byte_is_found_and_named(project, capsys, dataset, experiment):
         assert p.experiment(intact).raw().shape == (100_000, CHANNELS)
         with pytest.raises(ProjectFileError):
             p.verify()
+
+
+HEAP_LOOP = Path(__file__).resolve().parents[1] / "data" / "damaged" / "heap-loop-1.0.0.h5"
+
+
+@pytest.mark.parametrize("mode", ["r", "a"])
+def test_a_1_0_0_file_whose_damaged_heap_hangs_hdf5_is_an_error(tmp_path, monkeypatch, mode):
+    """A fuzzing find: reading the root text of this damaged format-1.0.0 file sends HDF5's
+    global-heap reader into an endless loop. Text of files older than 1.1.0 is read in a child
+    process first, which is stopped."""
+    from odsuite.core import project
+
+    monkeypatch.setattr(project, "HEAP_TEXT_TIMEOUT", 2.0)
+    path = tmp_path / "x.h5"
+    shutil.copyfile(HEAP_LOOP, path)
+    before = path.read_bytes()
+    with pytest.raises(ProjectFileError) as info:
+        open_project(path, mode)
+    assert str(info.value) == f"{path}: project file is damaged (reading its text did not finish within 2 s)"
+    assert path.read_bytes() == before and not path.with_name("x.h5.lock").exists()
