@@ -383,8 +383,9 @@ class _Sink:
     first.
 
     ``concurrent``: groups push from several threads at once, each into its own columns, without a
-    lock; the caller then ``reserve``s room before each input chunk and ``flush``es after it, while
-    no thread pushes (rows are written from the calling thread only).
+    lock; a pushing thread that finds the writer free writes the rows complete so far. The caller
+    ``reserve``s room before each input chunk and ``flush``es the rest after it, while no thread
+    pushes.
     """
 
     def __init__(self, n: int, targets: Mapping[str, Sequence[tuple[int, str]]],

@@ -61,7 +61,7 @@ from typing import IO, Any
 import h5py
 import numpy as np
 
-from odsuite.core import h5text, migrations
+from odsuite.core import errors, h5text, migrations
 from odsuite.core.errors import (
     ConfigError,
     DimensionError,
@@ -433,49 +433,68 @@ def _reads(what: str = "") -> Callable:
     return wrap
 
 
-#: Seconds a child process may take to read the text of a file written before format 1.1.0.
+#: The one format that kept its text in HDF5's global heap (variable-length strings).
+HEAP_TEXT_VERSION = "1.0.0"
+#: Seconds a child process may take to migrate a format-1.0.0 file's text.
 HEAP_TEXT_TIMEOUT = 60.0
 
-_READ_ALL_TEXT = """
-import sys, h5py
-def read(obj):
-    for key in obj.attrs:
-        obj.attrs[key]
-    if isinstance(obj, h5py.Dataset) and (obj.dtype.kind == "O" or obj.dtype.names):
-        obj[()]
-with h5py.File(sys.argv[1], "r", locking=False) as f:
-    read(f)
-    f.visititems(lambda _name, obj: read(obj))
-"""
 
-
-def _read_heap_text_aside(path: Path) -> None:
-    """Files written before format 1.1.0 keep their text in HDF5's global heap, whose damaged bytes
-    can send the HDF5 library into an endless loop: read all of it first in a child process that
-    can be stopped. An ordinary read error is left to the reader that follows."""
+def _migrate_heap_text(copy: str, where: str) -> None:
+    """The child process of ``_migrate_heap_text_aside``: migrate ``copy`` to format 1.1.0; any
+    error is one line "<class>\t<message>" on stderr and exit code 1."""
     try:
-        done = subprocess.run([sys.executable, "-c", _READ_ALL_TEXT, str(path)], capture_output=True,
-                              timeout=HEAP_TEXT_TIMEOUT, check=False)
+        with h5py.File(copy, "r+", locking=False) as f:
+            fmt = f.attrs.get("odsuite_format")
+            if fmt is None or h5text.text(fmt) != FORMAT_NAME:
+                raise NotAProjectError(f"{where}: HDF5 file without the root attribute "
+                                       f"odsuite_format={FORMAT_NAME!r}; not an odsuite project")
+            migrations.migrate(f, "1.1.0", where)
+    except Exception as exc:  # noqa: BLE001 - reported to the parent, which names the damage
+        text = exc.args[0] if len(exc.args) == 1 and isinstance(exc.args[0], str) else str(exc)
+        print(f"{type(exc).__name__}\t{(text.strip().splitlines() or [''])[0]}", file=sys.stderr)
+        sys.exit(1)
+
+
+def _migrate_heap_text_aside(copy: Path, path: Path) -> None:
+    """Migrate ``copy`` of the format-1.0.0 project ``path`` to 1.1.0 in a child process that can be
+    stopped: damaged heap bytes can send the HDF5 library into an endless loop or crash it."""
+    code = "import sys; from odsuite.core.project import _migrate_heap_text; _migrate_heap_text(*sys.argv[1:])"
+    try:
+        done = subprocess.run([sys.executable, "-c", code, str(copy), str(path)], capture_output=True,
+                              text=True, timeout=HEAP_TEXT_TIMEOUT, check=False)
     except subprocess.TimeoutExpired:
-        raise ProjectFileError(f"{path}: project file is damaged (reading its text did not finish within "
-                               f"{HEAP_TEXT_TIMEOUT:g} s)") from None
+        raise ProjectFileError(f"{path}: project file is damaged (reading its format-1.0.0 text did not finish "
+                               f"within {HEAP_TEXT_TIMEOUT:g} s)") from None
+    if done.returncode == 0:
+        return
+    kind, _, message = ((done.stderr.strip().splitlines() or [""])[-1]).partition("\t")
+    error = getattr(errors, kind, None)
+    if done.returncode == 1 and isinstance(error, type) and issubclass(error, OdsuiteError) and message:
+        raise error(message)
     if done.returncode < 0:
-        raise ProjectFileError(f"{path}: project file is damaged (reading its text crashed the HDF5 library "
-                               f"with signal {-done.returncode})")
+        why = f"the HDF5 library crashed with signal {-done.returncode}"
+    else:
+        why = message or kind or f"exit code {done.returncode}"
+    raise ProjectFileError(f"{path}: project file is damaged (migrating its format-1.0.0 text: {why})")
+
+
+def _has_heap_text(path: Path) -> bool:
+    """Whether ``path`` keeps its root text in the global heap (format 1.0.0); reads no heap."""
+    with _open_h5(path, path) as f, _reading(path, "root attributes"):
+        return "odsuite_format" in f.attrs and h5text.is_variable_text(f.attrs.get_id("odsuite_format").dtype)
 
 
 def _check_format(path: Path) -> str:
-    """Check that ``path`` is an odsuite project this version can read; returns its version."""
+    """Check that ``path`` is an odsuite project this version can read; returns its version
+    (format 1.0.0 without reading its text: the migration checks it)."""
     if not path.exists():
         raise ProjectFileError(f"{path}: no such project file")
     if not path.is_file():
         raise ProjectFileError(f"{path}: not a file")
     if not h5py.is_hdf5(path):
         raise NotAProjectError(f"{path}: not an HDF5 file, so not an odsuite project")
-    with _open_h5(path, path) as f, _reading(path, "root attributes"):
-        heap_text = "odsuite_format" in f.attrs and h5text.is_variable_text(f.attrs.get_id("odsuite_format").dtype)
-    if heap_text:
-        _read_heap_text_aside(path)
+    if _has_heap_text(path):
+        return HEAP_TEXT_VERSION  # read in a child process, see _migrate_heap_text_aside
     with _open_h5(path, path) as f, _reading(path, "root attributes"):
         fmt = f.attrs.get("odsuite_format")
         version = f.attrs.get("odsuite_format_version")
@@ -1185,8 +1204,7 @@ def open_project(path: str | Path, mode: str = "r") -> Project:
         tmp = Path(tmp_name)
         try:
             shutil.copyfile(path, tmp)
-            with h5py.File(tmp, "r+", locking=False) as f:
-                migrations.migrate(f, FORMAT_VERSION, str(path))
+            _migrate(tmp, path, version)
             return Project(path, "r", None, read_path=tmp)
         except BaseException:
             tmp.unlink(missing_ok=True)
@@ -1198,15 +1216,27 @@ def open_project(path: str | Path, mode: str = "r") -> Project:
         if migrations.parse_version(version) > migrations.parse_version(FORMAT_VERSION):
             raise ProjectVersionError(f"{path}: project format {version} is newer than {FORMAT_VERSION}: "
                                       "this odsuite can read it but not change it; upgrade odsuite")
-        project = Project(path, "a", lock)
+        if version != FORMAT_VERSION:
+            migrations.migration_path(version, FORMAT_VERSION, str(path))  # refuse before copying
+            tmp = _tmp_path(path)
+            try:  # a transaction: the migrated copy replaces the project atomically
+                shutil.copyfile(path, tmp)
+                _migrate(tmp, path, version)
+                _fsync_path(tmp)
+                os.replace(tmp, path)
+                _fsync_path(path.parent, directory=True)
+            finally:
+                tmp.unlink(missing_ok=True)
+        return Project(path, "a", lock)
     except BaseException:
         _release_lock(lock)
         raise
-    if version != FORMAT_VERSION:
-        try:
-            with project.transaction():
-                migrations.migrate(project._tx, FORMAT_VERSION, str(path))
-        except BaseException:
-            project.close()
-            raise
-    return project
+
+
+def _migrate(copy: Path, path: Path, version: str) -> None:
+    """Migrate ``copy`` of the project ``path`` (format ``version``) to this odsuite's format."""
+    if version == HEAP_TEXT_VERSION:
+        _migrate_heap_text_aside(copy, path)
+        version = "1.1.0"
+    with h5py.File(copy, "r+", locking=False) as f, _reading(path, f"migrating format {version}"):
+        migrations.migrate(f, FORMAT_VERSION, str(path))

@@ -61,15 +61,13 @@ class Worker:
     def run(self, path: Path) -> tuple[str, str]:
         """(outcome, message): outcome is "valid", an OdsuiteError class name, "other", "hang" or
         "crash" (the worker died, e.g. a segfault in HDF5)."""
-        self.conn.send(str(path))
-        if self.conn.poll(CASE_TIMEOUT):
-            try:
+        try:
+            self.conn.send(str(path))
+            if self.conn.poll(CASE_TIMEOUT):
                 return self.conn.recv()
-            except EOFError:
-                pass
-            outcome = "crash"
-        else:
             outcome = "hang"
+        except (EOFError, OSError):  # the worker died
+            outcome = "crash"
         self.proc.kill()
         self.proc.join()
         code = self.proc.exitcode
