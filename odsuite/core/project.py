@@ -409,9 +409,14 @@ def _reading(path: Path, what: str = "") -> Iterator[None]:
     except OdsuiteError:
         raise
     except _DAMAGE as exc:
-        text = exc.args[0] if len(exc.args) == 1 and isinstance(exc.args[0], str) else str(exc)
-        text = (text.strip().splitlines() or [type(exc).__name__])[0]
-        raise ProjectFileError(f"{path}: project file is damaged ({what + ': ' if what else ''}{text})") from None
+        where = f"{what}: " if what else ""
+        raise ProjectFileError(f"{path}: project file is damaged ({where}{_first_line(exc)})") from None
+
+
+def _first_line(exc: BaseException) -> str:
+    """The first line of an exception's message (a KeyError's without its quotes)."""
+    text = exc.args[0] if len(exc.args) == 1 and isinstance(exc.args[0], str) else str(exc)
+    return (text.strip().splitlines() or [type(exc).__name__])[0]
 
 
 def _reads(what: str = "") -> Callable:
@@ -450,8 +455,7 @@ def _migrate_heap_text(copy: str, where: str) -> None:
                                        f"odsuite_format={FORMAT_NAME!r}; not an odsuite project")
             migrations.migrate(f, "1.1.0", where)
     except Exception as exc:  # noqa: BLE001 - reported to the parent, which names the damage
-        text = exc.args[0] if len(exc.args) == 1 and isinstance(exc.args[0], str) else str(exc)
-        print(f"{type(exc).__name__}\t{(text.strip().splitlines() or [''])[0]}", file=sys.stderr)
+        print(f"{type(exc).__name__}\t{_first_line(exc)}", file=sys.stderr)
         sys.exit(1)
 
 
