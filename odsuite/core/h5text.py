@@ -61,6 +61,15 @@ def text(value: Any) -> str:
     return value.decode("utf-8") if isinstance(value, bytes) else str(value)
 
 
+def readable(value: Any) -> Any:
+    """An attribute value with its text as ``str`` (a list of ``str`` for an array of strings)."""
+    if isinstance(value, bytes):
+        return text(value)
+    if isinstance(value, np.ndarray) and (value.dtype.kind == "S" or h5py.check_string_dtype(value.dtype)):
+        return [text(v) for v in value.ravel()]
+    return value
+
+
 def is_variable_text(dtype: np.dtype) -> bool:
     """A variable-length string type, alone or as a field of a compound type."""
     if dtype.names:

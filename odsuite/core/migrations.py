@@ -8,8 +8,9 @@ it upgrades from::
         ...
 
 ``migrate`` chains them until the file reaches the target version. Readers never migrate the
-original file in place: ``odsuite.core.project`` migrates a private copy (read mode) or the copy of
-a write transaction (write mode), so a failed migration leaves the project untouched.
+original file in place: ``odsuite.core.project`` migrates a private copy (read mode) or a copy that
+then replaces the project atomically (write mode), so a failed migration leaves the project
+untouched.
 """
 
 from __future__ import annotations
@@ -82,30 +83,67 @@ def migrate(f: h5py.File, to_version: str, where: str = "project") -> list[str]:
     return passed
 
 
+#: Bytes of an attribute that still fits an object header as HDF5 1.6 wrote it (messages < 64 KiB).
+_OLD_HEADER_LIMIT = 60_000
+
+
 @migration("1.0.0", "1.1.0")
 def _fixed_length_text(f: h5py.File) -> None:
     """1.1.0 stores text as fixed-length strings (see ``h5text``): rewrite every variable-length
-    string attribute and every table with variable-length string columns."""
-    objects: list[h5py.HLObject] = [f]
-    f.visititems(lambda _name, obj: objects.append(obj))
-    for obj in objects:
-        for key in list(obj.attrs):
-            if h5text.is_variable_text(obj.attrs.get_id(key).dtype):
-                h5text.set_attrs(obj, {key: obj.attrs[key]})
+    string attribute, text dataset and table with text columns. ``f`` must be open with
+    ``libver=("v110", "v110")``: a group whose text outgrows its old-style object header is
+    recreated (its members moved over) with a header that stores large attributes."""
+    names = [""]
+    f.visit(names.append)
+    for name in names:
+        obj = f[name] if name else f
         if isinstance(obj, h5py.Dataset) and h5text.is_variable_text(obj.dtype):
-            _rewrite_table(obj)
+            _recreate_dataset(obj, _fixed_data(obj))
+            continue
+        text = {k: h5text.stored(obj.attrs[k]) for k in obj.attrs if h5text.is_variable_text(obj.attrs.get_id(k).dtype)}
+        if isinstance(obj, h5py.Group) and name and any(v.nbytes > _OLD_HEADER_LIMIT for v in text.values()):
+            _recreate_group(obj)
+        else:
+            h5text.set_attrs(obj, text)
 
 
-def _rewrite_table(ds: h5py.Dataset) -> None:
-    """Replace a compound dataset's variable-length string columns by fixed-length ones."""
-    table, attrs = ds[()], {k: ds.attrs[k] for k in ds.attrs}
-    names = table.dtype.names or ()
-    columns = {n: [h5text.text(v) for v in table[n]] for n in names if h5text.is_variable_text(table.dtype[n])}
-    dtype = np.dtype([(n, h5text.fixed_dtype(columns[n]) if n in columns else table.dtype[n]) for n in names])
-    fixed = np.zeros(table.shape, dtype=dtype)
-    for n in names:
-        fixed[n] = [v.encode("utf-8") for v in columns[n]] if n in columns else table[n]
+def _fixed_data(ds: h5py.Dataset) -> np.ndarray:
+    """The data of a text dataset or a table with text columns, text as fixed-length UTF-8."""
+    data = ds[()]
+    if not ds.dtype.names:
+        return h5text.fixed([h5text.text(v) for v in np.ravel(data)]).reshape(np.shape(data))
+    fields = []
+    for n in ds.dtype.names:
+        field = ds.dtype[n]
+        if h5text.is_variable_text(field) and (field.names or field.subdtype):
+            raise SchemaError(f"{ds.name}: column {n!r} nests variable-length text; odsuite never wrote such a table")
+        fields.append((n, h5text.fixed_dtype([h5text.text(v) for v in data[n]])
+                       if h5text.is_variable_text(field) else field))
+    fixed = np.zeros(data.shape, dtype=np.dtype(fields))
+    for n, field in fields:
+        fixed[n] = [h5text.text(v).encode("utf-8") for v in data[n]] if field.kind == "S" else data[n]
+    return fixed
+
+
+def _recreate_dataset(ds: h5py.Dataset, data: np.ndarray) -> None:
+    """Replace ``ds`` by a dataset of ``data`` with the same storage settings and attributes."""
     parent, name = ds.parent, ds.name.rsplit("/", 1)[1]
-    del parent[name]
-    new = parent.create_dataset(name, data=fixed)
+    attrs = {k: h5text.stored(ds.attrs[k]) for k in ds.attrs}
+    layout = {"chunks": ds.chunks, "maxshape": ds.maxshape, "fletcher32": ds.fletcher32, "shuffle": ds.shuffle,
+              "compression": ds.compression, "compression_opts": ds.compression_opts} if ds.chunks else {}
+    new = parent.create_dataset(name + ".migrating", data=data, **layout)
     h5text.set_attrs(new, attrs)
+    del parent[name]
+    parent.move(new.name, name)
+
+
+def _recreate_group(g: h5py.Group) -> None:
+    """Replace ``g`` by a new group (a current object header) holding its members and attributes."""
+    parent, name = g.parent, g.name.rsplit("/", 1)[1]
+    track_order = bool(g.id.get_create_plist().get_link_creation_order())
+    new = parent.create_group(name + ".migrating", track_order=track_order)
+    h5text.set_attrs(new, {k: h5text.stored(g.attrs[k]) for k in g.attrs})
+    for member in list(g):
+        g.move(member, f"{new.name}/{member}")
+    del parent[name]
+    parent.move(new.name, name)

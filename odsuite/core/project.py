@@ -77,6 +77,9 @@ from odsuite.core.systeminfo import ChannelInfo, RigInfo, Systeminfo
 
 FORMAT_NAME = "odsuite.project"
 FORMAT_VERSION = "1.1.0"
+#: Object headers that hold attributes over 64 KiB (dense attribute storage), for every object a
+#: write creates: fixed-length text is stored in the header itself.
+LIBVER = ("v110", "v110")
 
 #: Tests set this to a crash-point name (see ``_crash_point``) to SIGKILL the writer there.
 CRASH_ENV = "ODSUITE_TEST_CRASH_AT"
@@ -116,6 +119,29 @@ def _crash_point(name: str) -> None:
     """Kill this process here when the test hook asks for it (crash-safety tests)."""
     if os.environ.get(CRASH_ENV) == name:
         os.kill(os.getpid(), signal.SIGKILL)
+
+
+class _Attrs(Mapping):
+    """An object's attributes for reading: a missing or unreadable one is a KeyError naming it
+    (HDF5's message for attributes in dense storage does not)."""
+
+    def __init__(self, obj: h5py.HLObject) -> None:
+        self._attrs = obj.attrs
+
+    def __getitem__(self, key: str) -> Any:
+        try:
+            return self._attrs[key]
+        except KeyError as exc:
+            raise KeyError(f"attribute {key!r}: {_first_line(exc)}") from None
+
+    def __contains__(self, key: object) -> bool:
+        return key in self._attrs
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._attrs)
+
+    def __len__(self) -> int:
+        return len(self._attrs)
 
 
 def _typed_group(parent: h5py.Group, name: str, odsuite_type: str, **kw) -> h5py.Group:
@@ -246,8 +272,8 @@ def _read_systeminfo(g: h5py.Group) -> Systeminfo:
     rg = g["rig"]
     opt = {n: (None if np.isnan(rg[n][()]) else float(rg[n][()])) for n in ("rx", "ry", "rz")}
     rig = RigInfo(
-        use_in_gcc=bool(rg.attrs["use_in_gcc"]), use_in_ag=bool(rg.attrs["use_in_ag"]),
-        plot_from_corner=bool(rg.attrs["plot_from_corner"]),
+        use_in_gcc=bool(_Attrs(rg)["use_in_gcc"]), use_in_ag=bool(_Attrs(rg)["use_in_ag"]),
+        plot_from_corner=bool(_Attrs(rg)["plot_from_corner"]),
         plate_sizes=[tuple(float(x) for x in row) for row in rg["plate_sizes"][()]],
         plate_origins=[tuple(float(x) for x in row) for row in rg["plate_origins"][()]],
         coordinate_columns=[int(x) for x in rg["coordinate_columns"][()]],
@@ -448,12 +474,12 @@ def _migrate_heap_text(copy: str, where: str) -> None:
     """The child process of ``_migrate_heap_text_aside``: migrate ``copy`` to format 1.1.0; any
     error is one line "<class>\t<message>" on stderr and exit code 1."""
     try:
-        with h5py.File(copy, "r+", locking=False) as f:
+        with h5py.File(copy, "r+", locking=False, libver=LIBVER) as f:
             fmt = f.attrs.get("odsuite_format")
             if fmt is None or h5text.text(fmt) != FORMAT_NAME:
                 raise NotAProjectError(f"{where}: HDF5 file without the root attribute "
                                        f"odsuite_format={FORMAT_NAME!r}; not an odsuite project")
-            migrations.migrate(f, "1.1.0", where)
+            migrations.migrate(f, migrations.MIGRATIONS[HEAP_TEXT_VERSION].to_version, where)
     except Exception as exc:  # noqa: BLE001 - reported to the parent, which names the damage
         print(f"{type(exc).__name__}\t{_first_line(exc)}", file=sys.stderr)
         sys.exit(1)
@@ -463,9 +489,10 @@ def _migrate_heap_text_aside(copy: Path, path: Path) -> None:
     """Migrate ``copy`` of the format-1.0.0 project ``path`` to 1.1.0 in a child process that can be
     stopped: damaged heap bytes can send the HDF5 library into an endless loop or crash it."""
     code = "import sys; from odsuite.core.project import _migrate_heap_text; _migrate_heap_text(*sys.argv[1:])"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}  # this very odsuite
     try:
-        done = subprocess.run([sys.executable, "-c", code, str(copy), str(path)], capture_output=True,
-                              text=True, timeout=HEAP_TEXT_TIMEOUT, check=False)
+        done = subprocess.run([sys.executable, "-P", "-c", code, str(copy), str(path)], capture_output=True,
+                              text=True, timeout=HEAP_TEXT_TIMEOUT, check=False, env=env)
     except subprocess.TimeoutExpired:
         raise ProjectFileError(f"{path}: project file is damaged (reading its format-1.0.0 text did not finish "
                                f"within {HEAP_TEXT_TIMEOUT:g} s)") from None
@@ -476,10 +503,10 @@ def _migrate_heap_text_aside(copy: Path, path: Path) -> None:
     if done.returncode == 1 and isinstance(error, type) and issubclass(error, OdsuiteError) and message:
         raise error(message)
     if done.returncode < 0:
-        why = f"the HDF5 library crashed with signal {-done.returncode}"
-    else:
-        why = message or kind or f"exit code {done.returncode}"
-    raise ProjectFileError(f"{path}: project file is damaged (migrating its format-1.0.0 text: {why})")
+        raise ProjectFileError(f"{path}: project file is damaged (reading its format-1.0.0 text crashed the HDF5 "
+                               f"library with signal {-done.returncode})")
+    why = f"{kind}: {message}" if message else kind or f"exit code {done.returncode}"
+    raise ProjectFileError(f"{path}: cannot migrate format {HEAP_TEXT_VERSION}, project left unchanged ({why})")
 
 
 def _has_heap_text(path: Path) -> bool:
@@ -550,7 +577,7 @@ class Experiment:
         self._project = project
         self.name = name
         g = self._group()
-        a = g.attrs
+        a = _Attrs(g)
         self.object_id = h5text.text(a["object_id"])
         self.sampling_rate = float(a["sampling_rate"])
         self.pretrigger = int(a["pretrigger"])
@@ -695,7 +722,7 @@ class Project:
         try:
             shutil.copyfile(self.path, tmp)
             _crash_point("copied")
-            self._tx = h5py.File(tmp, "r+", locking=False)
+            self._tx = h5py.File(tmp, "r+", locking=False, libver=LIBVER)
         except OSError as exc:
             self._tx = None
             tmp.unlink(missing_ok=True)
@@ -752,7 +779,7 @@ class Project:
             f = self._file()
             rig = None
             if "rig" in f:
-                a = f["rig"].attrs
+                a = _Attrs(f["rig"])
                 text, fmt = h5text.text(a["definition"]), h5text.text(a["definition_format"])
                 try:
                     data = tomllib.loads(text) if fmt == "toml" else json.loads(text)
@@ -766,7 +793,7 @@ class Project:
     @property
     @_reads("root attributes")
     def format_version(self) -> str:
-        return h5text.text(self._file().attrs["odsuite_format_version"])
+        return h5text.text(_Attrs(self._file())["odsuite_format_version"])
 
     # -- experiments
 
@@ -994,9 +1021,9 @@ class Project:
         object_id = h5text.text(a.pop("object_id"))
         a.pop("odsuite_type")
         return {"object_id": object_id, "provenance": prov,
-                "attrs": {k: h5text.text(v) if isinstance(v, bytes) else v for k, v in a.items()},
-                "units": {n: h5text.text(ds.attrs["units"]) for n, ds in g.items()},
-                "dims": {n: tuple(h5text.text(d) for d in ds.attrs["dims"]) for n, ds in g.items()}}
+                "attrs": {k: h5text.readable(v) for k, v in a.items()},
+                "units": {n: h5text.text(_Attrs(ds)["units"]) for n, ds in g.items()},
+                "dims": {n: tuple(h5text.text(d) for d in _Attrs(ds)["dims"]) for n, ds in g.items()}}
 
     @_reads("experiment {experiment!r} derived")
     def derived_kinds(self, experiment: str) -> list[str]:
@@ -1038,7 +1065,7 @@ class Project:
             return []
         out = []
         for key, g in revs.items():
-            a = g.attrs
+            a = _Attrs(g)
             parent = int(a["parent"])
             out.append({"revision": int(key), "model": h5text.text(a["model"]) or None,
                         "effects": json.loads(h5text.text(a["effects"])),
@@ -1105,7 +1132,7 @@ class Project:
         A channel is clipped when a sample lies within (limit_high - limit_low) / 2048 (one step of
         a 12-bit converter) of its Systeminfo DAQ limits.
         """
-        a = self._file().attrs
+        a = _Attrs(self._file())
         out: dict[str, Any] = {
             "path": str(self.path), "format_version": h5text.text(a["odsuite_format_version"]),
             "creator": f"{h5text.text(a['creator'])} {h5text.text(a['creator_version'])}",
@@ -1173,7 +1200,7 @@ def create_project(path: str | Path, rig: Rig | str | None = "thesis-dynamometer
             raise ProjectFileError(f"{path}: file already exists; choose another name or delete it first")
         tmp = _tmp_path(path)
         try:
-            with h5py.File(tmp, "w", libver=("v110", "v110"), fs_strategy="fsm", fs_persist=True,
+            with h5py.File(tmp, "w", libver=LIBVER, fs_strategy="fsm", fs_persist=True,
                            track_order=True, locking=False) as f:
                 _write_skeleton(f, rig)
             _fsync_path(tmp)
@@ -1225,10 +1252,15 @@ def open_project(path: str | Path, mode: str = "r") -> Project:
             tmp = _tmp_path(path)
             try:  # a transaction: the migrated copy replaces the project atomically
                 shutil.copyfile(path, tmp)
-                _migrate(tmp, path, version)
+                _migrate(tmp, path, version, updated=True)
                 _fsync_path(tmp)
                 os.replace(tmp, path)
                 _fsync_path(path.parent, directory=True)
+            except OSError as exc:
+                if isinstance(exc, OdsuiteError):
+                    raise
+                raise ProjectFileError(f"{path}: migration from format {version} failed, project left "
+                                       f"unchanged: {exc}") from exc  # e.g. disk full
             finally:
                 tmp.unlink(missing_ok=True)
         return Project(path, "a", lock)
@@ -1237,10 +1269,13 @@ def open_project(path: str | Path, mode: str = "r") -> Project:
         raise
 
 
-def _migrate(copy: Path, path: Path, version: str) -> None:
-    """Migrate ``copy`` of the project ``path`` (format ``version``) to this odsuite's format."""
+def _migrate(copy: Path, path: Path, version: str, *, updated: bool = False) -> None:
+    """Migrate ``copy`` of the project ``path`` (format ``version``) to this odsuite's format;
+    ``updated``: the copy will replace the project (its file_update_time is set)."""
     if version == HEAP_TEXT_VERSION:
         _migrate_heap_text_aside(copy, path)
-        version = "1.1.0"
-    with h5py.File(copy, "r+", locking=False) as f, _reading(path, f"migrating format {version}"):
+        version = migrations.MIGRATIONS[HEAP_TEXT_VERSION].to_version
+    with h5py.File(copy, "r+", locking=False, libver=LIBVER) as f, _reading(path, f"migrating format {version}"):
         migrations.migrate(f, FORMAT_VERSION, str(path))
+        if updated:
+            h5text.set_attrs(f, {"file_update_time": _now()})

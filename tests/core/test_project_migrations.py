@@ -4,6 +4,7 @@ migrations run on read."""
 from __future__ import annotations
 
 import hashlib
+import json
 import importlib.util
 import shutil
 from pathlib import Path
@@ -14,7 +15,7 @@ import pytest
 
 from odsuite.core import migrations
 from odsuite.core.errors import ProjectVersionError
-from odsuite.core.project import FORMAT_VERSION, create_project, open_project
+from odsuite.core.project import FORMAT_VERSION, DerivedArray, create_project, open_project
 from odsuite.core.systeminfo import ChannelInfo, Systeminfo
 
 BACK_COMPAT = Path(__file__).resolve().parents[1] / "data" / "back_compat"
@@ -125,3 +126,64 @@ def test_version_without_migration_is_refused(old_file):
     for mode in ("r", "a"):
         with pytest.raises(ProjectVersionError, match=f"format 0.8.0 is older than {FORMAT_VERSION} and no migration from 0.8.0"):
             open_project(old_file, mode)
+
+
+def test_1_0_0_large_text_and_text_datasets_migrate(tmp_path):
+    """What 1.0.0 transactions could write: objects with old-style headers (no room for a
+    fixed-length attribute over 64 KiB), text up to hundreds of KiB, and derived text datasets."""
+    old = tmp_path / "old.h5"
+    shutil.copyfile(BACK_COMPAT / "project-1.0.0.h5", old)
+    metrics = {"per_channel": {f"ch{i}": "é" * 400 for i in range(300)}}  # ~240 KB of JSON
+    labels = ["a", "bé", "", "Δf"]
+    with h5py.File(old, "r+") as f:  # no libver: old-style headers, as 1.0.0 transactions made them
+        g = f["models/revisions"].create_group("2")
+        for k, v in {"odsuite_type": "model_revision", "object_id": "x", "model": "thesis", "parent": 1,
+                     "created": "2026-01-01T00:00:00+00:00", "effects": "[]", "parameters": "{}",
+                     "metrics": json.dumps(metrics)}.items():
+            g.attrs[k] = v
+        d = f["experiments/hit-z/derived/gencoords"]
+        ds = d.create_dataset("labels", data=np.array(labels, dtype=object), dtype=h5py.string_dtype(),
+                              chunks=(2,), maxshape=(None,))
+        ds.attrs["units"], ds.attrs["dims"] = "", np.array(["label"], dtype=h5py.string_dtype())
+    for mode in ("r", "a"):
+        with open_project(old, mode) as p:
+            assert p.model_revisions()[2]["metrics"] == metrics
+            got = p.read_derived("hit-z", "gencoords")
+            assert [v.decode() for v in got["labels"]] == labels and got["q"].shape == (2000, 6)
+    with h5py.File(old, "r") as f:
+        ds = f["experiments/hit-z/derived/gencoords/labels"]
+        assert (ds.chunks, ds.maxshape) == ((2,), (None,))
+        assert list(ds.attrs["dims"]) == [b"label"] and not h5py.check_string_dtype(ds.dtype).length is None
+
+
+def test_large_text_round_trips(tmp_path):
+    """Fixed-length text over 64 KiB written by transactions (dense attribute storage)."""
+    metrics = {"table": ["ζ" * 50] * 2000}  # ~200 KB of JSON
+    with create_project(tmp_path / "p.h5", rig=None) as p:
+        p.add_experiment("e", np.zeros((4, 2)), sampling_rate=10.0,
+                         systeminfo=Systeminfo([ChannelInfo(), ChannelInfo()]), excitation=None)
+        n = p.add_model_revision([], {}, metrics, None)
+        p.write_derived("e", "d", {"x": DerivedArray(np.zeros(3), "s", ("t",))},
+                        provenance={"plugin": "t", "parameters": metrics})
+    with open_project(tmp_path / "p.h5") as p:
+        assert p.model_revisions()[n]["metrics"] == metrics
+        assert p.derived_info("e", "d")["provenance"]["parameters"] == metrics
+
+
+def test_write_mode_migration_that_cannot_write_leaves_the_project(tmp_path, monkeypatch):
+    from odsuite.core import project
+    from odsuite.core.errors import ProjectFileError
+
+    old = tmp_path / "old.h5"
+    shutil.copyfile(BACK_COMPAT / "project-1.0.0.h5", old)
+    before = old.read_bytes()
+
+    def disk_full(*_args, **_kw):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(project, "_fsync_path", disk_full)
+    with pytest.raises(ProjectFileError) as info:
+        open_project(old, "a")
+    assert str(info.value) == (f"{old}: migration from format 1.0.0 failed, project left unchanged: "
+                               "[Errno 28] No space left on device")
+    assert old.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == ["old.h5", "old.h5.lock"]

@@ -57,6 +57,7 @@ class Worker:
         self.conn, child = ctx.Pipe()
         self.proc = ctx.Process(target=_serve, args=(child, self.read), daemon=True)
         self.proc.start()
+        child.close()  # the worker's end: its death then reads as EOF here
 
     def run(self, path: Path) -> tuple[str, str]:
         """(outcome, message): outcome is "valid", an OdsuiteError class name, "other", "hang" or
