@@ -3,7 +3,7 @@
 HDF5 keeps variable-length strings in its global heap; when a damaged file's heap is read, the
 library can loop forever (found by fuzzing the project reader), and nothing in Python can stop it.
 Fixed-length strings sit in the object header or the table row itself, so odsuite writes every
-text that way; files written with variable-length strings still read (see ``text``).
+text that way (format 1.1.0; ``migrations`` rewrites the variable-length text of 1.0.0 files).
 """
 
 from __future__ import annotations
@@ -27,11 +27,15 @@ def fixed_dtype(values: Iterable[str]) -> np.dtype:
 
 def fixed(value: str | Iterable[str]) -> np.ndarray:
     """``value`` (a string, or a sequence of strings) as a fixed-length UTF-8 array."""
-    if isinstance(value, str):
-        data, width = _encoded([value])
-        return np.array(data[0], dtype=h5py.string_dtype("utf-8", width))
-    data, width = _encoded(value)
-    return np.array(data, dtype=h5py.string_dtype("utf-8", width))
+    scalar = isinstance(value, str)
+    data, width = _encoded([value] if scalar else value)
+    return np.array(data[0] if scalar else data, dtype=h5py.string_dtype("utf-8", width))
+
+
+def _string_array(value: Any) -> bool:
+    if not isinstance(value, np.ndarray):
+        return False
+    return value.dtype.kind in "US" or h5py.check_string_dtype(value.dtype) is not None
 
 
 def stored(value: Any) -> Any:
@@ -43,7 +47,7 @@ def stored(value: Any) -> Any:
         return fixed(value)
     if isinstance(value, list | tuple) and value and all(isinstance(v, str) for v in value):
         return fixed(value)
-    if isinstance(value, np.ndarray) and (value.dtype.kind in "US" or h5py.check_string_dtype(value.dtype)):
+    if _string_array(value):
         if value.ndim == 0:
             return fixed(text(value[()]))
         return fixed([text(v) for v in value.ravel()]).reshape(value.shape)
@@ -65,7 +69,7 @@ def readable(value: Any) -> Any:
     """An attribute value with its text as ``str`` (a list of ``str`` for an array of strings)."""
     if isinstance(value, bytes):
         return text(value)
-    if isinstance(value, np.ndarray) and (value.dtype.kind == "S" or h5py.check_string_dtype(value.dtype)):
+    if _string_array(value):
         return [text(v) for v in value.ravel()]
     return value
 

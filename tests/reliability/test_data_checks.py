@@ -99,5 +99,6 @@ def test_a_1_0_0_file_whose_damaged_heap_hangs_hdf5_is_an_error(tmp_path, monkey
     before = path.read_bytes()
     with pytest.raises(ProjectFileError) as info:
         open_project(path, mode)
-    assert str(info.value) == f"{path}: project file is damaged (reading its format-1.0.0 text did not finish within 2 s)"
+    assert str(info.value) == (f"{path}: project file is damaged (reading its format-1.0.0 text did not finish "
+                               "within 2 s)")
     assert path.read_bytes() == before
