@@ -14,7 +14,8 @@ import numpy as np
 import scipy.signal
 
 from odsuite.core.plugins import registries
-from odsuite_plugins.models import Input, Output, simulate
+from odsuite.core.model import Input, Output
+from odsuite.core.simulation import simulate
 
 FS = 20_000.0
 

@@ -250,7 +250,8 @@ def prepare(project, experiments: Sequence[str] | None = None) -> list[PreparedE
 
 def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "acceleration") -> np.ndarray:
     """The model's physical signal at each sensor of ``exp`` (samples x sensors), from rest."""
-    from odsuite_plugins.models import Input, Output, StateSpace, simulate_state_space
+    from odsuite.core.model import Input, Output, StateSpace
+    from odsuite.core.simulation import simulate_state_space
 
     body = model.rig.sensors[0].body if model.rig is not None and model.rig.sensors else None
     inputs = [Input.force(exp.point, exp.direction, body=body)]

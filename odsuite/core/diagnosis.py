@@ -96,7 +96,7 @@ def heads(exps: Sequence[PreparedExperiment]) -> list[list[PreparedExperiment]]:
 class _Free:
     """One free scalar of a fit: an effect parameter, shared or of one experiment."""
 
-    param: Any  # odsuite_plugins.models.Parameter
+    param: Any  # odsuite.core.effects.Parameter
     experiment: str | None
     scale: float
 

@@ -28,7 +28,7 @@ def base_model(rig, model_name: str | None = None):
 class RevisionModel:
     """A model with its effects applied; ``for_experiment`` adds that experiment's own values."""
 
-    shared: Any  # odsuite_plugins.models.Model
+    shared: Any  # odsuite.core.model.Model
     per_experiment: list[tuple[Any, dict[str, dict[str, float]]]] = field(default_factory=list)
 
     def for_experiment(self, name: str):

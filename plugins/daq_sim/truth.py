@@ -28,8 +28,8 @@ def model_truth(rig: Rig, effects: Sequence[tuple[str, Mapping[str, Any]]] = ())
     """A truth function for :class:`~odsuite_plugins.daq_sim.simulator.SimulatedRig`: accelerations
     of every rig sensor (along its axis, at its position) to a force record, simulated exactly with a
     first-order hold."""
-    from odsuite_plugins.models.multibody import Input, Output
-    from odsuite_plugins.models.simulation import simulate
+    from odsuite.core.model import Input, Output
+    from odsuite.core.simulation import simulate
 
     model = truth_model(rig, effects)
     outputs = [Output.sensor(s) for s in rig.sensors]

@@ -7,19 +7,15 @@ from odsuite import hookimpl
 from odsuite.core.rig import load_rig
 
 #: Public names and the module defining them, imported on first use (`odsuite --help` starts fast).
+#: The model and effect contracts (Model, Structure, Effect, Parameter, ...) live in odsuite.core.
 _LAZY = {
-    **dict.fromkeys(["COORDS", "Chain", "FlexibleMode", "Input", "Model", "Modes", "Output", "RigidBody",
-                     "SensorDynamics", "SpringDamper", "StateSpace", "Structure", "point_map"], "multibody"),
-    **dict.fromkeys(["Effect", "Parameter", "builtin_effects"], "effects"),
-    **dict.fromkeys(["simulate", "simulate_state_space"], "simulation"),
+    "builtin_effects": "effects",
     **dict.fromkeys(["thesis_car_2dof", "thesis_dynamometer"], "thesis"),
 }
 
 RIG_DIR = Path(__file__).with_name("rigs")
 
-__all__ = ["COORDS", "Chain", "Effect", "Parameter", "builtin_effects", "FlexibleMode", "Input", "Model", "Modes", "Output", "RigidBody",
-           "SensorDynamics", "SpringDamper", "StateSpace", "Structure", "point_map", "simulate",
-           "simulate_state_space", "thesis_car_2dof", "thesis_dynamometer"]
+__all__ = ["builtin_effects", "thesis_car_2dof", "thesis_dynamometer"]
 
 
 def __getattr__(name: str):

@@ -10,77 +10,17 @@ enough to call in a fitting loop: nothing is recomputed that the effect does not
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from odsuite.core.errors import ConfigError
 
-from .multibody import FlexibleMode, Model, RigidBody, SensorDynamics, SpringDamper, Structure
+from odsuite.core.effects import Effect, Parameter
+from odsuite.core.model import FlexibleMode, Model, RigidBody, SensorDynamics, SpringDamper, Structure
 
 #: density used where a rig gives a plate but no mass (steel, as App. C's inertia listing)
 STEEL_DENSITY = 7841.0
-
-
-@dataclass(frozen=True)
-class Parameter:
-    """One effect parameter. ``choices`` marks a discrete parameter (e.g. polarity +1/-1)."""
-
-    name: str
-    unit: str
-    nominal: float
-    lower: float
-    upper: float
-    scope: str = "shared"
-    description: str = ""
-    choices: tuple[float, ...] | None = None
-
-    def as_dict(self) -> dict:
-        return {"name": self.name, "unit": self.unit, "nominal": self.nominal, "lower": self.lower,
-                "upper": self.upper, "scope": self.scope, "description": self.description,
-                **({"choices": list(self.choices)} if self.choices else {})}
-
-
-class Effect:
-    """Base class of effects: resolves values against the parameters, then calls ``_apply``."""
-
-    name: str = ""
-    target: str = "model"  # "model" or "chain"
-    description: str = ""
-
-    def parameters(self, model: Model) -> list[Parameter]:
-        raise NotImplementedError
-
-    def _apply(self, model: Model, v: dict[str, float]) -> Model:
-        raise NotImplementedError
-
-    def values(self, model: Model, values: Mapping[str, float] | None = None) -> dict[str, float]:
-        """Complete ``values`` with nominals; refuse unknown names and values outside the bounds."""
-        params = {p.name: p for p in self.parameters(model)}
-        values = dict(values or {})
-        unknown = sorted(set(values) - set(params))
-        if unknown:
-            raise ConfigError(f"effect {self.name!r}: unknown parameter(s) {unknown} (known: {sorted(params)})")
-        out = {}
-        for name, p in params.items():
-            v = float(values.get(name, p.nominal))
-            if p.choices is not None:
-                if v not in p.choices:
-                    raise ConfigError(f"effect {self.name!r} parameter {name!r}: expected one of {p.choices}, got {v!r}")
-            elif not (p.lower <= v <= p.upper):
-                raise ConfigError(f"effect {self.name!r} parameter {name!r}: {v!r} {p.unit} is outside "
-                                  f"[{p.lower}, {p.upper}]")
-            out[name] = v
-        return out
-
-    def apply(self, model: Model, values: Mapping[str, float] | None = None) -> Model:
-        """The model with this effect at ``values`` (nominal where missing)."""
-        v = self.values(model, values)
-        return self._apply(model, v).replace(effect=self.name, values=v)
-
-    def __repr__(self) -> str:
-        return f"<effect {self.name!r} ({self.target})>"
 
 
 def _with_structure(model: Model, **changes) -> Model:

@@ -34,7 +34,7 @@ def _independent_record(rig, model, point, direction, force):
     """Raw volts of the force and the nine accelerometers, the sensors' accelerations computed by
     scipy.signal.lsim (first-order hold) of the model's own state space, then turned into volts the
     way the thesis rig records them (sensor sign -1, Table E.3 sensitivities and DAQ gains)."""
-    from odsuite_plugins.models import Input, Output
+    from odsuite.core.model import Input, Output
 
     si = Systeminfo.for_rig(rig, FS)
     ss = model.state_space([Input.force(point, direction)], [Output.sensor(s) for s in rig.sensors])
@@ -110,7 +110,7 @@ def test_error_is_the_pooled_nrmse_after_the_filter_chain(nominal):
     path, rig, si = nominal
     import odsuite
     from odsuite.core.modelrev import base_model
-    from odsuite_plugins.models import Input, Output
+    from odsuite.core.model import Input, Output
 
     with odsuite.open_project(path) as p:
         result = compare(p, experiments=["T8stiff"])

@@ -18,8 +18,8 @@ from odsuite_plugins.daq_sim.chain import ChannelChain, run_analog
 from odsuite_plugins.daq_sim.hammer import Hit
 from odsuite_plugins.daq_sim.simulator import SimulatedRig, default_chains
 from odsuite_plugins.daq_sim.truth import truth_model
-from odsuite_plugins.models.multibody import Input, Output
-from odsuite_plugins.models.simulation import simulate
+from odsuite.core.model import Input, Output
+from odsuite.core.simulation import simulate
 
 from odsuite.core.acquisition import AcquisitionSettings, acquire, rig_systeminfo
 from odsuite.core.correction import (

@@ -134,7 +134,7 @@ def _validate(**changes):
 
 def _body(**kw):
     def run(_d: Path):
-        from odsuite_plugins.models.multibody import RigidBody
+        from odsuite.core.model import RigidBody
 
         RigidBody(**{"name": "platform", "mass": 10.0, "inertia": np.eye(3), **kw})
     return run
@@ -142,7 +142,7 @@ def _body(**kw):
 
 def _spring(**kw):
     def run(_d: Path):
-        from odsuite_plugins.models.multibody import SpringDamper
+        from odsuite.core.model import SpringDamper
 
         SpringDamper(**{"name": "k1", "point": np.zeros(3), "body": "platform", **kw})
     return run

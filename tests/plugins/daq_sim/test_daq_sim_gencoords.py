@@ -24,8 +24,8 @@ from odsuite_plugins.daq_sim.simulator import SimulatedRig, default_chains
 def test_processed_gencoords_match_the_models_within_2_percent(tmp_path, thesis_rig, scenario):
     from odsuite.core.pipeline import process_experiment
     from odsuite_plugins.daq_sim.truth import truth_model
-    from odsuite_plugins.models.multibody import Input, Output
-    from odsuite_plugins.models.simulation import simulate
+    from odsuite.core.model import Input, Output
+    from odsuite.core.simulation import simulate
 
     with create_project(tmp_path / "p.h5") as project:
         chains = {k: replace(c, adc_bits=16) for k, c in

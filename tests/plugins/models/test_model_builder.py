@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from odsuite.core.errors import ConfigError
-from odsuite_plugins.models import Input, Model, Output, RigidBody, SpringDamper
+from odsuite.core.model import Input, Model, Output, RigidBody, SpringDamper
 from odsuite_plugins.models.thesis import (APP_B, APP_C_UNIT, dynamometer_springs, inertia_tensor,
                                            thesis_car_2dof, thesis_dynamometer)
 

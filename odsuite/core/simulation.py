@@ -18,7 +18,7 @@ import scipy  # scipy.signal and scipy.linalg load on first use: fast `odsuite p
 
 from odsuite.core.errors import ConfigError, DimensionError
 
-from .multibody import Model, StateSpace
+from odsuite.core.model import Model, StateSpace
 
 HOLDS = ("zoh", "foh")
 #: above this condition number of the mode matrix, fall back to the matrix exponential

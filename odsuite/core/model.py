@@ -5,7 +5,7 @@ frame; a point at ``p`` moves by ``d_t + Theta x (p - com)``. Every point (sprin
 points) is given in the rig frame, so moving a centre of mass leaves them where they are on the body.
 
 A :class:`Model` is a :class:`Structure` (bodies, springs, added flexible modes: gives M, C, K and
-modes, cached) plus a :class:`Chain` (what happens between the structure and the recorded signals:
+modes, cached) plus a :class:`MeasurementChain` (what happens between the structure and the recorded signals:
 force gauge gain and impact offset, sensor gain, polarity, tilt, position, dynamics). Effects that
 change only the chain reuse the structure and its cached matrices.
 """
@@ -482,7 +482,7 @@ class SensorDynamics:
 
 
 @dataclass(frozen=True)
-class Chain:
+class MeasurementChain:
     """Measurement-chain changes between the structure and the recorded signals.
 
     ``force_gain`` multiplies force inputs (the structure feels gain x recorded force);
@@ -498,7 +498,7 @@ class Chain:
     tilt: Mapping[str, np.ndarray] = field(default_factory=lambda: MappingProxyType({}))
     dynamics: Mapping[str, SensorDynamics] = field(default_factory=lambda: MappingProxyType({}))
 
-    def with_items(self, name: str, items: Mapping) -> Chain:
+    def with_items(self, name: str, items: Mapping) -> MeasurementChain:
         merged = dict(getattr(self, name))
         merged.update(items)
         return replace(self, **{name: MappingProxyType(merged)})
@@ -518,11 +518,11 @@ class Model:
     ``rig`` is the rig it describes (sensors and plates for the effects), if any.
     """
 
-    def __init__(self, structure: Structure, chain: Chain | None = None, *, name: str = "",
+    def __init__(self, structure: Structure, chain: MeasurementChain | None = None, *, name: str = "",
                  effects: tuple[str, ...] = (), parameters: Mapping[str, Mapping[str, float]] | None = None,
                  info: Mapping | None = None, rig: Rig | None = None) -> None:
         self.structure = structure
-        self.chain = chain or Chain()
+        self.chain = chain or MeasurementChain()
         self.name = name
         self.rig = rig
         self.effects = tuple(effects)
@@ -534,7 +534,7 @@ class Model:
               flexible_modes: Sequence[FlexibleMode] = (), **kwargs) -> Model:
         return cls(Structure(bodies, springs, flexible_modes), **kwargs)
 
-    def replace(self, *, structure: Structure | None = None, chain: Chain | None = None,
+    def replace(self, *, structure: Structure | None = None, chain: MeasurementChain | None = None,
                 effect: str | None = None, values: Mapping[str, float] | None = None) -> Model:
         """A copy with a new structure and/or chain, recording ``effect`` and its ``values``."""
         params = dict(self.parameters)

@@ -1,0 +1,91 @@
+"""The effect contract: a named, parametrised change of a model that the diagnosis can fit.
+
+A provider registered through ``odsuite_register_effects`` is an :class:`Effect` (subclass it) or
+any object with the same members:
+
+- ``name`` (str): the registry name; ``description`` (str): one sentence for listings;
+- ``target`` (str): ``"model"`` when it changes the structure (M, C, K, flexible modes) or
+  ``"chain"`` when it changes only the measurement chain (sensor and force-gauge signals: the
+  structure's cached matrices and simulations are then reused, which makes fitting fast);
+- ``parameters(model) -> list[Parameter]``: its parameters for this model (SI units, a nominal
+  value that leaves the model unchanged, bounds; ``scope`` "shared" by every experiment or
+  "per_experiment"); called once per diagnosis, so it may depend on the rig's bodies and sensors;
+  an empty list means the effect does not apply to this model;
+- ``apply(model, values) -> Model``: the model with the effect at ``values`` (a mapping from
+  parameter name to value; missing names take their nominal). Called in fitting loops: it must be
+  cheap, pure (never change ``model``) and raise :class:`~odsuite.core.errors.ConfigError` for values
+  it cannot use.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from odsuite.core.errors import ConfigError
+from odsuite.core.model import Model
+
+#: members every effect provider has (checked when a plugin registers one)
+REQUIRED_ATTRIBUTES = ("name", "target", "description")
+REQUIRED_METHODS = ("parameters", "apply")
+TARGETS = ("model", "chain")
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One effect parameter. ``choices`` marks a discrete parameter (e.g. polarity +1/-1)."""
+
+    name: str
+    unit: str
+    nominal: float
+    lower: float
+    upper: float
+    scope: str = "shared"
+    description: str = ""
+    choices: tuple[float, ...] | None = None
+
+    def as_dict(self) -> dict:
+        return {"name": self.name, "unit": self.unit, "nominal": self.nominal, "lower": self.lower,
+                "upper": self.upper, "scope": self.scope, "description": self.description,
+                **({"choices": list(self.choices)} if self.choices else {})}
+
+
+class Effect:
+    """Base class of effects: resolves values against the parameters, then calls ``_apply``."""
+
+    name: str = ""
+    target: str = "model"  # "model" or "chain"
+    description: str = ""
+
+    def parameters(self, model: Model) -> list[Parameter]:
+        raise NotImplementedError
+
+    def _apply(self, model: Model, v: dict[str, float]) -> Model:
+        raise NotImplementedError
+
+    def values(self, model: Model, values: Mapping[str, float] | None = None) -> dict[str, float]:
+        """Complete ``values`` with nominals; refuse unknown names and values outside the bounds."""
+        params = {p.name: p for p in self.parameters(model)}
+        values = dict(values or {})
+        unknown = sorted(set(values) - set(params))
+        if unknown:
+            raise ConfigError(f"effect {self.name!r}: unknown parameter(s) {unknown} (known: {sorted(params)})")
+        out = {}
+        for name, p in params.items():
+            v = float(values.get(name, p.nominal))
+            if p.choices is not None:
+                if v not in p.choices:
+                    raise ConfigError(f"effect {self.name!r} parameter {name!r}: expected one of {p.choices}, got {v!r}")
+            elif not (p.lower <= v <= p.upper):
+                raise ConfigError(f"effect {self.name!r} parameter {name!r}: {v!r} {p.unit} is outside "
+                                  f"[{p.lower}, {p.upper}]")
+            out[name] = v
+        return out
+
+    def apply(self, model: Model, values: Mapping[str, float] | None = None) -> Model:
+        """The model with this effect at ``values`` (nominal where missing)."""
+        v = self.values(model, values)
+        return self._apply(model, v).replace(effect=self.name, values=v)
+
+    def __repr__(self) -> str:
+        return f"<effect {self.name!r} ({self.target})>"
