@@ -66,7 +66,8 @@ def best(fs: list, repeat: int) -> list[float]:
 
 
 def throughput(channels: int, samples: int, repeat: int, judge: bool = True) -> None:
-    from odsuite.core.pipeline import DEFAULT_CHUNK, chain_for_channel, run_array, run_chains
+    from odsuite.core.executor import DEFAULT_CHUNK, run_array, run_chains
+    from odsuite.core.chain_spec import chain_for_channel
 
     raw = np.random.default_rng(0).standard_normal((samples, channels)) * 0.05
     chains = [chain_for_channel(_channel()) for _ in range(channels)]

@@ -23,7 +23,7 @@ import numpy as np
 import scipy.signal
 
 from odsuite.core.errors import ConfigError
-from odsuite.core.pipeline import chain_for_channel, stage_names
+from odsuite.core.chain_spec import chain_for_channel, stage_names
 from odsuite.core.rig import Rig, Sensor
 from odsuite.core.systeminfo import SensorType
 
@@ -69,31 +69,37 @@ class StageOperator:
         return n
 
 
-def stage_operators(channels: Sequence[Any]) -> list[StageOperator] | None:
-    """Operators for the acceleration stage of these ChannelInfos (grouped), or None when a chain
-    holds a step that is not one of the Table E.2 linear steps (then the chains themselves run)."""
-    from odsuite.core.pipeline import channel_chain_spec
-    from odsuite_plugins.filters.steps import design_sos
+def stage_operators(channels: Sequence[Any], volts_per_unit: Sequence[float]) -> list[StageOperator] | None:
+    """Operators for the acceleration stage of these ChannelInfos (grouped), taking predictions in
+    physical units (``volts_per_unit`` turns them into the volts the chain expects), or None when a
+    chain holds a step without a linear form (then the chains themselves run)."""
+    from odsuite.core.chain_spec import channel_chain_spec
+    from odsuite.core.plugins import registries
+    from odsuite.core.steps import Filter, Gain, WindowMean
 
-    groups: dict[tuple, list[int]] = {}
+    steps = registries().processing_steps
+    groups: dict[tuple, tuple] = {}
     for j, ch in enumerate(channels):
-        factor, offset, filters = 1.0, None, []
+        factor, offset, filters = float(volts_per_unit[j]), None, []
         for step in channel_chain_spec(ch):
             if "tap" in step:
                 break
-            kind = step["step"]
-            if kind in ("convert", "invert"):
-                continue  # predictions enter in physical units with the measured sign
-            if kind == "micro":
-                factor *= 1e6
-            elif kind == "offset" and offset is None and not filters:
-                offset = (int(step["start"]), int(step["length"]))
-            elif kind == "iir":
-                params = {k: v for k, v in step.items() if k not in ("step", "zero_phase")}
-                sos = np.ascontiguousarray(design_sos(fs=ch.sampling_rate, **params))
-                filters.append((sos, bool(step.get("zero_phase"))))
-            else:
+            provider = steps.get(step["step"])
+            form = getattr(provider, "linear_form", None)
+            ops = form(fs=ch.sampling_rate, **{k: v for k, v in step.items() if k != "step"}) if form else None
+            if ops is None:
                 return None
+            for op in ops:
+                if isinstance(op, Gain):
+                    factor *= op.factor
+                elif isinstance(op, WindowMean) and offset is None and not filters:
+                    offset = (op.start, op.length)
+                elif isinstance(op, Filter):
+                    filters.append((np.ascontiguousarray(op.sos), op.zero_phase))
+                else:  # a window mean after a filter: not an operator of this form
+                    return None
+        # conversion times volts per unit is 1 (or 1e6) up to rounding: equal chains share a group
+        factor = float(f"{factor:.12g}")
         key = (factor, offset, tuple((sos.tobytes(), zp) for sos, zp in filters))
         groups.setdefault(key, ([], factor, offset, tuple(filters)))[0].append(j)
     return [StageOperator(tuple(cols), f, o, fl) for cols, f, o, fl in groups.values()]
@@ -114,7 +120,7 @@ class PreparedExperiment:
     volts: np.ndarray  # samples x sensors, the raw record of those columns
     measured: np.ndarray  # samples x sensors, acceleration stage (physical units)
     volts_per_unit: np.ndarray  # per sensor: physical unit -> volts as the chain expects them
-    chains: list  # per sensor, the channel's processing chain (odsuite.core.pipeline.Chain)
+    chains: list  # per sensor, the channel's processing chain (odsuite.core.executor.Chain)
     trigger: int  # first sample of the hit
     noise_var: np.ndarray  # per sensor, variance of the noise at the acceleration stage
     units: list[str] = field(default_factory=list)
@@ -237,7 +243,7 @@ def prepare_experiment(project, name: str) -> PreparedExperiment:
         direction=np.asarray(exp.excitation.direction, float), sensors=sensors, columns=columns,
         volts=volts, measured=measured, volts_per_unit=np.asarray(vpu), chains=chains, trigger=trigger,
         noise_var=_noise_variance(measured, trigger, exp.sampling_rate, lsb), units=units,
-        operators=stage_operators(infos),
+        operators=stage_operators(infos, vpu),
     )
 
 

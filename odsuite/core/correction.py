@@ -52,7 +52,7 @@ PAD_PERIODS = 3.0
 def corrected_chain_spec(ch: ChannelInfo, *, where: str = "channel") -> list[dict]:
     """The channel's Table E.2 chain without its high-pass filters and micro-units (SI out), with
     the centred trapezoid rule for both integrations: taps acceleration, velocity, displacement."""
-    from odsuite.core.pipeline import channel_chain_spec
+    from odsuite.core.chain_spec import channel_chain_spec
 
     if Integration(ch.integration) is not Integration.DOUBLE:
         raise ConfigError(f"{where}: Systeminfo field 'integration' is {Integration(ch.integration).name}; "
@@ -116,7 +116,7 @@ def correct_experiment(project, name: str, *, revision: dict | None = None,
     :func:`default_cutoff`; ``prepared`` reuses a :class:`~odsuite.core.comparison.PreparedExperiment`."""
     from odsuite.core.comparison import prepare_experiment, simulate_sensors
     from odsuite.core.modelrev import current_revision, revision_model
-    from odsuite.core.pipeline import build_chain
+    from odsuite.core.chain_spec import build_chain
     from odsuite.core.plugins import registries
 
     regs = registries()

@@ -14,7 +14,7 @@ import numpy as np
 import scipy  # scipy.signal and scipy.linalg load on first use: fast `odsuite plugins`
 
 from odsuite.core.errors import ConfigError
-from odsuite.core.pipeline import Reverse, Step
+from odsuite.core.steps import Filter, Gain, Reverse, Step, StepProvider, WindowMean
 
 
 @functools.cache
@@ -421,14 +421,16 @@ def integrate(fs: float, rule: str = "thesis") -> Sos:
     return Sos(sos, delay, zi, zero_lead=True)
 
 
-#: name -> provider, registered by the plugin.
+#: name -> provider, registered by the plugin; the linear forms let the comparison run a model's
+#: prediction through the same operators (odsuite.core.steps)
 PROVIDERS = {
-    "convert": convert,
-    "invert": invert,
-    "micro": micro,
-    "scale": scale,
-    "offset": offset,
-    "moving-average": moving_average,
-    "iir": iir,
-    "integrate": integrate,
+    "convert": StepProvider(convert, lambda fs, **p: (Gain(convert(fs, **p).factor),)),
+    "invert": StepProvider(invert, lambda fs: (Gain(-1.0),)),
+    "micro": StepProvider(micro, lambda fs: (Gain(1e6),)),
+    "scale": StepProvider(scale, lambda fs, **p: (Gain(scale(fs, **p).factor),)),
+    "offset": StepProvider(offset, lambda fs, **p: (WindowMean((o := offset(fs, **p)).start, o.length),)),
+    "moving-average": StepProvider(moving_average),
+    "iir": StepProvider(iir, lambda fs, zero_phase=False, **p: (
+        Filter(np.ascontiguousarray(design_sos(fs=fs, **p)), bool(zero_phase)),)),
+    "integrate": StepProvider(integrate),
 }

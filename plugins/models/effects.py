@@ -10,7 +10,7 @@ enough to call in a fitting loop: nothing is recomputed that the effect does not
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 

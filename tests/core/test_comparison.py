@@ -16,7 +16,7 @@ from odsuite.core.comparison import (
     stage_operators,
     windowed_force,
 )
-from odsuite.core.pipeline import chain_for_channel
+from odsuite.core.chain_spec import chain_for_channel
 from odsuite.core.project import Excitation, create_project
 from odsuite.core.systeminfo import Systeminfo
 
@@ -81,13 +81,14 @@ def test_stage_operators_equal_the_channel_chains():
     chans[1] = replace(chans[1], zero_phase=True)
     chans[2] = replace(chans[2], micro_units=True)
     x = rng.standard_normal((N, len(chans)))
-    ops = stage_operators(chans)
+    vpu = [ch.sensitivity * ch.daq_gain * (-1.0 if ch.invert else 1.0) for ch in chans]
+    ops = stage_operators(chans, vpu)
     got = np.empty_like(x)
     for op in ops:
         got[:, list(op.columns)] = op.apply(x[:, list(op.columns)])
     for j, ch in enumerate(chans):
         # the chain takes volts; the operator physical units with the measured sign
-        volts = x[:, j] * ch.sensitivity * ch.daq_gain * (-1.0 if ch.invert else 1.0)
+        volts = x[:, j] * vpu[j]
         want = chain_for_channel(ch).run(volts)["acceleration"]
         # the 20 Hz poles sit 2e-3 from z = 1: rounding grows ~1e4-fold in any cascade order
         assert np.max(np.abs(got[:, j] - want)) <= 1e-9 * np.abs(want).max(), j

@@ -10,14 +10,10 @@ import scipy.integrate
 import scipy.signal
 
 from odsuite.core.errors import ConfigError
-from odsuite.core.pipeline import (
-    Tap,
-    build_chain,
-    chain_for_channel,
-    channel_chain_spec,
-    process_experiment,
-    run_array,
-)
+from odsuite.core.steps import Tap
+from odsuite.core.chain_spec import build_chain, chain_for_channel, channel_chain_spec
+from odsuite.core.pipeline import process_experiment
+from odsuite.core.executor import run_array
 from odsuite.core.systeminfo import ChannelInfo, FilterType, Integration, SensorType, Systeminfo
 
 FS = 20_000.0
@@ -79,7 +75,7 @@ def test_micro_units_and_unknown_step(registries):
 
 
 def test_a_labs_own_step_by_name(registries):
-    from odsuite.core.pipeline import Step
+    from odsuite.core.steps import Step
 
     class Clip(Step):
         def __init__(self, limit):
@@ -113,7 +109,7 @@ def test_chunked_equals_in_memory(chunk):
 
 
 def _clip_chain(registries):
-    from odsuite.core.pipeline import Step
+    from odsuite.core.steps import Step
 
     class Clip(Step):  # a lab's step written for one channel
         def process(self, chunk, state):
@@ -127,7 +123,7 @@ def _clip_chain(registries):
 def test_channels_with_the_same_chain_run_as_one_block(registries, chunk):
     # identical chains run together (channels x samples); each column still equals its own chain
     # run alone, in any order and mixed with chains that run alone (another gain, a lab's 1-D step)
-    from odsuite.core.pipeline import _groups
+    from odsuite.core.executor import _groups
 
     zp = replace(TABLE_E3, zero_phase=True, offset_start=250, offset_length=1200)
     chains = [chain_for_channel(TABLE_E3), chain_for_channel(zp), chain_for_channel(TABLE_E3),
@@ -172,7 +168,7 @@ def test_targets_mixing_groups_get_whole_rows(workers):
     # one dataset whose columns come from different groups in scrambled order, and taps that lag
     # their inputs (Eq. 4.5) or hold them back over several chunks (an offset window late in the
     # record): written in whole rows, in order, equal to each chain alone
-    from odsuite.core.pipeline import run_chains
+    from odsuite.core.executor import run_chains
 
     chains = [chain_for_channel(TABLE_E3) for _ in range(4)] + [chain_for_channel(replace(TABLE_E3, daq_gain=2.0)),
                                                                 chain_for_channel(replace(TABLE_E3, offset_start=5000))]
