@@ -48,7 +48,7 @@ fuzz: venv
 # the report page: numbers equal compare's, self-contained, renders in headless Chromium (skips
 # with the apt-get line when /usr/bin/chromium is absent)
 report-check: venv
-	$(BIN)/python -m pytest -q -m "slow or render or not slow" tests/core/test_report.py
+	$(BIN)/python -m pytest -q -m "slow or render or not slow" tests/plugins/renderers/test_report.py
 
 clean:
 	rm -rf $(VENV) demo-output .pytest_cache

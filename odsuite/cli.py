@@ -29,16 +29,10 @@ err_console = Console(stderr=True)
 @app.callback()
 def _root() -> None:
     """Experimental vibration analysis: impact tests, rigid-plate motion, model comparison."""
+    from odsuite.core.plugins import registries
 
-
-@app.command("demo")
-def demo_cmd(
-    out: Path = typer.Option(Path("demo-output"), "--out", help="Directory for the project, report, movie and figures."),
-) -> None:
-    """The whole story on the simulated rig, no hardware: record, process, find two hidden effects."""
-    from odsuite.demo import run_demo
-
-    run_demo(out, console=console)
+    # every provider is checked against its contract before any command runs
+    registries()
 
 
 @app.command("plugins")
@@ -52,6 +46,7 @@ def plugins_cmd() -> None:
     regs = registries()
     table = Table(title="odsuite plugins")
     table.add_column("plugin")
+    table.add_column("distribution")
     table.add_column("version")
     table.add_column("registers")
     for name, _plugin in sorted(pm.list_name_plugin()):
@@ -60,13 +55,9 @@ def plugins_cmd() -> None:
             names = getattr(regs, f.name).by_plugin(name)
             if names:
                 provided.append(f"{f.name.replace('_', ' ')}: {', '.join(names)}")
-        table.add_row(name, pm.versions.get(name, "-"), "\n".join(provided) or "-")
+        source = pm.source(name)
+        table.add_row(name, source.distribution, source.version, "\n".join(provided) or "-")
     console.print(table)
-
-
-def _print_warnings(caught: list) -> None:
-    for w in caught:
-        err_console.print(f"warning: {w.message}", style="yellow", highlight=False, soft_wrap=True)
 
 
 @app.command("new")
@@ -119,6 +110,36 @@ def info_cmd(project: Path = typer.Argument(..., help="Project file.")) -> None:
         console.print(rt)
 
 
+def _import(project: Path, file: Path, name: str, fmt: str | None, **options) -> None:
+    from odsuite.core.importers import check_options, choose_importer
+    from odsuite.core.plugins import registries
+
+    importer = choose_importer(registries().importers, file, fmt)
+    res = importer.import_file(project, file, name, **check_options(importer, options))
+    for note in res.notes:
+        err_console.print(f"warning: {note}", style="yellow", highlight=False, soft_wrap=True)
+    console.print(f"imported {file} as experiment {res.experiment!r} ({importer.name}: {res.summary})",
+                  highlight=False, soft_wrap=True)
+
+
+@app.command("import")
+def import_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    file: Path = typer.Argument(..., help="Measurement file; its suffix chooses the importer unless --format."),
+    name: str = typer.Option(..., "--name", help="Experiment name."),
+    fmt: str = typer.Option(None, "--format", help="A registered importer (built in: legacy, lvm, uff; "
+                            "`odsuite plugins` lists all)."),
+    systeminfo: Path = typer.Option(None, "--systeminfo", help="legacy: the .CTR Systeminfo file."),
+    force_point: str = typer.Option(None, "--force-point",
+                                    help="legacy: X,Y,Z in mm from the platform's centre of mass, platform axes."),
+    force_dir: str = typer.Option(None, "--force-dir", help="legacy: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
+    force_channel: str = typer.Option(None, "--force-channel", help="lvm, uff: name of the force channel."),
+) -> None:
+    """Import a measurement file as a new experiment, by the importer for its format."""
+    _import(project, file, name, fmt, systeminfo=systeminfo, force_point=force_point, force_dir=force_dir,
+            force_channel=force_channel)
+
+
 @app.command("import-legacy")
 def import_legacy_cmd(
     project: Path = typer.Argument(..., help="Project file."),
@@ -129,16 +150,8 @@ def import_legacy_cmd(
                                     help="X,Y,Z in mm from the platform's centre of mass, platform axes."),
     force_dir: str = typer.Option(..., "--force-dir", help="+x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
 ) -> None:
-    """Import a thesis-era .DAT/.VIZ record with its .CTR Systeminfo as a new experiment."""
-    import warnings
-
-    from odsuite.core.importing import import_legacy
-
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        import_legacy(project, datfile, systeminfo, name, force_point, force_dir)
-    _print_warnings(caught)
-    console.print(f"imported {datfile} as experiment {name!r}", highlight=False, soft_wrap=True)
+    """Import a thesis-era .DAT/.VIZ record with its .CTR Systeminfo (`odsuite import --format legacy`)."""
+    _import(project, datfile, name, "legacy", systeminfo=systeminfo, force_point=force_point, force_dir=force_dir)
 
 
 @app.command("export-legacy")
@@ -175,12 +188,15 @@ def process_cmd(
         for name in experiment or p.experiment_names():
             task = bar.add_task(f"processing {name}", total=None)
             summary = process_experiment(p, name, progress=lambda a, b, t=task: bar.update(t, completed=a, total=b))
-            bodies = "; ".join(f"{b}: rigidity {', '.join(f'{k} {v:.1%}' for k, v in r['rigidity'].items())}"
-                               + (f" FLAGGED {','.join(r['flagged'])}" if r["flagged"] else "")
-                               for b, r in summary["bodies"].items())
+            bodies = "; ".join(f"{b}: {r['solver']}" + (
+                f", rigidity {', '.join(f'{k} {v:.1%}' for k, v in r['rigidity'].items())}" if "rigidity" in r else "")
+                + (f" FLAGGED {','.join(r['flagged'])}" if r.get("flagged") else "")
+                for b, r in summary["bodies"].items())
             console.print(f"{name}: {', '.join(summary['datasets'])} for channels "
                           f"{', '.join(map(str, summary['channels']))}" + (f"; {bodies}" if bodies else ""),
                           highlight=False, soft_wrap=True)
+            for note in summary["notes"]:
+                err_console.print(f"note: {note}", highlight=False, soft_wrap=True)
         if corrected:
             from odsuite.core.correction import process_corrected
 
@@ -287,11 +303,8 @@ def import_lvm_cmd(
     name: str = typer.Option(..., "--name", help="Experiment name."),
     force_channel: str = typer.Option(None, "--force-channel", help="Name of the force channel."),
 ) -> None:
-    """Import a LabVIEW .lvm hammer record as a new experiment."""
-    from odsuite.core.modal_project import import_lvm
-
-    import_lvm(project, lvmfile, name, force_channel)
-    console.print(f"imported {lvmfile} as experiment {name!r}", highlight=False, soft_wrap=True)
+    """Import a LabVIEW .lvm hammer record as a new experiment (`odsuite import --format lvm`)."""
+    _import(project, lvmfile, name, "lvm", force_channel=force_channel)
 
 
 @app.command("import-uff")
@@ -301,11 +314,9 @@ def import_uff_cmd(
     name: str = typer.Option(..., "--name", help="Experiment name."),
     force_channel: str = typer.Option(None, "--force-channel", help="Name of the force record."),
 ) -> None:
-    """Import a UFF file's time records as a new experiment (its FRFs as derived 'frf')."""
-    from odsuite.core.uff_project import import_uff
-
-    import_uff(project, ufffile, name, force_channel)
-    console.print(f"imported {ufffile} as experiment {name!r}", highlight=False, soft_wrap=True)
+    """Import a UFF file's time records as a new experiment, its FRFs as derived 'frf'
+    (`odsuite import --format uff`)."""
+    _import(project, ufffile, name, "uff", force_channel=force_channel)
 
 
 @app.command("export-uff")
@@ -381,25 +392,23 @@ def render_cmd(
     model: bool = typer.Option(False, "--model", help="Overlay the current model revision's motion (computed like `odsuite compare`)."),
     magnify: str = typer.Option(None, "--magnify", help="H_t,H_r (default: largest corner motion = 15 % of the plate)."),
     view: str = typer.Option(None, "--view", help="Movie: AZ,EL degrees. Projection: EYE[,THETA,PHI,PSI] (eye x|y|z)."),
-    figure: str = typer.Option(None, "--figure", help="overlay | projection | residuals (default: a movie)."),
+    figure: str = typer.Option(None, "--figure", help="A registered figure renderer (built in: overlay, projection, residuals; `odsuite plugins` lists all). Default: the movie renderer for the output's suffix."),
     workers: int = typer.Option(None, "--workers", help="Render processes for a movie (default: one per two cores)."),
     frame_step: int = typer.Option(None, "--frame-step", help="Samples per movie frame (default 1)."),
     slowdown: float = typer.Option(None, "--slowdown", help="Slow-motion factor: movie time / real time."),
     ods: float = typer.Option(None, "--ods", help="Animate the operating deflection shape at this frequency (Hz)."),
 ) -> None:
-    """Wireframe movie of an experiment's plates, or the thesis projection / comparison figures."""
-    from odsuite_plugins.renderers.experiment import parse_magnify, render_experiment
+    """Wireframe movie of an experiment's plates, or a figure, by a registered renderer."""
+    from odsuite.core.plugins import registries
+    from odsuite.core.renderers import RenderRequest, choose_renderer, parse_magnify
 
-    res = render_experiment(project, experiment, output, model=model, magnify=parse_magnify(magnify),
-                            view=view, figure=figure, workers=workers, frame_step=frame_step,
-                            slowdown=slowdown, ods_hz=ods)
-    if figure is None:
-        for note in res.notes:
-            err_console.print(f"note: {note}", highlight=False)
-        console.print(f"wrote {res.path} ({res.n_frames} frames at {res.fps:g} fps, {res.slowdown:.0f}x slower "
-                      f"than real time, H_t = {res.magnify[0]:.3g}, H_r = {res.magnify[1]:.3g})", highlight=False)
-    else:
-        console.print(f"wrote {res}", highlight=False)
+    renderer = choose_renderer(registries().renderers, output, figure, "figure" if figure else "movie")
+    options = {"model": model, "magnify": parse_magnify(magnify), "view": view, "workers": workers,
+               "frame_step": frame_step, "slowdown": slowdown, "ods_hz": ods}
+    res = renderer.render(RenderRequest(project, experiment, output, options))
+    for note in res.notes:
+        err_console.print(f"note: {note}", highlight=False)
+    console.print(f"wrote {res.path} ({res.summary})", highlight=False, soft_wrap=True)
 
 
 @app.command("verify")
@@ -580,17 +589,19 @@ def report_cmd(
                                          "(default: the one the model fits worst)."),
 ) -> None:
     """One self-contained HTML page: experiments, model against measurement, failures, candidate
-    effects, error across revisions and a movie."""
-    from odsuite.core.report import build_report
+    effects, error across revisions and a movie (the registered page renderer 'report')."""
+    from odsuite.core.plugins import registries
+    from odsuite.core.renderers import RenderRequest, choose_renderer
 
+    renderer = choose_renderer(registries().renderers, output, "report")
     with _loop_progress() as bar:
         task = bar.add_task("report", total=None)
-        res = build_report(project, output, diagnosis=diagnosis, run_diagnosis=not no_diagnose, movie=not no_movie,
-                           movie_experiment=movie_experiment, progress=lambda what: bar.update(task, description=what))
+        options = {"diagnosis": diagnosis, "run_diagnosis": not no_diagnose, "movie": not no_movie,
+                   "movie_experiment": movie_experiment, "on_stage": lambda what: bar.update(task, description=what)}
+        res = renderer.render(RenderRequest(project, None, output, options))
     for note in res.notes:
         err_console.print(f"note: {note}", highlight=False)
-    console.print(f"wrote {res.path} ({res.size_bytes / 2**20:.1f} MiB; error {res.error:.4f})", highlight=False,
-                  soft_wrap=True)
+    console.print(f"wrote {res.path} ({res.summary})", highlight=False, soft_wrap=True)
 
 
 def _register_plugin_commands() -> None:

@@ -21,6 +21,9 @@ from odsuite.core.systeminfo import (
     Systeminfo,
 )
 
+#: members every acquisition backend provider has (checked when a plugin registers one)
+REQUIRED_METHODS = ("record",)
+
 #: ``progress(stage, done, total)``: stage is "waiting for trigger" or "reading"; counts in samples.
 Progress = Callable[[str, int, int], None]
 

@@ -482,12 +482,12 @@ def noise_floor_error(exps: Sequence[PreparedExperiment]) -> float:
 
 
 def coordinate_series(rig: Rig, exp: PreparedExperiment, model) -> dict[str, tuple[np.ndarray, np.ndarray, list[int]]]:
-    """Per nine-sensor body: measured and model generalized coordinates at its G (samples x 6; m,
-    rad), both from displacements after the full chain and the same solver, and the body's columns
-    in ``exp``. Empty when some channel is not integrated twice (no displacements)."""
-    from odsuite.core.plugins import registries
+    """Per body whose motion its sensors determine: measured and model generalized coordinates at
+    its G (samples x 6; m, rad), both from displacements after the full chain and the body's
+    solver, and the body's columns in ``exp``. Empty when some channel is not integrated twice (no
+    displacements)."""
+    from odsuite.core.solvers import body_solvers
 
-    solver = registries().coordinate_solvers.get("padgaonkar-nine")
     taps = stage_names("acceleration")
     out: dict[str, tuple[np.ndarray, np.ndarray, list[int]]] = {}
     if not all(t in chain.taps for chain in exp.chains for t in taps):
@@ -498,16 +498,12 @@ def coordinate_series(rig: Rig, exp: PreparedExperiment, model) -> dict[str, tup
         res = chain.run(exp.volts[:, j])
         for t in taps:
             measured[t][:, j] = res[t]
-    for body in rig.bodies:
-        if body.nine_sensor_set is None:
-            continue
-        names = set(body.nine_sensor_set.sensors.values())
-        idx = {s.name: j for j, s in enumerate(exp.sensors) if s.name in names}
-        if len(idx) < len(names):
-            continue
-        gm = solver.solve(rig, body, {n: measured["displacement"][:, j] for n, j in idx.items()}).at_g
-        gp = solver.solve(rig, body, {n: predicted["displacement"][:, j] for n, j in idx.items()}).at_g
-        out[body.name] = (gm, gp, list(idx.values()))
+    column = {s.name: j for j, s in enumerate(exp.sensors)}
+    for c in body_solvers(rig, column)[0]:
+        idx = {n: column[n] for n in c.sensors}
+        gm = c.solver.solve(rig, c.body, {n: measured["displacement"][:, j] for n, j in idx.items()}).at_g
+        gp = c.solver.solve(rig, c.body, {n: predicted["displacement"][:, j] for n, j in idx.items()}).at_g
+        out[c.body.name] = (gm, gp, list(idx.values()))
     return out
 
 
@@ -528,15 +524,18 @@ def experiment_coordinates(project, name: str, revision: Mapping[str, Any] | Non
 
 
 def _coordinates(rig: Rig, exp: PreparedExperiment, model) -> tuple[dict, dict]:
-    """Per-coordinate errors of the generalized coordinates and the rigidity check on the measured
-    accelerations, for every nine-sensor body."""
-    from odsuite.core.plugins import registries
+    """Per-coordinate errors of the generalized coordinates, for every body whose motion its sensors
+    determine, and the rigidity check on the measured accelerations where the body's solver has one."""
+    from odsuite.core.solvers import choose_solver
 
-    solver = registries().coordinate_solvers.get("padgaonkar-nine")
     coords, rigidity = {}, {}
     for name, (gm, gp, cols) in coordinate_series(rig, exp, model).items():
         coords[name] = {c: float(nrmse(gm[:, i], gp[:, i])) for i, c in enumerate(COORDINATE_NAMES)}
-        rig_check = solver.rigidity_check(rig, rig.body(name), {exp.sensors[j].name: exp.measured[:, j] for j in cols})
+        signals = {exp.sensors[j].name: exp.measured[:, j] for j in cols}
+        solver = choose_solver(rig, rig.body(name), signals).solver
+        if not hasattr(solver, "rigidity_check"):
+            continue
+        rig_check = solver.rigidity_check(rig, rig.body(name), signals)
         rigidity[name] = {"fractions": {k: float(v) for k, v in rig_check.fractions.items()},
                           "flagged": list(rig_check.flagged), "worst": rig_check.worst}
     return coords, rigidity

@@ -102,6 +102,7 @@ class Correction:
     drift: np.ndarray  # samples x sensors, the estimate removed from the measured displacement
     drift_coefficients: np.ndarray  # (DRIFT_DEGREE + 1) x sensors, highest power first (m / s^k)
     coordinates: dict[str, Any]  # body -> SolverResult (at_g, at_c: samples x 6)
+    solvers: dict[str, str]  # body -> the coordinate solver used
 
     def acceleration_drift(self) -> dict[str, tuple[float, float]]:
         """Per sensor, the drift polynomial as an acceleration: (offset m/s^2, rate m/s^3)."""
@@ -118,6 +119,7 @@ def correct_experiment(project, name: str, *, revision: dict | None = None,
     from odsuite.core.modelrev import current_revision, revision_model
     from odsuite.core.chain_spec import build_chain
     from odsuite.core.plugins import registries
+    from odsuite.core.solvers import body_solvers
 
     regs = registries()
     rev = revision or current_revision(project)
@@ -143,21 +145,16 @@ def correct_experiment(project, name: str, *, revision: dict | None = None,
     drift, coef = drift_estimate(measured_d - predicted_d, exp.fs, float(cutoff))
     corrected = measured_d - drift
 
-    solver = regs.coordinate_solvers.get("padgaonkar-nine")
     rig = project.rig
     column = {s.name: j for j, s in enumerate(exp.sensors)}
-    coords = {}
-    for body in rig.bodies:
-        if body.nine_sensor_set is None:
-            continue
-        missing = [s for s in body.nine_sensor_set.sensors.values() if s not in column]
-        if missing:
-            raise ConfigError(f"{where}: body {body.name!r} sensor(s) {', '.join(missing)} have no "
-                              "accelerometer channel (Systeminfo row 0 must be 4)")
-        coords[body.name] = solver.solve(rig, body, {s: corrected[:, j] for s, j in column.items()})
+    coords, solvers = {}, {}
+    for c in body_solvers(rig, column, regs.coordinate_solvers)[0]:
+        coords[c.body.name] = c.solver.solve(rig, c.body, {s: corrected[:, column[s]] for s in c.sensors})
+        solvers[c.body.name] = c.name
     return Correction(experiment=name, revision=rev.get("revision"), cutoff_hz=float(cutoff),
                       sensors=[s.name for s in exp.sensors], channels=list(exp.columns),
-                      displacement=corrected, drift=drift, drift_coefficients=coef, coordinates=coords)
+                      displacement=corrected, drift=drift, drift_coefficients=coef, coordinates=coords,
+                      solvers=solvers)
 
 
 def store_correction(project, corr: Correction) -> None:
@@ -170,13 +167,15 @@ def store_correction(project, corr: Correction) -> None:
     n = corr.displacement.shape[0]
     provenance = {"plugin": "correction", "version": __version__, "inputs": [exp.object_id],
                   "parameters": {"revision": corr.revision, "cutoff_hz": corr.cutoff_hz,
-                                 "solver": "padgaonkar-nine", "drift_degree": DRIFT_DEGREE,
+                                 "solvers": corr.solvers, "drift_degree": DRIFT_DEGREE,
                                  "lowpass": f"butterworth order {LOWPASS_ORDER}, zero phase",
                                  "chain": "Table E.2 without high-pass filters, trapezoid rule",
                                  "bodies": sorted(corr.coordinates)}}
     with project.derived_writer(corr.experiment, KIND, provenance=provenance) as w:
         for body, res in corr.coordinates.items():
             for suffix, data in (("_at_g", res.at_g), ("_at_c", res.at_c)):
+                if data is None:  # a body without a corner has no pose at C
+                    continue
                 w.create(f"{body}{suffix}", (n, 6), np.float64, "m m m rad rad rad",
                          ("sample", "coordinate"))[...] = data
         w.create("drift", corr.drift.shape, np.float64, "m", ("sample", "channel"))[...] = corr.drift

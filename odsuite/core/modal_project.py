@@ -128,7 +128,7 @@ def ods_coordinates(project, experiment: str, frequency_hz: float) -> dict[str, 
 
     from odsuite.core.comparison import prepare_experiment
     from odsuite.core.modal import ods
-    from odsuite.core.plugins import registries
+    from odsuite.core.solvers import body_solvers
 
     if not (np.isfinite(frequency_hz) and frequency_hz > 0):
         raise ConfigError(f"ODS frequency: must be > 0 Hz, got {frequency_hz!r}")
@@ -144,17 +144,16 @@ def ods_coordinates(project, experiment: str, frequency_hz: float) -> dict[str, 
             response *= abs(h) ** 2 if zero_phase else h
         accel[list(op.columns)] /= response
     disp = -accel / (2 * np.pi * frequency_hz) ** 2
-    solver = registries().coordinate_solvers.get("padgaonkar-nine")
     shapes = {}
-    for body in project.rig.bodies:
-        if body.nine_sensor_set is None:
-            continue
-        # the solver is linear in its input: real and imaginary parts as a two-sample record
-        signals = {s.name: np.array([d.real, d.imag]) for s, d in zip(exp.sensors, disp)}
-        at_g = solver.solve(project.rig, body, signals).at_g
-        shapes[body.name] = at_g[0] + 1j * at_g[1]
+    # the solvers are linear in their input: real and imaginary parts as a two-sample record
+    signals = {s.name: np.array([d.real, d.imag]) for s, d in zip(exp.sensors, disp)}
+    chosen, notes = body_solvers(project.rig, signals)
+    for c in chosen:
+        at_g = c.solver.solve(project.rig, c.body, {n: signals[n] for n in c.sensors}).at_g
+        shapes[c.body.name] = at_g[0] + 1j * at_g[1]
     if not shapes:
-        raise ConfigError(f"{project.path}: rig {project.rig.name!r} has no body with a nine-sensor set for an ODS")
+        raise ConfigError(f"{project.path}: rig {project.rig.name!r}: no body's motion can be solved from the "
+                          f"recorded sensors for an ODS ({'; '.join(notes) or 'no sensors'})")
     return shapes
 
 

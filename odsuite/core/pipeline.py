@@ -39,13 +39,14 @@ def process_experiment(project, name: str, *, chain: Sequence[Mapping[str, Any]]
 
     Stores derived kind "processed": "acceleration", "velocity", "displacement" (samples x
     accelerometer channels, SI) and "force" (N, when the experiment has a force channel), with the
-    chains in the provenance; then, for every rig body with a nine-sensor set, derived kind
-    "gencoords": "<body>_at_g", "<body>_at_c" (samples x 6: x y z in m, theta phi psi in rad,
-    solver "padgaonkar-nine" on the displacements) and "<body>_rigidity" (the Eq. 4.12 check on
-    the accelerations). ``chain`` replaces the Table E.2 chain of every accelerometer channel by
+    chains in the provenance; then, for every rig body whose sensors determine its motion, derived
+    kind "gencoords": "<body>_at_g", "<body>_at_c" where the body has a corner (samples x 6: x y z
+    in m, theta phi psi in rad, by the body's coordinate solver on the displacements) and
+    "<body>_rigidity" where the solver checks rigidity (the Eq. 4.12 check on the accelerations). ``chain`` replaces the Table E.2 chain of every accelerometer channel by
     an explicit step list (taps "acceleration", "velocity", "displacement" name the outputs).
     ``workers`` threads share the channels (default: one per core; the results do not change).
-    Returns a summary (datasets, channels, rigidity per body).
+    Returns a summary (datasets, channels, solver and rigidity per body, notes on bodies whose
+    motion cannot be solved).
     """
     from odsuite import __version__
     from odsuite.core.plugins import registries
@@ -92,7 +93,7 @@ def process_experiment(project, name: str, *, chain: Sequence[Mapping[str, Any]]
                   "parameters": {"chains": specs, "chunk": int(chunk),
                                  "channels": accel, "force_channel": force_ch}}
     summary: dict[str, Any] = {"experiment": name, "datasets": sorted(targets), "channels": accel,
-                               "force_channel": force_ch, "bodies": {}}
+                               "force_channel": force_ch, "bodies": {}, "notes": []}
     cols = [exp.channel_index(k) for k in used]
     with project.transaction():
         with project.derived_writer(name, "processed", provenance=provenance) as w:
@@ -110,47 +111,64 @@ def process_experiment(project, name: str, *, chain: Sequence[Mapping[str, Any]]
             w.attrs.update({"channels": np.asarray(accel, dtype=np.int64),
                             "channel_names": ", ".join(exp.channel_names[k] for k in accel)})
             if project.rig is not None and "displacement" in dsets and "acceleration" in dsets:
-                summary["bodies"] = _gencoords(project, name, exp, dsets, accel, regs, chunk, where,
-                                               __version__)
+                bodies = _gencoords(project, name, exp, dsets, accel, regs, chunk, where, __version__)
+                summary["notes"] = bodies.pop("notes")
+                summary["bodies"] = bodies
     return summary
 
 
 def _gencoords(project, name, exp, dsets, accel, regs, chunk, where, version) -> dict[str, Any]:
-    """Generalized coordinates of every nine-sensor body, chunk by chunk from the stored
-    displacements, and the rigidity check on (a bounded window of) the accelerations."""
+    """Generalized coordinates of every body whose sensors determine its motion (the rig's solver
+    for the body, else the most suitable registered one), chunk by chunk from the stored
+    displacements, and the solver's rigidity check (where it has one) on a bounded window of the
+    accelerations. Bodies whose motion cannot be solved are named in ``notes``."""
+    from odsuite.core.solvers import body_solvers
+
     rig = project.rig
-    bodies = [b for b in rig.bodies if b.nine_sensor_set is not None]
-    if not bodies:
-        return {}
-    solver = regs.coordinate_solvers.get("padgaonkar-nine")
     column = {s.name: accel.index(s.channel) for s in rig.sensors if s.channel in accel}
+    chosen, notes = body_solvers(rig, column, regs.coordinate_solvers)
+    out: dict[str, Any] = {"notes": notes}
+    if not chosen:
+        return out
     n = exp.n_samples
-    out: dict[str, Any] = {}
-    provenance = {"plugin": "gencoord_padgaonkar", "version": version,
-                  "parameters": {"solver": "padgaonkar-nine", "from": "processed displacement",
-                                 "bodies": [b.name for b in bodies]}}
+    provenance = {"plugin": "coordinate solvers", "version": version,
+                  "parameters": {"from": "processed displacement",
+                                 "solvers": {c.body.name: c.name for c in chosen},
+                                 "providers": {c.body.name: _provider(regs.coordinate_solvers, c.name)
+                                               for c in chosen}}}
     with project.derived_writer(name, "gencoords", provenance=provenance) as w:
-        for body in bodies:
-            missing = [s for s in body.nine_sensor_set.sensors.values() if s not in column]
-            if missing:
-                raise ConfigError(f"{where}: body {body.name!r} sensor(s) {', '.join(missing)} have no "
-                                  "processed accelerometer channel (Systeminfo row 0 must be 4)")
+        for c in chosen:
+            body, solver = c.body, c.solver
+            cols = {s: column[s] for s in c.sensors}
             at_g = w.create(f"{body.name}_at_g", (n, 6), np.float64, "m m m rad rad rad", ("sample", "coordinate"))
-            at_c = w.create(f"{body.name}_at_c", (n, 6), np.float64, "m m m rad rad rad", ("sample", "coordinate"))
+            at_c = None
             for a in range(0, n, chunk):
                 block = dsets["displacement"][a:min(a + chunk, n)]
-                res = solver.solve(rig, body, {s: block[:, c] for s, c in column.items()})
+                res = solver.solve(rig, body, {s: block[:, j] for s, j in cols.items()})
                 at_g[a:a + block.shape[0]] = res.at_g
-                at_c[a:a + block.shape[0]] = res.at_c
-            lo = min(exp.pretrigger, max(n - RIGIDITY_WINDOW, 0))
-            acc = dsets["acceleration"][lo:lo + RIGIDITY_WINDOW]
-            rig_check = solver.rigidity_check(rig, body, {s: acc[:, c] for s, c in column.items()})
-            frac = np.array([rig_check.fractions[a] for a in "xyz"])
-            w.create(f"{body.name}_rigidity", (3,), np.float64, "1", ("axis",))[:] = frac
-            w.attrs.update({f"{body.name}_rigidity_threshold": rig_check.threshold,
-                            f"{body.name}_rigidity_flagged": ",".join(rig_check.flagged),
-                            f"{body.name}_rigidity_worst": rig_check.worst,
-                            f"{body.name}_rigidity_window": f"samples {lo}..{lo + acc.shape[0] - 1}"})
-            out[body.name] = {"rigidity": rig_check.fractions, "flagged": list(rig_check.flagged),
-                              "worst": rig_check.worst}
+                if res.at_c is not None:
+                    if at_c is None:
+                        at_c = w.create(f"{body.name}_at_c", (n, 6), np.float64, "m m m rad rad rad",
+                                        ("sample", "coordinate"))
+                    at_c[a:a + block.shape[0]] = res.at_c
+            w.attrs[f"{body.name}_solver"] = c.name
+            summary: dict[str, Any] = {"solver": c.name, "sensors": list(c.sensors)}
+            if hasattr(solver, "rigidity_check"):
+                lo = min(exp.pretrigger, max(n - RIGIDITY_WINDOW, 0))
+                acc = dsets["acceleration"][lo:lo + RIGIDITY_WINDOW]
+                rig_check = solver.rigidity_check(rig, body, {s: acc[:, j] for s, j in cols.items()})
+                frac = np.array([rig_check.fractions[a] for a in "xyz"])
+                w.create(f"{body.name}_rigidity", (3,), np.float64, "1", ("axis",))[:] = frac
+                w.attrs.update({f"{body.name}_rigidity_threshold": rig_check.threshold,
+                                f"{body.name}_rigidity_flagged": ",".join(rig_check.flagged),
+                                f"{body.name}_rigidity_worst": rig_check.worst,
+                                f"{body.name}_rigidity_window": f"samples {lo}..{lo + acc.shape[0] - 1}"})
+                summary.update(rigidity=rig_check.fractions, flagged=list(rig_check.flagged),
+                               worst=rig_check.worst)
+            out[body.name] = summary
     return out
+
+
+def _provider(registry, name: str) -> dict[str, str]:
+    entry = registry.entry(name)
+    return {"plugin": entry.plugin, "distribution": entry.distribution, "version": entry.version}

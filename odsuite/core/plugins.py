@@ -14,11 +14,11 @@ from dataclasses import dataclass, fields
 import pluggy
 
 from odsuite.core import hookspecs
-from odsuite.core.errors import PluginLoadError
-from odsuite.core.registry import Registry
+from odsuite.core.errors import PluginConflictError, PluginLoadError
+from odsuite.core.registry import Contract, Registry, Source
 
 ENTRY_POINT_GROUP = "odsuite"
-REQUIRED_BUILTINS = ("daq_ni", "daq_sim", "filters", "gencoord_padgaonkar", "models", "renderers")
+REQUIRED_BUILTINS = ("daq_ni", "daq_sim", "filters", "gencoord_padgaonkar", "importers", "models", "renderers")
 
 
 @dataclass(frozen=True)
@@ -42,11 +42,14 @@ def disabled_plugins() -> set[str]:
 
 
 class PluginManager(pluggy.PluginManager):
-    """A pluggy manager that also remembers each entry-point plugin's distribution version."""
+    """A pluggy manager that also remembers each plugin's distribution and version."""
 
     def __init__(self) -> None:
         super().__init__(ENTRY_POINT_GROUP)
-        self.versions: dict[str, str] = {}
+        self.sources: dict[str, Source] = {}
+
+    def source(self, name: str) -> Source:
+        return self.sources.get(name, Source(name))
 
 
 def make_plugin_manager(*, load_entry_points: bool = True, extra_plugins: tuple = ()) -> PluginManager:
@@ -62,7 +65,8 @@ def make_plugin_manager(*, load_entry_points: bool = True, extra_plugins: tuple 
     if load_entry_points:
         _load_entry_points(pm, blocked)
     for plugin in extra_plugins:
-        pm.register(plugin, name=getattr(plugin, "__name__", None))
+        name = pm.register(plugin, name=getattr(plugin, "__name__", None))
+        pm.sources[name] = Source(name)
     try:
         pm.check_pending()
     except pluggy.PluginValidationError as exc:
@@ -79,30 +83,60 @@ def make_plugin_manager(*, load_entry_points: bool = True, extra_plugins: tuple 
 
 
 def _load_entry_points(pm: PluginManager, blocked: set[str]) -> None:
+    """Register every entry point of the group; a name declared by two distributions is refused
+    (pluggy would otherwise keep whichever it met first, and a stale or foreign package could
+    silently stand in for a built-in)."""
+    declared: dict[str, tuple[importlib.metadata.EntryPoint, str]] = {}
     for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
-        if ep.name in blocked or pm.get_plugin(ep.name) is not None:
+        dist = ep.dist.name if ep.dist is not None else "?"
+        seen = declared.get(ep.name)
+        if seen is not None and seen[1] != dist:
+            raise PluginConflictError(
+                f"plugin name {ep.name!r} (entry-point group {ENTRY_POINT_GROUP!r}) is declared by both "
+                f"distribution {seen[1]!r} ({seen[0].value}) and distribution {dist!r} ({ep.value}); "
+                "uninstall one of them or rename its entry point"
+            )
+        declared.setdefault(ep.name, (ep, dist))
+    for name, (ep, dist) in declared.items():
+        if name in blocked:
             continue
         try:
             plugin = ep.load()
         except Exception as exc:  # a broken third-party plugin must name itself
             raise PluginLoadError(
-                f"plugin {ep.name!r} ({ep.value}) failed to load: {type(exc).__name__}: {exc}"
+                f"plugin {name!r} ({ep.value}, distribution {dist!r}) failed to load: {type(exc).__name__}: {exc}"
             ) from exc
-        pm.register(plugin, name=ep.name)
-        pm.versions[ep.name] = ep.dist.version if ep.dist is not None else "?"
+        pm.register(plugin, name=name)
+        pm.sources[name] = Source(name, dist, ep.dist.version if ep.dist is not None else "?")
+
+
+def _contracts() -> dict[str, Contract]:
+    """Each registry's contract, from the core module that documents it."""
+    from odsuite.core import acquisition, effects, importers, renderers, solvers, steps
+    from odsuite.core.rig import Rig
+
+    def of(module) -> Contract:
+        return Contract(getattr(module, "REQUIRED_ATTRIBUTES", ()), getattr(module, "REQUIRED_METHODS", ()))
+
+    return {"daq_backends": of(acquisition), "processing_steps": of(steps), "coordinate_solvers": of(solvers),
+            "models": Contract(methods=("__call__",)), "effects": of(effects), "renderers": of(renderers),
+            "sensor_types": Contract(), "rigs": Contract(instance_of=Rig), "importers": of(importers)}
 
 
 def build_registries(pm: PluginManager) -> Registries:
-    """Call every registration hook, one plugin at a time, so each entry knows its plugin."""
+    """Call every registration hook through pluggy, one plugin at a time, so that each entry knows
+    its plugin and distribution, and check each provider against its kind's contract."""
+    contracts = _contracts()
     regs = {}
     for f in fields(Registries):
-        registry = Registry(f.name.removesuffix("s").replace("_", " "))
-        hook = getattr(pm.hook, f"odsuite_register_{f.name}")
+        registry = Registry(f.name.removesuffix("s").replace("_", " "), contracts[f.name])
+        hook_name = f"odsuite_register_{f.name}"
+        impls = getattr(pm.hook, hook_name).get_hookimpls()
         # pluggy calls implementations last-registered first; keep that order
-        for impl in reversed(hook.get_hookimpls()):
-            registry.current_plugin = impl.plugin_name
-            impl.function(registry=registry)
-        registry.current_plugin = "?"
+        for impl in reversed(impls):
+            others = [i.plugin for i in impls if i.plugin is not impl.plugin]
+            call = pm.subset_hook_caller(hook_name, remove_plugins=others)
+            call(registry=registry.for_plugin(pm.source(impl.plugin_name)))
         registry.apply_overrides()
         regs[f.name] = registry
     return Registries(**regs)

@@ -304,6 +304,8 @@ def _rig_to_dict(rig: Rig) -> dict[str, Any]:
             n = b.nine_sensor_set
             d["nine_sensor_set"] = {"corner": vec(n.corner), "rx": n.rx, "ry": n.ry, "rz": n.rz,
                                     "sensors": dict(n.sensors)}
+        if b.solver is not None:
+            d["solver"] = b.solver
         bodies.append(d)
     sensors = []
     for s in rig.sensors:

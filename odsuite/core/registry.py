@@ -1,4 +1,9 @@
-"""Registries of named providers, filled by the plugins' registration hooks."""
+"""Registries of named providers, filled by the plugins' registration hooks.
+
+Each registry has a :class:`Contract`: what a provider of its kind must have. ``add`` checks it, so
+a provider that does not meet it is refused when the plugins are loaded, in one line naming the
+plugin, its distribution, the provider and what is missing, never in the middle of a diagnosis.
+"""
 
 from __future__ import annotations
 
@@ -6,47 +11,99 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
-from odsuite.core.errors import ConfigError, PluginConflictError
+from odsuite.core.errors import ConfigError, PluginConflictError, PluginError
+
+
+@dataclass(frozen=True)
+class Contract:
+    """What a provider of one kind must have: attributes, callable methods, or a type."""
+
+    attributes: tuple[str, ...] = ()
+    methods: tuple[str, ...] = ()
+    instance_of: type | None = None
+
+    def missing(self, provider: Any) -> list[str]:
+        if self.instance_of is not None and not isinstance(provider, self.instance_of):
+            return [f"to be a {self.instance_of.__module__}.{self.instance_of.__qualname__}"]
+        out = [f"attribute {a!r}" for a in self.attributes if not hasattr(provider, a)]
+        out += [f"method {m}()" for m in self.methods if not callable(getattr(provider, m, None))]
+        return out
+
+
+@dataclass(frozen=True)
+class Source:
+    """Where an entry comes from: the plugin (entry-point name) and its distribution."""
+
+    plugin: str
+    distribution: str = "-"
+    version: str = "-"
+
+    def __str__(self) -> str:
+        return f"plugin {self.plugin!r} ({self.distribution} {self.version})"
 
 
 @dataclass(frozen=True)
 class Entry:
     name: str
     provider: Any
-    plugin: str
+    source: Source
+
+    @property
+    def plugin(self) -> str:
+        return self.source.plugin
+
+    @property
+    def distribution(self) -> str:
+        return self.source.distribution
+
+    @property
+    def version(self) -> str:
+        return self.source.version
 
 
 class Registry:
     """Named providers of one kind (processing steps, models, effects, ...).
 
-    ``add`` refuses a name that is already taken unless ``override=True``, naming both plugins, so
-    a lab's plugin never silently replaces a built-in.
+    Plugins add through a view that knows their :class:`Source` (``for_plugin``). ``add`` refuses a
+    name that is already taken unless ``override=True``, naming both plugins, so a lab's plugin never
+    silently replaces a built-in.
     """
 
-    def __init__(self, kind: str) -> None:
+    def __init__(self, kind: str, contract: Contract | None = None) -> None:
         self.kind = kind
+        self.contract = contract or Contract()
         self._entries: dict[str, Entry] = {}
         self._overrides: list[Entry] = []
-        # set by the plugin manager while it calls one plugin's hook, so entries know their plugin
-        self.current_plugin = "?"
 
-    def add(self, name: str, provider: Any, *, override: bool = False) -> None:
+    def for_plugin(self, source: Source) -> PluginRegistry:
+        """The view a plugin's registration hook receives."""
+        return PluginRegistry(self, source)
+
+    def add(self, name: str, provider: Any, *, override: bool = False, source: Source | None = None) -> None:
         """Register ``provider`` as ``name``; ``override=True`` replaces another plugin's entry.
 
         Overrides are applied after every plugin has registered, so the outcome does not depend on
         the order in which plugins are loaded.
         """
+        source = source or Source("?")
         if not isinstance(name, str) or not name:
-            raise ConfigError(f"{self.kind}: provider name must be a non-empty string, got {name!r}")
-        entry = Entry(name, provider, self.current_plugin)
+            raise ConfigError(f"{source}: {self.kind} provider name must be a non-empty string, got {name!r}")
+        missing = self.contract.missing(provider)
+        if missing:
+            raise PluginError(
+                f"{source}: {self.kind} {name!r} ({type(provider).__qualname__}) does not meet the "
+                f"{self.kind} contract: it needs {', '.join(missing)}; fix the plugin or start without it "
+                f"(ODSUITE_DISABLE_PLUGINS={source.plugin})"
+            )
+        entry = Entry(name, provider, source)
         if override:
             self._overrides.append(entry)
             return
         old = self._entries.get(name)
         if old is not None:
             raise PluginConflictError(
-                f"{self.kind} {name!r} is registered by both plugin {old.plugin!r} and plugin "
-                f"{entry.plugin!r}; pass override=True in one of them to replace the other"
+                f"{self.kind} {name!r} is registered by both {old.source} and {entry.source}; "
+                "pass override=True in one of them to replace the other"
             )
         self._entries[name] = entry
 
@@ -83,3 +140,15 @@ class Registry:
 
     def by_plugin(self, plugin: str) -> list[str]:
         return sorted(n for n, e in self._entries.items() if e.plugin == plugin)
+
+
+class PluginRegistry:
+    """One plugin's view of a registry: ``add(name, provider, override=False)``."""
+
+    def __init__(self, registry: Registry, source: Source) -> None:
+        self._registry = registry
+        self.source = source
+        self.kind = registry.kind
+
+    def add(self, name: str, provider: Any, *, override: bool = False) -> None:
+        self._registry.add(name, provider, override=override, source=self.source)

@@ -51,6 +51,7 @@ class Body:
     inertia: np.ndarray | None = None  # 3x3 about the centre of mass, body axes
     plate: Plate | None = None
     nine_sensor_set: NineSensorSet | None = None
+    solver: str | None = None  # a registered coordinate solver; None: the most suitable one
 
 
 @dataclass(frozen=True)
@@ -159,9 +160,12 @@ def rig_from_dict(data: dict[str, Any], source: Path | None = None) -> Rig:
                 rz=_number(f"{w} field 'nine_sensor_set.rz'", n.get("rz"), positive=True),
                 sensors=dict(n["sensors"]),
             )
+        solver = b.get("solver")
+        if solver is not None and (not isinstance(solver, str) or not solver):
+            raise ConfigError(f"{w} field 'solver': expected a coordinate solver's name, got {solver!r}")
         bodies.append(Body(
             name=b["name"], com=_vector(f"{w} field 'com'", b.get("com", [0.0, 0.0, 0.0])),
-            mass=mass, inertia=inertia, plate=plate, nine_sensor_set=nine,
+            mass=mass, inertia=inertia, plate=plate, nine_sensor_set=nine, solver=solver,
         ))
     body_names = {b.name for b in bodies}
     sensors = []

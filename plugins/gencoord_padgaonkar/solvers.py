@@ -104,6 +104,15 @@ class PadgaonkarNine:
     """
 
     name = "padgaonkar-nine"
+    description = "nine single-axis accelerometers on three corners (thesis Eq. 4.13-4.14)"
+
+    def suitability(self, rig: Rig, body: Body, sensors) -> float | None:
+        """2 (preferred: exact angular terms and a rigidity check) when every sensor of the body's
+        nine-sensor set is among ``sensors``."""
+        nine = body.nine_sensor_set
+        if nine is None or not set(nine.sensors.values()) <= set(sensors):
+            return None
+        return 2.0
 
     def solve(self, rig: Rig, body: Body, signals: Mapping[str, np.ndarray]) -> SolverResult:
         """Generalized coordinates at C and G from the nine sensors' processed signals."""
@@ -169,6 +178,16 @@ class LeastSquares:
     """
 
     name = "least-squares"
+    description = "any six or more single-axis sensors with independent directions on one body"
+
+    def suitability(self, rig: Rig, body: Body, sensors) -> float | None:
+        """1 when the named sensors of ``body`` determine all six coordinates."""
+        names = tuple(s.name for s in body_sensors(rig, body) if s.name in set(sensors))
+        try:
+            self.matrix(rig, body, names)
+        except ConfigError:
+            return None
+        return 1.0
 
     def matrix(self, rig: Rig, body: Body, names: tuple[str, ...]) -> np.ndarray:
         """The (m, 6) matrix mapping d_G to the named sensors' signals; refuses a degenerate layout."""

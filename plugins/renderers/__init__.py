@@ -3,7 +3,8 @@
 * ``movie``: off-screen pyvista wireframe movies of every plate of a rig (MP4, GIF fallback),
 * ``projection``: the thesis Table 5.2 picture (initial position and Characteristic Forced Response),
 * ``overlay``: measured vs model per generalized coordinate or per channel,
-* ``residuals``: spectra of the measured signals and of their residual against the model.
+* ``residuals``: spectra of the measured signals and of their residual against the model,
+* ``report``: the project's self-contained HTML report.
 """
 
 from odsuite import hookimpl
@@ -11,10 +12,7 @@ from odsuite import hookimpl
 
 @hookimpl
 def odsuite_register_renderers(registry):
-    from .figures import comparison_figure, projection_figure, residual_spectra_figure  # on first use
-    from .movie import render_movie
+    from .providers import builtin_renderers  # on first use: `odsuite --help` starts fast
 
-    registry.add("movie", render_movie)
-    registry.add("projection", projection_figure)
-    registry.add("overlay", comparison_figure)
-    registry.add("residuals", residual_spectra_figure)
+    for renderer in builtin_renderers():
+        registry.add(renderer.name, renderer)

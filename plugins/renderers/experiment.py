@@ -5,12 +5,12 @@ as the measurement)."""
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
 
 from odsuite.core.errors import ConfigError
+from odsuite.core.renderers import parse_pair
 from odsuite.core.rigidbody import COORDINATE_UNITS, COORDINATES
 
 from .figures import comparison_figure, projection_figure, residual_spectra_figure
@@ -29,26 +29,6 @@ def _coords(project, experiment: str, kind: str, hint: str) -> dict[str, np.ndar
     if not coords:
         raise ConfigError(f"{project.path}: experiment {experiment!r}: {kind!r} holds no '<body>{SUFFIX}' dataset")
     return coords
-
-
-def parse_pair(text: str | None, what: str) -> tuple[float, float] | None:
-    """'A,B' -> (A, B) floats; None stays None."""
-    if text is None:
-        return None
-    try:
-        a, b = (float(v) for v in text.split(","))
-    except ValueError:
-        raise ConfigError(f"{what}: expected two numbers 'A,B', got {text!r}") from None
-    return (a, b)
-
-
-def parse_magnify(text: str | None) -> tuple[float, float] | None:
-    """``--magnify`` 'H_t,H_r' -> (H_t, H_r), both finite and >= 0 (a negative factor would mirror
-    the motion); None stays None."""
-    pair = parse_pair(text, "--magnify")
-    if pair is not None and not all(math.isfinite(v) and v >= 0 for v in pair):
-        raise ConfigError(f"--magnify: magnification factors must be finite numbers >= 0, got {text!r}")
-    return pair
 
 
 def render_experiment(

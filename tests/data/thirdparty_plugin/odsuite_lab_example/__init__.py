@@ -1,31 +1,21 @@
-"""A lab's own odsuite plugin: registers a physical effect and a renderer without touching odsuite."""
+"""A lab's own odsuite plugin, written only against odsuite's public contracts.
+
+It registers an effect (a point mass clamped to a body) and a renderer (the generalized
+coordinates of an experiment as a CSV table), exactly as a lab's installable package would.
+"""
 
 from odsuite import hookimpl
 
 
-class ThermalDrift:
-    """Adds a slow linear drift to a predicted signal (a made-up lab effect)."""
-
-    name = "lab_thermal_drift"
-
-    def apply_to_signal(self, signal, slope_per_sample):
-        import numpy as np
-
-        return np.asarray(signal, dtype=float) + slope_per_sample * np.arange(len(signal))
-
-
-class AsciiRenderer:
-    name = "lab_ascii"
-
-    def render(self, values):
-        return "".join("#" if v > 0 else "." for v in values)
-
-
 @hookimpl
 def odsuite_register_effects(registry):
-    registry.add("lab_thermal_drift", ThermalDrift())
+    from .effects import AddedPointMass  # on first use, so `odsuite --help` stays fast
+
+    registry.add(AddedPointMass.name, AddedPointMass())
 
 
 @hookimpl
 def odsuite_register_renderers(registry):
-    registry.add("lab_ascii", AsciiRenderer())
+    from .renderers import CoordinatesCsv
+
+    registry.add(CoordinatesCsv.name, CoordinatesCsv())

@@ -189,7 +189,7 @@ def build_report(
     it the diagnosis runs now unless ``run_diagnosis`` is False. ``movie``: embed a GIF of
     ``movie_experiment`` (default: the experiment the model fits worst) with the model overlaid.
     """
-    from odsuite_plugins.renderers.figures import comparison_figure
+    from .figures import comparison_figure
 
     from odsuite.core.comparison import (
         COORDINATE_NAMES,
@@ -342,7 +342,7 @@ def _page(title: str, sections: Sequence[tuple[str, str, str]], notes: Sequence[
 
 def _failures_section(doc: Mapping[str, Any], exps, preds: Mapping[str, np.ndarray], modes_hz: Sequence[float],
                       tmp: Path, coordinate_names: Sequence[str]) -> str:
-    from odsuite_plugins.renderers.figures import residual_spectra_figure
+    from .figures import residual_spectra_figure
 
     names = list(doc["channels"])
     per_channel = _table(["experiment", "all", *names],
@@ -410,8 +410,8 @@ def _candidates_section(diag: Mapping[str, Any] | None, revision: Any, notes: li
 
 
 def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path) -> str:
-    from odsuite_plugins.renderers.movie import render_movie
-    from odsuite_plugins.renderers.scene import Style
+    from .movie import render_movie
+    from .scene import Style
 
     if not series:
         return "<p>No movie: the chains give no displacements, so there are no generalized coordinates.</p>"

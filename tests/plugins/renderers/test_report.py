@@ -89,7 +89,7 @@ def story(tmp_path_factory):
     """The project, the diagnosis made at revision 0 and the report built with them."""
     from odsuite.core.diagnosis import add_effect, diagnose
     from odsuite.core.project import open_project
-    from odsuite.core.report import build_report
+    from odsuite_plugins.renderers.report import build_report
     from tests.core.hidden_effects import make_project
 
     tmp = tmp_path_factory.mktemp("report")
@@ -108,7 +108,7 @@ def test_report_numbers_are_compares(story):
     from odsuite.core.comparison import compare
     from odsuite.core.modelrev import history
     from odsuite.core.project import open_project
-    from odsuite.core.report import SECTIONS
+    from odsuite_plugins.renderers.report import SECTIONS
 
     path, diag, added, result = story
     with open_project(path) as p:
@@ -238,7 +238,7 @@ def test_report_renders_in_chromium(story, tmp_path):
 
 def test_bad_input_is_one_line(tmp_path):
     from odsuite.core.project import create_project
-    from odsuite.core.report import build_report, load_diagnosis
+    from odsuite_plugins.renderers.report import build_report, load_diagnosis
 
     bad = tmp_path / "d.json"
     bad.write_text("{not json")

@@ -20,10 +20,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from odsuite_plugins.daq_sim.hammer import Hit
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn
 from rich.table import Table
+
+from .hammer import Hit
 
 #: The truth's hidden effects: a 30 % stiffer vertical suspension and a platform twist mode at
 #: 640 Hz, 2 % damping (well inside the accelerometer and filter bands, beyond every rigid mode)
@@ -90,10 +91,10 @@ def effective_scales(effect_name: str, values: Mapping[str, float], model) -> di
 
 
 def _record(project, console: Console) -> None:
-    from odsuite_plugins.daq_sim.scenarios import scenario
-    from odsuite_plugins.daq_sim.simulator import default_chains
-
     from odsuite.core.acquisition import AcquisitionSettings, acquire, rig_systeminfo
+
+    from .scenarios import scenario
+    from .simulator import default_chains
 
     chains = {k: replace(c, adc_bits=ADC_BITS)
               for k, c in default_chains(project.rig, rig_systeminfo(project.rig, SAMPLING_RATE)).items()}
@@ -142,12 +143,14 @@ def _print_candidates(console: Console, doc: Mapping[str, Any], rows: int = 6) -
 def _write_outputs(out: Path, project_path: Path, diagnosis: Mapping[str, Any] | None,
                    console: Console) -> dict[str, Path]:
     """The history figure, a movie of one test with the model's motion and the HTML report."""
-    from odsuite_plugins.renderers.movie import render_movie
-
     from odsuite.core.comparison import experiment_coordinates
     from odsuite.core.modelrev import history, history_figure
+    from odsuite.core.plugins import registries
     from odsuite.core.project import open_project
-    from odsuite.core.report import build_report
+    from odsuite.core.renderers import RenderRequest
+    # the movie is drawn for a window around the hit, which the movie renderer's options do not
+    # reach yet: the renderers plugin's own function, imported like any package's
+    from odsuite_plugins.renderers.movie import render_movie
 
     files: dict[str, Path] = {}
     movie_exp = MOVIE_EXPERIMENT
@@ -167,10 +170,11 @@ def _write_outputs(out: Path, project_path: Path, diagnosis: Mapping[str, Any] |
     for note in movie.notes:
         console.print(f"  note: {note}", highlight=False, soft_wrap=True)
     console.print(f"  history figure: {files['history']}", highlight=False, soft_wrap=True)
-    res = build_report(project_path, out / "report.html", diagnosis=diagnosis, run_diagnosis=False,
-                       movie_experiment=movie_exp)
+    res = registries().renderers.get("report").render(RenderRequest(
+        project_path, None, out / "report.html",
+        {"diagnosis": diagnosis, "run_diagnosis": False, "movie_experiment": movie_exp}))
     files["report"] = Path(res.path)
-    console.print(f"  report: {res.path} ({res.size_bytes / 2**20:.1f} MiB)", highlight=False, soft_wrap=True)
+    console.print(f"  report: {res.path} ({res.summary})", highlight=False, soft_wrap=True)
     for note in res.notes:
         console.print(f"  note: {note}", highlight=False, soft_wrap=True)
     return files

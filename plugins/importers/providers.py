@@ -1,0 +1,60 @@
+"""The importers this plugin registers, behind the importer contract (odsuite.core.importers)."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+from odsuite.core.importers import Imported, ImportOption
+
+FORCE_CHANNEL = ImportOption("force_channel", "name of the force channel (default: the one record in newtons "
+                                              "or named 'force')")
+
+
+class LegacyImporter:
+    name = "legacy"
+    description = "thesis-era .DAT/.VIZ record (volts, samples x channels) with its .CTR Systeminfo"
+    suffixes = (".dat", ".viz")
+    options = (ImportOption("systeminfo", "the .CTR Systeminfo file", required=True),
+               ImportOption("force_point", "X,Y,Z in mm from the platform's centre of mass, platform axes",
+                            required=True),
+               ImportOption("force_dir", "+x,-x,+y,-y,+z,-z or a vector dx,dy,dz", required=True))
+
+    def import_file(self, project, file, name, *, systeminfo, force_point, force_dir) -> Imported:
+        from odsuite.core.importing import import_legacy
+
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            import_legacy(project, file, systeminfo, name, force_point, force_dir)
+        return Imported(name, f"{Path(file).name} with Systeminfo {Path(systeminfo).name}",
+                        tuple(str(w.message) for w in caught))
+
+
+class LvmImporter:
+    name = "lvm"
+    description = "LabVIEW Measurement (.lvm) text file, decimal point or comma"
+    suffixes = (".lvm",)
+    options = (FORCE_CHANNEL,)
+
+    def import_file(self, project, file, name, *, force_channel=None) -> Imported:
+        from odsuite.core.modal_project import import_lvm
+
+        import_lvm(project, file, name, force_channel)
+        return Imported(name, f"LabVIEW file {Path(file).name}")
+
+
+class UffImporter:
+    name = "uff"
+    description = "universal file format: time records (dataset 58) as the record, FRFs as derived 'frf'"
+    suffixes = (".uff", ".unv")
+    options = (FORCE_CHANNEL,)
+
+    def import_file(self, project, file, name, *, force_channel=None) -> Imported:
+        from odsuite.core.uff_project import import_uff
+
+        import_uff(project, file, name, force_channel)
+        return Imported(name, f"UFF file {Path(file).name}")
+
+
+def builtin_importers() -> list:
+    return [LegacyImporter(), LvmImporter(), UffImporter()]

@@ -1,0 +1,72 @@
+"""The renderers this plugin registers, behind the renderer contract (odsuite.core.renderers)."""
+
+from __future__ import annotations
+
+from odsuite.core.renderers import Rendered, RenderRequest
+
+MOVIE_OPTIONS = frozenset({"model", "magnify", "view", "workers", "frame_step", "slowdown", "ods_hz"})
+FIGURE_OPTIONS = frozenset({"model", "magnify", "view"})
+REPORT_OPTIONS = frozenset({"diagnosis", "run_diagnosis", "movie", "movie_experiment", "on_stage"})
+
+
+class MovieRenderer:
+    name = "movie"
+    description = "off-screen wireframe movie of every plate (MP4, or GIF), the model's motion overlaid on request"
+    kind = "movie"
+    suffixes = (".mp4", ".gif")
+
+    def render(self, request: RenderRequest) -> Rendered:
+        from .experiment import render_experiment
+
+        request.unknown_options(MOVIE_OPTIONS, self.name)
+        res = render_experiment(request.project, request.experiment, request.output, progress=request.progress,
+                                **{k: v for k, v in request.options.items() if v is not None})
+        return Rendered(res.path, f"{res.n_frames} frames at {res.fps:g} fps, {res.slowdown:.0f}x slower than real "
+                                  f"time, magnification H_t = {res.magnify[0]:.3g}, H_r = {res.magnify[1]:.3g}",
+                        tuple(res.notes))
+
+
+class FigureRenderer:
+    """One of the experiment figures of :func:`.experiment.render_experiment`."""
+
+    kind = "figure"
+    suffixes = (".png", ".svg", ".pdf")
+
+    def __init__(self, name: str, description: str) -> None:
+        self.name = name
+        self.description = description
+
+    def render(self, request: RenderRequest) -> Rendered:
+        from .experiment import render_experiment
+
+        request.unknown_options(FIGURE_OPTIONS, self.name)
+        path = render_experiment(request.project, request.experiment, request.output, figure=self.name,
+                                 progress=request.progress,
+                                 **{k: v for k, v in request.options.items() if v is not None})
+        return Rendered(path, f"{self.name} figure of {request.experiment}")
+
+
+class ReportRenderer:
+    name = "report"
+    description = ("one self-contained HTML page: experiments, model against measurement, failures, candidate "
+                   "effects, error across revisions and a movie")
+    kind = "page"
+    suffixes = (".html", ".htm")
+
+    def render(self, request: RenderRequest) -> Rendered:
+        from .report import build_report
+
+        request.unknown_options(REPORT_OPTIONS, self.name)
+        opts = dict(request.options)
+        res = build_report(request.project, request.output, diagnosis=opts.get("diagnosis"),
+                           run_diagnosis=opts.get("run_diagnosis", True), movie=opts.get("movie", True),
+                           movie_experiment=opts.get("movie_experiment"), progress=opts.get("on_stage"))
+        return Rendered(res.path, f"{res.size_bytes / 2**20:.1f} MiB; error {res.error:.4f}", tuple(res.notes))
+
+
+def builtin_renderers() -> list:
+    return [MovieRenderer(),
+            FigureRenderer("projection", "the thesis's 2-D projection (Eq. 4.25): rest and characteristic forced response"),
+            FigureRenderer("overlay", "generalized coordinates, measured against the model, over time"),
+            FigureRenderer("residuals", "spectra of the measured coordinates and of their residual against the model"),
+            ReportRenderer()]
