@@ -543,13 +543,13 @@ def history_cmd(
     figure: Path = typer.Option(None, "--figure", help="Also draw the error per revision (PNG or SVG)."),
 ) -> None:
     """Model revisions with their effects and errors."""
-    from odsuite.core.modelrev import history
+    from odsuite.core.history import history
     from odsuite.core.project import open_project
 
     with open_project(project) as p:
         doc = history(p)
     if figure is not None:
-        from odsuite.core.modelrev import history_figure
+        from odsuite.core.history import history_figure
 
         history_figure(doc, figure)
     if as_json:

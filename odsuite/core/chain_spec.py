@@ -13,8 +13,6 @@ from odsuite.core.steps import Item, Reverse, Step, Tap
 from odsuite.core.systeminfo import ChannelInfo, FilterFamily, FilterType, Integration
 
 
-
-
 def _fuse(items: list[Item]) -> list[Item]:
     """Merge neighbouring steps that can run as one (e.g. a scale folded into the next filter,
     filters and integrators cascaded in one ``sosfilt`` call); never across taps or reversals."""

@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 import scipy.signal
 
-from odsuite.core.errors import ConfigError
 from odsuite.core.chain_spec import chain_for_channel, stage_names
+from odsuite.core.errors import ConfigError
 from odsuite.core.rig import Rig, Sensor
 from odsuite.core.systeminfo import SensorType
 

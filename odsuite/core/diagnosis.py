@@ -566,7 +566,7 @@ def _evidence(problem: Problem, cand: Candidate, baseline: float, noise: float,
         if near and near[0]["lacking"]:
             words.append(f"a resonance at {near[0]['frequency_hz']:.0f} Hz in the "
                          f"{', '.join(near[0]['channels'][:4])} channels that no model mode explains")
-    if rigidity is not None and rigidity > 0.1 and problem.effect.name.startswith(("plate", "sensor")):
+    if rigidity is not None and rigidity > 0.1 and getattr(problem.effect, "breaks_rigidity", False):
         words.append(f"rigidity residual {100 * rigidity:.0f} %")
     if modes_before is not None and modes_after is not None and len(modes_before) == len(modes_after) and len(modes_before):
         shift = np.asarray(modes_after) / np.asarray(modes_before)

@@ -15,6 +15,10 @@ any object with the same members:
   parameter name to value; missing names take their nominal). Called in fitting loops: it must be
   cheap, pure (never change ``model``) and raise :class:`~odsuite.core.errors.ConfigError` for values
   it cannot use.
+
+Optional: ``breaks_rigidity`` (bool, default False): the effect makes a rigid body's redundant
+sensors disagree (a flexible mode, a sensor fault), so the diagnosis cites the rigidity check's
+residual as evidence for it.
 """
 
 from __future__ import annotations
@@ -56,6 +60,7 @@ class Effect:
     name: str = ""
     target: str = "model"  # "model" or "chain"
     description: str = ""
+    breaks_rigidity: bool = False
 
     def parameters(self, model: Model) -> list[Parameter]:
         raise NotImplementedError

@@ -9,12 +9,15 @@ from typing import Any
 
 import numpy as np
 
-from odsuite.core.chain_spec import build_chain, channel_chain_spec, channel_unit, stage_names
+from odsuite.core.chain_spec import (
+    build_chain,
+    channel_chain_spec,
+    channel_unit,
+    stage_names,
+)
 from odsuite.core.errors import ConfigError
 from odsuite.core.executor import DEFAULT_CHUNK, run_chains
 from odsuite.core.systeminfo import ChannelInfo
-
-
 
 #: Samples of the record the rigidity check reads at most (from the pretrigger on), so that its
 #: memory stays bounded on long records.

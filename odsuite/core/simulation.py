@@ -17,7 +17,6 @@ import numpy as np
 import scipy  # scipy.signal and scipy.linalg load on first use: fast `odsuite plugins`
 
 from odsuite.core.errors import ConfigError, DimensionError
-
 from odsuite.core.model import Model, StateSpace
 
 HOLDS = ("zoh", "foh")

@@ -143,14 +143,15 @@ def _print_candidates(console: Console, doc: Mapping[str, Any], rows: int = 6) -
 def _write_outputs(out: Path, project_path: Path, diagnosis: Mapping[str, Any] | None,
                    console: Console) -> dict[str, Path]:
     """The history figure, a movie of one test with the model's motion and the HTML report."""
-    from odsuite.core.comparison import experiment_coordinates
-    from odsuite.core.modelrev import history, history_figure
-    from odsuite.core.plugins import registries
-    from odsuite.core.project import open_project
-    from odsuite.core.renderers import RenderRequest
     # the movie is drawn for a window around the hit, which the movie renderer's options do not
     # reach yet: the renderers plugin's own function, imported like any package's
     from odsuite_plugins.renderers.movie import render_movie
+
+    from odsuite.core.comparison import experiment_coordinates
+    from odsuite.core.history import history, history_figure
+    from odsuite.core.plugins import registries
+    from odsuite.core.project import open_project
+    from odsuite.core.renderers import RenderRequest
 
     files: dict[str, Path] = {}
     movie_exp = MOVIE_EXPERIMENT

@@ -10,7 +10,9 @@ from odsuite import hookimpl
 
 @hookimpl
 def odsuite_register_importers(registry):
-    from .providers import builtin_importers  # on first use: `odsuite --help` starts fast
+    from .providers import (
+        builtin_importers,  # on first use: `odsuite --help` starts fast
+    )
 
     for importer in builtin_importers():
         registry.add(importer.name, importer)

@@ -14,10 +14,16 @@ from dataclasses import replace
 
 import numpy as np
 
-from odsuite.core.errors import ConfigError
-
 from odsuite.core.effects import Effect, Parameter
-from odsuite.core.model import FlexibleMode, Model, RigidBody, SensorDynamics, SpringDamper, Structure
+from odsuite.core.errors import ConfigError
+from odsuite.core.model import (
+    FlexibleMode,
+    Model,
+    RigidBody,
+    SensorDynamics,
+    SpringDamper,
+    Structure,
+)
 
 #: density used where a rig gives a plate but no mass (steel, as App. C's inertia listing)
 STEEL_DENSITY = 7841.0
@@ -126,6 +132,7 @@ class PlateFlexibility(Effect):
     """
 
     target = "model"
+    breaks_rigidity = True  # a flexible mode makes the redundant angular estimates disagree
 
     def __init__(self, shape: str = "kirchhoff", body: str = "platform") -> None:
         if shape not in ("kirchhoff", "free"):
@@ -186,6 +193,7 @@ class PlateFlexibility(Effect):
 
 class _PerSensor(Effect):
     target = "chain"
+    breaks_rigidity = True  # one faulty sensor makes the redundant angular estimates disagree
     per_sensor: tuple[tuple[str, str, float, float, float, str], ...] = ()  # suffix, unit, nominal, lo, hi, text
 
     def parameters(self, model):
@@ -257,6 +265,7 @@ class SensorDynamicsEffect(Effect):
 
     name = "sensor_dynamics"
     target = "chain"
+    breaks_rigidity = True
     description = "Accelerometer dynamics (Eq. 2.2): ICP high-pass time constants and sensor resonance."
 
     def parameters(self, model):

@@ -5,9 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from odsuite.core.errors import ConfigError
-from odsuite.core.rig import Rig
-
 from odsuite.core.model import Model, RigidBody, SpringDamper
+from odsuite.core.rig import Rig
 
 #: App. B.2, SI. Springs 1..4 at (-a,+b,+h), (+a,+b,+h), (-a,-b,+h), (+a,-b,+h) from G: the sign
 #: pattern App. B's k matrix implies.

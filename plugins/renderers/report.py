@@ -198,12 +198,8 @@ def build_report(
         predict,
         prepare,
     )
-    from odsuite.core.modelrev import (
-        current_revision,
-        history,
-        history_figure,
-        revision_model,
-    )
+    from odsuite.core.history import history, history_figure
+    from odsuite.core.modelrev import current_revision, revision_model
     from odsuite.core.project import open_project
 
     output = Path(output)

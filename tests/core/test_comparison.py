@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import scipy.signal
 
+from odsuite.core.chain_spec import chain_for_channel
 from odsuite.core.comparison import (
     compare,
     find_trigger,
@@ -16,7 +17,6 @@ from odsuite.core.comparison import (
     stage_operators,
     windowed_force,
 )
-from odsuite.core.chain_spec import chain_for_channel
 from odsuite.core.project import Excitation, create_project
 from odsuite.core.systeminfo import Systeminfo
 
@@ -110,8 +110,8 @@ def test_error_is_the_pooled_nrmse_after_the_filter_chain(nominal):
     scipy's own elliptic design and sosfilt, over the nine accelerometers."""
     path, rig, si = nominal
     import odsuite
-    from odsuite.core.modelrev import base_model
     from odsuite.core.model import Input, Output
+    from odsuite.core.modelrev import base_model
 
     with odsuite.open_project(path) as p:
         result = compare(p, experiments=["T8stiff"])

@@ -18,8 +18,6 @@ from odsuite_plugins.daq_sim.chain import ChannelChain, run_analog
 from odsuite_plugins.daq_sim.hammer import Hit
 from odsuite_plugins.daq_sim.simulator import SimulatedRig, default_chains
 from odsuite_plugins.daq_sim.truth import truth_model
-from odsuite.core.model import Input, Output
-from odsuite.core.simulation import simulate
 
 from odsuite.core.acquisition import AcquisitionSettings, acquire, rig_systeminfo
 from odsuite.core.correction import (
@@ -31,8 +29,10 @@ from odsuite.core.correction import (
     process_corrected,
 )
 from odsuite.core.errors import ConfigError
+from odsuite.core.model import Input, Output
 from odsuite.core.pipeline import process_experiment
 from odsuite.core.project import create_project, open_project
+from odsuite.core.simulation import simulate
 
 FS = 20_000.0
 OVERSAMPLE = 8

@@ -26,8 +26,8 @@ def project(tmp_path_factory):
 
 @pytest.mark.parametrize("frequency_hz", [103.5, 150.0, 216.9])
 def test_ods_equals_the_models_coordinate_frf(project, frequency_hz):
-    from odsuite.core.modelrev import base_model
     from odsuite.core.model import Input, Output
+    from odsuite.core.modelrev import base_model
 
     with odsuite.open_project(project) as p:
         measured = ods_coordinates(p, "T3", frequency_hz)["platform"]

@@ -12,8 +12,17 @@ import numpy as np
 import pytest
 
 from odsuite import hookimpl
-from odsuite.core.errors import ConfigError, PluginConflictError, PluginError, PluginLoadError
-from odsuite.core.plugins import REQUIRED_BUILTINS, build_registries, make_plugin_manager
+from odsuite.core.errors import (
+    ConfigError,
+    PluginConflictError,
+    PluginError,
+    PluginLoadError,
+)
+from odsuite.core.plugins import (
+    REQUIRED_BUILTINS,
+    build_registries,
+    make_plugin_manager,
+)
 
 THIRD_PARTY = Path(__file__).resolve().parents[1] / "data" / "thirdparty_plugin"
 

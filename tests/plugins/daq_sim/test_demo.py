@@ -28,7 +28,8 @@ def test_spring_totals_are_the_hand_summed_stiffness_ratios(thesis_rig):
 @pytest.mark.slow
 def test_demo_finds_both_hidden_effects_and_the_error_falls_each_round(tmp_path, capsys):
     from odsuite.cli import main
-    from odsuite.core.modelrev import current_revision, history
+    from odsuite.core.history import history
+    from odsuite.core.modelrev import current_revision
     from odsuite.core.project import open_project
 
     out = tmp_path / "demo"

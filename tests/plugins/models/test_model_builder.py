@@ -4,11 +4,17 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from odsuite_plugins.models.thesis import (
+    APP_B,
+    APP_C_UNIT,
+    dynamometer_springs,
+    inertia_tensor,
+    thesis_car_2dof,
+    thesis_dynamometer,
+)
 
 from odsuite.core.errors import ConfigError
 from odsuite.core.model import Input, Model, Output, RigidBody, SpringDamper
-from odsuite_plugins.models.thesis import (APP_B, APP_C_UNIT, dynamometer_springs, inertia_tensor,
-                                           thesis_car_2dof, thesis_dynamometer)
 
 
 def app_b_k(kx, ky, kz, a, b, h):

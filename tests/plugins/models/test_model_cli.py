@@ -5,10 +5,10 @@ from __future__ import annotations
 import json
 
 import numpy as np
+from odsuite_plugins.models import thesis_dynamometer
 
 from odsuite.cli import main
 from odsuite.core.project import create_project, open_project
-from odsuite_plugins.models import thesis_dynamometer
 
 
 def run_json(capsys, *args) -> dict:

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from odsuite import hookimpl
-from odsuite.core.errors import ConfigError
-from odsuite.core.plugins import build_registries, make_plugin_manager
-from odsuite.core.model import Input, Model, Output, RigidBody, SpringDamper, Structure
 from odsuite.core.effects import Effect, Parameter
+from odsuite.core.errors import ConfigError
+from odsuite.core.model import Input, Model, Output, RigidBody, SpringDamper, Structure
+from odsuite.core.plugins import build_registries, make_plugin_manager
 from odsuite.core.simulation import simulate
 
 FREQS = np.array([20.0, 97.4, 150.0, 222.0, 400.0, 900.0])

@@ -106,7 +106,7 @@ def story(tmp_path_factory):
 @pytest.mark.slow
 def test_report_numbers_are_compares(story):
     from odsuite.core.comparison import compare
-    from odsuite.core.modelrev import history
+    from odsuite.core.history import history
     from odsuite.core.project import open_project
     from odsuite_plugins.renderers.report import SECTIONS
 
