@@ -55,6 +55,10 @@ def plugins_cmd() -> None:
             names = getattr(regs, f.name).by_plugin(name)
             if names:
                 provided.append(f"{f.name.replace('_', ' ')}: {', '.join(names)}")
+        for backend in regs.daq_backends.by_plugin(name):
+            flags = " ".join(f"{o.cli_flag}" + ("" if o.type is bool else f" {o.type.__name__.upper()}")
+                             for o in regs.daq_backends.get(backend).options)
+            provided.append(f"  acquire --daq {backend} options: {flags or 'none'}")
         source = pm.source(name)
         table.add_row(name, source.distribution, source.version, "\n".join(provided) or "-")
     console.print(table)
@@ -205,13 +209,13 @@ def process_cmd(
                               f"{res['cutoff_hz']:.1f} Hz)", highlight=False, soft_wrap=True)
 
 
-@app.command("acquire")
+@app.command("acquire", context_settings={"allow_extra_args": True, "ignore_unknown_options": True})
 def acquire_cmd(
+    ctx: typer.Context,
     project: Path = typer.Argument(..., help="Project file."),
-    daq: str = typer.Option("sim", "--daq", help="Acquisition backend: sim (the simulated thesis rig) or ni (NI-DAQmx)."),
+    daq: str = typer.Option("sim", "--daq", help="A registered acquisition backend (built in: sim, the simulated "
+                            "rig; ni, NI-DAQmx). Its own options follow; `odsuite plugins` lists them."),
     name: str = typer.Option(..., "--name", help="Experiment name."),
-    scenario: str = typer.Option(None, "--scenario", help="sim: thesis test T1..T8 (default T1)."),
-    seed: int = typer.Option(0, "--seed", help="sim: random seed; one seed, one record."),
     force_point: str = typer.Option(None, "--force-point", help="X,Y,Z in mm from the platform's centre of mass, platform axes."),
     force_dir: str = typer.Option(None, "--force-dir", help="+x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
     rate: float = typer.Option(20_000.0, "--rate", help="Sampling rate, Hz."),
@@ -219,39 +223,36 @@ def acquire_cmd(
     pretrigger: int = typer.Option(512, "--pretrigger", help="Samples kept before the trigger."),
     trigger_level: float = typer.Option(1.0, "--trigger-level", help="Force trigger level, N."),
     trigger_slope: str = typer.Option("rising", "--trigger-slope", help="rising or falling."),
-    trigger_timeout: float = typer.Option(10.0, "--trigger-timeout", help="ni: seconds to wait for the trigger."),
-    device: str = typer.Option("Dev1", "--device", help="ni: device name as in NI MAX."),
-    trigger_source: str = typer.Option(None, "--trigger-source", help="ni: digital trigger terminal, e.g. /Dev1/PFI0 (default: analog on the force channel)."),
-    voltage: bool = typer.Option(False, "--voltage", help="ni: plain voltage channels (external conditioning) instead of IEPE."),
-    continuous: bool = typer.Option(False, "--continuous", help="ni: stream continuously and capture when Enter is pressed."),
+    trigger_timeout: float = typer.Option(10.0, "--trigger-timeout", help="Seconds to wait for the trigger."),
+    continuous: bool = typer.Option(False, "--continuous", help="Stream continuously and capture when Enter is pressed."),
 ) -> None:
-    """Record an impact test from the simulated rig or an NI-DAQmx card into the project."""
+    """Record an impact test with an acquisition backend (the simulated rig, NI-DAQmx, a lab's own) into
+    the project. The backend's own options (e.g. sim: --scenario T2 --seed 3; ni: --device Dev2) go
+    after the common ones."""
     import threading
 
     from rich.progress import BarColumn, Progress, TextColumn
 
-    from odsuite.core.acquisition import AcquisitionSettings, acquire
+    from odsuite.core.acquisition import AcquisitionSettings, acquire, parse_backend_options
     from odsuite.core.importing import parse_force_direction, parse_force_point
+    from odsuite.core.plugins import registries
     from odsuite.core.project import open_project
 
+    backend = registries().daq_backends.get(daq)
+    options = parse_backend_options(daq, backend, ctx.args)
     settings = AcquisitionSettings(
         sampling_rate=rate, n_samples=samples, pretrigger=pretrigger, trigger_level=trigger_level,
         trigger_slope=trigger_slope, trigger_timeout=trigger_timeout,
         mode="continuous" if continuous else "finite")
-    options: dict = {}
     if force_point is not None or force_dir is not None:
         if force_point is None or force_dir is None:
             raise typer.BadParameter("give both --force-point and --force-dir")
         options.update(point=parse_force_point(force_point), direction=parse_force_direction(force_dir))
-    if daq == "sim":
-        options.update(scenario=scenario or ("T1" if not options else None), seed=seed)
-    elif daq == "ni":
-        options.update(device=device, trigger_source=trigger_source, iepe=not voltage)
-        if continuous:
-            pressed = threading.Event()
-            threading.Thread(target=lambda: (sys.stdin.readline(), pressed.set()), daemon=True).start()
-            options["capture"] = pressed.is_set
-            err_console.print("streaming: press Enter to capture", highlight=False)
+    if continuous:
+        pressed = threading.Event()
+        threading.Thread(target=lambda: (sys.stdin.readline(), pressed.set()), daemon=True).start()
+        options["capture"] = pressed.is_set
+        err_console.print("streaming: press Enter to capture", highlight=False)
     with open_project(project, "a") as p, Progress(
             TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
             console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
@@ -260,7 +261,7 @@ def acquire_cmd(
         def progress(stage: str, done: int, total: int) -> None:
             bar.update(task, description=stage, completed=done, total=total)
 
-        exp, rec = acquire(p, daq, name, settings, progress=progress, **options)
+        exp, rec = acquire(p, backend, name, settings, progress=progress, **options)
     for ch, count in rec.clipped.items():
         err_console.print(f"warning: channel {ch} ({rec.channel_names[ch]}): {count} samples clipped at the ADC limits",
                           style="yellow", highlight=False, soft_wrap=True)

@@ -22,6 +22,7 @@ from odsuite.core.systeminfo import (
 )
 
 #: members every acquisition backend provider has (checked when a plugin registers one)
+REQUIRED_ATTRIBUTES = ("description", "options")
 REQUIRED_METHODS = ("record",)
 
 #: ``progress(stage, done, total)``: stage is "waiting for trigger" or "reading"; counts in samples.
@@ -86,8 +87,31 @@ class Recording:
     notes: list[str] = field(default_factory=list)
 
 
+@dataclass(frozen=True)
+class BackendOption:
+    """An option a backend takes besides the common settings: the keyword ``record`` receives,
+    its type (int, float, str; bool for a flag), its default and help. On the command line it is
+    ``flag`` (default ``--name-with-dashes``); a flag gives ``when_given``."""
+
+    name: str
+    type: type
+    default: Any
+    help: str
+    flag: str = ""
+    when_given: Any = True
+
+    @property
+    def cli_flag(self) -> str:
+        return self.flag or "--" + self.name.replace("_", "-")
+
+
 class DaqBackend(Protocol):
-    """What a registered acquisition backend provides."""
+    """What a registered acquisition backend provides: ``description`` (str), ``options`` (a
+    tuple of :class:`BackendOption`, the keywords of ``record`` a user may set) and ``record``.
+    Hardware errors are :class:`~odsuite.core.errors.HardwareError` naming device and channel."""
+
+    description: str
+    options: tuple[BackendOption, ...]
 
     def record(
         self, rig: Rig | None, settings: AcquisitionSettings, *, progress: Progress | None = None,
@@ -95,6 +119,34 @@ class DaqBackend(Protocol):
     ) -> Recording:
         """Arm the acquisition and return the record (its chunks are read lazily)."""
         ...
+
+
+def parse_backend_options(name: str, backend: DaqBackend, args: list[str]) -> dict[str, Any]:
+    """The backend's own options from command-line words (``--seed 3``, ``--seed=3``, ``--flag``)."""
+    by_flag = {o.cli_flag: o for o in backend.options}
+    out: dict[str, Any] = {}
+    words = list(args)
+    while words:
+        word = words.pop(0)
+        flag, eq, value = word.partition("=")
+        opt = by_flag.get(flag)
+        if opt is None:
+            known = ", ".join(sorted(by_flag)) or "none"
+            raise ConfigError(f"acquisition backend {name!r} does not take {flag!r} (its options: {known})")
+        if opt.type is bool:
+            if eq:
+                raise ConfigError(f"{flag} is a flag and takes no value, got {word!r}")
+            out[opt.name] = opt.when_given
+            continue
+        if not eq:
+            if not words:
+                raise ConfigError(f"{flag} needs a value ({opt.help})")
+            value = words.pop(0)
+        try:
+            out[opt.name] = opt.type(value)
+        except ValueError:
+            raise ConfigError(f"{flag}: expected {opt.type.__name__}, got {value!r}") from None
+    return out
 
 
 def rig_systeminfo(rig: Rig, sampling_rate: float) -> Systeminfo:

@@ -23,6 +23,7 @@ from odsuite.core.acquisition import (
     READING,
     WAITING,
     AcquisitionSettings,
+    BackendOption,
     Progress,
     Recording,
     channel_name,
@@ -78,6 +79,12 @@ class NiDaq:
     """The ``ni`` acquisition backend."""
 
     name = "ni"
+    description = "National Instruments cards through NI-DAQmx (IEPE accelerometers, load cell)"
+    options = (BackendOption("device", str, "Dev1", "device name as in NI MAX"),
+               BackendOption("trigger_source", str, None,
+                             "digital trigger terminal, e.g. /Dev1/PFI0 (default: analog on the force channel)"),
+               BackendOption("iepe", bool, True, "plain voltage channels (external conditioning) instead of IEPE",
+                             flag="--voltage", when_given=False))
 
     def record(
         self,

@@ -14,11 +14,19 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
+from odsuite_plugins.daq_sim.chain import (
+    ChannelChain,
+    adc_input_disturbances,
+    run_analog,
+)
+from odsuite_plugins.daq_sim.hammer import Hit, half_sine_force
+from odsuite_plugins.daq_sim.scenarios import scenario as get_scenario
 
 from odsuite.core.acquisition import (
     READING,
     WAITING,
     AcquisitionSettings,
+    BackendOption,
     Progress,
     Recording,
     channel_name,
@@ -28,9 +36,6 @@ from odsuite.core.errors import ConfigError, HardwareError
 from odsuite.core.project import Excitation
 from odsuite.core.rig import Rig
 from odsuite.core.systeminfo import Systeminfo
-from odsuite_plugins.daq_sim.chain import ChannelChain, adc_input_disturbances, run_analog
-from odsuite_plugins.daq_sim.hammer import Hit, half_sine_force
-from odsuite_plugins.daq_sim.scenarios import scenario as get_scenario
 
 #: ``truth(force, fs, point, direction) -> accelerations``: force (N) sampled at fs; returns
 #: (samples x sensors) m/s^2 along each rig sensor's axis at its position, in ``rig.sensors`` order.
@@ -93,6 +98,9 @@ class SimulatedRig:
     """The ``sim`` acquisition backend."""
 
     name = "sim"
+    description = "the simulated rig: the rig's model struck by a virtual hammer, through ADC chains"
+    options = (BackendOption("scenario", str, None, "thesis test T1..T8 (default T1 when no force point is given)"),
+               BackendOption("seed", int, 0, "random seed; one seed, one record"))
 
     def __init__(self, truth_factory: Callable[..., Truth] | None = None) -> None:
         self._truth_factory = truth_factory
@@ -103,7 +111,7 @@ class SimulatedRig:
         settings: AcquisitionSettings,
         *,
         progress: Progress | None = None,
-        scenario: str | None = "T1",
+        scenario: str | None = None,
         seed: int | None = 0,
         point: Sequence[float] | None = None,
         direction: Sequence[float] | None = None,
@@ -116,8 +124,8 @@ class SimulatedRig:
     ) -> Recording:
         """Strike the virtual rig and return the triggered record.
 
-        ``scenario`` ("T1".."T8") gives point, direction and hits (without one: a 20 N, 0.5 ms
-        hit); ``point`` (m, rig frame),
+        ``scenario`` ("T1".."T8", default T1 when no point is given) gives point, direction and
+        hits (without one: a 20 N, 0.5 ms hit); ``point`` (m, rig frame),
         ``direction`` and ``hits`` override it. ``truth`` replaces the rig's default model (with
         ``effects`` applied: hidden from the Systeminfo). ``chains`` replaces channels' chains
         (e.g. a sensor whose true sensitivity differs from its nominal one).
@@ -128,6 +136,8 @@ class SimulatedRig:
             raise ConfigError("acquisition setting 'mode': the simulated rig records finite triggered records only")
         if int(oversample) != oversample or oversample < 1:
             raise ConfigError(f"simulator option 'oversample': an integer >= 1, got {oversample!r}")
+        if scenario is None and point is None and direction is None:
+            scenario = "T1"
         sc = get_scenario(scenario) if scenario else None
         if sc is None and (point is None or direction is None):
             raise ConfigError("simulator: give a scenario or both a force point and a direction")
