@@ -1172,7 +1172,7 @@ class Project:
 
 
 def _write_skeleton(f: h5py.File, rig: Rig | None) -> None:
-    from odsuite import __version__
+    from odsuite.core.version import __version__
 
     now = _now()
     h5text.set_attrs(f, {"odsuite_format": FORMAT_NAME, "odsuite_format_version": FORMAT_VERSION,
