@@ -11,13 +11,13 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-import pytest
-
 ODSUITE = Path(__file__).resolve().parents[2] / "odsuite"
 
-#: Circles being removed separately (the comparison engine no longer asking modelrev back).
-#: Edges between the two modules of a pair are left out, so any other circle is still found.
-KNOWN_CIRCLES = {frozenset({"odsuite.core.comparison", "odsuite.core.modelrev"})}
+#: Circles not yet removed, each a pair whose edges are left out so that any other circle still
+#: fails: the registries read the DAQ backend and coordinate solver contracts from acquisition and
+#: solvers, which look providers up by name in the registries (``resolve_backend``, ``choose_solver``).
+KNOWN_CIRCLES = {frozenset({"odsuite.core.plugins", "odsuite.core.acquisition"}),
+                 frozenset({"odsuite.core.plugins", "odsuite.core.solvers"})}
 
 
 def _module(path: Path, root: Path) -> str:
@@ -106,10 +106,11 @@ def test_no_import_circles_in_odsuite():
              for a, targets in graph.items()}
     assert "odsuite.core.project" in edges and edges["odsuite.core.project"]  # the graph was read
     assert _circles(edges) == []
+    whole = {a: {b for b in targets if b in graph and b != a} for a, targets in graph.items()}
+    still = [pair for pair in KNOWN_CIRCLES if any(pair <= set(c) for c in _circles(whole))]
+    assert sorted(map(sorted, still)) == sorted(map(sorted, KNOWN_CIRCLES)), "remove the broken pair from KNOWN_CIRCLES"
 
 
-@pytest.mark.xfail(strict=False, reason="core still imports built-in renderers, daq_sim, filters and models; "
-                                        "issue 13 moves their contracts into odsuite")
 def test_odsuite_never_imports_the_builtin_plugins():
     offenders = {name: sorted(t for t in targets if t.split(".")[0] == "odsuite_plugins")
                  for name, targets in _graph().items()}
