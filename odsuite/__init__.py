@@ -1,14 +1,8 @@
 """odsuite: experimental vibration analysis of rigid plates, with model comparison and diagnosis."""
 
-from importlib.metadata import PackageNotFoundError, version
-
 from odsuite.core.errors import OdsuiteError
 from odsuite.core.hookspecs import hookimpl
-
-try:
-    __version__ = version("odsuite")
-except PackageNotFoundError:  # running from a source tree without installation
-    __version__ = "0+unknown"
+from odsuite.core.version import __version__
 
 
 def open_project(path, mode: str = "r"):

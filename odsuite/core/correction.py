@@ -161,7 +161,7 @@ def store_correction(project, corr: Correction) -> None:
     """Write ``corr`` as derived kind "gencoords_corrected" of its experiment: "<body>_at_g",
     "<body>_at_c" (samples x 6, m m m rad rad rad, as "gencoords") and "drift" (samples x channel,
     m), with the model revision and cutoff in the provenance."""
-    from odsuite import __version__
+    from odsuite.core.version import __version__
 
     exp = project.experiment(corr.experiment)
     n = corr.displacement.shape[0]

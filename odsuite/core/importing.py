@@ -17,9 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from odsuite.core.errors import ConfigError, DimensionError, OdsuiteWarning
-from odsuite.core.legacy import read_ctr, read_dat, write_cod
+from odsuite.core.legacy import read_dat, write_cod
 from odsuite.core.project import Excitation, open_project
-from odsuite.core.systeminfo import SensorType
+from odsuite.core.systeminfo import SensorType, read_ctr
 
 _AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 

@@ -8,9 +8,9 @@ it upgrades from::
         ...
 
 ``migrate`` chains them until the file reaches the target version. Readers never migrate the
-original file in place: ``odsuite.core.project`` migrates a private copy (read mode) or a copy that
-then replaces the project atomically (write mode), so a failed migration leaves the project
-untouched.
+original file in place: ``odsuite.core.project_migration`` migrates a private copy (read mode) or
+a copy that then replaces the project atomically (write mode), so a failed migration leaves the
+project untouched.
 """
 
 from __future__ import annotations

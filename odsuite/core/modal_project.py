@@ -11,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 
-from odsuite import __version__
 from odsuite.core.errors import ConfigError
 from odsuite.core.frf import FrfSet, estimate_frf
 from odsuite.core.hammer import assess_hits
@@ -19,6 +18,7 @@ from odsuite.core.lvm import read_lvm
 from odsuite.core.modal import ModalResult, identify_modes
 from odsuite.core.project import DerivedArray, Excitation, open_project
 from odsuite.core.systeminfo import ChannelInfo, SensorType, Systeminfo
+from odsuite.core.version import __version__
 
 G = 9.80665
 #: LabVIEW unit labels -> (sensor type, volts per SI unit of the stored value)

@@ -28,65 +28,44 @@ migrated on open)::
 
 Writes are copy-on-write transactions: the committed file is copied to ``<name>.h5.tmp-<pid>``,
 changed there, fsynced and atomically renamed over the project, so a killed process leaves either
-the old or the new committed state. One writer at a time holds an flock on ``<name>.h5.lock``.
+the old or the new committed state. One writer at a time holds an flock on ``<name>.h5.lock``
+(``odsuite.core.storage``). The format itself, its HDF5 codecs and the migration of older files are
+in ``odsuite.core.project_format``, ``odsuite.core.h5codecs`` and ``odsuite.core.project_migration``.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import fcntl
 import functools
 import inspect
 import json
-import logging
-import os
-import shutil
-import signal
-import socket
-import subprocess
-import sys
-import tempfile
 import tomllib
-import typing
-import uuid
-import weakref
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
-from datetime import datetime, timezone
-from enum import IntEnum
 from pathlib import Path
 from typing import IO, Any
 
 import h5py
 import numpy as np
 
-from odsuite.core import errors, h5text, migrations
-from odsuite.core.errors import (
-    ConfigError,
-    DimensionError,
-    NotAProjectError,
-    OdsuiteError,
-    ProjectFileError,
-    ProjectLockedError,
-    ProjectVersionError,
-    SchemaError,
+from odsuite.core import clipping, h5text, migrations
+from odsuite.core.errors import ConfigError, DimensionError, ProjectFileError, ProjectVersionError, SchemaError
+from odsuite.core.h5codecs import (
+    Attrs,
+    dataset,
+    read_systeminfo,
+    to_json,
+    typed_group,
+    write_revision,
+    write_skeleton,
+    write_systeminfo,
 )
+from odsuite.core.h5damage import open_h5, reading
+from odsuite.core.project_format import CHUNK_BYTES, FORMAT_VERSION, LIBVER, check_format, now
+from odsuite.core.project_migration import migrate_in_place, migrated_copy
 from odsuite.core.rig import Rig, load_rig, rig_from_dict
-from odsuite.core.systeminfo import ChannelInfo, RigInfo, Systeminfo
-
-FORMAT_NAME = "odsuite.project"
-FORMAT_VERSION = "1.1.0"
-#: Object headers that hold attributes over 64 KiB (dense attribute storage), for every object a
-#: write creates: fixed-length text is stored in the header itself.
-LIBVER = ("v110", "v110")
-
-#: Tests set this to a crash-point name (see ``_crash_point``) to SIGKILL the writer there.
-CRASH_ENV = "ODSUITE_TEST_CRASH_AT"
-#: Target size of one raw-data chunk (the unit of checksumming and of partial reads).
-CHUNK_BYTES = 1 << 20
-
-log = logging.getLogger(__name__)
+from odsuite.core.storage import acquire_lock, copy_on_write, crash_point, release_lock, replace_atomically, tmp_path
+from odsuite.core.systeminfo import Systeminfo
 
 
 @dataclass(frozen=True)
@@ -111,63 +90,6 @@ class DerivedArray:
 # ----------------------------------------------------------------------------- small helpers
 
 
-def _now() -> str:
-    return datetime.now(timezone.utc).astimezone().isoformat(timespec="seconds")
-
-
-def _crash_point(name: str) -> None:
-    """Kill this process here when the test hook asks for it (crash-safety tests)."""
-    if os.environ.get(CRASH_ENV) == name:
-        os.kill(os.getpid(), signal.SIGKILL)
-
-
-class _Attrs(Mapping):
-    """An object's attributes for reading: a missing or unreadable one is a KeyError naming it
-    (HDF5's message for attributes in dense storage does not)."""
-
-    def __init__(self, obj: h5py.HLObject) -> None:
-        self._attrs = obj.attrs
-
-    def __getitem__(self, key: str) -> Any:
-        try:
-            return self._attrs[key]
-        except KeyError as exc:
-            raise KeyError(f"attribute {key!r}: {_first_line(exc)}") from None
-
-    def __contains__(self, key: object) -> bool:
-        return key in self._attrs
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._attrs)
-
-    def __len__(self) -> int:
-        return len(self._attrs)
-
-
-def _typed_group(parent: h5py.Group, name: str, odsuite_type: str, **kw) -> h5py.Group:
-    g = parent.create_group(name, **kw)
-    h5text.set_attrs(g, {"odsuite_type": odsuite_type, "object_id": str(uuid.uuid4())})
-    return g
-
-
-def _dataset(parent: h5py.Group, name: str, data: Any, units: str, dims: Iterable[str], **kw) -> h5py.Dataset:
-    ds = parent.create_dataset(name, data=data, **kw)
-    h5text.set_attrs(ds, {"units": units, "dims": h5text.fixed(list(dims))})
-    return ds
-
-
-def _to_json(where: str, value: Any) -> str:
-    def default(o: Any) -> Any:
-        if isinstance(o, np.ndarray | np.generic):
-            return o.tolist()
-        raise TypeError(type(o).__name__)
-
-    try:
-        return json.dumps(value, default=default)
-    except (TypeError, ValueError) as exc:
-        raise ConfigError(f"{where}: value is not JSON-serialisable ({exc}): {value!r}") from None
-
-
 def _show(value: Any) -> str:
     """A value for a one-line message (arrays as plain lists)."""
     try:
@@ -181,149 +103,6 @@ def _check_name(where: str, what: str, name: Any) -> str:
         raise ConfigError(f"{where}: {what} name must be a non-empty string without '/' and not "
                           f"starting with '.', got {name!r}")
     return name
-
-
-def _fsync_path(path: Path, directory: bool = False) -> None:
-    fd = os.open(path, os.O_RDONLY | (os.O_DIRECTORY if directory else 0))
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-# ----------------------------------------------------------------------------- Systeminfo codec
-
-_CHANNEL_HINTS = typing.get_type_hints(ChannelInfo)
-_RIGINFO_HINTS = typing.get_type_hints(RigInfo)
-#: Units of the numeric ChannelInfo columns ("1" = dimensionless or a count/index).
-_CHANNEL_UNITS = {
-    "sensitivity": "V per unit (column 'unit')", "sampling_rate": "Hz", "cutoff_high": "Hz",
-    "cutoff_low": "Hz", "ripple_db": "dB", "attenuation_db": "dB", "limit_high": "V",
-    "limit_low": "V", "filter_order": "1", "filters_on": "1", "offset_start": "1",
-    "offset_length": "1", "daq_gain": "1",
-}
-
-
-def _column_dtype(hint: Any) -> Any:
-    if isinstance(hint, type) and issubclass(hint, IntEnum):
-        return h5py.enum_dtype({m.name: m.value for m in hint}, basetype="i1")
-    if hint is bool:
-        return np.bool_
-    if hint is int:
-        return np.int64
-    return np.float64  # float and float | None (None stored as NaN)
-
-
-def _write_systeminfo(parent: h5py.Group, si: Systeminfo, names: list[str]) -> None:
-    g = _typed_group(parent, "systeminfo", "systeminfo")
-    fields = [f.name for f in dataclasses.fields(ChannelInfo)]
-    text_columns = {"name": names, "unit": [ch.unit for ch in si.channels]}
-    text_columns |= {n: [getattr(ch, n) for ch in si.channels] for n in fields if _CHANNEL_HINTS[n] is str}
-    dtype = np.dtype([(n, h5text.fixed_dtype(text_columns[n])) for n in ("name", "unit")]
-                     + [(n, h5text.fixed_dtype(text_columns[n]) if n in text_columns
-                         else _column_dtype(_CHANNEL_HINTS[n])) for n in fields])
-    table = np.zeros(len(si.channels), dtype=dtype)
-    for i, ch in enumerate(si.channels):
-        row = [names[i].encode(), ch.unit.encode()]
-        for n in fields:
-            v = getattr(ch, n)
-            row.append(v.encode() if isinstance(v, str) else np.nan if v is None
-                       else int(v) if isinstance(v, IntEnum) else v)
-        table[i] = tuple(row)
-    _dataset(g, "channels", table, "", ["channel"])
-    g["channels"].attrs["units"] = h5text.fixed(["", ""] + [_CHANNEL_UNITS.get(n, "") for n in fields])
-
-    r = si.rig
-    rg = _typed_group(g, "rig", "riginfo")
-    h5text.set_attrs(rg, {"use_in_gcc": r.use_in_gcc, "use_in_ag": r.use_in_ag,
-                          "plot_from_corner": r.plot_from_corner})
-    for n in ("plate_sizes", "plate_origins"):
-        _dataset(rg, n, np.asarray(getattr(r, n), dtype=float).reshape(-1, 3), "m", ["plate", "xyz"])
-    for n in ("coordinate_columns", "nine_channels"):
-        _dataset(rg, n, np.asarray(getattr(r, n), dtype=np.int64).reshape(-1), "1", ["column"])
-    for n in ("rx", "ry", "rz"):
-        v = getattr(r, n)
-        _dataset(rg, n, np.nan if v is None else float(v), "m", [])
-
-
-def _read_systeminfo(g: h5py.Group) -> Systeminfo:
-    table = g["channels"][()]
-    present = set(table.dtype.names or ())
-    channels = []
-    for row in table:
-        kw = {}
-        for f in dataclasses.fields(ChannelInfo):
-            if f.name not in present:  # a column added after the file was written: default
-                continue
-            hint, v = _CHANNEL_HINTS[f.name], row[f.name]
-            if isinstance(hint, type) and issubclass(hint, IntEnum):
-                kw[f.name] = hint(int(v))
-            elif hint is bool:
-                kw[f.name] = bool(v)
-            elif hint is int:
-                kw[f.name] = int(v)
-            elif hint is str:
-                kw[f.name] = h5text.text(v)
-            elif hint is float:
-                kw[f.name] = float(v)
-            else:  # float | None
-                kw[f.name] = None if np.isnan(v) else float(v)
-        channels.append(ChannelInfo(**kw))
-    rg = g["rig"]
-    opt = {n: (None if np.isnan(rg[n][()]) else float(rg[n][()])) for n in ("rx", "ry", "rz")}
-    rig = RigInfo(
-        use_in_gcc=bool(_Attrs(rg)["use_in_gcc"]), use_in_ag=bool(_Attrs(rg)["use_in_ag"]),
-        plot_from_corner=bool(_Attrs(rg)["plot_from_corner"]),
-        plate_sizes=[tuple(float(x) for x in row) for row in rg["plate_sizes"][()]],
-        plate_origins=[tuple(float(x) for x in row) for row in rg["plate_origins"][()]],
-        coordinate_columns=[int(x) for x in rg["coordinate_columns"][()]],
-        nine_channels=[int(x) for x in rg["nine_channels"][()]],
-        **opt,
-    )
-    return Systeminfo(channels=channels, rig=rig)
-
-
-# ----------------------------------------------------------------------------- rig storage
-
-
-def _rig_to_dict(rig: Rig) -> dict[str, Any]:
-    """The parsed-TOML form of a rig built in code (``rig_from_dict`` reads it back)."""
-
-    def vec(a: Any) -> list:
-        return np.asarray(a, dtype=float).tolist()
-
-    bodies = []
-    for b in rig.bodies:
-        d: dict[str, Any] = {"name": b.name, "com": vec(b.com)}
-        if b.mass is not None:
-            d["mass"] = b.mass
-            d["inertia"] = vec(b.inertia)
-        if b.plate is not None:
-            d["plate"] = {"size": vec(b.plate.size), "corner": vec(b.plate.corner)}
-        if b.nine_sensor_set is not None:
-            n = b.nine_sensor_set
-            d["nine_sensor_set"] = {"corner": vec(n.corner), "rx": n.rx, "ry": n.ry, "rz": n.rz,
-                                    "sensors": dict(n.sensors)}
-        if b.solver is not None:
-            d["solver"] = b.solver
-        bodies.append(d)
-    sensors = []
-    for s in rig.sensors:
-        d = {"name": s.name, "channel": s.channel, "body": s.body, "position": vec(s.position),
-             "axis": vec(s.axis), "sign": int(s.sign), "kind": s.kind, "serial": s.serial}
-        if s.sensitivity is not None:
-            d["sensitivity"] = s.sensitivity
-        sensors.append(d)
-    out: dict[str, Any] = {"name": rig.name, "description": rig.description, "frame": rig.frame,
-                           "channel_count": rig.channel_count, "bodies": bodies, "sensors": sensors,
-                           **rig.extra}
-    if rig.force_channel is not None:
-        out["force_channel"] = rig.force_channel
-    if rig.default_model is not None:
-        out["default_model"] = rig.default_model
-    if rig.systeminfo_file is not None:
-        out["systeminfo"] = str(rig.systeminfo_file)
-    return out
 
 
 def _resolve_rig(rig: Rig | str | Path | None) -> Rig | None:
@@ -342,113 +121,8 @@ def _resolve_rig(rig: Rig | str | Path | None) -> Rig | None:
                       "and not a .toml rig file")
 
 
-def _write_rig(f: h5py.File, rig: Rig) -> None:
-    g = _typed_group(f, "rig", "rig")
-    if rig.source is not None and Path(rig.source).is_file():
-        h5text.set_attrs(g, {"name": rig.name, "definition": Path(rig.source).read_text(encoding="utf-8"),
-                             "definition_format": "toml", "source": str(rig.source)})
-    else:
-        h5text.set_attrs(g, {"name": rig.name, "definition": _to_json(f"rig {rig.name!r}", _rig_to_dict(rig)),
-                             "definition_format": "json", "source": ""})
-
-
-# ----------------------------------------------------------------------------- file checks
-
-
-def _lock_path(path: Path) -> Path:
-    return path.with_name(path.name + ".lock")
-
-
-def _tmp_path(path: Path) -> Path:
-    return path.with_name(f"{path.name}.tmp-{os.getpid()}")
-
-
-#: Lock files this process holds open. A forked child shares their flock, which would outlive a
-#: killed parent, so the child closes its copies (closing never unlocks the parent's descriptor).
-_HELD_LOCKS: weakref.WeakSet[IO[str]] = weakref.WeakSet()
-
-
-def _close_inherited_locks() -> None:
-    for fh in list(_HELD_LOCKS):
-        fh.close()
-    _HELD_LOCKS.clear()
-
-
-os.register_at_fork(after_in_child=_close_inherited_locks)
-
-
-def _acquire_lock(path: Path) -> IO[str]:
-    """Take the writer lock of ``path`` (flock: released by the OS if the process dies)."""
-    try:
-        fh = open(_lock_path(path), "a+", encoding="utf-8")
-    except OSError as exc:
-        raise ProjectFileError(f"{path}: cannot create lock file {_lock_path(path)}: {exc.strerror}") from None
-    try:
-        fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        fh.seek(0)
-        holder = fh.read().split()
-        fh.close()
-        pid = holder[0] if holder else "?"
-        host = f" on host {holder[1]}" if len(holder) > 1 and holder[1] != socket.gethostname() else ""
-        raise ProjectLockedError(
-            f"{path}: project is open in another process (pid {pid}{host}); close it there first"
-        ) from None
-    fh.truncate(0)
-    fh.write(f"{os.getpid()} {socket.gethostname()}\n")
-    fh.flush()
-    _HELD_LOCKS.add(fh)
-    for stale in sorted(path.parent.glob(f"{path.name}.tmp-*")):
-        log.warning("%s: removing %s left by an interrupted write", path, stale.name)
-        stale.unlink(missing_ok=True)
-    return fh
-
-
-def _release_lock(fh: IO[str]) -> None:
-    _HELD_LOCKS.discard(fh)
-    if fh.closed:  # closed in a forked child: the lock belongs to the parent
-        return
-    fh.truncate(0)
-    fh.flush()
-    fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
-    fh.close()
-
-
-def _open_h5(path: Path, where: Path, mode: str = "r") -> h5py.File:
-    try:
-        return h5py.File(path, mode, locking=False)
-    except OSError as exc:
-        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise ProjectFileError(f"{where}: file is truncated or damaged and cannot be opened ({first})") from None
-
-
-#: What h5py raises on damaged bytes: an object that cannot be found or opened (KeyError), an HDF5
-#: read error (OSError, RuntimeError), metadata of the wrong type or shape (ValueError, TypeError,
-#: IndexError; JSON and UTF-8 decoding errors are ValueErrors).
-_DAMAGE = (KeyError, OSError, RuntimeError, ValueError, TypeError, IndexError)
-
-
-@contextmanager
-def _reading(path: Path, what: str = "") -> Iterator[None]:
-    """Turn h5py/HDF5 errors raised while reading ``path`` into a one-line ProjectFileError
-    "<path>: project file is damaged (<what>: <error>)"; odsuite's own errors pass unchanged."""
-    try:
-        yield
-    except OdsuiteError:
-        raise
-    except _DAMAGE as exc:
-        where = f"{what}: " if what else ""
-        raise ProjectFileError(f"{path}: project file is damaged ({where}{_first_line(exc)})") from None
-
-
-def _first_line(exc: BaseException) -> str:
-    """The first line of an exception's message (a KeyError's without its quotes)."""
-    text = exc.args[0] if len(exc.args) == 1 and isinstance(exc.args[0], str) else str(exc)
-    return (text.strip().splitlines() or [type(exc).__name__])[0]
-
-
 def _reads(what: str = "") -> Callable:
-    """Decorator: run a reading method of Project/Experiment under :func:`_reading`; ``what`` is
+    """Decorator: run a reading method of Project/Experiment under :func:`reading`; ``what`` is
     formatted with the call's arguments, e.g. ``"experiment {experiment!r}"``."""
 
     def wrap(fn: Callable) -> Callable:
@@ -458,104 +132,12 @@ def _reads(what: str = "") -> Callable:
         def method(self, *args, **kw):
             bound = signature.bind(self, *args, **kw).arguments
             project = self if isinstance(self, Project) else bound.get("project", getattr(self, "_project", None))
-            with _reading(project.path, what.format(**bound)):
+            with reading(project.path, what.format(**bound)):
                 return fn(self, *args, **kw)
 
         return method
 
     return wrap
-
-
-#: The one format that kept its text in HDF5's global heap (variable-length strings).
-HEAP_TEXT_VERSION = "1.0.0"
-#: Seconds a child process may take to migrate a format-1.0.0 file's text.
-HEAP_TEXT_TIMEOUT = 60.0
-
-
-def _migrate_heap_text(copy: str, where: str) -> None:
-    """The child process of ``_migrate_heap_text_aside``: migrate ``copy`` to format 1.1.0; any
-    error is one line "<class>\t<message>" on stderr and exit code 1."""
-    try:
-        with h5py.File(copy, "r+", locking=False, libver=LIBVER) as f:
-            fmt = f.attrs.get("odsuite_format")
-            if fmt is None or h5text.text(fmt) != FORMAT_NAME:
-                raise NotAProjectError(f"{where}: HDF5 file without the root attribute "
-                                       f"odsuite_format={FORMAT_NAME!r}; not an odsuite project")
-            migrations.migrate(f, migrations.MIGRATIONS[HEAP_TEXT_VERSION].to_version, where)
-    except Exception as exc:  # noqa: BLE001 - reported to the parent, which names the damage
-        print(f"{type(exc).__name__}\t{_first_line(exc)}", file=sys.stderr)
-        sys.exit(1)
-
-
-def _migrate_heap_text_aside(copy: Path, path: Path) -> None:
-    """Migrate ``copy`` of the format-1.0.0 project ``path`` to 1.1.0 in a child process that can be
-    stopped: damaged heap bytes can send the HDF5 library into an endless loop or crash it."""
-    code = "import sys; from odsuite.core.project import _migrate_heap_text; _migrate_heap_text(*sys.argv[1:])"
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}  # this very odsuite
-    try:
-        done = subprocess.run([sys.executable, "-P", "-c", code, str(copy), str(path)], capture_output=True,
-                              text=True, timeout=HEAP_TEXT_TIMEOUT, check=False, env=env)
-    except subprocess.TimeoutExpired:
-        raise ProjectFileError(f"{path}: project file is damaged (reading its format-1.0.0 text did not finish "
-                               f"within {HEAP_TEXT_TIMEOUT:g} s)") from None
-    if done.returncode == 0:
-        return
-    kind, _, message = ((done.stderr.strip().splitlines() or [""])[-1]).partition("\t")
-    error = getattr(errors, kind, None)
-    if done.returncode == 1 and isinstance(error, type) and issubclass(error, OdsuiteError) and message:
-        raise error(message)
-    if done.returncode < 0:
-        raise ProjectFileError(f"{path}: project file is damaged (reading its format-1.0.0 text crashed the HDF5 "
-                               f"library with signal {-done.returncode})")
-    why = f"{kind}: {message}" if message else kind or f"exit code {done.returncode}"
-    raise ProjectFileError(f"{path}: cannot migrate format {HEAP_TEXT_VERSION}, project left unchanged ({why})")
-
-
-def _has_heap_text(path: Path) -> bool:
-    """Whether ``path`` keeps its root text in the global heap (format 1.0.0); reads no heap."""
-    with _open_h5(path, path) as f, _reading(path, "root attributes"):
-        return "odsuite_format" in f.attrs and h5text.is_variable_text(f.attrs.get_id("odsuite_format").dtype)
-
-
-def _check_format(path: Path) -> str:
-    """Check that ``path`` is an odsuite project this version can read; returns its version
-    (format 1.0.0 without reading its text: the migration checks it)."""
-    if not path.exists():
-        raise ProjectFileError(f"{path}: no such project file")
-    if not path.is_file():
-        raise ProjectFileError(f"{path}: not a file")
-    if not h5py.is_hdf5(path):
-        raise NotAProjectError(f"{path}: not an HDF5 file, so not an odsuite project")
-    if _has_heap_text(path):
-        return HEAP_TEXT_VERSION  # read in a child process, see _migrate_heap_text_aside
-    with _open_h5(path, path) as f, _reading(path, "root attributes"):
-        fmt = f.attrs.get("odsuite_format")
-        version = f.attrs.get("odsuite_format_version")
-    if fmt is None or h5text.text(fmt) != FORMAT_NAME:
-        raise NotAProjectError(
-            f"{path}: HDF5 file without the root attribute odsuite_format={FORMAT_NAME!r} "
-            f"(found {None if fmt is None else h5text.text(fmt)!r}); not an odsuite project"
-        )
-    if version is None:
-        raise SchemaError(f"{path}: root attribute odsuite_format_version is missing")
-    version = h5text.text(version)
-    have, ours = migrations.parse_version(version, str(path)), migrations.parse_version(FORMAT_VERSION)
-    if have[0] > ours[0]:
-        raise ProjectVersionError(
-            f"{path}: project format {version} is newer than the format this odsuite reads "
-            f"({FORMAT_VERSION}); upgrade odsuite"
-        )
-    return version
-
-
-def _write_revision(f: h5py.File, n: int, model: str | None, parent: int | None, texts: dict[str, str]) -> None:
-    """Model revision ``n`` (effects, parameters, metrics as JSON text), made current."""
-    if "models" not in f:
-        _typed_group(_typed_group(f, "models", "models"), "revisions", "model_revisions", track_order=True)
-    g = _typed_group(f["models"]["revisions"], str(n), "model_revision")
-    h5text.set_attrs(g, {"model": model or "", "parent": -1 if parent is None else int(parent),
-                         "created": _now(), **texts})
-    f["models"].attrs["current_revision"] = n
 
 
 # ----------------------------------------------------------------------------- experiments
@@ -579,7 +161,7 @@ class Experiment:
         self._project = project
         self.name = name
         g = self._group()
-        a = _Attrs(g)
+        a = Attrs(g)
         self.object_id = h5text.text(a["object_id"])
         self.sampling_rate = float(a["sampling_rate"])
         self.pretrigger = int(a["pretrigger"])
@@ -592,7 +174,7 @@ class Experiment:
         if "force_channel" in a:
             self.excitation = Excitation(int(a["force_channel"]), np.asarray(a["force_point"], dtype=float),
                                          np.asarray(a["force_direction"], dtype=float))
-        self.systeminfo = _read_systeminfo(g["systeminfo"])
+        self.systeminfo = read_systeminfo(g["systeminfo"])
 
     def _group(self) -> h5py.Group:
         return self._project._file()["experiments"][self.name]
@@ -673,7 +255,7 @@ class DerivedWriter:
         if dtype.kind not in "biufc":
             raise ConfigError(f"{self._where}: dataset {name!r}: derived datasets hold numbers, got dtype "
                               f"{dtype} (put text in the group's attrs)")
-        return _dataset(self._group, name, None, units, dims, shape=shape, dtype=dtype,
+        return dataset(self._group, name, None, units, dims, shape=shape, dtype=dtype,
                         fletcher32=bool(np.prod(shape)))
 
 
@@ -692,7 +274,7 @@ class Project:
         self.mode = mode
         self._lock = lock
         self._read_path = read_path or path  # a private migrated copy for old versions in read mode
-        self._h5: h5py.File | None = _open_h5(self._read_path, path)
+        self._h5: h5py.File | None = open_h5(self._read_path, path)
         self._tx: h5py.File | None = None
         self._rig_cache: tuple[Rig | None] | None = None
 
@@ -720,36 +302,14 @@ class Project:
         if self._tx is not None:
             yield self
             return
-        tmp = _tmp_path(self.path)
-        try:
-            shutil.copyfile(self.path, tmp)
-            _crash_point("copied")
-            self._tx = h5py.File(tmp, "r+", locking=False, libver=LIBVER)
-        except OSError as exc:
-            self._tx = None
-            tmp.unlink(missing_ok=True)
-            raise ProjectFileError(f"{self.path}: cannot start a write ({exc})") from None
-        try:
-            yield self
-            h5text.set_attrs(self._tx, {"file_update_time": _now()})
-            self._tx.close()
-            _crash_point("written")
-            _fsync_path(tmp)
-            _crash_point("synced")
-            os.replace(tmp, self.path)
-            _crash_point("replaced")
-            _fsync_path(self.path.parent, directory=True)
-        except BaseException as exc:
-            if self._tx:
-                self._tx.close()
-            tmp.unlink(missing_ok=True)
-            if isinstance(exc, OSError) and not isinstance(exc, OdsuiteError):  # e.g. disk full
-                raise ProjectFileError(f"{self.path}: write failed, project left unchanged: {exc}") from exc
-            raise
-        finally:
-            self._tx = None
+        with copy_on_write(self.path) as tx:
+            self._tx = tx
+            try:
+                yield self
+            finally:
+                self._tx = None
         self._h5.close()
-        self._h5 = _open_h5(self.path, self.path)
+        self._h5 = open_h5(self.path, self.path)
 
     def __enter__(self) -> Project:
         return self
@@ -766,7 +326,7 @@ class Project:
             self._read_path.unlink(missing_ok=True)
             self._read_path = self.path
         if self._lock is not None:
-            _release_lock(self._lock)
+            release_lock(self._lock)
             self._lock = None
 
     def __repr__(self) -> str:
@@ -781,7 +341,7 @@ class Project:
             f = self._file()
             rig = None
             if "rig" in f:
-                a = _Attrs(f["rig"])
+                a = Attrs(f["rig"])
                 text, fmt = h5text.text(a["definition"]), h5text.text(a["definition_format"])
                 try:
                     data = tomllib.loads(text) if fmt == "toml" else json.loads(text)
@@ -795,7 +355,7 @@ class Project:
     @property
     @_reads("root attributes")
     def format_version(self) -> str:
-        return h5text.text(_Attrs(self._file())["odsuite_format_version"])
+        return h5text.text(Attrs(self._file())["odsuite_format_version"])
 
     # -- experiments
 
@@ -876,15 +436,15 @@ class Project:
 
         with self.transaction():
             experiments = self._tx["experiments"]
-            g = _typed_group(experiments, name, "experiment")
+            g = typed_group(experiments, name, "experiment")
             try:
                 self._write_raw(g, where, first, chunks, n_ch, n_samples, names)
                 for k, v in {"sampling_rate": float(sampling_rate), "sampling_rate_units": "Hz",
                              "pretrigger": int(pretrigger), "rig": self.rig.name if self.rig else "",
-                             "channel_names": h5text.fixed(names), "created": _now(), "source": source,
+                             "channel_names": h5text.fixed(names), "created": now(), "source": source,
                              **exc_attrs}.items():
                     h5text.set_attrs(g, {k: v})
-                _write_systeminfo(g, systeminfo, names)
+                write_systeminfo(g, systeminfo, names)
             except BaseException:
                 del experiments[name]  # keep an enclosing transaction free of a half experiment
                 raise
@@ -929,7 +489,7 @@ class Project:
                 raise DimensionError(f"{where}: raw chunks hold more than n_samples={n_samples} rows")
             ds[row:end] = chunk
             row, k = end, k + 1
-            _crash_point(f"chunk-{k}")
+            crash_point(f"chunk-{k}")
             chunk = next(rest, None)
         if row == 0 or (n_samples is not None and row != n_samples):
             raise DimensionError(f"{where}: raw chunks hold {row} rows, expected "
@@ -978,22 +538,22 @@ class Project:
         plugin = provenance.get("plugin")
         if not isinstance(plugin, str) or not plugin:
             raise ConfigError(f"{where}: provenance needs the plugin name, got {plugin!r}")
-        params = _to_json(f"{where} provenance parameters", provenance.get("parameters", {}))
+        params = to_json(f"{where} provenance parameters", provenance.get("parameters", {}))
         inputs = list(provenance.get("inputs") or [exp.object_id])
         with self.transaction():
             eg = self._tx["experiments"][experiment]
-            derived = eg["derived"] if "derived" in eg else _typed_group(eg, "derived", "derived_set")
+            derived = eg["derived"] if "derived" in eg else typed_group(eg, "derived", "derived_set")
             partial = "." + kind  # written aside so an enclosing transaction keeps the old group on error
             if partial in derived:
                 del derived[partial]
-            g = _typed_group(derived, partial, "derived")
+            g = typed_group(derived, partial, "derived")
             h5text.set_attrs(g, {"plugin": plugin, "plugin_version": str(provenance.get("version", "")),
                                  "parameters": params, "inputs": h5text.fixed([str(i) for i in inputs]),
-                                 "created": _now()})
+                                 "created": now()})
             writer = DerivedWriter(g, where)
             try:
                 yield writer
-                h5text.set_attrs(g, {k: _to_json(f"{where} attr {k!r}", v) if isinstance(v, dict | None) else v
+                h5text.set_attrs(g, {k: to_json(f"{where} attr {k!r}", v) if isinstance(v, dict | None) else v
                                      for k, v in writer.attrs.items()})
             except BaseException:
                 del derived[partial]
@@ -1024,8 +584,8 @@ class Project:
         a.pop("odsuite_type")
         return {"object_id": object_id, "provenance": prov,
                 "attrs": {k: h5text.readable(v) for k, v in a.items()},
-                "units": {n: h5text.text(_Attrs(ds)["units"]) for n, ds in g.items()},
-                "dims": {n: tuple(h5text.text(d) for d in _Attrs(ds)["dims"]) for n, ds in g.items()}}
+                "units": {n: h5text.text(Attrs(ds)["units"]) for n, ds in g.items()},
+                "dims": {n: tuple(h5text.text(d) for d in Attrs(ds)["dims"]) for n, ds in g.items()}}
 
     @_reads("experiment {experiment!r} derived")
     def derived_kinds(self, experiment: str) -> list[str]:
@@ -1052,11 +612,11 @@ class Project:
                               f"(revisions: {sorted(known) or 'none'})")
         if model is None:
             model = known[parent]["model"] if parent is not None else (self.rig.default_model if self.rig else None)
-        texts = {k: _to_json(f"{where} {k}", v) for k, v in
+        texts = {k: to_json(f"{where} {k}", v) for k, v in
                  (("effects", list(effects)), ("parameters", dict(parameters)), ("metrics", dict(metrics)))}
         n = max(known, default=-1) + 1
         with self.transaction():
-            _write_revision(self._tx, n, model, parent, texts)
+            write_revision(self._tx, n, model, parent, texts)
         return n
 
     @_reads("model revisions")
@@ -1067,7 +627,7 @@ class Project:
             return []
         out = []
         for key, g in revs.items():
-            a = _Attrs(g)
+            a = Attrs(g)
             parent = int(a["parent"])
             out.append({"revision": int(key), "model": h5text.text(a["model"]) or None,
                         "effects": json.loads(h5text.text(a["effects"])),
@@ -1099,7 +659,7 @@ class Project:
         revs = {r["revision"]: r for r in self.model_revisions()}
         if n not in revs:
             raise ConfigError(f"{self.path}: no model revision {n!r} (revisions: {sorted(revs) or 'none'})")
-        text = _to_json(f"{self.path}: model revision {n} metrics", {**revs[n]["metrics"], **metrics})
+        text = to_json(f"{self.path}: model revision {n} metrics", {**revs[n]["metrics"], **metrics})
         with self.transaction():
             h5text.set_attrs(self._tx["models"]["revisions"][str(n)], {"metrics": text})
 
@@ -1132,9 +692,9 @@ class Project:
         sampling rate, samples, duration, peak |volts| per channel and clipped channels.
 
         A channel is clipped when a sample lies within (limit_high - limit_low) / 2048 (one step of
-        a 12-bit converter) of its Systeminfo DAQ limits.
+        a 12-bit converter) of its Systeminfo DAQ limits (``clipping.scan``).
         """
-        a = _Attrs(self._file())
+        a = Attrs(self._file())
         out: dict[str, Any] = {
             "path": str(self.path), "format_version": h5text.text(a["odsuite_format_version"]),
             "creator": f"{h5text.text(a['creator'])} {h5text.text(a['creator_version'])}",
@@ -1144,16 +704,7 @@ class Project:
         }
         for name in self.experiment_names():
             e = self.experiment(name)
-            hi = np.array([c.limit_high for c in e.systeminfo.channels])
-            lo = np.array([c.limit_low for c in e.systeminfo.channels])
-            tol = (hi - lo) / 2048
-            peak = np.zeros(e.n_channels)
-            clipped = np.zeros(e.n_channels, dtype=np.int64)
-            step = max(1, 8 * CHUNK_BYTES // (8 * e.n_channels))
-            for start in range(0, e.n_samples, step):
-                block = e.raw(start, start + step)
-                peak = np.maximum(peak, np.abs(block).max(axis=0))
-                clipped += ((block >= hi - tol) | (block <= lo + tol)).sum(axis=0)
+            peak, clipped = clipping.scan(e)
             out["experiments"][name] = {
                 "channels": e.channel_names, "sampling_rate": e.sampling_rate, "n_samples": e.n_samples,
                 "duration": e.n_samples / e.sampling_rate, "pretrigger": e.pretrigger,
@@ -1170,22 +721,6 @@ class Project:
 
 # ----------------------------------------------------------------------------- entry points
 
-
-def _write_skeleton(f: h5py.File, rig: Rig | None) -> None:
-    from odsuite import __version__
-
-    now = _now()
-    h5text.set_attrs(f, {"odsuite_format": FORMAT_NAME, "odsuite_format_version": FORMAT_VERSION,
-                         "creator": "odsuite", "creator_version": __version__,
-                         "hdf5_version": h5py.version.hdf5_version, "h5py_version": h5py.version.version,
-                         "file_time": now, "file_update_time": now, "object_id": str(uuid.uuid4()),
-                         "odsuite_type": "project"})
-    _typed_group(f, "experiments", "experiments", track_order=True)
-    if rig is not None:
-        _write_rig(f, rig)
-        _write_revision(f, 0, rig.default_model, None, {"effects": "[]", "parameters": "{}", "metrics": "{}"})
-
-
 def create_project(path: str | Path, rig: Rig | str | None = "thesis-dynamometer") -> Project:
     """Create a new project file (refuses to overwrite) and return it open for writing.
 
@@ -1196,23 +731,21 @@ def create_project(path: str | Path, rig: Rig | str | None = "thesis-dynamometer
     rig = _resolve_rig(rig)
     if not path.parent.is_dir():
         raise ProjectFileError(f"{path}: directory {path.parent} does not exist")
-    lock = _acquire_lock(path)
+    lock = acquire_lock(path)
     try:
         if path.exists():
             raise ProjectFileError(f"{path}: file already exists; choose another name or delete it first")
-        tmp = _tmp_path(path)
+        tmp = tmp_path(path)
         try:
             with h5py.File(tmp, "w", libver=LIBVER, fs_strategy="fsm", fs_persist=True,
                            track_order=True, locking=False) as f:
-                _write_skeleton(f, rig)
-            _fsync_path(tmp)
-            os.replace(tmp, path)
-            _fsync_path(path.parent, directory=True)
+                write_skeleton(f, rig)
+            replace_atomically(tmp, path)
         finally:
             tmp.unlink(missing_ok=True)
         project = Project(path, "a", lock)
     except BaseException:
-        _release_lock(lock)
+        release_lock(lock)
         raise
     return project
 
@@ -1228,56 +761,25 @@ def open_project(path: str | Path, mode: str = "r") -> Project:
     if mode not in ("r", "a"):
         raise ConfigError(f"{path}: open mode must be 'r' or 'a', got {mode!r}")
     if mode == "r":
-        version = _check_format(path)
+        version = check_format(path)
         if migrations.parse_version(version) >= migrations.parse_version(FORMAT_VERSION):
             return Project(path, "r", None)
-        migrations.migration_path(version, FORMAT_VERSION, str(path))  # refuse before copying
-        fd, tmp_name = tempfile.mkstemp(prefix=path.name + ".", suffix=".migrated.h5")
-        os.close(fd)
-        tmp = Path(tmp_name)
+        tmp = migrated_copy(path, version)
         try:
-            shutil.copyfile(path, tmp)
-            _migrate(tmp, path, version)
             return Project(path, "r", None, read_path=tmp)
         except BaseException:
             tmp.unlink(missing_ok=True)
             raise
-    _check_format(path)  # before locking: no lock file beside a file that is not a project
-    lock = _acquire_lock(path)
+    check_format(path)  # before locking: no lock file beside a file that is not a project
+    lock = acquire_lock(path)
     try:
-        version = _check_format(path)
+        version = check_format(path)
         if migrations.parse_version(version) > migrations.parse_version(FORMAT_VERSION):
             raise ProjectVersionError(f"{path}: project format {version} is newer than {FORMAT_VERSION}: "
                                       "this odsuite can read it but not change it; upgrade odsuite")
         if version != FORMAT_VERSION:
-            migrations.migration_path(version, FORMAT_VERSION, str(path))  # refuse before copying
-            tmp = _tmp_path(path)
-            try:  # a transaction: the migrated copy replaces the project atomically
-                shutil.copyfile(path, tmp)
-                _migrate(tmp, path, version, updated=True)
-                _fsync_path(tmp)
-                os.replace(tmp, path)
-                _fsync_path(path.parent, directory=True)
-            except OSError as exc:
-                if isinstance(exc, OdsuiteError):
-                    raise
-                raise ProjectFileError(f"{path}: migration from format {version} failed, project left "
-                                       f"unchanged: {exc}") from exc  # e.g. disk full
-            finally:
-                tmp.unlink(missing_ok=True)
+            migrate_in_place(path, version)
         return Project(path, "a", lock)
     except BaseException:
-        _release_lock(lock)
+        release_lock(lock)
         raise
-
-
-def _migrate(copy: Path, path: Path, version: str, *, updated: bool = False) -> None:
-    """Migrate ``copy`` of the project ``path`` (format ``version``) to this odsuite's format;
-    ``updated``: the copy will replace the project (its file_update_time is set)."""
-    if version == HEAP_TEXT_VERSION:
-        _migrate_heap_text_aside(copy, path)
-        version = migrations.MIGRATIONS[HEAP_TEXT_VERSION].to_version
-    with h5py.File(copy, "r+", locking=False, libver=LIBVER) as f, _reading(path, f"migrating format {version}"):
-        migrations.migrate(f, FORMAT_VERSION, str(path))
-        if updated:
-            h5text.set_attrs(f, {"file_update_time": _now()})

@@ -1,20 +1,24 @@
 """Systeminfo: the per-experiment description of every channel and of the rig (thesis Table E.2).
 
 All values are SI: sensitivities in volts per SI unit (V/(m/s^2), V/N, V/m, V/V), lengths in metres,
-frequencies in Hz. The legacy ``.CTR`` codec converts the thesis's mV and mm at the file edge.
+frequencies in Hz. The ``.CTR`` codec below (the LabVIEW program's Systeminfo file) converts the
+thesis's mV and mm at the file edge.
 """
 
 from __future__ import annotations
 
 import math
 import numbers
+import re
 import warnings
 from dataclasses import dataclass, field, replace
+from decimal import Decimal
 from enum import IntEnum
 from pathlib import Path
 
 from odsuite.core.errors import ConfigError, OdsuiteWarning
 from odsuite.core.rig import NINE_ROLES, Rig
+from odsuite.core.textfiles import read_text
 
 
 class SensorType(IntEnum):
@@ -315,8 +319,6 @@ class Systeminfo:
         channels = [_channel_for_rig(rig, k, fs) for k in range(n)]
         rig_info = _rig_info_from_geometry(rig)
         if rig.systeminfo_file is not None:
-            from odsuite.core.legacy import read_ctr
-
             with warnings.catch_warnings():
                 # the rig's own file is curated: its codes were reviewed when it was shipped
                 warnings.simplefilter("ignore", OdsuiteWarning)
@@ -368,3 +370,280 @@ def _rig_info_from_geometry(rig: Rig) -> RigInfo:
             info.rx, info.ry, info.rz = nine.rx, nine.ry, nine.rz
             info.nine_channels = [rig.sensor(nine.sensors[r]).channel for r in NINE_ROLES]
     return info
+
+
+# ---------------------------------------------------------------------------------------------
+# the .CTR file (Table E.2)
+
+N_ROWS = 34
+#: Rows odsuite adds after Table E.2's 34, per channel, written only when a channel departs from
+#: the thesis's behaviour (so thesis files stay 34 rows): 34 zero-phase filtering (0 no, 1 yes),
+#: 35 integration rule (0 the thesis's Eq. 4.5, 1 trapezoid).
+EXTRA_ROWS = ("zero_phase", "integration_rule")
+NO_VALUE = ("", "-")
+
+_SEPARATOR_LINE = re.compile(r"^[\s|:+-]*-{3,}[\s|:+-]*$")
+
+
+def _separator(text: str) -> str | None:
+    """The file's cell separator: ``|`` (a table copied from the thesis), a tab (the LabVIEW
+    spreadsheet format) or None (whitespace). Decided once per file: a tab-delimited cell may
+    hold spaces (a sensor location such as "corner C x")."""
+    return "|" if "|" in text else "\t" if "\t" in text else None
+
+
+def _split(line: str, sep: str | None) -> list[str]:
+    """Cells of one line; with a separator, empty cells are kept."""
+    if sep == "|":
+        body = line.strip()
+        body = body[1:] if body.startswith("|") else body
+        body = body[:-1] if body.endswith("|") else body
+        return [c.strip() for c in body.split("|")]
+    if sep == "\t":
+        return [c.strip() for c in line.split("\t")]
+    return line.split()
+
+
+def _ctr_rows(text: str, source: str | Path) -> list[list[str]]:
+    """The 34 rows of cells, from either the bare 34 x n array or the table as printed in the thesis
+    (a header line starting with "Row" and each row led by its number)."""
+    lines = text.splitlines()
+    while lines and not lines[-1].strip():
+        lines.pop()
+    while lines and not lines[0].strip():
+        lines.pop(0)
+    if not lines:
+        raise ConfigError(f"{source}: empty file")
+    sep = _separator(text)
+    labelled = next((i for i, line in enumerate(lines)
+                     if (_split(line, sep) or [""])[0].lower() == "row"), None)
+    if labelled is None:
+        if len(lines) not in (N_ROWS, N_ROWS + len(EXTRA_ROWS)):
+            raise ConfigError(f"{source}: expected {N_ROWS} rows (Table E.2), found {len(lines)}")
+        return [_split(line, sep) for line in lines]
+    rows: dict[int, list[str]] = {}
+    for number, line in enumerate(lines[labelled + 1:], start=labelled + 2):
+        if not line.strip() or _SEPARATOR_LINE.match(line):
+            continue
+        cells = _split(line, sep)
+        if not cells[0].isdigit() or int(cells[0]) != len(rows):
+            raise ConfigError(f"{source}: line {number}: expected row number {len(rows)}, "
+                              f"got {cells[0]!r}")
+        rows[len(rows)] = cells[1:]
+    if len(rows) != N_ROWS:
+        raise ConfigError(f"{source}: expected {N_ROWS} rows (Table E.2), found {len(rows)}")
+    return [rows[r] for r in range(N_ROWS)]
+
+
+def _number(cell: str, place: str) -> float | None:
+    if cell in NO_VALUE:
+        return None
+    try:
+        value = float(cell)
+    except ValueError:
+        raise ConfigError(f"{place}: not a number: {cell!r}") from None
+    if not math.isfinite(value):
+        raise ConfigError(f"{place}: not a finite number: {cell!r}")
+    return value
+
+
+def _from_milli(cell: str, place: str) -> float | None:
+    """A mV or mm cell in V or m: the decimal point moved exactly, then rounded once to a float."""
+    if _number(cell, place) is None:
+        return None
+    return float(Decimal(cell).scaleb(-3))
+
+
+def _flag(cell: str, place: str) -> bool | None:
+    value = _number(cell, place)
+    if value not in (None, 0.0, 1.0):
+        raise ConfigError(f"{place}: expected 0 (no) or 1 (yes), got {cell!r}")
+    return None if value is None else bool(value)
+
+
+def _channel(cells: list[str], k: int, source: str | Path) -> ChannelInfo:
+    """Column ``k`` of rows 0-20; a cell without a value keeps the Table E.2 default."""
+    values: dict[str, object] = {}
+    for row, name in enumerate(CHANNEL_FIELDS):
+        cell = cells[row]
+        place = where(source, row, k)
+        if row in (1, 2):
+            values[name] = "" if cell in NO_VALUE else cell
+            continue
+        if row in (13, 14):
+            value = _flag(cell, place)
+        elif row == 3:
+            value = _from_milli(cell, place)
+        else:
+            value = _number(cell, place)
+        if value is None:
+            continue
+        if row == 0:
+            value = sensor_type_code(value, place)
+        elif row == 4:
+            value = enum_code(Integration, value, place)
+        elif row == 5:
+            value = enum_code(FilterType, value, place)
+        elif row == 18:
+            value = enum_code(FilterFamily, value, place)
+        elif row == 12:
+            value = filters_on_code(value, place)
+        elif row in (6, 15, 16):
+            if not value.is_integer():
+                raise ConfigError(f"{place}: expected an integer, got {cell!r}")
+            value = int(value)
+        values[name] = value
+    return ChannelInfo(**values)
+
+
+def _rig(rows: list[list[str]], source: str | Path) -> RigInfo:
+    """Rows 21-33: only their first columns are used (Table E.2); later cells are ignored."""
+
+    def cell(row: int, col: int) -> str:
+        return rows[row][col] if col < len(rows[row]) else ""
+
+    def num(row: int, col: int) -> float | None:
+        return _number(cell(row, col), where(source, row, col))
+
+    def mm(row: int, col: int) -> float | None:
+        return _from_milli(cell(row, col), where(source, row, col))
+
+    def required(row: int, col: int, value: float | None) -> float:
+        if value is None:
+            raise ConfigError(f"{where(source, row, col)}: missing value")
+        return value
+
+    def integer(row: int, col: int) -> int | None:
+        value = num(row, col)
+        if value is not None and not value.is_integer():
+            raise ConfigError(f"{where(source, row, col)}: expected an integer, got {cell(row, col)!r}")
+        return None if value is None else int(value)
+
+    info = RigInfo()
+    info.use_in_gcc = bool(_flag(cell(21, 0), where(source, 21, 0)))
+    info.use_in_ag = bool(_flag(cell(21, 1), where(source, 21, 1)))
+    n_plates = 0
+    while n_plates < 3 and num(22, n_plates) is not None:
+        n_plates += 1
+    info.plate_sizes = [tuple(required(r, j, mm(r, j)) for r in (22, 23, 24)) for j in range(n_plates)]
+    if any(num(r, j) is not None for r in (25, 26, 27) for j in range(3)):
+        info.plate_origins = [tuple(required(r, j, mm(r, j)) for r in (25, 26, 27))
+                              for j in range(n_plates)]
+    info.plot_from_corner = bool(_flag(cell(28, 0), where(source, 28, 0)))
+    columns = [integer(29, j) for j in range(2)]
+    info.coordinate_columns = [c for c in columns if c is not None]
+    info.rx, info.ry, info.rz = mm(30, 0), mm(31, 0), mm(32, 0)
+    nine = [integer(33, j) for j in range(9)]
+    if any(c is not None for c in nine):
+        info.nine_channels = [int(required(33, j, c)) for j, c in enumerate(nine)]
+    return info
+
+
+def parse_ctr(text: str, source: str | Path = "systeminfo") -> Systeminfo:
+    """Parse the text of a ``.CTR`` file (34 rows x n channels, Table E.2) into SI units."""
+    rows = _ctr_rows(text, source)
+    head = rows[0]
+    n = len(head)
+    while n and head[n - 1] in NO_VALUE:
+        n -= 1
+    if n == 0:
+        raise ConfigError(f"{where(source, 0)}: no channels")
+    for r in range(21):
+        extra = [c for c in rows[r][n:] if c not in NO_VALUE]
+        if extra:
+            raise ConfigError(f"{where(source, r, n)}: row 0 has {n} channels but this row has a value "
+                              f"{extra[0]!r} beyond them")
+        rows[r] = rows[r] + [""] * (n - len(rows[r]))
+    channels = [_channel([rows[r][k] for r in range(21)], k, source) for k in range(n)]
+    if len(rows) > N_ROWS:
+        channels = [_extra(ch, [rows[r][k] if k < len(rows[r]) else "" for r in range(N_ROWS, len(rows))],
+                           k, source) for k, ch in enumerate(channels)]
+    return Systeminfo(channels=channels, rig=_rig(rows, source))
+
+
+def _extra(ch: ChannelInfo, cells: list[str], k: int, source: str | Path) -> ChannelInfo:
+    """Rows 34-35 (see EXTRA_ROWS) of column ``k``; an empty cell keeps the thesis's behaviour."""
+    zero_phase = _flag(cells[0], where(source, N_ROWS, k)) if cells[0] not in NO_VALUE else False
+    rule = ch.integration_rule
+    if cells[1] not in NO_VALUE:
+        place = where(source, N_ROWS + 1, k)
+        code = _number(cells[1], place)
+        if code not in (0, 1):
+            raise ConfigError(f"{place}: integration rule must be 0 (thesis Eq. 4.5) or 1 (trapezoid), "
+                              f"got {cells[1]!r}")
+        rule = INTEGRATION_RULES[int(code)]
+    return replace(ch, zero_phase=bool(zero_phase), integration_rule=rule)
+
+
+def read_ctr(path: str | Path) -> Systeminfo:
+    """Read a ``.CTR`` Systeminfo file (tab-, whitespace- or ``|``-separated)."""
+    return parse_ctr(read_text(path, "Systeminfo (.CTR)"), source=path)
+
+
+def _fmt(value: float | int | bool | None) -> str:
+    """Shortest text that reads back to exactly ``value``."""
+    if value is None:
+        return "-"
+    if isinstance(value, (bool, int)):
+        return str(int(value))
+    value = float(value)
+    if value.is_integer() and abs(value) < 1e15:
+        return str(int(value))
+    return repr(value)
+
+
+def _fmt_milli(value: float | None) -> str:
+    """``value`` (SI) in milli-units: its shortest repr shifted three decimal places, which
+    :func:`_from_milli` reads back to exactly ``value``."""
+    if value is None:
+        return "-"
+    shifted = Decimal(repr(float(value))).scaleb(3).normalize()
+    return format(shifted, "f") if 1e-6 <= abs(shifted) < 1e15 or shifted == 0 else str(shifted)
+
+
+def _text_cell(value: str, row: int, k: int) -> str:
+    if not value:
+        return "-"
+    if any(c in value for c in "\t\r\n|") or value.strip() != value or value == "-":
+        raise ConfigError(f"{where('systeminfo', row, k)}: {value!r} cannot be written to a .CTR cell")
+    return value
+
+
+def format_ctr(si: Systeminfo) -> str:
+    """The ``.CTR`` text of ``si``: 34 tab-separated rows, one column per channel."""
+    n = len(si.channels)
+    rows: list[list[str]] = []
+    for row, name in enumerate(CHANNEL_FIELDS):
+        cells = []
+        for k, ch in enumerate(si.channels):
+            value = getattr(ch, name)
+            if row in (1, 2):
+                cells.append(_text_cell(value, row, k))
+            elif row == 3:
+                cells.append(_fmt_milli(value))
+            else:
+                cells.append(_fmt(value))
+        rows.append(cells)
+    rig = si.rig
+    plates = rig.plate_sizes
+    origins = rig.plate_origins
+    rig_rows: list[list[str]] = [
+        [_fmt(rig.use_in_gcc), _fmt(rig.use_in_ag)],
+        *[[_fmt_milli(p[i]) for p in plates] for i in range(3)],
+        *[[_fmt_milli(o[i]) for o in origins] for i in range(3)],
+        [_fmt(rig.plot_from_corner)],
+        [_fmt(c) for c in rig.coordinate_columns],
+        [_fmt_milli(rig.rx)], [_fmt_milli(rig.ry)], [_fmt_milli(rig.rz)],
+        [_fmt(c) for c in rig.nine_channels],
+    ]
+    for cells in rig_rows:
+        rows.append(cells + ["-"] * (n - len(cells)))
+    if any(ch.zero_phase or ch.integration_rule != "thesis" for ch in si.channels):
+        rows.append([_fmt(ch.zero_phase) for ch in si.channels])
+        rows.append([_fmt(INTEGRATION_RULES.index(ch.integration_rule)) for ch in si.channels])
+    return "".join("\t".join(cells) + "\n" for cells in rows)
+
+
+def write_ctr(si: Systeminfo, path: str | Path) -> None:
+    """Write ``si`` as a ``.CTR`` file (mV/unit sensitivities, mm lengths)."""
+    Path(path).write_text(format_ctr(si), encoding="utf-8")

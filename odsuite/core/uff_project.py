@@ -13,13 +13,13 @@ from pathlib import Path
 
 import numpy as np
 
-from odsuite import __version__
 from odsuite.core.errors import ConfigError
 from odsuite.core.modal_project import _UNITS, _force_index, _physical
 from odsuite.core.project import DerivedArray, Excitation, Project, open_project
 from odsuite.core.rigidbody import CORNERS, plate_corners
 from odsuite.core.systeminfo import ChannelInfo, SensorType, Systeminfo
 from odsuite.core.uff import FUNC_FRF, UffFunction, UffGeometry, read_uff, time_function, write_uff
+from odsuite.core.version import __version__
 
 #: Corners of a plate's top face (body z points down into the plate: z = 0 is the top) in drawing order.
 _TOP_FACE = ("FLL", "FRL", "RRL", "RLL")

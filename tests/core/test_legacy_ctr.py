@@ -10,8 +10,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from odsuite.core.errors import ConfigError, OdsuiteWarning
-from odsuite.core.legacy import _ctr_rows, format_ctr, parse_ctr, read_ctr, write_ctr
-from odsuite.core.systeminfo import ChannelInfo, RigInfo, SensorType, Systeminfo
+from odsuite.core.legacy import format_ctr, parse_ctr, read_ctr, write_ctr
+from odsuite.core.systeminfo import ChannelInfo, RigInfo, SensorType, Systeminfo, _ctr_rows
 from tests.core.test_systeminfo import TABLE_E3
 
 pytestmark = pytest.mark.filterwarnings("ignore::odsuite.core.errors.OdsuiteWarning")

@@ -11,15 +11,9 @@ import numpy as np
 import pytest
 
 from odsuite.core.errors import ConfigError, DimensionError, ProjectFileError
-from odsuite.core.project import (
-    FORMAT_NAME,
-    FORMAT_VERSION,
-    DerivedArray,
-    Excitation,
-    _rig_to_dict,
-    create_project,
-    open_project,
-)
+from odsuite.core.h5codecs import rig_to_dict
+from odsuite.core.project import DerivedArray, Excitation, create_project, open_project
+from odsuite.core.project_format import FORMAT_NAME, FORMAT_VERSION
 from odsuite.core.systeminfo import (
     ChannelInfo,
     FilterFamily,
@@ -116,7 +110,7 @@ def test_rig_sources(tmp_path, thesis_rig):
     # by registered name and by path: the stored TOML text parses back to the same rig
     for i, rig in enumerate(["thesis-dynamometer", thesis_rig.source]):
         with create_project(tmp_path / f"n{i}.h5", rig=rig) as p:
-            assert _rig_to_dict(p.rig) == _rig_to_dict(thesis_rig)
+            assert rig_to_dict(p.rig) == rig_to_dict(thesis_rig)
         with h5py.File(tmp_path / f"n{i}.h5", "r") as f:
             assert f["rig"].attrs["definition"].decode() == thesis_rig.source.read_text()
     # a rig built in code has no TOML: stored as JSON, still self-contained

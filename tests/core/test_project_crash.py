@@ -12,7 +12,8 @@ import textwrap
 import time
 
 import numpy as np
-from odsuite.core.project import CRASH_ENV, create_project, open_project
+from odsuite.core.project import create_project, open_project
+from odsuite.core.storage import CRASH_ENV
 from odsuite.core.systeminfo import ChannelInfo, Systeminfo
 
 ROWS, CHANNELS, CHUNK = 2_000_000, 11, 100_000

@@ -17,7 +17,8 @@ from odsuite.core.errors import (
     ProjectFileError,
     ProjectVersionError,
 )
-from odsuite.core.project import FORMAT_VERSION, Excitation, create_project, open_project
+from odsuite.core.project import Excitation, create_project, open_project
+from odsuite.core.project_format import FORMAT_VERSION
 from odsuite.core.systeminfo import ChannelInfo, Systeminfo
 
 
@@ -184,7 +185,7 @@ def test_failed_write_is_a_project_error_and_changes_nothing(project_path, monke
         def disk_full(*_a, **_k):
             raise OSError(28, "No space left on device")
 
-        monkeypatch.setattr("odsuite.core.project._fsync_path", disk_full)
+        monkeypatch.setattr("odsuite.core.storage.fsync_path", disk_full)
         with pytest.raises(ProjectFileError, match="write failed, project left unchanged: .*No space left"):
             _add(p)
         monkeypatch.undo()

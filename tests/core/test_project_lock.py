@@ -53,7 +53,7 @@ def test_killed_writer_releases_lock_and_its_temp_file_is_removed(tmp_path, capl
     finally:
         proc.send_signal(signal.SIGKILL)
         proc.wait()
-    with caplog.at_level(logging.WARNING, logger="odsuite.core.project"), open_project(path, "a") as p:
+    with caplog.at_level(logging.WARNING, logger="odsuite.core.storage"), open_project(path, "a") as p:
         assert p.experiment_names() == []
     assert not (tmp_path / "p.h5.tmp-999999").exists()
     assert "p.h5.tmp-999999 left by an interrupted write" in caplog.text

@@ -15,7 +15,8 @@ import pytest
 
 from odsuite.core import migrations
 from odsuite.core.errors import ProjectVersionError
-from odsuite.core.project import FORMAT_VERSION, DerivedArray, create_project, open_project
+from odsuite.core.project import DerivedArray, create_project, open_project
+from odsuite.core.project_format import FORMAT_VERSION
 from odsuite.core.systeminfo import ChannelInfo, Systeminfo
 
 BACK_COMPAT = Path(__file__).resolve().parents[1] / "data" / "back_compat"
@@ -171,7 +172,7 @@ def test_large_text_round_trips(tmp_path):
 
 
 def test_write_mode_migration_that_cannot_write_leaves_the_project(tmp_path, monkeypatch):
-    from odsuite.core import project
+    from odsuite.core import storage
     from odsuite.core.errors import ProjectFileError
 
     old = tmp_path / "old.h5"
@@ -181,7 +182,7 @@ def test_write_mode_migration_that_cannot_write_leaves_the_project(tmp_path, mon
     def disk_full(*_args, **_kw):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(project, "_fsync_path", disk_full)
+    monkeypatch.setattr(storage, "fsync_path", disk_full)
     with pytest.raises(ProjectFileError) as info:
         open_project(old, "a")
     assert str(info.value) == (f"{old}: migration from format 1.0.0 failed, project left unchanged: "

@@ -34,7 +34,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from odsuite.core.project import CRASH_ENV, open_project
+from odsuite.core.project import open_project
+from odsuite.core.storage import CRASH_ENV
 
 ODSUITE = Path(sys.executable).with_name("odsuite")
 REPO = Path(__file__).resolve().parents[2]
@@ -340,7 +341,7 @@ def _check(run: Run, project: Path, before_units: dict[str, str], oracle: Callab
         with open_project(project) as p:  # a reader opens the project as the kill left it
             p.verify()
         records = _Records()
-        logger = logging.getLogger("odsuite.core.project")
+        logger = logging.getLogger("odsuite.core.storage")
         logger.addHandler(records)
         try:
             with open_project(project, "a") as p:  # the next writer recovers

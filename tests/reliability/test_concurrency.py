@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from odsuite.cli import main
-from odsuite.core.project import CRASH_ENV, create_project, open_project
+from odsuite.core.project import create_project, open_project
+from odsuite.core.storage import CRASH_ENV
 from tests.reliability.harness import ODSUITE
 
 pytestmark = pytest.mark.filterwarnings("ignore::odsuite.core.errors.OdsuiteWarning")
@@ -109,7 +110,7 @@ def test_lock_of_a_killed_cli_writer_is_cleared(tmp_path, caplog, capsys):
     assert lock.read_text().split()[0] == str(killed.pid)  # the dead writer's pid is left behind
     leftover = path.with_name(f"p.h5.tmp-{killed.pid}")
     assert leftover.exists()
-    with caplog.at_level(logging.WARNING, logger="odsuite.core.project"):
+    with caplog.at_level(logging.WARNING, logger="odsuite.core.storage"):
         assert main(["acquire", str(path), "--daq", "sim", "--name", "x"]) == 0
     assert f"removing {leftover.name} left by an interrupted write" in caplog.text
     assert not leftover.exists()

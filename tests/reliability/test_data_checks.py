@@ -91,9 +91,9 @@ def test_a_1_0_0_file_whose_damaged_heap_hangs_hdf5_is_an_error(tmp_path, monkey
     """A fuzzing find: reading the root text of this damaged format-1.0.0 file sends HDF5's
     global-heap reader into an endless loop. Format-1.0.0 files are migrated in a child process,
     which is stopped."""
-    from odsuite.core import project
+    from odsuite.core import project_migration
 
-    monkeypatch.setattr(project, "HEAP_TEXT_TIMEOUT", 2.0)
+    monkeypatch.setattr(project_migration, "HEAP_TEXT_TIMEOUT", 2.0)
     path = tmp_path / "x.h5"
     shutil.copyfile(HEAP_LOOP, path)
     before = path.read_bytes()

@@ -180,9 +180,9 @@ FROZEN_1_0_0 = Path(__file__).resolve().parents[1] / "data" / "back_compat" / "p
 @pytest.mark.filterwarnings("ignore::odsuite.core.errors.OdsuiteWarning")
 @pytest.mark.parametrize("reader", list(READERS))
 def test_corrupted_bytes_end_in_a_result_or_an_odsuite_error(reader, tmp_path, monkeypatch):
-    from odsuite.core import project
+    from odsuite.core import project_migration
 
-    monkeypatch.setattr(project, "HEAP_TEXT_TIMEOUT", CASE_TIMEOUT / 3)  # an error, before the worker is a hang
+    monkeypatch.setattr(project_migration, "HEAP_TEXT_TIMEOUT", CASE_TIMEOUT / 3)  # an error, before the worker is a hang
     read, make_bases, name = READERS[reader]
     bases = make_bases(tmp_path)
     for base in bases:  # the unmutated files are valid

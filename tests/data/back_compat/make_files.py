@@ -14,7 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from odsuite.core.project import FORMAT_VERSION, DerivedArray, Excitation, create_project
+from odsuite.core.project import DerivedArray, Excitation, create_project
+from odsuite.core.project_format import FORMAT_VERSION
 from odsuite.core.rig import load_rig
 from odsuite.core.systeminfo import ChannelInfo, FilterFamily, RigInfo, SensorType, Systeminfo
 

@@ -1,0 +1,150 @@
+"""Writing a project file safely: one writer at a time, and every write a copy-on-write transaction.
+
+The writer holds an flock on ``<name>.h5.lock`` (released by the OS if the process dies). A write
+copies the committed file to ``<name>.h5.tmp-<pid>``, changes the copy, fsyncs it and atomically
+renames it over the project, so a killed process leaves either the old or the new committed state;
+the next writer removes copies left by an interrupted write.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import logging
+import os
+import shutil
+import signal
+import socket
+import weakref
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import IO
+
+import h5py
+
+from odsuite.core import h5text
+from odsuite.core.errors import OdsuiteError, ProjectFileError, ProjectLockedError
+from odsuite.core.project_format import LIBVER, now
+
+#: Tests set this to a crash-point name (see ``crash_point``) to SIGKILL the writer there.
+CRASH_ENV = "ODSUITE_TEST_CRASH_AT"
+
+log = logging.getLogger(__name__)
+
+
+def crash_point(name: str) -> None:
+    """Kill this process here when the test hook asks for it (crash-safety tests)."""
+    if os.environ.get(CRASH_ENV) == name:
+        os.kill(os.getpid(), signal.SIGKILL)
+
+
+def fsync_path(path: Path, directory: bool = False) -> None:
+    fd = os.open(path, os.O_RDONLY | (os.O_DIRECTORY if directory else 0))
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def tmp_path(path: Path) -> Path:
+    """This process's working copy of the project ``path``."""
+    return path.with_name(f"{path.name}.tmp-{os.getpid()}")
+
+
+def replace_atomically(tmp: Path, path: Path) -> None:
+    """Make the finished copy ``tmp`` the project ``path``: on disk first, then renamed over it."""
+    fsync_path(tmp)
+    os.replace(tmp, path)
+    fsync_path(path.parent, directory=True)
+
+
+# ----------------------------------------------------------------------------- the writer lock
+
+
+def _lock_path(path: Path) -> Path:
+    return path.with_name(path.name + ".lock")
+
+
+#: Lock files this process holds open. A forked child shares their flock, which would outlive a
+#: killed parent, so the child closes its copies (closing never unlocks the parent's descriptor).
+_HELD_LOCKS: weakref.WeakSet[IO[str]] = weakref.WeakSet()
+
+
+def _close_inherited_locks() -> None:
+    for fh in list(_HELD_LOCKS):
+        fh.close()
+    _HELD_LOCKS.clear()
+
+
+os.register_at_fork(after_in_child=_close_inherited_locks)
+
+
+def acquire_lock(path: Path) -> IO[str]:
+    """Take the writer lock of ``path`` (flock: released by the OS if the process dies)."""
+    try:
+        fh = open(_lock_path(path), "a+", encoding="utf-8")
+    except OSError as exc:
+        raise ProjectFileError(f"{path}: cannot create lock file {_lock_path(path)}: {exc.strerror}") from None
+    try:
+        fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        fh.seek(0)
+        holder = fh.read().split()
+        fh.close()
+        pid = holder[0] if holder else "?"
+        host = f" on host {holder[1]}" if len(holder) > 1 and holder[1] != socket.gethostname() else ""
+        raise ProjectLockedError(
+            f"{path}: project is open in another process (pid {pid}{host}); close it there first"
+        ) from None
+    fh.truncate(0)
+    fh.write(f"{os.getpid()} {socket.gethostname()}\n")
+    fh.flush()
+    _HELD_LOCKS.add(fh)
+    for stale in sorted(path.parent.glob(f"{path.name}.tmp-*")):
+        log.warning("%s: removing %s left by an interrupted write", path, stale.name)
+        stale.unlink(missing_ok=True)
+    return fh
+
+
+def release_lock(fh: IO[str]) -> None:
+    _HELD_LOCKS.discard(fh)
+    if fh.closed:  # closed in a forked child: the lock belongs to the parent
+        return
+    fh.truncate(0)
+    fh.flush()
+    fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
+    fh.close()
+
+
+# ----------------------------------------------------------------------------- transactions
+
+
+@contextmanager
+def copy_on_write(path: Path) -> Iterator[h5py.File]:
+    """A writable copy of the project ``path`` that replaces it when the block exits without
+    error (its file_update_time set); on error or a crash the project is left as it was."""
+    tmp = tmp_path(path)
+    try:
+        shutil.copyfile(path, tmp)
+        crash_point("copied")
+        f = h5py.File(tmp, "r+", locking=False, libver=LIBVER)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise ProjectFileError(f"{path}: cannot start a write ({exc})") from None
+    try:
+        yield f
+        h5text.set_attrs(f, {"file_update_time": now()})
+        f.close()
+        crash_point("written")
+        fsync_path(tmp)
+        crash_point("synced")
+        os.replace(tmp, path)
+        crash_point("replaced")
+        fsync_path(path.parent, directory=True)
+    except BaseException as exc:
+        if f:  # still open
+            f.close()
+        tmp.unlink(missing_ok=True)
+        if isinstance(exc, OSError) and not isinstance(exc, OdsuiteError):  # e.g. disk full
+            raise ProjectFileError(f"{path}: write failed, project left unchanged: {exc}") from exc
+        raise
