@@ -233,7 +233,8 @@ def acquire_cmd(
 
     from rich.progress import BarColumn, Progress, TextColumn
 
-    from odsuite.core.acquisition import AcquisitionSettings, acquire, parse_backend_options
+    from odsuite.core.acquisition import acquire
+    from odsuite.core.daq import AcquisitionSettings, parse_backend_options
     from odsuite.core.importing import parse_force_direction, parse_force_point
     from odsuite.core.plugins import registries
     from odsuite.core.project import open_project

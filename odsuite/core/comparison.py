@@ -486,6 +486,7 @@ def coordinate_series(rig: Rig, exp: PreparedExperiment, model) -> dict[str, tup
     its G (samples x 6; m, rad), both from displacements after the full chain and the body's
     solver, and the body's columns in ``exp``. Empty when some channel is not integrated twice (no
     displacements)."""
+    from odsuite.core.plugins import registries
     from odsuite.core.solvers import body_solvers
 
     taps = stage_names("acceleration")
@@ -499,7 +500,7 @@ def coordinate_series(rig: Rig, exp: PreparedExperiment, model) -> dict[str, tup
         for t in taps:
             measured[t][:, j] = res[t]
     column = {s.name: j for j, s in enumerate(exp.sensors)}
-    for c in body_solvers(rig, column)[0]:
+    for c in body_solvers(rig, column, registries().coordinate_solvers)[0]:
         idx = {n: column[n] for n in c.sensors}
         gm = c.solver.solve(rig, c.body, {n: measured["displacement"][:, j] for n, j in idx.items()}).at_g
         gp = c.solver.solve(rig, c.body, {n: predicted["displacement"][:, j] for n, j in idx.items()}).at_g
@@ -526,13 +527,14 @@ def experiment_coordinates(project, name: str, revision: Mapping[str, Any] | Non
 def _coordinates(rig: Rig, exp: PreparedExperiment, model) -> tuple[dict, dict]:
     """Per-coordinate errors of the generalized coordinates, for every body whose motion its sensors
     determine, and the rigidity check on the measured accelerations where the body's solver has one."""
+    from odsuite.core.plugins import registries
     from odsuite.core.solvers import choose_solver
 
     coords, rigidity = {}, {}
     for name, (gm, gp, cols) in coordinate_series(rig, exp, model).items():
         coords[name] = {c: float(nrmse(gm[:, i], gp[:, i])) for i, c in enumerate(COORDINATE_NAMES)}
         signals = {exp.sensors[j].name: exp.measured[:, j] for j in cols}
-        solver = choose_solver(rig, rig.body(name), signals).solver
+        solver = choose_solver(rig, rig.body(name), signals, registries().coordinate_solvers).solver
         if not hasattr(solver, "rigidity_check"):
             continue
         rig_check = solver.rigidity_check(rig, rig.body(name), signals)

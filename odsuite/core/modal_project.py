@@ -128,6 +128,7 @@ def ods_coordinates(project, experiment: str, frequency_hz: float) -> dict[str, 
 
     from odsuite.core.comparison import prepare_experiment
     from odsuite.core.modal import ods
+    from odsuite.core.plugins import registries
     from odsuite.core.solvers import body_solvers
 
     if not (np.isfinite(frequency_hz) and frequency_hz > 0):
@@ -147,7 +148,7 @@ def ods_coordinates(project, experiment: str, frequency_hz: float) -> dict[str, 
     shapes = {}
     # the solvers are linear in their input: real and imaginary parts as a two-sample record
     signals = {s.name: np.array([d.real, d.imag]) for s, d in zip(exp.sensors, disp)}
-    chosen, notes = body_solvers(project.rig, signals)
+    chosen, notes = body_solvers(project.rig, signals, registries().coordinate_solvers)
     for c in chosen:
         at_g = c.solver.solve(project.rig, c.body, {n: signals[n] for n in c.sensors}).at_g
         shapes[c.body.name] = at_g[0] + 1j * at_g[1]

@@ -112,13 +112,13 @@ def _load_entry_points(pm: PluginManager, blocked: set[str]) -> None:
 
 def _contracts() -> dict[str, Contract]:
     """Each registry's contract, from the core module that documents it."""
-    from odsuite.core import acquisition, effects, importers, renderers, solvers, steps
+    from odsuite.core import daq, effects, importers, renderers, solvers, steps
     from odsuite.core.rig import Rig
 
     def of(module) -> Contract:
         return Contract(getattr(module, "REQUIRED_ATTRIBUTES", ()), getattr(module, "REQUIRED_METHODS", ()))
 
-    return {"daq_backends": of(acquisition), "processing_steps": of(steps), "coordinate_solvers": of(solvers),
+    return {"daq_backends": of(daq), "processing_steps": of(steps), "coordinate_solvers": of(solvers),
             "models": Contract(methods=("__call__",)), "effects": of(effects), "renderers": of(renderers),
             "sensor_types": Contract(), "rigs": Contract(instance_of=Rig), "importers": of(importers)}
 

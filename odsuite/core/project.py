@@ -49,7 +49,14 @@ import h5py
 import numpy as np
 
 from odsuite.core import clipping, h5text, migrations
-from odsuite.core.errors import ConfigError, DimensionError, ProjectFileError, ProjectVersionError, SchemaError
+from odsuite.core.errors import (
+    ConfigError,
+    DimensionError,
+    ProjectFileError,
+    ProjectVersionError,
+    SchemaError,
+)
+from odsuite.core.excitation import Excitation
 from odsuite.core.h5codecs import (
     Attrs,
     dataset,
@@ -61,21 +68,24 @@ from odsuite.core.h5codecs import (
     write_systeminfo,
 )
 from odsuite.core.h5damage import open_h5, reading
-from odsuite.core.project_format import CHUNK_BYTES, FORMAT_VERSION, LIBVER, check_format, now
+from odsuite.core.project_format import (
+    CHUNK_BYTES,
+    FORMAT_VERSION,
+    LIBVER,
+    check_format,
+    now,
+)
 from odsuite.core.project_migration import migrate_in_place, migrated_copy
 from odsuite.core.rig import Rig, load_rig, rig_from_dict
-from odsuite.core.storage import acquire_lock, copy_on_write, crash_point, release_lock, replace_atomically, tmp_path
+from odsuite.core.storage import (
+    acquire_lock,
+    copy_on_write,
+    crash_point,
+    release_lock,
+    replace_atomically,
+    tmp_path,
+)
 from odsuite.core.systeminfo import Systeminfo
-
-
-@dataclass(frozen=True)
-class Excitation:
-    """Where and how the hammer hit: force channel, point (m, from the platform's centre of mass,
-    platform axes) and unit direction."""
-
-    force_channel: int
-    point: np.ndarray
-    direction: np.ndarray
 
 
 @dataclass(frozen=True)

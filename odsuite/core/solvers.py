@@ -48,12 +48,9 @@ def _directions(rig: Rig, body: Body, sensors: Iterable[str]) -> str:
                      for s in body_sensors(rig, body) if s.name in set(sensors)) or "no sensors"
 
 
-def choose_solver(rig: Rig, body: Body, sensors: Iterable[str], registry=None) -> BodySolver:
-    """The solver for ``body`` from the named sensors: the rig's choice, else the most suitable."""
-    if registry is None:
-        from odsuite.core.plugins import registries
-
-        registry = registries().coordinate_solvers
+def choose_solver(rig: Rig, body: Body, sensors: Iterable[str], registry) -> BodySolver:
+    """The solver for ``body`` from the named sensors (``registry``: the coordinate solvers): the
+    rig's choice, else the most suitable."""
     on_body = {s.name for s in body_sensors(rig, body)}
     names = tuple(s for s in sensors if s in on_body)
     where = f"rig {rig.name!r}" + (f" ({rig.source})" if rig.source else "")
@@ -75,7 +72,7 @@ def choose_solver(rig: Rig, body: Body, sensors: Iterable[str], registry=None) -
     return BodySolver(body, name, registry.get(name), names)
 
 
-def body_solvers(rig: Rig, available: Iterable[str], registry=None) -> tuple[list[BodySolver], list[str]]:
+def body_solvers(rig: Rig, available: Iterable[str], registry) -> tuple[list[BodySolver], list[str]]:
     """A solver for every body with sensors among ``available``, and one note per body whose
     motion those sensors cannot determine."""
     available = set(available)

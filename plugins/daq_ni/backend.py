@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from odsuite.core.acquisition import (
+from odsuite.core.daq import (
     READING,
     WAITING,
     AcquisitionSettings,
@@ -30,7 +30,7 @@ from odsuite.core.acquisition import (
     rig_systeminfo,
 )
 from odsuite.core.errors import ConfigError, HardwareError
-from odsuite.core.project import Excitation
+from odsuite.core.excitation import Excitation
 from odsuite.core.rig import Rig
 from odsuite.core.systeminfo import SensorType, Systeminfo
 

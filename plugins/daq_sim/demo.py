@@ -91,17 +91,18 @@ def effective_scales(effect_name: str, values: Mapping[str, float], model) -> di
 
 
 def _record(project, console: Console) -> None:
-    from odsuite.core.acquisition import AcquisitionSettings, acquire, rig_systeminfo
+    from odsuite.core.acquisition import acquire
+    from odsuite.core.daq import AcquisitionSettings, rig_systeminfo
 
     from .scenarios import scenario
-    from .simulator import default_chains
+    from .simulator import SimulatedRig, default_chains
 
     chains = {k: replace(c, adc_bits=ADC_BITS)
               for k, c in default_chains(project.rig, rig_systeminfo(project.rig, SAMPLING_RATE)).items()}
     settings = AcquisitionSettings(sampling_rate=SAMPLING_RATE, n_samples=SAMPLES)
     for i, name in enumerate(SCENARIOS):
         hits = HITS.get(name, scenario(name).hits)
-        exp, rec = acquire(project, "sim", name, settings, scenario=name, hits=hits, seed=10 + i,
+        exp, rec = acquire(project, SimulatedRig(), name, settings, scenario=name, hits=hits, seed=10 + i,
                            effects=[(e, dict(v)) for e, v in HIDDEN_EFFECTS], chains=chains)
         clipped = "".join(f", [red]{n} samples of {rec.channel_names[ch]} clipped[/red]"
                           for ch, n in rec.clipped.items())

@@ -22,7 +22,7 @@ from odsuite_plugins.daq_sim.chain import (
 from odsuite_plugins.daq_sim.hammer import Hit, half_sine_force
 from odsuite_plugins.daq_sim.scenarios import scenario as get_scenario
 
-from odsuite.core.acquisition import (
+from odsuite.core.daq import (
     READING,
     WAITING,
     AcquisitionSettings,
@@ -33,7 +33,7 @@ from odsuite.core.acquisition import (
     rig_systeminfo,
 )
 from odsuite.core.errors import ConfigError, HardwareError
-from odsuite.core.project import Excitation
+from odsuite.core.excitation import Excitation
 from odsuite.core.rig import Rig
 from odsuite.core.systeminfo import Systeminfo
 

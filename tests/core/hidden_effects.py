@@ -37,15 +37,18 @@ CASES: dict[str, dict[str, float]] = {
 def make_project(path: Path, effects: Sequence[tuple[str, Mapping[str, Any]]] = (), *, seed: int = 10,
                  n_samples: int = N_SAMPLES, scenarios: Sequence[str] = SCENARIOS) -> Path:
     """Create ``path`` with one simulated experiment per scenario, the truth altered by ``effects``."""
-    from odsuite.core.acquisition import AcquisitionSettings, acquire, rig_systeminfo
-    from odsuite.core.project import create_project
     from odsuite_plugins.daq_sim.simulator import default_chains
+
+    from odsuite.core.acquisition import acquire
+    from odsuite.core.daq import AcquisitionSettings, rig_systeminfo
+    from odsuite.core.plugins import registries
+    from odsuite.core.project import create_project
 
     p = create_project(path)
     try:
         chains = {k: replace(c, adc_bits=16) for k, c in default_chains(p.rig, rig_systeminfo(p.rig, 20000.0)).items()}
         for i, sc in enumerate(scenarios):
-            acquire(p, "sim", sc, AcquisitionSettings(n_samples=n_samples), scenario=sc, seed=seed + i,
+            acquire(p, registries().daq_backends.get("sim"), sc, AcquisitionSettings(n_samples=n_samples), scenario=sc, seed=seed + i,
                     effects=[(n, dict(v)) for n, v in effects], chains=chains)
     finally:
         p.close()

@@ -19,7 +19,7 @@ from odsuite_plugins.daq_sim.hammer import Hit
 from odsuite_plugins.daq_sim.simulator import SimulatedRig, default_chains
 from odsuite_plugins.daq_sim.truth import truth_model
 
-from odsuite.core.acquisition import AcquisitionSettings, acquire, rig_systeminfo
+from odsuite.core.acquisition import acquire
 from odsuite.core.correction import (
     KIND,
     correct_experiment,
@@ -28,6 +28,7 @@ from odsuite.core.correction import (
     drift_estimate,
     process_corrected,
 )
+from odsuite.core.daq import AcquisitionSettings, rig_systeminfo
 from odsuite.core.errors import ConfigError
 from odsuite.core.model import Input, Output
 from odsuite.core.pipeline import process_experiment

@@ -13,13 +13,6 @@ from pathlib import Path
 
 ODSUITE = Path(__file__).resolve().parents[2] / "odsuite"
 
-#: Circles not yet removed, each a pair whose edges are left out so that any other circle still
-#: fails: the registries read the DAQ backend and coordinate solver contracts from acquisition and
-#: solvers, which look providers up by name in the registries (``resolve_backend``, ``choose_solver``).
-KNOWN_CIRCLES = {frozenset({"odsuite.core.plugins", "odsuite.core.acquisition"}),
-                 frozenset({"odsuite.core.plugins", "odsuite.core.solvers"})}
-
-
 def _module(path: Path, root: Path) -> str:
     """The dotted name of ``path`` in the package directory ``root``."""
     parts = path.relative_to(root.parent).with_suffix("").parts
@@ -102,13 +95,9 @@ def test_the_graph_sees_function_level_and_relative_imports(tmp_path):
 
 def test_no_import_circles_in_odsuite():
     graph = _graph()
-    edges = {a: {b for b in targets if b in graph and b != a and frozenset({a, b}) not in KNOWN_CIRCLES}
-             for a, targets in graph.items()}
+    edges = {a: {b for b in targets if b in graph and b != a} for a, targets in graph.items()}
     assert "odsuite.core.project" in edges and edges["odsuite.core.project"]  # the graph was read
     assert _circles(edges) == []
-    whole = {a: {b for b in targets if b in graph and b != a} for a, targets in graph.items()}
-    still = [pair for pair in KNOWN_CIRCLES if any(pair <= set(c) for c in _circles(whole))]
-    assert sorted(map(sorted, still)) == sorted(map(sorted, KNOWN_CIRCLES)), "remove the broken pair from KNOWN_CIRCLES"
 
 
 def test_odsuite_never_imports_the_builtin_plugins():

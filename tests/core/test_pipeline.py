@@ -9,12 +9,18 @@ import pytest
 import scipy.integrate
 import scipy.signal
 
-from odsuite.core.errors import ConfigError
-from odsuite.core.steps import Tap
 from odsuite.core.chain_spec import build_chain, chain_for_channel, channel_chain_spec
-from odsuite.core.pipeline import process_experiment
+from odsuite.core.errors import ConfigError
 from odsuite.core.executor import run_array
-from odsuite.core.systeminfo import ChannelInfo, FilterType, Integration, SensorType, Systeminfo
+from odsuite.core.pipeline import process_experiment
+from odsuite.core.steps import Tap
+from odsuite.core.systeminfo import (
+    ChannelInfo,
+    FilterType,
+    Integration,
+    SensorType,
+    Systeminfo,
+)
 
 FS = 20_000.0
 DT = 1 / FS
@@ -215,7 +221,7 @@ def test_chain_ends_in_a_tap():
 def _pulse_project(tmp_path, thesis_rig, n=4000, **channel_changes):
     """A project whose accelerometers read an exact rigid-body pulse of the platform (sensor
     signals from odsuite.core.rigidbody, through each channel's sign, sensitivity and gain)."""
-    from odsuite.core.acquisition import rig_systeminfo
+    from odsuite.core.daq import rig_systeminfo
     from odsuite.core.project import Excitation, create_project
     from odsuite.core.rigidbody import sensor_signals
 

@@ -8,7 +8,13 @@ import pytest
 import pyuff
 
 from odsuite.core.errors import ConfigError
-from odsuite.core.uff import UffFunction, UffGeometry, read_uff, time_function, write_uff
+from odsuite.core.uff import (
+    UffFunction,
+    UffGeometry,
+    read_uff,
+    time_function,
+    write_uff,
+)
 
 
 @pytest.fixture
@@ -130,13 +136,15 @@ XYZ_15 = 1e-6
 @pytest.fixture(scope="module")
 def thesis_record(tmp_path_factory):
     """A simulated thesis-rig record (nine accelerometers, force on channel 0) and its UFF export."""
-    from odsuite.core.acquisition import AcquisitionSettings, acquire
+    from odsuite.core.acquisition import acquire
+    from odsuite.core.daq import AcquisitionSettings
+    from odsuite.core.plugins import registries
     from odsuite.core.project import create_project
     from odsuite.core.uff_project import export_uff
 
     d = tmp_path_factory.mktemp("uff")
     with create_project(d / "p.h5") as p:
-        acquire(p, "sim", "e1", AcquisitionSettings(n_samples=1024), scenario="T3", seed=1)
+        acquire(p, registries().daq_backends.get("sim"), "e1", AcquisitionSettings(n_samples=1024), scenario="T3", seed=1)
     export_uff(d / "p.h5", d / "e1.uff")
     return d
 

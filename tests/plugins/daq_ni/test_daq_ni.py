@@ -7,10 +7,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from odsuite.core.acquisition import AcquisitionSettings, acquire
-from odsuite.core.errors import ConfigError, HardwareError
 from odsuite_plugins.daq_ni.backend import NiDaq, available
+
+from odsuite.core.acquisition import acquire
+from odsuite.core.daq import AcquisitionSettings
+from odsuite.core.errors import ConfigError, HardwareError
 
 sys.path.insert(0, str(Path(__file__).parent))
 import fake_nidaqmx as fake  # noqa: E402

@@ -6,14 +6,20 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from scipy import signal
-
-from odsuite.core.acquisition import AcquisitionSettings, acquire, rig_systeminfo
-from odsuite.core.errors import ConfigError, HardwareError
 from odsuite_plugins.daq_sim.chain import ChannelChain, run_analog
 from odsuite_plugins.daq_sim.hammer import Hit, half_sine_force, impulse
 from odsuite_plugins.daq_sim.scenarios import SCENARIOS
-from odsuite_plugins.daq_sim.simulator import SimulatedRig, adc_range, default_chains, find_trigger
+from odsuite_plugins.daq_sim.simulator import (
+    SimulatedRig,
+    adc_range,
+    default_chains,
+    find_trigger,
+)
+from scipy import signal
+
+from odsuite.core.acquisition import acquire
+from odsuite.core.daq import AcquisitionSettings, rig_systeminfo
+from odsuite.core.errors import ConfigError, HardwareError
 
 FORCE = 0
 

@@ -5,12 +5,12 @@ from __future__ import annotations
 import sys
 
 import numpy as np
-
-from odsuite.cli import main
-from odsuite.core.acquisition import AcquisitionSettings
-from odsuite.core.project import open_project
 from odsuite_plugins.daq_sim.scenarios import SCENARIOS
 from odsuite_plugins.daq_sim.simulator import SimulatedRig
+
+from odsuite.cli import main
+from odsuite.core.daq import AcquisitionSettings
+from odsuite.core.project import open_project
 
 
 def test_acquire_sim_scenario_is_the_seeded_record(tmp_path, thesis_rig, capsys):

@@ -10,21 +10,23 @@ added noise raises it further. Here 16 bits give 0.3-0.6 %.
 
 from __future__ import annotations
 
-import numpy as np
-import pytest
-
 from dataclasses import replace
 
-from odsuite.core.acquisition import AcquisitionSettings, acquire, rig_systeminfo
-from odsuite.core.project import create_project
+import numpy as np
+import pytest
 from odsuite_plugins.daq_sim.simulator import SimulatedRig, default_chains
+
+from odsuite.core.acquisition import acquire
+from odsuite.core.daq import AcquisitionSettings, rig_systeminfo
+from odsuite.core.project import create_project
 
 
 @pytest.mark.parametrize("scenario", ["T3", "T5", "T6"])
 def test_processed_gencoords_match_the_models_within_2_percent(tmp_path, thesis_rig, scenario):
-    from odsuite.core.pipeline import process_experiment
     from odsuite_plugins.daq_sim.truth import truth_model
+
     from odsuite.core.model import Input, Output
+    from odsuite.core.pipeline import process_experiment
     from odsuite.core.simulation import simulate
 
     with create_project(tmp_path / "p.h5") as project:
