@@ -726,6 +726,8 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     from odsuite.core.comparison import compare
     from odsuite.core.plugins import registries
 
+    if workers is not None and workers < 1:
+        raise ConfigError(f"diagnose: workers must be at least 1, got {workers}")
     regs = registries()
     rev = current_revision(project)
     base = revision_model(project, rev)
@@ -752,8 +754,6 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     rigidity = float(np.median(rig_vals)) if rig_vals else None
     modes_before = list(base.shared.modes().frequency_hz)
 
-    if workers is not None and workers < 1:
-        raise ConfigError(f"diagnose: workers must be at least 1, got {workers}")
     threads = workers or os.cpu_count() or 1
     parallel = threads > 1
 
