@@ -638,6 +638,46 @@ def batch_cmd(
         raise typer.Exit(1)
 
 
+@app.command("catalog")
+def catalog_cmd(
+    args: list[str] = typer.Argument(..., help="DIR to index or refresh, or: query DIR [NAME|SELECT ...] "
+                                     "(NAME: projects, unexplained, errors, experiments, sensors, gains)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+    rig: str = typer.Option(None, "--rig", help="query: only projects on this rig."),
+    errors: bool = typer.Option(False, "--errors", help="Compute errors that no revision stored (slower, once per change)."),
+) -> None:
+    """Index every project under a folder into an SQLite catalogue beside them, or query it."""
+    from odsuite.core.catalog import build_catalog, query
+
+    if args[0] == "query":
+        if len(args) < 2:
+            raise typer.BadParameter("catalog query DIR [NAME|SELECT ...]")
+        rows = query(args[1], " ".join(args[2:]) or "projects", rig=rig)
+        if as_json:
+            _print_json(rows)
+            return
+        table = Table(title=f"{len(rows)} rows")
+        for col in rows[0] if rows else ():
+            table.add_column(col)
+        for r in rows:
+            table.add_row(*("-" if v is None else f"{v:.4g}" if isinstance(v, float) else str(v) for v in r.values()))
+        console.print(table)
+        return
+    if len(args) != 1:
+        raise typer.BadParameter("catalog DIR (one folder), or catalog query DIR ...")
+    with _loop_progress() as bar:
+        task = bar.add_task("catalog", total=None)
+        res = build_catalog(args[0], compute_errors=errors,
+                            progress=lambda name, i, n: bar.update(task, description=f"catalog: {name}",
+                                                                   completed=i, total=n))
+    if as_json:
+        _print_json(res.as_dict())
+        return
+    console.print(f"{res.path}: {len(res.indexed)} projects read, {len(res.restamped) + len(res.unchanged)} "
+                  f"unchanged, {len(res.removed)} removed, {len(res.skipped)} files that are no projects "
+                  f"({res.seconds:.2f} s); page {res.page}", highlight=False, soft_wrap=True)
+
+
 def _register_plugin_commands() -> None:
     from odsuite.core.plugins import default_manager
 
