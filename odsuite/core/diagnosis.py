@@ -27,8 +27,10 @@ predictions the same way are named as confounded.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -677,13 +679,55 @@ def is_significant(baseline: float, validated: float, noise: float, bic_gain: fl
     return gain > max(noise**2, 1e-4, 0.1 * excess) and bic_gain > 0
 
 
+class _Deferred:
+    """A call run when its result is asked for: a fit that is never asked for costs nothing."""
+
+    def __init__(self, fn: Callable, args: tuple) -> None:
+        self._fn, self._args = fn, args
+
+    def cancel(self) -> bool:
+        return True
+
+    def result(self) -> Any:
+        return self._fn(*self._args)
+
+
+class _InOrder:
+    """The part of concurrent.futures' executor interface diagnose uses, one call after another
+    in this thread (workers=1)."""
+
+    def __enter__(self) -> _InOrder:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+    def map(self, fn: Callable, items) -> Any:
+        return map(fn, items)
+
+    def submit(self, fn: Callable, *args: Any) -> _Deferred:
+        return _Deferred(fn, args)
+
+
+def _own_copies(exps: Sequence[PreparedExperiment]) -> list[PreparedExperiment]:
+    """Shallow copies with an empty simulation cache: a candidate running in its own thread must
+    not see another thread's cache entry change between its check and its use."""
+    return [replace(e, _cache=None) for e in exps]
+
+
 def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequence[str] | None = None,
              full_fits: int = FULL_FITS, progress: Callable[[str, int, int], None] | None = None,
-             prepared: Sequence[PreparedExperiment] | None = None) -> Diagnosis:
-    """Rank every registered effect (or ``effects``) by how much of the model's error it explains."""
+             prepared: Sequence[PreparedExperiment] | None = None, workers: int | None = None) -> Diagnosis:
+    """Rank every registered effect (or ``effects``) by how much of the model's error it explains.
+
+    Candidates are screened and fitted on ``workers`` threads (default: one per core; 1: one after
+    another). Each candidate's work is independent of the others' and runs in the same order of
+    operations, so the result does not depend on ``workers``."""
     from odsuite.core.comparison import compare
     from odsuite.core.plugins import registries
 
+    if workers is not None and workers < 1:
+        raise ConfigError(f"diagnose: workers must be at least 1, got {workers}")
     regs = registries()
     rev = current_revision(project)
     base = revision_model(project, rev)
@@ -710,38 +754,64 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     rigidity = float(np.median(rig_vals)) if rig_vals else None
     modes_before = list(base.shared.modes().frequency_hz)
 
+    threads = workers or os.cpu_count() or 1
+    parallel = threads > 1
+
+    def screen_one(name: str) -> tuple[Screened, int] | None:
+        own_windows, own_exps = (_own_copies(windows), _own_copies(exps)) if parallel else (windows, exps)
+        try:
+            problem = Problem(base, regs.effects.get(name), own_windows, prior=prior / stride, stride=stride,
+                              full=own_exps)
+        except ConfigError:
+            return None  # the effect does not apply to this rig (e.g. no base plate)
+        s = screen(problem, sse0_win, peak_hz)
+        return s, problem.evaluations + (s.problem.evaluations if s.problem is not problem else 0)
+
+    def fit_one(s: Screened) -> Candidate:
+        return _fit_candidate(s, windows, sse0, den, n_eff, noise, peaks, rigidity, modes_before, tail0)
+
     screened: list[Screened] = []
     evaluations = 0
-    for i, name in enumerate(names):
-        if progress:
-            progress(f"screening {name}", i, len(names))
-        effect = regs.effects.get(name)
-        try:
-            problem = Problem(base, effect, windows, prior=prior / stride, stride=stride, full=exps)
-        except ConfigError:
-            continue  # the effect does not apply to this rig (e.g. no base plate)
-        s = screen(problem, sse0_win, peak_hz)
-        evaluations += problem.evaluations + (s.problem.evaluations if s.problem is not problem else 0)
-        screened.append(s)
-    screened.sort(key=lambda s: s.sse)
-    candidates: list[Candidate] = []
-    top = screened[:full_fits]
-    best_win = sse0_win
-    fitted = []
-    for i, s in enumerate(top):
-        # a candidate whose screening took up less than half of what the best fit so far explains
-        # cannot compete: screening only ranks it
-        if i and s.sse > best_win + 0.5 * (sse0_win - best_win):
-            continue
-        fitted.append(s)
-        if progress:
-            progress(f"fitting {s.effect.name}", i, len(top))
-        cand = _fit_candidate(s, windows, sse0, den, n_eff, noise, peaks, rigidity, modes_before, tail0)
-        best_win = min(best_win, cand._sse_win)
-        evaluations += cand._problem.evaluations
-        bic0 = n_eff * math.log(max(sse0, 1e-300) / den)
-        cand.significant = is_significant(cmp.error, cand.validated_error, noise, bic0 - cand.bic)
-        candidates.append(cand)
+    # the candidates are independent: numpy and scipy release the GIL in much of their work
+    with ThreadPoolExecutor(max_workers=threads) if parallel else _InOrder() as pool:
+        for i, (name, done) in enumerate(zip(names, pool.map(screen_one, names))):
+            if progress:
+                progress(f"screening {name}", i, len(names))
+            if done is not None:
+                screened.append(done[0])
+                evaluations += done[1]
+        screened.sort(key=lambda s: s.sse)
+        candidates: list[Candidate] = []
+        top = screened[:full_fits]
+        best_win = sse0_win
+        fitted = []
+
+        def skipped(k: int) -> bool:
+            # a candidate whose screening took up less than half of what the best fit so far
+            # explains cannot compete: screening only ranks it. best_win only falls, so a
+            # candidate skipped before the fits ahead of it have finished stays skipped
+            return k > 0 and top[k].sse > best_win + 0.5 * (sse0_win - best_win)
+
+        jobs: dict[int, Any] = {}
+        queued = 0
+        for i, s in enumerate(top):
+            while queued < min(len(top), i + threads):  # keep the pool's threads busy ahead of i
+                if not skipped(queued):
+                    jobs[queued] = pool.submit(fit_one, top[queued])
+                queued += 1
+            if i not in jobs or skipped(i):
+                if i in jobs:
+                    jobs[i].cancel()
+                continue
+            fitted.append(s)
+            if progress:
+                progress(f"fitting {s.effect.name}", i, len(top))
+            cand = jobs[i].result()
+            best_win = min(best_win, cand._sse_win)
+            evaluations += cand._problem.evaluations
+            bic0 = n_eff * math.log(max(sse0, 1e-300) / den)
+            cand.significant = is_significant(cmp.error, cand.validated_error, noise, bic0 - cand.bic)
+            candidates.append(cand)
     for s in screened:
         if any(s is f for f in fitted):
             continue

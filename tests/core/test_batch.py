@@ -1,0 +1,188 @@
+"""Batch runs on dask.distributed: results equal the direct API calls, a locked project is reported
+and left unchanged, a killed worker's project is rerun elsewhere (or reported when the cluster
+allows no retry) and every project stays intact."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import shutil
+import signal
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from hidden_effects import make_project
+
+distributed = pytest.importorskip("distributed")
+
+#: short records keep each task at a few seconds
+SAMPLES = 2048
+SCENARIOS = ("T1", "T5")
+
+
+@pytest.fixture(scope="module")
+def made(tmp_path_factory) -> list[Path]:
+    store = tmp_path_factory.mktemp("batch-made")
+    return [make_project(store / f"rig{i}.h5", [("stiffness", {"scale_z": 1.0 + 0.3 * i})], seed=20 + i,
+                         n_samples=SAMPLES, scenarios=SCENARIOS) for i in range(3)]
+
+
+@pytest.fixture
+def projects(made, tmp_path) -> list[Path]:
+    out = []
+    for p in made:
+        shutil.copy(p, tmp_path / p.name)
+        out.append(tmp_path / p.name)
+    return out
+
+
+def _digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _direct_history(path: Path) -> dict:
+    from odsuite.core.modelrev import history
+    from odsuite.core.project import open_project
+
+    with open_project(path) as p:
+        return history(p)
+
+
+def test_batch_on_local_cluster_equals_direct_calls(projects, tmp_path):
+    from odsuite.core.batch import run_batch
+
+    missing = tmp_path / "missing.h5"
+    seen = []
+    res = run_batch("history", [*projects, missing], workers=2,
+                    progress=lambda record, done, total: seen.append((done, total)))
+    assert [r["project"] for r in res.projects] == [str(p.resolve()) for p in [*projects, missing]]
+    assert res.counts == {"ok": 3, "error": 1, "locked": 0, "not-run": 0}
+    assert seen[-1] == (4, 4)
+    bad = res.projects[-1]
+    assert "missing.h5" in bad["error"] and "\n" not in bad["error"]
+    # the stiffer truths' errors grow with the hidden scale; each equals the in-process call
+    errors = []
+    for p, r in zip(projects, res.projects):
+        direct = _direct_history(p)
+        assert r["result"]["current"] == direct["current"] == 0
+        assert math.isclose(r["result"]["revisions"][0]["error"], direct["revisions"][0]["error"], rel_tol=1e-9)
+        errors.append(direct["revisions"][0]["error"])
+    assert errors[0] < errors[1] < errors[2]
+    # pids: the work ran in worker processes, not here
+    assert all(r["pid"] != os.getpid() for r in res.projects[:3])
+    json.dumps(res.as_dict(), allow_nan=False)
+
+
+def test_locked_project_is_reported_and_left_unchanged(projects):
+    from odsuite.core.batch import run_batch
+    from odsuite.core.project import open_project
+
+    locked, free = projects[0], projects[1]
+    before = _digest(locked)
+    with open_project(locked, "a"):
+        res = run_batch("process", [locked, free], workers=2)
+    assert [r["status"] for r in res.projects] == ["locked", "ok"]
+    assert f"pid {os.getpid()}" in res.projects[0]["error"]
+    assert _digest(locked) == before
+    assert set(res.projects[1]["result"]["experiments"]) == set(SCENARIOS)
+    with open_project(free) as p:
+        assert all("processed" in p.derived_kinds(n) for n in SCENARIOS)
+
+
+def test_cli_batch_json_is_one_document(projects, capsys):
+    from odsuite.cli import main
+
+    code = main(["batch", "info", *map(str, projects[:2]), "--workers", "1", "--json"])
+    out = capsys.readouterr().out
+    doc = json.loads(out)
+    assert code == 0
+    assert doc["command"] == "info" and doc["counts"]["ok"] == 2
+    assert [e for e in doc["projects"][0]["result"]["experiments"]] == list(SCENARIOS)
+    assert doc["projects"][0]["result"]["experiments"]["T1"]["n_samples"] == SAMPLES
+
+
+def _kill_first_busy_worker(client, futures, killed: dict) -> None:
+    """Kill (SIGKILL) the worker process running the first task, once it has run for a while."""
+    pids = client.run(os.getpid)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        busy = [w for w, keys in client.processing().items() if keys]
+        if busy:
+            time.sleep(1.0)  # inside the command, not before it
+            keys = client.processing().get(busy[0], ())
+            running = [p for p, f in futures.items() if f.key in keys and not f.done()]
+            if running:
+                killed["pid"] = pids[busy[0]]
+                killed["projects"] = running  # assigned to it; one of them runs, the next may wait there
+                os.kill(pids[busy[0]], signal.SIGKILL)
+                return
+        time.sleep(0.05)
+
+
+def _cluster(**config):
+    import dask
+    from distributed import LocalCluster
+
+    with dask.config.set(config):
+        return LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                            scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
+                            silence_logs=50)
+
+
+def test_killed_worker_task_reruns_and_projects_stay_intact(projects):
+    from odsuite.core.batch import run_batch
+    from odsuite.core.project import open_project
+
+    killed: dict = {}
+    cluster = _cluster()
+    try:
+        res = run_batch("diagnose", projects, scheduler=cluster.scheduler_address,
+                        options={"effects": ["stiffness"]},
+                        on_submitted=lambda c, f: _kill_first_busy_worker(c, f, killed))
+    finally:
+        cluster.close()
+    assert killed, "no worker was killed"
+    assert res.counts["ok"] == len(projects), res.projects
+    # the task that was running when its worker died finished in another process
+    assert any(r["pid"] != killed["pid"] for r in res.projects if r["project"] in killed["projects"])
+    for r in res.projects:
+        top = r["result"]["candidates"][0]
+        assert top["effect"] == "stiffness"
+    # the same numbers as an undisturbed in-process diagnosis
+    from odsuite.core.diagnosis import diagnose
+
+    with open_project(projects[0]) as p:
+        direct = diagnose(p, effects=["stiffness"], workers=1).as_dict()
+    assert math.isclose(res.projects[0]["result"]["candidates"][0]["error_after"],
+                        direct["candidates"][0]["error_after"], rel_tol=1e-9)
+    for path in projects:
+        with open_project(path) as p:
+            assert sum(p.verify().values()) > 0
+
+
+def test_killed_worker_without_retries_is_reported(projects):
+    from odsuite.core.batch import run_batch
+
+    killed: dict = {}
+    cluster = _cluster(**{"distributed.scheduler.allowed-failures": 0})
+    try:
+        res = run_batch("add-effect", projects, scheduler=cluster.scheduler_address, options={"effect": "stiffness"},
+                        on_submitted=lambda c, f: _kill_first_busy_worker(c, f, killed))
+    finally:
+        cluster.close()
+    assert killed
+    lost = [r for r in res.projects if r["status"] == "not-run"]
+    assert lost and {r["project"] for r in lost} <= set(killed["projects"])
+    assert all(r["status"] in ("ok", "not-run") for r in res.projects)
+    assert "KilledWorker" in lost[0]["error"]
+    assert res.counts["ok"] == len(projects) - len(lost)
+    from odsuite.core.project import open_project
+
+    for path in projects:  # the killed write left its project as it was or whole
+        with open_project(path) as p:
+            p.verify()
