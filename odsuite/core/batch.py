@@ -89,7 +89,7 @@ def _diagnose(path: Path, options: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def _history(path: Path, options: Mapping[str, Any]) -> dict[str, Any]:
-    from odsuite.core.modelrev import history
+    from odsuite.core.history import history
     from odsuite.core.project import open_project
 
     with open_project(path) as p:
@@ -111,19 +111,25 @@ def _output(path: Path, options: Mapping[str, Any], suffix: str) -> Path:
     return out / f"{path.stem}{suffix}"
 
 
-def _report(path: Path, options: Mapping[str, Any]) -> dict[str, Any]:
-    from odsuite.core.report import build_report
+def _render_with(renderer, path: Path, experiment: str | None, output: Path, options: Mapping[str, Any]
+                 ) -> dict[str, Any]:
+    from odsuite.core.renderers import RenderRequest
 
-    res = build_report(path, _output(path, options, "-report.html"), run_diagnosis=not options.get("no_diagnose"),
-                       movie=not options.get("no_movie"))
-    return {"path": res.path, "size_bytes": res.size_bytes, "error": res.error, "sections": res.sections,
-            "movie_experiment": res.movie_experiment, "notes": res.notes}
+    res = renderer.render(RenderRequest(path, experiment, output, options, progress=False))
+    return {"path": res.path, "summary": res.summary, "notes": list(res.notes)}
+
+
+def _report(path: Path, options: Mapping[str, Any]) -> dict[str, Any]:
+    from odsuite.core.plugins import registries
+
+    return _render_with(registries().renderers.get("report"), path, None, _output(path, options, "-report.html"),
+                        {"run_diagnosis": not options.get("no_diagnose"), "movie": not options.get("no_movie")})
 
 
 def _render(path: Path, options: Mapping[str, Any]) -> dict[str, Any]:
-    from odsuite_plugins.renderers.experiment import render_experiment
-
+    from odsuite.core.plugins import registries
     from odsuite.core.project import open_project
+    from odsuite.core.renderers import choose_renderer
 
     experiment = options.get("experiment")
     if experiment is None:
@@ -133,13 +139,10 @@ def _render(path: Path, options: Mapping[str, Any]) -> dict[str, Any]:
             raise ConfigError(f"{path}: no experiment to render")
         experiment = names[0]
     figure = options.get("figure")
-    suffix = f"-{experiment}" + (".mp4" if figure is None else f"-{figure}.png")
-    res = render_experiment(path, experiment, _output(path, options, suffix), model=bool(options.get("model")),
-                            figure=figure, workers=1, progress=False)
-    if figure is not None:
-        return {"path": res, "experiment": experiment}
-    return {"path": res.path, "experiment": experiment, "format": res.format, "n_frames": res.n_frames,
-            "fps": res.fps, "notes": res.notes}
+    output = _output(path, options, f"-{experiment}" + (".mp4" if figure is None else f"-{figure}.png"))
+    renderer = choose_renderer(registries().renderers, output, figure, "figure" if figure else "movie")
+    opts = {"model": bool(options.get("model")) or None, **({} if figure else {"workers": 1})}
+    return {**_render_with(renderer, path, experiment, output, opts), "experiment": experiment}
 
 
 #: command -> (function, whether it writes the project)

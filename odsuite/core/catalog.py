@@ -190,17 +190,14 @@ def _with_errors(project, revisions: list[dict]) -> list[dict]:
 
 def _index_project(db: sqlite3.Connection, key: str, path: Path, compute_errors: bool = False) -> dict[str, Any]:
     """Read one project and replace its rows (the caller commits); returns its projects row.
-    The file's dates are read from its attributes directly: ``Project.info()`` would also scan
-    every record for its peaks, which a catalogue of large projects cannot afford."""
-    from odsuite.core import h5text
-    from odsuite.core.project import _Attrs, open_project
+    The file's dates come from ``Project.file_times``: ``Project.info()`` would also scan every
+    record for its peaks, which a catalogue of large projects cannot afford."""
+    from odsuite.core.project import open_project
 
     for table in TABLES[1:]:
         db.execute(f"DELETE FROM {table} WHERE project = ?", (key,))
     with open_project(path) as p:
-        attrs = _Attrs(p._file())
-        created = h5text.text(attrs["file_time"])
-        updated = h5text.text(attrs.get("file_update_time", "")) or created
+        created, updated = p.file_times
         rig = p.rig
         if rig is not None:
             db.executemany("INSERT INTO bodies VALUES (?, ?, ?, ?)",

@@ -367,6 +367,14 @@ class Project:
     def format_version(self) -> str:
         return h5text.text(Attrs(self._file())["odsuite_format_version"])
 
+    @property
+    @_reads("root attributes")
+    def file_times(self) -> tuple[str, str]:
+        """When the file was created and last updated (ISO 8601), without reading any record."""
+        a = Attrs(self._file())
+        created = h5text.text(a["file_time"])
+        return created, h5text.text(a.get("file_update_time", "")) or created
+
     # -- experiments
 
     @_reads("/experiments")

@@ -10,7 +10,6 @@ import math
 import os
 import shutil
 import signal
-import threading
 import time
 from pathlib import Path
 
@@ -46,7 +45,7 @@ def _digest(path: Path) -> str:
 
 
 def _direct_history(path: Path) -> dict:
-    from odsuite.core.modelrev import history
+    from odsuite.core.history import history
     from odsuite.core.project import open_project
 
     with open_project(path) as p:
