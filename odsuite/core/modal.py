@@ -213,13 +213,13 @@ def _lsfd_basis(freq: np.ndarray, poles: np.ndarray, form: str, residuals: bool 
 
 
 def _line_weights(H: np.ndarray) -> np.ndarray:
-    """1 / the FRFs' level smoothed over 5 % of the lines: every part of the band counts alike in
+    """1 / the FRFs' level smoothed over 20 % of the lines: every part of the band counts alike in
     the least squares (a receptance of a free structure is 10^4 times larger at 1 Hz than at its
     modes, and its low-frequency noise would otherwise decide the residues)."""
     import scipy.ndimage
 
     level = np.sqrt(np.mean(np.abs(H) ** 2, axis=0))
-    level = scipy.ndimage.median_filter(level, max(3, H.shape[1] // 20) | 1, mode="nearest")
+    level = scipy.ndimage.median_filter(level, max(3, H.shape[1] // 5) | 1, mode="nearest")
     return 1.0 / np.maximum(level, np.finfo(float).tiny)
 
 
@@ -256,10 +256,14 @@ def modal_terms(freq: np.ndarray, poles: np.ndarray, residues: np.ndarray, form:
 
 
 #: A pole's own term must make up at least this fraction of the measured |H| at its resonance
-#: (largest over the outputs): a lone mode gives 1, two equal modes a bandwidth apart 0.79;
-#: a pole fitted to an anti-resonance, where neighbouring modes cancel, explains little (0.27 for
-#: the spurious 1202 Hz pole of the LADISK beam).
+#: (largest over the outputs): a lone mode gives 1, two equal modes a bandwidth apart 0.79; a
+#: pole fitted to noise explains little.
 MIN_DOMINANCE = 0.5
+#: |H| at the pole over |H| at 3 half-power bandwidths either side, largest over the outputs,
+#: must reach this: a lone mode's own term has fallen to 16 % there, so a measured FRF that is
+#: higher on a side rises away from the pole (anti-resonance flank: 0.37 for the spurious
+#: 1202 Hz pole of the LADISK beam, 1.4 for its weakest real mode at 2777 Hz).
+MIN_PROMINENCE = 1.0
 #: Largest relative rms misfit of the synthesised FRF within +-3 half-power bandwidths of a pole
 #: (measured modes of the LADISK beam fit to 1-6 %).
 MAX_SYNTHESIS_ERROR = 0.3
@@ -267,25 +271,30 @@ MAX_SYNTHESIS_ERROR = 0.3
 
 def check_poles(
     freq: np.ndarray, H: np.ndarray, poles: np.ndarray, form: str = "accelerance"
-) -> tuple[np.ndarray, np.ndarray]:
-    """FRF-synthesis check per pole: (dominance, synthesis error). Dominance is the largest over
-    the outputs of |own term| / |measured H| at the pole's frequency; the synthesis error is
-    ||H_synth - H|| / ||H|| over the lines within 3 half-power bandwidths (at least 3 lines) of
-    it, H_synth being the sum of every selected pole's term plus the LSFD residual terms."""
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """FRF-synthesis check per pole: (dominance, synthesis error, prominence). Dominance is the
+    largest over the outputs of |own term| / |measured H| at the pole's frequency; the synthesis
+    error is ||H_synth - H|| / ||H|| over the lines within 3 half-power bandwidths (at least 3
+    lines) of it, H_synth being the sum of every selected pole's term plus the LSFD residual
+    terms; prominence: see ``MIN_PROMINENCE``."""
     freq, H = _check(freq, H)
     poles = np.asarray(poles, dtype=complex)
     coef = _lsfd_coefficients(freq, H, poles, form)
     synth = (_lsfd_basis(freq, poles, form) @ coef).T
     terms = modal_terms(freq, poles, _residues(coef, poles.size), form)
-    dominance, error = np.zeros(poles.size), np.zeros(poles.size)
+    tiny = np.finfo(float).tiny
+    dominance, error, prominence = np.zeros(poles.size), np.zeros(poles.size), np.zeros(poles.size)
     for r, p in enumerate(poles):
         f0 = abs(p) / (2 * np.pi)
         i = int(np.argmin(np.abs(freq - f0)))
-        dominance[r] = np.max(np.abs(terms[:, i, r]) / np.maximum(np.abs(H[:, i]), np.finfo(float).tiny))
+        dominance[r] = np.max(np.abs(terms[:, i, r]) / np.maximum(np.abs(H[:, i]), tiny))
         half = max(3 * (-p.real / (2 * np.pi)) * 2, 1.5 * np.median(np.diff(freq)))  # 3 bandwidths 2 zeta f
         near = np.abs(freq - f0) <= half
-        error[r] = np.linalg.norm(synth[:, near] - H[:, near]) / max(np.linalg.norm(H[:, near]), np.finfo(float).tiny)
-    return dominance, error
+        error[r] = np.linalg.norm(synth[:, near] - H[:, near]) / max(np.linalg.norm(H[:, near]), tiny)
+        at = [np.interp(f0 + d, freq, np.abs(h)) for h in H for d in (-half, 0.0, half)]
+        at = np.reshape(at, (H.shape[0], 3))
+        prominence[r] = np.max(at[:, 1] / np.maximum(at[:, [0, 2]].max(axis=1), tiny))
+    return dominance, error, prominence
 
 
 def normalise_shapes(residues: np.ndarray) -> np.ndarray:
@@ -299,7 +308,7 @@ def identify_modes(
     freq: np.ndarray,
     H: np.ndarray,
     *,
-    f_band: tuple[float, float] | None = None,
+    f_band: tuple[float | None, float | None] | None = None,
     max_order: int = 50,
     frequencies: list[float] | None = None,
     form: str = "accelerance",
@@ -310,15 +319,16 @@ def identify_modes(
     n_averages: int = 1,
 ) -> ModalResult:
     """LSCF stabilisation diagram -> pole selection -> LSFD residues on the band ``f_band``
-    (default: ``frf.usable_band`` of the force autospectrum and coherence when given, else the
-    whole FRF without 0 Hz). Automatic selection then drops poles that fail ``check_poles`` (named
+    (default, also for an edge given as None: ``frf.usable_band`` of the force autospectrum and
+    coherence when given, else the whole FRF without 0 Hz). Automatic selection then drops poles that fail ``check_poles`` (named
     in ``rejected``); poles asked for with ``frequencies`` are kept. ``window_tau`` (s): the FRFs
     were measured with an exponential window of that time constant; the reported poles have its
     damping removed."""
     freq, H = _check(freq, H)
-    if f_band is None:
-        f_band = usable_band(freq, force_autospectrum, coherence, n_averages)
-    lo, hi = f_band
+    lo, hi = f_band if f_band is not None else (None, None)
+    if lo is None or hi is None:
+        data_lo, data_hi = usable_band(freq, force_autospectrum, coherence, n_averages)
+        lo, hi = data_lo if lo is None else lo, data_hi if hi is None else hi
     keep = (freq >= lo) & (freq <= hi) & (freq > 0)
     if keep.sum() <= max_order:
         raise ConfigError(f"band {lo}..{hi} Hz holds {keep.sum()} lines; model order {max_order} needs more")
@@ -327,15 +337,18 @@ def identify_modes(
     poles, stable_orders = select_poles(diagram, frequencies=frequencies)
     rejected: list[str] = []
     while frequencies is None and poles.size:
-        dominance, error = check_poles(f, h, poles, form)
+        dominance, error, prominence = check_poles(f, h, poles, form)
         # how far each pole is from passing (> 1: fails); drop the worst only, as its removal
         # changes the others' fit
-        badness = np.maximum(MIN_DOMINANCE / np.maximum(dominance, 1e-12), error / MAX_SYNTHESIS_ERROR)
-        if badness.max() <= 1:
+        shortfall = np.stack([MIN_DOMINANCE / np.maximum(dominance, 1e-12), error / MAX_SYNTHESIS_ERROR,
+                              MIN_PROMINENCE / np.maximum(prominence, 1e-12)])
+        if shortfall.max() <= 1:
             break
-        worst = int(np.argmax(badness))
-        why = (f"explains {100 * dominance[worst]:.0f} % of |H| there (anti-resonance or noise)"
-               if dominance[worst] < MIN_DOMINANCE else f"synthesis misfit {100 * error[worst]:.0f} % near it")
+        worst = int(np.argmax(shortfall.max(axis=0)))
+        why = [f"its own term explains {100 * dominance[worst]:.0f} % of |H| there",
+               f"synthesis misfit {100 * error[worst]:.0f} % near it",
+               f"|H| there is {prominence[worst]:.2f} x its level 3 bandwidths away (no peak: anti-resonance "
+               "flank or noise)"][int(np.argmax(shortfall[:, worst]))]
         rejected.append(f"{abs(poles[worst]) / (2 * np.pi):.2f} Hz: {why}")
         poles, stable_orders = np.delete(poles, worst), np.delete(stable_orders, worst)
     if poles.size == 0:

@@ -133,14 +133,16 @@ def experiment_frf(
 def experiment_modes(
     project: str | Path, experiment: str, *, f_band: tuple[float, float] | None = None,
     max_order: int = 50, frequencies: list[float] | None = None,
-) -> ModalResult:
-    """Modes identified from the experiment's FRFs (computed first when not stored); the default
-    band is where the hammer's force spectrum and the coherence are usable (``frf.usable_band``)."""
+) -> tuple[ModalResult, FrfSet]:
+    """Modes identified from the experiment's FRFs, and those FRFs; the default band (or a
+    missing edge of ``f_band``) is where the hammer's force spectrum and the coherence are usable
+    (``frf.usable_band``)."""
     frf, _ = experiment_frf(project, experiment)
-    return identify_modes(frf.frequency, frf.H, f_band=f_band, max_order=max_order,
-                          frequencies=frequencies, output_names=frf.output_names,
-                          force_autospectrum=frf.force_autospectrum, coherence=frf.coherence,
-                          n_averages=frf.n_averages)
+    res = identify_modes(frf.frequency, frf.H, f_band=f_band, max_order=max_order,
+                         frequencies=frequencies, output_names=frf.output_names,
+                         force_autospectrum=frf.force_autospectrum, coherence=frf.coherence,
+                         n_averages=frf.n_averages)
+    return res, frf
 
 
 def ods_coordinates(project, experiment: str, frequency_hz: float) -> dict[str, np.ndarray]:
