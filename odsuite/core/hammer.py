@@ -118,7 +118,9 @@ def is_clipped(signal: np.ndarray, *, limits: tuple[float, float] | None = None,
     (files in engineering units): clipped when a sample lies within 1.5 codes of a limit (the top
     code of an n-bit converter is one code below its high limit). Flat top: the record's largest
     or smallest value held for ``run`` (>= 3) or more consecutive samples and entered and left
-    steeply (``_steep_codes``): an amplifier or sensor saturating below the converter's range. A
+    steeply (``_steep_codes``), at least half as far from the median as the largest excursion
+    (a hammer pulse's quiet side is its baseline): an amplifier or sensor saturating below the
+    converter's range. A
     quantised but unclipped peak also sits on its top code for several samples, with neighbours
     a code or two away, and passes."""
     x = np.asarray(signal, dtype=float)
@@ -130,7 +132,11 @@ def is_clipped(signal: np.ndarray, *, limits: tuple[float, float] | None = None,
     if limits is not None and (x.min() <= limits[0] + 1.5 * step or x.max() >= limits[1] - 1.5 * step):
         return True
     steep = _steep_codes(run) * step
+    baseline = np.median(x)
+    reach = np.abs(x - baseline).max()
     for extreme, sign in ((x.max(), 1.0), (x.min(), -1.0)):
+        if sign * (extreme - baseline) < 0.5 * reach:
+            continue  # the quiet side of a one-sided pulse: its extreme is the baseline, not a limit
         at = np.concatenate(([0], (x == extreme).astype(np.int8), [0]))
         edges = np.diff(at)
         for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True):
