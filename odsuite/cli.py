@@ -354,28 +354,38 @@ def modes_cmd(
     experiment: str = typer.Option(..., "--experiment", help="Experiment name."),
     f_min: float = typer.Option(None, "--fmin", help="Lowest frequency of the fit band (Hz)."),
     f_max: float = typer.Option(None, "--fmax", help="Highest frequency of the fit band (Hz)."),
-    max_order: int = typer.Option(50, "--max-order", help="Highest LSCF model order."),
+    max_order: int = typer.Option(50, "--max-order", help="Highest model order (LSCF; SSI-cov state size with --output-only)."),
     at: str = typer.Option(None, "--at", help="Pick poles nearest these frequencies: f1,f2,... (Hz)."),
     figure: Path = typer.Option(None, "--figure", help="Write the stabilisation diagram (.png, .svg, .pdf)."),
+    output_only: bool = typer.Option(False, "--output-only", help="From the responses alone (SSI-cov): operating data, no force."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
     """Natural frequencies, damping ratios and mode shapes identified from measured FRFs (default
-    band: where the hammer's force spectrum and the coherence are usable)."""
+    band: where the hammer's force spectrum and the coherence are usable), or with --output-only
+    from the responses alone."""
     import json
 
     from odsuite.core.errors import ConfigError
-    from odsuite.core.modal_project import experiment_modes
+    from odsuite.core.modal_project import experiment_modes, experiment_output_only_modes
 
     try:
         freqs = [float(v) for v in at.split(",")] if at else None
     except ValueError:
         raise ConfigError(f"--at {at!r}: expected comma-separated frequencies in Hz") from None
     band = None if f_min is None and f_max is None else (f_min, f_max)
-    res, frf = experiment_modes(project, experiment, f_band=band, max_order=max_order, frequencies=freqs)
+    if output_only:
+        if freqs is not None:
+            raise ConfigError("--at picks poles of the FRF fit; it does not combine with --output-only")
+        res, freq, spectrum = experiment_output_only_modes(project, experiment, f_band=band, max_order=max_order)
+        background = "rms amplitude spectrum of the outputs (unit/√Hz)"
+    else:
+        res, frf = experiment_modes(project, experiment, f_band=band, max_order=max_order, frequencies=freqs)
+        freq, spectrum, background = frf.frequency, frf.H, "rms |H| of the outputs (FRF units)"
     if figure is not None:
         from odsuite.core.modal_figures import stabilisation_figure
 
-        stabilisation_figure(res, frf.frequency, frf.H, figure, title=f"stabilisation diagram of {experiment}")
+        stabilisation_figure(res, freq, spectrum, figure, title=f"stabilisation diagram of {experiment}",
+                             background=background)
     for note in res.rejected:
         err_console.print(f"note: stable pole not taken as a mode: {note}", highlight=False)
     if as_json:

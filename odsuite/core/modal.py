@@ -51,6 +51,7 @@ class ModalResult:
     band_hz: tuple[float, float] | None = None
     stable_orders: np.ndarray | None = None  # per mode: model orders with a stable pole there
     rejected: list[str] = field(default_factory=list)  # stable poles not reported, with the reason
+    output_only: bool = False  # identified from responses alone (shapes unscaled)
 
     @property
     def frequency_hz(self) -> np.ndarray:
@@ -61,11 +62,12 @@ class ModalResult:
         return -self.poles.real / np.abs(self.poles)
 
     def to_dict(self) -> dict:
-        """JSON-ready: {"band_hz": [lo, hi], "modes": [{"frequency_hz", "damping_ratio",
-        "stable_orders", "shape": {name: [re, im]}}]}."""
+        """JSON-ready: {"band_hz": [lo, hi], "output_only": bool, "modes": [{"frequency_hz",
+        "damping_ratio", "stable_orders", "shape": {name: [re, im]}}]}."""
         names = self.output_names or [f"response {k}" for k in range(self.shapes.shape[0])]
         return {
             "band_hz": None if self.band_hz is None else [float(v) for v in self.band_hz],
+            "output_only": self.output_only,
             "modes": [
                 {
                     "frequency_hz": float(self.frequency_hz[r]),
@@ -87,6 +89,31 @@ def _check(freq: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if freq.size < 4 or np.any(np.diff(freq) <= 0):
         raise DimensionError("FRF frequencies must be at least 4 ascending lines")
     return freq, H
+
+
+def physical_poles(lam: np.ndarray, f_band: tuple[float, float], max_damping: float) -> np.ndarray:
+    """The poles of positive frequency inside ``f_band`` (Hz) with 0 < zeta < ``max_damping``,
+    ascending in frequency."""
+    lam = np.asarray(lam, dtype=complex)
+    wn = np.abs(lam)
+    zeta = -lam.real / np.where(wn > 0, wn, 1)
+    keep = (lam.imag > 0) & (zeta > 0) & (zeta < max_damping)
+    keep &= (wn / (2 * np.pi) >= f_band[0]) & (wn / (2 * np.pi) <= f_band[1])
+    return lam[keep][np.argsort(wn[keep])]
+
+
+def stability_flags(prev: np.ndarray, lam: np.ndarray, tol_f: float, tol_zeta: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per pole of this order: frequency within ``tol_f`` of the nearest pole of the previous
+    order, and (then) damping within ``tol_zeta`` of that pole's too."""
+    sf = np.zeros(lam.size, bool)
+    sz = np.zeros(lam.size, bool)
+    if prev.size:
+        for i, p in enumerate(lam):
+            q = prev[np.argmin(np.abs(np.abs(prev) - np.abs(p)))]
+            sf[i] = abs(abs(p) - abs(q)) <= tol_f * abs(q)
+            zp, zq = -p.real / abs(p), -q.real / abs(q)
+            sz[i] = sf[i] and abs(zp - zq) <= tol_zeta * zq
+    return sf, sz
 
 
 def lscf(
@@ -122,21 +149,8 @@ def lscf(
         alpha = np.append(np.linalg.lstsq(Mm[:m, :m], -Mm[:m, m], rcond=None)[0], 1.0)
         z = np.roots(alpha[::-1])
         z = z[np.isfinite(z) & (z != 0)]
-        lam = np.log(z.astype(complex)) / ts  # np.roots gives a real array when all roots are real
-        wn = np.abs(lam)
-        zeta = -lam.real / np.where(wn > 0, wn, 1)
-        keep = (lam.imag > 0) & (zeta > 0) & (zeta < max_damping)
-        keep &= (wn / (2 * np.pi) >= freq[0]) & (wn / (2 * np.pi) <= freq[-1])
-        lam = lam[keep][np.argsort(np.abs(lam[keep]))]
-        sf = np.zeros(lam.size, bool)
-        sz = np.zeros(lam.size, bool)
-        if prev.size:
-            for i, p in enumerate(lam):
-                j = np.argmin(np.abs(np.abs(prev) - np.abs(p)))
-                q = prev[j]
-                sf[i] = abs(abs(p) - abs(q)) <= tol_f * abs(q)
-                zp, zq = -p.real / abs(p), -q.real / abs(q)
-                sz[i] = sf[i] and abs(zp - zq) <= tol_zeta * zq
+        lam = physical_poles(np.log(z.astype(complex)) / ts, (freq[0], freq[-1]), max_damping)
+        sf, sz = stability_flags(prev, lam, tol_f, tol_zeta)
         orders.append(m)
         poles.append(lam)
         stable_f.append(sf)

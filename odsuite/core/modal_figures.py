@@ -33,10 +33,12 @@ def _save(fig, path: Path):
 
 
 def stabilisation_figure(result: ModalResult, freq: np.ndarray, H: np.ndarray, path: str | Path, *,
-                         title: str = "stabilisation diagram"):
+                         title: str = "stabilisation diagram",
+                         background: str = "rms |H| of the outputs (FRF units)"):
     """Poles per model order over the fit band (grey: new, blue: frequency stable, red: frequency
     and damping stable), the chosen modes as labelled lines with their stable-order counts, and
-    the FRFs' rms magnitude on a log axis behind them."""
+    the rms over outputs of ``H`` (FRFs, or amplitude spectra for output-only modes, named by
+    ``background``) on a log axis behind them."""
     if result.diagram is None or result.band_hz is None:
         raise ConfigError("stabilisation figure: the modal result holds no stabilisation diagram")
     d = result.diagram
@@ -60,7 +62,8 @@ def stabilisation_figure(result: ModalResult, freq: np.ndarray, H: np.ndarray, p
     for k, (f, z) in enumerate(zip(result.frequency_hz, result.damping_ratio, strict=True)):
         ax.axvline(f, color="k", lw=0.8, ls="--")
         n = "" if result.stable_orders is None else f", {int(result.stable_orders[k])} orders"
-        ax.annotate(f"{f:.1f} Hz\nζ = {100 * z:.2f} %{n}", (f, max(d.orders) + 1), fontsize=8,
+        top = max(d.orders) + 1 - (k % 3) * 0.14 * max(d.orders)  # staggered: close modes stay readable
+        ax.annotate(f"{f:.1f} Hz\nζ = {100 * z:.2f} %{n}", (f, top), fontsize=8,
                     ha="left", va="top", xytext=(3, 0), textcoords="offset points",
                     bbox={"boxstyle": "round", "fc": "white", "ec": "0.6", "alpha": 0.85})
     freq = np.asarray(freq, dtype=float)
@@ -68,7 +71,7 @@ def stabilisation_figure(result: ModalResult, freq: np.ndarray, H: np.ndarray, p
     keep = (freq >= result.band_hz[0]) & (freq <= result.band_hz[1])
     mag = ax.twinx()
     mag.semilogy(freq[keep], np.sqrt(np.mean(np.abs(H[:, keep]) ** 2, axis=0)), color="tab:green", lw=0.8)
-    mag.set_ylabel("rms |H| of the outputs (FRF units)", color="tab:green")
+    mag.set_ylabel(background, color="tab:green")
     ax.set_zorder(mag.get_zorder() + 1)
     ax.patch.set_visible(False)
     ax.legend(loc="lower right", fontsize=8, framealpha=0.9)

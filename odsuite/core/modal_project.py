@@ -145,6 +145,29 @@ def experiment_modes(
     return res, frf
 
 
+def experiment_output_only_modes(
+    project: str | Path, experiment: str, *, f_band: tuple[float | None, float | None] | None = None,
+    max_order: int = 40,
+) -> tuple[ModalResult, np.ndarray, np.ndarray]:
+    """Modes from the experiment's responses alone (SSI-cov, ``oma.identify_output_only``): every
+    channel but the force channel, in SI units. Returns the modes and the responses' rms power
+    spectral density (frequencies in Hz, PSD in unit^2/Hz) for the stabilisation figure."""
+    import scipy.signal
+
+    from odsuite.core.oma import identify_output_only
+
+    with open_project(project) as p:
+        exp = p.experiment(experiment)
+        data = _physical(exp)
+        force = exp.excitation.force_channel if exp.excitation is not None else None
+        outs = [k for k in range(exp.n_channels) if k != force]
+        names = [exp.channel_names[k] for k in outs]
+        fs = exp.sampling_rate
+    res = identify_output_only(data[:, outs], fs, f_band=f_band, max_order=max_order, output_names=names)
+    freq, psd = scipy.signal.welch(data[:, outs], fs, nperseg=min(4096, data.shape[0]), axis=0)
+    return res, freq, np.sqrt(psd.T)
+
+
 def ods_coordinates(project, experiment: str, frequency_hz: float) -> dict[str, np.ndarray]:
     """Operating deflection shape at ``frequency_hz`` as rigid-body motion: per nine-sensor body,
     complex generalized coordinates at G (m and rad per newton of a harmonic force at the
