@@ -387,7 +387,7 @@ def modes_cmd(
         stabilisation_figure(res, freq, spectrum, figure, title=f"stabilisation diagram of {experiment}",
                              background=background)
     for note in res.rejected:
-        err_console.print(f"note: stable pole not taken as a mode: {note}", highlight=False)
+        err_console.print(f"note: stable pole not taken as a mode: {note}", highlight=False, soft_wrap=True)
     if as_json:
         print(json.dumps(res.to_dict()))
         return
