@@ -331,6 +331,7 @@ def frf_cmd(
     figure: Path = typer.Option(None, "--figure", help="Write magnitude, phase and coherence (.png, .svg, .pdf)."),
 ) -> None:
     """FRFs over the accepted hammer hits of an experiment (stored as derived 'frf')."""
+    from odsuite.core.errors import ConfigError
     from odsuite.core.frf import usable_band
     from odsuite.core.modal_project import experiment_frf
 
@@ -338,9 +339,13 @@ def frf_cmd(
     for h in hits:
         state = "accepted" if h.accepted else "rejected: " + ", ".join(h.reasons)
         console.print(f"hit at sample {h.peak_index} ({h.peak_force:.4g} N): {state}", highlight=False)
-    band = usable_band(frf.frequency, frf.force_autospectrum, frf.coherence, frf.n_averages)
+    try:
+        band = usable_band(frf.frequency, frf.force_autospectrum, frf.coherence, frf.n_averages)
+        usable = f"usable band {band[0]:.1f}-{band[1]:.1f} Hz"
+    except ConfigError as exc:  # the FRFs are stored all the same: say why no band, do not fail
+        band, usable = None, str(exc).split(";")[0]
     console.print(f"{estimator} FRFs of {len(frf.output_names)} channels, {frf.n_averages} averages, "
-                  f"{frf.frequency.size} lines, usable band {band[0]:.1f}-{band[1]:.1f} Hz", highlight=False)
+                  f"{frf.frequency.size} lines, {usable}", highlight=False)
     if figure is not None:
         from odsuite.core.modal_figures import frf_figure
 

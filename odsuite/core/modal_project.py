@@ -1,4 +1,5 @@
-"""Hammer-test workflow on a project: import LabVIEW records, FRFs per experiment, identified modes.
+"""Hammer-test workflow on a project: import LabVIEW records, FRFs per experiment, identified modes
+(from the FRFs, or from the responses alone for operating records).
 
 Experiments imported from engineering-unit files store those values as the raw column with a
 sensitivity that converts them to SI (1 V per unit, g -> m/s^2 through 1/9.81 V per m/s^2).
