@@ -341,16 +341,29 @@ def frf_cmd(
     project: Path = typer.Argument(..., help="Project file."),
     experiment: str = typer.Option(..., "--experiment", help="Experiment name."),
     estimator: str = typer.Option("H1", "--estimator", help="H1, H2 or Hv."),
+    figure: Path = typer.Option(None, "--figure", help="Write magnitude, phase and coherence (.png, .svg, .pdf)."),
 ) -> None:
     """FRFs over the accepted hammer hits of an experiment (stored as derived 'frf')."""
+    from odsuite.core.errors import ConfigError
+    from odsuite.core.frf import usable_band
     from odsuite.core.modal_project import experiment_frf
 
     frf, hits = experiment_frf(project, experiment, estimator=estimator)
     for h in hits:
         state = "accepted" if h.accepted else "rejected: " + ", ".join(h.reasons)
-        console.print(f"hit at sample {h.peak_index} ({h.peak_force:.4g}): {state}", highlight=False)
+        console.print(f"hit at sample {h.peak_index} ({h.peak_force:.4g} N): {state}", highlight=False)
+    try:
+        band = usable_band(frf.frequency, frf.force_autospectrum, frf.coherence, frf.n_averages)
+        usable = f"usable band {band[0]:.1f}-{band[1]:.1f} Hz"
+    except ConfigError as exc:  # the FRFs are stored all the same: say why no band, do not fail
+        band, usable = None, str(exc).split(";")[0]
     console.print(f"{estimator} FRFs of {len(frf.output_names)} channels, {frf.n_averages} averages, "
-                  f"{frf.frequency.size} lines", highlight=False)
+                  f"{frf.frequency.size} lines, {usable}", highlight=False)
+    if figure is not None:
+        from odsuite.core.modal_figures import frf_figure
+
+        frf_figure(frf, figure, band_hz=band, title=f"FRFs of {experiment}")
+        console.print(f"wrote {figure}", highlight=False, soft_wrap=True)
 
 
 @app.command("modes")
@@ -359,31 +372,52 @@ def modes_cmd(
     experiment: str = typer.Option(..., "--experiment", help="Experiment name."),
     f_min: float = typer.Option(None, "--fmin", help="Lowest frequency of the fit band (Hz)."),
     f_max: float = typer.Option(None, "--fmax", help="Highest frequency of the fit band (Hz)."),
-    max_order: int = typer.Option(50, "--max-order", help="Highest LSCF model order."),
+    max_order: int = typer.Option(50, "--max-order", help="Highest model order (LSCF; SSI-cov state size with --output-only)."),
     at: str = typer.Option(None, "--at", help="Pick poles nearest these frequencies: f1,f2,... (Hz)."),
+    figure: Path = typer.Option(None, "--figure", help="Write the stabilisation diagram (.png, .svg, .pdf)."),
+    output_only: bool = typer.Option(False, "--output-only", help="From the responses alone (SSI-cov): operating data, no force."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
-    """Natural frequencies, damping ratios and mode shapes identified from measured FRFs."""
+    """Natural frequencies, damping ratios and mode shapes identified from measured FRFs (default
+    band: where the hammer's force spectrum and the coherence are usable), or with --output-only
+    from the responses alone."""
     import json
 
     from odsuite.core.errors import ConfigError
-    from odsuite.core.modal_project import experiment_modes
+    from odsuite.core.modal_project import experiment_modes, experiment_output_only_modes
 
     try:
         freqs = [float(v) for v in at.split(",")] if at else None
     except ValueError:
         raise ConfigError(f"--at {at!r}: expected comma-separated frequencies in Hz") from None
-    band = None if f_min is None and f_max is None else (f_min or 0.0, f_max or float("inf"))
-    res = experiment_modes(project, experiment, f_band=band, max_order=max_order, frequencies=freqs)
+    band = None if f_min is None and f_max is None else (f_min, f_max)
+    if output_only:
+        if freqs is not None:
+            raise ConfigError("--at picks poles of the FRF fit; it does not combine with --output-only")
+        res, freq, spectrum = experiment_output_only_modes(project, experiment, f_band=band, max_order=max_order)
+        background = "rms amplitude spectrum of the outputs (unit/√Hz)"
+    else:
+        res, frf = experiment_modes(project, experiment, f_band=band, max_order=max_order, frequencies=freqs)
+        freq, spectrum, background = frf.frequency, frf.H, "rms |H| of the outputs (FRF units)"
+    if figure is not None:
+        from odsuite.core.modal_figures import stabilisation_figure
+
+        stabilisation_figure(res, freq, spectrum, figure, title=f"stabilisation diagram of {experiment}",
+                             background=background)
+    for note in res.rejected:
+        err_console.print(f"note: stable pole not taken as a mode: {note}", highlight=False, soft_wrap=True)
     if as_json:
         print(json.dumps(res.to_dict()))
         return
-    table = Table(title=f"modes of {experiment}")
-    for col in ("mode", "f (Hz)", "damping ratio"):
+    lo, hi = res.band_hz
+    table = Table(title=f"modes of {experiment} ({lo:.1f}-{hi:.1f} Hz)")
+    for col in ("mode", "f (Hz)", "damping ratio", "stable orders"):
         table.add_column(col)
     for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio), start=1):
-        table.add_row(str(k), f"{f:.2f}", f"{z:.5f}")
+        table.add_row(str(k), f"{f:.2f}", f"{z:.5f}", str(res.stable_orders[k - 1]))
     console.print(table)
+    if figure is not None:
+        console.print(f"wrote {figure}", highlight=False, soft_wrap=True)
 
 
 @app.command("render")

@@ -30,15 +30,17 @@ class FrfSet:
     units: list[str]  # per output, e.g. "(m/s^2)/N"
     output_names: list[str]
     n_averages: int
+    force_autospectrum: np.ndarray | None = None  # |F|^2 per hit, averaged (N^2); None when unknown
 
     def band(self, f_low: float, f_high: float) -> FrfSet:
         """The lines with f_low <= f <= f_high."""
         keep = (self.frequency >= f_low) & (self.frequency <= f_high)
         if keep.sum() < 2:
             raise ConfigError(f"band {f_low}..{f_high} Hz holds fewer than 2 frequency lines")
+        gff = None if self.force_autospectrum is None else self.force_autospectrum[keep]
         return FrfSet(
             self.frequency[keep], self.H[:, keep], self.coherence[:, keep], self.estimator,
-            self.units, self.output_names, self.n_averages,
+            self.units, self.output_names, self.n_averages, gff,
         )
 
 
@@ -117,7 +119,61 @@ def estimate_frf(
         units=[f"{_group(u)}/{_group(force_unit)}" for u in runits],
         output_names=names,
         n_averages=int(count),
+        force_autospectrum=gff / count,
     )
+
+
+#: The band ends where the hammer's force autospectrum has fallen this far below its low-frequency
+#: level: the usual impact-testing rule is 10-20 dB; 10 dB (a third of the force amplitude) keeps
+#: the response at least 10 dB above what the same noise would give at low frequency.
+FORCE_DROP_DB = 10.0
+#: Largest normalised random error of |H1| a line may have to count as usable, Bendat & Piersol
+#: eps = sqrt(1 - coh) / (sqrt(coh) sqrt(2 n)) for n averages: 10 % keeps peak heights (and so
+#: residues) within 10 % at one standard deviation.
+MAX_RANDOM_ERROR = 0.1
+
+
+def usable_band(
+    frequency: np.ndarray,
+    force_autospectrum: np.ndarray | None = None,
+    coherence: np.ndarray | None = None,
+    n_averages: int = 1,
+) -> tuple[float, float]:
+    """The band (Hz) where the measurement supports a modal fit: from the first line above 0 Hz up
+    to where the force autospectrum (smoothed over 1 % of the lines) has dropped ``FORCE_DROP_DB``
+    below its low-frequency level (median over the lowest 5 % of the lines), narrowed to the
+    lines whose coherence over ``n_averages`` hits gives a random error of at most
+    ``MAX_RANDOM_ERROR`` (coherence of one hit is 1 by construction and says nothing)."""
+    import scipy.ndimage
+
+    f = np.asarray(frequency, dtype=float)
+    pos = np.flatnonzero(f > 0)
+    if pos.size < 4:
+        raise DimensionError(f"FRFs have {pos.size} lines above 0 Hz; a band needs at least 4")
+    lo_i, hi_i = int(pos[0]), int(f.size - 1)
+    width = max(3, f.size // 100) | 1  # odd, so the median filter is centred
+    if force_autospectrum is not None:
+        gff = scipy.ndimage.median_filter(np.asarray(force_autospectrum, dtype=float), width, mode="nearest")
+        ref = np.median(gff[pos[: max(4, f.size // 20)]])
+        low = np.flatnonzero((gff < ref * 10 ** (-FORCE_DROP_DB / 10)) & (f > 0))
+        if low.size and ref > 0:
+            hi_i = min(hi_i, int(low[0]) - 1)
+    if coherence is not None and n_averages > 1:
+        coh = np.clip(np.asarray(coherence, dtype=float), 1e-12, 1.0)
+        coh = coh[None, :] if coh.ndim == 1 else coh
+        # a line is usable when any output measures it well (several outputs: the best one)
+        eps = np.sqrt(1 - coh) / (np.sqrt(coh) * np.sqrt(2 * n_averages))
+        eps = scipy.ndimage.median_filter(eps.min(axis=0), width, mode="nearest")
+        good = np.flatnonzero((eps <= MAX_RANDOM_ERROR) & (f > 0))
+        if good.size:
+            lo_i, hi_i = max(lo_i, int(good[0])), min(hi_i, int(good[-1]))
+        else:
+            hi_i = lo_i
+    if hi_i - lo_i < 4:
+        raise ConfigError(
+            f"no usable band: the force spectrum falls {FORCE_DROP_DB:g} dB or the coherence drops "
+            f"below a {100 * MAX_RANDOM_ERROR:g} % random error within the first lines; give --fmin/--fmax")
+    return float(f[lo_i]), float(f[hi_i])
 
 
 def _group(unit: str) -> str:

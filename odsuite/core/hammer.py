@@ -7,6 +7,7 @@ units; indices are samples.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -95,18 +96,56 @@ def is_double_hit(force: np.ndarray, peak: int, *, level: float = 0.25, guard: i
     return bool(rest.size and rest.max() > level * abs(dev[peak]))
 
 
+def quantisation_step(signal: np.ndarray) -> float:
+    """The smallest difference between distinct sample values: the ADC code width of a converted
+    record (a finer number for unquantised data; 0 for a constant signal)."""
+    values = np.unique(np.asarray(signal, dtype=float))
+    return float(np.diff(values).min()) if values.size > 1 else 0.0
+
+
+def _steep_codes(run: int) -> float:
+    """How many codes a clipped flat top's neighbours must lie below it. A smooth (parabolic)
+    peak held within one code over ``run`` samples has curvature at most 1 code per ((run-1)/2)^2
+    samples^2, so its nearer neighbour lies at most ((run+1)/(run-1))^2 + 1 codes below (the +1:
+    rounding of both); twice that leaves room for noise (10 codes for run = 3)."""
+    return 2.0 * (((run + 1) / (run - 1)) ** 2 + 1.0)
+
+
 def is_clipped(signal: np.ndarray, *, limits: tuple[float, float] | None = None, run: int = 3) -> bool:
-    """True when the signal reaches its range ``limits`` (low, high) or shows a flat top: its
-    largest or smallest value held for ``run`` or more consecutive samples."""
+    """True when the signal reaches its converter's range or shows a clipped flat top.
+
+    ``limits``: the ADC's input range (low, high) in the signal's own units, None when unknown
+    (files in engineering units): clipped when a sample lies within 1.5 codes of a limit (the top
+    code of an n-bit converter is one code below its high limit). Flat top: the record's largest
+    or smallest value held for ``run`` (>= 3) or more consecutive samples and entered and left
+    steeply (``_steep_codes``), at least half as far from the median as the largest excursion
+    (a hammer pulse's quiet side is its baseline): an amplifier or sensor saturating below the
+    converter's range. A
+    quantised but unclipped peak also sits on its top code for several samples, with neighbours
+    a code or two away, and passes."""
     x = np.asarray(signal, dtype=float)
-    if limits is not None and (x.min() <= limits[0] or x.max() >= limits[1]):
+    if run < 3:
+        raise ConfigError(f"flat-top run {run} must be at least 3 samples")
+    if x.size == 0:
+        return False
+    step = quantisation_step(x)
+    if limits is not None and (x.min() <= limits[0] + 1.5 * step or x.max() >= limits[1] - 1.5 * step):
         return True
-    for extreme in (x.max(), x.min()):
-        at = (x == extreme).astype(np.int8)
-        if at.sum() >= run:
-            # longest run of consecutive samples at the extreme value
-            edges = np.diff(np.concatenate(([0], at, [0])))
-            if (np.flatnonzero(edges == -1) - np.flatnonzero(edges == 1)).max() >= run:
+    steep = _steep_codes(run) * step
+    baseline = np.median(x)
+    reach = np.abs(x - baseline).max()
+    for extreme, sign in ((x.max(), 1.0), (x.min(), -1.0)):
+        if sign * (extreme - baseline) < 0.5 * reach:
+            continue  # the quiet side of a one-sided pulse: its extreme is the baseline, not a limit
+        at = np.concatenate(([0], (x == extreme).astype(np.int8), [0]))
+        edges = np.diff(at)
+        for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True):
+            if b - a < run:
+                continue
+            # neighbours outside the record count as steep: the data end inside the flat top
+            before = sign * (extreme - x[a - 1]) if a > 0 else np.inf
+            after = sign * (extreme - x[b]) if b < x.size else np.inf
+            if min(before, after) > steep:
                 return True
     return False
 
@@ -156,17 +195,23 @@ def assess_hits(
     threshold: float = 0.2,
     double_hit_level: float = 0.25,
     force_limits: tuple[float, float] | None = None,
-    response_limits: tuple[float, float] | None = None,
+    response_limits: tuple[float, float] | Sequence[tuple[float, float] | None] | None = None,
     decay_limit: float | None = 0.01,
 ) -> list[Hit]:
     """Split a record into hits and judge each: rejected for a double hit, a clipped or overloaded
     force or response channel, or a record cut short by the data's end; noted (not rejected) when
     the response has not decayed below ``decay_limit`` x its peak at the record end (leakage: use
     an exponential window). Defaults: pretrigger 1 % of the record (at most the samples before the
-    first hit); records as long as the closest hits allow and the last hit's data reach."""
+    first hit); records as long as the closest hits allow and the last hit's data reach. Limits
+    are the converters' ranges in the signals' units (``is_clipped``); ``response_limits`` is one
+    range for every response or one per response channel."""
     f = np.asarray(force, dtype=float)
     r = _as_2d(responses, f.size)
     n = f.size
+    if response_limits is None or all(isinstance(v, (int, float, np.number)) for v in response_limits):
+        response_limits = [response_limits] * r.shape[1]
+    if len(response_limits) != r.shape[1]:
+        raise DimensionError(f"{len(response_limits)} response limits for {r.shape[1]} response channels")
     if record_length is not None and record_length < 8:
         raise ConfigError(f"record length {record_length} samples is too short for a hit")
     gap = record_length if record_length is not None else max(n // 64, 8)
@@ -198,7 +243,7 @@ def assess_hits(
             reasons.append("force clipped/overloaded")
         for c in range(r.shape[1]):
             seg = r[a:b, c]
-            if is_clipped(seg, limits=response_limits):
+            if is_clipped(seg, limits=response_limits[c]):
                 reasons.append(f"response channel {c} clipped/overloaded")
             if decay_limit is not None and seg.size > 20:
                 tail = np.abs(seg[-max(seg.size // 50, 4) :] - np.median(seg[: max(local_peak, 1)]))

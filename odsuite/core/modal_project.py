@@ -1,4 +1,5 @@
-"""Hammer-test workflow on a project: import LabVIEW records, FRFs per experiment, identified modes.
+"""Hammer-test workflow on a project: import LabVIEW records, FRFs per experiment, identified modes
+(from the FRFs, or from the responses alone for operating records).
 
 Experiments imported from engineering-unit files store those values as the raw column with a
 sensitivity that converts them to SI (1 V per unit, g -> m/s^2 through 1/9.81 V per m/s^2).
@@ -44,12 +45,16 @@ def import_lvm(project: str | Path, lvm_path: str | Path, name: str, force_chann
     """Add a LabVIEW ``.lvm`` record to a project as experiment ``name``; returns the name."""
     d = read_lvm(lvm_path)
     fidx = _force_index(d.channel_names, d.units, force_channel, str(lvm_path))
+    # a .lvm in engineering units holds no converter range: limits well above the peaks, so that
+    # volt limits are never applied to g or N (clipping is then told by flat tops alone)
+    limits = np.maximum(10.0, np.ceil(2 * np.abs(d.data).max(axis=0)))
     channels = []
     for k, (n, u) in enumerate(zip(d.channel_names, d.units)):
         stype, sens = _UNITS.get(u.strip().lower(), (SensorType.NONE, 1.0))
         if k == fidx:
             stype, sens = SensorType.LOADCELL, 1.0  # force values are newtons whatever the label says
-        channels.append(ChannelInfo(sensor_type=stype, location=n, sensitivity=sens, sampling_rate=d.sampling_rate))
+        channels.append(ChannelInfo(sensor_type=stype, location=n, sensitivity=sens, sampling_rate=d.sampling_rate,
+                                    limit_high=float(limits[k]), limit_low=-float(limits[k])))
     with open_project(project, "a") as p:
         p.add_experiment(
             name, d.data, sampling_rate=d.sampling_rate, systeminfo=Systeminfo(channels),
@@ -60,10 +65,26 @@ def import_lvm(project: str | Path, lvm_path: str | Path, name: str, force_chann
     return name
 
 
+def _scale(exp) -> np.ndarray:
+    """Per channel: SI units per stored raw unit."""
+    return np.array([(-1 if c.invert else 1) / (c.sensitivity * c.daq_gain) for c in exp.systeminfo.channels])
+
+
 def _physical(exp) -> np.ndarray:
-    raw = exp.raw()
-    scale = np.array([(-1 if c.invert else 1) / (c.sensitivity * c.daq_gain) for c in exp.systeminfo.channels])
-    return raw * scale
+    return exp.raw() * _scale(exp)
+
+
+def _converter_ranges(exp, data: np.ndarray) -> list[tuple[float, float] | None]:
+    """Each channel's converter range in the channel's SI units, None where unknown. The Systeminfo
+    DAQ limits are what the operator asked for; a card then picks the smallest hardware range
+    holding them (NI: 0.05..10 V), so samples beyond the limits show the real range is wider and
+    not known here (clipping is then told by flat tops alone, see ``hammer.is_clipped``)."""
+    out: list[tuple[float, float] | None] = []
+    for k, (c, s) in enumerate(zip(exp.systeminfo.channels, _scale(exp))):
+        lo, hi = sorted((c.limit_low * s, c.limit_high * s))
+        inside = data[:, k].min() >= lo and data[:, k].max() <= hi
+        out.append((lo, hi) if inside else None)
+    return out
 
 
 def experiment_frf(
@@ -76,9 +97,11 @@ def experiment_frf(
         if exp.excitation is None:
             raise ConfigError(f"{project}: experiment {experiment!r} has no force channel")
         data = _physical(exp)
+        limits = _converter_ranges(exp, data)
         fidx = exp.excitation.force_channel
         outs = [k for k in range(exp.n_channels) if k != fidx]
-        hits = assess_hits(data[:, fidx], data[:, outs], exp.sampling_rate, record_length=record_length)
+        hits = assess_hits(data[:, fidx], data[:, outs], exp.sampling_rate, record_length=record_length,
+                           force_limits=limits[fidx], response_limits=[limits[k] for k in outs])
         good = [h for h in hits if h.accepted]
         if not good:
             reasons = "; ".join(f"hit at sample {h.peak_index}: {', '.join(h.reasons)}" for h in hits) or "no hits found"
@@ -111,11 +134,39 @@ def experiment_frf(
 def experiment_modes(
     project: str | Path, experiment: str, *, f_band: tuple[float, float] | None = None,
     max_order: int = 50, frequencies: list[float] | None = None,
-) -> ModalResult:
-    """Modes identified from the experiment's FRFs (computed first when not stored)."""
+) -> tuple[ModalResult, FrfSet]:
+    """Modes identified from the experiment's FRFs, and those FRFs; the default band (or a
+    missing edge of ``f_band``) is where the hammer's force spectrum and the coherence are usable
+    (``frf.usable_band``)."""
     frf, _ = experiment_frf(project, experiment)
-    return identify_modes(frf.frequency, frf.H, f_band=f_band, max_order=max_order,
-                          frequencies=frequencies, output_names=frf.output_names)
+    res = identify_modes(frf.frequency, frf.H, f_band=f_band, max_order=max_order,
+                         frequencies=frequencies, output_names=frf.output_names,
+                         force_autospectrum=frf.force_autospectrum, coherence=frf.coherence,
+                         n_averages=frf.n_averages)
+    return res, frf
+
+
+def experiment_output_only_modes(
+    project: str | Path, experiment: str, *, f_band: tuple[float | None, float | None] | None = None,
+    max_order: int = 40,
+) -> tuple[ModalResult, np.ndarray, np.ndarray]:
+    """Modes from the experiment's responses alone (SSI-cov, ``oma.identify_output_only``): every
+    channel but the force channel, in SI units. Returns the modes and the responses' rms power
+    spectral density (frequencies in Hz, PSD in unit^2/Hz) for the stabilisation figure."""
+    import scipy.signal
+
+    from odsuite.core.oma import identify_output_only
+
+    with open_project(project) as p:
+        exp = p.experiment(experiment)
+        data = _physical(exp)
+        force = exp.excitation.force_channel if exp.excitation is not None else None
+        outs = [k for k in range(exp.n_channels) if k != force]
+        names = [exp.channel_names[k] for k in outs]
+        fs = exp.sampling_rate
+    res = identify_output_only(data[:, outs], fs, f_band=f_band, max_order=max_order, output_names=names)
+    freq, psd = scipy.signal.welch(data[:, outs], fs, nperseg=min(4096, data.shape[0]), axis=0)
+    return res, freq, np.sqrt(psd.T)
 
 
 def ods_coordinates(project, experiment: str, frequency_hz: float) -> dict[str, np.ndarray]:

@@ -3,16 +3,27 @@ system with exact modes; MAC, pairing tables and ODS."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from scipy.io import loadmat
 
 import mck_threedof as mck
 from odsuite.core.errors import ConfigError, DimensionError
-from odsuite.core.frf import convert_form, estimate_frf
+from odsuite.core.frf import MAX_RANDOM_ERROR, convert_form, estimate_frf, usable_band
 from odsuite.core.hammer import assess_hits, exponential_window
 from odsuite.core.lvm import read_lvm
-from odsuite.core.modal import identify_modes, lscf, mac, ods, pair_modes, select_poles
+from odsuite.core.modal import (
+    MIN_PROMINENCE,
+    check_poles,
+    identify_modes,
+    lscf,
+    mac,
+    ods,
+    pair_modes,
+    select_poles,
+)
 
 G = 9.81  # the tutorial's g -> m/s^2 factor
 # LADISK tutorial, pyEMA LSCF on the H1 receptance, < 4000 Hz (README "Reference results")
@@ -50,11 +61,43 @@ def test_ladisk_second_hit_agrees(shared_real):
     bending-mode frequencies still agree, damping only roughly; the weak 2777 Hz mode is lost."""
     frf, hit = _ladisk_frf(shared_real / "ladisk_beam_impact" / "camera.lvm", accept=False)
     assert hit.reasons == ("response channel 0 clipped/overloaded",)
-    res = identify_modes(frf.frequency, frf.H, f_band=(1.0, 4000.0), max_order=50)
+    res = identify_modes(frf.frequency, frf.H, force_autospectrum=frf.force_autospectrum)
+    assert 4000 < res.band_hz[1] < 6000
     rows = pair_modes(LADISK_F, LADISK_ZETA, res.frequency_hz, res.damping_ratio)
     assert [(r["mode_a"], r["mode_b"]) for r in rows] == [(0, 0), (1, 1), (3, 2)]
     assert max(abs(r["frequency_difference"]) for r in rows) < 0.005
     assert max(abs(r["damping_difference"]) for r in rows) < 0.3
+
+
+def test_ladisk_default_band_finds_the_published_modes(shared_real):
+    """The band from the hammer's spectrum (10 dB drop: about 4.9 kHz for this 0.2 ms blow) and
+    automatic, checked pole selection: the four published modes (f within 0.5 %, damping within
+    10 %), stable over many orders, and nothing at the 1.1-1.2 kHz anti-resonance."""
+    frf, _ = _ladisk_frf(shared_real / "ladisk_beam_impact" / "acceleration.lvm")
+    res = identify_modes(frf.frequency, frf.H, force_autospectrum=frf.force_autospectrum)
+    assert res.band_hz[0] == pytest.approx(1.0) and 4500 < res.band_hz[1] < 5500
+    np.testing.assert_allclose(res.frequency_hz, LADISK_F, rtol=0.005)
+    np.testing.assert_allclose(res.damping_ratio, LADISK_ZETA, rtol=0.10)
+    assert not ((res.frequency_hz > 1000) & (res.frequency_hz < 1500)).any()
+    # stable in at least 30 % of the 49 orders (select_poles' rule), the bending modes in most
+    assert (res.stable_orders >= 15).all() and (res.stable_orders[[0, 1, 3]] >= 30).all()
+    doc = res.to_dict()
+    assert doc["band_hz"] == [pytest.approx(res.band_hz[0]), pytest.approx(res.band_hz[1])]
+    assert [m["stable_orders"] for m in doc["modes"]] == list(res.stable_orders)
+
+
+def test_ladisk_anti_resonance_pole_is_rejected(shared_real):
+    """On 50-2000 Hz the LSCF diagram holds a stable pole at 1202 Hz where |H| is 0.06 against
+    34-76 at the peaks (the FRF rises away from it): it is named, not reported."""
+    frf, _ = _ladisk_frf(shared_real / "ladisk_beam_impact" / "acceleration.lvm")
+    band = frf.band(50.0, 2000.0)
+    diag = lscf(band.frequency, band.H, 50)
+    poles, _ = select_poles(diag)
+    assert np.any(np.abs(np.abs(poles) / (2 * np.pi) - 1202.0) < 5.0)  # the diagram alone keeps it
+    res = identify_modes(frf.frequency, frf.H, f_band=(50.0, 2000.0))
+    np.testing.assert_allclose(res.frequency_hz, LADISK_F[:2], rtol=0.005)
+    assert len(res.rejected) == 1
+    assert re.match(r"120[12]\.\d\d Hz: \|H\| there is 0\.3\d x its level", res.rejected[0])
 
 
 def test_user_can_pick_poles_by_frequency(shared_real):
@@ -73,6 +116,67 @@ def test_vibration_toolbox_case1_published_frequency(shared_real):
     assert res.frequency_hz[0] == pytest.approx(212.0925, abs=0.3)
 
 
+def test_vibration_toolbox_case1_default_band(shared_real):
+    """The analyser's force autospectrum sets the band (10 dB down at about 300 Hz); automatic
+    selection finds the published 212.09 Hz mode (and the 34 Hz peak below it)."""
+    d = loadmat(shared_real / "vibration_toolbox_frf" / "case1.mat")
+    f, H = d["Freq_domain"].ravel(), d["Hf_chan_2"].ravel()
+    res = identify_modes(f, H, force_autospectrum=d["PSD_chan_1"].ravel())
+    assert 280 < res.band_hz[1] < 320
+    near = res.frequency_hz[np.argmin(np.abs(res.frequency_hz - 212.0))]
+    assert near == pytest.approx(212.0925, abs=0.3)
+    assert not ((res.frequency_hz > 40) & (res.frequency_hz < 200)).any()
+
+
+def test_usable_band_from_a_half_sine_force():
+    """The band ends where the force spectrum is 10 dB below its low-frequency level: for a
+    half-sine of duration T, |F(f)| = (2T/pi) |cos(pi f T)| / |1 - (2 f T)^2| (closed form)."""
+    import scipy.optimize
+
+    fs, n, T = 10_000.0, 10_000, 2e-3
+    t = np.arange(n) / fs
+    force = np.where(t < T, np.sin(np.pi * t / T), 0.0)
+    gff = np.abs(np.fft.rfft(force)) ** 2
+    freq = np.fft.rfftfreq(n, 1 / fs)
+
+    def level_db(fr):
+        x = 2 * fr * T
+        return 20 * np.log10(abs(np.cos(np.pi * fr * T)) / abs(1 - x * x)) if x != 1 else 20 * np.log10(np.pi / 4)
+
+    edge = scipy.optimize.brentq(lambda fr: level_db(fr) + 10.0, 1.0, 1.5 / T * 0.999)  # below the first zero
+    lo, hi = usable_band(freq, gff)
+    assert lo == freq[1]
+    assert hi == pytest.approx(edge, abs=2 * (freq[1] + 0.01 * freq[-1]))  # the 1 % smoothing
+    assert 505 < edge < 515  # 1.02/T for a half-sine of duration T
+
+
+def test_usable_band_from_coherence():
+    """Lines count where the random error of |H1| from coherence over n averages,
+    sqrt(1 - coh) / (sqrt(coh) sqrt(2 n)), is at most 10 %: coh >= 0.909 for 5 averages."""
+    freq = np.linspace(0, 500, 1001)
+    coh = np.where((freq >= 50) & (freq <= 300), 0.92, 0.88)
+    assert usable_band(freq, coherence=coh, n_averages=5) == (50.0, 300.0)
+    # a single hit's coherence is 1 by construction: it narrows nothing
+    assert usable_band(freq, coherence=coh, n_averages=1) == (0.5, 500.0)
+    eps = np.sqrt(1 - 0.909) / (np.sqrt(0.909) * np.sqrt(10))
+    assert eps == pytest.approx(MAX_RANDOM_ERROR, rel=1e-2)
+    with pytest.raises(ConfigError, match="no usable band"):
+        usable_band(freq, coherence=np.full(freq.size, 0.5), n_averages=5)
+
+
+def test_pole_at_an_anti_resonance_fails_the_synthesis_check():
+    """Exact 3-DOF accelerances; the true poles plus one placed at the first anti-resonance of
+    output 0 (52.7 Hz): the true ones explain their peaks, the extra one has no peak under it."""
+    lam, _ = mck.modes()
+    f = np.linspace(5.0, 200.0, 4000)
+    H = mck.accelerance(f)
+    fake = -0.01 * 2 * np.pi * 52.70 + 2j * np.pi * 52.70
+    poles = np.append(lam, fake)
+    dominance, error, prominence = check_poles(f, H, poles)
+    assert (dominance[:3] > 0.9).all() and (error[:3] < 1e-6).all() and (prominence[:3] > 3).all()
+    assert prominence[3] < MIN_PROMINENCE
+
+
 @pytest.fixture(scope="module")
 def threedof_frf():
     amps = [100.0, 70.0, 130.0, 90.0]
@@ -87,7 +191,7 @@ def threedof_frf():
 def test_threedof_modes_and_shapes(threedof_frf):
     lam, phi = mck.modes()
     res = identify_modes(threedof_frf.frequency, threedof_frf.H, f_band=(5.0, 200.0), max_order=30)
-    assert res.poles.size == 3
+    assert res.poles.size == 3 and res.rejected == []
     np.testing.assert_allclose(res.frequency_hz, np.abs(lam) / (2 * np.pi), rtol=1e-4)
     np.testing.assert_allclose(res.damping_ratio, -lam.real / np.abs(lam), rtol=0.01)
     m = mac(res.shapes, phi)
@@ -130,7 +234,10 @@ def test_stabilisation_diagram_flags(threedof_frf):
         fs = np.abs(poles[st]) / (2 * np.pi)
         for fr in true_f:
             assert np.min(np.abs(fs - fr)) < 1e-3 * fr
-    assert select_poles(diag).size == 3
+    poles, stable_orders = select_poles(diag)
+    assert poles.size == 3
+    # stable from order 8 on: orders 8..20 at least (13 of the 19)
+    assert (stable_orders >= 13).all() and (stable_orders <= 18).all()
 
 
 def test_ods_is_the_frf_times_force(threedof_frf):

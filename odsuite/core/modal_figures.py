@@ -1,0 +1,142 @@
+"""Figures of a modal test (matplotlib, no display): the stabilisation diagram with the chosen
+modes, FRF magnitude/phase/coherence and a MAC matrix. Each function writes one file (the format
+follows the suffix: .png, .svg, .pdf) and returns the matplotlib Figure for inspection."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from odsuite.core.errors import ConfigError, DimensionError
+from odsuite.core.frf import FrfSet
+from odsuite.core.modal import ModalResult
+
+_SUFFIXES = (".png", ".svg", ".pdf")
+
+
+def _new_figure(path: Path, size: tuple[float, float]):
+    from matplotlib.figure import Figure
+
+    if Path(path).suffix.lower() not in _SUFFIXES:
+        raise ConfigError(f"figure {path}: the name must end in {', '.join(_SUFFIXES)}")
+    return Figure(figsize=size, layout="constrained")
+
+
+def _save(fig, path: Path):
+    try:
+        fig.savefig(path, dpi=130)
+    except OSError as exc:
+        raise ConfigError(f"figure {path}: cannot write ({exc.strerror or exc})") from None
+    return fig
+
+
+def stabilisation_figure(result: ModalResult, freq: np.ndarray, H: np.ndarray, path: str | Path, *,
+                         title: str = "stabilisation diagram",
+                         background: str = "rms |H| of the outputs (FRF units)"):
+    """Poles per model order over the fit band (grey: new, blue: frequency stable, red: frequency
+    and damping stable), the chosen modes as labelled lines with their stable-order counts, and
+    the rms over outputs of ``H`` (FRFs, or amplitude spectra for output-only modes, named by
+    ``background``) on a log axis behind them."""
+    if result.diagram is None or result.band_hz is None:
+        raise ConfigError("stabilisation figure: the modal result holds no stabilisation diagram")
+    d = result.diagram
+    path = Path(path)
+    fig = _new_figure(path, (10, 6))
+    ax = fig.add_subplot()
+    kinds = (("new pole", lambda sf, st: ~sf, {"facecolors": "none", "edgecolors": "0.6", "s": 10}),
+             ("stable frequency", lambda sf, st: sf & ~st, {"c": "tab:blue", "marker": "x", "s": 14}),
+             ("stable frequency and damping", lambda sf, st: st, {"c": "tab:red", "s": 12}))
+    for label, pick, style in kinds:
+        xs, ys = [], []
+        for order, poles, sf, st in zip(d.orders, d.poles, d.stable_f, d.stable, strict=True):
+            sel = pick(sf, st)
+            xs.extend(np.abs(poles[sel]) / (2 * np.pi))
+            ys.extend([order] * int(sel.sum()))
+        ax.scatter(xs, ys, label=label, linewidths=0.8, **style)
+    ax.set_xlim(*result.band_hz)
+    ax.set_ylim(0, max(d.orders) + 2)
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel("model order")
+    for k, (f, z) in enumerate(zip(result.frequency_hz, result.damping_ratio, strict=True)):
+        ax.axvline(f, color="k", lw=0.8, ls="--")
+        n = "" if result.stable_orders is None else f", {int(result.stable_orders[k])} orders"
+        top = max(d.orders) + 1 - (k % 3) * 0.14 * max(d.orders)  # staggered: close modes stay readable
+        ax.annotate(f"{f:.1f} Hz\nζ = {100 * z:.2f} %{n}", (f, top), fontsize=8,
+                    ha="left", va="top", xytext=(3, 0), textcoords="offset points",
+                    bbox={"boxstyle": "round", "fc": "white", "ec": "0.6", "alpha": 0.85})
+    freq = np.asarray(freq, dtype=float)
+    H = np.atleast_2d(np.asarray(H))
+    keep = (freq >= result.band_hz[0]) & (freq <= result.band_hz[1])
+    mag = ax.twinx()
+    mag.semilogy(freq[keep], np.sqrt(np.mean(np.abs(H[:, keep]) ** 2, axis=0)), color="tab:green", lw=0.8)
+    mag.set_ylabel(background, color="tab:green")
+    ax.set_zorder(mag.get_zorder() + 1)
+    ax.patch.set_visible(False)
+    ax.legend(loc="lower right", fontsize=8, framealpha=0.9)
+    ax.set_title(f"{title}: {len(result.frequency_hz)} modes in {result.band_hz[0]:.0f}-{result.band_hz[1]:.0f} Hz")
+    return _save(fig, path)
+
+
+def frf_figure(frf: FrfSet, path: str | Path, *, band_hz: tuple[float, float] | None = None,
+               outputs: Sequence[str] | None = None, title: str = "FRFs"):
+    """Magnitude (log-log), phase (degrees) and coherence of each output's FRF above 0 Hz;
+    ``band_hz`` is shaded (e.g. the modal fit's usable band)."""
+    names = list(outputs) if outputs is not None else frf.output_names
+    missing = [n for n in names if n not in frf.output_names]
+    if missing:
+        raise ConfigError(f"FRF figure: no output {missing[0]!r}; outputs are {', '.join(frf.output_names)}")
+    path = Path(path)
+    fig = _new_figure(path, (10, 8))
+    mag, phase, coh = fig.subplots(3, 1, sharex=True, height_ratios=(3, 1.5, 1))
+    pos = frf.frequency > 0
+    f = frf.frequency[pos]
+    for name in names:
+        k = frf.output_names.index(name)
+        h = frf.H[k, pos]
+        line, = mag.loglog(f, np.abs(h), lw=0.8, label=f"{name} ({frf.units[k]})")
+        phase.semilogx(f, np.degrees(np.angle(h)), lw=0.6, color=line.get_color())
+        coh.semilogx(f, frf.coherence[k, pos], lw=0.6, color=line.get_color())
+    for ax in (mag, phase, coh):
+        if band_hz is not None:
+            ax.axvspan(*band_hz, color="0.92", zorder=0)
+        ax.grid(True, which="both", lw=0.3)
+    mag.set_ylabel("|H|")
+    mag.legend(fontsize=8, loc="best")
+    phase.set_ylabel("phase (°)")
+    phase.set_yticks([-180, -90, 0, 90, 180])
+    coh.set_ylabel("coherence")
+    coh.set_ylim(0, 1.05)
+    if frf.n_averages == 1:
+        coh.text(0.5, 0.5, "one hit: coherence is 1 by construction and says nothing", transform=coh.transAxes,
+                 ha="center", va="center", fontsize=9, color="0.3")
+    coh.set_xlabel("frequency (Hz)")
+    shaded = "" if band_hz is None else f"; shaded: fit band {band_hz[0]:.0f}-{band_hz[1]:.0f} Hz"
+    mag.set_title(f"{title}: {frf.estimator}, {frf.n_averages} averages{shaded}")
+    return _save(fig, path)
+
+
+def mac_figure(mac_matrix: np.ndarray, path: str | Path, *, labels_a: Sequence[str] | None = None,
+               labels_b: Sequence[str] | None = None, title: str = "MAC"):
+    """The MAC matrix as a grey-scale grid (0 white, 1 black) with each value written in its cell."""
+    m = np.asarray(mac_matrix, dtype=float)
+    if m.ndim != 2 or m.size == 0:
+        raise DimensionError(f"MAC figure: the matrix has shape {m.shape}; expected modes x modes")
+    la = list(labels_a) if labels_a is not None else [str(k + 1) for k in range(m.shape[0])]
+    lb = list(labels_b) if labels_b is not None else [str(k + 1) for k in range(m.shape[1])]
+    if len(la) != m.shape[0] or len(lb) != m.shape[1]:
+        raise DimensionError(f"MAC figure: {len(la)} x {len(lb)} labels for a {m.shape[0]} x {m.shape[1]} matrix")
+    path = Path(path)
+    fig = _new_figure(path, (1.6 + 0.7 * m.shape[1], 1.2 + 0.6 * m.shape[0]))
+    ax = fig.add_subplot()
+    im = ax.imshow(m, cmap="Greys", vmin=0, vmax=1)
+    for i in range(m.shape[0]):
+        for j in range(m.shape[1]):
+            ax.text(j, i, f"{m[i, j]:.2f}", ha="center", va="center", fontsize=8,
+                    color="white" if m[i, j] > 0.5 else "black")
+    ax.set_xticks(range(m.shape[1]), lb, rotation=45, ha="right")
+    ax.set_yticks(range(m.shape[0]), la)
+    fig.colorbar(im, ax=ax, shrink=0.8)
+    ax.set_title(title)
+    return _save(fig, path)

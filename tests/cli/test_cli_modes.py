@@ -1,0 +1,100 @@
+"""frf / modes through the command line on real and simulated records, and the modal figures."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from odsuite.cli import main
+
+LADISK_F = np.array([695.0, 1897.6, 2777.3, 3671.2])  # README "Reference results" (published)
+LADISK_ZETA = np.array([0.0047, 0.0031, 0.0024, 0.0020])
+
+
+@pytest.fixture
+def beam_project(tmp_path, shared_real):
+    p = tmp_path / "beam.h5"
+    assert main(["new", str(p), "--rig", "none"]) == 0
+    for name in ("acceleration", "camera"):
+        lvm = shared_real / "ladisk_beam_impact" / f"{name}.lvm"
+        assert main(["import-lvm", str(p), str(lvm), "--name", name]) == 0
+    return p
+
+
+def test_default_modes_on_the_ladisk_beam(beam_project, tmp_path, capsys):
+    from odsuite.core.project import open_project
+
+    with open_project(beam_project) as p:  # g and N are not judged against +-10 V
+        assert p.info()["experiments"]["acceleration"]["clipped_samples"] == {}
+    capsys.readouterr()
+    assert main(["frf", str(beam_project), "--experiment", "acceleration", "--figure", str(tmp_path / "frf.png")]) == 0
+    out = capsys.readouterr().out
+    assert "hit at sample 36 (195.6 N): accepted" in out and "usable band 1.0-49" in out
+    stab = tmp_path / "stab.png"
+    assert main(["modes", str(beam_project), "--experiment", "acceleration", "--json", "--figure", str(stab)]) == 0
+    captured = capsys.readouterr()
+    doc = json.loads(captured.out)  # exactly one JSON document
+    lo, hi = doc["band_hz"]
+    assert lo == pytest.approx(1.0, abs=0.01) and 4500 < hi < 5500
+    f = np.array([m["frequency_hz"] for m in doc["modes"]])
+    zeta = np.array([m["damping_ratio"] for m in doc["modes"]])
+    np.testing.assert_allclose(f, LADISK_F, rtol=0.005)
+    np.testing.assert_allclose(zeta, LADISK_ZETA, rtol=0.10)
+    assert all(m["stable_orders"] >= 15 for m in doc["modes"])
+    for png in (stab, tmp_path / "frf.png"):
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_fit_band_of_the_readme_names_the_anti_resonance_pole(beam_project, capsys):
+    capsys.readouterr()
+    args = ["modes", str(beam_project), "--experiment", "acceleration", "--fmin", "50", "--fmax", "2000", "--json"]
+    assert main(args) == 0
+    captured = capsys.readouterr()
+    f = [m["frequency_hz"] for m in json.loads(captured.out)["modes"]]
+    np.testing.assert_allclose(f, LADISK_F[:2], rtol=0.005)
+    assert "note: stable pole not taken as a mode: 1201.9" in captured.err
+
+
+def test_saturated_accelerometer_is_refused_in_one_line(beam_project, capsys):
+    capsys.readouterr()
+    assert main(["frf", str(beam_project), "--experiment", "camera"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err == (f"error: {beam_project}: experiment 'camera' has no acceptable hit "
+                   "(hit at sample 35: response channel 0 clipped/overloaded)")
+
+
+@pytest.mark.parametrize("scenario", ["T1", "T5"])
+def test_simulated_quantised_records_are_accepted(tmp_path, capsys, scenario):
+    """The simulated thesis force is ~2 N on a 12-bit +-5 V card (about 17 codes): quantised,
+    not clipped."""
+    p = tmp_path / "sim.h5"
+    assert main(["new", str(p)]) == 0
+    assert main(["acquire", str(p), "--daq", "sim", "--name", scenario, "--scenario", scenario]) == 0
+    capsys.readouterr()
+    assert main(["frf", str(p), "--experiment", scenario]) == 0
+    out = capsys.readouterr().out
+    assert ": accepted" in out and "rejected" not in out
+
+
+def test_figure_name_must_have_a_known_suffix(beam_project, tmp_path, capsys):
+    capsys.readouterr()
+    bad = tmp_path / "stab.txt"
+    assert main(["modes", str(beam_project), "--experiment", "acceleration", "--figure", str(bad)]) == 1
+    assert capsys.readouterr().err.strip() == f"error: figure {bad}: the name must end in .png, .svg, .pdf"
+    assert not bad.exists()
+
+
+def test_mac_figure_writes_every_value(tmp_path):
+    from odsuite.core.modal import mac
+    from odsuite.core.modal_figures import mac_figure
+
+    phi = np.array([[1.0, 1.0, 0.5], [1.0, -1.0, 0.5], [0.0, 0.2, 1.0]])
+    m = mac(phi, phi)
+    fig = mac_figure(m, tmp_path / "mac.svg", labels_a=["a1", "a2", "a3"], labels_b=["b1", "b2", "b3"])
+    texts = [t.get_text() for t in fig.axes[0].texts]
+    assert texts == [f"{v:.2f}" for v in m.ravel()]
+    # by hand: |a.c|^2 / (a.a c.c) = 1 / (2 x 1.5); a and b are orthogonal
+    assert texts[:3] == ["1.00", "0.00", "0.33"]
+    assert (tmp_path / "mac.svg").read_text().lstrip().startswith("<?xml")

@@ -1,0 +1,86 @@
+"""Output-only modes (SSI-cov) of the exact 3-DOF system driven by an unmeasured random force."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import scipy.signal
+
+import mck_threedof as mck
+from odsuite.cli import main
+from odsuite.core.errors import ConfigError
+from odsuite.core.modal import mac
+from odsuite.core.oma import identify_output_only, ssi_cov
+
+FS = 1024.0
+
+
+@pytest.fixture(scope="module")
+def operating():
+    """200 s of accelerations to white force on mass 3 (exact first-order-hold simulation at 4 x
+    the rate, decimated), with 5 % measurement noise per channel."""
+    rng = np.random.default_rng(7)
+    over = 4
+    u = rng.standard_normal(int(200 * FS * over))
+    y = scipy.signal.decimate(mck.lsim_exact(u, 1 / (FS * over)), over, ftype="fir", axis=0)
+    return y + 0.05 * y.std(axis=0) * rng.standard_normal(y.shape)
+
+
+def test_three_modes_from_responses_alone(operating):
+    lam, phi = mck.modes()
+    true_f = np.abs(lam) / (2 * np.pi)
+    res = identify_output_only(operating, FS, max_order=40, output_names=["m1", "m2", "m3"])
+    assert res.output_only and res.band_hz == (0.0, FS / 2)
+    np.testing.assert_allclose(res.frequency_hz, true_f, rtol=0.01)
+    np.testing.assert_allclose(res.damping_ratio, -lam.real / np.abs(lam), rtol=0.25)
+    # acceleration shapes are -omega^2 times the displacement shapes: MAC against those
+    assert np.diag(mac(res.shapes, phi)).min() > 0.9
+    assert (res.stable_orders >= 6).all()  # of the 20 orders 2, 4 .. 40
+    doc = res.to_dict()
+    assert doc["output_only"] is True and set(doc["modes"][0]["shape"]) == {"m1", "m2", "m3"}
+
+
+def test_band_decimates_and_keeps_the_modes(operating):
+    true_f = np.abs(mck.modes()[0]) / (2 * np.pi)
+    res = identify_output_only(operating, FS, f_band=(20.0, 150.0), max_order=40)
+    np.testing.assert_allclose(res.frequency_hz, true_f, rtol=0.01)
+    assert res.band_hz == (20.0, 150.0)
+    with pytest.raises(ConfigError, match="must lie within 0..512 Hz"):
+        identify_output_only(operating, FS, f_band=(20.0, 600.0))
+
+
+def test_ssi_cov_diagram_is_stable_at_the_true_poles(operating):
+    diag, shapes = ssi_cov(operating, FS, max_order=20)
+    assert diag.orders == list(range(2, 21, 2))
+    true_f = np.abs(mck.modes()[0]) / (2 * np.pi)
+    last = np.abs(diag.poles[-1]) / (2 * np.pi)
+    assert all(np.min(np.abs(last - f)) < 0.01 * f for f in true_f)
+    assert shapes[-1].shape == (3, diag.poles[-1].size)
+    with pytest.raises(ConfigError, match="cannot hold model order 40"):
+        ssi_cov(operating, FS, max_order=40, block_rows=10)
+
+
+def test_modes_output_only_through_the_cli(tmp_path, operating, capsys):
+    from odsuite.core.project import open_project
+    from odsuite.core.systeminfo import ChannelInfo, SensorType, Systeminfo
+
+    p = tmp_path / "run.h5"
+    assert main(["new", str(p), "--rig", "none"]) == 0
+    chans = [ChannelInfo(sensor_type=SensorType.ACCELEROMETER, location=f"m{k + 1}", sampling_rate=FS,
+                         limit_high=100.0, limit_low=-100.0) for k in range(3)]
+    with open_project(p, "a") as proj:  # an operating record: no force channel
+        proj.add_experiment("run", operating, sampling_rate=FS, systeminfo=Systeminfo(chans), excitation=None,
+                            channel_names=["m1", "m2", "m3"])
+    capsys.readouterr()
+    stab = tmp_path / "stab.png"
+    assert main(["modes", str(p), "--experiment", "run", "--output-only", "--json", "--figure", str(stab)]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["output_only"] is True and doc["band_hz"] == [0.0, FS / 2]
+    f = [m["frequency_hz"] for m in doc["modes"]]
+    np.testing.assert_allclose(f, np.abs(mck.modes()[0]) / (2 * np.pi), rtol=0.01)
+    assert stab.read_bytes()[:4] == b"\x89PNG"
+    # the hammer path needs a force channel: one line
+    assert main(["modes", str(p), "--experiment", "run"]) == 1
+    assert capsys.readouterr().err.strip() == f"error: {p}: experiment 'run' has no force channel"
