@@ -17,7 +17,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "core"))
 
 from hidden_effects import CASES, make_project  # noqa: E402
 
-from odsuite.core.comparison import predict, prepare  # noqa: E402
+from odsuite.core.prediction import predict, prepare  # noqa: E402
 from odsuite.core.diagnosis import diagnose  # noqa: E402
 from odsuite.core.modelrev import revision_model  # noqa: E402
 from odsuite.core.plugins import registries  # noqa: E402

@@ -558,7 +558,7 @@ def add_effect_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
     """Fit an effect together with the current ones and store a new model revision."""
-    from odsuite.core.diagnosis import add_effect
+    from odsuite.core.add_effect import add_effect
     from odsuite.core.project import open_project
 
     with open_project(project, "a") as p, _loop_progress() as bar:

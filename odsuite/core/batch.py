@@ -97,7 +97,7 @@ def _history(path: Path, options: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def _add_effect(path: Path, options: Mapping[str, Any]) -> dict[str, Any]:
-    from odsuite.core.diagnosis import add_effect
+    from odsuite.core.add_effect import add_effect
     from odsuite.core.project import open_project
 
     with open_project(path, "a") as p:

@@ -175,7 +175,8 @@ def _revision_rows(key: str, revisions: Sequence[Mapping[str, Any]], current: in
 def _with_errors(project, revisions: list[dict]) -> list[dict]:
     """Revisions whose error was never stored (a project only compared, never changed) get it
     computed the way ``odsuite history`` does (not stored in the project: reading never writes)."""
-    from odsuite.core.comparison import compare, prepare
+    from odsuite.core.comparison import compare
+    from odsuite.core.prediction import prepare
 
     exps = None
     out = []

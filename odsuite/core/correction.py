@@ -116,9 +116,9 @@ def correct_experiment(project, name: str, *, revision: dict | None = None,
     stored). ``revision`` defaults to the current model revision, ``cutoff_hz`` to
     :func:`default_cutoff`; ``prepared`` reuses a :class:`~odsuite.core.comparison.PreparedExperiment`."""
     from odsuite.core.chain_spec import build_chain
-    from odsuite.core.comparison import prepare_experiment, simulate_sensors
     from odsuite.core.modelrev import current_revision, revision_model
     from odsuite.core.plugins import registries
+    from odsuite.core.prediction import prepare_experiment, simulate_sensors
     from odsuite.core.solvers import body_solvers
 
     regs = registries()

@@ -5,7 +5,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from odsuite.core.comparison import compare, prepare
+from odsuite.core.comparison import compare
+from odsuite.core.prediction import prepare
 
 
 def history(project) -> dict[str, Any]:

@@ -177,7 +177,7 @@ def ods_coordinates(project, experiment: str, frequency_hz: float) -> dict[str, 
     displacement record."""
     import scipy.signal
 
-    from odsuite.core.comparison import prepare_experiment
+    from odsuite.core.prediction import prepare_experiment
     from odsuite.core.modal import ods
     from odsuite.core.plugins import registries
     from odsuite.core.solvers import body_solvers

@@ -148,7 +148,7 @@ def _write_outputs(out: Path, project_path: Path, diagnosis: Mapping[str, Any] |
     # reach yet: the renderers plugin's own function, imported like any package's
     from odsuite_plugins.renderers.movie import render_movie
 
-    from odsuite.core.comparison import experiment_coordinates
+    from odsuite.core.prediction import experiment_coordinates
     from odsuite.core.history import history, history_figure
     from odsuite.core.plugins import registries
     from odsuite.core.project import open_project
@@ -205,8 +205,10 @@ def run_demo(out: str | Path = "demo-output", *, rounds: int = ROUNDS, console: 
     ``rounds``: at most this many diagnose/add-effect rounds; the loop stops earlier when no
     candidate is significant.
     """
-    from odsuite.core.comparison import compare, prepare
-    from odsuite.core.diagnosis import add_effect, diagnose
+    from odsuite.core.comparison import compare
+    from odsuite.core.prediction import prepare
+    from odsuite.core.add_effect import add_effect
+    from odsuite.core.diagnosis import diagnose
     from odsuite.core.modelrev import current_revision, revision_model
     from odsuite.core.pipeline import process_experiment
     from odsuite.core.project import create_project, open_project

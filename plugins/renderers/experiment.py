@@ -54,7 +54,7 @@ def render_experiment(
     comparison too, so both sides went through the same chain and solver. ``ods_hz``: animate the
     operating deflection shape at that frequency (from the measured FRFs) instead of the record.
     """
-    from odsuite.core.comparison import experiment_coordinates
+    from odsuite.core.prediction import experiment_coordinates
     from odsuite.core.project import open_project
 
     if figure is not None and figure not in FIGURES:

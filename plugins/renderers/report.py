@@ -191,13 +191,8 @@ def build_report(
     """
     from .figures import comparison_figure
 
-    from odsuite.core.comparison import (
-        COORDINATE_NAMES,
-        compare,
-        coordinate_series,
-        predict,
-        prepare,
-    )
+    from odsuite.core.comparison import COORDINATE_NAMES, compare
+    from odsuite.core.prediction import coordinate_series, predict, prepare
     from odsuite.core.history import history, history_figure
     from odsuite.core.modelrev import current_revision, revision_model
     from odsuite.core.project import open_project

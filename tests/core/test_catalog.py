@@ -19,7 +19,7 @@ TRUE_GAIN = 1.25
 
 @pytest.fixture(scope="module")
 def made(tmp_path_factory) -> dict[str, Path]:
-    from odsuite.core.diagnosis import add_effect
+    from odsuite.core.add_effect import add_effect
     from odsuite.core.project import open_project
 
     store = tmp_path_factory.mktemp("catalog-made")

@@ -10,13 +10,8 @@ import pytest
 import scipy.signal
 
 from odsuite.core.chain_spec import chain_for_channel
-from odsuite.core.comparison import (
-    compare,
-    find_trigger,
-    prepare,
-    stage_operators,
-    windowed_force,
-)
+from odsuite.core.comparison import compare
+from odsuite.core.prediction import find_trigger, prepare, stage_operators, windowed_force
 from odsuite.core.project import Excitation, create_project
 from odsuite.core.systeminfo import Systeminfo
 

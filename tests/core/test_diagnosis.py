@@ -44,8 +44,9 @@ def _true_error(project, effects, exps) -> float:
 def _check_found(path: Path, effects) -> None:
     """Rounds of diagnose + add_effect of the top candidate find every hidden effect, and the
     error ends within 2x of the true model's."""
-    from odsuite.core.comparison import prepare
-    from odsuite.core.diagnosis import add_effect, diagnose
+    from odsuite.core.prediction import prepare
+    from odsuite.core.add_effect import add_effect
+    from odsuite.core.diagnosis import diagnose
     from odsuite.core.project import open_project
 
     hidden = {n for n, _ in effects}

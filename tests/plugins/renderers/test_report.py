@@ -87,7 +87,8 @@ def parse(path: Path) -> _Page:
 @pytest.fixture(scope="module")
 def story(tmp_path_factory):
     """The project, the diagnosis made at revision 0 and the report built with them."""
-    from odsuite.core.diagnosis import add_effect, diagnose
+    from odsuite.core.add_effect import add_effect
+    from odsuite.core.diagnosis import diagnose
     from odsuite.core.project import open_project
     from odsuite_plugins.renderers.report import build_report
     from tests.core.hidden_effects import make_project
@@ -165,12 +166,8 @@ def test_report_is_self_contained(story):
 @pytest.mark.slow
 def test_model_coordinates_match_compare(story):
     """The on-the-fly model motion (render --model, the movie) gives compare's per-coordinate errors."""
-    from odsuite.core.comparison import (
-        COORDINATE_NAMES,
-        compare,
-        experiment_coordinates,
-        nrmse,
-    )
+    from odsuite.core.comparison import COORDINATE_NAMES, compare, nrmse
+    from odsuite.core.prediction import experiment_coordinates
     from odsuite.core.project import open_project
 
     path, *_ = story

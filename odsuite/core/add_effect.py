@@ -1,0 +1,122 @@
+"""``add-effect``: fit the named effect together with the current revision's own effects, and
+store the result as a new model revision."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from odsuite.core.comparison import noise_floor_error
+from odsuite.core.fitting import (
+    Problem,
+    effective_samples,
+    fit,
+    fit_windows,
+    screen,
+    uncertainties,
+)
+from odsuite.core.modelrev import RevisionModel, current_revision, revision_model
+from odsuite.core.prediction import prepare
+
+
+class _Joint:
+    """Several effects as one: parameters named "<effect>.<parameter>", applied in order."""
+
+    def __init__(self, effects: Sequence[Any]) -> None:
+        self.effects = list(effects)
+        self.name = "+".join(e.name for e in self.effects)
+        self.target = "model" if any(e.target == "model" for e in self.effects) else "chain"
+
+    def parameters(self, model) -> list:
+        return [replace(p, name=f"{e.name}.{p.name}") for e in self.effects for p in e.parameters(model)]
+
+    def apply(self, model, values: Mapping[str, float]):
+        for e in self.effects:
+            own = {k.split(".", 1)[1]: v for k, v in values.items() if k.split(".", 1)[0] == e.name}
+            model = e.apply(model, own)
+        return model
+
+
+def _start(problem: Problem, entries: Sequence[Mapping[str, Any]]) -> np.ndarray:
+    """The normalised start of a joint problem from stored revision entries."""
+    u = problem.zero()
+    for i, f in enumerate(problem.free):
+        eff, name = f.param.name.split(".", 1)
+        entry = next((e for e in entries if e["effect"] == eff), None)
+        if entry is None:
+            continue
+        v = (entry.get("per_experiment", {}).get(f.experiment, {}) if f.experiment else entry.get("values", {})).get(name)
+        if v is not None:
+            u[i] = (float(v) - f.param.nominal) / f.scale
+    return u
+
+
+def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] | None = None) -> dict[str, Any]:
+    """Fit effect ``name`` together with the current revision's effects (all their parameters
+    refitted) and store the result as a new revision, made current. Returns the new revision's
+    number, its error and the previous error."""
+    from odsuite.core.comparison import compare
+    from odsuite.core.modelrev import base_model
+    from odsuite.core.plugins import registries
+
+    regs = registries()
+    effect = regs.effects.get(name)
+    rev = current_revision(project)
+    entries = [e for e in rev.get("effects", []) if e["effect"] != name]
+    exps = prepare(project)
+    den = sum(float(np.sum(e.measured**2)) for e in exps)
+    noise = noise_floor_error(exps)
+    n_eff, f99 = effective_samples(exps)
+    stride = max(1, int(exps[0].fs / (5.0 * f99)))
+    prior = 1e-3 * max(noise**2, 1e-8) * den / stride
+    cmp = compare(project, revision=rev, prepared=exps, resonances=False)
+    before = cmp.error
+    windows = fit_windows(exps)
+    if progress:
+        progress(f"screening {name}", 0, 3)
+    current = revision_model(project, {**rev, "effects": entries})
+    single = Problem(current, effect, windows, prior=prior, stride=stride, full=exps)
+    screened = screen(single, single.sse(single.zero()),
+                      [p["frequency_hz"] for p in cmp.residual_peaks if p["lacking"]])
+    joint_effects = [regs.effects.get(e["effect"]) for e in entries] + [effect]
+    fixed = {f"{e['effect']}.{k}": v for e in entries for k, v in e.get("values", {}).items()
+             if any(p.name == k and p.choices for p in regs.effects.get(e["effect"]).parameters(current.shared))}
+    fixed.update({f"{name}.{k}": v for k, v in screened.fixed.items()})
+    joint = Problem(RevisionModel(base_model(project.rig, rev.get("model"))), _Joint(joint_effects), windows,
+                    fixed, prior, stride, full=exps)
+    u0 = _start(joint, entries)
+    for i, f in enumerate(joint.free):  # the new effect starts where screening left it
+        if f.param.name.startswith(f"{name}."):
+            k = next((j for j, g in enumerate(screened.problem.free)
+                      if g.param.name == f.param.name.split(".", 1)[1] and g.experiment == f.experiment), None)
+            if k is not None:
+                u0[i] = screened.u0[k]
+    if progress:
+        progress(f"fitting {', '.join(e.name for e in joint_effects)}", 1, 3)
+    res = fit(joint, u0) if joint.free else None
+    u = res.x if res is not None else joint.zero()
+    sds = uncertainties(joint, res, n_eff)[0] if res is not None else np.zeros(0)
+    shared, per = joint.values(u)
+    new_entries = []
+    flat: dict[str, float] = {}
+    for e in joint_effects:
+        prefix = f"{e.name}."
+        values = {k[len(prefix):]: v for k, v in shared.items() if k.startswith(prefix)}
+        per_exp = {x: {k[len(prefix):]: v for k, v in d.items() if k.startswith(prefix)} for x, d in per.items()}
+        per_exp = {x: d for x, d in per_exp.items() if d}
+        unc = {f.label[len(prefix):] if f.experiment is None else f"{f.experiment}/{f.param.name[len(prefix):]}": float(sd)
+               for f, sd in zip(joint.free, sds) if f.param.name.startswith(prefix) and np.isfinite(sd)}
+        new_entries.append({"effect": e.name, "values": values, "per_experiment": per_exp, "uncertainties": unc})
+        flat.update({f"{e.name}.{k}": v for k, v in values.items()})
+    if progress:
+        progress("comparing", 2, 3)
+    candidate_rev = {"model": rev.get("model"), "effects": new_entries}
+    after = compare(project, revision=candidate_rev, prepared=exps, resonances=False)
+    metrics = {"error": after.error, "noise_floor_error": after.noise_floor_error, "added": name,
+               "previous_error": before}
+    n = project.add_model_revision(new_entries, flat, metrics, rev["revision"], model=rev.get("model"))
+    return {"revision": n, "effect": name, "error": after.error, "previous_error": before,
+            "noise_floor_error": after.noise_floor_error, "effects": new_entries}

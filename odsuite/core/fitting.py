@@ -1,0 +1,477 @@
+"""The fitting engine of the diagnosis: one candidate effect's output-error problem over the
+experiments, its screening from nominal and grid starts, the bounded least-squares fit, its
+uncertainties and its validation on data the fit did not see.
+
+Fits see each record only up to where its response has decayed into the noise (the rest is added
+back to reported errors). Screening moves each parameter one small step from its nominal value
+(finite differences) and takes one Gauss-Newton step, evaluated for real; parameters the residual
+cannot see at their nominal value (a resonance frequency while its amplitude is zero) get a start
+from a grid and from the peaks of the residual spectrum; amplitudes that only act in products get
+one of them moved first; discrete parameters are tried one choice at a time. Shared parameters are
+validated by leaving one experiment out; per-experiment parameters on held-out channels.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.optimize
+
+from odsuite.core.modelrev import RevisionModel
+from odsuite.core.prediction import PreparedExperiment, predict
+
+#: fits start on short heads of the records (s after the hit), then the whole record: a frequency
+#: error makes the time-domain residual oscillate in the parameter, a short head keeps it convex
+HEADS_S = (0.01, 0.04)
+
+
+#: fits stop where the measured response has decayed into the noise: the record after that point
+#: holds less excess energy (above the noise) than this fraction of the record's noise energy
+TAIL_FRACTION = 0.05
+#: ... plus a margin of this fraction of the response's length, and at least WINDOW_MIN_S
+WINDOW_MARGIN = 0.25
+WINDOW_MIN_S = 0.04
+
+
+def fit_windows(exps: Sequence[PreparedExperiment]) -> list[PreparedExperiment]:
+    """Each experiment cut where its response has died away into the noise (a hammer response
+    decays within tens of milliseconds of records that last far longer): fits and screening see
+    the same information for a fraction of the cost. The sum of squares of the rest is added back
+    where an error is reported."""
+    out = []
+    for e in exps:
+        power = np.sum(e.measured**2, axis=1)
+        var = float(np.sum(e.noise_var))
+        n = len(power)
+        tail = np.cumsum(power[::-1])[::-1] - (n - np.arange(n)) * var
+        above = np.flatnonzero(tail > TAIL_FRACTION * n * var)
+        last = int(above[-1]) if above.size else e.trigger
+        end = last + max(WINDOW_MARGIN * max(last - e.trigger, 0), WINDOW_MIN_S * e.fs)
+        out.append(e.head(int(math.ceil(end))))
+    return out
+
+
+def heads(exps: Sequence[PreparedExperiment]) -> list[list[PreparedExperiment]]:
+    """The experiments cut to each of HEADS_S after their hit, then whole."""
+    stages = [[e.head(e.trigger + int(round(t * e.fs))) for e in exps] for t in HEADS_S]
+    return stages + [list(exps)]
+
+
+# ---------------------------------------------------------------------------------------------
+# the fitting problem of one candidate
+
+
+@dataclass
+class _Free:
+    """One free scalar of a fit: an effect parameter, shared or of one experiment."""
+
+    param: Any  # odsuite.core.effects.Parameter
+    experiment: str | None
+    scale: float
+
+    @property
+    def label(self) -> str:
+        return self.param.name if self.experiment is None else f"{self.experiment}/{self.param.name}"
+
+    def to_value(self, u: float) -> float:
+        return float(np.clip(self.param.nominal + u * self.scale, self.param.lower, self.param.upper))
+
+    @property
+    def bounds(self) -> tuple[float, float]:
+        p = self.param
+        return (p.lower - p.nominal) / self.scale, (p.upper - p.nominal) / self.scale
+
+
+def _scale(p) -> float:
+    """A natural step for a parameter: 5 % of its size or of a tenth of its range."""
+    span = p.upper - p.lower
+    size = max(abs(p.nominal), span / 10.0) if np.isfinite(span) else max(abs(p.nominal), 1.0)
+    return 0.05 * min(size, span) if span > 0 else 1.0
+
+
+class Problem:
+    """Residuals of one candidate effect on top of the current revision, over all experiments."""
+
+    def __init__(self, base: RevisionModel, effect, exps: Sequence[PreparedExperiment],
+                 fixed: Mapping[str, float] | None = None, prior: float = 0.0, stride: int = 1,
+                 full: Sequence[PreparedExperiment] | None = None) -> None:
+        self.base = base
+        # ``exps`` are what the fit sees (usually fit windows); ``full`` the whole records they
+        # were cut from, for reported errors
+        self.full = list(full) if full is not None else list(exps)
+        # fits see every stride-th sample: the signals are band-limited far below Nyquist, so the
+        # sum of squares keeps its shape while the Jacobian shrinks
+        self.stride = stride
+        # a weak pull towards the nominal values (sum of squares per unit step squared): it decides
+        # directions the data cannot see and keeps damped steps well posed; negligible elsewhere
+        self.prior = prior
+        self.effect = effect
+        self.exps = list(exps)
+        params = effect.parameters(base.shared)
+        self.discrete = [p for p in params if p.choices is not None]
+        self.fixed = dict(fixed or {})  # discrete choices and parameters held at a value
+        self.free: list[_Free] = []
+        for p in params:
+            if p.choices is not None or p.name in self.fixed:
+                continue
+            if p.scope == "per_experiment":
+                self.free += [_Free(p, e.name, _scale(p)) for e in self.exps]
+            else:
+                self.free.append(_Free(p, None, _scale(p)))
+        self.evaluations = 0
+
+    # values ------------------------------------------------------------------------------------
+    def values(self, u: np.ndarray) -> tuple[dict[str, float], dict[str, dict[str, float]]]:
+        shared = dict(self.fixed)
+        per: dict[str, dict[str, float]] = {}
+        for f, x in zip(self.free, u):
+            if f.experiment is None:
+                shared[f.param.name] = f.to_value(x)
+            else:
+                per.setdefault(f.experiment, {})[f.param.name] = f.to_value(x)
+        return shared, per
+
+    def models(self, u: np.ndarray) -> dict[str, Any]:
+        shared, per = self.values(u)
+        has_shared = any(f.experiment is None for f in self.free) or self.fixed or not self.free
+        model = self.effect.apply(self.base.shared, shared) if has_shared else self.base.shared
+        rm = RevisionModel(model, self.base.per_experiment)
+        out = {}
+        for e in self.exps:
+            m = rm.for_experiment(e.name)
+            if e.name in per:
+                m = self.effect.apply(m, {**{k: v for k, v in shared.items()}, **per[e.name]})
+            out[e.name] = m
+        return out
+
+    def predictions(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None) -> list[np.ndarray]:
+        self.evaluations += 1
+        models = self.models(u)
+        return [predict(models[e.name], e) for e in (exps or self.exps)]
+
+    # residuals ---------------------------------------------------------------------------------
+    def residual(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None,
+                 columns: Sequence[int] | None = None, stride: int | None = None) -> np.ndarray:
+        exps = exps or self.exps
+        k = self.stride if stride is None else stride
+        preds = self.predictions(u, exps)
+        parts = []
+        for e, p in zip(exps, preds):
+            r = (e.measured - p)[::k]
+            parts.append((r if columns is None else r[:, columns]).ravel())
+        return np.concatenate(parts)
+
+    def sse(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None) -> float:
+        """Sum of squares over every sample (the contract's error), not only the strided ones."""
+        r = self.residual(u, exps, stride=1)
+        return float(r @ r)
+
+    def tail_sse(self, u: np.ndarray) -> float:
+        """Sum of squares of the records outside the fit windows (nearly all noise)."""
+        if all(f is e for f, e in zip(self.full, self.exps)):
+            return 0.0
+        return self.sse(u, self.full) - self.sse(u)
+
+    def derived(self, fixed: Mapping[str, float]) -> Problem:
+        """The same problem with other parameters fixed."""
+        return Problem(self.base, self.effect, self.exps, fixed, self.prior, self.stride, self.full)
+
+    def jacobian(self, u: np.ndarray, r0: np.ndarray, **kw) -> np.ndarray:
+        J = np.empty((r0.size, len(self.free)))
+        for i, f in enumerate(self.free):
+            lo, hi = f.bounds
+            h = 1.0 if u[i] + 1.0 <= hi else -1.0
+            if not lo <= u[i] + h <= hi:
+                h = 0.5 * (hi - u[i]) if hi - u[i] > u[i] - lo else -0.5 * (u[i] - lo)
+            du = np.zeros_like(u)
+            du[i] = h
+            J[:, i] = -(self.residual(u + du, **kw) - r0) / h if h else 0.0
+        return J
+
+    def zero(self) -> np.ndarray:
+        return np.zeros(len(self.free))
+
+    def lower_upper(self) -> tuple[np.ndarray, np.ndarray]:
+        b = np.array([f.bounds for f in self.free]).reshape(-1, 2)
+        return b[:, 0], b[:, 1]
+
+
+#: Levenberg-Marquardt damping tried in turn (relative to the Jacobian's diagonal) until a step
+#: lowers the error: parameters of one effect may be redundant (a global scale spread over axes
+#: and springs), which a plain Gauss-Newton step would turn into a leap to the bounds
+LM_DAMPING = (1e-3, 1e-1, 1.0, 10.0)
+
+
+def _lm_step(problem: Problem, J: np.ndarray, r: np.ndarray, u: np.ndarray, exps) -> np.ndarray:
+    """The first damped Gauss-Newton step (r = measured - model, J = d model / d u) that lowers
+    the error on ``exps``, clipped to the bounds; ``u`` when none does."""
+    lo, hi = problem.lower_upper()
+    # parameters the residual cannot see here stay put (a mode's frequency while its amplitudes are
+    # zero): the linearisation says nothing about them
+    act = ~_tiny(J, r)
+    if not act.any():
+        return u
+    Ja, ua = J[:, act], u[act]
+    JtJ = Ja.T @ Ja + problem.prior * np.eye(len(ua))
+    g = Ja.T @ r - problem.prior * ua
+    diag = np.diag(JtJ).copy()
+    diag[diag <= 0] = max(float(diag.max(initial=0.0)), 1e-300)
+    cost = float(r @ r) + problem.prior * float(u @ u)
+    for lam in LM_DAMPING:
+        u1 = u.copy()
+        u1[act] += np.linalg.solve(JtJ + lam * np.diag(diag), g)
+        u1 = np.clip(u1, lo, hi)
+        if float(np.sum(problem.residual(u1, exps) ** 2)) + problem.prior * float(u1 @ u1) < cost:
+            return u1
+    return u
+
+
+# ---------------------------------------------------------------------------------------------
+# screening
+
+
+@dataclass
+class Screened:
+    effect: Any
+    fixed: dict[str, float]
+    u0: np.ndarray
+    sse: float
+    problem: Problem
+
+
+def _tiny(J: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Columns of a Jacobian that are zero (but for round-off) next to the others and the residual."""
+    norms = np.linalg.norm(J, axis=0)
+    scale = max(float(np.max(norms, initial=0.0)), float(np.linalg.norm(r)))
+    return norms <= 1e-7 * (scale if scale > 0 else 1.0)
+
+
+def _grid_starts(problem: Problem, r0: np.ndarray, J: np.ndarray, peaks_hz: Sequence[float]) -> list[np.ndarray]:
+    """Starting points for parameters the residual cannot see at their nominal value: frequencies
+    (unit Hz) and periods (unit s) from the residual's peaks and a logarithmic grid."""
+    starts = []
+    tiny = _tiny(J, r0)
+    for i, f in enumerate(problem.free):
+        if not tiny[i] or f.param.unit not in ("Hz", "s") or f.experiment is not None:
+            continue
+        lo = max(f.param.lower, 1e-12)
+        hi = f.param.upper
+        if f.param.unit == "Hz":
+            cands = list(peaks_hz) + list(np.geomspace(max(lo, 20.0), hi, 6))
+        else:
+            cands = [1.0 / p for p in peaks_hz] + list(np.geomspace(max(lo, hi / 50), hi, 5))
+        for c in cands:
+            if f.param.lower <= c <= f.param.upper:
+                u = problem.zero()
+                u[i] = (c - f.param.nominal) / f.scale
+                starts.append(u)
+    return starts
+
+
+def _activation(problem: Problem, start: np.ndarray, r: np.ndarray, J: np.ndarray, exps
+                ) -> tuple[int, float] | None:
+    """Products of amplitudes (a mode's participation at a sensor times at the force point) are
+    invisible at zero, one at a time. Among the amplitudes (nominal 0) that are still invisible at
+    ``start``, the one whose Jacobian column is largest when all of them are moved at once couples
+    to the most others: moved alone, it makes the rest linear. Returns its index and value."""
+    tiny = _tiny(J, r)
+    amp = [i for i, f in enumerate(problem.free)
+           if tiny[i] and f.param.nominal == 0 and f.param.unit not in ("Hz", "s") and f.experiment is None]
+    if len(amp) < 2:
+        return None
+    lo, hi = problem.lower_upper()
+    probe = start.copy()
+    probe[amp] = np.minimum(0.1 * (hi[amp] - lo[amp]), hi[amp])
+    Jp = problem.jacobian(probe, problem.residual(probe, exps), exps=exps)
+    norms = np.linalg.norm(Jp[:, amp], axis=0)
+    if not np.max(norms) > 0:
+        return None
+    k = amp[int(np.argmax(norms))]
+    return k, float(probe[k])
+
+
+def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened:
+    """Best start found by one Gauss-Newton step (and grids/choices where needed)."""
+    effect = problem.effect
+    best_fixed: dict[str, float] = {}
+    best_u = problem.zero()
+    best_sse = sse0
+    # discrete parameters: each choice alone, then greedily combined
+    chosen: dict[str, float] = {}
+    for _ in range(3):
+        trial_best = None
+        for p in problem.discrete:
+            if p.name in chosen:
+                continue
+            for c in p.choices:
+                if c == p.nominal:
+                    continue
+                trial = problem.derived({**chosen, p.name: c})
+                sse = trial.sse(trial.zero())
+                if trial_best is None or sse < trial_best[0]:
+                    trial_best = (sse, p.name, c)
+        if trial_best is None or trial_best[0] >= best_sse * 0.999:
+            break
+        best_sse = trial_best[0]
+        chosen[trial_best[1]] = trial_best[2]
+        best_fixed = dict(chosen)
+    if best_fixed:
+        problem = problem.derived(best_fixed)
+    if problem.free:
+        stages = heads(problem.exps)
+        first = stages[0]
+        u0 = problem.zero()
+        r0 = problem.residual(u0, first)
+        J0 = problem.jacobian(u0, r0, exps=first)
+        # the best start on the shortest head, then one damped step on each longer head
+        best_start, best_head = u0, float(r0 @ r0)
+        activation: tuple[int, float] | None = None
+        for start in [u0] + _grid_starts(problem, r0, J0, peaks_hz):
+            r = r0 if start is u0 else problem.residual(start, first)
+            J = J0 if start is u0 else problem.jacobian(start, r, exps=first)
+            if start is not u0:
+                activation = activation or _activation(problem, start, r, J, first)
+                if activation is not None and _tiny(J, r)[activation[0]]:
+                    start = start.copy()
+                    start[activation[0]] = activation[1]
+                    r = problem.residual(start, first)
+                    J = problem.jacobian(start, r, exps=first)
+            u = _lm_step(problem, J, r, start, first)
+            sse = float(np.sum(problem.residual(u, first) ** 2))
+            if sse < best_head:
+                best_start, best_head = u, sse
+        u = best_start
+        for exps in stages[1:]:
+            r = problem.residual(u, exps)
+            u = _lm_step(problem, problem.jacobian(u, r, exps=exps), r, u, exps)
+        sse = problem.sse(u)
+        if sse < best_sse:
+            best_sse, best_u = sse, u
+    return Screened(effect, best_fixed, best_u, best_sse, problem)
+
+
+# ---------------------------------------------------------------------------------------------
+# fitting and validation
+
+
+def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] | None = None,
+        columns: Sequence[int] | None = None, max_nfev: int | None = None, continuation: bool = True):
+    """Bounded output-error least squares from ``u0`` (on short heads of the records first);
+    returns scipy's result for the whole records."""
+    lo, hi = problem.lower_upper()
+    u = np.clip(u0, lo, hi)
+    n = len(problem.free)
+    stages = heads(exps or problem.exps) if continuation else [list(exps or problem.exps)]
+    for k, stage in enumerate(stages):
+        last = k == len(stages) - 1
+        root = math.sqrt(problem.prior)
+        res = scipy.optimize.least_squares(
+            lambda x: np.concatenate([problem.residual(x, stage, columns), root * x]) if root
+            else problem.residual(x, stage, columns), u, bounds=(lo, hi), method="trf",
+            x_scale=1.0, diff_step=1e-4, max_nfev=max_nfev or (8 if last else 4) * (n + 1),
+            xtol=1e-6, ftol=1e-8,
+        )
+        u = res.x
+    return res
+
+
+def effective_samples(exps: Sequence[PreparedExperiment]) -> tuple[float, float]:
+    """Samples carrying independent information: the record length times the fraction of the band
+    that holds 99 % of the measured energy (filtered signals are strongly correlated); and the
+    frequency below which that 99 % lies."""
+    total, f99 = 0.0, 0.0
+    for e in exps:
+        spec = np.sum(np.abs(np.fft.rfft(e.measured, axis=0)) ** 2, axis=1)
+        c = np.cumsum(spec)
+        k = int(np.searchsorted(c, 0.99 * c[-1])) + 1
+        total += e.measured.shape[1] * e.n_samples * min(1.0, k / len(spec))
+        f99 = max(f99, k * e.fs / (2 * len(spec)))
+    return max(total, 1.0), f99
+
+
+def uncertainties(problem: Problem, res, n_eff: float) -> tuple[np.ndarray, np.ndarray, list[list[str]]]:
+    """Standard deviations (value units), correlations and redundant groups at the fit.
+
+    The residual variance is inflated by N / N_eff for the samples' correlation. Directions the
+    data cannot see at all (an effect whose parameters overlap, e.g. a global scale spread over axes
+    and springs) are left out of the covariance (pseudo-inverse) and reported as groups whose
+    combination alone is determined.
+    """
+    J = res.jac[: res.jac.shape[0] - len(problem.free)] if problem.prior else res.jac
+    n, p = J.shape
+    s2 = float(np.sum(res.fun[:n] ** 2)) / max(1, n - p) * (n / n_eff)
+    JtJ = J.T @ J
+    w, V = np.linalg.eigh(JtJ)
+    null = w <= 1e-8 * max(float(w.max(initial=0.0)), 1e-300)
+    groups = []
+    for k in np.flatnonzero(null):
+        members = [problem.free[i].label for i in np.flatnonzero(np.abs(V[:, k]) > 0.2)]
+        if len(members) > 1 and members not in groups:
+            groups.append(members)
+    inv_w = np.where(null, 0.0, 1.0 / np.where(null, 1.0, w))
+    cov = s2 * (V * inv_w) @ V.T
+    sd_u = np.sqrt(np.clip(np.diag(cov), 0, None))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(sd_u, sd_u)
+    scales = np.array([f.scale for f in problem.free])
+    return sd_u * scales, np.nan_to_num(corr), groups
+
+
+def validate(problem: Problem, u: np.ndarray, res) -> tuple[float, str]:
+    """Held-out sum of squares, each fold refitted by one Gauss-Newton step from the full fit with
+    the fold's own rows removed (at the optimum the rows left in pull by exactly minus the held-out
+    rows' gradient), then evaluated for real on the held-out data.
+
+    Shared parameters: leave one experiment out. Parameters of single experiments: held-out
+    channels (alternate sensors), since a left-out experiment's own parameters are never fitted.
+    """
+    exps = problem.exps
+    if not problem.free:
+        # discrete choices only: choose on the others, score on the held-out experiment
+        if len(exps) < 2:
+            return problem.sse(u), "none (one experiment)"
+        total = 0.0
+        for i, e in enumerate(exps):
+            rest = [x for j, x in enumerate(exps) if j != i]
+            sub = Problem(problem.base, problem.effect, rest, {}, problem.prior, problem.stride)
+            s = screen(sub, sub.sse(sub.zero()), ())
+            held = Problem(problem.base, problem.effect, [e], s.fixed, problem.prior, problem.stride)
+            total += held.sse(held.zero())
+        return total, "leave one experiment out"
+    n_data = res.fun.size - (len(problem.free) if problem.prior else 0)
+    J, r = res.jac[:n_data], res.fun[:n_data]
+    k = problem.stride
+    sizes = [len(range(0, e.n_samples, k)) * e.measured.shape[1] for e in exps]
+    starts = np.concatenate([[0], np.cumsum(sizes)])
+    ncols = exps[0].measured.shape[1]
+    if any(f.experiment is not None for f in problem.free) or len(exps) < 2:
+        col = np.concatenate([np.tile(np.arange(e.measured.shape[1]), n // e.measured.shape[1])
+                              for e, n in zip(exps, sizes)])
+        folds = [(col % 2 == h, list(range(h, ncols, 2)), None) for h in (0, 1)]
+        how = "held-out channels (alternate sensors)"
+    else:
+        folds = []
+        for i, e in enumerate(exps):
+            rows = np.zeros(n_data, bool)
+            rows[starts[i]:starts[i + 1]] = True
+            folds.append((rows, None, e))
+        how = "leave one experiment out"
+    lo, hi = problem.lower_upper()
+    H = J.T @ J + problem.prior * np.eye(len(u))
+    total = 0.0
+    for rows, cols, exp in folds:
+        Jh, rh = J[rows], r[rows]
+        # r = measured - model and res.jac = d r / d u: the kept rows' step is -(H_kept)^-1 J_h^T r_h
+        step = np.linalg.lstsq(H - Jh.T @ Jh, Jh.T @ rh, rcond=1e-10)[0]
+        u_fold = np.clip(u + step, lo, hi)
+        if exp is not None:
+            total += problem.sse(u_fold, [exp])
+        else:
+            held = np.concatenate([(e.measured - p)[:, cols].ravel()
+                                   for e, p in zip(exps, problem.predictions(u_fold))])
+            total += float(held @ held)
+    return total, how
