@@ -196,6 +196,8 @@ def rig_to_dict(rig: Rig) -> dict[str, Any]:
              "axis": vec(s.axis), "sign": int(s.sign), "kind": s.kind, "serial": s.serial}
         if s.sensitivity is not None:
             d["sensitivity"] = s.sensitivity
+        if s.group:
+            d["group"] = s.group
         sensors.append(d)
     out: dict[str, Any] = {"name": rig.name, "description": rig.description, "frame": rig.frame,
                            "channel_count": rig.channel_count, "bodies": bodies, "sensors": sensors,

@@ -112,7 +112,7 @@ def _load_entry_points(pm: PluginManager, blocked: set[str]) -> None:
 
 def _contracts() -> dict[str, Contract]:
     """Each registry's contract, from the core module that documents it."""
-    from odsuite.core import daq, effects, importers, renderers, solvers, steps
+    from odsuite.core import daq, effects, importers, renderers, sensor_types, solvers, steps
     from odsuite.core.rig import Rig
 
     def of(module) -> Contract:
@@ -120,7 +120,7 @@ def _contracts() -> dict[str, Contract]:
 
     return {"daq_backends": of(daq), "processing_steps": of(steps), "coordinate_solvers": of(solvers),
             "models": Contract(methods=("__call__",)), "effects": of(effects), "renderers": of(renderers),
-            "sensor_types": Contract(), "rigs": Contract(instance_of=Rig), "importers": of(importers)}
+            "sensor_types": of(sensor_types), "rigs": Contract(instance_of=Rig), "importers": of(importers)}
 
 
 def build_registries(pm: PluginManager) -> Registries:
@@ -136,7 +136,9 @@ def build_registries(pm: PluginManager) -> Registries:
         for impl in reversed(impls):
             others = [i.plugin for i in impls if i.plugin is not impl.plugin]
             call = pm.subset_hook_caller(hook_name, remove_plugins=others)
-            call(registry=registry.for_plugin(pm.source(impl.plugin_name)))
+            # rig files name sensor kinds: the rigs hook sees the sensor types registered before it
+            context = {"sensor_types": regs["sensor_types"]} if f.name == "rigs" else None
+            call(registry=registry.for_plugin(pm.source(impl.plugin_name), context))
         registry.apply_overrides()
         regs[f.name] = registry
     return Registries(**regs)

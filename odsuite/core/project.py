@@ -126,7 +126,7 @@ def _resolve_rig(rig: Rig | str | Path | None) -> Rig | None:
     if isinstance(rig, str) and rig in rigs:
         return rigs.get(rig)
     if Path(rig).suffix == ".toml" or Path(rig).is_file():
-        return load_rig(rig)
+        return load_rig(rig, registries().sensor_types)
     raise ConfigError(f"unknown rig {str(rig)!r}: not a registered rig (known: {', '.join(rigs.names()) or 'none'}) "
                       "and not a .toml rig file")
 
@@ -358,7 +358,9 @@ class Project:
                 except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:
                     raise SchemaError(f"{self.path}: /rig definition is not valid {fmt}: {exc}") from None
                 source = h5text.text(a.get("source", ""))
-                rig = rig_from_dict(data, source=Path(source) if source else None)
+                from odsuite.core.plugins import registries
+
+                rig = rig_from_dict(data, registries().sensor_types, source=Path(source) if source else None)
             self._rig_cache = (rig,)
         return self._rig_cache[0]
 

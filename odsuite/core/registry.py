@@ -75,9 +75,9 @@ class Registry:
         self._entries: dict[str, Entry] = {}
         self._overrides: list[Entry] = []
 
-    def for_plugin(self, source: Source) -> PluginRegistry:
+    def for_plugin(self, source: Source, context: dict[str, Registry] | None = None) -> PluginRegistry:
         """The view a plugin's registration hook receives."""
-        return PluginRegistry(self, source)
+        return PluginRegistry(self, source, context)
 
     def add(self, name: str, provider: Any, *, override: bool = False, source: Source | None = None) -> None:
         """Register ``provider`` as ``name``; ``override=True`` replaces another plugin's entry.
@@ -143,12 +143,20 @@ class Registry:
 
 
 class PluginRegistry:
-    """One plugin's view of a registry: ``add(name, provider, override=False)``."""
+    """One plugin's view of a registry: ``add(name, provider, override=False)``; ``context`` holds
+    registries built before this one that its providers may need (rigs: ``sensor_types``)."""
 
-    def __init__(self, registry: Registry, source: Source) -> None:
+    def __init__(self, registry: Registry, source: Source, context: dict[str, Registry] | None = None) -> None:
         self._registry = registry
         self.source = source
         self.kind = registry.kind
+        self._context = context or {}
+
+    def __getattr__(self, name: str) -> Registry:
+        try:
+            return self.__dict__["_context"][name]
+        except KeyError:
+            raise AttributeError(f"the {self.kind} registry a plugin receives has no {name!r}") from None
 
     def add(self, name: str, provider: Any, *, override: bool = False) -> None:
         self._registry.add(name, provider, override=override, source=self.source)

@@ -64,9 +64,11 @@ class Sensor:
     position: np.ndarray
     axis: np.ndarray
     sign: float = 1.0
-    kind: str = "accelerometer"
+    kind: str = "accelerometer"  # the registered sensor type that declared it
     serial: str = ""
     sensitivity: float | None = None  # V per SI unit (e.g. V/(m/s^2)); None: from the Systeminfo
+    quantity: str = "acceleration"  # what it measures: acceleration, force, displacement, voltage, ...
+    group: str = ""  # the multi-axis sensor it is one axis of (e.g. a triaxial accelerometer)
 
 
 @dataclass(frozen=True)
@@ -118,8 +120,10 @@ def _number(where: str, value: Any, *, positive: bool = False) -> float:
     return float(value)
 
 
-def rig_from_dict(data: dict[str, Any], source: Path | None = None) -> Rig:
-    """Build and validate a rig from parsed TOML; errors name the file, field and value."""
+def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None) -> Rig:
+    """Build and validate a rig from parsed TOML; errors name the file, field and value. Each
+    ``[[sensors]]`` entry is read by the sensor type its ``kind`` names (``sensor_types``: the
+    registry of sensor types; default kind "accelerometer")."""
     where0 = str(source) if source else "rig"
     try:
         name = data["name"]
@@ -170,30 +174,23 @@ def rig_from_dict(data: dict[str, Any], source: Path | None = None) -> Rig:
     body_names = {b.name for b in bodies}
     sensors = []
     for i, s in enumerate(data.get("sensors", [])):
-        w = f"{where0}: sensor {s.get('name', i)!r}"
-        if s.get("body") not in body_names:
-            raise ConfigError(f"{w} field 'body': no body named {s.get('body')!r}")
-        axis = _vector(f"{w} field 'axis'", s.get("axis"))
-        if np.linalg.norm(axis) == 0:
-            raise ConfigError(f"{w} field 'axis': zero vector")
-        sign = s.get("sign", 1)
-        if sign not in (1, -1):
-            raise ConfigError(f"{w} field 'sign': must be 1 or -1, got {sign!r}")
-        channel = s.get("channel")
-        if not isinstance(channel, int) or channel < 0:
-            raise ConfigError(f"{w} field 'channel': expected a channel index >= 0, got {channel!r}")
-        sensors.append(Sensor(
-            name=s["name"], channel=channel, body=s["body"],
-            position=_vector(f"{w} field 'position'", s.get("position")),
-            axis=axis / np.linalg.norm(axis), sign=float(sign),
-            kind=s.get("kind", "accelerometer"), serial=str(s.get("serial", "")),
-            sensitivity=(None if s.get("sensitivity") is None
-                         else _number(f"{w} field 'sensitivity'", s["sensitivity"], positive=True)),
-        ))
+        w = f"{where0}: sensors[{i}]" + (f" {s.get('name')!r}" if isinstance(s, dict) and "name" in s else "")
+        if not isinstance(s, dict):
+            raise ConfigError(f"{w}: expected a table, got {s!r}")
+        kind = s.get("kind", "accelerometer")
+        if kind not in sensor_types:
+            raise ConfigError(f"{w} field 'kind': unknown sensor type {kind!r} "
+                              f"(known: {', '.join(sensor_types.names())})")
+        for sensor in sensor_types.get(kind).sensors(s, w):
+            if sensor.body not in body_names:
+                raise ConfigError(f"{w} field 'body': no body named {sensor.body!r}")
+            sensors.append(sensor)
     sensor_names = {s.name for s in sensors}
     channels = [s.channel for s in sensors]
     if len(set(channels)) != len(channels):
         raise ConfigError(f"{where0}: two sensors share a channel ({sorted(channels)})")
+    if len(sensor_names) != len(sensors):
+        raise ConfigError(f"{where0}: two sensors share a name ({sorted(s.name for s in sensors)})")
     for b in bodies:
         if b.nine_sensor_set:
             unknown = [v for v in b.nine_sensor_set.sensors.values() if v not in sensor_names]
@@ -214,7 +211,7 @@ def rig_from_dict(data: dict[str, Any], source: Path | None = None) -> Rig:
     )
 
 
-def load_rig(path: str | Path) -> Rig:
+def load_rig(path: str | Path, sensor_types) -> Rig:
     path = Path(path)
     try:
         with path.open("rb") as f:
@@ -223,4 +220,34 @@ def load_rig(path: str | Path) -> Rig:
         raise ConfigError(f"{path}: rig file not found") from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: not valid TOML: {exc}") from None
-    return rig_from_dict(data, source=path)
+    return rig_from_dict(data, sensor_types, source=path)
+
+
+def single_axis_sensor(entry: dict[str, Any], where: str, *, kind: str, quantity: str, name: str | None = None,
+                       channel: Any = None, axis: Any = None, sensitivity: Any = None, sign: Any = None,
+                       group: str = "") -> Sensor:
+    """One single-axis sensor from a rig file entry's fields (or the given values, for one axis of
+    a multi-axis sensor), validated: errors name ``where``, the field and the value."""
+    name = entry.get("name") if name is None else name
+    if not isinstance(name, str) or not name:
+        raise ConfigError(f"{where} field 'name': expected a non-empty name, got {name!r}")
+    if not isinstance(entry.get("body"), str):
+        raise ConfigError(f"{where} field 'body': expected a body's name, got {entry.get('body')!r}")
+    axis = _vector(f"{where} field 'axis'", entry.get("axis") if axis is None else axis)
+    if np.linalg.norm(axis) == 0:
+        raise ConfigError(f"{where} field 'axis': zero vector")
+    sign = entry.get("sign", 1) if sign is None else sign
+    if sign not in (1, -1) or isinstance(sign, bool):
+        raise ConfigError(f"{where} field 'sign': must be 1 or -1, got {sign!r}")
+    channel = entry.get("channel") if channel is None else channel
+    if not isinstance(channel, int) or isinstance(channel, bool) or channel < 0:
+        raise ConfigError(f"{where} field 'channel': expected a channel index >= 0, got {channel!r}")
+    sensitivity = entry.get("sensitivity") if sensitivity is None else sensitivity
+    return Sensor(
+        name=name, channel=channel, body=entry["body"],
+        position=_vector(f"{where} field 'position'", entry.get("position")),
+        axis=axis / np.linalg.norm(axis), sign=float(sign), kind=kind, serial=str(entry.get("serial", "")),
+        sensitivity=None if sensitivity is None else _number(f"{where} field 'sensitivity'", sensitivity,
+                                                             positive=True),
+        quantity=quantity, group=str(entry.get("group", group)),
+    )

@@ -147,10 +147,10 @@ CHANNEL_FIELDS: tuple[str, ...] = (
 
 INTEGRATION_RULES = ("thesis", "trapezoid")
 
-#: Rig sensor kinds (rig TOML ``kind``) and the sensor type a Systeminfo gives them.
-_KIND_TO_SENSOR_TYPE = {
-    "accelerometer": SensorType.ACCELEROMETER, "loadcell": SensorType.LOADCELL,
-    "force": SensorType.LOADCELL, "proximity": SensorType.PROXIMITY,
+#: What a rig sensor measures and the Table E.2 sensor type a Systeminfo gives it; other quantities
+#: (a lab's strain gauge) are recorded as auxiliary channels, not processed as one of these.
+_QUANTITY_TO_SENSOR_TYPE = {
+    "acceleration": SensorType.ACCELEROMETER, "force": SensorType.LOADCELL,
     "displacement": SensorType.PROXIMITY, "voltage": SensorType.VOLTAGE,
 }
 
@@ -348,7 +348,7 @@ def _channel_for_rig(rig: Rig, k: int, fs: float) -> ChannelInfo:
                                sensitivity=_THESIS_LOADCELL_V_PER_N, **_THESIS_CHANNEL)
         return ChannelInfo(sensor_type=SensorType.VOLTAGE, location=f"ai{k}", sampling_rate=fs,
                            **_THESIS_CHANNEL)
-    sensor_type = _KIND_TO_SENSOR_TYPE.get(sensor.kind, SensorType.NONE)
+    sensor_type = _QUANTITY_TO_SENSOR_TYPE.get(sensor.quantity, SensorType.AUXILIARY)
     if sensor.sensitivity is None and sensor_type is not SensorType.VOLTAGE:
         raise ConfigError(f"rig {rig.name!r}: sensor {sensor.name!r} (channel {k}) has no sensitivity")
     ch = ChannelInfo(sensor_type=sensor_type, location=sensor.name, serial=sensor.serial,

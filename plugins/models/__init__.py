@@ -25,9 +25,17 @@ def __getattr__(name: str):
 
 
 @hookimpl
+def odsuite_register_sensor_types(registry):
+    from .sensor_types import builtin_sensor_types
+
+    for sensor_type in builtin_sensor_types():
+        registry.add(sensor_type.name, sensor_type)
+
+
+@hookimpl
 def odsuite_register_rigs(registry):
     for path in sorted(RIG_DIR.glob("*.toml")):
-        rig = load_rig(path)
+        rig = load_rig(path, registry.sensor_types)
         registry.add(rig.name, rig)
 
 

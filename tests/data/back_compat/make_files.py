@@ -16,6 +16,7 @@ import numpy as np
 
 from odsuite.core.project import DerivedArray, Excitation, create_project
 from odsuite.core.project_format import FORMAT_VERSION
+from odsuite.core.plugins import registries
 from odsuite.core.rig import load_rig
 from odsuite.core.systeminfo import ChannelInfo, FilterFamily, RigInfo, SensorType, Systeminfo
 
@@ -45,7 +46,7 @@ def expected() -> dict:
 def make_frozen(path: Path) -> None:
     e = expected()
     os.chdir(REPO)  # a relative rig path: the file holds no path of the machine that made it
-    with create_project(path, rig=load_rig(RIG_FILE)) as p:
+    with create_project(path, rig=load_rig(RIG_FILE, registries().sensor_types)) as p:
         p.add_experiment("hit-z", e["raw"], sampling_rate=5000.0, systeminfo=e["systeminfo"],
                          excitation=e["excitation"], pretrigger=200, source="make_files.py")
         p.write_derived("hit-z", "gencoords", {"q": DerivedArray(e["derived"], "m|rad", ("sample", "coordinate"))},
