@@ -21,10 +21,10 @@ import numpy as np
 import scipy  # scipy.signal and scipy.linalg load on first use: fast `odsuite plugins`
 
 from odsuite.core.errors import ConfigError
-from odsuite.core.rig import Body, Rig, Sensor
+from odsuite.core.rig import COORDINATES, Body, Rig, Sensor
 
 #: Generalized coordinates of one body, in order.
-COORDS = ("x", "y", "z", "theta", "phi", "psi")
+COORDS = COORDINATES
 QUANTITIES = ("displacement", "velocity", "acceleration")
 _UNITS = {"displacement": ("m", "rad"), "velocity": ("m/s", "rad/s"),
           "acceleration": ("m/s^2", "rad/s^2")}
@@ -90,11 +90,12 @@ class RigidBody:
         object.__setattr__(self, "dofs", tuple(d for d in COORDS if d in self.dofs))
 
     @classmethod
-    def from_rig(cls, body: Body, dofs: tuple[str, ...] = COORDS) -> RigidBody:
-        """The moving body of a rig file (bodies without a mass do not move)."""
+    def from_rig(cls, body: Body, dofs: tuple[str, ...] | None = None) -> RigidBody:
+        """The moving body of a rig file (bodies without a mass do not move); ``dofs`` default to
+        the rig file's."""
         if body.mass is None:
             raise ConfigError(f"rig body {body.name!r} has no mass: it is not a moving body")
-        return cls(body.name, body.mass, body.inertia, body.com, dofs)
+        return cls(body.name, body.mass, body.inertia, body.com, body.dofs if dofs is None else dofs)
 
     @property
     def mass_matrix(self) -> np.ndarray:
@@ -109,8 +110,10 @@ class RigidBody:
 class SpringDamper:
     """A 3-D spring-damper at ``point`` between ``body`` and ``other`` (None: the ground/base).
 
-    Stiffness (N/m) and damping (N s/m) act along the rig axes on the relative displacement of the
-    point; ``rot_stiffness`` (N m/rad) and ``rot_damping`` (N m s/rad) on the relative rotation.
+    Stiffness (N/m) and damping (N s/m) act on the relative displacement of the point, along the rig
+    axes (3 coefficients) or as symmetric 3x3 matrices; ``rot_stiffness`` (N m/rad) and
+    ``rot_damping`` (N m s/rad) on the relative rotation. ``group``: springs that effects scale
+    together (e.g. four identical isolators); empty: the spring is its own group.
     """
 
     name: str
@@ -121,6 +124,7 @@ class SpringDamper:
     damping: np.ndarray = field(default_factory=lambda: np.zeros(3))
     rot_stiffness: np.ndarray = field(default_factory=lambda: np.zeros(3))
     rot_damping: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    group: str = ""  # springs scaled together by effects; "" = its own group
 
     def __post_init__(self) -> None:
         w = f"spring {self.name!r}"
@@ -130,10 +134,32 @@ class SpringDamper:
             raise ConfigError(f"{w}: attached to body {self.body!r} at both ends")
         object.__setattr__(self, "point", _vec3(f"{w} field 'point'", self.point))
         for f in ("stiffness", "damping", "rot_stiffness", "rot_damping"):
-            v = _vec3(f"{w} field {f!r}", getattr(self, f))
-            if np.any(v < 0):
+            raw = getattr(self, f)
+            v = np.asarray(raw, dtype=float)
+            if f in ("stiffness", "damping") and v.shape == (3, 3):
+                if not np.all(np.isfinite(v)) or not np.allclose(v, v.T, rtol=1e-12, atol=0):
+                    raise ConfigError(f"{w} field {f!r}: a 3x3 matrix must be finite and symmetric, got {v.tolist()}")
+                low = np.linalg.eigvalsh(v).min()
+            else:
+                v = _vec3(f"{w} field {f!r}", raw)
+                low = v.min()
+            if low < 0:
                 raise ConfigError(f"{w} field {f!r}: must be >= 0, got {v.tolist()}")
             object.__setattr__(self, f, v)
+
+    def matrix(self, name: str) -> np.ndarray:
+        """``stiffness``, ``damping``, ... as a 3x3 matrix."""
+        v = getattr(self, name)
+        return v if v.ndim == 2 else np.diag(v)
+
+    def scaled(self, name: str, factors) -> np.ndarray:
+        """``name`` scaled by ``factors`` along the rig axes: f_i k_i, or S K S with S = diag(sqrt f)
+        for a matrix (symmetric, and equal to f_i k_ii on its diagonal)."""
+        v, f = getattr(self, name), np.broadcast_to(np.asarray(factors, dtype=float), (3,))
+        if v.ndim == 1:
+            return v * f
+        root = np.sqrt(f)
+        return root[:, None] * v * root[None, :]
 
 
 #: A flexible mode's participation: (point, unit direction, tag) -> displacement per unit modal
@@ -396,7 +422,7 @@ class Structure:
         k = np.zeros((self.n_dof, self.n_dof))
         for s in self.springs:
             P, R = self._spring_ends(s)
-            k += P.T @ (getattr(s, lin)[:, None] * P) + R.T @ (getattr(s, rot)[:, None] * R)
+            k += P.T @ s.matrix(lin) @ P + R.T @ s.matrix(rot) @ R
         for i, f in enumerate(self.flexible_modes):
             k[self._flex_start + i, self._flex_start + i] = flex(f)
         return k
@@ -422,8 +448,8 @@ class Structure:
             sign = 1.0 if s.other is None else -1.0  # ground at the "other" end or at the "body" end
             G = point_map(s.point)
             Gr = np.hstack([np.zeros((3, 3)), np.eye(3)])
-            kg += sign * (P.T @ (s.stiffness[:, None] * G) + R.T @ (s.rot_stiffness[:, None] * Gr))
-            cg += sign * (P.T @ (s.damping[:, None] * G) + R.T @ (s.rot_damping[:, None] * Gr))
+            kg += sign * (P.T @ s.matrix("stiffness") @ G + R.T @ s.matrix("rot_stiffness") @ Gr)
+            cg += sign * (P.T @ s.matrix("damping") @ G + R.T @ s.matrix("rot_damping") @ Gr)
         return kg, cg
 
     @functools.cached_property

@@ -16,6 +16,8 @@ import numpy as np
 
 from odsuite.core.errors import ConfigError
 
+#: Generalized coordinates of a body, in order (m, m, m, rad, rad, rad).
+COORDINATES = ("x", "y", "z", "theta", "phi", "psi")
 #: Roles of the nine-accelerometer set, in Table E.2 row 33 / Eq. 4.13 order.
 NINE_ROLES = ("xC", "yC", "zC", "x1", "z1", "y2", "z2", "x3", "y3")
 
@@ -52,6 +54,7 @@ class Body:
     plate: Plate | None = None
     nine_sensor_set: NineSensorSet | None = None
     solver: str | None = None  # a registered coordinate solver; None: the most suitable one
+    dofs: tuple[str, ...] = COORDINATES  # the coordinates that may move (a planar model: ("z", "phi"))
 
 
 @dataclass(frozen=True)
@@ -71,6 +74,25 @@ class Sensor:
     group: str = ""  # the multi-axis sensor it is one axis of (e.g. a triaxial accelerometer)
 
 
+@dataclass(frozen=True, eq=False)
+class Spring:
+    """A spring-damper between ``body`` and ``other`` (another body, or None for the ground) acting
+    at ``position`` (m, rig frame) on the relative displacement of that point: ``stiffness`` N/m and
+    ``damping`` N s/m along the rig axes (3,) or as 3x3 matrices; ``rot_stiffness`` N m/rad and
+    ``rot_damping`` N m s/rad on the relative rotation (3,). ``group``: springs scaled together by
+    effects (e.g. "isolators"); by default the spring's own name."""
+
+    name: str
+    body: str
+    other: str | None
+    position: np.ndarray
+    stiffness: np.ndarray
+    damping: np.ndarray
+    rot_stiffness: np.ndarray
+    rot_damping: np.ndarray
+    group: str
+
+
 @dataclass(frozen=True)
 class Rig:
     name: str
@@ -82,6 +104,7 @@ class Rig:
     channel_count: int
     default_model: str | None
     systeminfo_file: Path | None = None  # a legacy .CTR with the rig's default Systeminfo
+    springs: tuple[Spring, ...] = ()
     source: Path | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
@@ -167,11 +190,19 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
         solver = b.get("solver")
         if solver is not None and (not isinstance(solver, str) or not solver):
             raise ConfigError(f"{w} field 'solver': expected a coordinate solver's name, got {solver!r}")
+        dofs = b.get("dofs", list(COORDINATES))
+        if (not isinstance(dofs, list) or not dofs or any(d not in COORDINATES for d in dofs)
+                or len(set(dofs)) != len(dofs)):
+            raise ConfigError(f"{w} field 'dofs': expected distinct names from {list(COORDINATES)}, got {dofs!r}")
         bodies.append(Body(
             name=b["name"], com=_vector(f"{w} field 'com'", b.get("com", [0.0, 0.0, 0.0])),
             mass=mass, inertia=inertia, plate=plate, nine_sensor_set=nine, solver=solver,
+            dofs=tuple(d for d in COORDINATES if d in dofs),
         ))
     body_names = {b.name for b in bodies}
+    if len(body_names) != len(bodies):
+        raise ConfigError(f"{where0}: two bodies share a name ({sorted(b.name for b in bodies)})")
+    springs = _springs(data.get("springs", []), where0, {b.name for b in bodies if b.mass is not None}, body_names)
     sensors = []
     for i, s in enumerate(data.get("sensors", [])):
         w = f"{where0}: sensors[{i}]" + (f" {s.get('name')!r}" if isinstance(s, dict) and "name" in s else "")
@@ -200,15 +231,77 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
     if data.get("systeminfo"):
         base = source.parent if source else Path.cwd()
         systeminfo_file = base / data["systeminfo"]
-    known = {"name", "description", "frame", "bodies", "sensors", "force_channel", "channel_count",
+    known = {"name", "description", "frame", "bodies", "springs", "sensors", "force_channel", "channel_count",
              "default_model", "systeminfo"}
     return Rig(
         name=name, description=data.get("description", ""), frame=data.get("frame", ""),
         bodies=tuple(bodies), sensors=tuple(sensors), force_channel=data.get("force_channel"),
         channel_count=int(data.get("channel_count", max(channels, default=-1) + 1)),
         default_model=data.get("default_model"), systeminfo_file=systeminfo_file, source=source,
+        springs=springs,
         extra={k: v for k, v in data.items() if k not in known},
     )
+
+
+def _coefficients(where: str, value: Any, default: Any = None) -> np.ndarray:
+    """Three coefficients along the rig axes or a symmetric 3x3 matrix, finite, positive
+    semi-definite (a negative stiffness or damping is not a spring)."""
+    if value is None:
+        value = default
+    arr = np.asarray(value, dtype=float) if isinstance(value, list) else None
+    try:
+        ok = arr is not None and arr.shape in ((3,), (3, 3)) and bool(np.all(np.isfinite(arr)))
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise ConfigError(f"{where}: expected 3 numbers [x, y, z] or a 3x3 matrix, got {value!r}")
+    if arr.ndim == 2 and not np.allclose(arr, arr.T, rtol=1e-12, atol=0):
+        raise ConfigError(f"{where}: the 3x3 matrix is not symmetric: {value!r}")
+    low = np.min(arr) if arr.ndim == 1 else np.linalg.eigvalsh(arr).min()
+    if low < 0:
+        raise ConfigError(f"{where}: must not be negative, got {value!r}")
+    return arr
+
+
+def _springs(entries: Any, where0: str, moving: set[str], bodies: set[str]) -> tuple[Spring, ...]:
+    if not isinstance(entries, list):
+        raise ConfigError(f"{where0}: field 'springs': expected a list of [[springs]] tables, got {entries!r}")
+    out = []
+    for i, s in enumerate(entries):
+        w = f"{where0}: springs[{i}]" + (f" {s.get('name')!r}" if isinstance(s, dict) and "name" in s else "")
+        if not isinstance(s, dict):
+            raise ConfigError(f"{w}: expected a table, got {s!r}")
+        name = s.get("name")
+        if not isinstance(name, str) or not name:
+            raise ConfigError(f"{w} field 'name': expected a non-empty name, got {name!r}")
+        body = s.get("body")
+        for field_name, value in (("body", body), ("other", s.get("other", "ground"))):
+            if value == "ground" and field_name == "other":
+                continue
+            if value not in bodies:
+                raise ConfigError(f"{w} field {field_name!r}: no body named {value!r} (bodies: {', '.join(sorted(bodies))})")
+            if value not in moving:
+                raise ConfigError(f"{w} field {field_name!r}: body {value!r} has no mass, so it does not move; "
+                                  "attach the spring to 'ground' instead")
+        other = s.get("other", "ground")
+        if other == body:
+            raise ConfigError(f"{w} field 'other': the spring joins body {body!r} to itself")
+        stiffness = _coefficients(f"{w} field 'stiffness'", s.get("stiffness"))
+        damping = _coefficients(f"{w} field 'damping'", s.get("damping"), [0.0, 0.0, 0.0])
+        rot_k = _coefficients(f"{w} field 'rot_stiffness'", s.get("rot_stiffness"), [0.0, 0.0, 0.0])
+        rot_c = _coefficients(f"{w} field 'rot_damping'", s.get("rot_damping"), [0.0, 0.0, 0.0])
+        if not np.any(stiffness) and not np.any(rot_k):
+            raise ConfigError(f"{w} field 'stiffness': zero in every direction, got {s.get('stiffness')!r}")
+        group = s.get("group", name)
+        if not isinstance(group, str) or not group:
+            raise ConfigError(f"{w} field 'group': expected a name, got {group!r}")
+        out.append(Spring(name, body, None if other == "ground" else other,
+                          _vector(f"{w} field 'position'", s.get("position")), stiffness, damping, rot_k, rot_c,
+                          group))
+    names = [s.name for s in out]
+    if len(set(names)) != len(names):
+        raise ConfigError(f"{where0}: two springs share a name ({sorted(names)})")
+    return tuple(out)
 
 
 def load_rig(path: str | Path, sensor_types) -> Rig:

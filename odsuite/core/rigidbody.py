@@ -28,10 +28,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from odsuite.core.errors import ConfigError, DimensionError
-from odsuite.core.rig import Body, Plate, Rig, Sensor
+from odsuite.core.rig import COORDINATES, Body, Plate, Rig, Sensor
 
-#: Names and SI units of the six generalized coordinates, in storage order.
-COORDINATES = ("x", "y", "z", "theta", "phi", "psi")
+#: SI units of the six generalized coordinates, in storage order.
 COORDINATE_UNITS = ("m", "m", "m", "rad", "rad", "rad")
 
 #: Table 4.1: corner name -> its vector from the plate's corner C, in units of the plate size

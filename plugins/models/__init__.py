@@ -41,8 +41,10 @@ def odsuite_register_rigs(registry):
 
 @hookimpl
 def odsuite_register_models(registry):
+    from .rigid_bodies import rigid_bodies
     from .thesis import thesis_car_2dof, thesis_dynamometer
 
+    registry.add("rigid-bodies", rigid_bodies)
     registry.add("thesis-dynamometer", thesis_dynamometer)
     registry.add("thesis-car-2dof", thesis_car_2dof)
 

@@ -46,29 +46,34 @@ AXES = ("x", "y", "z")
 
 
 class _SpringScale(Effect):
-    """Scale spring coefficients per axis (all springs) and per spring (all axes)."""
+    """Scale spring coefficients per axis (all springs) and per spring group (all axes); a spring
+    without a group is its own group."""
 
     field = ""
     unit_bounds = (0.05, 20.0)
 
     def parameters(self, model):
         lo, hi = self.unit_bounds
+        groups: dict[str, list[str]] = {}
+        for s in model.springs:
+            groups.setdefault(s.group or s.name, []).append(s.name)
         return ([Parameter(f"scale_{a}", "1", 1.0, lo, hi, description=f"{self.field} along {a}, every spring")
                  for a in AXES]
-                + [Parameter(f"scale_{s.name}", "1", 1.0, lo, hi, description=f"{self.field} of {s.name}, every axis")
-                   for s in model.springs])
+                + [Parameter(f"scale_{g}", "1", 1.0, lo, hi,
+                             description=f"{self.field} of {g}" + (f" ({', '.join(n)})" if n != [g] else "")
+                             + ", every axis")
+                   for g, n in groups.items()])
 
     def _apply(self, model, v):
         axis = np.array([v[f"scale_{a}"] for a in AXES])
         springs = []
         for s in model.springs:
-            f = axis * v[f"scale_{s.name}"]
             # rotational terms follow the spring's overall scale
-            rf = v[f"scale_{s.name}"]
+            rf = v[f"scale_{s.group or s.name}"]
             if self.field == "stiffness":
-                springs.append(replace(s, stiffness=s.stiffness * f, rot_stiffness=s.rot_stiffness * rf))
+                springs.append(replace(s, stiffness=s.scaled("stiffness", axis * rf), rot_stiffness=s.rot_stiffness * rf))
             else:
-                springs.append(replace(s, damping=s.damping * f, rot_damping=s.rot_damping * rf))
+                springs.append(replace(s, damping=s.scaled("damping", axis * rf), rot_damping=s.rot_damping * rf))
         return _with_structure(model, springs=tuple(springs))
 
 
@@ -76,14 +81,14 @@ class Stiffness(_SpringScale):
     name = "stiffness"
     field = "stiffness"
     unit_bounds = (0.25, 4.0)
-    description = "Spring stiffness scaled per axis (all springs) and per spring (all axes)."
+    description = "Spring stiffness scaled per axis (all springs) and per spring group (all axes)."
 
 
 class Damping(_SpringScale):
     name = "damping"
     field = "damping"
     unit_bounds = (0.0, 20.0)
-    description = "Spring damping scaled per axis (all springs) and per spring (all axes)."
+    description = "Spring damping scaled per axis (all springs) and per spring group (all axes)."
 
 
 class MassProperties(Effect):

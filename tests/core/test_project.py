@@ -213,7 +213,7 @@ def test_model_revisions(tmp_path, thesis_rig):
     with create_project(tmp_path / "p.h5", rig=thesis_rig) as p:
         (r0,) = p.model_revisions()
         assert (r0["revision"], r0["effects"], r0["parameters"], r0["model"], r0["parent"]) == \
-            (0, [], {}, "thesis-dynamometer", None)
+            (0, [], {}, "rigid-bodies", None)
         n = p.add_model_revision([{"effect": "stiffness", "k": 1.5e6}], {"k": 1.5e6}, {"error": 0.2}, parent=0)
         assert n == 1 and p.current_revision == 1
         p.set_revision_metrics(0, {"error": 0.4})
@@ -228,7 +228,7 @@ def test_model_revisions(tmp_path, thesis_rig):
         revs = p.model_revisions()
         assert [r["revision"] for r in revs] == [0, 1] and p.current_revision == 0
         assert revs[1]["effects"] == [{"effect": "stiffness", "k": 1.5e6}] and revs[1]["parent"] == 0
-        assert revs[1]["model"] == "thesis-dynamometer" and revs[0]["metrics"] == {"error": 0.4}
+        assert revs[1]["model"] == "rigid-bodies" and revs[0]["metrics"] == {"error": 0.4}
 
 
 def test_info_peaks_and_clipping(tmp_path):
