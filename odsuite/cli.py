@@ -549,6 +549,9 @@ def diagnose_cmd(
                       "-" if c["validated_error"] != c["validated_error"] else f"{c['validated_error']:.4f}",
                       c["evidence"])
     console.print(table)
+    if doc["not_applicable"]:
+        console.print(f"not applicable to this model: {', '.join(doc['not_applicable'])}", highlight=False,
+                      soft_wrap=True)
 
 
 @app.command("add-effect")

@@ -134,11 +134,13 @@ class Diagnosis:
     candidates: list[Candidate]
     residual_peaks: list[dict[str, Any]]
     evaluations: int
+    not_applicable: list[str] = field(default_factory=list)
 
     def as_dict(self) -> dict[str, Any]:
         return {"baseline_error": self.baseline_error, "noise_floor_error": self.noise_floor_error,
                 "revision": self.revision, "candidates": [c.as_dict() for c in self.candidates],
-                "residual_peaks": self.residual_peaks, "model_evaluations": self.evaluations}
+                "residual_peaks": self.residual_peaks, "model_evaluations": self.evaluations,
+                "not_applicable": self.not_applicable}
 
 
 def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: float, noise: float,
@@ -273,6 +275,12 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     exps = list(prepared) if prepared is not None else prepare(project, experiments)
     in_model = {e["effect"] for e in rev.get("effects", [])}
     names = list(effects) if effects else [n for n in regs.effects.names() if n not in in_model]
+    # an effect without parameters for this model does not apply to its rig (no base, no plate)
+    not_applicable = [n for n in names if not regs.effects.get(n).parameters(base.shared)]
+    if effects and not_applicable:
+        raise ConfigError(f"{project.path}: effect(s) {', '.join(not_applicable)} do not apply to this model "
+                          f"({base.shared.name!r} on rig {project.rig.name!r})")
+    names = [n for n in names if n not in not_applicable]
     if not names:
         raise ConfigError(f"{project.path}: no candidate effects left to try (registered: "
                           f"{', '.join(regs.effects.names()) or 'none'})")
@@ -366,7 +374,8 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     if progress:
         progress("done", len(names), len(names))
     return Diagnosis(baseline_error=cmp.error, noise_floor_error=noise, revision=rev.get("revision"),
-                     candidates=candidates, residual_peaks=peaks, evaluations=evaluations)
+                     candidates=candidates, residual_peaks=peaks, evaluations=evaluations,
+                     not_applicable=not_applicable)
 
 
 def _mark_confounded(cands: Sequence[Candidate], exps) -> None:

@@ -10,7 +10,8 @@ any object with the same members:
 - ``parameters(model) -> list[Parameter]``: its parameters for this model (SI units, a nominal
   value that leaves the model unchanged, bounds; ``scope`` "shared" by every experiment or
   "per_experiment"); called once per diagnosis, so it may depend on the rig's bodies and sensors;
-  an empty list means the effect does not apply to this model;
+  an empty list means the effect does not apply to this model (the diagnosis lists it as not
+  applicable instead of fitting it);
 - ``apply(model, values) -> Model``: the model with the effect at ``values`` (a mapping from
   parameter name to value; missing names take their nominal). Called in fitting loops: it must be
   cheap, pure (never change ``model``) and raise :class:`~odsuite.core.errors.ConfigError` for values

@@ -37,9 +37,8 @@ def _with_structure(model: Model, **changes) -> Model:
 
 
 def _sensors(model: Model) -> tuple:
-    if not model.sensors:
-        raise ConfigError(f"model {model.name!r} has no rig sensors: sensor effects need a rig")
-    return model.sensors
+    """The accelerometers of the model's rig: the sensors the comparison predicts."""
+    return tuple(s for s in model.sensors if s.quantity == "acceleration")
 
 
 AXES = ("x", "y", "z")
@@ -92,37 +91,43 @@ class Damping(_SpringScale):
 
 
 class MassProperties(Effect):
-    """Mass, inertia and centre of mass of one body; springs, sensors and force points keep their
-    places (they are rig-frame points), so only their arms about the centre of mass change."""
+    """Mass, inertia and centre of mass of every moving body; springs, sensors and force points keep
+    their places (they are rig-frame points), so only their arms about the centre of mass change.
+    With several moving bodies each parameter is named after its body ("machine_mass_scale")."""
 
     name = "mass_properties"
-    description = "Body mass and inertia scales, added products of inertia, centre-of-mass offset."
+    description = "Body mass and inertia scales, added products of inertia, centre-of-mass offset, per body."
 
-    def __init__(self, body: str | None = None) -> None:
-        self.body = body
-
-    def _body(self, model) -> RigidBody:
-        return model.structure.body(self.body) if self.body else model.bodies[0]
+    @staticmethod
+    def _prefix(model, body: RigidBody) -> str:
+        return "" if len(model.bodies) == 1 else f"{body.name}_"
 
     def parameters(self, model):
-        b = self._body(model)
-        prod = 0.5 * float(np.sqrt(np.min(np.diag(b.inertia)) * np.max(np.diag(b.inertia))))
-        return ([Parameter("mass_scale", "1", 1.0, 0.5, 2.0, description=f"mass of {b.name}")]
-                + [Parameter(f"{n}_scale", "1", 1.0, 0.5, 2.0, description=f"moment of inertia {n} of {b.name}")
-                   for n in ("Ixx", "Iyy", "Izz")]
-                + [Parameter(n, "kg m^2", 0.0, -prod, prod, description=f"added product of inertia {n}")
-                   for n in ("Ixy", "Iyz", "Ixz")]
-                + [Parameter(f"com_d{a}", "m", 0.0, -0.02, 0.02, description=f"centre of mass offset along {a}")
-                   for a in AXES])
+        out = []
+        for b in model.bodies:
+            pre = self._prefix(model, b)
+            prod = 0.5 * float(np.sqrt(np.min(np.diag(b.inertia)) * np.max(np.diag(b.inertia))))
+            out += ([Parameter(f"{pre}mass_scale", "1", 1.0, 0.5, 2.0, description=f"mass of {b.name}")]
+                    + [Parameter(f"{pre}{n}_scale", "1", 1.0, 0.5, 2.0, description=f"moment of inertia {n} of {b.name}")
+                       for n in ("Ixx", "Iyy", "Izz")]
+                    + [Parameter(f"{pre}{n}", "kg m^2", 0.0, -prod, prod, description=f"added product of inertia {n} of {b.name}")
+                       for n in ("Ixy", "Iyz", "Ixz")]
+                    + [Parameter(f"{pre}com_d{a}", "m", 0.0, -0.02, 0.02,
+                                 description=f"centre of mass offset of {b.name} along {a}")
+                       for a in AXES])
+        return out
 
     def _apply(self, model, v):
-        b = self._body(model)
-        scale = np.sqrt([v["Ixx_scale"], v["Iyy_scale"], v["Izz_scale"]])
-        inertia = b.inertia * np.outer(scale, scale)  # scales moments, keeps the products' proportion
-        inertia = inertia - np.array([[0, v["Ixy"], v["Ixz"]], [v["Ixy"], 0, v["Iyz"]], [v["Ixz"], v["Iyz"], 0]])
-        new = RigidBody(b.name, b.mass * v["mass_scale"], inertia,
-                        b.com + np.array([v["com_dx"], v["com_dy"], v["com_dz"]]), b.dofs)
-        return _with_structure(model, bodies=tuple(new if x is b else x for x in model.bodies))
+        bodies = []
+        for b in model.bodies:
+            pre = self._prefix(model, b)
+            scale = np.sqrt([v[f"{pre}Ixx_scale"], v[f"{pre}Iyy_scale"], v[f"{pre}Izz_scale"]])
+            inertia = b.inertia * np.outer(scale, scale)  # scales moments, keeps the products' proportion
+            inertia = inertia - np.array([[0, v[f"{pre}Ixy"], v[f"{pre}Ixz"]], [v[f"{pre}Ixy"], 0, v[f"{pre}Iyz"]],
+                                          [v[f"{pre}Ixz"], v[f"{pre}Iyz"], 0]])
+            bodies.append(RigidBody(b.name, b.mass * v[f"{pre}mass_scale"], inertia,
+                                    b.com + np.array([v[f"{pre}com_d{a}"] for a in AXES]), b.dofs))
+        return _with_structure(model, bodies=tuple(bodies))
 
 
 class PlateFlexibility(Effect):
@@ -139,19 +144,33 @@ class PlateFlexibility(Effect):
     target = "model"
     breaks_rigidity = True  # a flexible mode makes the redundant angular estimates disagree
 
-    def __init__(self, shape: str = "kirchhoff", body: str = "platform") -> None:
+    def __init__(self, shape: str = "kirchhoff") -> None:
         if shape not in ("kirchhoff", "free"):
             raise ConfigError(f"plate flexibility shape: expected 'kirchhoff' or 'free', got {shape!r}")
         self.shape = shape
-        self.body = body
         self.name = "plate_flexibility" if shape == "kirchhoff" else "plate_flexibility_free"
         self.description = ("A flexible platform mode with a Kirchhoff-plate twist/bending shape."
                             if shape == "kirchhoff" else
                             "A flexible platform mode with free participation at each sensor and force point.")
 
+    @staticmethod
+    def _plated(model) -> list[str]:
+        """The moving bodies with a plate: the ones that can bend."""
+        if model.rig is None:
+            return []
+        moving = {b.name for b in model.bodies}
+        return [b.name for b in model.rig.bodies if b.name in moving and b.plate is not None]
+
     def parameters(self, model):
+        plated = self._plated(model)
+        if not plated:  # nothing to bend: the effect does not apply to this model
+            return []
         common = [Parameter("frequency_hz", "Hz", 400.0, 20.0, 5000.0, description="natural frequency as mounted"),
                   Parameter("damping_ratio", "1", 0.02, 0.0, 0.5, description="modal damping ratio")]
+        if len(plated) > 1:
+            common.append(Parameter("body", "1", 0.0, 0.0, len(plated) - 1, choices=tuple(map(float, range(len(plated)))),
+                                    description="which plated body bends: " + ", ".join(
+                                        f"{i} = {n}" for i, n in enumerate(plated))))
         if self.shape == "kirchhoff":
             return common + [Parameter(n, "kg^-1/2", 0.0, -5.0, 5.0, description=f"{n} amplitude")
                              for n in ("twist", "bend_x", "bend_y")]
@@ -160,20 +179,13 @@ class PlateFlexibility(Effect):
                          for s in _sensors(model)] + [
             Parameter("phi_force", "kg^-1/2", 0.0, -5.0, 5.0, description="participation at the force points")]
 
-    def _plate(self, model):
-        if model.rig is None:
-            raise ConfigError(f"model {model.name!r} has no rig: plate flexibility needs the plate geometry")
-        plate = model.rig.body(self.body).plate
-        if plate is None:
-            raise ConfigError(f"rig {model.rig.name!r} body {self.body!r} has no plate")
-        return plate
-
     def _apply(self, model, v):
-        amps = {k: val for k, val in v.items() if k not in ("frequency_hz", "damping_ratio")}
+        amps = {k: val for k, val in v.items() if k not in ("frequency_hz", "damping_ratio", "body")}
         if not any(amps.values()):
             return model
+        body = self._plated(model)[int(v.get("body", 0.0))]
         if self.shape == "kirchhoff":
-            plate = self._plate(model)
+            plate = model.rig.body(body).plate
             centre = plate.corner + plate.size / 2
             half = plate.size[:2] / 2
             t, bx, by = amps["twist"], amps["bend_x"], amps["bend_y"]
@@ -191,7 +203,7 @@ class PlateFlexibility(Effect):
             def shape(point, direction, tag):
                 return table.get(tag, 0.0)
 
-        mode = FlexibleMode(f"{self.name}{len(model.structure.flexible_modes) + 1}", self.body,
+        mode = FlexibleMode(f"{self.name}{len(model.structure.flexible_modes) + 1}", body,
                             v["frequency_hz"], v["damping_ratio"], shape)
         return _with_structure(model, flexible_modes=model.structure.flexible_modes + (mode,))
 
@@ -313,7 +325,9 @@ class ForceGain(Effect):
 
 class BaseMotion(Effect):
     """The base is not rigid ground: it is a rigid body on four mounts at its bottom corners, and
-    the springs that held the platform to the ground hold it to the base. Compliance 0 = ground."""
+    the springs that held the moving bodies to the ground hold them to the base. Compliance 0 =
+    ground. It applies to rigs with a body named "base" that has a plate and no mass (a base
+    with a mass already moves in the model)."""
 
     name = "base_motion"
     target = "model"
@@ -323,15 +337,16 @@ class BaseMotion(Effect):
         self.body = body
 
     def _rig_base(self, model):
-        if model.rig is None:
-            raise ConfigError(f"model {model.name!r} has no rig: base motion needs the base geometry")
-        base = model.rig.body(self.body)
-        if base.plate is None:
-            raise ConfigError(f"rig {model.rig.name!r} body {self.body!r} has no plate for its mounts")
-        return base
+        """The rig's fixed, plated base body, or None when the rig has none."""
+        if model.rig is None or self.body in {b.name for b in model.bodies}:
+            return None
+        base = next((b for b in model.rig.bodies if b.name == self.body), None)
+        return base if base is not None and base.plate is not None else None
 
     def parameters(self, model):
         base = self._rig_base(model)
+        if base is None:
+            return []
         mass = base.mass if base.mass is not None else float(np.prod(base.plate.size)) * STEEL_DENSITY
         return [Parameter("compliance", "m/N", 0.0, 0.0, 1e-5, description="compliance of each mount, every axis"),
                 Parameter("base_mass", "kg", mass, 0.1 * mass, 100 * mass, description="mass of the base"),
