@@ -324,14 +324,17 @@ def test_rig_is_registered_and_loads_into_a_project(guide, tmp_path):
     assert model.bodies[0].mass == table.mass and len(model.modes()) == 6
 
 
-def test_command_is_added_and_runs(guide, tmp_path, monkeypatch, capsys):
+def test_command_is_added_and_runs(guide, tmp_path, monkeypatch, capsys, request):
     from odsuite import cli
     from odsuite.core import plugins
 
     module, regs, pm = guide("command")
     _hit_project(tmp_path / "p.h5", peak=20.0)
+    # the command line's own path: its plugin manager adds the commands to its typer app (a copy
+    # of the command list, restored afterwards, as is the manager)
     monkeypatch.setattr(plugins, "default_manager", lambda: pm)
     monkeypatch.setattr(cli.app, "registered_commands", list(cli.app.registered_commands))
+    request.addfinalizer(lambda: (monkeypatch.undo(), plugins.reset_default()))  # forget what `pm` cached
     assert cli.main(["lab-headroom", str(tmp_path / "p.h5"), "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     with open_project(tmp_path / "p.h5") as p:
