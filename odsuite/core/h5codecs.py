@@ -20,7 +20,7 @@ from odsuite.core import h5text
 from odsuite.core.errors import ConfigError
 from odsuite.core.h5damage import first_line
 from odsuite.core.project_format import FORMAT_NAME, FORMAT_VERSION, now
-from odsuite.core.rig import Rig
+from odsuite.core.rig import COORDINATES, Rig
 from odsuite.core.systeminfo import ChannelInfo, RigInfo, Systeminfo
 from odsuite.core.version import __version__
 
@@ -189,6 +189,8 @@ def rig_to_dict(rig: Rig) -> dict[str, Any]:
                                     "sensors": dict(n.sensors)}
         if b.solver is not None:
             d["solver"] = b.solver
+        if tuple(b.dofs) != COORDINATES:
+            d["dofs"] = list(b.dofs)
         bodies.append(d)
     sensors = []
     for s in rig.sensors:
@@ -199,8 +201,12 @@ def rig_to_dict(rig: Rig) -> dict[str, Any]:
         if s.group:
             d["group"] = s.group
         sensors.append(d)
+    springs = [{"name": s.name, "body": s.body, "other": s.other or "ground", "position": vec(s.position),
+                "stiffness": vec(s.stiffness), "damping": vec(s.damping), "rot_stiffness": vec(s.rot_stiffness),
+                "rot_damping": vec(s.rot_damping), "group": s.group} for s in rig.springs]
     out: dict[str, Any] = {"name": rig.name, "description": rig.description, "frame": rig.frame,
-                           "channel_count": rig.channel_count, "bodies": bodies, "sensors": sensors,
+                           "channel_count": rig.channel_count, "bodies": bodies, "springs": springs,
+                           "sensors": sensors,
                            **rig.extra}
     if rig.force_channel is not None:
         out["force_channel"] = rig.force_channel
@@ -212,13 +218,14 @@ def rig_to_dict(rig: Rig) -> dict[str, Any]:
 
 
 def write_rig(f: h5py.File, rig: Rig) -> None:
+    """The rig as parsed (JSON: every sensor one channel of a single-axis kind), so that the project
+    reads back without the plugins whose sensor kinds the rig file named; the file's own text is
+    kept beside it."""
     g = typed_group(f, "rig", "rig")
-    if rig.source is not None and Path(rig.source).is_file():
-        h5text.set_attrs(g, {"name": rig.name, "definition": Path(rig.source).read_text(encoding="utf-8"),
-                             "definition_format": "toml", "source": str(rig.source)})
-    else:
-        h5text.set_attrs(g, {"name": rig.name, "definition": to_json(f"rig {rig.name!r}", rig_to_dict(rig)),
-                             "definition_format": "json", "source": ""})
+    from_file = rig.source is not None and Path(rig.source).is_file()
+    h5text.set_attrs(g, {"name": rig.name, "definition": to_json(f"rig {rig.name!r}", rig_to_dict(rig)),
+                         "definition_format": "json", "source": str(rig.source) if from_file else "",
+                         "source_text": Path(rig.source).read_text(encoding="utf-8") if from_file else ""})
 
 
 def write_revision(f: h5py.File, n: int, model: str | None, parent: int | None, texts: dict[str, str]) -> None:

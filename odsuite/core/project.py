@@ -8,8 +8,10 @@ migrated on open)::
                               creator, creator_version, hdf5_version, h5py_version, file_time,
                               file_update_time (ISO 8601, tz-aware)
     /rig                      the rig definition the project was created on: attrs name,
-                              definition (the TOML source text, or JSON for a rig built in code),
-                              definition_format ("toml" | "json"), source (where it was read from)
+                              definition (the parsed rig as JSON, every sensor one channel;
+                              files before 1.1.0's rig format may hold TOML text),
+                              definition_format ("json" | "toml"), source (the rig file it was
+                              read from, if any) and source_text (that file's text)
     /experiments/<name>/      odsuite_type="experiment"
         raw                   float64 volts, samples x channels, chunked, fletcher32, written once
         systeminfo/           odsuite_type="systeminfo"

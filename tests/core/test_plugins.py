@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -25,6 +26,7 @@ from odsuite.core.plugins import (
 )
 
 THIRD_PARTY = Path(__file__).resolve().parents[1] / "data" / "thirdparty_plugin"
+THESIS_RIG = Path(__file__).resolve().parents[2] / "plugins" / "models" / "rigs" / "thesis-dynamometer.toml"
 
 
 class _Plugin:
@@ -176,21 +178,38 @@ def _run_with(target: Path, code: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
 
 
+def _cli(target: Path, *args) -> str:
+    """stdout of `odsuite ARGS` in a process that sees the installed lab package."""
+    env = {**os.environ, "PYTHONPATH": str(target)}
+    done = subprocess.run([sys.executable, "-m", "odsuite.cli", *map(str, args)], env=env, capture_output=True,
+                          text=True)
+    assert done.returncode == 0, f"odsuite {' '.join(map(str, args))}: {done.stderr}"
+    return done.stdout
+
+
+def _lab_module(name: str):
+    """A module of the lab package imported from its source tree (tests of its physics)."""
+    import importlib
+
+    sys.path.insert(0, str(THIRD_PARTY))
+    try:
+        return importlib.import_module(f"odsuite_lab_example.{name}")
+    finally:
+        sys.path.remove(str(THIRD_PARTY))
+
+
 def test_third_party_package_is_listed_with_its_distribution(installed_third_party):
     out = _run_with(installed_third_party, "from odsuite.cli import main; main(['plugins'])").stdout
     line = next(line for line in out.splitlines() if "lab_example" in line)
     assert "odsuite-lab-example" in line and "2.3.4" in line
-    assert "lab_added_mass" in out and "lab_csv" in out
+    assert "lab_added_mass" in out and "lab_csv" in out and "lab_wls" in out and "lab_si_csv" in out
+    assert "lab_mv_per_g" in out
 
 
 def test_lab_added_mass_follows_the_parallel_axis_theorem():
     """Independent of the effect's code: a mass at G adds to the mass only; a mass at an offset r
     moves G to m_add r / M and adds m_add (|r|^2 I - r r^T) minus M |dG|^2-terms (Steiner)."""
-    sys.path.insert(0, str(THIRD_PARTY))
-    try:
-        from odsuite_lab_example.effects import AddedPointMass
-    finally:
-        sys.path.remove(str(THIRD_PARTY))
+    AddedPointMass = _lab_module("effects").AddedPointMass
     from odsuite.core.plugins import registries
 
     regs = registries()
@@ -215,12 +234,10 @@ def test_lab_added_mass_follows_the_parallel_axis_theorem():
 
 def test_third_party_pieces_work_through_the_cli(installed_third_party, tmp_path):
     """`diagnose` screens the lab's effect with the built-in ones; `render --figure` uses its renderer."""
-    env = {**os.environ, "PYTHONPATH": str(installed_third_party)}
     p = str(tmp_path / "lab.h5")
 
     def odsuite(*args):
-        return subprocess.run([sys.executable, "-m", "odsuite.cli", *args], env=env, capture_output=True,
-                              text=True, check=True).stdout
+        return _cli(installed_third_party, *args)
 
     odsuite("new", p)
     odsuite("acquire", p, "--daq", "sim", "--name", "T1", "--samples", "2048", "--scenario", "T1")
@@ -231,3 +248,133 @@ def test_third_party_pieces_work_through_the_cli(installed_third_party, tmp_path
     odsuite("render", p, "T1", "-o", str(out), "--figure", "lab_csv")
     rows = out.read_text().splitlines()
     assert rows[0].startswith("t_s,platform_x_m") and len(rows) == 2049
+
+
+def test_lab_wls_recovers_a_rigid_motion_and_weighs_by_sensitivity(registries):
+    """Signals of a known rigid motion (s_i = a_i . (t + Theta x r_i), closed form) give that motion
+    back; a direction measured twice comes out as the mean weighted by sensitivity^2 (with six
+    other independent directions the rest of the fit is exact, so the weighted mean is the
+    minimiser); the solver is never chosen over the built-ins unless the rig file names it."""
+    from dataclasses import replace
+
+    from odsuite.core.solvers import choose_solver
+
+    solver = _lab_module("solvers").WeightedLeastSquares()
+    thesis = registries.rigs.get("thesis-dynamometer")
+    body = thesis.body("platform")
+    t = np.linspace(0.0, 0.05, 400)
+    d = np.stack([a * np.sin(2 * np.pi * f * t) for a, f in
+                  zip((2e-6, -1e-6, 3e-6, 4e-5, -2e-5, 1e-5), (90, 110, 130, 150, 170, 190))], axis=1)
+
+    def reading(motion, sensor):
+        return motion[:, :3] @ sensor.axis + np.cross(motion[:, 3:], sensor.position - body.com) @ sensor.axis
+
+    signals = {s.name: reading(d, s) for s in thesis.sensors}
+    assert solver.solve(thesis, body, signals).at_g == pytest.approx(d, abs=1e-12 * np.abs(d).max())
+
+    zc = thesis.sensor("zC")
+    twin = replace(zc, name="zC_twin", channel=11, sensitivity=2 * zc.sensitivity)  # weight 4 x zC's
+    six = ("xC", "yC", "zC", "z1", "y2", "x3")  # six independent directions
+    rig = replace(thesis, sensors=tuple(thesis.sensor(n) for n in six) + (twin,), channel_count=12)
+    delta = 1e-7 * np.cos(2 * np.pi * 70 * t)
+    res = solver.solve(rig, body, {**{n: signals[n] for n in six}, "zC_twin": signals["zC"] + delta})
+    assert reading(res.at_g, zc) == pytest.approx(signals["zC"] + 4 / 5 * delta, abs=1e-9 * np.abs(delta).max())
+    for n in six[:2] + six[3:]:  # the other directions are fitted exactly
+        assert reading(res.at_g, thesis.sensor(n)) == pytest.approx(signals[n], abs=1e-9 * np.abs(delta).max())
+
+    names = [s.name for s in thesis.sensors]
+    assert solver.suitability(thesis, body, names) == 0.5
+    assert solver.suitability(thesis, body, names[:5]) is None
+    assert choose_solver(thesis, body, names, registries.coordinate_solvers).name == "padgaonkar-nine"
+
+
+def test_third_party_solver_and_importer_work_through_the_cli(installed_third_party, tmp_path):
+    """`process` uses the lab's solver where the rig file names it (provenance and the body's
+    solver attribute say so); `import` reads the lab's CSV by its suffix, and that record,
+    processed, gives the same coordinates as the acquired one it was written from."""
+    from odsuite import open_project
+    from odsuite.core.plugins import registries
+
+    text = THESIS_RIG.read_text()
+    assert text.count('name = "platform"\n') == 1
+    text = text.replace('name = "platform"\n', 'name = "platform"\nsolver = "lab_wls"\n')
+    # sensor xC as the lab's datasheet kind: its sensitivity in mV/g
+    xc = next(s for s in registries().rigs.get("thesis-dynamometer").sensors if s.name == "xC")
+    start = text.index('name = "xC"')
+    end = text.index("[[sensors]]", start)
+    block = "\n".join(f"sensitivity = {xc.sensitivity * 1000 * 9.80665!r}" if ln.startswith("sensitivity")
+                      else 'kind = "lab_mv_per_g"' if ln.startswith("kind") else ln
+                      for ln in text[start:end].split("\n"))
+    assert 'kind = "lab_mv_per_g"' in block
+    text = text[:start] + block + text[end:]
+    rig_file = tmp_path / "lab-rig.toml"
+    rig_file.write_text(text)
+    shutil.copy(THESIS_RIG.with_name("thesis-table-e3.CTR"), tmp_path)  # the rig file's Systeminfo
+    p = tmp_path / "lab.h5"
+    _cli(installed_third_party, "new", p, "--rig", rig_file)
+    _cli(installed_third_party, "acquire", p, "--daq", "sim", "--name", "T1", "--samples", "2048",
+         "--scenario", "T1")
+    assert "platform: lab_wls" in _cli(installed_third_party, "process", p)
+    with open_project(p) as project:
+        info = project.derived_info("T1", "gencoords")
+        lab = project.read_derived("T1", "gencoords")["platform_at_g"]
+        processed = project.read_derived("T1", "processed")
+        names = project.derived_info("T1", "processed")["attrs"]["channel_names"].split(", ")
+        rig = project.rig
+        exp = project.experiment("T1")
+        si, raw = exp.systeminfo, exp.raw()
+    assert info["attrs"]["platform_solver"] == "lab_wls"
+    assert rig.sensor("xC").sensitivity == pytest.approx(xc.sensitivity, rel=1e-12)
+    assert info["provenance"]["parameters"]["providers"]["platform"] == {
+        "plugin": "lab_example", "distribution": "odsuite-lab-example", "version": "2.3.4"}
+
+    # The built-in solvers on the same stored displacements. For a rigid body every unbiased
+    # linear solver gives the same coordinates; they differ only through the part of the signals
+    # no rigid motion explains (noise, each channel's offset drift after the high-pass), which the
+    # built-in least squares reports as its residual (0.8 % of the signals' RMS in this record).
+    signals = {n: processed["displacement"][:, j] for j, n in enumerate(names)}
+    body = rig.body("platform")
+    solvers = registries().coordinate_solvers
+    ls = solvers.get("least-squares").solve(rig, body, signals)
+    assert ls.residual < 0.02
+    # Same estimator but for the weights, which lie within +-7 % of their mean ((21.413 /
+    # 19.986)^2 = 1.148); the residual of least squares is orthogonal to the layout, so the two
+    # differ by at most ~7 % of that residual times the layout's amplification: a few 1e-3 of the
+    # body's largest translation (rotation); measured 2e-4
+    scale = np.r_[[np.abs(ls.at_g[:, :3]).max()] * 3, [np.abs(ls.at_g[:, 3:]).max()] * 3]
+    assert np.all(np.abs(lab - ls.at_g).max(0) / scale < 2e-3)
+    # Padgaonkar's closed form takes each angle as the mean of two estimates from disjoint sensor
+    # pairs, e1 = angle + n1 and e2 = angle + n2, so it differs from the (far less noisy) weighted
+    # fit by about -(n1 + n2) / 2, whose RMS is RMS(e1 - e2) / 2 for independent n1, n2: the
+    # difference stays below its own rigidity check's RMS(e1 - e2); measured 0.48, 0.45, 0.27 of it
+    nine_solver = solvers.get("padgaonkar-nine")
+    nine = nine_solver.solve(rig, body, signals)
+    check = nine_solver.rigidity_check(rig, body, signals)  # the Eq. 4.12 pairs, on displacements
+    angle_rms = np.sqrt(sum(np.mean(nine.at_g[:, 3 + k] ** 2) for k in range(3)))
+    for k, axis in enumerate("xyz"):
+        difference = np.sqrt(np.mean((lab[:, 3 + k] - nine.at_g[:, 3 + k]) ** 2))
+        assert difference < check.fractions[axis] * angle_rms, axis
+
+    # the lab's CSV, written from the acquired record in SI (volts / (sensitivity x gain), sign
+    # undone), is found by its suffix and stored as written
+    columns = {"force": 0, **{s.name: s.channel for s in rig.sensors}}
+    physical = raw * np.array([(-1 if c.invert else 1) / (c.sensitivity * c.daq_gain) for c in si.channels])
+    csv_file = tmp_path / "T1-si.csv"
+    table = np.column_stack([np.arange(raw.shape[0]) / exp.sampling_rate, physical[:, list(columns.values())]])
+    header = "t_s," + ",".join(f"{n}_N" if n == "force" else f"{n}_m/s^2" for n in columns)
+    np.savetxt(csv_file, table, fmt="%.17g", delimiter=",", header=header, comments="")  # 17 digits: exact
+    out = _cli(installed_third_party, "import", p, csv_file, "--name", "C1", "--force-point", "0,0,-11.4",
+               "--force-dir", "+z")
+    assert "lab_si_csv" in out
+    with open_project(p) as project:
+        imported = project.experiment("C1")
+        assert imported.sampling_rate == exp.sampling_rate
+        assert imported.excitation.point == pytest.approx([0.0, 0.0, -0.0114])
+        stored = imported.raw()
+    for c in columns.values():
+        assert np.array_equal(stored[:, c], physical[:, c])
+    _cli(installed_third_party, "process", p, "--experiment", "C1")
+    with open_project(p) as project:
+        again = project.read_derived("C1", "gencoords")["platform_at_g"]
+    # the same linear chain on the same values: equal up to the order of floating-point rounding
+    assert np.all(np.abs(again - lab).max(0) / scale < 1e-9)

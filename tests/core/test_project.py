@@ -107,12 +107,14 @@ def test_schema_attrs_and_experiment_round_trip(tmp_path, thesis_rig):
 
 
 def test_rig_sources(tmp_path, thesis_rig):
-    # by registered name and by path: the stored TOML text parses back to the same rig
+    # by registered name and by path: the stored rig parses back to the same rig, and the rig
+    # file's own text is kept beside it
     for i, rig in enumerate(["thesis-dynamometer", thesis_rig.source]):
         with create_project(tmp_path / f"n{i}.h5", rig=rig) as p:
             assert rig_to_dict(p.rig) == rig_to_dict(thesis_rig)
         with h5py.File(tmp_path / f"n{i}.h5", "r") as f:
-            assert f["rig"].attrs["definition"].decode() == thesis_rig.source.read_text()
+            assert f["rig"].attrs["source_text"].decode() == thesis_rig.source.read_text()
+            assert f["rig"].attrs["definition_format"].decode() == "json"
     # a rig built in code has no TOML: stored as JSON, still self-contained
     code_rig = dataclasses.replace(thesis_rig, name="code-rig", source=None)
     with create_project(tmp_path / "c.h5", rig=code_rig) as p:

@@ -111,3 +111,22 @@ def test_a_solver_named_in_the_rig_file_is_used_or_refused(registries):
     rig = rig_from_dict(block(solver="magic"), registries.sensor_types)
     with pytest.raises(ConfigError, match=r"field 'solver': unknown coordinate solver 'magic' \(known: "):
         choose_solver(rig, rig.body("block"), names, registries.coordinate_solvers)
+
+
+def test_a_project_keeps_triaxials_springs_and_dofs_without_the_rig_file(registries, tmp_path):
+    from odsuite import open_project
+    from odsuite.core.h5codecs import rig_to_dict
+    from odsuite.core.project import create_project
+
+    data = block()
+    data["bodies"][0]["dofs"] = ["x", "y", "z", "psi"]
+    data["springs"] = [{"name": "mount", "body": "block", "position": [0, 0, 0.05], "group": "mounts",
+                        "stiffness": [[2e5, 1e4, 0], [1e4, 3e5, 0], [0, 0, 4e5]], "damping": [10, 10, 20]}]
+    rig = rig_from_dict(data, registries.sensor_types)
+    create_project(tmp_path / "p.h5", rig=rig).close()
+    with open_project(tmp_path / "p.h5") as p:
+        back = p.rig
+    assert rig_to_dict(back) == rig_to_dict(rig)
+    assert back.body("block").dofs == ("x", "y", "z", "psi")
+    assert back.springs[0].group == "mounts" and back.springs[0].stiffness.shape == (3, 3)
+    assert [s.group for s in back.sensors].count("t2") == 3

@@ -1,7 +1,9 @@
 """A lab's own odsuite plugin, written only against odsuite's public contracts.
 
-It registers an effect (a point mass clamped to a body) and a renderer (the generalized
-coordinates of an experiment as a CSV table), exactly as a lab's installable package would.
+It registers an effect (a point mass clamped to a body), a renderer (the generalized coordinates
+of an experiment as a CSV table), a coordinate solver (weighted least squares, used where a rig
+file names it), an importer (the lab's CSV of SI values) and a sensor type (accelerometers given
+in mV/g, as on their datasheets), exactly as a lab's installable package would.
 """
 
 from odsuite import hookimpl
@@ -19,3 +21,24 @@ def odsuite_register_renderers(registry):
     from .renderers import CoordinatesCsv
 
     registry.add(CoordinatesCsv.name, CoordinatesCsv())
+
+
+@hookimpl
+def odsuite_register_coordinate_solvers(registry):
+    from .solvers import WeightedLeastSquares
+
+    registry.add(WeightedLeastSquares.name, WeightedLeastSquares())
+
+
+@hookimpl
+def odsuite_register_importers(registry):
+    from .importers import SiCsvImporter
+
+    registry.add(SiCsvImporter.name, SiCsvImporter())
+
+
+@hookimpl
+def odsuite_register_sensor_types(registry):
+    from .sensor_types import DatasheetAccelerometer
+
+    registry.add(DatasheetAccelerometer.name, DatasheetAccelerometer())
