@@ -282,6 +282,7 @@ class Record:
     force_n: np.ndarray  # true hammer force at the nominal sample instants
     accelerations: np.ndarray  # true acceleration along each accelerometer axis at its own instant
     q: np.ndarray  # coordinates at the nominal sample instants (n_samples, n)
+    qdd: np.ndarray  # their second derivatives
     trigger_s: float
 
 
@@ -336,10 +337,10 @@ def simulate(setup: Setup, rng: np.random.Generator, nominal_scale: dict[str, fl
                                  for j, s in enumerate(setup.accelerometers)]).reshape(t.size, n_acc)
     volts = volts_clean + daq_disturbances(daq, t, n_ch, rng)
     volts = adc(volts, daq)
-    q_nominal = CubicSpline(t_fine, q)(t)
+    q_nominal, qdd_nominal = CubicSpline(t_fine, q)(t), CubicSpline(t_fine, acc)(t)
     force_nominal = CubicSpline(t_fine, hammer)(t)
     return Record(time=t, volts=volts, clean_volts=volts_clean, channels=list(range(n_ch)), names=names,
-                  units=units, scale=scale, force_n=force_nominal, accelerations=truth_acc, q=q_nominal,
+                  units=units, scale=scale, force_n=force_nominal, accelerations=truth_acc, q=q_nominal, qdd=qdd_nominal,
                   trigger_s=trigger)
 
 
