@@ -181,13 +181,20 @@ class NonlinearForces:
         self.contact_k = np.array([c.stiffness for c in s.contacts])
         self.contact_c = np.array([c.damping for c in s.contacts])
 
+        self.any_cubic, self.any_friction = bool(self.cubic.any()), bool(self.friction.any())
+
     def __call__(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        d, dv = q @ self.L.T, v @ self.L.T
-        force = self.cubic * d ** 3 + self.friction * np.tanh(dv / self.slip_velocity)
-        g, gv = q @ self.G.T, v @ self.G.T
-        over = np.abs(g) - self.clearance
-        push = np.where(over > 0, np.sign(g) * self.contact_k * over + self.contact_c * gv, 0.0)
-        return -(force @ self.L) - push @ self.G
+        f = np.zeros_like(q)
+        if self.any_cubic or self.any_friction:
+            force = self.cubic * (q @ self.L.T) ** 3 if self.any_cubic else 0.0
+            if self.any_friction:
+                force = force + self.friction * np.tanh((v @ self.L.T) / self.slip_velocity)
+            f -= force @ self.L
+        if len(self.clearance):
+            g, gv = q @ self.G.T, v @ self.G.T
+            over = np.abs(g) - self.clearance
+            f -= np.where(over > 0, np.sign(g) * self.contact_k * over + self.contact_c * gv, 0.0) @ self.G
+        return f
 
 
 def rk4_response(model: Model, forces: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
