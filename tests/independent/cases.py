@@ -54,11 +54,17 @@ class Case:
 
     def truth_document(self) -> dict:
         nominal_f = Model(self.nominal.structure).natural_frequencies()
-        actual_f = Model(self.actual.structure).natural_frequencies()
+        actual_f, actual_shapes = Model(self.actual.structure).mode_shapes()
         d = self.actual.daq
         return {
             "case": self.name, "rig": self.nominal.name, "seed": self.seed, **self.truth,
             "nominal_frequencies_hz": nominal_f, "actual_linear_frequencies_hz": actual_f,
+            # columns: mass-normalised shapes over [x y z rx ry rz] at each body's centre of mass
+            # (bodies in rig order), then the flexible modes' coordinates
+            "actual_linear_mode_shapes": actual_shapes,
+            "coordinates": [f"{b.name}.{c}" for b in self.actual.structure.bodies
+                            for c in ("x", "y", "z", "rx", "ry", "rz")]
+                           + [f"{m.body}.{m.name}" for m in self.actual.structure.modes],
             "daq": {"sampling_rate_hz": d.sampling_rate, "n_samples": d.n_samples, "pre_trigger": d.pre_trigger,
                     "adc_bits": d.adc_bits, "adc_range_v": list(d.adc_range), "amplifier_gain": d.amplifier_gain,
                     "anti_aliasing": {"family": d.aa_family, "order": d.aa_order, "cutoff_hz": d.aa_cutoff_hz},
@@ -322,6 +328,14 @@ def rattle(case: Case, rng: np.random.Generator) -> None:
                             "contact_stiffness_n_per_m": k, "contact_damping_n_s_per_m": c}
 
 
+def double_hit(case: Case, rng: np.random.Generator) -> None:
+    """The hammer bounces: a second, weaker blow at the same point 2-10 ms after the first."""
+    delay, fraction = rng.uniform(2e-3, 10e-3), rng.uniform(0.1, 0.5)
+    case.records = [hits + [replace(hits[0], peak_n=hits[0].peak_n * fraction, delay_s=delay)]
+                    for hits in case.records]
+    case.truth["effect"] = {"kind": "double_hit", "delay_s": delay, "second_hit_fraction": fraction}
+
+
 def _adc(bits: int):
     def effect(case: Case, rng: np.random.Generator) -> None:
         case.actual.daq.adc_bits = bits
@@ -358,6 +372,7 @@ CASES: dict[str, tuple[Callable[[Case, np.random.Generator], None], str]] = {
     "hardening-series": (hardening_series, "cubic hardening springs, five force levels 0.5-50 N"),
     "coulomb-friction": (coulomb_friction, "Coulomb friction at one spring"),
     "rattle": (rattle, "a loose stop (gap contact) at one spring"),
+    "double-hit": (double_hit, "every record holds a second, 10-50 % blow 2-10 ms after the first"),
     "drift": (drift, "no structural change; 2-20 mV/s drift per channel"),
     "mains-hum": (mains_hum, "no structural change; 0.5-5 mV of 50 or 60 Hz hum per channel"),
 }

@@ -112,8 +112,9 @@ def two_body_rig() -> RigBundle:
         for j, p in enumerate(pts):
             housing = f"{body[0]}{j + 1}"
             for axis_name, axis in zip("xyz", np.eye(3)):
+                # a 100 mV/g IEPE triaxial: mounted resonance ~22 kHz, 0.5 Hz AC coupling
                 accs.append(Accelerometer(f"{housing}{axis_name}", channel, body, np.array(p), axis.copy(),
-                                          sens, triaxial=housing))
+                                          sens, triaxial=housing, resonance_hz=22000.0, iepe_corner_hz=0.5))
                 channel += 1
     ez = np.array([0.0, 0.0, 1.0])
     hits = [

@@ -162,39 +162,45 @@ def lti_response(A, B, C, D, u: np.ndarray, h: float) -> np.ndarray:
 
 
 class NonlinearForces:
-    """Cubic, Coulomb and contact forces as generalised forces, for one state (n,) or whole
-    histories (N, n) alike. The elements are stacked into single matrices because RK4 evaluates
-    this four times per fine step."""
+    """Cubic, Coulomb and contact forces. Every element acts along one row of ``E`` (3 rows per
+    nonlinear spring, 1 per contact), so one matrix product gives all element deflections; RK4
+    evaluates this four times per fine step, and per-element Python loops would dominate."""
 
     def __init__(self, model: Model):
         s = model.structure
         springs = [sp for sp in s.springs if sp.cubic is not None or sp.friction is not None]
-        zero3 = np.zeros(3)
-        self.L = np.vstack([model.relative_matrix(sp.body, sp.other, sp.position) for sp in springs]
-                           or [np.zeros((0, model.n))])
-        self.cubic = np.concatenate([zero3 if sp.cubic is None else vec3(sp.cubic) for sp in springs] or [[]])
-        self.friction = np.concatenate([zero3 if sp.friction is None else vec3(sp.friction) for sp in springs] or [[]])
-        self.slip_velocity = np.repeat([sp.friction_velocity for sp in springs], 3)
-        self.G = np.array([model.relative_matrix(c.body, c.other, c.position).T @ vec3(c.axis)
-                           for c in s.contacts]).reshape(len(s.contacts), model.n)
-        self.clearance = np.array([c.clearance for c in s.contacts])
-        self.contact_k = np.array([c.stiffness for c in s.contacts])
-        self.contact_c = np.array([c.damping for c in s.contacts])
+        rows = [model.relative_matrix(sp.body, sp.other, sp.position) for sp in springs]
+        rows += [(model.relative_matrix(c.body, c.other, c.position).T @ vec3(c.axis))[None, :] for c in s.contacts]
+        self.E = np.vstack(rows) if rows else np.zeros((0, model.n))
+        pad = np.zeros(len(s.contacts))
 
+        def per_row(values):
+            return np.concatenate([np.zeros(3) if v is None else vec3(v) for v in values] + [pad])
+
+        self.cubic = per_row([sp.cubic for sp in springs])
+        self.friction = per_row([sp.friction for sp in springs])
+        self.slip_velocity = np.concatenate([np.repeat([sp.friction_velocity for sp in springs], 3), pad + 1.0])
+        none = np.zeros(3 * len(springs))
+        # spring rows never touch a stop: an infinite clearance
+        self.clearance = np.concatenate([none + np.inf, [c.clearance for c in s.contacts]])
+        self.contact_k = np.concatenate([none, [c.stiffness for c in s.contacts]])
+        self.contact_c = np.concatenate([none, [c.damping for c in s.contacts]])
         self.any_cubic, self.any_friction = bool(self.cubic.any()), bool(self.friction.any())
+        self.any_contact = bool(s.contacts)
+
+    def element_forces(self, d: np.ndarray, dv: np.ndarray) -> np.ndarray:
+        """Force of each element row (tension positive) from its deflection and rate."""
+        out = self.cubic * d ** 3 if self.any_cubic else np.zeros_like(d)
+        if self.any_friction:
+            out += self.friction * np.tanh(dv / self.slip_velocity)
+        if self.any_contact:
+            over = np.abs(d) - self.clearance
+            out += np.where(over > 0, np.sign(d) * self.contact_k * over + self.contact_c * dv, 0.0)
+        return out
 
     def __call__(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        f = np.zeros_like(q)
-        if self.any_cubic or self.any_friction:
-            force = self.cubic * (q @ self.L.T) ** 3 if self.any_cubic else 0.0
-            if self.any_friction:
-                force = force + self.friction * np.tanh((v @ self.L.T) / self.slip_velocity)
-            f -= force @ self.L
-        if len(self.clearance):
-            g, gv = q @ self.G.T, v @ self.G.T
-            over = np.abs(g) - self.clearance
-            f -= np.where(over > 0, np.sign(g) * self.contact_k * over + self.contact_c * gv, 0.0) @ self.G
-        return f
+        """Generalised forces for one state (n,) or whole histories (N, n)."""
+        return -(self.element_forces(q @ self.E.T, v @ self.E.T) @ self.E)
 
 
 def rk4_response(model: Model, forces: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
@@ -203,24 +209,28 @@ def rk4_response(model: Model, forces: np.ndarray, h: float) -> tuple[np.ndarray
     n = model.n
     Minv = np.linalg.inv(model.M)
     A, _ = model.state_space()
-    nonlinear = NonlinearForces(model)
+    nl = NonlinearForces(model)
+    m = nl.E.shape[0]
+    to_elements = linalg.block_diag(nl.E, nl.E)  # x -> [deflections, rates]
+    from_elements = np.vstack([np.zeros((n, m)), -Minv @ nl.E.T])
+    accel = forces @ Minv.T
+    half = 0.5 * (accel[1:] + accel[:-1])
 
-    def rate(x, fext):
-        dx = A @ x
-        dx[n:] += Minv @ (fext + nonlinear(x[:n], x[n:]))
+    def rate(x, a):
+        y = to_elements @ x
+        dx = A @ x + from_elements @ nl.element_forces(y[:m], y[m:])
+        dx[n:] += a
         return dx
 
     N = forces.shape[0]
     X = np.zeros((N, 2 * n))
     x = np.zeros(2 * n)
     for i in range(N - 1):
-        f0, f1 = forces[i], forces[i + 1]
-        fm = 0.5 * (f0 + f1)
-        k1 = rate(x, f0)
-        k2 = rate(x + 0.5 * h * k1, fm)
-        k3 = rate(x + 0.5 * h * k2, fm)
-        k4 = rate(x + h * k3, f1)
-        x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        k1 = rate(x, accel[i])
+        k2 = rate(x + 0.5 * h * k1, half[i])
+        k3 = rate(x + 0.5 * h * k2, half[i])
+        k4 = rate(x + h * k3, accel[i + 1])
+        x = x + (h / 6) * (k1 + 2 * (k2 + k3) + k4)
         X[i + 1] = x
     return X[:, :n], X[:, n:]
 
@@ -282,7 +292,6 @@ class Record:
     time: np.ndarray  # s, the nominal sample instants (channel 0), trigger at pre_trigger
     volts: np.ndarray  # (n_samples, n_channels), after the ADC
     clean_volts: np.ndarray  # the same before hum, drift, noise and ADC
-    channels: list[int]
     names: list[str]
     units: list[str]  # physical unit per channel
     scale: np.ndarray  # nominal volts per physical unit (sign included), as a lab would set it
@@ -346,7 +355,7 @@ def simulate(setup: Setup, rng: np.random.Generator, nominal_scale: dict[str, fl
     volts = adc(volts, daq)
     q_nominal, qdd_nominal = CubicSpline(t_fine, q)(t), CubicSpline(t_fine, acc)(t)
     force_nominal = CubicSpline(t_fine, hammer)(t)
-    return Record(time=t, volts=volts, clean_volts=volts_clean, channels=list(range(n_ch)), names=names,
+    return Record(time=t, volts=volts, clean_volts=volts_clean, names=names,
                   units=units, scale=scale, force_n=force_nominal, accelerations=truth_acc, q=q_nominal, qdd=qdd_nominal,
                   trigger_s=trigger)
 
