@@ -249,14 +249,20 @@ def structure_response(model: Model, forces: np.ndarray, h: float) -> tuple[np.n
     return q, v, acc
 
 
-def sensor_acceleration(model: Model, sensor: Accelerometer, acc: np.ndarray, base_acc: np.ndarray | None) -> np.ndarray:
-    """Acceleration along the sensor's axis at its position (small motion)."""
-    if sensor.body == GROUND:
-        if base_acc is None:
-            return np.zeros(acc.shape[0])
-        return base_acc @ (rigid_point_matrix(vec3(sensor.position)).T @ vec3(sensor.axis))
-    P = model.point_matrix(sensor.body, sensor.position, sensor.name)
-    return acc @ (P.T @ vec3(sensor.axis))
+def axis_accelerations(model: Model, sensors: list[Accelerometer], acc: np.ndarray,
+                       base_acc: np.ndarray | None) -> np.ndarray:
+    """Acceleration along each sensor's axis at its position (small motion), (N, len(sensors))."""
+    on_body = np.zeros((model.n, len(sensors)))
+    on_ground = np.zeros((6, len(sensors)))
+    for j, s in enumerate(sensors):
+        if s.body == GROUND:
+            on_ground[:, j] = rigid_point_matrix(vec3(s.position)).T @ vec3(s.axis)
+        else:
+            on_body[:, j] = model.point_matrix(s.body, s.position, s.name).T @ vec3(s.axis)
+    out = acc @ on_body
+    if base_acc is not None:
+        out += base_acc @ on_ground
+    return out
 
 
 def sensor_dynamics(sensor: Accelerometer) -> list[tuple]:
@@ -321,16 +327,20 @@ def simulate(setup: Setup, rng: np.random.Generator, nominal_scale: dict[str, fl
     hammer = sum((hit.force(t_fine, trigger) for hit in setup.hits), np.zeros_like(t_fine))
     n_acc = len(setup.accelerometers)
     analog = np.zeros((t_fine.size, n_ch))
-    truth = np.zeros((t_fine.size, n_acc))
     names = [f"aux{k}" for k in range(n_ch)]
     units = ["V"] * n_ch
     scale = np.ones(n_ch)
     nominal_scale = nominal_scale or {}
+    truth = axis_accelerations(model, setup.accelerometers, acc, base_acc)
+    measured = truth.copy()
+    alike: dict[tuple, list[int]] = {}  # sensors of equal dynamics are filtered in one call
     for j, s in enumerate(setup.accelerometers):
-        truth[:, j] = a = sensor_acceleration(model, s, acc, base_acc)
-        for A, B, C, D in sensor_dynamics(s):
-            a = lti_response(A, B, C, D, a, h)[:, 0]
-        analog[:, s.channel] = s.sign * s.sensitivity * (1 + s.gain_error) * daq.amplifier_gain * a
+        alike.setdefault((s.resonance_hz, s.resonance_damping, s.iepe_corner_hz), []).append(j)
+    for columns in alike.values():
+        for A, B, C, D in sensor_dynamics(setup.accelerometers[columns[0]]):
+            measured[:, columns] = lti_response(A, B, C, D, measured[:, columns], h)
+    for j, s in enumerate(setup.accelerometers):
+        analog[:, s.channel] = s.sign * s.sensitivity * (1 + s.gain_error) * daq.amplifier_gain * measured[:, j]
         names[s.channel], units[s.channel] = s.name, "m/s^2"
         scale[s.channel] = nominal_scale.get(s.name, s.sign * s.sensitivity) * daq.amplifier_gain
     load_cell = setup.force_sensor

@@ -12,8 +12,7 @@ GROUND = "ground"
 
 
 def vec3(value) -> np.ndarray:
-    out = np.asarray(value, dtype=float).reshape(3)
-    return out
+    return np.asarray(value, dtype=float).reshape(3)
 
 
 def mat3(value) -> np.ndarray:
@@ -70,8 +69,9 @@ class GapContact:
 class FlexibleMode:
     """An elastic mode of one body, mass-normalised (modal mass 1 kg) and taken as orthogonal to the
     body's rigid motions (true for the free-free modes of any body). ``shape(p)`` is the 3-D
-    displacement (m per unit modal coordinate) at rig-frame point p; ``sensor_shapes`` overrides it
-    at named sensors."""
+    displacement (m per unit modal coordinate) at rig-frame point p, used at springs, hit points
+    and sensors; ``sensor_shapes`` overrides it at named sensors (a mode given only per sensor is
+    seen there but neither driven by the hammer nor held by the springs)."""
 
     name: str
     body: str

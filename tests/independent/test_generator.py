@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ast
 import json
 import tomllib
 from dataclasses import replace
@@ -18,8 +19,7 @@ from odsuite.core.uff import read_uff
 from . import cases, writers
 from .rigs import thesis_rig, two_body_rig
 from .rigsim import Model, anti_aliasing, lti_response, simulate, structure_response
-from .structure import (Accelerometer, BaseMotion, Daq, ForceSensor, GapContact, Hit, RigidBody, Setup,
-                        Spring, Structure)
+from .structure import Accelerometer, BaseMotion, Daq, GapContact, Hit, RigidBody, Setup, Spring, Structure
 
 REPO = Path(__file__).resolve().parents[2]
 THESIS_RIG_TOML = REPO / "plugins" / "models" / "rigs" / "thesis-dynamometer.toml"
@@ -44,6 +44,15 @@ def z_response(structure: Structure, peak=10.0, fs=20000.0, n=4000, oversample=8
     F = model.generalized_forces(Setup(structure, [], None, Daq(), [hit]), t, 1e-3)
     q, _, _ = structure_response(model, F, h)
     return t, q[:, 2]
+
+
+def test_the_generator_imports_nothing_from_odsuite():
+    """Independence: only this test file may use odsuite (its readers, to check the writers)."""
+    for module in ("structure", "rigsim", "rigs", "writers", "cases"):
+        tree = ast.parse((Path(__file__).parent / f"{module}.py").read_text())
+        imported = [a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names]
+        imported += [n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)]
+        assert not [m for m in imported if m.split(".")[0] in ("odsuite", "odsuite_plugins")], module
 
 
 # ---------------------------------------------------------------------------------------------
