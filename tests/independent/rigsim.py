@@ -70,15 +70,14 @@ class Model:
     def relative_matrix(self, body: str, other: str, point) -> np.ndarray:
         return self.point_matrix(body, point) - self.point_matrix(other, point)
 
-    def natural_frequencies(self) -> np.ndarray:
-        """Undamped natural frequencies (Hz), ascending, from K v = w^2 M v."""
-        w2 = linalg.eigh(self.K, self.M, eigvals_only=True)
-        return np.sqrt(np.clip(w2, 0.0, None)) / (2 * np.pi)
-
     def mode_shapes(self) -> tuple[np.ndarray, np.ndarray]:
-        """Frequencies (Hz) and mass-normalised shapes (columns)."""
+        """Undamped natural frequencies (Hz, ascending) and mass-normalised shapes (columns) from
+        K v = w^2 M v."""
         w2, V = linalg.eigh(self.K, self.M)
         return np.sqrt(np.clip(w2, 0.0, None)) / (2 * np.pi), V
+
+    def natural_frequencies(self) -> np.ndarray:
+        return self.mode_shapes()[0]
 
     def state_space(self) -> tuple[np.ndarray, np.ndarray]:
         """A, B of x = [q, qdot] driven by generalised forces."""
