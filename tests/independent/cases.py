@@ -17,11 +17,12 @@ from pathlib import Path
 import numpy as np
 from numpy.polynomial import legendre
 
+from . import writers
 from .rigs import RIGS, RigBundle
 from .rigsim import Model, Record, rigid_point_matrix, simulate, structure_response
 from .structure import FlexibleMode, GapContact, Hit, Setup, mat3, vec3
-from . import writers
 
+FORMATS = ("lvm", "dat", "uff")  # .DAT comes with its .CTR
 #: white noise of every channel in every case (V rms): a typical IEPE + ADC front-end floor
 FLOOR_NOISE_V = 50e-6
 
@@ -75,7 +76,7 @@ class Case:
                         for hits in self.records],
         }
 
-    def write(self, out_dir: str | Path, formats=("lvm", "dat", "uff"), *, decimal: str = ".",
+    def write(self, out_dir: str | Path, formats=FORMATS, *, decimal: str = ".",
               physical: bool = False, progress: Callable[[int, int], None] | None = None) -> list[Path]:
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -415,6 +416,11 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.out_dir is None:
         parser.error("OUT_DIR is required")
+    formats = tuple(args.formats.split(","))
+    unknown = [f for f in formats if f not in FORMATS]
+    if unknown:
+        print(f"error: --formats: unknown {', '.join(unknown)}; known: {', '.join(FORMATS)}", file=sys.stderr)
+        return 1
     try:
         case = build_case(args.case, args.seed, args.rig, args.samples)
     except KeyError as exc:
@@ -424,7 +430,7 @@ def main(argv: list[str] | None = None) -> int:
     def progress(done, total):
         print(f"record {done}/{total} simulated", file=sys.stderr)
 
-    files = case.write(args.out_dir, tuple(args.formats.split(",")), decimal=args.decimal,
+    files = case.write(args.out_dir, formats, decimal=args.decimal,
                        physical=args.physical, progress=progress)
     freqs = ", ".join(f"{f:.1f}" for f in Model(case.actual.structure).natural_frequencies())
     print(f"{case.name} (seed {case.seed}) on {case.nominal.name}: linear modes {freqs} Hz; "

@@ -472,3 +472,6 @@ def test_cli_writes_files_and_truth(tmp_path, capsys):
     assert lvm.header["Decimal_Separator"] == "," and lvm.data.shape == (256, 11)
     assert cases.main(["--list"]) == 0 and "rattle" in capsys.readouterr().out
     assert cases.main([str(tmp_path), "--case", "nope"]) == 1
+    assert "unknown case 'nope'" in capsys.readouterr().err
+    assert cases.main([str(tmp_path), "--formats", "lvm,csv"]) == 1
+    assert "unknown csv" in capsys.readouterr().err
