@@ -279,6 +279,12 @@ def scan_skew(case: Case, rng: np.random.Generator) -> None:
     case.truth["effect"] = {"kind": "scan_skew", "skew_per_channel_s": case.actual.daq.scan_skew_s}
 
 
+def _nonlinear_rate(case: Case) -> None:
+    """RK4 runs a Python step per fine point: 4x the sampling rate keeps its error below 1e-6 for
+    modes under 300 Hz (global error ~ (w h)^4) at half the cost of the default 8x."""
+    case.actual.daq.oversample = 4
+
+
 def hardening_series(case: Case, rng: np.random.Generator) -> None:
     """Cubic hardening on a spring group, sized so that the top level stiffens the group's
     springs by a random 3-15 % in frequency at their peak deflection; five levels 0.5-50 N."""
@@ -296,6 +302,7 @@ def hardening_series(case: Case, rng: np.random.Generator) -> None:
             s.cubic = ((1 + shift) ** 2 - 1) * np.diag(mat3(s.stiffness)) / (0.75 * amp ** 2)
             cubic[s.name] = s.cubic
     case.records = [[replace(base_hit, peak_n=float(f))] for f in levels]
+    _nonlinear_rate(case)
     case.truth["effect"] = {"kind": "cubic_hardening", "group": group, "cubic_n_per_m3": cubic,
                             "frequency_shift_at_top_level": shift, "force_levels_n": levels}
 
@@ -307,6 +314,7 @@ def coulomb_friction(case: Case, rng: np.random.Generator) -> None:
     peaks = peak_spring_motion(case.nominal, case.records[0])
     fraction = rng.uniform(0.02, 0.10)
     s.friction = fraction * np.diag(mat3(s.stiffness)) * peaks[s.name]
+    _nonlinear_rate(case)
     case.truth["effect"] = {"kind": "coulomb_friction", "spring": s.name, "force_n": s.friction,
                             "fraction_of_peak_spring_force": fraction,
                             "regularisation_velocity_m_per_s": s.friction_velocity}
@@ -325,6 +333,7 @@ def rattle(case: Case, rng: np.random.Generator) -> None:
     c = 0.1 * mat3(s.damping)[axis, axis]  # a little contact damping: the stop is not perfectly elastic
     rig.structure.contacts.append(GapContact(f"{s.name}-stop", s.body, vec3(s.position), direction,
                                              clearance, k, c, other=s.other))
+    _nonlinear_rate(case)
     case.truth["effect"] = {"kind": "rattle", "spring": s.name, "axis": "xyz"[axis], "clearance_m": clearance,
                             "contact_stiffness_n_per_m": k, "contact_damping_n_s_per_m": c}
 

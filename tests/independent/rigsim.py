@@ -231,6 +231,8 @@ def rk4_response(model: Model, forces: np.ndarray, h: float) -> tuple[np.ndarray
         k4 = rate(x + h * k3, accel[i + 1])
         x = x + (h / 6) * (k1 + 2 * (k2 + k3) + k4)
         X[i + 1] = x
+    if not np.all(np.isfinite(X)):
+        raise ValueError(f"RK4 diverged at the step {h:.3g} s: raise the oversampling (stiff contact or friction)")
     return X[:, :n], X[:, n:]
 
 
