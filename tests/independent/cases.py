@@ -247,6 +247,8 @@ def flexible_mode(case: Case, rng: np.random.Generator) -> None:
         "shape_at_sensors_m_per_unit": {s.name: shape(s.position) for s in rig.accelerometers if s.body == body.name},
         "shape_at_springs_m_per_unit": {s.name: shape(s.position) for s in rig.structure.springs
                                         if body.name in (s.body, s.other)},
+        "shape_at_hits_m_per_unit": [[shape(h.point) if h.body == body.name else [0.0, 0.0, 0.0] for h in hits]
+                                     for hits in case.records],
     }
 
 
