@@ -1,0 +1,138 @@
+"""Base structures for the cases: the thesis dynamometer (from the thesis digest's numbers) and a
+two-body machine on a base frame on isolators. Both as a lab would describe them (nominal)."""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .structure import (Accelerometer, Daq, ForceSensor, Hit, RigidBody, Spring,
+                        Structure)
+
+
+@dataclass
+class RigBundle:
+    name: str
+    description: str
+    frame: str
+    structure: Structure
+    accelerometers: list[Accelerometer]
+    force_sensor: ForceSensor
+    daq: Daq
+    hits: list[Hit]  # the default set of hits, one record each
+    spring_groups: dict[str, list[str]] = field(default_factory=dict)  # e.g. "isolators": [...]
+    up: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))  # out of the top faces
+
+    def copy(self) -> RigBundle:
+        return copy.deepcopy(self)
+
+    def accelerometer(self, name: str) -> Accelerometer:
+        return next(a for a in self.accelerometers if a.name == name)
+
+
+def box_inertia(mass: float, size) -> np.ndarray:
+    """Inertia tensor of a uniform box about its centre (kg m^2)."""
+    a, b, c = size
+    return mass / 12.0 * np.diag([b * b + c * c, a * a + c * c, a * a + b * b])
+
+
+def thesis_rig() -> RigBundle:
+    """Thesis digest section 1: platform on four 3-D springs, nine accelerometers on three corners,
+    load cell on channel 0. Frame: origin at G, z down into the platform (the hammer's +z hits
+    the top face)."""
+    a, b, h = 0.02999, 0.04979, 0.01070  # App. B.2 spring offsets from G
+    Iyz = 7.500541682e-5  # App. B.2 product of inertia; the tensor holds -Iyz
+    inertia = np.array([[0.006187217392, 0.0, 0.0], [0.0, 0.002398407627, -Iyz], [0.0, -Iyz, 0.008366544210]])
+    corner = np.array([-0.0500253, -0.08084058, -0.01139952])  # corner C = G - (lG, wG, hG), App. C
+    rx, ry, rz = 0.09846, 0.16993, 0.02210  # Table E.3 rows 30-32
+    platform = RigidBody(
+        "platform", 2.714, np.zeros(3), inertia,
+        plate={"size": [rx, ry, rz], "corner": corner.tolist()},
+        nine_sensor_set={"corner": corner.tolist(), "rx": rx, "ry": ry, "rz": rz,
+                         "sensors": {r: r for r in ("xC", "yC", "zC", "x1", "z1", "y2", "z2", "x3", "y3")}},
+    )
+    k = [262000.0, 262000.0, 1260000.0]  # N/m, App. B.2
+    c = [140.0, 125.0, 275.0]  # N s/m, App. B.2
+    springs = [Spring(f"spring{i + 1}", "platform", np.array(p), np.array(k), np.array(c))
+               for i, p in enumerate([(-a, b, h), (a, b, h), (-a, -b, h), (a, -b, h)])]
+    c1, c2, c3 = corner, corner + [0, ry, 0], corner + [rx, 0, 0]
+    c4 = corner + [0, 0, rz]
+    ex, ey, ez = np.eye(3)
+    # (name, channel, position, axis, V/(m/s^2)): Fig. 4.9 layout, Table A.1 sensitivities
+    layout = [("xC", 2, c1, ex, 0.020292), ("yC", 3, c1, ey, 0.020903), ("zC", 4, c1, ez, 0.021413),
+              ("x1", 5, c2, ex, 0.020088), ("z1", 6, c2, ez, 0.020496), ("y2", 7, c3, ey, 0.020190),
+              ("z2", 8, c3, ez, 0.020699), ("x3", 9, c4, ex, 0.020394), ("y3", 10, c4, ey, 0.019986)]
+    # the thesis's accelerometers read negative along these axes (Table E.3 row 14 inverts them)
+    accs = [Accelerometer(n, ch, "platform", np.array(p, float), ax.copy(), s, sign=-1.0)
+            for n, ch, p, ax, s in layout]
+    top = corner[2]
+    hits = [
+        Hit("platform", np.array([0.025, -0.040, top]), ez.copy(), 20.0, 0.4e-3),
+        Hit("platform", np.array([corner[0], 0.030, 0.0]), ex.copy(), 20.0, 0.4e-3),
+        Hit("platform", np.array([0.020, corner[1], 0.0]), ey.copy(), 20.0, 0.4e-3),
+    ]
+    return RigBundle(
+        name="thesis-dynamometer",
+        description="Thesis dynamometer model: platform on four 3-D springs, nine accelerometers, load cell",
+        frame="origin at the platform's centre of mass G; x along the plate length, y along its width, z down",
+        structure=Structure([platform], springs), accelerometers=accs,
+        force_sensor=ForceSensor("force", 0, 2.248e-3),  # PCB 208B03, App. A
+        daq=Daq(sampling_rate=20000.0, n_samples=4096, pre_trigger=256, aa_family="butter", aa_order=4,
+                aa_cutoff_hz=1000.0),  # §5.1: 20 kHz, analog low-pass 1 kHz
+        hits=hits, spring_groups={"springs": [s.name for s in springs]}, up=-ez,
+    )
+
+
+def two_body_rig() -> RigBundle:
+    """A ~20 kg machine on four mounts on a ~40 kg base frame on four isolators to ground; three
+    triaxial accelerometers per body, a load cell on channel 0. Frame: origin on the floor under
+    the base's centre, z up."""
+    base_size, machine_size = (0.8, 0.6, 0.1), (0.4, 0.3, 0.25)
+    base = RigidBody("base", 40.0, np.array([0.0, 0.0, 0.05]), box_inertia(40.0, base_size),
+                     plate={"size": list(base_size), "corner": [-0.4, -0.3, 0.0]})
+    machine_com = np.array([0.02, 0.0, 0.225])  # slightly off the mounts' centre, as machines are
+    machine = RigidBody("machine", 20.0, machine_com, box_inertia(20.0, machine_size),
+                        plate={"size": list(machine_size), "corner": (machine_com - [0.2, 0.15, 0.125]).tolist()})
+    springs = []
+    for i, (sx, sy) in enumerate([(-1, -1), (1, -1), (1, 1), (-1, 1)]):
+        # isolators: about 10-20 Hz for the whole machine; mounts: 40-100 Hz for the machine on the base
+        springs.append(Spring(f"isolator{i + 1}", "base", np.array([0.35 * sx, 0.25 * sy, 0.0]),
+                              np.array([8.0e4, 8.0e4, 2.0e5]), np.array([150.0, 150.0, 250.0])))
+    for i, (sx, sy) in enumerate([(-1, -1), (1, -1), (1, 1), (-1, 1)]):
+        springs.append(Spring(f"mount{i + 1}", "machine", np.array([0.15 * sx, 0.10 * sy, 0.1]),
+                              np.array([6.0e5, 6.0e5, 1.5e6]), np.array([200.0, 200.0, 350.0]), other="base"))
+    accs = []
+    sens = 0.0102  # V/(m/s^2): 100 mV/g
+    points = {"machine": [(-0.17, -0.12, 0.35), (0.19, -0.12, 0.35), (-0.17, 0.12, 0.35)],
+              "base": [(-0.38, -0.28, 0.1), (0.38, -0.28, 0.1), (-0.38, 0.28, 0.1)]}
+    channel = 1
+    for body, pts in points.items():
+        for j, p in enumerate(pts):
+            housing = f"{body[0]}{j + 1}"
+            for axis_name, axis in zip("xyz", np.eye(3)):
+                # a 100 mV/g IEPE triaxial: mounted resonance ~22 kHz, 0.5 Hz AC coupling
+                accs.append(Accelerometer(f"{housing}{axis_name}", channel, body, np.array(p), axis.copy(),
+                                          sens, triaxial=housing, resonance_hz=22000.0, iepe_corner_hz=0.5))
+                channel += 1
+    ez = np.array([0.0, 0.0, 1.0])
+    hits = [
+        Hit("machine", np.array([0.12, 0.08, 0.35]), -ez, 100.0, 1.0e-3),
+        Hit("machine", np.array([machine_com[0] + 0.2, -0.08, 0.30]), np.array([-1.0, 0.0, 0.0]), 100.0, 1.0e-3),
+        Hit("base", np.array([0.25, -0.3, 0.07]), np.array([0.0, 1.0, 0.0]), 100.0, 1.0e-3),
+    ]
+    return RigBundle(
+        name="two-body-machine",
+        description="A machine on four mounts on a base frame on four isolators; three triaxial accelerometers per body",
+        frame="origin on the floor under the base's centre; x along the base length, z up",
+        structure=Structure([base, machine], springs), accelerometers=accs,
+        force_sensor=ForceSensor("force", 0, 2.25e-3),
+        daq=Daq(sampling_rate=10240.0, n_samples=8192, pre_trigger=512, aa_family="butter", aa_order=6,
+                aa_cutoff_hz=2500.0),
+        hits=hits, spring_groups={"isolators": [s.name for s in springs[:4]], "mounts": [s.name for s in springs[4:]]},
+        up=ez,
+    )
+
+
+RIGS = {"thesis": thesis_rig, "two-body": two_body_rig}

@@ -1,0 +1,59 @@
+"""odsuite's compare and diagnose on records from the independent generator (thesis rig, through
+the CLI from .DAT + .CTR files). Slow: `make stress` runs them."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from odsuite.cli import main
+
+from . import cases
+
+pytestmark = pytest.mark.slow
+
+
+def thesis_project(case: cases.Case, tmp_path, capsys):
+    """A thesis-rig project holding the case's records, imported from its .DAT/.CTR files and
+    processed."""
+    case.write(tmp_path / "files", formats=("dat",))
+    proj = tmp_path / "p.h5"
+    assert main(["new", str(proj), "--rig", "thesis-dynamometer"]) == 0
+    stem = f"{case.rig_name}-{case.name}-s{case.seed}"
+    for i, hits in enumerate(case.records):
+        point = ",".join(repr(float(v) * 1000) for v in hits[0].point)  # the CLI takes mm
+        direction = ",".join(repr(float(v)) for v in hits[0].direction)
+        dat = tmp_path / "files" / f"{stem}-r{i:02d}.DAT"
+        assert main(["import-legacy", str(proj), str(dat), "--systeminfo", str(dat.with_suffix(".CTR")),
+                     "--name", f"r{i}", "--force-point", point, "--force-dir", direction]) == 0
+    assert main(["process", str(proj)]) == 0
+    capsys.readouterr()
+    return proj
+
+
+def test_a_perfect_model_compares_within_its_noise_floor(tmp_path, capsys):
+    # measured: error 0.0119 against a noise floor of 0.0096 (seed 1)
+    proj = thesis_project(cases.build_case("nominal-16bit", seed=1), tmp_path, capsys)
+    assert main(["compare", str(proj), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["error"] <= 1.5 * doc["noise_floor_error"], doc["error"]
+
+
+def test_diagnose_finds_a_hidden_softer_axis(tmp_path, capsys):
+    # measured (seed 1: z springs x 0.6740): stiffness first, z 0.6745, x 1.0006, y 0.9999
+    case = cases.build_case("softer-axis", seed=1)
+    truth = case.truth["effect"]
+    proj = thesis_project(case, tmp_path, capsys)
+    assert main(["diagnose", str(proj), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    best = doc["candidates"][0]
+    assert best["effect"] == "stiffness"
+    p = best["parameters"]
+    # only the product of an axis scale and the per-spring scales is determined (diagnose says so)
+    springs = np.mean([p[f"scale_spring{i}"] for i in range(1, 5)])
+    for axis in "xyz":
+        expected = truth["factor"] if axis == truth["axis"] else 1.0
+        assert p[f"scale_{axis}"] * springs == pytest.approx(expected, rel=0.02), axis
+    assert best["validated_error"] <= 1.5 * doc["noise_floor_error"]
