@@ -151,7 +151,7 @@ def import_legacy_cmd(
     systeminfo: Path = typer.Option(..., "--systeminfo", help="Legacy .CTR Systeminfo file."),
     name: str = typer.Option(..., "--name", help="Experiment name."),
     force_point: str = typer.Option(..., "--force-point",
-                                    help="X,Y,Z in mm from the platform's centre of mass, platform axes."),
+                                    help="X,Y,Z in mm in the rig frame (the thesis rig: from the platform's centre of mass)."),
     force_dir: str = typer.Option(..., "--force-dir", help="+x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
 ) -> None:
     """Import a thesis-era .DAT/.VIZ record with its .CTR Systeminfo (`odsuite import --format legacy`)."""
@@ -216,7 +216,7 @@ def acquire_cmd(
     daq: str = typer.Option("sim", "--daq", help="A registered acquisition backend (built in: sim, the simulated "
                             "rig; ni, NI-DAQmx). Its own options follow; `odsuite plugins` lists them."),
     name: str = typer.Option(..., "--name", help="Experiment name."),
-    force_point: str = typer.Option(None, "--force-point", help="X,Y,Z in mm from the platform's centre of mass, platform axes."),
+    force_point: str = typer.Option(None, "--force-point", help="X,Y,Z in mm in the rig frame (the thesis rig: from the platform's centre of mass)."),
     force_dir: str = typer.Option(None, "--force-dir", help="+x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
     rate: float = typer.Option(20_000.0, "--rate", help="Sampling rate, Hz."),
     samples: int = typer.Option(4096, "--samples", help="Samples per channel."),

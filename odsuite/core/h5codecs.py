@@ -194,8 +194,9 @@ def rig_to_dict(rig: Rig) -> dict[str, Any]:
         bodies.append(d)
     sensors = []
     for s in rig.sensors:
-        d = {"name": s.name, "channel": s.channel, "body": s.body, "position": vec(s.position),
-             "axis": vec(s.axis), "sign": int(s.sign), "kind": s.kind, "serial": s.serial}
+        d = {"name": s.name, "channel": s.channel, "sign": int(s.sign), "kind": s.kind, "serial": s.serial}
+        if s.body is not None:  # a hammer's force sensor has no body, position or axis
+            d.update(body=s.body, position=vec(s.position), axis=vec(s.axis))
         if s.sensitivity is not None:
             d["sensitivity"] = s.sensitivity
         if s.group:

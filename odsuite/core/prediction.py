@@ -249,7 +249,7 @@ def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "accelerati
     from odsuite.core.model import Input, Output, StateSpace
     from odsuite.core.simulation import simulate_state_space
 
-    body = model.rig.sensors[0].body if model.rig is not None and model.rig.sensors else None
+    body = model.rig.force_body(exp.point) if model.rig is not None else None
     inputs = [Input.force(exp.point, exp.direction, body=body)]
     outputs = [Output.sensor(s, quantity) for s in exp.sensors]
     if quantity != "acceleration":

@@ -18,6 +18,9 @@ from odsuite.core.errors import ConfigError
 
 #: Generalized coordinates of a body, in order (m, m, m, rad, rad, rad).
 COORDINATES = ("x", "y", "z", "theta", "phi", "psi")
+#: how far (m) outside a body's plate a force point may lie and still be on that body: a hammer tip
+#: touches the surface, which a rounded plate size may miss by a millimetre
+FORCE_POINT_SLACK = 1e-3
 #: Roles of the nine-accelerometer set, in Table E.2 row 33 / Eq. 4.13 order.
 NINE_ROLES = ("xC", "yC", "zC", "x1", "z1", "y2", "z2", "x3", "y3")
 
@@ -59,13 +62,15 @@ class Body:
 
 @dataclass(frozen=True)
 class Sensor:
-    """A single-axis sensor: volts = sign * sensitivity * (quantity at ``position`` along ``axis``)."""
+    """A single-axis sensor: volts = sign * sensitivity * (quantity at ``position`` along ``axis``).
+    A hammer's force sensor has no body, position or axis (None): the force point and direction
+    are given per experiment."""
 
     name: str
     channel: int
-    body: str
-    position: np.ndarray
-    axis: np.ndarray
+    body: str | None
+    position: np.ndarray | None
+    axis: np.ndarray | None
     sign: float = 1.0
     kind: str = "accelerometer"  # the registered sensor type that declared it
     serial: str = ""
@@ -126,6 +131,25 @@ class Rig:
     @property
     def moving_bodies(self) -> tuple[Body, ...]:
         return tuple(b for b in self.bodies if b.mass is not None)
+
+    @property
+    def accelerometers(self) -> tuple[Sensor, ...]:
+        """The sensors that measure acceleration (the ones a model predicts), in file order."""
+        return tuple(s for s in self.sensors if s.quantity == "acceleration")
+
+    def force_body(self, point) -> str | None:
+        """The moving body a hammer hits at ``point`` (m): the one whose plate holds the point
+        (within FORCE_POINT_SLACK), else the one whose centre of mass is nearest; None without
+        moving bodies."""
+        point = np.asarray(point, dtype=float)
+        moving = self.moving_bodies
+        for b in moving:
+            if b.plate is not None and np.all(point >= b.plate.corner - FORCE_POINT_SLACK) and \
+                    np.all(point <= b.plate.corner + b.plate.size + FORCE_POINT_SLACK):
+                return b.name
+        if not moving:
+            return None
+        return min(moving, key=lambda b: float(np.linalg.norm(point - b.com))).name
 
 
 def _vector(where: str, value: Any, n: int = 3) -> np.ndarray:
@@ -213,7 +237,7 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
             raise ConfigError(f"{w} field 'kind': unknown sensor type {kind!r} "
                               f"(known: {', '.join(sensor_types.names())})")
         for sensor in sensor_types.get(kind).sensors(s, w):
-            if sensor.body not in body_names:
+            if sensor.body is not None and sensor.body not in body_names:
                 raise ConfigError(f"{w} field 'body': no body named {sensor.body!r}")
             sensors.append(sensor)
     sensor_names = {s.name for s in sensors}
@@ -235,12 +259,27 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
              "default_model", "systeminfo"}
     return Rig(
         name=name, description=data.get("description", ""), frame=data.get("frame", ""),
-        bodies=tuple(bodies), sensors=tuple(sensors), force_channel=data.get("force_channel"),
+        bodies=tuple(bodies), sensors=tuple(sensors), force_channel=_force_channel(data, sensors, where0),
         channel_count=int(data.get("channel_count", max(channels, default=-1) + 1)),
         default_model=data.get("default_model"), systeminfo_file=systeminfo_file, source=source,
         springs=springs,
         extra={k: v for k, v in data.items() if k not in known},
     )
+
+
+def _force_channel(data: dict[str, Any], sensors: list[Sensor], where0: str) -> int | None:
+    """The hammer's channel: the file's ``force_channel``, or its one force sensor's channel."""
+    declared = data.get("force_channel")
+    if declared is not None and (isinstance(declared, bool) or not isinstance(declared, int) or declared < 0):
+        raise ConfigError(f"{where0}: field 'force_channel': expected a channel index >= 0, got {declared!r}")
+    forces = [s for s in sensors if s.quantity == "force" and s.body is None]
+    if len(forces) > 1:
+        raise ConfigError(f"{where0}: {len(forces)} force sensors without a body ({', '.join(s.name for s in forces)}); "
+                          "one hammer per rig")
+    if forces and declared is not None and declared != forces[0].channel:
+        raise ConfigError(f"{where0}: field 'force_channel' = {declared} but force sensor {forces[0].name!r} is on "
+                          f"channel {forces[0].channel}")
+    return forces[0].channel if forces else declared
 
 
 def _coefficients(where: str, value: Any, default: Any = None) -> np.ndarray:

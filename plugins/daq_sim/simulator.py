@@ -38,7 +38,8 @@ from odsuite.core.rig import Rig
 from odsuite.core.systeminfo import Systeminfo
 
 #: ``truth(force, fs, point, direction) -> accelerations``: force (N) sampled at fs; returns
-#: (samples x sensors) m/s^2 along each rig sensor's axis at its position, in ``rig.sensors`` order.
+#: (samples x sensors) m/s^2 along each rig accelerometer's axis at its position, in
+#: ``rig.accelerometers`` order.
 Truth = Callable[[np.ndarray, float, np.ndarray, np.ndarray], np.ndarray]
 
 #: bipolar input ranges (V) of an NI E-series card (AT-MIO-16E-2): the card uses the smallest one
@@ -174,7 +175,7 @@ class SimulatedRig:
         t_fine = np.arange(n_stream * oversample) / fine
         force = half_sine_force(t_fine, hits, t0=lead / fs)
         acc = np.asarray(truth(force, fine, point, direction), dtype=float)
-        sensors = rig.sensors
+        sensors = rig.accelerometers
         if acc.shape != (force.size, len(sensors)):
             raise HardwareError(f"simulator: the truth model returned shape {acc.shape}, expected {(force.size, len(sensors))}")
 

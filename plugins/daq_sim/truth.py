@@ -26,15 +26,16 @@ def truth_model(rig: Rig, effects: Sequence[tuple[str, Mapping[str, Any]]] = ())
 
 def model_truth(rig: Rig, effects: Sequence[tuple[str, Mapping[str, Any]]] = ()):
     """A truth function for :class:`~odsuite_plugins.daq_sim.simulator.SimulatedRig`: accelerations
-    of every rig sensor (along its axis, at its position) to a force record, simulated exactly with a
-    first-order hold."""
+    of every rig accelerometer (along its axis, at its position) to a force record on the body the
+    force point is on, simulated exactly with a first-order hold."""
     from odsuite.core.model import Input, Output
     from odsuite.core.simulation import simulate
 
     model = truth_model(rig, effects)
-    outputs = [Output.sensor(s) for s in rig.sensors]
+    outputs = [Output.sensor(s) for s in rig.accelerometers]
 
     def truth(force: np.ndarray, fs: float, point: np.ndarray, direction: np.ndarray) -> np.ndarray:
-        return simulate(model, [Input.force(point, direction)], force, fs, outputs, hold="foh")
+        hit = Input.force(point, direction, body=rig.force_body(point))
+        return simulate(model, [hit], force, fs, outputs, hold="foh")
 
     return truth

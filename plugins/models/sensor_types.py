@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from odsuite.core.errors import ConfigError
-from odsuite.core.rig import single_axis_sensor
+from odsuite.core.rig import Sensor, single_axis_sensor
 
 
 class SingleAxis:
@@ -57,9 +57,41 @@ class Triaxial:
         return out
 
 
+class HammerForce:
+    """The impact hammer's load cell: ``channel`` and ``sensitivity`` (V/N), ``name`` (default
+    "force"); no body or position, since every experiment records where the hammer hit. Given a
+    ``body``, it is a force sensor fixed at a point of that body, along its ``axis``."""
+
+    name = "force"
+    quantity = "force"
+    unit = "N"
+    description = "the hammer's load cell (no position: the force point is given per experiment)"
+
+    def sensors(self, entry, where):
+        if "body" in entry:
+            return [single_axis_sensor(entry, where, kind=self.name, quantity=self.quantity)]
+        for field_name in ("position", "axis"):
+            if field_name in entry:
+                raise ConfigError(f"{where} field {field_name!r}: a hammer's force sensor has no {field_name} "
+                                  "(the force point is given per experiment); give a 'body' for a fixed force sensor")
+        channel, sens, sign = entry.get("channel"), entry.get("sensitivity"), entry.get("sign", 1)
+        if not isinstance(channel, int) or isinstance(channel, bool) or channel < 0:
+            raise ConfigError(f"{where} field 'channel': expected a channel index >= 0, got {channel!r}")
+        if sens is not None and (isinstance(sens, bool) or not isinstance(sens, (int, float)) or not sens > 0):
+            raise ConfigError(f"{where} field 'sensitivity': expected V/N > 0, got {sens!r}")
+        if sign not in (1, -1) or isinstance(sign, bool):
+            raise ConfigError(f"{where} field 'sign': must be 1 or -1, got {sign!r}")
+        name = entry.get("name", "force")
+        if not isinstance(name, str) or not name:
+            raise ConfigError(f"{where} field 'name': expected a non-empty name, got {name!r}")
+        return [Sensor(name=name, channel=channel, body=None, position=None, axis=None, sign=float(sign),
+                       kind=self.name, serial=str(entry.get("serial", "")),
+                       sensitivity=None if sens is None else float(sens), quantity=self.quantity)]
+
+
 def builtin_sensor_types() -> list:
     return [SingleAxis("accelerometer", "acceleration", "m/s^2", "one accelerometer axis (one channel)"),
             Triaxial(),
-            SingleAxis("force", "force", "N", "a force sensor along one axis (one channel)"),
+            HammerForce(),
             SingleAxis("proximity", "displacement", "m", "a displacement (proximity) probe along one axis"),
             SingleAxis("voltage", "voltage", "V", "an auxiliary voltage channel")]
