@@ -303,10 +303,13 @@ def import_lvm_cmd(
     project: Path = typer.Argument(..., help="Project file."),
     lvmfile: Path = typer.Argument(..., help="LabVIEW .lvm text file."),
     name: str = typer.Option(..., "--name", help="Experiment name."),
-    force_channel: str = typer.Option(None, "--force-channel", help="Name of the force channel."),
+    force_channel: str = typer.Option(None, "--force-channel", help="Name of the force channel (no rig)."),
+    force_point: str = typer.Option(None, "--force-point", help="On a rig: X,Y,Z in mm in the rig frame."),
+    force_dir: str = typer.Option(None, "--force-dir", help="On a rig: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
 ) -> None:
-    """Import a LabVIEW .lvm hammer record as a new experiment (`odsuite import --format lvm`)."""
-    _import(project, lvmfile, name, "lvm", force_channel=force_channel)
+    """Import a LabVIEW .lvm hammer record as a new experiment (`odsuite import --format lvm`); on a
+    rig its columns go to the rig's sensors by name, else in order."""
+    _import(project, lvmfile, name, "lvm", force_channel=force_channel, force_point=force_point, force_dir=force_dir)
 
 
 @app.command("import-uff")

@@ -18,6 +18,7 @@ from odsuite.core.hammer import assess_hits
 from odsuite.core.lvm import read_lvm
 from odsuite.core.modal import ModalResult, identify_modes
 from odsuite.core.project import DerivedArray, Excitation, open_project
+from odsuite.core.rig_import import onto_rig
 from odsuite.core.systeminfo import ChannelInfo, SensorType, Systeminfo
 from odsuite.core.version import __version__
 
@@ -41,28 +42,44 @@ def _force_index(names: list[str], units: list[str], force_channel: str | None, 
     return cand[0]
 
 
-def import_lvm(project: str | Path, lvm_path: str | Path, name: str, force_channel: str | None = None) -> str:
-    """Add a LabVIEW ``.lvm`` record to a project as experiment ``name``; returns the name."""
+def import_lvm(project: str | Path, lvm_path: str | Path, name: str, force_channel: str | None = None, *,
+               force_point: np.ndarray | None = None, force_dir: np.ndarray | None = None) -> tuple[str, ...]:
+    """Add a LabVIEW ``.lvm`` record to a project as experiment ``name``; returns notes for the user.
+
+    On a project with a rig the columns are laid onto the rig's channels (by sensor name, else in
+    order; :mod:`odsuite.core.rig_import`) and the hammer's ``force_point`` (m, rig frame) and
+    ``force_dir`` are required; without a rig the columns are stored as they are."""
     d = read_lvm(lvm_path)
-    fidx = _force_index(d.channel_names, d.units, force_channel, str(lvm_path))
-    # a .lvm in engineering units holds no converter range: limits well above the peaks, so that
-    # volt limits are never applied to g or N (clipping is then told by flat tops alone)
-    limits = np.maximum(10.0, np.ceil(2 * np.abs(d.data).max(axis=0)))
-    channels = []
-    for k, (n, u) in enumerate(zip(d.channel_names, d.units)):
-        stype, sens = _UNITS.get(u.strip().lower(), (SensorType.NONE, 1.0))
-        if k == fidx:
-            stype, sens = SensorType.LOADCELL, 1.0  # force values are newtons whatever the label says
-        channels.append(ChannelInfo(sensor_type=stype, location=n, sensitivity=sens, sampling_rate=d.sampling_rate,
-                                    limit_high=float(limits[k]), limit_low=-float(limits[k])))
     with open_project(project, "a") as p:
+        if p.rig is not None:
+            if force_channel is not None:
+                raise ConfigError(f"{lvm_path}: on rig {p.rig.name!r} the force channel is the rig's; drop --force-channel")
+            rec = onto_rig(p.rig, d.channel_names, d.units, d.data, d.sampling_rate, str(lvm_path), force_point,
+                           force_dir)
+            p.add_experiment(name, rec.raw, sampling_rate=d.sampling_rate, systeminfo=rec.systeminfo,
+                             excitation=rec.excitation, source=str(Path(lvm_path).name),
+                             channel_names=rec.channel_names)
+            return rec.notes
+        if force_point is not None or force_dir is not None:
+            raise ConfigError(f"{lvm_path}: --force-point/--force-dir need a project with a rig geometry")
+        fidx = _force_index(d.channel_names, d.units, force_channel, str(lvm_path))
+        # a .lvm in engineering units holds no converter range: limits well above the peaks, so that
+        # volt limits are never applied to g or N (clipping is then told by flat tops alone)
+        limits = np.maximum(10.0, np.ceil(2 * np.abs(d.data).max(axis=0)))
+        channels = []
+        for k, (n, u) in enumerate(zip(d.channel_names, d.units)):
+            stype, sens = _UNITS.get(u.strip().lower(), (SensorType.NONE, 1.0))
+            if k == fidx:
+                stype, sens = SensorType.LOADCELL, 1.0  # force values are newtons whatever the label says
+            channels.append(ChannelInfo(sensor_type=stype, location=n, sensitivity=sens, sampling_rate=d.sampling_rate,
+                                        limit_high=float(limits[k]), limit_low=-float(limits[k])))
         p.add_experiment(
             name, d.data, sampling_rate=d.sampling_rate, systeminfo=Systeminfo(channels),
             # a .lvm file holds no geometry: point at the origin, direction +z by convention
             excitation=Excitation(fidx, np.zeros(3), np.array([0.0, 0.0, 1.0])), source=str(Path(lvm_path).name),
             channel_names=list(d.channel_names),
         )
-    return name
+    return ()
 
 
 def _scale(exp) -> np.ndarray:

@@ -28,7 +28,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from odsuite.core.errors import ConfigError, DimensionError
-from odsuite.core.rig import COORDINATES, Body, Plate, Rig, Sensor
+from odsuite.core.rig import COORDINATES as COORDINATES  # the coordinates a body has, named here too
+from odsuite.core.rig import Body, Plate, Rig, Sensor
 
 #: SI units of the six generalized coordinates, in storage order.
 COORDINATE_UNITS = ("m", "m", "m", "rad", "rad", "rad")

@@ -32,15 +32,21 @@ class LegacyImporter:
 
 class LvmImporter:
     name = "lvm"
-    description = "LabVIEW Measurement (.lvm) text file, decimal point or comma"
+    description = ("LabVIEW Measurement (.lvm) text file, decimal point or comma; on a rig its columns go to the "
+                   "rig's sensors by name, else in order")
     suffixes = (".lvm",)
-    options = (FORCE_CHANNEL,)
+    options = (FORCE_CHANNEL,
+               ImportOption("force_point", "on a rig: X,Y,Z in mm in the rig frame, where the hammer hit"),
+               ImportOption("force_dir", "on a rig: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz"))
 
-    def import_file(self, project, file, name, *, force_channel=None) -> Imported:
+    def import_file(self, project, file, name, *, force_channel=None, force_point=None, force_dir=None) -> Imported:
+        from odsuite.core.importing import parse_force_direction, parse_force_point
         from odsuite.core.modal_project import import_lvm
 
-        import_lvm(project, file, name, force_channel)
-        return Imported(name, f"LabVIEW file {Path(file).name}")
+        notes = import_lvm(project, file, name, force_channel,
+                           force_point=None if force_point is None else parse_force_point(force_point),
+                           force_dir=None if force_dir is None else parse_force_direction(force_dir))
+        return Imported(name, f"LabVIEW file {Path(file).name}", tuple(notes))
 
 
 class UffImporter:

@@ -53,3 +53,31 @@ def test_a_perfect_model_of_the_two_body_rig_sits_on_its_noise_floor(capsys, tmp
     doc = json.loads(out)
     assert len(doc["channels"]) == 18
     assert doc["error"] <= 1.5 * doc["noise_floor_error"]
+
+
+def test_lvm_records_of_an_independent_simulator_on_its_own_rig_file(capsys, tmp_path):
+    """Rig file and LabVIEW files written by the independent generator (tests/independent, which
+    shares no code with odsuite): imported onto the rig by column name, processed per body, and a
+    perfect model compares within 1.5x its noise floor."""
+    from tests.independent.cases import build_case
+
+    case = build_case("nominal-16bit", 3, "two-body", n_samples=2048)
+    files = case.write(tmp_path / "lab", formats=("lvm",))
+    rig_file = next(f for f in files if f.name.endswith("-rig.toml"))
+    truth = json.loads(next(f for f in files if f.name.endswith("-truth.json")).read_text())
+    p = tmp_path / "p.h5"
+    assert run(capsys, "new", p, "--rig", rig_file)[0] == 0
+    for i, (lvm, hits) in enumerate(zip(sorted(f for f in files if f.suffix == ".lvm"), truth["records"])):
+        hit = hits[0]
+        point = ",".join(f"{1e3 * v!r}" for v in hit["point_m"])
+        direction = ",".join(f"{v!r}" for v in hit["direction"])
+        code, _, err = run(capsys, "import", p, lvm, "--name", f"r{i}", f"--force-point={point}", f"--force-dir={direction}")
+        assert code == 0, err
+    code, out, err = run(capsys, "process", p)
+    assert code == 0, err
+    assert out.count("machine: least-squares") == len(truth["records"])
+    code, out, err = run(capsys, "compare", p, "--json")
+    assert code == 0, err
+    doc = json.loads(out)
+    assert len(doc["channels"]) == 18
+    assert doc["error"] <= 1.5 * doc["noise_floor_error"], (doc["error"], doc["noise_floor_error"])

@@ -1,0 +1,103 @@
+"""Records from other tools mapped onto a rig: each column to the rig's channel whose sensor it is.
+
+Columns are matched by name (a column named like a rig sensor, or like its force sensor) or, when no
+column name matches, by position (column k is channel k). Volts are converted with the rig's
+sensitivities (the file's volts are at the sensor: DAQ gain 1); columns in physical units (m/s^2, g,
+N) are kept as they are, with a sensitivity that converts them to SI. The rig's thesis-style chain
+(offset, filters, integration) processes them like any record of the rig.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from odsuite.core.errors import ConfigError, DimensionError
+from odsuite.core.excitation import Excitation
+from odsuite.core.rig import Rig
+from odsuite.core.systeminfo import SensorType, Systeminfo
+
+G = 9.80665
+#: unit labels of a column in physical units -> (quantity, stored units per SI unit)
+PHYSICAL_UNITS = {"m/s^2": ("acceleration", 1.0), "m/s2": ("acceleration", 1.0), "m/s²": ("acceleration", 1.0),
+                  "g": ("acceleration", 1.0 / G), "n": ("force", 1.0), "newtons": ("force", 1.0)}
+VOLTS = ("v", "volts", "volt")
+
+
+@dataclass(frozen=True)
+class RigRecord:
+    """A record laid out on the rig's channels, ready to store as an experiment."""
+
+    raw: np.ndarray  # samples x rig channels
+    systeminfo: Systeminfo
+    excitation: Excitation
+    channel_names: list[str]
+    notes: tuple[str, ...] = ()
+
+
+def _key(name: str) -> str:
+    """A name as tools spell it differently: case, spaces, '_', '-' and '.' do not count ("m1_x" is
+    LabVIEW's "M1 X" or "m1x")."""
+    return "".join(c for c in name.lower() if c.isalnum())
+
+
+def _columns_to_channels(rig: Rig, names: Sequence[str], where: str) -> dict[int, int]:
+    by_name = {_key(s.name): s.channel for s in rig.sensors}
+    matched = {k: by_name[_key(n)] for k, n in enumerate(names) if _key(n) in by_name}
+    if not matched:
+        if len(names) != rig.channel_count:
+            raise DimensionError(f"{where}: no column is named like a sensor of rig {rig.name!r} "
+                                 f"({', '.join(s.name for s in rig.sensors)}), and its {len(names)} columns "
+                                 f"cannot be its {rig.channel_count} channels in order; rename the columns")
+        return {k: k for k in range(len(names))}
+    unmatched = [n for k, n in enumerate(names) if k not in matched]
+    if unmatched:
+        raise ConfigError(f"{where}: column(s) {', '.join(map(repr, unmatched))} match no sensor of rig "
+                          f"{rig.name!r} (sensors: {', '.join(s.name for s in rig.sensors)})")
+    return matched
+
+
+def onto_rig(rig: Rig, names: Sequence[str], units: Sequence[str], data: np.ndarray, fs: float, where: str,
+             point: np.ndarray | None, direction: np.ndarray | None) -> RigRecord:
+    """Lay ``data`` (samples x columns, named ``names`` in ``units``) onto ``rig``'s channels; the
+    hammer hit ``point`` (m, rig frame) along ``direction``."""
+    if point is None or direction is None:
+        raise ConfigError(f"{where}: a record on rig {rig.name!r} needs the hammer's --force-point and --force-dir")
+    if rig.force_channel is None:
+        raise ConfigError(f"{where}: rig {rig.name!r} has no force channel (a 'force' sensor or force_channel)")
+    mapping = _columns_to_channels(rig, names, where)
+    if rig.force_channel not in mapping.values():
+        raise ConfigError(f"{where}: no column is the force channel {rig.force_channel} of rig {rig.name!r}")
+    si = Systeminfo.for_rig(rig, fs)
+    channels = list(si.channels)
+    raw = np.zeros((data.shape[0], rig.channel_count))
+    for k, ch in mapping.items():
+        unit = units[k].strip().lower() if k < len(units) else ""
+        info = replace(channels[ch], daq_gain=1.0)  # the file's values are at the sensor
+        if unit in PHYSICAL_UNITS:
+            quantity, per_si = PHYSICAL_UNITS[unit]
+            sensor = rig.sensor_on_channel(ch)
+            expected = sensor.quantity if sensor is not None else "force" if ch == rig.force_channel else None
+            if expected != quantity:
+                raise ConfigError(f"{where}: column {names[k]!r} is in {units[k]!r} ({quantity}), but rig "
+                                  f"{rig.name!r} channel {ch} measures {expected or 'nothing'}")
+            # the value is the sensor's own output: stored as it is, converted to SI by the sensitivity;
+            # limits far above the peaks, so that volt limits never clip g or N
+            peak = float(np.ceil(2 * np.abs(data[:, k]).max())) if data.shape[0] else 1.0
+            info = replace(info, sensitivity=per_si, limit_high=max(10.0, peak), limit_low=-max(10.0, peak))
+        elif unit not in VOLTS and unit:
+            raise ConfigError(f"{where}: column {names[k]!r}: unit {units[k]!r} is neither volts nor one of "
+                              f"{', '.join(sorted(PHYSICAL_UNITS))}")
+        channels[ch] = info
+        raw[:, ch] = data[:, k]
+    # channels the file does not hold are stored empty and left out of processing and comparison
+    missing = [ch for ch in range(rig.channel_count) if ch not in mapping.values()]
+    for ch in missing:
+        channels[ch] = replace(channels[ch], sensor_type=SensorType.NONE)
+    excitation = Excitation(rig.force_channel, np.asarray(point, float), np.asarray(direction, float))
+    names_out = [next((names[k] for k, c in mapping.items() if c == ch), f"ai{ch}") for ch in range(rig.channel_count)]
+    lost = [s.name for s in rig.accelerometers if s.channel in missing]
+    notes = (f"{where}: rig sensor(s) {', '.join(lost)} have no column: not recorded",) if lost else ()
+    return RigRecord(raw, Systeminfo(channels=channels, rig=si.rig), excitation, names_out, notes)
