@@ -33,7 +33,6 @@ from odsuite.core.model import Model
 #: members every effect provider has (checked when a plugin registers one)
 REQUIRED_ATTRIBUTES = ("name", "target", "description")
 REQUIRED_METHODS = ("parameters", "apply")
-TARGETS = ("model", "chain")
 
 
 @dataclass(frozen=True)
