@@ -220,6 +220,11 @@ def _check_projects(command: str, projects: Sequence[str | Path], options: Mappi
     return paths
 
 
+def _not_run(path: str, why: str) -> dict[str, Any]:
+    return {"project": path, "status": "not-run", "result": None, "error": f"did not run: {why}",
+            "seconds": None, "host": None, "pid": None}
+
+
 def run_batch(command: str, projects: Sequence[str | Path], *, scheduler: str | None = None,
               workers: int | None = None, options: Mapping[str, Any] | None = None,
               progress: Callable[[dict[str, Any], int, int], None] | None = None,
@@ -260,17 +265,20 @@ def run_batch(command: str, projects: Sequence[str | Path], *, scheduler: str | 
             if on_submitted is not None:
                 on_submitted(client, futures)
             records: dict[str, dict[str, Any]] = {}
-            for done, fut in enumerate(as_completed(list(futures.values()), loop=client.loop), start=1):
-                path = next(k for k, f in futures.items() if f is fut)
-                try:
-                    records[path] = fut.result()
-                except Exception as exc:  # noqa: BLE001 - KilledWorker, a lost scheduler: the project did not run
-                    first = str(exc).splitlines()[0] if str(exc) else ""
-                    records[path] = {"project": path, "status": "not-run", "result": None,
-                                     "error": f"did not run: {type(exc).__name__}: {first}",
-                                     "seconds": None, "host": None, "pid": None}
-                if progress is not None:
-                    progress(records[path], done, len(futures))
+            try:
+                for done, fut in enumerate(as_completed(list(futures.values()), loop=client.loop), start=1):
+                    path = next(k for k, f in futures.items() if f is fut)
+                    try:
+                        records[path] = fut.result()
+                    except Exception as exc:  # noqa: BLE001 - KilledWorker, a lost scheduler: it did not run
+                        first = str(exc).splitlines()[0] if str(exc) else ""
+                        records[path] = _not_run(path, f"{type(exc).__name__}: {first}")
+                    if progress is not None:
+                        progress(records[path], done, len(futures))
+            except KeyboardInterrupt:  # what finished is kept, the rest is reported
+                client.cancel([f for p, f in futures.items() if p not in records])
+                for path in futures:
+                    records.setdefault(path, _not_run(path, "interrupted"))
     finally:
         if cluster is not None:
             cluster.close()
