@@ -18,6 +18,7 @@ import math
 import os
 import socket
 import time
+import uuid
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -242,9 +243,9 @@ def run_batch(command: str, projects: Sequence[str | Path], *, scheduler: str | 
         raise ConfigError(f"batch: --workers must be at least 1, got {workers}")
     started = time.monotonic()
     cluster = None
+    n = workers or os.cpu_count() or 1
     try:
         if scheduler is None:
-            n = workers or os.cpu_count() or 1
             # processes, not threads: most of the work holds the GIL. Loopback only, no dashboard
             # (its HTTP server still starts: on a free port of 127.0.0.1)
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
@@ -258,9 +259,14 @@ def run_batch(command: str, projects: Sequence[str | Path], *, scheduler: str | 
         except (OSError, TimeoutError) as exc:
             raise ConfigError(f"batch: cannot reach the scheduler at {address}: {exc}") from None
         with client:
-            n_workers = len(client.scheduler_info(n_workers=-1)["workers"]) if scheduler else workers or os.cpu_count() or 1
+            n_workers = len(client.scheduler_info(n_workers=-1)["workers"]) if scheduler else n
+            if not n_workers:
+                raise ConfigError(f"batch: the scheduler at {address} has no workers; start some with "
+                                  f"`dask worker {address}`")
+            # keys of their own: another batch on a shared scheduler must not share these tasks
+            batch_id = uuid.uuid4().hex[:8]
             futures = {str(p): client.submit(run_project, command, str(p), options, pure=False,
-                                             key=f"odsuite-{command}-{i}-{p.name}")
+                                             key=f"odsuite-{command}-{batch_id}-{i}-{p.name}")
                        for i, p in enumerate(paths)}
             if on_submitted is not None:
                 on_submitted(client, futures)
