@@ -18,6 +18,7 @@ import math
 import os
 import socket
 import time
+import uuid
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -223,6 +224,11 @@ def _check_projects(command: str, projects: Sequence[str | Path], options: Mappi
     return paths
 
 
+def _not_run(path: str, why: str) -> dict[str, Any]:
+    return {"project": path, "status": "not-run", "result": None, "error": f"did not run: {why}",
+            "seconds": None, "host": None, "pid": None}
+
+
 def run_batch(command: str, projects: Sequence[str | Path], *, scheduler: str | None = None,
               workers: int | None = None, options: Mapping[str, Any] | None = None,
               progress: Callable[[dict[str, Any], int, int], None] | None = None,
@@ -240,9 +246,9 @@ def run_batch(command: str, projects: Sequence[str | Path], *, scheduler: str | 
         raise ConfigError(f"batch: --workers must be at least 1, got {workers}")
     started = time.monotonic()
     cluster = None
+    n = workers or os.cpu_count() or 1
     try:
         if scheduler is None:
-            n = workers or os.cpu_count() or 1
             # processes, not threads: most of the work holds the GIL. Loopback only, no dashboard
             # (its HTTP server still starts: on a free port of 127.0.0.1)
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
@@ -256,24 +262,32 @@ def run_batch(command: str, projects: Sequence[str | Path], *, scheduler: str | 
         except (OSError, TimeoutError) as exc:
             raise ConfigError(f"batch: cannot reach the scheduler at {address}: {exc}") from None
         with client:
-            n_workers = len(client.scheduler_info(n_workers=-1)["workers"]) if scheduler else workers or os.cpu_count() or 1
+            n_workers = len(client.scheduler_info(n_workers=-1)["workers"]) if scheduler else n
+            if not n_workers:
+                raise ConfigError(f"batch: the scheduler at {address} has no workers; start some with "
+                                  f"`dask worker {address}`")
+            # keys of their own: another batch on a shared scheduler must not share these tasks
+            batch_id = uuid.uuid4().hex[:8]
             futures = {str(p): client.submit(run_project, command, str(p), options, pure=False,
-                                             key=f"odsuite-{command}-{i}-{p.name}")
+                                             key=f"odsuite-{command}-{batch_id}-{i}-{p.name}")
                        for i, p in enumerate(paths)}
             if on_submitted is not None:
                 on_submitted(client, futures)
             records: dict[str, dict[str, Any]] = {}
-            for done, fut in enumerate(as_completed(list(futures.values()), loop=client.loop), start=1):
-                path = next(k for k, f in futures.items() if f is fut)
-                try:
-                    records[path] = fut.result()
-                except Exception as exc:  # noqa: BLE001 - KilledWorker, a lost scheduler: the project did not run
-                    first = str(exc).splitlines()[0] if str(exc) else ""
-                    records[path] = {"project": path, "status": "not-run", "result": None,
-                                     "error": f"did not run: {type(exc).__name__}: {first}",
-                                     "seconds": None, "host": None, "pid": None}
-                if progress is not None:
-                    progress(records[path], done, len(futures))
+            try:
+                for done, fut in enumerate(as_completed(list(futures.values()), loop=client.loop), start=1):
+                    path = next(k for k, f in futures.items() if f is fut)
+                    try:
+                        records[path] = fut.result()
+                    except Exception as exc:  # noqa: BLE001 - KilledWorker, a lost scheduler: it did not run
+                        first = str(exc).splitlines()[0] if str(exc) else ""
+                        records[path] = _not_run(path, f"{type(exc).__name__}: {first}")
+                    if progress is not None:
+                        progress(records[path], done, len(futures))
+            except KeyboardInterrupt:  # what finished is kept, the rest is reported
+                client.cancel([f for p, f in futures.items() if p not in records])
+                for path in futures:
+                    records.setdefault(path, _not_run(path, "interrupted"))
     finally:
         if cluster is not None:
             cluster.close()

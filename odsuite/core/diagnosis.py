@@ -13,7 +13,6 @@ whose fits change the predictions the same way are named as confounded.
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
@@ -261,9 +260,9 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
              prepared: Sequence[PreparedExperiment] | None = None, workers: int | None = None) -> Diagnosis:
     """Rank every registered effect (or ``effects``) by how much of the model's error it explains.
 
-    Candidates are screened and fitted on ``workers`` threads (default: one per core; 1: one after
-    another). Each candidate's work is independent of the others' and runs in the same order of
-    operations, so the result does not depend on ``workers``."""
+    Candidates are screened and fitted on ``workers`` threads (default 1: one after another).
+    Each candidate's work is independent of the others' and runs in the same order of operations,
+    so the result does not depend on ``workers``."""
     from odsuite.core.comparison import compare
     from odsuite.core.plugins import registries
 
@@ -301,7 +300,9 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     rigidity = float(np.median(rig_vals)) if rig_vals else None
     modes_before = list(base.shared.modes().frequency_hz)
 
-    threads = workers or os.cpu_count() or 1
+    # one thread by default: on 2 cores, 2 threads took 0.8-1.2x the serial time (bench_batch.py),
+    # as each model evaluation's Python work holds the GIL; many projects scale through `batch`
+    threads = workers or 1
     parallel = threads > 1
 
     def screen_one(name: str) -> tuple[Screened, int] | None:

@@ -185,3 +185,13 @@ def test_killed_worker_without_retries_is_reported(projects):
     for path in projects:  # the killed write left its project as it was or whole
         with open_project(path) as p:
             p.verify()
+
+
+def test_unreachable_scheduler_is_one_line(projects):
+    from odsuite.core.batch import run_batch
+    from odsuite.core.errors import ConfigError
+
+    # port 9 (discard) on the loopback: nothing listens there
+    with pytest.raises(ConfigError, match=r"cannot reach the scheduler at tcp://127\.0\.0\.1:9") as info:
+        run_batch("info", projects[:1], scheduler="tcp://127.0.0.1:9")
+    assert "\n" not in str(info.value)
