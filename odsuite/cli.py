@@ -529,6 +529,8 @@ def diagnose_cmd(
     project: Path = typer.Argument(..., help="Project file."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
     effect: list[str] = typer.Option(None, "--effect", help="Try only these effects (repeatable)."),
+    workers: int = typer.Option(1, "--workers", min=1, help="Threads that screen and fit candidates (the result "
+                                "does not depend on it; two threads gain little where the fits hold Python's lock)."),
 ) -> None:
     """Rank every registered physical effect by the error it removes (validated), best first."""
     from odsuite.core.diagnosis import diagnose
@@ -536,7 +538,7 @@ def diagnose_cmd(
 
     with open_project(project) as p, _loop_progress() as bar:
         task = bar.add_task("diagnosing", total=None)
-        result = diagnose(p, effects=effect or None,
+        result = diagnose(p, effects=effect or None, workers=workers,
                           progress=lambda what, i, n: bar.update(task, description=what, completed=i, total=n))
     doc = result.as_dict()
     if as_json:
@@ -709,8 +711,12 @@ def catalog_cmd(
         if as_json:
             _print_json(rows)
             return
+        if not rows:
+            console.print(f"no rows: no project in {args[1]} answers {' '.join(args[2:]) or 'projects'!r}",
+                          highlight=False, soft_wrap=True)
+            return
         table = Table(title=f"{len(rows)} rows")
-        for col in rows[0] if rows else ():
+        for col in rows[0]:
             table.add_column(col)
         for r in rows:
             table.add_row(*("-" if v is None else f"{v:.4g}" if isinstance(v, float) else str(v) for v in r.values()))
