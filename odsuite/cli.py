@@ -303,7 +303,7 @@ def import_lvm_cmd(
     project: Path = typer.Argument(..., help="Project file."),
     lvmfile: Path = typer.Argument(..., help="LabVIEW .lvm text file."),
     name: str = typer.Option(..., "--name", help="Experiment name."),
-    force_channel: str = typer.Option(None, "--force-channel", help="Name of the force channel (no rig)."),
+    force_channel: str = typer.Option(None, "--force-channel", help="Name of the force column (on a rig: the one for its force channel)."),
     force_point: str = typer.Option(None, "--force-point", help="On a rig: X,Y,Z in mm in the rig frame."),
     force_dir: str = typer.Option(None, "--force-dir", help="On a rig: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
 ) -> None:

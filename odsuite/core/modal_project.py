@@ -52,10 +52,8 @@ def import_lvm(project: str | Path, lvm_path: str | Path, name: str, force_chann
     d = read_lvm(lvm_path)
     with open_project(project, "a") as p:
         if p.rig is not None:
-            if force_channel is not None:
-                raise ConfigError(f"{lvm_path}: on rig {p.rig.name!r} the force channel is the rig's; drop --force-channel")
             rec = onto_rig(p.rig, d.channel_names, d.units, d.data, d.sampling_rate, str(lvm_path), force_point,
-                           force_dir)
+                           force_dir, force_channel)
             p.add_experiment(name, rec.raw, sampling_rate=d.sampling_rate, systeminfo=rec.systeminfo,
                              excitation=rec.excitation, source=str(Path(lvm_path).name),
                              channel_names=rec.channel_names)

@@ -43,9 +43,16 @@ def _key(name: str) -> str:
     return "".join(c for c in name.lower() if c.isalnum())
 
 
-def _columns_to_channels(rig: Rig, names: Sequence[str], where: str) -> dict[int, int]:
+def _columns_to_channels(rig: Rig, names: Sequence[str], where: str, force_column: str | None) -> dict[int, int]:
     by_name = {_key(s.name): s.channel for s in rig.sensors}
     matched = {k: by_name[_key(n)] for k, n in enumerate(names) if _key(n) in by_name}
+    if force_column is not None:  # the user names the hammer's column
+        if force_column not in names:
+            raise ConfigError(f"{where}: no channel {force_column!r}; channels are {', '.join(names)}")
+        matched = {k: c for k, c in matched.items() if c != rig.force_channel}
+        matched[list(names).index(force_column)] = rig.force_channel
+        if len(matched) == 1 and len(names) == rig.channel_count:
+            return {k: k for k in range(len(names))} | matched
     if not matched:
         if len(names) != rig.channel_count:
             raise DimensionError(f"{where}: no column is named like a sensor of rig {rig.name!r} "
@@ -60,14 +67,15 @@ def _columns_to_channels(rig: Rig, names: Sequence[str], where: str) -> dict[int
 
 
 def onto_rig(rig: Rig, names: Sequence[str], units: Sequence[str], data: np.ndarray, fs: float, where: str,
-             point: np.ndarray | None, direction: np.ndarray | None) -> RigRecord:
+             point: np.ndarray | None, direction: np.ndarray | None, force_column: str | None = None) -> RigRecord:
     """Lay ``data`` (samples x columns, named ``names`` in ``units``) onto ``rig``'s channels; the
-    hammer hit ``point`` (m, rig frame) along ``direction``."""
-    if point is None or direction is None:
-        raise ConfigError(f"{where}: a record on rig {rig.name!r} needs the hammer's --force-point and --force-dir")
+    hammer hit ``point`` (m, rig frame) along ``direction``; ``force_column`` names the column that
+    is the rig's force channel when its name does not say so."""
     if rig.force_channel is None:
         raise ConfigError(f"{where}: rig {rig.name!r} has no force channel (a 'force' sensor or force_channel)")
-    mapping = _columns_to_channels(rig, names, where)
+    mapping = _columns_to_channels(rig, names, where, force_column)
+    if point is None or direction is None:
+        raise ConfigError(f"{where}: a record on rig {rig.name!r} needs the hammer's --force-point and --force-dir")
     if rig.force_channel not in mapping.values():
         raise ConfigError(f"{where}: no column is the force channel {rig.force_channel} of rig {rig.name!r}")
     si = Systeminfo.for_rig(rig, fs)
