@@ -433,6 +433,10 @@ def render_cmd(
     frame_step: int = typer.Option(None, "--frame-step", help="Samples per movie frame (default 1)."),
     slowdown: float = typer.Option(None, "--slowdown", help="Slow-motion factor: movie time / real time."),
     ods: float = typer.Option(None, "--ods", help="Animate the operating deflection shape at this frequency (Hz)."),
+    start: float = typer.Option(None, "--start", help="Movie window start, s from the record's start (default: just before the hit)."),
+    end: float = typer.Option(None, "--end", help="Movie window end, s (default: when the motion has decayed to a tenth)."),
+    fps: float = typer.Option(None, "--fps", help="Movie frames per second (default 25)."),
+    duration: float = typer.Option(None, "--duration", help="Movie length, s (default 10; or set --frame-step / --slowdown)."),
 ) -> None:
     """Wireframe movie of an experiment's plates, or a figure, by a registered renderer."""
     from odsuite.core.plugins import registries
@@ -440,7 +444,8 @@ def render_cmd(
 
     renderer = choose_renderer(registries().renderers, output, figure, "figure" if figure else "movie")
     options = {"model": model, "magnify": parse_magnify(magnify), "view": view, "workers": workers,
-               "frame_step": frame_step, "slowdown": slowdown, "ods_hz": ods}
+               "frame_step": frame_step, "slowdown": slowdown, "ods_hz": ods, "start": start, "end": end,
+               "fps": fps, "duration": duration}
     res = renderer.render(RenderRequest(project, experiment, output, options))
     for note in res.notes:
         err_console.print(f"note: {note}", highlight=False)
