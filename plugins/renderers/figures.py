@@ -219,10 +219,12 @@ def residual_spectra_figure(
     tiny = np.finfo(float).tiny
     for j in range(k):
         ax = axes[j]
-        ax.semilogy(f, np.maximum(pa[:, j], tiny), color="tab:blue", lw=0.9, label="measured")
-        ax.semilogy(f, np.maximum(pr[:, j], tiny), color="tab:red", lw=0.9, label="residual")
-        ax.set_title(names[j], fontsize=8)
-        ax.set_ylabel(f"PSD [({units[j]})²/Hz]", fontsize=7)
+        # log frequency: the modes of a rig sit in the first few per cent of a linear 0..fs/2 axis
+        ax.loglog(f[1:], np.maximum(pa[1:, j], tiny), color="tab:blue", lw=0.9, label="measured")
+        ax.loglog(f[1:], np.maximum(pr[1:, j], tiny), color="tab:red", lw=0.9, label="residual")
+        ax.set_xlim(f[1], f[-1])
+        ax.set_title(names[j], fontsize=9)
+        ax.set_ylabel(f"PSD [({units[j]})²/Hz]", fontsize=8)
         ax.grid(alpha=0.3, which="both")
     for ax in axes[k:]:
         ax.set_visible(False)

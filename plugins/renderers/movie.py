@@ -157,6 +157,30 @@ def _gif_palette(scene: Scene, frames: np.ndarray, labels: list[str]) -> "Image.
     return Image.fromarray(sample).quantize(colors=256, method=Image.Quantize.MEDIANCUT)
 
 
+def gif_from_mp4(mp4: Path, gif: Path, fps: float) -> Path:
+    """The GIF of an MP4's frames (for players without H.264), streamed: one pass picks the
+    palette from a few frames, a second quantises and appends each frame."""
+    import imageio_ffmpeg
+    from PIL import Image
+
+    n, _ = imageio_ffmpeg.count_frames_and_secs(str(mp4))
+    picks = set(np.linspace(0, max(0, n - 1), min(GIF_PALETTE_FRAMES, max(1, n))).round().astype(int).tolist())
+    reader = imageio_ffmpeg.read_frames(str(mp4))
+    size = next(reader)["size"]
+    sample = [np.frombuffer(f, np.uint8).reshape(size[1], size[0], 3) for k, f in enumerate(reader) if k in picks]
+    palette = Image.fromarray(np.concatenate(sample)).quantize(colors=256, method=Image.Quantize.MEDIANCUT)
+    body = gif.with_suffix(".gifdata")
+    writer = _GifFrames(body, palette, fps)
+    reader = imageio_ffmpeg.read_frames(str(mp4))
+    next(reader)
+    for f in reader:
+        writer.send(np.frombuffer(f, np.uint8).reshape(size[1], size[0], 3))
+    writer.close()
+    _join_gif([body], gif, palette, tuple(size))
+    body.unlink()
+    return gif
+
+
 def _join_gif(parts: list[Path], path: Path, palette: "Image.Image", size: tuple[int, int]) -> None:  # noqa: F821
     from PIL import GifImagePlugin
 
