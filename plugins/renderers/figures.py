@@ -15,7 +15,8 @@ from odsuite.core.errors import ConfigError, DimensionError
 from odsuite.core.rig import Rig
 from odsuite.core.rigidbody import COORDINATE_UNITS, COORDINATES, PLOT_INDEX, plate_corners, rotation_matrix
 
-from .motion import characteristic_instant, check_coords, contact_index, corners, default_magnification
+from .motion import (characteristic_instant, check_coords, contact_index, corners, default_magnification,
+                     magnification_words)
 
 FIGURE_FORMATS = (".png", ".svg", ".pdf")
 #: Screen (right, up) unit vectors for an eye on each rig axis looking at the origin; "up" is -z
@@ -27,6 +28,8 @@ EYES = {
 }
 #: Thesis Sec. 5.3.2: the initial position is taken 50 samples before the impact.
 INITIAL_LEAD = 50
+#: Still plates, one (grey, line style) each so two of them can be told apart in print.
+STILL_GREYS = (("0.35", "-"), ("0.6", "--"), ("0.75", ":"))
 
 
 @dataclass(frozen=True)
@@ -110,28 +113,42 @@ def projection_figure(
     for i in instants:
         if not 0 <= i < n:
             raise ConfigError(f"instants: sample {i} outside the record of {n} samples")
-    fig = _new_figure((6.4, 4.8))
-    ax = fig.add_subplot()
+    drawn = []  # (xy, style) so the axes can be fitted to the content before drawing
+    greys = iter(STILL_GREYS)
     for body in rig.bodies:
         if body.plate is None:
             continue
         if body.name not in coords:
             xy = project(plate_corners(body.plate)[list(PLOT_INDEX)], eye, view_angles) * 1e3
-            ax.plot(xy[:, 0], xy[:, 1], color="0.6", lw=0.8, label=f"{body.name} (fixed)")
+            colour, ls = next(greys, STILL_GREYS[-1])
+            drawn.append((xy, dict(ls=ls, color=colour, lw=1.0, label=f"{body.name} (does not move)")))
             continue
         d = coords[body.name][list(instants)]
         poly = corners(body, d, magnify)[:, list(PLOT_INDEX)]
         for k, (ls, what) in enumerate((("-.", "initial position"), ("-", "characteristic forced response"))):
             xy = project(poly[k], eye, view_angles) * 1e3
-            ax.plot(xy[:, 0], xy[:, 1], ls, color="k", lw=1.2 if k else 0.9,
-                    label=f"{body.name}: {what} (t = {1e3 * instants[k] / fs:.2f} ms)")
+            drawn.append((xy, dict(ls=ls, color="k", lw=1.4 if k else 1.0,
+                                   label=f"{body.name}: {what} (t = {1e3 * instants[k] / fs:.2f} ms)")))
+    every = np.concatenate([xy for xy, _ in drawn])
+    lo, hi = every.min(0), every.max(0)
+    pad = 0.04 * (hi - lo).max()
+    lo, hi = lo - pad, hi + pad
+    width, height = hi - lo
+    # the figure takes the content's shape (equal scales), the legend goes underneath
+    fig_w = 6.4
+    fig = _new_figure((fig_w, min(9.0, max(2.6, fig_w * height / width + 1.4))))
+    ax = fig.add_subplot()
+    for xy, style in drawn:
+        ax.plot(xy[:, 0], xy[:, 1], **style)
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
     right, up = EYES[eye]
     ax.set_xlabel(_axis_label(right))
     ax.set_ylabel(_axis_label(up))
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.set_title(title or f"eye on {eye}, view angles {tuple(float(a) for a in view_angles)} deg, "
-                 f"H_t = {magnify[0]:.3g}, H_r = {magnify[1]:.3g}", fontsize=9)
-    ax.legend(fontsize=7, loc="best")
+    ax.set_aspect("equal", adjustable="box")
+    head = title or f"eye on {eye}, view angles {tuple(float(a) for a in view_angles)} deg"
+    ax.set_title(f"{head}\n{magnification_words(magnify)}", fontsize=10)
+    fig.legend(fontsize=8, loc="outside lower center", ncol=2, frameon=False)
     return FigureResult(_save(fig, path, dpi), fig, tuple(int(i) for i in instants), magnify)
 
 

@@ -49,6 +49,15 @@ def test_projection_draws_table_4_2_polylines(thesis_rig, tmp_path):
     assert any(name.startswith("reference") for name in lines)
     with Image.open(res.path) as im:
         assert im.format == "PNG"
+    # the axes hug the drawing (4 % margin of its larger span), the still plates differ in print,
+    # and the title says the magnification in words
+    xy = np.concatenate([ln.get_xydata() for ln in ax.lines])
+    lo, hi = xy.min(0), xy.max(0)
+    pad = 0.04 * (hi - lo).max()
+    np.testing.assert_allclose([*ax.get_xlim(), *ax.get_ylim()], [lo[0] - pad, hi[0] + pad, lo[1] - pad, hi[1] + pad])
+    still = [ln for name, ln in lines.items() if "does not move" in name]
+    assert len(still) == 2 and len({(ln.get_color(), ln.get_linestyle()) for ln in still}) == 2
+    assert ax.get_title().endswith("motion drawn 3,000 times larger than it is")
 
 
 def test_projection_default_instants_use_the_force(thesis_rig, tmp_path):
