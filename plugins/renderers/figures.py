@@ -161,6 +161,18 @@ def _pair(measured: np.ndarray, model: np.ndarray, what: str) -> tuple[np.ndarra
     return a, b
 
 
+#: SI prefixes by power of 1000, for one prefix per axis (mixed ones on one axis mislead).
+PREFIXES = {-4: "p", -3: "n", -2: "µ", -1: "m", 0: "", 1: "k", 2: "M"}
+
+
+def _prefix(peak: float) -> tuple[str, float]:
+    """The SI prefix that puts ``peak`` between 1 and 1000, and its factor."""
+    if not np.isfinite(peak) or peak <= 0:
+        return "", 1.0
+    k = int(np.clip(np.floor(np.log10(peak) / 3), min(PREFIXES), max(PREFIXES)))
+    return PREFIXES[k], 1000.0 ** k
+
+
 def comparison_figure(
     t: np.ndarray,
     measured: np.ndarray,
@@ -171,17 +183,25 @@ def comparison_figure(
     units: Sequence[str] = COORDINATE_UNITS,
     title: str = "",
     dpi: int = 150,
+    window: tuple[float, float] | None = None,
 ) -> FigureResult:
     """Measured vs model, one panel per column (thesis Fig. 5.8-5.11: model solid, measured dashed).
 
     Defaults label the six generalized coordinates; pass ``names``/``units`` for sensor channels.
+    ``window`` (s): draw only that stretch (the event, not the whole record). Each panel has one
+    unit prefix (in its label), and the model's line is drawn over the measured one.
     """
-    from matplotlib.ticker import EngFormatter
+    from matplotlib.ticker import FuncFormatter
 
     a, b = _pair(measured, model, "comparison")
     t = np.asarray(t, dtype=float)
     if t.shape != (a.shape[0],):
         raise DimensionError(f"comparison: time has shape {t.shape}, the signals have {a.shape[0]} samples")
+    if window is not None:
+        keep = (t >= window[0]) & (t <= window[1])
+        if not keep.any():
+            raise ConfigError(f"comparison: window {window[0]:g}-{window[1]:g} s holds no sample")
+        t, a, b = t[keep], a[keep], b[keep]
     k = a.shape[1]
     if len(names) != k or len(units) != k:
         raise DimensionError(f"comparison: {k} columns but {len(names)} names and {len(units)} units")
@@ -191,10 +211,11 @@ def comparison_figure(
     axes = fig.subplots(rows, cols, sharex=True, squeeze=False).T.ravel()  # column-major, as the thesis
     for j in range(k):
         ax = axes[j]
-        ax.plot(t * 1e3, b[:, j], "-", color="k", lw=1.0, label="model")
-        ax.plot(t * 1e3, a[:, j], "--", color="tab:blue", lw=1.0, label="measured")
-        ax.set_ylabel(names[j])
-        ax.yaxis.set_major_formatter(EngFormatter(unit=units[j]))
+        ax.plot(t * 1e3, b[:, j], "-", color="k", lw=1.0, label="model", zorder=3)
+        ax.plot(t * 1e3, a[:, j], "--", color="tab:blue", lw=1.0, label="measured", zorder=2)
+        prefix, scale = _prefix(max(np.abs(a[:, j]).max(), np.abs(b[:, j]).max()))
+        ax.set_ylabel(f"{names[j]} [{prefix}{units[j]}]")
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _, s=scale: f"{v / s:g}"))
         ax.grid(alpha=0.3)
     for ax in axes[k:]:
         ax.set_visible(False)

@@ -264,17 +264,19 @@ def build_report(
             model = rmodel.for_experiment(e.name)
             pred = preds[e.name] = predict(model, e)
             t = np.arange(e.n_samples) / e.fs
+            window = _window(e)  # the event, not the whole record (a 200 ms axis squashes it)
             series = coordinate_series(rig, e, model)
             coord_series[e.name] = series
             parts = [f"<h3 id='overlay-{_esc(e.name)}'>{_esc(e.name)} (error {_fmt(cmp.experiments[e.name]['error'])})</h3>"]
             for body, (gm, gp, _) in series.items():
                 f = comparison_figure(t, gm, gp, tmp / f"{e.name}-{body}.png", title=f"{e.name}: {body} at G",
-                                      dpi=FIGURE_DPI)
+                                      dpi=FIGURE_DPI, window=window)
                 parts.append(_img(f.path, f"{e.name}: generalized coordinates of the {body} at its centre of "
                                   "mass, model (solid) and measured (dashed)"))
             names = [s.name for s in e.sensors]
             f = comparison_figure(t, e.measured, pred, tmp / f"{e.name}-channels.png", names=names, units=e.units,
-                                  title=f"{e.name}: accelerometers (acceleration stage)", dpi=FIGURE_DPI)
+                                  title=f"{e.name}: accelerometers (acceleration stage)", dpi=FIGURE_DPI,
+                                  window=window)
             parts.append(_img(f.path, f"{e.name}: every accelerometer after filter 1, model (solid) and "
                               "measured (dashed)"))
             overlays.append("".join(parts))
@@ -438,7 +440,8 @@ def _candidates_section(diag: Mapping[str, Any] | None, revision: Any, notes: li
     rows = []
     for rank, c in enumerate(diag["candidates"], start=1):
         units = c.get("units") or {}
-        params = ", ".join(f"{k} = {_fmt(v, '.4g')}" + (f" {units[k]}" if units.get(k) else "")
+        # "1" marks a dimensionless factor: no unit to print
+        params = ", ".join(f"{k} = {_fmt(v, '.4g')}" + (f" {units[k]}" if units.get(k) not in (None, "", "1") else "")
                            for k, v in (c.get("parameters") or {}).items())
         rows.append([rank, c["effect"], "yes" if c.get("significant") else "no", _fmt(c.get("error_after")),
                      _fmt(c.get("validated_error")), params or "–", c.get("evidence", "")])
