@@ -171,7 +171,7 @@ class Scene:
         self.plotter.subplot(0, 0)
         self._hammer = None
         if sensors:
-            self._sensor_marks(rig, coords, magnify, scale)
+            self._sensor_marks(rig, coords, magnify)
         if hammer is not None:
             self._hammer_arrow(rig, hammer, coords, magnify, scale)
         fs = style.font_size
@@ -235,7 +235,7 @@ class Scene:
                                           font_size=self.style.font_size, text_color=self.style.text,
                                           always_visible=True)
 
-    def _sensor_marks(self, rig: Rig, coords, magnify, scale: float) -> None:
+    def _sensor_marks(self, rig: Rig, coords, magnify) -> None:
         """A dot at every sensor position of a moving body, named (sensors sharing a spot share a label)."""
         import pyvista as pv
 
