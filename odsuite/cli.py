@@ -19,15 +19,26 @@ app = typer.Typer(
     name="odsuite",
     help="Experimental vibration analysis: impact tests, rigid-plate motion, model comparison.",
     no_args_is_help=True,
-    add_completion=False,
+    add_completion=True,  # --install-completion / --show-completion for bash, zsh, fish, PowerShell
     pretty_exceptions_enable=False,
 )
 console = Console()
 err_console = Console(stderr=True)
 
 
+def _print_version(value: bool) -> None:
+    if value:
+        from odsuite.core.version import __version__
+
+        console.print(f"odsuite {__version__}", highlight=False)
+        raise typer.Exit()
+
+
 @app.callback()
-def _root() -> None:
+def _root(
+    version: bool = typer.Option(False, "--version", callback=_print_version, is_eager=True,
+                                 help="Print odsuite's version and exit."),
+) -> None:
     """Experimental vibration analysis: impact tests, rigid-plate motion, model comparison."""
     from odsuite.core.plugins import registries
 
@@ -36,7 +47,7 @@ def _root() -> None:
 
 
 @app.command("plugins")
-def plugins_cmd() -> None:
+def plugins_cmd(as_json: bool = typer.Option(False, "--json", help="Print one JSON document.")) -> None:
     """List registered plugins, their versions and what each registers."""
     from dataclasses import fields
 
@@ -44,6 +55,17 @@ def plugins_cmd() -> None:
 
     pm = default_manager()
     regs = registries()
+    if as_json:
+        doc = {}
+        for name, _plugin in sorted(pm.list_name_plugin()):
+            source = pm.source(name)
+            registers = {f.name: getattr(regs, f.name).by_plugin(name) for f in fields(Registries)}
+            backends = {b: [{"flag": o.cli_flag, "type": o.type.__name__} for o in regs.daq_backends.get(b).options]
+                        for b in regs.daq_backends.by_plugin(name)}
+            doc[name] = {"distribution": source.distribution, "version": source.version,
+                         "registers": {k: list(v) for k, v in registers.items() if v}, "daq_backend_options": backends}
+        _print_json({"plugins": doc})
+        return
     table = Table(title="odsuite plugins")
     table.add_column("plugin")
     table.add_column("distribution")
@@ -80,13 +102,20 @@ def new_cmd(
 
 
 @app.command("info")
-def info_cmd(project: Path = typer.Argument(..., help="Project file.")) -> None:
-    """Experiments, rig and model revisions of a project."""
+def info_cmd(project: Path = typer.Argument(..., help="Project file."),
+             as_json: bool = typer.Option(False, "--json", help="Print one JSON document.")) -> None:
+    """Experiments, rig and model revisions of a project (errors as `odsuite history` gives them)."""
+    from odsuite.core.history import history
     from odsuite.core.project import open_project
 
     with open_project(project) as p:
         info = p.info()
         revisions = p.model_revisions()
+        # the same numbers as `history`: a revision never compared gets its error computed now
+        errors = {r["revision"]: r["error"] for r in history(p)["revisions"]} if revisions else {}
+    if as_json:
+        _print_json({**info, "model_revisions": [{**r, "error": errors.get(r["revision"])} for r in revisions]})
+        return
     console.print(f"{info['path']}  format {info['format_version']}  rig: {info['rig'] or 'none'}",
                   highlight=False, soft_wrap=True)
     table = Table(title="experiments")
@@ -108,9 +137,9 @@ def info_cmd(project: Path = typer.Argument(..., help="Project file.")) -> None:
         for r in revisions:
             effects = ", ".join(str(e.get("effect", e.get("name", e))) if isinstance(e, dict) else str(e)
                                 for e in r["effects"])
-            error = r["metrics"].get("error")
+            error = errors.get(r["revision"])
             rt.add_row(str(r["revision"]), r["model"] or "-", effects or "-",
-                       "-" if error is None else f"{error:.4g}")
+                       "-" if error is None else f"{error:.4f}")
         console.print(rt)
 
 
@@ -345,6 +374,7 @@ def frf_cmd(
     experiment: str = typer.Option(..., "--experiment", help="Experiment name."),
     estimator: str = typer.Option("H1", "--estimator", help="H1, H2 or Hv."),
     figure: Path = typer.Option(None, "--figure", help="Write magnitude, phase and coherence (.png, .svg, .pdf)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
     """FRFs over the accepted hammer hits of an experiment (stored as derived 'frf')."""
     from odsuite.core.errors import ConfigError
@@ -352,7 +382,7 @@ def frf_cmd(
     from odsuite.core.modal_project import experiment_frf
 
     frf, hits = experiment_frf(project, experiment, estimator=estimator)
-    for h in hits:
+    for h in hits if not as_json else ():
         state = "accepted" if h.accepted else "rejected: " + ", ".join(h.reasons)
         console.print(f"hit at sample {h.peak_index} ({h.peak_force:.4g} N): {state}", highlight=False)
     try:
@@ -360,12 +390,23 @@ def frf_cmd(
         usable = f"usable band {band[0]:.1f}-{band[1]:.1f} Hz"
     except ConfigError as exc:  # the FRFs are stored all the same: say why no band, do not fail
         band, usable = None, str(exc).split(";")[0]
-    console.print(f"{estimator} FRFs of {len(frf.output_names)} channels, {frf.n_averages} averages, "
-                  f"{frf.frequency.size} lines, {usable}", highlight=False)
     if figure is not None:
         from odsuite.core.modal_figures import frf_figure
 
         frf_figure(frf, figure, band_hz=band, title=f"FRFs of {experiment}")
+    if as_json:
+        _print_json({"experiment": experiment, "estimator": estimator, "channels": list(frf.output_names),
+                     "n_averages": frf.n_averages, "lines": int(frf.frequency.size),
+                     "resolution_hz": float(frf.frequency[1] - frf.frequency[0]) if frf.frequency.size > 1 else None,
+                     "usable_band_hz": None if band is None else [float(band[0]), float(band[1])],
+                     "usable_band_note": None if band is not None else usable,
+                     "hits": [{"sample": int(h.peak_index), "peak_force_n": float(h.peak_force),
+                               "accepted": bool(h.accepted), "reasons": list(h.reasons)} for h in hits],
+                     "figure": None if figure is None else str(figure)})
+        return
+    console.print(f"{estimator} FRFs of {len(frf.output_names)} channels, {frf.n_averages} averages, "
+                  f"{frf.frequency.size} lines, {usable}", highlight=False)
+    if figure is not None:
         console.print(f"wrote {figure}", highlight=False, soft_wrap=True)
 
 
@@ -436,6 +477,11 @@ def render_cmd(
     frame_step: int = typer.Option(None, "--frame-step", help="Samples per movie frame (default 1)."),
     slowdown: float = typer.Option(None, "--slowdown", help="Slow-motion factor: movie time / real time."),
     ods: float = typer.Option(None, "--ods", help="Animate the operating deflection shape at this frequency (Hz)."),
+    start: float = typer.Option(None, "--start", help="Movie window start, s from the record's start (default: just before the hit)."),
+    end: float = typer.Option(None, "--end", help="Movie window end, s (default: when the motion has decayed to a tenth)."),
+    fps: float = typer.Option(None, "--fps", help="Movie frames per second (default 25)."),
+    duration: float = typer.Option(None, "--duration", help="Movie length, s (default 10; or set --frame-step / --slowdown)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
     """Wireframe movie of an experiment's plates, or a figure, by a registered renderer."""
     from odsuite.core.plugins import registries
@@ -443,20 +489,35 @@ def render_cmd(
 
     renderer = choose_renderer(registries().renderers, output, figure, "figure" if figure else "movie")
     options = {"model": model, "magnify": parse_magnify(magnify), "view": view, "workers": workers,
-               "frame_step": frame_step, "slowdown": slowdown, "ods_hz": ods}
-    res = renderer.render(RenderRequest(project, experiment, output, options))
+               "frame_step": frame_step, "slowdown": slowdown, "ods_hz": ods, "start": start, "end": end,
+               "fps": fps, "duration": duration}
+    res = renderer.render(RenderRequest(project, experiment, output, options, progress=not as_json))
+    if as_json:
+        _print_json(_rendered_doc(renderer, res))
+        return
     for note in res.notes:
         err_console.print(f"note: {note}", highlight=False)
     console.print(f"wrote {res.path} ({res.summary})", highlight=False, soft_wrap=True)
 
 
+def _rendered_doc(renderer, res) -> dict:
+    """What a renderer wrote, for --json: the files (a movie may fall back to another format)."""
+    return {"renderer": renderer.name, "outputs": [{"path": str(res.path), "bytes": res.path.stat().st_size}],
+            "summary": res.summary, "notes": list(res.notes)}
+
+
 @app.command("verify")
-def verify_cmd(project: Path = typer.Argument(..., help="Project file.")) -> None:
+def verify_cmd(project: Path = typer.Argument(..., help="Project file."),
+               as_json: bool = typer.Option(False, "--json", help="Print one JSON document.")) -> None:
     """Read every checksummed dataset; a corrupted one is named (exit code 1)."""
     from odsuite.core.project import open_project
 
     with open_project(project) as p:
         checked = p.verify()
+    if as_json:
+        _print_json({"project": str(project), "intact": True, "datasets": sum(checked.values()),
+                     "experiments": dict(checked)})
+        return
     console.print(f"{project}: {sum(checked.values())} checksummed datasets in {len(checked)} experiments "
                   "read back intact", highlight=False, soft_wrap=True)
 
@@ -631,9 +692,10 @@ def report_cmd(
     no_movie: bool = typer.Option(False, "--no-movie", help="Leave the movie out."),
     movie_experiment: str = typer.Option(None, "--movie-experiment", help="Experiment of the movie "
                                          "(default: the one the model fits worst)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
     """One self-contained HTML page: experiments, model against measurement, failures, candidate
-    effects, error across revisions and a movie (the registered page renderer 'report')."""
+    effects, error across revisions, a movie and a 3-D view (the registered page renderer 'report')."""
     from odsuite.core.plugins import registries
     from odsuite.core.renderers import RenderRequest, choose_renderer
 
@@ -643,6 +705,9 @@ def report_cmd(
         options = {"diagnosis": diagnosis, "run_diagnosis": not no_diagnose, "movie": not no_movie,
                    "movie_experiment": movie_experiment, "on_stage": lambda what: bar.update(task, description=what)}
         res = renderer.render(RenderRequest(project, None, output, options))
+    if as_json:
+        _print_json(_rendered_doc(renderer, res))
+        return
     for note in res.notes:
         err_console.print(f"note: {note}", highlight=False)
     console.print(f"wrote {res.path} ({res.summary})", highlight=False, soft_wrap=True)
@@ -743,10 +808,25 @@ def _register_plugin_commands() -> None:
     default_manager().hook.odsuite_register_commands(app=app)
 
 
+def _quiet_flags(command) -> None:
+    """On/off flags take no value, so their help shows no type: an empty metavar drops typer's
+    ``<bool>`` (the help option included, which click makes once per command and caches)."""
+    import click
+
+    command.get_help_option(click.Context(command))
+    for param in [*command.params, command._help_option]:
+        if getattr(param, "is_flag", False):
+            param.metavar = ""
+    for sub in getattr(command, "commands", {}).values():
+        _quiet_flags(sub)
+
+
 def main(argv: list[str] | None = None) -> int:
     try:
         _register_plugin_commands()
-        app(args=argv, standalone_mode=False)
+        command = typer.main.get_command(app)
+        _quiet_flags(command)
+        command.main(args=argv, standalone_mode=False, prog_name="odsuite")
     except OdsuiteError as exc:
         err_console.print(f"error: {exc}", style="bold red", highlight=False, soft_wrap=True)
         return 1

@@ -7,6 +7,7 @@ from typing import Any
 
 from odsuite.core.daq import AcquisitionSettings, DaqBackend, Progress, Recording
 from odsuite.core.errors import ConfigError
+from odsuite.core.excitation import check_force_point
 from odsuite.core.project import Experiment, Project
 
 
@@ -28,6 +29,8 @@ def acquire(
     if name in project.experiment_names():
         raise ConfigError(f"{project.path}: experiment {name!r} already exists; choose another --name")
     settings = settings or AcquisitionSettings()
+    if options.get("point") is not None and project.rig is not None:
+        check_force_point(project.rig, options["point"], "--force-point")
     rec = backend.record(project.rig, settings, progress=progress, **options)
     exp = project.add_experiment(
         name,

@@ -15,3 +15,30 @@ class Excitation:
     force_channel: int
     point: np.ndarray
     direction: np.ndarray
+
+
+#: A hammer strikes a surface: a force point may sit this far (m) outside a plate's box, for the
+#: rounding of points given in mm and the thickness of a paint or wax layer.
+SURFACE_TOLERANCE = 1e-3
+
+
+def check_force_point(rig, point, where: str = "force point") -> None:
+    """Refuse a force point (m, rig frame) outside every plate of ``rig`` in one line naming the
+    nearest body and how far off it is. A rig without plates cannot be checked."""
+    from odsuite.core.errors import ConfigError
+    from odsuite.core.rigidbody import plate_corners
+
+    p = np.asarray(point, dtype=float)
+    gaps = {}
+    for body in rig.bodies:
+        if body.plate is None:
+            continue
+        c = plate_corners(body.plate)
+        lo, hi = c.min(axis=0), c.max(axis=0)
+        gaps[body.name] = float(np.linalg.norm(np.maximum(0.0, np.maximum(lo - p, p - hi))))
+    if not gaps or min(gaps.values()) <= SURFACE_TOLERANCE:
+        return
+    nearest = min(gaps, key=gaps.get)
+    mm = ", ".join(f"{1e3 * v:g}" for v in p)
+    raise ConfigError(f"{where} ({mm}) mm is outside every body of rig {rig.name!r}: the nearest, "
+                      f"{nearest!r}, is {1e3 * gaps[nearest]:.1f} mm away")

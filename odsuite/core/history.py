@@ -5,16 +5,26 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from odsuite.core.comparison import compare
+from odsuite.core.comparison import compare, noise_floor_error
 from odsuite.core.prediction import prepare
+
+#: Print size: 16 x 9 cm at 200 dpi, type of 9-11 pt reads at that size.
+FIGURE_SIZE_IN = (6.3, 3.6)
+FIGURE_DPI = 200
 
 
 def history(project) -> dict[str, Any]:
-    """Revisions with their effects and errors. A revision without a stored error (revision 0
-    before any comparison) gets one computed now, not stored (reading never writes)."""
+    """Revisions with their effects and errors, and the noise floor (the error a perfect model
+    would leave; it depends on the measurements only). A revision without a stored error (revision
+    0 before any comparison) gets one computed now, not stored (reading never writes)."""
     revs = project.model_revisions()
     out = []
     exps = None
+    floor = next((r["metrics"]["noise_floor_error"] for r in reversed(revs)
+                  if r.get("metrics", {}).get("noise_floor_error") is not None), None)
+    if floor is None and project.rig is not None and project.experiment_names():
+        exps = prepare(project)
+        floor = noise_floor_error(exps)
     for r in revs:
         error = r.get("metrics", {}).get("error")
         if error is None and project.rig is not None and project.experiment_names():
@@ -22,19 +32,31 @@ def history(project) -> dict[str, Any]:
             error = compare(project, revision=r, prepared=exps, resonances=False).error
         out.append({"revision": r["revision"], "parent": r["parent"], "effects": [e["effect"] for e in r["effects"]],
                     "error": error, "created": r["created"]})
-    return {"current": project.current_revision, "revisions": out}
+    return {"current": project.current_revision, "revisions": out, "noise_floor_error": floor}
 
 
 def history_figure(doc: Mapping[str, Any], path) -> None:
-    """The error per revision as a bar chart with the added effect under each bar."""
+    """The error per revision as bars on a log scale (errors fall by decades as effects are
+    added), each with its value and the effect it added, and the noise floor as a line."""
     from matplotlib.figure import Figure
 
     revs = [r for r in doc["revisions"] if r["error"] is not None]
-    fig = Figure(figsize=(6, 3.2), layout="constrained")
+    fig = Figure(figsize=FIGURE_SIZE_IN, layout="constrained")
     ax = fig.add_subplot()
-    labels = [f"r{r['revision']}\n" + (r["effects"][-1] if r["effects"] else "rigid model") for r in revs]
-    ax.bar(range(len(revs)), [r["error"] for r in revs], color="tab:blue")
-    ax.set_xticks(range(len(revs)), labels, fontsize=8)
-    ax.set_ylabel("error (pooled NRMSE)")
-    ax.set_title("model error per revision")
-    fig.savefig(path)
+    labels = [f"r{r['revision']}\n" + (("+ " + r["effects"][-1]) if r["effects"] else "rigid model") for r in revs]
+    errors = [r["error"] for r in revs]
+    bars = ax.bar(range(len(revs)), errors, color="tab:blue", width=0.6)
+    ax.bar_label(bars, [f"{e:.4f}" for e in errors], padding=2, fontsize=9)
+    ax.set_yscale("log")
+    floor = doc.get("noise_floor_error")
+    if floor:
+        ax.axhline(floor, color="tab:red", ls="--", lw=1.2, label=f"noise floor {floor:.4f}")
+        ax.legend(fontsize=9, loc="upper right")
+    low = min(errors + ([floor] if floor else [])) if errors else 1e-3
+    high = max(errors) if errors else 1.0
+    ax.set_ylim(low / 2, high * 3)  # room for the values above the bars
+    ax.set_xticks(range(len(revs)), labels, fontsize=9)
+    ax.set_ylabel("error (pooled NRMSE, log scale)", fontsize=10)
+    ax.set_title("model error per revision", fontsize=11)
+    ax.grid(axis="y", which="both", alpha=0.3)
+    fig.savefig(path, dpi=FIGURE_DPI)

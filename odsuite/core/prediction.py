@@ -192,6 +192,21 @@ def _noise_variance(measured: np.ndarray, trigger: int, fs: float, lsb: np.ndarr
     return np.maximum(var, lsb**2 / 12)
 
 
+def _force(exp, raw: np.ndarray, where: str) -> np.ndarray:
+    fch = exp.excitation.force_channel
+    channel = exp.systeminfo.channels[fch]
+    fchain = chain_for_channel(channel, where=f"{where} channel {fch}")
+    return windowed_force(fchain.run(raw[:, fch])[stage_names(channel.quantity)[0]], exp.sampling_rate)
+
+
+def experiment_force(project, name: str) -> np.ndarray:
+    """The hammer force (N) of one experiment, as the model is driven with it."""
+    exp = project.experiment(name)
+    if exp.excitation is None:
+        raise ConfigError(f"{project.path}: experiment {name!r}: no force point/direction recorded")
+    return _force(exp, exp.raw(), f"{project.path}: experiment {name!r}")
+
+
 def prepare_experiment(project, name: str) -> PreparedExperiment:
     """Read one experiment and run the measured side of the comparison."""
     rig: Rig | None = project.rig
@@ -203,10 +218,7 @@ def prepare_experiment(project, name: str) -> PreparedExperiment:
         raise ConfigError(f"{where}: no force point/direction recorded; the model cannot be driven")
     si = exp.systeminfo
     raw = exp.raw()
-    fch = exp.excitation.force_channel
-    fchain = chain_for_channel(si.channels[fch], where=f"{where} channel {fch}")
-    force = windowed_force(fchain.run(raw[:, fch])[stage_names(si.channels[fch].quantity)[0]],
-                           exp.sampling_rate)
+    force = _force(exp, raw, where)
     sensors, columns, measured, vpu, chains, units, infos = [], [], [], [], [], [], []
     tap = stage_names("acceleration")[0]
     for k, ch in enumerate(si.channels):

@@ -46,7 +46,6 @@ PROJECT_NAME = "demo.h5"
 MOVIE_EXPERIMENT = "T6"
 MOVIE_WINDOW_S = (-0.005, 0.06)
 MOVIE_FRAME_STEP = 5
-MOVIE_SIZE = (960, 540)
 
 
 @dataclass
@@ -144,11 +143,6 @@ def _print_candidates(console: Console, doc: Mapping[str, Any], rows: int = 6) -
 def _write_outputs(out: Path, project_path: Path, diagnosis: Mapping[str, Any] | None,
                    console: Console) -> dict[str, Path]:
     """The history figure, a movie of one test with the model's motion and the HTML report."""
-    # the movie is drawn for a window around the hit, which the movie renderer's options do not
-    # reach yet: the renderers plugin's own function, imported like any package's
-    from odsuite_plugins.renderers.movie import render_movie
-
-    from odsuite.core.prediction import experiment_coordinates
     from odsuite.core.history import history, history_figure
     from odsuite.core.plugins import registries
     from odsuite.core.project import open_project
@@ -160,15 +154,14 @@ def _write_outputs(out: Path, project_path: Path, diagnosis: Mapping[str, Any] |
         files["history"] = out / "history.png"
         history_figure(history(p), files["history"])
         exp = p.experiment(movie_exp)
-        pairs = experiment_coordinates(p, movie_exp)
-        rig = p.rig
     hit = exp.pretrigger / exp.sampling_rate
-    movie = render_movie(rig, {b: m for b, (m, _) in pairs.items()}, exp.sampling_rate, out / f"{movie_exp}.mp4",
-                         model_coords={b: q for b, (_, q) in pairs.items()}, start=max(0.0, hit + MOVIE_WINDOW_S[0]),
-                         stop=hit + MOVIE_WINDOW_S[1], frame_step=MOVIE_FRAME_STEP, size=MOVIE_SIZE, progress=False)
+    movie = registries().renderers.get("movie").render(RenderRequest(
+        project_path, movie_exp, out / f"{movie_exp}.mp4", {
+            "model": True, "start": max(0.0, hit + MOVIE_WINDOW_S[0]), "end": hit + MOVIE_WINDOW_S[1],
+            "frame_step": MOVIE_FRAME_STEP}, progress=False))
     files["movie"] = Path(movie.path)
-    console.print(f"  movie: {movie.path} ({movie.n_frames} frames, {movie.slowdown:.0f}x slower than real time; "
-                  "measured and model motion overlaid)", highlight=False, soft_wrap=True)
+    console.print(f"  movie: {movie.path} ({movie.summary}; measured and model motion overlaid)",
+                  highlight=False, soft_wrap=True)
     for note in movie.notes:
         console.print(f"  note: {note}", highlight=False, soft_wrap=True)
     console.print(f"  history figure: {files['history']}", highlight=False, soft_wrap=True)

@@ -101,7 +101,9 @@ class SimulatedRig:
     name = "sim"
     description = "the simulated rig: the rig's model struck by a virtual hammer, through ADC chains"
     options = (BackendOption("scenario", str, None, "thesis test T1..T8 (default T1 when no force point is given)"),
-               BackendOption("seed", int, 0, "random seed; one seed, one record"))
+               BackendOption("seed", int, 0, "random seed; one seed, one record"),
+               BackendOption("force_peak", float, None, "peak hammer force in N (default: the scenario's, "
+                                                        "else 20 N); several hits keep their ratios"))
 
     def __init__(self, truth_factory: Callable[..., Truth] | None = None) -> None:
         self._truth_factory = truth_factory
@@ -122,6 +124,7 @@ class SimulatedRig:
         chains: Mapping[int, ChannelChain] | None = None,
         oversample: int = 8,
         noise: bool = True,
+        force_peak: float | None = None,
     ) -> Recording:
         """Strike the virtual rig and return the triggered record.
 
@@ -150,6 +153,11 @@ class SimulatedRig:
         hits = list(hits if hits is not None else sc.hits if sc is not None else (Hit(),))
         if not hits:
             raise ConfigError("simulator: at least one hit is needed")
+        if force_peak is not None:
+            if not (np.isfinite(force_peak) and force_peak > 0):
+                raise ConfigError(f"--force-peak: must be > 0 N, got {force_peak!r}")
+            top = max(h.peak for h in hits)
+            hits = [replace(h, peak=h.peak * force_peak / top) for h in hits]
         for i, h in enumerate(hits):
             h.validate(f"simulator hit {i}")
         systeminfo = rig_systeminfo(rig, settings.sampling_rate)
@@ -205,13 +213,15 @@ class SimulatedRig:
         raw = np.column_stack([all_chains[ch].quantise(record[:, ch]) for ch in range(rig.channel_count)])
 
         names = [channel_name(rig, ch) for ch in range(rig.channel_count)]
-        label = sc.name if sc is not None and hits == list(sc.hits) else "custom"
+        # a scenario's hits scaled by --force-peak are still that scenario (the source says the peak)
+        label = sc.name if sc is not None and (hits == list(sc.hits) or force_peak is not None) else "custom"
         rec = Recording(
             chunks=_chunks(raw, settings.chunk_size, progress),
             n_samples=n, sampling_rate=fs, pretrigger=pre, systeminfo=systeminfo,
             excitation=Excitation(force_channel=fch, point=point, direction=direction),
             channel_names=names,
-            source=f"daq_sim scenario={label} seed={seed} hits={len(hits)} oversample={oversample}",
+            source=f"daq_sim scenario={label} seed={seed} hits={len(hits)} oversample={oversample}"
+                   + (f" force_peak={force_peak:g}N" if force_peak is not None else ""),
             clipped={ch: c for ch, c in clipped.items() if c},
         )
         if progress:

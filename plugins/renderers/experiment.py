@@ -14,11 +14,16 @@ from odsuite.core.renderers import parse_pair
 from odsuite.core.rigidbody import COORDINATE_UNITS, COORDINATES
 
 from .figures import comparison_figure, projection_figure, residual_spectra_figure
+from .motion import contact_index, event_window
 from .movie import MovieResult, render_movie
+from .scene import Hammer
 
 MEASURED_KIND = "gencoords"
 FIGURES = ("overlay", "projection", "residuals")
 SUFFIX = "_at_g"
+#: Default movie length (s) of the window around the hit: long enough to follow the motion,
+#: short enough to watch (about 250 frames at 25 fps).
+DEFAULT_DURATION = 10.0
 
 
 def _coords(project, experiment: str, kind: str, hint: str) -> dict[str, np.ndarray]:
@@ -45,6 +50,10 @@ def render_experiment(
     slowdown: float | None = None,
     progress: bool = True,
     ods_hz: float | None = None,
+    start: float | None = None,
+    end: float | None = None,
+    fps: float | None = None,
+    duration: float | None = None,
 ) -> MovieResult | Path:
     """A movie (``figure`` None) or a figure of one experiment of a project.
 
@@ -53,6 +62,9 @@ def render_experiment(
     motion (overlay and residual figures always need it); the measured motion then comes from the
     comparison too, so both sides went through the same chain and solver. ``ods_hz``: animate the
     operating deflection shape at that frequency (from the measured FRFs) instead of the record.
+    Movies: ``start``/``end`` (s from the record's start) choose the window, by default from just
+    before the hit until the motion has decayed to a tenth; ``duration`` (s, default 10) or
+    ``frame_step``/``slowdown`` the playback speed at ``fps`` (default 25).
     """
     from odsuite.core.prediction import experiment_coordinates
     from odsuite.core.project import open_project
@@ -83,11 +95,20 @@ def render_experiment(
         force = None
         if figure == "projection" and exp.excitation is not None:
             force = exp.raw(channels=exp.excitation.force_channel)
+        hammer = None
+        if figure is None and ods_hz is None and exp.excitation is not None:
+            from odsuite.core.prediction import experiment_force
+
+            body = next((s.body for s in project.rig.sensors if s.body in coords), next(iter(coords)))
+            hammer = Hammer(body, np.asarray(exp.excitation.point, float),
+                            np.asarray(exp.excitation.direction, float), experiment_force(project, experiment))
         rig = project.rig
     if figure is None:
-        return render_movie(rig, coords, fs, output, model_coords=model_coords, magnify=magnify,
-                            view=parse_pair(view, "--view") or (60.0, 25.0), workers=workers,
-                            frame_step=frame_step, slowdown=slowdown, progress=progress)
+        return _movie(rig, coords, fs, output, experiment, model_coords=model_coords, magnify=magnify,
+                      view=view, workers=workers, frame_step=frame_step, slowdown=slowdown, progress=progress,
+                      hammer=hammer, ods_hz=ods_hz, start=start, end=end, fps=fps, duration=duration)
+    if any(v is not None for v in (start, end, fps, duration)):
+        raise ConfigError("--start, --end, --fps and --duration are movie options: drop them for a figure")
     if figure == "projection":
         parts = (view or "x").split(",")
         if len(parts) not in (1, 4):
@@ -105,3 +126,31 @@ def render_experiment(
         return comparison_figure(t, measured, predicted, output, title=f"{experiment}: {body} at G").path
     return residual_spectra_figure(fs, measured, predicted, output, names=COORDINATES, units=COORDINATE_UNITS,
                                    title=f"{experiment}: {body} at G").path
+
+
+def _movie(rig, coords, fs, output, experiment, *, model_coords, magnify, view, workers, frame_step, slowdown,
+           progress, hammer, ods_hz, start, end, fps, duration) -> MovieResult:
+    """The movie with its story: the window around the hit, a title saying what is shown."""
+    n = next(iter(coords.values())).shape[0]
+    time_zero = None
+    if ods_hz is not None:
+        title = f"{experiment}: operating deflection shape at {ods_hz:g} Hz (from the measured FRFs)"
+    else:
+        title = f"{experiment}: measured motion" + (" (blue) and the model's (orange band)" if model_coords else "")
+        if hammer is not None:
+            time_zero = contact_index(hammer.force) / fs
+        if start is None and end is None:
+            contact = None if time_zero is None else int(round(time_zero * fs))
+            start, end = event_window(rig, coords, fs, contact=contact)
+    for name, value in (("--start", start), ("--end", end)):
+        if value is not None and not 0 <= value <= (n - 1) / fs:
+            raise ConfigError(f"{name}: {value:g} s is outside the record (0 to {(n - 1) / fs:g} s)")
+    if start is not None and end is not None and end <= start:
+        raise ConfigError(f"--end {end:g} s must come after --start {start:g} s")
+    if ods_hz is None and duration is None and frame_step is None and slowdown is None:
+        duration = DEFAULT_DURATION
+    return render_movie(rig, coords, fs, output, model_coords=model_coords, magnify=magnify,
+                        view=parse_pair(view, "--view") or (60.0, 25.0), workers=workers,
+                        frame_step=frame_step, slowdown=slowdown, duration=duration, progress=progress,
+                        start=start or 0.0, stop=end, fps=fps or 25.0, hammer=hammer, title=title,
+                        time_zero=time_zero, ods_hz=ods_hz)

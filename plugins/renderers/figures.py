@@ -15,7 +15,8 @@ from odsuite.core.errors import ConfigError, DimensionError
 from odsuite.core.rig import Rig
 from odsuite.core.rigidbody import COORDINATE_UNITS, COORDINATES, PLOT_INDEX, plate_corners, rotation_matrix
 
-from .motion import characteristic_instant, check_coords, contact_index, corners, default_magnification
+from .motion import (characteristic_instant, check_coords, contact_index, corners, default_magnification,
+                     magnification_words)
 
 FIGURE_FORMATS = (".png", ".svg", ".pdf")
 #: Screen (right, up) unit vectors for an eye on each rig axis looking at the origin; "up" is -z
@@ -27,6 +28,8 @@ EYES = {
 }
 #: Thesis Sec. 5.3.2: the initial position is taken 50 samples before the impact.
 INITIAL_LEAD = 50
+#: Still plates, one (grey, line style) each so two of them can be told apart in print.
+STILL_GREYS = (("0.35", "-"), ("0.6", "--"), ("0.75", ":"))
 
 
 @dataclass(frozen=True)
@@ -110,28 +113,42 @@ def projection_figure(
     for i in instants:
         if not 0 <= i < n:
             raise ConfigError(f"instants: sample {i} outside the record of {n} samples")
-    fig = _new_figure((6.4, 4.8))
-    ax = fig.add_subplot()
+    drawn = []  # (xy, style) so the axes can be fitted to the content before drawing
+    greys = iter(STILL_GREYS)
     for body in rig.bodies:
         if body.plate is None:
             continue
         if body.name not in coords:
             xy = project(plate_corners(body.plate)[list(PLOT_INDEX)], eye, view_angles) * 1e3
-            ax.plot(xy[:, 0], xy[:, 1], color="0.6", lw=0.8, label=f"{body.name} (fixed)")
+            colour, ls = next(greys, STILL_GREYS[-1])
+            drawn.append((xy, dict(ls=ls, color=colour, lw=1.0, label=f"{body.name} (does not move)")))
             continue
         d = coords[body.name][list(instants)]
         poly = corners(body, d, magnify)[:, list(PLOT_INDEX)]
         for k, (ls, what) in enumerate((("-.", "initial position"), ("-", "characteristic forced response"))):
             xy = project(poly[k], eye, view_angles) * 1e3
-            ax.plot(xy[:, 0], xy[:, 1], ls, color="k", lw=1.2 if k else 0.9,
-                    label=f"{body.name}: {what} (t = {1e3 * instants[k] / fs:.2f} ms)")
+            drawn.append((xy, dict(ls=ls, color="k", lw=1.4 if k else 1.0,
+                                   label=f"{body.name}: {what} (t = {1e3 * instants[k] / fs:.2f} ms)")))
+    every = np.concatenate([xy for xy, _ in drawn])
+    lo, hi = every.min(0), every.max(0)
+    pad = 0.04 * (hi - lo).max()
+    lo, hi = lo - pad, hi + pad
+    width, height = hi - lo
+    # the figure takes the content's shape (equal scales), the legend goes underneath
+    fig_w = 6.4
+    fig = _new_figure((fig_w, min(9.0, max(2.6, fig_w * height / width + 1.4))))
+    ax = fig.add_subplot()
+    for xy, style in drawn:
+        ax.plot(xy[:, 0], xy[:, 1], **style)
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
     right, up = EYES[eye]
     ax.set_xlabel(_axis_label(right))
     ax.set_ylabel(_axis_label(up))
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.set_title(title or f"eye on {eye}, view angles {tuple(float(a) for a in view_angles)} deg, "
-                 f"H_t = {magnify[0]:.3g}, H_r = {magnify[1]:.3g}", fontsize=9)
-    ax.legend(fontsize=7, loc="best")
+    ax.set_aspect("equal", adjustable="box")
+    head = title or f"eye on {eye}, view angles {tuple(float(a) for a in view_angles)} deg"
+    ax.set_title(f"{head}\n{magnification_words(magnify)}", fontsize=10)
+    fig.legend(fontsize=8, loc="outside lower center", ncol=2, frameon=False)
     return FigureResult(_save(fig, path, dpi), fig, tuple(int(i) for i in instants), magnify)
 
 
@@ -144,6 +161,18 @@ def _pair(measured: np.ndarray, model: np.ndarray, what: str) -> tuple[np.ndarra
     return a, b
 
 
+#: SI prefixes by power of 1000, for one prefix per axis (mixed ones on one axis mislead).
+PREFIXES = {-4: "p", -3: "n", -2: "µ", -1: "m", 0: "", 1: "k", 2: "M"}
+
+
+def _prefix(peak: float) -> tuple[str, float]:
+    """The SI prefix that puts ``peak`` between 1 and 1000, and its factor."""
+    if not np.isfinite(peak) or peak <= 0:
+        return "", 1.0
+    k = int(np.clip(np.floor(np.log10(peak) / 3), min(PREFIXES), max(PREFIXES)))
+    return PREFIXES[k], 1000.0 ** k
+
+
 def comparison_figure(
     t: np.ndarray,
     measured: np.ndarray,
@@ -154,17 +183,25 @@ def comparison_figure(
     units: Sequence[str] = COORDINATE_UNITS,
     title: str = "",
     dpi: int = 150,
+    window: tuple[float, float] | None = None,
 ) -> FigureResult:
     """Measured vs model, one panel per column (thesis Fig. 5.8-5.11: model solid, measured dashed).
 
     Defaults label the six generalized coordinates; pass ``names``/``units`` for sensor channels.
+    ``window`` (s): draw only that stretch (the event, not the whole record). Each panel has one
+    unit prefix (in its label), and the model's line is drawn over the measured one.
     """
-    from matplotlib.ticker import EngFormatter
+    from matplotlib.ticker import FuncFormatter
 
     a, b = _pair(measured, model, "comparison")
     t = np.asarray(t, dtype=float)
     if t.shape != (a.shape[0],):
         raise DimensionError(f"comparison: time has shape {t.shape}, the signals have {a.shape[0]} samples")
+    if window is not None:
+        keep = (t >= window[0]) & (t <= window[1])
+        if not keep.any():
+            raise ConfigError(f"comparison: window {window[0]:g}-{window[1]:g} s holds no sample")
+        t, a, b = t[keep], a[keep], b[keep]
     k = a.shape[1]
     if len(names) != k or len(units) != k:
         raise DimensionError(f"comparison: {k} columns but {len(names)} names and {len(units)} units")
@@ -174,10 +211,11 @@ def comparison_figure(
     axes = fig.subplots(rows, cols, sharex=True, squeeze=False).T.ravel()  # column-major, as the thesis
     for j in range(k):
         ax = axes[j]
-        ax.plot(t * 1e3, b[:, j], "-", color="k", lw=1.0, label="model")
-        ax.plot(t * 1e3, a[:, j], "--", color="tab:blue", lw=1.0, label="measured")
-        ax.set_ylabel(names[j])
-        ax.yaxis.set_major_formatter(EngFormatter(unit=units[j]))
+        ax.plot(t * 1e3, b[:, j], "-", color="k", lw=1.0, label="model", zorder=3)
+        ax.plot(t * 1e3, a[:, j], "--", color="tab:blue", lw=1.0, label="measured", zorder=2)
+        prefix, scale = _prefix(max(np.abs(a[:, j]).max(), np.abs(b[:, j]).max()))
+        ax.set_ylabel(f"{names[j]} [{prefix}{units[j]}]")
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _, s=scale: f"{v / s:g}"))
         ax.grid(alpha=0.3)
     for ax in axes[k:]:
         ax.set_visible(False)
@@ -219,10 +257,12 @@ def residual_spectra_figure(
     tiny = np.finfo(float).tiny
     for j in range(k):
         ax = axes[j]
-        ax.semilogy(f, np.maximum(pa[:, j], tiny), color="tab:blue", lw=0.9, label="measured")
-        ax.semilogy(f, np.maximum(pr[:, j], tiny), color="tab:red", lw=0.9, label="residual")
-        ax.set_title(names[j], fontsize=8)
-        ax.set_ylabel(f"PSD [({units[j]})²/Hz]", fontsize=7)
+        # log frequency: the modes of a rig sit in the first few per cent of a linear 0..fs/2 axis
+        ax.loglog(f[1:], np.maximum(pa[1:, j], tiny), color="tab:blue", lw=0.9, label="measured")
+        ax.loglog(f[1:], np.maximum(pr[1:, j], tiny), color="tab:red", lw=0.9, label="residual")
+        ax.set_xlim(f[1], f[-1])
+        ax.set_title(names[j], fontsize=9)
+        ax.set_ylabel(f"PSD [({units[j]})²/Hz]", fontsize=8)
         ax.grid(alpha=0.3, which="both")
     for ax in axes[k:]:
         ax.set_visible(False)

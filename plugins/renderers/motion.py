@@ -81,6 +81,52 @@ def default_magnification(rig: Rig, *coord_sets: Mapping[str, np.ndarray],
     return (h, h)
 
 
+def _times(h: float) -> str:
+    return f"{h:,.0f}" if h >= 100 else f"{h:.3g}"
+
+
+def magnification_words(magnify: tuple[float, float]) -> str:
+    """The magnification (H_t, H_r) as a reader understands it: how much larger than life."""
+    h_t, h_r = magnify
+    if np.isclose(h_t, h_r, rtol=1e-6):
+        return f"motion drawn {_times(h_t)} times larger than it is"
+    return f"translations drawn {_times(h_t)} times, rotations {_times(h_r)} times larger than they are"
+
+
+def event_window(rig: Rig, coords: Mapping[str, np.ndarray], fs: float, *, contact: int | None = None,
+                 before: float = 0.005, settle: float = 0.1, minimum: float = 0.02) -> tuple[float, float]:
+    """Default movie window (start, end) in s around the hammer hit.
+
+    From ``before`` s ahead of the contact (default: where the largest corner excursion first
+    reaches 5 % of its maximum) to the last sample at which the excursion is still ``settle`` x
+    its maximum, plus ``before``, at least ``minimum`` s after the contact; clipped to the record.
+    The still pre-trigger stretch and the decayed tail show nothing.
+    """
+    excursion = _excursion(rig, coords)
+    n = excursion.size
+    peak = excursion.max(initial=0.0)
+    if peak == 0.0:
+        return 0.0, (n - 1) / fs
+    start = contact if contact is not None else int(np.argmax(excursion >= 0.05 * peak))
+    late = np.flatnonzero(excursion[start:] >= settle * peak)
+    last = start + (int(late[-1]) if late.size else 0)
+    i0 = max(0, start - int(round(before * fs)))
+    i1 = min(n - 1, max(last + int(round(before * fs)), start + int(round(minimum * fs))))
+    return i0 / fs, i1 / fs
+
+
+def _excursion(rig: Rig, coords: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Largest corner excursion (m, small-angle form) of the moving plates at each sample."""
+    excursion = None
+    for name, d in coords.items():
+        body = rig.body(name)
+        disp = point_displacements(np.asarray(d, dtype=float), plate_corners(body.plate) - body.com,
+                                   linear=True)
+        e = np.linalg.norm(disp, axis=-1).max(axis=-1)
+        excursion = e if excursion is None else np.maximum(excursion, e)
+    return excursion
+
+
 def contact_index(force: np.ndarray, fraction: float = 0.1) -> int:
     """First sample where |force| reaches ``fraction`` of its peak: the hammer's contact."""
     f = np.abs(np.asarray(force, dtype=float))
@@ -99,13 +145,7 @@ def characteristic_instant(rig: Rig, coords: Mapping[str, np.ndarray], *, contac
     """
     from scipy.signal import find_peaks
 
-    excursion = None
-    for name, d in coords.items():
-        body = rig.body(name)
-        disp = point_displacements(np.asarray(d, dtype=float), plate_corners(body.plate) - body.com,
-                                   linear=True)
-        e = np.linalg.norm(disp, axis=-1).max(axis=-1)
-        excursion = e if excursion is None else np.maximum(excursion, e)
+    excursion = _excursion(rig, coords)
     if excursion is None or excursion.max() == 0:
         raise ConfigError("coords: the plates do not move; there is no forced response to show")
     start = contact if contact is not None else int(np.argmax(excursion >= 0.05 * excursion.max()))

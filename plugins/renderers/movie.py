@@ -5,7 +5,9 @@ encodes H.264 in its own process while the next frame renders. With ``workers`` 
 is split into contiguous parts rendered by separate processes, each encoding its own segment; the
 segments are joined without re-encoding. One process already keeps two cores busy (the software
 rasteriser is multi-threaded), so the default is one worker per two cores. GIF is the fallback
-when no H.264 encoder is available.
+when no H.264 encoder is available; its frames are quantised to one palette (taken from a few
+frames spread over the movie) and appended to the file one by one, so memory stays flat in the
+number of frames for both formats.
 """
 
 from __future__ import annotations
@@ -27,12 +29,14 @@ import numpy as np
 from odsuite.core.errors import ConfigError, OdsuiteError
 from odsuite.core.rig import Rig
 
-from .motion import check_coords, default_magnification
-from .scene import Scene, Style
+from .motion import check_coords, default_magnification, magnification_words
+from .scene import Hammer, Scene, Style
 
 FORMATS = ("mp4", "gif")
 #: Below this many frames per worker, starting a process costs more than it saves.
 MIN_FRAMES_PER_WORKER = 40
+#: Frames rendered ahead to choose a GIF's palette: enough to see every colour of the scene.
+GIF_PALETTE_FRAMES = 6
 
 
 @dataclass(frozen=True)
@@ -64,18 +68,26 @@ def mp4_available() -> bool:
 
 
 def frame_plan(n_samples: int, fs: float, *, fps: float, start: float = 0.0, stop: float | None = None,
-               frame_step: int | None = None, slowdown: float | None = None) -> tuple[np.ndarray, int, float]:
+               frame_step: int | None = None, slowdown: float | None = None,
+               duration: float | None = None) -> tuple[np.ndarray, int, float]:
     """Sample indices of the frames, the step between them and the slow-motion factor.
 
     ``slowdown`` = movie seconds per second of the record; it sets the step as fs / (fps x
-    slowdown). Default: every sample is a frame.
+    slowdown). ``duration`` (s) = the movie's length; it sets the step so the window lasts about
+    that long (never below one sample per frame). Default: every sample is a frame.
     """
     if fs <= 0 or not np.isfinite(fs):
         raise ConfigError(f"sampling rate: must be > 0 Hz, got {fs!r}")
     if fps <= 0:
         raise ConfigError(f"fps: must be > 0, got {fps!r}")
-    if frame_step is not None and slowdown is not None:
-        raise ConfigError("give either frame_step or slowdown, not both")
+    if sum(v is not None for v in (frame_step, slowdown, duration)) > 1:
+        raise ConfigError("give either frame_step, slowdown or duration, not several")
+    if duration is not None:
+        if not duration > 0:
+            raise ConfigError(f"duration: must be > 0 s, got {duration!r}")
+        i0 = int(round(start * fs))
+        i1 = n_samples if stop is None else min(n_samples, int(round(stop * fs)) + 1)
+        frame_step = max(1, int(round((i1 - i0) / (fps * duration))))
     if slowdown is not None:
         if slowdown <= 0:
             raise ConfigError(f"slowdown: must be > 0, got {slowdown!r}")
@@ -113,29 +125,91 @@ def _mp4_writer(path: Path, size: tuple[int, int], fps: float):
     return writer
 
 
+class _GifFrames:
+    """GIF frame blocks (graphic control extension, image descriptor, LZW data) appended to a file
+    one frame at a time; :func:`_join_gif` puts the header with the shared palette in front.
+
+    Pillow's own multi-frame GIF writer keeps every frame until the end (GBs for a long movie);
+    its documented per-frame ``getdata`` lets us stream instead.
+    """
+
+    def __init__(self, target: Path, palette: "Image.Image", fps: float) -> None:  # noqa: F821
+        self._fp = open(target, "wb")
+        self._palette = palette
+        self._delay = max(20, round(1000 / fps))  # GIF delays are whole centiseconds
+
+    def send(self, frame: np.ndarray) -> None:
+        from PIL import GifImagePlugin, Image
+
+        im = Image.fromarray(frame).quantize(palette=self._palette, dither=Image.Dither.NONE)
+        self._fp.write(b"".join(GifImagePlugin.getdata(im, duration=self._delay, disposal=1)))
+
+    def close(self) -> None:
+        self._fp.close()
+
+
+def _gif_palette(scene: Scene, frames: np.ndarray, labels: list[str]) -> "Image.Image":  # noqa: F821
+    """One 256-colour palette from a few frames spread over the movie."""
+    from PIL import Image
+
+    picks = np.unique(np.linspace(0, len(frames) - 1, min(GIF_PALETTE_FRAMES, len(frames))).round().astype(int))
+    sample = np.concatenate([scene.frame(int(frames[k]), labels[k], (k + 1) / len(frames)) for k in picks])
+    return Image.fromarray(sample).quantize(colors=256, method=Image.Quantize.MEDIANCUT)
+
+
+def gif_from_mp4(mp4: Path, gif: Path, fps: float) -> Path:
+    """The GIF of an MP4's frames (for players without H.264), streamed: one pass picks the
+    palette from a few frames, a second quantises and appends each frame."""
+    import imageio_ffmpeg
+    from PIL import Image
+
+    n, _ = imageio_ffmpeg.count_frames_and_secs(str(mp4))
+    picks = set(np.linspace(0, max(0, n - 1), min(GIF_PALETTE_FRAMES, max(1, n))).round().astype(int).tolist())
+    reader = imageio_ffmpeg.read_frames(str(mp4))
+    size = next(reader)["size"]
+    sample = [np.frombuffer(f, np.uint8).reshape(size[1], size[0], 3) for k, f in enumerate(reader) if k in picks]
+    palette = Image.fromarray(np.concatenate(sample)).quantize(colors=256, method=Image.Quantize.MEDIANCUT)
+    body = gif.with_suffix(".gifdata")
+    writer = _GifFrames(body, palette, fps)
+    reader = imageio_ffmpeg.read_frames(str(mp4))
+    next(reader)
+    for f in reader:
+        writer.send(np.frombuffer(f, np.uint8).reshape(size[1], size[0], 3))
+    writer.close()
+    _join_gif([body], gif, palette, tuple(size))
+    body.unlink()
+    return gif
+
+
+def _join_gif(parts: list[Path], path: Path, palette: "Image.Image", size: tuple[int, int]) -> None:  # noqa: F821
+    from PIL import GifImagePlugin
+
+    first = palette.crop((0, 0, *size))
+    header, _ = GifImagePlugin.getheader(first, None, {"loop": 0})
+    with open(path, "wb") as out:
+        out.write(b"".join(header))
+        for part in parts:
+            with open(part, "rb") as src:
+                shutil.copyfileobj(src, out, 1 << 20)
+        out.write(b";")  # the GIF trailer
+
+
 def _render_part(job: dict, frames: np.ndarray, first: int, sink: str, target: str,
                  report: Callable[[int], None]) -> None:
-    """Render ``frames`` (sample indices) and write them to ``target``.
+    """Render ``frames`` (sample indices) and stream them to ``target``.
 
-    ``sink`` "mp4": an H.264 file; "npy": rows ``first:first+len(frames)`` of a frame memmap.
+    ``sink`` "mp4": an H.264 file; "gif": GIF frame blocks in the job's palette.
     """
     scene = Scene(job["rig"], job["coords"], **job["scene"])
     try:
         if sink == "mp4":
             writer = _mp4_writer(Path(target), scene.size, job["fps"])
         else:
-            store = np.load(target, mmap_mode="r+")
+            writer = _GifFrames(Path(target), job["palette"], job["fps"])
         for k, i in enumerate(frames):
-            img = scene.frame(int(i), job["labels"][first + k], (first + k + 1) / job["n_frames"])
-            if sink == "mp4":
-                writer.send(img)
-            else:
-                store[first + k] = img
+            writer.send(scene.frame(int(i), job["labels"][first + k], (first + k + 1) / job["n_frames"]))
             report(1)
-        if sink == "mp4":
-            writer.close()
-        else:
-            store.flush()
+        writer.close()
     finally:
         scene.close()
 
@@ -149,15 +223,6 @@ def _worker(job, frames, first, sink, target, q) -> None:
     except BaseException as exc:  # the parent re-raises it with the worker's traceback
         q.put(("error", f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}",
                str(exc) if isinstance(exc, OdsuiteError) else None))
-
-
-def _write_gif(frames: np.ndarray, path: Path, fps: float) -> None:
-    from PIL import Image
-
-    images = [Image.fromarray(f).quantize(colors=128, method=Image.Quantize.MEDIANCUT) for f in frames]
-    # GIF delays are whole centiseconds
-    images[0].save(path, save_all=True, append_images=images[1:], duration=max(20, round(1000 / fps)),
-                   loop=0, optimize=False, disposal=1)
 
 
 def _concat(parts: list[Path], path: Path, tmp: Path) -> None:
@@ -190,11 +255,17 @@ def render_movie(
     stop: float | None = None,
     frame_step: int | None = None,
     slowdown: float | None = None,
+    duration: float | None = None,
     fps: float = 25.0,
     size: tuple[int, int] = (1280, 720),
     workers: int | None = None,
     progress: bool = True,
     style: Style = Style(),
+    sensors: bool = True,
+    hammer: Hammer | None = None,
+    title: str = "",
+    time_zero: float | None = None,
+    ods_hz: float | None = None,
 ) -> MovieResult:
     """Animate every plate of ``rig`` from generalized coordinates and write an MP4 or GIF.
 
@@ -203,8 +274,12 @@ def render_movie(
     side by side (``layout``). ``magnify`` (H_t, H_r): default makes the largest corner excursion
     15 % of the moving plate's size. ``view`` (azimuth, elevation) in degrees; ``parallel`` for a
     parallel projection. ``start``/``stop`` (s) choose the window; ``frame_step`` (samples per
-    frame) or ``slowdown`` (movie time / real time) the playback speed at ``fps``. A path ending in
-    .mp4 falls back to a .gif beside it when no H.264 encoder is available (see ``notes``).
+    frame), ``slowdown`` (movie time / real time) or ``duration`` (movie length, s) the playback
+    speed at ``fps``. A path ending in .mp4 falls back to a .gif beside it when no H.264 encoder is
+    available (see ``notes``). ``sensors`` marks and names the sensors; ``hammer`` draws the hit.
+    ``title`` heads every frame; the clock counts from ``time_zero`` (s, the hit) when given, and
+    for an operating deflection shape (``ods_hz``, the coordinates one cycle after another) gives
+    the phase instead.
     """
     path = Path(path)
     fmt = path.suffix.lower().lstrip(".")
@@ -221,19 +296,21 @@ def render_movie(
         magnify = default_magnification(rig, coords, *([model_coords] if model_coords else []))
     magnify = (float(magnify[0]), float(magnify[1]))
     frames, step, slow = frame_plan(n, fs, fps=fps, start=start, stop=stop, frame_step=frame_step,
-                                    slowdown=slowdown)
+                                    slowdown=slowdown, duration=duration)
     notes = []
     if fmt == "mp4" and not mp4_available():
         path = path.with_suffix(".gif")
         fmt = "gif"
         notes.append(f"no H.264 encoder (imageio-ffmpeg with libx264) available: wrote {path.name} instead")
     size = _even(size)
-    speed = f"{slow:.0f}x slower" if slow >= 1.5 else f"{slow:.2f}x"
-    labels = [f"t = {1e3 * i / fs:.3f} ms    {speed}    H_t = {magnify[0]:.3g}, H_r = {magnify[1]:.3g}"
-              for i in frames]
+    labels = frame_labels(frames, fs, time_zero=time_zero, ods_hz=ods_hz, hammer=hammer)
+    speed = f"{slow:,.0f} times slower than real time" if slow >= 1.5 else f"{slow:.2f} x real time"
+    title = "\n".join(t for t in (title, f"{speed if ods_hz is None else ''}"
+                                          f"{'; ' if ods_hz is None else ''}{magnification_words(magnify)}") if t)
     job = {"rig": rig, "coords": coords, "fps": fps, "labels": labels, "n_frames": len(frames),
            "scene": dict(model_coords=model_coords, layout=layout, magnify=magnify, view=tuple(view),
-                         parallel=parallel, solid=solid, axes=axes, ghost=ghost, size=size, style=style)}
+                         parallel=parallel, solid=solid, axes=axes, ghost=ghost, size=size, style=style,
+                         sensors=sensors, hammer=hammer, title=title)}
     if workers is None:
         # one process keeps about two cores busy (multi-threaded rasteriser + the encoder process)
         workers = max(1, min(4, (os.cpu_count() or 1) // 2))
@@ -245,23 +322,47 @@ def render_movie(
         if fmt == "mp4":
             targets = [str(tmp / f"part{k}.mp4") for k in range(workers)] if workers > 1 else [str(tmp / "movie.mp4")]
         else:
-            store = tmp / "frames.npy"
-            np.lib.format.open_memmap(store, mode="w+", dtype=np.uint8, shape=(len(frames), size[1], size[0], 3)).flush()
-            targets = [str(store)] * workers
+            targets = [str(tmp / f"part{k}.gifdata") for k in range(workers)]
+            scene = Scene(rig, coords, **job["scene"])
+            try:
+                job["palette"] = _gif_palette(scene, frames, labels)
+            finally:
+                scene.close()
         with _progress_bar(progress, len(frames), path.name) as advance:
             if workers == 1:
-                _render_part(job, frames, 0, "mp4" if fmt == "mp4" else "npy", targets[0], advance)
+                _render_part(job, frames, 0, fmt, targets[0], advance)
             else:
-                _run_workers(job, frames, parts, "mp4" if fmt == "mp4" else "npy", targets, advance)
+                _run_workers(job, frames, parts, fmt, targets, advance)
         if fmt == "mp4":
             if workers == 1:
                 shutil.move(targets[0], path)
             else:
                 _concat([Path(t) for t in targets], path, tmp)
         else:
-            _write_gif(np.load(targets[0], mmap_mode="r"), path, fps)
+            _join_gif([Path(t) for t in targets], path, job["palette"], size)
     return MovieResult(path=path, format=fmt, n_frames=len(frames), fps=fps, magnify=magnify,
                        frame_step=step, slowdown=slow, notes=notes)
+
+
+def frame_labels(frames: np.ndarray, fs: float, *, time_zero: float | None = None, ods_hz: float | None = None,
+                 hammer: Hammer | None = None) -> list[str]:
+    """The changing line of each frame: the clock (or the ODS phase) and, while the hammer
+    touches, its force."""
+    out = []
+    peak = 0.0 if hammer is None else float(np.abs(hammer.force).max(initial=0.0))
+    for i in frames:
+        if ods_hz is not None:
+            text = f"phase {(360.0 * ods_hz * i / fs) % 360.0:.0f} deg of the cycle at {ods_hz:g} Hz"
+        elif time_zero is not None:
+            text = f"t = {1e3 * (i / fs - time_zero):+.2f} ms from the hit"
+        else:
+            text = f"t = {1e3 * i / fs:.2f} ms"
+        if hammer is not None:
+            f = abs(float(hammer.force[i]))
+            if f > 0 and f >= Hammer.CONTACT_FRACTION * peak:
+                text += f"    hammer force {f:.1f} N"
+        out.append(text)
+    return out
 
 
 def _run_workers(job, frames, parts, sink, targets, advance) -> None:

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from odsuite.core.renderers import Rendered, RenderRequest
 
-MOVIE_OPTIONS = frozenset({"model", "magnify", "view", "workers", "frame_step", "slowdown", "ods_hz"})
+MOVIE_OPTIONS = frozenset({"model", "magnify", "view", "workers", "frame_step", "slowdown", "ods_hz", "start", "end",
+                           "fps", "duration"})
 FIGURE_OPTIONS = frozenset({"model", "magnify", "view"})
 REPORT_OPTIONS = frozenset({"diagnosis", "run_diagnosis", "movie", "movie_experiment", "on_stage"})
 
@@ -17,12 +18,13 @@ class MovieRenderer:
 
     def render(self, request: RenderRequest) -> Rendered:
         from .experiment import render_experiment
+        from .motion import magnification_words
 
         request.unknown_options(MOVIE_OPTIONS, self.name)
         res = render_experiment(request.project, request.experiment, request.output, progress=request.progress,
                                 **{k: v for k, v in request.options.items() if v is not None})
-        return Rendered(res.path, f"{res.n_frames} frames at {res.fps:g} fps, {res.slowdown:.0f}x slower than real "
-                                  f"time, magnification H_t = {res.magnify[0]:.3g}, H_r = {res.magnify[1]:.3g}",
+        return Rendered(res.path, f"{res.n_frames} frames at {res.fps:g} fps ({res.n_frames / res.fps:.1f} s), "
+                                  f"{res.slowdown:,.0f} times slower than real time, {magnification_words(res.magnify)}",
                         tuple(res.notes))
 
 

@@ -1,9 +1,11 @@
 """One self-contained HTML page telling a project's story: the rig and experiments, measured against
 model per generalized coordinate and per channel, where the model fails, the candidate effects,
-the error across revisions and a movie of one experiment with the model's motion overlaid.
+the error across revisions, a movie of one experiment with the model's motion overlaid and an
+interactive 3-D view of that motion.
 
-Figures are embedded as base64 PNG and the movie as a base64 GIF: the page needs no network and no
-JavaScript. Every number shown comes from ``compare``, ``diagnose`` and ``history`` unchanged.
+Figures are embedded as base64 PNG, the movie as a base64 MP4 in ``<video>`` with a GIF of the same
+frames as fallback, and the 3-D view as a canvas with an inline script: the page needs no network.
+Every number shown comes from ``compare``, ``diagnose`` and ``history`` unchanged.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ FIGURE_DPI = 90
 #: The page should stay below this size; beyond it a note says what made it large.
 SIZE_BUDGET = 10 * 1024 * 1024
 
-SECTIONS = ("summary", "experiments", "overlays", "failures", "candidates", "history", "movie")
+SECTIONS = ("summary", "metadata", "experiments", "overlays", "failures", "candidates", "history", "movie", "view3d")
 
 
 @dataclass
@@ -85,12 +87,12 @@ def _heatmap(values: np.ndarray, rows: Sequence[str], cols: Sequence[str], path:
     from matplotlib.figure import Figure
 
     v = np.asarray(values, dtype=float)
-    fig = Figure(figsize=(1.0 + 0.75 * len(cols), 1.2 + 0.4 * len(rows)), layout="constrained")
+    fig = Figure(figsize=(1.6 + 0.95 * len(cols), 1.4 + 0.45 * len(rows)), layout="constrained")
     ax = fig.add_subplot()
     im = ax.imshow(np.ma.masked_invalid(v), cmap="magma_r", aspect="auto", vmin=0.0,
                    vmax=max(1e-12, float(np.nanmax(v))) if np.isfinite(v).any() else 1.0)
-    ax.set_xticks(range(len(cols)), cols, rotation=30, ha="right", fontsize=8)
-    ax.set_yticks(range(len(rows)), rows, fontsize=8)
+    ax.set_xticks(range(len(cols)), cols, rotation=30, ha="right", fontsize=9)
+    ax.set_yticks(range(len(rows)), rows, fontsize=9)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(title, fontsize=10)
@@ -98,7 +100,7 @@ def _heatmap(values: np.ndarray, rows: Sequence[str], cols: Sequence[str], path:
     for i in range(v.shape[0]):
         for j in range(v.shape[1]):
             if np.isfinite(v[i, j]):
-                ax.text(j, i, f"{v[i, j]:.3f}", ha="center", va="center", fontsize=7,
+                ax.text(j, i, f"{v[i, j]:.3f}", ha="center", va="center", fontsize=9,
                         color="white" if v[i, j] > 0.5 * top else "black")
     fig.colorbar(im, ax=ax, label="NRMSE [–]")
     fig.savefig(path, dpi=FIGURE_DPI)
@@ -173,6 +175,42 @@ def _experiments_section(project, exps, comparison) -> str:
                       "peak force [N]", "hits", "clipped channels", "error (NRMSE)"], rows, id="experiments"))
 
 
+def _metadata_section(project, exps) -> str:
+    """What a test record needs: when, with what hammer and sensors (serials, calibration), by
+    which software."""
+    from odsuite.core.version import __version__
+
+    info = project.info()
+    exp_rows = []
+    for e in exps:
+        d = info["experiments"][e.name]
+        exp_rows.append([e.name, d.get("created") or "–", d.get("source") or "–", f"{d['sampling_rate']:g} Hz",
+                         f"{d['n_samples']} ({1e3 * d['duration']:.1f} ms, {d['pretrigger']} before the trigger)"])
+    first = project.experiment(exps[0].name)
+    si = first.systeminfo
+    names = first.channel_names
+    chan_rows = []
+    for k, ch in enumerate(si.channels):
+        sensor = project.rig.sensor_on_channel(k)
+        unit = ("u" if ch.micro_units else "") + ch.unit
+        chan_rows.append([k, names[k] if k < len(names) else "–", ch.quantity, ch.serial or "–",
+                          f"{ch.sensitivity:.6g} V/" + (f"({unit})" if "/" in unit else unit), f"{ch.daq_gain:g}",
+                          "–" if sensor is None else "(" + ", ".join(f"{1e3 * v:.1f}" for v in sensor.position) + ")"])
+    hammer = si.channels[first.excitation.force_channel] if first.excitation is not None else None
+    hammer_text = ("–" if hammer is None else
+                   f"channel {first.excitation.force_channel} ({names[first.excitation.force_channel]}), "
+                   f"serial {hammer.serial or 'not recorded'}, {hammer.sensitivity:.6g} V/N, DAQ gain {hammer.daq_gain:g}")
+    return (_table(["quantity", "value"],
+                   [["software", f"odsuite {__version__} (report written now; project created by "
+                                 f"{info.get('creator') or 'unknown'})"],
+                    ["project file", f"{project.path.name}, format {info['format_version']}"],
+                    ["rig", project.rig.name], ["hammer (force sensor)", hammer_text]], id="metadata")
+            + _table(["experiment", "recorded", "source", "sampling rate", "samples"], exp_rows, id="recordings")
+            + _table(["channel", "name", "quantity", "serial", "calibration", "DAQ gain", "position [mm]"], chan_rows,
+                     id="channels", caption=f"channels of {exps[0].name} (Systeminfo): calibration in volts per "
+                                            "unit of the measured quantity"))
+
+
 def build_report(
     project_path: str | Path,
     output: str | Path,
@@ -226,17 +264,19 @@ def build_report(
             model = rmodel.for_experiment(e.name)
             pred = preds[e.name] = predict(model, e)
             t = np.arange(e.n_samples) / e.fs
+            window = _window(e)  # the event, not the whole record (a 200 ms axis squashes it)
             series = coordinate_series(rig, e, model)
             coord_series[e.name] = series
             parts = [f"<h3 id='overlay-{_esc(e.name)}'>{_esc(e.name)} (error {_fmt(cmp.experiments[e.name]['error'])})</h3>"]
             for body, (gm, gp, _) in series.items():
                 f = comparison_figure(t, gm, gp, tmp / f"{e.name}-{body}.png", title=f"{e.name}: {body} at G",
-                                      dpi=FIGURE_DPI)
+                                      dpi=FIGURE_DPI, window=window)
                 parts.append(_img(f.path, f"{e.name}: generalized coordinates of the {body} at its centre of "
                                   "mass, model (solid) and measured (dashed)"))
             names = [s.name for s in e.sensors]
             f = comparison_figure(t, e.measured, pred, tmp / f"{e.name}-channels.png", names=names, units=e.units,
-                                  title=f"{e.name}: accelerometers (acceleration stage)", dpi=FIGURE_DPI)
+                                  title=f"{e.name}: accelerometers (acceleration stage)", dpi=FIGURE_DPI,
+                                  window=window)
             parts.append(_img(f.path, f"{e.name}: every accelerometer after filter 1, model (solid) and "
                               "measured (dashed)"))
             overlays.append("".join(parts))
@@ -262,11 +302,15 @@ def build_report(
                                 ", ".join(r["effects"]) or "rigid model", _fmt(r["error"])] for r in hist["revisions"]],
                               id="history", caption=f"current revision: {hist['current']}"))
 
+        metadata_html = _metadata_section(project, exps)
         movie_html, chosen = "<p>Movie left out (--no-movie).</p>", None
+        view_html = "<p>3-D view left out with the movie (--no-movie).</p>"
         if movie:
             chosen = movie_experiment or max(cmp.experiments, key=lambda n: cmp.experiments[n]["error"])
             say(f"rendering the movie of {chosen}")
-            movie_html = _movie_section(rig, next(e for e in exps if e.name == chosen), coord_series[chosen], tmp)
+            exp = next(e for e in exps if e.name == chosen)
+            movie_html = _movie_section(rig, exp, coord_series[chosen], tmp)
+            view_html = _view_section(rig, exp, coord_series[chosen])
         else:
             notes.append("movie skipped (--no-movie)")
 
@@ -293,12 +337,14 @@ def build_report(
 
     sections = [
         ("summary", "Summary", summary),
+        ("metadata", "Test record", metadata_html),
         ("experiments", "Rig and experiments", experiments_html),
         ("overlays", "Measured against model", "".join(overlays)),
         ("failures", "Where the model fails", failures),
         ("candidates", "Candidate effects", candidates),
         ("history", "Error across model revisions", hist_html),
         ("movie", "Movie" + (f" of {chosen} with the model" if chosen else ""), movie_html),
+        ("view3d", "Interactive 3-D view" + (f" of {chosen}" if chosen else ""), view_html),
     ]
     page = _page(f"odsuite report: {Path(project_path).name}", sections, notes)
     output.parent.mkdir(parents=True, exist_ok=True)
@@ -318,6 +364,8 @@ table{border-collapse:collapse;margin:.6em 0;font-size:.85em}caption{text-align:
 th,td{border:1px solid #ccd;padding:.2em .5em;text-align:left;vertical-align:top}th{background:#eef}
 figure{margin:.8em 0}figure img{max-width:100%;border:1px solid #eee}figcaption{font-size:.8em;color:#555}
 nav a{margin-right:1em}.notes{color:#a50}.lacking{color:#b00;font-weight:bold}
+video{max-width:100%;border:1px solid #eee}.viewer canvas{max-width:100%;border:1px solid #ccd;cursor:grab}
+.v-controls{display:flex;gap:.6em;align-items:center}.v-scrub{flex:1}.v-help{font-size:.8em;color:#555}
 """
 
 
@@ -392,7 +440,8 @@ def _candidates_section(diag: Mapping[str, Any] | None, revision: Any, notes: li
     rows = []
     for rank, c in enumerate(diag["candidates"], start=1):
         units = c.get("units") or {}
-        params = ", ".join(f"{k} = {_fmt(v, '.4g')}" + (f" {units[k]}" if units.get(k) else "")
+        # "1" marks a dimensionless factor: no unit to print
+        params = ", ".join(f"{k} = {_fmt(v, '.4g')}" + (f" {units[k]}" if units.get(k) not in (None, "", "1") else "")
                            for k, v in (c.get("parameters") or {}).items())
         rows.append([rank, c["effect"], "yes" if c.get("significant") else "no", _fmt(c.get("error_after")),
                      _fmt(c.get("validated_error")), params or "–", c.get("evidence", "")])
@@ -400,20 +449,59 @@ def _candidates_section(diag: Mapping[str, Any] | None, revision: Any, notes: li
                           "evidence"], rows, id="candidates")
 
 
+def _window(exp) -> tuple[float, float]:
+    start = max(0.0, exp.trigger / exp.fs - MOVIE_BEFORE_S)
+    return start, min((exp.n_samples - 1) / exp.fs, start + MOVIE_AFTER_S)
+
+
 def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path) -> str:
-    from .movie import render_movie
-    from .scene import Style
+    from .motion import magnification_words
+    from .movie import gif_from_mp4, mp4_available, render_movie
+    from .scene import Hammer, Style
 
     if not series:
         return "<p>No movie: the chains give no displacements, so there are no generalized coordinates.</p>"
-    start = max(0.0, exp.trigger / exp.fs - MOVIE_BEFORE_S)
-    stop = min((exp.n_samples - 1) / exp.fs, start + MOVIE_AFTER_S)
+    start, stop = _window(exp)
     step = max(1, round((stop - start) * exp.fs / MOVIE_FRAMES))
-    res = render_movie(rig, {b: gm for b, (gm, _, _) in series.items()}, exp.fs, tmp / "movie.gif",
+    body = next(iter(series))
+    hammer = Hammer(body, exp.point, exp.direction, exp.force)
+    res = render_movie(rig, {b: gm for b, (gm, _, _) in series.items()}, exp.fs,
+                       tmp / ("movie.mp4" if mp4_available() else "movie.gif"),
                        model_coords={b: gp for b, (_, gp, _) in series.items()}, size=MOVIE_SIZE, fps=MOVIE_FPS,
-                       start=start, stop=stop, frame_step=step, workers=1, progress=False,
-                       style=Style(font_size=8, line_width=1.5))
-    return (f'<figure><img src="{_data_uri(res.path, "image/gif")}" alt="movie of {_esc(exp.name)}">'
-            f"<figcaption>{_esc(exp.name)}: measured motion with the model's overlaid, {res.n_frames} frames from "
-            f"{1e3 * start:.1f} ms to {1e3 * stop:.1f} ms, {res.slowdown:.0f}x slower than real time, "
-            f"magnification H_t = {res.magnify[0]:.3g}, H_r = {res.magnify[1]:.3g}.</figcaption></figure>")
+                       start=start, stop=stop, frame_step=step, workers=1, progress=False, hammer=hammer,
+                       title=f"{exp.name}: measured (blue) and model (orange band)", time_zero=exp.trigger / exp.fs,
+                       style=Style(font_size=8, line_width=1.5, model_width=5.0))
+    gif = res.path if res.format == "gif" else gif_from_mp4(res.path, tmp / "movie.gif", MOVIE_FPS)
+    fallback = f'<img src="{_data_uri(gif, "image/gif")}" alt="movie of {_esc(exp.name)}">'
+    shown = (fallback if res.format == "gif" else
+             f'<video controls loop muted playsinline preload="auto" width="{MOVIE_SIZE[0]}" '
+             f'poster="{_data_uri(_poster(gif, tmp / "poster.png"), "image/png")}">'
+             f'<source src="{_data_uri(res.path, "video/mp4")}" type="video/mp4">{fallback}</video>')
+    return (f"<figure>{shown}<figcaption>{_esc(exp.name)}: measured motion (blue) with the model's (orange band), "
+            f"{res.n_frames} frames from {1e3 * (start - exp.trigger / exp.fs):+.1f} ms to "
+            f"{1e3 * (stop - exp.trigger / exp.fs):+.1f} ms around the hit, {res.slowdown:.0f} times slower than "
+            f"real time, {_esc(magnification_words(res.magnify))}.</figcaption></figure>")
+
+
+def _poster(gif: Path, path: Path) -> Path:
+    """A still of the movie (a frame a third of the way in, when the plates have moved) for the
+    <video>'s poster: what a printed page and a player that has not started show."""
+    from PIL import Image
+
+    with Image.open(gif) as im:
+        im.seek(im.n_frames // 3)
+        im.convert("RGB").save(path)
+    return path
+
+
+def _view_section(rig, exp, series: Mapping[str, tuple]) -> str:
+    from .viewer import viewer_data, viewer_html
+
+    if not series:
+        return "<p>No 3-D view: there are no generalized coordinates.</p>"
+    start, stop = _window(exp)
+    data = viewer_data(rig, {b: gm for b, (gm, _, _) in series.items()}, exp.fs,
+                       model_coords={b: gp for b, (_, gp, _) in series.items()},
+                       start=int(round(start * exp.fs)), stop=int(round(stop * exp.fs)) + 1,
+                       time_zero=exp.trigger / exp.fs)
+    return viewer_html(data)

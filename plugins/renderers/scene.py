@@ -15,7 +15,7 @@ from odsuite.core.errors import ConfigError
 from odsuite.core.rig import Rig
 from odsuite.core.rigidbody import PLOT_INDEX, plate_corners
 
-from .motion import check_coords, corners, plate_scale
+from .motion import check_coords, corners, magnified, plate_scale
 
 #: The 12 edges of a box as corner-index pairs, taken from the Table 4.2 polyline (retraces dropped).
 EDGES = tuple(dict.fromkeys(tuple(sorted(p)) for p in zip(PLOT_INDEX[:-1], PLOT_INDEX[1:])))
@@ -36,8 +36,28 @@ class Style:
     ghost: tuple[float, float, float] = (0.35, 0.35, 0.35)
     text: tuple[float, float, float] = (0.1, 0.1, 0.1)
     marker: tuple[float, float, float] = (1.0, 0.0, 0.0)
+    sensor: tuple[float, float, float] = (0.0, 0.45, 0.25)
+    hammer: tuple[float, float, float] = (0.85, 0.0, 0.0)
     line_width: float = 2.0
-    font_size: int = 14
+    #: the model is drawn as a wide translucent band under the measured line, so where both
+    #: coincide the measured line runs inside the model's band instead of flickering over it
+    model_width: float = 7.0
+    model_opacity: float = 0.45
+    font_size: int = 13
+
+
+@dataclass(frozen=True)
+class Hammer:
+    """The hit drawn as an arrow onto ``point`` (rig frame, m, on ``body``) along ``direction``
+    (unit); ``force`` (N, one value per sample of the coordinates) sets when it is in contact."""
+
+    body: str
+    point: np.ndarray
+    direction: np.ndarray
+    force: np.ndarray
+
+    #: contact while |force| is at least this fraction of its peak (the pulse's foot is noise)
+    CONTACT_FRACTION = 0.05
 
 
 def view_direction(azimuth: float, elevation: float) -> np.ndarray:
@@ -75,6 +95,13 @@ def offscreen_pyvista():
     return pyvista
 
 
+def _point_series(body, d: np.ndarray, point: np.ndarray, magnify) -> np.ndarray:
+    """Rig-frame positions (n, 3) of a point fixed on ``body`` moving with ``d`` (n, 6), magnified."""
+    from odsuite.core.rigidbody import transform_points
+
+    return body.com + transform_points(magnified(d, magnify), (point - body.com)[None])[:, 0]
+
+
 def _lines_polydata(points: np.ndarray, edges) -> "pyvista.PolyData":  # noqa: F821
     import pyvista as pv
 
@@ -103,6 +130,9 @@ class Scene:
         axes: bool = True,
         ghost: bool = True,
         markers: bool = False,
+        sensors: bool = True,
+        hammer: Hammer | None = None,
+        title: str = "",
         size: tuple[int, int] = (1280, 720),
         style: Style = Style(),
     ) -> None:
@@ -123,28 +153,39 @@ class Scene:
         self.plotter.ren_win.SetMultiSamples(0)
         self.plotter.set_background(style.background)
         self._moving: list[tuple[object, np.ndarray]] = []  # (polydata, corners (n, 8, 3))
-        sets = [(coords, style.measured, 0)]
+        # the model first, so the measured line is drawn over the model's band
+        sets = []
         if model_coords is not None:
-            sets.append((model_coords, style.model, 1 if side else 0))
+            sets.append((model_coords, style.model, 1 if side else 0, not side))
+        sets.append((coords, style.measured, 0, False))
         scale = plate_scale(rig, list(coords))
         for k in range(2 if side else 1):
             self.plotter.subplot(0, k)
-            self._static_plates(rig, set().union(*(c for c, _, v in sets if v == k)), scale, ghost, solid, axes)
-        for c, colour, viewport in sets:
+            self._static_plates(rig, set().union(*(c for c, _, v, _ in sets if v == k)), scale, ghost, solid, axes)
+        for c, colour, viewport, band in sets:
             self.plotter.subplot(0, viewport)
             for name, d in c.items():
                 body = rig.body(name)
                 series = corners(body, d, magnify)
-                self._moving.append((self._add_plate(series[0], colour, solid, markers), series))
+                self._moving.append((self._add_plate(series[0], colour, solid, markers, band=band), series))
         self.plotter.subplot(0, 0)
-        self._label = self.plotter.add_text(" ", position=(12, self.size[1] - 12 - 2 * style.font_size),
-                                            font_size=style.font_size, color=style.text)
-        if model_coords is not None:
-            self._legend(side)
+        self._hammer = None
+        if sensors:
+            self._sensor_marks(rig, coords, magnify)
+        if hammer is not None:
+            self._hammer_arrow(rig, hammer, coords, magnify, scale)
+        fs = style.font_size
+        top = self.size[1] - 12
+        if title:
+            self.plotter.add_text(title, position=(12, top - 4 * fs), font_size=fs, color=style.text)
+        self._label = self.plotter.add_text(" ", position=(12, top - (6 if title else 2) * fs - 4),
+                                            font_size=fs, color=style.text)
+        self._legend(side, model_coords is not None, ghost, hammer is not None, sensors)
         self._camera(rig, coords, view, parallel, side)
 
     # -- construction ------------------------------------------------------------------------
-    def _add_plate(self, pts: np.ndarray, colour, solid: bool, markers: bool, opacity: float = 1.0):
+    def _add_plate(self, pts: np.ndarray, colour, solid: bool, markers: bool, opacity: float = 1.0,
+                   band: bool = False):
         import pyvista as pv
 
         lines = _lines_polydata(pts, EDGES)
@@ -155,7 +196,12 @@ class Scene:
             shell.SetPoints(lines.GetPoints())
             self.plotter.add_mesh(shell, color=tuple(0.35 + 0.65 * np.asarray(colour)), opacity=opacity,
                                   smooth_shading=False, show_edges=False)
-        self.plotter.add_mesh(lines, color=colour, line_width=self.style.line_width, lighting=False)
+        if band:
+            self.plotter.add_mesh(lines, color=colour, line_width=self.style.model_width,
+                                  opacity=self.style.model_opacity, lighting=False)
+        else:
+            self.plotter.add_mesh(lines, color=colour, line_width=self.style.line_width, lighting=False,
+                                  opacity=opacity)
         if markers:
             dots = pv.PolyData(lines.points)
             dots.SetPoints(lines.GetPoints())
@@ -189,25 +235,80 @@ class Scene:
                                           font_size=self.style.font_size, text_color=self.style.text,
                                           always_visible=True)
 
-    def _legend(self, side: bool) -> None:
-        fs = self.style.font_size
-        if side:
-            self.plotter.subplot(0, 0)
-            self.plotter.add_text("measured", position="upper_right", font_size=fs, color=self.style.measured)
-            self.plotter.subplot(0, 1)
-            self.plotter.add_text("model", position="upper_right", font_size=fs, color=self.style.model)
+    def _sensor_marks(self, rig: Rig, coords, magnify) -> None:
+        """A dot at every sensor position of a moving body, named (sensors sharing a spot share a label)."""
+        import pyvista as pv
+
+        spots: dict[tuple, list[str]] = {}
+        for s in rig.sensors:
+            if s.body in coords:
+                spots.setdefault((s.body, *np.round(np.asarray(s.position, float), 6)), []).append(s.name)
+        for (body_name, *pos), names in spots.items():
+            body = rig.body(body_name)
+            series = _point_series(body, coords[body_name], np.asarray(pos), magnify)
+            dot = pv.PolyData(series[:1].copy())
+            self.plotter.add_mesh(dot, color=self.style.sensor, point_size=9, render_points_as_spheres=True,
+                                  lighting=False)
+            self.plotter.add_point_labels(dot, [" ".join(names)], shape=None, show_points=False,
+                                          font_size=self.style.font_size - 3, text_color=self.style.sensor,
+                                          always_visible=True)
+            self._moving.append((dot, series))
+
+    def _hammer_arrow(self, rig: Rig, hammer: Hammer, coords, magnify, scale: float) -> None:
+        """An arrow of length 0.5 x the plate size ending on the force point, red while in contact."""
+        import pyvista as pv
+
+        body = rig.body(hammer.body)
+        point = np.asarray(hammer.point, float)
+        if hammer.body in coords:
+            tip = _point_series(body, coords[hammer.body], point, magnify)
         else:
-            self.plotter.add_text("measured", position=(12, 12 + 2 * fs), font_size=fs, color=self.style.measured)
-            self.plotter.add_text("model", position=(12, 12 + 4 * fs), font_size=fs, color=self.style.model)
+            tip = np.repeat(point[None], self.n_samples, axis=0)
+        u = np.asarray(hammer.direction, float)
+        u = u / np.linalg.norm(u)
+        length = 0.5 * scale
+        side = np.cross(u, [0.0, 0.0, 1.0] if abs(u[2]) < 0.9 else [1.0, 0.0, 0.0])
+        side /= np.linalg.norm(side)
+        rel = np.array([-length * u, np.zeros(3), -0.25 * length * u + 0.12 * length * side,
+                        -0.25 * length * u - 0.12 * length * side])
+        series = tip[:, None, :] + rel[None]
+        arrow = _lines_polydata(series[0], ((0, 1), (1, 2), (1, 3)))
+        actor = self.plotter.add_mesh(arrow, color=self.style.ghost, line_width=2.0, lighting=False)
+        force = np.abs(np.asarray(hammer.force, float))
+        label = pv.PolyData(series[:1, 0].copy())
+        self.plotter.add_point_labels(label, ["hammer"], shape=None, show_points=False,
+                                      font_size=self.style.font_size - 2, text_color=self.style.hammer,
+                                      always_visible=True)
+        self._moving += [(arrow, series), (label, series[:, :1])]
+        self._hammer = (actor, force >= Hammer.CONTACT_FRACTION * max(force.max(initial=0.0), 1e-300))
+
+    def _legend(self, side: bool, model: bool, ghost: bool, hammer: bool, sensors: bool) -> None:
+        st = self.style
+        entries = [("measured motion", st.measured)]
+        if model and not side:  # side by side, the right-hand view is headed "model"
+            entries.append(("model motion (wide band)", st.model))
+        if ghost:
+            entries.append(("rest position (dash-dot)", st.ghost))
+        entries.append(("bodies that do not move", st.static))
+        if sensors:
+            entries.append(("sensors", st.sensor))
+        if hammer:
+            entries.append(("hammer (red while in contact)", st.hammer))
         self.plotter.subplot(0, 0)
+        # VTK scales the legend's text to fit the box: size it to the longest label and the rows
+        width = 0.0075 * max(len(t) for t, _ in entries) + 0.03
+        self.plotter.add_legend([{"label": t, "color": c, "face": "-"} for t, c in entries], bcolor=st.background,
+                                border=True, size=(width, 0.036 * len(entries)), loc="lower right", face="-")
+        if side:
+            self.plotter.subplot(0, 1)
+            self.plotter.add_text("model", position="upper_right", font_size=st.font_size, color=st.model)
+            self.plotter.subplot(0, 0)
+            self.plotter.add_text("measured", position="upper_right", font_size=st.font_size, color=st.measured)
 
     @staticmethod
     def _bounds(rig: Rig, names) -> np.ndarray:
-        """x/y/z bounds of the plates of ``names`` and of every plate not much larger than them."""
-        scale = plate_scale(rig, list(names) or None)
-        pts = [plate_corners(b.plate) for b in rig.bodies
-               if b.plate is not None and (b.name in names or b.plate.size.max() <= 2 * scale)]
-        p = np.concatenate(pts)
+        """x/y/z bounds of every plate of the rig (a still reference plate too: none is cut off)."""
+        p = np.concatenate([plate_corners(b.plate) for b in rig.bodies if b.plate is not None])
         return np.column_stack([p.min(0), p.max(0)]).ravel()
 
     def _camera(self, rig: Rig, coords, view, parallel: bool, side: bool) -> None:
@@ -216,6 +317,7 @@ class Scene:
         # room for the magnified motion and the axes beside the plates
         pad = 0.35 * plate_scale(rig, list(coords))
         padded = bounds + np.array([-pad, pad] * 3)
+        box = np.array([[x, y, z] for x in padded[:2] for y in padded[2:4] for z in padded[4:]])
         direction = view_direction(*view)
         for k in range(2 if side else 1):
             self.plotter.subplot(0, k)
@@ -226,10 +328,24 @@ class Scene:
             if parallel:
                 self.plotter.enable_parallel_projection()
             self.plotter.reset_camera(bounds=padded)
-            cam.zoom(1.25)  # reset_camera leaves a wide margin around the bounding sphere
+            # reset_camera fits the bounding sphere, which leaves a wide margin around a flat
+            # rig: zoom until the padded box's projection just fills the viewport
+            cam.zoom(0.95 / self._filled(self.plotter.renderers[k], box))
         if side:
             self.plotter.link_views()
         self.plotter.subplot(0, 0)
+
+    @staticmethod
+    def _filled(renderer, points: np.ndarray) -> float:
+        """The larger of the fractions of the viewport's width and height that ``points`` span."""
+        xy = []
+        for p in points:
+            renderer.SetWorldPoint(*p, 1.0)
+            renderer.WorldToView()
+            xy.append(renderer.GetViewPoint()[:2])
+        xy = np.array(xy)
+        span = (xy.max(0) - xy.min(0)) / 2.0  # view coordinates run from -1 to 1
+        return float(max(span.max(), 1e-6))
 
     # -- drawing -----------------------------------------------------------------------------
     @property
@@ -251,6 +367,12 @@ class Scene:
         for poly, series in self._moving:
             poly.points[:] = series[index]
             poly.GetPoints().Modified()
+            poly.Modified()
+        if self._hammer is not None:
+            actor, contact = self._hammer
+            hit = bool(contact[index])
+            actor.GetProperty().SetColor(self.style.hammer if hit else self.style.ghost)
+            actor.GetProperty().SetLineWidth(5.0 if hit else 2.0)
         self._label.SetInput(label or " ")
         rw = self.plotter.ren_win
         rw.Render()

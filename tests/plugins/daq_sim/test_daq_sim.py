@@ -177,6 +177,19 @@ def test_force_channel_area_is_the_hammer_impulse(sim, thesis_rig):
     assert half_sine_force(t, hits).sum() / 1e7 == pytest.approx(impulse(hits), rel=1e-4)
 
 
+def test_force_peak_scales_the_hits_and_their_impulse(sim, thesis_rig):
+    """--force-peak sets the largest hit's peak; the others keep their ratio, so the recorded
+    impulse is the half-sine's (2/pi) peak x width summed with the scaled peaks."""
+    hits = [Hit(0.0, 12.0, 0.8e-3), Hit(0.03, 6.0, 0.3e-3)]
+    s = AcquisitionSettings(n_samples=2048, pretrigger=200)
+    rec, raw = record(sim, thesis_rig, s, scenario="T8", hits=hits, seed=5, noise=False, force_peak=24.0)
+    area = raw[:, FORCE].sum() / rec.sampling_rate / volts_per_newton(rec)
+    assert area == pytest.approx((2 / np.pi) * (24.0 * 0.8e-3 + 12.0 * 0.3e-3), rel=5e-3)
+    assert "force_peak=24N" in rec.source
+    with pytest.raises(ConfigError, match="--force-peak: must be > 0 N"):
+        record(sim, thesis_rig, s, scenario="T8", force_peak=-1.0)
+
+
 def test_accelerometer_volts_follow_sign_sensitivity_gain(sim, thesis_rig):
     # free mass, force +z: zC sees F/m along +z; volts = sign * sensitivity * gain * a; compare areas
     rec, raw = record(sim, thesis_rig, scenario="T1", seed=2, noise=False)

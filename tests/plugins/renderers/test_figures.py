@@ -49,6 +49,15 @@ def test_projection_draws_table_4_2_polylines(thesis_rig, tmp_path):
     assert any(name.startswith("reference") for name in lines)
     with Image.open(res.path) as im:
         assert im.format == "PNG"
+    # the axes hug the drawing (4 % margin of its larger span), the still plates differ in print,
+    # and the title says the magnification in words
+    xy = np.concatenate([ln.get_xydata() for ln in ax.lines])
+    lo, hi = xy.min(0), xy.max(0)
+    pad = 0.04 * (hi - lo).max()
+    np.testing.assert_allclose([*ax.get_xlim(), *ax.get_ylim()], [lo[0] - pad, hi[0] + pad, lo[1] - pad, hi[1] + pad])
+    still = [ln for name, ln in lines.items() if "does not move" in name]
+    assert len(still) == 2 and len({(ln.get_color(), ln.get_linestyle()) for ln in still}) == 2
+    assert ax.get_title().endswith("motion drawn 3,000 times larger than it is")
 
 
 def test_projection_default_instants_use_the_force(thesis_rig, tmp_path):
@@ -70,15 +79,23 @@ def test_comparison_figure_model_solid_measured_dashed(tmp_path):
     model = np.column_stack([np.sin(2 * np.pi * 100 * t * (j + 1)) * 1e-6 for j in range(6)])
     measured = 1.1 * model
     res = comparison_figure(t, measured, model, tmp_path / "c.png")
-    axes = {ax.get_ylabel(): ax for ax in res.figure.axes if ax.get_visible()}
+    axes = {ax.get_ylabel().split(" [")[0]: ax for ax in res.figure.axes if ax.get_visible()}
     assert len(axes) == 6
     for j, name in enumerate(["x", "y", "z", "theta", "phi", "psi"]):
         ax = axes[name]
+        # 1.1e-6 peak: one prefix for the whole axis, micro
+        assert ax.get_ylabel() == f"{name} [µ{'m' if j < 3 else 'rad'}]"
+        assert ax.yaxis.get_major_formatter()(5e-7, 0) == "0.5"
         mod, meas = ax.lines
         assert mod.get_linestyle() == "-" and meas.get_linestyle() == "--"
+        assert mod.get_zorder() > meas.get_zorder()  # the model's line on top of the measured one
         np.testing.assert_array_equal(mod.get_ydata(), model[:, j])
         np.testing.assert_array_equal(meas.get_ydata(), measured[:, j])
         np.testing.assert_allclose(mod.get_xdata(), t * 1e3)
+    # a window draws only the event's stretch
+    win = comparison_figure(t, measured, model, tmp_path / "w.png", window=(0.002, 0.005))
+    x = win.figure.axes[0].lines[0].get_xdata()
+    assert x[0] == pytest.approx(2.0) and x[-1] == pytest.approx(5.0) and len(x) == 61
     with pytest.raises(DimensionError, match="comparison"):
         comparison_figure(t, measured[:, :5], model, tmp_path / "c.png")
     with pytest.raises(ConfigError, match=r"c\.jpg"):

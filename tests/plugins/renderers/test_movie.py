@@ -88,11 +88,60 @@ def test_frame_plan():
         frame_plan(1000, FS, fps=25, start=1.0)
     with pytest.raises(ConfigError, match="either"):
         frame_plan(1000, FS, fps=25, slowdown=10, frame_step=2)
+    # a 4 s movie of a 0.05 s window (1000 samples) at 25 fps: 100 frames, every 10th sample
+    frames, step, slow = frame_plan(4000, FS, fps=25, start=0.05, stop=0.1, duration=4)
+    assert step == 10 and len(frames) == 101 and slow == pytest.approx(80)
 
 
-def test_bad_output_names_the_file(thesis_rig, tmp_path):
-    with pytest.raises(ConfigError, match=r"m\.avi"):
-        render_movie(thesis_rig, decaying_motion(10), FS, tmp_path / "m.avi", progress=False)
-    with pytest.raises(ConfigError, match="model_coords"):
-        render_movie(thesis_rig, decaying_motion(10), FS, tmp_path / "m.mp4",
-                     model_coords=decaying_motion(12), progress=False)
+def test_event_window_spans_the_hit_and_the_decay(thesis_rig):
+    """Still until sample 1000, then a decay e^(-a t): the window opens 5 ms before the hit and
+    closes 5 ms after the envelope falls to a tenth, t = ln(10) / a."""
+    from odsuite_plugins.renderers.motion import event_window
+
+    n, hit, a = 8000, 1000, 60.0
+    t = np.clip(np.arange(n) - hit, 0, None) / FS
+    d = np.zeros((n, 6))
+    d[hit:, 2] = 1e-6 * np.exp(-a * t[hit:])  # a pure translation: every corner moves alike
+    start, end = event_window(thesis_rig, {"platform": d}, FS)
+    assert start == pytest.approx((hit - 100) / FS)
+    assert end == pytest.approx(hit / FS + np.log(10) / a + 0.005, abs=2 / FS)
+
+
+def test_labels_tell_time_from_the_hit_and_the_force(thesis_rig):
+    from odsuite_plugins.renderers.motion import magnification_words
+    from odsuite_plugins.renderers.movie import frame_labels
+    from odsuite_plugins.renderers.scene import Hammer
+
+    force = np.zeros(100)
+    force[40:43] = [5.0, 12.46, 4.0]
+    hammer = Hammer("platform", np.zeros(3), np.array([0, 0, 1.0]), force)
+    labels = frame_labels(np.array([20, 41, 60]), FS, time_zero=40 / FS, hammer=hammer)
+    assert labels == ["t = -1.00 ms from the hit", "t = +0.05 ms from the hit    hammer force 12.5 N",
+                      "t = +1.00 ms from the hit"]
+    assert frame_labels(np.array([5]), 4000.0, ods_hz=100.0) == ["phase 45 deg of the cycle at 100 Hz"]
+    assert magnification_words((5780.0, 5780.0)) == "motion drawn 5,780 times larger than it is"
+    assert magnification_words((2.5, 40.0)) == "translations drawn 2.5 times, rotations 40 times larger than they are"
+
+
+@pytest.mark.render
+def test_gif_frames_stream_to_the_file(thesis_rig, tmp_path, monkeypatch):
+    """The GIF's frames go to the file as they are rendered, by two processes with one palette:
+    the same frames, in the same order, as one process writes."""
+    monkeypatch.setattr(movie, "mp4_available", lambda: False)
+    n_frames = 2 * movie.MIN_FRAMES_PER_WORKER
+    coords = decaying_motion(n_frames * 4)
+
+    def frames(workers):
+        res = render_movie(thesis_rig, coords, FS, tmp_path / f"m{workers}.gif", frame_step=4, size=(192, 128),
+                           workers=workers, progress=False)
+        with Image.open(res.path) as im:
+            assert im.n_frames == n_frames and im.info["loop"] == 0 and im.size == (192, 128)
+            out = []
+            for k in range(im.n_frames):
+                im.seek(k)
+                out.append(np.asarray(im.convert("RGB"), dtype=int))
+        return np.array(out)
+
+    a, b = frames(2), frames(1)
+    assert np.array_equal(a, b)
+    assert np.abs(a[0] - a[3]).max() > 100  # the plate moves

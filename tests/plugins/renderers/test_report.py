@@ -33,6 +33,7 @@ class _Page(HTMLParser):
         self.images: list[str] = []
         self.urls: list[str] = []
         self.scripts = 0
+        self.script_sources: list[str] = []
         self.ids: list[str] = []
         self.tables: dict[str, list[list[str]]] = {}
         self._table: str | None = None
@@ -51,6 +52,8 @@ class _Page(HTMLParser):
                 self.urls.append(a[k])
         if tag == "script":
             self.scripts += 1
+            if "src" in a:
+                self.script_sources.append(a["src"])
         if tag == "table" and "id" in a:
             self._table = a["id"]
             self.tables[self._table] = []
@@ -134,6 +137,17 @@ def test_report_numbers_are_compares(story):
     worst = page.tables["worst"][1:]
     assert [(r[0], r[1], r[2]) for r in worst] == [(w["kind"], w["name"], f"{w['error']:.4f}") for w in cmp["worst"]]
     assert [r[3] for r in page.tables["history"][1:]] == [f"{r['error']:.4f}" for r in hist["revisions"]]
+    assert hist["noise_floor_error"] == pytest.approx(cmp["noise_floor_error"], rel=1e-12)
+    # the test record: the version that wrote the page, and every channel's serial and calibration
+    from odsuite.core.version import __version__
+
+    meta = dict((r[0], r[1]) for r in page.tables["metadata"][1:])
+    assert meta["software"].startswith(f"odsuite {__version__} ")
+    with open_project(path) as p:
+        si = p.experiment("T1").systeminfo
+    chans = page.tables["channels"][1:]
+    assert [r[3] for r in chans] == [c.serial or "–" for c in si.channels]
+    assert [float(r[4].split()[0]) for r in chans] == pytest.approx([c.sensitivity for c in si.channels], rel=1e-5)
     # the ranking is the diagnosis's, and the stiffness (the hidden effect) leads it
     cands = page.tables["candidates"][1:]
     assert [r[1] for r in cands] == [c["effect"] for c in diag["candidates"]]
@@ -148,8 +162,9 @@ def test_report_is_self_contained(story):
     *_, result = story
     page = parse(result.path)
     assert 0 < result.size_bytes < 10 * 2**20
-    assert page.scripts == 0
-    assert all(u.startswith("#") for u in page.urls), page.urls
+    # the 3-D view's script is inline; nothing is fetched: links are in-page, sources data URIs
+    assert page.scripts == 2 and page.script_sources == []
+    assert all(u.startswith(("#", "data:video/mp4;base64,")) for u in page.urls), [u[:40] for u in page.urls]
     kinds = []
     for src in page.images:
         m = re.fullmatch(r"data:image/(png|gif);base64,(.+)", src, flags=re.DOTALL)

@@ -51,8 +51,9 @@ def test_corners_land_on_projected_pixels(thesis_rig, parallel, view):
     from odsuite_plugins.renderers.scene import Scene
 
     body = thesis_rig.body("platform")
+    # the sensor dots sit on corners too; they have their own test below
     scene = Scene(thesis_rig, {"platform": POSE[None, :]}, magnify=H, view=view, parallel=parallel,
-                  axes=False, ghost=False, markers=True, size=(800, 600))
+                  axes=False, ghost=False, markers=True, sensors=False, size=(800, 600))
     try:
         img = scene.frame(0)
         want = world_to_pixel(scene.renderer(), expected_corners(body, POSE, H), 600)
@@ -66,6 +67,38 @@ def test_corners_land_on_projected_pixels(thesis_rig, parallel, view):
     # the pose moved the corners visibly: the rest corners are not where the markers are
     rest = world_to_pixel(scene.renderer(), expected_corners(body, np.zeros(6), H), 600)
     assert np.linalg.norm(rest - want, axis=1).max() > 10
+
+
+def test_sensor_dots_and_hammer_arrow_follow_the_pose(thesis_rig):
+    """Each sensor spot (sensors sharing a position share a dot) is drawn where the posed point
+    projects; the hammer arrow turns red exactly while the force is in contact."""
+    from odsuite_plugins.renderers.scene import Hammer, Scene
+
+    body = thesis_rig.body("platform")
+    spots = np.unique(np.array([s.position for s in thesis_rig.sensors if s.body == "platform"]), axis=0)
+    R = Rotation.from_euler("ZYX", H[1] * POSE[[5, 4, 3]]).as_matrix()
+    posed = body.com + H[0] * POSE[:3] + (spots - body.com) @ R.T
+    force = np.array([0.0, 10.0])
+    hammer = Hammer("platform", np.array([0.0, 0.0, body.plate.corner[2]]), np.array([0.0, 0.0, 1.0]), force)
+    scene = Scene(thesis_rig, {"platform": np.repeat(POSE[None, :], 2, axis=0)}, magnify=H, axes=False,
+                  ghost=False, hammer=hammer, size=(800, 600))
+    try:
+        quiet, hit = scene.frame(0), scene.frame(1)
+        want = world_to_pixel(scene.renderer(), posed, 600)
+        colour = tuple((np.array(scene.style.sensor) * 255).round().astype(int))
+        red = (np.array(scene.style.hammer) * 255).round().astype(np.uint8)
+    finally:
+        scene.close()
+    assert len(spots) == 4
+    # a 9-pixel dot of the sensor colour centred on each posed spot (the names share the colour,
+    # so count the dot's pixels around the spot rather than blobs in the whole image)
+    mask = np.all(quiet == np.array(colour, dtype=np.uint8), axis=-1)
+    rows, cols = np.mgrid[: mask.shape[0], : mask.shape[1]]
+    for x, y in want:
+        near = (np.hypot(cols - x, rows - y) <= 3.5) & mask
+        assert near.sum() >= 20, (x, y, near.sum())
+    arrow = lambda img: np.all(img == red, axis=-1).sum()  # noqa: E731
+    assert arrow(hit) - arrow(quiet) > 200  # the 5-pixel red shaft; the label and legend are red in both
 
 
 def test_frame_is_top_up_and_shows_progress(thesis_rig):

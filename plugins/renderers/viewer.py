@@ -1,0 +1,182 @@
+"""An interactive 3-D view of the rig's motion and the model's for the HTML report: one <div> with a
+canvas, its controls and an inline script, so the page still works offline from a single file.
+
+Drag rotates, the wheel (or the +/- buttons) zooms, play/pause and the slider move through time,
+a check box shows or hides the model. The plates' corners are computed here (magnified, rig
+frame) and drawn by a few lines of canvas code: a WebGL library would be hundreds of kB inline for
+twelve edges per plate. ``#selftest`` in the page address makes the script draw, scrub, switch the
+model off, and write what it saw into ``<pre id="viewer-selftest">`` (the Chromium test reads it).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+
+import numpy as np
+
+from odsuite.core.rig import Rig
+from odsuite.core.rigidbody import plate_corners
+
+from .motion import check_coords, corners, default_magnification, magnification_words, plate_scale
+from .scene import EDGES, Style
+
+#: About this many frames are embedded: smooth enough to scrub, small enough for the page.
+VIEWER_FRAMES = 150
+
+
+def _rgb(colour) -> str:
+    return "rgb(" + ",".join(str(int(round(255 * c))) for c in colour) + ")"
+
+
+def viewer_data(rig: Rig, coords: Mapping[str, np.ndarray], fs: float, *, start: int = 0, stop: int | None = None,
+                model_coords: Mapping[str, np.ndarray] | None = None, time_zero: float | None = None,
+                magnify: tuple[float, float] | None = None, frames: int = VIEWER_FRAMES) -> dict:
+    """The viewer's data: posed corners (mm, rig frame) per frame of the window ``start:stop``
+    (samples), still plates, edges, times (ms from ``time_zero`` s), colours and the magnification."""
+    coords = check_coords(rig, coords)
+    if model_coords is not None:
+        model_coords = check_coords(rig, model_coords, "model_coords")
+    n = next(iter(coords.values())).shape[0]
+    stop = n if stop is None else min(n, stop)
+    step = max(1, (stop - start) // frames)
+    picks = np.arange(start, stop, step)
+    if magnify is None:
+        magnify = default_magnification(rig, coords, *([model_coords] if model_coords else []))
+
+    def posed(c):
+        return [np.round(1e3 * corners(rig.body(b), d[picks], magnify), 3).reshape(len(picks), -1).tolist()
+                for b, d in c.items()]
+
+    still = [np.round(1e3 * plate_corners(b.plate), 3).ravel().tolist() for b in rig.bodies
+             if b.plate is not None and b.name not in coords]
+    every = np.concatenate([plate_corners(b.plate) for b in rig.bodies if b.plate is not None])
+    style = Style()
+    t0 = 0.0 if time_zero is None else time_zero
+    return {
+        "edges": [list(e) for e in EDGES], "measured": posed(coords),
+        "model": posed(model_coords) if model_coords is not None else None, "still": still,
+        "rest": [np.round(1e3 * plate_corners(rig.body(b).plate), 3).ravel().tolist() for b in coords],
+        "t_ms": np.round(1e3 * (picks / fs - t0), 3).tolist(), "from_hit": time_zero is not None,
+        "centre_mm": (1e3 * (every.min(0) + every.max(0)) / 2).tolist(),
+        "size_mm": float(1e3 * np.ptp(every, axis=0).max()), "scale_mm": 1e3 * plate_scale(rig, list(coords)),
+        "magnification": magnification_words(magnify),
+        "colours": {"measured": _rgb(style.measured), "model": _rgb(style.model), "still": _rgb(style.static),
+                    "rest": _rgb(style.ghost)},
+    }
+
+
+def viewer_html(data: Mapping, element_id: str = "viewer") -> str:
+    """The <div> holding the canvas, the controls and the script for ``data`` (:func:`viewer_data`)."""
+    payload = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
+    model = "" if data.get("model") is None else (
+        f'<label><input type="checkbox" class="v-model" checked> model (orange)</label>')
+    return (f'<div id="{element_id}" class="viewer">'
+            f'<canvas width="960" height="540" aria-label="interactive 3-D view of the motion"></canvas>'
+            f'<div class="v-controls"><button type="button" class="v-play">play</button>'
+            f'<input type="range" class="v-scrub" min="0" max="{len(data["t_ms"]) - 1}" value="0" step="1">'
+            f'<span class="v-time"></span> {model}'
+            f'<button type="button" class="v-zoom-in">+</button><button type="button" class="v-zoom-out">&minus;</button>'
+            f'</div><p class="v-help">Drag to rotate, wheel or +/&minus; to zoom; {data["magnification"]}; '
+            f'blue: measured, orange: model, dashed grey: rest position, light grey: still bodies.</p>'
+            f'<script type="application/json" class="v-data">{payload}</script>'
+            f"<script>{_SCRIPT.replace('__ID__', element_id)}</script></div>")
+
+
+# The drawing: a z-down rig frame seen from azimuth/elevation (as the movie's view), orthographic.
+_SCRIPT = r"""
+(function () {
+  var errors = [];
+  window.addEventListener('error', function (e) { errors.push(String(e.message)); });
+  var root = document.getElementById('__ID__');
+  var data = JSON.parse(root.querySelector('.v-data').textContent);
+  var canvas = root.querySelector('canvas');
+  var ctx = canvas.getContext('2d', { willReadFrequently: location.hash === '#selftest' });
+  var scrub = root.querySelector('.v-scrub'), timeLabel = root.querySelector('.v-time');
+  var play = root.querySelector('.v-play'), modelBox = root.querySelector('.v-model');
+  var az = 60, el = 25, zoom = 1, frame = 0, timer = null, drag = null;
+  var c = data.centre_mm;
+
+  function project(x, y, z) {
+    var a = az * Math.PI / 180, e = el * Math.PI / 180;
+    var dx = x - c[0], dy = y - c[1], dz = z - c[2];
+    // screen right: perpendicular to the view azimuth in the x-y plane; up: -z tilted by the elevation
+    var sx = -Math.sin(a) * dx + Math.cos(a) * dy;
+    var depth = Math.cos(a) * dx + Math.sin(a) * dy;
+    var sy = -dz * Math.cos(e) - depth * Math.sin(e);
+    var s = zoom * 1.05 * Math.min(canvas.width, canvas.height) / data.size_mm;
+    return [canvas.width / 2 - s * sx, canvas.height / 2 - s * sy];
+  }
+
+  function plate(flat, colour, width, dash) {
+    ctx.strokeStyle = colour; ctx.lineWidth = width; ctx.setLineDash(dash || []);
+    ctx.beginPath();
+    data.edges.forEach(function (e) {
+      var p = project(flat[3 * e[0]], flat[3 * e[0] + 1], flat[3 * e[0] + 2]);
+      var q = project(flat[3 * e[1]], flat[3 * e[1] + 1], flat[3 * e[1] + 2]);
+      ctx.moveTo(p[0], p[1]); ctx.lineTo(q[0], q[1]);
+    });
+    ctx.stroke(); ctx.setLineDash([]);
+  }
+
+  function draw() {
+    ctx.fillStyle = '#fff'; ctx.fillRect(0, 0, canvas.width, canvas.height);
+    data.still.forEach(function (p) { plate(p, data.colours.still, 1); });
+    data.rest.forEach(function (p) { plate(p, data.colours.rest, 1, [6, 4]); });
+    if (data.model && (!modelBox || modelBox.checked)) {
+      ctx.globalAlpha = 0.45;
+      data.model.forEach(function (b) { plate(b[frame], data.colours.model, 7); });
+      ctx.globalAlpha = 1;
+    }
+    data.measured.forEach(function (b) { plate(b[frame], data.colours.measured, 2); });
+    var t = data.t_ms[frame];
+    timeLabel.textContent = 't = ' + (data.from_hit && t >= 0 ? '+' : '') + t.toFixed(2) + ' ms' +
+      (data.from_hit ? ' from the hit' : '');
+  }
+
+  function show(k) { frame = Math.max(0, Math.min(data.t_ms.length - 1, k)); scrub.value = frame; draw(); }
+  scrub.addEventListener('input', function () { show(parseInt(scrub.value, 10)); });
+  play.addEventListener('click', function () {
+    if (timer) { clearInterval(timer); timer = null; play.textContent = 'play'; return; }
+    play.textContent = 'pause';
+    timer = setInterval(function () { show(frame + 1 < data.t_ms.length ? frame + 1 : 0); }, 40);
+  });
+  if (modelBox) modelBox.addEventListener('change', draw);
+  root.querySelector('.v-zoom-in').addEventListener('click', function () { zoom *= 1.25; draw(); });
+  root.querySelector('.v-zoom-out').addEventListener('click', function () { zoom /= 1.25; draw(); });
+  canvas.addEventListener('wheel', function (e) {
+    e.preventDefault(); zoom *= e.deltaY < 0 ? 1.1 : 1 / 1.1; draw();
+  }, { passive: false });
+  canvas.addEventListener('pointerdown', function (e) { drag = [e.clientX, e.clientY]; });
+  window.addEventListener('pointerup', function () { drag = null; });
+  canvas.addEventListener('pointermove', function (e) {
+    if (!drag) return;
+    az += 0.4 * (e.clientX - drag[0]); el = Math.max(-89, Math.min(89, el + 0.4 * (e.clientY - drag[1])));
+    drag = [e.clientX, e.clientY]; draw();
+  });
+  draw();
+
+  if (location.hash === '#selftest') {
+    var fingerprint = function () {
+      var px = ctx.getImageData(0, 0, canvas.width, canvas.height).data, h = 0, ink = 0;
+      for (var i = 0; i < px.length; i += 4) {
+        if (px[i] < 250 || px[i + 1] < 250 || px[i + 2] < 250) { ink++; h = (h * 31 + px[i] + 7 * px[i + 2] + i) % 1000000007; }
+      }
+      return { ink: ink, hash: h };
+    };
+    var peak = 0, best = -1;
+    data.measured[0].forEach(function (_, k) {
+      var f = data.measured[0][k], r = data.rest[0], d = 0;
+      for (var i = 0; i < f.length; i++) d = Math.max(d, Math.abs(f[i] - r[i]));
+      if (d > best) { best = d; peak = k; }
+    });
+    var report = { first: fingerprint() };
+    show(peak); report.scrubbed = fingerprint(); report.frame = frame; report.label = timeLabel.textContent;
+    if (modelBox) { modelBox.checked = false; draw(); report.model_off = fingerprint(); }
+    az += 90; draw(); report.rotated = fingerprint();
+    report.errors = errors;
+    var out = document.createElement('pre'); out.id = 'viewer-selftest';
+    out.textContent = JSON.stringify(report); document.body.appendChild(out);
+  }
+})();
+"""
