@@ -9,23 +9,19 @@ import numpy as np
 
 @dataclass(frozen=True)
 class Excitation:
-    """Where and how the hammer hit: force channel, point (m, from the platform's centre of mass,
-    platform axes) and unit direction."""
+    """Where and how the hammer hit: force channel, point (m, rig frame; for the thesis rig from the
+    platform's centre of mass, platform axes) and unit direction."""
 
     force_channel: int
     point: np.ndarray
     direction: np.ndarray
 
 
-#: A hammer strikes a surface: a force point may sit this far (m) outside a plate's box, for the
-#: rounding of points given in mm and the thickness of a paint or wax layer.
-SURFACE_TOLERANCE = 1e-3
-
-
 def check_force_point(rig, point, where: str = "force point") -> None:
     """Refuse a force point (m, rig frame) outside every plate of ``rig`` in one line naming the
     nearest body and how far off it is. A rig without plates cannot be checked."""
     from odsuite.core.errors import ConfigError
+    from odsuite.core.rig import FORCE_POINT_SLACK
     from odsuite.core.rigidbody import plate_corners
 
     p = np.asarray(point, dtype=float)
@@ -36,7 +32,7 @@ def check_force_point(rig, point, where: str = "force point") -> None:
         c = plate_corners(body.plate)
         lo, hi = c.min(axis=0), c.max(axis=0)
         gaps[body.name] = float(np.linalg.norm(np.maximum(0.0, np.maximum(lo - p, p - hi))))
-    if not gaps or min(gaps.values()) <= SURFACE_TOLERANCE:
+    if not gaps or min(gaps.values()) <= FORCE_POINT_SLACK:
         return
     nearest = min(gaps, key=gaps.get)
     mm = ", ".join(f"{1e3 * v:g}" for v in p)

@@ -18,9 +18,10 @@ from odsuite.core.errors import ConfigError
 
 #: Generalized coordinates of a body, in order (m, m, m, rad, rad, rad).
 COORDINATES = ("x", "y", "z", "theta", "phi", "psi")
-#: how far (m) outside a body's plate a force point may lie and still be on that body: a hammer tip
-#: touches the surface, which a rounded plate size may miss by a millimetre
-FORCE_POINT_SLACK = 1e-3
+#: how far (m) outside a body's plate box a force point may lie and still be on that body: points are
+#: given to the millimetre on plates whose sizes are rounded too (the thesis's Table 5.3 puts test 5
+#: 1.6 mm beyond the platform's 98.46 mm length)
+FORCE_POINT_SLACK = 2e-3
 #: Roles of the nine-accelerometer set, in Table E.2 row 33 / Eq. 4.13 order.
 NINE_ROLES = ("xC", "yC", "zC", "x1", "z1", "y2", "z2", "x3", "y3")
 

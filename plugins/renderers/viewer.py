@@ -70,7 +70,7 @@ def viewer_html(data: Mapping, element_id: str = "viewer") -> str:
     """The <div> holding the canvas, the controls and the script for ``data`` (:func:`viewer_data`)."""
     payload = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
     model = "" if data.get("model") is None else (
-        f'<label><input type="checkbox" class="v-model" checked> model (orange)</label>')
+        '<label><input type="checkbox" class="v-model" checked> model (orange)</label>')
     return (f'<div id="{element_id}" class="viewer">'
             f'<canvas width="960" height="540" aria-label="interactive 3-D view of the motion"></canvas>'
             f'<div class="v-controls"><button type="button" class="v-play">play</button>'
