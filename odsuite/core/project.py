@@ -112,6 +112,9 @@ def _check_name(where: str, what: str, name: Any) -> str:
     if not isinstance(name, str) or not name.strip() or "/" in name or name.startswith("."):
         raise ConfigError(f"{where}: {what} name must be a non-empty string without '/' and not "
                           f"starting with '.', got {name!r}")
+    if not name.isprintable():  # newlines, escape sequences, undecodable bytes: not storable as text
+        raise ConfigError(f"{where}: {what} name must be printable text without control characters or "
+                          f"undecodable bytes, got {name!r}")
     return name
 
 
