@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from odsuite.core.daq import AcquisitionSettings, DaqBackend, Progress, Recording
+from odsuite.core.daq import AcquisitionSettings, DaqBackend, Progress, Recording, check_record_fits
 from odsuite.core.errors import ConfigError
 from odsuite.core.project import Experiment, Project
 
@@ -28,6 +28,8 @@ def acquire(
     if name in project.experiment_names():
         raise ConfigError(f"{project.path}: experiment {name!r} already exists; choose another --name")
     settings = settings or AcquisitionSettings()
+    channels = max(1, len(project.rig.sensors)) if project.rig is not None else 1
+    check_record_fits(settings.n_samples, channels, f"{project.path}: --samples {settings.n_samples}")
     rec = backend.record(project.rig, settings, progress=progress, **options)
     exp = project.add_experiment(
         name,

@@ -44,6 +44,7 @@ def _force_index(names: list[str], units: list[str], force_channel: str | None, 
 def import_lvm(project: str | Path, lvm_path: str | Path, name: str, force_channel: str | None = None) -> str:
     """Add a LabVIEW ``.lvm`` record to a project as experiment ``name``; returns the name."""
     d = read_lvm(lvm_path)
+    d.check_complete()
     fidx = _force_index(d.channel_names, d.units, force_channel, str(lvm_path))
     # a .lvm in engineering units holds no converter range: limits well above the peaks, so that
     # volt limits are never applied to g or N (clipping is then told by flat tops alone)
