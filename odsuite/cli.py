@@ -10,6 +10,7 @@ characters and undecodable bytes escaped), so a name like ``[/x]`` or ``x\\xff``
 
 from __future__ import annotations
 
+import math
 import signal
 import sys
 from pathlib import Path
@@ -280,6 +281,8 @@ def process_cmd(
     from odsuite.core.pipeline import process_experiment
     from odsuite.core.project import open_project
 
+    if cutoff is not None and not (math.isfinite(cutoff) and cutoff > 0):  # checked before anything is stored
+        raise ConfigError(f"--cutoff: must be a finite frequency > 0 Hz, got {cutoff}")
     with open_project(project, "a") as p, Progress(console=err_console, transient=True,
                                                    disable=not err_console.is_terminal) as bar:
         names = experiment or p.experiment_names()
@@ -496,6 +499,9 @@ def modes_cmd(
         freqs = [float(v) for v in at.split(",")] if at else None
     except ValueError:
         raise ConfigError(f"--at {at!r}: expected comma-separated frequencies in Hz") from None
+    for option, value in (("--fmin", f_min), ("--fmax", f_max)):
+        if value is not None and not (math.isfinite(value) and value >= 0):  # before the FRF is stored
+            raise ConfigError(f"{option}: must be a finite frequency >= 0 Hz, got {value}")
     band = None if f_min is None and f_max is None else (f_min, f_max)
     if figure is not None:
         _check_output(figure, project, "--figure")

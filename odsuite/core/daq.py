@@ -14,6 +14,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from odsuite.core.errors import ConfigError
+from odsuite.core.memory import free_memory
 from odsuite.core.excitation import Excitation
 from odsuite.core.rig import Rig
 from odsuite.core.systeminfo import (
@@ -43,14 +44,9 @@ MAX_SAMPLES = 2**34
 def check_record_fits(n_samples: int, n_channels: int, where: str) -> None:
     """Refuse, before anything is allocated, a record whose float64 samples exceed the memory
     this machine has free."""
-    import os
-
     need = int(n_samples) * int(n_channels) * 8
-    try:
-        free = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):  # no sysconf (Windows): total memory unknown
-        return
-    if need > free:
+    free = free_memory()
+    if free is not None and need > free:
         raise ConfigError(f"{where}: a record of {n_samples} samples x {n_channels} channels needs "
                           f"{need / 2**20:.0f} MiB; only {free / 2**20:.0f} MiB of memory are free")
 

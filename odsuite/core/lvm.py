@@ -19,6 +19,7 @@ import numpy as np
 from odsuite.core.daq import MAX_RATE_HZ, MIN_RATE_HZ
 from odsuite.core.errors import ConfigError
 from odsuite.core.rig import MAX_CHANNELS
+from odsuite.core.textfiles import check_text_file
 
 END_OF_HEADER = "***End_of_Header***"
 _SEPARATORS = {"tab": "\t", "comma": ",", "semicolon": ";", "space": " "}
@@ -96,6 +97,7 @@ def _snap_delta_x(text: str, value: float) -> float:
 def read_lvm(path: str | Path) -> LvmData:
     """Read a LabVIEW ``.lvm`` text file (Writer_Version 0.92 to 2, one or more segments)."""
     path = Path(path)
+    check_text_file(path, "LabVIEW (.lvm)")
     try:
         text = path.read_bytes().decode("latin-1")
     except OSError as exc:

@@ -4,6 +4,7 @@ given to the command byte-identical. The table there and ``CASES`` here must lis
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 from collections.abc import Callable
@@ -269,8 +270,8 @@ CASES: list[Case] = [
     # numeric limits that follow from physics and memory
     Case("acquire-samples-huge", "acquire --samples 9223372036854775808", "acquisition setting 'n_samples': must be an integer from 2 to 17179869184, got 9223372036854775808",
          argv=lambda d: ["acquire", str(d / "p.h5"), "--samples", "9223372036854775808", "--name", "new"]),
-    Case("acquire-samples-memory", "acquire --samples 4000000000 (more than free memory)", "{dir}/p.h5: --samples 4000000000: a record of 4000000000 samples x 9 channels needs 274658 MiB",
-         argv=lambda d: ["acquire", str(d / "p.h5"), "--samples", "4000000000", "--name", "new"]),
+    Case("acquire-samples-memory", "acquire --samples 17179869184 (more than free memory)", "{dir}/p.h5: --samples 17179869184: a record of 17179869184 samples x 9 channels needs 1179648 MiB",
+         argv=lambda d: ["acquire", str(d / "p.h5"), "--samples", "17179869184", "--name", "new"]),
     Case("acquire-rate-high", "acquire --rate 1e308", "acquisition setting 'sampling_rate': must be between 0.1 Hz and 1e+08 Hz, got 1e+308 Hz", argv=lambda d: ["acquire", str(d / "p.h5"), "--rate", "1e308", "--name", "new"]),
     Case("acquire-rate-low", "acquire --rate 1e-300", "acquisition setting 'sampling_rate': must be between 0.1 Hz and 1e+08 Hz, got 1e-300 Hz", argv=lambda d: ["acquire", str(d / "p.h5"), "--rate", "1e-300", "--name", "new"]),
     Case("acquire-seed", "acquire --seed -1", "simulator option 'seed': an integer from 0 to 2**63-1, got -1", argv=lambda d: ["acquire", str(d / "p.h5"), "--seed", "-1", "--name", "new"]),
@@ -306,6 +307,14 @@ CASES: list[Case] = [
          argv=lambda d: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d)]),
     Case("output-missing-folder", "render -o into a folder that does not exist", "-o {dir}/none/m.gif: folder {dir}/none does not exist",
          argv=lambda d: ["render", str(d / "p.h5"), "e1", "-o", str(d / "none" / "m.gif")]),
+    Case("dat-fifo", "a named pipe (FIFO) given as the .DAT file", "{dir}/pipe.DAT: not a regular file (a pipe or device), expected a data (.DAT/.VIZ) file",
+         argv=lambda d: (os.mkfifo(d / "pipe.DAT"), legacy(ctr="good.CTR", dat="pipe.DAT")(d))[1]),
+    Case("dat-device", "/dev/zero given as the .DAT file", "/dev/zero: not a regular file (a pipe or device), expected a data (.DAT/.VIZ) file",
+         argv=lambda d: legacy(ctr="good.CTR", dat="/dev/zero")(d)),
+    Case("process-cutoff-nan", "process --corrected --cutoff nan", "--cutoff: must be a finite frequency > 0 Hz, got nan",
+         argv=lambda d: ["process", str(d / "p.h5"), "--corrected", "--cutoff", "nan"]),
+    Case("modes-fmin-nan", "modes --fmin nan", "--fmin: must be a finite frequency >= 0 Hz, got nan",
+         argv=lambda d: ["modes", str(d / "p.h5"), "--experiment", "e1", "--fmin", "nan"]),
     Case("history-figure-suffix", "history --figure h.txt", "--figure {dir}/h.txt: suffix '.txt' is not .png, .svg or .pdf", argv=lambda d: ["history", str(d / "p.h5"), "--figure", str(d / "h.txt")]),
 ]
 
