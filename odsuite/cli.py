@@ -10,6 +10,7 @@ characters and undecodable bytes escaped), so a name like ``[/x]`` or ``x\\xff``
 
 from __future__ import annotations
 
+import contextlib
 import math
 import signal
 import sys
@@ -281,17 +282,24 @@ def process_cmd(
     from odsuite.core.pipeline import process_experiment
     from odsuite.core.project import open_project
 
-    if cutoff is not None and not (math.isfinite(cutoff) and cutoff > 0):  # checked before anything is stored
-        raise ConfigError(f"--cutoff: must be a finite frequency > 0 Hz, got {cutoff}")
+    # below 0.01 Hz no hammer record (seconds long) has a frequency line: checked before anything is stored
+    if cutoff is not None and not (math.isfinite(cutoff) and cutoff >= 0.01):
+        raise ConfigError(f"--cutoff: must be a finite frequency >= 0.01 Hz, got {cutoff}")
     with open_project(project, "a") as p, Progress(console=err_console, transient=True,
-                                                   disable=not err_console.is_terminal) as bar:
+                                                   disable=not err_console.is_terminal) as bar, \
+            (p.transaction() if corrected else contextlib.nullcontext()):
+        # with --corrected one transaction: all or nothing; without, each experiment commits on its own
         names = experiment or p.experiment_names()
         _ledger.plan(project, names + ([f"{n} (corrected)" for n in names] if corrected else []))
+        if corrected:
+            _ledger.start(", ".join(names + [f"{n} (corrected)" for n in names]))
         for name in names:
             task = bar.add_task(f"processing {name}", total=None)
-            _ledger.start(name)
+            if not corrected:
+                _ledger.start(name)
             summary = process_experiment(p, name, progress=lambda a, b, t=task: bar.update(t, completed=a, total=b))
-            _ledger.done()
+            if not corrected:
+                _ledger.done()
             bodies = "; ".join(f"{b}: {r['solver']}" + (
                 f", rigidity {', '.join(f'{k} {v:.1%}' for k, v in r['rigidity'].items())}" if "rigidity" in r else "")
                 + (f" FLAGGED {','.join(r['flagged'])}" if r.get("flagged") else "")
@@ -304,11 +312,7 @@ def process_cmd(
         if corrected:
             from odsuite.core.correction import process_corrected
 
-            _ledger.start(", ".join(f"{n} (corrected)" for n in names))
-            corrected_results = process_corrected(p, experiment or None, cutoff_hz=cutoff)
-            _ledger.stored += [f"{n} (corrected)" for n in corrected_results]
-            _ledger.current = None
-            for name, res in corrected_results.items():
+            for name, res in process_corrected(p, experiment or None, cutoff_hz=cutoff).items():
                 console.print(f"{name}: gencoords_corrected (model revision {res['revision']}, cutoff "
                               f"{res['cutoff_hz']:.1f} Hz)", highlight=False, soft_wrap=True)
 
@@ -554,6 +558,8 @@ def render_cmd(
 
     if workers is not None and workers < 1:
         raise ConfigError(f"--workers: at least 1 render process, got {workers}")
+    if ods is not None and not (math.isfinite(ods) and ods >= 0.01):  # as --cutoff: no line below 0.01 Hz
+        raise ConfigError(f"--ods: must be a finite frequency >= 0.01 Hz, got {ods}")
     _check_output(output, project, "-o")
     renderer = choose_renderer(registries().renderers, output, figure, "figure" if figure else "movie")
     options = {"model": model, "magnify": parse_magnify(magnify), "view": view, "workers": workers,

@@ -128,7 +128,11 @@ def _resolve_rig(rig: Rig | str | Path | None) -> Rig | None:
     rigs = registries().rigs
     if isinstance(rig, str) and rig in rigs:
         return rigs.get(rig)
-    if Path(rig).suffix == ".toml" or Path(rig).is_file():
+    try:
+        rig_file = Path(rig).suffix == ".toml" or Path(rig).is_file()
+    except (OSError, ValueError):  # a name too long for a path, or with a NUL byte: no file
+        rig_file = False
+    if rig_file:
         return load_rig(rig, registries().sensor_types)
     raise ConfigError(f"unknown rig {str(rig)!r}: not a registered rig (known: {', '.join(rigs.names()) or 'none'}) "
                       "and not a .toml rig file")

@@ -264,6 +264,11 @@ def load_rig(path: str | Path, sensor_types) -> Rig:
         raise ConfigError(f"{path}: rig file not found") from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: not UTF-8 text (byte 0x{exc.object[exc.start]:02x} at offset {exc.start}), "
+                          "so not a TOML rig file") from None
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read the rig file ({exc.strerror})") from None
     return rig_from_dict(data, sensor_types, source=path)
 
 

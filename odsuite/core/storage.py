@@ -132,10 +132,11 @@ def check_output(output: Path, project: Path | None, option: str) -> Path:
         raise ProjectFileError(f"{option} {output}: folder {output.parent} does not exist")
     if project is not None:
         project = Path(project)
+        real_output, real_project = os.path.realpath(output), os.path.realpath(project)  # no error on loops
         same = output.exists() and project.exists() and os.path.samefile(output, project)
-        sidecar = output.resolve().parent == project.resolve().parent and (
+        sidecar = Path(real_output).parent == Path(real_project).parent and (
             output.name == _lock_path(project).name or output.name.startswith(f"{project.name}.tmp-"))
-        if same or output.resolve() == project.resolve() or sidecar:
+        if same or real_output == real_project or sidecar:
             raise ProjectFileError(f"{option} {output}: that is the project {project} or one of its own files; "
                                    "give another file name")
     return output

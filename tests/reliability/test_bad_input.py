@@ -311,7 +311,7 @@ CASES: list[Case] = [
          argv=lambda d: (os.mkfifo(d / "pipe.DAT"), legacy(ctr="good.CTR", dat="pipe.DAT")(d))[1]),
     Case("dat-device", "/dev/zero given as the .DAT file", "/dev/zero: not a regular file (a pipe or device), expected a data (.DAT/.VIZ) file",
          argv=lambda d: legacy(ctr="good.CTR", dat="/dev/zero")(d)),
-    Case("process-cutoff-nan", "process --corrected --cutoff nan", "--cutoff: must be a finite frequency > 0 Hz, got nan",
+    Case("process-cutoff-nan", "process --corrected --cutoff nan", "--cutoff: must be a finite frequency >= 0.01 Hz, got nan",
          argv=lambda d: ["process", str(d / "p.h5"), "--corrected", "--cutoff", "nan"]),
     Case("modes-fmin-nan", "modes --fmin nan", "--fmin: must be a finite frequency >= 0 Hz, got nan",
          argv=lambda d: ["modes", str(d / "p.h5"), "--experiment", "e1", "--fmin", "nan"]),
