@@ -48,7 +48,7 @@ COMMANDS: tuple[InterruptedCommand, ...] = (
         (0.5, 3.5)),
     InterruptedCommand("import-legacy", lambda p, i, o, k: [
         "import-legacy", str(p), str(i / "T8.DAT"), "--systeminfo", str(TABLE_E3), "--name", f"leg{k}",
-        "--force-point", "0,4.122,-11.399", "--force-dir", "+z"], (0.5, 2.6)),
+        "--force-point", "0,4.122,-11.399", "--force-dir", "+z"], (0.5, 1.8)),
     InterruptedCommand("render", lambda p, i, o, k: [
         "render", str(p), "s1", "-o", str(o / "m.gif"), "--workers", "2", "--frame-step", "32"], (3.0, 12.0)),
 )
