@@ -14,6 +14,7 @@ import os
 import shutil
 import signal
 import socket
+import stat
 import threading
 import weakref
 from collections.abc import Iterator
@@ -177,9 +178,15 @@ def interrupts_deferred() -> Iterator[None]:
 def copy_on_write(path: Path) -> Iterator[h5py.File]:
     """A writable copy of the project ``path`` that replaces it when the block exits without
     error (its file_update_time set); on error or a crash the project is left as it was."""
+    # a project reached through a link is written where the link points, the link kept
+    path = Path(os.path.realpath(path))
+    # the owner's write bit, not access(): an administrator could write, yet the file says read-only
+    if not os.stat(path).st_mode & stat.S_IWUSR or not os.access(path, os.W_OK):
+        raise ProjectFileError(f"{path}: project is read-only; make it writable (chmod u+w) to change it")
     tmp = tmp_path(path)
     try:
         shutil.copyfile(path, tmp)
+        shutil.copymode(path, tmp)  # the project keeps its permissions
         crash_point("copied")
         f = h5py.File(tmp, "r+", locking=False, libver=LIBVER)
     except BaseException as exc:  # an interrupt during the copy leaves no copy behind either

@@ -315,6 +315,8 @@ CASES: list[Case] = [
          argv=lambda d: ["process", str(d / "p.h5"), "--corrected", "--cutoff", "nan"]),
     Case("modes-fmin-nan", "modes --fmin nan", "--fmin: must be a finite frequency >= 0 Hz, got nan",
          argv=lambda d: ["modes", str(d / "p.h5"), "--experiment", "e1", "--fmin", "nan"]),
+    Case("project-read-only", "import-legacy into a project with mode 0444", "{dir}/p.h5: project is read-only; make it writable (chmod u+w) to change it",
+         argv=lambda d: ((d / "p.h5").chmod(0o444), legacy(ctr="good.CTR")(d))[1]),
     Case("history-figure-suffix", "history --figure h.txt", "--figure {dir}/h.txt: suffix '.txt' is not .png, .svg or .pdf", argv=lambda d: ["history", str(d / "p.h5"), "--figure", str(d / "h.txt")]),
 ]
 
