@@ -1,19 +1,35 @@
 """The ``odsuite`` command line: every command is a thin call into the Python API.
 
 Only ``OdsuiteError`` is caught: it is printed as one line and the exit code is 1. Any other
-exception is a bug and keeps its traceback.
+exception is a bug and keeps its traceback. Ctrl-C ends a command with exit code 130 and one line
+saying what was stored and what was not.
+
+Names and paths are data: every string printed goes through ``shown`` (no rich markup, control
+characters and undecodable bytes escaped), so a name like ``[/x]`` or ``x\\xff`` prints as itself.
 """
 
 from __future__ import annotations
 
+import contextlib
+import math
+import signal
 import sys
 from pathlib import Path
+
+#: Ctrl-Cs received: one while the command line loads (imports take about a second) is held here
+#: until ``main`` can report it (only when run as the ``odsuite`` program, never for an importing
+#: library); one swallowed on the way (see ``_unraisable``) is reported when the command ends.
+_INTERRUPTS: list[int] = []
+_AS_PROGRAM = Path(sys.argv[0]).name == "odsuite"
+if _AS_PROGRAM:
+    signal.signal(signal.SIGINT, lambda signum, frame: _INTERRUPTS.append(signum))
 
 import typer
 from rich.console import Console
 from rich.table import Table
+from rich.text import Text
 
-from odsuite.core.errors import OdsuiteError
+from odsuite.core.errors import ConfigError, OdsuiteError
 
 app = typer.Typer(
     name="odsuite",
@@ -22,8 +38,84 @@ app = typer.Typer(
     add_completion=True,  # --install-completion / --show-completion for bash, zsh, fish, PowerShell
     pretty_exceptions_enable=False,
 )
-console = Console()
-err_console = Console(stderr=True)
+
+
+def shown(value: object) -> str:
+    """User data as one printable line: control characters (newlines, ANSI escapes) and bytes that
+    were not UTF-8 (surrogate escapes of argv and file names) written as Python escapes."""
+    text = str(value)
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else
+                   f"\\x{ord(c) - 0xDC00:02x}" if 0xDC80 <= ord(c) <= 0xDCFF else repr(c)[1:-1]
+                   for c in text)
+
+
+class _DataConsole(Console):
+    """A console that never reads markup and prints every string through ``shown`` (tables,
+    progress descriptions and messages alike); styles come from ``Text`` objects only."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__(markup=False, **kwargs)
+
+    def render_str(self, text: str, **kwargs) -> Text:
+        return super().render_str(shown(text), **{**kwargs, "markup": False})
+
+
+console = _DataConsole()
+err_console = _DataConsole(stderr=True)
+
+
+class _Interrupted(BaseException):
+    """Ctrl-C, raised instead of KeyboardInterrupt so click does not turn it into 'Aborted!'; every
+    ``finally`` and copy-on-write cleanup still runs."""
+
+
+class _Ledger:
+    """What the running command stored, for the one line a Ctrl-C prints. A command names the
+    units it will store (``plan``), opens each (``start``) and closes it (``done``); a unit whose
+    commit reached the disk (``storage.COMMITS``) before the interrupt counts as stored."""
+
+    def __init__(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        self.target: Path | None = None
+        self.planned: list[str] = []
+        self.stored: list[str] = []
+        self.current: str | None = None
+        self.commits_at_start = 0
+
+    def plan(self, target: Path, units: list[str]) -> None:
+        from odsuite.core.storage import COMMITS
+
+        self.target, self.planned, self.commits_at_start = target, list(units), len(COMMITS)
+
+    def start(self, unit: str) -> None:
+        from odsuite.core.storage import COMMITS
+
+        self.current, self.commits_at_start = unit, len(COMMITS)
+
+    def done(self) -> None:
+        if self.current is not None:
+            self.stored.append(self.current)
+        self.current = None
+
+    def line(self) -> str:
+        from odsuite.core.storage import COMMITS
+
+        if self.current is not None and len(COMMITS) > self.commits_at_start:
+            self.done()
+        if self.target is None:
+            return "interrupted: nothing stored"
+        missing = [u for u in self.planned if u not in self.stored]
+        if not self.stored:
+            return f"interrupted: nothing stored, {self.target} unchanged"
+        return (f"interrupted: stored {', '.join(self.stored)} in {self.target}; not stored: "
+                f"{', '.join(missing) or 'nothing'}")
+
+
+_ledger = _Ledger()
 
 
 def _print_version(value: bool) -> None:
@@ -128,7 +220,7 @@ def info_cmd(project: Path = typer.Argument(..., help="Project file."),
         table.add_row(name, str(len(e["channels"])), f"{e['sampling_rate']:g}",
                       str(e["n_samples"]), f"{e['duration']:.4g}",
                       f"{e['peak_volts'][peak_channel]:.4g} ({peak_channel})",
-                      f"[red]{clipped}[/red]" if clipped else "-", ", ".join(e["derived"]) or "-")
+                      Text(shown(clipped), style="red") if clipped else "-", ", ".join(e["derived"]) or "-")
     console.print(table)
     if revisions:
         rt = Table(title=f"model revisions (current: {info['current_revision']})")
@@ -148,6 +240,8 @@ def _import(project: Path, file: Path, name: str, fmt: str | None, **options) ->
     from odsuite.core.plugins import registries
 
     importer = choose_importer(registries().importers, file, fmt)
+    _ledger.plan(project, [f"experiment {name}"])
+    _ledger.start(f"experiment {name}")
     res = importer.import_file(project, file, name, **check_options(importer, options))
     for note in res.notes:
         err_console.print(f"warning: {note}", style="yellow", highlight=False, soft_wrap=True)
@@ -197,6 +291,7 @@ def export_legacy_cmd(
     """Write an experiment's generalized coordinates as a thesis .COD file (6 columns per body)."""
     from odsuite.core.importing import export_legacy
 
+    _check_output(cod, project, "--cod")
     export_legacy(project, experiment, cod, at)
     console.print(f"wrote {cod}", highlight=False, soft_wrap=True)
 
@@ -216,11 +311,24 @@ def process_cmd(
     from odsuite.core.pipeline import process_experiment
     from odsuite.core.project import open_project
 
+    # below 0.01 Hz no hammer record (seconds long) has a frequency line: checked before anything is stored
+    if cutoff is not None and not (math.isfinite(cutoff) and cutoff >= 0.01):
+        raise ConfigError(f"--cutoff: must be a finite frequency >= 0.01 Hz, got {cutoff}")
     with open_project(project, "a") as p, Progress(console=err_console, transient=True,
-                                                   disable=not err_console.is_terminal) as bar:
-        for name in experiment or p.experiment_names():
+                                                   disable=not err_console.is_terminal) as bar, \
+            (p.transaction() if corrected else contextlib.nullcontext()):
+        # with --corrected one transaction: all or nothing; without, each experiment commits on its own
+        names = experiment or p.experiment_names()
+        _ledger.plan(project, names + ([f"{n} (corrected)" for n in names] if corrected else []))
+        if corrected:
+            _ledger.start(", ".join(names + [f"{n} (corrected)" for n in names]))
+        for name in names:
             task = bar.add_task(f"processing {name}", total=None)
+            if not corrected:
+                _ledger.start(name)
             summary = process_experiment(p, name, progress=lambda a, b, t=task: bar.update(t, completed=a, total=b))
+            if not corrected:
+                _ledger.done()
             bodies = "; ".join(f"{b}: {r['solver']}" + (
                 f", rigidity {', '.join(f'{k} {v:.1%}' for k, v in r['rigidity'].items())}" if "rigidity" in r else "")
                 + (f" FLAGGED {','.join(r['flagged'])}" if r.get("flagged") else "")
@@ -287,6 +395,8 @@ def acquire_cmd(
             TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
             console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
         task = bar.add_task("arming", total=samples)
+        _ledger.plan(project, [f"experiment {name}"])
+        _ledger.start(f"experiment {name}")
 
         def progress(stage: str, done: int, total: int) -> None:
             bar.update(task, description=stage, completed=done, total=total)
@@ -364,6 +474,7 @@ def export_uff_cmd(
     """Write an experiment as UFF: time records, FRFs, the rig's nodes and trace lines."""
     from odsuite.core.uff_project import export_uff
 
+    _check_output(output, project, "-o")
     export_uff(project, output, experiment, binary=not ascii_, node_dataset=nodes)
     console.print(f"wrote {output}", highlight=False, soft_wrap=True)
 
@@ -381,6 +492,8 @@ def frf_cmd(
     from odsuite.core.frf import usable_band
     from odsuite.core.modal_project import experiment_frf
 
+    if figure is not None:
+        _check_output(figure, project, "--figure")
     frf, hits = experiment_frf(project, experiment, estimator=estimator)
     for h in hits if not as_json else ():
         state = "accepted" if h.accepted else "rejected: " + ", ".join(h.reasons)
@@ -434,7 +547,12 @@ def modes_cmd(
         freqs = [float(v) for v in at.split(",")] if at else None
     except ValueError:
         raise ConfigError(f"--at {at!r}: expected comma-separated frequencies in Hz") from None
+    for option, value in (("--fmin", f_min), ("--fmax", f_max)):
+        if value is not None and not (math.isfinite(value) and value >= 0):  # before the FRF is stored
+            raise ConfigError(f"{option}: must be a finite frequency >= 0 Hz, got {value}")
     band = None if f_min is None and f_max is None else (f_min, f_max)
+    if figure is not None:
+        _check_output(figure, project, "--figure")
     if output_only:
         if freqs is not None:
             raise ConfigError("--at picks poles of the FRF fit; it does not combine with --output-only")
@@ -487,11 +605,17 @@ def render_cmd(
     from odsuite.core.plugins import registries
     from odsuite.core.renderers import RenderRequest, choose_renderer, parse_magnify
 
+    if workers is not None and workers < 1:
+        raise ConfigError(f"--workers: at least 1 render process, got {workers}")
+    if ods is not None and not (math.isfinite(ods) and ods >= 0.01):  # as --cutoff: no line below 0.01 Hz
+        raise ConfigError(f"--ods: must be a finite frequency >= 0.01 Hz, got {ods}")
+    _check_output(output, project, "-o")
     renderer = choose_renderer(registries().renderers, output, figure, "figure" if figure else "movie")
     options = {"model": model, "magnify": parse_magnify(magnify), "view": view, "workers": workers,
                "frame_step": frame_step, "slowdown": slowdown, "ods_hz": ods, "start": start, "end": end,
                "fps": fps, "duration": duration}
-    res = renderer.render(RenderRequest(project, experiment, output, options, progress=not as_json))
+    res = renderer.render(RenderRequest(project, experiment, output, options,
+                                        progress=err_console.is_terminal and not as_json))
     if as_json:
         _print_json(_rendered_doc(renderer, res))
         return
@@ -521,6 +645,12 @@ def verify_cmd(project: Path = typer.Argument(..., help="Project file."),
     console.print(f"{project}: {sum(checked.values())} checksummed datasets in {len(checked)} experiments "
                   "read back intact", highlight=False, soft_wrap=True)
 
+
+
+def _check_output(output: Path, project: Path, option: str) -> None:
+    from odsuite.core.storage import check_output
+
+    check_output(output, project, option)
 
 
 def _print_json(doc) -> None:
@@ -651,6 +781,10 @@ def history_cmd(
     from odsuite.core.history import history
     from odsuite.core.project import open_project
 
+    if figure is not None:
+        _check_output(figure, project, "--figure")
+        if figure.suffix.lower() not in (".png", ".svg", ".pdf"):
+            raise ConfigError(f"--figure {figure}: suffix {figure.suffix!r} is not .png, .svg or .pdf")
     with open_project(project) as p:
         doc = history(p)
     if figure is not None:
@@ -699,6 +833,7 @@ def report_cmd(
     from odsuite.core.plugins import registries
     from odsuite.core.renderers import RenderRequest, choose_renderer
 
+    _check_output(output, project, "-o")
     renderer = choose_renderer(registries().renderers, output, "report")
     with _loop_progress() as bar:
         task = bar.add_task("report", total=None)
@@ -731,6 +866,8 @@ def batch_cmd(
     """Run one command over many projects on dask.distributed, one project per task."""
     from odsuite.core.batch import describe, run_batch
 
+    if workers is not None and workers < 1:
+        raise ConfigError(f"--workers: at least 1 worker process, got {workers}")
     options = {"effects": effect or None, "effect": effect[0] if effect else None, "experiment": experiment,
                "out": None if out is None else str(out.resolve()), "no_diagnose": no_diagnose, "no_movie": no_movie}
     with _loop_progress() as bar:
@@ -751,7 +888,7 @@ def batch_cmd(
             table.add_column(col)
         for r in result.projects:
             style = "" if r["status"] == "ok" else "red"
-            table.add_row(r["project"], f"[{style}]{r['status']}[/{style}]" if style else r["status"],
+            table.add_row(r["project"], Text(shown(r["status"]), style=style),
                           "-" if r["seconds"] is None else f"{r['seconds']:.1f}", describe(command, r))
         console.print(table)
     if not result.ok:
@@ -821,12 +958,48 @@ def _quiet_flags(command) -> None:
         _quiet_flags(sub)
 
 
+def _on_interrupt(signum, frame) -> None:
+    # one interrupt ends the command; further ones wait for its cleanup (temporary copies, workers)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _INTERRUPTS.append(signum)
+    raise _Interrupted()
+
+
+def _unraisable(hook_args) -> None:
+    # an interrupt raised where Python cannot raise (a finaliser) is still reported by main
+    if not isinstance(hook_args.exc_value, _Interrupted):
+        sys.__unraisablehook__(hook_args)
+
+
 def main(argv: list[str] | None = None) -> int:
+    _ledger.reset()
+    if not _AS_PROGRAM:  # called again in the same process (tests, scripts): a fresh start
+        _INTERRUPTS.clear()
     try:
+        previous = signal.signal(signal.SIGINT, _on_interrupt)
+    except ValueError:  # not the main thread: interrupts stay Python's
+        previous = None
+    hook, sys.unraisablehook = sys.unraisablehook, _unraisable
+    try:
+        return _run(argv)
+    finally:
+        sys.unraisablehook = hook
+        if previous is not None:
+            # the program's work is done: a late Ctrl-C must not kill the exiting interpreter
+            signal.signal(signal.SIGINT, signal.SIG_IGN if _AS_PROGRAM else previous)
+
+
+def _run(argv: list[str] | None) -> int:
+    try:
+        if _INTERRUPTS:  # Ctrl-C while the program loaded
+            raise _Interrupted()
         _register_plugin_commands()
         command = typer.main.get_command(app)
         _quiet_flags(command)
-        command.main(args=argv, standalone_mode=False, prog_name="odsuite")
+        code = command.main(args=argv, standalone_mode=False, prog_name="odsuite")
+    except (_Interrupted, KeyboardInterrupt):
+        err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
+        return 130
     except OdsuiteError as exc:
         err_console.print(f"error: {exc}", style="bold red", highlight=False, soft_wrap=True)
         return 1
@@ -839,7 +1012,11 @@ def main(argv: list[str] | None = None) -> int:
         # usage errors (unknown option, missing argument) carry their own exit code
         exc.show()
         return exc.exit_code
-    return 0
+    if _INTERRUPTS:  # the interrupt was swallowed on the way (see _unraisable): report it
+        err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
+        return 130
+    # standalone_mode=False returns a command's typer.Exit code instead of raising it
+    return code if isinstance(code, int) else 0
 
 
 if __name__ == "__main__":

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from odsuite.core.daq import AcquisitionSettings, DaqBackend, Progress, Recording
+from odsuite.core.daq import AcquisitionSettings, DaqBackend, Progress, Recording, check_record_fits
 from odsuite.core.errors import ConfigError
 from odsuite.core.excitation import check_force_point
 from odsuite.core.project import Experiment, Project
@@ -31,6 +31,8 @@ def acquire(
     settings = settings or AcquisitionSettings()
     if options.get("point") is not None and project.rig is not None:
         check_force_point(project.rig, options["point"], "--force-point")
+    channels = project.rig.channel_count if project.rig is not None else 1
+    check_record_fits(settings.n_samples, channels, f"{project.path}: --samples {settings.n_samples}")
     rec = backend.record(project.rig, settings, progress=progress, **options)
     exp = project.add_experiment(
         name,

@@ -14,6 +14,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from odsuite.core.errors import ConfigError
+from odsuite.core.memory import free_memory
 from odsuite.core.excitation import Excitation
 from odsuite.core.rig import Rig
 from odsuite.core.systeminfo import (
@@ -29,6 +30,25 @@ Progress = Callable[[str, int, int], None]
 
 WAITING = "waiting for trigger"
 READING = "reading"
+
+
+#: Sampling rates a vibration record can have: below 0.1 Hz a 2-sample record already lasts 20 s
+#: per sample; above 100 MHz no accelerometer or hammer chain has bandwidth left to sample.
+MIN_RATE_HZ = 0.1
+MAX_RATE_HZ = 1e8
+#: Samples per channel: 2**34 float64 samples are 128 GiB per channel, beyond any machine's memory;
+#: the memory actually free is checked when the record is set up (``check_record_fits``).
+MAX_SAMPLES = 2**34
+
+
+def check_record_fits(n_samples: int, n_channels: int, where: str) -> None:
+    """Refuse, before anything is allocated, a record whose float64 samples exceed the memory
+    this machine has free."""
+    need = int(n_samples) * int(n_channels) * 8
+    free = free_memory()
+    if free is not None and need > free:
+        raise ConfigError(f"{where}: a record of {n_samples} samples x {n_channels} channels needs "
+                          f"{need / 2**20:.0f} MiB; only {free / 2**20:.0f} MiB of memory are free")
 
 
 @dataclass(frozen=True)
@@ -50,10 +70,15 @@ class AcquisitionSettings:
     chunk_size: int = 1024
 
     def __post_init__(self) -> None:
-        if not (np.isfinite(self.sampling_rate) and self.sampling_rate > 0):
-            raise ConfigError(f"acquisition setting 'sampling_rate': must be > 0 Hz, got {self.sampling_rate!r}")
-        if int(self.n_samples) != self.n_samples or self.n_samples < 2:
-            raise ConfigError(f"acquisition setting 'n_samples': must be an integer >= 2, got {self.n_samples!r}")
+        if not (np.isfinite(self.sampling_rate) and MIN_RATE_HZ <= self.sampling_rate <= MAX_RATE_HZ):
+            raise ConfigError(f"acquisition setting 'sampling_rate': must be between {MIN_RATE_HZ:g} Hz and "
+                              f"{MAX_RATE_HZ:g} Hz, got {self.sampling_rate!r} Hz")
+        if int(self.n_samples) != self.n_samples or not 2 <= self.n_samples <= MAX_SAMPLES:
+            raise ConfigError(f"acquisition setting 'n_samples': must be an integer from 2 to {MAX_SAMPLES}, "
+                              f"got {self.n_samples!r}")
+        for name in ("trigger_level", "trigger_timeout"):
+            if not np.isfinite(getattr(self, name)):
+                raise ConfigError(f"acquisition setting {name!r}: must be a finite number, got {getattr(self, name)!r}")
         if int(self.pretrigger) != self.pretrigger or not 0 <= self.pretrigger < self.n_samples:
             raise ConfigError(
                 f"acquisition setting 'pretrigger': must be an integer in [0, n_samples={self.n_samples}), "

@@ -18,7 +18,7 @@ import numpy as np
 
 from odsuite.core.errors import ConfigError, DimensionError
 from odsuite.core.systeminfo import format_ctr, parse_ctr, read_ctr, write_ctr
-from odsuite.core.textfiles import read_text
+from odsuite.core.textfiles import check_text_file, read_text
 
 __all__ = ["LegacyData", "format_ctr", "parse_ctr", "read_cod", "read_ctr", "read_dat", "read_table",
            "write_cod", "write_ctr", "write_dat"]
@@ -51,6 +51,7 @@ def read_table(path: str | Path, what: str = "data") -> np.ndarray:
     """Read a whitespace/tab-delimited numeric table (rows x columns, float64). Missing file, empty
     file, ragged rows, non-numeric cells and NaN/Inf raise one-line ConfigErrors."""
     path = Path(path)
+    check_text_file(path, what)
     if not path.is_file():
         read_text(path, what)  # raises the one-line "not found" / "is a directory" error
     try:

@@ -16,7 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
+from odsuite.core.daq import MAX_RATE_HZ, MIN_RATE_HZ
 from odsuite.core.errors import ConfigError
+from odsuite.core.rig import MAX_CHANNELS
+from odsuite.core.textfiles import check_text_file
 
 END_OF_HEADER = "***End_of_Header***"
 _SEPARATORS = {"tab": "\t", "comma": ",", "semicolon": ";", "space": " "}
@@ -55,6 +58,18 @@ class LvmData:
             )
         return self.data[:, self.channel_names.index(name)]
 
+    def check_complete(self) -> None:
+        """Refuse a file cut off: fewer rows than the header's Samples, or a row missing values."""
+        n = self.declared_samples[0] if self.declared_samples else 0
+        if n > self.n_samples:
+            raise ConfigError(f"{self.path}: header field Samples says {n} samples per channel, the file "
+                              f"holds {self.n_samples} rows (cut off?)")
+        missing = np.argwhere(np.isnan(self.data))
+        if missing.size:
+            row, ch = (int(v) for v in missing[0])
+            raise ConfigError(f"{self.path}: data row {row + 1}, channel {self.channel_names[ch]!r}: value "
+                              f"missing ({len(missing)} missing in all; cut off?)")
+
     def records(self) -> list[np.ndarray]:
         """Split into consecutive records of the declared sample count when the file holds a whole
         multiple of it (LabVIEW appends triggered records without a new header)."""
@@ -82,6 +97,7 @@ def _snap_delta_x(text: str, value: float) -> float:
 def read_lvm(path: str | Path) -> LvmData:
     """Read a LabVIEW ``.lvm`` text file (Writer_Version 0.92 to 2, one or more segments)."""
     path = Path(path)
+    check_text_file(path, "LabVIEW (.lvm)")
     try:
         text = path.read_bytes().decode("latin-1")
     except OSError as exc:
@@ -145,6 +161,9 @@ def read_lvm(path: str | Path) -> LvmData:
                     raise ConfigError(
                         f"{path}: field Channels is {channel_header['Channels'][0]!r}, not an integer"
                     ) from None
+                if not 1 <= n_channels <= MAX_CHANNELS:
+                    raise ConfigError(f"{path}: line {lineno}: field Channels is {n_channels}; it must be "
+                                      f"from 1 to {MAX_CHANNELS}")
                 step = 2 if x_columns == "Multi" else 1
                 # column 0 is the (possibly empty) X column; Multi interleaves time and value
                 value_cols = [1 + step * k for k in range(n_channels)]
@@ -180,6 +199,9 @@ def read_lvm(path: str | Path) -> LvmData:
         dx = number(s, 0, f"Delta_X of channel {k}")
         if not np.isfinite(dx) or dx <= 0:
             raise ConfigError(f"{path}: field Delta_X of channel {k} is {s!r}; it must be > 0")
+        if not MIN_RATE_HZ <= 1.0 / dx <= MAX_RATE_HZ:
+            raise ConfigError(f"{path}: field Delta_X of channel {k} is {s!r} s, a sampling rate outside "
+                              f"{MIN_RATE_HZ:g}..{MAX_RATE_HZ:g} Hz")
         delta_x.append(_snap_delta_x(s.replace(decimal, "."), dx))
     x0 = [number(s, 0, f"X0 of channel {k}") for k, s in enumerate(per_channel("X0", "0"))]
     declared = []

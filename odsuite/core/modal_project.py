@@ -8,6 +8,7 @@ sensitivity that converts them to SI (1 V per unit, g -> m/s^2 through 1/9.81 V 
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -50,6 +51,7 @@ def import_lvm(project: str | Path, lvm_path: str | Path, name: str, force_chann
     order; :mod:`odsuite.core.rig_import`) and the hammer's ``force_point`` (m, rig frame) and
     ``force_dir`` are required; without a rig the columns are stored as they are."""
     d = read_lvm(lvm_path)
+    d.check_complete()
     with open_project(project, "a") as p:
         if p.rig is not None:
             rec = onto_rig(p.rig, d.channel_names, d.units, d.data, d.sampling_rate, str(lvm_path), force_point,
@@ -103,10 +105,12 @@ def _converter_ranges(exp, data: np.ndarray) -> list[tuple[float, float] | None]
 
 
 def experiment_frf(
-    project: str | Path, experiment: str, *, estimator: str = "H1", record_length: int | None = None
+    project: str | Path, experiment: str, *, estimator: str = "H1", record_length: int | None = None,
+    before_store: Callable[[FrfSet], object] | None = None,
 ) -> tuple[FrfSet, list]:
     """FRFs of every channel to the force channel over the experiment's accepted hits; stored as
-    the derived group ``frf`` (H real/imag, coherence). Returns the FRFs and the hit list."""
+    the derived group ``frf`` (H real/imag, coherence). Returns the FRFs and the hit list.
+    ``before_store(frf)`` runs first: when it fails (a fit on these FRFs), nothing is stored."""
     with open_project(project, "a") as p:
         exp = p.experiment(experiment)
         if exp.excitation is None:
@@ -127,6 +131,8 @@ def experiment_frf(
             exp.sampling_rate, estimator=estimator, response_units=units,
             output_names=[exp.channel_names[k] for k in outs],
         )
+        if before_store is not None:
+            before_store(frf)
         dims = ("output", "frequency")
         p.write_derived(
             experiment, "frf",
@@ -153,12 +159,12 @@ def experiment_modes(
     """Modes identified from the experiment's FRFs, and those FRFs; the default band (or a
     missing edge of ``f_band``) is where the hammer's force spectrum and the coherence are usable
     (``frf.usable_band``)."""
-    frf, _ = experiment_frf(project, experiment)
-    res = identify_modes(frf.frequency, frf.H, f_band=f_band, max_order=max_order,
-                         frequencies=frequencies, output_names=frf.output_names,
-                         force_autospectrum=frf.force_autospectrum, coherence=frf.coherence,
-                         n_averages=frf.n_averages)
-    return res, frf
+    found: list[ModalResult] = []
+    frf, _ = experiment_frf(project, experiment, before_store=lambda frf: found.append(identify_modes(
+        frf.frequency, frf.H, f_band=f_band, max_order=max_order, frequencies=frequencies,
+        output_names=frf.output_names, force_autospectrum=frf.force_autospectrum, coherence=frf.coherence,
+        n_averages=frf.n_averages)))
+    return found[0], frf
 
 
 def experiment_output_only_modes(

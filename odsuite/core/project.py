@@ -114,6 +114,9 @@ def _check_name(where: str, what: str, name: Any) -> str:
     if not isinstance(name, str) or not name.strip() or "/" in name or name.startswith("."):
         raise ConfigError(f"{where}: {what} name must be a non-empty string without '/' and not "
                           f"starting with '.', got {name!r}")
+    if not name.isprintable():  # newlines, escape sequences, undecodable bytes: not storable as text
+        raise ConfigError(f"{where}: {what} name must be printable text without control characters or "
+                          f"undecodable bytes, got {name!r}")
     return name
 
 
@@ -127,7 +130,11 @@ def _resolve_rig(rig: Rig | str | Path | None) -> Rig | None:
     rigs = registries().rigs
     if isinstance(rig, str) and rig in rigs:
         return rigs.get(rig)
-    if Path(rig).suffix == ".toml" or Path(rig).is_file():
+    try:
+        rig_file = Path(rig).suffix == ".toml" or Path(rig).is_file()
+    except (OSError, ValueError):  # a name too long for a path, or with a NUL byte: no file
+        rig_file = False
+    if rig_file:
         return load_rig(rig, registries().sensor_types)
     raise ConfigError(f"unknown rig {str(rig)!r}: not a registered rig (known: {', '.join(rigs.names()) or 'none'}) "
                       "and not a .toml rig file")

@@ -153,6 +153,10 @@ class Rig:
         return min(moving, key=lambda b: float(np.linalg.norm(point - b.com))).name
 
 
+#: Channels a rig (or a file) may have: no DAQ chassis has more
+MAX_CHANNELS = 4096
+
+
 def _vector(where: str, value: Any, n: int = 3) -> np.ndarray:
     arr = np.asarray(value, dtype=float) if isinstance(value, list) else None
     if arr is None or arr.shape != (n,) or not np.all(np.isfinite(arr)):
@@ -168,6 +172,30 @@ def _number(where: str, value: Any, *, positive: bool = False) -> float:
     return float(value)
 
 
+def _integer(where: str, value: Any, low: int, high: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+        raise ConfigError(f"{where}: expected an integer from {low} to {high}, got {value!r}")
+    return value
+
+
+def _channel_count(where: str, data: dict[str, Any], channels: list[int]) -> int:
+    """The rig's channel count: given, or one past the highest sensor or force channel; every
+    sensor channel and the force channel lie below it."""
+    force = data.get("force_channel")
+    if force is not None:
+        _integer(f"{where}: field 'force_channel'", force, 0, MAX_CHANNELS - 1)
+    used = channels + ([force] if force is not None else [])
+    if "channel_count" not in data:
+        if force is not None and channels and force > max(channels) + 1:
+            raise ConfigError(f"{where}: field 'force_channel': channel {force} lies beyond the sensors' channels "
+                              f"(highest {max(channels)}); give channel_count to leave the channels between unused")
+        return max(used, default=-1) + 1
+    count = _integer(f"{where}: field 'channel_count'", data["channel_count"], 1, MAX_CHANNELS)
+    if used and max(used) >= count:
+        raise ConfigError(f"{where}: field 'channel_count': {count} channels, but channel {max(used)} is used")
+    return count
+
+
 def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None) -> Rig:
     """Build and validate a rig from parsed TOML; errors name the file, field and value. Each
     ``[[sensors]]`` entry is read by the sensor type its ``kind`` names (``sensor_types``: the
@@ -177,17 +205,32 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
         name = data["name"]
     except KeyError:
         raise ConfigError(f"{where0}: missing field 'name'") from None
+    if not isinstance(name, str) or not name.strip():
+        raise ConfigError(f"{where0}: field 'name': expected a non-empty text, got {name!r}")
+    for key in ("bodies", "sensors"):
+        if not isinstance(data.get(key, []), list):
+            raise ConfigError(f"{where0}: field {key!r}: expected a list of [[{key}]] tables, got {data[key]!r}")
     bodies = []
     for i, b in enumerate(data.get("bodies", [])):
         w = f"{where0}: bodies[{i}]"
-        if "name" not in b:
-            raise ConfigError(f"{w}: missing field 'name'")
+        if not isinstance(b, dict):
+            raise ConfigError(f"{w}: expected a table, got {b!r}")
+        if not isinstance(b.get("name"), str) or not b["name"]:
+            raise ConfigError(f"{w}: field 'name': expected a non-empty name, got {b.get('name')!r}")
+        if any(b["name"] == other.name for other in bodies):
+            raise ConfigError(f"{w}: field 'name': a second body named {b['name']!r}")
         w = f"{where0}: body {b['name']!r}"
         mass = b.get("mass")
         inertia = None
         if mass is not None:
             mass = _number(f"{w} field 'mass'", mass, positive=True)
-            inertia = np.asarray(b.get("inertia", np.zeros((3, 3)).tolist()), dtype=float)
+            try:
+                inertia = np.asarray(b.get("inertia", np.zeros((3, 3)).tolist()), dtype=float)
+            except (TypeError, ValueError):  # text, or rows of different lengths
+                raise ConfigError(f"{w} field 'inertia': expected a symmetric 3x3 matrix of numbers, "
+                                  f"got {b.get('inertia')!r}") from None
+            if not np.all(np.isfinite(inertia)):
+                raise ConfigError(f"{w} field 'inertia': expected finite numbers, got {b.get('inertia')!r}")
             if inertia.shape != (3, 3) or not np.allclose(inertia, inertia.T):
                 raise ConfigError(f"{w} field 'inertia': expected a symmetric 3x3 matrix, got {b.get('inertia')!r}")
             if np.linalg.eigvalsh(inertia).min() <= 0:
@@ -258,10 +301,11 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
         systeminfo_file = base / data["systeminfo"]
     known = {"name", "description", "frame", "bodies", "springs", "sensors", "force_channel", "channel_count",
              "default_model", "systeminfo"}
+    channel_count = _channel_count(where0, data, channels)
     return Rig(
         name=name, description=data.get("description", ""), frame=data.get("frame", ""),
         bodies=tuple(bodies), sensors=tuple(sensors), force_channel=_force_channel(data, sensors, where0),
-        channel_count=int(data.get("channel_count", max(channels, default=-1) + 1)),
+        channel_count=channel_count,
         default_model=data.get("default_model"), systeminfo_file=systeminfo_file, source=source,
         springs=springs,
         extra={k: v for k, v in data.items() if k not in known},
@@ -353,6 +397,11 @@ def load_rig(path: str | Path, sensor_types) -> Rig:
         raise ConfigError(f"{path}: rig file not found") from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: not UTF-8 text (byte 0x{exc.object[exc.start]:02x} at offset {exc.start}), "
+                          "so not a TOML rig file") from None
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read the rig file ({exc.strerror})") from None
     return rig_from_dict(data, sensor_types, source=path)
 
 

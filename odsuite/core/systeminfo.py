@@ -40,6 +40,15 @@ class Integration(IntEnum):
     SINGLE = 2
 
 
+#: V per SI unit: a shock accelerometer has ~1e-6 V/(m/s^2), a seismic one ~1 V/(m/s^2); beyond
+#: these bounds a volt of noise would read as 1e9 units (or a whole signal as nothing)
+MIN_SENSITIVITY = 1e-9
+MAX_SENSITIVITY = 1e3
+#: Highest IIR filter order: elliptic and Butterworth designs above ~30 put poles within rounding
+#: of each other even as second-order sections; the thesis uses 8
+MAX_FILTER_ORDER = 30
+
+
 class FilterType(IntEnum):
     """Table E.2 row 5."""
 
@@ -231,6 +240,9 @@ def _validate_channel(ch: ChannelInfo, k: int, source: str | Path, n_samples: in
         kind = sensor_type.name.lower()
         raise ConfigError(f"{at(3)}: sensitivity must be > 0 on {'an' if kind[0] in 'aeiou' else 'a'} {kind} channel, "
                           f"got {ch.sensitivity!r} V/{ch.unit}")
+    if sensor_type is not SensorType.NONE and not MIN_SENSITIVITY <= abs(ch.sensitivity) <= MAX_SENSITIVITY:
+        raise ConfigError(f"{at(3)}: sensitivity {ch.sensitivity!r} V/{ch.unit} is outside what any sensor has "
+                          f"({MIN_SENSITIVITY:g} to {MAX_SENSITIVITY:g} V/{ch.unit})")
     if not _finite(ch.daq_gain) or ch.daq_gain <= 0:
         raise ConfigError(f"{at(17)}: DAQ gain must be > 0, got {ch.daq_gain!r}")
     for row in (19, 20):
@@ -245,6 +257,9 @@ def _validate_channel(ch: ChannelInfo, k: int, source: str | Path, n_samples: in
         if order < 1:
             raise ConfigError(f"{at(6)}: filter order must be >= 1 when a filter is on (row 12 = "
                               f"{filters_on}), got {ch.filter_order!r}")
+        if order > MAX_FILTER_ORDER:
+            raise ConfigError(f"{at(6)}: filter order {order} is above {MAX_FILTER_ORDER}, where IIR designs "
+                              "lose their poles to rounding")
         nyquist = fs / 2
         rows = _CUTOFF_ROWS[filter_type]
         for row in rows:

@@ -30,6 +30,7 @@ from odsuite.core.daq import (
     Progress,
     Recording,
     channel_name,
+    check_record_fits,
     rig_systeminfo,
 )
 from odsuite.core.errors import ConfigError, HardwareError
@@ -140,6 +141,11 @@ class SimulatedRig:
             raise ConfigError("acquisition setting 'mode': the simulated rig records finite triggered records only")
         if int(oversample) != oversample or oversample < 1:
             raise ConfigError(f"simulator option 'oversample': an integer >= 1, got {oversample!r}")
+        if seed is not None and (int(seed) != seed or not 0 <= seed < 2**63):
+            raise ConfigError(f"simulator option 'seed': an integer from 0 to 2**63-1, got {seed!r}")
+        # the simulation runs at oversample times the rate, all channels at once
+        check_record_fits(settings.n_samples * int(oversample), len(rig.sensors),
+                          f"simulator: --samples {settings.n_samples} (oversampled {oversample}x)")
         if scenario is None and point is None and direction is None:
             scenario = "T1"
         sc = get_scenario(scenario) if scenario else None

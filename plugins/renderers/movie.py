@@ -28,6 +28,7 @@ import numpy as np
 
 from odsuite.core.errors import ConfigError, OdsuiteError
 from odsuite.core.rig import Rig
+from odsuite.core.storage import interrupts_deferred
 
 from .motion import check_coords, default_magnification, magnification_words
 from .scene import Hammer, Scene, Style
@@ -371,10 +372,13 @@ def _run_workers(job, frames, parts, sink, targets, advance) -> None:
     q = ctx.Queue()
     procs = [ctx.Process(target=_worker, args=(job, frames[p], int(p[0]), sink, targets[k], q), daemon=True)
              for k, p in enumerate(parts)]
-    for p in procs:
-        p.start()
     finished = 0
     try:
+        # Ctrl-C reaches the whole process group: workers start with SIGINT blocked (they inherit
+        # the block) and the parent, which gets it once they are started, ends them
+        with interrupts_deferred():
+            for p in procs:
+                p.start()
         while finished < len(procs):
             try:
                 msg = q.get(timeout=1.0)
@@ -393,9 +397,10 @@ def _run_workers(job, frames, parts, sink, targets, advance) -> None:
                 raise RuntimeError(f"render process failed: {msg[1]}")
     finally:
         for p in procs:
-            if p.is_alive() and finished < len(procs):
-                p.terminate()
-            p.join()
+            if p.pid is not None:  # started
+                if p.is_alive() and finished < len(procs):
+                    p.terminate()
+                p.join()
 
 
 class _progress_bar:

@@ -4,6 +4,7 @@ given to the command byte-identical. The table there and ``CASES`` here must lis
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 from collections.abc import Callable
@@ -229,7 +230,7 @@ CASES: list[Case] = [
          argv=lambda d: ["acquire", str(d / "p.h5"), "--daq", "foo", "--name", "new"]),
     Case("unknown-scenario", "acquire --daq sim --scenario T99", "unknown scenario 'T99' (known: T1, T2, T3, T4, T5, T6, T7, T8)",
          argv=lambda d: ["acquire", str(d / "p.h5"), "--daq", "sim", "--scenario", "T99", "--name", "new"]),
-    Case("acquire-samples", "acquire --samples 0", "acquisition setting 'n_samples': must be an integer >= 2, got 0",
+    Case("acquire-samples", "acquire --samples 0", "acquisition setting 'n_samples': must be an integer from 2 to 17179869184, got 0",
          argv=lambda d: ["acquire", str(d / "p.h5"), "--daq", "sim", "--samples", "0", "--name", "new"]),
     Case("magnify-one-number", "render --magnify 5", "--magnify: expected two numbers 'A,B', got '5'",
          argv=lambda d: ["render", str(d / "p.h5"), "e1", "-o", str(d / "m.gif"), "--magnify", "5"]),
@@ -260,6 +261,63 @@ CASES: list[Case] = [
     Case("model-negative-stiffness", "spring with stiffness [-1, 0, 0] N/m (API)", "spring 'k1' field 'stiffness': must be >= 0, got [-1.0, 0.0, 0.0]",
          call=_spring(stiffness=np.array([-1.0, 0, 0]))),
     Case("effect-unknown-parameter", "stiffness effect with parameter `foo` (API)", "effect 'stiffness': unknown parameter(s) ['foo'] (known: ['scale_spring1'", call=_effect("stiffness", {"foo": 1.0})),
+    # names are data: refused when not printable, printed escaped
+    Case("name-newline", "--name with a newline", "{dir}/p.h5: experiment name must be printable text without control characters or undecodable bytes, got 'a\\nb'", argv=legacy(ctr="good.CTR", name="a\nb")),
+    Case("name-ansi", "--name with an ANSI colour escape", "{dir}/p.h5: experiment name must be printable text without control characters or undecodable bytes, got '\\x1b[31mred'", argv=legacy(ctr="good.CTR", name="\x1b[31mred")),
+    Case("name-undecodable", "--name with the byte 0xff (not UTF-8)", "{dir}/p.h5: experiment name must be printable text without control characters or undecodable bytes, got 'x\\udcff'", argv=legacy(ctr="good.CTR", name="x\udcff")),
+    Case("name-markup-path", "info on a path with markup, 0xff and an escape", "{dir}/[/x]\\xff\\x1b[31m.h5: no such project file",
+         argv=lambda d: ["info", str(d / "[/x]\udcff\x1b[31m.h5")]),
+    # numeric limits that follow from physics and memory
+    Case("acquire-samples-huge", "acquire --samples 9223372036854775808", "acquisition setting 'n_samples': must be an integer from 2 to 17179869184, got 9223372036854775808",
+         argv=lambda d: ["acquire", str(d / "p.h5"), "--samples", "9223372036854775808", "--name", "new"]),
+    Case("acquire-samples-memory", "acquire --samples 17179869184 (more than free memory)", "{dir}/p.h5: --samples 17179869184: a record of 17179869184 samples x 9 channels needs 1179648 MiB",
+         argv=lambda d: ["acquire", str(d / "p.h5"), "--samples", "17179869184", "--name", "new"]),
+    Case("acquire-rate-high", "acquire --rate 1e308", "acquisition setting 'sampling_rate': must be between 0.1 Hz and 1e+08 Hz, got 1e+308 Hz", argv=lambda d: ["acquire", str(d / "p.h5"), "--rate", "1e308", "--name", "new"]),
+    Case("acquire-rate-low", "acquire --rate 1e-300", "acquisition setting 'sampling_rate': must be between 0.1 Hz and 1e+08 Hz, got 1e-300 Hz", argv=lambda d: ["acquire", str(d / "p.h5"), "--rate", "1e-300", "--name", "new"]),
+    Case("acquire-seed", "acquire --seed -1", "simulator option 'seed': an integer from 0 to 2**63-1, got -1", argv=lambda d: ["acquire", str(d / "p.h5"), "--seed", "-1", "--name", "new"]),
+    Case("acquire-trigger-nan", "acquire --trigger-level nan", "acquisition setting 'trigger_level': must be a finite number, got nan",
+         argv=lambda d: ["acquire", str(d / "p.h5"), "--trigger-level", "nan", "--name", "new"]),
+    Case("render-workers", "render --workers 0", "--workers: at least 1 render process, got 0", argv=lambda d: ["render", str(d / "p.h5"), "e1", "-o", str(d / "m.gif"), "--workers", "0"]),
+    Case("lvm-channels-zero", ".lvm with Channels 0", "{dir}/bad.lvm: line 17: field Channels is 0; it must be from 1 to 4096", **lvm(LVM_TEXT.replace("Channels\t2", "Channels\t0"))),
+    Case("lvm-channels-negative", ".lvm with Channels -1", "{dir}/bad.lvm: line 17: field Channels is -1; it must be from 1 to 4096", **lvm(LVM_TEXT.replace("Channels\t2", "Channels\t-1"))),
+    Case("lvm-channels-huge", ".lvm with Channels 1000000000", "{dir}/bad.lvm: line 17: field Channels is 1000000000; it must be from 1 to 4096", **lvm(LVM_TEXT.replace("Channels\t2", "Channels\t1000000000"))),
+    Case("lvm-delta-x-tiny", ".lvm with Delta_X 1e-320", "{dir}/bad.lvm: field Delta_X of channel 0 is '1E-320' s, a sampling rate outside 0.1..1e+08 Hz", **lvm(LVM_TEXT.replace("1,0E-4\t1,0E-4", "1E-320\t1E-320"))),
+    Case("lvm-delta-x-huge", ".lvm with Delta_X 1e308", "{dir}/bad.lvm: field Delta_X of channel 0 is '1E308' s, a sampling rate outside 0.1..1e+08 Hz", **lvm(LVM_TEXT.replace("1,0E-4\t1,0E-4", "1E308\t1E308"))),
+    Case("lvm-cut-off", ".lvm whose header says 8 samples, holding 4 rows", "{dir}/bad.lvm: header field Samples says 8 samples per channel, the file holds 4 rows (cut off?)", **lvm(LVM_TEXT.replace("Samples\t4\t4", "Samples\t8\t8"))),
+    Case("lvm-short-row", ".lvm whose last row lacks its second value", "{dir}/bad.lvm: data row 4, channel 'Response': value missing (1 missing in all; cut off?)", **lvm(LVM_TEXT.replace("\t0,0\t0,5\n", "\t0,0\n"))),
+    Case("ctr-sensitivity-tiny", "sensitivity 1e-300 mV/unit on channel 2", "{dir}/bad.CTR: row 3 (sensitivity), channel 2: sensitivity 1e-303 V/m/s^2 is outside what any sensor has (1e-09 to 1000 V/m/s^2)", argv=legacy(), files={"bad.CTR": ctr_with(3, 2, "1e-300")}),
+    Case("ctr-filter-order", "filter order 1000 on channel 6", "{dir}/bad.CTR: row 6 (filter order), channel 6: filter order 1000 is above 30, where IIR designs lose their poles to rounding", argv=legacy(), files={"bad.CTR": ctr_with(6, 6, "1000")}),
+    Case("rig-inertia-text", "inertia `\"a\"`", "{dir}/bad.toml: body 'plate' field 'inertia': expected a symmetric 3x3 matrix of numbers, got 'a'",
+         **new_rig(RIG_TOML.replace("inertia = [[0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]]", 'inertia = "a"'))),
+    Case("rig-inertia-ragged", "inertia with a row of 2 numbers", "{dir}/bad.toml: body 'plate' field 'inertia': expected a symmetric 3x3 matrix of numbers, got [[0.1, 0], [0, 0.1, 0], [0, 0, 0.1]]",
+         **new_rig(RIG_TOML.replace("inertia = [[0.1, 0, 0]", "inertia = [[0.1, 0]"))),
+    Case("rig-sensor-no-name", "sensor without `name`", "{dir}/bad.toml: sensors[0] field 'name': expected a non-empty name, got None", **new_rig(RIG_TOML.replace('name = "a1"\n', ""))),
+    Case("rig-bodies-number", "`bodies = 5`", "{dir}/bad.toml: field 'bodies': expected a list of [[bodies]] tables, got 5", **new_rig('name = "bench"\nbodies = 5\n')),
+    Case("rig-duplicate-body", "two bodies named plate", "{dir}/bad.toml: bodies[1]: field 'name': a second body named 'plate'",
+         **new_rig(RIG_TOML.replace("[[sensors]]", RIG_TOML[RIG_TOML.index("[[bodies]]"):RIG_TOML.index("[[sensors]]")] + "[[sensors]]"))),
+    Case("rig-force-channel", "force_channel = 99 beyond the sensors' channels", "{dir}/bad.toml: field 'force_channel': channel 99 lies beyond the sensors' channels (highest 1); give channel_count to leave the channels between unused", **new_rig(RIG_TOML.replace("force_channel = 0", "force_channel = 99"))),
+    Case("rig-channel-count-negative", "channel_count = -3", "{dir}/bad.toml: field 'channel_count': expected an integer from 1 to 4096, got -3", **new_rig(RIG_TOML.replace("force_channel = 0", "force_channel = 0\nchannel_count = -3"))),
+    Case("rig-channel-count-huge", "channel_count = 100000", "{dir}/bad.toml: field 'channel_count': expected an integer from 1 to 4096, got 100000", **new_rig(RIG_TOML.replace("force_channel = 0", "force_channel = 0\nchannel_count = 100000"))),
+    # output paths
+    Case("output-is-project", "export-legacy --cod naming the project itself", "--cod {dir}/p.h5: that is the project {dir}/p.h5 or one of its own files; give another file name",
+         argv=lambda d: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d / "p.h5")]),
+    Case("output-is-lock", "export-legacy --cod naming the project's lock file", "--cod {dir}/p.h5.lock: that is the project {dir}/p.h5 or one of its own files; give another file name",
+         argv=lambda d: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d / "p.h5.lock")]),
+    Case("output-folder", "export-legacy --cod naming a folder", "--cod {dir}: is a folder; give a file name",
+         argv=lambda d: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d)]),
+    Case("output-missing-folder", "render -o into a folder that does not exist", "-o {dir}/none/m.gif: folder {dir}/none does not exist",
+         argv=lambda d: ["render", str(d / "p.h5"), "e1", "-o", str(d / "none" / "m.gif")]),
+    Case("dat-fifo", "a named pipe (FIFO) given as the .DAT file", "{dir}/pipe.DAT: not a regular file (a pipe or device), expected a data (.DAT/.VIZ) file",
+         argv=lambda d: (os.mkfifo(d / "pipe.DAT"), legacy(ctr="good.CTR", dat="pipe.DAT")(d))[1]),
+    Case("dat-device", "/dev/zero given as the .DAT file", "/dev/zero: not a regular file (a pipe or device), expected a data (.DAT/.VIZ) file",
+         argv=lambda d: legacy(ctr="good.CTR", dat="/dev/zero")(d)),
+    Case("process-cutoff-nan", "process --corrected --cutoff nan", "--cutoff: must be a finite frequency >= 0.01 Hz, got nan",
+         argv=lambda d: ["process", str(d / "p.h5"), "--corrected", "--cutoff", "nan"]),
+    Case("modes-fmin-nan", "modes --fmin nan", "--fmin: must be a finite frequency >= 0 Hz, got nan",
+         argv=lambda d: ["modes", str(d / "p.h5"), "--experiment", "e1", "--fmin", "nan"]),
+    Case("project-read-only", "import-legacy into a project with mode 0444", "{dir}/p.h5: project is read-only; make it writable (chmod u+w) to change it",
+         argv=lambda d: ((d / "p.h5").chmod(0o444), legacy(ctr="good.CTR")(d))[1]),
+    Case("history-figure-suffix", "history --figure h.txt", "--figure {dir}/h.txt: suffix '.txt' is not .png, .svg or .pdf", argv=lambda d: ["history", str(d / "p.h5"), "--figure", str(d / "h.txt")]),
 ]
 
 

@@ -1,0 +1,189 @@
+"""Ctrl-C harness: SIGINT to real ``odsuite`` subprocesses at seeded random moments.
+
+The signal goes to the command's whole process group, as a terminal's Ctrl-C does (render workers
+included). Each run must end with exit code 130 (or 0 when the command finished first) and exactly
+one line on stderr, ``interrupted: ...``, no traceback; that line must tell the truth: "nothing
+stored" leaves every unit of the project as it was, "stored A; not stored: B" changed A only; no
+temporary copy (``*.tmp-*``, ``odsuite-movie-*``) and no process of the group outlives the command.
+
+``python tests/reliability/interrupts.py [RUNS] [SEED] [DIR] [COMMAND ...]`` prints the counts.
+"""
+
+from __future__ import annotations
+
+import os
+import random
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+if __package__ in (None, ""):
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+from tests.reliability.harness import ODSUITE, TABLE_E3, prepare_inputs, units  # noqa: E402
+
+RUN_TIMEOUT = 120.0  # s; a command still running then is a hang
+
+
+@dataclass(frozen=True)
+class InterruptedCommand:
+    """A command line (without ``odsuite``) built from the project, inputs and output folder, and
+    the window after start (s) in which the interrupt falls."""
+
+    name: str
+    argv: Callable[[Path, Path, Path, int], list[str]]
+    window: tuple[float, float]
+
+
+COMMANDS: tuple[InterruptedCommand, ...] = (
+    InterruptedCommand("process", lambda p, i, o, k: ["process", str(p)], (0.8, 4.0)),
+    InterruptedCommand("acquire", lambda p, i, o, k: [
+        "acquire", str(p), "--daq", "sim", "--name", f"acq{k}", "--seed", str(k % 5), "--samples", "8192"],
+        (0.5, 3.5)),
+    InterruptedCommand("import-legacy", lambda p, i, o, k: [
+        "import-legacy", str(p), str(i / "T8.DAT"), "--systeminfo", str(TABLE_E3), "--name", f"leg{k}",
+        "--force-point", "0,4.122,-11.399", "--force-dir", "+z"], (0.5, 1.8)),
+    InterruptedCommand("render", lambda p, i, o, k: [
+        "render", str(p), "s1", "-o", str(o / "m.gif"), "--workers", "2", "--frame-step", "32"], (3.0, 12.0)),
+)
+
+
+def seed(path: Path) -> Path:
+    """Three simulated records, none processed (so `process` has several experiments to store),
+    and one processed copy source for render."""
+    from odsuite.cli import main
+
+    steps = [["new", str(path)]] + [
+        ["acquire", str(path), "--daq", "sim", "--name", f"s{k}", "--seed", str(k), "--samples", "4096"]
+        for k in (1, 2, 3)]
+    for argv in steps:
+        if main(argv) != 0:
+            raise RuntimeError(f"odsuite {' '.join(argv)} failed")
+    return path
+
+
+@dataclass
+class Outcome:
+    command: str
+    delay: float
+    code: int | None
+    line: str
+    problems: list[str] = field(default_factory=list)
+    stderr: str = ""
+
+
+def _group_alive(pgid: int) -> bool:
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def interrupt_once(cmd: InterruptedCommand, project: Path, inputs: Path, out: Path, index: int,
+                   delay: float) -> Outcome:
+    before = units(project)
+    proc = subprocess.Popen([str(ODSUITE), *cmd.argv(project, inputs, out, index)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, start_new_session=True, text=True, errors="replace")
+    time.sleep(delay)
+    if proc.poll() is None:
+        os.killpg(proc.pid, signal.SIGINT)
+    try:
+        _, err = proc.communicate(timeout=RUN_TIMEOUT)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.communicate()
+        return Outcome(cmd.name, delay, None, "", ["hang"])
+    lines = err.strip().splitlines()
+    res = Outcome(cmd.name, delay, proc.returncode, lines[-1] if lines else "", stderr=err)
+    deadline = time.monotonic() + 5.0
+    while _group_alive(proc.pid) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    if _group_alive(proc.pid):
+        res.problems.append("a process of the command outlived it")
+        os.killpg(proc.pid, signal.SIGKILL)
+    if "Traceback" in err:
+        res.problems.append("traceback")
+    left = [p.name for p in project.parent.glob(f"{project.name}.tmp-*")] + \
+        [p.name for p in out.glob("odsuite-movie-*")]
+    if left:
+        res.problems.append(f"left behind: {left}")
+    after = units(project)
+    changed = sorted(k for k in set(before) | set(after) if before.get(k) != after.get(k))
+    if proc.returncode == 0:
+        return res
+    if proc.returncode != 130 or len(lines) != 1 or not lines[0].startswith("interrupted: "):
+        res.problems.append(f"exit {proc.returncode}, stderr {err.strip()[-300:]!r}")
+        return res
+    if "nothing stored" in lines[0] and changed:
+        res.problems.append(f"said nothing stored, changed {changed}")
+    if lines[0].startswith("interrupted: stored "):
+        stored = lines[0][len("interrupted: stored "):].split(" in ")[0].split(", ")
+        missing = lines[0].split("not stored: ")[1].split(", ")
+        for name in stored:
+            if not any(name.split()[-1] in k for k in changed):
+                res.problems.append(f"said {name} stored, unchanged")
+        for name in missing:
+            if name != "nothing" and any(k.startswith(f"experiments/{name}/derived") for k in changed):
+                res.problems.append(f"said {name} not stored, changed")
+    return res
+
+
+def run_interrupts(work: Path, runs: int, seed_value: int = 0,
+                   commands: tuple[InterruptedCommand, ...] = COMMANDS) -> list[Outcome]:
+    rng = random.Random(seed_value)
+    inputs = prepare_inputs(work / "inputs")
+    master = seed(work / "master.h5")
+    processed = work / "processed.h5"
+    shutil.copyfile(master, processed)
+    from odsuite.cli import main
+
+    if main(["process", str(processed), "--experiment", "s1"]) != 0:
+        raise RuntimeError("processing the render project failed")
+    outcomes = []
+    for k in range(runs):
+        cmd = commands[k % len(commands)]
+        run_dir = work / f"run{k}"
+        run_dir.mkdir()
+        project = run_dir / "p.h5"
+        shutil.copyfile(processed if cmd.name == "render" else master, project)
+        outcomes.append(interrupt_once(cmd, project, inputs, run_dir, k, rng.uniform(*cmd.window)))
+        shutil.rmtree(run_dir)
+    return outcomes
+
+
+def summary(outcomes: list[Outcome]) -> str:
+    lines = []
+    for name in dict.fromkeys(o.command for o in outcomes):
+        mine = [o for o in outcomes if o.command == name]
+        lines.append(f"{name}: {len(mine)} runs, {sum(o.code == 130 for o in mine)} interrupted (exit 130), "
+                     f"{sum(o.code == 0 for o in mine)} finished first, "
+                     f"{sum(bool(o.problems) for o in mine)} with problems")
+    lines += [f"  {o.command} at {o.delay:.2f} s: {o.problems}" for o in outcomes if o.problems]
+    lines.append(f"total: {len(outcomes)} runs, {sum(bool(o.problems) for o in outcomes)} with problems")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = sys.argv[1:] if argv is None else argv
+    runs = int(args[0]) if args else 32
+    seed_value = int(args[1]) if len(args) > 1 else 0
+    work = Path(args[2]) if len(args) > 2 else Path(tempfile.mkdtemp(prefix="odsuite-interrupts-"))
+    only = [c for c in COMMANDS if c.name in args[3:]] if len(args) > 3 else COMMANDS
+    outcomes = run_interrupts(work, runs, seed_value, tuple(only))
+    for o in outcomes:
+        print(f"{o.command:14s} {o.delay:5.2f} s  exit {o.code}  {o.line}")
+        if o.problems:
+            print(o.stderr)
+    print(summary(outcomes))
+    return 0 if not any(o.problems for o in outcomes) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
