@@ -6,7 +6,8 @@ from collections.abc import Mapping
 from typing import Any
 
 from odsuite.core.comparison import compare, noise_floor_error
-from odsuite.core.prediction import prepare
+from odsuite.core.errors import ConfigError
+from odsuite.core.prediction import PreparedExperiment, prepare_experiment
 
 #: Print size: 16 x 9 cm at 200 dpi, type of 9-11 pt reads at that size.
 FIGURE_SIZE_IN = (6.3, 3.6)
@@ -22,17 +23,29 @@ def history(project) -> dict[str, Any]:
     exps = None
     floor = next((r["metrics"]["noise_floor_error"] for r in reversed(revs)
                   if r.get("metrics", {}).get("noise_floor_error") is not None), None)
-    if floor is None and project.rig is not None and project.experiment_names():
-        exps = prepare(project)
-        floor = noise_floor_error(exps)
+    if floor is None and project.rig is not None:
+        exps = _comparable(project)
+        floor = noise_floor_error(exps) if exps else None
     for r in revs:
         error = r.get("metrics", {}).get("error")
-        if error is None and project.rig is not None and project.experiment_names():
-            exps = exps or prepare(project)
-            error = compare(project, revision=r, prepared=exps, resonances=False).error
+        if error is None and project.rig is not None:
+            exps = _comparable(project) if exps is None else exps
+            error = compare(project, revision=r, prepared=exps, resonances=False).error if exps else None
         out.append({"revision": r["revision"], "parent": r["parent"], "effects": [e["effect"] for e in r["effects"]],
                     "error": error, "created": r["created"]})
     return {"current": project.current_revision, "revisions": out, "noise_floor_error": floor}
+
+
+def _comparable(project) -> list[PreparedExperiment]:
+    """The experiments a model can be compared with; records it cannot be driven with (no force
+    point, not on the rig's channels) are left out of a summary rather than failing it."""
+    exps = []
+    for name in project.experiment_names():
+        try:
+            exps.append(prepare_experiment(project, name))
+        except ConfigError:
+            continue
+    return exps
 
 
 def history_figure(doc: Mapping[str, Any], path) -> None:

@@ -19,7 +19,7 @@ from odsuite.core.hammer import assess_hits
 from odsuite.core.lvm import read_lvm
 from odsuite.core.modal import ModalResult, identify_modes
 from odsuite.core.project import DerivedArray, Excitation, open_project
-from odsuite.core.rig_import import onto_rig
+from odsuite.core.rig_import import names_the_rig, onto_rig
 from odsuite.core.systeminfo import ChannelInfo, SensorType, Systeminfo
 from odsuite.core.version import __version__
 
@@ -49,11 +49,15 @@ def import_lvm(project: str | Path, lvm_path: str | Path, name: str, force_chann
 
     On a project with a rig the columns are laid onto the rig's channels (by sensor name, else in
     order; :mod:`odsuite.core.rig_import`) and the hammer's ``force_point`` (m, rig frame) and
-    ``force_dir`` are required; without a rig the columns are stored as they are."""
+    ``force_dir`` are required; without a rig, or when the columns are not the rig's channels and
+    no force point is given (a single-point test kept beside the rig's records, said in a note),
+    the columns are stored as they are."""
     d = read_lvm(lvm_path)
     d.check_complete()
     with open_project(project, "a") as p:
-        if p.rig is not None:
+        on_rig = p.rig is not None and (force_point is not None or force_dir is not None
+                                        or names_the_rig(p.rig, d.channel_names))
+        if on_rig:
             rec = onto_rig(p.rig, d.channel_names, d.units, d.data, d.sampling_rate, str(lvm_path), force_point,
                            force_dir, force_channel)
             p.add_experiment(name, rec.raw, sampling_rate=d.sampling_rate, systeminfo=rec.systeminfo,
@@ -62,6 +66,10 @@ def import_lvm(project: str | Path, lvm_path: str | Path, name: str, force_chann
             return rec.notes
         if force_point is not None or force_dir is not None:
             raise ConfigError(f"{lvm_path}: --force-point/--force-dir need a project with a rig geometry")
+        notes: tuple[str, ...] = ()
+        if p.rig is not None:  # e.g. a single-point beam test kept beside the rig's records
+            notes = (f"{lvm_path}: its columns ({', '.join(d.channel_names)}) are not rig {p.rig.name!r}'s channels: "
+                     "stored as they are, without the rig's geometry",)
         fidx = _force_index(d.channel_names, d.units, force_channel, str(lvm_path))
         # a .lvm in engineering units holds no converter range: limits well above the peaks, so that
         # volt limits are never applied to g or N (clipping is then told by flat tops alone)
@@ -79,7 +87,7 @@ def import_lvm(project: str | Path, lvm_path: str | Path, name: str, force_chann
             excitation=Excitation(fidx, np.zeros(3), np.array([0.0, 0.0, 1.0])), source=str(Path(lvm_path).name),
             channel_names=list(d.channel_names),
         )
-    return ()
+    return notes
 
 
 def _scale(exp) -> np.ndarray:

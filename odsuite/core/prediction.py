@@ -162,6 +162,8 @@ def windowed_force(force: np.ndarray, fs: float) -> np.ndarray:
     for i in hot:  # few samples per hit: a loop over them is cheap
         mask[max(0, i - before):i + after + 1] = 1.0
     taper = max(1, before)
+    if len(force) <= 2 * taper + 1:  # a record shorter than the tapers: the window without them
+        return (force - base) * mask
     ramp = 0.5 - 0.5 * np.cos(np.pi * np.arange(1, taper + 1) / (taper + 1))
     w = np.convolve(mask, np.concatenate([ramp, [1.0], ramp[::-1]]) / (ramp.sum() * 2 + 1), mode="same")
     w = np.maximum(mask, np.clip(w * (ramp.sum() * 2 + 1) / (taper + 1), 0, 1))

@@ -43,6 +43,13 @@ def _key(name: str) -> str:
     return "".join(c for c in name.lower() if c.isalnum())
 
 
+def names_the_rig(rig: Rig, names: Sequence[str]) -> bool:
+    """Whether a record's columns are the rig's channels: one named like a rig sensor, or as many
+    columns as the rig has channels."""
+    by_name = {_key(s.name) for s in rig.sensors}
+    return any(_key(n) in by_name for n in names) or len(names) == rig.channel_count
+
+
 def _columns_to_channels(rig: Rig, names: Sequence[str], where: str, force_column: str | None) -> dict[int, int]:
     by_name = {_key(s.name): s.channel for s in rig.sensors}
     matched = {k: by_name[_key(n)] for k, n in enumerate(names) if _key(n) in by_name}

@@ -270,7 +270,7 @@ CASES: list[Case] = [
     # numeric limits that follow from physics and memory
     Case("acquire-samples-huge", "acquire --samples 9223372036854775808", "acquisition setting 'n_samples': must be an integer from 2 to 17179869184, got 9223372036854775808",
          argv=lambda d: ["acquire", str(d / "p.h5"), "--samples", "9223372036854775808", "--name", "new"]),
-    Case("acquire-samples-memory", "acquire --samples 17179869184 (more than free memory)", "{dir}/p.h5: --samples 17179869184: a record of 17179869184 samples x 9 channels needs 1179648 MiB",
+    Case("acquire-samples-memory", "acquire --samples 17179869184 (more than free memory)", "{dir}/p.h5: --samples 17179869184: a record of 17179869184 samples x 11 channels needs 1441792 MiB",
          argv=lambda d: ["acquire", str(d / "p.h5"), "--samples", "17179869184", "--name", "new"]),
     Case("acquire-rate-high", "acquire --rate 1e308", "acquisition setting 'sampling_rate': must be between 0.1 Hz and 1e+08 Hz, got 1e+308 Hz", argv=lambda d: ["acquire", str(d / "p.h5"), "--rate", "1e308", "--name", "new"]),
     Case("acquire-rate-low", "acquire --rate 1e-300", "acquisition setting 'sampling_rate': must be between 0.1 Hz and 1e+08 Hz, got 1e-300 Hz", argv=lambda d: ["acquire", str(d / "p.h5"), "--rate", "1e-300", "--name", "new"]),
