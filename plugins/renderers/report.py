@@ -195,7 +195,8 @@ def _metadata_section(project, exps) -> str:
         unit = ("u" if ch.micro_units else "") + ch.unit
         chan_rows.append([k, names[k] if k < len(names) else "–", ch.quantity, ch.serial or "–",
                           f"{ch.sensitivity:.6g} V/" + (f"({unit})" if "/" in unit else unit), f"{ch.daq_gain:g}",
-                          "–" if sensor is None else "(" + ", ".join(f"{1e3 * v:.1f}" for v in sensor.position) + ")"])
+                          "–" if sensor is None or sensor.position is None
+                          else "(" + ", ".join(f"{1e3 * v:.1f}" for v in sensor.position) + ")"])
     hammer = si.channels[first.excitation.force_channel] if first.excitation is not None else None
     hammer_text = ("–" if hammer is None else
                    f"channel {first.excitation.force_channel} ({names[first.excitation.force_channel]}), "

@@ -53,6 +53,11 @@ def test_a_perfect_model_of_the_two_body_rig_sits_on_its_noise_floor(capsys, tmp
     doc = json.loads(out)
     assert len(doc["channels"]) == 18
     assert doc["error"] <= 1.5 * doc["noise_floor_error"]
+    # the report lists every channel, the hammer's (a sensor with no position) included
+    code, _, err = run(capsys, "report", p, "-o", tmp_path / "r.html", "--no-diagnose", "--no-movie")
+    assert code == 0, err
+    page = (tmp_path / "r.html").read_text()
+    assert "hammer" in page and "m3_z" in page
 
 
 def test_lvm_records_of_an_independent_simulator_on_its_own_rig_file(capsys, tmp_path):
