@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from odsuite.core.errors import ConfigError
+from odsuite.core.rig_processing import parse_processing
 
 #: Generalized coordinates of a body, in order (m, m, m, rad, rad, rad).
 COORDINATES = ("x", "y", "z", "theta", "phi", "psi")
@@ -113,6 +114,9 @@ class Rig:
     springs: tuple[Spring, ...] = ()
     source: Path | None = None
     extra: dict[str, Any] = field(default_factory=dict)
+    #: ChannelInfo settings of ``[processing]`` for records without a .CTR, and per sensor on top
+    processing: dict[str, Any] = field(default_factory=dict)
+    sensor_processing: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     def body(self, name: str) -> Body:
         for b in self.bodies:
@@ -272,6 +276,7 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
         raise ConfigError(f"{where0}: two bodies share a name ({sorted(b.name for b in bodies)})")
     springs = _springs(data.get("springs", []), where0, {b.name for b in bodies if b.mass is not None}, body_names)
     sensors = []
+    sensor_processing: dict[str, dict[str, Any]] = {}
     for i, s in enumerate(data.get("sensors", [])):
         w = f"{where0}: sensors[{i}]" + (f" {s.get('name')!r}" if isinstance(s, dict) and "name" in s else "")
         if not isinstance(s, dict):
@@ -284,6 +289,8 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
             if sensor.body is not None and sensor.body not in body_names:
                 raise ConfigError(f"{w} field 'body': no body named {sensor.body!r}")
             sensors.append(sensor)
+            if "processing" in s:
+                sensor_processing[sensor.name] = parse_processing(s["processing"], f"{w} field 'processing'")
     sensor_names = {s.name for s in sensors}
     channels = [s.channel for s in sensors]
     if len(set(channels)) != len(channels):
@@ -300,7 +307,7 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
         base = source.parent if source else Path.cwd()
         systeminfo_file = base / data["systeminfo"]
     known = {"name", "description", "frame", "bodies", "springs", "sensors", "force_channel", "channel_count",
-             "default_model", "systeminfo"}
+             "default_model", "systeminfo", "processing"}
     channel_count = _channel_count(where0, data, channels)
     return Rig(
         name=name, description=data.get("description", ""), frame=data.get("frame", ""),
@@ -309,6 +316,8 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
         default_model=data.get("default_model"), systeminfo_file=systeminfo_file, source=source,
         springs=springs,
         extra={k: v for k, v in data.items() if k not in known},
+        processing=parse_processing(data.get("processing", {}), f"{where0}: [processing]"),
+        sensor_processing=sensor_processing,
     )
 
 
