@@ -46,6 +46,11 @@ Truth = Callable[[np.ndarray, float, np.ndarray, np.ndarray], np.ndarray]
 #: bipolar input ranges (V) of an NI E-series card (AT-MIO-16E-2): the card uses the smallest one
 #: that holds the limits the experimenter sets, e.g. -2..3 V is read on +-5 V
 E_SERIES_RANGES = (0.05, 0.1, 0.25, 0.5, 1.0, 2.5, 5.0, 10.0)
+#: ADC resolutions of real cards: 8-bit scopes to 24-bit sigma-delta (32 bits: the codes still
+#: fit a float64's mantissa)
+MIN_ADC_BITS, MAX_ADC_BITS = 8, 32
+#: a thousand times the thesis's floor is a few volts of noise: beyond it the record is noise
+MAX_NOISE_SCALE = 1000.0
 
 
 def adc_range(low: float, high: float) -> float:
@@ -54,13 +59,15 @@ def adc_range(low: float, high: float) -> float:
     return next((r for r in E_SERIES_RANGES if r >= need), E_SERIES_RANGES[-1])
 
 
-def default_chains(rig: Rig, systeminfo: Systeminfo, *, noise: bool = True) -> dict[int, ChannelChain]:
+def default_chains(rig: Rig, systeminfo: Systeminfo, *, noise: float = 1.0,
+                   adc_bits: int | None = None) -> dict[int, ChannelChain]:
     """The thesis's chain for every channel: ICP sensors (sensitivities: the rig's sensors, the
     Systeminfo's load cell), 1 kHz 8th-order anti-aliasing with the Systeminfo's gain (§5.1), a
-    12-bit ADC on the E-series range that holds the Systeminfo's limits.
+    12-bit ADC (or ``adc_bits``) on the E-series range that holds the Systeminfo's limits.
 
-    Noise levels are typical of the thesis's Fig. A.1 floor (a few LSB); offsets and drift set the
-    scale of their random per-record values (drawn from the seed).
+    Noise levels are typical of the thesis's Fig. A.1 floor (a few LSB), scaled by ``noise`` (True
+    is 1, False 0); offsets and drift set the scale of their random per-record values (drawn from
+    the seed).
     """
     chains: dict[int, ChannelChain] = {}
     for ch in range(rig.channel_count):
@@ -79,8 +86,10 @@ def default_chains(rig: Rig, systeminfo: Systeminfo, *, noise: bool = True) -> d
             chain = ChannelChain(sensitivity=1.0, sensor_tc=None, coupler_tc=None, resonance_hz=None,
                                  noise_rms=1.0e-3)
         chain = replace(chain, gain=info.daq_gain, limit_low=-r, limit_high=r)
-        if not noise:
-            chain = replace(chain, noise_rms=0.0, offset=0.0, drift=0.0, hum_amplitude=0.0)
+        if adc_bits is not None:
+            chain = replace(chain, adc_bits=adc_bits)
+        chain = replace(chain, noise_rms=chain.noise_rms * noise, offset=chain.offset * noise,
+                        drift=chain.drift * noise, hum_amplitude=chain.hum_amplitude * noise)
         chain.validate(f"rig {rig.name!r} channel {ch}")
         chains[ch] = chain
     return chains
@@ -104,7 +113,14 @@ class SimulatedRig:
     options = (BackendOption("scenario", str, None, "thesis test T1..T8 (default T1 when no force point is given)"),
                BackendOption("seed", int, 0, "random seed; one seed, one record"),
                BackendOption("force_peak", float, None, "peak hammer force in N (default: the scenario's, "
-                                                        "else 20 N); several hits keep their ratios"))
+                                                        "else 20 N); several hits keep their ratios"),
+               BackendOption("truth_rig", str, None, "a rig file the record comes from instead of the project's rig "
+                             "(a hidden change: stiffer mounts, a moved mass, a tilted or mis-calibrated sensor); "
+                             "it has the project rig's channels", flag="--truth"),
+               BackendOption("adc_bits", int, None, f"ADC resolution, bits {MIN_ADC_BITS}-{MAX_ADC_BITS} "
+                                                    "(default 12: the thesis's E-series card)"),
+               BackendOption("noise", float, 1.0, "scale of the ADC-input noise, offsets and drift "
+                                                  f"(1: the thesis's floor, 0: none, at most {MAX_NOISE_SCALE:g})"))
 
     def __init__(self, truth_factory: Callable[..., Truth] | None = None) -> None:
         self._truth_factory = truth_factory
@@ -124,8 +140,10 @@ class SimulatedRig:
         effects: Sequence[tuple[str, Mapping[str, Any]]] = (),
         chains: Mapping[int, ChannelChain] | None = None,
         oversample: int = 8,
-        noise: bool = True,
+        noise: float = 1.0,
         force_peak: float | None = None,
+        truth_rig: str | None = None,
+        adc_bits: int | None = None,
     ) -> Recording:
         """Strike the virtual rig and return the triggered record.
 
@@ -133,7 +151,8 @@ class SimulatedRig:
         hits (without one: a 20 N, 0.5 ms hit); ``point`` (m, rig frame),
         ``direction`` and ``hits`` override it. ``truth`` replaces the rig's default model (with
         ``effects`` applied: hidden from the Systeminfo). ``chains`` replaces channels' chains
-        (e.g. a sensor whose true sensitivity differs from its nominal one).
+        (e.g. a sensor whose true sensitivity differs from its nominal one). ``truth_rig``: a rig
+        file whose model, sensor axes, positions and sensitivities make the record instead.
         """
         if rig is None:
             raise ConfigError("the simulated rig needs a project with a rig (created without --rig none)")
@@ -166,8 +185,20 @@ class SimulatedRig:
             hits = [replace(h, peak=h.peak * force_peak / top) for h in hits]
         for i, h in enumerate(hits):
             h.validate(f"simulator hit {i}")
+        if not (np.isfinite(noise) and 0 <= noise <= MAX_NOISE_SCALE):
+            raise ConfigError(f"--noise: a scale from 0 to {MAX_NOISE_SCALE:g}, got {noise!r}")
+        if adc_bits is not None and not MIN_ADC_BITS <= adc_bits <= MAX_ADC_BITS:
+            raise ConfigError(f"--adc-bits: an integer from {MIN_ADC_BITS} to {MAX_ADC_BITS}, got {adc_bits!r}")
         systeminfo = rig_systeminfo(rig, settings.sampling_rate)
-        all_chains = default_chains(rig, systeminfo, noise=noise)
+        all_chains = default_chains(rig, systeminfo, noise=noise, adc_bits=adc_bits)
+        if truth_rig is not None:
+            if truth is not None or effects:
+                raise ConfigError("simulator: give a truth rig, a truth or effects, not two of them")
+            from odsuite_plugins.daq_sim.truth import rig_file_truth
+
+            truth, true_sensitivity = rig_file_truth(rig, truth_rig)
+            for ch, (sensitivity, sign) in true_sensitivity.items():
+                all_chains[ch] = replace(all_chains[ch], sensitivity=sensitivity, sign=sign)
         for ch, chain in (chains or {}).items():
             if ch not in all_chains:
                 raise ConfigError(f"simulator option 'chains': rig {rig.name!r} has no channel {ch}")
