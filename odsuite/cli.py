@@ -261,10 +261,12 @@ def import_cmd(
                                     help="legacy: X,Y,Z in mm from the platform's centre of mass, platform axes."),
     force_dir: str = typer.Option(None, "--force-dir", help="legacy: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
     force_channel: str = typer.Option(None, "--force-channel", help="lvm, uff: name of the force channel."),
+    force_body: str = typer.Option(None, "--force-body", help="lvm on a rig: the body hit, when the force point "
+                                   "lies on two."),
 ) -> None:
     """Import a measurement file as a new experiment, by the importer for its format."""
     _import(project, file, name, fmt, systeminfo=systeminfo, force_point=force_point, force_dir=force_dir,
-            force_channel=force_channel)
+            force_channel=force_channel, force_body=force_body)
 
 
 @app.command("import-legacy")
@@ -355,6 +357,7 @@ def acquire_cmd(
     name: str = typer.Option(..., "--name", help="Experiment name."),
     force_point: str = typer.Option(None, "--force-point", help="X,Y,Z in mm in the rig frame (the thesis rig: from the platform's centre of mass)."),
     force_dir: str = typer.Option(None, "--force-dir", help="+x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
+    force_body: str = typer.Option(None, "--force-body", help="The body hit, when the force point lies on two."),
     rate: float = typer.Option(20_000.0, "--rate", help="Sampling rate, Hz."),
     samples: int = typer.Option(4096, "--samples", help="Samples per channel."),
     pretrigger: int = typer.Option(512, "--pretrigger", help="Samples kept before the trigger."),
@@ -386,6 +389,8 @@ def acquire_cmd(
         if force_point is None or force_dir is None:
             raise typer.BadParameter("give both --force-point and --force-dir")
         options.update(point=parse_force_point(force_point), direction=parse_force_direction(force_dir))
+    if force_body is not None:
+        options["force_body"] = force_body
     if continuous:
         pressed = threading.Event()
         threading.Thread(target=lambda: (sys.stdin.readline(), pressed.set()), daemon=True).start()

@@ -118,6 +118,7 @@ class PreparedExperiment:
     # the last structure simulated and its coordinate accelerations: effects that only change the
     # sensors (gain, tilt, position) reuse them (a strong reference, so identity is safe)
     _cache: tuple | None = field(default=None, repr=False)
+    force_body: str | None = None  # the body hit, when the experiment says (else: from the point)
 
     @property
     def n_samples(self) -> int:
@@ -247,7 +248,7 @@ def prepare_experiment(project, name: str) -> PreparedExperiment:
         direction=np.asarray(exp.excitation.direction, float), sensors=sensors, columns=columns,
         volts=volts, measured=measured, volts_per_unit=np.asarray(vpu), chains=chains, trigger=trigger,
         noise_var=_noise_variance(measured, trigger, exp.sampling_rate, lsb), units=units,
-        operators=stage_operators(infos, vpu),
+        operators=stage_operators(infos, vpu), force_body=exp.excitation.body,
     )
 
 
@@ -263,7 +264,7 @@ def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "accelerati
     from odsuite.core.model import Input, Output, StateSpace
     from odsuite.core.simulation import simulate_state_space
 
-    body = model.rig.force_body(exp.point) if model.rig is not None else None
+    body = model.rig.force_body(exp.point, exp.force_body) if model.rig is not None else None
     inputs = [Input.force(exp.point, exp.direction, body=body)]
     outputs = [Output.sensor(s, quantity) for s in exp.sensors]
     if quantity != "acceleration":

@@ -192,7 +192,8 @@ class Experiment:
         self.excitation = None
         if "force_channel" in a:
             self.excitation = Excitation(int(a["force_channel"]), np.asarray(a["force_point"], dtype=float),
-                                         np.asarray(a["force_direction"], dtype=float))
+                                         np.asarray(a["force_direction"], dtype=float),
+                                         h5text.text(a["force_body"]) if "force_body" in a else None)
         self.systeminfo = read_systeminfo(g["systeminfo"])
 
     def _group(self) -> h5py.Group:
@@ -494,8 +495,11 @@ class Project:
         if not np.isfinite(norm) or norm == 0:
             raise ConfigError(f"{where}: force direction must be a non-zero vector of 3 finite numbers, "
                               f"got {_show(excitation.direction)}")
-        return {"force_channel": int(fc), "force_point": point, "force_point_units": "m",
-                "force_direction": direction / norm}
+        out = {"force_channel": int(fc), "force_point": point, "force_point_units": "m",
+               "force_direction": direction / norm}
+        if excitation.body is not None:
+            out["force_body"] = str(excitation.body)
+        return out
 
     @staticmethod
     def _write_raw(g: h5py.Group, where: str, first: np.ndarray, rest: Iterator[Any], n_ch: int,
@@ -742,7 +746,7 @@ class Project:
                 "clipped_samples": {n: int(c) for n, c in zip(e.channel_names, clipped, strict=True) if c},
                 "excitation": None if e.excitation is None else {
                     "force_channel": e.excitation.force_channel, "point": e.excitation.point.tolist(),
-                    "direction": e.excitation.direction.tolist()},
+                    "direction": e.excitation.direction.tolist(), "body": e.excitation.body},
                 "derived": self.derived_kinds(name), "source": e.source, "created": e.created,
             }
         return out

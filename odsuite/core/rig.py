@@ -142,16 +142,27 @@ class Rig:
         """The sensors that measure acceleration (the ones a model predicts), in file order."""
         return tuple(s for s in self.sensors if s.quantity == "acceleration")
 
-    def force_body(self, point) -> str | None:
-        """The moving body a hammer hits at ``point`` (m): the one whose plate holds the point
-        (within FORCE_POINT_SLACK), else the one whose centre of mass is nearest; None without
-        moving bodies."""
+    def force_body(self, point, body: str | None = None) -> str | None:
+        """The moving body a hammer hits at ``point`` (m): ``body`` when given (a moving body's
+        name), else the one whose plate holds the point (within FORCE_POINT_SLACK), else the one
+        whose centre of mass is nearest; None without moving bodies. A point on two bodies' plates
+        (a machine's foot on its base) is refused unless ``body`` says which."""
         point = np.asarray(point, dtype=float)
         moving = self.moving_bodies
-        for b in moving:
-            if b.plate is not None and np.all(point >= b.plate.corner - FORCE_POINT_SLACK) and \
-                    np.all(point <= b.plate.corner + b.plate.size + FORCE_POINT_SLACK):
-                return b.name
+        if body is not None:
+            if body not in {b.name for b in moving}:
+                raise ConfigError(f"--force-body: rig {self.name!r} has no moving body {body!r} "
+                                  f"(moving: {', '.join(b.name for b in moving) or 'none'})")
+            return body
+        holding = [b.name for b in moving if b.plate is not None
+                   and np.all(point >= b.plate.corner - FORCE_POINT_SLACK)
+                   and np.all(point <= b.plate.corner + b.plate.size + FORCE_POINT_SLACK)]
+        if len(holding) > 1:
+            mm = ", ".join(f"{1e3 * v:g}" for v in point)
+            raise ConfigError(f"force point ({mm}) mm lies on bodies {' and '.join(map(repr, holding))} of rig "
+                              f"{self.name!r}: say which one was hit with --force-body")
+        if holding:
+            return holding[0]
         if not moving:
             return None
         return min(moving, key=lambda b: float(np.linalg.norm(point - b.com))).name

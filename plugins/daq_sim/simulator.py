@@ -38,9 +38,9 @@ from odsuite.core.excitation import Excitation
 from odsuite.core.rig import Rig
 from odsuite.core.systeminfo import Systeminfo
 
-#: ``truth(force, fs, point, direction) -> accelerations``: force (N) sampled at fs; returns
-#: (samples x sensors) m/s^2 along each rig accelerometer's axis at its position, in
-#: ``rig.accelerometers`` order.
+#: ``truth(force, fs, point, direction[, body=NAME]) -> accelerations``: force (N) sampled at fs;
+#: returns (samples x sensors) m/s^2 along each rig accelerometer's axis at its position, in
+#: ``rig.accelerometers`` order; ``body`` is passed only when the experimenter names the body hit.
 Truth = Callable[[np.ndarray, float, np.ndarray, np.ndarray], np.ndarray]
 
 #: bipolar input ranges (V) of an NI E-series card (AT-MIO-16E-2): the card uses the smallest one
@@ -144,6 +144,7 @@ class SimulatedRig:
         force_peak: float | None = None,
         truth_rig: str | None = None,
         adc_bits: int | None = None,
+        force_body: str | None = None,
     ) -> Recording:
         """Strike the virtual rig and return the triggered record.
 
@@ -219,7 +220,9 @@ class SimulatedRig:
         n_stream = int(np.ceil(lead + (span + 0.05) * fs)) + n
         t_fine = np.arange(n_stream * oversample) / fine
         force = half_sine_force(t_fine, hits, t0=lead / fs)
-        acc = np.asarray(truth(force, fine, point, direction), dtype=float)
+        # a truth is told the body hit only when the experimenter says (a point on two bodies)
+        acc = np.asarray(truth(force, fine, point, direction, **({"body": force_body} if force_body else {})),
+                         dtype=float)
         sensors = rig.accelerometers
         if acc.shape != (force.size, len(sensors)):
             raise HardwareError(f"simulator: the truth model returned shape {acc.shape}, expected {(force.size, len(sensors))}")
@@ -255,7 +258,7 @@ class SimulatedRig:
         rec = Recording(
             chunks=_chunks(raw, settings.chunk_size, progress),
             n_samples=n, sampling_rate=fs, pretrigger=pre, systeminfo=systeminfo,
-            excitation=Excitation(force_channel=fch, point=point, direction=direction),
+            excitation=Excitation(force_channel=fch, point=point, direction=direction, body=force_body),
             channel_names=names,
             source=f"daq_sim scenario={label} seed={seed} hits={len(hits)} oversample={oversample}"
                    + (f" force_peak={force_peak:g}N" if force_peak is not None else ""),

@@ -34,8 +34,9 @@ def model_truth(rig: Rig, effects: Sequence[tuple[str, Mapping[str, Any]]] = ())
     model = truth_model(rig, effects)
     outputs = [Output.sensor(s) for s in rig.accelerometers]
 
-    def truth(force: np.ndarray, fs: float, point: np.ndarray, direction: np.ndarray) -> np.ndarray:
-        hit = Input.force(point, direction, body=rig.force_body(point))
+    def truth(force: np.ndarray, fs: float, point: np.ndarray, direction: np.ndarray,
+              body: str | None = None) -> np.ndarray:
+        hit = Input.force(point, direction, body=rig.force_body(point, body))
         return simulate(model, [hit], force, fs, outputs, hold="foh")
 
     return truth
@@ -64,7 +65,8 @@ def rig_file_truth(rig: Rig, path: str):
         raise ConfigError(f"--truth {path}: force channel {true.force_channel}, the project rig's is {rig.force_channel}")
     simulate_true = model_truth(true)
 
-    def truth(force: np.ndarray, fs: float, point: np.ndarray, direction: np.ndarray) -> np.ndarray:
-        return simulate_true(force, fs, point, direction)[:, order]
+    def truth(force: np.ndarray, fs: float, point: np.ndarray, direction: np.ndarray,
+              body: str | None = None) -> np.ndarray:
+        return simulate_true(force, fs, point, direction, body)[:, order]
 
     return truth, changed
