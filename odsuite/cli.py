@@ -196,20 +196,27 @@ def new_cmd(
 @app.command("info")
 def info_cmd(project: Path = typer.Argument(..., help="Project file."),
              as_json: bool = typer.Option(False, "--json", help="Print one JSON document.")) -> None:
-    """Experiments, rig and model revisions of a project (errors as `odsuite history` gives them)."""
+    """Experiments, rig (bodies, springs, coordinate solvers) and model revisions of a project
+    (errors as `odsuite history` gives them)."""
     from odsuite.core.history import history
+    from odsuite.core.plugins import registries
     from odsuite.core.project import open_project
+    from odsuite.core.rig_summary import rig_layout
 
     with open_project(project) as p:
         info = p.info()
         revisions = p.model_revisions()
         # the same numbers as `history`: a revision never compared gets its error computed now
         errors = {r["revision"]: r["error"] for r in history(p)["revisions"]} if revisions else {}
+        layout = rig_layout(p.rig, registries().coordinate_solvers) if p.rig is not None else None
     if as_json:
-        _print_json({**info, "model_revisions": [{**r, "error": errors.get(r["revision"])} for r in revisions]})
+        _print_json({**info, "rig_layout": layout,
+                     "model_revisions": [{**r, "error": errors.get(r["revision"])} for r in revisions]})
         return
     console.print(f"{info['path']}  format {info['format_version']}  rig: {info['rig'] or 'none'}",
                   highlight=False, soft_wrap=True)
+    if layout is not None:
+        _print_rig_layout(layout)
     table = Table(title="experiments")
     for col in ("name", "channels", "fs (Hz)", "samples", "length (s)", "peak |V|", "clipped",
                 "derived"):
@@ -233,6 +240,31 @@ def info_cmd(project: Path = typer.Argument(..., help="Project file."),
             rt.add_row(str(r["revision"]), r["model"] or "-", effects or "-",
                        "-" if error is None else f"{error:.4f}")
         console.print(rt)
+
+
+def _print_rig_layout(layout: dict) -> None:
+    import numpy as np
+
+    bodies = Table(title=f"rig {shown(layout['name'])}: bodies")
+    for col in ("body", "mass (kg)", "sensors", "coordinate solver"):
+        bodies.add_column(col)
+    for b in layout["bodies"]:
+        solver = b["solver"] or (Text("cannot solve: see `process`", style="yellow") if b["solver_problem"] else "-")
+        bodies.add_row(shown(b["name"]), f"{b['mass_kg']:.4g}" if b["moving"] else "fixed",
+                       str(len(b["sensors"])) if b["sensors"] else "-", solver)
+    console.print(bodies)
+    if layout["springs"]:
+        springs = Table(title="springs")
+        for col in ("spring", "between", "at (mm)", "k x, y, z (kN/m)", "c x, y, z (N s/m)"):
+            springs.add_column(col)
+        for s in layout["springs"]:
+            k = np.asarray(s["stiffness_n_per_m"], float)
+            c = np.asarray(s["damping_n_s_per_m"], float)
+            k, c = (np.diag(k) if k.ndim == 2 else k), (np.diag(c) if c.ndim == 2 else c)  # a matrix: its diagonal
+            springs.add_row(shown(s["name"]), f"{shown(s['body'])} - {shown(s['other'])}",
+                            ", ".join(f"{1e3 * v:.4g}" for v in s["position_m"]),
+                            ", ".join(f"{v / 1e3:.4g}" for v in k), ", ".join(f"{v:.4g}" for v in c))
+        console.print(springs)
 
 
 def _import(project: Path, file: Path, name: str, fmt: str | None, **options) -> None:
