@@ -135,7 +135,9 @@ def _resolve_rig(rig: Rig | str | Path | None) -> Rig | None:
     except (OSError, ValueError):  # a name too long for a path, or with a NUL byte: no file
         rig_file = False
     if rig_file:
-        return load_rig(rig, registries().sensor_types)
+        loaded = load_rig(rig, registries().sensor_types)
+        check_asked_solvers(loaded, registries().coordinate_solvers)
+        return loaded
     raise ConfigError(f"unknown rig {str(rig)!r}: not a registered rig (known: {', '.join(rigs.names()) or 'none'}) "
                       "and not a .toml rig file")
 
@@ -753,6 +755,17 @@ class Project:
 
 
 # ----------------------------------------------------------------------------- entry points
+
+def check_asked_solvers(rig: Rig, solvers) -> None:
+    """A body whose rig file asks for a coordinate solver must get it from its sensors: refused
+    when the project is created, not at the first ``process``."""
+    from odsuite.core.rigidbody import body_sensors
+    from odsuite.core.solvers import choose_solver
+
+    for body in rig.bodies:
+        if body.solver is not None:
+            choose_solver(rig, body, [s.name for s in body_sensors(rig, body)], solvers)
+
 
 def create_project(path: str | Path, rig: Rig | str | None = "thesis-dynamometer") -> Project:
     """Create a new project file (refuses to overwrite) and return it open for writing.

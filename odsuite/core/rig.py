@@ -168,6 +168,10 @@ class Rig:
         return min(moving, key=lambda b: float(np.linalg.norm(point - b.com))).name
 
 
+#: A sensor axis written with two decimals ([0.71, 0.71, 0]) is 0.4 % long; a length further from 1
+#: is a mistake (a gain or a sign written into the axis), not rounding
+AXIS_LENGTH_SLACK = 1e-2
+
 #: Channels a rig (or a file) may have: no DAQ chassis has more
 MAX_CHANNELS = 4096
 
@@ -273,6 +277,10 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
         solver = b.get("solver")
         if solver is not None and (not isinstance(solver, str) or not solver):
             raise ConfigError(f"{w} field 'solver': expected a coordinate solver's name, got {solver!r}")
+        if mass is None and (solver is not None or nine is not None):
+            field_name = "solver" if solver is not None else "nine_sensor_set"
+            raise ConfigError(f"{w} field {field_name!r}: the body has no mass, so it does not move in the model "
+                              "and its sensors cannot give it coordinates (give it a 'mass' or drop the field)")
         dofs = b.get("dofs", list(COORDINATES))
         if (not isinstance(dofs, list) or not dofs or any(d not in COORDINATES for d in dofs)
                 or len(set(dofs)) != len(dofs)):
@@ -438,6 +446,9 @@ def single_axis_sensor(entry: dict[str, Any], where: str, *, kind: str, quantity
     axis = _vector(f"{where} field 'axis'", entry.get("axis") if axis is None else axis)
     if np.linalg.norm(axis) == 0:
         raise ConfigError(f"{where} field 'axis': zero vector")
+    if abs(np.linalg.norm(axis) - 1.0) > AXIS_LENGTH_SLACK:
+        raise ConfigError(f"{where} field 'axis': expected a unit vector, got {axis.tolist()} of length "
+                          f"{np.linalg.norm(axis):.4g} (a gain belongs in 'sensitivity')")
     sign = entry.get("sign", 1) if sign is None else sign
     if sign not in (1, -1) or isinstance(sign, bool):
         raise ConfigError(f"{where} field 'sign': must be 1 or -1, got {sign!r}")

@@ -45,6 +45,14 @@ body = "plate"
 position = [0.0, 0.0, 0.0]
 axis = [0.0, 0.0, 1.0]
 """
+SPRING = """
+[[springs]]
+name = "s1"
+body = "plate"
+position = [0.0, 0.0, 0.0]
+stiffness = [1000.0, 1000.0, 1000.0]
+damping = [1.0, 1.0, 1.0]
+"""
 
 
 def ctr_with(row: int, channel: int, value: str) -> str:
@@ -298,6 +306,22 @@ CASES: list[Case] = [
     Case("rig-force-channel", "force_channel = 99 beyond the sensors' channels", "{dir}/bad.toml: field 'force_channel': channel 99 lies beyond the sensors' channels (highest 1); give channel_count to leave the channels between unused", **new_rig(RIG_TOML.replace("force_channel = 0", "force_channel = 99"))),
     Case("rig-channel-count-negative", "channel_count = -3", "{dir}/bad.toml: field 'channel_count': expected an integer from 1 to 4096, got -3", **new_rig(RIG_TOML.replace("force_channel = 0", "force_channel = 0\nchannel_count = -3"))),
     Case("rig-channel-count-huge", "channel_count = 100000", "{dir}/bad.toml: field 'channel_count': expected an integer from 1 to 4096, got 100000", **new_rig(RIG_TOML.replace("force_channel = 0", "force_channel = 0\nchannel_count = 100000"))),
+    Case("rig-spring-unknown-body", "spring on body `table`, not defined", "{dir}/bad.toml: springs[0] 's1' field 'body': no body named 'table' (bodies: plate)",
+         **new_rig(RIG_TOML + SPRING.replace('body = "plate"', 'body = "table"'))),
+    Case("rig-spring-negative", "spring stiffness -5 N/m along y", "{dir}/bad.toml: springs[0] 's1' field 'stiffness': must not be negative, got [1000.0, -5.0, 1000.0]",
+         **new_rig(RIG_TOML + SPRING.replace("[1000.0, 1000.0, 1000.0]", "[1000.0, -5.0, 1000.0]"))),
+    Case("rig-spring-massless-body", "spring on a body without mass", "{dir}/bad.toml: springs[0] 's1' field 'body': body 'floor' has no mass, so it does not move; attach the spring to 'ground' instead",
+         **new_rig(RIG_TOML.replace("[[sensors]]", '[[bodies]]\nname = "floor"\n[[sensors]]') + SPRING.replace('body = "plate"', 'body = "floor"'))),
+    Case("rig-axis-not-unit", "sensor axis [0, 0, 2]", "{dir}/bad.toml: sensors[0] 'a1' field 'axis': expected a unit vector, got [0.0, 0.0, 2.0] of length 2 (a gain belongs in 'sensitivity')",
+         **new_rig(RIG_TOML.replace("axis = [0.0, 0.0, 1.0]", "axis = [0.0, 0.0, 2.0]"))),
+    Case("rig-massless-solver", "a coordinate solver asked for on a body without mass", "{dir}/bad.toml: body 'floor' field 'solver': the body has no mass, so it does not move in the model and its sensors cannot give it coordinates (give it a 'mass' or drop the field)",
+         **new_rig(RIG_TOML.replace("[[sensors]]", '[[bodies]]\nname = "floor"\nsolver = "least-squares"\n[[sensors]]'))),
+    Case("rig-solver-too-few-directions", "least squares asked for on a body with one sensor direction", "rig 'bench' ({dir}/bad.toml): body 'plate' field 'solver': 'least-squares' cannot solve the body from its sensors (a1 along [0.0, 0.0, 1.0] at [0.0, 0.0, 0.0] mm)",
+         **new_rig(RIG_TOML.replace("mass = 2.0", 'mass = 2.0\nsolver = "least-squares"'))),
+    Case("rig-solver-unknown", "solver `kalman`, not registered", "rig 'bench' ({dir}/bad.toml): body 'plate' field 'solver': unknown coordinate solver 'kalman' (known: least-squares, padgaonkar-nine)",
+         **new_rig(RIG_TOML.replace("mass = 2.0", 'mass = 2.0\nsolver = "kalman"'))),
+    Case("rig-processing-cutoff", "[processing] high-pass at -3 Hz", "{dir}/bad.toml: [processing].filter.cutoff_hz: expected one frequency in Hz (> 0) for a highpass filter, got -3.0",
+         **new_rig(RIG_TOML + '[processing]\nfilter = { type = "highpass", cutoff_hz = -3.0 }\n')),
     # output paths
     Case("output-is-project", "export-legacy --cod naming the project itself", "--cod {dir}/p.h5: that is the project {dir}/p.h5 or one of its own files; give another file name",
          argv=lambda d: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d / "p.h5")]),
