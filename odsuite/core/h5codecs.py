@@ -201,6 +201,8 @@ def rig_to_dict(rig: Rig) -> dict[str, Any]:
             d["sensitivity"] = s.sensitivity
         if s.group:
             d["group"] = s.group
+        if s.name in rig.processing_tables:
+            d["processing"] = rig.processing_tables[s.name]
         sensors.append(d)
     springs = [{"name": s.name, "body": s.body, "other": s.other or "ground", "position": vec(s.position),
                 "stiffness": vec(s.stiffness), "damping": vec(s.damping), "rot_stiffness": vec(s.rot_stiffness),
@@ -215,6 +217,9 @@ def rig_to_dict(rig: Rig) -> dict[str, Any]:
         out["default_model"] = rig.default_model
     if rig.systeminfo_file is not None:
         out["systeminfo"] = str(rig.systeminfo_file)
+    if "" in rig.processing_tables:
+        out["processing"] = rig.processing_tables[""]
+    out["up"] = vec(rig.up)
     return out
 
 

@@ -114,9 +114,25 @@ class Rig:
     springs: tuple[Spring, ...] = ()
     source: Path | None = None
     extra: dict[str, Any] = field(default_factory=dict)
+    #: the file's ``[processing]`` tables as written: "" the rig's, else a sensor's name
+    processing_tables: dict[str, dict[str, Any]] = field(default_factory=dict)
     #: ChannelInfo settings of ``[processing]`` for records without a .CTR, and per sensor on top
     processing: dict[str, Any] = field(default_factory=dict)
     sensor_processing: dict[str, dict[str, Any]] = field(default_factory=dict)
+    #: the rig frame's upward direction (against gravity), for drawing: [0, 0, 1] unless the file says
+    up: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+
+    def horizontal_axes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Two unit vectors spanning the horizontal plane (perpendicular to ``up``): the rig's x and
+        y made horizontal, so that a view's azimuth is measured from x towards y."""
+        e1 = np.eye(3)[0] - self.up * self.up[0]
+        if np.linalg.norm(e1) < 1e-6:  # x is vertical: measure from y
+            e1 = np.eye(3)[1] - self.up * self.up[1]
+        e1 = e1 / np.linalg.norm(e1)
+        e2 = np.eye(3)[1] - self.up * self.up[1] - e1 * e1[1]
+        if np.linalg.norm(e2) < 1e-6:
+            e2 = np.cross(self.up, e1)
+        return e1, e2 / np.linalg.norm(e2)
 
     def body(self, name: str) -> Body:
         for b in self.bodies:
@@ -296,6 +312,7 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
     springs = _springs(data.get("springs", []), where0, {b.name for b in bodies if b.mass is not None}, body_names)
     sensors = []
     sensor_processing: dict[str, dict[str, Any]] = {}
+    processing_tables: dict[str, dict[str, Any]] = {"": data["processing"]} if "processing" in data else {}
     for i, s in enumerate(data.get("sensors", [])):
         w = f"{where0}: sensors[{i}]" + (f" {s.get('name')!r}" if isinstance(s, dict) and "name" in s else "")
         if not isinstance(s, dict):
@@ -310,6 +327,7 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
             sensors.append(sensor)
             if "processing" in s:
                 sensor_processing[sensor.name] = parse_processing(s["processing"], f"{w} field 'processing'")
+                processing_tables[sensor.name] = s["processing"]
     sensor_names = {s.name for s in sensors}
     channels = [s.channel for s in sensors]
     if len(set(channels)) != len(channels):
@@ -326,7 +344,7 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
         base = source.parent if source else Path.cwd()
         systeminfo_file = base / data["systeminfo"]
     known = {"name", "description", "frame", "bodies", "springs", "sensors", "force_channel", "channel_count",
-             "default_model", "systeminfo", "processing"}
+             "default_model", "systeminfo", "processing", "up"}
     channel_count = _channel_count(where0, data, channels)
     return Rig(
         name=name, description=data.get("description", ""), frame=data.get("frame", ""),
@@ -336,8 +354,16 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
         springs=springs,
         extra={k: v for k, v in data.items() if k not in known},
         processing=parse_processing(data.get("processing", {}), f"{where0}: [processing]"),
-        sensor_processing=sensor_processing,
+        up=_up(data.get("up", [0.0, 0.0, 1.0]), where0),
+        sensor_processing=sensor_processing, processing_tables=processing_tables,
     )
+
+
+def _up(value: Any, where0: str) -> np.ndarray:
+    up = _vector(f"{where0}: field 'up'", value)
+    if abs(np.linalg.norm(up) - 1.0) > AXIS_LENGTH_SLACK:
+        raise ConfigError(f"{where0}: field 'up': expected a unit vector, got {up.tolist()}")
+    return up / np.linalg.norm(up)
 
 
 def _force_channel(data: dict[str, Any], sensors: list[Sensor], where0: str) -> int | None:
