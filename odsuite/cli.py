@@ -466,6 +466,19 @@ def model_cmd(
         return
     console.print(f"model {report['model']!r}, revision {report['revision']}, effects: "
                   f"{', '.join(report['effects']) or 'none'}", highlight=False, soft_wrap=True)
+    if report["parameters"]:
+        params = Table(title="parameters")
+        for col in ("effect", "parameter", "value", "unit", "meaning"):
+            params.add_column(col)
+        for effect, values in report["parameters"].items():
+            info = report["parameter_info"].get(effect, {})
+            for name, value in values.items():
+                if name == "per_experiment":
+                    continue
+                about = info.get(name, {})
+                params.add_row(shown(effect), shown(name), f"{value:.6g}", shown(about.get("unit", "")) or "-",
+                               shown(about.get("description", "")))
+        console.print(params)
     table = Table(title="modes")
     for col in ("mode", "frequency (Hz)", "damping ratio"):
         table.add_column(col)

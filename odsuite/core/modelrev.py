@@ -72,17 +72,28 @@ def revision_model(project, revision: Mapping[str, Any] | None = None) -> Revisi
 
 def model_report(project) -> dict[str, Any]:
     """The ``odsuite model --json`` document of the current revision: revision, model, parameters
-    (per effect), effects, modes (ascending; f = |lambda|/2 pi, zeta = -Re lambda/|lambda|)."""
+    (per effect), ``parameter_info`` (per effect and parameter: unit and description, for the
+    effects still registered), effects, modes (ascending; f = |lambda|/2 pi,
+    zeta = -Re lambda/|lambda|)."""
+    from odsuite.core.plugins import registries
+
     rev = current_revision(project)
     rmodel = revision_model(project, rev)
     model = rmodel.shared
     effects = rev.get("effects", [])
+    registered = registries().effects
+    info: dict[str, dict[str, dict[str, str]]] = {}
+    for e in effects:
+        if e["effect"] in registered:
+            info[e["effect"]] = {p.name: {"unit": p.unit, "description": p.description}
+                                 for p in registered.get(e["effect"]).parameters(model)}
     return {
         "revision": int(rev["revision"]),
         "model": model.name,
         "parameters": {e["effect"]: {**e.get("values", {}),
                                      **({"per_experiment": e["per_experiment"]} if e.get("per_experiment") else {})}
                        for e in effects},
+        "parameter_info": info,
         "effects": [e["effect"] for e in effects],
         "modes": model.modes().as_list(),
         "description": model.describe(),
