@@ -743,15 +743,18 @@ def compare_cmd(
         return
     console.print(f"revision {result['revision']}: error {result['error']:.4f} "
                   f"(noise floor {result['noise_floor_error']:.4f})", highlight=False)
-    table = Table(title="error per experiment and channel (NRMSE, acceleration stage)")
-    names = list(result["channels"])
-    table.add_column("experiment")
-    table.add_column("all")
-    for n in names:
-        table.add_column(n)
-    for exp, d in result["experiments"].items():
-        table.add_row(exp, f"{d['error']:.3f}", *(f"{d['channels'].get(n, float('nan')):.3f}" for n in names))
-    table.add_row("all", f"{result['error']:.3f}", *(f"{result['channels'][n]:.3f}" for n in names))
+    # a row per channel: a rig has more channels than a terminal has room for columns
+    table = Table(title="error (NRMSE, acceleration stage)")
+    experiments = list(result["experiments"])
+    table.add_column("channel")
+    for exp in experiments:
+        table.add_column(shown(exp), justify="right")
+    table.add_column("all", justify="right")
+    for n in result["channels"]:
+        table.add_row(shown(n), *(f"{result['experiments'][e]['channels'].get(n, float('nan')):.3f}"
+                                  for e in experiments), f"{result['channels'][n]:.3f}")
+    table.add_row("all", *(f"{result['experiments'][e]['error']:.3f}" for e in experiments), f"{result['error']:.3f}",
+                  style="bold")
     console.print(table)
     worst = Table(title="where the model fails most")
     for col in ("kind", "name", "error"):
