@@ -114,6 +114,8 @@ class SimulatedRig:
                BackendOption("seed", int, 0, "random seed; one seed, one record"),
                BackendOption("force_peak", float, None, "peak hammer force in N (default: the scenario's, "
                                                         "else 20 N); several hits keep their ratios"),
+               BackendOption("contact_ms", float, None, "the blow's contact time, ms (default: the scenario's, "
+                             "else 0.5 ms; a hard tip 0.1-0.5 ms, a rubber tip or a sledge 2-20 ms)"),
                BackendOption("truth_rig", str, None, "a rig file the record comes from instead of the project's rig "
                              "(a hidden change: stiffer mounts, a moved mass, a tilted or mis-calibrated sensor); "
                              "it has the project rig's channels", flag="--truth"),
@@ -145,6 +147,7 @@ class SimulatedRig:
         truth_rig: str | None = None,
         adc_bits: int | None = None,
         force_body: str | None = None,
+        contact_ms: float | None = None,
     ) -> Recording:
         """Strike the virtual rig and return the triggered record.
 
@@ -184,6 +187,8 @@ class SimulatedRig:
                 raise ConfigError(f"--force-peak: must be > 0 N, got {force_peak!r}")
             top = max(h.peak for h in hits)
             hits = [replace(h, peak=h.peak * force_peak / top) for h in hits]
+        if contact_ms is not None:
+            hits = [replace(h, width=1e-3 * contact_ms) for h in hits]
         for i, h in enumerate(hits):
             h.validate(f"simulator hit {i}")
         if not (np.isfinite(noise) and 0 <= noise <= MAX_NOISE_SCALE):
@@ -254,14 +259,16 @@ class SimulatedRig:
 
         names = [channel_name(rig, ch) for ch in range(rig.channel_count)]
         # a scenario's hits scaled by --force-peak are still that scenario (the source says the peak)
-        label = sc.name if sc is not None and (hits == list(sc.hits) or force_peak is not None) else "custom"
+        label = (sc.name if sc is not None and (hits == list(sc.hits) or force_peak is not None or contact_ms is not None)
+                 else "custom")
         rec = Recording(
             chunks=_chunks(raw, settings.chunk_size, progress),
             n_samples=n, sampling_rate=fs, pretrigger=pre, systeminfo=systeminfo,
             excitation=Excitation(force_channel=fch, point=point, direction=direction, body=force_body),
             channel_names=names,
             source=f"daq_sim scenario={label} seed={seed} hits={len(hits)} oversample={oversample}"
-                   + (f" force_peak={force_peak:g}N" if force_peak is not None else ""),
+                   + (f" force_peak={force_peak:g}N" if force_peak is not None else "")
+                   + (f" contact={contact_ms:g}ms" if contact_ms is not None else ""),
             clipped={ch: c for ch, c in clipped.items() if c},
         )
         if progress:
