@@ -66,6 +66,9 @@ def band_errors(measured: np.ndarray, predicted: np.ndarray, fs: float,
 
 #: a residual peak is one the noise alone would reach with this probability over the whole spectrum
 PEAK_FALSE_ALARM = 0.01
+#: ... and that holds at least this share of the residual's energy (a smaller one moves the error
+#: by under 1 %)
+PEAK_MIN_SHARE = 0.02
 
 
 def residual_peaks(exps: Sequence[PreparedExperiment], predictions: Sequence[np.ndarray],
@@ -107,6 +110,15 @@ def residual_peaks(exps: Sequence[PreparedExperiment], predictions: Sequence[np.
             return []
         idx, props = scipy.signal.find_peaks(np.concatenate([[0.0], excess, [0.0]]), prominence=0.0)
         idx = idx - 1
+        # a peak's share: its excess over the floor, summed over the bins around it above the limit
+        lo = np.flatnonzero(np.diff(np.concatenate([[0.0], (excess > 0).astype(float)])) > 0)
+        kept = []
+        for i in idx:
+            a = lo[lo <= i].max()
+            b = a + int(np.argmax(excess[a:] == 0)) if np.any(excess[a:] == 0) else len(excess)
+            kept.append(excess[a:b].sum() >= PEAK_MIN_SHARE * psd_sum.sum())
+        keep = np.asarray(kept, bool)
+        idx, props = idx[keep], {k: v[keep] for k, v in props.items()}
         strength = excess
     else:
         idx, props = scipy.signal.find_peaks(psd_sum, prominence=0.05 * psd_sum.max())

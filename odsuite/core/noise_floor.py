@@ -69,48 +69,48 @@ def _fit(x: np.ndarray, basis: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray
 
 @dataclass
 class QuietFit:
-    """The quiet samples of a record and what was fitted on them."""
+    """The quiet samples of a raw record and the disturbances fitted on them."""
 
     quiet: np.ndarray  # mask over the samples
-    white: np.ndarray  # per column, broadband variance once the disturbances are fitted out
-    disturbance: np.ndarray  # samples x columns: the fitted disturbances over the whole record
+    disturbance: np.ndarray  # samples x columns (volts): offset, drift where both ends are quiet, hum
     mains_hz: float
     harmonics: int
 
-    def raw_disturbance(self, raw: np.ndarray, fs: float) -> np.ndarray:
-        """The same disturbances fitted on a raw record (volts, before the chain), with a line
-        where quiet samples lie at both ends of the record (drift): put through a channel's chain
-        they give the disturbance as it reaches the acceleration stage, the high-pass's ringing on a
-        drift included."""
-        x = np.atleast_2d(raw.T).T
-        n = x.shape[0]
-        line = bool(self.quiet[-1]) and bool(self.quiet[0])
-        return _fit(x, disturbance_basis(n, fs, (self.mains_hz,), self.harmonics, line=line), self.quiet)[1]
+    def white(self, stage: np.ndarray, stage_disturbance: np.ndarray) -> np.ndarray:
+        """Per column, the broadband variance of the quiet samples of a signal after the chain once
+        the disturbances (through the same chain) are taken out."""
+        rest = (stage - stage_disturbance)[self.quiet]
+        return np.var(rest, axis=0) if len(rest) > 1 else np.zeros(stage.shape[1])
 
 
-def split_noise(measured: np.ndarray, trigger: int, fs: float) -> QuietFit:
-    """The broadband variance per column of the quiet samples once the disturbances (the mains
-    hum) are fitted out, and the fitted disturbances over the whole record (mean removed: the
-    chain's offset step removes it). No line here: the chain's high-pass has taken drift out, and a
-    line fitted to a short stretch grows without bound over the record.
+def split_noise(raw: np.ndarray, trigger: int, fs: float) -> QuietFit:
+    """The quiet samples of a raw record (volts, before the chain: no filter transients) and its
+    disturbances fitted on them: an offset, a line where quiet samples lie at both ends (drift; a
+    line fitted to one short stretch would grow without bound over the record), and the mains hum.
+    Put through a channel's chain, the disturbances reach the acceleration stage as they do in the
+    measurement, the high-pass's ringing on a drift included.
 
     Quiet samples: before the hit (less a guard) and after the response has died into the noise.
-    The mains frequency (50 or 60 Hz) is the one that fits the pre-trigger samples better; its
-    harmonics are fitted only when the quiet samples span two of its periods beyond the pre-trigger
-    (on a stretch shorter than a period the sinusoids are nearly collinear with the constant)."""
-    x = np.atleast_2d(measured.T).T
+    The mains frequency (50 or 60 Hz) is the one whose sinusoid holds more of the record (hum
+    persists through it, a hit's response does not); its harmonics are fitted only when the quiet
+    samples span two of its periods beyond the pre-trigger (on a shorter stretch the sinusoids are
+    nearly collinear with the constant)."""
+    x = np.atleast_2d(raw.T).T
     n = x.shape[0]
     guard = int(round(HIT_GUARD_S * fs))
     pre = np.zeros(n, bool)
     pre[: max(0, trigger - guard)] = True
     if pre.sum() < 32:  # no pre-trigger: the last eighth (a lightly damped rig has died away there)
         pre[-max(32, n // 8):] = True
-    fits = [(_fit(x, disturbance_basis(n, fs, (f0,), 1, line=False), pre), f0) for f0 in MAINS_HZ]
-    (white, dist, _), mains = min(fits, key=lambda t: t[0][2])
+    everywhere = np.ones(n, bool)
+    held = [(float(np.sum(_fit(x, disturbance_basis(n, fs, (f0,), 1), everywhere)[1] ** 2)), f0) for f0 in MAINS_HZ]
+    mains = max(held)[1]
     # the response has died into the noise where the excess energy left (beyond the broadband
-    # noise and the disturbances) is below QUIET_FRACTION of the record's noise energy
-    power = np.sum((x - dist) ** 2, axis=1)
+    # noise and the disturbances fitted before the hit) is below QUIET_FRACTION of the record's
+    # noise energy
+    white, dist, _ = _fit(x, disturbance_basis(n, fs, (mains,), 1, line=False), pre)
     var = float(np.sum(white))
+    power = np.sum((x - x[pre].mean(axis=0) - dist) ** 2, axis=1)
     tail = np.cumsum(power[::-1])[::-1] - (n - np.arange(n)) * var
     above = np.flatnonzero(tail > QUIET_FRACTION * n * var)
     end = int(above[-1]) + 1 if above.size else trigger
@@ -118,8 +118,9 @@ def split_noise(measured: np.ndarray, trigger: int, fs: float) -> QuietFit:
     quiet = pre.copy()
     quiet[end:] = True
     harmonics = MAINS_HARMONICS if (n - end) >= 2 * fs / mains else 1
-    white, dist, _ = _fit(x, disturbance_basis(n, fs, (mains,), harmonics, line=False), quiet)
-    return QuietFit(quiet, white, dist, mains, harmonics)
+    line = bool(quiet[0]) and bool(quiet[-1])
+    _, dist, _ = _fit(x, disturbance_basis(n, fs, (mains,), harmonics, line=line), quiet)
+    return QuietFit(quiet, dist, mains, harmonics)
 
 
 def moving_samples(x: np.ndarray, lsb: np.ndarray | float, fs: float) -> np.ndarray:
