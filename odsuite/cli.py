@@ -789,14 +789,32 @@ def diagnose_cmd(
         _print_json(doc)
         return
     console.print(f"revision {doc['revision']}: error {doc['baseline_error']:.4f} "
-                  f"(noise floor {doc['noise_floor_error']:.4f})", highlight=False)
+                  f"(noise floor {doc['noise_floor']:.4f}, {doc['residual_to_floor']:.2f}x)", highlight=False)
+    console.print(f"verdict: {doc['verdict']}", highlight=False)
+    console.print(shown(doc["message"]), highlight=False, soft_wrap=True)
+    sig = doc["signature"]
+    where = [("channels", ", ".join(f"{c['channel']} ({c['residual_to_floor']:.1f}x)" for c in sig["channels"][:6])),
+             ("experiments", ", ".join(f"{x['experiment']} ({x['residual_to_floor']:.1f}x)" for x in sig["experiments"][:6])),
+             ("bands", ", ".join(f"{b['band']} ({b['residual_to_floor']:.1f}x)" for b in sig["bands"][:6])),
+             ("peaks", ", ".join(f"{p:.0f} Hz" for p in sig["peaks_hz"]))]
+    for label, text in where:
+        if text:
+            console.print(f"left above the floor, {label}: {shown(text)}", highlight=False, soft_wrap=True)
+    if sig["amplitude_dependent"]:
+        console.print("amplitude dependent: the fitted parameters follow the force level", highlight=False)
     table = Table(title="candidate effects, best first")
-    for col in ("effect", "significant", "error after", "validated", "evidence"):
+    for col in ("effect", "significant", "consistent", "plausible", "error after", "validated", "confounded with",
+                "evidence"):
         table.add_column(col)
+
+    def yes(v: bool) -> str:
+        return "yes" if v else "no"
+
     for c in doc["candidates"]:
-        table.add_row(c["effect"], "yes" if c["significant"] else "no", f"{c['error_after']:.4f}",
+        table.add_row(c["effect"], yes(c["significant"]), yes(c["consistent"]) if c["fitted"] else "-",
+                      yes(c["plausible"]) if c["fitted"] else "-", f"{c['error_after']:.4f}",
                       "-" if c["validated_error"] != c["validated_error"] else f"{c['validated_error']:.4f}",
-                      c["evidence"])
+                      ", ".join(c["confounded_with"]) or "-", c["evidence"])
     console.print(table)
     if doc["not_applicable"]:
         console.print(f"not applicable to this model: {', '.join(doc['not_applicable'])}", highlight=False,
@@ -822,6 +840,8 @@ def add_effect_cmd(
         return
     console.print(f"revision {result['revision']}: + {effect}; error {result['previous_error']:.4f} -> "
                   f"{result['error']:.4f} (noise floor {result['noise_floor_error']:.4f})", highlight=False)
+    for line in result["warnings"]:
+        err_console.print(f"warning: {shown(line)}", highlight=False, soft_wrap=True)
 
 
 @app.command("history")

@@ -20,6 +20,12 @@ any object with the same members:
 Optional: ``breaks_rigidity`` (bool, default False): the effect makes a rigid body's redundant
 sensors disagree (a flexible mode, a sensor fault), so the diagnosis cites the rigidity check's
 residual as evidence for it.
+
+Each :class:`Parameter` may declare ``plausible`` (low, high): the physically plausible range of
+its value, narrower than the bounds the fit may explore (a sensor resonance near the sensor's rated
+band, a tilt below 45 degrees, a mass change within the body's own mass). A fit outside it is
+reported as not ``plausible`` by ``diagnose`` and warned about by ``add-effect``: the effect then
+more likely stands in for other physics. None: any value within the bounds is plausible.
 """
 
 from __future__ import annotations
@@ -37,7 +43,8 @@ REQUIRED_METHODS = ("parameters", "apply")
 
 @dataclass(frozen=True)
 class Parameter:
-    """One effect parameter. ``choices`` marks a discrete parameter (e.g. polarity +1/-1)."""
+    """One effect parameter. ``choices`` marks a discrete parameter (e.g. polarity +1/-1);
+    ``plausible`` (low, high) its physically plausible range (None: the bounds)."""
 
     name: str
     unit: str
@@ -47,11 +54,13 @@ class Parameter:
     scope: str = "shared"
     description: str = ""
     choices: tuple[float, ...] | None = None
+    plausible: tuple[float, float] | None = None
 
     def as_dict(self) -> dict:
         return {"name": self.name, "unit": self.unit, "nominal": self.nominal, "lower": self.lower,
                 "upper": self.upper, "scope": self.scope, "description": self.description,
-                **({"choices": list(self.choices)} if self.choices else {})}
+                **({"choices": list(self.choices)} if self.choices else {}),
+                **({"plausible": list(self.plausible)} if self.plausible else {})}
 
 
 class Effect:

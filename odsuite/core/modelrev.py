@@ -8,10 +8,11 @@ per-experiment ones (e.g. an impact location) only when predicting that experime
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from odsuite.core.errors import ConfigError
+from odsuite.core.model import AnalogFilter
 
 
 def base_model(rig, model_name: str | None = None):
@@ -21,7 +22,12 @@ def base_model(rig, model_name: str | None = None):
     name = model_name or rig.default_model
     if not name:
         raise ConfigError(f"rig {rig.name!r} names no default model (field 'default_model')")
-    return registries().models.get(name)(rig)
+    model = registries().models.get(name)(rig)
+    # what the rig declares of its front end is part of every model of it: like with like
+    declared = AnalogFilter.front_end(getattr(rig, "acquisition", None))
+    if declared is not None and model.chain.front_end is None:
+        model = model.replace(chain=replace(model.chain, front_end=declared))
+    return model
 
 
 @dataclass

@@ -100,6 +100,58 @@ class Spring:
     group: str
 
 
+#: anti-aliasing filter families a rig file may name (scipy.signal's analog prototypes)
+AA_FAMILIES = ("butterworth", "elliptic", "chebyshev1", "bessel")
+
+
+@dataclass(frozen=True)
+class AntiAliasing:
+    """The DAQ's analog low-pass ahead of the ADC. ``force_channel``: the hammer's channel passes
+    through it too (the usual case: the model, driven by the filtered force, then carries the filter
+    already; False: only the accelerometer channels are filtered, so the prediction adds it)."""
+
+    family: str
+    order: int
+    cutoff_hz: float
+    ripple_db: float = 0.1  # elliptic and Chebyshev pass-band ripple
+    attenuation_db: float = 60.0  # elliptic stop-band attenuation
+    force_channel: bool = True
+
+    def zpk(self) -> tuple[np.ndarray, np.ndarray, float]:
+        """Analog zeros, poles (rad/s) and gain."""
+        import scipy.signal
+
+        wc = 2 * np.pi * self.cutoff_hz
+        if self.family == "butterworth":
+            return scipy.signal.butter(self.order, wc, analog=True, output="zpk")
+        if self.family == "elliptic":
+            return scipy.signal.ellip(self.order, self.ripple_db, self.attenuation_db, wc, analog=True, output="zpk")
+        if self.family == "chebyshev1":
+            return scipy.signal.cheby1(self.order, self.ripple_db, wc, analog=True, output="zpk")
+        return scipy.signal.bessel(self.order, wc, analog=True, output="zpk", norm="mag")
+
+
+@dataclass(frozen=True)
+class Acquisition:
+    """A rig file's ``[acquisition]`` table: how its DAQ records (SI: Hz, V)."""
+
+    sampling_rate: float | None = None
+    pre_trigger: int | None = None
+    adc_bits: int | None = None  # None (or 0 in the file): not stated
+    adc_range: tuple[float, float] | None = None  # V, input range of the ADC
+    anti_aliasing: AntiAliasing | None = None
+    iepe_corner_hz: float | None = None  # AC coupling of the accelerometers' IEPE supply (first order)
+    sensor_resonance_hz: float | None = None  # the accelerometers' mounted resonance
+    sensor_resonance_damping: float = 0.03
+
+    @property
+    def lsb_v(self) -> float | None:
+        """Volts per ADC code, when bits and range are stated."""
+        if not self.adc_bits or self.adc_range is None:
+            return None
+        return (self.adc_range[1] - self.adc_range[0]) / 2**self.adc_bits
+
+
 @dataclass(frozen=True)
 class Rig:
     name: str
@@ -133,6 +185,7 @@ class Rig:
         if np.linalg.norm(e2) < 1e-6:
             e2 = np.cross(self.up, e1)
         return e1, e2 / np.linalg.norm(e2)
+    acquisition: Acquisition | None = None
 
     def body(self, name: str) -> Body:
         for b in self.bodies:
@@ -345,6 +398,7 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
         systeminfo_file = base / data["systeminfo"]
     known = {"name", "description", "frame", "bodies", "springs", "sensors", "force_channel", "channel_count",
              "default_model", "systeminfo", "processing", "up"}
+    acquisition = _acquisition(data.get("acquisition"), where0)
     channel_count = _channel_count(where0, data, channels)
     return Rig(
         name=name, description=data.get("description", ""), frame=data.get("frame", ""),
@@ -352,7 +406,7 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
         channel_count=channel_count,
         default_model=data.get("default_model"), systeminfo_file=systeminfo_file, source=source,
         springs=springs,
-        extra={k: v for k, v in data.items() if k not in known},
+        extra={k: v for k, v in data.items() if k not in known}, acquisition=acquisition,
         processing=parse_processing(data.get("processing", {}), f"{where0}: [processing]"),
         up=_up(data.get("up", [0.0, 0.0, 1.0]), where0),
         sensor_processing=sensor_processing, processing_tables=processing_tables,
@@ -364,6 +418,55 @@ def _up(value: Any, where0: str) -> np.ndarray:
     if abs(np.linalg.norm(up) - 1.0) > AXIS_LENGTH_SLACK:
         raise ConfigError(f"{where0}: field 'up': expected a unit vector, got {up.tolist()}")
     return up / np.linalg.norm(up)
+
+
+def _acquisition(table: Any, where0: str) -> Acquisition | None:
+    """The ``[acquisition]`` table, validated (errors name the field and the value)."""
+    if table is None:
+        return None
+    w = f"{where0}: acquisition"
+    if not isinstance(table, dict):
+        raise ConfigError(f"{w}: expected a table, got {table!r}")
+
+    def opt_number(key: str) -> float | None:
+        return None if table.get(key) is None else _number(f"{w} field {key!r}", table[key], positive=True)
+
+    bits = table.get("adc_bits")
+    if bits is not None:
+        bits = _integer(f"{w} field 'adc_bits'", bits, 0, 32) or None
+    adc_range = table.get("adc_range")
+    if adc_range is not None:
+        lo_hi = _vector(f"{w} field 'adc_range'", adc_range, 2)
+        if not lo_hi[1] > lo_hi[0]:
+            raise ConfigError(f"{w} field 'adc_range': expected [low, high] volts with high > low, got {adc_range!r}")
+        adc_range = (float(lo_hi[0]), float(lo_hi[1]))
+    pre = table.get("pre_trigger")
+    if pre is not None:
+        pre = _integer(f"{w} field 'pre_trigger'", pre, 0, 2**34)
+    aa = table.get("anti_aliasing")
+    if aa is not None:
+        wa = f"{w} field 'anti_aliasing'"
+        if not isinstance(aa, dict):
+            raise ConfigError(f"{wa}: expected a table {{family, order, cutoff_hz}}, got {aa!r}")
+        family = aa.get("family", "butterworth")
+        if family not in AA_FAMILIES:
+            raise ConfigError(f"{wa}.family: expected one of {', '.join(AA_FAMILIES)}, got {family!r}")
+        force = aa.get("force_channel", True)
+        if not isinstance(force, bool):
+            raise ConfigError(f"{wa}.force_channel: expected true or false, got {force!r}")
+        aa = AntiAliasing(
+            family=family, order=_integer(f"{wa}.order", aa.get("order"), 1, 16),
+            cutoff_hz=_number(f"{wa}.cutoff_hz", aa.get("cutoff_hz"), positive=True),
+            ripple_db=_number(f"{wa}.ripple_db", aa.get("ripple_db", 0.1), positive=True),
+            attenuation_db=_number(f"{wa}.attenuation_db", aa.get("attenuation_db", 60.0), positive=True),
+            force_channel=force)
+    damping = _number(f"{w} field 'sensor_resonance_damping'", table.get("sensor_resonance_damping", 0.03),
+                      positive=True)
+    if damping >= 1:
+        raise ConfigError(f"{w} field 'sensor_resonance_damping': expected a ratio below 1, got {damping!r}")
+    return Acquisition(sampling_rate=opt_number("sampling_rate"), pre_trigger=pre, adc_bits=bits,
+                       adc_range=adc_range, anti_aliasing=aa, iepe_corner_hz=opt_number("iepe_corner_hz"),
+                       sensor_resonance_hz=opt_number("sensor_resonance_hz"), sensor_resonance_damping=damping)
 
 
 def _force_channel(data: dict[str, Any], sensors: list[Sensor], where0: str) -> int | None:
