@@ -742,7 +742,7 @@ def compare_cmd(
         _print_json(result)
         return
     console.print(f"revision {result['revision']}: error {result['error']:.4f} "
-                  f"(noise floor {result['noise_floor_error']:.4f})", highlight=False)
+                  f"(noise floor {result['noise_floor']:.4f}, {result['residual_to_floor']:.2f}x)", highlight=False)
     # a row per channel: a rig has more channels than a terminal has room for columns
     table = Table(title="error (NRMSE, acceleration stage)")
     experiments = list(result["experiments"])
@@ -763,9 +763,9 @@ def compare_cmd(
         worst.add_row(w["kind"], w["name"], f"{w['error']:.3f}")
     console.print(worst)
     for peak in result["residual_peaks"]:
-        if peak["lacking"]:
-            console.print(f"residual peak at {peak['frequency_hz']:.0f} Hz in {', '.join(peak['channels'])}: "
-                          "no model mode there", highlight=False)
+        where = "no model mode there" if peak["lacking"] else f"near the model's mode at {peak['model_mode_hz']:.0f} Hz"
+        console.print(f"residual peak at {peak['frequency_hz']:.0f} Hz ({peak.get('to_floor', float('nan')):.1f}x the "
+                      f"noise floor there) in {', '.join(peak['channels'])}: {where}", highlight=False)
 
 
 @app.command("diagnose")

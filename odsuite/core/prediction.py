@@ -345,6 +345,15 @@ def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "accelerati
     return y
 
 
+@functools.lru_cache(maxsize=256)
+def _sensor_filter(dyn, fs: float) -> tuple[np.ndarray, np.ndarray]:
+    """First-order-hold discretisation of a sensor's dynamics in transfer-function form (a few
+    states, run by lfilter); cached, as scipy's matrix exponential dominates a fitting loop."""
+    ad, bd, cd, dd, _ = scipy.signal.cont2discrete(scipy.signal.zpk2ss(*dyn.zpk()), 1 / fs, method="foh")
+    num, den = scipy.signal.ss2tf(ad, bd, cd, dd)
+    return num[0], den
+
+
 @functools.lru_cache(maxsize=64)
 def _analog_sos(analog, fs: float) -> np.ndarray:
     """An analog filter (zeros, poles, gain) as digital second-order sections by the bilinear
