@@ -390,9 +390,11 @@ def acquire_cmd(
     force_point: str = typer.Option(None, "--force-point", help="X,Y,Z in mm in the rig frame (the thesis rig: from the platform's centre of mass)."),
     force_dir: str = typer.Option(None, "--force-dir", help="+x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
     force_body: str = typer.Option(None, "--force-body", help="The body hit, when the force point lies on two."),
-    rate: float = typer.Option(20_000.0, "--rate", help="Sampling rate, Hz."),
+    rate: float = typer.Option(None, "--rate", help="Sampling rate, Hz (default: the rig's [acquisition], "
+                               "else 20000)."),
     samples: int = typer.Option(4096, "--samples", help="Samples per channel."),
-    pretrigger: int = typer.Option(512, "--pretrigger", help="Samples kept before the trigger."),
+    pretrigger: int = typer.Option(None, "--pretrigger", help="Samples kept before the trigger (default: the "
+                                   "rig's [acquisition], else 512)."),
     trigger_level: float = typer.Option(1.0, "--trigger-level", help="Force trigger level, N."),
     trigger_slope: str = typer.Option("rising", "--trigger-slope", help="rising or falling."),
     trigger_timeout: float = typer.Option(10.0, "--trigger-timeout", help="Seconds to wait for the trigger."),
@@ -413,6 +415,12 @@ def acquire_cmd(
 
     backend = registries().daq_backends.get(daq)
     options = parse_backend_options(daq, backend, ctx.args)
+    if rate is None or pretrigger is None:  # the rig's own settings, when its file states them
+        with open_project(project) as p:
+            acq = p.rig.acquisition if p.rig is not None else None
+        rate = rate if rate is not None else (acq.sampling_rate if acq and acq.sampling_rate else 20_000.0)
+        pretrigger = pretrigger if pretrigger is not None else (
+            acq.pre_trigger if acq and acq.pre_trigger is not None else 512)
     settings = AcquisitionSettings(
         sampling_rate=rate, n_samples=samples, pretrigger=pretrigger, trigger_level=trigger_level,
         trigger_slope=trigger_slope, trigger_timeout=trigger_timeout,

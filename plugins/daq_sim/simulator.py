@@ -67,8 +67,24 @@ def default_chains(rig: Rig, systeminfo: Systeminfo, *, noise: float = 1.0,
 
     Noise levels are typical of the thesis's Fig. A.1 floor (a few LSB), scaled by ``noise`` (True
     is 1, False 0); offsets and drift set the scale of their random per-record values (drawn from
-    the seed).
+    the seed). What the rig's ``[acquisition]`` table declares replaces the thesis's front end: the
+    IEPE corner, the sensors' resonance, the anti-aliasing filter's order and cut-off (drawn as a
+    Butterworth), the ADC's bits and range.
     """
+    acq = rig.acquisition
+    sensor_front: dict = {}
+    everywhere: dict = {}
+    aa = acq.anti_aliasing if acq is not None else None
+    if acq is not None:
+        if acq.iepe_corner_hz:
+            sensor_front.update(sensor_tc=1.0 / (2 * np.pi * acq.iepe_corner_hz), coupler_tc=None)
+        if acq.sensor_resonance_hz:
+            sensor_front.update(resonance_hz=acq.sensor_resonance_hz, resonance_damping=acq.sensor_resonance_damping)
+        if acq.adc_bits:
+            everywhere["adc_bits"] = acq.adc_bits
+        if acq.adc_range is not None:
+            everywhere.update(limit_low=acq.adc_range[0], limit_high=acq.adc_range[1])
+    filtered = {"aaf_order": aa.order, "aaf_cutoff_hz": aa.cutoff_hz} if aa is not None else {}
     chains: dict[int, ChannelChain] = {}
     for ch in range(rig.channel_count):
         info = systeminfo.channels[ch]
@@ -85,7 +101,11 @@ def default_chains(rig: Rig, systeminfo: Systeminfo, *, noise: float = 1.0,
         else:  # an unused input (Table E.3 channel 1): noise only
             chain = ChannelChain(sensitivity=1.0, sensor_tc=None, coupler_tc=None, resonance_hz=None,
                                  noise_rms=1.0e-3)
-        chain = replace(chain, gain=info.daq_gain, limit_low=-r, limit_high=r)
+        chain = replace(chain, gain=info.daq_gain, limit_low=-r, limit_high=r, **everywhere)
+        if sensor is not None and ch != rig.force_channel and sensor.quantity == "acceleration":
+            chain = replace(chain, **sensor_front)
+        if filtered and (ch != rig.force_channel or aa.force_channel):
+            chain = replace(chain, **filtered)
         if adc_bits is not None:
             chain = replace(chain, adc_bits=adc_bits)
         chain = replace(chain, noise_rms=chain.noise_rms * noise, offset=chain.offset * noise,
@@ -93,6 +113,14 @@ def default_chains(rig: Rig, systeminfo: Systeminfo, *, noise: float = 1.0,
         chain.validate(f"rig {rig.name!r} channel {ch}")
         chains[ch] = chain
     return chains
+
+
+def _front_end_notes(rig: Rig) -> list[str]:
+    aa = rig.acquisition.anti_aliasing if rig.acquisition is not None else None
+    if aa is not None and aa.family != "butterworth":
+        return [f"the simulated rig draws rig {rig.name!r}'s {aa.family} anti-aliasing filter as a Butterworth "
+                f"of order {aa.order} at {aa.cutoff_hz:g} Hz"]
+    return []
 
 
 def find_trigger(force_volts: np.ndarray, level: float, slope: str, start: int) -> int | None:
@@ -270,6 +298,7 @@ class SimulatedRig:
                    + (f" force_peak={force_peak:g}N" if force_peak is not None else "")
                    + (f" contact={contact_ms:g}ms" if contact_ms is not None else ""),
             clipped={ch: c for ch, c in clipped.items() if c},
+            notes=_front_end_notes(rig),
         )
         if progress:
             progress(WAITING, 0, n)

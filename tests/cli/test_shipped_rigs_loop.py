@@ -61,3 +61,57 @@ def test_thesis_rig_stiffer_vertical_springs_are_found_and_fixed(capsys, tmp_pat
     best = json.loads(run(capsys, "compare", perfect, "--json"))
     assert diagnosis["baseline_error"] > 10 * best["error"]
     assert after["error"] <= 1.1 * best["error"], (after["error"], best["error"])
+
+
+#: two blows per shipped rig: (force point mm, direction, extra acquire options)
+BLOWS = {
+    "thesis-dynamometer.toml": [("-0.795,79.089,-11.4", "+z", ["--samples", "4096"]),
+                                ("20,30,-11.4", "+z", ["--samples", "4096"])],
+    "two-body-machine.toml": [("50,20,250", "-z", ["--rate", "5120", "--samples", "4096", "--pretrigger", "256"]),
+                              ("-150,0,130", "+x", ["--rate", "5120", "--samples", "4096", "--pretrigger", "256"])],
+    "thesis-car-2dof.toml": [("1300,0,700", "-z", ["--samples", "4096", "--trigger-level", "20", "--force-peak",
+                                                    "3000", "--contact-ms", "30"]),
+                             ("-1600,300,700", "-z", ["--samples", "4096", "--trigger-level", "20", "--force-peak",
+                                                      "3000", "--contact-ms", "30"])],
+}
+
+
+def test_every_shipped_rig_has_blows_here():
+    assert sorted(BLOWS) == sorted(p.name for p in RIGS.glob("*.toml"))
+
+
+@pytest.mark.parametrize("rig_name", sorted(BLOWS))
+def test_a_perfect_model_is_at_the_noise_floor(capsys, tmp_path, rig_name):
+    p = tmp_path / "p.h5"
+    run(capsys, "new", p, "--rig", RIGS / rig_name)
+    for k, (point, direction, extra) in enumerate(BLOWS[rig_name]):
+        run(capsys, "acquire", p, "--name", f"b{k}", f"--force-point={point}", f"--force-dir={direction}",
+            "--seed", str(k + 1), *extra)
+    run(capsys, "process", p)
+    result = json.loads(run(capsys, "compare", p, "--json"))
+    assert result["error"] <= 1.5 * result["noise_floor"], (result["error"], result["noise_floor"])
+
+
+def test_car_softer_rear_suspension_is_found_and_fixed(capsys, tmp_path):
+    rig = RIGS / "thesis-car-2dof.toml"
+    text = rig.read_text()
+    # the rear spring 20 % softer: 37.9 -> 30.4 kN/m (a worn spring, a heavy load in the boot)
+    assert "stiffness = [0.0, 0.0, 37944.147644]" in text
+    truth = tmp_path / "worn.toml"
+    truth.write_text(text.replace("stiffness = [0.0, 0.0, 37944.147644]", "stiffness = [0.0, 0.0, 30355.318115]"))
+    p = tmp_path / "p.h5"
+    run(capsys, "new", p, "--rig", rig)
+    for k, (point, direction, extra) in enumerate(BLOWS["thesis-car-2dof.toml"] + [("0,0,700", "-z", [
+            "--samples", "4096", "--trigger-level", "20", "--force-peak", "3000", "--contact-ms", "30"])]):
+        run(capsys, "acquire", p, "--name", f"b{k}", f"--force-point={point}", f"--force-dir={direction}",
+            "--seed", str(k + 1), "--truth", truth, *extra)
+    run(capsys, "process", p)
+    diagnosis = json.loads(run(capsys, "diagnose", p, "--json"))
+    top = diagnosis["candidates"][0]
+    assert top["effect"] == "stiffness" and top["significant"] and diagnosis["verdict"] == "explained"
+    run(capsys, "add-effect", p, "stiffness")
+    s = json.loads(run(capsys, "model", p, "--json"))["parameters"]["stiffness"]
+    assert s["scale_z"] * s["scale_rear"] == pytest.approx(0.8, rel=0.02), s
+    assert s["scale_z"] * s["scale_front"] == pytest.approx(1.0, rel=0.02), s
+    after = json.loads(run(capsys, "compare", p, "--json"))
+    assert after["error"] <= 1.5 * after["noise_floor"]
