@@ -1,4 +1,4 @@
-"""One writer at a time: flock on <name>.h5.lock, stale locks clear themselves, readers never block."""
+"""One writer at a time: an OS lock on the hidden .<name>.h5.odsuite-lock, stale locks clear themselves, readers never block."""
 
 from __future__ import annotations
 
@@ -41,7 +41,7 @@ def test_killed_writer_releases_lock_and_its_temp_file_is_removed(tmp_path, capl
         import shutil, sys, time
         from odsuite.core.project import open_project
         p = open_project({str(path)!r}, "a")
-        shutil.copyfile({str(path)!r}, {str(path)!r} + ".tmp-999999")  # as if killed mid-write
+        shutil.copyfile({str(path)!r}, {str(tmp_path / ".p.h5.odsuite-tmp-999999")!r})  # as if killed mid-write
         print("locked", flush=True)
         time.sleep(60)
     """)
@@ -55,5 +55,5 @@ def test_killed_writer_releases_lock_and_its_temp_file_is_removed(tmp_path, capl
         proc.wait()
     with caplog.at_level(logging.WARNING, logger="odsuite.core.storage"), open_project(path, "a") as p:
         assert p.experiment_names() == []
-    assert not (tmp_path / "p.h5.tmp-999999").exists()
-    assert "p.h5.tmp-999999 left by an interrupted write" in caplog.text
+    assert not (tmp_path / ".p.h5.odsuite-tmp-999999").exists()
+    assert ".p.h5.odsuite-tmp-999999 left by an interrupted write" in caplog.text

@@ -4,7 +4,7 @@ The signal goes to the command's whole process group, as a terminal's Ctrl-C doe
 included). Each run must end with exit code 130 (or 0 when the command finished first) and exactly
 one line on stderr, ``interrupted: ...``, no traceback; that line must tell the truth: "nothing
 stored" leaves every unit of the project as it was, "stored A; not stored: B" changed A only; no
-temporary copy (``*.tmp-*``, ``odsuite-movie-*``) and no process of the group outlives the command.
+temporary copy (``.*.odsuite-tmp-*``, ``odsuite-movie-*``) and no process of the group outlives the command.
 
 ``python tests/reliability/interrupts.py [RUNS] [SEED] [DIR] [COMMAND ...]`` prints the counts.
 """
@@ -110,7 +110,7 @@ def interrupt_once(cmd: InterruptedCommand, project: Path, inputs: Path, out: Pa
         os.killpg(proc.pid, signal.SIGKILL)
     if "Traceback" in err:
         res.problems.append("traceback")
-    left = [p.name for p in project.parent.glob(f"{project.name}.tmp-*")] + \
+    left = [p.name for p in project.parent.glob(f".{project.name}.odsuite-tmp-*")] + \
         [p.name for p in out.glob("odsuite-movie-*")]
     if left:
         res.problems.append(f"left behind: {left}")

@@ -301,8 +301,8 @@ CASES: list[Case] = [
     # output paths
     Case("output-is-project", "export-legacy --cod naming the project itself", "--cod {dir}/p.h5: that is the project {dir}/p.h5 or one of its own files; give another file name",
          argv=lambda d: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d / "p.h5")]),
-    Case("output-is-lock", "export-legacy --cod naming the project's lock file", "--cod {dir}/p.h5.lock: that is the project {dir}/p.h5 or one of its own files; give another file name",
-         argv=lambda d: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d / "p.h5.lock")]),
+    Case("output-is-lock", "export-legacy --cod naming the project's lock file", "--cod {dir}/.p.h5.odsuite-lock: that is the project {dir}/p.h5 or one of its own files; give another file name",
+         argv=lambda d: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d / ".p.h5.odsuite-lock")]),
     Case("output-folder", "export-legacy --cod naming a folder", "--cod {dir}: is a folder; give a file name",
          argv=lambda d: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d)]),
     Case("output-missing-folder", "render -o into a folder that does not exist", "-o {dir}/none/m.gif: folder {dir}/none does not exist",
