@@ -84,6 +84,29 @@ def shown_as(copy: Path, project: Path) -> Iterator[None]:
 
 
 def ensure_room_in(h5file, nbytes: int) -> None:
-    """``ensure_space`` for ``nbytes`` more in the open HDF5 file ``h5file``, before they are written."""
+    """Room for ``nbytes`` more in the open HDF5 file ``h5file``, checked and reserved before HDF5
+    writes them (``reserve``)."""
     name = h5file.filename
-    ensure_space(Path(name), nbytes, _SHOWN_AS.get(name, name))
+    reserve(Path(name), h5file.id.get_filesize() + nbytes, nbytes, _SHOWN_AS.get(name, name))
+
+
+def reserve(path: Path, upto: int, nbytes: int, whose: Path | str) -> bool:
+    """Check the room for ``nbytes`` more, then allocate the disk blocks of ``path`` up to ``upto``
+    bytes plus ``METADATA_RESERVE`` (posix_fallocate): HDF5 then writes into blocks the disk has
+    already given, and another program filling the disk meanwhile cannot make it fail half-way.
+    The file grows beyond HDF5's end; reopening it for writing trims it (``trim``). Returns
+    whether blocks were reserved (not where the system lacks posix_fallocate, e.g. Windows)."""
+    ensure_space(path, nbytes, whose)
+    if not hasattr(os, "posix_fallocate"):
+        return False
+    fd = os.open(path, os.O_WRONLY)
+    try:
+        os.posix_fallocate(fd, 0, int(upto) + METADATA_RESERVE)
+    except OSError as exc:
+        if not is_disk_full(exc):
+            return False  # a file system that cannot reserve: the check above stands alone
+        raise DiskFullError(full_message(whose, path.parent, nbytes + METADATA_RESERVE,
+                                         shutil.disk_usage(path.parent).free)) from None
+    finally:
+        os.close(fd)
+    return True

@@ -149,16 +149,9 @@ def interrupts_deferred() -> Iterator[None]:
 
 
 def _discard(f: h5py.File | None, tmp: Path) -> None:
-    """Close (if open) and delete the working copy of a write that failed. What HDF5 still has to
-    write goes to the null device: on a full disk, a close that fails leaves the library holding a
-    file it tries again to flush at exit, where it crashed (SIGSEGV)."""
+    """Close (if open) and delete the working copy of a write that failed."""
     try:
         if f:  # still open
-            null = os.open(os.devnull, os.O_RDWR)
-            try:
-                os.dup2(null, f.id.get_vfd_handle())
-            finally:
-                os.close(null)
             f.close()
     except Exception:  # noqa: BLE001 - a copy that cannot be closed is deleted all the same
         log.debug("closing %s failed", tmp, exc_info=True)
@@ -184,6 +177,7 @@ def copy_on_write(path: Path) -> Iterator[h5py.File]:
         shutil.copyfile(path, tmp)
         shutil.copymode(path, tmp)  # the project keeps its permissions
         crash_point("copied")
+        reserved = diskspace.reserve(tmp, size, 0, path)  # room for HDF5's own records
         f = h5py.File(tmp, "r+", locking=False, libver=LIBVER)
     except BaseException as exc:  # an interrupt during the copy leaves no copy behind either
         _discard(f, tmp)
@@ -197,6 +191,8 @@ def copy_on_write(path: Path) -> Iterator[h5py.File]:
             yield f
         h5text.set_attrs(f, {"file_update_time": now()})
         f.close()
+        if reserved:  # reopened for writing, HDF5 cuts the reserved blocks it did not use
+            h5py.File(tmp, "r+", locking=False, libver=LIBVER).close()
         crash_point("written")
         fsync_path(tmp)
         crash_point("synced")
