@@ -136,8 +136,27 @@ def check_ascii_58(path: Path, index: int, body: list[bytes], line0: int) -> Non
                               f"has {cells} values, expected {per_line if full else f'1 to {per_line}'}")
         found += cells
     if found != expected:
-        raise ConfigError(f"{path}: dataset {index} (58) from line {line0}: {found} values, its header says "
-                          f"{num_pts} points ({expected} values; cut off?)")
+        each = f" of {per_point} values" if per_point > 1 else ""
+        raise ConfigError(f"{path}: dataset {index} (58) from line {line0}: {found} values, but its record 7 says "
+                          f"{num_pts} points{each} (a line lost or doubled, or the count changed?)")
+
+
+#: integer columns of dataset 58 record 6 (format 2(I5,I10),2(1X,10A1,I10,I4)): function type,
+#: function id, version, load case, response node and direction, reference node and direction
+_58_RECORD6_INTS = ((0, 5), (5, 15), (15, 20), (20, 30), (41, 51), (51, 55), (66, 76), (76, 80))
+
+
+def check_record6(path: Path, index: int, body: list[bytes], line0: int) -> None:
+    """Dataset 58 record 6 (nodes and directions): every integer column holds an integer or blanks
+    (pyuff reads anything else there as 0, a node or direction that was never in the file)."""
+    if len(body) < 6:
+        return  # check_ascii_58 / the 58b header count report a short header
+    line = body[5].rstrip(b"\r\n")
+    for a, b in _58_RECORD6_INTS:
+        cell = line[a:b].strip()
+        if cell and not cell.lstrip(b"+-").isdigit():
+            raise ConfigError(f"{path}: line {line0 + 6}: dataset {index} (58) record 6 columns {a + 1}-{b}: "
+                              f"not an integer: {_show(line[a:b])}")
 
 
 def check_structure(path: Path, raw: bytes) -> list[int]:
@@ -148,6 +167,8 @@ def check_structure(path: Path, raw: bytes) -> list[int]:
         raise ConfigError(f"{path}: the file ends inside a line of blanks (cut off?)")
     datasets = split_datasets(path, raw)
     for index, (kind, body, line0) in enumerate(datasets, start=1):
+        if kind == 58:
+            check_record6(path, index, body, line0)
         if kind == 58 and (not body or body[-2:-1] != [b"<binary>"]):
             check_ascii_58(path, index, body, line0)
     return [kind for kind, _, _ in datasets]

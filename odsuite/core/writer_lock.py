@@ -12,10 +12,13 @@ from __future__ import annotations
 
 import os
 import socket
+import warnings
 from contextlib import suppress
 from pathlib import Path
 
-import filelock
+with warnings.catch_warnings():  # where the system has no OS lock, filelock says so at import
+    warnings.simplefilter("ignore", UserWarning)
+    import filelock
 
 from odsuite.core.errors import ProjectFileError, ProjectLockedError
 
@@ -37,8 +40,12 @@ class WriterLock:
         self.path = lock_path(project)
         self._pid = os.getpid()
         self._fd: int | None = None
-        # thread_local=False: a command may release from another thread than it acquired in
-        self._lock = filelock.FileLock(self.path, thread_local=False, blocking=False, on_acquired=self._claim)
+        # thread_local=False: a command may release from another thread than it acquired in. Where
+        # the system has no OS lock (neither flock nor LockFileEx), filelock's FileLock is its
+        # existence lock, which writes the file itself and reclaims it from a dead process.
+        native = filelock.FileLock is not filelock.SoftFileLock
+        self._lock = filelock.FileLock(self.path, thread_local=False, blocking=False,
+                                       **({"on_acquired": self._claim} if native else {}))
 
     def _claim(self, fd: int) -> None:
         """With the lock held: adopt the file (empty, or left by an odsuite writer that died) and
