@@ -771,8 +771,8 @@ def create_project(path: str | Path, rig: Rig | str | None = "thesis-dynamometer
             raise ProjectFileError(f"{path}: file already exists; choose another name or delete it first")
         tmp = tmp_path(path)
         diskspace.ensure_space(tmp, 0, path)
+        reserve_private(tmp, path)  # before the try: a file in the way is not ours to delete
         try:
-            reserve_private(tmp, path)
             with h5py.File(tmp, "w", libver=LIBVER, fs_strategy="fsm", fs_persist=True,
                            track_order=True, locking=False) as f:
                 write_skeleton(f, rig)

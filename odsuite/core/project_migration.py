@@ -50,8 +50,8 @@ def migrate_in_place(path: Path, version: str) -> None:
     migrations.migration_path(version, FORMAT_VERSION, str(path))  # refuse before copying
     tmp = tmp_path(path)
     diskspace.ensure_space(tmp, 2 * os.stat(path).st_size, path)  # the copy, and migrated text beside it
+    reserve_private(tmp, path)  # before the try: a file in the way is not ours to delete
     try:  # a transaction: the migrated copy replaces the project atomically
-        reserve_private(tmp, path)
         shutil.copyfile(path, tmp)
         _migrate(tmp, path, version, updated=True)
         replace_atomically(tmp, path)

@@ -172,8 +172,8 @@ def copy_on_write(path: Path) -> Iterator[h5py.File]:
     size = os.stat(path).st_size
     diskspace.ensure_space(tmp, size, path)  # room for the copy, before a byte is written
     f = None
+    reserve_private(tmp, path)  # before the try: a file in the way is not ours to delete
     try:
-        reserve_private(tmp, path)
         shutil.copyfile(path, tmp)
         shutil.copymode(path, tmp)  # the project keeps its permissions
         crash_point("copied")

@@ -22,6 +22,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+from collections import Counter
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -30,7 +31,8 @@ from pathlib import Path
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from tests.reliability.harness import ODSUITE, TABLE_E3, prepare_inputs, units  # noqa: E402
+from tests.reliability.harness import ODSUITE, TABLE_E3, units  # noqa: E402
+from tests.reliability.interrupts import seeded_projects  # noqa: E402
 
 RUN_TIMEOUT = 180.0  # s; a command still running then is a hang
 DISK_BYTES = 8 << 20  # the tmpfs: 8 MiB, room for the project and some of each command's output
@@ -87,19 +89,6 @@ def fill(disk: Path, leave: int) -> None:
     if room > 0:
         with open(disk / "ballast", "wb") as fh:
             fh.write(b"\0" * room)  # tmpfs counts written pages, so zeros take room too
-
-
-def seed(path: Path) -> Path:
-    """Three simulated records, none processed."""
-    from odsuite.cli import main
-
-    steps = [["new", str(path)]] + [
-        ["acquire", str(path), "--daq", "sim", "--name", f"s{k}", "--seed", str(k), "--samples", "4096"]
-        for k in (1, 2, 3)]
-    for argv in steps:
-        if main(argv) != 0:
-            raise RuntimeError(f"odsuite {' '.join(argv)} failed")
-    return path
 
 
 @dataclass
@@ -165,12 +154,7 @@ def run_once(cmd: DiskCommand, master: Path, inputs: Path, disk: Path, index: in
 def run_full_disks(work: Path, runs: int, seed_value: int = 0,
                    commands: tuple[DiskCommand, ...] = COMMANDS) -> list[Outcome]:
     rng = random.Random(seed_value)
-    inputs = prepare_inputs(work / "inputs")
-    master = seed(work / "master.h5")
-    from odsuite.cli import main
-
-    if main(["process", str(master), "--experiment", "s1"]) != 0:  # export-legacy and modes need it
-        raise RuntimeError("processing s1 failed")
+    inputs, _, master = seeded_projects(work)  # s1 processed: export-legacy and modes need it
     size = master.stat().st_size
     outcomes = []
     for k in range(runs):
@@ -184,32 +168,35 @@ def run_full_disks(work: Path, runs: int, seed_value: int = 0,
 
 
 def summary(outcomes: list[Outcome]) -> str:
-    lines = []
-    for name in dict.fromkeys(o.command for o in outcomes):
-        mine = [o for o in outcomes if o.command == name]
-        lines.append(f"{name}: {len(mine)} runs, {sum(o.code == 0 for o in mine)} done, "
-                     f"{sum('no space left' in o.line for o in mine)} refused for a full disk, "
-                     f"{sum(bool(o.problems) for o in mine)} with problems")
-    lines += [f"  {o.command} with {o.free / 1e6:.2f} MB free: {o.problems}" for o in outcomes if o.problems]
-    lines.append(f"total: {len(outcomes)} runs, {sum(bool(o.problems) for o in outcomes)} with problems")
-    return "\n".join(lines)
+    """Per command: runs, done, refused for a full disk, with problems; then each problem."""
+    counts: dict[str, Counter] = {}
+    for o in outcomes:
+        c = counts.setdefault(o.command, Counter())
+        c.update(runs=1, done=o.code == 0, full="no space left" in o.line, problems=bool(o.problems))
+    rows = [f"{name}: {c['runs']} runs, {c['done']} done, {c['full']} refused for a full disk, "
+            f"{c['problems']} with problems" for name, c in counts.items()]
+    rows += [f"  {o.command} with {o.free / 1e6:.2f} MB free: {o.problems}" for o in outcomes if o.problems]
+    total = sum(counts.values(), Counter())
+    return "\n".join([*rows, f"total: {total['runs']} runs, {total['full']} refused for a full disk, "
+                               f"{total['problems']} with problems"])
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = sys.argv[1:] if argv is None else argv
-    runs = int(args[0]) if args else 36
-    seed_value = int(args[1]) if len(args) > 1 else 0
-    work = Path(args[2]) if len(args) > 2 else Path(tempfile.mkdtemp(prefix="odsuite-diskfull-"))
+    import argparse
+
+    parser = argparse.ArgumentParser(description="odsuite commands on small full disks")
+    parser.add_argument("runs", nargs="?", type=int, default=36)
+    parser.add_argument("seed", nargs="?", type=int, default=0)
+    parser.add_argument("work", nargs="?", type=Path, default=None)
+    args = parser.parse_args(argv)
     if not can_mount():
         print("cannot mount a tmpfs here (needs root); the emulated full disks of test_diskfull.py still run")
         return 0
-    outcomes = run_full_disks(work, runs, seed_value)
-    for o in outcomes:
-        print(f"{o.command:14s} {o.free / 1e6:6.2f} MB free  exit {o.code}  {o.line}")
-        if o.problems:
-            print(o.stderr)
+    outcomes = run_full_disks(args.work or Path(tempfile.mkdtemp(prefix="odsuite-diskfull-")), args.runs, args.seed)
+    print("\n".join(f"{o.command:22s} {o.free / 1e6:6.2f} MB free  exit {o.code}  {o.line}"
+                    + (f"\n{o.stderr}" if o.problems else "") for o in outcomes))
     print(summary(outcomes))
-    return 0 if not any(o.problems for o in outcomes) else 1
+    return int(any(o.problems for o in outcomes))
 
 
 if __name__ == "__main__":

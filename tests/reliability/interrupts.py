@@ -68,6 +68,19 @@ def seed(path: Path) -> Path:
     return path
 
 
+def seeded_projects(work: Path) -> tuple[Path, Path, Path]:
+    """The input files, the seeded project and a copy of it with s1 processed."""
+    from odsuite.cli import main
+
+    inputs = prepare_inputs(work / "inputs")
+    master = seed(work / "master.h5")
+    processed = work / "processed.h5"
+    shutil.copyfile(master, processed)
+    if main(["process", str(processed), "--experiment", "s1"]) != 0:
+        raise RuntimeError("processing s1 failed")
+    return inputs, master, processed
+
+
 @dataclass
 class Outcome:
     command: str
@@ -138,14 +151,7 @@ def interrupt_once(cmd: InterruptedCommand, project: Path, inputs: Path, out: Pa
 def run_interrupts(work: Path, runs: int, seed_value: int = 0,
                    commands: tuple[InterruptedCommand, ...] = COMMANDS) -> list[Outcome]:
     rng = random.Random(seed_value)
-    inputs = prepare_inputs(work / "inputs")
-    master = seed(work / "master.h5")
-    processed = work / "processed.h5"
-    shutil.copyfile(master, processed)
-    from odsuite.cli import main
-
-    if main(["process", str(processed), "--experiment", "s1"]) != 0:
-        raise RuntimeError("processing the render project failed")
+    inputs, master, processed = seeded_projects(work)
     outcomes = []
     for k in range(runs):
         cmd = commands[k % len(commands)]
