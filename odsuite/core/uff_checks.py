@@ -78,7 +78,8 @@ def split_datasets(path: Path, raw: bytes) -> list[tuple[int, list[bytes], int]]
 
 
 def _binary_58(path, index, head, lines, raw, i, pos, start):
-    """Skip a binary 58b dataset: its header lines, then exactly the byte count its type line gives."""
+    """Skip a binary 58b dataset: its header lines, then its data, which the closing '-1' line must
+    follow right after the byte count of its type line or the length its record 7 implies."""
     try:
         header_lines, byte_count = int(head[3]), int(head[4])
     except (IndexError, ValueError):
@@ -90,20 +91,38 @@ def _binary_58(path, index, head, lines, raw, i, pos, start):
     body = lines[i:i + header_lines]
     for line in body:
         pos += len(line) + 1
-    data = raw[pos:pos + byte_count]
-    if len(data) < byte_count:
-        raise ConfigError(f"{path}: dataset {index} (58b) from line {start + 1}: {len(data)} of its {byte_count} "
-                          "data bytes (cut off?)")
-    rest = raw[pos + byte_count:]
-    stripped = rest.lstrip(b"\r\n")
-    if not stripped.startswith(DELIMITER):
+    # pyuff writes the byte count of real values for complex ones too: the length record 7 implies
+    # (points, values per point, bytes per value) is taken as well
+    lengths = [byte_count, *_58b_implied_bytes(body[6])]
+    for length in lengths:
+        rest = raw[pos + length:]
+        if len(raw) - pos >= length and rest.lstrip(b"\r\n").startswith(DELIMITER):
+            break
+    else:
+        if len(raw) - pos < min(lengths):
+            raise ConfigError(f"{path}: dataset {index} (58b) from line {start + 1}: {len(raw) - pos} of its "
+                              f"{byte_count} data bytes (cut off?)")
         raise ConfigError(f"{path}: dataset {index} (58b) from line {start + 1}: its {byte_count} data bytes are "
                           "not followed by the closing '-1' line (byte count wrong?)")
-    pos += byte_count + (len(rest) - len(stripped))
+    data = raw[pos:pos + length]
+    stripped = rest.lstrip(b"\r\n")
+    pos += length + (len(rest) - len(stripped))
     # continue with the line after the closing delimiter
     tail = raw[pos:].split(b"\n", 1)
     consumed = raw.count(b"\n", 0, pos + len(tail[0]) + 1)
     return consumed, pos + len(tail[0]) + 1, body + [b"<binary>"] + [data]
+
+
+def _58b_implied_bytes(record7: bytes) -> list[int]:
+    """The data bytes record 7 of a 58b dataset implies (none when it cannot be read)."""
+    try:
+        ord_type, num_pts, even = (int(t) for t in record7.split()[:3])
+    except ValueError:
+        return []
+    if ord_type not in _58_VALUES_PER_LINE:
+        return []
+    per_point = (1 if ord_type in (2, 4) else 2) + (0 if even else 1)
+    return [num_pts * per_point * (4 if ord_type in (2, 5) else 8)]
 
 
 def check_ascii_58(path: Path, index: int, body: list[bytes], line0: int) -> None:

@@ -113,7 +113,7 @@ def _uff_damaged(d: Path, how: str):
     from odsuite.core.uff import time_function, write_uff
 
     write_uff(d / "base.uff", functions=[time_function(f"acc{k}", np.arange(8.0) + k, 1e-3, "m/s^2", node=0)
-                                         for k in range(3)], binary=how == "58b-bytes", overwrite=True)
+                                         for k in range(3)], binary=how == "58b-count", overwrite=True)
     raw = (d / "base.uff").read_bytes()
     lines = raw.split(b"\n")
     if how == "cut":  # cut inside the second record's data
@@ -124,8 +124,8 @@ def _uff_damaged(d: Path, how: str):
     elif how == "line-lost":  # the last data line of the first function lost
         del lines[14]
         bad = b"\n".join(lines)
-    else:  # 58b: the type line says 60 data bytes, the record holds 64
-        bad = raw.replace(b"          11          64", b"          11          60", 1)
+    else:  # 58b: record 7 says 9 points, the data bytes hold 8
+        bad = raw.replace(b"         8         1", b"         9         1", 1)
     assert bad != raw
     (d / "bad.uff").write_bytes(bad)
     return _read_uff(d, "bad.uff")
@@ -363,7 +363,7 @@ CASES: list[Case] = [
     Case("uff-cut", "UFF cut off inside its second function's data (API)", "{dir}/bad.uff: dataset 2 (type 58) from line 18 has no closing '-1' line (cut off?)", call=lambda d: _uff_damaged(d, "cut")),
     Case("uff-count", "UFF function whose header says 9 points, holding 8 (API)", "{dir}/bad.uff: dataset 1 (58) from line 2: 8 values, but its record 7 says 9 points (a line lost or doubled, or the count changed?)", call=lambda d: _uff_damaged(d, "count")),
     Case("uff-line-lost", "UFF function that lost its last data line (API)", "{dir}/bad.uff: dataset 1 (58) from line 2: 4 values, but its record 7 says 8 points (a line lost or doubled, or the count changed?)", call=lambda d: _uff_damaged(d, "line-lost")),
-    Case("uff-58b-bytes", "binary UFF 58b whose type line gives 60 data bytes for 64 (API)", "{dir}/bad.uff: dataset 1 (58b) from line 2: its 60 data bytes are not followed by the closing '-1' line (byte count wrong?)", call=lambda d: _uff_damaged(d, "58b-bytes")),
+    Case("uff-58b-count", "binary UFF 58b whose record 7 says 9 points, its 64 data bytes holding 8 (API)", "{dir}/bad.uff: dataset 1 (58) 'acc0': header says 9 points, found 8 values and 8 abscissae", call=lambda d: _uff_damaged(d, "58b-count")),
     Case("lock-link", "acquire while the lock file name is a symbolic link to a user's file", "{dir}/p.h5: lock file {dir}/.p.h5.odsuite-lock is a link, which odsuite never follows; remove it",
          argv=lambda d: (_plant_link(d, ".p.h5.odsuite-lock"), ["acquire", str(d / "p.h5"), "--name", "n", "--samples", "1024", "--pretrigger", "100"])[1]),
     Case("lock-foreign-file", "acquire while a user's file holds the lock file name", "{dir}/p.h5: {dir}/.p.h5.odsuite-lock is in the way of the writer lock and was not written by odsuite; move it elsewhere",
