@@ -99,7 +99,7 @@ def _is_our_copy(candidate: Path) -> bool:
 def reserve_private(tmp: Path, project: Path) -> None:
     """Create the empty working copy ``tmp``: a new file, never one that exists or a link (O_EXCL)."""
     try:
-        os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o600))
+        os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o666))
     except FileExistsError:
         raise ProjectFileError(f"{project}: {tmp} is in the way of the working copy and was not written by "
                                "odsuite; move it elsewhere") from None

@@ -10,6 +10,7 @@ import errno
 import re
 import shutil
 
+import numpy as np
 import pytest
 
 from odsuite.cli import main
@@ -133,3 +134,25 @@ def test_thirty_six_small_disks(tmp_path):
     # the seeded levels reach both sides: commands refused for a full disk and commands that fit
     assert sum("no space left" in o.line for o in outcomes) >= 8, summary(outcomes)
     assert sum(o.code == 0 for o in outcomes) >= 8, summary(outcomes)
+
+
+def test_reserved_blocks_are_trimmed_on_commit(project):
+    """The room reserved before HDF5 writes (1 MiB beyond the data) does not stay in the project."""
+    from odsuite.core.project import open_project
+    from odsuite.core.systeminfo import ChannelInfo, Systeminfo
+
+    size = project.stat().st_size
+    with open_project(project, "a") as p:
+        p.add_experiment("tiny", np.ones((16, 2)), sampling_rate=1000.0,
+                         systeminfo=Systeminfo([ChannelInfo() for _ in range(2)]), excitation=None)
+    grown = project.stat().st_size - size
+    assert 0 < grown < diskspace.METADATA_RESERVE / 4, grown  # 256 B of data and HDF5's records
+    assert oct(project.stat().st_mode & 0o777) == oct(0o666 & ~_umask())
+
+
+def _umask() -> int:
+    import os
+
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
