@@ -29,6 +29,7 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
+from odsuite.core import diskspace
 from odsuite.core.errors import ConfigError, OdsuiteError
 
 app = typer.Typer(
@@ -113,6 +114,19 @@ class _Ledger:
             return f"interrupted: nothing stored, {self.target} unchanged"
         return (f"interrupted: stored {', '.join(self.stored)} in {self.target}; not stored: "
                 f"{', '.join(missing) or 'nothing'}")
+
+    def after_error(self, message: str) -> str:
+        """The error line of a command that failed after committing some units (multi-experiment
+        ``process``): it names what stays stored."""
+        from odsuite.core.storage import COMMITS
+
+        if self.current is not None and len(COMMITS) > self.commits_at_start:
+            self.done()
+        if not self.stored:
+            return message
+        missing = [u for u in self.planned if u not in self.stored]
+        return (f"{message.removesuffix('; project unchanged')}; stored before the error: "
+                f"{', '.join(self.stored)} in {self.target}; not stored: {', '.join(missing) or 'nothing'}")
 
 
 _ledger = _Ledger()
@@ -705,10 +719,14 @@ def verify_cmd(project: Path = typer.Argument(..., help="Project file."),
 
 
 
+#: Output files of the running command, checked before writing: a full disk names the last one.
+_OUTPUTS: list[Path] = []
+
+
 def _check_output(output: Path, project: Path, option: str) -> None:
     from odsuite.core.storage import check_output
 
-    check_output(output, project, option)
+    _OUTPUTS.append(check_output(output, project, option))
 
 
 def _print_json(doc) -> None:
@@ -1054,6 +1072,7 @@ def _unraisable(hook_args) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     _ledger.reset()
+    _OUTPUTS.clear()
     if not _AS_PROGRAM:  # called again in the same process (tests, scripts): a fresh start
         _INTERRUPTS.clear()
     try:
@@ -1082,7 +1101,8 @@ def _run(argv: list[str] | None) -> int:
         err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
         return 130
     except OdsuiteError as exc:
-        err_console.print(f"error: {exc}", style="bold red", highlight=False, soft_wrap=True)
+        err_console.print(f"error: {_ledger.after_error(str(exc))}", style="bold red", highlight=False,
+                          soft_wrap=True)
         return 1
     except typer.Exit as exc:
         return exc.exit_code
@@ -1093,6 +1113,14 @@ def _run(argv: list[str] | None) -> int:
         # usage errors (unknown option, missing argument) carry their own exit code
         exc.show()
         return exc.exit_code
+    except Exception as exc:
+        if not diskspace.is_disk_full(exc):  # anything else is a bug and keeps its traceback
+            raise
+        # an output file (movie, report, figure, text) ran into a full disk
+        where = Path(getattr(exc, "filename", None) or (_OUTPUTS or [Path.cwd() / "-"])[-1])
+        line = diskspace.full_message(where, where, diskspace.written_so_far(where), outcome="output incomplete")
+        err_console.print(f"error: {line}", style="bold red", highlight=False, soft_wrap=True)
+        return 1
     if _INTERRUPTS:  # the interrupt was swallowed on the way (see _unraisable): report it
         err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
         return 130

@@ -117,7 +117,7 @@ def _candidates(folder: Path) -> list[Path]:
     """HDF5 files under ``folder`` (lock and interrupted-write files left aside)."""
     out = []
     for path in sorted(folder.rglob("*")):
-        if not path.is_file() or path.name.endswith(".lock") or ".tmp-" in path.name or path.name == CATALOG_NAME:
+        if not path.is_file() or ".odsuite-" in path.name or path.name == CATALOG_NAME:
             continue
         try:
             with open(path, "rb") as fh:

@@ -116,6 +116,49 @@ def _read_uff(d: Path, name: str):
     return read_uff(d / name)
 
 
+def _uff_damaged(d: Path, how: str):
+    """Three 8-point time records written by odsuite, then damaged ``how``, read back (API)."""
+    from odsuite.core.uff import time_function, write_uff
+
+    write_uff(d / "base.uff", functions=[time_function(f"acc{k}", np.arange(8.0) + k, 1e-3, "m/s^2", node=0)
+                                         for k in range(3)], binary=how == "58b-count", overwrite=True)
+    raw = (d / "base.uff").read_bytes()
+    lines = raw.split(b"\n")
+    if how == "cut":  # cut inside the second record's data
+        bad = b"\n".join(lines[:30])
+    elif how == "count":  # record 7 of the first function says 9 points, it holds 8
+        lines[8] = lines[8].replace(b"         8         1", b"         9         1", 1)
+        bad = b"\n".join(lines)
+    elif how == "line-lost":  # the last data line of the first function lost
+        del lines[14]
+        bad = b"\n".join(lines)
+    else:  # 58b: record 7 says 9 points, the data bytes hold 8
+        bad = raw.replace(b"         8         1", b"         9         1", 1)
+    assert bad != raw
+    (d / "bad.uff").write_bytes(bad)
+    return _read_uff(d, "bad.uff")
+
+
+def _plant_link(d: Path, name: str) -> None:
+    (d / "victim.txt").write_text("a file the lock must never write into\n")
+    (d / name).symlink_to(d / "victim.txt")
+
+
+def _full_disk_acquire(d: Path, free: int):
+    """Acquire into p.h5 while its disk reports ``free`` bytes free (API, patched disk_usage)."""
+    import collections
+    from unittest import mock
+
+    from odsuite.core.project import open_project
+    from odsuite.core.systeminfo import ChannelInfo, Systeminfo
+
+    usage = collections.namedtuple("usage", "total used free")(10**9, 10**9 - free, free)
+    with mock.patch("odsuite.core.diskspace.shutil.disk_usage", return_value=usage), \
+            open_project(d / "p.h5", "a") as p:
+        p.add_experiment("full", np.ones((4096, 2)), sampling_rate=1000.0,
+                         systeminfo=Systeminfo([ChannelInfo() for _ in range(2)]), excitation=None)
+
+
 def _uff_undefined_cs(d: Path):
     import pyuff
 
@@ -325,8 +368,8 @@ CASES: list[Case] = [
     # output paths
     Case("output-is-project", "export-legacy --cod naming the project itself", "--cod {dir}/p.h5: that is the project {dir}/p.h5 or one of its own files; give another file name",
          argv=lambda d: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d / "p.h5")]),
-    Case("output-is-lock", "export-legacy --cod naming the project's lock file", "--cod {dir}/p.h5.lock: that is the project {dir}/p.h5 or one of its own files; give another file name",
-         argv=lambda d: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d / "p.h5.lock")]),
+    Case("output-is-lock", "export-legacy --cod naming the project's lock file", "--cod {dir}/.p.h5.odsuite-lock: that is the project {dir}/p.h5 or one of its own files; give another file name",
+         argv=lambda d: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d / ".p.h5.odsuite-lock")]),
     Case("output-folder", "export-legacy --cod naming a folder", "--cod {dir}: is a folder; give a file name",
          argv=lambda d: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d)]),
     Case("output-missing-folder", "render -o into a folder that does not exist", "-o {dir}/none/m.gif: folder {dir}/none does not exist",
@@ -341,6 +384,17 @@ CASES: list[Case] = [
          argv=lambda d: ["modes", str(d / "p.h5"), "--experiment", "e1", "--fmin", "nan"]),
     Case("project-read-only", "import-legacy into a project with mode 0444", "{dir}/p.h5: project is read-only; make it writable (chmod u+w) to change it",
          argv=lambda d: ((d / "p.h5").chmod(0o444), legacy(ctr="good.CTR")(d))[1]),
+    Case("uff-cut", "UFF cut off inside its second function's data (API)", "{dir}/bad.uff: dataset 2 (type 58) from line 18 has no closing '-1' line (cut off?)", call=lambda d: _uff_damaged(d, "cut")),
+    Case("uff-count", "UFF function whose header says 9 points, holding 8 (API)", "{dir}/bad.uff: dataset 1 (58) from line 2: 8 values, but its record 7 says 9 points (a line lost or doubled, or the count changed?)", call=lambda d: _uff_damaged(d, "count")),
+    Case("uff-line-lost", "UFF function that lost its last data line (API)", "{dir}/bad.uff: dataset 1 (58) from line 2: 4 values, but its record 7 says 8 points (a line lost or doubled, or the count changed?)", call=lambda d: _uff_damaged(d, "line-lost")),
+    Case("uff-58b-count", "binary UFF 58b whose record 7 says 9 points, its 64 data bytes holding 8 (API)", "{dir}/bad.uff: dataset 1 (58) 'acc0': header says 9 points, found 8 values and 8 abscissae", call=lambda d: _uff_damaged(d, "58b-count")),
+    Case("lock-link", "acquire while the lock file name is a symbolic link to a user's file", "{dir}/p.h5: lock file {dir}/.p.h5.odsuite-lock is a link, which odsuite never follows; remove it",
+         argv=lambda d: (_plant_link(d, ".p.h5.odsuite-lock"), ["acquire", str(d / "p.h5"), "--name", "n", "--samples", "1024", "--pretrigger", "100"])[1]),
+    Case("lock-foreign-file", "acquire while a user's file holds the lock file name", "{dir}/p.h5: {dir}/.p.h5.odsuite-lock is in the way of the writer lock and was not written by odsuite; move it elsewhere",
+         argv=lambda d: ["acquire", str(d / "p.h5"), "--name", "n", "--samples", "1024", "--pretrigger", "100"], files={".p.h5.odsuite-lock": "my notes\n"}),
+    Case("project-hard-link", "acquire into a project that has a second hard link", "{dir}/p.h5: project has 2 hard links (names of one file), which a write would split; keep one name or give each a copy (cp) to change it",
+         argv=lambda d: (os.link(d / "p.h5", d / "p2.h5"), ["acquire", str(d / "p.h5"), "--name", "n", "--samples", "1024", "--pretrigger", "100"])[1]),
+    Case("disk-full", "add an experiment with 0.3 MB free on the project's disk (API)", "{dir}/p.h5: no space left on", call=lambda d: _full_disk_acquire(d, 300_000)),
     Case("history-figure-suffix", "history --figure h.txt", "--figure {dir}/h.txt: suffix '.txt' is not .png, .svg or .pdf", argv=lambda d: ["history", str(d / "p.h5"), "--figure", str(d / "h.txt")]),
 ]
 
