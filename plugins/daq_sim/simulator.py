@@ -101,7 +101,7 @@ def default_chains(rig: Rig, systeminfo: Systeminfo, *, noise: float = 1.0,
         else:  # an unused input (Table E.3 channel 1): noise only
             chain = ChannelChain(sensitivity=1.0, sensor_tc=None, coupler_tc=None, resonance_hz=None,
                                  noise_rms=1.0e-3)
-        chain = replace(chain, gain=info.daq_gain, limit_low=-r, limit_high=r, **everywhere)
+        chain = replace(chain, **{"gain": info.daq_gain, "limit_low": -r, "limit_high": r, **everywhere})
         if sensor is not None and ch != rig.force_channel and sensor.quantity == "acceleration":
             chain = replace(chain, **sensor_front)
         if filtered and (ch != rig.force_channel or aa.force_channel):

@@ -67,8 +67,7 @@ def test_thesis_rig_stiffer_vertical_springs_are_found_and_fixed(capsys, tmp_pat
 BLOWS = {
     "thesis-dynamometer.toml": [("-0.795,79.089,-11.4", "+z", ["--samples", "4096"]),
                                 ("20,30,-11.4", "+z", ["--samples", "4096"])],
-    "two-body-machine.toml": [("50,20,250", "-z", ["--rate", "5120", "--samples", "4096", "--pretrigger", "256"]),
-                              ("-150,0,130", "+x", ["--rate", "5120", "--samples", "4096", "--pretrigger", "256"])],
+    "two-body-machine.toml": [("50,20,250", "-z", ["--samples", "4096"]), ("-150,0,130", "+x", ["--samples", "4096"])],
     "thesis-car-2dof.toml": [("1300,0,700", "-z", ["--samples", "4096", "--trigger-level", "20", "--force-peak",
                                                     "3000", "--contact-ms", "30"]),
                              ("-1600,300,700", "-z", ["--samples", "4096", "--trigger-level", "20", "--force-peak",

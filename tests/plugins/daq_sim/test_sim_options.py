@@ -94,3 +94,13 @@ def test_a_truth_file_without_the_rigs_channels_is_refused(rig, tmp_path):
     with pytest.raises(ConfigError) as err:
         record(rig, truth_rig=str(path))
     assert "channel 3" in str(err.value) and "fewer.toml" in str(err.value), str(err.value)
+
+
+def test_the_rigs_acquisition_table_sets_the_adc(rig):
+    # the two-body rig declares a 24-bit converter on +-5 V: steps of 10 V / 2**24 (a finer grid
+    # than any noise-free difference could fake: at least a thousand distinct codes)
+    assert rig.acquisition.adc_bits == 24
+    codes = np.unique(record(rig)[:, 4])
+    assert codes.size > 1000
+    steps = np.diff(codes) / (10.0 / 2**24)
+    assert np.allclose(steps, np.round(steps), atol=1e-3) and steps.min() == pytest.approx(1.0, abs=1e-3)
