@@ -20,6 +20,13 @@ any object with the same members:
 Optional: ``breaks_rigidity`` (bool, default False): the effect makes a rigid body's redundant
 sensors disagree (a flexible mode, a sensor fault), so the diagnosis cites the rigidity check's
 residual as evidence for it.
+
+Optional, variable projection: ``linear_parameters(model) -> list[str]`` names parameters the
+effect solves itself, by linear least squares, once the others are given; ``project(models, values,
+exps, base, weights) -> (shared, per_experiment, deltas)`` returns them for the models ``models``
+(experiment name -> model without the effect) at the other ``values``, fitted to the residual
+``measured - base`` of each prepared experiment (rows weighted by ``weights``, None: all), and each
+experiment's change of prediction. The fit then searches only the remaining parameters.
 """
 
 from __future__ import annotations
@@ -37,7 +44,9 @@ REQUIRED_METHODS = ("parameters", "apply")
 
 @dataclass(frozen=True)
 class Parameter:
-    """One effect parameter. ``choices`` marks a discrete parameter (e.g. polarity +1/-1)."""
+    """One effect parameter. ``choices`` marks a discrete parameter (e.g. polarity +1/-1);
+    ``starts`` are values the screening tries besides the nominal (global starts for angles and
+    frequencies, whose error surface has local minima)."""
 
     name: str
     unit: str
@@ -47,6 +56,7 @@ class Parameter:
     scope: str = "shared"
     description: str = ""
     choices: tuple[float, ...] | None = None
+    starts: tuple[float, ...] | None = None
 
     def as_dict(self) -> dict:
         return {"name": self.name, "unit": self.unit, "nominal": self.nominal, "lower": self.lower,

@@ -35,6 +35,16 @@ def skew(r: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
 
 
+def rotated(v: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    """``v`` turned by the rotation vector ``rotation`` (axis times angle, rad; Rodrigues): exact
+    for large angles, where a small-angle tilt ``v + rotation x v`` would shorten the angle."""
+    angle = float(np.linalg.norm(rotation))
+    if angle == 0:
+        return v
+    k = rotation / angle
+    return v * np.cos(angle) + np.cross(k, v) * np.sin(angle) + k * (k @ v) * (1 - np.cos(angle))
+
+
 def point_map(r: np.ndarray) -> np.ndarray:
     """``T(r) = [I | -[r]x]`` (3x6): displacement of the point at offset ``r`` from ``d``."""
     return np.hstack([np.eye(3), -skew(np.asarray(r, dtype=float))])
@@ -513,8 +523,9 @@ class MeasurementChain:
 
     ``force_gain`` multiplies force inputs (the structure feels gain x recorded force);
     ``force_offset`` (m) moves force points; per sensor: ``gain`` (polarity is a gain of -1),
-    ``offset`` (m, position), ``tilt`` (3-vector small rotation of the axis, rad), ``dynamics``
-    (the key "*" applies to every sensor without its own entry).
+    ``offset`` (m, position), ``tilt`` (rotation vector of the axis, rad), ``dynamics``
+    (the key "*" applies to every sensor without its own entry), ``delay`` (s: the channel is
+    sampled this long after the force channel, e.g. a multiplexer's scan).
     """
 
     force_gain: float = 1.0
@@ -523,6 +534,7 @@ class MeasurementChain:
     offset: Mapping[str, np.ndarray] = field(default_factory=lambda: MappingProxyType({}))
     tilt: Mapping[str, np.ndarray] = field(default_factory=lambda: MappingProxyType({}))
     dynamics: Mapping[str, SensorDynamics] = field(default_factory=lambda: MappingProxyType({}))
+    delay: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
 
     def with_items(self, name: str, items: Mapping) -> MeasurementChain:
         merged = dict(getattr(self, name))
@@ -644,8 +656,7 @@ class Model:
                 p = p + self.chain.offset.get(out.sensor_name, 0.0)
                 tilt = self.chain.tilt.get(out.sensor_name)
                 if tilt is not None:
-                    n = n + np.cross(tilt, n)
-                    n = n / np.linalg.norm(n)
+                    n = rotated(n, tilt)
             rows[i] = n @ st.point_rows(out.body, p) + st.flex_row(out.body, p, n, out.sensor_name)
             if out.sensor_name is not None:
                 rows[i] *= self.chain.gain.get(out.sensor_name, 1.0)

@@ -261,7 +261,7 @@ def prepare(project, experiments: Sequence[str] | None = None) -> list[PreparedE
 def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "acceleration") -> np.ndarray:
     """The model's physical signal at each sensor of ``exp`` (samples x sensors), from rest."""
     from odsuite.core.model import Input, Output, StateSpace
-    from odsuite.core.simulation import simulate_state_space
+    from odsuite.core.simulation import sampled_later, simulate_state_space
 
     body = model.rig.force_body(exp.point) if model.rig is not None else None
     inputs = [Input.force(exp.point, exp.direction, body=body)]
@@ -290,6 +290,9 @@ def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "accelerati
     for dyn, cols in groups.items():
         num, den = _sensor_filter(dyn, exp.fs)
         y[:, cols] = scipy.signal.lfilter(num, den, y[:, cols], axis=0)
+    delays = [chain.delay.get(s.name, 0.0) for s in exp.sensors]
+    if any(delays):
+        y = sampled_later(y, exp.fs, delays)
     return y
 
 

@@ -134,3 +134,14 @@ def simulate(model: Model, inputs, u, fs: float, outputs, hold: str = "zoh") -> 
     """Outputs (n_samples, n_outputs) of ``model`` to the input record ``u`` (n_samples, n_inputs;
     a 1-D array for one input) sampled at ``fs`` Hz, from rest, with a zero- or first-order hold."""
     return simulate_state_space(model.state_space(inputs, outputs), u, fs, hold)
+
+
+def sampled_later(y: np.ndarray, fs: float, delays) -> np.ndarray:
+    """Each column of ``y`` (samples x channels, sampled at ``fs`` Hz from rest) as it would be
+    sampled ``delays[k]`` seconds later: a phase shift exp(j w tau) of its spectrum, zero-padded to
+    twice its length so that nothing wraps around (exact for band-limited signals)."""
+    n = y.shape[0]
+    spec = np.fft.rfft(y, n=2 * n, axis=0)
+    w = 2 * np.pi * np.fft.rfftfreq(2 * n, 1.0 / fs)
+    spec *= np.exp(1j * np.outer(w, np.asarray(delays, float)))
+    return np.fft.irfft(spec, n=2 * n, axis=0)[:n]

@@ -250,11 +250,21 @@ def _perpendicular(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return e1, np.cross(axis, e1)
 
 
+#: tilts the screening starts from (rad, each component): a mount turned by tens of degrees sits
+#: beyond the reach of a step from zero (a 25 degree tilt stopped at 4.9 degrees)
+TILT_STARTS = tuple(float(np.radians(d)) for d in (-40, -25, -12, 12, 25, 40))
+
+
 class SensorOrientation(_PerSensor):
     name = "sensor_orientation"
-    description = "A sensor's axis is tilted: small rotations about two axes perpendicular to it."
-    per_sensor = (("tilt_a", "rad", 0.0, -0.3, 0.3, "tilt about the first perpendicular axis"),
-                  ("tilt_b", "rad", 0.0, -0.3, 0.3, "tilt about the second perpendicular axis"))
+    description = "A sensor's axis is tilted: a rotation about two axes perpendicular to it."
+    # up to 60 degrees (a tilt is a rotation vector, exact at any angle): beyond that the sensor
+    # measures another axis more than its own
+    per_sensor = (("tilt_a", "rad", 0.0, -1.05, 1.05, "tilt about the first perpendicular axis"),
+                  ("tilt_b", "rad", 0.0, -1.05, 1.05, "tilt about the second perpendicular axis"))
+
+    def parameters(self, model):
+        return [replace(p, starts=TILT_STARTS) for p in super().parameters(model)]
 
     def _apply(self, model, v):
         tilts = {}
@@ -376,6 +386,8 @@ class BaseMotion(Effect):
 
 
 def builtin_effects() -> list[Effect]:
+    from .data_effects import data_effects
+
     return [Stiffness(), Damping(), MassProperties(), PlateFlexibility("kirchhoff"), PlateFlexibility("free"),
             SensorGain(), SensorPolarity(), SensorOrientation(), SensorPosition(), SensorDynamicsEffect(),
-            ImpactLocation(), ForceGain(), BaseMotion()]
+            ImpactLocation(), ForceGain(), BaseMotion()] + data_effects()
