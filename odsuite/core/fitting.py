@@ -369,8 +369,18 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
     best_fixed: dict[str, float] = {}
     best_u = problem.zero()
     best_sse = sse0
-    # discrete parameters: each choice alone, then greedily combined
+    # discrete parameters: each choice alone, then greedily combined; with global starts, each
+    # choice is scored after its sweep (a mode's body only shows near the mode's frequency)
+    swept = any(f.param.starts for f in problem.free)
+
+    def score(trial: Problem) -> float:
+        if not swept:
+            return trial.sse(trial.zero())
+        first = heads(trial.exps)[0]
+        return float(np.sum(trial.residual(_sweep(trial, trial.zero(), first, peaks_hz), first) ** 2))
+
     chosen: dict[str, float] = {}
+    best_score = score(problem) if swept and problem.discrete else best_sse
     for _ in range(3):
         trial_best = None
         for p in problem.discrete:
@@ -380,12 +390,14 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
                 if c == p.nominal:
                     continue
                 trial = problem.derived({**chosen, p.name: c})
-                sse = trial.sse(trial.zero())
+                sse = score(trial)
                 if trial_best is None or sse < trial_best[0]:
                     trial_best = (sse, p.name, c)
-        if trial_best is None or trial_best[0] >= best_sse * 0.999:
+        if trial_best is None or trial_best[0] >= best_score * 0.999:
             break
-        best_sse = trial_best[0]
+        best_score = trial_best[0]
+        if not swept:
+            best_sse = best_score
         chosen[trial_best[1]] = trial_best[2]
         best_fixed = dict(chosen)
     if best_fixed:

@@ -143,9 +143,11 @@ def _with_modes(model: Model, modes) -> Model:
 
 def _rank_one(R: np.ndarray, N: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """phi (sensors), c (experiments) minimising sum N_ej (phi_j c_e)^2 - 2 R_ej phi_j c_e."""
-    seen = N > 0
+    # a sensor or hit the mode cannot reach differs from the model only by round-off
+    seen = N > 1e-12 * float(np.max(N, initial=0.0))
     if not seen.any():
         return np.zeros(R.shape[1]), np.zeros(R.shape[0])
+    R, N = np.where(seen, R, 0.0), np.where(seen, N, 0.0)
     a = np.where(seen, R / np.where(seen, N, 1.0), 0.0)  # each entry alone
     u, s, vt = np.linalg.svd(a * np.sqrt(N))
     c, phi = u[:, 0] * np.sqrt(s[0]), vt[0] * np.sqrt(s[0])
