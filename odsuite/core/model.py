@@ -123,7 +123,9 @@ class SpringDamper:
     Stiffness (N/m) and damping (N s/m) act on the relative displacement of the point, along the rig
     axes (3 coefficients) or as symmetric 3x3 matrices; ``rot_stiffness`` (N m/rad) and
     ``rot_damping`` (N m s/rad) on the relative rotation. ``group``: springs that effects scale
-    together (e.g. four identical isolators); empty: the spring is its own group.
+    together (e.g. four identical isolators); empty: the spring is its own group. ``cubic``
+    (N/m^3, per rig axis): a hardening force ``cubic * d**3`` added to the linear one (the model
+    is then simulated by :func:`odsuite.core.simulation.simulate_nonlinear`).
     """
 
     name: str
@@ -135,6 +137,7 @@ class SpringDamper:
     rot_stiffness: np.ndarray = field(default_factory=lambda: np.zeros(3))
     rot_damping: np.ndarray = field(default_factory=lambda: np.zeros(3))
     group: str = ""  # springs scaled together by effects; "" = its own group
+    cubic: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def __post_init__(self) -> None:
         w = f"spring {self.name!r}"
@@ -156,6 +159,7 @@ class SpringDamper:
             if low < 0:
                 raise ConfigError(f"{w} field {f!r}: must be >= 0, got {v.tolist()}")
             object.__setattr__(self, f, v)
+        object.__setattr__(self, "cubic", _vec3(f"{w} field 'cubic'", self.cubic))
 
     def matrix(self, name: str) -> np.ndarray:
         """``stiffness``, ``damping``, ... as a 3x3 matrix."""
@@ -445,6 +449,22 @@ class Structure:
     def C(self) -> np.ndarray:
         return self._assemble("damping", "rot_damping",
                               lambda f: 2 * f.damping_ratio * 2 * np.pi * f.frequency_hz)
+
+    @functools.cached_property
+    def is_linear(self) -> bool:
+        return not any(s.cubic.any() for s in self.springs)
+
+    def cubic_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """(E, c): the relative displacements along the rig axes of the springs with a cubic term
+        (rows of E, n_dof columns) and their coefficients (N/m^3)."""
+        rows, coef = [], []
+        for s in self.springs:
+            if s.cubic.any():
+                rows.append(self._spring_ends(s)[0])
+                coef.append(s.cubic)
+        if not rows:
+            return np.zeros((0, self.n_dof)), np.zeros(0)
+        return np.vstack(rows), np.concatenate(coef)
 
     def base_matrices(self) -> tuple[np.ndarray, np.ndarray]:
         """(Kg, Cg), n_dof x 6: generalized forces per unit ground [translation, rotation] about the

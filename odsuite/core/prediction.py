@@ -261,7 +261,7 @@ def prepare(project, experiments: Sequence[str] | None = None) -> list[PreparedE
 def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "acceleration") -> np.ndarray:
     """The model's physical signal at each sensor of ``exp`` (samples x sensors), from rest."""
     from odsuite.core.model import Input, Output, StateSpace
-    from odsuite.core.simulation import sampled_later, simulate_state_space
+    from odsuite.core.simulation import sampled_later, simulate_nonlinear, simulate_state_space
 
     body = model.rig.force_body(exp.point) if model.rig is not None else None
     inputs = [Input.force(exp.point, exp.direction, body=body)]
@@ -275,8 +275,11 @@ def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "accelerati
         bf, _ = model.input_matrices(inputs)
         n = st.n_dof
         minv_bf = st.Minv @ bf
-        ss = StateSpace(st.A, np.vstack([np.zeros_like(bf), minv_bf]), st.A[n:], minv_bf)
-        exp._cache = (st, key, simulate_state_space(ss, exp.force, exp.fs, hold="foh"))
+        if st.is_linear:
+            ss = StateSpace(st.A, np.vstack([np.zeros_like(bf), minv_bf]), st.A[n:], minv_bf)
+            exp._cache = (st, key, simulate_state_space(ss, exp.force, exp.fs, hold="foh"))
+        else:  # cubic springs: the response depends on the force's level
+            exp._cache = (st, key, simulate_nonlinear(st, bf, exp.force, exp.fs))
     _, rows = model.output_rows(outputs)
     y = exp._cache[2] @ rows.T
     # the sensors' own dynamics in series, on their sampled signals (one small system per sensor:

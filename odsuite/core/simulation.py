@@ -1,4 +1,5 @@
-"""Simulation of a linear model to a sampled input record, by exact discretisation.
+"""Simulation of a model to a sampled input record: a linear one by exact discretisation, one
+with cubic springs by fixed-step Runge-Kutta (:func:`simulate_nonlinear`).
 
 The state space is split into its modes (x = V z); each mode and input is a first-order complex
 recursion ``z[k+1] = p z[k] + ...`` with ``p = exp(lambda T)`` whose hold-exact coefficients are the phi
@@ -145,3 +146,64 @@ def sampled_later(y: np.ndarray, fs: float, delays) -> np.ndarray:
     w = 2 * np.pi * np.fft.rfftfreq(2 * n, 1.0 / fs)
     spec *= np.exp(1j * np.outer(w, np.asarray(delays, float)))
     return np.fft.irfft(spec, n=2 * n, axis=0)[:n]
+
+
+#: steps per sample of the nonlinear integration: the cubic force varies at up to three times a
+#: mode's frequency; at 20 kHz and modes below 300 Hz one step per sample keeps its error below
+#: 2e-4 of the response, far below a record's noise (checked against scipy's DOP853 in the tests)
+NONLINEAR_STEPS_PER_SAMPLE = 1
+
+
+def simulate_nonlinear(structure, bf: np.ndarray, u, fs: float) -> np.ndarray:
+    """Coordinate accelerations q'' (n_samples x n_dof), from rest, of
+    ``M q'' + C q' + K q + E^T (c (E q)^3) = bf u`` (``structure.cubic_rows()``: cubic springs),
+    the input linear between samples (first-order hold, as the linear simulation).
+
+    An exponential integrator: the linear part is exact (the matrix exponential over a step, the
+    input and the cubic force linear across it); the cubic force at the step's end comes from a
+    predictor and one corrector. Written here because scipy.integrate's solvers cost a Python call
+    per stage and step through each hit at a rate set by the input's kinks; this one costs a few
+    small products per step."""
+    u = check_input_record(u, bf.shape[1])
+    n = structure.n_dof
+    E, c = structure.cubic_rows()
+    sub = NONLINEAR_STEPS_PER_SAMPLE
+    h = 1.0 / (fs * sub)
+    # first-order-hold discretisation of x' = A x + [0; I] w (w: an acceleration input)
+    m = n
+    big = np.zeros((2 * n + 2 * m, 2 * n + 2 * m))
+    big[:2 * n, :2 * n] = structure.A * h
+    big[n:2 * n, 2 * n:2 * n + m] = np.eye(n) * h
+    big[2 * n:2 * n + m, 2 * n + m:] = np.eye(m)
+    X = scipy.linalg.expm(big)
+    phi, g1, g2 = X[:2 * n, :2 * n], X[:2 * n, 2 * n:2 * n + m], X[:2 * n, 2 * n + m:]
+    start, end = g1 - g2, g2  # weights of w at a step's start and end
+    pull = structure.Minv @ E.T  # generalized acceleration per unit element force
+    start_pull, end_pull = start @ pull, end @ pull
+    drive = u @ (structure.Minv @ bf).T  # input acceleration at each sample
+    fine = np.empty((len(u) - 1) * sub + 1)  # the input on the fine grid, linear between samples
+    fine_drive = np.empty((len(fine), n))
+    for j in range(n):
+        fine_drive[:, j] = np.interp(np.arange(len(fine)) / sub, np.arange(len(u)), drive[:, j])
+    linear = fine_drive[:-1] @ start.T + fine_drive[1:] @ end.T  # the input's part of each step
+    Eq = np.hstack([E, np.zeros_like(E)])
+    end_deflection = Eq @ end_pull  # element deflection per unit element force at a step's end
+    x = np.zeros(2 * n)
+    g = np.zeros(len(c))
+    states = np.empty((len(fine), 2 * n))
+    states[0] = x
+    for k in range(len(fine) - 1):
+        base = phi @ x + linear[k] - start_pull @ g
+        d_base = Eq @ base
+        d = d_base - end_deflection @ g  # predictor: the cubic force held over the step
+        d = d_base - end_deflection @ (c * d * d * d)  # corrector: its value at the predicted end
+        g_end = c * d * d * d
+        x = base - end_pull @ g_end
+        d = d_base - end_deflection @ g_end
+        g = c * d * d * d
+        states[k + 1] = x
+    if not np.all(np.isfinite(states)):
+        raise ConfigError("nonlinear simulation diverged (cubic springs too strong for this force)")
+    q = states[::sub]
+    d = q[:, :n] @ E.T
+    return q @ structure.A[n:].T + drive - (c * d * d * d) @ pull.T
