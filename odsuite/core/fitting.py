@@ -22,7 +22,7 @@ import numpy as np
 import scipy.optimize
 
 from odsuite.core.modelrev import RevisionModel
-from odsuite.core.prediction import PreparedExperiment, predict
+from odsuite.core.prediction import PreparedExperiment, predict, simulate_together
 
 #: fits start on short heads of the records (s after the hit), then the whole record: a frequency
 #: error makes the time-domain residual oscillate in the parameter, a short head keeps it convex
@@ -195,6 +195,7 @@ class Problem:
             return [self.base_prediction(e) + d for e, d in zip(exps, deltas)]
         self.evaluations += 1
         models = self.models(u)
+        simulate_together(models, exps)
         return [predict(models[e.name], e) for e in exps]
 
     # residuals ---------------------------------------------------------------------------------

@@ -157,53 +157,68 @@ NONLINEAR_STEPS_PER_SAMPLE = 1
 def simulate_nonlinear(structure, bf: np.ndarray, u, fs: float) -> np.ndarray:
     """Coordinate accelerations q'' (n_samples x n_dof), from rest, of
     ``M q'' + C q' + K q + E^T (c (E q)^3) = bf u`` (``structure.cubic_rows()``: cubic springs),
-    the input linear between samples (first-order hold, as the linear simulation).
+    the input linear between samples (first-order hold, as the linear simulation)."""
+    return simulate_nonlinear_many(structure, [(bf, u)], fs)[0]
+
+
+def simulate_nonlinear_many(structure, drives, fs: float) -> list[np.ndarray]:
+    """:func:`simulate_nonlinear` for several inputs ``drives`` [(bf, u), ...] at once (records of
+    any lengths, e.g. every experiment of a fit): one time loop advances them all, so its Python
+    cost is paid once.
 
     An exponential integrator: the linear part is exact (the matrix exponential over a step, the
     input and the cubic force linear across it); the cubic force at the step's end comes from a
     predictor and one corrector. Written here because scipy.integrate's solvers cost a Python call
     per stage and step through each hit at a rate set by the input's kinks; this one costs a few
     small products per step."""
-    u = check_input_record(u, bf.shape[1])
+    records = [check_input_record(u, bf.shape[1]) for bf, u in drives]
     n = structure.n_dof
     E, c = structure.cubic_rows()
     sub = NONLINEAR_STEPS_PER_SAMPLE
     h = 1.0 / (fs * sub)
     # first-order-hold discretisation of x' = A x + [0; I] w (w: an acceleration input)
-    m = n
-    big = np.zeros((2 * n + 2 * m, 2 * n + 2 * m))
+    big = np.zeros((4 * n, 4 * n))
     big[:2 * n, :2 * n] = structure.A * h
-    big[n:2 * n, 2 * n:2 * n + m] = np.eye(n) * h
-    big[2 * n:2 * n + m, 2 * n + m:] = np.eye(m)
+    big[n:2 * n, 2 * n:3 * n] = np.eye(n) * h
+    big[2 * n:3 * n, 3 * n:] = np.eye(n)
     X = scipy.linalg.expm(big)
-    phi, g1, g2 = X[:2 * n, :2 * n], X[:2 * n, 2 * n:2 * n + m], X[:2 * n, 2 * n + m:]
+    phi, g1, g2 = X[:2 * n, :2 * n], X[:2 * n, 2 * n:3 * n], X[:2 * n, 3 * n:]
     start, end = g1 - g2, g2  # weights of w at a step's start and end
     pull = structure.Minv @ E.T  # generalized acceleration per unit element force
     start_pull, end_pull = start @ pull, end @ pull
-    drive = u @ (structure.Minv @ bf).T  # input acceleration at each sample
-    fine = np.empty((len(u) - 1) * sub + 1)  # the input on the fine grid, linear between samples
-    fine_drive = np.empty((len(fine), n))
-    for j in range(n):
-        fine_drive[:, j] = np.interp(np.arange(len(fine)) / sub, np.arange(len(u)), drive[:, j])
-    linear = fine_drive[:-1] @ start.T + fine_drive[1:] @ end.T  # the input's part of each step
     Eq = np.hstack([E, np.zeros_like(E)])
     end_deflection = Eq @ end_pull  # element deflection per unit element force at a step's end
-    x = np.zeros(2 * n)
-    g = np.zeros(len(c))
-    states = np.empty((len(fine), 2 * n))
+    longest = max(len(u) for u in records)
+    steps = (longest - 1) * sub + 1
+    drive = np.zeros((len(records), longest, n))  # input accelerations, zero after a record's end
+    for i, ((bf, _), u) in enumerate(zip(drives, records)):
+        drive[i, :len(u)] = u @ (structure.Minv @ bf).T
+    grid = np.arange(steps) / sub
+    fine = np.empty((len(records), steps, n))  # the inputs on the fine grid, linear between samples
+    for i in range(len(records)):
+        for j in range(n):
+            fine[i, :, j] = np.interp(grid, np.arange(longest), drive[i, :, j])
+    linear = fine[:, :-1] @ start.T + fine[:, 1:] @ end.T  # the inputs' part of each step
+    x = np.zeros((len(records), 2 * n))
+    g = np.zeros((len(records), len(c)))
+    states = np.empty((steps, len(records), 2 * n))
     states[0] = x
-    for k in range(len(fine) - 1):
-        base = phi @ x + linear[k] - start_pull @ g
-        d_base = Eq @ base
-        d = d_base - end_deflection @ g  # predictor: the cubic force held over the step
-        d = d_base - end_deflection @ (c * d * d * d)  # corrector: its value at the predicted end
+    phi_t, start_pull_t, end_pull_t, Eq_t, end_deflection_t = phi.T, start_pull.T, end_pull.T, Eq.T, end_deflection.T
+    for k in range(steps - 1):
+        base = x @ phi_t + linear[:, k] - g @ start_pull_t
+        d_base = base @ Eq_t
+        d = d_base - g @ end_deflection_t  # predictor: the cubic force held over the step
+        d = d_base - (c * d * d * d) @ end_deflection_t  # corrector: its value at the predicted end
         g_end = c * d * d * d
-        x = base - end_pull @ g_end
-        d = d_base - end_deflection @ g_end
+        x = base - g_end @ end_pull_t
+        d = d_base - g_end @ end_deflection_t
         g = c * d * d * d
         states[k + 1] = x
     if not np.all(np.isfinite(states)):
         raise ConfigError("nonlinear simulation diverged (cubic springs too strong for this force)")
-    q = states[::sub]
-    d = q[:, :n] @ E.T
-    return q @ structure.A[n:].T + drive - (c * d * d * d) @ pull.T
+    out = []
+    for i, u in enumerate(records):
+        q = states[:(len(u) - 1) * sub + 1:sub, i]
+        d = q[:, :n] @ E.T
+        out.append(q @ structure.A[n:].T + drive[i, :len(u)] - (c * d * d * d) @ pull.T)
+    return out

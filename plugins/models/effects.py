@@ -93,8 +93,9 @@ class Damping(_SpringScale):
 #: deflection at which a hardening parameter is stated: hammer tests move suspensions by
 #: micrometres (a 45 N hit on the thesis rig: ~1 um) to tens of micrometres
 HARDENING_REFERENCE_M = 1e-6
-#: hardening starts: half decades, as the deflections a rig's hits reach span decades
-HARDENING_STARTS = tuple(float(h) for h in np.geomspace(1e-3, 300.0, 12))
+#: hardening starts: decades, as the deflections a rig's hits reach span decades (the fit then
+#: moves within a decade; each start costs a nonlinear simulation)
+HARDENING_STARTS = (1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0)
 
 
 class NonlinearStiffness(Effect):
@@ -290,7 +291,7 @@ def _perpendicular(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 #: tilts the screening starts from (rad, each component): a mount turned by tens of degrees sits
 #: beyond the reach of a step from zero (a 25 degree tilt stopped at 4.9 degrees)
-TILT_STARTS = tuple(float(np.radians(d)) for d in (-40, -25, -12, 12, 25, 40))
+TILT_STARTS = tuple(float(np.radians(d)) for d in (-30, -15, 15, 30))
 
 
 class SensorOrientation(_PerSensor):
