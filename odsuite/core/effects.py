@@ -26,6 +26,13 @@ its value, narrower than the bounds the fit may explore (a sensor resonance near
 band, a tilt below 45 degrees, a mass change within the body's own mass). A fit outside it is
 reported as not ``plausible`` by ``diagnose`` and warned about by ``add-effect``: the effect then
 more likely stands in for other physics. None: any value within the bounds is plausible.
+
+Optional, variable projection: ``linear_parameters(model) -> list[str]`` names parameters the
+effect solves itself, by linear least squares, once the others are given; ``project(models, values,
+exps, base, weights) -> (shared, per_experiment, deltas)`` returns them for the models ``models``
+(experiment name -> model without the effect) at the other ``values``, fitted to the residual
+``measured - base`` of each prepared experiment (rows weighted by ``weights``, None: all), and each
+experiment's change of prediction. The fit then searches only the remaining parameters.
 """
 
 from __future__ import annotations
@@ -44,7 +51,9 @@ REQUIRED_METHODS = ("parameters", "apply")
 @dataclass(frozen=True)
 class Parameter:
     """One effect parameter. ``choices`` marks a discrete parameter (e.g. polarity +1/-1);
-    ``plausible`` (low, high) its physically plausible range (None: the bounds)."""
+    ``plausible`` (low, high) its physically plausible range (None: the bounds).
+    ``starts`` are values the screening tries besides the nominal (global starts for angles and
+    frequencies, whose error surface has local minima)."""
 
     name: str
     unit: str
@@ -55,6 +64,7 @@ class Parameter:
     description: str = ""
     choices: tuple[float, ...] | None = None
     plausible: tuple[float, float] | None = None
+    starts: tuple[float, ...] | None = None
 
     def as_dict(self) -> dict:
         return {"name": self.name, "unit": self.unit, "nominal": self.nominal, "lower": self.lower,

@@ -22,7 +22,7 @@ import numpy as np
 import scipy.optimize
 
 from odsuite.core.modelrev import RevisionModel
-from odsuite.core.prediction import PreparedExperiment, predict
+from odsuite.core.prediction import PreparedExperiment, predict, simulate_together
 
 #: fits start on short heads of the records (s after the hit), then the whole record: a frequency
 #: error makes the time-domain residual oscillate in the parameter, a short head keeps it convex
@@ -117,9 +117,15 @@ class Problem:
         params = effect.parameters(base.shared)
         self.discrete = [p for p in params if p.choices is not None]
         self.fixed = dict(fixed or {})  # discrete choices and parameters held at a value
+        # parameters the effect solves by linear least squares at every evaluation (variable
+        # projection): the search runs over the others only
+        linear = getattr(effect, "linear_parameters", None)
+        self.linear = [n for n in (linear(base.shared) if linear else []) if n not in self.fixed]
+        self._base_predictions: dict[tuple[str, int], np.ndarray] = {}
+        self._projection: tuple[Any, Any] | None = None  # (key, result) of the last projection
         self.free: list[_Free] = []
         for p in params:
-            if p.choices is not None or p.name in self.fixed:
+            if p.choices is not None or p.name in self.fixed or p.name in self.linear:
                 continue
             if p.scope == "per_experiment":
                 self.free += [_Free(p, e.name, _scale(p)) for e in self.exps]
@@ -128,7 +134,7 @@ class Problem:
         self.evaluations = 0
 
     # values ------------------------------------------------------------------------------------
-    def values(self, u: np.ndarray) -> tuple[dict[str, float], dict[str, dict[str, float]]]:
+    def _search_values(self, u: np.ndarray) -> tuple[dict[str, float], dict[str, dict[str, float]]]:
         shared = dict(self.fixed)
         per: dict[str, dict[str, float]] = {}
         for f, x in zip(self.free, u):
@@ -138,9 +144,43 @@ class Problem:
                 per.setdefault(f.experiment, {})[f.param.name] = f.to_value(x)
         return shared, per
 
-    def models(self, u: np.ndarray) -> dict[str, Any]:
-        shared, per = self.values(u)
-        has_shared = any(f.experiment is None for f in self.free) or self.fixed or not self.free
+    def values(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None
+               ) -> tuple[dict[str, float], dict[str, dict[str, float]]]:
+        """Shared and per-experiment values at ``u``, the projected ones fitted on ``exps``."""
+        shared, per = self._search_values(u)
+        if self.linear:
+            lin_shared, lin_per, _ = self.project(u, exps)
+            shared.update(lin_shared)
+            for name, v in lin_per.items():
+                per.setdefault(name, {}).update(v)
+        return shared, per
+
+    def base_prediction(self, e: PreparedExperiment) -> np.ndarray:
+        """The prediction without this effect (cached per experiment and length)."""
+        key = (e.name, e.n_samples)
+        if key not in self._base_predictions:
+            self._base_predictions[key] = predict(self.base.for_experiment(e.name), e)
+        return self._base_predictions[key]
+
+    def project(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None,
+                weights: Sequence[np.ndarray] | None = None) -> tuple[dict, dict, list[np.ndarray]]:
+        """The effect's projected parameters at ``u`` fitted on ``exps`` (rows weighted by
+        ``weights``), and each experiment's change of prediction."""
+        exps = list(exps or self.exps)
+        key = (u.tobytes(), tuple((e.name, e.n_samples) for e in exps),
+               None if weights is None else tuple(w.tobytes() for w in weights))
+        if self._projection is not None and self._projection[0] == key:
+            return self._projection[1]
+        self.evaluations += 1
+        shared, _ = self._search_values(u)
+        models = {e.name: self.base.for_experiment(e.name) for e in exps}
+        out = self.effect.project(models, shared, exps, [self.base_prediction(e) for e in exps], weights)
+        self._projection = (key, out)
+        return out
+
+    def models(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None) -> dict[str, Any]:
+        shared, per = self.values(u, exps)
+        has_shared = any(f.experiment is None for f in self.free) or self.fixed or not self.free or self.linear
         model = self.effect.apply(self.base.shared, shared) if has_shared else self.base.shared
         rm = RevisionModel(model, self.base.per_experiment)
         out = {}
@@ -152,9 +192,14 @@ class Problem:
         return out
 
     def predictions(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None) -> list[np.ndarray]:
+        exps = list(exps or self.exps)
+        if self.linear:  # the projection's change of prediction is the effect's whole change
+            _, _, deltas = self.project(u, exps)
+            return [self.base_prediction(e) + d for e, d in zip(exps, deltas)]
         self.evaluations += 1
         models = self.models(u)
-        return [predict(models[e.name], e) for e in (exps or self.exps)]
+        simulate_together(models, exps)
+        return [predict(models[e.name], e) for e in exps]
 
     # residuals ---------------------------------------------------------------------------------
     def residual(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None,
@@ -188,7 +233,9 @@ class Problem:
 
     def derived(self, fixed: Mapping[str, float]) -> Problem:
         """The same problem with other parameters fixed."""
-        return Problem(self.base, self.effect, self.exps, fixed, self.prior, self.stride, self.full)
+        out = Problem(self.base, self.effect, self.exps, fixed, self.prior, self.stride, self.full)
+        out._base_predictions = self._base_predictions  # the same base model: share its predictions
+        return out
 
     def jacobian(self, u: np.ndarray, r0: np.ndarray, **kw) -> np.ndarray:
         J = np.empty((r0.size, len(self.free)))
@@ -266,7 +313,7 @@ def _grid_starts(problem: Problem, r0: np.ndarray, J: np.ndarray, peaks_hz: Sequ
     starts = []
     tiny = _tiny(J, r0)
     for i, f in enumerate(problem.free):
-        if not tiny[i] or f.param.unit not in ("Hz", "s") or f.experiment is not None:
+        if not tiny[i] or f.param.unit not in ("Hz", "s") or f.experiment is not None or f.param.starts:
             continue
         lo = max(f.param.lower, 1e-12)
         hi = f.param.upper
@@ -280,6 +327,29 @@ def _grid_starts(problem: Problem, r0: np.ndarray, J: np.ndarray, peaks_hz: Sequ
                 u[i] = (c - f.param.nominal) / f.scale
                 starts.append(u)
     return starts
+
+
+def _sweep(problem: Problem, u: np.ndarray, exps, peaks_hz: Sequence[float]) -> np.ndarray:
+    """Global starts: each shared parameter that declares ``starts`` (an angle, a frequency) set
+    to each of them in turn, frequencies also to the residual's peaks, keeping a value whenever it
+    lowers the error on ``exps``; parameters are swept one after another (coordinate-wise), so
+    the cost is the number of starts, not their product."""
+    best = u
+    best_sse = float(np.sum(problem.residual(u, exps) ** 2))
+    for i, f in enumerate(problem.free):
+        p = f.param
+        if not p.starts or f.experiment is not None:
+            continue
+        values = list(p.starts) + (list(peaks_hz) if p.unit == "Hz" else [])
+        for c in values:
+            if not p.lower <= c <= p.upper:
+                continue
+            trial = best.copy()
+            trial[i] = (c - p.nominal) / f.scale
+            sse = float(np.sum(problem.residual(trial, exps) ** 2))
+            if sse < best_sse:
+                best, best_sse = trial, sse
+    return best
 
 
 def _activation(problem: Problem, start: np.ndarray, r: np.ndarray, J: np.ndarray, exps
@@ -310,8 +380,18 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
     best_fixed: dict[str, float] = {}
     best_u = problem.zero()
     best_sse = sse0
-    # discrete parameters: each choice alone, then greedily combined
+    # discrete parameters: each choice alone, then greedily combined; with global starts, each
+    # choice is scored after its sweep (a mode's body only shows near the mode's frequency)
+    swept = any(f.param.starts for f in problem.free)
+
+    def score(trial: Problem) -> float:
+        if not swept:
+            return trial.sse(trial.zero())
+        first = heads(trial.exps)[0]
+        return float(np.sum(trial.residual(_sweep(trial, trial.zero(), first, peaks_hz), first) ** 2))
+
     chosen: dict[str, float] = {}
+    best_score = score(problem) if swept and problem.discrete else best_sse
     for _ in range(3):
         trial_best = None
         for p in problem.discrete:
@@ -321,12 +401,14 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
                 if c == p.nominal:
                     continue
                 trial = problem.derived({**chosen, p.name: c})
-                sse = trial.sse(trial.zero())
+                sse = score(trial)
                 if trial_best is None or sse < trial_best[0]:
                     trial_best = (sse, p.name, c)
-        if trial_best is None or trial_best[0] >= best_sse * 0.999:
+        if trial_best is None or trial_best[0] >= best_score * 0.999:
             break
-        best_sse = trial_best[0]
+        best_score = trial_best[0]
+        if not swept:
+            best_sse = best_score
         chosen[trial_best[1]] = trial_best[2]
         best_fixed = dict(chosen)
     if best_fixed:
@@ -340,7 +422,8 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
         # the best start on the shortest head, then one damped step on each longer head
         best_start, best_head = u0, float(r0 @ r0)
         activation: tuple[int, float] | None = None
-        for start in [u0] + _grid_starts(problem, r0, J0, peaks_hz):
+        swept = _sweep(problem, u0, first, peaks_hz)
+        for start in [u0] + ([swept] if swept is not u0 else []) + _grid_starts(problem, r0, J0, peaks_hz):
             r = r0 if start is u0 else problem.residual(start, first)
             J = J0 if start is u0 else problem.jacobian(start, r, exps=first)
             if start is not u0:
@@ -440,6 +523,8 @@ def validate(problem: Problem, u: np.ndarray, res) -> tuple[float, str]:
     channels (alternate sensors), since a left-out experiment's own parameters are never fitted.
     """
     exps = problem.exps
+    if problem.linear:
+        return _validate_blocks(problem, u), f"held-out time blocks (alternate {1e3 * BLOCK_S:g} ms)"
     if not problem.free:
         # discrete choices only: choose on the others, score on the held-out experiment
         if len(exps) < 2:
@@ -485,3 +570,24 @@ def validate(problem: Problem, u: np.ndarray, res) -> tuple[float, str]:
                                    for e, p in zip(exps, problem.predictions(u_fold))])
             total += float(held @ held)
     return total, how
+
+
+#: the blocks of time that validate a projected fit: short against a response's decay, long
+#: against a period of the modes it is fitted to
+BLOCK_S = 0.005
+
+
+def _validate_blocks(problem: Problem, u: np.ndarray) -> float:
+    """Held-out sum of squares of an effect with projected parameters: they are fitted on alternate
+    blocks of time of every experiment and scored on the blocks between (the searched parameters
+    stay at the fit). A projection cannot be scored on held-out channels or experiments: their own
+    participations would never be fitted."""
+    exps = problem.exps
+    total = 0.0
+    for held in (0, 1):
+        masks = [((np.arange(e.n_samples) // max(1, int(round(BLOCK_S * e.fs)))) % 2) == held for e in exps]
+        _, _, deltas = problem.project(u, exps, [(~m).astype(float) for m in masks])
+        for e, d, m in zip(exps, deltas, masks):
+            r = (e.measured - problem.base_prediction(e) - d)[m]
+            total += float(np.sum(r * r))
+    return total

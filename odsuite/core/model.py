@@ -35,6 +35,16 @@ def skew(r: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
 
 
+def rotated(v: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    """``v`` turned by the rotation vector ``rotation`` (axis times angle, rad; Rodrigues): exact
+    for large angles, where a small-angle tilt ``v + rotation x v`` would shorten the angle."""
+    angle = float(np.linalg.norm(rotation))
+    if angle == 0:
+        return v
+    k = rotation / angle
+    return v * np.cos(angle) + np.cross(k, v) * np.sin(angle) + k * (k @ v) * (1 - np.cos(angle))
+
+
 def point_map(r: np.ndarray) -> np.ndarray:
     """``T(r) = [I | -[r]x]`` (3x6): displacement of the point at offset ``r`` from ``d``."""
     return np.hstack([np.eye(3), -skew(np.asarray(r, dtype=float))])
@@ -113,7 +123,9 @@ class SpringDamper:
     Stiffness (N/m) and damping (N s/m) act on the relative displacement of the point, along the rig
     axes (3 coefficients) or as symmetric 3x3 matrices; ``rot_stiffness`` (N m/rad) and
     ``rot_damping`` (N m s/rad) on the relative rotation. ``group``: springs that effects scale
-    together (e.g. four identical isolators); empty: the spring is its own group.
+    together (e.g. four identical isolators); empty: the spring is its own group. ``cubic``
+    (N/m^3, per rig axis): a hardening force ``cubic * d**3`` added to the linear one (the model
+    is then simulated by :func:`odsuite.core.simulation.simulate_nonlinear`).
     """
 
     name: str
@@ -125,6 +137,7 @@ class SpringDamper:
     rot_stiffness: np.ndarray = field(default_factory=lambda: np.zeros(3))
     rot_damping: np.ndarray = field(default_factory=lambda: np.zeros(3))
     group: str = ""  # springs scaled together by effects; "" = its own group
+    cubic: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def __post_init__(self) -> None:
         w = f"spring {self.name!r}"
@@ -146,6 +159,7 @@ class SpringDamper:
             if low < 0:
                 raise ConfigError(f"{w} field {f!r}: must be >= 0, got {v.tolist()}")
             object.__setattr__(self, f, v)
+        object.__setattr__(self, "cubic", _vec3(f"{w} field 'cubic'", self.cubic))
 
     def matrix(self, name: str) -> np.ndarray:
         """``stiffness``, ``damping``, ... as a 3x3 matrix."""
@@ -436,6 +450,22 @@ class Structure:
         return self._assemble("damping", "rot_damping",
                               lambda f: 2 * f.damping_ratio * 2 * np.pi * f.frequency_hz)
 
+    @functools.cached_property
+    def is_linear(self) -> bool:
+        return not any(s.cubic.any() for s in self.springs)
+
+    def cubic_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """(E, c): the relative displacements along the rig axes of the springs with a cubic term
+        (rows of E, n_dof columns) and their coefficients (N/m^3)."""
+        rows, coef = [], []
+        for s in self.springs:
+            if s.cubic.any():
+                rows.append(self._spring_ends(s)[0])
+                coef.append(s.cubic)
+        if not rows:
+            return np.zeros((0, self.n_dof)), np.zeros(0)
+        return np.vstack(rows), np.concatenate(coef)
+
     def base_matrices(self) -> tuple[np.ndarray, np.ndarray]:
         """(Kg, Cg), n_dof x 6: generalized forces per unit ground [translation, rotation] about the
         rig origin, through the springs attached to the ground."""
@@ -559,10 +589,11 @@ class MeasurementChain:
 
     ``force_gain`` multiplies force inputs (the structure feels gain x recorded force);
     ``force_offset`` (m) moves force points; per sensor: ``gain`` (polarity is a gain of -1),
-    ``offset`` (m, position), ``tilt`` (3-vector small rotation of the axis, rad), ``dynamics``
-    (the key "*" applies to every sensor without its own entry); ``front_end``: the accelerometer
-    channels' analog dynamics the rig declares (its ``[acquisition]`` table), in series with all of
-    them and kept apart from the effects' ``dynamics``.
+    ``offset`` (m, position), ``tilt`` (rotation vector of the axis, rad), ``dynamics``
+    (the key "*" applies to every sensor without its own entry), ``delay`` (s: the channel is
+    sampled this long after the force channel, e.g. a multiplexer's scan); ``front_end``: the
+    accelerometer channels' analog dynamics the rig declares (its ``[acquisition]`` table), in series
+    with all of them and kept apart from the effects' ``dynamics``.
     """
 
     force_gain: float = 1.0
@@ -572,6 +603,7 @@ class MeasurementChain:
     tilt: Mapping[str, np.ndarray] = field(default_factory=lambda: MappingProxyType({}))
     dynamics: Mapping[str, SensorDynamics] = field(default_factory=lambda: MappingProxyType({}))
     front_end: AnalogFilter | None = None
+    delay: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
 
     def with_items(self, name: str, items: Mapping) -> MeasurementChain:
         merged = dict(getattr(self, name))
@@ -693,8 +725,7 @@ class Model:
                 p = p + self.chain.offset.get(out.sensor_name, 0.0)
                 tilt = self.chain.tilt.get(out.sensor_name)
                 if tilt is not None:
-                    n = n + np.cross(tilt, n)
-                    n = n / np.linalg.norm(n)
+                    n = rotated(n, tilt)
             rows[i] = n @ st.point_rows(out.body, p) + st.flex_row(out.body, p, n, out.sensor_name)
             if out.sensor_name is not None:
                 rows[i] *= self.chain.gain.get(out.sensor_name, 1.0)

@@ -17,7 +17,12 @@ import scipy.signal
 
 from odsuite.core.chain_spec import chain_for_channel, stage_names
 from odsuite.core.errors import ConfigError
-from odsuite.core.noise_floor import active_var, disturbance_basis, moving_samples, split_noise
+from odsuite.core.noise_floor import (
+    active_var,
+    disturbance_basis,
+    moving_samples,
+    split_noise,
+)
 from odsuite.core.rig import Rig, Sensor
 from odsuite.core.systeminfo import SensorType
 
@@ -308,25 +313,61 @@ def prepare(project, experiments: Sequence[str] | None = None) -> list[PreparedE
     return [prepare_experiment(project, n) for n in names]
 
 
-def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "acceleration") -> np.ndarray:
-    """The model's physical signal at each sensor of ``exp`` (samples x sensors), from rest."""
-    from odsuite.core.model import Input, Output, StateSpace
-    from odsuite.core.simulation import simulate_state_space
+def _force_inputs(model, exp: PreparedExperiment) -> list:
+    from odsuite.core.model import Input
 
     body = model.rig.force_body(exp.point, exp.force_body) if model.rig is not None else None
-    inputs = [Input.force(exp.point, exp.direction, body=body)]
+    return [Input.force(exp.point, exp.direction, body=body)]
+
+
+def _cache_key(model, exp: PreparedExperiment) -> tuple:
+    """What besides the structure the cached coordinate accelerations depend on."""
+    return (model.chain.force_gain, tuple(model.chain.force_offset), exp.force.shape[0])
+
+
+def simulate_together(models: Mapping[str, Any], exps: Sequence[PreparedExperiment]) -> None:
+    """Fill the simulation caches of the experiments whose models share one nonlinear structure in
+    one time loop (a nonlinear simulation costs a Python step per sample; run together, once)."""
+    from odsuite.core.simulation import simulate_nonlinear_many
+
+    todo = [(models[e.name], e) for e in exps if not models[e.name].structure.is_linear]
+    if len(todo) < 2:
+        return
+    st, fs = todo[0][0].structure, todo[0][1].fs
+    todo = [(m, e) for m, e in todo if m.structure is st and e.fs == fs
+            and (e._cache is None or e._cache[0] is not st or e._cache[1] != _cache_key(m, e))]
+    if len(todo) < 2:
+        return
+    qdds = simulate_nonlinear_many(st, [(m.input_matrices(_force_inputs(m, e))[0], e.force) for m, e in todo], fs)
+    for (m, e), qdd in zip(todo, qdds):
+        e._cache = (st, _cache_key(m, e), qdd)
+
+
+def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "acceleration") -> np.ndarray:
+    """The model's physical signal at each sensor of ``exp`` (samples x sensors), from rest."""
+    from odsuite.core.model import Output, StateSpace
+    from odsuite.core.simulation import (
+        sampled_later,
+        simulate_nonlinear,
+        simulate_state_space,
+    )
+
+    inputs = _force_inputs(model, exp)
     outputs = [Output.sensor(s, quantity) for s in exp.sensors]
     if quantity != "acceleration":
         return simulate_state_space(model.state_space(inputs, outputs), exp.force, exp.fs, hold="foh")
     # a sensor's acceleration is its output row times the coordinates' accelerations q''
     st, chain = model.structure, model.chain
-    key = (chain.force_gain, tuple(chain.force_offset), exp.force.shape[0])
+    key = _cache_key(model, exp)
     if exp._cache is None or exp._cache[0] is not st or exp._cache[1] != key:
         bf, _ = model.input_matrices(inputs)
         n = st.n_dof
         minv_bf = st.Minv @ bf
-        ss = StateSpace(st.A, np.vstack([np.zeros_like(bf), minv_bf]), st.A[n:], minv_bf)
-        exp._cache = (st, key, simulate_state_space(ss, exp.force, exp.fs, hold="foh"))
+        if st.is_linear:
+            ss = StateSpace(st.A, np.vstack([np.zeros_like(bf), minv_bf]), st.A[n:], minv_bf)
+            exp._cache = (st, key, simulate_state_space(ss, exp.force, exp.fs, hold="foh"))
+        else:  # cubic springs: the response depends on the force's level
+            exp._cache = (st, key, simulate_nonlinear(st, bf, exp.force, exp.fs))
     _, rows = model.output_rows(outputs)
     y = exp._cache[2] @ rows.T
     # the sensors' own dynamics in series, on their sampled signals (one small system per sensor:
@@ -342,6 +383,9 @@ def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "accelerati
         y[:, cols] = scipy.signal.lfilter(num, den, y[:, cols], axis=0)
     if chain.front_end is not None:
         y = scipy.signal.sosfilt(_analog_sos(chain.front_end, exp.fs), y, axis=0)
+    delays = [chain.delay.get(s.name, 0.0) for s in exp.sensors]
+    if any(delays):
+        y = sampled_later(y, exp.fs, delays)
     return y
 
 

@@ -1,4 +1,5 @@
-"""Simulation of a linear model to a sampled input record, by exact discretisation.
+"""Simulation of a model to a sampled input record: a linear one by exact discretisation, one
+with cubic springs by fixed-step Runge-Kutta (:func:`simulate_nonlinear`).
 
 The state space is split into its modes (x = V z); each mode and input is a first-order complex
 recursion ``z[k+1] = p z[k] + ...`` with ``p = exp(lambda T)`` whose hold-exact coefficients are the phi
@@ -134,3 +135,90 @@ def simulate(model: Model, inputs, u, fs: float, outputs, hold: str = "zoh") -> 
     """Outputs (n_samples, n_outputs) of ``model`` to the input record ``u`` (n_samples, n_inputs;
     a 1-D array for one input) sampled at ``fs`` Hz, from rest, with a zero- or first-order hold."""
     return simulate_state_space(model.state_space(inputs, outputs), u, fs, hold)
+
+
+def sampled_later(y: np.ndarray, fs: float, delays) -> np.ndarray:
+    """Each column of ``y`` (samples x channels, sampled at ``fs`` Hz from rest) as it would be
+    sampled ``delays[k]`` seconds later: a phase shift exp(j w tau) of its spectrum, zero-padded to
+    twice its length so that nothing wraps around (exact for band-limited signals)."""
+    n = y.shape[0]
+    spec = np.fft.rfft(y, n=2 * n, axis=0)
+    w = 2 * np.pi * np.fft.rfftfreq(2 * n, 1.0 / fs)
+    spec *= np.exp(1j * np.outer(w, np.asarray(delays, float)))
+    return np.fft.irfft(spec, n=2 * n, axis=0)[:n]
+
+
+#: steps per sample of the nonlinear integration (second order in the step): at 20 kHz with modes
+#: below 300 Hz one step per sample is within 6.4e-4 of the response where hardening changes it by
+#: 25 % (against scipy's DOP853 in the tests), far below a record's noise
+NONLINEAR_STEPS_PER_SAMPLE = 1
+
+
+def simulate_nonlinear(structure, bf: np.ndarray, u, fs: float) -> np.ndarray:
+    """Coordinate accelerations q'' (n_samples x n_dof), from rest, of
+    ``M q'' + C q' + K q + E^T (c (E q)^3) = bf u`` (``structure.cubic_rows()``: cubic springs),
+    the input linear between samples (first-order hold, as the linear simulation)."""
+    return simulate_nonlinear_many(structure, [(bf, u)], fs)[0]
+
+
+def simulate_nonlinear_many(structure, drives, fs: float) -> list[np.ndarray]:
+    """:func:`simulate_nonlinear` for several inputs ``drives`` [(bf, u), ...] at once (records of
+    any lengths, e.g. every experiment of a fit): one time loop advances them all, so its Python
+    cost is paid once.
+
+    An exponential integrator: the linear part is exact (the matrix exponential over a step, the
+    input and the cubic force linear across it); the cubic force at the step's end comes from a
+    predictor and one corrector. Written here because scipy.integrate's solvers cost a Python call
+    per stage and step through each hit at a rate set by the input's kinks; this one costs a few
+    small products per step."""
+    records = [check_input_record(u, bf.shape[1]) for bf, u in drives]
+    n = structure.n_dof
+    E, c = structure.cubic_rows()
+    sub = NONLINEAR_STEPS_PER_SAMPLE
+    h = 1.0 / (fs * sub)
+    # first-order-hold discretisation of x' = A x + [0; I] w (w: an acceleration input)
+    big = np.zeros((4 * n, 4 * n))
+    big[:2 * n, :2 * n] = structure.A * h
+    big[n:2 * n, 2 * n:3 * n] = np.eye(n) * h
+    big[2 * n:3 * n, 3 * n:] = np.eye(n)
+    X = scipy.linalg.expm(big)
+    phi, g1, g2 = X[:2 * n, :2 * n], X[:2 * n, 2 * n:3 * n], X[:2 * n, 3 * n:]
+    start, end = g1 - g2, g2  # weights of w at a step's start and end
+    pull = structure.Minv @ E.T  # generalized acceleration per unit element force
+    start_pull, end_pull = start @ pull, end @ pull
+    Eq = np.hstack([E, np.zeros_like(E)])
+    end_deflection = Eq @ end_pull  # element deflection per unit element force at a step's end
+    longest = max(len(u) for u in records)
+    steps = (longest - 1) * sub + 1
+    drive = np.zeros((len(records), longest, n))  # input accelerations, zero after a record's end
+    for i, ((bf, _), u) in enumerate(zip(drives, records)):
+        drive[i, :len(u)] = u @ (structure.Minv @ bf).T
+    grid = np.arange(steps) / sub
+    fine = np.empty((len(records), steps, n))  # the inputs on the fine grid, linear between samples
+    for i in range(len(records)):
+        for j in range(n):
+            fine[i, :, j] = np.interp(grid, np.arange(longest), drive[i, :, j])
+    linear = fine[:, :-1] @ start.T + fine[:, 1:] @ end.T  # the inputs' part of each step
+    x = np.zeros((len(records), 2 * n))
+    g = np.zeros((len(records), len(c)))
+    states = np.empty((steps, len(records), 2 * n))
+    states[0] = x
+    phi_t, start_pull_t, end_pull_t, Eq_t, end_deflection_t = phi.T, start_pull.T, end_pull.T, Eq.T, end_deflection.T
+    for k in range(steps - 1):
+        base = x @ phi_t + linear[:, k] - g @ start_pull_t
+        d_base = base @ Eq_t
+        d = d_base - g @ end_deflection_t  # predictor: the cubic force held over the step
+        d = d_base - (c * d * d * d) @ end_deflection_t  # corrector: its value at the predicted end
+        g_end = c * d * d * d
+        x = base - g_end @ end_pull_t
+        d = d_base - g_end @ end_deflection_t
+        g = c * d * d * d
+        states[k + 1] = x
+    if not np.all(np.isfinite(states)):
+        raise ConfigError("nonlinear simulation diverged (cubic springs too strong for this force)")
+    out = []
+    for i, u in enumerate(records):
+        q = states[:(len(u) - 1) * sub + 1:sub, i]
+        d = q[:, :n] @ E.T
+        out.append(q @ structure.A[n:].T + drive[i, :len(u)] - (c * d * d * d) @ pull.T)
+    return out

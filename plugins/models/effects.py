@@ -96,6 +96,45 @@ class Damping(_SpringScale):
     description = "Spring damping scaled per axis (all springs) and per spring group (all axes)."
 
 
+#: deflection at which a hardening parameter is stated: hammer tests move suspensions by
+#: micrometres (a 45 N hit on the thesis rig: ~1 um) to tens of micrometres
+HARDENING_REFERENCE_M = 1e-6
+#: hardening starts: decades, as the deflections a rig's hits reach span decades (the fit then
+#: moves within a decade; each start costs a nonlinear simulation)
+HARDENING_STARTS = (1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0)
+
+
+class NonlinearStiffness(Effect):
+    """A cubic hardening term per spring group: ``k3 = hardening x k / d_ref^2`` along each rig
+    axis (``d_ref`` = 1 um), so the group's stiffness rises by ``hardening`` at a deflection of
+    1 um. The response then depends on the force's level; the model is integrated in time."""
+
+    name = "nonlinear_stiffness"
+    target = "model"
+    description = "Amplitude-dependent (cubic hardening) stiffness per spring group."
+
+    @staticmethod
+    def _groups(model) -> dict[str, list[str]]:
+        groups: dict[str, list[str]] = {}
+        for s in model.springs:
+            groups.setdefault(s.group or s.name, []).append(s.name)
+        return groups
+
+    def parameters(self, model):
+        return [Parameter(f"hardening_{g}", "1", 0.0, 0.0, 1000.0, starts=HARDENING_STARTS,
+                          description=f"relative stiffness rise of {g} at a {1e6 * HARDENING_REFERENCE_M:g} um deflection"
+                          + (f" ({', '.join(n)})" if n != [g] else ""))
+                for g, n in self._groups(model).items()]
+
+    def _apply(self, model, v):
+        springs = []
+        for s in model.springs:
+            h = v[f"hardening_{s.group or s.name}"]
+            k = np.diag(s.matrix("stiffness"))
+            springs.append(replace(s, cubic=s.cubic + h * k / HARDENING_REFERENCE_M**2) if h else s)
+        return _with_structure(model, springs=tuple(springs))
+
+
 class MassProperties(Effect):
     """Mass, inertia and centre of mass of every moving body; springs, sensors and force points keep
     their places (they are rig-frame points), so only their arms about the centre of mass change.
@@ -268,12 +307,22 @@ def _perpendicular(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return e1, np.cross(axis, e1)
 
 
+#: tilts the screening starts from (rad, each component): a mount turned by tens of degrees sits
+#: beyond the reach of a step from zero (a 25 degree tilt stopped at 4.9 degrees)
+TILT_STARTS = tuple(float(np.radians(d)) for d in (-30, -15, 15, 30))
+
+
 class SensorOrientation(_PerSensor):
     name = "sensor_orientation"
-    description = "A sensor's axis is tilted: small rotations about two axes perpendicular to it."
-    per_sensor = (("tilt_a", "rad", 0.0, -0.3, 0.3, "tilt about the first perpendicular axis"),
-                  ("tilt_b", "rad", 0.0, -0.3, 0.3, "tilt about the second perpendicular axis"))
+    description = "A sensor's axis is tilted: a rotation about two axes perpendicular to it."
+    # up to 60 degrees (a tilt is a rotation vector, exact at any angle): beyond that the sensor
+    # measures another axis more than its own
+    per_sensor = (("tilt_a", "rad", 0.0, -1.05, 1.05, "tilt about the first perpendicular axis"),
+                  ("tilt_b", "rad", 0.0, -1.05, 1.05, "tilt about the second perpendicular axis"))
     plausible = (-np.pi / 4, np.pi / 4)  # a sensor mounted more than 45 degrees off is on another axis
+
+    def parameters(self, model):
+        return [replace(p, starts=TILT_STARTS) for p in super().parameters(model)]
 
     def _apply(self, model, v):
         tilts = {}
@@ -410,6 +459,8 @@ class BaseMotion(Effect):
 
 
 def builtin_effects() -> list[Effect]:
-    return [Stiffness(), Damping(), MassProperties(), PlateFlexibility("kirchhoff"), PlateFlexibility("free"),
+    from .data_effects import data_effects
+
+    return [Stiffness(), Damping(), NonlinearStiffness(), MassProperties(), PlateFlexibility("kirchhoff"), PlateFlexibility("free"),
             SensorGain(), SensorPolarity(), SensorOrientation(), SensorPosition(), SensorDynamicsEffect(),
-            ImpactLocation(), ForceGain(), BaseMotion()]
+            ImpactLocation(), ForceGain(), BaseMotion()] + data_effects()

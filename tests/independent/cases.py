@@ -20,7 +20,7 @@ from numpy.polynomial import legendre
 from . import writers
 from .rigs import RIGS, RigBundle
 from .rigsim import Model, Record, rigid_point_matrix, simulate, structure_response
-from .structure import FlexibleMode, GapContact, Hit, Setup, mat3, vec3
+from .structure import FlexibleMode, GapContact, Hit, RigidBody, Setup, Spring, mat3, vec3
 
 FORMATS = ("lvm", "dat", "uff")  # .DAT comes with its .CTR
 #: white noise of every channel in every case (V rms): a typical IEPE + ADC front-end floor
@@ -281,6 +281,92 @@ def scan_skew(case: Case, rng: np.random.Generator) -> None:
     case.truth["effect"] = {"kind": "scan_skew", "skew_per_channel_s": case.actual.daq.scan_skew_s}
 
 
+def channel_delay(case: Case, rng: np.random.Generator) -> None:
+    """One accelerometer channel sampled late by 5-60 us (a slow channel of a simultaneous-sampling
+    DAQ, a long cable to a separate input module)."""
+    s = case.actual.accelerometers[int(rng.integers(len(case.actual.accelerometers)))]
+    delay = rng.uniform(5e-6, 60e-6)
+    case.actual.daq.channel_delay_s = {s.channel: delay}
+    case.truth["effect"] = {"kind": "channel_delay", "sensor": s.name, "channel": s.channel, "delay_s": delay}
+
+
+def torsion_mode(case: Case, rng: np.random.Generator) -> None:
+    """The free plate's first elastic mode, torsion: w = twist xi eta about the plate's centre
+    (xi, eta in [-1, 1]); Kirchhoff sections rotate, so a point at height z above the mid-plane
+    moves in-plane by -z grad w. The shape is orthogonal to the rigid motions for a uniform plate
+    (odd in each coordinate) and mass-normalised over the plate's volume; 1.2x the top rigid mode
+    to 2 kHz, 0.5-3 % damping; the twist's sign is random."""
+    rig = case.actual
+    body = rig.structure.bodies[int(rng.integers(len(rig.structure.bodies)))]
+    corner, size = np.asarray(body.plate["corner"], float), np.asarray(body.plate["size"], float)
+    up = int(np.argmax(np.abs(rig.up)))
+    a, b = [i for i in range(3) if i != up]
+    centre = corner + size / 2
+    sign = float(rng.choice([-1.0, 1.0]))
+    # mass normalisation: <xi^2 eta^2> over the plate is 1/9, plus the in-plane parts' share
+    # (rotatory inertia, small for a thin plate): the integral is taken on a grid below
+    grid = np.stack(np.meshgrid(*[np.linspace(corner[k], corner[k] + size[k], 11) for k in range(3)],
+                                indexing="ij"), axis=-1).reshape(-1, 3)
+
+    def raw(p):
+        p = np.atleast_2d(p)
+        xi, eta = 2 * (p[:, a] - centre[a]) / size[a], 2 * (p[:, b] - centre[b]) / size[b]
+        out = np.zeros((len(p), 3))
+        out[:, up] = xi * eta
+        out[:, a] = -(p[:, up] - centre[up]) * eta * 2 / size[a]
+        out[:, b] = -(p[:, up] - centre[up]) * xi * 2 / size[b]
+        return out
+
+    norm = np.sqrt(body.mass / len(grid) * np.sum(raw(grid) ** 2))
+
+    def shape(p):
+        return sign * raw(np.asarray(p, float))[0] / norm
+
+    top = Model(case.nominal.structure).natural_frequencies().max()
+    f = rng.uniform(1.2 * top, 2000.0)
+    zeta = rng.uniform(0.005, 0.03)
+    rig.structure.modes.append(FlexibleMode("torsion", body.name, f, zeta, shape))
+    case.truth["effect"] = {"kind": "flexible_mode", "shape": "torsion", "body": body.name, "frequency_hz": f,
+                            "damping_ratio": zeta,
+                            "shape_at_sensors_m_per_unit": {s.name: shape(s.position) for s in rig.accelerometers
+                                                            if s.body == body.name}}
+
+
+def loose_bracket(case: Case, rng: np.random.Generator) -> None:
+    """The sensors at one mounting point sit on a loose bracket: a 10-50 g block on four small
+    springs at its corners, soft along one random rig axis (its resonance there 1.5x the top rigid
+    mode to 1.5 kHz), five times stiffer across, 1-5 % damping. The bracket is a body of its own:
+    the hammer moves it only through the plate, and it pulls back on the plate."""
+    rig = case.actual
+    sensors = rig.accelerometers
+    where = sensors[int(rng.integers(len(sensors)))]
+    group = [s for s in sensors if s.body == where.body and np.allclose(s.position, where.position)]
+    mass = rng.uniform(0.010, 0.050)
+    edge = 0.02  # m, a small aluminium block
+    axis = int(rng.integers(3))
+    top = Model(case.nominal.structure).natural_frequencies().max()
+    f = rng.uniform(1.5 * top, 1500.0)
+    zeta = rng.uniform(0.01, 0.05)
+    k_soft = mass * (2 * np.pi * f) ** 2 / 4  # four springs in parallel along the soft axis
+    k = np.full(3, 5.0 * k_soft)
+    k[axis] = k_soft
+    c = np.full(3, 2 * zeta * np.sqrt(k_soft * mass / 4))
+    centre = np.asarray(where.position, float)
+    bracket = RigidBody("bracket", mass, centre.copy(), mass * edge**2 / 6 * np.eye(3))  # a cube's inertia
+    rig.structure.bodies.append(bracket)
+    half = edge / 2
+    for i, (sx, sy) in enumerate([(-1, -1), (1, -1), (1, 1), (-1, 1)]):
+        offset = np.zeros(3)
+        plane = [j for j in range(3) if j != int(np.argmax(np.abs(rig.up)))]
+        offset[plane[0]], offset[plane[1]] = sx * half, sy * half
+        rig.structure.springs.append(Spring(f"bracket{i + 1}", "bracket", centre + offset, k.copy(), c.copy(),
+                                            other=where.body))
+    for s in group:
+        s.body = "bracket"
+    case.truth["effect"] = {"kind": "loose_bracket", "sensors": [s.name for s in group], "body": where.body,
+                            "mass_kg": mass, "soft_axis": "xyz"[axis], "frequency_hz": f, "damping_ratio": zeta}
+
+
 def _nonlinear_rate(case: Case) -> None:
     """RK4 runs a Python step per fine point: 4x the sampling rate keeps its error below 1e-6 for
     modes under 300 Hz (global error ~ (w h)^4) at half the cost of the default 8x."""
@@ -381,6 +467,9 @@ CASES: dict[str, tuple[Callable[[Case, np.random.Generator], None], str]] = {
     "sensor-gain": (sensor_gain, "one accelerometer's sensitivity off by 5-30 %"),
     "polarity-flip": (polarity_flip, "one accelerometer wired with reversed polarity"),
     "scan-skew": (scan_skew, "multiplexed DAQ: channel k sampled k * (2-20 us) late"),
+    "channel-delay": (channel_delay, "one accelerometer channel sampled 5-60 us late"),
+    "torsion-mode": (torsion_mode, "the plate's torsion mode (sections rotate) between the top rigid mode and 2 kHz"),
+    "loose-bracket": (loose_bracket, "the sensors at one point on a loose 10-50 g bracket, soft along one axis"),
     "hardening-series": (hardening_series, "cubic hardening springs, five force levels 0.5-50 N"),
     "coulomb-friction": (coulomb_friction, "Coulomb friction at one spring"),
     "rattle": (rattle, "a loose stop (gap contact) at one spring"),

@@ -319,7 +319,8 @@ def simulate(setup: Setup, rng: np.random.Generator, nominal_scale: dict[str, fl
     trigger = daq.pre_trigger / fs
     n_ch = max([a.channel for a in setup.accelerometers] + ([setup.force_sensor.channel] if setup.force_sensor else [])) + 1
     # one spare nominal sample at the end covers the last channel's scan delay
-    t_end = (daq.n_samples + 1) / fs + n_ch * daq.scan_skew_s
+    late = [k * daq.scan_skew_s + daq.channel_delay_s.get(k, 0.0) for k in range(n_ch)]  # s, per channel
+    t_end = (daq.n_samples + 1) / fs + max(late + [0.0])
     t_fine = np.arange(int(np.ceil(t_end * fine)) + 2) * h
     model = Model(setup.structure)
     forces = model.generalized_forces(setup, t_fine, trigger)
@@ -357,10 +358,10 @@ def simulate(setup: Setup, rng: np.random.Generator, nominal_scale: dict[str, fl
     t = np.arange(daq.n_samples) / fs
     # multiplexed scan: channel k is sampled k * skew after channel 0 (a spline between fine points)
     analog_spline = CubicSpline(t_fine, analog)
-    volts_clean = np.column_stack([PPoly(analog_spline.c[..., k], t_fine)(t + k * daq.scan_skew_s)
+    volts_clean = np.column_stack([PPoly(analog_spline.c[..., k], t_fine)(t + late[k])
                                    for k in range(n_ch)])
     truth_spline = CubicSpline(t_fine, truth)
-    truth_acc = np.column_stack([PPoly(truth_spline.c[..., j], t_fine)(t + s.channel * daq.scan_skew_s)
+    truth_acc = np.column_stack([PPoly(truth_spline.c[..., j], t_fine)(t + late[s.channel])
                                  for j, s in enumerate(setup.accelerometers)]).reshape(t.size, n_acc)
     volts = volts_clean + daq_disturbances(daq, t, n_ch, rng)
     volts = adc(volts, daq)

@@ -173,6 +173,7 @@ class Daq:
     aa_ripple_db: float = 0.1  # elliptic only
     aa_attenuation_db: float = 60.0  # elliptic only
     scan_skew_s: float = 0.0  # multiplexed: the k-th scanned channel is sampled k * skew late
+    channel_delay_s: dict[int, float] = field(default_factory=dict)  # channel -> extra sampling delay
     noise_rms_v: float | np.ndarray = 0.0  # white, per channel
     hum_v: float | np.ndarray = 0.0  # mains hum amplitude per channel
     hum_hz: float = 50.0

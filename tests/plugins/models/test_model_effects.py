@@ -118,8 +118,8 @@ def test_gain_orientation_position_of_one_sensor(registries, model, thesis_rig):
     s = thesis_rig.sensor("zC")
     e1 = np.cross(s.axis, np.eye(3)[np.argmin(np.abs(s.axis))])
     e1 /= np.linalg.norm(e1)
-    n = s.axis + np.cross(0.1 * e1, s.axis)
-    ref = model.transfer([T5, T8], [Output.at_point(s.position, n / np.linalg.norm(n))], FREQS)
+    n = s.axis * np.cos(0.1) + np.cross(e1, s.axis) * np.sin(0.1)  # turned by exactly 0.1 rad about e1
+    ref = model.transfer([T5, T8], [Output.at_point(s.position, n)], FREQS)
     assert np.allclose(frf(tilted, thesis_rig)[:, k], ref[:, 0], rtol=1e-12, atol=0)
     moved = registries.effects.get("sensor_position").apply(model, {"zC_dx": 0.01, "zC_dy": -0.005})
     ref = model.transfer([T5, T8], [Output.at_point(s.position + [0.01, -0.005, 0], s.axis)], FREQS)

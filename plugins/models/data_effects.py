@@ -1,0 +1,205 @@
+"""Effects that presuppose no shape: what the data say is missing, fitted from the data.
+
+``missing_mode``: a resonance of one body whose frequency and damping are searched and whose
+participation at every sensor and at each experiment's force point is solved by linear least
+squares at every step of the search (variable projection): bending with in-plane parts, torsion, a
+loose bracket, whatever shape the sensors see. ``channel_delay`` and ``scan_skew``: channels
+sampled later than the force channel (a time offset per channel; a multiplexer that reads channel
+k a fixed time after channel k-1).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from odsuite.core.effects import Effect, Parameter
+from odsuite.core.model import FlexibleMode, Model, Structure
+from odsuite.core.prediction import predict
+
+#: participations (1/sqrt(kg), per unit mass-normalised modal coordinate) beyond this are a mode of
+#: a part lighter than 0.1 g: no physical mode of a rig
+MAX_PARTICIPATION = 100.0
+#: frequency starts: a geometric grid 10 % apart (a mode's error valley on the shortest fitted head
+#: is about that wide) between the slowest suspension and the sensors' usual band
+FREQUENCY_STARTS = tuple(float(f) for f in np.geomspace(5.0, 5000.0, 73))
+DAMPING_STARTS = (0.005, 0.02, 0.06, 0.15)
+#: alternating least squares of the rank-one participation table converges in a few sweeps; this
+#: many leave it at round-off on every case tried
+RANK_ONE_SWEEPS = 30
+
+
+def _accelerometers(model: Model) -> tuple:
+    return tuple(s for s in model.sensors if s.quantity == "acceleration")
+
+
+class MissingMode(Effect):
+    """A mode the model lacks: ``q'' + 2 zeta w q' + w^2 q = phi_force F``, seen at sensor j as
+    ``phi_j q''``, uncoupled from the rigid motion (mass-normalised, modal mass 1 kg)."""
+
+    name = "missing_mode"
+    target = "model"
+    breaks_rigidity = True  # a mode of any shape makes a rigid body's redundant sensors disagree
+    description = ("A resonance of one body of any shape: frequency and damping fitted, participation at "
+                   "every sensor and force point solved linearly.")
+
+    def _bodies(self, model: Model) -> list[str]:
+        return [b.name for b in model.bodies]
+
+    def parameters(self, model):
+        sensors = _accelerometers(model)
+        if not sensors:
+            return []
+        out = [Parameter("frequency_hz", "Hz", 500.0, 1.0, 20000.0, starts=FREQUENCY_STARTS,
+                         description="natural frequency of the mode"),
+               Parameter("damping_ratio", "1", 0.02, 0.0005, 0.5, starts=DAMPING_STARTS,
+                         description="modal damping ratio")]
+        bodies = self._bodies(model)
+        if len(bodies) > 1:
+            out.append(Parameter("body", "1", 0.0, 0.0, len(bodies) - 1, choices=tuple(map(float, range(len(bodies)))),
+                                 description="the body the mode belongs to: " + ", ".join(
+                                     f"{i} = {n}" for i, n in enumerate(bodies))))
+        out += [Parameter(f"phi_{s.name}", "kg^-1/2", 0.0, -MAX_PARTICIPATION, MAX_PARTICIPATION,
+                          description=f"participation at sensor {s.name} along its axis") for s in sensors]
+        out.append(Parameter("phi_force", "kg^-1/2", 0.0, -MAX_PARTICIPATION, MAX_PARTICIPATION,
+                             scope="per_experiment", description="participation at the force point along the force"))
+        return out
+
+    def linear_parameters(self, model) -> list[str]:
+        return [f"phi_{s.name}" for s in _accelerometers(model)] + ["phi_force"]
+
+    def _apply(self, model, v):
+        sensors = _accelerometers(model)
+        table = {s.name: v[f"phi_{s.name}"] for s in sensors}
+        flex = model.structure.flexible_modes
+        ours = [i for i, f in enumerate(flex) if f.name == self.name]
+        if not any(table.values()):
+            if not v["phi_force"] or not ours:
+                return model
+            # one experiment's force participation on the mode the shared values added
+            old = flex[ours[-1]]
+            table = dict(old.shape.table)
+            table["force"] = v["phi_force"]
+            mode = FlexibleMode(self.name, old.body, old.frequency_hz, old.damping_ratio, _Participation(table))
+            return _with_modes(model, flex[:ours[-1]] + (mode,) + flex[ours[-1] + 1:])
+        table["force"] = v["phi_force"]
+        body = self._bodies(model)[int(v.get("body", 0.0))]
+        mode = FlexibleMode(self.name, body, v["frequency_hz"], v["damping_ratio"], _Participation(table))
+        same = [i for i in ours if (flex[i].body, flex[i].frequency_hz, flex[i].damping_ratio)
+                == (body, v["frequency_hz"], v["damping_ratio"])]
+        if same:  # the same mode with an experiment's force participation: replace, do not add
+            return _with_modes(model, flex[:same[-1]] + (mode,) + flex[same[-1] + 1:])
+        return _with_modes(model, flex + (mode,))
+
+    def project(self, models: Mapping[str, Model], values: Mapping[str, float], exps: Sequence,
+                base: Sequence[np.ndarray], weights: Sequence[np.ndarray] | None
+                ) -> tuple[dict[str, float], dict[str, dict[str, float]], list[np.ndarray]]:
+        """Participations by weighted least squares: the response at sensor j of experiment e is
+        ``phi_j c_e G_ej(t)`` (``G``: the prediction's change with every participation 1), a
+        rank-one table fitted by alternating least squares from its SVD."""
+        first = next(iter(models.values()))
+        sensors = _accelerometers(first)
+        unit = {**values, **{f"phi_{s.name}": 1.0 for s in sensors}, "phi_force": 1.0}
+        col = {s.name: j for j, s in enumerate(sensors)}
+        R = np.zeros((len(exps), len(sensors)))  # <r, G> per experiment and sensor
+        N = np.zeros_like(R)  # <G, G>
+        G = []
+        for i, (e, b) in enumerate(zip(exps, base)):
+            g = predict(self.apply(models[e.name], unit), e) - b
+            w = np.ones(e.n_samples) if weights is None else weights[i]
+            r = e.measured - b
+            cols = [col[s.name] for s in e.sensors]
+            R[i, cols] = np.einsum("t,tj,tj->j", w, r, g)
+            N[i, cols] = np.einsum("t,tj->j", w, g * g)
+            G.append((g, cols))
+        phi, c = _rank_one(R, N)
+        if phi.any():
+            balance = np.sqrt(np.max(np.abs(c)) / np.max(np.abs(phi)))  # equal largest |phi| and |c|
+            phi, c = phi * balance, c / balance
+        phi = np.clip(phi, -MAX_PARTICIPATION, MAX_PARTICIPATION)
+        c = np.clip(c, -MAX_PARTICIPATION, MAX_PARTICIPATION)
+        deltas = [g * (phi[cols] * c[i])[None, :] for i, (g, cols) in enumerate(G)]
+        shared = {f"phi_{s.name}": float(phi[j]) for j, s in enumerate(sensors)}
+        per = {e.name: {"phi_force": float(c[i])} for i, e in enumerate(exps)}
+        return shared, per, deltas
+
+
+class _Participation:
+    """A mode's participation per sensor name and at the force points ("force"); a table, so an
+    experiment's force participation can replace the shared one."""
+
+    def __init__(self, table: Mapping[str, float]) -> None:
+        self.table = dict(table)
+
+    def __call__(self, point, direction, tag) -> float:
+        return self.table.get(tag, 0.0)
+
+
+def _with_modes(model: Model, modes) -> Model:
+    st = model.structure
+    return model.replace(structure=Structure(st.bodies, st.springs, tuple(modes)))
+
+
+def _rank_one(R: np.ndarray, N: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """phi (sensors), c (experiments) minimising sum N_ej (phi_j c_e)^2 - 2 R_ej phi_j c_e."""
+    # a sensor or hit the mode cannot reach differs from the model only by round-off
+    seen = N > 1e-12 * float(np.max(N, initial=0.0))
+    if not seen.any():
+        return np.zeros(R.shape[1]), np.zeros(R.shape[0])
+    R, N = np.where(seen, R, 0.0), np.where(seen, N, 0.0)
+    a = np.where(seen, R / np.where(seen, N, 1.0), 0.0)  # each entry alone
+    u, s, vt = np.linalg.svd(a * np.sqrt(N))
+    c, phi = u[:, 0] * np.sqrt(s[0]), vt[0] * np.sqrt(s[0])
+    for _ in range(RANK_ONE_SWEEPS):
+        den = (c * c) @ N
+        phi = np.where(den > 0, (c @ R) / np.where(den > 0, den, 1.0), 0.0)
+        den = N @ (phi * phi)
+        c = np.where(den > 0, (R @ phi) / np.where(den > 0, den, 1.0), 0.0)
+    return phi, c
+
+
+class ChannelDelay(Effect):
+    """Channels sampled later than the force channel: ``per_channel`` gives every accelerometer its
+    own offset, ``scan`` one skew per scanned channel (channel k is read (k - force channel) x
+    skew after the force)."""
+
+    target = "chain"
+    breaks_rigidity = True  # time-shifted channels disagree about one rigid motion
+
+    def __init__(self, kind: str = "per_channel") -> None:
+        self.kind = kind
+        if kind == "scan":
+            self.name = "scan_skew"
+            self.description = "A multiplexed DAQ reads channel k a fixed time after channel k-1."
+        else:
+            self.name = "channel_delay"
+            self.description = "A channel is sampled later (or earlier) than the force channel."
+
+    def parameters(self, model):
+        sensors = _accelerometers(model)
+        if not sensors:
+            return []
+        if self.kind == "scan":
+            # a multiplexer's scan step: up to 100 us (a 10 kHz-per-channel converter)
+            steps = (2e-6, 5e-6, 10e-6, 20e-6, 40e-6)
+            return [Parameter("skew_s", "s", 0.0, -100e-6, 100e-6, starts=steps + tuple(-t for t in steps),
+                              description="delay of each scanned channel after the previous one")]
+        steps = (5e-6, 20e-6, 60e-6)
+        return [Parameter(f"{s.name}_delay", "s", 0.0, -500e-6, 500e-6, starts=steps + tuple(-t for t in steps),
+                          description=f"sampling delay of sensor {s.name} (channel {s.channel}) after the force")
+                for s in sensors]
+
+    def _apply(self, model, v):
+        sensors = _accelerometers(model)
+        if self.kind == "scan":
+            first = model.rig.force_channel if model.rig.force_channel is not None else 0
+            delay = {s.name: (s.channel - first) * v["skew_s"] for s in sensors}
+        else:
+            delay = {s.name: v[f"{s.name}_delay"] for s in sensors}
+        merged = {n: model.chain.delay.get(n, 0.0) + d for n, d in delay.items()}
+        return model.replace(chain=model.chain.with_items("delay", merged))
+
+
+def data_effects() -> list[Effect]:
+    return [MissingMode(), ChannelDelay("per_channel"), ChannelDelay("scan")]

@@ -1,0 +1,148 @@
+"""Effects without a presupposed shape (missing_mode, channel_delay, scan_skew), the cubic
+hardening effect and the simulations they need, against closed forms and scipy."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.integrate
+
+from odsuite.core.model import Input, Model, Output
+from odsuite.core.modelrev import RevisionModel
+from odsuite.core.simulation import sampled_later, simulate, simulate_nonlinear
+
+FS = 20_000.0
+TOP = Input.force((0.025, -0.040, -0.0114), (0, 0, 1))  # down on the top face
+
+
+@pytest.fixture
+def model(registries, thesis_rig) -> Model:
+    return registries.models.get("thesis-dynamometer")(thesis_rig)
+
+
+def half_sine(n: int, peak: float, start_s: float = 1e-3, width_s: float = 4e-4) -> np.ndarray:
+    t = np.arange(n) / FS
+    return np.where((t > start_s) & (t < start_s + width_s), peak * np.sin(np.pi * (t - start_s) / width_s), 0.0)
+
+
+def test_nonlinear_simulation_matches_scipy_dop853(registries, model, monkeypatch):
+    hard = registries.effects.get("nonlinear_stiffness").apply(
+        model, {"hardening_spring1": 3.0, "hardening_spring3": 1.0})
+    st = hard.structure
+    assert not st.is_linear and model.structure.is_linear
+    n_samples, force = 1500, half_sine(1500, 50.0)
+    bf, _ = hard.input_matrices([TOP])
+    qdd = simulate_nonlinear(st, bf, force, FS)
+    # the same equations by an adaptive 8th-order Runge-Kutta, the force linear between samples
+    n = st.n_dof
+    E, c = st.cubic_rows()
+    t = np.arange(n_samples) / FS
+
+    def accel(tt, x):
+        d = E @ x[:n]
+        return st.A[n:] @ x + st.Minv @ (bf[:, 0] * np.interp(tt, t, force) - E.T @ (c * d**3))
+
+    sol = scipy.integrate.solve_ivp(lambda tt, x: np.concatenate([x[n:], accel(tt, x)]), (0.0, t[-1]),
+                                    np.zeros(2 * n), t_eval=t, method="DOP853", rtol=1e-10, atol=1e-16,
+                                    max_step=1 / FS)
+    ref = np.array([accel(tt, x) for tt, x in zip(t, sol.y.T)])
+    # measured 6.4e-4 of the response where the hardening changes it by 25 %
+    assert np.abs(qdd - ref).max() < 1e-3 * np.abs(ref).max()
+    # second order: half the step, a quarter of the error
+    monkeypatch.setattr("odsuite.core.simulation.NONLINEAR_STEPS_PER_SAMPLE", 2)
+    finer = simulate_nonlinear(st, bf, force, FS)
+    assert np.abs(finer - ref).max() < 0.3 * np.abs(qdd - ref).max()
+    # the hardening is in the response: the linear model differs by far more than that
+    lin = simulate_nonlinear(model.structure, bf, force, FS)
+    assert np.abs(lin - ref).max() > 0.05 * np.abs(ref).max()
+
+
+def test_nonlinear_simulation_without_cubic_terms_is_the_linear_one(model, thesis_rig):
+    force = half_sine(2000, 20.0)
+    bf, _ = model.input_matrices([TOP])
+    qdd = simulate_nonlinear(model.structure, bf, force, FS)
+    outputs = [Output.sensor(s) for s in thesis_rig.sensors]
+    _, rows = model.output_rows(outputs)
+    ref = simulate(model, [TOP], force, FS, outputs, hold="foh")
+    assert np.abs(qdd @ rows.T - ref).max() < 1e-9 * np.abs(ref).max()
+
+
+def test_hardening_raises_the_response_frequency_with_the_force_level(registries, model):
+    # a Duffing oscillator's backbone: the bounce frequency rises with amplitude
+    hard = registries.effects.get("nonlinear_stiffness").apply(
+        model, {f"hardening_spring{i}": 200.0 for i in range(1, 5)})
+    bf, _ = hard.input_matrices([TOP])
+    peaks = []
+    for level in (1.0, 100.0):
+        qdd = simulate_nonlinear(hard.structure, bf, half_sine(8192, level), FS)
+        spec = np.abs(np.fft.rfft(qdd[:, 2] * np.hanning(8192)))
+        peaks.append(np.fft.rfftfreq(8192, 1 / FS)[np.argmax(spec)])
+    linear = model.modes().frequency_hz
+    assert peaks[0] == pytest.approx(linear[np.argmin(np.abs(linear - peaks[0]))], abs=3.0)
+    assert peaks[1] > peaks[0] + 5.0
+
+
+def test_sampled_later_shifts_a_band_limited_signal():
+    n = 4096
+    t = np.arange(n) / FS
+
+    def pulse(tt):  # a Gaussian-windowed 800 Hz burst: band-limited far below Nyquist
+        return np.exp(-(((tt - 0.05) / 0.005) ** 2)) * np.sin(2 * np.pi * 800 * tt)
+
+    delays = [0.0, 7e-6, 63e-6, -20e-6]
+    y = sampled_later(np.column_stack([pulse(t)] * 4), FS, delays)
+    for k, tau in enumerate(delays):
+        assert np.abs(y[:, k] - pulse(t + tau)).max() < 1e-9
+
+
+def test_scan_skew_delays_channel_k_by_k_steps_after_the_force(registries, model, thesis_rig):
+    skewed = registries.effects.get("scan_skew").apply(model, {"skew_s": 5e-6})
+    force = thesis_rig.force_channel
+    for s in thesis_rig.sensors:
+        if s.quantity == "acceleration":
+            assert skewed.chain.delay[s.name] == pytest.approx((s.channel - force) * 5e-6, rel=1e-12)
+    one = registries.effects.get("channel_delay").apply(model, {"zC_delay": 40e-6})
+    assert one.chain.delay["zC"] == 40e-6 and one.chain.delay["xC"] == 0.0
+
+
+def test_missing_mode_adds_one_resonance_with_its_participations(registries, model, thesis_rig):
+    eff = registries.effects.get("missing_mode")
+    values = {"frequency_hz": 640.0, "damping_ratio": 0.02, "phi_zC": 0.7, "phi_x1": -0.3, "phi_force": 0.5}
+    moved = eff.apply(model, values)
+    assert len(moved.modes()) == len(model.modes()) + 1
+    # the added receptance at a sensor: phi_j phi_F (-w^2) / (wn^2 - w^2 + 2 j zeta wn w), closed form
+    freqs = np.array([200.0, 600.0, 640.0, 900.0])
+    outputs = [Output.sensor(thesis_rig.sensor(n)) for n in ("zC", "x1", "y2")]
+    added = moved.transfer([TOP], outputs, freqs) - model.transfer([TOP], outputs, freqs)
+    w, wn = 2 * np.pi * freqs, 2 * np.pi * 640.0
+    mode = -w**2 / (wn**2 - w**2 + 2j * 0.02 * wn * w)
+    assert np.allclose(added[:, 0, 0], 0.7 * 0.5 * mode, rtol=1e-9)
+    assert np.allclose(added[:, 1, 0], -0.3 * 0.5 * mode, rtol=1e-9)
+    assert np.abs(added[:, 2, 0]).max() < 1e-12 * np.abs(added[:, 0, 0]).max()
+
+
+def test_missing_mode_stored_as_a_revision_predicts_like_the_fit(registries, model):
+    """A revision applies the shared values, then each experiment's force participation: the same
+    single mode as applying everything at once."""
+    eff = registries.effects.get("missing_mode")
+    shared = {"frequency_hz": 640.0, "damping_ratio": 0.02, "phi_zC": 0.7, "phi_z2": -0.4}
+    revision = RevisionModel(eff.apply(model, shared), [(eff, {"r0": {"phi_force": 0.5}})])
+    stored = revision.for_experiment("r0")
+    direct = eff.apply(eff.apply(model, shared), {**shared, "phi_force": 0.5})
+    assert len(stored.structure.flexible_modes) == len(direct.structure.flexible_modes) == 1
+    outputs = [Output.sensor(s) for s in model.sensors if s.quantity == "acceleration"]
+    h1 = stored.transfer([TOP], outputs, [640.0])
+    h2 = direct.transfer([TOP], outputs, [640.0])
+    assert np.allclose(h1, h2, rtol=1e-12)
+
+
+def test_rank_one_participations_recovered_exactly():
+    from odsuite_plugins.models.data_effects import _rank_one
+
+    rng = np.random.default_rng(3)
+    phi, c = rng.normal(size=9), np.array([0.8, -0.3, 1.2])
+    N = rng.uniform(1.0, 5.0, (3, 9))
+    N[1, 4:] = 0.0  # sensors an experiment's mode response never reaches
+    R = N * np.outer(c, phi)  # <r, G> of noise-free data
+    phi_fit, c_fit = _rank_one(R, N)
+    assert np.allclose(np.outer(c_fit, phi_fit), np.outer(c, phi), rtol=1e-9, atol=1e-12)
