@@ -467,7 +467,10 @@ def _mark_confounded(cands: Sequence[Candidate], exps, scale: float) -> None:
         if c.error_after >= c.screened_error * 1.5:
             continue
         p = c._problem
-        base_pred = np.concatenate([x.ravel() for x in p.predictions(np.zeros(0) if not p.free else p.zero())])
+        if p.linear:  # projected parameters are fitted at any search value: the base is without the effect
+            base_pred = np.concatenate([p.base_prediction(e).ravel() for e in p.exps])
+        else:
+            base_pred = np.concatenate([x.ravel() for x in p.predictions(np.zeros(0) if not p.free else p.zero())])
         fit_pred = np.concatenate([x.ravel() for x in p.predictions(c._u)])
         changes[c.effect] = fit_pred - base_pred
     names = list(changes)
