@@ -357,14 +357,14 @@ def test_command_is_added_and_runs(guide, tmp_path, monkeypatch, capsys, request
 
 
 def test_sensor_type_example_reads_its_rig_entries(guide):
-    """The two axes land on their channels as unit vectors at the entry's point; a bad entry is
-    one line naming the entry and field."""
+    """The two axes land on their channels at the entry's point; a bad entry (dependent axes, an
+    axis that is not a unit vector) is one line naming the entry and field."""
     from odsuite.core.rig import rig_from_dict
 
     _, regs, _ = guide("sensor")
     data = {"name": "bench", "bodies": [{"name": "plate", "mass": 1.0, "inertia": np.eye(3).tolist()}],
             "sensors": [{"name": "b1", "kind": "lab_biaxial", "body": "plate", "position": [0.1, 0.0, 0.0],
-                         "channels": [4, 5], "axes": [[2, 0, 0], [0, 0, 1]], "sensitivity": 0.01}]}
+                         "channels": [4, 5], "axes": [[1, 0, 0], [0, 0, 1]], "sensitivity": 0.01}]}
     rig = rig_from_dict(data, regs.sensor_types)
     assert [(s.name, s.channel, s.group) for s in rig.sensors] == [("b1_1", 4, "b1"), ("b1_2", 5, "b1")]
     assert np.allclose([s.axis for s in rig.sensors], [[1, 0, 0], [0, 0, 1]])
@@ -373,3 +373,7 @@ def test_sensor_type_example_reads_its_rig_entries(guide):
     with pytest.raises(ConfigError) as err:
         rig_from_dict(data, regs.sensor_types)
     assert "sensors[0] 'b1'" in str(err.value) and "field 'axes'" in str(err.value) and "\n" not in str(err.value)
+    data["sensors"][0]["axes"] = [[2, 0, 0], [0, 0, 1]]
+    with pytest.raises(ConfigError) as err:
+        rig_from_dict(data, regs.sensor_types)
+    assert "sensors[0] 'b1'" in str(err.value) and "expected a unit vector" in str(err.value)
