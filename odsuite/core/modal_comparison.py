@@ -6,6 +6,7 @@ no shape to compare)."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -34,6 +35,17 @@ def _model_shapes(model, rig, output_names: Sequence[str], channel_of: dict[str,
     return rows @ modes.shapes
 
 
+def _responding(frf):
+    """The FRFs of the outputs that respond (a channel a record leaves empty has H = 0)."""
+    keep = [k for k in range(frf.H.shape[0]) if np.any(frf.H[k] != 0)]
+    if len(keep) == frf.H.shape[0]:
+        return frf
+    if not keep:
+        raise ConfigError("no response channel responds to the hammer")
+    return replace(frf, H=frf.H[keep], coherence=frf.coherence[keep], units=[frf.units[k] for k in keep],
+                   output_names=[frf.output_names[k] for k in keep])
+
+
 def modal_rows(project, experiments: Sequence[str], model_for) -> tuple[list[dict[str, Any]], list[str]]:
     """Rows ``{"experiment", "measured_hz", "model_hz", "measured_zeta", "model_zeta", "mac"}`` for
     every measured mode of every record (model values None where the model has no mode within
@@ -48,7 +60,7 @@ def modal_rows(project, experiments: Sequence[str], model_for) -> tuple[list[dic
             frf, hits = hits_frf(exp, f"{project.path}: experiment {name!r}", flagged_too=True)
             if not any(h.accepted for h in hits):
                 notes.append(f"{name}: every hit is flagged ({hit_flags(hits)}): its modes are identified anyway")
-            res = frf_modes(frf)
+            res = frf_modes(_responding(frf))
         except (ConfigError, np.linalg.LinAlgError) as exc:  # ConfigError covers a record without a clean hit
             notes.append(f"{name}: measured modes not identified: {exc}")
             continue

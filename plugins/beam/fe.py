@@ -88,8 +88,9 @@ class BeamSpec:
                 not 0 <= self.support_damping_ratio < 1:
             raise ConfigError(f"{w} field 'damping_ratio': expected ratios in [0, 1), got "
                               f"{self.damping_ratio!r} (support modes {self.support_damping_ratio!r})")
-        for item in self.supports + self.masses:
-            self.local(item.position, f"{w} {type(item).__name__.lower()} {item.name!r} field 'position'")
+        for kind, items in (("support", self.supports), ("point mass", self.masses)):
+            for item in items:
+                self.local(item.position, f"{w} {kind} {item.name!r} field 'position'")
         for s in self.supports:
             if not (np.isfinite(s.stiffness) and s.stiffness >= 0):
                 raise ConfigError(f"{w} support {s.name!r} field 'stiffness': must be >= 0 N/m, got {s.stiffness!r}")
