@@ -722,14 +722,15 @@ def compare_cmd(
 def _modal_table(rows) -> Table:
     """compare's measured-against-model modes: frequencies (Hz), damping ratios (%), MAC."""
     table = Table(title="measured against model modes (-: no model mode within 10 %)")
-    for col in ("record", "meas. Hz", "model Hz", "Δf", "meas. ζ %", "model ζ %", "Δζ", "MAC"):
-        table.add_column(col)
+    table.add_column("record", no_wrap=True)
+    for col in ("meas. Hz", "model Hz", "Δf", "meas. ζ %", "model ζ %", "Δζ", "MAC"):
+        table.add_column(col, no_wrap=True)
     for r in rows:
         paired = r["model_hz"] is not None
         table.add_row(r["experiment"], f"{r['measured_hz']:.2f}", f"{r['model_hz']:.2f}" if paired else "-",
-                      f"{100 * (r['model_hz'] / r['measured_hz'] - 1):+.2f} %" if paired else "-",
+                      f"{100 * (r['model_hz'] / r['measured_hz'] - 1):+.2f}%" if paired else "-",
                       f"{100 * r['measured_zeta']:.3f}", f"{100 * r['model_zeta']:.3f}" if paired else "-",
-                      f"{100 * (r['model_zeta'] / r['measured_zeta'] - 1):+.1f} %" if paired and r["measured_zeta"] else "-",
+                      f"{100 * (r['model_zeta'] / r['measured_zeta'] - 1):+.0f}%" if paired and r["measured_zeta"] else "-",
                       "-" if r["mac"] is None else f"{r['mac']:.3f}")
     return table
 
