@@ -22,17 +22,17 @@ PAIR_TOLERANCE = 0.10
 BAND_MARGIN = 1.5
 
 
-def _model_shapes(model, rig, output_names: Sequence[str], channel_of: dict[str, int], modes) -> np.ndarray | None:
-    """The model's mode shapes at the record's rig accelerometers (outputs x modes), or None when
-    fewer than two outputs are rig accelerometers."""
+def _shapes(model, rig, res, channel_of: dict[str, int], modes) -> tuple[np.ndarray, np.ndarray] | None:
+    """Measured and model mode shapes (sensors x modes) at the record's rig accelerometers, or None
+    when fewer than two of its outputs are rig accelerometers (no shape to compare)."""
     from odsuite.core.model import Output
 
-    sensors = [rig.sensor_on_channel(channel_of[n]) for n in output_names]
-    if sum(s is not None and s.quantity == "acceleration" for s in sensors) < 2 or \
-            any(s is None or s.quantity != "acceleration" for s in sensors):
+    sensors = [rig.sensor_on_channel(channel_of[n]) for n in res.output_names]
+    keep = [k for k, s in enumerate(sensors) if s is not None and s.quantity == "acceleration"]
+    if len(keep) < 2:
         return None
-    _, rows = model.output_rows([Output.sensor(s) for s in sensors])
-    return rows @ modes.shapes
+    _, rows = model.output_rows([Output.sensor(sensors[k]) for k in keep])
+    return res.shapes[keep], rows @ modes.shapes
 
 
 def _responding(frf):
@@ -73,10 +73,10 @@ def modal_rows(project, experiments: Sequence[str], model_for) -> tuple[list[dic
         keep = np.flatnonzero((modes.frequency_hz >= lo / BAND_MARGIN) & (modes.frequency_hz <= hi * BAND_MARGIN)
                               & (modes.damping_ratio < 1.0))
         channel_of = {n: k for k, n in enumerate(exp.channel_names)}
-        model_shapes = _model_shapes(model, rig, res.output_names, channel_of, modes) if rig is not None else None
+        shapes = _shapes(model, rig, res, channel_of, modes) if rig is not None else None
         pairs = pair_modes(res.frequency_hz, res.damping_ratio, modes.frequency_hz[keep], modes.damping_ratio[keep],
-                           shapes_a=res.shapes if model_shapes is not None else None,
-                           shapes_b=model_shapes[:, keep] if model_shapes is not None else None) if keep.size else []
+                           shapes_a=shapes[0] if shapes is not None else None,
+                           shapes_b=shapes[1][:, keep] if shapes is not None else None) if keep.size else []
         partner = {p["mode_a"]: p for p in pairs if abs(p["frequency_difference"]) <= PAIR_TOLERANCE}
         for i, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio)):
             p = partner.get(i)

@@ -34,7 +34,7 @@ FIGURE_DPI = 90
 #: The page should stay below this size; beyond it a note says what made it large.
 SIZE_BUDGET = 10 * 1024 * 1024
 
-SECTIONS = ("summary", "metadata", "experiments", "overlays", "failures", "candidates", "history", "movie", "view3d")
+SECTIONS = ("summary", "modal", "metadata", "experiments", "overlays", "failures", "candidates", "history", "movie", "view3d")
 
 
 @dataclass
