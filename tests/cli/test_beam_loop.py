@@ -44,7 +44,8 @@ def test_compare_tables_the_measured_and_the_slender_beam_modes(beam, capsys):
     # the torsional/lateral 2777 Hz mode has no partner in a bending model
     assert rows[2]["model_hz"] is None and rows[2]["model_zeta"] is None
     # revision 0: EI from the rig's first_mode_hz = 695 Hz, Euler-Bernoulli ratios above the data's
-    assert rows[0]["model_hz"] == pytest.approx(695.0, rel=2e-4)
+    # (the foam blocks under the ends lift the bare beam's 695.0 Hz a little: 695.39 Hz)
+    assert 0 < rows[0]["model_hz"] / 695.0 - 1 < 1e-3
     assert rows[1]["model_hz"] / rows[0]["model_hz"] == pytest.approx(EB_RATIO_2, rel=2e-3)
     assert rows[1]["model_hz"] / measured[1] - 1 > 0.008  # the slender beam's second mode is 0.9 % high
     assert doc["error"] > 1.0 and doc["noise_floor_error"] < 0.01
