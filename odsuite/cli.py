@@ -792,6 +792,26 @@ def compare_cmd(
         where = "no model mode there" if peak["lacking"] else f"near the model's mode at {peak['model_mode_hz']:.0f} Hz"
         console.print(f"residual peak at {peak['frequency_hz']:.0f} Hz ({peak.get('to_floor', float('nan')):.1f}x the "
                       f"noise floor there) in {', '.join(peak['channels'])}: {where}", highlight=False)
+    if result.get("modal"):
+        console.print(_modal_table(result["modal"]))
+    for note in result.get("modal_notes") or []:
+        console.print(note, highlight=False, soft_wrap=True)
+
+
+def _modal_table(rows) -> Table:
+    """compare's measured-against-model modes: frequencies (Hz), damping ratios (%), MAC."""
+    table = Table(title="measured against model modes (-: no model mode within 10 %)")
+    table.add_column("record", no_wrap=True)
+    for col in ("meas. Hz", "model Hz", "Δf", "meas. ζ %", "model ζ %", "Δζ", "MAC"):
+        table.add_column(col, no_wrap=True)
+    for r in rows:
+        paired = r["model_hz"] is not None
+        table.add_row(r["experiment"], f"{r['measured_hz']:.2f}", f"{r['model_hz']:.2f}" if paired else "-",
+                      f"{100 * (r['model_hz'] / r['measured_hz'] - 1):+.2f}%" if paired else "-",
+                      f"{100 * r['measured_zeta']:.3f}", f"{100 * r['model_zeta']:.3f}" if paired else "-",
+                      f"{100 * (r['model_zeta'] / r['measured_zeta'] - 1):+.0f}%" if paired and r["measured_zeta"] else "-",
+                      "-" if r["mac"] is None else f"{r['mac']:.3f}")
+    return table
 
 
 @app.command("diagnose")

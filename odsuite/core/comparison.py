@@ -153,6 +153,8 @@ class Comparison:
     modes: dict[str, list[dict[str, float]]]
     residual_peaks: list[dict[str, Any]]
     worst: list[dict[str, Any]]
+    modal: list[dict[str, Any]] | None = None  # measured against model modes, per record
+    modal_notes: list[str] | None = None
     floor: NoiseFloor | None = None
 
     @property
@@ -164,7 +166,8 @@ class Comparison:
                 "noise_floor_error": self.noise_floor_error, "residual_to_floor": self.residual_to_floor,
                 "revision": self.revision, "experiments": self.experiments, "channels": self.channels,
                 "coordinates": self.coordinates, "bands": self.bands, "rigidity": self.rigidity,
-                "modes": self.modes, "residual_peaks": self.residual_peaks, "worst": self.worst}
+                "modes": self.modes, "residual_peaks": self.residual_peaks, "worst": self.worst,
+                "modal": self.modal, "modal_notes": self.modal_notes}
 
 
 #: band of the FRF comparison and of the modes identified from measured FRFs (Hz)
@@ -277,6 +280,7 @@ def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapp
     """Compare the current model revision (or ``revision``) with every experiment. ``resonances``:
     also identify measured and model resonances from FRFs (a few seconds; the fitting loop, which
     needs only the errors, leaves it out)."""
+    from odsuite.core.modal_comparison import modal_rows
     from odsuite.core.modelrev import RevisionModel, base_model, current_revision, revision_model
 
     rev = revision or current_revision(project)
@@ -329,6 +333,7 @@ def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapp
                  float(np.nansum(band_num[i]) / np.nansum(band_num))) for i in range(len(labels))]
     for n, v, share in sorted(weighted, key=lambda t: -t[2])[:3]:
         worst.append({"kind": "band", "name": n, "error": v, "residual_share": share})
+    modal, modal_notes = modal_rows(project, [e.name for e in exps], rmodel.for_experiment) if resonances else (None, None)
     return Comparison(
         error=pooled_error(exps, preds), noise_floor_error=floor.error(),
         revision=rev.get("revision"), experiments=per_exp, channels=channels, coordinates=coords,
@@ -336,4 +341,5 @@ def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapp
         modes={"model": model_modes.as_list(),
                **(frf_comparison(exps, preds, model_modes) if resonances else {})},
         residual_peaks=residual_peaks(exps, preds, modes_hz, floor), worst=worst, floor=floor,
+        modal=modal, modal_notes=modal_notes,
     )

@@ -113,6 +113,36 @@ def _converter_ranges(exp, data: np.ndarray) -> list[tuple[float, float] | None]
     return out
 
 
+def hits_frf(exp, where: str, *, estimator: str = "H1", record_length: int | None = None,
+             flagged_too: bool = False) -> tuple[FrfSet, list]:
+    """FRFs of every channel of an experiment (as read from a project) to its force channel over
+    its accepted hits, and the hit list; nothing is stored. ``flagged_too``: a record whose every
+    hit is flagged (clipped, double) uses them all rather than failing (the caller says so)."""
+    if exp.excitation is None:
+        raise ConfigError(f"{where} has no force channel")
+    data = _physical(exp)
+    limits = _converter_ranges(exp, data)
+    fidx = exp.excitation.force_channel
+    outs = [k for k in range(exp.n_channels) if k != fidx]
+    hits = assess_hits(data[:, fidx], data[:, outs], exp.sampling_rate, record_length=record_length,
+                       force_limits=limits[fidx], response_limits=[limits[k] for k in outs])
+    good = [h for h in hits if h.accepted] or (list(hits) if flagged_too else [])
+    if not good:
+        raise ConfigError(f"{where} has no acceptable hit ({hit_flags(hits) or 'no hits found'})")
+    units = [exp.systeminfo.channels[k].unit for k in outs]
+    frf = estimate_frf(
+        [data[h.start : h.stop, fidx] for h in good], [data[h.start : h.stop, outs] for h in good],
+        exp.sampling_rate, estimator=estimator, response_units=units,
+        output_names=[exp.channel_names[k] for k in outs],
+    )
+    return frf, hits
+
+
+def hit_flags(hits) -> str:
+    """What the hammer checks found wrong with the rejected hits, in one line ("" when nothing)."""
+    return "; ".join(f"hit at sample {h.peak_index}: {', '.join(h.reasons)}" for h in hits if not h.accepted)
+
+
 def experiment_frf(
     project: str | Path, experiment: str, *, estimator: str = "H1", record_length: int | None = None,
     before_store: Callable[[FrfSet], object] | None = None,
@@ -121,25 +151,8 @@ def experiment_frf(
     the derived group ``frf`` (H real/imag, coherence). Returns the FRFs and the hit list.
     ``before_store(frf)`` runs first: when it fails (a fit on these FRFs), nothing is stored."""
     with open_project(project, "a") as p:
-        exp = p.experiment(experiment)
-        if exp.excitation is None:
-            raise ConfigError(f"{project}: experiment {experiment!r} has no force channel")
-        data = _physical(exp)
-        limits = _converter_ranges(exp, data)
-        fidx = exp.excitation.force_channel
-        outs = [k for k in range(exp.n_channels) if k != fidx]
-        hits = assess_hits(data[:, fidx], data[:, outs], exp.sampling_rate, record_length=record_length,
-                           force_limits=limits[fidx], response_limits=[limits[k] for k in outs])
-        good = [h for h in hits if h.accepted]
-        if not good:
-            reasons = "; ".join(f"hit at sample {h.peak_index}: {', '.join(h.reasons)}" for h in hits) or "no hits found"
-            raise ConfigError(f"{project}: experiment {experiment!r} has no acceptable hit ({reasons})")
-        units = [exp.systeminfo.channels[k].unit for k in outs]
-        frf = estimate_frf(
-            [data[h.start : h.stop, fidx] for h in good], [data[h.start : h.stop, outs] for h in good],
-            exp.sampling_rate, estimator=estimator, response_units=units,
-            output_names=[exp.channel_names[k] for k in outs],
-        )
+        frf, hits = hits_frf(p.experiment(experiment), f"{project}: experiment {experiment!r}",
+                             estimator=estimator, record_length=record_length)
         if before_store is not None:
             before_store(frf)
         dims = ("output", "frequency")
@@ -161,18 +174,23 @@ def experiment_frf(
     return frf, hits
 
 
+def frf_modes(frf: FrfSet, *, f_band: tuple[float, float] | None = None, max_order: int = 50,
+              frequencies: list[float] | None = None) -> ModalResult:
+    """Modes identified from hammer FRFs, on the band where the hammer's force spectrum and the
+    coherence are usable (``frf.usable_band``) unless ``f_band`` (or one edge of it) is given."""
+    return identify_modes(frf.frequency, frf.H, f_band=f_band, max_order=max_order, frequencies=frequencies,
+                          output_names=frf.output_names, force_autospectrum=frf.force_autospectrum,
+                          coherence=frf.coherence, n_averages=frf.n_averages)
+
+
 def experiment_modes(
     project: str | Path, experiment: str, *, f_band: tuple[float, float] | None = None,
     max_order: int = 50, frequencies: list[float] | None = None,
 ) -> tuple[ModalResult, FrfSet]:
-    """Modes identified from the experiment's FRFs, and those FRFs; the default band (or a
-    missing edge of ``f_band``) is where the hammer's force spectrum and the coherence are usable
-    (``frf.usable_band``)."""
+    """Modes identified from the experiment's FRFs (``frf_modes``), and those FRFs, stored."""
     found: list[ModalResult] = []
-    frf, _ = experiment_frf(project, experiment, before_store=lambda frf: found.append(identify_modes(
-        frf.frequency, frf.H, f_band=f_band, max_order=max_order, frequencies=frequencies,
-        output_names=frf.output_names, force_autospectrum=frf.force_autospectrum, coherence=frf.coherence,
-        n_averages=frf.n_averages)))
+    frf, _ = experiment_frf(project, experiment, before_store=lambda frf: found.append(
+        frf_modes(frf, f_band=f_band, max_order=max_order, frequencies=frequencies)))
     return found[0], frf
 
 

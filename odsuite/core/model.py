@@ -4,9 +4,9 @@ Coordinates of each body: ``d = [x y z theta phi psi]`` at its centre of mass, s
 frame; a point at ``p`` moves by ``d_t + Theta x (p - com)``. Every point (springs, sensors, force
 points) is given in the rig frame, so moving a centre of mass leaves them where they are on the body.
 
-A :class:`Model` is a :class:`Structure` (bodies, springs, added flexible modes: gives M, C, K and
-modes, cached) plus a :class:`MeasurementChain` (what happens between the structure and the recorded signals:
-force gauge gain and impact offset, sensor gain, polarity, tilt, position, dynamics). Effects that
+A :class:`Model` is a structure (:class:`LinearStructure`: M, C, K and modes, cached; rigid bodies,
+springs and added flexible modes are the :class:`Structure` family, a plugin may bring others)
+plus a :class:`MeasurementChain` (what happens between the structure and the recorded signals: force gauge gain and impact offset, sensor gain, polarity, tilt, position, dynamics). Effects that
 change only the chain reuse the structure and its cached matrices.
 """
 
@@ -337,7 +337,73 @@ class Modes:
                 for f, z in zip(self.frequency_hz, self.damping_ratio)]
 
 
-class Structure:
+class LinearStructure:
+    """The structure contract: any linear structure ``M q'' + C q' + K q = Bf u`` that a
+    :class:`Model` can drive, predict and simulate; rigid bodies on springs (:class:`Structure`)
+    are one family, a plugin may bring others (a finite-element beam, a plate).
+
+    A subclass gives ``dof_names`` (tuple of str), the cached properties ``M``, ``K``, ``C``
+    (n_dof x n_dof, symmetric) and ``point_rows(body, point) -> 3 x n_dof`` (the displacement of a
+    point of ``body`` along the rig axes per unit coordinate; ``body`` is a rig body's name or None).
+    ``Minv``, ``A`` and ``modes`` follow from them here. A structure without rigid coordinates or
+    ground springs keeps the defaults below: no rotation rows, no body coordinates, no base input,
+    no flexible modes.
+    """
+
+    bodies: tuple = ()
+    springs: tuple = ()
+    flexible_modes: tuple = ()
+    dof_names: tuple[str, ...] = ()
+
+    @property
+    def n_dof(self) -> int:
+        return len(self.dof_names)
+
+    def point_rows(self, body: str | None, point: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def flex_row(self, body: str | None, point, direction, tag: str | None) -> np.ndarray:
+        """Participation (n_dof) of added flexible modes at a point along a direction: none here."""
+        return np.zeros(self.n_dof)
+
+    def rotation_rows(self, body: str | None) -> np.ndarray:
+        raise ConfigError(f"{type(self).__name__}: has no rigid-body rotation coordinates (a moment input "
+                          "needs a rigid body)")
+
+    def body_coordinates(self, name: str | None, at=None) -> np.ndarray:
+        raise ConfigError(f"{type(self).__name__}: has no rigid-body coordinates for body {name!r}")
+
+    def base_matrices(self) -> tuple[np.ndarray, np.ndarray]:
+        raise ConfigError(f"{type(self).__name__}: has no springs to the ground, so no base-motion input")
+
+    @functools.cached_property
+    def Minv(self) -> np.ndarray:
+        return np.linalg.inv(self.M)
+
+    @functools.cached_property
+    def A(self) -> np.ndarray:
+        """First-order system matrix of Eq. 3.13: ``[[0, I], [-M^-1 K, -M^-1 C]]``."""
+        n = self.n_dof
+        return np.block([[np.zeros((n, n)), np.eye(n)], [-self.Minv @ self.K, -self.Minv @ self.C]])
+
+    @functools.cached_property
+    def modes(self) -> Modes:
+        lam, vec = np.linalg.eig(self.A)
+        n = self.n_dof
+        # one of each conjugate pair (Im > 0) and every real eigenvalue
+        keep = (lam.imag > 1e-9 * np.abs(lam)) | (np.abs(lam.imag) <= 1e-9 * np.abs(lam))
+        lam, vec = lam[keep], vec[:n, keep]
+        absl = np.abs(lam)
+        order = np.argsort(absl, kind="stable")
+        lam, vec, absl = lam[order], vec[:, order], absl[order]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            zeta = np.where(absl > 0, -lam.real / absl, 1.0)
+        big = vec[np.argmax(np.abs(vec), axis=0), np.arange(vec.shape[1])]
+        shapes = vec / big
+        return Modes(lam, absl / (2 * np.pi), zeta, shapes, self.dof_names)
+
+
+class Structure(LinearStructure):
     """Bodies, springs and added flexible modes; M, C, K and modes are computed once and cached."""
 
     def __init__(self, bodies: Sequence[RigidBody], springs: Sequence[SpringDamper] = (),
@@ -369,10 +435,6 @@ class Structure:
             self._select[b.name] = sel
             start += len(b.dofs)
         self._flex_start = start
-
-    @property
-    def n_dof(self) -> int:
-        return len(self.dof_names)
 
     def body(self, name: str | None) -> RigidBody:
         if name is None:  # the first body is the main one (effects append bodies after it)
@@ -481,32 +543,6 @@ class Structure:
             kg += sign * (P.T @ s.matrix("stiffness") @ G + R.T @ s.matrix("rot_stiffness") @ Gr)
             cg += sign * (P.T @ s.matrix("damping") @ G + R.T @ s.matrix("rot_damping") @ Gr)
         return kg, cg
-
-    @functools.cached_property
-    def Minv(self) -> np.ndarray:
-        return np.linalg.inv(self.M)
-
-    @functools.cached_property
-    def A(self) -> np.ndarray:
-        """First-order system matrix of Eq. 3.13: ``[[0, I], [-M^-1 K, -M^-1 C]]``."""
-        n = self.n_dof
-        return np.block([[np.zeros((n, n)), np.eye(n)], [-self.Minv @ self.K, -self.Minv @ self.C]])
-
-    @functools.cached_property
-    def modes(self) -> Modes:
-        lam, vec = np.linalg.eig(self.A)
-        n = self.n_dof
-        # one of each conjugate pair (Im > 0) and every real eigenvalue
-        keep = (lam.imag > 1e-9 * np.abs(lam)) | (np.abs(lam.imag) <= 1e-9 * np.abs(lam))
-        lam, vec = lam[keep], vec[:n, keep]
-        absl = np.abs(lam)
-        order = np.argsort(absl, kind="stable")
-        lam, vec, absl = lam[order], vec[:, order], absl[order]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            zeta = np.where(absl > 0, -lam.real / absl, 1.0)
-        big = vec[np.argmax(np.abs(vec), axis=0), np.arange(vec.shape[1])]
-        shapes = vec / big
-        return Modes(lam, absl / (2 * np.pi), zeta, shapes, self.dof_names)
 
 
 @dataclass(frozen=True)
@@ -625,7 +661,7 @@ class Model:
     ``rig`` is the rig it describes (sensors and plates for the effects), if any.
     """
 
-    def __init__(self, structure: Structure, chain: MeasurementChain | None = None, *, name: str = "",
+    def __init__(self, structure: LinearStructure, chain: MeasurementChain | None = None, *, name: str = "",
                  effects: tuple[str, ...] = (), parameters: Mapping[str, Mapping[str, float]] | None = None,
                  info: Mapping | None = None, rig: Rig | None = None) -> None:
         self.structure = structure
@@ -641,7 +677,7 @@ class Model:
               flexible_modes: Sequence[FlexibleMode] = (), **kwargs) -> Model:
         return cls(Structure(bodies, springs, flexible_modes), **kwargs)
 
-    def replace(self, *, structure: Structure | None = None, chain: MeasurementChain | None = None,
+    def replace(self, *, structure: LinearStructure | None = None, chain: MeasurementChain | None = None,
                 effect: str | None = None, values: Mapping[str, float] | None = None) -> Model:
         """A copy with a new structure and/or chain, recording ``effect`` and its ``values``."""
         params = dict(self.parameters)

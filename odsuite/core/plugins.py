@@ -18,7 +18,7 @@ from odsuite.core.errors import PluginConflictError, PluginLoadError
 from odsuite.core.registry import Contract, Registry, Source
 
 ENTRY_POINT_GROUP = "odsuite"
-REQUIRED_BUILTINS = ("daq_ni", "daq_sim", "filters", "gencoord_padgaonkar", "importers", "models", "renderers")
+REQUIRED_BUILTINS = ("beam", "daq_ni", "daq_sim", "filters", "gencoord_padgaonkar", "importers", "models", "renderers")
 
 
 @dataclass(frozen=True)

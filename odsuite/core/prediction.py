@@ -34,6 +34,10 @@ WINDOW_FRACTION = 0.02
 WINDOW_BEFORE_S = 0.5e-3
 WINDOW_AFTER_S = 3e-3
 NOISE_MULTIPLE = 5.0
+#: structures with up to this many coordinates keep every coordinate's simulated acceleration, so
+#: effects on the sensors alone reuse it; beyond it (a finite-element model's dozens of nodal
+#: coordinates) every coordinate's signal costs more than simulating the few sensors again
+CACHED_COORDINATES = 36
 
 
 @dataclass(frozen=True)
@@ -358,18 +362,24 @@ def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "accelerati
         return simulate_state_space(model.state_space(inputs, outputs), exp.force, exp.fs, hold="foh")
     # a sensor's acceleration is its output row times the coordinates' accelerations q''
     st, chain = model.structure, model.chain
-    key = _cache_key(model, exp)
-    if exp._cache is None or exp._cache[0] is not st or exp._cache[1] != key:
-        bf, _ = model.input_matrices(inputs)
-        n = st.n_dof
-        minv_bf = st.Minv @ bf
-        if st.is_linear:
-            ss = StateSpace(st.A, np.vstack([np.zeros_like(bf), minv_bf]), st.A[n:], minv_bf)
-            exp._cache = (st, key, simulate_state_space(ss, exp.force, exp.fs, hold="foh"))
-        else:  # cubic springs: the response depends on the force's level
-            exp._cache = (st, key, simulate_nonlinear(st, bf, exp.force, exp.fs))
     _, rows = model.output_rows(outputs)
-    y = exp._cache[2] @ rows.T
+    n = st.n_dof
+    if n > CACHED_COORDINATES and st.is_linear:  # many coordinates (finite elements): the sensors alone
+        bf, _ = model.input_matrices(inputs)
+        minv_bf = st.Minv @ bf
+        ss = StateSpace(st.A, np.vstack([np.zeros_like(bf), minv_bf]), rows @ st.A[n:], rows @ minv_bf)
+        y = simulate_state_space(ss, exp.force, exp.fs, hold="foh")
+    else:
+        key = _cache_key(model, exp)
+        if exp._cache is None or exp._cache[0] is not st or exp._cache[1] != key:
+            bf, _ = model.input_matrices(inputs)
+            minv_bf = st.Minv @ bf
+            if st.is_linear:
+                ss = StateSpace(st.A, np.vstack([np.zeros_like(bf), minv_bf]), st.A[n:], minv_bf)
+                exp._cache = (st, key, simulate_state_space(ss, exp.force, exp.fs, hold="foh"))
+            else:  # cubic springs: the response depends on the force's level
+                exp._cache = (st, key, simulate_nonlinear(st, bf, exp.force, exp.fs))
+        y = exp._cache[2] @ rows.T
     # the sensors' own dynamics in series, on their sampled signals (one small system per sensor:
     # identical sensors would make one big system's modes repeated and defective); sensors with
     # equal dynamics are filtered in one call

@@ -34,7 +34,7 @@ FIGURE_DPI = 90
 #: The page should stay below this size; beyond it a note says what made it large.
 SIZE_BUDGET = 10 * 1024 * 1024
 
-SECTIONS = ("summary", "metadata", "experiments", "overlays", "failures", "candidates", "history", "movie", "view3d")
+SECTIONS = ("summary", "modal", "metadata", "experiments", "overlays", "failures", "candidates", "history", "movie", "view3d")
 
 
 @dataclass
@@ -338,6 +338,7 @@ def build_report(
 
     sections = [
         ("summary", "Summary", summary),
+        ("modal", "Measured against model modes", _modal_section(doc)),
         ("metadata", "Test record", metadata_html),
         ("experiments", "Rig and experiments", experiments_html),
         ("overlays", "Measured against model", "".join(overlays)),
@@ -368,6 +369,26 @@ nav a{margin-right:1em}.notes{color:#a50}.lacking{color:#b00;font-weight:bold}
 video{max-width:100%;border:1px solid #eee}.viewer canvas{max-width:100%;border:1px solid #ccd;cursor:grab}
 .v-controls{display:flex;gap:.6em;align-items:center}.v-scrub{flex:1}.v-help{font-size:.8em;color:#555}
 """
+
+
+def _modal_section(doc: Mapping[str, Any]) -> str:
+    """compare's measured-against-model modes, record by record (model columns empty where the
+    model has no mode near the measured one)."""
+    rows = doc.get("modal") or []
+    notes = "".join(f"<p class='notes'>{_esc(n)}</p>" for n in doc.get("modal_notes") or [])
+    if not rows:
+        return notes + "<p>No measured modes (see the notes).</p>"
+
+    def rel(a: Any, b: Any) -> str:
+        return "–" if a is None or not b else f"{100 * (a / b - 1):+.2f} %"
+
+    body = [[r["experiment"], _fmt(r["measured_hz"], ".2f"), _fmt(r["model_hz"], ".2f"),
+             rel(r["model_hz"], r["measured_hz"]), _fmt(100 * r["measured_zeta"], ".3f"),
+             "–" if r["model_zeta"] is None else _fmt(100 * r["model_zeta"], ".3f"),
+             rel(r["model_zeta"], r["measured_zeta"]), _fmt(r["mac"], ".3f")] for r in rows]
+    return _table(["record", "measured f [Hz]", "model f [Hz]", "Δf", "measured ζ [%]", "model ζ [%]", "Δζ", "MAC"],
+                  body, id="modal-table", caption="modes identified from each record's hammer FRFs (as "
+                  "odsuite modes does) paired with the model's; MAC where two or more sensors give shapes") + notes
 
 
 def _page(title: str, sections: Sequence[tuple[str, str, str]], notes: Sequence[str]) -> str:

@@ -269,3 +269,21 @@ def test_bad_input_is_one_line(tmp_path):
     with pytest.raises(ConfigError, match="no rig"):
         build_report(tmp_path / "none.h5", tmp_path / "r.html", run_diagnosis=False, movie=False)
     assert not (tmp_path / "r.html").exists()
+
+
+def test_modal_table_of_the_rigid_model_is_compares(story):
+    """The thesis rig's rigid-body model: the report tables compare's measured-against-model modes,
+    with MAC from the nine accelerometers' shapes."""
+    from odsuite.core.comparison import compare
+    from odsuite.core.project import open_project
+
+    path, _, _, result = story
+    with open_project(path) as p:
+        rows = compare(p).as_dict()["modal"]
+    table = parse(result.path).tables["modal-table"][1:]
+    assert [r[0] for r in table] == [r["experiment"] for r in rows] and rows
+    assert [r[1] for r in table] == [f"{r['measured_hz']:.2f}" for r in rows]
+    paired = [r for r in rows if r["model_hz"] is not None]
+    assert paired and all(r["mac"] is not None and 0 <= r["mac"] <= 1 + 1e-12 for r in paired)
+    # after the fit the model is the simulator's truth: its modes are the measured ones
+    assert all(abs(r["model_hz"] / r["measured_hz"] - 1) < 0.02 for r in paired if r["mac"] > 0.9)

@@ -1,0 +1,86 @@
+"""Measured against model modes, record by record: the modes ``odsuite modes`` identifies from a
+record's hammer FRFs (its data-driven band, stable poles) paired with the modes of the model that
+predicts that record; MAC where the record has two or more rig sensors (single-point tests have
+no shape to compare)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from odsuite.core.errors import ConfigError
+from odsuite.core.modal import pair_modes
+from odsuite.core.modal_project import frf_modes, hit_flags, hits_frf
+
+#: a model mode further than this (relative) from a measured one is not its partner: the model
+#: lacks that mode (a torsional mode seen by a bending model), and the row says so with nulls
+PAIR_TOLERANCE = 0.10
+#: model modes this far outside the measured band (factor) cannot pair with a measured mode
+BAND_MARGIN = 1.5
+
+
+def _shapes(model, rig, res, channel_of: dict[str, int], modes) -> tuple[np.ndarray, np.ndarray] | None:
+    """Measured and model mode shapes (sensors x modes) at the record's rig accelerometers, or None
+    when fewer than two of its outputs are rig accelerometers (no shape to compare)."""
+    from odsuite.core.model import Output
+
+    sensors = [rig.sensor_on_channel(channel_of[n]) for n in res.output_names]
+    keep = [k for k, s in enumerate(sensors) if s is not None and s.quantity == "acceleration"]
+    if len(keep) < 2:
+        return None
+    _, rows = model.output_rows([Output.sensor(sensors[k]) for k in keep])
+    return res.shapes[keep], rows @ modes.shapes
+
+
+def _responding(frf):
+    """The FRFs of the outputs that respond (a channel a record leaves empty has H = 0)."""
+    keep = [k for k in range(frf.H.shape[0]) if np.any(frf.H[k] != 0)]
+    if len(keep) == frf.H.shape[0]:
+        return frf
+    if not keep:
+        raise ConfigError("no response channel responds to the hammer")
+    return replace(frf, H=frf.H[keep], coherence=frf.coherence[keep], units=[frf.units[k] for k in keep],
+                   output_names=[frf.output_names[k] for k in keep])
+
+
+def modal_rows(project, experiments: Sequence[str], model_for) -> tuple[list[dict[str, Any]], list[str]]:
+    """Rows ``{"experiment", "measured_hz", "model_hz", "measured_zeta", "model_zeta", "mac"}`` for
+    every measured mode of every record (model values None where the model has no mode within
+    PAIR_TOLERANCE), and notes for records whose modes could not be identified. ``model_for(name)``
+    is the model that predicts record ``name``."""
+    rows: list[dict[str, Any]] = []
+    notes: list[str] = []
+    rig = project.rig
+    for name in experiments:
+        exp = project.experiment(name)
+        try:
+            frf, hits = hits_frf(exp, f"{project.path}: experiment {name!r}", flagged_too=True)
+            if not any(h.accepted for h in hits):
+                notes.append(f"{name}: every hit is flagged ({hit_flags(hits)}): its modes are identified anyway")
+            res = frf_modes(_responding(frf))
+        except (ConfigError, np.linalg.LinAlgError) as exc:  # ConfigError covers a record without a clean hit
+            notes.append(f"{name}: measured modes not identified: {exc}")
+            continue
+        if res.poles.size == 0:
+            notes.append(f"{name}: no measured mode in {res.band_hz} Hz")
+            continue
+        model = model_for(name)
+        modes = model.modes()
+        lo, hi = res.band_hz
+        keep = np.flatnonzero((modes.frequency_hz >= lo / BAND_MARGIN) & (modes.frequency_hz <= hi * BAND_MARGIN)
+                              & (modes.damping_ratio < 1.0))
+        channel_of = {n: k for k, n in enumerate(exp.channel_names)}
+        shapes = _shapes(model, rig, res, channel_of, modes) if rig is not None else None
+        pairs = pair_modes(res.frequency_hz, res.damping_ratio, modes.frequency_hz[keep], modes.damping_ratio[keep],
+                           shapes_a=shapes[0] if shapes is not None else None,
+                           shapes_b=shapes[1][:, keep] if shapes is not None else None) if keep.size else []
+        partner = {p["mode_a"]: p for p in pairs if abs(p["frequency_difference"]) <= PAIR_TOLERANCE}
+        for i, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio)):
+            p = partner.get(i)
+            rows.append({"experiment": name, "measured_hz": float(f), "measured_zeta": float(z),
+                         "model_hz": p["frequency_b_hz"] if p else None, "model_zeta": p["damping_b"] if p else None,
+                         "mac": p["mac"] if p else None})
+    return rows, notes
