@@ -595,6 +595,7 @@ def render_cmd(
     frame_step: int = typer.Option(None, "--frame-step", help="Samples per movie frame (default 1)."),
     slowdown: float = typer.Option(None, "--slowdown", help="Slow-motion factor: movie time / real time."),
     ods: float = typer.Option(None, "--ods", help="Animate the operating deflection shape at this frequency (Hz)."),
+    reference: str = typer.Option(None, "--reference", help="With --ods: the reference sensor of an operating record's ODS (cross-spectra)."),
     start: float = typer.Option(None, "--start", help="Movie window start, s from the record's start (default: just before the hit)."),
     end: float = typer.Option(None, "--end", help="Movie window end, s (default: when the motion has decayed to a tenth)."),
     fps: float = typer.Option(None, "--fps", help="Movie frames per second (default 25)."),
@@ -612,8 +613,8 @@ def render_cmd(
     _check_output(output, project, "-o")
     renderer = choose_renderer(registries().renderers, output, figure, "figure" if figure else "movie")
     options = {"model": model, "magnify": parse_magnify(magnify), "view": view, "workers": workers,
-               "frame_step": frame_step, "slowdown": slowdown, "ods_hz": ods, "start": start, "end": end,
-               "fps": fps, "duration": duration}
+               "frame_step": frame_step, "slowdown": slowdown, "ods_hz": ods, "reference": reference, "start": start,
+               "end": end, "fps": fps, "duration": duration}
     res = renderer.render(RenderRequest(project, experiment, output, options,
                                         progress=err_console.is_terminal and not as_json))
     if as_json:
@@ -622,6 +623,68 @@ def render_cmd(
     for note in res.notes:
         err_console.print(f"note: {note}", highlight=False)
     console.print(f"wrote {res.path} ({res.summary})", highlight=False, soft_wrap=True)
+
+
+@app.command("ods")
+def ods_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    experiment: str = typer.Argument(..., help="Experiment name (an operating record, or any record)."),
+    reference: str = typer.Option(..., "--reference", help="Reference sensor: phases are relative to it."),
+    at: float = typer.Option(..., "--at", help="Frequency of the shape, Hz (the nearest spectral line is used)."),
+    movie: Path = typer.Option(None, "--movie", help="Also animate the shape on the rig (.mp4, .gif)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+) -> None:
+    """Operating deflection shape: every response's cross-spectrum to the reference sensor, scaled by
+    the reference's autospectrum (rms amplitude and phase per sensor), and on a rig the bodies'
+    generalized coordinates."""
+    import numpy as np
+
+    from odsuite.core.ods import operating_shape
+    from odsuite.core.plugins import registries
+    from odsuite.core.project import open_project
+    from odsuite.core.renderers import RenderRequest, choose_renderer
+    from odsuite.core.rigidbody import COORDINATE_UNITS, COORDINATES
+
+    if not math.isfinite(at) or at <= 0:
+        raise ConfigError(f"--at: must be a finite frequency > 0 Hz, got {at}")
+    renderer = None
+    if movie is not None:
+        _check_output(movie, project, "--movie")
+        renderer = choose_renderer(registries().renderers, movie, None, "movie")
+    with open_project(project) as p:
+        if experiment not in p.experiment_names():
+            raise ConfigError(f"{project}: no experiment {experiment!r} "
+                              f"(experiments: {', '.join(p.experiment_names()) or 'none'})")
+        res = operating_shape(p, experiment, reference, at)
+    rendered = None
+    if renderer is not None:
+        rendered = renderer.render(RenderRequest(project, experiment, movie, {"ods_hz": at, "reference": reference},
+                                                 progress=err_console.is_terminal and not as_json))
+    if as_json:
+        doc = res.to_dict()
+        doc["notes"] = list(res.notes)
+        if rendered is not None:
+            doc["movie"] = _rendered_doc(renderer, rendered)
+        _print_json(doc)
+        return
+    for note in res.notes:
+        err_console.print(f"note: {note}", highlight=False, soft_wrap=True)
+    console.print(f"{shown(experiment)}: operating deflection shape at {res.frequency_hz:.3f} Hz (line nearest "
+                  f"{res.requested_hz:g} Hz; {res.resolution_hz:.3g} Hz lines, {res.n_segments} segments), "
+                  f"phases relative to {shown(reference)}", highlight=False, soft_wrap=True)
+    table = Table(box=None)
+    for col in ("sensor", "amplitude (rms)", "phase (°)", "coherence"):
+        table.add_column(col)
+    for name, v in res.shape.items():
+        table.add_row(shown(name), f"{abs(v):.4g} {res.units[name]}", f"{np.degrees(np.angle(v)):+.1f}",
+                      f"{res.coherence[name]:.3f}")
+    console.print(table)
+    for body, d in res.coordinates.items():
+        parts = [f"{c} {abs(v):.3g} {u} ∠{np.degrees(np.angle(v)):+.0f}°"
+                 for c, v, u in zip(COORDINATES, d, COORDINATE_UNITS)]
+        console.print(f"{shown(body)} at G (rms displacement): " + ", ".join(parts), highlight=False, soft_wrap=True)
+    if rendered is not None:
+        console.print(f"wrote {rendered.path} ({rendered.summary})", highlight=False, soft_wrap=True)
 
 
 def _rendered_doc(renderer, res) -> dict:

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from odsuite.core.errors import ConfigError
-from odsuite.core.modal_project import _UNITS, _force_index, _physical
+from odsuite.core.modal_project import _UNITS, _force_index, operating_note, physical
 from odsuite.core.project import DerivedArray, Excitation, Project, open_project
 from odsuite.core.rigidbody import CORNERS, plate_corners
 from odsuite.core.systeminfo import ChannelInfo, SensorType, Systeminfo
@@ -31,9 +31,10 @@ def _node_point(geometry: UffGeometry | None, node: int, direction: int) -> tupl
     return geometry.xyz[np.flatnonzero(geometry.node_nums == node)[0]], geometry.direction(node, direction)
 
 
-def import_uff(project: str | Path, uff_path: str | Path, name: str, force_channel: str | None = None) -> str:
+def import_uff(project: str | Path, uff_path: str | Path, name: str,
+               force_channel: str | None = None) -> tuple[str, ...]:
     """Add the time records of a UFF file as experiment ``name``; FRFs in the file are stored as
-    its derived "frf" (frequency, H_real, H_imag). Returns ``name``.
+    its derived "frf" (frequency, H_real, H_imag). Returns notes for the user.
 
     All time records must share their length and sampling interval. The force channel is
     ``force_channel`` (a record's name), else the one record in newtons or named "force"; the hit's
@@ -66,6 +67,7 @@ def import_uff(project: str | Path, uff_path: str | Path, name: str, force_chann
         names.append(label if label not in names else f"{label}#{k}")
     units = [f.unit for f in records]
     fidx = _force_index(names, units, force_channel, str(uff_path))
+    notes = (operating_note(str(uff_path)),) if fidx is None else ()
     fs = 1.0 / dt
     raw = np.column_stack([f.data for f in records]).astype(float)
     # values in engineering units, not volts: converter limits well above the peaks, so no false clipping
@@ -77,16 +79,19 @@ def import_uff(project: str | Path, uff_path: str | Path, name: str, force_chann
             stype, sens = SensorType.LOADCELL, 1.0
         channels.append(ChannelInfo(sensor_type=stype, location=n, sensitivity=sens, sampling_rate=fs,
                                     limit_high=float(limits[k]), limit_low=-float(limits[k])))
-    hit = _node_point(content.geometry, records[fidx].rsp_node, records[fidx].rsp_dir)
-    point, direction = hit if hit is not None else (np.zeros(3), np.array([0.0, 0.0, 1.0]))
+    excitation = None
+    if fidx is not None:
+        hit = _node_point(content.geometry, records[fidx].rsp_node, records[fidx].rsp_dir)
+        point, direction = hit if hit is not None else (np.zeros(3), np.array([0.0, 0.0, 1.0]))
+        excitation = Excitation(fidx, point, direction)
     frfs = [f for f in content.functions if f.func_type == FUNC_FRF]
     with open_project(project, "a") as p, p.transaction():
         p.add_experiment(name, raw, sampling_rate=fs,
-                         systeminfo=Systeminfo(channels), excitation=Excitation(fidx, point, direction),
+                         systeminfo=Systeminfo(channels), excitation=excitation,
                          source=uff_path.name, channel_names=names)
         if frfs:
             _store_frfs(p, name, frfs, uff_path)
-    return name
+    return notes
 
 
 def _store_frfs(p: Project, name: str, frfs: list[UffFunction], uff_path: Path) -> None:
@@ -165,7 +170,7 @@ def export_uff(project: str | Path, out: str | Path, experiment: str | None = No
         rig = p.rig
         frf = p.read_derived(experiment, "frf") if "frf" in p.derived_kinds(experiment) else None
         frf_outputs = json.loads(p.derived_info(experiment, "frf")["attrs"]["outputs"]) if frf else []
-        data = _physical(exp)
+        data = physical(exp)
     nodes = _Nodes()
     traces: list[tuple[str, list[int]]] = []
     at: dict[int, tuple[int, int]] = {}  # channel -> (node, direction code)

@@ -58,8 +58,8 @@ class UffImporter:
     def import_file(self, project, file, name, *, force_channel=None) -> Imported:
         from odsuite.core.uff_project import import_uff
 
-        import_uff(project, file, name, force_channel)
-        return Imported(name, f"UFF file {Path(file).name}")
+        notes = import_uff(project, file, name, force_channel)
+        return Imported(name, f"UFF file {Path(file).name}", notes)
 
 
 def builtin_importers() -> list:

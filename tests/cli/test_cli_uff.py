@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from odsuite.cli import main
-from odsuite.core.modal_project import _physical
+from odsuite.core.modal_project import physical
 from odsuite.core.project import open_project
 from odsuite.core.uff import read_uff
 
@@ -19,7 +19,7 @@ def test_export_then_import_through_the_cli(tmp_path, capsys):
     assert main(["new", str(q), "--rig", "none"]) == 0
     assert main(["import-uff", str(q), str(uff), "--name", "back"]) == 0
     with open_project(p) as a, open_project(q) as b:
-        np.testing.assert_array_equal(_physical(b.experiment("back")), _physical(a.experiment("e1")))
+        np.testing.assert_array_equal(physical(b.experiment("back")), physical(a.experiment("e1")))
     assert "imported" in capsys.readouterr().out
 
 
