@@ -222,6 +222,9 @@ def info_cmd(project: Path = typer.Argument(..., help="Project file."),
                       f"{e['peak_volts'][peak_channel]:.4g} ({peak_channel})",
                       Text(shown(clipped), style="red") if clipped else "-", ", ".join(e["derived"]) or "-")
     console.print(table)
+    if info["imports"]:
+        console.print("imports (not records): " + ", ".join(f"{shown(n)} ({k})" for n, k in info["imports"].items()),
+                      highlight=False, soft_wrap=True)
     if revisions:
         rt = Table(title=f"model revisions (current: {info['current_revision']})")
         for col in ("revision", "model", "effects", "error"):
@@ -245,8 +248,7 @@ def _import(project: Path, file: Path, name: str, fmt: str | None, **options) ->
     res = importer.import_file(project, file, name, **check_options(importer, options))
     for note in res.notes:
         err_console.print(f"warning: {note}", style="yellow", highlight=False, soft_wrap=True)
-    console.print(f"imported {file} as experiment {res.experiment!r} ({importer.name}: {res.summary})",
-                  highlight=False, soft_wrap=True)
+    console.print(f"imported {file} ({importer.name}: {res.summary})", highlight=False, soft_wrap=True)
 
 
 @app.command("import")
@@ -526,22 +528,24 @@ def frf_cmd(
 @app.command("modes")
 def modes_cmd(
     project: Path = typer.Argument(..., help="Project file."),
-    experiment: str = typer.Option(..., "--experiment", help="Experiment name."),
+    experiments: list[str] = typer.Option(..., "--experiment", help="Experiment name; give it several times for "
+                                          "an FRF matrix across experiments (roving hammer, several references)."),
     f_min: float = typer.Option(None, "--fmin", help="Lowest frequency of the fit band (Hz)."),
     f_max: float = typer.Option(None, "--fmax", help="Highest frequency of the fit band (Hz)."),
     max_order: int = typer.Option(50, "--max-order", help="Highest model order (LSCF; SSI-cov state size with --output-only)."),
     at: str = typer.Option(None, "--at", help="Pick poles nearest these frequencies: f1,f2,... (Hz)."),
     figure: Path = typer.Option(None, "--figure", help="Write the stabilisation diagram (.png, .svg, .pdf)."),
+    mac_figure: Path = typer.Option(None, "--mac-figure", help="Write the modes' MAC matrix (AutoMAC; .png, .svg, .pdf)."),
     output_only: bool = typer.Option(False, "--output-only", help="From the responses alone (SSI-cov): operating data, no force."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
     """Natural frequencies, damping ratios and mode shapes identified from measured FRFs (default
-    band: where the hammer's force spectrum and the coherence are usable), or with --output-only
-    from the responses alone."""
+    band: where the hammer's force spectrum and the coherence are usable), of one experiment or of
+    the FRF matrix of several, or with --output-only from the responses alone."""
     import json
 
     from odsuite.core.errors import ConfigError
-    from odsuite.core.modal_project import experiment_modes, experiment_output_only_modes
+    from odsuite.core.modal_project import experiment_modes, experiment_output_only_modes, experiments_modes
 
     try:
         freqs = [float(v) for v in at.split(",")] if at else None
@@ -551,35 +555,55 @@ def modes_cmd(
         if value is not None and not (math.isfinite(value) and value >= 0):  # before the FRF is stored
             raise ConfigError(f"{option}: must be a finite frequency >= 0 Hz, got {value}")
     band = None if f_min is None and f_max is None else (f_min, f_max)
-    if figure is not None:
-        _check_output(figure, project, "--figure")
+    for path, option in ((figure, "--figure"), (mac_figure, "--mac-figure")):
+        if path is not None:
+            _check_output(path, project, option)
+    references = None
+    name = ", ".join(experiments)
     if output_only:
         if freqs is not None:
             raise ConfigError("--at picks poles of the FRF fit; it does not combine with --output-only")
-        res, freq, spectrum = experiment_output_only_modes(project, experiment, f_band=band, max_order=max_order)
+        if len(experiments) > 1:
+            raise ConfigError("--output-only identifies modes of one record: give one --experiment")
+        res, freq, spectrum = experiment_output_only_modes(project, experiments[0], f_band=band, max_order=max_order)
         background = "rms amplitude spectrum of the outputs (unit/√Hz)"
+    elif len(experiments) > 1:
+        res, freq, spectrum, references = experiments_modes(project, experiments, f_band=band, max_order=max_order,
+                                                            frequencies=freqs)
+        background = "rms |H| of the FRF matrix (FRF units)"
     else:
-        res, frf = experiment_modes(project, experiment, f_band=band, max_order=max_order, frequencies=freqs)
+        res, frf = experiment_modes(project, experiments[0], f_band=band, max_order=max_order, frequencies=freqs)
         freq, spectrum, background = frf.frequency, frf.H, "rms |H| of the outputs (FRF units)"
     if figure is not None:
         from odsuite.core.modal_figures import stabilisation_figure
 
-        stabilisation_figure(res, freq, spectrum, figure, title=f"stabilisation diagram of {experiment}",
+        stabilisation_figure(res, freq, spectrum, figure, title=f"stabilisation diagram of {name}",
                              background=background)
+    if mac_figure is not None:
+        from odsuite.core.modal import mac
+        from odsuite.core.modal_figures import mac_figure as draw_mac
+
+        labels = [f"{f:.1f} Hz" for f in res.frequency_hz]
+        draw_mac(mac(res.shapes, res.shapes), mac_figure, labels_a=labels, labels_b=labels,
+                 title=f"AutoMAC of the modes of {name}")
     for note in res.rejected:
         err_console.print(f"note: stable pole not taken as a mode: {note}", highlight=False, soft_wrap=True)
     if as_json:
-        print(json.dumps(res.to_dict()))
+        doc = res.to_dict()
+        if references is not None:
+            doc["references"] = references
+        print(json.dumps(doc))
         return
     lo, hi = res.band_hz
-    table = Table(title=f"modes of {experiment} ({lo:.1f}-{hi:.1f} Hz)")
+    table = Table(title=f"modes of {shown(name)} ({lo:.1f}-{hi:.1f} Hz)")
     for col in ("mode", "f (Hz)", "damping ratio", "stable orders"):
         table.add_column(col)
     for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio), start=1):
         table.add_row(str(k), f"{f:.2f}", f"{z:.5f}", str(res.stable_orders[k - 1]))
     console.print(table)
-    if figure is not None:
-        console.print(f"wrote {figure}", highlight=False, soft_wrap=True)
+    for path in (figure, mac_figure):
+        if path is not None:
+            console.print(f"wrote {path}", highlight=False, soft_wrap=True)
 
 
 @app.command("render")

@@ -204,6 +204,49 @@ def experiment_modes(
     return found[0], frf
 
 
+def experiments_modes(
+    project: str | Path, experiments: list[str], *, f_band: tuple[float | None, float | None] | None = None,
+    max_order: int = 50, frequencies: list[float] | None = None,
+) -> tuple[ModalResult, np.ndarray, np.ndarray, dict[str, dict]]:
+    """Modes of an FRF matrix across experiments: a roving hammer (each experiment hits another
+    point) or several references. Every experiment's FRFs (stored as its derived "frf") on the
+    same lines are stacked into one matrix whose rows are "output @ experiment", and fitted with
+    one common denominator (LSCF, ``modal.identify_modes``); the default band is the overlap of the
+    experiments' usable bands. Returns the modes (shapes per row), the frequency lines, the matrix
+    (rows x lines) and each experiment's reference (force point in m, direction)."""
+    from odsuite.core.frf import usable_band
+
+    if len(set(experiments)) != len(experiments):
+        raise ConfigError(f"{project}: an experiment is named twice in {', '.join(experiments)}")
+    frfs = [experiment_frf(project, e)[0] for e in experiments]
+    lines = {f.frequency.size for f in frfs}
+    if len(lines) > 1:  # each hit's window ends where its response has decayed: one common length
+        frfs = [experiment_frf(project, e, record_length=2 * (min(lines) - 1))[0] for e in experiments]
+    first = frfs[0]
+    for e, f in zip(experiments[1:], frfs[1:]):
+        if f.frequency.shape != first.frequency.shape or not np.allclose(f.frequency, first.frequency):
+            raise ConfigError(f"{project}: experiment {e!r} has other frequency lines ({f.frequency.size} up to "
+                              f"{f.frequency[-1]:g} Hz) than {experiments[0]!r} ({first.frequency.size} up to "
+                              f"{first.frequency[-1]:g} Hz): an FRF matrix needs one sampling rate and record length")
+    bands = [usable_band(f.frequency, f.force_autospectrum, f.coherence, f.n_averages) for f in frfs]
+    lo, hi = f_band if f_band is not None else (None, None)
+    lo = max(b[0] for b in bands) if lo is None else lo
+    hi = min(b[1] for b in bands) if hi is None else hi
+    if not lo < hi:
+        raise ConfigError(f"{project}: the experiments' usable bands do not overlap "
+                          f"({'; '.join(f'{e} {b[0]:g}-{b[1]:g} Hz' for e, b in zip(experiments, bands))})")
+    H = np.vstack([f.H for f in frfs])
+    rows = [f"{o} @ {e}" for e, f in zip(experiments, frfs) for o in f.output_names]
+    res = identify_modes(first.frequency, H, f_band=(lo, hi), max_order=max_order, frequencies=frequencies,
+                         output_names=rows)
+    references = {}
+    with open_project(project) as p:
+        for e in experiments:
+            exc = p.experiment(e).excitation
+            references[e] = {"point_m": [float(v) for v in exc.point], "direction": [float(v) for v in exc.direction]}
+    return res, first.frequency, H, references
+
+
 def experiment_output_only_modes(
     project: str | Path, experiment: str, *, f_band: tuple[float | None, float | None] | None = None,
     max_order: int = 40,

@@ -184,16 +184,8 @@ class SimulatedRig:
         for i, h in enumerate(hits):
             h.validate(f"simulator hit {i}")
         systeminfo = rig_systeminfo(rig, settings.sampling_rate)
-        all_chains = default_chains(rig, systeminfo, noise=noise)
-        for ch, chain in (chains or {}).items():
-            if ch not in all_chains:
-                raise ConfigError(f"simulator option 'chains': rig {rig.name!r} has no channel {ch}")
-            chain.validate(f"simulator chain of channel {ch}")
-            all_chains[ch] = chain
-        if truth is None:
-            truth = self._default_truth(rig, effects)
-        elif effects:
-            raise ConfigError("simulator: give either a truth or effects on the rig's default model, not both")
+        all_chains = _record_chains(rig, systeminfo, chains, noise)
+        truth = self._truth(rig, truth, effects)
 
         rng = np.random.default_rng(seed)
         fs, n, pre = settings.sampling_rate, settings.n_samples, settings.pretrigger
@@ -258,10 +250,7 @@ class SimulatedRig:
         (no load cell: the ADC's noise only) and named as an unused input; no excitation is stored."""
         fs, n = settings.sampling_rate, settings.n_samples
         load = parse_operating(operating, fs)
-        if truth is None:
-            truth = self._default_truth(rig, effects)
-        elif effects:
-            raise ConfigError("simulator: give either a truth or effects on the rig's default model, not both")
+        truth = self._truth(rig, truth, effects)
         rng = np.random.default_rng(seed)
         fine = fs * oversample
         # a settling lead: the record starts once the machine runs steadily (five time constants of
@@ -278,12 +267,7 @@ class SimulatedRig:
         open_input = replace(systeminfo.channels[fch], sensor_type=SensorType.NONE, location="", serial="")
         systeminfo = Systeminfo([open_input if k == fch else c for k, c in enumerate(systeminfo.channels)],
                                 rig=systeminfo.rig)
-        all_chains = default_chains(rig, systeminfo, noise=noise)
-        for ch, chain in (chains or {}).items():
-            if ch not in all_chains:
-                raise ConfigError(f"simulator option 'chains': rig {rig.name!r} has no channel {ch}")
-            chain.validate(f"simulator chain of channel {ch}")
-            all_chains[ch] = chain
+        all_chains = _record_chains(rig, systeminfo, chains, noise)
         raw = np.empty((n, rig.channel_count))
         clipped: dict[int, int] = {}
         for ch in range(rig.channel_count):
@@ -306,12 +290,31 @@ class SimulatedRig:
             clipped=clipped,
         )
 
+    def _truth(self, rig: Rig, truth: Truth | None, effects: Sequence[tuple[str, Mapping[str, Any]]]) -> Truth:
+        if truth is None:
+            return self._default_truth(rig, effects)
+        if effects:
+            raise ConfigError("simulator: give either a truth or effects on the rig's default model, not both")
+        return truth
+
     def _default_truth(self, rig: Rig, effects: Sequence[tuple[str, Mapping[str, Any]]]) -> Truth:
         if self._truth_factory is None:
             from odsuite_plugins.daq_sim.truth import model_truth
 
             return model_truth(rig, effects)
         return self._truth_factory(rig, effects)
+
+
+def _record_chains(rig: Rig, systeminfo: Systeminfo, chains: Mapping[int, ChannelChain] | None,
+                   noise: bool) -> dict[int, ChannelChain]:
+    """The default chains of the record's channels with the caller's replacements."""
+    out = default_chains(rig, systeminfo, noise=noise)
+    for ch, chain in (chains or {}).items():
+        if ch not in out:
+            raise ConfigError(f"simulator option 'chains': rig {rig.name!r} has no channel {ch}")
+        chain.validate(f"simulator chain of channel {ch}")
+        out[ch] = chain
+    return out
 
 
 def _chunks(raw: np.ndarray, size: int, progress: Progress | None) -> Iterator[np.ndarray]:

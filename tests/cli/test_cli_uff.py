@@ -15,7 +15,7 @@ def test_export_then_import_through_the_cli(tmp_path, capsys):
     assert main(["new", str(p)]) == 0
     assert main(["acquire", str(p), "--daq", "sim", "--name", "e1", "--samples", "1024"]) == 0
     assert main(["export-uff", str(p), "-o", str(uff), "--nodes", "2411"]) == 0
-    assert read_uff(uff).dataset_types[0] == 2411
+    assert read_uff(uff).dataset_types[:2] == [164, 2411]  # SI units first, then the nodes
     assert main(["new", str(q), "--rig", "none"]) == 0
     assert main(["import-uff", str(q), str(uff), "--name", "back"]) == 0
     with open_project(p) as a, open_project(q) as b:

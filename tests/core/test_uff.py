@@ -98,7 +98,7 @@ def test_export_reads_back_identically(tmp_path, samples, binary, node_dataset):
     fsets = [s for s in raw if s["type"] == 58]
     assert [s["id1"].strip() for s in fsets] == ["force", "acc 1", "H 1/5"]
     back = read_uff(path)
-    assert back.dataset_types == [18, node_dataset, 82, 82, 82, 58, 58, 58]
+    assert back.dataset_types == [164, 18, node_dataset, 82, 82, 82, 58, 58, 58]
     tol = 0 if binary else 1e-10  # ASCII doubles carry 12 significant digits
     for a, b in zip(funcs, back.functions, strict=True):
         assert (a.name, a.func_type, a.unit, a.x_unit, a.rsp_node, a.rsp_dir, a.ref_node, a.ref_dir) == (
@@ -159,7 +159,7 @@ def test_export_holds_physical_records_and_the_rigs_geometry(thesis_record):
     sets = pyuff.UFF(str(thesis_record / "e1.uff")).read_sets()  # pyuff alone, not our reader
     plated = [b for b in rig.bodies if b.plate is not None]
     sensed = [b for b in rig.bodies if sum(s.body == b.name for s in rig.sensors) > 1]
-    assert [s["type"] for s in sets] == [15] + [82] * (len(plated) + len(sensed)) + [58] * exp.n_channels
+    assert [s["type"] for s in sets] == [164, 15] + [82] * (len(plated) + len(sensed)) + [58] * exp.n_channels
     c = read_uff(thesis_record / "e1.uff")
     geo = c.geometry
     for k, f in enumerate(c.functions):
