@@ -243,6 +243,9 @@ def info_cmd(project: Path = typer.Argument(..., help="Project file."),
                       f"{e['peak_volts'][peak_channel]:.4g} ({peak_channel})",
                       Text(shown(clipped), style="red") if clipped else "-", ", ".join(e["derived"]) or "-")
     console.print(table)
+    if info["imports"]:
+        console.print("imports (not records): " + ", ".join(f"{shown(n)} ({k})" for n, k in info["imports"].items()),
+                      highlight=False, soft_wrap=True)
     if revisions:
         rt = Table(title=f"model revisions (current: {info['current_revision']})")
         for col in ("revision", "model", "effects", "error"):
@@ -291,8 +294,7 @@ def _import(project: Path, file: Path, name: str, fmt: str | None, **options) ->
     res = importer.import_file(project, file, name, **check_options(importer, options))
     for note in res.notes:
         err_console.print(f"warning: {note}", style="yellow", highlight=False, soft_wrap=True)
-    console.print(f"imported {file} as experiment {res.experiment!r} ({importer.name}: {res.summary})",
-                  highlight=False, soft_wrap=True)
+    console.print(f"imported {file} ({importer.name}: {res.summary})", highlight=False, soft_wrap=True)
 
 
 @app.command("import")
@@ -598,22 +600,24 @@ def frf_cmd(
 @app.command("modes")
 def modes_cmd(
     project: Path = typer.Argument(..., help="Project file."),
-    experiment: str = typer.Option(..., "--experiment", help="Experiment name."),
+    experiments: list[str] = typer.Option(..., "--experiment", help="Experiment name; give it several times for "
+                                          "an FRF matrix across experiments (roving hammer, several references)."),
     f_min: float = typer.Option(None, "--fmin", help="Lowest frequency of the fit band (Hz)."),
     f_max: float = typer.Option(None, "--fmax", help="Highest frequency of the fit band (Hz)."),
     max_order: int = typer.Option(50, "--max-order", help="Highest model order (LSCF; SSI-cov state size with --output-only)."),
     at: str = typer.Option(None, "--at", help="Pick poles nearest these frequencies: f1,f2,... (Hz)."),
     figure: Path = typer.Option(None, "--figure", help="Write the stabilisation diagram (.png, .svg, .pdf)."),
+    mac_figure: Path = typer.Option(None, "--mac-figure", help="Write the modes' MAC matrix (AutoMAC; .png, .svg, .pdf)."),
     output_only: bool = typer.Option(False, "--output-only", help="From the responses alone (SSI-cov): operating data, no force."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
     """Natural frequencies, damping ratios and mode shapes identified from measured FRFs (default
-    band: where the hammer's force spectrum and the coherence are usable), or with --output-only
-    from the responses alone."""
+    band: where the hammer's force spectrum and the coherence are usable), of one experiment or of
+    the FRF matrix of several, or with --output-only from the responses alone."""
     import json
 
     from odsuite.core.errors import ConfigError
-    from odsuite.core.modal_project import experiment_modes, experiment_output_only_modes
+    from odsuite.core.modal_project import experiment_modes, experiment_output_only_modes, experiments_modes
 
     try:
         freqs = [float(v) for v in at.split(",")] if at else None
@@ -623,35 +627,55 @@ def modes_cmd(
         if value is not None and not (math.isfinite(value) and value >= 0):  # before the FRF is stored
             raise ConfigError(f"{option}: must be a finite frequency >= 0 Hz, got {value}")
     band = None if f_min is None and f_max is None else (f_min, f_max)
-    if figure is not None:
-        _check_output(figure, project, "--figure")
+    for path, option in ((figure, "--figure"), (mac_figure, "--mac-figure")):
+        if path is not None:
+            _check_output(path, project, option)
+    references = None
+    name = ", ".join(experiments)
     if output_only:
         if freqs is not None:
             raise ConfigError("--at picks poles of the FRF fit; it does not combine with --output-only")
-        res, freq, spectrum = experiment_output_only_modes(project, experiment, f_band=band, max_order=max_order)
+        if len(experiments) > 1:
+            raise ConfigError("--output-only identifies modes of one record: give one --experiment")
+        res, freq, spectrum = experiment_output_only_modes(project, experiments[0], f_band=band, max_order=max_order)
         background = "rms amplitude spectrum of the outputs (unit/√Hz)"
+    elif len(experiments) > 1:
+        res, freq, spectrum, references = experiments_modes(project, experiments, f_band=band, max_order=max_order,
+                                                            frequencies=freqs)
+        background = "rms |H| of the FRF matrix (FRF units)"
     else:
-        res, frf = experiment_modes(project, experiment, f_band=band, max_order=max_order, frequencies=freqs)
+        res, frf = experiment_modes(project, experiments[0], f_band=band, max_order=max_order, frequencies=freqs)
         freq, spectrum, background = frf.frequency, frf.H, "rms |H| of the outputs (FRF units)"
     if figure is not None:
         from odsuite.core.modal_figures import stabilisation_figure
 
-        stabilisation_figure(res, freq, spectrum, figure, title=f"stabilisation diagram of {experiment}",
+        stabilisation_figure(res, freq, spectrum, figure, title=f"stabilisation diagram of {name}",
                              background=background)
+    if mac_figure is not None:
+        from odsuite.core.modal import mac
+        from odsuite.core.modal_figures import mac_figure as draw_mac
+
+        labels = [f"{f:.1f} Hz" for f in res.frequency_hz]
+        draw_mac(mac(res.shapes, res.shapes), mac_figure, labels_a=labels, labels_b=labels,
+                 title=f"AutoMAC of the modes of {name}")
     for note in res.rejected:
         err_console.print(f"note: stable pole not taken as a mode: {note}", highlight=False, soft_wrap=True)
     if as_json:
-        print(json.dumps(res.to_dict()))
+        doc = res.to_dict()
+        if references is not None:
+            doc["references"] = references
+        print(json.dumps(doc))
         return
     lo, hi = res.band_hz
-    table = Table(title=f"modes of {experiment} ({lo:.1f}-{hi:.1f} Hz)")
+    table = Table(title=f"modes of {shown(name)} ({lo:.1f}-{hi:.1f} Hz)")
     for col in ("mode", "f (Hz)", "damping ratio", "stable orders"):
         table.add_column(col)
     for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio), start=1):
         table.add_row(str(k), f"{f:.2f}", f"{z:.5f}", str(res.stable_orders[k - 1]))
     console.print(table)
-    if figure is not None:
-        console.print(f"wrote {figure}", highlight=False, soft_wrap=True)
+    for path in (figure, mac_figure):
+        if path is not None:
+            console.print(f"wrote {path}", highlight=False, soft_wrap=True)
 
 
 @app.command("render")
@@ -667,6 +691,7 @@ def render_cmd(
     frame_step: int = typer.Option(None, "--frame-step", help="Samples per movie frame (default 1)."),
     slowdown: float = typer.Option(None, "--slowdown", help="Slow-motion factor: movie time / real time."),
     ods: float = typer.Option(None, "--ods", help="Animate the operating deflection shape at this frequency (Hz)."),
+    reference: str = typer.Option(None, "--reference", help="With --ods: the reference sensor of an operating record's ODS (cross-spectra)."),
     start: float = typer.Option(None, "--start", help="Movie window start, s from the record's start (default: just before the hit)."),
     end: float = typer.Option(None, "--end", help="Movie window end, s (default: when the motion has decayed to a tenth)."),
     fps: float = typer.Option(None, "--fps", help="Movie frames per second (default 25)."),
@@ -684,8 +709,8 @@ def render_cmd(
     _check_output(output, project, "-o")
     renderer = choose_renderer(registries().renderers, output, figure, "figure" if figure else "movie")
     options = {"model": model, "magnify": parse_magnify(magnify), "view": view, "workers": workers,
-               "frame_step": frame_step, "slowdown": slowdown, "ods_hz": ods, "start": start, "end": end,
-               "fps": fps, "duration": duration}
+               "frame_step": frame_step, "slowdown": slowdown, "ods_hz": ods, "reference": reference, "start": start,
+               "end": end, "fps": fps, "duration": duration}
     res = renderer.render(RenderRequest(project, experiment, output, options,
                                         progress=err_console.is_terminal and not as_json))
     if as_json:
@@ -694,6 +719,68 @@ def render_cmd(
     for note in res.notes:
         err_console.print(f"note: {note}", highlight=False)
     console.print(f"wrote {res.path} ({res.summary})", highlight=False, soft_wrap=True)
+
+
+@app.command("ods")
+def ods_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    experiment: str = typer.Argument(..., help="Experiment name (an operating record, or any record)."),
+    reference: str = typer.Option(..., "--reference", help="Reference sensor: phases are relative to it."),
+    at: float = typer.Option(..., "--at", help="Frequency of the shape, Hz (the nearest spectral line is used)."),
+    movie: Path = typer.Option(None, "--movie", help="Also animate the shape on the rig (.mp4, .gif)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+) -> None:
+    """Operating deflection shape: every response's cross-spectrum to the reference sensor, scaled by
+    the reference's autospectrum (rms amplitude and phase per sensor), and on a rig the bodies'
+    generalized coordinates."""
+    import numpy as np
+
+    from odsuite.core.ods import operating_shape
+    from odsuite.core.plugins import registries
+    from odsuite.core.project import open_project
+    from odsuite.core.renderers import RenderRequest, choose_renderer
+    from odsuite.core.rigidbody import COORDINATE_UNITS, COORDINATES
+
+    if not math.isfinite(at) or at <= 0:
+        raise ConfigError(f"--at: must be a finite frequency > 0 Hz, got {at}")
+    renderer = None
+    if movie is not None:
+        _check_output(movie, project, "--movie")
+        renderer = choose_renderer(registries().renderers, movie, None, "movie")
+    with open_project(project) as p:
+        if experiment not in p.experiment_names():
+            raise ConfigError(f"{project}: no experiment {experiment!r} "
+                              f"(experiments: {', '.join(p.experiment_names()) or 'none'})")
+        res = operating_shape(p, experiment, reference, at)
+    rendered = None
+    if renderer is not None:
+        rendered = renderer.render(RenderRequest(project, experiment, movie, {"ods_hz": at, "reference": reference},
+                                                 progress=err_console.is_terminal and not as_json))
+    if as_json:
+        doc = res.to_dict()
+        doc["notes"] = list(res.notes)
+        if rendered is not None:
+            doc["movie"] = _rendered_doc(renderer, rendered)
+        _print_json(doc)
+        return
+    for note in res.notes:
+        err_console.print(f"note: {note}", highlight=False, soft_wrap=True)
+    console.print(f"{shown(experiment)}: operating deflection shape at {res.frequency_hz:.3f} Hz (line nearest "
+                  f"{res.requested_hz:g} Hz; {res.resolution_hz:.3g} Hz lines, {res.n_segments} segments), "
+                  f"phases relative to {shown(reference)}", highlight=False, soft_wrap=True)
+    table = Table(box=None)
+    for col in ("sensor", "amplitude (rms)", "phase (°)", "coherence"):
+        table.add_column(col)
+    for name, v in res.shape.items():
+        table.add_row(shown(name), f"{abs(v):.4g} {res.units[name]}", f"{np.degrees(np.angle(v)):+.1f}",
+                      f"{res.coherence[name]:.3f}")
+    console.print(table)
+    for body, d in res.coordinates.items():
+        parts = [f"{c} {abs(v):.3g} {u} ∠{np.degrees(np.angle(v)):+.0f}°"
+                 for c, v, u in zip(COORDINATES, d, COORDINATE_UNITS)]
+        console.print(f"{shown(body)} at G (rms displacement): " + ", ".join(parts), highlight=False, soft_wrap=True)
+    if rendered is not None:
+        console.print(f"wrote {rendered.path} ({rendered.summary})", highlight=False, soft_wrap=True)
 
 
 def _rendered_doc(renderer, res) -> dict:

@@ -4,6 +4,7 @@ follows the suffix: .png, .svg, .pdf) and returns the matplotlib Figure for insp
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -128,7 +129,8 @@ def mac_figure(mac_matrix: np.ndarray, path: str | Path, *, labels_a: Sequence[s
     if len(la) != m.shape[0] or len(lb) != m.shape[1]:
         raise DimensionError(f"MAC figure: {len(la)} x {len(lb)} labels for a {m.shape[0]} x {m.shape[1]} matrix")
     path = Path(path)
-    fig = _new_figure(path, (1.6 + 0.7 * m.shape[1], 1.2 + 0.6 * m.shape[0]))
+    width = max(4.0, 1.6 + 0.7 * m.shape[1])
+    fig = _new_figure(path, (width, 1.2 + 0.6 * m.shape[0]))
     ax = fig.add_subplot()
     im = ax.imshow(m, cmap="Greys", vmin=0, vmax=1)
     for i in range(m.shape[0]):
@@ -138,5 +140,5 @@ def mac_figure(mac_matrix: np.ndarray, path: str | Path, *, labels_a: Sequence[s
     ax.set_xticks(range(m.shape[1]), lb, rotation=45, ha="right")
     ax.set_yticks(range(m.shape[0]), la)
     fig.colorbar(im, ax=ax, shrink=0.8)
-    ax.set_title(title)
+    ax.set_title(textwrap.fill(title, int(7 * width)), fontsize=10)  # about 7 characters per inch at 10 pt
     return _save(fig, path)

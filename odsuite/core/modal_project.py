@@ -32,15 +32,28 @@ _UNITS = {
 }
 
 
-def _force_index(names: list[str], units: list[str], force_channel: str | None, where: str) -> int:
+def _force_index(names: list[str], units: list[str], force_channel: str | None, where: str) -> int | None:
+    """The force channel's column: ``force_channel`` (a column's name), else the one column in
+    newtons or named like a force; None when no column is one (an operating record: responses
+    only). A column whose unit says it is a response is never taken as the force."""
     if force_channel is not None:
         if force_channel not in names:
             raise ConfigError(f"{where}: no channel {force_channel!r}; channels are {', '.join(names)}")
-        return names.index(force_channel)
+        k = names.index(force_channel)
+        stype = _UNITS.get(units[k].strip().lower(), (SensorType.NONE, 1.0))[0]
+        if stype not in (SensorType.LOADCELL, SensorType.NONE, SensorType.VOLTAGE):
+            raise ConfigError(f"{where}: --force-channel {force_channel!r} is in {units[k]!r}, a response, "
+                              "not a force")
+        return k
     cand = [i for i, (n, u) in enumerate(zip(names, units)) if u.lower() in ("n", "newtons") or "force" in n.lower()]
-    if len(cand) != 1:
+    if len(cand) > 1:
         raise ConfigError(f"{where}: cannot tell the force channel among {', '.join(names)}; give --force-channel")
-    return cand[0]
+    return cand[0] if cand else None
+
+
+def operating_note(where: str) -> str:
+    return (f"{where}: no force channel (no column in N or named like a force): stored as an operating record, "
+            "responses only (`odsuite ods`, `odsuite modes --output-only`; --force-channel names a force column)")
 
 
 def import_lvm(project: str | Path, lvm_path: str | Path, name: str, force_channel: str | None = None, *,
@@ -72,6 +85,8 @@ def import_lvm(project: str | Path, lvm_path: str | Path, name: str, force_chann
             notes = (f"{lvm_path}: its columns ({', '.join(d.channel_names)}) are not rig {p.rig.name!r}'s channels: "
                      "stored as they are, without the rig's geometry",)
         fidx = _force_index(d.channel_names, d.units, force_channel, str(lvm_path))
+        if fidx is None:
+            notes += (operating_note(str(lvm_path)),)
         # a .lvm in engineering units holds no converter range: limits well above the peaks, so that
         # volt limits are never applied to g or N (clipping is then told by flat tops alone)
         limits = np.maximum(10.0, np.ceil(2 * np.abs(d.data).max(axis=0)))
@@ -79,14 +94,14 @@ def import_lvm(project: str | Path, lvm_path: str | Path, name: str, force_chann
         for k, (n, u) in enumerate(zip(d.channel_names, d.units)):
             stype, sens = _UNITS.get(u.strip().lower(), (SensorType.NONE, 1.0))
             if k == fidx:
-                stype, sens = SensorType.LOADCELL, 1.0  # force values are newtons whatever the label says
+                stype, sens = SensorType.LOADCELL, 1.0  # force values are newtons (volts taken as N)
             channels.append(ChannelInfo(sensor_type=stype, location=n, sensitivity=sens, sampling_rate=d.sampling_rate,
                                         limit_high=float(limits[k]), limit_low=-float(limits[k])))
         p.add_experiment(
             name, d.data, sampling_rate=d.sampling_rate, systeminfo=Systeminfo(channels),
             # a .lvm file holds no geometry: point at the origin, direction +z by convention
-            excitation=Excitation(fidx, np.zeros(3), np.array([0.0, 0.0, 1.0])), source=str(Path(lvm_path).name),
-            channel_names=list(d.channel_names),
+            excitation=None if fidx is None else Excitation(fidx, np.zeros(3), np.array([0.0, 0.0, 1.0])),
+            source=str(Path(lvm_path).name), channel_names=list(d.channel_names),
         )
     return notes
 
@@ -96,8 +111,22 @@ def _scale(exp) -> np.ndarray:
     return np.array([(-1 if c.invert else 1) / (c.sensitivity * c.daq_gain) for c in exp.systeminfo.channels])
 
 
-def _physical(exp) -> np.ndarray:
+def physical(exp) -> np.ndarray:
     return exp.raw() * _scale(exp)
+
+
+#: sensor types whose channels are structural responses (an open input, an auxiliary signal or a
+#: load cell is not)
+RESPONSE_TYPES = (SensorType.ACCELEROMETER, SensorType.PROXIMITY, SensorType.VOLTAGE)
+
+
+def response_columns(exp) -> list[int]:
+    """Columns holding responses: typed response channels other than the force channel; when a
+    record types none (a file of unknown units), every column but the force channel."""
+    force = exp.excitation.force_channel if exp.excitation is not None else None
+    rest = [k for k in range(exp.n_channels) if k != force]
+    typed = [k for k in rest if exp.systeminfo.channels[k].sensor_type in RESPONSE_TYPES]
+    return typed or rest
 
 
 def _converter_ranges(exp, data: np.ndarray) -> list[tuple[float, float] | None]:
@@ -120,7 +149,7 @@ def hits_frf(exp, where: str, *, estimator: str = "H1", record_length: int | Non
     hit is flagged (clipped, double) uses them all rather than failing (the caller says so)."""
     if exp.excitation is None:
         raise ConfigError(f"{where} has no force channel")
-    data = _physical(exp)
+    data = physical(exp)
     limits = _converter_ranges(exp, data)
     fidx = exp.excitation.force_channel
     outs = [k for k in range(exp.n_channels) if k != fidx]
@@ -194,12 +223,55 @@ def experiment_modes(
     return found[0], frf
 
 
+def experiments_modes(
+    project: str | Path, experiments: list[str], *, f_band: tuple[float | None, float | None] | None = None,
+    max_order: int = 50, frequencies: list[float] | None = None,
+) -> tuple[ModalResult, np.ndarray, np.ndarray, dict[str, dict]]:
+    """Modes of an FRF matrix across experiments: a roving hammer (each experiment hits another
+    point) or several references. Every experiment's FRFs (stored as its derived "frf") on the
+    same lines are stacked into one matrix whose rows are "output @ experiment", and fitted with
+    one common denominator (LSCF, ``modal.identify_modes``); the default band is the overlap of the
+    experiments' usable bands. Returns the modes (shapes per row), the frequency lines, the matrix
+    (rows x lines) and each experiment's reference (force point in m, direction)."""
+    from odsuite.core.frf import usable_band
+
+    if len(set(experiments)) != len(experiments):
+        raise ConfigError(f"{project}: an experiment is named twice in {', '.join(experiments)}")
+    frfs = [experiment_frf(project, e)[0] for e in experiments]
+    lines = {f.frequency.size for f in frfs}
+    if len(lines) > 1:  # each hit's window ends where its response has decayed: one common length
+        frfs = [experiment_frf(project, e, record_length=2 * (min(lines) - 1))[0] for e in experiments]
+    first = frfs[0]
+    for e, f in zip(experiments[1:], frfs[1:]):
+        if f.frequency.shape != first.frequency.shape or not np.allclose(f.frequency, first.frequency):
+            raise ConfigError(f"{project}: experiment {e!r} has other frequency lines ({f.frequency.size} up to "
+                              f"{f.frequency[-1]:g} Hz) than {experiments[0]!r} ({first.frequency.size} up to "
+                              f"{first.frequency[-1]:g} Hz): an FRF matrix needs one sampling rate and record length")
+    bands = [usable_band(f.frequency, f.force_autospectrum, f.coherence, f.n_averages) for f in frfs]
+    lo, hi = f_band if f_band is not None else (None, None)
+    lo = max(b[0] for b in bands) if lo is None else lo
+    hi = min(b[1] for b in bands) if hi is None else hi
+    if not lo < hi:
+        raise ConfigError(f"{project}: the experiments' usable bands do not overlap "
+                          f"({'; '.join(f'{e} {b[0]:g}-{b[1]:g} Hz' for e, b in zip(experiments, bands))})")
+    H = np.vstack([f.H for f in frfs])
+    rows = [f"{o} @ {e}" for e, f in zip(experiments, frfs) for o in f.output_names]
+    res = identify_modes(first.frequency, H, f_band=(lo, hi), max_order=max_order, frequencies=frequencies,
+                         output_names=rows)
+    references = {}
+    with open_project(project) as p:
+        for e in experiments:
+            exc = p.experiment(e).excitation
+            references[e] = {"point_m": [float(v) for v in exc.point], "direction": [float(v) for v in exc.direction]}
+    return res, first.frequency, H, references
+
+
 def experiment_output_only_modes(
     project: str | Path, experiment: str, *, f_band: tuple[float | None, float | None] | None = None,
     max_order: int = 40,
 ) -> tuple[ModalResult, np.ndarray, np.ndarray]:
-    """Modes from the experiment's responses alone (SSI-cov, ``oma.identify_output_only``): every
-    channel but the force channel, in SI units. Returns the modes and the responses' rms power
+    """Modes from the experiment's responses alone (SSI-cov, ``oma.identify_output_only``): the
+    response channels (``response_columns``), in SI units. Returns the modes and the responses' rms power
     spectral density (frequencies in Hz, PSD in unit^2/Hz) for the stabilisation figure."""
     import scipy.signal
 
@@ -207,9 +279,8 @@ def experiment_output_only_modes(
 
     with open_project(project) as p:
         exp = p.experiment(experiment)
-        data = _physical(exp)
-        force = exp.excitation.force_channel if exp.excitation is not None else None
-        outs = [k for k in range(exp.n_channels) if k != force]
+        data = physical(exp)
+        outs = response_columns(exp)
         names = [exp.channel_names[k] for k in outs]
         fs = exp.sampling_rate
     res = identify_output_only(data[:, outs], fs, f_band=f_band, max_order=max_order, output_names=names)
@@ -228,7 +299,7 @@ def ods_coordinates(project, experiment: str, frequency_hz: float) -> dict[str, 
     from odsuite.core.prediction import prepare_experiment
     from odsuite.core.modal import ods
     from odsuite.core.plugins import registries
-    from odsuite.core.solvers import body_solvers
+    from odsuite.core.solvers import harmonic_shapes
 
     if not (np.isfinite(frequency_hz) and frequency_hz > 0):
         raise ConfigError(f"ODS frequency: must be > 0 Hz, got {frequency_hz!r}")
@@ -244,17 +315,8 @@ def ods_coordinates(project, experiment: str, frequency_hz: float) -> dict[str, 
             response *= abs(h) ** 2 if zero_phase else h
         accel[list(op.columns)] /= response
     disp = -accel / (2 * np.pi * frequency_hz) ** 2
-    shapes = {}
-    # the solvers are linear in their input: real and imaginary parts as a two-sample record
-    signals = {s.name: np.array([d.real, d.imag]) for s, d in zip(exp.sensors, disp)}
-    chosen, notes = body_solvers(project.rig, signals, registries().coordinate_solvers)
-    for c in chosen:
-        at_g = c.solver.solve(project.rig, c.body, {n: signals[n] for n in c.sensors}).at_g
-        shapes[c.body.name] = at_g[0] + 1j * at_g[1]
-    if not shapes:
-        raise ConfigError(f"{project.path}: rig {project.rig.name!r}: no body's motion can be solved from the "
-                          f"recorded sensors for an ODS ({'; '.join(notes) or 'no sensors'})")
-    return shapes
+    return harmonic_shapes(project.rig, {s.name: d for s, d in zip(exp.sensors, disp)},
+                           registries().coordinate_solvers, f"{project.path}: ODS")
 
 
 def ods_motion(shapes: dict[str, np.ndarray], frequency_hz: float, *, cycles: int = 3,

@@ -632,6 +632,51 @@ class Project:
         g = self.experiment(experiment)._group()
         return [k for k in g["derived"] if not k.startswith(".")] if "derived" in g else []
 
+    # -- imported data that are not records (nodes, FRFs, modes of a file without time data)
+
+    def write_import(self, name: str, kind: str, arrays: Mapping[str, DerivedArray], *, source: str,
+                     attrs: Mapping[str, Any] | None = None) -> None:
+        """Store, atomically, what a file held besides records as ``imports/<name>``: ``kind``
+        ("nodes", "frf", "modes"), numeric ``arrays`` with units and dims, text ``attrs``."""
+        self._require_writable()
+        where = f"{self.path}: import {name!r}"
+        _check_name(str(self.path), "import", name)
+        with self.transaction():
+            root = self._tx["imports"] if "imports" in self._tx else typed_group(self._tx, "imports", "import_set")
+            if name in root:
+                raise ConfigError(f"{where} already exists; choose another --name")
+            g = typed_group(root, name, "import")
+            try:
+                h5text.set_attrs(g, {"kind": kind, "source": source, "created": now()})
+                w = DerivedWriter(g, where)
+                for key, a in arrays.items():
+                    data = np.asarray(a.data)
+                    w.create(key, data.shape, data.dtype, a.units, a.dims)[...] = data
+                attrs = dict(attrs or {})
+                as_json = sorted(k for k, v in attrs.items() if isinstance(v, dict | list | None))
+                h5text.set_attrs(g, {k: to_json(f"{where} attr {k!r}", v) if k in as_json else v
+                                     for k, v in attrs.items()} | {"json_attrs": to_json(where, as_json)})
+            except BaseException:
+                del root[name]
+                raise
+
+    @_reads("imports")
+    def import_names(self) -> dict[str, str]:
+        """Every stored import and its kind."""
+        f = self._file()
+        return {n: h5text.text(g.attrs["kind"]) for n, g in f["imports"].items()} if "imports" in f else {}
+
+    @_reads("import {name!r}")
+    def read_import(self, name: str) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """The datasets and the attributes of an import."""
+        if name not in self.import_names():
+            raise ConfigError(f"{self.path}: no import {name!r} (imports: {', '.join(self.import_names()) or 'none'})")
+        g = self._file()["imports"][name]
+        attrs = {k: h5text.readable(v) for k, v in g.attrs.items()}
+        for k in json.loads(attrs.pop("json_attrs", "[]")):
+            attrs[k] = json.loads(attrs[k])
+        return {k: ds[()] for k, ds in g.items()}, attrs
+
     # -- model revisions
 
     def _revisions(self) -> h5py.Group | None:
@@ -741,6 +786,7 @@ class Project:
             "file_time": h5text.text(a["file_time"]), "file_update_time": h5text.text(a.get("file_update_time", "")),
             "rig": self.rig.name if self.rig else None, "experiments": {},
             "revisions": len(self.model_revisions()), "current_revision": self.current_revision,
+            "imports": self.import_names(),
         }
         for name in self.experiment_names():
             e = self.experiment(name)

@@ -32,7 +32,7 @@ class RigRecord:
 
     raw: np.ndarray  # samples x rig channels
     systeminfo: Systeminfo
-    excitation: Excitation
+    excitation: Excitation | None  # None: an operating record (no force column)
     channel_names: list[str]
     notes: tuple[str, ...] = ()
 
@@ -79,15 +79,19 @@ def onto_rig(rig: Rig, names: Sequence[str], units: Sequence[str], data: np.ndar
     """Lay ``data`` (samples x columns, named ``names`` in ``units``) onto ``rig``'s channels; the
     hammer hit ``point`` (m, rig frame) along ``direction`` (on ``force_body`` when the point lies
     on two bodies); ``force_column`` names the column that is the rig's force channel when its name
-    does not say so."""
-    if rig.force_channel is None:
-        raise ConfigError(f"{where}: rig {rig.name!r} has no force channel (a 'force' sensor or force_channel)")
+    does not say so. A record with no force column and
+    no ``point``/``direction`` is an operating record (responses only, no excitation)."""
     mapping = _columns_to_channels(rig, names, where, force_column)
-    if point is None or direction is None:
-        raise ConfigError(f"{where}: a record on rig {rig.name!r} needs the hammer's --force-point and --force-dir")
-    rig.force_body(point, force_body)  # a known body, or a point that tells one
-    if rig.force_channel not in mapping.values():
-        raise ConfigError(f"{where}: no column is the force channel {rig.force_channel} of rig {rig.name!r}")
+    operating = (point is None and direction is None and force_column is None
+                 and (rig.force_channel is None or rig.force_channel not in mapping.values()))
+    if not operating:
+        if rig.force_channel is None:
+            raise ConfigError(f"{where}: rig {rig.name!r} has no force channel (a 'force' sensor or force_channel)")
+        if point is None or direction is None:
+            raise ConfigError(f"{where}: a record on rig {rig.name!r} needs the hammer's --force-point and --force-dir")
+        rig.force_body(point, force_body)  # a known body, or a point that tells one
+        if rig.force_channel not in mapping.values():
+            raise ConfigError(f"{where}: no column is the force channel {rig.force_channel} of rig {rig.name!r}")
     si = Systeminfo.for_rig(rig, fs)
     channels = list(si.channels)
     raw = np.zeros((data.shape[0], rig.channel_count))
@@ -114,8 +118,12 @@ def onto_rig(rig: Rig, names: Sequence[str], units: Sequence[str], data: np.ndar
     missing = [ch for ch in range(rig.channel_count) if ch not in mapping.values()]
     for ch in missing:
         channels[ch] = replace(channels[ch], sensor_type=SensorType.NONE)
-    excitation = Excitation(rig.force_channel, np.asarray(point, float), np.asarray(direction, float), force_body)
+    excitation = None if operating else Excitation(rig.force_channel, np.asarray(point, float),
+                                                   np.asarray(direction, float), force_body)
     names_out = [next((names[k] for k, c in mapping.items() if c == ch), f"ai{ch}") for ch in range(rig.channel_count)]
     lost = [s.name for s in rig.accelerometers if s.channel in missing]
     notes = (f"{where}: rig sensor(s) {', '.join(lost)} have no column: not recorded",) if lost else ()
+    if operating:
+        notes += (f"{where}: no force column: stored as an operating record, responses only (`odsuite ods`, "
+                  "`odsuite modes --output-only`)",)
     return RigRecord(raw, Systeminfo(channels=channels, rig=si.rig), excitation, names_out, notes)

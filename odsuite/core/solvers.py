@@ -89,3 +89,20 @@ def body_solvers(rig: Rig, available: Iterable[str], registry) -> tuple[list[Bod
         except ConfigError as exc:
             notes.append(str(exc))
     return chosen, notes
+
+
+def harmonic_shapes(rig: Rig, displacements: dict[str, complex], registry, where: str) -> dict[str, np.ndarray]:
+    """Per body whose motion the sensors determine: its six complex generalized coordinates at G
+    (m, rad) from complex sensor displacements (amplitude and phase along each sensor's axis). The
+    solvers are linear in their input, so the real and imaginary parts go through as a two-sample
+    record."""
+    signals = {n: np.array([complex(d).real, complex(d).imag]) for n, d in displacements.items()}
+    chosen, notes = body_solvers(rig, signals, registry)
+    shapes = {}
+    for c in chosen:
+        at_g = c.solver.solve(rig, c.body, {n: signals[n] for n in c.sensors}).at_g
+        shapes[c.body.name] = at_g[0] + 1j * at_g[1]
+    if not shapes:
+        raise ConfigError(f"{where}: rig {rig.name!r}: no body's motion can be solved from the recorded sensors "
+                          f"({'; '.join(notes) or 'no sensors'})")
+    return shapes

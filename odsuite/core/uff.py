@@ -1,12 +1,17 @@
-"""Universal File Format (UFF/UNV) through pyuff: functions (58/58b: time records, FRFs), nodes
-(15, 2411), coordinate systems (18) and trace lines (82).
+"""Universal File Format (UFF/UNV) through pyuff: functions (58/58b: time records, FRFs and the
+other function types), nodes (15, 2411), coordinate systems (18), trace lines (82), header (151),
+units (164) and mode shapes (55).
 
-Node coordinates are returned in the global frame (a node defined in a local coordinate system is
-transformed); each node's displacement coordinate system gives its measurement directions.
+Node coordinates are returned in the global frame and in metres (a node defined in a local
+coordinate system is transformed; lengths are divided by the 164 set's length factor); each node's
+displacement coordinate system gives its measurement directions. A file cut short (a dataset
+without its closing -1, a function with fewer points than its header announces) is refused naming
+the dataset and what is missing.
 """
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -21,6 +26,19 @@ FUNC_FRF = 4
 #: dataset 58 ordinate data types: real double, complex double
 ORD_REAL_DOUBLE = 4
 ORD_COMPLEX_DOUBLE = 6
+#: dataset 58 function types (record 6 field 1) by name, for the reasons given when one is skipped
+FUNCTION_TYPES = {0: "general or unknown", 1: "time response", 2: "auto spectrum", 3: "cross spectrum",
+                  4: "frequency response function", 5: "transmissibility", 6: "coherence", 7: "auto correlation",
+                  8: "cross correlation", 9: "power spectral density", 10: "energy spectral density",
+                  11: "probability density function", 12: "spectrum", 13: "cumulative frequency distribution",
+                  14: "peaks valley", 15: "stress/cycles", 16: "strain/cycles", 17: "orbit", 18: "mode indicator",
+                  19: "force pattern", 20: "partial power", 21: "partial coherence", 22: "eigenvalue",
+                  23: "eigenvector", 24: "shock response spectrum", 25: "finite impulse response filter",
+                  26: "multiple coherence", 27: "order function"}
+#: dataset 58 specific data types (records 8, 9) of SI units: what a record measures
+SPEC_TYPES = {"m": 8, "n": 13, "m/s": 11, "m/s^2": 12, "m/s2": 12, "pa": 15, "s": 17, "hz": 18}
+#: dataset 164 units code 1: SI, metre and newton; factors 1
+SI_UNITS_CODE = 1
 
 
 # dataset-58 header fields pyuff needs written out (0 or "NONE": not specified)
@@ -82,10 +100,26 @@ class UffGeometry:
 
 
 @dataclass(frozen=True)
+class UffMode:
+    """One dataset 55 (modal data): a mode's frequency (Hz), viscous damping ratio when given, and
+    per node its values (translations, then rotations when the set holds six per node)."""
+
+    name: str
+    number: int
+    frequency_hz: float
+    damping_ratio: float
+    node_nums: np.ndarray
+    values: np.ndarray  # nodes x values per node
+
+
+@dataclass(frozen=True)
 class UffContent:
     functions: list[UffFunction]
     geometry: UffGeometry | None
     dataset_types: list[int]
+    modes: list[UffMode] = field(default_factory=list)
+    length_factor: float = 1.0  # dataset 164: file length units per metre
+    header: dict = field(default_factory=dict)  # dataset 151, as pyuff reads it
 
 
 def _rotation(origin, x_point, xz_point) -> np.ndarray:
@@ -106,12 +140,19 @@ def _pyuff():
     return pyuff
 
 
+_SET_START = re.compile(rb"(?:^|\n)[ \t]*-1[ \t]*\r?\n[ \t]*(\d+)(b?)[^\n]*\n")
+
+
 def read_uff(path: str | Path) -> UffContent:
-    """Read every dataset of a UFF file; functions 58/58b and geometry 15/2411/18/82 are kept."""
+    """Read every dataset of a UFF file; functions 58/58b, modes 55, geometry 15/2411/18/82, header
+    151 and units 164 are kept (lengths in metres)."""
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"{path}: UFF file not found")
-    types = uff_checks.check_structure(path, path.read_bytes())
+    try:
+        types = uff_checks.check_structure(path, path.read_bytes())
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read ({exc.strerror or exc})") from None
     pyuff = _pyuff()
     try:
         sets = pyuff.UFF(str(path)).read_sets()
@@ -121,6 +162,8 @@ def read_uff(path: str | Path) -> UffContent:
     uff_checks.check_types(path, types, sets)
     _check_sets(path, sets)
     functions: list[UffFunction] = []
+    modes: list[UffMode] = []
+    length_factor, header = 1.0, {}
     nodes = None
     cs_rot: dict[int, np.ndarray] = {}
     cs_org: dict[int, np.ndarray] = {}
@@ -129,6 +172,9 @@ def read_uff(path: str | Path) -> UffContent:
         t = s.get("type")
         if t == 58:
             data = np.asarray(s["data"])
+            if "num_pts" in s and data.size != int(s["num_pts"]):
+                raise ConfigError(f"{path}: dataset {k} (58 {str(s.get('id1', '')).strip()!r}) holds {data.size} of "
+                                  f"the {int(s['num_pts'])} points its header announces: the file is cut short")
             functions.append(
                 UffFunction(
                     name=str(s.get("id1", "")).strip(),
@@ -155,6 +201,22 @@ def read_uff(path: str | Path) -> UffContent:
                     )
                 cs_rot[int(num)] = _rotation(s["ref_o"][i], s["x_point"][i], s["xz_point"][i])
                 cs_org[int(num)] = np.asarray(s["ref_o"][i], float)
+        elif t == 55:
+            per_node = int(s.get("n_data_per_node", 3))
+            nums = np.asarray(s.get("node_nums", []), dtype=int)
+            cols = [np.asarray(s.get(f"r{i}", []), dtype=complex) for i in range(1, per_node + 1)]
+            if any(c.size != nums.size for c in cols):
+                raise ConfigError(f"{path}: dataset {k} (55 mode {s.get('mode_n')}) holds values for "
+                                  f"{min(c.size for c in cols)} of its {nums.size} nodes: the file is cut short")
+            values = np.column_stack(cols) if cols else np.empty((nums.size, 0))
+            if not np.any(values.imag):
+                values = values.real
+            modes.append(UffMode(str(s.get("id1", "")).strip(), int(s.get("mode_n", len(modes) + 1)),
+                                 float(s.get("freq", np.nan)), float(s.get("modal_damp_vis", 0.0)), nums, values))
+        elif t == 164:
+            length_factor = float(s.get("length", 1.0)) or 1.0
+        elif t == 151:
+            header = {key: v for key, v in s.items() if key != "type"}
         elif t == 82:
             traces.append((str(s.get("id", "")).strip(), [int(n) for n in np.asarray(s["nodes"])[: int(s["n_nodes"])]]))
     geometry = None
@@ -166,15 +228,16 @@ def read_uff(path: str | Path) -> UffContent:
                 if cs not in cs_rot:
                     raise ConfigError(f"{path}: node {int(nodes['node_nums'][i])} uses undefined coordinate system {cs}")
                 xyz[i] = cs_org[cs] + cs_rot[cs] @ xyz[i]
+        # 164: a length in file units is the length in metres times the factor
         geometry = UffGeometry(
             node_nums=np.asarray(nodes["node_nums"], dtype=int),
-            xyz=xyz,
+            xyz=xyz / length_factor,
             disp_cs=np.asarray(nodes["disp_cs"], dtype=int),
             cs_rotation=cs_rot,
-            cs_origin=cs_org,
+            cs_origin={c: o / length_factor for c, o in cs_org.items()},
             trace_lines=traces,
         )
-    return UffContent(functions, geometry, [int(s.get("type", 0)) for s in sets])
+    return UffContent(functions, geometry, [int(s.get("type", 0)) for s in sets], modes, length_factor, header)
 
 
 def _check_sets(path: Path, sets: list[dict]) -> None:
@@ -194,6 +257,16 @@ def time_function(name: str, data: np.ndarray, dt: float, unit: str, *, node: in
     return UffFunction(name, FUNC_TIME, np.arange(data.size) * dt, data, unit, "s", node, direction)
 
 
+def _spec_fields(f: UffFunction) -> dict:
+    """Specific data types of a function's ordinate (and of an FRF's denominator, a force) from
+    its SI unit; 0 (unknown) for units not listed."""
+    unit = f.unit.strip().lower()
+    if f.func_type == FUNC_FRF and unit.endswith("/n"):
+        return {"ordinate_spec_data_type": SPEC_TYPES.get(unit[:-2].strip("()"), 0),
+                "orddenom_spec_data_type": SPEC_TYPES["n"]}
+    return {"ordinate_spec_data_type": SPEC_TYPES.get(unit, 0)}
+
+
 def write_uff(
     path: str | Path,
     *,
@@ -203,15 +276,18 @@ def write_uff(
     node_dataset: int = 15,
     overwrite: bool = False,
 ) -> None:
-    """Write functions (58, binary 58b by default: doubles, lossless), coordinate systems (18, the
-    nodes' displacement systems), nodes (15 or 2411, global coordinates) and trace lines (82)."""
+    """Write the units (164: SI, metre and newton), functions (58, binary 58b by default: doubles,
+    lossless; each with its function type and the specific data types of its ordinate, and of an
+    FRF's denominator, from its unit), coordinate systems (18, the nodes' displacement systems),
+    nodes (15 or 2411, global coordinates in m) and trace lines (82)."""
     path = Path(path)
     if path.exists() and not overwrite:
         raise ConfigError(f"{path}: file exists; refusing to overwrite")
     if node_dataset not in (15, 2411):
         raise ConfigError(f"node dataset {node_dataset} must be 15 or 2411")
     pyuff = _pyuff()
-    sets = []
+    sets = [pyuff.prepare_164(units_code=SI_UNITS_CODE, units_description="SI - mks (Newton)", temp_mode=2,
+                              length=1.0, force=1.0, temp=1.0, temp_offset=273.15, return_full_dict=True)]
     if geometry is not None:
         used = sorted({int(c) for c in geometry.disp_cs if c})
         if used:
@@ -253,12 +329,13 @@ def write_uff(
             num_pts=f.data.size, abscissa_spacing=1, abscissa_min=float(f.x[0]),
             abscissa_inc=float(f.x[1] - f.x[0]) if f.x.size > 1 else 1.0,
             abscissa_spec_data_type=17 if f.is_time else 18,
+            **_spec_fields(f),
             abscissa_axis_units_lab=f.x_unit or "NONE", ordinate_axis_units_lab=f.unit or "NONE",
             data=f.data, x=f.x, return_full_dict=True,
         )
         d = pyuff.prepare_58(**fields)
         sets.append(d)
-    if not sets:
+    if len(sets) == 1:
         raise ConfigError(f"{path}: nothing to write (no functions and no geometry)")
     # pyuff's "overwrite" mode truncates the file again after a first binary 58 set's header and data:
     # start from an empty file and add every set

@@ -14,11 +14,20 @@ from pathlib import Path
 import numpy as np
 
 from odsuite.core.errors import ConfigError
-from odsuite.core.modal_project import _UNITS, _force_index, _physical
+from odsuite.core.modal_project import _UNITS, _force_index, operating_note, physical
 from odsuite.core.project import DerivedArray, Excitation, Project, open_project
 from odsuite.core.rigidbody import CORNERS, plate_corners
 from odsuite.core.systeminfo import ChannelInfo, SensorType, Systeminfo
-from odsuite.core.uff import FUNC_FRF, UffFunction, UffGeometry, read_uff, time_function, write_uff
+from odsuite.core.uff import (
+    FUNC_FRF,
+    FUNCTION_TYPES,
+    UffFunction,
+    UffGeometry,
+    UffMode,
+    read_uff,
+    time_function,
+    write_uff,
+)
 from odsuite.core.version import __version__
 
 #: Corners of a plate's top face (body z points down into the plate: z = 0 is the top) in drawing order.
@@ -31,22 +40,93 @@ def _node_point(geometry: UffGeometry | None, node: int, direction: int) -> tupl
     return geometry.xyz[np.flatnonzero(geometry.node_nums == node)[0]], geometry.direction(node, direction)
 
 
-def import_uff(project: str | Path, uff_path: str | Path, name: str, force_channel: str | None = None) -> str:
-    """Add the time records of a UFF file as experiment ``name``; FRFs in the file are stored as
-    its derived "frf" (frequency, H_real, H_imag). Returns ``name``.
+def _nodes_arrays(geometry: UffGeometry) -> tuple[dict[str, DerivedArray], dict]:
+    """A geometry as stored: node numbers, global coordinates (m) and each node's displacement
+    system (columns: its x, y, z directions in the global frame); trace lines as an attribute."""
+    axes = np.array([np.column_stack([geometry.direction(int(n), d) for d in (1, 2, 3)]) for n in geometry.node_nums])
+    return ({"node_nums": DerivedArray(geometry.node_nums, "1", ("node",)),
+             "xyz": DerivedArray(geometry.xyz, "m", ("node", "axis")),
+             "directions": DerivedArray(axes, "1", ("node", "axis", "direction"))},
+            {"trace_lines": [[name, [int(n) for n in nodes]] for name, nodes in geometry.trace_lines]})
 
-    All time records must share their length and sampling interval. The force channel is
-    ``force_channel`` (a record's name), else the one record in newtons or named "force"; the hit's
-    point and direction come from the force record's node when the file has geometry.
+
+def _modes_arrays(modes: list[UffMode], where: str) -> dict[str, DerivedArray]:
+    nums = modes[0].node_nums
+    for m in modes:
+        if not np.array_equal(m.node_nums, nums) or m.values.shape != modes[0].values.shape:
+            raise ConfigError(f"{where}: mode {m.number} ({m.frequency_hz:g} Hz) is given at other nodes than mode "
+                              f"{modes[0].number}; modes of one import share their nodes")
+    shapes = np.array([m.values for m in modes], dtype=complex)
+    dims = ("mode", "node", "value")
+    return {"frequency_hz": DerivedArray(np.array([m.frequency_hz for m in modes]), "Hz", ("mode",)),
+            "damping_ratio": DerivedArray(np.array([m.damping_ratio for m in modes]), "1", ("mode",)),
+            "mode_nodes": DerivedArray(nums, "1", ("node",)),
+            "shape_real": DerivedArray(shapes.real, "1", dims), "shape_imag": DerivedArray(shapes.imag, "1", dims)}
+
+
+def _frf_arrays(frfs: list[UffFunction], where: str) -> tuple[dict[str, DerivedArray], dict]:
+    freq = frfs[0].x
+    for f in frfs:
+        if f.x.shape != freq.shape or not np.allclose(f.x, freq):
+            raise ConfigError(f"{where}: FRF {f.name!r} has other frequency lines than FRF {frfs[0].name!r}")
+    H = np.array([np.asarray(f.data, dtype=complex) for f in frfs])
+    dims = ("output", "frequency")
+    units = ";".join(f.unit for f in frfs)
+    return ({"frequency": DerivedArray(freq, "Hz", ("frequency",)),
+             "H_real": DerivedArray(H.real, units, dims), "H_imag": DerivedArray(H.imag, units, dims)},
+            {"outputs": json.dumps([f.name for f in frfs]), "n_averages": 0,
+             "nodes": json.dumps([[f.rsp_node, f.rsp_dir, f.ref_node, f.ref_dir] for f in frfs])})
+
+
+def import_uff(project: str | Path, uff_path: str | Path, name: str,
+               force_channel: str | None = None) -> tuple[str, tuple[str, ...]]:
+    """Add a UFF file to a project under ``name``; returns what was stored and notes for the user.
+
+    Time records (58, function type 1) become experiment ``name`` (all of one length and sampling
+    interval; the force channel is ``force_channel``, else the one record in newtons or named like
+    a force, else none: an operating record), with the file's FRFs as its derived "frf". A file
+    without time records is stored as import ``name``: its FRFs ("frf"), modes (55: "modes") or
+    else its nodes ("nodes"), each with the file's nodes when it has some. Other function types
+    (spectra, PSDs, coherences) are not records: they are named in a note, or refused when the file
+    holds nothing else.
     """
     uff_path = Path(uff_path)
     content = read_uff(uff_path)
     if not content.dataset_types:
         raise ConfigError(f"{uff_path}: no UFF datasets found (not a UFF file, or cut short)")
     records = [f for f in content.functions if f.is_time]
-    if not records:
-        raise ConfigError(f"{uff_path}: no time records (dataset 58 with a time abscissa) among datasets "
-                          f"{sorted(set(content.dataset_types))}")
+    frfs = [f for f in content.functions if f.func_type == FUNC_FRF]
+    others = [f for f in content.functions if not f.is_time and f.func_type != FUNC_FRF]
+    skipped = [f"58 {f.name!r} is a {FUNCTION_TYPES.get(f.func_type, f'function of type {f.func_type}')} "
+               f"(function type {f.func_type}), not a record" for f in others]
+    if not records and not frfs and not content.modes and content.geometry is None:
+        reason = "; ".join(skipped) or f"datasets {sorted(set(content.dataset_types))} hold no records, FRFs, modes or nodes"
+        raise ConfigError(f"{uff_path}: nothing to import: {reason}")
+    notes = tuple(f"{uff_path}: {s}: not imported" for s in skipped)
+    if records:
+        return _import_records(project, uff_path, name, content, records, frfs, force_channel, notes)
+    arrays: dict[str, DerivedArray] = {}
+    attrs: dict = {}
+    if content.geometry is not None:
+        more, attrs = _nodes_arrays(content.geometry)
+        arrays |= more
+    kind = "modes" if content.modes else "frf" if frfs else "nodes"
+    if content.modes:
+        arrays |= _modes_arrays(content.modes, str(uff_path))
+    if frfs:
+        more, frf_attrs = _frf_arrays(frfs, str(uff_path))
+        arrays |= more
+        attrs |= frf_attrs
+    with open_project(project, "a") as p:
+        p.write_import(name, kind, arrays, source=uff_path.name, attrs=attrs)
+    counts = {"modes": f"{len(content.modes)} modes", "frf": f"{len(frfs)} FRFs",
+              "nodes": f"{content.geometry.node_nums.size if content.geometry else 0} nodes"}
+    extra = f", {content.geometry.node_nums.size} nodes" if kind != "nodes" and content.geometry else ""
+    return f"{counts[kind]}{extra} as import {name!r} ({kind})", notes
+
+
+def _import_records(project, uff_path: Path, name: str, content, records: list[UffFunction],
+                    frfs: list[UffFunction], force_channel: str | None, notes: tuple[str, ...]):
     first = records[0]
     dt = float(first.x[1] - first.x[0]) if first.x.size > 1 else 0.0
     if not dt > 0:
@@ -66,6 +146,8 @@ def import_uff(project: str | Path, uff_path: str | Path, name: str, force_chann
         names.append(label if label not in names else f"{label}#{k}")
     units = [f.unit for f in records]
     fidx = _force_index(names, units, force_channel, str(uff_path))
+    if fidx is None:
+        notes += (operating_note(str(uff_path)),)
     fs = 1.0 / dt
     raw = np.column_stack([f.data for f in records]).astype(float)
     # values in engineering units, not volts: converter limits well above the peaks, so no false clipping
@@ -77,34 +159,26 @@ def import_uff(project: str | Path, uff_path: str | Path, name: str, force_chann
             stype, sens = SensorType.LOADCELL, 1.0
         channels.append(ChannelInfo(sensor_type=stype, location=n, sensitivity=sens, sampling_rate=fs,
                                     limit_high=float(limits[k]), limit_low=-float(limits[k])))
-    hit = _node_point(content.geometry, records[fidx].rsp_node, records[fidx].rsp_dir)
-    point, direction = hit if hit is not None else (np.zeros(3), np.array([0.0, 0.0, 1.0]))
-    frfs = [f for f in content.functions if f.func_type == FUNC_FRF]
+    excitation = None
+    if fidx is not None:
+        hit = _node_point(content.geometry, records[fidx].rsp_node, records[fidx].rsp_dir)
+        point, direction = hit if hit is not None else (np.zeros(3), np.array([0.0, 0.0, 1.0]))
+        excitation = Excitation(fidx, point, direction)
     with open_project(project, "a") as p, p.transaction():
-        p.add_experiment(name, raw, sampling_rate=fs,
-                         systeminfo=Systeminfo(channels), excitation=Excitation(fidx, point, direction),
+        p.add_experiment(name, raw, sampling_rate=fs, systeminfo=Systeminfo(channels), excitation=excitation,
                          source=uff_path.name, channel_names=names)
         if frfs:
             _store_frfs(p, name, frfs, uff_path)
-    return name
+    stored = f"{len(records)} time record{'s' * (len(records) > 1)} as experiment {name!r}"
+    return stored + (f", {len(frfs)} FRFs" if frfs else ""), notes
 
 
 def _store_frfs(p: Project, name: str, frfs: list[UffFunction], uff_path: Path) -> None:
-    freq = frfs[0].x
-    for f in frfs:
-        if f.x.shape != freq.shape or not np.allclose(f.x, freq):
-            raise ConfigError(f"{uff_path}: FRF {f.name!r} has other frequency lines than FRF {frfs[0].name!r}")
-    H = np.array([np.asarray(f.data, dtype=complex) for f in frfs])
-    dims = ("output", "frequency")
-    units = ";".join(f.unit for f in frfs)
-    p.write_derived(
-        name, "frf",
-        {"frequency": DerivedArray(freq, "Hz", ("frequency",)),
-         "H_real": DerivedArray(H.real, units, dims), "H_imag": DerivedArray(H.imag, units, dims)},
-        provenance={"plugin": "odsuite.uff", "version": __version__, "parameters": {"source": uff_path.name},
-                    "inputs": [p.experiment(name).object_id]},
-        attrs={"outputs": json.dumps([f.name for f in frfs]), "n_averages": 0,
-               "nodes": json.dumps([[f.rsp_node, f.rsp_dir, f.ref_node, f.ref_dir] for f in frfs])})
+    arrays, attrs = _frf_arrays(frfs, str(uff_path))
+    p.write_derived(name, "frf", arrays,
+                    provenance={"plugin": "odsuite.uff", "version": __version__, "parameters": {"source": uff_path.name},
+                                "inputs": [p.experiment(name).object_id]},
+                    attrs=attrs)
 
 
 def _direction_code(axis: np.ndarray) -> int:
@@ -123,24 +197,48 @@ def _local_system(axis: np.ndarray) -> np.ndarray:
 
 
 class _Nodes:
-    """Nodes of an export: a point and a measuring direction each, direction codes in the node's
-    displacement system (a local one when the direction is not a global axis)."""
+    """Nodes of an export: one node per location (a triaxial sensor's three channels share it),
+    direction codes in the node's displacement system (a local one, made from the first
+    direction, when a direction is not a global axis; a direction that fits neither gets a node of
+    its own at the same place)."""
+
+    #: points closer than this (m) are one location: far below any sensor's size
+    SAME_PLACE_M = 1e-9
 
     def __init__(self) -> None:
         self.xyz: list[np.ndarray] = []
         self.disp_cs: list[int] = []
+        self.directed: list[bool] = []
         self.rotation: dict[int, np.ndarray] = {}
 
+    def _local(self, axis: np.ndarray) -> int:
+        cs = len(self.rotation) + 1
+        self.rotation[cs] = _local_system(axis)
+        return cs
+
     def add(self, point: np.ndarray, axis: np.ndarray | None = None) -> tuple[int, int]:
+        p = np.asarray(point, dtype=float)
+        a = None if axis is None else np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+        for i, q in enumerate(self.xyz):
+            if not np.allclose(q, p, rtol=0, atol=self.SAME_PLACE_M):
+                continue
+            if a is None:
+                return i + 1, 0
+            R = self.rotation.get(self.disp_cs[i], np.eye(3))
+            if code := _direction_code(R.T @ a):
+                self.directed[i] = True
+                return i + 1, code
+            if not self.directed[i] and self.disp_cs[i] == 0:
+                self.disp_cs[i], self.directed[i] = self._local(a), True
+                return i + 1, 1
         code, cs = 0, 0
-        if axis is not None:
-            code = _direction_code(axis)
+        if a is not None:
+            code = _direction_code(a)
             if code == 0:
-                cs = len(self.rotation) + 1
-                self.rotation[cs] = _local_system(axis)
-                code = 1
-        self.xyz.append(np.asarray(point, dtype=float))
+                cs, code = self._local(a), 1
+        self.xyz.append(p)
         self.disp_cs.append(cs)
+        self.directed.append(a is not None)
         return len(self.xyz), code
 
     def geometry(self, traces: list[tuple[str, list[int]]]) -> UffGeometry:
@@ -165,7 +263,7 @@ def export_uff(project: str | Path, out: str | Path, experiment: str | None = No
         rig = p.rig
         frf = p.read_derived(experiment, "frf") if "frf" in p.derived_kinds(experiment) else None
         frf_outputs = json.loads(p.derived_info(experiment, "frf")["attrs"]["outputs"]) if frf else []
-        data = _physical(exp)
+        data = physical(exp)
     nodes = _Nodes()
     traces: list[tuple[str, list[int]]] = []
     at: dict[int, tuple[int, int]] = {}  # channel -> (node, direction code)
@@ -179,7 +277,7 @@ def export_uff(project: str | Path, out: str | Path, experiment: str | None = No
             for s in sensors:
                 at[s.channel] = nodes.add(s.position, np.asarray(s.axis, dtype=float))
             if len(sensors) > 1:
-                traces.append((f"{body.name} sensors", [at[s.channel][0] for s in sensors]))
+                traces.append((f"{body.name} sensors", list(dict.fromkeys(at[s.channel][0] for s in sensors))))
         if exp.excitation is not None:
             at[exp.excitation.force_channel] = nodes.add(exp.excitation.point, exp.excitation.direction)
     functions = [time_function(exp.channel_names[k], data[:, k], 1.0 / exp.sampling_rate,

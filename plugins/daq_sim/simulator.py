@@ -20,6 +20,7 @@ from odsuite_plugins.daq_sim.chain import (
     run_analog,
 )
 from odsuite_plugins.daq_sim.hammer import Hit, half_sine_force
+from odsuite_plugins.daq_sim.operating import DEFAULT_FORCE_RMS, operating_forces, parse_operating
 from odsuite_plugins.daq_sim.scenarios import scenario as get_scenario
 
 from odsuite.core.daq import (
@@ -36,7 +37,7 @@ from odsuite.core.daq import (
 from odsuite.core.errors import ConfigError, HardwareError
 from odsuite.core.excitation import Excitation
 from odsuite.core.rig import Rig
-from odsuite.core.systeminfo import Systeminfo
+from odsuite.core.systeminfo import SensorType, Systeminfo
 
 #: ``truth(force, fs, point, direction[, body=NAME]) -> accelerations``: force (N) sampled at fs;
 #: returns (samples x sensors) m/s^2 along each rig accelerometer's axis at its position, in
@@ -150,7 +151,11 @@ class SimulatedRig:
                BackendOption("adc_bits", int, None, f"ADC resolution, bits {MIN_ADC_BITS}-{MAX_ADC_BITS} "
                                                     "(default 12: the thesis's E-series card)"),
                BackendOption("noise", float, 1.0, "scale of the ADC-input noise, offsets and drift "
-                                                  f"(1: the thesis's floor, 0: none, at most {MAX_NOISE_SCALE:g})"))
+                                                  f"(1: the thesis's floor, 0: none, at most {MAX_NOISE_SCALE:g})"),
+               BackendOption("operating", str, None, "a running machine instead of the hammer: random, sweep or "
+                                                     "unbalance:HZ at the force point (no force channel stored)"),
+               BackendOption("force_rms", float, None, "operating: rms force in N (default 0.5 N; unbalance: the "
+                                                       "rotating force's magnitude)"))
 
     def __init__(self, truth_factory: Callable[..., Truth] | None = None) -> None:
         self._truth_factory = truth_factory
@@ -176,6 +181,8 @@ class SimulatedRig:
         adc_bits: int | None = None,
         force_body: str | None = None,
         contact_ms: float | None = None,
+        operating: str | None = None,
+        force_rms: float | None = None,
     ) -> Recording:
         """Strike the virtual rig and return the triggered record.
 
@@ -185,6 +192,8 @@ class SimulatedRig:
         ``effects`` applied: hidden from the Systeminfo). ``chains`` replaces channels' chains
         (e.g. a sensor whose true sensitivity differs from its nominal one). ``truth_rig``: a rig
         file whose model, sensor axes, positions and sensitivities make the record instead.
+        ``operating`` (random, sweep, unbalance:HZ) records a running machine instead
+        (``force_rms``): see :meth:`_operating_record`.
         """
         if rig is None:
             raise ConfigError("the simulated rig needs a project with a rig (created without --rig none)")
@@ -197,6 +206,15 @@ class SimulatedRig:
         # the simulation runs at oversample times the rate, all channels at once
         check_record_fits(settings.n_samples * int(oversample), len(rig.sensors),
                           f"simulator: --samples {settings.n_samples} (oversampled {oversample}x)")
+        if not (np.isfinite(noise) and 0 <= noise <= MAX_NOISE_SCALE):
+            raise ConfigError(f"--noise: a scale from 0 to {MAX_NOISE_SCALE:g}, got {noise!r}")
+        if adc_bits is not None and not MIN_ADC_BITS <= adc_bits <= MAX_ADC_BITS:
+            raise ConfigError(f"--adc-bits: an integer from {MIN_ADC_BITS} to {MAX_ADC_BITS}, got {adc_bits!r}")
+        if operating is None and force_rms is not None:
+            raise ConfigError("--force-rms sets an operating load: give --operating too")
+        if operating is not None and (hits is not None or force_peak is not None or contact_ms is not None):
+            raise ConfigError("--operating records a running machine: drop the hammer's hits, --force-peak and "
+                              "--contact-ms")
         if scenario is None and point is None and direction is None:
             scenario = "T1"
         sc = get_scenario(scenario) if scenario else None
@@ -207,6 +225,11 @@ class SimulatedRig:
         if point.shape != (3,) or direction.shape != (3,) or not np.linalg.norm(direction) > 0:
             raise ConfigError(f"simulator: force point {point.tolist()} / direction {direction.tolist()} must be 3-vectors, direction non-zero")
         direction = direction / np.linalg.norm(direction)
+        if operating is not None:
+            return self._operating_record(rig, settings, operating, point, direction, truth, effects, chains,
+                                          int(oversample), noise, seed, progress,
+                                          DEFAULT_FORCE_RMS if force_rms is None else force_rms, truth_rig,
+                                          adc_bits)
         hits = list(hits if hits is not None else sc.hits if sc is not None else (Hit(),))
         if not hits:
             raise ConfigError("simulator: at least one hit is needed")
@@ -219,29 +242,9 @@ class SimulatedRig:
             hits = [replace(h, width=1e-3 * contact_ms) for h in hits]
         for i, h in enumerate(hits):
             h.validate(f"simulator hit {i}")
-        if not (np.isfinite(noise) and 0 <= noise <= MAX_NOISE_SCALE):
-            raise ConfigError(f"--noise: a scale from 0 to {MAX_NOISE_SCALE:g}, got {noise!r}")
-        if adc_bits is not None and not MIN_ADC_BITS <= adc_bits <= MAX_ADC_BITS:
-            raise ConfigError(f"--adc-bits: an integer from {MIN_ADC_BITS} to {MAX_ADC_BITS}, got {adc_bits!r}")
         systeminfo = rig_systeminfo(rig, settings.sampling_rate)
-        all_chains = default_chains(rig, systeminfo, noise=noise, adc_bits=adc_bits)
-        if truth_rig is not None:
-            if truth is not None or effects:
-                raise ConfigError("simulator: give a truth rig, a truth or effects, not two of them")
-            from odsuite_plugins.daq_sim.truth import rig_file_truth
-
-            truth, true_sensitivity = rig_file_truth(rig, truth_rig)
-            for ch, (sensitivity, sign) in true_sensitivity.items():
-                all_chains[ch] = replace(all_chains[ch], sensitivity=sensitivity, sign=sign)
-        for ch, chain in (chains or {}).items():
-            if ch not in all_chains:
-                raise ConfigError(f"simulator option 'chains': rig {rig.name!r} has no channel {ch}")
-            chain.validate(f"simulator chain of channel {ch}")
-            all_chains[ch] = chain
-        if truth is None:
-            truth = self._default_truth(rig, effects)
-        elif effects:
-            raise ConfigError("simulator: give either a truth or effects on the rig's default model, not both")
+        truth, true_sensitivity = self._truth(rig, truth, effects, truth_rig)
+        all_chains = _record_chains(rig, systeminfo, chains, noise, adc_bits, true_sensitivity)
 
         rng = np.random.default_rng(seed)
         fs, n, pre = settings.sampling_rate, settings.n_samples, settings.pretrigger
@@ -304,12 +307,90 @@ class SimulatedRig:
             progress(WAITING, 0, n)
         return rec
 
+    def _operating_record(self, rig, settings, operating, point, direction, truth, effects, chains, oversample,
+                          noise, seed, progress, force_rms, truth_rig=None, adc_bits=None) -> Recording:
+        """A running machine: the operating load at ``point`` (its line, or the rotor's axis, along
+        ``direction``) for the whole record, no trigger. The force channel's input is left open
+        (no load cell: the ADC's noise only) and named as an unused input; no excitation is stored."""
+        fs, n = settings.sampling_rate, settings.n_samples
+        load = parse_operating(operating, fs)
+        truth, true_sensitivity = self._truth(rig, truth, effects, truth_rig)
+        rng = np.random.default_rng(seed)
+        fine = fs * oversample
+        # a settling lead: the record starts once the machine runs steadily (five time constants of
+        # the slowest rig mode are far below a second; the sensors' own high-passes settle with it)
+        lead = int(round(1.0 * fs))
+        n_fine = (lead + n) * oversample
+        loads = operating_forces(load, n_fine, fine, fs, direction, force_rms, rng)
+        acc = sum(np.asarray(truth(f, fine, point, d), dtype=float) for f, d in loads)
+        sensors = rig.accelerometers
+        if acc.shape != (n_fine, len(sensors)):
+            raise HardwareError(f"simulator: the truth model returned shape {acc.shape}, expected {(n_fine, len(sensors))}")
+        systeminfo = rig_systeminfo(rig, fs)
+        fch = rig.force_channel
+        open_input = replace(systeminfo.channels[fch], sensor_type=SensorType.NONE, location="", serial="")
+        systeminfo = Systeminfo([open_input if k == fch else c for k, c in enumerate(systeminfo.channels)],
+                                rig=systeminfo.rig)
+        all_chains = _record_chains(rig, systeminfo, chains, noise, adc_bits, true_sensitivity)
+        raw = np.empty((n, rig.channel_count))
+        clipped: dict[int, int] = {}
+        for ch in range(rig.channel_count):
+            chain = all_chains[ch]
+            idx = next((i for i, s in enumerate(sensors) if s.channel == ch), None)
+            quantity = acc[:, idx] if idx is not None else np.zeros(n_fine)
+            volts = run_analog(chain, quantity, fine)[::oversample][lead:]
+            volts = volts + adc_input_disturbances(chain, n, fs, rng)
+            if count := chain.clipped(volts):
+                clipped[ch] = count
+            raw[:, ch] = chain.quantise(volts)
+        names = [f"ai{ch}" if ch == fch else channel_name(rig, ch) for ch in range(rig.channel_count)]
+        where = ",".join(f"{1e3 * v:g}" for v in point)
+        axis = ",".join(f"{v:g}" for v in direction)
+        return Recording(
+            chunks=_chunks(raw, settings.chunk_size, progress), n_samples=n, sampling_rate=fs, pretrigger=0,
+            systeminfo=systeminfo, excitation=None, channel_names=names,
+            source=f"daq_sim operating={load} force_rms={force_rms:g}N point_mm={where} direction={axis} "
+                   f"seed={seed} oversample={oversample}",
+            clipped=clipped, notes=_front_end_notes(rig),
+        )
+
+    def _truth(self, rig: Rig, truth: Truth | None, effects: Sequence[tuple[str, Mapping[str, Any]]],
+               truth_rig: str | None = None) -> tuple[Truth, dict[int, tuple[float, float]]]:
+        """The truth and {channel: (sensitivity, sign)} of sensors whose truth differs from the rig."""
+        if truth_rig is not None:
+            if truth is not None or effects:
+                raise ConfigError("simulator: give a truth rig, a truth or effects, not two of them")
+            from odsuite_plugins.daq_sim.truth import rig_file_truth
+
+            return rig_file_truth(rig, truth_rig)
+        if truth is None:
+            return self._default_truth(rig, effects), {}
+        if effects:
+            raise ConfigError("simulator: give either a truth or effects on the rig's default model, not both")
+        return truth, {}
+
     def _default_truth(self, rig: Rig, effects: Sequence[tuple[str, Mapping[str, Any]]]) -> Truth:
         if self._truth_factory is None:
             from odsuite_plugins.daq_sim.truth import model_truth
 
             return model_truth(rig, effects)
         return self._truth_factory(rig, effects)
+
+
+def _record_chains(rig: Rig, systeminfo: Systeminfo, chains: Mapping[int, ChannelChain] | None,
+                   noise: float, adc_bits: int | None = None,
+                   true_sensitivity: Mapping[int, tuple[float, float]] | None = None) -> dict[int, ChannelChain]:
+    """The default chains of the record's channels, with a truth rig's sensitivities and the
+    caller's replacements."""
+    out = default_chains(rig, systeminfo, noise=noise, adc_bits=adc_bits)
+    for ch, (sensitivity, sign) in (true_sensitivity or {}).items():
+        out[ch] = replace(out[ch], sensitivity=sensitivity, sign=sign)
+    for ch, chain in (chains or {}).items():
+        if ch not in out:
+            raise ConfigError(f"simulator option 'chains': rig {rig.name!r} has no channel {ch}")
+        chain.validate(f"simulator chain of channel {ch}")
+        out[ch] = chain
+    return out
 
 
 def _chunks(raw: np.ndarray, size: int, progress: Progress | None) -> Iterator[np.ndarray]:

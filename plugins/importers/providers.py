@@ -26,7 +26,7 @@ class LegacyImporter:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             import_legacy(project, file, systeminfo, name, force_point, force_dir)
-        return Imported(name, f"{Path(file).name} with Systeminfo {Path(systeminfo).name}",
+        return Imported(name, f"{Path(file).name} with Systeminfo {Path(systeminfo).name} as experiment {name!r}",
                         tuple(str(w.message) for w in caught))
 
 
@@ -49,20 +49,21 @@ class LvmImporter:
                            force_point=None if force_point is None else parse_force_point(force_point),
                            force_dir=None if force_dir is None else parse_force_direction(force_dir),
                            force_body=force_body)
-        return Imported(name, f"LabVIEW file {Path(file).name}", tuple(notes))
+        return Imported(name, f"LabVIEW file {Path(file).name} as experiment {name!r}", tuple(notes))
 
 
 class UffImporter:
     name = "uff"
-    description = "universal file format: time records (dataset 58) as the record, FRFs as derived 'frf'"
+    description = ("universal file format: time records (58) as the record and its FRFs; a file without them as "
+                   "an import of its FRFs, modes (55) or nodes (15/2411 with 18, 82, 164)")
     suffixes = (".uff", ".unv")
     options = (FORCE_CHANNEL,)
 
     def import_file(self, project, file, name, *, force_channel=None) -> Imported:
         from odsuite.core.uff_project import import_uff
 
-        import_uff(project, file, name, force_channel)
-        return Imported(name, f"UFF file {Path(file).name}")
+        summary, notes = import_uff(project, file, name, force_channel)
+        return Imported(name, f"UFF file {Path(file).name}: {summary}", notes)
 
 
 def builtin_importers() -> list:

@@ -50,6 +50,7 @@ def render_experiment(
     slowdown: float | None = None,
     progress: bool = True,
     ods_hz: float | None = None,
+    reference: str | None = None,
     start: float | None = None,
     end: float | None = None,
     fps: float | None = None,
@@ -61,7 +62,8 @@ def render_experiment(
     axis x, y or z and the Eq. 4.25 viewpoint angles in degrees). ``model`` adds the model's
     motion (overlay and residual figures always need it); the measured motion then comes from the
     comparison too, so both sides went through the same chain and solver. ``ods_hz``: animate the
-    operating deflection shape at that frequency (from the measured FRFs) instead of the record.
+    operating deflection shape at that frequency instead of the record: from the measured FRFs, or
+    for an operating record (no force) or with a ``reference`` sensor from the cross-spectra to it.
     Movies: ``start``/``end`` (s from the record's start) choose the window, by default from just
     before the hit until the motion has decayed to a tenth; ``duration`` (s, default 10) or
     ``frame_step``/``slowdown`` the playback speed at ``fps`` (default 25).
@@ -80,12 +82,28 @@ def render_experiment(
         exp = project.experiment(experiment)
         fs = exp.sampling_rate
         model_coords = None
+        ods_source = None
+        if reference is not None and ods_hz is None:
+            raise ConfigError("--reference names the ODS's reference sensor: give --ods HZ too")
         if ods_hz is not None:
             from odsuite.core.modal_project import ods_coordinates, ods_motion
 
             if figure is not None or model:
                 raise ConfigError("--ods draws a movie of the measured shape: drop --figure and --model")
-            coords, fs = ods_motion(ods_coordinates(project, experiment, ods_hz), ods_hz)
+            if reference is None and exp.excitation is not None:
+                shapes, ods_source = ods_coordinates(project, experiment, ods_hz), "from the measured FRFs"
+            else:
+                from odsuite.core.ods import operating_shape
+
+                if reference is None:
+                    raise ConfigError(f"{project.path}: experiment {experiment!r} is an operating record (no force): "
+                                      "give the ODS's --reference sensor")
+                ods = operating_shape(project, experiment, reference, ods_hz)
+                if not ods.coordinates:
+                    raise ConfigError(f"{project.path}: experiment {experiment!r}: {'; '.join(ods.notes)}")
+                shapes, ods_hz = ods.coordinates, ods.frequency_hz
+                ods_source = f"cross-spectra to {reference}"
+            coords, fs = ods_motion(shapes, ods_hz)
         elif model or figure in ("overlay", "residuals"):
             pairs = experiment_coordinates(project, experiment)
             coords = {b: m for b, (m, _) in pairs.items()}
@@ -106,7 +124,8 @@ def render_experiment(
     if figure is None:
         return _movie(rig, coords, fs, output, experiment, model_coords=model_coords, magnify=magnify,
                       view=view, workers=workers, frame_step=frame_step, slowdown=slowdown, progress=progress,
-                      hammer=hammer, ods_hz=ods_hz, start=start, end=end, fps=fps, duration=duration)
+                      hammer=hammer, ods_hz=ods_hz, ods_source=ods_source, start=start, end=end, fps=fps,
+                      duration=duration)
     if any(v is not None for v in (start, end, fps, duration)):
         raise ConfigError("--start, --end, --fps and --duration are movie options: drop them for a figure")
     if figure == "projection":
@@ -129,12 +148,12 @@ def render_experiment(
 
 
 def _movie(rig, coords, fs, output, experiment, *, model_coords, magnify, view, workers, frame_step, slowdown,
-           progress, hammer, ods_hz, start, end, fps, duration) -> MovieResult:
+           progress, hammer, ods_hz, ods_source, start, end, fps, duration) -> MovieResult:
     """The movie with its story: the window around the hit, a title saying what is shown."""
     n = next(iter(coords.values())).shape[0]
     time_zero = None
     if ods_hz is not None:
-        title = f"{experiment}: operating deflection shape at {ods_hz:g} Hz (from the measured FRFs)"
+        title = f"{experiment}: operating deflection shape at {ods_hz:.2f} Hz ({ods_source})"
     else:
         title = f"{experiment}: measured motion" + (" (blue) and the model's (orange band)" if model_coords else "")
         if hammer is not None:

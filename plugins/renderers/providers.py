@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from odsuite.core.renderers import Rendered, RenderRequest
 
-MOVIE_OPTIONS = frozenset({"model", "magnify", "view", "workers", "frame_step", "slowdown", "ods_hz", "start", "end",
-                           "fps", "duration"})
+MOVIE_OPTIONS = frozenset({"model", "magnify", "view", "workers", "frame_step", "slowdown", "ods_hz", "reference",
+                           "start", "end", "fps", "duration"})
 FIGURE_OPTIONS = frozenset({"model", "magnify", "view"})
 REPORT_OPTIONS = frozenset({"diagnosis", "run_diagnosis", "movie", "movie_experiment", "on_stage"})
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from odsuite.cli import main
-from odsuite.core.modal_project import _physical
+from odsuite.core.modal_project import physical
 from odsuite.core.project import open_project
 from odsuite.core.uff import read_uff
 
@@ -15,11 +15,11 @@ def test_export_then_import_through_the_cli(tmp_path, capsys):
     assert main(["new", str(p)]) == 0
     assert main(["acquire", str(p), "--daq", "sim", "--name", "e1", "--samples", "1024"]) == 0
     assert main(["export-uff", str(p), "-o", str(uff), "--nodes", "2411"]) == 0
-    assert read_uff(uff).dataset_types[0] == 2411
+    assert read_uff(uff).dataset_types[:2] == [164, 2411]  # SI units first, then the nodes
     assert main(["new", str(q), "--rig", "none"]) == 0
     assert main(["import-uff", str(q), str(uff), "--name", "back"]) == 0
     with open_project(p) as a, open_project(q) as b:
-        np.testing.assert_array_equal(_physical(b.experiment("back")), _physical(a.experiment("e1")))
+        np.testing.assert_array_equal(physical(b.experiment("back")), physical(a.experiment("e1")))
     assert "imported" in capsys.readouterr().out
 
 

@@ -54,10 +54,10 @@ def hann_pulse(t: np.ndarray, t0: float, width: float, amplitude: float) -> np.n
     return np.where((x >= 0) & (x <= 1), amplitude * np.sin(np.pi * x) ** 2, 0.0)
 
 
-def lsim_exact(u: np.ndarray, dt: float) -> np.ndarray:
+def lsim_exact(u: np.ndarray, dt: float, input_dof: int = INPUT) -> np.ndarray:
     """Accelerations for an input linear between samples (first-order hold), exact: each complex
     mode z' = lam z + b u is a first-order recursion run by scipy.signal.lfilter."""
-    A, B, Cout, D = state_space()
+    A, B, Cout, D = state_space(input_dof)
     lam, V = np.linalg.eig(A)
     b = np.linalg.solve(V, B[:, 0])
     e = np.exp(lam * dt)
@@ -68,7 +68,8 @@ def lsim_exact(u: np.ndarray, dt: float) -> np.ndarray:
 
 
 def simulate(
-    fs: float, duration: float, pulses: list[tuple[float, float, float]], *, oversample: int = 16
+    fs: float, duration: float, pulses: list[tuple[float, float, float]], *, oversample: int = 16,
+    input_dof: int = INPUT,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Force and accelerations at ``fs`` for a sum of Hann pulses (t0, width, amplitude)."""
     fine = fs * oversample
@@ -77,7 +78,7 @@ def simulate(
     for t0, width, amplitude in pulses:
         k = slice(int(t0 * fine), int((t0 + width) * fine) + 2)
         f[k] += hann_pulse(t[k], t0, width, amplitude)
-    y = lsim_exact(f, 1.0 / fine)
+    y = lsim_exact(f, 1.0 / fine, input_dof)
     force = signal.resample_poly(f, 1, oversample)
     acc = signal.resample_poly(y, 1, oversample, axis=0)
     return force, acc

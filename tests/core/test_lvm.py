@@ -131,5 +131,8 @@ def test_cli_import_lvm_frf_modes(shared_real, tmp_path, capsys):
     f = [m["frequency_hz"] for m in doc["modes"]]
     np.testing.assert_allclose(f, [695.0, 1897.6, 2777.3, 3671.2], rtol=0.005)
     multi = shared_real / "lvm_read_impacts" / "long_single_header_multi_ch.lvm"
-    assert main(["import-lvm", str(proj), str(multi), "--name", "lab"]) == 1
-    assert "give --force-channel" in capsys.readouterr().err
+    # no column in N or named like a force: an operating record (responses only), said on stderr
+    assert main(["import-lvm", str(proj), str(multi), "--name", "lab"]) == 0
+    assert "stored as an operating record" in capsys.readouterr().err
+    assert main(["frf", str(proj), "--experiment", "lab"]) == 1
+    assert "experiment 'lab' has no force channel" in capsys.readouterr().err

@@ -98,7 +98,7 @@ def test_export_reads_back_identically(tmp_path, samples, binary, node_dataset):
     fsets = [s for s in raw if s["type"] == 58]
     assert [s["id1"].strip() for s in fsets] == ["force", "acc 1", "H 1/5"]
     back = read_uff(path)
-    assert back.dataset_types == [18, node_dataset, 82, 82, 82, 58, 58, 58]
+    assert back.dataset_types == [164, 18, node_dataset, 82, 82, 82, 58, 58, 58]
     tol = 0 if binary else 1e-10  # ASCII doubles carry 12 significant digits
     for a, b in zip(funcs, back.functions, strict=True):
         assert (a.name, a.func_type, a.unit, a.x_unit, a.rsp_node, a.rsp_dir, a.ref_node, a.ref_dir) == (
@@ -150,21 +150,21 @@ def thesis_record(tmp_path_factory):
 
 
 def test_export_holds_physical_records_and_the_rigs_geometry(thesis_record):
-    from odsuite.core.modal_project import _physical
+    from odsuite.core.modal_project import physical
     from odsuite.core.project import open_project
 
     with open_project(thesis_record / "p.h5") as p:
         exp, rig = p.experiment("e1"), p.rig
-        physical = _physical(exp)
+        values = physical(exp)
     sets = pyuff.UFF(str(thesis_record / "e1.uff")).read_sets()  # pyuff alone, not our reader
     plated = [b for b in rig.bodies if b.plate is not None]
     sensed = [b for b in rig.bodies if sum(s.body == b.name for s in rig.sensors) > 1]
-    assert [s["type"] for s in sets] == [15] + [82] * (len(plated) + len(sensed)) + [58] * exp.n_channels
+    assert [s["type"] for s in sets] == [164, 15] + [82] * (len(plated) + len(sensed)) + [58] * exp.n_channels
     c = read_uff(thesis_record / "e1.uff")
     geo = c.geometry
     for k, f in enumerate(c.functions):
         assert f.name == exp.channel_names[k] and f.unit == exp.systeminfo.channels[k].unit
-        np.testing.assert_array_equal(f.data, physical[:, k])  # binary doubles: lossless
+        np.testing.assert_array_equal(f.data, values[:, k])  # binary doubles: lossless
         assert f.x[1] == pytest.approx(1 / exp.sampling_rate, rel=1e-12)
     outlines = {name: nodes for name, nodes in geo.trace_lines}
     for b in plated:  # the plate's top face (body z points down: z = corner z), one closed outline
@@ -189,7 +189,7 @@ def test_export_holds_physical_records_and_the_rigs_geometry(thesis_record):
 
 @pytest.mark.parametrize("binary", [True, False], ids=["58b", "ascii"])
 def test_import_of_an_export_gives_the_experiment_back(thesis_record, tmp_path, binary):
-    from odsuite.core.modal_project import _physical
+    from odsuite.core.modal_project import physical
     from odsuite.core.project import create_project, open_project
     from odsuite.core.uff_project import export_uff, import_uff
 
@@ -202,7 +202,7 @@ def test_import_of_an_export_gives_the_experiment_back(thesis_record, tmp_path, 
         a, b = p.experiment("e1"), q.experiment("back")
         assert b.channel_names == a.channel_names and b.sampling_rate == pytest.approx(a.sampling_rate, rel=1e-9)
         # ASCII 58 keeps 13 significant digits
-        np.testing.assert_allclose(_physical(b), _physical(a), rtol=0 if binary else 1e-11, atol=0 if binary else 1e-9)
+        np.testing.assert_allclose(physical(b), physical(a), rtol=0 if binary else 1e-11, atol=0 if binary else 1e-9)
         assert b.excitation.force_channel == a.excitation.force_channel
         np.testing.assert_allclose(b.excitation.point, a.excitation.point, atol=XYZ_15 if binary else 1e-15)
         np.testing.assert_allclose(b.excitation.direction, a.excitation.direction, atol=1e-12)

@@ -1,0 +1,82 @@
+"""Operating loads of the simulated rig: a running machine drives the rig at the force point with
+a random or swept force, or with the rotating force of an unbalanced rotor. No hammer, no trigger,
+no load cell: what is recorded is the responses alone (operational modal analysis, ODS).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.signal
+
+from odsuite.core.errors import ConfigError
+
+KINDS = ("random", "sweep", "unbalance")
+#: default rms force (N): the thesis rig's accelerometers then stay inside their ranges (a rotor at
+#: a corner at 100 Hz peaks at 0.7 of the most loaded one's), far above their noise
+DEFAULT_FORCE_RMS = 0.5
+#: a sweep runs linearly from this fraction of the rate up to SWEEP_TOP of it (below the 1 kHz
+#: anti-aliasing filter's corner at the thesis's rates, so the sweep's top is still measured)
+SWEEP_BOTTOM = 0.0005
+SWEEP_TOP = 0.4
+
+
+@dataclass(frozen=True)
+class OperatingLoad:
+    """What drives the rig: ``kind`` random, sweep or unbalance (then ``frequency_hz``, the
+    rotor's speed in revolutions per second)."""
+
+    kind: str
+    frequency_hz: float | None = None
+
+    def __str__(self) -> str:
+        return self.kind if self.frequency_hz is None else f"{self.kind}:{self.frequency_hz:g}"
+
+
+def parse_operating(text: str, sampling_rate: float) -> OperatingLoad:
+    """``random``, ``sweep`` or ``unbalance:HZ`` (HZ below the record's Nyquist frequency)."""
+    kind, colon, value = str(text).strip().lower().partition(":")
+    if kind not in KINDS:
+        raise ConfigError(f"--operating: expected random, sweep or unbalance:HZ, got {text!r}")
+    if kind != "unbalance":
+        if colon:
+            raise ConfigError(f"--operating {kind}: takes no value, got {text!r}")
+        return OperatingLoad(kind)
+    try:
+        hz = float(value)
+    except ValueError:
+        raise ConfigError(f"--operating unbalance:HZ: HZ must be the rotor's speed in Hz, got {value!r}") from None
+    if not (np.isfinite(hz) and 0 < hz < sampling_rate / 2):
+        raise ConfigError(f"--operating unbalance:{value}: the speed must lie between 0 and the Nyquist "
+                          f"frequency {sampling_rate / 2:g} Hz")
+    return OperatingLoad(kind, hz)
+
+
+def perpendicular_axes(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors completing ``axis`` to a right-handed frame (the rotor's plane of rotation)."""
+    a = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    helper = np.eye(3)[int(np.argmin(np.abs(a)))]
+    u = np.cross(a, helper)
+    u /= np.linalg.norm(u)
+    return u, np.cross(a, u)
+
+
+def operating_forces(load: OperatingLoad, n: int, fs: float, record_rate: float, direction: np.ndarray,
+                     force_rms: float, rng: np.random.Generator) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The load as (force record in N at the simulator's rate ``fs``, unit direction) pairs acting
+    at the force point; ``direction`` is the force's line for random and sweep, the rotor's axis
+    for unbalance. A sweep spans the band of a record at ``record_rate``."""
+    if not (np.isfinite(force_rms) and force_rms > 0):
+        raise ConfigError(f"--force-rms: must be > 0 N, got {force_rms!r}")
+    t = np.arange(n) / fs
+    d = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
+    if load.kind == "random":  # white Gaussian at the simulator's rate: flat far beyond the record's band
+        return [(force_rms * rng.standard_normal(n), d)]
+    if load.kind == "sweep":
+        f0, f1 = SWEEP_BOTTOM * record_rate, SWEEP_TOP * record_rate
+        return [(np.sqrt(2) * force_rms * scipy.signal.chirp(t, f0, t[-1], f1, method="linear"), d)]
+    # unbalance: a force of constant magnitude turning with the rotor in the plane normal to its axis
+    u, v = perpendicular_axes(d)
+    phase = 2 * np.pi * load.frequency_hz * t + rng.uniform(0, 2 * np.pi)
+    return [(force_rms * np.cos(phase), u), (force_rms * np.sin(phase), v)]

@@ -1,0 +1,79 @@
+"""An FRF matrix across experiments (a roving hammer on the exact 3-DOF system): `modes` with
+several --experiment options against the exact poles and shapes, and the MAC figure."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "core"))
+import mck_threedof as mck  # noqa: E402
+
+from odsuite.cli import main  # noqa: E402
+from odsuite.core.modal import mac  # noqa: E402
+from odsuite.core.project import open_project  # noqa: E402
+from odsuite.core.excitation import Excitation  # noqa: E402
+from odsuite.core.systeminfo import ChannelInfo, SensorType, Systeminfo  # noqa: E402
+
+FS = 1024.0
+
+
+@pytest.fixture(scope="module")
+def roving(tmp_path_factory):
+    """Three experiments, the hammer on mass 1, 2 and 3 in turn (four hits each), the three
+    accelerometers fixed; 1e-5 relative noise on every channel."""
+    p = tmp_path_factory.mktemp("roving") / "r.h5"
+    assert main(["new", str(p), "--rig", "none"]) == 0
+    rng = np.random.default_rng(5)
+    chans = ([ChannelInfo(sensor_type=SensorType.LOADCELL, location="hammer", sampling_rate=FS, limit_high=1e3,
+                          limit_low=-1e3)]
+             + [ChannelInfo(sensor_type=SensorType.ACCELEROMETER, location=f"a{k + 1}", sampling_rate=FS,
+                            limit_high=1e4, limit_low=-1e4) for k in range(3)])
+    with open_project(p, "a") as proj:
+        for dof in range(3):
+            amps = [100.0, 70.0, 130.0, 90.0]
+            f, a = mck.simulate(FS, 8 * len(amps) + 0.1, [(0.1 + 8 * k, 0.004, v) for k, v in enumerate(amps)],
+                                input_dof=dof)
+            data = np.column_stack([f, a])
+            data = data + 1e-5 * np.abs(data).max(axis=0) * rng.standard_normal(data.shape)
+            proj.add_experiment(f"hit{dof + 1}", data, sampling_rate=FS, systeminfo=Systeminfo(chans),
+                                excitation=Excitation(0, np.array([0.0, 0.0, float(dof)]), np.array([0.0, 0.0, 1.0])),
+                                channel_names=["hammer", "a1", "a2", "a3"])
+    return p
+
+
+def test_roving_hammer_matrix_gives_the_exact_modes(roving, tmp_path, capsys):
+    lam, phi = mck.modes()
+    capsys.readouterr()
+    args = ["modes", str(roving), "--experiment", "hit1", "--experiment", "hit2", "--experiment", "hit3",
+            "--fmin", "5", "--fmax", "200", "--max-order", "30", "--json", "--mac-figure", str(tmp_path / "mac.png")]
+    assert main(args) == 0
+    doc = json.loads(capsys.readouterr().out)
+    f = np.array([m["frequency_hz"] for m in doc["modes"]])
+    np.testing.assert_allclose(f, np.abs(lam) / (2 * np.pi), rtol=1e-3)
+    zeta = np.array([m["damping_ratio"] for m in doc["modes"]])
+    np.testing.assert_allclose(zeta, -lam.real / np.abs(lam), rtol=0.02)
+    rows = list(doc["modes"][0]["shape"])
+    assert rows == [f"a{o} @ hit{e}" for e in (1, 2, 3) for o in (1, 2, 3)]
+    assert doc["references"]["hit3"]["point_m"] == [0.0, 0.0, 2.0]
+    shapes = np.array([[complex(*m["shape"][r]) for r in rows] for m in doc["modes"]]).T
+    # roving: the accelerometer on mass 1 over the three hit points is the mode shape (reciprocity)
+    roving_a1 = shapes[[rows.index(f"a1 @ hit{e}") for e in (1, 2, 3)]]
+    assert np.diag(mac(roving_a1, phi)).min() > 0.99
+    # and so is every hit's column of accelerometers
+    for e in (1, 2, 3):
+        fixed = shapes[[rows.index(f"a{o} @ hit{e}") for o in (1, 2, 3)]]
+        assert np.diag(mac(fixed, phi)).min() > 0.99
+    assert (tmp_path / "mac.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_matrix_needs_distinct_experiments_and_output_only_one(roving, capsys):
+    capsys.readouterr()
+    assert main(["modes", str(roving), "--experiment", "hit1", "--experiment", "hit1"]) == 1
+    assert "an experiment is named twice in hit1, hit1" in capsys.readouterr().err
+    assert main(["modes", str(roving), "--experiment", "hit1", "--experiment", "hit2", "--output-only"]) == 1
+    assert "--output-only identifies modes of one record: give one --experiment" in capsys.readouterr().err
