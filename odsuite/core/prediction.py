@@ -311,9 +311,15 @@ def prepare_experiment(project, name: str) -> PreparedExperiment:
 
 
 def prepare(project, experiments: Sequence[str] | None = None) -> list[PreparedExperiment]:
-    names = list(experiments) if experiments else project.experiment_names()
+    """The named experiments, or every record with a hammer blow: operating records (no force
+    channel) cannot drive a model and are left out unless named."""
+    if experiments:
+        names = list(experiments)
+    else:
+        names = [n for n in project.experiment_names() if project.experiment(n).excitation is not None]
     if not names:
-        raise ConfigError(f"{project.path}: no experiments to compare (import or acquire some first)")
+        raise ConfigError(f"{project.path}: no hammer records to compare (import or acquire some first; "
+                          "operating records have no force to drive a model)")
     return [prepare_experiment(project, n) for n in names]
 
 
