@@ -265,7 +265,11 @@ def run_demo(out: str | Path = "demo-output", *, rounds: int = ROUNDS, console: 
             _print_comparison(console, cmp)
             diagnosis_doc = diagnose(p, prepared=exps, progress=report).as_dict()
             _print_candidates(console, diagnosis_doc)
+            console.print(f"  verdict: {diagnosis_doc['verdict']}", highlight=False, soft_wrap=True)
             best = next((c for c in diagnosis_doc["candidates"] if c["significant"]), None)
+            if diagnosis_doc["verdict"] == "nothing to explain":
+                console.print("  the error is within the noise floor: the loop stops", highlight=False, soft_wrap=True)
+                break
             if best is None:
                 console.print("  no candidate is significant: the loop stops", highlight=False, soft_wrap=True)
                 break
