@@ -199,12 +199,12 @@ def run_demo(out: str | Path = "demo-output", *, rounds: int = ROUNDS, console: 
     diagnosis finds nothing to explain (the error is within the noise floor) or no candidate is
     significant.
     """
-    from odsuite.core.comparison import compare
-    from odsuite.core.prediction import prepare
     from odsuite.core.add_effect import add_effect
+    from odsuite.core.comparison import compare
     from odsuite.core.diagnosis import diagnose
     from odsuite.core.modelrev import current_revision, revision_model
     from odsuite.core.pipeline import process_experiment
+    from odsuite.core.prediction import prepare
     from odsuite.core.project import create_project, open_project
 
     started = time.monotonic()
@@ -267,10 +267,10 @@ def run_demo(out: str | Path = "demo-output", *, rounds: int = ROUNDS, console: 
             diagnosis_doc = diagnose(p, prepared=exps, progress=report).as_dict()
             _print_candidates(console, diagnosis_doc)
             console.print(f"  verdict: {diagnosis_doc['verdict']}", highlight=False, soft_wrap=True)
+            best = next((c for c in diagnosis_doc["candidates"] if c["significant"]), None)
             if diagnosis_doc["verdict"] == "nothing to explain":
                 console.print("  the error is within the noise floor: the loop stops", highlight=False, soft_wrap=True)
                 break
-            best = next((c for c in diagnosis_doc["candidates"] if c["significant"]), None)
             if best is None:
                 console.print("  no candidate is significant: the loop stops", highlight=False, soft_wrap=True)
                 break
