@@ -345,7 +345,8 @@ class LinearStructure:
     A subclass gives ``dof_names`` (tuple of str), the cached properties ``M``, ``K``, ``C``
     (n_dof x n_dof, symmetric) and ``point_rows(body, point) -> 3 x n_dof`` (the displacement of a
     point of ``body`` along the rig axes per unit coordinate; ``body`` is a rig body's name or None).
-    ``Minv``, ``A`` and ``modes`` follow from them here. A structure without rigid coordinates or
+    ``Minv``, ``A`` and ``modes`` follow from them here; ``is_linear`` (True) and ``cubic_rows()``
+    say whether it has cubic terms. A structure without rigid coordinates or
     ground springs keeps the defaults below: no rotation rows, no body coordinates, no base input,
     no flexible modes.
     """
@@ -358,6 +359,9 @@ class LinearStructure:
     @property
     def n_dof(self) -> int:
         return len(self.dof_names)
+
+    #: a structure with cubic (hardening) terms sets this False and gives ``cubic_rows()``
+    is_linear: bool = True
 
     def point_rows(self, body: str | None, point: np.ndarray) -> np.ndarray:
         raise NotImplementedError

@@ -115,11 +115,10 @@ def test_psd_is_not_a_record(samples, empty, capsys):
 
 
 @pytest.mark.parametrize("stem, cut, words", [
-    ("Sample_UFF58_ascii", 300_000, "dataset 58 starting at byte 1 is cut short: the file ends before its closing -1 "
-                                    "(its header announces 79292 points)"),
-    ("Sample_UFF58b_bin", 200_000, "dataset 58b starting at byte 1 is cut short"),
-    ("uff55_translation_rotation", 3_000, "dataset 55 starting at byte 1 is cut short"),
-    ("testlab_geometry_151_164_18_15_82", 6_000, "is cut short: the file ends before its closing -1"),
+    ("Sample_UFF58_ascii", 300_000, "dataset 1 (type 58) from line 2 has no closing '-1' line (cut off?)"),
+    ("Sample_UFF58b_bin", 200_000, "dataset 1 (58b) from line 2: 199428 of its 317168 data bytes (cut off?)"),
+    ("uff55_translation_rotation", 3_000, "the file ends inside a line of blanks (cut off?)"),
+    ("testlab_geometry_151_164_18_15_82", 6_000, "dataset 3 (type 18) from line 18 has no closing '-1' line (cut off?)"),
 ])
 def test_a_file_cut_short_names_what_is_missing(samples, empty, tmp_path, capsys, stem, cut, words):
     cut_file = tmp_path / f"{stem}-cut.uff"

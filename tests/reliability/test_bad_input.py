@@ -124,16 +124,21 @@ def _uff_damaged(d: Path, how: str):
                                          for k in range(3)], binary=how == "58b-count", overwrite=True)
     raw = (d / "base.uff").read_bytes()
     lines = raw.split(b"\n")
+    # where the functions start (after whatever units or header datasets the writer puts first)
+    starts = [i for i, line in enumerate(lines) if line.strip() in (b"58", b"58b") or line.startswith(b"    58b")]
+    first_end = next(i for i in range(starts[0] + 1, len(lines)) if lines[i].strip() == b"-1")
     if how == "cut":  # cut inside the second record's data
-        bad = b"\n".join(lines[:30])
+        bad = b"\n".join(lines[:starts[1] + 12])
     elif how == "count":  # record 7 of the first function says 9 points, it holds 8
-        lines[8] = lines[8].replace(b"         8         1", b"         9         1", 1)
+        lines[starts[0] + 7] = lines[starts[0] + 7].replace(b"         8         1", b"         9         1", 1)
         bad = b"\n".join(lines)
     elif how == "line-lost":  # the last data line of the first function lost
-        del lines[14]
+        del lines[first_end - 1]
         bad = b"\n".join(lines)
     else:  # 58b: record 7 says 9 points, the data bytes hold 8
-        bad = raw.replace(b"         8         1", b"         9         1", 1)
+        head = raw.index(b"58b")
+        at = raw.index(b"         8         1", head)
+        bad = raw[:at] + b"         9         1" + raw[at + len(b"         8         1"):]
     assert bad != raw
     (d / "bad.uff").write_bytes(bad)
     return _read_uff(d, "bad.uff")
@@ -384,10 +389,10 @@ CASES: list[Case] = [
          argv=lambda d: ["modes", str(d / "p.h5"), "--experiment", "e1", "--fmin", "nan"]),
     Case("project-read-only", "import-legacy into a project with mode 0444", "{dir}/p.h5: project is read-only; make it writable (chmod u+w) to change it",
          argv=lambda d: ((d / "p.h5").chmod(0o444), legacy(ctr="good.CTR")(d))[1]),
-    Case("uff-cut", "UFF cut off inside its second function's data (API)", "{dir}/bad.uff: dataset 2 (type 58) from line 18 has no closing '-1' line (cut off?)", call=lambda d: _uff_damaged(d, "cut")),
-    Case("uff-count", "UFF function whose header says 9 points, holding 8 (API)", "{dir}/bad.uff: dataset 1 (58) from line 2: 8 values, but its record 7 says 9 points (a line lost or doubled, or the count changed?)", call=lambda d: _uff_damaged(d, "count")),
-    Case("uff-line-lost", "UFF function that lost its last data line (API)", "{dir}/bad.uff: dataset 1 (58) from line 2: 4 values, but its record 7 says 8 points (a line lost or doubled, or the count changed?)", call=lambda d: _uff_damaged(d, "line-lost")),
-    Case("uff-58b-count", "binary UFF 58b whose record 7 says 9 points, its 64 data bytes holding 8 (API)", "{dir}/bad.uff: dataset 1 (58) 'acc0': header says 9 points, found 8 values and 8 abscissae", call=lambda d: _uff_damaged(d, "58b-count")),
+    Case("uff-cut", "UFF cut off inside its second function's data (API)", "{dir}/bad.uff: dataset 3 (type 58) from line 24 has no closing '-1' line (cut off?)", call=lambda d: _uff_damaged(d, "cut")),
+    Case("uff-count", "UFF function whose header says 9 points, holding 8 (API)", "{dir}/bad.uff: dataset 2 (58) from line 8: 8 values, but its record 7 says 9 points (a line lost or doubled, or the count changed?)", call=lambda d: _uff_damaged(d, "count")),
+    Case("uff-line-lost", "UFF function that lost its last data line (API)", "{dir}/bad.uff: dataset 2 (58) from line 8: 4 values, but its record 7 says 8 points (a line lost or doubled, or the count changed?)", call=lambda d: _uff_damaged(d, "line-lost")),
+    Case("uff-58b-count", "binary UFF 58b whose record 7 says 9 points, its 64 data bytes holding 8 (API)", "{dir}/bad.uff: dataset 2 (58) 'acc0': header says 9 points, found 8 values and 8 abscissae", call=lambda d: _uff_damaged(d, "58b-count")),
     Case("lock-link", "acquire while the lock file name is a symbolic link to a user's file", "{dir}/p.h5: lock file {dir}/.p.h5.odsuite-lock is a link, which odsuite never follows; remove it",
          argv=lambda d: (_plant_link(d, ".p.h5.odsuite-lock"), ["acquire", str(d / "p.h5"), "--name", "n", "--samples", "1024", "--pretrigger", "100"])[1]),
     Case("lock-foreign-file", "acquire while a user's file holds the lock file name", "{dir}/p.h5: {dir}/.p.h5.odsuite-lock is in the way of the writer lock and was not written by odsuite; move it elsewhere",

@@ -160,7 +160,7 @@ def test_operating_records_are_refused_where_a_force_is_needed(thesis_heave, cap
     (["--operating", "random:3"], "--operating random: takes no value"),
     (["--force-rms", "2"], "--force-rms sets an operating load: give --operating too"),
     (["--operating", "random", "--force-rms", "-1"], "--force-rms: must be > 0 N, got -1.0"),
-    (["--operating", "sweep", "--force-peak", "3"], "drop the hammer's hits and --force-peak"),
+    (["--operating", "sweep", "--force-peak", "3"], "drop the hammer's hits, --force-peak and --contact-ms"),
 ])
 def test_bad_operating_options_are_one_line(tmp_path, capsys, args, words):
     p = tmp_path / "p.h5"
