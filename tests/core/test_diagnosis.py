@@ -41,11 +41,6 @@ def _true_error(project, effects, exps) -> float:
     return compare(project, revision=rev, prepared=exps).error
 
 
-#: effects that are a right answer for a hidden effect of another name: ``missing_mode`` fits a
-#: mode of any shape, so a hidden plate mode is found when it is on top
-ALSO_RIGHT = {"plate_flexibility": {"missing_mode"}, "plate_flexibility_free": {"missing_mode"}}
-
-
 def _check_found(path: Path, effects) -> None:
     """Rounds of diagnose + add_effect of the top candidate find every hidden effect, and the
     error ends within 2x of the true model's."""
@@ -63,11 +58,10 @@ def _check_found(path: Path, effects) -> None:
             d = diagnose(p, prepared=exps)
             top = d.candidates[0]
             assert top.significant, [(c.effect, c.error_after, c.validated_error) for c in d.candidates[:4]]
-            names = {top.effect} | set(top.confounded_with)
-            named = {h for h in hidden - found if h in names or names & ALSO_RIGHT.get(h, set())}
+            named = ({top.effect} | set(top.confounded_with)) & (hidden - found)
             assert named, (f"top {top.effect} (confounded with {top.confounded_with}) is not one of "
                            f"{sorted(hidden - found)}")
-            if top.effect not in hidden and not any(top.effect in ALSO_RIGHT.get(h, ()) for h in named):
+            if top.effect not in hidden:
                 # a stand-in may only be named when the diagnosis says it is confounded
                 assert top.confounded_with
             found |= named
