@@ -29,6 +29,7 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
+from odsuite.core import diskspace
 from odsuite.core.errors import ConfigError, OdsuiteError
 
 app = typer.Typer(
@@ -114,6 +115,19 @@ class _Ledger:
         return (f"interrupted: stored {', '.join(self.stored)} in {self.target}; not stored: "
                 f"{', '.join(missing) or 'nothing'}")
 
+    def after_error(self, message: str) -> str:
+        """The error line of a command that failed after committing some units (multi-experiment
+        ``process``): it names what stays stored."""
+        from odsuite.core.storage import COMMITS
+
+        if self.current is not None and len(COMMITS) > self.commits_at_start:
+            self.done()
+        if not self.stored:
+            return message
+        missing = [u for u in self.planned if u not in self.stored]
+        return (f"{message.removesuffix('; project unchanged')}; stored before the error: "
+                f"{', '.join(self.stored)} in {self.target}; not stored: {', '.join(missing) or 'nothing'}")
+
 
 _ledger = _Ledger()
 
@@ -196,20 +210,27 @@ def new_cmd(
 @app.command("info")
 def info_cmd(project: Path = typer.Argument(..., help="Project file."),
              as_json: bool = typer.Option(False, "--json", help="Print one JSON document.")) -> None:
-    """Experiments, rig and model revisions of a project (errors as `odsuite history` gives them)."""
+    """Experiments, rig (bodies, springs, coordinate solvers) and model revisions of a project
+    (errors as `odsuite history` gives them)."""
     from odsuite.core.history import history
+    from odsuite.core.plugins import registries
     from odsuite.core.project import open_project
+    from odsuite.core.rig_summary import rig_layout
 
     with open_project(project) as p:
         info = p.info()
         revisions = p.model_revisions()
         # the same numbers as `history`: a revision never compared gets its error computed now
         errors = {r["revision"]: r["error"] for r in history(p)["revisions"]} if revisions else {}
+        layout = rig_layout(p.rig, registries().coordinate_solvers) if p.rig is not None else None
     if as_json:
-        _print_json({**info, "model_revisions": [{**r, "error": errors.get(r["revision"])} for r in revisions]})
+        _print_json({**info, "rig_layout": layout,
+                     "model_revisions": [{**r, "error": errors.get(r["revision"])} for r in revisions]})
         return
     console.print(f"{info['path']}  format {info['format_version']}  rig: {info['rig'] or 'none'}",
                   highlight=False, soft_wrap=True)
+    if layout is not None:
+        _print_rig_layout(layout)
     table = Table(title="experiments")
     for col in ("name", "channels", "fs (Hz)", "samples", "length (s)", "peak |V|", "clipped",
                 "derived"):
@@ -233,6 +254,31 @@ def info_cmd(project: Path = typer.Argument(..., help="Project file."),
             rt.add_row(str(r["revision"]), r["model"] or "-", effects or "-",
                        "-" if error is None else f"{error:.4f}")
         console.print(rt)
+
+
+def _print_rig_layout(layout: dict) -> None:
+    import numpy as np
+
+    bodies = Table(title=f"rig {shown(layout['name'])}: bodies")
+    for col in ("body", "mass (kg)", "sensors", "coordinate solver"):
+        bodies.add_column(col)
+    for b in layout["bodies"]:
+        solver = b["solver"] or (Text("cannot solve: see `process`", style="yellow") if b["solver_problem"] else "-")
+        bodies.add_row(shown(b["name"]), f"{b['mass_kg']:.4g}" if b["moving"] else "fixed",
+                       str(len(b["sensors"])) if b["sensors"] else "-", solver)
+    console.print(bodies)
+    if layout["springs"]:
+        springs = Table(title="springs")
+        for col in ("spring", "between", "at (mm)", "k x, y, z (kN/m)", "c x, y, z (N s/m)"):
+            springs.add_column(col)
+        for s in layout["springs"]:
+            k = np.asarray(s["stiffness_n_per_m"], float)
+            c = np.asarray(s["damping_n_s_per_m"], float)
+            k, c = (np.diag(k) if k.ndim == 2 else k), (np.diag(c) if c.ndim == 2 else c)  # a matrix: its diagonal
+            springs.add_row(shown(s["name"]), f"{shown(s['body'])} - {shown(s['other'])}",
+                            ", ".join(f"{1e3 * v:.4g}" for v in s["position_m"]),
+                            ", ".join(f"{v / 1e3:.4g}" for v in k), ", ".join(f"{v:.4g}" for v in c))
+        console.print(springs)
 
 
 def _import(project: Path, file: Path, name: str, fmt: str | None, **options) -> None:
@@ -261,10 +307,12 @@ def import_cmd(
                                     help="legacy: X,Y,Z in mm from the platform's centre of mass, platform axes."),
     force_dir: str = typer.Option(None, "--force-dir", help="legacy: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
     force_channel: str = typer.Option(None, "--force-channel", help="lvm, uff: name of the force channel."),
+    force_body: str = typer.Option(None, "--force-body", help="lvm on a rig: the body hit, when the force point "
+                                   "lies on two."),
 ) -> None:
     """Import a measurement file as a new experiment, by the importer for its format."""
     _import(project, file, name, fmt, systeminfo=systeminfo, force_point=force_point, force_dir=force_dir,
-            force_channel=force_channel)
+            force_channel=force_channel, force_body=force_body)
 
 
 @app.command("import-legacy")
@@ -355,9 +403,12 @@ def acquire_cmd(
     name: str = typer.Option(..., "--name", help="Experiment name."),
     force_point: str = typer.Option(None, "--force-point", help="X,Y,Z in mm in the rig frame (the thesis rig: from the platform's centre of mass)."),
     force_dir: str = typer.Option(None, "--force-dir", help="+x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
-    rate: float = typer.Option(20_000.0, "--rate", help="Sampling rate, Hz."),
+    force_body: str = typer.Option(None, "--force-body", help="The body hit, when the force point lies on two."),
+    rate: float = typer.Option(None, "--rate", help="Sampling rate, Hz (default: the rig's [acquisition], "
+                               "else 20000)."),
     samples: int = typer.Option(4096, "--samples", help="Samples per channel."),
-    pretrigger: int = typer.Option(512, "--pretrigger", help="Samples kept before the trigger."),
+    pretrigger: int = typer.Option(None, "--pretrigger", help="Samples kept before the trigger (default: the "
+                                   "rig's [acquisition], else 512)."),
     trigger_level: float = typer.Option(1.0, "--trigger-level", help="Force trigger level, N."),
     trigger_slope: str = typer.Option("rising", "--trigger-slope", help="rising or falling."),
     trigger_timeout: float = typer.Option(10.0, "--trigger-timeout", help="Seconds to wait for the trigger."),
@@ -378,6 +429,12 @@ def acquire_cmd(
 
     backend = registries().daq_backends.get(daq)
     options = parse_backend_options(daq, backend, ctx.args)
+    if rate is None or pretrigger is None:  # the rig's own settings, when its file states them
+        with open_project(project) as p:
+            acq = p.rig.acquisition if p.rig is not None else None
+        rate = rate if rate is not None else (acq.sampling_rate if acq and acq.sampling_rate else 20_000.0)
+        pretrigger = pretrigger if pretrigger is not None else (
+            acq.pre_trigger if acq and acq.pre_trigger is not None else 512)
     settings = AcquisitionSettings(
         sampling_rate=rate, n_samples=samples, pretrigger=pretrigger, trigger_level=trigger_level,
         trigger_slope=trigger_slope, trigger_timeout=trigger_timeout,
@@ -386,6 +443,8 @@ def acquire_cmd(
         if force_point is None or force_dir is None:
             raise typer.BadParameter("give both --force-point and --force-dir")
         options.update(point=parse_force_point(force_point), direction=parse_force_direction(force_dir))
+    if force_body is not None:
+        options["force_body"] = force_body
     if continuous:
         pressed = threading.Event()
         threading.Thread(target=lambda: (sys.stdin.readline(), pressed.set()), daemon=True).start()
@@ -429,6 +488,19 @@ def model_cmd(
         return
     console.print(f"model {report['model']!r}, revision {report['revision']}, effects: "
                   f"{', '.join(report['effects']) or 'none'}", highlight=False, soft_wrap=True)
+    if report["parameters"]:
+        params = Table(title="parameters")
+        for col in ("effect", "parameter", "value", "unit", "meaning"):
+            params.add_column(col)
+        for effect, values in report["parameters"].items():
+            info = report["parameter_info"].get(effect, {})
+            for name, value in values.items():
+                if name == "per_experiment":
+                    continue
+                about = info.get(name, {})
+                params.add_row(shown(effect), shown(name), f"{value:.6g}", shown(about.get("unit", "")) or "-",
+                               shown(about.get("description", "")))
+        console.print(params)
     table = Table(title="modes")
     for col in ("mode", "frequency (Hz)", "damping ratio"):
         table.add_column(col)
@@ -647,10 +719,14 @@ def verify_cmd(project: Path = typer.Argument(..., help="Project file."),
 
 
 
+#: Output files of the running command, checked before writing: a full disk names the last one.
+_OUTPUTS: list[Path] = []
+
+
 def _check_output(output: Path, project: Path, option: str) -> None:
     from odsuite.core.storage import check_output
 
-    check_output(output, project, option)
+    _OUTPUTS.append(check_output(output, project, option))
 
 
 def _print_json(doc) -> None:
@@ -692,16 +768,19 @@ def compare_cmd(
         _print_json(result)
         return
     console.print(f"revision {result['revision']}: error {result['error']:.4f} "
-                  f"(noise floor {result['noise_floor_error']:.4f})", highlight=False)
-    table = Table(title="error per experiment and channel (NRMSE, acceleration stage)")
-    names = list(result["channels"])
-    table.add_column("experiment")
-    table.add_column("all")
-    for n in names:
-        table.add_column(n)
-    for exp, d in result["experiments"].items():
-        table.add_row(exp, f"{d['error']:.3f}", *(f"{d['channels'].get(n, float('nan')):.3f}" for n in names))
-    table.add_row("all", f"{result['error']:.3f}", *(f"{result['channels'][n]:.3f}" for n in names))
+                  f"(noise floor {result['noise_floor']:.4f}, {result['residual_to_floor']:.2f}x)", highlight=False)
+    # a row per channel: a rig has more channels than a terminal has room for columns
+    table = Table(title="error (NRMSE, acceleration stage)")
+    experiments = list(result["experiments"])
+    table.add_column("channel")
+    for exp in experiments:
+        table.add_column(shown(exp), justify="right")
+    table.add_column("all", justify="right")
+    for n in result["channels"]:
+        table.add_row(shown(n), *(f"{result['experiments'][e]['channels'].get(n, float('nan')):.3f}"
+                                  for e in experiments), f"{result['channels'][n]:.3f}")
+    table.add_row("all", *(f"{result['experiments'][e]['error']:.3f}" for e in experiments), f"{result['error']:.3f}",
+                  style="bold")
     console.print(table)
     worst = Table(title="where the model fails most")
     for col in ("kind", "name", "error"):
@@ -710,9 +789,9 @@ def compare_cmd(
         worst.add_row(w["kind"], w["name"], f"{w['error']:.3f}")
     console.print(worst)
     for peak in result["residual_peaks"]:
-        if peak["lacking"]:
-            console.print(f"residual peak at {peak['frequency_hz']:.0f} Hz in {', '.join(peak['channels'])}: "
-                          "no model mode there", highlight=False)
+        where = "no model mode there" if peak["lacking"] else f"near the model's mode at {peak['model_mode_hz']:.0f} Hz"
+        console.print(f"residual peak at {peak['frequency_hz']:.0f} Hz ({peak.get('to_floor', float('nan')):.1f}x the "
+                      f"noise floor there) in {', '.join(peak['channels'])}: {where}", highlight=False)
 
 
 @app.command("diagnose")
@@ -736,14 +815,32 @@ def diagnose_cmd(
         _print_json(doc)
         return
     console.print(f"revision {doc['revision']}: error {doc['baseline_error']:.4f} "
-                  f"(noise floor {doc['noise_floor_error']:.4f})", highlight=False)
+                  f"(noise floor {doc['noise_floor']:.4f}, {doc['residual_to_floor']:.2f}x)", highlight=False)
+    console.print(f"verdict: {doc['verdict']}", highlight=False)
+    console.print(shown(doc["message"]), highlight=False, soft_wrap=True)
+    sig = doc["signature"]
+    where = [("channels", ", ".join(f"{c['channel']} ({c['residual_to_floor']:.1f}x)" for c in sig["channels"][:6])),
+             ("experiments", ", ".join(f"{x['experiment']} ({x['residual_to_floor']:.1f}x)" for x in sig["experiments"][:6])),
+             ("bands", ", ".join(f"{b['band']} ({b['residual_to_floor']:.1f}x)" for b in sig["bands"][:6])),
+             ("peaks", ", ".join(f"{p:.0f} Hz" for p in sig["peaks_hz"]))]
+    for label, text in where:
+        if text:
+            console.print(f"left above the floor, {label}: {shown(text)}", highlight=False, soft_wrap=True)
+    if sig["amplitude_dependent"]:
+        console.print("amplitude dependent: the fitted parameters follow the force level", highlight=False)
     table = Table(title="candidate effects, best first")
-    for col in ("effect", "significant", "error after", "validated", "evidence"):
+    for col in ("effect", "significant", "consistent", "plausible", "error after", "validated", "confounded with",
+                "evidence"):
         table.add_column(col)
+
+    def yes(v: bool) -> str:
+        return "yes" if v else "no"
+
     for c in doc["candidates"]:
-        table.add_row(c["effect"], "yes" if c["significant"] else "no", f"{c['error_after']:.4f}",
+        table.add_row(c["effect"], yes(c["significant"]), yes(c["consistent"]) if c["fitted"] else "-",
+                      yes(c["plausible"]) if c["fitted"] else "-", f"{c['error_after']:.4f}",
                       "-" if c["validated_error"] != c["validated_error"] else f"{c['validated_error']:.4f}",
-                      c["evidence"])
+                      ", ".join(c["confounded_with"]) or "-", c["evidence"])
     console.print(table)
     if doc["not_applicable"]:
         console.print(f"not applicable to this model: {', '.join(doc['not_applicable'])}", highlight=False,
@@ -769,6 +866,8 @@ def add_effect_cmd(
         return
     console.print(f"revision {result['revision']}: + {effect}; error {result['previous_error']:.4f} -> "
                   f"{result['error']:.4f} (noise floor {result['noise_floor_error']:.4f})", highlight=False)
+    for line in result["warnings"]:
+        err_console.print(f"warning: {shown(line)}", highlight=False, soft_wrap=True)
 
 
 @app.command("history")
@@ -973,6 +1072,7 @@ def _unraisable(hook_args) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     _ledger.reset()
+    _OUTPUTS.clear()
     if not _AS_PROGRAM:  # called again in the same process (tests, scripts): a fresh start
         _INTERRUPTS.clear()
     try:
@@ -1001,7 +1101,8 @@ def _run(argv: list[str] | None) -> int:
         err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
         return 130
     except OdsuiteError as exc:
-        err_console.print(f"error: {exc}", style="bold red", highlight=False, soft_wrap=True)
+        err_console.print(f"error: {_ledger.after_error(str(exc))}", style="bold red", highlight=False,
+                          soft_wrap=True)
         return 1
     except typer.Exit as exc:
         return exc.exit_code
@@ -1012,6 +1113,14 @@ def _run(argv: list[str] | None) -> int:
         # usage errors (unknown option, missing argument) carry their own exit code
         exc.show()
         return exc.exit_code
+    except Exception as exc:
+        if not diskspace.is_disk_full(exc):  # anything else is a bug and keeps its traceback
+            raise
+        # an output file (movie, report, figure, text) ran into a full disk
+        where = Path(getattr(exc, "filename", None) or (_OUTPUTS or [Path.cwd() / "-"])[-1])
+        line = diskspace.full_message(where, where, diskspace.written_so_far(where), outcome="output incomplete")
+        err_console.print(f"error: {line}", style="bold red", highlight=False, soft_wrap=True)
+        return 1
     if _INTERRUPTS:  # the interrupt was swallowed on the way (see _unraisable): report it
         err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
         return 130

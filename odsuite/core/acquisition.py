@@ -31,6 +31,9 @@ def acquire(
     settings = settings or AcquisitionSettings()
     if options.get("point") is not None and project.rig is not None:
         check_force_point(project.rig, options["point"], "--force-point")
+        project.rig.force_body(options["point"], options.get("force_body"))  # a known body; no ambiguity
+    elif options.get("force_body") is not None:
+        raise ConfigError("--force-body needs --force-point and --force-dir")
     channels = project.rig.channel_count if project.rig is not None else 1
     check_record_fits(settings.n_samples, channels, f"{project.path}: --samples {settings.n_samples}")
     rec = backend.record(project.rig, settings, progress=progress, **options)

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from odsuite.core.comparison import noise_floor_error
+from odsuite.core import checks
 from odsuite.core.fitting import (
     Problem,
     effective_samples,
@@ -19,6 +19,7 @@ from odsuite.core.fitting import (
     uncertainties,
 )
 from odsuite.core.modelrev import RevisionModel, current_revision, revision_model
+from odsuite.core.noise_floor import FLOOR_TOLERANCE
 from odsuite.core.prediction import prepare
 
 
@@ -68,11 +69,11 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     entries = [e for e in rev.get("effects", []) if e["effect"] != name]
     exps = prepare(project)
     den = sum(float(np.sum(e.measured**2)) for e in exps)
-    noise = noise_floor_error(exps)
+    cmp = compare(project, revision=rev, prepared=exps, resonances=False)
+    noise = cmp.noise_floor_error
     n_eff, f99 = effective_samples(exps)
     stride = max(1, int(exps[0].fs / (5.0 * f99)))
     prior = 1e-3 * max(noise**2, 1e-8) * den / stride
-    cmp = compare(project, revision=rev, prepared=exps, resonances=False)
     before = cmp.error
     windows = fit_windows(exps)
     if progress:
@@ -115,8 +116,37 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
         progress("comparing", 2, 3)
     candidate_rev = {"model": rev.get("model"), "effects": new_entries}
     after = compare(project, revision=candidate_rev, prepared=exps, resonances=False)
+    warnings = _warnings(name, effect, joint, res, current.shared, exps, after)
     metrics = {"error": after.error, "noise_floor_error": after.noise_floor_error, "added": name,
                "previous_error": before}
     n = project.add_model_revision(new_entries, flat, metrics, rev["revision"], model=rev.get("model"))
     return {"revision": n, "effect": name, "error": after.error, "previous_error": before,
-            "noise_floor_error": after.noise_floor_error, "effects": new_entries}
+            "noise_floor_error": after.noise_floor_error, "effects": new_entries, "warnings": warnings}
+
+
+def _warnings(name: str, effect, joint: Problem, res, model, exps, after) -> list[str]:
+    """One line each when the added effect is implausible (a value outside its declared physical
+    range), inconsistent (its parameters fitted per experiment disagree), or a proxy (the error
+    stays above the noise floor's tolerance): add-effect refuses nothing, but says so."""
+    prefix = f"{name}."
+    shared, per = joint.values(res.x) if res is not None else ({}, {})
+    own = {k[len(prefix):]: v for k, v in shared.items() if k.startswith(prefix)}
+    own.update({f"{x}/{k[len(prefix):]}": v for x, d in per.items() for k, v in d.items() if k.startswith(prefix)})
+    out = []
+    ranges = {p.name: p for p in effect.parameters(model)}
+    for label in checks.implausible(effect, model, own):
+        p = ranges[label.split("/")[-1]]
+        out.append(f"{name}: {label} = {own[label]:.4g} {p.unit} lies outside its physical range "
+                   f"[{p.plausible[0]:.4g}, {p.plausible[1]:.4g}]: implausible")
+    if res is not None:
+        cons = checks.consistency(joint, res, {e.name: float(np.max(np.abs(e.force))) for e in exps})
+        mine = [k for k, v in cons.spread.items() if k.startswith(prefix) and v > 1]
+        if mine:
+            amp = [k for k in cons.amplitude_dependent if k.startswith(prefix)]
+            out.append(f"{name}: fitted per experiment, {', '.join(mine)} disagree beyond their uncertainties"
+                       + (f" and follow the force level ({', '.join(amp)}): amplitude dependent" if amp else "")
+                       + ": inconsistent")
+    if after.error > FLOOR_TOLERANCE * after.noise_floor_error:
+        out.append(f"{name}: the error stays at {after.error:.4g}, {after.error / after.noise_floor_error:.2f} "
+                   "times the noise floor: it may be a proxy for physics the model still lacks")
+    return out

@@ -24,16 +24,16 @@ from pathlib import Path
 from typing import Any
 
 from odsuite.core.errors import ConfigError, OdsuiteError
+from odsuite.core.noise_floor import FLOOR_TOLERANCE
 
 CATALOG_NAME = "odsuite-catalog.sqlite"
 PAGE_NAME = "odsuite-catalog.html"
 #: the first bytes of every HDF5 file: other files are not looked at
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
-#: a model explains the measurements when its error is within this factor of the noise floor: the
-#: true model of the simulated thesis rig (nothing hidden) stays at 2.6-3.6x (sensor drift and
-#: offsets that no model holds), a missing effect the diagnosis finds lifts it far beyond (100x
-#: for a 60 % stiffer suspension). A screening verdict: ``odsuite diagnose`` gives the validated one
-EXPLAINED_FACTOR = 5.0
+#: a model explains the measurements when its error is within the calibrated noise floor's
+#: tolerance (a perfect model's error/floor). A screening verdict: ``odsuite diagnose`` gives the
+#: validated one
+EXPLAINED_FACTOR = FLOOR_TOLERANCE
 #: bump when the tables change: an older catalogue is rebuilt from scratch
 SCHEMA_VERSION = 1
 
@@ -117,7 +117,7 @@ def _candidates(folder: Path) -> list[Path]:
     """HDF5 files under ``folder`` (lock and interrupted-write files left aside)."""
     out = []
     for path in sorted(folder.rglob("*")):
-        if not path.is_file() or path.name.endswith(".lock") or ".tmp-" in path.name or path.name == CATALOG_NAME:
+        if not path.is_file() or ".odsuite-" in path.name or path.name == CATALOG_NAME:
             continue
         try:
             with open(path, "rb") as fh:

@@ -19,12 +19,16 @@ from typing import Any
 
 import numpy as np
 import scipy.signal
+import scipy.stats
 
+from odsuite.core.noise_floor import FLOOR_TOLERANCE, NoiseFloor, estimate, welch
 from odsuite.core.prediction import (
     PreparedExperiment,
     coordinate_series,
+    impulse_response,
     predict,
     prepare,
+    sensor_noise,
 )
 from odsuite.core.rig import Rig
 
@@ -60,35 +64,77 @@ def band_errors(measured: np.ndarray, predicted: np.ndarray, fs: float,
     return labels, np.array(err), np.array(share)
 
 
+#: a residual peak is one the noise alone would reach with this probability over the whole spectrum
+PEAK_FALSE_ALARM = 0.01
+#: ... and that holds at least this share of the residual's energy (a smaller one moves the error
+#: by under 1 %)
+PEAK_MIN_SHARE = 0.02
+
+
 def residual_peaks(exps: Sequence[PreparedExperiment], predictions: Sequence[np.ndarray],
-                   model_modes_hz: Sequence[float] = (), *, max_peaks: int = 5) -> list[dict[str, Any]]:
-    """Peaks of the pooled residual spectrum, each with the channels where it is strongest and
-    whether a model mode lies within 5 % of it ("lacking" when none does)."""
+                   model_modes_hz: Sequence[float] = (), floor: NoiseFloor | None = None, *,
+                   max_peaks: int = 5) -> list[dict[str, Any]]:
+    """Peaks of the pooled residual spectrum that the noise floor does not explain, each with the
+    channels where it is strongest and whether a model mode lies within 5 % of it ("lacking" when
+    none does). A frequency counts when the residual's Welch spectrum exceeds the floor's by more
+    than its chi-square spread allows (``PEAK_FALSE_ALARM`` over all frequencies: Bonferroni);
+    without a floor, every prominent peak is listed."""
     fs = exps[0].fs
-    nfft = 2048
-    while nfft > min(e.n_samples for e in exps):
-        nfft //= 2
-    psd_sum = None
+    psd_sum = floor_sum = None
     per_channel: dict[str, np.ndarray] = {}
+    segments = 1
     for e, p in zip(exps, predictions):
-        f, pxx = scipy.signal.welch(e.measured - p, fs=fs, nperseg=nfft, axis=0)
+        f, pxx = welch(e.measured - p, fs, e.n_samples)
+        nfft = 2 * (len(f) - 1)
+        segments = max(1, 1 + (e.n_samples - nfft) // (nfft // 2))
         psd_sum = pxx.sum(axis=1) if psd_sum is None else psd_sum + pxx.sum(axis=1)
+        if floor is not None and e.name in floor.spectra and len(floor.spectra[e.name][0]) == len(f):
+            fl = floor.spectra[e.name][1].sum(axis=1)
+            floor_sum = fl if floor_sum is None else floor_sum + fl
         for j, s in enumerate(e.sensors):
             per_channel[s.name] = per_channel.get(s.name, 0) + pxx[:, j]
     if psd_sum is None or not np.any(psd_sum > 0):
         return []
-    idx, props = scipy.signal.find_peaks(psd_sum, prominence=0.05 * psd_sum.max())
+    if floor_sum is not None:
+        # Welch with a Hann window and half overlap: about 1.8 degrees of freedom per segment
+        # (Welch 1967), pooled over experiments; a rig's channels share the force's noise and
+        # disturbances, so they are not counted as independent
+        dof = 1.8 * segments * len(exps)
+        limit = scipy.stats.chi2.isf(PEAK_FALSE_ALARM / len(f), dof) / dof
+        # most frequencies of a residual hold noise alone: their median ratio to the floor takes
+        # out the floor's overall calibration (within its tolerance) before single lines are tested
+        scale = float(np.clip(np.median(psd_sum / np.maximum(floor_sum, 1e-300)), 1.0, FLOOR_TOLERANCE**2))
+        floor_sum = floor_sum * scale
+        excess = np.where(psd_sum > limit * floor_sum, psd_sum - floor_sum, 0.0)
+        if not np.any(excess > 0):
+            return []
+        idx, props = scipy.signal.find_peaks(np.concatenate([[0.0], excess, [0.0]]), prominence=0.0)
+        idx = idx - 1
+        # a peak's share: its excess over the floor, summed over the bins around it above the limit
+        lo = np.flatnonzero(np.diff(np.concatenate([[0.0], (excess > 0).astype(float)])) > 0)
+        kept = []
+        for i in idx:
+            a = lo[lo <= i].max()
+            b = a + int(np.argmax(excess[a:] == 0)) if np.any(excess[a:] == 0) else len(excess)
+            kept.append(excess[a:b].sum() >= PEAK_MIN_SHARE * psd_sum.sum())
+        keep = np.asarray(kept, bool)
+        idx, props = idx[keep], {k: v[keep] for k, v in props.items()}
+        strength = excess
+    else:
+        idx, props = scipy.signal.find_peaks(psd_sum, prominence=0.05 * psd_sum.max())
+        strength = psd_sum
     order = np.argsort(props["prominences"])[::-1][:max_peaks]
     peaks = []
-    for i in sorted(idx[order], key=lambda i: -psd_sum[i]):
+    for i in sorted(idx[order], key=lambda i: -strength[i]):
         freq = float(f[i])
-        strength = {name: float(v[i]) for name, v in per_channel.items()}
-        top = max(strength.values())
-        channels = sorted((n for n, v in strength.items() if v >= 0.25 * top), key=lambda n: -strength[n])
+        at = {name: float(v[i]) for name, v in per_channel.items()}
+        top = max(at.values())
+        channels = sorted((n for n, v in at.items() if v >= 0.25 * top), key=lambda n: -at[n])
         near = [m for m in model_modes_hz if abs(m - freq) <= 0.05 * freq + f[1]]
-        peaks.append({"frequency_hz": freq, "share": float(psd_sum[i] / psd_sum.sum()),
+        peaks.append({"frequency_hz": freq, "share": float(strength[i] / psd_sum.sum()),
                       "channels": channels, "model_mode_hz": float(near[0]) if near else None,
-                      "lacking": not near})
+                      "lacking": not near,
+                      **({"to_floor": float(psd_sum[i] / floor_sum[i])} if floor_sum is not None else {})})
     return peaks
 
 
@@ -107,9 +153,15 @@ class Comparison:
     modes: dict[str, list[dict[str, float]]]
     residual_peaks: list[dict[str, Any]]
     worst: list[dict[str, Any]]
+    floor: NoiseFloor | None = None
+
+    @property
+    def residual_to_floor(self) -> float:
+        return self.error / self.noise_floor_error if self.noise_floor_error > 0 else float("inf")
 
     def as_dict(self) -> dict[str, Any]:
-        return {"error": self.error, "noise_floor_error": self.noise_floor_error,
+        return {"error": self.error, "noise_floor": self.noise_floor_error,
+                "noise_floor_error": self.noise_floor_error, "residual_to_floor": self.residual_to_floor,
                 "revision": self.revision, "experiments": self.experiments, "channels": self.channels,
                 "coordinates": self.coordinates, "bands": self.bands, "rigidity": self.rigidity,
                 "modes": self.modes, "residual_peaks": self.residual_peaks, "worst": self.worst}
@@ -185,11 +237,20 @@ def pooled_error(exps: Sequence[PreparedExperiment], predictions: Sequence[np.nd
     return float(np.sqrt(num / den)) if den > 0 else float("nan")
 
 
-def noise_floor_error(exps: Sequence[PreparedExperiment]) -> float:
+def noise_floor(exps: Sequence[PreparedExperiment], model=None, *, spectra: bool = False) -> NoiseFloor:
+    """The calibrated noise floor (odsuite.core.noise_floor) of ``exps``; ``model`` (a
+    RevisionModel) carries the force channel's noise to the sensors (without it, that part is
+    left out)."""
+    if model is None:
+        return estimate(exps, spectra=spectra)
+    impulses = {e.name: impulse_response(model.for_experiment(e.name), e) for e in exps}
+    noise = {e.name: sensor_noise(model.for_experiment(e.name), e) for e in exps}
+    return estimate(exps, impulses, noise, spectra=spectra)
+
+
+def noise_floor_error(exps: Sequence[PreparedExperiment], model=None) -> float:
     """The error a perfect model would have: expected noise energy over measured energy."""
-    num = sum(float(np.sum(e.noise_var) * e.n_samples) for e in exps)
-    den = sum(float(np.sum(e.measured**2)) for e in exps)
-    return float(np.sqrt(min(num, den) / den)) if den > 0 else float("nan")
+    return noise_floor(exps, model).error()
 
 
 def _coordinates(rig: Rig, exp: PreparedExperiment, model) -> tuple[dict, dict]:
@@ -216,7 +277,7 @@ def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapp
     """Compare the current model revision (or ``revision``) with every experiment. ``resonances``:
     also identify measured and model resonances from FRFs (a few seconds; the fitting loop, which
     needs only the errors, leaves it out)."""
-    from odsuite.core.modelrev import current_revision, revision_model
+    from odsuite.core.modelrev import RevisionModel, base_model, current_revision, revision_model
 
     rev = revision or current_revision(project)
     rmodel = revision_model(project, rev)
@@ -224,6 +285,8 @@ def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapp
     preds = [predict(rmodel.for_experiment(e.name), e) for e in exps]
     model_modes = rmodel.shared.modes()
     modes_hz = [float(f) for f in model_modes.frequency_hz]
+    # the floor of the rig's own model, whatever the revision: the same records, the same floor
+    floor = noise_floor(exps, RevisionModel(base_model(project.rig, rev.get("model"))), spectra=True)
 
     per_exp, coords, rigidity = {}, {}, {}
     chan_num: dict[str, float] = {}
@@ -234,7 +297,7 @@ def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapp
         per_ch = nrmse(e.measured, p, axis=0)
         per_exp[e.name] = {
             "error": float(nrmse(e.measured, p)),
-            "noise_floor_error": noise_floor_error([e]),
+            "noise_floor_error": floor.error([e.name]),
             "channels": {s.name: float(v) for s, v in zip(e.sensors, per_ch)},
             "trigger_sample": int(e.trigger),
         }
@@ -267,10 +330,10 @@ def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapp
     for n, v, share in sorted(weighted, key=lambda t: -t[2])[:3]:
         worst.append({"kind": "band", "name": n, "error": v, "residual_share": share})
     return Comparison(
-        error=pooled_error(exps, preds), noise_floor_error=noise_floor_error(exps),
+        error=pooled_error(exps, preds), noise_floor_error=floor.error(),
         revision=rev.get("revision"), experiments=per_exp, channels=channels, coordinates=coords,
         bands=bands, rigidity=rigidity,
         modes={"model": model_modes.as_list(),
                **(frf_comparison(exps, preds, model_modes) if resonances else {})},
-        residual_peaks=residual_peaks(exps, preds, modes_hz), worst=worst,
+        residual_peaks=residual_peaks(exps, preds, modes_hz, floor), worst=worst, floor=floor,
     )

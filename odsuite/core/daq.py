@@ -141,7 +141,9 @@ class DaqBackend(Protocol):
         self, rig: Rig | None, settings: AcquisitionSettings, *, progress: Progress | None = None,
         **options: Any,
     ) -> Recording:
-        """Arm the acquisition and return the record (its chunks are read lazily)."""
+        """Arm the acquisition and return the record (its chunks are read lazily). Besides its own
+        options it receives the common ones the user gave: ``point`` (m, rig frame) and
+        ``direction`` of the hammer, and ``force_body`` when the point lies on two bodies."""
         ...
 
 

@@ -4,10 +4,13 @@ then ranked.
 
 A candidate whose screening took up less than half of what the best fit explains is ranked by its
 screening alone. Candidates are ranked by validated error with a BIC penalty for their number of
-parameters. A candidate is ``significant`` only when its validated improvement is well beyond what
-the noise floor allows. Parameters with an uncertainty comparable to their range are reported as
-not identifiable and held at their nominal value; strongly correlated parameters and candidates
-whose fits change the predictions the same way are named as confounded.
+parameters. A candidate is ``significant`` when its validated gain exceeds what fitting its
+parameters to the calibrated noise floor would give (:mod:`odsuite.core.checks`); each fitted one
+is also checked for ``consistent`` parameters across experiments (amplitude dependence), values in
+their ``plausible`` physical range, and ``confounded_with`` candidates that explain the same residual
+within the noise. Parameters with an uncertainty comparable to their range are reported as not
+identifiable and held at their nominal value. The diagnosis ends in a verdict with the signature of
+what is left and one paragraph to act on (:mod:`odsuite.core.verdict`).
 """
 
 from __future__ import annotations
@@ -20,7 +23,8 @@ from typing import Any
 
 import numpy as np
 
-from odsuite.core.comparison import noise_floor_error
+from odsuite.core import checks
+from odsuite.core.comparison import residual_peaks
 from odsuite.core.errors import ConfigError
 from odsuite.core.fitting import (
     Problem,
@@ -34,6 +38,7 @@ from odsuite.core.fitting import (
 )
 from odsuite.core.modelrev import current_revision, revision_model
 from odsuite.core.prediction import PreparedExperiment, predict, prepare
+from odsuite.core.verdict import Signature, decide, message, signature
 
 #: how many screened candidates get a full fit and validation
 FULL_FITS = 4
@@ -64,12 +69,19 @@ class Candidate:
     fitted: bool = True
     per_experiment: dict[str, dict[str, float]] = field(default_factory=dict)
     values: dict[str, float] = field(default_factory=dict)
+    consistent: bool = True
+    plausible: bool = True
+    implausible: list[str] = field(default_factory=list)
+    amplitude_dependent: list[str] = field(default_factory=list)
+    per_experiment_fits: dict[str, dict[str, float]] = field(default_factory=dict)
+    gain_threshold: float = float("nan")
 
     def as_dict(self) -> dict[str, Any]:
         d = {k: getattr(self, k) for k in (
             "effect", "significant", "error_after", "validated_error", "parameters", "uncertainties",
             "units", "evidence", "n_parameters", "bic", "screened_error", "unidentifiable",
-            "confounded_parameters", "confounded_with", "validation", "fitted")}
+            "confounded_parameters", "confounded_with", "validation", "fitted", "consistent", "plausible",
+            "implausible", "amplitude_dependent", "per_experiment_fits")}
         return d
 
     def revision_entry(self) -> dict[str, Any]:
@@ -125,6 +137,17 @@ def _evidence(problem: Problem, cand: Candidate, baseline: float, noise: float,
     return "; ".join(words)
 
 
+def _checks_words(cand: Candidate) -> str:
+    words = []
+    if not cand.consistent:
+        spread = ", ".join(cand.amplitude_dependent) if cand.amplitude_dependent else "some parameters"
+        words.append(f"fitted per experiment, {spread} differ beyond their uncertainties"
+                     + (" and follow the force level (amplitude dependent)" if cand.amplitude_dependent else ""))
+    if cand.implausible:
+        words.append(f"outside the physical range: {', '.join(cand.implausible[:4])}")
+    return "; ".join(words)
+
+
 @dataclass
 class Diagnosis:
     baseline_error: float
@@ -134,16 +157,39 @@ class Diagnosis:
     residual_peaks: list[dict[str, Any]]
     evaluations: int
     not_applicable: list[str] = field(default_factory=list)
+    verdict: str = ""
+    signature: Signature = field(default_factory=Signature)
+    message: str = ""
+
+    @property
+    def residual_to_floor(self) -> float:
+        return self.baseline_error / self.noise_floor_error if self.noise_floor_error > 0 else float("inf")
 
     def as_dict(self) -> dict[str, Any]:
-        return {"baseline_error": self.baseline_error, "noise_floor_error": self.noise_floor_error,
+        return {"verdict": self.verdict, "noise_floor": self.noise_floor_error,
+                "residual_to_floor": self.residual_to_floor, "signature": self.signature.as_dict(),
+                "message": self.message,
+                "baseline_error": self.baseline_error, "noise_floor_error": self.noise_floor_error,
                 "revision": self.revision, "candidates": [c.as_dict() for c in self.candidates],
                 "residual_peaks": self.residual_peaks, "model_evaluations": self.evaluations,
                 "not_applicable": self.not_applicable}
 
 
+def _residual_effective_samples(problem: Problem, res) -> float:
+    """Independent samples in a fit's residual, from each experiment's residual autocorrelation
+    (on the strided samples the fit sees, as its Jacobian)."""
+    n_data = res.fun.size - (len(problem.free) if problem.prior else 0)
+    total, start = 0.0, 0
+    for e in problem.exps:
+        size = len(range(0, e.n_samples, problem.stride)) * e.measured.shape[1]
+        total += checks.effective_samples(res.fun[start:start + size].reshape(-1, e.measured.shape[1]))
+        start += size
+    return min(total, float(n_data))
+
+
 def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: float, noise: float,
-                   peaks, rigidity, modes_before, tail0: float = 0.0) -> Candidate:
+                   peaks, rigidity, modes_before, tail0: float = 0.0,
+                   force_levels: Mapping[str, float] | None = None) -> Candidate:
     """Fit, validate and describe one screened candidate. Sums of squares of ``screened`` are over
     the fit windows; ``tail0`` is the rest of the records' at the nominal model, ``sse0`` whole."""
     problem = screened.problem
@@ -152,7 +198,8 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         # screening has already stepped through the short heads to the whole windows
         res = fit(problem, screened.u0, continuation=False)
         u = res.x
-        sds, corr, groups = uncertainties(problem, res, n_eff)
+        # uncertainties from the residual as it is: its samples are correlated (filters, misfit)
+        sds, corr, groups = uncertainties(problem, res, _residual_effective_samples(problem, res))
         unident = [f.label for f, sd in zip(problem.free, sds)
                    if not np.isfinite(sd) or sd > UNIDENTIFIABLE_FRACTION * (f.param.upper - f.param.lower)]
         if unident and len(unident) < len(problem.free):
@@ -164,7 +211,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
                 keep = [i for i, f in enumerate(screened.problem.free) if f.param.name not in held]
                 res = fit(problem, u[keep], continuation=False)
                 u = res.x
-                sds, corr, groups = uncertainties(problem, res, n_eff)
+                sds, corr, groups = uncertainties(problem, res, _residual_effective_samples(problem, res))
         sse = problem.sse(u)
         confounded = groups + [[problem.free[i].label, problem.free[j].label]
                                for i in range(len(problem.free)) for j in range(i + 1, len(problem.free))
@@ -205,18 +252,23 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         unidentifiable=unident, confounded_parameters=confounded, validation=how,
         per_experiment=per, values={n: v for n, v in shared.items()},
     )
+    if problem.free:
+        cons = checks.consistency(problem, res, force_levels or {})
+        cand.consistent, cand.amplitude_dependent = cons.consistent, cons.amplitude_dependent
+        cand.per_experiment_fits = cons.per_experiment
+    cand.implausible = checks.implausible(effect, problem.base.shared, params)
+    cand.plausible = not cand.implausible
     cand._problem, cand._u, cand._sse_win = problem, u, sse_win  # kept for the confounding check
     baseline = math.sqrt(sse0 / den)
     cand.evidence = _evidence(problem, cand, baseline, noise, peaks, rigidity, modes_before, modes_after)
     return cand
 
 
-def is_significant(baseline: float, validated: float, noise: float, bic_gain: float) -> bool:
-    """Validated improvement well beyond the noise: more than the whole noise energy, more than 10 %
-    of the excess over the noise floor, and a lower BIC than the model without the effect."""
-    gain = baseline**2 - validated**2
-    excess = max(baseline**2 - noise**2, 0.0)
-    return gain > max(noise**2, 1e-4, 0.1 * excess) and bic_gain > 0
+def is_significant(sse0: float, sse_validated: float, threshold: float) -> bool:
+    """The validated gain in sum of squares exceeds what fitting the candidate's parameters to the
+    calibrated noise would give with probability checks.FALSE_ALARM (``threshold``,
+    checks.gain_threshold)."""
+    return sse0 - sse_validated > threshold
 
 
 class _Deferred:
@@ -289,7 +341,10 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     windows = fit_windows(exps)
     sse0_win = sum(float(np.sum((w.measured - predict(base.for_experiment(w.name), w)) ** 2)) for w in windows)
     tail0 = max(sse0 - sse0_win, 0.0)
-    noise = noise_floor_error(exps)
+    noise = cmp.noise_floor_error
+    # noise energy per independent sample of the calibrated floor: the scale of every test
+    scale = checks.noise_scale(cmp.floor, exps)
+    force_levels = {e.name: float(np.max(np.abs(e.force))) for e in exps}
     n_eff, f99 = effective_samples(exps)
     stride = max(1, int(exps[0].fs / (5.0 * f99)))
     prior = 1e-3 * max(noise**2, 1e-8) * den
@@ -316,7 +371,8 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
         return s, problem.evaluations + (s.problem.evaluations if s.problem is not problem else 0)
 
     def fit_one(s: Screened) -> Candidate:
-        return _fit_candidate(s, windows, sse0, den, n_eff, noise, peaks, rigidity, modes_before, tail0)
+        return _fit_candidate(s, windows, sse0, den, n_eff, noise, peaks, rigidity, modes_before, tail0,
+                              force_levels)
 
     screened: list[Screened] = []
     evaluations = 0
@@ -357,8 +413,11 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
             cand = jobs[i].result()
             best_win = min(best_win, cand._sse_win)
             evaluations += cand._problem.evaluations
-            bic0 = n_eff * math.log(max(sse0, 1e-300) / den)
-            cand.significant = is_significant(cmp.error, cand.validated_error, noise, bic0 - cand.bic)
+            cand.gain_threshold = checks.gain_threshold(scale, cand.n_parameters)
+            cand.significant = is_significant(sse0, cand.validated_error**2 * den, cand.gain_threshold)
+            words = _checks_words(cand)
+            if words:
+                cand.evidence += "; " + words
             candidates.append(cand)
     for s in screened:
         if any(s is f for f in fitted):
@@ -370,24 +429,48 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
             evidence=f"screening only: one linearised step reaches error {err:.3g}",
             n_parameters=len(s.problem.free), bic=float("inf"), screened_error=err,
             fitted=False))
-    _mark_confounded([c for c in candidates if c.fitted], exps)
+    _mark_confounded([c for c in candidates if c.fitted], exps, scale)
     candidates.sort(key=lambda c: (not c.significant, c.bic if c.fitted else math.inf, c.screened_error))
+    diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=noise, revision=rev.get("revision"),
+                          candidates=candidates, residual_peaks=peaks, evaluations=evaluations,
+                          not_applicable=not_applicable)
+    _conclude(diagnosis, cmp, base, exps)
     if progress:
         progress("done", len(names), len(names))
-    return Diagnosis(baseline_error=cmp.error, noise_floor_error=noise, revision=rev.get("revision"),
-                     candidates=candidates, residual_peaks=peaks, evaluations=evaluations,
-                     not_applicable=not_applicable)
+    return diagnosis
 
 
-def _mark_confounded(cands: Sequence[Candidate], exps) -> None:
-    """Candidates whose fits change the predictions in nearly the same way cannot be told apart by
-    these experiments; name each other."""
+def _conclude(d: Diagnosis, cmp, base, exps) -> None:
+    """The verdict, the signature of what is left (after the best significant candidate, if any)
+    and the message."""
+    best = next((c for c in d.candidates if c.significant and c.fitted), None)
+    amplitude = any(c.amplitude_dependent for c in d.candidates if c.fitted and c.significant)
+    d.verdict = decide(d.baseline_error, d.noise_floor_error, best)
+    modes = list(base.shared.modes().frequency_hz)
+    before = [predict(base.for_experiment(e.name), e) for e in exps]
+    sig_before = signature(exps, before, cmp.floor, d.residual_peaks, amplitude)
+    rest = None
+    if best is not None and d.verdict != "nothing to explain":
+        p = best._problem
+        after = p.predictions(best._u, p.full)
+        rest = signature(exps, after, cmp.floor, residual_peaks(exps, after, modes, cmp.floor), amplitude)
+    d.signature = rest if rest is not None else sig_before
+    d.message = message(d.verdict, d.baseline_error, d.noise_floor_error, best, sig_before, rest)
+
+
+def _mark_confounded(cands: Sequence[Candidate], exps, scale: float) -> None:
+    """Candidates that explain the same residual cannot be told apart by these experiments; name
+    each other: their fitted changes of the predictions differ by less than noise could
+    (checks.indistinguishable), or point the same way (cosine above CONFOUNDED_COSINE)."""
     changes = {}
     for c in cands:
         if c.error_after >= c.screened_error * 1.5:
             continue
         p = c._problem
-        base_pred = np.concatenate([x.ravel() for x in p.predictions(np.zeros(0) if not p.free else p.zero())])
+        if p.linear:  # projected parameters are fitted at any search value: the base is without the effect
+            base_pred = np.concatenate([p.base_prediction(e).ravel() for e in p.exps])
+        else:
+            base_pred = np.concatenate([x.ravel() for x in p.predictions(np.zeros(0) if not p.free else p.zero())])
         fit_pred = np.concatenate([x.ravel() for x in p.predictions(c._u)])
         changes[c.effect] = fit_pred - base_pred
     names = list(changes)
@@ -397,8 +480,9 @@ def _mark_confounded(cands: Sequence[Candidate], exps) -> None:
             na, nb = np.linalg.norm(va), np.linalg.norm(vb)
             if na == 0 or nb == 0:
                 continue
-            if abs(va @ vb) / (na * nb) > CONFOUNDED_COSINE:
-                ca = next(c for c in cands if c.effect == a)
-                cb = next(c for c in cands if c.effect == b)
+            ca = next(c for c in cands if c.effect == a)
+            cb = next(c for c in cands if c.effect == b)
+            if (abs(va @ vb) / (na * nb) > CONFOUNDED_COSINE
+                    or checks.indistinguishable(va, vb, scale, ca.n_parameters + cb.n_parameters)):
                 ca.confounded_with.append(b)
                 cb.confounded_with.append(a)

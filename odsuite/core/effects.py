@@ -21,6 +21,12 @@ Optional: ``breaks_rigidity`` (bool, default False): the effect makes a rigid bo
 sensors disagree (a flexible mode, a sensor fault), so the diagnosis cites the rigidity check's
 residual as evidence for it.
 
+Each :class:`Parameter` may declare ``plausible`` (low, high): the physically plausible range of
+its value, narrower than the bounds the fit may explore (a sensor resonance near the sensor's rated
+band, a tilt below 45 degrees, a mass change within the body's own mass). A fit outside it is
+reported as not ``plausible`` by ``diagnose`` and warned about by ``add-effect``: the effect then
+more likely stands in for other physics. None: any value within the bounds is plausible.
+
 Optional, variable projection: ``linear_parameters(model) -> list[str]`` names parameters the
 effect solves itself, by linear least squares, once the others are given; ``project(models, values,
 exps, base, weights) -> (shared, per_experiment, deltas)`` returns them for the models ``models``
@@ -45,6 +51,7 @@ REQUIRED_METHODS = ("parameters", "apply")
 @dataclass(frozen=True)
 class Parameter:
     """One effect parameter. ``choices`` marks a discrete parameter (e.g. polarity +1/-1);
+    ``plausible`` (low, high) its physically plausible range (None: the bounds).
     ``starts`` are values the screening tries besides the nominal (global starts for angles and
     frequencies, whose error surface has local minima)."""
 
@@ -56,12 +63,14 @@ class Parameter:
     scope: str = "shared"
     description: str = ""
     choices: tuple[float, ...] | None = None
+    plausible: tuple[float, float] | None = None
     starts: tuple[float, ...] | None = None
 
     def as_dict(self) -> dict:
         return {"name": self.name, "unit": self.unit, "nominal": self.nominal, "lower": self.lower,
                 "upper": self.upper, "scope": self.scope, "description": self.description,
-                **({"choices": list(self.choices)} if self.choices else {})}
+                **({"choices": list(self.choices)} if self.choices else {}),
+                **({"plausible": list(self.plausible)} if self.plausible else {})}
 
 
 class Effect:

@@ -56,3 +56,7 @@ class HardwareError(OdsuiteError, RuntimeError):
 
 class OdsuiteWarning(UserWarning):
     """Input odsuite accepts but reads with an assumption the user should know about."""
+
+
+class DiskFullError(ProjectFileError):
+    """The disk a file is written to has no room for it."""

@@ -15,6 +15,9 @@ class Excitation:
     force_channel: int
     point: np.ndarray
     direction: np.ndarray
+    #: the moving body hit, given when the point lies on two bodies' plates (``--force-body``);
+    #: None: the rig's ``force_body`` of the point
+    body: str | None = None
 
 
 def check_force_point(rig, point, where: str = "force point") -> None:

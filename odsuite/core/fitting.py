@@ -35,6 +35,9 @@ TAIL_FRACTION = 0.05
 #: ... plus a margin of this fraction of the response's length, and at least WINDOW_MIN_S
 WINDOW_MARGIN = 0.25
 WINDOW_MIN_S = 0.04
+#: the largest residual a sample may have, in multiples of the record's largest value: beyond it
+#: the model is unstable
+UNSTABLE_RESIDUAL = 1e3
 
 
 def fit_windows(exps: Sequence[PreparedExperiment]) -> list[PreparedExperiment]:
@@ -203,10 +206,17 @@ class Problem:
                  columns: Sequence[int] | None = None, stride: int | None = None) -> np.ndarray:
         exps = exps or self.exps
         k = self.stride if stride is None else stride
-        preds = self.predictions(u, exps)
+        with np.errstate(over="ignore", invalid="ignore"):
+            preds = self.predictions(u, exps)
         parts = []
         for e, p in zip(exps, preds):
             r = (e.measured - p)[::k]
+            cap = UNSTABLE_RESIDUAL * (np.abs(e.measured).max() + 1e-300)
+            if not np.all(np.abs(r) <= cap):
+                # parameters that make the model unstable (its response grows without bound): a
+                # residual far worse than predicting nothing keeps the fit away, where inf or nan
+                # (or their finite differences) would stop it
+                r = np.clip(np.nan_to_num(r, nan=cap, posinf=cap, neginf=-cap), -cap, cap)
             parts.append((r if columns is None else r[:, columns]).ravel())
         return np.concatenate(parts)
 

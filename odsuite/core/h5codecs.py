@@ -16,7 +16,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from odsuite.core import h5text
+from odsuite.core import diskspace, h5text
 from odsuite.core.errors import ConfigError
 from odsuite.core.h5damage import first_line
 from odsuite.core.project_format import FORMAT_NAME, FORMAT_VERSION, now
@@ -56,7 +56,13 @@ def typed_group(parent: h5py.Group, name: str, odsuite_type: str, **kw) -> h5py.
 
 
 def dataset(parent: h5py.Group, name: str, data: Any, units: str, dims: Iterable[str], **kw) -> h5py.Dataset:
-    """A new dataset with its units and dimension names."""
+    """A new dataset with its units and dimension names; refused before writing when the disk has no
+    room for it."""
+    if data is not None:
+        nbytes = np.asarray(data).nbytes
+    else:
+        nbytes = int(np.prod(kw.get("shape") or (), dtype=np.int64)) * np.dtype(kw.get("dtype", "f4")).itemsize
+    diskspace.ensure_room_in(parent.file, nbytes)
     ds = parent.create_dataset(name, data=data, **kw)
     h5text.set_attrs(ds, {"units": units, "dims": h5text.fixed(list(dims))})
     return ds
@@ -201,6 +207,8 @@ def rig_to_dict(rig: Rig) -> dict[str, Any]:
             d["sensitivity"] = s.sensitivity
         if s.group:
             d["group"] = s.group
+        if s.name in rig.processing_tables:
+            d["processing"] = rig.processing_tables[s.name]
         sensors.append(d)
     springs = [{"name": s.name, "body": s.body, "other": s.other or "ground", "position": vec(s.position),
                 "stiffness": vec(s.stiffness), "damping": vec(s.damping), "rot_stiffness": vec(s.rot_stiffness),
@@ -215,6 +223,9 @@ def rig_to_dict(rig: Rig) -> dict[str, Any]:
         out["default_model"] = rig.default_model
     if rig.systeminfo_file is not None:
         out["systeminfo"] = str(rig.systeminfo_file)
+    if "" in rig.processing_tables:
+        out["processing"] = rig.processing_tables[""]
+    out["up"] = vec(rig.up)
     return out
 
 

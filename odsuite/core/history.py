@@ -6,6 +6,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from odsuite.core.comparison import compare, noise_floor_error
+from odsuite.core.modelrev import RevisionModel, base_model
 from odsuite.core.errors import ConfigError
 from odsuite.core.prediction import PreparedExperiment, prepare_experiment
 
@@ -25,7 +26,7 @@ def history(project) -> dict[str, Any]:
                   if r.get("metrics", {}).get("noise_floor_error") is not None), None)
     if floor is None and project.rig is not None:
         exps = _comparable(project)
-        floor = noise_floor_error(exps) if exps else None
+        floor = noise_floor_error(exps, RevisionModel(base_model(project.rig))) if exps else None
     for r in revs:
         error = r.get("metrics", {}).get("error")
         if error is None and project.rig is not None:

@@ -136,7 +136,11 @@ def lscf(
         raise ConfigError(f"model order {max_order} needs more than the {freq.size} frequency lines given")
     ts = 1.0 / (2 * freq[-1])
     X = np.exp(1j * 2 * np.pi * freq[:, None] * ts * np.arange(max_order + 1)[None, :])
-    H = H / np.abs(H).max(axis=1, keepdims=True)  # equal weight per output; poles do not change
+    peak = np.abs(H).max(axis=1, keepdims=True)
+    # equal weight per output (poles do not change); an output that never responds carries nothing
+    H = H[peak[:, 0] > 0] / peak[peak[:, 0] > 0]
+    if not H.shape[0]:
+        raise ConfigError("no output responds on the given band")
     R = (X.conj().T @ X).real
     S = [-(X.conj().T @ (h[:, None] * X)).real for h in H]
     T = sum((X.conj().T @ ((np.abs(h) ** 2)[:, None] * X)).real for h in H)

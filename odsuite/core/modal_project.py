@@ -44,12 +44,13 @@ def _force_index(names: list[str], units: list[str], force_channel: str | None, 
 
 
 def import_lvm(project: str | Path, lvm_path: str | Path, name: str, force_channel: str | None = None, *,
-               force_point: np.ndarray | None = None, force_dir: np.ndarray | None = None) -> tuple[str, ...]:
+               force_point: np.ndarray | None = None, force_dir: np.ndarray | None = None,
+               force_body: str | None = None) -> tuple[str, ...]:
     """Add a LabVIEW ``.lvm`` record to a project as experiment ``name``; returns notes for the user.
 
     On a project with a rig the columns are laid onto the rig's channels (by sensor name, else in
     order; :mod:`odsuite.core.rig_import`) and the hammer's ``force_point`` (m, rig frame) and
-    ``force_dir`` are required; without a rig, or when the columns are not the rig's channels and
+    ``force_dir`` are required (``force_body`` when the point lies on two bodies); without a rig, or when the columns are not the rig's channels and
     no force point is given (a single-point test kept beside the rig's records, said in a note),
     the columns are stored as they are."""
     d = read_lvm(lvm_path)
@@ -59,13 +60,13 @@ def import_lvm(project: str | Path, lvm_path: str | Path, name: str, force_chann
                                         or names_the_rig(p.rig, d.channel_names))
         if on_rig:
             rec = onto_rig(p.rig, d.channel_names, d.units, d.data, d.sampling_rate, str(lvm_path), force_point,
-                           force_dir, force_channel)
+                           force_dir, force_channel, force_body)
             p.add_experiment(name, rec.raw, sampling_rate=d.sampling_rate, systeminfo=rec.systeminfo,
                              excitation=rec.excitation, source=str(Path(lvm_path).name),
                              channel_names=rec.channel_names)
             return rec.notes
-        if force_point is not None or force_dir is not None:
-            raise ConfigError(f"{lvm_path}: --force-point/--force-dir need a project with a rig geometry")
+        if force_point is not None or force_dir is not None or force_body is not None:
+            raise ConfigError(f"{lvm_path}: --force-point/--force-dir/--force-body need a project with a rig geometry")
         notes: tuple[str, ...] = ()
         if p.rig is not None:  # e.g. a single-point beam test kept beside the rig's records
             notes = (f"{lvm_path}: its columns ({', '.join(d.channel_names)}) are not rig {p.rig.name!r}'s channels: "

@@ -538,6 +538,52 @@ class SensorDynamics:
 
 
 @dataclass(frozen=True)
+class AnalogFilter:
+    """Analog dynamics in zero-pole-gain form (rad/s), hashable: declared front-end dynamics of the
+    accelerometer channels (IEPE coupling, mounted resonance, an anti-aliasing filter the force
+    channel does not share)."""
+
+    zeros: tuple[complex, ...]
+    poles: tuple[complex, ...]
+    gain: float
+
+    def zpk(self) -> tuple[list, list, float]:
+        return list(self.zeros), list(self.poles), self.gain
+
+    @classmethod
+    def series(cls, parts: Sequence[tuple]) -> AnalogFilter | None:
+        """The product of (zeros, poles, gain) blocks; None when there are none."""
+        if not parts:
+            return None
+        zeros, poles, gain = [], [], 1.0
+        for z, p, k in parts:
+            zeros += [complex(v) for v in np.atleast_1d(z)]
+            poles += [complex(v) for v in np.atleast_1d(p)]
+            gain *= float(np.real(k))
+        return cls(tuple(zeros), tuple(poles), gain)
+
+    @classmethod
+    def front_end(cls, acquisition) -> AnalogFilter | None:
+        """The accelerometer channels' dynamics relative to the force channel's, from a rig's
+        ``[acquisition]`` (odsuite.core.rig.Acquisition): the IEPE coupling high-pass and the
+        mounted resonance (the load cell is taken as flat), and the anti-aliasing filter only when
+        the force channel bypasses it (a filter on every channel is in the measured force already,
+        so the model driven by it carries the filter once, as the measurement does)."""
+        if acquisition is None:
+            return None
+        parts = []
+        if acquisition.iepe_corner_hz:
+            parts.append(([0.0], [-2 * np.pi * acquisition.iepe_corner_hz], 1.0))
+        if acquisition.sensor_resonance_hz:
+            wn, z = 2 * np.pi * acquisition.sensor_resonance_hz, acquisition.sensor_resonance_damping
+            parts.append(([], np.roots([1.0, 2 * z * wn, wn * wn]), wn * wn))
+        aa = acquisition.anti_aliasing
+        if aa is not None and not aa.force_channel:
+            parts.append(aa.zpk())
+        return cls.series(parts)
+
+
+@dataclass(frozen=True)
 class MeasurementChain:
     """Measurement-chain changes between the structure and the recorded signals.
 
@@ -545,7 +591,9 @@ class MeasurementChain:
     ``force_offset`` (m) moves force points; per sensor: ``gain`` (polarity is a gain of -1),
     ``offset`` (m, position), ``tilt`` (rotation vector of the axis, rad), ``dynamics``
     (the key "*" applies to every sensor without its own entry), ``delay`` (s: the channel is
-    sampled this long after the force channel, e.g. a multiplexer's scan).
+    sampled this long after the force channel, e.g. a multiplexer's scan); ``front_end``: the
+    accelerometer channels' analog dynamics the rig declares (its ``[acquisition]`` table), in series
+    with all of them and kept apart from the effects' ``dynamics``.
     """
 
     force_gain: float = 1.0
@@ -554,6 +602,7 @@ class MeasurementChain:
     offset: Mapping[str, np.ndarray] = field(default_factory=lambda: MappingProxyType({}))
     tilt: Mapping[str, np.ndarray] = field(default_factory=lambda: MappingProxyType({}))
     dynamics: Mapping[str, SensorDynamics] = field(default_factory=lambda: MappingProxyType({}))
+    front_end: AnalogFilter | None = None
     delay: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
 
     def with_items(self, name: str, items: Mapping) -> MeasurementChain:
@@ -722,9 +771,13 @@ class Model:
     def _append_sensor_dynamics(self, outputs, A, B, C, D):
         blocks = []
         for i, out in enumerate(outputs):
+            if out.sensor_name is None:
+                continue
             dyn = self.chain.sensor_dynamics(out.sensor_name)
-            if dyn is not None:
-                blocks.append((i, scipy.signal.zpk2ss(*dyn.zpk())))
+            parts = ([dyn.zpk()] if dyn is not None else []) + (
+                [self.chain.front_end.zpk()] if self.chain.front_end is not None else [])
+            if parts:
+                blocks.append((i, scipy.signal.zpk2ss(*AnalogFilter.series(parts).zpk())))
         if not blocks:
             return A, B, C, D
         nx = A.shape[0]

@@ -8,10 +8,11 @@ per-experiment ones (e.g. an impact location) only when predicting that experime
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from odsuite.core.errors import ConfigError
+from odsuite.core.model import AnalogFilter
 
 
 def base_model(rig, model_name: str | None = None):
@@ -21,7 +22,12 @@ def base_model(rig, model_name: str | None = None):
     name = model_name or rig.default_model
     if not name:
         raise ConfigError(f"rig {rig.name!r} names no default model (field 'default_model')")
-    return registries().models.get(name)(rig)
+    model = registries().models.get(name)(rig)
+    # what the rig declares of its front end is part of every model of it: like with like
+    declared = AnalogFilter.front_end(getattr(rig, "acquisition", None))
+    if declared is not None and model.chain.front_end is None:
+        model = model.replace(chain=replace(model.chain, front_end=declared))
+    return model
 
 
 @dataclass
@@ -72,17 +78,28 @@ def revision_model(project, revision: Mapping[str, Any] | None = None) -> Revisi
 
 def model_report(project) -> dict[str, Any]:
     """The ``odsuite model --json`` document of the current revision: revision, model, parameters
-    (per effect), effects, modes (ascending; f = |lambda|/2 pi, zeta = -Re lambda/|lambda|)."""
+    (per effect), ``parameter_info`` (per effect and parameter: unit and description, for the
+    effects still registered), effects, modes (ascending; f = |lambda|/2 pi,
+    zeta = -Re lambda/|lambda|)."""
+    from odsuite.core.plugins import registries
+
     rev = current_revision(project)
     rmodel = revision_model(project, rev)
     model = rmodel.shared
     effects = rev.get("effects", [])
+    registered = registries().effects
+    info: dict[str, dict[str, dict[str, str]]] = {}
+    for e in effects:
+        if e["effect"] in registered:
+            info[e["effect"]] = {p.name: {"unit": p.unit, "description": p.description}
+                                 for p in registered.get(e["effect"]).parameters(model)}
     return {
         "revision": int(rev["revision"]),
         "model": model.name,
         "parameters": {e["effect"]: {**e.get("values", {}),
                                      **({"per_experiment": e["per_experiment"]} if e.get("per_experiment") else {})}
                        for e in effects},
+        "parameter_info": info,
         "effects": [e["effect"] for e in effects],
         "modes": model.modes().as_list(),
         "description": model.describe(),

@@ -17,6 +17,12 @@ import scipy.signal
 
 from odsuite.core.chain_spec import chain_for_channel, stage_names
 from odsuite.core.errors import ConfigError
+from odsuite.core.noise_floor import (
+    active_var,
+    disturbance_basis,
+    moving_samples,
+    split_noise,
+)
 from odsuite.core.rig import Rig, Sensor
 from odsuite.core.systeminfo import SensorType
 
@@ -115,9 +121,16 @@ class PreparedExperiment:
     noise_var: np.ndarray  # per sensor, variance of the noise at the acceleration stage
     units: list[str] = field(default_factory=list)
     operators: list[StageOperator] | None = None  # fast form of the chains' acceleration stage
+    # the noise model's ingredients (odsuite.core.noise_floor): the ADC step per sensor (physical
+    # units), the fitted mains hum and trend (samples x sensors), the force window's noise energy (N^2)
+    lsb: np.ndarray | None = None
+    adc_step_v: np.ndarray | None = None
+    disturbance: np.ndarray | None = None
+    force_noise_energy: float = 0.0
     # the last structure simulated and its coordinate accelerations: effects that only change the
     # sensors (gain, tilt, position) reuse them (a strong reference, so identity is safe)
     _cache: tuple | None = field(default=None, repr=False)
+    force_body: str | None = None  # the body hit, when the experiment says (else: from the point)
 
     @property
     def n_samples(self) -> int:
@@ -130,7 +143,8 @@ class PreparedExperiment:
             n = max(n, *(op.min_samples for op in self.operators))
         if n >= self.n_samples:
             return self
-        return replace(self, force=self.force[:n], volts=self.volts[:n], measured=self.measured[:n])
+        return replace(self, force=self.force[:n], volts=self.volts[:n], measured=self.measured[:n],
+                       disturbance=None if self.disturbance is None else self.disturbance[:n])
 
 
 def find_trigger(force: np.ndarray) -> int:
@@ -142,15 +156,20 @@ def find_trigger(force: np.ndarray) -> int:
     return int(np.argmax(a >= TRIGGER_FRACTION * peak))
 
 
-def windowed_force(force: np.ndarray, fs: float) -> np.ndarray:
-    """The force with everything outside the hits set to zero (a force window per hit, with
-    half-cosine tapers): the force channel's noise between hits would otherwise drive the model
-    and put the load cell's noise, through the model, into every predicted channel."""
-    base = np.median(force)
-    dev = np.abs(force - base)
+@dataclass
+class ForceWindow:
+    """The force that drives the model: the hits with everything between them set to zero, and
+    the noise energy left inside the window (N^2 summed over its samples, weighted by the window)."""
+
+    force: np.ndarray
+    weights: np.ndarray
+    noise_energy: float
+
+
+def _hot(dev: np.ndarray, fs: float) -> np.ndarray:
+    """Mask of the samples around the hits: within WINDOW_FRACTION of the peak and beyond
+    NOISE_MULTIPLE times the noise, widened by WINDOW_BEFORE_S / WINDOW_AFTER_S."""
     peak = dev.max()
-    if not np.isfinite(peak) or peak == 0:
-        return np.zeros_like(force)
     # noise level from the quietest 90 % of samples (hits are a small part of a record); a
     # quantised force channel toggles between codes, which a fixed fraction of the peak would take
     # for hits
@@ -158,16 +177,55 @@ def windowed_force(force: np.ndarray, fs: float) -> np.ndarray:
     sigma = 1.6 * float(np.sqrt(np.mean(quiet**2))) if quiet.size else 0.0
     before, after = int(round(WINDOW_BEFORE_S * fs)), int(round(WINDOW_AFTER_S * fs))
     hot = np.flatnonzero(dev >= max(WINDOW_FRACTION * peak, NOISE_MULTIPLE * sigma))
-    mask = np.zeros(len(force))
+    mask = np.zeros(len(dev))
     for i in hot:  # few samples per hit: a loop over them is cheap
         mask[max(0, i - before):i + after + 1] = 1.0
+    return mask
+
+
+def force_window(force: np.ndarray, fs: float, lsb: float = 0.0) -> ForceWindow:
+    """The force with everything outside the hits set to zero (a force window per hit, with
+    half-cosine tapers): the force channel's noise between hits would otherwise drive the model
+    and put the load cell's noise, through the model, into every predicted channel. The baseline
+    under the hits (an offset, a drift, mains hum) is fitted on the samples outside the windows
+    and removed: a hit lasts milliseconds, over which a drifting or humming baseline is no force.
+    ``lsb``: the channel's quantisation step (N), for the noise left inside the window."""
+    base = np.median(force)
+    dev = np.abs(force - base)
+    peak = dev.max()
+    if not np.isfinite(peak) or peak == 0:
+        return ForceWindow(np.zeros_like(force), np.zeros_like(force), 0.0)
+    mask = _hot(dev, fs)
+    outside = mask == 0
+    noise_var = 0.0
+    if outside.sum() > 64:
+        basis = disturbance_basis(len(force), fs)
+        coef, *_ = np.linalg.lstsq(basis[outside], force[outside], rcond=None)
+        baseline = basis @ coef
+        rest = force[outside] - baseline[outside]
+        noise_var = float(rest @ rest) / max(1, int(outside.sum()) - basis.shape[1])
+        mask = _hot(np.abs(force - baseline), fs)  # the hits again, on the clean baseline
+    else:
+        baseline = np.full_like(force, base)
+    before = int(round(WINDOW_BEFORE_S * fs))
     taper = max(1, before)
     if len(force) <= 2 * taper + 1:  # a record shorter than the tapers: the window without them
-        return (force - base) * mask
-    ramp = 0.5 - 0.5 * np.cos(np.pi * np.arange(1, taper + 1) / (taper + 1))
-    w = np.convolve(mask, np.concatenate([ramp, [1.0], ramp[::-1]]) / (ramp.sum() * 2 + 1), mode="same")
-    w = np.maximum(mask, np.clip(w * (ramp.sum() * 2 + 1) / (taper + 1), 0, 1))
-    return (force - base) * w
+        w = mask
+    else:
+        ramp = 0.5 - 0.5 * np.cos(np.pi * np.arange(1, taper + 1) / (taper + 1))
+        w = np.convolve(mask, np.concatenate([ramp, [1.0], ramp[::-1]]) / (ramp.sum() * 2 + 1), mode="same")
+        w = np.maximum(mask, np.clip(w * (ramp.sum() * 2 + 1) / (taper + 1), 0, 1))
+    clean = force - baseline
+    # inside the window the noise is the quiet one, or the rounding error where the force moves
+    # through the codes
+    per_sample = np.where(moving_samples(clean * w, lsb, fs)[:, 0], active_var(np.array(noise_var), np.array(lsb)),
+                          noise_var)
+    return ForceWindow(clean * w, w, float(np.sum(w**2 * per_sample)))
+
+
+def windowed_force(force: np.ndarray, fs: float) -> np.ndarray:
+    """The force as it drives the model (see :func:`force_window`)."""
+    return force_window(force, fs).force
 
 
 def quantisation_step(volts: np.ndarray) -> np.ndarray:
@@ -180,25 +238,14 @@ def quantisation_step(volts: np.ndarray) -> np.ndarray:
     return np.asarray(steps)
 
 
-def _noise_variance(measured: np.ndarray, trigger: int, fs: float, lsb: np.ndarray) -> np.ndarray:
-    """Noise variance per column: before the hit when there are enough samples (keeping clear of
-    the hit by 1 ms, as zero-phase filters ring backwards), otherwise the last eighth of the record
-    with its trend removed (the response has died away there on a lightly damped rig); never below
-    the quantisation noise lsb^2/12, which a quiet pre-trigger stretch on one code hides."""
-    guard = int(round(1e-3 * fs))
-    pre = measured[: max(0, trigger - guard)]
-    if len(pre) >= 32:
-        var = pre.var(axis=0)
-    else:
-        var = scipy.signal.detrend(measured[-max(32, len(measured) // 8):], axis=0).var(axis=0)
-    return np.maximum(var, lsb**2 / 12)
-
-
-def _force(exp, raw: np.ndarray, where: str) -> np.ndarray:
+def _force(exp, raw: np.ndarray, where: str, lsb_v: float | None = None) -> ForceWindow:
     fch = exp.excitation.force_channel
     channel = exp.systeminfo.channels[fch]
     fchain = chain_for_channel(channel, where=f"{where} channel {fch}")
-    return windowed_force(fchain.run(raw[:, fch])[stage_names(channel.quantity)[0]], exp.sampling_rate)
+    per_newton = abs(channel.sensitivity * channel.daq_gain) or 1.0
+    step = lsb_v if lsb_v else float(quantisation_step(raw[:, fch])[0])
+    return force_window(fchain.run(raw[:, fch])[stage_names(channel.quantity)[0]], exp.sampling_rate,
+                        step / per_newton)
 
 
 def experiment_force(project, name: str) -> np.ndarray:
@@ -206,7 +253,7 @@ def experiment_force(project, name: str) -> np.ndarray:
     exp = project.experiment(name)
     if exp.excitation is None:
         raise ConfigError(f"{project.path}: experiment {name!r}: no force point/direction recorded")
-    return _force(exp, exp.raw(), f"{project.path}: experiment {name!r}")
+    return _force(exp, exp.raw(), f"{project.path}: experiment {name!r}").force
 
 
 def prepare_experiment(project, name: str) -> PreparedExperiment:
@@ -220,7 +267,10 @@ def prepare_experiment(project, name: str) -> PreparedExperiment:
         raise ConfigError(f"{where}: no force point/direction recorded; the model cannot be driven")
     si = exp.systeminfo
     raw = exp.raw()
-    force = _force(exp, raw, where)
+    acquisition = getattr(rig, "acquisition", None)
+    lsb_v = acquisition.lsb_v if acquisition is not None else None
+    fw = _force(exp, raw, where, lsb_v)
+    force = fw.force
     sensors, columns, measured, vpu, chains, units, infos = [], [], [], [], [], [], []
     tap = stage_names("acceleration")[0]
     for k, ch in enumerate(si.channels):
@@ -241,13 +291,18 @@ def prepare_experiment(project, name: str) -> PreparedExperiment:
     volts = raw[:, columns]
     trigger = exp.pretrigger if exp.pretrigger > 0 else find_trigger(force)
     micro = np.array([1e6 if si.channels[k].micro_units else 1.0 for k in columns])
-    lsb = quantisation_step(volts) / np.abs(np.asarray(vpu)) * micro
+    # the ADC's step: as the rig declares it, else the smallest step between recorded values
+    step = np.full(len(columns), lsb_v) if lsb_v else quantisation_step(volts)
+    lsb = step / np.abs(np.asarray(vpu)) * micro
+    quiet = split_noise(volts, trigger, exp.sampling_rate)
+    disturbance = np.column_stack([chain.run(quiet.disturbance[:, j])[tap] for j, chain in enumerate(chains)])
+    white = quiet.white(measured, disturbance)
     return PreparedExperiment(
         name=name, fs=exp.sampling_rate, force=force, point=np.asarray(exp.excitation.point, float),
         direction=np.asarray(exp.excitation.direction, float), sensors=sensors, columns=columns,
         volts=volts, measured=measured, volts_per_unit=np.asarray(vpu), chains=chains, trigger=trigger,
-        noise_var=_noise_variance(measured, trigger, exp.sampling_rate, lsb), units=units,
-        operators=stage_operators(infos, vpu),
+        noise_var=white, units=units, operators=stage_operators(infos, vpu), lsb=lsb, adc_step_v=step,
+        disturbance=disturbance, force_noise_energy=fw.noise_energy, force_body=exp.excitation.body,
     )
 
 
@@ -261,7 +316,7 @@ def prepare(project, experiments: Sequence[str] | None = None) -> list[PreparedE
 def _force_inputs(model, exp: PreparedExperiment) -> list:
     from odsuite.core.model import Input
 
-    body = model.rig.force_body(exp.point) if model.rig is not None else None
+    body = model.rig.force_body(exp.point, exp.force_body) if model.rig is not None else None
     return [Input.force(exp.point, exp.direction, body=body)]
 
 
@@ -291,7 +346,11 @@ def simulate_together(models: Mapping[str, Any], exps: Sequence[PreparedExperime
 def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "acceleration") -> np.ndarray:
     """The model's physical signal at each sensor of ``exp`` (samples x sensors), from rest."""
     from odsuite.core.model import Output, StateSpace
-    from odsuite.core.simulation import sampled_later, simulate_nonlinear, simulate_state_space
+    from odsuite.core.simulation import (
+        sampled_later,
+        simulate_nonlinear,
+        simulate_state_space,
+    )
 
     inputs = _force_inputs(model, exp)
     outputs = [Output.sensor(s, quantity) for s in exp.sensors]
@@ -322,6 +381,8 @@ def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "accelerati
     for dyn, cols in groups.items():
         num, den = _sensor_filter(dyn, exp.fs)
         y[:, cols] = scipy.signal.lfilter(num, den, y[:, cols], axis=0)
+    if chain.front_end is not None:
+        y = scipy.signal.sosfilt(_analog_sos(chain.front_end, exp.fs), y, axis=0)
     delays = [chain.delay.get(s.name, 0.0) for s in exp.sensors]
     if any(delays):
         y = sampled_later(y, exp.fs, delays)
@@ -335,6 +396,61 @@ def _sensor_filter(dyn, fs: float) -> tuple[np.ndarray, np.ndarray]:
     ad, bd, cd, dd, _ = scipy.signal.cont2discrete(scipy.signal.zpk2ss(*dyn.zpk()), 1 / fs, method="foh")
     num, den = scipy.signal.ss2tf(ad, bd, cd, dd)
     return num[0], den
+
+
+@functools.lru_cache(maxsize=64)
+def _analog_sos(analog, fs: float) -> np.ndarray:
+    """An analog filter (zeros, poles, gain) as digital second-order sections by the bilinear
+    transform: a front end holds parts far above the Nyquist frequency (a sensor's mounted
+    resonance at tens of kHz), which a hold-equivalent discretisation would alias, while the
+    bilinear map keeps their in-band effect (frequency warping: under 1 % below fs / 20)."""
+    z, p, k = (np.asarray(v, complex) for v in analog.zpk())
+    zd, pd, kd = scipy.signal.bilinear_zpk(z, p, float(np.real(k)), fs)
+    return scipy.signal.zpk2sos(zd, pd, kd)
+
+
+def impulse_response(model, exp: PreparedExperiment) -> np.ndarray:
+    """The model's prediction (acceleration stage) for a unit force sample at the hit: how the
+    force channel's noise in the window reaches each channel (odsuite.core.noise_floor)."""
+    unit = np.zeros(exp.n_samples)
+    unit[min(exp.trigger, exp.n_samples - 1)] = 1.0
+    return predict(model, replace(exp, force=unit, _cache=None))
+
+
+#: realisations of the sensors' noise that the floor averages (its energy is a sum over thousands
+#: of samples: two realisations differ by a few per cent)
+NOISE_REALISATIONS = 2
+
+
+def sensor_noise(model, exp: PreparedExperiment, realisations: int = NOISE_REALISATIONS) -> list[np.ndarray]:
+    """Realisations of what a perfect model leaves of the sensors' own noise at the acceleration
+    stage: the model's signals in volts plus white noise (the quiet samples' level less its
+    rounding share, Sheppard) at a random offset on the ADC's codes, rounded to them, minus the
+    signals, through each channel's chain. The rounding error of a signal that moves through few
+    codes is not white (it repeats the signal's own frequencies): simulated, it is right."""
+    if exp.operators is None or exp.adc_step_v is None:
+        return []
+    rng = np.random.default_rng(0)  # reproducible floors
+    physical = simulate_sensors(model, exp)
+    vpu = np.asarray(exp.volts_per_unit, float)
+    micro = np.array([1e6 if u.startswith("u") else 1.0 for u in exp.units]) if exp.units else np.ones(len(vpu))
+    step = np.asarray(exp.adc_step_v, float)
+    volts_per_stage = np.abs(vpu) / micro
+    rounding = np.where(step > 0, exp.lsb**2 / 12.0, 0.0)
+    sigma_v = np.sqrt(np.maximum(np.asarray(exp.noise_var) - rounding, 0.0)) * volts_per_stage
+    v = physical * vpu
+    out = []
+    for _ in range(realisations):
+        offset = rng.uniform(0.0, 1.0, len(step)) * step
+        x = v + offset + rng.standard_normal(v.shape) * sigma_v
+        q = np.where(step > 0, np.round(x / np.where(step > 0, step, 1.0)) * step, x)
+        err = (q - offset - v) / vpu
+        stage = np.empty_like(err)
+        for op in exp.operators:
+            cols = list(op.columns)
+            stage[:, cols] = op.apply(err[:, cols])
+        out.append(stage)
+    return out
 
 
 def through_chain(exp: PreparedExperiment, physical: np.ndarray, taps: Sequence[str] | None = None

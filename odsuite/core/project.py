@@ -28,10 +28,10 @@ migrated on open)::
         revisions/<n>/        odsuite_type="model_revision": attrs model, effects, parameters,
                               metrics (JSON), parent (-1: none), created
 
-Writes are copy-on-write transactions: the committed file is copied to ``<name>.h5.tmp-<pid>``,
+Writes are copy-on-write transactions: the committed file is copied to ``.<name>.h5.odsuite-tmp-<pid>``,
 changed there, fsynced and atomically renamed over the project, so a killed process leaves either
-the old or the new committed state. One writer at a time holds an flock on ``<name>.h5.lock``
-(``odsuite.core.storage``). The format itself, its HDF5 codecs and the migration of older files are
+the old or the new committed state. One writer at a time holds the writer lock
+(``odsuite.core.writer_lock``). The format itself, its HDF5 codecs and the migration of older files are
 in ``odsuite.core.project_format``, ``odsuite.core.h5codecs`` and ``odsuite.core.project_migration``.
 """
 
@@ -50,10 +50,11 @@ from typing import IO, Any
 import h5py
 import numpy as np
 
-from odsuite.core import clipping, h5text, migrations
+from odsuite.core import clipping, diskspace, h5text, migrations
 from odsuite.core.errors import (
     ConfigError,
     DimensionError,
+    DiskFullError,
     ProjectFileError,
     ProjectVersionError,
     SchemaError,
@@ -85,6 +86,7 @@ from odsuite.core.storage import (
     crash_point,
     release_lock,
     replace_atomically,
+    reserve_private,
     tmp_path,
 )
 from odsuite.core.systeminfo import Systeminfo
@@ -135,7 +137,9 @@ def _resolve_rig(rig: Rig | str | Path | None) -> Rig | None:
     except (OSError, ValueError):  # a name too long for a path, or with a NUL byte: no file
         rig_file = False
     if rig_file:
-        return load_rig(rig, registries().sensor_types)
+        loaded = load_rig(rig, registries().sensor_types)
+        check_asked_solvers(loaded, registries().coordinate_solvers)
+        return loaded
     raise ConfigError(f"unknown rig {str(rig)!r}: not a registered rig (known: {', '.join(rigs.names()) or 'none'}) "
                       "and not a .toml rig file")
 
@@ -192,7 +196,8 @@ class Experiment:
         self.excitation = None
         if "force_channel" in a:
             self.excitation = Excitation(int(a["force_channel"]), np.asarray(a["force_point"], dtype=float),
-                                         np.asarray(a["force_direction"], dtype=float))
+                                         np.asarray(a["force_direction"], dtype=float),
+                                         h5text.text(a["force_body"]) if "force_body" in a else None)
         self.systeminfo = read_systeminfo(g["systeminfo"])
 
     def _group(self) -> h5py.Group:
@@ -494,8 +499,11 @@ class Project:
         if not np.isfinite(norm) or norm == 0:
             raise ConfigError(f"{where}: force direction must be a non-zero vector of 3 finite numbers, "
                               f"got {_show(excitation.direction)}")
-        return {"force_channel": int(fc), "force_point": point, "force_point_units": "m",
-                "force_direction": direction / norm}
+        out = {"force_channel": int(fc), "force_point": point, "force_point_units": "m",
+               "force_direction": direction / norm}
+        if excitation.body is not None:
+            out["force_body"] = str(excitation.body)
+        return out
 
     @staticmethod
     def _write_raw(g: h5py.Group, where: str, first: np.ndarray, rest: Iterator[Any], n_ch: int,
@@ -503,6 +511,7 @@ class Project:
         rows = max(1, CHUNK_BYTES // (8 * n_ch))
         if n_samples is not None:
             rows = min(rows, n_samples)
+        diskspace.ensure_room_in(g.file, 8 * n_ch * (n_samples or first.shape[0]))
         ds = g.create_dataset("raw", shape=(n_samples or 0, n_ch), maxshape=(n_samples, n_ch),
                               chunks=(rows, n_ch), dtype=np.float64, fletcher32=True)
         h5text.set_attrs(ds, {"units": "V", "dims": h5text.fixed(["sample", "channel"]),
@@ -516,6 +525,8 @@ class Project:
                 ds.resize(end, axis=0)
             elif end > n_samples:
                 raise DimensionError(f"{where}: raw chunks hold more than n_samples={n_samples} rows")
+            if n_samples is None:  # a stream of unknown length: room checked chunk by chunk
+                diskspace.ensure_room_in(g.file, chunk.nbytes)
             ds[row:end] = chunk
             row, k = end, k + 1
             crash_point(f"chunk-{k}")
@@ -742,13 +753,24 @@ class Project:
                 "clipped_samples": {n: int(c) for n, c in zip(e.channel_names, clipped, strict=True) if c},
                 "excitation": None if e.excitation is None else {
                     "force_channel": e.excitation.force_channel, "point": e.excitation.point.tolist(),
-                    "direction": e.excitation.direction.tolist()},
+                    "direction": e.excitation.direction.tolist(), "body": e.excitation.body},
                 "derived": self.derived_kinds(name), "source": e.source, "created": e.created,
             }
         return out
 
 
 # ----------------------------------------------------------------------------- entry points
+
+def check_asked_solvers(rig: Rig, solvers) -> None:
+    """A body whose rig file asks for a coordinate solver must get it from its sensors: refused
+    when the project is created, not at the first ``process``."""
+    from odsuite.core.rigidbody import body_sensors
+    from odsuite.core.solvers import choose_solver
+
+    for body in rig.bodies:
+        if body.solver is not None:
+            choose_solver(rig, body, [s.name for s in body_sensors(rig, body)], solvers)
+
 
 def create_project(path: str | Path, rig: Rig | str | None = "thesis-dynamometer") -> Project:
     """Create a new project file (refuses to overwrite) and return it open for writing.
@@ -765,11 +787,18 @@ def create_project(path: str | Path, rig: Rig | str | None = "thesis-dynamometer
         if path.exists():
             raise ProjectFileError(f"{path}: file already exists; choose another name or delete it first")
         tmp = tmp_path(path)
+        diskspace.ensure_space(tmp, 0, path)
+        reserve_private(tmp, path)  # before the try: a file in the way is not ours to delete
         try:
             with h5py.File(tmp, "w", libver=LIBVER, fs_strategy="fsm", fs_persist=True,
                            track_order=True, locking=False) as f:
                 write_skeleton(f, rig)
             replace_atomically(tmp, path)
+        except Exception as exc:
+            if diskspace.is_disk_full(exc) and not isinstance(exc, DiskFullError):
+                raise DiskFullError(diskspace.full_message(path, path.parent, diskspace.written_so_far(tmp),
+                                                           outcome="no project created")) from None
+            raise
         finally:
             tmp.unlink(missing_ok=True)
         project = Project(path, "a", lock)

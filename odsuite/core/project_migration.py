@@ -18,11 +18,11 @@ from pathlib import Path
 
 import h5py
 
-from odsuite.core import errors, h5text, migrations
-from odsuite.core.errors import NotAProjectError, OdsuiteError, ProjectFileError
+from odsuite.core import diskspace, errors, h5text, migrations
+from odsuite.core.errors import DiskFullError, NotAProjectError, OdsuiteError, ProjectFileError
 from odsuite.core.h5damage import first_line, reading
 from odsuite.core.project_format import FORMAT_NAME, FORMAT_VERSION, HEAP_TEXT_VERSION, LIBVER, now
-from odsuite.core.storage import replace_atomically, tmp_path
+from odsuite.core.storage import replace_atomically, reserve_private, tmp_path
 
 #: Seconds a child process may take to migrate a format-1.0.0 file's text.
 HEAP_TEXT_TIMEOUT = 60.0
@@ -49,6 +49,8 @@ def migrate_in_place(path: Path, version: str) -> None:
     migrated copy; on any failure the project is left unchanged."""
     migrations.migration_path(version, FORMAT_VERSION, str(path))  # refuse before copying
     tmp = tmp_path(path)
+    diskspace.ensure_space(tmp, 2 * os.stat(path).st_size, path)  # the copy, and migrated text beside it
+    reserve_private(tmp, path)  # before the try: a file in the way is not ours to delete
     try:  # a transaction: the migrated copy replaces the project atomically
         shutil.copyfile(path, tmp)
         _migrate(tmp, path, version, updated=True)
@@ -56,6 +58,8 @@ def migrate_in_place(path: Path, version: str) -> None:
     except OSError as exc:
         if isinstance(exc, OdsuiteError):
             raise
+        if diskspace.is_disk_full(exc):
+            raise DiskFullError(diskspace.full_message(path, path.parent, diskspace.written_so_far(tmp))) from None
         raise ProjectFileError(f"{path}: migration from format {version} failed, project left "
                                f"unchanged: {exc}") from exc  # e.g. disk full
     finally:

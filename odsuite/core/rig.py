@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from odsuite.core.errors import ConfigError
+from odsuite.core.rig_processing import parse_processing
 
 #: Generalized coordinates of a body, in order (m, m, m, rad, rad, rad).
 COORDINATES = ("x", "y", "z", "theta", "phi", "psi")
@@ -99,6 +100,58 @@ class Spring:
     group: str
 
 
+#: anti-aliasing filter families a rig file may name (scipy.signal's analog prototypes)
+AA_FAMILIES = ("butterworth", "elliptic", "chebyshev1", "bessel")
+
+
+@dataclass(frozen=True)
+class AntiAliasing:
+    """The DAQ's analog low-pass ahead of the ADC. ``force_channel``: the hammer's channel passes
+    through it too (the usual case: the model, driven by the filtered force, then carries the filter
+    already; False: only the accelerometer channels are filtered, so the prediction adds it)."""
+
+    family: str
+    order: int
+    cutoff_hz: float
+    ripple_db: float = 0.1  # elliptic and Chebyshev pass-band ripple
+    attenuation_db: float = 60.0  # elliptic stop-band attenuation
+    force_channel: bool = True
+
+    def zpk(self) -> tuple[np.ndarray, np.ndarray, float]:
+        """Analog zeros, poles (rad/s) and gain."""
+        import scipy.signal
+
+        wc = 2 * np.pi * self.cutoff_hz
+        if self.family == "butterworth":
+            return scipy.signal.butter(self.order, wc, analog=True, output="zpk")
+        if self.family == "elliptic":
+            return scipy.signal.ellip(self.order, self.ripple_db, self.attenuation_db, wc, analog=True, output="zpk")
+        if self.family == "chebyshev1":
+            return scipy.signal.cheby1(self.order, self.ripple_db, wc, analog=True, output="zpk")
+        return scipy.signal.bessel(self.order, wc, analog=True, output="zpk", norm="mag")
+
+
+@dataclass(frozen=True)
+class Acquisition:
+    """A rig file's ``[acquisition]`` table: how its DAQ records (SI: Hz, V)."""
+
+    sampling_rate: float | None = None
+    pre_trigger: int | None = None
+    adc_bits: int | None = None  # None (or 0 in the file): not stated
+    adc_range: tuple[float, float] | None = None  # V, input range of the ADC
+    anti_aliasing: AntiAliasing | None = None
+    iepe_corner_hz: float | None = None  # AC coupling of the accelerometers' IEPE supply (first order)
+    sensor_resonance_hz: float | None = None  # the accelerometers' mounted resonance
+    sensor_resonance_damping: float = 0.03
+
+    @property
+    def lsb_v(self) -> float | None:
+        """Volts per ADC code, when bits and range are stated."""
+        if not self.adc_bits or self.adc_range is None:
+            return None
+        return (self.adc_range[1] - self.adc_range[0]) / 2**self.adc_bits
+
+
 @dataclass(frozen=True)
 class Rig:
     name: str
@@ -113,6 +166,26 @@ class Rig:
     springs: tuple[Spring, ...] = ()
     source: Path | None = None
     extra: dict[str, Any] = field(default_factory=dict)
+    #: the file's ``[processing]`` tables as written: "" the rig's, else a sensor's name
+    processing_tables: dict[str, dict[str, Any]] = field(default_factory=dict)
+    #: ChannelInfo settings of ``[processing]`` for records without a .CTR, and per sensor on top
+    processing: dict[str, Any] = field(default_factory=dict)
+    sensor_processing: dict[str, dict[str, Any]] = field(default_factory=dict)
+    #: the rig frame's upward direction (against gravity), for drawing: [0, 0, 1] unless the file says
+    up: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+
+    def horizontal_axes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Two unit vectors spanning the horizontal plane (perpendicular to ``up``): the rig's x and
+        y made horizontal, so that a view's azimuth is measured from x towards y."""
+        e1 = np.eye(3)[0] - self.up * self.up[0]
+        if np.linalg.norm(e1) < 1e-6:  # x is vertical: measure from y
+            e1 = np.eye(3)[1] - self.up * self.up[1]
+        e1 = e1 / np.linalg.norm(e1)
+        e2 = np.eye(3)[1] - self.up * self.up[1] - e1 * e1[1]
+        if np.linalg.norm(e2) < 1e-6:
+            e2 = np.cross(self.up, e1)
+        return e1, e2 / np.linalg.norm(e2)
+    acquisition: Acquisition | None = None
 
     def body(self, name: str) -> Body:
         for b in self.bodies:
@@ -138,20 +211,35 @@ class Rig:
         """The sensors that measure acceleration (the ones a model predicts), in file order."""
         return tuple(s for s in self.sensors if s.quantity == "acceleration")
 
-    def force_body(self, point) -> str | None:
-        """The moving body a hammer hits at ``point`` (m): the one whose plate holds the point
-        (within FORCE_POINT_SLACK), else the one whose centre of mass is nearest; None without
-        moving bodies."""
+    def force_body(self, point, body: str | None = None) -> str | None:
+        """The moving body a hammer hits at ``point`` (m): ``body`` when given (a moving body's
+        name), else the one whose plate holds the point (within FORCE_POINT_SLACK), else the one
+        whose centre of mass is nearest; None without moving bodies. A point on two bodies' plates
+        (a machine's foot on its base) is refused unless ``body`` says which."""
         point = np.asarray(point, dtype=float)
         moving = self.moving_bodies
-        for b in moving:
-            if b.plate is not None and np.all(point >= b.plate.corner - FORCE_POINT_SLACK) and \
-                    np.all(point <= b.plate.corner + b.plate.size + FORCE_POINT_SLACK):
-                return b.name
+        if body is not None:
+            if body not in {b.name for b in moving}:
+                raise ConfigError(f"--force-body: rig {self.name!r} has no moving body {body!r} "
+                                  f"(moving: {', '.join(b.name for b in moving) or 'none'})")
+            return body
+        holding = [b.name for b in moving if b.plate is not None
+                   and np.all(point >= b.plate.corner - FORCE_POINT_SLACK)
+                   and np.all(point <= b.plate.corner + b.plate.size + FORCE_POINT_SLACK)]
+        if len(holding) > 1:
+            mm = ", ".join(f"{1e3 * v:g}" for v in point)
+            raise ConfigError(f"force point ({mm}) mm lies on bodies {' and '.join(map(repr, holding))} of rig "
+                              f"{self.name!r}: say which one was hit with --force-body")
+        if holding:
+            return holding[0]
         if not moving:
             return None
         return min(moving, key=lambda b: float(np.linalg.norm(point - b.com))).name
 
+
+#: A sensor axis written with two decimals ([0.71, 0.71, 0]) is 0.4 % long; a length further from 1
+#: is a mistake (a gain or a sign written into the axis), not rounding
+AXIS_LENGTH_SLACK = 1e-2
 
 #: Channels a rig (or a file) may have: no DAQ chassis has more
 MAX_CHANNELS = 4096
@@ -258,6 +346,10 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
         solver = b.get("solver")
         if solver is not None and (not isinstance(solver, str) or not solver):
             raise ConfigError(f"{w} field 'solver': expected a coordinate solver's name, got {solver!r}")
+        if mass is None and (solver is not None or nine is not None):
+            field_name = "solver" if solver is not None else "nine_sensor_set"
+            raise ConfigError(f"{w} field {field_name!r}: the body has no mass, so it does not move in the model "
+                              "and its sensors cannot give it coordinates (give it a 'mass' or drop the field)")
         dofs = b.get("dofs", list(COORDINATES))
         if (not isinstance(dofs, list) or not dofs or any(d not in COORDINATES for d in dofs)
                 or len(set(dofs)) != len(dofs)):
@@ -272,6 +364,8 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
         raise ConfigError(f"{where0}: two bodies share a name ({sorted(b.name for b in bodies)})")
     springs = _springs(data.get("springs", []), where0, {b.name for b in bodies if b.mass is not None}, body_names)
     sensors = []
+    sensor_processing: dict[str, dict[str, Any]] = {}
+    processing_tables: dict[str, dict[str, Any]] = {"": data["processing"]} if "processing" in data else {}
     for i, s in enumerate(data.get("sensors", [])):
         w = f"{where0}: sensors[{i}]" + (f" {s.get('name')!r}" if isinstance(s, dict) and "name" in s else "")
         if not isinstance(s, dict):
@@ -284,6 +378,9 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
             if sensor.body is not None and sensor.body not in body_names:
                 raise ConfigError(f"{w} field 'body': no body named {sensor.body!r}")
             sensors.append(sensor)
+            if "processing" in s:
+                sensor_processing[sensor.name] = parse_processing(s["processing"], f"{w} field 'processing'")
+                processing_tables[sensor.name] = s["processing"]
     sensor_names = {s.name for s in sensors}
     channels = [s.channel for s in sensors]
     if len(set(channels)) != len(channels):
@@ -300,7 +397,8 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
         base = source.parent if source else Path.cwd()
         systeminfo_file = base / data["systeminfo"]
     known = {"name", "description", "frame", "bodies", "springs", "sensors", "force_channel", "channel_count",
-             "default_model", "systeminfo"}
+             "default_model", "systeminfo", "processing", "up"}
+    acquisition = _acquisition(data.get("acquisition"), where0)
     channel_count = _channel_count(where0, data, channels)
     return Rig(
         name=name, description=data.get("description", ""), frame=data.get("frame", ""),
@@ -308,8 +406,67 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
         channel_count=channel_count,
         default_model=data.get("default_model"), systeminfo_file=systeminfo_file, source=source,
         springs=springs,
-        extra={k: v for k, v in data.items() if k not in known},
+        extra={k: v for k, v in data.items() if k not in known}, acquisition=acquisition,
+        processing=parse_processing(data.get("processing", {}), f"{where0}: [processing]"),
+        up=_up(data.get("up", [0.0, 0.0, 1.0]), where0),
+        sensor_processing=sensor_processing, processing_tables=processing_tables,
     )
+
+
+def _up(value: Any, where0: str) -> np.ndarray:
+    up = _vector(f"{where0}: field 'up'", value)
+    if abs(np.linalg.norm(up) - 1.0) > AXIS_LENGTH_SLACK:
+        raise ConfigError(f"{where0}: field 'up': expected a unit vector, got {up.tolist()}")
+    return up / np.linalg.norm(up)
+
+
+def _acquisition(table: Any, where0: str) -> Acquisition | None:
+    """The ``[acquisition]`` table, validated (errors name the field and the value)."""
+    if table is None:
+        return None
+    w = f"{where0}: acquisition"
+    if not isinstance(table, dict):
+        raise ConfigError(f"{w}: expected a table, got {table!r}")
+
+    def opt_number(key: str) -> float | None:
+        return None if table.get(key) is None else _number(f"{w} field {key!r}", table[key], positive=True)
+
+    bits = table.get("adc_bits")
+    if bits is not None:
+        bits = _integer(f"{w} field 'adc_bits'", bits, 0, 32) or None
+    adc_range = table.get("adc_range")
+    if adc_range is not None:
+        lo_hi = _vector(f"{w} field 'adc_range'", adc_range, 2)
+        if not lo_hi[1] > lo_hi[0]:
+            raise ConfigError(f"{w} field 'adc_range': expected [low, high] volts with high > low, got {adc_range!r}")
+        adc_range = (float(lo_hi[0]), float(lo_hi[1]))
+    pre = table.get("pre_trigger")
+    if pre is not None:
+        pre = _integer(f"{w} field 'pre_trigger'", pre, 0, 2**34)
+    aa = table.get("anti_aliasing")
+    if aa is not None:
+        wa = f"{w} field 'anti_aliasing'"
+        if not isinstance(aa, dict):
+            raise ConfigError(f"{wa}: expected a table {{family, order, cutoff_hz}}, got {aa!r}")
+        family = aa.get("family", "butterworth")
+        if family not in AA_FAMILIES:
+            raise ConfigError(f"{wa}.family: expected one of {', '.join(AA_FAMILIES)}, got {family!r}")
+        force = aa.get("force_channel", True)
+        if not isinstance(force, bool):
+            raise ConfigError(f"{wa}.force_channel: expected true or false, got {force!r}")
+        aa = AntiAliasing(
+            family=family, order=_integer(f"{wa}.order", aa.get("order"), 1, 16),
+            cutoff_hz=_number(f"{wa}.cutoff_hz", aa.get("cutoff_hz"), positive=True),
+            ripple_db=_number(f"{wa}.ripple_db", aa.get("ripple_db", 0.1), positive=True),
+            attenuation_db=_number(f"{wa}.attenuation_db", aa.get("attenuation_db", 60.0), positive=True),
+            force_channel=force)
+    damping = _number(f"{w} field 'sensor_resonance_damping'", table.get("sensor_resonance_damping", 0.03),
+                      positive=True)
+    if damping >= 1:
+        raise ConfigError(f"{w} field 'sensor_resonance_damping': expected a ratio below 1, got {damping!r}")
+    return Acquisition(sampling_rate=opt_number("sampling_rate"), pre_trigger=pre, adc_bits=bits,
+                       adc_range=adc_range, anti_aliasing=aa, iepe_corner_hz=opt_number("iepe_corner_hz"),
+                       sensor_resonance_hz=opt_number("sensor_resonance_hz"), sensor_resonance_damping=damping)
 
 
 def _force_channel(data: dict[str, Any], sensors: list[Sensor], where0: str) -> int | None:
@@ -418,6 +575,9 @@ def single_axis_sensor(entry: dict[str, Any], where: str, *, kind: str, quantity
     axis = _vector(f"{where} field 'axis'", entry.get("axis") if axis is None else axis)
     if np.linalg.norm(axis) == 0:
         raise ConfigError(f"{where} field 'axis': zero vector")
+    if abs(np.linalg.norm(axis) - 1.0) > AXIS_LENGTH_SLACK:
+        raise ConfigError(f"{where} field 'axis': expected a unit vector, got {axis.tolist()} of length "
+                          f"{np.linalg.norm(axis):.4g} (a gain belongs in 'sensitivity')")
     sign = entry.get("sign", 1) if sign is None else sign
     if sign not in (1, -1) or isinstance(sign, bool):
         raise ConfigError(f"{where} field 'sign': must be 1 or -1, got {sign!r}")

@@ -74,15 +74,18 @@ def _columns_to_channels(rig: Rig, names: Sequence[str], where: str, force_colum
 
 
 def onto_rig(rig: Rig, names: Sequence[str], units: Sequence[str], data: np.ndarray, fs: float, where: str,
-             point: np.ndarray | None, direction: np.ndarray | None, force_column: str | None = None) -> RigRecord:
+             point: np.ndarray | None, direction: np.ndarray | None, force_column: str | None = None,
+             force_body: str | None = None) -> RigRecord:
     """Lay ``data`` (samples x columns, named ``names`` in ``units``) onto ``rig``'s channels; the
-    hammer hit ``point`` (m, rig frame) along ``direction``; ``force_column`` names the column that
-    is the rig's force channel when its name does not say so."""
+    hammer hit ``point`` (m, rig frame) along ``direction`` (on ``force_body`` when the point lies
+    on two bodies); ``force_column`` names the column that is the rig's force channel when its name
+    does not say so."""
     if rig.force_channel is None:
         raise ConfigError(f"{where}: rig {rig.name!r} has no force channel (a 'force' sensor or force_channel)")
     mapping = _columns_to_channels(rig, names, where, force_column)
     if point is None or direction is None:
         raise ConfigError(f"{where}: a record on rig {rig.name!r} needs the hammer's --force-point and --force-dir")
+    rig.force_body(point, force_body)  # a known body, or a point that tells one
     if rig.force_channel not in mapping.values():
         raise ConfigError(f"{where}: no column is the force channel {rig.force_channel} of rig {rig.name!r}")
     si = Systeminfo.for_rig(rig, fs)
@@ -111,7 +114,7 @@ def onto_rig(rig: Rig, names: Sequence[str], units: Sequence[str], data: np.ndar
     missing = [ch for ch in range(rig.channel_count) if ch not in mapping.values()]
     for ch in missing:
         channels[ch] = replace(channels[ch], sensor_type=SensorType.NONE)
-    excitation = Excitation(rig.force_channel, np.asarray(point, float), np.asarray(direction, float))
+    excitation = Excitation(rig.force_channel, np.asarray(point, float), np.asarray(direction, float), force_body)
     names_out = [next((names[k] for k, c in mapping.items() if c == ch), f"ai{ch}") for ch in range(rig.channel_count)]
     lost = [s.name for s in rig.accelerometers if s.channel in missing]
     notes = (f"{where}: rig sensor(s) {', '.join(lost)} have no column: not recorded",) if lost else ()

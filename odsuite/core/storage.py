@@ -1,31 +1,28 @@
 """Writing a project file safely: one writer at a time, and every write a copy-on-write transaction.
 
-The writer holds an flock on ``<name>.h5.lock`` (released by the OS if the process dies). A write
-copies the committed file to ``<name>.h5.tmp-<pid>``, changes the copy, fsyncs it and atomically
+The writer holds the project's writer lock (``writer_lock``: released by the OS if the process dies).
+A write copies the committed file to ``.<name>.h5.odsuite-tmp-<pid>``, changes the copy, fsyncs it and atomically
 renames it over the project, so a killed process leaves either the old or the new committed state;
 the next writer removes copies left by an interrupted write.
 """
 
 from __future__ import annotations
 
-import fcntl
 import logging
 import os
 import shutil
 import signal
-import socket
 import stat
 import threading
-import weakref
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import IO
 
 import h5py
 
-from odsuite.core import h5text
-from odsuite.core.errors import OdsuiteError, ProjectFileError, ProjectLockedError
+from odsuite.core import diskspace, h5text, writer_lock
+from odsuite.core.errors import DiskFullError, OdsuiteError, ProjectFileError
+from odsuite.core.writer_lock import WriterLock, lock_path
 from odsuite.core.project_format import LIBVER, now
 
 #: Tests set this to a crash-point name (see ``crash_point``) to SIGKILL the writer there.
@@ -37,10 +34,12 @@ log = logging.getLogger(__name__)
 def crash_point(name: str) -> None:
     """Kill this process here when the test hook asks for it (crash-safety tests)."""
     if os.environ.get(CRASH_ENV) == name:
-        os.kill(os.getpid(), signal.SIGKILL)
+        os.kill(os.getpid(), getattr(signal, "SIGKILL", signal.SIGTERM))  # Windows: TerminateProcess
 
 
 def fsync_path(path: Path, directory: bool = False) -> None:
+    if directory and not hasattr(os, "O_DIRECTORY"):  # Windows: folders cannot be opened; NTFS journals renames
+        return
     fd = os.open(path, os.O_RDONLY | (os.O_DIRECTORY if directory else 0))
     try:
         os.fsync(fd)
@@ -49,8 +48,8 @@ def fsync_path(path: Path, directory: bool = False) -> None:
 
 
 def tmp_path(path: Path) -> Path:
-    """This process's working copy of the project ``path``."""
-    return path.with_name(f"{path.name}.tmp-{os.getpid()}")
+    """This process's working copy of the project ``path``: hidden, in odsuite's own name space."""
+    return path.with_name(f".{path.name}.odsuite-tmp-{os.getpid()}")
 
 
 def replace_atomically(tmp: Path, path: Path) -> None:
@@ -63,64 +62,47 @@ def replace_atomically(tmp: Path, path: Path) -> None:
 # ----------------------------------------------------------------------------- the writer lock
 
 
-def _lock_path(path: Path) -> Path:
-    return path.with_name(path.name + ".lock")
-
-
-#: Lock files this process holds open. A forked child shares their flock, which would outlive a
-#: killed parent, so the child closes its copies (closing never unlocks the parent's descriptor).
-_HELD_LOCKS: weakref.WeakSet[IO[str]] = weakref.WeakSet()
-
-
-def _close_inherited_locks() -> None:
-    for fh in list(_HELD_LOCKS):
-        fh.close()
-    _HELD_LOCKS.clear()
-
-
-os.register_at_fork(after_in_child=_close_inherited_locks)
-
-
-def acquire_lock(path: Path) -> IO[str]:
-    """Take the writer lock of ``path`` (flock: released by the OS if the process dies)."""
-    try:
-        # never through a symbolic link: the lock must not truncate a file someone planted there
-        fd = os.open(_lock_path(path), os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o644)
-        fh = open(fd, "a+", encoding="utf-8")
-    except OSError as exc:
-        raise ProjectFileError(f"{path}: cannot create lock file {_lock_path(path)}: {exc.strerror}") from None
-    try:
-        fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        fh.seek(0)
-        holder = fh.read().split()
-        fh.close()
-        pid = holder[0] if holder else "?"
-        host = f" on host {holder[1]}" if len(holder) > 1 and holder[1] != socket.gethostname() else ""
-        raise ProjectLockedError(
-            f"{path}: project is open in another process (pid {pid}{host}); close it there first"
-        ) from None
-    fh.truncate(0)
-    fh.write(f"{os.getpid()} {socket.gethostname()}\n")
-    fh.flush()
-    _HELD_LOCKS.add(fh)
-    for stale in sorted(path.parent.glob(f"{path.name}.tmp-*")):
+def acquire_lock(path: Path) -> WriterLock:
+    """Take the writer lock of ``path`` (see ``writer_lock``) and remove the working copies that
+    interrupted writes left."""
+    lock = writer_lock.acquire(path)
+    real = Path(os.path.realpath(path))
+    links = os.stat(real).st_nlink if real.exists() else 1
+    if links > 1:
+        # a write replaces the file by a new one: the other names would keep the old state
+        lock.release()
+        raise ProjectFileError(f"{path}: project has {links} hard links (names of one file), which a write would "
+                               "split; keep one name or give each a copy (cp) to change it")
+    for stale in sorted(real.parent.glob(f".{real.name}.odsuite-tmp-*")):
         if _is_our_copy(stale):
             log.warning("%s: removing %s left by an interrupted write", path, stale.name)
             stale.unlink(missing_ok=True)
-    return fh
+    return lock
+
+
+def release_lock(lock: WriterLock) -> None:
+    lock.release()
 
 
 def _is_our_copy(candidate: Path) -> bool:
-    """A working copy an interrupted write left: ``<name>.tmp-<pid>``, a regular file (not a link)
-    holding an HDF5 file. A user's ``p.h5.tmp-backup`` or a link of that name is left alone."""
-    if not candidate.name.rsplit(".tmp-", 1)[1].isdigit() or candidate.is_symlink() or not candidate.is_file():
+    """A working copy an interrupted write left: ``.<name>.odsuite-tmp-<pid>``, a regular file (not a
+    link) holding an HDF5 file. Anything else of that name is left alone."""
+    if not candidate.name.rsplit("-", 1)[1].isdigit() or candidate.is_symlink() or not candidate.is_file():
         return False
     try:
         with open(candidate, "rb") as fh:
             return fh.read(8) == b"\x89HDF\r\n\x1a\n"
     except OSError:
         return False
+
+
+def reserve_private(tmp: Path, project: Path) -> None:
+    """Create the empty working copy ``tmp``: a new file, never one that exists or a link (O_EXCL)."""
+    try:
+        os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o666))
+    except FileExistsError:
+        raise ProjectFileError(f"{project}: {tmp} is in the way of the working copy and was not written by "
+                               "odsuite; move it elsewhere") from None
 
 
 def check_output(output: Path, project: Path | None, option: str) -> Path:
@@ -135,22 +117,13 @@ def check_output(output: Path, project: Path | None, option: str) -> Path:
         project = Path(project)
         real_output, real_project = os.path.realpath(output), os.path.realpath(project)  # no error on loops
         same = output.exists() and project.exists() and os.path.samefile(output, project)
+        real_name = Path(real_output).name
         sidecar = Path(real_output).parent == Path(real_project).parent and (
-            output.name == _lock_path(project).name or output.name.startswith(f"{project.name}.tmp-"))
+            real_name == lock_path(project).name or real_name.startswith(f".{Path(real_project).name}.odsuite-tmp-"))
         if same or real_output == real_project or sidecar:
             raise ProjectFileError(f"{option} {output}: that is the project {project} or one of its own files; "
                                    "give another file name")
     return output
-
-
-def release_lock(fh: IO[str]) -> None:
-    _HELD_LOCKS.discard(fh)
-    if fh.closed:  # closed in a forked child: the lock belongs to the parent
-        return
-    fh.truncate(0)
-    fh.flush()
-    fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
-    fh.close()
 
 
 # ----------------------------------------------------------------------------- transactions
@@ -164,7 +137,8 @@ COMMITS: list[Path] = []
 def interrupts_deferred() -> Iterator[None]:
     """Hold SIGINT back (it arrives right after the block), e.g. so a Ctrl-C never falls between a
     commit and its record. Processes started inside inherit the block."""
-    main_thread = threading.current_thread() is threading.main_thread()
+    # Windows has no signal masks; a Ctrl-C there may fall between the commit and its record
+    main_thread = threading.current_thread() is threading.main_thread() and hasattr(signal, "pthread_sigmask")
     if main_thread:
         signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
@@ -172,6 +146,17 @@ def interrupts_deferred() -> Iterator[None]:
     finally:
         if main_thread:
             signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
+def _discard(f: h5py.File | None, tmp: Path) -> None:
+    """Close (if open) and delete the working copy of a write that failed."""
+    try:
+        if f:  # still open
+            f.close()
+    except Exception:  # noqa: BLE001 - a copy that cannot be closed is deleted all the same
+        log.debug("closing %s failed", tmp, exc_info=True)
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 @contextmanager
@@ -184,20 +169,30 @@ def copy_on_write(path: Path) -> Iterator[h5py.File]:
     if not os.stat(path).st_mode & stat.S_IWUSR or not os.access(path, os.W_OK):
         raise ProjectFileError(f"{path}: project is read-only; make it writable (chmod u+w) to change it")
     tmp = tmp_path(path)
+    size = os.stat(path).st_size
+    diskspace.ensure_space(tmp, size, path)  # room for the copy, before a byte is written
+    f = None
+    reserve_private(tmp, path)  # before the try: a file in the way is not ours to delete
     try:
         shutil.copyfile(path, tmp)
         shutil.copymode(path, tmp)  # the project keeps its permissions
         crash_point("copied")
+        reserved = diskspace.reserve(tmp, size, 0, path)  # room for HDF5's own records
         f = h5py.File(tmp, "r+", locking=False, libver=LIBVER)
     except BaseException as exc:  # an interrupt during the copy leaves no copy behind either
-        tmp.unlink(missing_ok=True)
-        if isinstance(exc, OSError):
+        _discard(f, tmp)
+        if diskspace.is_disk_full(exc):
+            raise DiskFullError(diskspace.full_message(path, path.parent, size)) from None
+        if isinstance(exc, OSError) and not isinstance(exc, OdsuiteError):
             raise ProjectFileError(f"{path}: cannot start a write ({exc})") from None
         raise
     try:
-        yield f
+        with diskspace.shown_as(tmp, path):
+            yield f
         h5text.set_attrs(f, {"file_update_time": now()})
         f.close()
+        if reserved:  # reopened for writing, HDF5 cuts the reserved blocks it did not use
+            h5py.File(tmp, "r+", locking=False, libver=LIBVER).close()
         crash_point("written")
         fsync_path(tmp)
         crash_point("synced")
@@ -207,9 +202,10 @@ def copy_on_write(path: Path) -> Iterator[h5py.File]:
         crash_point("replaced")
         fsync_path(path.parent, directory=True)
     except BaseException as exc:
-        if f:  # still open
-            f.close()
-        tmp.unlink(missing_ok=True)
-        if isinstance(exc, OSError) and not isinstance(exc, OdsuiteError):  # e.g. disk full
+        reached = diskspace.written_so_far(tmp)
+        _discard(f, tmp)
+        if diskspace.is_disk_full(exc) and not isinstance(exc, DiskFullError):  # the estimate fell short
+            raise DiskFullError(diskspace.full_message(path, path.parent, reached)) from None
+        if isinstance(exc, OSError) and not isinstance(exc, OdsuiteError):
             raise ProjectFileError(f"{path}: write failed, project left unchanged: {exc}") from exc
         raise

@@ -17,6 +17,7 @@ from enum import IntEnum
 from pathlib import Path
 
 from odsuite.core.errors import ConfigError, OdsuiteWarning
+from odsuite.core.filter_kinds import MAX_FILTER_ORDER, FilterFamily, FilterType
 from odsuite.core.rig import NINE_ROLES, Rig
 from odsuite.core.textfiles import read_text
 
@@ -44,27 +45,6 @@ class Integration(IntEnum):
 #: these bounds a volt of noise would read as 1e9 units (or a whole signal as nothing)
 MIN_SENSITIVITY = 1e-9
 MAX_SENSITIVITY = 1e3
-#: Highest IIR filter order: elliptic and Butterworth designs above ~30 put poles within rounding
-#: of each other even as second-order sections; the thesis uses 8
-MAX_FILTER_ORDER = 30
-
-
-class FilterType(IntEnum):
-    """Table E.2 row 5."""
-
-    LOWPASS = 0
-    HIGHPASS = 1
-    BANDPASS = 2
-    BANDSTOP = 3
-
-
-class FilterFamily(IntEnum):
-    """Table E.2 row 18."""
-
-    ELLIPTIC = 0
-    BUTTERWORTH = 1
-
-
 #: Physical quantity and SI unit measured by each sensor type; its sensitivity is in V per this unit.
 SENSOR_UNITS: dict[SensorType, tuple[str, str]] = {
     SensorType.NONE: ("voltage", "V"),
@@ -327,8 +307,8 @@ class Systeminfo:
     @classmethod
     def for_rig(cls, rig: Rig, sampling_rate: float, n_channels: int | None = None) -> Systeminfo:
         """A Systeminfo for ``rig``: its default ``.CTR`` when it has one (channels beyond it are
-        described from the rig's sensors), else one built from the rig's sensors with the thesis's
-        processing settings. Every channel gets ``sampling_rate``."""
+        described from the rig's sensors), else one built from the rig's sensors and its
+        ``[processing]`` settings. Every channel gets ``sampling_rate``."""
         n = rig.channel_count if n_channels is None else n_channels
         fs = float(sampling_rate)
         channels = [_channel_for_rig(rig, k, fs) for k in range(n)]
@@ -354,24 +334,26 @@ _THESIS_LOADCELL_V_PER_N = 2.248e-3
 
 
 def _channel_for_rig(rig: Rig, k: int, fs: float) -> ChannelInfo:
-    """Channel ``k`` described from the rig with the thesis's settings; accelerometers are
-    integrated twice with filters 1 and 2 on (§5.2), sensors with sign -1 inverted."""
+    """Channel ``k`` described from the rig: the thesis's settings under the rig's ``[processing]``
+    and the sensor's own ``processing`` table. Accelerometers are integrated twice, filtered on the
+    signal and after the first integration unless the rig says otherwise (§5.2); a rig-wide
+    ``filter_at`` concerns accelerometers only. Sensors with sign -1 are inverted."""
+    settings = {**_THESIS_CHANNEL, **{key: v for key, v in rig.processing.items() if key != "filters_on"}}
     sensor = rig.sensor_on_channel(k)
     if sensor is None:
         if k == rig.force_channel:
             return ChannelInfo(sensor_type=SensorType.LOADCELL, location="force", sampling_rate=fs,
-                               sensitivity=_THESIS_LOADCELL_V_PER_N, **_THESIS_CHANNEL)
-        return ChannelInfo(sensor_type=SensorType.VOLTAGE, location=f"ai{k}", sampling_rate=fs,
-                           **_THESIS_CHANNEL)
+                               sensitivity=_THESIS_LOADCELL_V_PER_N, **settings)
+        return ChannelInfo(sensor_type=SensorType.VOLTAGE, location=f"ai{k}", sampling_rate=fs, **settings)
     sensor_type = _QUANTITY_TO_SENSOR_TYPE.get(sensor.quantity, SensorType.AUXILIARY)
     if sensor.sensitivity is None and sensor_type is not SensorType.VOLTAGE:
         raise ConfigError(f"rig {rig.name!r}: sensor {sensor.name!r} (channel {k}) has no sensitivity")
-    ch = ChannelInfo(sensor_type=sensor_type, location=sensor.name, serial=sensor.serial,
-                     sensitivity=sensor.sensitivity or 1.0, sampling_rate=fs,
-                     invert=sensor.sign < 0, **_THESIS_CHANNEL)
     if sensor_type is SensorType.ACCELEROMETER:
-        ch = replace(ch, integration=Integration.DOUBLE, filters_on=3)
-    return ch
+        settings.update(integration=Integration.DOUBLE, filters_on=rig.processing.get("filters_on", 3))
+    settings.update(rig.sensor_processing.get(sensor.name, {}))
+    return ChannelInfo(sensor_type=sensor_type, location=sensor.name, serial=sensor.serial,
+                       sensitivity=sensor.sensitivity or 1.0, sampling_rate=fs,
+                       invert=sensor.sign < 0, **settings)
 
 
 def _rig_info_from_geometry(rig: Rig) -> RigInfo:

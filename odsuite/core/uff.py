@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from odsuite.core import uff_checks
 from odsuite.core.errors import ConfigError
 
 #: dataset 58 function types used here
@@ -110,12 +111,15 @@ def read_uff(path: str | Path) -> UffContent:
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"{path}: UFF file not found")
+    types = uff_checks.check_structure(path, path.read_bytes())
     pyuff = _pyuff()
     try:
         sets = pyuff.UFF(str(path)).read_sets()
     except Exception as exc:  # pyuff raises bare Exceptions on malformed files
         raise ConfigError(f"{path}: not a readable UFF file ({exc})") from exc
     sets = [sets] if isinstance(sets, dict) else sets
+    uff_checks.check_types(path, types, sets)
+    _check_sets(path, sets)
     functions: list[UffFunction] = []
     nodes = None
     cs_rot: dict[int, np.ndarray] = {}
@@ -171,6 +175,17 @@ def read_uff(path: str | Path) -> UffContent:
             trace_lines=traces,
         )
     return UffContent(functions, geometry, [int(s.get("type", 0)) for s in sets])
+
+
+def _check_sets(path: Path, sets: list[dict]) -> None:
+    """Each parsed set against its own header (``uff_checks``)."""
+    checks = {58: uff_checks.check_function, 15: uff_checks.check_nodes, 2411: uff_checks.check_nodes,
+              82: uff_checks.check_trace}
+    for index, s in enumerate(sets, start=1):
+        check = checks.get(s.get("type"))
+        if check is not None:
+            check(path, index, s)
+    uff_checks.check_references(path, sets)
 
 
 def time_function(name: str, data: np.ndarray, dt: float, unit: str, *, node: int = 0, direction: int = 0) -> UffFunction:

@@ -101,13 +101,14 @@ class NiDaq:
         point: Sequence[float] | None = None,
         direction: Sequence[float] | None = None,
         capture: Callable[[], bool] | None = None,
+        force_body: str | None = None,
     ) -> Recording:
         """Configure a task for every channel of ``rig`` and return the record, read lazily.
 
         ``physical_channels`` default to ``{device}/ai0 .. ai{n-1}``. ``trigger_source`` None arms
         an analog edge on the force channel at ``settings.trigger_level`` N; a terminal such as
         "/Dev1/PFI0" arms a digital edge. ``point`` (m, rig frame) and ``direction`` describe
-        where the hammer hits. ``capture`` is polled in continuous mode.
+        where the hammer hits (``force_body``: the body, when the point lies on two). ``capture`` is polled in continuous mode.
         """
         if rig is None:
             raise ConfigError("NI acquisition needs a project with a rig: its channels define the task")
@@ -125,7 +126,8 @@ class NiDaq:
         excitation = None
         if point is not None:
             d = np.asarray(direction, dtype=float)
-            excitation = Excitation(rig.force_channel, np.asarray(point, dtype=float), d / np.linalg.norm(d))
+            excitation = Excitation(rig.force_channel, np.asarray(point, dtype=float), d / np.linalg.norm(d),
+                                    force_body)
         kinds = [_channel_kind(rig, si, k, iepe) for k in range(n_ch)]
         if iepe:  # no external amplifier between an IEPE sensor and the card
             si = Systeminfo(channels=[replace(c, daq_gain=1.0) if kinds[k] != "voltage" else c

@@ -3,8 +3,8 @@
 A project is created on the thesis rig; five impact tests like the thesis's are recorded on the
 simulated rig whose truth hides two effects the project's model does not know (a stiffer vertical
 suspension and a flexible twist mode of the platform); the records are processed to generalized
-coordinates; the model-measurement loop (compare, diagnose, add the best effect) runs until no
-significant candidate is left or the round limit is reached; a report, a movie with the model
+coordinates; the model-measurement loop (compare, diagnose, add the best effect) runs until the
+diagnosis finds nothing to explain or no significant candidate, or the round limit is reached; a report, a movie with the model
 overlaid and the history figure are written; finally the hidden truth is written beside them and
 set against what the loop found.
 """
@@ -195,8 +195,9 @@ def _summary_table(result: DemoResult, model) -> Table:
 def run_demo(out: str | Path = "demo-output", *, rounds: int = ROUNDS, console: Console | None = None) -> DemoResult:
     """Run the demo into directory ``out`` (its ``demo.h5``, report, movie and figures are replaced).
 
-    ``rounds``: at most this many diagnose/add-effect rounds; the loop stops earlier when no
-    candidate is significant.
+    ``rounds``: at most this many diagnose/add-effect rounds; the loop stops earlier when the
+    diagnosis finds nothing to explain (the error is within the noise floor) or no candidate is
+    significant.
     """
     from odsuite.core.comparison import compare
     from odsuite.core.prediction import prepare
@@ -265,6 +266,10 @@ def run_demo(out: str | Path = "demo-output", *, rounds: int = ROUNDS, console: 
             _print_comparison(console, cmp)
             diagnosis_doc = diagnose(p, prepared=exps, progress=report).as_dict()
             _print_candidates(console, diagnosis_doc)
+            console.print(f"  verdict: {diagnosis_doc['verdict']}", highlight=False, soft_wrap=True)
+            if diagnosis_doc["verdict"] == "nothing to explain":
+                console.print("  the error is within the noise floor: the loop stops", highlight=False, soft_wrap=True)
+                break
             best = next((c for c in diagnosis_doc["candidates"] if c["significant"]), None)
             if best is None:
                 console.print("  no candidate is significant: the loop stops", highlight=False, soft_wrap=True)

@@ -9,6 +9,11 @@ import numpy as np
 from odsuite.core.errors import ConfigError
 
 
+#: contact times of real blows: a steel tip on steel 0.05 ms, a rubber-tipped sledge on a vehicle or
+#: a drop weight 50 ms
+MIN_CONTACT_S, MAX_CONTACT_S = 0.05e-3, 50e-3
+
+
 @dataclass(frozen=True)
 class Hit:
     """One impact: starts ``time`` s after the first hit, ``peak`` N, ``width`` s (contact time)."""
@@ -22,8 +27,9 @@ class Hit:
             raise ConfigError(f"{where}: hit field 'time' must be >= 0 s, got {self.time!r}")
         if not (np.isfinite(self.peak) and self.peak > 0):
             raise ConfigError(f"{where}: hit field 'peak' must be > 0 N, got {self.peak!r}")
-        if not 0.2e-3 <= self.width <= 1e-3:
-            raise ConfigError(f"{where}: hit field 'width' must be 0.2-1 ms (a hammer's contact time), got {self.width!r} s")
+        if not MIN_CONTACT_S <= self.width <= MAX_CONTACT_S:
+            raise ConfigError(f"{where}: hit field 'width' must be {1e3 * MIN_CONTACT_S:g}-{1e3 * MAX_CONTACT_S:g} ms "
+                              f"(a blow's contact time), got {self.width!r} s")
 
 
 def half_sine_force(t: np.ndarray, hits: list[Hit], t0: float = 0.0) -> np.ndarray:

@@ -38,14 +38,19 @@ from odsuite.core.excitation import Excitation
 from odsuite.core.rig import Rig
 from odsuite.core.systeminfo import Systeminfo
 
-#: ``truth(force, fs, point, direction) -> accelerations``: force (N) sampled at fs; returns
-#: (samples x sensors) m/s^2 along each rig accelerometer's axis at its position, in
-#: ``rig.accelerometers`` order.
+#: ``truth(force, fs, point, direction[, body=NAME]) -> accelerations``: force (N) sampled at fs;
+#: returns (samples x sensors) m/s^2 along each rig accelerometer's axis at its position, in
+#: ``rig.accelerometers`` order; ``body`` is passed only when the experimenter names the body hit.
 Truth = Callable[[np.ndarray, float, np.ndarray, np.ndarray], np.ndarray]
 
 #: bipolar input ranges (V) of an NI E-series card (AT-MIO-16E-2): the card uses the smallest one
 #: that holds the limits the experimenter sets, e.g. -2..3 V is read on +-5 V
 E_SERIES_RANGES = (0.05, 0.1, 0.25, 0.5, 1.0, 2.5, 5.0, 10.0)
+#: ADC resolutions of real cards: 8-bit scopes to 24-bit sigma-delta (32 bits: the codes still
+#: fit a float64's mantissa)
+MIN_ADC_BITS, MAX_ADC_BITS = 8, 32
+#: a thousand times the thesis's floor is a few volts of noise: beyond it the record is noise
+MAX_NOISE_SCALE = 1000.0
 
 
 def adc_range(low: float, high: float) -> float:
@@ -54,14 +59,32 @@ def adc_range(low: float, high: float) -> float:
     return next((r for r in E_SERIES_RANGES if r >= need), E_SERIES_RANGES[-1])
 
 
-def default_chains(rig: Rig, systeminfo: Systeminfo, *, noise: bool = True) -> dict[int, ChannelChain]:
+def default_chains(rig: Rig, systeminfo: Systeminfo, *, noise: float = 1.0,
+                   adc_bits: int | None = None) -> dict[int, ChannelChain]:
     """The thesis's chain for every channel: ICP sensors (sensitivities: the rig's sensors, the
     Systeminfo's load cell), 1 kHz 8th-order anti-aliasing with the Systeminfo's gain (§5.1), a
-    12-bit ADC on the E-series range that holds the Systeminfo's limits.
+    12-bit ADC (or ``adc_bits``) on the E-series range that holds the Systeminfo's limits.
 
-    Noise levels are typical of the thesis's Fig. A.1 floor (a few LSB); offsets and drift set the
-    scale of their random per-record values (drawn from the seed).
+    Noise levels are typical of the thesis's Fig. A.1 floor (a few LSB), scaled by ``noise`` (True
+    is 1, False 0); offsets and drift set the scale of their random per-record values (drawn from
+    the seed). What the rig's ``[acquisition]`` table declares replaces the thesis's front end: the
+    IEPE corner, the sensors' resonance, the anti-aliasing filter's order and cut-off (drawn as a
+    Butterworth), the ADC's bits and range.
     """
+    acq = rig.acquisition
+    sensor_front: dict = {}
+    everywhere: dict = {}
+    aa = acq.anti_aliasing if acq is not None else None
+    if acq is not None:
+        if acq.iepe_corner_hz:
+            sensor_front.update(sensor_tc=1.0 / (2 * np.pi * acq.iepe_corner_hz), coupler_tc=None)
+        if acq.sensor_resonance_hz:
+            sensor_front.update(resonance_hz=acq.sensor_resonance_hz, resonance_damping=acq.sensor_resonance_damping)
+        if acq.adc_bits:
+            everywhere["adc_bits"] = acq.adc_bits
+        if acq.adc_range is not None:
+            everywhere.update(limit_low=acq.adc_range[0], limit_high=acq.adc_range[1])
+    filtered = {"aaf_order": aa.order, "aaf_cutoff_hz": aa.cutoff_hz} if aa is not None else {}
     chains: dict[int, ChannelChain] = {}
     for ch in range(rig.channel_count):
         info = systeminfo.channels[ch]
@@ -78,12 +101,26 @@ def default_chains(rig: Rig, systeminfo: Systeminfo, *, noise: bool = True) -> d
         else:  # an unused input (Table E.3 channel 1): noise only
             chain = ChannelChain(sensitivity=1.0, sensor_tc=None, coupler_tc=None, resonance_hz=None,
                                  noise_rms=1.0e-3)
-        chain = replace(chain, gain=info.daq_gain, limit_low=-r, limit_high=r)
-        if not noise:
-            chain = replace(chain, noise_rms=0.0, offset=0.0, drift=0.0, hum_amplitude=0.0)
+        chain = replace(chain, **{"gain": info.daq_gain, "limit_low": -r, "limit_high": r, **everywhere})
+        if sensor is not None and ch != rig.force_channel and sensor.quantity == "acceleration":
+            chain = replace(chain, **sensor_front)
+        if filtered and (ch != rig.force_channel or aa.force_channel):
+            chain = replace(chain, **filtered)
+        if adc_bits is not None:
+            chain = replace(chain, adc_bits=adc_bits)
+        chain = replace(chain, noise_rms=chain.noise_rms * noise, offset=chain.offset * noise,
+                        drift=chain.drift * noise, hum_amplitude=chain.hum_amplitude * noise)
         chain.validate(f"rig {rig.name!r} channel {ch}")
         chains[ch] = chain
     return chains
+
+
+def _front_end_notes(rig: Rig) -> list[str]:
+    aa = rig.acquisition.anti_aliasing if rig.acquisition is not None else None
+    if aa is not None and aa.family != "butterworth":
+        return [f"the simulated rig draws rig {rig.name!r}'s {aa.family} anti-aliasing filter as a Butterworth "
+                f"of order {aa.order} at {aa.cutoff_hz:g} Hz"]
+    return []
 
 
 def find_trigger(force_volts: np.ndarray, level: float, slope: str, start: int) -> int | None:
@@ -104,7 +141,16 @@ class SimulatedRig:
     options = (BackendOption("scenario", str, None, "thesis test T1..T8 (default T1 when no force point is given)"),
                BackendOption("seed", int, 0, "random seed; one seed, one record"),
                BackendOption("force_peak", float, None, "peak hammer force in N (default: the scenario's, "
-                                                        "else 20 N); several hits keep their ratios"))
+                                                        "else 20 N); several hits keep their ratios"),
+               BackendOption("contact_ms", float, None, "the blow's contact time, ms (default: the scenario's, "
+                             "else 0.5 ms; a hard tip 0.1-0.5 ms, a rubber tip or a sledge 2-20 ms)"),
+               BackendOption("truth_rig", str, None, "a rig file the record comes from instead of the project's rig "
+                             "(a hidden change: stiffer mounts, a moved mass, a tilted or mis-calibrated sensor); "
+                             "it has the project rig's channels", flag="--truth"),
+               BackendOption("adc_bits", int, None, f"ADC resolution, bits {MIN_ADC_BITS}-{MAX_ADC_BITS} "
+                                                    "(default 12: the thesis's E-series card)"),
+               BackendOption("noise", float, 1.0, "scale of the ADC-input noise, offsets and drift "
+                                                  f"(1: the thesis's floor, 0: none, at most {MAX_NOISE_SCALE:g})"))
 
     def __init__(self, truth_factory: Callable[..., Truth] | None = None) -> None:
         self._truth_factory = truth_factory
@@ -124,8 +170,12 @@ class SimulatedRig:
         effects: Sequence[tuple[str, Mapping[str, Any]]] = (),
         chains: Mapping[int, ChannelChain] | None = None,
         oversample: int = 8,
-        noise: bool = True,
+        noise: float = 1.0,
         force_peak: float | None = None,
+        truth_rig: str | None = None,
+        adc_bits: int | None = None,
+        force_body: str | None = None,
+        contact_ms: float | None = None,
     ) -> Recording:
         """Strike the virtual rig and return the triggered record.
 
@@ -133,7 +183,8 @@ class SimulatedRig:
         hits (without one: a 20 N, 0.5 ms hit); ``point`` (m, rig frame),
         ``direction`` and ``hits`` override it. ``truth`` replaces the rig's default model (with
         ``effects`` applied: hidden from the Systeminfo). ``chains`` replaces channels' chains
-        (e.g. a sensor whose true sensitivity differs from its nominal one).
+        (e.g. a sensor whose true sensitivity differs from its nominal one). ``truth_rig``: a rig
+        file whose model, sensor axes, positions and sensitivities make the record instead.
         """
         if rig is None:
             raise ConfigError("the simulated rig needs a project with a rig (created without --rig none)")
@@ -164,10 +215,24 @@ class SimulatedRig:
                 raise ConfigError(f"--force-peak: must be > 0 N, got {force_peak!r}")
             top = max(h.peak for h in hits)
             hits = [replace(h, peak=h.peak * force_peak / top) for h in hits]
+        if contact_ms is not None:
+            hits = [replace(h, width=1e-3 * contact_ms) for h in hits]
         for i, h in enumerate(hits):
             h.validate(f"simulator hit {i}")
+        if not (np.isfinite(noise) and 0 <= noise <= MAX_NOISE_SCALE):
+            raise ConfigError(f"--noise: a scale from 0 to {MAX_NOISE_SCALE:g}, got {noise!r}")
+        if adc_bits is not None and not MIN_ADC_BITS <= adc_bits <= MAX_ADC_BITS:
+            raise ConfigError(f"--adc-bits: an integer from {MIN_ADC_BITS} to {MAX_ADC_BITS}, got {adc_bits!r}")
         systeminfo = rig_systeminfo(rig, settings.sampling_rate)
-        all_chains = default_chains(rig, systeminfo, noise=noise)
+        all_chains = default_chains(rig, systeminfo, noise=noise, adc_bits=adc_bits)
+        if truth_rig is not None:
+            if truth is not None or effects:
+                raise ConfigError("simulator: give a truth rig, a truth or effects, not two of them")
+            from odsuite_plugins.daq_sim.truth import rig_file_truth
+
+            truth, true_sensitivity = rig_file_truth(rig, truth_rig)
+            for ch, (sensitivity, sign) in true_sensitivity.items():
+                all_chains[ch] = replace(all_chains[ch], sensitivity=sensitivity, sign=sign)
         for ch, chain in (chains or {}).items():
             if ch not in all_chains:
                 raise ConfigError(f"simulator option 'chains': rig {rig.name!r} has no channel {ch}")
@@ -188,7 +253,9 @@ class SimulatedRig:
         n_stream = int(np.ceil(lead + (span + 0.05) * fs)) + n
         t_fine = np.arange(n_stream * oversample) / fine
         force = half_sine_force(t_fine, hits, t0=lead / fs)
-        acc = np.asarray(truth(force, fine, point, direction), dtype=float)
+        # a truth is told the body hit only when the experimenter says (a point on two bodies)
+        acc = np.asarray(truth(force, fine, point, direction, **({"body": force_body} if force_body else {})),
+                         dtype=float)
         sensors = rig.accelerometers
         if acc.shape != (force.size, len(sensors)):
             raise HardwareError(f"simulator: the truth model returned shape {acc.shape}, expected {(force.size, len(sensors))}")
@@ -220,15 +287,18 @@ class SimulatedRig:
 
         names = [channel_name(rig, ch) for ch in range(rig.channel_count)]
         # a scenario's hits scaled by --force-peak are still that scenario (the source says the peak)
-        label = sc.name if sc is not None and (hits == list(sc.hits) or force_peak is not None) else "custom"
+        label = (sc.name if sc is not None and (hits == list(sc.hits) or force_peak is not None or contact_ms is not None)
+                 else "custom")
         rec = Recording(
             chunks=_chunks(raw, settings.chunk_size, progress),
             n_samples=n, sampling_rate=fs, pretrigger=pre, systeminfo=systeminfo,
-            excitation=Excitation(force_channel=fch, point=point, direction=direction),
+            excitation=Excitation(force_channel=fch, point=point, direction=direction, body=force_body),
             channel_names=names,
             source=f"daq_sim scenario={label} seed={seed} hits={len(hits)} oversample={oversample}"
-                   + (f" force_peak={force_peak:g}N" if force_peak is not None else ""),
+                   + (f" force_peak={force_peak:g}N" if force_peak is not None else "")
+                   + (f" contact={contact_ms:g}ms" if contact_ms is not None else ""),
             clipped={ch: c for ch, c in clipped.items() if c},
+            notes=_front_end_notes(rig),
         )
         if progress:
             progress(WAITING, 0, n)

@@ -34,8 +34,39 @@ def model_truth(rig: Rig, effects: Sequence[tuple[str, Mapping[str, Any]]] = ())
     model = truth_model(rig, effects)
     outputs = [Output.sensor(s) for s in rig.accelerometers]
 
-    def truth(force: np.ndarray, fs: float, point: np.ndarray, direction: np.ndarray) -> np.ndarray:
-        hit = Input.force(point, direction, body=rig.force_body(point))
+    def truth(force: np.ndarray, fs: float, point: np.ndarray, direction: np.ndarray,
+              body: str | None = None) -> np.ndarray:
+        hit = Input.force(point, direction, body=rig.force_body(point, body))
         return simulate(model, [hit], force, fs, outputs, hold="foh")
 
     return truth
+
+
+def rig_file_truth(rig: Rig, path: str):
+    """A truth from another rig file (a user's hidden change) with the project rig's channels:
+    accelerations in ``rig.accelerometers`` order, and {channel: (sensitivity, sign)} of the
+    sensors whose true sensitivity or sign differ from the project rig's."""
+    from odsuite.core.plugins import registries
+    from odsuite.core.rig import load_rig
+
+    true = load_rig(path, registries().sensor_types)
+    by_channel = {s.channel: s for s in true.accelerometers}
+    order = []
+    changed: dict[int, tuple[float, float]] = {}
+    for sensor in rig.accelerometers:
+        other = by_channel.get(sensor.channel)
+        if other is None:
+            raise ConfigError(f"--truth {path}: no accelerometer on channel {sensor.channel} "
+                              f"(the project rig's {sensor.name!r})")
+        order.append(true.accelerometers.index(other))
+        if other.sensitivity is not None and (other.sensitivity, other.sign) != (sensor.sensitivity, sensor.sign):
+            changed[sensor.channel] = (other.sensitivity, other.sign)
+    if true.force_channel != rig.force_channel:
+        raise ConfigError(f"--truth {path}: force channel {true.force_channel}, the project rig's is {rig.force_channel}")
+    simulate_true = model_truth(true)
+
+    def truth(force: np.ndarray, fs: float, point: np.ndarray, direction: np.ndarray,
+              body: str | None = None) -> np.ndarray:
+        return simulate_true(force, fs, point, direction, body)[:, order]
+
+    return truth, changed

@@ -168,20 +168,22 @@ def rigidity_check(rig: Rig, body: Body, accelerations: Mapping[str, np.ndarray]
 
 
 class LeastSquares:
-    """General solver: any >= 6 single-axis sensors with known positions and axes on one body.
+    """General solver: any single-axis sensors with known positions and axes on one body that
+    determine its coordinates (six, or the body's ``dofs``: a planar car body needs two).
 
     Linearised rigid-body relation per sensor i (rest vector r_i from G, unit axis a_i):
     ``s_i = a_i . (t + Theta x r_i) = [a_i, r_i x a_i] . d_G``. One pseudo-inverse of that
-    (m, 6) matrix solves all samples. The condition number is that of the matrix with lengths in
+    (m, 6) matrix (its columns of the body's coordinates) solves all samples; coordinates the body
+    does not have stay zero. The condition number is that of the matrix with lengths in
     metres. ``at_c`` is also given where the body has a corner (nine-sensor corner, else plate
     corner), by the finite transform.
     """
 
     name = "least-squares"
-    description = "any six or more single-axis sensors with independent directions on one body"
+    description = "single-axis sensors with independent directions on one body, as many as it has coordinates"
 
     def suitability(self, rig: Rig, body: Body, sensors) -> float | None:
-        """1 when the named sensors of ``body`` determine all six coordinates."""
+        """1 when the named sensors of ``body`` determine all its coordinates."""
         names = tuple(s.name for s in body_sensors(rig, body) if s.name in set(sensors))
         try:
             self.matrix(rig, body, names)
@@ -190,40 +192,48 @@ class LeastSquares:
         return 1.0
 
     def matrix(self, rig: Rig, body: Body, names: tuple[str, ...]) -> np.ndarray:
-        """The (m, 6) matrix mapping d_G to the named sensors' signals; refuses a degenerate layout."""
+        """The (m, k) matrix mapping the body's k coordinates (its ``dofs`` of d_G) to the named
+        sensors' signals; refuses a degenerate layout."""
         sensors = [rig.sensor(n) for n in names]
+        if not sensors:
+            raise ConfigError(f"rig {rig.name!r}: body {body.name!r} has no sensors")
         r = np.array([s.position for s in sensors]) - body.com
         a = np.array([s.axis for s in sensors])
-        A = np.hstack([a, np.cross(r, a)])
-        sv = np.linalg.svd(A, compute_uv=False) if len(names) >= 6 else np.zeros(6)
+        dofs = [COORDINATES.index(d) for d in body.dofs]
+        A = np.hstack([a, np.cross(r, a)])[:, dofs]
+        k = len(dofs)
+        sv = np.linalg.svd(A, compute_uv=False) if len(names) >= k else np.zeros(k)
         rank = int(np.sum(sv > sv[0] * 1e-9)) if sv[0] > 0 else 0
-        if rank < 6:
+        if rank < k:
             unseen = ""
-            if len(names) >= 6:
+            if len(names) >= k:
                 null = np.linalg.svd(A)[2][-1]
                 unseen = "; it cannot see motion along " + " + ".join(
-                    f"{v:.2g} {c}" for v, c in zip(null, COORDINATES) if abs(v) > 0.1)
+                    f"{v:.2g} {c}" for v, c in zip(null, body.dofs) if abs(v) > 0.1)
             raise ConfigError(
                 f"rig {rig.name!r}: body {body.name!r} sensors {', '.join(names)} determine only "
-                f"{rank} of 6 generalized coordinates{unseen}"
+                f"{rank} of {k} generalized coordinates{unseen}"
             )
         return A
 
     def solve(self, rig: Rig, body: Body, signals: Mapping[str, np.ndarray]) -> SolverResult:
         """Generalized coordinates at G (and C) from every signal of a sensor on ``body``."""
         names = tuple(s.name for s in body_sensors(rig, body) if s.name in signals)
-        if len(names) < 6:
+        k = len(body.dofs)
+        if len(names) < k:
             have = ", ".join(names) or "none"
             raise ConfigError(
-                f"rig {rig.name!r}: body {body.name!r} needs signals of at least 6 of its sensors, got {have}"
+                f"rig {rig.name!r}: body {body.name!r} needs signals of at least {k} of its sensors, got {have}"
             )
         A = self.matrix(rig, body, names)
         S = stack_signals(signals, names, f"rig {rig.name!r} body {body.name!r}")
-        at_g = S @ np.linalg.pinv(A).T
+        solved = S @ np.linalg.pinv(A).T
+        at_g = np.zeros((S.shape[0], 6))
+        at_g[:, [COORDINATES.index(d) for d in body.dofs]] = solved
         residual = None
-        if len(names) > 6:
+        if len(names) > k:
             total = np.sqrt(np.mean(S**2))
-            residual = float(np.sqrt(np.mean((S - at_g @ A.T) ** 2)) / total) if total > 0 else 0.0
+            residual = float(np.sqrt(np.mean((S - solved @ A.T) ** 2)) / total) if total > 0 else 0.0
         corner = (body.nine_sensor_set.corner if body.nine_sensor_set is not None
                   else body.plate.corner if body.plate is not None else None)
         at_c = None if corner is None else com_to_corner(at_g, body.com - corner)

@@ -37,15 +37,18 @@ class LvmImporter:
     suffixes = (".lvm",)
     options = (FORCE_CHANNEL,
                ImportOption("force_point", "on a rig: X,Y,Z in mm in the rig frame, where the hammer hit"),
-               ImportOption("force_dir", "on a rig: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz"))
+               ImportOption("force_dir", "on a rig: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz"),
+               ImportOption("force_body", "on a rig: the body hit, when the force point lies on two"))
 
-    def import_file(self, project, file, name, *, force_channel=None, force_point=None, force_dir=None) -> Imported:
+    def import_file(self, project, file, name, *, force_channel=None, force_point=None, force_dir=None,
+                    force_body=None) -> Imported:
         from odsuite.core.importing import parse_force_direction, parse_force_point
         from odsuite.core.modal_project import import_lvm
 
         notes = import_lvm(project, file, name, force_channel,
                            force_point=None if force_point is None else parse_force_point(force_point),
-                           force_dir=None if force_dir is None else parse_force_direction(force_dir))
+                           force_dir=None if force_dir is None else parse_force_direction(force_dir),
+                           force_body=force_body)
         return Imported(name, f"LabVIEW file {Path(file).name}", tuple(notes))
 
 

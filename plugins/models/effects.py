@@ -50,15 +50,17 @@ class _SpringScale(Effect):
 
     field = ""
     unit_bounds = (0.05, 20.0)
+    plausible = (0.05, 20.0)
 
     def parameters(self, model):
         lo, hi = self.unit_bounds
         groups: dict[str, list[str]] = {}
         for s in model.springs:
             groups.setdefault(s.group or s.name, []).append(s.name)
-        return ([Parameter(f"scale_{a}", "1", 1.0, lo, hi, description=f"{self.field} along {a}, every spring")
+        return ([Parameter(f"scale_{a}", "1", 1.0, lo, hi, description=f"{self.field} along {a}, every spring",
+                           plausible=self.plausible)
                  for a in AXES]
-                + [Parameter(f"scale_{g}", "1", 1.0, lo, hi,
+                + [Parameter(f"scale_{g}", "1", 1.0, lo, hi, plausible=self.plausible,
                              description=f"{self.field} of {g}" + (f" ({', '.join(n)})" if n != [g] else "")
                              + ", every axis")
                    for g, n in groups.items()])
@@ -80,6 +82,8 @@ class Stiffness(_SpringScale):
     name = "stiffness"
     field = "stiffness"
     unit_bounds = (0.25, 4.0)
+    # springs and mounts as built lie within a factor of two of their data-sheet stiffness
+    plausible = (0.5, 2.0)
     description = "Spring stiffness scaled per axis (all springs) and per spring group (all axes)."
 
 
@@ -87,6 +91,8 @@ class Damping(_SpringScale):
     name = "damping"
     field = "damping"
     unit_bounds = (0.0, 20.0)
+    # damping is known to within an order of magnitude at best
+    plausible = (0.1, 10.0)
     description = "Spring damping scaled per axis (all springs) and per spring group (all axes)."
 
 
@@ -146,8 +152,12 @@ class MassProperties(Effect):
         for b in model.bodies:
             pre = self._prefix(model, b)
             prod = 0.5 * float(np.sqrt(np.min(np.diag(b.inertia)) * np.max(np.diag(b.inertia))))
-            out += ([Parameter(f"{pre}mass_scale", "1", 1.0, 0.5, 2.0, description=f"mass of {b.name}")]
-                    + [Parameter(f"{pre}{n}_scale", "1", 1.0, 0.5, 2.0, description=f"moment of inertia {n} of {b.name}")
+            # a body gains at most its own mass (an added part) and loses little (a mis-weighed
+            # body): mass and moments within 0.8-2 times their values
+            out += ([Parameter(f"{pre}mass_scale", "1", 1.0, 0.5, 2.0, description=f"mass of {b.name}",
+                               plausible=(0.8, 2.0))]
+                    + [Parameter(f"{pre}{n}_scale", "1", 1.0, 0.5, 2.0, description=f"moment of inertia {n} of {b.name}",
+                                 plausible=(0.8, 2.0))
                        for n in ("Ixx", "Iyy", "Izz")]
                     + [Parameter(f"{pre}{n}", "kg m^2", 0.0, -prod, prod, description=f"added product of inertia {n} of {b.name}")
                        for n in ("Ixy", "Iyz", "Ixz")]
@@ -204,8 +214,13 @@ class PlateFlexibility(Effect):
         plated = self._plated(model)
         if not plated:  # nothing to bend: the effect does not apply to this model
             return []
-        common = [Parameter("frequency_hz", "Hz", 400.0, 20.0, 5000.0, description="natural frequency as mounted"),
-                  Parameter("damping_ratio", "1", 0.02, 0.0, 0.5, description="modal damping ratio")]
+        # an elastic mode of a body lies above its rigid modes on the suspension, and a bare metal
+        # structure damps it lightly
+        top = float(np.max(model.modes().frequency_hz, initial=20.0))
+        common = [Parameter("frequency_hz", "Hz", 400.0, 20.0, 5000.0, description="natural frequency as mounted",
+                            plausible=(min(top, 5000.0), 5000.0)),
+                  Parameter("damping_ratio", "1", 0.02, 0.0, 0.5, description="modal damping ratio",
+                            plausible=(0.0, 0.1))]
         if len(plated) > 1:
             common.append(Parameter("body", "1", 0.0, 0.0, len(plated) - 1, choices=tuple(map(float, range(len(plated)))),
                                     description="which plated body bends: " + ", ".join(
@@ -251,10 +266,11 @@ class _PerSensor(Effect):
     target = "chain"
     breaks_rigidity = True  # one faulty sensor makes the redundant angular estimates disagree
     per_sensor: tuple[tuple[str, str, float, float, float, str], ...] = ()  # suffix, unit, nominal, lo, hi, text
+    plausible: tuple[float, float] | None = None
 
     def parameters(self, model):
         return [Parameter(f"{s.name}_{suffix}" if suffix else s.name, unit, nom, lo, hi,
-                          description=f"{text} of sensor {s.name} (channel {s.channel})")
+                          description=f"{text} of sensor {s.name} (channel {s.channel})", plausible=self.plausible)
                 for s in _sensors(model) for suffix, unit, nom, lo, hi, text in self.per_sensor]
 
 
@@ -262,6 +278,8 @@ class SensorGain(_PerSensor):
     name = "sensor_gain"
     description = "A sensor's sensitivity differs from its calibration: its signal is scaled."
     per_sensor = (("gain", "1", 1.0, 0.5, 2.0, "gain error"),)
+    # a calibrated accelerometer is off by a few per cent; 30 % is a wrong sensor or setting
+    plausible = (0.7, 1.4)
 
     def _apply(self, model, v):
         g = {s.name: model.chain.gain.get(s.name, 1.0) * v[f"{s.name}_gain"] for s in _sensors(model)}
@@ -301,6 +319,7 @@ class SensorOrientation(_PerSensor):
     # measures another axis more than its own
     per_sensor = (("tilt_a", "rad", 0.0, -1.05, 1.05, "tilt about the first perpendicular axis"),
                   ("tilt_b", "rad", 0.0, -1.05, 1.05, "tilt about the second perpendicular axis"))
+    plausible = (-np.pi / 4, np.pi / 4)  # a sensor mounted more than 45 degrees off is on another axis
 
     def parameters(self, model):
         return [replace(p, starts=TILT_STARTS) for p in super().parameters(model)]
@@ -318,6 +337,7 @@ class SensorPosition(_PerSensor):
     name = "sensor_position"
     description = "A sensor sits elsewhere on the plate than the rig file says."
     per_sensor = tuple((f"d{a}", "m", 0.0, -0.02, 0.02, f"position offset along {a}") for a in AXES)
+    plausible = (-0.01, 0.01)  # a sensor sits within a centimetre of where the drawing puts it
 
     def _apply(self, model, v):
         off = {s.name: model.chain.offset.get(s.name, np.zeros(3))
@@ -334,11 +354,23 @@ class SensorDynamicsEffect(Effect):
     breaks_rigidity = True
     description = "Accelerometer dynamics (Eq. 2.2): ICP high-pass time constants and sensor resonance."
 
+    #: an accelerometer's mounted resonance lies above this when the rig does not rate it (Hz):
+    #: general-purpose piezoelectric accelerometers resonate at 10-60 kHz
+    RATED_RESONANCE_HZ = 10_000.0
+
     def parameters(self, model):
-        return [Parameter("highpass_hz", "Hz", 0.0, 0.0, 50.0, description="1/(2 pi TC), built-in amplifier"),
-                Parameter("coupler_highpass_hz", "Hz", 0.0, 0.0, 50.0, description="1/(2 pi TC1), coupler"),
-                Parameter("resonance_period_s", "s", 0.0, 0.0, 2e-3, description="1/fn of the sensor resonance"),
-                Parameter("resonance_damping", "1", 0.05, 0.001, 0.7, description="damping ratio of the resonance")]
+        acq = getattr(model.rig, "acquisition", None) if model.rig is not None else None
+        rated = getattr(acq, "sensor_resonance_hz", None)
+        # near the rated band: above half a stated resonance, else above the usual minimum (0: none)
+        period = (0.0, 2 / rated) if rated else (0.0, 1 / self.RATED_RESONANCE_HZ)
+        return [Parameter("highpass_hz", "Hz", 0.0, 0.0, 50.0, description="1/(2 pi TC), built-in amplifier",
+                          plausible=(0.0, 5.0)),
+                Parameter("coupler_highpass_hz", "Hz", 0.0, 0.0, 50.0, description="1/(2 pi TC1), coupler",
+                          plausible=(0.0, 5.0)),
+                Parameter("resonance_period_s", "s", 0.0, 0.0, 2e-3, description="1/fn of the sensor resonance",
+                          plausible=period),
+                Parameter("resonance_damping", "1", 0.05, 0.001, 0.7, description="damping ratio of the resonance",
+                          plausible=(0.001, 0.1))]
 
     def _apply(self, model, v):
         dyn = SensorDynamics(v["highpass_hz"], v["coupler_highpass_hz"], v["resonance_period_s"],
@@ -352,8 +384,9 @@ class ImpactLocation(Effect):
     description = "The hammer hit elsewhere than recorded (one offset per experiment)."
 
     def parameters(self, model):
+        # a hammer lands within a centimetre of the marked point
         return [Parameter(f"d{a}", "m", 0.0, -0.03, 0.03, scope="per_experiment",
-                          description=f"force point offset along {a}") for a in AXES]
+                          description=f"force point offset along {a}", plausible=(-0.01, 0.01)) for a in AXES]
 
     def _apply(self, model, v):
         off = model.chain.force_offset + np.array([v[f"d{a}"] for a in AXES])
@@ -366,7 +399,8 @@ class ForceGain(Effect):
     description = "The force gauge's sensitivity differs from its calibration."
 
     def parameters(self, model):
-        return [Parameter("gain", "1", 1.0, 0.5, 2.0, description="true force / recorded force")]
+        return [Parameter("gain", "1", 1.0, 0.5, 2.0, description="true force / recorded force",
+                          plausible=(0.8, 1.25))]  # a calibrated load cell is off by a few per cent
 
     def _apply(self, model, v):
         return model.replace(chain=replace(model.chain, force_gain=model.chain.force_gain * v["gain"]))

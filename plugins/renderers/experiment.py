@@ -99,8 +99,8 @@ def render_experiment(
         if figure is None and ods_hz is None and exp.excitation is not None:
             from odsuite.core.prediction import experiment_force
 
-            body = next((s.body for s in project.rig.sensors if s.body in coords), next(iter(coords)))
-            hammer = Hammer(body, np.asarray(exp.excitation.point, float),
+            body = project.rig.force_body(exp.excitation.point, exp.excitation.body)
+            hammer = Hammer(body if body in coords else next(iter(coords)), np.asarray(exp.excitation.point, float),
                             np.asarray(exp.excitation.direction, float), experiment_force(project, experiment))
         rig = project.rig
     if figure is None:

@@ -464,8 +464,8 @@ def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path) -> str:
         return "<p>No movie: the chains give no displacements, so there are no generalized coordinates.</p>"
     start, stop = _window(exp)
     step = max(1, round((stop - start) * exp.fs / MOVIE_FRAMES))
-    body = next(iter(series))
-    hammer = Hammer(body, exp.point, exp.direction, exp.force)
+    body = rig.force_body(exp.point, exp.force_body)
+    hammer = Hammer(body if body in series else next(iter(series)), exp.point, exp.direction, exp.force)
     res = render_movie(rig, {b: gm for b, (gm, _, _) in series.items()}, exp.fs,
                        tmp / ("movie.mp4" if mp4_available() else "movie.gif"),
                        model_coords={b: gp for b, (_, gp, _) in series.items()}, size=MOVIE_SIZE, fps=MOVIE_FPS,

@@ -60,14 +60,16 @@ class Hammer:
     CONTACT_FRACTION = 0.05
 
 
-def view_direction(azimuth: float, elevation: float) -> np.ndarray:
-    """Unit vector from the focal point to the camera in a z-down rig frame (degrees).
+def view_direction(rig: Rig, azimuth: float, elevation: float) -> np.ndarray:
+    """Unit vector from the focal point to the camera (degrees).
 
-    Azimuth is measured in the horizontal x-y plane from +x towards +y; elevation is the angle
-    above that plane ("above" is -z, so the top of the platform faces the camera for elevation > 0).
+    Azimuth is measured in the horizontal plane from the rig's x towards its y; elevation is the
+    angle above that plane (along the rig's ``up``: the top of a plate faces the camera for
+    elevation > 0).
     """
     a, e = np.radians(azimuth), np.radians(elevation)
-    return np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), -np.sin(e)])
+    e1, e2 = rig.horizontal_axes()
+    return np.cos(e) * (np.cos(a) * e1 + np.sin(a) * e2) + np.sin(e) * rig.up
 
 
 def dash_dot_segments(p0: np.ndarray, p1: np.ndarray, period: float) -> np.ndarray:
@@ -289,16 +291,19 @@ class Scene:
             entries.append(("model motion (wide band)", st.model))
         if ghost:
             entries.append(("rest position (dash-dot)", st.ghost))
-        entries.append(("bodies that do not move", st.static))
+        entries.append(("still bodies", st.static))
         if sensors:
             entries.append(("sensors", st.sensor))
         if hammer:
-            entries.append(("hammer (red while in contact)", st.hammer))
+            entries.append(("hammer (red: in contact)", st.hammer))
         self.plotter.subplot(0, 0)
         # VTK scales the legend's text to fit the box: size it to the longest label and the rows
-        width = 0.0075 * max(len(t) for t, _ in entries) + 0.03
-        self.plotter.add_legend([{"label": t, "color": c, "face": "-"} for t, c in entries], bcolor=st.background,
-                                border=True, size=(width, 0.036 * len(entries)), loc="lower right", face="-")
+        width = 0.0088 * max(len(t) for t, _ in entries) + 0.04
+        legend = self.plotter.add_legend([{"label": t, "color": c, "face": "-"} for t, c in entries],
+                                         bcolor=st.background, border=True, size=(width, 0.028 * len(entries)),
+                                         loc="lower right", face="-")
+        # pyvista's "lower right" offsets x by the box's height, not its width: place it ourselves
+        legend.SetPosition(1.0 - width - 0.01, 0.03)
         if side:
             self.plotter.subplot(0, 1)
             self.plotter.add_text("model", position="upper_right", font_size=st.font_size, color=st.model)
@@ -318,13 +323,13 @@ class Scene:
         pad = 0.35 * plate_scale(rig, list(coords))
         padded = bounds + np.array([-pad, pad] * 3)
         box = np.array([[x, y, z] for x in padded[:2] for y in padded[2:4] for z in padded[4:]])
-        direction = view_direction(*view)
+        direction = view_direction(rig, *view)
         for k in range(2 if side else 1):
             self.plotter.subplot(0, k)
             cam = self.plotter.camera
             cam.focal_point = centre
             cam.position = centre + direction
-            cam.up = (0.0, 0.0, -1.0)
+            cam.up = tuple(rig.up)
             if parallel:
                 self.plotter.enable_parallel_projection()
             self.plotter.reset_camera(bounds=padded)

@@ -59,11 +59,20 @@ def viewer_data(rig: Rig, coords: Mapping[str, np.ndarray], fs: float, *, start:
         "rest": [np.round(1e3 * plate_corners(rig.body(b).plate), 3).ravel().tolist() for b in coords],
         "t_ms": np.round(1e3 * (picks / fs - t0), 3).tolist(), "from_hit": time_zero is not None,
         "centre_mm": (1e3 * (every.min(0) + every.max(0)) / 2).tolist(),
+        "axes": _axes(rig),
         "size_mm": float(1e3 * np.ptp(every, axis=0).max()), "scale_mm": 1e3 * plate_scale(rig, list(coords)),
         "magnification": magnification_words(magnify),
         "colours": {"measured": _rgb(style.measured), "model": _rgb(style.model), "still": _rgb(style.static),
                     "rest": _rgb(style.ghost)},
     }
+
+
+def _axes(rig: Rig) -> dict:
+    """The horizontal axes and up of the rig, and the frame's handedness seen from above: a
+    camera's right is up x view direction, which is +e2 or -e2 at azimuth 0."""
+    e1, e2 = rig.horizontal_axes()
+    return {"e1": e1.tolist(), "e2": e2.tolist(), "up": rig.up.tolist(),
+            "handed": float(np.sign(np.cross(rig.up, e1) @ e2))}
 
 
 def viewer_html(data: Mapping, element_id: str = "viewer") -> str:
@@ -83,7 +92,8 @@ def viewer_html(data: Mapping, element_id: str = "viewer") -> str:
             f"<script>{_SCRIPT.replace('__ID__', element_id)}</script></div>")
 
 
-# The drawing: a z-down rig frame seen from azimuth/elevation (as the movie's view), orthographic.
+# The drawing: the rig seen from azimuth/elevation (as the movie's view: azimuth in the horizontal
+# plane from e1 towards e2, elevation towards up), orthographic.
 _SCRIPT = r"""
 (function () {
   var errors = [];
@@ -99,13 +109,15 @@ _SCRIPT = r"""
 
   function project(x, y, z) {
     var a = az * Math.PI / 180, e = el * Math.PI / 180;
-    var dx = x - c[0], dy = y - c[1], dz = z - c[2];
-    // screen right: perpendicular to the view azimuth in the x-y plane; up: -z tilted by the elevation
-    var sx = -Math.sin(a) * dx + Math.cos(a) * dy;
-    var depth = Math.cos(a) * dx + Math.sin(a) * dy;
-    var sy = -dz * Math.cos(e) - depth * Math.sin(e);
+    var d = [x - c[0], y - c[1], z - c[2]], ax = data.axes;
+    function dot(u) { return u[0] * d[0] + u[1] * d[1] + u[2] * d[2]; }
+    var h1 = dot(ax.e1), h2 = dot(ax.e2), v = dot(ax.up);
+    // screen right: perpendicular to the view azimuth in the horizontal plane; screen up: up tilted by the elevation
+    var sx = -Math.sin(a) * h1 + Math.cos(a) * h2;
+    var depth = Math.cos(a) * h1 + Math.sin(a) * h2;
+    var sy = v * Math.cos(e) - depth * Math.sin(e);
     var s = zoom * 1.05 * Math.min(canvas.width, canvas.height) / data.size_mm;
-    return [canvas.width / 2 - s * sx, canvas.height / 2 - s * sy];
+    return [canvas.width / 2 + ax.handed * s * sx, canvas.height / 2 - s * sy];
   }
 
   function plate(flat, colour, width, dash) {

@@ -74,13 +74,21 @@ def _check_found(path: Path, effects) -> None:
 
 
 def test_nominal_truth_nothing_significant(hidden):
-    """Nothing hidden: the rigid model is the truth and no candidate may claim an improvement."""
+    """Nothing hidden in the structure: the rigid model is the truth, the verdict is "nothing to
+    explain" and no structural candidate may claim an improvement."""
     from odsuite.core.diagnosis import diagnose
     from odsuite.core.project import open_project
 
     with open_project(hidden("nominal", []), "r") as p:
         d = diagnose(p)
-    assert [c.effect for c in d.candidates if c.significant] == []
+    # the simulator's accelerometers have a 54 kHz mounted resonance and IEPE high-passes that the
+    # thesis rig file does not declare: sensor_dynamics may find that resonance (measured: 45.9 kHz,
+    # damping 0.048), and nothing else may claim an improvement
+    significant = [c for c in d.candidates if c.significant]
+    assert [c.effect for c in significant] in ([], ["sensor_dynamics"])
+    for c in significant:
+        assert 30e3 <= 1 / c.parameters["resonance_period_s"] <= 80e3 and c.plausible
+    assert d.verdict == "nothing to explain" and d.residual_to_floor <= 1.3
     # the fitted candidates cannot beat the baseline by more than the noise allows
     for c in d.candidates:
         if c.fitted:

@@ -322,4 +322,4 @@ def test_failed_transaction_commits_nothing(tmp_path):
             raise KeyError("a plugin failed half-way")
         assert p.experiment_names() == ["keep"] and p.derived_kinds("keep") == []
     assert path.read_bytes() == before
-    assert sorted(x.name for x in tmp_path.iterdir()) == ["p.h5", "p.h5.lock"]
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["p.h5"]

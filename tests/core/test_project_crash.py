@@ -84,11 +84,11 @@ def test_sigkill_at_any_point_keeps_the_project_consistent(tmp_path):
                 assert e.n_samples == ROWS
                 for r0 in range(0, ROWS, 500_000):
                     assert np.array_equal(e.raw(r0, r0 + 500_000), _expected(r0, r0 + 500_000))
-        tmp_left = any(f.name.startswith("p.h5.tmp-") for f in tmp_path.iterdir())
+        tmp_left = any(f.name.startswith(".p.h5.odsuite-tmp-") for f in tmp_path.iterdir())
         outcomes.append((crash_at or f"after {kill_after} s", code, name in names, tmp_left))
     by_case = {c: (present, tmp_left) for c, _, present, tmp_left in outcomes}
     for c in ("copied", "chunk-1", "chunk-12", "written", "synced"):
         assert by_case[c] == (False, True), c  # killed before the rename: absent, a temp file left
     assert by_case["replaced"] == (True, False)  # the rename is the commit point
     assert all(code == -signal.SIGKILL for c, code, _, _ in outcomes if not c.startswith("after")), outcomes
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.h5", "p.h5.lock"]  # each writer cleaned up
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.h5"]  # each writer cleaned up, lock file too

@@ -237,7 +237,7 @@ def _env(crash_at: str | None = None) -> dict[str, str]:
 
 
 def _tmp_file(project: Path, pid: int) -> Path:
-    return project.with_name(f"{project.name}.tmp-{pid}")
+    return project.with_name(f".{project.name}.odsuite-tmp-{pid}")
 
 
 def _wait_group(pgid: int, timeout: float = 30.0) -> None:
@@ -321,7 +321,6 @@ def _oracle(cmd: WritingCommand, argv: list[str], before: Path, project: Path, s
         return units(oracle)
     finally:
         oracle.unlink()
-        oracle.with_name(oracle.name + ".lock").unlink(missing_ok=True)
 
 
 class _Records(logging.Handler):
@@ -336,7 +335,7 @@ class _Records(logging.Handler):
 def _check(run: Run, project: Path, before_units: dict[str, str], oracle: Callable[[], dict[str, str]],
            updates: tuple[str, ...] = ()) -> dict[str, str]:
     """The checks after one run; returns the units now committed."""
-    leftovers = sorted(p.name for p in project.parent.glob(f"{project.name}.tmp-*"))
+    leftovers = sorted(p.name for p in project.parent.glob(f".{project.name}.odsuite-tmp-*"))
     try:
         with open_project(project) as p:  # a reader opens the project as the kill left it
             p.verify()
@@ -354,7 +353,7 @@ def _check(run: Run, project: Path, before_units: dict[str, str], oracle: Callab
     run.recovered = any("left by an interrupted write" in m for m in records.messages)
     if leftovers and not run.recovered:
         run.problems.append(f"temporary files {leftovers} left and not removed by the next writer")
-    if any(p.name.startswith(f"{project.name}.tmp-") for p in project.parent.iterdir()):
+    if any(p.name.startswith(f".{project.name}.odsuite-tmp-") for p in project.parent.iterdir()):
         run.problems.append("temporary file still present after recovery")
     after = units(project)
     hidden = [u for u in after if any(part.startswith(".") for part in u.split("/"))]

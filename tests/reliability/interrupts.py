@@ -4,7 +4,7 @@ The signal goes to the command's whole process group, as a terminal's Ctrl-C doe
 included). Each run must end with exit code 130 (or 0 when the command finished first) and exactly
 one line on stderr, ``interrupted: ...``, no traceback; that line must tell the truth: "nothing
 stored" leaves every unit of the project as it was, "stored A; not stored: B" changed A only; no
-temporary copy (``*.tmp-*``, ``odsuite-movie-*``) and no process of the group outlives the command.
+temporary copy (``.*.odsuite-tmp-*``, ``odsuite-movie-*``) and no process of the group outlives the command.
 
 ``python tests/reliability/interrupts.py [RUNS] [SEED] [DIR] [COMMAND ...]`` prints the counts.
 """
@@ -68,6 +68,19 @@ def seed(path: Path) -> Path:
     return path
 
 
+def seeded_projects(work: Path) -> tuple[Path, Path, Path]:
+    """The input files, the seeded project and a copy of it with s1 processed."""
+    from odsuite.cli import main
+
+    inputs = prepare_inputs(work / "inputs")
+    master = seed(work / "master.h5")
+    processed = work / "processed.h5"
+    shutil.copyfile(master, processed)
+    if main(["process", str(processed), "--experiment", "s1"]) != 0:
+        raise RuntimeError("processing s1 failed")
+    return inputs, master, processed
+
+
 @dataclass
 class Outcome:
     command: str
@@ -110,7 +123,7 @@ def interrupt_once(cmd: InterruptedCommand, project: Path, inputs: Path, out: Pa
         os.killpg(proc.pid, signal.SIGKILL)
     if "Traceback" in err:
         res.problems.append("traceback")
-    left = [p.name for p in project.parent.glob(f"{project.name}.tmp-*")] + \
+    left = [p.name for p in project.parent.glob(f".{project.name}.odsuite-tmp-*")] + \
         [p.name for p in out.glob("odsuite-movie-*")]
     if left:
         res.problems.append(f"left behind: {left}")
@@ -138,14 +151,7 @@ def interrupt_once(cmd: InterruptedCommand, project: Path, inputs: Path, out: Pa
 def run_interrupts(work: Path, runs: int, seed_value: int = 0,
                    commands: tuple[InterruptedCommand, ...] = COMMANDS) -> list[Outcome]:
     rng = random.Random(seed_value)
-    inputs = prepare_inputs(work / "inputs")
-    master = seed(work / "master.h5")
-    processed = work / "processed.h5"
-    shutil.copyfile(master, processed)
-    from odsuite.cli import main
-
-    if main(["process", str(processed), "--experiment", "s1"]) != 0:
-        raise RuntimeError("processing the render project failed")
+    inputs, master, processed = seeded_projects(work)
     outcomes = []
     for k in range(runs):
         cmd = commands[k % len(commands)]

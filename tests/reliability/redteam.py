@@ -3,7 +3,12 @@ each run through ``odsuite.cli.main`` in this process.
 
 A try fails when ``main`` raises (a traceback), runs longer than ``TRY_TIMEOUT`` (a hang), exits 1
 without exactly one ``error:`` line on stderr, or exits non-zero after changing any file of its
-folder (the project, its inputs, anything else). Exit 2 is a usage error (typer's own message).
+folder (the project, its inputs, anything else); and, whatever its exit code, when it changed a
+link or a user's file planted at one of the project's sidecar names, or left a lock file or working
+copy behind. Exit 2 is a usage error (typer's own message). Every writing command also meets its
+lock file name taken (by a link, a dangling link, a user's file, a dead writer's lock), a working-copy
+name taken, the project reached through a link or with a second hard link, the lock held by another
+writer, and a disk with 0 to 2 MB free.
 
 ``python tests/reliability/redteam.py [DIR]`` runs every try and prints the counts.
 """
@@ -137,7 +142,7 @@ def tries(rng: random.Random) -> list[tuple[str, Callable[[Path], list[str]], di
         add(f"process --corrected --cutoff {value!r}", lambda d, v=value: ["process", str(d / "p.h5"), "--corrected", "--cutoff", v])
         add(f"export-uff --nodes {value!r}", lambda d, v=value: ["export-uff", str(d / "p.h5"), "e1", "-o", str(d / "o.uff"), "--nodes", v])
         add(f"frf --estimator {value!r}", lambda d, v=value: ["frf", str(d / "p.h5"), "--experiment", "e1", "--estimator", v])
-    for out_path in ("p.h5", "p.h5.lock", ".", "none/o.x", "good.DAT", "/dev/full"):  # outputs onto things that matter
+    for out_path in ("p.h5", ".p.h5.odsuite-lock", ".", "none/o.x", "good.DAT", "/dev/full"):  # outputs onto things that matter
         add(f"export-legacy --cod {out_path}", lambda d, o=out_path: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d / o)])
         add(f"export-uff -o {out_path}", lambda d, o=out_path: ["export-uff", str(d / "p.h5"), "e1", "-o", str(d / o)])
         add(f"history --figure {out_path}", lambda d, o=out_path: ["history", str(d / "p.h5"), "--figure", str(d / o)])
@@ -156,13 +161,100 @@ def tries(rng: random.Random) -> list[tuple[str, Callable[[Path], list[str]], di
             {"bad.toml": _damaged(rng, master_files["rig.toml"])})
         add(f"damaged .uff #{k}", lambda d: ["import-uff", str(d / "p.h5"), str(d / "bad.uff"), "--name", "n", "--force-channel", "force"],
             {"bad.uff": b""})  # filled from the master's good.uff in run_try
+    for label, writer in WRITERS:  # the lock, links, sidecar names and a full disk, for every writing command
+        for case, setup in SIDECAR_CASES.items():
+            add(f"{label} with {case}", lambda d, w=writer, c=case: w(d, "link.h5" if c == "project via a link" else "p.h5"),
+                {"\0setup": setup})
+        for free in (0, 200_000, 1_000_000, 2_000_000):
+            add(f"{label} with {free / 1e6:g} MB free", lambda d, w=writer: w(d, "p.h5"), {"\0setup": _full_disk(free)})
+    for k in range(20):  # UFF files whose counts were changed, on top of the damaged ones above
+        add(f"uff count changed #{k}", lambda d: ["import-uff", str(d / "p.h5"), str(d / "bad.uff"), "--name", "n", "--force-channel", "force"],
+            {"bad.uff": b"\0count"})
     return out
+
+
+#: Every command that writes a project: (label, argv from the folder and the project's file name).
+WRITERS: tuple[tuple[str, Callable[[Path, str], list[str]]], ...] = (
+    ("acquire", lambda d, p: ["acquire", str(d / p), "--name", "w", "--samples", "1024", "--pretrigger", "100"]),
+    ("import-legacy", lambda d, p: ["import-legacy", str(d / p), str(d / "good.DAT"), "--systeminfo", str(d / "good.CTR"),
+                                    "--name", "w", "--force-point", "0,4.122,-11.399", "--force-dir", "+z"]),
+    ("import-lvm", lambda d, p: ["import-lvm", str(d / p), str(d / "good.lvm"), "--name", "w"]),
+    ("import-uff", lambda d, p: ["import-uff", str(d / p), str(d / "good.uff"), "--name", "w", "--force-channel", "force"]),
+    ("process", lambda d, p: ["process", str(d / p), "--experiment", "s1"]),
+    ("frf", lambda d, p: ["frf", str(d / p), "--experiment", "e1"]),
+    ("modes", lambda d, p: ["modes", str(d / p), "--experiment", "e1"]),
+    ("add-effect", lambda d, p: ["add-effect", str(d / p), "stiffness"]),
+    ("revert", lambda d, p: ["revert", str(d / p), "0"]),
+)
+
+
+def _plant(name: str, content: bytes | None = None, link_to: str | None = None):
+    def setup(d: Path):
+        if link_to is not None:
+            (d / name).symlink_to(d / link_to)
+        else:
+            (d / name).write_bytes(content)
+    return setup
+
+
+def _hold_lock(d: Path):
+    """Another writer holds the project (this process, through a second lock object)."""
+    from odsuite.core.project import open_project
+
+    return open_project(d / "p.h5", "a").close
+
+
+def _full_disk(free: int):
+    def setup(d: Path):
+        import collections
+
+        from odsuite.core import diskspace
+
+        real = diskspace.shutil.disk_usage
+        diskspace.shutil.disk_usage = lambda p: collections.namedtuple("u", "total used free")(10**9, 10**9 - free, free)
+
+        def undo():
+            diskspace.shutil.disk_usage = real
+        return undo
+    return setup
+
+
+def _victim(d: Path) -> None:
+    (d / "victim.txt").write_text("a user's file no lock may write into\n")
+
+
+#: The project's sidecar names taken by links or a user's files, linked projects, a held lock.
+SIDECAR_CASES: dict[str, Callable[[Path], object]] = {
+    "a link at the lock name": lambda d: (_victim(d), _plant(".p.h5.odsuite-lock", link_to="victim.txt")(d)),
+    "a dangling link at the lock name": _plant(".p.h5.odsuite-lock", link_to="nowhere.txt"),
+    "a user's file at the lock name": _plant(".p.h5.odsuite-lock", b"my notes\n"),
+    "a stale lock of a dead writer": _plant(".p.h5.odsuite-lock", b"odsuite-lock 999999 elsewhere\n"),
+    "a user's file at a working-copy name": _plant(".p.h5.odsuite-tmp-1", b"my notes\n"),
+    "a link at a working-copy name": lambda d: (_victim(d), _plant(f".p.h5.odsuite-tmp-{os.getpid()}", link_to="victim.txt")(d)),
+    "the old lock name p.h5.lock taken": _plant("p.h5.lock", b"my notes\n"),
+    "project via a link": _plant("link.h5", link_to="p.h5"),
+    "a second hard link": lambda d: os.link(d / "p.h5", d / "p2.h5"),
+    "the lock held by another writer": _hold_lock,
+}
+
+
+def _count_changed(rng: random.Random, good: bytes) -> bytes:
+    """A point count (record 7 of a function) changed to another number of the same width."""
+    lines = good.split(b"\n")
+    records = [j for j, line in enumerate(lines) if len(line.split()) == 6 and line.split()[0] in (b"2", b"4", b"5", b"6")
+               and all(t.isdigit() for t in line.split()[:3])]
+    j = rng.choice(records)
+    old = lines[j].split()[1]
+    new = str(max(0, int(old) + rng.choice([-2, -1, 1, 2, 100]))).encode()
+    at = lines[j].index(b" " + old + b" ") + 1
+    lines[j] = lines[j][:at + len(old) - len(new)] + new + lines[j][at + len(old):]
+    return b"\n".join(lines)
 
 
 def _digests(folder: Path) -> dict[str, str]:
     out = {}
     for p in sorted(folder.rglob("*")):
-        if p.is_file() and not p.is_symlink() and not p.name.endswith(".lock"):
+        if p.is_file() and not p.is_symlink() and ".odsuite-lock" not in p.name:
             out[str(p.relative_to(folder))] = hashlib.sha256(p.read_bytes()).hexdigest()
     return out
 
@@ -172,15 +264,21 @@ def run_try(label: str, argv_of: Callable[[Path], list[str]], files: dict[str, b
     from odsuite.cli import main
 
     shutil.copytree(master, d)
+    undo = None
     for name, content in files.items():
+        if name == "\0setup":
+            undo = content(d)
+            continue
         if name == "bad.uff":
-            content = _damaged(rng, (master / "good.uff").read_bytes())
+            good = (master / "good.uff").read_bytes()
+            content = _count_changed(rng, good) if content == b"\0count" else _damaged(rng, good)
         (d / name).write_bytes(content)
     os.mkfifo(d / "pipe.h5")
     (d / "loop.h5").symlink_to(d / "loop.h5")
     argv = argv_of(d)
     t = Try(label, argv)
     before = _digests(d)
+    planted = {p.name: _state(p) for p in d.iterdir() if ".odsuite-" in p.name or p.is_symlink() or "victim" in p.name}
     out, err = io.StringIO(), io.StringIO()
     previous = signal.signal(signal.SIGALRM, _alarm)
     signal.alarm(TRY_TIMEOUT)
@@ -196,6 +294,8 @@ def run_try(label: str, argv_of: Callable[[Path], list[str]], files: dict[str, b
     finally:
         signal.alarm(0)
         signal.signal(signal.SIGALRM, previous)
+        if callable(undo):
+            undo()
     text = err.getvalue()
     if "Traceback" in text:
         t.problems.append("traceback on stderr")
@@ -206,8 +306,24 @@ def run_try(label: str, argv_of: Callable[[Path], list[str]], files: dict[str, b
         changed = sorted(k for k in set(before) | set(after) if before.get(k) != after.get(k))
         if changed:
             t.problems.append(f"changed on failure: {changed}")
+    # whatever the outcome: links and a user's files stay as they were, no sidecar of odsuite's own is left
+    for name, state in planted.items():
+        if _state(d / name) != state and not (name.startswith(".p.h5.odsuite-lock") and state[1].startswith("odsuite-lock")):
+            t.problems.append(f"{name} changed: {state} -> {_state(d / name)}")
+    left = [p.name for p in d.iterdir() if ".odsuite-" in p.name and p.name not in planted]
+    if left:
+        t.problems.append(f"left behind: {left}")
     shutil.rmtree(d)
     return t
+
+
+def _state(p: Path) -> tuple[str, str]:
+    """What a path is: a link and its target, a file and its text (start), or missing."""
+    if p.is_symlink():
+        return "link", os.readlink(p)
+    if p.is_file():
+        return "file", p.read_bytes()[:200].decode("utf-8", "replace")
+    return "missing", ""
 
 
 def run_redteam(work: Path, every: int = 1, seed: int = 19) -> list[Try]:

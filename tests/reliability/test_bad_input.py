@@ -45,6 +45,14 @@ body = "plate"
 position = [0.0, 0.0, 0.0]
 axis = [0.0, 0.0, 1.0]
 """
+SPRING = """
+[[springs]]
+name = "s1"
+body = "plate"
+position = [0.0, 0.0, 0.0]
+stiffness = [1000.0, 1000.0, 1000.0]
+damping = [1.0, 1.0, 1.0]
+"""
 
 
 def ctr_with(row: int, channel: int, value: str) -> str:
@@ -106,6 +114,49 @@ def _read_uff(d: Path, name: str):
     from odsuite.core.uff import read_uff
 
     return read_uff(d / name)
+
+
+def _uff_damaged(d: Path, how: str):
+    """Three 8-point time records written by odsuite, then damaged ``how``, read back (API)."""
+    from odsuite.core.uff import time_function, write_uff
+
+    write_uff(d / "base.uff", functions=[time_function(f"acc{k}", np.arange(8.0) + k, 1e-3, "m/s^2", node=0)
+                                         for k in range(3)], binary=how == "58b-count", overwrite=True)
+    raw = (d / "base.uff").read_bytes()
+    lines = raw.split(b"\n")
+    if how == "cut":  # cut inside the second record's data
+        bad = b"\n".join(lines[:30])
+    elif how == "count":  # record 7 of the first function says 9 points, it holds 8
+        lines[8] = lines[8].replace(b"         8         1", b"         9         1", 1)
+        bad = b"\n".join(lines)
+    elif how == "line-lost":  # the last data line of the first function lost
+        del lines[14]
+        bad = b"\n".join(lines)
+    else:  # 58b: record 7 says 9 points, the data bytes hold 8
+        bad = raw.replace(b"         8         1", b"         9         1", 1)
+    assert bad != raw
+    (d / "bad.uff").write_bytes(bad)
+    return _read_uff(d, "bad.uff")
+
+
+def _plant_link(d: Path, name: str) -> None:
+    (d / "victim.txt").write_text("a file the lock must never write into\n")
+    (d / name).symlink_to(d / "victim.txt")
+
+
+def _full_disk_acquire(d: Path, free: int):
+    """Acquire into p.h5 while its disk reports ``free`` bytes free (API, patched disk_usage)."""
+    import collections
+    from unittest import mock
+
+    from odsuite.core.project import open_project
+    from odsuite.core.systeminfo import ChannelInfo, Systeminfo
+
+    usage = collections.namedtuple("usage", "total used free")(10**9, 10**9 - free, free)
+    with mock.patch("odsuite.core.diskspace.shutil.disk_usage", return_value=usage), \
+            open_project(d / "p.h5", "a") as p:
+        p.add_experiment("full", np.ones((4096, 2)), sampling_rate=1000.0,
+                         systeminfo=Systeminfo([ChannelInfo() for _ in range(2)]), excitation=None)
 
 
 def _uff_undefined_cs(d: Path):
@@ -298,11 +349,27 @@ CASES: list[Case] = [
     Case("rig-force-channel", "force_channel = 99 beyond the sensors' channels", "{dir}/bad.toml: field 'force_channel': channel 99 lies beyond the sensors' channels (highest 1); give channel_count to leave the channels between unused", **new_rig(RIG_TOML.replace("force_channel = 0", "force_channel = 99"))),
     Case("rig-channel-count-negative", "channel_count = -3", "{dir}/bad.toml: field 'channel_count': expected an integer from 1 to 4096, got -3", **new_rig(RIG_TOML.replace("force_channel = 0", "force_channel = 0\nchannel_count = -3"))),
     Case("rig-channel-count-huge", "channel_count = 100000", "{dir}/bad.toml: field 'channel_count': expected an integer from 1 to 4096, got 100000", **new_rig(RIG_TOML.replace("force_channel = 0", "force_channel = 0\nchannel_count = 100000"))),
+    Case("rig-spring-unknown-body", "spring on body `table`, not defined", "{dir}/bad.toml: springs[0] 's1' field 'body': no body named 'table' (bodies: plate)",
+         **new_rig(RIG_TOML + SPRING.replace('body = "plate"', 'body = "table"'))),
+    Case("rig-spring-negative", "spring stiffness -5 N/m along y", "{dir}/bad.toml: springs[0] 's1' field 'stiffness': must not be negative, got [1000.0, -5.0, 1000.0]",
+         **new_rig(RIG_TOML + SPRING.replace("[1000.0, 1000.0, 1000.0]", "[1000.0, -5.0, 1000.0]"))),
+    Case("rig-spring-massless-body", "spring on a body without mass", "{dir}/bad.toml: springs[0] 's1' field 'body': body 'floor' has no mass, so it does not move; attach the spring to 'ground' instead",
+         **new_rig(RIG_TOML.replace("[[sensors]]", '[[bodies]]\nname = "floor"\n[[sensors]]') + SPRING.replace('body = "plate"', 'body = "floor"'))),
+    Case("rig-axis-not-unit", "sensor axis [0, 0, 2]", "{dir}/bad.toml: sensors[0] 'a1' field 'axis': expected a unit vector, got [0.0, 0.0, 2.0] of length 2 (a gain belongs in 'sensitivity')",
+         **new_rig(RIG_TOML.replace("axis = [0.0, 0.0, 1.0]", "axis = [0.0, 0.0, 2.0]"))),
+    Case("rig-massless-solver", "a coordinate solver asked for on a body without mass", "{dir}/bad.toml: body 'floor' field 'solver': the body has no mass, so it does not move in the model and its sensors cannot give it coordinates (give it a 'mass' or drop the field)",
+         **new_rig(RIG_TOML.replace("[[sensors]]", '[[bodies]]\nname = "floor"\nsolver = "least-squares"\n[[sensors]]'))),
+    Case("rig-solver-too-few-directions", "least squares asked for on a body with one sensor direction", "rig 'bench' ({dir}/bad.toml): body 'plate' field 'solver': 'least-squares' cannot solve the body from its sensors (a1 along [0.0, 0.0, 1.0] at [0.0, 0.0, 0.0] mm)",
+         **new_rig(RIG_TOML.replace("mass = 2.0", 'mass = 2.0\nsolver = "least-squares"'))),
+    Case("rig-solver-unknown", "solver `kalman`, not registered", "rig 'bench' ({dir}/bad.toml): body 'plate' field 'solver': unknown coordinate solver 'kalman' (known: least-squares, padgaonkar-nine)",
+         **new_rig(RIG_TOML.replace("mass = 2.0", 'mass = 2.0\nsolver = "kalman"'))),
+    Case("rig-processing-cutoff", "[processing] high-pass at -3 Hz", "{dir}/bad.toml: [processing].filter.cutoff_hz: expected one frequency in Hz (> 0) for a highpass filter, got -3.0",
+         **new_rig(RIG_TOML + '[processing]\nfilter = { type = "highpass", cutoff_hz = -3.0 }\n')),
     # output paths
     Case("output-is-project", "export-legacy --cod naming the project itself", "--cod {dir}/p.h5: that is the project {dir}/p.h5 or one of its own files; give another file name",
          argv=lambda d: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d / "p.h5")]),
-    Case("output-is-lock", "export-legacy --cod naming the project's lock file", "--cod {dir}/p.h5.lock: that is the project {dir}/p.h5 or one of its own files; give another file name",
-         argv=lambda d: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d / "p.h5.lock")]),
+    Case("output-is-lock", "export-legacy --cod naming the project's lock file", "--cod {dir}/.p.h5.odsuite-lock: that is the project {dir}/p.h5 or one of its own files; give another file name",
+         argv=lambda d: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d / ".p.h5.odsuite-lock")]),
     Case("output-folder", "export-legacy --cod naming a folder", "--cod {dir}: is a folder; give a file name",
          argv=lambda d: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d)]),
     Case("output-missing-folder", "render -o into a folder that does not exist", "-o {dir}/none/m.gif: folder {dir}/none does not exist",
@@ -317,6 +384,17 @@ CASES: list[Case] = [
          argv=lambda d: ["modes", str(d / "p.h5"), "--experiment", "e1", "--fmin", "nan"]),
     Case("project-read-only", "import-legacy into a project with mode 0444", "{dir}/p.h5: project is read-only; make it writable (chmod u+w) to change it",
          argv=lambda d: ((d / "p.h5").chmod(0o444), legacy(ctr="good.CTR")(d))[1]),
+    Case("uff-cut", "UFF cut off inside its second function's data (API)", "{dir}/bad.uff: dataset 2 (type 58) from line 18 has no closing '-1' line (cut off?)", call=lambda d: _uff_damaged(d, "cut")),
+    Case("uff-count", "UFF function whose header says 9 points, holding 8 (API)", "{dir}/bad.uff: dataset 1 (58) from line 2: 8 values, but its record 7 says 9 points (a line lost or doubled, or the count changed?)", call=lambda d: _uff_damaged(d, "count")),
+    Case("uff-line-lost", "UFF function that lost its last data line (API)", "{dir}/bad.uff: dataset 1 (58) from line 2: 4 values, but its record 7 says 8 points (a line lost or doubled, or the count changed?)", call=lambda d: _uff_damaged(d, "line-lost")),
+    Case("uff-58b-count", "binary UFF 58b whose record 7 says 9 points, its 64 data bytes holding 8 (API)", "{dir}/bad.uff: dataset 1 (58) 'acc0': header says 9 points, found 8 values and 8 abscissae", call=lambda d: _uff_damaged(d, "58b-count")),
+    Case("lock-link", "acquire while the lock file name is a symbolic link to a user's file", "{dir}/p.h5: lock file {dir}/.p.h5.odsuite-lock is a link, which odsuite never follows; remove it",
+         argv=lambda d: (_plant_link(d, ".p.h5.odsuite-lock"), ["acquire", str(d / "p.h5"), "--name", "n", "--samples", "1024", "--pretrigger", "100"])[1]),
+    Case("lock-foreign-file", "acquire while a user's file holds the lock file name", "{dir}/p.h5: {dir}/.p.h5.odsuite-lock is in the way of the writer lock and was not written by odsuite; move it elsewhere",
+         argv=lambda d: ["acquire", str(d / "p.h5"), "--name", "n", "--samples", "1024", "--pretrigger", "100"], files={".p.h5.odsuite-lock": "my notes\n"}),
+    Case("project-hard-link", "acquire into a project that has a second hard link", "{dir}/p.h5: project has 2 hard links (names of one file), which a write would split; keep one name or give each a copy (cp) to change it",
+         argv=lambda d: (os.link(d / "p.h5", d / "p2.h5"), ["acquire", str(d / "p.h5"), "--name", "n", "--samples", "1024", "--pretrigger", "100"])[1]),
+    Case("disk-full", "add an experiment with 0.3 MB free on the project's disk (API)", "{dir}/p.h5: no space left on", call=lambda d: _full_disk_acquire(d, 300_000)),
     Case("history-figure-suffix", "history --figure h.txt", "--figure {dir}/h.txt: suffix '.txt' is not .png, .svg or .pdf", argv=lambda d: ["history", str(d / "p.h5"), "--figure", str(d / "h.txt")]),
 ]
 

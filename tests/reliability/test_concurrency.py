@@ -106,15 +106,15 @@ def test_lock_of_a_killed_cli_writer_is_cleared(tmp_path, caplog, capsys):
     killed = subprocess.Popen([str(ODSUITE), "acquire", str(path), "--daq", "sim", "--name", "x"],
                               env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     assert killed.wait(timeout=120) == -signal.SIGKILL
-    lock = path.with_name("p.h5.lock")
-    assert lock.read_text().split()[0] == str(killed.pid)  # the dead writer's pid is left behind
-    leftover = path.with_name(f"p.h5.tmp-{killed.pid}")
+    lock = path.with_name(".p.h5.odsuite-lock")
+    assert lock.read_text().split()[:2] == ["odsuite-lock", str(killed.pid)]  # the dead writer's pid is left behind
+    leftover = path.with_name(f".p.h5.odsuite-tmp-{killed.pid}")
     assert leftover.exists()
     with caplog.at_level(logging.WARNING, logger="odsuite.core.storage"):
         assert main(["acquire", str(path), "--daq", "sim", "--name", "x"]) == 0
     assert f"removing {leftover.name} left by an interrupted write" in caplog.text
     assert not leftover.exists()
-    assert lock.read_text() == ""  # released
+    assert not lock.exists()  # released and removed
     with open_project(path) as p:
         assert p.experiment_names() == ["x"]
         assert p.verify() == {"x": 1}

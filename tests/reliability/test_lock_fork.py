@@ -70,7 +70,7 @@ def test_a_killed_writers_forked_child_does_not_hold_the_lock(tmp_path, keep):
     create_project(project, rig=None).close()
     child = _run_forking_writer(project, keep)
     try:
-        lock_file = str(project.with_name(project.name + ".lock"))
+        lock_file = str(project.with_name(f".{project.name}.odsuite-lock"))
         assert (lock_file in _open_files(child)) is keep
         if keep:
             with pytest.raises(ProjectLockedError, match="project is open in another process"):

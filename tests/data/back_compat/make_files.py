@@ -53,7 +53,6 @@ def make_frozen(path: Path) -> None:
                         provenance={"plugin": "gencoord_padgaonkar", "version": "0.1.0",
                                     "parameters": {"at": "center"}})
         p.add_model_revision(*e["revision"], parent=0)
-    path.with_name(path.name + ".lock").unlink()
 
 
 if __name__ == "__main__":

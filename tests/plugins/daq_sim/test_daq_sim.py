@@ -217,8 +217,8 @@ def test_systeminfo_is_the_experimenters_view(sim, thesis_rig):
 def test_bad_options_give_one_line_errors(sim, thesis_rig):
     with pytest.raises(ConfigError, match="unknown scenario 'T9'"):
         sim.record(thesis_rig, AcquisitionSettings(), scenario="T9")
-    with pytest.raises(ConfigError, match="width' must be 0.2-1 ms"):
-        sim.record(thesis_rig, AcquisitionSettings(), hits=[Hit(0.0, 10.0, 5e-3)])
+    with pytest.raises(ConfigError, match="width' must be 0.05-50 ms"):
+        sim.record(thesis_rig, AcquisitionSettings(), hits=[Hit(0.0, 10.0, 0.1)])
     with pytest.raises(ConfigError, match="pretrigger"):
         AcquisitionSettings(n_samples=512, pretrigger=512)
     with pytest.raises(ConfigError, match="channel 4: chain field 'limit_high'"):

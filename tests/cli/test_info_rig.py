@@ -1,0 +1,49 @@
+"""`odsuite info` lists a rig's bodies, springs and the coordinate solver each body gets."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from odsuite.cli import main
+
+RIG_FILE = Path(__file__).resolve().parents[2] / "projects" / "rigs" / "two-body-machine.toml"
+
+
+def run(capsys, *args) -> str:
+    code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    return out
+
+
+def test_info_lists_bodies_springs_and_solvers(capsys, tmp_path):
+    p = tmp_path / "p.h5"
+    run(capsys, "new", p, "--rig", RIG_FILE)
+    layout = json.loads(run(capsys, "info", p, "--json"))["rig_layout"]
+    bodies = {b["name"]: b for b in layout["bodies"]}
+    assert bodies["base"]["mass_kg"] == 40.0 and bodies["machine"]["mass_kg"] == 20.0
+    assert not bodies["floor"]["moving"] and bodies["floor"]["solver"] is None
+    # three triaxial accelerometers per body: nine directions, least squares
+    assert [len(bodies[b]["sensors"]) for b in ("base", "machine")] == [9, 9]
+    assert bodies["base"]["solver"] == bodies["machine"]["solver"] == "least-squares"
+    springs = {s["name"]: s for s in layout["springs"]}
+    assert len(springs) == 8 and springs["mount1"]["other"] == "base" and springs["isolator1"]["other"] == "ground"
+    assert springs["isolator1"]["stiffness_n_per_m"] == [200000.0, 200000.0, 400000.0]
+    text = run(capsys, "info", p)
+    assert "least-squares" in text and "isolator4" in text and "machine - base" in text
+
+
+def test_a_body_its_sensors_cannot_solve_is_said(capsys, tmp_path):
+    # the machine keeps one triaxial accelerometer: three directions at one point, not six motions
+    text = RIG_FILE.read_text()
+    for k in (2, 3):
+        start = text.index(f'name = "m{k}"')
+        text = text[:start] + text[start:].replace("body = \"machine\"", "body = \"base\"", 1)
+    rig = tmp_path / "rig.toml"
+    rig.write_text(text)
+    p = tmp_path / "p.h5"
+    run(capsys, "new", p, "--rig", rig)
+    bodies = {b["name"]: b for b in json.loads(run(capsys, "info", p, "--json"))["rig_layout"]["bodies"]}
+    assert bodies["machine"]["solver"] is None and "machine" in bodies["machine"]["solver_problem"]
+    assert bodies["base"]["solver"] == "least-squares" and len(bodies["base"]["sensors"]) == 15

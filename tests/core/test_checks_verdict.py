@@ -1,0 +1,113 @@
+"""The checks and the verdict on problems whose answers are known in closed form: a parameter
+fitted per experiment of a linear model, equal or growing with the force level; candidates'
+plausible ranges; the verdict's four words."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from odsuite.core import checks
+from odsuite.core.effects import Parameter
+from odsuite.core.fitting import _Free
+from odsuite.core.noise_floor import FLOOR_TOLERANCE
+from odsuite.core.verdict import decide
+
+
+@dataclass
+class _Exp:
+    name: str
+    measured: np.ndarray
+
+    @property
+    def n_samples(self) -> int:
+        return self.measured.shape[0]
+
+
+@dataclass
+class _Problem:
+    exps: list
+    free: list
+    stride: int = 1
+    prior: float = 0.0
+
+
+@dataclass
+class _Result:
+    x: np.ndarray
+    fun: np.ndarray
+    jac: np.ndarray
+
+
+def _linear(thetas, sigma=0.01, n=400, seed=0):
+    """data_i = theta_i g_i + noise; the joint least-squares fit of one shared theta (nominal 1)."""
+    rng = np.random.default_rng(seed)
+    g = [np.sin(np.linspace(0, 20 + 3 * i, n)) for i in range(len(thetas))]
+    data = [t * gi + sigma * rng.standard_normal(n) for t, gi in zip(thetas, g)]
+    G, D = np.concatenate(g), np.concatenate(data)
+    theta = float(G @ D / (G @ G))
+    param = Parameter("k", "1", 1.0, 0.0, 10.0)
+    problem = _Problem([_Exp(f"e{i}", d[:, None]) for i, d in enumerate(data)], [_Free(param, None, 1.0)])
+    # r = measured - model, jac = d r / d u
+    return problem, _Result(np.array([theta - 1.0]), D - theta * G, -G[:, None])
+
+
+def test_equal_parameters_are_consistent():
+    problem, res = _linear([1.2, 1.2, 1.2, 1.2])
+    c = checks.consistency(problem, res, {"e0": 1.0, "e1": 3.0, "e2": 10.0, "e3": 30.0})
+    assert c.consistent and not c.amplitude_dependent
+    # each experiment's own estimate is its least-squares value: 1.2 within 3 sigma / sqrt(sum g^2)
+    for e in ("e0", "e1", "e2", "e3"):
+        assert c.per_experiment[e]["k"] == pytest.approx(1.2, abs=0.005)
+
+
+def test_a_parameter_that_grows_with_the_force_level_is_amplitude_dependent():
+    levels = {"e0": 1.0, "e1": 3.0, "e2": 10.0, "e3": 30.0}
+    thetas = [1.0 + 0.03 * np.log(levels[f"e{i}"]) for i in range(4)]
+    problem, res = _linear(thetas)
+    c = checks.consistency(problem, res, levels)
+    assert not c.consistent
+    assert c.amplitude_dependent == ["k"]
+    assert [c.per_experiment[f"e{i}"]["k"] for i in range(4)] == pytest.approx(thetas, abs=0.005)
+
+
+def test_a_scattered_parameter_is_inconsistent_but_not_amplitude_dependent():
+    levels = {"e0": 1.0, "e1": 3.0, "e2": 10.0, "e3": 30.0}
+    problem, res = _linear([1.0, 1.1, 0.95, 1.08])
+    c = checks.consistency(problem, res, levels)
+    assert not c.consistent and not c.amplitude_dependent
+
+
+class _Effect:
+    def parameters(self, model):
+        return [Parameter("tilt", "rad", 0.0, -0.3, 0.3, plausible=(-np.pi / 4, np.pi / 4)),
+                Parameter("gain", "1", 1.0, 0.5, 2.0)]
+
+
+def test_values_outside_their_plausible_range_are_named():
+    assert checks.implausible(_Effect(), None, {"tilt": 0.2, "gain": 1.9}) == []
+    assert checks.implausible(_Effect(), None, {"r1/tilt": 0.9, "gain": None}) == ["r1/tilt"]
+
+
+@dataclass
+class _Cand:
+    consistent: bool = True
+    plausible: bool = True
+    error_after: float = 0.01
+
+
+@pytest.mark.parametrize("baseline, best, expected", [
+    (0.012, None, "nothing to explain"),
+    (0.012, _Cand(), "nothing to explain"),
+    (0.05, None, "unexplained"),
+    (0.05, _Cand(error_after=0.011), "explained"),
+    (0.05, _Cand(error_after=0.03), "partly explained"),
+    (0.05, _Cand(error_after=0.011, consistent=False), "partly explained"),
+    (0.05, _Cand(error_after=0.011, plausible=False), "partly explained"),
+])
+def test_verdicts(baseline, best, expected):
+    floor = 0.01
+    assert FLOOR_TOLERANCE * floor < 0.05
+    assert decide(baseline, floor, best) == expected

@@ -1,0 +1,124 @@
+"""The calibrated noise floor against what the noise actually leaves: a perfect model (the record
+simulated by scipy.signal.lsim from the model itself) with noise on the force channel only, or
+with mains hum and white noise on the accelerometers, has an error equal to its floor; effective
+samples against the closed form of an AR(1) process; the rig's front end against scipy's analog
+filters."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.signal
+
+from odsuite.core import checks
+from odsuite.core.comparison import compare
+from odsuite.core.errors import ConfigError
+from odsuite.core.model import AnalogFilter
+from odsuite.core.project import Excitation, create_project
+from odsuite.core.rig import Acquisition, AntiAliasing, rig_from_dict
+
+from test_comparison import FS, N, PRE, _half_sine, _independent_record
+
+
+def _project(tmp_path, name, force_noise=0.0, hum=0.0, white=0.0, seed=0):
+    """A thesis-rig project whose record is the model's own response (a perfect model), with
+    white noise of ``force_noise`` N on the force channel, and ``hum`` (50 Hz, m/s^2) plus ``white``
+    (m/s^2) on every accelerometer."""
+    from odsuite.core.modelrev import base_model
+
+    p = create_project(tmp_path / f"{name}.h5")
+    rig = p.rig
+    point, direction = np.array([0.0, 0.004122, -0.011399]), np.array([0.0, 0.0, 1.0])
+    raw, si = _independent_record(rig, base_model(rig), point, direction, _half_sine(N, PRE, 1e-3, 50.0))
+    rng = np.random.default_rng(seed)
+    fch = si.channels[rig.force_channel]
+    raw[:, rig.force_channel] += force_noise * rng.standard_normal(N) * fch.sensitivity * fch.daq_gain
+    t = np.arange(N) / FS
+    for s in rig.sensors:
+        ch = si.channels[s.channel]
+        disturbance = hum * np.sin(2 * np.pi * 50.0 * t + rng.uniform(0, 2 * np.pi)) + white * rng.standard_normal(N)
+        raw[:, s.channel] += disturbance * ch.sensitivity * ch.daq_gain
+    p.add_experiment("T", raw, sampling_rate=FS, systeminfo=si,
+                     excitation=Excitation(rig.force_channel, point, direction), pretrigger=PRE)
+    return p
+
+
+def test_the_force_channels_noise_reaches_the_prediction_as_the_floor_says(tmp_path):
+    # clean accelerometers: every bit of the error is the force noise inside the window, driven
+    # through the model. Energies over four seeds (one window holds ~70 noisy samples: +-17 % each)
+    ratios = []
+    for seed in range(4):
+        p = _project(tmp_path, f"f{seed}", force_noise=0.05, seed=seed)
+        c = compare(p, resonances=False)
+        assert c.floor.parts["T"]["force_noise"] > 0.9 * sum(c.floor.energy["T"].values())
+        ratios.append((c.error / c.noise_floor_error) ** 2)
+        p.close()
+    assert np.mean(ratios) == pytest.approx(1.0, abs=0.2), ratios
+
+
+def test_mains_hum_and_white_noise_are_in_the_floor(tmp_path):
+    p = _project(tmp_path, "hum", hum=0.2, white=0.02, seed=5)
+    c = compare(p, resonances=False)
+    parts = c.floor.parts["T"]
+    # 0.2 m/s^2 of hum and 0.02 m/s^2 of white noise over 4096 samples and nine channels:
+    # 9 * 4096 * (0.2^2 / 2 + 0.02^2) = 752 (m/s^2)^2, less a little the 20 Hz high-pass removes
+    assert parts["hum_and_trend"] + parts["broadband"] == pytest.approx(9 * N * (0.2**2 / 2 + 0.02**2), rel=0.1)
+    assert parts["hum_and_trend"] > 0.8 * 9 * N * 0.2**2 / 2
+    assert c.error / c.noise_floor_error == pytest.approx(1.0, abs=0.1)
+    # the hum is in the floor's spectrum: no residual peak at 50 Hz
+    assert not any(abs(pk["frequency_hz"] - 50.0) < 10 for pk in c.residual_peaks), c.residual_peaks
+    p.close()
+
+
+def test_effective_samples_of_an_ar1_residual():
+    # AR(1) with coefficient a: n (1 - a) / (1 + a) independent samples (Bartlett)
+    rng = np.random.default_rng(1)
+    n, a = 200_000, 0.8
+    x = scipy.signal.lfilter([1.0], [1.0, -a], rng.standard_normal(n))
+    assert checks.effective_samples(x[:, None]) == pytest.approx(n * (1 - a) / (1 + a), rel=0.1)
+    assert checks.effective_samples(rng.standard_normal((n, 2))) == pytest.approx(2 * n, rel=0.05)
+
+
+def test_gain_threshold_is_the_chi_square_quantile():
+    # fitting one parameter to unit noise gains more than 10.83 once in a thousand
+    assert checks.gain_threshold(1.0, 1) == pytest.approx(10.828, rel=1e-3)
+    assert checks.gain_threshold(2.0, 3) == pytest.approx(2 * 16.266, rel=1e-3)
+
+
+def test_front_end_discretised_matches_the_analog_filters():
+    from odsuite.core.prediction import _analog_sos
+
+    acq = Acquisition(iepe_corner_hz=0.5, sensor_resonance_hz=22_000.0,
+                      anti_aliasing=AntiAliasing("butterworth", 6, 2500.0, force_channel=False))
+    front = AnalogFilter.front_end(acq)
+    fs = 20480.0
+    f = np.array([2.0, 50.0, 400.0, 1000.0, 2000.0])
+    _, h_ref = scipy.signal.freqs_zpk(*scipy.signal.butter(6, 2 * np.pi * 2500.0, analog=True, output="zpk"),
+                                      worN=2 * np.pi * f)
+    w = 2 * np.pi * f
+    h_ref = h_ref * (1j * w / (1j * w + 2 * np.pi * 0.5))
+    wn = 2 * np.pi * 22_000.0
+    h_ref = h_ref * wn**2 / (wn**2 - w**2 + 2j * 0.03 * wn * w)
+    _, h = scipy.signal.sosfreqz(_analog_sos(front, fs), worN=f, fs=fs)
+    # the bilinear map follows the analog response to within a few per cent below fs / 10
+    assert np.allclose(np.abs(h), np.abs(h_ref), rtol=0.03)
+    # a filter on every channel, the force's included, is in the measured force already
+    assert AnalogFilter.front_end(Acquisition(anti_aliasing=AntiAliasing("butterworth", 4, 1000.0))) is None
+
+
+def test_acquisition_table_is_read_and_checked():
+    from odsuite.core.plugins import registries
+
+    base = {"name": "r", "bodies": [{"name": "b", "mass": 1.0, "inertia": [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}],
+            "sensors": []}
+    rig = rig_from_dict({**base, "acquisition": {"adc_bits": 16, "adc_range": [-5.0, 5.0],
+                                                 "anti_aliasing": {"family": "elliptic", "order": 8,
+                                                                   "cutoff_hz": 1000.0}}},
+                        registries().sensor_types)
+    assert rig.acquisition.lsb_v == pytest.approx(10.0 / 65536)
+    assert rig.acquisition.anti_aliasing.family == "elliptic"
+    with pytest.raises(ConfigError, match=r"acquisition field 'anti_aliasing'.family: .*'chebby'"):
+        rig_from_dict({**base, "acquisition": {"anti_aliasing": {"family": "chebby", "order": 4, "cutoff_hz": 1e3}}},
+                      registries().sensor_types)
+    with pytest.raises(ConfigError, match=r"adc_range"):
+        rig_from_dict({**base, "acquisition": {"adc_range": [5.0, -5.0]}}, registries().sensor_types)

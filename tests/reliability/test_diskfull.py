@@ -1,0 +1,158 @@
+"""A full disk: one line naming the disk and the room needed, the project unchanged, no working copy
+left. On real small tmpfs disks where this process may mount one (diskfull.py), and everywhere by
+fault injection in Python: the free-space check told a small number, and ENOSPC raised by the copy,
+by a dataset write inside the transaction and by the final fsync."""
+
+from __future__ import annotations
+
+import collections
+import errno
+import re
+import shutil
+
+import numpy as np
+import pytest
+
+from odsuite.cli import main
+from odsuite.core import diskspace, storage
+from tests.reliability.diskfull import COMMANDS, can_mount, run_full_disks, summary
+from tests.reliability.harness import units
+
+pytestmark = pytest.mark.filterwarnings("ignore::odsuite.core.errors.OdsuiteWarning")
+
+LINE = re.compile(r"^error: (?P<project>\S+): no space left on (?P<device>\S+): needed ~(?P<mb>[0-9.]+) MB"
+                  r"(, (?P<free>[0-9.]+) MB free)?; project unchanged$")
+
+
+@pytest.fixture(scope="module")
+def master(tmp_path_factory):
+    path = tmp_path_factory.mktemp("diskfull") / "master.h5"
+    for argv in (["new", str(path)], ["acquire", str(path), "--daq", "sim", "--name", "s1", "--samples", "4096"]):
+        assert main(argv) == 0
+    return path
+
+
+@pytest.fixture
+def project(master, tmp_path):
+    path = tmp_path / "p.h5"
+    shutil.copyfile(master, path)
+    return path
+
+
+def _enospc(*_a, **_k):
+    raise OSError(errno.ENOSPC, "No space left on device")
+
+
+def _assert_refused(project, before, capsys, free_mb=None):
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    m = LINE.match(err)
+    assert m, err
+    assert m["project"] == str(project) and m["device"] == str(diskspace.mount_point(project.parent))
+    if free_mb is not None:
+        assert float(m["free"]) == pytest.approx(free_mb, abs=0.05)
+    assert units(project) == before
+    assert sorted(p.name for p in project.parent.iterdir()) == ["p.h5"]  # no copy, no lock file
+
+
+def test_too_little_room_is_refused_before_writing(project, capsys, monkeypatch):
+    before = units(project)
+    free = 300_000  # bytes: less than the project's own copy
+    assert project.stat().st_size > free
+    monkeypatch.setattr(diskspace.shutil, "disk_usage",
+                        lambda p: collections.namedtuple("u", "total used free")(10**9, 10**9 - free, free))
+    copies = []
+    monkeypatch.setattr(storage.shutil, "copyfile", lambda *a: copies.append(a))
+    assert main(["acquire", str(project), "--daq", "sim", "--name", "s2", "--samples", "4096"]) == 1
+    assert copies == []  # not a byte written
+    _assert_refused(project, before, capsys, free_mb=0.3)
+    # the room asked for: the project's copy and the 1 MiB reserve for HDF5's own records
+    err_mb = (project.stat().st_size + diskspace.METADATA_RESERVE) / 1e6
+    monkeypatch.undo()
+    assert main(["acquire", str(project), "--daq", "sim", "--name", "s2", "--samples", "4096"]) == 0
+    assert err_mb > 1.0
+
+
+def test_room_for_the_copy_but_not_for_the_record(project, capsys, monkeypatch):
+    """The record (4096 x 11 float64 = 360 kB) is checked when its dataset is created, after the copy."""
+    before = units(project)
+    size = project.stat().st_size
+    free = size + diskspace.METADATA_RESERVE + 100_000  # the copy fits; the record then does not
+    real = shutil.disk_usage
+
+    def usage(p):
+        left = free - sum(f.stat().st_size for f in project.parent.glob(".p.h5.odsuite-tmp-*"))
+        return collections.namedtuple("u", "total used free")(real(p).total, 0, left)
+
+    monkeypatch.setattr(diskspace.shutil, "disk_usage", usage)
+    assert main(["acquire", str(project), "--daq", "sim", "--name", "s2", "--samples", "4096"]) == 1
+    _assert_refused(project, before, capsys)
+
+
+@pytest.mark.parametrize("where", ["copy", "dataset", "fsync"])
+def test_enospc_raised_by_the_write_itself(project, capsys, monkeypatch, where):
+    """The free-space check passed, yet the disk fills meanwhile (another program writing)."""
+    before = units(project)
+    if where == "copy":
+        def half_copy(src, dst):
+            with open(src, "rb") as a, open(dst, "wb") as b:
+                b.write(a.read(1000))
+            _enospc()
+        monkeypatch.setattr(storage.shutil, "copyfile", half_copy)
+    elif where == "dataset":
+        monkeypatch.setattr(diskspace, "ensure_room_in", _enospc)
+    else:
+        monkeypatch.setattr(storage, "fsync_path", _enospc)
+    assert main(["acquire", str(project), "--daq", "sim", "--name", "s2", "--samples", "4096"]) == 1
+    _assert_refused(project, before, capsys)
+
+
+def test_an_output_file_on_a_full_disk_is_one_line(project, tmp_path, capsys, monkeypatch):
+    assert main(["process", str(project)]) == 0
+    capsys.readouterr()
+    out = tmp_path / "s1.COD"
+    monkeypatch.setattr("pathlib.Path.write_text", _enospc)
+    assert main(["export-legacy", str(project), "s1", "--cod", str(out)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert re.fullmatch(rf"error: {out}: no space left on \S+: needed ~1.0 MB; output incomplete", err), err
+
+
+needs_mount = pytest.mark.skipif(not can_mount(), reason="mounting a tmpfs needs root (mount -t tmpfs)")
+
+
+@needs_mount
+def test_one_small_disk_per_command(tmp_path):
+    outcomes = run_full_disks(tmp_path, len(COMMANDS), seed_value=5)
+    assert [o.problems for o in outcomes] == [[]] * len(COMMANDS), summary(outcomes)
+
+
+@needs_mount
+@pytest.mark.slow
+def test_thirty_six_small_disks(tmp_path):
+    outcomes = run_full_disks(tmp_path, 36, seed_value=19)
+    assert [o.problems for o in outcomes] == [[]] * 36, summary(outcomes)
+    # the seeded levels reach both sides: commands refused for a full disk and commands that fit
+    assert sum("no space left" in o.line for o in outcomes) >= 8, summary(outcomes)
+    assert sum(o.code == 0 for o in outcomes) >= 8, summary(outcomes)
+
+
+def test_reserved_blocks_are_trimmed_on_commit(project):
+    """The room reserved before HDF5 writes (1 MiB beyond the data) does not stay in the project."""
+    from odsuite.core.project import open_project
+    from odsuite.core.systeminfo import ChannelInfo, Systeminfo
+
+    size = project.stat().st_size
+    with open_project(project, "a") as p:
+        p.add_experiment("tiny", np.ones((16, 2)), sampling_rate=1000.0,
+                         systeminfo=Systeminfo([ChannelInfo() for _ in range(2)]), excitation=None)
+    grown = project.stat().st_size - size
+    assert 0 < grown < diskspace.METADATA_RESERVE / 4, grown  # 256 B of data and HDF5's records
+    assert oct(project.stat().st_mode & 0o777) == oct(0o666 & ~_umask())
+
+
+def _umask() -> int:
+    import os
+
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
