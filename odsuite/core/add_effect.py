@@ -82,6 +82,11 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     single = Problem(current, effect, windows, prior=prior, stride=stride, full=exps)
     screened = screen(single, single.sse(single.zero()),
                       [p["frequency_hz"] for p in cmp.residual_peaks if p["lacking"]])
+    if single.linear:
+        # an effect that solves its own linear parameters (a mode's participations) is fitted on
+        # top of the current effects, as the diagnosis fitted it: refitting everything jointly
+        # would hand those parameters to the nonlinear search, which cannot find them
+        return _add_on_top(project, rev, entries, name, effect, screened, n_eff, exps, before, progress)
     joint_effects = [regs.effects.get(e["effect"]) for e in entries] + [effect]
     fixed = {f"{e['effect']}.{k}": v for e in entries for k, v in e.get("values", {}).items()
              if any(p.name == k and p.choices for p in regs.effects.get(e["effect"]).parameters(current.shared))}
@@ -124,11 +129,40 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
             "noise_floor_error": after.noise_floor_error, "effects": new_entries, "warnings": warnings}
 
 
-def _warnings(name: str, effect, joint: Problem, res, model, exps, after) -> list[str]:
+def _add_on_top(project, rev, entries, name: str, effect, screened, n_eff, exps, before, progress) -> dict[str, Any]:
+    """Fit ``effect`` alone on the current revision's model and store it after the current effects."""
+    from odsuite.core.comparison import compare
+
+    problem = screened.problem
+    if progress:
+        progress(f"fitting {name}", 1, 3)
+    res = fit(problem, screened.u0, continuation=False) if problem.free else None
+    u = res.x if res is not None else problem.zero()
+    sds = uncertainties(problem, res, n_eff)[0] if res is not None else np.zeros(0)
+    shared, per = problem.values(u)
+    unc = {f.label if f.experiment is None else f"{f.experiment}/{f.param.name}": float(sd)
+           for f, sd in zip(problem.free, sds) if np.isfinite(sd)}
+    new_entries = [*entries, {"effect": name, "values": dict(shared),
+                              "per_experiment": {x: d for x, d in per.items() if d}, "uncertainties": unc}]
+    flat = {f"{e['effect']}.{k}": v for e in new_entries for k, v in e.get("values", {}).items()}
+    if progress:
+        progress("comparing", 2, 3)
+    after = compare(project, revision={"model": rev.get("model"), "effects": new_entries}, prepared=exps,
+                    resonances=False)
+    warnings = _warnings(name, effect, problem, res, problem.base.shared, exps, after, prefix="")
+    metrics = {"error": after.error, "noise_floor_error": after.noise_floor_error, "added": name,
+               "previous_error": before}
+    n = project.add_model_revision(new_entries, flat, metrics, rev["revision"], model=rev.get("model"))
+    return {"revision": n, "effect": name, "error": after.error, "previous_error": before,
+            "noise_floor_error": after.noise_floor_error, "effects": new_entries, "warnings": warnings}
+
+
+def _warnings(name: str, effect, joint: Problem, res, model, exps, after, prefix: str | None = None) -> list[str]:
     """One line each when the added effect is implausible (a value outside its declared physical
     range), inconsistent (its parameters fitted per experiment disagree), or a proxy (the error
-    stays above the noise floor's tolerance): add-effect refuses nothing, but says so."""
-    prefix = f"{name}."
+    stays above the noise floor's tolerance): add-effect refuses nothing, but says so. ``prefix``:
+    how the problem names the effect's parameters (a joint problem: "<effect>.")."""
+    prefix = f"{name}." if prefix is None else prefix
     shared, per = joint.values(res.x) if res is not None else ({}, {})
     own = {k[len(prefix):]: v for k, v in shared.items() if k.startswith(prefix)}
     own.update({f"{x}/{k[len(prefix):]}": v for x, d in per.items() for k, v in d.items() if k.startswith(prefix)})
