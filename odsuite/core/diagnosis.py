@@ -431,6 +431,7 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
             fitted=False))
     _mark_confounded([c for c in candidates if c.fitted], exps, scale)
     candidates.sort(key=lambda c: (not c.significant, c.bic if c.fitted else math.inf, c.screened_error))
+    _prefer_named(candidates, regs.effects)
     diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=noise, revision=rev.get("revision"),
                           candidates=candidates, residual_peaks=peaks, evaluations=evaluations,
                           not_applicable=not_applicable)
@@ -438,6 +439,18 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     if progress:
         progress("done", len(names), len(names))
     return diagnosis
+
+
+def _prefer_named(cands: list[Candidate], effects) -> None:
+    """A data-driven stand-in on top (a mode of any shape) gives the first place to a significant
+    named mechanism it is confounded with: the same residual explained, and the cause named."""
+    if not cands or not cands[0].significant or not getattr(effects.get(cands[0].effect), "data_driven", False):
+        return
+    named = next((c for c in cands[1:] if c.significant and c.effect in cands[0].confounded_with
+                  and not getattr(effects.get(c.effect), "data_driven", False)), None)
+    if named is not None:
+        cands.remove(named)
+        cands.insert(0, named)
 
 
 def _conclude(d: Diagnosis, cmp, base, exps) -> None:

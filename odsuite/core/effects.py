@@ -17,6 +17,9 @@ any object with the same members:
   cheap, pure (never change ``model``) and raise :class:`~odsuite.core.errors.ConfigError` for values
   it cannot use.
 
+Optional: ``data_driven`` (bool, default False): the effect presupposes no shape (a mode of any
+shape), so the diagnosis ranks a significant named mechanism it is confounded with before it.
+
 Optional: ``breaks_rigidity`` (bool, default False): the effect makes a rigid body's redundant
 sensors disagree (a flexible mode, a sensor fault), so the diagnosis cites the rigidity check's
 residual as evidence for it.
@@ -80,6 +83,9 @@ class Effect:
     target: str = "model"  # "model" or "chain"
     description: str = ""
     breaks_rigidity: bool = False
+    #: a stand-in that presupposes no shape (a mode of any shape): a named mechanism that explains
+    #: the same residual (``confounded_with``) is ranked before it
+    data_driven: bool = False
 
     def parameters(self, model: Model) -> list[Parameter]:
         raise NotImplementedError

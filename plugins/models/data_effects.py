@@ -41,6 +41,7 @@ class MissingMode(Effect):
     name = "missing_mode"
     target = "model"
     breaks_rigidity = True  # a mode of any shape makes a rigid body's redundant sensors disagree
+    data_driven = True
     description = ("A resonance of one body of any shape: frequency and damping fitted, participation at "
                    "every sensor and force point solved linearly.")
 
