@@ -123,6 +123,10 @@ def residual_peaks(exps: Sequence[PreparedExperiment], predictions: Sequence[np.
     else:
         idx, props = scipy.signal.find_peaks(psd_sum, prominence=0.05 * psd_sum.max())
         strength = psd_sum
+    # the zero-frequency bin holds the record's mean and trend, which the chains' offsets and
+    # high-passes shape: it is not a resonance the model could lack
+    not_dc = idx > 0
+    idx, props = idx[not_dc], {k: v[not_dc] for k, v in props.items()}
     order = np.argsort(props["prominences"])[::-1][:max_peaks]
     peaks = []
     for i in sorted(idx[order], key=lambda i: -strength[i]):
