@@ -188,7 +188,8 @@ def plugins_cmd(as_json: bool = typer.Option(False, "--json", help="Print one JS
                              for o in regs.daq_backends.get(backend).options)
             provided.append(f"  acquire --daq {backend} options: {flags or 'none'}")
         source = pm.source(name)
-        table.add_row(name, source.distribution, source.version, "\n".join(provided) or "-")
+        # one line per kind: a Text keeps the line breaks that plain strings would show escaped
+        table.add_row(name, source.distribution, source.version, Text("\n".join(shown(p) for p in provided) or "-"))
     console.print(table)
 
 
