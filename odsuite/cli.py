@@ -307,10 +307,11 @@ def import_cmd(
                             "`odsuite plugins` lists all)."),
     systeminfo: Path = typer.Option(None, "--systeminfo", help="legacy: the .CTR Systeminfo file."),
     force_point: str = typer.Option(None, "--force-point",
-                                    help="legacy: X,Y,Z in mm from the platform's centre of mass, platform axes."),
-    force_dir: str = typer.Option(None, "--force-dir", help="legacy: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
+                                    help="legacy, lvm, uff: X,Y,Z in mm in the rig frame (the thesis rig: from the "
+                                    "platform's centre of mass)."),
+    force_dir: str = typer.Option(None, "--force-dir", help="legacy, lvm, uff: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
     force_channel: str = typer.Option(None, "--force-channel", help="lvm, uff: name of the force channel."),
-    force_body: str = typer.Option(None, "--force-body", help="lvm on a rig: the body hit, when the force point "
+    force_body: str = typer.Option(None, "--force-body", help="lvm, uff on a rig: the body hit, when the force point "
                                    "lies on two."),
 ) -> None:
     """Import a measurement file as a new experiment, by the importer for its format."""
@@ -520,10 +521,12 @@ def import_lvm_cmd(
     force_channel: str = typer.Option(None, "--force-channel", help="Name of the force column (on a rig: the one for its force channel)."),
     force_point: str = typer.Option(None, "--force-point", help="On a rig: X,Y,Z in mm in the rig frame."),
     force_dir: str = typer.Option(None, "--force-dir", help="On a rig: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
+    force_body: str = typer.Option(None, "--force-body", help="On a rig: the body hit, when the force point lies on two."),
 ) -> None:
     """Import a LabVIEW .lvm hammer record as a new experiment (`odsuite import --format lvm`); on a
     rig its columns go to the rig's sensors by name, else in order."""
-    _import(project, lvmfile, name, "lvm", force_channel=force_channel, force_point=force_point, force_dir=force_dir)
+    _import(project, lvmfile, name, "lvm", force_channel=force_channel, force_point=force_point, force_dir=force_dir,
+            force_body=force_body)
 
 
 @app.command("import-uff")
@@ -532,10 +535,17 @@ def import_uff_cmd(
     ufffile: Path = typer.Argument(..., help="UFF file (.uff/.unv) with time records (dataset 58)."),
     name: str = typer.Option(..., "--name", help="Experiment name."),
     force_channel: str = typer.Option(None, "--force-channel", help="Name of the force record."),
+    force_point: str = typer.Option(None, "--force-point", help="On a rig: X,Y,Z in mm in the rig frame (default: "
+                                    "the force record's node in the file)."),
+    force_dir: str = typer.Option(None, "--force-dir", help="On a rig: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz "
+                                  "(default: the force record's direction in the file)."),
+    force_body: str = typer.Option(None, "--force-body", help="On a rig: the body hit, when the force point lies on two."),
 ) -> None:
     """Import a UFF file's time records as a new experiment, its FRFs as derived 'frf'
-    (`odsuite import --format uff`)."""
-    _import(project, ufffile, name, "uff", force_channel=force_channel)
+    (`odsuite import --format uff`); on a rig its records go to the rig's sensors by UFF node and
+    direction, else by name, else in order."""
+    _import(project, ufffile, name, "uff", force_channel=force_channel, force_point=force_point, force_dir=force_dir,
+            force_body=force_body)
 
 
 @app.command("export-uff")

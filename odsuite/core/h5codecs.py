@@ -207,6 +207,8 @@ def rig_to_dict(rig: Rig) -> dict[str, Any]:
             d["sensitivity"] = s.sensitivity
         if s.group:
             d["group"] = s.group
+        if s.uff_node is not None:
+            d["uff_node"] = s.uff_node
         if s.name in rig.processing_tables:
             d["processing"] = rig.processing_tables[s.name]
         sensors.append(d)

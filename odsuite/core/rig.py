@@ -79,6 +79,7 @@ class Sensor:
     sensitivity: float | None = None  # V per SI unit (e.g. V/(m/s^2)); None: from the Systeminfo
     quantity: str = "acceleration"  # what it measures: acceleration, force, displacement, voltage, ...
     group: str = ""  # the multi-axis sensor it is one axis of (e.g. a triaxial accelerometer)
+    uff_node: int | None = None  # the UFF node number its records carry; None: the number export-uff gives it
 
 
 @dataclass(frozen=True, eq=False)
@@ -240,6 +241,9 @@ class Rig:
 #: A sensor axis written with two decimals ([0.71, 0.71, 0]) is 0.4 % long; a length further from 1
 #: is a mistake (a gain or a sign written into the axis), not rounding
 AXIS_LENGTH_SLACK = 1e-2
+
+#: UFF node numbers are I10 fields of datasets 15/2411 and 58
+UFF_NODE_MAX = 2**31 - 1
 
 #: Channels a rig (or a file) may have: no DAQ chassis has more
 MAX_CHANNELS = 4096
@@ -585,11 +589,14 @@ def single_axis_sensor(entry: dict[str, Any], where: str, *, kind: str, quantity
     if not isinstance(channel, int) or isinstance(channel, bool) or channel < 0:
         raise ConfigError(f"{where} field 'channel': expected a channel index >= 0, got {channel!r}")
     sensitivity = entry.get("sensitivity") if sensitivity is None else sensitivity
+    uff_node = entry.get("uff_node")
+    if uff_node is not None:
+        uff_node = _integer(f"{where} field 'uff_node'", uff_node, 1, UFF_NODE_MAX)
     return Sensor(
         name=name, channel=channel, body=entry["body"],
         position=_vector(f"{where} field 'position'", entry.get("position")),
         axis=axis / np.linalg.norm(axis), sign=float(sign), kind=kind, serial=str(entry.get("serial", "")),
         sensitivity=None if sensitivity is None else _number(f"{where} field 'sensitivity'", sensitivity,
                                                              positive=True),
-        quantity=quantity, group=str(entry.get("group", group)),
+        quantity=quantity, group=str(entry.get("group", group)), uff_node=uff_node,
     )

@@ -37,7 +37,7 @@ class RigRecord:
     notes: tuple[str, ...] = ()
 
 
-def _key(name: str) -> str:
+def name_key(name: str) -> str:
     """A name as tools spell it differently: case, spaces, '_', '-' and '.' do not count ("m1_x" is
     LabVIEW's "M1 X" or "m1x")."""
     return "".join(c for c in name.lower() if c.isalnum())
@@ -46,42 +46,54 @@ def _key(name: str) -> str:
 def names_the_rig(rig: Rig, names: Sequence[str]) -> bool:
     """Whether a record's columns are the rig's channels: one named like a rig sensor, or as many
     columns as the rig has channels."""
-    by_name = {_key(s.name) for s in rig.sensors}
-    return any(_key(n) in by_name for n in names) or len(names) == rig.channel_count
+    by_name = {name_key(s.name) for s in rig.sensors}
+    return any(name_key(n) in by_name for n in names) or len(names) == rig.channel_count
 
 
-def _columns_to_channels(rig: Rig, names: Sequence[str], where: str, force_column: str | None) -> dict[int, int]:
-    by_name = {_key(s.name): s.channel for s in rig.sensors}
-    matched = {k: by_name[_key(n)] for k, n in enumerate(names) if _key(n) in by_name}
+def columns_to_channels(rig: Rig, names: Sequence[str], where: str, force_column: str | None,
+                        what: str = "column") -> tuple[dict[int, int], bool]:
+    """Column index -> rig channel, by sensor name, else (no name matching) in order; and whether
+    the match was by name. Two columns naming one sensor are refused."""
+    by_name = {name_key(s.name): s.channel for s in rig.sensors}
+    matched = {k: by_name[name_key(n)] for k, n in enumerate(names) if name_key(n) in by_name}
+    first: dict[int, int] = {}
+    for k, ch in matched.items():
+        if ch in first:
+            raise ConfigError(f"{where}: {what}s {names[first[ch]]!r} and {names[k]!r} both match sensor "
+                              f"{rig.sensor_on_channel(ch).name!r} (channel {ch}) of rig {rig.name!r}")
+        first[ch] = k
     if force_column is not None:  # the user names the hammer's column
         if force_column not in names:
             raise ConfigError(f"{where}: no channel {force_column!r}; channels are {', '.join(names)}")
         matched = {k: c for k, c in matched.items() if c != rig.force_channel}
         matched[list(names).index(force_column)] = rig.force_channel
         if len(matched) == 1 and len(names) == rig.channel_count:
-            return {k: k for k in range(len(names))} | matched
+            return {k: k for k in range(len(names))} | matched, False
     if not matched:
         if len(names) != rig.channel_count:
-            raise DimensionError(f"{where}: no column is named like a sensor of rig {rig.name!r} "
-                                 f"({', '.join(s.name for s in rig.sensors)}), and its {len(names)} columns "
-                                 f"cannot be its {rig.channel_count} channels in order; rename the columns")
-        return {k: k for k in range(len(names))}
+            raise DimensionError(f"{where}: no {what} is named like a sensor of rig {rig.name!r} "
+                                 f"({', '.join(s.name for s in rig.sensors)}), and its {len(names)} {what}s "
+                                 f"cannot be its {rig.channel_count} channels in order; rename the {what}s")
+        return {k: k for k in range(len(names))}, False
     unmatched = [n for k, n in enumerate(names) if k not in matched]
     if unmatched:
-        raise ConfigError(f"{where}: column(s) {', '.join(map(repr, unmatched))} match no sensor of rig "
+        raise ConfigError(f"{where}: {what}(s) {', '.join(map(repr, unmatched))} match no sensor of rig "
                           f"{rig.name!r} (sensors: {', '.join(s.name for s in rig.sensors)})")
-    return matched
+    return matched, True
 
 
 def onto_rig(rig: Rig, names: Sequence[str], units: Sequence[str], data: np.ndarray, fs: float, where: str,
              point: np.ndarray | None, direction: np.ndarray | None, force_column: str | None = None,
-             force_body: str | None = None) -> RigRecord:
+             force_body: str | None = None, mapping: dict[int, int] | None = None,
+             what: str = "column") -> RigRecord:
     """Lay ``data`` (samples x columns, named ``names`` in ``units``) onto ``rig``'s channels; the
     hammer hit ``point`` (m, rig frame) along ``direction`` (on ``force_body`` when the point lies
     on two bodies); ``force_column`` names the column that is the rig's force channel when its name
-    does not say so. A record with no force column and
+    does not say so; ``mapping`` (column -> channel) when the caller matched the columns already
+    (e.g. by UFF node). A record with no force column and
     no ``point``/``direction`` is an operating record (responses only, no excitation)."""
-    mapping = _columns_to_channels(rig, names, where, force_column)
+    if mapping is None:
+        mapping = columns_to_channels(rig, names, where, force_column, what)[0]
     operating = (point is None and direction is None and force_column is None
                  and (rig.force_channel is None or rig.force_channel not in mapping.values()))
     if not operating:
@@ -91,7 +103,17 @@ def onto_rig(rig: Rig, names: Sequence[str], units: Sequence[str], data: np.ndar
             raise ConfigError(f"{where}: a record on rig {rig.name!r} needs the hammer's --force-point and --force-dir")
         rig.force_body(point, force_body)  # a known body, or a point that tells one
         if rig.force_channel not in mapping.values():
-            raise ConfigError(f"{where}: no column is the force channel {rig.force_channel} of rig {rig.name!r}")
+            raise ConfigError(f"{where}: no {what} is the force channel {rig.force_channel} of rig {rig.name!r}")
+    in_volts = {ch: k for k, ch in mapping.items() if (units[k].strip().lower() if k < len(units) else "") in VOLTS + ("",)}
+    for s in rig.sensors:
+        if s.sensitivity is None and s.channel in in_volts and s.quantity != "voltage":
+            k = in_volts[s.channel]
+            raise ConfigError(f"{where}: {what} {names[k]!r} is in volts, but rig {rig.name!r} sensor {s.name!r} "
+                              f"(channel {s.channel}) has no 'sensitivity' to convert it; give the sensitivity "
+                              "or a file in physical units")
+    # a sensor without a sensitivity whose column is in physical units (or absent) needs none
+    rig = replace(rig, sensors=tuple(s if s.sensitivity is not None or s.channel in in_volts
+                                     else replace(s, sensitivity=1.0) for s in rig.sensors))
     si = Systeminfo.for_rig(rig, fs)
     channels = list(si.channels)
     raw = np.zeros((data.shape[0], rig.channel_count))
@@ -103,14 +125,14 @@ def onto_rig(rig: Rig, names: Sequence[str], units: Sequence[str], data: np.ndar
             sensor = rig.sensor_on_channel(ch)
             expected = sensor.quantity if sensor is not None else "force" if ch == rig.force_channel else None
             if expected != quantity:
-                raise ConfigError(f"{where}: column {names[k]!r} is in {units[k]!r} ({quantity}), but rig "
+                raise ConfigError(f"{where}: {what} {names[k]!r} is in {units[k]!r} ({quantity}), but rig "
                                   f"{rig.name!r} channel {ch} measures {expected or 'nothing'}")
             # the value is the sensor's own output: stored as it is, converted to SI by the sensitivity;
             # limits far above the peaks, so that volt limits never clip g or N
             peak = float(np.ceil(2 * np.abs(data[:, k]).max())) if data.shape[0] else 1.0
             info = replace(info, sensitivity=per_si, limit_high=max(10.0, peak), limit_low=-max(10.0, peak))
         elif unit not in VOLTS and unit:
-            raise ConfigError(f"{where}: column {names[k]!r}: unit {units[k]!r} is neither volts nor one of "
+            raise ConfigError(f"{where}: {what} {names[k]!r}: unit {units[k]!r} is neither volts nor one of "
                               f"{', '.join(sorted(PHYSICAL_UNITS))}")
         channels[ch] = info
         raw[:, ch] = data[:, k]
@@ -122,8 +144,8 @@ def onto_rig(rig: Rig, names: Sequence[str], units: Sequence[str], data: np.ndar
                                                    np.asarray(direction, float), force_body)
     names_out = [next((names[k] for k, c in mapping.items() if c == ch), f"ai{ch}") for ch in range(rig.channel_count)]
     lost = [s.name for s in rig.accelerometers if s.channel in missing]
-    notes = (f"{where}: rig sensor(s) {', '.join(lost)} have no column: not recorded",) if lost else ()
+    notes = (f"{where}: rig sensor(s) {', '.join(lost)} have no {what}: not recorded",) if lost else ()
     if operating:
-        notes += (f"{where}: no force column: stored as an operating record, responses only (`odsuite ods`, "
+        notes += (f"{where}: no force {what}: stored as an operating record, responses only (`odsuite ods`, "
                   "`odsuite modes --output-only`)",)
     return RigRecord(raw, Systeminfo(channels=channels, rig=si.rig), excitation, names_out, notes)

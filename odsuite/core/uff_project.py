@@ -16,6 +16,8 @@ import numpy as np
 from odsuite.core.errors import ConfigError
 from odsuite.core.modal_project import _UNITS, _force_index, operating_note, physical
 from odsuite.core.project import DerivedArray, Excitation, Project, open_project
+from odsuite.core.rig import Rig
+from odsuite.core.rig_import import columns_to_channels, name_key, names_the_rig, onto_rig
 from odsuite.core.rigidbody import CORNERS, plate_corners
 from odsuite.core.systeminfo import ChannelInfo, SensorType, Systeminfo
 from odsuite.core.uff import (
@@ -78,13 +80,17 @@ def _frf_arrays(frfs: list[UffFunction], where: str) -> tuple[dict[str, DerivedA
              "nodes": json.dumps([[f.rsp_node, f.rsp_dir, f.ref_node, f.ref_dir] for f in frfs])})
 
 
-def import_uff(project: str | Path, uff_path: str | Path, name: str,
-               force_channel: str | None = None) -> tuple[str, tuple[str, ...]]:
+def import_uff(project: str | Path, uff_path: str | Path, name: str, force_channel: str | None = None, *,
+               force_point: np.ndarray | None = None, force_dir: np.ndarray | None = None,
+               force_body: str | None = None) -> tuple[str, tuple[str, ...]]:
     """Add a UFF file to a project under ``name``; returns what was stored and notes for the user.
 
     Time records (58, function type 1) become experiment ``name`` (all of one length and sampling
     interval; the force channel is ``force_channel``, else the one record in newtons or named like
-    a force, else none: an operating record), with the file's FRFs as its derived "frf". A file
+    a force, else the one at a node and direction the others name as their reference, else none: an
+    operating record), with the file's FRFs as its derived "frf". On a project with a rig the
+    records go onto the rig's sensors (:func:`_rig_mapping`; the hammer's ``force_point`` (m, rig
+    frame) and ``force_dir`` default to the force record's node in the file). A file
     without time records is stored as import ``name``: its FRFs ("frf"), modes (55: "modes") or
     else its nodes ("nodes"), each with the file's nodes when it has some. Other function types
     (spectra, PSDs, coherences) are not records: they are named in a note, or refused when the file
@@ -104,7 +110,8 @@ def import_uff(project: str | Path, uff_path: str | Path, name: str,
         raise ConfigError(f"{uff_path}: nothing to import: {reason}")
     notes = tuple(f"{uff_path}: {s}: not imported" for s in skipped)
     if records:
-        return _import_records(project, uff_path, name, content, records, frfs, force_channel, notes)
+        return _import_records(project, uff_path, name, content, records, frfs, force_channel, notes,
+                               (force_point, force_dir, force_body))
     arrays: dict[str, DerivedArray] = {}
     attrs: dict = {}
     if content.geometry is not None:
@@ -126,7 +133,7 @@ def import_uff(project: str | Path, uff_path: str | Path, name: str,
 
 
 def _import_records(project, uff_path: Path, name: str, content, records: list[UffFunction],
-                    frfs: list[UffFunction], force_channel: str | None, notes: tuple[str, ...]):
+                    frfs: list[UffFunction], force_channel: str | None, notes: tuple[str, ...], hammer: tuple):
     first = records[0]
     dt = float(first.x[1] - first.x[0]) if first.x.size > 1 else 0.0
     if not dt > 0:
@@ -142,13 +149,29 @@ def _import_records(project, uff_path: Path, name: str, content, records: list[U
         if not np.isclose(step, dt, rtol=1e-6):
             raise ConfigError(f"{uff_path}: time record {f.name!r} is sampled every {step!r} s, "
                               f"record {first.name!r} every {dt!r} s")
-        label = f.name if f.name and f.name != "NONE" else f"ch{k}"
-        names.append(label if label not in names else f"{label}#{k}")
+        names.append(f.name if f.name and f.name != "NONE" else f"ch{k}")
     units = [f.unit for f in records]
     fidx = _force_index(names, units, force_channel, str(uff_path))
     if fidx is None:
+        fidx = _reference_index(records, names, str(uff_path))
+    with open_project(project) as p:
+        rig = p.rig
+    if fidx is None and rig is not None and rig.force_channel is not None:  # a record named like the rig's hammer
+        hammer_sensor = rig.sensor_on_channel(rig.force_channel)
+        fidx = next((k for k, n in enumerate(names) if hammer_sensor and name_key(n) == name_key(hammer_sensor.name)), None)
+    if rig is not None and (any(v is not None for v in hammer) or names_the_rig(rig, names)
+                            or _rig_mapping(rig, records, fidx, str(uff_path), names, strict=False)):
+        return _import_onto_rig(project, rig, uff_path, name, content, records, frfs, names, fidx,
+                                _sampling_rate(dt), notes, hammer)
+    if any(v is not None for v in hammer):
+        raise ConfigError(f"{uff_path}: --force-point/--force-dir/--force-body need a project with a rig geometry")
+    if rig is not None:
+        notes += (f"{uff_path}: its records ({', '.join(names)}) are not rig {rig.name!r}'s channels (no UFF node, "
+                  "name or count matches): stored as they are, without the rig's geometry",)
+    names = [n if n not in names[:k] else f"{n}#{k}" for k, n in enumerate(names)]
+    if fidx is None:
         notes += (operating_note(str(uff_path)),)
-    fs = 1.0 / dt
+    fs = _sampling_rate(dt)
     raw = np.column_stack([f.data for f in records]).astype(float)
     # values in engineering units, not volts: converter limits well above the peaks, so no false clipping
     limits = np.maximum(10.0, np.ceil(2 * np.abs(raw).max(axis=0)))
@@ -171,6 +194,98 @@ def _import_records(project, uff_path: Path, name: str, content, records: list[U
             _store_frfs(p, name, frfs, uff_path)
     stored = f"{len(records)} time record{'s' * (len(records) > 1)} as experiment {name!r}"
     return stored + (f", {len(frfs)} FRFs" if frfs else ""), notes
+
+
+#: Dataset 58 record 7 holds the sampling interval with 6 significant digits (E13.5), so 1/5120 s
+#: reads back as 1.95312e-4 s: a whole number of hertz within that rounding is the rate written
+HEADER_DIGITS_REL = 5e-6
+
+
+def _sampling_rate(dt: float) -> float:
+    whole = round(1.0 / dt)
+    return float(whole) if whole > 0 and abs(1.0 / whole - dt) <= HEADER_DIGITS_REL * dt else 1.0 / dt
+
+
+def _reference_index(records: list[UffFunction], names: list[str], where: str) -> int | None:
+    """The record at the node and direction the other records name as their reference (the
+    hammer's), when there is one."""
+    refs = {(f.ref_node, f.ref_dir) for f in records if f.ref_node > 0}
+    hits = [k for k, f in enumerate(records) if f.rsp_node > 0 and (f.rsp_node, f.rsp_dir) in refs]
+    if len(hits) > 1:
+        raise ConfigError(f"{where}: records {', '.join(repr(names[k]) for k in hits)} are all at the reference "
+                          "node and direction: cannot tell the force record; give --force-channel")
+    return hits[0] if hits else None
+
+
+def _rig_mapping(rig: Rig, records: list[UffFunction], fidx: int | None, where: str, names: list[str],
+                 strict: bool = True) -> dict[int, tuple[int, float]]:
+    """Record index -> (rig channel, sign) by UFF node and direction: a record at a sensor's node
+    (its ``uff_node``, else the number export-uff gives it) along the sensor's direction, or against
+    it (sign -1). Empty when no response record is at a sensor's node and direction. ``strict``:
+    then every response record must match one sensor, and no sensor two records."""
+    at = rig_nodes(rig)[2]
+    sensor_at = {v: ch for ch, v in at.items()} | {(n, -d): ch for ch, (n, d) in at.items()}
+    out: dict[int, tuple[int, float]] = {}
+    for k, f in enumerate(records):
+        if k != fidx and (f.rsp_node, f.rsp_dir) in sensor_at and f.rsp_dir != 0:
+            out[k] = (sensor_at[(f.rsp_node, f.rsp_dir)], 1.0 if (f.rsp_node, f.rsp_dir) in at.values() else -1.0)
+    if not out or not strict:
+        return out
+    for k, f in enumerate(records):
+        if k != fidx and k not in out:
+            raise ConfigError(f"{where}: time record {names[k]!r} at UFF node {f.rsp_node} direction {f.rsp_dir:+d} "
+                              f"matches no sensor of rig {rig.name!r} (sensor nodes: "
+                              f"{', '.join(str(n) for n in sorted({n for n, _ in at.values()}))})")
+    first: dict[int, int] = {}
+    for k, (ch, _) in out.items():
+        if ch in first:
+            f = records[k]
+            raise ConfigError(f"{where}: time records {names[first[ch]]!r} and {names[k]!r} (UFF node {f.rsp_node} "
+                              f"direction {f.rsp_dir:+d}) both match sensor {rig.sensor_on_channel(ch).name!r} "
+                              f"of rig {rig.name!r}")
+        first[ch] = k
+    if fidx is not None:
+        if rig.force_channel is None:
+            raise ConfigError(f"{where}: rig {rig.name!r} has no force channel for record {names[fidx]!r}")
+        out[fidx] = (rig.force_channel, 1.0)
+    return out
+
+
+def _import_onto_rig(project, rig: Rig, uff_path: Path, name: str, content, records: list[UffFunction],
+                     frfs: list[UffFunction], names: list[str], fidx: int | None, fs: float,
+                     notes: tuple[str, ...], hammer: tuple):
+    """Time records laid onto the rig's channels: by UFF node and direction, else by record name,
+    else in order (said in a note); volts through the rig's sensitivities (``rig_import``)."""
+    where = str(uff_path)
+    point, direction, force_body = hammer
+    by_node = _rig_mapping(rig, records, fidx, where, names)
+    signs, by_name = np.ones(len(records)), False
+    if by_node:
+        mapping = {k: ch for k, (ch, _) in by_node.items()}
+        signs = np.array([by_node[k][1] for k in range(len(records))])
+    else:
+        mapping, by_name = columns_to_channels(rig, names, where, None if fidx is None else names[fidx],
+                                               "time record")
+        if not by_name:
+            notes += (f"{where}: no record carries a sensor's UFF node or name: records taken as rig "
+                      f"{rig.name!r}'s channels 0-{rig.channel_count - 1} in order",)
+    if fidx is not None and (point is None or direction is None):  # the hammer's node in the file, if there
+        hit = _node_point(content.geometry, records[fidx].rsp_node, records[fidx].rsp_dir)
+        if hit is not None:
+            point = hit[0] if point is None else point
+            direction = hit[1] if direction is None else direction
+    data = np.column_stack([f.data for f in records]).astype(float) * signs
+    rec = onto_rig(rig, names, [f.unit for f in records], data, fs, where, point, direction,
+                   force_body=force_body, mapping=mapping, what="time record")
+    with open_project(project, "a") as p, p.transaction():
+        p.add_experiment(name, rec.raw, sampling_rate=fs, systeminfo=rec.systeminfo,
+                         excitation=rec.excitation, source=uff_path.name, channel_names=rec.channel_names)
+        if frfs:
+            _store_frfs(p, name, frfs, uff_path)
+    how = "UFF node" if by_node else "name" if by_name else "order"
+    stored = (f"{len(records)} time record{'s' * (len(records) > 1)} onto rig {rig.name!r} (by {how}) "
+              f"as experiment {name!r}")
+    return stored + (f", {len(frfs)} FRFs" if frfs else ""), notes + rec.notes
 
 
 def _store_frfs(p: Project, name: str, frfs: list[UffFunction], uff_path: Path) -> None:
@@ -205,46 +320,91 @@ class _Nodes:
     #: points closer than this (m) are one location: far below any sensor's size
     SAME_PLACE_M = 1e-9
 
-    def __init__(self) -> None:
+    def __init__(self, reserved: set[int] = frozenset()) -> None:
+        self.nums: list[int] = []
         self.xyz: list[np.ndarray] = []
         self.disp_cs: list[int] = []
         self.directed: list[bool] = []
         self.rotation: dict[int, np.ndarray] = {}
+        self.reserved = set(reserved)  # numbers the rig's sensors declare (uff_node): not given to others
 
     def _local(self, axis: np.ndarray) -> int:
         cs = len(self.rotation) + 1
         self.rotation[cs] = _local_system(axis)
         return cs
 
-    def add(self, point: np.ndarray, axis: np.ndarray | None = None) -> tuple[int, int]:
+    def add(self, point: np.ndarray, axis: np.ndarray | None = None, number: int | None = None) -> tuple[int, int]:
+        """The node (its number) and direction code of ``point`` along ``axis``; ``number``: the
+        node number the sensor declares (its place must then be the node's)."""
         p = np.asarray(point, dtype=float)
         a = None if axis is None else np.asarray(axis, dtype=float) / np.linalg.norm(axis)
         for i, q in enumerate(self.xyz):
-            if not np.allclose(q, p, rtol=0, atol=self.SAME_PLACE_M):
+            same_place = np.allclose(q, p, rtol=0, atol=self.SAME_PLACE_M)
+            if number is not None and self.nums[i] == number and not same_place:
+                mm = ", ".join(f"{1e3 * v:g}" for v in q)
+                raise ConfigError(f"UFF node {number} is declared (uff_node) at two places, one of them ({mm}) mm")
+            if not same_place or (number is not None and self.nums[i] != number):
                 continue
             if a is None:
-                return i + 1, 0
+                return self.nums[i], 0
             R = self.rotation.get(self.disp_cs[i], np.eye(3))
             if code := _direction_code(R.T @ a):
                 self.directed[i] = True
-                return i + 1, code
+                return self.nums[i], code
             if not self.directed[i] and self.disp_cs[i] == 0:
                 self.disp_cs[i], self.directed[i] = self._local(a), True
-                return i + 1, 1
+                return self.nums[i], 1
         code, cs = 0, 0
         if a is not None:
             code = _direction_code(a)
             if code == 0:
                 cs, code = self._local(a), 1
+        if number is None:
+            number = len(self.nums) + 1
+            while number in self.reserved or number in self.nums:
+                number += 1
+        self.nums.append(number)
         self.xyz.append(p)
         self.disp_cs.append(cs)
         self.directed.append(a is not None)
-        return len(self.xyz), code
+        return number, code
 
     def geometry(self, traces: list[tuple[str, list[int]]]) -> UffGeometry:
-        return UffGeometry(node_nums=np.arange(1, len(self.xyz) + 1), xyz=np.array(self.xyz),
+        return UffGeometry(node_nums=np.array(self.nums, dtype=int), xyz=np.array(self.xyz),
                            disp_cs=np.array(self.disp_cs, dtype=int), cs_rotation=self.rotation,
                            cs_origin={c: np.zeros(3) for c in self.rotation}, trace_lines=traces)
+
+
+def rig_nodes(rig: Rig, n_channels: int | None = None) -> tuple[_Nodes, list[tuple[str, list[int]]],
+                                                                    dict[int, tuple[int, int]]]:
+    """The UFF nodes of a rig as export-uff writes them and import-uff reads them: each plate's top
+    corners, then each body's sensors (on channels below ``n_channels``) with their node number
+    (the sensor's ``uff_node``, else the next free one) and direction code; the trace lines; and
+    per channel its (node, direction code)."""
+    n_channels = rig.channel_count if n_channels is None else n_channels
+    nodes = _Nodes({s.uff_node for s in rig.sensors if s.uff_node is not None})
+    traces: list[tuple[str, list[int]]] = []
+    at: dict[int, tuple[int, int]] = {}
+    for body in rig.bodies:
+        if body.plate is not None:
+            corners = plate_corners(body.plate)[[list(CORNERS).index(c) for c in _TOP_FACE]]
+            ids = [nodes.add(c)[0] for c in corners]
+            traces.append((f"{body.name} plate", ids + ids[:1]))
+        sensors = [s for s in rig.sensors if s.body == body.name and s.channel < n_channels]
+        for s in sensors:
+            try:
+                at[s.channel] = nodes.add(s.position, np.asarray(s.axis, dtype=float), s.uff_node)
+            except ConfigError as exc:
+                raise ConfigError(f"rig {rig.name!r}: sensor {s.name!r}: {exc}") from None
+            twin = next((c for c, v in at.items() if c != s.channel and v[0] == at[s.channel][0]
+                         and abs(v[1]) == abs(at[s.channel][1])), None)
+            if twin is not None:
+                raise ConfigError(f"rig {rig.name!r}: sensors {rig.sensor_on_channel(twin).name!r} and {s.name!r} "
+                                  f"measure along one line at UFF node {at[s.channel][0]}: a UFF record cannot "
+                                  "tell them apart (give one of them another uff_node)")
+        if len(sensors) > 1:
+            traces.append((f"{body.name} sensors", list(dict.fromkeys(at[s.channel][0] for s in sensors))))
+    return nodes, traces, at
 
 
 def export_uff(project: str | Path, out: str | Path, experiment: str | None = None, *, binary: bool = True,
@@ -264,22 +424,9 @@ def export_uff(project: str | Path, out: str | Path, experiment: str | None = No
         frf = p.read_derived(experiment, "frf") if "frf" in p.derived_kinds(experiment) else None
         frf_outputs = json.loads(p.derived_info(experiment, "frf")["attrs"]["outputs"]) if frf else []
         data = physical(exp)
-    nodes = _Nodes()
-    traces: list[tuple[str, list[int]]] = []
-    at: dict[int, tuple[int, int]] = {}  # channel -> (node, direction code)
-    if rig is not None:
-        for body in rig.bodies:
-            if body.plate is not None:
-                corners = plate_corners(body.plate)[[list(CORNERS).index(c) for c in _TOP_FACE]]
-                ids = [nodes.add(c)[0] for c in corners]
-                traces.append((f"{body.name} plate", ids + ids[:1]))
-            sensors = [s for s in rig.sensors if s.body == body.name and s.channel < exp.n_channels]
-            for s in sensors:
-                at[s.channel] = nodes.add(s.position, np.asarray(s.axis, dtype=float))
-            if len(sensors) > 1:
-                traces.append((f"{body.name} sensors", list(dict.fromkeys(at[s.channel][0] for s in sensors))))
-        if exp.excitation is not None:
-            at[exp.excitation.force_channel] = nodes.add(exp.excitation.point, exp.excitation.direction)
+    nodes, traces, at = rig_nodes(rig, exp.n_channels) if rig is not None else (_Nodes(), [], {})
+    if rig is not None and exp.excitation is not None:
+        at[exp.excitation.force_channel] = nodes.add(exp.excitation.point, exp.excitation.direction)
     functions = [time_function(exp.channel_names[k], data[:, k], 1.0 / exp.sampling_rate,
                                exp.systeminfo.channels[k].unit, node=at.get(k, (0, 0))[0],
                                direction=at.get(k, (0, 0))[1]) for k in range(exp.n_channels)]

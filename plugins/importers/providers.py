@@ -11,6 +11,21 @@ FORCE_CHANNEL = ImportOption("force_channel", "name of the force channel (defaul
                                               "or named 'force')")
 
 
+#: where the hammer hit a rig, for the importers that lay a file onto a rig's sensors
+ON_RIG = (ImportOption("force_point", "on a rig: X,Y,Z in mm in the rig frame, where the hammer hit"),
+          ImportOption("force_dir", "on a rig: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz"),
+          ImportOption("force_body", "on a rig: the body hit, when the force point lies on two"))
+
+
+def _hammer(force_point, force_dir, force_body) -> dict:
+    """The ON_RIG options as the core importers take them (metres, a unit vector)."""
+    from odsuite.core.importing import parse_force_direction, parse_force_point
+
+    return {"force_point": None if force_point is None else parse_force_point(force_point),
+            "force_dir": None if force_dir is None else parse_force_direction(force_dir),
+            "force_body": force_body}
+
+
 class LegacyImporter:
     name = "legacy"
     description = "thesis-era .DAT/.VIZ record (volts, samples x channels) with its .CTR Systeminfo"
@@ -35,34 +50,30 @@ class LvmImporter:
     description = ("LabVIEW Measurement (.lvm) text file, decimal point or comma; on a rig its columns go to the "
                    "rig's sensors by name, else in order")
     suffixes = (".lvm",)
-    options = (FORCE_CHANNEL,
-               ImportOption("force_point", "on a rig: X,Y,Z in mm in the rig frame, where the hammer hit"),
-               ImportOption("force_dir", "on a rig: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz"),
-               ImportOption("force_body", "on a rig: the body hit, when the force point lies on two"))
+    options = (FORCE_CHANNEL, *ON_RIG)
 
     def import_file(self, project, file, name, *, force_channel=None, force_point=None, force_dir=None,
                     force_body=None) -> Imported:
-        from odsuite.core.importing import parse_force_direction, parse_force_point
         from odsuite.core.modal_project import import_lvm
 
-        notes = import_lvm(project, file, name, force_channel,
-                           force_point=None if force_point is None else parse_force_point(force_point),
-                           force_dir=None if force_dir is None else parse_force_direction(force_dir),
-                           force_body=force_body)
+        notes = import_lvm(project, file, name, force_channel, **_hammer(force_point, force_dir, force_body))
         return Imported(name, f"LabVIEW file {Path(file).name} as experiment {name!r}", tuple(notes))
 
 
 class UffImporter:
     name = "uff"
-    description = ("universal file format: time records (58) as the record and its FRFs; a file without them as "
-                   "an import of its FRFs, modes (55) or nodes (15/2411 with 18, 82, 164)")
+    description = ("universal file format: time records (58) as the record and its FRFs (on a rig: onto its sensors "
+                   "by UFF node and direction, else name, else order); a file without them as an import of its "
+                   "FRFs, modes (55) or nodes (15/2411 with 18, 82, 164)")
     suffixes = (".uff", ".unv")
-    options = (FORCE_CHANNEL,)
+    options = (FORCE_CHANNEL, *ON_RIG)
 
-    def import_file(self, project, file, name, *, force_channel=None) -> Imported:
+    def import_file(self, project, file, name, *, force_channel=None, force_point=None, force_dir=None,
+                    force_body=None) -> Imported:
         from odsuite.core.uff_project import import_uff
 
-        summary, notes = import_uff(project, file, name, force_channel)
+        summary, notes = import_uff(project, file, name, force_channel,
+                                    **_hammer(force_point, force_dir, force_body))
         return Imported(name, f"UFF file {Path(file).name}: {summary}", notes)
 
 
