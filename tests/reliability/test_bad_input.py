@@ -164,6 +164,23 @@ def _full_disk_acquire(d: Path, free: int):
                          systeminfo=Systeminfo([ChannelInfo() for _ in range(2)]), excitation=None)
 
 
+def _uff_on_rig(d: Path, how: str):
+    """A UFF file imported onto a project on the bench rig, whose sensor a1 (no sensitivity)
+    declares UFF node 5 and measures along +z: the hammer's record and a1's, changed by ``how``."""
+    from odsuite.core.uff import time_function, write_uff
+    from odsuite.core.uff_project import import_uff
+
+    (d / "rig.toml").write_text(RIG_TOML.replace('axis = [0.0, 0.0, 1.0]', 'axis = [0.0, 0.0, 1.0]\nuff_node = 5'))
+    assert main(["new", str(d / "r.h5"), "--rig", str(d / "rig.toml")]) == 0
+    records = {"impact": (10, "N", 9), "acc": (8 if how == "lengths" else 10, "V" if how == "volts" else "m/s^2", 5)}
+    if how in ("unknown-node", "duplicate"):
+        records["acc2"] = (10, "m/s^2", 7 if how == "unknown-node" else 5)
+    write_uff(d / "r.uff", functions=[
+        time_function(name, np.sin(np.arange(n)), 1e-3, unit, node=node, direction=-3 if name == "acc2" else 3)
+        for name, (n, unit, node) in records.items()])
+    return import_uff(d / "r.h5", d / "r.uff", "new", force_point=np.zeros(3), force_dir=np.array([0.0, 0.0, 1.0]))
+
+
 def _uff_undefined_cs(d: Path):
     import pyuff
 
@@ -393,6 +410,10 @@ CASES: list[Case] = [
     Case("uff-count", "UFF function whose header says 9 points, holding 8 (API)", "{dir}/bad.uff: dataset 2 (58) from line 8: 8 values, but its record 7 says 9 points (a line lost or doubled, or the count changed?)", call=lambda d: _uff_damaged(d, "count")),
     Case("uff-line-lost", "UFF function that lost its last data line (API)", "{dir}/bad.uff: dataset 2 (58) from line 8: 4 values, but its record 7 says 8 points (a line lost or doubled, or the count changed?)", call=lambda d: _uff_damaged(d, "line-lost")),
     Case("uff-58b-count", "binary UFF 58b whose record 7 says 9 points, its 64 data bytes holding 8 (API)", "{dir}/bad.uff: dataset 2 (58) 'acc0': header says 9 points, found 8 values and 8 abscissae", call=lambda d: _uff_damaged(d, "58b-count")),
+    Case("uff-rig-unknown-node", "UFF time record at node 7, which no sensor of the project's rig has (API)", "{dir}/r.uff: time record 'acc2' at UFF node 7 direction -3 matches no sensor of rig 'bench' (sensor nodes: 5)", call=lambda d: _uff_on_rig(d, "unknown-node")),
+    Case("uff-rig-duplicate", "two UFF time records at one sensor's node and line, +z and -z (API)", "{dir}/r.uff: time records 'acc' and 'acc2' (UFF node 5 direction -3) both match sensor 'a1' of rig 'bench'", call=lambda d: _uff_on_rig(d, "duplicate")),
+    Case("uff-rig-lengths", "UFF time records of 8 and 10 samples onto a rig (API)", "{dir}/r.uff: time record 'acc' has 8 samples, record 'impact' 10; records must be of one length", call=lambda d: _uff_on_rig(d, "lengths")),
+    Case("uff-rig-volts-no-sensitivity", "UFF time record in V for a rig sensor without a sensitivity (API)", "{dir}/r.uff: time record 'acc' is in volts, but rig 'bench' sensor 'a1' (channel 1) has no 'sensitivity' to convert it", call=lambda d: _uff_on_rig(d, "volts")),
     Case("lock-link", "acquire while the lock file name is a symbolic link to a user's file", "{dir}/p.h5: lock file {dir}/.p.h5.odsuite-lock is a link, which odsuite never follows; remove it",
          argv=lambda d: (_plant_link(d, ".p.h5.odsuite-lock"), ["acquire", str(d / "p.h5"), "--name", "n", "--samples", "1024", "--pretrigger", "100"])[1]),
     Case("lock-foreign-file", "acquire while a user's file holds the lock file name", "{dir}/p.h5: {dir}/.p.h5.odsuite-lock is in the way of the writer lock and was not written by odsuite; move it elsewhere",
