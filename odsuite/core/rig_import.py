@@ -82,6 +82,19 @@ def columns_to_channels(rig: Rig, names: Sequence[str], where: str, force_column
     return matched, True
 
 
+def _sensitivities_for(rig: Rig, in_volts: dict[int, int], names: Sequence[str], where: str, what: str) -> Rig:
+    """The rig, refusing a column in volts (``in_volts``: channel -> column) for a sensor without a
+    sensitivity; a sensor whose column is in physical units, or that has none, needs no sensitivity
+    (its stored sensitivity comes from the unit)."""
+    for s in rig.sensors:
+        if s.sensitivity is None and s.channel in in_volts and s.quantity != "voltage":
+            raise ConfigError(f"{where}: {what} {names[in_volts[s.channel]]!r} is in volts, but rig {rig.name!r} "
+                              f"sensor {s.name!r} (channel {s.channel}) has no 'sensitivity' to convert it; give "
+                              "the sensitivity or a file in physical units")
+    return replace(rig, sensors=tuple(s if s.sensitivity is not None or s.channel in in_volts
+                                      else replace(s, sensitivity=1.0) for s in rig.sensors))
+
+
 def onto_rig(rig: Rig, names: Sequence[str], units: Sequence[str], data: np.ndarray, fs: float, where: str,
              point: np.ndarray | None, direction: np.ndarray | None, force_column: str | None = None,
              force_body: str | None = None, mapping: dict[int, int] | None = None,
@@ -104,16 +117,10 @@ def onto_rig(rig: Rig, names: Sequence[str], units: Sequence[str], data: np.ndar
         rig.force_body(point, force_body)  # a known body, or a point that tells one
         if rig.force_channel not in mapping.values():
             raise ConfigError(f"{where}: no {what} is the force channel {rig.force_channel} of rig {rig.name!r}")
-    in_volts = {ch: k for k, ch in mapping.items() if (units[k].strip().lower() if k < len(units) else "") in VOLTS + ("",)}
-    for s in rig.sensors:
-        if s.sensitivity is None and s.channel in in_volts and s.quantity != "voltage":
-            k = in_volts[s.channel]
-            raise ConfigError(f"{where}: {what} {names[k]!r} is in volts, but rig {rig.name!r} sensor {s.name!r} "
-                              f"(channel {s.channel}) has no 'sensitivity' to convert it; give the sensitivity "
-                              "or a file in physical units")
-    # a sensor without a sensitivity whose column is in physical units (or absent) needs none
-    rig = replace(rig, sensors=tuple(s if s.sensitivity is not None or s.channel in in_volts
-                                     else replace(s, sensitivity=1.0) for s in rig.sensors))
+    if rig.systeminfo_file is None:  # else the rig's .CTR gives the sensitivities
+        rig = _sensitivities_for(rig, {ch: k for k, ch in mapping.items()
+                                       if (units[k].strip().lower() if k < len(units) else "") in VOLTS + ("",)},
+                                 names, where, what)
     si = Systeminfo.for_rig(rig, fs)
     channels = list(si.channels)
     raw = np.zeros((data.shape[0], rig.channel_count))

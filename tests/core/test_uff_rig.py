@@ -22,9 +22,9 @@ RIG = """
 name = "bench"
 [[bodies]]
 name = "plate"
-mass = 2.0
-inertia = [[0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]]
-plate = { size = [0.2, 0.2, 0.02], corner = [-0.1, -0.1, 0.0] }
+mass = 3.0
+inertia = [[0.02, 0, 0], [0, 0.03, 0], [0, 0, 0.05]]
+plate = { size = [0.3, 0.2, 0.01], corner = [-0.15, -0.1, 0.0] }
 [[sensors]]
 name = "hammer"
 kind = "force"
