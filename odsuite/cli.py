@@ -1033,6 +1033,9 @@ def report_cmd(
     no_movie: bool = typer.Option(False, "--no-movie", help="Leave the movie out."),
     movie_experiment: str = typer.Option(None, "--movie-experiment", help="Experiment of the movie "
                                          "(default: the one the model fits worst)."),
+    frf_channel: list[str] = typer.Option(None, "--frf-channel", help="Channel whose FRF the page draws for "
+                                          "each hammer record; repeatable (default: the driving point, the "
+                                          "accelerometer nearest the force point)."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
     """One self-contained HTML page: experiments, model against measurement, failures, candidate
@@ -1045,7 +1048,8 @@ def report_cmd(
     with _loop_progress() as bar:
         task = bar.add_task("report", total=None)
         options = {"diagnosis": diagnosis, "run_diagnosis": not no_diagnose, "movie": not no_movie,
-                   "movie_experiment": movie_experiment, "on_stage": lambda what: bar.update(task, description=what)}
+                   "movie_experiment": movie_experiment, "frf_channels": frf_channel or None,
+                   "on_stage": lambda what: bar.update(task, description=what)}
         res = renderer.render(RenderRequest(project, None, output, options))
     if as_json:
         _print_json(_rendered_doc(renderer, res))
