@@ -86,8 +86,9 @@ def _unit(text: str) -> str:
 
 def frf_figure(frf: FrfSet, path: str | Path, *, band_hz: tuple[float, float] | None = None,
                outputs: Sequence[str] | None = None, title: str = "FRFs", model_hz: Sequence[float] = (),
-               size: tuple[float, float] = (10, 8), dpi: int = 130):
-    """Magnitude (log-log), phase (degrees) and coherence of each output's FRF above 0 Hz;
+               f_range: tuple[float, float] | None = None, size: tuple[float, float] = (10, 8), dpi: int = 130):
+    """Magnitude (log-log), phase (degrees) and coherence of each output's FRF above 0 Hz (within
+    ``f_range`` when given: the axes then scale to that band, not to the noise beyond it);
     ``band_hz`` is shaded (e.g. the modal fit's usable band), ``model_hz`` (a model's modes) are
     dotted lines. ``size`` (inches) and ``dpi``: e.g. the width of a printed page."""
     names = list(outputs) if outputs is not None else frf.output_names
@@ -98,6 +99,10 @@ def frf_figure(frf: FrfSet, path: str | Path, *, band_hz: tuple[float, float] | 
     fig = _new_figure(path, size)
     mag, phase, coh = fig.subplots(3, 1, sharex=True, height_ratios=(3, 1.5, 1))
     pos = frf.frequency > 0
+    if f_range is not None:
+        pos &= (frf.frequency >= f_range[0]) & (frf.frequency <= f_range[1])
+        if pos.sum() < 2:
+            raise ConfigError(f"FRF figure: {f_range[0]:g}-{f_range[1]:g} Hz holds fewer than 2 lines above 0 Hz")
     f = frf.frequency[pos]
     units = {frf.units[frf.output_names.index(n)] for n in names}
     for name in names:
@@ -110,7 +115,7 @@ def frf_figure(frf: FrfSet, path: str | Path, *, band_hz: tuple[float, float] | 
     for ax in (mag, phase, coh):
         if band_hz is not None:
             ax.axvspan(*band_hz, color="0.92", zorder=0)
-        for j, fm in enumerate(model_hz):
+        for j, fm in enumerate(m for m in model_hz if f[0] <= m <= f[-1]):
             ax.axvline(fm, color="0.45", lw=0.7, ls=":", label="model mode" if ax is mag and j == 0 else None)
         ax.grid(True, which="both", lw=0.3)
     mag.set_xlim(f[0], f[-1])
@@ -125,7 +130,8 @@ def frf_figure(frf: FrfSet, path: str | Path, *, band_hz: tuple[float, float] | 
                  ha="center", va="center", fontsize=9, color="0.3")
     coh.set_xlabel("frequency [Hz]")
     shaded = "" if band_hz is None else f"; shaded: fit band {band_hz[0]:.0f}-{band_hz[1]:.0f} Hz"
-    mag.set_title(textwrap.fill(f"{title}: {frf.estimator}, {frf.n_averages} averages{shaded}", int(7 * size[0])),
+    hits = f"{frf.n_averages} hit" + ("s averaged" if frf.n_averages > 1 else "")
+    mag.set_title(textwrap.fill(f"{title}: {frf.estimator}, {hits}{shaded}", int(7 * size[0])),
                   fontsize=10)  # about 7 characters per inch at 10 pt
     return _save(fig, path, dpi)
 

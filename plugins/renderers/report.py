@@ -114,7 +114,6 @@ def _mark_peaks(result, peaks: Sequence[Mapping[str, Any]], modes_hz: Sequence[f
     """Mark the residual peaks (red: no model mode near, the model lacks them) and the model's modes
     (grey) on every panel of a residual spectra figure, and save it again."""
     fig = result.figure
-    fig.set_layout_engine("none")  # laid out once already; keep the panels where they are
     panels = [ax for ax in fig.axes if ax.get_visible()]
     for ax in panels:
         for f in modes_hz:
@@ -124,11 +123,13 @@ def _mark_peaks(result, peaks: Sequence[Mapping[str, Any]], modes_hz: Sequence[f
     if panels:
         from matplotlib.lines import Line2D
 
+        from .figures import legend_below
+
         handles = panels[0].get_legend_handles_labels()[0] + [
             Line2D([], [], color="red", ls="--", label="residual peak, no model mode"),
             Line2D([], [], color="tab:green", ls="--", label="residual peak near a model mode"),
             Line2D([], [], color="0.6", ls=":", label="model mode")]
-        panels[0].legend(handles=handles, fontsize=6, loc="upper right")
+        legend_below(fig, handles)
     fig.savefig(path, dpi=FIGURE_DPI)
     return path
 
@@ -430,11 +431,11 @@ def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, t
             chosen = [channel_names[e.columns[driving_point(e)]]]
             what = f"driving point {chosen[0]} (the accelerometer nearest the force point)"
         tag = f"{len(parts)}"
-        frf_figure(rec.frf, tmp / f"frf-{tag}.png", band_hz=rec.band_hz, outputs=chosen,
-                             model_hz=rec.model_hz, title=f"{rec.experiment}: {', '.join(chosen)}",
-                             size=(PRINT_WIDTH_IN, 5.2), dpi=FIGURE_DPI)
+        frf_figure(rec.frf, tmp / f"frf-{tag}.png", f_range=rec.band_hz, outputs=chosen, model_hz=rec.model_hz,
+                   title=f"{rec.experiment}: {', '.join(chosen)}", size=(PRINT_WIDTH_IN, 5.2), dpi=FIGURE_DPI)
         figs = [_img(tmp / f"frf-{tag}.png", f"{rec.experiment}: FRF of the {what} to the hammer force "
-                     "(magnitude on log-log axes, phase, coherence); shaded: the fit band; dotted: model modes")]
+                     f"(magnitude on log-log axes, phase, coherence) over the band the modes were fitted in, "
+                     f"{rec.band_hz[0]:.0f}-{rec.band_hz[1]:.0f} Hz; dotted: model modes")]
         if rec.mac is not None:
             mac_figure(rec.mac, tmp / f"mac-{tag}.png", labels_a=[f"{f:.1f} Hz" for f in rec.measured_hz],
                        labels_b=[f"{f:.1f} Hz" for f in rec.model_hz], xlabel="model mode", ylabel="measured mode",

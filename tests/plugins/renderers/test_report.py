@@ -348,8 +348,10 @@ def test_report_draws_each_records_frf_and_mac(story, tmp_path, monkeypatch):
         assert phase.get_ylabel() == "phase [°]"
         # the magnitude drawn is |H| of that channel, the FRF compare identified the modes from
         k = rec.frf.output_names.index(nearest[rec.experiment])
-        pos = rec.frf.frequency > 0
+        f = rec.frf.frequency
+        pos = (f > 0) & (f >= rec.band_hz[0]) & (f <= rec.band_hz[1])  # the fit band, not the noise above it
         assert np.allclose(mag.lines[0].get_ydata(), np.abs(rec.frf.H[k, pos]))
+        assert rec.band_hz[0] <= mag.get_xlim()[0] and mag.get_xlim()[1] <= rec.band_hz[1]
         assert fig.get_figwidth() <= PRINT_WIDTH_IN
         assert min(t.get_fontsize() for t in _visible_texts(fig)) >= SMALLEST_TYPE_PT
 
