@@ -26,15 +26,26 @@ BAND_MARGIN = 1.5
 @dataclass(frozen=True)
 class RecordModes:
     """What the modal table of one record rests on, for its figures: the FRFs of every channel
-    over the hits used, the fit band, the measured modes, the model modes that could pair with them
-    and the MAC matrix between the two (measured x model; None for a single-point record)."""
+    over the hits used, the fit band (None where no usable band was found), the measured modes
+    (none where they could not be identified), the model modes that could pair with them and the
+    MAC matrix between the two (measured x model; None for a single-point record or no modes)."""
 
     experiment: str
     frf: FrfSet
-    band_hz: tuple[float, float]
+    band_hz: tuple[float, float] | None
     measured_hz: np.ndarray
     model_hz: np.ndarray
     mac: np.ndarray | None
+
+
+def _usable_band(frf) -> tuple[float, float] | None:
+    from odsuite.core.frf import usable_band
+
+    try:
+        lo, hi = usable_band(frf.frequency, frf.force_autospectrum, frf.coherence, frf.n_averages)
+    except ConfigError:
+        return None
+    return float(lo), float(hi)
 
 
 def _shapes(model, rig, res, channel_of: dict[str, int], modes) -> tuple[np.ndarray, np.ndarray] | None:
@@ -74,6 +85,7 @@ def modal_records(project, experiments: Sequence[str], model_for
     rig = project.rig
     for name in experiments:
         exp = project.experiment(name)
+        frf = None
         try:
             frf, hits = hits_frf(exp, f"{project.path}: experiment {name!r}", flagged_too=True)
             if not any(h.accepted for h in hits):
@@ -81,9 +93,12 @@ def modal_records(project, experiments: Sequence[str], model_for
             res = frf_modes(_responding(frf))
         except (ConfigError, np.linalg.LinAlgError) as exc:  # ConfigError covers a record without a clean hit
             notes.append(f"{name}: measured modes not identified: {exc}")
+            if frf is not None:  # the FRFs are there to look at all the same
+                records.append(RecordModes(name, frf, _usable_band(frf), np.empty(0), np.empty(0), None))
             continue
         if res.poles.size == 0:
             notes.append(f"{name}: no measured mode in {res.band_hz} Hz")
+            records.append(RecordModes(name, frf, res.band_hz, np.empty(0), np.empty(0), None))
             continue
         model = model_for(name)
         modes = model.modes()

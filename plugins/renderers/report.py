@@ -233,7 +233,7 @@ def build_report(
     it the diagnosis runs now unless ``run_diagnosis`` is False. ``movie``: embed a GIF of
     ``movie_experiment`` (default: the experiment the model fits worst) with the model overlaid.
     ``frf_channels``: the channels whose FRFs are drawn for each hammer record (default: the
-    driving point, the accelerometer nearest the force point).
+    driving point: the accelerometer nearest the force point, along the force).
     """
     from .figures import comparison_figure
 
@@ -267,7 +267,8 @@ def build_report(
 
         experiments_html = _experiments_section(project, exps, cmp)
         say("drawing the FRFs and MAC matrices")
-        modal_html = _modal_section(doc, _modal_figures(project, exps, cmp.modal_records or [], frf_channels, tmp))
+        modal_html = _modal_section(doc, _modal_figures(project, exps, cmp.modal_records or [], frf_channels, modes_hz,
+                                                        tmp))
         say("drawing the overlays")
         overlays, coord_series, preds = [], {}, {}
         for e in exps:
@@ -401,14 +402,21 @@ def _modal_section(doc: Mapping[str, Any], figures: str = "") -> str:
                   "odsuite modes does) paired with the model's; MAC where two or more sensors give shapes") + notes + figures
 
 
+#: sensors this close to the nearest one (m) sit at the same point (the axes of a triaxial one)
+SAME_POINT_M = 1e-3
+
+
 def driving_point(exp) -> int:
-    """The accelerometer (column of ``exp.sensors``) nearest the force point: the driving-point FRF."""
-    dist = [np.inf if s.position is None else float(np.linalg.norm(np.asarray(s.position) - exp.point))
-            for s in exp.sensors]
-    return int(np.argmin(dist))
+    """The driving point (column of ``exp.sensors``): of the accelerometers nearest the force
+    point, the one whose axis lies closest to the force direction."""
+    dist = np.array([np.inf if s.position is None else float(np.linalg.norm(np.asarray(s.position) - exp.point))
+                     for s in exp.sensors])
+    near = np.flatnonzero(dist <= dist.min() + SAME_POINT_M)
+    return int(max(near, key=lambda k: abs(float(np.dot(exp.sensors[k].axis, exp.direction)))))
 
 
-def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, tmp: Path) -> str:
+def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, modes_hz: Sequence[float],
+                   tmp: Path) -> str:
     """Per hammer record: its FRFs (magnitude log-log, phase, coherence) for ``frf_channels`` or the
     driving point, the model's modes dotted; and the MAC matrix of its measured modes against the
     model's, beside the modal table."""
@@ -429,19 +437,24 @@ def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, t
             e = by_name[rec.experiment]
             channel_names = project.experiment(rec.experiment).channel_names
             chosen = [channel_names[e.columns[driving_point(e)]]]
-            what = f"driving point {chosen[0]} (the accelerometer nearest the force point)"
+            what = f"driving point {chosen[0]} (the accelerometer nearest the force point, along the force)"
         tag = f"{len(parts)}"
-        frf_figure(rec.frf, tmp / f"frf-{tag}.png", f_range=rec.band_hz, outputs=chosen, model_hz=rec.model_hz,
+        # the model's modes near the band; where no mode was measured, every mode of the model
+        model_hz = rec.model_hz if rec.measured_hz.size else modes_hz
+        frf_figure(rec.frf, tmp / f"frf-{tag}.png", f_range=rec.band_hz, outputs=chosen, model_hz=model_hz,
                    title=f"{rec.experiment}: {', '.join(chosen)}", size=(PRINT_WIDTH_IN, 5.2), dpi=FIGURE_DPI)
+        band = ("over the whole record's band (no usable band found)" if rec.band_hz is None else
+                f"over the band the modes are fitted in, {rec.band_hz[0]:.0f}-{rec.band_hz[1]:.0f} Hz")
         figs = [_img(tmp / f"frf-{tag}.png", f"{rec.experiment}: FRF of the {what} to the hammer force "
-                     f"(magnitude on log-log axes, phase, coherence) over the band the modes were fitted in, "
-                     f"{rec.band_hz[0]:.0f}-{rec.band_hz[1]:.0f} Hz; dotted: model modes")]
+                     f"(magnitude on log-log axes, phase, coherence) {band}; dotted: model modes")]
         if rec.mac is not None:
             mac_figure(rec.mac, tmp / f"mac-{tag}.png", labels_a=[f"{f:.1f} Hz" for f in rec.measured_hz],
                        labels_b=[f"{f:.1f} Hz" for f in rec.model_hz], xlabel="model mode", ylabel="measured mode",
                        title=f"{rec.experiment}: MAC, measured against model modes", dpi=FIGURE_DPI)
             figs.append(_img(tmp / f"mac-{tag}.png", f"{rec.experiment}: MAC of the measured modes (rows) against "
                              "the model's (columns) at the record's accelerometers"))
+        elif not rec.measured_hz.size:
+            figs.append("<p>No MAC: no measured modes in this record (see the notes above).</p>")
         else:
             figs.append("<p>No MAC: the record has fewer than two rig accelerometers, so no shape.</p>")
         parts.append(f"<h3 id='modal-{_esc(rec.experiment)}'>{_esc(rec.experiment)}</h3>"

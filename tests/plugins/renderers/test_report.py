@@ -325,12 +325,15 @@ def test_report_draws_each_records_frf_and_mac(story, tmp_path, monkeypatch):
     with open_project(path) as p:
         cmp = compare(p)
         rig = p.rig
-        # the driving point, found independently: the sensor nearest each record's force point
+        # the driving point, found independently: of the sensors at the point nearest each record's
+        # force point (a corner's three axes), the one along the hammer's direction
         nearest = {}
         for name in p.experiment_names():
-            point = p.experiment(name).excitation.point
+            exc = p.experiment(name).excitation
             sensors = [s for s in rig.sensors if s.position is not None]
-            nearest[name] = min(sensors, key=lambda s: np.linalg.norm(s.position - point)).name
+            d = min(np.linalg.norm(s.position - exc.point) for s in sensors)
+            corner = [s for s in sensors if np.linalg.norm(s.position - exc.point) <= d + 1e-3]
+            nearest[name] = max(corner, key=lambda s: abs(np.dot(s.axis, exc.direction))).name
     records = cmp.modal_records
     assert records and len(drawn["frf"]) == len(records) and len(drawn["mac"]) == len(records)
     page = parse(result.path)
