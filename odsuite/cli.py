@@ -592,7 +592,8 @@ def frf_cmd(
                                "accepted": bool(h.accepted), "reasons": list(h.reasons)} for h in hits],
                      "figure": None if figure is None else str(figure)})
         return
-    console.print(f"{estimator} FRFs of {len(frf.output_names)} channels, {frf.n_averages} averages, "
+    averaged = "1 hit" if frf.n_averages == 1 else f"{frf.n_averages} hits averaged"
+    console.print(f"{estimator} FRFs of {len(frf.output_names)} channels, {averaged}, "
                   f"{frf.frequency.size} lines, {usable}", highlight=False)
     if figure is not None:
         console.print(f"wrote {figure}", highlight=False, soft_wrap=True)
