@@ -602,7 +602,8 @@ def frf_cmd(
                                "accepted": bool(h.accepted), "reasons": list(h.reasons)} for h in hits],
                      "figure": None if figure is None else str(figure)})
         return
-    console.print(f"{estimator} FRFs of {len(frf.output_names)} channels, {frf.n_averages} averages, "
+    averaged = "1 hit" if frf.n_averages == 1 else f"{frf.n_averages} hits averaged"
+    console.print(f"{estimator} FRFs of {len(frf.output_names)} channels, {averaged}, "
                   f"{frf.frequency.size} lines, {usable}", highlight=False)
     if figure is not None:
         console.print(f"wrote {figure}", highlight=False, soft_wrap=True)
@@ -1043,6 +1044,9 @@ def report_cmd(
     no_movie: bool = typer.Option(False, "--no-movie", help="Leave the movie out."),
     movie_experiment: str = typer.Option(None, "--movie-experiment", help="Experiment of the movie "
                                          "(default: the one the model fits worst)."),
+    frf_channel: list[str] = typer.Option(None, "--frf-channel", help="Channel whose FRF the page draws for "
+                                          "each hammer record; repeatable (default: the driving point, the "
+                                          "accelerometer nearest the force point)."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
     """One self-contained HTML page: experiments, model against measurement, failures, candidate
@@ -1055,7 +1059,8 @@ def report_cmd(
     with _loop_progress() as bar:
         task = bar.add_task("report", total=None)
         options = {"diagnosis": diagnosis, "run_diagnosis": not no_diagnose, "movie": not no_movie,
-                   "movie_experiment": movie_experiment, "on_stage": lambda what: bar.update(task, description=what)}
+                   "movie_experiment": movie_experiment, "frf_channels": frf_channel or None,
+                   "on_stage": lambda what: bar.update(task, description=what)}
         res = renderer.render(RenderRequest(project, None, output, options))
     if as_json:
         _print_json(_rendered_doc(renderer, res))

@@ -160,6 +160,8 @@ class Comparison:
     modal: list[dict[str, Any]] | None = None  # measured against model modes, per record
     modal_notes: list[str] | None = None
     floor: NoiseFloor | None = None
+    # what the modal table rests on (FRFs, MAC matrices) for figures; not part of the JSON
+    modal_records: list | None = None
 
     @property
     def residual_to_floor(self) -> float:
@@ -284,7 +286,7 @@ def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapp
     """Compare the current model revision (or ``revision``) with every experiment. ``resonances``:
     also identify measured and model resonances from FRFs (a few seconds; the fitting loop, which
     needs only the errors, leaves it out)."""
-    from odsuite.core.modal_comparison import modal_rows
+    from odsuite.core.modal_comparison import modal_records
     from odsuite.core.modelrev import RevisionModel, base_model, current_revision, revision_model
 
     rev = revision or current_revision(project)
@@ -337,7 +339,8 @@ def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapp
                  float(np.nansum(band_num[i]) / np.nansum(band_num))) for i in range(len(labels))]
     for n, v, share in sorted(weighted, key=lambda t: -t[2])[:3]:
         worst.append({"kind": "band", "name": n, "error": v, "residual_share": share})
-    modal, modal_notes = modal_rows(project, [e.name for e in exps], rmodel.for_experiment) if resonances else (None, None)
+    modal, modal_notes, records = (modal_records(project, [e.name for e in exps], rmodel.for_experiment)
+                                   if resonances else (None, None, None))
     return Comparison(
         error=pooled_error(exps, preds), noise_floor_error=floor.error(),
         revision=rev.get("revision"), experiments=per_exp, channels=channels, coordinates=coords,
@@ -345,5 +348,5 @@ def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapp
         modes={"model": model_modes.as_list(),
                **(frf_comparison(exps, preds, model_modes) if resonances else {})},
         residual_peaks=residual_peaks(exps, preds, modes_hz, floor), worst=worst, floor=floor,
-        modal=modal, modal_notes=modal_notes,
+        modal=modal, modal_notes=modal_notes, modal_records=records,
     )

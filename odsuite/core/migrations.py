@@ -15,6 +15,7 @@ project untouched.
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -147,3 +148,23 @@ def _recreate_group(g: h5py.Group) -> None:
         g.move(member, f"{new.name}/{member}")
     del parent[name]
     parent.move(new.name, name)
+
+
+#: SHA-256 of the texts of the shipped thesis rig file (thesis-dynamometer.toml) as released before
+#: rig files had the field ``up``. A project keeps the text of the rig file it was made from (the
+#: TOML ``definition`` before the JSON one, then ``source_text``): one of these texts identifies
+#: the thesis rig, whose z points down into the platform.
+THESIS_RIG_TEXTS_BEFORE_UP = frozenset({
+    "9015c3d79e691ff0c3c690859b72e9ce8515d123cbdf5e7aa25b6008644afc67",
+    "258506ce14745b8176c25a0874ed472696df6e89d4aab8c18740dda869f880d9",
+})
+THESIS_RIG_UP = [0.0, 0.0, -1.0]
+
+
+def rig_up_filled(data: dict, file_text: str) -> dict:
+    """A stored rig definition with ``up`` filled in when it has none and ``file_text`` (the rig
+    file it was made from) is a pre-``up`` release of the thesis rig; otherwise ``data`` as it is
+    (a rig without ``up`` has z up, and nothing in the file says otherwise)."""
+    if "up" in data or hashlib.sha256(file_text.encode("utf-8")).hexdigest() not in THESIS_RIG_TEXTS_BEFORE_UP:
+        return data
+    return {**data, "up": list(THESIS_RIG_UP)}

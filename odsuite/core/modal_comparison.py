@@ -6,13 +6,14 @@ no shape to compare)."""
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from odsuite.core.errors import ConfigError
-from odsuite.core.modal import pair_modes
+from odsuite.core.frf import FrfSet
+from odsuite.core.modal import mac, pair_modes
 from odsuite.core.modal_project import frf_modes, hit_flags, hits_frf
 
 #: a model mode further than this (relative) from a measured one is not its partner: the model
@@ -20,6 +21,31 @@ from odsuite.core.modal_project import frf_modes, hit_flags, hits_frf
 PAIR_TOLERANCE = 0.10
 #: model modes this far outside the measured band (factor) cannot pair with a measured mode
 BAND_MARGIN = 1.5
+
+
+@dataclass(frozen=True)
+class RecordModes:
+    """What the modal table of one record rests on, for its figures: the FRFs of every channel
+    over the hits used, the fit band (None where no usable band was found), the measured modes
+    (none where they could not be identified), the model modes that could pair with them and the
+    MAC matrix between the two (measured x model; None for a single-point record or no modes)."""
+
+    experiment: str
+    frf: FrfSet
+    band_hz: tuple[float, float] | None
+    measured_hz: np.ndarray
+    model_hz: np.ndarray
+    mac: np.ndarray | None
+
+
+def _usable_band(frf) -> tuple[float, float] | None:
+    from odsuite.core.frf import usable_band
+
+    try:
+        lo, hi = usable_band(frf.frequency, frf.force_autospectrum, frf.coherence, frf.n_averages)
+    except ConfigError:
+        return None
+    return float(lo), float(hi)
 
 
 def _shapes(model, rig, res, channel_of: dict[str, int], modes) -> tuple[np.ndarray, np.ndarray] | None:
@@ -46,16 +72,20 @@ def _responding(frf):
                    output_names=[frf.output_names[k] for k in keep])
 
 
-def modal_rows(project, experiments: Sequence[str], model_for) -> tuple[list[dict[str, Any]], list[str]]:
+def modal_records(project, experiments: Sequence[str], model_for
+                  ) -> tuple[list[dict[str, Any]], list[str], list[RecordModes]]:
     """Rows ``{"experiment", "measured_hz", "model_hz", "measured_zeta", "model_zeta", "mac"}`` for
     every measured mode of every record (model values None where the model has no mode within
-    PAIR_TOLERANCE), and notes for records whose modes could not be identified. ``model_for(name)``
-    is the model that predicts record ``name``."""
+    PAIR_TOLERANCE), notes for records whose modes could not be identified, and the
+    :class:`RecordModes` of each record whose modes were (the report's FRF and MAC figures draw
+    them). ``model_for(name)`` is the model that predicts record ``name``."""
     rows: list[dict[str, Any]] = []
     notes: list[str] = []
+    records: list[RecordModes] = []
     rig = project.rig
     for name in experiments:
         exp = project.experiment(name)
+        frf = None
         try:
             frf, hits = hits_frf(exp, f"{project.path}: experiment {name!r}", flagged_too=True)
             if not any(h.accepted for h in hits):
@@ -63,9 +93,12 @@ def modal_rows(project, experiments: Sequence[str], model_for) -> tuple[list[dic
             res = frf_modes(_responding(frf))
         except (ConfigError, np.linalg.LinAlgError) as exc:  # ConfigError covers a record without a clean hit
             notes.append(f"{name}: measured modes not identified: {exc}")
+            if frf is not None:  # the FRFs are there to look at all the same
+                records.append(RecordModes(name, frf, _usable_band(frf), np.empty(0), np.empty(0), None))
             continue
         if res.poles.size == 0:
             notes.append(f"{name}: no measured mode in {res.band_hz} Hz")
+            records.append(RecordModes(name, frf, res.band_hz, np.empty(0), np.empty(0), None))
             continue
         model = model_for(name)
         modes = model.modes()
@@ -83,4 +116,8 @@ def modal_rows(project, experiments: Sequence[str], model_for) -> tuple[list[dic
             rows.append({"experiment": name, "measured_hz": float(f), "measured_zeta": float(z),
                          "model_hz": p["frequency_b_hz"] if p else None, "model_zeta": p["damping_b"] if p else None,
                          "mac": p["mac"] if p else None})
-    return rows, notes
+        records.append(RecordModes(
+            name, frf, (float(lo), float(hi)), np.asarray(res.frequency_hz, dtype=float),
+            np.asarray(modes.frequency_hz[keep], dtype=float),
+            mac(shapes[0], shapes[1][:, keep]) if shapes is not None and keep.size else None))
+    return rows, notes, records

@@ -25,9 +25,9 @@ def _new_figure(path: Path, size: tuple[float, float]):
     return Figure(figsize=size, layout="constrained")
 
 
-def _save(fig, path: Path):
+def _save(fig, path: Path, dpi: int = 130):
     try:
-        fig.savefig(path, dpi=130)
+        fig.savefig(path, dpi=dpi)
     except OSError as exc:
         raise ConfigError(f"figure {path}: cannot write ({exc.strerror or exc})") from None
     return fig
@@ -80,47 +80,67 @@ def stabilisation_figure(result: ModalResult, freq: np.ndarray, H: np.ndarray, p
     return _save(fig, path)
 
 
+def _unit(text: str) -> str:
+    return text.replace("^2", "²").replace("^3", "³")
+
+
 def frf_figure(frf: FrfSet, path: str | Path, *, band_hz: tuple[float, float] | None = None,
-               outputs: Sequence[str] | None = None, title: str = "FRFs"):
-    """Magnitude (log-log), phase (degrees) and coherence of each output's FRF above 0 Hz;
-    ``band_hz`` is shaded (e.g. the modal fit's usable band)."""
+               outputs: Sequence[str] | None = None, title: str = "FRFs", model_hz: Sequence[float] = (),
+               f_range: tuple[float, float] | None = None, size: tuple[float, float] = (10, 8), dpi: int = 130):
+    """Magnitude (log-log), phase (degrees) and coherence of each output's FRF above 0 Hz (within
+    ``f_range`` when given: the axes then scale to that band, not to the noise beyond it);
+    ``band_hz`` is shaded (e.g. the modal fit's usable band), ``model_hz`` (a model's modes) are
+    dotted lines. ``size`` (inches) and ``dpi``: e.g. the width of a printed page."""
     names = list(outputs) if outputs is not None else frf.output_names
     missing = [n for n in names if n not in frf.output_names]
     if missing:
         raise ConfigError(f"FRF figure: no output {missing[0]!r}; outputs are {', '.join(frf.output_names)}")
     path = Path(path)
-    fig = _new_figure(path, (10, 8))
+    fig = _new_figure(path, size)
     mag, phase, coh = fig.subplots(3, 1, sharex=True, height_ratios=(3, 1.5, 1))
     pos = frf.frequency > 0
+    if f_range is not None:
+        pos &= (frf.frequency >= f_range[0]) & (frf.frequency <= f_range[1])
+        if pos.sum() < 2:
+            raise ConfigError(f"FRF figure: {f_range[0]:g}-{f_range[1]:g} Hz holds fewer than 2 lines above 0 Hz")
     f = frf.frequency[pos]
+    units = {frf.units[frf.output_names.index(n)] for n in names}
     for name in names:
         k = frf.output_names.index(name)
         h = frf.H[k, pos]
-        line, = mag.loglog(f, np.abs(h), lw=0.8, label=f"{name} ({frf.units[k]})")
+        label = name if len(units) == 1 else f"{name} [{_unit(frf.units[k])}]"
+        line, = mag.loglog(f, np.abs(h), lw=0.8, label=label)
         phase.semilogx(f, np.degrees(np.angle(h)), lw=0.6, color=line.get_color())
         coh.semilogx(f, frf.coherence[k, pos], lw=0.6, color=line.get_color())
     for ax in (mag, phase, coh):
         if band_hz is not None:
             ax.axvspan(*band_hz, color="0.92", zorder=0)
+        for j, fm in enumerate(m for m in model_hz if f[0] <= m <= f[-1]):
+            ax.axvline(fm, color="0.45", lw=0.7, ls=":", label="model mode" if ax is mag and j == 0 else None)
         ax.grid(True, which="both", lw=0.3)
-    mag.set_ylabel("|H|")
+    mag.set_xlim(f[0], f[-1])
+    mag.set_ylabel(f"|H| [{_unit(units.pop())}]" if len(units) == 1 else "|H| [see legend]")
     mag.legend(fontsize=8, loc="best")
-    phase.set_ylabel("phase (°)")
+    phase.set_ylabel("phase [°]")
     phase.set_yticks([-180, -90, 0, 90, 180])
-    coh.set_ylabel("coherence")
+    coh.set_ylabel("coherence [–]")
     coh.set_ylim(0, 1.05)
     if frf.n_averages == 1:
         coh.text(0.5, 0.5, "one hit: coherence is 1 by construction and says nothing", transform=coh.transAxes,
                  ha="center", va="center", fontsize=9, color="0.3")
-    coh.set_xlabel("frequency (Hz)")
+    coh.set_xlabel("frequency [Hz]")
     shaded = "" if band_hz is None else f"; shaded: fit band {band_hz[0]:.0f}-{band_hz[1]:.0f} Hz"
-    mag.set_title(f"{title}: {frf.estimator}, {frf.n_averages} averages{shaded}")
-    return _save(fig, path)
+    hits = f"{frf.n_averages} hit" + ("s averaged" if frf.n_averages > 1 else "")
+    mag.set_title(textwrap.fill(f"{title}: {frf.estimator}, {hits}{shaded}", int(7 * size[0])),
+                  fontsize=10)  # about 7 characters per inch at 10 pt
+    return _save(fig, path, dpi)
 
 
 def mac_figure(mac_matrix: np.ndarray, path: str | Path, *, labels_a: Sequence[str] | None = None,
-               labels_b: Sequence[str] | None = None, title: str = "MAC"):
-    """The MAC matrix as a grey-scale grid (0 white, 1 black) with each value written in its cell."""
+               labels_b: Sequence[str] | None = None, title: str = "MAC", xlabel: str = "", ylabel: str = "",
+               dpi: int = 130):
+    """The MAC matrix as a grey-scale grid (0 white, 1 black) with each value written in its cell;
+    rows are ``labels_a`` (``ylabel``), columns ``labels_b`` (``xlabel``)."""
     m = np.asarray(mac_matrix, dtype=float)
     if m.ndim != 2 or m.size == 0:
         raise DimensionError(f"MAC figure: the matrix has shape {m.shape}; expected modes x modes")
@@ -139,6 +159,8 @@ def mac_figure(mac_matrix: np.ndarray, path: str | Path, *, labels_a: Sequence[s
                     color="white" if m[i, j] > 0.5 else "black")
     ax.set_xticks(range(m.shape[1]), lb, rotation=45, ha="right")
     ax.set_yticks(range(m.shape[0]), la)
-    fig.colorbar(im, ax=ax, shrink=0.8)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    fig.colorbar(im, ax=ax, shrink=0.8, label="MAC [–]")
     ax.set_title(textwrap.fill(title, int(7 * width)), fontsize=10)  # about 7 characters per inch at 10 pt
-    return _save(fig, path)
+    return _save(fig, path, dpi)

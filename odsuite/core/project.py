@@ -372,6 +372,7 @@ class Project:
                 except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:
                     raise SchemaError(f"{self.path}: /rig definition is not valid {fmt}: {exc}") from None
                 source = h5text.text(a.get("source", ""))
+                data = migrations.rig_up_filled(data, text if fmt == "toml" else h5text.text(a.get("source_text", "")))
                 from odsuite.core.plugins import registries
 
                 rig = rig_from_dict(data, registries().sensor_types, source=Path(source) if source else None)

@@ -214,15 +214,16 @@ def comparison_figure(
         ax.plot(t * 1e3, b[:, j], "-", color="k", lw=1.0, label="model", zorder=3)
         ax.plot(t * 1e3, a[:, j], "--", color="tab:blue", lw=1.0, label="measured", zorder=2)
         prefix, scale = _prefix(max(np.abs(a[:, j]).max(), np.abs(b[:, j]).max()))
-        ax.set_ylabel(f"{names[j]} [{prefix}{units[j]}]")
+        ax.set_ylabel(f"{names[j]} [{prefix}{_pretty(units[j])}]")
         ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _, s=scale: f"{v / s:g}"))
         ax.grid(alpha=0.3)
     for ax in axes[k:]:
         ax.set_visible(False)
     for j in range(k):
-        if j % rows == rows - 1 or j == k - 1:  # the lowest panel of each column
+        if j % rows == rows - 1 or j == k - 1:  # the lowest panel of each column: its time ticks too
             axes[j].set_xlabel("t [ms]")
-    axes[0].legend(fontsize=7, loc="upper right")
+            axes[j].xaxis.set_tick_params(labelbottom=True)
+    axes[0].legend(fontsize=8, loc="upper right")
     if title:
         fig.suptitle(title, fontsize=10)
     return FigureResult(_save(fig, path, dpi), fig)
@@ -262,13 +263,26 @@ def residual_spectra_figure(
         ax.loglog(f[1:], np.maximum(pr[1:, j], tiny), color="tab:red", lw=0.9, label="residual")
         ax.set_xlim(f[1], f[-1])
         ax.set_title(names[j], fontsize=9)
-        ax.set_ylabel(f"PSD [({units[j]})²/Hz]", fontsize=8)
+        ax.set_ylabel(f"PSD [({_pretty(units[j])})²/Hz]", fontsize=8)
         ax.grid(alpha=0.3, which="both")
     for ax in axes[k:]:
         ax.set_visible(False)
     for ax in axes[max(0, k - cols):k]:
         ax.set_xlabel("f [Hz]")
-    axes[0].legend(fontsize=7)
+    # under the panels, where it hides no curve; callers add their own lines to it (see legend_below)
+    legend_below(fig, axes[0].get_legend_handles_labels()[0])
     if title:
         fig.suptitle(title, fontsize=10)
     return FigureResult(_save(fig, path, dpi), fig)
+
+
+def legend_below(fig, handles) -> None:
+    """One legend for every panel, under them (replacing an earlier one)."""
+    for old in fig.legends:
+        old.remove()
+    fig.legend(handles=handles, fontsize=8, loc="outside lower center", ncol=min(len(handles), 3), frameon=False)
+
+
+def _pretty(unit: str) -> str:
+    """A unit as printed: m/s^2 -> m/s²."""
+    return unit.replace("^2", "²").replace("^3", "³")

@@ -7,7 +7,7 @@ from odsuite.core.renderers import Rendered, RenderRequest
 MOVIE_OPTIONS = frozenset({"model", "magnify", "view", "workers", "frame_step", "slowdown", "ods_hz", "reference",
                            "start", "end", "fps", "duration"})
 FIGURE_OPTIONS = frozenset({"model", "magnify", "view"})
-REPORT_OPTIONS = frozenset({"diagnosis", "run_diagnosis", "movie", "movie_experiment", "on_stage"})
+REPORT_OPTIONS = frozenset({"diagnosis", "run_diagnosis", "movie", "movie_experiment", "frf_channels", "on_stage"})
 
 
 class MovieRenderer:
@@ -62,7 +62,8 @@ class ReportRenderer:
         opts = dict(request.options)
         res = build_report(request.project, request.output, diagnosis=opts.get("diagnosis"),
                            run_diagnosis=opts.get("run_diagnosis", True), movie=opts.get("movie", True),
-                           movie_experiment=opts.get("movie_experiment"), progress=opts.get("on_stage"))
+                           movie_experiment=opts.get("movie_experiment"), frf_channels=opts.get("frf_channels"),
+                           progress=opts.get("on_stage"))
         return Rendered(res.path, f"{res.size_bytes / 2**20:.1f} MiB; error {res.error:.4f}", tuple(res.notes))
 
 

@@ -31,6 +31,9 @@ MOVIE_FRAMES = 90
 MOVIE_AFTER_S = 0.06
 MOVIE_BEFORE_S = 0.002
 FIGURE_DPI = 90
+#: Modal figures are drawn at the width of a printed A4/Letter text column (inches), so their type
+#: sizes are the printed ones.
+PRINT_WIDTH_IN = 6.5
 #: The page should stay below this size; beyond it a note says what made it large.
 SIZE_BUDGET = 10 * 1024 * 1024
 
@@ -111,7 +114,6 @@ def _mark_peaks(result, peaks: Sequence[Mapping[str, Any]], modes_hz: Sequence[f
     """Mark the residual peaks (red: no model mode near, the model lacks them) and the model's modes
     (grey) on every panel of a residual spectra figure, and save it again."""
     fig = result.figure
-    fig.set_layout_engine("none")  # laid out once already; keep the panels where they are
     panels = [ax for ax in fig.axes if ax.get_visible()]
     for ax in panels:
         for f in modes_hz:
@@ -121,11 +123,13 @@ def _mark_peaks(result, peaks: Sequence[Mapping[str, Any]], modes_hz: Sequence[f
     if panels:
         from matplotlib.lines import Line2D
 
+        from .figures import legend_below
+
         handles = panels[0].get_legend_handles_labels()[0] + [
             Line2D([], [], color="red", ls="--", label="residual peak, no model mode"),
             Line2D([], [], color="tab:green", ls="--", label="residual peak near a model mode"),
             Line2D([], [], color="0.6", ls=":", label="model mode")]
-        panels[0].legend(handles=handles, fontsize=6, loc="upper right")
+        legend_below(fig, handles)
     fig.savefig(path, dpi=FIGURE_DPI)
     return path
 
@@ -220,6 +224,7 @@ def build_report(
     run_diagnosis: bool = True,
     movie: bool = True,
     movie_experiment: str | None = None,
+    frf_channels: Sequence[str] | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> ReportResult:
     """Write the project's report to ``output`` (one self-contained HTML file).
@@ -227,6 +232,8 @@ def build_report(
     ``diagnosis``: a stored ``odsuite diagnose --json`` document (file or mapping) to show; without
     it the diagnosis runs now unless ``run_diagnosis`` is False. ``movie``: embed a GIF of
     ``movie_experiment`` (default: the experiment the model fits worst) with the model overlaid.
+    ``frf_channels``: the channels whose FRFs are drawn for each hammer record (default: the
+    driving point: the accelerometer nearest the force point, along the force).
     """
     from .figures import comparison_figure
 
@@ -259,6 +266,9 @@ def build_report(
         modes_hz = [m["frequency_hz"] for m in doc["modes"]["model"]]
 
         experiments_html = _experiments_section(project, exps, cmp)
+        say("drawing the FRFs and MAC matrices")
+        modal_html = _modal_section(doc, _modal_figures(project, exps, cmp.modal_records or [], frf_channels, modes_hz,
+                                                        tmp))
         say("drawing the overlays")
         overlays, coord_series, preds = [], {}, {}
         for e in exps:
@@ -338,7 +348,7 @@ def build_report(
 
     sections = [
         ("summary", "Summary", summary),
-        ("modal", "Measured against model modes", _modal_section(doc)),
+        ("modal", "Measured against model modes", modal_html),
         ("metadata", "Test record", metadata_html),
         ("experiments", "Rig and experiments", experiments_html),
         ("overlays", "Measured against model", "".join(overlays)),
@@ -365,19 +375,20 @@ h1{font-size:1.5em}h2{border-bottom:2px solid #ccd;padding-bottom:.2em;margin-to
 table{border-collapse:collapse;margin:.6em 0;font-size:.85em}caption{text-align:left;font-style:italic}
 th,td{border:1px solid #ccd;padding:.2em .5em;text-align:left;vertical-align:top}th{background:#eef}
 figure{margin:.8em 0}figure img{max-width:100%;border:1px solid #eee}figcaption{font-size:.8em;color:#555}
-nav a{margin-right:1em}.notes{color:#a50}.lacking{color:#b00;font-weight:bold}
+nav a{margin-right:1em}.modal-figs{display:flex;flex-wrap:wrap;gap:1em;align-items:flex-start}
+.modal-figs figure{flex:1 1 420px}.notes{color:#a50}.lacking{color:#b00;font-weight:bold}
 video{max-width:100%;border:1px solid #eee}.viewer canvas{max-width:100%;border:1px solid #ccd;cursor:grab}
 .v-controls{display:flex;gap:.6em;align-items:center}.v-scrub{flex:1}.v-help{font-size:.8em;color:#555}
 """
 
 
-def _modal_section(doc: Mapping[str, Any]) -> str:
+def _modal_section(doc: Mapping[str, Any], figures: str = "") -> str:
     """compare's measured-against-model modes, record by record (model columns empty where the
-    model has no mode near the measured one)."""
+    model has no mode near the measured one), then each record's FRF and MAC figures."""
     rows = doc.get("modal") or []
     notes = "".join(f"<p class='notes'>{_esc(n)}</p>" for n in doc.get("modal_notes") or [])
     if not rows:
-        return notes + "<p>No measured modes (see the notes).</p>"
+        return notes + "<p>No measured modes (see the notes).</p>" + figures
 
     def rel(a: Any, b: Any) -> str:
         return "–" if a is None or not b else f"{100 * (a / b - 1):+.2f} %"
@@ -388,7 +399,67 @@ def _modal_section(doc: Mapping[str, Any]) -> str:
              rel(r["model_zeta"], r["measured_zeta"]), _fmt(r["mac"], ".3f")] for r in rows]
     return _table(["record", "measured f [Hz]", "model f [Hz]", "Δf", "measured ζ [%]", "model ζ [%]", "Δζ", "MAC"],
                   body, id="modal-table", caption="modes identified from each record's hammer FRFs (as "
-                  "odsuite modes does) paired with the model's; MAC where two or more sensors give shapes") + notes
+                  "odsuite modes does) paired with the model's; MAC where two or more sensors give shapes") + notes + figures
+
+
+#: sensors this close to the nearest one (m) sit at the same point (the axes of a triaxial one)
+SAME_POINT_M = 1e-3
+
+
+def driving_point(exp) -> int:
+    """The driving point (column of ``exp.sensors``): of the accelerometers nearest the force
+    point, the one whose axis lies closest to the force direction."""
+    dist = np.array([np.inf if s.position is None else float(np.linalg.norm(np.asarray(s.position) - exp.point))
+                     for s in exp.sensors])
+    near = np.flatnonzero(dist <= dist.min() + SAME_POINT_M)
+    return int(max(near, key=lambda k: abs(float(np.dot(exp.sensors[k].axis, exp.direction)))))
+
+
+def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, modes_hz: Sequence[float],
+                   tmp: Path) -> str:
+    """Per hammer record: its FRFs (magnitude log-log, phase, coherence) for ``frf_channels`` or the
+    driving point, the model's modes dotted; and the MAC matrix of its measured modes against the
+    model's, beside the modal table."""
+    from odsuite.core.modal_figures import frf_figure, mac_figure
+
+    by_name = {e.name: e for e in exps}
+    parts = []
+    for rec in records:
+        names = rec.frf.output_names
+        if frf_channels:
+            missing = [c for c in frf_channels if c not in names]
+            if missing:
+                raise ConfigError(f"{project.path}: --frf-channel {missing[0]!r}: experiment {rec.experiment!r} "
+                                  f"has no such response channel (channels: {', '.join(names)})")
+            chosen = list(frf_channels)
+            what = "channels " + ", ".join(chosen)
+        else:
+            e = by_name[rec.experiment]
+            channel_names = project.experiment(rec.experiment).channel_names
+            chosen = [channel_names[e.columns[driving_point(e)]]]
+            what = f"driving point {chosen[0]} (the accelerometer nearest the force point, along the force)"
+        tag = f"{len(parts)}"
+        # the model's modes near the band; where no mode was measured, every mode of the model
+        model_hz = rec.model_hz if rec.measured_hz.size else modes_hz
+        frf_figure(rec.frf, tmp / f"frf-{tag}.png", f_range=rec.band_hz, outputs=chosen, model_hz=model_hz,
+                   title=f"{rec.experiment}: {', '.join(chosen)}", size=(PRINT_WIDTH_IN, 5.2), dpi=FIGURE_DPI)
+        band = ("over the whole record's band (no usable band found)" if rec.band_hz is None else
+                f"over the band the modes are fitted in, {rec.band_hz[0]:.0f}-{rec.band_hz[1]:.0f} Hz")
+        figs = [_img(tmp / f"frf-{tag}.png", f"{rec.experiment}: FRF of the {what} to the hammer force "
+                     f"(magnitude on log-log axes, phase, coherence) {band}; dotted: model modes")]
+        if rec.mac is not None:
+            mac_figure(rec.mac, tmp / f"mac-{tag}.png", labels_a=[f"{f:.1f} Hz" for f in rec.measured_hz],
+                       labels_b=[f"{f:.1f} Hz" for f in rec.model_hz], xlabel="model mode", ylabel="measured mode",
+                       title=f"{rec.experiment}: MAC, measured against model modes", dpi=FIGURE_DPI)
+            figs.append(_img(tmp / f"mac-{tag}.png", f"{rec.experiment}: MAC of the measured modes (rows) against "
+                             "the model's (columns) at the record's accelerometers"))
+        elif not rec.measured_hz.size:
+            figs.append("<p>No MAC: no measured modes in this record (see the notes above).</p>")
+        else:
+            figs.append("<p>No MAC: the record has fewer than two rig accelerometers, so no shape.</p>")
+        parts.append(f"<h3 id='modal-{_esc(rec.experiment)}'>{_esc(rec.experiment)}</h3>"
+                     f"<div class='modal-figs'>{''.join(figs)}</div>")
+    return "".join(parts)
 
 
 def _page(title: str, sections: Sequence[tuple[str, str, str]], notes: Sequence[str]) -> str:

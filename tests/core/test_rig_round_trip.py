@@ -33,3 +33,50 @@ def test_the_thesis_rig_keeps_its_downward_z(tmp_path):
     create_project(tmp_path / "p.h5", "thesis-dynamometer").close()
     with open_project(tmp_path / "p.h5") as p:
         assert np.allclose(p.rig.up, [0, 0, -1])
+
+
+def _stored_without_up(tmp_path, text: str, *, as_toml: bool) -> Path:
+    """A project written as earlier versions did: the rig's JSON without ``up`` beside the rig file's
+    text (``as_toml``: the oldest layout, the file's text as the definition itself)."""
+    import json
+
+    import h5py
+
+    from odsuite.core import h5text
+
+    rig_dir = tmp_path / "rig"
+    rig_dir.mkdir()
+    (rig_dir / "thesis-dynamometer.toml").write_text(text, encoding="utf-8")
+    (rig_dir / "thesis-table-e3.CTR").write_bytes((RIGS / "thesis-table-e3.CTR").read_bytes())
+    path = tmp_path / "old.h5"
+    create_project(path, str(rig_dir / "thesis-dynamometer.toml")).close()
+    with h5py.File(path, "a") as f:
+        a = f["rig"].attrs
+        definition = json.loads(h5text.text(a["definition"]))
+        del definition["up"]
+        attrs = {"definition": text, "definition_format": "toml", "source_text": ""} if as_toml else \
+            {"definition": json.dumps(definition), "definition_format": "json"}
+        h5text.set_attrs(f["rig"], attrs)
+    return path
+
+
+def test_an_old_thesis_project_without_up_draws_z_down(tmp_path):
+    """The thesis rig file as released before ``up`` (today's text without its ``up`` line, SHA-256
+    258506ce...): a project made from it is recognised by that stored text and keeps z down."""
+    current = (RIGS / "thesis-dynamometer.toml").read_text(encoding="utf-8")
+    released = "".join(ln for ln in current.splitlines(keepends=True) if not ln.startswith("up = "))
+    assert released != current
+    for as_toml in (False, True):
+        sub = tmp_path / ("toml" if as_toml else "json")
+        sub.mkdir()
+        with open_project(_stored_without_up(sub, released, as_toml=as_toml)) as p:
+            assert np.allclose(p.rig.up, [0, 0, -1]), as_toml
+
+
+def test_an_edited_copy_without_up_keeps_the_default(tmp_path):
+    """Any other text (here the released file with one comment added) is not the thesis rig as
+    shipped: nothing says which way is up, so z is up."""
+    current = (RIGS / "thesis-dynamometer.toml").read_text(encoding="utf-8")
+    edited = "# my copy\n" + "".join(ln for ln in current.splitlines(keepends=True) if not ln.startswith("up = "))
+    with open_project(_stored_without_up(tmp_path, edited, as_toml=False)) as p:
+        assert np.allclose(p.rig.up, [0, 0, 1])

@@ -287,3 +287,102 @@ def test_modal_table_of_the_rigid_model_is_compares(story):
     assert paired and all(r["mac"] is not None and 0 <= r["mac"] <= 1 + 1e-12 for r in paired)
     # after the fit the model is the simulator's truth: its modes are the measured ones
     assert all(abs(r["model_hz"] / r["measured_hz"] - 1) < 0.02 for r in paired if r["mac"] > 0.9)
+
+
+#: the width of a printed A4/Letter text column (inches) and the smallest type readable on it (pt)
+PRINT_WIDTH_IN = 6.5
+SMALLEST_TYPE_PT = 8.0
+
+
+def _visible_texts(fig):
+    from matplotlib.text import Text
+
+    return [t for t in fig.findobj(Text) if t.get_visible() and t.get_text().strip()]
+
+
+@pytest.mark.slow
+def test_report_draws_each_records_frf_and_mac(story, tmp_path, monkeypatch):
+    """Per hammer record: the driving point's FRF on log-frequency axes (magnitude log-log, phase,
+    coherence) with its unit, and the MAC matrix of measured against model modes whose values are
+    compare's MAC numbers; at print width with type of 8 pt or more."""
+    from odsuite.core import modal_figures
+    from odsuite.core.comparison import compare
+    from odsuite.core.project import open_project
+    from odsuite_plugins.renderers.report import build_report
+
+    path, *_ = story
+    drawn: dict[str, list] = {"frf": [], "mac": []}
+    for kind, name in (("frf", "frf_figure"), ("mac", "mac_figure")):
+        original = getattr(modal_figures, name)
+
+        def spy(*args, _original=original, _kind=kind, **kwargs):
+            fig = _original(*args, **kwargs)
+            drawn[_kind].append((args, kwargs, fig))
+            return fig
+
+        monkeypatch.setattr(modal_figures, name, spy)
+    result = build_report(path, tmp_path / "r.html", run_diagnosis=False, movie=False)
+    with open_project(path) as p:
+        cmp = compare(p)
+        rig = p.rig
+        # the driving point, found independently: of the sensors at the point nearest each record's
+        # force point (a corner's three axes), the one along the hammer's direction
+        nearest = {}
+        for name in p.experiment_names():
+            exc = p.experiment(name).excitation
+            sensors = [s for s in rig.sensors if s.position is not None]
+            d = min(np.linalg.norm(s.position - exc.point) for s in sensors)
+            corner = [s for s in sensors if np.linalg.norm(s.position - exc.point) <= d + 1e-3]
+            nearest[name] = max(corner, key=lambda s: abs(np.dot(s.axis, exc.direction))).name
+    records = cmp.modal_records
+    with_mac = [r for r in records if r.mac is not None]  # records with measured modes and shapes
+    assert records and len(drawn["frf"]) == len(records) and len(drawn["mac"]) == len(with_mac) > 0
+    page = parse(result.path)
+    frf_alts = re.findall(r'alt="([^"]*FRF of the driving point[^"]*)"', result.path.read_text())
+    assert len(frf_alts) == len(records)
+    for rec, alt in zip(records, frf_alts):
+        assert alt.startswith(f"{rec.experiment}: FRF of the driving point {nearest[rec.experiment]} ")
+    assert len(page.images) >= 2 * len(records)
+
+    for (args, kwargs, fig), rec in zip(drawn["frf"], records):
+        assert kwargs["outputs"] == [nearest[rec.experiment]]
+        mag, phase, coh = fig.axes
+        assert [ax.get_xscale() for ax in (mag, phase, coh)] == ["log"] * 3 and mag.get_yscale() == "log"
+        assert mag.get_ylabel() == "|H| [(m/s²)/N]" and coh.get_xlabel() == "frequency [Hz]"
+        assert phase.get_ylabel() == "phase [°]"
+        # the magnitude drawn is |H| of that channel, the FRF compare identified the modes from
+        k = rec.frf.output_names.index(nearest[rec.experiment])
+        f = rec.frf.frequency
+        lo, hi = rec.band_hz or (0.0, np.inf)
+        pos = (f > 0) & (f >= lo) & (f <= hi)  # the fit band, not the noise above it
+        assert np.allclose(mag.lines[0].get_ydata(), np.abs(rec.frf.H[k, pos]))
+        assert lo <= mag.get_xlim()[0] and mag.get_xlim()[1] <= hi
+        assert fig.get_figwidth() <= PRINT_WIDTH_IN
+        assert min(t.get_fontsize() for t in _visible_texts(fig)) >= SMALLEST_TYPE_PT
+
+    rows = cmp.as_dict()["modal"]
+    checked = 0
+    for (args, kwargs, fig), rec in zip(drawn["mac"], with_mac):
+        m = np.asarray(args[0])
+        assert m.shape == (rec.measured_hz.size, rec.model_hz.size)
+        assert np.all((m >= 0) & (m <= 1 + 1e-12))
+        for r in (r for r in rows if r["experiment"] == rec.experiment and r["mac"] is not None):
+            i = int(np.argmin(np.abs(rec.measured_hz - r["measured_hz"])))
+            j = int(np.argmin(np.abs(rec.model_hz - r["model_hz"])))
+            assert m[i, j] == pytest.approx(r["mac"], abs=1e-12)
+            # and the number written in that cell is that value
+            assert f"{r['mac']:.2f}" in [t.get_text() for t in fig.axes[0].texts]
+            checked += 1
+        assert fig.get_figwidth() <= PRINT_WIDTH_IN
+        assert min(t.get_fontsize() for t in _visible_texts(fig)) >= SMALLEST_TYPE_PT
+    assert checked == sum(r["mac"] is not None for r in rows) > 0
+
+
+@pytest.mark.slow
+def test_frf_channel_that_no_record_has_is_one_line(story, tmp_path):
+    from odsuite_plugins.renderers.report import build_report
+
+    path, *_ = story
+    with pytest.raises(ConfigError, match=r"--frf-channel 'nope': experiment 'T1' has no such response channel"):
+        build_report(path, tmp_path / "r.html", run_diagnosis=False, movie=False, frf_channels=["nope"])
+    assert not (tmp_path / "r.html").exists()
