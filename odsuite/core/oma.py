@@ -159,20 +159,17 @@ def _resolved(poles: np.ndarray, f_std: np.ndarray, count: np.ndarray) -> tuple[
         if count[r] < SEGMENTS / 2:
             ok[r] = False
             reasons[r] = f"found in only {count[r]} of {SEGMENTS} segments of the record"
-    for r in range(poles.size - 1):
-        gap, spread = f[r + 1] - f[r], np.hypot(f_std[r], f_std[r + 1])
+    confirmed = np.flatnonzero(ok)  # neighbours among the confirmed poles (the others have no scatter)
+    for r, q in zip(confirmed[:-1], confirmed[1:]):
+        gap, spread = f[q] - f[r], np.hypot(f_std[r], f_std[q])
         if not gap > SEPARATION_SIGMAS * spread:
-            for a, b in ((r, r + 1), (r + 1, r)):
+            for a, b in ((r, q), (q, r)):
                 ok[a] = False
                 reasons[a] = reasons[a] or (
                     f"cannot be told apart from the pole at {f[b]:.2f} Hz: {gap:.2f} Hz apart, "
-                    f"standard errors {_hz(f_std[r])} and {_hz(f_std[r + 1])} (a longer record or "
+                    f"standard errors {f_std[r]:.2f} and {f_std[q]:.2f} Hz (a longer record or "
                     "more independent inputs separate them)")
     return ok, reasons
-
-
-def _hz(std: float) -> str:
-    return f"{std:.2f} Hz" if np.isfinite(std) else "unknown"
 
 
 def identify_output_only(
