@@ -241,7 +241,22 @@ def select_poles(
     counts = [np.unique(o_all[c]).size for c in clusters]
     keep = [(c, n) for c, n in zip(clusters, counts) if n >= need]
     out = [_pole(np.median(f_all[c]), np.median(z_all[c])) for c, _ in keep]
-    return np.asarray(out, dtype=complex), np.asarray([n for _, n in keep], dtype=int)
+    return _distinct(np.asarray(out, dtype=complex), np.asarray([n for _, n in keep], dtype=int), tol)
+
+
+def _distinct(poles: np.ndarray, stable_orders: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """One pole per cluster: clusters are chained from their lowest member, so one physical pole
+    whose estimates spread over more than ``tol`` can come out twice, a hair apart (the thesis
+    rig's 222 Hz mode as 221.9 and 222.9 Hz); of neighbours within ``tol`` the one stable over
+    more orders stays."""
+    keep: list[int] = []
+    for r in range(poles.size):
+        if keep and abs(abs(poles[r]) - abs(poles[keep[-1]])) <= tol * abs(poles[r]):
+            if stable_orders[r] > stable_orders[keep[-1]]:
+                keep[-1] = r
+            continue
+        keep.append(r)
+    return poles[keep], stable_orders[keep]
 
 
 def _lsfd_basis(freq: np.ndarray, poles: np.ndarray, form: str, residuals: bool = True) -> np.ndarray:

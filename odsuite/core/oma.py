@@ -102,20 +102,6 @@ MATCH_TOL = 0.05
 SEPARATION_SIGMAS = 2.0
 
 
-def _distinct(poles: np.ndarray, stable_orders: np.ndarray, tol: float = 0.005) -> tuple[np.ndarray, np.ndarray]:
-    """One pole per cluster: ``select_poles`` chains clusters from their lowest member, so one
-    physical pole whose estimates spread over more than ``tol`` can come out twice, a hair apart;
-    of neighbours within ``tol`` (its cluster width) the one stable over more orders stays."""
-    keep: list[int] = []
-    for r in range(poles.size):
-        if keep and abs(abs(poles[r]) - abs(poles[keep[-1]])) <= tol * abs(poles[r]):
-            if stable_orders[r] > stable_orders[keep[-1]]:
-                keep[-1] = r
-            continue
-        keep.append(r)
-    return poles[keep], stable_orders[keep]
-
-
 def _segment_scatter(y: np.ndarray, fs: float, poles: np.ndarray, band: tuple[float, float],
                      max_order: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per pole: standard errors of frequency (Hz) and damping ratio from the scatter of its
@@ -132,7 +118,7 @@ def _segment_scatter(y: np.ndarray, fs: float, poles: np.ndarray, band: tuple[fl
             diagram, _ = ssi_cov(y[k * n:(k + 1) * n], fs, max_order=max_order, f_band=band)
         except DimensionError:
             break  # segments too short to identify anything: no scatter
-        seg, _ = _distinct(*select_poles(diagram))
+        seg, _ = select_poles(diagram)
         if seg.size == 0:
             continue
         fs_seg = np.abs(seg) / (2 * np.pi)
@@ -197,7 +183,7 @@ def identify_output_only(
         y = scipy.signal.decimate(y, q, ftype="fir", axis=0, zero_phase=True)
         fs = fs / q
     diagram, shapes = ssi_cov(y, fs, max_order=max_order, f_band=(lo, hi))
-    poles, stable_orders = _distinct(*select_poles(diagram))
+    poles, stable_orders = select_poles(diagram)
     if poles.size == 0:
         raise ConfigError(f"no pole in {lo:g}..{hi:g} Hz is stable over enough model orders (2..{max_order}): "
                           "this record does not determine the modes (too short or noisy, or modes too damped "
