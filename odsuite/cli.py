@@ -680,11 +680,16 @@ def modes_cmd(
         return
     lo, hi = res.band_hz
     table = Table(title=f"modes of {shown(name)} ({lo:.1f}-{hi:.1f} Hz)")
-    for col in ("mode", "f (Hz)", "damping ratio", "stable orders"):
+    scatter = res.frequency_std_hz is not None  # output-only: standard errors from the record's segments
+    for col in ("mode", "f (Hz)", "damping ratio", "stable orders") + (("± f (Hz)", "± damping") if scatter else ()):
         table.add_column(col)
     for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio), start=1):
-        table.add_row(str(k), f"{f:.2f}", f"{z:.5f}", str(res.stable_orders[k - 1]))
+        extra = (f"{res.frequency_std_hz[k - 1]:.2f}", f"{res.damping_std[k - 1]:.4f}") if scatter else ()
+        table.add_row(str(k), f"{f:.2f}", f"{z:.5f}", str(res.stable_orders[k - 1]), *extra)
     console.print(table)
+    for u in res.unresolved:
+        err_console.print(f"note: the pole at {u.frequency_hz:.2f} Hz (damping ratio {u.damping_ratio:.3f}) is not "
+                          f"reported as a mode: {u.reason}", highlight=False, soft_wrap=True)
     for path in (figure, mac_figure):
         if path is not None:
             console.print(f"wrote {path}", highlight=False, soft_wrap=True)

@@ -39,6 +39,22 @@ class StabilisationDiagram:
 
 
 @dataclass(frozen=True)
+class Unresolved:
+    """A stable pole that is not reported as a mode: ``reason`` says why (its scatter overlaps a
+    neighbour's, or too few segments of the record hold it)."""
+
+    frequency_hz: float
+    damping_ratio: float
+    frequency_std_hz: float
+    reason: str
+
+    def to_dict(self) -> dict:
+        std = self.frequency_std_hz
+        return {"frequency_hz": self.frequency_hz, "damping_ratio": self.damping_ratio,
+                "frequency_std_hz": std if np.isfinite(std) else None, "reason": self.reason}
+
+
+@dataclass(frozen=True)
 class ModalResult:
     """Identified modes, ascending in frequency. ``residues`` and ``shapes`` are outputs x modes;
     shapes are scaled to a largest entry of 1 (real, positive)."""
@@ -52,6 +68,11 @@ class ModalResult:
     stable_orders: np.ndarray | None = None  # per mode: model orders with a stable pole there
     rejected: list[str] = field(default_factory=list)  # stable poles not reported, with the reason
     output_only: bool = False  # identified from responses alone (shapes unscaled)
+    # output-only: per mode the standard error of frequency (Hz) and damping ratio from the
+    # scatter over the record's segments, and poles not reported as modes (``Unresolved``)
+    frequency_std_hz: np.ndarray | None = None
+    damping_std: np.ndarray | None = None
+    unresolved: list[Unresolved] = field(default_factory=list)
 
     @property
     def frequency_hz(self) -> np.ndarray:
@@ -63,9 +84,11 @@ class ModalResult:
 
     def to_dict(self) -> dict:
         """JSON-ready: {"band_hz": [lo, hi], "output_only": bool, "modes": [{"frequency_hz",
-        "damping_ratio", "stable_orders", "shape": {name: [re, im]}}]}."""
+        "damping_ratio", "stable_orders", "shape": {name: [re, im]}}]}; output-only modes add
+        "frequency_std_hz" and "damping_std" per mode and "unresolved": [{"frequency_hz",
+        "damping_ratio", "frequency_std_hz", "reason"}]."""
         names = self.output_names or [f"response {k}" for k in range(self.shapes.shape[0])]
-        return {
+        doc = {
             "band_hz": None if self.band_hz is None else [float(v) for v in self.band_hz],
             "output_only": self.output_only,
             "modes": [
@@ -78,6 +101,12 @@ class ModalResult:
                 for r in range(self.poles.size)
             ],
         }
+        if self.frequency_std_hz is not None:
+            for r, m in enumerate(doc["modes"]):
+                m["frequency_std_hz"] = float(self.frequency_std_hz[r])
+                m["damping_std"] = float(self.damping_std[r])
+            doc["unresolved"] = [u.to_dict() for u in self.unresolved]
+        return doc
 
 
 def _check(freq: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -212,7 +241,22 @@ def select_poles(
     counts = [np.unique(o_all[c]).size for c in clusters]
     keep = [(c, n) for c, n in zip(clusters, counts) if n >= need]
     out = [_pole(np.median(f_all[c]), np.median(z_all[c])) for c, _ in keep]
-    return np.asarray(out, dtype=complex), np.asarray([n for _, n in keep], dtype=int)
+    return _distinct(np.asarray(out, dtype=complex), np.asarray([n for _, n in keep], dtype=int), tol)
+
+
+def _distinct(poles: np.ndarray, stable_orders: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """One pole per cluster: clusters are chained from their lowest member, so one physical pole
+    whose estimates spread over more than ``tol`` can come out twice, a hair apart (the thesis
+    rig's 222 Hz mode as 221.9 and 222.9 Hz); of neighbours within ``tol`` the one stable over
+    more orders stays."""
+    keep: list[int] = []
+    for r in range(poles.size):
+        if keep and abs(abs(poles[r]) - abs(poles[keep[-1]])) <= tol * abs(poles[r]):
+            if stable_orders[r] > stable_orders[keep[-1]]:
+                keep[-1] = r
+            continue
+        keep.append(r)
+    return poles[keep], stable_orders[keep]
 
 
 def _lsfd_basis(freq: np.ndarray, poles: np.ndarray, form: str, residuals: bool = True) -> np.ndarray:
