@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from odsuite.core import diskspace
 from odsuite.core.errors import ConfigError, OdsuiteError
 from odsuite.core.rig import Rig
 from odsuite.core.storage import interrupts_deferred
@@ -38,6 +39,9 @@ FORMATS = ("mp4", "gif")
 MIN_FRAMES_PER_WORKER = 40
 #: Frames rendered ahead to choose a GIF's palette: enough to see every colour of the scene.
 GIF_PALETTE_FRAMES = 6
+#: Bytes per pixel of a frame, for the room a movie needs: twice a GIF's 0.023 measured on the
+#: wireframe scene (1280 x 720, 23 kB a frame); H.264 needs less.
+MOVIE_BYTES_PER_PIXEL = 0.05
 
 
 @dataclass(frozen=True)
@@ -317,6 +321,9 @@ def render_movie(
         workers = max(1, min(4, (os.cpu_count() or 1) // 2))
     workers = max(1, min(int(workers), len(frames) // MIN_FRAMES_PER_WORKER or 1))
     path.parent.mkdir(parents=True, exist_ok=True)
+    needed = int(len(frames) * size[0] * size[1] * MOVIE_BYTES_PER_PIXEL)
+    # the rendered parts and the joined movie beside them, before a frame is drawn
+    diskspace.ensure_space(path, 2 * needed, path, outcome="nothing written")
     with tempfile.TemporaryDirectory(prefix="odsuite-movie-", dir=path.parent) as tmpdir:
         tmp = Path(tmpdir)
         parts = np.array_split(np.arange(len(frames)), workers)
@@ -334,13 +341,16 @@ def render_movie(
                 _render_part(job, frames, 0, fmt, targets[0], advance)
             else:
                 _run_workers(job, frames, parts, fmt, targets, advance)
-        if fmt == "mp4":
-            if workers == 1:
-                shutil.move(targets[0], path)
+
+        def join(out: Path) -> None:
+            if fmt == "mp4" and workers == 1:
+                shutil.move(targets[0], out)
+            elif fmt == "mp4":
+                _concat([Path(t) for t in targets], out, tmp)
             else:
-                _concat([Path(t) for t in targets], path, tmp)
-        else:
-            _join_gif([Path(t) for t in targets], path, job["palette"], size)
+                _join_gif([Path(t) for t in targets], out, job["palette"], size)
+
+        diskspace.write_output(path, needed, join)
     return MovieResult(path=path, format=fmt, n_frames=len(frames), fps=fps, magnify=magnify,
                        frame_step=step, slowdown=slow, notes=notes)
 
