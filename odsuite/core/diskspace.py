@@ -55,8 +55,8 @@ def write_output(path: Path, needed: int, write: Callable[[Path], object]) -> Pa
     path = Path(path)
     target = Path(os.path.realpath(path))
     ensure_space(target, needed, path, outcome="nothing written")
-    # the suffix stays last: writers pick the format from it (matplotlib, ffmpeg)
-    tmp = target.with_name(f".{target.stem}.odsuite-out-{secrets.token_hex(4)}{target.suffix}")
+    # the suffix given stays last (a link's target may have another): writers pick the format from it
+    tmp = target.with_name(f".{target.stem}.odsuite-out-{secrets.token_hex(4)}{path.suffix}")
     try:
         write(tmp)
         if target.exists():

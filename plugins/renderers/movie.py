@@ -29,7 +29,7 @@ import numpy as np
 from odsuite.core import diskspace
 from odsuite.core.errors import ConfigError, OdsuiteError
 from odsuite.core.rig import Rig
-from odsuite.core.storage import interrupts_deferred
+from odsuite.core.storage import interrupts_deferred, interrupts_held
 
 from .motion import check_coords, default_magnification, magnification_words
 from .scene import Hammer, Scene, Style
@@ -39,9 +39,9 @@ FORMATS = ("mp4", "gif")
 MIN_FRAMES_PER_WORKER = 40
 #: Frames rendered ahead to choose a GIF's palette: enough to see every colour of the scene.
 GIF_PALETTE_FRAMES = 6
-#: Bytes per pixel of a frame, for the room a movie needs: twice a GIF's 0.023 measured on the
-#: wireframe scene (1280 x 720, 23 kB a frame); H.264 needs less.
-MOVIE_BYTES_PER_PIXEL = 0.05
+#: Bytes per pixel of a frame, for the room a movie needs: about twice what the wireframe scene
+#: measured (1280 x 720: GIF 23 kB a frame, H.264 3 kB).
+MOVIE_BYTES_PER_PIXEL = {"gif": 0.05, "mp4": 0.008}
 
 
 @dataclass(frozen=True)
@@ -230,16 +230,18 @@ def _worker(job, frames, first, sink, target, q) -> None:
                str(exc) if isinstance(exc, OdsuiteError) else None))
 
 
-def _concat(parts: list[Path], path: Path, tmp: Path) -> None:
+def _concat(parts: list[Path], path: Path, tmp: Path, shown: Path) -> None:
+    """Join the MP4 ``parts`` into ``path`` (``shown`` in messages)."""
     import imageio_ffmpeg
 
     listing = tmp / "parts.txt"
-    listing.write_text("".join(f"file '{p.as_posix()}'\n" for p in parts))
+    # absolute: ffmpeg reads relative names from the listing's own folder
+    listing.write_text("".join(f"file '{p.resolve().as_posix()}'\n" for p in parts))
     cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-hide_banner", "-loglevel", "error", "-f", "concat",
            "-safe", "0", "-i", str(listing), "-c", "copy", "-movflags", "+faststart", str(path)]
     run = subprocess.run(cmd, capture_output=True, text=True)
     if run.returncode != 0:
-        raise OdsuiteError(f"{path}: joining the movie segments failed: {run.stderr.strip()[:300]}")
+        raise OdsuiteError(f"{shown}: joining the movie segments failed: {run.stderr.strip()[:300]}")
 
 
 def render_movie(
@@ -321,7 +323,7 @@ def render_movie(
         workers = max(1, min(4, (os.cpu_count() or 1) // 2))
     workers = max(1, min(int(workers), len(frames) // MIN_FRAMES_PER_WORKER or 1))
     path.parent.mkdir(parents=True, exist_ok=True)
-    needed = int(len(frames) * size[0] * size[1] * MOVIE_BYTES_PER_PIXEL)
+    needed = int(len(frames) * size[0] * size[1] * MOVIE_BYTES_PER_PIXEL[fmt])
     # the rendered parts and the joined movie beside them, before a frame is drawn
     diskspace.ensure_space(path, 2 * needed, path, outcome="nothing written")
     with tempfile.TemporaryDirectory(prefix="odsuite-movie-", dir=path.parent) as tmpdir:
@@ -346,7 +348,7 @@ def render_movie(
             if fmt == "mp4" and workers == 1:
                 shutil.move(targets[0], out)
             elif fmt == "mp4":
-                _concat([Path(t) for t in targets], out, tmp)
+                _concat([Path(t) for t in targets], out, tmp, path)
             else:
                 _join_gif([Path(t) for t in targets], out, job["palette"], size)
 
@@ -385,8 +387,9 @@ def _run_workers(job, frames, parts, sink, targets, advance) -> None:
     finished = 0
     try:
         # Ctrl-C reaches the whole process group: workers start with SIGINT blocked (they inherit
-        # the block) and the parent, which gets it once they are started, ends them
-        with interrupts_deferred():
+        # the block) and the parent, which gets it once they are started, ends them; held in
+        # Python too, as another thread of the parent (VTK's) may receive it meanwhile
+        with interrupts_held(), interrupts_deferred():
             for p in procs:
                 p.start()
         while finished < len(procs):

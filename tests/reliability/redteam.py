@@ -167,6 +167,15 @@ def tries(rng: random.Random) -> list[tuple[str, Callable[[Path], list[str]], di
                 {"\0setup": setup})
         for free in (0, 200_000, 1_000_000, 2_000_000):
             add(f"{label} with {free / 1e6:g} MB free", lambda d, w=writer: w(d, "p.h5"), {"\0setup": _full_disk(free)})
+    for label, writer, name in OUTPUTS:  # output files on a full disk, over a user's file, through a link
+        first = (_processed,) if label.startswith(("render", "export-legacy")) else ()
+        for free in (0, 1_000_000, 5_000_000)  # none, under and over the 1 MiB reserve:
+            add(f"{label} with {free / 1e6:g} MB free", lambda d, w=writer, n=name: w(d, n),
+                {"\0setup": _in_turn(*first, _full_disk(free))})
+        add(f"{label} over a user's file on a full disk", lambda d, w=writer, n=name: w(d, n),
+            {name: b"a user's older file\n", "\0setup": _in_turn(*first, _full_disk(0))})
+        add(f"{label} through a link to a user's file", lambda d, w=writer, n=name: w(d, n),
+            {"target.txt": b"a user's older file\n", "\0setup": _in_turn(*first, _plant(name, link_to="target.txt"))})
     for k in range(20):  # UFF files whose counts were changed, on top of the damaged ones above
         add(f"uff count changed #{k}", lambda d: ["import-uff", str(d / "p.h5"), str(d / "bad.uff"), "--name", "n", "--force-channel", "force"],
             {"bad.uff": b"\0count"})
@@ -188,12 +197,39 @@ WRITERS: tuple[tuple[str, Callable[[Path, str], list[str]]], ...] = (
 )
 
 
+#: Every command that writes an output file: (label, argv from the folder and the output's name, a name).
+OUTPUTS: tuple[tuple[str, Callable[[Path, str], list[str]], str], ...] = (
+    ("export-legacy --cod", lambda d, o: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d / o)], "o.COD"),
+    ("export-uff -o", lambda d, o: ["export-uff", str(d / "p.h5"), "e1", "-o", str(d / o)], "o.uff"),
+    ("history --figure", lambda d, o: ["history", str(d / "p.h5"), "--figure", str(d / o)], "h.png"),
+    ("render -o", lambda d, o: ["render", str(d / "p.h5"), "e1", "-o", str(d / o), "--frame-step", "64"], "m.gif"),
+    ("frf --figure", lambda d, o: ["frf", str(d / "p.h5"), "--experiment", "e1", "--figure", str(d / o)], "f.png"),
+    ("modes --figure", lambda d, o: ["modes", str(d / "p.h5"), "--experiment", "e1", "--figure", str(d / o)], "g.svg"),
+)
+
+
 def _plant(name: str, content: bytes | None = None, link_to: str | None = None):
     def setup(d: Path):
         if link_to is not None:
             (d / name).symlink_to(d / link_to)
         else:
             (d / name).write_bytes(content)
+    return setup
+
+
+def _processed(d: Path) -> None:
+    """e1 processed (generalized coordinates to export and render)."""
+    from odsuite.cli import main
+
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        if main(["process", str(d / "p.h5"), "--experiment", "e1"]) != 0:
+            raise RuntimeError("processing e1 failed")
+
+
+def _in_turn(*setups: Callable[[Path], object]) -> Callable[[Path], object]:
+    """Several setups one after the other; the undo of the last."""
+    def setup(d: Path):
+        return [s(d) for s in setups][-1]
     return setup
 
 
