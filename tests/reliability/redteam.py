@@ -169,7 +169,7 @@ def tries(rng: random.Random) -> list[tuple[str, Callable[[Path], list[str]], di
             add(f"{label} with {free / 1e6:g} MB free", lambda d, w=writer: w(d, "p.h5"), {"\0setup": _full_disk(free)})
     for label, writer, name in OUTPUTS:  # output files on a full disk, over a user's file, through a link
         first = (_processed,) if label.startswith(("render", "export-legacy")) else ()
-        for free in (0, 1_000_000, 5_000_000)  # none, under and over the 1 MiB reserve:
+        for free in (0, 1_000_000, 5_000_000):  # none, under and over the 1 MiB reserve
             add(f"{label} with {free / 1e6:g} MB free", lambda d, w=writer, n=name: w(d, n),
                 {"\0setup": _in_turn(*first, _full_disk(free))})
         add(f"{label} over a user's file on a full disk", lambda d, w=writer, n=name: w(d, n),
