@@ -19,6 +19,7 @@ import queue
 import shutil
 import subprocess
 import tempfile
+import time
 import traceback
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -37,6 +38,9 @@ from .scene import Hammer, Scene, Style
 FORMATS = ("mp4", "gif")
 #: Below this many frames per worker, starting a process costs more than it saves.
 MIN_FRAMES_PER_WORKER = 40
+#: Seconds render processes get to stop after their current frame (a frame takes well under one
+#: on an idle machine, several on a loaded one) before they are terminated.
+STOP_WAIT = 30.0
 #: Frames rendered ahead to choose a GIF's palette: enough to see every colour of the scene.
 GIF_PALETTE_FRAMES = 6
 #: Bytes per pixel of a frame, for the room a movie needs: about twice what the wireframe scene
@@ -199,31 +203,54 @@ def _join_gif(parts: list[Path], path: Path, palette: "Image.Image", size: tuple
         out.write(b";")  # the GIF trailer
 
 
+class _Stopped(Exception):
+    """The parent asked a render process to stop (Ctrl-C, or another process failed)."""
+
+
 def _render_part(job: dict, frames: np.ndarray, first: int, sink: str, target: str,
-                 report: Callable[[int], None]) -> None:
-    """Render ``frames`` (sample indices) and stream them to ``target``.
+                 report: Callable[[int], None], stopped: Callable[[], bool] = lambda: False) -> None:
+    """Render ``frames`` (sample indices) and stream them to ``target``, checking ``stopped()``
+    before each frame.
 
     ``sink`` "mp4": an H.264 file; "gif": GIF frame blocks in the job's palette.
     """
     scene = Scene(job["rig"], job["coords"], **job["scene"])
+    writer = None
     try:
         if sink == "mp4":
             writer = _mp4_writer(Path(target), scene.size, job["fps"])
         else:
             writer = _GifFrames(Path(target), job["palette"], job["fps"])
         for k, i in enumerate(frames):
+            if stopped():
+                raise _Stopped()
             writer.send(scene.frame(int(i), job["labels"][first + k], (first + k + 1) / job["n_frames"]))
             report(1)
-        writer.close()
+        writer, done = None, writer
+        done.close()
     finally:
+        if writer is not None:
+            _abandon(writer)
         scene.close()
 
 
-def _worker(job, frames, first, sink, target, q) -> None:
+def _abandon(writer) -> None:
+    """End a writer half-way. Its ffmpeg encoder runs in a process group of its own (Ctrl-C does
+    not reach it) and would go on writing into a folder about to be removed: it is killed."""
+    if isinstance(writer, _GifFrames):
+        writer.close()
+        return
+    try:
+        writer.throw(SystemExit)  # imageio-ffmpeg kills its encoder on SystemExit
+    except SystemExit:
+        pass
+
+
+def _worker(job, frames, first, sink, target, q, stop) -> None:
     # one software-rasteriser thread per process: the processes already fill the cores
     os.environ.setdefault("LP_NUM_THREADS", "1")
     try:
-        _render_part(job, frames, first, sink, target, lambda n: q.put(("done", n)))
+        _render_part(job, frames, first, sink, target, lambda n: q.put(("done", n)), stop.is_set)
         q.put(("finished", first))
     except BaseException as exc:  # the parent re-raises it with the worker's traceback
         q.put(("error", f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}",
@@ -381,8 +408,8 @@ def frame_labels(frames: np.ndarray, fs: float, *, time_zero: float | None = Non
 def _run_workers(job, frames, parts, sink, targets, advance) -> None:
     # spawn: a forked child would inherit the parent's OpenGL state
     ctx = mp.get_context("spawn")
-    q = ctx.Queue()
-    procs = [ctx.Process(target=_worker, args=(job, frames[p], int(p[0]), sink, targets[k], q), daemon=True)
+    q, stop = ctx.Queue(), ctx.Event()
+    procs = [ctx.Process(target=_worker, args=(job, frames[p], int(p[0]), sink, targets[k], q, stop), daemon=True)
              for k, p in enumerate(parts)]
     finished = 0
     try:
@@ -409,11 +436,24 @@ def _run_workers(job, frames, parts, sink, targets, advance) -> None:
                     raise OdsuiteError(msg[2])
                 raise RuntimeError(f"render process failed: {msg[1]}")
     finally:
-        for p in procs:
-            if p.pid is not None:  # started
-                if p.is_alive() and finished < len(procs):
-                    p.terminate()
-                p.join()
+        _stop_workers([p for p in procs if p.pid is not None], q, stop)
+
+
+def _stop_workers(procs: list, q, stop) -> None:
+    """Ask the render processes to stop after their frame (each ends its encoder) and wait for
+    them, reading their last messages meanwhile (a process cannot exit with messages unsent);
+    end the ones still running after ``STOP_WAIT``."""
+    stop.set()
+    deadline = time.monotonic() + STOP_WAIT
+    while any(p.is_alive() for p in procs) and time.monotonic() < deadline:
+        try:
+            q.get(timeout=0.1)
+        except queue.Empty:
+            pass
+    for p in procs:
+        if p.is_alive():
+            p.terminate()
+        p.join()
 
 
 class _progress_bar:
