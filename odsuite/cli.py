@@ -72,6 +72,12 @@ class _Interrupted(BaseException):
     ``finally`` and copy-on-write cleanup still runs."""
 
 
+def _commits() -> list[Path]:
+    """``storage.COMMITS`` without importing storage: a Ctrl-C that cut an import short (numpy's)
+    makes importing it again fail, and before storage is imported nothing was committed."""
+    return getattr(sys.modules.get("odsuite.core.storage"), "COMMITS", [])
+
+
 class _Ledger:
     """What the running command stored, for the one line a Ctrl-C prints. A command names the
     units it will store (``plan``), opens each (``start``) and closes it (``done``); a unit whose
@@ -88,14 +94,10 @@ class _Ledger:
         self.commits_at_start = 0
 
     def plan(self, target: Path, units: list[str]) -> None:
-        from odsuite.core.storage import COMMITS
-
-        self.target, self.planned, self.commits_at_start = target, list(units), len(COMMITS)
+        self.target, self.planned, self.commits_at_start = target, list(units), len(_commits())
 
     def start(self, unit: str) -> None:
-        from odsuite.core.storage import COMMITS
-
-        self.current, self.commits_at_start = unit, len(COMMITS)
+        self.current, self.commits_at_start = unit, len(_commits())
 
     def done(self) -> None:
         if self.current is not None:
@@ -103,9 +105,7 @@ class _Ledger:
         self.current = None
 
     def line(self) -> str:
-        from odsuite.core.storage import COMMITS
-
-        if self.current is not None and len(COMMITS) > self.commits_at_start:
+        if self.current is not None and len(_commits()) > self.commits_at_start:
             self.done()
         if self.target is None:
             return "interrupted: nothing stored"
@@ -118,9 +118,7 @@ class _Ledger:
     def after_error(self, message: str) -> str:
         """The error line of a command that failed after committing some units (multi-experiment
         ``process``): it names what stays stored."""
-        from odsuite.core.storage import COMMITS
-
-        if self.current is not None and len(COMMITS) > self.commits_at_start:
+        if self.current is not None and len(_commits()) > self.commits_at_start:
             self.done()
         if not self.stored:
             return message
