@@ -49,3 +49,15 @@ def test_a_held_interrupt_reaches_the_handler_when_the_block_ends():
         assert calls[-1] == "quiet block" and signal.getsignal(signal.SIGINT) is handler
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+def test_the_interrupt_line_imports_nothing_heavy():
+    """A Ctrl-C that cuts numpy's import short makes any later import of numpy fail ("cannot load
+    module more than once"): the line printed then must not import storage, h5py or numpy."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from odsuite import cli; print(cli._ledger.line()); "
+            "print(sorted(m for m in ('numpy', 'h5py', 'odsuite.core.storage') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.splitlines() == ["interrupted: nothing stored", "[]"]
