@@ -414,6 +414,7 @@ class Scene:
 
     @_ctrl_c_held
     def close(self) -> None:
-        plotter = self.__dict__.pop("plotter", None)  # once; none yet when the constructor failed early
-        if plotter is not None:
+        plotter = self.__dict__.get("plotter")  # none yet when the constructor failed early
+        if plotter is not None and not self.__dict__.get("_closed"):  # once
+            self._closed = True
             plotter.close()
