@@ -72,6 +72,12 @@ class _Interrupted(BaseException):
     ``finally`` and copy-on-write cleanup still runs."""
 
 
+def _commits() -> list[Path]:
+    """``storage.COMMITS`` without importing storage: a Ctrl-C that cut an import short (numpy's)
+    makes importing it again fail, and before storage is imported nothing was committed."""
+    return getattr(sys.modules.get("odsuite.core.storage"), "COMMITS", [])
+
+
 class _Ledger:
     """What the running command stored, for the one line a Ctrl-C prints. A command names the
     units it will store (``plan``), opens each (``start``) and closes it (``done``); a unit whose
@@ -88,14 +94,10 @@ class _Ledger:
         self.commits_at_start = 0
 
     def plan(self, target: Path, units: list[str]) -> None:
-        from odsuite.core.storage import COMMITS
-
-        self.target, self.planned, self.commits_at_start = target, list(units), len(COMMITS)
+        self.target, self.planned, self.commits_at_start = target, list(units), len(_commits())
 
     def start(self, unit: str) -> None:
-        from odsuite.core.storage import COMMITS
-
-        self.current, self.commits_at_start = unit, len(COMMITS)
+        self.current, self.commits_at_start = unit, len(_commits())
 
     def done(self) -> None:
         if self.current is not None:
@@ -103,9 +105,7 @@ class _Ledger:
         self.current = None
 
     def line(self) -> str:
-        from odsuite.core.storage import COMMITS
-
-        if self.current is not None and len(COMMITS) > self.commits_at_start:
+        if self.current is not None and len(_commits()) > self.commits_at_start:
             self.done()
         if self.target is None:
             return "interrupted: nothing stored"
@@ -118,9 +118,7 @@ class _Ledger:
     def after_error(self, message: str) -> str:
         """The error line of a command that failed after committing some units (multi-experiment
         ``process``): it names what stays stored."""
-        from odsuite.core.storage import COMMITS
-
-        if self.current is not None and len(COMMITS) > self.commits_at_start:
+        if self.current is not None and len(_commits()) > self.commits_at_start:
             self.done()
         if not self.stored:
             return message
@@ -823,14 +821,16 @@ def verify_cmd(project: Path = typer.Argument(..., help="Project file."),
 
 
 
-#: Output files of the running command, checked before writing: a full disk names the last one.
-_OUTPUTS: list[Path] = []
+#: Output files of the running command, checked before writing, and whether each existed then:
+#: a full disk names the last one and removes the new ones (a writer that ran into it half-way).
+_OUTPUTS: dict[Path, bool] = {}
 
 
 def _check_output(output: Path, project: Path, option: str) -> None:
     from odsuite.core.storage import check_output
 
-    _OUTPUTS.append(check_output(output, project, option))
+    output = check_output(output, project, option)
+    _OUTPUTS[output] = output.exists() or output.is_symlink()
 
 
 def _print_json(doc) -> None:
@@ -1228,6 +1228,25 @@ def _run(argv: list[str] | None) -> int:
     except (_Interrupted, KeyboardInterrupt):
         err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
         return 130
+    except Exception:
+        if not _INTERRUPTS:
+            return _failed(sys.exc_info()[1])
+        # the interrupt came first and the error is its doing: a library that turned it into
+        # its own error (VTK's importer reports an interrupted import as an ImportError)
+        err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
+        return 130
+    if _INTERRUPTS:  # the interrupt was swallowed on the way (see _unraisable): report it
+        err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
+        return 130
+    # standalone_mode=False returns a command's typer.Exit code instead of raising it
+    return code if isinstance(code, int) else 0
+
+
+def _failed(exc: Exception) -> int:
+    """The exit code of a command that raised ``exc`` (printing its one line), or ``exc`` again
+    when it is a bug."""
+    try:
+        raise exc
     except OdsuiteError as exc:
         err_console.print(f"error: {_ledger.after_error(str(exc))}", style="bold red", highlight=False,
                           soft_wrap=True)
@@ -1245,15 +1264,13 @@ def _run(argv: list[str] | None) -> int:
         if not diskspace.is_disk_full(exc):  # anything else is a bug and keeps its traceback
             raise
         # an output file (movie, report, figure, text) ran into a full disk
-        where = Path(getattr(exc, "filename", None) or (_OUTPUTS or [Path.cwd() / "-"])[-1])
-        line = diskspace.full_message(where, where, diskspace.written_so_far(where), outcome="output incomplete")
+        where = Path(getattr(exc, "filename", None) or ([*_OUTPUTS] or [Path.cwd() / "-"])[-1])
+        line = diskspace.full_message(where, where, diskspace.written_so_far(where), outcome="nothing written")
+        for output, existed in _OUTPUTS.items():
+            if not existed:
+                output.unlink(missing_ok=True)
         err_console.print(f"error: {line}", style="bold red", highlight=False, soft_wrap=True)
         return 1
-    if _INTERRUPTS:  # the interrupt was swallowed on the way (see _unraisable): report it
-        err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
-        return 130
-    # standalone_mode=False returns a command's typer.Exit code instead of raising it
-    return code if isinstance(code, int) else 0
 
 
 if __name__ == "__main__":

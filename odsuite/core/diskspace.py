@@ -6,8 +6,10 @@ from __future__ import annotations
 
 import errno
 import os
+import secrets
 import shutil
-from collections.abc import Iterator
+import stat
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -30,9 +32,10 @@ def mount_point(path: Path) -> Path:
     return path
 
 
-def ensure_space(target: Path, needed: int, whose: Path | str) -> None:
+def ensure_space(target: Path, needed: int, whose: Path | str, outcome: str = "project unchanged") -> None:
     """Refuse to write ``needed`` bytes (plus ``METADATA_RESERVE``) into the folder of ``target``
-    when its disk has less room; ``whose`` starts the message (the project or output path)."""
+    when its disk has less room; ``whose`` starts the message (the project or output path),
+    ``outcome`` ends it."""
     needed = int(needed) + METADATA_RESERVE
     folder = Path(target).parent
     try:
@@ -40,7 +43,33 @@ def ensure_space(target: Path, needed: int, whose: Path | str) -> None:
     except OSError:  # the folder's disk does not say: the write itself will tell
         return
     if free < needed:
-        raise DiskFullError(full_message(whose, folder, needed, free))
+        raise DiskFullError(full_message(whose, folder, needed, free, outcome))
+
+
+def write_output(path: Path, needed: int, write: Callable[[Path], object]) -> Path:
+    """Write an output file (movie, figure, report, export) all or nothing: refused in one line
+    when its disk lacks room for ``needed`` bytes (an estimate), else ``write(tmp)`` fills a
+    private file beside it that then replaces ``path`` in one rename (a symlinked output is written
+    through to its target; an existing file keeps its mode). A write that fails, runs into a full
+    disk or is interrupted leaves ``path`` as it was and nothing beside it."""
+    path = Path(path)
+    target = Path(os.path.realpath(path))
+    ensure_space(target, needed, path, outcome="nothing written")
+    # the suffix given stays last (a link's target may have another): writers pick the format from it
+    tmp = target.with_name(f".{target.stem}.odsuite-out-{secrets.token_hex(4)}{path.suffix}")
+    try:
+        write(tmp)
+        if target.exists():
+            os.chmod(tmp, stat.S_IMODE(os.stat(target).st_mode))
+        os.replace(tmp, target)
+    except BaseException as exc:
+        written = written_so_far(tmp)
+        tmp.unlink(missing_ok=True)
+        if isinstance(exc, Exception) and is_disk_full(exc):
+            raise DiskFullError(full_message(path, target.parent, max(written, int(needed) + METADATA_RESERVE),
+                                             outcome="nothing written")) from None
+        raise
+    return path
 
 
 def full_message(whose: Path | str, folder: Path, needed: int, free: int | None = None,

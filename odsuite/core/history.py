@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 from odsuite.core.comparison import compare, noise_floor_error
+from odsuite.core.diskspace import write_output
 from odsuite.core.modelrev import RevisionModel, base_model
 from odsuite.core.errors import ConfigError
 from odsuite.core.prediction import PreparedExperiment, prepare_experiment
@@ -73,4 +75,4 @@ def history_figure(doc: Mapping[str, Any], path) -> None:
     ax.set_ylabel("error (pooled NRMSE, log scale)", fontsize=10)
     ax.set_title("model error per revision", fontsize=11)
     ax.grid(axis="y", which="both", alpha=0.3)
-    fig.savefig(path, dpi=FIGURE_DPI)
+    write_output(Path(path), 0, lambda tmp: fig.savefig(tmp, dpi=FIGURE_DPI))  # a figure fits the reserve

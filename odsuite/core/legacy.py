@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from odsuite.core.diskspace import write_output
 from odsuite.core.errors import ConfigError, DimensionError
 from odsuite.core.systeminfo import format_ctr, parse_ctr, read_ctr, write_ctr
 from odsuite.core.textfiles import check_text_file, read_text
@@ -147,4 +148,5 @@ def write_cod(path: str | Path, plates: Sequence[np.ndarray]) -> None:
         if a.ndim != 2 or a.shape[1] != 6 or a.shape[0] != arrays[0].shape[0]:
             raise DimensionError(f"{path}: plate {i} has shape {a.shape}, expected "
                                  f"({arrays[0].shape[0]}, 6)")
-    Path(path).write_text(_format_table(np.hstack(arrays)), encoding="utf-8")
+    text = _format_table(np.hstack(arrays)).encode("utf-8")
+    write_output(Path(path), len(text), lambda tmp: tmp.write_bytes(text))

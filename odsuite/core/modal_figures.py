@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from odsuite.core.diskspace import write_output
 from odsuite.core.errors import ConfigError, DimensionError
 from odsuite.core.frf import FrfSet
 from odsuite.core.modal import ModalResult
@@ -27,7 +28,7 @@ def _new_figure(path: Path, size: tuple[float, float]):
 
 def _save(fig, path: Path, dpi: int = 130):
     try:
-        fig.savefig(path, dpi=dpi)
+        write_output(Path(path), 0, lambda tmp: fig.savefig(tmp, dpi=dpi))  # a figure fits the reserve
     except OSError as exc:
         raise ConfigError(f"figure {path}: cannot write ({exc.strerror or exc})") from None
     return fig

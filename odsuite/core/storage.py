@@ -148,6 +148,30 @@ def interrupts_deferred() -> Iterator[None]:
             signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
+@contextmanager
+def interrupts_held() -> Iterator[None]:
+    """Receive a Ctrl-C but hold it back until the block ends, then hand it to the SIGINT handler
+    that was in place (KeyboardInterrupt, or the command line's line and exit code 130).
+
+    For calls into C libraries that must not see a Python exception inside their calls, callbacks
+    or imports (VTK: an interrupted import or a half-built off-screen plotter can crash the
+    interpreter at exit). Unlike :func:`interrupts_deferred` it works whichever thread the system
+    delivers the signal to (VTK's rasteriser threads may not block it)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield  # only the main thread receives Python's signals
+        return
+    held: list[object] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: held.append(frame))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if held and callable(previous):
+            previous(signal.SIGINT, held[0])
+        elif held and previous == signal.SIG_DFL:
+            raise KeyboardInterrupt
+
+
 def _discard(f: h5py.File | None, tmp: Path) -> None:
     """Close (if open) and delete the working copy of a write that failed."""
     try:

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from odsuite.core.diskspace import write_output
 from odsuite.core.errors import ConfigError
 from odsuite.core.modal_project import _UNITS, _force_index, operating_note, physical
 from odsuite.core.project import DerivedArray, Excitation, Project, open_project
@@ -440,5 +441,11 @@ def export_uff(project: str | Path, out: str | Path, experiment: str | None = No
                                          f"{exp.systeminfo.channels[k].unit}/N" if k >= 0 else "", "Hz",
                                          rsp[0], rsp[1], ref[0], ref[1], description=experiment))
     geometry = nodes.geometry(traces) if nodes.xyz else None
-    write_uff(out, functions=functions, geometry=geometry, binary=binary, node_dataset=node_dataset)
+    if out.exists():  # as write_uff: an export never overwrites
+        raise ConfigError(f"{out}: file exists; refusing to overwrite")
+    # doubles in binary 58b, about 20 characters a value in ASCII (the header lines are in the reserve)
+    needed = sum(f.x.size + f.data.size * (2 if np.iscomplexobj(f.data) else 1) for f in functions) * \
+        (8 if binary else 20)
+    write_output(out, needed, lambda tmp: write_uff(tmp, functions=functions, geometry=geometry, binary=binary,
+                                                    node_dataset=node_dataset))
     return out

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from odsuite.core.diskspace import write_output
 from odsuite.core.errors import ConfigError, DimensionError
 from odsuite.core.rig import Rig
 from odsuite.core.rigidbody import COORDINATE_UNITS, COORDINATES, PLOT_INDEX, plate_corners, rotation_matrix
@@ -57,8 +58,7 @@ def _save(fig, path: str | Path, dpi: int) -> Path:
         raise ConfigError(f"{path}: figure format must be one of {', '.join(FIGURE_FORMATS)}, "
                           f"got {path.suffix or 'no suffix'!r}")
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi)
-    return path
+    return write_output(path, 0, lambda tmp: fig.savefig(tmp, dpi=dpi))  # a figure fits the reserve
 
 
 def project(points: np.ndarray, eye: str = "x", view_angles: Sequence[float] = (0.0, 0.0, 0.0)) -> np.ndarray:

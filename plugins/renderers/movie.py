@@ -19,6 +19,7 @@ import queue
 import shutil
 import subprocess
 import tempfile
+import time
 import traceback
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -26,9 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
+from odsuite.core import diskspace
 from odsuite.core.errors import ConfigError, OdsuiteError
 from odsuite.core.rig import Rig
-from odsuite.core.storage import interrupts_deferred
+from odsuite.core.storage import interrupts_deferred, interrupts_held
 
 from .motion import check_coords, default_magnification, magnification_words
 from .scene import Hammer, Scene, Style
@@ -36,8 +38,14 @@ from .scene import Hammer, Scene, Style
 FORMATS = ("mp4", "gif")
 #: Below this many frames per worker, starting a process costs more than it saves.
 MIN_FRAMES_PER_WORKER = 40
+#: Seconds render processes get to stop after their current frame (a frame takes well under one
+#: on an idle machine, several on a loaded one) before they are terminated.
+STOP_WAIT = 30.0
 #: Frames rendered ahead to choose a GIF's palette: enough to see every colour of the scene.
 GIF_PALETTE_FRAMES = 6
+#: Bytes per pixel of a frame, for the room a movie needs: about twice what the wireframe scene
+#: measured (1280 x 720: GIF 23 kB a frame, H.264 3 kB).
+MOVIE_BYTES_PER_PIXEL = {"gif": 0.05, "mp4": 0.008}
 
 
 @dataclass(frozen=True)
@@ -195,47 +203,72 @@ def _join_gif(parts: list[Path], path: Path, palette: "Image.Image", size: tuple
         out.write(b";")  # the GIF trailer
 
 
+class _Stopped(Exception):
+    """The parent asked a render process to stop (Ctrl-C, or another process failed)."""
+
+
 def _render_part(job: dict, frames: np.ndarray, first: int, sink: str, target: str,
-                 report: Callable[[int], None]) -> None:
-    """Render ``frames`` (sample indices) and stream them to ``target``.
+                 report: Callable[[int], None], stopped: Callable[[], bool] = lambda: False) -> None:
+    """Render ``frames`` (sample indices) and stream them to ``target``, checking ``stopped()``
+    before each frame.
 
     ``sink`` "mp4": an H.264 file; "gif": GIF frame blocks in the job's palette.
     """
     scene = Scene(job["rig"], job["coords"], **job["scene"])
+    writer = None
     try:
         if sink == "mp4":
             writer = _mp4_writer(Path(target), scene.size, job["fps"])
         else:
             writer = _GifFrames(Path(target), job["palette"], job["fps"])
         for k, i in enumerate(frames):
+            if stopped():
+                raise _Stopped()
             writer.send(scene.frame(int(i), job["labels"][first + k], (first + k + 1) / job["n_frames"]))
             report(1)
-        writer.close()
+        writer, done = None, writer
+        done.close()
     finally:
+        if writer is not None:
+            _abandon(writer)
         scene.close()
 
 
-def _worker(job, frames, first, sink, target, q) -> None:
+def _abandon(writer) -> None:
+    """End a writer half-way. Its ffmpeg encoder runs in a process group of its own (Ctrl-C does
+    not reach it) and would go on writing into a folder about to be removed: it is killed."""
+    if isinstance(writer, _GifFrames):
+        writer.close()
+        return
+    try:
+        writer.throw(SystemExit)  # imageio-ffmpeg kills its encoder on SystemExit
+    except SystemExit:
+        pass
+
+
+def _worker(job, frames, first, sink, target, q, stop) -> None:
     # one software-rasteriser thread per process: the processes already fill the cores
     os.environ.setdefault("LP_NUM_THREADS", "1")
     try:
-        _render_part(job, frames, first, sink, target, lambda n: q.put(("done", n)))
+        _render_part(job, frames, first, sink, target, lambda n: q.put(("done", n)), stop.is_set)
         q.put(("finished", first))
     except BaseException as exc:  # the parent re-raises it with the worker's traceback
         q.put(("error", f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}",
                str(exc) if isinstance(exc, OdsuiteError) else None))
 
 
-def _concat(parts: list[Path], path: Path, tmp: Path) -> None:
+def _concat(parts: list[Path], path: Path, tmp: Path, shown: Path) -> None:
+    """Join the MP4 ``parts`` into ``path`` (``shown`` in messages)."""
     import imageio_ffmpeg
 
     listing = tmp / "parts.txt"
-    listing.write_text("".join(f"file '{p.as_posix()}'\n" for p in parts))
+    # absolute: ffmpeg reads relative names from the listing's own folder
+    listing.write_text("".join(f"file '{p.resolve().as_posix()}'\n" for p in parts))
     cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-hide_banner", "-loglevel", "error", "-f", "concat",
            "-safe", "0", "-i", str(listing), "-c", "copy", "-movflags", "+faststart", str(path)]
     run = subprocess.run(cmd, capture_output=True, text=True)
     if run.returncode != 0:
-        raise OdsuiteError(f"{path}: joining the movie segments failed: {run.stderr.strip()[:300]}")
+        raise OdsuiteError(f"{shown}: joining the movie segments failed: {run.stderr.strip()[:300]}")
 
 
 def render_movie(
@@ -317,6 +350,9 @@ def render_movie(
         workers = max(1, min(4, (os.cpu_count() or 1) // 2))
     workers = max(1, min(int(workers), len(frames) // MIN_FRAMES_PER_WORKER or 1))
     path.parent.mkdir(parents=True, exist_ok=True)
+    needed = int(len(frames) * size[0] * size[1] * MOVIE_BYTES_PER_PIXEL[fmt])
+    # the rendered parts and the joined movie beside them, before a frame is drawn
+    diskspace.ensure_space(path, 2 * needed, path, outcome="nothing written")
     with tempfile.TemporaryDirectory(prefix="odsuite-movie-", dir=path.parent) as tmpdir:
         tmp = Path(tmpdir)
         parts = np.array_split(np.arange(len(frames)), workers)
@@ -334,13 +370,16 @@ def render_movie(
                 _render_part(job, frames, 0, fmt, targets[0], advance)
             else:
                 _run_workers(job, frames, parts, fmt, targets, advance)
-        if fmt == "mp4":
-            if workers == 1:
-                shutil.move(targets[0], path)
+
+        def join(out: Path) -> None:
+            if fmt == "mp4" and workers == 1:
+                shutil.move(targets[0], out)
+            elif fmt == "mp4":
+                _concat([Path(t) for t in targets], out, tmp, path)
             else:
-                _concat([Path(t) for t in targets], path, tmp)
-        else:
-            _join_gif([Path(t) for t in targets], path, job["palette"], size)
+                _join_gif([Path(t) for t in targets], out, job["palette"], size)
+
+        diskspace.write_output(path, needed, join)
     return MovieResult(path=path, format=fmt, n_frames=len(frames), fps=fps, magnify=magnify,
                        frame_step=step, slowdown=slow, notes=notes)
 
@@ -369,14 +408,15 @@ def frame_labels(frames: np.ndarray, fs: float, *, time_zero: float | None = Non
 def _run_workers(job, frames, parts, sink, targets, advance) -> None:
     # spawn: a forked child would inherit the parent's OpenGL state
     ctx = mp.get_context("spawn")
-    q = ctx.Queue()
-    procs = [ctx.Process(target=_worker, args=(job, frames[p], int(p[0]), sink, targets[k], q), daemon=True)
+    q, stop = ctx.Queue(), ctx.Event()
+    procs = [ctx.Process(target=_worker, args=(job, frames[p], int(p[0]), sink, targets[k], q, stop), daemon=True)
              for k, p in enumerate(parts)]
     finished = 0
     try:
         # Ctrl-C reaches the whole process group: workers start with SIGINT blocked (they inherit
-        # the block) and the parent, which gets it once they are started, ends them
-        with interrupts_deferred():
+        # the block) and the parent, which gets it once they are started, ends them; held in
+        # Python too, as another thread of the parent (VTK's) may receive it meanwhile
+        with interrupts_held(), interrupts_deferred():
             for p in procs:
                 p.start()
         while finished < len(procs):
@@ -396,11 +436,24 @@ def _run_workers(job, frames, parts, sink, targets, advance) -> None:
                     raise OdsuiteError(msg[2])
                 raise RuntimeError(f"render process failed: {msg[1]}")
     finally:
-        for p in procs:
-            if p.pid is not None:  # started
-                if p.is_alive() and finished < len(procs):
-                    p.terminate()
-                p.join()
+        _stop_workers([p for p in procs if p.pid is not None], q, stop)
+
+
+def _stop_workers(procs: list, q, stop) -> None:
+    """Ask the render processes to stop after their frame (each ends its encoder) and wait for
+    them, reading their last messages meanwhile (a process cannot exit with messages unsent);
+    end the ones still running after ``STOP_WAIT``."""
+    stop.set()
+    deadline = time.monotonic() + STOP_WAIT
+    while any(p.is_alive() for p in procs) and time.monotonic() < deadline:
+        try:
+            q.get(timeout=0.1)
+        except queue.Empty:
+            pass
+    for p in procs:
+        if p.is_alive():
+            p.terminate()
+        p.join()
 
 
 class _progress_bar:

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from odsuite.core.diskspace import write_output
 from odsuite.core.errors import ConfigError
 
 #: Movie: frame size (pixels), frames per second, about this many frames, this long after the hit.
@@ -360,7 +361,8 @@ def build_report(
     ]
     page = _page(f"odsuite report: {Path(project_path).name}", sections, notes)
     output.parent.mkdir(parents=True, exist_ok=True)
-    output.write_text(page, encoding="utf-8")
+    text = page.encode("utf-8")
+    write_output(output, len(text), lambda tmp: tmp.write_bytes(text))
     size = output.stat().st_size
     if size > SIZE_BUDGET:
         notes.append(f"the page is {size / 2**20:.1f} MiB (budget {SIZE_BUDGET / 2**20:.0f} MiB); "

@@ -2,13 +2,13 @@
 
 Each run copies a project onto a fresh tmpfs (``mount -t tmpfs -o size=N``, needs root), fills it
 with a ballast file until a random number of bytes is left free (from none to more than the command
-needs), and runs one command there. Every other run blinds odsuite's check of the free space (its
+needs), and runs one command there (project writes and output files). Every other run blinds odsuite's check of the free space (its
 ``shutil.disk_usage`` reports a huge disk), as when another program fills the disk during a write:
 then the disk blocks odsuite reserves before HDF5 writes (posix_fallocate) must still stop it in
 one line, before HDF5 meets the full disk (which can crash the HDF5 library). It must end with exit code 0, or 1 and exactly one line on
 stderr saying ``no space left on DEVICE: needed ~N MB`` (or another one-line error); never a
-traceback or a signal (segfault); on failure every unit of the project as before; no working copy
-or lock file left beside it.
+traceback or a signal (segfault); on failure every unit of the project as before, no output file;
+no working copy or lock file left beside it.
 
 ``python tests/reliability/diskfull.py [RUNS] [SEED] [DIR]`` prints the counts.
 """
@@ -37,7 +37,7 @@ from tests.reliability.interrupts import seeded_projects  # noqa: E402
 RUN_TIMEOUT = 180.0  # s; a command still running then is a hang
 DISK_BYTES = 8 << 20  # the tmpfs: 8 MiB, room for the project and some of each command's output
 FULL_LINE = re.compile(r"^error: .*: no space left on \S+: needed ~[0-9.]+ MB(, [0-9.]+ MB free)?; "
-                       r"(project unchanged|no project created|output incomplete|stored before the error: .*)$")
+                       r"(project unchanged|no project created|nothing written|stored before the error: .*)$")
 
 
 @dataclass(frozen=True)
@@ -58,7 +58,12 @@ COMMANDS: tuple[DiskCommand, ...] = (
     DiskCommand("modes", lambda p, i, d, k: ["modes", str(p), "--experiment", "s1"]),
     DiskCommand("export-legacy", lambda p, i, d, k: ["export-legacy", str(p), "s1", "--cod", str(d / "s1.COD")]),
     DiskCommand("new", lambda p, i, d, k: ["new", str(d / "fresh.h5")]),
+    DiskCommand("export-uff", lambda p, i, d, k: ["export-uff", str(p), "s1", "-o", str(d / "s1.uff")]),
+    DiskCommand("render", lambda p, i, d, k: ["render", str(p), "s1", "-o", str(d / "m.gif"), "--frame-step", "32"]),
+    DiskCommand("history", lambda p, i, d, k: ["history", str(p), "--figure", str(d / "h.png")]),
 )
+#: The files the commands create: none may be left by a command that failed.
+OUTPUT_NAMES = ("s1.COD", "fresh.h5", "s1.uff", "m.gif", "h.png")
 
 
 def can_mount() -> bool:
@@ -131,11 +136,14 @@ def run_once(cmd: DiskCommand, master: Path, inputs: Path, disk: Path, index: in
         res.problems.append(f"killed by signal {-proc.returncode}")
     if "Traceback" in err or "HDF5-DIAG" in err:
         res.problems.append("traceback")
-    left = [p.name for p in disk.iterdir() if ".odsuite-" in p.name]
+    left = [p.name for p in disk.iterdir() if ".odsuite-" in p.name or p.name.startswith("odsuite-movie-")]
     if left:
         res.problems.append(f"left behind: {left}")
     if proc.returncode == 0:
         return res
+    partial = [p.name for p in disk.iterdir() if p.name in OUTPUT_NAMES]
+    if partial:
+        res.problems.append(f"an output of the failed command: {partial}")
     if proc.returncode != 1 or len(lines) != 1 or not lines[0].startswith("error: "):
         res.problems.append(f"exit {proc.returncode}, stderr {err.strip()[-300:]!r}")
     elif "no space" in lines[0] and not FULL_LINE.match(lines[0]):

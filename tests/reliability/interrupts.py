@@ -4,7 +4,9 @@ The signal goes to the command's whole process group, as a terminal's Ctrl-C doe
 included). Each run must end with exit code 130 (or 0 when the command finished first) and exactly
 one line on stderr, ``interrupted: ...``, no traceback; that line must tell the truth: "nothing
 stored" leaves every unit of the project as it was, "stored A; not stored: B" changed A only; no
-temporary copy (``.*.odsuite-tmp-*``, ``odsuite-movie-*``) and no process of the group outlives the command.
+temporary copy (``.*.odsuite-tmp-*``, ``odsuite-movie-*``, ``.*.odsuite-out-*``), no part of a movie (one
+that is there decodes to its end) and nothing on stderr after the line (a render encoder writing on)
+outlives the command, nor any process of the group.
 
 ``python tests/reliability/interrupts.py [RUNS] [SEED] [DIR] [COMMAND ...]`` prints the counts.
 """
@@ -51,6 +53,9 @@ COMMANDS: tuple[InterruptedCommand, ...] = (
         "--force-point", "0,4.122,-11.399", "--force-dir", "+z"], (0.5, 1.8)),
     InterruptedCommand("render", lambda p, i, o, k: [
         "render", str(p), "s1", "-o", str(o / "m.gif"), "--workers", "2", "--frame-step", "32"], (3.0, 12.0)),
+    # 96 frames: two render processes, each with its ffmpeg encoder, and the segments joined
+    InterruptedCommand("render-workers", lambda p, i, o, k: [
+        "render", str(p), "s1", "-o", str(o / "m.mp4"), "--workers", "2", "--frame-step", "6"], (3.0, 25.0)),
 )
 
 
@@ -99,6 +104,28 @@ def _group_alive(pgid: int) -> bool:
     return True
 
 
+def _complete_movie(path: Path) -> bool:
+    """Whether a movie file decodes to its end: a GIF's frames up to its trailer, an MP4's index
+    (written last) and every frame."""
+    if path.suffix == ".gif":
+        from PIL import Image
+
+        try:
+            with Image.open(path) as im:
+                for k in range(im.n_frames):
+                    im.seek(k)
+                    im.load()
+        except (OSError, ValueError, EOFError):
+            return False
+        return path.read_bytes().endswith(b";")
+    import imageio_ffmpeg
+
+    try:
+        return imageio_ffmpeg.count_frames_and_secs(str(path))[0] > 0
+    except (RuntimeError, OSError):
+        return False
+
+
 def interrupt_once(cmd: InterruptedCommand, project: Path, inputs: Path, out: Path, index: int,
                    delay: float) -> Outcome:
     before = units(project)
@@ -124,9 +151,13 @@ def interrupt_once(cmd: InterruptedCommand, project: Path, inputs: Path, out: Pa
     if "Traceback" in err:
         res.problems.append("traceback")
     left = [p.name for p in project.parent.glob(f".{project.name}.odsuite-tmp-*")] + \
-        [p.name for p in out.glob("odsuite-movie-*")]
+        [p.name for p in out.glob("odsuite-movie-*")] + [p.name for p in out.glob(".*.odsuite-out-*")]
     if left:
         res.problems.append(f"left behind: {left}")
+    # an interrupt after the movie was complete may leave it; never a part of one
+    partial = [p.name for p in out.glob("m.*") if not _complete_movie(p)]
+    if partial:
+        res.problems.append(f"a partial output: {partial}")
     after = units(project)
     changed = sorted(k for k in set(before) | set(after) if before.get(k) != after.get(k))
     if proc.returncode == 0:
@@ -158,7 +189,7 @@ def run_interrupts(work: Path, runs: int, seed_value: int = 0,
         run_dir = work / f"run{k}"
         run_dir.mkdir()
         project = run_dir / "p.h5"
-        shutil.copyfile(processed if cmd.name == "render" else master, project)
+        shutil.copyfile(processed if cmd.name.startswith("render") else master, project)
         outcomes.append(interrupt_once(cmd, project, inputs, run_dir, k, rng.uniform(*cmd.window)))
         shutil.rmtree(run_dir)
     return outcomes

@@ -1,7 +1,7 @@
 """Red team: hostile names, paths, numbers and damaged files across every command and file format,
 each run through ``odsuite.cli.main`` in this process.
 
-A try fails when ``main`` raises (a traceback), runs longer than ``TRY_TIMEOUT`` (a hang), exits 1
+A try fails when ``main`` raises (a traceback), runs longer than ``try_limit()`` (a hang), exits 1
 without exactly one ``error:`` line on stderr, or exits non-zero after changing any file of its
 folder (the project, its inputs, anything else); and, whatever its exit code, when it changed a
 link or a user's file planted at one of the project's sidecar names, or left a lock file or working
@@ -34,7 +34,14 @@ if __package__ in (None, ""):
 from tests.reliability.harness import TABLE_E3, legacy_volts  # noqa: E402
 from tests.reliability.test_bad_input import CTR_TEXT, LVM_TEXT, RIG_TOML, dat_text  # noqa: E402
 
-TRY_TIMEOUT = 60  # s; a try still running then is a hang
+TRY_TIMEOUT = 60  # s on an idle machine; a try still running then is a hang (the longest take ~10 s)
+
+
+def try_limit() -> int:
+    """``TRY_TIMEOUT`` stretched by the load per core: on a machine shared by 20 runnable processes
+    a 120-frame render took 65 s (11 s of CPU). A blocked try (a pipe read) outlasts any limit."""
+    per_core = os.getloadavg()[0] / (os.cpu_count() or 1) if hasattr(os, "getloadavg") else 1.0
+    return int(TRY_TIMEOUT * max(1.0, per_core))
 
 NAMES = ["[/x]", "[red]", "x\udcff", "a\nb", "\x1b[31mred", "", " ", ".hidden", "a/b", "é²Ω", "x" * 5000, "-",
          "nan", "e1\t"]
@@ -167,6 +174,15 @@ def tries(rng: random.Random) -> list[tuple[str, Callable[[Path], list[str]], di
                 {"\0setup": setup})
         for free in (0, 200_000, 1_000_000, 2_000_000):
             add(f"{label} with {free / 1e6:g} MB free", lambda d, w=writer: w(d, "p.h5"), {"\0setup": _full_disk(free)})
+    for label, writer, name in OUTPUTS:  # output files on a full disk, over a user's file, through a link
+        first = (_processed,) if label.startswith(("render", "export-legacy")) else ()
+        for free in (0, 1_000_000, 5_000_000):  # none, under and over the 1 MiB reserve
+            add(f"{label} with {free / 1e6:g} MB free", lambda d, w=writer, n=name: w(d, n),
+                {"\0setup": _in_turn(*first, _full_disk(free))})
+        add(f"{label} over a user's file on a full disk", lambda d, w=writer, n=name: w(d, n),
+            {name: b"a user's older file\n", "\0setup": _in_turn(*first, _full_disk(0))})
+        add(f"{label} through a link to a user's file", lambda d, w=writer, n=name: w(d, n),
+            {"target.txt": b"a user's older file\n", "\0setup": _in_turn(*first, _plant(name, link_to="target.txt"))})
     for k in range(20):  # UFF files whose counts were changed, on top of the damaged ones above
         add(f"uff count changed #{k}", lambda d: ["import-uff", str(d / "p.h5"), str(d / "bad.uff"), "--name", "n", "--force-channel", "force"],
             {"bad.uff": b"\0count"})
@@ -188,12 +204,39 @@ WRITERS: tuple[tuple[str, Callable[[Path, str], list[str]]], ...] = (
 )
 
 
+#: Every command that writes an output file: (label, argv from the folder and the output's name, a name).
+OUTPUTS: tuple[tuple[str, Callable[[Path, str], list[str]], str], ...] = (
+    ("export-legacy --cod", lambda d, o: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d / o)], "o.COD"),
+    ("export-uff -o", lambda d, o: ["export-uff", str(d / "p.h5"), "e1", "-o", str(d / o)], "o.uff"),
+    ("history --figure", lambda d, o: ["history", str(d / "p.h5"), "--figure", str(d / o)], "h.png"),
+    ("render -o", lambda d, o: ["render", str(d / "p.h5"), "e1", "-o", str(d / o), "--frame-step", "64"], "m.gif"),
+    ("frf --figure", lambda d, o: ["frf", str(d / "p.h5"), "--experiment", "e1", "--figure", str(d / o)], "f.png"),
+    ("modes --figure", lambda d, o: ["modes", str(d / "p.h5"), "--experiment", "e1", "--figure", str(d / o)], "g.svg"),
+)
+
+
 def _plant(name: str, content: bytes | None = None, link_to: str | None = None):
     def setup(d: Path):
         if link_to is not None:
             (d / name).symlink_to(d / link_to)
         else:
             (d / name).write_bytes(content)
+    return setup
+
+
+def _processed(d: Path) -> None:
+    """e1 processed (generalized coordinates to export and render)."""
+    from odsuite.cli import main
+
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        if main(["process", str(d / "p.h5"), "--experiment", "e1"]) != 0:
+            raise RuntimeError("processing e1 failed")
+
+
+def _in_turn(*setups: Callable[[Path], object]) -> Callable[[Path], object]:
+    """Several setups one after the other; the undo of the last."""
+    def setup(d: Path):
+        return [s(d) for s in setups][-1]
     return setup
 
 
@@ -281,7 +324,7 @@ def run_try(label: str, argv_of: Callable[[Path], list[str]], files: dict[str, b
     planted = {p.name: _state(p) for p in d.iterdir() if ".odsuite-" in p.name or p.is_symlink() or "victim" in p.name}
     out, err = io.StringIO(), io.StringIO()
     previous = signal.signal(signal.SIGALRM, _alarm)
-    signal.alarm(TRY_TIMEOUT)
+    signal.alarm(try_limit())
     try:
         with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
             t.code = main(argv)

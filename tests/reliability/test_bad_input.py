@@ -181,6 +181,22 @@ def _uff_on_rig(d: Path, how: str):
     return import_uff(d / "r.h5", d / "r.uff", "new", force_point=np.zeros(3), force_dir=np.array([0.0, 0.0, 1.0]))
 
 
+def _full_disk_export(d: Path, free: int):
+    """Export e1 as UFF while the output's disk reports ``free`` bytes free (API, patched disk_usage);
+    nothing of the output may be left."""
+    import collections
+    from unittest import mock
+
+    from odsuite.core.uff_project import export_uff
+
+    usage = collections.namedtuple("usage", "total used free")(10**9, 10**9 - free, free)
+    try:
+        with mock.patch("odsuite.core.diskspace.shutil.disk_usage", return_value=usage):
+            export_uff(d / "p.h5", d / "o.uff", "e1")
+    finally:
+        assert [p.name for p in d.iterdir() if "o." in p.name] == []
+
+
 def _uff_undefined_cs(d: Path):
     import pyuff
 
@@ -421,6 +437,7 @@ CASES: list[Case] = [
     Case("project-hard-link", "acquire into a project that has a second hard link", "{dir}/p.h5: project has 2 hard links (names of one file), which a write would split; keep one name or give each a copy (cp) to change it",
          argv=lambda d: (os.link(d / "p.h5", d / "p2.h5"), ["acquire", str(d / "p.h5"), "--name", "n", "--samples", "1024", "--pretrigger", "100"])[1]),
     Case("disk-full", "add an experiment with 0.3 MB free on the project's disk (API)", "{dir}/p.h5: no space left on", call=lambda d: _full_disk_acquire(d, 300_000)),
+    Case("output-disk-full", "export-uff -o with 0.3 MB free on the output's disk (API)", "{dir}/o.uff: no space left on", call=lambda d: _full_disk_export(d, 300_000)),
     Case("history-figure-suffix", "history --figure h.txt", "--figure {dir}/h.txt: suffix '.txt' is not .png, .svg or .pdf", argv=lambda d: ["history", str(d / "p.h5"), "--figure", str(d / "h.txt")]),
 ]
 

@@ -107,14 +107,53 @@ def test_enospc_raised_by_the_write_itself(project, capsys, monkeypatch, where):
     _assert_refused(project, before, capsys)
 
 
+def _half_write(path, data):
+    """A write that stops half-way on a full disk."""
+    with open(path, "wb") as fh:
+        fh.write(data[:len(data) // 2])
+    _enospc()
+
+
 def test_an_output_file_on_a_full_disk_is_one_line(project, tmp_path, capsys, monkeypatch):
+    """The disk fills while the output is written: one line, nothing of it left, an older file
+    of that name as it was."""
     assert main(["process", str(project)]) == 0
     capsys.readouterr()
     out = tmp_path / "s1.COD"
-    monkeypatch.setattr("pathlib.Path.write_text", _enospc)
-    assert main(["export-legacy", str(project), "s1", "--cod", str(out)]) == 1
+    assert main(["export-legacy", str(project), "s1", "--cod", str(out)]) == 0
+    cod = out.read_bytes()
+    capsys.readouterr()
+    out.unlink()
+    for existing in (False, True):
+        if existing:
+            out.write_bytes(b"an older file\n")
+        monkeypatch.setattr("pathlib.Path.write_bytes", lambda self, data: _half_write(self, data))
+        assert main(["export-legacy", str(project), "s1", "--cod", str(out)]) == 1
+        monkeypatch.undo()
+        err = capsys.readouterr().err.strip()
+        needed = (len(cod) + diskspace.METADATA_RESERVE) / 1e6
+        assert re.fullmatch(rf"error: {out}: no space left on \S+: needed ~{needed:.1f} MB; nothing written", err), err
+        assert sorted(p.name for p in tmp_path.iterdir() if "COD" in p.name) == (["s1.COD"] if existing else [])
+        assert not existing or out.read_bytes() == b"an older file\n"
+
+
+@pytest.mark.parametrize("command", ["export-legacy", "export-uff", "history", "render"])
+def test_outputs_are_refused_before_writing_on_a_full_disk(project, tmp_path, capsys, monkeypatch, command):
+    """Too little room for an output: refused in one line before a byte is written."""
+    assert main(["process", str(project)]) == 0
+    out = tmp_path / "o"
+    argv = {"export-legacy": ["export-legacy", str(project), "s1", "--cod", f"{out}.COD"],
+            "export-uff": ["export-uff", str(project), "s1", "-o", f"{out}.uff"],
+            "history": ["history", str(project), "--figure", f"{out}.png"],
+            "render": ["render", str(project), "s1", "-o", f"{out}.gif", "--frame-step", "64"]}[command]
+    capsys.readouterr()
+    usage = collections.namedtuple("usage", "total used free")
+    monkeypatch.setattr(diskspace.shutil, "disk_usage", lambda p: usage(1 << 30, (1 << 30) - 500_000, 500_000))
+    assert main(argv) == 1
     err = capsys.readouterr().err.strip()
-    assert re.fullmatch(rf"error: {out}: no space left on \S+: needed ~1.0 MB; output incomplete", err), err
+    assert re.fullmatch(r"error: \S+: no space left on \S+: needed ~[0-9.]+ MB, 0.5 MB free; nothing written",
+                        err), err
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(("o.", ".o."))] == []
 
 
 needs_mount = pytest.mark.skipif(not can_mount(), reason="mounting a tmpfs needs root (mount -t tmpfs)")

@@ -3,7 +3,10 @@ cut short): every case ends in a valid result or an OdsuiteError, never another 
 and reading never changes the file.
 
 Each case runs in a forked worker process: a hang inside HDF5's C code cannot be interrupted from
-Python, so the parent waits ``CASE_TIMEOUT`` seconds, counts the case as a hang and replaces the worker.
+Python, so the parent waits a limit, counts the case as a hang and replaces the worker. The limit
+follows the machine: it is a multiple of a valid file's read time measured by the same worker, and a
+case that runs out of it is run again under a limit measured anew at that moment (a loaded machine
+slows every read alike; an endless loop runs out of any limit).
 ``FUZZ_EXAMPLES`` sets the cases per reader (default 200; ``make fuzz`` runs 10 000 and prints the
 outcome counts); ``FUZZ_SEED`` draws other cases than the fixed default sequence; ``FUZZ_KEEP``
 names a directory where failing cases are saved.
@@ -13,6 +16,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import time
 import traceback
 from collections import Counter
 from pathlib import Path
@@ -26,7 +30,11 @@ from odsuite.core.errors import OdsuiteError
 from tests.reliability.harness import TABLE_E3, legacy_volts
 
 EXAMPLES = int(os.environ.get("FUZZ_EXAMPLES", "200"))
-CASE_TIMEOUT = 10.0  # s per case: longer is a hang
+#: s per case at least: longer is a hang (or a loaded machine, see ``Limits``)
+CASE_TIMEOUT = 10.0
+#: A corrupted file takes at most this many times a valid one's read time before it counts as a
+#: hang: damage makes readers stop early or check more, not loop (valid reads take 1 ms to 1 s).
+SLOWDOWN = 20.0
 SEED = os.environ.get("FUZZ_SEED")
 FUZZ = settings(max_examples=EXAMPLES, deadline=None, derandomize=SEED is None, database=None,
                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow,
@@ -34,8 +42,12 @@ FUZZ = settings(max_examples=EXAMPLES, deadline=None, derandomize=SEED is None, 
 
 
 def _serve(conn, read) -> None:
+    from odsuite.core import project_migration
+
     while True:
-        path = conn.recv()
+        path, timeout = conn.recv()
+        # a format-1.0.0 text migration ends in an error before the worker counts as a hang
+        project_migration.HEAP_TEXT_TIMEOUT = timeout / 3
         try:
             read(Path(path))
             conn.send(("valid", ""))
@@ -59,12 +71,12 @@ class Worker:
         self.proc.start()
         child.close()  # the worker's end: its death then reads as EOF here
 
-    def run(self, path: Path) -> tuple[str, str]:
-        """(outcome, message): outcome is "valid", an OdsuiteError class name, "other", "hang" or
-        "crash" (the worker died, e.g. a segfault in HDF5)."""
+    def run(self, path: Path, timeout: float) -> tuple[str, str]:
+        """(outcome, message) within ``timeout`` s: outcome is "valid", an OdsuiteError class name,
+        "other", "hang" or "crash" (the worker died, e.g. a segfault in HDF5)."""
         try:
-            self.conn.send(str(path))
-            if self.conn.poll(CASE_TIMEOUT):
+            self.conn.send((str(path), timeout))
+            if self.conn.poll(timeout):
                 return self.conn.recv()
             outcome = "hang"
         except (EOFError, OSError):  # the worker died
@@ -78,6 +90,39 @@ class Worker:
     def close(self) -> None:
         self.proc.kill()
         self.proc.join()
+
+
+def _timed_out(outcome: str, message: str) -> bool:
+    return outcome == "hang" or "did not finish within" in message
+
+
+class Limits:
+    """The time limit of a case: ``SLOWDOWN`` times a valid file's read in the same worker, measured
+    now (at least ``CASE_TIMEOUT``)."""
+
+    def __init__(self, worker: Worker, valid: Path) -> None:
+        self.worker, self.valid = worker, valid
+        self.limit = CASE_TIMEOUT
+        self.measure()
+
+    def measure(self) -> float:
+        """Time a valid read; the new limit (s)."""
+        start = time.perf_counter()
+        outcome, message = self.worker.run(self.valid, 10 * self.limit)
+        took = time.perf_counter() - start
+        assert outcome == "valid", f"the calibration file did not read back valid: {outcome}: {message}"
+        self.limit = max(CASE_TIMEOUT, SLOWDOWN * took)
+        return self.limit
+
+    def run(self, path: Path) -> tuple[str, str]:
+        """A case's outcome; one that ran out of time is run again under a limit measured anew, and
+        counts as a hang only if it runs out of that one too."""
+        outcome, message = self.worker.run(path, self.limit)
+        if _timed_out(outcome, message):
+            before = self.limit
+            self.measure()
+            outcome, message = self.worker.run(path, max(self.limit, before))
+        return outcome, message
 
 
 @st.composite
@@ -179,23 +224,23 @@ FROZEN_1_0_0 = Path(__file__).resolve().parents[1] / "data" / "back_compat" / "p
 
 @pytest.mark.filterwarnings("ignore::odsuite.core.errors.OdsuiteWarning")
 @pytest.mark.parametrize("reader", list(READERS))
-def test_corrupted_bytes_end_in_a_result_or_an_odsuite_error(reader, tmp_path, monkeypatch):
-    from odsuite.core import project_migration
-
-    monkeypatch.setattr(project_migration, "HEAP_TEXT_TIMEOUT", CASE_TIMEOUT / 3)  # an error, before the worker is a hang
+def test_corrupted_bytes_end_in_a_result_or_an_odsuite_error(reader, tmp_path):
     read, make_bases, name = READERS[reader]
     bases = make_bases(tmp_path)
     for base in bases:  # the unmutated files are valid
         (tmp_path / name).write_bytes(base)
         read(tmp_path / name)
+    valid = tmp_path / f"valid{Path(name).suffix}"
+    valid.write_bytes(bases[0])
     worker, counts, failures = Worker(read), Counter(), []
+    limits = Limits(worker, valid)
 
     @settings(FUZZ, max_examples=max(EXAMPLES // 20, 5) if reader in SLOW else EXAMPLES)
     @given(corrupted(bases))
     def case(data):
         path = tmp_path / name
         path.write_bytes(data)
-        outcome, message = worker.run(path)
+        outcome, message = limits.run(path)
         counts[outcome] += 1
         bad = outcome in ("other", "hang", "crash") or "\n" in message
         if path.read_bytes() != data:

@@ -22,3 +22,42 @@ def test_thirty_two_interrupts(tmp_path):
     assert [o.problems for o in outcomes] == [[]] * 32, summary(outcomes)
     # most runs are really interrupted, not finished before the signal
     assert sum(o.code == 130 for o in outcomes) >= 24, summary(outcomes)
+
+
+def test_a_held_interrupt_reaches_the_handler_when_the_block_ends():
+    """interrupts_held: a SIGINT inside the block runs the handler in place only after the block
+    (a VTK call is never left by an exception), once; nothing held, nothing raised."""
+    import signal
+
+    from odsuite.core.storage import interrupts_held
+
+    calls = []
+
+    def handler(signum, frame):
+        calls.append("handler")
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGINT, handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            with interrupts_held():
+                signal.raise_signal(signal.SIGINT)
+                calls.append("rest of the block")
+        assert calls == ["rest of the block", "handler"]
+        with interrupts_held():
+            calls.append("quiet block")
+        assert calls[-1] == "quiet block" and signal.getsignal(signal.SIGINT) is handler
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def test_the_interrupt_line_imports_nothing_heavy():
+    """A Ctrl-C that cuts numpy's import short makes any later import of numpy fail ("cannot load
+    module more than once"): the line printed then must not import storage, h5py or numpy."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from odsuite import cli; print(cli._ledger.line()); "
+            "print(sorted(m for m in ('numpy', 'h5py', 'odsuite.core.storage') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.splitlines() == ["interrupted: nothing stored", "[]"]

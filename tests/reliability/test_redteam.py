@@ -1,6 +1,6 @@
 """The red team (see redteam.py): no traceback, no hang, one error line, no file changed by a
 failing command, no link or user file touched, no sidecar left. Every 12th try in the default run;
-all of them (791) behind the slow marker."""
+all of them (821) behind the slow marker."""
 
 from __future__ import annotations
 
