@@ -143,10 +143,16 @@ def sampled_later(y: np.ndarray, fs: float, delays) -> np.ndarray:
     sampled ``delays[k]`` seconds later: a phase shift exp(j w tau) of its spectrum, zero-padded to
     twice its length so that nothing wraps around (exact for band-limited signals)."""
     n = y.shape[0]
-    spec = np.fft.rfft(y, n=2 * n, axis=0)
+    delays = np.asarray(delays, float)
+    # columns sampled on time are left as they are (not through the transform's round-off): a
+    # channel's delay then changes that channel alone
+    moved = np.flatnonzero(delays)
+    out = np.array(y, dtype=float)
+    spec = np.fft.rfft(out[:, moved], n=2 * n, axis=0)
     w = 2 * np.pi * np.fft.rfftfreq(2 * n, 1.0 / fs)
-    spec *= np.exp(1j * np.outer(w, np.asarray(delays, float)))
-    return np.fft.irfft(spec, n=2 * n, axis=0)[:n]
+    spec *= np.exp(1j * np.outer(w, delays[moved]))
+    out[:, moved] = np.fft.irfft(spec, n=2 * n, axis=0)[:n]
+    return out
 
 
 #: steps per sample of the nonlinear integration (second order in the step): at 20 kHz with modes
