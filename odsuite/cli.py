@@ -923,8 +923,8 @@ def diagnose_cmd(
     project: Path = typer.Argument(..., help="Project file."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
     effect: list[str] = typer.Option(None, "--effect", help="Try only these effects (repeatable)."),
-    workers: int = typer.Option(1, "--workers", min=1, help="Threads that screen and fit candidates (the result "
-                                "does not depend on it; two threads gain little where the fits hold Python's lock)."),
+    workers: int = typer.Option(None, "--workers", min=1, help="Processes that screen and fit candidates (default: "
+                                "one per core, at most 2 for a few dozen candidates; the result does not depend on it)."),
 ) -> None:
     """Rank every registered physical effect by the error it removes (validated), best first."""
     from odsuite.core.diagnosis import diagnose

@@ -15,13 +15,17 @@ what is left and one paragraph to act on (:mod:`odsuite.core.verdict`).
 
 from __future__ import annotations
 
+import itertools
 import math
+import multiprocessing
+import os
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field, replace
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from odsuite.core import checks
 from odsuite.core.comparison import residual_peaks
@@ -294,17 +298,65 @@ class _InOrder:
     def __exit__(self, *exc: object) -> None:
         return None
 
-    def map(self, fn: Callable, items) -> Any:
-        return map(fn, items)
+    def map(self, fn: Callable, *items) -> Any:
+        return map(fn, *items)
 
     def submit(self, fn: Callable, *args: Any) -> _Deferred:
         return _Deferred(fn, args)
 
 
-def _own_copies(exps: Sequence[PreparedExperiment]) -> list[PreparedExperiment]:
-    """Shallow copies with an empty simulation cache: a candidate running in its own thread must
-    not see another thread's cache entry change between its check and its use."""
-    return [replace(e, _cache=None) for e in exps]
+def default_workers(n_candidates: int) -> int:
+    """As many worker processes as cores, at most 2 for a handful of candidates (a pool's start
+    and the fits' transfer cost more than a third process gains there) and never more than there
+    are candidates."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return max(1, min(cores, n_candidates, 2 if n_candidates <= SMALL_JOB else cores))
+
+
+#: up to this many candidates a diagnosis is a small job (default_workers)
+SMALL_JOB = 32
+
+#: what a diagnosis's worker processes need, keyed by a token per call: filled before the pool
+#: forks, so the processes inherit it (models hold the effects' shape functions, which do not
+#: pickle) and only effect names, starts and fitted numbers travel
+_JOBS: dict[int, dict[str, Any]] = {}
+_TOKENS = itertools.count()
+
+
+def _worker_start() -> None:
+    # one BLAS thread per process: the processes share the cores, and a BLAS pool per process
+    # would spin against the other process's work
+    threadpool_limits(1)
+
+
+def _problem(job: Mapping[str, Any], name: str, fixed: Mapping[str, float] | None = None) -> Problem:
+    problem = Problem(job["base"], job["effects"].get(name), job["windows"], prior=job["prior"] / job["stride"],
+                      stride=job["stride"], full=job["exps"])
+    return problem.derived(fixed) if fixed else problem
+
+
+def _screen_job(token: int, name: str) -> tuple[dict[str, float], np.ndarray, float, int] | None:
+    """Screen one candidate: its discrete choices, start, sum of squares and evaluations."""
+    job = _JOBS[token]
+    try:
+        problem = _problem(job, name)
+    except ConfigError:
+        return None  # the effect does not apply to this rig (e.g. no base plate)
+    s = screen(problem, job["sse0_win"], job["peak_hz"])
+    return s.fixed, s.u0, s.sse, problem.evaluations + (s.problem.evaluations if s.problem is not problem else 0)
+
+
+def _fit_job(token: int, name: str, fixed: Mapping[str, float], u0: np.ndarray, sse: float
+             ) -> tuple[Candidate, dict[str, float], int]:
+    """Fit one screened candidate; the candidate without its problem (rebuilt by the caller from
+    the values it was fitted with), those values and the evaluations."""
+    job = _JOBS[token]
+    problem = _problem(job, name, fixed)
+    cand = _fit_candidate(Screened(problem.effect, dict(fixed), u0, sse, problem), job["windows"], job["sse0"],
+                          job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
+                          job["modes_before"], job["tail0"], job["force_levels"])
+    p = cand.__dict__.pop("_problem")
+    return cand, p.fixed, p.evaluations
 
 
 def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequence[str] | None = None,
@@ -312,9 +364,9 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
              prepared: Sequence[PreparedExperiment] | None = None, workers: int | None = None) -> Diagnosis:
     """Rank every registered effect (or ``effects``) by how much of the model's error it explains.
 
-    Candidates are screened and fitted on ``workers`` threads (default 1: one after another).
-    Each candidate's work is independent of the others' and runs in the same order of operations,
-    so the result does not depend on ``workers``."""
+    Candidates are screened and fitted on ``workers`` processes (default: default_workers; 1: one
+    after another in this process). Each candidate's work is independent of the others' and runs
+    in the same order of operations, so the result does not depend on ``workers``."""
     from odsuite.core.comparison import compare
     from odsuite.core.plugins import registries
 
@@ -355,70 +407,75 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     rigidity = float(np.median(rig_vals)) if rig_vals else None
     modes_before = list(base.shared.modes().frequency_hz)
 
-    # one thread by default: on 2 cores, 2 threads took 0.8-1.2x the serial time (bench_batch.py),
-    # as each model evaluation's Python work holds the GIL; many projects scale through `batch`
-    threads = workers or 1
-    parallel = threads > 1
-
-    def screen_one(name: str) -> tuple[Screened, int] | None:
-        own_windows, own_exps = (_own_copies(windows), _own_copies(exps)) if parallel else (windows, exps)
-        try:
-            problem = Problem(base, regs.effects.get(name), own_windows, prior=prior / stride, stride=stride,
-                              full=own_exps)
-        except ConfigError:
-            return None  # the effect does not apply to this rig (e.g. no base plate)
-        s = screen(problem, sse0_win, peak_hz)
-        return s, problem.evaluations + (s.problem.evaluations if s.problem is not problem else 0)
-
-    def fit_one(s: Screened) -> Candidate:
-        return _fit_candidate(s, windows, sse0, den, n_eff, noise, peaks, rigidity, modes_before, tail0,
-                              force_levels)
-
+    # candidates go to forked processes, each with one BLAS thread (where the platform cannot fork,
+    # one after another): they inherit the records and models, and only effect names, starts and
+    # fitted numbers travel. On 2 cores BLAS threads mostly wait for each other on these small
+    # products (CPU time 1.7x the wall time): a process per core uses them better
+    workers = workers or default_workers(len(names))
+    # a daemonic process (a batch's worker) may not start processes of its own
+    parallel = (workers > 1 and "fork" in multiprocessing.get_all_start_methods()
+                and not multiprocessing.current_process().daemon)
+    token = next(_TOKENS)
+    _JOBS[token] = {"base": base, "effects": regs.effects, "windows": windows, "exps": exps, "prior": prior,
+                    "stride": stride, "sse0_win": sse0_win, "peak_hz": peak_hz, "sse0": sse0, "den": den,
+                    "n_eff": n_eff, "noise": noise, "peaks": peaks, "rigidity": rigidity,
+                    "modes_before": modes_before, "tail0": tail0, "force_levels": force_levels}
+    job = _JOBS[token]
     screened: list[Screened] = []
     evaluations = 0
-    # the candidates are independent: numpy and scipy release the GIL in much of their work
-    with ThreadPoolExecutor(max_workers=threads) if parallel else _InOrder() as pool:
-        for i, (name, done) in enumerate(zip(names, pool.map(screen_one, names))):
-            if progress:
-                progress(f"screening {name}", i, len(names))
-            if done is not None:
-                screened.append(done[0])
-                evaluations += done[1]
-        screened.sort(key=lambda s: s.sse)
-        candidates: list[Candidate] = []
-        top = screened[:full_fits]
-        best_win = sse0_win
-        fitted = []
+    pool = (ProcessPoolExecutor(workers, multiprocessing.get_context("fork"), initializer=_worker_start)
+            if parallel else _InOrder())
+    try:
+        # one BLAS thread here too: a product's rounding may depend on the threads that share it,
+        # and the result must not depend on ``workers``
+        with pool, threadpool_limits(1):
+            for i, (name, done) in enumerate(zip(names, pool.map(_screen_job, [token] * len(names), names))):
+                if progress:
+                    progress(f"screening {name}", i, len(names))
+                if done is not None:
+                    fixed, u0, sse, count = done
+                    problem = _problem(job, name, fixed)
+                    screened.append(Screened(problem.effect, fixed, u0, sse, problem))
+                    evaluations += count
+            screened.sort(key=lambda s: s.sse)
+            candidates: list[Candidate] = []
+            top = screened[:full_fits]
+            best_win = sse0_win
+            fitted = []
 
-        def skipped(k: int) -> bool:
-            # a candidate whose screening took up less than half of what the best fit so far
-            # explains cannot compete: screening only ranks it. best_win only falls, so a
-            # candidate skipped before the fits ahead of it have finished stays skipped
-            return k > 0 and top[k].sse > best_win + 0.5 * (sse0_win - best_win)
+            def skipped(k: int) -> bool:
+                # a candidate whose screening took up less than half of what the best fit so far
+                # explains cannot compete: screening only ranks it. best_win only falls, so a
+                # candidate skipped before the fits ahead of it have finished stays skipped
+                return k > 0 and top[k].sse > best_win + 0.5 * (sse0_win - best_win)
 
-        jobs: dict[int, Any] = {}
-        queued = 0
-        for i, s in enumerate(top):
-            while queued < min(len(top), i + threads):  # keep the pool's threads busy ahead of i
-                if not skipped(queued):
-                    jobs[queued] = pool.submit(fit_one, top[queued])
-                queued += 1
-            if i not in jobs or skipped(i):
-                if i in jobs:
-                    jobs[i].cancel()
-                continue
-            fitted.append(s)
-            if progress:
-                progress(f"fitting {s.effect.name}", i, len(top))
-            cand = jobs[i].result()
-            best_win = min(best_win, cand._sse_win)
-            evaluations += cand._problem.evaluations
-            cand.gain_threshold = checks.gain_threshold(scale, cand.n_parameters)
-            cand.significant = is_significant(sse0, cand.validated_error**2 * den, cand.gain_threshold)
-            words = _checks_words(cand)
-            if words:
-                cand.evidence += "; " + words
-            candidates.append(cand)
+            jobs: dict[int, Any] = {}
+            queued = 0
+            for i, s in enumerate(top):
+                while queued < min(len(top), i + (workers if parallel else 1)):  # the pool busy ahead of i
+                    if not skipped(queued):
+                        t = top[queued]
+                        jobs[queued] = pool.submit(_fit_job, token, t.effect.name, t.fixed, t.u0, t.sse)
+                    queued += 1
+                if i not in jobs or skipped(i):
+                    if i in jobs:
+                        jobs[i].cancel()
+                    continue
+                fitted.append(s)
+                if progress:
+                    progress(f"fitting {s.effect.name}", i, len(top))
+                cand, fixed, count = jobs[i].result()
+                cand._problem = _problem(job, s.effect.name, fixed)
+                best_win = min(best_win, cand._sse_win)
+                evaluations += count
+                cand.gain_threshold = checks.gain_threshold(scale, cand.n_parameters)
+                cand.significant = is_significant(sse0, cand.validated_error**2 * den, cand.gain_threshold)
+                words = _checks_words(cand)
+                if words:
+                    cand.evidence += "; " + words
+                candidates.append(cand)
+    finally:
+        _JOBS.pop(token)
     for s in screened:
         if any(s is f for f in fitted):
             continue

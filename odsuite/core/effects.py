@@ -56,7 +56,9 @@ class Parameter:
     """One effect parameter. ``choices`` marks a discrete parameter (e.g. polarity +1/-1);
     ``plausible`` (low, high) its physically plausible range (None: the bounds).
     ``starts`` are values the screening tries besides the nominal (global starts for angles and
-    frequencies, whose error surface has local minima)."""
+    frequencies, whose error surface has local minima). ``sensor`` names the one sensor whose
+    prediction the parameter alone changes (a gain, a tilt): the screening's finite differences
+    then move the parameters of different sensors in one evaluation."""
 
     name: str
     unit: str
@@ -68,6 +70,7 @@ class Parameter:
     choices: tuple[float, ...] | None = None
     plausible: tuple[float, float] | None = None
     starts: tuple[float, ...] | None = None
+    sensor: str | None = None
 
     def as_dict(self) -> dict:
         return {"name": self.name, "unit": self.unit, "nominal": self.nominal, "lower": self.lower,

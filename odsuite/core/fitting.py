@@ -237,17 +237,54 @@ class Problem:
         out._base_predictions = self._base_predictions  # the same base model: share its predictions
         return out
 
-    def jacobian(self, u: np.ndarray, r0: np.ndarray, **kw) -> np.ndarray:
-        J = np.empty((r0.size, len(self.free)))
+    def jacobian(self, u: np.ndarray, r0: np.ndarray, exps: Sequence[PreparedExperiment] | None = None
+                 ) -> np.ndarray:
+        """Forward differences of the residual on ``exps``. Parameters that change one sensor's
+        prediction alone (``Parameter.sensor``) are moved together with those of other sensors,
+        each column taken from its own sensor's rows: the same numbers in fewer evaluations."""
+        J = np.zeros((r0.size, len(self.free)))
+        steps = np.zeros(len(self.free))
         for i, f in enumerate(self.free):
             lo, hi = f.bounds
             h = 1.0 if u[i] + 1.0 <= hi else -1.0
             if not lo <= u[i] + h <= hi:
                 h = 0.5 * (hi - u[i]) if hi - u[i] > u[i] - lo else -0.5 * (u[i] - lo)
+            steps[i] = h
+        batches, sensor_of_row = self._sensor_batches(exps or self.exps)
+        for batch in batches:
+            batch = [i for i in batch if steps[i]]
+            if not batch:
+                continue
             du = np.zeros_like(u)
-            du[i] = h
-            J[:, i] = -(self.residual(u + du, **kw) - r0) / h if h else 0.0
+            du[batch] = steps[batch]
+            diff = self.residual(u + du, exps) - r0
+            if len(batch) == 1:
+                J[:, batch[0]] = -diff / steps[batch[0]]
+                continue
+            for i in batch:
+                rows = sensor_of_row == self.free[i].param.sensor
+                J[rows, i] = -diff[rows] / steps[i]
         return J
+
+    def _sensor_batches(self, exps: Sequence[PreparedExperiment]) -> tuple[list[list[int]], np.ndarray | None]:
+        """Groups of free parameters that one evaluation can difference (at most one per sensor,
+        shared ones of sensors every experiment records), and each residual row's sensor."""
+        local = [i for i, f in enumerate(self.free) if f.param.sensor is not None and f.experiment is None
+                 and all(f.param.sensor in {s.name for s in e.sensors} for e in exps)]
+        if len(local) < 2:
+            return [[i] for i in range(len(self.free))], None
+        batches: list[list[int]] = []
+        for i in local:  # the first group without this parameter's sensor
+            slot = next((b for b in batches if all(self.free[j].param.sensor != self.free[i].param.sensor
+                                                   for j in b)), None)
+            if slot is None:
+                batches.append([i])
+            else:
+                slot.append(i)
+        batches += [[i] for i in range(len(self.free)) if i not in local]
+        names = [np.tile(np.array([s.name for s in e.sensors], dtype=object), len(range(0, e.n_samples, self.stride)))
+                 for e in exps]
+        return batches, np.concatenate(names)
 
     def zero(self) -> np.ndarray:
         return np.zeros(len(self.free))
@@ -334,12 +371,16 @@ def _sweep(problem: Problem, u: np.ndarray, exps, peaks_hz: Sequence[float]) -> 
     to each of them in turn, frequencies also to the residual's peaks, keeping a value whenever it
     lowers the error on ``exps``; parameters are swept one after another (coordinate-wise), so
     the cost is the number of starts, not their product."""
+    swept = [i for i, f in enumerate(problem.free) if f.param.starts and f.experiment is None]
+    batches, sensor_of_row = problem._sensor_batches(exps)
+    if sensor_of_row is not None and all(problem.free[i].param.sensor is not None for i in swept):
+        return _sweep_sensors(problem, u, exps, peaks_hz, [[i for i in b if i in swept] for b in batches],
+                              sensor_of_row)
     best = u
     best_sse = float(np.sum(problem.residual(u, exps) ** 2))
-    for i, f in enumerate(problem.free):
+    for i in swept:
+        f = problem.free[i]
         p = f.param
-        if not p.starts or f.experiment is not None:
-            continue
         values = list(p.starts) + (list(peaks_hz) if p.unit == "Hz" else [])
         for c in values:
             if not p.lower <= c <= p.upper:
@@ -349,6 +390,38 @@ def _sweep(problem: Problem, u: np.ndarray, exps, peaks_hz: Sequence[float]) -> 
             sse = float(np.sum(problem.residual(trial, exps) ** 2))
             if sse < best_sse:
                 best, best_sse = trial, sse
+    return best
+
+
+def _sweep_sensors(problem: Problem, u: np.ndarray, exps, peaks_hz: Sequence[float], batches: list[list[int]],
+                   sensor_of_row: np.ndarray) -> np.ndarray:
+    """:func:`_sweep` of parameters that each change one sensor's prediction alone: the
+    parameters of different sensors are set to a start together, and each keeps it when its own
+    sensor's rows lower their error (the other sensors' rows cannot change the comparison)."""
+    best = u
+    r = problem.residual(u, exps)
+    rows = {name: sensor_of_row == name for name in {problem.free[i].param.sensor for b in batches for i in b}}
+    best_sse = {name: float(np.sum(r[m] ** 2)) for name, m in rows.items()}
+    for batch in batches:
+        values: list[list[float]] = []
+        for i in batch:
+            p = problem.free[i].param
+            values.append(list(p.starts) + (list(peaks_hz) if p.unit == "Hz" else []))
+        for k in range(max(map(len, values), default=0)):
+            moved = [(i, v[k]) for i, v in zip(batch, values)
+                     if k < len(v) and problem.free[i].param.lower <= v[k] <= problem.free[i].param.upper]
+            if not moved:
+                continue
+            trial = best.copy()
+            for i, c in moved:
+                trial[i] = (c - problem.free[i].param.nominal) / problem.free[i].scale
+            r = problem.residual(trial, exps)
+            for i, _ in moved:
+                name = problem.free[i].param.sensor
+                sse = float(np.sum(r[rows[name]] ** 2))
+                if sse < best_sse[name]:
+                    best = best.copy() if best is u else best
+                    best[i], best_sse[name] = trial[i], sse
     return best
 
 

@@ -363,12 +363,12 @@ def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "accelerati
     )
 
     inputs = _force_inputs(model, exp)
-    outputs = [Output.sensor(s, quantity) for s in exp.sensors]
     if quantity != "acceleration":
+        outputs = [Output.sensor(s, quantity) for s in exp.sensors]
         return simulate_state_space(model.state_space(inputs, outputs), exp.force, exp.fs, hold="foh")
     # a sensor's acceleration is its output row times the coordinates' accelerations q''
     st, chain = model.structure, model.chain
-    _, rows = model.output_rows(outputs)
+    rows = _sensor_rows(model, exp.sensors)
     n = st.n_dof
     if n > CACHED_COORDINATES and st.is_linear:  # many coordinates (finite elements): the sensors alone
         bf, _ = model.input_matrices(inputs)
@@ -403,6 +403,19 @@ def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "accelerati
     if any(delays):
         y = sampled_later(y, exp.fs, delays)
     return y
+
+
+def _sensor_rows(model, sensors: Sequence[Sensor]) -> np.ndarray:
+    """The sensors' acceleration rows of ``model`` (Model.output_rows), kept on the model: every
+    experiment of a fit evaluates one model, and the rows cost a few small products per sensor.
+    Keyed by the sensors' identities (the rig's objects, kept alive with the entry)."""
+    from odsuite.core.model import Output
+
+    key = tuple(map(id, sensors))
+    cache = model.__dict__.setdefault("_sensor_rows", {})
+    if key not in cache:
+        cache[key] = (tuple(sensors), model.output_rows([Output.sensor(s) for s in sensors])[1])
+    return cache[key][1]
 
 
 @functools.lru_cache(maxsize=256)

@@ -81,6 +81,7 @@ def simulate_state_space(ss: StateSpace, u, fs: float, hold: str = "zoh") -> np.
     x = lk * T
     p = np.exp(x)
     g0 = T * _phi(x, 1)
+    g1s = T * _phi(x, 2) if hold == "foh" else None  # all modes at once: a call per mode costs more
     # per (mode, input): the complex first-order recursion b(q)/(1 - p q^-1) run as two real
     # second-order filters (its real and imaginary parts, denominator |1 - p q^-1|^2) on the real
     # input; the modal input weight is folded into the output weights
@@ -91,7 +92,7 @@ def simulate_state_space(ss: StateSpace, u, fs: float, hold: str = "zoh") -> np.
         if hold == "zoh":
             b0, b1 = 0.0, g0[i]
         else:
-            g1 = T * _phi(x[i:i + 1], 2)[0]
+            g1 = g1s[i]
             b0, b1 = g1, g0[i] - g1
         pc = np.conj(p[i])
         num = np.array([b0, b1 - b0 * pc, -b1 * pc])
@@ -142,10 +143,16 @@ def sampled_later(y: np.ndarray, fs: float, delays) -> np.ndarray:
     sampled ``delays[k]`` seconds later: a phase shift exp(j w tau) of its spectrum, zero-padded to
     twice its length so that nothing wraps around (exact for band-limited signals)."""
     n = y.shape[0]
-    spec = np.fft.rfft(y, n=2 * n, axis=0)
+    delays = np.asarray(delays, float)
+    # columns sampled on time are left as they are (not through the transform's round-off): a
+    # channel's delay then changes that channel alone
+    moved = np.flatnonzero(delays)
+    out = np.array(y, dtype=float)
+    spec = np.fft.rfft(out[:, moved], n=2 * n, axis=0)
     w = 2 * np.pi * np.fft.rfftfreq(2 * n, 1.0 / fs)
-    spec *= np.exp(1j * np.outer(w, np.asarray(delays, float)))
-    return np.fft.irfft(spec, n=2 * n, axis=0)[:n]
+    spec *= np.exp(1j * np.outer(w, delays[moved]))
+    out[:, moved] = np.fft.irfft(spec, n=2 * n, axis=0)[:n]
+    return out
 
 
 #: steps per sample of the nonlinear integration (second order in the step): at 20 kHz with modes
@@ -199,20 +206,29 @@ def simulate_nonlinear_many(structure, drives, fs: float) -> list[np.ndarray]:
         for j in range(n):
             fine[i, :, j] = np.interp(grid, np.arange(longest), drive[i, :, j])
     linear = fine[:, :-1] @ start.T + fine[:, 1:] @ end.T  # the inputs' part of each step
-    x = np.zeros((len(records), 2 * n))
-    g = np.zeros((len(records), len(c)))
+    m = len(c)
+    # the state and the cubic force of a step's start side by side, so the step's linear part is
+    # one product; the inputs' part is mapped to element deflections once for every step (the
+    # loop's cost is numpy's per-call overhead: every operation saved counts)
+    xg = np.zeros((len(records), 2 * n + m))
     states = np.empty((steps, len(records), 2 * n))
-    states[0] = x
-    phi_t, start_pull_t, end_pull_t, Eq_t, end_deflection_t = phi.T, start_pull.T, end_pull.T, Eq.T, end_deflection.T
+    states[0] = 0.0
+    step_t = np.vstack([phi.T, -start_pull.T])
+    deflect_t = step_t @ Eq.T
+    linear_deflection = linear @ Eq.T
+    end_pull_t, end_deflection_t = end_pull.T, end_deflection.T
     for k in range(steps - 1):
-        base = x @ phi_t + linear[:, k] - g @ start_pull_t
-        d_base = base @ Eq_t
-        d = d_base - g @ end_deflection_t  # predictor: the cubic force held over the step
+        x = xg @ step_t
+        x += linear[:, k]
+        d_base = xg @ deflect_t
+        d_base += linear_deflection[:, k]
+        d = d_base - xg[:, 2 * n:] @ end_deflection_t  # predictor: the cubic force held over the step
         d = d_base - (c * d * d * d) @ end_deflection_t  # corrector: its value at the predicted end
         g_end = c * d * d * d
-        x = base - g_end @ end_pull_t
+        x -= g_end @ end_pull_t
         d = d_base - g_end @ end_deflection_t
-        g = c * d * d * d
+        xg[:, :2 * n] = x
+        xg[:, 2 * n:] = c * d * d * d
         states[k + 1] = x
     if not np.all(np.isfinite(states)):
         raise ConfigError("nonlinear simulation diverged (cubic springs too strong for this force)")

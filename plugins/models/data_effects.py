@@ -188,7 +188,8 @@ class ChannelDelay(Effect):
                               description="delay of each scanned channel after the previous one")]
         steps = (5e-6, 20e-6, 60e-6)
         return [Parameter(f"{s.name}_delay", "s", 0.0, -500e-6, 500e-6, starts=steps + tuple(-t for t in steps),
-                          description=f"sampling delay of sensor {s.name} (channel {s.channel}) after the force")
+                          description=f"sampling delay of sensor {s.name} (channel {s.channel}) after the force",
+                          sensor=s.name)  # it shifts that channel alone
                 for s in sensors]
 
     def _apply(self, model, v):

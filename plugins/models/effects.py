@@ -228,8 +228,9 @@ class PlateFlexibility(Effect):
         if self.shape == "kirchhoff":
             return common + [Parameter(n, "kg^-1/2", 0.0, -5.0, 5.0, description=f"{n} amplitude")
                              for n in ("twist", "bend_x", "bend_y")]
+        # a sensor's participation changes its own output row alone
         return common + [Parameter(f"phi_{s.name}", "kg^-1/2", 0.0, -5.0, 5.0,
-                                   description=f"participation at sensor {s.name} along its axis")
+                                   description=f"participation at sensor {s.name} along its axis", sensor=s.name)
                          for s in _sensors(model)] + [
             Parameter("phi_force", "kg^-1/2", 0.0, -5.0, 5.0, description="participation at the force points")]
 
@@ -269,8 +270,10 @@ class _PerSensor(Effect):
     plausible: tuple[float, float] | None = None
 
     def parameters(self, model):
+        # each changes its sensor's output row alone
         return [Parameter(f"{s.name}_{suffix}" if suffix else s.name, unit, nom, lo, hi,
-                          description=f"{text} of sensor {s.name} (channel {s.channel})", plausible=self.plausible)
+                          description=f"{text} of sensor {s.name} (channel {s.channel})", plausible=self.plausible,
+                          sensor=s.name)
                 for s in _sensors(model) for suffix, unit, nom, lo, hi, text in self.per_sensor]
 
 

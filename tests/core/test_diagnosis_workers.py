@@ -1,4 +1,4 @@
-"""Diagnosis on a thread pool: the same ranking and the same numbers as one candidate after another."""
+"""Diagnosis on worker processes: the same ranking and the same numbers as one candidate after another."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ def project(tmp_path_factory):
     return make_project(path, [("stiffness", {"scale_z": 1.6})], n_samples=2048, scenarios=("T1", "T5"))
 
 
-def test_threads_give_the_serial_result(project):
+def test_worker_processes_give_the_serial_result(project):
     from odsuite.core.diagnosis import diagnose
     from odsuite.core.project import open_project
 
@@ -37,6 +37,19 @@ def test_threads_give_the_serial_result(project):
     # the rule that leaves weak candidates to screening ran, and fitted ones were validated
     assert any(not c.fitted for c in serial.candidates)
     assert all(math.isfinite(c.validated_error) for c in serial.candidates if c.fitted)
+
+
+def test_default_workers_one_per_core_at_most_two_for_a_small_job(monkeypatch):
+    import os
+
+    from odsuite.core import diagnosis
+
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: set(range(8)), raising=False)
+    assert diagnosis.default_workers(20) == 2  # a few dozen candidates: two processes
+    assert diagnosis.default_workers(1) == 1  # never more processes than candidates
+    assert diagnosis.default_workers(diagnosis.SMALL_JOB + 1) == 8
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0}, raising=False)
+    assert diagnosis.default_workers(20) == 1
 
 
 def test_workers_must_be_positive(project):
