@@ -35,7 +35,9 @@ effect solves itself, by linear least squares, once the others are given; ``proj
 exps, base, weights) -> (shared, per_experiment, deltas)`` returns them for the models ``models``
 (experiment name -> model without the effect) at the other ``values``, fitted to the residual
 ``measured - base`` of each prepared experiment (rows weighted by ``weights``, None: all), and each
-experiment's change of prediction. The fit then searches only the remaining parameters.
+experiment's change of prediction. The fit then searches only the remaining parameters. (A
+projection may also read its parameters off the records without a least-squares fit: modal damping
+ratios identified in the modal domain.)
 """
 
 from __future__ import annotations

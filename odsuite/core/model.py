@@ -346,7 +346,8 @@ class LinearStructure:
     (n_dof x n_dof, symmetric) and ``point_rows(body, point) -> 3 x n_dof`` (the displacement of a
     point of ``body`` along the rig axes per unit coordinate; ``body`` is a rig body's name or None).
     ``Minv``, ``A`` and ``modes`` follow from them here; ``is_linear`` (True) and ``cubic_rows()``
-    say whether it has cubic terms. A structure without rigid coordinates or
+    say whether it has cubic terms; ``damped_modes_hz()`` and ``with_mode_damping(zeta)`` (optional)
+    let an effect set its modal damping mode by mode. A structure without rigid coordinates or
     ground springs keeps the defaults below: no rotation rows, no body coordinates, no base input,
     no flexible modes.
     """
@@ -362,6 +363,16 @@ class LinearStructure:
 
     #: a structure with cubic (hardening) terms sets this False and gives ``cubic_rows()``
     is_linear: bool = True
+
+    def damped_modes_hz(self) -> np.ndarray:
+        """Natural frequencies (Hz, ascending) of the modes whose damping ratios
+        ``with_mode_damping`` sets one by one: none here (a structure with modal damping, such as
+        a finite-element beam, lists its elastic modes)."""
+        return np.zeros(0)
+
+    def with_mode_damping(self, zeta: Mapping[int, float]) -> LinearStructure:
+        """The structure with mode ``k`` of ``damped_modes_hz()`` damped at ratio ``zeta[k]``."""
+        raise ConfigError(f"{type(self).__name__}: has no modal damping to set mode by mode")
 
     def point_rows(self, body: str | None, point: np.ndarray) -> np.ndarray:
         raise NotImplementedError

@@ -77,22 +77,45 @@ class SensorMass(Effect):
 
 
 class SupportStiffness(Effect):
-    name = "beam-supports"
+    """Elastic supports at the rig file's points: each its own stiffness, or (``alike``) one
+    stiffness for all, as for blocks cut from the same foam."""
+
     target = "model"
-    description = "Elastic supports (foam blocks, mounts) at the rig file's given points, each with its own stiffness."
+
+    def __init__(self, alike: bool = False) -> None:
+        self.alike = alike
+        if alike:
+            self.name = "beam-supports-alike"
+            self.description = "Alike elastic supports (blocks of one foam) at the rig file's points: one stiffness for all."
+        else:
+            self.name = "beam-supports"
+            self.description = "Elastic supports (foam blocks, mounts) at the rig file's given points, each with its own stiffness."
 
     def parameters(self, model):
         spec = _spec(model)
         if spec is None or not spec.supports:
             return []
-        # up to the stiffness that would hold the whole beam at its first bending frequency
-        ceiling = spec.mass_per_length * spec.length * (2 * np.pi * 1000.0) ** 2
+        mass = spec.mass_per_length * spec.length
+        # up to the stiffness that would hold the whole beam at 1 kHz, above any beam's first bending mode here
+        ceiling = mass * (2 * np.pi * 1000.0) ** 2
+        # plausible: each support carrying its share of the beam bounces between 1 Hz and a tenth of the
+        # first bending mode (the free-free test practice: rigid-body modes well below the elastic ones)
+        f1 = BeamStructure(replace(spec, supports=())).bending_frequencies_hz()[0]
+        share = mass / len(spec.supports)
+        plausible = (share * (2 * np.pi) ** 2, share * (2 * np.pi * 0.1 * f1) ** 2)
+        if self.alike:
+            nominal = float(np.mean([s.stiffness for s in spec.supports]))
+            return [Parameter("stiffness", "N/m", nominal, 0.0, max(ceiling, 10 * nominal), plausible=plausible,
+                              description="stiffness of every support (" + ", ".join(
+                                  f"{s.name} at {s.position:g} m" for s in spec.supports) + ")")]
         return [Parameter(f"{s.name}_stiffness", "N/m", s.stiffness, 0.0, max(ceiling, 10 * s.stiffness),
-                          description=f"stiffness of support {s.name} at {s.position:g} m") for s in spec.supports]
+                          plausible=plausible, description=f"stiffness of support {s.name} at {s.position:g} m")
+                for s in spec.supports]
 
     def _apply(self, model, v):
         spec = model.structure.spec
-        return _with_spec(model, supports=tuple(replace(s, stiffness=v[f"{s.name}_stiffness"]) for s in spec.supports))
+        stiffness = {s.name: v["stiffness"] if self.alike else v[f"{s.name}_stiffness"] for s in spec.supports}
+        return _with_spec(model, supports=tuple(replace(s, stiffness=stiffness[s.name]) for s in spec.supports))
 
 
 class _Scale(Effect):
@@ -168,5 +191,5 @@ class Positions(Effect):
 
 
 def beam_effects() -> list[Effect]:
-    return [ShearRotaryInertia(), SensorMass(), SupportStiffness(), StiffnessScale(), MassScale(), ModalDamping(),
+    return [ShearRotaryInertia(), SensorMass(), SupportStiffness(), SupportStiffness(alike=True), StiffnessScale(), MassScale(), ModalDamping(),
             Positions()]

@@ -210,6 +210,19 @@ class BeamStructure(LinearStructure):
         mp = self.M @ phi
         return (mp * (2 * self.mode_damping() * w)) @ mp.T
 
+    def damped_modes_hz(self) -> np.ndarray:
+        return self.bending_frequencies_hz()
+
+    def with_mode_damping(self, zeta) -> BeamStructure:
+        """Bending mode k (from 0) damped at ``zeta[k]``; the others keep their ratios."""
+        given = list(self.spec.damping_ratio)
+        # one entry beyond the last set mode keeps the higher modes' ratio
+        n = max([len(given), *(k + 2 for k in zeta)])
+        ratios = [given[min(k, len(given) - 1)] for k in range(n)]
+        for k, z in zeta.items():
+            ratios[k] = float(z)
+        return self.with_spec(damping_ratio=tuple(ratios))
+
     def bending_frequencies_hz(self) -> np.ndarray:
         """Undamped natural frequencies (Hz) of the bending modes (support modes left out)."""
         return self.normal_modes[0][self.spec.n_rigid:] / (2 * np.pi)

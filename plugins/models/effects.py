@@ -463,7 +463,8 @@ class BaseMotion(Effect):
 
 def builtin_effects() -> list[Effect]:
     from .data_effects import data_effects
+    from .modal_damping import modal_damping_effects
 
     return [Stiffness(), Damping(), NonlinearStiffness(), MassProperties(), PlateFlexibility("kirchhoff"), PlateFlexibility("free"),
             SensorGain(), SensorPolarity(), SensorOrientation(), SensorPosition(), SensorDynamicsEffect(),
-            ImpactLocation(), ForceGain(), BaseMotion()] + data_effects()
+            ImpactLocation(), ForceGain(), BaseMotion()] + data_effects() + modal_damping_effects()

@@ -53,10 +53,10 @@ def test_compare_tables_the_measured_and_the_slender_beam_modes(beam, capsys):
 
 @pytest.mark.slow
 def test_the_loop_on_the_real_beam_and_its_validation_on_a_second_hit(beam, shared_real, capsys):
-    """add-effect through the command line, then the second hit (camera.lvm) without refitting
-    (docs/beam.md tells this session; its numbers are the ones asserted here)."""
+    """add-effect through the command line, damping last and in the modal domain, then the second
+    hit (camera.lvm) without refitting (docs/beam.md tells this session; its numbers are asserted here)."""
     for effect in ("beam-positions", "beam-mass-scale", "beam-stiffness-scale", "beam-shear-rotary",
-                   "beam-supports", "beam-modal-damping"):
+                   "measured-modal-damping"):
         assert main(["add-effect", str(beam), effect]) == 0
     fitted = compare_json(capsys, beam)
     lvm = shared_real / "ladisk_beam_impact" / "camera.lvm"
@@ -69,12 +69,16 @@ def test_the_loop_on_the_real_beam_and_its_validation_on_a_second_hit(beam, shar
         assert len(bending) == 3, record
         for r in bending:
             assert abs(r["model_hz"] / r["measured_hz"] - 1) < 0.003, (record, r)
-        # the third bending mode's damping holds on both records; the first's does not (docs/beam.md)
-        assert abs(bending[2]["model_zeta"] / bending[2]["measured_zeta"] - 1) < 0.15, record
-    # time-domain error: 2.60 at revision 0, 0.32 fitted; the second hit, never fitted: 0.38
-    assert fitted["error"] < 0.35 and validated["experiments"]["camera"]["error"] < 0.42
+            # damping from the fitted record's modes: within 15 % of each record's own
+            assert abs(r["model_zeta"] / r["measured_zeta"] - 1) < 0.15, (record, r)
+    # the published damping ratios (README, LSCF by pyEMA) within 10 % on the fitted record
+    rows = [r for r in fitted["modal"] if r["model_zeta"] is not None]
+    np.testing.assert_allclose([r["model_zeta"] for r in rows], LADISK_ZETA[[0, 1, 3]], rtol=0.10)
     capsys.readouterr()
     assert main(["model", str(beam), "--json"]) == 0
     params = json.loads(capsys.readouterr().out)["parameters"]
     # a Timoshenko beam whose thickness is 3-4 % of its length (r/L = h/(L sqrt 12))
     assert 0.03 < np.sqrt(12 * params["beam-shear-rotary"]["gyration_ratio_sq"]) < 0.045
+    # with the measured damping the first mode's amplitude misfit shows in the time-domain error
+    # (docs/beam.md: 0.32 when the time-domain fit damped mode 1 at 3.4 %)
+    assert fitted["error"] > 0.35

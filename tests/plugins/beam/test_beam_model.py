@@ -164,7 +164,7 @@ def test_every_beam_effect_at_nominal_leaves_the_prediction_unchanged(registries
     f = np.array([300.0, 695.0, 1900.0, 3700.0])
     ref = model.transfer(inputs, outputs, f)
     names = [n for n in registries.effects.names() if registries.effects.entry(n).plugin == "beam"]
-    assert len(names) == 7
+    assert len(names) == 8
     for name in names:
         effect = registries.effects.get(name)
         params = effect.parameters(model)

@@ -40,6 +40,10 @@ def test_every_registered_effect_at_nominal_leaves_outputs_unchanged(registries,
     for name, effect in registries.effects.items():
         if registries.effects.entry(name).plugin == "beam":
             continue  # a beam model's effects (tests/plugins/beam): they do not apply to rigid bodies
+        if name == "measured-modal-damping":
+            # needs a structure whose modal damping is set mode by mode (the beam's: tests/plugins/beam)
+            assert effect.parameters(model) == []
+            continue
         params = effect.parameters(model)
         assert params and all(isinstance(p, Parameter) for p in params)
         assert all(p.scope in ("shared", "per_experiment") and p.lower <= p.nominal <= p.upper for p in params)
