@@ -152,6 +152,11 @@ class MassProperties(Effect):
         for b in model.bodies:
             pre = self._prefix(model, b)
             prod = 0.5 * float(np.sqrt(np.min(np.diag(b.inertia)) * np.max(np.diag(b.inertia))))
+            # the centre of mass moves at most as far as a part as heavy as the body (mass_scale 2)
+            # put at its far corner moves it: half the half-diagonal of the uniform box of this
+            # inertia (trace I = m (L^2 + W^2 + H^2) / 6); a fixed 20 mm cut off a 3 kg part at
+            # 0.3 m on a 40 kg base
+            reach = 0.5 * float(np.sqrt(1.5 * np.trace(b.inertia) / b.mass))
             # a body gains at most its own mass (an added part) and loses little (a mis-weighed
             # body): mass and moments within 0.8-2 times their values
             out += ([Parameter(f"{pre}mass_scale", "1", 1.0, 0.5, 2.0, description=f"mass of {b.name}",
@@ -161,7 +166,7 @@ class MassProperties(Effect):
                        for n in ("Ixx", "Iyy", "Izz")]
                     + [Parameter(f"{pre}{n}", "kg m^2", 0.0, -prod, prod, description=f"added product of inertia {n} of {b.name}")
                        for n in ("Ixy", "Iyz", "Ixz")]
-                    + [Parameter(f"{pre}com_d{a}", "m", 0.0, -0.02, 0.02,
+                    + [Parameter(f"{pre}com_d{a}", "m", 0.0, -reach, reach,
                                  description=f"centre of mass offset of {b.name} along {a}")
                        for a in AXES])
         return out
