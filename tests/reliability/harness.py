@@ -92,7 +92,8 @@ WRITING_COMMANDS: tuple[WritingCommand, ...] = (
         "frf", str(c.project), "--experiment", c.rng.choice([e for e in c.experiments if "lvm" in e])],
         needs="beam.lvm"),
     WritingCommand("import-uff", lambda c: [
-        "import-uff", str(c.project), str(c.inputs / "T8.uff"), "--name", f"uff{c.index}", "--force-channel", "force"]),
+        "import-uff", str(c.project), str(c.inputs / "T8.uff"), "--name", f"uff{c.index}", "--force-channel", "force",
+        "--force-point", "0,4.122,-11.399", "--force-dir", "+z"]),  # its 11 records go onto the rig in order
 )
 
 #: Commands of the model loop. They need a project whose experiments all match the rig (compare
@@ -126,7 +127,9 @@ def prepare_inputs(folder: Path) -> Path:
     volts = legacy_volts()
     names = ["force"] + [f"ch{k}" for k in range(1, volts.shape[1])]
     write_uff(folder / "T8.uff", overwrite=True, functions=[
-        time_function(n, volts[:, k], 1 / 20_000.0, "N" if k == 0 else "m/s^2") for k, n in enumerate(names)])
+        # the thesis rig's channels in order: the load cell, an auxiliary voltage, nine accelerometers
+        time_function(n, volts[:, k], 1 / 20_000.0, "N" if k == 0 else "V" if k == 1 else "m/s^2")
+        for k, n in enumerate(names)])
     if LVM_SOURCE.is_file():
         shutil.copyfile(LVM_SOURCE, folder / "beam.lvm")
     return folder
