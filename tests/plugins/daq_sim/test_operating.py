@@ -154,7 +154,7 @@ def test_operating_records_are_refused_where_a_force_is_needed(thesis_heave, cap
 
 
 @pytest.mark.parametrize("args, words", [
-    (["--operating", "hum"], "--operating: expected random, sweep or unbalance:HZ, got 'hum'"),
+    (["--operating", "hum"], "--operating: expected random, sweep, unbalance:HZ or base-random, got 'hum'"),
     (["--operating", "unbalance:0"], "the speed must lie between 0 and the Nyquist frequency 500 Hz"),
     (["--operating", "unbalance:fast"], "HZ must be the rotor's speed in Hz, got 'fast'"),
     (["--operating", "random:3"], "--operating random: takes no value"),
