@@ -36,14 +36,11 @@ def test_ground_motion_transmissibility_from_the_simulated_record(rig_file, band
     u = ground_accelerations(int(120 * fs), 1.0, length, np.random.default_rng(1))
     y = truth.ground(u, fs)
     nper = 4 * 4096  # 0.25 Hz lines: four per half-power band of the lightest-damped mode (3.4 % at 16 Hz)
-    f, _ = scipy.signal.welch(u[:, 0], fs, nperseg=nper)
-    Guu = np.array([[scipy.signal.csd(u[:, a], u[:, b], fs, nperseg=nper)[1] for b in range(6)] for a in range(6)])
-    Gyu = np.array([[scipy.signal.csd(u[:, b], y[:, i], fs, nperseg=nper)[1] for b in range(6)]
-                    for i in range(y.shape[1])])
+    # csd(x, y) = E[conj(X) Y]: G_uy[f, b, i] = sum_a G_uu[f, b, a] H[f, i, a], so H = (G_uu^-1 G_uy)^T
+    f, Guu = scipy.signal.csd(u[:, :, None], u[:, None, :], fs, nperseg=nper, axis=0)
+    _, Guy = scipy.signal.csd(u[:, :, None], y[:, None, :], fs, nperseg=nper, axis=0)
     keep = (f >= band[0]) & (f <= band[1])
-    # csd(x, y) = E[conj(X) Y]: G_yu[i, b] = sum_a H[i, a] G_uu[b, a], so H = G_yu (G_uu^T)^-1
-    inv_t = np.linalg.inv(np.moveaxis(Guu[:, :, keep], 2, 0).transpose(0, 2, 1))
-    H1 = np.einsum("iaf,fab->fib", Gyu[:, :, keep], inv_t)
+    H1 = np.linalg.solve(Guu[keep], Guy[keep]).transpose(0, 2, 1)
     model = truth.model
     axes = np.eye(3)
     vel = model.transfer([Input.base_translation(a) for a in axes] + [Input.base_rotation(a) for a in axes],
@@ -58,10 +55,7 @@ def test_ground_motion_transmissibility_from_the_simulated_record(rig_file, band
 
 def test_base_random_through_the_command_line(tmp_path, capsys):
     """A minute of base motion on the thesis rig at the default rms: no force channel, no
-    excitation, no clipped sample, the source says what moved; the responses' spectra peak at
-    both mode groups."""
-    from odsuite.core.modal_project import physical, response_columns
-
+    excitation, no clipped sample, the source says what moved."""
     p = tmp_path / "b.h5"
     assert main(["new", str(p), "--rig", "thesis-dynamometer"]) == 0
     capsys.readouterr()
@@ -72,12 +66,7 @@ def test_base_random_through_the_command_line(tmp_path, capsys):
         exp = proj.experiment("b")
         assert exp.excitation is None and "ai0" in exp.channel_names
         source = proj.info()["experiments"]["b"]["source"]
-        y = physical(exp)[:, response_columns(exp)]
     assert "operating=base-random base_rms=0.3m/s^2" in source and "length_m=0.1028" in source
-    f, psd = scipy.signal.welch(y, 1000.0, nperseg=1000, axis=0)
-    total = psd.sum(axis=1)
-    low, high = total[(f > 90) & (f < 110)].mean(), total[(f > 210) & (f < 235)].mean()
-    assert min(low, high) > 5 * total[(f > 140) & (f < 170)].mean()
 
 
 def test_base_random_on_another_rig(tmp_path):
@@ -108,3 +97,56 @@ def test_bad_base_options_are_one_line(tmp_path, capsys, args, words):
     assert "\n" not in err and words in err, err
     with open_project(p) as proj:
         assert proj.experiment_names() == []
+
+
+def _model_modes(rig):
+    """The model's undamped natural frequencies |lambda| / 2 pi (Hz) and mode shapes at the rig's
+    accelerometers, ascending, straight from the state-space matrices."""
+    model = registries().models.get(rig.default_model)(rig)
+    ss = model.state_space([Input.force(np.zeros(3), np.array([0.0, 0.0, 1.0]), body=rig.bodies[0].name)],
+                           [Output.sensor(s) for s in rig.accelerometers])
+    lam, psi = np.linalg.eig(ss.A)
+    keep = lam.imag > 0
+    order = np.argsort(np.abs(lam[keep]))
+    return np.abs(lam[keep][order]) / (2 * np.pi), (ss.C @ psi[:, keep])[:, order]
+
+
+def _ods_mac(capsys, project, experiment, reference, hz, rig, shape):
+    from odsuite.core.modal import mac
+
+    doc = _json(capsys, ["ods", str(project), experiment, "--reference", reference, "--at", f"{hz:.3f}", "--json"])
+    ods = np.array([complex(*doc["shape"][s.name]) for s in rig.accelerometers])
+    return float(mac(ods[:, None], shape[:, None])[0, 0])
+
+
+def _json(capsys, args):
+    import json
+
+    capsys.readouterr()
+    assert main(args) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_six_modes_from_base_motion_alone(tmp_path, capsys, seed):
+    """The thesis rig as modelled (15-17 % damping, 97.4 and 98.3 Hz 1 % apart) on a ground moving
+    in all six directions, 10 min at 1 kHz, responses only: `modes --output-only` reports six modes,
+    each within 1 % of the model's undamped natural frequency (measured: within 0.3 %, per seed in
+    docs/operating.md), and the ODS at the 227.45 Hz mode against a y sensor is the model's mode
+    shape (MAC >= 0.95). With one random force no record of practical length separates them."""
+    p = tmp_path / "b.h5"
+    assert main(["new", str(p), "--rig", "thesis-dynamometer"]) == 0
+    assert main(["acquire", str(p), "--daq", "sim", "--name", "b", "--rate", "1000", "--samples", "600000",
+                 "--operating", "base-random", "--seed", str(seed)]) == 0
+    with open_project(p) as proj:
+        rig = proj.rig
+    want, shapes = _model_modes(rig)
+    model = _json(capsys, ["model", str(p), "--json"])
+    np.testing.assert_allclose([m["frequency_hz"] for m in model["modes"]], want, rtol=1e-9)
+    doc = _json(capsys, ["modes", str(p), "--experiment", "b", "--output-only", "--json"])
+    assert doc["output_only"] is True
+    got = np.array([m["frequency_hz"] for m in doc["modes"]])
+    assert got.size == 6, (got, doc["unresolved"])
+    np.testing.assert_allclose(got, want, rtol=0.01)
+    assert _ods_mac(capsys, p, "b", "y3", want[5], rig, shapes[:, 5]) >= 0.95
