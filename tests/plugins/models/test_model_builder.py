@@ -208,12 +208,17 @@ def test_inertia_tensor_convention():
     assert np.array_equal(inertia_tensor(1, 2, 3, 4, 5, 6), [[1, -4, -6], [-4, 2, -5], [-6, -5, 3]])
 
 
-def test_base_translation_gives_sdof_transmissibility():
+def _sdof():
+    """One body moving along z on one spring-damper to the ground: (model, m, c, k, f, w)."""
     m, c, k = 2.0, 30.0, 8e5
     model = Model.build([RigidBody("m", m, np.eye(3), dofs=("z",))],
                         [SpringDamper("k", (0, 0, 0.1), "m", None, (0, 0, k), (0, 0, c))])
     f = np.array([5.0, 80.0, 100.7, 300.0])
-    w = 2 * np.pi * f
+    return model, m, c, k, f, 2 * np.pi * f
+
+
+def test_base_translation_gives_sdof_transmissibility():
+    model, m, c, k, f, w = _sdof()
     base = [Input.base_translation((0, 0, 1))]
     disp = model.transfer(base, [Output.at_point((0, 0, 0), (0, 0, 1), "displacement")], f)[:, 0, 0]
     vel = model.transfer(base, [Output.at_point((0, 0, 0), (0, 0, 1), "velocity")], f)[:, 0, 0]
@@ -226,11 +231,7 @@ def test_base_translation_gives_sdof_transmissibility():
 
 def test_ground_acceleration_gives_sdof_transmissibility():
     """Relative coordinates driven by -M T a_g, absolute acceleration out: the 1-DOF closed form."""
-    m, c, k = 2.0, 30.0, 8e5
-    model = Model.build([RigidBody("m", m, np.eye(3), dofs=("z",))],
-                        [SpringDamper("k", (0, 0, 0.1), "m", None, (0, 0, k), (0, 0, c))])
-    f = np.array([5.0, 80.0, 100.7, 300.0])
-    w = 2 * np.pi * f
+    model, m, c, k, f, w = _sdof()
     acc = model.transfer([Input.ground_acceleration((0, 0, 1))],
                          [Output.at_point((0, 0, 0), (0, 0, 1), "acceleration")], f)[:, 0, 0]
     assert np.allclose(acc, (k + 1j * w * c) / (k - m * w * w + 1j * w * c), rtol=1e-12)
