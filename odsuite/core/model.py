@@ -209,7 +209,10 @@ class Input:
 
     kinds: "force" (N, at ``point`` along ``direction``), "moment" (N m about ``direction``),
     "base_translation" (m, ground displacement along ``direction``), "base_rotation" (rad, ground
-    rotation about ``direction`` through the rig origin). ``body`` None: the model's first body.
+    rotation about ``direction`` through the rig origin), "ground_acceleration" (m/s^2) and
+    "ground_angular_acceleration" (rad/s^2, about ``direction`` through the rig origin): the
+    ground's acceleration, with the coordinates taken relative to the ground (see
+    :meth:`Model.state_space`). ``body`` None: the model's first body.
     """
 
     kind: str
@@ -234,9 +237,19 @@ class Input:
     def base_rotation(cls, direction, name: str = "base rotation") -> Input:
         return cls("base_rotation", _unit("base rotation direction", direction), None, None, name)
 
+    @classmethod
+    def ground_acceleration(cls, direction, name: str = "ground acceleration") -> Input:
+        return cls("ground_acceleration", _unit("ground acceleration direction", direction), None, None, name)
+
+    @classmethod
+    def ground_angular_acceleration(cls, direction, name: str = "ground angular acceleration") -> Input:
+        return cls("ground_angular_acceleration", _unit("ground angular acceleration direction", direction),
+                   None, None, name)
+
     @property
     def unit(self) -> str:
-        return {"force": "N", "moment": "N m", "base_translation": "m", "base_rotation": "rad"}[self.kind]
+        return {"force": "N", "moment": "N m", "base_translation": "m", "base_rotation": "rad",
+                "ground_acceleration": "m/s^2", "ground_angular_acceleration": "rad/s^2"}[self.kind]
 
 
 @dataclass(frozen=True, eq=False)
@@ -291,6 +304,10 @@ class Output:
     def unit(self) -> str:
         lin, ang = _UNITS[self.quantity]
         return ang if self.kind == "coordinate" and self.index >= 3 else lin
+
+
+#: input kinds of the ground's acceleration (coordinates relative to the ground)
+GROUND_ACCELERATIONS = ("ground_acceleration", "ground_angular_acceleration")
 
 
 def _flatten(items) -> list:
@@ -390,6 +407,18 @@ class LinearStructure:
 
     def base_matrices(self) -> tuple[np.ndarray, np.ndarray]:
         raise ConfigError(f"{type(self).__name__}: has no springs to the ground, so no base-motion input")
+
+    @functools.cached_property
+    def ground_map(self) -> np.ndarray:
+        """n_dof x 6: the coordinates of everything following a rigid ground motion [translation,
+        rotation about the rig origin]. Such a motion strains no spring, so it is the static
+        deflection ``K^-1 Kg`` under that ground motion (any structure with base matrices)."""
+        kg, _ = self.base_matrices()
+        try:
+            return np.linalg.solve(self.K, kg)
+        except np.linalg.LinAlgError:
+            raise ConfigError(f"{type(self).__name__}: a body is not held by springs (K is singular), so it does "
+                              "not follow the ground") from None
 
     @functools.cached_property
     def Minv(self) -> np.ndarray:
@@ -757,9 +786,22 @@ class Model:
                 cols = slice(0, 3) if inp.kind == "base_translation" else slice(3, 6)
                 bf[:, j] = kg[:, cols] @ inp.direction
                 bv[:, j] = cg[:, cols] @ inp.direction
+            elif inp.kind in GROUND_ACCELERATIONS:  # the inertial load -M T a_g in relative coordinates
+                bf[:, j] = -st.M @ self.ground_follow([inp])[:, 0]
             else:
                 raise ConfigError(f"input {inp.name!r}: unknown kind {inp.kind!r}")
         return bf, bv
+
+    def ground_follow(self, inputs) -> np.ndarray:
+        """n_dof x n_in: the coordinates' rigid motion with the ground per unit input (the ground's
+        acceleration inputs; zero for the others)."""
+        inputs = _flatten(inputs)
+        out = np.zeros((self.structure.n_dof, len(inputs)))
+        for j, inp in enumerate(inputs):
+            if inp.kind in GROUND_ACCELERATIONS:
+                cols = slice(0, 3) if inp.kind == "ground_acceleration" else slice(3, 6)
+                out[:, j] = self.structure.ground_map[:, cols] @ inp.direction
+        return out
 
     def output_rows(self, outputs) -> tuple[list[Output], np.ndarray]:
         """(outputs, rows n_out x n_dof): each output's coordinate combination (chain's sensor
@@ -788,11 +830,26 @@ class Model:
         State ``x = [q, q' - M^-1 Bv u]`` (equal to ``[q, q']`` without base inputs), so base
         motion through the dampers needs no input derivative. Velocity and acceleration outputs
         carry a D term. Sensor dynamics of the chain are appended in series.
+
+        With the ground's acceleration a_g as input, q is relative to the ground (q = q_abs - T u_g,
+        T = ``ground_map``: rigid motion strains no spring), ``M q'' + C q' + K q = -M T a_g``, and
+        acceleration outputs are absolute: the relative one plus the ground's rigid acceleration at
+        the point along the output's direction (displacement and velocity would need the ground's
+        integrated motion and are refused).
         """
         st = self.structure
         inputs = _flatten(inputs)
         outputs, rows = self.output_rows(outputs)
         bf, bv = self.input_matrices(inputs)
+        follow = self.ground_follow(inputs)
+        if follow.any():
+            kinds = {i.kind for i in inputs}
+            if kinds & {"base_translation", "base_rotation"}:
+                raise ConfigError("inputs: the ground's displacement and its acceleration need different "
+                                  "coordinates; give one of them")
+            if any(o.quantity != "acceleration" for o in outputs):
+                raise ConfigError("outputs: with the ground's acceleration as input only acceleration outputs are "
+                                  "absolute; give acceleration outputs")
         n = st.n_dof
         minv = st.Minv
         mbv = minv @ bv
@@ -814,7 +871,7 @@ class Model:
                         "needs the base velocity's derivative; use displacement or velocity outputs, "
                         "or model the base as a body driven by forces")
                 C[i] = r @ A[n:]
-                D[i] = r @ (minv @ bf)
+                D[i] = r @ (minv @ bf + follow)
         A, B, C, D = self._append_sensor_dynamics(outputs, A, B, C, D)
         return StateSpace(A, B, C, D, tuple(i.name for i in inputs), tuple(o.name for o in outputs),
                           tuple(o.unit for o in outputs))

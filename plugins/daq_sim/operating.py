@@ -1,6 +1,7 @@
 """Operating loads of the simulated rig: a running machine drives the rig at the force point with
-a random or swept force, or with the rotating force of an unbalanced rotor. No hammer, no trigger,
-no load cell: what is recorded is the responses alone (operational modal analysis, ODS).
+a random or swept force, or with the rotating force of an unbalanced rotor, or the ground under
+the rig moves at random in all six rigid directions. No hammer, no trigger, no load cell: what is
+recorded is the responses alone (operational modal analysis, ODS).
 """
 
 from __future__ import annotations
@@ -12,7 +13,9 @@ import scipy.signal
 
 from odsuite.core.errors import ConfigError
 
-KINDS = ("random", "sweep", "unbalance")
+KINDS = ("random", "sweep", "unbalance", "base-random")
+#: kinds where the ground moves instead of a force acting at the force point
+GROUND_KINDS = ("base-random",)
 #: default rms force (N): the thesis rig's accelerometers then stay inside their ranges (a rotor at
 #: a corner at 100 Hz peaks at 0.7 of the most loaded one's), far above their noise
 DEFAULT_FORCE_RMS = 0.5
@@ -20,6 +23,10 @@ DEFAULT_FORCE_RMS = 0.5
 #: anti-aliasing filter's corner at the thesis's rates, so the sweep's top is still measured)
 SWEEP_BOTTOM = 0.0005
 SWEEP_TOP = 0.4
+#: default rms of the ground's acceleration along each axis (m/s^2), white up to the simulator's
+#: rate: the thesis rig's horizontal accelerometers (+-2.5 m/s^2 ranges) then peak near a third of
+#: their range over 5 min, two hundred ADC codes rms above their noise
+DEFAULT_BASE_RMS = 0.3
 
 
 @dataclass(frozen=True)
@@ -38,7 +45,7 @@ def parse_operating(text: str, sampling_rate: float) -> OperatingLoad:
     """``random``, ``sweep`` or ``unbalance:HZ`` (HZ below the record's Nyquist frequency)."""
     kind, colon, value = str(text).strip().lower().partition(":")
     if kind not in KINDS:
-        raise ConfigError(f"--operating: expected random, sweep or unbalance:HZ, got {text!r}")
+        raise ConfigError(f"--operating: expected random, sweep, unbalance:HZ or base-random, got {text!r}")
     if kind != "unbalance":
         if colon:
             raise ConfigError(f"--operating {kind}: takes no value, got {text!r}")
@@ -51,6 +58,27 @@ def parse_operating(text: str, sampling_rate: float) -> OperatingLoad:
         raise ConfigError(f"--operating unbalance:{value}: the speed must lie between 0 and the Nyquist "
                           f"frequency {sampling_rate / 2:g} Hz")
     return OperatingLoad(kind, hz)
+
+
+def rotation_length(positions: np.ndarray) -> float:
+    """The length (m) that turns the ground's translational rms into its angular rms: the farthest
+    accelerometer's distance from the rig origin, so that the ground's rotation accelerates that
+    sensor as much as its translation does and both drive the rig's rocking and sliding alike."""
+    length = float(np.max(np.linalg.norm(np.atleast_2d(positions), axis=1), initial=0.0))
+    if not length > 0:
+        raise ConfigError("--operating base-random: the rig's accelerometers all sit at its origin; the ground's "
+                          "rotation needs a length to scale it")
+    return length
+
+
+def ground_accelerations(n: int, base_rms: float, length_m: float, rng: np.random.Generator) -> np.ndarray:
+    """Independent white Gaussian accelerations of the ground (n x 6, at the simulator's rate):
+    ``base_rms`` m/s^2 along x, y, z, then ``base_rms / length_m`` rad/s^2 about them through the
+    rig origin."""
+    if not (np.isfinite(base_rms) and base_rms > 0):
+        raise ConfigError(f"--base-rms: must be > 0 m/s^2, got {base_rms!r}")
+    scale = np.r_[np.full(3, base_rms), np.full(3, base_rms / length_m)]
+    return rng.standard_normal((n, 6)) * scale
 
 
 def perpendicular_axes(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -20,7 +20,15 @@ from odsuite_plugins.daq_sim.chain import (
     run_analog,
 )
 from odsuite_plugins.daq_sim.hammer import Hit, half_sine_force
-from odsuite_plugins.daq_sim.operating import DEFAULT_FORCE_RMS, operating_forces, parse_operating
+from odsuite_plugins.daq_sim.operating import (
+    DEFAULT_BASE_RMS,
+    DEFAULT_FORCE_RMS,
+    GROUND_KINDS,
+    ground_accelerations,
+    operating_forces,
+    parse_operating,
+    rotation_length,
+)
 from odsuite_plugins.daq_sim.scenarios import scenario as get_scenario
 
 from odsuite.core.daq import (
@@ -42,6 +50,8 @@ from odsuite.core.systeminfo import SensorType, Systeminfo
 #: ``truth(force, fs, point, direction[, body=NAME]) -> accelerations``: force (N) sampled at fs;
 #: returns (samples x sensors) m/s^2 along each rig accelerometer's axis at its position, in
 #: ``rig.accelerometers`` order; ``body`` is passed only when the experimenter names the body hit.
+#: A truth that also has ``ground(accelerations, fs)`` (samples x 6, the ground's rigid acceleration:
+#: m/s^2 along x, y, z, rad/s^2 about them through the rig origin) can record base motion.
 Truth = Callable[[np.ndarray, float, np.ndarray, np.ndarray], np.ndarray]
 
 #: bipolar input ranges (V) of an NI E-series card (AT-MIO-16E-2): the card uses the smallest one
@@ -153,9 +163,13 @@ class SimulatedRig:
                BackendOption("noise", float, 1.0, "scale of the ADC-input noise, offsets and drift "
                                                   f"(1: the thesis's floor, 0: none, at most {MAX_NOISE_SCALE:g})"),
                BackendOption("operating", str, None, "a running machine instead of the hammer: random, sweep or "
-                                                     "unbalance:HZ at the force point (no force channel stored)"),
+                                                     "unbalance:HZ at the force point, or base-random: the ground "
+                                                     "moving in all six directions (no force channel stored)"),
                BackendOption("force_rms", float, None, "operating: rms force in N (default 0.5 N; unbalance: the "
-                                                       "rotating force's magnitude)"))
+                                                       "rotating force's magnitude)"),
+               BackendOption("base_rms", float, None, "base-random: rms ground acceleration in m/s^2 along each "
+                                                      f"axis (default {DEFAULT_BASE_RMS:g}); the rotations' rms is it "
+                                                      "over the farthest accelerometer's distance from the rig origin"))
 
     def __init__(self, truth_factory: Callable[..., Truth] | None = None) -> None:
         self._truth_factory = truth_factory
@@ -183,6 +197,7 @@ class SimulatedRig:
         contact_ms: float | None = None,
         operating: str | None = None,
         force_rms: float | None = None,
+        base_rms: float | None = None,
     ) -> Recording:
         """Strike the virtual rig and return the triggered record.
 
@@ -193,7 +208,8 @@ class SimulatedRig:
         (e.g. a sensor whose true sensitivity differs from its nominal one). ``truth_rig``: a rig
         file whose model, sensor axes, positions and sensitivities make the record instead.
         ``operating`` (random, sweep, unbalance:HZ) records a running machine instead
-        (``force_rms``): see :meth:`_operating_record`.
+        (``force_rms``), base-random the ground moving under it (``base_rms``): see
+        :meth:`_operating_record`.
         """
         if rig is None:
             raise ConfigError("the simulated rig needs a project with a rig (created without --rig none)")
@@ -215,6 +231,16 @@ class SimulatedRig:
         if operating is not None and (hits is not None or force_peak is not None or contact_ms is not None):
             raise ConfigError("--operating records a running machine: drop the hammer's hits, --force-peak and "
                               "--contact-ms")
+        ground = operating is not None and parse_operating(operating, settings.sampling_rate).kind in GROUND_KINDS
+        if base_rms is not None and not ground:
+            raise ConfigError("--base-rms sets the ground's motion: give --operating base-random too")
+        if ground:
+            if force_rms is not None or point is not None or direction is not None or scenario is not None:
+                raise ConfigError(f"--operating {operating}: the ground moves, no force acts; drop --force-rms, "
+                                  "--force-point, --force-dir and --scenario")
+            return self._operating_record(rig, settings, operating, None, None, truth, effects, chains,
+                                          int(oversample), noise, seed, progress,
+                                          DEFAULT_BASE_RMS if base_rms is None else base_rms, truth_rig, adc_bits)
         if scenario is None and point is None and direction is None:
             scenario = "T1"
         sc = get_scenario(scenario) if scenario else None
@@ -308,10 +334,11 @@ class SimulatedRig:
         return rec
 
     def _operating_record(self, rig, settings, operating, point, direction, truth, effects, chains, oversample,
-                          noise, seed, progress, force_rms, truth_rig=None, adc_bits=None) -> Recording:
+                          noise, seed, progress, rms, truth_rig=None, adc_bits=None) -> Recording:
         """A running machine: the operating load at ``point`` (its line, or the rotor's axis, along
-        ``direction``) for the whole record, no trigger. The force channel's input is left open
-        (no load cell: the ADC's noise only) and named as an unused input; no excitation is stored."""
+        ``direction``; ``rms`` its force, N), or the ground's random motion (``rms`` its
+        acceleration, m/s^2), for the whole record, no trigger. The force channel's input is left
+        open (no load cell: the ADC's noise only) and named as an unused input; no excitation is stored."""
         fs, n = settings.sampling_rate, settings.n_samples
         load = parse_operating(operating, fs)
         truth, true_sensitivity = self._truth(rig, truth, effects, truth_rig)
@@ -321,9 +348,19 @@ class SimulatedRig:
         # the slowest rig mode are far below a second; the sensors' own high-passes settle with it)
         lead = int(round(1.0 * fs))
         n_fine = (lead + n) * oversample
-        loads = operating_forces(load, n_fine, fine, fs, direction, force_rms, rng)
-        acc = sum(np.asarray(truth(f, fine, point, d), dtype=float) for f, d in loads)
         sensors = rig.accelerometers
+        if load.kind in GROUND_KINDS:
+            if not hasattr(truth, "ground"):
+                raise ConfigError(f"--operating {load}: this truth has no ground-motion input")
+            length = rotation_length(np.array([s.position for s in sensors]))
+            acc = np.asarray(truth.ground(ground_accelerations(n_fine, rms, length, rng), fine), dtype=float)
+            what = f"base_rms={rms:g}m/s^2 rotation_rms={rms / length:.4g}rad/s^2 length_m={length:.4g}"
+        else:
+            loads = operating_forces(load, n_fine, fine, fs, direction, rms, rng)
+            acc = sum(np.asarray(truth(f, fine, point, d), dtype=float) for f, d in loads)
+            where = ",".join(f"{1e3 * v:g}" for v in point)
+            axis = ",".join(f"{v:g}" for v in direction)
+            what = f"force_rms={rms:g}N point_mm={where} direction={axis}"
         if acc.shape != (n_fine, len(sensors)):
             raise HardwareError(f"simulator: the truth model returned shape {acc.shape}, expected {(n_fine, len(sensors))}")
         systeminfo = rig_systeminfo(rig, fs)
@@ -344,13 +381,10 @@ class SimulatedRig:
                 clipped[ch] = count
             raw[:, ch] = chain.quantise(volts)
         names = [f"ai{ch}" if ch == fch else channel_name(rig, ch) for ch in range(rig.channel_count)]
-        where = ",".join(f"{1e3 * v:g}" for v in point)
-        axis = ",".join(f"{v:g}" for v in direction)
         return Recording(
             chunks=_chunks(raw, settings.chunk_size, progress), n_samples=n, sampling_rate=fs, pretrigger=0,
             systeminfo=systeminfo, excitation=None, channel_names=names,
-            source=f"daq_sim operating={load} force_rms={force_rms:g}N point_mm={where} direction={axis} "
-                   f"seed={seed} oversample={oversample}",
+            source=f"daq_sim operating={load} {what} seed={seed} oversample={oversample}",
             clipped=clipped, notes=_front_end_notes(rig),
         )
 

@@ -24,25 +24,44 @@ def truth_model(rig: Rig, effects: Sequence[tuple[str, Mapping[str, Any]]] = ())
     return model
 
 
-def model_truth(rig: Rig, effects: Sequence[tuple[str, Mapping[str, Any]]] = ()):
-    """A truth function for :class:`~odsuite_plugins.daq_sim.simulator.SimulatedRig`: accelerations
-    of every rig accelerometer (along its axis, at its position) to a force record on the body the
-    force point is on, simulated exactly with a first-order hold."""
-    from odsuite.core.model import Input, Output
-    from odsuite.core.simulation import simulate
+class ModelTruth:
+    """A truth for :class:`~odsuite_plugins.daq_sim.simulator.SimulatedRig`: accelerations of
+    every accelerometer of ``rig`` (along its axis, at its position; columns in ``order``, default
+    the rig's) simulated exactly with a first-order hold, from a force record (``__call__``) or
+    from the ground's rigid motion (``ground``)."""
 
-    model = truth_model(rig, effects)
-    outputs = [Output.sensor(s) for s in rig.accelerometers]
+    def __init__(self, rig: Rig, model, order: Sequence[int] | None = None) -> None:
+        from odsuite.core.model import Output
 
-    def truth(force: np.ndarray, fs: float, point: np.ndarray, direction: np.ndarray,
-              body: str | None = None) -> np.ndarray:
-        hit = Input.force(point, direction, body=rig.force_body(point, body))
-        return simulate(model, [hit], force, fs, outputs, hold="foh")
+        self.rig, self.model = rig, model
+        sensors = rig.accelerometers
+        self.outputs = [Output.sensor(sensors[k]) for k in (order if order is not None else range(len(sensors)))]
 
-    return truth
+    def __call__(self, force: np.ndarray, fs: float, point: np.ndarray, direction: np.ndarray,
+                 body: str | None = None) -> np.ndarray:
+        from odsuite.core.model import Input
+        from odsuite.core.simulation import simulate
+
+        hit = Input.force(point, direction, body=self.rig.force_body(point, body))
+        return simulate(self.model, [hit], force, fs, self.outputs, hold="foh")
+
+    def ground(self, accelerations: np.ndarray, fs: float) -> np.ndarray:
+        """Absolute accelerations to the ground's (samples x 6: m/s^2 along the rig's x, y, z, then
+        rad/s^2 about them through the rig origin)."""
+        from odsuite.core.model import Input
+        from odsuite.core.simulation import simulate
+
+        axes = np.eye(3)
+        inputs = [Input.ground_acceleration(a) for a in axes] + [Input.ground_angular_acceleration(a) for a in axes]
+        return simulate(self.model, inputs, accelerations, fs, self.outputs, hold="foh")
 
 
-def rig_file_truth(rig: Rig, path: str):
+def model_truth(rig: Rig, effects: Sequence[tuple[str, Mapping[str, Any]]] = ()) -> ModelTruth:
+    """The truth of the rig's default model with ``effects`` applied."""
+    return ModelTruth(rig, truth_model(rig, effects))
+
+
+def rig_file_truth(rig: Rig, path: str) -> tuple[ModelTruth, dict[int, tuple[float, float]]]:
     """A truth from another rig file (a user's hidden change) with the project rig's channels:
     accelerations in ``rig.accelerometers`` order, and {channel: (sensitivity, sign)} of the
     sensors whose true sensitivity or sign differ from the project rig's."""
@@ -63,10 +82,4 @@ def rig_file_truth(rig: Rig, path: str):
             changed[sensor.channel] = (other.sensitivity, other.sign)
     if true.force_channel != rig.force_channel:
         raise ConfigError(f"--truth {path}: force channel {true.force_channel}, the project rig's is {rig.force_channel}")
-    simulate_true = model_truth(true)
-
-    def truth(force: np.ndarray, fs: float, point: np.ndarray, direction: np.ndarray,
-              body: str | None = None) -> np.ndarray:
-        return simulate_true(force, fs, point, direction, body)[:, order]
-
-    return truth, changed
+    return ModelTruth(true, truth_model(true), order), changed

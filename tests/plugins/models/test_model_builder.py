@@ -208,12 +208,17 @@ def test_inertia_tensor_convention():
     assert np.array_equal(inertia_tensor(1, 2, 3, 4, 5, 6), [[1, -4, -6], [-4, 2, -5], [-6, -5, 3]])
 
 
-def test_base_translation_gives_sdof_transmissibility():
+def _sdof():
+    """One body moving along z on one spring-damper to the ground: (model, m, c, k, f, w)."""
     m, c, k = 2.0, 30.0, 8e5
     model = Model.build([RigidBody("m", m, np.eye(3), dofs=("z",))],
                         [SpringDamper("k", (0, 0, 0.1), "m", None, (0, 0, k), (0, 0, c))])
     f = np.array([5.0, 80.0, 100.7, 300.0])
-    w = 2 * np.pi * f
+    return model, m, c, k, f, 2 * np.pi * f
+
+
+def test_base_translation_gives_sdof_transmissibility():
+    model, m, c, k, f, w = _sdof()
     base = [Input.base_translation((0, 0, 1))]
     disp = model.transfer(base, [Output.at_point((0, 0, 0), (0, 0, 1), "displacement")], f)[:, 0, 0]
     vel = model.transfer(base, [Output.at_point((0, 0, 0), (0, 0, 1), "velocity")], f)[:, 0, 0]
@@ -222,3 +227,39 @@ def test_base_translation_gives_sdof_transmissibility():
     assert np.allclose(vel, 1j * w * ref, rtol=1e-12)  # the D term of the damper path
     with pytest.raises(ConfigError, match="base-motion"):
         model.state_space(base, [Output.at_point((0, 0, 0), (0, 0, 1), "acceleration")])
+
+
+def test_ground_acceleration_gives_sdof_transmissibility():
+    """Relative coordinates driven by -M T a_g, absolute acceleration out: the 1-DOF closed form."""
+    model, m, c, k, f, w = _sdof()
+    acc = model.transfer([Input.ground_acceleration((0, 0, 1))],
+                         [Output.at_point((0, 0, 0), (0, 0, 1), "acceleration")], f)[:, 0, 0]
+    assert np.allclose(acc, (k + 1j * w * c) / (k - m * w * w + 1j * w * c), rtol=1e-12)
+    with pytest.raises(ConfigError, match="only acceleration outputs"):
+        model.state_space([Input.ground_acceleration((0, 0, 1))], [Output.at_point((0, 0, 0), (0, 0, 1), "velocity")])
+    with pytest.raises(ConfigError, match="give one of them"):
+        model.state_space([Input.ground_acceleration((0, 0, 1)), Input.base_translation((0, 0, 1))],
+                          [Output.at_point((0, 0, 0), (0, 0, 1), "acceleration")])
+
+
+def test_ground_acceleration_matches_the_absolute_base_motion_path():
+    """The thesis rig (6 DOF, springs off its centre of mass) under the ground's translations and
+    rotations about the rig origin: absolute acceleration per ground acceleration (relative
+    coordinates, -M T a_g) equals absolute velocity per ground displacement / (i w) from the
+    springs' and dampers' ground forces Kg u + Cg u' (absolute coordinates)."""
+    model = thesis_dynamometer()
+    f = np.array([20.0, 97.0, 150.0, 222.0, 400.0])
+    w = 2 * np.pi * f
+    axes = np.eye(3)
+    points = [((0.03, 0.07, -0.01), (1, 1, 0.3)), ((-0.04, 0.02, 0.05), (0, 0, 1))]
+    acc_out = [Output.at_point(p, d, "acceleration") for p, d in points]
+    vel_out = [Output.at_point(p, d, "velocity") for p, d in points]
+    rel = model.transfer([Input.ground_acceleration(a) for a in axes]
+                         + [Input.ground_angular_acceleration(a) for a in axes], acc_out, f)
+    absolute = model.transfer([Input.base_translation(a) for a in axes]
+                              + [Input.base_rotation(a) for a in axes], vel_out, f)
+    np.testing.assert_allclose(rel, absolute / (1j * w)[:, None, None], rtol=1e-9, atol=1e-12)
+    # far below the modes the rig moves with the ground: the rigid acceleration at the point
+    low = model.transfer([Input.ground_angular_acceleration((1, 0, 0))], acc_out, [0.01])[0, :, 0]
+    rigid = [np.cross((1, 0, 0), p) @ (np.asarray(d) / np.linalg.norm(d)) for p, d in points]
+    np.testing.assert_allclose(low, rigid, rtol=1e-6)
