@@ -1,5 +1,5 @@
 """Simulation of a model to a sampled input record: a linear one by exact discretisation, one
-with cubic springs by fixed-step Runge-Kutta (:func:`simulate_nonlinear`).
+with cubic springs by a fixed-step exponential integrator (:func:`simulate_nonlinear`).
 
 The state space is split into its modes (x = V z); each mode and input is a first-order complex
 recursion ``z[k+1] = p z[k] + ...`` with ``p = exp(lambda T)`` whose hold-exact coefficients are the phi
@@ -177,7 +177,9 @@ def simulate_nonlinear_many(structure, drives, fs: float) -> list[np.ndarray]:
     input and the cubic force linear across it); the cubic force at the step's end comes from a
     predictor and one corrector. Written here because scipy.integrate's solvers cost a Python call
     per stage and step through each hit at a rate set by the input's kinks; this one costs a few
-    small products per step."""
+    small products per step, in compiled code (odsuite.core.cubic_steps)."""
+    from odsuite.core.cubic_steps import cubic_steps
+
     records = [check_input_record(u, bf.shape[1]) for bf, u in drives]
     n = structure.n_dof
     E, c = structure.cubic_rows()
@@ -205,31 +207,14 @@ def simulate_nonlinear_many(structure, drives, fs: float) -> list[np.ndarray]:
     for i in range(len(records)):
         for j in range(n):
             fine[i, :, j] = np.interp(grid, np.arange(longest), drive[i, :, j])
-    linear = fine[:, :-1] @ start.T + fine[:, 1:] @ end.T  # the inputs' part of each step
-    m = len(c)
-    # the state and the cubic force of a step's start side by side, so the step's linear part is
-    # one product; the inputs' part is mapped to element deflections once for every step (the
-    # loop's cost is numpy's per-call overhead: every operation saved counts)
-    xg = np.zeros((len(records), 2 * n + m))
+    # the inputs' part of each step (products of 2-D arrays: numpy's stacked products are slower)
+    linear = (fine[:, :-1].reshape(-1, n) @ start.T + fine[:, 1:].reshape(-1, n) @ end.T).reshape(
+        len(records), steps - 1, 2 * n)
     states = np.empty((steps, len(records), 2 * n))
-    states[0] = 0.0
-    step_t = np.vstack([phi.T, -start_pull.T])
-    deflect_t = step_t @ Eq.T
-    linear_deflection = linear @ Eq.T
-    end_pull_t, end_deflection_t = end_pull.T, end_deflection.T
-    for k in range(steps - 1):
-        x = xg @ step_t
-        x += linear[:, k]
-        d_base = xg @ deflect_t
-        d_base += linear_deflection[:, k]
-        d = d_base - xg[:, 2 * n:] @ end_deflection_t  # predictor: the cubic force held over the step
-        d = d_base - (c * d * d * d) @ end_deflection_t  # corrector: its value at the predicted end
-        g_end = c * d * d * d
-        x -= g_end @ end_pull_t
-        d = d_base - g_end @ end_deflection_t
-        xg[:, :2 * n] = x
-        xg[:, 2 * n:] = c * d * d * d
-        states[k + 1] = x
+    step_t = np.ascontiguousarray(np.vstack([phi.T, -start_pull.T]))
+    linear_deflection = (linear.reshape(-1, 2 * n) @ Eq.T).reshape(len(records), steps - 1, -1)
+    cubic_steps(step_t, np.ascontiguousarray(step_t @ Eq.T), linear, linear_deflection, np.ascontiguousarray(end_pull.T),
+                np.ascontiguousarray(end_deflection.T), np.ascontiguousarray(c, dtype=float), states)
     if not np.all(np.isfinite(states)):
         raise ConfigError("nonlinear simulation diverged (cubic springs too strong for this force)")
     out = []
