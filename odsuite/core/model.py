@@ -774,7 +774,7 @@ class Model:
         kg = cg = None
         for j, inp in enumerate(inputs):
             if inp.kind == "force":
-                p = inp.point + self.chain.force_offset
+                p = self._force_point(inp)
                 g = self.chain.force_gain
                 bf[:, j] = g * (st.point_rows(inp.body, p).T @ inp.direction
                                 + st.flex_row(inp.body, p, inp.direction, "force"))
@@ -813,16 +813,42 @@ class Model:
             if out.kind == "coordinate":
                 rows[i] = st.body_coordinates(out.body, out.point)[out.index]
                 continue
-            p, n = out.point, out.direction
-            if out.sensor_name is not None:
-                p = p + self.chain.offset.get(out.sensor_name, 0.0)
-                tilt = self.chain.tilt.get(out.sensor_name)
-                if tilt is not None:
-                    n = rotated(n, tilt)
-            rows[i] = n @ st.point_rows(out.body, p) + st.flex_row(out.body, p, n, out.sensor_name)
-            if out.sensor_name is not None:
-                rows[i] *= self.chain.gain.get(out.sensor_name, 1.0)
+            p, n, gain = self._sensed_along(out)
+            rows[i] = gain * (n @ st.point_rows(out.body, p) + st.flex_row(out.body, p, n, out.sensor_name))
         return outputs, rows
+
+    def _force_point(self, inp) -> np.ndarray:
+        return inp.point + self.chain.force_offset
+
+    def _sensed_along(self, out) -> tuple[np.ndarray, np.ndarray, float]:
+        """An output's point and direction as mounted, and its gain (the chain's sensor position,
+        tilt and gain; none for an output that is not a sensor)."""
+        p, n = out.point, out.direction
+        if out.sensor_name is None:
+            return p, n, 1.0
+        tilt = self.chain.tilt.get(out.sensor_name)
+        return (p + self.chain.offset.get(out.sensor_name, 0.0), n if tilt is None else rotated(n, tilt),
+                self.chain.gain.get(out.sensor_name, 1.0))
+
+    def flexible_participation(self, mode: FlexibleMode, force: Input, outputs) -> tuple[float, np.ndarray]:
+        """How an uncoupled flexible ``mode`` (not in the structure) would be driven by ``force`` and
+        seen by ``outputs``: the entries its coordinate would take in :meth:`input_matrices` and
+        :meth:`output_rows`, without assembling a structure that holds it."""
+        st = self.structure
+        name = st.body(mode.body).name
+
+        def on_mode_body(body: str | None) -> bool:
+            return st.body(body).name == name
+
+        p = np.asarray(self._force_point(force), float)
+        b = (self.chain.force_gain * mode.shape(p, np.asarray(force.direction, float), "force")
+             if on_mode_body(force.body) else 0.0)
+        c = np.zeros(len(_flatten(outputs)))
+        for i, out in enumerate(_flatten(outputs)):
+            if out.kind != "coordinate" and on_mode_body(out.body):
+                q, n, gain = self._sensed_along(out)
+                c[i] = gain * mode.shape(np.asarray(q, float), np.asarray(n, float), out.sensor_name)
+        return float(b), c
 
     def state_space(self, inputs, outputs) -> StateSpace:
         """State space of Eq. 3.13-3.16 for these inputs and outputs.

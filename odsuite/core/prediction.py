@@ -356,18 +356,14 @@ def simulate_together(models: Mapping[str, Any], exps: Sequence[PreparedExperime
 def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "acceleration") -> np.ndarray:
     """The model's physical signal at each sensor of ``exp`` (samples x sensors), from rest."""
     from odsuite.core.model import Output, StateSpace
-    from odsuite.core.simulation import (
-        sampled_later,
-        simulate_nonlinear,
-        simulate_state_space,
-    )
+    from odsuite.core.simulation import simulate_nonlinear, simulate_state_space
 
     inputs = _force_inputs(model, exp)
     if quantity != "acceleration":
         outputs = [Output.sensor(s, quantity) for s in exp.sensors]
         return simulate_state_space(model.state_space(inputs, outputs), exp.force, exp.fs, hold="foh")
     # a sensor's acceleration is its output row times the coordinates' accelerations q''
-    st, chain = model.structure, model.chain
+    st = model.structure
     rows = _sensor_rows(model, exp.sensors)
     n = st.n_dof
     if n > CACHED_COORDINATES and st.is_linear:  # many coordinates (finite elements): the sensors alone
@@ -386,6 +382,15 @@ def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "accelerati
             else:  # cubic springs: the response depends on the force's level
                 exp._cache = (st, key, simulate_nonlinear(st, bf, exp.force, exp.fs))
         y = exp._cache[2] @ rows.T
+    return _analog_chain(model, exp, y)
+
+
+def _analog_chain(model, exp: PreparedExperiment, y: np.ndarray) -> np.ndarray:
+    """The chain's parts between the structure and the converter on the sensors' accelerations
+    ``y`` (samples x sensors, changed in place): sensor dynamics, front end, sampling delays."""
+    from odsuite.core.simulation import sampled_later
+
+    chain = model.chain
     # the sensors' own dynamics in series, on their sampled signals (one small system per sensor:
     # identical sensors would make one big system's modes repeated and defective); sensors with
     # equal dynamics are filtered in one call
@@ -496,7 +501,30 @@ def through_chain(exp: PreparedExperiment, physical: np.ndarray, taps: Sequence[
 
 def predict(model, exp: PreparedExperiment) -> np.ndarray:
     """Predicted signals at the acceleration stage, samples x sensors."""
-    physical = simulate_sensors(model, exp)
+    return _digital_chain(exp, simulate_sensors(model, exp))
+
+
+def flexible_mode_change(model, exp: PreparedExperiment, mode) -> np.ndarray:
+    """What adding the flexible ``mode`` to ``model``'s structure changes in ``predict(model, exp)``
+    (samples x sensors). The mode's coordinate is uncoupled from the others (its own rows of M, C
+    and K), so its response adds to theirs: one 1-degree-of-freedom simulation through the chain,
+    instead of the whole structure's again (a search over a mode's frequency and damping)."""
+    from odsuite.core.model import Output, StateSpace
+    from odsuite.core.simulation import simulate_state_space
+
+    b, c = model.flexible_participation(mode, _force_inputs(model, exp)[0], [Output.sensor(s) for s in exp.sensors])
+    if b == 0.0 or not c.any():
+        return np.zeros((exp.n_samples, len(exp.sensors)))
+    w = 2 * np.pi * mode.frequency_hz
+    rate = np.array([-w * w, -2 * mode.damping_ratio * w])
+    # q'' + 2 zeta w q' + w^2 q = b F, its acceleration out
+    sdof = StateSpace(np.array([[0.0, 1.0], rate]), np.array([[0.0], [b]]), rate[None, :], np.array([[b]]))
+    accel = simulate_state_space(sdof, exp.force, exp.fs, hold="foh")
+    return _digital_chain(exp, _analog_chain(model, exp, accel * c[None, :]))
+
+
+def _digital_chain(exp: PreparedExperiment, physical: np.ndarray) -> np.ndarray:
+    """Physical signals at the sensors through each channel's processing to the acceleration stage."""
     if exp.operators is None:
         return through_chain(exp, physical)[stage_names("acceleration")[0]]
     out = np.empty_like(physical)

@@ -16,7 +16,7 @@ import numpy as np
 
 from odsuite.core.effects import Effect, Parameter
 from odsuite.core.model import FlexibleMode, Model, Structure
-from odsuite.core.prediction import predict
+from odsuite.core.prediction import flexible_mode_change, predict
 
 #: participations (1/sqrt(kg), per unit mass-normalised modal coordinate) beyond this are a mode of
 #: a part lighter than 0.1 g: no physical mode of a rig
@@ -102,12 +102,20 @@ class MissingMode(Effect):
         first = next(iter(models.values()))
         sensors = _accelerometers(first)
         unit = {**values, **{f"phi_{s.name}": 1.0 for s in sensors}, "phi_force": 1.0}
+        mode = FlexibleMode(self.name, self._bodies(first)[int(values.get("body", 0.0))], values["frequency_hz"],
+                            values["damping_ratio"], _Participation({**{s.name: 1.0 for s in sensors}, "force": 1.0}))
         col = {s.name: j for j, s in enumerate(sensors)}
         R = np.zeros((len(exps), len(sensors)))  # <r, G> per experiment and sensor
         N = np.zeros_like(R)  # <G, G>
         G = []
         for i, (e, b) in enumerate(zip(exps, base)):
-            g = predict(self.apply(models[e.name], unit), e) - b
+            model = models[e.name]
+            if any((f.name, f.body, f.frequency_hz, f.damping_ratio) == (mode.name, mode.body, mode.frequency_hz,
+                                                                         mode.damping_ratio)
+                   for f in model.structure.flexible_modes):  # _apply replaces that mode: predict the whole
+                g = predict(self.apply(model, unit), e) - b
+            else:  # the mode is added: its response alone
+                g = flexible_mode_change(model, e, mode)
             w = np.ones(e.n_samples) if weights is None else weights[i]
             r = e.measured - b
             cols = [col[s.name] for s in e.sensors]

@@ -146,3 +146,50 @@ def test_rank_one_participations_recovered_exactly():
     R = N * np.outer(c, phi)  # <r, G> of noise-free data
     phi_fit, c_fit = _rank_one(R, N)
     assert np.allclose(np.outer(c_fit, phi_fit), np.outer(c, phi), rtol=1e-9, atol=1e-12)
+
+
+def test_a_missing_modes_response_alone_is_the_whole_structures_change(tmp_path, registries):
+    """missing_mode's search predicts only the added mode (its coordinate is uncoupled): equal to
+    the whole structure simulated with and without it, through every part of the chain that a
+    sensor's row or signal passes (tilt, gain, position, delay, sensor dynamics, the front end,
+    the force's gain and point), on a sensor of the mode's body and not on the other body's."""
+    import sys
+    from pathlib import Path
+
+    from dataclasses import replace
+
+    from odsuite.core.model import AnalogFilter, FlexibleMode
+    from odsuite.core.modelrev import revision_model
+    from odsuite.core.prediction import flexible_mode_change, predict, prepare
+    from odsuite.core.project import open_project
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "core"))
+    from hidden_effects import make_project
+
+    path = make_project(tmp_path / "p.odsp", n_samples=2048, scenarios=("T1", "T6"))
+    eff = registries.effects
+    with open_project(path) as p:
+        exps = prepare(p)
+        model = revision_model(p).shared
+        sensors = [s.name for s in p.rig.sensors if s.quantity == "acceleration"]
+        a, b = sensors[0], sensors[3]
+        model = eff.get("sensor_orientation").apply(model, {f"{a}_tilt_a": 0.3, f"{b}_tilt_b": -0.2})
+        model = eff.get("sensor_gain").apply(model, {f"{a}_gain": 1.2})
+        model = eff.get("sensor_position").apply(model, {f"{b}_dx": 0.01})
+        model = eff.get("channel_delay").apply(model, {f"{b}_delay": 40e-6})
+        model = eff.get("force_gain").apply(model, {"gain": 0.9})
+        model = eff.get("impact_location").apply(model, {"dx": 0.005, "dy": -0.004, "dz": 0.0})
+        model = eff.get("sensor_dynamics").apply(model, {"highpass_hz": 2.0, "resonance_period_s": 1 / 3000.0})
+        # a front end as a rig's [acquisition] declares one: a 4-pole anti-aliasing filter at 5 kHz
+        aa = AnalogFilter((), tuple(2 * np.pi * 5000.0 * np.exp(1j * np.pi * (0.5 + (2 * k + 1) / 8)) for k in range(4)),
+                          (2 * np.pi * 5000.0) ** 4)
+        model = model.replace(chain=replace(model.chain, front_end=aa))
+        table = {s: 0.5 + 0.1 * k * (-1) ** k for k, s in enumerate(sensors)} | {"force": -0.7}
+        mode = FlexibleMode("extra", model.bodies[0].name, 731.0, 0.03, lambda point, direction, tag: table.get(tag, 0.0))
+        with_mode = model.replace(structure=type(model.structure)(
+            model.structure.bodies, model.structure.springs, model.structure.flexible_modes + (mode,)))
+        for e in exps:
+            whole = predict(with_mode, e) - predict(model, e)
+            alone = flexible_mode_change(model, e, mode)
+            assert np.abs(whole).max() > 1e-3 * np.abs(e.measured).max()  # the mode is seen
+            np.testing.assert_allclose(alone, whole, rtol=0, atol=1e-9 * np.abs(whole).max())
