@@ -42,6 +42,7 @@ from odsuite.core.fitting import (
 )
 from odsuite.core.modelrev import current_revision, revision_model
 from odsuite.core.prediction import PreparedExperiment, predict, prepare
+from odsuite.core.simulation import load_nonlinear_loop
 from odsuite.core.verdict import Signature, decide, message, signature
 
 #: how many screened candidates get a full fit and validation
@@ -423,6 +424,8 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     job = _JOBS[token]
     screened: list[Screened] = []
     evaluations = 0
+    if parallel:  # a candidate may give the structure cubic springs: the workers inherit the loop
+        load_nonlinear_loop()
     pool = (ProcessPoolExecutor(workers, multiprocessing.get_context("fork"), initializer=_worker_start)
             if parallel else _InOrder())
     try:

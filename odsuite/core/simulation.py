@@ -161,6 +161,16 @@ def sampled_later(y: np.ndarray, fs: float, delays) -> np.ndarray:
 NONLINEAR_STEPS_PER_SAMPLE = 1
 
 
+def load_nonlinear_loop() -> None:
+    """Load the compiled time loop of :func:`simulate_nonlinear_many` (numba's start and its
+    cache: ~0.8 s of CPU in each process that first needs it). Called before forking worker
+    processes, which then inherit it instead of each loading it again."""
+    from odsuite.core.cubic_steps import cubic_steps
+
+    z = np.zeros
+    cubic_steps(z((1, 1)), z((1, 1)), z((1, 1, 1)), z((1, 1, 1)), z((1, 1)), z((1, 1)), z(1), z((2, 1, 1)))
+
+
 def simulate_nonlinear(structure, bf: np.ndarray, u, fs: float) -> np.ndarray:
     """Coordinate accelerations q'' (n_samples x n_dof), from rest, of
     ``M q'' + C q' + K q + E^T (c (E q)^3) = bf u`` (``structure.cubic_rows()``: cubic springs),
