@@ -173,9 +173,10 @@ def _warnings(name: str, effect, joint: Problem, res, model, exps, after, prefix
         out.append(f"{name}: {label} = {own[label]:.4g} {p.unit} lies outside its physical range "
                    f"[{p.plausible[0]:.4g}, {p.plausible[1]:.4g}]: implausible")
     if res is not None:
-        cons = checks.consistency(joint, res, {e.name: float(np.max(np.abs(e.force))) for e in exps})
+        cons = checks.consistency(joint, res, {e.name: float(np.max(np.abs(e.force))) for e in exps},
+                                  checks.tolerated_misfit(after.noise_floor_error, exps))
         mine = [k for k, v in cons.spread.items() if k.startswith(prefix) and v > 1]
-        if mine:
+        if mine and not cons.consistent:
             amp = [k for k in cons.amplitude_dependent if k.startswith(prefix)]
             out.append(f"{name}: fitted per experiment, {', '.join(mine)} disagree beyond their uncertainties"
                        + (f" and follow the force level ({', '.join(amp)}): amplitude dependent" if amp else "")

@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.stats
 
+from odsuite.core.noise_floor import FLOOR_TOLERANCE
+
 #: probability that noise alone passes a test here: a candidate's gain, a parameter's spread over
 #: the experiments, the slope of a parameter against the force level
 FALSE_ALARM = 1e-3
@@ -75,15 +77,22 @@ class Consistency:
     per_experiment: dict[str, dict[str, float]] = field(default_factory=dict)
     spread: dict[str, float] = field(default_factory=dict)  # chi-square / its limit, per parameter
     amplitude_dependent: list[str] = field(default_factory=list)
+    gain: float = 0.0  # sum of squares (every sample) that fitting per experiment would remove
 
 
-def consistency(problem, res, force_levels: Mapping[str, float]) -> Consistency:
+def consistency(problem, res, force_levels: Mapping[str, float], tolerated: float | None = None) -> Consistency:
     """Each shared parameter fitted to each experiment alone (one Gauss-Newton step from the joint
     fit on that experiment's rows of the Jacobian; its covariance from that experiment's residual
     with its effective samples) and the spread tested: chi-square of the values about their
     weighted mean against FALSE_ALARM (Bonferroni over the parameters). Inconsistent parameters
     whose values follow log(force level) (weighted slope beyond its own FALSE_ALARM, and the rest
-    within the spread noise allows) are amplitude dependent."""
+    within the spread noise allows) are amplitude dependent.
+
+    ``tolerated``: a misfit energy (sum of squares over every sample) the verdict tolerates. When
+    fitting per experiment would lower the sum of squares by less, the differences are immaterial:
+    a residual that the verdict accepts, a little beyond the floor and aligned with the
+    parameter's direction, pulls each experiment's value a little (a 0.8 % spread of a scan skew
+    against a 0.03 % uncertainty): no different values are needed to fit the data."""
     exps = problem.exps
     shared = [i for i, f in enumerate(problem.free) if f.experiment is None]
     if len(exps) < 2 or not shared or res is None:
@@ -95,6 +104,7 @@ def consistency(problem, res, force_levels: Mapping[str, float]) -> Consistency:
     starts = np.concatenate([[0], np.cumsum(sizes)])
     values: dict[str, list[tuple[str, float, float]]] = {}
     per: dict[str, dict[str, float]] = {}
+    gain = 0.0  # what fitting per experiment lowers the (strided) sum of squares by
     for i, e in enumerate(exps):
         rows = slice(starts[i], starts[i + 1])
         Ji, ri = J[rows][:, shared], r[rows]
@@ -105,6 +115,7 @@ def consistency(problem, res, force_levels: Mapping[str, float]) -> Consistency:
         keep = w > 1e-8 * w.max()
         Hinv = (V[:, keep] / w[keep]) @ V[:, keep].T
         step = -Hinv @ (Ji.T @ ri)
+        gain -= float(step @ (Ji.T @ ri))
         n_i = ri.size
         neff = effective_samples(ri.reshape(-1, e.measured.shape[1]))
         s2 = float(ri @ ri) / max(1, n_i - len(shared)) * (n_i / neff)
@@ -119,6 +130,7 @@ def consistency(problem, res, force_levels: Mapping[str, float]) -> Consistency:
             per.setdefault(e.name, {})[f.label] = v
     tested = {k: v for k, v in values.items() if len(v) >= 2}
     out = Consistency(True, per)
+    out.gain = gain * k
     if not tested:
         return out
     alpha = FALSE_ALARM / len(tested)
@@ -130,7 +142,7 @@ def consistency(problem, res, force_levels: Mapping[str, float]) -> Consistency:
         chi2 = float(np.sum(wts * (v - mean) ** 2))
         limit = float(scipy.stats.chi2.isf(alpha, len(v) - 1))
         out.spread[label] = chi2 / limit
-        if chi2 <= limit:
+        if chi2 <= limit or (tolerated is not None and out.gain <= tolerated):
             continue
         out.consistent = False
         levels = np.array([force_levels.get(x[0], np.nan) for x in rows])
@@ -144,6 +156,13 @@ def consistency(problem, res, force_levels: Mapping[str, float]) -> Consistency:
                     and rest <= scipy.stats.chi2.isf(alpha, len(v) - 2)):
                 out.amplitude_dependent.append(label)
     return out
+
+
+def tolerated_misfit(floor_error: float, exps: Sequence) -> float:
+    """The sum of squares beyond the noise floor's that the verdict accepts as "at the floor"
+    (an error up to FLOOR_TOLERANCE x the floor's), over every sample of ``exps``."""
+    den = sum(float(np.sum(e.measured**2)) for e in exps)
+    return (FLOOR_TOLERANCE**2 - 1.0) * floor_error**2 * den
 
 
 def implausible(effect, model, values: Mapping[str, float | None]) -> list[str]:

@@ -258,7 +258,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         per_experiment=per, values={n: v for n, v in shared.items()},
     )
     if problem.free:
-        cons = checks.consistency(problem, res, force_levels or {})
+        cons = checks.consistency(problem, res, force_levels or {}, checks.tolerated_misfit(noise, problem.full))
         cand.consistent, cand.amplitude_dependent = cons.consistent, cons.amplitude_dependent
         cand.per_experiment_fits = cons.per_experiment
     cand.implausible = checks.implausible(effect, problem.base.shared, params)

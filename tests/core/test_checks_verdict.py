@@ -80,6 +80,32 @@ def test_a_scattered_parameter_is_inconsistent_but_not_amplitude_dependent():
     assert not c.consistent and not c.amplitude_dependent
 
 
+def test_differences_that_fit_no_better_than_the_tolerated_misfit_are_immaterial():
+    # values 0.1 % apart, far beyond their 1e-5 uncertainties (sigma 1e-4): statistically different
+    levels = {"e0": 1.0, "e1": 3.0, "e2": 10.0, "e3": 30.0}
+    thetas = [1.0, 1.001, 0.999, 1.0005]
+    problem, res = _linear(thetas, sigma=1e-4)
+    assert not checks.consistency(problem, res, levels).consistent
+    # what fitting per experiment removes: sum over experiments of (theta_i - theta)^2 |g_i|^2,
+    # theta_i each experiment's own least-squares value (the model is linear: one step is exact)
+    g = [np.sin(np.linspace(0, 20 + 3 * i, 400)) for i in range(4)]
+    data = [d[:, 0] for d in (e.measured for e in problem.exps)]
+    own = [float(gi @ di / (gi @ gi)) for gi, di in zip(g, data)]
+    theta = 1.0 + float(res.x[0])
+    removed = sum((t - theta) ** 2 * float(gi @ gi) for t, gi in zip(own, g))
+    c = checks.consistency(problem, res, levels, tolerated=1.01 * removed)
+    assert c.gain == pytest.approx(removed, rel=1e-9)
+    assert c.consistent and not c.amplitude_dependent and c.spread["k"] > 1  # reported, not decisive
+    assert not checks.consistency(problem, res, levels, tolerated=0.99 * removed).consistent
+
+
+def test_the_tolerated_misfit_is_the_floor_tolerance_band():
+    exps = [_Exp("a", np.full((10, 2), 3.0)), _Exp("b", np.full((5, 2), 4.0))]
+    den = 10 * 2 * 9.0 + 5 * 2 * 16.0
+    # an error of 1.3 x the floor's: (1.3^2 - 1) of the floor's energy beyond it
+    assert checks.tolerated_misfit(0.1, exps) == pytest.approx((1.3**2 - 1) * 0.01 * den)
+
+
 class _Effect:
     def parameters(self, model):
         return [Parameter("tilt", "rad", 0.0, -0.3, 0.3, plausible=(-np.pi / 4, np.pi / 4)),
