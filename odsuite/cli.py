@@ -898,7 +898,7 @@ def compare_cmd(
                       f"noise floor there) in {', '.join(peak['channels'])}: {where}", highlight=False)
     if result.get("modal"):
         console.print(_modal_table(result["modal"]))
-    for note in result.get("modal_notes") or []:
+    for note in (result.get("modal_notes") or []) + (result.get("notes") or []):
         console.print(note, highlight=False, soft_wrap=True)
 
 

@@ -14,7 +14,7 @@ over the measured energy.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -159,6 +159,7 @@ class Comparison:
     worst: list[dict[str, Any]]
     modal: list[dict[str, Any]] | None = None  # measured against model modes, per record
     modal_notes: list[str] | None = None
+    notes: list[str] = field(default_factory=list)  # the records against the rig file
     floor: NoiseFloor | None = None
     # what the modal table rests on (FRFs, MAC matrices) for figures; not part of the JSON
     modal_records: list | None = None
@@ -173,7 +174,7 @@ class Comparison:
                 "revision": self.revision, "experiments": self.experiments, "channels": self.channels,
                 "coordinates": self.coordinates, "bands": self.bands, "rigidity": self.rigidity,
                 "modes": self.modes, "residual_peaks": self.residual_peaks, "worst": self.worst,
-                "modal": self.modal, "modal_notes": self.modal_notes}
+                "modal": self.modal, "modal_notes": self.modal_notes, "notes": self.notes}
 
 
 #: band of the FRF comparison and of the modes identified from measured FRFs (Hz)
@@ -349,4 +350,5 @@ def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapp
                **(frf_comparison(exps, preds, model_modes) if resonances else {})},
         residual_peaks=residual_peaks(exps, preds, modes_hz, floor), worst=worst, floor=floor,
         modal=modal, modal_notes=modal_notes, modal_records=records,
+        notes=[n for e in exps for n in e.notes],
     )

@@ -135,6 +135,7 @@ class PreparedExperiment:
     # sensors (gain, tilt, position) reuse them (a strong reference, so identity is safe)
     _cache: tuple | None = field(default=None, repr=False)
     force_body: str | None = None  # the body hit, when the experiment says (else: from the point)
+    notes: list[str] = field(default_factory=list)  # what the record says against the rig file
 
     @property
     def n_samples(self) -> int:
@@ -242,12 +243,41 @@ def quantisation_step(volts: np.ndarray) -> np.ndarray:
     return np.asarray(steps)
 
 
+#: a recorded value within this share of a step from the grid of the smallest step lies on it
+#: (codes written in full lie on it to round-off; float data has thousands of values, each on it
+#: by chance with probability 0.02). Codes rounded by a text file to fewer digits miss it: the
+#: declared step stands then
+GRID_TOLERANCE = 0.01
+#: distinct values that make a grid: a small signal on a coarse converter may use only three codes
+GRID_VALUES = 3
+
+
+def adc_steps(volts: np.ndarray, declared: float | None) -> tuple[np.ndarray, list[int]]:
+    """Per column, the converter's step: the grid the recorded values lie on when they lie on one
+    (a quantised record shows its converter, whatever a rig file declares: a 12-bit card on a rig
+    that declares 16 bits rounds 16 times coarser), else the declared step, else the smallest step
+    between values (float data: tiny). And the columns whose grid differs from the declared step
+    by more than 1.5x."""
+    observed = quantisation_step(volts)
+    steps, differ = [], []
+    for j, (col, s) in enumerate(zip(np.atleast_2d(volts.T), observed)):
+        codes = (np.unique(col) - col.min()) / s if s > 0 else np.zeros(0)
+        on_grid = codes.size >= GRID_VALUES and bool(np.all(np.abs(codes - np.round(codes)) <= GRID_TOLERANCE))
+        if declared and not on_grid:
+            steps.append(declared)
+            continue
+        steps.append(float(s))
+        if declared and not declared / 1.5 <= s <= 1.5 * declared:
+            differ.append(j)
+    return np.asarray(steps), differ
+
+
 def _force(exp, raw: np.ndarray, where: str, lsb_v: float | None = None) -> ForceWindow:
     fch = exp.excitation.force_channel
     channel = exp.systeminfo.channels[fch]
     fchain = chain_for_channel(channel, where=f"{where} channel {fch}")
     per_newton = abs(channel.sensitivity * channel.daq_gain) or 1.0
-    step = lsb_v if lsb_v else float(quantisation_step(raw[:, fch])[0])
+    step = float(adc_steps(raw[:, [fch]], lsb_v)[0][0])
     return force_window(fchain.run(raw[:, fch])[stage_names(channel.quantity)[0]], exp.sampling_rate,
                         step / per_newton)
 
@@ -295,8 +325,10 @@ def prepare_experiment(project, name: str) -> PreparedExperiment:
     volts = raw[:, columns]
     trigger = exp.pretrigger if exp.pretrigger > 0 else find_trigger(force)
     micro = np.array([1e6 if si.channels[k].micro_units else 1.0 for k in columns])
-    # the ADC's step: as the rig declares it, else the smallest step between recorded values
-    step = np.full(len(columns), lsb_v) if lsb_v else quantisation_step(volts)
+    step, differ = adc_steps(volts, lsb_v)
+    notes = [f"{where}: channel {columns[j]} ({sensors[j].name}) is recorded on a {1e3 * step[j]:.4g} mV grid, "
+             f"{step[j] / lsb_v:.3g}x the {1e3 * lsb_v:.4g} mV step the rig's [acquisition] declares: the noise "
+             "floor uses the recorded grid" for j in differ]
     lsb = step / np.abs(np.asarray(vpu)) * micro
     quiet = split_noise(volts, trigger, exp.sampling_rate)
     disturbance = np.column_stack([chain.run(quiet.disturbance[:, j])[tap] for j, chain in enumerate(chains)])
@@ -307,6 +339,7 @@ def prepare_experiment(project, name: str) -> PreparedExperiment:
         volts=volts, measured=measured, volts_per_unit=np.asarray(vpu), chains=chains, trigger=trigger,
         noise_var=white, units=units, operators=stage_operators(infos, vpu), lsb=lsb, adc_step_v=step,
         disturbance=disturbance, force_noise_energy=fw.noise_energy, force_body=exp.excitation.body,
+        notes=notes,
     )
 
 

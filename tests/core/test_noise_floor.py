@@ -122,3 +122,23 @@ def test_acquisition_table_is_read_and_checked():
                       registries().sensor_types)
     with pytest.raises(ConfigError, match=r"adc_range"):
         rig_from_dict({**base, "acquisition": {"adc_range": [5.0, -5.0]}}, registries().sensor_types)
+
+
+def test_the_converters_step_comes_from_the_recorded_grid_when_there_is_one():
+    from odsuite.core.prediction import adc_steps
+
+    rng = np.random.default_rng(3)
+    declared = 10.0 / 2**16
+    coarse = 10.0 / 2**12
+    signal = 0.004 * np.sin(np.linspace(0, 60, 4096)) * np.exp(-np.linspace(0, 5, 4096))
+    codes12 = np.round((signal + 1e-3 * rng.standard_normal(4096)) / coarse) * coarse  # a few codes
+    codes16 = np.round((signal + 1e-3 * rng.standard_normal(4096)) / declared) * declared
+    floats = signal + 1e-3 * rng.standard_normal(4096)
+    written = np.round(codes16 * 1e3, 2) / 1e3  # 16-bit codes written to 10 uV: off the grid
+    steps, differ = adc_steps(np.column_stack([codes12, codes16, floats, written]), declared)
+    assert len(np.unique(codes12)) < 12
+    assert steps == pytest.approx([coarse, declared, declared, declared], rel=1e-9)
+    assert differ == [0]
+    # nothing declared: the grid, else the smallest step between values (float data: tiny)
+    steps, differ = adc_steps(np.column_stack([codes12, floats]), None)
+    assert steps[0] == pytest.approx(coarse, rel=1e-9) and steps[1] < 1e-6 and differ == []
