@@ -148,10 +148,16 @@ def consistency(problem, res, force_levels: Mapping[str, float], tolerated: floa
         levels = np.array([force_levels.get(x[0], np.nan) for x in rows])
         if len(v) >= 3 and np.all(np.isfinite(levels)) and np.ptp(np.log(levels)) > 0:
             X = np.column_stack([np.ones(len(v)), np.log(levels)])
-            A = X.T @ (wts[:, None] * X)
-            coef = np.linalg.solve(A, X.T @ (wts * v))
+            root = np.sqrt(wts)
+            # by least squares on the weighted rows: one experiment far surer than the others
+            # leaves the slope undetermined (a singular normal matrix), not an error
+            coef, _, rank, sv = np.linalg.lstsq(X * root[:, None], v * root, rcond=None)
+            if rank < 2:
+                continue
             rest = float(np.sum(wts * (v - X @ coef) ** 2))
-            slope_sd = float(np.sqrt(np.linalg.inv(A)[1, 1] * max(1.0, rest / max(1, len(v) - 2))))
+            _, _, vt = np.linalg.svd(X * root[:, None], full_matrices=False)
+            slope_var = float(np.sum((vt[:, 1] / sv) ** 2))  # [(X^T W X)^-1]_11
+            slope_sd = float(np.sqrt(slope_var * max(1.0, rest / max(1, len(v) - 2))))
             if (abs(coef[1]) / slope_sd > scipy.stats.norm.isf(alpha / 2)
                     and rest <= scipy.stats.chi2.isf(alpha, len(v) - 2)):
                 out.amplitude_dependent.append(label)

@@ -99,6 +99,25 @@ def test_differences_that_fit_no_better_than_the_tolerated_misfit_are_immaterial
     assert not checks.consistency(problem, res, levels, tolerated=0.99 * removed).consistent
 
 
+def test_one_experiment_far_surer_than_the_others_leaves_the_slope_undetermined():
+    # e1's signal is 1e9 times stronger: its weight swamps the others', the normal matrix of the
+    # slope against the force level is singular in floating point (it raised LinAlgError)
+    rng = np.random.default_rng(1)
+    n = 400
+    g = [np.sin(np.linspace(0, 20 + 3 * i, n)) * (1e9 if i == 1 else 1.0) for i in range(3)]
+    thetas = [1.0, 1.2, 1.4]
+    data = [t * gi + 0.01 * rng.standard_normal(n) for t, gi in zip(thetas, g)]
+    G, D = np.concatenate(g), np.concatenate(data)
+    theta = float(G @ D / (G @ G))
+    problem = _Problem([_Exp(f"e{i}", d[:, None]) for i, d in enumerate(data)],
+                       [_Free(Parameter("k", "1", 1.0, 0.0, 10.0), None, 1.0)])
+    c = checks.consistency(problem, _Result(np.array([theta - 1.0]), D - theta * G, -G[:, None]),
+                           {"e0": 1.0, "e1": 3.0, "e2": 10.0})
+    # the values follow log(force level) (1.0, 1.2, 1.4 at 1, 3, 10 N): amplitude dependent
+    assert not c.consistent and c.amplitude_dependent == ["k"]
+    assert [c.per_experiment[f"e{i}"]["k"] for i in range(3)] == pytest.approx(thetas, abs=0.01)
+
+
 def test_the_tolerated_misfit_is_the_floor_tolerance_band():
     exps = [_Exp("a", np.full((10, 2), 3.0)), _Exp("b", np.full((5, 2), 4.0))]
     den = 10 * 2 * 9.0 + 5 * 2 * 16.0
