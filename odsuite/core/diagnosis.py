@@ -570,14 +570,15 @@ def _makes_nonlinear(cand: Candidate, base) -> bool:
 def _mark_proxies(cands: Sequence[Candidate], base) -> None:
     """A linear candidate whose parameters, fitted per experiment, follow the force level
     (``amplitude_dependent``) is a proxy: a linear change cannot depend on the level, so it stands in
-    for amplitude-dependent physics. When a significant candidate that makes the model amplitude
-    dependent explains more, the proxy names it (``confounded_with``): both describe the
-    level-dependent part of the residual, and only one of them can."""
-    causes = [c for c in cands if c.significant and _makes_nonlinear(c, base)]
+    for amplitude-dependent physics. A candidate that makes the model amplitude dependent and fits
+    the records better (its error over all of them, not its leave-one-experiment-out error: left out,
+    the top force level is an extrapolation) is named by the proxy (``confounded_with``), and names
+    it: both describe the level-dependent part of the residual, which only one of them can cause."""
+    causes = [c for c in cands if _makes_nonlinear(c, base)]
     for c in cands:
         if not c.amplitude_dependent or c in causes:
             continue
         for n in causes:
-            if n.validated_error < c.validated_error and n.effect not in c.confounded_with:
+            if n.error_after < c.error_after and n.effect not in c.confounded_with:
                 c.confounded_with.append(n.effect)
                 n.confounded_with.append(c.effect)
