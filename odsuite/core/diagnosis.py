@@ -490,6 +490,7 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
             n_parameters=len(s.problem.free), bic=float("inf"), screened_error=err,
             fitted=False))
     _mark_confounded([c for c in candidates if c.fitted], exps, scale)
+    _mark_proxies([c for c in candidates if c.fitted], base)
     candidates.sort(key=lambda c: (not c.significant, c.bic if c.fitted else math.inf, c.screened_error))
     _prefer_named(candidates, regs.effects)
     diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=noise, revision=rev.get("revision"),
@@ -559,3 +560,28 @@ def _mark_confounded(cands: Sequence[Candidate], exps, scale: float) -> None:
                     or checks.indistinguishable(va, vb, scale, ca.n_parameters + cb.n_parameters)):
                 ca.confounded_with.append(b)
                 cb.confounded_with.append(a)
+
+
+def _makes_nonlinear(cand: Candidate, base) -> bool:
+    """The candidate's fitted model responds to the force level (cubic springs) where the base
+    model does not."""
+    if not base.shared.structure.is_linear:
+        return False
+    return not all(m.structure.is_linear for m in cand._problem.models(cand._u).values())
+
+
+def _mark_proxies(cands: Sequence[Candidate], base) -> None:
+    """A linear candidate whose parameters, fitted per experiment, follow the force level
+    (``amplitude_dependent``) is a proxy: a linear change cannot depend on the level, so it stands in
+    for amplitude-dependent physics. A candidate that makes the model amplitude dependent and fits
+    the records better (its error over all of them, not its leave-one-experiment-out error: left out,
+    the top force level is an extrapolation) is named by the proxy (``confounded_with``), and names
+    it: both describe the level-dependent part of the residual, which only one of them can cause."""
+    causes = [c for c in cands if _makes_nonlinear(c, base)]
+    for c in cands:
+        if not c.amplitude_dependent or c in causes:
+            continue
+        for n in causes:
+            if n.error_after < c.error_after and n.effect not in c.confounded_with:
+                c.confounded_with.append(n.effect)
+                n.confounded_with.append(c.effect)

@@ -111,9 +111,17 @@ def message(verdict: str, baseline: float, floor: float, best, sig: Signature, r
     ratio = baseline / floor if floor > 0 else float("inf")
     head = f"The model's error is {baseline:.3g}, {ratio:.2f} times the noise floor of {floor:.3g}"
     if verdict == "nothing to explain":
-        return (f"{head}: within what noise, hum and quantisation leave ({FLOOR_TOLERANCE:g}x), so these "
-                "data show nothing the model lacks. Record more or stronger hits (or quieter channels) to "
-                "look for smaller effects.")
+        if best is None:
+            return (f"{head}: within what noise, hum and quantisation leave ({FLOOR_TOLERANCE:g}x), so these "
+                    "data show nothing the model lacks. Record more or stronger hits (or quieter channels) to "
+                    "look for smaller effects.")
+        # a gain beyond chance within the floor's tolerance: something small is there, too small to
+        # call the model wrong at this noise
+        also = f" (or {', '.join(best.confounded_with)})" if best.confounded_with else ""
+        return (f"{head}: within what noise, hum and quantisation leave ({FLOOR_TOLERANCE:g}x), so the model "
+                f"fits these data. {best.effect}{also} still removes more of the error than chance would "
+                f"(to {best.error_after:.3g}): a small effect at this noise. Record stronger hits (or quieter "
+                f"channels) to tell whether it matters.")
     amp = (" The misfit changes with the force level: the structure is amplitude dependent (a nonlinear "
            "stiffness, friction or a contact); test at several force levels and fit each level alone."
            if sig.amplitude_dependent else "")

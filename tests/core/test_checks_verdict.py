@@ -4,7 +4,7 @@ plausible ranges; the verdict's four words."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pytest
@@ -13,7 +13,7 @@ from odsuite.core import checks
 from odsuite.core.effects import Parameter
 from odsuite.core.fitting import _Free
 from odsuite.core.noise_floor import FLOOR_TOLERANCE
-from odsuite.core.verdict import decide
+from odsuite.core.verdict import Signature, decide, message
 
 
 @dataclass
@@ -141,6 +141,8 @@ class _Cand:
     consistent: bool = True
     plausible: bool = True
     error_after: float = 0.01
+    effect: str = "nonlinear_stiffness"
+    confounded_with: list[str] = field(default_factory=list)
 
 
 @pytest.mark.parametrize("baseline, best, expected", [
@@ -156,3 +158,14 @@ def test_verdicts(baseline, best, expected):
     floor = 0.01
     assert FLOOR_TOLERANCE * floor < 0.05
     assert decide(baseline, floor, best) == expected
+
+
+def test_nothing_to_explain_names_a_significant_candidate_instead_of_hiding_it():
+    # within the floor's tolerance the verdict stays, but a candidate that removes more than chance
+    # is named with where it brings the error, and none is claimed when there is none
+    best = _Cand(error_after=0.0105, confounded_with=["stiffness"])
+    words = message("nothing to explain", 0.012, 0.01, best, Signature(), None)
+    assert "nonlinear_stiffness" in words and "stiffness" in words and "0.0105" in words
+    assert "nothing the model lacks" not in words
+    plain = message("nothing to explain", 0.012, 0.01, None, Signature(), None)
+    assert "nothing the model lacks" in plain and "nonlinear_stiffness" not in plain
