@@ -38,6 +38,9 @@ WINDOW_MIN_S = 0.04
 #: the largest residual a sample may have, in multiples of the record's largest value: beyond it
 #: the model is unstable
 UNSTABLE_RESIDUAL = 1e3
+#: a search value this close to a bound (in natural steps, _scale, or relative beyond one) is the
+#: bound: scipy's trf starts 1e-10 inside (make_strictly_feasible), its differences step 1e-4
+AT_BOUND = 1e-8
 
 
 def fit_windows(exps: Sequence[PreparedExperiment]) -> list[PreparedExperiment]:
@@ -81,12 +84,29 @@ class _Free:
         return self.param.name if self.experiment is None else f"{self.experiment}/{self.param.name}"
 
     def to_value(self, u: float) -> float:
+        lo, hi = self.bounds
+        # scipy's trf keeps its iterates a hair inside the bounds: there, the value is the bound
+        # (a resonance period of 0 is "no resonance", not one at 1e15 Hz)
+        if u - lo <= AT_BOUND * max(1.0, abs(lo)):
+            return float(self.param.lower)
+        if hi - u <= AT_BOUND * max(1.0, abs(hi)):
+            return float(self.param.upper)
         return float(np.clip(self.param.nominal + u * self.scale, self.param.lower, self.param.upper))
 
     @property
     def bounds(self) -> tuple[float, float]:
         p = self.param
         return (p.lower - p.nominal) / self.scale, (p.upper - p.nominal) / self.scale
+
+
+def _prior_share(f: _Free) -> float:
+    """The prior per search step squared, as a fraction of the prior per tenth of the range
+    squared. Per step it would pull hardest on the parameters whose step is smallest against the
+    values they take: a high-pass corner (step 0.25 Hz, nominal 0: none) found at 20 Hz paid 1.2x
+    the noise floor's energy, which pulled it to 17.8 Hz and split it over two equal corners."""
+    span = f.param.upper - f.param.lower
+    tenth = span / 10.0 if np.isfinite(span) and span > 0 else f.scale / 0.05
+    return (f.scale / tenth) ** 2
 
 
 def _scale(p) -> float:
@@ -109,8 +129,9 @@ class Problem:
         # fits see every stride-th sample: the signals are band-limited far below Nyquist, so the
         # sum of squares keeps its shape while the Jacobian shrinks
         self.stride = stride
-        # a weak pull towards the nominal values (sum of squares per unit step squared): it decides
-        # directions the data cannot see and keeps damped steps well posed; negligible elsewhere
+        # a weak pull towards the nominal values (sum of squares per tenth of a parameter's range
+        # squared, ``pull`` per search step squared): it decides directions the data cannot see and
+        # keeps damped steps well posed; negligible elsewhere
         self.prior = prior
         self.effect = effect
         self.exps = list(exps)
@@ -131,6 +152,7 @@ class Problem:
                 self.free += [_Free(p, e.name, _scale(p)) for e in self.exps]
             else:
                 self.free.append(_Free(p, None, _scale(p)))
+        self.pull = np.array([prior * _prior_share(f) for f in self.free])
         self.evaluations = 0
 
     # values ------------------------------------------------------------------------------------
@@ -237,16 +259,17 @@ class Problem:
         out._base_predictions = self._base_predictions  # the same base model: share its predictions
         return out
 
-    def jacobian(self, u: np.ndarray, r0: np.ndarray, exps: Sequence[PreparedExperiment] | None = None
-                 ) -> np.ndarray:
-        """Forward differences of the residual on ``exps``. Parameters that change one sensor's
-        prediction alone (``Parameter.sensor``) are moved together with those of other sensors,
-        each column taken from its own sensor's rows: the same numbers in fewer evaluations."""
+    def jacobian(self, u: np.ndarray, r0: np.ndarray, exps: Sequence[PreparedExperiment] | None = None,
+                 step: float = 1.0) -> np.ndarray:
+        """Forward differences of the residual on ``exps`` (``step`` natural steps, backwards at an
+        upper bound). Parameters that change one sensor's prediction alone (``Parameter.sensor``)
+        are moved together with those of other sensors, each column taken from its own sensor's
+        rows: the same numbers in fewer evaluations."""
         J = np.zeros((r0.size, len(self.free)))
         steps = np.zeros(len(self.free))
         for i, f in enumerate(self.free):
             lo, hi = f.bounds
-            h = 1.0 if u[i] + 1.0 <= hi else -1.0
+            h = step if u[i] + step <= hi else -step
             if not lo <= u[i] + h <= hi:
                 h = 0.5 * (hi - u[i]) if hi - u[i] > u[i] - lo else -0.5 * (u[i] - lo)
             steps[i] = h
@@ -306,20 +329,21 @@ def _lm_step(problem: Problem, J: np.ndarray, r: np.ndarray, u: np.ndarray, exps
     lo, hi = problem.lower_upper()
     # parameters the residual cannot see here stay put (a mode's frequency while its amplitudes are
     # zero): the linearisation says nothing about them
-    act = ~_tiny(J, r)
+    act = ~_tiny(J, r) & ~_repeated(J)
     if not act.any():
         return u
     Ja, ua = J[:, act], u[act]
-    JtJ = Ja.T @ Ja + problem.prior * np.eye(len(ua))
-    g = Ja.T @ r - problem.prior * ua
+    pull = problem.pull[act]
+    JtJ = Ja.T @ Ja + np.diag(pull)
+    g = Ja.T @ r - pull * ua
     diag = np.diag(JtJ).copy()
     diag[diag <= 0] = max(float(diag.max(initial=0.0)), 1e-300)
-    cost = float(r @ r) + problem.prior * float(u @ u)
+    cost = float(r @ r) + float(u @ (problem.pull * u))
     for lam in LM_DAMPING:
         u1 = u.copy()
         u1[act] += np.linalg.solve(JtJ + lam * np.diag(diag), g)
         u1 = np.clip(u1, lo, hi)
-        if float(np.sum(problem.residual(u1, exps) ** 2)) + problem.prior * float(u1 @ u1) < cost:
+        if float(np.sum(problem.residual(u1, exps) ** 2)) + float(u1 @ (problem.pull * u1)) < cost:
             return u1
     return u
 
@@ -342,6 +366,25 @@ def _tiny(J: np.ndarray, r: np.ndarray) -> np.ndarray:
     norms = np.linalg.norm(J, axis=0)
     scale = max(float(np.max(norms, initial=0.0)), float(np.linalg.norm(r)))
     return norms <= 1e-7 * (scale if scale > 0 else 1.0)
+
+
+#: Jacobian columns closer than this (relative) are the same column
+SAME_COLUMN = 1e-6
+
+
+def _repeated(J: np.ndarray) -> np.ndarray:
+    """Columns equal to an earlier one: exchangeable parameters at this point (two high-pass
+    corners of one filter, both at 0). A step splits evenly between them, and from an even split
+    every later step does too: the fit never leaves the symmetric line (two corners at 8.7 Hz where
+    the data hold one at 20 Hz). The first of them takes the step alone."""
+    G = J.T @ J
+    sq = np.diag(G)
+    # |J_i - J_j|^2 from the Gram matrix: one product for every pair
+    same = (sq[:, None] + sq[None, :] - 2 * G <= SAME_COLUMN**2 * sq[:, None]) & (sq[:, None] > 0)
+    out = np.zeros(J.shape[1], bool)
+    for j in range(1, J.shape[1]):
+        out[j] = bool(np.any(same[:j, j] & ~out[:j]))
+    return out
 
 
 def _grid_starts(problem: Problem, r0: np.ndarray, J: np.ndarray, peaks_hz: Sequence[float]) -> list[np.ndarray]:
@@ -542,22 +585,38 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
 # fitting and validation
 
 
+#: the fit's finite-difference step, in natural steps (_scale). Absolute: scipy's own steps are
+#: relative to the value, and the search values start at 0 (nominal), so a parameter near its
+#: nominal was differenced over 1e-14 of a step (in round-off, or in a filter at 1e15 Hz)
+DIFF_STEP = 1e-4
+
+
 def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] | None = None,
-        columns: Sequence[int] | None = None, max_nfev: int | None = None, continuation: bool = True):
+        max_nfev: int | None = None, continuation: bool = True):
     """Bounded output-error least squares from ``u0`` (on short heads of the records first);
-    returns scipy's result for the whole records."""
+    returns scipy's result for the whole records (``jac`` = d residual / d u)."""
     lo, hi = problem.lower_upper()
     u = np.clip(u0, lo, hi)
     n = len(problem.free)
+    root = np.sqrt(problem.pull) if problem.prior else None
     stages = heads(exps or problem.exps) if continuation else [list(exps or problem.exps)]
     for k, stage in enumerate(stages):
         last = k == len(stages) - 1
-        root = math.sqrt(problem.prior)
+        seen: dict[bytes, np.ndarray] = {}  # the residual at the point scipy asks the Jacobian of
+
+        def fun(x, stage=stage, seen=seen):
+            seen.clear()
+            seen[x.tobytes()] = r = problem.residual(x, stage)
+            return np.concatenate([r, root * x]) if root is not None else r
+
+        def jac(x, stage=stage, seen=seen):
+            r = seen.get(x.tobytes())
+            J = -problem.jacobian(x, problem.residual(x, stage) if r is None else r, stage, step=DIFF_STEP)
+            return np.vstack([J, np.diag(root)]) if root is not None else J
+
         res = scipy.optimize.least_squares(
-            lambda x: np.concatenate([problem.residual(x, stage, columns), root * x]) if root
-            else problem.residual(x, stage, columns), u, bounds=(lo, hi), method="trf",
-            x_scale=1.0, diff_step=1e-4, max_nfev=max_nfev or (8 if last else 4) * (n + 1),
-            xtol=1e-6, ftol=1e-8,
+            fun, u, jac=jac, bounds=(lo, hi), method="trf", x_scale=1.0,
+            max_nfev=max_nfev or (8 if last else 4) * (n + 1), xtol=1e-6, ftol=1e-8,
         )
         u = res.x
     return res
@@ -608,7 +667,8 @@ def uncertainties(problem: Problem, res, n_eff: float) -> tuple[np.ndarray, np.n
 def validate(problem: Problem, u: np.ndarray, res) -> tuple[float, str]:
     """Held-out sum of squares, each fold refitted by one Gauss-Newton step from the full fit with
     the fold's own rows removed (at the optimum the rows left in pull by exactly minus the held-out
-    rows' gradient), then evaluated for real on the held-out data.
+    rows' gradient), shortened until the rows left in fit no worse than at the full fit, then
+    evaluated for real on the held-out data.
 
     Shared parameters: leave one experiment out. Parameters of single experiments: held-out
     channels (alternate sensors), since a left-out experiment's own parameters are never fitted.
@@ -647,20 +707,35 @@ def validate(problem: Problem, u: np.ndarray, res) -> tuple[float, str]:
             folds.append((rows, None, e))
         how = "leave one experiment out"
     lo, hi = problem.lower_upper()
-    H = J.T @ J + problem.prior * np.eye(len(u))
+    H = J.T @ J + np.diag(problem.pull)
+    # every sample's residual at the fit, and each fold's rows among them
+    full_rows = [len(range(e.n_samples)) * e.measured.shape[1] for e in exps]
+    r_full = problem.residual(u, stride=1)
+    exp_of_row = np.repeat(np.arange(len(exps)), full_rows)
+    col_of_row = np.concatenate([np.tile(np.arange(e.measured.shape[1]), e.n_samples) for e in exps])
     total = 0.0
     for rows, cols, exp in folds:
         Jh, rh = J[rows], r[rows]
-        # r = measured - model and res.jac = d r / d u: the kept rows' step is -(H_kept)^-1 J_h^T r_h
+        held = (exp_of_row == exps.index(exp)) if exp is not None else np.isin(col_of_row, cols)
+        kept_cost = float(r_full[~held] @ r_full[~held]) + float(u @ (problem.pull * u))
+        # r = measured - model and res.jac = d r / d u: the kept rows' step is -(H_kept)^-1 J_h^T r_h;
+        # a step the linearisation overshoots (along what the kept rows barely see) is halved until
+        # it fits the kept rows no worse than the joint fit: a refit, not a leap
         step = np.linalg.lstsq(H - Jh.T @ Jh, Jh.T @ rh, rcond=1e-10)[0]
-        u_fold = np.clip(u + step, lo, hi)
-        if exp is not None:
-            total += problem.sse(u_fold, [exp])
-        else:
-            held = np.concatenate([(e.measured - p)[:, cols].ravel()
-                                   for e, p in zip(exps, problem.predictions(u_fold))])
-            total += float(held @ held)
+        r_fold = r_full
+        for _ in range(FOLD_HALVINGS):
+            u_fold = np.clip(u + step, lo, hi)
+            r_try = problem.residual(u_fold, stride=1)
+            if float(r_try[~held] @ r_try[~held]) + float(u_fold @ (problem.pull * u_fold)) <= kept_cost:
+                r_fold = r_try
+                break
+            step = step / 2
+        total += float(r_fold[held] @ r_fold[held])
     return total, how
+
+
+#: halvings of a validation fold's step before the fold keeps the joint fit
+FOLD_HALVINGS = 4
 
 
 #: the blocks of time that validate a projected fit: short against a response's decay, long

@@ -459,10 +459,21 @@ def _sensor_rows(model, sensors: Sequence[Sensor]) -> np.ndarray:
 @functools.lru_cache(maxsize=256)
 def _sensor_filter(dyn, fs: float) -> tuple[np.ndarray, np.ndarray]:
     """First-order-hold discretisation of a sensor's dynamics in transfer-function form (a few
-    states, run by lfilter); cached, as scipy's matrix exponential dominates a fitting loop."""
-    ad, bd, cd, dd, _ = scipy.signal.cont2discrete(scipy.signal.zpk2ss(*dyn.zpk()), 1 / fs, method="foh")
-    num, den = scipy.signal.ss2tf(ad, bd, cd, dd)
-    return num[0], den
+    states, run by lfilter); cached, as scipy's matrix exponential dominates a fitting loop.
+
+    The high-passes and the resonance are discretised apart and put in series: in one system, a
+    resonance far above the sampling rate (a fit passing a period near 0, "no resonance") next to
+    the high-passes' slow poles loses every digit (a 1e15 Hz resonance changed the signal by
+    17 %); alone, each is exact to 1e-12 and tends to 1 as the period goes to 0."""
+    num, den = np.ones(1), np.ones(1)
+    resonance = replace(dyn, highpass_hz=0.0, coupler_highpass_hz=0.0)
+    for part in (replace(dyn, resonance_period_s=0.0), resonance):
+        if part.is_identity():
+            continue
+        ad, bd, cd, dd, _ = scipy.signal.cont2discrete(scipy.signal.zpk2ss(*part.zpk()), 1 / fs, method="foh")
+        b, a = scipy.signal.ss2tf(ad, bd, cd, dd)
+        num, den = np.convolve(num, b[0]), np.convolve(den, a)
+    return num, den
 
 
 @functools.lru_cache(maxsize=64)

@@ -135,3 +135,32 @@ def test_hidden_effect_matrix(hidden, name):
 def test_two_hidden_effects_two_rounds(hidden):
     effects = [("plate_flexibility", CASES["plate_flexibility"]), ("stiffness", CASES["stiffness"])]
     _check_found(hidden("plate_flexibility+stiffness", effects), effects)
+
+
+def test_hidden_highpass_fitted(tmp_path):
+    """A hidden 20 Hz high-pass on every accelerometer, fitted by sensor_dynamics alone on three
+    short records: one corner near 20 Hz (the data see the sum of two corners far better than
+    their split; the true model's other corners and the sensors' resonance lie elsewhere), and the
+    fit's error and the error it validates on held-out experiments near the true model's."""
+    from odsuite.core.comparison import compare
+    from odsuite.core.diagnosis import diagnose
+    from odsuite.core.prediction import prepare
+    from odsuite.core.project import open_project
+
+    effects = [("sensor_dynamics", CASES["sensor_dynamics"])]
+    path = make_project(tmp_path / "hp.odsp", effects, n_samples=2048, scenarios=("T1", "T3", "T5"))
+    with open_project(path, "r") as p:
+        exps = prepare(p)
+        true_error = _true_error(p, effects, exps)
+        d = diagnose(p, effects=["sensor_dynamics"], prepared=exps, workers=1)
+        assert compare(p, prepared=exps).error > 3 * true_error  # clearly detectable
+    c = d.candidates[0]
+    corners = sorted([c.parameters["highpass_hz"], c.parameters["coupler_highpass_hz"]])
+    assert 15.0 <= corners[1] <= 25.0 and corners[0] <= 5.0, corners
+    assert 15.0 <= sum(corners) <= 25.0, corners
+    assert c.error_after <= 1.1 * true_error, (c.error_after, true_error)
+    assert c.validated_error <= 1.25 * true_error, (c.validated_error, true_error)
+    # "no resonance" (period 0) stays 0 or a resonance near the sensors' rated band, never a
+    # numerically meaningless one far above it
+    period = c.parameters["resonance_period_s"]
+    assert period == 0.0 or 1e-5 <= period <= 1e-4, period
