@@ -10,6 +10,22 @@ import numba
 import numpy as np
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _affine(base, sign, g, M, out):
+    """out = base + sign g @ M (a vector times a small matrix; out may be base)."""
+    for i in range(out.shape[0]):
+        acc = 0.0
+        for j in range(g.shape[0]):
+            acc += g[j] * M[j, i]
+        out[i] = base[i] + sign * acc
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _cubed(c, d, out):
+    for j in range(d.shape[0]):
+        out[j] = c[j] * d[j] * d[j] * d[j]
+
+
 @numba.njit(cache=True, nogil=True)
 def cubic_steps(step_t, deflect_t, linear, linear_deflection, end_pull_t, end_deflection_t, c, states):
     """Advance every record through its steps; ``states[k, r]`` is record r's state after step k.
@@ -30,42 +46,14 @@ def cubic_steps(step_t, deflect_t, linear, linear_deflection, end_pull_t, end_de
         xg[:] = 0.0
         states[0, r, :] = 0.0
         for k in range(n_steps):
-            for i in range(n_state):
-                acc = linear[r, k, i]
-                for j in range(n_state + m):
-                    acc += xg[j] * step_t[j, i]
-                x[i] = acc
-            for i in range(m):
-                acc = linear_deflection[r, k, i]
-                for j in range(n_state + m):
-                    acc += xg[j] * deflect_t[j, i]
-                d_base[i] = acc
-            # predictor: the start's cubic force held over the step
-            for i in range(m):
-                acc = d_base[i]
-                for j in range(m):
-                    acc -= xg[n_state + j] * end_deflection_t[j, i]
-                d[i] = acc
-            # corrector: the cubic force at the predicted end
-            for j in range(m):
-                g[j] = c[j] * d[j] * d[j] * d[j]
-            for i in range(m):
-                acc = d_base[i]
-                for j in range(m):
-                    acc -= g[j] * end_deflection_t[j, i]
-                d[i] = acc
-            for j in range(m):
-                g[j] = c[j] * d[j] * d[j] * d[j]
-            for i in range(n_state):
-                acc = x[i]
-                for j in range(m):
-                    acc -= g[j] * end_pull_t[j, i]
-                x[i] = acc
-            for i in range(m):
-                acc = d_base[i]
-                for j in range(m):
-                    acc -= g[j] * end_deflection_t[j, i]
-                xg[n_state + i] = c[i] * acc * acc * acc
-            for i in range(n_state):
-                xg[i] = x[i]
-                states[k + 1, r, i] = x[i]
+            _affine(linear[r, k], 1.0, xg, step_t, x)
+            _affine(linear_deflection[r, k], 1.0, xg, deflect_t, d_base)
+            _affine(d_base, -1.0, xg[n_state:], end_deflection_t, d)  # predictor: the start's force held
+            _cubed(c, d, g)
+            _affine(d_base, -1.0, g, end_deflection_t, d)  # corrector: the force at the predicted end
+            _cubed(c, d, g)
+            _affine(x, -1.0, g, end_pull_t, x)
+            _affine(d_base, -1.0, g, end_deflection_t, d)
+            _cubed(c, d, xg[n_state:])
+            xg[:n_state] = x
+            states[k + 1, r, :] = x
