@@ -80,6 +80,11 @@ class Consistency:
     gain: float = 0.0  # sum of squares (every sample) that fitting per experiment would remove
 
 
+#: values needed to see a trend with the force level: a line through three leaves one degree of
+#: freedom, and three scattered values sorted by level pass it too often
+AMPLITUDE_LEVELS = 4
+
+
 def consistency(problem, res, force_levels: Mapping[str, float], tolerated: float | None = None) -> Consistency:
     """Each shared parameter fitted to each experiment alone (one Gauss-Newton step from the joint
     fit on that experiment's rows of the Jacobian; its covariance from that experiment's residual
@@ -89,10 +94,11 @@ def consistency(problem, res, force_levels: Mapping[str, float], tolerated: floa
     within the spread noise allows) are amplitude dependent.
 
     ``tolerated``: a misfit energy (sum of squares over every sample) the verdict tolerates. When
-    fitting per experiment would lower the sum of squares by less, the differences are immaterial:
-    a residual that the verdict accepts, a little beyond the floor and aligned with the
-    parameter's direction, pulls each experiment's value a little (a 0.8 % spread of a scan skew
-    against a 0.03 % uncertainty): no different values are needed to fit the data."""
+    fitting per experiment would lower the sum of squares by less, scattered differences are
+    immaterial: a residual that the verdict accepts, a little beyond the floor and aligned with
+    the parameter's direction, pulls each experiment's value a little (a 0.8 % spread of a scan
+    skew over three hits against a 0.03 % uncertainty). A spread that follows the force level
+    (four levels or more) stays inconsistent however small."""
     exps = problem.exps
     shared = [i for i, f in enumerate(problem.free) if f.experiment is None]
     if len(exps) < 2 or not shared or res is None:
@@ -142,11 +148,11 @@ def consistency(problem, res, force_levels: Mapping[str, float], tolerated: floa
         chi2 = float(np.sum(wts * (v - mean) ** 2))
         limit = float(scipy.stats.chi2.isf(alpha, len(v) - 1))
         out.spread[label] = chi2 / limit
-        if chi2 <= limit or (tolerated is not None and out.gain <= tolerated):
+        if chi2 <= limit:
             continue
-        out.consistent = False
+        immaterial = tolerated is not None and out.gain <= tolerated
         levels = np.array([force_levels.get(x[0], np.nan) for x in rows])
-        if len(v) >= 3 and np.all(np.isfinite(levels)) and np.ptp(np.log(levels)) > 0:
+        if len(v) >= AMPLITUDE_LEVELS and np.all(np.isfinite(levels)) and np.ptp(np.log(levels)) > 0:
             X = np.column_stack([np.ones(len(v)), np.log(levels)])
             root = np.sqrt(wts)
             # by least squares on the weighted rows: one experiment far surer than the others
@@ -161,6 +167,10 @@ def consistency(problem, res, force_levels: Mapping[str, float], tolerated: floa
             if (abs(coef[1]) / slope_sd > scipy.stats.norm.isf(alpha / 2)
                     and rest <= scipy.stats.chi2.isf(alpha, len(v) - 2)):
                 out.amplitude_dependent.append(label)
+        # a spread that follows the force level is physics however small; scatter that fits no
+        # better than the tolerated misfit is the misfit's pull
+        if label in out.amplitude_dependent or not immaterial:
+            out.consistent = False
     return out
 
 
