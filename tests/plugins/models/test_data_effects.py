@@ -152,7 +152,7 @@ def test_a_missing_modes_response_alone_is_the_whole_structures_change(tmp_path,
     """missing_mode's search predicts only the added mode (its coordinate is uncoupled): equal to
     the whole structure simulated with and without it, through every part of the chain that a
     sensor's row or signal passes (tilt, gain, position, delay, sensor dynamics, the front end,
-    the force's gain and point), on a sensor of the mode's body and not on the other body's."""
+    the force's gain and point), on the thesis rig's one body."""
     import sys
     from pathlib import Path
 
