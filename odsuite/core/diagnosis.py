@@ -332,7 +332,7 @@ def _worker_start() -> None:
 
 def _problem(job: Mapping[str, Any], name: str, fixed: Mapping[str, float] | None = None) -> Problem:
     problem = Problem(job["base"], job["effects"].get(name), job["windows"], prior=job["prior"] / job["stride"],
-                      stride=job["stride"], full=job["exps"])
+                      stride=job["stride"], full=job["exps"], noise_scale=job["scale"])
     return problem.derived(fixed) if fixed else problem
 
 
@@ -418,7 +418,7 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
                 and not multiprocessing.current_process().daemon)
     token = next(_TOKENS)
     _JOBS[token] = {"base": base, "effects": regs.effects, "windows": windows, "exps": exps, "prior": prior,
-                    "stride": stride, "sse0_win": sse0_win, "peak_hz": peak_hz, "sse0": sse0, "den": den,
+                    "stride": stride, "scale": scale, "sse0_win": sse0_win, "peak_hz": peak_hz, "sse0": sse0, "den": den,
                     "n_eff": n_eff, "noise": noise, "peaks": peaks, "rigidity": rigidity,
                     "modes_before": modes_before, "tail0": tail0, "force_levels": force_levels}
     job = _JOBS[token]

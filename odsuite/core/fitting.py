@@ -121,8 +121,11 @@ class Problem:
 
     def __init__(self, base: RevisionModel, effect, exps: Sequence[PreparedExperiment],
                  fixed: Mapping[str, float] | None = None, prior: float = 0.0, stride: int = 1,
-                 full: Sequence[PreparedExperiment] | None = None) -> None:
+                 full: Sequence[PreparedExperiment] | None = None, noise_scale: float = 0.0) -> None:
         self.base = base
+        # noise energy per independent sample (checks.noise_scale): gains far below it change no
+        # test, so the search stops there (0: scipy's relative tolerances alone)
+        self.noise_scale = noise_scale
         # ``exps`` are what the fit sees (usually fit windows); ``full`` the whole records they
         # were cut from, for reported errors
         self.full = list(full) if full is not None else list(exps)
@@ -255,7 +258,8 @@ class Problem:
 
     def derived(self, fixed: Mapping[str, float]) -> Problem:
         """The same problem with other parameters fixed."""
-        out = Problem(self.base, self.effect, self.exps, fixed, self.prior, self.stride, self.full)
+        out = Problem(self.base, self.effect, self.exps, fixed, self.prior, self.stride, self.full,
+                      self.noise_scale)
         out._base_predictions = self._base_predictions  # the same base model: share its predictions
         return out
 
@@ -589,6 +593,29 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
 #: relative to the value, and the search values start at 0 (nominal), so a parameter near its
 #: nominal was differenced over 1e-14 of a step (in round-off, or in a filter at 1e15 Hz)
 DIFF_STEP = 1e-4
+#: a search stops when two of its iterations together lowered its objective (the data's sum of
+#: squares and the prior's) by less than this many noise energies per independent sample: one is
+#: the objective's one-standard-error scale, and every test needs ten or more (chi-square's
+#: quantile at checks.FALSE_ALARM: 10.8 for one parameter). Along a direction the data cannot see
+#: (a scale spread over axes and springs: a curved valley) trf otherwise crawls on for another
+#: eight iterations at about one each; such directions are reported as redundant groups
+STALL_GAIN = 1.0
+
+
+def _stall_stop(problem: Problem):
+    """A callback ending the search when its gains fall below STALL_GAIN (None: no noise scale)."""
+    if problem.noise_scale <= 0:
+        return None
+    # the cost is half the strided sum of squares, which is about the whole one over the stride
+    least = 0.5 * STALL_GAIN * problem.noise_scale / problem.stride
+    costs: list[float] = []
+
+    def stalled(intermediate_result):
+        costs.append(float(intermediate_result.cost))
+        if len(costs) >= 3 and costs[-3] - costs[-1] < least:
+            raise StopIteration
+
+    return stalled
 
 
 def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] | None = None,
@@ -617,6 +644,7 @@ def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] 
         res = scipy.optimize.least_squares(
             fun, u, jac=jac, bounds=(lo, hi), method="trf", x_scale=1.0,
             max_nfev=max_nfev or (8 if last else 4) * (n + 1), xtol=1e-6, ftol=1e-8,
+            callback=_stall_stop(problem),
         )
         u = res.x
     return res
@@ -683,9 +711,11 @@ def validate(problem: Problem, u: np.ndarray, res) -> tuple[float, str]:
         total = 0.0
         for i, e in enumerate(exps):
             rest = [x for j, x in enumerate(exps) if j != i]
-            sub = Problem(problem.base, problem.effect, rest, {}, problem.prior, problem.stride)
+            sub = Problem(problem.base, problem.effect, rest, {}, problem.prior, problem.stride,
+                          noise_scale=problem.noise_scale)
             s = screen(sub, sub.sse(sub.zero()), ())
-            held = Problem(problem.base, problem.effect, [e], s.fixed, problem.prior, problem.stride)
+            held = Problem(problem.base, problem.effect, [e], s.fixed, problem.prior, problem.stride,
+                           noise_scale=problem.noise_scale)
             total += held.sse(held.zero())
         return total, "leave one experiment out"
     n_data = res.fun.size - (len(problem.free) if problem.prior else 0)

@@ -498,14 +498,79 @@ def impulse_response(model, exp: PreparedExperiment) -> np.ndarray:
 #: realisations of the sensors' noise that the floor averages (its energy is a sum over thousands
 #: of samples: two realisations differ by a few per cent)
 NOISE_REALISATIONS = 2
+#: converter offsets tried (fractions of a code) when the record tells where its signal sits
+#: between the codes
+OFFSET_GRID = 32
+#: share of samples whose code the model may miss for reasons other than noise and offset
+OUTLIERS = 0.01
+#: codes within which a sample tells the offset: farther out the model's own error (a share of the
+#: signal) blurs which code it lands on
+OFFSET_CODES = 3.0
+
+
+def _code_loglik(codes: np.ndarray, x: np.ndarray, blur: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Log-likelihood per offset (codes) that signal ``x`` (codes) with Gaussian ``blur`` rounds to
+    ``codes``."""
+    import scipy.special
+
+    z = codes[None, :] - x[None, :] - offsets[:, None]
+    p = scipy.special.ndtr((z + 0.5) / blur) - scipy.special.ndtr((z - 0.5) / blur)
+    # a sample the model misses (the response's onset before the detected hit) is an outlier, not
+    # a verdict on the offset
+    return np.sum(np.log((1 - OUTLIERS) * p + OUTLIERS / (2 * OFFSET_CODES + 1)), axis=1)
+
+
+def converter_offsets(v: np.ndarray, volts: np.ndarray, step: float, trigger: int,
+                      count: int) -> tuple[np.ndarray, float] | None:
+    """``count`` offsets (volts) of a signal against its converter's codes, drawn evenly from
+    what the record allows, and the white noise (volts) before rounding. The samples before the hit
+    tell the noise and, when it spreads them over a few codes, the offset; a perfect model's signal
+    ``v`` (volts) then tells the offset further: a small oscillation that never leaves its code
+    puts it near the code's middle, one that flips codes near a threshold. The rounding error of a
+    signal that spans few codes depends on that offset (zero for a signal within half a code of a
+    code's middle). None: the record does not lie on the step's grid (offsets are then uniform
+    over a code).
+
+    The model's own error blurs each sample by its share of the signal, that share measured where
+    the signal spans many codes (there rounding hardly matters)."""
+    pre = volts[: max(trigger, 1)]
+    ref = volts[int(np.argmin(np.abs(volts - np.median(pre))))]
+    codes = (volts - ref) / step
+    if not np.all(np.abs(codes - np.round(codes)) <= GRID_TOLERANCE):
+        return None
+    codes = np.round(codes)
+    grid = (np.arange(OFFSET_GRID) + 0.5) / OFFSET_GRID - 0.5
+    x = v / step
+    # the noise before rounding: the most likely over the first half of the samples before the hit
+    # (the hammer's contact and the response start before the detected hit); offsets free; a
+    # hundredth of a code at least (the model's discretisation)
+    quiet = np.flatnonzero(np.abs(x[: len(pre) // 2]) < 0.01)
+    if quiet.size < 2:
+        return None
+    line = np.polyval(np.polyfit(quiet, codes[quiet], 1), quiet[[0, -1]])
+    if abs(line[1] - line[0]) >= 0.5:
+        return None  # drift moves the signal through the codes: the offset is immaterial
+    spread = float(np.std(codes[quiet]))
+    sigmas = np.unique(np.concatenate([[0.01], np.linspace(0.05, 1.0, 20), [max(spread, 0.01)]]))
+    sigma = float(sigmas[int(np.argmax([np.max(_code_loglik(codes[quiet], x[quiet], np.full(quiet.size, s), grid))
+                                        for s in sigmas]))])
+    big = np.abs(x) > 2 * OFFSET_CODES
+    share2 = float(np.sum((codes[big] - x[big]) ** 2) / np.sum(x[big] ** 2)) if big.any() else 0.0
+    small = np.abs(x) <= OFFSET_CODES
+    loglik = _code_loglik(codes[small], x[small], np.sqrt(sigma**2 + share2 * x[small] ** 2), grid)
+    w = np.exp(loglik - loglik.max())
+    cdf = np.cumsum(w) / w.sum()
+    picks = grid[np.minimum(np.searchsorted(cdf, (np.arange(count) + 0.5) / count), OFFSET_GRID - 1)]
+    return picks * step, sigma * step
 
 
 def sensor_noise(model, exp: PreparedExperiment, realisations: int = NOISE_REALISATIONS) -> list[np.ndarray]:
     """Realisations of what a perfect model leaves of the sensors' own noise at the acceleration
     stage: the model's signals in volts plus white noise (the quiet samples' level less its
-    rounding share, Sheppard) at a random offset on the ADC's codes, rounded to them, minus the
-    signals, through each channel's chain. The rounding error of a signal that moves through few
-    codes is not white (it repeats the signal's own frequencies): simulated, it is right."""
+    rounding share, Sheppard) at an offset on the ADC's codes (where the record tells it:
+    converter_offsets; else at random), rounded to them, minus the signals, through each channel's
+    chain. The rounding error of a signal that moves through few codes is not white (it repeats
+    the signal's own frequencies) and depends on that offset: simulated, it is right."""
     if exp.operators is None or exp.adc_step_v is None:
         return []
     rng = np.random.default_rng(0)  # reproducible floors
@@ -517,9 +582,20 @@ def sensor_noise(model, exp: PreparedExperiment, realisations: int = NOISE_REALI
     rounding = np.where(step > 0, exp.lsb**2 / 12.0, 0.0)
     sigma_v = np.sqrt(np.maximum(np.asarray(exp.noise_var) - rounding, 0.0)) * volts_per_stage
     v = physical * vpu
+    # hum or drift of a code or more moves the signal through the codes itself: the offset is
+    # then immaterial and not told by the model's signal, which leaves them out
+    moved = (np.ptp(exp.disturbance, axis=0) * volts_per_stage >= step if exp.disturbance is not None
+             else np.zeros(len(step), bool))
+    told = {j: converter_offsets(v[:, j], exp.volts[:, j], step[j], exp.trigger, realisations)
+            for j in np.flatnonzero((step > 0) & ~moved)}
+    told = {j: t for j, t in told.items() if t is not None}
+    for j, (_, sigma) in told.items():
+        sigma_v[j] = sigma  # measured on the raw codes: the acceleration stage's is filtered
     out = []
-    for _ in range(realisations):
+    for i in range(realisations):
         offset = rng.uniform(0.0, 1.0, len(step)) * step
+        for j, (picks, _) in told.items():
+            offset[j] = picks[i]
         x = v + offset + rng.standard_normal(v.shape) * sigma_v
         q = np.where(step > 0, np.round(x / np.where(step > 0, step, 1.0)) * step, x)
         err = (q - offset - v) / vpu
