@@ -503,6 +503,10 @@ NOISE_REALISATIONS = 2
 OFFSET_GRID = 32
 #: share of samples whose code the model may miss for reasons other than noise and offset
 OUTLIERS = 0.01
+#: a line through the samples before the hit that rises by this many codes is drift: it moves the
+#: signal through the codes (the offset is then immaterial) and would pass for noise. White noise
+#: of a third of a code over 200 samples tilts a fitted line by 0.1 code (one standard deviation)
+DRIFT_CODES = 0.25
 #: codes within which a sample tells the offset: farther out the model's own error (a share of the
 #: signal) blurs which code it lands on
 OFFSET_CODES = 3.0
@@ -521,15 +525,15 @@ def _code_loglik(codes: np.ndarray, x: np.ndarray, blur: np.ndarray, offsets: np
 
 
 def converter_offsets(v: np.ndarray, volts: np.ndarray, step: float, trigger: int,
-                      count: int) -> tuple[np.ndarray, float] | None:
+                      count: int) -> tuple[np.ndarray, np.ndarray] | None:
     """``count`` offsets (volts) of a signal against its converter's codes, drawn evenly from
-    what the record allows, and the white noise (volts) before rounding. The samples before the hit
-    tell the noise and, when it spreads them over a few codes, the offset; a perfect model's signal
-    ``v`` (volts) then tells the offset further: a small oscillation that never leaves its code
-    puts it near the code's middle, one that flips codes near a threshold. The rounding error of a
-    signal that spans few codes depends on that offset (zero for a signal within half a code of a
-    code's middle). None: the record does not lie on the step's grid (offsets are then uniform
-    over a code).
+    what the record allows, and with each the white noise (volts) before rounding. The samples
+    before the hit tell the noise and, when it spreads them over a few codes, the offset; a
+    perfect model's signal ``v`` (volts) then tells the offset further: a small oscillation that
+    never leaves its code puts it near the code's middle, one that flips codes near a threshold.
+    The rounding error of a signal that spans few codes depends on that offset (zero for a signal
+    within half a code of a code's middle). None: the record does not lie on the step's grid, or
+    drifts through the codes before the hit (offsets are then uniform over a code).
 
     The model's own error blurs each sample by its share of the signal, that share measured where
     the signal spans many codes (there rounding hardly matters)."""
@@ -548,20 +552,24 @@ def converter_offsets(v: np.ndarray, volts: np.ndarray, step: float, trigger: in
     if quiet.size < 2:
         return None
     line = np.polyval(np.polyfit(quiet, codes[quiet], 1), quiet[[0, -1]])
-    if abs(line[1] - line[0]) >= 0.5:
+    if abs(line[1] - line[0]) >= DRIFT_CODES:
         return None  # drift moves the signal through the codes: the offset is immaterial
     spread = float(np.std(codes[quiet]))
     sigmas = np.unique(np.concatenate([[0.01], np.linspace(0.05, 1.0, 20), [max(spread, 0.01)]]))
-    sigma = float(sigmas[int(np.argmax([np.max(_code_loglik(codes[quiet], x[quiet], np.full(quiet.size, s), grid))
-                                        for s in sigmas]))])
+    # the samples before the hit tie noise and offset together (one share of flipped codes fits a
+    # small noise near a threshold or a larger one farther in): the most likely noise per offset
+    quiet_loglik = np.array([_code_loglik(codes[quiet], x[quiet], np.full(quiet.size, s), grid) for s in sigmas])
+    noise = sigmas[np.argmax(quiet_loglik, axis=0)]
+    # the signal's small oscillations then tell the offset
     big = np.abs(x) > 2 * OFFSET_CODES
     share2 = float(np.sum((codes[big] - x[big]) ** 2) / np.sum(x[big] ** 2)) if big.any() else 0.0
     small = np.abs(x) <= OFFSET_CODES
-    loglik = _code_loglik(codes[small], x[small], np.sqrt(sigma**2 + share2 * x[small] ** 2), grid)
+    loglik = np.array([_code_loglik(codes[small], x[small], np.sqrt(s**2 + share2 * x[small] ** 2), grid[[k]])[0]
+                       for k, s in enumerate(noise)])
     w = np.exp(loglik - loglik.max())
     cdf = np.cumsum(w) / w.sum()
-    picks = grid[np.minimum(np.searchsorted(cdf, (np.arange(count) + 0.5) / count), OFFSET_GRID - 1)]
-    return picks * step, sigma * step
+    picks = np.minimum(np.searchsorted(cdf, (np.arange(count) + 0.5) / count), OFFSET_GRID - 1)
+    return grid[picks] * step, noise[picks] * step
 
 
 def sensor_noise(model, exp: PreparedExperiment, realisations: int = NOISE_REALISATIONS) -> list[np.ndarray]:
@@ -589,14 +597,14 @@ def sensor_noise(model, exp: PreparedExperiment, realisations: int = NOISE_REALI
     told = {j: converter_offsets(v[:, j], exp.volts[:, j], step[j], exp.trigger, realisations)
             for j in np.flatnonzero((step > 0) & ~moved)}
     told = {j: t for j, t in told.items() if t is not None}
-    for j, (_, sigma) in told.items():
-        sigma_v[j] = sigma  # measured on the raw codes: the acceleration stage's is filtered
     out = []
     for i in range(realisations):
         offset = rng.uniform(0.0, 1.0, len(step)) * step
-        for j, (picks, _) in told.items():
-            offset[j] = picks[i]
-        x = v + offset + rng.standard_normal(v.shape) * sigma_v
+        sigma = sigma_v.copy()
+        for j, (picks, noise) in told.items():
+            # the noise measured on the raw codes: the acceleration stage's is filtered
+            offset[j], sigma[j] = picks[i], noise[i]
+        x = v + offset + rng.standard_normal(v.shape) * sigma
         q = np.where(step > 0, np.round(x / np.where(step > 0, step, 1.0)) * step, x)
         err = (q - offset - v) / vpu
         stage = np.empty_like(err)

@@ -142,3 +142,51 @@ def test_the_converters_step_comes_from_the_recorded_grid_when_there_is_one():
     # nothing declared: the grid, else the smallest step between values (float data: tiny)
     steps, differ = adc_steps(np.column_stack([codes12, floats]), None)
     assert steps[0] == pytest.approx(coarse, rel=1e-9) and steps[1] < 1e-6 and differ == []
+
+
+@pytest.mark.parametrize("offset", [0.0, 0.3, -0.42])
+def test_the_converters_offset_and_noise_come_from_the_record(offset):
+    """A decaying oscillation spanning a few codes, rounded at a known offset (in codes) with known
+    white noise before the hit: the offsets converter_offsets draws land within a tenth of a code
+    of the true one (the codes a small oscillation does or does not flip to tell it), the noise
+    within a fifth, and the rounding error simulated at those offsets has the true one's energy.
+    The uniform average over offsets (Sheppard's lsb^2/12) is twice it at a zero offset."""
+    from odsuite.core.prediction import converter_offsets
+
+    rng = np.random.default_rng(11)
+    step, n, trigger, sigma = 1e-3, 4096, 400, 0.05
+    t = np.arange(n - trigger) / 20e3
+    v = np.concatenate([np.zeros(trigger), 6.0 * step * np.sin(2 * np.pi * 310 * t) * np.exp(-t / 0.03)])
+    analog = v + offset * step + sigma * step * rng.standard_normal(n)
+    volts = np.round(analog / step) * step + 0.25  # the grid's origin is the card's, not zero
+    picks, noise = converter_offsets(v, volts, step, trigger, 4)
+    assert np.all(np.abs(picks / step - offset) <= 0.1), picks / step
+    # a noise that flips no code before the hit is only bounded (0.05 code flips none at 0.3)
+    flipped = len(np.unique(volts[:trigger])) > 1
+    assert np.all(noise / step == pytest.approx(sigma, rel=0.2)) if flipped else np.all(noise / step <= sigma)
+
+    def rounding_energy(d, noise):
+        x = v + d + noise * np.random.default_rng(5).standard_normal(n)
+        return float(np.sum((np.round(x / step) * step - d - v) ** 2))
+
+    true = rounding_energy(offset * step, sigma * step)
+    assert np.mean([rounding_energy(d, s) for d, s in zip(picks, noise)]) == pytest.approx(true, rel=0.15)
+    if offset == 0.0:
+        assert n * step**2 / 12 > 1.5 * true  # about twice
+    # off the grid (a text file's rounding): the record does not tell the offset
+    assert converter_offsets(v, volts + 0.3 * step * rng.uniform(size=n), step, trigger, 4) is None
+
+
+def test_the_converters_noise_before_the_hit_when_it_spreads_over_codes():
+    """Noise of 0.4 code before the hit spreads the samples over a few codes: the noise the
+    record tells is that 0.4 (not the rounded samples' spread, nor the filtered stage's)."""
+    from odsuite.core.prediction import converter_offsets
+
+    rng = np.random.default_rng(12)
+    step, n, trigger = 1e-3, 4096, 1000
+    v = np.zeros(n)
+    v[trigger:] = 20 * step * np.sin(np.arange(n - trigger) * 0.05) * np.exp(-np.arange(n - trigger) / 300)
+    volts = np.round((v + 0.17 * step + 0.4 * step * rng.standard_normal(n)) / step) * step
+    _, noise = converter_offsets(v, volts, step, trigger, 2)
+    assert noise / step == pytest.approx(0.4, abs=0.05)
+    assert np.std(np.round(volts[:trigger] / step)) > 0.42  # the rounded samples spread wider
