@@ -507,6 +507,9 @@ OUTLIERS = 0.01
 #: signal through the codes (the offset is then immaterial) and would pass for noise. White noise
 #: of a third of a code over 200 samples tilts a fitted line by 0.1 code (one standard deviation)
 DRIFT_CODES = 0.25
+#: samples the offset's likelihood is evaluated on (evenly spread): beyond a few thousand the
+#: posterior is a point already, and the floor is computed on every comparison
+OFFSET_SAMPLES = 2048
 #: codes within which a sample tells the offset: farther out the model's own error (a share of the
 #: signal) blurs which code it lands on
 OFFSET_CODES = 3.0
@@ -563,7 +566,8 @@ def converter_offsets(v: np.ndarray, volts: np.ndarray, step: float, trigger: in
     # the signal's small oscillations then tell the offset
     big = np.abs(x) > 2 * OFFSET_CODES
     share2 = float(np.sum((codes[big] - x[big]) ** 2) / np.sum(x[big] ** 2)) if big.any() else 0.0
-    small = np.abs(x) <= OFFSET_CODES
+    small = np.flatnonzero(np.abs(x) <= OFFSET_CODES)
+    small = small[:: max(1, small.size // OFFSET_SAMPLES)]
     loglik = np.array([_code_loglik(codes[small], x[small], np.sqrt(s**2 + share2 * x[small] ** 2), grid[[k]])[0]
                        for k, s in enumerate(noise)])
     w = np.exp(loglik - loglik.max())
