@@ -36,8 +36,8 @@ HIT_GUARD_S = 1e-3
 #: fraction of the record's noise energy (as the fit windows)
 QUIET_FRACTION = 0.05
 #: a perfect model's error lies within this factor of the floor (measured on independent nominal
-#: data at 12 and 16 bits, with drift and with mains hum: 0.85-1.18): a residual within it cannot be
-#: told from noise
+#: data at 12 and 16 bits, with drift and with mains hum: 0.88-1.06; drift on the two-body rig 0.71-0.74,
+#: its noise overestimated): a residual within it cannot be told from noise
 FLOOR_TOLERANCE = 1.3
 #: Welch segment length of residual and floor spectra (samples; halved for short records)
 NFFT = 2048
