@@ -75,11 +75,15 @@ class QuietFit:
     disturbance: np.ndarray  # samples x columns (volts): offset, drift where both ends are quiet, hum
     mains_hz: float
     harmonics: int
+    # samples x columns (volts): the drift fitted on quiet samples at one end only, which is not
+    # extended over the record (it would grow without bound) but is not noise either
+    local_drift: np.ndarray | None = None
 
-    def white(self, stage: np.ndarray, stage_disturbance: np.ndarray) -> np.ndarray:
+    def white(self, stage: np.ndarray, stage_disturbance: np.ndarray,
+              stage_drift: np.ndarray | None = None) -> np.ndarray:
         """Per column, the broadband variance of the quiet samples of a signal after the chain once
-        the disturbances (through the same chain) are taken out."""
-        rest = (stage - stage_disturbance)[self.quiet]
+        the disturbances and a local drift (through the same chain) are taken out."""
+        rest = (stage - stage_disturbance - (0.0 if stage_drift is None else stage_drift))[self.quiet]
         return np.var(rest, axis=0) if len(rest) > 1 else np.zeros(stage.shape[1])
 
 
@@ -118,9 +122,16 @@ def split_noise(raw: np.ndarray, trigger: int, fs: float) -> QuietFit:
     quiet = pre.copy()
     quiet[end:] = True
     harmonics = MAINS_HARMONICS if (n - end) >= 2 * fs / mains else 1
-    line = bool(quiet[0]) and bool(quiet[-1])
-    _, dist, _ = _fit(x, disturbance_basis(n, fs, (mains,), harmonics, line=line), quiet)
-    return QuietFit(quiet, dist, mains, harmonics)
+    # the line is fitted always (else the hum's sinusoid takes a drift's ramp and carries it over
+    # the record), and extended over the record where quiet samples lie at both ends
+    basis = disturbance_basis(n, fs, (mains,), harmonics, line=True)
+    coef, *_ = np.linalg.lstsq(basis[quiet], x[quiet], rcond=None)
+    if bool(quiet[0]) and bool(quiet[-1]):
+        fitted = basis @ coef
+        return QuietFit(quiet, fitted - fitted.mean(axis=0), mains, harmonics)
+    others = [k for k in range(basis.shape[1]) if k != 1]  # column 1: the line
+    fitted = basis[:, others] @ coef[others]
+    return QuietFit(quiet, fitted - fitted.mean(axis=0), mains, harmonics, np.outer(basis[:, 1], coef[1]))
 
 
 def moving_samples(x: np.ndarray, lsb: np.ndarray | float, fs: float) -> np.ndarray:

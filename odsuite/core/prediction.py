@@ -332,7 +332,9 @@ def prepare_experiment(project, name: str) -> PreparedExperiment:
     lsb = step / np.abs(np.asarray(vpu)) * micro
     quiet = split_noise(volts, trigger, exp.sampling_rate)
     disturbance = np.column_stack([chain.run(quiet.disturbance[:, j])[tap] for j, chain in enumerate(chains)])
-    white = quiet.white(measured, disturbance)
+    drift = (None if quiet.local_drift is None else
+             np.column_stack([chain.run(quiet.local_drift[:, j])[tap] for j, chain in enumerate(chains)]))
+    white = quiet.white(measured, disturbance, drift)
     return PreparedExperiment(
         name=name, fs=exp.sampling_rate, force=force, point=np.asarray(exp.excitation.point, float),
         direction=np.asarray(exp.excitation.direction, float), sensors=sensors, columns=columns,
