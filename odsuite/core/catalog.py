@@ -31,7 +31,7 @@ PAGE_NAME = "odsuite-catalog.html"
 #: the first bytes of every HDF5 file: other files are not looked at
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 #: a model explains the measurements when its error is within this factor of the noise floor: the
-#: calibrated floor's tolerance (odsuite.core.noise_floor: a perfect model lies within 0.88-1.06 of
+#: calibrated floor's tolerance (odsuite.core.noise_floor: a perfect model lies within 0.89-1.06 of
 #: it on independent nominal data; the simulated thesis rig's truth at 1.05), while a missing effect
 #: lifts the error far beyond (5x for one sensor's gain 25 % off, 100x for a 60 % stiffer
 #: suspension). A screening verdict: ``odsuite diagnose`` gives the validated one

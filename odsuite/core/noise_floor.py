@@ -5,9 +5,11 @@ Four parts, each estimated from the record itself:
 - broadband noise: the variance of the quiet samples (before the hit, and after the response has
   died into the noise) at the acceleration stage, once mains lines and a trend are fitted out;
 - mains hum and trend: sinusoids at 50 and 60 Hz and their harmonics plus a line, fitted on the
-  quiet samples and extended over the whole record (they persist through the response);
+  quiet samples and extended over the whole record (they persist through the response); the line
+  only where quiet samples lie at both ends (else it is taken out of the noise's estimate alone);
 - quantisation: while the signal moves through the ADC's codes its rounding error is uniform
-  (lsb^2 / 12), which a quiet stretch sitting on one code does not show;
+  (lsb^2 / 12), which a quiet stretch sitting on one code does not show; with the model's signals
+  (odsuite.core.prediction.sensor_noise) it is simulated at the converter's offset the record tells;
 - the force channel's noise through the model: the model is driven by the measured force, so the
   load cell's noise inside the force window reaches every predicted channel. Its expected energy is
   the window's noise energy times the energy of the model's response to a unit impulse (exact for
@@ -36,8 +38,8 @@ HIT_GUARD_S = 1e-3
 #: fraction of the record's noise energy (as the fit windows)
 QUIET_FRACTION = 0.05
 #: a perfect model's error lies within this factor of the floor (measured on independent nominal
-#: data at 12 and 16 bits, with drift and with mains hum: 0.88-1.06; drift on the two-body rig 0.71-0.74,
-#: its noise overestimated): a residual within it cannot be told from noise
+#: data at 12 and 16 bits, with drift and with mains hum, two rigs, four seeds each: 0.89-1.06): a
+#: residual within it cannot be told from noise
 FLOOR_TOLERANCE = 1.3
 #: Welch segment length of residual and floor spectra (samples; halved for short records)
 NFFT = 2048
