@@ -92,7 +92,8 @@ class QuietFit:
 def split_noise(raw: np.ndarray, trigger: int, fs: float) -> QuietFit:
     """The quiet samples of a raw record (volts, before the chain: no filter transients) and its
     disturbances fitted on them: an offset, a line where quiet samples lie at both ends (drift; a
-    line fitted to one short stretch would grow without bound over the record), and the mains hum.
+    line fitted to one short stretch would grow without bound over the record: there it is kept as
+    ``local_drift``, for the noise's estimate only), and the mains hum.
     Put through a channel's chain, the disturbances reach the acceleration stage as they do in the
     measurement, the high-pass's ringing on a drift included.
 

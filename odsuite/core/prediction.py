@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 import scipy.signal
+import scipy.special
 
 from odsuite.core.chain_spec import chain_for_channel, stage_names
 from odsuite.core.errors import ConfigError
@@ -520,8 +521,6 @@ OFFSET_CODES = 3.0
 def _code_loglik(codes: np.ndarray, x: np.ndarray, blur: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     """Log-likelihood per offset (codes) that signal ``x`` (codes) with Gaussian ``blur`` rounds to
     ``codes``."""
-    import scipy.special
-
     z = codes[None, :] - x[None, :] - offsets[:, None]
     p = scipy.special.ndtr((z + 0.5) / blur) - scipy.special.ndtr((z - 0.5) / blur)
     # a sample the model misses (the response's onset before the detected hit) is an outlier, not
@@ -580,8 +579,8 @@ def converter_offsets(v: np.ndarray, volts: np.ndarray, step: float, trigger: in
 
 def sensor_noise(model, exp: PreparedExperiment, realisations: int = NOISE_REALISATIONS) -> list[np.ndarray]:
     """Realisations of what a perfect model leaves of the sensors' own noise at the acceleration
-    stage: the model's signals in volts plus white noise (the quiet samples' level less its
-    rounding share, Sheppard) at an offset on the ADC's codes (where the record tells it:
+    stage: the model's signals in volts plus white noise (measured on the raw codes where the
+    record tells it, else the quiet samples' level less its rounding share, Sheppard) at an offset on the ADC's codes (where the record tells it:
     converter_offsets; else at random), rounded to them, minus the signals, through each channel's
     chain. The rounding error of a signal that moves through few codes is not white (it repeats
     the signal's own frequencies) and depends on that offset: simulated, it is right."""
