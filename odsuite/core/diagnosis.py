@@ -43,6 +43,7 @@ from odsuite.core.fitting import (
 from odsuite.core.modelrev import current_revision, revision_model
 from odsuite.core.prediction import PreparedExperiment, predict, prepare
 from odsuite.core.simulation import load_nonlinear_loop
+from odsuite.core.noise_floor import FLOOR_TOLERANCE
 from odsuite.core.verdict import Signature, decide, message, signature
 
 #: how many screened candidates get a full fit and validation
@@ -388,6 +389,11 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     if not names:
         raise ConfigError(f"{project.path}: no candidate effects left to try (registered: "
                           f"{', '.join(regs.effects.names()) or 'none'})")
+    # an effect that refines another (``refines``) is fitted from that one's fit, after it
+    refiners = [n for n in names if getattr(regs.effects.get(n), "refines", None)]
+    names += [b for b in dict.fromkeys(regs.effects.get(n).refines for n in refiners)
+              if b not in names and b not in in_model and b in regs.effects.names()]
+    names = [n for n in names if n not in refiners]
     cmp = compare(project, revision=rev, prepared=exps, resonances=False)
     den = sum(float(np.sum(e.measured**2)) for e in exps)
     sse0 = cmp.error**2 * den
@@ -477,6 +483,11 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
                 if words:
                     cand.evidence += "; " + words
                 candidates.append(cand)
+            for name in refiners:
+                refined = _refine(job, name, candidates, scale)
+                if refined is not None:
+                    candidates.append(refined)
+                    evaluations += refined._problem.evaluations
     finally:
         _JOBS.pop(token)
     for s in screened:
@@ -500,6 +511,39 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     if progress:
         progress("done", len(names), len(names))
     return diagnosis
+
+
+def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], scale: float) -> Candidate | None:
+    """Fit the refining effect ``name`` from the fit of the effect it refines, when that one is
+    significant and leaves the residual above the floor (else there is nothing for it to add). It
+    counts as significant only when its own parameters' gain over that fit passes the test the
+    gain of as many parameters fitted to noise would fail (checks.gain_threshold)."""
+    effect = job["effects"].get(name)
+    start = next((c for c in candidates if c.effect == effect.refines and c.fitted), None)
+    if start is None or not start.significant or not start.error_after > FLOOR_TOLERANCE * job["noise"]:
+        return None
+    fixed = dict(start._problem.fixed)
+    held = getattr(effect, "held_for_body", None)
+    if held is not None:  # what the start's body cannot have
+        model = job["base"].shared
+        fixed.update(held(model, model.bodies[int(fixed.get("body", 0.0))].name))
+    problem = _problem(job, name, fixed)
+    shared, per = start._problem.values(start._u)
+    u0 = np.array([((shared if f.experiment is None else per.get(f.experiment, {})).get(f.param.name, f.param.nominal)
+                    - f.param.nominal) / f.scale for f in problem.free])
+    cand = _fit_candidate(Screened(effect, fixed, u0, problem.sse(u0), problem), job["windows"], job["sse0"],
+                          job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
+                          job["modes_before"], job["tail0"], job["force_levels"])
+    den = job["den"]
+    cand.gain_threshold = checks.gain_threshold(scale, max(cand.n_parameters - start.n_parameters, 1))
+    cand.significant = is_significant(start.validated_error**2 * den, cand.validated_error**2 * den,
+                                      cand.gain_threshold)
+    cand.evidence += (f"; fitted from {start.effect}'s fit (validated error {start.validated_error:.4g} -> "
+                      f"{cand.validated_error:.4g})")
+    words = _checks_words(cand)
+    if words:
+        cand.evidence += "; " + words
+    return cand
 
 
 def _prefer_named(cands: list[Candidate], effects) -> None:

@@ -699,7 +699,9 @@ def validate(problem: Problem, u: np.ndarray, res) -> tuple[float, str]:
     evaluated for real on the held-out data.
 
     Shared parameters: leave one experiment out. Parameters of single experiments: held-out
-    channels (alternate sensors), since a left-out experiment's own parameters are never fitted.
+    channels (alternate sensors), since a left-out experiment's own parameters are never fitted;
+    with parameters of single sensors too (a mode's participation at each): alternate blocks of
+    time, which leave every parameter some rows.
     """
     exps = problem.exps
     if problem.linear:
@@ -724,7 +726,16 @@ def validate(problem: Problem, u: np.ndarray, res) -> tuple[float, str]:
     sizes = [len(range(0, e.n_samples, k)) * e.measured.shape[1] for e in exps]
     starts = np.concatenate([[0], np.cumsum(sizes)])
     ncols = exps[0].measured.shape[1]
-    if any(f.experiment is not None for f in problem.free) or len(exps) < 2:
+    blocks = None
+    if (any(f.experiment is not None for f in problem.free) or len(exps) < 2) and any(
+            f.param.sensor is not None for f in problem.free):
+        # a sensor's own parameter is never fitted on held-out channels: hold out time instead
+        blocks = [max(1, int(round(BLOCK_S * e.fs))) for e in exps]
+        t = np.concatenate([np.repeat(np.arange(0, e.n_samples, k) // b, e.measured.shape[1])
+                            for e, b in zip(exps, blocks)])
+        folds = [(t % 2 == h, None, h) for h in (0, 1)]
+        how = f"held-out time blocks (alternate {1e3 * BLOCK_S:g} ms)"
+    elif any(f.experiment is not None for f in problem.free) or len(exps) < 2:
         col = np.concatenate([np.tile(np.arange(e.measured.shape[1]), n // e.measured.shape[1])
                               for e, n in zip(exps, sizes)])
         folds = [(col % 2 == h, list(range(h, ncols, 2)), None) for h in (0, 1)]
@@ -743,10 +754,16 @@ def validate(problem: Problem, u: np.ndarray, res) -> tuple[float, str]:
     r_full = problem.residual(u, stride=1)
     exp_of_row = np.repeat(np.arange(len(exps)), full_rows)
     col_of_row = np.concatenate([np.tile(np.arange(e.measured.shape[1]), e.n_samples) for e in exps])
+    if blocks is not None:
+        block_of_row = np.concatenate([np.repeat(np.arange(e.n_samples) // b, e.measured.shape[1])
+                                       for e, b in zip(exps, blocks)])
     total = 0.0
-    for rows, cols, exp in folds:
+    for rows, cols, which in folds:
         Jh, rh = J[rows], r[rows]
-        held = (exp_of_row == exps.index(exp)) if exp is not None else np.isin(col_of_row, cols)
+        if blocks is not None:
+            held = block_of_row % 2 == which
+        else:
+            held = (exp_of_row == exps.index(which)) if which is not None else np.isin(col_of_row, cols)
         kept_cost = float(r_full[~held] @ r_full[~held]) + float(u @ (problem.pull * u))
         # r = measured - model and res.jac = d r / d u: the kept rows' step is -(H_kept)^-1 J_h^T r_h;
         # a step the linearisation overshoots (along what the kept rows barely see) is halved until

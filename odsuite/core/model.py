@@ -186,8 +186,11 @@ ShapeFunction = Callable[[np.ndarray, np.ndarray, "str | None"], float]
 class FlexibleMode:
     """An added, mass-normalised flexible mode of one body: ``q'' + 2 zeta w q' + w^2 q = phi_F . F``.
 
-    It is uncoupled from the rigid coordinates (orthogonal to the rigid motion of the body it
-    belongs to); ``frequency_hz`` is its frequency as mounted.
+    Its shape is orthogonal to the rigid motion of the body it belongs to, so it shares no mass
+    with the rigid coordinates. Uncoupled (``at_springs`` False), ``frequency_hz`` is its frequency
+    as mounted. With ``at_springs`` the shape also moves the body's spring ends (the shape function
+    is asked at each spring's point along each rig axis, tag ``"<spring>.x"`` etc.): the springs
+    and their dampers then couple it to the rigid motion, and ``frequency_hz`` is the free body's.
     """
 
     name: str
@@ -195,6 +198,7 @@ class FlexibleMode:
     frequency_hz: float
     damping_ratio: float
     shape: ShapeFunction
+    at_springs: bool = False
 
     def __post_init__(self) -> None:
         if not np.isfinite(self.frequency_hz) or self.frequency_hz <= 0:
@@ -526,6 +530,11 @@ class Structure(LinearStructure):
         if s.other is not None:
             P -= self.point_rows(s.other, s.point)
             R -= self.rotation_rows(s.other)
+        for i, f in enumerate(self.flexible_modes):
+            if f.at_springs and f.body in (s.body, s.other):
+                sign = 1.0 if f.body == s.body else -1.0
+                P[:, self._flex_start + i] += sign * np.array(
+                    [f.shape(s.point, axis, f"{s.name}.{'xyz'[k]}") for k, axis in enumerate(np.eye(3))])
         return P, R
 
     @functools.cached_property
