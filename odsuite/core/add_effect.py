@@ -12,9 +12,11 @@ import numpy as np
 from odsuite.core import checks
 from odsuite.core.fitting import (
     Problem,
+    Screened,
     effective_samples,
     fit,
     fit_windows,
+    refined,
     screen,
     uncertainties,
 )
@@ -79,9 +81,17 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     if progress:
         progress(f"screening {name}", 0, 3)
     current = revision_model(project, {**rev, "effects": entries})
+    peaks = [p["frequency_hz"] for p in cmp.residual_peaks if p["lacking"]]
+    refines = getattr(effect, "refines", None)
+    if refines:  # it starts from the fit of the effect it refines, as the diagnosis fits it
+        start = Problem(current, regs.effects.get(refines), windows, prior=prior, stride=stride, full=exps)
+        s = screen(start, start.sse(start.zero()), peaks)
+        res = fit(s.problem, s.u0, continuation=False) if s.problem.free else None
+        problem, u0 = refined(s.problem, res.x if res is not None else s.problem.zero(), effect)
+        return _add_on_top(project, rev, entries, name, effect, Screened(effect, problem.fixed, u0, 0.0, problem),
+                           n_eff, exps, before, progress)
     single = Problem(current, effect, windows, prior=prior, stride=stride, full=exps)
-    screened = screen(single, single.sse(single.zero()),
-                      [p["frequency_hz"] for p in cmp.residual_peaks if p["lacking"]])
+    screened = screen(single, single.sse(single.zero()), peaks)
     if single.linear:
         # an effect that solves its own linear parameters (a mode's participations) is fitted on
         # top of the current effects, as the diagnosis fitted it: refitting everything jointly

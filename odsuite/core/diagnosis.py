@@ -36,6 +36,7 @@ from odsuite.core.fitting import (
     effective_samples,
     fit,
     fit_windows,
+    refined,
     screen,
     uncertainties,
     validate,
@@ -488,6 +489,13 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
                 if refined is not None:
                     candidates.append(refined)
                     evaluations += refined._problem.evaluations
+                    continue
+                candidates.append(Candidate(
+                    effect=name, significant=False, error_after=cmp.error, validated_error=float("nan"),
+                    parameters={}, uncertainties={}, units={}, n_parameters=0, bic=float("inf"),
+                    screened_error=cmp.error, fitted=False,
+                    evidence=(f"not fitted: it refines {regs.effects.get(name).refines}'s fit, which is not "
+                              "significant or leaves nothing above the noise floor")))
     finally:
         _JOBS.pop(token)
     for s in screened:
@@ -522,16 +530,8 @@ def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], 
     start = next((c for c in candidates if c.effect == effect.refines and c.fitted), None)
     if start is None or not start.significant or not start.error_after > FLOOR_TOLERANCE * job["noise"]:
         return None
-    fixed = dict(start._problem.fixed)
-    held = getattr(effect, "held_for_body", None)
-    if held is not None:  # what the start's body cannot have
-        model = job["base"].shared
-        fixed.update(held(model, model.bodies[int(fixed.get("body", 0.0))].name))
-    problem = _problem(job, name, fixed)
-    shared, per = start._problem.values(start._u)
-    u0 = np.array([((shared if f.experiment is None else per.get(f.experiment, {})).get(f.param.name, f.param.nominal)
-                    - f.param.nominal) / f.scale for f in problem.free])
-    cand = _fit_candidate(Screened(effect, fixed, u0, problem.sse(u0), problem), job["windows"], job["sse0"],
+    problem, u0 = refined(start._problem, start._u, effect)
+    cand = _fit_candidate(Screened(effect, problem.fixed, u0, problem.sse(u0), problem), job["windows"], job["sse0"],
                           job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
                           job["modes_before"], job["tail0"], job["force_levels"])
     den = job["den"]

@@ -589,6 +589,23 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
 # fitting and validation
 
 
+def refined(start: Problem, u: np.ndarray, effect) -> tuple[Problem, np.ndarray]:
+    """The problem of ``effect``, which refines ``start.effect`` (its ``refines``), on the same
+    records with ``start``'s choices and what the effect holds given them (``held_when``), and its
+    start: every parameter the two share at ``start``'s fit at ``u``, the others nominal."""
+    fixed = dict(start.fixed)
+    held = getattr(effect, "held_when", None)
+    if held is not None:
+        fixed.update(held(start.base.shared, fixed))
+    problem = Problem(start.base, effect, start.exps, fixed, start.prior, start.stride, full=start.full,
+                      noise_scale=start.noise_scale)
+    shared, per = start.values(u)
+    u0 = np.array([((shared if f.experiment is None else per.get(f.experiment, {})).get(f.param.name, f.param.nominal)
+                    - f.param.nominal) / f.scale for f in problem.free])
+    return problem, np.clip(u0, *problem.lower_upper())
+
+
+
 #: the fit's finite-difference step, in natural steps (_scale). Absolute: scipy's own steps are
 #: relative to the value, and the search values start at 0 (nominal), so a parameter near its
 #: nominal was differenced over 1e-14 of a step (in round-off, or in a filter at 1e15 Hz)

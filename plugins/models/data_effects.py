@@ -170,9 +170,10 @@ class CoupledMode(MissingMode):
                                 description=f"participation at spring {spring}'s end along {axis}")
                       for spring, axis in self._spring_keys(model)]
 
-    def held_for_body(self, model, body: str) -> dict[str, float]:
-        """Spring participations a mode of ``body`` cannot have (springs not attached to it), held
-        at 0 so the search does not spend evaluations on them."""
+    def held_when(self, model, fixed: Mapping[str, float]) -> dict[str, float]:
+        """Spring participations the refined mode's body cannot have (springs not attached to
+        it), held at 0 so the search spends no evaluations on them."""
+        body = self._bodies(model)[int(fixed.get("body", 0.0))]
         on = {s.name for s in model.springs if body in (s.body, s.other)}
         return {f"phi_{spring}_{axis}": 0.0 for spring, axis in self._spring_keys(model) if spring not in on}
 
