@@ -495,7 +495,8 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
                     parameters={}, uncertainties={}, units={}, n_parameters=0, bic=float("inf"),
                     screened_error=cmp.error, fitted=False,
                     evidence=(f"not fitted: it refines {regs.effects.get(name).refines}'s fit, which is not "
-                              "significant or leaves nothing above the noise floor")))
+                              "significant or leaves nothing above the noise floor, or another candidate "
+                              "brings the error to the floor")))
     finally:
         _JOBS.pop(token)
     for s in screened:
@@ -523,12 +524,15 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
 
 def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], scale: float) -> Candidate | None:
     """Fit the refining effect ``name`` from the fit of the effect it refines, when that one is
-    significant and leaves the residual above the floor (else there is nothing for it to add). It
+    significant and leaves the residual above the floor, and no candidate brings it there (else
+    there is nothing for it to add). It
     counts as significant only when its own parameters' gain over that fit passes the test the
     gain of as many parameters fitted to noise would fail (checks.gain_threshold)."""
     effect = job["effects"].get(name)
     start = next((c for c in candidates if c.effect == effect.refines and c.fitted), None)
-    if start is None or not start.significant or not start.error_after > FLOOR_TOLERANCE * job["noise"]:
+    done = [c.error_after for c in candidates if c.fitted and c.significant]
+    if (start is None or not start.significant or not start.error_after > FLOOR_TOLERANCE * job["noise"]
+            or min(done) <= FLOOR_TOLERANCE * job["noise"]):  # another candidate has explained it all
         return None
     problem, u0 = refined(start._problem, start._u, effect)
     cand = _fit_candidate(Screened(effect, problem.fixed, u0, problem.sse(u0), problem), job["windows"], job["sse0"],

@@ -553,7 +553,7 @@ class Structure(LinearStructure):
             P, R = self._spring_ends(s)
             k += P.T @ s.matrix(lin) @ P + R.T @ s.matrix(rot) @ R
         for i, f in enumerate(self.flexible_modes):
-            k[self._flex_start + i, self._flex_start + i] = flex(f)
+            k[self._flex_start + i, self._flex_start + i] += flex(f)  # on top of its spring ends
         return k
 
     @functools.cached_property

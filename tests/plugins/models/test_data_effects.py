@@ -121,6 +121,34 @@ def test_missing_mode_adds_one_resonance_with_its_participations(registries, mod
     assert np.abs(added[:, 2, 0]).max() < 1e-12 * np.abs(added[:, 0, 0]).max()
 
 
+def test_coupled_mode_is_joined_to_the_rigid_motion_by_the_springs_it_moves(registries, model):
+    """A mode moving spring1's end by phi along z: the spring adds k_z phi^2 to the mode's own
+    stiffness and k_z phi (the rigid motion of the spring's point along z) to its coupling with the
+    rigid coordinates, and c_z the same to the damping (a spring's energy, written out by hand)."""
+    eff = registries.effects.get("coupled_mode")
+    phi, f, zeta = 0.4, 700.0, 0.02
+    moved = eff.apply(model, {"frequency_hz": f, "damping_ratio": zeta, "phi_zC": 0.7, "phi_force": 0.5,
+                              "phi_spring1_z": phi})
+    spring = next(s for s in model.springs if s.name == "spring1")
+    body = model.bodies[0]
+    rx, ry, _ = np.asarray(spring.point, float) - body.com
+    # z displacement of the spring's point per rigid coordinate (x, y, z, rx, ry, rz)
+    row = np.array([0.0, 0.0, 1.0, ry, -rx, 0.0])
+    kz, cz = np.diag(spring.matrix("stiffness"))[2], np.diag(spring.matrix("damping"))[2]
+    K, C = moved.K, moved.C
+    wn = 2 * np.pi * f
+    assert K[-1, -1] == pytest.approx(wn**2 + kz * phi**2, rel=1e-12)
+    assert np.allclose(K[:6, -1], kz * phi * row, rtol=1e-12, atol=1e-9 * kz)
+    assert C[-1, -1] == pytest.approx(2 * zeta * wn + cz * phi**2, rel=1e-12)
+    assert np.allclose(C[:6, -1], cz * phi * row, rtol=1e-12, atol=1e-9 * cz)
+    assert np.allclose(K[:6, :6], model.K) and np.allclose(moved.M[:6, -1], 0.0)
+    # with the spring ends at rest it is missing_mode's uncoupled mode
+    still = eff.apply(model, {"frequency_hz": f, "damping_ratio": zeta, "phi_zC": 0.7, "phi_force": 0.5})
+    plain = registries.effects.get("missing_mode").apply(
+        model, {"frequency_hz": f, "damping_ratio": zeta, "phi_zC": 0.7, "phi_force": 0.5})
+    assert np.array_equal(still.K, plain.K) and np.array_equal(still.C, plain.C)
+
+
 def test_missing_mode_stored_as_a_revision_predicts_like_the_fit(registries, model):
     """A revision applies the shared values, then each experiment's force participation: the same
     single mode as applying everything at once."""
