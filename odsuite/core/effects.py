@@ -20,6 +20,13 @@ any object with the same members:
 Optional: ``data_driven`` (bool, default False): the effect presupposes no shape (a mode of any
 shape), so the diagnosis ranks a significant named mechanism it is confounded with before it.
 
+Optional: ``refines`` (str): the effect extends the named effect's fit. The diagnosis fits it only
+from that fit (after the other candidates, when that one is significant, leaves the error above
+the floor and no candidate reaches the floor) and counts it significant only when its gain over
+that fit passes the test for its extra parameters; ``add-effect`` fits the named effect first.
+With it, optional ``held_when(model, fixed) -> {name: value}``: parameters held at a value given
+the refined fit's discrete choices (:func:`odsuite.core.fitting.refined`).
+
 Optional: ``breaks_rigidity`` (bool, default False): the effect makes a rigid body's redundant
 sensors disagree (a flexible mode, a sensor fault), so the diagnosis cites the rigidity check's
 residual as evidence for it.

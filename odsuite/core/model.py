@@ -190,7 +190,9 @@ class FlexibleMode:
     with the rigid coordinates. Uncoupled (``at_springs`` False), ``frequency_hz`` is its frequency
     as mounted. With ``at_springs`` the shape also moves the body's spring ends (the shape function
     is asked at each spring's point along each rig axis, tag ``"<spring>.x"`` etc.): the springs
-    and their dampers then couple it to the rigid motion, and ``frequency_hz`` is the free body's.
+    and their dampers then couple it to the rigid motion, and ``frequency_hz`` and
+    ``damping_ratio`` are the mode's with the rigid coordinates held still (its spring ends'
+    stiffness and damping included).
     """
 
     name: str
@@ -553,7 +555,10 @@ class Structure(LinearStructure):
             P, R = self._spring_ends(s)
             k += P.T @ s.matrix(lin) @ P + R.T @ s.matrix(rot) @ R
         for i, f in enumerate(self.flexible_modes):
-            k[self._flex_start + i, self._flex_start + i] += flex(f)  # on top of its spring ends
+            # the mode's own coefficient, its spring ends included (at_springs: the mode's frequency
+            # with the rigid coordinates held; the free body's would trade against the spring ends'
+            # participations, a curved valley the fit crawls along)
+            k[self._flex_start + i, self._flex_start + i] = flex(f)
         return k
 
     @functools.cached_property

@@ -148,7 +148,8 @@ class MissingMode(Effect):
 class CoupledMode(MissingMode):
     """A missing mode whose shape also moves its body's spring ends: the springs and dampers then
     couple it to the rigid motion (a plate mode near the suspension's modes shifts them and is
-    driven by them; its frequency is the free body's). Participation at each spring end along each
+    driven by them; its frequency and damping are the mode's with the rigid bodies held still).
+    Participation at each spring end along each
     rig axis is searched with the rest. It refines ``missing_mode`` (``refines``): the diagnosis
     fits it from that fit when it leaves the residual above the noise floor, and counts it only
     when the spring participations earn their place."""
