@@ -137,8 +137,13 @@ def _evidence(problem: Problem, cand: Candidate, baseline: float, noise: float,
         words.append(f"fitted {desc}")
     words.append(f"validated error {baseline:.3g} -> {cand.validated_error:.3g} ({cand.validation}); "
                  f"noise floor {noise:.3g}")
-    for group in cand.confounded_parameters:
-        words.append(f"only the combination of {', '.join(group)} is determined")
+    if len(cand.confounded_parameters) > 2:  # one phrase, not a list of overlapping groups
+        names = list(dict.fromkeys(n for g in cand.confounded_parameters for n in g))
+        words.append(f"these data cannot separate {', '.join(names)} "
+                     f"({len(cand.confounded_parameters)} overlapping groups)")
+    else:
+        for group in cand.confounded_parameters:
+            words.append(f"only the combination of {', '.join(group)} is determined")
     if cand.unidentifiable:
         words.append(f"not identifiable from these data: {', '.join(cand.unidentifiable)}")
     return "; ".join(words)
@@ -510,6 +515,7 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
             n_parameters=len(s.problem.free), bic=float("inf"), screened_error=err,
             fitted=False))
     _mark_confounded([c for c in candidates if c.fitted], exps, scale)
+    _tell_refinements_apart(candidates, regs.effects, den)
     _mark_proxies([c for c in candidates if c.fitted], base)
     candidates.sort(key=lambda c: (not c.significant, c.bic if c.fitted else math.inf, c.screened_error))
     _prefer_named(candidates, regs.effects)
@@ -524,13 +530,15 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
 
 def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], scale: float) -> Candidate | None:
     """Fit the refining effect ``name`` from the fit of the effect it refines, when that one is
-    significant and leaves the residual above the floor, and no candidate brings it there (else
-    there is nothing for it to add). It
-    counts as significant only when its own parameters' gain over that fit passes the test the
-    gain of as many parameters fitted to noise would fail (checks.gain_threshold)."""
+    significant and leaves the residual above the floor, and no candidate but another refinement
+    brings it there (else there is nothing for it to add). It counts as significant only when its
+    own parameters' gain over that fit passes the test the gain of as many parameters fitted to
+    noise would fail (checks.gain_threshold)."""
     effect = job["effects"].get(name)
     start = next((c for c in candidates if c.effect == effect.refines and c.fitted), None)
-    done = [c.error_after for c in candidates if c.fitted and c.significant]
+    # refiners are fitted alike whatever their order: another refinement does not stop one
+    done = [c.error_after for c in candidates if c.fitted and c.significant
+            and not getattr(job["effects"].get(c.effect), "refines", None)]
     if (start is None or not start.significant or not start.error_after > FLOOR_TOLERANCE * job["noise"]
             or min(done) <= FLOOR_TOLERANCE * job["noise"]):  # another candidate has explained it all
         return None
@@ -608,6 +616,27 @@ def _mark_confounded(cands: Sequence[Candidate], exps, scale: float) -> None:
                     or checks.indistinguishable(va, vb, scale, ca.n_parameters + cb.n_parameters)):
                 ca.confounded_with.append(b)
                 cb.confounded_with.append(a)
+
+
+def _tell_refinements_apart(cands: Sequence[Candidate], effects, den: float) -> None:
+    """Refinements of one fit are told apart from it and from each other by the gain test, however
+    alike their changes of the predictions look: a refiner's significance is its gain over the fit
+    it refines, and of two refiners the better is apart when its gain over the other passes the test
+    for its own extra parameters."""
+    def apart(a: Candidate, b: Candidate) -> None:
+        if b.effect in a.confounded_with:
+            a.confounded_with.remove(b.effect)
+        if a.effect in b.confounded_with:
+            b.confounded_with.remove(a.effect)
+
+    refiners = [c for c in cands if c.fitted and getattr(effects.get(c.effect), "refines", None)]
+    for c in refiners:
+        if c.significant:
+            apart(c, next(b for b in cands if b.effect == effects.get(c.effect).refines))
+        for o in refiners:
+            if (o is not c and effects.get(o.effect).refines == effects.get(c.effect).refines
+                    and is_significant(o.validated_error**2 * den, c.validated_error**2 * den, c.gain_threshold)):
+                apart(c, o)
 
 
 def _makes_nonlinear(cand: Candidate, base) -> bool:

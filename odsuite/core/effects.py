@@ -25,7 +25,8 @@ from that fit (after the other candidates, when that one is significant, leaves 
 the floor and no candidate reaches the floor) and counts it significant only when its gain over
 that fit passes the test for its extra parameters; ``add-effect`` fits the named effect first.
 With it, optional ``held_when(model, fixed) -> {name: value}``: parameters held at a value given
-the refined fit's discrete choices (:func:`odsuite.core.fitting.refined`).
+the refined fit's discrete choices, and ``refined_start(model, values) -> {name: value}``: start
+values replacing the refined fit's (:func:`odsuite.core.fitting.refined`).
 
 Optional: ``breaks_rigidity`` (bool, default False): the effect makes a rigid body's redundant
 sensors disagree (a flexible mode, a sensor fault), so the diagnosis cites the rigidity check's

@@ -14,6 +14,11 @@ class ConfigError(OdsuiteError, ValueError):
     """A setting, option or definition has an invalid value."""
 
 
+class DivergedError(ConfigError):
+    """A simulation's response grew without bound (a nonlinear model too strong for its force):
+    a user's model is wrong, a fit's trial values are far off."""
+
+
 class DimensionError(OdsuiteError, ValueError):
     """Arrays or channel lists do not have the shapes that belong together."""
 

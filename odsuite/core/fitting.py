@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 import scipy.optimize
 
+from odsuite.core.errors import DivergedError
 from odsuite.core.modelrev import RevisionModel
 from odsuite.core.prediction import PreparedExperiment, predict, simulate_together
 
@@ -232,7 +233,10 @@ class Problem:
         exps = exps or self.exps
         k = self.stride if stride is None else stride
         with np.errstate(over="ignore", invalid="ignore"):
-            preds = self.predictions(u, exps)
+            try:
+                preds = self.predictions(u, exps)
+            except DivergedError:  # trial values that blow the response up: as unstable as can be
+                preds = [np.full(e.measured.shape, np.inf) for e in exps]
         parts = []
         for e, p in zip(exps, preds):
             r = (e.measured - p)[::k]
@@ -592,7 +596,8 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
 def refined(start: Problem, u: np.ndarray, effect) -> tuple[Problem, np.ndarray]:
     """The problem of ``effect``, which refines ``start.effect`` (its ``refines``), on the same
     records with ``start``'s choices and what the effect holds given them (``held_when``), and its
-    start: every parameter the two share at ``start``'s fit at ``u``, the others nominal."""
+    start: every parameter the two share at ``start``'s fit at ``u``, the others nominal, and what
+    the effect's ``refined_start`` makes of them."""
     fixed = dict(start.fixed)
     held = getattr(effect, "held_when", None)
     if held is not None:
@@ -600,6 +605,9 @@ def refined(start: Problem, u: np.ndarray, effect) -> tuple[Problem, np.ndarray]
     problem = Problem(start.base, effect, start.exps, fixed, start.prior, start.stride, full=start.full,
                       noise_scale=start.noise_scale)
     shared, per = start.values(u)
+    begin = getattr(effect, "refined_start", None)
+    if begin is not None:
+        shared = {**shared, **begin(start.base.shared, {**shared, **fixed})}
     u0 = np.array([((shared if f.experiment is None else per.get(f.experiment, {})).get(f.param.name, f.param.nominal)
                     - f.param.nominal) / f.scale for f in problem.free])
     return problem, np.clip(u0, *problem.lower_upper())

@@ -186,13 +186,17 @@ ShapeFunction = Callable[[np.ndarray, np.ndarray, "str | None"], float]
 class FlexibleMode:
     """An added, mass-normalised flexible mode of one body: ``q'' + 2 zeta w q' + w^2 q = phi_F . F``.
 
-    Its shape is orthogonal to the rigid motion of the body it belongs to, so it shares no mass
-    with the rigid coordinates. Uncoupled (``at_springs`` False), ``frequency_hz`` is its frequency
+    Uncoupled (``at_springs`` False), ``frequency_hz`` is its frequency
     as mounted. With ``at_springs`` the shape also moves the body's spring ends (the shape function
     is asked at each spring's point along each rig axis, tag ``"<spring>.x"`` etc.): the springs
     and their dampers then couple it to the rigid motion, and ``frequency_hz`` and
     ``damping_ratio`` are the mode's with the rigid coordinates held still (its spring ends'
-    stiffness and damping included).
+    stiffness and damping included). Its shape shares no mass with the rigid coordinates unless
+    ``parts`` are given: (tag, point, mass kg) of parts mounted on the body whose motion is the
+    body's at ``point`` plus the mode's shape there (asked along each rig axis, tag ``"<tag>.x"``
+    etc.), e.g. a loose bracket carrying sensors. Their kinetic energy couples the mode to the rigid
+    motion through the mass matrix; the modal mass stays 1 kg (the parts' own share included), so
+    a part's mass times the shape's square at its point must not exceed 1.
     """
 
     name: str
@@ -201,6 +205,7 @@ class FlexibleMode:
     damping_ratio: float
     shape: ShapeFunction
     at_springs: bool = False
+    parts: tuple = ()
 
     def __post_init__(self) -> None:
         if not np.isfinite(self.frequency_hz) or self.frequency_hz <= 0:
@@ -545,8 +550,16 @@ class Structure(LinearStructure):
         for b in self.bodies:
             sel = self._select[b.name]
             m += sel.T @ b.mass_matrix @ sel
-        for i in range(len(self.flexible_modes)):
-            m[self._flex_start + i, self._flex_start + i] = 1.0
+        for i, f in enumerate(self.flexible_modes):
+            j = self._flex_start + i
+            m[j, j] = 1.0
+            for tag, point, mass in f.parts:
+                # the part moves with the body at its point plus the mode's shape there
+                B = self.point_rows(f.body, point)
+                phi = np.array([f.shape(point, axis, f"{tag}.{'xyz'[k]}") for k, axis in enumerate(np.eye(3))])
+                m += mass * (B.T @ B)
+                m[:, j] += mass * (B.T @ phi)
+                m[j, :] += mass * (B.T @ phi)
         return m
 
     def _assemble(self, lin: str, rot: str, flex: Callable[[FlexibleMode], float]) -> np.ndarray:

@@ -17,7 +17,7 @@ import math
 import numpy as np
 import scipy  # scipy.signal and scipy.linalg load on first use: fast `odsuite plugins`
 
-from odsuite.core.errors import ConfigError, DimensionError
+from odsuite.core.errors import ConfigError, DimensionError, DivergedError
 from odsuite.core.model import Model, StateSpace
 
 HOLDS = ("zoh", "foh")
@@ -226,7 +226,7 @@ def simulate_nonlinear_many(structure, drives, fs: float) -> list[np.ndarray]:
     cubic_steps(step_t, np.ascontiguousarray(step_t @ Eq.T), linear, linear_deflection, np.ascontiguousarray(end_pull.T),
                 np.ascontiguousarray(end_deflection.T), np.ascontiguousarray(c, dtype=float), states)
     if not np.all(np.isfinite(states)):
-        raise ConfigError("nonlinear simulation diverged (cubic springs too strong for this force)")
+        raise DivergedError("nonlinear simulation diverged (cubic springs too strong for this force)")
     out = []
     for i, u in enumerate(records):
         q = states[:(len(u) - 1) * sub + 1:sub, i]

@@ -76,6 +76,11 @@ class MissingMode(Effect):
         the mode is uncoupled."""
         return {}
 
+    def _parts(self, model, v, table, body) -> tuple[tuple, dict[str, float]]:
+        """Parts the mode moves that carry mass of the rigid motion (FlexibleMode.parts) and the
+        shape's values at them: none, the mode is uncoupled."""
+        return (), {}
+
     def _apply(self, model, v):
         sensors = _accelerometers(model)
         table = {s.name: v[f"phi_{s.name}"] for s in sensors}
@@ -89,17 +94,20 @@ class MissingMode(Effect):
             table = dict(old.shape.table)
             table["force"] = v["phi_force"]
             mode = FlexibleMode(self.name, old.body, old.frequency_hz, old.damping_ratio, _Participation(table),
-                                at_springs=old.at_springs)
+                                at_springs=old.at_springs, parts=old.parts)
             return _with_modes(model, flex[:ours[-1]] + (mode,) + flex[ours[-1] + 1:])
         table["force"] = v["phi_force"]
         springs = self._springs(model, v)
         table.update(springs)
         body = self._bodies(model)[int(v.get("body", 0.0))]
+        parts, at_parts = self._parts(model, v, table, body)
+        table.update(at_parts)
         mode = FlexibleMode(self.name, body, v["frequency_hz"], v["damping_ratio"], _Participation(table),
-                            at_springs=any(springs.values()))
+                            at_springs=any(springs.values()), parts=parts)
         same = [i for i in ours if (flex[i].body, flex[i].frequency_hz, flex[i].damping_ratio)
                 == (body, v["frequency_hz"], v["damping_ratio"])
-                and all(flex[i].shape.table.get(k, 0.0) == x for k, x in springs.items())]
+                and all(flex[i].shape.table.get(k, 0.0) == x for k, x in {**springs, **at_parts}.items())
+                and [p[2] for p in flex[i].parts] == [p[2] for p in parts]]
         if same:  # the same mode with an experiment's force participation: replace, do not add
             return _with_modes(model, flex[:same[-1]] + (mode,) + flex[same[-1] + 1:])
         return _with_modes(model, flex + (mode,))
@@ -188,6 +196,89 @@ class CoupledMode(MissingMode):
         return []
 
 
+#: mounted_mode's start: the part's mass as a share of the body's (a bracket or sensor block)
+START_PART_FRACTION = 0.01
+
+
+class MountedMode(MissingMode):
+    """A missing mode that is a part mounted where some sensors sit (a loose bracket, a sensor
+    block on a soft mount): the part moves with the body there plus the mode's shape, so its mass
+    couples the mode to the rigid motion (the body's motion drives it and it pulls back on the
+    body). Per sensor mount point, the share of the mode's modal mass the part carries (0: none; 1:
+    the mode is the part moving on its mount alone) is searched with the rest; the part's mass is
+    that share over the shape's square there (the shape along unsensed axes taken as 0). It refines
+    ``missing_mode``: fitted from that fit, counted only when the shares earn their place."""
+
+    name = "mounted_mode"
+    refines = "missing_mode"
+    description = ("A resonance of a part mounted where sensors sit (a loose bracket): its mass couples it "
+                   "to the rigid motion of the body it is on.")
+
+    def _mounts(self, model) -> list[tuple[str, str, np.ndarray, list]]:
+        """(tag, body, point, sensors) of each point where accelerometers sit."""
+        out = []
+        for s in _accelerometers(model):
+            if s.body is None or s.position is None:
+                continue
+            here = next((m for m in out if m[1] == s.body and np.allclose(m[2], s.position, atol=1e-6)), None)
+            if here is None:
+                out.append([s.name, s.body, np.asarray(s.position, float), [s]])
+            else:
+                here[0] += f"_{s.name}"
+                here[3].append(s)
+        return [tuple(m) for m in out]
+
+    def parameters(self, model):
+        out = super().parameters(model)
+        if not out:
+            return out
+        return out + [Parameter(f"part_{tag}", "1", 0.0, 0.0, 1.0, description=(
+            f"share of the mode's modal mass on a part mounted where {', '.join(s.name for s in group)} sit"))
+            for tag, _, _, group in self._mounts(model)]
+
+    def held_when(self, model, fixed: Mapping[str, float]) -> dict[str, float]:
+        """Mount points on other bodies than the refined mode's, held at 0."""
+        body = self._bodies(model)[int(fixed.get("body", 0.0))]
+        return {f"part_{tag}": 0.0 for tag, on, _, _ in self._mounts(model) if on != body}
+
+    def linear_parameters(self, model) -> list[str]:
+        return []  # the participations set the parts' masses: searched with the rest (as coupled_mode)
+
+    def refined_start(self, model, values: Mapping[str, float]) -> dict[str, float]:
+        """From missing_mode's fit: the mode is the part where the sensors see most of it (share 1),
+        driven through its mount rather than by the hammer."""
+        body = self._bodies(model)[int(values.get("body", 0.0))]
+        seen = {tag: sum(values.get(f"phi_{s.name}", 0.0) ** 2 for s in group)
+                for tag, on, _, group in self._mounts(model) if on == body}
+        if not seen or not max(seen.values()):
+            return {}
+        # with share 1 the response through the mount does not depend on the participations' scale
+        # (the part's mass is their inverse square): scale them to a part of a hundredth of the body
+        part = max(seen, key=seen.get)
+        scale = 1.0 / np.sqrt(seen[part] * START_PART_FRACTION * model.structure.body(body).mass)
+        out = {name: float(np.clip(x * scale, -MAX_PARTICIPATION, MAX_PARTICIPATION))
+               for name, x in values.items() if name.startswith("phi_") and name != "phi_force"}
+        return {**out, f"part_{part}": 1.0, "phi_force": 0.0}
+
+    def _parts(self, model, v, table, body):
+        parts, at = [], {}
+        for tag, on, point, group in self._mounts(model):
+            share = v[f"part_{tag}"]
+            if not share or on != body:
+                continue
+            # the shape at the point from the sensors there (least squares over their axes)
+            axes = np.array([np.asarray(s.axis, float) / np.linalg.norm(s.axis) for s in group])
+            phi = np.linalg.lstsq(axes, np.array([table[s.name] for s in group]), rcond=None)[0]
+            square = float(phi @ phi)
+            if square == 0:
+                continue
+            # a part cannot outweigh the body it is mounted on
+            mass = min(share / square, model.structure.body(on).mass)
+            parts.append((tag, point, mass))
+            at.update({f"{tag}.{axis}": float(x) for axis, x in zip("xyz", phi)})
+        return tuple(parts), at
+
+
 class _Participation:
     """A mode's participation per sensor name and at the force points ("force"); a table, so an
     experiment's force participation can replace the shared one."""
@@ -266,4 +357,4 @@ class ChannelDelay(Effect):
 
 
 def data_effects() -> list[Effect]:
-    return [MissingMode(), CoupledMode(), ChannelDelay("per_channel"), ChannelDelay("scan")]
+    return [MissingMode(), CoupledMode(), MountedMode(), ChannelDelay("per_channel"), ChannelDelay("scan")]

@@ -73,6 +73,35 @@ def _check_found(path: Path, effects) -> None:
         assert math.isclose(result["noise_floor_error"], d.noise_floor_error, rel_tol=1e-9)
 
 
+def test_trial_values_that_blow_the_simulation_up_are_a_bad_fit_not_an_error(hidden):
+    """Hardening springs hit 200 times harder than recorded: at the largest hardening the explicit
+    cubic step diverges (a coupled stiff mode did this in a diagnosis round and stopped it). The
+    fit's residual is then the capped one of an unstable model, and the screening goes on."""
+    import dataclasses
+
+    import numpy as np
+
+    from odsuite.core.errors import DivergedError
+    from odsuite.core.fitting import UNSTABLE_RESIDUAL, Problem, fit_windows, screen
+    from odsuite.core.modelrev import current_revision, revision_model
+    from odsuite.core.plugins import registries
+    from odsuite.core.prediction import prepare
+    from odsuite.core.project import open_project
+
+    with open_project(hidden("nominal", []), "r") as p:
+        exps = [dataclasses.replace(e, force=200.0 * e.force) for e in prepare(p)]
+        base = revision_model(p, current_revision(p))
+    problem = Problem(base, registries().effects.get("nonlinear_stiffness"), fit_windows(exps), full=exps)
+    top = problem.lower_upper()[1]
+    with pytest.raises(DivergedError):
+        problem.predictions(top)
+    r = problem.residual(top)
+    cap = max(UNSTABLE_RESIDUAL * np.abs(e.measured).max() for e in problem.exps)
+    assert np.all(np.isfinite(r)) and np.abs(r).max() == pytest.approx(cap, rel=0.01)
+    s = screen(problem, problem.sse(problem.zero()), ())
+    assert s.sse < problem.sse(top)
+
+
 def test_nominal_truth_nothing_significant(hidden):
     """Nothing hidden in the structure: the rigid model is the truth, the verdict is "nothing to
     explain" and no structural candidate may claim an improvement."""

@@ -222,3 +222,29 @@ def test_a_missing_modes_response_alone_is_the_whole_structures_change(tmp_path,
             alone = flexible_mode_change(model, e, mode)
             assert np.abs(whole).max() > 1e-3 * np.abs(e.measured).max()  # the mode is seen
             np.testing.assert_allclose(alone, whole, rtol=0, atol=1e-9 * np.abs(whole).max())
+
+
+def test_mounted_mode_carries_its_parts_mass_with_the_body(registries, model):
+    """A 50 g part on a mount soft along d, carrying the triaxial sensors at C: in the relative
+    coordinate r (the part's motion along d beyond the body's at C), its kinetic energy
+    1/2 m |B x' + d r'|^2 gives M = [[M_body + m B'B, m B'd], [m d'B, m]] (B: the rigid displacement
+    of C, written out by hand). mounted_mode with share 1 and the sensors' participations d.a/sqrt(m)
+    is that system with q = sqrt(m) r."""
+    eff = registries.effects.get("mounted_mode")
+    sensors = [s for s in model.sensors if s.name in ("xC", "yC", "zC")]
+    tag = "_".join(s.name for s in sensors)
+    m, f = 0.05, 900.0
+    d = np.array([0.6, 0.0, 0.8])
+    phi = {f"phi_{s.name}": float(d @ (s.axis / np.linalg.norm(s.axis))) / np.sqrt(m) for s in sensors}
+    moved = eff.apply(model, {"frequency_hz": f, "damping_ratio": 0.02, **phi, f"part_{tag}": 1.0})
+    rx, ry, rz = np.asarray(sensors[0].position, float) - model.bodies[0].com
+    B = np.array([[1.0, 0, 0, 0, rz, -ry], [0, 1.0, 0, -rz, 0, rx], [0, 0, 1.0, ry, -rx, 0]])
+    M = moved.M
+    assert np.allclose(M[:6, :6], model.M + m * B.T @ B, rtol=1e-12, atol=1e-12)
+    assert np.allclose(M[:6, -1], np.sqrt(m) * B.T @ d, rtol=1e-12, atol=1e-12)
+    assert np.allclose(M[-1, :6], M[:6, -1]) and M[-1, -1] == 1.0
+    assert moved.K[-1, -1] == pytest.approx((2 * np.pi * f) ** 2, rel=1e-12)
+    assert np.allclose(moved.K[:6, -1], 0.0)
+    # the part is not where no share is given: missing_mode's uncoupled mode
+    plain = registries.effects.get("missing_mode").apply(model, {"frequency_hz": f, "damping_ratio": 0.02, **phi})
+    assert np.array_equal(eff.apply(model, {"frequency_hz": f, "damping_ratio": 0.02, **phi}).M, plain.M)
