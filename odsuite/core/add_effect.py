@@ -73,6 +73,8 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     den = sum(float(np.sum(e.measured**2)) for e in exps)
     cmp = compare(project, revision=rev, prepared=exps, resonances=False)
     noise = cmp.noise_floor_error
+    # the fits stop at gains below the noise, as the diagnosis's do
+    scale = checks.noise_scale(cmp.floor, exps)
     n_eff, f99 = effective_samples(exps)
     stride = max(1, int(exps[0].fs / (5.0 * f99)))
     prior = 1e-3 * max(noise**2, 1e-8) * den / stride
@@ -84,13 +86,14 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     peaks = [p["frequency_hz"] for p in cmp.residual_peaks if p["lacking"]]
     refines = getattr(effect, "refines", None)
     if refines:  # it starts from the fit of the effect it refines, as the diagnosis fits it
-        start = Problem(current, regs.effects.get(refines), windows, prior=prior, stride=stride, full=exps)
+        start = Problem(current, regs.effects.get(refines), windows, prior=prior, stride=stride, full=exps,
+                        noise_scale=scale)
         s = screen(start, start.sse(start.zero()), peaks)
         res = fit(s.problem, s.u0, continuation=False) if s.problem.free else None
         problem, u0 = refined(s.problem, res.x if res is not None else s.problem.zero(), effect)
         return _add_on_top(project, rev, entries, name, effect, Screened(effect, problem.fixed, u0, 0.0, problem),
                            n_eff, exps, before, progress)
-    single = Problem(current, effect, windows, prior=prior, stride=stride, full=exps)
+    single = Problem(current, effect, windows, prior=prior, stride=stride, full=exps, noise_scale=scale)
     screened = screen(single, single.sse(single.zero()), peaks)
     if single.linear:
         # an effect that solves its own linear parameters (a mode's participations) is fitted on
@@ -102,7 +105,7 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
              if any(p.name == k and p.choices for p in regs.effects.get(e["effect"]).parameters(current.shared))}
     fixed.update({f"{name}.{k}": v for k, v in screened.fixed.items()})
     joint = Problem(RevisionModel(base_model(project.rig, rev.get("model"))), _Joint(joint_effects), windows,
-                    fixed, prior, stride, full=exps)
+                    fixed, prior, stride, full=exps, noise_scale=scale)
     u0 = _start(joint, entries)
     for i, f in enumerate(joint.free):  # the new effect starts where screening left it
         if f.param.name.startswith(f"{name}."):
