@@ -495,7 +495,7 @@ def model_cmd(
         for col in ("effect", "parameter", "value", "unit", "meaning"):
             params.add_column(col)
         for effect, values in report["parameters"].items():
-            info = report["parameter_info"].get(effect, {})
+            info = report["parameter_info"].get(effect.split("#")[0], {})  # "missing_mode#2": its second instance
             for name, value in values.items():
                 if name == "per_experiment":
                     continue

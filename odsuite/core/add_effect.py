@@ -20,7 +20,7 @@ from odsuite.core.fitting import (
     screen,
     uncertainties,
 )
-from odsuite.core.modelrev import RevisionModel, current_revision, revision_model
+from odsuite.core.modelrev import apply_effects, current_revision, instance_names, revision_model
 from odsuite.core.noise_floor import FLOOR_TOLERANCE
 from odsuite.core.prediction import prepare
 
@@ -41,6 +41,11 @@ class _Joint:
             own = {k.split(".", 1)[1]: v for k, v in values.items() if k.split(".", 1)[0] == e.name}
             model = e.apply(model, own)
         return model
+
+
+def _flat(entries: Sequence[Mapping[str, Any]]) -> dict[str, float]:
+    """The revision's parameters as one table, "<effect>.<parameter>" (repeated instances numbered)."""
+    return {f"{key}.{k}": v for key, e in zip(instance_names(entries), entries) for k, v in e.get("values", {}).items()}
 
 
 def _start(problem: Problem, entries: Sequence[Mapping[str, Any]]) -> np.ndarray:
@@ -68,7 +73,8 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     regs = registries()
     effect = regs.effects.get(name)
     rev = current_revision(project)
-    entries = [e for e in rev.get("effects", []) if e["effect"] != name]
+    # a repeatable effect is added after the instances stored; any other one is refitted
+    entries = [e for e in rev.get("effects", []) if e["effect"] != name or getattr(effect, "repeatable", False)]
     exps = prepare(project)
     den = sum(float(np.sum(e.measured**2)) for e in exps)
     cmp = compare(project, revision=rev, prepared=exps, resonances=False)
@@ -100,13 +106,18 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
         # top of the current effects, as the diagnosis fitted it: refitting everything jointly
         # would hand those parameters to the nonlinear search, which cannot find them
         return _add_on_top(project, rev, entries, name, effect, screened, n_eff, exps, before, progress)
-    joint_effects = [regs.effects.get(e["effect"]) for e in entries] + [effect]
-    fixed = {f"{e['effect']}.{k}": v for e in entries for k, v in e.get("values", {}).items()
+    # the joint problem names parameters by effect: instances of an effect stored more than once
+    # (a repeatable one) are held as stored, the rest refitted
+    count = [e["effect"] for e in entries] + [name]
+    held = [e for e in entries if count.count(e["effect"]) > 1]
+    refit = [e for e in entries if count.count(e["effect"]) == 1]
+    joint_effects = [regs.effects.get(e["effect"]) for e in refit] + [effect]
+    fixed = {f"{e['effect']}.{k}": v for e in refit for k, v in e.get("values", {}).items()
              if any(p.name == k and p.choices for p in regs.effects.get(e["effect"]).parameters(current.shared))}
     fixed.update({f"{name}.{k}": v for k, v in screened.fixed.items()})
-    joint = Problem(RevisionModel(base_model(project.rig, rev.get("model"))), _Joint(joint_effects), windows,
+    joint = Problem(apply_effects(base_model(project.rig, rev.get("model")), held), _Joint(joint_effects), windows,
                     fixed, prior, stride, full=exps, noise_scale=scale)
-    u0 = _start(joint, entries)
+    u0 = _start(joint, refit)
     for i, f in enumerate(joint.free):  # the new effect starts where screening left it
         if f.param.name.startswith(f"{name}."):
             k = next((j for j, g in enumerate(screened.problem.free)
@@ -119,8 +130,7 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     u = res.x if res is not None else joint.zero()
     sds = uncertainties(joint, res, n_eff)[0] if res is not None else np.zeros(0)
     shared, per = joint.values(u)
-    new_entries = []
-    flat: dict[str, float] = {}
+    new_entries = list(held)
     for e in joint_effects:
         prefix = f"{e.name}."
         values = {k[len(prefix):]: v for k, v in shared.items() if k.startswith(prefix)}
@@ -129,7 +139,7 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
         unc = {f.label[len(prefix):] if f.experiment is None else f"{f.experiment}/{f.param.name[len(prefix):]}": float(sd)
                for f, sd in zip(joint.free, sds) if f.param.name.startswith(prefix) and np.isfinite(sd)}
         new_entries.append({"effect": e.name, "values": values, "per_experiment": per_exp, "uncertainties": unc})
-        flat.update({f"{e.name}.{k}": v for k, v in values.items()})
+    flat = _flat(new_entries)
     if progress:
         progress("comparing", 2, 3)
     candidate_rev = {"model": rev.get("model"), "effects": new_entries}
@@ -157,7 +167,7 @@ def _add_on_top(project, rev, entries, name: str, effect, screened, n_eff, exps,
            for f, sd in zip(problem.free, sds) if np.isfinite(sd)}
     new_entries = [*entries, {"effect": name, "values": dict(shared),
                               "per_experiment": {x: d for x, d in per.items() if d}, "uncertainties": unc}]
-    flat = {f"{e['effect']}.{k}": v for e in new_entries for k, v in e.get("values", {}).items()}
+    flat = _flat(new_entries)
     if progress:
         progress("comparing", 2, 3)
     after = compare(project, revision={"model": rev.get("model"), "effects": new_entries}, prepared=exps,

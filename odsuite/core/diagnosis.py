@@ -385,7 +385,10 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     base = revision_model(project, rev)
     exps = list(prepared) if prepared is not None else prepare(project, experiments)
     in_model = {e["effect"] for e in rev.get("effects", [])}
-    names = list(effects) if effects else [n for n in regs.effects.names() if n not in in_model]
+    def absent(n: str) -> bool:  # or one more of it can be added
+        return n not in in_model or getattr(regs.effects.get(n), "repeatable", False)
+
+    names = list(effects) if effects else [n for n in regs.effects.names() if absent(n)]
     # an effect without parameters for this model does not apply to its rig (no base, no plate)
     not_applicable = [n for n in names if not regs.effects.get(n).parameters(base.shared)]
     if effects and not_applicable:
@@ -398,7 +401,7 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     # an effect that refines another (``refines``) is fitted from that one's fit, after it
     refiners = [n for n in names if getattr(regs.effects.get(n), "refines", None)]
     names += [b for b in dict.fromkeys(regs.effects.get(n).refines for n in refiners)
-              if b not in names and b not in in_model and b in regs.effects.names()]
+              if b not in names and b in regs.effects.names() and absent(b)]
     names = [n for n in names if n not in refiners]
     cmp = compare(project, revision=rev, prepared=exps, resonances=False)
     den = sum(float(np.sum(e.measured**2)) for e in exps)

@@ -28,6 +28,11 @@ With it, optional ``held_when(model, fixed) -> {name: value}``: parameters held 
 the refined fit's discrete choices, and ``refined_start(model, values) -> {name: value}``: start
 values replacing the refined fit's (:func:`odsuite.core.fitting.refined`).
 
+Optional: ``repeatable`` (bool, default False): each addition is one more instance (a structure may
+lack several modes): the diagnosis tries it again when the model has it, ``add-effect`` adds it
+after the one stored, and a revision applies each entry's values per experiment with its shared
+ones, so ``apply`` must find its own instance by them.
+
 Optional: ``breaks_rigidity`` (bool, default False): the effect makes a rigid body's redundant
 sensors disagree (a flexible mode, a sensor fault), so the diagnosis cites the rigidity check's
 residual as evidence for it.
@@ -96,6 +101,8 @@ class Effect:
     target: str = "model"  # "model" or "chain"
     description: str = ""
     breaks_rigidity: bool = False
+    #: each addition is one more instance (a second missing mode), not a refit of the first
+    repeatable: bool = False
     #: a stand-in that presupposes no shape (a mode of any shape): a named mechanism that explains
     #: the same residual (``confounded_with``) is ranked before it
     data_driven: bool = False

@@ -56,8 +56,21 @@ def apply_effects(model, effects: Sequence[Mapping[str, Any]]) -> RevisionModel:
         if values or not entry.get("per_experiment"):
             model = effect.apply(model, values)
         if entry.get("per_experiment"):
-            per.append((effect, {k: dict(v) for k, v in entry["per_experiment"].items()}))
+            # a repeatable effect's instances are told apart by their shared values
+            shared = dict(values) if getattr(effect, "repeatable", False) else {}
+            per.append((effect, {k: {**shared, **v} for k, v in entry["per_experiment"].items()}))
     return RevisionModel(model, per)
+
+
+def instance_names(entries: Sequence[Mapping[str, Any]]) -> list[str]:
+    """Each entry's effect name, the second and later instances of a repeatable effect numbered
+    ("missing_mode", "missing_mode#2"): the keys of flat parameter tables."""
+    seen: dict[str, int] = {}
+    out = []
+    for e in entries:
+        seen[e["effect"]] = seen.get(e["effect"], 0) + 1
+        out.append(e["effect"] if seen[e["effect"]] == 1 else f"{e['effect']}#{seen[e['effect']]}")
+    return out
 
 
 def current_revision(project) -> dict[str, Any]:
@@ -96,9 +109,9 @@ def model_report(project) -> dict[str, Any]:
     return {
         "revision": int(rev["revision"]),
         "model": model.name,
-        "parameters": {e["effect"]: {**e.get("values", {}),
-                                     **({"per_experiment": e["per_experiment"]} if e.get("per_experiment") else {})}
-                       for e in effects},
+        "parameters": {key: {**e.get("values", {}),
+                             **({"per_experiment": e["per_experiment"]} if e.get("per_experiment") else {})}
+                       for key, e in zip(instance_names(effects), effects)},
         "parameter_info": info,
         "effects": [e["effect"] for e in effects],
         "modes": model.modes().as_list(),

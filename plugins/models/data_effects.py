@@ -42,6 +42,7 @@ class MissingMode(Effect):
     target = "model"
     breaks_rigidity = True  # a mode of any shape makes a rigid body's redundant sensors disagree
     data_driven = True
+    repeatable = True  # a structure may lack several modes: each addition is one more
     description = ("A resonance of one body of any shape: frequency and damping fitted, participation at "
                    "every sensor and force point solved linearly.")
 

@@ -36,7 +36,8 @@ RUN_TIMEOUT = 120.0  # s; a command still running then is a hang
 @dataclass(frozen=True)
 class InterruptedCommand:
     """A command line (without ``odsuite``) built from the project, inputs and output folder, and
-    the window after start (s) in which the interrupt falls."""
+    the window after start (s) in which the interrupt falls, narrowed to the command's measured
+    run time on this machine (``interrupt_window``)."""
 
     name: str
     argv: Callable[[Path, Path, Path, int], list[str]]
@@ -179,10 +180,33 @@ def interrupt_once(cmd: InterruptedCommand, project: Path, inputs: Path, out: Pa
     return res
 
 
+def run_time(cmd: InterruptedCommand, source: Path, inputs: Path, work: Path) -> float:
+    """Wall time (s) of one uninterrupted run of ``cmd`` on a copy of ``source``."""
+    run_dir = work / f"timing-{cmd.name}"
+    run_dir.mkdir()
+    project = run_dir / "p.h5"
+    shutil.copyfile(source, project)
+    started = time.monotonic()
+    subprocess.run([str(ODSUITE), *cmd.argv(project, inputs, run_dir, 0)], capture_output=True, timeout=RUN_TIMEOUT,
+                   check=True)
+    took = time.monotonic() - started
+    shutil.rmtree(run_dir)
+    return took
+
+
+def interrupt_window(cmd: InterruptedCommand, took: float) -> tuple[float, float]:
+    """The command's window, within its measured run time: a fixed window lets a faster machine
+    finish before the signal (then nothing is tested) or a slower one never reach the work."""
+    return min(cmd.window[0], 0.5 * took), min(cmd.window[1], 0.85 * took)
+
+
 def run_interrupts(work: Path, runs: int, seed_value: int = 0,
                    commands: tuple[InterruptedCommand, ...] = COMMANDS) -> list[Outcome]:
     rng = random.Random(seed_value)
     inputs, master, processed = seeded_projects(work)
+    used = commands[:runs] if runs < len(commands) else commands
+    windows = {c.name: interrupt_window(c, run_time(c, processed if c.name.startswith("render") else master, inputs, work))
+               for c in used}
     outcomes = []
     for k in range(runs):
         cmd = commands[k % len(commands)]
@@ -190,7 +214,7 @@ def run_interrupts(work: Path, runs: int, seed_value: int = 0,
         run_dir.mkdir()
         project = run_dir / "p.h5"
         shutil.copyfile(processed if cmd.name.startswith("render") else master, project)
-        outcomes.append(interrupt_once(cmd, project, inputs, run_dir, k, rng.uniform(*cmd.window)))
+        outcomes.append(interrupt_once(cmd, project, inputs, run_dir, k, rng.uniform(*windows[cmd.name])))
         shutil.rmtree(run_dir)
     return outcomes
 

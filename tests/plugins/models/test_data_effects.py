@@ -248,3 +248,25 @@ def test_mounted_mode_carries_its_parts_mass_with_the_body(registries, model):
     # the part is not where no share is given: missing_mode's uncoupled mode
     plain = registries.effects.get("missing_mode").apply(model, {"frequency_hz": f, "damping_ratio": 0.02, **phi})
     assert np.array_equal(eff.apply(model, {"frequency_hz": f, "damping_ratio": 0.02, **phi}).M, plain.M)
+
+
+def test_two_missing_modes_stored_in_a_revision_keep_their_own_force_participations(registries, model):
+    """A structure may lack two modes: missing_mode added twice. The revision applies each entry's
+    hit participation with that entry's shared values, so each lands on its own mode (by the
+    entry's frequency), as applying both modes with their participations at once."""
+    from odsuite.core.modelrev import apply_effects, instance_names
+
+    eff = registries.effects.get("missing_mode")
+    first = {"frequency_hz": 640.0, "damping_ratio": 0.02, "phi_zC": 0.7, "phi_z2": -0.4}
+    second = {"frequency_hz": 910.0, "damping_ratio": 0.03, "phi_zC": -0.2, "phi_x1": 0.6}
+    entries = [{"effect": "missing_mode", "values": first, "per_experiment": {"r0": {"phi_force": 0.5}}},
+               {"effect": "missing_mode", "values": second, "per_experiment": {"r0": {"phi_force": -0.8}}}]
+    stored = apply_effects(model, entries).for_experiment("r0")
+    direct = eff.apply(eff.apply(model, {**first, "phi_force": 0.5}), {**second, "phi_force": -0.8})
+    assert len(stored.structure.flexible_modes) == 2
+    forces = sorted(f.shape.table["force"] for f in stored.structure.flexible_modes)
+    assert forces == [-0.8, 0.5]
+    outputs = [Output.sensor(s) for s in model.sensors if s.quantity == "acceleration"]
+    freqs = [300.0, 640.0, 910.0]
+    assert np.allclose(stored.transfer([TOP], outputs, freqs), direct.transfer([TOP], outputs, freqs), rtol=1e-12)
+    assert instance_names(entries) == ["missing_mode", "missing_mode#2"]

@@ -159,7 +159,10 @@ def test_report_numbers_are_compares(story):
 def test_report_is_self_contained(story):
     from PIL import Image
 
-    *_, result = story
+    from odsuite.core.comparison import compare
+    from odsuite.core.project import open_project
+
+    path, *_, result = story
     page = parse(result.path)
     assert 0 < result.size_bytes < 10 * 2**20
     # the 3-D view's script is inline; nothing is fetched: links are in-page, sources data URIs
@@ -171,8 +174,11 @@ def test_report_is_self_contained(story):
         assert m, src[:60]
         with Image.open(io.BytesIO(base64.b64decode(m.group(2)))) as im:
             kinds.append((im.format, getattr(im, "n_frames", 1), im.size))
-    # three experiments x (coordinates + channels), two heat maps, residual spectra, history, movie
-    assert sum(k[0] == "PNG" for k in kinds) == 3 * 2 + 2 + 1 + 1
+    # three experiments x (coordinates + channels), two heat maps, residual spectra, history, movie,
+    # each hammer record's FRF and the MAC of each record with measured modes
+    with open_project(path) as p:
+        records = compare(p).modal_records
+    assert sum(k[0] == "PNG" for k in kinds) == 3 * 2 + 2 + 1 + 1 + len(records) + sum(r.mac is not None for r in records)
     gif = [k for k in kinds if k[0] == "GIF"]
     assert len(gif) == 1 and gif[0][1] > 30 and gif[0][2] == (640, 360)
     assert result.movie_experiment in ("T1", "T3", "T5")
@@ -234,14 +240,15 @@ def test_report_renders_in_chromium(story, tmp_path):
         [str(CHROMIUM), "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
          "--disable-background-networking", "--disable-component-update", "--disable-sync",
          f"--user-data-dir={tmp_path / 'profile'}", "--enable-logging=stderr", "--v=0",
-         f"--screenshot={shot}", "--window-size=1280,4000", result.path.resolve().as_uri()],
+         # the page's first 5000 px hold the summary and each record's FRF and MAC: the overlays follow
+         f"--screenshot={shot}", "--window-size=1280,8000", result.path.resolve().as_uri()],
         capture_output=True, text=True, timeout=180, check=False)
     assert run.returncode == 0, run.stderr[-2000:]
     console = [ln for ln in run.stderr.splitlines() if ":CONSOLE" in ln or "Uncaught" in ln]
     assert not console, console
     with Image.open(shot) as im:
         a = np.asarray(im.convert("RGB")).astype(int)
-    assert a.shape == (4000, 1280, 3)
+    assert a.shape == (8000, 1280, 3)
     # the overlays are on screen: the measured traces' blue (tab:blue 31,119,180) and the model's black
     blue = (np.abs(a - [31, 119, 180]).sum(axis=2) < 60).sum()
     black = (a.sum(axis=2) < 60).sum()
