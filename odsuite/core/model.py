@@ -186,9 +186,9 @@ ShapeFunction = Callable[[np.ndarray, np.ndarray, "str | None"], float]
 class FlexibleMode:
     """An added, mass-normalised flexible mode of one body: ``q'' + 2 zeta w q' + w^2 q = phi_F . F``.
 
-    Uncoupled (``at_springs`` False), ``frequency_hz`` is its frequency
-    as mounted. With ``at_springs`` the shape also moves the body's spring ends (the shape function
-    is asked at each spring's point along each rig axis, tag ``"<spring>.x"`` etc.): the springs
+    Uncoupled (``at_springs`` False), ``frequency_hz`` is its frequency as mounted. With
+    ``at_springs`` the shape also moves the body's spring ends (the shape function is asked at
+    each spring's point along each rig axis, tag ``"<spring>.x"`` etc.): the springs
     and their dampers then couple it to the rigid motion, and ``frequency_hz`` and
     ``damping_ratio`` are the mode's with the rigid coordinates held still (its spring ends'
     stiffness and damping included). Its shape shares no mass with the rigid coordinates unless
@@ -557,9 +557,10 @@ class Structure(LinearStructure):
                 # the part moves with the body at its point plus the mode's shape there
                 B = self.point_rows(f.body, point)
                 phi = np.array([f.shape(point, axis, f"{tag}.{'xyz'[k]}") for k, axis in enumerate(np.eye(3))])
+                pull = mass * (B.T @ phi)
                 m += mass * (B.T @ B)
-                m[:, j] += mass * (B.T @ phi)
-                m[j, :] += mass * (B.T @ phi)
+                m[:, j] += pull
+                m[j, :] += pull
         return m
 
     def _assemble(self, lin: str, rot: str, flex: Callable[[FlexibleMode], float]) -> np.ndarray:
