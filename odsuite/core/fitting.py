@@ -606,10 +606,8 @@ def refined(start: Problem, u: np.ndarray, effect) -> tuple[Problem, np.ndarray]
                       noise_scale=start.noise_scale)
     shared, per = start.values(u)
     begin = getattr(effect, "refined_start", None)
-    if begin is not None:  # its values replace the fit's, shared or per experiment
-        given = begin(start.base.shared, {**shared, **fixed})
-        shared = {**shared, **given}
-        per = {x: {**d, **{k: v for k, v in given.items() if k in d}} for x, d in per.items()}
+    if begin is not None:
+        shared = {**shared, **begin(start.base.shared, {**shared, **fixed})}
     u0 = np.array([((shared if f.experiment is None else per.get(f.experiment, {})).get(f.param.name, f.param.nominal)
                     - f.param.nominal) / f.scale for f in problem.free])
     return problem, np.clip(u0, *problem.lower_upper())
