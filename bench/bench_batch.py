@@ -29,9 +29,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "core"))
 
 from hidden_effects import make_project  # noqa: E402
 
-from odsuite.core.batch import run_batch  # noqa: E402
-from odsuite.core.diagnosis import diagnose  # noqa: E402
-from odsuite.core.project import open_project  # noqa: E402
+from odsuite.ops.batch import run_batch  # noqa: E402
+from odsuite.diagnosis.diagnose import diagnose  # noqa: E402
+from odsuite.store.project import open_project  # noqa: E402
 
 TARGET = 1.7
 EFFECTS = ["stiffness", "damping", "mass_properties", "sensor_gain"]

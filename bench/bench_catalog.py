@@ -17,9 +17,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "core"))
 
 from hidden_effects import make_project  # noqa: E402
 
-from odsuite.core.catalog import build_catalog  # noqa: E402
-from odsuite.core.pipeline import process_experiment  # noqa: E402
-from odsuite.core.project import open_project  # noqa: E402
+from odsuite.ops.catalog import build_catalog  # noqa: E402
+from odsuite.processing.pipeline import process_experiment  # noqa: E402
+from odsuite.store.project import open_project  # noqa: E402
 
 DISTINCT = 5  # simulated projects, each copied to make up the count
 

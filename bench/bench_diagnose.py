@@ -30,11 +30,11 @@ sys.path.insert(0, str(ROOT / "tests" / "core"))
 from hidden_effects import CASES, make_project  # noqa: E402
 from threadpoolctl import threadpool_limits  # noqa: E402
 
-from odsuite.core.diagnosis import diagnose  # noqa: E402
-from odsuite.core.modelrev import revision_model  # noqa: E402
-from odsuite.core.plugins import registries  # noqa: E402
-from odsuite.core.prediction import predict, prepare  # noqa: E402
-from odsuite.core.project import open_project  # noqa: E402
+from odsuite.diagnosis.diagnose import diagnose  # noqa: E402
+from odsuite.analysis.modelrev import revision_model  # noqa: E402
+from odsuite.contracts.plugins import registries  # noqa: E402
+from odsuite.analysis.prediction import predict, prepare  # noqa: E402
+from odsuite.store.project import open_project  # noqa: E402
 
 TWO_BODY = ROOT / "projects" / "rigs" / "two-body-machine.toml"
 #: the two-body rig's hits: down on the machine's top, along -x on its side, along +y on the base (mm)
@@ -42,9 +42,9 @@ TWO_BODY_HITS = (((100, 50, 250), (0, 0, -1)), ((150, -50, 200), (-1, 0, 0)), ((
 
 
 def two_body_project(path: Path) -> Path:
-    from odsuite.core.acquisition import acquire
-    from odsuite.core.daq import AcquisitionSettings
-    from odsuite.core.project import create_project
+    from odsuite.processing.acquisition import acquire
+    from odsuite.contracts.daq import AcquisitionSettings
+    from odsuite.store.project import create_project
 
     p = create_project(path, rig=str(TWO_BODY))
     try:

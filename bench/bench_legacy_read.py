@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from odsuite.core.legacy import read_dat, write_dat
+from odsuite_plugins.importers.legacy import read_dat, write_dat
 
 
 def best_of(fn, repeat: int = 3) -> float:

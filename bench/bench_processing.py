@@ -38,7 +38,7 @@ FS = 20_000.0
 
 
 def _channel():
-    from odsuite.core.systeminfo import ChannelInfo, FilterType, Integration, SensorType
+    from odsuite.domain.systeminfo import ChannelInfo, FilterType, Integration, SensorType
 
     return ChannelInfo(sensor_type=SensorType.ACCELEROMETER, sensitivity=0.020292, integration=Integration.DOUBLE,
                        filter_type=FilterType.HIGHPASS, filter_order=8, sampling_rate=FS, cutoff_low=20.0,
@@ -66,8 +66,8 @@ def best(fs: list, repeat: int) -> list[float]:
 
 
 def throughput(channels: int, samples: int, repeat: int, judge: bool = True) -> None:
-    from odsuite.core.executor import DEFAULT_CHUNK, run_array, run_chains
-    from odsuite.core.chain_spec import chain_for_channel
+    from odsuite.processing.executor import DEFAULT_CHUNK, run_array, run_chains
+    from odsuite.processing.chain_spec import chain_for_channel
 
     raw = np.random.default_rng(0).standard_normal((samples, channels)) * 0.05
     chains = [chain_for_channel(_channel()) for _ in range(channels)]
@@ -99,8 +99,8 @@ def throughput(channels: int, samples: int, repeat: int, judge: bool = True) -> 
 
 CHILD = """
 import resource, sys
-from odsuite.core.project import open_project
-from odsuite.core.pipeline import process_experiment
+from odsuite.store.project import open_project
+from odsuite.processing.pipeline import process_experiment
 with open_project(sys.argv[1], "a") as p:
     process_experiment(p, "long", workers=2)
 # VmHWM is this process's own peak; ru_maxrss can carry the parent's peak across exec
@@ -111,8 +111,8 @@ print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, hwm)
 
 def peak_memory(samples: int) -> None:
     """Peak RSS of processing a ``samples``-long channel stored in a project (fresh process)."""
-    from odsuite.core.project import create_project
-    from odsuite.core.systeminfo import Systeminfo
+    from odsuite.store.project import create_project
+    from odsuite.domain.systeminfo import Systeminfo
 
     with tempfile.TemporaryDirectory() as d:
         path = os.path.join(d, "long.odsp")

@@ -35,7 +35,7 @@ def bare(rig, coords, path: Path, msaa: bool = True) -> float:
     import imageio_ffmpeg
     import pyvista as pv
 
-    from odsuite.core.rigidbody import plate_corners
+    from odsuite.domain.rigidbody import plate_corners
     from odsuite_plugins.renderers.motion import corners, default_magnification
 
     mag = default_magnification(rig, coords)
@@ -80,7 +80,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=400)
     args = ap.parse_args()
-    from odsuite.core.plugins import registries
+    from odsuite.contracts.plugins import registries
 
     rig = registries().rigs.get("thesis-dynamometer")
     coords = motion(args.frames)

@@ -13,9 +13,9 @@ import time
 import numpy as np
 import scipy.signal
 
-from odsuite.core.plugins import registries
-from odsuite.core.model import Input, Output
-from odsuite.core.simulation import simulate
+from odsuite.contracts.plugins import registries
+from odsuite.domain.model import Input, Output
+from odsuite.domain.simulation import simulate
 
 FS = 20_000.0
 

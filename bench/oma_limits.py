@@ -28,10 +28,10 @@ import scipy.linalg
 import scipy.signal
 from scipy.optimize import linear_sum_assignment
 
-from odsuite.core.model import Input, Output
-from odsuite.core.plugins import registries
-from odsuite.core.rig import load_rig
-from odsuite.core.simulation import simulate_state_space
+from odsuite.domain.model import Input, Output
+from odsuite.contracts.plugins import registries
+from odsuite.domain.rig import load_rig
+from odsuite.domain.simulation import simulate_state_space
 
 RIGS = Path(__file__).resolve().parents[1] / "projects" / "rigs"
 FS = 1000.0  # Hz: the thesis rig's rate

@@ -12,14 +12,14 @@ SHARED_REAL = REPO.parent / "shared" / "data" / "real"
 
 @pytest.fixture
 def plugin_manager():
-    from odsuite.core.plugins import make_plugin_manager
+    from odsuite.contracts.plugins import make_plugin_manager
 
     return make_plugin_manager()
 
 
 @pytest.fixture
 def registries(plugin_manager):
-    from odsuite.core.plugins import build_registries
+    from odsuite.contracts.plugins import build_registries
 
     return build_registries(plugin_manager)
 

@@ -1,7 +1,7 @@
 """odsuite built-in plugin: a continuous beam (1-D finite elements) and the effects a slender
 beam model may lack, written against the core contracts as a lab's own model family would be."""
 
-from odsuite import hookimpl
+from odsuite.api import hookimpl
 
 
 @hookimpl

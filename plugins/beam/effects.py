@@ -10,8 +10,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from odsuite.core.effects import Effect, Parameter
-from odsuite.core.model import Model
+from odsuite.contracts.effects import Effect, Parameter
+from odsuite.api import Model
 
 from .fe import BeamStructure, PointMass
 from .model import describe, range_of

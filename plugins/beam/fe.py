@@ -16,8 +16,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.linalg
 
-from odsuite.core.errors import ConfigError
-from odsuite.core.model import LinearStructure
+from odsuite.api import ConfigError
+from odsuite.api import LinearStructure
 
 THEORIES = ("euler-bernoulli", "timoshenko")
 #: constrained nodal dofs (deflection, rotation) of each end condition
@@ -175,7 +175,7 @@ def assemble(spec: BeamSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 class BeamStructure(LinearStructure):
-    """A :class:`~odsuite.core.model.LinearStructure` built from a :class:`BeamSpec`."""
+    """A :class:`~odsuite.domain.model.LinearStructure` built from a :class:`BeamSpec`."""
 
     def __init__(self, spec: BeamSpec) -> None:
         self.spec = spec

@@ -9,8 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from odsuite.core.errors import ConfigError
-from odsuite.core.model import Model
+from odsuite.api import ConfigError
+from odsuite.api import Model
 
 from .fe import END_CONSTRAINTS, THEORIES, BeamSpec, BeamStructure, Support
 

@@ -3,7 +3,7 @@
 ``nidaqmx`` is imported only when a record is taken, so this plugin loads on machines without it.
 """
 
-from odsuite import hookimpl
+from odsuite.api import hookimpl
 
 
 @hookimpl

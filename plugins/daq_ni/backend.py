@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from odsuite.core.daq import (
+from odsuite.contracts.daq import (
     READING,
     WAITING,
     AcquisitionSettings,
@@ -29,10 +29,10 @@ from odsuite.core.daq import (
     channel_name,
     rig_systeminfo,
 )
-from odsuite.core.errors import ConfigError, HardwareError
-from odsuite.core.excitation import Excitation
-from odsuite.core.rig import Rig
-from odsuite.core.systeminfo import SensorType, Systeminfo
+from odsuite.api import ConfigError, HardwareError
+from odsuite.api import Excitation
+from odsuite.api import Rig
+from odsuite.api import SensorType, Systeminfo
 
 G = 9.80665  # m/s^2 per g: NI's accelerometer sensitivities are per g
 INSTALL_HINT = ("install the NI-DAQmx driver (Linux: `python -m nidaqmx installdriver`, Windows: "

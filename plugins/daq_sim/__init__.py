@@ -2,7 +2,7 @@
 
 from pathlib import Path
 
-from odsuite import hookimpl
+from odsuite.api import hookimpl
 
 
 @hookimpl

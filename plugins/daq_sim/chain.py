@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy  # scipy.signal and scipy.linalg load on first use: fast `odsuite plugins`
 
-from odsuite.core.errors import ConfigError
+from odsuite.api import ConfigError
 
 
 @dataclass(frozen=True)

@@ -77,7 +77,7 @@ def effective_scales(effect_name: str, values: Mapping[str, float], model) -> di
     """Key values of an effect for the summary. A spring scale's per-axis and per-spring factors
     multiply (only their products are identifiable), so it is summarised as the total spring
     coefficient along each axis relative to the nominal one; other effects by their own values."""
-    from odsuite.core.plugins import registries
+    from odsuite.contracts.plugins import registries
 
     effect = registries().effects.get(effect_name)
     quantity = getattr(effect, "field", None)
@@ -90,8 +90,8 @@ def effective_scales(effect_name: str, values: Mapping[str, float], model) -> di
 
 
 def _record(project, console: Console) -> None:
-    from odsuite.core.acquisition import acquire
-    from odsuite.core.daq import AcquisitionSettings, rig_systeminfo
+    from odsuite.api import acquire
+    from odsuite.contracts.daq import AcquisitionSettings, rig_systeminfo
 
     from .scenarios import scenario
     from .simulator import SimulatedRig, default_chains
@@ -143,10 +143,10 @@ def _print_candidates(console: Console, doc: Mapping[str, Any], rows: int = 6) -
 def _write_outputs(out: Path, project_path: Path, diagnosis: Mapping[str, Any] | None,
                    console: Console) -> dict[str, Path]:
     """The history figure, a movie of one test with the model's motion and the HTML report."""
-    from odsuite.core.history import history, history_figure
-    from odsuite.core.plugins import registries
-    from odsuite.core.project import open_project
-    from odsuite.core.renderers import RenderRequest
+    from odsuite.api import history, history_figure
+    from odsuite.contracts.plugins import registries
+    from odsuite.api import open_project
+    from odsuite.contracts.renderers import RenderRequest
 
     files: dict[str, Path] = {}
     movie_exp = MOVIE_EXPERIMENT
@@ -199,13 +199,13 @@ def run_demo(out: str | Path = "demo-output", *, rounds: int = ROUNDS, console: 
     diagnosis finds nothing to explain (the error is within the noise floor) or no candidate is
     significant.
     """
-    from odsuite.core.add_effect import add_effect
-    from odsuite.core.comparison import compare
-    from odsuite.core.diagnosis import diagnose
-    from odsuite.core.modelrev import current_revision, revision_model
-    from odsuite.core.pipeline import process_experiment
-    from odsuite.core.prediction import prepare
-    from odsuite.core.project import create_project, open_project
+    from odsuite.api import add_effect
+    from odsuite.api import compare
+    from odsuite.api import diagnose
+    from odsuite.api import current_revision, revision_model
+    from odsuite.api import process_experiment
+    from odsuite.api import prepare
+    from odsuite.api import create_project, open_project
 
     started = time.monotonic()
     console = console or Console()

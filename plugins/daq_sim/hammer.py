@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from odsuite.core.errors import ConfigError
+from odsuite.api import ConfigError
 
 
 #: contact times of real blows: a steel tip on steel 0.05 ms, a rubber-tipped sledge on a vehicle or

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.signal
 
-from odsuite.core.errors import ConfigError
+from odsuite.api import ConfigError
 
 KINDS = ("random", "sweep", "unbalance", "base-random")
 #: kinds where the ground moves instead of a force acting at the force point

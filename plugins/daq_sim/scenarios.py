@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from odsuite.core.errors import ConfigError
+from odsuite.api import ConfigError
 from odsuite_plugins.daq_sim.hammer import Hit
 
 MM = 1e-3

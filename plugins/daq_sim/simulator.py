@@ -31,7 +31,7 @@ from odsuite_plugins.daq_sim.operating import (
 )
 from odsuite_plugins.daq_sim.scenarios import scenario as get_scenario
 
-from odsuite.core.daq import (
+from odsuite.contracts.daq import (
     READING,
     WAITING,
     AcquisitionSettings,
@@ -42,10 +42,10 @@ from odsuite.core.daq import (
     check_record_fits,
     rig_systeminfo,
 )
-from odsuite.core.errors import ConfigError, HardwareError
-from odsuite.core.excitation import Excitation
-from odsuite.core.rig import Rig
-from odsuite.core.systeminfo import SensorType, Systeminfo
+from odsuite.api import ConfigError, HardwareError
+from odsuite.api import Excitation
+from odsuite.api import Rig
+from odsuite.api import SensorType, Systeminfo
 
 #: ``truth(force, fs, point, direction[, body=NAME]) -> accelerations``: force (N) sampled at fs;
 #: returns (samples x sensors) m/s^2 along each rig accelerometer's axis at its position, in

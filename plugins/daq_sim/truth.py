@@ -7,13 +7,13 @@ from typing import Any
 
 import numpy as np
 
-from odsuite.core.errors import ConfigError
-from odsuite.core.rig import Rig
+from odsuite.api import ConfigError
+from odsuite.api import Rig
 
 
 def truth_model(rig: Rig, effects: Sequence[tuple[str, Mapping[str, Any]]] = ()):
     """The rig's default model with ``effects`` [(name, parameters), ...] applied in order."""
-    from odsuite.core.plugins import registries
+    from odsuite.contracts.plugins import registries
 
     if not rig.default_model:
         raise ConfigError(f"rig {rig.name!r} names no default_model; the simulator needs one as its truth")
@@ -31,7 +31,7 @@ class ModelTruth:
     from the ground's rigid motion (``ground``)."""
 
     def __init__(self, rig: Rig, model, order: Sequence[int] | None = None) -> None:
-        from odsuite.core.model import Output
+        from odsuite.api import Output
 
         self.rig, self.model = rig, model
         sensors = rig.accelerometers
@@ -39,8 +39,8 @@ class ModelTruth:
 
     def __call__(self, force: np.ndarray, fs: float, point: np.ndarray, direction: np.ndarray,
                  body: str | None = None) -> np.ndarray:
-        from odsuite.core.model import Input
-        from odsuite.core.simulation import simulate
+        from odsuite.api import Input
+        from odsuite.api import simulate
 
         hit = Input.force(point, direction, body=self.rig.force_body(point, body))
         return simulate(self.model, [hit], force, fs, self.outputs, hold="foh")
@@ -48,8 +48,8 @@ class ModelTruth:
     def ground(self, accelerations: np.ndarray, fs: float) -> np.ndarray:
         """Absolute accelerations to the ground's (samples x 6: m/s^2 along the rig's x, y, z, then
         rad/s^2 about them through the rig origin)."""
-        from odsuite.core.model import Input
-        from odsuite.core.simulation import simulate
+        from odsuite.api import Input
+        from odsuite.api import simulate
 
         axes = np.eye(3)
         inputs = [Input.ground_acceleration(a) for a in axes] + [Input.ground_angular_acceleration(a) for a in axes]
@@ -65,8 +65,8 @@ def rig_file_truth(rig: Rig, path: str) -> tuple[ModelTruth, dict[int, tuple[flo
     """A truth from another rig file (a user's hidden change) with the project rig's channels:
     accelerations in ``rig.accelerometers`` order, and {channel: (sensitivity, sign)} of the
     sensors whose true sensitivity or sign differ from the project rig's."""
-    from odsuite.core.plugins import registries
-    from odsuite.core.rig import load_rig
+    from odsuite.contracts.plugins import registries
+    from odsuite.api import load_rig
 
     true = load_rig(path, registries().sensor_types)
     by_channel = {s.channel: s for s in true.accelerometers}

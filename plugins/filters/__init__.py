@@ -1,6 +1,6 @@
 """odsuite built-in plugin: filters (the thesis's Signal Processor steps, Ch. 4.3)."""
 
-from odsuite import hookimpl
+from odsuite.api import hookimpl
 
 
 @hookimpl

@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy  # scipy.signal and scipy.linalg load on first use: fast `odsuite plugins`
 
-from odsuite.core.errors import ConfigError
-from odsuite.core.steps import Filter, Gain, Reverse, Step, StepProvider, WindowMean
+from odsuite.api import ConfigError
+from odsuite.contracts.steps import Filter, Gain, Reverse, Step, StepProvider, WindowMean
 
 
 @functools.cache
@@ -422,7 +422,7 @@ def integrate(fs: float, rule: str = "thesis") -> Sos:
 
 
 #: name -> provider, registered by the plugin; the linear forms let the comparison run a model's
-#: prediction through the same operators (odsuite.core.steps)
+#: prediction through the same operators (odsuite.contracts.steps)
 PROVIDERS = {
     "convert": StepProvider(convert, lambda fs, **p: (Gain(convert(fs, **p).factor),)),
     "invert": StepProvider(invert, lambda fs: (Gain(-1.0),)),

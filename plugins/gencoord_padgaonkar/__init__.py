@@ -4,7 +4,7 @@
 ``least-squares``: any layout of at least six single-axis sensors on one body.
 """
 
-from odsuite import hookimpl
+from odsuite.api import hookimpl
 
 __all__ = ["LeastSquares", "PadgaonkarNine", "rigidity_check"]
 

@@ -11,9 +11,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from odsuite.core.errors import ConfigError
-from odsuite.core.rig import NINE_ROLES, Body, NineSensorSet, Rig
-from odsuite.core.rigidbody import (
+from odsuite.api import ConfigError
+from odsuite.api import NINE_ROLES, Body, NineSensorSet, Rig
+from odsuite.api import (
     COORDINATES,
     Rigidity,
     SolverResult,

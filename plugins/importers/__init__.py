@@ -5,7 +5,7 @@
 * ``uff``: universal file format time records (dataset 58) and FRFs.
 """
 
-from odsuite import hookimpl
+from odsuite.api import hookimpl
 
 
 @hookimpl

@@ -1,11 +1,11 @@
-"""The importers this plugin registers, behind the importer contract (odsuite.core.importers)."""
+"""The importers this plugin registers, behind the importer contract (odsuite.contracts.importers)."""
 
 from __future__ import annotations
 
 import warnings
 from pathlib import Path
 
-from odsuite.core.importers import Imported, ImportOption
+from odsuite.contracts.importers import Imported, ImportOption
 
 FORCE_CHANNEL = ImportOption("force_channel", "name of the force channel (default: the one record in newtons "
                                               "or named 'force')")
@@ -19,7 +19,7 @@ ON_RIG = (ImportOption("force_point", "on a rig: X,Y,Z in mm in the rig frame, w
 
 def _hammer(force_point, force_dir, force_body) -> dict:
     """The ON_RIG options as the core importers take them (metres, a unit vector)."""
-    from odsuite.core.importing import parse_force_direction, parse_force_point
+    from odsuite.api import parse_force_direction, parse_force_point
 
     return {"force_point": None if force_point is None else parse_force_point(force_point),
             "force_dir": None if force_dir is None else parse_force_direction(force_dir),
@@ -36,13 +36,20 @@ class LegacyImporter:
                ImportOption("force_dir", "+x,-x,+y,-y,+z,-z or a vector dx,dy,dz", required=True))
 
     def import_file(self, project, file, name, *, systeminfo, force_point, force_dir) -> Imported:
-        from odsuite.core.importing import import_legacy
+        from odsuite_plugins.importers.importing import import_legacy
 
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             import_legacy(project, file, systeminfo, name, force_point, force_dir)
         return Imported(name, f"{Path(file).name} with Systeminfo {Path(systeminfo).name} as experiment {name!r}",
                         tuple(str(w.message) for w in caught))
+
+    def export_file(self, project, out, experiment, *, at: str = "center") -> None:
+        """The experiment's generalized coordinates as a thesis .COD file (6 columns per body) at
+        the centre of mass ("center") or the corner C ("corner")."""
+        from odsuite_plugins.importers.importing import export_legacy
+
+        export_legacy(project, experiment, out, at)
 
 
 class LvmImporter:
@@ -54,7 +61,7 @@ class LvmImporter:
 
     def import_file(self, project, file, name, *, force_channel=None, force_point=None, force_dir=None,
                     force_body=None) -> Imported:
-        from odsuite.core.modal_project import import_lvm
+        from odsuite_plugins.importers.columns import import_lvm
 
         notes = import_lvm(project, file, name, force_channel, **_hammer(force_point, force_dir, force_body))
         return Imported(name, f"LabVIEW file {Path(file).name} as experiment {name!r}", tuple(notes))
@@ -70,11 +77,17 @@ class UffImporter:
 
     def import_file(self, project, file, name, *, force_channel=None, force_point=None, force_dir=None,
                     force_body=None) -> Imported:
-        from odsuite.core.uff_project import import_uff
+        from odsuite_plugins.importers.uff_project import import_uff
 
         summary, notes = import_uff(project, file, name, force_channel,
                                     **_hammer(force_point, force_dir, force_body))
         return Imported(name, f"UFF file {Path(file).name}: {summary}", notes)
+
+    def export_file(self, project, out, experiment=None, *, binary: bool = True, node_dataset: int = 15) -> None:
+        """Time records (58/58b), FRFs, the rig's nodes (15 or 2411) and trace lines."""
+        from odsuite_plugins.importers.uff_project import export_uff
+
+        export_uff(project, out, experiment, binary=binary, node_dataset=node_dataset)
 
 
 def builtin_importers() -> list:

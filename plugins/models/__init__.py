@@ -3,8 +3,8 @@
 import importlib
 from pathlib import Path
 
-from odsuite import hookimpl
-from odsuite.core.rig import load_rig
+from odsuite.api import hookimpl
+from odsuite.api import load_rig
 
 #: Public names and the module defining them, imported on first use (`odsuite --help` starts fast).
 #: The model and effect contracts (Model, Structure, Effect, Parameter, ...) live in odsuite.core.

@@ -14,9 +14,9 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from odsuite.core.effects import Effect, Parameter
-from odsuite.core.model import FlexibleMode, Model, Structure
-from odsuite.core.prediction import flexible_mode_change, predict
+from odsuite.contracts.effects import Effect, Parameter
+from odsuite.api import FlexibleMode, Model, Structure
+from odsuite.api import flexible_mode_change, predict
 
 #: participations (1/sqrt(kg), per unit mass-normalised modal coordinate) beyond this are a mode of
 #: a part lighter than 0.1 g: no physical mode of a rig

@@ -14,16 +14,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from odsuite.core.effects import Effect, Parameter
-from odsuite.core.errors import ConfigError
-from odsuite.core.model import (
-    FlexibleMode,
-    Model,
-    RigidBody,
-    SensorDynamics,
-    SpringDamper,
-    Structure,
-)
+from odsuite.contracts.effects import Effect, Parameter
+from odsuite.api import ConfigError
+from odsuite.api import FlexibleMode, Model, RigidBody, SensorDynamics, SpringDamper, Structure
 
 #: density used where a rig gives a plate but no mass (steel, as App. C's inertia listing)
 STEEL_DENSITY = 7841.0

@@ -16,14 +16,14 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from odsuite.core.effects import Effect, Parameter
-from odsuite.core.errors import ConfigError
-from odsuite.core.frf import estimate_frf
-from odsuite.core.modal import pair_modes
-from odsuite.core.modal_comparison import PAIR_TOLERANCE
-from odsuite.core.modal_project import frf_modes
-from odsuite.core.model import Model
-from odsuite.core.prediction import predict
+from odsuite.contracts.effects import Effect, Parameter
+from odsuite.api import ConfigError
+from odsuite.api import estimate_frf
+from odsuite.api import pair_modes
+from odsuite.api import PAIR_TOLERANCE
+from odsuite.api import frf_modes
+from odsuite.api import Model
+from odsuite.api import predict
 
 #: modes whose damping is taken from the records: a hammer test's band rarely holds more
 MAX_MODES = 8

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from odsuite.core.errors import ConfigError
-from odsuite.core.model import Model, RigidBody, SpringDamper
-from odsuite.core.rig import Rig
+from odsuite.api import ConfigError
+from odsuite.api import Model, RigidBody, SpringDamper
+from odsuite.api import Rig
 
 #: a stiffness eigenvalue below this fraction of the largest is a motion no spring resists (the
 #: matrices are assembled from positive coefficients, so rounding is ~1e-16 of the largest)

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from odsuite.core.errors import ConfigError
-from odsuite.core.rig import Sensor, single_axis_sensor
+from odsuite.api import ConfigError
+from odsuite.api import Sensor, single_axis_sensor
 
 
 class SingleAxis:

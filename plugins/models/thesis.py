@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from odsuite.core.errors import ConfigError
-from odsuite.core.model import Model, RigidBody, SpringDamper
-from odsuite.core.rig import Rig
+from odsuite.api import ConfigError
+from odsuite.api import Model, RigidBody, SpringDamper
+from odsuite.api import Rig
 
 #: App. B.2, SI. Springs 1..4 at (-a,+b,+h), (+a,+b,+h), (-a,-b,+h), (+a,-b,+h) from G: the sign
 #: pattern App. B's k matrix implies.

@@ -7,7 +7,7 @@
 * ``report``: the project's self-contained HTML report.
 """
 
-from odsuite import hookimpl
+from odsuite.api import hookimpl
 
 
 @hookimpl

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from odsuite.core.errors import ConfigError
-from odsuite.core.renderers import parse_pair
-from odsuite.core.rigidbody import COORDINATE_UNITS, COORDINATES
+from odsuite.api import ConfigError
+from odsuite.contracts.renderers import parse_pair
+from odsuite.api import COORDINATE_UNITS, COORDINATES
 
 from .figures import comparison_figure, projection_figure, residual_spectra_figure
 from .motion import contact_index, event_window
@@ -68,8 +68,8 @@ def render_experiment(
     before the hit until the motion has decayed to a tenth; ``duration`` (s, default 10) or
     ``frame_step``/``slowdown`` the playback speed at ``fps`` (default 25).
     """
-    from odsuite.core.prediction import experiment_coordinates
-    from odsuite.core.project import open_project
+    from odsuite.api import experiment_coordinates
+    from odsuite.api import open_project
 
     if figure is not None and figure not in FIGURES:
         raise ConfigError(f"--figure: expected one of {', '.join(FIGURES)}, got {figure!r}")
@@ -86,14 +86,14 @@ def render_experiment(
         if reference is not None and ods_hz is None:
             raise ConfigError("--reference names the ODS's reference sensor: give --ods HZ too")
         if ods_hz is not None:
-            from odsuite.core.modal_project import ods_coordinates, ods_motion
+            from odsuite.api import ods_coordinates, ods_motion
 
             if figure is not None or model:
                 raise ConfigError("--ods draws a movie of the measured shape: drop --figure and --model")
             if reference is None and exp.excitation is not None:
                 shapes, ods_source = ods_coordinates(project, experiment, ods_hz), "from the measured FRFs"
             else:
-                from odsuite.core.ods import operating_shape
+                from odsuite.api import operating_shape
 
                 if reference is None:
                     raise ConfigError(f"{project.path}: experiment {experiment!r} is an operating record (no force): "
@@ -115,7 +115,7 @@ def render_experiment(
             force = exp.raw(channels=exp.excitation.force_channel)
         hammer = None
         if figure is None and ods_hz is None and exp.excitation is not None:
-            from odsuite.core.prediction import experiment_force
+            from odsuite.api import experiment_force
 
             body = project.rig.force_body(exp.excitation.point, exp.excitation.body)
             hammer = Hammer(body if body in coords else next(iter(coords)), np.asarray(exp.excitation.point, float),

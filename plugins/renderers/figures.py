@@ -11,10 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
-from odsuite.core.diskspace import write_output
-from odsuite.core.errors import ConfigError, DimensionError
-from odsuite.core.rig import Rig
-from odsuite.core.rigidbody import COORDINATE_UNITS, COORDINATES, PLOT_INDEX, plate_corners, rotation_matrix
+from odsuite.api import write_output
+from odsuite.api import ConfigError, DimensionError
+from odsuite.api import Rig
+from odsuite.api import COORDINATE_UNITS, COORDINATES, PLOT_INDEX, plate_corners, rotation_matrix
 
 from .motion import (characteristic_instant, check_coords, contact_index, corners, default_magnification,
                      magnification_words)

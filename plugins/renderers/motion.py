@@ -6,9 +6,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from odsuite.core.errors import ConfigError, DimensionError
-from odsuite.core.rig import Body, Rig
-from odsuite.core.rigidbody import body_corners, plate_corners, point_displacements
+from odsuite.api import ConfigError, DimensionError
+from odsuite.api import Body, Rig
+from odsuite.api import body_corners, plate_corners, point_displacements
 
 #: Default largest corner excursion on screen, as a fraction of the largest moving plate's size.
 DEFAULT_EXCURSION = 0.15

@@ -27,10 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
-from odsuite.core import diskspace
-from odsuite.core.errors import ConfigError, OdsuiteError
-from odsuite.core.rig import Rig
-from odsuite.core.storage import interrupts_deferred, interrupts_held
+from odsuite.api import ensure_space, write_output
+from odsuite.api import ConfigError, OdsuiteError
+from odsuite.api import Rig
+from odsuite.api import interrupts_deferred, interrupts_held
 
 from .motion import check_coords, default_magnification, magnification_words
 from .scene import Hammer, Scene, Style
@@ -352,7 +352,7 @@ def render_movie(
     path.parent.mkdir(parents=True, exist_ok=True)
     needed = int(len(frames) * size[0] * size[1] * MOVIE_BYTES_PER_PIXEL[fmt])
     # the rendered parts and the joined movie beside them, before a frame is drawn
-    diskspace.ensure_space(path, 2 * needed, path, outcome="nothing written")
+    ensure_space(path, 2 * needed, path, outcome="nothing written")
     with tempfile.TemporaryDirectory(prefix="odsuite-movie-", dir=path.parent) as tmpdir:
         tmp = Path(tmpdir)
         parts = np.array_split(np.arange(len(frames)), workers)
@@ -379,7 +379,7 @@ def render_movie(
             else:
                 _join_gif([Path(t) for t in targets], out, job["palette"], size)
 
-        diskspace.write_output(path, needed, join)
+        write_output(path, needed, join)
     return MovieResult(path=path, format=fmt, n_frames=len(frames), fps=fps, magnify=magnify,
                        frame_step=step, slowdown=slow, notes=notes)
 

@@ -1,8 +1,8 @@
-"""The renderers this plugin registers, behind the renderer contract (odsuite.core.renderers)."""
+"""The renderers this plugin registers, behind the renderer contract (odsuite.contracts.renderers)."""
 
 from __future__ import annotations
 
-from odsuite.core.renderers import Rendered, RenderRequest
+from odsuite.contracts.renderers import Rendered, RenderRequest
 
 MOVIE_OPTIONS = frozenset({"model", "magnify", "view", "workers", "frame_step", "slowdown", "ods_hz", "reference",
                            "start", "end", "fps", "duration"})

@@ -22,8 +22,8 @@ from typing import Any
 
 import numpy as np
 
-from odsuite.core.diskspace import write_output
-from odsuite.core.errors import ConfigError
+from odsuite.api import write_output
+from odsuite.api import ConfigError
 
 #: Movie: frame size (pixels), frames per second, about this many frames, this long after the hit.
 MOVIE_SIZE = (640, 360)
@@ -156,7 +156,7 @@ def load_diagnosis(source: str | Path | Mapping[str, Any]) -> dict[str, Any]:
 
 
 def _experiments_section(project, exps, comparison) -> str:
-    from odsuite.core.hammer import assess_hits
+    from odsuite.api import assess_hits
 
     info = project.info()["experiments"]
     rows = []
@@ -183,7 +183,7 @@ def _experiments_section(project, exps, comparison) -> str:
 def _metadata_section(project, exps) -> str:
     """What a test record needs: when, with what hammer and sensors (serials, calibration), by
     which software."""
-    from odsuite.core.version import __version__
+    from odsuite.api import __version__
 
     info = project.info()
     exp_rows = []
@@ -238,11 +238,11 @@ def build_report(
     """
     from .figures import comparison_figure
 
-    from odsuite.core.comparison import COORDINATE_NAMES, compare
-    from odsuite.core.prediction import coordinate_series, predict, prepare
-    from odsuite.core.history import history, history_figure
-    from odsuite.core.modelrev import current_revision, revision_model
-    from odsuite.core.project import open_project
+    from odsuite.api import COORDINATE_NAMES, compare
+    from odsuite.api import coordinate_series, predict, prepare
+    from odsuite.api import history, history_figure
+    from odsuite.api import current_revision, revision_model
+    from odsuite.api import open_project
 
     output = Path(output)
     if output.suffix.lower() not in (".html", ".htm"):
@@ -297,7 +297,7 @@ def build_report(
         failures = _failures_section(doc, exps, preds, modes_hz, tmp, COORDINATE_NAMES)
 
         if diag_doc is None and run_diagnosis:
-            from odsuite.core.diagnosis import diagnose
+            from odsuite.api import diagnose
 
             say("diagnosing")
             diag_doc = diagnose(project, prepared=exps).as_dict()
@@ -422,7 +422,7 @@ def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, m
     """Per hammer record: its FRFs (magnitude log-log, phase, coherence) for ``frf_channels`` or the
     driving point, the model's modes dotted; and the MAC matrix of its measured modes against the
     model's, beside the modal table."""
-    from odsuite.core.modal_figures import frf_figure, mac_figure
+    from odsuite.api import frf_figure, mac_figure
 
     by_name = {e.name: e for e in exps}
     parts = []

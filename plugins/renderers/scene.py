@@ -12,10 +12,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from odsuite.core.errors import ConfigError
-from odsuite.core.rig import Rig
-from odsuite.core.rigidbody import PLOT_INDEX, plate_corners
-from odsuite.core.storage import interrupts_held
+from odsuite.api import ConfigError
+from odsuite.api import Rig
+from odsuite.api import PLOT_INDEX, plate_corners
+from odsuite.api import interrupts_held
 
 from .motion import check_coords, corners, magnified, plate_scale
 
@@ -118,7 +118,7 @@ def offscreen_pyvista():
 
 def _point_series(body, d: np.ndarray, point: np.ndarray, magnify) -> np.ndarray:
     """Rig-frame positions (n, 3) of a point fixed on ``body`` moving with ``d`` (n, 6), magnified."""
-    from odsuite.core.rigidbody import transform_points
+    from odsuite.api import transform_points
 
     return body.com + transform_points(magnified(d, magnify), (point - body.com)[None])[:, 0]
 

@@ -15,8 +15,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from odsuite.core.rig import Rig
-from odsuite.core.rigidbody import plate_corners
+from odsuite.api import Rig
+from odsuite.api import plate_corners
 
 from .motion import check_coords, corners, default_magnification, magnification_words, plate_scale
 from .scene import EDGES, Style

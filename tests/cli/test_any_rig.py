@@ -21,7 +21,7 @@ def run(capsys, *args) -> tuple[int, str, str]:
 
 
 def test_two_body_rig_loads_with_its_springs_and_triaxials(registries):
-    from odsuite.core.rig import load_rig
+    from odsuite.domain.rig import load_rig
 
     rig = load_rig(RIG, registries.sensor_types)
     assert [b.name for b in rig.moving_bodies] == ["base", "machine"]

@@ -9,7 +9,7 @@ import json
 import pytest
 
 from odsuite.cli import main
-from odsuite.core.noise_floor import FLOOR_TOLERANCE
+from odsuite.analysis.noise_floor import FLOOR_TOLERANCE
 
 pytestmark = pytest.mark.slow
 

@@ -11,8 +11,8 @@ import pytest
 
 from odsuite import cli
 from odsuite.cli import main
-from odsuite.core.legacy import read_cod, write_dat
-from odsuite.core.project import DerivedArray, open_project
+from odsuite_plugins.importers.legacy import read_cod, write_dat
+from odsuite.store.project import DerivedArray, open_project
 from tests.conftest import REPO
 from tests.core.test_legacy_import import legacy_volts
 from tests.core.test_systeminfo import TABLE_E3

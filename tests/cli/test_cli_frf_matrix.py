@@ -14,10 +14,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "core"))
 import mck_threedof as mck  # noqa: E402
 
 from odsuite.cli import main  # noqa: E402
-from odsuite.core.modal import mac  # noqa: E402
-from odsuite.core.project import open_project  # noqa: E402
-from odsuite.core.excitation import Excitation  # noqa: E402
-from odsuite.core.systeminfo import ChannelInfo, SensorType, Systeminfo  # noqa: E402
+from odsuite.analysis.modal import mac  # noqa: E402
+from odsuite.store.project import open_project  # noqa: E402
+from odsuite.domain.excitation import Excitation  # noqa: E402
+from odsuite.domain.systeminfo import ChannelInfo, SensorType, Systeminfo  # noqa: E402
 
 FS = 1024.0
 

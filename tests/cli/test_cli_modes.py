@@ -24,7 +24,7 @@ def beam_project(tmp_path, shared_real):
 
 
 def test_default_modes_on_the_ladisk_beam(beam_project, tmp_path, capsys):
-    from odsuite.core.project import open_project
+    from odsuite.store.project import open_project
 
     with open_project(beam_project) as p:  # g and N are not judged against +-10 V
         assert p.info()["experiments"]["acceleration"]["clipped_samples"] == {}
@@ -87,8 +87,8 @@ def test_figure_name_must_have_a_known_suffix(beam_project, tmp_path, capsys):
 
 
 def test_mac_figure_writes_every_value(tmp_path):
-    from odsuite.core.modal import mac
-    from odsuite.core.modal_figures import mac_figure
+    from odsuite.analysis.modal import mac
+    from odsuite.analysis.modal_figures import mac_figure
 
     phi = np.array([[1.0, 1.0, 0.5], [1.0, -1.0, 0.5], [0.0, 0.2, 1.0]])
     m = mac(phi, phi)
@@ -106,8 +106,8 @@ def test_frf_figure_log_frequency_axes_units_and_print_type(tmp_path):
     magnitude axis, the model mode dotted; at 6.5 in wide no type is below 8 pt."""
     from matplotlib.text import Text
 
-    from odsuite.core.frf import FrfSet
-    from odsuite.core.modal_figures import frf_figure
+    from odsuite.analysis.frf import FrfSet
+    from odsuite.analysis.modal_figures import frf_figure
 
     m, k, zeta = 2.0, 8e5, 0.02
     fn = np.sqrt(k / m) / (2 * np.pi)  # 100.7 Hz

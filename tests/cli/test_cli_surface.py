@@ -9,7 +9,7 @@ import pytest
 
 from odsuite import cli
 from odsuite.cli import main
-from odsuite.core.version import __version__
+from odsuite.domain.version import __version__
 
 
 @pytest.fixture(autouse=True)

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from odsuite.cli import main
-from odsuite.core.modal_project import physical
-from odsuite.core.project import open_project
-from odsuite.core.uff import read_uff
+from odsuite.analysis.modal_project import physical
+from odsuite.store.project import open_project
+from odsuite_plugins.importers.uff import read_uff
 
 
 def test_export_then_import_through_the_cli(tmp_path, capsys):

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from odsuite.cli import main
-from odsuite.core.modal_project import physical
-from odsuite.core.project import open_project
+from odsuite.analysis.modal_project import physical
+from odsuite.store.project import open_project
 
 pytestmark = pytest.mark.slow
 RIGS = Path(__file__).resolve().parents[2] / "projects" / "rigs"

@@ -39,10 +39,10 @@ def make_project(path: Path, effects: Sequence[tuple[str, Mapping[str, Any]]] = 
     """Create ``path`` with one simulated experiment per scenario, the truth altered by ``effects``."""
     from odsuite_plugins.daq_sim.simulator import default_chains
 
-    from odsuite.core.acquisition import acquire
-    from odsuite.core.daq import AcquisitionSettings, rig_systeminfo
-    from odsuite.core.plugins import registries
-    from odsuite.core.project import create_project
+    from odsuite.processing.acquisition import acquire
+    from odsuite.contracts.daq import AcquisitionSettings, rig_systeminfo
+    from odsuite.contracts.plugins import registries
+    from odsuite.store.project import create_project
 
     p = create_project(path)
     try:

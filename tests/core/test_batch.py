@@ -45,15 +45,15 @@ def _digest(path: Path) -> str:
 
 
 def _direct_history(path: Path) -> dict:
-    from odsuite.core.history import history
-    from odsuite.core.project import open_project
+    from odsuite.analysis.history import history
+    from odsuite.store.project import open_project
 
     with open_project(path) as p:
         return history(p)
 
 
 def test_batch_on_local_cluster_equals_direct_calls(projects, tmp_path):
-    from odsuite.core.batch import run_batch
+    from odsuite.ops.batch import run_batch
 
     missing = tmp_path / "missing.h5"
     seen = []
@@ -78,8 +78,8 @@ def test_batch_on_local_cluster_equals_direct_calls(projects, tmp_path):
 
 
 def test_locked_project_is_reported_and_left_unchanged(projects):
-    from odsuite.core.batch import run_batch
-    from odsuite.core.project import open_project
+    from odsuite.ops.batch import run_batch
+    from odsuite.store.project import open_project
 
     locked, free = projects[0], projects[1]
     before = _digest(locked)
@@ -134,8 +134,8 @@ def _cluster(**config):
 
 
 def test_killed_worker_task_reruns_and_projects_stay_intact(projects):
-    from odsuite.core.batch import run_batch
-    from odsuite.core.project import open_project
+    from odsuite.ops.batch import run_batch
+    from odsuite.store.project import open_project
 
     killed: dict = {}
     cluster = _cluster()
@@ -153,7 +153,7 @@ def test_killed_worker_task_reruns_and_projects_stay_intact(projects):
         top = r["result"]["candidates"][0]
         assert top["effect"] == "stiffness"
     # the same numbers as an undisturbed in-process diagnosis
-    from odsuite.core.diagnosis import diagnose
+    from odsuite.diagnosis.diagnose import diagnose
 
     with open_project(projects[0]) as p:
         direct = diagnose(p, effects=["stiffness"], workers=1).as_dict()
@@ -165,7 +165,7 @@ def test_killed_worker_task_reruns_and_projects_stay_intact(projects):
 
 
 def test_killed_worker_without_retries_is_reported(projects):
-    from odsuite.core.batch import run_batch
+    from odsuite.ops.batch import run_batch
 
     killed: dict = {}
     cluster = _cluster(**{"distributed.scheduler.allowed-failures": 0})
@@ -180,7 +180,7 @@ def test_killed_worker_without_retries_is_reported(projects):
     assert all(r["status"] in ("ok", "not-run") for r in res.projects)
     assert "KilledWorker" in lost[0]["error"]
     assert res.counts["ok"] == len(projects) - len(lost)
-    from odsuite.core.project import open_project
+    from odsuite.store.project import open_project
 
     for path in projects:  # the killed write left its project as it was or whole
         with open_project(path) as p:
@@ -188,8 +188,8 @@ def test_killed_worker_without_retries_is_reported(projects):
 
 
 def test_unreachable_scheduler_is_one_line(projects):
-    from odsuite.core.batch import run_batch
-    from odsuite.core.errors import ConfigError
+    from odsuite.ops.batch import run_batch
+    from odsuite.domain.errors import ConfigError
 
     # port 9 (discard) on the loopback: nothing listens there
     with pytest.raises(ConfigError, match=r"cannot reach the scheduler at tcp://127\.0\.0\.1:9") as info:

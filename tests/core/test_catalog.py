@@ -19,8 +19,8 @@ TRUE_GAIN = 1.25
 
 @pytest.fixture(scope="module")
 def made(tmp_path_factory) -> dict[str, Path]:
-    from odsuite.core.add_effect import add_effect
-    from odsuite.core.project import open_project
+    from odsuite.diagnosis.add_effect import add_effect
+    from odsuite.store.project import open_project
 
     store = tmp_path_factory.mktemp("catalog-made")
     plain = make_project(store / "plain.h5", n_samples=2048, scenarios=("T1", "T5"))
@@ -43,8 +43,8 @@ def folder(made, tmp_path) -> Path:
 
 
 def test_catalog_holds_what_the_projects_hold(folder):
-    from odsuite.core.catalog import build_catalog, query
-    from odsuite.core.project import open_project
+    from odsuite.ops.catalog import build_catalog, query
+    from odsuite.store.project import open_project
 
     res = build_catalog(folder)
     assert sorted(res.indexed) == ["2026/drifted.h5", "broken.h5", "plain.h5"]
@@ -78,8 +78,8 @@ def test_catalog_holds_what_the_projects_hold(folder):
 
 
 def test_refresh_reads_only_what_changed(folder):
-    from odsuite.core.catalog import build_catalog, query
-    from odsuite.core.project import open_project
+    from odsuite.ops.catalog import build_catalog, query
+    from odsuite.store.project import open_project
 
     build_catalog(folder)
     again = build_catalog(folder)
@@ -99,9 +99,9 @@ def test_refresh_reads_only_what_changed(folder):
 
 
 def test_compute_errors_and_unexplained(folder):
-    from odsuite.core.catalog import EXPLAINED_FACTOR, build_catalog, query
-    from odsuite.core.comparison import compare
-    from odsuite.core.project import open_project
+    from odsuite.ops.catalog import EXPLAINED_FACTOR, build_catalog, query
+    from odsuite.analysis.comparison import compare
+    from odsuite.store.project import open_project
 
     build_catalog(folder)
     assert query(folder, "SELECT error FROM projects WHERE project = 'plain.h5'") == [{"error": None}]

@@ -9,11 +9,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import pytest
 
-from odsuite.core import checks
-from odsuite.core.effects import Parameter
-from odsuite.core.fitting import _Free
-from odsuite.core.noise_floor import FLOOR_TOLERANCE
-from odsuite.core.verdict import Signature, decide, message
+from odsuite.diagnosis import checks
+from odsuite.contracts.effects import Parameter
+from odsuite.diagnosis.fitting import _Free
+from odsuite.analysis.noise_floor import FLOOR_TOLERANCE
+from odsuite.diagnosis.verdict import Signature, decide, message
 
 
 @dataclass

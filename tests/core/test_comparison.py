@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from odsuite.core.chain_spec import chain_for_channel
-from odsuite.core.comparison import compare
-from odsuite.core.prediction import find_trigger, prepare, stage_operators, windowed_force
-from odsuite.core.project import Excitation, create_project
-from odsuite.core.systeminfo import Systeminfo
+from odsuite.processing.chain_spec import chain_for_channel
+from odsuite.analysis.comparison import compare
+from odsuite.analysis.prediction import find_trigger, prepare, stage_operators, windowed_force
+from odsuite.store.project import Excitation, create_project
+from odsuite.domain.systeminfo import Systeminfo
 
 FS = 20000.0
 N = 4096
@@ -29,7 +29,7 @@ def _independent_record(rig, model, point, direction, force):
     """Raw volts of the force and the nine accelerometers, the sensors' accelerations computed by
     scipy.signal.lsim (first-order hold) of the model's own state space, then turned into volts the
     way the thesis rig records them (sensor sign -1, Table E.3 sensitivities and DAQ gains)."""
-    from odsuite.core.model import Input, Output
+    from odsuite.domain.model import Input, Output
 
     si = Systeminfo.for_rig(rig, FS)
     ss = model.state_space([Input.force(point, direction)], [Output.sensor(s) for s in rig.sensors])
@@ -46,7 +46,7 @@ def _independent_record(rig, model, point, direction, force):
 
 @pytest.fixture(scope="module")
 def nominal(tmp_path_factory, ):
-    from odsuite.core.modelrev import base_model
+    from odsuite.analysis.modelrev import base_model
 
     path = tmp_path_factory.mktemp("cmp") / "p.h5"
     p = create_project(path)
@@ -68,7 +68,7 @@ def nominal(tmp_path_factory, ):
 
 def test_stage_operators_equal_the_channel_chains():
     rng = np.random.default_rng(1)
-    from odsuite.core.plugins import registries
+    from odsuite.contracts.plugins import registries
 
     rig = registries().rigs.get("thesis-dynamometer")
     si = Systeminfo.for_rig(rig, FS)
@@ -105,8 +105,8 @@ def test_error_is_the_pooled_nrmse_after_the_filter_chain(nominal):
     scipy's own elliptic design and sosfilt, over the nine accelerometers."""
     path, rig, si = nominal
     import odsuite
-    from odsuite.core.model import Input, Output
-    from odsuite.core.modelrev import base_model
+    from odsuite.domain.model import Input, Output
+    from odsuite.analysis.modelrev import base_model
 
     with odsuite.open_project(path) as p:
         result = compare(p, experiments=["T8stiff"])

@@ -19,8 +19,8 @@ from odsuite_plugins.daq_sim.hammer import Hit
 from odsuite_plugins.daq_sim.simulator import SimulatedRig, default_chains
 from odsuite_plugins.daq_sim.truth import truth_model
 
-from odsuite.core.acquisition import acquire
-from odsuite.core.correction import (
+from odsuite.processing.acquisition import acquire
+from odsuite.analysis.correction import (
     KIND,
     correct_experiment,
     corrected_chain_spec,
@@ -28,12 +28,12 @@ from odsuite.core.correction import (
     drift_estimate,
     process_corrected,
 )
-from odsuite.core.daq import AcquisitionSettings, rig_systeminfo
-from odsuite.core.errors import ConfigError
-from odsuite.core.model import Input, Output
-from odsuite.core.pipeline import process_experiment
-from odsuite.core.project import create_project, open_project
-from odsuite.core.simulation import simulate
+from odsuite.contracts.daq import AcquisitionSettings, rig_systeminfo
+from odsuite.domain.errors import ConfigError
+from odsuite.domain.model import Input, Output
+from odsuite.processing.pipeline import process_experiment
+from odsuite.store.project import create_project, open_project
+from odsuite.domain.simulation import simulate
 
 FS = 20_000.0
 OVERSAMPLE = 8
@@ -43,7 +43,7 @@ DRIFT_V_PER_S = 5e-3  # five times the default chain's amplifier drift
 def _record(path, scenario: str, peak: float, *, noise: bool = True, drift: float = DRIFT_V_PER_S,
             adc_bits: int = 12, seed: int = 3):
     """A project with one weak simulated hit, its chains and the true coordinates of the platform."""
-    from odsuite.core.plugins import registries
+    from odsuite.contracts.plugins import registries
 
     rig = registries().rigs.get("thesis-dynamometer")
     body = rig.bodies[0]

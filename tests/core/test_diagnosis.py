@@ -35,7 +35,7 @@ def hidden(tmp_path_factory):
 
 
 def _true_error(project, effects, exps) -> float:
-    from odsuite.core.comparison import compare
+    from odsuite.analysis.comparison import compare
 
     rev = {"model": None, "effects": [{"effect": n, "values": dict(v), "per_experiment": {}} for n, v in effects]}
     return compare(project, revision=rev, prepared=exps).error
@@ -44,10 +44,10 @@ def _true_error(project, effects, exps) -> float:
 def _check_found(path: Path, effects) -> None:
     """Rounds of diagnose + add_effect of the top candidate find every hidden effect, and the
     error ends within 2x of the true model's."""
-    from odsuite.core.prediction import prepare
-    from odsuite.core.add_effect import add_effect
-    from odsuite.core.diagnosis import diagnose
-    from odsuite.core.project import open_project
+    from odsuite.analysis.prediction import prepare
+    from odsuite.diagnosis.add_effect import add_effect
+    from odsuite.diagnosis.diagnose import diagnose
+    from odsuite.store.project import open_project
 
     hidden = {n for n, _ in effects}
     with open_project(path, "a") as p:
@@ -81,12 +81,12 @@ def test_trial_values_that_blow_the_simulation_up_are_a_bad_fit_not_an_error(hid
 
     import numpy as np
 
-    from odsuite.core.errors import DivergedError
-    from odsuite.core.fitting import UNSTABLE_RESIDUAL, Problem, fit_windows, screen
-    from odsuite.core.modelrev import current_revision, revision_model
-    from odsuite.core.plugins import registries
-    from odsuite.core.prediction import prepare
-    from odsuite.core.project import open_project
+    from odsuite.domain.errors import DivergedError
+    from odsuite.diagnosis.fitting import UNSTABLE_RESIDUAL, Problem, fit_windows, screen
+    from odsuite.analysis.modelrev import current_revision, revision_model
+    from odsuite.contracts.plugins import registries
+    from odsuite.analysis.prediction import prepare
+    from odsuite.store.project import open_project
 
     with open_project(hidden("nominal", []), "r") as p:
         exps = [dataclasses.replace(e, force=200.0 * e.force) for e in prepare(p)]
@@ -105,8 +105,8 @@ def test_trial_values_that_blow_the_simulation_up_are_a_bad_fit_not_an_error(hid
 def test_nominal_truth_nothing_significant(hidden):
     """Nothing hidden in the structure: the rigid model is the truth, the verdict is "nothing to
     explain" and no structural candidate may claim an improvement."""
-    from odsuite.core.diagnosis import diagnose
-    from odsuite.core.project import open_project
+    from odsuite.diagnosis.diagnose import diagnose
+    from odsuite.store.project import open_project
 
     with open_project(hidden("nominal", []), "r") as p:
         d = diagnose(p)
@@ -136,10 +136,10 @@ def test_hidden_effect_found(hidden, name):
 def test_fitted_values_near_truth(hidden):
     """The top candidate's fitted parameters reproduce the hidden stiffness change: the z bounce
     frequency of the fitted model matches the true model's within 1 %."""
-    from odsuite.core.diagnosis import diagnose
-    from odsuite.core.modelrev import base_model
-    from odsuite.core.plugins import registries
-    from odsuite.core.project import open_project
+    from odsuite.diagnosis.diagnose import diagnose
+    from odsuite.analysis.modelrev import base_model
+    from odsuite.contracts.plugins import registries
+    from odsuite.store.project import open_project
 
     effects = [("stiffness", CASES["stiffness"])]
     with open_project(hidden("stiffness", effects), "r") as p:
@@ -171,10 +171,10 @@ def test_hidden_highpass_fitted(tmp_path):
     short records: one corner near 20 Hz (the data see the sum of two corners far better than
     their split; the true model's other corners and the sensors' resonance lie elsewhere), and the
     fit's error and the error it validates on held-out experiments near the true model's."""
-    from odsuite.core.comparison import compare
-    from odsuite.core.diagnosis import diagnose
-    from odsuite.core.prediction import prepare
-    from odsuite.core.project import open_project
+    from odsuite.analysis.comparison import compare
+    from odsuite.diagnosis.diagnose import diagnose
+    from odsuite.analysis.prediction import prepare
+    from odsuite.store.project import open_project
 
     effects = [("sensor_dynamics", CASES["sensor_dynamics"])]
     path = make_project(tmp_path / "hp.odsp", effects, n_samples=2048, scenarios=("T1", "T3", "T5"))

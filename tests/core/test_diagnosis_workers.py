@@ -21,8 +21,8 @@ def project(tmp_path_factory):
 
 
 def test_worker_processes_give_the_serial_result(project):
-    from odsuite.core.diagnosis import diagnose
-    from odsuite.core.project import open_project
+    from odsuite.diagnosis.diagnose import diagnose
+    from odsuite.store.project import open_project
 
     with open_project(project) as p:
         serial = diagnose(p, effects=EFFECTS, workers=1)
@@ -42,7 +42,7 @@ def test_worker_processes_give_the_serial_result(project):
 def test_default_workers_one_per_core_at_most_two_for_a_small_job(monkeypatch):
     import os
 
-    from odsuite.core import diagnosis
+    from odsuite.diagnosis import diagnose as diagnosis
 
     monkeypatch.setattr(os, "sched_getaffinity", lambda pid: set(range(8)), raising=False)
     assert diagnosis.default_workers(20) == 2  # a few dozen candidates: two processes
@@ -53,9 +53,9 @@ def test_default_workers_one_per_core_at_most_two_for_a_small_job(monkeypatch):
 
 
 def test_workers_must_be_positive(project):
-    from odsuite.core.diagnosis import diagnose
-    from odsuite.core.errors import ConfigError
-    from odsuite.core.project import open_project
+    from odsuite.diagnosis.diagnose import diagnose
+    from odsuite.domain.errors import ConfigError
+    from odsuite.store.project import open_project
 
     with open_project(project) as p, pytest.raises(ConfigError, match="workers must be at least 1"):
         diagnose(p, effects=EFFECTS, workers=0)

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import mck_threedof as mck
-from odsuite.core.errors import ConfigError, DimensionError
-from odsuite.core.frf import convert_form, estimate_frf
-from odsuite.core.hammer import (
+from odsuite.domain.errors import ConfigError, DimensionError
+from odsuite.analysis.frf import convert_form, estimate_frf
+from odsuite.analysis.hammer import (
     assess_hits,
     correct_exponential_window,
     exponential_window,
@@ -185,7 +185,7 @@ def test_anti_alias_ringing_is_not_a_double_hit():
     other way and ~15 % the same way after the pulse; only a second push is a double hit."""
     import scipy.signal
 
-    from odsuite.core.hammer import is_double_hit
+    from odsuite.analysis.hammer import is_double_hit
 
     fs = 20000.0
     t = np.arange(4096) / fs

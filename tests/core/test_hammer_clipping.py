@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from odsuite.core.errors import ConfigError, DimensionError
-from odsuite.core.hammer import assess_hits, is_clipped, quantisation_step
+from odsuite.domain.errors import ConfigError, DimensionError
+from odsuite.analysis.hammer import assess_hits, is_clipped, quantisation_step
 
 FS = 20_000.0
 

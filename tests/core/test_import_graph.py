@@ -96,7 +96,7 @@ def test_the_graph_sees_function_level_and_relative_imports(tmp_path):
 def test_no_import_circles_in_odsuite():
     graph = _graph()
     edges = {a: {b for b in targets if b in graph and b != a} for a, targets in graph.items()}
-    assert "odsuite.core.project" in edges and edges["odsuite.core.project"]  # the graph was read
+    assert "odsuite.store.project" in edges and edges["odsuite.store.project"]  # the graph was read
     assert _circles(edges) == []
 
 

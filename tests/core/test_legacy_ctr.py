@@ -9,12 +9,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from odsuite.core.errors import ConfigError, OdsuiteWarning
-from odsuite.core.legacy import format_ctr, parse_ctr, read_ctr, write_ctr
-from odsuite.core.systeminfo import ChannelInfo, RigInfo, SensorType, Systeminfo, _ctr_rows
+from odsuite.domain.errors import ConfigError, OdsuiteWarning
+from odsuite_plugins.importers.legacy import format_ctr, parse_ctr, read_ctr, write_ctr
+from odsuite.domain.systeminfo import ChannelInfo, RigInfo, SensorType, Systeminfo, _ctr_rows
 from tests.core.test_systeminfo import TABLE_E3
 
-pytestmark = pytest.mark.filterwarnings("ignore::odsuite.core.errors.OdsuiteWarning")
+pytestmark = pytest.mark.filterwarnings("ignore::odsuite.domain.errors.OdsuiteWarning")
 
 
 def _cells_equal(a: str, b: str) -> bool:
@@ -163,8 +163,8 @@ def test_zero_phase_and_integration_rule_rows_round_trip(tmp_path):
     channel departs from the thesis's behaviour, and read back exactly; 34-row files keep it."""
     from dataclasses import replace
 
-    from odsuite.core.legacy import format_ctr, parse_ctr, read_ctr
-    from odsuite.core.plugins import registries
+    from odsuite_plugins.importers.legacy import format_ctr, parse_ctr, read_ctr
+    from odsuite.contracts.plugins import registries
 
     table = read_ctr(registries().rigs.get("thesis-dynamometer").systeminfo_file)
     assert len(format_ctr(table).splitlines()) == 34
@@ -181,7 +181,7 @@ def test_zero_phase_and_integration_rule_rows_round_trip(tmp_path):
     lines[35] = "\t".join(["2"] + lines[35].split("\t")[1:])
     import pytest
 
-    from odsuite.core.errors import ConfigError
+    from odsuite.domain.errors import ConfigError
 
     with pytest.raises(ConfigError, match=r"row 35 \(integration rule \(odsuite\)\), channel 0: .*'2'"):
         parse_ctr("\n".join(lines) + "\n")

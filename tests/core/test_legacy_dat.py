@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from odsuite.core.errors import ConfigError, DimensionError
-from odsuite.core.legacy import read_cod, read_dat, read_table, write_cod, write_dat
+from odsuite.domain.errors import ConfigError, DimensionError
+from odsuite_plugins.importers.legacy import read_cod, read_dat, read_table, write_cod, write_dat
 
 
 @pytest.fixture

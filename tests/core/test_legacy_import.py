@@ -9,13 +9,14 @@ import warnings
 import numpy as np
 import pytest
 
-from odsuite.core.errors import ConfigError, DimensionError, OdsuiteWarning
-from odsuite.core.importing import export_legacy, import_legacy, parse_force_direction, parse_force_point
-from odsuite.core.legacy import read_cod, read_ctr, write_ctr, write_dat
-from odsuite.core.project import DerivedArray, create_project, open_project
+from odsuite.domain.errors import ConfigError, DimensionError, OdsuiteWarning
+from odsuite.domain.excitation import parse_force_direction, parse_force_point
+from odsuite_plugins.importers.importing import export_legacy, import_legacy
+from odsuite_plugins.importers.legacy import read_cod, read_ctr, write_ctr, write_dat
+from odsuite.store.project import DerivedArray, create_project, open_project
 from tests.core.test_systeminfo import TABLE_E3
 
-pytestmark = pytest.mark.filterwarnings("ignore:.*sensor type 6:odsuite.core.errors.OdsuiteWarning")
+pytestmark = pytest.mark.filterwarnings("ignore:.*sensor type 6:odsuite.domain.errors.OdsuiteWarning")
 
 FS = 20000.0
 

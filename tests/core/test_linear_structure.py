@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from odsuite.core.errors import ConfigError
-from odsuite.core.model import Input, LinearStructure, Model, Output
-from odsuite.core.simulation import simulate
+from odsuite.domain.errors import ConfigError
+from odsuite.domain.model import Input, LinearStructure, Model, Output
+from odsuite.domain.simulation import simulate
 
 M1, M2, K1, K2, C1, C2 = 2.0, 1.0, 4.0e4, 1.0e4, 8.0, 2.0  # kg, N/m, N s/m
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from odsuite.core.errors import ConfigError
-from odsuite.core.lvm import read_lvm
+from odsuite.domain.errors import ConfigError
+from odsuite_plugins.importers.lvm import read_lvm
 
 
 def test_ladisk_beam_impact_quick_facts(shared_real):

@@ -10,11 +10,11 @@ import pytest
 from scipy.io import loadmat
 
 import mck_threedof as mck
-from odsuite.core.errors import ConfigError, DimensionError
-from odsuite.core.frf import MAX_RANDOM_ERROR, convert_form, estimate_frf, usable_band
-from odsuite.core.hammer import assess_hits, exponential_window
-from odsuite.core.lvm import read_lvm
-from odsuite.core.modal import (
+from odsuite.domain.errors import ConfigError, DimensionError
+from odsuite.analysis.frf import MAX_RANDOM_ERROR, convert_form, estimate_frf, usable_band
+from odsuite.analysis.hammer import assess_hits, exponential_window
+from odsuite_plugins.importers.lvm import read_lvm
+from odsuite.analysis.modal import (
     MIN_PROMINENCE,
     check_poles,
     identify_modes,

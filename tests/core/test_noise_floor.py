@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from odsuite.core import checks
-from odsuite.core.comparison import compare
-from odsuite.core.errors import ConfigError
-from odsuite.core.model import AnalogFilter
-from odsuite.core.project import Excitation, create_project
-from odsuite.core.rig import Acquisition, AntiAliasing, rig_from_dict
+from odsuite.diagnosis import checks
+from odsuite.analysis.comparison import compare
+from odsuite.domain.errors import ConfigError
+from odsuite.domain.model import AnalogFilter
+from odsuite.store.project import Excitation, create_project
+from odsuite.domain.rig import Acquisition, AntiAliasing, rig_from_dict
 
 from test_comparison import FS, N, PRE, _half_sine, _independent_record
 
@@ -24,7 +24,7 @@ def _project(tmp_path, name, force_noise=0.0, hum=0.0, white=0.0, seed=0):
     """A thesis-rig project whose record is the model's own response (a perfect model), with
     white noise of ``force_noise`` N on the force channel, and ``hum`` (50 Hz, m/s^2) plus ``white``
     (m/s^2) on every accelerometer."""
-    from odsuite.core.modelrev import base_model
+    from odsuite.analysis.modelrev import base_model
 
     p = create_project(tmp_path / f"{name}.h5")
     rig = p.rig
@@ -86,7 +86,7 @@ def test_gain_threshold_is_the_chi_square_quantile():
 
 
 def test_front_end_discretised_matches_the_analog_filters():
-    from odsuite.core.prediction import _analog_sos
+    from odsuite.analysis.prediction import _analog_sos
 
     acq = Acquisition(iepe_corner_hz=0.5, sensor_resonance_hz=22_000.0,
                       anti_aliasing=AntiAliasing("butterworth", 6, 2500.0, force_channel=False))
@@ -107,7 +107,7 @@ def test_front_end_discretised_matches_the_analog_filters():
 
 
 def test_acquisition_table_is_read_and_checked():
-    from odsuite.core.plugins import registries
+    from odsuite.contracts.plugins import registries
 
     base = {"name": "r", "bodies": [{"name": "b", "mass": 1.0, "inertia": [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}],
             "sensors": []}
@@ -125,7 +125,7 @@ def test_acquisition_table_is_read_and_checked():
 
 
 def test_the_converters_step_comes_from_the_recorded_grid_when_there_is_one():
-    from odsuite.core.prediction import adc_steps
+    from odsuite.analysis.prediction import adc_steps
 
     rng = np.random.default_rng(3)
     declared = 10.0 / 2**16
@@ -151,7 +151,7 @@ def test_the_converters_offset_and_noise_come_from_the_record(offset):
     of the true one (the codes a small oscillation does or does not flip to tell it), the noise
     within a fifth, and the rounding error simulated at those offsets has the true one's energy.
     The uniform average over offsets (Sheppard's lsb^2/12) is twice it at a zero offset."""
-    from odsuite.core.prediction import converter_offsets
+    from odsuite.analysis.prediction import converter_offsets
 
     rng = np.random.default_rng(11)
     step, n, trigger, sigma = 1e-3, 4096, 400, 0.05
@@ -180,7 +180,7 @@ def test_the_converters_offset_and_noise_come_from_the_record(offset):
 def test_the_converters_noise_before_the_hit_when_it_spreads_over_codes():
     """Noise of 0.4 code before the hit spreads the samples over a few codes: the noise the
     record tells is that 0.4 (not the rounded samples' spread, nor the filtered stage's)."""
-    from odsuite.core.prediction import converter_offsets
+    from odsuite.analysis.prediction import converter_offsets
 
     rng = np.random.default_rng(12)
     step, n, trigger = 1e-3, 4096, 1000
@@ -197,7 +197,7 @@ def test_a_drift_before_a_response_that_never_dies_is_neither_noise_nor_hum():
     the samples before the hit, so the noise is the white noise's variance (within 5 %) and the
     hum's sinusoid does not take the ramp (its energy below a tenth of the noise's); the drift fitted
     there is not carried over the record. Without drift the estimate is the same."""
-    from odsuite.core.noise_floor import split_noise
+    from odsuite.analysis.noise_floor import split_noise
 
     rng = np.random.default_rng(21)
     fs, n, trigger, sigma = 10240.0, 4096, 515, 1e-4

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import odsuite
-from odsuite.core.modal_project import ods_coordinates, ods_motion
+from odsuite.analysis.modal_project import ods_coordinates, ods_motion
 
 sys.path.insert(0, str(Path(__file__).parent))
 from hidden_effects import make_project  # noqa: E402
@@ -26,8 +26,8 @@ def project(tmp_path_factory):
 
 @pytest.mark.parametrize("frequency_hz", [103.5, 150.0, 216.9])
 def test_ods_equals_the_models_coordinate_frf(project, frequency_hz):
-    from odsuite.core.model import Input, Output
-    from odsuite.core.modelrev import base_model
+    from odsuite.domain.model import Input, Output
+    from odsuite.analysis.modelrev import base_model
 
     with odsuite.open_project(project) as p:
         measured = ods_coordinates(p, "T3", frequency_hz)["platform"]

@@ -12,9 +12,9 @@ import scipy.signal
 
 import mck_threedof as mck
 from odsuite.cli import main
-from odsuite.core.errors import ConfigError
-from odsuite.core.modal import mac
-from odsuite.core.oma import identify_output_only, ssi_cov
+from odsuite.domain.errors import ConfigError
+from odsuite.analysis.modal import mac
+from odsuite.analysis.oma import identify_output_only, ssi_cov
 
 FS = 1024.0
 
@@ -65,8 +65,8 @@ def test_ssi_cov_diagram_is_stable_at_the_true_poles(operating):
 
 
 def test_modes_output_only_through_the_cli(tmp_path, operating, capsys):
-    from odsuite.core.project import open_project
-    from odsuite.core.systeminfo import ChannelInfo, SensorType, Systeminfo
+    from odsuite.store.project import open_project
+    from odsuite.domain.systeminfo import ChannelInfo, SensorType, Systeminfo
 
     p = tmp_path / "run.h5"
     assert main(["new", str(p), "--rig", "none"]) == 0
@@ -94,10 +94,10 @@ RIGS = Path(__file__).resolve().parents[2] / "projects" / "rigs"
 def _rig_responses(rig_text: str, tmp_path, seconds: float, seed: int):
     """A rig's accelerations to one white force near the thesis platform's far corner (exact
     zero-order-hold simulation of its model at 1 kHz, 1 % sensor noise) and the model's poles."""
-    from odsuite.core.model import Input, Output
-    from odsuite.core.plugins import registries
-    from odsuite.core.rig import load_rig
-    from odsuite.core.simulation import simulate_state_space
+    from odsuite.domain.model import Input, Output
+    from odsuite.contracts.plugins import registries
+    from odsuite.domain.rig import load_rig
+    from odsuite.domain.simulation import simulate_state_space
 
     (tmp_path / "thesis-table-e3.CTR").write_bytes((RIGS / "thesis-table-e3.CTR").read_bytes())
     (tmp_path / "rig.toml").write_text(rig_text)
@@ -143,7 +143,7 @@ def test_thesis_rig_as_modelled_is_not_claimed(tmp_path):
 def test_unresolved_poles_are_named_with_the_reason():
     """Poles 0.2 Hz apart with standard errors of 0.2 Hz each (gap < 2 x 0.28 Hz) are both refused;
     a pole held by one segment of four is unconfirmed and does not make its neighbour unresolved."""
-    from odsuite.core.oma import _resolved
+    from odsuite.analysis.oma import _resolved
 
     poles = 2j * np.pi * np.array([10.0, 10.2, 20.0, 20.5]) - 1.0
     ok, reasons = _resolved(poles, np.array([0.2, 0.2, 0.01, np.inf]), np.array([4, 4, 4, 1]))

@@ -9,12 +9,12 @@ import pytest
 import scipy.integrate
 import scipy.signal
 
-from odsuite.core.chain_spec import build_chain, chain_for_channel, channel_chain_spec
-from odsuite.core.errors import ConfigError
-from odsuite.core.executor import run_array
-from odsuite.core.pipeline import process_experiment
-from odsuite.core.steps import Tap
-from odsuite.core.systeminfo import (
+from odsuite.processing.chain_spec import build_chain, chain_for_channel, channel_chain_spec
+from odsuite.domain.errors import ConfigError
+from odsuite.processing.executor import run_array
+from odsuite.processing.pipeline import process_experiment
+from odsuite.contracts.steps import Tap
+from odsuite.domain.systeminfo import (
     ChannelInfo,
     FilterType,
     Integration,
@@ -81,7 +81,7 @@ def test_micro_units_and_unknown_step(registries):
 
 
 def test_a_labs_own_step_by_name(registries):
-    from odsuite.core.steps import Step
+    from odsuite.contracts.steps import Step
 
     class Clip(Step):
         def __init__(self, limit):
@@ -115,7 +115,7 @@ def test_chunked_equals_in_memory(chunk):
 
 
 def _clip_chain(registries):
-    from odsuite.core.steps import Step
+    from odsuite.contracts.steps import Step
 
     class Clip(Step):  # a lab's step written for one channel
         def process(self, chunk, state):
@@ -129,7 +129,7 @@ def _clip_chain(registries):
 def test_channels_with_the_same_chain_run_as_one_block(registries, chunk):
     # identical chains run together (channels x samples); each column still equals its own chain
     # run alone, in any order and mixed with chains that run alone (another gain, a lab's 1-D step)
-    from odsuite.core.executor import _groups
+    from odsuite.processing.executor import _groups
 
     zp = replace(TABLE_E3, zero_phase=True, offset_start=250, offset_length=1200)
     chains = [chain_for_channel(TABLE_E3), chain_for_channel(zp), chain_for_channel(TABLE_E3),
@@ -174,7 +174,7 @@ def test_targets_mixing_groups_get_whole_rows(workers):
     # one dataset whose columns come from different groups in scrambled order, and taps that lag
     # their inputs (Eq. 4.5) or hold them back over several chunks (an offset window late in the
     # record): written in whole rows, in order, equal to each chain alone
-    from odsuite.core.executor import run_chains
+    from odsuite.processing.executor import run_chains
 
     chains = [chain_for_channel(TABLE_E3) for _ in range(4)] + [chain_for_channel(replace(TABLE_E3, daq_gain=2.0)),
                                                                 chain_for_channel(replace(TABLE_E3, offset_start=5000))]
@@ -220,10 +220,10 @@ def test_chain_ends_in_a_tap():
 
 def _pulse_project(tmp_path, thesis_rig, n=4000, **channel_changes):
     """A project whose accelerometers read an exact rigid-body pulse of the platform (sensor
-    signals from odsuite.core.rigidbody, through each channel's sign, sensitivity and gain)."""
-    from odsuite.core.daq import rig_systeminfo
-    from odsuite.core.project import Excitation, create_project
-    from odsuite.core.rigidbody import sensor_signals
+    signals from odsuite.domain.rigidbody, through each channel's sign, sensitivity and gain)."""
+    from odsuite.contracts.daq import rig_systeminfo
+    from odsuite.store.project import Excitation, create_project
+    from odsuite.domain.rigidbody import sensor_signals
 
     si = rig_systeminfo(thesis_rig, FS)
     si = Systeminfo([replace(c, **channel_changes) for c in si.channels], si.rig)

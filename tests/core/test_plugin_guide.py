@@ -19,9 +19,9 @@ import scipy.linalg
 import scipy.signal
 
 from odsuite import open_project
-from odsuite.core import hookspecs
-from odsuite.core.errors import ConfigError
-from odsuite.core.plugins import build_registries, make_plugin_manager
+from odsuite.contracts import hookspecs
+from odsuite.domain.errors import ConfigError
+from odsuite.contracts.plugins import build_registries, make_plugin_manager
 
 GUIDE = Path(__file__).resolve().parents[2] / "docs" / "plugins.md"
 
@@ -79,8 +79,8 @@ def test_one_example_per_hook_importing_only_odsuite():
 def _hit_project(path: Path, peak: float = 20.0, width: float = 0.5e-3, pretrigger: int = 256):
     """A project on the thesis rig with one record: a half-sine force of ``peak`` N starting at the
     pretrigger sample on the force channel (volts through the rig's Systeminfo), 0 V elsewhere."""
-    from odsuite.core.daq import channel_name, rig_systeminfo
-    from odsuite.core.project import Excitation, create_project
+    from odsuite.contracts.daq import channel_name, rig_systeminfo
+    from odsuite.store.project import Excitation, create_project
 
     fs, n = 20_000.0, 2048
     t = (np.arange(n) - pretrigger) / fs
@@ -103,7 +103,7 @@ def test_effect_scales_every_predicted_acceleration_by_the_gain(guide):
     effect = regs.effects.get("lab_amplifier_gain")
     rig = regs.rigs.get("thesis-dynamometer")
     model = regs.models.get("thesis-dynamometer")(rig)
-    from odsuite.core.model import Input, Output
+    from odsuite.domain.model import Input, Output
 
     force = Input.force([-0.8e-3, 4.1e-3, -11.4e-3], [0, 0, 1])  # T1: the top face's centre, +z
     outputs = [Output.sensor(s) for s in rig.sensors]
@@ -150,8 +150,8 @@ def test_model_modes_match_the_closed_form(guide):
 
 
 def test_step_streams_what_its_linear_form_and_scipy_say(guide):
-    from odsuite.core.chain_spec import build_chain
-    from odsuite.core.executor import run_array
+    from odsuite.processing.chain_spec import build_chain
+    from odsuite.processing.executor import run_array
 
     module, regs, _ = guide("step")
     fs, fc = 20_000.0, 5.0
@@ -173,14 +173,14 @@ def test_step_streams_what_its_linear_form_and_scipy_say(guide):
 
 
 def _three_point_rig(points, solver=None):
-    from odsuite.core.rig import rig_from_dict
+    from odsuite.domain.rig import rig_from_dict
 
     sensors = [{"name": f"p{i}{a}", "channel": 3 * i + k + 1, "body": "table", "position": list(p),
                 "axis": [float(a == "x"), float(a == "y"), float(a == "z")]}
                for i, p in enumerate(points) for k, a in enumerate("xyz")]
     body = {"name": "table", "com": [0.003, -0.002, 0.001], "mass": 2.0, "inertia": np.diag([0.01] * 3).tolist(),
             **({"solver": solver} if solver else {})}
-    from odsuite.core.plugins import registries
+    from odsuite.contracts.plugins import registries
 
     return rig_from_dict({"name": "three-points", "bodies": [body], "sensors": sensors, "force_channel": 0},
                          registries().sensor_types)
@@ -188,7 +188,7 @@ def _three_point_rig(points, solver=None):
 
 def test_solver_recovers_a_rigid_motion(guide):
     """Readings of a known small rigid motion, s = a . (t + Theta x (p - G)) (closed form), give it back."""
-    from odsuite.core.solvers import choose_solver
+    from odsuite.contracts.solvers import choose_solver
 
     module, regs, _ = guide("solver")
     solvers = regs.coordinate_solvers
@@ -215,7 +215,7 @@ def test_solver_recovers_a_rigid_motion(guide):
 
 
 def test_renderer_draws_the_force_and_reports_its_peak(guide, tmp_path):
-    from odsuite.core.renderers import RenderRequest, choose_renderer
+    from odsuite.contracts.renderers import RenderRequest, choose_renderer
 
     module, regs, _ = guide("renderer")
     force, t = _hit_project(tmp_path / "p.h5", peak=20.0, width=0.5e-3)
@@ -233,8 +233,8 @@ def test_renderer_draws_the_force_and_reports_its_peak(guide, tmp_path):
 
 
 def test_importer_stores_the_file_it_reads(guide, tmp_path):
-    from odsuite.core.importers import check_options, choose_importer
-    from odsuite.core.project import create_project
+    from odsuite.contracts.importers import check_options, choose_importer
+    from odsuite.store.project import create_project
 
     module, regs, _ = guide("importer")
     fs, n = 10_000.0, 1500
@@ -270,9 +270,9 @@ def test_importer_stores_the_file_it_reads(guide, tmp_path):
 
 
 def test_daq_backend_records_into_a_project_with_its_options(guide, tmp_path):
-    from odsuite.core.acquisition import acquire
-    from odsuite.core.daq import AcquisitionSettings, parse_backend_options
-    from odsuite.core.project import create_project
+    from odsuite.processing.acquisition import acquire
+    from odsuite.contracts.daq import AcquisitionSettings, parse_backend_options
+    from odsuite.store.project import create_project
 
     module, regs, _ = guide("daq")
     backend = regs.daq_backends.get("lab-pulse")
@@ -303,8 +303,8 @@ def test_daq_backend_records_into_a_project_with_its_options(guide, tmp_path):
 
 
 def test_rig_is_registered_and_loads_into_a_project(guide, tmp_path):
-    from odsuite.core.project import create_project
-    from odsuite.core.solvers import body_solvers
+    from odsuite.store.project import create_project
+    from odsuite.contracts.solvers import body_solvers
 
     (rig_module, model_module), regs, _ = guide("rig", "model")
     assert regs.rigs.entry("lab-table").plugin == rig_module.__name__
@@ -330,7 +330,7 @@ def test_rig_is_registered_and_loads_into_a_project(guide, tmp_path):
 
 def test_command_is_added_and_runs(guide, tmp_path, monkeypatch, capsys, request):
     from odsuite import cli
-    from odsuite.core import plugins
+    from odsuite.contracts import plugins
 
     module, regs, pm = guide("command")
     _hit_project(tmp_path / "p.h5", peak=20.0)
@@ -359,7 +359,7 @@ def test_command_is_added_and_runs(guide, tmp_path, monkeypatch, capsys, request
 def test_sensor_type_example_reads_its_rig_entries(guide):
     """The two axes land on their channels at the entry's point; a bad entry (dependent axes, an
     axis that is not a unit vector) is one line naming the entry and field."""
-    from odsuite.core.rig import rig_from_dict
+    from odsuite.domain.rig import rig_from_dict
 
     _, regs, _ = guide("sensor")
     data = {"name": "bench", "bodies": [{"name": "plate", "mass": 1.0, "inertia": np.eye(3).tolist()}],

@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 
 from odsuite import hookimpl
-from odsuite.core.errors import (
+from odsuite.domain.errors import (
     ConfigError,
     PluginConflictError,
     PluginError,
     PluginLoadError,
 )
-from odsuite.core.plugins import (
+from odsuite.contracts.plugins import (
     REQUIRED_BUILTINS,
     build_registries,
     make_plugin_manager,
@@ -210,7 +210,7 @@ def test_lab_added_mass_follows_the_parallel_axis_theorem():
     """Independent of the effect's code: a mass at G adds to the mass only; a mass at an offset r
     moves G to m_add r / M and adds m_add (|r|^2 I - r r^T) minus M |dG|^2-terms (Steiner)."""
     AddedPointMass = _lab_module("effects").AddedPointMass
-    from odsuite.core.plugins import registries
+    from odsuite.contracts.plugins import registries
 
     regs = registries()
     model = regs.models.get("thesis-dynamometer")(regs.rigs.get("thesis-dynamometer"))
@@ -257,7 +257,7 @@ def test_lab_wls_recovers_a_rigid_motion_and_weighs_by_sensitivity(registries):
     minimiser); the solver is never chosen over the built-ins unless the rig file names it."""
     from dataclasses import replace
 
-    from odsuite.core.solvers import choose_solver
+    from odsuite.contracts.solvers import choose_solver
 
     solver = _lab_module("solvers").WeightedLeastSquares()
     thesis = registries.rigs.get("thesis-dynamometer")
@@ -293,7 +293,7 @@ def test_third_party_solver_and_importer_work_through_the_cli(installed_third_pa
     solver attribute say so); `import` reads the lab's CSV by its suffix, and that record,
     processed, gives the same coordinates as the acquired one it was written from."""
     from odsuite import open_project
-    from odsuite.core.plugins import registries
+    from odsuite.contracts.plugins import registries
 
     text = THESIS_RIG.read_text()
     assert text.count('name = "platform"\n') == 1

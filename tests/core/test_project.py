@@ -10,11 +10,11 @@ import h5py
 import numpy as np
 import pytest
 
-from odsuite.core.errors import ConfigError, DimensionError, ProjectFileError
-from odsuite.core.h5codecs import rig_to_dict
-from odsuite.core.project import DerivedArray, Excitation, create_project, open_project
-from odsuite.core.project_format import FORMAT_NAME, FORMAT_VERSION
-from odsuite.core.systeminfo import (
+from odsuite.domain.errors import ConfigError, DimensionError, ProjectFileError
+from odsuite.store.h5codecs import rig_to_dict
+from odsuite.store.project import DerivedArray, Excitation, create_project, open_project
+from odsuite.store.project_format import FORMAT_NAME, FORMAT_VERSION
+from odsuite.domain.systeminfo import (
     ChannelInfo,
     FilterFamily,
     FilterType,
@@ -281,7 +281,7 @@ def test_every_numeric_dataset_has_units_and_dims(tmp_path, thesis_rig):
 def test_text_is_stored_as_fixed_length_utf8(tmp_path, thesis_rig):
     """No variable-length strings anywhere: they live in HDF5's global heap, whose damaged bytes
     can hang the HDF5 reader (a fuzzing find); non-ASCII text round-trips."""
-    from odsuite.core.h5text import is_variable_text
+    from odsuite.store.h5text import is_variable_text
 
     si = odd_systeminfo_11()
     with create_project(tmp_path / "p.h5", rig=thesis_rig) as p:

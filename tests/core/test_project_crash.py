@@ -12,17 +12,17 @@ import textwrap
 import time
 
 import numpy as np
-from odsuite.core.project import create_project, open_project
-from odsuite.core.storage import CRASH_ENV
-from odsuite.core.systeminfo import ChannelInfo, Systeminfo
+from odsuite.store.project import create_project, open_project
+from odsuite.store.storage import CRASH_ENV
+from odsuite.domain.systeminfo import ChannelInfo, Systeminfo
 
 ROWS, CHANNELS, CHUNK = 2_000_000, 11, 100_000
 
 WRITER = textwrap.dedent("""
     import sys
     import numpy as np
-    from odsuite.core.project import open_project
-    from odsuite.core.systeminfo import ChannelInfo, Systeminfo
+    from odsuite.store.project import open_project
+    from odsuite.domain.systeminfo import ChannelInfo, Systeminfo
 
     path, name, rows, channels, chunk = sys.argv[1], sys.argv[2], *map(int, sys.argv[3:6])
     def chunks():

@@ -9,7 +9,7 @@ import h5py
 import numpy as np
 import pytest
 
-from odsuite.core.errors import (
+from odsuite.domain.errors import (
     ConfigError,
     DimensionError,
     NotAProjectError,
@@ -17,9 +17,9 @@ from odsuite.core.errors import (
     ProjectFileError,
     ProjectVersionError,
 )
-from odsuite.core.project import Excitation, create_project, open_project
-from odsuite.core.project_format import FORMAT_VERSION
-from odsuite.core.systeminfo import ChannelInfo, Systeminfo
+from odsuite.store.project import Excitation, create_project, open_project
+from odsuite.store.project_format import FORMAT_VERSION
+from odsuite.domain.systeminfo import ChannelInfo, Systeminfo
 
 
 def _si(n=3):
@@ -185,7 +185,7 @@ def test_failed_write_is_a_project_error_and_changes_nothing(project_path, monke
         def disk_full(*_a, **_k):
             raise OSError(28, "No space left on device")
 
-        monkeypatch.setattr("odsuite.core.storage.fsync_path", disk_full)
+        monkeypatch.setattr("odsuite.store.storage.fsync_path", disk_full)
         with pytest.raises(ProjectFileError, match=r"p.h5: no space left on /\S*: needed ~[0-9.]+ MB; project unchanged$"):
             _add(p)
         monkeypatch.undo()

@@ -13,9 +13,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from odsuite.core.errors import ProjectFileError, ProjectLockedError
-from odsuite.core.project import create_project, open_project
-from odsuite.core.systeminfo import ChannelInfo, Systeminfo
+from odsuite.domain.errors import ProjectFileError, ProjectLockedError
+from odsuite.store.project import create_project, open_project
+from odsuite.domain.systeminfo import ChannelInfo, Systeminfo
 
 
 def _si(n):
@@ -40,7 +40,7 @@ def test_killed_writer_releases_lock_and_its_temp_file_is_removed(tmp_path, capl
     create_project(path, rig=None).close()
     code = textwrap.dedent(f"""
         import shutil, sys, time
-        from odsuite.core.project import open_project
+        from odsuite.store.project import open_project
         p = open_project({str(path)!r}, "a")
         shutil.copyfile({str(path)!r}, {str(tmp_path / ".p.h5.odsuite-tmp-999999")!r})  # as if killed mid-write
         print("locked", flush=True)
@@ -54,7 +54,7 @@ def test_killed_writer_releases_lock_and_its_temp_file_is_removed(tmp_path, capl
     finally:
         proc.send_signal(signal.SIGKILL)
         proc.wait()
-    with caplog.at_level(logging.WARNING, logger="odsuite.core.storage"), open_project(path, "a") as p:
+    with caplog.at_level(logging.WARNING, logger="odsuite.store.storage"), open_project(path, "a") as p:
         assert p.experiment_names() == []
     assert not (tmp_path / ".p.h5.odsuite-tmp-999999").exists()
     assert ".p.h5.odsuite-tmp-999999 left by an interrupted write" in caplog.text
@@ -136,8 +136,8 @@ def test_odsuite_runs_without_fcntl(tmp_path):
         import sys
         sys.modules["fcntl"] = None  # import fcntl now raises ImportError, as on Windows
         from odsuite.cli import main
-        from odsuite.core.errors import ProjectLockedError
-        from odsuite.core.project import open_project
+        from odsuite.domain.errors import ProjectLockedError
+        from odsuite.store.project import open_project
         assert open_project({str(path)!r}).experiment_names() == []
         assert main(["info", {str(path)!r}]) == 0
         with open_project({str(path)!r}, "a"):

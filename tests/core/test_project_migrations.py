@@ -14,11 +14,11 @@ import h5py
 import numpy as np
 import pytest
 
-from odsuite.core import migrations
-from odsuite.core.errors import ProjectVersionError
-from odsuite.core.project import DerivedArray, create_project, open_project
-from odsuite.core.project_format import FORMAT_VERSION
-from odsuite.core.systeminfo import ChannelInfo, Systeminfo
+from odsuite.store import migrations
+from odsuite.domain.errors import ProjectVersionError
+from odsuite.store.project import DerivedArray, create_project, open_project
+from odsuite.store.project_format import FORMAT_VERSION
+from odsuite.domain.systeminfo import ChannelInfo, Systeminfo
 
 BACK_COMPAT = Path(__file__).resolve().parents[1] / "data" / "back_compat"
 
@@ -65,7 +65,7 @@ def test_frozen_file_reads_with_equal_values(frozen_file, mode, tmp_path):
 def test_1_0_0_variable_length_text_becomes_fixed_length(tmp_path):
     """1.0.0 stored text as variable-length strings (HDF5's global heap); the 1.1.0 migration
     rewrites every such attribute and table column."""
-    from odsuite.core.h5text import is_variable_text
+    from odsuite.store.h5text import is_variable_text
 
     def variable(path):
         with h5py.File(path, "r") as f:
@@ -173,8 +173,8 @@ def test_large_text_round_trips(tmp_path):
 
 
 def test_write_mode_migration_that_cannot_write_leaves_the_project(tmp_path, monkeypatch):
-    from odsuite.core import storage
-    from odsuite.core.errors import ProjectFileError
+    from odsuite.store import storage
+    from odsuite.domain.errors import ProjectFileError
 
     old = tmp_path / "old.h5"
     shutil.copyfile(BACK_COMPAT / "project-1.0.0.h5", old)

@@ -1,4 +1,4 @@
-"""Columns of another tool's record laid onto a rig's channels (odsuite.core.rig_import)."""
+"""Columns of another tool's record laid onto a rig's channels (odsuite_plugins.importers.rig_import)."""
 
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from odsuite.core.errors import ConfigError, DimensionError
-from odsuite.core.rig import load_rig
-from odsuite.core.rig_import import G, onto_rig
-from odsuite.core.systeminfo import SensorType
+from odsuite.domain.errors import ConfigError, DimensionError
+from odsuite.domain.rig import load_rig
+from odsuite_plugins.importers.rig_import import G, onto_rig
+from odsuite.domain.systeminfo import SensorType
 
 RIG = Path(__file__).resolve().parents[2] / "projects" / "rigs" / "two-body-machine.toml"
 HIT = (np.array([0.1, 0.05, 0.25]), np.array([0.0, 0.0, -1.0]))

@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from odsuite.core.chain_spec import chain_for_channel
-from odsuite.core.errors import ConfigError
-from odsuite.core.rig import rig_from_dict
-from odsuite.core.systeminfo import FilterFamily, FilterType, Integration, Systeminfo
+from odsuite.processing.chain_spec import chain_for_channel
+from odsuite.domain.errors import ConfigError
+from odsuite.domain.rig import rig_from_dict
+from odsuite.domain.systeminfo import FilterFamily, FilterType, Integration, Systeminfo
 
 FS = 10240.0
 

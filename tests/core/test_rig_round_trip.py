@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from odsuite.core.project import create_project, open_project
-from odsuite.core.systeminfo import Systeminfo
+from odsuite.store.project import create_project, open_project
+from odsuite.domain.systeminfo import Systeminfo
 
 RIGS = Path(__file__).resolve().parents[2] / "projects" / "rigs"
 
@@ -42,7 +42,7 @@ def _stored_without_up(tmp_path, text: str, *, as_toml: bool) -> Path:
 
     import h5py
 
-    from odsuite.core import h5text
+    from odsuite.store import h5text
 
     rig_dir = tmp_path / "rig"
     rig_dir.mkdir()

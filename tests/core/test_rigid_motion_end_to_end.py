@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 
 import odsuite
-from odsuite.core.importing import import_legacy
-from odsuite.core.legacy import write_ctr, write_dat
-from odsuite.core.pipeline import process_experiment
-from odsuite.core.project import create_project
-from odsuite.core.rigidbody import harmonic_motion, sensor_signals
-from odsuite.core.systeminfo import Systeminfo
+from odsuite_plugins.importers.importing import import_legacy
+from odsuite_plugins.importers.legacy import write_ctr, write_dat
+from odsuite.processing.pipeline import process_experiment
+from odsuite.store.project import create_project
+from odsuite.domain.rigidbody import harmonic_motion, sensor_signals
+from odsuite.domain.systeminfo import Systeminfo
 
 FS = 20000.0
 N = 32768

@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy.spatial.transform import Rotation
 
-from odsuite.core import rigidbody as rb
-from odsuite.core.errors import ConfigError, DimensionError
+from odsuite.domain import rigidbody as rb
+from odsuite.domain.errors import ConfigError, DimensionError
 
 finite = st.floats(-1.0, 1.0, allow_nan=False)
 lengths = st.floats(-0.5, 0.5, allow_nan=False)

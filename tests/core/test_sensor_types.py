@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from odsuite import hookimpl
-from odsuite.core.errors import ConfigError
-from odsuite.core.plugins import build_registries, make_plugin_manager
-from odsuite.core.rig import rig_from_dict, single_axis_sensor
-from odsuite.core.solvers import choose_solver
+from odsuite.domain.errors import ConfigError
+from odsuite.contracts.plugins import build_registries, make_plugin_manager
+from odsuite.domain.rig import rig_from_dict, single_axis_sensor
+from odsuite.contracts.solvers import choose_solver
 
 #: a 12 kg block, three triaxial accelerometers at three corners (tilted axes on the third)
 TILT = np.array([[np.cos(0.3), np.sin(0.3), 0.0], [-np.sin(0.3), np.cos(0.3), 0.0], [0.0, 0.0, 1.0]])
@@ -115,8 +115,8 @@ def test_a_solver_named_in_the_rig_file_is_used_or_refused(registries):
 
 def test_a_project_keeps_triaxials_springs_and_dofs_without_the_rig_file(registries, tmp_path):
     from odsuite import open_project
-    from odsuite.core.h5codecs import rig_to_dict
-    from odsuite.core.project import create_project
+    from odsuite.store.h5codecs import rig_to_dict
+    from odsuite.store.project import create_project
 
     data = block()
     data["bodies"][0]["dofs"] = ["x", "y", "z", "psi"]

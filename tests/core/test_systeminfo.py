@@ -8,10 +8,10 @@ import warnings
 import numpy as np
 import pytest
 
-from odsuite.core.errors import ConfigError, OdsuiteWarning
-from odsuite.core.legacy import read_ctr
-from odsuite.core.rig import NINE_ROLES
-from odsuite.core.systeminfo import (
+from odsuite.domain.errors import ConfigError, OdsuiteWarning
+from odsuite_plugins.importers.legacy import read_ctr
+from odsuite.domain.rig import NINE_ROLES
+from odsuite.domain.systeminfo import (
     FilterFamily,
     FilterType,
     Integration,

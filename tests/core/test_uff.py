@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import pyuff
 
-from odsuite.core.errors import ConfigError
-from odsuite.core.uff import (
+from odsuite.domain.errors import ConfigError
+from odsuite_plugins.importers.uff import (
     UffFunction,
     UffGeometry,
     read_uff,
@@ -136,11 +136,11 @@ XYZ_15 = 1e-6
 @pytest.fixture(scope="module")
 def thesis_record(tmp_path_factory):
     """A simulated thesis-rig record (nine accelerometers, force on channel 0) and its UFF export."""
-    from odsuite.core.acquisition import acquire
-    from odsuite.core.daq import AcquisitionSettings
-    from odsuite.core.plugins import registries
-    from odsuite.core.project import create_project
-    from odsuite.core.uff_project import export_uff
+    from odsuite.processing.acquisition import acquire
+    from odsuite.contracts.daq import AcquisitionSettings
+    from odsuite.contracts.plugins import registries
+    from odsuite.store.project import create_project
+    from odsuite_plugins.importers.uff_project import export_uff
 
     d = tmp_path_factory.mktemp("uff")
     with create_project(d / "p.h5") as p:
@@ -150,8 +150,8 @@ def thesis_record(tmp_path_factory):
 
 
 def test_export_holds_physical_records_and_the_rigs_geometry(thesis_record):
-    from odsuite.core.modal_project import physical
-    from odsuite.core.project import open_project
+    from odsuite.analysis.modal_project import physical
+    from odsuite.store.project import open_project
 
     with open_project(thesis_record / "p.h5") as p:
         exp, rig = p.experiment("e1"), p.rig
@@ -189,9 +189,9 @@ def test_export_holds_physical_records_and_the_rigs_geometry(thesis_record):
 
 @pytest.mark.parametrize("binary", [True, False], ids=["58b", "ascii"])
 def test_import_of_an_export_gives_the_experiment_back(thesis_record, tmp_path, binary):
-    from odsuite.core.modal_project import physical
-    from odsuite.core.project import create_project, open_project
-    from odsuite.core.uff_project import export_uff, import_uff
+    from odsuite.analysis.modal_project import physical
+    from odsuite.store.project import create_project, open_project
+    from odsuite_plugins.importers.uff_project import export_uff, import_uff
 
     src = thesis_record / "e1.uff"
     if not binary:
@@ -213,7 +213,7 @@ def test_import_of_an_export_gives_the_experiment_back(thesis_record, tmp_path, 
 
 
 def test_tilted_sensor_gets_a_local_displacement_system(tmp_path):
-    from odsuite.core.uff_project import _Nodes
+    from odsuite_plugins.importers.uff_project import _Nodes
 
     axis = np.array([1.0, 2.0, -2.0]) / 3.0
     nodes = _Nodes()
@@ -225,9 +225,10 @@ def test_tilted_sensor_gets_a_local_displacement_system(tmp_path):
 
 
 def test_frfs_travel_with_the_record(shared_real, tmp_path):
-    from odsuite.core.modal_project import experiment_frf, import_lvm
-    from odsuite.core.project import create_project, open_project
-    from odsuite.core.uff_project import export_uff, import_uff
+    from odsuite.analysis.modal_project import experiment_frf
+    from odsuite_plugins.importers.columns import import_lvm
+    from odsuite.store.project import create_project, open_project
+    from odsuite_plugins.importers.uff_project import export_uff, import_uff
 
     create_project(tmp_path / "p.h5", rig=None).close()
     import_lvm(tmp_path / "p.h5", shared_real / "ladisk_beam_impact" / "acceleration.lvm", "beam")
@@ -245,8 +246,8 @@ def test_frfs_travel_with_the_record(shared_real, tmp_path):
 
 
 def test_files_without_datasets_are_refused(tmp_path, thesis_record):
-    from odsuite.core.project import create_project
-    from odsuite.core.uff_project import import_uff
+    from odsuite.store.project import create_project
+    from odsuite_plugins.importers.uff_project import import_uff
 
     create_project(tmp_path / "q.h5", rig=None).close()
     before = (tmp_path / "q.h5").read_bytes()

@@ -9,14 +9,14 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from odsuite.core.errors import ConfigError
-from odsuite.core.modal_project import physical
-from odsuite.core.plugins import registries
-from odsuite.core.project import create_project, open_project
-from odsuite.core.rig import load_rig
-from odsuite.core.rig_import import G
-from odsuite.core.uff import time_function, write_uff
-from odsuite.core.uff_project import import_uff, rig_nodes
+from odsuite.domain.errors import ConfigError
+from odsuite.analysis.modal_project import physical
+from odsuite.contracts.plugins import registries
+from odsuite.store.project import create_project, open_project
+from odsuite.domain.rig import load_rig
+from odsuite_plugins.importers.rig_import import G
+from odsuite_plugins.importers.uff import time_function, write_uff
+from odsuite_plugins.importers.uff_project import import_uff, rig_nodes
 
 RIG = """
 name = "bench"

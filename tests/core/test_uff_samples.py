@@ -9,8 +9,8 @@ import pytest
 import pyuff
 
 from odsuite.cli import main
-from odsuite.core.project import open_project
-from odsuite.core.systeminfo import SensorType
+from odsuite.store.project import open_project
+from odsuite.domain.systeminfo import SensorType
 
 
 @pytest.fixture
@@ -160,7 +160,7 @@ def test_export_types_units_and_one_node_per_location(thesis_with_frf, tmp_path)
 def test_export_through_pyuff_imports_back_identically(thesis_with_frf, tmp_path):
     """Our export, read by pyuff and written again by pyuff, imports to the same record, FRFs and
     hammer point."""
-    from odsuite.core.modal_project import physical
+    from odsuite.analysis.modal_project import physical
 
     ours = tmp_path / "e1.uff"
     assert main(["export-uff", str(thesis_with_frf), "e1", "-o", str(ours)]) == 0

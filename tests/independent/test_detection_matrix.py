@@ -33,8 +33,8 @@ N_SAMPLES_FAST = 2048
 
 
 def _diagnose(tmp_path, name: str, rig: str, seed: int, effects=None, n_samples: int = N_SAMPLES):
-    from odsuite.core.diagnosis import diagnose
-    from odsuite.core.project import open_project
+    from odsuite.diagnosis.diagnose import diagnose
+    from odsuite.store.project import open_project
 
     project, truth = case_project(cases.build_case(name, seed, rig, n_samples=n_samples), tmp_path)
     with open_project(project) as p:
@@ -149,11 +149,11 @@ def test_hardening_on_a_slow_rig_survives_screening(tmp_path):
     slowest period) a thousandfold hardened isolator looked best, the damped steps on the longer
     heads could not undo it, and the screening returned the nominal model: nonlinear_stiffness was
     never fitted (measured, seed 21: screened at 2.02x the floor, as the baseline)."""
-    from odsuite.core.fitting import Problem, fit_windows, screen
-    from odsuite.core.modelrev import current_revision, revision_model
-    from odsuite.core.plugins import registries
-    from odsuite.core.prediction import prepare
-    from odsuite.core.project import open_project
+    from odsuite.diagnosis.fitting import Problem, fit_windows, screen
+    from odsuite.analysis.modelrev import current_revision, revision_model
+    from odsuite.contracts.plugins import registries
+    from odsuite.analysis.prediction import prepare
+    from odsuite.store.project import open_project
 
     project, truth = case_project(cases.build_case("hardening-series", 21, "two-body", n_samples=N_SAMPLES), tmp_path)
     with open_project(project) as p:

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from odsuite.core.legacy import read_ctr, read_dat
-from odsuite.core.lvm import read_lvm
-from odsuite.core.uff import read_uff
+from odsuite_plugins.importers.legacy import read_ctr, read_dat
+from odsuite_plugins.importers.lvm import read_lvm
+from odsuite_plugins.importers.uff import read_uff
 
 from . import cases, writers
 from .rigs import thesis_rig, two_body_rig

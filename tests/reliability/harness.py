@@ -34,8 +34,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from odsuite.core.project import open_project
-from odsuite.core.storage import CRASH_ENV
+from odsuite.store.project import open_project
+from odsuite.store.storage import CRASH_ENV
 
 ODSUITE = Path(sys.executable).with_name("odsuite")
 REPO = Path(__file__).resolve().parents[2]
@@ -119,8 +119,8 @@ def legacy_volts(n: int = 4096, seed: int = 0, fs: float = 20_000.0) -> np.ndarr
 
 def prepare_inputs(folder: Path) -> Path:
     """The input files the writing commands read."""
-    from odsuite.core.legacy import write_dat
-    from odsuite.core.uff import time_function, write_uff
+    from odsuite_plugins.importers.legacy import write_dat
+    from odsuite_plugins.importers.uff import time_function, write_uff
 
     folder.mkdir(parents=True, exist_ok=True)
     write_dat(folder / "T8.DAT", legacy_volts())
@@ -343,7 +343,7 @@ def _check(run: Run, project: Path, before_units: dict[str, str], oracle: Callab
         with open_project(project) as p:  # a reader opens the project as the kill left it
             p.verify()
         records = _Records()
-        logger = logging.getLogger("odsuite.core.storage")
+        logger = logging.getLogger("odsuite.store.storage")
         logger.addHandler(records)
         try:
             with open_project(project, "a") as p:  # the next writer recovers

@@ -87,7 +87,7 @@ def prepare(work: Path) -> Path:
         with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
             if main(argv) != 0:
                 raise RuntimeError(f"odsuite {' '.join(argv)} failed")
-    from odsuite.core.uff import time_function, write_uff
+    from odsuite_plugins.importers.uff import time_function, write_uff
 
     volts = legacy_volts()
     write_uff(master / "good.uff", overwrite=True, functions=[
@@ -242,7 +242,7 @@ def _in_turn(*setups: Callable[[Path], object]) -> Callable[[Path], object]:
 
 def _hold_lock(d: Path):
     """Another writer holds the project (this process, through a second lock object)."""
-    from odsuite.core.project import open_project
+    from odsuite.store.project import open_project
 
     return open_project(d / "p.h5", "a").close
 
@@ -251,7 +251,7 @@ def _full_disk(free: int):
     def setup(d: Path):
         import collections
 
-        from odsuite.core import diskspace
+        from odsuite.store import diskspace
 
         real = diskspace.shutil.disk_usage
         diskspace.shutil.disk_usage = lambda p: collections.namedtuple("u", "total used free")(10**9, 10**9 - free, free)

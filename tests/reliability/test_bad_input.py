@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from odsuite.cli import main
-from odsuite.core.errors import OdsuiteError
+from odsuite.domain.errors import OdsuiteError
 from tests.reliability.harness import REPO, TABLE_E3, legacy_volts
 
 DOC = REPO / "docs" / "bad-input.md"
@@ -111,14 +111,14 @@ def new_rig(toml: str) -> dict:
 
 
 def _read_uff(d: Path, name: str):
-    from odsuite.core.uff import read_uff
+    from odsuite_plugins.importers.uff import read_uff
 
     return read_uff(d / name)
 
 
 def _uff_damaged(d: Path, how: str):
     """Three 8-point time records written by odsuite, then damaged ``how``, read back (API)."""
-    from odsuite.core.uff import time_function, write_uff
+    from odsuite_plugins.importers.uff import time_function, write_uff
 
     write_uff(d / "base.uff", functions=[time_function(f"acc{k}", np.arange(8.0) + k, 1e-3, "m/s^2", node=0)
                                          for k in range(3)], binary=how == "58b-count", overwrite=True)
@@ -154,11 +154,11 @@ def _full_disk_acquire(d: Path, free: int):
     import collections
     from unittest import mock
 
-    from odsuite.core.project import open_project
-    from odsuite.core.systeminfo import ChannelInfo, Systeminfo
+    from odsuite.store.project import open_project
+    from odsuite.domain.systeminfo import ChannelInfo, Systeminfo
 
     usage = collections.namedtuple("usage", "total used free")(10**9, 10**9 - free, free)
-    with mock.patch("odsuite.core.diskspace.shutil.disk_usage", return_value=usage), \
+    with mock.patch("odsuite.store.diskspace.shutil.disk_usage", return_value=usage), \
             open_project(d / "p.h5", "a") as p:
         p.add_experiment("full", np.ones((4096, 2)), sampling_rate=1000.0,
                          systeminfo=Systeminfo([ChannelInfo() for _ in range(2)]), excitation=None)
@@ -167,8 +167,8 @@ def _full_disk_acquire(d: Path, free: int):
 def _uff_on_rig(d: Path, how: str):
     """A UFF file imported onto a project on the bench rig, whose sensor a1 (no sensitivity)
     declares UFF node 5 and measures along +z: the hammer's record and a1's, changed by ``how``."""
-    from odsuite.core.uff import time_function, write_uff
-    from odsuite.core.uff_project import import_uff
+    from odsuite_plugins.importers.uff import time_function, write_uff
+    from odsuite_plugins.importers.uff_project import import_uff
 
     (d / "rig.toml").write_text(RIG_TOML.replace('axis = [0.0, 0.0, 1.0]', 'axis = [0.0, 0.0, 1.0]\nuff_node = 5'))
     assert main(["new", str(d / "r.h5"), "--rig", str(d / "rig.toml")]) == 0
@@ -187,11 +187,11 @@ def _full_disk_export(d: Path, free: int):
     import collections
     from unittest import mock
 
-    from odsuite.core.uff_project import export_uff
+    from odsuite_plugins.importers.uff_project import export_uff
 
     usage = collections.namedtuple("usage", "total used free")(10**9, 10**9 - free, free)
     try:
-        with mock.patch("odsuite.core.diskspace.shutil.disk_usage", return_value=usage):
+        with mock.patch("odsuite.store.diskspace.shutil.disk_usage", return_value=usage):
             export_uff(d / "p.h5", d / "o.uff", "e1")
     finally:
         assert [p.name for p in d.iterdir() if "o." in p.name] == []
@@ -207,7 +207,7 @@ def _uff_undefined_cs(d: Path):
 
 
 def _read_cod(d: Path):
-    from odsuite.core.legacy import read_cod
+    from odsuite_plugins.importers.legacy import read_cod
 
     return read_cod(d / "bad.COD")
 
@@ -216,7 +216,7 @@ def _validate(**changes):
     def run(_d: Path):
         import dataclasses
 
-        from odsuite.core.systeminfo import ChannelInfo, Systeminfo
+        from odsuite.domain.systeminfo import ChannelInfo, Systeminfo
 
         Systeminfo([dataclasses.replace(ChannelInfo(), **changes)]).validate(source="si")
     return run
@@ -224,7 +224,7 @@ def _validate(**changes):
 
 def _body(**kw):
     def run(_d: Path):
-        from odsuite.core.model import RigidBody
+        from odsuite.domain.model import RigidBody
 
         RigidBody(**{"name": "platform", "mass": 10.0, "inertia": np.eye(3), **kw})
     return run
@@ -232,7 +232,7 @@ def _body(**kw):
 
 def _spring(**kw):
     def run(_d: Path):
-        from odsuite.core.model import SpringDamper
+        from odsuite.domain.model import SpringDamper
 
         SpringDamper(**{"name": "k1", "point": np.zeros(3), "body": "platform", **kw})
     return run
@@ -240,7 +240,7 @@ def _spring(**kw):
 
 def _effect(effect: str, values: dict):
     def run(_d: Path):
-        from odsuite.core.plugins import registries
+        from odsuite.contracts.plugins import registries
         from odsuite_plugins.models.thesis import thesis_dynamometer
 
         registries().effects.get(effect).values(thesis_dynamometer(), values)
@@ -453,7 +453,7 @@ def master(tmp_path_factory):
     return d
 
 
-@pytest.mark.filterwarnings("ignore::odsuite.core.errors.OdsuiteWarning")
+@pytest.mark.filterwarnings("ignore::odsuite.domain.errors.OdsuiteWarning")
 @pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
 def test_bad_input(case, master, tmp_path, capsys):
     for f in ("p.h5", "good.DAT", "good.CTR"):

@@ -14,11 +14,11 @@ import numpy as np
 import pytest
 
 from odsuite.cli import main
-from odsuite.core.project import create_project, open_project
-from odsuite.core.storage import CRASH_ENV
+from odsuite.store.project import create_project, open_project
+from odsuite.store.storage import CRASH_ENV
 from tests.reliability.harness import ODSUITE
 
-pytestmark = pytest.mark.filterwarnings("ignore::odsuite.core.errors.OdsuiteWarning")
+pytestmark = pytest.mark.filterwarnings("ignore::odsuite.domain.errors.OdsuiteWarning")
 
 ROWS, CHANNELS, N_EXPERIMENTS = 20_000, 4, 12
 
@@ -31,8 +31,8 @@ def _expected(k: int) -> np.ndarray:
 WRITER = textwrap.dedent(f"""
     import sys
     import numpy as np
-    from odsuite.core.project import open_project
-    from odsuite.core.systeminfo import ChannelInfo, Systeminfo
+    from odsuite.store.project import open_project
+    from odsuite.domain.systeminfo import ChannelInfo, Systeminfo
     ROWS, CHANNELS = {ROWS}, {CHANNELS}
     def chunks(k):
         for r0 in range(0, ROWS, 2000):
@@ -110,7 +110,7 @@ def test_lock_of_a_killed_cli_writer_is_cleared(tmp_path, caplog, capsys):
     assert lock.read_text().split()[:2] == ["odsuite-lock", str(killed.pid)]  # the dead writer's pid is left behind
     leftover = path.with_name(f".p.h5.odsuite-tmp-{killed.pid}")
     assert leftover.exists()
-    with caplog.at_level(logging.WARNING, logger="odsuite.core.storage"):
+    with caplog.at_level(logging.WARNING, logger="odsuite.store.storage"):
         assert main(["acquire", str(path), "--daq", "sim", "--name", "x"]) == 0
     assert f"removing {leftover.name} left by an interrupted write" in caplog.text
     assert not leftover.exists()

@@ -12,7 +12,7 @@ import pytest
 from tests.reliability import harness
 from tests.reliability.harness import WRITING_COMMANDS, WritingCommand, run_kills
 
-pytestmark = pytest.mark.filterwarnings("ignore::odsuite.core.errors.OdsuiteWarning")
+pytestmark = pytest.mark.filterwarnings("ignore::odsuite.domain.errors.OdsuiteWarning")
 
 
 @pytest.fixture(scope="module")

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from odsuite.cli import main
-from odsuite.core.errors import ProjectFileError
-from odsuite.core.project import DerivedArray, create_project, open_project
-from odsuite.core.systeminfo import ChannelInfo, Systeminfo
+from odsuite.domain.errors import ProjectFileError
+from odsuite.store.project import DerivedArray, create_project, open_project
+from odsuite.domain.systeminfo import ChannelInfo, Systeminfo
 
 CHANNELS = 3
 
@@ -91,7 +91,7 @@ def test_a_1_0_0_file_whose_damaged_heap_hangs_hdf5_is_an_error(tmp_path, monkey
     """A fuzzing find: reading the root text of this damaged format-1.0.0 file sends HDF5's
     global-heap reader into an endless loop. Format-1.0.0 files are migrated in a child process,
     which is stopped."""
-    from odsuite.core import project_migration
+    from odsuite.store import project_migration
 
     monkeypatch.setattr(project_migration, "HEAP_TEXT_TIMEOUT", 2.0)
     path = tmp_path / "x.h5"

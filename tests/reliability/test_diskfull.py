@@ -14,11 +14,12 @@ import numpy as np
 import pytest
 
 from odsuite.cli import main
-from odsuite.core import diskspace, storage
+from odsuite.store import diskspace
+from odsuite.store import storage
 from tests.reliability.diskfull import COMMANDS, can_mount, run_full_disks, summary
 from tests.reliability.harness import units
 
-pytestmark = pytest.mark.filterwarnings("ignore::odsuite.core.errors.OdsuiteWarning")
+pytestmark = pytest.mark.filterwarnings("ignore::odsuite.domain.errors.OdsuiteWarning")
 
 LINE = re.compile(r"^error: (?P<project>\S+): no space left on (?P<device>\S+): needed ~(?P<mb>[0-9.]+) MB"
                   r"(, (?P<free>[0-9.]+) MB free)?; project unchanged$")
@@ -177,8 +178,8 @@ def test_thirty_six_small_disks(tmp_path):
 
 def test_reserved_blocks_are_trimmed_on_commit(project):
     """The room reserved before HDF5 writes (1 MiB beyond the data) does not stay in the project."""
-    from odsuite.core.project import open_project
-    from odsuite.core.systeminfo import ChannelInfo, Systeminfo
+    from odsuite.store.project import open_project
+    from odsuite.domain.systeminfo import ChannelInfo, Systeminfo
 
     size = project.stat().st_size
     with open_project(project, "a") as p:

@@ -26,7 +26,7 @@ import pytest
 from hypothesis import HealthCheck, given, seed, settings
 from hypothesis import strategies as st
 
-from odsuite.core.errors import OdsuiteError
+from odsuite.domain.errors import OdsuiteError
 from tests.reliability.harness import TABLE_E3, legacy_volts
 
 EXAMPLES = int(os.environ.get("FUZZ_EXAMPLES", "200"))
@@ -42,7 +42,7 @@ FUZZ = settings(max_examples=EXAMPLES, deadline=None, derandomize=SEED is None, 
 
 
 def _serve(conn, read) -> None:
-    from odsuite.core import project_migration
+    from odsuite.store import project_migration
 
     while True:
         path, timeout = conn.recv()
@@ -144,7 +144,7 @@ def corrupted(draw, bases: tuple[bytes, ...]) -> bytes:
 
 
 def _uff_bases(tmp: Path) -> tuple[bytes, ...]:
-    from odsuite.core.uff import time_function, write_uff
+    from odsuite_plugins.importers.uff import time_function, write_uff
 
     out = []
     for binary in (False, True):
@@ -156,8 +156,8 @@ def _uff_bases(tmp: Path) -> tuple[bytes, ...]:
 
 
 def _project_base(tmp: Path) -> bytes:
-    from odsuite.core.project import DerivedArray, create_project
-    from odsuite.core.systeminfo import ChannelInfo, Systeminfo
+    from odsuite.store.project import DerivedArray, create_project
+    from odsuite.domain.systeminfo import ChannelInfo, Systeminfo
 
     path = tmp / "base.h5"
     with create_project(path, rig=None) as p:
@@ -169,25 +169,25 @@ def _project_base(tmp: Path) -> bytes:
 
 
 def _read_ctr(path: Path) -> None:
-    from odsuite.core.legacy import read_ctr
+    from odsuite_plugins.importers.legacy import read_ctr
 
     read_ctr(path).validate(source=path)
 
 
 def _read_dat(path: Path) -> None:
-    from odsuite.core.legacy import read_dat
+    from odsuite_plugins.importers.legacy import read_dat
 
     read_dat(path, n_channels=11, sampling_rate=20_000.0)
 
 
 def _read_uff(path: Path) -> None:
-    from odsuite.core.uff import read_uff
+    from odsuite_plugins.importers.uff import read_uff
 
     read_uff(path)
 
 
 def _read_project(path: Path) -> None:
-    from odsuite.core.project import open_project
+    from odsuite.store.project import open_project
 
     with open_project(path) as p:
         p.info()
@@ -202,7 +202,7 @@ def _read_project(path: Path) -> None:
 
 
 def _ctr_bases() -> tuple[bytes, ...]:
-    from odsuite.core.legacy import format_ctr, read_ctr
+    from odsuite_plugins.importers.legacy import format_ctr, read_ctr
 
     table = TABLE_E3.read_bytes()
     return table, format_ctr(read_ctr(TABLE_E3)).encode()
@@ -222,7 +222,7 @@ SLOW = {"project-1.0.0"}
 FROZEN_1_0_0 = Path(__file__).resolve().parents[1] / "data" / "back_compat" / "project-1.0.0.h5"
 
 
-@pytest.mark.filterwarnings("ignore::odsuite.core.errors.OdsuiteWarning")
+@pytest.mark.filterwarnings("ignore::odsuite.domain.errors.OdsuiteWarning")
 @pytest.mark.parametrize("reader", list(READERS))
 def test_corrupted_bytes_end_in_a_result_or_an_odsuite_error(reader, tmp_path):
     read, make_bases, name = READERS[reader]
@@ -273,7 +273,7 @@ def test_damaged_metadata_is_named(tmp_path, damage, expected):
     experiment and derived group."""
     import h5py
 
-    from odsuite.core.errors import ProjectFileError
+    from odsuite.domain.errors import ProjectFileError
 
     path = tmp_path / "x.h5"
     path.write_bytes(_project_base(tmp_path))

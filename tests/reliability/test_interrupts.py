@@ -7,7 +7,7 @@ import pytest
 
 from tests.reliability.interrupts import COMMANDS, run_interrupts, summary
 
-pytestmark = pytest.mark.filterwarnings("ignore::odsuite.core.errors.OdsuiteWarning")
+pytestmark = pytest.mark.filterwarnings("ignore::odsuite.domain.errors.OdsuiteWarning")
 
 
 def test_one_interrupt_per_command(tmp_path):
@@ -29,7 +29,7 @@ def test_a_held_interrupt_reaches_the_handler_when_the_block_ends():
     (a VTK call is never left by an exception), once; nothing held, nothing raised."""
     import signal
 
-    from odsuite.core.storage import interrupts_held
+    from odsuite.store.storage import interrupts_held
 
     calls = []
 
@@ -58,6 +58,6 @@ def test_the_interrupt_line_imports_nothing_heavy():
     import sys
 
     code = ("import sys; from odsuite import cli; print(cli._ledger.line()); "
-            "print(sorted(m for m in ('numpy', 'h5py', 'odsuite.core.storage') if m in sys.modules))")
+            "print(sorted(m for m in ('numpy', 'h5py', 'odsuite.store.storage') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.splitlines() == ["interrupted: nothing stored", "[]"]

@@ -14,14 +14,14 @@ from pathlib import Path
 
 import pytest
 
-from odsuite.core.errors import ProjectLockedError
-from odsuite.core.project import create_project, open_project
+from odsuite.domain.errors import ProjectLockedError
+from odsuite.store.project import create_project, open_project
 
 # The writer forks a child that outlives it, reports the child's pid, then is SIGKILLed (no cleanup).
 # With keep=1 the child deliberately keeps a duplicate of the lock descriptor: the negative control.
 FORKING_WRITER = textwrap.dedent("""
     import os, signal, sys, time
-    from odsuite.core.project import open_project
+    from odsuite.store.project import open_project
     p = open_project(sys.argv[1], "a")
     lock_fd = p._lock.fileno()
     keep = os.dup(lock_fd) if sys.argv[2] == "1" else None
@@ -98,7 +98,7 @@ def test_a_forked_child_closing_its_project_leaves_the_parents_lock(tmp_path):
             os._exit(code)
         _, status = os.waitpid(child, 0)
         assert os.waitstatus_to_exitcode(status) == 0
-        probe = subprocess.run([sys.executable, "-c", "import sys; from odsuite.core.project import open_project; "
+        probe = subprocess.run([sys.executable, "-c", "import sys; from odsuite.store.project import open_project; "
                                 "open_project(sys.argv[1], 'a')", str(project)], capture_output=True, text=True,
                                timeout=60)
         assert "project is open in another process" in probe.stderr

@@ -9,7 +9,7 @@ from odsuite import cli
 from odsuite.cli import main, shown
 from tests.reliability.test_bad_input import LVM_TEXT
 
-pytestmark = pytest.mark.filterwarnings("ignore::odsuite.core.errors.OdsuiteWarning")
+pytestmark = pytest.mark.filterwarnings("ignore::odsuite.domain.errors.OdsuiteWarning")
 
 
 def test_shown_escapes_only_what_is_not_printable():

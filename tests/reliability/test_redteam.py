@@ -8,7 +8,7 @@ import pytest
 
 from tests.reliability.redteam import run_redteam, summary
 
-pytestmark = pytest.mark.filterwarnings("ignore::odsuite.core.errors.OdsuiteWarning")
+pytestmark = pytest.mark.filterwarnings("ignore::odsuite.domain.errors.OdsuiteWarning")
 
 
 def test_redteam_subset(tmp_path):

@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from odsuite.core.errors import OdsuiteError
-from odsuite.core.uff import UffGeometry, read_uff, time_function, write_uff
+from odsuite.domain.errors import OdsuiteError
+from odsuite_plugins.importers.uff import UffGeometry, read_uff, time_function, write_uff
 
 FILES = int(os.environ.get("UFF_FUZZ_FILES", "150"))  # per base file: 2 x 150 = 300 in the fast suite
 KINDS = ("cut", "line-lost", "line-doubled", "byte-changed", "count-changed")

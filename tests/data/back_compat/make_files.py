@@ -14,11 +14,11 @@ from pathlib import Path
 
 import numpy as np
 
-from odsuite.core.project import DerivedArray, Excitation, create_project
-from odsuite.core.project_format import FORMAT_VERSION
-from odsuite.core.plugins import registries
-from odsuite.core.rig import load_rig
-from odsuite.core.systeminfo import ChannelInfo, FilterFamily, RigInfo, SensorType, Systeminfo
+from odsuite.store.project import DerivedArray, Excitation, create_project
+from odsuite.store.project_format import FORMAT_VERSION
+from odsuite.contracts.plugins import registries
+from odsuite.domain.rig import load_rig
+from odsuite.domain.systeminfo import ChannelInfo, FilterFamily, RigInfo, SensorType, Systeminfo
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[2]

@@ -10,9 +10,9 @@ import pytest
 from odsuite_plugins.beam.fe import BeamSpec, BeamStructure, PointMass, Support
 from odsuite_plugins.beam.model import beam_model
 
-from odsuite.core.errors import ConfigError
-from odsuite.core.model import Input, Model, Output
-from odsuite.core.rig import load_rig
+from odsuite.domain.errors import ConfigError
+from odsuite.domain.model import Input, Model, Output
+from odsuite.domain.rig import load_rig
 
 RIG = Path(__file__).resolve().parents[3] / "projects" / "rigs" / "ladisk-beam.toml"
 L, MU, EI = 0.5, 2.0, 100.0  # m, kg/m, N m^2

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from odsuite_plugins.beam.fe import BeamSpec, BeamStructure, Support
 
-from odsuite.core.lvm import read_lvm
-from odsuite.core.model import Input, Model, Output, Sensor
+from odsuite_plugins.importers.lvm import read_lvm
+from odsuite.domain.model import Input, Model, Output, Sensor
 
 L, MU, EI = 0.5, 2.0, 100.0  # m, kg/m, N m^2: bending modes near 101, 277, 544, 900 Hz
 TRUE_ZETA = (0.004, 0.003, 0.002, 0.0015)

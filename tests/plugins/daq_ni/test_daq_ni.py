@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from odsuite_plugins.daq_ni.backend import NiDaq, available
 
-from odsuite.core.acquisition import acquire
-from odsuite.core.daq import AcquisitionSettings
-from odsuite.core.errors import ConfigError, HardwareError
+from odsuite.processing.acquisition import acquire
+from odsuite.contracts.daq import AcquisitionSettings
+from odsuite.domain.errors import ConfigError, HardwareError
 
 sys.path.insert(0, str(Path(__file__).parent))
 import fake_nidaqmx as fake  # noqa: E402
@@ -141,7 +141,7 @@ def test_over_range_warning_becomes_a_hardware_error(card, thesis_rig):
 
 
 def test_streams_into_project_and_a_failed_read_stores_nothing(card, thesis_rig, tmp_path):
-    from odsuite.core.project import create_project
+    from odsuite.store.project import create_project
 
     with create_project(tmp_path / "p.odsuite") as project:
         exp, _ = acquire(project, NiDaq(), "hit1", settings(), point=[0.0, 0.004122, -0.011399],

@@ -14,10 +14,10 @@ from odsuite_plugins.daq_sim.operating import ground_accelerations, rotation_len
 from odsuite_plugins.daq_sim.truth import model_truth
 
 from odsuite.cli import main
-from odsuite.core.model import Input, Output
-from odsuite.core.plugins import registries
-from odsuite.core.project import open_project
-from odsuite.core.rig import load_rig
+from odsuite.domain.model import Input, Output
+from odsuite.contracts.plugins import registries
+from odsuite.store.project import open_project
+from odsuite.domain.rig import load_rig
 
 RIGS = Path(__file__).resolve().parents[3] / "projects" / "rigs"
 

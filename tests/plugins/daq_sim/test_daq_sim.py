@@ -17,9 +17,9 @@ from odsuite_plugins.daq_sim.simulator import (
 )
 from scipy import signal
 
-from odsuite.core.acquisition import acquire
-from odsuite.core.daq import AcquisitionSettings, rig_systeminfo
-from odsuite.core.errors import ConfigError, HardwareError
+from odsuite.processing.acquisition import acquire
+from odsuite.contracts.daq import AcquisitionSettings, rig_systeminfo
+from odsuite.domain.errors import ConfigError, HardwareError
 
 FORCE = 0
 
@@ -227,7 +227,7 @@ def test_bad_options_give_one_line_errors(sim, thesis_rig):
 
 
 def test_acquire_streams_into_project(sim, thesis_rig, tmp_path):
-    from odsuite.core.project import create_project
+    from odsuite.store.project import create_project
 
     stages = []
     with create_project(tmp_path / "p.odsuite") as project:

@@ -9,8 +9,8 @@ from odsuite_plugins.daq_sim.scenarios import SCENARIOS
 from odsuite_plugins.daq_sim.simulator import SimulatedRig
 
 from odsuite.cli import main
-from odsuite.core.daq import AcquisitionSettings
-from odsuite.core.project import open_project
+from odsuite.contracts.daq import AcquisitionSettings
+from odsuite.store.project import open_project
 
 
 def test_acquire_sim_scenario_is_the_seeded_record(tmp_path, thesis_rig, capsys):

@@ -16,18 +16,18 @@ import numpy as np
 import pytest
 from odsuite_plugins.daq_sim.simulator import SimulatedRig, default_chains
 
-from odsuite.core.acquisition import acquire
-from odsuite.core.daq import AcquisitionSettings, rig_systeminfo
-from odsuite.core.project import create_project
+from odsuite.processing.acquisition import acquire
+from odsuite.contracts.daq import AcquisitionSettings, rig_systeminfo
+from odsuite.store.project import create_project
 
 
 @pytest.mark.parametrize("scenario", ["T3", "T5", "T6"])
 def test_processed_gencoords_match_the_models_within_2_percent(tmp_path, thesis_rig, scenario):
     from odsuite_plugins.daq_sim.truth import truth_model
 
-    from odsuite.core.model import Input, Output
-    from odsuite.core.pipeline import process_experiment
-    from odsuite.core.simulation import simulate
+    from odsuite.domain.model import Input, Output
+    from odsuite.processing.pipeline import process_experiment
+    from odsuite.domain.simulation import simulate
 
     with create_project(tmp_path / "p.h5") as project:
         chains = {k: replace(c, adc_bits=16) for k, c in

@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from odsuite.core.plugins import registries
+from odsuite.contracts.plugins import registries
 from odsuite_plugins.daq_sim.demo import HIDDEN_EFFECTS, PROJECT_NAME, effective_scales
 
 
@@ -28,9 +28,9 @@ def test_spring_totals_are_the_hand_summed_stiffness_ratios(thesis_rig):
 @pytest.mark.slow
 def test_demo_finds_both_hidden_effects_and_the_error_falls_each_round(tmp_path, capsys):
     from odsuite.cli import main
-    from odsuite.core.history import history
-    from odsuite.core.modelrev import current_revision
-    from odsuite.core.project import open_project
+    from odsuite.analysis.history import history
+    from odsuite.analysis.modelrev import current_revision
+    from odsuite.store.project import open_project
 
     out = tmp_path / "demo"
     assert main(["demo", "--out", str(out)]) == 0

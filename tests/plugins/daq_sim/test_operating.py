@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 
 from odsuite.cli import main
-from odsuite.core.modal import mac
-from odsuite.core.model import Input, Output
-from odsuite.core.plugins import registries
-from odsuite.core.project import open_project
-from odsuite.core.systeminfo import SensorType
+from odsuite.analysis.modal import mac
+from odsuite.domain.model import Input, Output
+from odsuite.contracts.plugins import registries
+from odsuite.store.project import open_project
+from odsuite.domain.systeminfo import SensorType
 
 RIGS = Path(__file__).resolve().parents[3] / "plugins" / "models" / "rigs"
 CORNER = "35.7,76.4,-11.4"  # mm: near the top face's far corner, so that every rigid-body mode takes part
@@ -184,7 +184,7 @@ def test_sweep_covers_the_band(tmp_path, capsys):
     mode groups, and the record has no force channel."""
     import scipy.signal
 
-    from odsuite.core.modal_project import physical, response_columns
+    from odsuite.analysis.modal_project import physical, response_columns
 
     p = tmp_path / "s.h5"
     assert main(["new", str(p)]) == 0

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from odsuite_plugins.daq_sim.simulator import SimulatedRig
 
-from odsuite.core.daq import AcquisitionSettings
-from odsuite.core.errors import ConfigError
-from odsuite.core.rig import load_rig
+from odsuite.contracts.daq import AcquisitionSettings
+from odsuite.domain.errors import ConfigError
+from odsuite.domain.rig import load_rig
 
 RIG_FILE = Path(__file__).resolve().parents[3] / "projects" / "rigs" / "two-body-machine.toml"
 SETTINGS = AcquisitionSettings(sampling_rate=10240.0, n_samples=2048, pretrigger=256)

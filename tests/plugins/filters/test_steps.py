@@ -7,7 +7,7 @@ import pytest
 import scipy.integrate
 import scipy.signal
 
-from odsuite.core.errors import ConfigError
+from odsuite.domain.errors import ConfigError
 from odsuite_plugins.filters import steps
 
 FS = 20_000.0
@@ -51,7 +51,7 @@ def test_causal_filter_equals_sosfilt():
 
 def test_zero_phase_equals_sosfiltfilt():
     x = np.random.default_rng(2).standard_normal(6000) + np.linspace(0, 3, 6000)
-    from odsuite.core.chain_spec import build_chain
+    from odsuite.processing.chain_spec import build_chain
 
     chain = build_chain([{"step": "iir", "order": 8, "cutoff_low": 20.0, "zero_phase": True}], fs=FS)
     ref = scipy.signal.sosfiltfilt(steps.design_sos(fs=FS, order=8, cutoff_low=20.0), x)

@@ -7,9 +7,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from odsuite.core import rigidbody as rb
-from odsuite.core.errors import ConfigError, DimensionError
-from odsuite.core.rig import Sensor
+from odsuite.domain import rigidbody as rb
+from odsuite.domain.errors import ConfigError, DimensionError
+from odsuite.domain.rig import Sensor
 
 FS = 20_000.0
 

@@ -11,7 +11,7 @@ import pytest
 from odsuite_plugins.models.rigid_bodies import rigid_bodies as rigid_bodies_model
 from odsuite_plugins.models.thesis import thesis_car_2dof
 
-from odsuite.core.rig import rig_from_dict
+from odsuite.domain.rig import rig_from_dict
 
 RIG_FILE = Path(__file__).resolve().parents[3] / "projects" / "rigs" / "thesis-car-2dof.toml"
 
@@ -40,7 +40,7 @@ def test_same_modes_as_the_coded_car_model(undamped):
 
 
 def test_two_vertical_sensors_solve_bounce_and_pitch(registries):
-    from odsuite.core.solvers import choose_solver
+    from odsuite.contracts.solvers import choose_solver
 
     rig = rig_from_dict(tomllib.loads(RIG_FILE.read_text()), registries.sensor_types)
     body = rig.body("car")

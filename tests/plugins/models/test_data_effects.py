@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 import scipy.integrate
 
-from odsuite.core.model import Input, Model, Output
-from odsuite.core.modelrev import RevisionModel
-from odsuite.core.simulation import sampled_later, simulate, simulate_nonlinear
+from odsuite.domain.model import Input, Model, Output
+from odsuite.analysis.modelrev import RevisionModel
+from odsuite.domain.simulation import sampled_later, simulate, simulate_nonlinear
 
 FS = 20_000.0
 TOP = Input.force((0.025, -0.040, -0.0114), (0, 0, 1))  # down on the top face
@@ -49,7 +49,7 @@ def test_nonlinear_simulation_matches_scipy_dop853(registries, model, monkeypatc
     # measured 6.4e-4 of the response where the hardening changes it by 25 %
     assert np.abs(qdd - ref).max() < 1e-3 * np.abs(ref).max()
     # second order: half the step, a quarter of the error
-    monkeypatch.setattr("odsuite.core.simulation.NONLINEAR_STEPS_PER_SAMPLE", 2)
+    monkeypatch.setattr("odsuite.domain.simulation.NONLINEAR_STEPS_PER_SAMPLE", 2)
     finer = simulate_nonlinear(st, bf, force, FS)
     assert np.abs(finer - ref).max() < 0.3 * np.abs(qdd - ref).max()
     # the hardening is in the response: the linear model differs by far more than that
@@ -187,10 +187,10 @@ def test_a_missing_modes_response_alone_is_the_whole_structures_change(tmp_path,
 
     from dataclasses import replace
 
-    from odsuite.core.model import AnalogFilter, FlexibleMode
-    from odsuite.core.modelrev import revision_model
-    from odsuite.core.prediction import flexible_mode_change, predict, prepare
-    from odsuite.core.project import open_project
+    from odsuite.domain.model import AnalogFilter, FlexibleMode
+    from odsuite.analysis.modelrev import revision_model
+    from odsuite.analysis.prediction import flexible_mode_change, predict, prepare
+    from odsuite.store.project import open_project
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "core"))
     from hidden_effects import make_project
@@ -254,7 +254,7 @@ def test_two_missing_modes_stored_in_a_revision_keep_their_own_force_participati
     """A structure may lack two modes: missing_mode added twice. The revision applies each entry's
     hit participation with that entry's shared values, so each lands on its own mode (by the
     entry's frequency), as applying both modes with their participations at once."""
-    from odsuite.core.modelrev import apply_effects, instance_names
+    from odsuite.analysis.modelrev import apply_effects, instance_names
 
     eff = registries.effects.get("missing_mode")
     first = {"frequency_hz": 640.0, "damping_ratio": 0.02, "phi_zC": 0.7, "phi_z2": -0.4}

@@ -13,8 +13,8 @@ from odsuite_plugins.models.thesis import (
     thesis_dynamometer,
 )
 
-from odsuite.core.errors import ConfigError
-from odsuite.core.model import Input, Model, Output, RigidBody, SpringDamper
+from odsuite.domain.errors import ConfigError
+from odsuite.domain.model import Input, Model, Output, RigidBody, SpringDamper
 
 
 def app_b_k(kx, ky, kz, a, b, h):

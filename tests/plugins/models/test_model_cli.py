@@ -8,7 +8,7 @@ import numpy as np
 from odsuite_plugins.models import thesis_dynamometer
 
 from odsuite.cli import main
-from odsuite.core.project import create_project, open_project
+from odsuite.store.project import create_project, open_project
 
 
 def run_json(capsys, *args) -> dict:

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from odsuite import hookimpl
-from odsuite.core.effects import Effect, Parameter
-from odsuite.core.errors import ConfigError
-from odsuite.core.model import Input, Model, Output, RigidBody, SpringDamper, Structure
-from odsuite.core.plugins import build_registries, make_plugin_manager
-from odsuite.core.simulation import simulate
+from odsuite.contracts.effects import Effect, Parameter
+from odsuite.domain.errors import ConfigError
+from odsuite.domain.model import Input, Model, Output, RigidBody, SpringDamper, Structure
+from odsuite.contracts.plugins import build_registries, make_plugin_manager
+from odsuite.domain.simulation import simulate
 
 FREQS = np.array([20.0, 97.4, 150.0, 222.0, 400.0, 900.0])
 T5 = Input.force((0.050025, -0.075761, -0.00632), (-1, 0, 0))  # Table 5.3 test 5

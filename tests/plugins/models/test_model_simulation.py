@@ -7,9 +7,9 @@ import pytest
 import scipy.signal
 from odsuite_plugins.models.thesis import thesis_dynamometer
 
-from odsuite.core.errors import ConfigError, DimensionError
-from odsuite.core.model import Input, Model, Output, RigidBody, SpringDamper
-from odsuite.core.simulation import simulate
+from odsuite.domain.errors import ConfigError, DimensionError
+from odsuite.domain.model import Input, Model, Output, RigidBody, SpringDamper
+from odsuite.domain.simulation import simulate
 
 FS = 20_000.0
 
@@ -113,8 +113,8 @@ def test_sdof_impulse_response_converges_to_closed_form():
 def test_sensor_dynamics_in_series_match_lsim(thesis_rig, monkeypatch, hold, path):
     """Nine identical sensor filters (Eq. 2.2: 0.5 Hz high-pass, 25 kHz resonance) in series with
     the structure: repeated, widely spread eigenvalues; both simulation paths still match lsim."""
-    from odsuite.core import simulation
-    from odsuite.core.model import SensorDynamics
+    from odsuite.domain import simulation
+    from odsuite.domain.model import SensorDynamics
 
     if path != "modal":
         monkeypatch.setattr(simulation, "MAX_MODAL_CONDITION", 0.0)

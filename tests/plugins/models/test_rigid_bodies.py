@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from odsuite.core.errors import ConfigError
-from odsuite.core.rig import rig_from_dict
+from odsuite.domain.errors import ConfigError
+from odsuite.domain.rig import rig_from_dict
 
 
 def test_thesis_rig_file_gives_the_thesis_model_exactly(registries, thesis_rig):

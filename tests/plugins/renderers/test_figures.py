@@ -9,7 +9,7 @@ import pytest
 from PIL import Image
 from scipy.spatial.transform import Rotation
 
-from odsuite.core.errors import ConfigError, DimensionError
+from odsuite.domain.errors import ConfigError, DimensionError
 from odsuite_plugins.renderers.figures import (comparison_figure, projection_figure,
                                                residual_spectra_figure)
 

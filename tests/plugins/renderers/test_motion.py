@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from odsuite.core.errors import ConfigError
+from odsuite.domain.errors import ConfigError
 from odsuite_plugins.renderers.motion import (characteristic_instant, contact_index,
                                               default_magnification)
 

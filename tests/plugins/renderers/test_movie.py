@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from odsuite.core.errors import ConfigError
+from odsuite.domain.errors import ConfigError
 from odsuite_plugins.renderers import movie
 from odsuite_plugins.renderers.movie import frame_plan, render_movie
 

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from odsuite.core.errors import ConfigError
+from odsuite.domain.errors import ConfigError
 
 CHROMIUM = Path("/usr/bin/chromium")
 
@@ -90,9 +90,9 @@ def parse(path: Path) -> _Page:
 @pytest.fixture(scope="module")
 def story(tmp_path_factory):
     """The project, the diagnosis made at revision 0 and the report built with them."""
-    from odsuite.core.add_effect import add_effect
-    from odsuite.core.diagnosis import diagnose
-    from odsuite.core.project import open_project
+    from odsuite.diagnosis.add_effect import add_effect
+    from odsuite.diagnosis.diagnose import diagnose
+    from odsuite.store.project import open_project
     from odsuite_plugins.renderers.report import build_report
     from tests.core.hidden_effects import make_project
 
@@ -109,9 +109,9 @@ def story(tmp_path_factory):
 
 @pytest.mark.slow
 def test_report_numbers_are_compares(story):
-    from odsuite.core.comparison import compare
-    from odsuite.core.history import history
-    from odsuite.core.project import open_project
+    from odsuite.analysis.comparison import compare
+    from odsuite.analysis.history import history
+    from odsuite.store.project import open_project
     from odsuite_plugins.renderers.report import SECTIONS
 
     path, diag, added, result = story
@@ -139,7 +139,7 @@ def test_report_numbers_are_compares(story):
     assert [r[3] for r in page.tables["history"][1:]] == [f"{r['error']:.4f}" for r in hist["revisions"]]
     assert hist["noise_floor_error"] == pytest.approx(cmp["noise_floor_error"], rel=1e-12)
     # the test record: the version that wrote the page, and every channel's serial and calibration
-    from odsuite.core.version import __version__
+    from odsuite.domain.version import __version__
 
     meta = dict((r[0], r[1]) for r in page.tables["metadata"][1:])
     assert meta["software"].startswith(f"odsuite {__version__} ")
@@ -159,8 +159,8 @@ def test_report_numbers_are_compares(story):
 def test_report_is_self_contained(story):
     from PIL import Image
 
-    from odsuite.core.comparison import compare
-    from odsuite.core.project import open_project
+    from odsuite.analysis.comparison import compare
+    from odsuite.store.project import open_project
 
     path, *_, result = story
     page = parse(result.path)
@@ -187,9 +187,9 @@ def test_report_is_self_contained(story):
 @pytest.mark.slow
 def test_model_coordinates_match_compare(story):
     """The on-the-fly model motion (render --model, the movie) gives compare's per-coordinate errors."""
-    from odsuite.core.comparison import COORDINATE_NAMES, compare, nrmse
-    from odsuite.core.prediction import experiment_coordinates
-    from odsuite.core.project import open_project
+    from odsuite.analysis.comparison import COORDINATE_NAMES, compare, nrmse
+    from odsuite.analysis.prediction import experiment_coordinates
+    from odsuite.store.project import open_project
 
     path, *_ = story
     with open_project(path) as p:
@@ -212,8 +212,8 @@ def test_model_coordinates_match_compare(story):
 @pytest.mark.slow
 def test_cli_report_without_diagnosis_and_movie(story, tmp_path, capsys):
     from odsuite.cli import main
-    from odsuite.core.comparison import compare
-    from odsuite.core.project import open_project
+    from odsuite.analysis.comparison import compare
+    from odsuite.store.project import open_project
 
     path, *_ = story
     out = tmp_path / "r.html"
@@ -256,7 +256,7 @@ def test_report_renders_in_chromium(story, tmp_path):
 
 
 def test_bad_input_is_one_line(tmp_path):
-    from odsuite.core.project import create_project
+    from odsuite.store.project import create_project
     from odsuite_plugins.renderers.report import build_report, load_diagnosis
 
     bad = tmp_path / "d.json"
@@ -281,8 +281,8 @@ def test_bad_input_is_one_line(tmp_path):
 def test_modal_table_of_the_rigid_model_is_compares(story):
     """The thesis rig's rigid-body model: the report tables compare's measured-against-model modes,
     with MAC from the nine accelerometers' shapes."""
-    from odsuite.core.comparison import compare
-    from odsuite.core.project import open_project
+    from odsuite.analysis.comparison import compare
+    from odsuite.store.project import open_project
 
     path, _, _, result = story
     with open_project(path) as p:
@@ -312,9 +312,9 @@ def test_report_draws_each_records_frf_and_mac(story, tmp_path, monkeypatch):
     """Per hammer record: the driving point's FRF on log-frequency axes (magnitude log-log, phase,
     coherence) with its unit, and the MAC matrix of measured against model modes whose values are
     compare's MAC numbers; at print width with type of 8 pt or more."""
-    from odsuite.core import modal_figures
-    from odsuite.core.comparison import compare
-    from odsuite.core.project import open_project
+    from odsuite.analysis import modal_figures
+    from odsuite.analysis.comparison import compare
+    from odsuite.store.project import open_project
     from odsuite_plugins.renderers.report import build_report
 
     path, *_ = story

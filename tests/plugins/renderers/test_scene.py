@@ -7,7 +7,7 @@ import pytest
 from scipy import ndimage
 from scipy.spatial.transform import Rotation
 
-from odsuite.core.errors import ConfigError, DimensionError
+from odsuite.domain.errors import ConfigError, DimensionError
 
 pytestmark = pytest.mark.render
 

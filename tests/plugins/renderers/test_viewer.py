@@ -27,7 +27,7 @@ def motion(n: int, scale: float = 1.0) -> dict[str, np.ndarray]:
 
 
 def test_viewer_data_are_the_posed_corners(thesis_rig):
-    from odsuite.core.rigidbody import body_corners, plate_corners
+    from odsuite.domain.rigidbody import body_corners, plate_corners
 
     coords = motion(3000)
     data = viewer_data(thesis_rig, coords, FS, start=1000, stop=2500, time_zero=0.05, magnify=(2000.0, 2000.0),

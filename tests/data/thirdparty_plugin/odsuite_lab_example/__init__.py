@@ -6,7 +6,7 @@ file names it), an importer (the lab's CSV of SI values) and a sensor type (acce
 in mV/g, as on their datasheets), exactly as a lab's installable package would.
 """
 
-from odsuite import hookimpl
+from odsuite.api import hookimpl
 
 
 @hookimpl

@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from odsuite.core.effects import Effect, Parameter
-from odsuite.core.model import RigidBody, Structure
+from odsuite.contracts.effects import Effect, Parameter
+from odsuite.api import RigidBody, Structure
 
 
 def _about(offset: np.ndarray) -> np.ndarray:

@@ -12,13 +12,13 @@ from pathlib import Path
 
 import numpy as np
 
-from odsuite import open_project
-from odsuite.core.daq import channel_name, rig_systeminfo
-from odsuite.core.errors import ConfigError, DimensionError
-from odsuite.core.importers import Imported, ImportOption
-from odsuite.core.importing import parse_force_direction, parse_force_point
-from odsuite.core.project import Excitation
-from odsuite.core.systeminfo import Systeminfo
+from odsuite.api import open_project
+from odsuite.contracts.daq import channel_name, rig_systeminfo
+from odsuite.api import ConfigError, DimensionError
+from odsuite.contracts.importers import Imported, ImportOption
+from odsuite.api import parse_force_direction, parse_force_point
+from odsuite.api import Excitation
+from odsuite.api import Systeminfo
 
 #: relative spread of the time steps accepted as one sampling rate (the text's rounding is ~1e-9)
 STEP_TOLERANCE = 1e-3

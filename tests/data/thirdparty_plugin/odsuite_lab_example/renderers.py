@@ -2,9 +2,9 @@
 
 import csv
 
-from odsuite import open_project
-from odsuite.core.errors import ConfigError
-from odsuite.core.renderers import Rendered
+from odsuite.api import open_project
+from odsuite.api import ConfigError
+from odsuite.contracts.renderers import Rendered
 
 COORDS = ("x_m", "y_m", "z_m", "theta_rad", "phi_rad", "psi_rad")
 

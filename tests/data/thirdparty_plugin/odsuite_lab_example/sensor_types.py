@@ -1,7 +1,7 @@
 """The lab's accelerometers as their datasheets state them: sensitivity in mV/g."""
 
-from odsuite.core.errors import ConfigError
-from odsuite.core.rig import single_axis_sensor
+from odsuite.api import ConfigError
+from odsuite.api import single_axis_sensor
 
 #: standard gravity, m/s^2 (ISO 80000-3): the g of every accelerometer datasheet
 G = 9.80665

@@ -10,8 +10,8 @@ odsuite's built-in least squares weights every sensor alike.
 
 import numpy as np
 
-from odsuite.core.errors import ConfigError
-from odsuite.core.rigidbody import SolverResult, body_sensors, com_to_corner, stack_signals
+from odsuite.api import ConfigError
+from odsuite.api import SolverResult, body_sensors, com_to_corner, stack_signals
 
 #: below the built-ins (least-squares 1, padgaonkar-nine 2): chosen only where a rig file names it
 SUITABILITY = 0.5

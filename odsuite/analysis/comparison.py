@@ -1,0 +1,354 @@
+"""Model against measurement, like with like (thesis Ch. 3.3, Fig. 3.7).
+
+The metrics of the comparison, on the predictions of :mod:`odsuite.analysis.prediction`: measured and
+predicted signals meet before integration (the contract's ``error``) and, after the full chain, as
+generalized coordinates; errors per experiment, channel, band and coordinate, residual peaks
+without a model mode, and measured against model resonances.
+
+``error`` = sqrt(sum (measured - model)^2 / sum measured^2) over all accelerometer channels of all
+experiments, at the chain's "acceleration" stage (after filter 1). The noise floor is the same
+quantity for a perfect model: the noise variance, estimated from samples before the hammer hit,
+over the measured energy.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.signal
+import scipy.stats
+
+from odsuite.analysis.noise_floor import FLOOR_TOLERANCE, NoiseFloor, estimate, welch
+from odsuite.analysis.prediction import (
+    PreparedExperiment,
+    coordinate_series,
+    impulse_response,
+    predict,
+    prepare,
+    sensor_noise,
+)
+from odsuite.domain.rig import Rig
+
+#: Frequency bands (Hz) of the per-band metrics; the last band runs to Nyquist.
+BAND_EDGES_HZ = (0.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0)
+COORDINATE_NAMES = ("x", "y", "z", "theta", "phi", "psi")
+
+
+def nrmse(measured: np.ndarray, predicted: np.ndarray, axis=None) -> np.ndarray | float:
+    """sqrt(sum (m - p)^2 / sum m^2); 0 is perfect."""
+    num = np.sum((measured - predicted) ** 2, axis=axis)
+    den = np.sum(measured**2, axis=axis)
+    return np.sqrt(num / np.where(den > 0, den, np.nan))
+
+
+def band_errors(measured: np.ndarray, predicted: np.ndarray, fs: float,
+                edges: Sequence[float] = BAND_EDGES_HZ) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """Per band and column: residual energy over measured energy (NRMSE in the band), and the band's
+    share of the measured energy. Parseval on the real FFT."""
+    n = measured.shape[0]
+    f = np.fft.rfftfreq(n, 1 / fs)
+    M = np.abs(np.fft.rfft(measured, axis=0)) ** 2
+    R = np.abs(np.fft.rfft(measured - predicted, axis=0)) ** 2
+    edges = [e for e in edges if e < fs / 2] + [fs / 2]
+    labels, err, share = [], [], []
+    total = M.sum(axis=0)
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        sel = (f >= lo) & (f < hi) if hi < fs / 2 else (f >= lo)
+        m, r = M[sel].sum(axis=0), R[sel].sum(axis=0)
+        labels.append(f"{lo:g}-{hi:g} Hz")
+        err.append(np.sqrt(r / np.where(m > 0, m, np.nan)))
+        share.append(m / np.where(total > 0, total, np.nan))
+    return labels, np.array(err), np.array(share)
+
+
+#: a residual peak is one the noise alone would reach with this probability over the whole spectrum
+PEAK_FALSE_ALARM = 0.01
+#: ... and that holds at least this share of the residual's energy (a smaller one moves the error
+#: by under 1 %)
+PEAK_MIN_SHARE = 0.02
+
+
+def residual_peaks(exps: Sequence[PreparedExperiment], predictions: Sequence[np.ndarray],
+                   model_modes_hz: Sequence[float] = (), floor: NoiseFloor | None = None, *,
+                   max_peaks: int = 5) -> list[dict[str, Any]]:
+    """Peaks of the pooled residual spectrum that the noise floor does not explain, each with the
+    channels where it is strongest and whether a model mode lies within 5 % of it ("lacking" when
+    none does). A frequency counts when the residual's Welch spectrum exceeds the floor's by more
+    than its chi-square spread allows (``PEAK_FALSE_ALARM`` over all frequencies: Bonferroni);
+    without a floor, every prominent peak is listed."""
+    fs = exps[0].fs
+    psd_sum = floor_sum = None
+    per_channel: dict[str, np.ndarray] = {}
+    segments = 1
+    for e, p in zip(exps, predictions):
+        f, pxx = welch(e.measured - p, fs, e.n_samples)
+        nfft = 2 * (len(f) - 1)
+        segments = max(1, 1 + (e.n_samples - nfft) // (nfft // 2))
+        psd_sum = pxx.sum(axis=1) if psd_sum is None else psd_sum + pxx.sum(axis=1)
+        if floor is not None and e.name in floor.spectra and len(floor.spectra[e.name][0]) == len(f):
+            fl = floor.spectra[e.name][1].sum(axis=1)
+            floor_sum = fl if floor_sum is None else floor_sum + fl
+        for j, s in enumerate(e.sensors):
+            per_channel[s.name] = per_channel.get(s.name, 0) + pxx[:, j]
+    if psd_sum is None or not np.any(psd_sum > 0):
+        return []
+    if floor_sum is not None:
+        # Welch with a Hann window and half overlap: about 1.8 degrees of freedom per segment
+        # (Welch 1967), pooled over experiments; a rig's channels share the force's noise and
+        # disturbances, so they are not counted as independent
+        dof = 1.8 * segments * len(exps)
+        limit = scipy.stats.chi2.isf(PEAK_FALSE_ALARM / len(f), dof) / dof
+        # most frequencies of a residual hold noise alone: their median ratio to the floor takes
+        # out the floor's overall calibration (within its tolerance) before single lines are tested
+        scale = float(np.clip(np.median(psd_sum / np.maximum(floor_sum, 1e-300)), 1.0, FLOOR_TOLERANCE**2))
+        floor_sum = floor_sum * scale
+        excess = np.where(psd_sum > limit * floor_sum, psd_sum - floor_sum, 0.0)
+        if not np.any(excess > 0):
+            return []
+        idx, props = scipy.signal.find_peaks(np.concatenate([[0.0], excess, [0.0]]), prominence=0.0)
+        idx = idx - 1
+        # a peak's share: its excess over the floor, summed over the bins around it above the limit
+        lo = np.flatnonzero(np.diff(np.concatenate([[0.0], (excess > 0).astype(float)])) > 0)
+        kept = []
+        for i in idx:
+            a = lo[lo <= i].max()
+            b = a + int(np.argmax(excess[a:] == 0)) if np.any(excess[a:] == 0) else len(excess)
+            kept.append(excess[a:b].sum() >= PEAK_MIN_SHARE * psd_sum.sum())
+        keep = np.asarray(kept, bool)
+        idx, props = idx[keep], {k: v[keep] for k, v in props.items()}
+        strength = excess
+    else:
+        idx, props = scipy.signal.find_peaks(psd_sum, prominence=0.05 * psd_sum.max())
+        strength = psd_sum
+    # the zero-frequency bin holds the record's mean and trend, which the chains' offsets and
+    # high-passes shape: it is not a resonance the model could lack
+    not_dc = idx > 0
+    idx, props = idx[not_dc], {k: v[not_dc] for k, v in props.items()}
+    order = np.argsort(props["prominences"])[::-1][:max_peaks]
+    peaks = []
+    for i in sorted(idx[order], key=lambda i: -strength[i]):
+        freq = float(f[i])
+        at = {name: float(v[i]) for name, v in per_channel.items()}
+        top = max(at.values())
+        channels = sorted((n for n, v in at.items() if v >= 0.25 * top), key=lambda n: -at[n])
+        near = [m for m in model_modes_hz if abs(m - freq) <= 0.05 * freq + f[1]]
+        peaks.append({"frequency_hz": freq, "share": float(strength[i] / psd_sum.sum()),
+                      "channels": channels, "model_mode_hz": float(near[0]) if near else None,
+                      "lacking": not near,
+                      **({"to_floor": float(psd_sum[i] / floor_sum[i])} if floor_sum is not None else {})})
+    return peaks
+
+
+@dataclass
+class Comparison:
+    """Everything ``compare`` reports; ``as_dict`` is the JSON contract."""
+
+    error: float
+    noise_floor_error: float
+    revision: int | None
+    experiments: dict[str, dict[str, Any]]
+    channels: dict[str, float]
+    coordinates: dict[str, dict[str, dict[str, float]]]
+    bands: dict[str, Any]
+    rigidity: dict[str, dict[str, Any]]
+    modes: dict[str, list[dict[str, float]]]
+    residual_peaks: list[dict[str, Any]]
+    worst: list[dict[str, Any]]
+    modal: list[dict[str, Any]] | None = None  # measured against model modes, per record
+    modal_notes: list[str] | None = None
+    notes: list[str] = field(default_factory=list)  # the records against the rig file
+    floor: NoiseFloor | None = None
+    # what the modal table rests on (FRFs, MAC matrices) for figures; not part of the JSON
+    modal_records: list | None = None
+
+    @property
+    def residual_to_floor(self) -> float:
+        return self.error / self.noise_floor_error if self.noise_floor_error > 0 else float("inf")
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"error": self.error, "noise_floor": self.noise_floor_error,
+                "noise_floor_error": self.noise_floor_error, "residual_to_floor": self.residual_to_floor,
+                "revision": self.revision, "experiments": self.experiments, "channels": self.channels,
+                "coordinates": self.coordinates, "bands": self.bands, "rigidity": self.rigidity,
+                "modes": self.modes, "residual_peaks": self.residual_peaks, "worst": self.worst,
+                "modal": self.modal, "modal_notes": self.modal_notes, "notes": self.notes}
+
+
+#: band of the FRF comparison and of the modes identified from measured FRFs (Hz)
+FRF_BAND_HZ = (20.0, 1000.0)
+
+
+def frf_comparison(exps: Sequence[PreparedExperiment], predictions: Sequence[np.ndarray],
+                   model_modes) -> dict[str, Any]:
+    """Measured and model FRFs (acceleration stage over the windowed force, so both include the
+    channel's filters) compared per channel, and resonances identified from both by the same LSCF
+    method (odsuite.analysis.modal), paired with each other and with the model's exact modes.
+
+    Each record holds one force point, so an FRF is one average: coherence needs repeated hits
+    (``odsuite frf``) and is not reported here."""
+    from odsuite.analysis.frf import estimate_frf
+    from odsuite.analysis.modal import identify_modes, pair_modes
+
+    lo, hi = FRF_BAND_HZ[0], min(FRF_BAND_HZ[1], 0.45 * exps[0].fs)
+    errors: dict[str, dict[str, float]] = {}
+    stacks: dict[str, list[np.ndarray]] = {"measured": [], "model": []}
+    freq = None
+    for e, p in zip(exps, predictions):
+        fm = estimate_frf([e.force], [e.measured], e.fs)
+        fp = estimate_frf([e.force], [p], e.fs)
+        keep = (fm.frequency >= lo) & (fm.frequency <= hi)
+        if freq is None:
+            freq = fm.frequency[keep]
+        elif len(fm.frequency[keep]) != len(freq) or not np.allclose(fm.frequency[keep], freq):
+            continue  # records of another length: their lines do not stack
+        hm, hp = fm.H[:, keep], fp.H[:, keep]
+        # lines where a channel barely responds (a z hit seen by an x sensor on the symmetry line)
+        # carry no information: they are left out, and a silent channel gets no value
+        seen = np.abs(hm) > 1e-6 * np.abs(hm).max()
+        with np.errstate(divide="ignore", invalid="ignore"):
+            db = np.where(seen, 20 * np.log10(np.abs(hp) / np.abs(hm)), np.nan)
+        errors[e.name] = {s.name: (float(np.sqrt(np.nanmean(row**2))) if np.isfinite(row).any() else None)
+                          for s, row in zip(e.sensors, db)}
+        stacks["measured"].append(hm)
+        stacks["model"].append(hp)
+    identified: dict[str, list[dict[str, float]]] = {}
+    notes = []
+    for side, parts in stacks.items():
+        try:
+            res = identify_modes(freq, np.vstack(parts), f_band=(lo, hi), max_order=40)
+            identified[side] = [{"frequency_hz": float(f), "damping_ratio": float(z)}
+                                for f, z in zip(res.frequency_hz, res.damping_ratio)]
+        except (ValueError, np.linalg.LinAlgError) as exc:  # ConfigError is a ValueError
+            identified[side] = []
+            notes.append(f"{side} modes not identified: {exc}")
+    exact = [m for m in model_modes.as_list() if lo <= m["frequency_hz"] <= hi]
+
+    def pairs(a, b):
+        if not a or not b:
+            return []
+        rows = pair_modes([m["frequency_hz"] for m in a], [m["damping_ratio"] for m in a],
+                          [m["frequency_hz"] for m in b], [m["damping_ratio"] for m in b])
+        return [{k: (float(v) if isinstance(v, (float, np.floating)) else v) for k, v in r.items()}
+                for r in rows]
+
+    return {"band_hz": [lo, hi], "magnitude_error_db": errors, "measured_modes": identified["measured"],
+            "model_identified_modes": identified["model"],
+            "measured_vs_model": pairs(identified["measured"], exact),
+            "measured_vs_model_identified": pairs(identified["measured"], identified["model"]),
+            "notes": notes}
+
+
+def pooled_error(exps: Sequence[PreparedExperiment], predictions: Sequence[np.ndarray]) -> float:
+    num = sum(float(np.sum((e.measured - p) ** 2)) for e, p in zip(exps, predictions))
+    den = sum(float(np.sum(e.measured**2)) for e in exps)
+    return float(np.sqrt(num / den)) if den > 0 else float("nan")
+
+
+def noise_floor(exps: Sequence[PreparedExperiment], model=None, *, spectra: bool = False) -> NoiseFloor:
+    """The calibrated noise floor (odsuite.analysis.noise_floor) of ``exps``; ``model`` (a
+    RevisionModel) carries the force channel's noise to the sensors (without it, that part is
+    left out)."""
+    if model is None:
+        return estimate(exps, spectra=spectra)
+    impulses = {e.name: impulse_response(model.for_experiment(e.name), e) for e in exps}
+    noise = {e.name: sensor_noise(model.for_experiment(e.name), e) for e in exps}
+    return estimate(exps, impulses, noise, spectra=spectra)
+
+
+def noise_floor_error(exps: Sequence[PreparedExperiment], model=None) -> float:
+    """The error a perfect model would have: expected noise energy over measured energy."""
+    return noise_floor(exps, model).error()
+
+
+def _coordinates(rig: Rig, exp: PreparedExperiment, model) -> tuple[dict, dict]:
+    """Per-coordinate errors of the generalized coordinates, for every body whose motion its sensors
+    determine, and the rigidity check on the measured accelerations where the body's solver has one."""
+    from odsuite.contracts.plugins import registries
+    from odsuite.contracts.solvers import choose_solver
+
+    coords, rigidity = {}, {}
+    for name, (gm, gp, cols) in coordinate_series(rig, exp, model).items():
+        coords[name] = {c: float(nrmse(gm[:, i], gp[:, i])) for i, c in enumerate(COORDINATE_NAMES)}
+        signals = {exp.sensors[j].name: exp.measured[:, j] for j in cols}
+        solver = choose_solver(rig, rig.body(name), signals, registries().coordinate_solvers).solver
+        if not hasattr(solver, "rigidity_check"):
+            continue
+        rig_check = solver.rigidity_check(rig, rig.body(name), signals)
+        rigidity[name] = {"fractions": {k: float(v) for k, v in rig_check.fractions.items()},
+                          "flagged": list(rig_check.flagged), "worst": rig_check.worst}
+    return coords, rigidity
+
+
+def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapping[str, Any] | None = None,
+            prepared: Sequence[PreparedExperiment] | None = None, resonances: bool = True) -> Comparison:
+    """Compare the current model revision (or ``revision``) with every experiment. ``resonances``:
+    also identify measured and model resonances from FRFs (a few seconds; the fitting loop, which
+    needs only the errors, leaves it out)."""
+    from odsuite.analysis.modal_comparison import modal_records
+    from odsuite.analysis.modelrev import RevisionModel, base_model, current_revision, revision_model
+
+    rev = revision or current_revision(project)
+    rmodel = revision_model(project, rev)
+    exps = list(prepared) if prepared is not None else prepare(project, experiments)
+    preds = [predict(rmodel.for_experiment(e.name), e) for e in exps]
+    model_modes = rmodel.shared.modes()
+    modes_hz = [float(f) for f in model_modes.frequency_hz]
+    # the floor of the rig's own model, whatever the revision: the same records, the same floor
+    floor = noise_floor(exps, RevisionModel(base_model(project.rig, rev.get("model"))), spectra=True)
+
+    per_exp, coords, rigidity = {}, {}, {}
+    chan_num: dict[str, float] = {}
+    chan_den: dict[str, float] = {}
+    band_num = band_den = None
+    labels: list[str] = []
+    for e, p in zip(exps, preds):
+        per_ch = nrmse(e.measured, p, axis=0)
+        per_exp[e.name] = {
+            "error": float(nrmse(e.measured, p)),
+            "noise_floor_error": floor.error([e.name]),
+            "channels": {s.name: float(v) for s, v in zip(e.sensors, per_ch)},
+            "trigger_sample": int(e.trigger),
+        }
+        for j, s in enumerate(e.sensors):
+            chan_num[s.name] = chan_num.get(s.name, 0.0) + float(np.sum((e.measured[:, j] - p[:, j]) ** 2))
+            chan_den[s.name] = chan_den.get(s.name, 0.0) + float(np.sum(e.measured[:, j] ** 2))
+        labels, berr, bshare = band_errors(e.measured, p, e.fs)
+        energy = np.sum(e.measured**2, axis=0)
+        num = (berr**2) * bshare * energy  # residual energy per band and channel
+        den = bshare * energy
+        band_num = num if band_num is None else band_num + num
+        band_den = den if band_den is None else band_den + den
+        coords[e.name], rigidity[e.name] = _coordinates(project.rig, e, rmodel.for_experiment(e.name))
+    channels = {n: float(np.sqrt(chan_num[n] / chan_den[n])) if chan_den[n] > 0 else float("nan")
+                for n in chan_num}
+    sensor_names = [s.name for s in exps[0].sensors]
+    band_table = np.sqrt(band_num / np.where(band_den > 0, band_den, np.nan))
+    band_share = band_den / np.nansum(band_den)
+    bands = {"labels": labels, "channels": sensor_names,
+             "error": [[None if not np.isfinite(v) else float(v) for v in row] for row in band_table],
+             "energy_share": [[float(v) for v in row] for row in band_share]}
+    worst: list[dict[str, Any]] = []
+    for n, v in sorted(channels.items(), key=lambda kv: -kv[1])[:3]:
+        worst.append({"kind": "channel", "name": n, "error": v})
+    flat_coords = [(f"{en}/{b}/{c}", v) for en, bd in coords.items() for b, cd in bd.items() for c, v in cd.items()]
+    for n, v in sorted(flat_coords, key=lambda kv: -kv[1])[:3]:
+        worst.append({"kind": "coordinate", "name": n, "error": v})
+    weighted = [(labels[i], float(np.nansum(band_num[i]) / np.nansum(band_den[i])) ** 0.5,
+                 float(np.nansum(band_num[i]) / np.nansum(band_num))) for i in range(len(labels))]
+    for n, v, share in sorted(weighted, key=lambda t: -t[2])[:3]:
+        worst.append({"kind": "band", "name": n, "error": v, "residual_share": share})
+    modal, modal_notes, records = (modal_records(project, [e.name for e in exps], rmodel.for_experiment)
+                                   if resonances else (None, None, None))
+    return Comparison(
+        error=pooled_error(exps, preds), noise_floor_error=floor.error(),
+        revision=rev.get("revision"), experiments=per_exp, channels=channels, coordinates=coords,
+        bands=bands, rigidity=rigidity,
+        modes={"model": model_modes.as_list(),
+               **(frf_comparison(exps, preds, model_modes) if resonances else {})},
+        residual_peaks=residual_peaks(exps, preds, modes_hz, floor), worst=worst, floor=floor,
+        modal=modal, modal_notes=modal_notes, modal_records=records,
+        notes=[n for e in exps for n in e.notes],
+    )

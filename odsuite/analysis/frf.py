@@ -1,0 +1,194 @@
+"""Frequency response functions from hammer hits: H1, H2 and Hv with coherence, averaged over hits
+(and over experiments with the same force point: pass all their hits together).
+
+Spectra are one-sided ``numpy.fft.rfft`` of each record; the FRF of response o to the force is
+complex, in (response unit)/(force unit), e.g. ``(m/s^2)/N``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from odsuite.domain.errors import ConfigError, DimensionError
+
+ESTIMATORS = ("H1", "H2", "Hv")
+#: power of (i omega) that turns a receptance (displacement/force) into each FRF form
+FORM_POWER = {"receptance": 0, "mobility": 1, "accelerance": 2}
+
+
+@dataclass(frozen=True)
+class FrfSet:
+    """FRFs of several responses to one force: ``H`` and ``coherence`` are outputs x frequencies."""
+
+    frequency: np.ndarray  # Hz
+    H: np.ndarray  # complex
+    coherence: np.ndarray
+    estimator: str
+    units: list[str]  # per output, e.g. "(m/s^2)/N"
+    output_names: list[str]
+    n_averages: int
+    force_autospectrum: np.ndarray | None = None  # |F|^2 per hit, averaged (N^2); None when unknown
+
+    def band(self, f_low: float, f_high: float) -> FrfSet:
+        """The lines with f_low <= f <= f_high."""
+        keep = (self.frequency >= f_low) & (self.frequency <= f_high)
+        if keep.sum() < 2:
+            raise ConfigError(f"band {f_low}..{f_high} Hz holds fewer than 2 frequency lines")
+        gff = None if self.force_autospectrum is None else self.force_autospectrum[keep]
+        return FrfSet(
+            self.frequency[keep], self.H[:, keep], self.coherence[:, keep], self.estimator,
+            self.units, self.output_names, self.n_averages, gff,
+        )
+
+
+def spectra(
+    forces: Sequence[np.ndarray], responses: Sequence[np.ndarray], window: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Averaged auto and cross spectra over hits: Gff (f), Gxx (o x f), Gfx = sum conj(F) X
+    (o x f) and the number of hits. ``window`` (samples, or samples x (1 + outputs) with the force
+    window first) multiplies each record before the FFT."""
+    if len(forces) != len(responses) or not forces:
+        raise DimensionError(f"{len(forces)} force records but {len(responses)} response records")
+    n = np.asarray(forces[0]).shape[0]
+    gff = 0.0
+    gxx = 0.0
+    gfx = 0.0
+    for k, (f, x) in enumerate(zip(forces, responses, strict=True)):
+        f = np.asarray(f, dtype=float)
+        x = np.asarray(x, dtype=float)
+        x = x[:, None] if x.ndim == 1 else x
+        if f.shape != (n,) or x.shape[0] != n:
+            raise DimensionError(
+                f"hit {k}: force {f.shape} and response {x.shape} records must all have {n} samples"
+            )
+        if window is not None:
+            w = np.asarray(window, dtype=float)
+            wf, wx = (w, w[:, None]) if w.ndim == 1 else (w[:, 0], w[:, 1:])
+            f, x = f * wf, x * wx
+        F = np.fft.rfft(f)
+        X = np.fft.rfft(x, axis=0).T
+        gff = gff + np.abs(F) ** 2
+        gxx = gxx + np.abs(X) ** 2
+        gfx = gfx + np.conj(F) * X
+    return np.asarray(gff), np.asarray(gxx), np.asarray(gfx), np.asarray(len(forces))
+
+
+def estimate_frf(
+    forces: Sequence[np.ndarray],
+    responses: Sequence[np.ndarray],
+    fs: float,
+    *,
+    estimator: str = "H1",
+    window: np.ndarray | None = None,
+    force_unit: str = "N",
+    response_units: Sequence[str] | None = None,
+    output_names: Sequence[str] | None = None,
+) -> FrfSet:
+    """FRFs of every response to the force, averaged over the given hits (equal-length records).
+
+    H1 = Gfx/Gff (noise on the response), H2 = Gxx/Gxf (noise on the force), Hv the total-least-
+    squares estimate between them; coherence = |Gfx|^2/(Gff Gxx)."""
+    if estimator not in ESTIMATORS:
+        raise ConfigError(f"FRF estimator {estimator!r} is not one of {', '.join(ESTIMATORS)}")
+    gff, gxx, gfx, count = spectra(forces, responses, window)
+    n = np.asarray(forces[0]).shape[0]
+    tiny = np.finfo(float).tiny
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if estimator == "H1":
+            H = gfx / np.maximum(gff, tiny)
+        elif estimator == "H2":
+            H = gxx / np.conj(gfx)
+        else:
+            H = (gxx - gff + np.sqrt((gff - gxx) ** 2 + 4 * np.abs(gfx) ** 2)) / (2 * np.conj(gfx))
+        coh = np.abs(gfx) ** 2 / (gff * gxx)
+    H = np.where(np.isfinite(H), H, 0)
+    coh = np.where(np.isfinite(coh), coh, 0)
+    n_out = gxx.shape[0]
+    runits = list(response_units) if response_units is not None else ["m/s^2"] * n_out
+    names = list(output_names) if output_names is not None else [f"response {k}" for k in range(n_out)]
+    if len(runits) != n_out or len(names) != n_out:
+        raise DimensionError(f"{n_out} responses but {len(runits)} units and {len(names)} names")
+    return FrfSet(
+        frequency=np.fft.rfftfreq(n, 1.0 / fs),
+        H=H,
+        coherence=coh,
+        estimator=estimator,
+        units=[f"{_group(u)}/{_group(force_unit)}" for u in runits],
+        output_names=names,
+        n_averages=int(count),
+        force_autospectrum=gff / count,
+    )
+
+
+#: The band ends where the hammer's force autospectrum has fallen this far below its low-frequency
+#: level: the usual impact-testing rule is 10-20 dB; 10 dB (a third of the force amplitude) keeps
+#: the response at least 10 dB above what the same noise would give at low frequency.
+FORCE_DROP_DB = 10.0
+#: Largest normalised random error of |H1| a line may have to count as usable, Bendat & Piersol
+#: eps = sqrt(1 - coh) / (sqrt(coh) sqrt(2 n)) for n averages: 10 % keeps peak heights (and so
+#: residues) within 10 % at one standard deviation.
+MAX_RANDOM_ERROR = 0.1
+
+
+def usable_band(
+    frequency: np.ndarray,
+    force_autospectrum: np.ndarray | None = None,
+    coherence: np.ndarray | None = None,
+    n_averages: int = 1,
+) -> tuple[float, float]:
+    """The band (Hz) where the measurement supports a modal fit: from the first line above 0 Hz up
+    to where the force autospectrum (smoothed over 1 % of the lines) has dropped ``FORCE_DROP_DB``
+    below its low-frequency level (median over the lowest 5 % of the lines), narrowed to the
+    lines whose coherence over ``n_averages`` hits gives a random error of at most
+    ``MAX_RANDOM_ERROR`` (coherence of one hit is 1 by construction and says nothing)."""
+    import scipy.ndimage
+
+    f = np.asarray(frequency, dtype=float)
+    pos = np.flatnonzero(f > 0)
+    if pos.size < 4:
+        raise DimensionError(f"FRFs have {pos.size} lines above 0 Hz; a band needs at least 4")
+    lo_i, hi_i = int(pos[0]), int(f.size - 1)
+    width = max(3, f.size // 100) | 1  # odd, so the median filter is centred
+    if force_autospectrum is not None:
+        gff = scipy.ndimage.median_filter(np.asarray(force_autospectrum, dtype=float), width, mode="nearest")
+        ref = np.median(gff[pos[: max(4, f.size // 20)]])
+        low = np.flatnonzero((gff < ref * 10 ** (-FORCE_DROP_DB / 10)) & (f > 0))
+        if low.size and ref > 0:
+            hi_i = min(hi_i, int(low[0]) - 1)
+    if coherence is not None and n_averages > 1:
+        coh = np.clip(np.asarray(coherence, dtype=float), 1e-12, 1.0)
+        coh = coh[None, :] if coh.ndim == 1 else coh
+        # a line is usable when any output measures it well (several outputs: the best one)
+        eps = np.sqrt(1 - coh) / (np.sqrt(coh) * np.sqrt(2 * n_averages))
+        eps = scipy.ndimage.median_filter(eps.min(axis=0), width, mode="nearest")
+        good = np.flatnonzero((eps <= MAX_RANDOM_ERROR) & (f > 0))
+        if good.size:
+            lo_i, hi_i = max(lo_i, int(good[0])), min(hi_i, int(good[-1]))
+        else:
+            hi_i = lo_i
+    if hi_i - lo_i < 4:
+        raise ConfigError(
+            f"no usable band: the force spectrum falls {FORCE_DROP_DB:g} dB or the coherence drops "
+            f"below a {100 * MAX_RANDOM_ERROR:g} % random error within the first lines; give --fmin/--fmax")
+    return float(f[lo_i]), float(f[hi_i])
+
+
+def _group(unit: str) -> str:
+    """Parenthesise a compound unit so it can be divided: m/s^2 -> (m/s^2), N stays N."""
+    return f"({unit})" if any(c in unit for c in "/^* ") else unit
+
+
+def convert_form(frequency: np.ndarray, H: np.ndarray, source: str, target: str) -> np.ndarray:
+    """Convert FRFs between receptance, mobility and accelerance (multiply by (i omega)^k). Lines
+    at 0 Hz become 0 when dividing."""
+    for name in (source, target):
+        if name not in FORM_POWER:
+            raise ConfigError(f"FRF form {name!r} is not one of {', '.join(FORM_POWER)}")
+    k = FORM_POWER[target] - FORM_POWER[source]
+    iw = 2j * np.pi * np.asarray(frequency, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = np.asarray(H) * iw**k
+    return np.where(np.isfinite(out), out, 0)

@@ -1,0 +1,265 @@
+"""Impact-hammer test quality: split a record into hits, reject double hits and overloads, and the
+force and exponential windows (with the pole shift the exponential window adds).
+
+Conventions: ``force`` is 1-D (samples), ``responses`` is samples x channels, both in physical
+units; indices are samples.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from odsuite.domain.errors import ConfigError, DimensionError
+
+
+@dataclass(frozen=True)
+class Hit:
+    """One hammer hit: its record ``[start, stop)``, force peak and acceptance with reasons."""
+
+    start: int
+    stop: int
+    peak_index: int  # absolute sample of the force peak
+    peak_force: float
+    pulse_width: int  # samples the main pulse stays above 5 % of its peak
+    accepted: bool
+    reasons: tuple[str, ...]  # why it was rejected (empty when accepted)
+    notes: tuple[str, ...] = ()  # warnings that do not reject it
+
+    @property
+    def trigger(self) -> int:
+        """Sample of the force peak relative to ``start``."""
+        return self.peak_index - self.start
+
+
+def _as_2d(responses: np.ndarray, n: int) -> np.ndarray:
+    r = np.asarray(responses, dtype=float)
+    if r.ndim == 1:
+        r = r[:, None]
+    if r.ndim != 2 or r.shape[0] != n:
+        raise DimensionError(
+            f"responses have shape {np.shape(responses)}; expected {n} samples x channels like the force"
+        )
+    return r
+
+
+def find_hits(
+    force: np.ndarray, *, threshold: float = 0.2, min_gap: int, pretrigger: int = 0
+) -> list[int]:
+    """Sample of the force peak of every hit: a hit starts where |force - baseline| first exceeds
+    ``threshold`` x the largest excursion, and hits closer than ``min_gap`` samples merge into one
+    (a close second impact is then a double hit of the first). The baseline is the median."""
+    f = np.asarray(force, dtype=float)
+    if f.ndim != 1 or f.size == 0:
+        raise DimensionError(f"force must be a non-empty 1-D signal, got shape {f.shape}")
+    if not 0 < threshold < 1:
+        raise ConfigError(f"hit threshold {threshold} must lie between 0 and 1 (fraction of the peak)")
+    dev = np.abs(f - np.median(f))
+    above = np.flatnonzero(dev > threshold * dev.max())
+    peaks: list[int] = []
+    last_start = -(10**18)
+    for idx in above:
+        if idx - last_start >= min_gap:
+            last_start = int(idx)
+            # the peak lies within the pulse that starts here (search a short span after the crossing)
+            span = dev[idx : idx + max(min_gap // 4, 1)]
+            peaks.append(int(idx + np.argmax(span)))
+    return peaks
+
+
+def pulse_width(force: np.ndarray, peak: int, level: float = 0.05) -> tuple[int, int]:
+    """First and one-past-last sample around ``peak`` where |force - baseline| stays above ``level``
+    x the peak excursion (baseline: the median of the signal)."""
+    f = np.asarray(force, dtype=float)
+    dev = np.abs(f - np.median(f))
+    lim = level * dev[peak]
+    a = peak
+    while a > 0 and dev[a - 1] > lim:
+        a -= 1
+    b = peak + 1
+    while b < f.size and dev[b] > lim:
+        b += 1
+    return a, b
+
+
+def is_double_hit(force: np.ndarray, peak: int, *, level: float = 0.25, guard: int = 2) -> bool:
+    """True when, after the main pulse has ended, the force again pushes the same way by more than
+    ``level`` x the peak (a second impact on the rebound). Excursions of the other sign are the
+    anti-aliasing filter's ringing (about 30 % of the peak for a 0.5 ms blow through an 8th-order
+    1 kHz low-pass, with a same-sign lobe of about 15 %), not a hammer: a hammer only pushes."""
+    f = np.asarray(force, dtype=float)
+    dev = f - np.median(f)
+    _, end = pulse_width(f, peak)
+    rest = dev[end + guard :] * np.sign(dev[peak])
+    return bool(rest.size and rest.max() > level * abs(dev[peak]))
+
+
+def quantisation_step(signal: np.ndarray) -> float:
+    """The smallest difference between distinct sample values: the ADC code width of a converted
+    record (a finer number for unquantised data; 0 for a constant signal)."""
+    values = np.unique(np.asarray(signal, dtype=float))
+    return float(np.diff(values).min()) if values.size > 1 else 0.0
+
+
+def _steep_codes(run: int) -> float:
+    """How many codes a clipped flat top's neighbours must lie below it. A smooth (parabolic)
+    peak held within one code over ``run`` samples has curvature at most 1 code per ((run-1)/2)^2
+    samples^2, so its nearer neighbour lies at most ((run+1)/(run-1))^2 + 1 codes below (the +1:
+    rounding of both); twice that leaves room for noise (10 codes for run = 3)."""
+    return 2.0 * (((run + 1) / (run - 1)) ** 2 + 1.0)
+
+
+def is_clipped(signal: np.ndarray, *, limits: tuple[float, float] | None = None, run: int = 3) -> bool:
+    """True when the signal reaches its converter's range or shows a clipped flat top.
+
+    ``limits``: the ADC's input range (low, high) in the signal's own units, None when unknown
+    (files in engineering units): clipped when a sample lies within 1.5 codes of a limit (the top
+    code of an n-bit converter is one code below its high limit). Flat top: the record's largest
+    or smallest value held for ``run`` (>= 3) or more consecutive samples and entered and left
+    steeply (``_steep_codes``), at least half as far from the median as the largest excursion
+    (a hammer pulse's quiet side is its baseline): an amplifier or sensor saturating below the
+    converter's range. A
+    quantised but unclipped peak also sits on its top code for several samples, with neighbours
+    a code or two away, and passes."""
+    x = np.asarray(signal, dtype=float)
+    if run < 3:
+        raise ConfigError(f"flat-top run {run} must be at least 3 samples")
+    if x.size == 0:
+        return False
+    step = quantisation_step(x)
+    if limits is not None and (x.min() <= limits[0] + 1.5 * step or x.max() >= limits[1] - 1.5 * step):
+        return True
+    steep = _steep_codes(run) * step
+    baseline = np.median(x)
+    reach = np.abs(x - baseline).max()
+    for extreme, sign in ((x.max(), 1.0), (x.min(), -1.0)):
+        if sign * (extreme - baseline) < 0.5 * reach:
+            continue  # the quiet side of a one-sided pulse: its extreme is the baseline, not a limit
+        at = np.concatenate(([0], (x == extreme).astype(np.int8), [0]))
+        edges = np.diff(at)
+        for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True):
+            if b - a < run:
+                continue
+            # neighbours outside the record count as steep: the data end inside the flat top
+            before = sign * (extreme - x[a - 1]) if a > 0 else np.inf
+            after = sign * (extreme - x[b]) if b < x.size else np.inf
+            if min(before, after) > steep:
+                return True
+    return False
+
+
+def force_window(n: int, start: int, stop: int, taper: int = 0) -> np.ndarray:
+    """1 on ``[start, stop)``, half-cosine tapers of ``taper`` samples outside it, 0 elsewhere:
+    keeps the hammer pulse and removes the force channel's noise after it."""
+    if not 0 <= start < stop <= n:
+        raise ConfigError(f"force window [{start}, {stop}) does not fit a record of {n} samples")
+    w = np.zeros(n)
+    w[start:stop] = 1.0
+    if taper > 0:
+        ramp = 0.5 * (1 + np.cos(np.pi * np.arange(1, taper + 1) / (taper + 1)))
+        right = w[stop : stop + taper]
+        w[stop : stop + taper] = ramp[: right.size]
+        left = ramp[::-1][max(taper - start, 0) :]
+        w[start - left.size : start] = left
+    return w
+
+
+def exponential_window(n: int, fs: float, *, trigger: int = 0, end_value: float = 0.01) -> tuple[np.ndarray, float]:
+    """``w[k] = exp(-(k - trigger)/(fs tau))`` with tau chosen so that ``w[n-1] = end_value``.
+    Applied to force and response alike it is exact: the FRF becomes that of the system with every
+    pole shifted by -1/tau. Returns (window, tau in s)."""
+    if not 0 < end_value < 1:
+        raise ConfigError(f"exponential window end value {end_value} must lie between 0 and 1")
+    if not 0 <= trigger < n - 1:
+        raise ConfigError(f"exponential window trigger {trigger} must lie inside the {n}-sample record")
+    tau = -((n - 1 - trigger) / fs) / np.log(end_value)
+    return np.exp(-(np.arange(n) - trigger) / (fs * tau)), float(tau)
+
+
+def correct_exponential_window(poles: np.ndarray, tau: float) -> np.ndarray:
+    """Undo the damping an exponential window of time constant ``tau`` (s) added: the identified
+    poles lie 1/tau further left than the structure's, so lambda = lambda_w + 1/tau. Frequency and
+    damping follow as f = |lambda|/2pi, zeta = -Re lambda/|lambda|."""
+    return np.asarray(poles, dtype=complex) + 1.0 / tau
+
+
+def assess_hits(
+    force: np.ndarray,
+    responses: np.ndarray,
+    fs: float,
+    *,
+    record_length: int | None = None,
+    pretrigger: int | None = None,
+    threshold: float = 0.2,
+    double_hit_level: float = 0.25,
+    force_limits: tuple[float, float] | None = None,
+    response_limits: tuple[float, float] | Sequence[tuple[float, float] | None] | None = None,
+    decay_limit: float | None = 0.01,
+) -> list[Hit]:
+    """Split a record into hits and judge each: rejected for a double hit, a clipped or overloaded
+    force or response channel, or a record cut short by the data's end; noted (not rejected) when
+    the response has not decayed below ``decay_limit`` x its peak at the record end (leakage: use
+    an exponential window). Defaults: pretrigger 1 % of the record (at most the samples before the
+    first hit); records as long as the closest hits allow and the last hit's data reach. Limits
+    are the converters' ranges in the signals' units (``is_clipped``); ``response_limits`` is one
+    range for every response or one per response channel."""
+    f = np.asarray(force, dtype=float)
+    r = _as_2d(responses, f.size)
+    n = f.size
+    if response_limits is None or all(isinstance(v, (int, float, np.number)) for v in response_limits):
+        response_limits = [response_limits] * r.shape[1]
+    if len(response_limits) != r.shape[1]:
+        raise DimensionError(f"{len(response_limits)} response limits for {r.shape[1]} response channels")
+    if record_length is not None and record_length < 8:
+        raise ConfigError(f"record length {record_length} samples is too short for a hit")
+    gap = record_length if record_length is not None else max(n // 64, 8)
+    peaks = find_hits(f, threshold=threshold, min_gap=gap)
+    if not peaks:
+        return []
+    if pretrigger is None:
+        pretrigger = min(peaks[0], max((record_length or n) // 100, 1))
+    if record_length is None:
+        # equal records for averaging: as long as the closest hits allow, and the last one fits
+        record_length = n - peaks[-1] + pretrigger
+        if len(peaks) > 1:
+            record_length = min(record_length, int(np.diff(peaks).min()))
+    hits = []
+    for p in peaks:
+        start = p - pretrigger
+        stop = start + record_length
+        reasons: list[str] = []
+        notes: list[str] = []
+        if start < 0 or stop > n:
+            reasons.append(f"record [{start}, {stop}) runs past the data (0..{n})")
+        a, b = max(start, 0), min(stop, n)
+        fseg = f[a:b]
+        local_peak = p - a
+        pw = pulse_width(fseg, local_peak)
+        if is_double_hit(fseg, local_peak, level=double_hit_level):
+            reasons.append("double hit")
+        if is_clipped(fseg, limits=force_limits):
+            reasons.append("force clipped/overloaded")
+        for c in range(r.shape[1]):
+            seg = r[a:b, c]
+            if is_clipped(seg, limits=response_limits[c]):
+                reasons.append(f"response channel {c} clipped/overloaded")
+            if decay_limit is not None and seg.size > 20:
+                tail = np.abs(seg[-max(seg.size // 50, 4) :] - np.median(seg[: max(local_peak, 1)]))
+                ratio = tail.max() / max(np.abs(seg).max(), 1e-300)
+                if ratio > decay_limit:
+                    notes.append(f"response channel {c} at {100 * ratio:.1f} % of its peak at record end")
+        hits.append(
+            Hit(
+                start=start,
+                stop=stop,
+                peak_index=p,
+                peak_force=float(f[p]),
+                pulse_width=pw[1] - pw[0],
+                accepted=not reasons,
+                reasons=tuple(reasons),
+                notes=tuple(notes),
+            )
+        )
+    return hits

@@ -1,0 +1,167 @@
+"""Figures of a modal test (matplotlib, no display): the stabilisation diagram with the chosen
+modes, FRF magnitude/phase/coherence and a MAC matrix. Each function writes one file (the format
+follows the suffix: .png, .svg, .pdf) and returns the matplotlib Figure for inspection."""
+
+from __future__ import annotations
+
+import textwrap
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from odsuite.store.diskspace import write_output
+from odsuite.domain.errors import ConfigError, DimensionError
+from odsuite.analysis.frf import FrfSet
+from odsuite.analysis.modal import ModalResult
+
+_SUFFIXES = (".png", ".svg", ".pdf")
+
+
+def _new_figure(path: Path, size: tuple[float, float]):
+    from matplotlib.figure import Figure
+
+    if Path(path).suffix.lower() not in _SUFFIXES:
+        raise ConfigError(f"figure {path}: the name must end in {', '.join(_SUFFIXES)}")
+    return Figure(figsize=size, layout="constrained")
+
+
+def _save(fig, path: Path, dpi: int = 130):
+    try:
+        write_output(Path(path), 0, lambda tmp: fig.savefig(tmp, dpi=dpi))  # a figure fits the reserve
+    except OSError as exc:
+        raise ConfigError(f"figure {path}: cannot write ({exc.strerror or exc})") from None
+    return fig
+
+
+def stabilisation_figure(result: ModalResult, freq: np.ndarray, H: np.ndarray, path: str | Path, *,
+                         title: str = "stabilisation diagram",
+                         background: str = "rms |H| of the outputs (FRF units)"):
+    """Poles per model order over the fit band (grey: new, blue: frequency stable, red: frequency
+    and damping stable), the chosen modes as labelled lines with their stable-order counts, and
+    the rms over outputs of ``H`` (FRFs, or amplitude spectra for output-only modes, named by
+    ``background``) on a log axis behind them."""
+    if result.diagram is None or result.band_hz is None:
+        raise ConfigError("stabilisation figure: the modal result holds no stabilisation diagram")
+    d = result.diagram
+    path = Path(path)
+    fig = _new_figure(path, (10, 6))
+    ax = fig.add_subplot()
+    kinds = (("new pole", lambda sf, st: ~sf, {"facecolors": "none", "edgecolors": "0.6", "s": 10}),
+             ("stable frequency", lambda sf, st: sf & ~st, {"c": "tab:blue", "marker": "x", "s": 14}),
+             ("stable frequency and damping", lambda sf, st: st, {"c": "tab:red", "s": 12}))
+    for label, pick, style in kinds:
+        xs, ys = [], []
+        for order, poles, sf, st in zip(d.orders, d.poles, d.stable_f, d.stable, strict=True):
+            sel = pick(sf, st)
+            xs.extend(np.abs(poles[sel]) / (2 * np.pi))
+            ys.extend([order] * int(sel.sum()))
+        ax.scatter(xs, ys, label=label, linewidths=0.8, **style)
+    ax.set_xlim(*result.band_hz)
+    ax.set_ylim(0, max(d.orders) + 2)
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel("model order")
+    for k, (f, z) in enumerate(zip(result.frequency_hz, result.damping_ratio, strict=True)):
+        ax.axvline(f, color="k", lw=0.8, ls="--")
+        n = "" if result.stable_orders is None else f", {int(result.stable_orders[k])} orders"
+        top = max(d.orders) + 1 - (k % 3) * 0.14 * max(d.orders)  # staggered: close modes stay readable
+        ax.annotate(f"{f:.1f} Hz\nζ = {100 * z:.2f} %{n}", (f, top), fontsize=8,
+                    ha="left", va="top", xytext=(3, 0), textcoords="offset points",
+                    bbox={"boxstyle": "round", "fc": "white", "ec": "0.6", "alpha": 0.85})
+    freq = np.asarray(freq, dtype=float)
+    H = np.atleast_2d(np.asarray(H))
+    keep = (freq >= result.band_hz[0]) & (freq <= result.band_hz[1])
+    mag = ax.twinx()
+    mag.semilogy(freq[keep], np.sqrt(np.mean(np.abs(H[:, keep]) ** 2, axis=0)), color="tab:green", lw=0.8)
+    mag.set_ylabel(background, color="tab:green")
+    ax.set_zorder(mag.get_zorder() + 1)
+    ax.patch.set_visible(False)
+    ax.legend(loc="lower right", fontsize=8, framealpha=0.9)
+    ax.set_title(f"{title}: {len(result.frequency_hz)} modes in {result.band_hz[0]:.0f}-{result.band_hz[1]:.0f} Hz")
+    return _save(fig, path)
+
+
+def _unit(text: str) -> str:
+    return text.replace("^2", "²").replace("^3", "³")
+
+
+def frf_figure(frf: FrfSet, path: str | Path, *, band_hz: tuple[float, float] | None = None,
+               outputs: Sequence[str] | None = None, title: str = "FRFs", model_hz: Sequence[float] = (),
+               f_range: tuple[float, float] | None = None, size: tuple[float, float] = (10, 8), dpi: int = 130):
+    """Magnitude (log-log), phase (degrees) and coherence of each output's FRF above 0 Hz (within
+    ``f_range`` when given: the axes then scale to that band, not to the noise beyond it);
+    ``band_hz`` is shaded (e.g. the modal fit's usable band), ``model_hz`` (a model's modes) are
+    dotted lines. ``size`` (inches) and ``dpi``: e.g. the width of a printed page."""
+    names = list(outputs) if outputs is not None else frf.output_names
+    missing = [n for n in names if n not in frf.output_names]
+    if missing:
+        raise ConfigError(f"FRF figure: no output {missing[0]!r}; outputs are {', '.join(frf.output_names)}")
+    path = Path(path)
+    fig = _new_figure(path, size)
+    mag, phase, coh = fig.subplots(3, 1, sharex=True, height_ratios=(3, 1.5, 1))
+    pos = frf.frequency > 0
+    if f_range is not None:
+        pos &= (frf.frequency >= f_range[0]) & (frf.frequency <= f_range[1])
+        if pos.sum() < 2:
+            raise ConfigError(f"FRF figure: {f_range[0]:g}-{f_range[1]:g} Hz holds fewer than 2 lines above 0 Hz")
+    f = frf.frequency[pos]
+    units = {frf.units[frf.output_names.index(n)] for n in names}
+    for name in names:
+        k = frf.output_names.index(name)
+        h = frf.H[k, pos]
+        label = name if len(units) == 1 else f"{name} [{_unit(frf.units[k])}]"
+        line, = mag.loglog(f, np.abs(h), lw=0.8, label=label)
+        phase.semilogx(f, np.degrees(np.angle(h)), lw=0.6, color=line.get_color())
+        coh.semilogx(f, frf.coherence[k, pos], lw=0.6, color=line.get_color())
+    for ax in (mag, phase, coh):
+        if band_hz is not None:
+            ax.axvspan(*band_hz, color="0.92", zorder=0)
+        for j, fm in enumerate(m for m in model_hz if f[0] <= m <= f[-1]):
+            ax.axvline(fm, color="0.45", lw=0.7, ls=":", label="model mode" if ax is mag and j == 0 else None)
+        ax.grid(True, which="both", lw=0.3)
+    mag.set_xlim(f[0], f[-1])
+    mag.set_ylabel(f"|H| [{_unit(units.pop())}]" if len(units) == 1 else "|H| [see legend]")
+    mag.legend(fontsize=8, loc="best")
+    phase.set_ylabel("phase [°]")
+    phase.set_yticks([-180, -90, 0, 90, 180])
+    coh.set_ylabel("coherence [–]")
+    coh.set_ylim(0, 1.05)
+    if frf.n_averages == 1:
+        coh.text(0.5, 0.5, "one hit: coherence is 1 by construction and says nothing", transform=coh.transAxes,
+                 ha="center", va="center", fontsize=9, color="0.3")
+    coh.set_xlabel("frequency [Hz]")
+    shaded = "" if band_hz is None else f"; shaded: fit band {band_hz[0]:.0f}-{band_hz[1]:.0f} Hz"
+    hits = f"{frf.n_averages} hit" + ("s averaged" if frf.n_averages > 1 else "")
+    mag.set_title(textwrap.fill(f"{title}: {frf.estimator}, {hits}{shaded}", int(7 * size[0])),
+                  fontsize=10)  # about 7 characters per inch at 10 pt
+    return _save(fig, path, dpi)
+
+
+def mac_figure(mac_matrix: np.ndarray, path: str | Path, *, labels_a: Sequence[str] | None = None,
+               labels_b: Sequence[str] | None = None, title: str = "MAC", xlabel: str = "", ylabel: str = "",
+               dpi: int = 130):
+    """The MAC matrix as a grey-scale grid (0 white, 1 black) with each value written in its cell;
+    rows are ``labels_a`` (``ylabel``), columns ``labels_b`` (``xlabel``)."""
+    m = np.asarray(mac_matrix, dtype=float)
+    if m.ndim != 2 or m.size == 0:
+        raise DimensionError(f"MAC figure: the matrix has shape {m.shape}; expected modes x modes")
+    la = list(labels_a) if labels_a is not None else [str(k + 1) for k in range(m.shape[0])]
+    lb = list(labels_b) if labels_b is not None else [str(k + 1) for k in range(m.shape[1])]
+    if len(la) != m.shape[0] or len(lb) != m.shape[1]:
+        raise DimensionError(f"MAC figure: {len(la)} x {len(lb)} labels for a {m.shape[0]} x {m.shape[1]} matrix")
+    path = Path(path)
+    width = max(4.0, 1.6 + 0.7 * m.shape[1])
+    fig = _new_figure(path, (width, 1.2 + 0.6 * m.shape[0]))
+    ax = fig.add_subplot()
+    im = ax.imshow(m, cmap="Greys", vmin=0, vmax=1)
+    for i in range(m.shape[0]):
+        for j in range(m.shape[1]):
+            ax.text(j, i, f"{m[i, j]:.2f}", ha="center", va="center", fontsize=8,
+                    color="white" if m[i, j] > 0.5 else "black")
+    ax.set_xticks(range(m.shape[1]), lb, rotation=45, ha="right")
+    ax.set_yticks(range(m.shape[0]), la)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    fig.colorbar(im, ax=ax, shrink=0.8, label="MAC [–]")
+    ax.set_title(textwrap.fill(title, int(7 * width)), fontsize=10)  # about 7 characters per inch at 10 pt
+    return _save(fig, path, dpi)

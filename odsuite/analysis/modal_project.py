@@ -1,0 +1,243 @@
+"""Hammer-test workflow on a project: FRFs per experiment, identified modes (from the FRFs, or
+from the responses alone for operating records).
+
+Experiments imported from engineering-unit files store those values as the raw column with a
+sensitivity that converts them to SI (1 V per unit, g -> m/s^2 through 1/9.81 V per m/s^2).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from odsuite.domain.errors import ConfigError
+from odsuite.analysis.frf import FrfSet, estimate_frf
+from odsuite.analysis.hammer import assess_hits
+from odsuite.analysis.modal import ModalResult, identify_modes
+from odsuite.store.project import DerivedArray, Excitation, open_project
+from odsuite.domain.systeminfo import ChannelInfo, SensorType, Systeminfo
+from odsuite.domain.version import __version__
+
+def _scale(exp) -> np.ndarray:
+    """Per channel: SI units per stored raw unit."""
+    return np.array([(-1 if c.invert else 1) / (c.sensitivity * c.daq_gain) for c in exp.systeminfo.channels])
+
+
+def physical(exp) -> np.ndarray:
+    return exp.raw() * _scale(exp)
+
+
+#: sensor types whose channels are structural responses (an open input, an auxiliary signal or a
+#: load cell is not)
+RESPONSE_TYPES = (SensorType.ACCELEROMETER, SensorType.PROXIMITY, SensorType.VOLTAGE)
+
+
+def response_columns(exp) -> list[int]:
+    """Columns holding responses: typed response channels other than the force channel; when a
+    record types none (a file of unknown units), every column but the force channel."""
+    force = exp.excitation.force_channel if exp.excitation is not None else None
+    rest = [k for k in range(exp.n_channels) if k != force]
+    typed = [k for k in rest if exp.systeminfo.channels[k].sensor_type in RESPONSE_TYPES]
+    return typed or rest
+
+
+def _converter_ranges(exp, data: np.ndarray) -> list[tuple[float, float] | None]:
+    """Each channel's converter range in the channel's SI units, None where unknown. The Systeminfo
+    DAQ limits are what the operator asked for; a card then picks the smallest hardware range
+    holding them (NI: 0.05..10 V), so samples beyond the limits show the real range is wider and
+    not known here (clipping is then told by flat tops alone, see ``hammer.is_clipped``)."""
+    out: list[tuple[float, float] | None] = []
+    for k, (c, s) in enumerate(zip(exp.systeminfo.channels, _scale(exp))):
+        lo, hi = sorted((c.limit_low * s, c.limit_high * s))
+        inside = data[:, k].min() >= lo and data[:, k].max() <= hi
+        out.append((lo, hi) if inside else None)
+    return out
+
+
+def hits_frf(exp, where: str, *, estimator: str = "H1", record_length: int | None = None,
+             flagged_too: bool = False) -> tuple[FrfSet, list]:
+    """FRFs of every channel of an experiment (as read from a project) to its force channel over
+    its accepted hits, and the hit list; nothing is stored. ``flagged_too``: a record whose every
+    hit is flagged (clipped, double) uses them all rather than failing (the caller says so)."""
+    if exp.excitation is None:
+        raise ConfigError(f"{where} has no force channel")
+    data = physical(exp)
+    limits = _converter_ranges(exp, data)
+    fidx = exp.excitation.force_channel
+    outs = [k for k in range(exp.n_channels) if k != fidx]
+    hits = assess_hits(data[:, fidx], data[:, outs], exp.sampling_rate, record_length=record_length,
+                       force_limits=limits[fidx], response_limits=[limits[k] for k in outs])
+    good = [h for h in hits if h.accepted] or (list(hits) if flagged_too else [])
+    if not good:
+        raise ConfigError(f"{where} has no acceptable hit ({hit_flags(hits) or 'no hits found'})")
+    units = [exp.systeminfo.channels[k].unit for k in outs]
+    frf = estimate_frf(
+        [data[h.start : h.stop, fidx] for h in good], [data[h.start : h.stop, outs] for h in good],
+        exp.sampling_rate, estimator=estimator, response_units=units,
+        output_names=[exp.channel_names[k] for k in outs],
+    )
+    return frf, hits
+
+
+def hit_flags(hits) -> str:
+    """What the hammer checks found wrong with the rejected hits, in one line ("" when nothing)."""
+    return "; ".join(f"hit at sample {h.peak_index}: {', '.join(h.reasons)}" for h in hits if not h.accepted)
+
+
+def experiment_frf(
+    project: str | Path, experiment: str, *, estimator: str = "H1", record_length: int | None = None,
+    before_store: Callable[[FrfSet], object] | None = None,
+) -> tuple[FrfSet, list]:
+    """FRFs of every channel to the force channel over the experiment's accepted hits; stored as
+    the derived group ``frf`` (H real/imag, coherence). Returns the FRFs and the hit list.
+    ``before_store(frf)`` runs first: when it fails (a fit on these FRFs), nothing is stored."""
+    with open_project(project, "a") as p:
+        frf, hits = hits_frf(p.experiment(experiment), f"{project}: experiment {experiment!r}",
+                             estimator=estimator, record_length=record_length)
+        if before_store is not None:
+            before_store(frf)
+        dims = ("output", "frequency")
+        p.write_derived(
+            experiment, "frf",
+            {
+                "frequency": DerivedArray(frf.frequency, "Hz", ("frequency",)),
+                "H_real": DerivedArray(frf.H.real, ";".join(frf.units), dims),
+                "H_imag": DerivedArray(frf.H.imag, ";".join(frf.units), dims),
+                "coherence": DerivedArray(frf.coherence, "1", dims),
+            },
+            provenance={"plugin": "odsuite.frf", "version": __version__,
+                        "parameters": json.dumps({"estimator": estimator, "record_length": record_length}),
+                        "inputs": experiment},
+            attrs={"outputs": json.dumps(frf.output_names), "n_averages": frf.n_averages,
+                   "hits": json.dumps([{"peak": h.peak_index, "accepted": h.accepted, "reasons": list(h.reasons)}
+                                       for h in hits])},
+        )
+    return frf, hits
+
+
+def frf_modes(frf: FrfSet, *, f_band: tuple[float, float] | None = None, max_order: int = 50,
+              frequencies: list[float] | None = None) -> ModalResult:
+    """Modes identified from hammer FRFs, on the band where the hammer's force spectrum and the
+    coherence are usable (``frf.usable_band``) unless ``f_band`` (or one edge of it) is given."""
+    return identify_modes(frf.frequency, frf.H, f_band=f_band, max_order=max_order, frequencies=frequencies,
+                          output_names=frf.output_names, force_autospectrum=frf.force_autospectrum,
+                          coherence=frf.coherence, n_averages=frf.n_averages)
+
+
+def experiment_modes(
+    project: str | Path, experiment: str, *, f_band: tuple[float, float] | None = None,
+    max_order: int = 50, frequencies: list[float] | None = None,
+) -> tuple[ModalResult, FrfSet]:
+    """Modes identified from the experiment's FRFs (``frf_modes``), and those FRFs, stored."""
+    found: list[ModalResult] = []
+    frf, _ = experiment_frf(project, experiment, before_store=lambda frf: found.append(
+        frf_modes(frf, f_band=f_band, max_order=max_order, frequencies=frequencies)))
+    return found[0], frf
+
+
+def experiments_modes(
+    project: str | Path, experiments: list[str], *, f_band: tuple[float | None, float | None] | None = None,
+    max_order: int = 50, frequencies: list[float] | None = None,
+) -> tuple[ModalResult, np.ndarray, np.ndarray, dict[str, dict]]:
+    """Modes of an FRF matrix across experiments: a roving hammer (each experiment hits another
+    point) or several references. Every experiment's FRFs (stored as its derived "frf") on the
+    same lines are stacked into one matrix whose rows are "output @ experiment", and fitted with
+    one common denominator (LSCF, ``modal.identify_modes``); the default band is the overlap of the
+    experiments' usable bands. Returns the modes (shapes per row), the frequency lines, the matrix
+    (rows x lines) and each experiment's reference (force point in m, direction)."""
+    from odsuite.analysis.frf import usable_band
+
+    if len(set(experiments)) != len(experiments):
+        raise ConfigError(f"{project}: an experiment is named twice in {', '.join(experiments)}")
+    frfs = [experiment_frf(project, e)[0] for e in experiments]
+    lines = {f.frequency.size for f in frfs}
+    if len(lines) > 1:  # each hit's window ends where its response has decayed: one common length
+        frfs = [experiment_frf(project, e, record_length=2 * (min(lines) - 1))[0] for e in experiments]
+    first = frfs[0]
+    for e, f in zip(experiments[1:], frfs[1:]):
+        if f.frequency.shape != first.frequency.shape or not np.allclose(f.frequency, first.frequency):
+            raise ConfigError(f"{project}: experiment {e!r} has other frequency lines ({f.frequency.size} up to "
+                              f"{f.frequency[-1]:g} Hz) than {experiments[0]!r} ({first.frequency.size} up to "
+                              f"{first.frequency[-1]:g} Hz): an FRF matrix needs one sampling rate and record length")
+    bands = [usable_band(f.frequency, f.force_autospectrum, f.coherence, f.n_averages) for f in frfs]
+    lo, hi = f_band if f_band is not None else (None, None)
+    lo = max(b[0] for b in bands) if lo is None else lo
+    hi = min(b[1] for b in bands) if hi is None else hi
+    if not lo < hi:
+        raise ConfigError(f"{project}: the experiments' usable bands do not overlap "
+                          f"({'; '.join(f'{e} {b[0]:g}-{b[1]:g} Hz' for e, b in zip(experiments, bands))})")
+    H = np.vstack([f.H for f in frfs])
+    rows = [f"{o} @ {e}" for e, f in zip(experiments, frfs) for o in f.output_names]
+    res = identify_modes(first.frequency, H, f_band=(lo, hi), max_order=max_order, frequencies=frequencies,
+                         output_names=rows)
+    references = {}
+    with open_project(project) as p:
+        for e in experiments:
+            exc = p.experiment(e).excitation
+            references[e] = {"point_m": [float(v) for v in exc.point], "direction": [float(v) for v in exc.direction]}
+    return res, first.frequency, H, references
+
+
+def experiment_output_only_modes(
+    project: str | Path, experiment: str, *, f_band: tuple[float | None, float | None] | None = None,
+    max_order: int = 40,
+) -> tuple[ModalResult, np.ndarray, np.ndarray]:
+    """Modes from the experiment's responses alone (SSI-cov, ``oma.identify_output_only``): the
+    response channels (``response_columns``), in SI units. Returns the modes and the responses' rms power
+    spectral density (frequencies in Hz, PSD in unit^2/Hz) for the stabilisation figure."""
+    import scipy.signal
+
+    from odsuite.analysis.oma import identify_output_only
+
+    with open_project(project) as p:
+        exp = p.experiment(experiment)
+        data = physical(exp)
+        outs = response_columns(exp)
+        names = [exp.channel_names[k] for k in outs]
+        fs = exp.sampling_rate
+    res = identify_output_only(data[:, outs], fs, f_band=f_band, max_order=max_order, output_names=names)
+    freq, psd = scipy.signal.welch(data[:, outs], fs, nperseg=min(4096, data.shape[0]), axis=0)
+    return res, freq, np.sqrt(psd.T)
+
+
+def ods_coordinates(project, experiment: str, frequency_hz: float) -> dict[str, np.ndarray]:
+    """Operating deflection shape at ``frequency_hz`` as rigid-body motion: per nine-sensor body,
+    complex generalized coordinates at G (m and rad per newton of a harmonic force at the
+    experiment's force point), from the measured accelerance FRFs (H1 over the windowed force,
+    with the channels' own filters divided out) divided by -omega^2 and solved like any
+    displacement record."""
+    import scipy.signal
+
+    from odsuite.analysis.prediction import prepare_experiment
+    from odsuite.analysis.modal import ods
+    from odsuite.contracts.plugins import registries
+    from odsuite.contracts.solvers import harmonic_shapes
+
+    if not (np.isfinite(frequency_hz) and frequency_hz > 0):
+        raise ConfigError(f"ODS frequency: must be > 0 Hz, got {frequency_hz!r}")
+    exp = prepare_experiment(project, experiment)
+    frf = estimate_frf([exp.force], [exp.measured], exp.fs)
+    accel = ods(frf.frequency, frf.H, frequency_hz)
+    for op in exp.operators or ():
+        # the chain's filter 1 shaped the measured stage: take its response out (a zero-phase pair
+        # acts as |H|^2)
+        response = 1.0 / op.factor
+        for sos, zero_phase in op.filters:
+            h = scipy.signal.sosfreqz(sos, worN=[frequency_hz], fs=exp.fs)[1][0]
+            response *= abs(h) ** 2 if zero_phase else h
+        accel[list(op.columns)] /= response
+    disp = -accel / (2 * np.pi * frequency_hz) ** 2
+    return harmonic_shapes(project.rig, {s.name: d for s, d in zip(exp.sensors, disp)},
+                           registries().coordinate_solvers, f"{project.path}: ODS")
+
+
+def ods_motion(shapes: dict[str, np.ndarray], frequency_hz: float, *, cycles: int = 3,
+               frames_per_cycle: int = 40) -> tuple[dict[str, np.ndarray], float]:
+    """Time histories Re(D e^{i omega t}) of ODS shapes over a few cycles, and their sample rate."""
+    fs = frames_per_cycle * frequency_hz
+    t = np.arange(cycles * frames_per_cycle) / fs
+    phasor = np.exp(2j * np.pi * frequency_hz * t)
+    return {b: np.real(phasor[:, None] * d[None, :]) for b, d in shapes.items()}, fs

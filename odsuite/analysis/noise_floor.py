@@ -1,0 +1,258 @@
+"""The calibrated noise floor: the residual a perfect model would leave, per channel and experiment.
+
+Four parts, each estimated from the record itself:
+
+- broadband noise: the variance of the quiet samples (before the hit, and after the response has
+  died into the noise) at the acceleration stage, once mains lines and a trend are fitted out;
+- mains hum and trend: sinusoids at 50 and 60 Hz and their harmonics plus a line, fitted on the
+  quiet samples and extended over the whole record (they persist through the response); the line
+  only where quiet samples lie at both ends (else it is taken out of the noise's estimate alone);
+- quantisation: while the signal moves through the ADC's codes its rounding error is uniform
+  (lsb^2 / 12), which a quiet stretch sitting on one code does not show; with the model's signals
+  (odsuite.analysis.prediction.sensor_noise) it is simulated at the converter's offset the record tells;
+- the force channel's noise through the model: the model is driven by the measured force, so the
+  load cell's noise inside the force window reaches every predicted channel. Its expected energy is
+  the window's noise energy times the energy of the model's response to a unit impulse (exact for
+  white noise in a window much shorter than the record).
+
+``NoiseFloor.error`` is then the contract's ``error`` of a perfect model; its spectrum (per channel
+and experiment) lets the residual's peaks and bands be tested against what noise alone gives.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.ndimage
+import scipy.signal
+
+#: mains frequencies and harmonics fitted as hum (Hz): 50 Hz and 60 Hz grids, up to the 3rd
+MAINS_HZ = (50.0, 60.0)
+MAINS_HARMONICS = 3
+#: samples kept clear of the hit (s): zero-phase filters ring backwards from it
+HIT_GUARD_S = 1e-3
+#: the response has died into the noise where the excess energy left in the record is below this
+#: fraction of the record's noise energy (as the fit windows)
+QUIET_FRACTION = 0.05
+#: a perfect model's error lies within this factor of the floor (measured on independent nominal
+#: data at 12 and 16 bits, with drift and with mains hum, two rigs, four seeds each: 0.89-1.06): a
+#: residual within it cannot be told from noise
+FLOOR_TOLERANCE = 1.3
+#: Welch segment length of residual and floor spectra (samples; halved for short records)
+NFFT = 2048
+
+
+def disturbance_basis(n: int, fs: float, mains: Sequence[float] = MAINS_HZ,
+                      harmonics: int = MAINS_HARMONICS, line: bool = True) -> np.ndarray:
+    """Columns: a constant, a line (``line``), and sine/cosine pairs at the mains frequencies and
+    harmonics."""
+    t = np.arange(n) / fs
+    cols = [np.ones(n)] + ([t - t.mean()] if line else [])
+    for f0 in mains:
+        for h in range(1, harmonics + 1):
+            if h * f0 < fs / 2:
+                cols += [np.sin(2 * np.pi * h * f0 * t), np.cos(2 * np.pi * h * f0 * t)]
+    return np.column_stack(cols)
+
+
+def _fit(x: np.ndarray, basis: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Least squares of the columns of ``x`` on ``basis`` over ``mask``: broadband variance per
+    column, the fit over the whole record (mean removed), and the pooled residual sum of squares."""
+    coef, *_ = np.linalg.lstsq(basis[mask], x[mask], rcond=None)
+    resid = x[mask] - basis[mask] @ coef
+    rss = np.sum(resid**2, axis=0)
+    dof = max(1, int(mask.sum()) - basis.shape[1])
+    fitted = basis @ coef
+    return rss / dof, fitted - fitted.mean(axis=0), float(rss.sum())
+
+
+@dataclass
+class QuietFit:
+    """The quiet samples of a raw record and the disturbances fitted on them."""
+
+    quiet: np.ndarray  # mask over the samples
+    disturbance: np.ndarray  # samples x columns (volts): offset, drift where both ends are quiet, hum
+    mains_hz: float
+    harmonics: int
+    # samples x columns (volts): the drift fitted on quiet samples at one end only, which is not
+    # extended over the record (it would grow without bound) but is not noise either
+    local_drift: np.ndarray | None = None
+
+    def white(self, stage: np.ndarray, stage_disturbance: np.ndarray,
+              stage_drift: np.ndarray | None = None) -> np.ndarray:
+        """Per column, the broadband variance of the quiet samples of a signal after the chain once
+        the disturbances and a local drift (through the same chain) are taken out."""
+        rest = (stage - stage_disturbance - (0.0 if stage_drift is None else stage_drift))[self.quiet]
+        return np.var(rest, axis=0) if len(rest) > 1 else np.zeros(stage.shape[1])
+
+
+def split_noise(raw: np.ndarray, trigger: int, fs: float) -> QuietFit:
+    """The quiet samples of a raw record (volts, before the chain: no filter transients) and its
+    disturbances fitted on them: an offset, a line where quiet samples lie at both ends (drift; a
+    line fitted to one short stretch would grow without bound over the record: there it is kept as
+    ``local_drift``, for the noise's estimate only), and the mains hum.
+    Put through a channel's chain, the disturbances reach the acceleration stage as they do in the
+    measurement, the high-pass's ringing on a drift included.
+
+    Quiet samples: before the hit (less a guard) and after the response has died into the noise.
+    The mains frequency (50 or 60 Hz) is the one whose sinusoid holds more of the record (hum
+    persists through it, a hit's response does not); its harmonics are fitted only when the quiet
+    samples span two of its periods beyond the pre-trigger (on a shorter stretch the sinusoids are
+    nearly collinear with the constant)."""
+    x = np.atleast_2d(raw.T).T
+    n = x.shape[0]
+    guard = int(round(HIT_GUARD_S * fs))
+    pre = np.zeros(n, bool)
+    pre[: max(0, trigger - guard)] = True
+    if pre.sum() < 32:  # no pre-trigger: the last eighth (a lightly damped rig has died away there)
+        pre[-max(32, n // 8):] = True
+    everywhere = np.ones(n, bool)
+    held = [(float(np.sum(_fit(x, disturbance_basis(n, fs, (f0,), 1), everywhere)[1] ** 2)), f0) for f0 in MAINS_HZ]
+    mains = max(held)[1]
+    # the response has died into the noise where the excess energy left (beyond the broadband
+    # noise and the disturbances fitted before the hit) is below QUIET_FRACTION of the record's
+    # noise energy
+    white, dist, _ = _fit(x, disturbance_basis(n, fs, (mains,), 1, line=False), pre)
+    var = float(np.sum(white))
+    power = np.sum((x - x[pre].mean(axis=0) - dist) ** 2, axis=1)
+    tail = np.cumsum(power[::-1])[::-1] - (n - np.arange(n)) * var
+    above = np.flatnonzero(tail > QUIET_FRACTION * n * var)
+    end = int(above[-1]) + 1 if above.size else trigger
+    end = min(n, end + int(0.25 * max(end - trigger, 0)))  # a margin, as the fit windows
+    quiet = pre.copy()
+    quiet[end:] = True
+    harmonics = MAINS_HARMONICS if (n - end) >= 2 * fs / mains else 1
+    # the line is fitted always (else the hum's sinusoid takes a drift's ramp and carries it over
+    # the record), and extended over the record where quiet samples lie at both ends
+    basis = disturbance_basis(n, fs, (mains,), harmonics, line=True)
+    coef, *_ = np.linalg.lstsq(basis[quiet], x[quiet], rcond=None)
+    if bool(quiet[0]) and bool(quiet[-1]):
+        fitted = basis @ coef
+        return QuietFit(quiet, fitted - fitted.mean(axis=0), mains, harmonics)
+    others = [k for k in range(basis.shape[1]) if k != 1]  # column 1: the line
+    fitted = basis[:, others] @ coef[others]
+    return QuietFit(quiet, fitted - fitted.mean(axis=0), mains, harmonics, np.outer(basis[:, 1], coef[1]))
+
+
+def moving_samples(x: np.ndarray, lsb: np.ndarray | float, fs: float) -> np.ndarray:
+    """Mask (samples x columns) of samples where the signal moves through the ADC's codes: within
+    half a period (at the signal's spectral centroid) of a sample at least half a code from zero.
+    There the rounding error is uniform; where a decaying signal stays within half a code of zero
+    it reads zero and the error is the (small) signal itself."""
+    x = np.atleast_2d(np.asarray(x, float).T).T
+    lsb = np.broadcast_to(np.asarray(lsb, float), (x.shape[1],))
+    spec = np.abs(np.fft.rfft(x, axis=0)) ** 2
+    f = np.fft.rfftfreq(x.shape[0], 1 / fs)
+    total = spec.sum(axis=0)
+    centroid = np.where(total > 0, (f[:, None] * spec).sum(axis=0) / np.where(total > 0, total, 1), fs / 4)
+    out = np.zeros(x.shape, bool)
+    for j in range(x.shape[1]):
+        if lsb[j] <= 0:
+            continue
+        half = int(np.ceil(fs / (2 * max(centroid[j], fs / x.shape[0]))))
+        out[:, j] = scipy.ndimage.maximum_filter1d(np.abs(x[:, j]), 2 * half + 1) >= lsb[j] / 2
+    return out
+
+
+def active_var(white: np.ndarray, lsb: np.ndarray) -> np.ndarray:
+    """Per-sample noise variance while the signal moves through the codes: the broadband part
+    and a uniform rounding error, at least lsb^2/12 (Sheppard: a quiet noise wider than an lsb
+    already holds it)."""
+    return np.maximum(white, np.asarray(lsb) ** 2 / 12.0)
+
+
+@dataclass
+class NoiseFloor:
+    """Expected residual energy of a perfect model, per experiment and sensor (sum of squares at
+    the acceleration stage, physical units squared), beside the measured energy."""
+
+    energy: dict[str, dict[str, float]]
+    measured: dict[str, dict[str, float]]
+    parts: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict)
+    # per experiment: the floor's Welch spectrum per sensor (frequencies, PSD samples x sensors)
+    spectra: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict, repr=False)
+
+    def total(self, experiments: Sequence[str] | None = None, channels: Sequence[str] | None = None
+              ) -> tuple[float, float]:
+        """(floor energy, measured energy) summed over the selection."""
+        num = den = 0.0
+        for e, chans in self.energy.items():
+            if experiments is not None and e not in experiments:
+                continue
+            for c, v in chans.items():
+                if channels is not None and c not in channels:
+                    continue
+                num += v
+                den += self.measured[e][c]
+        return num, den
+
+    def error(self, experiments: Sequence[str] | None = None, channels: Sequence[str] | None = None) -> float:
+        """The contract's error of a perfect model: sqrt(floor energy / measured energy)."""
+        num, den = self.total(experiments, channels)
+        return float(np.sqrt(min(num, den) / den)) if den > 0 else float("nan")
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"error": self.error(),
+                "experiments": {e: {"error": self.error([e]),
+                                    "channels": {c: self.error([e], [c]) for c in chans}}
+                                for e, chans in self.energy.items()},
+                "parts": self.parts}
+
+
+def welch(x: np.ndarray, fs: float, n_samples: int) -> tuple[np.ndarray, np.ndarray]:
+    """Welch spectrum (Hann, half overlap) with the segment length all spectra here share."""
+    nfft = NFFT
+    while nfft > n_samples:
+        nfft //= 2
+    return scipy.signal.welch(x, fs=fs, nperseg=nfft, axis=0)
+
+
+def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
+             sensor_noise: Mapping[str, Sequence[np.ndarray]] | None = None, *, spectra: bool = False) -> NoiseFloor:
+    """The noise floor of ``exps`` (PreparedExperiments); ``impulses`` maps an experiment's name to
+    its model's response to a unit force sample (odsuite.analysis.prediction.impulse_response), which
+    carries the force channel's noise to every channel (without it that part is left out);
+    ``sensor_noise`` to simulated realisations of the sensors' noise and rounding
+    (odsuite.analysis.prediction.sensor_noise; without them: white noise and a uniform rounding error
+    where the signal moves through the codes). ``spectra``: also the floor's Welch spectra, for
+    peak and band tests."""
+    energy: dict[str, dict[str, float]] = {}
+    measured: dict[str, dict[str, float]] = {}
+    parts: dict[str, dict[str, dict[str, float]]] = {}
+    specs: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    for e in exps:
+        n = e.n_samples
+        white = np.asarray(e.noise_var, float)
+        lsb = np.asarray(e.lsb if e.lsb is not None else np.zeros(len(e.sensors)), float)
+        simulated = (sensor_noise or {}).get(e.name) or []
+        if simulated:
+            broadband = np.mean([np.sum(r**2, axis=0) for r in simulated], axis=0)
+        else:
+            n_active = moving_samples(e.measured, lsb, e.fs).sum(axis=0)
+            broadband = white * n + n_active * (active_var(white, lsb) - white)
+        hum = (np.sum(e.disturbance**2, axis=0) if e.disturbance is not None else np.zeros(len(e.sensors)))
+        force_part = np.zeros(len(e.sensors))
+        h = None
+        if impulses is not None and e.force_noise_energy > 0:
+            h = impulses[e.name]
+            force_part = e.force_noise_energy * np.sum(h**2, axis=0)
+        total = broadband + hum + force_part
+        energy[e.name] = {s.name: float(v) for s, v in zip(e.sensors, total)}
+        measured[e.name] = {s.name: float(v) for s, v in zip(e.sensors, np.sum(e.measured**2, axis=0))}
+        parts[e.name] = {"broadband": float(broadband.sum()), "hum_and_trend": float(hum.sum()),
+                         "force_noise": float(force_part.sum())}
+        if spectra:
+            f, _ = welch(np.zeros((n, 1)), e.fs, n)
+            if simulated:
+                psd = np.mean([welch(r, e.fs, n)[1] for r in simulated], axis=0)
+            else:  # flat one-sided density whose integral is the per-sample variance
+                psd = np.tile(broadband / n * 2.0 / e.fs, (len(f), 1))
+            if e.disturbance is not None:
+                psd = psd + welch(e.disturbance, e.fs, n)[1]
+            if h is not None:
+                psd = psd + e.force_noise_energy * welch(h, e.fs, n)[1]
+            specs[e.name] = (f, psd)
+    return NoiseFloor(energy, measured, parts, specs)

@@ -1,0 +1,710 @@
+"""The prediction engine of the comparison: each experiment read and put through its own chain
+(the measured side), the model driven by the measured force at the recorded point and direction,
+its prediction at every accelerometer turned into the volts that sensor would have given (nominal
+sensitivity, DAQ gain and inversion from the Systeminfo) and put through the very same chain, and
+both turned into generalized coordinates by the same solvers. Like is compared with like.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+import scipy.signal
+import scipy.special
+
+from odsuite.processing.chain_spec import chain_for_channel, stage_names
+from odsuite.domain.errors import ConfigError
+from odsuite.analysis.noise_floor import (
+    active_var,
+    disturbance_basis,
+    moving_samples,
+    split_noise,
+)
+from odsuite.domain.rig import Rig, Sensor
+from odsuite.domain.systeminfo import SensorType
+
+#: Hits are found where |force| first exceeds this fraction of its peak.
+TRIGGER_FRACTION = 0.05
+#: The force window keeps samples within this fraction of the peak force, widened by the times
+#: below (the anti-aliasing filter smears a hammer pulse over a few milliseconds).
+WINDOW_FRACTION = 0.02
+WINDOW_BEFORE_S = 0.5e-3
+WINDOW_AFTER_S = 3e-3
+NOISE_MULTIPLE = 5.0
+#: structures with up to this many coordinates keep every coordinate's simulated acceleration, so
+#: effects on the sensors alone reuse it; beyond it (a finite-element model's dozens of nodal
+#: coordinates) every coordinate's signal costs more than simulating the few sensors again
+CACHED_COORDINATES = 36
+
+
+@dataclass(frozen=True)
+class StageOperator:
+    """A channel chain up to its first tap as one linear operator on physical signals: micro-units,
+    offset window, IIR filters. Columns sharing an operator are filtered in one call, which is far
+    faster than running each channel's streaming chain in a fitting loop (equal to it: tested)."""
+
+    columns: tuple[int, ...]
+    factor: float
+    offset: tuple[int, int] | None
+    filters: tuple[tuple[np.ndarray, bool], ...]  # (second-order sections, zero-phase)
+
+    def apply(self, x: np.ndarray) -> np.ndarray:
+        y = x * self.factor if self.factor != 1.0 else x.copy()
+        if self.offset is not None:
+            a, n = self.offset
+            y -= y[a:a + n].mean(axis=0)
+        for sos, zero_phase in self.filters:
+            y = scipy.signal.sosfiltfilt(sos, y, axis=0) if zero_phase else scipy.signal.sosfilt(sos, y, axis=0)
+        return y
+
+    @property
+    def min_samples(self) -> int:
+        n = 1 if self.offset is None else self.offset[0] + self.offset[1]
+        for sos, zero_phase in self.filters:
+            if zero_phase:  # sosfiltfilt's odd padding needs 3 * (taps) + 1 samples
+                n = max(n, 3 * (2 * len(sos) + 1) + 1)
+        return n
+
+
+def stage_operators(channels: Sequence[Any], volts_per_unit: Sequence[float]) -> list[StageOperator] | None:
+    """Operators for the acceleration stage of these ChannelInfos (grouped), taking predictions in
+    physical units (``volts_per_unit`` turns them into the volts the chain expects), or None when a
+    chain holds a step without a linear form (then the chains themselves run)."""
+    from odsuite.processing.chain_spec import channel_chain_spec
+    from odsuite.contracts.plugins import registries
+    from odsuite.contracts.steps import Filter, Gain, WindowMean
+
+    steps = registries().processing_steps
+    groups: dict[tuple, tuple] = {}
+    for j, ch in enumerate(channels):
+        factor, offset, filters = float(volts_per_unit[j]), None, []
+        for step in channel_chain_spec(ch):
+            if "tap" in step:
+                break
+            provider = steps.get(step["step"])
+            form = getattr(provider, "linear_form", None)
+            ops = form(fs=ch.sampling_rate, **{k: v for k, v in step.items() if k != "step"}) if form else None
+            if ops is None:
+                return None
+            for op in ops:
+                if isinstance(op, Gain):
+                    factor *= op.factor
+                elif isinstance(op, WindowMean) and offset is None and not filters:
+                    offset = (op.start, op.length)
+                elif isinstance(op, Filter):
+                    filters.append((np.ascontiguousarray(op.sos), op.zero_phase))
+                else:  # a window mean after a filter: not an operator of this form
+                    return None
+        # conversion times volts per unit is 1 (or 1e6) up to rounding: equal chains share a group
+        factor = float(f"{factor:.12g}")
+        key = (factor, offset, tuple((sos.tobytes(), zp) for sos, zp in filters))
+        groups.setdefault(key, ([], factor, offset, tuple(filters)))[0].append(j)
+    return [StageOperator(tuple(cols), f, o, fl) for cols, f, o, fl in groups.values()]
+
+
+@dataclass
+class PreparedExperiment:
+    """One experiment ready for comparison: measured signals at the acceleration stage, the force
+    that drives the model, and what is needed to put a prediction through the same chain."""
+
+    name: str
+    fs: float
+    force: np.ndarray  # N, the force channel through its own chain
+    point: np.ndarray  # m, rig frame
+    direction: np.ndarray
+    sensors: list[Sensor]  # the rig's accelerometers recorded in this experiment, in column order
+    columns: list[int]  # their columns in the raw record
+    volts: np.ndarray  # samples x sensors, the raw record of those columns
+    measured: np.ndarray  # samples x sensors, acceleration stage (physical units)
+    volts_per_unit: np.ndarray  # per sensor: physical unit -> volts as the chain expects them
+    chains: list  # per sensor, the channel's processing chain (odsuite.processing.executor.Chain)
+    trigger: int  # first sample of the hit
+    noise_var: np.ndarray  # per sensor, variance of the noise at the acceleration stage
+    units: list[str] = field(default_factory=list)
+    operators: list[StageOperator] | None = None  # fast form of the chains' acceleration stage
+    # the noise model's ingredients (odsuite.analysis.noise_floor): the ADC step per sensor (physical
+    # units), the fitted mains hum and trend (samples x sensors), the force window's noise energy (N^2)
+    lsb: np.ndarray | None = None
+    adc_step_v: np.ndarray | None = None
+    disturbance: np.ndarray | None = None
+    force_noise_energy: float = 0.0
+    # the last structure simulated and its coordinate accelerations: effects that only change the
+    # sensors (gain, tilt, position) reuse them (a strong reference, so identity is safe)
+    _cache: tuple | None = field(default=None, repr=False)
+    force_body: str | None = None  # the body hit, when the experiment says (else: from the point)
+    notes: list[str] = field(default_factory=list)  # what the record says against the rig file
+
+    @property
+    def n_samples(self) -> int:
+        return self.measured.shape[0]
+
+    def head(self, n: int) -> PreparedExperiment:
+        """The first ``n`` samples (a causal chain gives the same predictions there; fits use short
+        heads first, where a frequency error has not yet turned into a phase error)."""
+        if self.operators is not None:
+            n = max(n, *(op.min_samples for op in self.operators))
+        if n >= self.n_samples:
+            return self
+        return replace(self, force=self.force[:n], volts=self.volts[:n], measured=self.measured[:n],
+                       disturbance=None if self.disturbance is None else self.disturbance[:n])
+
+
+def find_trigger(force: np.ndarray) -> int:
+    """Index of the first sample where |force| exceeds TRIGGER_FRACTION of its peak."""
+    a = np.abs(force - np.median(force[: max(1, len(force) // 100)]))
+    peak = a.max()
+    if not np.isfinite(peak) or peak == 0:
+        return 0
+    return int(np.argmax(a >= TRIGGER_FRACTION * peak))
+
+
+@dataclass
+class ForceWindow:
+    """The force that drives the model: the hits with everything between them set to zero, and
+    the noise energy left inside the window (N^2 summed over its samples, weighted by the window)."""
+
+    force: np.ndarray
+    weights: np.ndarray
+    noise_energy: float
+
+
+def _hot(dev: np.ndarray, fs: float) -> np.ndarray:
+    """Mask of the samples around the hits: within WINDOW_FRACTION of the peak and beyond
+    NOISE_MULTIPLE times the noise, widened by WINDOW_BEFORE_S / WINDOW_AFTER_S."""
+    peak = dev.max()
+    # noise level from the quietest 90 % of samples (hits are a small part of a record); a
+    # quantised force channel toggles between codes, which a fixed fraction of the peak would take
+    # for hits
+    quiet = dev[dev <= np.quantile(dev, 0.9)]
+    sigma = 1.6 * float(np.sqrt(np.mean(quiet**2))) if quiet.size else 0.0
+    before, after = int(round(WINDOW_BEFORE_S * fs)), int(round(WINDOW_AFTER_S * fs))
+    hot = np.flatnonzero(dev >= max(WINDOW_FRACTION * peak, NOISE_MULTIPLE * sigma))
+    mask = np.zeros(len(dev))
+    for i in hot:  # few samples per hit: a loop over them is cheap
+        mask[max(0, i - before):i + after + 1] = 1.0
+    return mask
+
+
+def force_window(force: np.ndarray, fs: float, lsb: float = 0.0) -> ForceWindow:
+    """The force with everything outside the hits set to zero (a force window per hit, with
+    half-cosine tapers): the force channel's noise between hits would otherwise drive the model
+    and put the load cell's noise, through the model, into every predicted channel. The baseline
+    under the hits (an offset, a drift, mains hum) is fitted on the samples outside the windows
+    and removed: a hit lasts milliseconds, over which a drifting or humming baseline is no force.
+    ``lsb``: the channel's quantisation step (N), for the noise left inside the window."""
+    base = np.median(force)
+    dev = np.abs(force - base)
+    peak = dev.max()
+    if not np.isfinite(peak) or peak == 0:
+        return ForceWindow(np.zeros_like(force), np.zeros_like(force), 0.0)
+    mask = _hot(dev, fs)
+    outside = mask == 0
+    noise_var = 0.0
+    if outside.sum() > 64:
+        basis = disturbance_basis(len(force), fs)
+        coef, *_ = np.linalg.lstsq(basis[outside], force[outside], rcond=None)
+        baseline = basis @ coef
+        rest = force[outside] - baseline[outside]
+        noise_var = float(rest @ rest) / max(1, int(outside.sum()) - basis.shape[1])
+        mask = _hot(np.abs(force - baseline), fs)  # the hits again, on the clean baseline
+    else:
+        baseline = np.full_like(force, base)
+    before = int(round(WINDOW_BEFORE_S * fs))
+    taper = max(1, before)
+    if len(force) <= 2 * taper + 1:  # a record shorter than the tapers: the window without them
+        w = mask
+    else:
+        ramp = 0.5 - 0.5 * np.cos(np.pi * np.arange(1, taper + 1) / (taper + 1))
+        w = np.convolve(mask, np.concatenate([ramp, [1.0], ramp[::-1]]) / (ramp.sum() * 2 + 1), mode="same")
+        w = np.maximum(mask, np.clip(w * (ramp.sum() * 2 + 1) / (taper + 1), 0, 1))
+    clean = force - baseline
+    # inside the window the noise is the quiet one, or the rounding error where the force moves
+    # through the codes
+    per_sample = np.where(moving_samples(clean * w, lsb, fs)[:, 0], active_var(np.array(noise_var), np.array(lsb)),
+                          noise_var)
+    return ForceWindow(clean * w, w, float(np.sum(w**2 * per_sample)))
+
+
+def windowed_force(force: np.ndarray, fs: float) -> np.ndarray:
+    """The force as it drives the model (see :func:`force_window`)."""
+    return force_window(force, fs).force
+
+
+def quantisation_step(volts: np.ndarray) -> np.ndarray:
+    """Per column, the smallest step between distinct recorded values (the ADC's LSB when the record
+    is quantised; tiny for float data)."""
+    steps = []
+    for col in np.atleast_2d(volts.T):
+        d = np.diff(np.unique(col))
+        steps.append(float(d.min()) if d.size else 0.0)
+    return np.asarray(steps)
+
+
+#: a recorded value within this share of a step from the grid of the smallest step lies on it
+#: (codes written in full lie on it to round-off; float data has thousands of values, each on it
+#: by chance with probability 0.02). Codes rounded by a text file to fewer digits miss it: the
+#: declared step stands then
+GRID_TOLERANCE = 0.01
+#: distinct values that make a grid: a small signal on a coarse converter may use only three codes
+GRID_VALUES = 3
+
+
+def adc_steps(volts: np.ndarray, declared: float | None) -> tuple[np.ndarray, list[int]]:
+    """Per column, the converter's step: the grid the recorded values lie on when they lie on one
+    (a quantised record shows its converter, whatever a rig file declares: a 12-bit card on a rig
+    that declares 16 bits rounds 16 times coarser), else the declared step, else the smallest step
+    between values (float data: tiny). And the columns whose grid differs from the declared step
+    by more than 1.5x."""
+    observed = quantisation_step(volts)
+    steps, differ = [], []
+    for j, (col, s) in enumerate(zip(np.atleast_2d(volts.T), observed)):
+        codes = (np.unique(col) - col.min()) / s if s > 0 else np.zeros(0)
+        on_grid = codes.size >= GRID_VALUES and bool(np.all(np.abs(codes - np.round(codes)) <= GRID_TOLERANCE))
+        if declared and not on_grid:
+            steps.append(declared)
+            continue
+        steps.append(float(s))
+        if declared and not declared / 1.5 <= s <= 1.5 * declared:
+            differ.append(j)
+    return np.asarray(steps), differ
+
+
+def _force(exp, raw: np.ndarray, where: str, lsb_v: float | None = None) -> ForceWindow:
+    fch = exp.excitation.force_channel
+    channel = exp.systeminfo.channels[fch]
+    fchain = chain_for_channel(channel, where=f"{where} channel {fch}")
+    per_newton = abs(channel.sensitivity * channel.daq_gain) or 1.0
+    step = float(adc_steps(raw[:, [fch]], lsb_v)[0][0])
+    return force_window(fchain.run(raw[:, fch])[stage_names(channel.quantity)[0]], exp.sampling_rate,
+                        step / per_newton)
+
+
+def experiment_force(project, name: str) -> np.ndarray:
+    """The hammer force (N) of one experiment, as the model is driven with it."""
+    exp = project.experiment(name)
+    if exp.excitation is None:
+        raise ConfigError(f"{project.path}: experiment {name!r}: no force point/direction recorded")
+    return _force(exp, exp.raw(), f"{project.path}: experiment {name!r}").force
+
+
+def prepare_experiment(project, name: str) -> PreparedExperiment:
+    """Read one experiment and run the measured side of the comparison."""
+    rig: Rig | None = project.rig
+    where = f"{project.path}: experiment {name!r}"
+    if rig is None:
+        raise ConfigError(f"{where}: the project has no rig, so there is no model to compare with")
+    exp = project.experiment(name)
+    if exp.excitation is None:
+        raise ConfigError(f"{where}: no force point/direction recorded; the model cannot be driven")
+    si = exp.systeminfo
+    raw = exp.raw()
+    acquisition = getattr(rig, "acquisition", None)
+    lsb_v = acquisition.lsb_v if acquisition is not None else None
+    fw = _force(exp, raw, where, lsb_v)
+    force = fw.force
+    sensors, columns, measured, vpu, chains, units, infos = [], [], [], [], [], [], []
+    tap = stage_names("acceleration")[0]
+    for k, ch in enumerate(si.channels):
+        sensor = rig.sensor_on_channel(k)
+        if ch.sensor_type != SensorType.ACCELEROMETER or sensor is None:
+            continue
+        chain = chain_for_channel(ch, where=f"{where} channel {k}")
+        sensors.append(sensor)
+        columns.append(k)
+        chains.append(chain)
+        infos.append(ch)
+        measured.append(chain.run(raw[:, k])[tap])
+        vpu.append(ch.sensitivity * ch.daq_gain * (-1.0 if ch.invert else 1.0))
+        units.append(("u" if ch.micro_units else "") + ch.unit)
+    if not sensors:
+        raise ConfigError(f"{where}: no accelerometer channel matches a sensor of rig {rig.name!r}")
+    measured = np.column_stack(measured)
+    volts = raw[:, columns]
+    trigger = exp.pretrigger if exp.pretrigger > 0 else find_trigger(force)
+    micro = np.array([1e6 if si.channels[k].micro_units else 1.0 for k in columns])
+    step, differ = adc_steps(volts, lsb_v)
+    notes = [f"{where}: channel {columns[j]} ({sensors[j].name}) is recorded on a {1e3 * step[j]:.4g} mV grid, "
+             f"{step[j] / lsb_v:.3g}x the {1e3 * lsb_v:.4g} mV step the rig's [acquisition] declares: the noise "
+             "floor uses the recorded grid" for j in differ]
+    lsb = step / np.abs(np.asarray(vpu)) * micro
+    quiet = split_noise(volts, trigger, exp.sampling_rate)
+    disturbance = np.column_stack([chain.run(quiet.disturbance[:, j])[tap] for j, chain in enumerate(chains)])
+    drift = (None if quiet.local_drift is None else
+             np.column_stack([chain.run(quiet.local_drift[:, j])[tap] for j, chain in enumerate(chains)]))
+    white = quiet.white(measured, disturbance, drift)
+    return PreparedExperiment(
+        name=name, fs=exp.sampling_rate, force=force, point=np.asarray(exp.excitation.point, float),
+        direction=np.asarray(exp.excitation.direction, float), sensors=sensors, columns=columns,
+        volts=volts, measured=measured, volts_per_unit=np.asarray(vpu), chains=chains, trigger=trigger,
+        noise_var=white, units=units, operators=stage_operators(infos, vpu), lsb=lsb, adc_step_v=step,
+        disturbance=disturbance, force_noise_energy=fw.noise_energy, force_body=exp.excitation.body,
+        notes=notes,
+    )
+
+
+def prepare(project, experiments: Sequence[str] | None = None) -> list[PreparedExperiment]:
+    """The named experiments, or every record with a hammer blow: operating records (no force
+    channel) cannot drive a model and are left out unless named."""
+    if experiments:
+        names = list(experiments)
+    else:
+        names = [n for n in project.experiment_names() if project.experiment(n).excitation is not None]
+    if not names:
+        raise ConfigError(f"{project.path}: no hammer records to compare (import or acquire some first; "
+                          "operating records have no force to drive a model)")
+    return [prepare_experiment(project, n) for n in names]
+
+
+def _force_inputs(model, exp: PreparedExperiment) -> list:
+    from odsuite.domain.model import Input
+
+    body = model.rig.force_body(exp.point, exp.force_body) if model.rig is not None else None
+    return [Input.force(exp.point, exp.direction, body=body)]
+
+
+def _cache_key(model, exp: PreparedExperiment) -> tuple:
+    """What besides the structure the cached coordinate accelerations depend on."""
+    return (model.chain.force_gain, tuple(model.chain.force_offset), exp.force.shape[0])
+
+
+def simulate_together(models: Mapping[str, Any], exps: Sequence[PreparedExperiment]) -> None:
+    """Fill the simulation caches of the experiments whose models share one nonlinear structure in
+    one time loop (a nonlinear simulation costs a Python step per sample; run together, once)."""
+    from odsuite.domain.simulation import simulate_nonlinear_many
+
+    todo = [(models[e.name], e) for e in exps if not models[e.name].structure.is_linear]
+    if len(todo) < 2:
+        return
+    st, fs = todo[0][0].structure, todo[0][1].fs
+    todo = [(m, e) for m, e in todo if m.structure is st and e.fs == fs
+            and (e._cache is None or e._cache[0] is not st or e._cache[1] != _cache_key(m, e))]
+    if len(todo) < 2:
+        return
+    qdds = simulate_nonlinear_many(st, [(m.input_matrices(_force_inputs(m, e))[0], e.force) for m, e in todo], fs)
+    for (m, e), qdd in zip(todo, qdds):
+        e._cache = (st, _cache_key(m, e), qdd)
+
+
+def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "acceleration") -> np.ndarray:
+    """The model's physical signal at each sensor of ``exp`` (samples x sensors), from rest."""
+    from odsuite.domain.model import Output, StateSpace
+    from odsuite.domain.simulation import simulate_nonlinear, simulate_state_space
+
+    inputs = _force_inputs(model, exp)
+    if quantity != "acceleration":
+        outputs = [Output.sensor(s, quantity) for s in exp.sensors]
+        return simulate_state_space(model.state_space(inputs, outputs), exp.force, exp.fs, hold="foh")
+    # a sensor's acceleration is its output row times the coordinates' accelerations q''
+    st = model.structure
+    rows = _sensor_rows(model, exp.sensors)
+    n = st.n_dof
+    if n > CACHED_COORDINATES and st.is_linear:  # many coordinates (finite elements): the sensors alone
+        bf, _ = model.input_matrices(inputs)
+        minv_bf = st.Minv @ bf
+        ss = StateSpace(st.A, np.vstack([np.zeros_like(bf), minv_bf]), rows @ st.A[n:], rows @ minv_bf)
+        y = simulate_state_space(ss, exp.force, exp.fs, hold="foh")
+    else:
+        key = _cache_key(model, exp)
+        if exp._cache is None or exp._cache[0] is not st or exp._cache[1] != key:
+            bf, _ = model.input_matrices(inputs)
+            minv_bf = st.Minv @ bf
+            if st.is_linear:
+                ss = StateSpace(st.A, np.vstack([np.zeros_like(bf), minv_bf]), st.A[n:], minv_bf)
+                exp._cache = (st, key, simulate_state_space(ss, exp.force, exp.fs, hold="foh"))
+            else:  # cubic springs: the response depends on the force's level
+                exp._cache = (st, key, simulate_nonlinear(st, bf, exp.force, exp.fs))
+        y = exp._cache[2] @ rows.T
+    return _analog_chain(model, exp, y)
+
+
+def _analog_chain(model, exp: PreparedExperiment, y: np.ndarray) -> np.ndarray:
+    """The chain's parts between the structure and the converter on the sensors' accelerations
+    ``y`` (samples x sensors, changed in place): sensor dynamics, front end, sampling delays."""
+    from odsuite.domain.simulation import sampled_later
+
+    chain = model.chain
+    # the sensors' own dynamics in series, on their sampled signals (one small system per sensor:
+    # identical sensors would make one big system's modes repeated and defective); sensors with
+    # equal dynamics are filtered in one call
+    groups: dict[Any, list[int]] = {}
+    for j, s in enumerate(exp.sensors):
+        dyn = chain.sensor_dynamics(s.name)
+        if dyn is not None:
+            groups.setdefault(dyn, []).append(j)
+    for dyn, cols in groups.items():
+        num, den = _sensor_filter(dyn, exp.fs)
+        y[:, cols] = scipy.signal.lfilter(num, den, y[:, cols], axis=0)
+    if chain.front_end is not None:
+        y = scipy.signal.sosfilt(_analog_sos(chain.front_end, exp.fs), y, axis=0)
+    delays = [chain.delay.get(s.name, 0.0) for s in exp.sensors]
+    if any(delays):
+        y = sampled_later(y, exp.fs, delays)
+    return y
+
+
+def _sensor_rows(model, sensors: Sequence[Sensor]) -> np.ndarray:
+    """The sensors' acceleration rows of ``model`` (Model.output_rows), kept on the model: every
+    experiment of a fit evaluates one model, and the rows cost a few small products per sensor.
+    Keyed by the sensors' identities (the rig's objects, kept alive with the entry)."""
+    from odsuite.domain.model import Output
+
+    key = tuple(map(id, sensors))
+    cache = model.__dict__.setdefault("_sensor_rows", {})
+    if key not in cache:
+        cache[key] = (tuple(sensors), model.output_rows([Output.sensor(s) for s in sensors])[1])
+    return cache[key][1]
+
+
+@functools.lru_cache(maxsize=256)
+def _sensor_filter(dyn, fs: float) -> tuple[np.ndarray, np.ndarray]:
+    """First-order-hold discretisation of a sensor's dynamics in transfer-function form (a few
+    states, run by lfilter); cached, as scipy's matrix exponential dominates a fitting loop.
+
+    The high-passes and the resonance are discretised apart and put in series: in one system, a
+    resonance far above the sampling rate (a fit passing a period near 0, "no resonance") next to
+    the high-passes' slow poles loses every digit (a 1e15 Hz resonance changed the signal by
+    17 %); alone, each is exact to 1e-12 and tends to 1 as the period goes to 0."""
+    num, den = np.ones(1), np.ones(1)
+    resonance = replace(dyn, highpass_hz=0.0, coupler_highpass_hz=0.0)
+    for part in (replace(dyn, resonance_period_s=0.0), resonance):
+        if part.is_identity():
+            continue
+        ad, bd, cd, dd, _ = scipy.signal.cont2discrete(scipy.signal.zpk2ss(*part.zpk()), 1 / fs, method="foh")
+        b, a = scipy.signal.ss2tf(ad, bd, cd, dd)
+        num, den = np.convolve(num, b[0]), np.convolve(den, a)
+    return num, den
+
+
+@functools.lru_cache(maxsize=64)
+def _analog_sos(analog, fs: float) -> np.ndarray:
+    """An analog filter (zeros, poles, gain) as digital second-order sections by the bilinear
+    transform: a front end holds parts far above the Nyquist frequency (a sensor's mounted
+    resonance at tens of kHz), which a hold-equivalent discretisation would alias, while the
+    bilinear map keeps their in-band effect (frequency warping: under 1 % below fs / 20)."""
+    z, p, k = (np.asarray(v, complex) for v in analog.zpk())
+    zd, pd, kd = scipy.signal.bilinear_zpk(z, p, float(np.real(k)), fs)
+    return scipy.signal.zpk2sos(zd, pd, kd)
+
+
+def impulse_response(model, exp: PreparedExperiment) -> np.ndarray:
+    """The model's prediction (acceleration stage) for a unit force sample at the hit: how the
+    force channel's noise in the window reaches each channel (odsuite.analysis.noise_floor)."""
+    unit = np.zeros(exp.n_samples)
+    unit[min(exp.trigger, exp.n_samples - 1)] = 1.0
+    return predict(model, replace(exp, force=unit, _cache=None))
+
+
+#: realisations of the sensors' noise that the floor averages (its energy is a sum over thousands
+#: of samples: two realisations differ by a few per cent)
+NOISE_REALISATIONS = 2
+#: converter offsets tried (fractions of a code) when the record tells where its signal sits
+#: between the codes
+OFFSET_GRID = 32
+#: share of samples whose code the model may miss for reasons other than noise and offset
+OUTLIERS = 0.01
+#: a line through the samples before the hit that rises by this many codes is drift: it moves the
+#: signal through the codes (the offset is then immaterial) and would pass for noise. White noise
+#: of a third of a code over 200 samples tilts a fitted line by 0.1 code (one standard deviation)
+DRIFT_CODES = 0.25
+#: samples the offset's likelihood is evaluated on (evenly spread): beyond a few thousand the
+#: posterior is a point already, and the floor is computed on every comparison
+OFFSET_SAMPLES = 2048
+#: codes within which a sample tells the offset: farther out the model's own error (a share of the
+#: signal) blurs which code it lands on
+OFFSET_CODES = 3.0
+
+
+def _code_loglik(codes: np.ndarray, x: np.ndarray, blur: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Log-likelihood per offset (codes) that signal ``x`` (codes) with Gaussian ``blur`` rounds to
+    ``codes``."""
+    z = codes[None, :] - x[None, :] - offsets[:, None]
+    p = scipy.special.ndtr((z + 0.5) / blur) - scipy.special.ndtr((z - 0.5) / blur)
+    # a sample the model misses (the response's onset before the detected hit) is an outlier, not
+    # a verdict on the offset
+    return np.sum(np.log((1 - OUTLIERS) * p + OUTLIERS / (2 * OFFSET_CODES + 1)), axis=1)
+
+
+def converter_offsets(v: np.ndarray, volts: np.ndarray, step: float, trigger: int,
+                      count: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """``count`` offsets (volts) of a signal against its converter's codes, drawn evenly from
+    what the record allows, and with each the white noise (volts) before rounding. The samples
+    before the hit tell the noise and, when it spreads them over a few codes, the offset; a
+    perfect model's signal ``v`` (volts) then tells the offset further: a small oscillation that
+    never leaves its code puts it near the code's middle, one that flips codes near a threshold.
+    The rounding error of a signal that spans few codes depends on that offset (zero for a signal
+    within half a code of a code's middle). None: the record does not lie on the step's grid, or
+    drifts through the codes before the hit (offsets are then uniform over a code).
+
+    The model's own error blurs each sample by its share of the signal, that share measured where
+    the signal spans many codes (there rounding hardly matters)."""
+    pre = volts[: max(trigger, 1)]
+    ref = volts[int(np.argmin(np.abs(volts - np.median(pre))))]
+    codes = (volts - ref) / step
+    if not np.all(np.abs(codes - np.round(codes)) <= GRID_TOLERANCE):
+        return None
+    codes = np.round(codes)
+    grid = (np.arange(OFFSET_GRID) + 0.5) / OFFSET_GRID - 0.5
+    x = v / step
+    # the noise before rounding: the most likely over the first half of the samples before the hit
+    # (the hammer's contact and the response start before the detected hit); offsets free; a
+    # hundredth of a code at least (the model's discretisation)
+    quiet = np.flatnonzero(np.abs(x[: len(pre) // 2]) < 0.01)
+    if quiet.size < 2:
+        return None
+    line = np.polyval(np.polyfit(quiet, codes[quiet], 1), quiet[[0, -1]])
+    if abs(line[1] - line[0]) >= DRIFT_CODES:
+        return None  # drift moves the signal through the codes: the offset is immaterial
+    spread = float(np.std(codes[quiet]))
+    sigmas = np.unique(np.concatenate([[0.01], np.linspace(0.05, 1.0, 20), [max(spread, 0.01)]]))
+    # the samples before the hit tie noise and offset together (one share of flipped codes fits a
+    # small noise near a threshold or a larger one farther in): the most likely noise per offset
+    quiet_loglik = np.array([_code_loglik(codes[quiet], x[quiet], np.full(quiet.size, s), grid) for s in sigmas])
+    noise = sigmas[np.argmax(quiet_loglik, axis=0)]
+    # the signal's small oscillations then tell the offset
+    big = np.abs(x) > 2 * OFFSET_CODES
+    share2 = float(np.sum((codes[big] - x[big]) ** 2) / np.sum(x[big] ** 2)) if big.any() else 0.0
+    small = np.flatnonzero(np.abs(x) <= OFFSET_CODES)
+    small = small[:: max(1, small.size // OFFSET_SAMPLES)]
+    loglik = np.array([_code_loglik(codes[small], x[small], np.sqrt(s**2 + share2 * x[small] ** 2), grid[[k]])[0]
+                       for k, s in enumerate(noise)])
+    w = np.exp(loglik - loglik.max())
+    cdf = np.cumsum(w) / w.sum()
+    picks = np.minimum(np.searchsorted(cdf, (np.arange(count) + 0.5) / count), OFFSET_GRID - 1)
+    return grid[picks] * step, noise[picks] * step
+
+
+def sensor_noise(model, exp: PreparedExperiment, realisations: int = NOISE_REALISATIONS) -> list[np.ndarray]:
+    """Realisations of what a perfect model leaves of the sensors' own noise at the acceleration
+    stage: the model's signals in volts plus white noise (measured on the raw codes where the
+    record tells it, else the quiet samples' level less its rounding share, Sheppard) at an offset on the ADC's codes (where the record tells it:
+    converter_offsets; else at random), rounded to them, minus the signals, through each channel's
+    chain. The rounding error of a signal that moves through few codes is not white (it repeats
+    the signal's own frequencies) and depends on that offset: simulated, it is right."""
+    if exp.operators is None or exp.adc_step_v is None:
+        return []
+    rng = np.random.default_rng(0)  # reproducible floors
+    physical = simulate_sensors(model, exp)
+    vpu = np.asarray(exp.volts_per_unit, float)
+    micro = np.array([1e6 if u.startswith("u") else 1.0 for u in exp.units]) if exp.units else np.ones(len(vpu))
+    step = np.asarray(exp.adc_step_v, float)
+    volts_per_stage = np.abs(vpu) / micro
+    rounding = np.where(step > 0, exp.lsb**2 / 12.0, 0.0)
+    sigma_v = np.sqrt(np.maximum(np.asarray(exp.noise_var) - rounding, 0.0)) * volts_per_stage
+    v = physical * vpu
+    # hum or drift of a code or more moves the signal through the codes itself: the offset is
+    # then immaterial and not told by the model's signal, which leaves them out
+    moved = (np.ptp(exp.disturbance, axis=0) * volts_per_stage >= step if exp.disturbance is not None
+             else np.zeros(len(step), bool))
+    told = {j: converter_offsets(v[:, j], exp.volts[:, j], step[j], exp.trigger, realisations)
+            for j in np.flatnonzero((step > 0) & ~moved)}
+    told = {j: t for j, t in told.items() if t is not None}
+    out = []
+    for i in range(realisations):
+        offset = rng.uniform(0.0, 1.0, len(step)) * step
+        sigma = sigma_v.copy()
+        for j, (picks, noise) in told.items():
+            # the noise measured on the raw codes: the acceleration stage's is filtered
+            offset[j], sigma[j] = picks[i], noise[i]
+        x = v + offset + rng.standard_normal(v.shape) * sigma
+        q = np.where(step > 0, np.round(x / np.where(step > 0, step, 1.0)) * step, x)
+        err = (q - offset - v) / vpu
+        stage = np.empty_like(err)
+        for op in exp.operators:
+            cols = list(op.columns)
+            stage[:, cols] = op.apply(err[:, cols])
+        out.append(stage)
+    return out
+
+
+def through_chain(exp: PreparedExperiment, physical: np.ndarray, taps: Sequence[str] | None = None
+                  ) -> dict[str, np.ndarray]:
+    """Put predicted physical signals through each sensor's own chain, as volts, like the data."""
+    taps = taps or (stage_names("acceleration")[0],)
+    out = {t: np.empty_like(physical) for t in taps}
+    for j, chain in enumerate(exp.chains):
+        res = chain.run(physical[:, j] * exp.volts_per_unit[j])
+        for t in taps:
+            out[t][:, j] = res[t]
+    return out
+
+
+def predict(model, exp: PreparedExperiment) -> np.ndarray:
+    """Predicted signals at the acceleration stage, samples x sensors."""
+    return _digital_chain(exp, simulate_sensors(model, exp))
+
+
+def flexible_mode_change(model, exp: PreparedExperiment, mode) -> np.ndarray:
+    """What adding the flexible ``mode`` to ``model``'s structure changes in ``predict(model, exp)``
+    (samples x sensors). The mode's coordinate is uncoupled from the others (its own rows of M, C
+    and K), so its response adds to theirs: one 1-degree-of-freedom simulation through the chain,
+    instead of the whole structure's again (a search over a mode's frequency and damping)."""
+    from odsuite.domain.model import Output, StateSpace
+    from odsuite.domain.simulation import simulate_state_space
+
+    b, c = model.flexible_participation(mode, _force_inputs(model, exp)[0], [Output.sensor(s) for s in exp.sensors])
+    if b == 0.0 or not c.any():
+        return np.zeros((exp.n_samples, len(exp.sensors)))
+    w = 2 * np.pi * mode.frequency_hz
+    rate = np.array([-w * w, -2 * mode.damping_ratio * w])
+    # q'' + 2 zeta w q' + w^2 q = b F, its acceleration out
+    sdof = StateSpace(np.array([[0.0, 1.0], rate]), np.array([[0.0], [b]]), rate[None, :], np.array([[b]]))
+    accel = simulate_state_space(sdof, exp.force, exp.fs, hold="foh")
+    return _digital_chain(exp, _analog_chain(model, exp, accel * c[None, :]))
+
+
+def _digital_chain(exp: PreparedExperiment, physical: np.ndarray) -> np.ndarray:
+    """Physical signals at the sensors through each channel's processing to the acceleration stage."""
+    if exp.operators is None:
+        return through_chain(exp, physical)[stage_names("acceleration")[0]]
+    out = np.empty_like(physical)
+    for op in exp.operators:
+        cols = list(op.columns)
+        out[:, cols] = op.apply(physical[:, cols])
+    return out
+
+
+def coordinate_series(rig: Rig, exp: PreparedExperiment, model) -> dict[str, tuple[np.ndarray, np.ndarray, list[int]]]:
+    """Per body whose motion its sensors determine: measured and model generalized coordinates at
+    its G (samples x 6; m, rad), both from displacements after the full chain and the body's
+    solver, and the body's columns in ``exp``. Empty when some channel is not integrated twice (no
+    displacements)."""
+    from odsuite.contracts.plugins import registries
+    from odsuite.contracts.solvers import body_solvers
+
+    taps = stage_names("acceleration")
+    out: dict[str, tuple[np.ndarray, np.ndarray, list[int]]] = {}
+    if not all(t in chain.taps for chain in exp.chains for t in taps):
+        return out
+    predicted = through_chain(exp, simulate_sensors(model, exp), taps)
+    measured = {t: np.empty_like(exp.measured) for t in taps}
+    for j, chain in enumerate(exp.chains):
+        res = chain.run(exp.volts[:, j])
+        for t in taps:
+            measured[t][:, j] = res[t]
+    column = {s.name: j for j, s in enumerate(exp.sensors)}
+    for c in body_solvers(rig, column, registries().coordinate_solvers)[0]:
+        idx = {n: column[n] for n in c.sensors}
+        gm = c.solver.solve(rig, c.body, {n: measured["displacement"][:, j] for n, j in idx.items()}).at_g
+        gp = c.solver.solve(rig, c.body, {n: predicted["displacement"][:, j] for n, j in idx.items()}).at_g
+        out[c.body.name] = (gm, gp, list(idx.values()))
+    return out
+
+
+def experiment_coordinates(project, name: str, revision: Mapping[str, Any] | None = None
+                           ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Measured and model generalized coordinates of one experiment per nine-sensor body, for the
+    current model revision (or ``revision``): the model driven by the measured force, predicted at
+    the sensors and put through the experiment's chain and solver like the measurement."""
+    from odsuite.analysis.modelrev import current_revision, revision_model
+
+    exp = prepare_experiment(project, name)
+    model = revision_model(project, revision or current_revision(project)).for_experiment(name)
+    series = coordinate_series(project.rig, exp, model)
+    if not series:
+        raise ConfigError(f"{project.path}: experiment {name!r}: the chains do not integrate every "
+                          "accelerometer to displacement, so there are no generalized coordinates")
+    return {body: (gm, gp) for body, (gm, gp, _) in series.items()}

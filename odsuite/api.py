@@ -1,0 +1,135 @@
+"""What a lab's plugin or a notebook imports from odsuite: the names here, and the provider
+contracts in ``odsuite.contracts``. Everything else is internal and may change between versions.
+
+Names load on first use (``odsuite.api.compare`` imports the comparison then), so a plugin that
+imports this module at registration costs nothing at start-up.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+#: public name -> the module that defines it
+_WHERE: dict[str, str] = {
+    # errors and version
+    "ConfigError": "odsuite.domain.errors",
+    "DimensionError": "odsuite.domain.errors",
+    "HardwareError": "odsuite.domain.errors",
+    "OdsuiteError": "odsuite.domain.errors",
+    "OdsuiteWarning": "odsuite.domain.errors",
+    "__version__": "odsuite.domain.version",
+    # plugins: the hook marker and the registries (notebooks and tests build their own)
+    "hookimpl": "odsuite.contracts.hookspecs",
+    "make_plugin_manager": "odsuite.contracts.plugins",
+    "registries": "odsuite.contracts.plugins",
+    "Registries": "odsuite.contracts.plugins",
+    # rigs, sensors and where the hammer hit
+    "Body": "odsuite.domain.rig",
+    "load_rig": "odsuite.domain.rig",
+    "MAX_CHANNELS": "odsuite.domain.rig",
+    "NINE_ROLES": "odsuite.domain.rig",
+    "NineSensorSet": "odsuite.domain.rig",
+    "Rig": "odsuite.domain.rig",
+    "rig_from_dict": "odsuite.domain.rig",
+    "Sensor": "odsuite.domain.rig",
+    "single_axis_sensor": "odsuite.domain.rig",
+    "Excitation": "odsuite.domain.excitation",
+    "parse_force_direction": "odsuite.domain.excitation",
+    "parse_force_point": "odsuite.domain.excitation",
+    "ChannelInfo": "odsuite.domain.systeminfo",
+    "format_ctr": "odsuite.domain.systeminfo",
+    "parse_ctr": "odsuite.domain.systeminfo",
+    "read_ctr": "odsuite.domain.systeminfo",
+    "SensorType": "odsuite.domain.systeminfo",
+    "Systeminfo": "odsuite.domain.systeminfo",
+    "write_ctr": "odsuite.domain.systeminfo",
+    # rigid-body kinematics (SI: m, rad; rig frame)
+    "body_corners": "odsuite.domain.rigidbody",
+    "body_sensors": "odsuite.domain.rigidbody",
+    "com_to_corner": "odsuite.domain.rigidbody",
+    "COORDINATE_UNITS": "odsuite.domain.rigidbody",
+    "COORDINATES": "odsuite.domain.rigidbody",
+    "corner_to_com": "odsuite.domain.rigidbody",
+    "CORNERS": "odsuite.domain.rigidbody",
+    "plate_corners": "odsuite.domain.rigidbody",
+    "PLOT_INDEX": "odsuite.domain.rigidbody",
+    "point_displacements": "odsuite.domain.rigidbody",
+    "Rigidity": "odsuite.domain.rigidbody",
+    "rotation_matrix": "odsuite.domain.rigidbody",
+    "SolverResult": "odsuite.domain.rigidbody",
+    "stack_signals": "odsuite.domain.rigidbody",
+    "transform_points": "odsuite.domain.rigidbody",
+    # the linear multibody model and its simulation
+    "FlexibleMode": "odsuite.domain.model",
+    "Input": "odsuite.domain.model",
+    "LinearStructure": "odsuite.domain.model",
+    "Model": "odsuite.domain.model",
+    "Output": "odsuite.domain.model",
+    "RigidBody": "odsuite.domain.model",
+    "SensorDynamics": "odsuite.domain.model",
+    "skew": "odsuite.domain.model",
+    "SpringDamper": "odsuite.domain.model",
+    "Structure": "odsuite.domain.model",
+    "simulate": "odsuite.domain.simulation",
+    "simulate_nonlinear": "odsuite.domain.simulation",
+    # text files and outputs (room checked before writing)
+    "check_text_file": "odsuite.domain.textfiles",
+    "read_text": "odsuite.domain.textfiles",
+    "ensure_space": "odsuite.store.diskspace",
+    "write_output": "odsuite.store.diskspace",
+    # the project file
+    "create_project": "odsuite.store.project",
+    "DerivedArray": "odsuite.store.project",
+    "open_project": "odsuite.store.project",
+    "Project": "odsuite.store.project",
+    "interrupts_deferred": "odsuite.store.storage",
+    "interrupts_held": "odsuite.store.storage",
+    # recording and processing
+    "acquire": "odsuite.processing.acquisition",
+    "build_chain": "odsuite.processing.chain_spec",
+    "process_experiment": "odsuite.processing.pipeline",
+    # what the model predicts and how it compares
+    "coordinate_series": "odsuite.analysis.prediction",
+    "experiment_coordinates": "odsuite.analysis.prediction",
+    "experiment_force": "odsuite.analysis.prediction",
+    "flexible_mode_change": "odsuite.analysis.prediction",
+    "predict": "odsuite.analysis.prediction",
+    "prepare": "odsuite.analysis.prediction",
+    "current_revision": "odsuite.analysis.modelrev",
+    "revision_model": "odsuite.analysis.modelrev",
+    "compare": "odsuite.analysis.comparison",
+    "COORDINATE_NAMES": "odsuite.analysis.comparison",
+    "history": "odsuite.analysis.history",
+    "history_figure": "odsuite.analysis.history",
+    # FRFs, modes and operating shapes
+    "estimate_frf": "odsuite.analysis.frf",
+    "assess_hits": "odsuite.analysis.hammer",
+    "pair_modes": "odsuite.analysis.modal",
+    "PAIR_TOLERANCE": "odsuite.analysis.modal_comparison",
+    "frf_modes": "odsuite.analysis.modal_project",
+    "ods_coordinates": "odsuite.analysis.modal_project",
+    "ods_motion": "odsuite.analysis.modal_project",
+    "physical": "odsuite.analysis.modal_project",
+    "operating_shape": "odsuite.analysis.ods",
+    "frf_figure": "odsuite.analysis.modal_figures",
+    "mac_figure": "odsuite.analysis.modal_figures",
+    # diagnosis
+    "diagnose": "odsuite.diagnosis.diagnose",
+    "add_effect": "odsuite.diagnosis.add_effect",
+}
+
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name: str):
+    try:
+        module = _WHERE[name]
+    except KeyError:
+        raise AttributeError(f"module 'odsuite.api' has no attribute {name!r}") from None
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return __all__

@@ -1,0 +1,345 @@
+"""The ``odsuite`` command line: every command is a thin call into the Python API.
+
+Only ``OdsuiteError`` is caught: it is printed as one line and the exit code is 1. Any other
+exception is a bug and keeps its traceback. Ctrl-C ends a command with exit code 130 and one line
+saying what was stored and what was not.
+
+Names and paths are data: every string printed goes through ``shown`` (no rich markup, control
+characters and undecodable bytes escaped), so a name like ``[/x]`` or ``x\\xff`` prints as itself.
+"""
+
+
+from __future__ import annotations
+
+
+import contextlib
+
+
+import math
+
+
+import signal
+
+
+import sys
+
+
+from pathlib import Path
+
+
+#: Ctrl-Cs received: one while the command line loads (imports take about a second) is held here
+#: until ``main`` can report it (only when run as the ``odsuite`` program, never for an importing
+#: library); one swallowed on the way (see ``_unraisable``) is reported when the command ends.
+_INTERRUPTS: list[int] = []
+
+
+_AS_PROGRAM = Path(sys.argv[0]).name == "odsuite"
+
+
+if _AS_PROGRAM:
+    signal.signal(signal.SIGINT, lambda signum, frame: _INTERRUPTS.append(signum))
+
+
+import typer
+
+
+from rich.console import Console
+
+
+from rich.table import Table
+
+
+from rich.text import Text
+
+
+from odsuite.store import diskspace
+
+
+from odsuite.domain.errors import ConfigError, OdsuiteError
+
+
+app = typer.Typer(
+    name="odsuite",
+    help="Experimental vibration analysis: impact tests, rigid-plate motion, model comparison.",
+    no_args_is_help=True,
+    add_completion=True,  # --install-completion / --show-completion for bash, zsh, fish, PowerShell
+    pretty_exceptions_enable=False,
+)
+
+
+def shown(value: object) -> str:
+    """User data as one printable line: control characters (newlines, ANSI escapes) and bytes that
+    were not UTF-8 (surrogate escapes of argv and file names) written as Python escapes."""
+    text = str(value)
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else
+                   f"\\x{ord(c) - 0xDC00:02x}" if 0xDC80 <= ord(c) <= 0xDCFF else repr(c)[1:-1]
+                   for c in text)
+
+
+class _DataConsole(Console):
+    """A console that never reads markup and prints every string through ``shown`` (tables,
+    progress descriptions and messages alike); styles come from ``Text`` objects only."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__(markup=False, **kwargs)
+
+    def render_str(self, text: str, **kwargs) -> Text:
+        return super().render_str(shown(text), **{**kwargs, "markup": False})
+
+
+console = _DataConsole()
+
+
+err_console = _DataConsole(stderr=True)
+
+
+class _Interrupted(BaseException):
+    """Ctrl-C, raised instead of KeyboardInterrupt so click does not turn it into 'Aborted!'; every
+    ``finally`` and copy-on-write cleanup still runs."""
+
+
+def _commits() -> list[Path]:
+    """``storage.COMMITS`` without importing storage: a Ctrl-C that cut an import short (numpy's)
+    makes importing it again fail, and before storage is imported nothing was committed."""
+    return getattr(sys.modules.get("odsuite.store.storage"), "COMMITS", [])
+
+
+class _Ledger:
+    """What the running command stored, for the one line a Ctrl-C prints. A command names the
+    units it will store (``plan``), opens each (``start``) and closes it (``done``); a unit whose
+    commit reached the disk (``storage.COMMITS``) before the interrupt counts as stored."""
+
+    def __init__(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        self.target: Path | None = None
+        self.planned: list[str] = []
+        self.stored: list[str] = []
+        self.current: str | None = None
+        self.commits_at_start = 0
+
+    def plan(self, target: Path, units: list[str]) -> None:
+        self.target, self.planned, self.commits_at_start = target, list(units), len(_commits())
+
+    def start(self, unit: str) -> None:
+        self.current, self.commits_at_start = unit, len(_commits())
+
+    def done(self) -> None:
+        if self.current is not None:
+            self.stored.append(self.current)
+        self.current = None
+
+    def line(self) -> str:
+        if self.current is not None and len(_commits()) > self.commits_at_start:
+            self.done()
+        if self.target is None:
+            return "interrupted: nothing stored"
+        missing = [u for u in self.planned if u not in self.stored]
+        if not self.stored:
+            return f"interrupted: nothing stored, {self.target} unchanged"
+        return (f"interrupted: stored {', '.join(self.stored)} in {self.target}; not stored: "
+                f"{', '.join(missing) or 'nothing'}")
+
+    def after_error(self, message: str) -> str:
+        """The error line of a command that failed after committing some units (multi-experiment
+        ``process``): it names what stays stored."""
+        if self.current is not None and len(_commits()) > self.commits_at_start:
+            self.done()
+        if not self.stored:
+            return message
+        missing = [u for u in self.planned if u not in self.stored]
+        return (f"{message.removesuffix('; project unchanged')}; stored before the error: "
+                f"{', '.join(self.stored)} in {self.target}; not stored: {', '.join(missing) or 'nothing'}")
+
+
+_ledger = _Ledger()
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        from odsuite.domain.version import __version__
+
+        console.print(f"odsuite {__version__}", highlight=False)
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: bool = typer.Option(False, "--version", callback=_print_version, is_eager=True,
+                                 help="Print odsuite's version and exit."),
+) -> None:
+    """Experimental vibration analysis: impact tests, rigid-plate motion, model comparison."""
+    from odsuite.contracts.plugins import registries
+
+    # every provider is checked against its contract before any command runs
+    registries()
+
+
+def _rendered_doc(renderer, res) -> dict:
+    """What a renderer wrote, for --json: the files (a movie may fall back to another format)."""
+    return {"renderer": renderer.name, "outputs": [{"path": str(res.path), "bytes": res.path.stat().st_size}],
+            "summary": res.summary, "notes": list(res.notes)}
+
+
+#: Output files of the running command, checked before writing, and whether each existed then:
+#: a full disk names the last one and removes the new ones (a writer that ran into it half-way).
+_OUTPUTS: dict[Path, bool] = {}
+
+
+def _check_output(output: Path, project: Path, option: str) -> None:
+    from odsuite.store.storage import check_output
+
+    output = check_output(output, project, option)
+    _OUTPUTS[output] = output.exists() or output.is_symlink()
+
+
+def _print_json(doc) -> None:
+    """Exactly one JSON document on stdout (NaN/inf become null, which JSON lacks)."""
+    import json
+    import math
+
+    def clean(x):
+        if isinstance(x, float) and not math.isfinite(x):
+            return None
+        if isinstance(x, dict):
+            return {str(k): clean(v) for k, v in x.items()}
+        if isinstance(x, (list, tuple)):
+            return [clean(v) for v in x]
+        return x
+
+    print(json.dumps(clean(doc)))
+
+
+def _loop_progress():
+    from rich.progress import BarColumn, Progress, TextColumn
+
+    return Progress(TextColumn("{task.description}"), BarColumn(), console=err_console, transient=True,
+                    disable=not err_console.is_terminal)
+
+
+def _modal_table(rows) -> Table:
+    """compare's measured-against-model modes: frequencies (Hz), damping ratios (%), MAC."""
+    table = Table(title="measured against model modes (-: no model mode within 10 %)")
+    table.add_column("record", no_wrap=True)
+    for col in ("meas. Hz", "model Hz", "Δf", "meas. ζ %", "model ζ %", "Δζ", "MAC"):
+        table.add_column(col, no_wrap=True)
+    for r in rows:
+        paired = r["model_hz"] is not None
+        table.add_row(r["experiment"], f"{r['measured_hz']:.2f}", f"{r['model_hz']:.2f}" if paired else "-",
+                      f"{100 * (r['model_hz'] / r['measured_hz'] - 1):+.2f}%" if paired else "-",
+                      f"{100 * r['measured_zeta']:.3f}", f"{100 * r['model_zeta']:.3f}" if paired else "-",
+                      f"{100 * (r['model_zeta'] / r['measured_zeta'] - 1):+.0f}%" if paired and r["measured_zeta"] else "-",
+                      "-" if r["mac"] is None else f"{r['mac']:.3f}")
+    return table
+
+
+def _register_plugin_commands() -> None:
+    from odsuite.contracts.plugins import default_manager
+
+    default_manager().hook.odsuite_register_commands(app=app)
+
+
+def _quiet_flags(command) -> None:
+    """On/off flags take no value, so their help shows no type: an empty metavar drops typer's
+    ``<bool>`` (the help option included, which click makes once per command and caches)."""
+    import click
+
+    command.get_help_option(click.Context(command))
+    for param in [*command.params, command._help_option]:
+        if getattr(param, "is_flag", False):
+            param.metavar = ""
+    for sub in getattr(command, "commands", {}).values():
+        _quiet_flags(sub)
+
+
+def _on_interrupt(signum, frame) -> None:
+    # one interrupt ends the command; further ones wait for its cleanup (temporary copies, workers)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _INTERRUPTS.append(signum)
+    raise _Interrupted()
+
+
+def _unraisable(hook_args) -> None:
+    # an interrupt raised where Python cannot raise (a finaliser) is still reported by main
+    if not isinstance(hook_args.exc_value, _Interrupted):
+        sys.__unraisablehook__(hook_args)
+
+
+def main(argv: list[str] | None = None) -> int:
+    _ledger.reset()
+    _OUTPUTS.clear()
+    if not _AS_PROGRAM:  # called again in the same process (tests, scripts): a fresh start
+        _INTERRUPTS.clear()
+    try:
+        previous = signal.signal(signal.SIGINT, _on_interrupt)
+    except ValueError:  # not the main thread: interrupts stay Python's
+        previous = None
+    hook, sys.unraisablehook = sys.unraisablehook, _unraisable
+    try:
+        return _run(argv)
+    finally:
+        sys.unraisablehook = hook
+        if previous is not None:
+            # the program's work is done: a late Ctrl-C must not kill the exiting interpreter
+            signal.signal(signal.SIGINT, signal.SIG_IGN if _AS_PROGRAM else previous)
+
+
+def _run(argv: list[str] | None) -> int:
+    try:
+        if _INTERRUPTS:  # Ctrl-C while the program loaded
+            raise _Interrupted()
+        _register_plugin_commands()
+        command = typer.main.get_command(app)
+        _quiet_flags(command)
+        code = command.main(args=argv, standalone_mode=False, prog_name="odsuite")
+    except (_Interrupted, KeyboardInterrupt):
+        err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
+        return 130
+    except Exception:
+        if not _INTERRUPTS:
+            return _failed(sys.exc_info()[1])
+        # the interrupt came first and the error is its doing: a library that turned it into
+        # its own error (VTK's importer reports an interrupted import as an ImportError)
+        err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
+        return 130
+    if _INTERRUPTS:  # the interrupt was swallowed on the way (see _unraisable): report it
+        err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
+        return 130
+    # standalone_mode=False returns a command's typer.Exit code instead of raising it
+    return code if isinstance(code, int) else 0
+
+
+def _failed(exc: Exception) -> int:
+    """The exit code of a command that raised ``exc`` (printing its one line), or ``exc`` again
+    when it is a bug."""
+    try:
+        raise exc
+    except OdsuiteError as exc:
+        err_console.print(f"error: {_ledger.after_error(str(exc))}", style="bold red", highlight=False,
+                          soft_wrap=True)
+        return 1
+    except typer.Exit as exc:
+        return exc.exit_code
+    except typer.Abort:
+        err_console.print("aborted")
+        return 1
+    except typer.TyperException as exc:
+        # usage errors (unknown option, missing argument) carry their own exit code
+        exc.show()
+        return exc.exit_code
+    except Exception as exc:
+        if not diskspace.is_disk_full(exc):  # anything else is a bug and keeps its traceback
+            raise
+        # an output file (movie, report, figure, text) ran into a full disk
+        where = Path(getattr(exc, "filename", None) or ([*_OUTPUTS] or [Path.cwd() / "-"])[-1])
+        line = diskspace.full_message(where, where, diskspace.written_so_far(where), outcome="nothing written")
+        for output, existed in _OUTPUTS.items():
+            if not existed:
+                output.unlink(missing_ok=True)
+        err_console.print(f"error: {line}", style="bold red", highlight=False, soft_wrap=True)
+        return 1
+
+

@@ -1,0 +1,177 @@
+"""The model-measurement loop: compare, diagnose, add-effect, history, revert."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from rich.table import Table
+import typer
+
+from odsuite.domain.errors import ConfigError
+from odsuite.cli.app import _check_output, _loop_progress, _modal_table, _print_json, app, console, err_console, shown
+
+
+@app.command("compare")
+def compare_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+) -> None:
+    """Compare the current model revision with every experiment (like with like)."""
+    from odsuite.analysis.comparison import compare
+    from odsuite.store.project import open_project
+
+    with open_project(project) as p:
+        result = compare(p).as_dict()
+    if as_json:
+        _print_json(result)
+        return
+    console.print(f"revision {result['revision']}: error {result['error']:.4f} "
+                  f"(noise floor {result['noise_floor']:.4f}, {result['residual_to_floor']:.2f}x)", highlight=False)
+    # a row per channel: a rig has more channels than a terminal has room for columns
+    table = Table(title="error (NRMSE, acceleration stage)")
+    experiments = list(result["experiments"])
+    table.add_column("channel")
+    for exp in experiments:
+        table.add_column(shown(exp), justify="right")
+    table.add_column("all", justify="right")
+    for n in result["channels"]:
+        table.add_row(shown(n), *(f"{result['experiments'][e]['channels'].get(n, float('nan')):.3f}"
+                                  for e in experiments), f"{result['channels'][n]:.3f}")
+    table.add_row("all", *(f"{result['experiments'][e]['error']:.3f}" for e in experiments), f"{result['error']:.3f}",
+                  style="bold")
+    console.print(table)
+    worst = Table(title="where the model fails most")
+    for col in ("kind", "name", "error"):
+        worst.add_column(col)
+    for w in result["worst"]:
+        worst.add_row(w["kind"], w["name"], f"{w['error']:.3f}")
+    console.print(worst)
+    for peak in result["residual_peaks"]:
+        where = "no model mode there" if peak["lacking"] else f"near the model's mode at {peak['model_mode_hz']:.0f} Hz"
+        console.print(f"residual peak at {peak['frequency_hz']:.0f} Hz ({peak.get('to_floor', float('nan')):.1f}x the "
+                      f"noise floor there) in {', '.join(peak['channels'])}: {where}", highlight=False)
+    if result.get("modal"):
+        console.print(_modal_table(result["modal"]))
+    for note in (result.get("modal_notes") or []) + (result.get("notes") or []):
+        console.print(note, highlight=False, soft_wrap=True)
+
+
+@app.command("diagnose")
+def diagnose_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+    effect: list[str] = typer.Option(None, "--effect", help="Try only these effects (repeatable)."),
+    workers: int = typer.Option(None, "--workers", min=1, help="Processes that screen and fit candidates (default: "
+                                "one per core, at most 2 for a few dozen candidates; the result does not depend on it)."),
+) -> None:
+    """Rank every registered physical effect by the error it removes (validated), best first."""
+    from odsuite.diagnosis.diagnose import diagnose
+    from odsuite.store.project import open_project
+
+    with open_project(project) as p, _loop_progress() as bar:
+        task = bar.add_task("diagnosing", total=None)
+        result = diagnose(p, effects=effect or None, workers=workers,
+                          progress=lambda what, i, n: bar.update(task, description=what, completed=i, total=n))
+    doc = result.as_dict()
+    if as_json:
+        _print_json(doc)
+        return
+    console.print(f"revision {doc['revision']}: error {doc['baseline_error']:.4f} "
+                  f"(noise floor {doc['noise_floor']:.4f}, {doc['residual_to_floor']:.2f}x)", highlight=False)
+    console.print(f"verdict: {doc['verdict']}", highlight=False)
+    console.print(shown(doc["message"]), highlight=False, soft_wrap=True)
+    sig = doc["signature"]
+    where = [("channels", ", ".join(f"{c['channel']} ({c['residual_to_floor']:.1f}x)" for c in sig["channels"][:6])),
+             ("experiments", ", ".join(f"{x['experiment']} ({x['residual_to_floor']:.1f}x)" for x in sig["experiments"][:6])),
+             ("bands", ", ".join(f"{b['band']} ({b['residual_to_floor']:.1f}x)" for b in sig["bands"][:6])),
+             ("peaks", ", ".join(f"{p:.0f} Hz" for p in sig["peaks_hz"]))]
+    for label, text in where:
+        if text:
+            console.print(f"left above the floor, {label}: {shown(text)}", highlight=False, soft_wrap=True)
+    if sig["amplitude_dependent"]:
+        console.print("amplitude dependent: the fitted parameters follow the force level", highlight=False)
+    table = Table(title="candidate effects, best first")
+    for col in ("effect", "significant", "consistent", "plausible", "error after", "validated", "confounded with",
+                "evidence"):
+        table.add_column(col)
+
+    def yes(v: bool) -> str:
+        return "yes" if v else "no"
+
+    for c in doc["candidates"]:
+        table.add_row(c["effect"], yes(c["significant"]), yes(c["consistent"]) if c["fitted"] else "-",
+                      yes(c["plausible"]) if c["fitted"] else "-", f"{c['error_after']:.4f}",
+                      "-" if c["validated_error"] != c["validated_error"] else f"{c['validated_error']:.4f}",
+                      ", ".join(c["confounded_with"]) or "-", c["evidence"])
+    console.print(table)
+    if doc["not_applicable"]:
+        console.print(f"not applicable to this model: {', '.join(doc['not_applicable'])}", highlight=False,
+                      soft_wrap=True)
+
+
+@app.command("add-effect")
+def add_effect_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    effect: str = typer.Argument(..., help="Registered effect name (see `odsuite diagnose`)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+) -> None:
+    """Fit an effect together with the current ones and store a new model revision."""
+    from odsuite.diagnosis.add_effect import add_effect
+    from odsuite.store.project import open_project
+
+    with open_project(project, "a") as p, _loop_progress() as bar:
+        task = bar.add_task(f"adding {effect}", total=None)
+        result = add_effect(p, effect, progress=lambda what, i, n: bar.update(task, description=what,
+                                                                                completed=i, total=n))
+    if as_json:
+        _print_json(result)
+        return
+    console.print(f"revision {result['revision']}: + {effect}; error {result['previous_error']:.4f} -> "
+                  f"{result['error']:.4f} (noise floor {result['noise_floor_error']:.4f})", highlight=False)
+    for line in result["warnings"]:
+        err_console.print(f"warning: {shown(line)}", highlight=False, soft_wrap=True)
+
+
+@app.command("history")
+def history_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+    figure: Path = typer.Option(None, "--figure", help="Also draw the error per revision (PNG or SVG)."),
+) -> None:
+    """Model revisions with their effects and errors."""
+    from odsuite.analysis.history import history
+    from odsuite.store.project import open_project
+
+    if figure is not None:
+        _check_output(figure, project, "--figure")
+        if figure.suffix.lower() not in (".png", ".svg", ".pdf"):
+            raise ConfigError(f"--figure {figure}: suffix {figure.suffix!r} is not .png, .svg or .pdf")
+    with open_project(project) as p:
+        doc = history(p)
+    if figure is not None:
+        from odsuite.analysis.history import history_figure
+
+        history_figure(doc, figure)
+    if as_json:
+        _print_json(doc)
+        return
+    table = Table(title=f"model revisions (current: {doc['current']})")
+    for col in ("revision", "parent", "effects", "error"):
+        table.add_column(col)
+    for r in doc["revisions"]:
+        table.add_row(str(r["revision"]), "-" if r["parent"] is None else str(r["parent"]),
+                      ", ".join(r["effects"]) or "-", "-" if r["error"] is None else f"{r['error']:.4f}")
+    console.print(table)
+
+
+@app.command("revert")
+def revert_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    revision: int = typer.Argument(..., help="Revision to make current again."),
+) -> None:
+    """Make an earlier model revision current (nothing is deleted)."""
+    from odsuite.store.project import open_project
+
+    with open_project(project, "a") as p:
+        p.set_current_revision(revision)
+    console.print(f"current model revision: {revision}")

@@ -1,0 +1,204 @@
+"""Modal and operating analysis: frf, modes, ods."""
+
+from __future__ import annotations
+
+from pathlib import Path
+import math
+
+from rich.table import Table
+import typer
+
+from odsuite.cli.app import _check_output, _print_json, _rendered_doc, app, console, err_console, shown
+
+
+@app.command("frf")
+def frf_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    experiment: str = typer.Option(..., "--experiment", help="Experiment name."),
+    estimator: str = typer.Option("H1", "--estimator", help="H1, H2 or Hv."),
+    figure: Path = typer.Option(None, "--figure", help="Write magnitude, phase and coherence (.png, .svg, .pdf)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+) -> None:
+    """FRFs over the accepted hammer hits of an experiment (stored as derived 'frf')."""
+    from odsuite.domain.errors import ConfigError
+    from odsuite.analysis.frf import usable_band
+    from odsuite.analysis.modal_project import experiment_frf
+
+    if figure is not None:
+        _check_output(figure, project, "--figure")
+    frf, hits = experiment_frf(project, experiment, estimator=estimator)
+    for h in hits if not as_json else ():
+        state = "accepted" if h.accepted else "rejected: " + ", ".join(h.reasons)
+        console.print(f"hit at sample {h.peak_index} ({h.peak_force:.4g} N): {state}", highlight=False)
+    try:
+        band = usable_band(frf.frequency, frf.force_autospectrum, frf.coherence, frf.n_averages)
+        usable = f"usable band {band[0]:.1f}-{band[1]:.1f} Hz"
+    except ConfigError as exc:  # the FRFs are stored all the same: say why no band, do not fail
+        band, usable = None, str(exc).split(";")[0]
+    if figure is not None:
+        from odsuite.analysis.modal_figures import frf_figure
+
+        frf_figure(frf, figure, band_hz=band, title=f"FRFs of {experiment}")
+    if as_json:
+        _print_json({"experiment": experiment, "estimator": estimator, "channels": list(frf.output_names),
+                     "n_averages": frf.n_averages, "lines": int(frf.frequency.size),
+                     "resolution_hz": float(frf.frequency[1] - frf.frequency[0]) if frf.frequency.size > 1 else None,
+                     "usable_band_hz": None if band is None else [float(band[0]), float(band[1])],
+                     "usable_band_note": None if band is not None else usable,
+                     "hits": [{"sample": int(h.peak_index), "peak_force_n": float(h.peak_force),
+                               "accepted": bool(h.accepted), "reasons": list(h.reasons)} for h in hits],
+                     "figure": None if figure is None else str(figure)})
+        return
+    averaged = "1 hit" if frf.n_averages == 1 else f"{frf.n_averages} hits averaged"
+    console.print(f"{estimator} FRFs of {len(frf.output_names)} channels, {averaged}, "
+                  f"{frf.frequency.size} lines, {usable}", highlight=False)
+    if figure is not None:
+        console.print(f"wrote {figure}", highlight=False, soft_wrap=True)
+
+
+@app.command("modes")
+def modes_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    experiments: list[str] = typer.Option(..., "--experiment", help="Experiment name; give it several times for "
+                                          "an FRF matrix across experiments (roving hammer, several references)."),
+    f_min: float = typer.Option(None, "--fmin", help="Lowest frequency of the fit band (Hz)."),
+    f_max: float = typer.Option(None, "--fmax", help="Highest frequency of the fit band (Hz)."),
+    max_order: int = typer.Option(50, "--max-order", help="Highest model order (LSCF; SSI-cov state size with --output-only)."),
+    at: str = typer.Option(None, "--at", help="Pick poles nearest these frequencies: f1,f2,... (Hz)."),
+    figure: Path = typer.Option(None, "--figure", help="Write the stabilisation diagram (.png, .svg, .pdf)."),
+    mac_figure: Path = typer.Option(None, "--mac-figure", help="Write the modes' MAC matrix (AutoMAC; .png, .svg, .pdf)."),
+    output_only: bool = typer.Option(False, "--output-only", help="From the responses alone (SSI-cov): operating data, no force."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+) -> None:
+    """Natural frequencies, damping ratios and mode shapes identified from measured FRFs (default
+    band: where the hammer's force spectrum and the coherence are usable), of one experiment or of
+    the FRF matrix of several, or with --output-only from the responses alone."""
+    import json
+
+    from odsuite.domain.errors import ConfigError
+    from odsuite.analysis.modal_project import experiment_modes, experiment_output_only_modes, experiments_modes
+
+    try:
+        freqs = [float(v) for v in at.split(",")] if at else None
+    except ValueError:
+        raise ConfigError(f"--at {at!r}: expected comma-separated frequencies in Hz") from None
+    for option, value in (("--fmin", f_min), ("--fmax", f_max)):
+        if value is not None and not (math.isfinite(value) and value >= 0):  # before the FRF is stored
+            raise ConfigError(f"{option}: must be a finite frequency >= 0 Hz, got {value}")
+    band = None if f_min is None and f_max is None else (f_min, f_max)
+    for path, option in ((figure, "--figure"), (mac_figure, "--mac-figure")):
+        if path is not None:
+            _check_output(path, project, option)
+    references = None
+    name = ", ".join(experiments)
+    if output_only:
+        if freqs is not None:
+            raise ConfigError("--at picks poles of the FRF fit; it does not combine with --output-only")
+        if len(experiments) > 1:
+            raise ConfigError("--output-only identifies modes of one record: give one --experiment")
+        res, freq, spectrum = experiment_output_only_modes(project, experiments[0], f_band=band, max_order=max_order)
+        background = "rms amplitude spectrum of the outputs (unit/√Hz)"
+    elif len(experiments) > 1:
+        res, freq, spectrum, references = experiments_modes(project, experiments, f_band=band, max_order=max_order,
+                                                            frequencies=freqs)
+        background = "rms |H| of the FRF matrix (FRF units)"
+    else:
+        res, frf = experiment_modes(project, experiments[0], f_band=band, max_order=max_order, frequencies=freqs)
+        freq, spectrum, background = frf.frequency, frf.H, "rms |H| of the outputs (FRF units)"
+    if figure is not None:
+        from odsuite.analysis.modal_figures import stabilisation_figure
+
+        stabilisation_figure(res, freq, spectrum, figure, title=f"stabilisation diagram of {name}",
+                             background=background)
+    if mac_figure is not None:
+        from odsuite.analysis.modal import mac
+        from odsuite.analysis.modal_figures import mac_figure as draw_mac
+
+        labels = [f"{f:.1f} Hz" for f in res.frequency_hz]
+        draw_mac(mac(res.shapes, res.shapes), mac_figure, labels_a=labels, labels_b=labels,
+                 title=f"AutoMAC of the modes of {name}")
+    for note in res.rejected:
+        err_console.print(f"note: stable pole not taken as a mode: {note}", highlight=False, soft_wrap=True)
+    if as_json:
+        doc = res.to_dict()
+        if references is not None:
+            doc["references"] = references
+        print(json.dumps(doc))
+        return
+    lo, hi = res.band_hz
+    table = Table(title=f"modes of {shown(name)} ({lo:.1f}-{hi:.1f} Hz)")
+    scatter = res.frequency_std_hz is not None  # output-only: standard errors from the record's segments
+    for col in ("mode", "f (Hz)", "damping ratio", "stable orders") + (("± f (Hz)", "± damping") if scatter else ()):
+        table.add_column(col)
+    for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio), start=1):
+        extra = (f"{res.frequency_std_hz[k - 1]:.2f}", f"{res.damping_std[k - 1]:.4f}") if scatter else ()
+        table.add_row(str(k), f"{f:.2f}", f"{z:.5f}", str(res.stable_orders[k - 1]), *extra)
+    console.print(table)
+    for u in res.unresolved:
+        err_console.print(f"note: the pole at {u.frequency_hz:.2f} Hz (damping ratio {u.damping_ratio:.3f}) is not "
+                          f"reported as a mode: {u.reason}", highlight=False, soft_wrap=True)
+    for path in (figure, mac_figure):
+        if path is not None:
+            console.print(f"wrote {path}", highlight=False, soft_wrap=True)
+
+
+@app.command("ods")
+def ods_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    experiment: str = typer.Argument(..., help="Experiment name (an operating record, or any record)."),
+    reference: str = typer.Option(..., "--reference", help="Reference sensor: phases are relative to it."),
+    at: float = typer.Option(..., "--at", help="Frequency of the shape, Hz (the nearest spectral line is used)."),
+    movie: Path = typer.Option(None, "--movie", help="Also animate the shape on the rig (.mp4, .gif)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+) -> None:
+    """Operating deflection shape: every response's cross-spectrum to the reference sensor, scaled by
+    the reference's autospectrum (rms amplitude and phase per sensor), and on a rig the bodies'
+    generalized coordinates."""
+    import numpy as np
+
+    from odsuite.analysis.ods import operating_shape
+    from odsuite.contracts.plugins import registries
+    from odsuite.store.project import open_project
+    from odsuite.contracts.renderers import RenderRequest, choose_renderer
+    from odsuite.domain.rigidbody import COORDINATE_UNITS, COORDINATES
+
+    if not math.isfinite(at) or at <= 0:
+        raise ConfigError(f"--at: must be a finite frequency > 0 Hz, got {at}")
+    renderer = None
+    if movie is not None:
+        _check_output(movie, project, "--movie")
+        renderer = choose_renderer(registries().renderers, movie, None, "movie")
+    with open_project(project) as p:
+        if experiment not in p.experiment_names():
+            raise ConfigError(f"{project}: no experiment {experiment!r} "
+                              f"(experiments: {', '.join(p.experiment_names()) or 'none'})")
+        res = operating_shape(p, experiment, reference, at)
+    rendered = None
+    if renderer is not None:
+        rendered = renderer.render(RenderRequest(project, experiment, movie, {"ods_hz": at, "reference": reference},
+                                                 progress=err_console.is_terminal and not as_json))
+    if as_json:
+        doc = res.to_dict()
+        doc["notes"] = list(res.notes)
+        if rendered is not None:
+            doc["movie"] = _rendered_doc(renderer, rendered)
+        _print_json(doc)
+        return
+    for note in res.notes:
+        err_console.print(f"note: {note}", highlight=False, soft_wrap=True)
+    console.print(f"{shown(experiment)}: operating deflection shape at {res.frequency_hz:.3f} Hz (line nearest "
+                  f"{res.requested_hz:g} Hz; {res.resolution_hz:.3g} Hz lines, {res.n_segments} segments), "
+                  f"phases relative to {shown(reference)}", highlight=False, soft_wrap=True)
+    table = Table(box=None)
+    for col in ("sensor", "amplitude (rms)", "phase (°)", "coherence"):
+        table.add_column(col)
+    for name, v in res.shape.items():
+        table.add_row(shown(name), f"{abs(v):.4g} {res.units[name]}", f"{np.degrees(np.angle(v)):+.1f}",
+                      f"{res.coherence[name]:.3f}")
+    console.print(table)
+    for body, d in res.coordinates.items():
+        parts = [f"{c} {abs(v):.3g} {u} ∠{np.degrees(np.angle(v)):+.0f}°"
+                 for c, v, u in zip(COORDINATES, d, COORDINATE_UNITS)]
+        console.print(f"{shown(body)} at G (rms displacement): " + ", ".join(parts), highlight=False, soft_wrap=True)
+    if rendered is not None:
+        console.print(f"wrote {rendered.path} ({rendered.summary})", highlight=False, soft_wrap=True)

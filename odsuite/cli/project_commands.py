@@ -1,0 +1,199 @@
+"""Commands about the project and its plugins: plugins, new, info, model, verify."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from rich.table import Table
+from rich.text import Text
+import typer
+
+from odsuite.cli.app import _print_json, app, console, shown
+
+
+@app.command("plugins")
+def plugins_cmd(as_json: bool = typer.Option(False, "--json", help="Print one JSON document.")) -> None:
+    """List registered plugins, their versions and what each registers."""
+    from dataclasses import fields
+
+    from odsuite.contracts.plugins import Registries, default_manager, registries
+
+    pm = default_manager()
+    regs = registries()
+    if as_json:
+        doc = {}
+        for name, _plugin in sorted(pm.list_name_plugin()):
+            source = pm.source(name)
+            registers = {f.name: getattr(regs, f.name).by_plugin(name) for f in fields(Registries)}
+            backends = {b: [{"flag": o.cli_flag, "type": o.type.__name__} for o in regs.daq_backends.get(b).options]
+                        for b in regs.daq_backends.by_plugin(name)}
+            doc[name] = {"distribution": source.distribution, "version": source.version,
+                         "registers": {k: list(v) for k, v in registers.items() if v}, "daq_backend_options": backends}
+        _print_json({"plugins": doc})
+        return
+    table = Table(title="odsuite plugins")
+    table.add_column("plugin")
+    table.add_column("distribution")
+    table.add_column("version")
+    table.add_column("registers")
+    for name, _plugin in sorted(pm.list_name_plugin()):
+        provided = []
+        for f in fields(Registries):
+            names = getattr(regs, f.name).by_plugin(name)
+            if names:
+                provided.append(f"{f.name.replace('_', ' ')}: {', '.join(names)}")
+        for backend in regs.daq_backends.by_plugin(name):
+            flags = " ".join(f"{o.cli_flag}" + ("" if o.type is bool else f" {o.type.__name__.upper()}")
+                             for o in regs.daq_backends.get(backend).options)
+            provided.append(f"  acquire --daq {backend} options: {flags or 'none'}")
+        source = pm.source(name)
+        # one line per kind: a Text keeps the line breaks that plain strings would show escaped
+        table.add_row(name, source.distribution, source.version, Text("\n".join(shown(p) for p in provided) or "-"))
+    console.print(table)
+
+
+@app.command("new")
+def new_cmd(
+    project: Path = typer.Argument(..., help="Project file to create (.h5)."),
+    rig: str = typer.Option("thesis-dynamometer", "--rig",
+                            help="Registered rig name, a rig .toml file, or 'none' (no rig geometry)."),
+) -> None:
+    """Create a new project file on a rig."""
+    from odsuite.store.project import create_project
+
+    created = create_project(project, rig)
+    name = created.rig.name if created.rig else "none"
+    created.close()
+    console.print(f"created {project} (rig: {name})", highlight=False, soft_wrap=True)
+
+
+@app.command("info")
+def info_cmd(project: Path = typer.Argument(..., help="Project file."),
+             as_json: bool = typer.Option(False, "--json", help="Print one JSON document.")) -> None:
+    """Experiments, rig (bodies, springs, coordinate solvers) and model revisions of a project
+    (errors as `odsuite history` gives them)."""
+    from odsuite.analysis.history import history
+    from odsuite.contracts.plugins import registries
+    from odsuite.store.project import open_project
+    from odsuite.processing.rig_summary import rig_layout
+
+    with open_project(project) as p:
+        info = p.info()
+        revisions = p.model_revisions()
+        # the same numbers as `history`: a revision never compared gets its error computed now
+        errors = {r["revision"]: r["error"] for r in history(p)["revisions"]} if revisions else {}
+        layout = rig_layout(p.rig, registries().coordinate_solvers) if p.rig is not None else None
+    if as_json:
+        _print_json({**info, "rig_layout": layout,
+                     "model_revisions": [{**r, "error": errors.get(r["revision"])} for r in revisions]})
+        return
+    console.print(f"{info['path']}  format {info['format_version']}  rig: {info['rig'] or 'none'}",
+                  highlight=False, soft_wrap=True)
+    if layout is not None:
+        _print_rig_layout(layout)
+    table = Table(title="experiments")
+    for col in ("name", "channels", "fs (Hz)", "samples", "length (s)", "peak |V|", "clipped",
+                "derived"):
+        table.add_column(col)
+    for name, e in info["experiments"].items():
+        peak_channel = max(e["peak_volts"], key=e["peak_volts"].get)
+        clipped = ", ".join(f"{c} ({n})" for c, n in e["clipped_samples"].items())
+        table.add_row(name, str(len(e["channels"])), f"{e['sampling_rate']:g}",
+                      str(e["n_samples"]), f"{e['duration']:.4g}",
+                      f"{e['peak_volts'][peak_channel]:.4g} ({peak_channel})",
+                      Text(shown(clipped), style="red") if clipped else "-", ", ".join(e["derived"]) or "-")
+    console.print(table)
+    if info["imports"]:
+        console.print("imports (not records): " + ", ".join(f"{shown(n)} ({k})" for n, k in info["imports"].items()),
+                      highlight=False, soft_wrap=True)
+    if revisions:
+        rt = Table(title=f"model revisions (current: {info['current_revision']})")
+        for col in ("revision", "model", "effects", "error"):
+            rt.add_column(col)
+        for r in revisions:
+            effects = ", ".join(str(e.get("effect", e.get("name", e))) if isinstance(e, dict) else str(e)
+                                for e in r["effects"])
+            error = errors.get(r["revision"])
+            rt.add_row(str(r["revision"]), r["model"] or "-", effects or "-",
+                       "-" if error is None else f"{error:.4f}")
+        console.print(rt)
+
+
+def _print_rig_layout(layout: dict) -> None:
+    import numpy as np
+
+    bodies = Table(title=f"rig {shown(layout['name'])}: bodies")
+    for col in ("body", "mass (kg)", "sensors", "coordinate solver"):
+        bodies.add_column(col)
+    for b in layout["bodies"]:
+        solver = b["solver"] or (Text("cannot solve: see `process`", style="yellow") if b["solver_problem"] else "-")
+        bodies.add_row(shown(b["name"]), f"{b['mass_kg']:.4g}" if b["moving"] else "fixed",
+                       str(len(b["sensors"])) if b["sensors"] else "-", solver)
+    console.print(bodies)
+    if layout["springs"]:
+        springs = Table(title="springs")
+        for col in ("spring", "between", "at (mm)", "k x, y, z (kN/m)", "c x, y, z (N s/m)"):
+            springs.add_column(col)
+        for s in layout["springs"]:
+            k = np.asarray(s["stiffness_n_per_m"], float)
+            c = np.asarray(s["damping_n_s_per_m"], float)
+            k, c = (np.diag(k) if k.ndim == 2 else k), (np.diag(c) if c.ndim == 2 else c)  # a matrix: its diagonal
+            springs.add_row(shown(s["name"]), f"{shown(s['body'])} - {shown(s['other'])}",
+                            ", ".join(f"{1e3 * v:.4g}" for v in s["position_m"]),
+                            ", ".join(f"{v / 1e3:.4g}" for v in k), ", ".join(f"{v:.4g}" for v in c))
+        console.print(springs)
+
+
+@app.command("model")
+def model_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+) -> None:
+    """The project's current model: revision, effects, parameters and modes (ascending)."""
+    import json
+
+    from odsuite.analysis.modelrev import model_report
+    from odsuite.store.project import open_project
+
+    with open_project(project) as p:
+        report = model_report(p)
+    if as_json:
+        print(json.dumps(report))
+        return
+    console.print(f"model {report['model']!r}, revision {report['revision']}, effects: "
+                  f"{', '.join(report['effects']) or 'none'}", highlight=False, soft_wrap=True)
+    if report["parameters"]:
+        params = Table(title="parameters")
+        for col in ("effect", "parameter", "value", "unit", "meaning"):
+            params.add_column(col)
+        for effect, values in report["parameters"].items():
+            info = report["parameter_info"].get(effect.split("#")[0], {})  # "missing_mode#2": its second instance
+            for name, value in values.items():
+                if name == "per_experiment":
+                    continue
+                about = info.get(name, {})
+                params.add_row(shown(effect), shown(name), f"{value:.6g}", shown(about.get("unit", "")) or "-",
+                               shown(about.get("description", "")))
+        console.print(params)
+    table = Table(title="modes")
+    for col in ("mode", "frequency (Hz)", "damping ratio"):
+        table.add_column(col)
+    for i, m in enumerate(report["modes"], 1):
+        table.add_row(str(i), f"{m['frequency_hz']:.2f}", f"{m['damping_ratio']:.4f}")
+    console.print(table)
+
+
+@app.command("verify")
+def verify_cmd(project: Path = typer.Argument(..., help="Project file."),
+               as_json: bool = typer.Option(False, "--json", help="Print one JSON document.")) -> None:
+    """Read every checksummed dataset; a corrupted one is named (exit code 1)."""
+    from odsuite.store.project import open_project
+
+    with open_project(project) as p:
+        checked = p.verify()
+    if as_json:
+        _print_json({"project": str(project), "intact": True, "datasets": sum(checked.values()),
+                     "experiments": dict(checked)})
+        return
+    console.print(f"{project}: {sum(checked.values())} checksummed datasets in {len(checked)} experiments "
+                  "read back intact", highlight=False, soft_wrap=True)

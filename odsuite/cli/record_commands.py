@@ -1,0 +1,140 @@
+"""Commands that record and process experiments: acquire, process."""
+
+from __future__ import annotations
+
+from pathlib import Path
+import contextlib
+import math
+import sys
+
+from rich.table import Table
+import typer
+
+from odsuite.domain.errors import ConfigError
+from odsuite.cli.app import _ledger, app, console, err_console
+
+
+@app.command("process")
+def process_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    experiment: list[str] = typer.Option(None, "--experiment", help="Experiment name (repeatable; default: all)."),
+    corrected: bool = typer.Option(False, "--corrected", help="Also store model-corrected coordinates "
+                                   "(gencoords_corrected): no high-pass, drift removed against the current model revision."),
+    cutoff: float = typer.Option(None, "--cutoff", help="--corrected: Hz below which the model replaces the "
+                                 "measurement (default: half the model's lowest natural frequency)."),
+) -> None:
+    """Run each experiment's Table E.2 processing chain and the generalized-coordinate solver."""
+    from rich.progress import Progress
+
+    from odsuite.processing.pipeline import process_experiment
+    from odsuite.store.project import open_project
+
+    # below 0.01 Hz no hammer record (seconds long) has a frequency line: checked before anything is stored
+    if cutoff is not None and not (math.isfinite(cutoff) and cutoff >= 0.01):
+        raise ConfigError(f"--cutoff: must be a finite frequency >= 0.01 Hz, got {cutoff}")
+    with open_project(project, "a") as p, Progress(console=err_console, transient=True,
+                                                   disable=not err_console.is_terminal) as bar, \
+            (p.transaction() if corrected else contextlib.nullcontext()):
+        # with --corrected one transaction: all or nothing; without, each experiment commits on its own
+        names = experiment or p.experiment_names()
+        _ledger.plan(project, names + ([f"{n} (corrected)" for n in names] if corrected else []))
+        if corrected:
+            _ledger.start(", ".join(names + [f"{n} (corrected)" for n in names]))
+        for name in names:
+            task = bar.add_task(f"processing {name}", total=None)
+            if not corrected:
+                _ledger.start(name)
+            summary = process_experiment(p, name, progress=lambda a, b, t=task: bar.update(t, completed=a, total=b))
+            if not corrected:
+                _ledger.done()
+            bodies = "; ".join(f"{b}: {r['solver']}" + (
+                f", rigidity {', '.join(f'{k} {v:.1%}' for k, v in r['rigidity'].items())}" if "rigidity" in r else "")
+                + (f" FLAGGED {','.join(r['flagged'])}" if r.get("flagged") else "")
+                for b, r in summary["bodies"].items())
+            console.print(f"{name}: {', '.join(summary['datasets'])} for channels "
+                          f"{', '.join(map(str, summary['channels']))}" + (f"; {bodies}" if bodies else ""),
+                          highlight=False, soft_wrap=True)
+            for note in summary["notes"]:
+                err_console.print(f"note: {note}", highlight=False, soft_wrap=True)
+        if corrected:
+            from odsuite.analysis.correction import process_corrected
+
+            for name, res in process_corrected(p, experiment or None, cutoff_hz=cutoff).items():
+                console.print(f"{name}: gencoords_corrected (model revision {res['revision']}, cutoff "
+                              f"{res['cutoff_hz']:.1f} Hz)", highlight=False, soft_wrap=True)
+
+
+@app.command("acquire", context_settings={"allow_extra_args": True, "ignore_unknown_options": True})
+def acquire_cmd(
+    ctx: typer.Context,
+    project: Path = typer.Argument(..., help="Project file."),
+    daq: str = typer.Option("sim", "--daq", help="A registered acquisition backend (built in: sim, the simulated "
+                            "rig; ni, NI-DAQmx). Its own options follow; `odsuite plugins` lists them."),
+    name: str = typer.Option(..., "--name", help="Experiment name."),
+    force_point: str = typer.Option(None, "--force-point", help="X,Y,Z in mm in the rig frame (the thesis rig: from the platform's centre of mass)."),
+    force_dir: str = typer.Option(None, "--force-dir", help="+x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
+    force_body: str = typer.Option(None, "--force-body", help="The body hit, when the force point lies on two."),
+    rate: float = typer.Option(None, "--rate", help="Sampling rate, Hz (default: the rig's [acquisition], "
+                               "else 20000)."),
+    samples: int = typer.Option(4096, "--samples", help="Samples per channel."),
+    pretrigger: int = typer.Option(None, "--pretrigger", help="Samples kept before the trigger (default: the "
+                                   "rig's [acquisition], else 512)."),
+    trigger_level: float = typer.Option(1.0, "--trigger-level", help="Force trigger level, N."),
+    trigger_slope: str = typer.Option("rising", "--trigger-slope", help="rising or falling."),
+    trigger_timeout: float = typer.Option(10.0, "--trigger-timeout", help="Seconds to wait for the trigger."),
+    continuous: bool = typer.Option(False, "--continuous", help="Stream continuously and capture when Enter is pressed."),
+) -> None:
+    """Record an impact test with an acquisition backend (the simulated rig, NI-DAQmx, a lab's own) into
+    the project. The backend's own options (e.g. sim: --scenario T2 --seed 3; ni: --device Dev2) go
+    after the common ones."""
+    import threading
+
+    from rich.progress import BarColumn, Progress, TextColumn
+
+    from odsuite.processing.acquisition import acquire
+    from odsuite.contracts.daq import AcquisitionSettings, parse_backend_options
+    from odsuite.domain.excitation import parse_force_direction, parse_force_point
+    from odsuite.contracts.plugins import registries
+    from odsuite.store.project import open_project
+
+    backend = registries().daq_backends.get(daq)
+    options = parse_backend_options(daq, backend, ctx.args)
+    if rate is None or pretrigger is None:  # the rig's own settings, when its file states them
+        with open_project(project) as p:
+            acq = p.rig.acquisition if p.rig is not None else None
+        rate = rate if rate is not None else (acq.sampling_rate if acq and acq.sampling_rate else 20_000.0)
+        pretrigger = pretrigger if pretrigger is not None else (
+            acq.pre_trigger if acq and acq.pre_trigger is not None else 512)
+    settings = AcquisitionSettings(
+        sampling_rate=rate, n_samples=samples, pretrigger=pretrigger, trigger_level=trigger_level,
+        trigger_slope=trigger_slope, trigger_timeout=trigger_timeout,
+        mode="continuous" if continuous else "finite")
+    if force_point is not None or force_dir is not None:
+        if force_point is None or force_dir is None:
+            raise typer.BadParameter("give both --force-point and --force-dir")
+        options.update(point=parse_force_point(force_point), direction=parse_force_direction(force_dir))
+    if force_body is not None:
+        options["force_body"] = force_body
+    if continuous:
+        pressed = threading.Event()
+        threading.Thread(target=lambda: (sys.stdin.readline(), pressed.set()), daemon=True).start()
+        options["capture"] = pressed.is_set
+        err_console.print("streaming: press Enter to capture", highlight=False)
+    with open_project(project, "a") as p, Progress(
+            TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+            console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
+        task = bar.add_task("arming", total=samples)
+        _ledger.plan(project, [f"experiment {name}"])
+        _ledger.start(f"experiment {name}")
+
+        def progress(stage: str, done: int, total: int) -> None:
+            bar.update(task, description=stage, completed=done, total=total)
+
+        exp, rec = acquire(p, backend, name, settings, progress=progress, **options)
+    for ch, count in rec.clipped.items():
+        err_console.print(f"warning: channel {ch} ({rec.channel_names[ch]}): {count} samples clipped at the ADC limits",
+                          style="yellow", highlight=False, soft_wrap=True)
+    for note in rec.notes:
+        err_console.print(f"warning: {note}", style="yellow", highlight=False, soft_wrap=True)
+    console.print(f"acquired {name!r}: {exp.n_samples} samples x {exp.n_channels} channels at {exp.sampling_rate:g} Hz, "
+                  f"{exp.pretrigger} before the trigger ({rec.source})", highlight=False, soft_wrap=True)

@@ -1,0 +1,90 @@
+"""Pictures and pages: render, report."""
+
+from __future__ import annotations
+
+from pathlib import Path
+import math
+
+import typer
+
+from odsuite.domain.errors import ConfigError
+from odsuite.cli.app import _check_output, _loop_progress, _print_json, _rendered_doc, app, console, err_console
+
+
+@app.command("render")
+def render_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    experiment: str = typer.Argument(..., help="Experiment name."),
+    output: Path = typer.Option(..., "-o", "--output", help="Movie (.mp4, .gif) or figure (.png, .svg, .pdf)."),
+    model: bool = typer.Option(False, "--model", help="Overlay the current model revision's motion (computed like `odsuite compare`)."),
+    magnify: str = typer.Option(None, "--magnify", help="H_t,H_r (default: largest corner motion = 15 % of the plate)."),
+    view: str = typer.Option(None, "--view", help="Movie: AZ,EL degrees. Projection: EYE[,THETA,PHI,PSI] (eye x|y|z)."),
+    figure: str = typer.Option(None, "--figure", help="A registered figure renderer (built in: overlay, projection, residuals; `odsuite plugins` lists all). Default: the movie renderer for the output's suffix."),
+    workers: int = typer.Option(None, "--workers", help="Render processes for a movie (default: one per two cores)."),
+    frame_step: int = typer.Option(None, "--frame-step", help="Samples per movie frame (default 1)."),
+    slowdown: float = typer.Option(None, "--slowdown", help="Slow-motion factor: movie time / real time."),
+    ods: float = typer.Option(None, "--ods", help="Animate the operating deflection shape at this frequency (Hz)."),
+    reference: str = typer.Option(None, "--reference", help="With --ods: the reference sensor of an operating record's ODS (cross-spectra)."),
+    start: float = typer.Option(None, "--start", help="Movie window start, s from the record's start (default: just before the hit)."),
+    end: float = typer.Option(None, "--end", help="Movie window end, s (default: when the motion has decayed to a tenth)."),
+    fps: float = typer.Option(None, "--fps", help="Movie frames per second (default 25)."),
+    duration: float = typer.Option(None, "--duration", help="Movie length, s (default 10; or set --frame-step / --slowdown)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+) -> None:
+    """Wireframe movie of an experiment's plates, or a figure, by a registered renderer."""
+    from odsuite.contracts.plugins import registries
+    from odsuite.contracts.renderers import RenderRequest, choose_renderer, parse_magnify
+
+    if workers is not None and workers < 1:
+        raise ConfigError(f"--workers: at least 1 render process, got {workers}")
+    if ods is not None and not (math.isfinite(ods) and ods >= 0.01):  # as --cutoff: no line below 0.01 Hz
+        raise ConfigError(f"--ods: must be a finite frequency >= 0.01 Hz, got {ods}")
+    _check_output(output, project, "-o")
+    renderer = choose_renderer(registries().renderers, output, figure, "figure" if figure else "movie")
+    options = {"model": model, "magnify": parse_magnify(magnify), "view": view, "workers": workers,
+               "frame_step": frame_step, "slowdown": slowdown, "ods_hz": ods, "reference": reference, "start": start,
+               "end": end, "fps": fps, "duration": duration}
+    res = renderer.render(RenderRequest(project, experiment, output, options,
+                                        progress=err_console.is_terminal and not as_json))
+    if as_json:
+        _print_json(_rendered_doc(renderer, res))
+        return
+    for note in res.notes:
+        err_console.print(f"note: {note}", highlight=False)
+    console.print(f"wrote {res.path} ({res.summary})", highlight=False, soft_wrap=True)
+
+
+@app.command("report")
+def report_cmd(
+    project: Path = typer.Argument(..., help="Project file."),
+    output: Path = typer.Option(..., "-o", "--output", help="The HTML page to write (self-contained)."),
+    diagnosis: Path = typer.Option(None, "--diagnosis", help="Show this `odsuite diagnose --json` output "
+                                   "instead of diagnosing now."),
+    no_diagnose: bool = typer.Option(False, "--no-diagnose", help="Leave the candidate effects out (diagnosis takes ~20 s)."),
+    no_movie: bool = typer.Option(False, "--no-movie", help="Leave the movie out."),
+    movie_experiment: str = typer.Option(None, "--movie-experiment", help="Experiment of the movie "
+                                         "(default: the one the model fits worst)."),
+    frf_channel: list[str] = typer.Option(None, "--frf-channel", help="Channel whose FRF the page draws for "
+                                          "each hammer record; repeatable (default: the driving point, the "
+                                          "accelerometer nearest the force point)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+) -> None:
+    """One self-contained HTML page: experiments, model against measurement, failures, candidate
+    effects, error across revisions, a movie and a 3-D view (the registered page renderer 'report')."""
+    from odsuite.contracts.plugins import registries
+    from odsuite.contracts.renderers import RenderRequest, choose_renderer
+
+    _check_output(output, project, "-o")
+    renderer = choose_renderer(registries().renderers, output, "report")
+    with _loop_progress() as bar:
+        task = bar.add_task("report", total=None)
+        options = {"diagnosis": diagnosis, "run_diagnosis": not no_diagnose, "movie": not no_movie,
+                   "movie_experiment": movie_experiment, "frf_channels": frf_channel or None,
+                   "on_stage": lambda what: bar.update(task, description=what)}
+        res = renderer.render(RenderRequest(project, None, output, options))
+    if as_json:
+        _print_json(_rendered_doc(renderer, res))
+        return
+    for note in res.notes:
+        err_console.print(f"note: {note}", highlight=False)
+    console.print(f"wrote {res.path} ({res.summary})", highlight=False, soft_wrap=True)

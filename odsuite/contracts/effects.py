@@ -1,0 +1,141 @@
+"""The effect contract: a named, parametrised change of a model that the diagnosis can fit.
+
+A provider registered through ``odsuite_register_effects`` is an :class:`Effect` (subclass it) or
+any object with the same members:
+
+- ``name`` (str): the registry name; ``description`` (str): one sentence for listings;
+- ``target`` (str): ``"model"`` when it changes the structure (M, C, K, flexible modes) or
+  ``"chain"`` when it changes only the measurement chain (sensor and force-gauge signals: the
+  structure's cached matrices and simulations are then reused, which makes fitting fast);
+- ``parameters(model) -> list[Parameter]``: its parameters for this model (SI units, a nominal
+  value that leaves the model unchanged, bounds; ``scope`` "shared" by every experiment or
+  "per_experiment"); called once per diagnosis, so it may depend on the rig's bodies and sensors;
+  an empty list means the effect does not apply to this model (the diagnosis lists it as not
+  applicable instead of fitting it);
+- ``apply(model, values) -> Model``: the model with the effect at ``values`` (a mapping from
+  parameter name to value; missing names take their nominal). Called in fitting loops: it must be
+  cheap, pure (never change ``model``) and raise :class:`~odsuite.domain.errors.ConfigError` for values
+  it cannot use.
+
+Optional: ``data_driven`` (bool, default False): the effect presupposes no shape (a mode of any
+shape), so the diagnosis ranks a significant named mechanism it is confounded with before it.
+
+Optional: ``refines`` (str): the effect extends the named effect's fit. The diagnosis fits it only
+from that fit (after the other candidates, when that one is significant, leaves the error above
+the floor and no candidate reaches the floor) and counts it significant only when its gain over
+that fit passes the test for its extra parameters; ``add-effect`` fits the named effect first.
+With it, optional ``held_when(model, fixed) -> {name: value}``: parameters held at a value given
+the refined fit's discrete choices, and ``refined_start(model, values) -> {name: value}``: start
+values replacing the refined fit's (:func:`odsuite.diagnosis.fitting.refined`).
+
+Optional: ``repeatable`` (bool, default False): each addition is one more instance (a structure may
+lack several modes): the diagnosis tries it again when the model has it, ``add-effect`` adds it
+after the one stored, and a revision applies each entry's values per experiment with its shared
+ones, so ``apply`` must find its own instance by them.
+
+Optional: ``breaks_rigidity`` (bool, default False): the effect makes a rigid body's redundant
+sensors disagree (a flexible mode, a sensor fault), so the diagnosis cites the rigidity check's
+residual as evidence for it.
+
+Each :class:`Parameter` may declare ``plausible`` (low, high): the physically plausible range of
+its value, narrower than the bounds the fit may explore (a sensor resonance near the sensor's rated
+band, a tilt below 45 degrees, a mass change within the body's own mass). A fit outside it is
+reported as not ``plausible`` by ``diagnose`` and warned about by ``add-effect``: the effect then
+more likely stands in for other physics. None: any value within the bounds is plausible.
+
+Optional, variable projection: ``linear_parameters(model) -> list[str]`` names parameters the
+effect solves itself, by linear least squares, once the others are given; ``project(models, values,
+exps, base, weights) -> (shared, per_experiment, deltas)`` returns them for the models ``models``
+(experiment name -> model without the effect) at the other ``values``, fitted to the residual
+``measured - base`` of each prepared experiment (rows weighted by ``weights``, None: all), and each
+experiment's change of prediction. The fit then searches only the remaining parameters. (A
+projection may also read its parameters off the records without a least-squares fit: modal damping
+ratios identified in the modal domain.)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from odsuite.domain.errors import ConfigError
+from odsuite.domain.model import Model
+
+#: members every effect provider has (checked when a plugin registers one)
+REQUIRED_ATTRIBUTES = ("name", "target", "description")
+REQUIRED_METHODS = ("parameters", "apply")
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One effect parameter. ``choices`` marks a discrete parameter (e.g. polarity +1/-1);
+    ``plausible`` (low, high) its physically plausible range (None: the bounds).
+    ``starts`` are values the screening tries besides the nominal (global starts for angles and
+    frequencies, whose error surface has local minima). ``sensor`` names the one sensor whose
+    prediction the parameter alone changes (a gain, a tilt): the screening's finite differences
+    then move the parameters of different sensors in one evaluation."""
+
+    name: str
+    unit: str
+    nominal: float
+    lower: float
+    upper: float
+    scope: str = "shared"
+    description: str = ""
+    choices: tuple[float, ...] | None = None
+    plausible: tuple[float, float] | None = None
+    starts: tuple[float, ...] | None = None
+    sensor: str | None = None
+
+    def as_dict(self) -> dict:
+        return {"name": self.name, "unit": self.unit, "nominal": self.nominal, "lower": self.lower,
+                "upper": self.upper, "scope": self.scope, "description": self.description,
+                **({"choices": list(self.choices)} if self.choices else {}),
+                **({"plausible": list(self.plausible)} if self.plausible else {})}
+
+
+class Effect:
+    """Base class of effects: resolves values against the parameters, then calls ``_apply``."""
+
+    name: str = ""
+    target: str = "model"  # "model" or "chain"
+    description: str = ""
+    breaks_rigidity: bool = False
+    #: each addition is one more instance (a second missing mode), not a refit of the first
+    repeatable: bool = False
+    #: a stand-in that presupposes no shape (a mode of any shape): a named mechanism that explains
+    #: the same residual (``confounded_with``) is ranked before it
+    data_driven: bool = False
+
+    def parameters(self, model: Model) -> list[Parameter]:
+        raise NotImplementedError
+
+    def _apply(self, model: Model, v: dict[str, float]) -> Model:
+        raise NotImplementedError
+
+    def values(self, model: Model, values: Mapping[str, float] | None = None) -> dict[str, float]:
+        """Complete ``values`` with nominals; refuse unknown names and values outside the bounds."""
+        params = {p.name: p for p in self.parameters(model)}
+        values = dict(values or {})
+        unknown = sorted(set(values) - set(params))
+        if unknown:
+            raise ConfigError(f"effect {self.name!r}: unknown parameter(s) {unknown} (known: {sorted(params)})")
+        out = {}
+        for name, p in params.items():
+            v = float(values.get(name, p.nominal))
+            if p.choices is not None:
+                if v not in p.choices:
+                    raise ConfigError(f"effect {self.name!r} parameter {name!r}: expected one of {p.choices}, got {v!r}")
+            elif not (p.lower <= v <= p.upper):
+                raise ConfigError(f"effect {self.name!r} parameter {name!r}: {v!r} {p.unit} is outside "
+                                  f"[{p.lower}, {p.upper}]")
+            out[name] = v
+        return out
+
+    def apply(self, model: Model, values: Mapping[str, float] | None = None) -> Model:
+        """The model with this effect at ``values`` (nominal where missing)."""
+        v = self.values(model, values)
+        return self._apply(model, v).replace(effect=self.name, values=v)
+
+    def __repr__(self) -> str:
+        return f"<effect {self.name!r} ({self.target})>"

@@ -1,0 +1,162 @@
+"""Registries of named providers, filled by the plugins' registration hooks.
+
+Each registry has a :class:`Contract`: what a provider of its kind must have. ``add`` checks it, so
+a provider that does not meet it is refused when the plugins are loaded, in one line naming the
+plugin, its distribution, the provider and what is missing, never in the middle of a diagnosis.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Any
+
+from odsuite.domain.errors import ConfigError, PluginConflictError, PluginError
+
+
+@dataclass(frozen=True)
+class Contract:
+    """What a provider of one kind must have: attributes, callable methods, or a type."""
+
+    attributes: tuple[str, ...] = ()
+    methods: tuple[str, ...] = ()
+    instance_of: type | None = None
+
+    def missing(self, provider: Any) -> list[str]:
+        if self.instance_of is not None and not isinstance(provider, self.instance_of):
+            return [f"to be a {self.instance_of.__module__}.{self.instance_of.__qualname__}"]
+        out = [f"attribute {a!r}" for a in self.attributes if not hasattr(provider, a)]
+        out += [f"method {m}()" for m in self.methods if not callable(getattr(provider, m, None))]
+        return out
+
+
+@dataclass(frozen=True)
+class Source:
+    """Where an entry comes from: the plugin (entry-point name) and its distribution."""
+
+    plugin: str
+    distribution: str = "-"
+    version: str = "-"
+
+    def __str__(self) -> str:
+        return f"plugin {self.plugin!r} ({self.distribution} {self.version})"
+
+
+@dataclass(frozen=True)
+class Entry:
+    name: str
+    provider: Any
+    source: Source
+
+    @property
+    def plugin(self) -> str:
+        return self.source.plugin
+
+    @property
+    def distribution(self) -> str:
+        return self.source.distribution
+
+    @property
+    def version(self) -> str:
+        return self.source.version
+
+
+class Registry:
+    """Named providers of one kind (processing steps, models, effects, ...).
+
+    Plugins add through a view that knows their :class:`Source` (``for_plugin``). ``add`` refuses a
+    name that is already taken unless ``override=True``, naming both plugins, so a lab's plugin never
+    silently replaces a built-in.
+    """
+
+    def __init__(self, kind: str, contract: Contract | None = None) -> None:
+        self.kind = kind
+        self.contract = contract or Contract()
+        self._entries: dict[str, Entry] = {}
+        self._overrides: list[Entry] = []
+
+    def for_plugin(self, source: Source, context: dict[str, Registry] | None = None) -> PluginRegistry:
+        """The view a plugin's registration hook receives."""
+        return PluginRegistry(self, source, context)
+
+    def add(self, name: str, provider: Any, *, override: bool = False, source: Source | None = None) -> None:
+        """Register ``provider`` as ``name``; ``override=True`` replaces another plugin's entry.
+
+        Overrides are applied after every plugin has registered, so the outcome does not depend on
+        the order in which plugins are loaded.
+        """
+        source = source or Source("?")
+        if not isinstance(name, str) or not name:
+            raise ConfigError(f"{source}: {self.kind} provider name must be a non-empty string, got {name!r}")
+        missing = self.contract.missing(provider)
+        if missing:
+            raise PluginError(
+                f"{source}: {self.kind} {name!r} ({type(provider).__qualname__}) does not meet the "
+                f"{self.kind} contract: it needs {', '.join(missing)}; fix the plugin or start without it "
+                f"(ODSUITE_DISABLE_PLUGINS={source.plugin})"
+            )
+        entry = Entry(name, provider, source)
+        if override:
+            self._overrides.append(entry)
+            return
+        old = self._entries.get(name)
+        if old is not None:
+            raise PluginConflictError(
+                f"{self.kind} {name!r} is registered by both {old.source} and {entry.source}; "
+                "pass override=True in one of them to replace the other"
+            )
+        self._entries[name] = entry
+
+    def apply_overrides(self) -> None:
+        for entry in self._overrides:
+            self._entries[entry.name] = entry
+        self._overrides.clear()
+
+    def get(self, name: str) -> Any:
+        try:
+            return self._entries[name].provider
+        except KeyError:
+            known = ", ".join(sorted(self._entries)) or "none"
+            raise ConfigError(f"unknown {self.kind} {name!r} (known: {known})") from None
+
+    def entry(self, name: str) -> Entry:
+        self.get(name)
+        return self._entries[name]
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._entries
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(sorted(self._entries))
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def names(self) -> list[str]:
+        return sorted(self._entries)
+
+    def items(self) -> list[tuple[str, Any]]:
+        return [(n, self._entries[n].provider) for n in self.names()]
+
+    def by_plugin(self, plugin: str) -> list[str]:
+        return sorted(n for n, e in self._entries.items() if e.plugin == plugin)
+
+
+class PluginRegistry:
+    """One plugin's view of a registry: ``add(name, provider, override=False)``; ``context`` holds
+    registries built before this one that its providers may need (rigs: ``sensor_types``)."""
+
+    def __init__(self, registry: Registry, source: Source, context: dict[str, Registry] | None = None) -> None:
+        self._registry = registry
+        self.source = source
+        self.kind = registry.kind
+        self._context = context or {}
+
+    def __getattr__(self, name: str) -> Registry:
+        try:
+            return self.__dict__["_context"][name]
+        except KeyError:
+            raise AttributeError(f"the {self.kind} registry a plugin receives has no {name!r}") from None
+
+    def add(self, name: str, provider: Any, *, override: bool = False) -> None:
+        self._registry.add(name, provider, override=override, source=self.source)

@@ -1,0 +1,102 @@
+"""The renderer contract, and the choice of a renderer for an output file.
+
+A provider registered through ``odsuite_register_renderers`` has:
+
+- ``name`` (str) and ``description`` (str);
+- ``kind`` (str): ``"movie"`` (an animation of an experiment), ``"figure"`` (a still picture of an
+  experiment) or ``"page"`` (a document about the whole project, e.g. the HTML report);
+- ``suffixes`` (tuple of str): the output file suffixes it writes, lower case with the dot
+  (".mp4", ".png", ...);
+- ``render(request) -> Rendered``: draws ``request`` (a :class:`RenderRequest`) into
+  ``request.output`` and says what it wrote. Options it does not know are refused with a
+  :class:`~odsuite.domain.errors.ConfigError` naming them; so are experiments or projects it cannot
+  draw (no rig geometry, no generalized coordinates, ...).
+
+``odsuite render PROJECT EXPERIMENT -o FILE --figure NAME`` uses the renderer NAME;
+without ``--figure`` the movie renderer that writes FILE's suffix. ``odsuite report`` uses the
+page renderer ``report``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from odsuite.domain.errors import ConfigError
+
+#: members every renderer provider has (checked when a plugin registers one)
+REQUIRED_ATTRIBUTES = ("name", "description", "kind", "suffixes")
+REQUIRED_METHODS = ("render",)
+KINDS = ("movie", "figure", "page")
+
+
+@dataclass(frozen=True)
+class RenderRequest:
+    """What to draw: a project file, one of its experiments (None for a page), the output file, and
+    the renderer's options (e.g. ``model``, ``magnify`` (H_t, H_r), ``view``, ``workers``)."""
+
+    project: Path
+    experiment: str | None
+    output: Path
+    options: Mapping[str, Any] = field(default_factory=dict)
+    progress: bool = True
+
+    def unknown_options(self, known: set[str] | frozenset[str], renderer: str) -> None:
+        """Refuse options the renderer does not take (set ones only; None means not given)."""
+        extra = sorted(k for k, v in self.options.items() if v is not None and v is not False and k not in known)
+        if extra:
+            raise ConfigError(f"renderer {renderer!r} does not take option(s) {', '.join(extra)}")
+
+
+@dataclass(frozen=True)
+class Rendered:
+    """What a renderer wrote: the file, one line saying what it shows, and notes for the user."""
+
+    path: Path
+    summary: str
+    notes: tuple[str, ...] = ()
+
+
+def choose_renderer(registry, output: Path, name: str | None = None, kind: str | None = None):
+    """The renderer ``name`` (checked to write ``output``'s suffix), or else the renderer of
+    ``kind`` (default "movie") that writes that suffix."""
+    suffix = Path(output).suffix.lower()
+    if name is not None:
+        if name not in registry:
+            of_kind = [n for n, r in registry.items() if kind is None or r.kind == kind]
+            raise ConfigError(f"--figure {name!r}: no such {kind or ''} renderer (registered: "
+                              f"{', '.join(of_kind) or 'none'})".replace("  ", " "))
+        renderer = registry.get(name)
+        if suffix not in renderer.suffixes:
+            raise ConfigError(f"renderer {name!r} writes {', '.join(renderer.suffixes)} files, not {output}")
+        return renderer
+    kind = kind or "movie"
+    fits = [r for _, r in registry.items() if r.kind == kind and suffix in r.suffixes]
+    if not fits:
+        known = sorted({s for _, r in registry.items() if r.kind == kind for s in r.suffixes})
+        raise ConfigError(f"no {kind} renderer writes {suffix or 'files without a suffix'} files "
+                          f"({output}); {kind} renderers write {', '.join(known) or 'nothing'}")
+    return fits[0]
+
+
+def parse_pair(text: str | None, what: str) -> tuple[float, float] | None:
+    """'A,B' -> (A, B) floats; None stays None."""
+    if text is None:
+        return None
+    try:
+        a, b = (float(v) for v in text.split(","))
+    except ValueError:
+        raise ConfigError(f"{what}: expected two numbers 'A,B', got {text!r}") from None
+    return (a, b)
+
+
+def parse_magnify(text: str | None) -> tuple[float, float] | None:
+    """``--magnify`` 'H_t,H_r' -> (H_t, H_r), both finite and >= 0 (a negative factor would mirror
+    the motion); None stays None."""
+    pair = parse_pair(text, "--magnify")
+    if pair is not None and not all(math.isfinite(v) and v >= 0 for v in pair):
+        raise ConfigError(f"--magnify: magnification factors must be finite numbers >= 0, got {text!r}")
+    return pair

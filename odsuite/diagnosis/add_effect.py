@@ -1,0 +1,210 @@
+"""``add-effect``: fit the named effect together with the current revision's own effects, and
+store the result as a new model revision."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from odsuite.diagnosis import checks
+from odsuite.diagnosis.fitting import (
+    Problem,
+    Screened,
+    effective_samples,
+    fit,
+    fit_windows,
+    refined,
+    screen,
+    uncertainties,
+)
+from odsuite.analysis.modelrev import apply_effects, current_revision, instance_names, revision_model
+from odsuite.analysis.noise_floor import FLOOR_TOLERANCE
+from odsuite.analysis.prediction import prepare
+
+
+class _Joint:
+    """Several effects as one: parameters named "<effect>.<parameter>", applied in order."""
+
+    def __init__(self, effects: Sequence[Any]) -> None:
+        self.effects = list(effects)
+        self.name = "+".join(e.name for e in self.effects)
+        self.target = "model" if any(e.target == "model" for e in self.effects) else "chain"
+
+    def parameters(self, model) -> list:
+        return [replace(p, name=f"{e.name}.{p.name}") for e in self.effects for p in e.parameters(model)]
+
+    def apply(self, model, values: Mapping[str, float]):
+        for e in self.effects:
+            own = {k.split(".", 1)[1]: v for k, v in values.items() if k.split(".", 1)[0] == e.name}
+            model = e.apply(model, own)
+        return model
+
+
+def _flat(entries: Sequence[Mapping[str, Any]]) -> dict[str, float]:
+    """The revision's parameters as one table, "<effect>.<parameter>" (repeated instances numbered)."""
+    return {f"{key}.{k}": v for key, e in zip(instance_names(entries), entries) for k, v in e.get("values", {}).items()}
+
+
+def _start(problem: Problem, entries: Sequence[Mapping[str, Any]]) -> np.ndarray:
+    """The normalised start of a joint problem from stored revision entries."""
+    u = problem.zero()
+    for i, f in enumerate(problem.free):
+        eff, name = f.param.name.split(".", 1)
+        entry = next((e for e in entries if e["effect"] == eff), None)
+        if entry is None:
+            continue
+        v = (entry.get("per_experiment", {}).get(f.experiment, {}) if f.experiment else entry.get("values", {})).get(name)
+        if v is not None:
+            u[i] = (float(v) - f.param.nominal) / f.scale
+    return u
+
+
+def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] | None = None) -> dict[str, Any]:
+    """Fit effect ``name`` together with the current revision's effects (all their parameters
+    refitted) and store the result as a new revision, made current. Returns the new revision's
+    number, its error and the previous error."""
+    from odsuite.analysis.comparison import compare
+    from odsuite.analysis.modelrev import base_model
+    from odsuite.contracts.plugins import registries
+
+    regs = registries()
+    effect = regs.effects.get(name)
+    rev = current_revision(project)
+    # a repeatable effect is added after the instances stored; any other one is refitted
+    entries = [e for e in rev.get("effects", []) if e["effect"] != name or getattr(effect, "repeatable", False)]
+    exps = prepare(project)
+    den = sum(float(np.sum(e.measured**2)) for e in exps)
+    cmp = compare(project, revision=rev, prepared=exps, resonances=False)
+    noise = cmp.noise_floor_error
+    # the fits stop at gains below the noise, as the diagnosis's do
+    scale = checks.noise_scale(cmp.floor, exps)
+    n_eff, f99 = effective_samples(exps)
+    stride = max(1, int(exps[0].fs / (5.0 * f99)))
+    prior = 1e-3 * max(noise**2, 1e-8) * den / stride
+    before = cmp.error
+    windows = fit_windows(exps)
+    if progress:
+        progress(f"screening {name}", 0, 3)
+    current = revision_model(project, {**rev, "effects": entries})
+    peaks = [p["frequency_hz"] for p in cmp.residual_peaks if p["lacking"]]
+    refines = getattr(effect, "refines", None)
+    if refines:  # it starts from the fit of the effect it refines, as the diagnosis fits it
+        start = Problem(current, regs.effects.get(refines), windows, prior=prior, stride=stride, full=exps,
+                        noise_scale=scale)
+        s = screen(start, start.sse(start.zero()), peaks)
+        res = fit(s.problem, s.u0, continuation=False) if s.problem.free else None
+        problem, u0 = refined(s.problem, res.x if res is not None else s.problem.zero(), effect)
+        return _add_on_top(project, rev, entries, name, effect, Screened(effect, problem.fixed, u0, 0.0, problem),
+                           n_eff, exps, before, progress)
+    single = Problem(current, effect, windows, prior=prior, stride=stride, full=exps, noise_scale=scale)
+    screened = screen(single, single.sse(single.zero()), peaks)
+    if single.linear:
+        # an effect that solves its own linear parameters (a mode's participations) is fitted on
+        # top of the current effects, as the diagnosis fitted it: refitting everything jointly
+        # would hand those parameters to the nonlinear search, which cannot find them
+        return _add_on_top(project, rev, entries, name, effect, screened, n_eff, exps, before, progress)
+    # the joint problem names parameters by effect: instances of an effect stored more than once
+    # (a repeatable one) are held as stored, the rest refitted
+    count = [e["effect"] for e in entries] + [name]
+    held = [e for e in entries if count.count(e["effect"]) > 1]
+    refit = [e for e in entries if count.count(e["effect"]) == 1]
+    joint_effects = [regs.effects.get(e["effect"]) for e in refit] + [effect]
+    fixed = {f"{e['effect']}.{k}": v for e in refit for k, v in e.get("values", {}).items()
+             if any(p.name == k and p.choices for p in regs.effects.get(e["effect"]).parameters(current.shared))}
+    fixed.update({f"{name}.{k}": v for k, v in screened.fixed.items()})
+    joint = Problem(apply_effects(base_model(project.rig, rev.get("model")), held), _Joint(joint_effects), windows,
+                    fixed, prior, stride, full=exps, noise_scale=scale)
+    u0 = _start(joint, refit)
+    for i, f in enumerate(joint.free):  # the new effect starts where screening left it
+        if f.param.name.startswith(f"{name}."):
+            k = next((j for j, g in enumerate(screened.problem.free)
+                      if g.param.name == f.param.name.split(".", 1)[1] and g.experiment == f.experiment), None)
+            if k is not None:
+                u0[i] = screened.u0[k]
+    if progress:
+        progress(f"fitting {', '.join(e.name for e in joint_effects)}", 1, 3)
+    res = fit(joint, u0) if joint.free else None
+    u = res.x if res is not None else joint.zero()
+    sds = uncertainties(joint, res, n_eff)[0] if res is not None else np.zeros(0)
+    shared, per = joint.values(u)
+    new_entries = list(held)
+    for e in joint_effects:
+        prefix = f"{e.name}."
+        values = {k[len(prefix):]: v for k, v in shared.items() if k.startswith(prefix)}
+        per_exp = {x: {k[len(prefix):]: v for k, v in d.items() if k.startswith(prefix)} for x, d in per.items()}
+        per_exp = {x: d for x, d in per_exp.items() if d}
+        unc = {f.label[len(prefix):] if f.experiment is None else f"{f.experiment}/{f.param.name[len(prefix):]}": float(sd)
+               for f, sd in zip(joint.free, sds) if f.param.name.startswith(prefix) and np.isfinite(sd)}
+        new_entries.append({"effect": e.name, "values": values, "per_experiment": per_exp, "uncertainties": unc})
+    flat = _flat(new_entries)
+    if progress:
+        progress("comparing", 2, 3)
+    candidate_rev = {"model": rev.get("model"), "effects": new_entries}
+    after = compare(project, revision=candidate_rev, prepared=exps, resonances=False)
+    warnings = _warnings(name, effect, joint, res, current.shared, exps, after)
+    metrics = {"error": after.error, "noise_floor_error": after.noise_floor_error, "added": name,
+               "previous_error": before}
+    n = project.add_model_revision(new_entries, flat, metrics, rev["revision"], model=rev.get("model"))
+    return {"revision": n, "effect": name, "error": after.error, "previous_error": before,
+            "noise_floor_error": after.noise_floor_error, "effects": new_entries, "warnings": warnings}
+
+
+def _add_on_top(project, rev, entries, name: str, effect, screened, n_eff, exps, before, progress) -> dict[str, Any]:
+    """Fit ``effect`` alone on the current revision's model and store it after the current effects."""
+    from odsuite.analysis.comparison import compare
+
+    problem = screened.problem
+    if progress:
+        progress(f"fitting {name}", 1, 3)
+    res = fit(problem, screened.u0, continuation=False) if problem.free else None
+    u = res.x if res is not None else problem.zero()
+    sds = uncertainties(problem, res, n_eff)[0] if res is not None else np.zeros(0)
+    shared, per = problem.values(u)
+    unc = {f.label if f.experiment is None else f"{f.experiment}/{f.param.name}": float(sd)
+           for f, sd in zip(problem.free, sds) if np.isfinite(sd)}
+    new_entries = [*entries, {"effect": name, "values": dict(shared),
+                              "per_experiment": {x: d for x, d in per.items() if d}, "uncertainties": unc}]
+    flat = _flat(new_entries)
+    if progress:
+        progress("comparing", 2, 3)
+    after = compare(project, revision={"model": rev.get("model"), "effects": new_entries}, prepared=exps,
+                    resonances=False)
+    warnings = _warnings(name, effect, problem, res, problem.base.shared, exps, after, prefix="")
+    metrics = {"error": after.error, "noise_floor_error": after.noise_floor_error, "added": name,
+               "previous_error": before}
+    n = project.add_model_revision(new_entries, flat, metrics, rev["revision"], model=rev.get("model"))
+    return {"revision": n, "effect": name, "error": after.error, "previous_error": before,
+            "noise_floor_error": after.noise_floor_error, "effects": new_entries, "warnings": warnings}
+
+
+def _warnings(name: str, effect, joint: Problem, res, model, exps, after, prefix: str | None = None) -> list[str]:
+    """One line each when the added effect is implausible (a value outside its declared physical
+    range), inconsistent (its parameters fitted per experiment disagree), or a proxy (the error
+    stays above the noise floor's tolerance): add-effect refuses nothing, but says so. ``prefix``:
+    how the problem names the effect's parameters (a joint problem: "<effect>.")."""
+    prefix = f"{name}." if prefix is None else prefix
+    shared, per = joint.values(res.x) if res is not None else ({}, {})
+    own = {k[len(prefix):]: v for k, v in shared.items() if k.startswith(prefix)}
+    own.update({f"{x}/{k[len(prefix):]}": v for x, d in per.items() for k, v in d.items() if k.startswith(prefix)})
+    out = []
+    ranges = {p.name: p for p in effect.parameters(model)}
+    for label in checks.implausible(effect, model, own):
+        p = ranges[label.split("/")[-1]]
+        out.append(f"{name}: {label} = {own[label]:.4g} {p.unit} lies outside its physical range "
+                   f"[{p.plausible[0]:.4g}, {p.plausible[1]:.4g}]: implausible")
+    if res is not None:
+        cons = checks.consistency(joint, res, {e.name: float(np.max(np.abs(e.force))) for e in exps},
+                                  checks.tolerated_misfit(after.noise_floor_error, exps))
+        mine = [k for k, v in cons.spread.items() if k.startswith(prefix) and v > 1]
+        if mine and not cons.consistent:
+            amp = [k for k in cons.amplitude_dependent if k.startswith(prefix)]
+            out.append(f"{name}: fitted per experiment, {', '.join(mine)} disagree beyond their uncertainties"
+                       + (f" and follow the force level ({', '.join(amp)}): amplitude dependent" if amp else "")
+                       + ": inconsistent")
+    if after.error > FLOOR_TOLERANCE * after.noise_floor_error:
+        out.append(f"{name}: the error stays at {after.error:.4g}, {after.error / after.noise_floor_error:.2f} "
+                   "times the noise floor: it may be a proxy for physics the model still lacks")
+    return out

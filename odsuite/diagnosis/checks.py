@@ -1,0 +1,199 @@
+"""Checks that separate a cause from a proxy, against the calibrated noise floor
+(:mod:`odsuite.analysis.noise_floor`): is a candidate's gain beyond what fitting its parameters to noise
+would give (``significant``), do its parameters fitted to each experiment alone agree
+(``consistent``; a spread that follows the force level is amplitude dependence), do they lie in the
+physical range the effect declares (``plausible``), and which candidates explain the same residual
+within the noise (``confounded_with``).
+
+Residual samples are correlated (filtered signals, systematic misfit): uncertainties use the
+effective number of independent samples from each residual's autocorrelation, not white-noise
+formulas.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.stats
+
+from odsuite.analysis.noise_floor import FLOOR_TOLERANCE
+
+#: probability that noise alone passes a test here: a candidate's gain, a parameter's spread over
+#: the experiments, the slope of a parameter against the force level
+FALSE_ALARM = 1e-3
+
+
+def effective_samples(residual: np.ndarray) -> float:
+    """Independent samples in a residual (samples x columns): per column n / (1 + 2 sum rho_k),
+    the autocorrelations summed while positive (Geyer's initial positive sequence: later lags
+    are noise)."""
+    r = np.atleast_2d(np.asarray(residual, float).T).T
+    total = 0.0
+    n = r.shape[0]
+    if n < 4:
+        return float(r.size)
+    for col in r.T:
+        col = col - col.mean()
+        var = float(col @ col)
+        if var <= 0:
+            continue
+        nfft = 1 << int(np.ceil(np.log2(2 * n)))
+        spec = np.abs(np.fft.rfft(col, nfft)) ** 2
+        acf = np.fft.irfft(spec, nfft)[: n // 2] / var
+        neg = np.flatnonzero(acf[1:] <= 0)
+        upto = int(neg[0]) + 1 if neg.size else len(acf)
+        total += n / max(1.0, 1.0 + 2.0 * float(np.sum(acf[1:upto])))
+    return max(total, 1.0)
+
+
+def noise_scale(floor, exps: Sequence) -> float:
+    """Noise energy per independent sample of the floor (physical units squared): the floor's
+    energy over its effective samples, these from the spectral flatness of its spectra
+    (N (sum S)^2 / (bins sum S^2): N for white noise, fewer for band-limited noise)."""
+    energy = n_eff = 0.0
+    for e in exps:
+        chans = floor.energy.get(e.name, {})
+        energy += sum(chans.values())
+        if e.name in floor.spectra:
+            s = floor.spectra[e.name][1]
+            flat = np.sum(s, axis=0) ** 2 / (s.shape[0] * np.maximum(np.sum(s**2, axis=0), 1e-300))
+            n_eff += float(np.sum(e.n_samples * np.clip(flat, 1.0 / s.shape[0], 1.0)))
+        else:
+            n_eff += e.n_samples * len(e.sensors)
+    return energy / max(n_eff, 1.0)
+
+
+def gain_threshold(scale: float, k: int) -> float:
+    """The gain in sum of squares that fitting ``k`` parameters to noise exceeds with probability
+    FALSE_ALARM (chi-square with k degrees of freedom, per independent sample's noise energy)."""
+    return scale * float(scipy.stats.chi2.isf(FALSE_ALARM, max(k, 1)))
+
+
+@dataclass
+class Consistency:
+    consistent: bool
+    per_experiment: dict[str, dict[str, float]] = field(default_factory=dict)
+    spread: dict[str, float] = field(default_factory=dict)  # chi-square / its limit, per parameter
+    amplitude_dependent: list[str] = field(default_factory=list)
+    gain: float = 0.0  # sum of squares (every sample) that fitting per experiment would remove
+
+
+#: values needed to see a trend with the force level: a line through three leaves one degree of
+#: freedom, and three scattered values sorted by level pass it too often
+AMPLITUDE_LEVELS = 4
+
+
+def consistency(problem, res, force_levels: Mapping[str, float], tolerated: float | None = None) -> Consistency:
+    """Each shared parameter fitted to each experiment alone (one Gauss-Newton step from the joint
+    fit on that experiment's rows of the Jacobian; its covariance from that experiment's residual
+    with its effective samples) and the spread tested: chi-square of the values about their
+    weighted mean against FALSE_ALARM (Bonferroni over the parameters). Inconsistent parameters
+    whose values follow log(force level) (weighted slope beyond its own FALSE_ALARM, and the rest
+    within the spread noise allows) are amplitude dependent.
+
+    ``tolerated``: a misfit energy (sum of squares over every sample) the verdict tolerates. When
+    fitting per experiment would lower the sum of squares by less, scattered differences are
+    immaterial: a residual that the verdict accepts, a little beyond the floor and aligned with
+    the parameter's direction, pulls each experiment's value a little (a 0.8 % spread of a scan
+    skew over three hits against a 0.03 % uncertainty). A spread that follows the force level
+    (four levels or more) stays inconsistent however small."""
+    exps = problem.exps
+    shared = [i for i, f in enumerate(problem.free) if f.experiment is None]
+    if len(exps) < 2 or not shared or res is None:
+        return Consistency(True)
+    n_data = res.fun.size - (len(problem.free) if problem.prior else 0)
+    J, r = res.jac[:n_data], res.fun[:n_data]
+    k = problem.stride
+    sizes = [len(range(0, e.n_samples, k)) * e.measured.shape[1] for e in exps]
+    starts = np.concatenate([[0], np.cumsum(sizes)])
+    values: dict[str, list[tuple[str, float, float]]] = {}
+    per: dict[str, dict[str, float]] = {}
+    gain = 0.0  # what fitting per experiment lowers the (strided) sum of squares by
+    for i, e in enumerate(exps):
+        rows = slice(starts[i], starts[i + 1])
+        Ji, ri = J[rows][:, shared], r[rows]
+        H = Ji.T @ Ji
+        if not np.any(H):
+            continue
+        w, V = np.linalg.eigh(H)
+        keep = w > 1e-8 * w.max()
+        Hinv = (V[:, keep] / w[keep]) @ V[:, keep].T
+        step = -Hinv @ (Ji.T @ ri)
+        gain -= float(step @ (Ji.T @ ri))
+        n_i = ri.size
+        neff = effective_samples(ri.reshape(-1, e.measured.shape[1]))
+        s2 = float(ri @ ri) / max(1, n_i - len(shared)) * (n_i / neff)
+        cov = s2 * Hinv
+        for j, idx in enumerate(shared):
+            f = problem.free[idx]
+            sd = float(np.sqrt(max(cov[j, j], 0.0))) * f.scale
+            if not np.isfinite(sd) or sd <= 0 or sd > 0.1 * (f.param.upper - f.param.lower):
+                continue  # this experiment does not determine it
+            v = f.to_value(res.x[idx] + step[j])
+            values.setdefault(f.label, []).append((e.name, v, sd))
+            per.setdefault(e.name, {})[f.label] = v
+    tested = {k: v for k, v in values.items() if len(v) >= 2}
+    out = Consistency(True, per)
+    out.gain = gain * k
+    if not tested:
+        return out
+    alpha = FALSE_ALARM / len(tested)
+    for label, rows in tested.items():
+        v = np.array([x[1] for x in rows])
+        sd = np.array([x[2] for x in rows])
+        wts = 1.0 / sd**2
+        mean = float(np.sum(wts * v) / np.sum(wts))
+        chi2 = float(np.sum(wts * (v - mean) ** 2))
+        limit = float(scipy.stats.chi2.isf(alpha, len(v) - 1))
+        out.spread[label] = chi2 / limit
+        if chi2 <= limit:
+            continue
+        immaterial = tolerated is not None and out.gain <= tolerated
+        levels = np.array([force_levels.get(x[0], np.nan) for x in rows])
+        if len(v) >= AMPLITUDE_LEVELS and np.all(np.isfinite(levels)) and np.ptp(np.log(levels)) > 0:
+            X = np.column_stack([np.ones(len(v)), np.log(levels)])
+            root = np.sqrt(wts)
+            # by least squares on the weighted rows: one experiment far surer than the others
+            # leaves the slope undetermined (a singular normal matrix), not an error
+            coef, _, rank, sv = np.linalg.lstsq(X * root[:, None], v * root, rcond=None)
+            if rank < 2:
+                continue
+            rest = float(np.sum(wts * (v - X @ coef) ** 2))
+            _, _, vt = np.linalg.svd(X * root[:, None], full_matrices=False)
+            slope_var = float(np.sum((vt[:, 1] / sv) ** 2))  # [(X^T W X)^-1]_11
+            slope_sd = float(np.sqrt(slope_var * max(1.0, rest / max(1, len(v) - 2))))
+            if (abs(coef[1]) / slope_sd > scipy.stats.norm.isf(alpha / 2)
+                    and rest <= scipy.stats.chi2.isf(alpha, len(v) - 2)):
+                out.amplitude_dependent.append(label)
+        # a spread that follows the force level is physics however small; scatter that fits no
+        # better than the tolerated misfit is the misfit's pull
+        if label in out.amplitude_dependent or not immaterial:
+            out.consistent = False
+    return out
+
+
+def tolerated_misfit(floor_error: float, exps: Sequence) -> float:
+    """The sum of squares beyond the noise floor's that the verdict accepts as "at the floor"
+    (an error up to FLOOR_TOLERANCE x the floor's), over every sample of ``exps``."""
+    den = sum(float(np.sum(e.measured**2)) for e in exps)
+    return (FLOOR_TOLERANCE**2 - 1.0) * floor_error**2 * den
+
+
+def implausible(effect, model, values: Mapping[str, float | None]) -> list[str]:
+    """The fitted values outside the physical range their parameter declares (``plausible``)."""
+    ranges = {p.name: getattr(p, "plausible", None) for p in effect.parameters(model)}
+    out = []
+    for label, v in values.items():
+        rng = ranges.get(label.split("/")[-1])
+        if rng is not None and v is not None and not rng[0] <= v <= rng[1]:
+            out.append(label)
+    return out
+
+
+def indistinguishable(change_a: np.ndarray, change_b: np.ndarray, scale: float, k: int) -> bool:
+    """Two candidates' fitted changes of the predictions differ by less than noise fitted with
+    ``k`` parameters could: no experiment here tells them apart."""
+    d = change_a - change_b
+    return float(d @ d) <= gain_threshold(scale, k)

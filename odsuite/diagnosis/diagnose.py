@@ -1,0 +1,667 @@
+"""Which physical effect does the model lack? Every registered effect (built-in or a lab's own)
+is a candidate: screened, the promising ones fitted and validated (:mod:`odsuite.diagnosis.fitting`),
+then ranked.
+
+A candidate whose screening took up less than half of what the best fit explains is ranked by its
+screening alone. Candidates are ranked by validated error with a BIC penalty for their number of
+parameters. A candidate is ``significant`` when its validated gain exceeds what fitting its
+parameters to the calibrated noise floor would give (:mod:`odsuite.diagnosis.checks`); each fitted one
+is also checked for ``consistent`` parameters across experiments (amplitude dependence), values in
+their ``plausible`` physical range, and ``confounded_with`` candidates that explain the same residual
+within the noise. Parameters with an uncertainty comparable to their range are reported as not
+identifiable and held at their nominal value. The diagnosis ends in a verdict with the signature of
+what is left and one paragraph to act on (:mod:`odsuite.diagnosis.verdict`).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import multiprocessing
+import os
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from odsuite.diagnosis import checks
+from odsuite.analysis.comparison import residual_peaks
+from odsuite.domain.errors import ConfigError
+from odsuite.diagnosis.fitting import (
+    Problem,
+    Screened,
+    effective_samples,
+    fit,
+    fit_windows,
+    refined,
+    screen,
+    uncertainties,
+    validate,
+)
+from odsuite.analysis.modelrev import current_revision, revision_model
+from odsuite.analysis.prediction import PreparedExperiment, predict, prepare
+from odsuite.domain.simulation import load_nonlinear_loop
+from odsuite.analysis.noise_floor import FLOOR_TOLERANCE
+from odsuite.diagnosis.verdict import Signature, decide, message, signature
+
+#: how many screened candidates get a full fit and validation
+FULL_FITS = 4
+#: a fitted parameter whose standard deviation exceeds this fraction of its range is not identifiable
+UNIDENTIFIABLE_FRACTION = 0.1
+#: parameter correlations above this are reported as confounded
+CONFOUNDED_CORRELATION = 0.95
+#: candidates whose prediction changes have at least this cosine similarity are named as confounded
+CONFOUNDED_COSINE = 0.9
+
+@dataclass
+class Candidate:
+    effect: str
+    significant: bool
+    error_after: float
+    validated_error: float
+    parameters: dict[str, float | None]
+    uncertainties: dict[str, float | None]
+    units: dict[str, str]
+    evidence: str
+    n_parameters: int
+    bic: float
+    screened_error: float
+    unidentifiable: list[str] = field(default_factory=list)
+    confounded_parameters: list[list[str]] = field(default_factory=list)
+    confounded_with: list[str] = field(default_factory=list)
+    validation: str = ""
+    fitted: bool = True
+    per_experiment: dict[str, dict[str, float]] = field(default_factory=dict)
+    values: dict[str, float] = field(default_factory=dict)
+    consistent: bool = True
+    plausible: bool = True
+    implausible: list[str] = field(default_factory=list)
+    amplitude_dependent: list[str] = field(default_factory=list)
+    per_experiment_fits: dict[str, dict[str, float]] = field(default_factory=dict)
+    gain_threshold: float = float("nan")
+
+    def as_dict(self) -> dict[str, Any]:
+        d = {k: getattr(self, k) for k in (
+            "effect", "significant", "error_after", "validated_error", "parameters", "uncertainties",
+            "units", "evidence", "n_parameters", "bic", "screened_error", "unidentifiable",
+            "confounded_parameters", "confounded_with", "validation", "fitted", "consistent", "plausible",
+            "implausible", "amplitude_dependent", "per_experiment_fits")}
+        return d
+
+    def revision_entry(self) -> dict[str, Any]:
+        """How add-effect stores this fit in a model revision."""
+        return {"effect": self.effect, "values": dict(self.values), "per_experiment": self.per_experiment,
+                "uncertainties": {k: v for k, v in self.uncertainties.items() if v is not None}}
+
+
+def _describe_values(problem: Problem, values: Mapping[str, float | None], sds: Mapping[str, float | None],
+                     limit: int = 3) -> str:
+    moved = []
+    for f in problem.free:
+        v = values.get(f.label)
+        if v is None:
+            continue
+        moved.append((abs(v - f.param.nominal) / f.scale, f, v, sds.get(f.label)))
+    moved.sort(key=lambda t: -t[0])
+    parts = []
+    for _, f, v, sd in moved[:limit]:
+        unit = "" if f.param.unit in ("1", "") else f" {f.param.unit}"
+        pm = f" ± {sd:.3g}" if sd is not None and np.isfinite(sd) else ""
+        parts.append(f"{f.label} = {v:.4g}{pm}{unit} (nominal {f.param.nominal:g})")
+    for name, c in problem.fixed.items():
+        parts.append(f"{name} = {c:g}")
+    return "; ".join(parts)
+
+
+def _evidence(problem: Problem, cand: Candidate, baseline: float, noise: float,
+              peaks: Sequence[Mapping[str, Any]], rigidity: float | None, modes_before, modes_after) -> str:
+    words = []
+    freq = next((v for k, v in cand.parameters.items() if k.endswith("frequency_hz") and v is not None), None)
+    if freq is not None:
+        near = [p for p in peaks if abs(p["frequency_hz"] - freq) <= 0.1 * freq]
+        if near and near[0]["lacking"]:
+            words.append(f"a resonance at {near[0]['frequency_hz']:.0f} Hz in the "
+                         f"{', '.join(near[0]['channels'][:4])} channels that no model mode explains")
+    if rigidity is not None and rigidity > 0.1 and getattr(problem.effect, "breaks_rigidity", False):
+        words.append(f"rigidity residual {100 * rigidity:.0f} %")
+    if modes_before is not None and modes_after is not None and len(modes_before) == len(modes_after) and len(modes_before):
+        shift = np.asarray(modes_after) / np.asarray(modes_before)
+        if np.max(np.abs(shift - 1)) > 0.01:
+            words.append(f"model modes move from {modes_before[0]:.0f}-{modes_before[-1]:.0f} Hz to "
+                         f"{modes_after[0]:.0f}-{modes_after[-1]:.0f} Hz")
+    desc = _describe_values(problem, cand.parameters, cand.uncertainties)
+    if desc:
+        words.append(f"fitted {desc}")
+    words.append(f"validated error {baseline:.3g} -> {cand.validated_error:.3g} ({cand.validation}); "
+                 f"noise floor {noise:.3g}")
+    if len(cand.confounded_parameters) > 2:  # one phrase, not a list of overlapping groups
+        names = list(dict.fromkeys(n for g in cand.confounded_parameters for n in g))
+        words.append(f"these data cannot separate {', '.join(names)} "
+                     f"({len(cand.confounded_parameters)} overlapping groups)")
+    else:
+        for group in cand.confounded_parameters:
+            words.append(f"only the combination of {', '.join(group)} is determined")
+    if cand.unidentifiable:
+        words.append(f"not identifiable from these data: {', '.join(cand.unidentifiable)}")
+    return "; ".join(words)
+
+
+def _checks_words(cand: Candidate) -> str:
+    words = []
+    if not cand.consistent:
+        spread = ", ".join(cand.amplitude_dependent) if cand.amplitude_dependent else "some parameters"
+        words.append(f"fitted per experiment, {spread} differ beyond their uncertainties"
+                     + (" and follow the force level (amplitude dependent)" if cand.amplitude_dependent else ""))
+    if cand.implausible:
+        words.append(f"outside the physical range: {', '.join(cand.implausible[:4])}")
+    return "; ".join(words)
+
+
+@dataclass
+class Diagnosis:
+    baseline_error: float
+    noise_floor_error: float
+    revision: int | None
+    candidates: list[Candidate]
+    residual_peaks: list[dict[str, Any]]
+    evaluations: int
+    not_applicable: list[str] = field(default_factory=list)
+    verdict: str = ""
+    signature: Signature = field(default_factory=Signature)
+    message: str = ""
+
+    @property
+    def residual_to_floor(self) -> float:
+        return self.baseline_error / self.noise_floor_error if self.noise_floor_error > 0 else float("inf")
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"verdict": self.verdict, "noise_floor": self.noise_floor_error,
+                "residual_to_floor": self.residual_to_floor, "signature": self.signature.as_dict(),
+                "message": self.message,
+                "baseline_error": self.baseline_error, "noise_floor_error": self.noise_floor_error,
+                "revision": self.revision, "candidates": [c.as_dict() for c in self.candidates],
+                "residual_peaks": self.residual_peaks, "model_evaluations": self.evaluations,
+                "not_applicable": self.not_applicable}
+
+
+def _residual_effective_samples(problem: Problem, res) -> float:
+    """Independent samples in a fit's residual, from each experiment's residual autocorrelation
+    (on the strided samples the fit sees, as its Jacobian)."""
+    n_data = res.fun.size - (len(problem.free) if problem.prior else 0)
+    total, start = 0.0, 0
+    for e in problem.exps:
+        size = len(range(0, e.n_samples, problem.stride)) * e.measured.shape[1]
+        total += checks.effective_samples(res.fun[start:start + size].reshape(-1, e.measured.shape[1]))
+        start += size
+    return min(total, float(n_data))
+
+
+def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: float, noise: float,
+                   peaks, rigidity, modes_before, tail0: float = 0.0,
+                   force_levels: Mapping[str, float] | None = None) -> Candidate:
+    """Fit, validate and describe one screened candidate. Sums of squares of ``screened`` are over
+    the fit windows; ``tail0`` is the rest of the records' at the nominal model, ``sse0`` whole."""
+    problem = screened.problem
+    effect = problem.effect
+    if problem.free:
+        # screening has already stepped through the short heads to the whole windows
+        res = fit(problem, screened.u0, continuation=False)
+        u = res.x
+        # uncertainties from the residual as it is: its samples are correlated (filters, misfit)
+        sds, corr, groups = uncertainties(problem, res, _residual_effective_samples(problem, res))
+        unident = [f.label for f, sd in zip(problem.free, sds)
+                   if not np.isfinite(sd) or sd > UNIDENTIFIABLE_FRACTION * (f.param.upper - f.param.lower)]
+        if unident and len(unident) < len(problem.free):
+            # hold what the data cannot see at its nominal value and refit the rest
+            held = {f.param.name: f.param.nominal for f in problem.free
+                    if f.label in unident and f.experiment is None}
+            if held:
+                problem = problem.derived({**screened.fixed, **held})
+                keep = [i for i, f in enumerate(screened.problem.free) if f.param.name not in held]
+                res = fit(problem, u[keep], continuation=False)
+                u = res.x
+                sds, corr, groups = uncertainties(problem, res, _residual_effective_samples(problem, res))
+        sse = problem.sse(u)
+        confounded = groups + [[problem.free[i].label, problem.free[j].label]
+                               for i in range(len(problem.free)) for j in range(i + 1, len(problem.free))
+                               if abs(corr[i, j]) > CONFOUNDED_CORRELATION
+                               and not any(problem.free[i].label in g and problem.free[j].label in g
+                                           for g in groups)]
+    else:
+        u = problem.zero()
+        sse = screened.sse
+        sds, unident, confounded = np.zeros(0), [], []
+    sse_win = sse
+    tail = problem.tail_sse(u)
+    sse += tail
+    shared, per = problem.values(u)
+    params: dict[str, float | None] = {}
+    uncert: dict[str, float | None] = {}
+    units: dict[str, str] = {}
+    for f, sd in zip(problem.free, sds):
+        params[f.label] = f.to_value(u[problem.free.index(f)])
+        uncert[f.label] = float(sd) if np.isfinite(sd) else None
+        units[f.label] = f.param.unit
+    for name in unident:
+        params.setdefault(name, None)
+    for name, c in problem.fixed.items():
+        params[name] = c
+        uncert[name] = None
+    sse_val, how = validate(problem, u, res if problem.free else None)
+    sse_val += tail
+    k = len(problem.free) + len(problem.fixed)
+    bic = n_eff * math.log(max(sse_val, 1e-300) / den) + k * math.log(n_eff)
+    modes_after = None
+    if effect.target == "model" and shared:
+        modes_after = list(problem.models(u)[exps[0].name].modes().frequency_hz)
+    cand = Candidate(
+        effect=effect.name, significant=False, error_after=math.sqrt(sse / den),
+        validated_error=math.sqrt(sse_val / den), parameters=params, uncertainties=uncert, units=units,
+        evidence="", n_parameters=k, bic=bic, screened_error=math.sqrt((screened.sse + tail0) / den),
+        unidentifiable=unident, confounded_parameters=confounded, validation=how,
+        per_experiment=per, values={n: v for n, v in shared.items()},
+    )
+    if problem.free:
+        cons = checks.consistency(problem, res, force_levels or {}, checks.tolerated_misfit(noise, problem.full))
+        cand.consistent, cand.amplitude_dependent = cons.consistent, cons.amplitude_dependent
+        cand.per_experiment_fits = cons.per_experiment
+    cand.implausible = checks.implausible(effect, problem.base.shared, params)
+    cand.plausible = not cand.implausible
+    cand._problem, cand._u, cand._sse_win = problem, u, sse_win  # kept for the confounding check
+    baseline = math.sqrt(sse0 / den)
+    cand.evidence = _evidence(problem, cand, baseline, noise, peaks, rigidity, modes_before, modes_after)
+    return cand
+
+
+def is_significant(sse0: float, sse_validated: float, threshold: float) -> bool:
+    """The validated gain in sum of squares exceeds what fitting the candidate's parameters to the
+    calibrated noise would give with probability checks.FALSE_ALARM (``threshold``,
+    checks.gain_threshold)."""
+    return sse0 - sse_validated > threshold
+
+
+class _Deferred:
+    """A call run when its result is asked for: a fit that is never asked for costs nothing."""
+
+    def __init__(self, fn: Callable, args: tuple) -> None:
+        self._fn, self._args = fn, args
+
+    def cancel(self) -> bool:
+        return True
+
+    def result(self) -> Any:
+        return self._fn(*self._args)
+
+
+class _InOrder:
+    """The part of concurrent.futures' executor interface diagnose uses, one call after another
+    in this thread (workers=1)."""
+
+    def __enter__(self) -> _InOrder:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+    def map(self, fn: Callable, *items) -> Any:
+        return map(fn, *items)
+
+    def submit(self, fn: Callable, *args: Any) -> _Deferred:
+        return _Deferred(fn, args)
+
+
+def default_workers(n_candidates: int) -> int:
+    """As many worker processes as cores, at most 2 for a handful of candidates (a pool's start
+    and the fits' transfer cost more than a third process gains there) and never more than there
+    are candidates."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return max(1, min(cores, n_candidates, 2 if n_candidates <= SMALL_JOB else cores))
+
+
+#: up to this many candidates a diagnosis is a small job (default_workers)
+SMALL_JOB = 32
+
+#: what a diagnosis's worker processes need, keyed by a token per call: filled before the pool
+#: forks, so the processes inherit it (models hold the effects' shape functions, which do not
+#: pickle) and only effect names, starts and fitted numbers travel
+_JOBS: dict[int, dict[str, Any]] = {}
+_TOKENS = itertools.count()
+
+
+def _worker_start() -> None:
+    # one BLAS thread per process: the processes share the cores, and a BLAS pool per process
+    # would spin against the other process's work
+    threadpool_limits(1)
+
+
+def _problem(job: Mapping[str, Any], name: str, fixed: Mapping[str, float] | None = None) -> Problem:
+    problem = Problem(job["base"], job["effects"].get(name), job["windows"], prior=job["prior"] / job["stride"],
+                      stride=job["stride"], full=job["exps"], noise_scale=job["scale"])
+    return problem.derived(fixed) if fixed else problem
+
+
+def _screen_job(token: int, name: str) -> tuple[dict[str, float], np.ndarray, float, int] | None:
+    """Screen one candidate: its discrete choices, start, sum of squares and evaluations."""
+    job = _JOBS[token]
+    try:
+        problem = _problem(job, name)
+    except ConfigError:
+        return None  # the effect does not apply to this rig (e.g. no base plate)
+    s = screen(problem, job["sse0_win"], job["peak_hz"])
+    return s.fixed, s.u0, s.sse, problem.evaluations + (s.problem.evaluations if s.problem is not problem else 0)
+
+
+def _fit_job(token: int, name: str, fixed: Mapping[str, float], u0: np.ndarray, sse: float
+             ) -> tuple[Candidate, dict[str, float], int]:
+    """Fit one screened candidate; the candidate without its problem (rebuilt by the caller from
+    the values it was fitted with), those values and the evaluations."""
+    job = _JOBS[token]
+    problem = _problem(job, name, fixed)
+    cand = _fit_candidate(Screened(problem.effect, dict(fixed), u0, sse, problem), job["windows"], job["sse0"],
+                          job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
+                          job["modes_before"], job["tail0"], job["force_levels"])
+    p = cand.__dict__.pop("_problem")
+    return cand, p.fixed, p.evaluations
+
+
+def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequence[str] | None = None,
+             full_fits: int = FULL_FITS, progress: Callable[[str, int, int], None] | None = None,
+             prepared: Sequence[PreparedExperiment] | None = None, workers: int | None = None) -> Diagnosis:
+    """Rank every registered effect (or ``effects``) by how much of the model's error it explains.
+
+    Candidates are screened and fitted on ``workers`` processes (default: default_workers; 1: one
+    after another in this process). Each candidate's work is independent of the others' and runs
+    in the same order of operations, so the result does not depend on ``workers``."""
+    from odsuite.analysis.comparison import compare
+    from odsuite.contracts.plugins import registries
+
+    if workers is not None and workers < 1:
+        raise ConfigError(f"diagnose: workers must be at least 1, got {workers}")
+    regs = registries()
+    rev = current_revision(project)
+    base = revision_model(project, rev)
+    exps = list(prepared) if prepared is not None else prepare(project, experiments)
+    in_model = {e["effect"] for e in rev.get("effects", [])}
+    def absent(n: str) -> bool:  # or one more of it can be added
+        return n not in in_model or getattr(regs.effects.get(n), "repeatable", False)
+
+    names = list(effects) if effects else [n for n in regs.effects.names() if absent(n)]
+    # an effect without parameters for this model does not apply to its rig (no base, no plate)
+    not_applicable = [n for n in names if not regs.effects.get(n).parameters(base.shared)]
+    if effects and not_applicable:
+        raise ConfigError(f"{project.path}: effect(s) {', '.join(not_applicable)} do not apply to this model "
+                          f"({base.shared.name!r} on rig {project.rig.name!r})")
+    names = [n for n in names if n not in not_applicable]
+    if not names:
+        raise ConfigError(f"{project.path}: no candidate effects left to try (registered: "
+                          f"{', '.join(regs.effects.names()) or 'none'})")
+    # an effect that refines another (``refines``) is fitted from that one's fit, after it
+    refiners = [n for n in names if getattr(regs.effects.get(n), "refines", None)]
+    names += [b for b in dict.fromkeys(regs.effects.get(n).refines for n in refiners)
+              if b not in names and b in regs.effects.names() and absent(b)]
+    names = [n for n in names if n not in refiners]
+    cmp = compare(project, revision=rev, prepared=exps, resonances=False)
+    den = sum(float(np.sum(e.measured**2)) for e in exps)
+    sse0 = cmp.error**2 * den
+    windows = fit_windows(exps)
+    sse0_win = sum(float(np.sum((w.measured - predict(base.for_experiment(w.name), w)) ** 2)) for w in windows)
+    tail0 = max(sse0 - sse0_win, 0.0)
+    noise = cmp.noise_floor_error
+    # noise energy per independent sample of the calibrated floor: the scale of every test
+    scale = checks.noise_scale(cmp.floor, exps)
+    force_levels = {e.name: float(np.max(np.abs(e.force))) for e in exps}
+    n_eff, f99 = effective_samples(exps)
+    stride = max(1, int(exps[0].fs / (5.0 * f99)))
+    prior = 1e-3 * max(noise**2, 1e-8) * den
+    peaks = cmp.residual_peaks
+    peak_hz = [p["frequency_hz"] for p in peaks if p["lacking"]]
+    rig_vals = [max(b["fractions"].values()) for per in cmp.rigidity.values() for b in per.values()
+                if b["fractions"]]
+    rigidity = float(np.median(rig_vals)) if rig_vals else None
+    modes_before = list(base.shared.modes().frequency_hz)
+
+    # candidates go to forked processes, each with one BLAS thread (where the platform cannot fork,
+    # one after another): they inherit the records and models, and only effect names, starts and
+    # fitted numbers travel. On 2 cores BLAS threads mostly wait for each other on these small
+    # products (CPU time 1.7x the wall time): a process per core uses them better
+    workers = workers or default_workers(len(names))
+    # a daemonic process (a batch's worker) may not start processes of its own
+    parallel = (workers > 1 and "fork" in multiprocessing.get_all_start_methods()
+                and not multiprocessing.current_process().daemon)
+    token = next(_TOKENS)
+    _JOBS[token] = {"base": base, "effects": regs.effects, "windows": windows, "exps": exps, "prior": prior,
+                    "stride": stride, "scale": scale, "sse0_win": sse0_win, "peak_hz": peak_hz, "sse0": sse0, "den": den,
+                    "n_eff": n_eff, "noise": noise, "peaks": peaks, "rigidity": rigidity,
+                    "modes_before": modes_before, "tail0": tail0, "force_levels": force_levels}
+    job = _JOBS[token]
+    screened: list[Screened] = []
+    evaluations = 0
+    if parallel:  # a candidate may give the structure cubic springs: the workers inherit the loop
+        load_nonlinear_loop()
+    pool = (ProcessPoolExecutor(workers, multiprocessing.get_context("fork"), initializer=_worker_start)
+            if parallel else _InOrder())
+    try:
+        # one BLAS thread here too: a product's rounding may depend on the threads that share it,
+        # and the result must not depend on ``workers``
+        with pool, threadpool_limits(1):
+            for i, (name, done) in enumerate(zip(names, pool.map(_screen_job, [token] * len(names), names))):
+                if progress:
+                    progress(f"screening {name}", i, len(names))
+                if done is not None:
+                    fixed, u0, sse, count = done
+                    problem = _problem(job, name, fixed)
+                    screened.append(Screened(problem.effect, fixed, u0, sse, problem))
+                    evaluations += count
+            screened.sort(key=lambda s: s.sse)
+            candidates: list[Candidate] = []
+            top = screened[:full_fits]
+            best_win = sse0_win
+            fitted = []
+
+            def skipped(k: int) -> bool:
+                # a candidate whose screening took up less than half of what the best fit so far
+                # explains cannot compete: screening only ranks it. best_win only falls, so a
+                # candidate skipped before the fits ahead of it have finished stays skipped
+                return k > 0 and top[k].sse > best_win + 0.5 * (sse0_win - best_win)
+
+            jobs: dict[int, Any] = {}
+            queued = 0
+            for i, s in enumerate(top):
+                while queued < min(len(top), i + (workers if parallel else 1)):  # the pool busy ahead of i
+                    if not skipped(queued):
+                        t = top[queued]
+                        jobs[queued] = pool.submit(_fit_job, token, t.effect.name, t.fixed, t.u0, t.sse)
+                    queued += 1
+                if i not in jobs or skipped(i):
+                    if i in jobs:
+                        jobs[i].cancel()
+                    continue
+                fitted.append(s)
+                if progress:
+                    progress(f"fitting {s.effect.name}", i, len(top))
+                cand, fixed, count = jobs[i].result()
+                cand._problem = _problem(job, s.effect.name, fixed)
+                best_win = min(best_win, cand._sse_win)
+                evaluations += count
+                cand.gain_threshold = checks.gain_threshold(scale, cand.n_parameters)
+                cand.significant = is_significant(sse0, cand.validated_error**2 * den, cand.gain_threshold)
+                words = _checks_words(cand)
+                if words:
+                    cand.evidence += "; " + words
+                candidates.append(cand)
+            for name in refiners:
+                refined = _refine(job, name, candidates, scale)
+                if refined is not None:
+                    candidates.append(refined)
+                    evaluations += refined._problem.evaluations
+                    continue
+                candidates.append(Candidate(
+                    effect=name, significant=False, error_after=cmp.error, validated_error=float("nan"),
+                    parameters={}, uncertainties={}, units={}, n_parameters=0, bic=float("inf"),
+                    screened_error=cmp.error, fitted=False,
+                    evidence=(f"not fitted: it refines {regs.effects.get(name).refines}'s fit, which is not "
+                              "significant or leaves nothing above the noise floor, or another candidate "
+                              "brings the error to the floor")))
+    finally:
+        _JOBS.pop(token)
+    for s in screened:
+        if any(s is f for f in fitted):
+            continue
+        err = math.sqrt((s.sse + tail0) / den)
+        candidates.append(Candidate(
+            effect=s.effect.name, significant=False, error_after=err,
+            validated_error=float("nan"), parameters={}, uncertainties={}, units={},
+            evidence=f"screening only: one linearised step reaches error {err:.3g}",
+            n_parameters=len(s.problem.free), bic=float("inf"), screened_error=err,
+            fitted=False))
+    _mark_confounded([c for c in candidates if c.fitted], exps, scale)
+    _tell_refinements_apart(candidates, regs.effects, den)
+    _mark_proxies([c for c in candidates if c.fitted], base)
+    candidates.sort(key=lambda c: (not c.significant, c.bic if c.fitted else math.inf, c.screened_error))
+    _prefer_named(candidates, regs.effects)
+    diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=noise, revision=rev.get("revision"),
+                          candidates=candidates, residual_peaks=peaks, evaluations=evaluations,
+                          not_applicable=not_applicable)
+    _conclude(diagnosis, cmp, base, exps)
+    if progress:
+        progress("done", len(names), len(names))
+    return diagnosis
+
+
+def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], scale: float) -> Candidate | None:
+    """Fit the refining effect ``name`` from the fit of the effect it refines, when that one is
+    significant and leaves the residual above the floor, and no candidate but another refinement
+    brings it there (else there is nothing for it to add). It counts as significant only when its
+    own parameters' gain over that fit passes the test the gain of as many parameters fitted to
+    noise would fail (checks.gain_threshold)."""
+    effect = job["effects"].get(name)
+    start = next((c for c in candidates if c.effect == effect.refines and c.fitted), None)
+    # refiners are fitted alike whatever their order: another refinement does not stop one
+    done = [c.error_after for c in candidates if c.fitted and c.significant
+            and not getattr(job["effects"].get(c.effect), "refines", None)]
+    if (start is None or not start.significant or not start.error_after > FLOOR_TOLERANCE * job["noise"]
+            or min(done) <= FLOOR_TOLERANCE * job["noise"]):  # another candidate has explained it all
+        return None
+    problem, u0 = refined(start._problem, start._u, effect)
+    cand = _fit_candidate(Screened(effect, problem.fixed, u0, problem.sse(u0), problem), job["windows"], job["sse0"],
+                          job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
+                          job["modes_before"], job["tail0"], job["force_levels"])
+    den = job["den"]
+    cand.gain_threshold = checks.gain_threshold(scale, max(cand.n_parameters - start.n_parameters, 1))
+    cand.significant = is_significant(start.validated_error**2 * den, cand.validated_error**2 * den,
+                                      cand.gain_threshold)
+    cand.evidence += (f"; fitted from {start.effect}'s fit (validated error {start.validated_error:.4g} -> "
+                      f"{cand.validated_error:.4g})")
+    words = _checks_words(cand)
+    if words:
+        cand.evidence += "; " + words
+    return cand
+
+
+def _prefer_named(cands: list[Candidate], effects) -> None:
+    """A data-driven stand-in on top (a mode of any shape) gives the first place to a significant
+    named mechanism it is confounded with: the same residual explained, and the cause named."""
+    if not cands or not cands[0].significant or not getattr(effects.get(cands[0].effect), "data_driven", False):
+        return
+    named = next((c for c in cands[1:] if c.significant and c.effect in cands[0].confounded_with
+                  and not getattr(effects.get(c.effect), "data_driven", False)), None)
+    if named is not None:
+        cands.remove(named)
+        cands.insert(0, named)
+
+
+def _conclude(d: Diagnosis, cmp, base, exps) -> None:
+    """The verdict, the signature of what is left (after the best significant candidate, if any)
+    and the message."""
+    best = next((c for c in d.candidates if c.significant and c.fitted), None)
+    amplitude = any(c.amplitude_dependent for c in d.candidates if c.fitted and c.significant)
+    d.verdict = decide(d.baseline_error, d.noise_floor_error, best)
+    modes = list(base.shared.modes().frequency_hz)
+    before = [predict(base.for_experiment(e.name), e) for e in exps]
+    sig_before = signature(exps, before, cmp.floor, d.residual_peaks, amplitude)
+    rest = None
+    if best is not None and d.verdict != "nothing to explain":
+        p = best._problem
+        after = p.predictions(best._u, p.full)
+        rest = signature(exps, after, cmp.floor, residual_peaks(exps, after, modes, cmp.floor), amplitude)
+    d.signature = rest if rest is not None else sig_before
+    d.message = message(d.verdict, d.baseline_error, d.noise_floor_error, best, sig_before, rest)
+
+
+def _mark_confounded(cands: Sequence[Candidate], exps, scale: float) -> None:
+    """Candidates that explain the same residual cannot be told apart by these experiments; name
+    each other: their fitted changes of the predictions differ by less than noise could
+    (checks.indistinguishable), or point the same way (cosine above CONFOUNDED_COSINE)."""
+    changes = {}
+    for c in cands:
+        if c.error_after >= c.screened_error * 1.5:
+            continue
+        p = c._problem
+        if p.linear:  # projected parameters are fitted at any search value: the base is without the effect
+            base_pred = np.concatenate([p.base_prediction(e).ravel() for e in p.exps])
+        else:
+            base_pred = np.concatenate([x.ravel() for x in p.predictions(np.zeros(0) if not p.free else p.zero())])
+        fit_pred = np.concatenate([x.ravel() for x in p.predictions(c._u)])
+        changes[c.effect] = fit_pred - base_pred
+    names = list(changes)
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            va, vb = changes[a], changes[b]
+            na, nb = np.linalg.norm(va), np.linalg.norm(vb)
+            if na == 0 or nb == 0:
+                continue
+            ca = next(c for c in cands if c.effect == a)
+            cb = next(c for c in cands if c.effect == b)
+            if (abs(va @ vb) / (na * nb) > CONFOUNDED_COSINE
+                    or checks.indistinguishable(va, vb, scale, ca.n_parameters + cb.n_parameters)):
+                ca.confounded_with.append(b)
+                cb.confounded_with.append(a)
+
+
+def _tell_refinements_apart(cands: Sequence[Candidate], effects, den: float) -> None:
+    """Refinements of one fit are told apart from it and from each other by the gain test, however
+    alike their changes of the predictions look: a refiner's significance is its gain over the fit
+    it refines, and of two refiners the better is apart when its gain over the other passes the test
+    for its own extra parameters."""
+    def apart(a: Candidate, b: Candidate) -> None:
+        if b.effect in a.confounded_with:
+            a.confounded_with.remove(b.effect)
+        if a.effect in b.confounded_with:
+            b.confounded_with.remove(a.effect)
+
+    refiners = [c for c in cands if c.fitted and getattr(effects.get(c.effect), "refines", None)]
+    for c in refiners:
+        if c.significant:
+            apart(c, next(b for b in cands if b.effect == effects.get(c.effect).refines))
+        for o in refiners:
+            if (o is not c and effects.get(o.effect).refines == effects.get(c.effect).refines
+                    and is_significant(o.validated_error**2 * den, c.validated_error**2 * den, c.gain_threshold)):
+                apart(c, o)
+
+
+def _makes_nonlinear(cand: Candidate, base) -> bool:
+    """The candidate's fitted model responds to the force level (cubic springs) where the base
+    model does not."""
+    if not base.shared.structure.is_linear:
+        return False
+    return not all(m.structure.is_linear for m in cand._problem.models(cand._u).values())
+
+
+def _mark_proxies(cands: Sequence[Candidate], base) -> None:
+    """A linear candidate whose parameters, fitted per experiment, follow the force level
+    (``amplitude_dependent``) is a proxy: a linear change cannot depend on the level, so it stands in
+    for amplitude-dependent physics. A candidate that makes the model amplitude dependent and fits
+    the records better (its error over all of them, not its leave-one-experiment-out error: left out,
+    the top force level is an extrapolation) is named by the proxy (``confounded_with``), and names
+    it: both describe the level-dependent part of the residual, which only one of them can cause."""
+    causes = [c for c in cands if _makes_nonlinear(c, base)]
+    for c in cands:
+        if not c.amplitude_dependent or c in causes:
+            continue
+        for n in causes:
+            if n.error_after < c.error_after and n.effect not in c.confounded_with:
+                c.confounded_with.append(n.effect)
+                n.confounded_with.append(c.effect)

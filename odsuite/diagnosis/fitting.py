@@ -1,0 +1,831 @@
+"""The fitting engine of the diagnosis: one candidate effect's output-error problem over the
+experiments, its screening from nominal and grid starts, the bounded least-squares fit, its
+uncertainties and its validation on data the fit did not see.
+
+Fits see each record only up to where its response has decayed into the noise (the rest is added
+back to reported errors). Screening moves each parameter one small step from its nominal value
+(finite differences) and takes one Gauss-Newton step, evaluated for real; parameters the residual
+cannot see at their nominal value (a resonance frequency while its amplitude is zero) get a start
+from a grid and from the peaks of the residual spectrum; amplitudes that only act in products get
+one of them moved first; discrete parameters are tried one choice at a time. Shared parameters are
+validated by leaving one experiment out; per-experiment parameters on held-out channels.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.optimize
+
+from odsuite.domain.errors import DivergedError
+from odsuite.analysis.modelrev import RevisionModel
+from odsuite.analysis.prediction import PreparedExperiment, predict, simulate_together
+
+#: fits start on short heads of the records (s after the hit), then the whole record: a frequency
+#: error makes the time-domain residual oscillate in the parameter, a short head keeps it convex
+HEADS_S = (0.01, 0.04)
+
+
+#: fits stop where the measured response has decayed into the noise: the record after that point
+#: holds less excess energy (above the noise) than this fraction of the record's noise energy
+TAIL_FRACTION = 0.05
+#: ... plus a margin of this fraction of the response's length, and at least WINDOW_MIN_S
+WINDOW_MARGIN = 0.25
+WINDOW_MIN_S = 0.04
+#: the largest residual a sample may have, in multiples of the record's largest value: beyond it
+#: the model is unstable
+UNSTABLE_RESIDUAL = 1e3
+#: a search value this close to a bound (in natural steps, _scale, or relative beyond one) is the
+#: bound: scipy's trf starts 1e-10 inside (make_strictly_feasible), its differences step 1e-4
+AT_BOUND = 1e-8
+
+
+def fit_windows(exps: Sequence[PreparedExperiment]) -> list[PreparedExperiment]:
+    """Each experiment cut where its response has died away into the noise (a hammer response
+    decays within tens of milliseconds of records that last far longer): fits and screening see
+    the same information for a fraction of the cost. The sum of squares of the rest is added back
+    where an error is reported."""
+    out = []
+    for e in exps:
+        power = np.sum(e.measured**2, axis=1)
+        var = float(np.sum(e.noise_var))
+        n = len(power)
+        tail = np.cumsum(power[::-1])[::-1] - (n - np.arange(n)) * var
+        above = np.flatnonzero(tail > TAIL_FRACTION * n * var)
+        last = int(above[-1]) if above.size else e.trigger
+        end = last + max(WINDOW_MARGIN * max(last - e.trigger, 0), WINDOW_MIN_S * e.fs)
+        out.append(e.head(int(math.ceil(end))))
+    return out
+
+
+def heads(exps: Sequence[PreparedExperiment]) -> list[list[PreparedExperiment]]:
+    """The experiments cut to each of HEADS_S after their hit, then whole."""
+    stages = [[e.head(e.trigger + int(round(t * e.fs))) for e in exps] for t in HEADS_S]
+    return stages + [list(exps)]
+
+
+# ---------------------------------------------------------------------------------------------
+# the fitting problem of one candidate
+
+
+@dataclass
+class _Free:
+    """One free scalar of a fit: an effect parameter, shared or of one experiment."""
+
+    param: Any  # odsuite.contracts.effects.Parameter
+    experiment: str | None
+    scale: float
+
+    @property
+    def label(self) -> str:
+        return self.param.name if self.experiment is None else f"{self.experiment}/{self.param.name}"
+
+    def to_value(self, u: float) -> float:
+        lo, hi = self.bounds
+        # scipy's trf keeps its iterates a hair inside the bounds: there, the value is the bound
+        # (a resonance period of 0 is "no resonance", not one at 1e15 Hz)
+        if u - lo <= AT_BOUND * max(1.0, abs(lo)):
+            return float(self.param.lower)
+        if hi - u <= AT_BOUND * max(1.0, abs(hi)):
+            return float(self.param.upper)
+        return float(np.clip(self.param.nominal + u * self.scale, self.param.lower, self.param.upper))
+
+    @property
+    def bounds(self) -> tuple[float, float]:
+        p = self.param
+        return (p.lower - p.nominal) / self.scale, (p.upper - p.nominal) / self.scale
+
+
+def _prior_share(f: _Free) -> float:
+    """The prior per search step squared, as a fraction of the prior per tenth of the range
+    squared. Per step it would pull hardest on the parameters whose step is smallest against the
+    values they take: a high-pass corner (step 0.25 Hz, nominal 0: none) found at 20 Hz paid 1.2x
+    the noise floor's energy, which pulled it to 17.8 Hz and split it over two equal corners."""
+    span = f.param.upper - f.param.lower
+    tenth = span / 10.0 if np.isfinite(span) and span > 0 else f.scale / 0.05
+    return (f.scale / tenth) ** 2
+
+
+def _scale(p) -> float:
+    """A natural step for a parameter: 5 % of its size or of a tenth of its range."""
+    span = p.upper - p.lower
+    size = max(abs(p.nominal), span / 10.0) if np.isfinite(span) else max(abs(p.nominal), 1.0)
+    return 0.05 * min(size, span) if span > 0 else 1.0
+
+
+class Problem:
+    """Residuals of one candidate effect on top of the current revision, over all experiments."""
+
+    def __init__(self, base: RevisionModel, effect, exps: Sequence[PreparedExperiment],
+                 fixed: Mapping[str, float] | None = None, prior: float = 0.0, stride: int = 1,
+                 full: Sequence[PreparedExperiment] | None = None, noise_scale: float = 0.0) -> None:
+        self.base = base
+        # noise energy per independent sample (checks.noise_scale): gains far below it change no
+        # test, so the search stops there (0: scipy's relative tolerances alone)
+        self.noise_scale = noise_scale
+        # ``exps`` are what the fit sees (usually fit windows); ``full`` the whole records they
+        # were cut from, for reported errors
+        self.full = list(full) if full is not None else list(exps)
+        # fits see every stride-th sample: the signals are band-limited far below Nyquist, so the
+        # sum of squares keeps its shape while the Jacobian shrinks
+        self.stride = stride
+        # a weak pull towards the nominal values (sum of squares per tenth of a parameter's range
+        # squared, ``pull`` per search step squared): it decides directions the data cannot see and
+        # keeps damped steps well posed; negligible elsewhere
+        self.prior = prior
+        self.effect = effect
+        self.exps = list(exps)
+        params = effect.parameters(base.shared)
+        self.discrete = [p for p in params if p.choices is not None]
+        self.fixed = dict(fixed or {})  # discrete choices and parameters held at a value
+        # parameters the effect solves by linear least squares at every evaluation (variable
+        # projection): the search runs over the others only
+        linear = getattr(effect, "linear_parameters", None)
+        self.linear = [n for n in (linear(base.shared) if linear else []) if n not in self.fixed]
+        self._base_predictions: dict[tuple[str, int], np.ndarray] = {}
+        self._projection: tuple[Any, Any] | None = None  # (key, result) of the last projection
+        self.free: list[_Free] = []
+        for p in params:
+            if p.choices is not None or p.name in self.fixed or p.name in self.linear:
+                continue
+            if p.scope == "per_experiment":
+                self.free += [_Free(p, e.name, _scale(p)) for e in self.exps]
+            else:
+                self.free.append(_Free(p, None, _scale(p)))
+        self.pull = np.array([prior * _prior_share(f) for f in self.free])
+        self.evaluations = 0
+
+    # values ------------------------------------------------------------------------------------
+    def _search_values(self, u: np.ndarray) -> tuple[dict[str, float], dict[str, dict[str, float]]]:
+        shared = dict(self.fixed)
+        per: dict[str, dict[str, float]] = {}
+        for f, x in zip(self.free, u):
+            if f.experiment is None:
+                shared[f.param.name] = f.to_value(x)
+            else:
+                per.setdefault(f.experiment, {})[f.param.name] = f.to_value(x)
+        return shared, per
+
+    def values(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None
+               ) -> tuple[dict[str, float], dict[str, dict[str, float]]]:
+        """Shared and per-experiment values at ``u``, the projected ones fitted on ``exps``."""
+        shared, per = self._search_values(u)
+        if self.linear:
+            lin_shared, lin_per, _ = self.project(u, exps)
+            shared.update(lin_shared)
+            for name, v in lin_per.items():
+                per.setdefault(name, {}).update(v)
+        return shared, per
+
+    def base_prediction(self, e: PreparedExperiment) -> np.ndarray:
+        """The prediction without this effect (cached per experiment and length)."""
+        key = (e.name, e.n_samples)
+        if key not in self._base_predictions:
+            self._base_predictions[key] = predict(self.base.for_experiment(e.name), e)
+        return self._base_predictions[key]
+
+    def project(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None,
+                weights: Sequence[np.ndarray] | None = None) -> tuple[dict, dict, list[np.ndarray]]:
+        """The effect's projected parameters at ``u`` fitted on ``exps`` (rows weighted by
+        ``weights``), and each experiment's change of prediction."""
+        exps = list(exps or self.exps)
+        key = (u.tobytes(), tuple((e.name, e.n_samples) for e in exps),
+               None if weights is None else tuple(w.tobytes() for w in weights))
+        if self._projection is not None and self._projection[0] == key:
+            return self._projection[1]
+        self.evaluations += 1
+        shared, _ = self._search_values(u)
+        models = {e.name: self.base.for_experiment(e.name) for e in exps}
+        out = self.effect.project(models, shared, exps, [self.base_prediction(e) for e in exps], weights)
+        self._projection = (key, out)
+        return out
+
+    def models(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None) -> dict[str, Any]:
+        shared, per = self.values(u, exps)
+        has_shared = any(f.experiment is None for f in self.free) or self.fixed or not self.free or self.linear
+        model = self.effect.apply(self.base.shared, shared) if has_shared else self.base.shared
+        rm = RevisionModel(model, self.base.per_experiment)
+        out = {}
+        for e in self.exps:
+            m = rm.for_experiment(e.name)
+            if e.name in per:
+                m = self.effect.apply(m, {**{k: v for k, v in shared.items()}, **per[e.name]})
+            out[e.name] = m
+        return out
+
+    def predictions(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None) -> list[np.ndarray]:
+        exps = list(exps or self.exps)
+        if self.linear:  # the projection's change of prediction is the effect's whole change
+            _, _, deltas = self.project(u, exps)
+            return [self.base_prediction(e) + d for e, d in zip(exps, deltas)]
+        self.evaluations += 1
+        models = self.models(u)
+        simulate_together(models, exps)
+        return [predict(models[e.name], e) for e in exps]
+
+    # residuals ---------------------------------------------------------------------------------
+    def residual(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None,
+                 columns: Sequence[int] | None = None, stride: int | None = None) -> np.ndarray:
+        exps = exps or self.exps
+        k = self.stride if stride is None else stride
+        with np.errstate(over="ignore", invalid="ignore"):
+            try:
+                preds = self.predictions(u, exps)
+            except DivergedError:  # trial values that blow the response up: as unstable as can be
+                preds = [np.full(e.measured.shape, np.inf) for e in exps]
+        parts = []
+        for e, p in zip(exps, preds):
+            r = (e.measured - p)[::k]
+            cap = UNSTABLE_RESIDUAL * (np.abs(e.measured).max() + 1e-300)
+            if not np.all(np.abs(r) <= cap):
+                # parameters that make the model unstable (its response grows without bound): a
+                # residual far worse than predicting nothing keeps the fit away, where inf or nan
+                # (or their finite differences) would stop it
+                r = np.clip(np.nan_to_num(r, nan=cap, posinf=cap, neginf=-cap), -cap, cap)
+            parts.append((r if columns is None else r[:, columns]).ravel())
+        return np.concatenate(parts)
+
+    def sse(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None) -> float:
+        """Sum of squares over every sample (the contract's error), not only the strided ones."""
+        r = self.residual(u, exps, stride=1)
+        return float(r @ r)
+
+    def tail_sse(self, u: np.ndarray) -> float:
+        """Sum of squares of the records outside the fit windows (nearly all noise)."""
+        if all(f is e for f, e in zip(self.full, self.exps)):
+            return 0.0
+        return self.sse(u, self.full) - self.sse(u)
+
+    def derived(self, fixed: Mapping[str, float]) -> Problem:
+        """The same problem with other parameters fixed."""
+        out = Problem(self.base, self.effect, self.exps, fixed, self.prior, self.stride, self.full,
+                      self.noise_scale)
+        out._base_predictions = self._base_predictions  # the same base model: share its predictions
+        return out
+
+    def jacobian(self, u: np.ndarray, r0: np.ndarray, exps: Sequence[PreparedExperiment] | None = None,
+                 step: float = 1.0) -> np.ndarray:
+        """Forward differences of the residual on ``exps`` (``step`` natural steps, backwards at an
+        upper bound). Parameters that change one sensor's prediction alone (``Parameter.sensor``)
+        are moved together with those of other sensors, each column taken from its own sensor's
+        rows: the same numbers in fewer evaluations."""
+        J = np.zeros((r0.size, len(self.free)))
+        steps = np.zeros(len(self.free))
+        for i, f in enumerate(self.free):
+            lo, hi = f.bounds
+            h = step if u[i] + step <= hi else -step
+            if not lo <= u[i] + h <= hi:
+                h = 0.5 * (hi - u[i]) if hi - u[i] > u[i] - lo else -0.5 * (u[i] - lo)
+            steps[i] = h
+        batches, sensor_of_row = self._sensor_batches(exps or self.exps)
+        for batch in batches:
+            batch = [i for i in batch if steps[i]]
+            if not batch:
+                continue
+            du = np.zeros_like(u)
+            du[batch] = steps[batch]
+            diff = self.residual(u + du, exps) - r0
+            if len(batch) == 1:
+                J[:, batch[0]] = -diff / steps[batch[0]]
+                continue
+            for i in batch:
+                rows = sensor_of_row == self.free[i].param.sensor
+                J[rows, i] = -diff[rows] / steps[i]
+        return J
+
+    def _sensor_batches(self, exps: Sequence[PreparedExperiment]) -> tuple[list[list[int]], np.ndarray | None]:
+        """Groups of free parameters that one evaluation can difference (at most one per sensor,
+        shared ones of sensors every experiment records), and each residual row's sensor."""
+        local = [i for i, f in enumerate(self.free) if f.param.sensor is not None and f.experiment is None
+                 and all(f.param.sensor in {s.name for s in e.sensors} for e in exps)]
+        if len(local) < 2:
+            return [[i] for i in range(len(self.free))], None
+        batches: list[list[int]] = []
+        for i in local:  # the first group without this parameter's sensor
+            slot = next((b for b in batches if all(self.free[j].param.sensor != self.free[i].param.sensor
+                                                   for j in b)), None)
+            if slot is None:
+                batches.append([i])
+            else:
+                slot.append(i)
+        batches += [[i] for i in range(len(self.free)) if i not in local]
+        names = [np.tile(np.array([s.name for s in e.sensors], dtype=object), len(range(0, e.n_samples, self.stride)))
+                 for e in exps]
+        return batches, np.concatenate(names)
+
+    def zero(self) -> np.ndarray:
+        return np.zeros(len(self.free))
+
+    def lower_upper(self) -> tuple[np.ndarray, np.ndarray]:
+        b = np.array([f.bounds for f in self.free]).reshape(-1, 2)
+        return b[:, 0], b[:, 1]
+
+
+#: Levenberg-Marquardt damping tried in turn (relative to the Jacobian's diagonal) until a step
+#: lowers the error: parameters of one effect may be redundant (a global scale spread over axes
+#: and springs), which a plain Gauss-Newton step would turn into a leap to the bounds
+LM_DAMPING = (1e-3, 1e-1, 1.0, 10.0)
+
+
+def _lm_step(problem: Problem, J: np.ndarray, r: np.ndarray, u: np.ndarray, exps) -> np.ndarray:
+    """The first damped Gauss-Newton step (r = measured - model, J = d model / d u) that lowers
+    the error on ``exps``, clipped to the bounds; ``u`` when none does."""
+    lo, hi = problem.lower_upper()
+    # parameters the residual cannot see here stay put (a mode's frequency while its amplitudes are
+    # zero): the linearisation says nothing about them
+    act = ~_tiny(J, r) & ~_repeated(J)
+    if not act.any():
+        return u
+    Ja, ua = J[:, act], u[act]
+    pull = problem.pull[act]
+    JtJ = Ja.T @ Ja + np.diag(pull)
+    g = Ja.T @ r - pull * ua
+    diag = np.diag(JtJ).copy()
+    diag[diag <= 0] = max(float(diag.max(initial=0.0)), 1e-300)
+    cost = float(r @ r) + float(u @ (problem.pull * u))
+    for lam in LM_DAMPING:
+        u1 = u.copy()
+        u1[act] += np.linalg.solve(JtJ + lam * np.diag(diag), g)
+        u1 = np.clip(u1, lo, hi)
+        if float(np.sum(problem.residual(u1, exps) ** 2)) + float(u1 @ (problem.pull * u1)) < cost:
+            return u1
+    return u
+
+
+# ---------------------------------------------------------------------------------------------
+# screening
+
+
+@dataclass
+class Screened:
+    effect: Any
+    fixed: dict[str, float]
+    u0: np.ndarray
+    sse: float
+    problem: Problem
+
+
+def _tiny(J: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Columns of a Jacobian that are zero (but for round-off) next to the others and the residual."""
+    norms = np.linalg.norm(J, axis=0)
+    scale = max(float(np.max(norms, initial=0.0)), float(np.linalg.norm(r)))
+    return norms <= 1e-7 * (scale if scale > 0 else 1.0)
+
+
+#: Jacobian columns closer than this (relative) are the same column
+SAME_COLUMN = 1e-6
+
+
+def _repeated(J: np.ndarray) -> np.ndarray:
+    """Columns equal to an earlier one: exchangeable parameters at this point (two high-pass
+    corners of one filter, both at 0). A step splits evenly between them, and from an even split
+    every later step does too: the fit never leaves the symmetric line (two corners at 8.7 Hz where
+    the data hold one at 20 Hz). The first of them takes the step alone."""
+    G = J.T @ J
+    sq = np.diag(G)
+    # |J_i - J_j|^2 from the Gram matrix: one product for every pair
+    same = (sq[:, None] + sq[None, :] - 2 * G <= SAME_COLUMN**2 * sq[:, None]) & (sq[:, None] > 0)
+    out = np.zeros(J.shape[1], bool)
+    for j in range(1, J.shape[1]):
+        out[j] = bool(np.any(same[:j, j] & ~out[:j]))
+    return out
+
+
+def _grid_starts(problem: Problem, r0: np.ndarray, J: np.ndarray, peaks_hz: Sequence[float]) -> list[np.ndarray]:
+    """Starting points for parameters the residual cannot see at their nominal value: frequencies
+    (unit Hz) and periods (unit s) from the residual's peaks and a logarithmic grid."""
+    starts = []
+    tiny = _tiny(J, r0)
+    for i, f in enumerate(problem.free):
+        if not tiny[i] or f.param.unit not in ("Hz", "s") or f.experiment is not None or f.param.starts:
+            continue
+        lo = max(f.param.lower, 1e-12)
+        hi = f.param.upper
+        if f.param.unit == "Hz":
+            cands = list(peaks_hz) + list(np.geomspace(max(lo, 20.0), hi, 6))
+        else:
+            cands = [1.0 / p for p in peaks_hz] + list(np.geomspace(max(lo, hi / 50), hi, 5))
+        for c in cands:
+            if f.param.lower <= c <= f.param.upper:
+                u = problem.zero()
+                u[i] = (c - f.param.nominal) / f.scale
+                starts.append(u)
+    return starts
+
+
+def _sweep(problem: Problem, u: np.ndarray, exps, peaks_hz: Sequence[float]) -> np.ndarray:
+    """Global starts: each shared parameter that declares ``starts`` (an angle, a frequency) set
+    to each of them in turn, frequencies also to the residual's peaks, keeping a value whenever it
+    lowers the error on ``exps``; parameters are swept one after another (coordinate-wise), so
+    the cost is the number of starts, not their product."""
+    swept = [i for i, f in enumerate(problem.free) if f.param.starts and f.experiment is None]
+    batches, sensor_of_row = problem._sensor_batches(exps)
+    if sensor_of_row is not None and all(problem.free[i].param.sensor is not None for i in swept):
+        return _sweep_sensors(problem, u, exps, peaks_hz, [[i for i in b if i in swept] for b in batches],
+                              sensor_of_row)
+    best = u
+    best_sse = float(np.sum(problem.residual(u, exps) ** 2))
+    for i in swept:
+        f = problem.free[i]
+        p = f.param
+        values = list(p.starts) + (list(peaks_hz) if p.unit == "Hz" else [])
+        for c in values:
+            if not p.lower <= c <= p.upper:
+                continue
+            trial = best.copy()
+            trial[i] = (c - p.nominal) / f.scale
+            sse = float(np.sum(problem.residual(trial, exps) ** 2))
+            if sse < best_sse:
+                best, best_sse = trial, sse
+    return best
+
+
+def _sweep_sensors(problem: Problem, u: np.ndarray, exps, peaks_hz: Sequence[float], batches: list[list[int]],
+                   sensor_of_row: np.ndarray) -> np.ndarray:
+    """:func:`_sweep` of parameters that each change one sensor's prediction alone: the
+    parameters of different sensors are set to a start together, and each keeps it when its own
+    sensor's rows lower their error (the other sensors' rows cannot change the comparison)."""
+    best = u
+    r = problem.residual(u, exps)
+    rows = {name: sensor_of_row == name for name in {problem.free[i].param.sensor for b in batches for i in b}}
+    best_sse = {name: float(np.sum(r[m] ** 2)) for name, m in rows.items()}
+    for batch in batches:
+        values: list[list[float]] = []
+        for i in batch:
+            p = problem.free[i].param
+            values.append(list(p.starts) + (list(peaks_hz) if p.unit == "Hz" else []))
+        for k in range(max(map(len, values), default=0)):
+            moved = [(i, v[k]) for i, v in zip(batch, values)
+                     if k < len(v) and problem.free[i].param.lower <= v[k] <= problem.free[i].param.upper]
+            if not moved:
+                continue
+            trial = best.copy()
+            for i, c in moved:
+                trial[i] = (c - problem.free[i].param.nominal) / problem.free[i].scale
+            r = problem.residual(trial, exps)
+            for i, _ in moved:
+                name = problem.free[i].param.sensor
+                sse = float(np.sum(r[rows[name]] ** 2))
+                if sse < best_sse[name]:
+                    best = best.copy() if best is u else best
+                    best[i], best_sse[name] = trial[i], sse
+    return best
+
+
+def _sweep_stage(problem: Problem, stages: list[list[PreparedExperiment]]) -> list[PreparedExperiment]:
+    """The stage global starts are compared on: the first head that holds half a period of the
+    model's slowest mode. A stiffness or a frequency shows once the response has turned; on a slow
+    rig (an 11 Hz suspension) the shortest head is a ninth of a period, where a start that barely
+    changes the head's error (a spring hardened a thousandfold) can look better than the right one."""
+    f = np.asarray(problem.base.shared.modes().frequency_hz, float)
+    f = f[f > 0]
+    need = 0.5 / float(f.min()) if f.size else 0.0
+    for stage in stages[:-1]:
+        if all((e.n_samples - e.trigger) / e.fs >= need for e in stage):
+            return stage
+    return stages[-1]
+
+
+def _activation(problem: Problem, start: np.ndarray, r: np.ndarray, J: np.ndarray, exps
+                ) -> tuple[int, float] | None:
+    """Products of amplitudes (a mode's participation at a sensor times at the force point) are
+    invisible at zero, one at a time. Among the amplitudes (nominal 0) that are still invisible at
+    ``start``, the one whose Jacobian column is largest when all of them are moved at once couples
+    to the most others: moved alone, it makes the rest linear. Returns its index and value."""
+    tiny = _tiny(J, r)
+    amp = [i for i, f in enumerate(problem.free)
+           if tiny[i] and f.param.nominal == 0 and f.param.unit not in ("Hz", "s") and f.experiment is None]
+    if len(amp) < 2:
+        return None
+    lo, hi = problem.lower_upper()
+    probe = start.copy()
+    probe[amp] = np.minimum(0.1 * (hi[amp] - lo[amp]), hi[amp])
+    Jp = problem.jacobian(probe, problem.residual(probe, exps), exps=exps)
+    norms = np.linalg.norm(Jp[:, amp], axis=0)
+    if not np.max(norms) > 0:
+        return None
+    k = amp[int(np.argmax(norms))]
+    return k, float(probe[k])
+
+
+def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened:
+    """Best start found by one Gauss-Newton step (and grids/choices where needed)."""
+    effect = problem.effect
+    best_fixed: dict[str, float] = {}
+    best_u = problem.zero()
+    best_sse = sse0
+    # discrete parameters: each choice alone, then greedily combined; with global starts, each
+    # choice is scored after its sweep (a mode's body only shows near the mode's frequency)
+    swept = any(f.param.starts for f in problem.free)
+
+    def score(trial: Problem) -> float:
+        if not swept:
+            return trial.sse(trial.zero())
+        first = heads(trial.exps)[0]
+        return float(np.sum(trial.residual(_sweep(trial, trial.zero(), first, peaks_hz), first) ** 2))
+
+    chosen: dict[str, float] = {}
+    best_score = score(problem) if swept and problem.discrete else best_sse
+    for _ in range(3):
+        trial_best = None
+        for p in problem.discrete:
+            if p.name in chosen:
+                continue
+            for c in p.choices:
+                if c == p.nominal:
+                    continue
+                trial = problem.derived({**chosen, p.name: c})
+                sse = score(trial)
+                if trial_best is None or sse < trial_best[0]:
+                    trial_best = (sse, p.name, c)
+        if trial_best is None or trial_best[0] >= best_score * 0.999:
+            break
+        best_score = trial_best[0]
+        if not swept:
+            best_sse = best_score
+        chosen[trial_best[1]] = trial_best[2]
+        best_fixed = dict(chosen)
+    if best_fixed:
+        problem = problem.derived(best_fixed)
+    if problem.free:
+        stages = heads(problem.exps)
+        first = stages[0]
+        u0 = problem.zero()
+        r0 = problem.residual(u0, first)
+        J0 = problem.jacobian(u0, r0, exps=first)
+        # the best start on the shortest head, then one damped step on each longer head
+        best_start, best_head = u0, float(r0 @ r0)
+        activation: tuple[int, float] | None = None
+        swept = _sweep(problem, u0, _sweep_stage(problem, stages), peaks_hz)
+        for start in [u0] + ([swept] if swept is not u0 else []) + _grid_starts(problem, r0, J0, peaks_hz):
+            r = r0 if start is u0 else problem.residual(start, first)
+            J = J0 if start is u0 else problem.jacobian(start, r, exps=first)
+            if start is not u0:
+                activation = activation or _activation(problem, start, r, J, first)
+                if activation is not None and _tiny(J, r)[activation[0]]:
+                    start = start.copy()
+                    start[activation[0]] = activation[1]
+                    r = problem.residual(start, first)
+                    J = problem.jacobian(start, r, exps=first)
+            u = _lm_step(problem, J, r, start, first)
+            sse = float(np.sum(problem.residual(u, first) ** 2))
+            if sse < best_head:
+                best_start, best_head = u, sse
+        u = best_start
+        for exps in stages[1:]:
+            r = problem.residual(u, exps)
+            u = _lm_step(problem, problem.jacobian(u, r, exps=exps), r, u, exps)
+        sse = problem.sse(u)
+        if swept is not u0:  # damped steps judged on short heads may lead a good start astray
+            sse_swept = problem.sse(swept)
+            if sse_swept < sse:
+                u, sse = swept, sse_swept
+        if sse < best_sse:
+            best_sse, best_u = sse, u
+    return Screened(effect, best_fixed, best_u, best_sse, problem)
+
+
+# ---------------------------------------------------------------------------------------------
+# fitting and validation
+
+
+def refined(start: Problem, u: np.ndarray, effect) -> tuple[Problem, np.ndarray]:
+    """The problem of ``effect``, which refines ``start.effect`` (its ``refines``), on the same
+    records with ``start``'s choices and what the effect holds given them (``held_when``), and its
+    start: every parameter the two share at ``start``'s fit at ``u``, the others nominal, and what
+    the effect's ``refined_start`` makes of them."""
+    fixed = dict(start.fixed)
+    held = getattr(effect, "held_when", None)
+    if held is not None:
+        fixed.update(held(start.base.shared, fixed))
+    problem = Problem(start.base, effect, start.exps, fixed, start.prior, start.stride, full=start.full,
+                      noise_scale=start.noise_scale)
+    shared, per = start.values(u)
+    begin = getattr(effect, "refined_start", None)
+    if begin is not None:
+        shared = {**shared, **begin(start.base.shared, {**shared, **fixed})}
+    u0 = np.array([((shared if f.experiment is None else per.get(f.experiment, {})).get(f.param.name, f.param.nominal)
+                    - f.param.nominal) / f.scale for f in problem.free])
+    return problem, np.clip(u0, *problem.lower_upper())
+
+
+
+#: the fit's finite-difference step, in natural steps (_scale). Absolute: scipy's own steps are
+#: relative to the value, and the search values start at 0 (nominal), so a parameter near its
+#: nominal was differenced over 1e-14 of a step (in round-off, or in a filter at 1e15 Hz)
+DIFF_STEP = 1e-4
+#: a search stops when two of its iterations together lowered its objective (the data's sum of
+#: squares and the prior's) by less than this many noise energies per independent sample: one is
+#: the objective's one-standard-error scale, and every test needs ten or more (chi-square's
+#: quantile at checks.FALSE_ALARM: 10.8 for one parameter). Along a direction the data cannot see
+#: (a scale spread over axes and springs: a curved valley) trf otherwise crawls on for another
+#: eight iterations at about one each; such directions are reported as redundant groups
+STALL_GAIN = 1.0
+
+
+def _stall_stop(problem: Problem):
+    """A callback ending the search when its gains fall below STALL_GAIN (None: no noise scale)."""
+    if problem.noise_scale <= 0:
+        return None
+    # the cost is half the strided sum of squares, which is about the whole one over the stride
+    least = 0.5 * STALL_GAIN * problem.noise_scale / problem.stride
+    costs: list[float] = []
+
+    def stalled(intermediate_result):
+        costs.append(float(intermediate_result.cost))
+        if len(costs) >= 3 and costs[-3] - costs[-1] < least:
+            raise StopIteration
+
+    return stalled
+
+
+def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] | None = None,
+        max_nfev: int | None = None, continuation: bool = True):
+    """Bounded output-error least squares from ``u0`` (on short heads of the records first);
+    returns scipy's result for the whole records (``jac`` = d residual / d u)."""
+    lo, hi = problem.lower_upper()
+    u = np.clip(u0, lo, hi)
+    n = len(problem.free)
+    root = np.sqrt(problem.pull) if problem.prior else None
+    stages = heads(exps or problem.exps) if continuation else [list(exps or problem.exps)]
+    for k, stage in enumerate(stages):
+        last = k == len(stages) - 1
+        seen: dict[bytes, np.ndarray] = {}  # the residual at the point scipy asks the Jacobian of
+
+        def fun(x, stage=stage, seen=seen):
+            seen.clear()
+            seen[x.tobytes()] = r = problem.residual(x, stage)
+            return np.concatenate([r, root * x]) if root is not None else r
+
+        def jac(x, stage=stage, seen=seen):
+            r = seen.get(x.tobytes())
+            J = -problem.jacobian(x, problem.residual(x, stage) if r is None else r, stage, step=DIFF_STEP)
+            return np.vstack([J, np.diag(root)]) if root is not None else J
+
+        res = scipy.optimize.least_squares(
+            fun, u, jac=jac, bounds=(lo, hi), method="trf", x_scale=1.0,
+            max_nfev=max_nfev or (8 if last else 4) * (n + 1), xtol=1e-6, ftol=1e-8,
+            callback=_stall_stop(problem),
+        )
+        u = res.x
+    return res
+
+
+def effective_samples(exps: Sequence[PreparedExperiment]) -> tuple[float, float]:
+    """Samples carrying independent information: the record length times the fraction of the band
+    that holds 99 % of the measured energy (filtered signals are strongly correlated); and the
+    frequency below which that 99 % lies."""
+    total, f99 = 0.0, 0.0
+    for e in exps:
+        spec = np.sum(np.abs(np.fft.rfft(e.measured, axis=0)) ** 2, axis=1)
+        c = np.cumsum(spec)
+        k = int(np.searchsorted(c, 0.99 * c[-1])) + 1
+        total += e.measured.shape[1] * e.n_samples * min(1.0, k / len(spec))
+        f99 = max(f99, k * e.fs / (2 * len(spec)))
+    return max(total, 1.0), f99
+
+
+def uncertainties(problem: Problem, res, n_eff: float) -> tuple[np.ndarray, np.ndarray, list[list[str]]]:
+    """Standard deviations (value units), correlations and redundant groups at the fit.
+
+    The residual variance is inflated by N / N_eff for the samples' correlation. Directions the
+    data cannot see at all (an effect whose parameters overlap, e.g. a global scale spread over axes
+    and springs) are left out of the covariance (pseudo-inverse) and reported as groups whose
+    combination alone is determined.
+    """
+    J = res.jac[: res.jac.shape[0] - len(problem.free)] if problem.prior else res.jac
+    n, p = J.shape
+    s2 = float(np.sum(res.fun[:n] ** 2)) / max(1, n - p) * (n / n_eff)
+    JtJ = J.T @ J
+    w, V = np.linalg.eigh(JtJ)
+    null = w <= 1e-8 * max(float(w.max(initial=0.0)), 1e-300)
+    groups = []
+    for k in np.flatnonzero(null):
+        members = [problem.free[i].label for i in np.flatnonzero(np.abs(V[:, k]) > 0.2)]
+        if len(members) > 1 and members not in groups:
+            groups.append(members)
+    inv_w = np.where(null, 0.0, 1.0 / np.where(null, 1.0, w))
+    cov = s2 * (V * inv_w) @ V.T
+    sd_u = np.sqrt(np.clip(np.diag(cov), 0, None))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(sd_u, sd_u)
+    scales = np.array([f.scale for f in problem.free])
+    return sd_u * scales, np.nan_to_num(corr), groups
+
+
+def validate(problem: Problem, u: np.ndarray, res) -> tuple[float, str]:
+    """Held-out sum of squares, each fold refitted by one Gauss-Newton step from the full fit with
+    the fold's own rows removed (at the optimum the rows left in pull by exactly minus the held-out
+    rows' gradient), shortened until the rows left in fit no worse than at the full fit, then
+    evaluated for real on the held-out data.
+
+    Shared parameters: leave one experiment out. Parameters of single experiments: held-out
+    channels (alternate sensors), since a left-out experiment's own parameters are never fitted;
+    with parameters of single sensors too (a mode's participation at each): alternate blocks of
+    time, which leave every parameter some rows.
+    """
+    exps = problem.exps
+    if problem.linear:
+        return _validate_blocks(problem, u), f"held-out time blocks (alternate {1e3 * BLOCK_S:g} ms)"
+    if not problem.free:
+        # discrete choices only: choose on the others, score on the held-out experiment
+        if len(exps) < 2:
+            return problem.sse(u), "none (one experiment)"
+        total = 0.0
+        for i, e in enumerate(exps):
+            rest = [x for j, x in enumerate(exps) if j != i]
+            sub = Problem(problem.base, problem.effect, rest, {}, problem.prior, problem.stride,
+                          noise_scale=problem.noise_scale)
+            s = screen(sub, sub.sse(sub.zero()), ())
+            held = Problem(problem.base, problem.effect, [e], s.fixed, problem.prior, problem.stride,
+                           noise_scale=problem.noise_scale)
+            total += held.sse(held.zero())
+        return total, "leave one experiment out"
+    n_data = res.fun.size - (len(problem.free) if problem.prior else 0)
+    J, r = res.jac[:n_data], res.fun[:n_data]
+    k = problem.stride
+    sizes = [len(range(0, e.n_samples, k)) * e.measured.shape[1] for e in exps]
+    starts = np.concatenate([[0], np.cumsum(sizes)])
+    ncols = exps[0].measured.shape[1]
+    blocks = None
+    if (any(f.experiment is not None for f in problem.free) or len(exps) < 2) and any(
+            f.param.sensor is not None for f in problem.free):
+        # a sensor's own parameter is never fitted on held-out channels: hold out time instead
+        blocks = [max(1, int(round(BLOCK_S * e.fs))) for e in exps]
+        t = np.concatenate([np.repeat(np.arange(0, e.n_samples, k) // b, e.measured.shape[1])
+                            for e, b in zip(exps, blocks)])
+        folds = [(t % 2 == h, None, h) for h in (0, 1)]
+        how = f"held-out time blocks (alternate {1e3 * BLOCK_S:g} ms)"
+    elif any(f.experiment is not None for f in problem.free) or len(exps) < 2:
+        col = np.concatenate([np.tile(np.arange(e.measured.shape[1]), n // e.measured.shape[1])
+                              for e, n in zip(exps, sizes)])
+        folds = [(col % 2 == h, list(range(h, ncols, 2)), None) for h in (0, 1)]
+        how = "held-out channels (alternate sensors)"
+    else:
+        folds = []
+        for i, e in enumerate(exps):
+            rows = np.zeros(n_data, bool)
+            rows[starts[i]:starts[i + 1]] = True
+            folds.append((rows, None, e))
+        how = "leave one experiment out"
+    lo, hi = problem.lower_upper()
+    H = J.T @ J + np.diag(problem.pull)
+    # every sample's residual at the fit, and each fold's rows among them
+    full_rows = [len(range(e.n_samples)) * e.measured.shape[1] for e in exps]
+    r_full = problem.residual(u, stride=1)
+    exp_of_row = np.repeat(np.arange(len(exps)), full_rows)
+    col_of_row = np.concatenate([np.tile(np.arange(e.measured.shape[1]), e.n_samples) for e in exps])
+    if blocks is not None:
+        block_of_row = np.concatenate([np.repeat(np.arange(e.n_samples) // b, e.measured.shape[1])
+                                       for e, b in zip(exps, blocks)])
+    total = 0.0
+    for rows, cols, which in folds:
+        Jh, rh = J[rows], r[rows]
+        if blocks is not None:
+            held = block_of_row % 2 == which
+        else:
+            held = (exp_of_row == exps.index(which)) if which is not None else np.isin(col_of_row, cols)
+        kept_cost = float(r_full[~held] @ r_full[~held]) + float(u @ (problem.pull * u))
+        # r = measured - model and res.jac = d r / d u: the kept rows' step is -(H_kept)^-1 J_h^T r_h;
+        # a step the linearisation overshoots (along what the kept rows barely see) is halved until
+        # it fits the kept rows no worse than the joint fit: a refit, not a leap
+        step = np.linalg.lstsq(H - Jh.T @ Jh, Jh.T @ rh, rcond=1e-10)[0]
+        r_fold = r_full
+        for _ in range(FOLD_HALVINGS):
+            u_fold = np.clip(u + step, lo, hi)
+            r_try = problem.residual(u_fold, stride=1)
+            if float(r_try[~held] @ r_try[~held]) + float(u_fold @ (problem.pull * u_fold)) <= kept_cost:
+                r_fold = r_try
+                break
+            step = step / 2
+        total += float(r_fold[held] @ r_fold[held])
+    return total, how
+
+
+#: halvings of a validation fold's step before the fold keeps the joint fit
+FOLD_HALVINGS = 4
+
+
+#: the blocks of time that validate a projected fit: short against a response's decay, long
+#: against a period of the modes it is fitted to
+BLOCK_S = 0.005
+
+
+def _validate_blocks(problem: Problem, u: np.ndarray) -> float:
+    """Held-out sum of squares of an effect with projected parameters: they are fitted on alternate
+    blocks of time of every experiment and scored on the blocks between (the searched parameters
+    stay at the fit). A projection cannot be scored on held-out channels or experiments: their own
+    participations would never be fitted."""
+    exps = problem.exps
+    total = 0.0
+    for held in (0, 1):
+        masks = [((np.arange(e.n_samples) // max(1, int(round(BLOCK_S * e.fs)))) % 2) == held for e in exps]
+        _, _, deltas = problem.project(u, exps, [(~m).astype(float) for m in masks])
+        for e, d, m in zip(exps, deltas, masks):
+            r = (e.measured - problem.base_prediction(e) - d)[m]
+            total += float(np.sum(r * r))
+    return total

@@ -1,0 +1,148 @@
+"""The verdict of a diagnosis, in words and JSON: what the residual left by the model is (its
+signature against the calibrated noise floor: bands, channels, experiments, peaks, amplitude
+dependence), whether a candidate explains it, and one paragraph a vibration engineer can act on.
+
+- "nothing to explain": the error lies within the floor's tolerance (``FLOOR_TOLERANCE``);
+- "explained": a significant, consistent, plausible candidate brings the error to the floor;
+- "partly explained": a significant candidate helps, but the residual stays above the floor or its
+  parameters are inconsistent or implausible;
+- "unexplained": nothing significant while the residual is above the floor.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from odsuite.analysis.comparison import BAND_EDGES_HZ
+from odsuite.analysis.noise_floor import FLOOR_TOLERANCE, NoiseFloor, welch
+
+VERDICTS = ("nothing to explain", "explained", "partly explained", "unexplained")
+
+
+@dataclass
+class Signature:
+    bands: list[dict[str, Any]] = field(default_factory=list)
+    channels: list[dict[str, Any]] = field(default_factory=list)
+    experiments: list[dict[str, Any]] = field(default_factory=list)
+    peaks_hz: list[float] = field(default_factory=list)
+    amplitude_dependent: bool = False
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"bands": self.bands, "channels": self.channels, "experiments": self.experiments,
+                "peaks_hz": self.peaks_hz, "amplitude_dependent": self.amplitude_dependent}
+
+
+def signature(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFloor,
+              peaks: Sequence[dict[str, Any]], amplitude_dependent: bool) -> Signature:
+    """Where a residual exceeds the floor by more than FLOOR_TOLERANCE (amplitude): per band (Welch
+    spectra of residual and floor), per channel and per experiment (energies), strongest first;
+    with the residual's peaks above the floor."""
+    sig = Signature(peaks_hz=[round(float(p["frequency_hz"]), 1) for p in peaks],
+                    amplitude_dependent=amplitude_dependent)
+    res_e: dict[str, float] = {}
+    res_c: dict[str, float] = {}
+    flo_c: dict[str, float] = {}
+    band_r = band_f = None
+    f = None
+    for e, p in zip(exps, predictions):
+        r = e.measured - p
+        res_e[e.name] = float(np.sum(r**2))
+        for j, s in enumerate(e.sensors):
+            res_c[s.name] = res_c.get(s.name, 0.0) + float(np.sum(r[:, j] ** 2))
+            flo_c[s.name] = flo_c.get(s.name, 0.0) + floor.energy[e.name][s.name]
+        if e.name in floor.spectra:
+            f, pr = welch(r, e.fs, e.n_samples)
+            fl = floor.spectra[e.name][1]
+            if fl.shape == pr.shape:
+                band_r = pr.sum(axis=1) if band_r is None else band_r + pr.sum(axis=1)
+                band_f = fl.sum(axis=1) if band_f is None else band_f + fl.sum(axis=1)
+
+    def ranked(res: dict[str, float], flo: dict[str, float], key: str) -> list[dict[str, Any]]:
+        rows = [{key: n, "residual_to_floor": float(np.sqrt(res[n] / flo[n])), "excess_share": res[n] - flo[n]}
+                for n in res if flo.get(n, 0) > 0 and res[n] > FLOOR_TOLERANCE**2 * flo[n]]
+        total = sum(r["excess_share"] for r in rows) or 1.0
+        for r in rows:
+            r["excess_share"] = float(r["excess_share"] / total)
+        return sorted(rows, key=lambda r: -r["excess_share"])
+
+    sig.channels = ranked(res_c, flo_c, "channel")
+    sig.experiments = ranked(res_e, {n: sum(floor.energy[n].values()) for n in res_e}, "experiment")
+    if band_r is not None:
+        edges = [b for b in BAND_EDGES_HZ if b < f[-1]] + [float(f[-1])]
+        res_b, flo_b = {}, {}
+        for lo, hi in zip(edges[:-1], edges[1:]):
+            sel = (f >= lo) & (f < hi) if hi < f[-1] else (f >= lo)
+            label = f"{lo:g}-{hi:g} Hz"
+            res_b[label], flo_b[label] = float(band_r[sel].sum()), float(band_f[sel].sum())
+        sig.bands = ranked(res_b, flo_b, "band")
+    return sig
+
+
+def decide(baseline: float, floor: float, best) -> str:
+    """The verdict from the baseline error, the floor and the best significant candidate (None)."""
+    if not baseline > FLOOR_TOLERANCE * floor:
+        return "nothing to explain"
+    if best is None:
+        return "unexplained"
+    if best.consistent and best.plausible and best.error_after <= FLOOR_TOLERANCE * floor:
+        return "explained"
+    return "partly explained"
+
+
+def _where(sig: Signature) -> str:
+    parts = []
+    if sig.channels:
+        parts.append("channels " + ", ".join(c["channel"] for c in sig.channels[:4]))
+    if sig.experiments:
+        parts.append("experiments " + ", ".join(x["experiment"] for x in sig.experiments[:3]))
+    if sig.bands:
+        parts.append("the " + ", ".join(b["band"] for b in sig.bands[:2]) + " band" + ("s" if len(sig.bands) > 1 else ""))
+    if sig.peaks_hz:
+        parts.append("peaks at " + ", ".join(f"{p:.0f}" for p in sig.peaks_hz[:4]) + " Hz")
+    return "; ".join(parts) if parts else "no single channel, band or experiment"
+
+
+def message(verdict: str, baseline: float, floor: float, best, sig: Signature, rest: Signature | None) -> str:
+    """One paragraph a vibration engineer can act on."""
+    ratio = baseline / floor if floor > 0 else float("inf")
+    head = f"The model's error is {baseline:.3g}, {ratio:.2f} times the noise floor of {floor:.3g}"
+    if verdict == "nothing to explain":
+        if best is None:
+            return (f"{head}: within what noise, hum and quantisation leave ({FLOOR_TOLERANCE:g}x), so these "
+                    "data show nothing the model lacks. Record more or stronger hits (or quieter channels) to "
+                    "look for smaller effects.")
+        # a gain beyond chance within the floor's tolerance: something small is there, too small to
+        # call the model wrong at this noise
+        also = f" (or {', '.join(best.confounded_with)})" if best.confounded_with else ""
+        return (f"{head}: within what noise, hum and quantisation leave ({FLOOR_TOLERANCE:g}x), so the model "
+                f"fits these data. {best.effect}{also} still removes more of the error than chance would "
+                f"(to {best.error_after:.3g}): a small effect at this noise. Record stronger hits (or quieter "
+                f"channels) to tell whether it matters.")
+    amp = (" The misfit changes with the force level: the structure is amplitude dependent (a nonlinear "
+           "stiffness, friction or a contact); test at several force levels and fit each level alone."
+           if sig.amplitude_dependent else "")
+    if verdict == "unexplained":
+        return (f"{head}, and no candidate effect removes a significant part of it. The residual lies in "
+                f"{_where(sig)}.{amp} The missing physics is not in the effect library: inspect those "
+                "channels' spectra and the rig there (loose parts, contacts, friction, a sensor or cable), "
+                "or add an effect of your own.")
+    name = best.effect
+    also = f" (it cannot be told apart from {', '.join(best.confounded_with)} with these data)" if best.confounded_with else ""
+    if verdict == "explained":
+        return (f"{head}; adding {name}{also} brings it to {best.error_after:.3g}, at the floor, with "
+                f"parameters that agree across the experiments and lie in their physical range. Run "
+                f"`odsuite add-effect PROJECT {name}` to keep it.")
+    why = []
+    if best.error_after > FLOOR_TOLERANCE * floor:
+        why.append(f"the error stays at {best.error_after:.3g}, {best.error_after / floor:.2f} times the floor")
+    if not best.consistent:
+        why.append("its parameters differ between experiments beyond their uncertainties")
+    if not best.plausible:
+        why.append("its fitted values lie outside their physical range (" + ", ".join(best.implausible[:3]) + ")")
+    left = f" What is left lies in {_where(rest)}." if rest is not None else ""
+    return (f"{head}; {name}{also} explains part of it, but " + "; ".join(why) + f". It may stand in for "
+            f"physics the library lacks.{left}{amp} Add it only as a stopgap, and look for the cause there.")

@@ -1,0 +1,100 @@
+"""A file's named columns as an experiment: the unit labels files use, the force column, and
+LabVIEW ``.lvm`` records laid onto a rig's channels or stored as they are.
+
+Experiments imported from engineering-unit files store those values as the raw column with a
+sensitivity that converts them to SI (1 V per unit, g -> m/s^2 through 1/9.81 V per m/s^2).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from odsuite.api import ConfigError
+from odsuite.api import ChannelInfo, SensorType, Systeminfo
+from odsuite.api import Excitation, open_project
+from odsuite_plugins.importers.lvm import read_lvm
+from odsuite_plugins.importers.rig_import import names_the_rig, onto_rig
+
+G = 9.80665
+#: LabVIEW unit labels -> (sensor type, volts per SI unit of the stored value)
+UNITS = {
+    "n": (SensorType.LOADCELL, 1.0), "newtons": (SensorType.LOADCELL, 1.0),
+    "m/s^2": (SensorType.ACCELEROMETER, 1.0), "m/s2": (SensorType.ACCELEROMETER, 1.0),
+    "g": (SensorType.ACCELEROMETER, 1.0 / G), "volts": (SensorType.VOLTAGE, 1.0), "v": (SensorType.VOLTAGE, 1.0),
+}
+
+
+def force_index(names: list[str], units: list[str], force_channel: str | None, where: str) -> int | None:
+    """The force channel's column: ``force_channel`` (a column's name), else the one column in
+    newtons or named like a force; None when no column is one (an operating record: responses
+    only). A column whose unit says it is a response is never taken as the force."""
+    if force_channel is not None:
+        if force_channel not in names:
+            raise ConfigError(f"{where}: no channel {force_channel!r}; channels are {', '.join(names)}")
+        k = names.index(force_channel)
+        stype = UNITS.get(units[k].strip().lower(), (SensorType.NONE, 1.0))[0]
+        if stype not in (SensorType.LOADCELL, SensorType.NONE, SensorType.VOLTAGE):
+            raise ConfigError(f"{where}: --force-channel {force_channel!r} is in {units[k]!r}, a response, "
+                              "not a force")
+        return k
+    cand = [i for i, (n, u) in enumerate(zip(names, units)) if u.lower() in ("n", "newtons") or "force" in n.lower()]
+    if len(cand) > 1:
+        raise ConfigError(f"{where}: cannot tell the force channel among {', '.join(names)}; give --force-channel")
+    return cand[0] if cand else None
+
+
+def operating_note(where: str) -> str:
+    return (f"{where}: no force channel (no column in N or named like a force): stored as an operating record, "
+            "responses only (`odsuite ods`, `odsuite modes --output-only`; --force-channel names a force column)")
+
+
+def import_lvm(project: str | Path, lvm_path: str | Path, name: str, force_channel: str | None = None, *,
+               force_point: np.ndarray | None = None, force_dir: np.ndarray | None = None,
+               force_body: str | None = None) -> tuple[str, ...]:
+    """Add a LabVIEW ``.lvm`` record to a project as experiment ``name``; returns notes for the user.
+
+    On a project with a rig the columns are laid onto the rig's channels (by sensor name, else in
+    order; :mod:`odsuite_plugins.importers.rig_import`) and the hammer's ``force_point`` (m, rig frame) and
+    ``force_dir`` are required (``force_body`` when the point lies on two bodies); without a rig, or when the columns are not the rig's channels and
+    no force point is given (a single-point test kept beside the rig's records, said in a note),
+    the columns are stored as they are."""
+    d = read_lvm(lvm_path)
+    d.check_complete()
+    with open_project(project, "a") as p:
+        on_rig = p.rig is not None and (force_point is not None or force_dir is not None
+                                        or names_the_rig(p.rig, d.channel_names))
+        if on_rig:
+            rec = onto_rig(p.rig, d.channel_names, d.units, d.data, d.sampling_rate, str(lvm_path), force_point,
+                           force_dir, force_channel, force_body)
+            p.add_experiment(name, rec.raw, sampling_rate=d.sampling_rate, systeminfo=rec.systeminfo,
+                             excitation=rec.excitation, source=str(Path(lvm_path).name),
+                             channel_names=rec.channel_names)
+            return rec.notes
+        if force_point is not None or force_dir is not None or force_body is not None:
+            raise ConfigError(f"{lvm_path}: --force-point/--force-dir/--force-body need a project with a rig geometry")
+        notes: tuple[str, ...] = ()
+        if p.rig is not None:  # e.g. a single-point beam test kept beside the rig's records
+            notes = (f"{lvm_path}: its columns ({', '.join(d.channel_names)}) are not rig {p.rig.name!r}'s channels: "
+                     "stored as they are, without the rig's geometry",)
+        fidx = force_index(d.channel_names, d.units, force_channel, str(lvm_path))
+        if fidx is None:
+            notes += (operating_note(str(lvm_path)),)
+        # a .lvm in engineering units holds no converter range: limits well above the peaks, so that
+        # volt limits are never applied to g or N (clipping is then told by flat tops alone)
+        limits = np.maximum(10.0, np.ceil(2 * np.abs(d.data).max(axis=0)))
+        channels = []
+        for k, (n, u) in enumerate(zip(d.channel_names, d.units)):
+            stype, sens = UNITS.get(u.strip().lower(), (SensorType.NONE, 1.0))
+            if k == fidx:
+                stype, sens = SensorType.LOADCELL, 1.0  # force values are newtons (volts taken as N)
+            channels.append(ChannelInfo(sensor_type=stype, location=n, sensitivity=sens, sampling_rate=d.sampling_rate,
+                                        limit_high=float(limits[k]), limit_low=-float(limits[k])))
+        p.add_experiment(
+            name, d.data, sampling_rate=d.sampling_rate, systeminfo=Systeminfo(channels),
+            # a .lvm file holds no geometry: point at the origin, direction +z by convention
+            excitation=None if fidx is None else Excitation(fidx, np.zeros(3), np.array([0.0, 0.0, 1.0])),
+            source=str(Path(lvm_path).name), channel_names=list(d.channel_names),
+        )
+    return notes

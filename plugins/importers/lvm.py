@@ -1,0 +1,226 @@
+"""LabVIEW Measurement (``.lvm``) text files: header blocks, decimal comma, X columns, segments.
+
+Layout: a file header (``key<sep>value`` lines up to ``***End_of_Header***``), then one or more
+segments, each a channel header (Channels, Samples, Y_Unit_Label, X0, Delta_X, ... one column per
+channel) closed by ``***End_of_Header***``, an optional column-name line (``X_Value ...``) and the
+data rows. ``X_Columns`` says where time columns are: ``No`` (an empty first column), ``One`` (one
+shared time column) or ``Multi`` (a time column before every channel). A trailing ``Comment``
+column may be empty.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from odsuite.contracts.daq import MAX_RATE_HZ, MIN_RATE_HZ
+from odsuite.api import ConfigError
+from odsuite.api import MAX_CHANNELS
+from odsuite.api import check_text_file
+
+END_OF_HEADER = "***End_of_Header***"
+_SEPARATORS = {"tab": "\t", "comma": ",", "semicolon": ";", "space": " "}
+
+
+@dataclass(frozen=True)
+class LvmData:
+    """The contents of one ``.lvm`` file; ``data`` is samples x channels (all segments, in order)."""
+
+    path: Path
+    header: dict[str, str]
+    channel_names: list[str]
+    units: list[str]
+    delta_x: list[float]  # s per sample, per channel (rounded values snapped, see _snap_delta_x)
+    x0: list[float]
+    data: np.ndarray
+    time: np.ndarray | None  # samples x channels when the file has X columns, else None
+    declared_samples: list[int]  # "Samples" of the first segment, per channel
+    segment_starts: list[int] = field(default_factory=list)  # row index where each segment starts
+
+    @property
+    def sampling_rate(self) -> float:
+        """Hz, from the first channel's Delta_X (an integer rate when Delta_X is its reciprocal)."""
+        rate = 1.0 / self.delta_x[0]
+        return float(round(rate)) if abs(rate - round(rate)) < 1e-6 * rate else rate
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.data.shape[0])
+
+    def channel(self, name: str) -> np.ndarray:
+        """One channel's samples by name (ConfigError listing the names when absent)."""
+        if name not in self.channel_names:
+            raise ConfigError(
+                f"{self.path}: no channel {name!r}; channels are {', '.join(self.channel_names)}"
+            )
+        return self.data[:, self.channel_names.index(name)]
+
+    def check_complete(self) -> None:
+        """Refuse a file cut off: fewer rows than the header's Samples, or a row missing values."""
+        n = self.declared_samples[0] if self.declared_samples else 0
+        if n > self.n_samples:
+            raise ConfigError(f"{self.path}: header field Samples says {n} samples per channel, the file "
+                              f"holds {self.n_samples} rows (cut off?)")
+        missing = np.argwhere(np.isnan(self.data))
+        if missing.size:
+            row, ch = (int(v) for v in missing[0])
+            raise ConfigError(f"{self.path}: data row {row + 1}, channel {self.channel_names[ch]!r}: value "
+                              f"missing ({len(missing)} missing in all; cut off?)")
+
+    def records(self) -> list[np.ndarray]:
+        """Split into consecutive records of the declared sample count when the file holds a whole
+        multiple of it (LabVIEW appends triggered records without a new header)."""
+        n = self.declared_samples[0] if self.declared_samples else 0
+        if n <= 0 or self.n_samples % n or self.n_samples == n:
+            return [self.data]
+        return [self.data[i : i + n] for i in range(0, self.n_samples, n)]
+
+
+def _snap_delta_x(text: str, value: float) -> float:
+    """LabVIEW prints Delta_X with few digits (1/1024 s as 0.000977). When an integer sampling rate
+    reproduces the printed value to its last digit, use the exact 1/rate."""
+    mantissa = re.split(r"[eE]", text)[0]
+    decimals = len(mantissa.split(".")[1]) if "." in mantissa else 0
+    exponent = int(re.split(r"[eE]", text)[1]) if re.search(r"[eE]", text) else 0
+    half_ulp = 0.5 * 10.0 ** (exponent - decimals)
+    if value <= 0:
+        return value
+    rate = round(1.0 / value)
+    if rate > 0 and abs(1.0 / rate - value) <= half_ulp * (1 + 1e-9):
+        return 1.0 / rate
+    return value
+
+
+def read_lvm(path: str | Path) -> LvmData:
+    """Read a LabVIEW ``.lvm`` text file (Writer_Version 0.92 to 2, one or more segments)."""
+    path = Path(path)
+    check_text_file(path, "LabVIEW (.lvm)")
+    try:
+        text = path.read_bytes().decode("latin-1")
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read LabVIEW file ({exc.strerror})") from exc
+    lines = text.splitlines()
+    if not lines or not lines[0].startswith("LabVIEW Measurement"):
+        first = lines[0][:40] if lines else ""
+        raise ConfigError(f"{path}: line 1 is {first!r}, not 'LabVIEW Measurement' (not an .lvm file)")
+
+    header: dict[str, str] = {}
+    i = 1
+    while i < len(lines) and not lines[i].startswith(END_OF_HEADER):
+        parts = re.split(r"[\t,;]", lines[i], maxsplit=1)
+        if parts[0]:
+            header[parts[0]] = parts[1].strip() if len(parts) > 1 else ""
+        i += 1
+    if i >= len(lines):
+        raise ConfigError(f"{path}: file header has no {END_OF_HEADER} line")
+    sep_name = header.get("Separator", "Tab")
+    sep = _SEPARATORS.get(sep_name.lower())
+    if sep is None:
+        raise ConfigError(f"{path}: header field Separator has unknown value {sep_name!r}")
+    decimal = header.get("Decimal_Separator", ".") or "."
+    x_columns = header.get("X_Columns", "One")
+    if x_columns not in ("No", "One", "Multi"):
+        raise ConfigError(f"{path}: header field X_Columns has unknown value {x_columns!r}")
+    i += 1
+
+    def number(field_text: str, lineno: int, what: str) -> float:
+        s = field_text.strip()
+        if decimal != ".":
+            s = s.replace(decimal, ".")
+        try:
+            return float(s) if s else float("nan")
+        except ValueError:
+            raise ConfigError(f"{path}: line {lineno}, {what}: {field_text!r} is not a number") from None
+
+    channel_header: dict[str, list[str]] = {}
+    names: list[str] | None = None
+    rows: list[list[float]] = []
+    times: list[list[float]] = []
+    segment_starts: list[int] = []
+    n_channels = 0
+    value_cols: list[int] = []
+    time_cols: list[int] = []
+    in_data = False
+    for lineno in range(i + 1, len(lines) + 1):
+        line = lines[lineno - 1]
+        if not line.strip(sep + " \r"):
+            continue
+        fields = line.split(sep)
+        if not in_data or fields[0] == "Channels":
+            if fields[0] == "Channels" and in_data:
+                in_data = False  # a new segment header
+            if line.startswith(END_OF_HEADER):
+                if "Channels" not in channel_header:
+                    raise ConfigError(f"{path}: line {lineno}: segment header without 'Channels'")
+                try:
+                    n_channels = int(channel_header["Channels"][0])
+                except ValueError:
+                    raise ConfigError(
+                        f"{path}: field Channels is {channel_header['Channels'][0]!r}, not an integer"
+                    ) from None
+                if not 1 <= n_channels <= MAX_CHANNELS:
+                    raise ConfigError(f"{path}: line {lineno}: field Channels is {n_channels}; it must be "
+                                      f"from 1 to {MAX_CHANNELS}")
+                step = 2 if x_columns == "Multi" else 1
+                # column 0 is the (possibly empty) X column; Multi interleaves time and value
+                value_cols = [1 + step * k for k in range(n_channels)]
+                time_cols = [0] * n_channels if x_columns == "One" else [v - 1 for v in value_cols]
+                segment_starts.append(len(rows))
+                in_data = True
+                continue
+            channel_header[fields[0]] = fields[1:]
+            continue
+        if fields[0] == "X_Value":
+            names = [fields[c] for c in value_cols if c < len(fields)]
+            continue
+        if len(fields) <= value_cols[-1]:
+            # a truncated last row: pad with NaN so the columns stay aligned
+            fields = fields + [""] * (value_cols[-1] + 1 - len(fields))
+        rows.append([number(fields[c], lineno, f"column {c + 1}") for c in value_cols])
+        if x_columns != "No":
+            times.append([number(fields[c], lineno, f"column {c + 1}") for c in time_cols])
+    if not segment_starts:
+        raise ConfigError(f"{path}: no channel header ({END_OF_HEADER} after 'Channels') found")
+    if not rows:
+        raise ConfigError(f"{path}: no data rows after the channel header")
+
+    def per_channel(key: str, default: str) -> list[str]:
+        vals = channel_header.get(key, [])
+        if x_columns == "Multi":
+            vals = vals[0::2]  # the header puts an empty cell over every time column
+        vals = list(vals[:n_channels])
+        return vals + [default] * (n_channels - len(vals))
+
+    delta_x = []
+    for k, s in enumerate(per_channel("Delta_X", "1")):
+        dx = number(s, 0, f"Delta_X of channel {k}")
+        if not np.isfinite(dx) or dx <= 0:
+            raise ConfigError(f"{path}: field Delta_X of channel {k} is {s!r}; it must be > 0")
+        if not MIN_RATE_HZ <= 1.0 / dx <= MAX_RATE_HZ:
+            raise ConfigError(f"{path}: field Delta_X of channel {k} is {s!r} s, a sampling rate outside "
+                              f"{MIN_RATE_HZ:g}..{MAX_RATE_HZ:g} Hz")
+        delta_x.append(_snap_delta_x(s.replace(decimal, "."), dx))
+    x0 = [number(s, 0, f"X0 of channel {k}") for k, s in enumerate(per_channel("X0", "0"))]
+    declared = []
+    for s in per_channel("Samples", "0"):
+        try:
+            declared.append(int(s))
+        except ValueError:
+            declared.append(0)
+    if names is None or len(names) != n_channels:
+        names = [f"channel {k}" for k in range(n_channels)]
+    return LvmData(
+        path=path,
+        header=header,
+        channel_names=names,
+        units=per_channel("Y_Unit_Label", ""),
+        delta_x=delta_x,
+        x0=[v if np.isfinite(v) else 0.0 for v in x0],
+        data=np.asarray(rows, dtype=float),
+        time=np.asarray(times, dtype=float) if times else None,
+        declared_samples=declared,
+        segment_starts=segment_starts,
+    )
