@@ -213,7 +213,6 @@ def ods_coordinates(project, experiment: str, frequency_hz: float) -> dict[str, 
 
     from odsuite.analysis.prediction import prepare_experiment
     from odsuite.analysis.modal import ods
-    from odsuite.contracts.plugins import registries
     from odsuite.contracts.solvers import harmonic_shapes
 
     if not (np.isfinite(frequency_hz) and frequency_hz > 0):
@@ -231,7 +230,7 @@ def ods_coordinates(project, experiment: str, frequency_hz: float) -> dict[str, 
         accel[list(op.columns)] /= response
     disp = -accel / (2 * np.pi * frequency_hz) ** 2
     return harmonic_shapes(project.rig, {s.name: d for s, d in zip(exp.sensors, disp)},
-                           registries().coordinate_solvers, f"{project.path}: ODS")
+                           project.registries.coordinate_solvers, f"{project.path}: ODS")
 
 
 def ods_motion(shapes: dict[str, np.ndarray], frequency_hz: float, *, cycles: int = 3,

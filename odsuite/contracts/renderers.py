@@ -43,6 +43,9 @@ class RenderRequest:
     output: Path
     options: Mapping[str, Any] = field(default_factory=dict)
     progress: bool = True
+    #: the providers to open the project with (``open_project(..., registries=)``); None: the
+    #: installed plugins'
+    registries: Any = None
 
     def unknown_options(self, known: set[str] | frozenset[str], renderer: str) -> None:
         """Refuse options the renderer does not take (set ones only; None means not given)."""

@@ -22,7 +22,7 @@ class MovieRenderer:
 
         request.unknown_options(MOVIE_OPTIONS, self.name)
         res = render_experiment(request.project, request.experiment, request.output, progress=request.progress,
-                                **{k: v for k, v in request.options.items() if v is not None})
+                                registries=request.registries, **{k: v for k, v in request.options.items() if v is not None})
         return Rendered(res.path, f"{res.n_frames} frames at {res.fps:g} fps ({res.n_frames / res.fps:.1f} s), "
                                   f"{res.slowdown:,.0f} times slower than real time, {magnification_words(res.magnify)}",
                         tuple(res.notes))
@@ -43,7 +43,7 @@ class FigureRenderer:
 
         request.unknown_options(FIGURE_OPTIONS, self.name)
         path = render_experiment(request.project, request.experiment, request.output, figure=self.name,
-                                 progress=request.progress,
+                                 progress=request.progress, registries=request.registries,
                                  **{k: v for k, v in request.options.items() if v is not None})
         return Rendered(path, f"{self.name} figure of {request.experiment}")
 
@@ -60,7 +60,8 @@ class ReportRenderer:
 
         request.unknown_options(REPORT_OPTIONS, self.name)
         opts = dict(request.options)
-        res = build_report(request.project, request.output, diagnosis=opts.get("diagnosis"),
+        res = build_report(request.project, request.output, registries=request.registries,
+                           diagnosis=opts.get("diagnosis"),
                            run_diagnosis=opts.get("run_diagnosis", True), movie=opts.get("movie", True),
                            movie_experiment=opts.get("movie_experiment"), frf_channels=opts.get("frf_channels"),
                            progress=opts.get("on_stage"))
