@@ -89,6 +89,8 @@ def test_modes_output_only_through_the_cli(tmp_path, operating, capsys):
 
 
 RIGS = Path(__file__).resolve().parents[2] / "projects" / "rigs"
+#: the thesis rig and its Systeminfo ship once, with the models plugin that registers them
+PLUGIN_RIGS = Path(__file__).resolve().parents[2] / "plugins" / "models" / "rigs"
 
 
 def _rig_responses(rig_text: str, tmp_path, seconds: float, seed: int):
@@ -99,7 +101,7 @@ def _rig_responses(rig_text: str, tmp_path, seconds: float, seed: int):
     from odsuite.domain.rig import load_rig
     from odsuite.domain.simulation import simulate_state_space
 
-    (tmp_path / "thesis-table-e3.CTR").write_bytes((RIGS / "thesis-table-e3.CTR").read_bytes())
+    (tmp_path / "thesis-table-e3.CTR").write_bytes((PLUGIN_RIGS / "thesis-table-e3.CTR").read_bytes())
     (tmp_path / "rig.toml").write_text(rig_text)
     reg = registries()
     rig = load_rig(tmp_path / "rig.toml", reg.sensor_types)
@@ -118,7 +120,7 @@ def test_standard_errors_mean_what_they_say(tmp_path):
     all six modes, none unresolved, within 1 %; the errors against the model, divided by the
     reported standard errors (4 segments: a t distribution with 3 degrees of freedom, median |t|
     0.76), have a median between 0.2 and 2 (neither hidden nor inflated scatter)."""
-    text = (RIGS / "thesis-dynamometer.toml").read_text()
+    text = (PLUGIN_RIGS / "thesis-dynamometer.toml").read_text()
     light = re.sub(r"damping = \[140\.0, 125\.0, 275\.0\]", "damping = [14.0, 12.5, 27.5]", text)
     ratios = []
     for seed in (1, 2):
@@ -135,7 +137,7 @@ def test_thesis_rig_as_modelled_is_not_claimed(tmp_path):
     """The thesis rig as modelled (15-17 % damping, three modes within 6 %) driven by one unmeasured
     force: 150 s do not determine its modes (docs/operating.md: even the Cramer-Rao bound is 8 %
     at 600 s), and odsuite says so instead of reporting merged poles as modes."""
-    y, _ = _rig_responses((RIGS / "thesis-dynamometer.toml").read_text(), tmp_path, 150.0, 0)
+    y, _ = _rig_responses((PLUGIN_RIGS / "thesis-dynamometer.toml").read_text(), tmp_path, 150.0, 0)
     with pytest.raises(ConfigError, match="does not determine the modes"):
         identify_output_only(y, 1000.0)
 
