@@ -19,6 +19,12 @@ from odsuite.contracts.registry import Contract, Registry, Source
 
 ENTRY_POINT_GROUP = "odsuite"
 REQUIRED_BUILTINS = ("beam", "daq_ni", "daq_sim", "filters", "gencoord_padgaonkar", "importers", "models", "renderers")
+#: built-in plugins the core cannot work without, and why: stored chains name their steps, stored
+#: rigs their sensor kinds and models
+ESSENTIAL = {
+    "filters": "every processing chain odsuite writes names its steps (convert, offset, filters, integrate)",
+    "models": "every rig file names its sensor kinds and default model, which it registers",
+}
 
 
 @dataclass(frozen=True)
@@ -60,6 +66,11 @@ def make_plugin_manager(*, load_entry_points: bool = True, extra_plugins: tuple 
     pm = PluginManager()
     pm.add_hookspecs(hookspecs)
     blocked = disabled_plugins()
+    essential = sorted(blocked & set(ESSENTIAL))
+    if essential:
+        name = essential[0]
+        raise PluginLoadError(f"ODSUITE_DISABLE_PLUGINS: plugin {name!r} cannot be disabled: {ESSENTIAL[name]} "
+                              f"(plugins that can: {', '.join(n for n in REQUIRED_BUILTINS if n not in ESSENTIAL)})")
     for name in blocked:
         pm.set_blocked(name)
     if load_entry_points:
