@@ -123,20 +123,14 @@ def _load_entry_points(pm: PluginManager, blocked: set[str]) -> None:
 
 def _contracts() -> dict[str, Contract]:
     """Each registry's contract, from the core module that documents it."""
-    from odsuite.contracts import daq
-    from odsuite.contracts import effects
-    from odsuite.contracts import importers
-    from odsuite.contracts import renderers
-    from odsuite.contracts import sensor_types
-    from odsuite.contracts import solvers
-    from odsuite.contracts import steps
+    from odsuite.contracts import daq, effects, importers, models, renderers, sensor_types, solvers, steps
     from odsuite.domain.rig import Rig
 
-    def of(module) -> Contract:
-        return Contract(getattr(module, "REQUIRED_ATTRIBUTES", ()), getattr(module, "REQUIRED_METHODS", ()))
+    def of(module) -> Contract:  # each contract module's Protocol and optional methods
+        return Contract(module.PROTOCOL, getattr(module, "OPTIONAL_METHODS", ()))
 
     return {"daq_backends": of(daq), "processing_steps": of(steps), "coordinate_solvers": of(solvers),
-            "models": Contract(methods=("__call__",)), "effects": of(effects), "renderers": of(renderers),
+            "models": of(models), "effects": of(effects), "renderers": of(renderers),
             "sensor_types": of(sensor_types), "rigs": Contract(instance_of=Rig), "importers": of(importers)}
 
 

@@ -385,11 +385,17 @@ def test_an_essential_plugin_cannot_be_disabled(monkeypatch, essential, capsys):
     """The core writes the filter plugin's step names and reads rig files through the models
     plugin's sensor kinds: disabling either is refused in one line saying why, before any work."""
     from odsuite.cli import main
+    from odsuite.contracts.plugins import reset_default
 
     monkeypatch.setenv("ODSUITE_DISABLE_PLUGINS", f"renderers,{essential}")
     with pytest.raises(PluginLoadError, match=rf"plugin '{essential}' cannot be disabled: .*plugins that can: beam,"):
         make_plugin_manager()
-    assert main(["plugins"]) == 1
+    reset_default()  # the command line builds its manager afresh, as a new process does
+    try:
+        assert main(["plugins"]) == 1
+    finally:
+        monkeypatch.delenv("ODSUITE_DISABLE_PLUGINS")
+        reset_default()
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: ODSUITE_DISABLE_PLUGINS: plugin") and "\n" not in err
 
