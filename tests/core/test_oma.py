@@ -34,7 +34,10 @@ def test_three_modes_from_responses_alone(operating):
     lam, phi = mck.modes()
     true_f = np.abs(lam) / (2 * np.pi)
     res = identify_output_only(operating, FS, max_order=40, output_names=["m1", "m2", "m3"])
-    assert res.output_only and res.band_hz == (0.0, FS / 2)
+    # the band is chosen from the record: up to 1.25 x its highest spectral peak (no other peak)
+    assert res.output_only and res.band_hz[0] == 0.0
+    assert 1.2 * true_f[-1] < res.band_hz[1] < 1.3 * true_f[-1]
+    assert res.settings.source["fmax"] == "from the record" and res.settings.decimation == 2  # 1024 Hz / (2.5 x 148 Hz)
     np.testing.assert_allclose(res.frequency_hz, true_f, rtol=0.01)
     np.testing.assert_allclose(res.damping_ratio, -lam.real / np.abs(lam), rtol=0.25)
     # acceleration shapes are -omega^2 times the displacement shapes: MAC against those
@@ -79,7 +82,8 @@ def test_modes_output_only_through_the_cli(tmp_path, operating, capsys):
     stab = tmp_path / "stab.png"
     assert main(["modes", str(p), "--experiment", "run", "--output-only", "--json", "--figure", str(stab)]) == 0
     doc = json.loads(capsys.readouterr().out)
-    assert doc["output_only"] is True and doc["band_hz"] == [0.0, FS / 2]
+    assert doc["output_only"] is True and doc["band_hz"] == doc["settings"]["band_hz"]
+    assert doc["settings"]["source"]["fmax"] == "from the record"
     f = [m["frequency_hz"] for m in doc["modes"]]
     np.testing.assert_allclose(f, np.abs(mck.modes()[0]) / (2 * np.pi), rtol=0.01)
     assert stab.read_bytes()[:4] == b"\x89PNG"
@@ -150,3 +154,31 @@ def test_unresolved_poles_are_named_with_the_reason():
     assert ok.tolist() == [False, False, True, False]
     assert reasons[0].startswith("cannot be told apart from the pole at 10.20 Hz: 0.20 Hz apart")
     assert reasons[3] == "found in only 1 of 4 segments of the record"
+
+
+def test_shapes_are_in_the_data_units(operating):
+    """A channel measured ten times larger (another sensitivity, another unit) gives a shape
+    component ten times larger, the others and the poles unchanged: the SVD's equal weighting per
+    output is undone for the shapes."""
+    a = identify_output_only(operating, FS, max_order=40, cross_check=False)
+    b = identify_output_only(operating * np.array([1.0, 10.0, 1.0]), FS, max_order=40, cross_check=False)
+    np.testing.assert_allclose(b.frequency_hz, a.frequency_hz, rtol=1e-9)
+    ratio_a = a.shapes[1] / a.shapes[0]
+    ratio_b = b.shapes[1] / b.shapes[0]
+    np.testing.assert_allclose(ratio_b, 10 * ratio_a, rtol=1e-6)
+    np.testing.assert_allclose(b.shapes[2] / b.shapes[0], a.shapes[2] / a.shapes[0], rtol=1e-6)
+    # and the shapes are the structure's: component ratios as the exact model's (real) shapes
+    phi = mck.modes()[1]
+    np.testing.assert_allclose(np.abs(ratio_a), np.abs(phi[1] / phi[0]), rtol=0.1)
+
+
+def test_mode_complexity_closed_forms():
+    """MPC is 1 for any real shape turned by a phase and 0 for a circularly polarised one; MPD of
+    two equal entries alpha apart is alpha / 2."""
+    from odsuite.analysis.modal import mpc, mpd
+
+    real = np.array([1.0, -0.5, 0.3]) * np.exp(0.7j)
+    assert mpc(real) == pytest.approx(1.0, abs=1e-12) and mpd(real) == pytest.approx(0.0, abs=1e-5)
+    assert mpc(np.array([1.0, 1j, -1.0, -1j])) == pytest.approx(0.0, abs=1e-12)
+    for alpha in (10.0, 40.0):
+        assert mpd(np.array([1.0, np.exp(1j * np.radians(alpha))])) == pytest.approx(alpha / 2, rel=1e-9)
