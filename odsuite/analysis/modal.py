@@ -119,6 +119,10 @@ class ModalResult:
         return doc
 
 
+#: an EFDD mode and an SSI mode are the same mode only within this relative frequency difference
+PAIR_TOL = 0.05
+
+
 def fdd_doc(res: "ModalResult", names: list[str]) -> dict:
     """The EFDD modes of an output-only result as JSON, each paired with an SSI mode (``pair_modes``
     by MAC): frequency and damping with their standard errors, MPC, the shape, and the partner's
@@ -128,7 +132,8 @@ def fdd_doc(res: "ModalResult", names: list[str]) -> dict:
     if fd.frequency_hz.size and res.poles.size:
         for row in pair_modes(fd.frequency_hz, fd.damping_ratio, res.frequency_hz, res.damping_ratio,
                               shapes_a=fd.shapes, shapes_b=res.shapes):
-            pairs[row["mode_a"]] = row
+            if abs(row["frequency_difference"]) <= PAIR_TOL:  # further apart: different modes
+                pairs[row["mode_a"]] = row
 
     def num(v):
         return float(v) if np.isfinite(v) else None
