@@ -80,6 +80,12 @@ def test_modes_output_only_through_the_cli(tmp_path, operating, capsys):
         proj.add_experiment("run", operating, sampling_rate=FS, systeminfo=Systeminfo(chans), excitation=None,
                             channel_names=["m1", "m2", "m3"])
     capsys.readouterr()
+    # info gives the peaks in the channels' unit (sensitivity 1 V per m/s^2 here), not as volts
+    assert main(["info", str(p), "--json"]) == 0
+    peak = json.loads(capsys.readouterr().out)["experiments"]["run"]["peak"]
+    assert peak["m2"][1] == "m/s^2" and peak["m2"][0] == pytest.approx(np.abs(operating[:, 1]).max(), rel=1e-6)
+    assert main(["info", str(p)]) == 0
+    assert "|V|" not in capsys.readouterr().out
     stab = tmp_path / "stab.png"
     assert main(["modes", str(p), "--experiment", "run", "--output-only", "--json", "--figure", str(stab)]) == 0
     doc = json.loads(capsys.readouterr().out)
@@ -91,6 +97,12 @@ def test_modes_output_only_through_the_cli(tmp_path, operating, capsys):
     # the hammer path needs a force channel: one line
     assert main(["modes", str(p), "--experiment", "run"]) == 1
     assert capsys.readouterr().err.strip() == f"error: {p}: experiment 'run' has no force channel"
+    # a setting that cannot work says what to give instead; with --json as one JSON document too
+    assert main(["modes", str(p), "--experiment", "run", "--output-only", "--block-rows", "2", "--json"]) == 1
+    captured = capsys.readouterr()
+    line = ("--block-rows 2: 2 x 3 outputs cannot hold model order 50 (give at least 17 or a lower "
+            "--max-order)")
+    assert json.loads(captured.out) == {"error": line} and captured.err.strip() == f"error: {line}"
 
 
 RIGS = Path(__file__).resolve().parents[2] / "projects" / "rigs"
