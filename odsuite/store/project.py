@@ -808,6 +808,9 @@ class Project:
                 "channels": e.channel_names, "sampling_rate": e.sampling_rate, "n_samples": e.n_samples,
                 "duration": e.n_samples / e.sampling_rate, "pretrigger": e.pretrigger,
                 "peak_volts": dict(zip(e.channel_names, peak.tolist(), strict=True)),
+                # the same peaks in each channel's own unit (an imported m/s^2 record is not volts)
+                "peak": {n: [float(v / abs(c.sensitivity * c.daq_gain)), c.unit]
+                         for n, v, c in zip(e.channel_names, peak.tolist(), e.systeminfo.channels, strict=True)},
                 "clipped": [n for n, c in zip(e.channel_names, clipped, strict=True) if c],
                 "clipped_samples": {n: int(c) for n, c in zip(e.channel_names, clipped, strict=True) if c},
                 "excitation": None if e.excitation is None else {
