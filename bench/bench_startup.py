@@ -6,7 +6,8 @@ plugins`` and ``odsuite info P`` on a small project (the thesis rig, one simulat
 h5py"``: what any command that reads a project has to import anyway. The commands are run in turns
 (baseline, each command, again), after one warm-up round, so that a machine shared with other work
 slows all of them alike. Prints min/median/max wall seconds of each and its median over the
-baseline's median (target: at most 1.5x). The interpreter is the one the script runs under and
+baseline's median (target: at most 1.5x), and the median CPU seconds and their ratio, which hold
+better than wall times on a loaded machine. The interpreter is the one the script runs under and
 ``odsuite`` the one beside it: run with `.venv/bin/python bench/bench_startup.py [--runs N] [--check]`
 (``--check``: exit 1 when a command misses the target).
 """
@@ -15,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -27,14 +29,19 @@ PYTHON = sys.executable
 ODSUITE = str(Path(sys.executable).with_name("odsuite"))
 
 
-def run(cmd: list[str], cwd: Path) -> float:
-    """Wall seconds of one whole process; its failure stops the benchmark with its output."""
-    t0 = time.perf_counter()
+def children_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def run(cmd: list[str], cwd: Path) -> tuple[float, float]:
+    """Wall and CPU seconds of one whole process; its failure stops the benchmark with its output."""
+    c0, t0 = children_cpu(), time.perf_counter()
     res = subprocess.run(cmd, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    dt = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, children_cpu() - c0
     if res.returncode != 0:
         sys.exit(f"{' '.join(cmd)} failed ({res.returncode}):\n{res.stdout}")
-    return dt
+    return wall, cpu
 
 
 def small_project(tmp: Path) -> Path:
@@ -60,7 +67,7 @@ def main() -> None:
             "odsuite plugins": [ODSUITE, "plugins"],
             "odsuite info P": [ODSUITE, "info", str(project)],
         }
-        times: dict[str, list[float]] = {label: [] for label in commands}
+        times: dict[str, list[tuple[float, float]]] = {label: [] for label in commands}
         for label, cmd in commands.items():  # warm-up: byte-code caches and the page cache
             run(cmd, tmp)
         for _ in range(args.runs):
@@ -68,18 +75,21 @@ def main() -> None:
                 times[label].append(run(cmd, tmp))
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     base_label = next(iter(commands))
-    base = statistics.median(times[base_label])
+    base = statistics.median(w for w, _ in times[base_label])
+    base_cpu = statistics.median(c for _, c in times[base_label])
     print(f"start-up, {args.runs} runs each in turns after a warm-up; load average {load:.2f} over the last "
           f"minute on {os.cpu_count()} cores; {PYTHON}")
-    print(f"{'command':44s} {'min s':>7s} {'median s':>9s} {'max s':>7s} {'ratio':>7s}")
+    print(f"{'command':44s} {'min s':>7s} {'median s':>9s} {'max s':>7s} {'ratio':>7s} {'CPU s':>7s} {'ratio':>7s}")
     missed = []
-    for label, ts in times.items():
-        med = statistics.median(ts)
+    for label, runs in times.items():
+        ts = [w for w, _ in runs]
+        med, cpu = statistics.median(ts), statistics.median(c for _, c in runs)
         ratio = med / base
         verdict = "" if label == base_label else f"  (target {TARGET:g}x: {'met' if ratio <= TARGET else 'missed'})"
         if label != base_label and ratio > TARGET:
             missed.append(label)
-        print(f"{label:44s} {min(ts):7.2f} {med:9.2f} {max(ts):7.2f} {ratio:6.2f}x{verdict}")
+        print(f"{label:44s} {min(ts):7.2f} {med:9.2f} {max(ts):7.2f} {ratio:6.2f}x {cpu:7.2f} {cpu / base_cpu:6.2f}x"
+              f"{verdict}")
     if args.check and missed:
         sys.exit(1)
 
