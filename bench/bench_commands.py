@@ -41,6 +41,8 @@ ROOT = Path(__file__).resolve().parents[1]
 RIG = ROOT / "examples" / "rigs" / "plate-and-motor.toml"
 PYTHON = sys.executable
 ODSUITE = str(Path(sys.executable).with_name("odsuite"))
+#: as a user's install runs: byte-code caches written and used
+ENV = {**{k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}, "COLUMNS": "100"}
 #: the mount made softer in the simulated truth, and by how much (0.6: 40 % softer)
 SOFT_MOUNT, SOFT_FACTOR = "rubber1", 0.6
 FORCE_PEAK_N = 200.0
@@ -74,7 +76,7 @@ def run(cmd: list[str], cwd: Path) -> tuple[float, float, str]:
     a failure stops the benchmark with its output."""
     c0, t0 = children_cpu(), time.perf_counter()
     res = subprocess.run(cmd, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                         env={**os.environ, "COLUMNS": "100"})
+                         env=ENV)
     wall, cpu = time.perf_counter() - t0, children_cpu() - c0
     if res.returncode != 0:
         sys.exit(f"{' '.join(cmd)} failed ({res.returncode}):\n{res.stdout}")

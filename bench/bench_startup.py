@@ -27,6 +27,9 @@ from pathlib import Path
 TARGET = 1.5
 PYTHON = sys.executable
 ODSUITE = str(Path(sys.executable).with_name("odsuite"))
+#: as a user's install runs: byte-code caches written and used (an environment that turns them off
+#: would make every run compile odsuite's modules from source)
+ENV = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
 
 
 def children_cpu() -> float:
@@ -37,7 +40,7 @@ def children_cpu() -> float:
 def run(cmd: list[str], cwd: Path) -> tuple[float, float]:
     """Wall and CPU seconds of one whole process; its failure stops the benchmark with its output."""
     c0, t0 = children_cpu(), time.perf_counter()
-    res = subprocess.run(cmd, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    res = subprocess.run(cmd, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=ENV)
     wall, cpu = time.perf_counter() - t0, children_cpu() - c0
     if res.returncode != 0:
         sys.exit(f"{' '.join(cmd)} failed ({res.returncode}):\n{res.stdout}")
