@@ -70,7 +70,7 @@ def _progress() -> Progress:
 
 
 def _step(console: Console, n: int, title: str, started: float) -> None:
-    console.rule(f"[bold]{n}. {title}[/bold] ({time.monotonic() - started:.0f} s)", align="left")
+    console.rule(f"[bold]{n}. {title}[/bold] (at {time.monotonic() - started:.0f} s)", align="left")
 
 
 def effective_scales(effect_name: str, values: Mapping[str, float], model) -> dict[str, float]:
