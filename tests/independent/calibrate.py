@@ -37,7 +37,7 @@ from . import cases, truthbands, writers
 RIGS = ("thesis", "two-body", "plate-motor")
 FORCES = (5.0, 10.0, 30.0, 100.0, 200.0)  # N
 #: samples per record: enough for each rig's response to fade (thesis: 0.1 s at 20 kHz; two-body
-#: 0.2 s at 10.24 kHz, its isolators' 11 Hz for two periods; plate-motor 1 s at 2048 Hz), short enough
+#: 0.2 s at 10.24 kHz, its isolators' 11 Hz for two periods; plate-motor 0.4 s at 5120 Hz), short enough
 #: for two shared cores
 SAMPLES = {"thesis": 2048, "two-body": 2048, "plate-motor": 2048}
 #: the chain a lab gives records without a .CTR when the rig's lowest mode is below 20 Hz (the
