@@ -335,6 +335,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--n", type=int, default=None, help="cases in the set (default 40 nulls, 20 faults, "
                                                             "3 pairs, 4 fixed)")
     parser.add_argument("--workers", type=int, default=1, help="cases run at once (each diagnose on one core)")
+    parser.add_argument("--summary-only", action="store_true",
+                        help="tabulate the cases already done in DIR, run nothing")
     args = parser.parse_args(argv)
     results_dir = args.out / "results"
     results_dir.mkdir(parents=True, exist_ok=True)
@@ -356,6 +358,8 @@ def main(argv: list[str] | None = None) -> int:
               flush=True)
 
     total = len(todo) + len(results)
+    if args.summary_only:
+        todo = []
     if args.workers <= 1:
         for spec in todo:
             keep(run_one(spec, args.out))
@@ -364,6 +368,8 @@ def main(argv: list[str] | None = None) -> int:
             futures = [pool.submit(run_one, spec, args.out) for spec in todo]
             for fut in as_completed(futures):
                 keep(fut.result())
+    if args.summary_only:
+        print(f"{len(results)} of {total} cases done", file=sys.stderr)
     order = {s["id"]: i for i, s in enumerate(specs(args.set, args.n))}
     results.sort(key=lambda r: order.get(r["id"], 1 << 30))
     summary = summarise(args.set, results)
