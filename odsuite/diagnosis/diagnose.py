@@ -547,8 +547,8 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     _tell_refinements_apart(candidates, regs.effects, den)
     _mark_proxies([c for c in candidates if c.fitted], base)
     candidates.sort(key=lambda c: (not c.significant, c.bic if c.fitted else math.inf, c.screened_error))
+    _prefer_fewer_parameters(candidates, regs.effects)
     _prefer_named(candidates, regs.effects)
-    _prefer_fewer_parameters(candidates)
     diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=noise, revision=rev.get("revision"),
                           candidates=candidates, residual_peaks=peaks, evaluations=evaluations,
                           not_applicable=not_applicable)
@@ -589,14 +589,16 @@ def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], 
     return cand
 
 
-def _prefer_fewer_parameters(cands: list[Candidate]) -> None:
+def _prefer_fewer_parameters(cands: list[Candidate], effects) -> None:
     """A significant candidate confounded with the top one and with fewer parameters goes first
     unless the top one's change of the resolved residual over it passes the likelihood-ratio test
     for its extra parameters: a proxy with more freedom does not win on the same residual."""
     if not cands or not cands[0].significant or getattr(cands[0], "_resolved", None) is None:
         return
     top = cands[0]
+    # a data-driven stand-in (a mode of any shape) is not promoted over a named mechanism
     simpler = [c for c in cands[1:] if c.significant and c.fitted and c.effect in top.confounded_with
+               and not getattr(effects.get(c.effect), "data_driven", False)
                and c.n_parameters < top.n_parameters and getattr(c, "_resolved", None) is not None]
     for c in sorted(simpler, key=lambda c: c.n_parameters):
         extra = top.n_parameters - c.n_parameters
