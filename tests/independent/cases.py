@@ -479,8 +479,105 @@ CASES: dict[str, tuple[Callable[[Case, np.random.Generator], None], str]] = {
 }
 
 
-def build_case(name: str, seed: int, rig: str = "thesis", n_samples: int | None = None) -> Case:
-    """The case ``name`` on base rig ``rig`` ("thesis" or "two-body"), drawn with ``seed``."""
+# ---------------------------------------------------------------------------------------------
+# calibration cases: nulls, a softer mount, pairs of hidden changes (tests/independent/calibrate.py)
+
+
+def null(case: Case, rng: np.random.Generator) -> None:
+    case.truth["effect"] = {"kind": "none"}
+
+
+def softer_mount(case: Case, rng: np.random.Generator) -> None:
+    """One spring (any of the rig's mounts, isolators or springs) 20-40 % softer on all axes."""
+    s = case.actual.structure.springs[int(rng.integers(len(case.actual.structure.springs)))]
+    factor = 1.0 - rng.uniform(0.20, 0.40)
+    s.stiffness = mat3(s.stiffness) * factor
+    case.truth["effect"] = {"kind": "stiffness", "springs": [s.name], "axis": "xyz", "factor": factor}
+
+
+def moved_com(case: Case, rng: np.random.Generator) -> None:
+    """A body's centre of mass 10-25 mm away from where the lab believes, in a random horizontal
+    direction (mass and inertia about the centre of mass unchanged)."""
+    body = case.actual.structure.bodies[int(rng.integers(len(case.actual.structure.bodies)))]
+    up = int(np.argmax(np.abs(case.actual.up)))
+    d = rng.standard_normal(3)
+    d[up] = 0.0
+    d *= rng.uniform(0.010, 0.025) / np.linalg.norm(d)
+    body.com = vec3(body.com) + d
+    case.truth["effect"] = {"kind": "moved_com", "body": body.name, "shift_m": d, "new_com_m": body.com}
+
+
+def _stiffer_vertical(case: Case, rng: np.random.Generator) -> None:
+    """One spring group 20-40 % stiffer along the rig's vertical."""
+    group = _group(case.actual, rng)
+    up = int(np.argmax(np.abs(case.actual.up)))
+    factor = 1.0 + rng.uniform(0.20, 0.40)
+    for s in case.actual.structure.springs:
+        if s.name in case.actual.spring_groups[group]:
+            k = mat3(s.stiffness)
+            k[up, up] *= factor
+            s.stiffness = k
+    case.truth["effect"] = {"kind": "stiffness", "group": group, "springs": case.actual.spring_groups[group],
+                            "axis": "xyz"[up], "factor": factor}
+
+
+def _strong_gain(case: Case, rng: np.random.Generator) -> None:
+    """One accelerometer's sensitivity 15-30 % low (a gain of 0.70-0.85)."""
+    s = case.actual.accelerometers[int(rng.integers(len(case.actual.accelerometers)))]
+    s.gain_error = -float(rng.uniform(0.15, 0.30))
+    case.truth["effect"] = {"kind": "sensor_gain", "sensor": s.name, "gain_error": s.gain_error}
+
+
+def _pair(first, second):
+    """Two hidden changes at once: truth["effects"] lists both, truth["effect"] says "pair"."""
+    def effect(case: Case, rng: np.random.Generator) -> None:
+        parts = []
+        for one in (first, second):
+            one(case, rng)
+            parts.append(case.truth.pop("effect"))
+        case.truth["effects"] = parts
+        case.truth["effect"] = {"kind": "pair", "kinds": [e["kind"] for e in parts]}
+    return effect
+
+
+CASES.update({
+    "null": (null, "no hidden change (for false-alarm counts with --force, --noise, drift, hum, double hits)"),
+    "softer-mount": (softer_mount, "one spring (mount, isolator) 20-40 % softer on all axes"),
+    "pair-gain-com": (_pair(_strong_gain, moved_com),
+                      "two at once: one accelerometer's gain 0.70-0.85 and a centre of mass moved 10-25 mm"),
+    "pair-bending-stiffer": (_pair(flexible_mode, _stiffer_vertical),
+                             "two at once: a plate bending mode and one spring group 20-40 % stiffer vertically"),
+    "pair-mount-gain": (_pair(softer_mount, _strong_gain),
+                        "two at once: one spring 20-40 % softer and one accelerometer's gain 0.70-0.85"),
+})
+
+#: what may be laid over any case (its own random stream: the case's draws do not change)
+DISTURBANCES = ("drift", "hum", "double-hit")
+
+
+def _disturb(case: Case, which, rng: np.random.Generator) -> None:
+    effect = case.truth.get("effect")
+    notes = {}
+    for name in which:
+        if name not in DISTURBANCES:
+            raise KeyError(f"unknown disturbance {name!r}; known: {', '.join(DISTURBANCES)}")
+        {"drift": drift, "hum": mains_hum, "double-hit": double_hit}[name](case, rng)
+        notes[name] = case.truth.pop("effect")
+    if effect is not None:
+        case.truth["effect"] = effect
+    if notes:
+        case.truth["disturbances"] = notes
+
+
+def build_case(name: str, seed: int, rig: str = "thesis", n_samples: int | None = None, *,
+               force_n: float | None = None, noise_v: float | None = None, noise_fraction: float = 0.0,
+               disturbances=()) -> Case:
+    """The case ``name`` on base rig ``rig`` ("thesis", "two-body" or "plate-motor"), drawn with
+    ``seed``. Options (each left at its default keeps the case as it always was):
+    ``force_n``: every record's (first) blow has this peak force, N (the hit points are still
+    jittered); ``noise_v``: the white noise per channel, V rms (default 50 uV);
+    ``noise_fraction``: more white noise, this fraction of each channel's clean rms;
+    ``disturbances``: any of "drift", "hum", "double-hit", drawn from a stream of their own."""
     if name not in CASES:
         raise KeyError(f"unknown case {name!r}; cases: {', '.join(CASES)}")
     if rig not in RIGS:
@@ -494,7 +591,16 @@ def build_case(name: str, seed: int, rig: str = "thesis", n_samples: int | None 
     case.records = _jittered_hits(nominal, rng)
     effect, description = CASES[name]
     case.truth["description"] = description
+    if force_n is not None:
+        case.records = [[replace(hits[0], peak_n=float(force_n))] + hits[1:] for hits in case.records]
     effect(case, rng)
+    if noise_v is not None:
+        case.actual.daq.noise_rms_v = float(noise_v)
+    case.actual.daq.noise_fraction = float(noise_fraction)
+    _disturb(case, tuple(disturbances), np.random.default_rng([seed, 2]))
+    if force_n is not None or noise_v is not None or noise_fraction or disturbances:
+        case.truth["options"] = {"force_n": force_n, "noise_v": case.actual.daq.noise_rms_v,
+                                 "noise_fraction": noise_fraction, "disturbances": list(disturbances)}
     return case
 
 
@@ -508,6 +614,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--formats", default="lvm,dat,uff", help="comma-separated: lvm, dat, uff")
     parser.add_argument("--decimal", default=".", choices=[".", ","], help="decimal separator of the .lvm")
     parser.add_argument("--physical", action="store_true", help=".lvm in m/s^2 and N instead of volts")
+    parser.add_argument("--force", type=float, default=None, help="peak force of every blow, N")
+    parser.add_argument("--noise", type=float, default=None, help="white noise per channel, V rms (default 50e-6)")
+    parser.add_argument("--noise-fraction", type=float, default=0.0,
+                        help="more white noise: this fraction of each channel's clean rms (0.03: 3 %%)")
+    parser.add_argument("--disturb", default="", help="comma-separated: drift, hum, double-hit")
     parser.add_argument("--list", action="store_true", help="list the cases and exit")
     args = parser.parse_args(argv)
     if args.list:
@@ -522,7 +633,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: --formats: unknown {', '.join(unknown)}; known: {', '.join(FORMATS)}", file=sys.stderr)
         return 1
     try:
-        case = build_case(args.case, args.seed, args.rig, args.samples)
+        case = build_case(args.case, args.seed, args.rig, args.samples, force_n=args.force, noise_v=args.noise,
+                          noise_fraction=args.noise_fraction,
+                          disturbances=[d for d in args.disturb.split(",") if d])
     except KeyError as exc:
         print(f"error: {exc.args[0]}", file=sys.stderr)
         return 1
