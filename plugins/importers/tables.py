@@ -240,13 +240,27 @@ def read_tdms_columns(file: Path, explicit: dict) -> Columns:
     with its ``unit_string`` and ``wf_increment`` (s) properties."""
     from nptdms import TdmsFile
 
+    import logging
+
     where = str(file)
+    # npTDMS reads a file cut short as far as it goes and only logs it: its warnings are caught
+    heard: list[str] = []
+    handler = logging.Handler(logging.WARNING)
+    handler.emit = lambda record: heard.append(record.getMessage())
+    log = logging.getLogger("nptdms")
+    log.addHandler(handler)
     try:
         tdms = TdmsFile.read(file)
         groups = tdms.groups()
+        cols_read = {g.name: [np.asarray(c[:]) for c in g.channels()] for g in groups}
     except Exception as exc:  # npTDMS raises ValueError, KeyError, EOFError... on a damaged file
         raise ConfigError(f"{where}: not a readable TDMS file (cut short or damaged?): {type(exc).__name__}: "
                           f"{str(exc)[:120]}") from None
+    finally:
+        log.removeHandler(handler)
+    short = [m for m in heard if "less data than expected" in m or "not a multiple" in m]
+    if short:
+        raise ConfigError(f"{where}: the file is cut short (npTDMS: {short[0][:100]})")
     names = [g.name for g in groups]
     group = explicit.get("group")
     if group is None:
@@ -260,11 +274,7 @@ def read_tdms_columns(file: Path, explicit: dict) -> Columns:
     chans = g.channels()
     if not chans:
         raise ConfigError(f"{where}: group {g.name!r}: no channels")
-    try:
-        cols = [np.asarray(c[:]) for c in chans]
-    except Exception as exc:
-        raise ConfigError(f"{where}: group {g.name!r}: data cut short or damaged: {type(exc).__name__}: "
-                          f"{str(exc)[:120]}") from None
+    cols = cols_read[g.name]
     lengths = {c.name: len(v) for c, v in zip(chans, cols)}
     if len(set(lengths.values())) > 1:
         raise DimensionError(f"{where}: group {g.name!r}: channels of different lengths "
