@@ -60,7 +60,7 @@ def parse_direction(value, where: str) -> tuple[float, float, float]:
     return tuple(float(c) for c in v / n)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Geometry:
     """Nodes (``node_ids``, ``xyz`` in m), ``lines`` (pairs of node ids), ``faces`` (node-id
     polygons), ``sensors``, ``fixed`` node ids and ``rigid`` groups ((name, node ids), ...)."""

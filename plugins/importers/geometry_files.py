@@ -229,5 +229,5 @@ def write_geometry_uff(path: str | Path, geom: Geometry, modes=(), *, overwrite:
             model_type=1, id1="odsuite mode shapes", id2=f"mode {k}", id3=f"{f:.6g} Hz", id4="NONE", id5="NONE",
             analysis_type=3, data_ch=2, spec_data_type=8, data_type=5, n_data_per_node=3,
             r1=m[:, 0], r2=m[:, 1], r3=m[:, 2], node_nums=geom.node_ids.astype(int), load_case=1,
-            mode_n=k, eig=lam, modal_a=0j, modal_b=0j, return_full_dict=True))
+            mode_n=k, eig=lam, modal_a=0j, modal_b=0j))  # no r4-r6: three values per node
     uff.write_sets(sets, mode="add")
