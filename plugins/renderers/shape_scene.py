@@ -66,9 +66,11 @@ class ShapeScene:
             dots = pv.PolyData(self._series[0][idx].copy())
             self.plotter.add_mesh(dots, color=style.sensor, point_size=11, render_points_as_spheres=True,
                                   lighting=False)
-            self.plotter.add_point_labels(dots, [" ".join(v) for v in spots.values()], shape=None, show_points=False,
-                                          font_size=style.font_size + 1, text_color=style.sensor, always_visible=True,
-                                          bold=True)
+            # on a pale box: the labels sit where the structure's lines cross
+            self.plotter.add_point_labels(dots, [" ".join(v) for v in spots.values()], shape="rect",
+                                          shape_color=style.background, shape_opacity=0.8, margin=2,
+                                          show_points=False, font_size=style.font_size, text_color=style.sensor,
+                                          always_visible=True, bold=True)
             self._moving.append((dots, self._series[:, idx]))
         lo, hi = self._series.min(axis=(0, 1)), self._series.max(axis=(0, 1))
         if axes:

@@ -31,13 +31,13 @@ def shape_motion(geometry: Geometry, values: Mapping[str, complex], frames_per_c
         raise ConfigError(f"{geometry.where}: none of the channels {', '.join(values)} has a sensor on the geometry "
                           f"(sensors: {', '.join(geometry.channels) or 'none'})")
     U = geometry.node_motion(on)  # nodes x 3, complex
-    peak = float(np.abs(U).max())
+    phase = 2 * np.pi * np.arange(frames_per_cycle * cycles) / frames_per_cycle
+    motion = np.real(U[None] * np.exp(1j * phase)[:, None, None])
+    peak = float(np.linalg.norm(motion, axis=2).max())  # the largest excursion of a node over the cycle
     if not np.isfinite(peak) or peak == 0:
         raise ConfigError(f"{geometry.where}: the shape is zero at every node: nothing moves")
     factor = fraction * geometry.size() / peak
-    phase = 2 * np.pi * np.arange(frames_per_cycle * cycles) / frames_per_cycle
-    motion = factor * np.real(U[None] * np.exp(1j * phase)[:, None, None])
-    return motion, factor, U
+    return factor * motion, factor, U
 
 
 def render_shape_movie(geometry: Geometry, values: Mapping[str, complex], frequency_hz: float, output: str | Path,
