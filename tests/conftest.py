@@ -7,7 +7,9 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-SHARED_REAL = REPO.parent / "shared" / "data" / "real"
+#: Real recordings from other labs, kept in the repository with their origin and licence
+#: (tests/data/real/README.md).
+REAL_DATA = REPO / "tests" / "data" / "real"
 
 
 @pytest.fixture
@@ -30,7 +32,8 @@ def thesis_rig(registries):
 
 
 @pytest.fixture
-def shared_real() -> Path:
-    if not SHARED_REAL.is_dir():
-        pytest.skip(f"real data folder {SHARED_REAL} not present (it lies beside the repository)")
-    return SHARED_REAL
+def real_data() -> Path:
+    """The folder of real recordings (one subfolder per source, each with README and LICENSE).
+    They ship with the repository: a missing folder is an error, never a skip."""
+    assert REAL_DATA.is_dir(), f"real data folder {REAL_DATA} missing from the repository"
+    return REAL_DATA

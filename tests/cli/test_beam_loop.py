@@ -1,5 +1,5 @@
-"""The loop on real data: the beam rig against the real LADISK beam impact test (shared data
-folder; skipped with a message when it is absent)."""
+"""The loop on real data: the beam rig against the real LADISK beam impact test (its records are
+kept in tests/data/real/ladisk_beam_impact)."""
 
 from __future__ import annotations
 
@@ -26,10 +26,10 @@ def compare_json(capsys, project) -> dict:
 
 
 @pytest.fixture
-def beam(tmp_path, shared_real, capsys):
+def beam(tmp_path, real_data, capsys):
     project = tmp_path / "beam.h5"
     assert main(["new", str(project), "--rig", str(RIG)]) == 0
-    lvm = shared_real / "ladisk_beam_impact" / "acceleration.lvm"
+    lvm = real_data / "ladisk_beam_impact" / "acceleration.lvm"
     assert main(["import", str(project), str(lvm), "--name", "acceleration", *HAMMER]) == 0
     return project
 
@@ -52,14 +52,14 @@ def test_compare_tables_the_measured_and_the_slender_beam_modes(beam, capsys):
 
 
 @pytest.mark.slow
-def test_the_loop_on_the_real_beam_and_its_validation_on_a_second_hit(beam, shared_real, capsys):
+def test_the_loop_on_the_real_beam_and_its_validation_on_a_second_hit(beam, real_data, capsys):
     """add-effect through the command line, damping last and in the modal domain, then the second
     hit (camera.lvm) without refitting (docs/beam.md tells this session; its numbers are asserted here)."""
     for effect in ("beam-positions", "beam-mass-scale", "beam-stiffness-scale", "beam-shear-rotary",
                    "measured-modal-damping"):
         assert main(["add-effect", str(beam), effect]) == 0
     fitted = compare_json(capsys, beam)
-    lvm = shared_real / "ladisk_beam_impact" / "camera.lvm"
+    lvm = real_data / "ladisk_beam_impact" / "camera.lvm"
     assert main(["import", str(beam), str(lvm), "--name", "camera", *HAMMER]) == 0
     validated = compare_json(capsys, beam)
     assert validated["revision"] == fitted["revision"]  # nothing refitted

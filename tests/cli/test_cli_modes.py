@@ -14,11 +14,11 @@ LADISK_ZETA = np.array([0.0047, 0.0031, 0.0024, 0.0020])
 
 
 @pytest.fixture
-def beam_project(tmp_path, shared_real):
+def beam_project(tmp_path, real_data):
     p = tmp_path / "beam.h5"
     assert main(["new", str(p), "--rig", "none"]) == 0
     for name in ("acceleration", "camera"):
-        lvm = shared_real / "ladisk_beam_impact" / f"{name}.lvm"
+        lvm = real_data / "ladisk_beam_impact" / f"{name}.lvm"
         assert main(["import-lvm", str(p), str(lvm), "--name", name]) == 0
     return p
 

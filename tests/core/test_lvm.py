@@ -9,9 +9,9 @@ from odsuite.domain.errors import ConfigError
 from odsuite_plugins.importers.lvm import read_lvm
 
 
-def test_ladisk_beam_impact_quick_facts(shared_real):
+def test_ladisk_beam_impact_quick_facts(real_data):
     # README "Quick facts": force peak 195.6 N at sample 36, acceleration peak 35.46 g
-    d = read_lvm(shared_real / "ladisk_beam_impact" / "acceleration.lvm")
+    d = read_lvm(real_data / "ladisk_beam_impact" / "acceleration.lvm")
     assert d.channel_names == ["Acceleration (Trigger)", "Force (Trigger)"]
     assert d.units == ["g", "Newtons"]
     assert d.sampling_rate == 50000.0
@@ -20,14 +20,14 @@ def test_ladisk_beam_impact_quick_facts(shared_real):
     assert int(np.argmax(force)) == 36
     assert force.max() == pytest.approx(195.6, abs=0.05)
     assert np.abs(d.channel("Acceleration (Trigger)")).max() == pytest.approx(35.46, abs=0.005)
-    cam = read_lvm(shared_real / "ladisk_beam_impact" / "camera.lvm")
+    cam = read_lvm(real_data / "ladisk_beam_impact" / "camera.lvm")
     assert int(np.argmax(cam.data[:, 1])) == 35
     assert cam.data[:, 1].max() == pytest.approx(422.4, abs=0.05)
     assert np.abs(cam.data[:, 0]).max() == pytest.approx(54.79, abs=0.005)
 
 
-def test_lvm_read_peer_expectations(shared_real):
-    base = shared_real / "lvm_read_impacts"
+def test_lvm_read_peer_expectations(real_data):
+    base = real_data / "lvm_read_impacts"
     short = read_lvm(base / "short.lvm")
     assert short.data[0, 0] == 0.914018  # decimal comma
     assert short.delta_x[0] == pytest.approx(3.90625e-5) and short.sampling_rate == 25600.0
@@ -46,8 +46,8 @@ def test_lvm_read_peer_expectations(shared_real):
     assert nodec.sampling_rate == 4000.0
 
 
-def test_long_record_two_triggered_records(shared_real):
-    d = read_lvm(shared_real / "lvm_read_impacts" / "long_single_header_multi_ch.lvm")
+def test_long_record_two_triggered_records(real_data):
+    d = read_lvm(real_data / "lvm_read_impacts" / "long_single_header_multi_ch.lvm")
     assert d.channel_names == ["F", "m_1", "m_2"]
     assert d.declared_samples[0] == 8192 and d.n_samples == 16384
     # Delta_X printed as 0.000977 is 1/1024 s
@@ -110,19 +110,19 @@ def test_malformed_files_give_one_line_errors(tmp_path, text, message):
     assert str(f) in str(info.value) and "\n" not in str(info.value)
 
 
-def test_unknown_channel_name(shared_real):
-    d = read_lvm(shared_real / "lvm_read_impacts" / "short.lvm")
+def test_unknown_channel_name(real_data):
+    d = read_lvm(real_data / "lvm_read_impacts" / "short.lvm")
     with pytest.raises(ConfigError, match="no channel 'Force'.*Excitation"):
         d.channel("Force")
 
 
-def test_cli_import_lvm_frf_modes(shared_real, tmp_path, capsys):
+def test_cli_import_lvm_frf_modes(real_data, tmp_path, capsys):
     import json
 
     from odsuite.cli import main
 
     proj = tmp_path / "beam.h5"
-    lvm = shared_real / "ladisk_beam_impact" / "acceleration.lvm"
+    lvm = real_data / "ladisk_beam_impact" / "acceleration.lvm"
     assert main(["new", str(proj), "--rig", "none"]) == 0
     assert main(["import-lvm", str(proj), str(lvm), "--name", "beam"]) == 0
     capsys.readouterr()
@@ -130,7 +130,7 @@ def test_cli_import_lvm_frf_modes(shared_real, tmp_path, capsys):
     doc = json.loads(capsys.readouterr().out)
     f = [m["frequency_hz"] for m in doc["modes"]]
     np.testing.assert_allclose(f, [695.0, 1897.6, 2777.3, 3671.2], rtol=0.005)
-    multi = shared_real / "lvm_read_impacts" / "long_single_header_multi_ch.lvm"
+    multi = real_data / "lvm_read_impacts" / "long_single_header_multi_ch.lvm"
     # no column in N or named like a force: an operating record (responses only), said on stderr
     assert main(["import-lvm", str(proj), str(multi), "--name", "lab"]) == 0
     assert "stored as an operating record" in capsys.readouterr().err

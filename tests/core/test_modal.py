@@ -44,8 +44,8 @@ def _ladisk_frf(path, accept=True):
 
 
 @pytest.mark.parametrize("form", ["accelerance", "receptance"])
-def test_ladisk_beam_published_modes(shared_real, form):
-    frf, _ = _ladisk_frf(shared_real / "ladisk_beam_impact" / "acceleration.lvm")
+def test_ladisk_beam_published_modes(real_data, form):
+    frf, _ = _ladisk_frf(real_data / "ladisk_beam_impact" / "acceleration.lvm")
     assert frf.frequency[1] == pytest.approx(1.0)
     H = convert_form(frf.frequency, frf.H, "accelerance", form)
     res = identify_modes(frf.frequency, H, f_band=(1.0, 4000.0), max_order=50, form=form)
@@ -55,11 +55,11 @@ def test_ladisk_beam_published_modes(shared_real, form):
     assert res.residues.shape == (1, 4)
 
 
-def test_ladisk_second_hit_agrees(shared_real):
+def test_ladisk_second_hit_agrees(real_data):
     """camera.lvm is a harder hit (422 N) on the same beam: its accelerometer saturates at
     +-54.7 g (the same extreme value held over several samples), so the hit is rejected; the
     bending-mode frequencies still agree, damping only roughly; the weak 2777 Hz mode is lost."""
-    frf, hit = _ladisk_frf(shared_real / "ladisk_beam_impact" / "camera.lvm", accept=False)
+    frf, hit = _ladisk_frf(real_data / "ladisk_beam_impact" / "camera.lvm", accept=False)
     assert hit.reasons == ("response channel 0 clipped/overloaded",)
     res = identify_modes(frf.frequency, frf.H, force_autospectrum=frf.force_autospectrum)
     assert 4000 < res.band_hz[1] < 6000
@@ -69,11 +69,11 @@ def test_ladisk_second_hit_agrees(shared_real):
     assert max(abs(r["damping_difference"]) for r in rows) < 0.3
 
 
-def test_ladisk_default_band_finds_the_published_modes(shared_real):
+def test_ladisk_default_band_finds_the_published_modes(real_data):
     """The band from the hammer's spectrum (10 dB drop: about 4.9 kHz for this 0.2 ms blow) and
     automatic, checked pole selection: the four published modes (f within 0.5 %, damping within
     10 %), stable over many orders, and nothing at the 1.1-1.2 kHz anti-resonance."""
-    frf, _ = _ladisk_frf(shared_real / "ladisk_beam_impact" / "acceleration.lvm")
+    frf, _ = _ladisk_frf(real_data / "ladisk_beam_impact" / "acceleration.lvm")
     res = identify_modes(frf.frequency, frf.H, force_autospectrum=frf.force_autospectrum)
     assert res.band_hz[0] == pytest.approx(1.0) and 4500 < res.band_hz[1] < 5500
     np.testing.assert_allclose(res.frequency_hz, LADISK_F, rtol=0.005)
@@ -86,10 +86,10 @@ def test_ladisk_default_band_finds_the_published_modes(shared_real):
     assert [m["stable_orders"] for m in doc["modes"]] == list(res.stable_orders)
 
 
-def test_ladisk_anti_resonance_pole_is_rejected(shared_real):
+def test_ladisk_anti_resonance_pole_is_rejected(real_data):
     """On 50-2000 Hz the LSCF diagram holds a stable pole at 1202 Hz where |H| is 0.06 against
     34-76 at the peaks (the FRF rises away from it): it is named, not reported."""
-    frf, _ = _ladisk_frf(shared_real / "ladisk_beam_impact" / "acceleration.lvm")
+    frf, _ = _ladisk_frf(real_data / "ladisk_beam_impact" / "acceleration.lvm")
     band = frf.band(50.0, 2000.0)
     diag = lscf(band.frequency, band.H, 50)
     poles, _ = select_poles(diag)
@@ -100,26 +100,26 @@ def test_ladisk_anti_resonance_pole_is_rejected(shared_real):
     assert re.match(r"120[12]\.\d\d Hz: \|H\| there is 0\.3\d x its level", res.rejected[0])
 
 
-def test_user_can_pick_poles_by_frequency(shared_real):
-    frf, _ = _ladisk_frf(shared_real / "ladisk_beam_impact" / "acceleration.lvm")
+def test_user_can_pick_poles_by_frequency(real_data):
+    frf, _ = _ladisk_frf(real_data / "ladisk_beam_impact" / "acceleration.lvm")
     res = identify_modes(frf.frequency, frf.H, f_band=(1.0, 4000.0), frequencies=[3671.0, 695.0])
     np.testing.assert_allclose(res.frequency_hz, LADISK_F[[0, 3]], rtol=0.005)
     with pytest.raises(ConfigError, match="no stable pole within 2 % of 4500.0 Hz"):
         identify_modes(frf.frequency, frf.H, f_band=(1.0, 4000.0), frequencies=[4500.0])
 
 
-def test_vibration_toolbox_case1_published_frequency(shared_real):
+def test_vibration_toolbox_case1_published_frequency(real_data):
     # vibration_toolbox doctest: sdof_cf on case1 lines 500..1000 -> 212.0925 Hz
-    d = loadmat(shared_real / "vibration_toolbox_frf" / "case1.mat")
+    d = loadmat(real_data / "vibration_toolbox_frf" / "case1.mat")
     f, H = d["Freq_domain"].ravel(), d["Hf_chan_2"].ravel()
     res = identify_modes(f, H, f_band=(f[500], f[1000]), max_order=30, frequencies=[212.0])
     assert res.frequency_hz[0] == pytest.approx(212.0925, abs=0.3)
 
 
-def test_vibration_toolbox_case1_default_band(shared_real):
+def test_vibration_toolbox_case1_default_band(real_data):
     """The analyser's force autospectrum sets the band (10 dB down at about 300 Hz); automatic
     selection finds the published 212.09 Hz mode (and the 34 Hz peak below it)."""
-    d = loadmat(shared_real / "vibration_toolbox_frf" / "case1.mat")
+    d = loadmat(real_data / "vibration_toolbox_frf" / "case1.mat")
     f, H = d["Freq_domain"].ravel(), d["Hf_chan_2"].ravel()
     res = identify_modes(f, H, force_autospectrum=d["PSD_chan_1"].ravel())
     assert 280 < res.band_hz[1] < 320

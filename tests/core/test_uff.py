@@ -18,8 +18,8 @@ from odsuite_plugins.importers.uff import (
 
 
 @pytest.fixture
-def samples(shared_real):
-    return shared_real / "pyuff_uff_samples"
+def samples(real_data):
+    return real_data / "pyuff_uff_samples"
 
 
 def test_time_record_ascii_and_binary_58b(samples):
@@ -224,14 +224,14 @@ def test_tilted_sensor_gets_a_local_displacement_system(tmp_path):
     np.testing.assert_allclose(geo.xyz[0], [0.1, 0.2, 0.3])
 
 
-def test_frfs_travel_with_the_record(shared_real, tmp_path):
+def test_frfs_travel_with_the_record(real_data, tmp_path):
     from odsuite.analysis.modal_project import experiment_frf
     from odsuite_plugins.importers.columns import import_lvm
     from odsuite.store.project import create_project, open_project
     from odsuite_plugins.importers.uff_project import export_uff, import_uff
 
     create_project(tmp_path / "p.h5", rig=None).close()
-    import_lvm(tmp_path / "p.h5", shared_real / "ladisk_beam_impact" / "acceleration.lvm", "beam")
+    import_lvm(tmp_path / "p.h5", real_data / "ladisk_beam_impact" / "acceleration.lvm", "beam")
     frf, _ = experiment_frf(tmp_path / "p.h5", "beam")
     export_uff(tmp_path / "p.h5", tmp_path / "beam.uff")
     c = read_uff(tmp_path / "beam.uff")

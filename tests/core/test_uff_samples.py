@@ -14,8 +14,8 @@ from odsuite.domain.systeminfo import SensorType
 
 
 @pytest.fixture
-def samples(shared_real):
-    return shared_real / "pyuff_uff_samples"
+def samples(real_data):
+    return real_data / "pyuff_uff_samples"
 
 
 @pytest.fixture

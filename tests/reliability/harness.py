@@ -40,8 +40,8 @@ from odsuite.store.storage import CRASH_ENV
 ODSUITE = Path(sys.executable).with_name("odsuite")
 REPO = Path(__file__).resolve().parents[2]
 TABLE_E3 = REPO / "plugins" / "models" / "rigs" / "thesis-table-e3.CTR"
-#: A real hammer record (LADISK beam, LabVIEW .lvm), beside the repository when available.
-LVM_SOURCE = REPO.parent / "shared" / "data" / "real" / "ladisk_beam_impact" / "acceleration.lvm"
+#: A real hammer record (LADISK beam, LabVIEW .lvm), kept in the repository (tests/data/real).
+LVM_SOURCE = REPO / "tests" / "data" / "real" / "ladisk_beam_impact" / "acceleration.lvm"
 #: Named stages of a commit (see ``Project.transaction`` and ``Project._write_raw``).
 CRASH_POINTS = ("copied", "chunk-1", "written", "synced", "replaced")
 #: Attributes that differ between two otherwise identical writes.
@@ -130,8 +130,7 @@ def prepare_inputs(folder: Path) -> Path:
         # the thesis rig's channels in order: the load cell, an auxiliary voltage, nine accelerometers
         time_function(n, volts[:, k], 1 / 20_000.0, "N" if k == 0 else "V" if k == 1 else "m/s^2")
         for k, n in enumerate(names)])
-    if LVM_SOURCE.is_file():
-        shutil.copyfile(LVM_SOURCE, folder / "beam.lvm")
+    shutil.copyfile(LVM_SOURCE, folder / "beam.lvm")
     return folder
 
 

@@ -61,10 +61,10 @@ def test_a_record_too_short_to_resolve_a_peak_gives_no_damping(registries):
     assert np.all(2 * z * f >= 2 * short.fs / short.n_samples)
 
 
-def test_the_real_beam_records_give_the_published_damping(registries, shared_real):
+def test_the_real_beam_records_give_the_published_damping(registries, real_data):
     """LADISK beam (README: 0.0047, 0.0031, 0.0020 at 695.0, 1897.6, 3671.2 Hz, LSCF by pyEMA)."""
     effect = registries.effects.get("measured-modal-damping")
-    lvm = read_lvm(shared_real / "ladisk_beam_impact" / "acceleration.lvm")
+    lvm = read_lvm(real_data / "ladisk_beam_impact" / "acceleration.lvm")
     data = lvm.data  # columns: acceleration (g), force (N)
     rec = SimpleNamespace(name="acceleration", fs=lvm.sampling_rate, n_samples=data.shape[0], force=data[:, 1],
                           measured=data[:, :1] * 9.80665)

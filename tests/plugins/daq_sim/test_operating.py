@@ -200,10 +200,10 @@ def test_sweep_covers_the_band(tmp_path, capsys):
     assert total[(f > 80) & (f < 250)].mean() > 100 * total[f > 450].mean()
 
 
-def test_operating_files_import_without_a_force(shared_real, tmp_path, capsys):
+def test_operating_files_import_without_a_force(real_data, tmp_path, capsys):
     """pyuff's four-channel ambient acceleration file has no force: stored as an operating record
     with a note; naming one of its accelerations as the force is refused."""
-    src = shared_real / "pyuff_uff_samples" / "mpstd_set001_58b_4ch_accel.uff"
+    src = real_data / "pyuff_uff_samples" / "mpstd_set001_58b_4ch_accel.uff"
     p = tmp_path / "a.h5"
     assert main(["new", str(p), "--rig", "none"]) == 0
     capsys.readouterr()
