@@ -116,3 +116,25 @@ def test_palisaden_modes_as_uff_55_read_back_by_pyuff(tmp_path, capsys, real_dat
     assert len(freqs) == 3 and np.allclose(freqs, published, rtol=5e-3)
     nodes = next(s for s in sets if s["type"] == 15)
     assert nodes["node_nums"].size == 42 and np.array_equal(modes[0]["node_nums"], nodes["node_nums"])
+
+
+def test_the_building_as_a_rig_of_floors(tmp_path, capsys, real_data):
+    """projects/rigs/palisaden-floors.toml: the top floor a plate moving in its plane; the record's
+    channels go onto its sensors by name and the ODS at the first mode is the floor's sway along y."""
+    from odsuite.analysis.ods import operating_shape
+
+    rig = Path(__file__).resolve().parents[3] / "projects" / "rigs" / "palisaden-floors.toml"
+    base = real_data / "palisaden_building"
+    np.save(tmp_path / "pali.npy", np.load(base / "Palisaden_dataset.npy")[:60000])  # 10 minutes
+    (tmp_path / "pali.toml").write_text('sampling_rate = 100.0\nchannels = "ch1,ch2,ch3,ch4,ch5,ch6"\n'
+                                        'units = "m/s^2"\n')
+    path = tmp_path / "p.h5"
+    assert run(capsys, "new", path, "--rig", rig)[0] == 0
+    code, _, err = run(capsys, "import", path, tmp_path / "pali.npy", "--name", "ambient")
+    assert code == 0, err
+    with open_project(path) as p:
+        ods = operating_shape(p, "ambient", "ch4", 1.882)
+    floor = ods.coordinates["top floor"]
+    # x, y, z, theta, phi, psi: y dominates x and the twist (psi times a 10 m lever); no z, theta, phi seen
+    assert abs(floor[1]) > 5 * abs(floor[0]) and abs(floor[1]) > 5 * abs(floor[5]) * 10.0
+    assert floor[2] == floor[3] == floor[4] == 0
