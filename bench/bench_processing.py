@@ -34,6 +34,13 @@ import time
 import numpy as np
 import scipy.signal
 
+def _installed_steps():
+    """The installed plugins' processing steps (chains name them)."""
+    from odsuite.contracts.plugins import registries
+
+    return registries().processing_steps
+
+
 FS = 20_000.0
 
 
@@ -70,7 +77,7 @@ def throughput(channels: int, samples: int, repeat: int, judge: bool = True) -> 
     from odsuite.processing.chain_spec import chain_for_channel
 
     raw = np.random.default_rng(0).standard_normal((samples, channels)) * 0.05
-    chains = [chain_for_channel(_channel()) for _ in range(channels)]
+    chains = [chain_for_channel(_channel(), registry=_installed_steps()) for _ in range(channels)]
     targets = {t: [(c, t) for c in range(channels)] for t in chains[0].taps}
     sink = np.empty((DEFAULT_CHUNK, channels))
 

@@ -34,6 +34,8 @@ from odsuite.domain.rig import load_rig
 from odsuite.domain.simulation import simulate_state_space
 
 RIGS = Path(__file__).resolve().parents[1] / "projects" / "rigs"
+#: the thesis rig and its Systeminfo ship once, with the models plugin that registers them
+PLUGIN_RIGS = Path(__file__).resolve().parents[1] / "plugins" / "models" / "rigs"
 FS = 1000.0  # Hz: the thesis rig's rate
 CORNER = np.array([35.7, 76.4, -11.4]) * 1e-3  # m: near the thesis platform's far corner
 FORCE_DIR = np.array([1.0, 1.0, 0.3])
@@ -146,7 +148,7 @@ def main() -> None:
     ap.add_argument("--lengths", default="60,600,3600", help="record lengths, s")
     args = ap.parse_args()
     lengths = [float(v) for v in args.lengths.split(",")]
-    thesis = RIGS / "thesis-dynamometer.toml"
+    thesis = PLUGIN_RIGS / "thesis-dynamometer.toml"
     with tempfile.TemporaryDirectory() as tmp:
         rigs = [(p.stem, p) for p in args.rigs] or [("thesis rig as modelled", thesis),
                                                      ("thesis rig, isolator damping / 10", light_copy(thesis, Path(tmp)))]

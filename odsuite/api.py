@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import importlib
 
-#: public name -> the module that defines it
+#: public name -> the module that defines it (``module:attribute`` where the name differs)
 _WHERE: dict[str, str] = {
     # errors and version
     "ConfigError": "odsuite.domain.errors",
@@ -125,6 +125,11 @@ _WHERE: dict[str, str] = {
     # diagnosis
     "diagnose": "odsuite.diagnosis.diagnose",
     "add_effect": "odsuite.diagnosis.add_effect",
+    # work over many projects
+    "run_batch": "odsuite.ops.batch",
+    "build_catalog": "odsuite.ops.catalog",
+    "catalog_connect": "odsuite.ops.catalog:connect",
+    "catalog_query": "odsuite.ops.catalog:query",
 }
 
 __all__ = sorted(_WHERE)
@@ -132,10 +137,10 @@ __all__ = sorted(_WHERE)
 
 def __getattr__(name: str):
     try:
-        module = _WHERE[name]
+        module, _, attribute = _WHERE[name].partition(":")
     except KeyError:
         raise AttributeError(f"module 'odsuite.api' has no attribute {name!r}") from None
-    value = getattr(importlib.import_module(module), name)
+    value = getattr(importlib.import_module(module), attribute or name)
     globals()[name] = value  # later lookups skip this function
     return value
 

@@ -266,14 +266,13 @@ def noise_floor_error(exps: Sequence[PreparedExperiment], model=None) -> float:
 def _coordinates(rig: Rig, exp: PreparedExperiment, model) -> tuple[dict, dict]:
     """Per-coordinate errors of the generalized coordinates, for every body whose motion its sensors
     determine, and the rigidity check on the measured accelerations where the body's solver has one."""
-    from odsuite.contracts.plugins import registries
     from odsuite.contracts.solvers import choose_solver
 
     coords, rigidity = {}, {}
     for name, (gm, gp, cols) in coordinate_series(rig, exp, model).items():
         coords[name] = {c: float(nrmse(gm[:, i], gp[:, i])) for i, c in enumerate(COORDINATE_NAMES)}
         signals = {exp.sensors[j].name: exp.measured[:, j] for j in cols}
-        solver = choose_solver(rig, rig.body(name), signals, registries().coordinate_solvers).solver
+        solver = choose_solver(rig, rig.body(name), signals, exp.registries.coordinate_solvers).solver
         if not hasattr(solver, "rigidity_check"):
             continue
         rig_check = solver.rigidity_check(rig, rig.body(name), signals)
@@ -297,7 +296,7 @@ def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapp
     model_modes = rmodel.shared.modes()
     modes_hz = [float(f) for f in model_modes.frequency_hz]
     # the floor of the rig's own model, whatever the revision: the same records, the same floor
-    floor = noise_floor(exps, RevisionModel(base_model(project.rig, rev.get("model"))), spectra=True)
+    floor = noise_floor(exps, RevisionModel(base_model(project.rig, rev.get("model"), registries=project.registries)), spectra=True)
 
     per_exp, coords, rigidity = {}, {}, {}
     chan_num: dict[str, float] = {}

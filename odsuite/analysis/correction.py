@@ -117,11 +117,10 @@ def correct_experiment(project, name: str, *, revision: dict | None = None,
     :func:`default_cutoff`; ``prepared`` reuses a :class:`~odsuite.analysis.comparison.PreparedExperiment`."""
     from odsuite.processing.chain_spec import build_chain
     from odsuite.analysis.modelrev import current_revision, revision_model
-    from odsuite.contracts.plugins import registries
     from odsuite.analysis.prediction import prepare_experiment, simulate_sensors
     from odsuite.contracts.solvers import body_solvers
 
-    regs = registries()
+    regs = project.registries
     rev = revision or current_revision(project)
     rmodel = revision_model(project, rev)
     exp = prepared if prepared is not None else prepare_experiment(project, name)

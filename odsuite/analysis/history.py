@@ -28,7 +28,7 @@ def history(project) -> dict[str, Any]:
                   if r.get("metrics", {}).get("noise_floor_error") is not None), None)
     if floor is None and project.rig is not None:
         exps = _comparable(project)
-        floor = noise_floor_error(exps, RevisionModel(base_model(project.rig))) if exps else None
+        floor = noise_floor_error(exps, RevisionModel(base_model(project.rig, registries=project.registries))) if exps else None
     for r in revs:
         error = r.get("metrics", {}).get("error")
         if error is None and project.rig is not None:

@@ -73,6 +73,8 @@ class ModalResult:
     frequency_std_hz: np.ndarray | None = None
     damping_std: np.ndarray | None = None
     unresolved: list[Unresolved] = field(default_factory=list)
+    settings: object | None = None  # output-only: oma.OmaSettings, how the record was analysed
+    fdd: object | None = None  # output-only: fdd.FddResult, the independent EFDD estimate
 
     @property
     def frequency_hz(self) -> np.ndarray:
@@ -86,7 +88,9 @@ class ModalResult:
         """JSON-ready: {"band_hz": [lo, hi], "output_only": bool, "modes": [{"frequency_hz",
         "damping_ratio", "stable_orders", "shape": {name: [re, im]}}]}; output-only modes add
         "frequency_std_hz" and "damping_std" per mode and "unresolved": [{"frequency_hz",
-        "damping_ratio", "frequency_std_hz", "reason"}]."""
+        "damping_ratio", "frequency_std_hz", "reason"}]. Every mode carries "mpc" and "mpd_deg"
+        (its shape's complexity); output-only results add "settings" and "fdd" (EFDD modes, each
+        with its MPC and the MAC to its SSI partner)."""
         names = self.output_names or [f"response {k}" for k in range(self.shapes.shape[0])]
         doc = {
             "band_hz": None if self.band_hz is None else [float(v) for v in self.band_hz],
@@ -97,6 +101,8 @@ class ModalResult:
                     "damping_ratio": float(self.damping_ratio[r]),
                     "stable_orders": None if self.stable_orders is None else int(self.stable_orders[r]),
                     "shape": {n: [float(v.real), float(v.imag)] for n, v in zip(names, self.shapes[:, r])},
+                    "mpc": float(mpc(self.shapes[:, r])),
+                    "mpd_deg": float(mpd(self.shapes[:, r])),
                 }
                 for r in range(self.poles.size)
             ],
@@ -106,7 +112,43 @@ class ModalResult:
                 m["frequency_std_hz"] = float(self.frequency_std_hz[r])
                 m["damping_std"] = float(self.damping_std[r])
             doc["unresolved"] = [u.to_dict() for u in self.unresolved]
+        if self.settings is not None:
+            doc["settings"] = self.settings.to_dict()
+        if self.fdd is not None:
+            doc["fdd"] = fdd_doc(self, names)
         return doc
+
+
+#: an EFDD mode and an SSI mode are the same mode only within this relative frequency difference
+PAIR_TOL = 0.05
+
+
+def fdd_doc(res: "ModalResult", names: list[str]) -> dict:
+    """The EFDD modes of an output-only result as JSON, each paired with an SSI mode (``pair_modes``
+    by MAC): frequency and damping with their standard errors, MPC, the shape, and the partner's
+    index, frequency difference and MAC (null when it has none)."""
+    fd = res.fdd
+    pairs = {}
+    if fd.frequency_hz.size and res.poles.size:
+        for row in pair_modes(fd.frequency_hz, fd.damping_ratio, res.frequency_hz, res.damping_ratio,
+                              shapes_a=fd.shapes, shapes_b=res.shapes):
+            if abs(row["frequency_difference"]) <= PAIR_TOL:  # further apart: different modes
+                pairs[row["mode_a"]] = row
+
+    def num(v):
+        return float(v) if np.isfinite(v) else None
+
+    modes = []
+    for r in range(fd.frequency_hz.size):
+        p = pairs.get(r)
+        modes.append({"frequency_hz": float(fd.frequency_hz[r]), "damping_ratio": float(fd.damping_ratio[r]),
+                      "frequency_std_hz": num(fd.frequency_std_hz[r]), "damping_std": num(fd.damping_std[r]),
+                      "mpc": float(mpc(fd.shapes[:, r])), "mpd_deg": float(mpd(fd.shapes[:, r])),
+                      "shape": {n: [float(v.real), float(v.imag)] for n, v in zip(names, fd.shapes[:, r])},
+                      "ssi_mode": None if p is None else p["mode_b"],
+                      "frequency_difference": None if p is None else p["frequency_difference"],
+                      "mac_ssi": None if p is None else p["mac"]})
+    return {"resolution_hz": fd.resolution_hz, "modes": modes}
 
 
 def _check(freq: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -434,6 +476,30 @@ def mac(phi_a: np.ndarray, phi_b: np.ndarray) -> np.ndarray:
         raise DimensionError(f"shapes have {a.shape[0]} and {b.shape[0]} entries; MAC needs the same dofs")
     num = np.abs(a.conj().T @ b) ** 2
     return num / np.outer(np.sum(np.abs(a) ** 2, axis=0), np.sum(np.abs(b) ** 2, axis=0))
+
+
+def mpc(phi: np.ndarray) -> float:
+    """Modal phase collinearity (Pappa, Elliott & Schenk 1993): ((l1 - l2) / (l1 + l2))^2 of the
+    eigenvalues of the real and imaginary parts' 2 x 2 scatter matrix; 1 for a real (normal) mode,
+    0 for a travelling wave."""
+    phi = np.asarray(phi, dtype=complex)
+    x, y = phi.real, phi.imag
+    sxx, syy, sxy = x @ x, y @ y, x @ y
+    l1, l2 = np.linalg.eigvalsh(np.array([[sxx, sxy], [sxy, syy]]))[::-1]
+    return float(((l1 - l2) / (l1 + l2)) ** 2) if l1 + l2 > 0 else 1.0
+
+
+def mpd(phi: np.ndarray) -> float:
+    """Mean phase deviation (degrees): the amplitude-weighted mean angle between each entry and
+    the shape's best straight line through the origin in the complex plane (0 for a real mode)."""
+    phi = np.asarray(phi, dtype=complex)
+    w = np.abs(phi)
+    if not w.sum():
+        return 0.0
+    _, _, vt = np.linalg.svd(np.c_[phi.real, phi.imag], full_matrices=False)
+    d = vt[0]  # the best line's direction
+    cos = np.abs(phi.real * d[0] + phi.imag * d[1]) / np.maximum(w, np.finfo(float).tiny)
+    return float(np.degrees(np.sum(w * np.arccos(np.clip(cos, 0, 1))) / w.sum()))
 
 
 def pair_modes(

@@ -34,6 +34,18 @@ def _save(fig, path: Path, dpi: int = 130):
     return fig
 
 
+def frequency_labels(freqs) -> list[str]:
+    """"f Hz" labels with the fewest decimals (1 to 4) that keep every frequency's label distinct
+    (2.777 and 2.812 Hz are not both "2.8 Hz")."""
+    f = [float(v) for v in np.atleast_1d(freqs)]
+    text: list[str] = []
+    for d in range(1, 5):
+        text = [f"{v:.{d}f}" for v in f]
+        if len(set(text)) == len(text):
+            break
+    return [f"{t} Hz" for t in text]
+
+
 def stabilisation_figure(result: ModalResult, freq: np.ndarray, H: np.ndarray, path: str | Path, *,
                          title: str = "stabilisation diagram",
                          background: str = "rms |H| of the outputs (FRF units)"):
@@ -61,11 +73,12 @@ def stabilisation_figure(result: ModalResult, freq: np.ndarray, H: np.ndarray, p
     ax.set_ylim(0, max(d.orders) + 2)
     ax.set_xlabel("frequency (Hz)")
     ax.set_ylabel("model order")
+    labels = frequency_labels(result.frequency_hz)
     for k, (f, z) in enumerate(zip(result.frequency_hz, result.damping_ratio, strict=True)):
         ax.axvline(f, color="k", lw=0.8, ls="--")
         n = "" if result.stable_orders is None else f", {int(result.stable_orders[k])} orders"
         top = max(d.orders) + 1 - (k % 3) * 0.14 * max(d.orders)  # staggered: close modes stay readable
-        ax.annotate(f"{f:.1f} Hz\nζ = {100 * z:.2f} %{n}", (f, top), fontsize=8,
+        ax.annotate(f"{labels[k]}\nζ = {100 * z:.2f} %{n}", (f, top), fontsize=8,
                     ha="left", va="top", xytext=(3, 0), textcoords="offset points",
                     bbox={"boxstyle": "round", "fc": "white", "ec": "0.6", "alpha": 0.85})
     freq = np.asarray(freq, dtype=float)

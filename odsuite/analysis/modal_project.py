@@ -183,11 +183,12 @@ def experiments_modes(
 
 def experiment_output_only_modes(
     project: str | Path, experiment: str, *, f_band: tuple[float | None, float | None] | None = None,
-    max_order: int = 40,
-) -> tuple[ModalResult, np.ndarray, np.ndarray]:
-    """Modes from the experiment's responses alone (SSI-cov, ``oma.identify_output_only``): the
-    response channels (``response_columns``), in SI units. Returns the modes and the responses' rms power
-    spectral density (frequencies in Hz, PSD in unit^2/Hz) for the stabilisation figure."""
+    max_order: int = 40, block_rows: int | None = None, decimation: int | None = None,
+) -> tuple[ModalResult, np.ndarray, np.ndarray, str]:
+    """Modes from the experiment's responses alone (SSI-cov and EFDD, ``oma.identify_output_only``):
+    the response channels (``response_columns``), in SI units. Returns the modes, the responses'
+    rms amplitude spectral density (frequencies in Hz, amplitude in unit/√Hz) for the stabilisation
+    figure, and that unit ("mixed units" when the channels differ)."""
     import scipy.signal
 
     from odsuite.analysis.oma import identify_output_only
@@ -197,10 +198,13 @@ def experiment_output_only_modes(
         data = physical(exp)
         outs = response_columns(exp)
         names = [exp.channel_names[k] for k in outs]
+        units = {exp.systeminfo.channels[k].unit for k in outs}
         fs = exp.sampling_rate
-    res = identify_output_only(data[:, outs], fs, f_band=f_band, max_order=max_order, output_names=names)
+    res = identify_output_only(data[:, outs], fs, f_band=f_band, max_order=max_order, block_rows=block_rows,
+                               decimation=decimation, output_names=names)
     freq, psd = scipy.signal.welch(data[:, outs], fs, nperseg=min(4096, data.shape[0]), axis=0)
-    return res, freq, np.sqrt(psd.T)
+    unit = f"{units.pop()}/√Hz" if len(units) == 1 else "mixed units"
+    return res, freq, np.sqrt(psd.T), unit
 
 
 def ods_coordinates(project, experiment: str, frequency_hz: float) -> dict[str, np.ndarray]:
@@ -213,7 +217,6 @@ def ods_coordinates(project, experiment: str, frequency_hz: float) -> dict[str, 
 
     from odsuite.analysis.prediction import prepare_experiment
     from odsuite.analysis.modal import ods
-    from odsuite.contracts.plugins import registries
     from odsuite.contracts.solvers import harmonic_shapes
 
     if not (np.isfinite(frequency_hz) and frequency_hz > 0):
@@ -231,7 +234,7 @@ def ods_coordinates(project, experiment: str, frequency_hz: float) -> dict[str, 
         accel[list(op.columns)] /= response
     disp = -accel / (2 * np.pi * frequency_hz) ** 2
     return harmonic_shapes(project.rig, {s.name: d for s, d in zip(exp.sensors, disp)},
-                           registries().coordinate_solvers, f"{project.path}: ODS")
+                           project.registries.coordinate_solvers, f"{project.path}: ODS")
 
 
 def ods_motion(shapes: dict[str, np.ndarray], frequency_hz: float, *, cycles: int = 3,

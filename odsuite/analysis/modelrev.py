@@ -15,14 +15,13 @@ from odsuite.domain.errors import ConfigError
 from odsuite.domain.model import AnalogFilter
 
 
-def base_model(rig, model_name: str | None = None):
-    """The model a project starts from (revision 0): the rig's default model."""
-    from odsuite.contracts.plugins import registries
-
+def base_model(rig, model_name: str | None = None, *, registries):
+    """The model a project starts from (revision 0): the rig's default model, from ``registries``'
+    models (a project's ``project.registries``)."""
     name = model_name or rig.default_model
     if not name:
         raise ConfigError(f"rig {rig.name!r} names no default model (field 'default_model')")
-    model = registries().models.get(name)(rig)
+    model = registries.models.get(name)(rig)
     # what the rig declares of its front end is part of every model of it: like with like
     declared = AnalogFilter.front_end(getattr(rig, "acquisition", None))
     if declared is not None and model.chain.front_end is None:
@@ -45,13 +44,11 @@ class RevisionModel:
         return model
 
 
-def apply_effects(model, effects: Sequence[Mapping[str, Any]]) -> RevisionModel:
-    from odsuite.contracts.plugins import registries
-
-    regs = registries()
+def apply_effects(model, effects: Sequence[Mapping[str, Any]], *, registries) -> RevisionModel:
+    """``model`` with the stored ``effects`` applied, each looked up in ``registries``' effects."""
     per = []
     for entry in effects:
-        effect = regs.effects.get(entry["effect"])
+        effect = registries.effects.get(entry["effect"])
         values = entry.get("values") or {}
         if values or not entry.get("per_experiment"):
             model = effect.apply(model, values)
@@ -86,7 +83,9 @@ def revision_model(project, revision: Mapping[str, Any] | None = None) -> Revisi
     rev = revision or current_revision(project)
     if project.rig is None:
         raise ConfigError(f"{project.path}: the project has no rig, so it has no model")
-    return apply_effects(base_model(project.rig, rev.get("model")), rev.get("effects", []))
+    regs = project.registries
+    return apply_effects(base_model(project.rig, rev.get("model"), registries=regs), rev.get("effects", []),
+                         registries=regs)
 
 
 def model_report(project) -> dict[str, Any]:
@@ -94,13 +93,11 @@ def model_report(project) -> dict[str, Any]:
     (per effect), ``parameter_info`` (per effect and parameter: unit and description, for the
     effects still registered), effects, modes (ascending; f = |lambda|/2 pi,
     zeta = -Re lambda/|lambda|)."""
-    from odsuite.contracts.plugins import registries
-
     rev = current_revision(project)
     rmodel = revision_model(project, rev)
     model = rmodel.shared
     effects = rev.get("effects", [])
-    registered = registries().effects
+    registered = project.registries.effects
     info: dict[str, dict[str, dict[str, str]]] = {}
     for e in effects:
         if e["effect"] in registered:

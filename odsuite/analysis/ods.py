@@ -76,7 +76,6 @@ def operating_shape(project, experiment: str, reference: str, frequency_hz: floa
     """The ODS of ``experiment`` at the Welch line nearest ``frequency_hz``, referenced to the
     response channel named ``reference`` (see the module's text)."""
     from odsuite.analysis.modal_project import physical, response_columns
-    from odsuite.contracts.plugins import registries
     from odsuite.contracts.solvers import harmonic_shapes
 
     where = f"{project.path}: experiment {experiment!r}"
@@ -115,7 +114,7 @@ def operating_shape(project, experiment: str, reference: str, frequency_hz: floa
         omega = 2 * np.pi * freq[line]
         disp = {n: -v / omega**2 for n, v in zip(names, shape) if n in sensors}
         if disp:
-            coordinates = harmonic_shapes(rig, disp, registries().coordinate_solvers, f"{where}: ODS")
+            coordinates = harmonic_shapes(rig, disp, project.registries.coordinate_solvers, f"{where}: ODS")
         else:
             notes.append(f"no response channel is one of rig {rig.name!r}'s accelerometers: no coordinates")
     weak = [n for n, c in zip(names, coherence) if c < 0.5]

@@ -13,10 +13,15 @@ Written here: sdypy-EMA has no output-only method, and the SSI-cov core is a few
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
+import scipy.fft
 import scipy.signal
+from threadpoolctl import threadpool_limits
 
 from odsuite.domain.errors import ConfigError, DimensionError
+from odsuite.analysis.fdd import spectral_peaks
 from odsuite.analysis.modal import (
     ModalResult,
     StabilisationDiagram,
@@ -29,11 +34,15 @@ from odsuite.analysis.modal import (
 
 
 def _correlations(y: np.ndarray, lags: int) -> np.ndarray:
-    """Unbiased output correlations R_k (lags x outputs x outputs), k = 0 .. lags - 1."""
-    n = y.shape[0]
-    # einsum's own loop, not BLAS: these skinny products gain nothing from BLAS threads, which on a
-    # busy machine made them a hundred times slower (77 s against 1.4 s for 51200 x 18, 40 lags)
-    return np.array([np.einsum("ti,tj->ij", y[k:], y[: n - k]) / (n - k) for k in range(lags)])
+    """Unbiased output correlations R_k (lags x outputs x outputs), k = 0 .. lags - 1, through the
+    FFT (the direct sums cost lags x samples x outputs^2: 30 s for a building's 90 min at 130 lags)."""
+    n, m = y.shape
+    nfft = scipy.fft.next_fast_len(n + lags)
+    Y = scipy.fft.rfft(y, nfft, axis=0)
+    R = np.empty((lags, m, m))
+    for i in range(m):  # row by row: the full outputs^2 spectrum would not fit in memory for long records
+        R[:, i, :] = scipy.fft.irfft(Y[:, i, None] * Y.conj(), nfft, axis=0)[:lags]
+    return R / (n - np.arange(lags))[:, None, None]
 
 
 def ssi_cov(
@@ -65,19 +74,25 @@ def ssi_cov(
     if block_rows * n_out < max_order:
         raise ConfigError(f"SSI-cov: {block_rows} block rows x {n_out} outputs cannot hold model order {max_order}")
     y = y - y.mean(axis=0)
-    y = y / np.maximum(y.std(axis=0), np.finfo(float).tiny)  # equal weight per output; poles unchanged
+    scale = np.maximum(y.std(axis=0), np.finfo(float).tiny)
+    y = y / scale  # equal weight per output in the SVD; poles unchanged, shapes scaled back below
     R = _correlations(y, 2 * block_rows)
     # T[a, b] = R_(i + a - b), a, b = 0 .. i-1 (lags 1 .. 2i-1)
     T = np.block([[R[block_rows + a - b] for b in range(block_rows)] for a in range(block_rows)])
     U, S, _ = np.linalg.svd(T)
+    # A = pinv(O_up) O_down for O = U_n S_n^(1/2): its normal equations' blocks for every order n
+    # are the leading n x n blocks of two matrices formed once (a least-squares solve per order
+    # cost 30 s of 55 s on a busy 2-core machine)
+    Un = U[:, :max_order]
+    M, N = Un[:-n_out].T @ Un[:-n_out], Un[:-n_out].T @ Un[n_out:]
     orders, poles, shapes, stable_f, stable = [], [], [], [], []
     prev = np.array([], dtype=complex)
     for n in range(2, max_order + 1, 2):
-        obs = U[:, :n] * np.sqrt(S[:n])
-        A = np.linalg.lstsq(obs[:-n_out], obs[n_out:], rcond=None)[0]
+        sq = np.sqrt(S[:n])
+        A = np.linalg.solve(M[:n, :n], N[:n, :n]) * sq[None, :] / sq[:, None]
         mu, psi = np.linalg.eig(A)
         lam = np.log(mu.astype(complex)) * fs
-        phi = obs[:n_out] @ psi
+        phi = scale[:, None] * ((Un[:n_out, :n] * sq) @ psi)  # in the data's units
         kept = physical_poles(lam, band, max_damping)
         idx = [int(np.argmin(np.abs(lam - k))) for k in kept]
         sf, sz = stability_flags(prev, kept, tol_f, tol_zeta)
@@ -103,7 +118,7 @@ SEPARATION_SIGMAS = 2.0
 
 
 def _segment_scatter(y: np.ndarray, fs: float, poles: np.ndarray, band: tuple[float, float],
-                     max_order: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                     max_order: int, block_rows: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per pole: standard errors of frequency (Hz) and damping ratio from the scatter of its
     matched poles over ``SEGMENTS`` segments (sample std / sqrt(segments)), and the number of
     segments that hold it (a one-to-one match within ``MATCH_TOL``)."""
@@ -115,7 +130,8 @@ def _segment_scatter(y: np.ndarray, fs: float, poles: np.ndarray, band: tuple[fl
     n = y.shape[0] // SEGMENTS
     for k in range(SEGMENTS):
         try:
-            diagram, _ = ssi_cov(y[k * n:(k + 1) * n], fs, max_order=max_order, f_band=band)
+            diagram, _ = ssi_cov(y[k * n:(k + 1) * n], fs, max_order=max_order, block_rows=block_rows,
+                                 f_band=band)
         except DimensionError:
             break  # segments too short to identify anything: no scatter
         seg, _ = select_poles(diagram)
@@ -158,36 +174,172 @@ def _resolved(poles: np.ndarray, f_std: np.ndarray, count: np.ndarray) -> tuple[
     return ok, reasons
 
 
+#: the correlations' lags span this many periods of the record's lowest spectral peak (a lag span
+#: shorter than one period cannot show the mode's decay; pyOMA2's building example spans 5.6)
+LAG_PERIODS = 5
+#: the decimated rate is at least this many times the band's top (the top at 40 % of the rate keeps
+#: the anti-aliasing filter's own poles out of the band)
+RATE_PER_BAND = 2.5
+#: the Toeplitz matrix's rows at most (block rows x outputs): its SVD's cost grows with their cube;
+#: when the lag span needs more, the band's top comes down instead (fewer samples per period)
+MAX_ROWS = 1200
+#: the band holds at most one spectral peak per this many model orders (each mode takes two
+#: states, and noise takes about as many again)
+ORDERS_PER_PEAK = 4
+#: without --fmin the record is high-passed at this fraction of its lowest spectral peak: drift and
+#: sensor offsets below it carry no mode but would take model order and weight
+HIGHPASS_FRACTION = 0.25
+
+
+@dataclass(frozen=True)
+class OmaSettings:
+    """How an output-only record is analysed, and why: ``band_hz`` (poles kept), ``highpass_hz``
+    (None: not filtered), ``decimation`` (integer factor) and ``rate_hz`` after it, ``block_rows``
+    (the correlations' lags 1 .. 2 block_rows - 1, i.e. ``lag_span_s``), the record's spectral
+    peaks that chose them, and per setting whether it was "given" or chosen "from the record"."""
+
+    band_hz: tuple[float, float]
+    highpass_hz: float | None
+    decimation: int
+    rate_hz: float
+    block_rows: int
+    lag_span_s: float
+    peaks_hz: tuple[float, ...]
+    source: dict[str, str]
+
+    def to_dict(self) -> dict:
+        return {"band_hz": [float(v) for v in self.band_hz], "highpass_hz": self.highpass_hz,
+                "decimation": self.decimation, "rate_hz": self.rate_hz, "block_rows": self.block_rows,
+                "lag_span_s": self.lag_span_s, "peaks_hz": [float(v) for v in self.peaks_hz],
+                "source": dict(self.source)}
+
+    def describe(self) -> str:
+        """One line: what was used, with units."""
+        hp = f"high-passed at {self.highpass_hz:.3g} Hz, " if self.highpass_hz else ""
+        return (f"band {self.band_hz[0]:.3g}-{self.band_hz[1]:.3g} Hz, {hp}decimated by {self.decimation} to "
+                f"{self.rate_hz:.4g} Hz, {self.block_rows} block rows (lags to {self.lag_span_s:.3g} s)")
+
+
+def record_peaks(y: np.ndarray, fs: float, lo: float = 0.0, hi: float | None = None) -> np.ndarray:
+    """Frequencies (Hz) of the peaks of the channels' summed spectra (each channel divided by its
+    median level, so every channel counts) that stand ``fdd.PEAK_PROMINENCE`` above their
+    surroundings, within lo..hi; Welch with at least 31 half-overlapping segments."""
+    n = y.shape[0]
+    nperseg = int(2 ** np.clip(np.floor(np.log2(n / 16)), 8, 16))
+    if nperseg > n:
+        return np.array([])
+    freq, P = scipy.signal.welch(y, fs, nperseg=nperseg, axis=0)
+    level = np.sum(P / np.maximum(np.median(P, axis=0), np.finfo(float).tiny), axis=1)
+    idx = spectral_peaks(freq, level, (max(lo, 2 * freq[1]), fs / 2 if hi is None else hi))
+    return freq[idx]
+
+
+def choose_settings(y: np.ndarray, fs: float, *, f_band: tuple[float | None, float | None] | None = None,
+                    block_rows: int | None = None, decimation: int | None = None,
+                    max_order: int = 40) -> OmaSettings:
+    """Band, high-pass, decimation and block rows for SSI-cov from the record: its spectral peaks
+    (``record_peaks``) give the lowest mode f1 and the band of interest (up to the
+    ``max_order / ORDERS_PER_PEAK``-th peak, its top midway to the next, geometrically); the rate
+    is decimated to ``RATE_PER_BAND`` x the band's top, and the lags span ``LAG_PERIODS`` periods
+    of f1 (at most ``MAX_ROWS`` Toeplitz rows: the band's top comes down to fit). Anything given
+    is kept as given."""
+    n_out = y.shape[1]
+    lo, hi = f_band if f_band is not None else (None, None)
+    source = {"fmin": "given" if lo is not None else "from the record",
+              "fmax": "given" if hi is not None else "from the record",
+              "decimation": "given" if decimation is not None else "from the record",
+              "block_rows": "given" if block_rows is not None else "from the record"}
+    peaks = record_peaks(y, fs, lo or 0.0, hi)
+    f1 = float(peaks[0]) if peaks.size else None
+    if hi is None:
+        if peaks.size and decimation is None:
+            k = max(1, max_order // ORDERS_PER_PEAK)
+            top = 1.25 * peaks[min(k, peaks.size) - 1]
+            if peaks.size > k:
+                top = min(top, float(np.sqrt(peaks[k - 1] * peaks[k])))
+            if block_rows is None:  # the lag span must fit in MAX_ROWS rows at the decimated rate
+                top = min(top, MAX_ROWS / n_out * 2 * f1 / (LAG_PERIODS * RATE_PER_BAND))
+            hi = float(min(top, fs / 2))
+        else:
+            hi = fs / 2 if decimation is None else fs / (decimation * RATE_PER_BAND)
+    lo = 0.0 if lo is None else float(lo)
+    if not 0 <= lo < hi <= fs / 2:
+        raise ConfigError(f"output-only band {lo:g}..{hi:g} Hz must lie within 0..{fs / 2:g} Hz (--fmin, --fmax)")
+    if decimation is None:
+        decimation = max(1, int(fs // (RATE_PER_BAND * hi))) if hi < fs / 2 else 1
+    elif decimation < 1 or fs / decimation < 2 * hi:
+        raise ConfigError(f"--decimate {decimation}: the rate {fs / max(decimation, 1):g} Hz must stay above twice "
+                          f"the band's top {hi:g} Hz (give a smaller factor or a lower --fmax)")
+    rate = fs / decimation
+    if block_rows is None:
+        need = int(np.ceil(LAG_PERIODS * rate / f1 / 2)) if f1 else 20
+        block_rows = max(need, int(np.ceil(max_order / n_out)) + 1)
+    elif block_rows * n_out < max_order:
+        raise ConfigError(f"--block-rows {block_rows}: {block_rows} x {n_out} outputs cannot hold model order "
+                          f"{max_order} (give at least {int(np.ceil(max_order / n_out))} or a lower --max-order)")
+    highpass = 0.5 * lo if lo > 0 else (HIGHPASS_FRACTION * f1 if f1 else None)
+    return OmaSettings((lo, float(hi)), highpass, int(decimation), float(rate), int(block_rows),
+                       float((2 * block_rows - 1) / rate), tuple(float(v) for v in peaks), source)
+
+
+def prepare(y: np.ndarray, fs: float, settings: OmaSettings) -> np.ndarray:
+    """The record as SSI-cov and FDD see it: mean removed, high-passed (zero phase, 4th-order
+    Butterworth) and decimated (zero-phase FIR) as ``settings`` say."""
+    y = np.asarray(y, dtype=float)
+    y = y - y.mean(axis=0)
+    if settings.highpass_hz:
+        sos = scipy.signal.butter(4, settings.highpass_hz, "highpass", fs=fs, output="sos")
+        y = scipy.signal.sosfiltfilt(sos, y, axis=0)
+    if settings.decimation > 1:
+        y = scipy.signal.decimate(y, settings.decimation, ftype="fir", axis=0, zero_phase=True)
+    return y
+
+
 def identify_output_only(
     y: np.ndarray,
     fs: float,
     *,
     f_band: tuple[float | None, float | None] | None = None,
     max_order: int = 40,
+    block_rows: int | None = None,
+    decimation: int | None = None,
     output_names: list[str] | None = None,
+    cross_check: bool = True,
 ) -> ModalResult:
-    """Modes from responses alone: SSI-cov on the record (decimated so that the band's top lies
-    at 40 % of the new sampling rate, which keeps the anti-aliasing filter's own poles out),
-    poles stable over orders (``modal.select_poles``), shapes from the highest order holding each
+    """Modes from responses alone: settings from the record (``choose_settings``, each overridable),
+    SSI-cov on the prepared record (``prepare``), poles stable over orders
+    (``modal.select_poles``), shapes (in the data's units) from the highest order holding each
     pole. Each pole's standard errors come from its scatter over ``SEGMENTS`` segments of the
     record; poles that are not confirmed by the segments or that cannot be told apart from a
-    neighbour are reported in ``unresolved``, not as modes. Residues are not defined without a
-    force: ``residues`` holds the unscaled shapes."""
-    lo, hi = f_band if f_band is not None else (None, None)
-    lo, hi = (0.0 if lo is None else float(lo)), (fs / 2 if hi is None else float(hi))
-    if not 0 <= lo < hi <= fs / 2:
-        raise ConfigError(f"output-only band {lo:g}..{hi:g} Hz must lie within 0..{fs / 2:g} Hz")
+    neighbour are reported in ``unresolved``, not as modes. With ``cross_check`` the same prepared
+    record also goes through EFDD (``fdd.efdd``), an independent estimator, kept in ``fdd``.
+    Residues are not defined without a force: ``residues`` holds the unscaled shapes."""
     y = np.asarray(y, dtype=float)
-    q = int(fs // (2.5 * hi)) if hi < fs / 2 else 1
-    if q > 1:
-        y = scipy.signal.decimate(y, q, ftype="fir", axis=0, zero_phase=True)
-        fs = fs / q
-    diagram, shapes = ssi_cov(y, fs, max_order=max_order, f_band=(lo, hi))
+    y = y[:, None] if y.ndim == 1 else y
+    if y.ndim != 2 or y.shape[0] < 10 * y.shape[1]:
+        raise DimensionError(f"responses have shape {y.shape}; expected samples x outputs, many more samples")
+    if not np.all(np.isfinite(y)):
+        raise ConfigError("responses hold NaN or infinite samples")
+    # one BLAS thread: the matrices are a few hundred wide, and threads spinning against a busy
+    # machine made each SVD 4 s instead of 0.05 s
+    with threadpool_limits(1):
+        return _identify(y, fs, f_band, max_order, block_rows, decimation, output_names, cross_check)
+
+
+def _identify(y, fs, f_band, max_order, block_rows, decimation, output_names, cross_check) -> ModalResult:
+    settings = choose_settings(y, fs, f_band=f_band, block_rows=block_rows, decimation=decimation,
+                               max_order=max_order)
+    lo, hi = settings.band_hz
+    y = prepare(y, fs, settings)
+    fs = settings.rate_hz
+    diagram, shapes = ssi_cov(y, fs, max_order=max_order, block_rows=settings.block_rows, f_band=(lo, hi))
     poles, stable_orders = select_poles(diagram)
+    advice = ("try more --block-rows (a longer lag span), a higher --max-order, or --fmin/--fmax around the "
+              "modes you expect; if none helps, this record does not determine the modes (too short or noisy, "
+              "or modes too damped and close for the inputs that drove it; see docs/operating.md)")
     if poles.size == 0:
-        raise ConfigError(f"no pole in {lo:g}..{hi:g} Hz is stable over enough model orders (2..{max_order}): "
-                          "this record does not determine the modes (too short or noisy, or modes too damped "
-                          "and close for the inputs that drove it; see docs/operating.md)")
+        raise ConfigError(f"no pole in {lo:.3g}..{hi:.3g} Hz is stable over enough model orders (2..{max_order}) "
+                          f"with {settings.describe()}: {advice}")
     phi = np.empty((shapes[0].shape[0], poles.size), dtype=complex)
     for r, p in enumerate(poles):
         # highest order where a pole lies within 0.5 % (select_poles' cluster width)
@@ -196,11 +348,24 @@ def identify_output_only(
             if cand.size and np.min(np.abs(np.abs(cand) - abs(p))) <= 0.005 * abs(p):
                 phi[:, r] = shapes[k][:, int(np.argmin(np.abs(np.abs(cand) - abs(p))))]
                 break
-    f_std, z_std, count = _segment_scatter(y, fs, poles, (lo, hi), max_order)
+    f_std, z_std, count = _segment_scatter(y, fs, poles, (lo, hi), max_order, settings.block_rows)
     ok, reasons = _resolved(poles, f_std, count)
+    if not ok.any():
+        found = "; ".join(f"{abs(p) / (2 * np.pi):.4g} Hz {reasons[r]}" for r, p in enumerate(poles))
+        raise ConfigError(f"no stable pole in {lo:.3g}..{hi:.3g} Hz is confirmed as a mode with {settings.describe()} "
+                          f"({found}): {advice}")
     unresolved = [Unresolved(float(abs(p) / (2 * np.pi)), float(-p.real / abs(p)), float(f_std[r]), reasons[r])
                   for r, p in enumerate(poles) if not ok[r]]
     shapes_n = normalise_shapes(phi[:, ok])
+    fdd = None
+    if cross_check:
+        from odsuite.analysis.fdd import efdd, resolution_segment
+
+        f1 = abs(poles[ok][0]) / (2 * np.pi) if ok.any() else (settings.peaks_hz or (hi / 4,))[0]
+        try:
+            fdd = efdd(y, fs, (lo, hi), resolution_segment(f1, fs, y.shape[0]))
+        except ConfigError:
+            fdd = None  # too short a record for a spectrum fine enough: SSI's result stands alone
     return ModalResult(poles[ok], shapes_n, shapes_n, list(output_names or []), diagram, (lo, hi),
                        stable_orders[ok], [], output_only=True, frequency_std_hz=f_std[ok], damping_std=z_std[ok],
-                       unresolved=unresolved)
+                       unresolved=unresolved, settings=settings, fdd=fdd)

@@ -70,15 +70,14 @@ class StageOperator:
         return n
 
 
-def stage_operators(channels: Sequence[Any], volts_per_unit: Sequence[float]) -> list[StageOperator] | None:
+def stage_operators(channels: Sequence[Any], volts_per_unit: Sequence[float], steps) -> list[StageOperator] | None:
     """Operators for the acceleration stage of these ChannelInfos (grouped), taking predictions in
     physical units (``volts_per_unit`` turns them into the volts the chain expects), or None when a
-    chain holds a step without a linear form (then the chains themselves run)."""
+    chain holds a step without a linear form (then the chains themselves run). ``steps``: the
+    processing-step registry the chains were built from."""
     from odsuite.processing.chain_spec import channel_chain_spec
-    from odsuite.contracts.plugins import registries
     from odsuite.contracts.steps import Filter, Gain, WindowMean
 
-    steps = registries().processing_steps
     groups: dict[tuple, tuple] = {}
     for j, ch in enumerate(channels):
         factor, offset, filters = float(volts_per_unit[j]), None, []
@@ -137,6 +136,7 @@ class PreparedExperiment:
     _cache: tuple | None = field(default=None, repr=False)
     force_body: str | None = None  # the body hit, when the experiment says (else: from the point)
     notes: list[str] = field(default_factory=list)  # what the record says against the rig file
+    registries: Any = field(default=None, repr=False)  # the project's providers (solvers for coordinates)
 
     @property
     def n_samples(self) -> int:
@@ -273,10 +273,10 @@ def adc_steps(volts: np.ndarray, declared: float | None) -> tuple[np.ndarray, li
     return np.asarray(steps), differ
 
 
-def _force(exp, raw: np.ndarray, where: str, lsb_v: float | None = None) -> ForceWindow:
+def _force(exp, raw: np.ndarray, where: str, steps, lsb_v: float | None = None) -> ForceWindow:
     fch = exp.excitation.force_channel
     channel = exp.systeminfo.channels[fch]
-    fchain = chain_for_channel(channel, where=f"{where} channel {fch}")
+    fchain = chain_for_channel(channel, registry=steps, where=f"{where} channel {fch}")
     per_newton = abs(channel.sensitivity * channel.daq_gain) or 1.0
     step = float(adc_steps(raw[:, [fch]], lsb_v)[0][0])
     return force_window(fchain.run(raw[:, fch])[stage_names(channel.quantity)[0]], exp.sampling_rate,
@@ -288,7 +288,7 @@ def experiment_force(project, name: str) -> np.ndarray:
     exp = project.experiment(name)
     if exp.excitation is None:
         raise ConfigError(f"{project.path}: experiment {name!r}: no force point/direction recorded")
-    return _force(exp, exp.raw(), f"{project.path}: experiment {name!r}").force
+    return _force(exp, exp.raw(), f"{project.path}: experiment {name!r}", project.registries.processing_steps).force
 
 
 def prepare_experiment(project, name: str) -> PreparedExperiment:
@@ -304,7 +304,8 @@ def prepare_experiment(project, name: str) -> PreparedExperiment:
     raw = exp.raw()
     acquisition = getattr(rig, "acquisition", None)
     lsb_v = acquisition.lsb_v if acquisition is not None else None
-    fw = _force(exp, raw, where, lsb_v)
+    steps = project.registries.processing_steps
+    fw = _force(exp, raw, where, steps, lsb_v)
     force = fw.force
     sensors, columns, measured, vpu, chains, units, infos = [], [], [], [], [], [], []
     tap = stage_names("acceleration")[0]
@@ -312,7 +313,7 @@ def prepare_experiment(project, name: str) -> PreparedExperiment:
         sensor = rig.sensor_on_channel(k)
         if ch.sensor_type != SensorType.ACCELEROMETER or sensor is None:
             continue
-        chain = chain_for_channel(ch, where=f"{where} channel {k}")
+        chain = chain_for_channel(ch, registry=steps, where=f"{where} channel {k}")
         sensors.append(sensor)
         columns.append(k)
         chains.append(chain)
@@ -340,9 +341,9 @@ def prepare_experiment(project, name: str) -> PreparedExperiment:
         name=name, fs=exp.sampling_rate, force=force, point=np.asarray(exp.excitation.point, float),
         direction=np.asarray(exp.excitation.direction, float), sensors=sensors, columns=columns,
         volts=volts, measured=measured, volts_per_unit=np.asarray(vpu), chains=chains, trigger=trigger,
-        noise_var=white, units=units, operators=stage_operators(infos, vpu), lsb=lsb, adc_step_v=step,
+        noise_var=white, units=units, operators=stage_operators(infos, vpu, steps), lsb=lsb, adc_step_v=step,
         disturbance=disturbance, force_noise_energy=fw.noise_energy, force_body=exp.excitation.body,
-        notes=notes,
+        notes=notes, registries=project.registries,
     )
 
 
@@ -672,7 +673,6 @@ def coordinate_series(rig: Rig, exp: PreparedExperiment, model) -> dict[str, tup
     its G (samples x 6; m, rad), both from displacements after the full chain and the body's
     solver, and the body's columns in ``exp``. Empty when some channel is not integrated twice (no
     displacements)."""
-    from odsuite.contracts.plugins import registries
     from odsuite.contracts.solvers import body_solvers
 
     taps = stage_names("acceleration")
@@ -686,7 +686,7 @@ def coordinate_series(rig: Rig, exp: PreparedExperiment, model) -> dict[str, tup
         for t in taps:
             measured[t][:, j] = res[t]
     column = {s.name: j for j, s in enumerate(exp.sensors)}
-    for c in body_solvers(rig, column, registries().coordinate_solvers)[0]:
+    for c in body_solvers(rig, column, exp.registries.coordinate_solvers)[0]:
         idx = {n: column[n] for n in c.sensors}
         gm = c.solver.solve(rig, c.body, {n: measured["displacement"][:, j] for n, j in idx.items()}).at_g
         gp = c.solver.solve(rig, c.body, {n: predicted["displacement"][:, j] for n, j in idx.items()}).at_g

@@ -288,6 +288,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _run(argv: list[str] | None) -> int:
+    global _AS_JSON
+    _AS_JSON = "--json" in (sys.argv[1:] if argv is None else argv)
     try:
         if _INTERRUPTS:  # Ctrl-C while the program loaded
             raise _Interrupted()
@@ -312,14 +314,20 @@ def _run(argv: list[str] | None) -> int:
     return code if isinstance(code, int) else 0
 
 
+#: the command line asked for --json: its failure is a JSON document as well
+_AS_JSON = False
+
+
 def _failed(exc: Exception) -> int:
     """The exit code of a command that raised ``exc`` (printing its one line), or ``exc`` again
     when it is a bug."""
     try:
         raise exc
     except OdsuiteError as exc:
-        err_console.print(f"error: {_ledger.after_error(str(exc))}", style="bold red", highlight=False,
-                          soft_wrap=True)
+        line = _ledger.after_error(str(exc))
+        err_console.print(f"error: {line}", style="bold red", highlight=False, soft_wrap=True)
+        if _AS_JSON:  # a script reading stdout gets its one document too
+            _print_json({"error": line})
         return 1
     except typer.Exit as exc:
         return exc.exit_code

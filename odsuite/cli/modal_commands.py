@@ -67,7 +67,10 @@ def modes_cmd(
     at: str = typer.Option(None, "--at", help="Pick poles nearest these frequencies: f1,f2,... (Hz)."),
     figure: Path = typer.Option(None, "--figure", help="Write the stabilisation diagram (.png, .svg, .pdf)."),
     mac_figure: Path = typer.Option(None, "--mac-figure", help="Write the modes' MAC matrix (AutoMAC; .png, .svg, .pdf)."),
-    output_only: bool = typer.Option(False, "--output-only", help="From the responses alone (SSI-cov): operating data, no force."),
+    output_only: bool = typer.Option(False, "--output-only", help="From the responses alone (SSI-cov, checked by EFDD): operating data, no force."),
+    block_rows: int = typer.Option(None, "--block-rows", help="--output-only: SSI-cov block rows (lags 1..2i-1; default: "
+                                   "5 periods of the record's lowest spectral peak)."),
+    decimate: int = typer.Option(None, "--decimate", help="--output-only: decimation factor (default: to 2.5 x the band's top)."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
     """Natural frequencies, damping ratios and mode shapes identified from measured FRFs (default
@@ -76,6 +79,7 @@ def modes_cmd(
     import json
 
     from odsuite.domain.errors import ConfigError
+    from odsuite.analysis.modal import fdd_doc, mpc
     from odsuite.analysis.modal_project import experiment_modes, experiment_output_only_modes, experiments_modes
 
     try:
@@ -91,13 +95,17 @@ def modes_cmd(
             _check_output(path, project, option)
     references = None
     name = ", ".join(experiments)
+    if not output_only and (block_rows is not None or decimate is not None):
+        raise ConfigError("--block-rows and --decimate set up the output-only analysis: give --output-only too")
     if output_only:
         if freqs is not None:
             raise ConfigError("--at picks poles of the FRF fit; it does not combine with --output-only")
         if len(experiments) > 1:
             raise ConfigError("--output-only identifies modes of one record: give one --experiment")
-        res, freq, spectrum = experiment_output_only_modes(project, experiments[0], f_band=band, max_order=max_order)
-        background = "rms amplitude spectrum of the outputs (unit/√Hz)"
+        res, freq, spectrum, unit = experiment_output_only_modes(project, experiments[0], f_band=band,
+                                                                 max_order=max_order, block_rows=block_rows,
+                                                                 decimation=decimate)
+        background = f"rms amplitude spectral density of the outputs ({unit.replace('^2', '²')})"
     elif len(experiments) > 1:
         res, freq, spectrum, references = experiments_modes(project, experiments, f_band=band, max_order=max_order,
                                                             frequencies=freqs)
@@ -114,7 +122,9 @@ def modes_cmd(
         from odsuite.analysis.modal import mac
         from odsuite.analysis.modal_figures import mac_figure as draw_mac
 
-        labels = [f"{f:.1f} Hz" for f in res.frequency_hz]
+        from odsuite.analysis.modal_figures import frequency_labels
+
+        labels = frequency_labels(res.frequency_hz)
         draw_mac(mac(res.shapes, res.shapes), mac_figure, labels_a=labels, labels_b=labels,
                  title=f"AutoMAC of the modes of {name}")
     for note in res.rejected:
@@ -126,20 +136,45 @@ def modes_cmd(
         print(json.dumps(doc))
         return
     lo, hi = res.band_hz
+    if res.settings is not None:
+        console.print(f"output-only analysis: {res.settings.describe()}", highlight=False, soft_wrap=True)
     table = Table(title=f"modes of {shown(name)} ({lo:.1f}-{hi:.1f} Hz)")
     scatter = res.frequency_std_hz is not None  # output-only: standard errors from the record's segments
-    for col in ("mode", "f (Hz)", "damping ratio", "stable orders") + (("± f (Hz)", "± damping") if scatter else ()):
+    for col in ("mode", "f (Hz)", "damping ratio", "stable orders") + (("± f (Hz)", "± damping") if scatter else ()) \
+            + ("MPC",):
         table.add_column(col)
+    digits = _frequency_digits(res.frequency_hz)
     for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio), start=1):
-        extra = (f"{res.frequency_std_hz[k - 1]:.2f}", f"{res.damping_std[k - 1]:.4f}") if scatter else ()
-        table.add_row(str(k), f"{f:.2f}", f"{z:.5f}", str(res.stable_orders[k - 1]), *extra)
+        extra = (f"{res.frequency_std_hz[k - 1]:.2g}", f"{res.damping_std[k - 1]:.2g}") if scatter else ()
+        table.add_row(str(k), f"{f:.{digits}f}", f"{z:.5f}", str(res.stable_orders[k - 1]), *extra,
+                      f"{mpc(res.shapes[:, k - 1]):.3f}")
     console.print(table)
+    if res.fdd is not None:
+        fdd = fdd_doc(res, res.output_names)
+        ft = Table(title=f"EFDD cross-check ({fdd['resolution_hz']:.4g} Hz lines)")
+        for col in ("f (Hz)", "damping ratio", "± f (Hz)", "± damping", "MPC", "SSI mode", "Δf", "MAC"):
+            ft.add_column(col)
+        for m in fdd["modes"]:
+            std = ["-" if v is None else f"{v:.2g}" for v in (m["frequency_std_hz"], m["damping_std"])]
+            paired = m["ssi_mode"] is not None
+            ft.add_row(f"{m['frequency_hz']:.{digits}f}", f"{m['damping_ratio']:.5f}", *std, f"{m['mpc']:.3f}",
+                       str(m["ssi_mode"] + 1) if paired else "-",
+                       f"{100 * m['frequency_difference']:+.2f} %" if paired else "-",
+                       f"{m['mac_ssi']:.3f}" if paired else "-")
+        console.print(ft)
     for u in res.unresolved:
-        err_console.print(f"note: the pole at {u.frequency_hz:.2f} Hz (damping ratio {u.damping_ratio:.3f}) is not "
+        err_console.print(f"note: the pole at {u.frequency_hz:.{digits}f} Hz (damping ratio {u.damping_ratio:.3f}) is not "
                           f"reported as a mode: {u.reason}", highlight=False, soft_wrap=True)
     for path in (figure, mac_figure):
         if path is not None:
             console.print(f"wrote {path}", highlight=False, soft_wrap=True)
+
+
+def _frequency_digits(freqs) -> int:
+    """Decimals that tell every frequency apart (at least 2)."""
+    from odsuite.analysis.modal_figures import frequency_labels
+
+    return max(2, len(frequency_labels(freqs)[0].split()[0].split(".")[1]) if len(freqs) else 2)
 
 
 @app.command("ods")

@@ -92,7 +92,7 @@ def info_cmd(project: Path = typer.Argument(..., help="Project file."),
     if layout is not None:
         _print_rig_layout(layout)
     table = Table(title="experiments")
-    for col in ("name", "channels", "fs (Hz)", "samples", "length (s)", "peak |V|", "clipped",
+    for col in ("name", "channels", "fs (Hz)", "samples", "length (s)", "peak", "clipped",
                 "derived"):
         table.add_column(col)
     for name, e in info["experiments"].items():
@@ -100,7 +100,7 @@ def info_cmd(project: Path = typer.Argument(..., help="Project file."),
         clipped = ", ".join(f"{c} ({n})" for c, n in e["clipped_samples"].items())
         table.add_row(name, str(len(e["channels"])), f"{e['sampling_rate']:g}",
                       str(e["n_samples"]), f"{e['duration']:.4g}",
-                      f"{e['peak_volts'][peak_channel]:.4g} ({peak_channel})",
+                      "{:.4g} {} ({})".format(*e["peak"][peak_channel], peak_channel),
                       Text(shown(clipped), style="red") if clipped else "-", ", ".join(e["derived"]) or "-")
     console.print(table)
     if info["imports"]:

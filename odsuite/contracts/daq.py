@@ -21,10 +21,6 @@ from odsuite.domain.systeminfo import (
     Systeminfo,
 )
 
-#: members every acquisition backend provider has (checked when a plugin registers one)
-REQUIRED_ATTRIBUTES = ("description", "options")
-REQUIRED_METHODS = ("record",)
-
 #: ``progress(stage, done, total)``: stage is "waiting for trigger" or "reading"; counts in samples.
 Progress = Callable[[str, int, int], None]
 
@@ -145,6 +141,9 @@ class DaqBackend(Protocol):
         options it receives the common ones the user gave: ``point`` (m, rig frame) and
         ``direction`` of the hammer, and ``force_body`` when the point lies on two bodies."""
         ...
+
+
+PROTOCOL = DaqBackend
 
 
 def parse_backend_options(name: str, backend: DaqBackend, args: list[str]) -> dict[str, Any]:

@@ -57,13 +57,28 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Protocol
 
 from odsuite.domain.errors import ConfigError
 from odsuite.domain.model import Model
 
-#: members every effect provider has (checked when a plugin registers one)
-REQUIRED_ATTRIBUTES = ("name", "target", "description")
-REQUIRED_METHODS = ("parameters", "apply")
+
+class EffectProvider(Protocol):
+    """What every registered effect has (checked when a plugin registers one); :class:`Effect`
+    implements it. The optional members above are read where present."""
+
+    name: str
+    target: str
+    description: str
+
+    def parameters(self, model: Model) -> list[Parameter]: ...
+
+    def apply(self, model: Model, values: Mapping[str, float] | None = None) -> Model: ...
+
+
+PROTOCOL = EffectProvider
+#: optional members that, where given, must be methods
+OPTIONAL_METHODS = ("held_when", "refined_start", "linear_parameters", "project")
 
 
 @dataclass(frozen=True)

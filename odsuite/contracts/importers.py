@@ -23,13 +23,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from odsuite.domain.errors import ConfigError
-
-#: members every importer provider has (checked when a plugin registers one)
-REQUIRED_ATTRIBUTES = ("name", "description", "suffixes", "options")
-REQUIRED_METHODS = ("import_file",)
 
 
 @dataclass(frozen=True)
@@ -48,6 +44,22 @@ class Imported:
     experiment: str
     summary: str
     notes: tuple[str, ...] = ()
+
+
+class Importer(Protocol):
+    """What every registered importer has (checked when a plugin registers one)."""
+
+    name: str
+    description: str
+    suffixes: tuple[str, ...]
+    options: tuple[ImportOption, ...]
+
+    def import_file(self, project: Path, file: Path, name: str, **options: Any) -> Imported: ...
+
+
+PROTOCOL = Importer
+#: optional members that, where given, must be methods
+OPTIONAL_METHODS = ("export_file",)
 
 
 def exporter(registry, name: str):

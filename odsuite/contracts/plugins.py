@@ -19,6 +19,12 @@ from odsuite.contracts.registry import Contract, Registry, Source
 
 ENTRY_POINT_GROUP = "odsuite"
 REQUIRED_BUILTINS = ("beam", "daq_ni", "daq_sim", "filters", "gencoord_padgaonkar", "importers", "models", "renderers")
+#: built-in plugins the core cannot work without, and why: stored chains name their steps, stored
+#: rigs their sensor kinds and models
+ESSENTIAL = {
+    "filters": "every processing chain odsuite writes names its steps (convert, offset, filters, integrate)",
+    "models": "every rig file names its sensor kinds and default model, which it registers",
+}
 
 
 @dataclass(frozen=True)
@@ -60,6 +66,11 @@ def make_plugin_manager(*, load_entry_points: bool = True, extra_plugins: tuple 
     pm = PluginManager()
     pm.add_hookspecs(hookspecs)
     blocked = disabled_plugins()
+    essential = sorted(blocked & set(ESSENTIAL))
+    if essential:
+        name = essential[0]
+        raise PluginLoadError(f"ODSUITE_DISABLE_PLUGINS: plugin {name!r} cannot be disabled: {ESSENTIAL[name]} "
+                              f"(plugins that can: {', '.join(n for n in REQUIRED_BUILTINS if n not in ESSENTIAL)})")
     for name in blocked:
         pm.set_blocked(name)
     if load_entry_points:
@@ -112,20 +123,14 @@ def _load_entry_points(pm: PluginManager, blocked: set[str]) -> None:
 
 def _contracts() -> dict[str, Contract]:
     """Each registry's contract, from the core module that documents it."""
-    from odsuite.contracts import daq
-    from odsuite.contracts import effects
-    from odsuite.contracts import importers
-    from odsuite.contracts import renderers
-    from odsuite.contracts import sensor_types
-    from odsuite.contracts import solvers
-    from odsuite.contracts import steps
+    from odsuite.contracts import daq, effects, importers, models, renderers, sensor_types, solvers, steps
     from odsuite.domain.rig import Rig
 
-    def of(module) -> Contract:
-        return Contract(getattr(module, "REQUIRED_ATTRIBUTES", ()), getattr(module, "REQUIRED_METHODS", ()))
+    def of(module) -> Contract:  # each contract module's Protocol and optional methods
+        return Contract(module.PROTOCOL, getattr(module, "OPTIONAL_METHODS", ()))
 
     return {"daq_backends": of(daq), "processing_steps": of(steps), "coordinate_solvers": of(solvers),
-            "models": Contract(methods=("__call__",)), "effects": of(effects), "renderers": of(renderers),
+            "models": of(models), "effects": of(effects), "renderers": of(renderers),
             "sensor_types": of(sensor_types), "rigs": Contract(instance_of=Rig), "importers": of(importers)}
 
 

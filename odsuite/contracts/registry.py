@@ -9,24 +9,45 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 from odsuite.domain.errors import ConfigError, PluginConflictError, PluginError
 
 
+def protocol_members(protocol: type) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The attributes (annotated) and methods (defined, ``__call__`` included) a ``typing.Protocol``
+    requires, its protocol bases' included."""
+    attributes: dict[str, None] = {}
+    methods: dict[str, None] = {}
+    for klass in reversed(protocol.__mro__):
+        if klass is Protocol or not getattr(klass, "_is_protocol", False):
+            continue
+        for name in vars(klass).get("__annotations__", {}):
+            if not name.startswith("_"):
+                attributes[name] = None
+        for name, value in vars(klass).items():
+            if callable(value) and (name == "__call__" or not name.startswith("_")):
+                methods[name] = None
+    return tuple(attributes), tuple(methods)
+
+
 @dataclass(frozen=True)
 class Contract:
-    """What a provider of one kind must have: attributes, callable methods, or a type."""
+    """What a provider of one kind must be: the members of a ``typing.Protocol`` (each contract
+    module defines one), optional methods that must be callable where given, or a type."""
 
-    attributes: tuple[str, ...] = ()
-    methods: tuple[str, ...] = ()
+    protocol: type | None = None
+    optional_methods: tuple[str, ...] = ()
     instance_of: type | None = None
 
     def missing(self, provider: Any) -> list[str]:
         if self.instance_of is not None and not isinstance(provider, self.instance_of):
             return [f"to be a {self.instance_of.__module__}.{self.instance_of.__qualname__}"]
-        out = [f"attribute {a!r}" for a in self.attributes if not hasattr(provider, a)]
-        out += [f"method {m}()" for m in self.methods if not callable(getattr(provider, m, None))]
+        attributes, methods = protocol_members(self.protocol) if self.protocol is not None else ((), ())
+        out = [f"attribute {a!r}" for a in attributes if not hasattr(provider, a)]
+        out += [f"method {m}()" for m in methods if not callable(getattr(provider, m, None))]
+        out += [f"its optional {m} to be a method" for m in self.optional_methods
+                if getattr(provider, m, None) is not None and not callable(getattr(provider, m))]
         return out
 
 

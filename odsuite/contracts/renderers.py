@@ -23,13 +23,10 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from odsuite.domain.errors import ConfigError
 
-#: members every renderer provider has (checked when a plugin registers one)
-REQUIRED_ATTRIBUTES = ("name", "description", "kind", "suffixes")
-REQUIRED_METHODS = ("render",)
 KINDS = ("movie", "figure", "page")
 
 
@@ -43,6 +40,9 @@ class RenderRequest:
     output: Path
     options: Mapping[str, Any] = field(default_factory=dict)
     progress: bool = True
+    #: the providers to open the project with (``open_project(..., registries=)``); None: the
+    #: installed plugins'
+    registries: Any = None
 
     def unknown_options(self, known: set[str] | frozenset[str], renderer: str) -> None:
         """Refuse options the renderer does not take (set ones only; None means not given)."""
@@ -58,6 +58,20 @@ class Rendered:
     path: Path
     summary: str
     notes: tuple[str, ...] = ()
+
+
+class Renderer(Protocol):
+    """What every registered renderer has (checked when a plugin registers one)."""
+
+    name: str
+    description: str
+    kind: str
+    suffixes: tuple[str, ...]
+
+    def render(self, request: RenderRequest) -> Rendered: ...
+
+
+PROTOCOL = Renderer
 
 
 def choose_renderer(registry, output: Path, name: str | None = None, kind: str | None = None):

@@ -17,6 +17,19 @@ registry a rig-registration hook receives has them as ``registry.sensor_types``.
 
 from __future__ import annotations
 
-#: members every sensor-type provider has (checked when a plugin registers one)
-REQUIRED_ATTRIBUTES = ("name", "description", "quantity", "unit")
-REQUIRED_METHODS = ("sensors",)
+from collections.abc import Mapping
+from typing import Any, Protocol
+
+
+class SensorKind(Protocol):
+    """What every registered sensor type has (checked when a plugin registers one)."""
+
+    name: str
+    description: str
+    quantity: str
+    unit: str
+
+    def sensors(self, entry: Mapping[str, Any], where: str) -> list: ...
+
+
+PROTOCOL = SensorKind

@@ -18,9 +18,9 @@ motion twice (a rigid body gives equal estimates).
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -28,9 +28,22 @@ from odsuite.domain.errors import ConfigError
 from odsuite.domain.rig import Body, Rig
 from odsuite.domain.rigidbody import body_sensors
 
-#: members every solver provider has (checked when a plugin registers one)
-REQUIRED_ATTRIBUTES = ("name", "description")
-REQUIRED_METHODS = ("suitability", "solve")
+
+
+class CoordinateSolver(Protocol):
+    """What every registered coordinate solver has (checked when a plugin registers one)."""
+
+    name: str
+    description: str
+
+    def suitability(self, rig: Rig, body: Body, sensors: Sequence[str]) -> float | None: ...
+
+    def solve(self, rig: Rig, body: Body, signals: Mapping[str, np.ndarray]) -> Any: ...
+
+
+PROTOCOL = CoordinateSolver
+#: optional members that, where given, must be methods
+OPTIONAL_METHODS = ("rigidity_check",)
 
 
 @dataclass(frozen=True)

@@ -24,14 +24,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from odsuite.domain.errors import ConfigError
 
-#: what a provider must be (checked when a plugin registers one)
-REQUIRED_METHODS = ("__call__",)
 
 _EMPTY = np.empty(0)
 
@@ -133,3 +131,16 @@ class StepProvider:
             return self.linear(fs=fs, **params)
         except TypeError as exc:
             raise ConfigError(f"processing step parameters {params}: {exc}") from None
+
+
+class StepFactory(Protocol):
+    """What every registered processing step is (checked when a plugin registers one): called with
+    the sampling rate (Hz) and the chain entry's parameters, it returns a :class:`Step` or a list of
+    steps and markers. :class:`StepProvider` implements it."""
+
+    def __call__(self, *, fs: float, **params: Any) -> Step | list: ...
+
+
+PROTOCOL = StepFactory
+#: optional members that, where given, must be methods
+OPTIONAL_METHODS = ("linear_form",)

@@ -68,9 +68,8 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     number, its error and the previous error."""
     from odsuite.analysis.comparison import compare
     from odsuite.analysis.modelrev import base_model
-    from odsuite.contracts.plugins import registries
 
-    regs = registries()
+    regs = project.registries
     effect = regs.effects.get(name)
     rev = current_revision(project)
     # a repeatable effect is added after the instances stored; any other one is refitted
@@ -115,7 +114,8 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     fixed = {f"{e['effect']}.{k}": v for e in refit for k, v in e.get("values", {}).items()
              if any(p.name == k and p.choices for p in regs.effects.get(e["effect"]).parameters(current.shared))}
     fixed.update({f"{name}.{k}": v for k, v in screened.fixed.items()})
-    joint = Problem(apply_effects(base_model(project.rig, rev.get("model")), held), _Joint(joint_effects), windows,
+    joint = Problem(apply_effects(base_model(project.rig, rev.get("model"), registries=regs), held,
+                                  registries=regs), _Joint(joint_effects), windows,
                     fixed, prior, stride, full=exps, noise_scale=scale)
     u0 = _start(joint, refit)
     for i, f in enumerate(joint.free):  # the new effect starts where screening left it

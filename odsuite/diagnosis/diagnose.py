@@ -376,11 +376,10 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     after another in this process). Each candidate's work is independent of the others' and runs
     in the same order of operations, so the result does not depend on ``workers``."""
     from odsuite.analysis.comparison import compare
-    from odsuite.contracts.plugins import registries
 
     if workers is not None and workers < 1:
         raise ConfigError(f"diagnose: workers must be at least 1, got {workers}")
-    regs = registries()
+    regs = project.registries
     rev = current_revision(project)
     base = revision_model(project, rev)
     exps = list(prepared) if prepared is not None else prepare(project, experiments)

@@ -1,6 +1,7 @@
 """Rig definitions: the bodies, plates and sensors of a test rig, read from TOML data files.
 
-A lab describes its own rig by copying a rig file (see ``projects/rigs/``) and editing it. All
+A lab describes its own rig by copying a rig file (see ``projects/rigs/`` and the thesis rig in
+``plugins/models/rigs/``) and editing it. All
 lengths are metres in the rig frame, which the file states (for the thesis rig: origin at the
 platform's centre of mass G at rest, platform axes, z pointing down into the platform).
 """

@@ -50,18 +50,14 @@ def _make(registry, spec: Mapping[str, Any], fs: float, where: str) -> list[Item
     return made
 
 
-def build_chain(specs: Sequence[Mapping[str, Any]], *, fs: float, registry=None,
+def build_chain(specs: Sequence[Mapping[str, Any]], *, fs: float, registry,
                 where: str = "chain") -> Chain:
     """A chain from a list of ``{"step": name, ...params}`` (and ``{"tap": name}``) entries.
 
-    Steps are looked up in ``registry`` (default: the installed plugins' processing steps), so a
-    lab's own registered step is used by name. A final tap "output" is added when the chain does not
-    end in a tap.
+    Steps are looked up in ``registry`` (the processing steps of the registries at hand, e.g. a
+    project's ``project.registries.processing_steps``), so a lab's own registered step is used by
+    name. A final tap "output" is added when the chain does not end in a tap.
     """
-    if registry is None:
-        from odsuite.contracts.plugins import registries
-
-        registry = registries().processing_steps
     if not (isinstance(fs, (int, float)) and fs > 0):
         raise ConfigError(f"{where}: sampling rate must be > 0 Hz, got {fs!r}")
     items: list[Item] = []
@@ -136,6 +132,6 @@ def channel_unit(ch: ChannelInfo, stage: int) -> str:
     return f"u{unit}" if ch.micro_units else unit
 
 
-def chain_for_channel(ch: ChannelInfo, *, registry=None, where: str = "channel") -> Chain:
+def chain_for_channel(ch: ChannelInfo, *, registry, where: str = "channel") -> Chain:
     """The Table E.2 chain of one channel (see :func:`channel_chain_spec`)."""
     return build_chain(channel_chain_spec(ch), fs=ch.sampling_rate, registry=registry, where=where)

@@ -52,10 +52,9 @@ def process_experiment(project, name: str, *, chain: Sequence[Mapping[str, Any]]
     motion cannot be solved).
     """
     from odsuite import __version__
-    from odsuite.contracts.plugins import registries
     from odsuite.domain.systeminfo import SensorType
 
-    regs = registries()
+    regs = project.registries
     exp = project.experiment(name)
     si = exp.systeminfo
     where = f"{project.path}: experiment {name!r}"

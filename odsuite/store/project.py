@@ -125,14 +125,12 @@ def _check_name(where: str, what: str, name: Any) -> str:
     return name
 
 
-def _resolve_rig(rig: Rig | str | Path | None) -> Rig | None:
+def _resolve_rig(rig: Rig | str | Path | None, regs) -> Rig | None:
     if rig is None or isinstance(rig, Rig):
         return rig
     if isinstance(rig, str) and rig.lower() == "none":
         return None
-    from odsuite.contracts.plugins import registries
-
-    rigs = registries().rigs
+    rigs = regs.rigs
     if isinstance(rig, str) and rig in rigs:
         return rigs.get(rig)
     try:
@@ -140,8 +138,8 @@ def _resolve_rig(rig: Rig | str | Path | None) -> Rig | None:
     except (OSError, ValueError):  # a name too long for a path, or with a NUL byte: no file
         rig_file = False
     if rig_file:
-        loaded = load_rig(rig, registries().sensor_types)
-        check_asked_solvers(loaded, registries().coordinate_solvers)
+        loaded = load_rig(rig, regs.sensor_types)
+        check_asked_solvers(loaded, regs.coordinate_solvers)
         return loaded
     raise ConfigError(f"unknown rig {str(rig)!r}: not a registered rig (known: {', '.join(rigs.names()) or 'none'}) "
                       "and not a .toml rig file")
@@ -296,14 +294,27 @@ class Project:
     mode: str
     rig: Rig | None  # None for projects created with --rig none
 
-    def __init__(self, path: Path, mode: str, lock: IO[str] | None, read_path: Path | None = None) -> None:
+    def __init__(self, path: Path, mode: str, lock: IO[str] | None, read_path: Path | None = None,
+                 registries=None) -> None:
         self.path = path
+        self._registries = registries
         self.mode = mode
         self._lock = lock
         self._read_path = read_path or path  # a private migrated copy for old versions in read mode
         self._h5: h5py.File | None = open_h5(self._read_path, path)
         self._tx: h5py.File | None = None
         self._rig_cache: tuple[Rig | None] | None = None
+
+    @property
+    def registries(self):
+        """The providers this project is worked with (``odsuite.contracts.plugins.Registries``): those
+        given to ``open_project``/``create_project``, else the installed plugins'. Engines take their
+        providers from here, so a lab's plugin passed as registries works without installing it."""
+        if self._registries is None:
+            from odsuite.contracts.plugins import registries
+
+            self._registries = registries()
+        return self._registries
 
     # -- plumbing
 
@@ -376,9 +387,7 @@ class Project:
                     raise SchemaError(f"{self.path}: /rig definition is not valid {fmt}: {exc}") from None
                 source = h5text.text(a.get("source", ""))
                 data = migrations.rig_up_filled(data, text if fmt == "toml" else h5text.text(a.get("source_text", "")))
-                from odsuite.contracts.plugins import registries
-
-                rig = rig_from_dict(data, registries().sensor_types, source=Path(source) if source else None)
+                rig = rig_from_dict(data, self.registries.sensor_types, source=Path(source) if source else None)
             self._rig_cache = (rig,)
         return self._rig_cache[0]
 
@@ -799,6 +808,9 @@ class Project:
                 "channels": e.channel_names, "sampling_rate": e.sampling_rate, "n_samples": e.n_samples,
                 "duration": e.n_samples / e.sampling_rate, "pretrigger": e.pretrigger,
                 "peak_volts": dict(zip(e.channel_names, peak.tolist(), strict=True)),
+                # the same peaks in each channel's own unit (an imported m/s^2 record is not volts)
+                "peak": {n: [float(v / abs(c.sensitivity * c.daq_gain)), c.unit]
+                         for n, v, c in zip(e.channel_names, peak.tolist(), e.systeminfo.channels, strict=True)},
                 "clipped": [n for n, c in zip(e.channel_names, clipped, strict=True) if c],
                 "clipped_samples": {n: int(c) for n, c in zip(e.channel_names, clipped, strict=True) if c},
                 "excitation": None if e.excitation is None else {
@@ -822,14 +834,19 @@ def check_asked_solvers(rig: Rig, solvers) -> None:
             choose_solver(rig, body, [s.name for s in body_sensors(rig, body)], solvers)
 
 
-def create_project(path: str | Path, rig: Rig | str | None = "thesis-dynamometer") -> Project:
+def create_project(path: str | Path, rig: Rig | str | None = "thesis-dynamometer", *, registries=None) -> Project:
     """Create a new project file (refuses to overwrite) and return it open for writing.
 
     ``rig`` is a Rig, a registered rig name, a path to a .toml rig file, or None/"none". With a rig,
-    model revision 0 (no effects, the rig's default model) is created too.
+    model revision 0 (no effects, the rig's default model) is created too. ``registries``: the
+    providers to work with (default: the installed plugins'; see ``Project.registries``).
     """
     path = Path(path)
-    rig = _resolve_rig(rig)
+    if registries is None:
+        from odsuite.contracts.plugins import registries as installed
+
+        registries = installed()
+    rig = _resolve_rig(rig, registries)
     if not path.parent.is_dir():
         raise ProjectFileError(f"{path}: directory {path.parent} does not exist")
     lock = acquire_lock(path)
@@ -851,15 +868,17 @@ def create_project(path: str | Path, rig: Rig | str | None = "thesis-dynamometer
             raise
         finally:
             tmp.unlink(missing_ok=True)
-        project = Project(path, "a", lock)
+        project = Project(path, "a", lock, registries=registries)
     except BaseException:
         release_lock(lock)
         raise
     return project
 
 
-def open_project(path: str | Path, mode: str = "r") -> Project:
+def open_project(path: str | Path, mode: str = "r", *, registries=None) -> Project:
     """Open a project for reading ("r") or reading and writing ("a"). Usable as a context manager.
+    ``registries``: the providers to work with (default: the installed plugins'; see
+    ``Project.registries``).
 
     Readers never block and see only committed states; a second writer gets ProjectLockedError.
     Files of an older format version are migrated on read (a private copy in read mode; the
@@ -871,10 +890,10 @@ def open_project(path: str | Path, mode: str = "r") -> Project:
     if mode == "r":
         version = check_format(path)
         if migrations.parse_version(version) >= migrations.parse_version(FORMAT_VERSION):
-            return Project(path, "r", None)
+            return Project(path, "r", None, registries=registries)
         tmp = migrated_copy(path, version)
         try:
-            return Project(path, "r", None, read_path=tmp)
+            return Project(path, "r", None, read_path=tmp, registries=registries)
         except BaseException:
             tmp.unlink(missing_ok=True)
             raise
@@ -887,7 +906,7 @@ def open_project(path: str | Path, mode: str = "r") -> Project:
                                       "this odsuite can read it but not change it; upgrade odsuite")
         if version != FORMAT_VERSION:
             migrate_in_place(path, version)
-        return Project(path, "a", lock)
+        return Project(path, "a", lock, registries=registries)
     except BaseException:
         release_lock(lock)
         raise

@@ -14,7 +14,7 @@ import functools
 from dataclasses import dataclass, replace
 
 import numpy as np
-import scipy.linalg
+import scipy  # scipy.linalg loads on first use: fast `odsuite plugins`
 
 from odsuite.api import ConfigError
 from odsuite.api import LinearStructure

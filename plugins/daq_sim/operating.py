@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.signal
+import scipy  # scipy.signal loads on first use: fast `odsuite plugins`
 
 from odsuite.api import ConfigError
 

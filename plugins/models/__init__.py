@@ -7,7 +7,8 @@ from odsuite.api import hookimpl
 from odsuite.api import load_rig
 
 #: Public names and the module defining them, imported on first use (`odsuite --help` starts fast).
-#: The model and effect contracts (Model, Structure, Effect, Parameter, ...) live in odsuite.core.
+#: The model and effect contracts (Model, Structure, Effect, Parameter, ...) come from odsuite.api and
+#: odsuite.contracts.
 _LAZY = {
     "builtin_effects": "effects",
     **dict.fromkeys(["thesis_car_2dof", "thesis_dynamometer"], "thesis"),

@@ -16,7 +16,6 @@ import numpy as np
 
 from odsuite.contracts.effects import Effect, Parameter
 from odsuite.api import FlexibleMode, Model, Structure
-from odsuite.api import flexible_mode_change, predict
 
 #: participations (1/sqrt(kg), per unit mass-normalised modal coordinate) beyond this are a mode of
 #: a part lighter than 0.1 g: no physical mode of a rig
@@ -119,6 +118,8 @@ class MissingMode(Effect):
         """Participations by weighted least squares: the response at sensor j of experiment e is
         ``phi_j c_e G_ej(t)`` (``G``: the prediction's change with every participation 1), a
         rank-one table fitted by alternating least squares from its SVD."""
+        from odsuite.api import flexible_mode_change, predict
+
         first = next(iter(models.values()))
         sensors = _accelerometers(first)
         unit = {**values, **{f"phi_{s.name}": 1.0 for s in sensors}, "phi_force": 1.0}

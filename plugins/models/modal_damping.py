@@ -18,12 +18,7 @@ import numpy as np
 
 from odsuite.contracts.effects import Effect, Parameter
 from odsuite.api import ConfigError
-from odsuite.api import estimate_frf
-from odsuite.api import pair_modes
-from odsuite.api import PAIR_TOLERANCE
-from odsuite.api import frf_modes
 from odsuite.api import Model
-from odsuite.api import predict
 
 #: modes whose damping is taken from the records: a hammer test's band rarely holds more
 MAX_MODES = 8
@@ -64,6 +59,8 @@ class MeasuredModalDamping(Effect):
     def measured_modes(self, e) -> tuple[np.ndarray, np.ndarray]:
         """Frequencies (Hz) and damping ratios of the modes identified from a prepared record's
         hammer FRF (every sensor), those too narrow for its resolution left out; cached per record."""
+        from odsuite.api import estimate_frf, frf_modes
+
         key = (e.name, e.n_samples, hashlib.sha1(np.ascontiguousarray(e.measured).tobytes()).hexdigest())
         if key not in self._identified:
             force = e.force if e.force.ndim == 1 else e.force[:, 0]
@@ -81,6 +78,8 @@ class MeasuredModalDamping(Effect):
                 ) -> tuple[dict[str, float], dict[str, dict[str, float]], list[np.ndarray]]:
         """The damping ratios of the measured partners (mean over the records), each model mode
         without one keeping its own; ``weights`` do not apply (nothing is fitted here)."""
+        from odsuite.api import PAIR_TOLERANCE, pair_modes, predict
+
         first = next(iter(models.values()))
         f_model = self._modes(first)
         nominal = {p.name: p.nominal for p in self.parameters(first)}

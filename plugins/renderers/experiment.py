@@ -45,6 +45,7 @@ def render_experiment(
     magnify: tuple[float, float] | None = None,
     view: str | None = None,
     figure: str | None = None,
+    registries=None,
     workers: int | None = None,
     frame_step: int | None = None,
     slowdown: float | None = None,
@@ -73,7 +74,7 @@ def render_experiment(
 
     if figure is not None and figure not in FIGURES:
         raise ConfigError(f"--figure: expected one of {', '.join(FIGURES)}, got {figure!r}")
-    with open_project(project_path) as project:
+    with open_project(project_path, registries=registries) as project:
         if project.rig is None and ods_hz is not None and figure is None and not model:
             from odsuite.api import project_geometry
 

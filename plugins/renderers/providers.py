@@ -24,7 +24,7 @@ class MovieRenderer:
 
         request.unknown_options(MOVIE_OPTIONS, self.name)
         res = render_experiment(request.project, request.experiment, request.output, progress=request.progress,
-                                **{k: v for k, v in request.options.items() if v is not None})
+                                registries=request.registries, **{k: v for k, v in request.options.items() if v is not None})
         if getattr(res, "frame_step", None) == 0:  # a shape on the project's geometry
             return Rendered(res.path, f"{res.n_frames} frames at {res.fps:g} fps ({res.n_frames / res.fps:.1f} s), "
                                       "the shape on the project's geometry", tuple(res.notes))
@@ -48,7 +48,7 @@ class FigureRenderer:
 
         request.unknown_options(FIGURE_OPTIONS, self.name)
         path = render_experiment(request.project, request.experiment, request.output, figure=self.name,
-                                 progress=request.progress,
+                                 progress=request.progress, registries=request.registries,
                                  **{k: v for k, v in request.options.items() if v is not None})
         return Rendered(path, f"{self.name} figure of {request.experiment}")
 
@@ -65,7 +65,8 @@ class ReportRenderer:
 
         request.unknown_options(REPORT_OPTIONS, self.name)
         opts = dict(request.options)
-        res = build_report(request.project, request.output, diagnosis=opts.get("diagnosis"),
+        res = build_report(request.project, request.output, registries=request.registries,
+                           diagnosis=opts.get("diagnosis"),
                            run_diagnosis=opts.get("run_diagnosis", True), movie=opts.get("movie", True),
                            movie_experiment=opts.get("movie_experiment"), frf_channels=opts.get("frf_channels"),
                            progress=opts.get("on_stage"))
@@ -85,7 +86,7 @@ class ModeShapeRenderer:
 
         request.unknown_options(self.OPTIONS, self.name)
         res, n, notes = render_mode_shape(request.project, request.experiment, request.output,
-                                          progress=request.progress,
+                                          progress=request.progress, registries=request.registries,
                                           **{k: v for k, v in request.options.items()
                                              if v is not None and v is not False})
         if isinstance(res, Path):

@@ -227,6 +227,7 @@ def build_report(
     movie_experiment: str | None = None,
     frf_channels: Sequence[str] | None = None,
     progress: Callable[[str], None] | None = None,
+    registries=None,
 ) -> ReportResult:
     """Write the project's report to ``output`` (one self-contained HTML file).
 
@@ -234,7 +235,8 @@ def build_report(
     it the diagnosis runs now unless ``run_diagnosis`` is False. ``movie``: embed a GIF of
     ``movie_experiment`` (default: the experiment the model fits worst) with the model overlaid.
     ``frf_channels``: the channels whose FRFs are drawn for each hammer record (default: the
-    driving point: the accelerometer nearest the force point, along the force).
+    driving point: the accelerometer nearest the force point, along the force). ``registries``: the
+    providers to open the project with (None: the installed plugins').
     """
     from .figures import comparison_figure
 
@@ -250,7 +252,7 @@ def build_report(
     say = progress or (lambda what: None)
     diag_doc = load_diagnosis(diagnosis) if diagnosis is not None else None
     notes: list[str] = []
-    with open_project(project_path) as project, tempfile.TemporaryDirectory(prefix="odsuite-report-") as tmpdir:
+    with open_project(project_path, registries=registries) as project, tempfile.TemporaryDirectory(prefix="odsuite-report-") as tmpdir:
         tmp = Path(tmpdir)
         if project.rig is None:
             raise ConfigError(f"{project.path}: the project has no rig, so there is no model to report on")

@@ -111,12 +111,12 @@ def identified_modes(project_path, experiment: str, fmin: float | None, fmax: fl
 
 
 def render_mode_shape(project_path, experiment: str, output, *, mode: int | None = None, fmin=None, fmax=None,
-                      max_order=None, view=None, workers=None, fps=None, progress=True):
+                      max_order=None, view=None, workers=None, fps=None, progress=True, registries=None):
     """A movie of mode ``mode`` (1-based) of ``experiment`` on the project's geometry, or with a
     .uff ``output`` the geometry (15/82) with every mode's node motion (55)."""
     from odsuite.api import open_project, project_geometry
 
-    with open_project(project_path) as p:
+    with open_project(project_path, registries=registries) as p:
         geom = project_geometry(p)
         if geom is None:
             raise ConfigError(f"{p.path}: no geometry to draw the mode on; `odsuite import {p.path.name} FILE.toml "
@@ -129,11 +129,12 @@ def render_mode_shape(project_path, experiment: str, output, *, mode: int | None
     out = Path(output)
     if out.suffix.lower() in (".uff", ".unv"):
         from odsuite.contracts.importers import exporter
-        from odsuite.contracts.plugins import registries
+        from odsuite.contracts.plugins import registries as installed
 
         modes = [(float(f), float(z), geom.node_motion(dict(zip(names, res.shapes[:, k]))))
                  for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio))]
-        exporter(registries().importers, "geometry").export_file(project_path, out, experiment, modes=modes)
+        exporter((registries or installed()).importers, "geometry").export_file(project_path, out, experiment,
+                                                                              modes=modes)
         return out, len(modes), []
     n = len(res.frequency_hz)
     if mode is None or not 1 <= mode <= n:

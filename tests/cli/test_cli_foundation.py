@@ -64,7 +64,8 @@ def test_new_import_info(tmp_path, capsys, legacy_dat):
     assert "thesis-dynamometer" in out
     lines = [line for line in out.splitlines() if "T5" in line]
     assert lines and "11" in lines[0] and "20000" in lines[0] and "2048" in lines[0] and "y2 (10)" in lines[0]
-    assert "0.8" in lines[0]  # peak |V|: the hammer pulse
+    # the peak in the channel's unit: the hammer pulse (0.8 V raw) in N through the force sensitivity
+    assert "35.64 N (force)" in lines[0]
     assert "revision" in out
 
 

@@ -126,3 +126,61 @@ def test_frf_figure_log_frequency_axes_units_and_print_type(tmp_path):
     texts = [t for t in fig.findobj(Text) if t.get_visible() and t.get_text().strip()]
     assert min(t.get_fontsize() for t in texts) >= 8.0
     assert (tmp_path / "frf.png").stat().st_size > 0
+
+
+PALISADEN_SSI = np.array([1.882, 2.421, 2.689])  # published (README): SSI-cov
+PALISADEN_FSDD = np.array([1.879, 2.423, 2.674])  # and FSDD
+
+
+@pytest.fixture(scope="module")
+def palisaden(tmp_path_factory):
+    """The Palisaden building's 90 min of ambient acceleration (6 channels, 100 Hz) as a project
+    record without a force channel, and pyOMA2 1.4.3's modes of it."""
+    from odsuite.domain.systeminfo import ChannelInfo, SensorType, Systeminfo
+    from odsuite.store.project import open_project
+
+    from conftest import REAL_DATA
+
+    folder = REAL_DATA / "palisaden_building"
+    y = np.load(folder / "Palisaden_dataset.npy")
+    p = tmp_path_factory.mktemp("palisaden") / "P.h5"
+    assert main(["new", str(p), "--rig", "none"]) == 0
+    chans = [ChannelInfo(sensor_type=SensorType.ACCELEROMETER, location=f"ch{k + 1}", sampling_rate=100.0,
+                         limit_high=100.0, limit_low=-100.0) for k in range(6)]
+    with open_project(p, "a") as proj:
+        proj.add_experiment("ambient", y, sampling_rate=100.0, systeminfo=Systeminfo(chans), excitation=None,
+                            channel_names=[f"ch{k + 1}" for k in range(6)])
+    return p, json.loads((folder / "pyoma2_reference.json").read_text())
+
+
+def test_palisaden_building_with_no_options(palisaden, capsys):
+    """`modes --output-only` with no options on a real building: the three published SSI-cov modes
+    within 0.5 % (and the published FSDD values within 0.5 % plus the two methods' own spread), shapes with MAC >= 0.95 against pyOMA2's SSI-cov, damping
+    within 15 % of pyOMA2's, real modes (MPC >= 0.99 as pyOMA2's), and the EFDD cross-check
+    finding each within 0.5 % at MAC >= 0.95."""
+    from odsuite.analysis.modal import mac
+
+    project, ref = palisaden
+    capsys.readouterr()
+    assert main(["modes", str(project), "--experiment", "ambient", "--output-only", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    f = np.array([m["frequency_hz"] for m in doc["modes"]])
+    first = [int(np.argmin(np.abs(f - f0))) for f0 in PALISADEN_SSI]
+    np.testing.assert_allclose(f[first], PALISADEN_SSI, rtol=0.005)
+    # the published FSDD's third mode lies 0.56 % below its SSI-cov: within 0.5 % of the two means
+    # within 0.5 % plus their own spread
+    np.testing.assert_allclose(f[first], PALISADEN_FSDD, rtol=0.005 + np.abs(PALISADEN_FSDD / PALISADEN_SSI - 1).max())
+    theirs = ref["modes"]["SSIcov"]
+    ours = np.array([[complex(*doc["modes"][k]["shape"][f"ch{c + 1}"]) for c in range(6)] for k in first]).T
+    phi = (np.array(theirs["shape"]["re"]) + 1j * np.array(theirs["shape"]["im"])).T
+    assert np.diag(mac(ours, phi)).min() >= 0.95
+    zeta = np.array([doc["modes"][k]["damping_ratio"] for k in first])
+    np.testing.assert_allclose(zeta, theirs["damping_ratio"], rtol=0.15)
+    assert min(doc["modes"][k]["mpc"] for k in first) >= 0.99 and min(theirs["mpc"]) >= 0.99
+    assert doc["settings"]["source"] == {k: "from the record" for k in ("fmin", "fmax", "decimation", "block_rows")}
+    # the lags span several periods of the first mode
+    assert doc["settings"]["lag_span_s"] * PALISADEN_SSI[0] >= 4
+    fdd = {m["ssi_mode"]: m for m in doc["fdd"]["modes"] if m["ssi_mode"] is not None}
+    for k in first:
+        assert abs(fdd[k]["frequency_difference"]) <= 0.005 and fdd[k]["mac_ssi"] >= 0.95
+        assert fdd[k]["frequency_std_hz"] is not None and fdd[k]["mpc"] >= 0.95

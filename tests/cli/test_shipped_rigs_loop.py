@@ -15,6 +15,8 @@ from odsuite.cli import main
 
 pytestmark = pytest.mark.slow
 RIGS = Path(__file__).resolve().parents[2] / "projects" / "rigs"
+#: the thesis rig and its Systeminfo ship once, with the models plugin that registers them
+PLUGIN_RIGS = Path(__file__).resolve().parents[2] / "plugins" / "models" / "rigs"
 
 
 def run(capsys, *args) -> str:
@@ -25,12 +27,12 @@ def run(capsys, *args) -> str:
 
 
 def test_thesis_rig_stiffer_vertical_springs_are_found_and_fixed(capsys, tmp_path):
-    rig = RIGS / "thesis-dynamometer.toml"
+    rig = PLUGIN_RIGS / "thesis-dynamometer.toml"
     text = rig.read_text()
     assert text.count("stiffness = [262000.0, 262000.0, 1260000.0]") == 4
     # every spring 30 % stiffer vertically: 1.26 -> 1.638 MN/m
     (tmp_path / "stiffer.toml").write_text(text.replace("1260000.0]", "1638000.0]"))
-    shutil.copy(RIGS / "thesis-table-e3.CTR", tmp_path)
+    shutil.copy(PLUGIN_RIGS / "thesis-table-e3.CTR", tmp_path)
     truth = tmp_path / "stiffer.toml"
     records = []
     for test in ("T1", "T2", "T3", "T4", "T5"):
@@ -80,14 +82,14 @@ ELSEWHERE = {"ladisk-beam.toml": "test_beam_loop.py"}
 
 
 def test_every_shipped_rig_has_a_loop_test():
-    assert sorted([*BLOWS, *ELSEWHERE]) == sorted(p.name for p in RIGS.glob("*.toml"))
+    assert sorted([*BLOWS, *ELSEWHERE]) == sorted(p.name for p in [*RIGS.glob("*.toml"), *PLUGIN_RIGS.glob("*.toml")])
     assert all((Path(__file__).parent / test).is_file() for test in ELSEWHERE.values())
 
 
 @pytest.mark.parametrize("rig_name", sorted(BLOWS))
 def test_a_perfect_model_is_at_the_noise_floor(capsys, tmp_path, rig_name):
     p = tmp_path / "p.h5"
-    run(capsys, "new", p, "--rig", RIGS / rig_name)
+    run(capsys, "new", p, "--rig", next(d / rig_name for d in (RIGS, PLUGIN_RIGS) if (d / rig_name).is_file()))
     for k, (point, direction, extra) in enumerate(BLOWS[rig_name]):
         run(capsys, "acquire", p, "--name", f"b{k}", f"--force-point={point}", f"--force-dir={direction}",
             "--seed", str(k + 1), *extra)

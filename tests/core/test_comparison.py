@@ -15,6 +15,13 @@ from odsuite.analysis.prediction import find_trigger, prepare, stage_operators, 
 from odsuite.store.project import Excitation, create_project
 from odsuite.domain.systeminfo import Systeminfo
 
+def _installed_steps():
+    """The installed plugins' processing steps (chains name them)."""
+    from odsuite.contracts.plugins import registries
+
+    return registries().processing_steps
+
+
 FS = 20000.0
 N = 4096
 PRE = 400
@@ -51,7 +58,7 @@ def nominal(tmp_path_factory, ):
     path = tmp_path_factory.mktemp("cmp") / "p.h5"
     p = create_project(path)
     rig = p.rig
-    model = base_model(rig)
+    model = base_model(rig, registries=p.registries)
     point, direction = np.array([0.0, 0.004122, -0.011399]), np.array([0.0, 0.0, 1.0])
     force = _half_sine(N, PRE, 1e-3, 50.0)
     raw, si = _independent_record(rig, model, point, direction, force)
@@ -77,14 +84,14 @@ def test_stage_operators_equal_the_channel_chains():
     chans[2] = replace(chans[2], micro_units=True)
     x = rng.standard_normal((N, len(chans)))
     vpu = [ch.sensitivity * ch.daq_gain * (-1.0 if ch.invert else 1.0) for ch in chans]
-    ops = stage_operators(chans, vpu)
+    ops = stage_operators(chans, vpu, registries().processing_steps)
     got = np.empty_like(x)
     for op in ops:
         got[:, list(op.columns)] = op.apply(x[:, list(op.columns)])
     for j, ch in enumerate(chans):
         # the chain takes volts; the operator physical units with the measured sign
         volts = x[:, j] * vpu[j]
-        want = chain_for_channel(ch).run(volts)["acceleration"]
+        want = chain_for_channel(ch, registry=_installed_steps()).run(volts)["acceleration"]
         # the 20 Hz poles sit 2e-3 from z = 1: rounding grows ~1e4-fold in any cascade order
         assert np.max(np.abs(got[:, j] - want)) <= 1e-9 * np.abs(want).max(), j
 
@@ -113,7 +120,7 @@ def test_error_is_the_pooled_nrmse_after_the_filter_chain(nominal):
         exp = p.experiment("T8stiff")
         raw = exp.raw()
         point, direction = exp.excitation.point, exp.excitation.direction
-    model = base_model(rig)
+    model = base_model(rig, registries=p.registries)
     ss = model.state_space([Input.force(point, direction)], [Output.sensor(s) for s in rig.sensors])
     t = np.arange(N) / FS
     force = raw[:, 0] / (si.channels[0].sensitivity * si.channels[0].daq_gain)

@@ -144,7 +144,7 @@ def test_fitted_values_near_truth(hidden):
     effects = [("stiffness", CASES["stiffness"])]
     with open_project(hidden("stiffness", effects), "r") as p:
         d = diagnose(p, effects=["stiffness", "damping"])
-        model = base_model(p.rig)
+        model = base_model(p.rig, registries=p.registries)
     top = d.candidates[0]
     assert top.effect == "stiffness" and top.significant
     eff = registries().effects.get("stiffness")

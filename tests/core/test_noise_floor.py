@@ -29,7 +29,7 @@ def _project(tmp_path, name, force_noise=0.0, hum=0.0, white=0.0, seed=0):
     p = create_project(tmp_path / f"{name}.h5")
     rig = p.rig
     point, direction = np.array([0.0, 0.004122, -0.011399]), np.array([0.0, 0.0, 1.0])
-    raw, si = _independent_record(rig, base_model(rig), point, direction, _half_sine(N, PRE, 1e-3, 50.0))
+    raw, si = _independent_record(rig, base_model(rig, registries=p.registries), point, direction, _half_sine(N, PRE, 1e-3, 50.0))
     rng = np.random.default_rng(seed)
     fch = si.channels[rig.force_channel]
     raw[:, rig.force_channel] += force_noise * rng.standard_normal(N) * fch.sensitivity * fch.daq_gain

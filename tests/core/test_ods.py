@@ -32,7 +32,7 @@ def test_ods_equals_the_models_coordinate_frf(project, frequency_hz):
     with odsuite.open_project(project) as p:
         measured = ods_coordinates(p, "T3", frequency_hz)["platform"]
         exc = p.experiment("T3").excitation
-        model = base_model(p.rig)
+        model = base_model(p.rig, registries=p.registries)
         body = p.rig.body("platform")
     exact = model.transfer([Input.force(exc.point, exc.direction)], [Output.coordinates(body)], frequency_hz)[0, :, 0]
     a, b = measured * WEIGHT, exact * WEIGHT

@@ -22,6 +22,13 @@ from odsuite.domain.systeminfo import (
     Systeminfo,
 )
 
+def _installed_steps():
+    """The installed plugins' processing steps (chains name them)."""
+    from odsuite.contracts.plugins import registries
+
+    return registries().processing_steps
+
+
 FS = 20_000.0
 DT = 1 / FS
 TABLE_E3 = ChannelInfo(sensor_type=SensorType.ACCELEROMETER, sensitivity=0.020292, integration=Integration.DOUBLE,
@@ -42,7 +49,7 @@ def _close(a, b, rel=1e-12):
 def test_table_e3_chain_equals_the_thesis_procedure():
     # Eq. 4.3, invert, offset, filter 1 (Eq. 4.4), Eq. 4.5, filter 2 (Eq. 4.6), Eq. 4.7
     v = np.random.default_rng(5).standard_normal(8000) * 0.05 + 0.01
-    out = chain_for_channel(TABLE_E3).run(v)
+    out = chain_for_channel(TABLE_E3, registry=_installed_steps()).run(v)
     sos = scipy.signal.ellip(8, 0.1, 60.0, 20.0, "highpass", fs=FS, output="sos")
     x1 = -v / (0.020292 * 10.0)
     x1 = x1 - x1[:400].mean()
@@ -102,10 +109,10 @@ def test_chunked_equals_in_memory(chunk):
     rng = np.random.default_rng(6)
     n = 3000 if chunk == 1 else 30_000
     raw = rng.standard_normal((n, 3)) * 0.05
-    chains = [chain_for_channel(TABLE_E3),
-              chain_for_channel(replace(TABLE_E3, zero_phase=True, offset_start=250, offset_length=1200)),
+    chains = [chain_for_channel(TABLE_E3, registry=_installed_steps()),
+              chain_for_channel(replace(TABLE_E3, zero_phase=True, offset_start=250, offset_length=1200), registry=_installed_steps()),
               build_chain([{"step": "moving-average", "length": 50}, {"step": "integrate", "rule": "trapezoid"},
-                           {"tap": "velocity"}], fs=FS)]
+                           {"tap": "velocity"}], fs=FS, registry=_installed_steps())]
     got = run_array(chains, raw, chunk=chunk)
     for c, chain in enumerate(chains):
         ref = chain.run(raw[:, c])
@@ -132,9 +139,9 @@ def test_channels_with_the_same_chain_run_as_one_block(registries, chunk):
     from odsuite.processing.executor import _groups
 
     zp = replace(TABLE_E3, zero_phase=True, offset_start=250, offset_length=1200)
-    chains = [chain_for_channel(TABLE_E3), chain_for_channel(zp), chain_for_channel(TABLE_E3),
-              _clip_chain(registries), chain_for_channel(replace(TABLE_E3, daq_gain=5.0)),
-              chain_for_channel(zp), chain_for_channel(TABLE_E3)]
+    chains = [chain_for_channel(TABLE_E3, registry=_installed_steps()), chain_for_channel(zp, registry=_installed_steps()), chain_for_channel(TABLE_E3, registry=_installed_steps()),
+              _clip_chain(registries), chain_for_channel(replace(TABLE_E3, daq_gain=5.0), registry=_installed_steps()),
+              chain_for_channel(zp, registry=_installed_steps()), chain_for_channel(TABLE_E3, registry=_installed_steps())]
     assert _groups(chains) == [[0, 2, 6], [1, 5], [3], [4]]
     raw = np.random.default_rng(9).standard_normal((20_000, len(chains))) * 0.05 + 0.01
     got = run_array(chains, raw, chunk=chunk)
@@ -154,8 +161,8 @@ def test_channels_with_the_same_chain_run_as_one_block(registries, chunk):
 
 def test_threads_equal_one_thread(registries):
     zp = replace(TABLE_E3, zero_phase=True, offset_start=250, offset_length=1200)
-    chains = ([chain_for_channel(TABLE_E3) for _ in range(5)] + [chain_for_channel(replace(TABLE_E3, invert=False))]
-              + [chain_for_channel(zp), _clip_chain(registries), chain_for_channel(zp)])
+    chains = ([chain_for_channel(TABLE_E3, registry=_installed_steps()) for _ in range(5)] + [chain_for_channel(replace(TABLE_E3, invert=False), registry=_installed_steps())]
+              + [chain_for_channel(zp, registry=_installed_steps()), _clip_chain(registries), chain_for_channel(zp, registry=_installed_steps())])
     raw = np.random.default_rng(10).standard_normal((9000, len(chains))) * 0.05
     raw[:, 5] = raw[:, 0]
     one = run_array(chains, raw, chunk=2048)
@@ -176,8 +183,8 @@ def test_targets_mixing_groups_get_whole_rows(workers):
     # record): written in whole rows, in order, equal to each chain alone
     from odsuite.processing.executor import run_chains
 
-    chains = [chain_for_channel(TABLE_E3) for _ in range(4)] + [chain_for_channel(replace(TABLE_E3, daq_gain=2.0)),
-                                                                chain_for_channel(replace(TABLE_E3, offset_start=5000))]
+    chains = [chain_for_channel(TABLE_E3, registry=_installed_steps()) for _ in range(4)] + [chain_for_channel(replace(TABLE_E3, daq_gain=2.0), registry=_installed_steps()),
+                                                                chain_for_channel(replace(TABLE_E3, offset_start=5000), registry=_installed_steps())]
     raw = np.random.default_rng(11).standard_normal((7000, len(chains))) * 0.05
     order = [3, 5, 4, 0, 2, 1]
     targets = {"d": [(c, "displacement") for c in order], "a": [(4, "acceleration"), (1, "velocity")]}
@@ -202,7 +209,7 @@ def test_targets_mixing_groups_get_whole_rows(workers):
 def test_zero_phase_chain_is_sosfiltfilt_between_integrations():
     ch = replace(TABLE_E3, zero_phase=True, integration_rule="trapezoid")
     v = np.random.default_rng(7).standard_normal(6000) * 0.05
-    out = run_array([chain_for_channel(ch)], v[:, None], chunk=613)[0]
+    out = run_array([chain_for_channel(ch, registry=_installed_steps())], v[:, None], chunk=613)[0]
     sos = scipy.signal.ellip(8, 0.1, 60.0, 20.0, "highpass", fs=FS, output="sos")
     x1 = -v / 0.20292
     x1 -= x1[:400].mean()
@@ -214,7 +221,7 @@ def test_zero_phase_chain_is_sosfiltfilt_between_integrations():
 
 
 def test_chain_ends_in_a_tap():
-    chain = build_chain([{"step": "micro"}], fs=FS)
+    chain = build_chain([{"step": "micro"}], fs=FS, registry=_installed_steps())
     assert isinstance(chain.items[-1], Tap) and chain.taps == ["output"]
 
 
@@ -272,7 +279,7 @@ def test_process_experiment_recovers_rigid_motion(tmp_path, thesis_rig):
     # the stored displacements are the chain's own output, column by column
     chans = info["provenance"]["parameters"]["channels"]
     for j, k in enumerate(chans):
-        ref = chain_for_channel(si.channels[k]).run(raw[:, k])
+        ref = chain_for_channel(si.channels[k], registry=_installed_steps()).run(raw[:, k])
         _close(proc["displacement"][:, j], ref["displacement"])
     project.close()
 
@@ -282,7 +289,7 @@ def test_process_experiment_table_e3_chunked_equals_in_memory(tmp_path, thesis_r
     process_experiment(project, "pulse", chunk=101)
     proc = project.read_derived("pulse", "processed")
     for j, k in enumerate(project.derived_info("pulse", "processed")["provenance"]["parameters"]["channels"]):
-        ref = chain_for_channel(si.channels[k]).run(raw[:, k])
+        ref = chain_for_channel(si.channels[k], registry=_installed_steps()).run(raw[:, k])
         for tap in ("acceleration", "velocity", "displacement"):
             _close(proc[tap][:, j], ref[tap])
     project.close()

@@ -377,3 +377,47 @@ def test_sensor_type_example_reads_its_rig_entries(guide):
     with pytest.raises(ConfigError) as err:
         rig_from_dict(data, regs.sensor_types)
     assert "sensors[0] 'b1'" in str(err.value) and "expected a unit vector" in str(err.value)
+
+
+def test_a_plugin_passed_as_registries_runs_diagnose_render_and_import(guide, tmp_path, monkeypatch):
+    """The guide's route for testing a plugin without installing it: registries built with
+    ``make_plugin_manager(extra_plugins=...)`` given to ``open_project``/``create_project`` and to
+    a render request. No engine reads the installed plugins' registries on the way (they would
+    raise here), and nothing is monkeypatched into odsuite."""
+    import odsuite.contracts.plugins as plugins
+    from hidden_effects import make_project
+
+    from odsuite.contracts.renderers import RenderRequest
+    from odsuite.diagnosis.diagnose import diagnose
+    from odsuite.store.project import create_project
+
+    (effect_module, renderer_module, importer_module), regs, _ = guide("effect", "renderer", "importer")
+    source = make_project(tmp_path / "sim.h5", scenarios=("T1",), n_samples=2048)
+    with open_project(source) as p:
+        exp = p.experiment("T1")
+        raw, si, rig = exp.raw(), exp.systeminfo, p.rig
+        excitation, fs, pre = exp.excitation, exp.sampling_rate, exp.pretrigger
+    gained = raw.copy()
+    accelerometers = [s.channel for s in rig.accelerometers]
+    gained[:, accelerometers] *= 1.25  # an amplifier 25 % hot on every accelerometer
+
+    def installed_registries(*args, **kwargs):
+        raise AssertionError("an engine read the installed plugins' registries")
+
+    monkeypatch.setattr(plugins, "registries", installed_registries)
+    path = tmp_path / "p.h5"
+    with create_project(path, rig, registries=regs) as p:
+        p.add_experiment("T1", gained, sampling_rate=fs, systeminfo=si, excitation=excitation, pretrigger=pre)
+    with open_project(path, registries=regs) as p:
+        found = diagnose(p, effects=["lab_amplifier_gain", "stiffness"], workers=1)
+    top = found.candidates[0]
+    assert top.effect == "lab_amplifier_gain" and top.significant
+    assert top.parameters["gain"] == pytest.approx(1.25, rel=2e-3)
+    out = tmp_path / "T1-force.png"
+    done = regs.renderers.get("lab-force-plot").render(RenderRequest(path, "T1", out, {}, registries=regs))
+    assert out.stat().st_size > 10_000 and done.summary.startswith("peak ")
+    record = tmp_path / "run3.npz"
+    np.savez(record, data=np.ones((100, 2)), fs_hz=1000.0, names=["hammer", "a1"], units=["N", "m/s^2"],
+             force_point_m=[0.0, 0.0, 0.0], force_direction=[0.0, 0.0, 1.0])
+    create_project(tmp_path / "bench.h5", None, registries=regs).close()
+    assert regs.importers.get("lab-npz").import_file(tmp_path / "bench.h5", record, "run3").experiment == "run3"

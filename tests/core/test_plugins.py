@@ -378,3 +378,53 @@ def test_third_party_solver_and_importer_work_through_the_cli(installed_third_pa
         again = project.read_derived("C1", "gencoords")["platform_at_g"]
     # the same linear chain on the same values: equal up to the order of floating-point rounding
     assert np.all(np.abs(again - lab).max(0) / scale < 1e-9)
+
+
+@pytest.mark.parametrize("essential", ["filters", "models"])
+def test_an_essential_plugin_cannot_be_disabled(monkeypatch, essential, capsys):
+    """The core writes the filter plugin's step names and reads rig files through the models
+    plugin's sensor kinds: disabling either is refused in one line saying why, before any work."""
+    from odsuite.cli import main
+    from odsuite.contracts.plugins import reset_default
+
+    monkeypatch.setenv("ODSUITE_DISABLE_PLUGINS", f"renderers,{essential}")
+    with pytest.raises(PluginLoadError, match=rf"plugin '{essential}' cannot be disabled: .*plugins that can: beam,"):
+        make_plugin_manager()
+    reset_default()  # the command line builds its manager afresh, as a new process does
+    try:
+        assert main(["plugins"]) == 1
+    finally:
+        monkeypatch.delenv("ODSUITE_DISABLE_PLUGINS")
+        reset_default()
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: ODSUITE_DISABLE_PLUGINS: plugin") and "\n" not in err
+
+
+def test_a_project_opens_without_the_plugin_that_registered_its_rig(tmp_path):
+    """A lab plugin registers a rig; the project made on it opens, rig and model included, in an
+    odsuite where that plugin is not installed (the project holds the rig's definition)."""
+    import dataclasses
+    import types
+
+    from odsuite.api import hookimpl, open_project
+    from odsuite.contracts.plugins import build_registries
+    from odsuite.domain.rig import load_rig
+    from odsuite.store.project import create_project
+
+    lab = types.ModuleType("lab_rig_plugin")
+
+    @hookimpl
+    def odsuite_register_rigs(registry):
+        rig = load_rig(THESIS_RIG, registry.sensor_types)
+        registry.add("lab-bench", dataclasses.replace(rig, name="lab-bench"))
+
+    lab.odsuite_register_rigs = odsuite_register_rigs
+    with_lab = build_registries(make_plugin_manager(extra_plugins=(lab,)))
+    create_project(tmp_path / "p.h5", "lab-bench", registries=with_lab).close()
+    installed = build_registries(make_plugin_manager())
+    assert "lab-bench" not in installed.rigs
+    with open_project(tmp_path / "p.h5", registries=installed) as p:
+        assert p.rig.name == "lab-bench" and len(p.rig.sensors) == len(with_lab.rigs.get("lab-bench").sensors)
+        from odsuite.analysis.modelrev import revision_model
+
+        assert len(revision_model(p).shared.modes()) == 6

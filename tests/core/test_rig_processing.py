@@ -11,6 +11,13 @@ from odsuite.domain.errors import ConfigError
 from odsuite.domain.rig import rig_from_dict
 from odsuite.domain.systeminfo import FilterFamily, FilterType, Integration, Systeminfo
 
+def _installed_steps():
+    """The installed plugins' processing steps (chains name them)."""
+    from odsuite.contracts.plugins import registries
+
+    return registries().processing_steps
+
+
 FS = 10240.0
 
 
@@ -58,7 +65,7 @@ def test_a_sensor_low_pass_attenuates_3_db_at_its_cutoff(registries):
     hammer = {"filter": {"type": "lowpass", "order": 2, "cutoff_hz": 500.0}, "filter_at": ["signal"],
               "offset_samples": [0, 0]}
     si = Systeminfo.for_rig(rig_from_dict(rig_data(None, hammer), registries.sensor_types), FS)
-    chain = chain_for_channel(si.channels[0])
+    chain = chain_for_channel(si.channels[0], registry=_installed_steps())
     t = np.arange(40960) / FS
     gain = si.channels[0].daq_gain  # the thesis's DAQ gain: volts read = gain * sensitivity * force
     for f, expected in ((500.0, 1 / np.sqrt(2)), (40.0, 1.0)):

@@ -11,6 +11,8 @@ from odsuite.store.project import create_project, open_project
 from odsuite.domain.systeminfo import Systeminfo
 
 RIGS = Path(__file__).resolve().parents[2] / "projects" / "rigs"
+#: the thesis rig and its Systeminfo ship once, with the models plugin that registers them
+PLUGIN_RIGS = Path(__file__).resolve().parents[2] / "plugins" / "models" / "rigs"
 
 
 def test_processing_and_up_survive_the_project(tmp_path):
@@ -47,7 +49,7 @@ def _stored_without_up(tmp_path, text: str, *, as_toml: bool) -> Path:
     rig_dir = tmp_path / "rig"
     rig_dir.mkdir()
     (rig_dir / "thesis-dynamometer.toml").write_text(text, encoding="utf-8")
-    (rig_dir / "thesis-table-e3.CTR").write_bytes((RIGS / "thesis-table-e3.CTR").read_bytes())
+    (rig_dir / "thesis-table-e3.CTR").write_bytes((PLUGIN_RIGS / "thesis-table-e3.CTR").read_bytes())
     path = tmp_path / "old.h5"
     create_project(path, str(rig_dir / "thesis-dynamometer.toml")).close()
     with h5py.File(path, "a") as f:
@@ -63,7 +65,7 @@ def _stored_without_up(tmp_path, text: str, *, as_toml: bool) -> Path:
 def test_an_old_thesis_project_without_up_draws_z_down(tmp_path):
     """The thesis rig file as released before ``up`` (today's text without its ``up`` line, SHA-256
     258506ce...): a project made from it is recognised by that stored text and keeps z down."""
-    current = (RIGS / "thesis-dynamometer.toml").read_text(encoding="utf-8")
+    current = (PLUGIN_RIGS / "thesis-dynamometer.toml").read_text(encoding="utf-8")
     released = "".join(ln for ln in current.splitlines(keepends=True) if not ln.startswith("up = "))
     assert released != current
     for as_toml in (False, True):
@@ -76,7 +78,7 @@ def test_an_old_thesis_project_without_up_draws_z_down(tmp_path):
 def test_an_edited_copy_without_up_keeps_the_default(tmp_path):
     """Any other text (here the released file with one comment added) is not the thesis rig as
     shipped: nothing says which way is up, so z is up."""
-    current = (RIGS / "thesis-dynamometer.toml").read_text(encoding="utf-8")
+    current = (PLUGIN_RIGS / "thesis-dynamometer.toml").read_text(encoding="utf-8")
     edited = "# my copy\n" + "".join(ln for ln in current.splitlines(keepends=True) if not ln.startswith("up = "))
     with open_project(_stored_without_up(tmp_path, edited, as_toml=False)) as p:
         assert np.allclose(p.rig.up, [0, 0, 1])

@@ -20,6 +20,8 @@ from odsuite.store.project import open_project
 from odsuite.domain.rig import load_rig
 
 RIGS = Path(__file__).resolve().parents[3] / "projects" / "rigs"
+#: the thesis rig and its Systeminfo ship once, with the models plugin that registers them
+PLUGIN_RIGS = Path(__file__).resolve().parents[3] / "plugins" / "models" / "rigs"
 
 
 @pytest.mark.parametrize("rig_file, band", [("thesis-dynamometer.toml", (30.0, 350.0)),
@@ -29,7 +31,8 @@ def test_ground_motion_transmissibility_from_the_simulated_record(rig_file, band
     -M T a_g, first-order hold): the six-input H1 = G_yu G_uu^-1 from Welch cross-spectra of the
     simulated responses equals the model's absolute velocity per ground displacement / (i w),
     from the ground forces Kg u + Cg u' (absolute coordinates)."""
-    rig = load_rig(RIGS / rig_file, registries().sensor_types)
+    rig = load_rig(next(d / rig_file for d in (RIGS, PLUGIN_RIGS) if (d / rig_file).is_file()),
+                   registries().sensor_types)
     truth = model_truth(rig)
     fs = 4096.0  # well above both rigs' modes (to 228 Hz and 104 Hz): the hold's error is small
     length = rotation_length(np.array([s.position for s in rig.accelerometers]))

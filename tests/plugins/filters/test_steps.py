@@ -10,6 +10,13 @@ import scipy.signal
 from odsuite.domain.errors import ConfigError
 from odsuite_plugins.filters import steps
 
+def _installed_steps():
+    """The installed plugins' processing steps (chains name them)."""
+    from odsuite.contracts.plugins import registries
+
+    return registries().processing_steps
+
+
 FS = 20_000.0
 DT = 1 / FS
 
@@ -53,7 +60,7 @@ def test_zero_phase_equals_sosfiltfilt():
     x = np.random.default_rng(2).standard_normal(6000) + np.linspace(0, 3, 6000)
     from odsuite.processing.chain_spec import build_chain
 
-    chain = build_chain([{"step": "iir", "order": 8, "cutoff_low": 20.0, "zero_phase": True}], fs=FS)
+    chain = build_chain([{"step": "iir", "order": 8, "cutoff_low": 20.0, "zero_phase": True}], fs=FS, registry=_installed_steps())
     ref = scipy.signal.sosfiltfilt(steps.design_sos(fs=FS, order=8, cutoff_low=20.0), x)
     np.testing.assert_allclose(chain.run(x)["output"], ref, rtol=0, atol=1e-12 * np.abs(ref).max())
 

@@ -261,7 +261,7 @@ def test_two_missing_modes_stored_in_a_revision_keep_their_own_force_participati
     second = {"frequency_hz": 910.0, "damping_ratio": 0.03, "phi_zC": -0.2, "phi_x1": 0.6}
     entries = [{"effect": "missing_mode", "values": first, "per_experiment": {"r0": {"phi_force": 0.5}}},
                {"effect": "missing_mode", "values": second, "per_experiment": {"r0": {"phi_force": -0.8}}}]
-    stored = apply_effects(model, entries).for_experiment("r0")
+    stored = apply_effects(model, entries, registries=registries).for_experiment("r0")
     direct = eff.apply(eff.apply(model, {**first, "phi_force": 0.5}), {**second, "phi_force": -0.8})
     assert len(stored.structure.flexible_modes) == 2
     forces = sorted(f.shape.table["force"] for f in stored.structure.flexible_modes)

@@ -51,8 +51,9 @@ def test_model_errors_are_one_line(tmp_path, capsys):
         p.add_model_revision([{"effect": "stiffness", "values": {"scale_q": 2.0}}], {}, {}, None)
     assert main(["model", str(path), "--json"]) == 1
     captured = capsys.readouterr()
-    assert captured.out == ""
     assert "scale_q" in captured.err and len(captured.err.strip().splitlines()) == 1
+    # --json: the same line as the one JSON document on stdout
+    assert json.loads(captured.out) == {"error": captured.err.strip().removeprefix("error: ")}
 
 
 def test_model_without_rig_is_refused(tmp_path, capsys):

@@ -106,14 +106,14 @@ def test_palisaden_modes_as_uff_55_read_back_by_pyuff(tmp_path, capsys, real_dat
     for file, name in ((tmp_path / "pali.npy", "ambient"), (example, "geometry")):
         code, _, err = run(capsys, "import", path, file, "--name", name)
         assert code == 0, err
-    code, _, err = run(capsys, "render", path, "ambient", "-o", tmp_path / "modes.uff", "--renderer", "mode-shape",
-                       "--fmax", 5)
+    code, _, err = run(capsys, "render", path, "ambient", "-o", tmp_path / "modes.uff", "--renderer", "mode-shape")
     assert code == 0, err
     sets = pyuff.UFF(str(tmp_path / "modes.uff")).read_sets()
     modes = [s for s in sets if s["type"] == 55]
     freqs = [abs(s["eig"]) / (2 * np.pi) for s in modes]
     published = json.loads((base / "pyoma2_reference.json").read_text())["published_hz"]["SSIcov"]
-    assert len(freqs) == 3 and np.allclose(freqs, published, rtol=5e-3)
+    # each published mode is among those written (the identification's own band may hold more)
+    assert all(min(abs(f / p - 1) for f in freqs) < 5e-3 for p in published)
     nodes = next(s for s in sets if s["type"] == 15)
     assert len(nodes["node_nums"]) == 42 and np.array_equal(modes[0]["node_nums"], nodes["node_nums"])
 
