@@ -69,9 +69,10 @@ def _list(value, n: int, where: str, field: str) -> list[str]:
     return items
 
 
-def checked(where: str, data, names, units, fs, explicit: dict) -> Columns:
+def checked(where: str, data, names, units, fs, explicit: dict, may_transpose: bool = False) -> Columns:
     """The columns checked: a 2-D array of finite numbers with two or more samples, one name and one
-    known unit per column, a finite rate > 0; ``explicit`` (options, sidecar) fill and override."""
+    known unit per column, a finite rate > 0; ``explicit`` (options, sidecar) fill and override.
+    ``may_transpose``: an unnamed array that is channels x samples is read transposed."""
     try:
         a = np.asarray(data, dtype=float)
     except (TypeError, ValueError):
@@ -80,7 +81,7 @@ def checked(where: str, data, names, units, fs, explicit: dict) -> Columns:
         a = a[:, None]
     if a.ndim != 2:
         raise DimensionError(f"{where}: data: shape {a.shape}; expected samples x channels (2-D)")
-    if a.shape[1] > a.shape[0] and a.shape[0] <= 64:  # channels x samples, as MATLAB users often store
+    if may_transpose and a.shape[1] > a.shape[0] and a.shape[0] <= 64:  # channels x samples, as MATLAB users store
         a = a.T
     if a.shape[0] < 2 or a.shape[1] < 1:
         raise DimensionError(f"{where}: data: shape {a.shape}; a record needs 2 or more samples of 1 or more channels")
@@ -178,7 +179,7 @@ def read_npy_columns(file: Path, explicit: dict) -> Columns:
         raise ConfigError(f"{where}: not a NumPy .npy array file: {exc}") from None
     if not np.issubdtype(data.dtype, np.number) or np.issubdtype(data.dtype, np.complexfloating):
         raise ConfigError(f"{where}: data: dtype {data.dtype} is not real numbers")
-    return checked(where, data, None, None, None, explicit)
+    return checked(where, data, None, None, None, explicit, may_transpose=True)
 
 
 def _mat_text(value) -> list[str] | str:
@@ -218,7 +219,7 @@ def read_mat_columns(file: Path, explicit: dict) -> Columns:
               None)
     names = next((_mat_text(mat[k]) for k in MAT_NAMES if k in mat), None)
     units = next((_mat_text(mat[k]) for k in MAT_UNITS if k in mat), None)
-    return checked(f"{where}: variable {variable!r}", data, names, units, fs, explicit)
+    return checked(f"{where}: variable {variable!r}", data, names, units, fs, explicit, may_transpose=True)
 
 
 def _mat73(file: Path) -> dict:

@@ -179,3 +179,13 @@ def test_options_override_the_sidecar_and_mat_v73_is_read(tmp_path, registries):
         exp = p.experiment("rec")
         assert exp.channel_names == ["x", "y"]
         assert np.allclose(physical(exp), DATA[:, :2] * [1.0, G], rtol=1e-12)
+
+
+def test_a_channels_by_samples_npy_is_read_transposed(tmp_path, registries):
+    np.save(tmp_path / "r.npy", DATA.T)  # 3 x 500, as MATLAB users often store
+    create_project(tmp_path / "p.h5", rig=None).close()
+    _import(registries, tmp_path / "p.h5", tmp_path / "r.npy", rate=FS, units="m/s^2")
+    with open_project(tmp_path / "p.h5") as p:
+        exp = p.experiment("rec")
+        assert exp.channel_names == ["ch1", "ch2", "ch3"] and exp.n_samples == 500
+        assert np.allclose(physical(exp), DATA, rtol=1e-12)
