@@ -6,11 +6,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from odsuite.analysis.comparison import compare, noise_floor_error
-from odsuite.store.diskspace import write_output
-from odsuite.analysis.modelrev import RevisionModel, base_model
 from odsuite.domain.errors import ConfigError
-from odsuite.analysis.prediction import PreparedExperiment, prepare_experiment
+from odsuite.store.diskspace import write_output
 
 #: Print size: 16 x 9 cm at 200 dpi, type of 9-11 pt reads at that size.
 FIGURE_SIZE_IN = (6.3, 3.6)
@@ -27,11 +24,17 @@ def history(project) -> dict[str, Any]:
     floor = next((r["metrics"]["noise_floor_error"] for r in reversed(revs)
                   if r.get("metrics", {}).get("noise_floor_error") is not None), None)
     if floor is None and project.rig is not None:
+        # the comparison (scipy.signal: seconds to import) only where nothing was stored
+        from odsuite.analysis.comparison import noise_floor_error
+        from odsuite.analysis.modelrev import RevisionModel, base_model
+
         exps = _comparable(project)
         floor = noise_floor_error(exps, RevisionModel(base_model(project.rig, registries=project.registries))) if exps else None
     for r in revs:
         error = r.get("metrics", {}).get("error")
         if error is None and project.rig is not None:
+            from odsuite.analysis.comparison import compare
+
             exps = _comparable(project) if exps is None else exps
             error = compare(project, revision=r, prepared=exps, resonances=False).error if exps else None
         out.append({"revision": r["revision"], "parent": r["parent"], "effects": [e["effect"] for e in r["effects"]],
@@ -39,9 +42,11 @@ def history(project) -> dict[str, Any]:
     return {"current": project.current_revision, "revisions": out, "noise_floor_error": floor}
 
 
-def _comparable(project) -> list[PreparedExperiment]:
+def _comparable(project) -> list:
     """The experiments a model can be compared with; records it cannot be driven with (no force
     point, not on the rig's channels) are left out of a summary rather than failing it."""
+    from odsuite.analysis.prediction import prepare_experiment
+
     exps = []
     for name in project.experiment_names():
         try:

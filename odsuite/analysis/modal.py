@@ -20,6 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg
 
 from odsuite.domain.errors import ConfigError, DimensionError
 from odsuite.analysis.frf import FORM_POWER, usable_band
@@ -187,6 +188,18 @@ def stability_flags(prev: np.ndarray, lam: np.ndarray, tol_f: float, tol_zeta: f
     return sf, sz
 
 
+def normal_matrices(X: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """LSCF's normal matrices for the basis ``X`` (lines x terms, ``X[n, j] = e^{i w_n ts j}``) and
+    the outputs' FRFs ``H`` (outputs x lines): ``R = Re X^H X``, ``S_o = -Re X^H diag(h_o) X`` and
+    ``T = Re sum_o X^H diag(|h_o|^2) X``. Each entry depends only on the lag k - j of its two terms
+    (Toeplitz), so one product per output gives them all instead of a terms x terms product each."""
+    ahead, behind = H @ X, H @ X.conj()  # sum_n h_n e^{+-i w_n ts d}, d = 0..terms-1
+    R = scipy.linalg.toeplitz(X.sum(axis=0).real)
+    S = np.stack([-scipy.linalg.toeplitz(b.real, a.real) for a, b in zip(ahead, behind)])
+    T = scipy.linalg.toeplitz(((np.abs(H) ** 2).sum(axis=0) @ X).real)
+    return R, S, T
+
+
 def lscf(
     freq: np.ndarray,
     H: np.ndarray,
@@ -212,15 +225,13 @@ def lscf(
     H = H[peak[:, 0] > 0] / peak[peak[:, 0] > 0]
     if not H.shape[0]:
         raise ConfigError("no output responds on the given band")
-    R = (X.conj().T @ X).real
-    S = [-(X.conj().T @ (h[:, None] * X)).real for h in H]
-    T = sum((X.conj().T @ ((np.abs(h) ** 2)[:, None] * X)).real for h in H)
+    R, S, T = normal_matrices(X, H)
     orders, poles, stable_f, stable = [], [], [], []
     prev = np.array([], dtype=complex)
     for m in range(min_order, max_order + 1, step):
         k = m + 1
-        Rm = R[:k, :k]
-        Mm = T[:k, :k] - sum(s[:k, :k].T @ np.linalg.solve(Rm, s[:k, :k]) for s in S)
+        Sk = S[:, :k, :k]
+        Mm = T[:k, :k] - np.einsum("oji,ojl->il", Sk, np.linalg.solve(R[None, :k, :k], Sk))
         alpha = np.append(np.linalg.lstsq(Mm[:m, :m], -Mm[:m, m], rcond=None)[0], 1.0)
         z = np.roots(alpha[::-1])
         z = z[np.isfinite(z) & (z != 0)]

@@ -79,7 +79,7 @@ def diagnose_cmd(
     console.print(f"revision {doc['revision']}: error {doc['baseline_error']:.4f} "
                   f"(noise floor {doc['noise_floor']:.4f}, {doc['residual_to_floor']:.2f}x)", highlight=False)
     console.print(f"verdict: {doc['verdict']}", highlight=False)
-    console.print(shown(doc["message"]), highlight=False, soft_wrap=True)
+    console.print(shown(doc["message"]), highlight=False)
     sig = doc["signature"]
     where = [("channels", ", ".join(f"{c['channel']} ({c['residual_to_floor']:.1f}x)" for c in sig["channels"][:6])),
              ("experiments", ", ".join(f"{x['experiment']} ({x['residual_to_floor']:.1f}x)" for x in sig["experiments"][:6])),
@@ -90,10 +90,14 @@ def diagnose_cmd(
             console.print(f"left above the floor, {label}: {shown(text)}", highlight=False, soft_wrap=True)
     if sig["amplitude_dependent"]:
         console.print("amplitude dependent: the fitted parameters follow the force level", highlight=False)
-    table = Table(title="candidate effects, best first")
-    for col in ("effect", "significant", "consistent", "plausible", "error after", "validated", "confounded with",
-                "evidence"):
-        table.add_column(col)
+    # narrow columns only: at 80 columns or piped, a wide evidence column wrapped one word per line
+    table = Table(title="candidate effects, best first (errors after the fit)")
+    for col, width in (("effect", 24), ("signif.", 7), ("consist.", 8), ("plausible", 9), ("fitted", 8),
+                       ("validated", 9)):
+        table.add_column(col, no_wrap=True, max_width=width, overflow="ellipsis")
+    wide = console.width >= 120  # else the confounded ones are named with the evidence below
+    if wide:
+        table.add_column("confounded with", overflow="fold")
 
     def yes(v: bool) -> str:
         return "yes" if v else "no"
@@ -102,8 +106,16 @@ def diagnose_cmd(
         table.add_row(c["effect"], yes(c["significant"]), yes(c["consistent"]) if c["fitted"] else "-",
                       yes(c["plausible"]) if c["fitted"] else "-", f"{c['error_after']:.4f}",
                       "-" if c["validated_error"] != c["validated_error"] else f"{c['validated_error']:.4f}",
-                      ", ".join(c["confounded_with"]) or "-", c["evidence"])
+                      *([", ".join(c["confounded_with"]) or "-"] if wide else []))
     console.print(table)
+    # the evidence as paragraphs, wrapped at the console's width: the significant candidates' (and
+    # the best one's when none is); every candidate's is in --json
+    told = [c for c in doc["candidates"] if c["significant"]] or doc["candidates"][:1]
+    for c in told:
+        confounded = f" (cannot be told apart from {', '.join(c['confounded_with'])})" if c["confounded_with"] else ""
+        console.print(f"{c['effect']}{confounded}: {shown(c['evidence'])}", highlight=False)
+    if len(told) < len(doc["candidates"]):
+        console.print(f"({len(doc['candidates']) - len(told)} more candidates' evidence: --json)", highlight=False)
     if doc["not_applicable"]:
         console.print(f"not applicable to this model: {', '.join(doc['not_applicable'])}", highlight=False,
                       soft_wrap=True)

@@ -83,3 +83,16 @@ def test_force_point_off_every_body_is_refused_in_one_line(sim_project, capsys):
     assert "outside every body" in err and "'reference', is 252.2 mm away" in err
     code, _, err = run(capsys, "info", sim_project, "--json")
     assert "off" not in json.loads(_)["experiments"]
+
+
+def test_diagnose_reads_at_80_columns(sim_project, capsys, monkeypatch):
+    """At 80 columns (a terminal, or piped), the candidates' table keeps one line per candidate and
+    the evidence reads as wrapped paragraphs, not one word per line."""
+    monkeypatch.setattr(cli.console, "width", 80)
+    code, out, _ = run(capsys, "diagnose", sim_project, "--effect", "stiffness", "--effect", "damping",
+                       "--effect", "sensor_gain")
+    lines = out.splitlines()
+    assert code == 0 and max(len(line) for line in lines) <= 80
+    rows = [line for line in lines if line.startswith("│")]
+    assert len(rows) == 3 and {r.split("│")[1].strip() for r in rows} == {"stiffness", "damping", "sensor_gain"}
+    assert len(lines) < 40

@@ -268,3 +268,18 @@ def test_pairing_by_frequency_without_shapes():
     assert rows[0]["frequency_difference"] == pytest.approx(-0.05)
     assert rows[0]["damping_difference"] == pytest.approx(0.2)
     assert rows[1]["mac"] is None
+
+
+def test_lscf_normal_matrices_equal_the_direct_products():
+    """The Toeplitz form of LSCF's normal matrices against X^H diag(w) X written out."""
+    from odsuite.analysis.modal import normal_matrices
+
+    rng = np.random.default_rng(3)
+    f = np.sort(rng.uniform(10.0, 400.0, 300))
+    X = np.exp(1j * 2 * np.pi * f[:, None] / (2 * f[-1]) * np.arange(25)[None, :])
+    H = rng.standard_normal((4, f.size)) + 1j * rng.standard_normal((4, f.size))
+    R, S, T = normal_matrices(X, H)
+    assert R == pytest.approx((X.conj().T @ X).real, abs=1e-9)
+    for s, h in zip(S, H):
+        assert s == pytest.approx(-(X.conj().T @ (h[:, None] * X)).real, abs=1e-9)
+    assert T == pytest.approx(sum((X.conj().T @ ((np.abs(h) ** 2)[:, None] * X)).real for h in H), abs=1e-9)
