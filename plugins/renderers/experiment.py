@@ -75,8 +75,17 @@ def render_experiment(
     if figure is not None and figure not in FIGURES:
         raise ConfigError(f"--figure: expected one of {', '.join(FIGURES)}, got {figure!r}")
     with open_project(project_path, registries=registries) as project:
+        if project.rig is None and ods_hz is not None and figure is None and not model:
+            from odsuite.api import project_geometry
+
+            if project_geometry(project) is not None:  # a structure that is not a set of plates
+                from .shapes import geometry_ods_movie
+
+                return geometry_ods_movie(project, experiment, output, ods_hz=ods_hz, reference=reference,
+                                          view=view, workers=workers, fps=fps, progress=progress)
         if project.rig is None:
-            raise ConfigError(f"{project.path}: the project has no rig geometry to draw (created with --rig none)")
+            raise ConfigError(f"{project.path}: the project has no rig geometry to draw (created with --rig none) "
+                              "and no geometry of nodes and lines (docs/geometry.md)")
         if experiment not in project.experiment_names():
             raise ConfigError(f"{project.path}: no experiment {experiment!r} "
                               f"(experiments: {', '.join(project.experiment_names()) or 'none'})")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from odsuite.contracts.renderers import Rendered, RenderRequest
 
 MOVIE_OPTIONS = frozenset({"model", "magnify", "view", "workers", "frame_step", "slowdown", "ods_hz", "reference",
@@ -23,6 +25,9 @@ class MovieRenderer:
         request.unknown_options(MOVIE_OPTIONS, self.name)
         res = render_experiment(request.project, request.experiment, request.output, progress=request.progress,
                                 registries=request.registries, **{k: v for k, v in request.options.items() if v is not None})
+        if getattr(res, "frame_step", None) == 0:  # a shape on the project's geometry
+            return Rendered(res.path, f"{res.n_frames} frames at {res.fps:g} fps ({res.n_frames / res.fps:.1f} s), "
+                                      "the shape on the project's geometry", tuple(res.notes))
         return Rendered(res.path, f"{res.n_frames} frames at {res.fps:g} fps ({res.n_frames / res.fps:.1f} s), "
                                   f"{res.slowdown:,.0f} times slower than real time, {magnification_words(res.magnify)}",
                         tuple(res.notes))
@@ -68,8 +73,30 @@ class ReportRenderer:
         return Rendered(res.path, f"{res.size_bytes / 2**20:.1f} MiB; error {res.error:.4f}", tuple(res.notes))
 
 
+class ModeShapeRenderer:
+    name = "mode-shape"
+    description = ("a mode shape identified from an experiment's responses (output-only) moving on the project's "
+                   "geometry (MP4, or GIF); to .uff: the geometry (15/82) with every mode (55) for other tools")
+    kind = "movie"
+    suffixes = (".mp4", ".gif", ".uff")
+    OPTIONS = frozenset({"mode", "fmin", "fmax", "max_order", "view", "workers", "fps"})
+
+    def render(self, request: RenderRequest) -> Rendered:
+        from .shapes import render_mode_shape
+
+        request.unknown_options(self.OPTIONS, self.name)
+        res, n, notes = render_mode_shape(request.project, request.experiment, request.output,
+                                          progress=request.progress, registries=request.registries,
+                                          **{k: v for k, v in request.options.items()
+                                             if v is not None and v is not False})
+        if isinstance(res, Path):
+            return Rendered(res, f"geometry (UFF 15/82) and {n} mode shapes (UFF 55)", tuple(notes))
+        return Rendered(res.path, f"{res.n_frames} frames at {res.fps:g} fps ({res.n_frames / res.fps:.1f} s), "
+                                  f"mode {request.options.get('mode')} of {n}", tuple(res.notes) + tuple(notes))
+
+
 def builtin_renderers() -> list:
-    return [MovieRenderer(),
+    return [MovieRenderer(), ModeShapeRenderer(),
             FigureRenderer("projection", "the thesis's 2-D projection (Eq. 4.25): rest and characteristic forced response"),
             FigureRenderer("overlay", "generalized coordinates, measured against the model, over time"),
             FigureRenderer("residuals", "spectra of the measured coordinates and of their residual against the model"),
