@@ -53,12 +53,7 @@ def render_cmd(
                "end": end, "fps": fps, "duration": duration, "mode": mode, "fmin": f_min, "fmax": f_max}
     res = renderer.render(RenderRequest(project, experiment, output, options,
                                         progress=err_console.is_terminal and not as_json))
-    if as_json:
-        _print_json(_rendered_doc(renderer, res))
-        return
-    for note in res.notes:
-        err_console.print(f"note: {note}", highlight=False)
-    console.print(f"wrote {res.path} ({res.summary})", highlight=False, soft_wrap=True)
+    _say_rendered(renderer, res, as_json)
 
 
 @app.command("report")
@@ -89,6 +84,11 @@ def report_cmd(
                    "movie_experiment": movie_experiment, "frf_channels": frf_channel or None,
                    "on_stage": lambda what: bar.update(task, description=what)}
         res = renderer.render(RenderRequest(project, None, output, options))
+    _say_rendered(renderer, res, as_json)
+
+
+def _say_rendered(renderer, res, as_json: bool) -> None:
+    """What a renderer wrote: one JSON document, or its notes and one line."""
     if as_json:
         _print_json(_rendered_doc(renderer, res))
         return

@@ -130,6 +130,16 @@ def _lines_polydata(points: np.ndarray, edges) -> "pyvista.PolyData":  # noqa: F
     return pv.PolyData(np.asarray(points, dtype=float), lines=lines)
 
 
+def title_and_label(plotter, size, style, title: str | None):
+    """The title (if any) at the top left and, below it, the text actor each frame writes its time
+    or phase into; returns that actor."""
+    fs = style.font_size
+    top = size[1] - 12
+    if title:
+        plotter.add_text(title, position=(12, top - 4 * fs), font_size=fs, color=style.text)
+    return plotter.add_text(" ", position=(12, top - (6 if title else 2) * fs - 4), font_size=fs, color=style.text)
+
+
 class Scene:
     """Plates of a rig drawn off-screen; :meth:`frame` poses them at one sample and returns RGB.
 
@@ -196,12 +206,7 @@ class Scene:
             self._sensor_marks(rig, coords, magnify)
         if hammer is not None:
             self._hammer_arrow(rig, hammer, coords, magnify, scale)
-        fs = style.font_size
-        top = self.size[1] - 12
-        if title:
-            self.plotter.add_text(title, position=(12, top - 4 * fs), font_size=fs, color=style.text)
-        self._label = self.plotter.add_text(" ", position=(12, top - (6 if title else 2) * fs - 4),
-                                            font_size=fs, color=style.text)
+        self._label = title_and_label(self.plotter, self.size, style, title)
         self._legend(side, model_coords is not None, ghost, hammer is not None, sensors)
         self._camera(rig, coords, view, parallel, side)
 

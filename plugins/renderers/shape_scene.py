@@ -8,7 +8,8 @@ import numpy as np
 
 from odsuite.api import Geometry
 
-from .scene import Scene, Style, _ctrl_c_held, _lines_polydata, dash_dot_segments, offscreen_pyvista
+from .scene import (Scene, Style, _ctrl_c_held, _lines_polydata, dash_dot_segments, offscreen_pyvista,
+                    title_and_label)
 
 
 def view_vector(azimuth: float, elevation: float) -> np.ndarray:
@@ -81,12 +82,7 @@ class ShapeScene:
             self.plotter.add_point_labels(tips, ["x", "y", "z"], shape=None, show_points=False,
                                           font_size=style.font_size, text_color=style.text, always_visible=True)
             lo = np.minimum(lo, origin)
-        fs = style.font_size
-        top = self.size[1] - 12
-        if title:
-            self.plotter.add_text(title, position=(12, top - 4 * fs), font_size=fs, color=style.text)
-        self._label = self.plotter.add_text(" ", position=(12, top - (6 if title else 2) * fs - 4),
-                                            font_size=fs, color=style.text)
+        self._label = title_and_label(self.plotter, self.size, style, title)
         entries = [(what, style.measured), ("rest position (dash-dot)", style.ghost)]
         if fixed:
             entries.append(("fixed nodes", style.static))
