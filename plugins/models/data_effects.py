@@ -16,7 +16,7 @@ import numpy as np
 
 from odsuite.contracts.effects import Effect, Parameter
 from odsuite.api import FlexibleMode, Model, Structure
-from odsuite.api import flexible_mode_change, predict
+from odsuite.api import flexible_mode_change, predict, sampled_later
 
 #: participations (1/sqrt(kg), per unit mass-normalised modal coordinate) beyond this are a mode of
 #: a part lighter than 0.1 g: no physical mode of a rig
@@ -357,6 +357,67 @@ class ChannelDelay(Effect):
         merged = {n: model.chain.delay.get(n, 0.0) + d for n, d in delay.items()}
         return model.replace(chain=model.chain.with_items("delay", merged))
 
+    correction_stage = "channel"
+
+    def correct(self, rig, signals, fs, v):
+        """Each late channel moved back by its delay (the model's own phase shift, negated)."""
+        sensors = [s for s in rig.accelerometers if s.name in signals]
+        if self.kind == "scan":
+            first = rig.force_channel if rig.force_channel is not None else 0
+            delay = [(s.channel - first) * v["skew_s"] for s in sensors]
+        else:
+            delay = [v.get(f"{s.name}_delay", 0.0) for s in sensors]
+        if not any(delay):
+            return rig, dict(signals)
+        y = sampled_later(np.column_stack([signals[s.name] for s in sensors]), fs, -np.asarray(delay))
+        return rig, {**signals, **{s.name: y[:, j] for j, s in enumerate(sensors)}}
+
+
+class ChannelSwap(Effect):
+    """Two channels of one kind (two accelerometers, say) carry each other's sensor: their cables
+    were exchanged. One discrete parameter, the pair (0: none); the diagnosis tries every pair on
+    the current model and fits the best."""
+
+    name = "channel_swap"
+    target = "chain"
+    breaks_rigidity = True  # a swapped pair makes a rigid body's redundant sensors disagree
+    correction_stage = "wiring"
+    description = "Two sensors' cables are exchanged: each channel records the other sensor."
+
+    @staticmethod
+    def pairs(sensors) -> list[tuple[str, str]]:
+        """Every pair of sensors of one kind and quantity, in rig order (choice k is pair k - 1)."""
+        return [(a.name, b.name) for i, a in enumerate(sensors) for b in sensors[i + 1:]
+                if (a.kind, a.quantity) == (b.kind, b.quantity)]
+
+    def parameters(self, model):
+        pairs = self.pairs(_accelerometers(model))
+        if not pairs or model.rig is None:
+            return []
+        return [Parameter("pair", "1", 0.0, 0.0, float(len(pairs)), choices=tuple(map(float, range(len(pairs) + 1))),
+                          description="the exchanged pair: 0 = none, " + ", ".join(
+                              f"{k + 1} = {a}/{b}" for k, (a, b) in enumerate(pairs)))]
+
+    def pair(self, sensors, v) -> tuple[str, str] | None:
+        k = int(v.get("pair", 0.0))
+        return self.pairs(sensors)[k - 1] if k else None
+
+    def _apply(self, model, v):
+        pair = self.pair(_accelerometers(model), v)
+        if pair is None:
+            return model
+        a, b = pair
+        return model.replace(chain=model.chain.with_items("swap", {a: b, b: a}))
+
+    def correct(self, rig, signals, fs, v):
+        """The two channels' signals exchanged back."""
+        pair = self.pair(rig.accelerometers, v)
+        if pair is None or not set(pair) <= set(signals):
+            return rig, dict(signals)
+        a, b = pair
+        return rig, {**signals, a: signals[b], b: signals[a]}
+
 
 def data_effects() -> list[Effect]:
-    return [MissingMode(), CoupledMode(), MountedMode(), ChannelDelay("per_channel"), ChannelDelay("scan")]
+    return [MissingMode(), CoupledMode(), MountedMode(), ChannelDelay("per_channel"), ChannelDelay("scan"),
+            ChannelSwap()]
