@@ -100,6 +100,8 @@ _WHERE: dict[str, str] = {
     "prepare": "odsuite.analysis.prediction",
     "current_revision": "odsuite.analysis.modelrev",
     "revision_model": "odsuite.analysis.modelrev",
+    "ideal_chain_model": "odsuite.analysis.correction",
+    "stored_correction": "odsuite.analysis.correction",
     "compare": "odsuite.analysis.comparison",
     "COORDINATE_NAMES": "odsuite.analysis.comparison",
     "history": "odsuite.analysis.history",

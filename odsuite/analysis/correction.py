@@ -37,7 +37,6 @@ fitted for; the resonances above it come from the measurement.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -172,7 +171,7 @@ def undo_measurement(rig, sensors: Sequence[str], signals: np.ndarray, fs: float
             except ConfigError as exc:
                 raise ConfigError(f"{where}: the sensors as mounted cannot re-express {', '.join(todo)}: {exc}") from None
             d = out[:, [sensors.index(n) for n in names]] @ np.linalg.pinv(a_mounted).T
-            a_nominal = ls.matrix(rig, body, tuple(todo))
+            a_nominal = ls.matrix(rig, body, names)[[names.index(n) for n in todo]]
             out[:, [sensors.index(n) for n in todo]] = d @ a_nominal.T
     return out
 
@@ -219,8 +218,6 @@ def correct_experiment(project, name: str, *, revision: dict | None = None,
     from odsuite.analysis.prediction import prepare_experiment, simulate_sensors
     from odsuite.contracts.solvers import body_solvers
 
-    from odsuite.analysis.modelrev import apply_effects, base_model
-
     regs = registries()
     rev = revision or current_revision(project)
     rmodel = revision_model(project, rev)
@@ -228,10 +225,7 @@ def correct_experiment(project, name: str, *, revision: dict | None = None,
     where = f"{project.path}: experiment {name!r}"
     corrections = measurement_corrections(rev, name, regs.effects, rmodel.shared)
     if corrections:  # the drift is estimated against the structure seen by an ideal chain
-        from odsuite.contracts.effects import corrects
-
-        kept = [e for e in rev.get("effects", []) if not corrects(regs.effects.get(e["effect"]))]
-        rmodel = apply_effects(base_model(project.rig, rev.get("model")), kept)
+        rmodel = ideal_chain_model(project, rev)
     model = rmodel.for_experiment(name)
     cutoff = default_cutoff(model) if cutoff_hz is None else cutoff_hz
     if not (isinstance(cutoff, (int, float)) and np.isfinite(cutoff) and 0 < cutoff < exp.fs / 2):
@@ -291,6 +285,32 @@ def _within(effect, model, name: str, value: float | None, sd: float) -> float |
     return float(np.clip(value + sd, p.lower, p.upper))
 
 
+def ideal_chain_model(project, revision: Mapping[str, Any] | None = None):
+    """The revision's model without its measurement effects that undo themselves: the structure
+    as fitted, seen by an ideal chain (a RevisionModel; what corrected records are compared with)."""
+    from odsuite.analysis.modelrev import apply_effects, base_model, current_revision
+    from odsuite.contracts.effects import corrects
+    from odsuite.contracts.plugins import registries
+
+    rev = revision or current_revision(project)
+    regs = registries()
+    kept = [e for e in rev.get("effects", []) if not corrects(regs.effects.get(e["effect"]))]
+    return apply_effects(base_model(project.rig, rev.get("model")), kept)
+
+
+def stored_correction(project, experiment: str) -> tuple[dict[str, np.ndarray], dict[str, Any]] | None:
+    """The corrected coordinates stored by :func:`store_correction` (body -> samples x 6 at G) and
+    what was applied (revision, cutoff_hz, corrections), or None when there are none."""
+    if KIND not in project.derived_kinds(experiment):
+        return None
+    arrays = project.read_derived(experiment, KIND)
+    par = project.derived_info(experiment, KIND)["provenance"]["parameters"]
+    coords = {k[:-len("_at_g")]: np.asarray(v) for k, v in arrays.items() if k.endswith("_at_g")}
+    return coords, {"revision": par.get("revision"), "cutoff_hz": par.get("cutoff_hz"),
+                    "corrections": par.get("measurement_corrections", []),
+                    "uncertainty": par.get("correction_uncertainty", {})}
+
+
 def store_correction(project, corr: Correction) -> None:
     """Write ``corr`` as derived kind "gencoords_corrected" of its experiment: "<body>_at_g",
     "<body>_at_c" (samples x 6, m m m rad rad rad, as "gencoords") and "drift" (samples x channel,
@@ -320,7 +340,6 @@ def store_correction(project, corr: Correction) -> None:
                         "channel_names": ", ".join(corr.sensors),
                         "revision": -1 if corr.revision is None else int(corr.revision),
                         "cutoff_hz": corr.cutoff_hz,
-                        "corrections": json.dumps(corr.corrections or []),
                         "acceleration_offset": np.array([rates[s][0] for s in corr.sensors]),
                         "acceleration_drift_rate": np.array([rates[s][1] for s in corr.sensors])})
 
