@@ -5,7 +5,9 @@ participation at every sensor and at each experiment's force point is solved by 
 squares at every step of the search (variable projection): bending with in-plane parts, torsion, a
 loose bracket, whatever shape the sensors see. ``channel_delay`` and ``scan_skew``: channels
 sampled later than the force channel (a time offset per channel; a multiplexer that reads channel
-k a fixed time after channel k-1).
+k a fixed time after channel k-1). ``channel_swap``: two channels of one kind carrying each
+other's sensor. The last three describe the measurement and undo themselves on records
+(``correct``).
 """
 
 from __future__ import annotations
