@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 import numpy as np
+import scipy.interpolate
 
 from odsuite.contracts.effects import Effect, Parameter
 from odsuite.api import FlexibleMode, Model, Structure
@@ -371,7 +372,14 @@ class ChannelDelay(Effect):
             delay = [v.get(f"{s.name}_delay", 0.0) for s in sensors]
         if not any(delay):
             return rig, dict(signals)
-        y = sampled_later(np.column_stack([signals[s.name] for s in sensors]), fs, -np.asarray(delay))
+        x = np.column_stack([signals[s.name] for s in sensors])
+        # a record that does not end at rest (a drifting displacement) would ring through the whole
+        # shift from the step at its end: the cubic through both ends' values and slopes is shifted
+        # exactly, the rest (at rest at both ends) by the spectrum's phase
+        t = np.arange(x.shape[0]) / fs
+        ends = scipy.interpolate.CubicHermiteSpline([t[0], t[-1]], x[[0, -1]], fs * (x[[1, -1]] - x[[0, -2]]), axis=0)
+        y = sampled_later(x - ends(t), fs, -np.asarray(delay))
+        y += np.column_stack([ends(t - d)[:, j] for j, d in enumerate(delay)])
         return rig, {**signals, **{s.name: y[:, j] for j, s in enumerate(sensors)}}
 
 
