@@ -385,8 +385,10 @@ class ChannelDelay(Effect):
 
 class ChannelSwap(Effect):
     """Two channels of one kind (two accelerometers, say) carry each other's sensor: their cables
-    were exchanged. One discrete parameter, the pair (0: none); the diagnosis tries every pair on
-    the current model and fits the best."""
+    were exchanged. A discrete parameter, the pair (0: none; the diagnosis tries every pair on the
+    current model), and the ratio of the two sensors' sensitivities (the channel set up for the
+    first reads the second sensor ``ratio`` times too large, the other channel the first sensor
+    ``ratio`` times too small), fitted with the best pair."""
 
     name = "channel_swap"
     target = "chain"
@@ -406,7 +408,10 @@ class ChannelSwap(Effect):
             return []
         return [Parameter("pair", "1", 0.0, 0.0, float(len(pairs)), choices=tuple(map(float, range(len(pairs) + 1))),
                           description="the exchanged pair: 0 = none, " + ", ".join(
-                              f"{k + 1} = {a}/{b}" for k, (a, b) in enumerate(pairs)))]
+                              f"{k + 1} = {a}/{b}" for k, (a, b) in enumerate(pairs))),
+                # sensors of one type differ by a few per cent in sensitivity
+                Parameter("ratio", "1", 1.0, 0.5, 2.0, plausible=(0.8, 1.25),
+                          description="second sensor's sensitivity / first sensor's, of the exchanged pair")]
 
     def pair(self, sensors, v) -> tuple[str, str] | None:
         k = int(v.get("pair", 0.0))
@@ -417,7 +422,10 @@ class ChannelSwap(Effect):
         if pair is None:
             return model
         a, b = pair
-        return model.replace(chain=model.chain.with_items("swap", {a: b, b: a}))
+        r = v.get("ratio", 1.0)
+        # a channel's row is the recorded sensor's, with that sensor's gain: channel a reads b
+        gains = {a: model.chain.gain.get(a, 1.0) / r, b: model.chain.gain.get(b, 1.0) * r}
+        return model.replace(chain=model.chain.with_items("swap", {a: b, b: a}).with_items("gain", gains))
 
     def correct(self, rig, signals, fs, v):
         """The two channels' signals exchanged back."""
@@ -425,7 +433,8 @@ class ChannelSwap(Effect):
         if pair is None or not set(pair) <= set(signals):
             return rig, dict(signals)
         a, b = pair
-        return rig, {**signals, a: signals[b], b: signals[a]}
+        r = v.get("ratio", 1.0)
+        return rig, {**signals, a: signals[b] * r, b: signals[a] / r}
 
 
 def data_effects() -> list[Effect]:

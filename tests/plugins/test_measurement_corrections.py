@@ -57,7 +57,7 @@ CASES = {
     "scan_skew": {"skew_s": 8e-6},
     "sensor_dynamics": {"highpass_hz": 3.0, "coupler_highpass_hz": 0.5, "resonance_period_s": 1 / 12_000.0,
                         "resonance_damping": 0.03},
-    "channel_swap": {"pair": 7.0},
+    "channel_swap": {"pair": 7.0, "ratio": 1.04},
 }
 
 
@@ -107,7 +107,8 @@ def test_swap_exchanges_the_two_rows_only(thesis):
     sensors = rig.accelerometers
     pairs = effect.pairs(sensors)
     assert len(pairs) == len(sensors) * (len(sensors) - 1) // 2  # nine accelerometers of one kind
-    (p,) = [p for p in effect.parameters(model) if p.name == "pair"]
+    p, ratio = effect.parameters(model)
+    assert (p.name, ratio.name, ratio.nominal) == ("pair", "ratio", 1.0)
     assert p.choices == tuple(float(i) for i in range(len(pairs) + 1))
     rows = model.output_rows([Output.sensor(s) for s in sensors])[1]
     a, b = pairs[11]
@@ -117,6 +118,10 @@ def test_swap_exchanges_the_two_rows_only(thesis):
     order[ia], order[ib] = ib, ia
     np.testing.assert_array_equal(swapped, rows[order])
     assert not np.array_equal(rows[ia], rows[ib])
+    # sensitivities differing by 4 %: channel a reads sensor b 1.04 times too large, b reads a 1.04 times too small
+    scaled = effect.apply(model, {"pair": 12.0, "ratio": 1.04}).output_rows([Output.sensor(s) for s in sensors])[1]
+    np.testing.assert_allclose(scaled[ia], 1.04 * rows[ib], rtol=1e-14)
+    np.testing.assert_allclose(scaled[ib], rows[ia] / 1.04, rtol=1e-14)
 
 
 def test_structure_effects_correct_nothing():
