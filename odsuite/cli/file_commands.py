@@ -71,13 +71,15 @@ def export_legacy_cmd(
     experiment: str = typer.Argument(..., help="Experiment name."),
     cod: Path = typer.Option(..., "--cod", help=".COD file to write."),
     at: str = typer.Option("center", "--at", help="center (centre of mass G) or corner (corner C)."),
+    corrected: bool = typer.Option(False, "--corrected", help="The corrected coordinates (`process --corrected`)."),
 ) -> None:
     """Write an experiment's generalized coordinates as a thesis .COD file (6 columns per body)."""
     from odsuite.contracts.importers import exporter
     from odsuite.contracts.plugins import registries
 
     _check_output(cod, project, "--cod")
-    exporter(registries().importers, "legacy").export_file(project, cod, experiment, at=at)
+    exporter(registries().importers, "legacy").export_file(
+        project, cod, experiment, at=at, **({"kind": "gencoords_corrected"} if corrected else {}))
     console.print(f"wrote {cod}", highlight=False, soft_wrap=True)
 
 

@@ -45,12 +45,12 @@ class LegacyImporter:
         return Imported(name, f"{Path(file).name} with Systeminfo {Path(systeminfo).name} as experiment {name!r}",
                         tuple(str(w.message) for w in caught))
 
-    def export_file(self, project, out, experiment, *, at: str = "center") -> None:
+    def export_file(self, project, out, experiment, *, at: str = "center", kind: str = "gencoords") -> None:
         """The experiment's generalized coordinates as a thesis .COD file (6 columns per body) at
         the centre of mass ("center") or the corner C ("corner")."""
         from odsuite_plugins.importers.importing import export_legacy
 
-        export_legacy(project, experiment, out, at)
+        export_legacy(project, experiment, out, at, kind)
 
 
 class LvmImporter:

@@ -306,6 +306,7 @@ def render_movie(
     title: str = "",
     time_zero: float | None = None,
     ods_hz: float | None = None,
+    corrected_coords: Mapping[str, np.ndarray] | None = None,
 ) -> MovieResult:
     """Animate every plate of ``rig`` from generalized coordinates and write an MP4 or GIF.
 
@@ -319,7 +320,8 @@ def render_movie(
     available (see ``notes``). ``sensors`` marks and names the sensors; ``hammer`` draws the hit.
     ``title`` heads every frame; the clock counts from ``time_zero`` (s, the hit) when given, and
     for an operating deflection shape (``ods_hz``, the coordinates one cycle after another) gives
-    the phase instead.
+    the phase instead. ``corrected_coords``: the motion with the measurement's diagnosed
+    distortions removed (``process --corrected``), overlaid in a third colour.
     """
     path = Path(path)
     fmt = path.suffix.lower().lstrip(".")
@@ -332,8 +334,13 @@ def render_movie(
         if next(iter(model_coords.values())).shape[0] != n:
             raise ConfigError(f"model_coords: {next(iter(model_coords.values())).shape[0]} samples, "
                               f"the measurement has {n}")
+    if corrected_coords is not None:
+        corrected_coords = check_coords(rig, corrected_coords, "corrected_coords")
+        if next(iter(corrected_coords.values())).shape[0] != n:
+            raise ConfigError(f"corrected_coords: {next(iter(corrected_coords.values())).shape[0]} samples, "
+                              f"the measurement has {n}")
     if magnify is None:
-        magnify = default_magnification(rig, coords, *([model_coords] if model_coords else []))
+        magnify = default_magnification(rig, coords, *[c for c in (model_coords, corrected_coords) if c])
     magnify = (float(magnify[0]), float(magnify[1]))
     frames, step, slow = frame_plan(n, fs, fps=fps, start=start, stop=stop, frame_step=frame_step,
                                     slowdown=slowdown, duration=duration)
@@ -348,7 +355,7 @@ def render_movie(
     title = "\n".join(t for t in (title, f"{speed if ods_hz is None else ''}"
                                           f"{'; ' if ods_hz is None else ''}{magnification_words(magnify)}") if t)
     job = {"rig": rig, "coords": coords, "fps": fps, "labels": labels, "n_frames": len(frames),
-           "scene": dict(model_coords=model_coords, layout=layout, magnify=magnify, view=tuple(view),
+           "scene": dict(model_coords=model_coords, corrected_coords=corrected_coords, layout=layout, magnify=magnify, view=tuple(view),
                          parallel=parallel, solid=solid, axes=axes, ghost=ghost, size=size, style=style,
                          sensors=sensors, hammer=hammer, title=title)}
     if workers is None:

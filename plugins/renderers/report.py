@@ -323,8 +323,9 @@ def build_report(
             chosen = movie_experiment or max(cmp.experiments, key=lambda n: cmp.experiments[n]["error"])
             say(f"rendering the movie of {chosen}")
             exp = next(e for e in exps if e.name == chosen)
-            movie_html = _movie_section(rig, exp, coord_series[chosen], tmp)
-            view_html = _view_section(rig, exp, coord_series[chosen])
+            series, corrected = _corrected_series(project, rig, exp, rev, coord_series[chosen])
+            movie_html = _movie_section(rig, exp, series, tmp, corrected)
+            view_html = _view_section(rig, exp, series, corrected)
         else:
             notes.append("movie skipped (--no-movie)")
 
@@ -551,7 +552,40 @@ def _window(exp) -> tuple[float, float]:
     return start, min((exp.n_samples - 1) / exp.fs, start + MOVIE_AFTER_S)
 
 
-def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path) -> str:
+def _corrected_series(project, rig, exp, rev, series: Mapping[str, tuple]) -> tuple[Mapping[str, tuple], Any]:
+    """The recorded and model motion to draw with the corrected one, and the corrected one with
+    what was undone (None when `process --corrected` stored none for this revision). With
+    corrections the model is the revision's structure seen by an ideal chain: the motion the
+    corrected one should match."""
+    from odsuite.api import coordinate_series, ideal_chain_model, stored_correction
+
+    stored = stored_correction(project, exp.name)
+    if stored is None or not series:
+        return series, None
+    coords, applied = stored
+    if applied["revision"] != rev.get("revision") or set(coords) != set(series):
+        return series, None
+    if applied["corrections"]:
+        ideal = coordinate_series(rig, exp, ideal_chain_model(project, rev).for_experiment(exp.name))
+        series = {b: (gm, ideal[b][1], cols) for b, (gm, _, cols) in series.items()}
+    return series, (coords, applied)
+
+
+def _corrections_html(corrected) -> str:
+    """The list of the measurement corrections undone in the corrected motion."""
+    coords, applied = corrected
+    rows = [[c["effect"], c["stage"], ", ".join(f"{k} {_fmt(v, '.4g')}" + (
+        f" ± {_fmt(c['uncertainties'][k], '.2g')}" if k in c.get("uncertainties", {}) else "")
+        for k, v in c["values"].items()) or "–"] for c in applied["corrections"]]
+    head = (f"<p>Corrected motion (green): model revision {_esc(applied['revision'])}'s measurement corrections "
+            f"undone on the records, drift removed below {_fmt(applied['cutoff_hz'], '.1f')} Hz"
+            + ("; no measurement effect to undo (structure only), so it is the drift-corrected motion.</p>"
+               if not rows else ":</p>"))
+    return head + (_table(["effect", "stage", "values undone (± standard error)"], rows, id="corrections")
+                   if rows else "")
+
+
+def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path, corrected=None) -> str:
     from .motion import magnification_words
     from .movie import gif_from_mp4, mp4_available, render_movie
     from .scene import Hammer, Style
@@ -566,7 +600,9 @@ def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path) -> str:
                        tmp / ("movie.mp4" if mp4_available() else "movie.gif"),
                        model_coords={b: gp for b, (_, gp, _) in series.items()}, size=MOVIE_SIZE, fps=MOVIE_FPS,
                        start=start, stop=stop, frame_step=step, workers=1, progress=False, hammer=hammer,
-                       title=f"{exp.name}: measured (blue) and model (orange band)", time_zero=exp.trigger / exp.fs,
+                       corrected_coords=corrected[0] if corrected else None,
+                       title=f"{exp.name}: measured (blue), " + ("corrected (green) " if corrected else "")
+                       + "and model (orange band)", time_zero=exp.trigger / exp.fs,
                        style=Style(font_size=8, line_width=1.5, model_width=5.0))
     gif = res.path if res.format == "gif" else gif_from_mp4(res.path, tmp / "movie.gif", MOVIE_FPS)
     fallback = f'<img src="{_data_uri(gif, "image/gif")}" alt="movie of {_esc(exp.name)}">'
@@ -574,7 +610,8 @@ def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path) -> str:
              f'<video controls loop muted playsinline preload="auto" width="{MOVIE_SIZE[0]}" '
              f'poster="{_data_uri(_poster(gif, tmp / "poster.png"), "image/png")}">'
              f'<source src="{_data_uri(res.path, "video/mp4")}" type="video/mp4">{fallback}</video>')
-    return (f"<figure>{shown}<figcaption>{_esc(exp.name)}: measured motion (blue) with the model's (orange band), "
+    return (f"<figure>{shown}<figcaption>{_esc(exp.name)}: measured motion (blue)"
+            + (" and corrected motion (green)" if corrected else "") + " with the model's (orange band), "
             f"{res.n_frames} frames from {1e3 * (start - exp.trigger / exp.fs):+.1f} ms to "
             f"{1e3 * (stop - exp.trigger / exp.fs):+.1f} ms around the hit, {res.slowdown:.0f} times slower than "
             f"real time, {_esc(magnification_words(res.magnify))}.</figcaption></figure>")
@@ -591,7 +628,7 @@ def _poster(gif: Path, path: Path) -> Path:
     return path
 
 
-def _view_section(rig, exp, series: Mapping[str, tuple]) -> str:
+def _view_section(rig, exp, series: Mapping[str, tuple], corrected=None) -> str:
     from .viewer import viewer_data, viewer_html
 
     if not series:
@@ -600,5 +637,5 @@ def _view_section(rig, exp, series: Mapping[str, tuple]) -> str:
     data = viewer_data(rig, {b: gm for b, (gm, _, _) in series.items()}, exp.fs,
                        model_coords={b: gp for b, (_, gp, _) in series.items()},
                        start=int(round(start * exp.fs)), stop=int(round(stop * exp.fs)) + 1,
-                       time_zero=exp.trigger / exp.fs)
-    return viewer_html(data)
+                       time_zero=exp.trigger / exp.fs, corrected_coords=corrected[0] if corrected else None)
+    return viewer_html(data) + (_corrections_html(corrected) if corrected else "")

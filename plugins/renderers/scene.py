@@ -34,6 +34,7 @@ class Style:
     background: tuple[float, float, float] = (1.0, 1.0, 1.0)
     measured: tuple[float, float, float] = (0.05, 0.15, 0.55)
     model: tuple[float, float, float] = (0.85, 0.35, 0.0)
+    corrected: tuple[float, float, float] = (0.0, 0.55, 0.2)
     static: tuple[float, float, float] = (0.55, 0.55, 0.55)
     ghost: tuple[float, float, float] = (0.35, 0.35, 0.35)
     text: tuple[float, float, float] = (0.1, 0.1, 0.1)
@@ -154,6 +155,7 @@ class Scene:
         coords: Mapping[str, np.ndarray],
         *,
         model_coords: Mapping[str, np.ndarray] | None = None,
+        corrected_coords: Mapping[str, np.ndarray] | None = None,
         layout: str = "overlay",
         magnify: tuple[float, float] = (1.0, 1.0),
         view: tuple[float, float] = (60.0, 25.0),
@@ -175,6 +177,8 @@ class Scene:
         coords = check_coords(rig, coords)
         if model_coords is not None:
             model_coords = check_coords(rig, model_coords, "model_coords")
+        if corrected_coords is not None:
+            corrected_coords = check_coords(rig, corrected_coords, "corrected_coords")
         self.size = (int(size[0]), int(size[1]))
         self.style = style
         side = model_coords is not None and layout == "side-by-side"
@@ -189,6 +193,8 @@ class Scene:
         sets = []
         if model_coords is not None:
             sets.append((model_coords, style.model, 1 if side else 0, not side))
+        if corrected_coords is not None:  # with the recorded motion: both are the measurement
+            sets.append((corrected_coords, style.corrected, 0, False))
         sets.append((coords, style.measured, 0, False))
         scale = plate_scale(rig, list(coords))
         for k in range(2 if side else 1):
@@ -207,7 +213,7 @@ class Scene:
         if hammer is not None:
             self._hammer_arrow(rig, hammer, coords, magnify, scale)
         self._label = title_and_label(self.plotter, self.size, style, title)
-        self._legend(side, model_coords is not None, ghost, hammer is not None, sensors)
+        self._legend(side, model_coords is not None, ghost, hammer is not None, sensors, corrected_coords is not None)
         self._camera(rig, coords, view, parallel, side)
 
     # -- construction ------------------------------------------------------------------------
@@ -309,9 +315,12 @@ class Scene:
         self._moving += [(arrow, series), (label, series[:, :1])]
         self._hammer = (actor, force >= Hammer.CONTACT_FRACTION * max(force.max(initial=0.0), 1e-300))
 
-    def _legend(self, side: bool, model: bool, ghost: bool, hammer: bool, sensors: bool) -> None:
+    def _legend(self, side: bool, model: bool, ghost: bool, hammer: bool, sensors: bool,
+                corrected: bool = False) -> None:
         st = self.style
         entries = [("measured motion", st.measured)]
+        if corrected:
+            entries.append(("corrected motion", st.corrected))
         if model and not side:  # side by side, the right-hand view is headed "model"
             entries.append(("model motion (wide band)", st.model))
         if ghost:

@@ -47,11 +47,28 @@ class Case:
         out = []
         for i, hits in enumerate(self.records):
             a = self.actual
-            out.append(simulate(Setup(a.structure, a.accelerometers, a.force_sensor, a.daq, hits), rng,
-                                self.nominal_scale()))
+            rec = simulate(Setup(a.structure, a.accelerometers, a.force_sensor, a.daq, hits), rng,
+                           self.nominal_scale())
+            out.append(self._labelled(rec))
             if progress:
                 progress(i + 1, len(self.records))
         return out
+
+    def _labelled(self, rec: Record) -> Record:
+        """Each channel named and scaled as the lab set it up (the nominal sensor on that channel),
+        whichever sensor its cable actually carries (a channel swap)."""
+        scale = self.nominal_scale()
+        for s in self.nominal.accelerometers:
+            if rec.names[s.channel] != s.name:
+                rec.names[s.channel] = s.name
+                rec.scale[s.channel] = scale[s.name] * self.actual.daq.amplifier_gain
+        return rec
+
+    def body_motion(self, records: list[Record]) -> dict[str, np.ndarray]:
+        """The true motion of every body in each record: the six coordinates at its centre of mass
+        (m m m rad rad rad, rig axes, small rotations) at the nominal sample instants."""
+        n = 6 * len(self.actual.structure.bodies)
+        return {f"r{i:02d}": rec.q[:, :n] for i, rec in enumerate(records)}
 
     def truth_document(self) -> dict:
         nominal_f = Model(self.nominal.structure).natural_frequencies()
@@ -82,7 +99,8 @@ class Case:
         out.mkdir(parents=True, exist_ok=True)
         stem = f"{self.rig_name}-{self.name}-s{self.seed}"
         files = [writers.write_rig_toml(out / f"{stem}-rig.toml", self.nominal)]
-        for i, rec in enumerate(self.simulate(progress)):
+        records = self.simulate(progress)
+        for i, rec in enumerate(records):
             base = out / f"{stem}-r{i:02d}"
             if "lvm" in formats:
                 files.append(writers.write_lvm(base.with_suffix(".lvm"), rec, decimal=decimal, physical=physical))
@@ -91,7 +109,14 @@ class Case:
                 files.append(writers.write_ctr(base.with_suffix(".CTR"), rec, self.nominal, self.actual.daq))
             if "uff" in formats:
                 files.append(writers.write_uff58(base.with_suffix(".uff"), rec, self.nominal))
-        truth = self.truth_document() | {"files": [f.name for f in files]}
+        motion = out / f"{stem}-motion.npz"
+        np.savez(motion, **self.body_motion(records))
+        files.append(motion)
+        truth = self.truth_document() | {"files": [f.name for f in files], "body_motion": {
+            "file": motion.name, "arrays": "one per record (r00, r01, ...): samples x coordinates",
+            "coordinates": [f"{b.name}.{c}" for b in self.actual.structure.bodies
+                            for c in ("x", "y", "z", "rx", "ry", "rz")],
+            "units": "m m m rad rad rad", "reference": "each body's centre of mass, rig axes"}}
         files.append(writers.write_truth(out / f"{stem}-truth.json", truth))
         return files
 
@@ -454,6 +479,17 @@ def mains_hum(case: Case, rng: np.random.Generator) -> None:
     case.truth["effect"] = {"kind": "mains_hum", "hum_hz": case.actual.daq.hum_hz, "hum_v": case.actual.daq.hum_v}
 
 
+def channel_swap(case: Case, rng: np.random.Generator) -> None:
+    """Two accelerometer channels' cables exchanged: each channel records the other sensor (with
+    that sensor's sensitivity), named and scaled as the lab set the channel up."""
+    accs = case.actual.accelerometers
+    i, j = (int(k) for k in rng.choice(len(accs), size=2, replace=False))
+    a, b = accs[i], accs[j]
+    a.channel, b.channel = b.channel, a.channel
+    case.truth["effect"] = {"kind": "channel_swap", "sensors": [a.name, b.name],
+                            "channels": [b.channel, a.channel]}
+
+
 CASES: dict[str, tuple[Callable[[Case, np.random.Generator], None], str]] = {
     "nominal-16bit": (_adc(16), "no hidden change, 16-bit ADC"),
     "nominal-12bit": (_adc(12), "no hidden change, 12-bit ADC"),
@@ -468,6 +504,7 @@ CASES: dict[str, tuple[Callable[[Case, np.random.Generator], None], str]] = {
     "polarity-flip": (polarity_flip, "one accelerometer wired with reversed polarity"),
     "scan-skew": (scan_skew, "multiplexed DAQ: channel k sampled k * (2-20 us) late"),
     "channel-delay": (channel_delay, "one accelerometer channel sampled 5-60 us late"),
+    "channel-swap": (channel_swap, "two accelerometer channels' cables exchanged"),
     "torsion-mode": (torsion_mode, "the plate's torsion mode (sections rotate) between the top rigid mode and 2 kHz"),
     "loose-bracket": (loose_bracket, "the sensors at one point on a loose 10-50 g bracket, soft along one axis"),
     "hardening-series": (hardening_series, "cubic hardening springs, five force levels 0.5-50 N"),
@@ -577,9 +614,12 @@ def build_case(name: str, seed: int, rig: str = "thesis", n_samples: int | None 
     ``force_n``: every record's (first) blow has this peak force, N (the hit points are still
     jittered); ``noise_v``: the white noise per channel, V rms (default 50 uV);
     ``noise_fraction``: more white noise, this fraction of each channel's clean rms;
-    ``disturbances``: any of "drift", "hum", "double-hit", drawn from a stream of their own."""
-    if name not in CASES:
-        raise KeyError(f"unknown case {name!r}; cases: {', '.join(CASES)}")
+    ``disturbances``: any of "drift", "hum", "double-hit", drawn from a stream of their own.
+    Names joined by "+" ("polarity-flip+channel-swap") draw each change in turn; the truth's
+    "effects" lists them."""
+    parts = name.split("+")
+    if any(part not in CASES for part in parts):
+        raise KeyError(f"unknown case {name!r}; cases: {', '.join(CASES)} (or several joined by '+')")
     if rig not in RIGS:
         raise KeyError(f"unknown rig {rig!r}; rigs: {', '.join(RIGS)}")
     nominal = RIGS[rig]()
@@ -589,11 +629,19 @@ def build_case(name: str, seed: int, rig: str = "thesis", n_samples: int | None 
     case = Case(name, rig, seed, nominal, nominal.copy(), [])
     case.actual.daq.noise_rms_v = FLOOR_NOISE_V
     case.records = _jittered_hits(nominal, rng)
-    effect, description = CASES[name]
-    case.truth["description"] = description
     if force_n is not None:
         case.records = [[replace(hits[0], peak_n=float(force_n))] + hits[1:] for hits in case.records]
-    effect(case, rng)
+    if len(parts) == 1:
+        effect, description = CASES[name]
+        case.truth["description"] = description
+        effect(case, rng)
+    else:
+        effects = []
+        for part in parts:
+            CASES[part][0](case, rng)
+            effects.append(case.truth.pop("effect", {"kind": part}))
+        case.truth["description"] = "; ".join(CASES[part][1] for part in parts)
+        case.truth["effects"] = effects
     if noise_v is not None:
         case.actual.daq.noise_rms_v = float(noise_v)
     case.actual.daq.noise_fraction = float(noise_fraction)
