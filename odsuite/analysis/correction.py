@@ -289,12 +289,11 @@ def ideal_chain_model(project, revision: Mapping[str, Any] | None = None):
     as fitted, seen by an ideal chain (a RevisionModel; what corrected records are compared with)."""
     from odsuite.analysis.modelrev import apply_effects, base_model, current_revision
     from odsuite.contracts.effects import corrects
-    from odsuite.contracts.plugins import registries
 
     rev = revision or current_revision(project)
-    regs = registries()
+    regs = project.registries
     kept = [e for e in rev.get("effects", []) if not corrects(regs.effects.get(e["effect"]))]
-    return apply_effects(base_model(project.rig, rev.get("model")), kept)
+    return apply_effects(base_model(project.rig, rev.get("model"), registries=regs), kept, registries=regs)
 
 
 def stored_correction(project, experiment: str) -> tuple[dict[str, np.ndarray], dict[str, Any]] | None:

@@ -190,7 +190,7 @@ def test_cli_process_corrected(tmp_path, capsys):
         acquire(project, SimulatedRig(), "T1", AcquisitionSettings(n_samples=4096), scenario="T1", seed=1)
     assert main(["process", str(path), "--corrected", "--cutoff", "40"]) == 0
     out = capsys.readouterr().out
-    assert "T1: gencoords_corrected (model revision 0, cutoff 40.0 Hz)" in out
+    assert "T1: gencoords_corrected (model revision 0, cutoff 40.0 Hz; measurement corrections: none)" in out
     with open_project(path) as project:
         info = project.derived_info("T1", KIND)
         assert info["provenance"]["parameters"]["cutoff_hz"] == 40.0

@@ -35,7 +35,7 @@ def _motion(n_dof: int) -> np.ndarray:
 @pytest.fixture(scope="module")
 def thesis():
     rig = registries().rigs.get("thesis-dynamometer")
-    model = base_model(rig)
+    model = base_model(rig, registries=registries())
     q = _motion(model.structure.n_dof)
     return rig, model, q
 
