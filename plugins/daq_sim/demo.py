@@ -143,16 +143,14 @@ def _print_candidates(console: Console, doc: Mapping[str, Any], rows: int = 6) -
 def _write_outputs(out: Path, project_path: Path, diagnosis: Mapping[str, Any] | None,
                    console: Console) -> dict[str, Path]:
     """The history figure, a movie of one test with the model's motion and the HTML report."""
-    from odsuite.api import history, history_figure
     from odsuite.contracts.plugins import registries
     from odsuite.api import open_project
     from odsuite.contracts.renderers import RenderRequest
 
-    files: dict[str, Path] = {}
+    files: dict[str, Path] = {"history": out / "history.png"}
     movie_exp = MOVIE_EXPERIMENT
+    registries().renderers.get("history").render(RenderRequest(project_path, None, files["history"]))
     with open_project(project_path) as p:
-        files["history"] = out / "history.png"
-        history_figure(history(p), files["history"])
         exp = p.experiment(movie_exp)
     hit = exp.pretrigger / exp.sampling_rate
     movie = registries().renderers.get("movie").render(RenderRequest(
