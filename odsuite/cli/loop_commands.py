@@ -7,8 +7,7 @@ from pathlib import Path
 from rich.table import Table
 import typer
 
-from odsuite.domain.errors import ConfigError
-from odsuite.cli.app import _check_output, _figure_renderer, _loop_progress, _modal_table, _print_json, app, console, err_console, shown
+from odsuite.cli.app import _figure_renderer, _loop_progress, _modal_table, _print_json, app, console, err_console, shown
 
 
 @app.command("compare")
