@@ -113,7 +113,6 @@ _WHERE: dict[str, str] = {
     "compare": "odsuite.analysis.comparison",
     "COORDINATE_NAMES": "odsuite.analysis.comparison",
     "history": "odsuite.analysis.history",
-    "history_figure": "odsuite.analysis.history",
     # FRFs, modes and operating shapes
     "estimate_frf": "odsuite.analysis.frf",
     "assess_hits": "odsuite.analysis.hammer",
@@ -125,8 +124,7 @@ _WHERE: dict[str, str] = {
     "physical": "odsuite.analysis.modal_project",
     "experiment_output_only_modes": "odsuite.analysis.modal_project",
     "operating_shape": "odsuite.analysis.ods",
-    "frf_figure": "odsuite.analysis.modal_figures",
-    "mac_figure": "odsuite.analysis.modal_figures",
+    "frequency_labels": "odsuite.analysis.modal",
     # diagnosis
     "diagnose": "odsuite.diagnosis.diagnose",
     "add_effect": "odsuite.diagnosis.add_effect",

@@ -242,7 +242,7 @@ def build_report(
 
     from odsuite.api import COORDINATE_NAMES, compare
     from odsuite.api import coordinate_series, predict, prepare
-    from odsuite.api import history, history_figure
+    from odsuite.api import history
     from odsuite.api import current_revision, revision_model
     from odsuite.api import open_project
 
@@ -309,7 +309,7 @@ def build_report(
 
         say("history")
         hist = history(project)
-        history_figure(hist, tmp / "history.png")
+        _draw(project, "history", None, tmp / "history.png", history=hist)
         hist_html = (_img(tmp / "history.png", "pooled error per model revision")
                      + _table(["revision", "parent", "effects", "error (NRMSE)"],
                               [[r["revision"], "–" if r["parent"] is None else r["parent"],
@@ -425,8 +425,6 @@ def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, m
     """Per hammer record: its FRFs (magnitude log-log, phase, coherence) for ``frf_channels`` or the
     driving point, the model's modes dotted; and the MAC matrix of its measured modes against the
     model's, beside the modal table."""
-    from odsuite.api import frf_figure, mac_figure
-
     by_name = {e.name: e for e in exps}
     parts = []
     for rec in records:
@@ -446,16 +444,18 @@ def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, m
         tag = f"{len(parts)}"
         # the model's modes near the band; where no mode was measured, every mode of the model
         model_hz = rec.model_hz if rec.measured_hz.size else modes_hz
-        frf_figure(rec.frf, tmp / f"frf-{tag}.png", f_range=rec.band_hz, outputs=chosen, model_hz=model_hz,
-                   title=f"{rec.experiment}: {', '.join(chosen)}", size=(PRINT_WIDTH_IN, 5.2), dpi=FIGURE_DPI)
+        _draw(project, "frf", rec.experiment, tmp / f"frf-{tag}.png", frf=rec.frf, f_range=rec.band_hz, outputs=chosen,
+              model_hz=model_hz, title=f"{rec.experiment}: {', '.join(chosen)}", size=(PRINT_WIDTH_IN, 5.2),
+              dpi=FIGURE_DPI)
         band = ("over the whole record's band (no usable band found)" if rec.band_hz is None else
                 f"over the band the modes are fitted in, {rec.band_hz[0]:.0f}-{rec.band_hz[1]:.0f} Hz")
         figs = [_img(tmp / f"frf-{tag}.png", f"{rec.experiment}: FRF of the {what} to the hammer force "
                      f"(magnitude on log-log axes, phase, coherence) {band}; dotted: model modes")]
         if rec.mac is not None:
-            mac_figure(rec.mac, tmp / f"mac-{tag}.png", labels_a=[f"{f:.1f} Hz" for f in rec.measured_hz],
-                       labels_b=[f"{f:.1f} Hz" for f in rec.model_hz], xlabel="model mode", ylabel="measured mode",
-                       title=f"{rec.experiment}: MAC, measured against model modes", dpi=FIGURE_DPI)
+            _draw(project, "mac", rec.experiment, tmp / f"mac-{tag}.png", mac=rec.mac,
+                  labels_a=[f"{f:.1f} Hz" for f in rec.measured_hz], labels_b=[f"{f:.1f} Hz" for f in rec.model_hz],
+                  xlabel="model mode", ylabel="measured mode",
+                  title=f"{rec.experiment}: MAC, measured against model modes", dpi=FIGURE_DPI)
             figs.append(_img(tmp / f"mac-{tag}.png", f"{rec.experiment}: MAC of the measured modes (rows) against "
                              "the model's (columns) at the record's accelerometers"))
         elif not rec.measured_hz.size:
@@ -465,6 +465,14 @@ def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, m
         parts.append(f"<h3 id='modal-{_esc(rec.experiment)}'>{_esc(rec.experiment)}</h3>"
                      f"<div class='modal-figs'>{''.join(figs)}</div>")
     return "".join(parts)
+
+
+def _draw(project, name: str, experiment: str | None, path: Path, **options) -> None:
+    """Draw with the figure renderer ``name`` of the project's registries, as the command line does."""
+    from odsuite.contracts.renderers import RenderRequest
+
+    project.registries.renderers.get(name).render(RenderRequest(project.path, experiment, path, options,
+                                                                progress=False, registries=project.registries))
 
 
 def _page(title: str, sections: Sequence[tuple[str, str, str]], notes: Sequence[str]) -> str:
