@@ -153,4 +153,4 @@ def test_odsuite_runs_without_fcntl(tmp_path):
     assert open_project(path).experiment_names() == ["x"]
     assert sorted(x.name for x in tmp_path.iterdir()) == ["p.h5"]
     for module in ("storage.py", "writer_lock.py", "project.py"):
-        assert "import fcntl" not in (Path(__file__).resolve().parents[2] / "odsuite" / "core" / module).read_text()
+        assert "import fcntl" not in (Path(__file__).resolve().parents[2] / "odsuite" / "store" / module).read_text()
