@@ -318,6 +318,13 @@ def _run(argv: list[str] | None) -> int:
 _AS_JSON = False
 
 
+#: click's usage errors: typer 0.2x carries its own copy of click, older ones use click itself
+try:
+    from typer._click.exceptions import ClickException as _UsageError
+except ImportError:
+    from click import ClickException as _UsageError
+
+
 def _failed(exc: Exception) -> int:
     """The exit code of a command that raised ``exc`` (printing its one line), or ``exc`` again
     when it is a bug."""
@@ -334,7 +341,7 @@ def _failed(exc: Exception) -> int:
     except typer.Abort:
         err_console.print("aborted")
         return 1
-    except typer.TyperException as exc:
+    except _UsageError as exc:
         # usage errors (unknown option, missing argument) carry their own exit code
         exc.show()
         return exc.exit_code

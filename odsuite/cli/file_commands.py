@@ -31,8 +31,8 @@ def import_cmd(
                             "`odsuite plugins` lists all)."),
     systeminfo: Path = typer.Option(None, "--systeminfo", help="legacy: the .CTR Systeminfo file."),
     force_point: str = typer.Option(None, "--force-point",
-                                    help="legacy, lvm, uff: X,Y,Z in mm in the rig frame (the thesis rig: from the "
-                                    "platform's centre of mass)."),
+                                    help="legacy, lvm, uff: X,Y,Z in the rig frame with units (200mm or 0.2m each); bare numbers are mm (the thesis rig: "
+                                    "from the platform's centre of mass)."),
     force_dir: str = typer.Option(None, "--force-dir", help="legacy, lvm, uff: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
     force_channel: str = typer.Option(None, "--force-channel", help="lvm, uff: name of the force channel."),
     force_body: str = typer.Option(None, "--force-body", help="lvm, uff on a rig: the body hit, when the force point "
@@ -50,7 +50,8 @@ def import_legacy_cmd(
     systeminfo: Path = typer.Option(..., "--systeminfo", help="Legacy .CTR Systeminfo file."),
     name: str = typer.Option(..., "--name", help="Experiment name."),
     force_point: str = typer.Option(..., "--force-point",
-                                    help="X,Y,Z in mm in the rig frame (the thesis rig: from the platform's centre of mass)."),
+                                    help="X,Y,Z in the rig frame with units (200mm or 0.2m each); bare numbers are mm (the thesis rig: from the "
+                                    "platform's centre of mass)."),
     force_dir: str = typer.Option(..., "--force-dir", help="+x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
 ) -> None:
     """Import a thesis-era .DAT/.VIZ record with its .CTR Systeminfo (`odsuite import --format legacy`)."""
@@ -79,7 +80,7 @@ def import_lvm_cmd(
     lvmfile: Path = typer.Argument(..., help="LabVIEW .lvm text file."),
     name: str = typer.Option(..., "--name", help="Experiment name."),
     force_channel: str = typer.Option(None, "--force-channel", help="Name of the force column (on a rig: the one for its force channel)."),
-    force_point: str = typer.Option(None, "--force-point", help="On a rig: X,Y,Z in mm in the rig frame."),
+    force_point: str = typer.Option(None, "--force-point", help="On a rig: X,Y,Z in the rig frame with units (200mm or 0.2m each); bare numbers are mm."),
     force_dir: str = typer.Option(None, "--force-dir", help="On a rig: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
     force_body: str = typer.Option(None, "--force-body", help="On a rig: the body hit, when the force point lies on two."),
 ) -> None:
@@ -95,7 +96,7 @@ def import_uff_cmd(
     ufffile: Path = typer.Argument(..., help="UFF file (.uff/.unv) with time records (dataset 58)."),
     name: str = typer.Option(..., "--name", help="Experiment name."),
     force_channel: str = typer.Option(None, "--force-channel", help="Name of the force record."),
-    force_point: str = typer.Option(None, "--force-point", help="On a rig: X,Y,Z in mm in the rig frame (default: "
+    force_point: str = typer.Option(None, "--force-point", help="On a rig: X,Y,Z in the rig frame with units (200mm or 0.2m each); bare numbers are mm (default: "
                                     "the force record's node in the file)."),
     force_dir: str = typer.Option(None, "--force-dir", help="On a rig: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz "
                                   "(default: the force record's direction in the file)."),

@@ -71,14 +71,16 @@ def acquire_cmd(
     daq: str = typer.Option("sim", "--daq", help="A registered acquisition backend (built in: sim, the simulated "
                             "rig; ni, NI-DAQmx). Its own options follow; `odsuite plugins` lists them."),
     name: str = typer.Option(..., "--name", help="Experiment name."),
-    force_point: str = typer.Option(None, "--force-point", help="X,Y,Z in mm in the rig frame (the thesis rig: from the platform's centre of mass)."),
+    force_point: str = typer.Option(None, "--force-point", help="X,Y,Z in the rig frame with units (200mm,150mm,75mm or 0.2,0.15,0.075m); bare numbers are mm "
+                                   "(the thesis rig: from the platform's centre of mass). A point inside a body moves onto "
+                                   "the nearest face the blow strikes."),
     force_dir: str = typer.Option(None, "--force-dir", help="+x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
     force_body: str = typer.Option(None, "--force-body", help="The body hit, when the force point lies on two."),
-    rate: float = typer.Option(None, "--rate", help="Sampling rate, Hz (default: the rig's [acquisition], "
-                               "else 20000)."),
+    rate: float = typer.Option(None, "--rate", help="Sampling rate, Hz (default: the rig file's "
+                               "acquisition sampling_rate, else 20000 Hz)."),
     samples: int = typer.Option(4096, "--samples", help="Samples per channel."),
-    pretrigger: int = typer.Option(None, "--pretrigger", help="Samples kept before the trigger (default: the "
-                                   "rig's [acquisition], else 512)."),
+    pretrigger: int = typer.Option(None, "--pretrigger", help="Samples kept before the trigger (default: "
+                                   "the rig file's acquisition pre_trigger, else 512)."),
     trigger_level: float = typer.Option(1.0, "--trigger-level", help="Force trigger level, N."),
     trigger_slope: str = typer.Option("rising", "--trigger-slope", help="rising or falling."),
     trigger_timeout: float = typer.Option(10.0, "--trigger-timeout", help="Seconds to wait for the trigger."),
@@ -93,15 +95,16 @@ def acquire_cmd(
 
     from odsuite.processing.acquisition import acquire
     from odsuite.contracts.daq import AcquisitionSettings, parse_backend_options
-    from odsuite.domain.excitation import parse_force_direction, parse_force_point
+    from odsuite.domain.excitation import check_force_point, parse_force_direction, read_force_point, surface_point
     from odsuite.contracts.plugins import registries
     from odsuite.store.project import open_project
 
     backend = registries().daq_backends.get(daq)
     options = parse_backend_options(daq, backend, ctx.args)
+    with open_project(project) as p:
+        rig = p.rig
+    acq = rig.acquisition if rig is not None else None
     if rate is None or pretrigger is None:  # the rig's own settings, when its file states them
-        with open_project(project) as p:
-            acq = p.rig.acquisition if p.rig is not None else None
         rate = rate if rate is not None else (acq.sampling_rate if acq and acq.sampling_rate else 20_000.0)
         pretrigger = pretrigger if pretrigger is not None else (
             acq.pre_trigger if acq and acq.pre_trigger is not None else 512)
@@ -112,7 +115,15 @@ def acquire_cmd(
     if force_point is not None or force_dir is not None:
         if force_point is None or force_dir is None:
             raise typer.BadParameter("give both --force-point and --force-dir")
-        options.update(point=parse_force_point(force_point), direction=parse_force_direction(force_dir))
+        point, bare = read_force_point(force_point)
+        where = "--force-point" + (" (bare numbers are mm)" if bare else "")
+        direction = parse_force_direction(force_dir)
+        if rig is not None:
+            point, moved = surface_point(rig, point, direction)
+            if moved:
+                err_console.print(f"warning: {moved}", style="yellow", highlight=False, soft_wrap=True)
+            check_force_point(rig, point, where)
+        options.update(point=point, direction=direction)
     if force_body is not None:
         options["force_body"] = force_body
     if continuous:
@@ -136,5 +147,10 @@ def acquire_cmd(
                           style="yellow", highlight=False, soft_wrap=True)
     for note in rec.notes:
         err_console.print(f"warning: {note}", style="yellow", highlight=False, soft_wrap=True)
+    if exp.excitation is not None and force_point is not None:  # echoed: the unit a bare number was read in
+        mm = ", ".join(f"{1e3 * v:.4g}" for v in exp.excitation.point)
+        console.print(f"force point ({mm}) mm in the rig frame" + (", read from bare numbers as mm" if bare else "")
+                      + (f", on {exp.excitation.body or rig.force_body(exp.excitation.point)!r}" if rig is not None else ""),
+                      highlight=False, soft_wrap=True)
     console.print(f"acquired {name!r}: {exp.n_samples} samples x {exp.n_channels} channels at {exp.sampling_rate:g} Hz, "
                   f"{exp.pretrigger} before the trigger ({rec.source})", highlight=False, soft_wrap=True)
