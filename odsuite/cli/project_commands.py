@@ -59,12 +59,21 @@ def new_cmd(
                             help="Registered rig name, a rig .toml file, or 'none' (no rig geometry)."),
 ) -> None:
     """Create a new project file on a rig."""
+    from odsuite.cli.app import err_console
+    from odsuite.contracts.plugins import registries
+    from odsuite.processing.rig_summary import rig_layout
     from odsuite.store.project import create_project
 
     created = create_project(project, rig)
     name = created.rig.name if created.rig else "none"
+    layout = rig_layout(created.rig, registries().coordinate_solvers) if created.rig else {"bodies": []}
     created.close()
     console.print(f"created {project} (rig: {name})", highlight=False, soft_wrap=True)
+    for body in layout["bodies"]:  # said now, not first at `process` after the records are taken
+        if body["solver_problem"]:
+            err_console.print(f"warning: {body['solver_problem']}; `process` will store no generalized "
+                              f"coordinates for body {body['name']!r}",
+                              style="yellow", highlight=False, soft_wrap=True)
 
 
 @app.command("info")

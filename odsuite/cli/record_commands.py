@@ -37,6 +37,7 @@ def process_cmd(
             (p.transaction() if corrected else contextlib.nullcontext()):
         # with --corrected one transaction: all or nothing; without, each experiment commits on its own
         names = experiment or p.experiment_names()
+        notes: dict[str, list[str]] = {}  # a note (the rig's layout) holds for many experiments: said once
         _ledger.plan(project, names + ([f"{n} (corrected)" for n in names] if corrected else []))
         if corrected:
             _ledger.start(", ".join(names + [f"{n} (corrected)" for n in names]))
@@ -55,7 +56,10 @@ def process_cmd(
                           f"{', '.join(map(str, summary['channels']))}" + (f"; {bodies}" if bodies else ""),
                           highlight=False, soft_wrap=True)
             for note in summary["notes"]:
-                err_console.print(f"note: {note}", highlight=False, soft_wrap=True)
+                notes.setdefault(note, []).append(name)
+        for note, named in notes.items():
+            which = "every experiment" if len(named) == len(names) > 1 else ", ".join(named)
+            err_console.print(f"note ({which}): {note}", highlight=False, soft_wrap=True)
         if corrected:
             from odsuite.analysis.correction import process_corrected
 

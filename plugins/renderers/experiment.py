@@ -36,6 +36,17 @@ def _coords(project, experiment: str, kind: str, hint: str) -> dict[str, np.ndar
     return coords
 
 
+def _why_no_coordinates(project, experiment: str) -> str:
+    """An unprocessed experiment, or a processed one whose bodies' sensors cannot give their motion."""
+    from odsuite.contracts.solvers import body_solvers
+
+    if "processed" not in project.derived_kinds(experiment):
+        return "run `odsuite process` first"
+    notes = body_solvers(project.rig, [s.name for s in project.rig.sensors], project.registries.coordinate_solvers)[1]
+    return f"no body's motion can be solved from its sensors ({'; '.join(notes)})" if notes else \
+        "run `odsuite process` first"
+
+
 def render_experiment(
     project_path: str | Path,
     experiment: str,
@@ -110,7 +121,7 @@ def render_experiment(
             coords = {b: m for b, (m, _) in pairs.items()}
             model_coords = {b: p for b, (_, p) in pairs.items()}
         else:
-            coords = _coords(project, experiment, MEASURED_KIND, "run `odsuite process` first")
+            coords = _coords(project, experiment, MEASURED_KIND, _why_no_coordinates(project, experiment))
         force = None
         if figure == "projection" and exp.excitation is not None:
             force = exp.raw(channels=exp.excitation.force_channel)

@@ -109,3 +109,57 @@ def test_every_help_text_renders_its_brackets(capsys, monkeypatch):
 def test_an_unknown_option_is_a_usage_line_not_a_traceback(capsys, project):
     code, out, err = run(capsys, "render", project, "--experiment", "H1")
     assert code == 2 and "No such option: --experiment" in err and "Traceback" not in err + out, err
+
+
+def without_sensors(tmp_path, *names) -> Path:
+    """The example rig without the triaxial accelerometers ``names`` (taken from the end of the file):
+    two triaxials on a body leave its rotation about the line through them undetermined."""
+    text = RIG.read_text()
+    for name in names:
+        start = text.index(f'[[sensors]]\nname = "{name}"')
+        end = text.find("[[sensors]]", start + 1)
+        text = text[:start] + (text[end:] if end > 0 else "")
+    channels = 19 - 3 * len(names)
+    text = text.replace("channel_count = 19", f"channel_count = {channels}")
+    for k, name in enumerate(n for n in ("P1", "P2", "P3", "M1", "M2", "M3") if n not in names):  # channels 1..
+        text = re.sub(rf'(name = "{name}"\n(?:.*\n)*?channels = )\[[0-9, ]+\]', rf"\g<1>[{3 * k + 1}, {3 * k + 2}, {3 * k + 3}]",
+                      text, count=1)
+    path = tmp_path / "rig.toml"
+    path.write_text(text)
+    return path
+
+
+def test_new_warns_at_once_about_a_body_its_sensors_cannot_solve(capsys, tmp_path):
+    code, out, err = run(capsys, "new", tmp_path / "p.h5", "--rig", without_sensors(tmp_path, "M3"))
+    assert code == 0 and out.startswith("created")
+    warnings = [ln for ln in err.splitlines() if ln.startswith("warning:")]
+    assert len(warnings) == 1 and "body 'motor': its motion cannot be solved" in warnings[0], err
+    assert "M1_x" in warnings[0] and "M2_z" in warnings[0] and "no generalized coordinates for body 'motor'" in warnings[0]
+    code, _, err = run(capsys, "new", tmp_path / "q.h5", "--rig", RIG)
+    assert code == 0 and "warning" not in err, err
+
+
+def test_process_says_a_note_once_per_project(capsys, tmp_path):
+    p = tmp_path / "p.h5"
+    assert run(capsys, "new", p, "--rig", without_sensors(tmp_path, "M3"))[0] == 0
+    for k in range(3):
+        code, _, err = run(capsys, "acquire", p, "--name", f"H{k}", "--force-point=200mm,150mm,75mm", "--force-dir=-z",
+                           "--seed", k, *SHORT)
+        assert code == 0, err
+    code, out, err = run(capsys, "process", p)
+    assert code == 0 and len(out.strip().splitlines()) == 3, out
+    notes = [ln for ln in err.splitlines() if ln.startswith("note")]
+    assert len(notes) == 1 and notes[0].startswith("note (every experiment): ") and "body 'motor'" in notes[0], err
+
+
+def test_render_model_names_the_sensor_layout_not_the_chains(capsys, tmp_path):
+    p = tmp_path / "p.h5"
+    assert run(capsys, "new", p, "--rig", without_sensors(tmp_path, "P3", "M3"))[0] == 0
+    assert run(capsys, "acquire", p, "--name", "H1", "--force-point=200mm,150mm,75mm", "--force-dir=-z", *SHORT)[0] == 0
+    assert run(capsys, "process", p)[0] == 0
+    for extra in (["--model"], []):
+        code, _, err = run(capsys, "render", p, "H1", *extra, "-o", tmp_path / "m.gif")
+        assert code == 1 and len(err.strip().splitlines()) == 1, err
+        assert "no body's motion can be solved from its sensors" in err and "process` first" not in err, err
+        assert "body 'plate'" in err and "body 'motor'" in err and "chains" not in err, err
+    assert not (tmp_path / "m.gif").exists()
