@@ -116,6 +116,7 @@ def acquire_cmd(
         sampling_rate=rate, n_samples=samples, pretrigger=pretrigger, trigger_level=trigger_level,
         trigger_slope=trigger_slope, trigger_timeout=trigger_timeout,
         mode="continuous" if continuous else "finite")
+    moved = None
     if force_point is not None or force_dir is not None:
         if force_point is None or force_dir is None:
             raise typer.BadParameter("give both --force-point and --force-dir")
@@ -123,9 +124,7 @@ def acquire_cmd(
         where = "--force-point" + (" (bare numbers are mm)" if bare else "")
         direction = parse_force_direction(force_dir)
         if rig is not None:
-            point, moved = surface_point(rig, point, direction)
-            if moved:
-                err_console.print(f"warning: {moved}", style="yellow", highlight=False, soft_wrap=True)
+            point, moved = surface_point(rig, point, direction)  # said once the record is taken
             check_force_point(rig, point, where)
         options.update(point=point, direction=direction)
     if force_body is not None:
@@ -149,7 +148,7 @@ def acquire_cmd(
     for ch, count in rec.clipped.items():
         err_console.print(f"warning: channel {ch} ({rec.channel_names[ch]}): {count} samples clipped at the ADC limits",
                           style="yellow", highlight=False, soft_wrap=True)
-    for note in rec.notes:
+    for note in rec.notes + ([moved] if moved else []):
         err_console.print(f"warning: {note}", style="yellow", highlight=False, soft_wrap=True)
     if exp.excitation is not None and force_point is not None:  # echoed: the unit a bare number was read in
         mm = ", ".join(f"{1e3 * v:.4g}" for v in exp.excitation.point)

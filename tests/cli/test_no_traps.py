@@ -163,3 +163,45 @@ def test_render_model_names_the_sensor_layout_not_the_chains(capsys, tmp_path):
         assert "no body's motion can be solved from its sensors" in err and "process` first" not in err, err
         assert "body 'plate'" in err and "body 'motor'" in err and "chains" not in err, err
     assert not (tmp_path / "m.gif").exists()
+
+
+def test_every_simulator_option_is_listed_with_its_unit_and_default(capsys):
+    """`odsuite plugins` and the user guide list each of the simulator's options; the hammer's stated
+    defaults are the ones a blow without options gets (hammer.Hit's)."""
+    from odsuite_plugins.daq_sim.hammer import Hit
+    from odsuite_plugins.daq_sim.simulator import SimulatedRig
+
+    code, out, _ = run(capsys, "plugins", "--json")
+    listed = {o["flag"]: o for o in json.loads(out)["plugins"]["daq_sim"]["daq_backend_options"]["sim"]}
+    assert set(listed) == {o.cli_flag for o in SimulatedRig.options}
+    for flag, o in listed.items():
+        assert o["default"] is not None or "default" in o["help"], flag
+    assert f"else {Hit().peak:g} N" in listed["--force-peak"]["help"]
+    assert f"else {1e3 * Hit().width:g} ms" in listed["--contact-ms"]["help"]
+    guide = (Path(__file__).resolve().parents[2] / "docs" / "user-guide.md").read_text()
+    rows = {line.split("`")[1].split()[0]: line for line in guide.splitlines() if line.startswith("| `--")}
+    assert set(rows) == set(listed)
+    assert f"else {Hit().peak:g} N" in rows["--force-peak"] and f"else {1e3 * Hit().width:g} ms" in rows["--contact-ms"]
+    code, out, _ = run(capsys, "plugins")
+    flat = " ".join(out.replace("│", " ").split())
+    assert "--contact-ms FLOAT: the blow's contact time, ms" in flat and "--seed INT: random seed; one seed, one record (default 0)" in flat
+
+
+@pytest.mark.slow
+def test_the_report_speaks_of_the_rig_at_hand(capsys, project, tmp_path):
+    """Words from the rig: its frame as its file states it, its bodies; no platform, no DAQ gain (a
+    field of the thesis's .CTR files, not of the rig format)."""
+    import html
+    import tomllib
+
+    frame = tomllib.loads(RIG.read_text())["frame"]
+    assert run(capsys, "acquire", project, "--name", "H1", "--force-point=200mm,150mm,75mm", "--force-dir=-z",
+               "--samples", "2048")[0] == 0
+    assert run(capsys, "process", project)[0] == 0
+    out = tmp_path / "r.html"
+    code, _, err = run(capsys, "report", project, "-o", out, "--no-diagnose", "--no-movie")
+    assert code == 0, err
+    text = html.unescape(re.sub(r"<[^>]+>", " ", out.read_text()))
+    assert f"Force points in mm in the rig frame ({frame})." in text
+    assert "platform" not in text.lower() and "DAQ gain" not in text and "z down" not in text
+    assert "plate (47.1 kg), motor (18 kg), floor" in text
