@@ -455,7 +455,7 @@ def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, m
         # the model's modes near the band; where no mode was measured, every mode of the model
         model_hz = rec.model_hz if rec.measured_hz.size else modes_hz
         frf_figure(rec.frf, tmp / f"frf-{tag}.png", f_range=rec.band_hz, outputs=chosen, model_hz=model_hz,
-                   title=f"{rec.experiment}: {', '.join(chosen)}", size=(PRINT_WIDTH_IN, 5.2), dpi=FIGURE_DPI)
+                   title=f"experiment {rec.experiment}: {', '.join(chosen)}", size=(PRINT_WIDTH_IN, 5.2), dpi=FIGURE_DPI)
         band = ("over the whole record's band (no usable band found)" if rec.band_hz is None else
                 f"over the band the modes are fitted in, {rec.band_hz[0]:.0f}-{rec.band_hz[1]:.0f} Hz")
         figs = [_img(tmp / f"frf-{tag}.png", f"{rec.experiment}: FRF of the {what} to the hammer force "
