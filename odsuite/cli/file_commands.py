@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from odsuite.cli.app import _check_output, _ledger, app, console, err_console
+from odsuite.cli.app import _check_output, _ledger, app, console, echo_force_point, err_console
 
 
 def _import(project: Path, file: Path, name: str, fmt: str | None, **options) -> None:
@@ -19,6 +19,7 @@ def _import(project: Path, file: Path, name: str, fmt: str | None, **options) ->
     res = importer.import_file(project, file, name, **check_options(importer, options))
     for note in res.notes:
         err_console.print(f"warning: {note}", style="yellow", highlight=False, soft_wrap=True)
+    echo_force_point(project, name, options.get("force_point"))
     console.print(f"imported {file} ({importer.name}: {res.summary})", highlight=False, soft_wrap=True)
 
 

@@ -11,7 +11,7 @@ from rich.table import Table
 import typer
 
 from odsuite.domain.errors import ConfigError
-from odsuite.cli.app import _ledger, app, console, err_console
+from odsuite.cli.app import _ledger, app, console, echo_force_point, err_console
 
 
 @app.command("process")
@@ -150,10 +150,6 @@ def acquire_cmd(
                           style="yellow", highlight=False, soft_wrap=True)
     for note in rec.notes + ([moved] if moved else []):
         err_console.print(f"warning: {note}", style="yellow", highlight=False, soft_wrap=True)
-    if exp.excitation is not None and force_point is not None:  # echoed: the unit a bare number was read in
-        mm = ", ".join(f"{1e3 * v:.4g}" for v in exp.excitation.point)
-        console.print(f"force point ({mm}) mm in the rig frame" + (", read from bare numbers as mm" if bare else "")
-                      + (f", on {exp.excitation.body or rig.force_body(exp.excitation.point)!r}" if rig is not None else ""),
-                      highlight=False, soft_wrap=True)
+    echo_force_point(project, name, force_point)
     console.print(f"acquired {name!r}: {exp.n_samples} samples x {exp.n_channels} channels at {exp.sampling_rate:g} Hz, "
                   f"{exp.pretrigger} before the trigger ({rec.source})", highlight=False, soft_wrap=True)

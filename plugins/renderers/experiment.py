@@ -154,9 +154,9 @@ def render_experiment(
     measured, predicted = coords[body], model_coords[body]
     if figure == "overlay":
         t = np.arange(measured.shape[0]) / fs
-        return comparison_figure(t, measured, predicted, output, title=f"{experiment}: {body} at G").path
+        return comparison_figure(t, measured, predicted, output, title=f"{experiment}: {body} at its centre of mass").path
     return residual_spectra_figure(fs, measured, predicted, output, names=COORDINATES, units=COORDINATE_UNITS,
-                                   title=f"{experiment}: {body} at G").path
+                                   title=f"{experiment}: {body} at its centre of mass").path
 
 
 def _movie(rig, coords, fs, output, experiment, *, model_coords, magnify, view, workers, frame_step, slowdown,

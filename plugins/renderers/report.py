@@ -292,7 +292,7 @@ def build_report(
             coord_series[e.name] = series
             parts = [f"<h3 id='overlay-{_esc(e.name)}'>{_esc(e.name)} (error {_fmt(cmp.experiments[e.name]['error'])})</h3>"]
             for body, (gm, gp, _) in series.items():
-                f = comparison_figure(t, gm, gp, tmp / f"{e.name}-{body}.png", title=f"{e.name}: {body} at G",
+                f = comparison_figure(t, gm, gp, tmp / f"{e.name}-{body}.png", title=f"{e.name}: {body} at its centre of mass",
                                       dpi=FIGURE_DPI, window=window)
                 parts.append(_img(f.path, f"{e.name}: generalized coordinates of the {body} at its centre of "
                                   "mass, model (solid) and measured (dashed)"))

@@ -171,20 +171,20 @@ def test_every_simulator_option_is_listed_with_its_unit_and_default(capsys):
     from odsuite_plugins.daq_sim.hammer import Hit
     from odsuite_plugins.daq_sim.simulator import SimulatedRig
 
-    code, out, _ = run(capsys, "plugins", "--json")
-    listed = {o["flag"]: o for o in json.loads(out)["plugins"]["daq_sim"]["daq_backend_options"]["sim"]}
-    assert set(listed) == {o.cli_flag for o in SimulatedRig.options}
+    listed = {o.cli_flag: o for o in SimulatedRig.options}
     for flag, o in listed.items():
-        assert o["default"] is not None or "default" in o["help"], flag
-    assert f"else {Hit().peak:g} N" in listed["--force-peak"]["help"]
-    assert f"else {1e3 * Hit().width:g} ms" in listed["--contact-ms"]["help"]
+        assert o.default is not None or "default" in o.help, flag
+    assert f"else {Hit().peak:g} N" in listed["--force-peak"].help
+    assert f"else {1e3 * Hit().width:g} ms" in listed["--contact-ms"].help
     guide = (Path(__file__).resolve().parents[2] / "docs" / "user-guide.md").read_text()
     rows = {line.split("`")[1].split()[0]: line for line in guide.splitlines() if line.startswith("| `--")}
     assert set(rows) == set(listed)
     assert f"else {Hit().peak:g} N" in rows["--force-peak"] and f"else {1e3 * Hit().width:g} ms" in rows["--contact-ms"]
     code, out, _ = run(capsys, "plugins")
     flat = " ".join(out.replace("│", " ").split())
-    assert "--contact-ms FLOAT: the blow's contact time, ms" in flat and "--seed INT: random seed; one seed, one record (default 0)" in flat
+    for flag, o in listed.items():  # each with its type and help (the table wraps long ones)
+        assert f"{flag} {o.type.__name__.upper()}: {o.help[:30]}" in flat, flag
+    assert "--seed INT: random seed; one seed, one record (default 0)" in flat
 
 
 @pytest.mark.slow
@@ -205,3 +205,21 @@ def test_the_report_speaks_of_the_rig_at_hand(capsys, project, tmp_path):
     assert f"Force points in mm in the rig frame ({frame})." in text
     assert "platform" not in text.lower() and "DAQ gain" not in text and "z down" not in text
     assert "plate (47.1 kg), motor (18 kg), floor" in text
+
+
+def test_import_echoes_the_force_point_it_read(capsys, project, tmp_path):
+    """A record exported from one project and imported onto the same rig: the point written in
+    metres is stored and said back in mm; bare numbers are said to be read as mm."""
+    assert run(capsys, "acquire", project, "--name", "a", "--force-point=200mm,150mm,75mm", "--force-dir=-z",
+               *SHORT)[0] == 0
+    uff = tmp_path / "a.uff"
+    code, _, err = run(capsys, "export-uff", project, "a", "-o", uff)
+    assert code == 0, err
+    for k, written in enumerate(["0.25,0.1,0.075m", "250,100,75"]):
+        code, out, err = run(capsys, "import-uff", project, uff, "--name", f"u{k}", f"--force-point={written}",
+                             "--force-dir=-z")
+        assert code == 0, err
+        line = next(ln for ln in out.splitlines() if ln.startswith("force point"))
+        assert line == "force point (250, 100, 75) mm in the rig frame" + (", read from bare numbers as mm" if k else "") \
+            + ", on 'plate'", line
+        np.testing.assert_allclose(stored_point(capsys, project, f"u{k}"), [0.25, 0.1, 0.075], rtol=1e-12)
