@@ -17,6 +17,17 @@ force, fills in what the measurement cannot carry:
 3. What remains of ``r`` below ``cutoff_hz`` (the double-integrated noise, a random walk) is
    taken by a zero-phase Butterworth low-pass; above ``cutoff_hz`` the measurement is kept.
 
+Before the drift is estimated, the distortions the loop diagnosed in the measurement itself are
+removed (thesis Ch. 3: "the measured (actual) signals are corrected by removing estimated
+distortions"): every effect of the current revision that describes the measurement chain and
+says how to undo it (``correct``, :mod:`odsuite.contracts.effects`) is undone on the measured
+displacements, from the converter back (channel, wiring, sensor stage); a tilted or moved sensor
+is re-expressed along its nominal axis at its nominal place from the motion its body's sensors
+record together (least squares over the body's sensors as mounted). The model the drift is
+estimated against is the revision without those effects: the structure as fitted, seen by an
+ideal chain. Each correction's uncertainty is the change of the corrected coordinates when its
+fitted values move by their standard errors (one at a time, added in quadrature).
+
 The corrected displacement ``d_m - drift`` is the model below ``cutoff_hz`` and the measurement
 above it (a complementary blend without phase shift); the same solver as the signal-based
 processing turns it into generalized coordinates. The default cutoff is half the model's lowest
@@ -26,7 +37,7 @@ fitted for; the resonances above it come from the measurement.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -90,6 +101,87 @@ def drift_estimate(residual: np.ndarray, fs: float, cutoff_hz: float) -> tuple[n
 
 
 @dataclass
+class MeasurementCorrection:
+    """One measurement effect of the revision, undone on the records."""
+
+    entry: str  # the revision entry's name ("sensor_gain", "missing_mode#2")
+    effect: Any
+    values: dict[str, float]  # shared values with the experiment's own
+    uncertainties: dict[str, float]  # standard errors of the fitted values (where known)
+    model: Any  # the revision's model: the effect's parameters and their nominals
+
+    def complete(self, values: Mapping[str, float] | None = None) -> dict[str, float]:
+        """``values`` (default: the fitted ones) with nominals where missing."""
+        return self.effect.values(self.model, self.values if values is None else values)
+
+    def as_dict(self) -> dict[str, Any]:
+        nominal = {p.name: p.nominal for p in self.effect.parameters(self.model)}
+        changed = {k: v for k, v in self.values.items() if nominal.get(k) != v}
+        return {"effect": self.entry, "stage": getattr(self.effect, "correction_stage", "sensor"),
+                "values": changed, "uncertainties": {k: self.uncertainties[k] for k in changed
+                                                     if k in self.uncertainties}}
+
+
+def measurement_corrections(revision: Mapping[str, Any], experiment: str, registry, model) -> list[MeasurementCorrection]:
+    """The revision's effects that describe the measurement and undo themselves, in the order
+    they are undone: stage by stage from the converter back, later additions first within one."""
+    from odsuite.analysis.modelrev import instance_names
+    from odsuite.contracts.effects import CORRECTION_STAGES, corrects
+
+    entries = list(revision.get("effects", []))
+    out = []
+    for name, entry in zip(instance_names(entries), entries):
+        effect = registry.get(entry["effect"])
+        if not corrects(effect):
+            continue
+        values = {**(entry.get("values") or {}), **(entry.get("per_experiment") or {}).get(experiment, {})}
+        unc = {k: float(v) for k, v in (entry.get("uncertainties") or {}).items()
+               if isinstance(v, (int, float)) and np.isfinite(v) and v > 0}
+        out.append(MeasurementCorrection(name, effect, values, unc, model))
+    stage = {s: i for i, s in enumerate(CORRECTION_STAGES)}
+    order = sorted(range(len(out)), key=lambda i: (stage.get(getattr(out[i].effect, "correction_stage", "sensor"), 2), -i))
+    return [out[i] for i in order]
+
+
+def undo_measurement(rig, sensors: Sequence[str], signals: np.ndarray, fs: float,
+                     corrections: Sequence[MeasurementCorrection], solver_registry,
+                     values: Mapping[int, Mapping[str, float]] | None = None) -> np.ndarray:
+    """``signals`` (samples x ``sensors``, along each sensor's nominal axis as recorded) with the
+    corrections undone in their order; ``values`` replaces the values of correction i (for the
+    uncertainty). Sensors the corrections find tilted or moved are re-expressed at their nominal
+    axis and place from the least-squares motion of their body's sensors as mounted."""
+    from odsuite.domain.rigidbody import body_sensors
+
+    mounted = rig
+    sig = {n: signals[:, j] for j, n in enumerate(sensors)}
+    for i, c in enumerate(corrections):
+        mounted, sig = c.effect.correct(mounted, sig, fs, c.complete((values or {}).get(i)))
+    out = np.column_stack([sig[n] for n in sensors])
+    moved = [n for n in sensors if _geometry(mounted.sensor(n)) != _geometry(rig.sensor(n))]
+    if moved:
+        ls = solver_registry.get("least-squares")
+        for body in rig.moving_bodies:
+            names = tuple(s.name for s in body_sensors(rig, body) if s.name in sig)
+            todo = [n for n in names if n in moved]
+            if not todo:
+                continue
+            where = f"rig {rig.name!r} body {body.name!r}"
+            try:
+                a_mounted = ls.matrix(mounted, body, names)
+            except ConfigError as exc:
+                raise ConfigError(f"{where}: the sensors as mounted cannot re-express {', '.join(todo)}: {exc}") from None
+            d = out[:, [sensors.index(n) for n in names]] @ np.linalg.pinv(a_mounted).T
+            a_nominal = ls.matrix(rig, body, names)[[names.index(n) for n in todo]]
+            out[:, [sensors.index(n) for n in todo]] = d @ a_nominal.T
+    return out
+
+
+def _geometry(sensor) -> tuple:
+    return (tuple(np.round(np.asarray(sensor.axis, float), 12)) if sensor.axis is not None else None,
+            tuple(np.round(np.asarray(sensor.position, float), 12)) if sensor.position is not None else None)
+
+
+@dataclass
 class Correction:
     """One experiment's model-corrected motion (SI: m, rad)."""
 
@@ -103,6 +195,11 @@ class Correction:
     drift_coefficients: np.ndarray  # (DRIFT_DEGREE + 1) x sensors, highest power first (m / s^k)
     coordinates: dict[str, Any]  # body -> SolverResult (at_g, at_c: samples x 6)
     solvers: dict[str, str]  # body -> the coordinate solver used
+    #: the measurement corrections undone (MeasurementCorrection.as_dict), in their order
+    corrections: list[dict[str, Any]] = None
+    #: body -> per correction entry, the rms change (6 coordinates at G: m m m rad rad rad) of the
+    #: corrected coordinates when its values move by their standard errors
+    uncertainty: dict[str, dict[str, list[float]]] = None
 
     def acceleration_drift(self) -> dict[str, tuple[float, float]]:
         """Per sensor, the drift polynomial as an acceleration: (offset m/s^2, rate m/s^3)."""
@@ -125,6 +222,9 @@ def correct_experiment(project, name: str, *, revision: dict | None = None,
     rmodel = revision_model(project, rev)
     exp = prepared if prepared is not None else prepare_experiment(project, name)
     where = f"{project.path}: experiment {name!r}"
+    corrections = measurement_corrections(rev, name, regs.effects, rmodel.shared)
+    if corrections:  # the drift is estimated against the structure seen by an ideal chain
+        rmodel = ideal_chain_model(project, rev)
     model = rmodel.for_experiment(name)
     cutoff = default_cutoff(model) if cutoff_hz is None else cutoff_hz
     if not (isinstance(cutoff, (int, float)) and np.isfinite(cutoff) and 0 < cutoff < exp.fs / 2):
@@ -141,19 +241,72 @@ def correct_experiment(project, name: str, *, revision: dict | None = None,
                             fs=exp.fs, registry=regs.processing_steps, where=f"{where} channel {k}")
         measured_d[:, j] = chain.run(exp.volts[:, j])["displacement"]
         predicted_d[:, j] = chain.run(predicted[:, j] * exp.volts_per_unit[j])["displacement"]
-    drift, coef = drift_estimate(measured_d - predicted_d, exp.fs, float(cutoff))
-    corrected = measured_d - drift
-
     rig = project.rig
-    column = {s.name: j for j, s in enumerate(exp.sensors)}
-    coords, solvers = {}, {}
-    for c in body_solvers(rig, column, regs.coordinate_solvers)[0]:
-        coords[c.body.name] = c.solver.solve(rig, c.body, {s: corrected[:, column[s]] for s in c.sensors})
-        solvers[c.body.name] = c.name
+    names = [s.name for s in exp.sensors]
+    column = {n: j for j, n in enumerate(names)}
+    chosen = body_solvers(rig, column, regs.coordinate_solvers)[0]
+
+    def corrected_motion(values=None):
+        undone = (undo_measurement(rig, names, measured_d, exp.fs, corrections, regs.coordinate_solvers, values)
+                  if corrections else measured_d)
+        drift, coef = drift_estimate(undone - predicted_d, exp.fs, float(cutoff))
+        corrected = undone - drift
+        coords = {c.body.name: c.solver.solve(rig, c.body, {s: corrected[:, column[s]] for s in c.sensors})
+                  for c in chosen}
+        return corrected, drift, coef, coords
+
+    corrected, drift, coef, coords = corrected_motion()
+    uncertainty: dict[str, dict[str, list[float]]] = {}
+    for i, c in enumerate(corrections):
+        var = {b: np.zeros(6) for b in coords}
+        for k, sd in c.uncertainties.items():
+            moved_value = _within(c.effect, c.model, k, c.values.get(k), sd)
+            if moved_value is None:
+                continue
+            moved = corrected_motion({i: {**c.values, k: moved_value}})[3]
+            for b in coords:
+                var[b] += np.mean((moved[b].at_g - coords[b].at_g) ** 2, axis=0)
+        for b in coords:
+            uncertainty.setdefault(b, {})[c.entry] = np.sqrt(var[b]).tolist()
     return Correction(experiment=name, revision=rev.get("revision"), cutoff_hz=float(cutoff),
-                      sensors=[s.name for s in exp.sensors], channels=list(exp.columns),
+                      sensors=names, channels=list(exp.columns),
                       displacement=corrected, drift=drift, drift_coefficients=coef, coordinates=coords,
-                      solvers=solvers)
+                      solvers={c.body.name: c.name for c in chosen},
+                      corrections=[c.as_dict() for c in corrections], uncertainty=uncertainty)
+
+
+def _within(effect, model, name: str, value: float | None, sd: float) -> float | None:
+    """``value + sd`` within the parameter's bounds (a standard error may reach past them); None
+    for a discrete parameter or one without a value."""
+    p = next((p for p in effect.parameters(model) if p.name == name), None)
+    if p is None or p.choices is not None or value is None:
+        return None
+    return float(np.clip(value + sd, p.lower, p.upper))
+
+
+def ideal_chain_model(project, revision: Mapping[str, Any] | None = None):
+    """The revision's model without its measurement effects that undo themselves: the structure
+    as fitted, seen by an ideal chain (a RevisionModel; what corrected records are compared with)."""
+    from odsuite.analysis.modelrev import apply_effects, base_model, current_revision
+    from odsuite.contracts.effects import corrects
+
+    rev = revision or current_revision(project)
+    regs = project.registries
+    kept = [e for e in rev.get("effects", []) if not corrects(regs.effects.get(e["effect"]))]
+    return apply_effects(base_model(project.rig, rev.get("model"), registries=regs), kept, registries=regs)
+
+
+def stored_correction(project, experiment: str) -> tuple[dict[str, np.ndarray], dict[str, Any]] | None:
+    """The corrected coordinates stored by :func:`store_correction` (body -> samples x 6 at G) and
+    what was applied (revision, cutoff_hz, corrections), or None when there are none."""
+    if KIND not in project.derived_kinds(experiment):
+        return None
+    arrays = project.read_derived(experiment, KIND)
+    par = project.derived_info(experiment, KIND)["provenance"]["parameters"]
+    coords = {k[:-len("_at_g")]: np.asarray(v) for k, v in arrays.items() if k.endswith("_at_g")}
+    return coords, {"revision": par.get("revision"), "cutoff_hz": par.get("cutoff_hz"),
+                    "corrections": par.get("measurement_corrections", []),
+                    "uncertainty": par.get("correction_uncertainty", {})}
 
 
 def store_correction(project, corr: Correction) -> None:
@@ -169,7 +322,9 @@ def store_correction(project, corr: Correction) -> None:
                                  "solvers": corr.solvers, "drift_degree": DRIFT_DEGREE,
                                  "lowpass": f"butterworth order {LOWPASS_ORDER}, zero phase",
                                  "chain": "Table E.2 without high-pass filters, trapezoid rule",
-                                 "bodies": sorted(corr.coordinates)}}
+                                 "bodies": sorted(corr.coordinates),
+                                 "measurement_corrections": corr.corrections or [],
+                                 "correction_uncertainty": corr.uncertainty or {}}}
     with project.derived_writer(corr.experiment, KIND, provenance=provenance) as w:
         for body, res in corr.coordinates.items():
             for suffix, data in (("_at_g", res.at_g), ("_at_c", res.at_c)):
@@ -200,5 +355,6 @@ def process_corrected(project, experiments: Sequence[str] | None = None, *,
             corr = correct_experiment(project, name, revision=rev, cutoff_hz=cutoff_hz)
             store_correction(project, corr)
             out[name] = {"revision": corr.revision, "cutoff_hz": corr.cutoff_hz,
-                         "drift": corr.acceleration_drift()}
+                         "drift": corr.acceleration_drift(), "corrections": corr.corrections,
+                         "uncertainty": corr.uncertainty}
     return out

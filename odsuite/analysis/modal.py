@@ -476,6 +476,18 @@ def identify_modes(
                        (float(f[0]), float(f[-1])), stable_orders, rejected)
 
 
+def frequency_labels(freqs) -> list[str]:
+    """"f Hz" labels with the fewest decimals (1 to 4) that keep every frequency's label distinct
+    (2.777 and 2.812 Hz are not both "2.8 Hz")."""
+    f = [float(v) for v in np.atleast_1d(freqs)]
+    text: list[str] = []
+    for d in range(1, 5):
+        text = [f"{v:.{d}f}" for v in f]
+        if len(set(text)) == len(text):
+            break
+    return [f"{t} Hz" for t in text]
+
+
 def mac(phi_a: np.ndarray, phi_b: np.ndarray) -> np.ndarray:
     """Modal assurance criterion between the columns of two shape matrices (dofs x modes):
     |a^H b|^2 / ((a^H a)(b^H b)), complex shapes allowed."""

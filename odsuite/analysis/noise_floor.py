@@ -43,6 +43,55 @@ QUIET_FRACTION = 0.05
 FLOOR_TOLERANCE = 1.3
 #: Welch segment length of residual and floor spectra (samples; halved for short records)
 NFFT = 2048
+#: the top edge of the lowest band of the resolved residual (Hz): octaves run from it to Nyquist
+LOWEST_BAND_HZ = 12.5
+#: the lowest band holds at least this many lines of the record's spectrum
+LOWEST_BAND_LINES = 4
+#: lines averaged over to take the expected spectrum of the simulated sensor noise
+SMOOTH_LINES = 17
+
+
+def band_edges(fs: float, n_samples: int) -> list[tuple[float, float]]:
+    """Frequency bands of the resolved residual (Hz): [one line, lowest), then octaves to Nyquist.
+    The zero-frequency line is left out: the chains' offsets and high-passes shape it."""
+    lowest = max(LOWEST_BAND_HZ, LOWEST_BAND_LINES * fs / n_samples)
+    edges = [fs / n_samples]
+    f = lowest
+    while f < fs / 2:
+        edges.append(f)
+        f *= 2
+    edges.append(fs / 2)
+    return list(zip(edges[:-1], edges[1:]))
+
+
+def line_energies(x: np.ndarray) -> np.ndarray:
+    """Energy of each column of ``x`` (samples x columns) per line of its real FFT: they add up to
+    sum(x^2) (Parseval)."""
+    x = np.atleast_2d(np.asarray(x, float).T).T
+    n = x.shape[0]
+    spec = np.abs(np.fft.rfft(x, axis=0)) ** 2 / n
+    spec[1: (n + 1) // 2] *= 2.0
+    return spec
+
+
+def in_band(fs: float, n_samples: int, bands: Sequence[tuple[float, float]]) -> list[np.ndarray]:
+    """Per band, the mask of the real FFT's lines inside it (the top band includes Nyquist)."""
+    f = np.fft.rfftfreq(n_samples, 1.0 / fs)
+    return [(f >= lo) & ((f < hi) if hi < fs / 2 else (f <= hi)) & (f > 0) for lo, hi in bands]
+
+
+def band_dof(lines: np.ndarray, masks: Sequence[np.ndarray], smooth: int = 5) -> np.ndarray:
+    """Degrees of freedom of a noise's energy per band (bands x columns) from its expected line
+    energies: 2 (sum S)^2 / sum S^2 over the band's lines (2 per line when flat, fewer where a
+    resonance carries the force channel's noise). The lines are averaged over ``smooth``
+    neighbours first: a few realisations' periodogram scatters, which would read as colour."""
+    kernel = np.ones(smooth) / smooth
+    s = np.apply_along_axis(lambda c: np.convolve(c, kernel, mode="same"), 0, lines)
+    out = []
+    for m in masks:
+        b = s[m]
+        out.append(2.0 * np.sum(b, axis=0) ** 2 / np.maximum(np.sum(b**2, axis=0), 1e-300))
+    return np.maximum(np.array(out), 1.0)
 
 
 def disturbance_basis(n: int, fs: float, mains: Sequence[float] = MAINS_HZ,
@@ -174,6 +223,10 @@ class NoiseFloor:
     parts: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict)
     # per experiment: the floor's Welch spectrum per sensor (frequencies, PSD samples x sensors)
     spectra: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict, repr=False)
+    # per experiment: the floor's energy and its degrees of freedom per band (band_edges) and sensor
+    # (bands x sensors), from the expected line energies of its parts
+    bands: dict[str, tuple[list[tuple[float, float]], np.ndarray, np.ndarray]] = field(
+        default_factory=dict, repr=False)
 
     def total(self, experiments: Sequence[str] | None = None, channels: Sequence[str] | None = None
               ) -> tuple[float, float]:
@@ -223,6 +276,7 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
     measured: dict[str, dict[str, float]] = {}
     parts: dict[str, dict[str, dict[str, float]]] = {}
     specs: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    banded: dict[str, tuple[list[tuple[float, float]], np.ndarray, np.ndarray]] = {}
     for e in exps:
         n = e.n_samples
         white = np.asarray(e.noise_var, float)
@@ -255,4 +309,21 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
             if h is not None:
                 psd = psd + e.force_noise_energy * welch(h, e.fs, n)[1]
             specs[e.name] = (f, psd)
-    return NoiseFloor(energy, measured, parts, specs)
+            # the expected energy per line of every part, scaled so that each sensor's lines add up
+            # to its floor energy (the rounding's share where no realisation simulates it)
+            if simulated:
+                # a few realisations scatter line by line; the sensors' noise is smooth in frequency
+                lines = scipy.ndimage.uniform_filter1d(np.mean([line_energies(r) for r in simulated], axis=0),
+                                                       SMOOTH_LINES, axis=0, mode="nearest")
+            else:
+                lines = np.tile(broadband / (n // 2 + 1), (n // 2 + 1, 1))
+            if e.disturbance is not None:
+                lines = lines + line_energies(e.disturbance)
+            if h is not None:
+                lines = lines + e.force_noise_energy * line_energies(h)
+            sums = lines.sum(axis=0)
+            lines = lines * np.where(sums > 0, total / np.where(sums > 0, sums, 1.0), 1.0)
+            bands = band_edges(e.fs, n)
+            masks = in_band(e.fs, n, bands)
+            banded[e.name] = (bands, np.array([lines[m].sum(axis=0) for m in masks]), band_dof(lines, masks))
+    return NoiseFloor(energy, measured, parts, specs, banded)

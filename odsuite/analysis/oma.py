@@ -45,6 +45,18 @@ def _correlations(y: np.ndarray, lags: int) -> np.ndarray:
     return R / (n - np.arange(lags))[:, None, None]
 
 
+def checked_responses(y) -> np.ndarray:
+    """Responses as samples x outputs (floats), refused in one line when they are not that, too
+    short for their outputs, or not finite."""
+    y = np.asarray(y, dtype=float)
+    y = y[:, None] if y.ndim == 1 else y
+    if y.ndim != 2 or y.shape[0] < 10 * y.shape[1]:
+        raise DimensionError(f"responses have shape {y.shape}; expected samples x outputs, many more samples")
+    if not np.all(np.isfinite(y)):
+        raise ConfigError("responses hold NaN or infinite samples")
+    return y
+
+
 def ssi_cov(
     y: np.ndarray,
     fs: float,
@@ -61,12 +73,7 @@ def ssi_cov(
     matrix holds lags 1 .. 2i - 1 and needs i x outputs >= max_order (default: that, and at least
     20: lags to 39 samples, about 15 periods of the band's top at ``identify_output_only``'s
     decimated rate; more rows cost time and add noise poles without moving the modes)."""
-    y = np.asarray(y, dtype=float)
-    y = y[:, None] if y.ndim == 1 else y
-    if y.ndim != 2 or y.shape[0] < 10 * y.shape[1]:
-        raise DimensionError(f"responses have shape {y.shape}; expected samples x outputs, many more samples")
-    if not np.all(np.isfinite(y)):
-        raise ConfigError("responses hold NaN or infinite samples")
+    y = checked_responses(y)
     n_out = y.shape[1]
     band = f_band if f_band is not None else (0.0, fs / 2)
     if block_rows is None:
@@ -314,12 +321,7 @@ def identify_output_only(
     neighbour are reported in ``unresolved``, not as modes. With ``cross_check`` the same prepared
     record also goes through EFDD (``fdd.efdd``), an independent estimator, kept in ``fdd``.
     Residues are not defined without a force: ``residues`` holds the unscaled shapes."""
-    y = np.asarray(y, dtype=float)
-    y = y[:, None] if y.ndim == 1 else y
-    if y.ndim != 2 or y.shape[0] < 10 * y.shape[1]:
-        raise DimensionError(f"responses have shape {y.shape}; expected samples x outputs, many more samples")
-    if not np.all(np.isfinite(y)):
-        raise ConfigError("responses hold NaN or infinite samples")
+    y = checked_responses(y)
     # one BLAS thread: the matrices are a few hundred wide, and threads spinning against a busy
     # machine made each SVD 4 s instead of 0.05 s
     with threadpool_limits(1):

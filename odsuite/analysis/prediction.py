@@ -480,6 +480,10 @@ def _sensor_filter(dyn, fs: float) -> tuple[np.ndarray, np.ndarray]:
     return num, den
 
 
+#: public name of the sensors' discretised dynamics (a measurement effect undoes them with it)
+sensor_filter = _sensor_filter
+
+
 @functools.lru_cache(maxsize=64)
 def _analog_sos(analog, fs: float) -> np.ndarray:
     """An analog filter (zeros, poles, gain) as digital second-order sections by the bilinear

@@ -205,6 +205,20 @@ def _rendered_doc(renderer, res) -> dict:
             "summary": res.summary, "notes": list(res.notes)}
 
 
+def _figure_renderer(name: str, output: Path, project: Path, option: str):
+    """The registered figure renderer ``name``, checked to write ``output`` (before any work)."""
+    from odsuite.contracts.plugins import registries
+    from odsuite.contracts.renderers import choose_renderer
+
+    _check_output(output, project, option)
+    registry = registries().renderers
+    suffixes = registry.get(name).suffixes if name in registry else ()
+    if suffixes and output.suffix.lower() not in suffixes:
+        words = f"{', '.join(suffixes[:-1])} or {suffixes[-1]}" if len(suffixes) > 1 else suffixes[0]
+        raise ConfigError(f"{option} {output}: suffix {output.suffix!r} is not {words}")
+    return choose_renderer(registry, output, name, "figure")
+
+
 #: Output files of the running command, checked before writing, and whether each existed then:
 #: a full disk names the last one and removes the new ones (a writer that ran into it half-way).
 _OUTPUTS: dict[Path, bool] = {}

@@ -28,7 +28,7 @@ def import_cmd(
     project: Path = typer.Argument(..., help="Project file."),
     file: Path = typer.Argument(..., help="Measurement file; its suffix chooses the importer unless --format."),
     name: str = typer.Option(..., "--name", help="Experiment name."),
-    fmt: str = typer.Option(None, "--format", help="A registered importer (built in: legacy, lvm, uff; "
+    fmt: str = typer.Option(None, "--format", help="A registered importer (built in: legacy, lvm, uff, csv, npy, mat, tdms, geometry; "
                             "`odsuite plugins` lists all)."),
     systeminfo: Path = typer.Option(None, "--systeminfo", help="legacy: the .CTR Systeminfo file."),
     force_point: str = typer.Option(None, "--force-point",
@@ -38,10 +38,18 @@ def import_cmd(
     force_channel: str = typer.Option(None, "--force-channel", help="lvm, uff: name of the force channel."),
     force_body: str = typer.Option(None, "--force-body", help="lvm, uff on a rig: the body hit, when the force point "
                                    "lies on two."),
+    rate: float = typer.Option(None, "--rate", help="csv, npy, mat, tdms: sampling rate, Hz."),
+    channels: str = typer.Option(None, "--channels", help="csv, npy, mat, tdms: channel names, comma-separated."),
+    units: str = typer.Option(None, "--units", help="csv, npy, mat, tdms: m/s^2, g, N or V (one, or one per channel)."),
+    variable: str = typer.Option(None, "--variable", help="mat: the array to read."),
+    group: str = typer.Option(None, "--group", help="tdms: the group to read."),
+    sensors: Path = typer.Option(None, "--sensors", help="geometry from UFF: a table of sensors on its nodes."),
 ) -> None:
-    """Import a measurement file as a new experiment, by the importer for its format."""
+    """Import a measurement file as a new experiment (or a geometry: --format geometry), by the
+    importer for its format."""
     _import(project, file, name, fmt, systeminfo=systeminfo, force_point=force_point, force_dir=force_dir,
-            force_channel=force_channel, force_body=force_body)
+            force_channel=force_channel, force_body=force_body, rate=rate, channels=channels, units=units,
+            variable=variable, group=group, sensors=sensors)
 
 
 @app.command("import-legacy")
@@ -65,13 +73,15 @@ def export_legacy_cmd(
     experiment: str = typer.Argument(..., help="Experiment name."),
     cod: Path = typer.Option(..., "--cod", help=".COD file to write."),
     at: str = typer.Option("center", "--at", help="center (centre of mass G) or corner (corner C)."),
+    corrected: bool = typer.Option(False, "--corrected", help="The corrected coordinates (`process --corrected`)."),
 ) -> None:
     """Write an experiment's generalized coordinates as a thesis .COD file (6 columns per body)."""
     from odsuite.contracts.importers import exporter
     from odsuite.contracts.plugins import registries
 
     _check_output(cod, project, "--cod")
-    exporter(registries().importers, "legacy").export_file(project, cod, experiment, at=at)
+    exporter(registries().importers, "legacy").export_file(
+        project, cod, experiment, at=at, **({"kind": "gencoords_corrected"} if corrected else {}))
     console.print(f"wrote {cod}", highlight=False, soft_wrap=True)
 
 

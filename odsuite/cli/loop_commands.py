@@ -7,8 +7,7 @@ from pathlib import Path
 from rich.table import Table
 import typer
 
-from odsuite.domain.errors import ConfigError
-from odsuite.cli.app import _check_output, _loop_progress, _modal_table, _print_json, app, console, err_console, shown
+from odsuite.cli.app import _figure_renderer, _loop_progress, _modal_table, _print_json, app, console, err_console, shown
 
 
 @app.command("compare")
@@ -154,16 +153,13 @@ def history_cmd(
     from odsuite.analysis.history import history
     from odsuite.store.project import open_project
 
-    if figure is not None:
-        _check_output(figure, project, "--figure")
-        if figure.suffix.lower() not in (".png", ".svg", ".pdf"):
-            raise ConfigError(f"--figure {figure}: suffix {figure.suffix!r} is not .png, .svg or .pdf")
+    from odsuite.contracts.renderers import RenderRequest
+
+    renderer = _figure_renderer("history", figure, project, "--figure") if figure is not None else None
     with open_project(project) as p:
         doc = history(p)
-    if figure is not None:
-        from odsuite.analysis.history import history_figure
-
-        history_figure(doc, figure)
+    if renderer is not None:
+        renderer.render(RenderRequest(project, None, figure, {"history": doc}))
     if as_json:
         _print_json(doc)
         return

@@ -8,7 +8,7 @@ import math
 from rich.table import Table
 import typer
 
-from odsuite.cli.app import _check_output, _print_json, _rendered_doc, app, console, err_console, shown
+from odsuite.cli.app import _check_output, _figure_renderer, _print_json, _rendered_doc, app, console, err_console, shown
 
 
 @app.command("frf")
@@ -23,9 +23,9 @@ def frf_cmd(
     from odsuite.domain.errors import ConfigError
     from odsuite.analysis.frf import usable_band
     from odsuite.analysis.modal_project import experiment_frf
+    from odsuite.contracts.renderers import RenderRequest
 
-    if figure is not None:
-        _check_output(figure, project, "--figure")
+    renderer = _figure_renderer("frf", figure, project, "--figure") if figure is not None else None
     frf, hits = experiment_frf(project, experiment, estimator=estimator)
     for h in hits if not as_json else ():
         state = "accepted" if h.accepted else "rejected: " + ", ".join(h.reasons)
@@ -35,10 +35,9 @@ def frf_cmd(
         usable = f"usable band {band[0]:.1f}-{band[1]:.1f} Hz"
     except ConfigError as exc:  # the FRFs are stored all the same: say why no band, do not fail
         band, usable = None, str(exc).split(";")[0]
-    if figure is not None:
-        from odsuite.analysis.modal_figures import frf_figure
-
-        frf_figure(frf, figure, band_hz=band, title=f"FRFs of {experiment}")
+    if renderer is not None:
+        renderer.render(RenderRequest(project, experiment, figure, {"frf": frf, "band_hz": band,
+                                                                    "title": f"FRFs of {experiment}"}))
     if as_json:
         _print_json({"experiment": experiment, "estimator": estimator, "channels": list(frf.output_names),
                      "n_averages": frf.n_averages, "lines": int(frf.frequency.size),
@@ -81,6 +80,7 @@ def modes_cmd(
     from odsuite.domain.errors import ConfigError
     from odsuite.analysis.modal import fdd_doc, mpc
     from odsuite.analysis.modal_project import experiment_modes, experiment_output_only_modes, experiments_modes
+    from odsuite.contracts.renderers import RenderRequest
 
     try:
         freqs = [float(v) for v in at.split(",")] if at else None
@@ -90,9 +90,9 @@ def modes_cmd(
         if value is not None and not (math.isfinite(value) and value >= 0):  # before the FRF is stored
             raise ConfigError(f"{option}: must be a finite frequency >= 0 Hz, got {value}")
     band = None if f_min is None and f_max is None else (f_min, f_max)
-    for path, option in ((figure, "--figure"), (mac_figure, "--mac-figure")):
-        if path is not None:
-            _check_output(path, project, option)
+    drawers = {name: _figure_renderer(name, path, project, option)
+               for name, path, option in (("stabilisation", figure, "--figure"), ("mac", mac_figure, "--mac-figure"))
+               if path is not None}
     references = None
     name = ", ".join(experiments)
     if not output_only and (block_rows is not None or decimate is not None):
@@ -114,19 +114,16 @@ def modes_cmd(
         res, frf = experiment_modes(project, experiments[0], f_band=band, max_order=max_order, frequencies=freqs)
         freq, spectrum, background = frf.frequency, frf.H, "rms |H| of the outputs (FRF units)"
     if figure is not None:
-        from odsuite.analysis.modal_figures import stabilisation_figure
-
-        stabilisation_figure(res, freq, spectrum, figure, title=f"stabilisation diagram of {name}",
-                             background=background)
+        drawers["stabilisation"].render(RenderRequest(project, name, figure, {
+            "modes": res, "freq": freq, "H": spectrum, "title": f"stabilisation diagram of {name}",
+            "background": background}))
     if mac_figure is not None:
-        from odsuite.analysis.modal import mac
-        from odsuite.analysis.modal_figures import mac_figure as draw_mac
-
-        from odsuite.analysis.modal_figures import frequency_labels
+        from odsuite.analysis.modal import frequency_labels, mac
 
         labels = frequency_labels(res.frequency_hz)
-        draw_mac(mac(res.shapes, res.shapes), mac_figure, labels_a=labels, labels_b=labels,
-                 title=f"AutoMAC of the modes of {name}")
+        drawers["mac"].render(RenderRequest(project, name, mac_figure, {
+            "mac": mac(res.shapes, res.shapes), "labels_a": labels, "labels_b": labels,
+            "title": f"AutoMAC of the modes of {name}"}))
     for note in res.rejected:
         err_console.print(f"note: stable pole not taken as a mode: {note}", highlight=False, soft_wrap=True)
     if as_json:
@@ -172,7 +169,7 @@ def modes_cmd(
 
 def _frequency_digits(freqs) -> int:
     """Decimals that tell every frequency apart (at least 2)."""
-    from odsuite.analysis.modal_figures import frequency_labels
+    from odsuite.analysis.modal import frequency_labels
 
     return max(2, len(frequency_labels(freqs)[0].split()[0].split(".")[1]) if len(freqs) else 2)
 

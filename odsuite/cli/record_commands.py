@@ -18,8 +18,9 @@ from odsuite.cli.app import _ledger, app, console, echo_force_point, err_console
 def process_cmd(
     project: Path = typer.Argument(..., help="Project file."),
     experiment: list[str] = typer.Option(None, "--experiment", help="Experiment name (repeatable; default: all)."),
-    corrected: bool = typer.Option(False, "--corrected", help="Also store model-corrected coordinates "
-                                   "(gencoords_corrected): no high-pass, drift removed against the current model revision."),
+    corrected: bool = typer.Option(False, "--corrected", help="Also store corrected coordinates "
+                                   "(gencoords_corrected): the current revision's measurement effects undone on the "
+                                   "records, no high-pass, drift removed against the revision's structure."),
     cutoff: float = typer.Option(None, "--cutoff", help="--corrected: Hz below which the model replaces the "
                                  "measurement (default: half the model's lowest natural frequency)."),
 ) -> None:
@@ -64,8 +65,11 @@ def process_cmd(
             from odsuite.analysis.correction import process_corrected
 
             for name, res in process_corrected(p, experiment or None, cutoff_hz=cutoff).items():
+                undone = "; ".join(f"{c['effect']} " + ", ".join(f"{k} {v:.4g}" for k, v in c["values"].items())
+                                   for c in res["corrections"]) or "none"
                 console.print(f"{name}: gencoords_corrected (model revision {res['revision']}, cutoff "
-                              f"{res['cutoff_hz']:.1f} Hz)", highlight=False, soft_wrap=True)
+                              f"{res['cutoff_hz']:.1f} Hz; measurement corrections: {undone})",
+                              highlight=False, soft_wrap=True)
 
 
 @app.command("acquire", context_settings={"allow_extra_args": True, "ignore_unknown_options": True})

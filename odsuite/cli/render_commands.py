@@ -29,6 +29,10 @@ def render_cmd(
     end: float = typer.Option(None, "--end", help="Movie window end, s (default: when the motion has decayed to a tenth)."),
     fps: float = typer.Option(None, "--fps", help="Movie frames per second (default 25)."),
     duration: float = typer.Option(None, "--duration", help="Movie length, s (default 10; or set --frame-step / --slowdown)."),
+    renderer_name: str = typer.Option(None, "--renderer", help="A registered renderer by name (e.g. mode-shape), as --figure."),
+    mode: int = typer.Option(None, "--mode", help="mode-shape: the mode to animate (1 = lowest)."),
+    f_min: float = typer.Option(None, "--fmin", help="mode-shape: lowest frequency of the identification band (Hz)."),
+    f_max: float = typer.Option(None, "--fmax", help="mode-shape: highest frequency of the identification band (Hz)."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
     """Wireframe movie of an experiment's plates, or a figure, by a registered renderer."""
@@ -40,18 +44,16 @@ def render_cmd(
     if ods is not None and not (math.isfinite(ods) and ods >= 0.01):  # as --cutoff: no line below 0.01 Hz
         raise ConfigError(f"--ods: must be a finite frequency >= 0.01 Hz, got {ods}")
     _check_output(output, project, "-o")
-    renderer = choose_renderer(registries().renderers, output, figure, "figure" if figure else "movie")
+    if renderer_name is not None and figure is not None:
+        raise ConfigError("--renderer and --figure both name the renderer: give one")
+    renderer = choose_renderer(registries().renderers, output, figure or renderer_name,
+                               "figure" if figure else "movie")
     options = {"model": model, "magnify": parse_magnify(magnify), "view": view, "workers": workers,
                "frame_step": frame_step, "slowdown": slowdown, "ods_hz": ods, "reference": reference, "start": start,
-               "end": end, "fps": fps, "duration": duration}
+               "end": end, "fps": fps, "duration": duration, "mode": mode, "fmin": f_min, "fmax": f_max}
     res = renderer.render(RenderRequest(project, experiment, output, options,
                                         progress=err_console.is_terminal and not as_json))
-    if as_json:
-        _print_json(_rendered_doc(renderer, res))
-        return
-    for note in res.notes:
-        err_console.print(f"note: {note}", highlight=False)
-    console.print(f"wrote {res.path} ({res.summary})", highlight=False, soft_wrap=True)
+    _say_rendered(renderer, res, as_json)
 
 
 @app.command("report")
@@ -82,6 +84,11 @@ def report_cmd(
                    "movie_experiment": movie_experiment, "frf_channels": frf_channel or None,
                    "on_stage": lambda what: bar.update(task, description=what)}
         res = renderer.render(RenderRequest(project, None, output, options))
+    _say_rendered(renderer, res, as_json)
+
+
+def _say_rendered(renderer, res, as_json: bool) -> None:
+    """What a renderer wrote: one JSON document, or its notes and one line."""
     if as_json:
         _print_json(_rendered_doc(renderer, res))
         return

@@ -43,6 +43,22 @@ band, a tilt below 45 degrees, a mass change within the body's own mass). A fit 
 reported as not ``plausible`` by ``diagnose`` and warned about by ``add-effect``: the effect then
 more likely stands in for other physics. None: any value within the bounds is plausible.
 
+Optional, for effects with target "chain" that describe the measurement rather than the structure:
+``correct(rig, signals, fs, values) -> (rig, signals)`` undoes the effect at ``values`` on
+recorded signals (``signals``: sensor name -> samples along the sensor's axis at ``fs`` Hz, in
+one physical quantity; the effects are linear, so it may be acceleration or displacement). It
+returns the rig as the sensors were mounted (a tilted axis, a moved sensor: the correction then
+re-expresses those sensors' signals along their nominal axes at their nominal places from the
+motion their body's sensors record together) and the signals with the distortion removed. It
+must be pure and leave sensors it does not concern unchanged. ``correction_stage`` says where
+the effect sits between structure and converter, so undoing runs from the converter back:
+``"channel"`` (a sampling delay, the channel's filters: undone first), ``"wiring"`` (which
+sensor a channel carries: next), ``"sensor"`` (the sensor's own gain, polarity, axis, place:
+last; the default). An effect of the structure corrects nothing (the model changes instead); a
+chain effect without ``correct`` (a force gauge's gain, a hammer's place) stays in the model the
+correction's drift estimate is predicted with. The uncertainty of a correction follows from the
+fitted values' standard errors (:mod:`odsuite.analysis.correction`).
+
 Optional, variable projection: ``linear_parameters(model) -> list[str]`` names parameters the
 effect solves itself, by linear least squares, once the others are given; ``project(models, values,
 exps, base, weights) -> (shared, per_experiment, deltas)`` returns them for the models ``models``
@@ -78,7 +94,14 @@ class EffectProvider(Protocol):
 
 PROTOCOL = EffectProvider
 #: optional members that, where given, must be methods
-OPTIONAL_METHODS = ("held_when", "refined_start", "linear_parameters", "project")
+OPTIONAL_METHODS = ("held_when", "refined_start", "linear_parameters", "project", "correct")
+#: the stages of a measurement effect, in the order corrections undo them (see ``correct``)
+CORRECTION_STAGES = ("channel", "wiring", "sensor")
+
+
+def corrects(effect) -> bool:
+    """Whether ``effect`` describes the measurement and says how to undo it on recorded signals."""
+    return getattr(effect, "target", "model") == "chain" and callable(getattr(effect, "correct", None))
 
 
 @dataclass(frozen=True)
@@ -121,6 +144,9 @@ class Effect:
     #: a stand-in that presupposes no shape (a mode of any shape): a named mechanism that explains
     #: the same residual (``confounded_with``) is ranked before it
     data_driven: bool = False
+
+    #: where a measurement effect sits between structure and converter (see ``correct``)
+    correction_stage: str = "sensor"
 
     def parameters(self, model: Model) -> list[Parameter]:
         raise NotImplementedError

@@ -14,7 +14,8 @@ A provider registered through ``odsuite_register_importers`` has:
   of the project file ``project`` to the file ``out`` in this format (``odsuite export-legacy``,
   ``odsuite export-uff``); a format that only reads has none.
 
-``odsuite import PROJECT FILE --name NAME`` picks the importer by ``--format`` or by FILE's suffix.
+``odsuite import PROJECT FILE --name NAME`` picks the importer by ``--format`` or by FILE's suffix
+(a plugin's importer before a built-in one reading the same suffix).
 """
 
 from __future__ import annotations
@@ -76,6 +77,9 @@ def choose_importer(registry, file: Path, name: str | None = None):
         return registry.get(name)
     suffix = Path(file).suffix.lower()
     fits = [imp for _, imp in registry.items() if suffix in imp.suffixes]
+    if len(fits) > 1:  # a lab's importer for a suffix goes before the built-in one (e.g. its own .csv)
+        labs = [imp for imp in fits if registry.entry(imp.name).distribution != "odsuite"]
+        fits = labs or fits
     if not fits:
         known = ", ".join(f"{n} ({', '.join(i.suffixes)})" for n, i in registry.items())
         raise ConfigError(f"{file}: no importer reads {suffix or 'files without a suffix'} files; give --format "

@@ -18,7 +18,7 @@ from odsuite.domain.errors import PluginConflictError, PluginLoadError
 from odsuite.contracts.registry import Contract, Registry, Source
 
 ENTRY_POINT_GROUP = "odsuite"
-REQUIRED_BUILTINS = ("beam", "daq_ni", "daq_sim", "filters", "gencoord_padgaonkar", "importers", "models", "renderers")
+REQUIRED_BUILTINS = ("beam", "daq_ni", "daq_sim", "demo", "filters", "gencoord_padgaonkar", "importers", "models", "renderers")
 #: built-in plugins the core cannot work without, and why: stored chains name their steps, stored
 #: rigs their sensor kinds and models
 ESSENTIAL = {

@@ -88,7 +88,9 @@ def choose_renderer(registry, output: Path, name: str | None = None, kind: str |
             raise ConfigError(f"renderer {name!r} writes {', '.join(renderer.suffixes)} files, not {output}")
         return renderer
     kind = kind or "movie"
-    fits = [r for _, r in registry.items() if r.kind == kind and suffix in r.suffixes]
+    # the renderer named after its kind (the built-in "movie") is the default among several
+    fits = sorted((r for _, r in registry.items() if r.kind == kind and suffix in r.suffixes),
+                  key=lambda r: r.name != kind)
     if not fits:
         known = sorted({s for _, r in registry.items() if r.kind == kind for s in r.suffixes})
         raise ConfigError(f"no {kind} renderer writes {suffix or 'files without a suffix'} files "

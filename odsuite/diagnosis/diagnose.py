@@ -44,6 +44,7 @@ from odsuite.diagnosis.fitting import (
 from odsuite.analysis.modelrev import current_revision, revision_model
 from odsuite.analysis.prediction import PreparedExperiment, predict, prepare
 from odsuite.domain.simulation import load_nonlinear_loop
+from odsuite.analysis import resolved as resolution
 from odsuite.analysis.noise_floor import FLOOR_TOLERANCE
 from odsuite.diagnosis.verdict import Signature, decide, message, signature
 
@@ -82,6 +83,7 @@ class Candidate:
     amplitude_dependent: list[str] = field(default_factory=list)
     per_experiment_fits: dict[str, dict[str, float]] = field(default_factory=dict)
     gain_threshold: float = float("nan")
+    likelihood_ratio: float = float("nan")  # the whitened excess it removes (odsuite.analysis.resolved)
 
     def as_dict(self) -> dict[str, Any]:
         d = {k: getattr(self, k) for k in (
@@ -89,6 +91,8 @@ class Candidate:
             "units", "evidence", "n_parameters", "bic", "screened_error", "unidentifiable",
             "confounded_parameters", "confounded_with", "validation", "fitted", "consistent", "plausible",
             "implausible", "amplitude_dependent", "per_experiment_fits")}
+        d["likelihood_ratio"] = None if not math.isfinite(self.likelihood_ratio) else self.likelihood_ratio
+        d["likelihood_ratio_limit"] = None if not math.isfinite(self.gain_threshold) else self.gain_threshold
         return d
 
     def revision_entry(self) -> dict[str, Any]:
@@ -276,6 +280,26 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
     return cand
 
 
+def _judge(cand: Candidate, exps, floor, before, sse_before: float, den: float, scale: float,
+           k: int | None = None) -> None:
+    """Significance of a fitted candidate against ``before`` (the resolved residual it is tested
+    over): its validated sum of squares lower than before's, and the likelihood-ratio statistic of
+    its change of the resolved, whitened residual beyond what ``k`` parameters (default: its own)
+    fitted to noise give (odsuite.analysis.resolved). Without a resolved floor: the pooled gain
+    test (checks.gain_threshold)."""
+    k = cand.n_parameters if k is None else k
+    p = cand._problem
+    cand._resolved = None if before is None else resolution.resolve(exps, p.predictions(cand._u, p.full), floor)
+    validated_better = cand.validated_error**2 * den < sse_before
+    if cand._resolved is None:
+        cand.gain_threshold = checks.gain_threshold(scale, k)
+        cand.significant = is_significant(sse_before, cand.validated_error**2 * den, cand.gain_threshold)
+        return
+    cand.gain_threshold = resolution.gain_threshold(k)
+    cand.likelihood_ratio = resolution.gain(before, cand._resolved)
+    cand.significant = bool(validated_better and cand.likelihood_ratio > cand.gain_threshold)
+
+
 def is_significant(sse0: float, sse_validated: float, threshold: float) -> bool:
     """The validated gain in sum of squares exceeds what fitting the candidate's parameters to the
     calibrated noise would give with probability checks.FALSE_ALARM (``threshold``,
@@ -421,6 +445,9 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
                 if b["fractions"]]
     rigidity = float(np.median(rig_vals)) if rig_vals else None
     modes_before = list(base.shared.modes().frequency_hz)
+    # where the model fails, resolved by experiment, channel and band: the baseline of every gain test
+    before = [predict(base.for_experiment(e.name), e) for e in exps]
+    res0 = resolution.resolve(exps, before, cmp.floor)
 
     # candidates go to forked processes, each with one BLAS thread (where the platform cannot fork,
     # one after another): they inherit the records and models, and only effect names, starts and
@@ -485,14 +512,13 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
                 cand._problem = _problem(job, s.effect.name, fixed)
                 best_win = min(best_win, cand._sse_win)
                 evaluations += count
-                cand.gain_threshold = checks.gain_threshold(scale, cand.n_parameters)
-                cand.significant = is_significant(sse0, cand.validated_error**2 * den, cand.gain_threshold)
+                _judge(cand, exps, cmp.floor, res0, sse0, den, scale)
                 words = _checks_words(cand)
                 if words:
                     cand.evidence += "; " + words
                 candidates.append(cand)
             for name in refiners:
-                refined = _refine(job, name, candidates, scale)
+                refined = _refine(job, name, candidates, scale, cmp.floor)
                 if refined is not None:
                     candidates.append(refined)
                     evaluations += refined._problem.evaluations
@@ -520,17 +546,19 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     _tell_refinements_apart(candidates, regs.effects, den)
     _mark_proxies([c for c in candidates if c.fitted], base)
     candidates.sort(key=lambda c: (not c.significant, c.bic if c.fitted else math.inf, c.screened_error))
+    _prefer_fewer_parameters(candidates, regs.effects)
     _prefer_named(candidates, regs.effects)
     diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=noise, revision=rev.get("revision"),
                           candidates=candidates, residual_peaks=peaks, evaluations=evaluations,
                           not_applicable=not_applicable)
-    _conclude(diagnosis, cmp, base, exps)
+    _conclude(diagnosis, cmp, base, exps, before, res0)
     if progress:
         progress("done", len(names), len(names))
     return diagnosis
 
 
-def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], scale: float) -> Candidate | None:
+def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], scale: float,
+            floor=None) -> Candidate | None:
     """Fit the refining effect ``name`` from the fit of the effect it refines, when that one is
     significant and leaves the residual above the floor, and no candidate but another refinement
     brings it there (else there is nothing for it to add). It counts as significant only when its
@@ -549,15 +577,34 @@ def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], 
                           job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
                           job["modes_before"], job["tail0"], job["force_levels"])
     den = job["den"]
-    cand.gain_threshold = checks.gain_threshold(scale, max(cand.n_parameters - start.n_parameters, 1))
-    cand.significant = is_significant(start.validated_error**2 * den, cand.validated_error**2 * den,
-                                      cand.gain_threshold)
+    cand._problem = problem
+    _judge(cand, job["exps"], floor, getattr(start, "_resolved", None), start.validated_error**2 * den, den, scale,
+           k=max(cand.n_parameters - start.n_parameters, 1))
     cand.evidence += (f"; fitted from {start.effect}'s fit (validated error {start.validated_error:.4g} -> "
                       f"{cand.validated_error:.4g})")
     words = _checks_words(cand)
     if words:
         cand.evidence += "; " + words
     return cand
+
+
+def _prefer_fewer_parameters(cands: list[Candidate], effects) -> None:
+    """A significant candidate confounded with the top one and with fewer parameters goes first
+    unless the top one's change of the resolved residual over it passes the likelihood-ratio test
+    for its extra parameters: a proxy with more freedom does not win on the same residual."""
+    if not cands or not cands[0].significant or getattr(cands[0], "_resolved", None) is None:
+        return
+    top = cands[0]
+    # a data-driven stand-in (a mode of any shape) is not promoted over a named mechanism
+    simpler = [c for c in cands[1:] if c.significant and c.fitted and c.effect in top.confounded_with
+               and not getattr(effects.get(c.effect), "data_driven", False)
+               and c.n_parameters < top.n_parameters and getattr(c, "_resolved", None) is not None]
+    for c in sorted(simpler, key=lambda c: c.n_parameters):
+        extra = top.n_parameters - c.n_parameters
+        if resolution.gain(c._resolved, top._resolved) <= resolution.gain_threshold(extra):
+            cands.remove(c)
+            cands.insert(0, c)
+            return
 
 
 def _prefer_named(cands: list[Candidate], effects) -> None:
@@ -572,20 +619,27 @@ def _prefer_named(cands: list[Candidate], effects) -> None:
         cands.insert(0, named)
 
 
-def _conclude(d: Diagnosis, cmp, base, exps) -> None:
-    """The verdict, the signature of what is left (after the best significant candidate, if any)
-    and the message."""
+def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
+    """The verdict (from the resolved residual where the floor has bands), the signature of what
+    is left (after the best significant candidate, if any) and the message."""
     best = next((c for c in d.candidates if c.significant and c.fitted), None)
-    amplitude = any(c.amplitude_dependent for c in d.candidates if c.fitted and c.significant)
-    d.verdict = decide(d.baseline_error, d.noise_floor_error, best)
+    # amplitude dependence as the data show it: any fitted candidate whose parameters, fitted per
+    # experiment, follow the force level, or a significant one that makes the model amplitude dependent
+    amplitude = any(c.amplitude_dependent for c in d.candidates if c.fitted) or (
+        best is not None and _makes_nonlinear(best, base))
+    res_best = getattr(best, "_resolved", None) if best is not None else None
+    nonlinear = best is not None and _makes_nonlinear(best, base)
+    d.verdict = decide(d.baseline_error, d.noise_floor_error, best, before=res0, after=res_best,
+                       amplitude_cause=nonlinear)
     modes = list(base.shared.modes().frequency_hz)
-    before = [predict(base.for_experiment(e.name), e) for e in exps]
-    sig_before = signature(exps, before, cmp.floor, d.residual_peaks, amplitude)
+    if before is None:
+        before = [predict(base.for_experiment(e.name), e) for e in exps]
+    sig_before = signature(exps, before, cmp.floor, d.residual_peaks, amplitude, res0)
     rest = None
     if best is not None and d.verdict != "nothing to explain":
         p = best._problem
         after = p.predictions(best._u, p.full)
-        rest = signature(exps, after, cmp.floor, residual_peaks(exps, after, modes, cmp.floor), amplitude)
+        rest = signature(exps, after, cmp.floor, residual_peaks(exps, after, modes, cmp.floor), amplitude, res_best)
     d.signature = rest if rest is not None else sig_before
     d.message = message(d.verdict, d.baseline_error, d.noise_floor_error, best, sig_before, rest)
 

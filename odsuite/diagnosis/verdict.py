@@ -2,11 +2,17 @@
 signature against the calibrated noise floor: bands, channels, experiments, peaks, amplitude
 dependence), whether a candidate explains it, and one paragraph a vibration engineer can act on.
 
-- "nothing to explain": the error lies within the floor's tolerance (``FLOOR_TOLERANCE``);
-- "explained": a significant, consistent, plausible candidate brings the error to the floor;
-- "partly explained": a significant candidate helps, but the residual stays above the floor or its
+Where the floor has bands, the residual resolved by experiment, channel and band decides
+(odsuite.analysis.resolved: a cell is above the floor beyond its chi-square limit); the pooled error
+stays the number reported. Without bands the pooled error within ``FLOOR_TOLERANCE`` decides.
+
+- "nothing to explain": no cell above the floor;
+- "explained": a significant, plausible candidate leaves no cell above it, with parameters that
+  agree across experiments (or that make the model amplitude dependent, whose per-experiment
+  values then follow the force level by design);
+- "partly explained": a significant candidate helps, but cells stay above the floor or its
   parameters are inconsistent or implausible;
-- "unexplained": nothing significant while the residual is above the floor.
+- "unexplained": nothing significant while cells are above the floor.
 """
 
 from __future__ import annotations
@@ -30,19 +36,26 @@ class Signature:
     experiments: list[dict[str, Any]] = field(default_factory=list)
     peaks_hz: list[float] = field(default_factory=list)
     amplitude_dependent: bool = False
+    # the resolved cells above the floor (experiment, channel, band), strongest first
+    cells: list[dict[str, Any]] = field(default_factory=list)
+    strongest_cell: float | None = None  # the largest sqrt(residual / floor) of any cell
 
     def as_dict(self) -> dict[str, Any]:
         return {"bands": self.bands, "channels": self.channels, "experiments": self.experiments,
-                "peaks_hz": self.peaks_hz, "amplitude_dependent": self.amplitude_dependent}
+                "peaks_hz": self.peaks_hz, "amplitude_dependent": self.amplitude_dependent,
+                "cells": self.cells, "strongest_cell_to_floor": self.strongest_cell}
 
 
 def signature(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFloor,
-              peaks: Sequence[dict[str, Any]], amplitude_dependent: bool) -> Signature:
+              peaks: Sequence[dict[str, Any]], amplitude_dependent: bool, resolved=None) -> Signature:
     """Where a residual exceeds the floor by more than FLOOR_TOLERANCE (amplitude): per band (Welch
     spectra of residual and floor), per channel and per experiment (energies), strongest first;
-    with the residual's peaks above the floor."""
+    with the residual's peaks above the floor and the ``resolved`` cells above it."""
     sig = Signature(peaks_hz=[round(float(p["frequency_hz"]), 1) for p in peaks],
                     amplitude_dependent=amplitude_dependent)
+    if resolved is not None:
+        sig.cells = resolved.cells()
+        sig.strongest_cell = resolved.strongest()
     res_e: dict[str, float] = {}
     res_c: dict[str, float] = {}
     flo_c: dict[str, float] = {}
@@ -82,8 +95,20 @@ def signature(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFlo
     return sig
 
 
-def decide(baseline: float, floor: float, best) -> str:
-    """The verdict from the baseline error, the floor and the best significant candidate (None)."""
+def decide(baseline: float, floor: float, best, *, before=None, after=None, amplitude_cause: bool = False) -> str:
+    """The verdict from the baseline error, the floor and the best significant candidate (None);
+    with ``before`` and ``after`` (the resolved residual of the model and of the model with the best
+    candidate, odsuite.analysis.resolved) from them instead of the pooled errors. ``amplitude_cause``:
+    the candidate makes the model amplitude dependent."""
+    if before is not None:
+        if not before.detected():
+            return "nothing to explain"
+        if best is None:
+            return "unexplained"
+        agrees = best.consistent or amplitude_cause
+        if agrees and best.plausible and after is not None and not after.detected():
+            return "explained"
+        return "partly explained"
     if not baseline > FLOOR_TOLERANCE * floor:
         return "nothing to explain"
     if best is None:
@@ -95,6 +120,11 @@ def decide(baseline: float, floor: float, best) -> str:
 
 def _where(sig: Signature) -> str:
     parts = []
+    if sig.cells:
+        c = sig.cells[0]
+        parts.append(f"{len(sig.cells)} cell{'s' if len(sig.cells) > 1 else ''} above the floor, the strongest "
+                     f"{c['channel']} in {c['experiment']} at {c['band_hz'][0]:g}-{c['band_hz'][1]:g} Hz "
+                     f"({c['residual_to_floor']:.3g}x its floor)")
     if sig.channels:
         parts.append("channels " + ", ".join(c["channel"] for c in sig.channels[:4]))
     if sig.experiments:
@@ -110,6 +140,14 @@ def message(verdict: str, baseline: float, floor: float, best, sig: Signature, r
     """One paragraph a vibration engineer can act on."""
     ratio = baseline / floor if floor > 0 else float("inf")
     head = f"The model's error is {baseline:.3g}, {ratio:.2f} times the noise floor of {floor:.3g}"
+    if sig.cells:  # the resolved residual decides: say where it is above its floor
+        c = sig.cells[0]
+        head += (f"; by channel and band, {c['channel']} in {c['experiment']} at {c['band_hz'][0]:g}-"
+                 f"{c['band_hz'][1]:g} Hz is {c['residual_to_floor']:.3g}x the floor there")
+    if verdict == "nothing to explain" and sig.strongest_cell is not None:
+        return (f"{head}; no band of any channel exceeds what noise, hum and quantisation leave there (the "
+                f"strongest is {sig.strongest_cell:.2f}x its floor), so these data show nothing the model "
+                "lacks. Record more or stronger hits (or quieter channels) to look for smaller effects.")
     if verdict == "nothing to explain":
         if best is None:
             return (f"{head}: within what noise, hum and quantisation leave ({FLOOR_TOLERANCE:g}x), so these "
@@ -133,11 +171,17 @@ def message(verdict: str, baseline: float, floor: float, best, sig: Signature, r
     name = best.effect
     also = f" (it cannot be told apart from {', '.join(best.confounded_with)} with these data)" if best.confounded_with else ""
     if verdict == "explained":
-        return (f"{head}; adding {name}{also} brings it to {best.error_after:.3g}, at the floor, with "
-                f"parameters that agree across the experiments and lie in their physical range. Run "
+        amp_words = (" Its effect depends on the force level, as the records do." if sig.amplitude_dependent
+                     else "")
+        return (f"{head}; adding {name}{also} brings it to {best.error_after:.3g}, at the floor in every band "
+                f"of every channel, with parameters that agree across the experiments (or follow the force "
+                f"level as the effect does) and lie in their physical range.{amp_words} Run "
                 f"`odsuite add-effect PROJECT {name}` to keep it.")
     why = []
-    if best.error_after > FLOOR_TOLERANCE * floor:
+    if rest is not None and rest.cells:
+        why.append(f"the error stays at {best.error_after:.3g}, {best.error_after / floor:.2f} times the floor, "
+                   f"with {len(rest.cells)} band{'s' if len(rest.cells) > 1 else ''} of some channel above it")
+    elif rest is None and best.error_after > FLOOR_TOLERANCE * floor:
         why.append(f"the error stays at {best.error_after:.3g}, {best.error_after / floor:.2f} times the floor")
     if not best.consistent:
         why.append("its parameters differ between experiments beyond their uncertainties")

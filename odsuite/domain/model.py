@@ -699,7 +699,8 @@ class MeasurementChain:
     ``force_offset`` (m) moves force points; per sensor: ``gain`` (polarity is a gain of -1),
     ``offset`` (m, position), ``tilt`` (rotation vector of the axis, rad), ``dynamics``
     (the key "*" applies to every sensor without its own entry), ``delay`` (s: the channel is
-    sampled this long after the force channel, e.g. a multiplexer's scan); ``front_end``: the
+    sampled this long after the force channel, e.g. a multiplexer's scan), ``swap`` (the
+    sensor whose motion the named sensor's channel records: two cables exchanged); ``front_end``: the
     accelerometer channels' analog dynamics the rig declares (its ``[acquisition]`` table), in series
     with all of them and kept apart from the effects' ``dynamics``.
     """
@@ -712,6 +713,7 @@ class MeasurementChain:
     dynamics: Mapping[str, SensorDynamics] = field(default_factory=lambda: MappingProxyType({}))
     front_end: AnalogFilter | None = None
     delay: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
+    swap: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
 
     def with_items(self, name: str, items: Mapping) -> MeasurementChain:
         merged = dict(getattr(self, name))
@@ -841,9 +843,18 @@ class Model:
             if out.kind == "coordinate":
                 rows[i] = st.body_coordinates(out.body, out.point)[out.index]
                 continue
-            p, n, gain = self._sensed_along(out)
-            rows[i] = gain * (n @ st.point_rows(out.body, p) + st.flex_row(out.body, p, n, out.sensor_name))
+            rec = self._recorded(out)
+            p, n, gain = self._sensed_along(rec)
+            rows[i] = gain * (n @ st.point_rows(rec.body, p) + st.flex_row(rec.body, p, n, rec.sensor_name))
         return outputs, rows
+
+    def _recorded(self, out):
+        """The output whose motion ``out``'s channel records: another sensor's when the chain swaps
+        their cables (with that sensor's position, tilt and gain)."""
+        other = self.chain.swap.get(out.sensor_name) if out.sensor_name is not None else None
+        if other is None or self.rig is None:
+            return out
+        return Output.sensor(self.rig.sensor(other), out.quantity)
 
     def _force_point(self, inp) -> np.ndarray:
         return inp.point + self.chain.force_offset
@@ -873,6 +884,7 @@ class Model:
              if on_mode_body(force.body) else 0.0)
         c = np.zeros(len(_flatten(outputs)))
         for i, out in enumerate(_flatten(outputs)):
+            out = self._recorded(out) if out.kind != "coordinate" else out
             if out.kind != "coordinate" and on_mode_body(out.body):
                 q, n, gain = self._sensed_along(out)
                 c[i] = gain * mode.shape(np.asarray(q, float), np.asarray(n, float), out.sensor_name)

@@ -1,7 +1,5 @@
 """odsuite built-in plugin: daq_sim, the simulated thesis rig (the embedded default acquisition)."""
 
-from pathlib import Path
-
 from odsuite.api import hookimpl
 
 
@@ -11,19 +9,3 @@ def odsuite_register_daq_backends(registry):
 
     registry.add("sim", SimulatedRig())
 
-
-@hookimpl
-def odsuite_register_commands(app):
-    import typer
-
-    @app.command("demo")
-    def demo_cmd(
-        out: Path = typer.Option(Path("demo-output"), "--out",
-                                 help="Directory for the project, report, movie and figures."),
-    ) -> None:
-        """The whole story on the simulated rig, no hardware: record, process, find two hidden effects."""
-        from rich.console import Console
-
-        from .demo import run_demo
-
-        run_demo(out, console=Console())

@@ -29,6 +29,7 @@ from odsuite_plugins.daq_sim.operating import (
     parse_operating,
     rotation_length,
 )
+from odsuite_plugins.daq_sim.scenarios import SCENARIOS
 from odsuite_plugins.daq_sim.scenarios import scenario as get_scenario
 
 from odsuite.contracts.daq import (
@@ -149,6 +150,8 @@ class SimulatedRig:
 
     name = "sim"
     description = "the simulated rig: the rig's model struck by a virtual hammer, through ADC chains"
+    #: the thesis tests ``scenario`` names: name -> Scenario (description, point, direction, hits)
+    scenarios = SCENARIOS
     options = (BackendOption("scenario", str, None, "thesis test T1..T8 (default T1 when no force point is given)"),
                BackendOption("seed", int, 0, "random seed; one seed, one record"),
                BackendOption("force_peak", float, None, "peak hammer force in N (default: the scenario's, "

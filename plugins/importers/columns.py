@@ -22,6 +22,7 @@ G = 9.80665
 UNITS = {
     "n": (SensorType.LOADCELL, 1.0), "newtons": (SensorType.LOADCELL, 1.0),
     "m/s^2": (SensorType.ACCELEROMETER, 1.0), "m/s2": (SensorType.ACCELEROMETER, 1.0),
+    "m/s²": (SensorType.ACCELEROMETER, 1.0),
     "g": (SensorType.ACCELEROMETER, 1.0 / G), "volts": (SensorType.VOLTAGE, 1.0), "v": (SensorType.VOLTAGE, 1.0),
 }
 
@@ -62,39 +63,49 @@ def import_lvm(project: str | Path, lvm_path: str | Path, name: str, force_chann
     the columns are stored as they are."""
     d = read_lvm(lvm_path)
     d.check_complete()
+    return import_columns(project, lvm_path, name, d.channel_names, d.units, d.data, d.sampling_rate, force_channel,
+                          force_point=force_point, force_dir=force_dir, force_body=force_body)
+
+
+def import_columns(project: str | Path, file: str | Path, name: str, names: list[str], units: list[str],
+                   data: np.ndarray, fs: float, force_channel: str | None = None, *,
+                   force_point: np.ndarray | None = None, force_dir: np.ndarray | None = None,
+                   force_body: str | None = None) -> tuple[str, ...]:
+    """Add a file's named columns (``data``: samples x columns in ``units``, at ``fs`` Hz) to a
+    project as experiment ``name``, as :func:`import_lvm` says; returns notes for the user."""
     with open_project(project, "a") as p:
         on_rig = p.rig is not None and (force_point is not None or force_dir is not None
-                                        or names_the_rig(p.rig, d.channel_names))
+                                        or names_the_rig(p.rig, names))
         if on_rig:
-            rec = onto_rig(p.rig, d.channel_names, d.units, d.data, d.sampling_rate, str(lvm_path), force_point,
+            rec = onto_rig(p.rig, names, units, data, fs, str(file), force_point,
                            force_dir, force_channel, force_body)
-            p.add_experiment(name, rec.raw, sampling_rate=d.sampling_rate, systeminfo=rec.systeminfo,
-                             excitation=rec.excitation, source=str(Path(lvm_path).name),
+            p.add_experiment(name, rec.raw, sampling_rate=fs, systeminfo=rec.systeminfo,
+                             excitation=rec.excitation, source=str(Path(file).name),
                              channel_names=rec.channel_names)
             return rec.notes
         if force_point is not None or force_dir is not None or force_body is not None:
-            raise ConfigError(f"{lvm_path}: --force-point/--force-dir/--force-body need a project with a rig geometry")
+            raise ConfigError(f"{file}: --force-point/--force-dir/--force-body need a project with a rig geometry")
         notes: tuple[str, ...] = ()
         if p.rig is not None:  # e.g. a single-point beam test kept beside the rig's records
-            notes = (f"{lvm_path}: its columns ({', '.join(d.channel_names)}) are not rig {p.rig.name!r}'s channels: "
+            notes = (f"{file}: its columns ({', '.join(names)}) are not rig {p.rig.name!r}'s channels: "
                      "stored as they are, without the rig's geometry",)
-        fidx = force_index(d.channel_names, d.units, force_channel, str(lvm_path))
+        fidx = force_index(list(names), list(units), force_channel, str(file))
         if fidx is None:
-            notes += (operating_note(str(lvm_path)),)
-        # a .lvm in engineering units holds no converter range: limits well above the peaks, so that
+            notes += (operating_note(str(file)),)
+        # a file in engineering units holds no converter range: limits well above the peaks, so that
         # volt limits are never applied to g or N (clipping is then told by flat tops alone)
-        limits = np.maximum(10.0, np.ceil(2 * np.abs(d.data).max(axis=0)))
+        limits = np.maximum(10.0, np.ceil(2 * np.abs(data).max(axis=0)))
         channels = []
-        for k, (n, u) in enumerate(zip(d.channel_names, d.units)):
+        for k, (n, u) in enumerate(zip(names, units)):
             stype, sens = UNITS.get(u.strip().lower(), (SensorType.NONE, 1.0))
             if k == fidx:
                 stype, sens = SensorType.LOADCELL, 1.0  # force values are newtons (volts taken as N)
-            channels.append(ChannelInfo(sensor_type=stype, location=n, sensitivity=sens, sampling_rate=d.sampling_rate,
+            channels.append(ChannelInfo(sensor_type=stype, location=n, sensitivity=sens, sampling_rate=fs,
                                         limit_high=float(limits[k]), limit_low=-float(limits[k])))
         p.add_experiment(
-            name, d.data, sampling_rate=d.sampling_rate, systeminfo=Systeminfo(channels),
-            # a .lvm file holds no geometry: point at the origin, direction +z by convention
+            name, data, sampling_rate=fs, systeminfo=Systeminfo(channels),
+            # such files hold no geometry: point at the origin, direction +z by convention
             excitation=None if fidx is None else Excitation(fidx, np.zeros(3), np.array([0.0, 0.0, 1.0])),
-            source=str(Path(lvm_path).name), channel_names=list(d.channel_names),
+            source=str(Path(file).name), channel_names=list(names),
         )
     return notes

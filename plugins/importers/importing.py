@@ -75,19 +75,20 @@ def import_legacy(project_path: str | Path, dat: str | Path, ctr: str | Path, na
 
 
 def export_legacy(project_path: str | Path, experiment: str, cod: str | Path,
-                  at: str = "center") -> Path:
+                  at: str = "center", kind: str = "gencoords") -> Path:
     """Write the generalized coordinates stored by processing as a thesis ``.COD`` file: 6 columns
     ``x y z theta phi psi`` (m, rad) per body, platform first; ``at`` is ``"center"`` (the centre
-    of mass G) or ``"corner"`` (corner C)."""
+    of mass G) or ``"corner"`` (corner C); ``kind`` "gencoords_corrected" writes the corrected ones
+    (``odsuite process --corrected``)."""
     if at not in COD_POINTS:
         raise ConfigError(f"--at: expected one of {', '.join(COD_POINTS)}, got {at!r}")
     suffix = COD_POINTS[at]
     with open_project(project_path) as project:
         project.experiment(experiment)
-        if "gencoords" not in project.derived_kinds(experiment):
-            raise ConfigError(f"{project.path}: experiment {experiment!r}: no generalized coordinates: "
-                              "run `odsuite process PROJECT` first")
-        arrays = project.read_derived(experiment, "gencoords")
+        if kind not in project.derived_kinds(experiment):
+            raise ConfigError(f"{project.path}: experiment {experiment!r}: no {kind}: run `odsuite process PROJECT"
+                              + (" --corrected`" if kind != "gencoords" else "`") + " first")
+        arrays = project.read_derived(experiment, kind)
         rig = project.rig
     order = [b.name for b in rig.moving_bodies] if rig is not None else []
     names = sorted((k[:-len(suffix)] for k in arrays if k.endswith(suffix)),

@@ -5,6 +5,7 @@ from __future__ import annotations
 import warnings
 from pathlib import Path
 
+from odsuite.api import ConfigError
 from odsuite.contracts.importers import Imported, ImportOption
 
 FORCE_CHANNEL = ImportOption("force_channel", "name of the force channel (default: the one record in newtons "
@@ -46,12 +47,12 @@ class LegacyImporter:
         return Imported(name, f"{Path(file).name} with Systeminfo {Path(systeminfo).name} as experiment {name!r}",
                         tuple(str(w.message) for w in caught))
 
-    def export_file(self, project, out, experiment, *, at: str = "center") -> None:
+    def export_file(self, project, out, experiment, *, at: str = "center", kind: str = "gencoords") -> None:
         """The experiment's generalized coordinates as a thesis .COD file (6 columns per body) at
         the centre of mass ("center") or the corner C ("corner")."""
         from odsuite_plugins.importers.importing import export_legacy
 
-        export_legacy(project, experiment, out, at)
+        export_legacy(project, experiment, out, at, kind)
 
 
 class LvmImporter:
@@ -92,5 +93,74 @@ class UffImporter:
         export_uff(project, out, experiment, binary=binary, node_dataset=node_dataset)
 
 
+#: what a file of numbers may not say itself (a sidecar FILE.toml says it too; docs/importing.md)
+TABLE_OPTIONS = (ImportOption("rate", "sampling rate in Hz (else the file's or its sidecar's)"),
+                 ImportOption("channels", "channel names, comma-separated (else the file's or its sidecar's)"),
+                 ImportOption("units", "m/s^2, g, N or V: one for all or one per channel, comma-separated"))
+
+
+class TableImporter:
+    """CSV, NumPy .npy, MATLAB .mat or NI TDMS records (odsuite_plugins.importers.tables)."""
+
+    def __init__(self, name: str, suffix: str, description: str, extra: tuple = ()) -> None:
+        self.name, self.suffixes, self.description = name, (suffix,), description
+        self.options = (*TABLE_OPTIONS, *extra, FORCE_CHANNEL, *ON_RIG)
+
+    def import_file(self, project, file, name, *, rate=None, channels=None, units=None, variable=None, group=None,
+                    force_channel=None, force_point=None, force_dir=None, force_body=None) -> Imported:
+        from odsuite_plugins.importers.columns import import_columns
+        from odsuite_plugins.importers.tables import read_columns
+
+        c = read_columns(file, {"sampling_rate": rate, "channels": channels, "units": units, "variable": variable,
+                                "group": group})
+        notes = import_columns(project, file, name, c.names, c.units, c.data, c.fs, force_channel,
+                               **_hammer(force_point, force_dir, force_body))
+        return Imported(name, f"{self.name} file {Path(file).name}: {c.data.shape[1]} channels "
+                              f"({', '.join(f'{n} [{u}]' for n, u in zip(c.names, c.units))}) x {c.data.shape[0]} "
+                              f"samples at {c.fs:g} Hz as experiment {name!r}", tuple(notes))
+
+
+class GeometryImporter:
+    name = "geometry"
+    description = ("a structure's geometry: nodes, lines, faces and sensors on nodes from a TOML or CSV table, or "
+                   "nodes and trace lines from UFF 15/82 (with --sensors); stored as import NAME (docs/geometry.md)")
+    suffixes = (".toml",)
+    options = (ImportOption("sensors", "UFF geometry: a TOML or CSV table of sensors, fixed nodes and rigid groups"),)
+
+    def import_file(self, project, file, name, *, sensors=None) -> Imported:
+        from odsuite.api import DerivedArray, GEOMETRY_KIND, geometry_record, open_project
+        from odsuite_plugins.importers.geometry_files import read_geometry
+
+        geom = read_geometry(file, name, sensors)
+        arrays, attrs = geometry_record(geom)
+        with open_project(project, "a") as p:
+            p.write_import(name, GEOMETRY_KIND, {k: DerivedArray(*v) for k, v in arrays.items()},
+                           source=Path(file).name, attrs=attrs)
+        return Imported(name, f"geometry of {geom.node_ids.size} nodes, {len(geom.lines)} lines, {len(geom.faces)} "
+                              f"faces, {len(geom.sensors)} sensors as import {name!r}")
+
+    def export_file(self, project, out, experiment=None, *, modes=(), geometry=None) -> None:
+        """The project's geometry as UFF 15 (nodes) and 82 (its lines), with ``modes`` ((frequency Hz,
+        damping ratio, node motions (nodes, 3) complex), ...) as UFF 55."""
+        from odsuite.api import open_project, project_geometry
+        from odsuite_plugins.importers.geometry_files import write_geometry_uff
+
+        with open_project(project) as p:
+            geom = project_geometry(p, geometry)
+            if geom is None:
+                raise ConfigError(f"{p.path}: no geometry to write (import one with --format geometry)")
+        write_geometry_uff(out, geom, modes)
+
+
 def builtin_importers() -> list:
-    return [LegacyImporter(), LvmImporter(), UffImporter()]
+    return [LegacyImporter(), LvmImporter(), UffImporter(),
+            TableImporter("csv", ".csv", "CSV record: a header of channel names (each may end in its unit, "
+                          "'acc1 [m/s^2]'; a first column 'time' gives the rate), one row per sample"),
+            TableImporter("npy", ".npy", "NumPy .npy array, samples x channels, with a sidecar FILE.toml or options "
+                          "for rate, channel names and units"),
+            TableImporter("mat", ".mat", "MATLAB .mat (v4-v7.3): a samples x channels array, with fs, channels and "
+                          "units variables, a sidecar or options",
+                          (ImportOption("variable", "the .mat array to read (default: the only one)"),)),
+            TableImporter("tdms", ".tdms", "NI TDMS file (npTDMS): one group's channels with their unit_string and "
+                          "wf_increment", (ImportOption("group", "the TDMS group to read (default: the only one)"),)),
+            GeometryImporter()]

@@ -5,7 +5,9 @@ participation at every sensor and at each experiment's force point is solved by 
 squares at every step of the search (variable projection): bending with in-plane parts, torsion, a
 loose bracket, whatever shape the sensors see. ``channel_delay`` and ``scan_skew``: channels
 sampled later than the force channel (a time offset per channel; a multiplexer that reads channel
-k a fixed time after channel k-1).
+k a fixed time after channel k-1). ``channel_swap``: two channels of one kind carrying each
+other's sensor. The last three describe the measurement and undo themselves on records
+(``correct``).
 """
 
 from __future__ import annotations
@@ -13,9 +15,11 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 import numpy as np
+import scipy.interpolate
 
 from odsuite.contracts.effects import Effect, Parameter
 from odsuite.api import FlexibleMode, Model, Structure
+from odsuite.api import sampled_later
 
 #: participations (1/sqrt(kg), per unit mass-normalised modal coordinate) beyond this are a mode of
 #: a part lighter than 0.1 g: no physical mode of a rig
@@ -358,6 +362,83 @@ class ChannelDelay(Effect):
         merged = {n: model.chain.delay.get(n, 0.0) + d for n, d in delay.items()}
         return model.replace(chain=model.chain.with_items("delay", merged))
 
+    correction_stage = "channel"
+
+    def correct(self, rig, signals, fs, v):
+        """Each late channel moved back by its delay (the model's own phase shift, negated)."""
+        sensors = [s for s in rig.accelerometers if s.name in signals]
+        if self.kind == "scan":
+            first = rig.force_channel if rig.force_channel is not None else 0
+            delay = [(s.channel - first) * v["skew_s"] for s in sensors]
+        else:
+            delay = [v.get(f"{s.name}_delay", 0.0) for s in sensors]
+        if not any(delay):
+            return rig, dict(signals)
+        x = np.column_stack([signals[s.name] for s in sensors])
+        # a record that does not end at rest (a drifting displacement) would ring through the whole
+        # shift from the step at its end: the cubic through both ends' values and slopes is shifted
+        # exactly, the rest (at rest at both ends) by the spectrum's phase
+        t = np.arange(x.shape[0]) / fs
+        ends = scipy.interpolate.CubicHermiteSpline([t[0], t[-1]], x[[0, -1]], fs * (x[[1, -1]] - x[[0, -2]]), axis=0)
+        y = sampled_later(x - ends(t), fs, -np.asarray(delay))
+        y += np.column_stack([ends(t - d)[:, j] for j, d in enumerate(delay)])
+        return rig, {**signals, **{s.name: y[:, j] for j, s in enumerate(sensors)}}
+
+
+class ChannelSwap(Effect):
+    """Two channels of one kind (two accelerometers, say) carry each other's sensor: their cables
+    were exchanged. A discrete parameter, the pair (0: none; the diagnosis tries every pair on the
+    current model), and the ratio of the two sensors' sensitivities (the channel set up for the
+    first reads the second sensor ``ratio`` times too large, the other channel the first sensor
+    ``ratio`` times too small), fitted with the best pair."""
+
+    name = "channel_swap"
+    target = "chain"
+    breaks_rigidity = True  # a swapped pair makes a rigid body's redundant sensors disagree
+    correction_stage = "wiring"
+    description = "Two sensors' cables are exchanged: each channel records the other sensor."
+
+    @staticmethod
+    def pairs(sensors) -> list[tuple[str, str]]:
+        """Every pair of sensors of one kind and quantity, in rig order (choice k is pair k - 1)."""
+        return [(a.name, b.name) for i, a in enumerate(sensors) for b in sensors[i + 1:]
+                if (a.kind, a.quantity) == (b.kind, b.quantity)]
+
+    def parameters(self, model):
+        pairs = self.pairs(_accelerometers(model))
+        if not pairs or model.rig is None:
+            return []
+        return [Parameter("pair", "1", 0.0, 0.0, float(len(pairs)), choices=tuple(map(float, range(len(pairs) + 1))),
+                          description="the exchanged pair: 0 = none, " + ", ".join(
+                              f"{k + 1} = {a}/{b}" for k, (a, b) in enumerate(pairs))),
+                # sensors of one type differ by a few per cent in sensitivity
+                Parameter("ratio", "1", 1.0, 0.5, 2.0, plausible=(0.8, 1.25),
+                          description="second sensor's sensitivity / first sensor's, of the exchanged pair")]
+
+    def pair(self, sensors, v) -> tuple[str, str] | None:
+        k = int(v.get("pair", 0.0))
+        return self.pairs(sensors)[k - 1] if k else None
+
+    def _apply(self, model, v):
+        pair = self.pair(_accelerometers(model), v)
+        if pair is None:
+            return model
+        a, b = pair
+        r = v.get("ratio", 1.0)
+        # a channel's row is the recorded sensor's, with that sensor's gain: channel a reads b
+        gains = {a: model.chain.gain.get(a, 1.0) / r, b: model.chain.gain.get(b, 1.0) * r}
+        return model.replace(chain=model.chain.with_items("swap", {a: b, b: a}).with_items("gain", gains))
+
+    def correct(self, rig, signals, fs, v):
+        """The two channels' signals exchanged back."""
+        pair = self.pair(rig.accelerometers, v)
+        if pair is None or not set(pair) <= set(signals):
+            return rig, dict(signals)
+        a, b = pair
+        r = v.get("ratio", 1.0)
+        return rig, {**signals, a: signals[b] * r, b: signals[a] / r}
+
 
 def data_effects() -> list[Effect]:
-    return [MissingMode(), CoupledMode(), MountedMode(), ChannelDelay("per_channel"), ChannelDelay("scan")]
+    return [MissingMode(), CoupledMode(), MountedMode(), ChannelDelay("per_channel"), ChannelDelay("scan"),
+            ChannelSwap()]

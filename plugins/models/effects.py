@@ -13,10 +13,12 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import scipy.signal
 
 from odsuite.contracts.effects import Effect, Parameter
 from odsuite.api import ConfigError
 from odsuite.api import FlexibleMode, Model, RigidBody, SensorDynamics, SpringDamper, Structure
+from odsuite.api import rotated, sensor_filter
 
 #: density used where a rig gives a plate but no mass (steel, as App. C's inertia listing)
 STEEL_DENSITY = 7841.0
@@ -261,6 +263,16 @@ class PlateFlexibility(Effect):
         return _with_structure(model, flexible_modes=model.structure.flexible_modes + (mode,))
 
 
+def _scaled(signals, factors: dict[str, float]) -> dict:
+    """``signals`` with the named sensors' samples divided by their factor (1: left as they are)."""
+    return {n: (x / factors[n] if factors.get(n, 1.0) != 1.0 else x) for n, x in signals.items()}
+
+
+def _remounted(rig, change) -> object:
+    """``rig`` with each sensor replaced by ``change(sensor)`` (the sensor as mounted)."""
+    return replace(rig, sensors=tuple(change(s) for s in rig.sensors))
+
+
 class _PerSensor(Effect):
     target = "chain"
     breaks_rigidity = True  # one faulty sensor makes the redundant angular estimates disagree
@@ -286,6 +298,10 @@ class SensorGain(_PerSensor):
         g = {s.name: model.chain.gain.get(s.name, 1.0) * v[f"{s.name}_gain"] for s in _sensors(model)}
         return model.replace(chain=model.chain.with_items("gain", g))
 
+    def correct(self, rig, signals, fs, v):
+        """The recorded signal over the gain: what a calibrated sensor would have given."""
+        return rig, _scaled(signals, {s.name: v.get(f"{s.name}_gain", 1.0) for s in rig.accelerometers})
+
 
 class SensorPolarity(_PerSensor):
     name = "sensor_polarity"
@@ -299,6 +315,10 @@ class SensorPolarity(_PerSensor):
     def _apply(self, model, v):
         g = {s.name: model.chain.gain.get(s.name, 1.0) * v[f"{s.name}_polarity"] for s in _sensors(model)}
         return model.replace(chain=model.chain.with_items("gain", g))
+
+    def correct(self, rig, signals, fs, v):
+        """A reversed sensor's signal negated."""
+        return rig, _scaled(signals, {s.name: v.get(f"{s.name}_polarity", 1.0) for s in rig.accelerometers})
 
 
 def _perpendicular(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -333,6 +353,18 @@ class SensorOrientation(_PerSensor):
                              + v[f"{s.name}_tilt_a"] * e1 + v[f"{s.name}_tilt_b"] * e2)
         return model.replace(chain=model.chain.with_items("tilt", tilts))
 
+    def correct(self, rig, signals, fs, v):
+        """The rig with each tilted sensor's axis as mounted; the signals as they are (a tilted
+        sensor's own signal cannot be undone alone: the correction re-expresses it along the nominal
+        axis from its body's motion)."""
+        def change(s):
+            a, b = v.get(f"{s.name}_tilt_a", 0.0), v.get(f"{s.name}_tilt_b", 0.0)
+            if s.quantity != "acceleration" or not (a or b):
+                return s
+            e1, e2 = _perpendicular(s.axis)
+            return replace(s, axis=rotated(np.asarray(s.axis, float), a * e1 + b * e2))
+        return _remounted(rig, change), dict(signals)
+
 
 class SensorPosition(_PerSensor):
     name = "sensor_position"
@@ -344,6 +376,14 @@ class SensorPosition(_PerSensor):
         off = {s.name: model.chain.offset.get(s.name, np.zeros(3))
                + np.array([v[f"{s.name}_d{a}"] for a in AXES]) for s in _sensors(model)}
         return model.replace(chain=model.chain.with_items("offset", off))
+
+    def correct(self, rig, signals, fs, v):
+        """The rig with each moved sensor where it sits; the signals as they are (re-expressed at
+        the nominal place from the body's motion, as a tilt)."""
+        def change(s):
+            d = np.array([v.get(f"{s.name}_d{a}", 0.0) for a in AXES])
+            return replace(s, position=s.position + d) if s.quantity == "acceleration" and d.any() else s
+        return _remounted(rig, change), dict(signals)
 
 
 class SensorDynamicsEffect(Effect):
@@ -377,6 +417,31 @@ class SensorDynamicsEffect(Effect):
         dyn = SensorDynamics(v["highpass_hz"], v["coupler_highpass_hz"], v["resonance_period_s"],
                              v["resonance_damping"])
         return model.replace(chain=model.chain.with_items("dynamics", {"*": dyn}))
+
+    correction_stage = "channel"
+
+    def correct(self, rig, signals, fs, v):
+        """Every accelerometer's signal through the inverse of the sensors' dynamics as the model
+        discretises them: the high-passes by their inverse recursion (an integrator: the drift the
+        correction removes afterwards grows from it), the resonance by division of the spectrum
+        (zero-padded to twice the length; its discrete zeros may lie outside the unit circle)."""
+        dyn = SensorDynamics(v["highpass_hz"], v["coupler_highpass_hz"], v["resonance_period_s"],
+                             v["resonance_damping"])
+        if dyn.is_identity():
+            return rig, dict(signals)
+        names = [s.name for s in rig.accelerometers if s.name in signals]
+        y = np.column_stack([signals[n] for n in names]).astype(float)
+        highpass = replace(dyn, resonance_period_s=0.0)
+        if not highpass.is_identity():
+            num, den = sensor_filter(highpass, fs)
+            y = scipy.signal.lfilter(den, num, y, axis=0)
+        resonance = replace(dyn, highpass_hz=0.0, coupler_highpass_hz=0.0)
+        if not resonance.is_identity():
+            num, den = sensor_filter(resonance, fs)
+            n = y.shape[0]
+            _, h = scipy.signal.freqz(num, den, worN=n + 1, include_nyquist=True)  # rfft bins of 2n
+            y = np.fft.irfft(np.fft.rfft(y, n=2 * n, axis=0) / h[:, None], n=2 * n, axis=0)[:n]
+        return rig, {**signals, **{nm: y[:, j] for j, nm in enumerate(names)}}
 
 
 class ImpactLocation(Effect):

@@ -86,14 +86,23 @@ def render_experiment(
     if figure is not None and figure not in FIGURES:
         raise ConfigError(f"--figure: expected one of {', '.join(FIGURES)}, got {figure!r}")
     with open_project(project_path, registries=registries) as project:
+        if project.rig is None and ods_hz is not None and figure is None and not model:
+            from odsuite.api import project_geometry
+
+            if project_geometry(project) is not None:  # a structure that is not a set of plates
+                from .shapes import geometry_ods_movie
+
+                return geometry_ods_movie(project, experiment, output, ods_hz=ods_hz, reference=reference,
+                                          view=view, workers=workers, fps=fps, progress=progress)
         if project.rig is None:
-            raise ConfigError(f"{project.path}: the project has no rig geometry to draw (created with --rig none)")
+            raise ConfigError(f"{project.path}: the project has no rig geometry to draw (created with --rig none) "
+                              "and no geometry of nodes and lines (docs/geometry.md)")
         if experiment not in project.experiment_names():
             raise ConfigError(f"{project.path}: no experiment {experiment!r} "
                               f"(experiments: {', '.join(project.experiment_names()) or 'none'})")
         exp = project.experiment(experiment)
         fs = exp.sampling_rate
-        model_coords = None
+        model_coords = corrected_coords = None
         ods_source = None
         if reference is not None and ods_hz is None:
             raise ConfigError("--reference names the ODS's reference sensor: give --ods HZ too")
@@ -120,6 +129,11 @@ def render_experiment(
             pairs = experiment_coordinates(project, experiment)
             coords = {b: m for b, (m, _) in pairs.items()}
             model_coords = {b: p for b, (_, p) in pairs.items()}
+            if figure is None:  # the movie overlays the corrected motion where it is stored
+                from odsuite.api import stored_correction
+
+                stored = stored_correction(project, experiment)
+                corrected_coords = stored[0] if stored and set(stored[0]) == set(coords) else None
         else:
             coords = _coords(project, experiment, MEASURED_KIND, _why_no_coordinates(project, experiment))
         force = None
@@ -134,7 +148,8 @@ def render_experiment(
                             np.asarray(exp.excitation.direction, float), experiment_force(project, experiment))
         rig = project.rig
     if figure is None:
-        return _movie(rig, coords, fs, output, experiment, model_coords=model_coords, magnify=magnify,
+        return _movie(rig, coords, fs, output, experiment, model_coords=model_coords,
+                      corrected_coords=corrected_coords, magnify=magnify,
                       view=view, workers=workers, frame_step=frame_step, slowdown=slowdown, progress=progress,
                       hammer=hammer, ods_hz=ods_hz, ods_source=ods_source, start=start, end=end, fps=fps,
                       duration=duration)
@@ -159,7 +174,7 @@ def render_experiment(
                                    title=f"{experiment}: {body} at its centre of mass").path
 
 
-def _movie(rig, coords, fs, output, experiment, *, model_coords, magnify, view, workers, frame_step, slowdown,
+def _movie(rig, coords, fs, output, experiment, *, model_coords, magnify, corrected_coords=None, view, workers, frame_step, slowdown,
            progress, hammer, ods_hz, ods_source, start, end, fps, duration) -> MovieResult:
     """The movie with its story: the window around the hit, a title saying what is shown."""
     n = next(iter(coords.values())).shape[0]
@@ -167,7 +182,9 @@ def _movie(rig, coords, fs, output, experiment, *, model_coords, magnify, view, 
     if ods_hz is not None:
         title = f"{experiment}: operating deflection shape at {ods_hz:.2f} Hz ({ods_source})"
     else:
-        title = f"{experiment}: measured motion" + (" (blue) and the model's (orange band)" if model_coords else "")
+        title = f"{experiment}: measured motion" + (
+            " (blue), corrected (green) and the model's (orange band)" if corrected_coords else
+            " (blue) and the model's (orange band)" if model_coords else "")
         if hammer is not None:
             time_zero = contact_index(hammer.force) / fs
         if start is None and end is None:
@@ -180,7 +197,8 @@ def _movie(rig, coords, fs, output, experiment, *, model_coords, magnify, view, 
         raise ConfigError(f"--end {end:g} s must come after --start {start:g} s")
     if ods_hz is None and duration is None and frame_step is None and slowdown is None:
         duration = DEFAULT_DURATION
-    return render_movie(rig, coords, fs, output, model_coords=model_coords, magnify=magnify,
+    return render_movie(rig, coords, fs, output, model_coords=model_coords, corrected_coords=corrected_coords,
+                        magnify=magnify,
                         view=parse_pair(view, "--view") or (60.0, 25.0), workers=workers,
                         frame_step=frame_step, slowdown=slowdown, duration=duration, progress=progress,
                         start=start or 0.0, stop=end, fps=fps or 25.0, hammer=hammer, title=title,

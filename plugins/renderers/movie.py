@@ -214,7 +214,7 @@ def _render_part(job: dict, frames: np.ndarray, first: int, sink: str, target: s
 
     ``sink`` "mp4": an H.264 file; "gif": GIF frame blocks in the job's palette.
     """
-    scene = Scene(job["rig"], job["coords"], **job["scene"])
+    scene = _scene(job)
     writer = None
     try:
         if sink == "mp4":
@@ -232,6 +232,12 @@ def _render_part(job: dict, frames: np.ndarray, first: int, sink: str, target: s
         if writer is not None:
             _abandon(writer)
         scene.close()
+
+
+def _scene(job: dict):
+    """The job's scene: the rig's plates, or another scene class (``scene_type``: a picklable
+    class taking ``scene_args`` and the ``scene`` options, with ``size`` and ``frame``)."""
+    return job.get("scene_type", Scene)(*job.get("scene_args", (job.get("rig"), job.get("coords"))), **job["scene"])
 
 
 def _abandon(writer) -> None:
@@ -300,6 +306,7 @@ def render_movie(
     title: str = "",
     time_zero: float | None = None,
     ods_hz: float | None = None,
+    corrected_coords: Mapping[str, np.ndarray] | None = None,
 ) -> MovieResult:
     """Animate every plate of ``rig`` from generalized coordinates and write an MP4 or GIF.
 
@@ -313,7 +320,8 @@ def render_movie(
     available (see ``notes``). ``sensors`` marks and names the sensors; ``hammer`` draws the hit.
     ``title`` heads every frame; the clock counts from ``time_zero`` (s, the hit) when given, and
     for an operating deflection shape (``ods_hz``, the coordinates one cycle after another) gives
-    the phase instead.
+    the phase instead. ``corrected_coords``: the motion with the measurement's diagnosed
+    distortions removed (``process --corrected``), overlaid in a third colour.
     """
     path = Path(path)
     fmt = path.suffix.lower().lstrip(".")
@@ -326,8 +334,13 @@ def render_movie(
         if next(iter(model_coords.values())).shape[0] != n:
             raise ConfigError(f"model_coords: {next(iter(model_coords.values())).shape[0]} samples, "
                               f"the measurement has {n}")
+    if corrected_coords is not None:
+        corrected_coords = check_coords(rig, corrected_coords, "corrected_coords")
+        if next(iter(corrected_coords.values())).shape[0] != n:
+            raise ConfigError(f"corrected_coords: {next(iter(corrected_coords.values())).shape[0]} samples, "
+                              f"the measurement has {n}")
     if magnify is None:
-        magnify = default_magnification(rig, coords, *([model_coords] if model_coords else []))
+        magnify = default_magnification(rig, coords, *[c for c in (model_coords, corrected_coords) if c])
     magnify = (float(magnify[0]), float(magnify[1]))
     frames, step, slow = frame_plan(n, fs, fps=fps, start=start, stop=stop, frame_step=frame_step,
                                     slowdown=slowdown, duration=duration)
@@ -342,12 +355,23 @@ def render_movie(
     title = "\n".join(t for t in (title, f"{speed if ods_hz is None else ''}"
                                           f"{'; ' if ods_hz is None else ''}{magnification_words(magnify)}") if t)
     job = {"rig": rig, "coords": coords, "fps": fps, "labels": labels, "n_frames": len(frames),
-           "scene": dict(model_coords=model_coords, layout=layout, magnify=magnify, view=tuple(view),
+           "scene": dict(model_coords=model_coords, corrected_coords=corrected_coords, layout=layout, magnify=magnify, view=tuple(view),
                          parallel=parallel, solid=solid, axes=axes, ghost=ghost, size=size, style=style,
                          sensors=sensors, hammer=hammer, title=title)}
     if workers is None:
         # one process keeps about two cores busy (multi-threaded rasteriser + the encoder process)
         workers = max(1, min(4, (os.cpu_count() or 1) // 2))
+    path = write_movie(job, frames, path, fmt, size, workers, progress)
+    return MovieResult(path=path, format=fmt, n_frames=len(frames), fps=fps, magnify=magnify,
+                       frame_step=step, slowdown=slow, notes=notes)
+
+
+def write_movie(job: dict, frames: np.ndarray, path: Path, fmt: str, size: tuple[int, int], workers: int,
+                progress: bool) -> Path:
+    """Render ``job``'s scene at ``frames`` (its sample indices) into ``path`` (``fmt`` "mp4" or
+    "gif", the fallback already chosen) with ``workers`` processes; ``job`` holds the scene, the
+    frame ``labels``, ``fps`` and ``n_frames``."""
+    labels = job["labels"]
     workers = max(1, min(int(workers), len(frames) // MIN_FRAMES_PER_WORKER or 1))
     path.parent.mkdir(parents=True, exist_ok=True)
     needed = int(len(frames) * size[0] * size[1] * MOVIE_BYTES_PER_PIXEL[fmt])
@@ -360,7 +384,7 @@ def render_movie(
             targets = [str(tmp / f"part{k}.mp4") for k in range(workers)] if workers > 1 else [str(tmp / "movie.mp4")]
         else:
             targets = [str(tmp / f"part{k}.gifdata") for k in range(workers)]
-            scene = Scene(rig, coords, **job["scene"])
+            scene = _scene(job)
             try:
                 job["palette"] = _gif_palette(scene, frames, labels)
             finally:
@@ -380,8 +404,7 @@ def render_movie(
                 _join_gif([Path(t) for t in targets], out, job["palette"], size)
 
         write_output(path, needed, join)
-    return MovieResult(path=path, format=fmt, n_frames=len(frames), fps=fps, magnify=magnify,
-                       frame_step=step, slowdown=slow, notes=notes)
+    return path
 
 
 def frame_labels(frames: np.ndarray, fs: float, *, time_zero: float | None = None, ods_hz: float | None = None,

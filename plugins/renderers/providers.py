@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from odsuite.contracts.renderers import Rendered, RenderRequest
 
 MOVIE_OPTIONS = frozenset({"model", "magnify", "view", "workers", "frame_step", "slowdown", "ods_hz", "reference",
@@ -23,6 +25,9 @@ class MovieRenderer:
         request.unknown_options(MOVIE_OPTIONS, self.name)
         res = render_experiment(request.project, request.experiment, request.output, progress=request.progress,
                                 registries=request.registries, **{k: v for k, v in request.options.items() if v is not None})
+        if getattr(res, "frame_step", None) == 0:  # a shape on the project's geometry
+            return Rendered(res.path, f"{res.n_frames} frames at {res.fps:g} fps ({res.n_frames / res.fps:.1f} s), "
+                                      "the shape on the project's geometry", tuple(res.notes))
         return Rendered(res.path, f"{res.n_frames} frames at {res.fps:g} fps ({res.n_frames / res.fps:.1f} s), "
                                   f"{res.slowdown:,.0f} times slower than real time, {magnification_words(res.magnify)}",
                         tuple(res.notes))
@@ -48,6 +53,46 @@ class FigureRenderer:
         return Rendered(path, f"{self.name} figure of {request.experiment}")
 
 
+class DrawnFigure:
+    """A figure of numbers the core computed and hands over as the option ``data`` names (the FRFs
+    of ``odsuite frf``, the modes of ``odsuite modes``, ...); the other options are the drawing
+    function's keywords. ``compute(request)``, where given, finds the numbers in the project when
+    none are handed over."""
+
+    kind = "figure"
+    suffixes = (".png", ".svg", ".pdf")
+
+    def __init__(self, name: str, description: str, data: str, draw: str, options: frozenset[str], *,
+                 compute=None, made_by: str = "") -> None:
+        self.name, self.description = name, description
+        self.data, self.draw, self.options, self.compute = data, draw, options | {data}, compute
+        self.made_by = made_by
+
+    def render(self, request: RenderRequest) -> Rendered:
+        from importlib import import_module
+
+        from odsuite.api import ConfigError
+
+        request.unknown_options(self.options, self.name)
+        kwargs = {k: v for k, v in request.options.items() if v is not None and k != self.data}
+        data = request.options.get(self.data)
+        if data is None and self.compute is None:
+            raise ConfigError(f"renderer {self.name!r} draws the numbers it is given (option {self.data!r}), "
+                              f"not a stored experiment: use {self.made_by}")
+        if data is None:
+            data = self.compute(request)
+        module, _, function = self.draw.partition(":")
+        getattr(import_module(module, __package__), function)(data, request.output, **kwargs)
+        return Rendered(Path(request.output), f"{self.name} figure")
+
+
+def _history_of(request: RenderRequest):
+    from odsuite.api import history, open_project
+
+    with open_project(request.project, registries=request.registries) as p:
+        return history(p)
+
+
 class ReportRenderer:
     name = "report"
     description = ("one self-contained HTML page: experiments, model against measurement, failures, candidate "
@@ -68,9 +113,44 @@ class ReportRenderer:
         return Rendered(res.path, f"{res.size_bytes / 2**20:.1f} MiB; error {res.error:.4f}", tuple(res.notes))
 
 
+class ModeShapeRenderer:
+    name = "mode-shape"
+    description = ("a mode shape identified from an experiment's responses (output-only) moving on the project's "
+                   "geometry (MP4, or GIF); to .uff: the geometry (15/82) with every mode (55) for other tools")
+    kind = "movie"
+    suffixes = (".mp4", ".gif", ".uff")
+    OPTIONS = frozenset({"mode", "fmin", "fmax", "max_order", "view", "workers", "fps"})
+
+    def render(self, request: RenderRequest) -> Rendered:
+        from .shapes import render_mode_shape
+
+        request.unknown_options(self.OPTIONS, self.name)
+        res, n, notes = render_mode_shape(request.project, request.experiment, request.output,
+                                          progress=request.progress, registries=request.registries,
+                                          **{k: v for k, v in request.options.items()
+                                             if v is not None and v is not False})
+        if isinstance(res, Path):
+            return Rendered(res, f"geometry (UFF 15/82) and {n} mode shapes (UFF 55)", tuple(notes))
+        return Rendered(res.path, f"{res.n_frames} frames at {res.fps:g} fps ({res.n_frames / res.fps:.1f} s), "
+                                  f"mode {request.options.get('mode')} of {n}", tuple(res.notes) + tuple(notes))
+
+
 def builtin_renderers() -> list:
-    return [MovieRenderer(),
+    return [MovieRenderer(), ModeShapeRenderer(),
             FigureRenderer("projection", "the thesis's 2-D projection (Eq. 4.25): rest and characteristic forced response"),
             FigureRenderer("overlay", "generalized coordinates, measured against the model, over time"),
             FigureRenderer("residuals", "spectra of the measured coordinates and of their residual against the model"),
+            DrawnFigure("frf", "FRFs: magnitude, phase and coherence per output", "frf",
+                        ".modal_figures:frf_figure",
+                        frozenset({"band_hz", "outputs", "title", "model_hz", "f_range", "size", "dpi"}),
+                        made_by="`odsuite frf --figure`"),
+            DrawnFigure("stabilisation", "stabilisation diagram: poles per model order and the chosen modes", "modes",
+                        ".modal_figures:stabilisation_figure", frozenset({"freq", "H", "title", "background"}),
+                        made_by="`odsuite modes --figure`"),
+            DrawnFigure("mac", "MAC matrix: two sets of mode shapes, each value in its cell", "mac",
+                        ".modal_figures:mac_figure",
+                        frozenset({"labels_a", "labels_b", "title", "xlabel", "ylabel", "dpi"}),
+                        made_by="`odsuite modes --mac-figure`"),
+            DrawnFigure("history", "model error per revision, with the noise floor", "history",
+                        ".history_figure:history_figure", frozenset(), compute=_history_of),
             ReportRenderer()]

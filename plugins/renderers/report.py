@@ -251,7 +251,7 @@ def build_report(
 
     from odsuite.api import COORDINATE_NAMES, compare
     from odsuite.api import coordinate_series, predict, prepare
-    from odsuite.api import history, history_figure
+    from odsuite.api import history
     from odsuite.api import current_revision, revision_model
     from odsuite.api import open_project
 
@@ -318,7 +318,7 @@ def build_report(
 
         say("history")
         hist = history(project)
-        history_figure(hist, tmp / "history.png")
+        _draw(project, "history", None, tmp / "history.png", history=hist)
         hist_html = (_img(tmp / "history.png", "pooled error per model revision")
                      + _table(["revision", "parent", "effects", "error (NRMSE)"],
                               [[r["revision"], "–" if r["parent"] is None else r["parent"],
@@ -332,8 +332,9 @@ def build_report(
             chosen = movie_experiment or max(cmp.experiments, key=lambda n: cmp.experiments[n]["error"])
             say(f"rendering the movie of {chosen}")
             exp = next(e for e in exps if e.name == chosen)
-            movie_html = _movie_section(rig, exp, coord_series[chosen], tmp)
-            view_html = _view_section(rig, exp, coord_series[chosen])
+            series, corrected = _corrected_series(project, rig, exp, rev, coord_series[chosen])
+            movie_html = _movie_section(rig, exp, series, tmp, corrected)
+            view_html = _view_section(rig, exp, series, corrected)
         else:
             notes.append("movie skipped (--no-movie)")
 
@@ -433,8 +434,6 @@ def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, m
     """Per hammer record: its FRFs (magnitude log-log, phase, coherence) for ``frf_channels`` or the
     driving point, the model's modes dotted; and the MAC matrix of its measured modes against the
     model's, beside the modal table."""
-    from odsuite.api import frf_figure, mac_figure
-
     by_name = {e.name: e for e in exps}
     parts = []
     for rec in records:
@@ -454,16 +453,18 @@ def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, m
         tag = f"{len(parts)}"
         # the model's modes near the band; where no mode was measured, every mode of the model
         model_hz = rec.model_hz if rec.measured_hz.size else modes_hz
-        frf_figure(rec.frf, tmp / f"frf-{tag}.png", f_range=rec.band_hz, outputs=chosen, model_hz=model_hz,
-                   title=f"experiment {rec.experiment}: {', '.join(chosen)}", size=(PRINT_WIDTH_IN, 5.2), dpi=FIGURE_DPI)
+        _draw(project, "frf", rec.experiment, tmp / f"frf-{tag}.png", frf=rec.frf, f_range=rec.band_hz, outputs=chosen,
+              model_hz=model_hz, title=f"experiment {rec.experiment}: {', '.join(chosen)}", size=(PRINT_WIDTH_IN, 5.2),
+              dpi=FIGURE_DPI)
         band = ("over the whole record's band (no usable band found)" if rec.band_hz is None else
                 f"over the band the modes are fitted in, {rec.band_hz[0]:.0f}-{rec.band_hz[1]:.0f} Hz")
         figs = [_img(tmp / f"frf-{tag}.png", f"{rec.experiment}: FRF of the {what} to the hammer force "
                      f"(magnitude on log-log axes, phase, coherence) {band}; dotted: model modes")]
         if rec.mac is not None:
-            mac_figure(rec.mac, tmp / f"mac-{tag}.png", labels_a=[f"{f:.1f} Hz" for f in rec.measured_hz],
-                       labels_b=[f"{f:.1f} Hz" for f in rec.model_hz], xlabel="model mode", ylabel="measured mode",
-                       title=f"{rec.experiment}: MAC, measured against model modes", dpi=FIGURE_DPI)
+            _draw(project, "mac", rec.experiment, tmp / f"mac-{tag}.png", mac=rec.mac,
+                  labels_a=[f"{f:.1f} Hz" for f in rec.measured_hz], labels_b=[f"{f:.1f} Hz" for f in rec.model_hz],
+                  xlabel="model mode", ylabel="measured mode",
+                  title=f"{rec.experiment}: MAC, measured against model modes", dpi=FIGURE_DPI)
             figs.append(_img(tmp / f"mac-{tag}.png", f"{rec.experiment}: MAC of the measured modes (rows) against "
                              "the model's (columns) at the record's accelerometers"))
         elif not rec.measured_hz.size:
@@ -473,6 +474,14 @@ def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, m
         parts.append(f"<h3 id='modal-{_esc(rec.experiment)}'>{_esc(rec.experiment)}</h3>"
                      f"<div class='modal-figs'>{''.join(figs)}</div>")
     return "".join(parts)
+
+
+def _draw(project, name: str, experiment: str | None, path: Path, **options) -> None:
+    """Draw with the figure renderer ``name`` of the project's registries, as the command line does."""
+    from odsuite.contracts.renderers import RenderRequest
+
+    project.registries.renderers.get(name).render(RenderRequest(project.path, experiment, path, options,
+                                                                progress=False, registries=project.registries))
 
 
 def _page(title: str, sections: Sequence[tuple[str, str, str]], notes: Sequence[str]) -> str:
@@ -561,7 +570,40 @@ def _window(exp) -> tuple[float, float]:
     return start, min((exp.n_samples - 1) / exp.fs, start + MOVIE_AFTER_S)
 
 
-def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path) -> str:
+def _corrected_series(project, rig, exp, rev, series: Mapping[str, tuple]) -> tuple[Mapping[str, tuple], Any]:
+    """The recorded and model motion to draw with the corrected one, and the corrected one with
+    what was undone (None when `process --corrected` stored none for this revision). With
+    corrections the model is the revision's structure seen by an ideal chain: the motion the
+    corrected one should match."""
+    from odsuite.api import coordinate_series, ideal_chain_model, stored_correction
+
+    stored = stored_correction(project, exp.name)
+    if stored is None or not series:
+        return series, None
+    coords, applied = stored
+    if applied["revision"] != rev.get("revision") or set(coords) != set(series):
+        return series, None
+    if applied["corrections"]:
+        ideal = coordinate_series(rig, exp, ideal_chain_model(project, rev).for_experiment(exp.name))
+        series = {b: (gm, ideal[b][1], cols) for b, (gm, _, cols) in series.items()}
+    return series, (coords, applied)
+
+
+def _corrections_html(corrected) -> str:
+    """The list of the measurement corrections undone in the corrected motion."""
+    coords, applied = corrected
+    rows = [[c["effect"], c["stage"], ", ".join(f"{k} {_fmt(v, '.4g')}" + (
+        f" ± {_fmt(c['uncertainties'][k], '.2g')}" if k in c.get("uncertainties", {}) else "")
+        for k, v in c["values"].items()) or "–"] for c in applied["corrections"]]
+    head = (f"<p>Corrected motion (green): model revision {_esc(applied['revision'])}'s measurement corrections "
+            f"undone on the records, drift removed below {_fmt(applied['cutoff_hz'], '.1f')} Hz"
+            + ("; no measurement effect to undo (structure only), so it is the drift-corrected motion.</p>"
+               if not rows else ":</p>"))
+    return head + (_table(["effect", "stage", "values undone (± standard error)"], rows, id="corrections")
+                   if rows else "")
+
+
+def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path, corrected=None) -> str:
     from .motion import magnification_words
     from .movie import gif_from_mp4, mp4_available, render_movie
     from .scene import Hammer, Style
@@ -576,7 +618,9 @@ def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path) -> str:
                        tmp / ("movie.mp4" if mp4_available() else "movie.gif"),
                        model_coords={b: gp for b, (_, gp, _) in series.items()}, size=MOVIE_SIZE, fps=MOVIE_FPS,
                        start=start, stop=stop, frame_step=step, workers=1, progress=False, hammer=hammer,
-                       title=f"{exp.name}: measured (blue) and model (orange band)", time_zero=exp.trigger / exp.fs,
+                       corrected_coords=corrected[0] if corrected else None,
+                       title=f"{exp.name}: measured (blue), " + ("corrected (green) " if corrected else "")
+                       + "and model (orange band)", time_zero=exp.trigger / exp.fs,
                        style=Style(font_size=8, line_width=1.5, model_width=5.0))
     gif = res.path if res.format == "gif" else gif_from_mp4(res.path, tmp / "movie.gif", MOVIE_FPS)
     fallback = f'<img src="{_data_uri(gif, "image/gif")}" alt="movie of {_esc(exp.name)}">'
@@ -584,7 +628,8 @@ def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path) -> str:
              f'<video controls loop muted playsinline preload="auto" width="{MOVIE_SIZE[0]}" '
              f'poster="{_data_uri(_poster(gif, tmp / "poster.png"), "image/png")}">'
              f'<source src="{_data_uri(res.path, "video/mp4")}" type="video/mp4">{fallback}</video>')
-    return (f"<figure>{shown}<figcaption>{_esc(exp.name)}: measured motion (blue) with the model's (orange band), "
+    return (f"<figure>{shown}<figcaption>{_esc(exp.name)}: measured motion (blue)"
+            + (" and corrected motion (green)" if corrected else "") + " with the model's (orange band), "
             f"{res.n_frames} frames from {1e3 * (start - exp.trigger / exp.fs):+.1f} ms to "
             f"{1e3 * (stop - exp.trigger / exp.fs):+.1f} ms around the hit, {res.slowdown:.0f} times slower than "
             f"real time, {_esc(magnification_words(res.magnify))}.</figcaption></figure>")
@@ -601,7 +646,7 @@ def _poster(gif: Path, path: Path) -> Path:
     return path
 
 
-def _view_section(rig, exp, series: Mapping[str, tuple]) -> str:
+def _view_section(rig, exp, series: Mapping[str, tuple], corrected=None) -> str:
     from .viewer import viewer_data, viewer_html
 
     if not series:
@@ -610,5 +655,5 @@ def _view_section(rig, exp, series: Mapping[str, tuple]) -> str:
     data = viewer_data(rig, {b: gm for b, (gm, _, _) in series.items()}, exp.fs,
                        model_coords={b: gp for b, (_, gp, _) in series.items()},
                        start=int(round(start * exp.fs)), stop=int(round(stop * exp.fs)) + 1,
-                       time_zero=exp.trigger / exp.fs)
-    return viewer_html(data)
+                       time_zero=exp.trigger / exp.fs, corrected_coords=corrected[0] if corrected else None)
+    return viewer_html(data) + (_corrections_html(corrected) if corrected else "")

@@ -34,6 +34,7 @@ class Style:
     background: tuple[float, float, float] = (1.0, 1.0, 1.0)
     measured: tuple[float, float, float] = (0.05, 0.15, 0.55)
     model: tuple[float, float, float] = (0.85, 0.35, 0.0)
+    corrected: tuple[float, float, float] = (0.0, 0.55, 0.2)
     static: tuple[float, float, float] = (0.55, 0.55, 0.55)
     ghost: tuple[float, float, float] = (0.35, 0.35, 0.35)
     text: tuple[float, float, float] = (0.1, 0.1, 0.1)
@@ -130,6 +131,16 @@ def _lines_polydata(points: np.ndarray, edges) -> "pyvista.PolyData":  # noqa: F
     return pv.PolyData(np.asarray(points, dtype=float), lines=lines)
 
 
+def title_and_label(plotter, size, style, title: str | None):
+    """The title (if any) at the top left and, below it, the text actor each frame writes its time
+    or phase into; returns that actor."""
+    fs = style.font_size
+    top = size[1] - 12
+    if title:
+        plotter.add_text(title, position=(12, top - 4 * fs), font_size=fs, color=style.text)
+    return plotter.add_text(" ", position=(12, top - (6 if title else 2) * fs - 4), font_size=fs, color=style.text)
+
+
 class Scene:
     """Plates of a rig drawn off-screen; :meth:`frame` poses them at one sample and returns RGB.
 
@@ -144,6 +155,7 @@ class Scene:
         coords: Mapping[str, np.ndarray],
         *,
         model_coords: Mapping[str, np.ndarray] | None = None,
+        corrected_coords: Mapping[str, np.ndarray] | None = None,
         layout: str = "overlay",
         magnify: tuple[float, float] = (1.0, 1.0),
         view: tuple[float, float] = (60.0, 25.0),
@@ -165,6 +177,8 @@ class Scene:
         coords = check_coords(rig, coords)
         if model_coords is not None:
             model_coords = check_coords(rig, model_coords, "model_coords")
+        if corrected_coords is not None:
+            corrected_coords = check_coords(rig, corrected_coords, "corrected_coords")
         self.size = (int(size[0]), int(size[1]))
         self.style = style
         side = model_coords is not None and layout == "side-by-side"
@@ -179,6 +193,8 @@ class Scene:
         sets = []
         if model_coords is not None:
             sets.append((model_coords, style.model, 1 if side else 0, not side))
+        if corrected_coords is not None:  # with the recorded motion: both are the measurement
+            sets.append((corrected_coords, style.corrected, 0, False))
         sets.append((coords, style.measured, 0, False))
         scale = plate_scale(rig, list(coords))
         for k in range(2 if side else 1):
@@ -196,13 +212,8 @@ class Scene:
             self._sensor_marks(rig, coords, magnify)
         if hammer is not None:
             self._hammer_arrow(rig, hammer, coords, magnify, scale)
-        fs = style.font_size
-        top = self.size[1] - 12
-        if title:
-            self.plotter.add_text(title, position=(12, top - 4 * fs), font_size=fs, color=style.text)
-        self._label = self.plotter.add_text(" ", position=(12, top - (6 if title else 2) * fs - 4),
-                                            font_size=fs, color=style.text)
-        self._legend(side, model_coords is not None, ghost, hammer is not None, sensors)
+        self._label = title_and_label(self.plotter, self.size, style, title)
+        self._legend(side, model_coords is not None, ghost, hammer is not None, sensors, corrected_coords is not None)
         self._camera(rig, coords, view, parallel, side)
 
     # -- construction ------------------------------------------------------------------------
@@ -304,9 +315,12 @@ class Scene:
         self._moving += [(arrow, series), (label, series[:, :1])]
         self._hammer = (actor, force >= Hammer.CONTACT_FRACTION * max(force.max(initial=0.0), 1e-300))
 
-    def _legend(self, side: bool, model: bool, ghost: bool, hammer: bool, sensors: bool) -> None:
+    def _legend(self, side: bool, model: bool, ghost: bool, hammer: bool, sensors: bool,
+                corrected: bool = False) -> None:
         st = self.style
         entries = [("measured motion", st.measured)]
+        if corrected:
+            entries.append(("corrected motion", st.corrected))
         if model and not side:  # side by side, the right-hand view is headed "model"
             entries.append(("model motion (wide band)", st.model))
         if ghost:

@@ -31,18 +31,23 @@ def _rgb(colour) -> str:
 
 def viewer_data(rig: Rig, coords: Mapping[str, np.ndarray], fs: float, *, start: int = 0, stop: int | None = None,
                 model_coords: Mapping[str, np.ndarray] | None = None, time_zero: float | None = None,
-                magnify: tuple[float, float] | None = None, frames: int = VIEWER_FRAMES) -> dict:
+                magnify: tuple[float, float] | None = None, frames: int = VIEWER_FRAMES,
+                corrected_coords: Mapping[str, np.ndarray] | None = None) -> dict:
     """The viewer's data: posed corners (mm, rig frame) per frame of the window ``start:stop``
-    (samples), still plates, edges, times (ms from ``time_zero`` s), colours and the magnification."""
+    (samples), still plates, edges, times (ms from ``time_zero`` s), colours and the magnification.
+    ``corrected_coords``: the motion with the measurement's diagnosed distortions removed, drawn
+    beside the recorded and the model's."""
     coords = check_coords(rig, coords)
     if model_coords is not None:
         model_coords = check_coords(rig, model_coords, "model_coords")
+    if corrected_coords is not None:
+        corrected_coords = check_coords(rig, corrected_coords, "corrected_coords")
     n = next(iter(coords.values())).shape[0]
     stop = n if stop is None else min(n, stop)
     step = max(1, (stop - start) // frames)
     picks = np.arange(start, stop, step)
     if magnify is None:
-        magnify = default_magnification(rig, coords, *([model_coords] if model_coords else []))
+        magnify = default_magnification(rig, coords, *[c for c in (model_coords, corrected_coords) if c])
 
     def posed(c):
         return [np.round(1e3 * corners(rig.body(b), d[picks], magnify), 3).reshape(len(picks), -1).tolist()
@@ -56,6 +61,7 @@ def viewer_data(rig: Rig, coords: Mapping[str, np.ndarray], fs: float, *, start:
     return {
         "edges": [list(e) for e in EDGES], "measured": posed(coords),
         "model": posed(model_coords) if model_coords is not None else None, "still": still,
+        "corrected": posed(corrected_coords) if corrected_coords is not None else None,
         "rest": [np.round(1e3 * plate_corners(rig.body(b).plate), 3).ravel().tolist() for b in coords],
         "t_ms": np.round(1e3 * (picks / fs - t0), 3).tolist(), "from_hit": time_zero is not None,
         "centre_mm": (1e3 * (every.min(0) + every.max(0)) / 2).tolist(),
@@ -63,6 +69,7 @@ def viewer_data(rig: Rig, coords: Mapping[str, np.ndarray], fs: float, *, start:
         "size_mm": float(1e3 * np.ptp(every, axis=0).max()), "scale_mm": 1e3 * plate_scale(rig, list(coords)),
         "magnification": magnification_words(magnify),
         "colours": {"measured": _rgb(style.measured), "model": _rgb(style.model), "still": _rgb(style.static),
+                    "corrected": _rgb(style.corrected),
                     "rest": _rgb(style.ghost)},
     }
 
@@ -80,6 +87,9 @@ def viewer_html(data: Mapping, element_id: str = "viewer") -> str:
     payload = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
     model = "" if data.get("model") is None else (
         '<label><input type="checkbox" class="v-model" checked> model (orange)</label>')
+    if data.get("corrected") is not None:  # the switch between recorded, corrected and model motion
+        model = ('<label><input type="checkbox" class="v-measured" checked> recorded (blue)</label> '
+                 '<label><input type="checkbox" class="v-corrected" checked> corrected (green)</label> ' + model)
     return (f'<div id="{element_id}" class="viewer">'
             f'<canvas width="960" height="540" aria-label="interactive 3-D view of the motion"></canvas>'
             f'<div class="v-controls"><button type="button" class="v-play">play</button>'
@@ -87,7 +97,8 @@ def viewer_html(data: Mapping, element_id: str = "viewer") -> str:
             f'<span class="v-time"></span> {model}'
             f'<button type="button" class="v-zoom-in">+</button><button type="button" class="v-zoom-out">&minus;</button>'
             f'</div><p class="v-help">Drag to rotate, wheel or +/&minus; to zoom; {data["magnification"]}; '
-            f'blue: measured, orange: model, dashed grey: rest position, light grey: still bodies.</p>'
+            f'blue: measured' + (', green: corrected (diagnosed distortions removed)' if data.get("corrected") else '')
+            + ', orange: model, dashed grey: rest position, light grey: still bodies.</p>'
             f'<script type="application/json" class="v-data">{payload}</script>'
             f"<script>{_SCRIPT.replace('__ID__', element_id)}</script></div>")
 
@@ -104,6 +115,7 @@ _SCRIPT = r"""
   var ctx = canvas.getContext('2d', { willReadFrequently: location.hash === '#selftest' });
   var scrub = root.querySelector('.v-scrub'), timeLabel = root.querySelector('.v-time');
   var play = root.querySelector('.v-play'), modelBox = root.querySelector('.v-model');
+  var measuredBox = root.querySelector('.v-measured'), correctedBox = root.querySelector('.v-corrected');
   var az = 60, el = 25, zoom = 1, frame = 0, timer = null, drag = null;
   var c = data.centre_mm;
 
@@ -140,7 +152,12 @@ _SCRIPT = r"""
       data.model.forEach(function (b) { plate(b[frame], data.colours.model, 7); });
       ctx.globalAlpha = 1;
     }
-    data.measured.forEach(function (b) { plate(b[frame], data.colours.measured, 2); });
+    if (data.corrected && (!correctedBox || correctedBox.checked)) {
+      data.corrected.forEach(function (b) { plate(b[frame], data.colours.corrected, 3); });
+    }
+    if (!measuredBox || measuredBox.checked) {
+      data.measured.forEach(function (b) { plate(b[frame], data.colours.measured, 2); });
+    }
     var t = data.t_ms[frame];
     timeLabel.textContent = 't = ' + (data.from_hit && t >= 0 ? '+' : '') + t.toFixed(2) + ' ms' +
       (data.from_hit ? ' from the hit' : '');
@@ -153,7 +170,7 @@ _SCRIPT = r"""
     play.textContent = 'pause';
     timer = setInterval(function () { show(frame + 1 < data.t_ms.length ? frame + 1 : 0); }, 40);
   });
-  if (modelBox) modelBox.addEventListener('change', draw);
+  [modelBox, measuredBox, correctedBox].forEach(function (box) { if (box) box.addEventListener('change', draw); });
   root.querySelector('.v-zoom-in').addEventListener('click', function () { zoom *= 1.25; draw(); });
   root.querySelector('.v-zoom-out').addEventListener('click', function () { zoom /= 1.25; draw(); });
   canvas.addEventListener('wheel', function (e) {
@@ -185,6 +202,7 @@ _SCRIPT = r"""
     var report = { first: fingerprint() };
     show(peak); report.scrubbed = fingerprint(); report.frame = frame; report.label = timeLabel.textContent;
     if (modelBox) { modelBox.checked = false; draw(); report.model_off = fingerprint(); }
+    if (correctedBox) { correctedBox.checked = false; draw(); report.corrected_off = fingerprint(); }
     az += 90; draw(); report.rotated = fingerprint();
     report.errors = errors;
     var out = document.createElement('pre'); out.id = 'viewer-selftest';

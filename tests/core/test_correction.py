@@ -190,7 +190,7 @@ def test_cli_process_corrected(tmp_path, capsys):
         acquire(project, SimulatedRig(), "T1", AcquisitionSettings(n_samples=4096), scenario="T1", seed=1)
     assert main(["process", str(path), "--corrected", "--cutoff", "40"]) == 0
     out = capsys.readouterr().out
-    assert "T1: gencoords_corrected (model revision 0, cutoff 40.0 Hz)" in out
+    assert "T1: gencoords_corrected (model revision 0, cutoff 40.0 Hz; measurement corrections: none)" in out
     with open_project(path) as project:
         info = project.derived_info("T1", KIND)
         assert info["provenance"]["parameters"]["cutoff_hz"] == 40.0
@@ -198,3 +198,40 @@ def test_cli_process_corrected(tmp_path, capsys):
     assert main(["process", str(path), "--corrected", "--cutoff", "-1"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "cutoff" in err[0] and "-1" in err[0], err
+
+
+def test_a_structure_only_revision_corrects_nothing(weak_t3):
+    """Stiffness and mass change the model, not the records: nothing is undone, and measurement
+    effects at their nominal values (undone, but identities) leave every coordinate as the
+    drift correction alone gives it."""
+    project = weak_t3[0]
+    structure = [{"effect": "stiffness", "values": {"scale_z": 1.2}},
+                 {"effect": "mass_properties", "values": {"mass_scale": 1.05}}]
+    drift_only = correct_experiment(project, "hit", revision={"revision": 1, "effects": structure})
+    assert drift_only.corrections == []
+    nominal = structure + [{"effect": "sensor_gain", "values": {}}, {"effect": "channel_swap", "values": {"pair": 0.0}},
+                           {"effect": "channel_delay", "values": {}}]
+    undone = correct_experiment(project, "hit", revision={"revision": 2, "effects": nominal})
+    assert [c["effect"] for c in undone.corrections] == ["channel_delay", "channel_swap", "sensor_gain"]
+    a, b = undone.coordinates["platform"].at_g, drift_only.coordinates["platform"].at_g
+    assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(b))
+    # and the structure changed the drift model: not the revision-0 coordinates
+    assert np.max(np.abs(b - project.read_derived("hit", KIND)["platform_at_g"])) > 1e-3 * np.max(np.abs(b))
+
+
+def test_a_diagnosed_gain_is_undone(weak_t3):
+    """A revision holding a gain error on zC corrects the record by it: the corrected
+    coordinates move as a zC signal over 1.25 would move them, which is not the drift-only result."""
+    project = weak_t3[0]
+    base = correct_experiment(project, "hit", revision={"revision": 0, "effects": []})
+    gain = correct_experiment(project, "hit", revision={"revision": 1, "effects": [
+        {"effect": "sensor_gain", "values": {"zC_gain": 1.25}, "uncertainties": {"zC_gain": 0.01}}]})
+    assert gain.corrections == [{"effect": "sensor_gain", "stage": "sensor", "values": {"zC_gain": 1.25},
+                                 "uncertainties": {"zC_gain": 0.01}}]
+    j = base.sensors.index("zC")
+    # the undone zC displacement is the recorded one over 1.25, both before the drift is removed
+    recorded = base.displacement[:, j] + base.drift[:, j]
+    undone = gain.displacement[:, j] + gain.drift[:, j]
+    np.testing.assert_allclose(undone, recorded / 1.25, rtol=1e-9, atol=1e-9 * np.max(np.abs(recorded)))
+    sd = gain.uncertainty["platform"]["sensor_gain"]
+    assert len(sd) == 6 and max(sd) > 0

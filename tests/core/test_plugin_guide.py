@@ -120,6 +120,22 @@ def test_effect_scales_every_predicted_acceleration_by_the_gain(guide):
         effect.apply(model, {"gain": 3.0})
     # a model without rig sensors: the effect says it does not apply
     assert effect.parameters(regs.models.get("thesis-car-2dof")(None)) == []
+    # its correction undoes it: the model's sensor signals with the gain, corrected, are the
+    # signals without it (the force channel untouched)
+    from odsuite.analysis.correction import MeasurementCorrection, undo_measurement
+    from odsuite.contracts.effects import corrects
+
+    assert corrects(effect)
+    t = np.arange(2048) / 20_000.0
+    q = np.column_stack([np.sin(2 * np.pi * f0 * t) * np.exp(-t / 0.02) for f0 in (97, 104, 217, 98, 222, 227)])
+    accs = [Output.sensor(s) for s in rig.accelerometers]
+    recorded = q @ changed.output_rows(accs)[1].T
+    undone = undo_measurement(rig, [s.name for s in rig.accelerometers], recorded, 20_000.0,
+                              [MeasurementCorrection("lab_amplifier_gain", effect, {"gain": 1.25}, {}, model)],
+                              regs.coordinate_solvers)
+    assert undone == pytest.approx(q @ model.output_rows(accs)[1].T, rel=1e-13, abs=1e-15)
+    _, kept = effect.correct(rig, {"force": t, rig.accelerometers[0].name: t}, 20_000.0, {"gain": 1.25})
+    assert kept["force"] is t and kept[rig.accelerometers[0].name] == pytest.approx(t / 1.25, rel=1e-15)
 
 
 def test_model_modes_match_the_closed_form(guide):

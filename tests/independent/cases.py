@@ -47,11 +47,28 @@ class Case:
         out = []
         for i, hits in enumerate(self.records):
             a = self.actual
-            out.append(simulate(Setup(a.structure, a.accelerometers, a.force_sensor, a.daq, hits), rng,
-                                self.nominal_scale()))
+            rec = simulate(Setup(a.structure, a.accelerometers, a.force_sensor, a.daq, hits), rng,
+                           self.nominal_scale())
+            out.append(self._labelled(rec))
             if progress:
                 progress(i + 1, len(self.records))
         return out
+
+    def _labelled(self, rec: Record) -> Record:
+        """Each channel named and scaled as the lab set it up (the nominal sensor on that channel),
+        whichever sensor its cable actually carries (a channel swap)."""
+        scale = self.nominal_scale()
+        for s in self.nominal.accelerometers:
+            if rec.names[s.channel] != s.name:
+                rec.names[s.channel] = s.name
+                rec.scale[s.channel] = scale[s.name] * self.actual.daq.amplifier_gain
+        return rec
+
+    def body_motion(self, records: list[Record]) -> dict[str, np.ndarray]:
+        """The true motion of every body in each record: the six coordinates at its centre of mass
+        (m m m rad rad rad, rig axes, small rotations) at the nominal sample instants."""
+        n = 6 * len(self.actual.structure.bodies)
+        return {f"r{i:02d}": rec.q[:, :n] for i, rec in enumerate(records)}
 
     def truth_document(self) -> dict:
         nominal_f = Model(self.nominal.structure).natural_frequencies()
@@ -82,7 +99,8 @@ class Case:
         out.mkdir(parents=True, exist_ok=True)
         stem = f"{self.rig_name}-{self.name}-s{self.seed}"
         files = [writers.write_rig_toml(out / f"{stem}-rig.toml", self.nominal)]
-        for i, rec in enumerate(self.simulate(progress)):
+        records = self.simulate(progress)
+        for i, rec in enumerate(records):
             base = out / f"{stem}-r{i:02d}"
             if "lvm" in formats:
                 files.append(writers.write_lvm(base.with_suffix(".lvm"), rec, decimal=decimal, physical=physical))
@@ -91,7 +109,14 @@ class Case:
                 files.append(writers.write_ctr(base.with_suffix(".CTR"), rec, self.nominal, self.actual.daq))
             if "uff" in formats:
                 files.append(writers.write_uff58(base.with_suffix(".uff"), rec, self.nominal))
-        truth = self.truth_document() | {"files": [f.name for f in files]}
+        motion = out / f"{stem}-motion.npz"
+        np.savez(motion, **self.body_motion(records))
+        files.append(motion)
+        truth = self.truth_document() | {"files": [f.name for f in files], "body_motion": {
+            "file": motion.name, "arrays": "one per record (r00, r01, ...): samples x coordinates",
+            "coordinates": [f"{b.name}.{c}" for b in self.actual.structure.bodies
+                            for c in ("x", "y", "z", "rx", "ry", "rz")],
+            "units": "m m m rad rad rad", "reference": "each body's centre of mass, rig axes"}}
         files.append(writers.write_truth(out / f"{stem}-truth.json", truth))
         return files
 
@@ -454,6 +479,17 @@ def mains_hum(case: Case, rng: np.random.Generator) -> None:
     case.truth["effect"] = {"kind": "mains_hum", "hum_hz": case.actual.daq.hum_hz, "hum_v": case.actual.daq.hum_v}
 
 
+def channel_swap(case: Case, rng: np.random.Generator) -> None:
+    """Two accelerometer channels' cables exchanged: each channel records the other sensor (with
+    that sensor's sensitivity), named and scaled as the lab set the channel up."""
+    accs = case.actual.accelerometers
+    i, j = (int(k) for k in rng.choice(len(accs), size=2, replace=False))
+    a, b = accs[i], accs[j]
+    a.channel, b.channel = b.channel, a.channel
+    case.truth["effect"] = {"kind": "channel_swap", "sensors": [a.name, b.name],
+                            "channels": [b.channel, a.channel]}
+
+
 CASES: dict[str, tuple[Callable[[Case, np.random.Generator], None], str]] = {
     "nominal-16bit": (_adc(16), "no hidden change, 16-bit ADC"),
     "nominal-12bit": (_adc(12), "no hidden change, 12-bit ADC"),
@@ -468,6 +504,7 @@ CASES: dict[str, tuple[Callable[[Case, np.random.Generator], None], str]] = {
     "polarity-flip": (polarity_flip, "one accelerometer wired with reversed polarity"),
     "scan-skew": (scan_skew, "multiplexed DAQ: channel k sampled k * (2-20 us) late"),
     "channel-delay": (channel_delay, "one accelerometer channel sampled 5-60 us late"),
+    "channel-swap": (channel_swap, "two accelerometer channels' cables exchanged"),
     "torsion-mode": (torsion_mode, "the plate's torsion mode (sections rotate) between the top rigid mode and 2 kHz"),
     "loose-bracket": (loose_bracket, "the sensors at one point on a loose 10-50 g bracket, soft along one axis"),
     "hardening-series": (hardening_series, "cubic hardening springs, five force levels 0.5-50 N"),
@@ -479,10 +516,110 @@ CASES: dict[str, tuple[Callable[[Case, np.random.Generator], None], str]] = {
 }
 
 
-def build_case(name: str, seed: int, rig: str = "thesis", n_samples: int | None = None) -> Case:
-    """The case ``name`` on base rig ``rig`` ("thesis" or "two-body"), drawn with ``seed``."""
-    if name not in CASES:
-        raise KeyError(f"unknown case {name!r}; cases: {', '.join(CASES)}")
+# ---------------------------------------------------------------------------------------------
+# calibration cases: nulls, a softer mount, pairs of hidden changes (tests/independent/calibrate.py)
+
+
+def null(case: Case, rng: np.random.Generator) -> None:
+    case.truth["effect"] = {"kind": "none"}
+
+
+def softer_mount(case: Case, rng: np.random.Generator) -> None:
+    """One spring (any of the rig's mounts, isolators or springs) 20-40 % softer on all axes."""
+    s = case.actual.structure.springs[int(rng.integers(len(case.actual.structure.springs)))]
+    factor = 1.0 - rng.uniform(0.20, 0.40)
+    s.stiffness = mat3(s.stiffness) * factor
+    case.truth["effect"] = {"kind": "stiffness", "springs": [s.name], "axis": "xyz", "factor": factor}
+
+
+def moved_com(case: Case, rng: np.random.Generator) -> None:
+    """A body's centre of mass 10-25 mm away from where the lab believes, in a random horizontal
+    direction (mass and inertia about the centre of mass unchanged)."""
+    body = case.actual.structure.bodies[int(rng.integers(len(case.actual.structure.bodies)))]
+    up = int(np.argmax(np.abs(case.actual.up)))
+    d = rng.standard_normal(3)
+    d[up] = 0.0
+    d *= rng.uniform(0.010, 0.025) / np.linalg.norm(d)
+    body.com = vec3(body.com) + d
+    case.truth["effect"] = {"kind": "moved_com", "body": body.name, "shift_m": d, "new_com_m": body.com}
+
+
+def _stiffer_vertical(case: Case, rng: np.random.Generator) -> None:
+    """One spring group 20-40 % stiffer along the rig's vertical."""
+    group = _group(case.actual, rng)
+    up = int(np.argmax(np.abs(case.actual.up)))
+    factor = 1.0 + rng.uniform(0.20, 0.40)
+    for s in case.actual.structure.springs:
+        if s.name in case.actual.spring_groups[group]:
+            k = mat3(s.stiffness)
+            k[up, up] *= factor
+            s.stiffness = k
+    case.truth["effect"] = {"kind": "stiffness", "group": group, "springs": case.actual.spring_groups[group],
+                            "axis": "xyz"[up], "factor": factor}
+
+
+def _strong_gain(case: Case, rng: np.random.Generator) -> None:
+    """One accelerometer's sensitivity 15-30 % low (a gain of 0.70-0.85)."""
+    s = case.actual.accelerometers[int(rng.integers(len(case.actual.accelerometers)))]
+    s.gain_error = -float(rng.uniform(0.15, 0.30))
+    case.truth["effect"] = {"kind": "sensor_gain", "sensor": s.name, "gain_error": s.gain_error}
+
+
+def _pair(first, second):
+    """Two hidden changes at once: truth["effects"] lists both, truth["effect"] says "pair"."""
+    def effect(case: Case, rng: np.random.Generator) -> None:
+        parts = []
+        for one in (first, second):
+            one(case, rng)
+            parts.append(case.truth.pop("effect"))
+        case.truth["effects"] = parts
+        case.truth["effect"] = {"kind": "pair", "kinds": [e["kind"] for e in parts]}
+    return effect
+
+
+CASES.update({
+    "null": (null, "no hidden change (for false-alarm counts with --force, --noise, drift, hum, double hits)"),
+    "softer-mount": (softer_mount, "one spring (mount, isolator) 20-40 % softer on all axes"),
+    "pair-gain-com": (_pair(_strong_gain, moved_com),
+                      "two at once: one accelerometer's gain 0.70-0.85 and a centre of mass moved 10-25 mm"),
+    "pair-bending-stiffer": (_pair(flexible_mode, _stiffer_vertical),
+                             "two at once: a plate bending mode and one spring group 20-40 % stiffer vertically"),
+    "pair-mount-gain": (_pair(softer_mount, _strong_gain),
+                        "two at once: one spring 20-40 % softer and one accelerometer's gain 0.70-0.85"),
+})
+
+#: what may be laid over any case (its own random stream: the case's draws do not change)
+DISTURBANCES = ("drift", "hum", "double-hit")
+
+
+def _disturb(case: Case, which, rng: np.random.Generator) -> None:
+    effect = case.truth.get("effect")
+    notes = {}
+    for name in which:
+        if name not in DISTURBANCES:
+            raise KeyError(f"unknown disturbance {name!r}; known: {', '.join(DISTURBANCES)}")
+        {"drift": drift, "hum": mains_hum, "double-hit": double_hit}[name](case, rng)
+        notes[name] = case.truth.pop("effect")
+    if effect is not None:
+        case.truth["effect"] = effect
+    if notes:
+        case.truth["disturbances"] = notes
+
+
+def build_case(name: str, seed: int, rig: str = "thesis", n_samples: int | None = None, *,
+               force_n: float | None = None, noise_v: float | None = None, noise_fraction: float = 0.0,
+               disturbances=()) -> Case:
+    """The case ``name`` on base rig ``rig`` ("thesis", "two-body" or "plate-motor"), drawn with
+    ``seed``. Options (each left at its default keeps the case as it always was):
+    ``force_n``: every record's (first) blow has this peak force, N (the hit points are still
+    jittered); ``noise_v``: the white noise per channel, V rms (default 50 uV);
+    ``noise_fraction``: more white noise, this fraction of each channel's clean rms;
+    ``disturbances``: any of "drift", "hum", "double-hit", drawn from a stream of their own.
+    Names joined by "+" ("polarity-flip+channel-swap") draw each change in turn; the truth's
+    "effects" lists them."""
+    parts = name.split("+")
+    if any(part not in CASES for part in parts):
+        raise KeyError(f"unknown case {name!r}; cases: {', '.join(CASES)} (or several joined by '+')")
     if rig not in RIGS:
         raise KeyError(f"unknown rig {rig!r}; rigs: {', '.join(RIGS)}")
     nominal = RIGS[rig]()
@@ -492,9 +629,26 @@ def build_case(name: str, seed: int, rig: str = "thesis", n_samples: int | None 
     case = Case(name, rig, seed, nominal, nominal.copy(), [])
     case.actual.daq.noise_rms_v = FLOOR_NOISE_V
     case.records = _jittered_hits(nominal, rng)
-    effect, description = CASES[name]
-    case.truth["description"] = description
-    effect(case, rng)
+    if force_n is not None:
+        case.records = [[replace(hits[0], peak_n=float(force_n))] + hits[1:] for hits in case.records]
+    if len(parts) == 1:
+        effect, description = CASES[name]
+        case.truth["description"] = description
+        effect(case, rng)
+    else:
+        effects = []
+        for part in parts:
+            CASES[part][0](case, rng)
+            effects.append(case.truth.pop("effect", {"kind": part}))
+        case.truth["description"] = "; ".join(CASES[part][1] for part in parts)
+        case.truth["effects"] = effects
+    if noise_v is not None:
+        case.actual.daq.noise_rms_v = float(noise_v)
+    case.actual.daq.noise_fraction = float(noise_fraction)
+    _disturb(case, tuple(disturbances), np.random.default_rng([seed, 2]))
+    if force_n is not None or noise_v is not None or noise_fraction or disturbances:
+        case.truth["options"] = {"force_n": force_n, "noise_v": case.actual.daq.noise_rms_v,
+                                 "noise_fraction": noise_fraction, "disturbances": list(disturbances)}
     return case
 
 
@@ -508,6 +662,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--formats", default="lvm,dat,uff", help="comma-separated: lvm, dat, uff")
     parser.add_argument("--decimal", default=".", choices=[".", ","], help="decimal separator of the .lvm")
     parser.add_argument("--physical", action="store_true", help=".lvm in m/s^2 and N instead of volts")
+    parser.add_argument("--force", type=float, default=None, help="peak force of every blow, N")
+    parser.add_argument("--noise", type=float, default=None, help="white noise per channel, V rms (default 50e-6)")
+    parser.add_argument("--noise-fraction", type=float, default=0.0,
+                        help="more white noise: this fraction of each channel's clean rms (0.03: 3 %%)")
+    parser.add_argument("--disturb", default="", help="comma-separated: drift, hum, double-hit")
     parser.add_argument("--list", action="store_true", help="list the cases and exit")
     args = parser.parse_args(argv)
     if args.list:
@@ -522,7 +681,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: --formats: unknown {', '.join(unknown)}; known: {', '.join(FORMATS)}", file=sys.stderr)
         return 1
     try:
-        case = build_case(args.case, args.seed, args.rig, args.samples)
+        case = build_case(args.case, args.seed, args.rig, args.samples, force_n=args.force, noise_v=args.noise,
+                          noise_fraction=args.noise_fraction,
+                          disturbances=[d for d in args.disturb.split(",") if d])
     except KeyError as exc:
         print(f"error: {exc.args[0]}", file=sys.stderr)
         return 1

@@ -24,6 +24,9 @@ class RigBundle:
     hits: list[Hit]  # the default set of hits, one record each
     spring_groups: dict[str, list[str]] = field(default_factory=dict)  # e.g. "isolators": [...]
     up: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))  # out of the top faces
+    # the rig file's [processing] table (the chain of records without a .CTR); None: left out,
+    # odsuite's default (the thesis's 20 Hz elliptic high-pass) applies
+    processing: dict | None = None
 
     def copy(self) -> RigBundle:
         return copy.deepcopy(self)
@@ -135,4 +138,76 @@ def two_body_rig() -> RigBundle:
     )
 
 
-RIGS = {"thesis": thesis_rig, "two-body": two_body_rig}
+def plate_motor_rig() -> RigBundle:
+    """A 37.7 kg steel plate (0.8 x 0.6 x 0.01 m, 7850 kg/m^3) on four rubber mounts at its corners
+    (suspension modes 8.9-24 Hz), carrying an 8 kg motor (a 0.24 x 0.16 x 0.16 m box, off the plate's
+    centre) on four stiff mounts (its modes on the plate 110-321 Hz). Two triaxial accelerometers and
+    one z accelerometer per body (100 mV/g IEPE), an impact hammer with a soft tip (2.25 mV/N) on
+    channel 0, a 24-bit DAQ at 5120 samples/s. Frame: origin on the floor under the plate's centre,
+    x along the plate's length, z up. Written from the rig format's description alone."""
+    plate_size, motor_size = (0.8, 0.6, 0.01), (0.24, 0.16, 0.16)
+    plate_corner = np.array([-0.4, -0.3, 0.05])  # the mounts are 50 mm tall
+    plate_com = plate_corner + np.array(plate_size) / 2
+    plate = RigidBody("plate", 37.7, plate_com, box_inertia(37.7, plate_size),
+                      plate={"size": list(plate_size), "corner": plate_corner.tolist()})
+    motor_corner = np.array([0.0, -0.02, 0.08])  # 20 mm mounts on the plate's top face (z = 0.06 m)
+    motor_com = motor_corner + np.array(motor_size) / 2
+    motor = RigidBody("motor", 8.0, motor_com, box_inertia(8.0, motor_size),
+                      plate={"size": list(motor_size), "corner": motor_corner.tolist()})
+    springs = []
+    for i, (sx, sy) in enumerate([(-1, -1), (1, -1), (1, 1), (-1, 1)]):
+        # rubber: 3-4x stiffer in compression than in shear, about 5 % damping on its share of mass
+        springs.append(Spring(f"rubber{i + 1}", "plate", np.array([0.35 * sx, 0.25 * sy, 0.05]),
+                              np.array([3.7e4, 3.7e4, 1.0e5]), np.array([65.0, 65.0, 105.0])))
+    for i, (sx, sy) in enumerate([(-1, -1), (1, -1), (1, 1), (-1, 1)]):
+        springs.append(Spring(f"motor_mount{i + 1}", "motor",
+                              np.array([motor_com[0] + 0.1 * sx, motor_com[1] + 0.06 * sy, 0.07]),
+                              np.array([1.5e6, 1.5e6, 4.0e6]), np.array([100.0, 100.0, 170.0]), other="plate"))
+    sens = 0.0102  # V/(m/s^2): 100 mV/g
+    top_plate, top_motor = plate_corner[2] + plate_size[2], motor_corner[2] + motor_size[2]
+    layout = {  # body: two triaxial points, then one z point off the line joining them
+        "plate": [(-0.38, -0.28, top_plate), (0.38, 0.28, top_plate), (-0.38, 0.28, top_plate)],
+        "motor": [(0.01, -0.01, top_motor), (0.23, 0.13, top_motor), (0.01, 0.13, top_motor)],
+    }
+    accs = []
+    channel = 1
+    for body, pts in layout.items():
+        for j, p in enumerate(pts[:2]):
+            housing = f"{body[0]}{j + 1}"
+            for axis_name, axis in zip("xyz", np.eye(3)):
+                accs.append(Accelerometer(f"{housing}_{axis_name}", channel, body, np.array(p), axis.copy(),
+                                          sens, triaxial=housing, iepe_corner_hz=0.5))
+                channel += 1
+        accs.append(Accelerometer(f"{body[0]}3_z", channel, body, np.array(pts[2]), np.eye(3)[2].copy(), sens,
+                                  iepe_corner_hz=0.5))
+        channel += 1
+    ez = np.array([0.0, 0.0, 1.0])
+    hits = [
+        Hit("plate", np.array([-0.20, 0.15, top_plate]), -ez, 10.0, 1.5e-3),
+        Hit("motor", np.array([0.18, 0.02, top_motor]), -ez, 10.0, 1.5e-3),
+        Hit("motor", np.array([motor_corner[0] + motor_size[0], 0.08, 0.15]), np.array([-1.0, 0.0, 0.0]), 10.0,
+            1.5e-3),
+        Hit("plate", np.array([-0.10, plate_corner[1], 0.055]), np.array([0.0, 1.0, 0.0]), 10.0, 1.5e-3),
+    ]
+    return RigBundle(
+        name="plate-motor",
+        description="An 8 kg motor on four stiff mounts on a 37.7 kg steel plate on four rubber mounts; "
+                    "two triaxial and one z accelerometer per body",
+        frame="origin on the floor under the plate's centre; x along the plate's length, y across, z up",
+        structure=Structure([plate, motor], springs), accelerometers=accs,
+        force_sensor=ForceSensor("hammer", 0, 2.25e-3),
+        # 5120 samples/s: the anti-aliasing filter is -49 dB at the Nyquist frequency (at 2048 samples/s
+        # with an 800 Hz filter a correct model left 1.7x the floor, its residual at 800-1024 Hz)
+        daq=Daq(sampling_rate=5120.0, n_samples=4096, pre_trigger=256, adc_bits=24, aa_family="butter",
+                aa_order=6, aa_cutoff_hz=1000.0),
+        hits=hits, spring_groups={"rubber": [s.name for s in springs[:4]],
+                                  "motor_mounts": [s.name for s in springs[4:]]},
+        up=ez,
+        # the suspension rings at 9-24 Hz: the default 20 Hz high-pass would remove it
+        processing={"offset_samples": [0, 256],
+                    "filter": {"family": "butterworth", "type": "highpass", "order": 2, "cutoff_hz": 1.0},
+                    "filter_at": ["signal", "integral"]},
+    )
+
+
+RIGS = {"thesis": thesis_rig, "two-body": two_body_rig, "plate-motor": plate_motor_rig}

@@ -8,7 +8,7 @@ coordinate per flexible mode. A point p of body b moves by d + theta x (p - G) +
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import linalg, signal
@@ -307,6 +307,7 @@ class Record:
     q: np.ndarray  # coordinates at the nominal sample instants (n_samples, n)
     qdd: np.ndarray  # their second derivatives
     trigger_s: float
+    noise_rms_v: np.ndarray | None = None  # the white noise added per channel (V rms)
 
 
 def simulate(setup: Setup, rng: np.random.Generator, nominal_scale: dict[str, float] | None = None) -> Record:
@@ -363,13 +364,18 @@ def simulate(setup: Setup, rng: np.random.Generator, nominal_scale: dict[str, fl
     truth_spline = CubicSpline(t_fine, truth)
     truth_acc = np.column_stack([PPoly(truth_spline.c[..., j], t_fine)(t + late[s.channel])
                                  for j, s in enumerate(setup.accelerometers)]).reshape(t.size, n_acc)
+    noise = np.broadcast_to(np.asarray(daq.noise_rms_v, float), (n_ch,)).copy()
+    if daq.noise_fraction:
+        signal_rms = np.sqrt(np.mean(volts_clean[daq.pre_trigger:] ** 2, axis=0))
+        noise = np.sqrt(noise ** 2 + (daq.noise_fraction * signal_rms) ** 2)
+        daq = replace(daq, noise_rms_v=noise)
     volts = volts_clean + daq_disturbances(daq, t, n_ch, rng)
     volts = adc(volts, daq)
     q_nominal, qdd_nominal = CubicSpline(t_fine, q)(t), CubicSpline(t_fine, acc)(t)
     force_nominal = CubicSpline(t_fine, hammer)(t)
     return Record(time=t, volts=volts, clean_volts=volts_clean, names=names,
                   units=units, scale=scale, force_n=force_nominal, accelerations=truth_acc, q=q_nominal, qdd=qdd_nominal,
-                  trigger_s=trigger)
+                  trigger_s=trigger, noise_rms_v=noise)
 
 
 def daq_disturbances(daq, t: np.ndarray, n_ch: int, rng: np.random.Generator) -> np.ndarray:

@@ -175,6 +175,9 @@ class Daq:
     scan_skew_s: float = 0.0  # multiplexed: the k-th scanned channel is sampled k * skew late
     channel_delay_s: dict[int, float] = field(default_factory=dict)  # channel -> extra sampling delay
     noise_rms_v: float | np.ndarray = 0.0  # white, per channel
+    # more white noise, this fraction of each channel's clean rms after the trigger (added in
+    # quadrature to noise_rms_v): "3 % of the signal"
+    noise_fraction: float = 0.0
     hum_v: float | np.ndarray = 0.0  # mains hum amplitude per channel
     hum_hz: float = 50.0
     drift_v_per_s: float | np.ndarray = 0.0  # linear drift per channel

@@ -306,9 +306,12 @@ def rig_document(rig: RigBundle) -> dict:
     if corners:
         acquisition["iepe_corner_hz"] = min(corners)
     channels = [a.channel for a in rig.accelerometers] + [f.channel]
-    return {"name": rig.name, "description": rig.description, "frame": rig.frame,
-            "default_model": "rigid-bodies", "force_channel": f.channel, "channel_count": max(channels) + 1,
-            "bodies": bodies, "springs": springs, "sensors": sensors, "acquisition": acquisition}
+    doc = {"name": rig.name, "description": rig.description, "frame": rig.frame,
+           "default_model": "rigid-bodies", "force_channel": f.channel, "channel_count": max(channels) + 1,
+           "bodies": bodies, "springs": springs, "sensors": sensors, "acquisition": acquisition}
+    if rig.processing:
+        doc["processing"] = dict(rig.processing)
+    return doc
 
 
 def write_rig_toml(path: str | Path, rig: RigBundle) -> Path:

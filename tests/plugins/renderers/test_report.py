@@ -312,7 +312,7 @@ def test_report_draws_each_records_frf_and_mac(story, tmp_path, monkeypatch):
     """Per hammer record: the driving point's FRF on log-frequency axes (magnitude log-log, phase,
     coherence) with its unit, and the MAC matrix of measured against model modes whose values are
     compare's MAC numbers; at print width with type of 8 pt or more."""
-    from odsuite.analysis import modal_figures
+    from odsuite_plugins.renderers import modal_figures
     from odsuite.analysis.comparison import compare
     from odsuite.store.project import open_project
     from odsuite_plugins.renderers.report import build_report

@@ -70,3 +70,33 @@ def test_viewer_works_in_chromium(thesis_rig, tmp_path):
     # the model's translucent band covers more pixels than the measured line alone
     assert report["model_off"]["ink"] < 0.8 * report["scrubbed"]["ink"]
     assert report["rotated"]["hash"] != report["model_off"]["hash"]
+
+
+@pytest.mark.render
+def test_viewer_switches_the_corrected_motion(thesis_rig, tmp_path):
+    """Recorded, corrected and model motion: the corrected set is posed like the others, and in
+    Chromium switching it off takes its green line off the canvas."""
+    corrected = motion(2000, 1.3)
+    data = viewer_data(thesis_rig, motion(2000), FS, model_coords=motion(2000, 0.7), time_zero=0.0,
+                       corrected_coords=corrected, magnify=(2000.0, 2000.0))
+    from odsuite.domain.rigidbody import body_corners
+
+    want = 1e3 * body_corners(thesis_rig.body("platform"), 2000.0 * corrected["platform"][0])
+    assert np.allclose(np.reshape(data["corrected"][0][0], (8, 3)), want, atol=1e-3)
+    html_text = viewer_html(data)
+    assert 'class="v-corrected"' in html_text and 'class="v-measured"' in html_text
+    if not CHROMIUM.exists():
+        pytest.skip(f"{CHROMIUM} not found")
+    page = tmp_path / "viewer.html"
+    page.write_text(f'<!DOCTYPE html><html><head><meta charset="utf-8"></head><body>{html_text}</body></html>')
+    run = subprocess.run(
+        [str(CHROMIUM), "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+         f"--user-data-dir={tmp_path / 'profile'}", "--virtual-time-budget=5000", "--dump-dom",
+         page.resolve().as_uri() + "#selftest"], capture_output=True, text=True, timeout=180, check=False)
+    m = re.search(r'<pre id="viewer-selftest">(.*?)</pre>', run.stdout, flags=re.DOTALL)
+    assert m, run.stdout[-500:]
+    report = json.loads(m.group(1).replace("&quot;", '"').replace("&amp;", "&"))
+    assert report["errors"] == []
+    # model off, then corrected off: fewer inked pixels, and a different picture
+    assert report["corrected_off"]["ink"] < report["model_off"]["ink"]
+    assert report["corrected_off"]["hash"] != report["model_off"]["hash"]

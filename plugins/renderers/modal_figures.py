@@ -1,6 +1,7 @@
 """Figures of a modal test (matplotlib, no display): the stabilisation diagram with the chosen
 modes, FRF magnitude/phase/coherence and a MAC matrix. Each function writes one file (the format
-follows the suffix: .png, .svg, .pdf) and returns the matplotlib Figure for inspection."""
+follows the suffix: .png, .svg, .pdf) and returns the matplotlib Figure for inspection; the core
+computes what they draw (``odsuite frf``, ``odsuite modes``, ``compare``'s modal records)."""
 
 from __future__ import annotations
 
@@ -10,10 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from odsuite.store.diskspace import write_output
-from odsuite.domain.errors import ConfigError, DimensionError
-from odsuite.analysis.frf import FrfSet
-from odsuite.analysis.modal import ModalResult
+from odsuite.api import ConfigError, DimensionError, frequency_labels, write_output
 
 _SUFFIXES = (".png", ".svg", ".pdf")
 
@@ -34,19 +32,7 @@ def _save(fig, path: Path, dpi: int = 130):
     return fig
 
 
-def frequency_labels(freqs) -> list[str]:
-    """"f Hz" labels with the fewest decimals (1 to 4) that keep every frequency's label distinct
-    (2.777 and 2.812 Hz are not both "2.8 Hz")."""
-    f = [float(v) for v in np.atleast_1d(freqs)]
-    text: list[str] = []
-    for d in range(1, 5):
-        text = [f"{v:.{d}f}" for v in f]
-        if len(set(text)) == len(text):
-            break
-    return [f"{t} Hz" for t in text]
-
-
-def stabilisation_figure(result: ModalResult, freq: np.ndarray, H: np.ndarray, path: str | Path, *,
+def stabilisation_figure(result, path: str | Path, *, freq: np.ndarray, H: np.ndarray,
                          title: str = "stabilisation diagram",
                          background: str = "rms |H| of the outputs (FRF units)"):
     """Poles per model order over the fit band (grey: new, blue: frequency stable, red: frequency
@@ -98,7 +84,7 @@ def _unit(text: str) -> str:
     return text.replace("^2", "²").replace("^3", "³")
 
 
-def frf_figure(frf: FrfSet, path: str | Path, *, band_hz: tuple[float, float] | None = None,
+def frf_figure(frf, path: str | Path, *, band_hz: tuple[float, float] | None = None,
                outputs: Sequence[str] | None = None, title: str = "FRFs", model_hz: Sequence[float] = (),
                f_range: tuple[float, float] | None = None, size: tuple[float, float] = (10, 8), dpi: int = 130):
     """Magnitude (log-log), phase (degrees) and coherence of each output's FRF above 0 Hz (within

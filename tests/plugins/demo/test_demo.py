@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from odsuite.contracts.plugins import registries
-from odsuite_plugins.daq_sim.demo import HIDDEN_EFFECTS, PROJECT_NAME, effective_scales
+from odsuite_plugins.demo.story import HIDDEN_EFFECTS, PROJECT_NAME, effective_scales
 
 
 def test_spring_totals_are_the_hand_summed_stiffness_ratios(thesis_rig):

@@ -15,7 +15,7 @@ import json
 import math
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -23,8 +23,6 @@ import numpy as np
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn
 from rich.table import Table
-
-from .hammer import Hit
 
 #: The truth's hidden effects: a 30 % stiffer vertical suspension and a platform twist mode at
 #: 640 Hz, 2 % damping (well inside the accelerometer and filter bands, beyond every rigid mode)
@@ -35,7 +33,7 @@ HIDDEN_EFFECTS: tuple[tuple[str, dict[str, float]], ...] = (
 #: Thesis tests: +z at the centre, near the +y edge, near the -x edge; -x on a side; +z near a corner
 SCENARIOS = ("T1", "T2", "T3", "T5", "T6")
 #: T3 (20 N in the thesis) is struck at 15 N: the stiffer truth would overload accelerometer x3's range
-HITS = {"T3": (Hit(0.0, 15.0, 0.5e-3),)}
+FORCE_PEAK_N = {"T3": 15.0}
 SAMPLES = 4096
 SAMPLING_RATE = 20_000.0
 ADC_BITS = 16
@@ -91,21 +89,18 @@ def effective_scales(effect_name: str, values: Mapping[str, float], model) -> di
 
 def _record(project, console: Console) -> None:
     from odsuite.api import acquire
-    from odsuite.contracts.daq import AcquisitionSettings, rig_systeminfo
+    from odsuite.contracts.daq import AcquisitionSettings
+    from odsuite.contracts.plugins import registries
 
-    from .scenarios import scenario
-    from .simulator import SimulatedRig, default_chains
-
-    chains = {k: replace(c, adc_bits=ADC_BITS)
-              for k, c in default_chains(project.rig, rig_systeminfo(project.rig, SAMPLING_RATE)).items()}
+    sim = registries().daq_backends.get("sim")
     settings = AcquisitionSettings(sampling_rate=SAMPLING_RATE, n_samples=SAMPLES)
     for i, name in enumerate(SCENARIOS):
-        hits = HITS.get(name, scenario(name).hits)
-        exp, rec = acquire(project, SimulatedRig(), name, settings, scenario=name, hits=hits, seed=10 + i,
-                           effects=[(e, dict(v)) for e, v in HIDDEN_EFFECTS], chains=chains)
+        peak = FORCE_PEAK_N.get(name, max(h.peak for h in sim.scenarios[name].hits))
+        exp, rec = acquire(project, sim, name, settings, scenario=name, force_peak=FORCE_PEAK_N.get(name),
+                           seed=10 + i, adc_bits=ADC_BITS, effects=[(e, dict(v)) for e, v in HIDDEN_EFFECTS])
         clipped = "".join(f", [red]{n} samples of {rec.channel_names[ch]} clipped[/red]"
                           for ch, n in rec.clipped.items())
-        console.print(f"  {name}: {scenario(name).description}; {max(h.peak for h in hits):g} N hammer, "
+        console.print(f"  {name}: {sim.scenarios[name].description}; {peak:g} N hammer, "
                       f"{exp.n_samples} samples x {exp.n_channels} channels{clipped}", highlight=False, soft_wrap=True)
 
 
@@ -143,16 +138,14 @@ def _print_candidates(console: Console, doc: Mapping[str, Any], rows: int = 6) -
 def _write_outputs(out: Path, project_path: Path, diagnosis: Mapping[str, Any] | None,
                    console: Console) -> dict[str, Path]:
     """The history figure, a movie of one test with the model's motion and the HTML report."""
-    from odsuite.api import history, history_figure
     from odsuite.contracts.plugins import registries
     from odsuite.api import open_project
     from odsuite.contracts.renderers import RenderRequest
 
-    files: dict[str, Path] = {}
+    files: dict[str, Path] = {"history": out / "history.png"}
     movie_exp = MOVIE_EXPERIMENT
+    registries().renderers.get("history").render(RenderRequest(project_path, None, files["history"]))
     with open_project(project_path) as p:
-        files["history"] = out / "history.png"
-        history_figure(history(p), files["history"])
         exp = p.experiment(movie_exp)
     hit = exp.pretrigger / exp.sampling_rate
     movie = registries().renderers.get("movie").render(RenderRequest(

@@ -1,0 +1,103 @@
+"""The resolved residual (odsuite.analysis.resolved) on white noise whose spectrum is known in
+closed form: the chi-square limits hold their false-alarm rate, a sinusoid in one band of one
+channel is found there while the pooled error hides it, and the gain statistic of removing it is
+its whitened excess."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+import scipy.stats
+
+from odsuite.analysis import resolved
+from odsuite.analysis.noise_floor import NoiseFloor, band_dof, band_edges, in_band
+
+FS, N, CHANNELS, EXPERIMENTS = 2048.0, 2048, 4, 3
+
+
+@dataclass
+class _Exp:
+    name: str
+    measured: np.ndarray
+    fs: float = FS
+
+    @property
+    def n_samples(self) -> int:
+        return self.measured.shape[0]
+
+    @property
+    def sensors(self):
+        return [SimpleNamespace(name=f"c{j}") for j in range(self.measured.shape[1])]
+
+
+def _white_floor(sigma: np.ndarray) -> NoiseFloor:
+    """The floor of white noise of standard deviation ``sigma`` per channel: its expected energy per
+    FFT line is sigma^2 at 0 and Nyquist and 2 sigma^2 between (Parseval)."""
+    lines = np.full((N // 2 + 1, CHANNELS), 2.0) * sigma**2
+    lines[0] = lines[-1] = sigma**2
+    edges = band_edges(FS, N)
+    masks = in_band(FS, N, edges)
+    energy = np.array([lines[m].sum(axis=0) for m in masks])
+    bands = {f"e{i}": (edges, energy, band_dof(lines, masks)) for i in range(EXPERIMENTS)}
+    total = {f"e{i}": {f"c{j}": N * float(sigma[j] ** 2) for j in range(CHANNELS)} for i in range(EXPERIMENTS)}
+    return NoiseFloor(total, total, bands=bands)
+
+
+SIGMA = np.array([1.0, 0.1, 0.1, 3.0])
+
+
+def _null(rng):
+    return [_Exp(f"e{i}", rng.standard_normal((N, CHANNELS)) * SIGMA) for i in range(EXPERIMENTS)]
+
+
+def test_flat_noise_has_two_degrees_of_freedom_per_line():
+    floor = _white_floor(SIGMA)
+    edges, _, dof = floor.bands["e0"]
+    lines_per_band = np.array([m.sum() for m in in_band(FS, N, edges)])
+    assert np.allclose(dof[:, 0], 2 * lines_per_band, rtol=0.02)
+
+
+def test_the_chi_square_limits_hold_their_false_alarm_rate(monkeypatch):
+    # without the calibration tolerance the limits are chi-square quantiles at DETECTION_FALSE_ALARM
+    # shared over the cells: white noise at its exact floor crosses them at about that rate
+    monkeypatch.setattr(resolved, "DETECTION_TOLERANCE", 1.0)
+    rng = np.random.default_rng(1)
+    floor = _white_floor(SIGMA)
+    zeros = [np.zeros((N, CHANNELS))] * EXPERIMENTS
+    draws = 600
+    alarms = sum(resolved.resolve(exps, zeros, floor).detected() for exps in (_null(rng) for _ in range(draws)))
+    lo, hi = scipy.stats.binom.ppf([0.001, 0.999], draws, resolved.DETECTION_FALSE_ALARM)
+    assert lo <= alarms <= hi
+
+
+def test_a_model_error_in_one_band_is_found_there_however_quiet_the_rest():
+    rng = np.random.default_rng(2)
+    exps = _null(rng)
+    floor = _white_floor(SIGMA)
+    t = np.arange(N) / FS
+    edges = band_edges(FS, N)
+    band = next(i for i, (lo, hi) in enumerate(edges) if lo <= 20.0 < hi)
+    # a 20 Hz misfit on a weak channel, 5x the noise's rms in its band; the loud channel 3 hides it
+    # in the pooled error
+    band_energy = floor.bands["e0"][1][band, 1]
+    amp = np.sqrt(2 * 25 * band_energy / N)
+    for e in exps:
+        e.measured[:, 1] += amp * np.sin(2 * np.pi * 20.0 * t)
+    zeros = [np.zeros((N, CHANNELS))] * EXPERIMENTS
+    res = resolved.resolve(exps, zeros, floor)
+    pooled = np.sqrt(sum(np.sum(e.measured**2) for e in exps) / sum(sum(v.values()) for v in floor.energy.values()))
+    assert pooled < 1.01  # the pooled error cannot see it
+    assert res.detected()
+    top = res.cells()[0]
+    assert top["channel"] == "c1" and top["band_hz"][0] <= 20.0 < top["band_hz"][1]
+    assert top["residual_to_floor"] == pytest.approx(np.sqrt(26.0), rel=0.25)
+    # the model that has the misfit removes the whole excess: its likelihood ratio passes the test
+    # for one parameter, and nothing is left above the floor
+    fixed = [np.column_stack([np.zeros(N), amp * np.sin(2 * np.pi * 20.0 * t), np.zeros(N), np.zeros(N)])] * EXPERIMENTS
+    after = resolved.resolve(exps, fixed, floor)
+    assert not after.detected()
+    assert resolved.gain(res, after) == pytest.approx(res.excess(res.residual_dof))
+    assert resolved.gain(res, after) > resolved.gain_threshold(1)

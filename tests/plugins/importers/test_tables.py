@@ -1,0 +1,191 @@
+"""CSV, .npy, .mat and TDMS records written by their own libraries (csv, numpy, scipy.io, npTDMS),
+imported through the registry: numbers, names and units exact; onto a rig by channel name; each
+malformed file refused in one line naming file, field or channel and value."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.io
+
+from odsuite.analysis.modal_project import physical
+from odsuite.domain.errors import OdsuiteError
+from odsuite.store.project import create_project, open_project
+
+G = 9.80665
+RIG = Path(__file__).resolve().parents[3] / "projects" / "rigs" / "two-body-machine.toml"
+RNG = np.random.default_rng(7)
+DATA = RNG.normal(size=(500, 3))
+NAMES = ["acc1", "acc2", "force"]
+UNITS = ["m/s^2", "g", "N"]
+FS = 2048.0
+
+
+def _import(registries, project, file, name="rec", **options):
+    from odsuite.contracts.importers import check_options, choose_importer
+
+    imp = choose_importer(registries.importers, file, options.pop("fmt", None))
+    return imp.import_file(project, file, name, **check_options(imp, options))
+
+
+def _write_csv(path: Path, data=DATA, names=NAMES, units=UNITS, time=True):
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow((["time"] if time else []) + [f"{n} [{u}]" for n, u in zip(names, units)])
+        for k, row in enumerate(data):
+            w.writerow(([repr(k / FS)] if time else []) + [repr(float(v)) for v in row])
+
+
+def _write_tdms(path: Path, data=DATA, names=NAMES, units=UNITS, step=1 / FS):
+    from nptdms import ChannelObject, GroupObject, TdmsWriter
+
+    with TdmsWriter(str(path)) as w:
+        w.write_segment([GroupObject("Measurements")] + [
+            ChannelObject("Measurements", n, data[:, k], properties={"unit_string": u, "wf_increment": step})
+            for k, (n, u) in enumerate(zip(names, units))])
+
+
+def _written(tmp_path: Path, fmt: str) -> Path:
+    """The record DATA (names, units, FS) in format ``fmt``, written by that format's own library."""
+    if fmt == "csv":
+        _write_csv(tmp_path / "r.csv")
+    elif fmt == "npy":
+        np.save(tmp_path / "r.npy", DATA)
+        (tmp_path / "r.toml").write_text(f'sampling_rate = {FS}\nchannels = {NAMES!r}\nunits = {UNITS!r}\n'
+                                         .replace("'", '"'))
+    elif fmt == "mat":
+        scipy.io.savemat(tmp_path / "r.mat", {"data": DATA, "fs": FS, "channels": np.array(NAMES, dtype=object),
+                                              "units": np.array(UNITS, dtype=object)})
+    else:
+        _write_tdms(tmp_path / "r.tdms")
+    return next(tmp_path.glob(f"r.{fmt}"))
+
+
+@pytest.mark.parametrize("fmt", ["csv", "npy", "mat", "tdms"])
+def test_each_format_imports_numbers_names_and_units(tmp_path, registries, fmt):
+    file = _written(tmp_path, fmt)
+    create_project(tmp_path / "p.h5", rig=None).close()
+    res = _import(registries, tmp_path / "p.h5", file)
+    assert "acc2 [g]" in res.summary
+    with open_project(tmp_path / "p.h5") as p:
+        exp = p.experiment("rec")
+        assert exp.channel_names == NAMES
+        assert exp.sampling_rate == pytest.approx(FS, rel=1e-12)
+        si = physical(exp)
+        # SI inside: m/s^2 as it is, g times 9.80665, newtons as they are
+        assert np.allclose(si[:, 0], DATA[:, 0], rtol=1e-12, atol=0)
+        assert np.allclose(si[:, 1], DATA[:, 1] * G, rtol=1e-12, atol=0)
+        assert np.allclose(si[:, 2], DATA[:, 2], rtol=1e-12, atol=0)
+        assert exp.excitation is not None and exp.excitation.force_channel == 2  # the column in N
+
+
+@pytest.mark.parametrize("fmt", ["csv", "tdms"])
+def test_a_record_goes_onto_the_rig_by_channel_name(tmp_path, registries, fmt):
+    names, units = ["b1_z", "m1_x", "m2_y"], ["m/s^2", "g", "m/s^2"]
+    if fmt == "csv":
+        file = tmp_path / "r.csv"
+        _write_csv(file, names=names, units=units)
+    else:
+        file = tmp_path / "r.tdms"
+        _write_tdms(file, names=names, units=units)
+    create_project(tmp_path / "p.h5", rig=str(RIG)).close()
+    res = _import(registries, tmp_path / "p.h5", file)
+    assert any("operating record" in n for n in res.notes)
+    with open_project(tmp_path / "p.h5") as p:
+        exp = p.experiment("rec")
+        ch = {s.name: s.channel for s in p.rig.sensors}
+        si = physical(exp)
+        assert np.allclose(si[:, ch["b1_z"]], DATA[:, 0], rtol=1e-12)
+        assert np.allclose(si[:, ch["m1_x"]], DATA[:, 1] * G, rtol=1e-12)
+        assert np.allclose(si[:, ch["m2_y"]], DATA[:, 2], rtol=1e-12)
+
+
+def _bad(tmp_path: Path, case: str) -> tuple[Path, dict]:
+    t = tmp_path
+    if case == "empty csv":
+        (t / "r.csv").write_text("")
+        return t / "r.csv", {}
+    if case == "ragged csv":
+        (t / "r.csv").write_text("time,a [g],b [g]\n0,1,2\n0.001,3\n")
+        return t / "r.csv", {}
+    if case == "text in numbers":
+        (t / "r.csv").write_text("time,a [g],b [g]\n0,1,2\n0.001,3,abc\n")
+        return t / "r.csv", {}
+    if case == "nan":
+        (t / "r.csv").write_text("time,a [g],b [g]\n0,1,2\n0.001,nan,4\n")
+        return t / "r.csv", {}
+    if case == "unknown unit":
+        (t / "r.csv").write_text("time,a [furlong],b [g]\n0,1,2\n0.001,3,4\n")
+        return t / "r.csv", {}
+    if case == "missing rate":
+        np.save(t / "r.npy", DATA)
+        return t / "r.npy", {"units": "g"}
+    if case == "wrong shape":
+        np.save(t / "r.npy", np.zeros((4, 3, 2)))
+        return t / "r.npy", {"rate": 100.0, "units": "g"}
+    if case == "names for other columns":
+        np.save(t / "r.npy", DATA)
+        return t / "r.npy", {"rate": 100.0, "units": "g", "channels": "a,b"}
+    if case == "mat without arrays":
+        scipy.io.savemat(t / "r.mat", {"note": "no numbers here"})
+        return t / "r.mat", {"rate": 100.0, "units": "g"}
+    if case == "truncated tdms":
+        _write_tdms(t / "full.tdms")
+        blob = (t / "full.tdms").read_bytes()
+        (t / "r.tdms").write_bytes(blob[: len(blob) // 2])
+        return t / "r.tdms", {}
+    raise AssertionError(case)
+
+
+@pytest.mark.parametrize("case, words", [
+    ("empty csv", ["r.csv", "empty"]),
+    ("ragged csv", ["r.csv", "line 3", "2 fields", "header has 3"]),
+    ("text in numbers", ["r.csv", "line 3", "channel 'b'", "'abc'"]),
+    ("nan", ["r.csv", "channel 'a'", "sample 1", "nan"]),
+    ("unknown unit", ["r.csv", "channel 'a'", "'furlong'"]),
+    ("missing rate", ["r.npy", "sampling_rate", "--rate"]),
+    ("wrong shape", ["r.npy", "data", "(4, 3, 2)"]),
+    ("names for other columns", ["r.npy", "channels", "2 given for 3"]),
+    ("mat without arrays", ["r.mat", "variable", "no numeric array"]),
+    ("truncated tdms", ["r.tdms", "cut short"]),
+])
+def test_a_malformed_file_is_one_line(tmp_path, registries, case, words):
+    file, options = _bad(tmp_path, case)
+    create_project(tmp_path / "p.h5", rig=None).close()
+    with pytest.raises(OdsuiteError) as err:
+        _import(registries, tmp_path / "p.h5", file, **options)
+    message = str(err.value)
+    assert "\n" not in message
+    for w in words:
+        assert w in message, (w, message)
+    with open_project(tmp_path / "p.h5") as p:
+        assert p.experiment_names() == []  # nothing stored
+
+
+def test_options_override_the_sidecar_and_mat_v73_is_read(tmp_path, registries):
+    h5py = pytest.importorskip("h5py")
+    # a v7.3 file is HDF5 with MATLAB's column-major layout: channels x samples on disk
+    with h5py.File(tmp_path / "r.mat", "w", userblock_size=512) as f:
+        f.create_dataset("acc", data=DATA[:, :2].T)
+    header = b"MATLAB 7.3 MAT-file, written as MATLAB does".ljust(116) + bytes(8) + b"\x00\x02IM"
+    with open(tmp_path / "r.mat", "r+b") as f:
+        f.write(header)
+    create_project(tmp_path / "p.h5", rig=None).close()
+    _import(registries, tmp_path / "p.h5", tmp_path / "r.mat", rate=FS, units="m/s^2,g", channels="x,y")
+    with open_project(tmp_path / "p.h5") as p:
+        exp = p.experiment("rec")
+        assert exp.channel_names == ["x", "y"]
+        assert np.allclose(physical(exp), DATA[:, :2] * [1.0, G], rtol=1e-12)
+
+
+def test_a_channels_by_samples_npy_is_read_transposed(tmp_path, registries):
+    np.save(tmp_path / "r.npy", DATA.T)  # 3 x 500, as MATLAB users often store
+    create_project(tmp_path / "p.h5", rig=None).close()
+    _import(registries, tmp_path / "p.h5", tmp_path / "r.npy", rate=FS, units="m/s^2")
+    with open_project(tmp_path / "p.h5") as p:
+        exp = p.experiment("rec")
+        assert exp.channel_names == ["ch1", "ch2", "ch3"] and exp.n_samples == 500
+        assert np.allclose(physical(exp), DATA, rtol=1e-12)

@@ -1,0 +1,98 @@
+"""The modal figures of the renderers plugin, drawn from closed forms and read back from the
+matplotlib Figure; and the figure renderers the commands ask the registry for."""
+
+import numpy as np
+import pytest
+
+from odsuite.cli import main
+
+
+def test_mac_figure_writes_every_value(tmp_path):
+    from odsuite.analysis.modal import mac
+    from odsuite_plugins.renderers.modal_figures import mac_figure
+
+    phi = np.array([[1.0, 1.0, 0.5], [1.0, -1.0, 0.5], [0.0, 0.2, 1.0]])
+    m = mac(phi, phi)
+    fig = mac_figure(m, tmp_path / "mac.svg", labels_a=["a1", "a2", "a3"], labels_b=["b1", "b2", "b3"])
+    texts = [t.get_text() for t in fig.axes[0].texts]
+    assert texts == [f"{v:.2f}" for v in m.ravel()]
+    # by hand: |a.c|^2 / (a.a c.c) = 1 / (2 x 1.5); a and b are orthogonal
+    assert texts[:3] == ["1.00", "0.00", "0.33"]
+    assert (tmp_path / "mac.svg").read_text().lstrip().startswith("<?xml")
+
+
+def test_frf_figure_log_frequency_axes_units_and_print_type(tmp_path):
+    """A closed-form SDOF accelerance (m = 2 kg, k = 8e5 N/m, ζ = 2 %): the magnitude drawn is
+    |H| on log-log axes, phase and coherence on the same log frequency axis, the FRF unit on the
+    magnitude axis, the model mode dotted; at 6.5 in wide no type is below 8 pt."""
+    from matplotlib.text import Text
+
+    from odsuite.analysis.frf import FrfSet
+    from odsuite_plugins.renderers.modal_figures import frf_figure
+
+    m, k, zeta = 2.0, 8e5, 0.02
+    fn = np.sqrt(k / m) / (2 * np.pi)  # 100.7 Hz
+    f = np.linspace(0.0, 2000.0, 4001)
+    w = 2 * np.pi * f
+    h = -(w**2) / (k - m * w**2 + 2j * zeta * np.sqrt(k * m) * w)
+    frf = FrfSet(f, h[None, :], np.full((1, f.size), 0.99), "H1", ["(m/s^2)/N"], ["a1"], 5)
+    fig = frf_figure(frf, tmp_path / "frf.png", band_hz=(20.0, 1000.0), model_hz=[fn], size=(6.5, 5.2), dpi=90)
+    mag, phase, coh = fig.axes
+    assert [a.get_xscale() for a in fig.axes] == ["log"] * 3 and mag.get_yscale() == "log"
+    assert mag.get_ylabel() == "|H| [(m/s²)/N]" and coh.get_xlabel() == "frequency [Hz]"
+    assert np.allclose(mag.lines[0].get_ydata(), np.abs(h[1:]))
+    peak = mag.lines[0].get_xdata()[np.argmax(mag.lines[0].get_ydata())]
+    assert abs(peak - fn) < 1.0  # the resonance where the closed form puts it
+    assert any(np.allclose(ln.get_xdata(), fn) for ln in mag.lines[1:])  # the model mode, dotted
+    texts = [t for t in fig.findobj(Text) if t.get_visible() and t.get_text().strip()]
+    assert min(t.get_fontsize() for t in texts) >= 8.0
+    assert (tmp_path / "frf.png").stat().st_size > 0
+
+
+@pytest.fixture(scope="module")
+def sim_project(tmp_path_factory):
+    """One simulated hit (T1) on the thesis rig: revision 0 and its noise floor."""
+    p = tmp_path_factory.mktemp("figures") / "p.h5"
+    for argv in (["new", p], ["acquire", p, "--daq", "sim", "--name", "T1", "--seed", "2", "--samples", "2048"]):
+        assert main([str(a) for a in argv]) == 0
+    return p
+
+
+def test_history_renderer_draws_the_projects_errors(sim_project, tmp_path, capsys, monkeypatch):
+    """`history --figure` through the registry's `history` renderer: one bar per revision at the
+    error `history --json` prints (the rigid model's NRMSE, computed independently by compare), the
+    floor as a dashed line at its value; without the document the renderer reads it from the project."""
+    import json
+
+    from odsuite.analysis.comparison import compare
+    from odsuite.contracts.plugins import registries
+    from odsuite.contracts.renderers import RenderRequest
+    from odsuite.store.project import open_project
+    from odsuite_plugins.renderers import history_figure as module
+
+    drawn = []
+    original = module.history_figure
+    monkeypatch.setattr(module, "history_figure", lambda *a, **k: drawn.append(original(*a, **k)) or drawn[-1])
+    capsys.readouterr()
+    assert main(["history", str(sim_project), "--json", "--figure", str(tmp_path / "h.png")]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert (tmp_path / "h.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    registries().renderers.get("history").render(RenderRequest(sim_project, None, tmp_path / "h.svg"))
+    with open_project(sim_project) as p:
+        error = compare(p).error
+    for fig in drawn:
+        ax = fig.axes[0]
+        assert np.allclose([b.get_height() for b in ax.patches], [error], rtol=1e-9)
+        assert np.allclose([r["error"] for r in doc["revisions"]], [error], rtol=1e-9)
+        floor = [ln for ln in ax.lines if ln.get_linestyle() == "--"]
+        assert len(floor) == 1 and np.allclose(floor[0].get_ydata(), doc["noise_floor_error"])
+    assert len(drawn) == 2
+
+
+def test_figure_renderer_without_its_numbers_says_where_they_come_from(sim_project, tmp_path, capsys):
+    capsys.readouterr()
+    out = tmp_path / "f.png"
+    assert main(["render", str(sim_project), "T1", "-o", str(out), "--figure", "frf"]) == 1
+    assert capsys.readouterr().err.strip() == ("error: renderer 'frf' draws the numbers it is given (option 'frf'), "
+                                               "not a stored experiment: use `odsuite frf --figure`")
+    assert not out.exists()
