@@ -672,6 +672,11 @@ def _digital_chain(exp: PreparedExperiment, physical: np.ndarray) -> np.ndarray:
     return out
 
 
+def _integrates(exp: PreparedExperiment) -> bool:
+    """Every channel's chain carries acceleration through to displacement."""
+    return all(t in chain.taps for chain in exp.chains for t in stage_names("acceleration"))
+
+
 def coordinate_series(rig: Rig, exp: PreparedExperiment, model) -> dict[str, tuple[np.ndarray, np.ndarray, list[int]]]:
     """Per body whose motion its sensors determine: measured and model generalized coordinates at
     its G (samples x 6; m, rad), both from displacements after the full chain and the body's
@@ -681,7 +686,7 @@ def coordinate_series(rig: Rig, exp: PreparedExperiment, model) -> dict[str, tup
 
     taps = stage_names("acceleration")
     out: dict[str, tuple[np.ndarray, np.ndarray, list[int]]] = {}
-    if not all(t in chain.taps for chain in exp.chains for t in taps):
+    if not _integrates(exp):
         return out
     predicted = through_chain(exp, simulate_sensors(model, exp), taps)
     measured = {t: np.empty_like(exp.measured) for t in taps}
@@ -708,6 +713,12 @@ def experiment_coordinates(project, name: str, revision: Mapping[str, Any] | Non
     exp = prepare_experiment(project, name)
     model = revision_model(project, revision or current_revision(project)).for_experiment(name)
     series = coordinate_series(project.rig, exp, model)
+    if not series and _integrates(exp):  # the chains are whole: the sensor layout is why
+        from odsuite.contracts.solvers import body_solvers
+
+        notes = body_solvers(project.rig, [s.name for s in exp.sensors], exp.registries.coordinate_solvers)[1]
+        raise ConfigError(f"{project.path}: experiment {name!r}: no body's motion can be solved from its sensors, "
+                          f"so there are no generalized coordinates ({'; '.join(notes)})")
     if not series:
         raise ConfigError(f"{project.path}: experiment {name!r}: the chains do not integrate every "
                           "accelerometer to displacement, so there are no generalized coordinates")

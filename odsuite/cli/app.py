@@ -78,6 +78,27 @@ def shown(value: object) -> str:
                    for c in text)
 
 
+def echo_force_point(project, name: str, written: str | None) -> None:
+    """The force point experiment ``name`` stored, in mm with the body hit, when the command line
+    gave one: a bare number's unit (mm) said back."""
+    from odsuite.domain.excitation import read_force_point
+    from odsuite.store.project import open_project
+
+    if written is None:
+        return
+    with open_project(project) as p:
+        if name not in p.experiment_names():  # an import that is not a record (a UFF's shapes)
+            return
+        exc = p.experiment(name).excitation
+        body = None if p.rig is None or exc is None else exc.body or p.rig.force_body(exc.point)
+    if exc is None:
+        return
+    mm = ", ".join(f"{1e3 * v:.4g}" for v in exc.point)
+    console.print(f"force point ({mm}) mm in the rig frame" + (", read from bare numbers as mm"
+                  if read_force_point(written)[1] else "") + (f", on {body!r}" if body else ""),
+                  highlight=False, soft_wrap=True)
+
+
 class _DataConsole(Console):
     """A console that never reads markup and prints every string through ``shown`` (tables,
     progress descriptions and messages alike); styles come from ``Text`` objects only."""
@@ -332,6 +353,13 @@ def _run(argv: list[str] | None) -> int:
 _AS_JSON = False
 
 
+#: click's usage errors: typer 0.2x carries its own copy of click, older ones use click itself
+try:
+    from typer._click.exceptions import ClickException as _UsageError
+except ImportError:
+    from click import ClickException as _UsageError
+
+
 def _failed(exc: Exception) -> int:
     """The exit code of a command that raised ``exc`` (printing its one line), or ``exc`` again
     when it is a bug."""
@@ -348,7 +376,7 @@ def _failed(exc: Exception) -> int:
     except typer.Abort:
         err_console.print("aborted")
         return 1
-    except typer.TyperException as exc:
+    except _UsageError as exc:
         # usage errors (unknown option, missing argument) carry their own exit code
         exc.show()
         return exc.exit_code

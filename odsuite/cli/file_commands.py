@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from odsuite.cli.app import _check_output, _ledger, app, console, err_console
+from odsuite.cli.app import _check_output, _ledger, app, console, echo_force_point, err_console
 
 
 def _import(project: Path, file: Path, name: str, fmt: str | None, **options) -> None:
@@ -19,6 +19,7 @@ def _import(project: Path, file: Path, name: str, fmt: str | None, **options) ->
     res = importer.import_file(project, file, name, **check_options(importer, options))
     for note in res.notes:
         err_console.print(f"warning: {note}", style="yellow", highlight=False, soft_wrap=True)
+    echo_force_point(project, name, options.get("force_point"))
     console.print(f"imported {file} ({importer.name}: {res.summary})", highlight=False, soft_wrap=True)
 
 
@@ -31,8 +32,8 @@ def import_cmd(
                             "`odsuite plugins` lists all)."),
     systeminfo: Path = typer.Option(None, "--systeminfo", help="legacy: the .CTR Systeminfo file."),
     force_point: str = typer.Option(None, "--force-point",
-                                    help="legacy, lvm, uff: X,Y,Z in mm in the rig frame (the thesis rig: from the "
-                                    "platform's centre of mass)."),
+                                    help="legacy, lvm, uff: X,Y,Z in the rig frame with units (200mm or 0.2m each); bare numbers are mm (the thesis rig: "
+                                    "from the platform's centre of mass)."),
     force_dir: str = typer.Option(None, "--force-dir", help="legacy, lvm, uff: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
     force_channel: str = typer.Option(None, "--force-channel", help="lvm, uff: name of the force channel."),
     force_body: str = typer.Option(None, "--force-body", help="lvm, uff on a rig: the body hit, when the force point "
@@ -58,7 +59,8 @@ def import_legacy_cmd(
     systeminfo: Path = typer.Option(..., "--systeminfo", help="Legacy .CTR Systeminfo file."),
     name: str = typer.Option(..., "--name", help="Experiment name."),
     force_point: str = typer.Option(..., "--force-point",
-                                    help="X,Y,Z in mm in the rig frame (the thesis rig: from the platform's centre of mass)."),
+                                    help="X,Y,Z in the rig frame with units (200mm or 0.2m each); bare numbers are mm (the thesis rig: from the "
+                                    "platform's centre of mass)."),
     force_dir: str = typer.Option(..., "--force-dir", help="+x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
 ) -> None:
     """Import a thesis-era .DAT/.VIZ record with its .CTR Systeminfo (`odsuite import --format legacy`)."""
@@ -89,7 +91,7 @@ def import_lvm_cmd(
     lvmfile: Path = typer.Argument(..., help="LabVIEW .lvm text file."),
     name: str = typer.Option(..., "--name", help="Experiment name."),
     force_channel: str = typer.Option(None, "--force-channel", help="Name of the force column (on a rig: the one for its force channel)."),
-    force_point: str = typer.Option(None, "--force-point", help="On a rig: X,Y,Z in mm in the rig frame."),
+    force_point: str = typer.Option(None, "--force-point", help="On a rig: X,Y,Z in the rig frame with units (200mm or 0.2m each); bare numbers are mm."),
     force_dir: str = typer.Option(None, "--force-dir", help="On a rig: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
     force_body: str = typer.Option(None, "--force-body", help="On a rig: the body hit, when the force point lies on two."),
 ) -> None:
@@ -105,7 +107,7 @@ def import_uff_cmd(
     ufffile: Path = typer.Argument(..., help="UFF file (.uff/.unv) with time records (dataset 58)."),
     name: str = typer.Option(..., "--name", help="Experiment name."),
     force_channel: str = typer.Option(None, "--force-channel", help="Name of the force record."),
-    force_point: str = typer.Option(None, "--force-point", help="On a rig: X,Y,Z in mm in the rig frame (default: "
+    force_point: str = typer.Option(None, "--force-point", help="On a rig: X,Y,Z in the rig frame with units (200mm or 0.2m each); bare numbers are mm (default: "
                                     "the force record's node in the file)."),
     force_dir: str = typer.Option(None, "--force-dir", help="On a rig: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz "
                                   "(default: the force record's direction in the file)."),

@@ -43,9 +43,13 @@ def plugins_cmd(as_json: bool = typer.Option(False, "--json", help="Print one JS
             if names:
                 provided.append(f"{f.name.replace('_', ' ')}: {', '.join(names)}")
         for backend in regs.daq_backends.by_plugin(name):
-            flags = " ".join(f"{o.cli_flag}" + ("" if o.type is bool else f" {o.type.__name__.upper()}")
-                             for o in regs.daq_backends.get(backend).options)
-            provided.append(f"  acquire --daq {backend} options: {flags or 'none'}")
+            options = regs.daq_backends.get(backend).options
+            provided.append(f"  acquire --daq {backend} options:" + ("" if options else " none"))
+            for o in options:  # each with its help: the unit and default live there
+                default = "" if o.default is None or o.type is bool or "default" in o.help else f" (default {o.default:g})" \
+                    if isinstance(o.default, float) else f" (default {o.default})"
+                provided.append(f"    {o.cli_flag}" + ("" if o.type is bool else f" {o.type.__name__.upper()}")
+                                + f": {o.help}{default}")
         source = pm.source(name)
         # one line per kind: a Text keeps the line breaks that plain strings would show escaped
         table.add_row(name, source.distribution, source.version, Text("\n".join(shown(p) for p in provided) or "-"))
@@ -59,12 +63,21 @@ def new_cmd(
                             help="Registered rig name, a rig .toml file, or 'none' (no rig geometry)."),
 ) -> None:
     """Create a new project file on a rig."""
+    from odsuite.cli.app import err_console
+    from odsuite.contracts.plugins import registries
+    from odsuite.processing.rig_summary import rig_layout
     from odsuite.store.project import create_project
 
     created = create_project(project, rig)
     name = created.rig.name if created.rig else "none"
+    layout = rig_layout(created.rig, registries().coordinate_solvers) if created.rig else {"bodies": []}
     created.close()
     console.print(f"created {project} (rig: {name})", highlight=False, soft_wrap=True)
+    for body in layout["bodies"]:  # said now, not first at `process` after the records are taken
+        if body["solver_problem"]:
+            err_console.print(f"warning: {body['solver_problem']}; `process` will store no generalized "
+                              f"coordinates for body {body['name']!r}",
+                              style="yellow", highlight=False, soft_wrap=True)
 
 
 @app.command("info")

@@ -11,7 +11,7 @@ from rich.table import Table
 import typer
 
 from odsuite.domain.errors import ConfigError
-from odsuite.cli.app import _ledger, app, console, err_console
+from odsuite.cli.app import _ledger, app, console, echo_force_point, err_console
 
 
 @app.command("process")
@@ -38,6 +38,7 @@ def process_cmd(
             (p.transaction() if corrected else contextlib.nullcontext()):
         # with --corrected one transaction: all or nothing; without, each experiment commits on its own
         names = experiment or p.experiment_names()
+        notes: dict[str, list[str]] = {}  # a note (the rig's layout) holds for many experiments: said once
         _ledger.plan(project, names + ([f"{n} (corrected)" for n in names] if corrected else []))
         if corrected:
             _ledger.start(", ".join(names + [f"{n} (corrected)" for n in names]))
@@ -56,7 +57,10 @@ def process_cmd(
                           f"{', '.join(map(str, summary['channels']))}" + (f"; {bodies}" if bodies else ""),
                           highlight=False, soft_wrap=True)
             for note in summary["notes"]:
-                err_console.print(f"note: {note}", highlight=False, soft_wrap=True)
+                notes.setdefault(note, []).append(name)
+        for note, named in notes.items():
+            which = "every experiment" if len(named) == len(names) > 1 else ", ".join(named)
+            err_console.print(f"note ({which}): {note}", highlight=False, soft_wrap=True)
         if corrected:
             from odsuite.analysis.correction import process_corrected
 
@@ -75,14 +79,16 @@ def acquire_cmd(
     daq: str = typer.Option("sim", "--daq", help="A registered acquisition backend (built in: sim, the simulated "
                             "rig; ni, NI-DAQmx). Its own options follow; `odsuite plugins` lists them."),
     name: str = typer.Option(..., "--name", help="Experiment name."),
-    force_point: str = typer.Option(None, "--force-point", help="X,Y,Z in mm in the rig frame (the thesis rig: from the platform's centre of mass)."),
+    force_point: str = typer.Option(None, "--force-point", help="X,Y,Z in the rig frame with units (200mm,150mm,75mm or 0.2,0.15,0.075m); bare numbers are mm "
+                                   "(the thesis rig: from the platform's centre of mass). A point inside a body moves onto "
+                                   "the nearest face the blow strikes."),
     force_dir: str = typer.Option(None, "--force-dir", help="+x,-x,+y,-y,+z,-z or a vector dx,dy,dz."),
     force_body: str = typer.Option(None, "--force-body", help="The body hit, when the force point lies on two."),
-    rate: float = typer.Option(None, "--rate", help="Sampling rate, Hz (default: the rig's [acquisition], "
-                               "else 20000)."),
+    rate: float = typer.Option(None, "--rate", help="Sampling rate, Hz (default: the rig file's "
+                               "acquisition sampling_rate, else 20000 Hz)."),
     samples: int = typer.Option(4096, "--samples", help="Samples per channel."),
-    pretrigger: int = typer.Option(None, "--pretrigger", help="Samples kept before the trigger (default: the "
-                                   "rig's [acquisition], else 512)."),
+    pretrigger: int = typer.Option(None, "--pretrigger", help="Samples kept before the trigger (default: "
+                                   "the rig file's acquisition pre_trigger, else 512)."),
     trigger_level: float = typer.Option(1.0, "--trigger-level", help="Force trigger level, N."),
     trigger_slope: str = typer.Option("rising", "--trigger-slope", help="rising or falling."),
     trigger_timeout: float = typer.Option(10.0, "--trigger-timeout", help="Seconds to wait for the trigger."),
@@ -97,15 +103,16 @@ def acquire_cmd(
 
     from odsuite.processing.acquisition import acquire
     from odsuite.contracts.daq import AcquisitionSettings, parse_backend_options
-    from odsuite.domain.excitation import parse_force_direction, parse_force_point
+    from odsuite.domain.excitation import check_force_point, parse_force_direction, read_force_point, surface_point
     from odsuite.contracts.plugins import registries
     from odsuite.store.project import open_project
 
     backend = registries().daq_backends.get(daq)
     options = parse_backend_options(daq, backend, ctx.args)
+    with open_project(project) as p:
+        rig = p.rig
+    acq = rig.acquisition if rig is not None else None
     if rate is None or pretrigger is None:  # the rig's own settings, when its file states them
-        with open_project(project) as p:
-            acq = p.rig.acquisition if p.rig is not None else None
         rate = rate if rate is not None else (acq.sampling_rate if acq and acq.sampling_rate else 20_000.0)
         pretrigger = pretrigger if pretrigger is not None else (
             acq.pre_trigger if acq and acq.pre_trigger is not None else 512)
@@ -113,10 +120,17 @@ def acquire_cmd(
         sampling_rate=rate, n_samples=samples, pretrigger=pretrigger, trigger_level=trigger_level,
         trigger_slope=trigger_slope, trigger_timeout=trigger_timeout,
         mode="continuous" if continuous else "finite")
+    moved = None
     if force_point is not None or force_dir is not None:
         if force_point is None or force_dir is None:
             raise typer.BadParameter("give both --force-point and --force-dir")
-        options.update(point=parse_force_point(force_point), direction=parse_force_direction(force_dir))
+        point, bare = read_force_point(force_point)
+        where = "--force-point" + (" (bare numbers are mm)" if bare else "")
+        direction = parse_force_direction(force_dir)
+        if rig is not None:
+            point, moved = surface_point(rig, point, direction)  # said once the record is taken
+            check_force_point(rig, point, where)
+        options.update(point=point, direction=direction)
     if force_body is not None:
         options["force_body"] = force_body
     if continuous:
@@ -138,7 +152,8 @@ def acquire_cmd(
     for ch, count in rec.clipped.items():
         err_console.print(f"warning: channel {ch} ({rec.channel_names[ch]}): {count} samples clipped at the ADC limits",
                           style="yellow", highlight=False, soft_wrap=True)
-    for note in rec.notes:
+    for note in rec.notes + ([moved] if moved else []):
         err_console.print(f"warning: {note}", style="yellow", highlight=False, soft_wrap=True)
+    echo_force_point(project, name, force_point)
     console.print(f"acquired {name!r}: {exp.n_samples} samples x {exp.n_channels} channels at {exp.sampling_rate:g} Hz, "
                   f"{exp.pretrigger} before the trigger ({rec.source})", highlight=False, soft_wrap=True)

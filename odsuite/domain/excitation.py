@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -24,34 +25,73 @@ class Excitation:
     body: str | None = None
 
 
-def check_force_point(rig, point, where: str = "force point") -> None:
-    """Refuse a force point (m, rig frame) outside every plate of ``rig`` in one line naming the
-    nearest body and how far off it is. A rig without plates cannot be checked."""
-    from odsuite.domain.errors import ConfigError
-    from odsuite.domain.rig import FORCE_POINT_SLACK
+def _mm(point) -> str:
+    return ", ".join(f"{1e3 * v:.4g}" for v in np.asarray(point, dtype=float))
+
+
+def _boxes(rig) -> dict:
     from odsuite.domain.rigidbody import plate_corners
 
-    p = np.asarray(point, dtype=float)
-    gaps = {}
+    boxes = {}
     for body in rig.bodies:
-        if body.plate is None:
-            continue
-        c = plate_corners(body.plate)
-        lo, hi = c.min(axis=0), c.max(axis=0)
-        gaps[body.name] = float(np.linalg.norm(np.maximum(0.0, np.maximum(lo - p, p - hi))))
-    if not gaps or min(gaps.values()) <= FORCE_POINT_SLACK:
+        if body.plate is not None:
+            c = plate_corners(body.plate)
+            boxes[body.name] = (c.min(axis=0), c.max(axis=0), body.mass is not None)
+    return boxes
+
+
+def check_force_point(rig, point, where: str = "force point") -> None:
+    """Refuse a force point (m, rig frame) outside every plate of ``rig``, or on a fixed body's plate
+    only (no mass: a hit there drives nothing), in one line naming the nearest body and how far off
+    it is. A rig without plates cannot be checked."""
+    from odsuite.domain.rig import FORCE_POINT_SLACK
+
+    p = np.asarray(point, dtype=float)
+    boxes = _boxes(rig)
+    gaps = {name: float(np.linalg.norm(np.maximum(0.0, np.maximum(lo - p, p - hi))))
+            for name, (lo, hi, _) in boxes.items()}
+    if not gaps:
         return
     nearest = min(gaps, key=gaps.get)
-    mm = ", ".join(f"{1e3 * v:g}" for v in p)
-    raise ConfigError(f"{where} ({mm}) mm is outside every body of rig {rig.name!r}: the nearest, "
-                      f"{nearest!r}, is {1e3 * gaps[nearest]:.1f} mm away")
+    if gaps[nearest] > FORCE_POINT_SLACK:
+        raise ConfigError(f"{where} ({_mm(p)}) mm is outside every body of rig {rig.name!r}: the nearest, "
+                          f"{nearest!r}, is {1e3 * gaps[nearest]:.1f} mm away")
+    if not any(moving and gaps[name] <= FORCE_POINT_SLACK for name, (_, _, moving) in boxes.items()):
+        moving = [name for name, (_, _, m) in boxes.items() if m]
+        raise ConfigError(f"{where} ({_mm(p)}) mm lies on {nearest!r}, which has no mass and does not move: "
+                          f"hit a moving body ({', '.join(moving) or 'none has a plate'})")
+
+
+def surface_point(rig, point, direction=None) -> tuple[np.ndarray, str | None]:
+    """A force point (m, rig frame) inside a moving body's plate, deeper than FORCE_POINT_SLACK,
+    moved onto that plate's nearest face that a blow along ``direction`` strikes (a hammer hits a
+    surface from outside), with a line saying so; any other point unchanged, with None."""
+    from odsuite.domain.rig import FORCE_POINT_SLACK
+
+    p = np.asarray(point, dtype=float)
+    for name, (lo, hi, moving) in _boxes(rig).items():
+        depths = np.concatenate([p - lo, hi - p])  # to the low faces, then the high faces
+        if not moving or depths.min() <= FORCE_POINT_SLACK:
+            continue
+        if direction is not None:  # outward normals -e (low faces), +e (high): struck when against the blow
+            normals = np.concatenate([-np.eye(3), np.eye(3)])
+            depths = np.where(normals @ np.asarray(direction, dtype=float) < 0, depths, np.inf)
+        k = int(np.argmin(depths))
+        axis = k % 3
+        snapped = p.copy()
+        snapped[axis] = (lo if k < 3 else hi)[axis]
+        return snapped, (f"force point ({_mm(p)}) mm is {1e3 * depths[k]:.1f} mm inside body {name!r}; moved onto "
+                         f"the nearest face the blow strikes, {'xyz'[axis]} = {1e3 * snapped[axis]:.4g} mm: ({_mm(snapped)}) mm")
+    return p, None
 
 
 _AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 
 
-def _three_numbers(value: str | Sequence[float], option: str, expected: str = "three numbers X,Y,Z") -> np.ndarray:
+def _three_numbers(value: str | Sequence[float], option: str, expected: str = "three numbers X,Y,Z",
+                   shown: str | None = None) -> np.ndarray:
     parts = value.split(",") if isinstance(value, str) else list(value)
+    value = value if shown is None else shown
     try:
         numbers = np.array([float(p) for p in parts], dtype=float)
     except (TypeError, ValueError):
@@ -63,9 +103,36 @@ def _three_numbers(value: str | Sequence[float], option: str, expected: str = "t
     return numbers
 
 
+#: lengths a position may be written in; a bare number is in POINT_UNIT
+LENGTH_UNITS = {"mm": 1e-3, "cm": 1e-2, "m": 1.0}
+POINT_UNIT = "mm"
+_LENGTH = re.compile(r"\s*(.*?)\s*(mm|cm|m)?\s*", re.IGNORECASE)
+
+
+def read_force_point(value: str | Sequence[float], option: str = "--force-point") -> tuple[np.ndarray, bool]:
+    """``"X,Y,Z"`` -> metres, and whether the numbers were bare (read as mm, the thesis's Table 5.3
+    unit). Each number may carry its unit (``200mm,150mm,75mm``); a unit on the last number only
+    applies to all three (``0.2,0.15,0.075m``)."""
+    if not isinstance(value, str):
+        return _three_numbers(value, option) * LENGTH_UNITS[POINT_UNIT], True
+    parts = value.split(",")
+    matches = [_LENGTH.fullmatch(part) for part in parts]
+    if len(parts) != 3:
+        raise ConfigError(f"{option}: expected three numbers X,Y,Z, got {value!r}")
+    units = [m.group(2).lower() if m.group(2) else None for m in matches]
+    if units[0] is None and units[1] is None and units[2] is not None:
+        units = [units[2]] * 3
+    if None in units and any(units):
+        raise ConfigError(f"{option}: give a unit on every number or on none (bare numbers are mm), got {value!r}")
+    numbers = _three_numbers([m.group(1) for m in matches], option, shown=value)
+    scale = np.array([LENGTH_UNITS[u or POINT_UNIT] for u in units])
+    return numbers * scale, units[0] is None
+
+
 def parse_force_point(value: str | Sequence[float]) -> np.ndarray:
-    """``"X,Y,Z"`` in mm from the platform's centre of mass, platform axes (as Table 5.3) -> metres."""
-    return _three_numbers(value, "--force-point") / 1000.0
+    """``"X,Y,Z"`` -> metres: numbers with units (``200mm``, ``0.2m``) or bare numbers in mm (for the
+    thesis rig from the platform's centre of mass, platform axes, as Table 5.3)."""
+    return read_force_point(value)[0]
 
 
 def parse_force_direction(value: str | Sequence[float]) -> np.ndarray:

@@ -160,18 +160,19 @@ class SimulatedRig:
                              "else 0.5 ms; a hard tip 0.1-0.5 ms, a rubber tip or a sledge 2-20 ms)"),
                BackendOption("truth_rig", str, None, "a rig file the record comes from instead of the project's rig "
                              "(a hidden change: stiffer mounts, a moved mass, a tilted or mis-calibrated sensor); "
-                             "it has the project rig's channels", flag="--truth"),
+                             "it has the project rig's channels (default: none, the project's rig)", flag="--truth"),
                BackendOption("adc_bits", int, None, f"ADC resolution, bits {MIN_ADC_BITS}-{MAX_ADC_BITS} "
                                                     "(default 12: the thesis's E-series card)"),
                BackendOption("noise", float, 1.0, "scale of the ADC-input noise, offsets and drift "
                                                   f"(1: the thesis's floor, 0: none, at most {MAX_NOISE_SCALE:g})"),
                BackendOption("operating", str, None, "a running machine instead of the hammer: random, sweep or "
                                                      "unbalance:HZ at the force point, or base-random: the ground "
-                                                     "moving in all six directions (no force channel stored)"),
+                                                     "moving in all six directions (no force channel stored); default: none, "
+                                                     "the hammer"),
                BackendOption("force_rms", float, None, "operating: rms force in N (default 0.5 N; unbalance: the "
                                                        "rotating force's magnitude)"),
                BackendOption("base_rms", float, None, "base-random: rms ground acceleration in m/s^2 along each "
-                                                      f"axis (default {DEFAULT_BASE_RMS:g}); the rotations' rms is it "
+                                                      f"axis (default {DEFAULT_BASE_RMS:g} m/s^2); the rotations' rms is it "
                                                       "over the farthest accelerometer's distance from the rig origin"))
 
     def __init__(self, truth_factory: Callable[..., Truth] | None = None) -> None:

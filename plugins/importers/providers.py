@@ -13,7 +13,8 @@ FORCE_CHANNEL = ImportOption("force_channel", "name of the force channel (defaul
 
 
 #: where the hammer hit a rig, for the importers that lay a file onto a rig's sensors
-ON_RIG = (ImportOption("force_point", "on a rig: X,Y,Z in mm in the rig frame, where the hammer hit"),
+ON_RIG = (ImportOption("force_point", "on a rig: X,Y,Z in the rig frame, where the hammer hit, with units "
+                                      "(200mm or 0.2m each); bare numbers are mm"),
           ImportOption("force_dir", "on a rig: +x,-x,+y,-y,+z,-z or a vector dx,dy,dz"),
           ImportOption("force_body", "on a rig: the body hit, when the force point lies on two"))
 
@@ -32,7 +33,8 @@ class LegacyImporter:
     description = "thesis-era .DAT/.VIZ record (volts, samples x channels) with its .CTR Systeminfo"
     suffixes = (".dat", ".viz")
     options = (ImportOption("systeminfo", "the .CTR Systeminfo file", required=True),
-               ImportOption("force_point", "X,Y,Z in mm from the platform's centre of mass, platform axes",
+               ImportOption("force_point", "X,Y,Z from the platform's centre of mass, platform axes, with units "
+                                            "(200mm or 0.2m each); bare numbers are mm",
                             required=True),
                ImportOption("force_dir", "+x,-x,+y,-y,+z,-z or a vector dx,dy,dz", required=True))
 

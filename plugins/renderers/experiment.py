@@ -36,6 +36,17 @@ def _coords(project, experiment: str, kind: str, hint: str) -> dict[str, np.ndar
     return coords
 
 
+def _why_no_coordinates(project, experiment: str) -> str:
+    """An unprocessed experiment, or a processed one whose bodies' sensors cannot give their motion."""
+    from odsuite.contracts.solvers import body_solvers
+
+    if "processed" not in project.derived_kinds(experiment):
+        return "run `odsuite process` first"
+    notes = body_solvers(project.rig, [s.name for s in project.rig.sensors], project.registries.coordinate_solvers)[1]
+    return f"no body's motion can be solved from its sensors ({'; '.join(notes)})" if notes else \
+        "run `odsuite process` first"
+
+
 def render_experiment(
     project_path: str | Path,
     experiment: str,
@@ -124,7 +135,7 @@ def render_experiment(
                 stored = stored_correction(project, experiment)
                 corrected_coords = stored[0] if stored and set(stored[0]) == set(coords) else None
         else:
-            coords = _coords(project, experiment, MEASURED_KIND, "run `odsuite process` first")
+            coords = _coords(project, experiment, MEASURED_KIND, _why_no_coordinates(project, experiment))
         force = None
         if figure == "projection" and exp.excitation is not None:
             force = exp.raw(channels=exp.excitation.force_channel)
@@ -158,9 +169,9 @@ def render_experiment(
     measured, predicted = coords[body], model_coords[body]
     if figure == "overlay":
         t = np.arange(measured.shape[0]) / fs
-        return comparison_figure(t, measured, predicted, output, title=f"{experiment}: {body} at G").path
+        return comparison_figure(t, measured, predicted, output, title=f"{experiment}: {body} at its centre of mass").path
     return residual_spectra_figure(fs, measured, predicted, output, names=COORDINATES, units=COORDINATE_UNITS,
-                                   title=f"{experiment}: {body} at G").path
+                                   title=f"{experiment}: {body} at its centre of mass").path
 
 
 def _movie(rig, coords, fs, output, experiment, *, model_coords, magnify, corrected_coords=None, view, workers, frame_step, slowdown,

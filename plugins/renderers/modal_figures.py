@@ -131,7 +131,7 @@ def frf_figure(frf, path: str | Path, *, band_hz: tuple[float, float] | None = N
     coh.set_xlabel("frequency [Hz]")
     shaded = "" if band_hz is None else f"; shaded: fit band {band_hz[0]:.0f}-{band_hz[1]:.0f} Hz"
     hits = f"{frf.n_averages} hit" + ("s averaged" if frf.n_averages > 1 else "")
-    mag.set_title(textwrap.fill(f"{title}: {frf.estimator}, {hits}{shaded}", int(7 * size[0])),
+    mag.set_title(textwrap.fill(f"{title}: {frf.estimator} estimator, {hits}{shaded}", int(7 * size[0])),
                   fontsize=10)  # about 7 characters per inch at 10 pt
     return _save(fig, path, dpi)
 

@@ -174,8 +174,10 @@ def _experiments_section(project, exps, comparison) -> str:
     rig = project.rig
     bodies = ", ".join(f"{b.name}" + (f" ({b.mass:g} kg)" if b.mass is not None else "") for b in rig.bodies)
     sensors = ", ".join(s.name for s in exps[0].sensors)
+    # the rig file's own words for its frame: no other rig's origin or axes
+    frame = f"the rig frame ({_esc(rig.frame)})" if rig.frame else "the rig frame"
     return (f"<p>Rig <b>{_esc(rig.name)}</b>: bodies {_esc(bodies)}; accelerometers {_esc(sensors)}. "
-            "Force points in mm from the platform's centre of mass, platform axes (z down).</p>"
+            f"Force points in mm in {frame}.</p>"
             + _table(["experiment", "force point [mm]", "force direction", "samples", "rate [Hz]",
                       "peak force [N]", "hits", "clipped channels", "error (NRMSE)"], rows, id="experiments"))
 
@@ -202,17 +204,24 @@ def _metadata_section(project, exps) -> str:
                           f"{ch.sensitivity:.6g} V/" + (f"({unit})" if "/" in unit else unit), f"{ch.daq_gain:g}",
                           "–" if sensor is None or sensor.position is None
                           else "(" + ", ".join(f"{1e3 * v:.1f}" for v in sensor.position) + ")"])
+    # a DAQ gain is a .CTR Systeminfo's field (the rig's own or a legacy import's); the rig format has none
+    gains = project.rig.systeminfo_file is not None or str(info["experiments"][exps[0].name].get("source") or
+                                                           "").startswith("legacy import")
+    if not gains:
+        chan_rows = [row[:5] + row[6:] for row in chan_rows]
     hammer = si.channels[first.excitation.force_channel] if first.excitation is not None else None
     hammer_text = ("–" if hammer is None else
                    f"channel {first.excitation.force_channel} ({names[first.excitation.force_channel]}), "
-                   f"serial {hammer.serial or 'not recorded'}, {hammer.sensitivity:.6g} V/N, DAQ gain {hammer.daq_gain:g}")
+                   f"serial {hammer.serial or 'not recorded'}, {hammer.sensitivity:.6g} V/N"
+                   + (f", DAQ gain {hammer.daq_gain:g}" if gains else ""))
     return (_table(["quantity", "value"],
                    [["software", f"odsuite {__version__} (report written now; project created by "
                                  f"{info.get('creator') or 'unknown'})"],
                     ["project file", f"{project.path.name}, format {info['format_version']}"],
                     ["rig", project.rig.name], ["hammer (force sensor)", hammer_text]], id="metadata")
             + _table(["experiment", "recorded", "source", "sampling rate", "samples"], exp_rows, id="recordings")
-            + _table(["channel", "name", "quantity", "serial", "calibration", "DAQ gain", "position [mm]"], chan_rows,
+            + _table(["channel", "name", "quantity", "serial", "calibration"] + (["DAQ gain"] if gains else [])
+                     + ["position [mm]"], chan_rows,
                      id="channels", caption=f"channels of {exps[0].name} (Systeminfo): calibration in volts per "
                                             "unit of the measured quantity"))
 
@@ -283,7 +292,7 @@ def build_report(
             coord_series[e.name] = series
             parts = [f"<h3 id='overlay-{_esc(e.name)}'>{_esc(e.name)} (error {_fmt(cmp.experiments[e.name]['error'])})</h3>"]
             for body, (gm, gp, _) in series.items():
-                f = comparison_figure(t, gm, gp, tmp / f"{e.name}-{body}.png", title=f"{e.name}: {body} at G",
+                f = comparison_figure(t, gm, gp, tmp / f"{e.name}-{body}.png", title=f"{e.name}: {body} at its centre of mass",
                                       dpi=FIGURE_DPI, window=window)
                 parts.append(_img(f.path, f"{e.name}: generalized coordinates of the {body} at its centre of "
                                   "mass, model (solid) and measured (dashed)"))
@@ -445,7 +454,7 @@ def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, m
         # the model's modes near the band; where no mode was measured, every mode of the model
         model_hz = rec.model_hz if rec.measured_hz.size else modes_hz
         _draw(project, "frf", rec.experiment, tmp / f"frf-{tag}.png", frf=rec.frf, f_range=rec.band_hz, outputs=chosen,
-              model_hz=model_hz, title=f"{rec.experiment}: {', '.join(chosen)}", size=(PRINT_WIDTH_IN, 5.2),
+              model_hz=model_hz, title=f"experiment {rec.experiment}: {', '.join(chosen)}", size=(PRINT_WIDTH_IN, 5.2),
               dpi=FIGURE_DPI)
         band = ("over the whole record's band (no usable band found)" if rec.band_hz is None else
                 f"over the band the modes are fitted in, {rec.band_hz[0]:.0f}-{rec.band_hz[1]:.0f} Hz")
@@ -529,9 +538,10 @@ def _failures_section(doc: Mapping[str, Any], exps, preds: Mapping[str, np.ndarr
     rig_rows = [[en, body, ", ".join(f"{k}: {100 * v:.1f} %" for k, v in r["fractions"].items()),
                  ", ".join(r["flagged"]) or "none", r["worst"]]
                 for en, bd in doc["rigidity"].items() for body, r in bd.items()]
-    parts.append("<h3>Rigidity check (thesis Eq. 4.12)</h3><p>Each angular acceleration follows from two sensor "
-                 "pairs; on a rigid body they agree. The fractions are their disagreement relative to the RMS.</p>"
-                 + _table(["experiment", "body", "disagreement", "flagged", "worst"], rig_rows, id="rigidity"))
+    if rig_rows:  # only a solver with a rigidity check (the nine-accelerometer set's) gives rows
+        parts.append("<h3>Rigidity check (thesis Eq. 4.12)</h3><p>Each angular acceleration follows from two sensor "
+                     "pairs; on a rigid body they agree. The fractions are their disagreement relative to the RMS.</p>"
+                     + _table(["experiment", "body", "disagreement", "flagged", "worst"], rig_rows, id="rigidity"))
     return "".join(parts)
 
 

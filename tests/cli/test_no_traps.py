@@ -1,0 +1,225 @@
+"""The traps a new user falls into, each through the command line: positions with units and the
+unit of bare numbers echoed, points off a moving body's surface, help texts that render, simulator
+options with unit and default, notes once per project, an unsolvable layout named at `new`, and
+`render --model` naming the sensor layout."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from odsuite.cli import main
+
+RIG = Path(__file__).resolve().parents[2] / "examples" / "rigs" / "plate-and-motor.toml"
+SHORT = ["--samples", "1024"]
+
+
+def run(capsys, *args) -> tuple[int, str, str]:
+    code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def project(tmp_path, capsys) -> Path:
+    p = tmp_path / "p.h5"
+    assert run(capsys, "new", p, "--rig", RIG)[0] == 0
+    return p
+
+
+def stored_point(capsys, p, name) -> np.ndarray:
+    code, out, _ = run(capsys, "info", p, "--json")
+    return np.asarray(json.loads(out)["experiments"][name]["excitation"]["point"], dtype=float)
+
+
+@pytest.mark.parametrize("written", ["200mm,150mm,75mm", "0.2m,0.15m,0.075m", "0.2,0.15,0.075m",
+                                     "20cm,15cm,7.5cm", "200,150,75"])
+def test_a_force_point_takes_units_and_bare_numbers_are_mm_echoed_back(capsys, project, written):
+    code, out, err = run(capsys, "acquire", project, "--name", "a", f"--force-point={written}", "--force-dir=-z", *SHORT)
+    assert code == 0, err
+    # the top face of the plate (0.6 x 0.4 x 0.025 m, underside 50 mm above the floor) at x 200, y 150 mm
+    np.testing.assert_allclose(stored_point(capsys, project, "a"), [0.2, 0.15, 0.075], rtol=1e-12)
+    line = next(ln for ln in out.splitlines() if ln.startswith("force point"))
+    assert line.startswith("force point (200, 150, 75) mm in the rig frame") and "'plate'" in line, line
+    assert ("read from bare numbers as mm" in line) == (written == "200,150,75"), line
+
+
+def test_a_unit_on_some_numbers_only_is_refused_in_one_line(capsys, project):
+    code, _, err = run(capsys, "acquire", project, "--name", "a", "--force-point=200mm,150,75", "--force-dir=-z", *SHORT)
+    assert code == 1 and len(err.strip().splitlines()) == 1
+    assert "--force-point: give a unit on every number or on none (bare numbers are mm), got '200mm,150,75'" in err
+
+
+def test_metres_written_as_bare_numbers_land_on_the_floor_and_are_refused(capsys, project):
+    # 0.2,0.15,0.01 read as mm is 0.01 mm above the floor's top: a body without mass
+    code, _, err = run(capsys, "acquire", project, "--name", "a", "--force-point=0.2,0.15,0.01", "--force-dir=-z", *SHORT)
+    assert code == 1 and len(err.strip().splitlines()) == 1, err
+    assert "(bare numbers are mm) (0.2, 0.15, 0.01) mm lies on 'floor', which has no mass" in err
+    # as metres it is 40 mm under the plate and 10 mm above the floor: outside every body
+    code, _, err = run(capsys, "acquire", project, "--name", "a", "--force-point=0.2,0.15,0.01m", "--force-dir=-z", *SHORT)
+    assert code == 1 and "outside every body" in err and "'floor', is 10.0 mm away" in err, err
+
+
+@pytest.mark.parametrize("written, direction, expected, face", [
+    ("200mm,150mm,60mm", "-z", [0.2, 0.15, 0.075], "z = 75 mm"),   # struck from above: the top face
+    ("200mm,150mm,60mm", "+z", [0.2, 0.15, 0.05], "z = 50 mm"),    # from below: the underside
+    ("290mm,150mm,60mm", "-x", [0.3, 0.15, 0.06], "x = 300 mm"),   # from +x: the end face, 10 mm away
+])
+def test_a_point_inside_a_plate_moves_onto_the_face_the_blow_strikes_with_a_line(capsys, project, written, direction,
+                                                                                 expected, face):
+    code, _, err = run(capsys, "acquire", project, "--name", "a", f"--force-point={written}",
+                       f"--force-dir={direction}", *SHORT)
+    assert code == 0, err
+    warnings = [ln for ln in err.splitlines() if "inside body 'plate'" in ln]
+    assert len(warnings) == 1 and face in warnings[0], err
+    np.testing.assert_allclose(stored_point(capsys, project, "a"), expected, rtol=1e-12)
+
+
+def test_every_help_text_renders_its_brackets(capsys, monkeypatch):
+    """Rich markup reads "[acquisition]" as a style and drops it: every bracketed word a command's or
+    option's help holds must reach the printed help."""
+    import typer
+
+    from odsuite.cli.app import _register_plugin_commands, app
+
+    monkeypatch.setenv("COLUMNS", "400")
+    monkeypatch.setenv("TERMINAL_WIDTH", "400")
+    _register_plugin_commands()
+    group = typer.main.get_command(app)
+    checked = 0
+    for name, command in group.commands.items():
+        texts = [command.help or ""] + [getattr(p, "help", None) or "" for p in command.params]
+        brackets = {b for text in texts for b in re.findall(r"\[[^\]\s]+\]", text)}
+        if not brackets:
+            continue
+        code, out, err = run(capsys, name, "--help")
+        assert code == 0, err
+        flat = " ".join(out.split())
+        assert not [b for b in brackets if b not in flat], (name, brackets)
+        checked += 1
+    code, out, _ = run(capsys, "acquire", "--help")
+    assert "the rig's ," not in out and "acquisition sampling_rate, else 20000 Hz" in " ".join(out.split())
+    assert checked >= 1  # render's --ods X,Y,Z[,THETA,PHI,PSI]
+
+
+def test_an_unknown_option_is_a_usage_line_not_a_traceback(capsys, project):
+    code, out, err = run(capsys, "render", project, "--experiment", "H1")
+    assert code == 2 and "No such option: --experiment" in err and "Traceback" not in err + out, err
+
+
+def without_sensors(tmp_path, *names) -> Path:
+    """The example rig without the triaxial accelerometers ``names`` (taken from the end of the file):
+    two triaxials on a body leave its rotation about the line through them undetermined."""
+    text = RIG.read_text()
+    for name in names:
+        start = text.index(f'[[sensors]]\nname = "{name}"')
+        end = text.find("[[sensors]]", start + 1)
+        text = text[:start] + (text[end:] if end > 0 else "")
+    channels = 19 - 3 * len(names)
+    text = text.replace("channel_count = 19", f"channel_count = {channels}")
+    for k, name in enumerate(n for n in ("P1", "P2", "P3", "M1", "M2", "M3") if n not in names):  # channels 1..
+        text = re.sub(rf'(name = "{name}"\n(?:.*\n)*?channels = )\[[0-9, ]+\]', rf"\g<1>[{3 * k + 1}, {3 * k + 2}, {3 * k + 3}]",
+                      text, count=1)
+    path = tmp_path / "rig.toml"
+    path.write_text(text)
+    return path
+
+
+def test_new_warns_at_once_about_a_body_its_sensors_cannot_solve(capsys, tmp_path):
+    code, out, err = run(capsys, "new", tmp_path / "p.h5", "--rig", without_sensors(tmp_path, "M3"))
+    assert code == 0 and out.startswith("created")
+    warnings = [ln for ln in err.splitlines() if ln.startswith("warning:")]
+    assert len(warnings) == 1 and "body 'motor': its motion cannot be solved" in warnings[0], err
+    assert "M1_x" in warnings[0] and "M2_z" in warnings[0] and "no generalized coordinates for body 'motor'" in warnings[0]
+    code, _, err = run(capsys, "new", tmp_path / "q.h5", "--rig", RIG)
+    assert code == 0 and "warning" not in err, err
+
+
+def test_process_says_a_note_once_per_project(capsys, tmp_path):
+    p = tmp_path / "p.h5"
+    assert run(capsys, "new", p, "--rig", without_sensors(tmp_path, "M3"))[0] == 0
+    for k in range(3):
+        code, _, err = run(capsys, "acquire", p, "--name", f"H{k}", "--force-point=200mm,150mm,75mm", "--force-dir=-z",
+                           "--seed", k, *SHORT)
+        assert code == 0, err
+    code, out, err = run(capsys, "process", p)
+    assert code == 0 and len(out.strip().splitlines()) == 3, out
+    notes = [ln for ln in err.splitlines() if ln.startswith("note")]
+    assert len(notes) == 1 and notes[0].startswith("note (every experiment): ") and "body 'motor'" in notes[0], err
+
+
+def test_render_model_names_the_sensor_layout_not_the_chains(capsys, tmp_path):
+    p = tmp_path / "p.h5"
+    assert run(capsys, "new", p, "--rig", without_sensors(tmp_path, "P3", "M3"))[0] == 0
+    assert run(capsys, "acquire", p, "--name", "H1", "--force-point=200mm,150mm,75mm", "--force-dir=-z", *SHORT)[0] == 0
+    assert run(capsys, "process", p)[0] == 0
+    for extra in (["--model"], []):
+        code, _, err = run(capsys, "render", p, "H1", *extra, "-o", tmp_path / "m.gif")
+        assert code == 1 and len(err.strip().splitlines()) == 1, err
+        assert "no body's motion can be solved from its sensors" in err and "process` first" not in err, err
+        assert "body 'plate'" in err and "body 'motor'" in err and "chains" not in err, err
+    assert not (tmp_path / "m.gif").exists()
+
+
+def test_every_simulator_option_is_listed_with_its_unit_and_default(capsys):
+    """`odsuite plugins` and the user guide list each of the simulator's options; the hammer's stated
+    defaults are the ones a blow without options gets (hammer.Hit's)."""
+    from odsuite_plugins.daq_sim.hammer import Hit
+    from odsuite_plugins.daq_sim.simulator import SimulatedRig
+
+    listed = {o.cli_flag: o for o in SimulatedRig.options}
+    for flag, o in listed.items():
+        assert o.default is not None or "default" in o.help, flag
+    assert f"else {Hit().peak:g} N" in listed["--force-peak"].help
+    assert f"else {1e3 * Hit().width:g} ms" in listed["--contact-ms"].help
+    guide = (Path(__file__).resolve().parents[2] / "docs" / "user-guide.md").read_text()
+    rows = {line.split("`")[1].split()[0]: line for line in guide.splitlines() if line.startswith("| `--")}
+    assert set(rows) == set(listed)
+    assert f"else {Hit().peak:g} N" in rows["--force-peak"] and f"else {1e3 * Hit().width:g} ms" in rows["--contact-ms"]
+    code, out, _ = run(capsys, "plugins")
+    flat = " ".join(out.replace("│", " ").split())
+    for flag, o in listed.items():  # each with its type and help (the table wraps long ones)
+        assert f"{flag} {o.type.__name__.upper()}: {o.help[:30]}" in flat, flag
+    assert "--seed INT: random seed; one seed, one record (default 0)" in flat
+
+
+@pytest.mark.slow
+def test_the_report_speaks_of_the_rig_at_hand(capsys, project, tmp_path):
+    """Words from the rig: its frame as its file states it, its bodies; no platform, no DAQ gain (a
+    field of the thesis's .CTR files, not of the rig format)."""
+    import html
+    import tomllib
+
+    frame = tomllib.loads(RIG.read_text())["frame"]
+    assert run(capsys, "acquire", project, "--name", "H1", "--force-point=200mm,150mm,75mm", "--force-dir=-z",
+               "--samples", "2048")[0] == 0
+    assert run(capsys, "process", project)[0] == 0
+    out = tmp_path / "r.html"
+    code, _, err = run(capsys, "report", project, "-o", out, "--no-diagnose", "--no-movie")
+    assert code == 0, err
+    text = html.unescape(re.sub(r"<[^>]+>", " ", out.read_text()))
+    assert f"Force points in mm in the rig frame ({frame})." in text
+    assert "platform" not in text.lower() and "DAQ gain" not in text and "z down" not in text
+    assert "plate (47.1 kg), motor (18 kg), floor" in text
+
+
+def test_import_echoes_the_force_point_it_read(capsys, project, tmp_path):
+    """A record exported from one project and imported onto the same rig: the point written in
+    metres is stored and said back in mm; bare numbers are said to be read as mm."""
+    assert run(capsys, "acquire", project, "--name", "a", "--force-point=200mm,150mm,75mm", "--force-dir=-z",
+               *SHORT)[0] == 0
+    uff = tmp_path / "a.uff"
+    code, _, err = run(capsys, "export-uff", project, "a", "-o", uff)
+    assert code == 0, err
+    for k, written in enumerate(["0.25,0.1,0.075m", "250,100,75"]):
+        code, out, err = run(capsys, "import-uff", project, uff, "--name", f"u{k}", f"--force-point={written}",
+                             "--force-dir=-z")
+        assert code == 0, err
+        line = next(ln for ln in out.splitlines() if ln.startswith("force point"))
+        assert line == "force point (250, 100, 75) mm in the rig frame" + (", read from bare numbers as mm" if k else "") \
+            + ", on 'plate'", line
+        np.testing.assert_allclose(stored_point(capsys, project, f"u{k}"), [0.25, 0.1, 0.075], rtol=1e-12)
