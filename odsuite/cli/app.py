@@ -353,11 +353,8 @@ def _run(argv: list[str] | None) -> int:
 _AS_JSON = False
 
 
-#: click's usage errors: typer 0.2x carries its own copy of click, older ones use click itself
-try:
-    from typer._click.exceptions import ClickException as _UsageError
-except ImportError:
-    from click import ClickException as _UsageError
+#: usage errors (unknown option, bad value): typer's own class where it has one
+_UsageError = typer.TyperException
 
 
 def _failed(exc: Exception) -> int:
