@@ -15,7 +15,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 import numpy as np
-import scipy.interpolate
+import scipy  # scipy.interpolate loads on first use: registration stays light
 
 from odsuite.contracts.effects import Effect, Parameter
 from odsuite.api import FlexibleMode, Model, Structure

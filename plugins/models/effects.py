@@ -13,12 +13,12 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-import scipy.signal
+import scipy  # scipy.signal loads on first use: registration stays light
 
 from odsuite.contracts.effects import Effect, Parameter
 from odsuite.api import ConfigError
 from odsuite.api import FlexibleMode, Model, RigidBody, SensorDynamics, SpringDamper, Structure
-from odsuite.api import rotated, sensor_filter
+from odsuite.api import rotated
 
 #: density used where a rig gives a plate but no mass (steel, as App. C's inertia listing)
 STEEL_DENSITY = 7841.0
@@ -425,6 +425,8 @@ class SensorDynamicsEffect(Effect):
         discretises them: the high-passes by their inverse recursion (an integrator: the drift the
         correction removes afterwards grows from it), the resonance by division of the spectrum
         (zero-padded to twice the length; its discrete zeros may lie outside the unit circle)."""
+        from odsuite.api import sensor_filter  # the prediction's module: scipy.signal
+
         dyn = SensorDynamics(v["highpass_hz"], v["coupler_highpass_hz"], v["resonance_period_s"],
                              v["resonance_damping"])
         if dyn.is_identity():

@@ -428,3 +428,15 @@ def test_a_project_opens_without_the_plugin_that_registered_its_rig(tmp_path):
         from odsuite.analysis.modelrev import revision_model
 
         assert len(revision_model(p).shared.modes()) == 6
+
+
+def test_registration_imports_no_heavy_module():
+    """Every command builds the registries before it runs: registering the installed plugins
+    imports none of scipy.signal, scipy.stats, scipy.interpolate, matplotlib, pyvista or VTK
+    (providers load them on first use), so `odsuite plugins` and `odsuite info` start at once."""
+    heavy = ("scipy.signal", "scipy.stats", "scipy.interpolate", "matplotlib", "pyvista", "vtk")
+    code = ("import sys; from odsuite.contracts.plugins import registries; registries(); "
+            f"print(sorted(m for m in {heavy!r} if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]"
