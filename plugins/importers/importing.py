@@ -86,7 +86,8 @@ def export_legacy(project_path: str | Path, experiment: str, cod: str | Path,
     with open_project(project_path) as project:
         project.experiment(experiment)
         if kind not in project.derived_kinds(experiment):
-            raise ConfigError(f"{project.path}: experiment {experiment!r}: no {kind}: run `odsuite process PROJECT"
+            what = "corrected generalized coordinates" if kind != "gencoords" else "generalized coordinates"
+            raise ConfigError(f"{project.path}: experiment {experiment!r}: no {what}: run `odsuite process PROJECT"
                               + (" --corrected`" if kind != "gencoords" else "`") + " first")
         arrays = project.read_derived(experiment, kind)
         rig = project.rig
