@@ -128,8 +128,8 @@ def test_band_limited_hold_matches_lsim_of_the_band_limited_pulse():
     band = simulate(model, [hit], u, fs, [out], hold="band")[:, 0]
     foh = simulate(model, [hit], u, fs, [out], hold="foh")[:, 0]
     scale = np.abs(ref).max()
-    # measured 2.8e-5; the first-order hold of the samples loses sinc^2(f0/fs) = 7 % of the response
-    assert np.abs(band - ref).max() < 2e-4 * scale
+    # measured 1.1e-4; the first-order hold of the samples loses sinc^2(f0/fs) = 7 % of the response
+    assert np.abs(band - ref).max() < 3e-4 * scale
     assert np.abs(foh - ref).max() > 0.05 * scale
 
 
