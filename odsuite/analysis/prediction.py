@@ -371,9 +371,9 @@ def _force_inputs(model, exp: PreparedExperiment) -> list:
     return [Input.force(exp.point, exp.direction, body=body)]
 
 
-def _cache_key(model, exp: PreparedExperiment) -> tuple:
+def _cache_key(model, exp: PreparedExperiment, hold: str = HOLD) -> tuple:
     """What besides the structure the cached coordinate accelerations depend on."""
-    return (model.chain.force_gain, tuple(model.chain.force_offset), exp.force.shape[0])
+    return (model.chain.force_gain, tuple(model.chain.force_offset), exp.force.shape[0], hold)
 
 
 def simulate_together(models: Mapping[str, Any], exps: Sequence[PreparedExperiment]) -> None:
@@ -395,15 +395,19 @@ def simulate_together(models: Mapping[str, Any], exps: Sequence[PreparedExperime
         e._cache = (st, _cache_key(m, e), qdd)
 
 
-def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "acceleration") -> np.ndarray:
-    """The model's physical signal at each sensor of ``exp`` (samples x sensors), from rest."""
+def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "acceleration", hold: str | None = None
+                     ) -> np.ndarray:
+    """The model's physical signal at each sensor of ``exp`` (samples x sensors), from rest; the
+    force seen with ``hold`` (default HOLD)."""
     from odsuite.domain.model import Output, StateSpace
     from odsuite.domain.simulation import simulate_nonlinear, simulate_state_space
+
+    hold = hold or HOLD
 
     inputs = _force_inputs(model, exp)
     if quantity != "acceleration":
         outputs = [Output.sensor(s, quantity) for s in exp.sensors]
-        return simulate_state_space(model.state_space(inputs, outputs), exp.force, exp.fs, hold=HOLD)
+        return simulate_state_space(model.state_space(inputs, outputs), exp.force, exp.fs, hold=hold)
     # a sensor's acceleration is its output row times the coordinates' accelerations q''
     st = model.structure
     rows = _sensor_rows(model, exp.sensors)
@@ -412,17 +416,17 @@ def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "accelerati
         bf, _ = model.input_matrices(inputs)
         minv_bf = st.Minv @ bf
         ss = StateSpace(st.A, np.vstack([np.zeros_like(bf), minv_bf]), rows @ st.A[n:], rows @ minv_bf)
-        y = simulate_state_space(ss, exp.force, exp.fs, hold=HOLD)
+        y = simulate_state_space(ss, exp.force, exp.fs, hold=hold)
     else:
-        key = _cache_key(model, exp)
+        key = _cache_key(model, exp, hold)
         if exp._cache is None or exp._cache[0] is not st or exp._cache[1] != key:
             bf, _ = model.input_matrices(inputs)
             minv_bf = st.Minv @ bf
             if st.is_linear:
                 ss = StateSpace(st.A, np.vstack([np.zeros_like(bf), minv_bf]), st.A[n:], minv_bf)
-                exp._cache = (st, key, simulate_state_space(ss, exp.force, exp.fs, hold=HOLD))
+                exp._cache = (st, key, simulate_state_space(ss, exp.force, exp.fs, hold=hold))
             else:  # cubic springs: the response depends on the force's level
-                exp._cache = (st, key, simulate_nonlinear(st, bf, exp.force, exp.fs, HOLD))
+                exp._cache = (st, key, simulate_nonlinear(st, bf, exp.force, exp.fs, hold))
         y = exp._cache[2] @ rows.T
     return _analog_chain(model, exp, y)
 
