@@ -233,7 +233,9 @@ def correct_experiment(project, name: str, *, revision: dict | None = None,
     if exp.n_samples < 2 * (DRIFT_DEGREE + 1):
         raise ConfigError(f"{where}: {exp.n_samples} samples are too few to fit a drift")
     si = project.experiment(name).systeminfo
-    predicted = simulate_sensors(model, exp)
+    # the first-order hold conserves the hit's momentum within the record; the band-limited force's
+    # interpolation tails past its ends leave a net velocity (1e-8 m/s on a 3 N hit), a ramp here
+    predicted = simulate_sensors(model, exp, hold="foh")
     measured_d = np.empty_like(predicted)
     predicted_d = np.empty_like(predicted)
     for j, k in enumerate(exp.columns):

@@ -5,8 +5,9 @@ Four parts, each estimated from the record itself:
 - broadband noise: the variance of the quiet samples (before the hit, and after the response has
   died into the noise) at the acceleration stage, once mains lines and a trend are fitted out;
 - mains hum and trend: sinusoids at 50 and 60 Hz and their harmonics plus a line, fitted on the
-  quiet samples and extended over the whole record (they persist through the response); the line
-  only where quiet samples lie at both ends (else it is taken out of the noise's estimate alone);
+  quiet samples and extended over the whole record (they persist through the response); a line
+  fitted at one end only where its slope is beyond three standard errors, shrunk to its expected
+  energy (not the fitted one's);
 - quantisation: while the signal moves through the ADC's codes its rounding error is uniform
   (lsb^2 / 12), which a quiet stretch sitting on one code does not show; with the model's signals
   (odsuite.analysis.prediction.sensor_noise) it is simulated at the converter's offset the record tells;
@@ -41,6 +42,9 @@ QUIET_FRACTION = 0.05
 #: data at 12 and 16 bits, with drift and with mains hum, two rigs, four seeds each: 0.89-1.06): a
 #: residual within it cannot be told from noise
 FLOOR_TOLERANCE = 1.3
+#: a drift fitted on quiet samples at one end of a record is carried over it when its slope lies
+#: beyond this many standard errors (noise alone: 0.3 % of records)
+DRIFT_SLOPE_Z = 3.0
 #: Welch segment length of residual and floor spectra (samples; halved for short records)
 NFFT = 2048
 #: the top edge of the lowest band of the resolved residual (Hz): octaves run from it to Nyquist
@@ -126,8 +130,8 @@ class QuietFit:
     disturbance: np.ndarray  # samples x columns (volts): offset, drift where both ends are quiet, hum
     mains_hz: float
     harmonics: int
-    # samples x columns (volts): the drift fitted on quiet samples at one end only, which is not
-    # extended over the record (it would grow without bound) but is not noise either
+    # samples x columns (volts): the part of a drift fitted on quiet samples at one end only that
+    # its slope's uncertainty leaves out of ``disturbance``; not noise either
     local_drift: np.ndarray | None = None
 
     def white(self, stage: np.ndarray, stage_disturbance: np.ndarray,
@@ -140,9 +144,9 @@ class QuietFit:
 
 def split_noise(raw: np.ndarray, trigger: int, fs: float) -> QuietFit:
     """The quiet samples of a raw record (volts, before the chain: no filter transients) and its
-    disturbances fitted on them: an offset, a line where quiet samples lie at both ends (drift; a
-    line fitted to one short stretch would grow without bound over the record: there it is kept as
-    ``local_drift``, for the noise's estimate only), and the mains hum.
+    disturbances fitted on them: an offset, a line (drift: where quiet samples lie at one end only,
+    extended over the record when its slope is seen, shrunk by its uncertainty, the rest kept as ``local_drift`` for
+    the noise's estimate only), and the mains hum.
     Put through a channel's chain, the disturbances reach the acceleration stage as they do in the
     measurement, the high-pass's ringing on a drift included.
 
@@ -181,9 +185,18 @@ def split_noise(raw: np.ndarray, trigger: int, fs: float) -> QuietFit:
     if bool(quiet[0]) and bool(quiet[-1]):
         fitted = basis @ coef
         return QuietFit(quiet, fitted - fitted.mean(axis=0), mains, harmonics)
-    others = [k for k in range(basis.shape[1]) if k != 1]  # column 1: the line
-    fitted = basis[:, others] @ coef[others]
-    return QuietFit(quiet, fitted - fitted.mean(axis=0), mains, harmonics, np.outer(basis[:, 1], coef[1]))
+    # quiet samples at one end only (a record shorter than the response): drift goes on through the
+    # response, so the line belongs to what a perfect model leaves. Extended over the record, a
+    # slope fitted to noise alone would add its variance times the record's sum of t^2 (growing as
+    # its length cubed): the line is kept where its slope b lies beyond DRIFT_SLOPE_Z standard
+    # errors, shrunk to the unbiased energy b^2 - var
+    rss = np.sum((x[quiet] - basis[quiet] @ coef) ** 2, axis=0)
+    slope_var = rss / max(1, int(quiet.sum()) - basis.shape[1]) * np.linalg.pinv(basis[quiet].T @ basis[quiet])[1, 1]
+    seen = coef[1] ** 2 > DRIFT_SLOPE_Z**2 * slope_var
+    shrink = np.where(seen, np.sqrt(np.maximum(0.0, 1.0 - slope_var / np.maximum(coef[1] ** 2, 1e-300))), 0.0)
+    line = np.outer(basis[:, 1], coef[1])
+    fitted = basis @ coef - line * (1.0 - shrink)
+    return QuietFit(quiet, fitted - fitted.mean(axis=0), mains, harmonics, line * (1.0 - shrink))
 
 
 def moving_samples(x: np.ndarray, lsb: np.ndarray | float, fs: float) -> np.ndarray:

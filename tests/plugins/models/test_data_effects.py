@@ -67,6 +67,19 @@ def test_nonlinear_simulation_without_cubic_terms_is_the_linear_one(model, thesi
     assert np.abs(qdd @ rows.T - ref).max() < 1e-9 * np.abs(ref).max()
 
 
+def test_nonlinear_simulation_of_the_band_limited_force_without_cubic_terms_is_the_linear_one(model, thesis_rig):
+    force = half_sine(2000, 20.0)
+    bf, _ = model.input_matrices([TOP])
+    qdd = simulate_nonlinear(model.structure, bf, force, FS, hold="band")
+    outputs = [Output.sensor(s) for s in thesis_rig.sensors]
+    _, rows = model.output_rows(outputs)
+    ref = simulate(model, [TOP], force, FS, outputs, hold="band")
+    assert np.abs(qdd @ rows.T - ref).max() < 1e-9 * np.abs(ref).max()
+    # and differs from the first-order hold's (the hammer pulse has content near the band's top)
+    foh = simulate(model, [TOP], force, FS, outputs, hold="foh")
+    assert np.abs(foh - ref).max() > 1e-4 * np.abs(ref).max()
+
+
 def test_hardening_raises_the_response_frequency_with_the_force_level(registries, model):
     # a Duffing oscillator's backbone: the bounce frequency rises with amplitude
     hard = registries.effects.get("nonlinear_stiffness").apply(
