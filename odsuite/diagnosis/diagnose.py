@@ -27,7 +27,8 @@ from typing import Any
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from odsuite.diagnosis import checks
+from odsuite.contracts.effects import applies, family
+from odsuite.diagnosis import checks, physical
 from odsuite.analysis.comparison import residual_peaks
 from odsuite.domain.errors import ConfigError
 from odsuite.diagnosis.fitting import (
@@ -82,19 +83,22 @@ class Candidate:
     amplitude_dependent: list[str] = field(default_factory=list)
     per_experiment_fits: dict[str, dict[str, float]] = field(default_factory=dict)
     gain_threshold: float = float("nan")
+    #: the fit in physical quantities (the effect's ``physical``): label, value, unit, uncertainty, nominal
+    physical: list[dict[str, Any]] = field(default_factory=list)
 
     def as_dict(self) -> dict[str, Any]:
         d = {k: getattr(self, k) for k in (
             "effect", "significant", "error_after", "validated_error", "parameters", "uncertainties",
             "units", "evidence", "n_parameters", "bic", "screened_error", "unidentifiable",
             "confounded_parameters", "confounded_with", "validation", "fitted", "consistent", "plausible",
-            "implausible", "amplitude_dependent", "per_experiment_fits")}
+            "implausible", "amplitude_dependent", "per_experiment_fits", "physical")}
         return d
 
     def revision_entry(self) -> dict[str, Any]:
         """How add-effect stores this fit in a model revision."""
         return {"effect": self.effect, "values": dict(self.values), "per_experiment": self.per_experiment,
-                "uncertainties": {k: v for k, v in self.uncertainties.items() if v is not None}}
+                "uncertainties": {k: v for k, v in self.uncertainties.items() if v is not None},
+                **({"physical": self.physical} if self.physical else {})}
 
 
 def _describe_values(problem: Problem, values: Mapping[str, float | None], sds: Mapping[str, float | None],
@@ -128,11 +132,11 @@ def _evidence(problem: Problem, cand: Candidate, baseline: float, noise: float,
     if rigidity is not None and rigidity > 0.1 and getattr(problem.effect, "breaks_rigidity", False):
         words.append(f"rigidity residual {100 * rigidity:.0f} %")
     if modes_before is not None and modes_after is not None and len(modes_before) == len(modes_after) and len(modes_before):
-        shift = np.asarray(modes_after) / np.asarray(modes_before)
-        if np.max(np.abs(shift - 1)) > 0.01:
-            words.append(f"model modes move from {modes_before[0]:.0f}-{modes_before[-1]:.0f} Hz to "
-                         f"{modes_after[0]:.0f}-{modes_after[-1]:.0f} Hz")
-    desc = _describe_values(problem, cand.parameters, cand.uncertainties)
+        moved = _moved_modes(modes_before, modes_after)
+        if moved:
+            words.append("model modes move: " + ", ".join(moved))
+    shown = physical.moved(cand.physical)
+    desc = physical.text(shown) if cand.physical else _describe_values(problem, cand.parameters, cand.uncertainties)
     if desc:
         words.append(f"fitted {desc}")
     words.append(f"validated error {baseline:.3g} -> {cand.validated_error:.3g} ({cand.validation}); "
@@ -147,6 +151,19 @@ def _evidence(problem: Problem, cand: Candidate, baseline: float, noise: float,
     if cand.unidentifiable:
         words.append(f"not identifiable from these data: {', '.join(cand.unidentifiable)}")
     return "; ".join(words)
+
+
+#: a model mode that moves by more than this fraction is named in the evidence
+MODE_MOVE = 0.01
+
+
+def _moved_modes(before: Sequence[float], after: Sequence[float], limit: int = 3) -> list[str]:
+    """'mode 3: 21.4 → 18.2 Hz' for the modes (numbered from 1 in frequency order) that move most,
+    beyond MODE_MOVE."""
+    b, a = np.asarray(before, float), np.asarray(after, float)
+    rel = np.abs(a / np.where(b > 0, b, np.nan) - 1)
+    order = [i for i in np.argsort(-np.nan_to_num(rel)) if rel[i] > MODE_MOVE][:limit]
+    return [f"mode {i + 1}: {b[i]:.4g} → {a[i]:.4g} Hz" for i in sorted(order)]
 
 
 def _checks_words(cand: Candidate) -> str:
@@ -233,7 +250,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
     else:
         u = problem.zero()
         sse = screened.sse
-        sds, unident, confounded = np.zeros(0), [], []
+        sds, unident, confounded, corr = np.zeros(0), [], [], None
     sse_win = sse
     tail = problem.tail_sse(u)
     sse += tail
@@ -264,6 +281,8 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         unidentifiable=unident, confounded_parameters=confounded, validation=how,
         per_experiment=per, values={n: v for n, v in shared.items()},
     )
+    labels = [f.param.name if f.experiment is None else "" for f in problem.free]
+    cand.physical = physical.quantities(effect, problem.base.shared, {**problem.fixed, **shared}, labels, sds, corr)
     if problem.free:
         cons = checks.consistency(problem, res, force_levels or {}, checks.tolerated_misfit(noise, problem.full))
         cand.consistent, cand.amplitude_dependent = cons.consistent, cons.amplitude_dependent
@@ -388,11 +407,12 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
         return n not in in_model or getattr(regs.effects.get(n), "repeatable", False)
 
     names = list(effects) if effects else [n for n in regs.effects.names() if absent(n)]
-    # an effect without parameters for this model does not apply to its rig (no base, no plate)
-    not_applicable = [n for n in names if not regs.effects.get(n).parameters(base.shared)]
+    # an effect for another model family, or without parameters for this model (no base, no
+    # plate), does not apply
+    not_applicable = [n for n in names if not applies(regs.effects.get(n), base.shared)]
     if effects and not_applicable:
         raise ConfigError(f"{project.path}: effect(s) {', '.join(not_applicable)} do not apply to this model "
-                          f"({base.shared.name!r} on rig {project.rig.name!r})")
+                          f"({base.shared.name!r}, a {family(base.shared)}, on rig {project.rig.name!r})")
     names = [n for n in names if n not in not_applicable]
     if not names:
         raise ConfigError(f"{project.path}: no candidate effects left to try (registered: "
