@@ -186,6 +186,8 @@ class Diagnosis:
     residual_peaks: list[dict[str, Any]]
     evaluations: int
     not_applicable: list[str] = field(default_factory=list)
+    #: the not applicable effects that apply to other model families (``structures``)
+    other_families: list[str] = field(default_factory=list)
     verdict: str = ""
     signature: Signature = field(default_factory=Signature)
     message: str = ""
@@ -201,7 +203,7 @@ class Diagnosis:
                 "baseline_error": self.baseline_error, "noise_floor_error": self.noise_floor_error,
                 "revision": self.revision, "candidates": [c.as_dict() for c in self.candidates],
                 "residual_peaks": self.residual_peaks, "model_evaluations": self.evaluations,
-                "not_applicable": self.not_applicable}
+                "not_applicable": self.not_applicable, "other_families": self.other_families}
 
 
 def _residual_effective_samples(problem: Problem, res) -> float:
@@ -543,7 +545,9 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     _prefer_named(candidates, regs.effects)
     diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=noise, revision=rev.get("revision"),
                           candidates=candidates, residual_peaks=peaks, evaluations=evaluations,
-                          not_applicable=not_applicable)
+                          not_applicable=not_applicable,
+                          other_families=[n for n in not_applicable if getattr(regs.effects.get(n), "structures", None)
+                                          and not isinstance(base.shared.structure, regs.effects.get(n).structures)])
     _conclude(diagnosis, cmp, base, exps)
     if progress:
         progress("done", len(names), len(names))
@@ -608,6 +612,10 @@ def _conclude(d: Diagnosis, cmp, base, exps) -> None:
         rest = signature(exps, after, cmp.floor, residual_peaks(exps, after, modes, cmp.floor), amplitude)
     d.signature = rest if rest is not None else sig_before
     d.message = message(d.verdict, d.baseline_error, d.noise_floor_error, best, sig_before, rest)
+    if d.verdict in ("unexplained", "partly explained") and d.other_families:
+        # why the library may hold nothing for it here: what it holds for other model families
+        d.message += (f" Not tried, as they apply to other model families than this model's "
+                      f"({family(base.shared)}): {', '.join(d.other_families)}.")
 
 
 def _mark_confounded(cands: Sequence[Candidate], exps, scale: float) -> None:
