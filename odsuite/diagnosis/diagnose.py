@@ -275,7 +275,9 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
     bic = n_eff * math.log(max(sse_val, 1e-300) / den) + k * math.log(n_eff)
     modes_after = None
     if effect.target == "model" and shared:
-        modes_after = list(problem.models(u)[exps[0].name].modes().frequency_hz)
+        after = list(problem.models(u)[exps[0].name].modes().frequency_hz)
+        if len(after) == len(problem.base.shared.modes().frequency_hz):  # none added: pair them in order
+            modes_after = after[:len(modes_before)]
     cand = Candidate(
         effect=effect.name, significant=False, error_after=math.sqrt(sse / den),
         validated_error=math.sqrt(sse_val / den), parameters=params, uncertainties=uncert, units=units,
@@ -442,7 +444,9 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     rig_vals = [max(b["fractions"].values()) for per in cmp.rigidity.values() for b in per.values()
                 if b["fractions"]]
     rigidity = float(np.median(rig_vals)) if rig_vals else None
-    modes_before = list(base.shared.modes().frequency_hz)
+    # the modes within the records' band (a finite-element model's highest modes move most and
+    # are seen least)
+    modes_before = [f for f in base.shared.modes().frequency_hz if f <= f99]
 
     # candidates go to forked processes, each with one BLAS thread (where the platform cannot fork,
     # one after another): they inherit the records and models, and only effect names, starts and
