@@ -128,6 +128,7 @@ def add_effect_cmd(
 ) -> None:
     """Fit an effect together with the current ones and store a new model revision."""
     from odsuite.diagnosis.add_effect import add_effect
+    from odsuite.diagnosis.physical import text as physical_text
     from odsuite.store.project import open_project
 
     with open_project(project, "a") as p, _loop_progress() as bar:
@@ -139,6 +140,9 @@ def add_effect_cmd(
         return
     console.print(f"revision {result['revision']}: + {effect}; error {result['previous_error']:.4f} -> "
                   f"{result['error']:.4f} (noise floor {result['noise_floor_error']:.4f})", highlight=False)
+    rows = next((e.get("physical") for e in reversed(result["effects"]) if e["effect"] == effect), None)
+    if rows:  # the quantities stored, as stored
+        console.print(f"{effect}: {shown(physical_text(rows))}", highlight=False)
     for line in result["warnings"]:
         err_console.print(f"warning: {shown(line)}", highlight=False, soft_wrap=True)
 

@@ -17,6 +17,12 @@ any object with the same members:
   cheap, pure (never change ``model``) and raise :class:`~odsuite.domain.errors.ConfigError` for values
   it cannot use.
 
+Optional: ``structures`` (a tuple of structure classes, default None: any): the model families the
+effect applies to, by the class of ``model.structure`` (rigid bodies on springs:
+:class:`~odsuite.domain.model.Structure`; the beam plugin's ``BeamStructure``; a lab's own). A chain
+effect usually applies to any. On a model of another family the diagnosis lists the effect as not
+applicable and ``add-effect`` refuses it, without calling ``parameters`` (:func:`applies`).
+
 Optional: ``data_driven`` (bool, default False): the effect presupposes no shape (a mode of any
 shape), so the diagnosis ranks a significant named mechanism it is confounded with before it.
 
@@ -144,6 +150,8 @@ class Effect:
     #: a stand-in that presupposes no shape (a mode of any shape): a named mechanism that explains
     #: the same residual (``confounded_with``) is ranked before it
     data_driven: bool = False
+    #: the structure classes (model families) the effect applies to; None: any
+    structures: tuple[type, ...] | None = None
 
     #: where a measurement effect sits between structure and converter (see ``correct``)
     correction_stage: str = "sensor"
@@ -180,3 +188,17 @@ class Effect:
 
     def __repr__(self) -> str:
         return f"<effect {self.name!r} ({self.target})>"
+
+
+def applies(effect, model: Model) -> bool:
+    """Whether ``effect`` applies to ``model``: its structure is of a family the effect names
+    (``structures``) and the effect has parameters for it."""
+    families = getattr(effect, "structures", None)
+    if families is not None and not isinstance(model.structure, tuple(families)):
+        return False
+    return bool(effect.parameters(model))
+
+
+def family(model: Model) -> str:
+    """A model's family in words, for messages: the name of its structure's class."""
+    return type(model.structure).__name__

@@ -9,7 +9,9 @@ from typing import Any
 
 import numpy as np
 
-from odsuite.diagnosis import checks
+from odsuite.contracts.effects import applies, family
+from odsuite.diagnosis import checks, physical
+from odsuite.domain.errors import ConfigError
 from odsuite.diagnosis.fitting import (
     Problem,
     Screened,
@@ -72,6 +74,10 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     regs = project.registries
     effect = regs.effects.get(name)
     rev = current_revision(project)
+    model = revision_model(project, rev).shared
+    if not applies(effect, model):
+        raise ConfigError(f"{project.path}: effect {name!r} does not apply to this model "
+                          f"({model.name!r}, a {family(model)}, on rig {project.rig.name!r})")
     # a repeatable effect is added after the instances stored; any other one is refitted
     entries = [e for e in rev.get("effects", []) if e["effect"] != name or getattr(effect, "repeatable", False)]
     exps = prepare(project)
@@ -128,9 +134,10 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
         progress(f"fitting {', '.join(e.name for e in joint_effects)}", 1, 3)
     res = fit(joint, u0) if joint.free else None
     u = res.x if res is not None else joint.zero()
-    sds = uncertainties(joint, res, n_eff)[0] if res is not None else np.zeros(0)
+    sds, corr = uncertainties(joint, res, n_eff)[:2] if res is not None else (np.zeros(0), None)
     shared, per = joint.values(u)
     new_entries = list(held)
+    model = joint.base.shared  # each effect's physical quantities on the model the ones before it made
     for e in joint_effects:
         prefix = f"{e.name}."
         values = {k[len(prefix):]: v for k, v in shared.items() if k.startswith(prefix)}
@@ -138,7 +145,12 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
         per_exp = {x: d for x, d in per_exp.items() if d}
         unc = {f.label[len(prefix):] if f.experiment is None else f"{f.experiment}/{f.param.name[len(prefix):]}": float(sd)
                for f, sd in zip(joint.free, sds) if f.param.name.startswith(prefix) and np.isfinite(sd)}
-        new_entries.append({"effect": e.name, "values": values, "per_experiment": per_exp, "uncertainties": unc})
+        labels = [f.param.name[len(prefix):] if f.experiment is None and f.param.name.startswith(prefix) else ""
+                  for f in joint.free]
+        rows = physical.quantities(e, model, values, labels, sds, corr)
+        model = e.apply(model, values)
+        new_entries.append({"effect": e.name, "values": values, "per_experiment": per_exp, "uncertainties": unc,
+                            **({"physical": rows} if rows else {})})
     flat = _flat(new_entries)
     if progress:
         progress("comparing", 2, 3)
@@ -161,12 +173,15 @@ def _add_on_top(project, rev, entries, name: str, effect, screened, n_eff, exps,
         progress(f"fitting {name}", 1, 3)
     res = fit(problem, screened.u0, continuation=False) if problem.free else None
     u = res.x if res is not None else problem.zero()
-    sds = uncertainties(problem, res, n_eff)[0] if res is not None else np.zeros(0)
+    sds, corr = uncertainties(problem, res, n_eff)[:2] if res is not None else (np.zeros(0), None)
     shared, per = problem.values(u)
     unc = {f.label if f.experiment is None else f"{f.experiment}/{f.param.name}": float(sd)
            for f, sd in zip(problem.free, sds) if np.isfinite(sd)}
+    rows = physical.quantities(effect, problem.base.shared, {**problem.fixed, **shared},
+                               [f.param.name if f.experiment is None else "" for f in problem.free], sds, corr)
     new_entries = [*entries, {"effect": name, "values": dict(shared),
-                              "per_experiment": {x: d for x, d in per.items() if d}, "uncertainties": unc}]
+                              "per_experiment": {x: d for x, d in per.items() if d}, "uncertainties": unc,
+                              **({"physical": rows} if rows else {})}]
     flat = _flat(new_entries)
     if progress:
         progress("comparing", 2, 3)

@@ -27,7 +27,8 @@ from typing import Any
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from odsuite.diagnosis import checks
+from odsuite.contracts.effects import applies, family
+from odsuite.diagnosis import checks, physical
 from odsuite.analysis.comparison import residual_peaks
 from odsuite.domain.errors import ConfigError
 from odsuite.diagnosis.fitting import (
@@ -84,13 +85,15 @@ class Candidate:
     per_experiment_fits: dict[str, dict[str, float]] = field(default_factory=dict)
     gain_threshold: float = float("nan")
     likelihood_ratio: float = float("nan")  # the whitened excess it removes (odsuite.analysis.resolved)
+    #: the fit in physical quantities (the effect's ``physical``): label, value, unit, uncertainty, nominal
+    physical: list[dict[str, Any]] = field(default_factory=list)
 
     def as_dict(self) -> dict[str, Any]:
         d = {k: getattr(self, k) for k in (
             "effect", "significant", "error_after", "validated_error", "parameters", "uncertainties",
             "units", "evidence", "n_parameters", "bic", "screened_error", "unidentifiable",
             "confounded_parameters", "confounded_with", "validation", "fitted", "consistent", "plausible",
-            "implausible", "amplitude_dependent", "per_experiment_fits")}
+            "implausible", "amplitude_dependent", "per_experiment_fits", "physical")}
         d["likelihood_ratio"] = None if not math.isfinite(self.likelihood_ratio) else self.likelihood_ratio
         d["likelihood_ratio_limit"] = None if not math.isfinite(self.gain_threshold) else self.gain_threshold
         return d
@@ -98,7 +101,8 @@ class Candidate:
     def revision_entry(self) -> dict[str, Any]:
         """How add-effect stores this fit in a model revision."""
         return {"effect": self.effect, "values": dict(self.values), "per_experiment": self.per_experiment,
-                "uncertainties": {k: v for k, v in self.uncertainties.items() if v is not None}}
+                "uncertainties": {k: v for k, v in self.uncertainties.items() if v is not None},
+                **({"physical": self.physical} if self.physical else {})}
 
 
 def _describe_values(problem: Problem, values: Mapping[str, float | None], sds: Mapping[str, float | None],
@@ -132,11 +136,11 @@ def _evidence(problem: Problem, cand: Candidate, baseline: float, noise: float,
     if rigidity is not None and rigidity > 0.1 and getattr(problem.effect, "breaks_rigidity", False):
         words.append(f"rigidity residual {100 * rigidity:.0f} %")
     if modes_before is not None and modes_after is not None and len(modes_before) == len(modes_after) and len(modes_before):
-        shift = np.asarray(modes_after) / np.asarray(modes_before)
-        if np.max(np.abs(shift - 1)) > 0.01:
-            words.append(f"model modes move from {modes_before[0]:.0f}-{modes_before[-1]:.0f} Hz to "
-                         f"{modes_after[0]:.0f}-{modes_after[-1]:.0f} Hz")
-    desc = _describe_values(problem, cand.parameters, cand.uncertainties)
+        moved = _moved_modes(modes_before, modes_after)
+        if moved:
+            words.append("model modes move: " + ", ".join(moved))
+    shown = physical.moved(cand.physical)
+    desc = physical.text(shown) if cand.physical else _describe_values(problem, cand.parameters, cand.uncertainties)
     if desc:
         words.append(f"fitted {desc}")
     words.append(f"validated error {baseline:.3g} -> {cand.validated_error:.3g} ({cand.validation}); "
@@ -151,6 +155,19 @@ def _evidence(problem: Problem, cand: Candidate, baseline: float, noise: float,
     if cand.unidentifiable:
         words.append(f"not identifiable from these data: {', '.join(cand.unidentifiable)}")
     return "; ".join(words)
+
+
+#: a model mode that moves by more than this fraction is named in the evidence
+MODE_MOVE = 0.01
+
+
+def _moved_modes(before: Sequence[float], after: Sequence[float], limit: int = 3) -> list[str]:
+    """'mode 3: 21.4 → 18.2 Hz' for the modes (numbered from 1 in frequency order) that move most,
+    beyond MODE_MOVE."""
+    b, a = np.asarray(before, float), np.asarray(after, float)
+    rel = np.abs(a / np.where(b > 0, b, np.nan) - 1)
+    order = [i for i in np.argsort(-np.nan_to_num(rel)) if rel[i] > MODE_MOVE][:limit]
+    return [f"mode {i + 1}: {b[i]:.4g} → {a[i]:.4g} Hz" for i in sorted(order)]
 
 
 def _checks_words(cand: Candidate) -> str:
@@ -173,6 +190,8 @@ class Diagnosis:
     residual_peaks: list[dict[str, Any]]
     evaluations: int
     not_applicable: list[str] = field(default_factory=list)
+    #: the not applicable effects that apply to other model families (``structures``)
+    other_families: list[str] = field(default_factory=list)
     verdict: str = ""
     signature: Signature = field(default_factory=Signature)
     message: str = ""
@@ -188,7 +207,7 @@ class Diagnosis:
                 "baseline_error": self.baseline_error, "noise_floor_error": self.noise_floor_error,
                 "revision": self.revision, "candidates": [c.as_dict() for c in self.candidates],
                 "residual_peaks": self.residual_peaks, "model_evaluations": self.evaluations,
-                "not_applicable": self.not_applicable}
+                "not_applicable": self.not_applicable, "other_families": self.other_families}
 
 
 def _residual_effective_samples(problem: Problem, res) -> float:
@@ -237,7 +256,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
     else:
         u = problem.zero()
         sse = screened.sse
-        sds, unident, confounded = np.zeros(0), [], []
+        sds, unident, confounded, corr = np.zeros(0), [], [], None
     sse_win = sse
     tail = problem.tail_sse(u)
     sse += tail
@@ -260,7 +279,9 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
     bic = n_eff * math.log(max(sse_val, 1e-300) / den) + k * math.log(n_eff)
     modes_after = None
     if effect.target == "model" and shared:
-        modes_after = list(problem.models(u)[exps[0].name].modes().frequency_hz)
+        after = list(problem.models(u)[exps[0].name].modes().frequency_hz)
+        if len(after) == len(problem.base.shared.modes().frequency_hz):  # none added: pair them in order
+            modes_after = after[:len(modes_before)]
     cand = Candidate(
         effect=effect.name, significant=False, error_after=math.sqrt(sse / den),
         validated_error=math.sqrt(sse_val / den), parameters=params, uncertainties=uncert, units=units,
@@ -268,6 +289,8 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         unidentifiable=unident, confounded_parameters=confounded, validation=how,
         per_experiment=per, values={n: v for n, v in shared.items()},
     )
+    labels = [f.param.name if f.experiment is None else "" for f in problem.free]
+    cand.physical = physical.quantities(effect, problem.base.shared, {**problem.fixed, **shared}, labels, sds, corr)
     if problem.free:
         cons = checks.consistency(problem, res, force_levels or {}, checks.tolerated_misfit(noise, problem.full))
         cand.consistent, cand.amplitude_dependent = cons.consistent, cons.amplitude_dependent
@@ -412,11 +435,12 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
         return n not in in_model or getattr(regs.effects.get(n), "repeatable", False)
 
     names = list(effects) if effects else [n for n in regs.effects.names() if absent(n)]
-    # an effect without parameters for this model does not apply to its rig (no base, no plate)
-    not_applicable = [n for n in names if not regs.effects.get(n).parameters(base.shared)]
+    # an effect for another model family, or without parameters for this model (no base, no
+    # plate), does not apply
+    not_applicable = [n for n in names if not applies(regs.effects.get(n), base.shared)]
     if effects and not_applicable:
         raise ConfigError(f"{project.path}: effect(s) {', '.join(not_applicable)} do not apply to this model "
-                          f"({base.shared.name!r} on rig {project.rig.name!r})")
+                          f"({base.shared.name!r}, a {family(base.shared)}, on rig {project.rig.name!r})")
     names = [n for n in names if n not in not_applicable]
     if not names:
         raise ConfigError(f"{project.path}: no candidate effects left to try (registered: "
@@ -444,7 +468,9 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     rig_vals = [max(b["fractions"].values()) for per in cmp.rigidity.values() for b in per.values()
                 if b["fractions"]]
     rigidity = float(np.median(rig_vals)) if rig_vals else None
-    modes_before = list(base.shared.modes().frequency_hz)
+    # the modes within the records' band (a finite-element model's highest modes move most and
+    # are seen least)
+    modes_before = [f for f in base.shared.modes().frequency_hz if f <= f99]
     # where the model fails, resolved by experiment, channel and band: the baseline of every gain test
     before = [predict(base.for_experiment(e.name), e) for e in exps]
     res0 = resolution.resolve(exps, before, cmp.floor)
@@ -550,7 +576,9 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     _prefer_named(candidates, regs.effects)
     diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=noise, revision=rev.get("revision"),
                           candidates=candidates, residual_peaks=peaks, evaluations=evaluations,
-                          not_applicable=not_applicable)
+                          not_applicable=not_applicable,
+                          other_families=[n for n in not_applicable if getattr(regs.effects.get(n), "structures", None)
+                                          and not isinstance(base.shared.structure, regs.effects.get(n).structures)])
     _conclude(diagnosis, cmp, base, exps, before, res0)
     if progress:
         progress("done", len(names), len(names))
@@ -642,6 +670,10 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
         rest = signature(exps, after, cmp.floor, residual_peaks(exps, after, modes, cmp.floor), amplitude, res_best)
     d.signature = rest if rest is not None else sig_before
     d.message = message(d.verdict, d.baseline_error, d.noise_floor_error, best, sig_before, rest)
+    if d.verdict in ("unexplained", "partly explained") and d.other_families:
+        # why the library may hold nothing for it here: what it holds for other model families
+        d.message += (f" Not tried, as they apply to other model families than this model's "
+                      f"({family(base.shared)}): {', '.join(d.other_families)}.")
 
 
 def _mark_confounded(cands: Sequence[Candidate], exps, scale: float) -> None:

@@ -1,7 +1,7 @@
 """Effects of the beam model family: what a slender Euler-Bernoulli beam on its ends may lack.
 
-Each effect applies to a model whose structure is a :class:`~.fe.BeamStructure` and lists no
-parameters (does not apply) otherwise, so the diagnosis of a rigid-body rig never screens them.
+Each effect applies to a model whose structure is a :class:`~.fe.BeamStructure` (``structures``), so
+the diagnosis of a rigid-body rig never screens them.
 """
 
 from __future__ import annotations
@@ -40,6 +40,7 @@ def _accelerometers(model: Model) -> list:
 class ShearRotaryInertia(Effect):
     name = "beam-shear-rotary"
     target = "model"
+    structures = (BeamStructure,)
     description = ("Timoshenko beam: shear deformation and rotary inertia of the section lower the higher "
                    "bending modes, set by the section's (radius of gyration / length)^2.")
 
@@ -53,10 +54,16 @@ class ShearRotaryInertia(Effect):
     def _apply(self, model, v):
         return _with_spec(model, theory="timoshenko", gyration_ratio_sq=v["gyration_ratio_sq"])
 
+    def physical(self, model, v):
+        L = _spec(model).length
+        return [("radius of gyration / length", float(np.sqrt(v["gyration_ratio_sq"])), "1"),
+                (f"height of a rectangular section {1e3 * L:g} mm long", 1e3 * L * float(np.sqrt(12 * v["gyration_ratio_sq"])), "mm")]
+
 
 class SensorMass(Effect):
     name = "beam-sensor-mass"
     target = "model"
+    structures = (BeamStructure,)
     description = "The accelerometer's own mass rides on the beam at the sensor (mass loading)."
 
     def parameters(self, model):
@@ -75,12 +82,16 @@ class SensorMass(Effect):
             masses += (PointMass(f"sensor:{s.name}", x, v["mass"]),)
         return _with_spec(model, masses=masses)
 
+    def physical(self, model, v):
+        return [("mass of each accelerometer", 1e3 * v["mass"], "g")]
+
 
 class SupportStiffness(Effect):
     """Elastic supports at the rig file's points: each its own stiffness, or (``alike``) one
     stiffness for all, as for blocks cut from the same foam."""
 
     target = "model"
+    structures = (BeamStructure,)
 
     def __init__(self, alike: bool = False) -> None:
         self.alike = alike
@@ -117,8 +128,12 @@ class SupportStiffness(Effect):
         stiffness = {s.name: v["stiffness"] if self.alike else v[f"{s.name}_stiffness"] for s in spec.supports}
         return _with_spec(model, supports=tuple(replace(s, stiffness=stiffness[s.name]) for s in spec.supports))
 
+    def physical(self, model, v):
+        return [(f"stiffness of {s.name}", s.stiffness, "N/m") for s in self._apply(model, v).structure.spec.supports]
+
 
 class _Scale(Effect):
+    structures = (BeamStructure,)
     field = ""
     unit_bounds = (0.5, 2.0)
 
@@ -130,11 +145,18 @@ class _Scale(Effect):
     def _apply(self, model, v):
         return _with_spec(model, **{self.field: getattr(model.structure.spec, self.field) * v["scale"]})
 
+    def physical(self, model, v):
+        spec = model.structure.spec
+        label, unit, per = self.quantity
+        length = spec.length if per else 1.0
+        return [(label, getattr(spec, self.field) * v["scale"] * length, unit)]
+
 
 class StiffnessScale(_Scale):
     name = "beam-stiffness-scale"
     target = "model"
     field = "bending_stiffness"
+    quantity = ("bending stiffness EI", "N m^2", False)
     description = "The beam's bending stiffness EI differs from the rig file's (every bending mode moves by its square root)."
 
 
@@ -142,12 +164,14 @@ class MassScale(_Scale):
     name = "beam-mass-scale"
     target = "model"
     field = "mass_per_length"
+    quantity = ("mass of the beam", "kg", True)
     description = "The beam's mass per length differs from the rig file's (response amplitudes and frequencies change)."
 
 
 class ModalDamping(Effect):
     name = "beam-modal-damping"
     target = "model"
+    structures = (BeamStructure,)
     description = f"Each of the first {DAMPED_MODES} bending modes has its own modal damping ratio."
 
     def parameters(self, model):
@@ -161,10 +185,14 @@ class ModalDamping(Effect):
     def _apply(self, model, v):
         return _with_spec(model, damping_ratio=tuple(v[f"zeta_{i + 1}"] for i in range(DAMPED_MODES)))
 
+    def physical(self, model, v):
+        return [(f"damping ratio of bending mode {i + 1}", 100 * v[f"zeta_{i + 1}"], "%") for i in range(DAMPED_MODES)]
+
 
 class Positions(Effect):
     name = "beam-positions"
     target = "chain"
+    structures = (BeamStructure,)
     description = ("The accelerometer and the hammer sit elsewhere along the beam than recorded, within the "
                    "rig file's ranges (shared by every record of the setup).")
 
@@ -188,6 +216,12 @@ class Positions(Effect):
         shifts = {s.name: np.array([v[f"{s.name}_shift"], 0.0, 0.0]) for s in _accelerometers(model)}
         chain = model.chain.with_items("offset", shifts)
         return model.replace(chain=replace(chain, force_offset=model.chain.force_offset + [v["hammer_shift"], 0.0, 0.0]))
+
+    def physical(self, model, v):
+        x0 = _spec(model).origin[0]
+        return ([(f"sensor {s.name} from the beam's left end", 1e3 * (s.position[0] - x0 + v[f"{s.name}_shift"]), "mm")
+                 for s in _accelerometers(model)]
+                + [("hammer from its recorded point", 1e3 * v["hammer_shift"], "mm")])
 
 
 def beam_effects() -> list[Effect]:

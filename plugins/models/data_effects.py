@@ -42,6 +42,7 @@ class MissingMode(Effect):
     ``phi_j q''``, uncoupled from the rigid motion (mass-normalised, modal mass 1 kg)."""
 
     name = "missing_mode"
+    structures = (Structure,)  # a flexible mode of a rigid body
     target = "model"
     breaks_rigidity = True  # a mode of any shape makes a rigid body's redundant sensors disagree
     data_driven = True
@@ -74,6 +75,15 @@ class MissingMode(Effect):
 
     def linear_parameters(self, model) -> list[str]:
         return [f"phi_{s.name}" for s in _accelerometers(model)] + ["phi_force"]
+
+    def physical(self, model, v):
+        """The mode's frequency (Hz) and damping (%), named by its body; none without the mode (every
+        participation zero)."""
+        if not any(v.get(f"phi_{s.name}") for s in _accelerometers(model)):
+            return []
+        body = self._bodies(model)[int(v.get("body", 0.0))]
+        return [(f"frequency of a mode of {body}", v["frequency_hz"], "Hz"),
+                (f"damping ratio of that mode", 100 * v["damping_ratio"], "%")]
 
     def _springs(self, model, v) -> dict[str, float]:
         """The mode's participation at spring ends (shape-function tags ``<spring>.<axis>``): none,

@@ -43,6 +43,7 @@ class _SpringScale(Effect):
     """Scale spring coefficients per axis (all springs) and per spring group (all axes); a spring
     without a group is its own group."""
 
+    structures = (Structure,)  # rigid bodies on springs
     field = ""
     unit_bounds = (0.05, 20.0)
     plausible = (0.05, 20.0)
@@ -71,6 +72,23 @@ class _SpringScale(Effect):
             else:
                 springs.append(replace(s, damping=s.scaled("damping", axis * rf), rot_damping=s.rot_damping * rf))
         return _with_structure(model, springs=tuple(springs))
+
+    def physical(self, model, v):
+        """Each spring group's coefficient along each rig axis (of one of its springs), the
+        determined product of the axis and group factors."""
+        unit = "N/m" if self.field == "stiffness" else "N s/m"
+        out, seen = [], set()
+        changed = {s.name: s for s in self._apply(model, v).structure.springs}
+        for s in model.springs:
+            g = s.group or s.name
+            if g in seen:
+                continue
+            seen.add(g)
+            k = np.diag(changed[s.name].matrix(self.field))
+            who = g if g == s.name else f"{g} (each, e.g. {s.name})"
+            out += [(f"{self.field} of {who} along {a}", float(k[i]), unit)
+                    for i, a in enumerate(AXES) if np.diag(s.matrix(self.field))[i] > 0]
+        return out
 
 
 class Stiffness(_SpringScale):
@@ -104,6 +122,7 @@ class NonlinearStiffness(Effect):
     axis (``d_ref`` = 1 um), so the group's stiffness rises by ``hardening`` at a deflection of
     1 um. The response then depends on the force's level; the model is integrated in time."""
 
+    structures = (Structure,)  # rigid bodies on springs
     name = "nonlinear_stiffness"
     target = "model"
     description = "Amplitude-dependent (cubic hardening) stiffness per spring group."
@@ -135,6 +154,7 @@ class MassProperties(Effect):
     their places (they are rig-frame points), so only their arms about the centre of mass change.
     With several moving bodies each parameter is named after its body ("machine_mass_scale")."""
 
+    structures = (Structure,)  # rigid bodies on springs
     name = "mass_properties"
     description = "Body mass and inertia scales, added products of inertia, centre-of-mass offset, per body."
 
@@ -178,6 +198,17 @@ class MassProperties(Effect):
                                     b.com + np.array([v[f"{pre}com_d{a}"] for a in AXES]), b.dofs))
         return _with_structure(model, bodies=tuple(bodies))
 
+    def physical(self, model, v):
+        """Each body's mass (kg), moments of inertia (kg m^2) and centre of mass (mm, rig frame)."""
+        out = []
+        for b in self._apply(model, v).structure.bodies:
+            if b.name not in {m.name for m in model.bodies}:
+                continue
+            out.append((f"mass of {b.name}", float(b.mass), "kg"))
+            out += [(f"{n} of {b.name}", float(b.inertia[i, i]), "kg m^2") for i, n in enumerate(("Ixx", "Iyy", "Izz"))]
+            out += [(f"centre of mass of {b.name}, {a}", 1e3 * float(b.com[i]), "mm") for i, a in enumerate(AXES)]
+        return out
+
 
 class PlateFlexibility(Effect):
     """An added flexible mode of the platform (the rigid model lacks it; thesis §5.4.2, Fig. 5.12).
@@ -191,6 +222,7 @@ class PlateFlexibility(Effect):
     """
 
     target = "model"
+    structures = (Structure,)  # a mode of a rigid body's plate
     breaks_rigidity = True  # a flexible mode makes the redundant angular estimates disagree
 
     def __init__(self, shape: str = "kirchhoff") -> None:
@@ -480,6 +512,7 @@ class BaseMotion(Effect):
     ground. It applies to rigs with a body named "base" that has a plate and no mass (a base
     with a mass already moves in the model)."""
 
+    structures = (Structure,)  # rigid bodies on springs
     name = "base_motion"
     target = "model"
     description = "The base moves on its own mounts (compliance per mount, base mass, mount damping)."

@@ -82,3 +82,14 @@ def test_the_loop_on_the_real_beam_and_its_validation_on_a_second_hit(beam, real
     # with the measured damping the first mode's amplitude misfit shows in the time-domain error
     # (docs/beam.md: 0.32 when the time-domain fit damped mode 1 at 3.4 %)
     assert fitted["error"] > 0.35
+
+
+def test_effects_of_another_model_family_are_refused_in_one_line(beam, capsys):
+    # the spring scales are for rigid bodies on springs: a one-line refusal, not "no moving body"
+    capsys.readouterr()
+    assert main(["add-effect", str(beam), "stiffness"]) != 0
+    err = capsys.readouterr().err
+    assert "effect 'stiffness' does not apply to this model ('beam', a BeamStructure" in err
+    assert "Traceback" not in err and "moving body" not in err
+    assert main(["diagnose", str(beam), "--effect", "missing_mode"]) != 0
+    assert "missing_mode do not apply to this model ('beam', a BeamStructure" in capsys.readouterr().err

@@ -1,0 +1,81 @@
+"""A fitted effect in physical quantities: what its optional ``physical(model, values)`` names (an
+effective stiffness in N/m, a mass in kg, a position in mm), each with the uncertainty the fit's
+covariance gives it.
+
+Parameters the data cannot separate (a stiffness scale per axis times one per spring group) have
+large, correlated uncertainties; the quantities an effect reports are their determined combinations,
+so their propagated uncertainties are small where the data determine them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+#: finite-difference step of the propagation, as a fraction of a parameter's standard deviation
+STEP = 1e-3
+
+
+def quantities(effect, model, values: Mapping[str, float], labels: Sequence[str] = (),
+               sds: Sequence[float] = (), corr: np.ndarray | None = None) -> list[dict[str, Any]]:
+    """``effect.physical(model, values)`` as rows {label, value, unit, uncertainty}, the uncertainty
+    propagated linearly from the shared parameters ``labels`` (standard deviations ``sds``,
+    correlation ``corr``; None: independent). [] when the effect reports no physical quantities."""
+    physical = getattr(effect, "physical", None)
+    if physical is None:
+        return []
+    complete = effect.values(model, {k: v for k, v in values.items() if v is not None})
+    rows = physical(model, complete)
+    # the model's own values, where the effect at its nominal reports the same quantities (a
+    # missing mode reports none: the model has no such mode)
+    at_nominal = physical(model, effect.values(model, {}))
+    same = [r[0] for r in at_nominal] == [r[0] for r in rows]
+    nominal = [r[1] for r in at_nominal] if same else [None] * len(rows)
+    base = np.array([r[1] for r in rows], float)
+    sd = np.array([s if s is not None and np.isfinite(s) else np.nan for s in sds], float)
+    usable = [i for i, label in enumerate(labels) if label in complete and np.isfinite(sd[i]) and sd[i] > 0]
+    var = np.full(len(rows), np.nan) if len(labels) and not usable else np.zeros(len(rows))
+    if usable:
+        J = np.zeros((len(rows), len(usable)))
+        for col, i in enumerate(usable):
+            h = STEP * sd[i]
+            moved = dict(complete)
+            moved[labels[i]] += h
+            try:
+                J[:, col] = (np.array([r[1] for r in physical(model, moved)], float) - base) / h
+            except Exception:  # a step past a bound: the other side
+                moved[labels[i]] -= 2 * h
+                J[:, col] = (base - np.array([r[1] for r in physical(model, moved)], float)) / h
+        c = np.eye(len(usable)) if corr is None else np.asarray(corr, float)[np.ix_(usable, usable)]
+        cov = c * np.outer(sd[usable], sd[usable])
+        var = np.einsum("ij,jk,ik->i", J, cov, J)
+    return [{"label": r[0], "value": float(r[1]), "unit": r[2],
+             "uncertainty": float(np.sqrt(max(v, 0.0))) if np.isfinite(v) else None, "nominal": None if n is None else float(n)}
+            for r, v, n in zip(rows, var, nominal)]
+
+
+def moved(rows: Sequence[Mapping[str, Any]], limit: int = 4) -> list[Mapping[str, Any]]:
+    """The rows that moved from their nominal most, in their own uncertainties (or relatively where
+    none is known), at most ``limit``; rows that did not move are left out."""
+    def score(r) -> float:
+        if r["nominal"] is None:
+            return np.inf
+        d = abs(r["value"] - r["nominal"])
+        sd = r.get("uncertainty")
+        return d / sd if sd else d / max(abs(r["nominal"]), 1e-300) * 1e3
+    out = sorted((r for r in rows if r["value"] != r["nominal"]), key=score, reverse=True)
+    return out[:limit]
+
+
+def text(rows: Sequence[Mapping[str, Any]]) -> str:
+    """'label = value ± sd unit (rig: nominal); ...'."""
+    parts = []
+    for r in rows:
+        unit = "" if r["unit"] in ("", "1") else f" {r['unit']}"
+        sd = r.get("uncertainty")
+        pm = f" ± {sd:.2g}" if sd is not None and sd > 0 else ""
+        was = f" (model: {r['nominal']:.4g})" if r["nominal"] is not None else ""
+        parts.append(f"{r['label']} = {r['value']:.4g}{pm}{unit}{was}")
+    return "; ".join(parts)
