@@ -197,6 +197,33 @@ def _full_disk_export(d: Path, free: int):
         assert [p.name for p in d.iterdir() if "o." in p.name] == []
 
 
+def _reaching_out(d: Path, kind: str) -> None:
+    """x.h5, a copy of p.h5 whose raw record of e1 reaches a file outside it (a key, an HDF5 file)."""
+    import h5py
+
+    shutil.copyfile(d / "p.h5", d / "x.h5")
+    (d / "key").write_bytes(b"secret" * 100_000)
+    with h5py.File(d / "other.h5", "w") as o:
+        o["data"] = np.zeros((10, 2))
+    with h5py.File(d / "x.h5", "a") as f:
+        old = f["experiments/e1/raw"]
+        shape, dtype = old.shape, old.dtype
+        del f["experiments/e1/raw"]
+        if kind == "external storage":
+            f.create_dataset("experiments/e1/raw", shape, dtype,
+                             external=[(str(d / "key"), 0, int(np.prod(shape)) * dtype.itemsize)])
+        elif kind == "virtual":
+            layout = h5py.VirtualLayout(shape=(10, 2), dtype="f8")
+            layout[...] = h5py.VirtualSource(str(d / "other.h5"), "data", shape=(10, 2))
+            f.create_virtual_dataset("experiments/e1/raw", layout)
+        else:
+            f["experiments/e1/raw"] = h5py.ExternalLink(str(d / "other.h5"), "data")
+
+
+def _project_reaching_out(kind: str, command: str = "verify") -> Callable[[Path], list[str]]:
+    return lambda d: (_reaching_out(d, kind), [command, str(d / "x.h5")])[1]
+
+
 def _uff_undefined_cs(d: Path):
     import pyuff
 
@@ -439,6 +466,12 @@ CASES: list[Case] = [
     Case("disk-full", "add an experiment with 0.3 MB free on the project's disk (API)", "{dir}/p.h5: no space left on", call=lambda d: _full_disk_acquire(d, 300_000)),
     Case("output-disk-full", "export-uff -o with 0.3 MB free on the output's disk (API)", "{dir}/o.uff: no space left on", call=lambda d: _full_disk_export(d, 300_000)),
     Case("history-figure-suffix", "history --figure h.txt", "--figure {dir}/h.txt: suffix '.txt' is not .png, .svg or .pdf", argv=lambda d: ["history", str(d / "p.h5"), "--figure", str(d / "h.txt")]),
+    Case("project-external-storage", "verify on a project whose raw record is external storage on a user's file", "{dir}/x.h5: refused: dataset 'experiments/e1/raw' has external storage (its data are in other files); an odsuite project holds only itself",
+         argv=_project_reaching_out("external storage")),
+    Case("project-external-link", "info on a project whose raw record is an external link to another HDF5 file", "{dir}/x.h5: refused: 'experiments/e1/raw' is an external link to '{dir}/other.h5':'data'; an odsuite project holds only itself",
+         argv=_project_reaching_out("external link", "info")),
+    Case("project-virtual-dataset", "verify on a project whose raw record is a virtual dataset of another file", "{dir}/x.h5: refused: dataset 'experiments/e1/raw' is a virtual dataset (its data are in other files); an odsuite project holds only itself",
+         argv=_project_reaching_out("virtual")),
 ]
 
 
