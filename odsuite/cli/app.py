@@ -204,6 +204,8 @@ def _print_json(doc) -> None:
     def clean(x):
         if isinstance(x, float) and not math.isfinite(x):
             return None
+        if isinstance(x, (bytes, bytearray, memoryview)):  # SQLite BLOBs: hexadecimal text
+            return bytes(x).hex()
         if isinstance(x, dict):
             return {str(k): clean(v) for k, v in x.items()}
         if isinstance(x, (list, tuple)):

@@ -66,6 +66,8 @@ def catalog_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
     rig: str = typer.Option(None, "--rig", help="query: only projects on this rig."),
     errors: bool = typer.Option(False, "--errors", help="Compute errors that no revision stored (slower, once per change)."),
+    limit: int = typer.Option(10_000, "--limit", help="query: at most this many rows (more is refused)."),
+    seconds: float = typer.Option(30.0, "--seconds", help="query: stop after this many seconds of work."),
 ) -> None:
     """Index every project under a folder into an SQLite catalogue beside them, or query it."""
     from odsuite.ops.catalog import build_catalog, query
@@ -73,7 +75,7 @@ def catalog_cmd(
     if args[0] == "query":
         if len(args) < 2:
             raise typer.BadParameter("catalog query DIR [NAME|SELECT ...]")
-        rows = query(args[1], " ".join(args[2:]) or "projects", rig=rig)
+        rows = query(args[1], " ".join(args[2:]) or "projects", rig=rig, limit=limit, seconds=seconds)
         if as_json:
             _print_json(rows)
             return
@@ -85,7 +87,8 @@ def catalog_cmd(
         for col in rows[0]:
             table.add_column(col)
         for r in rows:
-            table.add_row(*("-" if v is None else f"{v:.4g}" if isinstance(v, float) else str(v) for v in r.values()))
+            table.add_row(*("-" if v is None else f"{v:.4g}" if isinstance(v, float) else shown(str(v))
+                            for v in r.values()))
         console.print(table)
         return
     if len(args) != 1:
