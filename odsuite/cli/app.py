@@ -38,6 +38,7 @@ _AS_PROGRAM = Path(sys.argv[0]).name == "odsuite"
 
 if _AS_PROGRAM:
     signal.signal(signal.SIGINT, lambda signum, frame: _INTERRUPTS.append(signum))
+    signal.signal(signal.SIGTERM, lambda signum, frame: _INTERRUPTS.append(signum))
 
 
 import typer
@@ -135,6 +136,11 @@ class _Ledger:
     def line(self) -> str:
         if self.current is not None and len(_commits()) > self.commits_at_start:
             self.done()
+        if signal.SIGTERM in _INTERRUPTS and signal.SIGINT not in _INTERRUPTS:
+            return "terminated (SIGTERM)" + self._stored()[len("interrupted"):]
+        return self._stored()
+
+    def _stored(self) -> str:
         if self.target is None:
             return "interrupted: nothing stored"
         missing = [u for u in self.planned if u not in self.stored]
@@ -260,6 +266,7 @@ def _quiet_flags(command) -> None:
 def _on_interrupt(signum, frame) -> None:
     # one interrupt ends the command; further ones wait for its cleanup (temporary copies, workers)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     _INTERRUPTS.append(signum)
     raise _Interrupted()
 
@@ -275,8 +282,8 @@ def main(argv: list[str] | None = None) -> int:
     _OUTPUTS.clear()
     if not _AS_PROGRAM:  # called again in the same process (tests, scripts): a fresh start
         _INTERRUPTS.clear()
-    try:
-        previous = signal.signal(signal.SIGINT, _on_interrupt)
+    try:  # SIGTERM (kill, service managers) is answered like Ctrl-C
+        previous = {s: signal.signal(s, _on_interrupt) for s in (signal.SIGINT, signal.SIGTERM)}
     except ValueError:  # not the main thread: interrupts stay Python's
         previous = None
     hook, sys.unraisablehook = sys.unraisablehook, _unraisable
@@ -286,7 +293,8 @@ def main(argv: list[str] | None = None) -> int:
         sys.unraisablehook = hook
         if previous is not None:
             # the program's work is done: a late Ctrl-C must not kill the exiting interpreter
-            signal.signal(signal.SIGINT, signal.SIG_IGN if _AS_PROGRAM else previous)
+            for s, handler in previous.items():
+                signal.signal(s, signal.SIG_IGN if _AS_PROGRAM else handler)
 
 
 def _run(argv: list[str] | None) -> int:
@@ -301,19 +309,24 @@ def _run(argv: list[str] | None) -> int:
         code = command.main(args=argv, standalone_mode=False, prog_name="odsuite")
     except (_Interrupted, KeyboardInterrupt):
         err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
-        return 130
+        return _interrupted_code()
     except Exception:
         if not _INTERRUPTS:
             return _failed(sys.exc_info()[1])
         # the interrupt came first and the error is its doing: a library that turned it into
         # its own error (VTK's importer reports an interrupted import as an ImportError)
         err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
-        return 130
+        return _interrupted_code()
     if _INTERRUPTS:  # the interrupt was swallowed on the way (see _unraisable): report it
         err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
-        return 130
+        return _interrupted_code()
     # standalone_mode=False returns a command's typer.Exit code instead of raising it
     return code if isinstance(code, int) else 0
+
+
+def _interrupted_code() -> int:
+    """128 + the signal: 130 after Ctrl-C, 143 after SIGTERM."""
+    return 128 + (signal.SIGINT if signal.SIGINT in _INTERRUPTS or not _INTERRUPTS else signal.SIGTERM)
 
 
 #: the command line asked for --json: its failure is a JSON document as well

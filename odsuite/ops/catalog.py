@@ -389,14 +389,15 @@ class _Bounds:
 
     def __init__(self, seconds: float) -> None:
         self.deadline = time.monotonic() + seconds
-        self.interrupted = self.late = False
+        self.late = False
+        self.interrupted: BaseException | None = None
 
     def __call__(self) -> int:
         try:
             self.late = time.monotonic() > self.deadline
             return int(self.late)
-        except KeyboardInterrupt:
-            self.interrupted = True
+        except BaseException as exc:  # Ctrl-C or SIGTERM (the command line's own interrupt)
+            self.interrupted = exc
             return 1
 
 
@@ -417,14 +418,14 @@ def query(folder: str | Path, name_or_sql: str = "projects", *, rig: str | None 
             cols = [d[0] for d in cur.description or ()]
             rows = cur.fetchmany(limit + 1)
         except (sqlite3.Error, MemoryError, OverflowError) as exc:
-            if bounds.interrupted:
-                raise KeyboardInterrupt from None
+            if bounds.interrupted is not None:
+                raise bounds.interrupted from None
             if bounds.late:
                 raise ConfigError(f"catalog query {name_or_sql!r}: stopped after {seconds:g} s of work "
                                   "(give --seconds for longer)") from None
             raise ConfigError(f"catalog query {name_or_sql!r}: {exc}") from None
-    if bounds.interrupted:
-        raise KeyboardInterrupt
+    if bounds.interrupted is not None:
+        raise bounds.interrupted
     if len(rows) > limit:
         raise ConfigError(f"catalog query {name_or_sql!r}: more than {limit} rows; give --limit for more "
                           "or narrow the query (LIMIT, WHERE)")
