@@ -136,11 +136,6 @@ class _Ledger:
     def line(self) -> str:
         if self.current is not None and len(_commits()) > self.commits_at_start:
             self.done()
-        if signal.SIGTERM in _INTERRUPTS and signal.SIGINT not in _INTERRUPTS:
-            return "terminated (SIGTERM)" + self._stored()[len("interrupted"):]
-        return self._stored()
-
-    def _stored(self) -> str:
         if self.target is None:
             return "interrupted: nothing stored"
         missing = [u for u in self.planned if u not in self.stored]
@@ -307,21 +302,30 @@ def _run(argv: list[str] | None) -> int:
         command = typer.main.get_command(app)
         _quiet_flags(command)
         code = command.main(args=argv, standalone_mode=False, prog_name="odsuite")
-    except (_Interrupted, KeyboardInterrupt):
-        err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
+    except (_Interrupted, KeyboardInterrupt) as exc:
+        err_console.print(_interrupted_line(exc), highlight=False, soft_wrap=True)
         return _interrupted_code()
     except Exception:
         if not _INTERRUPTS:
             return _failed(sys.exc_info()[1])
         # the interrupt came first and the error is its doing: a library that turned it into
         # its own error (VTK's importer reports an interrupted import as an ImportError)
-        err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
+        err_console.print(_interrupted_line(), highlight=False, soft_wrap=True)
         return _interrupted_code()
     if _INTERRUPTS:  # the interrupt was swallowed on the way (see _unraisable): report it
-        err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
+        err_console.print(_interrupted_line(), highlight=False, soft_wrap=True)
         return _interrupted_code()
     # standalone_mode=False returns a command's typer.Exit code instead of raising it
     return code if isinstance(code, int) else 0
+
+
+def _interrupted_line(exc: BaseException | None = None) -> str:
+    """The ledger's line, or the one an interrupted engine made (a batch names the projects that
+    changed); 'terminated (SIGTERM)' in place of 'interrupted' after SIGTERM."""
+    line = getattr(exc, "line", None) or _ledger.line()
+    if signal.SIGTERM in _INTERRUPTS and signal.SIGINT not in _INTERRUPTS and line.startswith("interrupted"):
+        line = "terminated (SIGTERM)" + line[len("interrupted"):]
+    return line
 
 
 def _interrupted_code() -> int:

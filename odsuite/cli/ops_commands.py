@@ -9,7 +9,7 @@ from rich.text import Text
 import typer
 
 from odsuite.domain.errors import ConfigError
-from odsuite.cli.app import _loop_progress, _print_json, app, console, shown
+from odsuite.cli.app import _loop_progress, _print_json, app, console, err_console, shown
 
 
 @app.command("batch")
@@ -56,6 +56,10 @@ def batch_cmd(
                           "-" if r["seconds"] is None else f"{r['seconds']:.1f}", describe(command, r))
         console.print(table)
     if not result.ok:
+        bad = [r for r in result.projects if r["status"] != "ok"]
+        err_console.print(f"error: batch {command}: {len(bad)} of {len(result.projects)} projects did not succeed "
+                          f"(first: {shown(bad[0]['project'])}: {shown(bad[0]['error'] or bad[0]['status'])})",
+                          highlight=False, soft_wrap=True)
         raise typer.Exit(1)
 
 
