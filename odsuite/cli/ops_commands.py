@@ -104,7 +104,12 @@ def catalog_cmd(
                                                                    completed=i, total=n))
     if as_json:
         _print_json(res.as_dict())
-        return
-    console.print(f"{res.path}: {len(res.indexed)} projects read, {len(res.restamped) + len(res.unchanged)} "
-                  f"unchanged, {len(res.removed)} removed, {len(res.skipped)} files that are no projects "
-                  f"({res.seconds:.2f} s); page {res.page}", highlight=False, soft_wrap=True)
+    else:
+        console.print(f"{res.path}: {len(res.indexed)} projects read, {len(res.restamped) + len(res.unchanged)} "
+                      f"unchanged, {len(res.removed)} removed, {len(res.skipped)} files that are no projects "
+                      f"({res.seconds:.2f} s); page {res.page}", highlight=False, soft_wrap=True)
+    if res.refused:  # a file reaching outside itself is worth a failing exit code, not only a row
+        first = next(iter(res.refused.values()))
+        err_console.print(f"error: catalog: {len(res.refused)} project(s) refused, listed with their error: "
+                          f"{shown(first)}", highlight=False, soft_wrap=True)
+        raise typer.Exit(1)

@@ -29,6 +29,7 @@ from typing import Any
 
 from odsuite.domain.errors import ConfigError, OdsuiteError
 from odsuite.store.diskspace import write_output
+from odsuite.store.h5contained import ReachesOutsideError
 from odsuite.analysis.noise_floor import FLOOR_TOLERANCE
 
 CATALOG_NAME = "odsuite-catalog.sqlite"
@@ -110,12 +111,14 @@ class CatalogResult:
     unchanged: list[str] = field(default_factory=list)
     removed: list[str] = field(default_factory=list)
     skipped: dict[str, str] = field(default_factory=dict)
+    #: projects refused because they reach files outside themselves (listed, with their error)
+    refused: dict[str, str] = field(default_factory=dict)
     seconds: float = 0.0
 
     def as_dict(self) -> dict[str, Any]:
         return {"catalog": str(self.path), "page": str(self.page), "indexed": self.indexed,
                 "restamped": self.restamped, "unchanged": self.unchanged, "removed": self.removed,
-                "skipped": self.skipped, "seconds": self.seconds}
+                "skipped": self.skipped, "refused": self.refused, "seconds": self.seconds}
 
 
 def _folder(folder: str | Path) -> Path:
@@ -356,6 +359,8 @@ def _fill(folder: Path, tmp: Path, res: CatalogResult, compute_errors: bool, pro
                     # an error of odsuite's says what is wrong; another is named by its kind
                     row["read_error"] = line if isinstance(exc, OdsuiteError) else \
                         f"{path}: project cannot be read ({type(exc).__name__}: {line})"
+                    if isinstance(exc, ReachesOutsideError):
+                        res.refused[key] = line
                 db.execute("INSERT OR REPLACE INTO projects VALUES "
                            "(:project, :size, :mtime, :sha, :format_version, :rig, :created, :updated, "
                            ":n_experiments, :n_revisions, :current_revision, :error, :noise_floor_error, "

@@ -9,6 +9,10 @@ import h5py
 
 from odsuite.domain.errors import ProjectFileError
 
+class ReachesOutsideError(ProjectFileError):
+    """A project file with an object outside itself (refused: reading it would read another file)."""
+
+
 _LINKS = {h5py.h5l.TYPE_SOFT: "a soft link", h5py.h5l.TYPE_EXTERNAL: "an external link"}
 
 
@@ -49,4 +53,4 @@ def refuse_outside(f: h5py.File, where: Path) -> None:
 
     f.id.links.visit(visit, info=True)
     if found:
-        raise ProjectFileError(f"{where}: refused: {found[0]}; an odsuite project holds only itself")
+        raise ReachesOutsideError(f"{where}: refused: {found[0]}; an odsuite project holds only itself")

@@ -210,3 +210,26 @@ def test_catalog_query_bounded(folder, capsys):
     assert json.loads(capsys.readouterr().out)[-1] == {"x": 20001}
     assert main(["catalog", "query", str(folder), "SELECT x'00ff10' AS b", "--json"]) == 0
     assert json.loads(capsys.readouterr().out) == [{"b": "00ff10"}]
+
+
+def test_catalog_refuses_a_project_reaching_outside(folder, tmp_path, capsys):
+    """A project whose raw record is an external link: listed with its error, the others indexed,
+    and the command fails in one line (a file built to read another is not a damaged file)."""
+    import h5py
+
+    from odsuite.cli import main
+    from odsuite.ops.catalog import query
+
+    with h5py.File(tmp_path / "other.h5", "w") as o:
+        o["data"] = [1.0, 2.0]
+    with h5py.File(folder / "plain.h5", "a") as f:
+        name = next(f"experiments/{e}/raw" for e in f["experiments"])
+        del f[name]
+        f[name] = h5py.ExternalLink(str(tmp_path / "other.h5"), "data")
+    capsys.readouterr()
+    assert main(["catalog", str(folder)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("error: catalog: 1 project(s) refused") and "external link" in err
+    rows = {r["project"]: r for r in query(folder, "projects")}
+    assert "is an external link to" in rows["plain.h5"]["read_error"]
+    assert rows["2026/drifted.h5"]["read_error"] is None
