@@ -342,6 +342,9 @@ _AS_JSON = False
 def _failed(exc: Exception) -> int:
     """The exit code of a command that raised ``exc`` (printing its one line), or ``exc`` again
     when it is a bug."""
+    # typer brings its own click: its usage errors share typer.BadParameter's base class
+    click_exception = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException")
+
     try:
         raise exc
     except OdsuiteError as exc:
@@ -355,7 +358,7 @@ def _failed(exc: Exception) -> int:
     except typer.Abort:
         err_console.print("aborted")
         return 1
-    except typer.TyperException as exc:
+    except click_exception as exc:
         # usage errors (unknown option, missing argument) carry their own exit code
         exc.show()
         return exc.exit_code

@@ -36,12 +36,6 @@ CONNECT_SECONDS = 10.0
 OUTPUT_SUFFIX = {"report": "-report.html", "render": "-"}
 
 
-class BatchInterrupted(KeyboardInterrupt):
-    """Ctrl-C or SIGTERM during a batch; ``line`` names the projects that changed."""
-
-    def __init__(self, line: str) -> None:
-        super().__init__(line)
-        self.line = line
 
 
 def _plain(x: Any) -> Any:
@@ -264,6 +258,12 @@ def check_scheduler(address: str) -> str:
             or parts.path not in ("", "/"):
         raise ConfigError(f"--scheduler: expected an address tcp://HOST:PORT or tls://HOST:PORT "
                           f"(PORT 1 to 65535), got {address!r}")
+    if parts.scheme == "tls":
+        import dask.config
+
+        if not dask.config.get("distributed.comm.tls.ca-file", None):
+            raise ConfigError(f"--scheduler {address}: tls:// needs dask's TLS settings "
+                              "(distributed.comm.tls.ca-file, .client.cert and .client.key)")
     return f"{parts.scheme}://{parts.netloc}"
 
 
@@ -274,6 +274,25 @@ def _fingerprint(path: Path) -> tuple[int, int, int] | None:
     except OSError:
         return None
     return st.st_ino, st.st_size, st.st_mtime_ns
+
+
+def _clear_stale_locks(paths: Sequence[Path]) -> None:
+    """Remove the lock files that workers of this machine, ended by the interrupt, left behind: a
+    lock file whose lock can be taken is stale (a live writer elsewhere keeps its own)."""
+    from odsuite.store.storage import acquire_lock, release_lock
+    from odsuite.store.writer_lock import lock_path
+
+    quiet = logging.getLogger("odsuite.store.storage")
+    level, quiet.level = quiet.level, logging.ERROR  # its note on removed working copies: ours to make
+    try:
+        for path in paths:
+            if os.path.lexists(lock_path(path)):
+                try:
+                    release_lock(acquire_lock(path))
+                except OdsuiteError:
+                    pass
+    finally:
+        quiet.setLevel(level)
 
 
 def _interrupted_line(command: str, paths: Sequence[Path], before: dict[Path, Any],
@@ -359,10 +378,15 @@ def run_batch(command: str, projects: Sequence[str | Path], *, scheduler: str | 
     except BaseException as exc:
         if isinstance(exc, (Exception, SystemExit, GeneratorExit)):
             raise
+        logging.getLogger("distributed").setLevel(logging.CRITICAL)  # its shutdown noise is not ours
         if cluster is not None:  # the workers are gone before the projects are looked at
             cluster.close()
             cluster = None
-        raise BatchInterrupted(_interrupted_line(command, paths, before, records)) from None
+            if COMMANDS[command][1]:
+                _clear_stale_locks(paths)
+        # the interrupt goes on (the command line's own exception), carrying its truthful line
+        exc.line = _interrupted_line(command, paths, before, records)  # type: ignore[attr-defined]
+        raise
     finally:
         if cluster is not None:
             cluster.close()
@@ -422,5 +446,5 @@ def describe(command: str, record: Mapping[str, Any]) -> str:
     if command == "add-effect":
         return f"revision {r['revision']}: + {r['effect']}; error {r['previous_error']:.4f} -> {r['error']:.4f}"
     if command == "report":
-        return f"wrote {r['path']} ({r['size_bytes'] / 2**20:.1f} MiB; error {r['error']:.4f})"
+        return f"wrote {r['path']} ({r['summary']})"
     return f"wrote {r['path']}"

@@ -206,7 +206,8 @@ def test_scheduler_address_checked(address):
     with pytest.raises(ConfigError, match=r"^--scheduler: expected an address tcp://HOST:PORT"):
         check_scheduler(address)
     assert check_scheduler("127.0.0.1:8786") == "tcp://127.0.0.1:8786"
-    assert check_scheduler("tls://h.example:1") == "tls://h.example:1"
+    with pytest.raises(ConfigError, match="tls:// needs dask's TLS settings"):
+        check_scheduler("tls://h.example:1")
 
 
 def test_silent_scheduler_is_one_line_within_the_timeout(projects, monkeypatch):

@@ -233,3 +233,12 @@ def test_catalog_refuses_a_project_reaching_outside(folder, tmp_path, capsys):
     rows = {r["project"]: r for r in query(folder, "projects")}
     assert "is an external link to" in rows["plain.h5"]["read_error"]
     assert rows["2026/drifted.h5"]["read_error"] is None
+
+
+def test_usage_error_raised_by_a_command_is_its_message(capsys):
+    """A command's own usage error (click's BadParameter) is click's message and exit code 2."""
+    from odsuite.cli import main
+
+    assert main(["catalog", "query"]) == 2
+    err = capsys.readouterr().err
+    assert "catalog query DIR" in err and "Traceback" not in err and "AttributeError" not in err
