@@ -140,6 +140,9 @@ def _resolve_rig(rig: Rig | str | Path | None, regs) -> Rig | None:
     if rig_file:
         loaded = load_rig(rig, regs.sensor_types)
         check_asked_solvers(loaded, regs.coordinate_solvers)
+        if loaded.default_model is not None and loaded.default_model not in regs.models:
+            raise ConfigError(f"{rig}: field 'default_model': no model named {loaded.default_model!r} "
+                              f"(known: {', '.join(regs.models.names())})")
         return loaded
     raise ConfigError(f"unknown rig {str(rig)!r}: not a registered rig (known: {', '.join(rigs.names()) or 'none'}) "
                       "and not a .toml rig file")
