@@ -75,8 +75,10 @@ def test_representative_tries(tmp_path):
     results = rt.run(cases, tmp_path / "work", timeout=60.0, jobs=3, master=_master(tmp_path))
     assert results[0].outcome == "ok", results[0].as_dict()
     assert all(r.outcome in rt.OUTCOMES for r in results)
-    assert all(r.command[0] in ("new", "--version") for r in results)
-    assert "redteam3" in rt.table(results).splitlines()[0] or "group" in rt.table(results).splitlines()[0]
+    assert [r.command[0] for r in results] == ["new", "new", "--version"]
+    assert all(r.stderr is not None and r.seconds > 0 for r in results)
+    table = rt.table(results).splitlines()
+    assert table[0].split()[:2] == ["group", "tries"] and table[-1].split()[:2] == ["all", "3"]
 
 
 @pytest.mark.slow
