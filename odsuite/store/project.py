@@ -74,6 +74,7 @@ from odsuite.store.h5codecs import (
     write_systeminfo,
 )
 from odsuite.store.h5damage import open_h5, reading
+from odsuite.store.stored_values import check_experiment, check_revision
 from odsuite.store.project_format import (
     CHUNK_BYTES,
     FORMAT_VERSION,
@@ -196,12 +197,14 @@ class Experiment:
         self.source = h5text.text(a.get("source", ""))
         self.rig_name = h5text.text(a["rig"]) or None
         self.channel_names = [h5text.text(n) for n in a["channel_names"]]
-        self.n_samples, self.n_channels = g["raw"].shape
+        self.n_samples, self.n_channels = (tuple(g["raw"].shape) + (0, 0))[:2]
         self.excitation = None
         if "force_channel" in a:
             self.excitation = Excitation(int(a["force_channel"]), np.asarray(a["force_point"], dtype=float),
                                          np.asarray(a["force_direction"], dtype=float),
                                          h5text.text(a["force_body"]) if "force_body" in a else None)
+        check_experiment(project.path, name, sampling_rate=self.sampling_rate, pretrigger=self.pretrigger,
+                         channel_names=self.channel_names, shape=g["raw"].shape, excitation=self.excitation)
         self.systeminfo = read_systeminfo(g["systeminfo"])
 
     def _group(self) -> h5py.Group:
@@ -390,7 +393,10 @@ class Project:
                     raise SchemaError(f"{self.path}: /rig definition is not valid {fmt}: {exc}") from None
                 source = h5text.text(a.get("source", ""))
                 data = migrations.rig_up_filled(data, text if fmt == "toml" else h5text.text(a.get("source_text", "")))
-                rig = rig_from_dict(data, self.registries.sensor_types, source=Path(source) if source else None)
+                try:
+                    rig = rig_from_dict(data, self.registries.sensor_types, source=Path(source) if source else None)
+                except ConfigError as exc:  # the stored copy is at fault, not the file it came from
+                    raise SchemaError(f"{self.path}: stored rig definition (/rig): {exc}") from None
             self._rig_cache = (rig,)
         return self._rig_cache[0]
 
@@ -730,12 +736,14 @@ class Project:
         for key, g in revs.items():
             a = Attrs(g)
             parent = int(a["parent"])
-            out.append({"revision": int(key), "model": h5text.text(a["model"]) or None,
-                        "effects": json.loads(h5text.text(a["effects"])),
-                        "parameters": json.loads(h5text.text(a["parameters"])),
-                        "metrics": json.loads(h5text.text(a["metrics"])),
-                        "parent": None if parent < 0 else parent, "created": h5text.text(a["created"]),
-                        "object_id": h5text.text(a["object_id"])})
+            rev = {"revision": int(key), "model": h5text.text(a["model"]) or None,
+                   "effects": json.loads(h5text.text(a["effects"])),
+                   "parameters": json.loads(h5text.text(a["parameters"])),
+                   "metrics": json.loads(h5text.text(a["metrics"])),
+                   "parent": None if parent < 0 else parent, "created": h5text.text(a["created"]),
+                   "object_id": h5text.text(a["object_id"])}
+            check_revision(self.path, key, rev["effects"], rev["parameters"], rev["metrics"])
+            out.append(rev)
         return sorted(out, key=lambda r: r["revision"])
 
     @property

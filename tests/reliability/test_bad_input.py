@@ -224,6 +224,32 @@ def _project_reaching_out(kind: str, command: str = "verify") -> Callable[[Path]
     return lambda d: (_reaching_out(d, kind), [command, str(d / "x.h5")])[1]
 
 
+def _handmade(kind: str, command: str = "info") -> Callable[[Path], list[str]]:
+    """``command`` on x.h5, a copy of p.h5 with one stored value changed by hand."""
+    def argv(d: Path) -> list[str]:
+        import h5py
+
+        shutil.copyfile(d / "p.h5", d / "x.h5")
+        with h5py.File(d / "x.h5", "a") as f:
+            rev, e = f["models/revisions/0"], f["experiments/e1"]
+            if kind == "metrics abc":
+                rev.attrs["metrics"] = '{"error": "abc"}'
+            elif kind == "metrics list":
+                rev.attrs["metrics"] = "[1, 2]"
+            elif kind == "effects dict":
+                rev.attrs["effects"] = '{"stiffness": 1}'
+            elif kind == "rate 0":
+                e.attrs["sampling_rate"] = 0.0
+            elif kind == "rate NaN":
+                e.attrs["sampling_rate"] = float("nan")
+            elif kind == "force channel 99":
+                e.attrs["force_channel"] = 99
+            elif kind == "short names":
+                e.attrs["channel_names"] = np.array([b"force", b"ai1"])
+        return [command, str(d / "x.h5")]
+    return argv
+
+
 def _uff_undefined_cs(d: Path):
     import pyuff
 
@@ -496,6 +522,20 @@ CASES: list[Case] = [
          **new_rig("x = " + "[" * 100_000 + "]" * 100_000 + "\n")),
     Case("rig-fifo", "a named pipe (FIFO) as the rig file", "{dir}/pipe.toml: not a regular file (a pipe, device or folder), expected a TOML rig file",
          argv=lambda d: (os.mkfifo(d / "pipe.toml"), ["new", str(d / "q.h5"), "--rig", str(d / "pipe.toml")])[1]),
+    Case('stored-metrics-text', 'info on a project whose revision 0 stores the metric error `abc`', "{dir}/x.h5: model revision 0 field 'metrics.error': expected a number or null, got 'abc'",
+         argv=_handmade('metrics abc', 'info')),
+    Case('stored-metrics-list', 'compare on a project whose revision 0 stores metrics `[1, 2]`', "{dir}/x.h5: model revision 0 field 'metrics': expected a table (JSON object), got [1, 2]",
+         argv=_handmade('metrics list', 'compare')),
+    Case('stored-effects-dict', 'info on a project whose revision 0 stores effects as a table, not a list', "{dir}/x.h5: model revision 0 field 'effects': expected a list of effect tables, got",
+         argv=_handmade('effects dict', 'info')),
+    Case('stored-rate-zero', 'info on a project whose experiment stores sampling rate 0', "{dir}/x.h5: experiment 'e1' field 'sampling_rate': expected 0.1 to 1e+08 Hz, got 0.0",
+         argv=_handmade('rate 0', 'info')),
+    Case('stored-rate-nan', 'process on a project whose experiment stores sampling rate NaN', "{dir}/x.h5: experiment 'e1' field 'sampling_rate': expected 0.1 to 1e+08 Hz, got nan",
+         argv=_handmade('rate NaN', 'process')),
+    Case('stored-force-channel', 'info on a project whose experiment stores force channel 99', "{dir}/x.h5: experiment 'e1' field 'force_channel': expected a channel 0 to 10, got 99",
+         argv=_handmade('force channel 99', 'info')),
+    Case('stored-channel-names', 'info on a project whose experiment stores 2 channel names for 11 columns', "{dir}/x.h5: experiment 'e1' field 'channel_names': expected 11 distinct names (one per raw column), got ['force', 'ai1']",
+         argv=_handmade('short names', 'info')),
 ]
 
 
