@@ -783,7 +783,11 @@ class Project:
         checked: dict[str, int] = {}
         for name in self.experiment_names():
             datasets: list[h5py.Dataset] = []
-            self._file()["experiments"][name].visititems(
+            group = self._file()["experiments"][name]
+            if not isinstance(group, h5py.Group):
+                raise ProjectFileError(f"{self.path}: experiment {name!r} is a {type(group).__name__}, "
+                                       "not an experiment group")
+            group.visititems(
                 lambda _n, o: datasets.append(o) if isinstance(o, h5py.Dataset) and o.fletcher32 else None)
             for ds in datasets:
                 try:
