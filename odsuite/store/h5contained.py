@@ -43,14 +43,21 @@ def refuse_outside(f: h5py.File, where: Path) -> None:
     """Walk the links of ``f`` once (never following any) and refuse the file if one object
     reaches outside it: one ProjectFileError line naming the object."""
     found: list[str] = []
+    failed: list[Exception] = []
 
     def visit(name: bytes, info) -> int | None:
-        why = _outside(f, name, info)
+        try:
+            why = _outside(f, name, info)
+        except Exception as exc:  # noqa: BLE001 - damaged metadata: raised below, unwrapped by h5py
+            failed.append(exc)
+            return 1
         if why:
             found.append(why)
             return 1  # stops the walk
         return None
 
     f.id.links.visit(visit, info=True)
+    if failed:
+        raise failed[0]
     if found:
         raise ReachesOutsideError(f"{where}: refused: {found[0]}; an odsuite project holds only itself")
