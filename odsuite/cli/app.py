@@ -8,55 +8,30 @@ Names and paths are data: every string printed goes through ``shown`` (no rich m
 characters and undecodable bytes escaped), so a name like ``[/x]`` or ``x\\xff`` prints as itself.
 """
 
-
 from __future__ import annotations
 
-
-import contextlib
-
-
-import math
-
-
 import signal
-
-
 import sys
-
-
 from pathlib import Path
-
 
 #: Ctrl-Cs received: one while the command line loads (imports take about a second) is held here
 #: until ``main`` can report it (only when run as the ``odsuite`` program, never for an importing
 #: library); one swallowed on the way (see ``_unraisable``) is reported when the command ends.
 _INTERRUPTS: list[int] = []
 
-
 _AS_PROGRAM = Path(sys.argv[0]).name == "odsuite"
-
 
 if _AS_PROGRAM:
     signal.signal(signal.SIGINT, lambda signum, frame: _INTERRUPTS.append(signum))
-
+    signal.signal(signal.SIGTERM, lambda signum, frame: _INTERRUPTS.append(signum))
 
 import typer
-
-
 from rich.console import Console
-
-
 from rich.table import Table
-
-
 from rich.text import Text
 
-
-from odsuite.store import diskspace
-
-
 from odsuite.domain.errors import ConfigError, OdsuiteError
-
+from odsuite.store import diskspace
 
 app = typer.Typer(
     name="odsuite",
@@ -109,9 +84,7 @@ class _DataConsole(Console):
     def render_str(self, text: str, **kwargs) -> Text:
         return super().render_str(shown(text), **{**kwargs, "markup": False})
 
-
 console = _DataConsole()
-
 
 err_console = _DataConsole(stderr=True)
 
@@ -175,7 +148,6 @@ class _Ledger:
         return (f"{message.removesuffix('; project unchanged')}; stored before the error: "
                 f"{', '.join(self.stored)} in {self.target}; not stored: {', '.join(missing) or 'nothing'}")
 
-
 _ledger = _Ledger()
 
 
@@ -193,10 +165,12 @@ def _root(
                                  help="Print odsuite's version and exit."),
 ) -> None:
     """Experimental vibration analysis: impact tests, rigid-plate motion, model comparison."""
-    from odsuite.contracts.plugins import registries
+    from odsuite.contracts.plugins import default_manager, registries
 
     # every provider is checked against its contract before any command runs
     registries()
+    for line in default_manager().failures.values():  # left out, the rest runs on
+        err_console.print(f"note: {line}", highlight=False, soft_wrap=True)
 
 
 def _rendered_doc(renderer, res) -> dict:
@@ -218,7 +192,6 @@ def _figure_renderer(name: str, output: Path, project: Path, option: str):
         raise ConfigError(f"{option} {output}: suffix {output.suffix!r} is not {words}")
     return choose_renderer(registry, output, name, "figure")
 
-
 #: Output files of the running command, checked before writing, and whether each existed then:
 #: a full disk names the last one and removes the new ones (a writer that ran into it half-way).
 _OUTPUTS: dict[Path, bool] = {}
@@ -239,6 +212,8 @@ def _print_json(doc) -> None:
     def clean(x):
         if isinstance(x, float) and not math.isfinite(x):
             return None
+        if isinstance(x, (bytes, bytearray, memoryview)):  # SQLite BLOBs: hexadecimal text
+            return bytes(x).hex()
         if isinstance(x, dict):
             return {str(k): clean(v) for k, v in x.items()}
         if isinstance(x, (list, tuple)):
@@ -293,6 +268,7 @@ def _quiet_flags(command) -> None:
 def _on_interrupt(signum, frame) -> None:
     # one interrupt ends the command; further ones wait for its cleanup (temporary copies, workers)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     _INTERRUPTS.append(signum)
     raise _Interrupted()
 
@@ -308,8 +284,8 @@ def main(argv: list[str] | None = None) -> int:
     _OUTPUTS.clear()
     if not _AS_PROGRAM:  # called again in the same process (tests, scripts): a fresh start
         _INTERRUPTS.clear()
-    try:
-        previous = signal.signal(signal.SIGINT, _on_interrupt)
+    try:  # SIGTERM (kill, service managers) is answered like Ctrl-C
+        previous = {s: signal.signal(s, _on_interrupt) for s in (signal.SIGINT, signal.SIGTERM)}
     except ValueError:  # not the main thread: interrupts stay Python's
         previous = None
     hook, sys.unraisablehook = sys.unraisablehook, _unraisable
@@ -319,7 +295,8 @@ def main(argv: list[str] | None = None) -> int:
         sys.unraisablehook = hook
         if previous is not None:
             # the program's work is done: a late Ctrl-C must not kill the exiting interpreter
-            signal.signal(signal.SIGINT, signal.SIG_IGN if _AS_PROGRAM else previous)
+            for s, handler in previous.items():
+                signal.signal(s, signal.SIG_IGN if _AS_PROGRAM else handler)
 
 
 def _run(argv: list[str] | None) -> int:
@@ -332,34 +309,46 @@ def _run(argv: list[str] | None) -> int:
         command = typer.main.get_command(app)
         _quiet_flags(command)
         code = command.main(args=argv, standalone_mode=False, prog_name="odsuite")
-    except (_Interrupted, KeyboardInterrupt):
-        err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
-        return 130
+    except (_Interrupted, KeyboardInterrupt) as exc:
+        err_console.print(_interrupted_line(exc), highlight=False, soft_wrap=True)
+        return _interrupted_code()
     except Exception:
         if not _INTERRUPTS:
             return _failed(sys.exc_info()[1])
         # the interrupt came first and the error is its doing: a library that turned it into
         # its own error (VTK's importer reports an interrupted import as an ImportError)
-        err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
-        return 130
+        err_console.print(_interrupted_line(), highlight=False, soft_wrap=True)
+        return _interrupted_code()
     if _INTERRUPTS:  # the interrupt was swallowed on the way (see _unraisable): report it
-        err_console.print(_ledger.line(), highlight=False, soft_wrap=True)
-        return 130
+        err_console.print(_interrupted_line(), highlight=False, soft_wrap=True)
+        return _interrupted_code()
     # standalone_mode=False returns a command's typer.Exit code instead of raising it
     return code if isinstance(code, int) else 0
 
+
+def _interrupted_line(exc: BaseException | None = None) -> str:
+    """The ledger's line, or the one an interrupted engine made (a batch names the projects that
+    changed); 'terminated (SIGTERM)' in place of 'interrupted' after SIGTERM."""
+    line = getattr(exc, "line", None) or _ledger.line()
+    if signal.SIGTERM in _INTERRUPTS and signal.SIGINT not in _INTERRUPTS and line.startswith("interrupted"):
+        line = "terminated (SIGTERM)" + line[len("interrupted"):]
+    return line
+
+
+def _interrupted_code() -> int:
+    """128 + the signal: 130 after Ctrl-C, 143 after SIGTERM."""
+    return 128 + (signal.SIGINT if signal.SIGINT in _INTERRUPTS or not _INTERRUPTS else signal.SIGTERM)
 
 #: the command line asked for --json: its failure is a JSON document as well
 _AS_JSON = False
 
 
-#: usage errors (unknown option, bad value): typer's own class where it has one
-_UsageError = typer.TyperException
-
-
 def _failed(exc: Exception) -> int:
     """The exit code of a command that raised ``exc`` (printing its one line), or ``exc`` again
     when it is a bug."""
+    # typer brings its own click: its usage errors share typer.BadParameter's base class
+    click_exception = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException")
+
     try:
         raise exc
     except OdsuiteError as exc:
@@ -373,7 +362,7 @@ def _failed(exc: Exception) -> int:
     except typer.Abort:
         err_console.print("aborted")
         return 1
-    except _UsageError as exc:
+    except click_exception as exc:
         # usage errors (unknown option, missing argument) carry their own exit code
         exc.show()
         return exc.exit_code
@@ -388,5 +377,4 @@ def _failed(exc: Exception) -> int:
                 output.unlink(missing_ok=True)
         err_console.print(f"error: {line}", style="bold red", highlight=False, soft_wrap=True)
         return 1
-
 

@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 import math
+from pathlib import Path
 
-from rich.table import Table
 import typer
+from rich.table import Table
 
+from odsuite.domain.errors import ConfigError
 from odsuite.cli.app import _check_output, _figure_renderer, _print_json, _rendered_doc, app, console, err_console, shown
 
 

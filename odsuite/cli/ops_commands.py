@@ -9,7 +9,7 @@ from rich.text import Text
 import typer
 
 from odsuite.domain.errors import ConfigError
-from odsuite.cli.app import _loop_progress, _print_json, app, console, shown
+from odsuite.cli.app import _loop_progress, _print_json, app, console, err_console, shown
 
 
 @app.command("batch")
@@ -56,6 +56,10 @@ def batch_cmd(
                           "-" if r["seconds"] is None else f"{r['seconds']:.1f}", describe(command, r))
         console.print(table)
     if not result.ok:
+        bad = [r for r in result.projects if r["status"] != "ok"]
+        err_console.print(f"error: batch {command}: {len(bad)} of {len(result.projects)} projects did not succeed "
+                          f"(first: {shown(bad[0]['project'])}: {shown(bad[0]['error'] or bad[0]['status'])})",
+                          highlight=False, soft_wrap=True)
         raise typer.Exit(1)
 
 
@@ -66,6 +70,8 @@ def catalog_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
     rig: str = typer.Option(None, "--rig", help="query: only projects on this rig."),
     errors: bool = typer.Option(False, "--errors", help="Compute errors that no revision stored (slower, once per change)."),
+    limit: int = typer.Option(10_000, "--limit", help="query: at most this many rows (more is refused)."),
+    seconds: float = typer.Option(30.0, "--seconds", help="query: stop after this many seconds of work."),
 ) -> None:
     """Index every project under a folder into an SQLite catalogue beside them, or query it."""
     from odsuite.ops.catalog import build_catalog, query
@@ -73,7 +79,7 @@ def catalog_cmd(
     if args[0] == "query":
         if len(args) < 2:
             raise typer.BadParameter("catalog query DIR [NAME|SELECT ...]")
-        rows = query(args[1], " ".join(args[2:]) or "projects", rig=rig)
+        rows = query(args[1], " ".join(args[2:]) or "projects", rig=rig, limit=limit, seconds=seconds)
         if as_json:
             _print_json(rows)
             return
@@ -85,7 +91,8 @@ def catalog_cmd(
         for col in rows[0]:
             table.add_column(col)
         for r in rows:
-            table.add_row(*("-" if v is None else f"{v:.4g}" if isinstance(v, float) else str(v) for v in r.values()))
+            table.add_row(*("-" if v is None else f"{v:.4g}" if isinstance(v, float) else shown(str(v))
+                            for v in r.values()))
         console.print(table)
         return
     if len(args) != 1:
@@ -97,7 +104,12 @@ def catalog_cmd(
                                                                    completed=i, total=n))
     if as_json:
         _print_json(res.as_dict())
-        return
-    console.print(f"{res.path}: {len(res.indexed)} projects read, {len(res.restamped) + len(res.unchanged)} "
-                  f"unchanged, {len(res.removed)} removed, {len(res.skipped)} files that are no projects "
-                  f"({res.seconds:.2f} s); page {res.page}", highlight=False, soft_wrap=True)
+    else:
+        console.print(f"{res.path}: {len(res.indexed)} projects read, {len(res.restamped) + len(res.unchanged)} "
+                      f"unchanged, {len(res.removed)} removed, {len(res.skipped)} files that are no projects "
+                      f"({res.seconds:.2f} s); page {res.page}", highlight=False, soft_wrap=True)
+    if res.refused:  # a file reaching outside itself is worth a failing exit code, not only a row
+        first = next(iter(res.refused.values()))
+        err_console.print(f"error: catalog: {len(res.refused)} project(s) refused, listed with their error: "
+                          f"{shown(first)}", highlight=False, soft_wrap=True)
+        raise typer.Exit(1)

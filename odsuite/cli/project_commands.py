@@ -29,7 +29,7 @@ def plugins_cmd(as_json: bool = typer.Option(False, "--json", help="Print one JS
                         for b in regs.daq_backends.by_plugin(name)}
             doc[name] = {"distribution": source.distribution, "version": source.version,
                          "registers": {k: list(v) for k, v in registers.items() if v}, "daq_backend_options": backends}
-        _print_json({"plugins": doc})
+        _print_json({"plugins": doc, "failed": dict(pm.failures)})
         return
     table = Table(title="odsuite plugins")
     table.add_column("plugin")
@@ -53,6 +53,9 @@ def plugins_cmd(as_json: bool = typer.Option(False, "--json", help="Print one JS
         source = pm.source(name)
         # one line per kind: a Text keeps the line breaks that plain strings would show escaped
         table.add_row(name, source.distribution, source.version, Text("\n".join(shown(p) for p in provided) or "-"))
+    for name, line in sorted(pm.failures.items()):
+        source = pm.source(name)
+        table.add_row(name, source.distribution, source.version, Text(shown(line), style="red"))
     console.print(table)
 
 

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 import contextlib
 import math
 import sys
+from pathlib import Path
 
-from rich.table import Table
 import typer
 
 from odsuite.domain.errors import ConfigError

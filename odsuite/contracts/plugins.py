@@ -6,8 +6,10 @@ group. ``ODSUITE_DISABLE_PLUGINS`` (comma-separated entry-point names) blocks pl
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import importlib.metadata
+import io
 import os
 from dataclasses import dataclass, fields
 
@@ -53,6 +55,23 @@ class PluginManager(pluggy.PluginManager):
     def __init__(self) -> None:
         super().__init__(ENTRY_POINT_GROUP)
         self.sources: dict[str, Source] = {}
+        #: installed plugins left out because they failed (name -> one line naming its distribution)
+        self.failures: dict[str, str] = {}
+
+    def third_party(self, name: str) -> bool:
+        """An installed plugin (an entry point) that is not one of odsuite's own."""
+        source = self.sources.get(name)
+        return (name not in REQUIRED_BUILTINS and source is not None
+                and source.distribution not in (Source.distribution, "odsuite"))
+
+    def leave_out(self, name: str, exc: BaseException, stage: str) -> None:
+        """Record a third-party plugin that failed and unregister it: the rest of odsuite runs on."""
+        first = (str(exc).strip().splitlines() or [""])[0]
+        why = f"{type(exc).__name__}: {first}" if first else type(exc).__name__
+        self.failures[name] = (f"plugin {name!r} (distribution {self.sources[name].distribution!r}) left out: "
+                               f"it failed {stage}: {why}")
+        if self.get_plugin(name) is not None:
+            self.unregister(name=name)
 
     def source(self, name: str) -> Source:
         return self.sources.get(name, Source(name))
@@ -78,11 +97,15 @@ def make_plugin_manager(*, load_entry_points: bool = True, extra_plugins: tuple 
     for plugin in extra_plugins:
         name = pm.register(plugin, name=getattr(plugin, "__name__", None))
         pm.sources[name] = Source(name)
-    try:
-        pm.check_pending()
-    except pluggy.PluginValidationError as exc:
-        name = pm.get_name(exc.plugin) or repr(exc.plugin)
-        raise PluginLoadError(f"plugin {name!r}: {exc}") from None
+    while True:
+        try:
+            pm.check_pending()
+            break
+        except pluggy.PluginValidationError as exc:
+            name = pm.get_name(exc.plugin) or repr(exc.plugin)
+            if not pm.third_party(name):
+                raise PluginLoadError(f"plugin {name!r}: {exc}") from None
+            pm.leave_out(name, exc, "its hook check")
     if load_entry_points:
         missing = [n for n in REQUIRED_BUILTINS if n not in blocked and pm.get_plugin(n) is None]
         if missing:
@@ -111,14 +134,19 @@ def _load_entry_points(pm: PluginManager, blocked: set[str]) -> None:
     for name, (ep, dist) in declared.items():
         if name in blocked:
             continue
-        try:
-            plugin = ep.load()
-        except Exception as exc:  # a broken third-party plugin must name itself
-            raise PluginLoadError(
-                f"plugin {name!r} ({ep.value}, distribution {dist!r}) failed to load: {type(exc).__name__}: {exc}"
-            ) from exc
-        pm.register(plugin, name=name)
         pm.sources[name] = Source(name, dist, ep.dist.version if ep.dist is not None else "?")
+        try:
+            # what a plugin prints at import is not odsuite's output (it would break --json)
+            with contextlib.redirect_stdout(io.StringIO()):
+                plugin = ep.load()
+            pm.register(plugin, name=name)
+        # a broken third-party plugin names itself and is left out; sys.exit or a KeyboardInterrupt
+        # raised by its own code too (a real Ctrl-C is the command line's own exception)
+        except (Exception, SystemExit, KeyboardInterrupt) as exc:
+            if not pm.third_party(name):
+                raise PluginLoadError(f"plugin {name!r} ({ep.value}, distribution {dist!r}) failed to load: "
+                                      f"{type(exc).__name__}: {exc}") from exc
+            pm.leave_out(name, exc, "to load")
 
 
 def _contracts() -> dict[str, Contract]:
@@ -149,7 +177,14 @@ def build_registries(pm: PluginManager) -> Registries:
             call = pm.subset_hook_caller(hook_name, remove_plugins=others)
             # rig files name sensor kinds: the rigs hook sees the sensor types registered before it
             context = {"sensor_types": regs["sensor_types"]} if f.name == "rigs" else None
-            call(registry=registry.for_plugin(pm.source(impl.plugin_name), context))
+            if impl.plugin_name in getattr(pm, "failures", {}):
+                continue
+            try:
+                call(registry=registry.for_plugin(pm.source(impl.plugin_name), context))
+            except Exception as exc:  # noqa: BLE001 - a third-party hook that raises is left out
+                if not (isinstance(pm, PluginManager) and pm.third_party(impl.plugin_name)):
+                    raise
+                pm.leave_out(impl.plugin_name, exc, f"in its hook {hook_name}")
         registry.apply_overrides()
         regs[f.name] = registry
     return Registries(**regs)

@@ -8,6 +8,9 @@ platform's centre of mass G at rest, platform axes, z pointing down into the pla
 
 from __future__ import annotations
 
+import difflib
+import os
+import stat
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -248,6 +251,59 @@ UFF_NODE_MAX = 2**31 - 1
 
 #: Channels a rig (or a file) may have: no DAQ chassis has more
 MAX_CHANNELS = 4096
+#: physical ranges of a rig file's numbers (SI): beyond them a value is a typo or an attack, and
+#: the model's matrices lose their meaning (1e308 N/m overflows, 1e-300 kg underflows)
+MASS_RANGE = (1e-6, 1e7)  # kg: a 1 mg sensor to a 10,000 t foundation
+INERTIA_MAX = 1e8  # kg m^2
+STIFFNESS_MAX = 1e12  # N/m, N m/rad (and N s/m, N m s/rad for damping)
+SIZE_MAX = 1e3  # m: positions, sizes and corners within a kilometre of the origin
+#: a rig file is text of at most this many bytes, tables and arrays nested at most this deep
+RIG_FILE_BYTES = 16 * 2**20
+RIG_NESTING = 32
+#: the keys each table of a rig file may hold (a top-level table of another name is a plugin's
+#: section, e.g. [beam]; anything else is a typo)
+TOP_KEYS = ("name", "description", "frame", "bodies", "springs", "sensors", "force_channel", "channel_count",
+            "default_model", "systeminfo", "processing", "up", "acquisition")
+BODY_KEYS = ("name", "mass", "inertia", "plate", "nine_sensor_set", "solver", "dofs", "com")
+SPRING_KEYS = ("name", "body", "other", "position", "stiffness", "damping", "rot_stiffness", "rot_damping", "group")
+SENSOR_KEYS = ("name", "kind", "body", "channel", "position", "axis", "sign", "sensitivity", "serial", "group",
+               "uff_node", "processing")
+
+
+def known_keys(where: str, table: dict[str, Any], known: tuple[str, ...], *, tables_allowed: bool = False) -> None:
+    """Refuse a key ``table`` does not know, naming the nearest known one (a misspelt key would
+    otherwise be ignored and its default used)."""
+    for key in table:
+        if key in known or (tables_allowed and isinstance(table[key], dict)):
+            continue
+        near = difflib.get_close_matches(str(key), known, n=1)
+        hint = f"; did you mean {near[0]!r}?" if near else f" (known: {', '.join(known)})"
+        raise ConfigError(f"{where}: unknown field {key!r}{hint}")
+
+
+def printable_name(where: str, value: Any) -> str:
+    """A name shown in tables, reports and file names: printable text (no newline, escape
+    sequence or bidirectional control), at most 200 characters."""
+    if not isinstance(value, str) or not value.strip():
+        raise ConfigError(f"{where}: expected a non-empty name, got {value!r}")
+    if not value.isprintable() or len(value) > 200:
+        raise ConfigError(f"{where}: expected printable text of at most 200 characters (no control, escape or "
+                          f"bidirectional characters), got {value[:200]!r}")
+    return value
+
+
+def _within(where: str, arr: np.ndarray, most: float, what: str, unit: str) -> np.ndarray:
+    if np.any(np.abs(arr) > most):
+        raise ConfigError(f"{where}: {what} beyond {most:g} {unit}, got {arr.tolist()}")
+    return arr
+
+
+def _depth(value: Any, limit: int, level: int = 0) -> int:
+    """How deep ``value`` nests tables and arrays (stops counting past ``limit``)."""
+    if level > limit or not isinstance(value, (dict, list)):
+        return level
+    items = value.values() if isinstance(value, dict) else value
+    return max((_depth(v, limit, level + 1) for v in items), default=level + 1)
 
 
 def _vector(where: str, value: Any, n: int = 3) -> np.ndarray:
@@ -300,6 +356,10 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
         raise ConfigError(f"{where0}: missing field 'name'") from None
     if not isinstance(name, str) or not name.strip():
         raise ConfigError(f"{where0}: field 'name': expected a non-empty text, got {name!r}")
+    printable_name(f"{where0}: field 'name'", name)
+    known_keys(where0, data, TOP_KEYS, tables_allowed=True)
+    if _depth(data, RIG_NESTING) > RIG_NESTING:
+        raise ConfigError(f"{where0}: tables and arrays nested deeper than {RIG_NESTING} levels")
     for key in ("bodies", "sensors"):
         if not isinstance(data.get(key, []), list):
             raise ConfigError(f"{where0}: field {key!r}: expected a list of [[{key}]] tables, got {data[key]!r}")
@@ -312,11 +372,15 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
             raise ConfigError(f"{w}: field 'name': expected a non-empty name, got {b.get('name')!r}")
         if any(b["name"] == other.name for other in bodies):
             raise ConfigError(f"{w}: field 'name': a second body named {b['name']!r}")
+        printable_name(f"{w}: field 'name'", b["name"])
         w = f"{where0}: body {b['name']!r}"
+        known_keys(w, b, BODY_KEYS)
         mass = b.get("mass")
         inertia = None
         if mass is not None:
             mass = _number(f"{w} field 'mass'", mass, positive=True)
+            if not MASS_RANGE[0] <= mass <= MASS_RANGE[1]:
+                raise ConfigError(f"{w} field 'mass': expected {MASS_RANGE[0]:g} to {MASS_RANGE[1]:g} kg, got {mass!r}")
             try:
                 inertia = np.asarray(b.get("inertia", np.zeros((3, 3)).tolist()), dtype=float)
             except (TypeError, ValueError):  # text, or rows of different lengths
@@ -326,12 +390,19 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
                 raise ConfigError(f"{w} field 'inertia': expected finite numbers, got {b.get('inertia')!r}")
             if inertia.shape != (3, 3) or not np.allclose(inertia, inertia.T):
                 raise ConfigError(f"{w} field 'inertia': expected a symmetric 3x3 matrix, got {b.get('inertia')!r}")
+            _within(f"{w} field 'inertia'", inertia, INERTIA_MAX, "entries", "kg m^2")
             if np.linalg.eigvalsh(inertia).min() <= 0:
                 raise ConfigError(f"{w} field 'inertia': not positive definite (eigenvalues {np.linalg.eigvalsh(inertia)})")
+            moments = np.linalg.eigvalsh(inertia)
+            # no rigid body has one principal moment above the sum of the other two
+            if moments[2] > (moments[0] + moments[1]) * (1 + 1e-9):
+                raise ConfigError(f"{w} field 'inertia': principal moments {moments.tolist()} kg m^2 break the "
+                                  "triangle inequality (the largest exceeds the sum of the others)")
         plate = None
         if "plate" in b:
             p = b["plate"]
-            size = _vector(f"{w} field 'plate.size'", p.get("size"))
+            size = _within(f"{w} field 'plate.size'", _vector(f"{w} field 'plate.size'", p.get("size")), SIZE_MAX,
+                           "sizes", "m")
             if np.any(size <= 0):
                 raise ConfigError(f"{w} field 'plate.size': must be > 0, got {p.get('size')!r}")
             plate = Plate(size=size, corner=_vector(f"{w} field 'plate.corner'", p.get("corner")))
@@ -360,7 +431,8 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
                 or len(set(dofs)) != len(dofs)):
             raise ConfigError(f"{w} field 'dofs': expected distinct names from {list(COORDINATES)}, got {dofs!r}")
         bodies.append(Body(
-            name=b["name"], com=_vector(f"{w} field 'com'", b.get("com", [0.0, 0.0, 0.0])),
+            name=b["name"], com=_within(f"{w} field 'com'", _vector(f"{w} field 'com'", b.get("com", [0.0, 0.0, 0.0])),
+                                        SIZE_MAX, "positions", "m"),
             mass=mass, inertia=inertia, plate=plate, nine_sensor_set=nine, solver=solver,
             dofs=tuple(d for d in COORDINATES if d in dofs),
         ))
@@ -380,6 +452,9 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
             raise ConfigError(f"{w} field 'kind': unknown sensor type {kind!r} "
                               f"(known: {', '.join(sensor_types.names())})")
         for sensor in sensor_types.get(kind).sensors(s, w):
+            printable_name(f"{w} field 'name'", sensor.name)
+            if sensor.position is not None:
+                _within(f"{w} field 'position'", np.asarray(sensor.position), SIZE_MAX, "positions", "m")
             if sensor.body is not None and sensor.body not in body_names:
                 raise ConfigError(f"{w} field 'body': no body named {sensor.body!r}")
             sensors.append(sensor)
@@ -401,8 +476,10 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
     if data.get("systeminfo"):
         base = source.parent if source else Path.cwd()
         systeminfo_file = base / data["systeminfo"]
-    known = {"name", "description", "frame", "bodies", "springs", "sensors", "force_channel", "channel_count",
-             "default_model", "systeminfo", "processing", "up"}
+    known = set(TOP_KEYS) - {"acquisition"}
+    default_model = data.get("default_model")
+    if default_model is not None:
+        printable_name(f"{where0}: field 'default_model'", default_model)
     acquisition = _acquisition(data.get("acquisition"), where0)
     channel_count = _channel_count(where0, data, channels)
     return Rig(
@@ -520,6 +597,8 @@ def _springs(entries: Any, where0: str, moving: set[str], bodies: set[str]) -> t
         name = s.get("name")
         if not isinstance(name, str) or not name:
             raise ConfigError(f"{w} field 'name': expected a non-empty name, got {name!r}")
+        printable_name(f"{w} field 'name'", name)
+        known_keys(w, s, SPRING_KEYS)
         body = s.get("body")
         for field_name, value in (("body", body), ("other", s.get("other", "ground"))):
             if value == "ground" and field_name == "other":
@@ -532,17 +611,19 @@ def _springs(entries: Any, where0: str, moving: set[str], bodies: set[str]) -> t
         other = s.get("other", "ground")
         if other == body:
             raise ConfigError(f"{w} field 'other': the spring joins body {body!r} to itself")
-        stiffness = _coefficients(f"{w} field 'stiffness'", s.get("stiffness"))
-        damping = _coefficients(f"{w} field 'damping'", s.get("damping"), [0.0, 0.0, 0.0])
-        rot_k = _coefficients(f"{w} field 'rot_stiffness'", s.get("rot_stiffness"), [0.0, 0.0, 0.0])
-        rot_c = _coefficients(f"{w} field 'rot_damping'", s.get("rot_damping"), [0.0, 0.0, 0.0])
+        stiffness, damping, rot_k, rot_c = (
+            _within(f"{w} field {f!r}", _coefficients(f"{w} field {f!r}", s.get(f), default), STIFFNESS_MAX,
+                    "coefficients", "(SI)")
+            for f, default in (("stiffness", None), ("damping", [0.0] * 3), ("rot_stiffness", [0.0] * 3),
+                               ("rot_damping", [0.0] * 3)))
         if not np.any(stiffness) and not np.any(rot_k):
             raise ConfigError(f"{w} field 'stiffness': zero in every direction, got {s.get('stiffness')!r}")
         group = s.get("group", name)
         if not isinstance(group, str) or not group:
             raise ConfigError(f"{w} field 'group': expected a name, got {group!r}")
         out.append(Spring(name, body, None if other == "ground" else other,
-                          _vector(f"{w} field 'position'", s.get("position")), stiffness, damping, rot_k, rot_c,
+                          _within(f"{w} field 'position'", _vector(f"{w} field 'position'", s.get("position")),
+                                  SIZE_MAX, "positions", "m"), stiffness, damping, rot_k, rot_c,
                           group))
     names = [s.name for s in out]
     if len(set(names)) != len(names):
@@ -553,8 +634,19 @@ def _springs(entries: Any, where0: str, moving: set[str], bodies: set[str]) -> t
 def load_rig(path: str | Path, sensor_types) -> Rig:
     path = Path(path)
     try:
-        with path.open("rb") as f:
-            data = tomllib.load(f)
+        # non-blocking: opening a pipe must not wait for a writer (it is refused just after)
+        with open(path, "rb", opener=lambda p, flags: os.open(p, flags | os.O_NONBLOCK)) as f:
+            st = os.fstat(f.fileno())
+            if not stat.S_ISREG(st.st_mode):
+                raise ConfigError(f"{path}: not a regular file (a pipe, device or folder), expected a TOML rig file")
+            if st.st_size > RIG_FILE_BYTES:
+                raise ConfigError(f"{path}: {st.st_size} bytes, more than a rig file's {RIG_FILE_BYTES} bytes")
+            text = f.read(RIG_FILE_BYTES + 1).decode("utf-8")
+        data = tomllib.loads(text)
+    except RecursionError:  # tomllib recurses per nesting level
+        raise ConfigError(f"{path}: tables and arrays nested deeper than {RIG_NESTING} levels") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{path}: not a regular file (a pipe, device or folder), expected a TOML rig file") from None
     except FileNotFoundError:
         raise ConfigError(f"{path}: rig file not found") from None
     except tomllib.TOMLDecodeError as exc:
@@ -572,6 +664,8 @@ def single_axis_sensor(entry: dict[str, Any], where: str, *, kind: str, quantity
                        group: str = "") -> Sensor:
     """One single-axis sensor from a rig file entry's fields (or the given values, for one axis of
     a multi-axis sensor), validated: errors name ``where``, the field and the value."""
+    if name is None:  # a whole entry of one sensor: its fields are these
+        known_keys(where, entry, SENSOR_KEYS)
     name = entry.get("name") if name is None else name
     if not isinstance(name, str) or not name:
         raise ConfigError(f"{where} field 'name': expected a non-empty name, got {name!r}")

@@ -30,6 +30,12 @@ from odsuite.domain.errors import ConfigError, OdsuiteError, ProjectLockedError
 
 #: statuses of a project's record, in the order the summary lists them
 STATUSES = ("ok", "error", "locked", "not-run")
+#: seconds to reach a scheduler and hear its answer
+CONNECT_SECONDS = 10.0
+#: commands writing one output file per project (its name from the project's name) into --out
+OUTPUT_SUFFIX = {"report": "-report.html", "render": "-"}
+
+
 
 
 def _plain(x: Any) -> Any:
@@ -221,7 +227,88 @@ def _check_projects(command: str, projects: Sequence[str | Path], options: Mappi
         path = Path(p).expanduser().resolve()
         if path not in paths:  # the same project twice would only collide on its lock
             paths.append(path)
+    out = options.get("out")
+    if out is not None and command in OUTPUT_SUFFIX:
+        if Path(out).exists() and not Path(out).is_dir():
+            raise ConfigError(f"--out {out}: not a folder; give a folder for the {command} files")
+        # outputs are named after the project's file name: two of one name would overwrite each other
+        by_stem: dict[str, Path] = {}
+        for path in paths:
+            other = by_stem.setdefault(path.stem, path)
+            if other != path:
+                raise ConfigError(f"--out {out}: {other} and {path} would write files of one name "
+                                  f"({path.stem}{OUTPUT_SUFFIX[command]}...); give the projects distinct "
+                                  "file names or leave out --out (each beside its project)")
     return paths
+
+
+def check_scheduler(address: str) -> str:
+    """A dask scheduler address 'tcp://HOST:PORT' or 'tls://HOST:PORT' (or HOST:PORT), else one line."""
+    from urllib.parse import urlsplit
+
+    text = address.strip()
+    if not text or not text.isprintable():
+        raise ConfigError(f"--scheduler: expected an address tcp://HOST:PORT, got {address!r}")
+    parts = urlsplit(text if "://" in text else "tcp://" + text)
+    try:
+        port = parts.port
+    except ValueError:
+        port = None
+    if parts.scheme not in ("tcp", "tls") or not parts.hostname or port is None or not 0 < port < 65536 \
+            or parts.path not in ("", "/"):
+        raise ConfigError(f"--scheduler: expected an address tcp://HOST:PORT or tls://HOST:PORT "
+                          f"(PORT 1 to 65535), got {address!r}")
+    if parts.scheme == "tls":
+        import dask.config
+
+        if not dask.config.get("distributed.comm.tls.ca-file", None):
+            raise ConfigError(f"--scheduler {address}: tls:// needs dask's TLS settings "
+                              "(distributed.comm.tls.ca-file, .client.cert and .client.key)")
+    return f"{parts.scheme}://{parts.netloc}"
+
+
+def _fingerprint(path: Path) -> tuple[int, int, int] | None:
+    """What changes when a project is written (a commit replaces the file: a new inode)."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return st.st_ino, st.st_size, st.st_mtime_ns
+
+
+def _clear_stale_locks(paths: Sequence[Path]) -> None:
+    """Remove the lock files that workers of this machine, ended by the interrupt, left behind: a
+    lock file whose lock can be taken is stale (a live writer elsewhere keeps its own)."""
+    from odsuite.store.storage import acquire_lock, release_lock
+    from odsuite.store.writer_lock import lock_path
+
+    quiet = logging.getLogger("odsuite.store.storage")
+    level, quiet.level = quiet.level, logging.ERROR  # its note on removed working copies: ours to make
+    try:
+        for path in paths:
+            if os.path.lexists(lock_path(path)):
+                try:
+                    release_lock(acquire_lock(path))
+                except OdsuiteError:
+                    pass
+    finally:
+        quiet.setLevel(level)
+
+
+def _interrupted_line(command: str, paths: Sequence[Path], before: dict[Path, Any],
+                      records: Mapping[str, Mapping[str, Any]]) -> str:
+    """The one line of an interrupted batch: for a writing command the projects that changed
+    (seen on disk once the workers are gone), else those that finished."""
+    if COMMANDS[command][1]:
+        changed = [p for p in paths if _fingerprint(p) != before[p]]
+        rest = [p for p in paths if p not in changed]
+        if not changed:
+            return "interrupted: nothing stored, no project changed"
+        return (f"interrupted: {command} stored in {', '.join(map(str, changed))}; "
+                f"unchanged: {', '.join(map(str, rest)) or 'none'}")
+    done = [p for p in paths if records.get(str(p), {}).get("status") == "ok"]
+    return (f"interrupted: nothing stored; finished: {', '.join(map(str, done)) or 'none'} "
+            f"of {len(paths)} projects")
 
 
 def _not_run(path: str, why: str) -> dict[str, Any]:
@@ -242,11 +329,16 @@ def run_batch(command: str, projects: Sequence[str | Path], *, scheduler: str | 
 
     options = dict(options or {})
     paths = _check_projects(command, projects, options)
-    if workers is not None and workers < 1:
-        raise ConfigError(f"batch: --workers must be at least 1, got {workers}")
+    most = 4 * (os.cpu_count() or 1)
+    if workers is not None and not 1 <= workers <= most:
+        raise ConfigError(f"batch: --workers must be from 1 to {most} (4 per core), got {workers}")
+    if scheduler is not None:
+        scheduler = check_scheduler(scheduler)
     started = time.monotonic()
     cluster = None
     n = workers or os.cpu_count() or 1
+    before = {p: _fingerprint(p) for p in paths}
+    records: dict[str, dict[str, Any]] = {}
     try:
         if scheduler is None:
             # processes, not threads: most of the work holds the GIL. Loopback only, no dashboard
@@ -257,10 +349,7 @@ def run_batch(command: str, projects: Sequence[str | Path], *, scheduler: str | 
             address = cluster.scheduler_address
         else:
             address = scheduler
-        try:
-            client = Client(address, timeout="10s", set_as_default=False)
-        except (OSError, TimeoutError) as exc:
-            raise ConfigError(f"batch: cannot reach the scheduler at {address}: {exc}") from None
+        client = _connect(Client, address)
         with client:
             n_workers = len(client.scheduler_info(n_workers=-1)["workers"]) if scheduler else n
             if not n_workers:
@@ -273,7 +362,6 @@ def run_batch(command: str, projects: Sequence[str | Path], *, scheduler: str | 
                        for i, p in enumerate(paths)}
             if on_submitted is not None:
                 on_submitted(client, futures)
-            records: dict[str, dict[str, Any]] = {}
             try:
                 for done, fut in enumerate(as_completed(list(futures.values()), loop=client.loop), start=1):
                     path = next(k for k, f in futures.items() if f is fut)
@@ -284,15 +372,54 @@ def run_batch(command: str, projects: Sequence[str | Path], *, scheduler: str | 
                         records[path] = _not_run(path, f"{type(exc).__name__}: {first}")
                     if progress is not None:
                         progress(records[path], done, len(futures))
-            except KeyboardInterrupt:  # what finished is kept, the rest is reported
+            except BaseException:  # Ctrl-C or SIGTERM: what finished is kept, the rest cancelled
                 client.cancel([f for p, f in futures.items() if p not in records])
-                for path in futures:
-                    records.setdefault(path, _not_run(path, "interrupted"))
+                raise
+    except BaseException as exc:
+        if isinstance(exc, (Exception, SystemExit, GeneratorExit)):
+            raise
+        logging.getLogger("distributed").setLevel(logging.CRITICAL)  # its shutdown noise is not ours
+        if cluster is not None:  # the workers are gone before the projects are looked at
+            cluster.close()
+            cluster = None
+            if COMMANDS[command][1]:
+                _clear_stale_locks(paths)
+        # the interrupt goes on (the command line's own exception), carrying its truthful line
+        exc.line = _interrupted_line(command, paths, before, records)  # type: ignore[attr-defined]
+        raise
     finally:
         if cluster is not None:
             cluster.close()
     return BatchResult(command=command, scheduler=scheduler or "local", workers=n_workers,
                        projects=[records[str(p)] for p in paths], seconds=time.monotonic() - started)
+
+
+def _connect(client_class, address: str):
+    """A Client of the scheduler at ``address``, or one line within CONNECT_SECONDS: a closed
+    port, a listener that never answers or a server that speaks another protocol."""
+    import threading
+
+    got: list = []
+
+    def connect() -> None:
+        try:
+            got.append(client_class(address, timeout=f"{CONNECT_SECONDS:g}s", set_as_default=False))
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller below
+            got.append(exc)
+
+    # a daemon thread: a connection that never returns must not keep the program from exiting
+    thread = threading.Thread(target=connect, name="odsuite-connect", daemon=True)
+    thread.start()
+    thread.join(CONNECT_SECONDS + 5)
+    if not got:
+        raise ConfigError(f"batch: the scheduler at {address} did not answer within {CONNECT_SECONDS:g} s")
+    if not isinstance(got[0], BaseException):
+        return got[0]
+    exc = got[0]
+    if isinstance(exc, (OSError, TimeoutError, ValueError, TypeError)):
+        first = (str(exc).splitlines() or [type(exc).__name__])[0]
+        raise ConfigError(f"batch: cannot reach the scheduler at {address}: {first}") from None
+    raise exc
 
 
 def describe(command: str, record: Mapping[str, Any]) -> str:
@@ -319,5 +446,5 @@ def describe(command: str, record: Mapping[str, Any]) -> str:
     if command == "add-effect":
         return f"revision {r['revision']}: + {r['effect']}; error {r['previous_error']:.4f} -> {r['error']:.4f}"
     if command == "report":
-        return f"wrote {r['path']} ({r['size_bytes'] / 2**20:.1f} MiB; error {r['error']:.4f})"
+        return f"wrote {r['path']} ({r['summary']})"
     return f"wrote {r['path']}"

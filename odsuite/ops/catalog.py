@@ -15,7 +15,11 @@ from __future__ import annotations
 
 import hashlib
 import html
+import os
+import secrets
+import shutil
 import sqlite3
+import stat
 import time
 from collections.abc import Mapping, Sequence
 from contextlib import closing
@@ -24,6 +28,8 @@ from pathlib import Path
 from typing import Any
 
 from odsuite.domain.errors import ConfigError, OdsuiteError
+from odsuite.store.diskspace import write_output
+from odsuite.store.h5contained import ReachesOutsideError
 from odsuite.analysis.noise_floor import FLOOR_TOLERANCE
 
 CATALOG_NAME = "odsuite-catalog.sqlite"
@@ -36,6 +42,11 @@ HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 #: lifts the error far beyond (5x for one sensor's gain 25 % off, 100x for a 60 % stiffer
 #: suspension). A screening verdict: ``odsuite diagnose`` gives the validated one
 EXPLAINED_FACTOR = FLOOR_TOLERANCE
+#: a query's default bounds: rows returned and seconds of SQLite's work (``query(limit=, seconds=)``)
+QUERY_ROWS = 10_000
+QUERY_SECONDS = 30.0
+#: the longest text or BLOB a query may make (SQLite's own limit is 1e9 bytes)
+QUERY_VALUE_BYTES = 100_000_000
 #: bump when the tables change: an older catalogue is rebuilt from scratch
 SCHEMA_VERSION = 1
 
@@ -100,12 +111,14 @@ class CatalogResult:
     unchanged: list[str] = field(default_factory=list)
     removed: list[str] = field(default_factory=list)
     skipped: dict[str, str] = field(default_factory=dict)
+    #: projects refused because they reach files outside themselves (listed, with their error)
+    refused: dict[str, str] = field(default_factory=dict)
     seconds: float = 0.0
 
     def as_dict(self) -> dict[str, Any]:
         return {"catalog": str(self.path), "page": str(self.page), "indexed": self.indexed,
                 "restamped": self.restamped, "unchanged": self.unchanged, "removed": self.removed,
-                "skipped": self.skipped, "seconds": self.seconds}
+                "skipped": self.skipped, "refused": self.refused, "seconds": self.seconds}
 
 
 def _folder(folder: str | Path) -> Path:
@@ -128,6 +141,26 @@ def _candidates(folder: Path) -> list[Path]:
         except OSError:
             continue
     return out
+
+
+def _key(path: Path, folder: Path) -> str:
+    """The project's name in the catalogue: its path under the folder, bytes that are not UTF-8
+    as backslash escapes (SQLite text must be UTF-8)."""
+    return os.fsencode(path.relative_to(folder).as_posix()).decode("utf-8", "backslashreplace")
+
+
+def _own_file(path: Path, what: str) -> bool:
+    """Whether the catalogue's own ``path`` exists as a regular file; a link (never followed: the
+    user did not name it) or a folder, pipe or device in its place is refused in one line."""
+    try:
+        st = os.lstat(path)
+    except FileNotFoundError:
+        return False
+    if stat.S_ISLNK(st.st_mode):
+        raise ConfigError(f"{path}: the {what} is a link, which odsuite never writes through; remove it")
+    if not stat.S_ISREG(st.st_mode):
+        raise ConfigError(f"{path}: the {what} is not a regular file (a folder, pipe or device); move it elsewhere")
+    return True
 
 
 def _sha256(path: Path) -> str:
@@ -230,8 +263,20 @@ def _index_project(db: sqlite3.Connection, key: str, path: Path, compute_errors:
 
 
 def _open_db(path: Path) -> sqlite3.Connection:
-    db = sqlite3.connect(path, timeout=30)
-    version = db.execute("PRAGMA user_version").fetchone()[0]
+    """The working copy's database; one that is not a catalogue of this schema (damaged, another
+    program's, another version) is rebuilt from scratch."""
+    try:
+        db = sqlite3.connect(path, timeout=30)
+        version = db.execute("PRAGMA user_version").fetchone()[0]
+        if version == SCHEMA_VERSION:
+            db.execute("PRAGMA quick_check").fetchall()
+            cols = [r[1] for r in db.execute("PRAGMA table_info(projects)")]
+            if cols and len(cols) != 16:
+                version = None
+    except sqlite3.DatabaseError:
+        db.close()
+        path.unlink()
+        db, version = sqlite3.connect(path, timeout=30), None
     if version != SCHEMA_VERSION:
         for table in TABLES:
             db.execute(f"DROP TABLE IF EXISTS {table}")
@@ -244,18 +289,43 @@ def build_catalog(folder: str | Path, *, compute_errors: bool = False, progress=
     """Index or refresh every project under ``folder``; write the catalogue page. A project that
     cannot be read keeps a row with its one-line error (``read_error``). ``compute_errors``:
     revisions without a stored error get one computed (seconds per project, once per content)."""
-    from odsuite.domain.errors import NotAProjectError
-
     folder = _folder(folder)
     started = time.monotonic()
     res = CatalogResult(path=folder / CATALOG_NAME, page=folder / PAGE_NAME)
+    _own_file(res.page, "catalogue page")
+    # the catalogue is refreshed in a private copy that replaces it in one rename (never written
+    # through a link, nor into a file another name shares)
+    tmp = folder / f".{CATALOG_NAME}.odsuite-out-{secrets.token_hex(4)}"
+    try:
+        if _own_file(res.path, "catalogue"):
+            shutil.copyfile(res.path, tmp)
+        _fill(folder, tmp, res, compute_errors, progress)
+        if res.path.exists():
+            os.chmod(tmp, stat.S_IMODE(os.stat(res.path).st_mode) | stat.S_IWUSR)
+        os.replace(tmp, res.path)
+    except sqlite3.Error as exc:
+        raise ConfigError(f"{res.path}: catalogue not written: {exc}") from None
+    except OSError as exc:
+        raise ConfigError(f"{res.path}: catalogue not written: {exc.strerror or exc}") from None
+    finally:
+        for leftover in (tmp, tmp.with_name(tmp.name + "-journal")):
+            leftover.unlink(missing_ok=True)
+    write_page(folder)
+    res.seconds = time.monotonic() - started
+    return res
+
+
+def _fill(folder: Path, tmp: Path, res: CatalogResult, compute_errors: bool, progress) -> None:
+    """Refresh the catalogue database ``tmp`` from the projects under ``folder``."""
+    from odsuite.domain.errors import NotAProjectError
+
     files = _candidates(folder)
-    with closing(_open_db(res.path)) as db:
+    with closing(_open_db(tmp)) as db:
         known = {row[0]: row[1:] for row in db.execute(
             "SELECT project, size_bytes, mtime_ns, sha256, error IS NULL AND n_experiments > 0 FROM projects")}
         seen = set()
         for i, path in enumerate(files):
-            key = path.relative_to(folder).as_posix()
+            key = _key(path, folder)
             if progress is not None:
                 progress(key, i, len(files))
             st = path.stat()
@@ -279,13 +349,18 @@ def build_catalog(folder: str | Path, *, compute_errors: bool = False, progress=
                 except NotAProjectError as exc:
                     res.skipped[key] = str(exc)
                     continue
-                except OdsuiteError as exc:  # a damaged project is listed with its error
+                except Exception as exc:  # a damaged project is listed with its error
                     for table in TABLES[1:]:
                         db.execute(f"DELETE FROM {table} WHERE project = ?", (key,))
                     row = dict.fromkeys(("format_version", "rig", "created", "updated", "n_experiments",
                                          "n_revisions", "current_revision", "error", "noise_floor_error",
                                          "verdict"))
-                    row["read_error"] = str(exc).splitlines()[0]
+                    line = (str(exc).splitlines() or [""])[0]
+                    # an error of odsuite's says what is wrong; another is named by its kind
+                    row["read_error"] = line if isinstance(exc, OdsuiteError) else \
+                        f"{path}: project cannot be read ({type(exc).__name__}: {line})"
+                    if isinstance(exc, ReachesOutsideError):
+                        res.refused[key] = line
                 db.execute("INSERT OR REPLACE INTO projects VALUES "
                            "(:project, :size, :mtime, :sha, :format_version, :rig, :created, :updated, "
                            ":n_experiments, :n_revisions, :current_revision, :error, :noise_floor_error, "
@@ -299,31 +374,67 @@ def build_catalog(folder: str | Path, *, compute_errors: bool = False, progress=
                 for table in TABLES:
                     db.execute(f"DELETE FROM {table} WHERE project = ?", (key,))
                 res.removed.append(key)
-    write_page(folder)
-    res.seconds = time.monotonic() - started
-    return res
 
 
 def connect(folder: str | Path) -> sqlite3.Connection:
     """A read-only connection to the folder's catalogue (``pandas.read_sql(sql, connect(dir))``)."""
     path = _folder(folder) / CATALOG_NAME
-    if not path.is_file():
+    if not path.exists():
         raise ConfigError(f"{path}: no catalogue yet; build it with `odsuite catalog {folder}`")
-    return sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True)
+    if not path.is_file():
+        raise ConfigError(f"{path}: the catalogue is not a regular file (a folder, pipe or device)")
+    db = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True)
+    db.setlimit(sqlite3.SQLITE_LIMIT_LENGTH, QUERY_VALUE_BYTES)
+    return db
 
 
-def query(folder: str | Path, name_or_sql: str = "projects", *, rig: str | None = None) -> list[dict[str, Any]]:
-    """Rows of a named query (see QUERIES) or of a read-only SQL SELECT, as dicts."""
+class _Bounds:
+    """SQLite's progress handler: stops a query past its time, or at Ctrl-C (SQLite's C loop
+    does not return to Python otherwise, so the interrupt would wait for the query's end)."""
+
+    def __init__(self, seconds: float) -> None:
+        self.deadline = time.monotonic() + seconds
+        self.late = False
+        self.interrupted: BaseException | None = None
+
+    def __call__(self) -> int:
+        try:
+            self.late = time.monotonic() > self.deadline
+            return int(self.late)
+        except BaseException as exc:  # Ctrl-C or SIGTERM (the command line's own interrupt)
+            self.interrupted = exc
+            return 1
+
+
+def query(folder: str | Path, name_or_sql: str = "projects", *, rig: str | None = None,
+          limit: int = QUERY_ROWS, seconds: float = QUERY_SECONDS) -> list[dict[str, Any]]:
+    """Rows of a named query (see QUERIES) or of a read-only SQL SELECT, as dicts: at most
+    ``limit`` rows (more is refused in one line) within ``seconds`` of SQLite's work."""
     sql = QUERIES.get(name_or_sql, name_or_sql)
     if name_or_sql not in QUERIES and not name_or_sql.lstrip().lower().startswith(("select", "with")):
         raise ConfigError(f"catalog query {name_or_sql!r}: expected one of {', '.join(QUERIES)} or a SELECT")
+    if not limit >= 1:
+        raise ConfigError(f"--limit: at least 1 row, got {limit}")
+    bounds = _Bounds(seconds)
     with closing(connect(folder)) as db:
+        db.set_progress_handler(bounds, 10_000)
         try:
             cur = db.execute(sql, {"rig": rig} if ":rig" in sql else {})
-        except sqlite3.Error as exc:
+            cols = [d[0] for d in cur.description or ()]
+            rows = cur.fetchmany(limit + 1)
+        except (sqlite3.Error, MemoryError, OverflowError) as exc:
+            if bounds.interrupted is not None:
+                raise bounds.interrupted from None
+            if bounds.late:
+                raise ConfigError(f"catalog query {name_or_sql!r}: stopped after {seconds:g} s of work "
+                                  "(give --seconds for longer)") from None
             raise ConfigError(f"catalog query {name_or_sql!r}: {exc}") from None
-        cols = [d[0] for d in cur.description or ()]
-        return [dict(zip(cols, row)) for row in cur.fetchall()]
+    if bounds.interrupted is not None:
+        raise bounds.interrupted
+    if len(rows) > limit:
+        raise ConfigError(f"catalog query {name_or_sql!r}: more than {limit} rows; give --limit for more "
+                          "or narrow the query (LIMIT, WHERE)")
+    return [dict(zip(cols, row)) for row in rows]
 
 
 def _num(v: float | None) -> str:

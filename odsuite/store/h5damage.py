@@ -9,6 +9,7 @@ from pathlib import Path
 import h5py
 
 from odsuite.domain.errors import OdsuiteError, ProjectFileError
+from odsuite.store.h5contained import refuse_outside
 
 #: What h5py raises on damaged bytes: an object that cannot be found or opened (KeyError), an HDF5
 #: read error (OSError, RuntimeError), metadata of the wrong type or shape (ValueError, TypeError,
@@ -36,9 +37,18 @@ def reading(path: Path, what: str = "") -> Iterator[None]:
 
 
 def open_h5(path: Path, where: Path, mode: str = "r") -> h5py.File:
-    """Open ``path`` (the project ``where`` or a copy of it) without HDF5's own file locking."""
+    """Open ``path`` (the project ``where`` or a copy of it) without HDF5's own file locking; read
+    only if it holds nothing outside itself (see ``odsuite.store.h5contained``)."""
     try:
-        return h5py.File(path, mode, locking=False)
+        f = h5py.File(path, mode, locking=False)
     except OSError as exc:
         first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise ProjectFileError(f"{where}: file is truncated or damaged and cannot be opened ({first})") from None
+    if mode == "r":
+        try:
+            with reading(where, "links"):
+                refuse_outside(f, where)
+        except BaseException:
+            f.close()
+            raise
+    return f

@@ -74,6 +74,7 @@ from odsuite.store.h5codecs import (
     write_systeminfo,
 )
 from odsuite.store.h5damage import open_h5, reading
+from odsuite.store.stored_values import check_experiment, check_revision
 from odsuite.store.project_format import (
     CHUNK_BYTES,
     FORMAT_VERSION,
@@ -140,6 +141,9 @@ def _resolve_rig(rig: Rig | str | Path | None, regs) -> Rig | None:
     if rig_file:
         loaded = load_rig(rig, regs.sensor_types)
         check_asked_solvers(loaded, regs.coordinate_solvers)
+        if loaded.default_model is not None and loaded.default_model not in regs.models:
+            raise ConfigError(f"{rig}: field 'default_model': no model named {loaded.default_model!r} "
+                              f"(known: {', '.join(regs.models.names())})")
         return loaded
     raise ConfigError(f"unknown rig {str(rig)!r}: not a registered rig (known: {', '.join(rigs.names()) or 'none'}) "
                       "and not a .toml rig file")
@@ -193,12 +197,14 @@ class Experiment:
         self.source = h5text.text(a.get("source", ""))
         self.rig_name = h5text.text(a["rig"]) or None
         self.channel_names = [h5text.text(n) for n in a["channel_names"]]
-        self.n_samples, self.n_channels = g["raw"].shape
+        self.n_samples, self.n_channels = (tuple(g["raw"].shape) + (0, 0))[:2]
         self.excitation = None
         if "force_channel" in a:
             self.excitation = Excitation(int(a["force_channel"]), np.asarray(a["force_point"], dtype=float),
                                          np.asarray(a["force_direction"], dtype=float),
                                          h5text.text(a["force_body"]) if "force_body" in a else None)
+        check_experiment(project.path, name, sampling_rate=self.sampling_rate, pretrigger=self.pretrigger,
+                         channel_names=self.channel_names, shape=g["raw"].shape, excitation=self.excitation)
         self.systeminfo = read_systeminfo(g["systeminfo"])
 
     def _group(self) -> h5py.Group:
@@ -387,7 +393,10 @@ class Project:
                     raise SchemaError(f"{self.path}: /rig definition is not valid {fmt}: {exc}") from None
                 source = h5text.text(a.get("source", ""))
                 data = migrations.rig_up_filled(data, text if fmt == "toml" else h5text.text(a.get("source_text", "")))
-                rig = rig_from_dict(data, self.registries.sensor_types, source=Path(source) if source else None)
+                try:
+                    rig = rig_from_dict(data, self.registries.sensor_types, source=Path(source) if source else None)
+                except ConfigError as exc:  # the stored copy is at fault, not the file it came from
+                    raise SchemaError(f"{self.path}: stored rig definition (/rig): {exc}") from None
             self._rig_cache = (rig,)
         return self._rig_cache[0]
 
@@ -727,12 +736,14 @@ class Project:
         for key, g in revs.items():
             a = Attrs(g)
             parent = int(a["parent"])
-            out.append({"revision": int(key), "model": h5text.text(a["model"]) or None,
-                        "effects": json.loads(h5text.text(a["effects"])),
-                        "parameters": json.loads(h5text.text(a["parameters"])),
-                        "metrics": json.loads(h5text.text(a["metrics"])),
-                        "parent": None if parent < 0 else parent, "created": h5text.text(a["created"]),
-                        "object_id": h5text.text(a["object_id"])})
+            rev = {"revision": int(key), "model": h5text.text(a["model"]) or None,
+                   "effects": json.loads(h5text.text(a["effects"])),
+                   "parameters": json.loads(h5text.text(a["parameters"])),
+                   "metrics": json.loads(h5text.text(a["metrics"])),
+                   "parent": None if parent < 0 else parent, "created": h5text.text(a["created"]),
+                   "object_id": h5text.text(a["object_id"])}
+            check_revision(self.path, key, rev["effects"], rev["parameters"], rev["metrics"])
+            out.append(rev)
         return sorted(out, key=lambda r: r["revision"])
 
     @property
@@ -772,7 +783,11 @@ class Project:
         checked: dict[str, int] = {}
         for name in self.experiment_names():
             datasets: list[h5py.Dataset] = []
-            self._file()["experiments"][name].visititems(
+            group = self._file()["experiments"][name]
+            if not isinstance(group, h5py.Group):
+                raise ProjectFileError(f"{self.path}: experiment {name!r} is a {type(group).__name__}, "
+                                       "not an experiment group")
+            group.visititems(
                 lambda _n, o: datasets.append(o) if isinstance(o, h5py.Dataset) and o.fletcher32 else None)
             for ds in datasets:
                 try:

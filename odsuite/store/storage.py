@@ -135,6 +135,10 @@ def check_output(output: Path, project: Path | None, option: str) -> Path:
 COMMITS: list[Path] = []
 
 
+#: the signals the command line answers like Ctrl-C (SIGTERM: what kill and service managers send)
+INTERRUPTS = {signal.SIGINT, signal.SIGTERM} if hasattr(signal, "SIGTERM") else {signal.SIGINT}
+
+
 @contextmanager
 def interrupts_deferred() -> Iterator[None]:
     """Hold SIGINT back (it arrives right after the block), e.g. so a Ctrl-C never falls between a
@@ -142,12 +146,12 @@ def interrupts_deferred() -> Iterator[None]:
     # Windows has no signal masks; a Ctrl-C there may fall between the commit and its record
     main_thread = threading.current_thread() is threading.main_thread() and hasattr(signal, "pthread_sigmask")
     if main_thread:
-        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        signal.pthread_sigmask(signal.SIG_BLOCK, INTERRUPTS)
     try:
         yield
     finally:
         if main_thread:
-            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, INTERRUPTS)
 
 
 @contextmanager
@@ -162,16 +166,19 @@ def interrupts_held() -> Iterator[None]:
     if threading.current_thread() is not threading.main_thread():
         yield  # only the main thread receives Python's signals
         return
-    held: list[object] = []
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: held.append(frame))
+    held: list[tuple[int, object]] = []
+    previous = {s: signal.signal(s, lambda signum, frame: held.append((signum, frame))) for s in INTERRUPTS}
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
-        if held and callable(previous):
-            previous(signal.SIGINT, held[0])
-        elif held and previous == signal.SIG_DFL:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+        if held and callable(previous[held[0][0]]):
+            previous[held[0][0]](*held[0])
+        elif held and held[0][0] == signal.SIGINT and previous[signal.SIGINT] == signal.SIG_DFL:
             raise KeyboardInterrupt
+        elif held:
+            signal.raise_signal(held[0][0])
 
 
 def _discard(f: h5py.File | None, tmp: Path) -> None:

@@ -195,3 +195,67 @@ def test_unreachable_scheduler_is_one_line(projects):
     with pytest.raises(ConfigError, match=r"cannot reach the scheduler at tcp://127\.0\.0\.1:9") as info:
         run_batch("info", projects[:1], scheduler="tcp://127.0.0.1:9")
     assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("address", ["", "foo://h:1", "127.0.0.1", "tcp://127.0.0.1:99999", "tcp://127.0.0.1:abc",
+                                     "inproc://", "unix:///nonexistent", "tcp://a\nb:1", "http://127.0.0.1:80"])
+def test_scheduler_address_checked(address):
+    from odsuite.domain.errors import ConfigError
+    from odsuite.ops.batch import check_scheduler
+
+    with pytest.raises(ConfigError, match=r"^--scheduler: expected an address tcp://HOST:PORT"):
+        check_scheduler(address)
+    assert check_scheduler("127.0.0.1:8786") == "tcp://127.0.0.1:8786"
+    with pytest.raises(ConfigError, match="tls:// needs dask's TLS settings"):
+        check_scheduler("tls://h.example:1")
+
+
+def test_silent_scheduler_is_one_line_within_the_timeout(projects, monkeypatch):
+    """A listener that accepts and never answers: one line within the connection time (+5 s)."""
+    import socket
+
+    from odsuite.domain.errors import ConfigError
+    from odsuite.ops import batch
+
+    monkeypatch.setattr(batch, "CONNECT_SECONDS", 2.0)
+    with socket.socket() as silent:
+        silent.bind(("127.0.0.1", 0))
+        silent.listen(1)
+        started = time.monotonic()
+        with pytest.raises(ConfigError, match="did not answer within 2 s|cannot reach the scheduler"):
+            batch.run_batch("info", projects[:1], scheduler=f"tcp://127.0.0.1:{silent.getsockname()[1]}")
+        assert time.monotonic() - started < 2.0 + 5 + 3
+
+
+def test_outputs_of_one_name_and_out_file_refused_before_work(projects, tmp_path):
+    from odsuite.domain.errors import ConfigError
+    from odsuite.ops.batch import run_batch
+
+    (tmp_path / "x").mkdir()
+    (tmp_path / "y").mkdir()
+    twins = [shutil.copy(projects[0], tmp_path / d / "run.h5") for d in ("x", "y")]
+    with pytest.raises(ConfigError, match=r"would write files of one name \(run-report\.html"):
+        run_batch("report", twins, options={"out": str(tmp_path / "out")})
+    (tmp_path / "notes.txt").write_text("mine\n")
+    with pytest.raises(ConfigError, match=r"^--out .*notes\.txt: not a folder"):
+        run_batch("report", projects[:1], options={"out": str(tmp_path / "notes.txt")})
+    assert (tmp_path / "notes.txt").read_text() == "mine\n" and not (tmp_path / "out").exists()
+    with pytest.raises(ConfigError, match=r"--workers must be from 1 to"):
+        run_batch("info", projects[:1], workers=100_000)
+
+
+def test_interrupted_batch_names_the_projects_that_changed(projects):
+    """The line after Ctrl-C is made from the projects on disk once the workers are gone: a
+    project replaced by a commit is named as changed, the others as unchanged."""
+    from odsuite.ops.batch import _fingerprint, _interrupted_line
+
+    before = {p: _fingerprint(p) for p in projects}
+    tmp = projects[1].with_name("copy.h5")
+    shutil.copy(projects[1], tmp)
+    os.replace(tmp, projects[1])  # what a commit does
+    line = _interrupted_line("add-effect", projects, before, {})
+    assert line == (f"interrupted: add-effect stored in {projects[1]}; unchanged: {projects[0]}, {projects[2]}")
+    assert _interrupted_line("add-effect", projects[:1], before, {}) == \
+        "interrupted: nothing stored, no project changed"
+    assert _interrupted_line("info", projects, before, {str(projects[0]): {"status": "ok"}}) == \
+        f"interrupted: nothing stored; finished: {projects[0]} of 3 projects"

@@ -137,3 +137,108 @@ def test_cli_catalog_json_and_errors(folder, capsys):
     err = capsys.readouterr().err
     assert "expected one of" in err and len(err.strip().splitlines()) == 1
     assert main(["catalog", "query", str(folder / "nowhere")]) == 1
+
+
+def _user_db(path: Path) -> None:
+    import sqlite3
+
+    with sqlite3.connect(path) as db:
+        db.execute("CREATE TABLE projects (name TEXT, budget REAL)")
+        db.execute("INSERT INTO projects VALUES ('grant', 12345.0)")
+
+
+def test_catalog_never_writes_through_links(folder, tmp_path):
+    """A link at the catalogue's or its page's name is refused and its target left as it was; a
+    hard link shared with a user's database is replaced by the new catalogue, the user's file kept."""
+    from odsuite.domain.errors import ConfigError
+    from odsuite.ops.catalog import CATALOG_NAME, PAGE_NAME, build_catalog, query
+
+    user = tmp_path / "budget.sqlite"
+    _user_db(user)
+    before = user.read_bytes()
+    (folder / CATALOG_NAME).symlink_to(user)
+    with pytest.raises(ConfigError, match="is a link, which odsuite never writes through"):
+        build_catalog(folder)
+    (folder / CATALOG_NAME).unlink()
+    (tmp_path / "page.html").write_text("<p>mine</p>")
+    (folder / PAGE_NAME).symlink_to(tmp_path / "page.html")
+    with pytest.raises(ConfigError, match="catalogue page is a link"):
+        build_catalog(folder)
+    assert (tmp_path / "page.html").read_text() == "<p>mine</p>"
+    (folder / PAGE_NAME).unlink()
+    os.link(user, folder / CATALOG_NAME)
+    build_catalog(folder)
+    assert user.read_bytes() == before
+    assert {r["project"] for r in query(folder, "projects")} == {"plain.h5", "2026/drifted.h5", "broken.h5"}
+    assert [p.name for p in folder.iterdir() if ".odsuite-out-" in p.name] == []
+
+
+def test_catalog_skips_one_bad_project(folder):
+    """Stored metrics that are not numbers make one project's row an error; the others are indexed."""
+    import h5py
+
+    from odsuite.ops.catalog import build_catalog, query
+
+    with h5py.File(folder / "plain.h5", "a") as f:
+        f["models/revisions/0"].attrs["metrics"] = "[1, 2]"
+    build_catalog(folder)
+    rows = {r["project"]: r for r in query(folder, "projects")}
+    assert rows["plain.h5"]["read_error"].startswith(str(folder / "plain.h5")), rows["plain.h5"]
+    assert rows["2026/drifted.h5"]["read_error"] is None and rows["2026/drifted.h5"]["n_experiments"] == 2
+
+
+def test_catalog_query_bounded(folder, capsys):
+    """An endless recursive query stops at --seconds, a 20,001-row one at --limit, in one line each;
+    BLOBs come out of --json as hexadecimal text."""
+    import time
+
+    from odsuite.cli import main
+    from odsuite.ops.catalog import build_catalog
+
+    build_catalog(folder)
+    capsys.readouterr()
+    endless = "WITH RECURSIVE c(x) AS (SELECT 1 UNION ALL SELECT x + 1 FROM c) SELECT count(*) FROM c"
+    started = time.monotonic()
+    assert main(["catalog", "query", str(folder), endless, "--seconds", "1"]) == 1
+    assert time.monotonic() - started < 20
+    err = capsys.readouterr().err
+    assert "stopped after 1 s of work" in err and err.count("\n") == 1
+    many = "WITH RECURSIVE c(x) AS (SELECT 1 UNION ALL SELECT x + 1 FROM c LIMIT 20001) SELECT x FROM c"
+    assert main(["catalog", "query", str(folder), many, "--json"]) == 1
+    assert "more than 10000 rows" in capsys.readouterr().err
+    assert main(["catalog", "query", str(folder), many, "--limit", "20001", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)[-1] == {"x": 20001}
+    assert main(["catalog", "query", str(folder), "SELECT x'00ff10' AS b", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out) == [{"b": "00ff10"}]
+
+
+def test_catalog_refuses_a_project_reaching_outside(folder, tmp_path, capsys):
+    """A project whose raw record is an external link: listed with its error, the others indexed,
+    and the command fails in one line (a file built to read another is not a damaged file)."""
+    import h5py
+
+    from odsuite.cli import main
+    from odsuite.ops.catalog import query
+
+    with h5py.File(tmp_path / "other.h5", "w") as o:
+        o["data"] = [1.0, 2.0]
+    with h5py.File(folder / "plain.h5", "a") as f:
+        name = next(f"experiments/{e}/raw" for e in f["experiments"])
+        del f[name]
+        f[name] = h5py.ExternalLink(str(tmp_path / "other.h5"), "data")
+    capsys.readouterr()
+    assert main(["catalog", str(folder)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("error: catalog: 1 project(s) refused") and "external link" in err
+    rows = {r["project"]: r for r in query(folder, "projects")}
+    assert "is an external link to" in rows["plain.h5"]["read_error"]
+    assert rows["2026/drifted.h5"]["read_error"] is None
+
+
+def test_usage_error_raised_by_a_command_is_its_message(capsys):
+    """A command's own usage error (click's BadParameter) is click's message and exit code 2."""
+    from odsuite.cli import main
+
+    assert main(["catalog", "query"]) == 2
+    err = capsys.readouterr().err
+    assert "catalog query DIR" in err and "Traceback" not in err and "AttributeError" not in err

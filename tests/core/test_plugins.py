@@ -440,3 +440,30 @@ def test_registration_imports_no_heavy_module():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]"
+
+
+@pytest.mark.parametrize("body, why", [
+    ("from odsuite import hookimpl\n@hookimpl\ndef odsuite_register_effects(registry):\n"
+     "    raise RuntimeError('lab plugin broke')\n", "in its hook odsuite_register_effects: RuntimeError: lab plugin broke"),
+    ("import sys\nsys.exit(3)\n", "to load: SystemExit: 3"),
+    ("print('noise')\nraise ImportError('needs labdriver')\n", "to load: ImportError: needs labdriver"),
+])
+def test_failing_third_party_plugin_is_left_out(tmp_path, body, why):
+    """An installed plugin whose import or registration hook fails is one line naming it and its
+    distribution; every other command runs, and `odsuite plugins --json` lists the failure."""
+    site = tmp_path / "site"
+    (site / "lab_broken_plugin-1.0.dist-info").mkdir(parents=True)
+    (site / "lab_broken_plugin.py").write_text(body)
+    (site / "lab_broken_plugin-1.0.dist-info" / "METADATA").write_text(
+        "Metadata-Version: 2.1\nName: lab-broken-plugin\nVersion: 1.0\n")
+    (site / "lab_broken_plugin-1.0.dist-info" / "entry_points.txt").write_text("[odsuite]\nlab_broken = lab_broken_plugin\n")
+    env = {**os.environ, "PYTHONPATH": str(site)}
+    line = f"note: plugin 'lab_broken' (distribution 'lab-broken-plugin') left out: it failed {why}\n"
+    done = subprocess.run([sys.executable, "-m", "odsuite.cli", "plugins", "--json"], env=env, capture_output=True,
+                          text=True, cwd=tmp_path)
+    assert (done.returncode, done.stderr) == (0, line)
+    doc = json.loads(done.stdout)
+    assert doc["failed"] == {"lab_broken": line[len("note: "):].rstrip("\n")} and "models" in doc["plugins"]
+    done = subprocess.run([sys.executable, "-m", "odsuite.cli", "new", "q.h5"], env=env, capture_output=True,
+                          text=True, cwd=tmp_path)
+    assert (done.returncode, done.stderr) == (0, line) and (tmp_path / "q.h5").is_file()

@@ -197,6 +197,59 @@ def _full_disk_export(d: Path, free: int):
         assert [p.name for p in d.iterdir() if "o." in p.name] == []
 
 
+def _reaching_out(d: Path, kind: str) -> None:
+    """x.h5, a copy of p.h5 whose raw record of e1 reaches a file outside it (a key, an HDF5 file)."""
+    import h5py
+
+    shutil.copyfile(d / "p.h5", d / "x.h5")
+    (d / "key").write_bytes(b"secret" * 100_000)
+    with h5py.File(d / "other.h5", "w") as o:
+        o["data"] = np.zeros((10, 2))
+    with h5py.File(d / "x.h5", "a") as f:
+        old = f["experiments/e1/raw"]
+        shape, dtype = old.shape, old.dtype
+        del f["experiments/e1/raw"]
+        if kind == "external storage":
+            f.create_dataset("experiments/e1/raw", shape, dtype,
+                             external=[(str(d / "key"), 0, int(np.prod(shape)) * dtype.itemsize)])
+        elif kind == "virtual":
+            layout = h5py.VirtualLayout(shape=(10, 2), dtype="f8")
+            layout[...] = h5py.VirtualSource(str(d / "other.h5"), "data", shape=(10, 2))
+            f.create_virtual_dataset("experiments/e1/raw", layout)
+        else:
+            f["experiments/e1/raw"] = h5py.ExternalLink(str(d / "other.h5"), "data")
+
+
+def _project_reaching_out(kind: str, command: str = "verify") -> Callable[[Path], list[str]]:
+    return lambda d: (_reaching_out(d, kind), [command, str(d / "x.h5")])[1]
+
+
+def _handmade(kind: str, command: str = "info") -> Callable[[Path], list[str]]:
+    """``command`` on x.h5, a copy of p.h5 with one stored value changed by hand."""
+    def argv(d: Path) -> list[str]:
+        import h5py
+
+        shutil.copyfile(d / "p.h5", d / "x.h5")
+        with h5py.File(d / "x.h5", "a") as f:
+            rev, e = f["models/revisions/0"], f["experiments/e1"]
+            if kind == "metrics abc":
+                rev.attrs["metrics"] = '{"error": "abc"}'
+            elif kind == "metrics list":
+                rev.attrs["metrics"] = "[1, 2]"
+            elif kind == "effects dict":
+                rev.attrs["effects"] = '{"stiffness": 1}'
+            elif kind == "rate 0":
+                e.attrs["sampling_rate"] = 0.0
+            elif kind == "rate NaN":
+                e.attrs["sampling_rate"] = float("nan")
+            elif kind == "force channel 99":
+                e.attrs["force_channel"] = 99
+            elif kind == "short names":
+                e.attrs["channel_names"] = np.array([b"force", b"ai1"])
+        return [command, str(d / "x.h5")]
+    return argv
+
+
 def _uff_undefined_cs(d: Path):
     import pyuff
 
@@ -439,6 +492,50 @@ CASES: list[Case] = [
     Case("disk-full", "add an experiment with 0.3 MB free on the project's disk (API)", "{dir}/p.h5: no space left on", call=lambda d: _full_disk_acquire(d, 300_000)),
     Case("output-disk-full", "export-uff -o with 0.3 MB free on the output's disk (API)", "{dir}/o.uff: no space left on", call=lambda d: _full_disk_export(d, 300_000)),
     Case("history-figure-suffix", "history --figure h.txt", "--figure {dir}/h.txt: suffix '.txt' is not .png, .svg or .pdf", argv=lambda d: ["history", str(d / "p.h5"), "--figure", str(d / "h.txt")]),
+    Case("project-external-storage", "verify on a project whose raw record is external storage on a user's file", "{dir}/x.h5: refused: dataset 'experiments/e1/raw' has external storage (its data are in other files); an odsuite project holds only itself",
+         argv=_project_reaching_out("external storage")),
+    Case("project-external-link", "info on a project whose raw record is an external link to another HDF5 file", "{dir}/x.h5: refused: 'experiments/e1/raw' is an external link to '{dir}/other.h5':'data'; an odsuite project holds only itself",
+         argv=_project_reaching_out("external link", "info")),
+    Case("project-virtual-dataset", "verify on a project whose raw record is a virtual dataset of another file", "{dir}/x.h5: refused: dataset 'experiments/e1/raw' is a virtual dataset (its data are in other files); an odsuite project holds only itself",
+         argv=_project_reaching_out("virtual")),
+    Case("rig-mass-huge", "body mass 1e41 kg", "{dir}/bad.toml: body 'plate' field 'mass': expected 1e-06 to 1e+07 kg, got 1e+41",
+         **new_rig(RIG_TOML.replace("mass = 2.0", "mass = 1e41"))),
+    Case("rig-mass-tiny", "body mass 1e-300 kg", "{dir}/bad.toml: body 'plate' field 'mass': expected 1e-06 to 1e+07 kg, got 1e-300",
+         **new_rig(RIG_TOML.replace("mass = 2.0", "mass = 1e-300"))),
+    Case("rig-stiffness-huge", "spring stiffness 1e308 N/m", "{dir}/bad.toml: springs[0] 's1' field 'stiffness': coefficients beyond 1e+12 (SI), got [1e+308, 1000.0, 1000.0]",
+         **new_rig(RIG_TOML + SPRING.replace("stiffness = [1000.0,", "stiffness = [1e308,"))),
+    Case("rig-position-far", "sensor position 1e200 m", "{dir}/bad.toml: sensors[0] 'a1' field 'position': positions beyond 1000 m, got [1e+200, 0.0, 0.0]",
+         **new_rig(RIG_TOML.replace("position = [0.0, 0.0, 0.0]", "position = [1e200, 0.0, 0.0]"))),
+    Case("rig-inertia-triangle", "principal moments 0.1, 0.1, 0.5 kg m^2", "{dir}/bad.toml: body 'plate' field 'inertia': principal moments [0.1, 0.1, 0.5] kg m^2 break the triangle inequality (the largest exceeds the sum of the others)",
+         **new_rig(RIG_TOML.replace("[0, 0, 0.1]]", "[0, 0, 0.5]]"))),
+    Case("rig-typo-sensor", "sensor field `sensitivty`", "{dir}/bad.toml: sensors[0] 'a1': unknown field 'sensitivty'; did you mean 'sensitivity'?",
+         **new_rig(RIG_TOML.replace('axis = [0.0, 0.0, 1.0]', 'axis = [0.0, 0.0, 1.0]\nsensitivty = 0.01'))),
+    Case("rig-typo-top", "top-level field `defualt_model`", "{dir}/bad.toml: unknown field 'defualt_model'; did you mean 'default_model'?",
+         **new_rig('defualt_model = "rigid-bodies"\n' + RIG_TOML)),
+    Case("rig-typo-body", "body field `mas`", "{dir}/bad.toml: body 'plate': unknown field 'mas'; did you mean 'mass'?",
+         **new_rig(RIG_TOML.replace("mass = 2.0", "mass = 2.0\nmas = 2.0"))),
+    Case("rig-default-model", "default_model `nosuch`", "{dir}/bad.toml: field 'default_model': no model named 'nosuch' (known:",
+         **new_rig('default_model = "nosuch"\n' + RIG_TOML)),
+    Case("rig-name-bidi", "sensor name with a right-to-left override", "{dir}/bad.toml: sensors[0] 'a\\u202eb' field 'name': expected printable text of at most 200 characters (no control, escape or bidirectional characters), got 'a\\u202eb'",
+         **new_rig(RIG_TOML.replace('name = "a1"', 'name = "a\\u202eb"'))),
+    Case("rig-nested", "100,000 nested brackets", "{dir}/bad.toml: tables and arrays nested deeper than 32 levels",
+         **new_rig("x = " + "[" * 100_000 + "]" * 100_000 + "\n")),
+    Case("rig-fifo", "a named pipe (FIFO) as the rig file", "{dir}/pipe.toml: not a regular file (a pipe, device or folder), expected a TOML rig file",
+         argv=lambda d: (os.mkfifo(d / "pipe.toml"), ["new", str(d / "q.h5"), "--rig", str(d / "pipe.toml")])[1]),
+    Case('stored-metrics-text', 'info on a project whose revision 0 stores the metric error `abc`', "{dir}/x.h5: model revision 0 field 'metrics.error': expected a number or null, got 'abc'",
+         argv=_handmade('metrics abc', 'info')),
+    Case('stored-metrics-list', 'compare on a project whose revision 0 stores metrics `[1, 2]`', "{dir}/x.h5: model revision 0 field 'metrics': expected a table (JSON object), got [1, 2]",
+         argv=_handmade('metrics list', 'compare')),
+    Case('stored-effects-dict', 'info on a project whose revision 0 stores effects as a table, not a list', "{dir}/x.h5: model revision 0 field 'effects': expected a list of effect tables, got",
+         argv=_handmade('effects dict', 'info')),
+    Case('stored-rate-zero', 'info on a project whose experiment stores sampling rate 0', "{dir}/x.h5: experiment 'e1' field 'sampling_rate': expected 0.1 to 1e+08 Hz, got 0.0",
+         argv=_handmade('rate 0', 'info')),
+    Case('stored-rate-nan', 'process on a project whose experiment stores sampling rate NaN', "{dir}/x.h5: experiment 'e1' field 'sampling_rate': expected 0.1 to 1e+08 Hz, got nan",
+         argv=_handmade('rate NaN', 'process')),
+    Case('stored-force-channel', 'info on a project whose experiment stores force channel 99', "{dir}/x.h5: experiment 'e1' field 'force_channel': expected a channel 0 to 10, got 99",
+         argv=_handmade('force channel 99', 'info')),
+    Case('stored-channel-names', 'info on a project whose experiment stores 2 channel names for 11 columns', "{dir}/x.h5: experiment 'e1' field 'channel_names': expected 11 distinct names (one per raw column), got ['force', 'ai1']",
+         argv=_handmade('short names', 'info')),
 ]
 
 

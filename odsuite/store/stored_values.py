@@ -1,0 +1,76 @@
+"""Checks of the values a project stores, made when they are read: a project written by hand or
+by another program gets one line naming the object, the field and the value, never a traceback
+deep in an analysis."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from odsuite.domain.errors import ProjectFileError
+
+#: sampling rates odsuite records and reads (as acquisition and .lvm import allow)
+RATE_RANGE = (0.1, 1e8)  # Hz
+#: metrics that are numbers (or null) wherever they are stored
+NUMERIC_METRICS = ("error", "noise_floor_error", "previous_error")
+
+
+def _bad(path: Path, where: str, field: str, value: Any, expected: str) -> ProjectFileError:
+    shown = repr(value)
+    shown = shown if len(shown) <= 120 else shown[:117] + "..."
+    return ProjectFileError(f"{path}: {where} field {field!r}: expected {expected}, got {shown}")
+
+
+def _number(x: Any) -> bool:
+    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
+
+
+def check_experiment(path: Path, name: str, *, sampling_rate: Any, pretrigger: Any, channel_names: list,
+                     shape: tuple, excitation: Any) -> None:
+    where = f"experiment {name!r}"
+    if len(shape) != 2:
+        raise _bad(path, where, "raw", shape, "a table of samples x channels")
+    n_samples, n_channels = shape
+    if not (_number(sampling_rate) and math.isfinite(sampling_rate)
+            and RATE_RANGE[0] <= sampling_rate <= RATE_RANGE[1]):
+        raise _bad(path, where, "sampling_rate", sampling_rate, f"{RATE_RANGE[0]:g} to {RATE_RANGE[1]:g} Hz")
+    if not 0 <= pretrigger <= n_samples:
+        raise _bad(path, where, "pretrigger", pretrigger, f"0 to {n_samples} samples")
+    if len(channel_names) != n_channels or len(set(channel_names)) != n_channels:
+        raise _bad(path, where, "channel_names", channel_names, f"{n_channels} distinct names (one per raw column)")
+    if excitation is not None:
+        if not 0 <= excitation.force_channel < n_channels:
+            raise _bad(path, where, "force_channel", excitation.force_channel, f"a channel 0 to {n_channels - 1}")
+        for field, vec in (("force_point", excitation.point), ("force_direction", excitation.direction)):
+            if np.shape(vec) != (3,) or not np.all(np.isfinite(vec)) or (field == "force_direction"
+                                                                         and not np.any(vec)):
+                raise _bad(path, where, field, np.asarray(vec).tolist(), "3 finite numbers (m; a direction not zero)")
+
+
+def check_revision(path: Path, key: str, effects: Any, parameters: Any, metrics: Any) -> None:
+    where = f"model revision {key}"
+    if not isinstance(metrics, dict):
+        raise _bad(path, where, "metrics", metrics, "a table (JSON object)")
+    for k in NUMERIC_METRICS:
+        v = metrics.get(k)
+        if v is not None and not _number(v):
+            raise _bad(path, where, f"metrics.{k}", v, "a number or null")
+    if not isinstance(parameters, dict) or not all(_number(v) for v in parameters.values()):
+        raise _bad(path, where, "parameters", parameters, "a table of numbers")
+    if not isinstance(effects, list):
+        raise _bad(path, where, "effects", effects, "a list of effect tables")
+    for e in effects:
+        if not isinstance(e, dict) or not isinstance(e.get("effect"), str):
+            raise _bad(path, where, "effects", e, "a table naming its 'effect'")
+        for table in ("values", "uncertainties"):
+            values = e.get(table, {})
+            if not isinstance(values, dict) or not all(v is None or _number(v) for v in values.values()):
+                raise _bad(path, where, f"effects[{e['effect']!r}].{table}", values, "a table of numbers")
+        per = e.get("per_experiment", {})
+        if not isinstance(per, dict) or not all(isinstance(v, dict) and all(_number(x) for x in v.values())
+                                                for v in per.values()):
+            raise _bad(path, where, f"effects[{e['effect']!r}].per_experiment", per,
+                       "a table of experiments' tables of numbers")
