@@ -111,10 +111,9 @@ def _heatmap(values: np.ndarray, rows: Sequence[str], cols: Sequence[str], path:
     return path
 
 
-def _mark_peaks(result, peaks: Sequence[Mapping[str, Any]], modes_hz: Sequence[float], path: Path) -> Path:
+def _mark_peaks(fig, peaks: Sequence[Mapping[str, Any]], modes_hz: Sequence[float]) -> None:
     """Mark the residual peaks (red: no model mode near, the model lacks them) and the model's modes
-    (grey) on every panel of a residual spectra figure, and save it again."""
-    fig = result.figure
+    (grey) on every panel of a residual spectra figure, before it is saved."""
     panels = [ax for ax in fig.axes if ax.get_visible()]
     for ax in panels:
         for f in modes_hz:
@@ -131,8 +130,6 @@ def _mark_peaks(result, peaks: Sequence[Mapping[str, Any]], modes_hz: Sequence[f
             Line2D([], [], color="tab:green", ls="--", label="residual peak near a model mode"),
             Line2D([], [], color="0.6", ls=":", label="model mode")]
         legend_below(fig, handles)
-    fig.savefig(path, dpi=FIGURE_DPI)
-    return path
 
 
 def load_diagnosis(source: str | Path | Mapping[str, Any]) -> dict[str, Any]:
@@ -247,13 +244,9 @@ def build_report(
     driving point: the accelerometer nearest the force point, along the force). ``registries``: the
     providers to open the project with (None: the installed plugins').
     """
-    from .figures import comparison_figure
+    from threadpoolctl import threadpool_limits
 
-    from odsuite.api import COORDINATE_NAMES, compare
-    from odsuite.api import coordinate_series, predict, prepare
-    from odsuite.api import history
-    from odsuite.api import current_revision, revision_model
-    from odsuite.api import open_project
+    from odsuite.api import COORDINATE_NAMES, compare, current_revision, open_project, prepare, revision_model
 
     output = Path(output)
     if output.suffix.lower() not in (".html", ".htm"):
@@ -261,7 +254,9 @@ def build_report(
     say = progress or (lambda what: None)
     diag_doc = load_diagnosis(diagnosis) if diagnosis is not None else None
     notes: list[str] = []
-    with open_project(project_path, registries=registries) as project, tempfile.TemporaryDirectory(prefix="odsuite-report-") as tmpdir:
+    # one BLAS thread: the report's linear algebra is small, a second thread only spins on a busy core
+    with open_project(project_path, registries=registries) as project, \
+            tempfile.TemporaryDirectory(prefix="odsuite-report-") as tmpdir, threadpool_limits(1):
         tmp = Path(tmpdir)
         if project.rig is None:
             raise ConfigError(f"{project.path}: the project has no rig, so there is no model to report on")
@@ -272,9 +267,8 @@ def build_report(
         exps = prepare(project)
         rev = current_revision(project)
         rmodel = revision_model(project, rev)
-        cmp = compare(project, revision=rev, prepared=exps)
+        cmp = compare(project, revision=rev, prepared=exps, progress=lambda stage: say(f"comparing: {stage}"))
         doc = cmp.as_dict()
-        rig = project.rig
         modes_hz = [m["frequency_hz"] for m in doc["modes"]["model"]]
 
         experiments_html = _experiments_section(project, exps, cmp)
@@ -282,105 +276,137 @@ def build_report(
         modal_html = _modal_section(doc, _modal_figures(project, exps, cmp.modal_records or [], frf_channels, modes_hz,
                                                         tmp))
         say("drawing the overlays")
-        overlays, coord_series, preds = [], {}, {}
-        for e in exps:
-            model = rmodel.for_experiment(e.name)
-            pred = preds[e.name] = predict(model, e)
-            t = np.arange(e.n_samples) / e.fs
-            window = _window(e)  # the event, not the whole record (a 200 ms axis squashes it)
-            series = coordinate_series(rig, e, model)
-            coord_series[e.name] = series
-            parts = [f"<h3 id='overlay-{_esc(e.name)}'>{_esc(e.name)} (error {_fmt(cmp.experiments[e.name]['error'])})</h3>"]
-            for body, (gm, gp, _) in series.items():
-                f = comparison_figure(t, gm, gp, tmp / f"{e.name}-{body}.png", title=f"{e.name}: {body} at its centre of mass",
-                                      dpi=FIGURE_DPI, window=window)
-                parts.append(_img(f.path, f"{e.name}: generalized coordinates of the {body} at its centre of "
-                                  "mass, model (solid) and measured (dashed)"))
-            names = [s.name for s in e.sensors]
-            f = comparison_figure(t, e.measured, pred, tmp / f"{e.name}-channels.png", names=names, units=e.units,
-                                  title=f"{e.name}: accelerometers (acceleration stage)", dpi=FIGURE_DPI,
-                                  window=window)
-            parts.append(_img(f.path, f"{e.name}: every accelerometer after filter 1, model (solid) and "
-                              "measured (dashed)"))
-            overlays.append("".join(parts))
-
+        overlays, coord_series, preds = _overlays_section(project.rig, exps, rmodel, cmp, tmp)
         say("where the model fails")
         failures = _failures_section(doc, exps, preds, modes_hz, tmp, COORDINATE_NAMES)
-
-        if diag_doc is None and run_diagnosis:
-            from odsuite.api import diagnose
-
-            say("diagnosing")
-            diag_doc = diagnose(project, prepared=exps).as_dict()
-        elif diag_doc is None:
-            notes.append("diagnosis skipped (--no-diagnose)")
-        candidates = _candidates_section(diag_doc, doc["revision"], notes)
-
+        candidates = _candidates_section(_diagnosis(project, exps, diag_doc, run_diagnosis, notes, say),
+                                         doc["revision"], notes)
         say("history")
-        hist = history(project)
-        _draw(project, "history", None, tmp / "history.png", history=hist)
-        hist_html = (_img(tmp / "history.png", "pooled error per model revision")
-                     + _table(["revision", "parent", "effects", "error (NRMSE)"],
-                              [[r["revision"], "–" if r["parent"] is None else r["parent"],
-                                ", ".join(r["effects"]) or "rigid model", _fmt(r["error"])] for r in hist["revisions"]],
-                              id="history", caption=f"current revision: {hist['current']}"))
-
+        hist_html = _history_section(project, tmp)
         metadata_html = _metadata_section(project, exps)
-        movie_html, chosen = "<p>Movie left out (--no-movie).</p>", None
-        view_html = "<p>3-D view left out with the movie (--no-movie).</p>"
+        chosen = None
         if movie:
             chosen = movie_experiment or max(cmp.experiments, key=lambda n: cmp.experiments[n]["error"])
             say(f"rendering the movie of {chosen}")
             exp = next(e for e in exps if e.name == chosen)
-            series, corrected = _corrected_series(project, rig, exp, rev, coord_series[chosen])
-            movie_html = _movie_section(rig, exp, series, tmp, corrected)
-            view_html = _view_section(rig, exp, series, corrected)
+            series, corrected = _corrected_series(project, project.rig, exp, rev, coord_series[chosen])
+            movie_html = _movie_section(project.rig, exp, series, tmp, corrected)
+            view_html = _view_section(project.rig, exp, series, corrected)
         else:
+            movie_html = "<p>Movie left out (--no-movie).</p>"
+            view_html = "<p>3-D view left out with the movie (--no-movie).</p>"
             notes.append("movie skipped (--no-movie)")
-
-        effects = ", ".join(e["effect"] for e in rev.get("effects", [])) or "none (the rig's rigid model)"
-        worst_band = next((w for w in doc["worst"] if w["kind"] == "band"), None)
-        worst_ch = next((w for w in doc["worst"] if w["kind"] == "channel"), None)
-        story = (f"Model revision <span id='revision'>{_esc(doc['revision'])}</span> (effects: {_esc(effects)}) "
-                 f"against {len(exps)} experiment(s): pooled error <b id='error'>{_fmt(doc['error'])}</b>, "
-                 f"noise floor <span id='noise-floor'>{_fmt(doc['noise_floor_error'])}</span> "
-                 "(what a perfect model would leave).")
-        if worst_ch and worst_band:
-            story += (f" The worst channel is {_esc(worst_ch['name'])} ({_fmt(worst_ch['error'])}); the band "
-                      f"{_esc(worst_band['name'])} holds {100 * worst_band['residual_share']:.0f} % of the residual.")
-        lacking = [p for p in doc["residual_peaks"] if p["lacking"]]
-        if lacking:
-            story += (" Residual peaks without a model mode: "
-                      + ", ".join(f"{p['frequency_hz']:.0f} Hz" for p in lacking) + ".")
-        summary = f"<p>{story}</p>" + _table(
-            ["quantity", "value"],
-            [["project", project.path.name], ["rig", rig.name], ["current revision", doc["revision"]],
-             ["effects in the model", effects], ["error (pooled NRMSE, acceleration stage)", _fmt(doc["error"])],
-             ["noise floor", _fmt(doc["noise_floor_error"])],
-             ["model modes [Hz]", ", ".join(f"{f:.1f}" for f in modes_hz)]], id="summary-table")
+        summary = _summary_section(project, exps, rev, doc, modes_hz)
 
     sections = [
         ("summary", "Summary", summary),
         ("modal", "Measured against model modes", modal_html),
         ("metadata", "Test record", metadata_html),
         ("experiments", "Rig and experiments", experiments_html),
-        ("overlays", "Measured against model", "".join(overlays)),
+        ("overlays", "Measured against model", overlays),
         ("failures", "Where the model fails", failures),
         ("candidates", "Candidate effects", candidates),
         ("history", "Error across model revisions", hist_html),
         ("movie", "Movie" + (f" of {chosen} with the model" if chosen else ""), movie_html),
         ("view3d", "Interactive 3-D view" + (f" of {chosen}" if chosen else ""), view_html),
     ]
-    page = _page(f"odsuite report: {Path(project_path).name}", sections, notes)
-    output.parent.mkdir(parents=True, exist_ok=True)
-    text = page.encode("utf-8")
-    write_output(output, len(text), lambda tmp: tmp.write_bytes(text))
-    size = output.stat().st_size
+    size = _write_page(output, _page(f"odsuite report: {Path(project_path).name}", sections, notes))
     if size > SIZE_BUDGET:
         notes.append(f"the page is {size / 2**20:.1f} MiB (budget {SIZE_BUDGET / 2**20:.0f} MiB); "
                      "--no-movie makes it smaller")
     return ReportResult(path=output, size_bytes=size, error=float(doc["error"]), sections=[s[0] for s in sections],
                         movie_experiment=chosen, notes=notes)
+
+
+def _overlays_section(rig, exps, rmodel, cmp, tmp: Path) -> tuple[str, dict, dict]:
+    """Measured against model in time, per experiment: each body's generalized coordinates and every
+    accelerometer; also returns each experiment's coordinate series and prediction for the later
+    sections."""
+    from odsuite.api import coordinate_series, predict
+
+    from .figures import comparison_figure
+
+    overlays, coord_series, preds = [], {}, {}
+    for e in exps:
+        model = rmodel.for_experiment(e.name)
+        pred = preds[e.name] = predict(model, e)
+        t = np.arange(e.n_samples) / e.fs
+        window = _window(e)  # the event, not the whole record (a 200 ms axis squashes it)
+        series = coordinate_series(rig, e, model)
+        coord_series[e.name] = series
+        parts = [f"<h3 id='overlay-{_esc(e.name)}'>{_esc(e.name)} (error {_fmt(cmp.experiments[e.name]['error'])})</h3>"]
+        for body, (gm, gp, _) in series.items():
+            f = comparison_figure(t, gm, gp, tmp / f"{e.name}-{body}.png", title=f"{e.name}: {body} at its centre of mass",
+                                  dpi=FIGURE_DPI, window=window)
+            parts.append(_img(f.path, f"{e.name}: generalized coordinates of the {body} at its centre of "
+                              "mass, model (solid) and measured (dashed)"))
+        names = [s.name for s in e.sensors]
+        f = comparison_figure(t, e.measured, pred, tmp / f"{e.name}-channels.png", names=names, units=e.units,
+                              title=f"{e.name}: accelerometers (acceleration stage)", dpi=FIGURE_DPI,
+                              window=window)
+        parts.append(_img(f.path, f"{e.name}: every accelerometer after filter 1, model (solid) and "
+                          "measured (dashed)"))
+        overlays.append("".join(parts))
+    return "".join(overlays), coord_series, preds
+
+
+def _diagnosis(project, exps, diag_doc: Mapping[str, Any] | None, run_diagnosis: bool, notes: list[str],
+               say: Callable[[str], None]) -> Mapping[str, Any] | None:
+    """The diagnosis to show: the one given, else one run now (unless ``run_diagnosis`` is False)."""
+    if diag_doc is None and run_diagnosis:
+        from odsuite.api import diagnose
+
+        say("diagnosing")
+        return diagnose(project, prepared=exps).as_dict()
+    if diag_doc is None:
+        notes.append("diagnosis skipped (--no-diagnose)")
+    return diag_doc
+
+
+def _history_section(project, tmp: Path) -> str:
+    """The pooled error per model revision: a figure and a table."""
+    from odsuite.api import history
+
+    hist = history(project)
+    _draw(project, "history", None, tmp / "history.png", history=hist)
+    return (_img(tmp / "history.png", "pooled error per model revision")
+            + _table(["revision", "parent", "effects", "error (NRMSE)"],
+                     [[r["revision"], "–" if r["parent"] is None else r["parent"],
+                       ", ".join(r["effects"]) or "rigid model", _fmt(r["error"])] for r in hist["revisions"]],
+                     id="history", caption=f"current revision: {hist['current']}"))
+
+
+def _summary_section(project, exps, rev: Mapping[str, Any], doc: Mapping[str, Any], modes_hz: Sequence[float]) -> str:
+    """The story in one paragraph (revision, error against the noise floor, the worst channel and
+    band, residual peaks the model lacks) and the summary table."""
+    effects = ", ".join(e["effect"] for e in rev.get("effects", [])) or "none (the rig's rigid model)"
+    worst_band = next((w for w in doc["worst"] if w["kind"] == "band"), None)
+    worst_ch = next((w for w in doc["worst"] if w["kind"] == "channel"), None)
+    story = (f"Model revision <span id='revision'>{_esc(doc['revision'])}</span> (effects: {_esc(effects)}) "
+             f"against {len(exps)} experiment(s): pooled error <b id='error'>{_fmt(doc['error'])}</b>, "
+             f"noise floor <span id='noise-floor'>{_fmt(doc['noise_floor_error'])}</span> "
+             "(what a perfect model would leave).")
+    if worst_ch and worst_band:
+        story += (f" The worst channel is {_esc(worst_ch['name'])} ({_fmt(worst_ch['error'])}); the band "
+                  f"{_esc(worst_band['name'])} holds {100 * worst_band['residual_share']:.0f} % of the residual.")
+    lacking = [p for p in doc["residual_peaks"] if p["lacking"]]
+    if lacking:
+        story += (" Residual peaks without a model mode: "
+                  + ", ".join(f"{p['frequency_hz']:.0f} Hz" for p in lacking) + ".")
+    return f"<p>{story}</p>" + _table(
+        ["quantity", "value"],
+        [["project", project.path.name], ["rig", project.rig.name], ["current revision", doc["revision"]],
+         ["effects in the model", effects], ["error (pooled NRMSE, acceleration stage)", _fmt(doc["error"])],
+         ["noise floor", _fmt(doc["noise_floor_error"])],
+         ["model modes [Hz]", ", ".join(f"{f:.1f}" for f in modes_hz)]], id="summary-table")
+
+
+def _write_page(output: Path, page: str) -> int:
+    """Write the page all or nothing; its size in bytes."""
+    output.parent.mkdir(parents=True, exist_ok=True)
+    text = page.encode("utf-8")
+    write_output(output, len(text), lambda tmp: tmp.write_bytes(text))
+    return output.stat().st_size
 
 
 CSS = """
@@ -524,8 +550,9 @@ def _failures_section(doc: Mapping[str, Any], exps, preds: Mapping[str, np.ndarr
         parts.append(_img(heat_coords, "NRMSE of each generalized coordinate (displacements at G) per experiment"))
     e = max(exps, key=lambda x: doc["experiments"][x.name]["error"])
     r = residual_spectra_figure(e.fs, e.measured, preds[e.name], tmp / "spectra.png", names=[s.name for s in e.sensors], units=e.units,
-                                title=f"{e.name} (the worst fit): measured and residual spectra", dpi=FIGURE_DPI)
-    parts.append(_img(_mark_peaks(r, doc["residual_peaks"], modes_hz, r.path),
+                                title=f"{e.name} (the worst fit): measured and residual spectra", dpi=FIGURE_DPI,
+                                before_save=lambda fig: _mark_peaks(fig, doc["residual_peaks"], modes_hz))
+    parts.append(_img(r.path,
                       f"{e.name}: PSD of each channel and of its residual; dashed: peaks of the pooled residual "
                       "(red where the model has no mode within 5 %), dotted: model modes"))
     peaks = [[f"{p['frequency_hz']:.1f}", f"{100 * p['share']:.2f} %", ", ".join(p["channels"]),
