@@ -14,6 +14,7 @@ import base64
 import html
 import json
 import math
+import os
 import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -272,31 +273,37 @@ def build_report(
         modes_hz = [m["frequency_hz"] for m in doc["modes"]["model"]]
 
         experiments_html = _experiments_section(project, exps, cmp)
-        say("drawing the FRFs and MAC matrices")
-        modal_html = _modal_section(doc, _modal_figures(project, exps, cmp.modal_records or [], frf_channels, modes_hz,
-                                                        tmp))
-        say("drawing the overlays")
-        overlays, coord_series, preds = _overlays_section(project.rig, exps, rmodel, cmp, tmp)
-        say("where the model fails")
-        failures = _failures_section(doc, exps, preds, modes_hz, tmp, COORDINATE_NAMES)
-        candidates = _candidates_section(_diagnosis(project, exps, diag_doc, run_diagnosis, notes, say),
-                                         doc["revision"], notes)
-        say("history")
-        hist_html = _history_section(project, tmp)
-        metadata_html = _metadata_section(project, exps)
-        chosen = None
-        if movie:
-            chosen = movie_experiment or max(cmp.experiments, key=lambda n: cmp.experiments[n]["error"])
-            say(f"rendering the movie of {chosen}")
-            exp = next(e for e in exps if e.name == chosen)
-            series, corrected = _corrected_series(project, project.rig, exp, rev, coord_series[chosen])
-            movie_html = _movie_section(project.rig, exp, series, tmp, corrected)
-            view_html = _view_section(project.rig, exp, series, corrected)
-        else:
-            movie_html = "<p>Movie left out (--no-movie).</p>"
-            view_html = "<p>3-D view left out with the movie (--no-movie).</p>"
-            notes.append("movie skipped (--no-movie)")
-        summary = _summary_section(project, exps, rev, doc, modes_hz)
+        overlay_figures, coord_series, preds = _overlay_figures(project.rig, exps, rmodel, tmp)
+        overlays_drawn = _Background(_draw_comparisons, overlay_figures)  # while the rest is drawn here
+        try:
+            say("drawing the FRFs and MAC matrices")
+            modal_html = _modal_section(doc, _modal_figures(project, exps, cmp.modal_records or [], frf_channels,
+                                                            modes_hz, tmp))
+            say("where the model fails")
+            failures = _failures_section(doc, exps, preds, modes_hz, tmp, COORDINATE_NAMES)
+            candidates = _candidates_section(_diagnosis(project, exps, diag_doc, run_diagnosis, notes, say),
+                                             doc["revision"], notes)
+            say("history")
+            hist_html = _history_section(project, tmp)
+            metadata_html = _metadata_section(project, exps)
+            chosen = None
+            if movie:
+                chosen = movie_experiment or max(cmp.experiments, key=lambda n: cmp.experiments[n]["error"])
+                say(f"rendering the movie of {chosen}")
+                exp = next(e for e in exps if e.name == chosen)
+                series, corrected = _corrected_series(project, project.rig, exp, rev, coord_series[chosen])
+                movie_html = _movie_section(project.rig, exp, series, tmp, corrected)
+                view_html = _view_section(project.rig, exp, series, corrected)
+            else:
+                movie_html = "<p>Movie left out (--no-movie).</p>"
+                view_html = "<p>3-D view left out with the movie (--no-movie).</p>"
+                notes.append("movie skipped (--no-movie)")
+            summary = _summary_section(project, exps, rev, doc, modes_hz)
+            say("drawing the overlays")
+            overlays_drawn.wait()
+        finally:
+            overlays_drawn.close()
+        overlays = _overlays_html(exps, cmp, overlay_figures)
 
     sections = [
         ("summary", "Summary", summary),
@@ -318,36 +325,78 @@ def build_report(
                         movie_experiment=chosen, notes=notes)
 
 
-def _overlays_section(rig, exps, rmodel, cmp, tmp: Path) -> tuple[str, dict, dict]:
+def _overlay_figures(rig, exps, rmodel, tmp: Path) -> tuple[list[tuple[str, Path, dict, str]], dict, dict]:
     """Measured against model in time, per experiment: each body's generalized coordinates and every
-    accelerometer; also returns each experiment's coordinate series and prediction for the later
-    sections."""
+    accelerometer, as figures to draw (experiment, path, ``comparison_figure``'s arguments, caption); also each
+    experiment's coordinate series and prediction for the later sections."""
     from odsuite.api import coordinate_series, predict
 
-    from .figures import comparison_figure
-
-    overlays, coord_series, preds = [], {}, {}
+    figures, coord_series, preds = [], {}, {}
     for e in exps:
         model = rmodel.for_experiment(e.name)
         pred = preds[e.name] = predict(model, e)
         t = np.arange(e.n_samples) / e.fs
         window = _window(e)  # the event, not the whole record (a 200 ms axis squashes it)
-        series = coordinate_series(rig, e, model)
-        coord_series[e.name] = series
-        parts = [f"<h3 id='overlay-{_esc(e.name)}'>{_esc(e.name)} (error {_fmt(cmp.experiments[e.name]['error'])})</h3>"]
+        series = coord_series[e.name] = coordinate_series(rig, e, model)
         for body, (gm, gp, _) in series.items():
-            f = comparison_figure(t, gm, gp, tmp / f"{e.name}-{body}.png", title=f"{e.name}: {body} at its centre of mass",
-                                  dpi=FIGURE_DPI, window=window)
-            parts.append(_img(f.path, f"{e.name}: generalized coordinates of the {body} at its centre of "
-                              "mass, model (solid) and measured (dashed)"))
-        names = [s.name for s in e.sensors]
-        f = comparison_figure(t, e.measured, pred, tmp / f"{e.name}-channels.png", names=names, units=e.units,
-                              title=f"{e.name}: accelerometers (acceleration stage)", dpi=FIGURE_DPI,
-                              window=window)
-        parts.append(_img(f.path, f"{e.name}: every accelerometer after filter 1, model (solid) and "
-                          "measured (dashed)"))
-        overlays.append("".join(parts))
-    return "".join(overlays), coord_series, preds
+            figures.append((e.name, tmp / f"{e.name}-{body}.png",
+                            dict(t=t, measured=gm, model=gp, title=f"{e.name}: {body} at its centre of mass",
+                                 window=window),
+                            f"{e.name}: generalized coordinates of the {body} at its centre of mass, model (solid) "
+                            "and measured (dashed)"))
+        figures.append((e.name, tmp / f"{e.name}-channels.png",
+                        dict(t=t, measured=e.measured, model=pred, names=[s.name for s in e.sensors], units=e.units,
+                             title=f"{e.name}: accelerometers (acceleration stage)", window=window),
+                        f"{e.name}: every accelerometer after filter 1, model (solid) and measured (dashed)"))
+    return figures, coord_series, preds
+
+
+def _draw_comparisons(figures: Sequence[tuple[str, Path, dict, str]]) -> None:
+    from .figures import comparison_figure
+
+    for _, path, args, _ in figures:
+        comparison_figure(path=path, dpi=FIGURE_DPI, **args)
+
+
+def _overlays_html(exps, cmp, figures: Sequence[tuple[str, Path, dict, str]]) -> str:
+    """The drawn overlay figures under a heading per experiment with its error."""
+    parts = []
+    for e in exps:
+        parts.append(f"<h3 id='overlay-{_esc(e.name)}'>{_esc(e.name)} "
+                     f"(error {_fmt(cmp.experiments[e.name]['error'])})</h3>")
+        parts += [_img(path, caption) for name, path, _, caption in figures if name == e.name]
+    return "".join(parts)
+
+
+class _Background:
+    """Runs one job in a forked process while this one goes on (the report's figures are
+    independent: two cores draw them in about half the time); in this process, at once, where a
+    process cannot fork or start children (a batch's worker)."""
+
+    def __init__(self, job: Callable[..., None], *args) -> None:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        self._pool = self._future = None
+        if ((os.cpu_count() or 1) > 1 and "fork" in multiprocessing.get_all_start_methods()
+                and not multiprocessing.current_process().daemon):
+            self._pool = ProcessPoolExecutor(1, multiprocessing.get_context("fork"))
+            self._future = self._pool.submit(job, *args)
+        else:
+            job(*args)
+
+    def wait(self) -> None:
+        """Until the job is done; its error, if any, raised here."""
+        if self._pool is not None:
+            try:
+                self._future.result()
+            finally:
+                self.close()
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
 
 
 def _diagnosis(project, exps, diag_doc: Mapping[str, Any] | None, run_diagnosis: bool, notes: list[str],
