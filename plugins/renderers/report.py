@@ -274,6 +274,7 @@ def build_report(
 
         experiments_html = _experiments_section(project, exps, cmp)
         overlay_figures, coord_series, preds = _overlay_figures(project.rig, exps, rmodel, tmp)
+        import matplotlib.backends.backend_agg  # noqa: F401  imported once, before the fork: both processes draw
         overlays_drawn = _Background(_draw_comparisons, overlay_figures)  # while the rest is drawn here
         try:
             say("drawing the FRFs and MAC matrices")
