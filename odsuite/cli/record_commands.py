@@ -9,7 +9,7 @@ from pathlib import Path
 
 import typer
 
-from odsuite.domain.errors import ConfigError
+from odsuite.domain.errors import ConfigError, OdsuiteError
 from odsuite.cli.app import _ledger, app, console, echo_force_point, err_console
 
 
@@ -26,6 +26,7 @@ def process_cmd(
     """Run each experiment's Table E.2 processing chain and the generalized-coordinate solver."""
     from rich.progress import Progress
 
+    from odsuite.analysis.history import store_current_error
     from odsuite.processing.pipeline import process_experiment
     from odsuite.store.project import open_project
 
@@ -69,6 +70,14 @@ def process_cmd(
                 console.print(f"{name}: gencoords_corrected (model revision {res['revision']}, cutoff "
                               f"{res['cutoff_hz']:.1f} Hz; measurement corrections: {undone})",
                               highlight=False, soft_wrap=True)
+        # stored now, so that `info` and `history` read it instead of comparing again
+        task = bar.add_task("comparing the current model revision with the records", total=None)
+        try:
+            store_current_error(p)
+        except OdsuiteError as exc:  # the records are processed all the same
+            err_console.print(f"note: the current model revision's error was not stored: {exc}",
+                              highlight=False, soft_wrap=True)
+        bar.remove_task(task)
 
 
 @app.command("acquire", context_settings={"allow_extra_args": True, "ignore_unknown_options": True})
