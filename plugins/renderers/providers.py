@@ -119,7 +119,7 @@ class ModeShapeRenderer:
                    "geometry (MP4, or GIF); to .uff: the geometry (15/82) with every mode (55) for other tools")
     kind = "movie"
     suffixes = (".mp4", ".gif", ".uff")
-    OPTIONS = frozenset({"mode", "fmin", "fmax", "max_order", "view", "workers", "fps"})
+    OPTIONS = frozenset({"mode", "fmin", "fmax", "max_order", "view", "workers", "fps", "reference"})
 
     def render(self, request: RenderRequest) -> Rendered:
         from .shapes import render_mode_shape

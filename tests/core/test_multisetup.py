@@ -146,6 +146,14 @@ def test_palisaden_split_into_setups(palisaden_setups, capsys):
         per = [s["frequency_hz"] for s in m["setups"].values()]
         assert m["frequency_spread_hz"] == pytest.approx(np.std(per, ddof=1), rel=1e-9)
         assert min(s["reference_mac"] for s in m["setups"].values()) >= 0.9
+    # pyOMA2's MultiSetup_PoSER on the same split (make_pyoma2_multisetup_reference.py): the same
+    # channels in the same order, frequencies within 0.1 %, shapes MAC >= 0.99
+    peer = json.loads((REAL_DATA / "palisaden_building" / "pyoma2_multisetup_reference.json").read_text())
+    assert peer["channels"] == doc["channels"]
+    np.testing.assert_allclose(f[pick], peer["frequency_hz"], rtol=0.001)
+    phi = (np.array(peer["shape"]["re"]) + 1j * np.array(peer["shape"]["im"])).T
+    ours = np.array([[complex(*doc["modes"][k]["shape"][c]) for c in doc["channels"]] for k in pick]).T
+    assert np.diag(mac(ours, phi)).min() >= 0.99
 
 
 def test_inconsistent_reference_is_one_line(palisaden_setups, capsys):
