@@ -126,6 +126,7 @@ _WHERE: dict[str, str] = {
     "project_setups_modes": "odsuite.analysis.multisetup",
     "operating_shape": "odsuite.analysis.ods",
     "frequency_labels": "odsuite.analysis.modal",
+    "mpc": "odsuite.analysis.modal",
     # diagnosis
     "diagnose": "odsuite.diagnosis.diagnose",
     "add_effect": "odsuite.diagnosis.add_effect",

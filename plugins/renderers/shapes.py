@@ -150,6 +150,8 @@ def render_mode_shape(project_path, experiment: str, output, *, mode: int | None
         exporter((registries or installed()).importers, "geometry").export_file(project_path, out, setups[0],
                                                                               modes=modes)
         return out, len(modes), []
+    if out.suffix.lower() in (".html", ".htm"):
+        return _mode_page(geom, res, names, label, out), len(res.frequency_hz), []
     n = len(res.frequency_hz)
     if mode is None or not 1 <= mode <= n:
         listed = ", ".join(f"{k + 1}: {f:.3f} Hz" for k, f in enumerate(res.frequency_hz))
@@ -162,3 +164,23 @@ def render_mode_shape(project_path, experiment: str, output, *, mode: int | None
                                progress=progress)
     return movie, n, [f"{name} not on geometry {geom.name!r}: not drawn" for name in names
                       if name not in set(geom.channels)]
+
+
+def _mode_page(geom: Geometry, res, names: list[str], label: str, out: Path) -> Path:
+    """A self-contained page with the interactive 3-D view of every mode on the geometry."""
+    import html
+
+    from odsuite.api import mpc, write_output
+
+    from .mode_view import geometry_modes, mode_label, mode_view_data, mode_view_html
+
+    kind = "merged OMA" if hasattr(res, "channels") else "OMA"
+    labels = [mode_label(kind, label, k + 1, f, z, mpc(res.shapes[:, k]))
+              for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio))]
+    nodes, lines, modes, fixed, sensors = geometry_modes(geom, names, res.shapes, labels)
+    body = mode_view_html(mode_view_data(nodes, lines, modes, fixed=fixed, sensors=sensors))
+    text = (f'<!DOCTYPE html><html><head><meta charset="utf-8"><title>{html.escape(label)}: mode shapes</title>'
+            f'</head><body><h1>{html.escape(label)}: mode shapes on {html.escape(geom.name)}</h1>{body}</body></html>')
+    data = text.encode("utf-8")
+    write_output(out, len(data), lambda tmp: tmp.write_bytes(data))
+    return out
