@@ -123,8 +123,10 @@ _WHERE: dict[str, str] = {
     "ods_motion": "odsuite.analysis.modal_project",
     "physical": "odsuite.analysis.modal_project",
     "experiment_output_only_modes": "odsuite.analysis.modal_project",
+    "project_setups_modes": "odsuite.analysis.multisetup",
     "operating_shape": "odsuite.analysis.ods",
     "frequency_labels": "odsuite.analysis.modal",
+    "mpc": "odsuite.analysis.modal",
     # diagnosis
     "diagnose": "odsuite.diagnosis.diagnose",
     "add_effect": "odsuite.diagnosis.add_effect",

@@ -71,11 +71,14 @@ def modes_cmd(
     block_rows: int = typer.Option(None, "--block-rows", help="--output-only: SSI-cov block rows (lags 1..2i-1; default: "
                                    "5 periods of the record's lowest spectral peak)."),
     decimate: int = typer.Option(None, "--decimate", help="--output-only: decimation factor (default: to 2.5 x the band's top)."),
+    reference: str = typer.Option(None, "--reference", help="--output-only with several experiments (setups of a "
+                                  "roving survey): the reference channels ch,ch,... (default: the channels every setup has)."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
     """Natural frequencies, damping ratios and mode shapes identified from measured FRFs (default
     band: where the hammer's force spectrum and the coherence are usable), of one experiment or of
-    the FRF matrix of several, or with --output-only from the responses alone."""
+    the FRF matrix of several, or with --output-only from the responses alone (several experiments:
+    the setups of a roving survey, merged through their reference channels)."""
     import json
 
     from odsuite.domain.errors import ConfigError
@@ -96,13 +99,21 @@ def modes_cmd(
                if path is not None}
     references = None
     name = ", ".join(experiments)
+    if reference is not None and not (output_only and len(experiments) > 1):
+        raise ConfigError("--reference names the reference channels of several --output-only setups: give "
+                          "--output-only and more than one --experiment")
     if not output_only and (block_rows is not None or decimate is not None):
         raise ConfigError("--block-rows and --decimate set up the output-only analysis: give --output-only too")
     if output_only:
         if freqs is not None:
             raise ConfigError("--at picks poles of the FRF fit; it does not combine with --output-only")
         if len(experiments) > 1:
-            raise ConfigError("--output-only identifies modes of one record: give one --experiment")
+            if figure is not None:
+                raise ConfigError("--figure: a stabilisation diagram is per record; merged setups have none "
+                                  "(run each setup alone for its diagram)")
+            _merged_modes(project, experiments, reference, band, max_order, block_rows, decimate, drawers,
+                          mac_figure, as_json)
+            return
         res, freq, spectrum, unit = experiment_output_only_modes(project, experiments[0], f_band=band,
                                                                  max_order=max_order, block_rows=block_rows,
                                                                  decimation=decimate)
@@ -166,6 +177,44 @@ def modes_cmd(
     for path in (figure, mac_figure):
         if path is not None:
             console.print(f"wrote {path}", highlight=False, soft_wrap=True)
+
+
+def _merged_modes(project, experiments, reference, band, max_order, block_rows, decimate, drawers, mac_figure,
+                  as_json) -> None:
+    """modes --output-only over several setups: each identified alone, merged by PoSER."""
+    from odsuite.analysis.modal import frequency_labels, mac, mpc
+    from odsuite.analysis.multisetup import project_setups_modes
+    from odsuite.contracts.renderers import RenderRequest
+
+    refs = None if reference is None else [c.strip() for c in reference.split(",") if c.strip()]
+    res = project_setups_modes(project, experiments, references=refs, f_band=band, max_order=max_order,
+                               block_rows=block_rows, decimation=decimate)
+    name = ", ".join(experiments)
+    if mac_figure is not None:
+        labels = frequency_labels(res.frequency_hz)
+        drawers["mac"].render(RenderRequest(project, experiments[0], mac_figure, {
+            "mac": mac(res.shapes, res.shapes), "labels_a": labels, "labels_b": labels,
+            "title": f"AutoMAC of the merged modes of {name}"}))
+    for note in res.unpaired:
+        err_console.print(f"note: not merged: {note}", highlight=False, soft_wrap=True)
+    if as_json:
+        _print_json(res.to_dict())
+        return
+    console.print(f"{len(experiments)} setups merged through reference channels {', '.join(res.references)} "
+                  f"(PoSER); shapes over {len(res.channels)} channels", highlight=False, soft_wrap=True)
+    table = Table(title=f"merged modes of {shown(name)}")
+    for col in ("mode", "f (Hz)", "spread f (Hz)", "damping ratio", "spread damping", "MPC", "reference MAC (min)",
+                *[f"f {shown(e)} (Hz)" for e in experiments]):
+        table.add_column(col)
+    digits = _frequency_digits(res.frequency_hz)
+    for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio)):
+        per = res.per_setup[k]
+        table.add_row(str(k + 1), f"{f:.{digits}f}", f"{res.frequency_spread_hz[k]:.2g}", f"{z:.5f}",
+                      f"{res.damping_spread[k]:.2g}", f"{mpc(res.shapes[:, k]):.3f}",
+                      f"{min(v[2] for v in per.values()):.3f}", *[f"{per[e][0]:.{digits}f}" for e in experiments])
+    console.print(table)
+    if mac_figure is not None:
+        console.print(f"wrote {mac_figure}", highlight=False, soft_wrap=True)
 
 
 def _frequency_digits(freqs) -> int:

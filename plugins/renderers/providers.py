@@ -118,8 +118,8 @@ class ModeShapeRenderer:
     description = ("a mode shape identified from an experiment's responses (output-only) moving on the project's "
                    "geometry (MP4, or GIF); to .uff: the geometry (15/82) with every mode (55) for other tools")
     kind = "movie"
-    suffixes = (".mp4", ".gif", ".uff")
-    OPTIONS = frozenset({"mode", "fmin", "fmax", "max_order", "view", "workers", "fps"})
+    suffixes = (".mp4", ".gif", ".uff", ".html")
+    OPTIONS = frozenset({"mode", "fmin", "fmax", "max_order", "view", "workers", "fps", "reference"})
 
     def render(self, request: RenderRequest) -> Rendered:
         from .shapes import render_mode_shape
@@ -129,6 +129,8 @@ class ModeShapeRenderer:
                                           progress=request.progress, registries=request.registries,
                                           **{k: v for k, v in request.options.items()
                                              if v is not None and v is not False})
+        if isinstance(res, Path) and res.suffix.lower() in (".html", ".htm"):
+            return Rendered(res, f"interactive 3-D view of {n} mode shapes", tuple(notes))
         if isinstance(res, Path):
             return Rendered(res, f"geometry (UFF 15/82) and {n} mode shapes (UFF 55)", tuple(notes))
         return Rendered(res.path, f"{res.n_frames} frames at {res.fps:g} fps ({res.n_frames / res.fps:.1f} s), "
