@@ -81,36 +81,18 @@ def modes_cmd(
     the setups of a roving survey, merged through their reference channels)."""
     import json
 
-    from odsuite.domain.errors import ConfigError
-    from odsuite.analysis.modal import fdd_doc, mpc
     from odsuite.analysis.modal_project import experiment_modes, experiment_output_only_modes, experiments_modes
     from odsuite.contracts.renderers import RenderRequest
 
-    try:
-        freqs = [float(v) for v in at.split(",")] if at else None
-    except ValueError:
-        raise ConfigError(f"--at {at!r}: expected comma-separated frequencies in Hz") from None
-    for option, value in (("--fmin", f_min), ("--fmax", f_max)):
-        if value is not None and not (math.isfinite(value) and value >= 0):  # before the FRF is stored
-            raise ConfigError(f"{option}: must be a finite frequency >= 0 Hz, got {value}")
+    freqs = _modes_options(at, f_min, f_max, reference, output_only, len(experiments), block_rows, decimate, figure)
     band = None if f_min is None and f_max is None else (f_min, f_max)
     drawers = {name: _figure_renderer(name, path, project, option)
                for name, path, option in (("stabilisation", figure, "--figure"), ("mac", mac_figure, "--mac-figure"))
                if path is not None}
     references = None
     name = ", ".join(experiments)
-    if reference is not None and not (output_only and len(experiments) > 1):
-        raise ConfigError("--reference names the reference channels of several --output-only setups: give "
-                          "--output-only and more than one --experiment")
-    if not output_only and (block_rows is not None or decimate is not None):
-        raise ConfigError("--block-rows and --decimate set up the output-only analysis: give --output-only too")
     if output_only:
-        if freqs is not None:
-            raise ConfigError("--at picks poles of the FRF fit; it does not combine with --output-only")
         if len(experiments) > 1:
-            if figure is not None:
-                raise ConfigError("--figure: a stabilisation diagram is per record; merged setups have none "
-                                  "(run each setup alone for its diagram)")
             _merged_modes(project, experiments, reference, band, max_order, block_rows, decimate, drawers,
                           mac_figure, as_json)
             return
@@ -144,6 +126,40 @@ def modes_cmd(
             doc["references"] = references
         print(json.dumps(doc))
         return
+    _print_modes(res, name)
+    for path in (figure, mac_figure):
+        if path is not None:
+            console.print(f"wrote {path}", highlight=False, soft_wrap=True)
+
+
+def _modes_options(at, f_min, f_max, reference, output_only, n_experiments, block_rows, decimate, figure):
+    """The modes command's options checked before anything is computed; returns --at's frequencies (Hz)."""
+    from odsuite.domain.errors import ConfigError
+
+    try:
+        freqs = [float(v) for v in at.split(",")] if at else None
+    except ValueError:
+        raise ConfigError(f"--at {at!r}: expected comma-separated frequencies in Hz") from None
+    for option, value in (("--fmin", f_min), ("--fmax", f_max)):
+        if value is not None and not (math.isfinite(value) and value >= 0):  # before the FRF is stored
+            raise ConfigError(f"{option}: must be a finite frequency >= 0 Hz, got {value}")
+    if reference is not None and not (output_only and n_experiments > 1):
+        raise ConfigError("--reference names the reference channels of several --output-only setups: give "
+                          "--output-only and more than one --experiment")
+    if not output_only and (block_rows is not None or decimate is not None):
+        raise ConfigError("--block-rows and --decimate set up the output-only analysis: give --output-only too")
+    if output_only and freqs is not None:
+        raise ConfigError("--at picks poles of the FRF fit; it does not combine with --output-only")
+    if output_only and n_experiments > 1 and figure is not None:
+        raise ConfigError("--figure: a stabilisation diagram is per record; merged setups have none "
+                          "(run each setup alone for its diagram)")
+    return freqs
+
+
+def _print_modes(res, name: str) -> None:
+    """The identified modes as tables: SSI or LSCF modes, and the EFDD cross-check of output-only ones."""
+    from odsuite.analysis.modal import fdd_doc, mpc
+
     lo, hi = res.band_hz
     if res.settings is not None:
         console.print(f"output-only analysis: {res.settings.describe()}", highlight=False, soft_wrap=True)
@@ -174,9 +190,6 @@ def modes_cmd(
     for u in res.unresolved:
         err_console.print(f"note: the pole at {u.frequency_hz:.{digits}f} Hz (damping ratio {u.damping_ratio:.3f}) is not "
                           f"reported as a mode: {u.reason}", highlight=False, soft_wrap=True)
-    for path in (figure, mac_figure):
-        if path is not None:
-            console.print(f"wrote {path}", highlight=False, soft_wrap=True)
 
 
 def _merged_modes(project, experiments, reference, band, max_order, block_rows, decimate, drawers, mac_figure,
