@@ -19,14 +19,16 @@ def _json(capsys, *args) -> dict:
 def test_process_stores_the_error_compare_gives_until_the_records_change(tmp_path, capsys):
     p = tmp_path / "p.h5"
     for argv in (["new", p], ["acquire", p, "--daq", "sim", "--name", "T1", "--scenario", "T1", "--seed", "1",
-                              "--samples", "2048"], ["process", p]):
+                              "--samples", "2048"]):
         assert main([str(a) for a in argv]) == 0
     capsys.readouterr()
+    processed = _json(capsys, "process", p, "--json")
+    assert processed["experiments"]["T1"]["datasets"] and processed["revision"] == 0
     with open_project(p) as proj:
         metrics = proj.model_revisions()[0]["metrics"]
         assert metrics["data_stamp"] == data_stamp(proj)
     compared = _json(capsys, "compare", p, "--json")
-    assert metrics["error"] == compared["error"] > 0
+    assert metrics["error"] == compared["error"] == processed["error"] > 0
     assert metrics["noise_floor_error"] == compared["noise_floor_error"] > 0
     info = _json(capsys, "info", p, "--json")
     assert info["model_revisions"][0]["error"] == metrics["error"]
