@@ -104,7 +104,9 @@ def _singular_values_figure(project, name: str, res, path: Path) -> str:
     ax.set_ylabel(f"dB re 1 ({unit})²/Hz".replace("^2", "²"))
     ax.set_title(f"{name}: singular values of the PSD matrix ({len(outs)} channels)", fontsize=10)
     ax.grid(True, color="0.9")
-    ax.margins(y=0.12)
+    # channels that see the same motion leave singular values at round-off: draw 50 dB below the first
+    first = 10 * np.log10(np.maximum(sv[keep, 0], tiny)) if keep.any() else np.zeros(1)
+    ax.set_ylim(float(first.min()) - 50, float(first.max()) + 10)
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.savefig(path, dpi=FIGURE_DPI)
     spacing = f"{fd.resolution_hz:.4g} Hz lines" if fd is not None else "no EFDD (record too short)"
