@@ -180,7 +180,7 @@ def merge_setups(results: Sequence[ModalResult], setups: Sequence[str], referenc
 
 
 def project_setups_modes(project, experiments: Sequence[str], *, references: Sequence[str] | None = None,
-                         f_band: tuple[float | None, float | None] | None = None, max_order: int = 40,
+                         f_band: tuple[float | None, float | None] | None = None, max_order: int | None = None,
                          block_rows: int | None = None, decimation: int | None = None) -> MergedModes:
     """Modes of a roving survey stored as one experiment per setup: each setup's response channels
     (``modal_project.response_columns``) identified alone (``modal_project.experiment_output_only_modes``,

@@ -63,7 +63,8 @@ def modes_cmd(
                                           "an FRF matrix across experiments (roving hammer, several references)."),
     f_min: float = typer.Option(None, "--fmin", help="Lowest frequency of the fit band (Hz)."),
     f_max: float = typer.Option(None, "--fmax", help="Highest frequency of the fit band (Hz)."),
-    max_order: int = typer.Option(50, "--max-order", help="Highest model order (LSCF; SSI-cov state size with --output-only)."),
+    max_order: int = typer.Option(None, "--max-order", help="Highest model order (LSCF, default 50; SSI-cov state "
+                                  "size with --output-only, default 40 as in render and report)."),
     at: str = typer.Option(None, "--at", help="Pick poles nearest these frequencies: f1,f2,... (Hz)."),
     figure: Path = typer.Option(None, "--figure", help="Write the stabilisation diagram (.png, .svg, .pdf)."),
     mac_figure: Path = typer.Option(None, "--mac-figure", help="Write the modes' MAC matrix (AutoMAC; .png, .svg, .pdf)."),
@@ -86,6 +87,10 @@ def modes_cmd(
 
     freqs = _modes_options(at, f_min, f_max, reference, output_only, len(experiments), block_rows, decimate, figure)
     band = None if f_min is None and f_max is None else (f_min, f_max)
+    if max_order is None:  # output-only: the library's default, so render and report find the same modes
+        from odsuite.analysis.oma import MAX_ORDER
+
+        max_order = MAX_ORDER if output_only else 50
     drawers = {name: _figure_renderer(name, path, project, option)
                for name, path, option in (("stabilisation", figure, "--figure"), ("mac", mac_figure, "--mac-figure"))
                if path is not None}

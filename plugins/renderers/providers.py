@@ -110,7 +110,8 @@ class ReportRenderer:
                            run_diagnosis=opts.get("run_diagnosis", True), movie=opts.get("movie", True),
                            movie_experiment=opts.get("movie_experiment"), frf_channels=opts.get("frf_channels"),
                            progress=opts.get("on_stage"))
-        return Rendered(res.path, f"{res.size_bytes / 2**20:.1f} MiB; error {res.error:.4f}", tuple(res.notes))
+        error = f"error {res.error:.4f}" if res.error == res.error else "output-only: no model"  # NaN: no rig
+        return Rendered(res.path, f"{res.size_bytes / 2**20:.1f} MiB; {error}", tuple(res.notes))
 
 
 class ModeShapeRenderer:

@@ -263,8 +263,10 @@ def build_report(
     notes: list[str] = []
     with open_project(project_path, registries=registries) as project, tempfile.TemporaryDirectory(prefix="odsuite-report-") as tmpdir:
         tmp = Path(tmpdir)
-        if project.rig is None:
-            raise ConfigError(f"{project.path}: the project has no rig, so there is no model to report on")
+        if project.rig is None:  # output-only records of a structure: no model to compare with
+            from .oma_report import oma_report
+
+            return oma_report(project, output, tmp, say, notes)
         if movie_experiment is not None and movie_experiment not in project.experiment_names():
             raise ConfigError(f"{project.path}: --movie-experiment: no experiment {movie_experiment!r} "
                               f"(experiments: {', '.join(project.experiment_names()) or 'none'})")

@@ -162,3 +162,18 @@ def test_inconsistent_reference_is_one_line(palisaden_setups, capsys):
                  "--reference", "ch2,ch1"]) != 0
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "setup 'c' has no reference channel 'ch1'" in err
+
+
+def test_modes_and_render_merge_the_same_modes(palisaden_setups, capsys):
+    """`modes --output-only` and the mode-shape renderer (``project_setups_modes`` with its defaults,
+    as `render` and `report` call it) identify with one default model order: with 50 in `modes` and
+    40 in `render` the setups' bands differed (up to 19.6-25.8 Hz against 14.6-20.5 Hz) and `modes`
+    merged two more modes (13.29 and 19.54 Hz, MPC 0.74 and 0.42)."""
+    from odsuite.analysis.multisetup import project_setups_modes
+
+    capsys.readouterr()
+    assert main(["modes", str(palisaden_setups), "--experiment", "a", "--experiment", "b", "--experiment", "c",
+                 "--output-only", "--json"]) == 0
+    modes = [m["frequency_hz"] for m in json.loads(capsys.readouterr().out)["modes"]]
+    rendered = project_setups_modes(palisaden_setups, ["a", "b", "c"]).frequency_hz
+    np.testing.assert_allclose(modes, rendered, rtol=1e-9)
