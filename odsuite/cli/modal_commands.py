@@ -236,15 +236,11 @@ def _merged_modes(project, experiments, reference, band, max_order, block_rows, 
 
 
 def _frequency_digits(freqs) -> int:
-    """Decimals that tell every frequency apart and give the lowest four significant digits (a
-    building's 1.882 Hz, not 1.88), at least 2."""
+    """Decimals of the frequency labels (four significant digits of the lowest, every frequency
+    told apart), at least 2."""
     from odsuite.analysis.modal import frequency_labels
 
-    if not len(freqs):
-        return 2
-    lowest = min(float(f) for f in freqs)
-    significant = 3 - math.floor(math.log10(lowest)) if lowest > 0 else 2
-    return max(2, significant, len(frequency_labels(freqs)[0].split()[0].split(".")[1]))
+    return max(2, len(frequency_labels(freqs)[0].split()[0].split(".")[1]) if len(freqs) else 2)
 
 
 @app.command("ods")
