@@ -259,8 +259,10 @@ def build_report(
     with open_project(project_path, registries=registries) as project, \
             tempfile.TemporaryDirectory(prefix="odsuite-report-") as tmpdir, threadpool_limits(1):
         tmp = Path(tmpdir)
-        if project.rig is None:
-            raise ConfigError(f"{project.path}: the project has no rig, so there is no model to report on")
+        if project.rig is None:  # output-only records of a structure: no model to compare with
+            from .oma_report import oma_report
+
+            return oma_report(project, output, tmp, say, notes)
         if movie_experiment is not None and movie_experiment not in project.experiment_names():
             raise ConfigError(f"{project.path}: --movie-experiment: no experiment {movie_experiment!r} "
                               f"(experiments: {', '.join(project.experiment_names()) or 'none'})")
@@ -299,6 +301,7 @@ def build_report(
                 movie_html = "<p>Movie left out (--no-movie).</p>"
                 view_html = "<p>3-D view left out with the movie (--no-movie).</p>"
                 notes.append("movie skipped (--no-movie)")
+            view_html += _mode_view_section(project, cmp.modal_records or [], notes)
             summary = _summary_section(project, exps, rev, doc, modes_hz)
             say("drawing the overlays")
             overlays_drawn.wait()
@@ -721,6 +724,38 @@ def _poster(gif: Path, path: Path) -> Path:
         im.seek(im.n_frames // 3)
         im.convert("RGB").save(path)
     return path
+
+
+def _mode_view_section(project, records, notes: list[str]) -> str:
+    """The measured (EMA) mode shapes of the hammer records moving the rig's plates, one selector
+    entry per mode: each mode's sensor values solved for the bodies' motion like an ODS."""
+    from odsuite.api import mpc
+    from odsuite.contracts.solvers import harmonic_shapes
+
+    from .mode_view import mode_label, mode_view_data, mode_view_html, rig_modes
+
+    rig, coords, labels = project.rig, [], []
+    for rec in records:
+        res = rec.modes
+        if res is None or not len(res.frequency_hz):
+            continue
+        channel_of = {n: k for k, n in enumerate(project.experiment(rec.experiment).channel_names)}
+        sensors = [rig.sensor_on_channel(channel_of[n]) if n in channel_of else None for n in res.output_names]
+        for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio)):
+            values = {s.name: complex(v) for s, v in zip(sensors, res.shapes[:, k]) if s is not None}
+            try:
+                coords.append(harmonic_shapes(rig, values, project.registries.coordinate_solvers,
+                                              f"{project.path}: {rec.experiment} mode {k + 1}"))
+            except ConfigError as exc:
+                notes.append(f"mode view: {exc}")
+                continue
+            labels.append(mode_label("EMA", rec.experiment, k + 1, f, z, mpc(res.shapes[:, k])))
+    if not coords:
+        return "<h3>Measured mode shapes</h3><p>No measured mode shape to show (no hammer record's modes identified).</p>"
+    nodes, lines, modes = rig_modes(rig, coords, labels)
+    e1, _ = rig.horizontal_axes()
+    data = mode_view_data(nodes, lines, modes, up=rig.up, e1=e1)
+    return "<h3>Measured mode shapes</h3>" + mode_view_html(data)
 
 
 def _view_section(rig, exp, series: Mapping[str, tuple], corrected=None) -> str:
