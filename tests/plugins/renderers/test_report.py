@@ -393,3 +393,24 @@ def test_frf_channel_that_no_record_has_is_one_line(story, tmp_path):
     with pytest.raises(ConfigError, match=r"--frf-channel 'nope': experiment 'T1' has no such response channel"):
         build_report(path, tmp_path / "r.html", run_diagnosis=False, movie=False, frf_channels=["nope"])
     assert not (tmp_path / "r.html").exists()
+
+
+def test_a_table_without_rows_is_one_sentence():
+    """No table prints its header with no rows: the sentence saying why stands in its place."""
+    from odsuite_plugins.renderers.report import _table
+
+    none = _table(["frequency [Hz]"], [], id="peaks", caption="peaks", empty="No peak stands above the floor.")
+    assert "<table" not in none and "No peak stands above the floor." in none
+    assert "<table" not in _table(["a"], [], caption="peaks") and "peaks: none." in _table(["a"], [], caption="peaks")
+    assert _table(["a"], [[1]], id="t").count("<tr>") == 2
+
+
+@pytest.mark.slow
+def test_report_has_no_empty_table_and_draws_the_models_frf(story):
+    """Every table of the page has a row under its header; each FRF figure has the model's line."""
+    *_, result = story
+    page = parse(result.path)
+    assert page.tables and all(len(rows) >= 2 for rows in page.tables.values())
+    text = result.path.read_text()
+    assert text.count("black dashed: the model&#x27;s FRF") == text.count("FRF of the driving point") > 0
+    assert "stabilisation diagram" in text
