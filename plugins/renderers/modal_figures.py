@@ -35,11 +35,12 @@ def _save(fig, path: Path, dpi: int = 130):
 def stabilisation_figure(result, path: str | Path, *, freq: np.ndarray, H: np.ndarray,
                          title: str = "stabilisation diagram",
                          background: str = "rms |H| of the outputs (FRF units)",
-                         size: tuple[float, float] = (10, 6), dpi: int = 130):
+                         size: tuple[float, float] = (10, 6), dpi: int = 130, log_frequency: bool = False):
     """Poles per model order over the fit band (grey: new, blue: frequency stable, red: frequency
     and damping stable), the chosen modes as labelled lines with their stable-order counts, and
     the rms over outputs of ``H`` (FRFs, or amplitude spectra for output-only modes, named by
-    ``background``) on a log axis behind them."""
+    ``background``) on a log axis behind them. ``size`` (inches), ``dpi``; ``log_frequency``: a
+    logarithmic frequency axis (for a band over decades)."""
     if result.diagram is None or result.band_hz is None:
         raise ConfigError("stabilisation figure: the modal result holds no stabilisation diagram")
     d = result.diagram
@@ -56,6 +57,8 @@ def stabilisation_figure(result, path: str | Path, *, freq: np.ndarray, H: np.nd
             xs.extend(np.abs(poles[sel]) / (2 * np.pi))
             ys.extend([order] * int(sel.sum()))
         ax.scatter(xs, ys, label=label, linewidths=0.8, **style)
+    if log_frequency:  # a band over decades: the lowest modes are not squeezed into its first pixels
+        ax.set_xscale("log")
     ax.set_xlim(*result.band_hz)
     ax.set_ylim(0, max(d.orders) + 2)
     ax.set_xlabel("frequency (Hz)")

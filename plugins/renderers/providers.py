@@ -149,7 +149,7 @@ def builtin_renderers() -> list:
                                    "model_H"}),
                         made_by="`odsuite frf --figure`"),
             DrawnFigure("stabilisation", "stabilisation diagram: poles per model order and the chosen modes", "modes",
-                        ".modal_figures:stabilisation_figure", frozenset({"freq", "H", "title", "background", "size", "dpi"}),
+                        ".modal_figures:stabilisation_figure", frozenset({"freq", "H", "title", "background", "size", "dpi", "log_frequency"}),
                         made_by="`odsuite modes --figure`"),
             DrawnFigure("mac", "MAC matrix: two sets of mode shapes, each value in its cell", "mac",
                         ".modal_figures:mac_figure",

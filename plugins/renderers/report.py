@@ -464,7 +464,7 @@ def _stabilisation_html(project, rec, tag: str, tmp: Path) -> str:
         return ""
     _draw(project, "stabilisation", rec.experiment, tmp / f"stab-{tag}.png", modes=rec.modes,
           freq=rec.frf.frequency, H=rec.frf.H, title=f"{rec.experiment}: stabilisation diagram",
-          size=(PRINT_WIDTH_IN, 4.0), dpi=FIGURE_DPI)
+          size=(PRINT_WIDTH_IN, 4.0), dpi=FIGURE_DPI, log_frequency=rec.modal.band_hz[1] > 10 * rec.modal.band_hz[0])
     return _img(tmp / f"stab-{tag}.png", f"{rec.experiment}: poles of every model order in the fit band (red: "
                 "frequency and damping stable), the chosen modes dashed, the rms FRF behind them")
 
@@ -724,7 +724,7 @@ def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path, corrected=N
                        corrected_coords=corrected[0] if corrected else None,
                        title=f"{exp.name}: measured (blue), " + ("corrected (green) " if corrected else "")
                        + "and model (orange band)", time_zero=exp.trigger / exp.fs,
-                       style=Style(font_size=11, line_width=1.5, model_width=5.0))
+                       style=Style(font_size=10, line_width=1.5, model_width=5.0))
     gif = res.path if res.format == "gif" else gif_from_mp4(res.path, tmp / "movie.gif", MOVIE_FPS)
     fallback = f'<img src="{_data_uri(gif, "image/gif")}" alt="movie of {_esc(exp.name)}">'
     shown = (fallback if res.format == "gif" else

@@ -316,7 +316,7 @@ class Scene:
         start = origin - 0.08 * scale * np.asarray(self._up, float)
         end = start + np.array([drawn, 0.0, 0.0])
         self.plotter.add_mesh(pv.Line(start, end), color=self.style.text, line_width=4.0, lighting=False)
-        label = pv.PolyData((end + 0.02 * scale * np.asarray(self._up, float))[None])
+        label = pv.PolyData(((start + end) / 2 - 0.07 * scale * np.asarray(self._up, float))[None])
         self.plotter.add_point_labels(label, [f"{_mm(real)} of motion (x{_times(self._magnify[0])})"], shape=None,
                                       show_points=False, font_size=self.style.font_size - 1,
                                       text_color=self.style.text, always_visible=True)
@@ -336,7 +336,7 @@ class Scene:
             self.plotter.add_mesh(dot, color=self.style.sensor, point_size=9, render_points_as_spheres=True,
                                   lighting=False)
             self.plotter.add_point_labels(dot, [_spot_label(names)], shape=None, show_points=False,
-                                          font_size=self.style.font_size - 3, text_color=self.style.sensor,
+                                          font_size=self.style.font_size - 1, text_color=self.style.sensor,
                                           always_visible=True)
             self._moving.append((dot, series))
 
