@@ -124,13 +124,13 @@ def frf_figure(frf, path: str | Path, *, band_hz: tuple[float, float] | None = N
         label = name if len(units) == 1 else f"{name} [{_unit(frf.units[k])}]"
         line, = mag.loglog(f, np.abs(h), lw=0.8, label=label)
         good = frf.coherence[k, pos] >= COHERENCE_GOOD
-        phase.semilogx(f, np.where(good, np.degrees(np.angle(h)), np.nan), lw=0.6, color=line.get_color())
+        phase.semilogx(f, np.where(good, _phase_degrees(h), np.nan), lw=0.6, color=line.get_color())
         _shade_runs(phase, f, ~good)
         coh.semilogx(f, frf.coherence[k, pos], lw=0.6, color=line.get_color())
         if model_H is not None and name in model_H:
             hm = np.asarray(model_H[name])[pos]
             mag.loglog(f, np.abs(hm), lw=0.9, color="k", ls="--", label=f"model{'' if len(names) == 1 else ': ' + name}")
-            phase.semilogx(f, np.degrees(np.angle(hm)), lw=0.7, color="k", ls="--")
+            phase.semilogx(f, _phase_degrees(hm), lw=0.7, color="k", ls="--")
     for ax in (mag, phase, coh):
         if band_hz is not None:
             ax.axvspan(*band_hz, color="0.92", zorder=0)
@@ -141,7 +141,9 @@ def frf_figure(frf, path: str | Path, *, band_hz: tuple[float, float] | None = N
     mag.set_ylabel(f"|H| [{_unit(units.pop())}]" if len(units) == 1 else "|H| [see legend]")
     mag.legend(fontsize=8, loc="best")
     phase.set_ylabel("phase [°]")
-    phase.set_yticks([-180, -90, 0, 90, 180])
+    from matplotlib.ticker import MultipleLocator
+
+    phase.yaxis.set_major_locator(MultipleLocator(90))
     coh.set_ylabel("coherence [–]")
     coh.set_ylim(0, 1.05)
     coh.axhline(COHERENCE_GOOD, color="0.5", lw=0.6, ls="-.")
@@ -155,6 +157,13 @@ def frf_figure(frf, path: str | Path, *, band_hz: tuple[float, float] | None = N
     mag.set_title(textwrap.fill(f"{title}: {frf.estimator} estimator, {hits}{shaded}", int(7 * size[0])),
                   fontsize=10)  # about 7 characters per inch at 10 pt
     return _save(fig, path, dpi)
+
+
+def _phase_degrees(h: np.ndarray) -> np.ndarray:
+    """The phase unwrapped along frequency, shifted by whole turns so that its median lies within
+    ±180°: a phase sitting near ±180° (a mass line) is one line, not a band of jumps between the two."""
+    ph = np.degrees(np.unwrap(np.angle(h)))
+    return ph - 360.0 * np.round(np.median(ph) / 360.0)
 
 
 def _shade_runs(ax, f: np.ndarray, mask: np.ndarray) -> None:

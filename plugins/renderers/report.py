@@ -458,6 +458,24 @@ def _model_frf(project, exp, model, frf, outputs: Sequence[str]) -> dict[str, np
     return out
 
 
+def _missed_suspension_html(rec, model) -> str:
+    """A sentence naming the model's suspension modes in the record's band that no measured mode
+    lies within 10 % of (a suspension mode is often seen in the FRF but not picked as a stable pole)."""
+    from .mode_kinds import suspension_modes
+
+    flags = suspension_modes(model)
+    if flags is None or rec.band_hz is None:
+        return ""
+    f = model.modes().frequency_hz
+    missed = [v for v, s in zip(f, flags) if s and rec.band_hz[0] <= v <= rec.band_hz[1]
+              and not np.any(np.abs(np.asarray(rec.measured_hz) - v) <= 0.1 * v)]
+    if not missed:
+        return ""
+    return (f"<p>The model's suspension modes (the bodies together on their mounts) at "
+            f"{', '.join(f'{v:.1f}' for v in missed)} Hz lie in this record's band but were not identified "
+            "as stable poles; compare the FRF with the model's near them.</p>")
+
+
 def _stabilisation_html(project, rec, tag: str, tmp: Path) -> str:
     """The record's stabilisation diagram: the poles the modal table's modes were chosen from."""
     if rec.modes is None or getattr(rec.modes, "diagram", None) is None or rec.modes.band_hz is None:
@@ -516,6 +534,8 @@ def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, m
         else:
             figs.append("<p>No MAC: the record has fewer than two rig accelerometers, so no shape.</p>")
         figs.append(_stabilisation_html(project, rec, tag, tmp))
+        if model_for is not None:
+            figs.insert(1, _missed_suspension_html(rec, model_for(rec.experiment)))
         parts.append(f"<h3 id='modal-{_esc(rec.experiment)}'>{_esc(rec.experiment)}</h3>"
                      f"<div class='modal-figs'>{''.join(figs)}</div>")
     return "".join(parts)
@@ -584,10 +604,10 @@ def _failures_section(doc: Mapping[str, Any], exps, preds: Mapping[str, np.ndarr
     parts.append(_table(["frequency [Hz]", "share of the residual PSD", "strongest in", "model mode near [Hz]",
                          "lacking"], peaks, id="residual-peaks",
                         caption="peaks of the pooled residual spectrum (also marked on the spectra above)",
-                        empty="No peak of the residual spectrum pooled over experiments and channels stands above "
-                              "the noise floor's spectrum at one line (1 % false alarm over all lines) with 2 % of the "
-                              "residual energy: whatever is left is spread over a band (see the resolved cells "
-                              "in the diagnosis), not a line the model lacks."))
+                        empty="No peak of the residual spectrum, pooled over experiments and channels, rises above "
+                              "the noise floor's spectrum at a single line (1 % false alarm over all lines) with 2 % "
+                              "of the residual's energy; a residual spread over a band shows in the diagnosis's "
+                              "resolved cells instead."))
     rig_rows = [[en, body, ", ".join(f"{k}: {100 * v:.1f} %" for k, v in r["fractions"].items()),
                  ", ".join(r["flagged"]) or "none", r["worst"]]
                 for en, bd in doc["rigidity"].items() for body, r in bd.items()]

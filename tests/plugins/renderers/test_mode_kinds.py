@@ -38,3 +38,21 @@ def test_suspension_modes_are_those_the_inner_mounts_do_not_move():
     assert np.array_equal(flags, ~moved)
     words = mode_words(before, flags)
     assert "suspension" in words and f"{before[0]:.1f}" in words.split(";")[0]
+
+
+def test_report_names_the_suspension_modes_a_record_did_not_identify():
+    """Measured modes at the model's two highest suspension modes (within 10 %): the sentence names
+    the other four and not those; all six measured: no sentence."""
+    from types import SimpleNamespace
+
+    from odsuite.contracts.plugins import build_registries, default_manager
+    from odsuite.domain.rig import load_rig
+    from odsuite_plugins.renderers.report import _missed_suspension_html
+
+    model = _model(load_rig(RIG, build_registries(default_manager()).sensor_types))
+    f = model.modes().frequency_hz
+    sus = f[suspension_modes(model)]
+    rec = SimpleNamespace(band_hz=(1.0, 900.0), measured_hz=np.array([1.05 * sus[-2], 0.95 * sus[-1], f[-1]]))
+    text = _missed_suspension_html(rec, model)
+    assert all(f"{v:.1f}" in text for v in sus[:-2]) and not any(f"{v:.1f}" in text for v in sus[-2:])
+    assert _missed_suspension_html(SimpleNamespace(band_hz=(1.0, 900.0), measured_hz=sus), model) == ""

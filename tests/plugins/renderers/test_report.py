@@ -418,4 +418,4 @@ def test_report_has_no_empty_table_and_draws_the_models_frf(story):
     assert page.tables and all(len(rows) >= 2 for rows in page.tables.values())
     text = result.path.read_text()
     assert text.count("black dashed: the model&#x27;s FRF") == text.count("FRF of the driving point") > 0
-    assert "stabilisation diagram" in text
+    assert text.count(": poles of every model order in the fit band") > 0  # the stabilisation diagrams
