@@ -482,7 +482,7 @@ def _stabilisation_html(project, rec, tag: str, tmp: Path) -> str:
         return ""
     _draw(project, "stabilisation", rec.experiment, tmp / f"stab-{tag}.png", modes=rec.modes,
           freq=rec.frf.frequency, H=rec.frf.H, title=f"{rec.experiment}: stabilisation diagram",
-          size=(PRINT_WIDTH_IN, 4.0), dpi=FIGURE_DPI, log_frequency=rec.modal.band_hz[1] > 10 * rec.modal.band_hz[0])
+          size=(PRINT_WIDTH_IN, 4.0), dpi=FIGURE_DPI, log_frequency=rec.modes.band_hz[1] > 10 * rec.modes.band_hz[0])
     return _img(tmp / f"stab-{tag}.png", f"{rec.experiment}: poles of every model order in the fit band (red: "
                 "frequency and damping stable), the chosen modes dashed, the rms FRF behind them")
 

@@ -181,7 +181,7 @@ def test_report_is_self_contained(story):
     with open_project(path) as p:
         records = compare(p).modal_records
     hit_views = 3 if "The model fails most in" in result.path.read_text() else 0
-    diagrams = sum(r.modal is not None and r.modal.diagram is not None for r in records)
+    diagrams = sum(r.modes is not None and r.modes.diagram is not None for r in records)
     assert sum(k[0] == "PNG" for k in kinds) == (3 * 2 + hit_views + 2 + 1 + 1 + len(records) + diagrams
                                                  + sum(r.mac is not None for r in records))
     gif = [k for k in kinds if k[0] == "GIF"]
