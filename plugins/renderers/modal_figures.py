@@ -124,13 +124,14 @@ def frf_figure(frf, path: str | Path, *, band_hz: tuple[float, float] | None = N
         label = name if len(units) == 1 else f"{name} [{_unit(frf.units[k])}]"
         line, = mag.loglog(f, np.abs(h), lw=0.8, label=label)
         good = frf.coherence[k, pos] >= COHERENCE_GOOD
-        phase.semilogx(f, np.where(good, _phase_degrees(h), np.nan), lw=0.6, color=line.get_color())
+        centre = _phase_centre(h) if len(names) == 1 else 0.0  # one axis for several outputs
+        phase.semilogx(f, np.where(good, _phase_degrees(h, centre), np.nan), lw=0.6, color=line.get_color())
         _shade_runs(phase, f, ~good)
         coh.semilogx(f, frf.coherence[k, pos], lw=0.6, color=line.get_color())
         if model_H is not None and name in model_H:
             hm = np.asarray(model_H[name])[pos]
             mag.loglog(f, np.abs(hm), lw=0.9, color="k", ls="--", label=f"model{'' if len(names) == 1 else ': ' + name}")
-            phase.semilogx(f, _phase_degrees(hm), lw=0.7, color="k", ls="--")
+            phase.semilogx(f, _phase_degrees(hm, centre), lw=0.7, color="k", ls="--")
     for ax in (mag, phase, coh):
         if band_hz is not None:
             ax.axvspan(*band_hz, color="0.92", zorder=0)
@@ -144,6 +145,8 @@ def frf_figure(frf, path: str | Path, *, band_hz: tuple[float, float] | None = N
     from matplotlib.ticker import MultipleLocator
 
     phase.yaxis.set_major_locator(MultipleLocator(90))
+    centre = _phase_centre(frf.H[frf.output_names.index(names[0]), pos]) if len(names) == 1 else 0.0
+    phase.set_ylim(centre - 185.0, centre + 185.0)
     coh.set_ylabel("coherence [–]")
     coh.set_ylim(0, 1.05)
     coh.axhline(COHERENCE_GOOD, color="0.5", lw=0.6, ls="-.")
@@ -159,11 +162,16 @@ def frf_figure(frf, path: str | Path, *, band_hz: tuple[float, float] | None = N
     return _save(fig, path, dpi)
 
 
-def _phase_degrees(h: np.ndarray) -> np.ndarray:
-    """The phase unwrapped along frequency, shifted by whole turns so that its median lies within
-    ±180°: a phase sitting near ±180° (a mass line) is one line, not a band of jumps between the two."""
-    ph = np.degrees(np.unwrap(np.angle(h)))
-    return ph - 360.0 * np.round(np.median(ph) / 360.0)
+def _phase_degrees(h: np.ndarray, centre: float) -> np.ndarray:
+    """The phase in degrees within ±180° of ``centre``: a phase sitting near ±180° (a mass line) is
+    then one line, not a band of jumps between the two."""
+    return (np.degrees(np.angle(h)) - centre + 180.0) % 360.0 - 180.0 + centre
+
+
+def _phase_centre(h: np.ndarray) -> float:
+    """Where the phase sits: the direction of the mean unit phasor, rounded to 90°."""
+    mean = np.mean(h / np.maximum(np.abs(h), 1e-300))
+    return 90.0 * np.round(np.degrees(np.angle(mean)) / 90.0) if abs(mean) > 0 else 0.0
 
 
 def _shade_runs(ax, f: np.ndarray, mask: np.ndarray) -> None:

@@ -312,7 +312,7 @@ def build_report(
                                   window=window)
             parts.append(_img(f.path, f"{e.name}: every accelerometer after filter 1, model (solid) and "
                               "measured (dashed)" + _window_words(window, e, fault)))
-            if e.name in windows:
+            if fault is not None and e.name == fault.experiment:  # one second view: the page has a budget
                 parts.append(_hit_view(e, pred, names, tmp))
             overlays.append("".join(parts))
 
@@ -670,8 +670,8 @@ def _fault_words(fault) -> str:
                 f"{1e3 * MOVIE_AFTER_S:.0f} ms after each hit.</p>")
     return (f"<p>The model fails most in {_esc(fault.words())}. The pictures below show where that band's "
             "residual rings: from a quarter of its period before the hit until 95 % of its energy has "
-            f"gone, at least three periods; the {1e3 * MOVIE_AFTER_S:.0f} ms after the hit follow as a "
-            "second view.</p>")
+            f"gone, at least three periods; in {_esc(fault.experiment)} the {1e3 * MOVIE_AFTER_S:.0f} ms after "
+            "the hit follow as a second view.</p>")
 
 
 def _window_words(window: tuple[float, float], exp, fault) -> str:

@@ -134,11 +134,16 @@ def _lines_polydata(points: np.ndarray, edges) -> "pyvista.PolyData":  # noqa: F
 def title_and_label(plotter, size, style, title: str | None):
     """The title (if any) at the top left and, below it, the text actor each frame writes its time
     or phase into; returns that actor."""
+    import textwrap
+
     fs = style.font_size
     top = size[1] - 12
-    if title:
-        plotter.add_text(title, position=(12, top - 4 * fs), font_size=fs, color=style.text)
-    return plotter.add_text(" ", position=(12, top - (6 if title else 2) * fs - 4), font_size=fs, color=style.text)
+    # VTK's text is about fs pixels a character and 2 fs a line: long lines wrap to the frame's width
+    lines = [w for line in (title or "").split("\n")
+             for w in textwrap.wrap(line, max(20, int((size[0] - 24) / (0.95 * fs))))]
+    if lines:
+        plotter.add_text("\n".join(lines), position=(12, top - 2 * len(lines) * fs), font_size=fs, color=style.text)
+    return plotter.add_text(" ", position=(12, top - (2 * len(lines) + 2) * fs - 4), font_size=fs, color=style.text)
 
 
 #: the camera's margin around the plates, as a fraction of the largest plate: the magnified

@@ -70,7 +70,7 @@ def test_frf_figure_draws_the_models_frf_and_phase_only_where_coherence_is_good(
     mag, phase, coh = fig.axes
     model = [ln for ln in mag.lines if ln.get_label() == "model"]
     assert len(model) == 1 and np.allclose(model[0].get_ydata(), np.abs(h_model[1:]))
-    def same_angle(deg, z):  # equal up to whole turns (the drawn phase is unwrapped)
+    def same_angle(deg, z):  # equal up to whole turns (the drawn phase is centred where it sits)
         return np.allclose(np.exp(1j * np.radians(deg)), z / np.abs(z))
 
     assert same_angle(phase.lines[1].get_ydata(), h_model[1:])
@@ -78,8 +78,12 @@ def test_frf_figure_draws_the_models_frf_and_phase_only_where_coherence_is_good(
     bad = coherence[1:] < COHERENCE_GOOD
     assert np.all(np.isnan(measured_phase[bad]))
     assert same_angle(measured_phase[~bad], h[1:][~bad])
-    # unwrapped: no jump of a turn between neighbouring lines, though the SDOF passes +-180 deg
-    assert np.nanmax(np.abs(np.diff(phase.lines[1].get_ydata()))) < 90
+    # centred where the phase sits: the SDOF's -180 to 0 deg sweep (it starts at the +-180 deg
+    # seam) is one line with no jump of a turn, within the axis
+    model_phase = phase.lines[1].get_ydata()
+    assert np.nanmax(np.abs(np.diff(model_phase))) < 90
+    lo, hi = phase.get_ylim()
+    assert lo <= np.nanmin(model_phase) and np.nanmax(model_phase) <= hi and hi - lo == pytest.approx(370.0)
     assert phase.patches  # the left-out lines are shaded
 
 
