@@ -165,8 +165,9 @@ def test_report_is_self_contained(story):
     path, *_, result = story
     page = parse(result.path)
     assert 0 < result.size_bytes < 10 * 2**20
-    # the 3-D view's script is inline; nothing is fetched: links are in-page, sources data URIs
-    assert page.scripts == 2 and page.script_sources == []
+    # the two 3-D views' scripts (the recorded motion and the measured mode shapes, each its data
+    # and its code) are inline; nothing is fetched: links are in-page, sources data URIs
+    assert page.scripts == 4 and page.script_sources == []
     assert all(u.startswith(("#", "data:video/mp4;base64,")) for u in page.urls), [u[:40] for u in page.urls]
     kinds = []
     for src in page.images:
