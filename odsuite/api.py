@@ -111,6 +111,7 @@ _WHERE: dict[str, str] = {
     "ideal_chain_model": "odsuite.analysis.correction",
     "stored_correction": "odsuite.analysis.correction",
     "compare": "odsuite.analysis.comparison",
+    "resolve": "odsuite.analysis.resolved",
     "COORDINATE_NAMES": "odsuite.analysis.comparison",
     "history": "odsuite.analysis.history",
     # FRFs, modes and operating shapes

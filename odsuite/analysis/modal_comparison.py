@@ -99,7 +99,7 @@ def modal_records(project, experiments: Sequence[str], model_for
             continue
         if res.poles.size == 0:
             notes.append(f"{name}: no measured mode in {res.band_hz} Hz")
-            records.append(RecordModes(name, frf, res.band_hz, np.empty(0), np.empty(0), None))
+            records.append(RecordModes(name, frf, res.band_hz, np.empty(0), np.empty(0), None, res))
             continue
         model = model_for(name)
         modes = model.modes()
