@@ -259,6 +259,20 @@ def _uff_undefined_cs(d: Path):
     return _read_uff(d, "bad.uff")
 
 
+def _touch(path: Path) -> Path:
+    path.touch()
+    return path
+
+
+def _report_diagnosis(plant: Callable[[Path], object]) -> Callable[[Path], list[str]]:
+    """``report --diagnosis`` with the file ``plant`` makes (or names, when it returns a str)."""
+    def argv(d: Path) -> list[str]:
+        named = plant(d)
+        diag = named if isinstance(named, str) else str(d / "d.json")
+        return ["report", str(d / "p.h5"), "-o", str(d / "r.html"), "--diagnosis", diag, "--no-movie"]
+    return argv
+
+
 def _read_cod(d: Path):
     from odsuite_plugins.importers.legacy import read_cod
 
@@ -536,6 +550,18 @@ CASES: list[Case] = [
          argv=_handmade('force channel 99', 'info')),
     Case('stored-channel-names', 'info on a project whose experiment stores 2 channel names for 11 columns', "{dir}/x.h5: experiment 'e1' field 'channel_names': expected 11 distinct names (one per raw column), got ['force', 'ai1']",
          argv=_handmade('short names', 'info')),
+    Case("lvm-underscore", ".lvm with data value `1_000` (Python reads 1000; LabVIEW writes no digit groups)", "{dir}/bad.lvm: line 20, column 2: '1_000' is not a number",
+         **lvm(LVM_TEXT.replace("\t1,5\t", "\t1_000\t"))),
+    Case("lvm-long-row", ".lvm with a row of 1,000,000 cells in a 2-channel file", "{dir}/bad.lvm: line 20: 1000000 cells, more than the 4 of 2 channel(s) and a comment",
+         **lvm(LVM_TEXT.replace("\t1,5\t2,0\n", "\t1,5\t2,0" + "\t1" * 999_997 + "\n"))),
+    Case("diagnosis-device", "report --diagnosis /dev/zero", "/dev/zero: not a regular file (a pipe or device), expected a diagnosis (JSON) file",
+         argv=_report_diagnosis(lambda d: "/dev/zero")),
+    Case("diagnosis-fifo", "report --diagnosis naming a named pipe (FIFO)", "{dir}/d.json: not a regular file (a pipe or device), expected a diagnosis (JSON) file",
+         argv=_report_diagnosis(lambda d: os.mkfifo(d / "d.json"))),
+    Case("diagnosis-deep", "report --diagnosis with arrays nested 100,000 deep", "{dir}/d.json: JSON nested too deeply to be a diagnosis from `odsuite diagnose --json`",
+         argv=_report_diagnosis(lambda d: (d / "d.json").write_text("[" * 100_000 + "]" * 100_000))),
+    Case("diagnosis-huge", "report --diagnosis with a file of 17 MiB", "{dir}/d.json: more than 16777216 bytes, not a diagnosis from `odsuite diagnose --json`",
+         argv=_report_diagnosis(lambda d: os.truncate(_touch(d / "d.json"), 17 * 2**20))),
 ]
 
 
