@@ -246,6 +246,9 @@ def _handmade(kind: str, command: str = "info") -> Callable[[Path], list[str]]:
                 e.attrs["force_channel"] = 99
             elif kind == "short names":
                 e.attrs["channel_names"] = np.array([b"force", b"ai1"])
+            elif kind == "3000 names":
+                for k in range(3000):
+                    f[f"experiments/h{k:04d}"] = e
         return [command, str(d / "x.h5")]
     return argv
 
@@ -560,6 +563,8 @@ CASES: list[Case] = [
          argv=_report_diagnosis(lambda d: os.mkfifo(d / "d.json"))),
     Case("diagnosis-deep", "report --diagnosis with arrays nested 100,000 deep", "{dir}/d.json: JSON nested too deeply to be a diagnosis from `odsuite diagnose --json`",
          argv=_report_diagnosis(lambda d: (d / "d.json").write_text("[" * 100_000 + "]" * 100_000))),
+    Case("project-hard-links", "info on a project whose experiment group has 3,000 more names (hard links)", "{dir}/x.h5: refused: 'experiments/h0000' names the same object as 'experiments/e1' (a second hard link); an odsuite project names each object once",
+         argv=_handmade("3000 names", "info")),
     Case("diagnosis-huge", "report --diagnosis with a file of 17 MiB", "{dir}/d.json: more than 16777216 bytes, not a diagnosis from `odsuite diagnose --json`",
          argv=_report_diagnosis(lambda d: os.truncate(_touch(d / "d.json"), 17 * 2**20))),
 ]
