@@ -294,12 +294,15 @@ class SimulatedRig:
             raise HardwareError(f"simulator: the truth model returned shape {acc.shape}, expected {(force.size, len(sensors))}")
 
         volts = np.empty((n_stream, rig.channel_count))
+        column: dict[int, int] = {}  # channel -> its (first) sensor's column of acc, found once
+        for i, s in enumerate(sensors):
+            column.setdefault(s.channel, i)
         for ch in range(rig.channel_count):
             chain = all_chains[ch]
             if ch == rig.force_channel:
                 quantity = force
             else:
-                idx = next((i for i, s in enumerate(sensors) if s.channel == ch), None)
+                idx = column.get(ch)
                 quantity = acc[:, idx] if idx is not None else np.zeros_like(force)
             analog = run_analog(chain, quantity, fine)[::oversample]
             volts[:, ch] = analog + adc_input_disturbances(chain, n_stream, fs, rng)
