@@ -439,7 +439,8 @@ def catalog_cases() -> list[Case]:
         expect = "refuse" if kind in ("project external link",) else "any"
         out.append(Case("catalogue build", f"catalog . with {kind}", lambda d: ["catalog", "."], _cat_setup(kind),
                         outputs=("odsuite-catalog.*", "."), projects=("p.h5", "x/run.h5"), expect=expect,
-                        canary=kind == "project external link", check=_catalog_skipped if "metrics" in kind else None))
+                        check=_catalog_skipped if "metrics" in kind else _refused_listed if kind == "project external link"
+                        else None))
         if kind in ("corrupt", "truncated", "wrong schema", "folder", "fifo", "text file", "future schema"):
             out.append(Case("catalogue query", f"catalog query . projects with {kind}",
                             lambda d: ["catalog", "query", ".", "projects"], _cat_setup(kind)))
@@ -495,6 +496,27 @@ def _catalog_intact(d: Path, r: dict) -> list[tuple[str, str]]:
     except sqlite3.Error as exc:
         return [("changed project", f"catalogue unreadable after the query: {exc}")]
     return [] if n >= 1 else [("changed project", "the query emptied the catalogue's projects table")]
+
+
+def _refused_listed(d: Path, r: dict) -> list[tuple[str, str]]:
+    """The project linking outside is listed refused, and no byte of the outside files is in the
+    catalogue or its page. (Not judged by running twice: the catalogue stores every file's mtime and
+    digest, and home/other.h5 lies inside the folder the user asked to index, so it is indexed.)"""
+    import sqlite3
+
+    found = []
+    for name in ("odsuite-catalog.sqlite", "odsuite-catalog.html"):
+        data = (d / name).read_bytes() if (d / name).is_file() else b""
+        if MARKER in data or b"BEGIN OPENSSH" in data:
+            found.append(("read outside", f"{name} holds the outside file's marker"))
+    try:
+        with sqlite3.connect(f"file:{d / 'odsuite-catalog.sqlite'}?mode=ro", uri=True) as db:
+            err = dict(db.execute("SELECT project, read_error FROM projects").fetchall()).get("x/run.h5")
+    except sqlite3.Error as exc:
+        return found + [("changed project", f"no catalogue written: {exc}")]
+    if not (err and "refused" in err):
+        found.append(("wrong success", f"x/run.h5 not listed as refused: {err!r}"))
+    return found
 
 
 def _catalog_skipped(d: Path, r: dict) -> list[tuple[str, str]]:
@@ -1005,7 +1027,8 @@ def other_cases() -> list[Case]:
         text = lvm_text(rows)
         if kind == "a row of 1,000,000 cells":
             text = text.replace("Samples\t64\t64", "Samples\t64\t64")
-        expect = "any" if kind in ("an empty row in the middle",) else "refuse"
+        # a third cell sits in the Comment column LabVIEW writes after the channels: not refused
+        expect = "any" if kind in ("an empty row in the middle", "a row of 3 cells") else "refuse"
         out.append(Case("lvm", f"import-lvm: {kind}", lambda d: ["import-lvm", "p.h5", "bad.lvm", "--name", "l"],
                         _write("bad.lvm", text), expect=expect, timeout=60.0))
     for kind in ("CRLF line ends", "channel names with ANSI and bidi", "4096 channels"):

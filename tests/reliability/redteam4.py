@@ -64,7 +64,9 @@ def _hard_links(spot: str) -> Callable[[Path, int], None]:
 
 
 def hardlink_cases() -> list[Case]:
-    return [Case("hard links", f"{c}: {spot}", lambda d, a=argv: list(a), _hard_links(spot), expect="refuse",
+    # the catalogue lists a project it cannot read with its error and goes on (exit 0): judged by the check
+    return [Case("hard links", f"{c}: {spot}", lambda d, a=argv: list(a), _hard_links(spot),
+                 expect="refuse" if c != "catalog" else "any",
                  outputs=("o.uff", "odsuite-catalog.*"), timeout=60.0,
                  check=None if c != "catalog" else _listed_with_error)
             for spot in LINK_SPOTS for c, argv in LINK_COMMANDS.items()]
