@@ -157,6 +157,11 @@ def load_diagnosis(source: str | Path | Mapping[str, Any]) -> dict[str, Any]:
             raise ConfigError(f"{where}: cannot read the diagnosis ({exc.strerror or exc})") from None
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
             raise ConfigError(f"{where}: not a JSON document from `odsuite diagnose --json` ({exc})") from None
+        except ConfigError:
+            raise
+        except ValueError as exc:  # an integer of more than 4,300 digits (Python's conversion limit)
+            raise ConfigError(f"{where}: not a diagnosis from `odsuite diagnose --json` "
+                              f"({str(exc).splitlines()[0][:120]})") from None
     if not isinstance(doc, dict) or not isinstance(doc.get("candidates"), list):
         raise ConfigError(f"{where}: field 'candidates' missing or not a list (expected `odsuite diagnose --json` output)")
     for i, c in enumerate(doc["candidates"]):

@@ -565,6 +565,8 @@ CASES: list[Case] = [
          argv=_report_diagnosis(lambda d: (d / "d.json").write_text("[" * 100_000 + "]" * 100_000))),
     Case("project-hard-links", "info on a project whose experiment group has 3,000 more names (hard links)", "{dir}/x.h5: refused: 'experiments/h0000' names the same object as 'experiments/e1' (a second hard link); an odsuite project names each object once",
          argv=_handmade("3000 names", "info")),
+    Case("diagnosis-huge-integer", "report --diagnosis holding an integer of 100,000 digits", "{dir}/d.json: not a diagnosis from `odsuite diagnose --json` (Exceeds the limit (4300 digits) for integer string conversion",
+         argv=_report_diagnosis(lambda d: (d / "d.json").write_text("1" * 100_000))),
     Case("diagnosis-huge", "report --diagnosis with a file of 17 MiB", "{dir}/d.json: more than 16777216 bytes, not a diagnosis from `odsuite diagnose --json`",
          argv=_report_diagnosis(lambda d: os.truncate(_touch(d / "d.json"), 17 * 2**20))),
 ]
