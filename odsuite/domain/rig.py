@@ -700,6 +700,8 @@ def single_axis_sensor(entry: dict[str, Any], where: str, *, kind: str, quantity
     channel = entry.get("channel") if channel is None else channel
     if not isinstance(channel, int) or isinstance(channel, bool) or channel < 0:
         raise ConfigError(f"{where} field 'channel': expected a channel index >= 0, got {channel!r}")
+    if channel >= MAX_CHANNELS:  # else the rig loads and the project stored with it does not
+        raise ConfigError(f"{where} field 'channel': expected a channel index below {MAX_CHANNELS}, got {channel!r}")
     sensitivity = entry.get("sensitivity") if sensitivity is None else sensitivity
     uff_node = entry.get("uff_node")
     if uff_node is not None:

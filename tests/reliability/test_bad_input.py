@@ -567,6 +567,8 @@ CASES: list[Case] = [
          argv=_handmade("3000 names", "info")),
     Case("diagnosis-huge-integer", "report --diagnosis holding an integer of 100,000 digits", "{dir}/d.json: not a diagnosis from `odsuite diagnose --json` (Exceeds the limit (4300 digits) for integer string conversion",
          argv=_report_diagnosis(lambda d: (d / "d.json").write_text("1" * 100_000))),
+    Case("rig-channel-beyond", "sensor on channel 4096 (odsuite records at most 4096 channels)", "{dir}/bad.toml: sensors[0] 'a1' field 'channel': expected a channel index below 4096, got 4096",
+         **new_rig(RIG_TOML.replace("channel = 1", "channel = 4096"))),
     Case("diagnosis-huge", "report --diagnosis with a file of 17 MiB", "{dir}/d.json: more than 16777216 bytes, not a diagnosis from `odsuite diagnose --json`",
          argv=_report_diagnosis(lambda d: os.truncate(_touch(d / "d.json"), 17 * 2**20))),
 ]
