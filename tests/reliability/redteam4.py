@@ -266,7 +266,7 @@ STORED = {
     "revision attribute metrics": ['{"error": 1e999}', '{"error": [1]}', "null", '"x"', "[" * 10_000 + "]" * 10_000],
     "revision attribute effects": ["null", '[{"name": 5}]', '[{"effect": "stiffness"}]', "[" * 10_000 + "]" * 10_000],
     "rig attribute definition": ["[]", "null", '{"name": 5}', "[" * 10_000 + "]" * 10_000, '{"bodies": 5}'],
-    "file attribute odsuite_format_version": ["0.0.0", "abc", "1.1.0\x00", "9" * 1000],
+    "file attribute odsuite_format_version": ["0.0.0", "abc", "1.1.0 ", "9" * 1000],
 }
 
 
