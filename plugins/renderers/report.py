@@ -150,7 +150,9 @@ def load_diagnosis(source: str | Path | Mapping[str, Any]) -> dict[str, Any]:
             if len(text) > DIAGNOSIS_BYTES:
                 raise ConfigError(f"{where}: more than {DIAGNOSIS_BYTES} bytes, not a diagnosis from "
                                   "`odsuite diagnose --json`")
-            doc = json.loads(text.decode("utf-8"))
+            # NaN and Infinity (json.dumps of a diagnosis made through the API) read as null, as
+            # `diagnose --json` writes them: a number that is not finite is no value to show
+            doc = json.loads(text.decode("utf-8"), parse_constant=lambda name: None)
         except RecursionError:  # the JSON parser recurses per level of nesting
             raise ConfigError(f"{where}: JSON nested too deeply to be a diagnosis from `odsuite diagnose --json`") from None
         except OSError as exc:

@@ -393,3 +393,12 @@ def test_frf_channel_that_no_record_has_is_one_line(story, tmp_path):
     with pytest.raises(ConfigError, match=r"--frf-channel 'nope': experiment 'T1' has no such response channel"):
         build_report(path, tmp_path / "r.html", run_diagnosis=False, movie=False, frf_channels=["nope"])
     assert not (tmp_path / "r.html").exists()
+
+
+def test_diagnosis_not_finite_reads_as_null(tmp_path):
+    """NaN and Infinity (json.dumps of an API diagnosis) read as null, as `diagnose --json` writes them."""
+    from odsuite_plugins.renderers.report import load_diagnosis
+
+    path = tmp_path / "d.json"
+    path.write_text('{"candidates": [{"effect": "stiffness", "error": NaN, "error_before": -Infinity, "x": 0.5}]}')
+    assert load_diagnosis(path)["candidates"] == [{"effect": "stiffness", "error": None, "error_before": None, "x": 0.5}]
