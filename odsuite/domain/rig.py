@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import difflib
 import functools
+import math
 import os
 import stat
 import tomllib
@@ -323,15 +324,27 @@ def _depth(value: Any, limit: int, level: int = 0) -> int:
     return max((_depth(v, limit, level + 1) for v in items), default=level + 1)
 
 
+def _floats(value: Any) -> np.ndarray | None:
+    """A TOML list as floats; None when it is no list or holds an integer beyond a float (10**400)."""
+    try:
+        return np.asarray(value, dtype=float) if isinstance(value, list) else None
+    except (OverflowError, TypeError, ValueError):
+        return None
+
+
 def _vector(where: str, value: Any, n: int = 3) -> np.ndarray:
-    arr = np.asarray(value, dtype=float) if isinstance(value, list) else None
+    arr = _floats(value)
     if arr is None or arr.shape != (n,) or not np.all(np.isfinite(arr)):
         raise ConfigError(f"{where}: expected {n} finite numbers, got {value!r}")
     return arr
 
 
 def _number(where: str, value: Any, *, positive: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+    try:  # math, not numpy: an integer beyond int64 (10**41) is no numpy number
+        finite = not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+    except OverflowError:  # an integer beyond a float (10**400)
+        finite = False
+    if not finite:
         raise ConfigError(f"{where}: expected a finite number, got {value!r}")
     if positive and value <= 0:
         raise ConfigError(f"{where}: must be > 0, got {value!r}")
@@ -588,7 +601,7 @@ def _coefficients(where: str, value: Any, default: Any = None) -> np.ndarray:
     semi-definite (a negative stiffness or damping is not a spring)."""
     if value is None:
         value = default
-    arr = np.asarray(value, dtype=float) if isinstance(value, list) else None
+    arr = _floats(value)
     try:
         ok = arr is not None and arr.shape in ((3,), (3, 3)) and bool(np.all(np.isfinite(arr)))
     except (TypeError, ValueError):

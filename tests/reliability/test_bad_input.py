@@ -569,6 +569,10 @@ CASES: list[Case] = [
          argv=_report_diagnosis(lambda d: (d / "d.json").write_text("1" * 100_000))),
     Case("rig-channel-beyond", "sensor on channel 4096 (odsuite records at most 4096 channels)", "{dir}/bad.toml: sensors[0] 'a1' field 'channel': expected a channel index below 4096, got 4096",
          **new_rig(RIG_TOML.replace("channel = 1", "channel = 4096"))),
+    Case("rig-mass-integer", "body mass written as the integer 10**41 (beyond numpy's integers)", "{dir}/bad.toml: body 'plate' field 'mass': expected 1e-06 to 1e+07 kg, got 1e+41",
+         **new_rig(RIG_TOML.replace("mass = 2.0", "mass = 1" + "0" * 41))),
+    Case("rig-stiffness-integer", "spring stiffness written as the integer 10**400 (beyond a float)", "{dir}/bad.toml: springs[0] 's1' field 'stiffness': expected 3 numbers [x, y, z] or a 3x3 matrix, got [1000",
+         **new_rig(RIG_TOML + SPRING.replace("[1000.0, 1000.0, 1000.0]", "[1" + "0" * 400 + ", 1000.0, 1000.0]"))),
     Case("diagnosis-huge", "report --diagnosis with a file of 17 MiB", "{dir}/d.json: more than 16777216 bytes, not a diagnosis from `odsuite diagnose --json`",
          argv=_report_diagnosis(lambda d: os.truncate(_touch(d / "d.json"), 17 * 2**20))),
 ]
