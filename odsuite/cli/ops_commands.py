@@ -79,7 +79,9 @@ def catalog_cmd(
     if args[0] == "query":
         if len(args) < 2:
             raise typer.BadParameter("catalog query DIR [NAME|SELECT ...]")
-        rows = query(args[1], " ".join(args[2:]) or "projects", rig=rig, limit=limit, seconds=seconds)
+        # no query names the projects; an empty one given is refused by query()
+        rows = query(args[1], " ".join(args[2:]) if len(args) > 2 else "projects", rig=rig, limit=limit,
+                     seconds=seconds)
         if as_json:
             _print_json(rows)
             return
