@@ -111,6 +111,7 @@ _WHERE: dict[str, str] = {
     "ideal_chain_model": "odsuite.analysis.correction",
     "stored_correction": "odsuite.analysis.correction",
     "compare": "odsuite.analysis.comparison",
+    "resolve": "odsuite.analysis.resolved",
     "COORDINATE_NAMES": "odsuite.analysis.comparison",
     "history": "odsuite.analysis.history",
     # FRFs, modes and operating shapes
@@ -123,8 +124,20 @@ _WHERE: dict[str, str] = {
     "ods_motion": "odsuite.analysis.modal_project",
     "physical": "odsuite.analysis.modal_project",
     "experiment_output_only_modes": "odsuite.analysis.modal_project",
+    "project_setups_modes": "odsuite.analysis.multisetup",
+    # output-only pieces the report shows: the prepared record's spectral matrix, EFDD against
+    # SSI-cov, setups merged from modes already identified
+    "check_references": "odsuite.analysis.multisetup",
+    "merge_setups": "odsuite.analysis.multisetup",
+    "fdd_doc": "odsuite.analysis.modal",
+    "mac": "odsuite.analysis.modal",
+    "mpd": "odsuite.analysis.modal",
+    "prepare_output_only": "odsuite.analysis.oma:prepare",
+    "response_columns": "odsuite.analysis.modal_project",
+    "spectral_matrix": "odsuite.analysis.fdd",
     "operating_shape": "odsuite.analysis.ods",
     "frequency_labels": "odsuite.analysis.modal",
+    "mpc": "odsuite.analysis.modal",
     # diagnosis
     "diagnose": "odsuite.diagnosis.diagnose",
     "add_effect": "odsuite.diagnosis.add_effect",

@@ -1,31 +1,56 @@
 """The error history of a project's model revisions, as a document (the renderers plugin's
-``history`` figure draws it)."""
+``history`` figure draws it), and the errors the writing commands store for it.
+
+A revision's stored error holds for the records it was computed on: it carries a stamp of those
+records (``data_stamp``) and is read back only while the stamp matches. A revision without a valid
+stored error gets it computed when read (reading never writes); ``process`` stores the current
+revision's, so that ``info`` reads it instead of running a comparison."""
 
 from __future__ import annotations
 
+import hashlib
 from typing import Any
 
 from odsuite.domain.errors import ConfigError
 
 
+def data_stamp(project) -> str:
+    """A fingerprint of the records a comparison reads: each experiment's identity and that of its
+    derived data (a record re-acquired, re-processed, added or deleted changes it)."""
+    h = hashlib.sha256()
+    for name in project.experiment_names():
+        h.update(f"{name}\0{project.experiment(name).object_id}\0".encode())
+        for kind in project.derived_kinds(name):
+            h.update(f"{kind}\0{project.derived_info(name, kind)['object_id']}\0".encode())
+    return h.hexdigest()[:16]
+
+
+def valid_metric(metrics: dict, key: str, stamp: str) -> Any:
+    """A stored metric, if it was computed on the records the project holds now (a metric stored
+    without a stamp, by an older odsuite, is taken as it is)."""
+    if metrics.get(key) is None or metrics.get("data_stamp", stamp) != stamp:
+        return None
+    return metrics[key]
+
+
 def history(project) -> dict[str, Any]:
     """Revisions with their effects and errors, and the noise floor (the error a perfect model
-    would leave; it depends on the measurements only). A revision without a stored error (revision
-    0 before any comparison) gets one computed now, not stored (reading never writes)."""
+    would leave; it depends on the measurements only)."""
     revs = project.model_revisions()
+    stamp = data_stamp(project) if revs else ""
     out = []
     exps = None
-    floor = next((r["metrics"]["noise_floor_error"] for r in reversed(revs)
-                  if r.get("metrics", {}).get("noise_floor_error") is not None), None)
-    if floor is None and project.rig is not None:
-        # the comparison (scipy.signal: seconds to import) only where nothing was stored
+    floor = next((f for f in (valid_metric(r.get("metrics", {}), "noise_floor_error", stamp) for r in reversed(revs))
+                  if f is not None), None)
+    if floor is None and revs and project.rig is not None:
+        # the comparison (scipy.signal: seconds to import) only where nothing valid was stored
         from odsuite.analysis.comparison import noise_floor_error
         from odsuite.analysis.modelrev import RevisionModel, base_model
 
         exps = _comparable(project)
         floor = noise_floor_error(exps, RevisionModel(base_model(project.rig, registries=project.registries))) if exps else None
     for r in revs:
-        error = r.get("metrics", {}).get("error")
+        error = valid_metric(r.get("metrics", {}), "error", stamp)
         if error is None and project.rig is not None:
             from odsuite.analysis.comparison import compare
 
@@ -34,6 +59,25 @@ def history(project) -> dict[str, Any]:
         out.append({"revision": r["revision"], "parent": r["parent"], "effects": [e["effect"] for e in r["effects"]],
                     "error": error, "created": r["created"]})
     return {"current": project.current_revision, "revisions": out, "noise_floor_error": floor}
+
+
+def store_current_error(project) -> float | None:
+    """Compare the current revision with the records and store its error and the noise floor,
+    stamped (``process`` calls this after changing the records). Nothing is stored where nothing
+    can be compared (no rig, no revision, no record with a force)."""
+    if project.rig is None or project.current_revision is None:
+        return None
+    from odsuite.analysis.comparison import compare
+
+    exps = _comparable(project)
+    if not exps:
+        return None
+    rev = next(r for r in project.model_revisions() if r["revision"] == project.current_revision)
+    result = compare(project, revision=rev, prepared=exps, resonances=False)
+    project.set_revision_metrics(rev["revision"], {"error": result.error,
+                                                   "noise_floor_error": result.noise_floor_error,
+                                                   "data_stamp": data_stamp(project)})
+    return result.error
 
 
 def _comparable(project) -> list:

@@ -19,6 +19,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import math
+
 import numpy as np
 import scipy.linalg
 
@@ -477,11 +479,13 @@ def identify_modes(
 
 
 def frequency_labels(freqs) -> list[str]:
-    """"f Hz" labels with the fewest decimals (1 to 4) that keep every frequency's label distinct
-    (2.777 and 2.812 Hz are not both "2.8 Hz")."""
+    """"f Hz" labels with four significant digits of the lowest frequency (a building's "1.882 Hz",
+    a plate's "279.3 Hz") and more decimals where two labels would be the same (2.7771 and
+    2.7774 Hz), 1 to 4 decimals."""
     f = [float(v) for v in np.atleast_1d(freqs)]
     text: list[str] = []
-    for d in range(1, 5):
+    lowest = min((abs(v) for v in f if v), default=1.0)
+    for d in range(min(4, max(1, 3 - math.floor(math.log10(lowest)))), 5):
         text = [f"{v:.{d}f}" for v in f]
         if len(set(text)) == len(text):
             break

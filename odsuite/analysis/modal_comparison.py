@@ -36,6 +36,7 @@ class RecordModes:
     measured_hz: np.ndarray
     model_hz: np.ndarray
     mac: np.ndarray | None
+    modes: object | None = None  # the measured modes (modal.ModalResult) where identified
 
 
 def _usable_band(frf) -> tuple[float, float] | None:
@@ -98,7 +99,7 @@ def modal_records(project, experiments: Sequence[str], model_for
             continue
         if res.poles.size == 0:
             notes.append(f"{name}: no measured mode in {res.band_hz} Hz")
-            records.append(RecordModes(name, frf, res.band_hz, np.empty(0), np.empty(0), None))
+            records.append(RecordModes(name, frf, res.band_hz, np.empty(0), np.empty(0), None, res))
             continue
         model = model_for(name)
         modes = model.modes()
@@ -119,5 +120,5 @@ def modal_records(project, experiments: Sequence[str], model_for
         records.append(RecordModes(
             name, frf, (float(lo), float(hi)), np.asarray(res.frequency_hz, dtype=float),
             np.asarray(modes.frequency_hz[keep], dtype=float),
-            mac(shapes[0], shapes[1][:, keep]) if shapes is not None and keep.size else None))
+            mac(shapes[0], shapes[1][:, keep]) if shapes is not None and keep.size else None, res))
     return rows, notes, records

@@ -183,7 +183,7 @@ def experiments_modes(
 
 def experiment_output_only_modes(
     project: str | Path, experiment: str, *, f_band: tuple[float | None, float | None] | None = None,
-    max_order: int = 40, block_rows: int | None = None, decimation: int | None = None,
+    max_order: int | None = None, block_rows: int | None = None, decimation: int | None = None,
 ) -> tuple[ModalResult, np.ndarray, np.ndarray, str]:
     """Modes from the experiment's responses alone (SSI-cov and EFDD, ``oma.identify_output_only``):
     the response channels (``response_columns``), in SI units. Returns the modes, the responses'
@@ -191,8 +191,9 @@ def experiment_output_only_modes(
     figure, and that unit ("mixed units" when the channels differ)."""
     import scipy.signal
 
-    from odsuite.analysis.oma import identify_output_only
+    from odsuite.analysis.oma import MAX_ORDER, identify_output_only
 
+    max_order = MAX_ORDER if max_order is None else max_order
     with open_project(project) as p:
         exp = p.experiment(experiment)
         data = physical(exp)

@@ -32,6 +32,10 @@ from odsuite.analysis.modal import (
     stability_flags,
 )
 
+#: the highest SSI-cov state size unless given: every entry point (modes, render, report) uses it,
+#: since it also sets the band (max_order / ORDERS_PER_PEAK peaks) and so which modes are found
+MAX_ORDER = 40
+
 
 def _correlations(y: np.ndarray, lags: int) -> np.ndarray:
     """Unbiased output correlations R_k (lags x outputs x outputs), k = 0 .. lags - 1, through the
@@ -61,7 +65,7 @@ def ssi_cov(
     y: np.ndarray,
     fs: float,
     *,
-    max_order: int = 40,
+    max_order: int = MAX_ORDER,
     block_rows: int | None = None,
     f_band: tuple[float, float] | None = None,
     tol_f: float = 0.01,
@@ -243,7 +247,7 @@ def record_peaks(y: np.ndarray, fs: float, lo: float = 0.0, hi: float | None = N
 
 def choose_settings(y: np.ndarray, fs: float, *, f_band: tuple[float | None, float | None] | None = None,
                     block_rows: int | None = None, decimation: int | None = None,
-                    max_order: int = 40) -> OmaSettings:
+                    max_order: int = MAX_ORDER) -> OmaSettings:
     """Band, high-pass, decimation and block rows for SSI-cov from the record: its spectral peaks
     (``record_peaks``) give the lowest mode f1 and the band of interest (up to the
     ``max_order / ORDERS_PER_PEAK``-th peak, its top midway to the next, geometrically); the rate
@@ -307,7 +311,7 @@ def identify_output_only(
     fs: float,
     *,
     f_band: tuple[float | None, float | None] | None = None,
-    max_order: int = 40,
+    max_order: int = MAX_ORDER,
     block_rows: int | None = None,
     decimation: int | None = None,
     output_names: list[str] | None = None,

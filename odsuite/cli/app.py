@@ -305,7 +305,8 @@ def _run(argv: list[str] | None) -> int:
     try:
         if _INTERRUPTS:  # Ctrl-C while the program loaded
             raise _Interrupted()
-        _register_plugin_commands()
+        if (sys.argv[1:] if argv is None else argv) != ["--version"]:  # the version needs no plugin
+            _register_plugin_commands()
         command = typer.main.get_command(app)
         _quiet_flags(command)
         code = command.main(args=argv, standalone_mode=False, prog_name="odsuite")

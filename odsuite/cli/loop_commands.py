@@ -19,8 +19,9 @@ def compare_cmd(
     from odsuite.analysis.comparison import compare
     from odsuite.store.project import open_project
 
-    with open_project(project) as p:
-        result = compare(p).as_dict()
+    with open_project(project) as p, _loop_progress() as bar:
+        task = bar.add_task("comparing", total=None)
+        result = compare(p, progress=lambda stage: bar.update(task, description=f"comparing: {stage}")).as_dict()
     if as_json:
         _print_json(result)
         return

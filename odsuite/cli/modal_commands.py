@@ -63,7 +63,8 @@ def modes_cmd(
                                           "an FRF matrix across experiments (roving hammer, several references)."),
     f_min: float = typer.Option(None, "--fmin", help="Lowest frequency of the fit band (Hz)."),
     f_max: float = typer.Option(None, "--fmax", help="Highest frequency of the fit band (Hz)."),
-    max_order: int = typer.Option(50, "--max-order", help="Highest model order (LSCF; SSI-cov state size with --output-only)."),
+    max_order: int = typer.Option(None, "--max-order", help="Highest model order (LSCF, default 50; SSI-cov state "
+                                  "size with --output-only, default 40 as in render and report)."),
     at: str = typer.Option(None, "--at", help="Pick poles nearest these frequencies: f1,f2,... (Hz)."),
     figure: Path = typer.Option(None, "--figure", help="Write the stabilisation diagram (.png, .svg, .pdf)."),
     mac_figure: Path = typer.Option(None, "--mac-figure", help="Write the modes' MAC matrix (AutoMAC; .png, .svg, .pdf)."),
@@ -71,38 +72,35 @@ def modes_cmd(
     block_rows: int = typer.Option(None, "--block-rows", help="--output-only: SSI-cov block rows (lags 1..2i-1; default: "
                                    "5 periods of the record's lowest spectral peak)."),
     decimate: int = typer.Option(None, "--decimate", help="--output-only: decimation factor (default: to 2.5 x the band's top)."),
+    reference: str = typer.Option(None, "--reference", help="--output-only with several experiments (setups of a "
+                                  "roving survey): the reference channels ch,ch,... (default: the channels every setup has)."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
     """Natural frequencies, damping ratios and mode shapes identified from measured FRFs (default
     band: where the hammer's force spectrum and the coherence are usable), of one experiment or of
-    the FRF matrix of several, or with --output-only from the responses alone."""
+    the FRF matrix of several, or with --output-only from the responses alone (several experiments:
+    the setups of a roving survey, merged through their reference channels)."""
     import json
 
-    from odsuite.domain.errors import ConfigError
-    from odsuite.analysis.modal import fdd_doc, mpc
     from odsuite.analysis.modal_project import experiment_modes, experiment_output_only_modes, experiments_modes
     from odsuite.contracts.renderers import RenderRequest
 
-    try:
-        freqs = [float(v) for v in at.split(",")] if at else None
-    except ValueError:
-        raise ConfigError(f"--at {at!r}: expected comma-separated frequencies in Hz") from None
-    for option, value in (("--fmin", f_min), ("--fmax", f_max)):
-        if value is not None and not (math.isfinite(value) and value >= 0):  # before the FRF is stored
-            raise ConfigError(f"{option}: must be a finite frequency >= 0 Hz, got {value}")
+    freqs = _modes_options(at, f_min, f_max, reference, output_only, len(experiments), block_rows, decimate, figure)
     band = None if f_min is None and f_max is None else (f_min, f_max)
+    if max_order is None:  # output-only: the library's default, so render and report find the same modes
+        from odsuite.analysis.oma import MAX_ORDER
+
+        max_order = MAX_ORDER if output_only else 50
     drawers = {name: _figure_renderer(name, path, project, option)
                for name, path, option in (("stabilisation", figure, "--figure"), ("mac", mac_figure, "--mac-figure"))
                if path is not None}
     references = None
     name = ", ".join(experiments)
-    if not output_only and (block_rows is not None or decimate is not None):
-        raise ConfigError("--block-rows and --decimate set up the output-only analysis: give --output-only too")
     if output_only:
-        if freqs is not None:
-            raise ConfigError("--at picks poles of the FRF fit; it does not combine with --output-only")
         if len(experiments) > 1:
-            raise ConfigError("--output-only identifies modes of one record: give one --experiment")
+            _merged_modes(project, experiments, reference, band, max_order, block_rows, decimate, drawers,
+                          mac_figure, as_json)
+            return
         res, freq, spectrum, unit = experiment_output_only_modes(project, experiments[0], f_band=band,
                                                                  max_order=max_order, block_rows=block_rows,
                                                                  decimation=decimate)
@@ -133,6 +131,40 @@ def modes_cmd(
             doc["references"] = references
         print(json.dumps(doc))
         return
+    _print_modes(res, name)
+    for path in (figure, mac_figure):
+        if path is not None:
+            console.print(f"wrote {path}", highlight=False, soft_wrap=True)
+
+
+def _modes_options(at, f_min, f_max, reference, output_only, n_experiments, block_rows, decimate, figure):
+    """The modes command's options checked before anything is computed; returns --at's frequencies (Hz)."""
+    from odsuite.domain.errors import ConfigError
+
+    try:
+        freqs = [float(v) for v in at.split(",")] if at else None
+    except ValueError:
+        raise ConfigError(f"--at {at!r}: expected comma-separated frequencies in Hz") from None
+    for option, value in (("--fmin", f_min), ("--fmax", f_max)):
+        if value is not None and not (math.isfinite(value) and value >= 0):  # before the FRF is stored
+            raise ConfigError(f"{option}: must be a finite frequency >= 0 Hz, got {value}")
+    if reference is not None and not (output_only and n_experiments > 1):
+        raise ConfigError("--reference names the reference channels of several --output-only setups: give "
+                          "--output-only and more than one --experiment")
+    if not output_only and (block_rows is not None or decimate is not None):
+        raise ConfigError("--block-rows and --decimate set up the output-only analysis: give --output-only too")
+    if output_only and freqs is not None:
+        raise ConfigError("--at picks poles of the FRF fit; it does not combine with --output-only")
+    if output_only and n_experiments > 1 and figure is not None:
+        raise ConfigError("--figure: a stabilisation diagram is per record; merged setups have none "
+                          "(run each setup alone for its diagram)")
+    return freqs
+
+
+def _print_modes(res, name: str) -> None:
+    """The identified modes as tables: SSI or LSCF modes, and the EFDD cross-check of output-only ones."""
+    from odsuite.analysis.modal import fdd_doc, mpc
+
     lo, hi = res.band_hz
     if res.settings is not None:
         console.print(f"output-only analysis: {res.settings.describe()}", highlight=False, soft_wrap=True)
@@ -163,13 +195,49 @@ def modes_cmd(
     for u in res.unresolved:
         err_console.print(f"note: the pole at {u.frequency_hz:.{digits}f} Hz (damping ratio {u.damping_ratio:.3f}) is not "
                           f"reported as a mode: {u.reason}", highlight=False, soft_wrap=True)
-    for path in (figure, mac_figure):
-        if path is not None:
-            console.print(f"wrote {path}", highlight=False, soft_wrap=True)
+
+
+def _merged_modes(project, experiments, reference, band, max_order, block_rows, decimate, drawers, mac_figure,
+                  as_json) -> None:
+    """modes --output-only over several setups: each identified alone, merged by PoSER."""
+    from odsuite.analysis.modal import frequency_labels, mac, mpc
+    from odsuite.analysis.multisetup import project_setups_modes
+    from odsuite.contracts.renderers import RenderRequest
+
+    refs = None if reference is None else [c.strip() for c in reference.split(",") if c.strip()]
+    res = project_setups_modes(project, experiments, references=refs, f_band=band, max_order=max_order,
+                               block_rows=block_rows, decimation=decimate)
+    name = ", ".join(experiments)
+    if mac_figure is not None:
+        labels = frequency_labels(res.frequency_hz)
+        drawers["mac"].render(RenderRequest(project, experiments[0], mac_figure, {
+            "mac": mac(res.shapes, res.shapes), "labels_a": labels, "labels_b": labels,
+            "title": f"AutoMAC of the merged modes of {name}"}))
+    for note in res.unpaired:
+        err_console.print(f"note: not merged: {note}", highlight=False, soft_wrap=True)
+    if as_json:
+        _print_json(res.to_dict())
+        return
+    console.print(f"{len(experiments)} setups merged through reference channels {', '.join(res.references)} "
+                  f"(PoSER); shapes over {len(res.channels)} channels", highlight=False, soft_wrap=True)
+    table = Table(title=f"merged modes of {shown(name)}")
+    for col in ("mode", "f (Hz)", "spread f (Hz)", "damping ratio", "spread damping", "MPC", "reference MAC (min)",
+                *[f"f {shown(e)} (Hz)" for e in experiments]):
+        table.add_column(col)
+    digits = _frequency_digits(res.frequency_hz)
+    for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio)):
+        per = res.per_setup[k]
+        table.add_row(str(k + 1), f"{f:.{digits}f}", f"{res.frequency_spread_hz[k]:.2g}", f"{z:.5f}",
+                      f"{res.damping_spread[k]:.2g}", f"{mpc(res.shapes[:, k]):.3f}",
+                      f"{min(v[2] for v in per.values()):.3f}", *[f"{per[e][0]:.{digits}f}" for e in experiments])
+    console.print(table)
+    if mac_figure is not None:
+        console.print(f"wrote {mac_figure}", highlight=False, soft_wrap=True)
 
 
 def _frequency_digits(freqs) -> int:
-    """Decimals that tell every frequency apart (at least 2)."""
+    """Decimals of the frequency labels (four significant digits of the lowest, every frequency
+    told apart), at least 2."""
     from odsuite.analysis.modal import frequency_labels
 
     return max(2, len(frequency_labels(freqs)[0].split()[0].split(".")[1]) if len(freqs) else 2)

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import typer
 
-from odsuite.domain.errors import ConfigError
-from odsuite.cli.app import _ledger, app, console, echo_force_point, err_console
+from odsuite.domain.errors import ConfigError, OdsuiteError
+from odsuite.cli.app import _ledger, _print_json, app, console, echo_force_point, err_console
 
 
 @app.command("process")
@@ -22,10 +22,13 @@ def process_cmd(
                                    "records, no high-pass, drift removed against the revision's structure."),
     cutoff: float = typer.Option(None, "--cutoff", help="--corrected: Hz below which the model replaces the "
                                  "measurement (default: half the model's lowest natural frequency)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document: per experiment the datasets, "
+                                 "channels and solvers; corrections applied; the current revision's error."),
 ) -> None:
     """Run each experiment's Table E.2 processing chain and the generalized-coordinate solver."""
     from rich.progress import Progress
 
+    from odsuite.analysis.history import store_current_error
     from odsuite.processing.pipeline import process_experiment
     from odsuite.store.project import open_project
 
@@ -38,6 +41,9 @@ def process_cmd(
         # with --corrected one transaction: all or nothing; without, each experiment commits on its own
         names = experiment or p.experiment_names()
         notes: dict[str, list[str]] = {}  # a note (the rig's layout) holds for many experiments: said once
+        doc: dict = {"project": str(project), "experiments": {}, "corrected": {}, "revision": p.current_revision,
+                     "error": None}
+        say = (lambda *a, **k: None) if as_json else console.print
         _ledger.plan(project, names + ([f"{n} (corrected)" for n in names] if corrected else []))
         if corrected:
             _ledger.start(", ".join(names + [f"{n} (corrected)" for n in names]))
@@ -48,11 +54,12 @@ def process_cmd(
             summary = process_experiment(p, name, progress=lambda a, b, t=task: bar.update(t, completed=a, total=b))
             if not corrected:
                 _ledger.done()
+            doc["experiments"][name] = summary
             bodies = "; ".join(f"{b}: {r['solver']}" + (
                 f", rigidity {', '.join(f'{k} {v:.1%}' for k, v in r['rigidity'].items())}" if "rigidity" in r else "")
                 + (f" FLAGGED {','.join(r['flagged'])}" if r.get("flagged") else "")
                 for b, r in summary["bodies"].items())
-            console.print(f"{name}: {', '.join(summary['datasets'])} for channels "
+            say(f"{name}: {', '.join(summary['datasets'])} for channels "
                           f"{', '.join(map(str, summary['channels']))}" + (f"; {bodies}" if bodies else ""),
                           highlight=False, soft_wrap=True)
             for note in summary["notes"]:
@@ -64,11 +71,22 @@ def process_cmd(
             from odsuite.analysis.correction import process_corrected
 
             for name, res in process_corrected(p, experiment or None, cutoff_hz=cutoff).items():
+                doc["corrected"][name] = res
                 undone = "; ".join(f"{c['effect']} " + ", ".join(f"{k} {v:.4g}" for k, v in c["values"].items())
                                    for c in res["corrections"]) or "none"
-                console.print(f"{name}: gencoords_corrected (model revision {res['revision']}, cutoff "
+                say(f"{name}: gencoords_corrected (model revision {res['revision']}, cutoff "
                               f"{res['cutoff_hz']:.1f} Hz; measurement corrections: {undone})",
                               highlight=False, soft_wrap=True)
+        # stored now, so that `info` and `history` read it instead of comparing again
+        task = bar.add_task("comparing the current model revision with the records", total=None)
+        try:
+            doc["error"] = store_current_error(p)
+        except OdsuiteError as exc:  # the records are processed all the same
+            err_console.print(f"note: the current model revision's error was not stored: {exc}",
+                              highlight=False, soft_wrap=True)
+        bar.remove_task(task)
+    if as_json:
+        _print_json(doc)
 
 
 @app.command("acquire", context_settings={"allow_extra_args": True, "ignore_unknown_options": True})

@@ -22,6 +22,7 @@ from odsuite.diagnosis.fitting import (
     screen,
     uncertainties,
 )
+from odsuite.analysis.history import data_stamp
 from odsuite.analysis.modelrev import apply_effects, current_revision, instance_names, revision_model
 from odsuite.analysis.noise_floor import FLOOR_TOLERANCE
 from odsuite.analysis.prediction import prepare
@@ -158,7 +159,7 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     after = compare(project, revision=candidate_rev, prepared=exps, resonances=False)
     warnings = _warnings(name, effect, joint, res, current.shared, exps, after)
     metrics = {"error": after.error, "noise_floor_error": after.noise_floor_error, "added": name,
-               "previous_error": before}
+               "previous_error": before, "data_stamp": data_stamp(project)}
     n = project.add_model_revision(new_entries, flat, metrics, rev["revision"], model=rev.get("model"))
     return {"revision": n, "effect": name, "error": after.error, "previous_error": before,
             "noise_floor_error": after.noise_floor_error, "effects": new_entries, "warnings": warnings}
@@ -189,7 +190,7 @@ def _add_on_top(project, rev, entries, name: str, effect, screened, n_eff, exps,
                     resonances=False)
     warnings = _warnings(name, effect, problem, res, problem.base.shared, exps, after, prefix="")
     metrics = {"error": after.error, "noise_floor_error": after.noise_floor_error, "added": name,
-               "previous_error": before}
+               "previous_error": before, "data_stamp": data_stamp(project)}
     n = project.add_model_revision(new_entries, flat, metrics, rev["revision"], model=rev.get("model"))
     return {"revision": n, "effect": name, "error": after.error, "previous_error": before,
             "noise_floor_error": after.noise_floor_error, "effects": new_entries, "warnings": warnings}

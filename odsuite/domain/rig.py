@@ -380,123 +380,17 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
     ``[[sensors]]`` entry is read by the sensor type its ``kind`` names (``sensor_types``: the
     registry of sensor types; default kind "accelerometer")."""
     where0 = str(source) if source else "rig"
-    try:
-        name = data["name"]
-    except KeyError:
-        raise ConfigError(f"{where0}: missing field 'name'") from None
-    if not isinstance(name, str) or not name.strip():
-        raise ConfigError(f"{where0}: field 'name': expected a non-empty text, got {name!r}")
-    printable_name(f"{where0}: field 'name'", name)
-    known_keys(where0, data, TOP_KEYS, tables_allowed=True)
-    if _depth(data, RIG_NESTING) > RIG_NESTING:
-        raise ConfigError(f"{where0}: tables and arrays nested deeper than {RIG_NESTING} levels")
-    for key in ("bodies", "sensors"):
-        if not isinstance(data.get(key, []), list):
-            raise ConfigError(f"{where0}: field {key!r}: expected a list of [[{key}]] tables, got {data[key]!r}")
-    bodies = []
+    name = _rig_name(data, where0)
+    bodies: list[Body] = []
     for i, b in enumerate(data.get("bodies", [])):
-        w = f"{where0}: bodies[{i}]"
-        if not isinstance(b, dict):
-            raise ConfigError(f"{w}: expected a table, got {b!r}")
-        if not isinstance(b.get("name"), str) or not b["name"]:
-            raise ConfigError(f"{w}: field 'name': expected a non-empty name, got {b.get('name')!r}")
-        if any(b["name"] == other.name for other in bodies):
-            raise ConfigError(f"{w}: field 'name': a second body named {b['name']!r}")
-        printable_name(f"{w}: field 'name'", b["name"])
-        w = f"{where0}: body {b['name']!r}"
-        known_keys(w, b, BODY_KEYS)
-        mass = b.get("mass")
-        inertia = None
-        if mass is not None:
-            mass = _number(f"{w} field 'mass'", mass, positive=True)
-            if not MASS_RANGE[0] <= mass <= MASS_RANGE[1]:
-                raise ConfigError(f"{w} field 'mass': expected {MASS_RANGE[0]:g} to {MASS_RANGE[1]:g} kg, got {mass!r}")
-            try:
-                inertia = np.asarray(b.get("inertia", np.zeros((3, 3)).tolist()), dtype=float)
-            except (TypeError, ValueError):  # text, or rows of different lengths
-                raise ConfigError(f"{w} field 'inertia': expected a symmetric 3x3 matrix of numbers, "
-                                  f"got {b.get('inertia')!r}") from None
-            if not np.all(np.isfinite(inertia)):
-                raise ConfigError(f"{w} field 'inertia': expected finite numbers, got {b.get('inertia')!r}")
-            if inertia.shape != (3, 3) or not np.allclose(inertia, inertia.T):
-                raise ConfigError(f"{w} field 'inertia': expected a symmetric 3x3 matrix, got {b.get('inertia')!r}")
-            _within(f"{w} field 'inertia'", inertia, INERTIA_MAX, "entries", "kg m^2")
-            if np.linalg.eigvalsh(inertia).min() <= 0:
-                raise ConfigError(f"{w} field 'inertia': not positive definite (eigenvalues {np.linalg.eigvalsh(inertia)})")
-            moments = np.linalg.eigvalsh(inertia)
-            # no rigid body has one principal moment above the sum of the other two
-            if moments[2] > (moments[0] + moments[1]) * (1 + 1e-9):
-                raise ConfigError(f"{w} field 'inertia': principal moments {moments.tolist()} kg m^2 break the "
-                                  "triangle inequality (the largest exceeds the sum of the others)")
-        plate = None
-        if "plate" in b:
-            p = b["plate"]
-            size = _within(f"{w} field 'plate.size'", _vector(f"{w} field 'plate.size'", p.get("size")), SIZE_MAX,
-                           "sizes", "m")
-            if np.any(size <= 0):
-                raise ConfigError(f"{w} field 'plate.size': must be > 0, got {p.get('size')!r}")
-            plate = Plate(size=size, corner=_vector(f"{w} field 'plate.corner'", p.get("corner")))
-        nine = None
-        if "nine_sensor_set" in b:
-            n = b["nine_sensor_set"]
-            missing = [r for r in NINE_ROLES if r not in n.get("sensors", {})]
-            if missing:
-                raise ConfigError(f"{w} field 'nine_sensor_set.sensors': missing role(s) {', '.join(missing)}")
-            nine = NineSensorSet(
-                corner=_vector(f"{w} field 'nine_sensor_set.corner'", n.get("corner")),
-                rx=_number(f"{w} field 'nine_sensor_set.rx'", n.get("rx"), positive=True),
-                ry=_number(f"{w} field 'nine_sensor_set.ry'", n.get("ry"), positive=True),
-                rz=_number(f"{w} field 'nine_sensor_set.rz'", n.get("rz"), positive=True),
-                sensors=dict(n["sensors"]),
-            )
-        solver = b.get("solver")
-        if solver is not None and (not isinstance(solver, str) or not solver):
-            raise ConfigError(f"{w} field 'solver': expected a coordinate solver's name, got {solver!r}")
-        if mass is None and (solver is not None or nine is not None):
-            field_name = "solver" if solver is not None else "nine_sensor_set"
-            raise ConfigError(f"{w} field {field_name!r}: the body has no mass, so it does not move in the model "
-                              "and its sensors cannot give it coordinates (give it a 'mass' or drop the field)")
-        dofs = b.get("dofs", list(COORDINATES))
-        if (not isinstance(dofs, list) or not dofs or any(d not in COORDINATES for d in dofs)
-                or len(set(dofs)) != len(dofs)):
-            raise ConfigError(f"{w} field 'dofs': expected distinct names from {list(COORDINATES)}, got {dofs!r}")
-        bodies.append(Body(
-            name=b["name"], com=_within(f"{w} field 'com'", _vector(f"{w} field 'com'", b.get("com", [0.0, 0.0, 0.0])),
-                                        SIZE_MAX, "positions", "m"),
-            mass=mass, inertia=inertia, plate=plate, nine_sensor_set=nine, solver=solver,
-            dofs=tuple(d for d in COORDINATES if d in dofs),
-        ))
+        bodies.append(_body(b, i, where0, bodies))
     body_names = {b.name for b in bodies}
     if len(body_names) != len(bodies):
         raise ConfigError(f"{where0}: two bodies share a name ({sorted(b.name for b in bodies)})")
     springs = _springs(data.get("springs", []), where0, {b.name for b in bodies if b.mass is not None}, body_names)
-    sensors = []
-    sensor_processing: dict[str, dict[str, Any]] = {}
-    processing_tables: dict[str, dict[str, Any]] = {"": data["processing"]} if "processing" in data else {}
-    for i, s in enumerate(data.get("sensors", [])):
-        w = f"{where0}: sensors[{i}]" + (f" {s.get('name')!r}" if isinstance(s, dict) and "name" in s else "")
-        if not isinstance(s, dict):
-            raise ConfigError(f"{w}: expected a table, got {s!r}")
-        kind = s.get("kind", "accelerometer")
-        if kind not in sensor_types:
-            raise ConfigError(f"{w} field 'kind': unknown sensor type {kind!r} "
-                              f"(known: {', '.join(sensor_types.names())})")
-        for sensor in sensor_types.get(kind).sensors(s, w):
-            printable_name(f"{w} field 'name'", sensor.name)
-            if sensor.position is not None:
-                _within(f"{w} field 'position'", np.asarray(sensor.position), SIZE_MAX, "positions", "m")
-            if sensor.body is not None and sensor.body not in body_names:
-                raise ConfigError(f"{w} field 'body': no body named {sensor.body!r}")
-            sensors.append(sensor)
-            if "processing" in s:
-                sensor_processing[sensor.name] = parse_processing(s["processing"], f"{w} field 'processing'")
-                processing_tables[sensor.name] = s["processing"]
+    sensors, sensor_processing, processing_tables = _sensors(data, where0, sensor_types, body_names)
     sensor_names = {s.name for s in sensors}
     channels = [s.channel for s in sensors]
-    if len(set(channels)) != len(channels):
-        raise ConfigError(f"{where0}: two sensors share a channel ({sorted(channels)})")
-    if len(sensor_names) != len(sensors):
-        raise ConfigError(f"{where0}: two sensors share a name ({sorted(s.name for s in sensors)})")
     for b in bodies:
         if b.nine_sensor_set:
             unknown = [v for v in b.nine_sensor_set.sensors.values() if v not in sensor_names]
@@ -523,6 +417,141 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
         up=_up(data.get("up", [0.0, 0.0, 1.0]), where0),
         sensor_processing=sensor_processing, processing_tables=processing_tables,
     )
+
+
+def _rig_name(data: dict[str, Any], where0: str) -> str:
+    """The rig's name, after the file's shape is checked: known keys only, nesting bounded, lists
+    where lists belong."""
+    try:
+        name = data["name"]
+    except KeyError:
+        raise ConfigError(f"{where0}: missing field 'name'") from None
+    if not isinstance(name, str) or not name.strip():
+        raise ConfigError(f"{where0}: field 'name': expected a non-empty text, got {name!r}")
+    printable_name(f"{where0}: field 'name'", name)
+    known_keys(where0, data, TOP_KEYS, tables_allowed=True)
+    if _depth(data, RIG_NESTING) > RIG_NESTING:
+        raise ConfigError(f"{where0}: tables and arrays nested deeper than {RIG_NESTING} levels")
+    for key in ("bodies", "sensors"):
+        if not isinstance(data.get(key, []), list):
+            raise ConfigError(f"{where0}: field {key!r}: expected a list of [[{key}]] tables, got {data[key]!r}")
+    return name
+
+
+def _body(b: Any, i: int, where0: str, earlier: list[Body]) -> Body:
+    """One ``[[bodies]]`` table (``earlier``: the bodies read before it, whose names it must not repeat)."""
+    w = f"{where0}: bodies[{i}]"
+    if not isinstance(b, dict):
+        raise ConfigError(f"{w}: expected a table, got {b!r}")
+    if not isinstance(b.get("name"), str) or not b["name"]:
+        raise ConfigError(f"{w}: field 'name': expected a non-empty name, got {b.get('name')!r}")
+    if any(b["name"] == other.name for other in earlier):
+        raise ConfigError(f"{w}: field 'name': a second body named {b['name']!r}")
+    printable_name(f"{w}: field 'name'", b["name"])
+    w = f"{where0}: body {b['name']!r}"
+    known_keys(w, b, BODY_KEYS)
+    mass = b.get("mass")
+    inertia = None
+    if mass is not None:
+        mass = _number(f"{w} field 'mass'", mass, positive=True)
+        if not MASS_RANGE[0] <= mass <= MASS_RANGE[1]:
+            raise ConfigError(f"{w} field 'mass': expected {MASS_RANGE[0]:g} to {MASS_RANGE[1]:g} kg, got {mass!r}")
+        inertia = _inertia(w, b.get("inertia", np.zeros((3, 3)).tolist()))
+    plate = _plate(w, b["plate"]) if "plate" in b else None
+    nine = _nine_sensor_set(w, b["nine_sensor_set"]) if "nine_sensor_set" in b else None
+    solver = b.get("solver")
+    if solver is not None and (not isinstance(solver, str) or not solver):
+        raise ConfigError(f"{w} field 'solver': expected a coordinate solver's name, got {solver!r}")
+    if mass is None and (solver is not None or nine is not None):
+        field_name = "solver" if solver is not None else "nine_sensor_set"
+        raise ConfigError(f"{w} field {field_name!r}: the body has no mass, so it does not move in the model "
+                          "and its sensors cannot give it coordinates (give it a 'mass' or drop the field)")
+    dofs = b.get("dofs", list(COORDINATES))
+    if (not isinstance(dofs, list) or not dofs or any(d not in COORDINATES for d in dofs)
+            or len(set(dofs)) != len(dofs)):
+        raise ConfigError(f"{w} field 'dofs': expected distinct names from {list(COORDINATES)}, got {dofs!r}")
+    return Body(
+        name=b["name"], com=_within(f"{w} field 'com'", _vector(f"{w} field 'com'", b.get("com", [0.0, 0.0, 0.0])),
+                                    SIZE_MAX, "positions", "m"),
+        mass=mass, inertia=inertia, plate=plate, nine_sensor_set=nine, solver=solver,
+        dofs=tuple(d for d in COORDINATES if d in dofs),
+    )
+
+
+def _inertia(w: str, value: Any) -> np.ndarray:
+    """A body's inertia tensor (kg m^2): symmetric, positive definite, bounded, and one a rigid body
+    can have."""
+    try:
+        inertia = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):  # text, or rows of different lengths
+        raise ConfigError(f"{w} field 'inertia': expected a symmetric 3x3 matrix of numbers, "
+                          f"got {value!r}") from None
+    if not np.all(np.isfinite(inertia)):
+        raise ConfigError(f"{w} field 'inertia': expected finite numbers, got {value!r}")
+    if inertia.shape != (3, 3) or not np.allclose(inertia, inertia.T):
+        raise ConfigError(f"{w} field 'inertia': expected a symmetric 3x3 matrix, got {value!r}")
+    _within(f"{w} field 'inertia'", inertia, INERTIA_MAX, "entries", "kg m^2")
+    if np.linalg.eigvalsh(inertia).min() <= 0:
+        raise ConfigError(f"{w} field 'inertia': not positive definite (eigenvalues {np.linalg.eigvalsh(inertia)})")
+    moments = np.linalg.eigvalsh(inertia)
+    # no rigid body has one principal moment above the sum of the other two
+    if moments[2] > (moments[0] + moments[1]) * (1 + 1e-9):
+        raise ConfigError(f"{w} field 'inertia': principal moments {moments.tolist()} kg m^2 break the "
+                          "triangle inequality (the largest exceeds the sum of the others)")
+    return inertia
+
+
+def _plate(w: str, p: Any) -> Plate:
+    size = _within(f"{w} field 'plate.size'", _vector(f"{w} field 'plate.size'", p.get("size")), SIZE_MAX,
+                   "sizes", "m")
+    if np.any(size <= 0):
+        raise ConfigError(f"{w} field 'plate.size': must be > 0, got {p.get('size')!r}")
+    return Plate(size=size, corner=_vector(f"{w} field 'plate.corner'", p.get("corner")))
+
+
+def _nine_sensor_set(w: str, n: Any) -> NineSensorSet:
+    missing = [r for r in NINE_ROLES if r not in n.get("sensors", {})]
+    if missing:
+        raise ConfigError(f"{w} field 'nine_sensor_set.sensors': missing role(s) {', '.join(missing)}")
+    return NineSensorSet(
+        corner=_vector(f"{w} field 'nine_sensor_set.corner'", n.get("corner")),
+        rx=_number(f"{w} field 'nine_sensor_set.rx'", n.get("rx"), positive=True),
+        ry=_number(f"{w} field 'nine_sensor_set.ry'", n.get("ry"), positive=True),
+        rz=_number(f"{w} field 'nine_sensor_set.rz'", n.get("rz"), positive=True),
+        sensors=dict(n["sensors"]),
+    )
+
+
+def _sensors(data: dict[str, Any], where0: str, sensor_types, body_names: set[str]):
+    """The ``[[sensors]]`` tables, each read by its kind's sensor type, with the processing tables
+    given per sensor and for the whole rig."""
+    sensors = []
+    sensor_processing: dict[str, dict[str, Any]] = {}
+    processing_tables: dict[str, dict[str, Any]] = {"": data["processing"]} if "processing" in data else {}
+    for i, s in enumerate(data.get("sensors", [])):
+        w = f"{where0}: sensors[{i}]" + (f" {s.get('name')!r}" if isinstance(s, dict) and "name" in s else "")
+        if not isinstance(s, dict):
+            raise ConfigError(f"{w}: expected a table, got {s!r}")
+        kind = s.get("kind", "accelerometer")
+        if kind not in sensor_types:
+            raise ConfigError(f"{w} field 'kind': unknown sensor type {kind!r} "
+                              f"(known: {', '.join(sensor_types.names())})")
+        for sensor in sensor_types.get(kind).sensors(s, w):
+            printable_name(f"{w} field 'name'", sensor.name)
+            if sensor.position is not None:
+                _within(f"{w} field 'position'", np.asarray(sensor.position), SIZE_MAX, "positions", "m")
+            if sensor.body is not None and sensor.body not in body_names:
+                raise ConfigError(f"{w} field 'body': no body named {sensor.body!r}")
+            sensors.append(sensor)
+            if "processing" in s:
+                sensor_processing[sensor.name] = parse_processing(s["processing"], f"{w} field 'processing'")
+                processing_tables[sensor.name] = s["processing"]
+    channels = [s.channel for s in sensors]
+    if len(set(channels)) != len(channels):
+        raise ConfigError(f"{where0}: two sensors share a channel ({sorted(channels)})")
+    if len({s.name for s in sensors}) != len(sensors):
+        raise ConfigError(f"{where0}: two sensors share a name ({sorted(s.name for s in sensors)})")
+    return sensors, sensor_processing, processing_tables
 
 
 def _up(value: Any, where0: str) -> np.ndarray:

@@ -215,26 +215,8 @@ class SimulatedRig:
         (``force_rms``), base-random the ground moving under it (``base_rms``): see
         :meth:`_operating_record`.
         """
-        if rig is None:
-            raise ConfigError("the simulated rig needs a project with a rig (created without --rig none)")
-        if settings.mode != "finite":
-            raise ConfigError("acquisition setting 'mode': the simulated rig records finite triggered records only")
-        if int(oversample) != oversample or oversample < 1:
-            raise ConfigError(f"simulator option 'oversample': an integer >= 1, got {oversample!r}")
-        if seed is not None and (int(seed) != seed or not 0 <= seed < 2**63):
-            raise ConfigError(f"simulator option 'seed': an integer from 0 to 2**63-1, got {seed!r}")
-        # the simulation runs at oversample times the rate, all channels at once
-        check_record_fits(settings.n_samples * int(oversample), len(rig.sensors),
-                          f"simulator: --samples {settings.n_samples} (oversampled {oversample}x)")
-        if not (np.isfinite(noise) and 0 <= noise <= MAX_NOISE_SCALE):
-            raise ConfigError(f"--noise: a scale from 0 to {MAX_NOISE_SCALE:g}, got {noise!r}")
-        if adc_bits is not None and not MIN_ADC_BITS <= adc_bits <= MAX_ADC_BITS:
-            raise ConfigError(f"--adc-bits: an integer from {MIN_ADC_BITS} to {MAX_ADC_BITS}, got {adc_bits!r}")
-        if operating is None and force_rms is not None:
-            raise ConfigError("--force-rms sets an operating load: give --operating too")
-        if operating is not None and (hits is not None or force_peak is not None or contact_ms is not None):
-            raise ConfigError("--operating records a running machine: drop the hammer's hits, --force-peak and "
-                              "--contact-ms")
+        _check_options(rig, settings, oversample, seed, noise, adc_bits, operating, force_rms, hits, force_peak,
+                       contact_ms)
         ground = operating is not None and parse_operating(operating, settings.sampling_rate).kind in GROUND_KINDS
         if base_rms is not None and not ground:
             raise ConfigError("--base-rms sets the ground's motion: give --operating base-random too")
@@ -245,90 +227,29 @@ class SimulatedRig:
             return self._operating_record(rig, settings, operating, None, None, truth, effects, chains,
                                           int(oversample), noise, seed, progress,
                                           DEFAULT_BASE_RMS if base_rms is None else base_rms, truth_rig, adc_bits)
-        if scenario is None and point is None and direction is None:
-            scenario = "T1"
-        sc = get_scenario(scenario) if scenario else None
-        if sc is None and (point is None or direction is None):
-            raise ConfigError("simulator: give a scenario or both a force point and a direction")
-        point = np.asarray(point if point is not None else sc.point, dtype=float)
-        direction = np.asarray(direction if direction is not None else sc.direction, dtype=float)
-        if point.shape != (3,) or direction.shape != (3,) or not np.linalg.norm(direction) > 0:
-            raise ConfigError(f"simulator: force point {point.tolist()} / direction {direction.tolist()} must be 3-vectors, direction non-zero")
-        direction = direction / np.linalg.norm(direction)
+        sc, point, direction = _force_line(scenario, point, direction)
         if operating is not None:
             return self._operating_record(rig, settings, operating, point, direction, truth, effects, chains,
                                           int(oversample), noise, seed, progress,
                                           DEFAULT_FORCE_RMS if force_rms is None else force_rms, truth_rig,
                                           adc_bits)
-        hits = list(hits if hits is not None else sc.hits if sc is not None else (Hit(),))
-        if not hits:
-            raise ConfigError("simulator: at least one hit is needed")
-        if force_peak is not None:
-            if not (np.isfinite(force_peak) and force_peak > 0):
-                raise ConfigError(f"--force-peak: must be > 0 N, got {force_peak!r}")
-            top = max(h.peak for h in hits)
-            hits = [replace(h, peak=h.peak * force_peak / top) for h in hits]
-        if contact_ms is not None:
-            hits = [replace(h, width=1e-3 * contact_ms) for h in hits]
-        for i, h in enumerate(hits):
-            h.validate(f"simulator hit {i}")
+        hits = _scaled_hits(hits, sc, force_peak, contact_ms)
         systeminfo = rig_systeminfo(rig, settings.sampling_rate)
         truth, true_sensitivity = self._truth(rig, truth, effects, truth_rig)
         all_chains = _record_chains(rig, systeminfo, chains, noise, adc_bits, true_sensitivity)
-
-        rng = np.random.default_rng(seed)
-        fs, n, pre = settings.sampling_rate, settings.n_samples, settings.pretrigger
-        fine = fs * oversample
-        # the hammer arrives a random while after the buffer holds the pre-trigger samples
-        lead = pre + int(rng.integers(20, 400)) + rng.uniform(0.0, 1.0)
-        span = max(h.time + h.width for h in hits)
-        # room after the last hit for the analog filters' delay before a late trigger
-        n_stream = int(np.ceil(lead + (span + 0.05) * fs)) + n
-        t_fine = np.arange(n_stream * oversample) / fine
-        force = half_sine_force(t_fine, hits, t0=lead / fs)
-        # a truth is told the body hit only when the experimenter says (a point on two bodies)
-        acc = np.asarray(truth(force, fine, point, direction, **({"body": force_body} if force_body else {})),
-                         dtype=float)
-        sensors = rig.accelerometers
-        if acc.shape != (force.size, len(sensors)):
-            raise HardwareError(f"simulator: the truth model returned shape {acc.shape}, expected {(force.size, len(sensors))}")
-
-        volts = np.empty((n_stream, rig.channel_count))
-        column: dict[int, int] = {}  # channel -> its (first) sensor's column of acc, found once
-        for i, s in enumerate(sensors):
-            column.setdefault(s.channel, i)
-        for ch in range(rig.channel_count):
-            chain = all_chains[ch]
-            if ch == rig.force_channel:
-                quantity = force
-            else:
-                idx = column.get(ch)
-                quantity = acc[:, idx] if idx is not None else np.zeros_like(force)
-            analog = run_analog(chain, quantity, fine)[::oversample]
-            volts[:, ch] = analog + adc_input_disturbances(chain, n_stream, fs, rng)
-
-        fch = rig.force_channel
-        level_v = settings.trigger_level * all_chains[fch].sensitivity * all_chains[fch].gain
-        codes = all_chains[fch].quantise(volts[:, fch])
-        trig = find_trigger(codes, level_v, settings.trigger_slope, pre)
-        if trig is None or trig - pre + n > n_stream:
-            peak = (codes.max() - all_chains[fch].offset) / (all_chains[fch].sensitivity * all_chains[fch].gain)
-            raise HardwareError(
-                f"trigger timeout: force channel {fch} never crossed {settings.trigger_level:g} N "
-                f"({settings.trigger_slope}); the hammer peaked near {peak:.3g} N"
-            )
-        record = volts[trig - pre: trig - pre + n]
-        clipped = {ch: all_chains[ch].clipped(record[:, ch]) for ch in range(rig.channel_count)}
-        raw = np.column_stack([all_chains[ch].quantise(record[:, ch]) for ch in range(rig.channel_count)])
-
+        volts, force = _struck_stream(rig, settings, hits, truth, all_chains, point, direction, force_body,
+                                      int(oversample), np.random.default_rng(seed))
+        raw, clipped = _triggered(rig, settings, all_chains, volts)
         names = [channel_name(rig, ch) for ch in range(rig.channel_count)]
         # a scenario's hits scaled by --force-peak are still that scenario (the source says the peak)
         label = (sc.name if sc is not None and (hits == list(sc.hits) or force_peak is not None or contact_ms is not None)
                  else "custom")
+        n = settings.n_samples
         rec = Recording(
             chunks=_chunks(raw, settings.chunk_size, progress),
-            n_samples=n, sampling_rate=fs, pretrigger=pre, systeminfo=systeminfo,
-            excitation=Excitation(force_channel=fch, point=point, direction=direction, body=force_body),
+            n_samples=n, sampling_rate=settings.sampling_rate, pretrigger=settings.pretrigger,
+            systeminfo=systeminfo,
+            excitation=Excitation(force_channel=rig.force_channel, point=point, direction=direction, body=force_body),
             channel_names=names,
             source=f"daq_sim scenario={label} seed={seed} hits={len(hits)} oversample={oversample}"
                    + (f" force_peak={force_peak:g}N" if force_peak is not None else "")
@@ -378,9 +299,10 @@ class SimulatedRig:
         all_chains = _record_chains(rig, systeminfo, chains, noise, adc_bits, true_sensitivity)
         raw = np.empty((n, rig.channel_count))
         clipped: dict[int, int] = {}
+        column = _sensor_columns(sensors)
         for ch in range(rig.channel_count):
             chain = all_chains[ch]
-            idx = next((i for i, s in enumerate(sensors) if s.channel == ch), None)
+            idx = column.get(ch)
             quantity = acc[:, idx] if idx is not None else np.zeros(n_fine)
             volts = run_analog(chain, quantity, fine)[::oversample][lead:]
             volts = volts + adc_input_disturbances(chain, n, fs, rng)
@@ -440,3 +362,121 @@ def _chunks(raw: np.ndarray, size: int, progress: Progress | None) -> Iterator[n
         yield chunk
         if progress:
             progress(READING, start + chunk.shape[0], raw.shape[0])
+
+
+def _check_options(rig, settings, oversample, seed, noise, adc_bits, operating, force_rms, hits, force_peak,
+                   contact_ms) -> None:
+    """The record's options, each refused in one line before anything is simulated."""
+    if rig is None:
+        raise ConfigError("the simulated rig needs a project with a rig (created without --rig none)")
+    if settings.mode != "finite":
+        raise ConfigError("acquisition setting 'mode': the simulated rig records finite triggered records only")
+    if int(oversample) != oversample or oversample < 1:
+        raise ConfigError(f"simulator option 'oversample': an integer >= 1, got {oversample!r}")
+    if seed is not None and (int(seed) != seed or not 0 <= seed < 2**63):
+        raise ConfigError(f"simulator option 'seed': an integer from 0 to 2**63-1, got {seed!r}")
+    # the simulation runs at oversample times the rate, all channels at once
+    check_record_fits(settings.n_samples * int(oversample), len(rig.sensors),
+                      f"simulator: --samples {settings.n_samples} (oversampled {oversample}x)")
+    if not (np.isfinite(noise) and 0 <= noise <= MAX_NOISE_SCALE):
+        raise ConfigError(f"--noise: a scale from 0 to {MAX_NOISE_SCALE:g}, got {noise!r}")
+    if adc_bits is not None and not MIN_ADC_BITS <= adc_bits <= MAX_ADC_BITS:
+        raise ConfigError(f"--adc-bits: an integer from {MIN_ADC_BITS} to {MAX_ADC_BITS}, got {adc_bits!r}")
+    if operating is None and force_rms is not None:
+        raise ConfigError("--force-rms sets an operating load: give --operating too")
+    if operating is not None and (hits is not None or force_peak is not None or contact_ms is not None):
+        raise ConfigError("--operating records a running machine: drop the hammer's hits, --force-peak and "
+                          "--contact-ms")
+
+
+def _force_line(scenario, point, direction):
+    """The scenario (T1 when nothing is given) and the force's point (m) and unit direction."""
+    if scenario is None and point is None and direction is None:
+        scenario = "T1"
+    sc = get_scenario(scenario) if scenario else None
+    if sc is None and (point is None or direction is None):
+        raise ConfigError("simulator: give a scenario or both a force point and a direction")
+    point = np.asarray(point if point is not None else sc.point, dtype=float)
+    direction = np.asarray(direction if direction is not None else sc.direction, dtype=float)
+    if point.shape != (3,) or direction.shape != (3,) or not np.linalg.norm(direction) > 0:
+        raise ConfigError(f"simulator: force point {point.tolist()} / direction {direction.tolist()} must be 3-vectors, direction non-zero")
+    return sc, point, direction / np.linalg.norm(direction)
+
+
+def _scaled_hits(hits, sc, force_peak, contact_ms) -> list[Hit]:
+    """The hammer's hits: given, the scenario's or one default hit, scaled to ``force_peak`` (N)
+    and ``contact_ms`` (ms)."""
+    hits = list(hits if hits is not None else sc.hits if sc is not None else (Hit(),))
+    if not hits:
+        raise ConfigError("simulator: at least one hit is needed")
+    if force_peak is not None:
+        if not (np.isfinite(force_peak) and force_peak > 0):
+            raise ConfigError(f"--force-peak: must be > 0 N, got {force_peak!r}")
+        top = max(h.peak for h in hits)
+        hits = [replace(h, peak=h.peak * force_peak / top) for h in hits]
+    if contact_ms is not None:
+        hits = [replace(h, width=1e-3 * contact_ms) for h in hits]
+    for i, h in enumerate(hits):
+        h.validate(f"simulator hit {i}")
+    return hits
+
+
+def _sensor_columns(sensors) -> dict[int, int]:
+    """Each channel's (first) sensor's column of the truth's output, found once (a search per
+    channel was quadratic: 4,000 sensors)."""
+    column: dict[int, int] = {}
+    for i, s in enumerate(sensors):
+        column.setdefault(s.channel, i)
+    return column
+
+
+def _struck_stream(rig, settings, hits, truth, all_chains, point, direction, force_body, oversample, rng):
+    """Every channel's voltage over a stream long enough for the pre-trigger buffer, the hits and a
+    late trigger (V, samples x channels), and the force at the fine rate (N)."""
+    fs, n, pre = settings.sampling_rate, settings.n_samples, settings.pretrigger
+    fine = fs * oversample
+    # the hammer arrives a random while after the buffer holds the pre-trigger samples
+    lead = pre + int(rng.integers(20, 400)) + rng.uniform(0.0, 1.0)
+    span = max(h.time + h.width for h in hits)
+    # room after the last hit for the analog filters' delay before a late trigger
+    n_stream = int(np.ceil(lead + (span + 0.05) * fs)) + n
+    t_fine = np.arange(n_stream * oversample) / fine
+    force = half_sine_force(t_fine, hits, t0=lead / fs)
+    # a truth is told the body hit only when the experimenter says (a point on two bodies)
+    acc = np.asarray(truth(force, fine, point, direction, **({"body": force_body} if force_body else {})),
+                     dtype=float)
+    sensors = rig.accelerometers
+    if acc.shape != (force.size, len(sensors)):
+        raise HardwareError(f"simulator: the truth model returned shape {acc.shape}, expected {(force.size, len(sensors))}")
+    volts = np.empty((n_stream, rig.channel_count))
+    column = _sensor_columns(sensors)
+    for ch in range(rig.channel_count):
+        chain = all_chains[ch]
+        if ch == rig.force_channel:
+            quantity = force
+        else:
+            idx = column.get(ch)
+            quantity = acc[:, idx] if idx is not None else np.zeros_like(force)
+        analog = run_analog(chain, quantity, fine)[::oversample]
+        volts[:, ch] = analog + adc_input_disturbances(chain, n_stream, fs, rng)
+    return volts, force
+
+
+def _triggered(rig, settings, all_chains, volts):
+    """The record the force channel's trigger cuts from the stream: ADC codes (samples x channels)
+    and the clipped samples per channel."""
+    n, pre = settings.n_samples, settings.pretrigger
+    fch = rig.force_channel
+    level_v = settings.trigger_level * all_chains[fch].sensitivity * all_chains[fch].gain
+    codes = all_chains[fch].quantise(volts[:, fch])
+    trig = find_trigger(codes, level_v, settings.trigger_slope, pre)
+    if trig is None or trig - pre + n > volts.shape[0]:
+        peak = (codes.max() - all_chains[fch].offset) / (all_chains[fch].sensitivity * all_chains[fch].gain)
+        raise HardwareError(
+            f"trigger timeout: force channel {fch} never crossed {settings.trigger_level:g} N "
+            f"({settings.trigger_slope}); the hammer peaked near {peak:.3g} N"
+        )
+    record = volts[trig - pre: trig - pre + n]
+    clipped = {ch: all_chains[ch].clipped(record[:, ch]) for ch in range(rig.channel_count)}
+    raw = np.column_stack([all_chains[ch].quantise(record[:, ch]) for ch in range(rig.channel_count)])
+    return raw, clipped

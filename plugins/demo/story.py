@@ -192,14 +192,6 @@ def run_demo(out: str | Path = "demo-output", *, rounds: int = ROUNDS, console: 
     diagnosis finds nothing to explain (the error is within the noise floor) or no candidate is
     significant.
     """
-    from odsuite.api import add_effect
-    from odsuite.api import compare
-    from odsuite.api import diagnose
-    from odsuite.api import current_revision, revision_model
-    from odsuite.api import process_experiment
-    from odsuite.api import prepare
-    from odsuite.api import create_project, open_project
-
     started = time.monotonic()
     console = console or Console()
     out = Path(out)
@@ -207,6 +199,34 @@ def run_demo(out: str | Path = "demo-output", *, rounds: int = ROUNDS, console: 
     path = out / PROJECT_NAME
     for old in [path, out / "hidden-truth.json"]:
         old.unlink(missing_ok=True)
+    _recorded_project(path, console, started)
+
+    _step(console, 4, "the loop: compare, diagnose, add the best effect", started)
+    errors, added, diagnosis_doc, noise, found, base = _loop(path, rounds, console)
+    console.print("  error per revision: " + " -> ".join(f"{e:.3f}" for e in errors) + f" (noise floor {noise:.4f})",
+                  highlight=False, soft_wrap=True)
+
+    _step(console, 5, "report, movie and history figure", started)
+    files = _write_outputs(out, path, diagnosis_doc, console)
+
+    _step(console, 6, "what was hidden and what was found", started)
+    hidden = {e: dict(v) for e, v in HIDDEN_EFFECTS}
+    files["hidden_truth"] = _write_truth(out, hidden)
+    result = DemoResult(out=out, project=path, errors=errors, noise_floor=noise, added=added, found=found,
+                        hidden=hidden, files=files)
+    console.print(_summary_table(result, base))
+    missed = [n for n in hidden if n not in found]
+    extra = [n for n in found if n not in hidden]
+    verdict = ("both hidden effects found" if not missed and not extra else
+               f"missed: {', '.join(missed) or 'none'}; not hidden but added: {', '.join(extra) or 'none'}")
+    console.print(f"  {verdict}; hidden truth written to {files['hidden_truth']}; "
+                  f"{time.monotonic() - started:.0f} s in all", highlight=False, soft_wrap=True)
+    return result
+
+
+def _recorded_project(path: Path, console: Console, started: float) -> None:
+    """Steps 1-3: a project on the thesis rig, the simulated hammer tests, processed."""
+    from odsuite.api import create_project, process_experiment, revision_model
 
     _step(console, 1, "a project on the thesis rig", started)
     p = create_project(path, "thesis-dynamometer")
@@ -238,7 +258,14 @@ def run_demo(out: str | Path = "demo-output", *, rounds: int = ROUNDS, console: 
     finally:
         p.close()
 
-    _step(console, 4, "the loop: compare, diagnose, add the best effect", started)
+
+def _loop(path: Path, rounds: int, console: Console):
+    """Step 4: compare, diagnose and add the best significant effect, round after round, until
+    nothing is left to explain or no candidate is significant. Returns the errors per revision,
+    the effects added, the last diagnosis, the noise floor, the effects found with their values
+    and the model without them."""
+    from odsuite.api import add_effect, compare, current_revision, diagnose, open_project, prepare, revision_model
+
     errors: list[float] = []
     added: list[str] = []
     diagnosis_doc = None
@@ -275,27 +302,14 @@ def run_demo(out: str | Path = "demo-output", *, rounds: int = ROUNDS, console: 
                           soft_wrap=True)
         found = {e["effect"]: dict(e["values"]) for e in current_revision(p).get("effects", [])}
         base = revision_model(p, {"effects": []}).shared
-    console.print("  error per revision: " + " -> ".join(f"{e:.3f}" for e in errors) + f" (noise floor {noise:.4f})",
-                  highlight=False, soft_wrap=True)
+    return errors, added, diagnosis_doc, noise, found, base
 
-    _step(console, 5, "report, movie and history figure", started)
-    files = _write_outputs(out, path, diagnosis_doc, console)
 
-    _step(console, 6, "what was hidden and what was found", started)
-    hidden = {e: dict(v) for e, v in HIDDEN_EFFECTS}
+def _write_truth(out: Path, hidden: dict) -> Path:
+    """Step 6's file: what the simulated rig hid from the model, and how it was recorded."""
     truth_file = out / "hidden-truth.json"
     truth_file.write_text(json.dumps({
         "effects": [{"effect": e, "values": v} for e, v in hidden.items()],
         "scenarios": list(SCENARIOS), "n_samples": SAMPLES, "sampling_rate_hz": SAMPLING_RATE,
         "adc_bits": ADC_BITS}, indent=2) + "\n")
-    files["hidden_truth"] = truth_file
-    result = DemoResult(out=out, project=path, errors=errors, noise_floor=noise, added=added, found=found,
-                        hidden=hidden, files=files)
-    console.print(_summary_table(result, base))
-    missed = [n for n in hidden if n not in found]
-    extra = [n for n in found if n not in hidden]
-    verdict = ("both hidden effects found" if not missed and not extra else
-               f"missed: {', '.join(missed) or 'none'}; not hidden but added: {', '.join(extra) or 'none'}")
-    console.print(f"  {verdict}; hidden truth written to {truth_file}; {time.monotonic() - started:.0f} s in all",
-                  highlight=False, soft_wrap=True)
-    return result
+    return truth_file

@@ -80,7 +80,6 @@ def render_experiment(
     before the hit until the motion has decayed to a tenth; ``duration`` (s, default 10) or
     ``frame_step``/``slowdown`` the playback speed at ``fps`` (default 25).
     """
-    from odsuite.api import experiment_coordinates
     from odsuite.api import open_project
 
     if figure is not None and figure not in FIGURES:
@@ -94,12 +93,7 @@ def render_experiment(
 
                 return geometry_ods_movie(project, experiment, output, ods_hz=ods_hz, reference=reference,
                                           view=view, workers=workers, fps=fps, progress=progress)
-        if project.rig is None:
-            raise ConfigError(f"{project.path}: the project has no rig geometry to draw (created with --rig none) "
-                              "and no geometry of nodes and lines (docs/geometry.md)")
-        if experiment not in project.experiment_names():
-            raise ConfigError(f"{project.path}: no experiment {experiment!r} "
-                              f"(experiments: {', '.join(project.experiment_names()) or 'none'})")
+        _check_experiment(project, experiment)
         exp = project.experiment(experiment)
         fs = exp.sampling_rate
         model_coords = corrected_coords = None
@@ -107,45 +101,17 @@ def render_experiment(
         if reference is not None and ods_hz is None:
             raise ConfigError("--reference names the ODS's reference sensor: give --ods HZ too")
         if ods_hz is not None:
-            from odsuite.api import ods_coordinates, ods_motion
-
             if figure is not None or model:
                 raise ConfigError("--ods draws a movie of the measured shape: drop --figure and --model")
-            if reference is None and exp.excitation is not None:
-                shapes, ods_source = ods_coordinates(project, experiment, ods_hz), "from the measured FRFs"
-            else:
-                from odsuite.api import operating_shape
-
-                if reference is None:
-                    raise ConfigError(f"{project.path}: experiment {experiment!r} is an operating record (no force): "
-                                      "give the ODS's --reference sensor")
-                ods = operating_shape(project, experiment, reference, ods_hz)
-                if not ods.coordinates:
-                    raise ConfigError(f"{project.path}: experiment {experiment!r}: {'; '.join(ods.notes)}")
-                shapes, ods_hz = ods.coordinates, ods.frequency_hz
-                ods_source = f"cross-spectra to {reference}"
-            coords, fs = ods_motion(shapes, ods_hz)
+            coords, fs, ods_hz, ods_source = _ods(project, experiment, exp, ods_hz, reference)
         elif model or figure in ("overlay", "residuals"):
-            pairs = experiment_coordinates(project, experiment)
-            coords = {b: m for b, (m, _) in pairs.items()}
-            model_coords = {b: p for b, (_, p) in pairs.items()}
-            if figure is None:  # the movie overlays the corrected motion where it is stored
-                from odsuite.api import stored_correction
-
-                stored = stored_correction(project, experiment)
-                corrected_coords = stored[0] if stored and set(stored[0]) == set(coords) else None
+            coords, model_coords, corrected_coords = _with_model(project, experiment, movie=figure is None)
         else:
             coords = _coords(project, experiment, MEASURED_KIND, _why_no_coordinates(project, experiment))
         force = None
         if figure == "projection" and exp.excitation is not None:
             force = exp.raw(channels=exp.excitation.force_channel)
-        hammer = None
-        if figure is None and ods_hz is None and exp.excitation is not None:
-            from odsuite.api import experiment_force
-
-            body = project.rig.force_body(exp.excitation.point, exp.excitation.body)
-            hammer = Hammer(body if body in coords else next(iter(coords)), np.asarray(exp.excitation.point, float),
-                            np.asarray(exp.excitation.direction, float), experiment_force(project, experiment))
+        hammer = _hammer(project, experiment, exp, coords) if figure is None and ods_hz is None else None
         rig = project.rig
     if figure is None:
         return _movie(rig, coords, fs, output, experiment, model_coords=model_coords,
@@ -155,6 +121,72 @@ def render_experiment(
                       duration=duration)
     if any(v is not None for v in (start, end, fps, duration)):
         raise ConfigError("--start, --end, --fps and --duration are movie options: drop them for a figure")
+    return _figure(figure, rig, experiment, coords, model_coords, fs, output, force=force, view=view, magnify=magnify)
+
+
+def _check_experiment(project, experiment: str) -> None:
+    """A project with a rig to draw and the experiment named."""
+    if project.rig is None:
+        raise ConfigError(f"{project.path}: the project has no rig geometry to draw (created with --rig none) "
+                          "and no geometry of nodes and lines (docs/geometry.md)")
+    if experiment not in project.experiment_names():
+        raise ConfigError(f"{project.path}: no experiment {experiment!r} "
+                          f"(experiments: {', '.join(project.experiment_names()) or 'none'})")
+
+
+def _ods(project, experiment: str, exp, ods_hz: float, reference: str | None):
+    """The operating deflection shape's motion at ``ods_hz``: (coords, fs, frequency, source words);
+    from the measured FRFs, or for an operating record or with a ``reference`` from the cross-spectra."""
+    from odsuite.api import ods_coordinates, ods_motion
+
+    if reference is None and exp.excitation is not None:
+        shapes, source = ods_coordinates(project, experiment, ods_hz), "from the measured FRFs"
+    else:
+        from odsuite.api import operating_shape
+
+        if reference is None:
+            raise ConfigError(f"{project.path}: experiment {experiment!r} is an operating record (no force): "
+                              "give the ODS's --reference sensor")
+        ods = operating_shape(project, experiment, reference, ods_hz)
+        if not ods.coordinates:
+            raise ConfigError(f"{project.path}: experiment {experiment!r}: {'; '.join(ods.notes)}")
+        shapes, ods_hz = ods.coordinates, ods.frequency_hz
+        source = f"cross-spectra to {reference}"
+    coords, fs = ods_motion(shapes, ods_hz)
+    return coords, fs, ods_hz, source
+
+
+def _with_model(project, experiment: str, *, movie: bool):
+    """Measured and model coordinates from the comparison (both through the same chain and solver)
+    and, for a movie, the corrected motion where it is stored for every body (else None)."""
+    from odsuite.api import experiment_coordinates
+
+    pairs = experiment_coordinates(project, experiment)
+    coords = {b: m for b, (m, _) in pairs.items()}
+    model_coords = {b: p for b, (_, p) in pairs.items()}
+    corrected = None
+    if movie:
+        from odsuite.api import stored_correction
+
+        stored = stored_correction(project, experiment)
+        corrected = stored[0] if stored and set(stored[0]) == set(coords) else None
+    return coords, model_coords, corrected
+
+
+def _hammer(project, experiment: str, exp, coords) -> Hammer | None:
+    """The hammer drawn on the body it hit (None for an operating record)."""
+    if exp.excitation is None:
+        return None
+    from odsuite.api import experiment_force
+
+    body = project.rig.force_body(exp.excitation.point, exp.excitation.body)
+    return Hammer(body if body in coords else next(iter(coords)), np.asarray(exp.excitation.point, float),
+                  np.asarray(exp.excitation.direction, float), experiment_force(project, experiment))
+
+
+def _figure(figure: str, rig, experiment: str, coords, model_coords, fs: float, output, *, force, view, magnify
+            ) -> Path:
+    """The projection, overlay or residual-spectra figure of one experiment."""
     if figure == "projection":
         parts = (view or "x").split(",")
         if len(parts) not in (1, 4):

@@ -34,16 +34,18 @@ def _save(fig, path: Path, dpi: int = 130):
 
 def stabilisation_figure(result, path: str | Path, *, freq: np.ndarray, H: np.ndarray,
                          title: str = "stabilisation diagram",
-                         background: str = "rms |H| of the outputs (FRF units)"):
+                         background: str = "rms |H| of the outputs (FRF units)",
+                         size: tuple[float, float] = (10, 6), dpi: int = 130, log_frequency: bool = False):
     """Poles per model order over the fit band (grey: new, blue: frequency stable, red: frequency
     and damping stable), the chosen modes as labelled lines with their stable-order counts, and
     the rms over outputs of ``H`` (FRFs, or amplitude spectra for output-only modes, named by
-    ``background``) on a log axis behind them."""
+    ``background``) on a log axis behind them. ``size`` (inches), ``dpi``; ``log_frequency``: a
+    logarithmic frequency axis (for a band over decades)."""
     if result.diagram is None or result.band_hz is None:
         raise ConfigError("stabilisation figure: the modal result holds no stabilisation diagram")
     d = result.diagram
     path = Path(path)
-    fig = _new_figure(path, (10, 6))
+    fig = _new_figure(path, size)
     ax = fig.add_subplot()
     kinds = (("new pole", lambda sf, st: ~sf, {"facecolors": "none", "edgecolors": "0.6", "s": 10}),
              ("stable frequency", lambda sf, st: sf & ~st, {"c": "tab:blue", "marker": "x", "s": 14}),
@@ -55,6 +57,8 @@ def stabilisation_figure(result, path: str | Path, *, freq: np.ndarray, H: np.nd
             xs.extend(np.abs(poles[sel]) / (2 * np.pi))
             ys.extend([order] * int(sel.sum()))
         ax.scatter(xs, ys, label=label, linewidths=0.8, **style)
+    if log_frequency:  # a band over decades: the lowest modes are not squeezed into its first pixels
+        ax.set_xscale("log")
     ax.set_xlim(*result.band_hz)
     ax.set_ylim(0, max(d.orders) + 2)
     ax.set_xlabel("frequency (Hz)")
@@ -76,21 +80,30 @@ def stabilisation_figure(result, path: str | Path, *, freq: np.ndarray, H: np.nd
     ax.set_zorder(mag.get_zorder() + 1)
     ax.patch.set_visible(False)
     ax.legend(loc="lower right", fontsize=8, framealpha=0.9)
-    ax.set_title(f"{title}: {len(result.frequency_hz)} modes in {result.band_hz[0]:.0f}-{result.band_hz[1]:.0f} Hz")
-    return _save(fig, path)
+    ax.set_title(textwrap.fill(f"{title}: {len(result.frequency_hz)} modes in {result.band_hz[0]:.0f}-"
+                               f"{result.band_hz[1]:.0f} Hz", int(7 * size[0])), fontsize=10)
+    return _save(fig, path, dpi)
 
 
 def _unit(text: str) -> str:
     return text.replace("^2", "²").replace("^3", "³")
 
 
+#: the phase of an FRF is drawn only where its coherence reaches this (elsewhere it is noise)
+COHERENCE_GOOD = 0.8
+
+
 def frf_figure(frf, path: str | Path, *, band_hz: tuple[float, float] | None = None,
                outputs: Sequence[str] | None = None, title: str = "FRFs", model_hz: Sequence[float] = (),
-               f_range: tuple[float, float] | None = None, size: tuple[float, float] = (10, 8), dpi: int = 130):
+               f_range: tuple[float, float] | None = None, size: tuple[float, float] = (10, 8), dpi: int = 130,
+               model_H: dict[str, np.ndarray] | None = None):
     """Magnitude (log-log), phase (degrees) and coherence of each output's FRF above 0 Hz (within
     ``f_range`` when given: the axes then scale to that band, not to the noise beyond it);
     ``band_hz`` is shaded (e.g. the modal fit's usable band), ``model_hz`` (a model's modes) are
-    dotted lines. ``size`` (inches) and ``dpi``: e.g. the width of a printed page."""
+    dotted lines. ``model_H``: the model's FRF per output name at ``frf.frequency``, drawn black
+    over the measured one (magnitude and phase). The measured phase is drawn only where the
+    coherence reaches ``COHERENCE_GOOD``; the lines below it are shaded. ``size`` (inches) and
+    ``dpi``: e.g. the width of a printed page."""
     names = list(outputs) if outputs is not None else frf.output_names
     missing = [n for n in names if n not in frf.output_names]
     if missing:
@@ -110,8 +123,15 @@ def frf_figure(frf, path: str | Path, *, band_hz: tuple[float, float] | None = N
         h = frf.H[k, pos]
         label = name if len(units) == 1 else f"{name} [{_unit(frf.units[k])}]"
         line, = mag.loglog(f, np.abs(h), lw=0.8, label=label)
-        phase.semilogx(f, np.degrees(np.angle(h)), lw=0.6, color=line.get_color())
+        good = frf.coherence[k, pos] >= COHERENCE_GOOD
+        centre = _phase_centre(h) if len(names) == 1 else 0.0  # one axis for several outputs
+        phase.semilogx(f, np.where(good, _phase_degrees(h, centre), np.nan), lw=0.6, color=line.get_color())
+        _shade_runs(phase, f, ~good)
         coh.semilogx(f, frf.coherence[k, pos], lw=0.6, color=line.get_color())
+        if model_H is not None and name in model_H:
+            hm = np.asarray(model_H[name])[pos]
+            mag.loglog(f, np.abs(hm), lw=0.9, color="k", ls="--", label=f"model{'' if len(names) == 1 else ': ' + name}")
+            phase.semilogx(f, _phase_degrees(hm, centre), lw=0.7, color="k", ls="--")
     for ax in (mag, phase, coh):
         if band_hz is not None:
             ax.axvspan(*band_hz, color="0.92", zorder=0)
@@ -122,18 +142,43 @@ def frf_figure(frf, path: str | Path, *, band_hz: tuple[float, float] | None = N
     mag.set_ylabel(f"|H| [{_unit(units.pop())}]" if len(units) == 1 else "|H| [see legend]")
     mag.legend(fontsize=8, loc="best")
     phase.set_ylabel("phase [°]")
-    phase.set_yticks([-180, -90, 0, 90, 180])
+    from matplotlib.ticker import MultipleLocator
+
+    phase.yaxis.set_major_locator(MultipleLocator(90))
+    centre = _phase_centre(frf.H[frf.output_names.index(names[0]), pos]) if len(names) == 1 else 0.0
+    phase.set_ylim(centre - 185.0, centre + 185.0)
     coh.set_ylabel("coherence [–]")
     coh.set_ylim(0, 1.05)
+    coh.axhline(COHERENCE_GOOD, color="0.5", lw=0.6, ls="-.")
     if frf.n_averages == 1:
         coh.text(0.5, 0.5, "one hit: coherence is 1 by construction and says nothing", transform=coh.transAxes,
                  ha="center", va="center", fontsize=9, color="0.3")
     coh.set_xlabel("frequency [Hz]")
     shaded = "" if band_hz is None else f"; shaded: fit band {band_hz[0]:.0f}-{band_hz[1]:.0f} Hz"
+    shaded += f"; phase only where coherence ≥ {COHERENCE_GOOD:g}"
     hits = f"{frf.n_averages} hit" + ("s averaged" if frf.n_averages > 1 else "")
     mag.set_title(textwrap.fill(f"{title}: {frf.estimator} estimator, {hits}{shaded}", int(7 * size[0])),
                   fontsize=10)  # about 7 characters per inch at 10 pt
     return _save(fig, path, dpi)
+
+
+def _phase_degrees(h: np.ndarray, centre: float) -> np.ndarray:
+    """The phase in degrees within ±180° of ``centre``: a phase sitting near ±180° (a mass line) is
+    then one line, not a band of jumps between the two."""
+    return (np.degrees(np.angle(h)) - centre + 180.0) % 360.0 - 180.0 + centre
+
+
+def _phase_centre(h: np.ndarray) -> float:
+    """Where the phase sits: the direction of the mean unit phasor, rounded to 90°."""
+    mean = np.mean(h / np.maximum(np.abs(h), 1e-300))
+    return 90.0 * np.round(np.degrees(np.angle(mean)) / 90.0) if abs(mean) > 0 else 0.0
+
+
+def _shade_runs(ax, f: np.ndarray, mask: np.ndarray) -> None:
+    """Shade each run of lines where ``mask`` holds (from the line before to the line after)."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(int), [0]])))
+    for a, b in zip(edges[::2], edges[1::2]):
+        ax.axvspan(f[max(a - 1, 0)], f[min(b, len(f) - 1)], color="0.85", lw=0, zorder=0)
 
 
 def mac_figure(mac_matrix: np.ndarray, path: str | Path, *, labels_a: Sequence[str] | None = None,

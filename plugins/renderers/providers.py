@@ -110,7 +110,8 @@ class ReportRenderer:
                            run_diagnosis=opts.get("run_diagnosis", True), movie=opts.get("movie", True),
                            movie_experiment=opts.get("movie_experiment"), frf_channels=opts.get("frf_channels"),
                            progress=opts.get("on_stage"))
-        return Rendered(res.path, f"{res.size_bytes / 2**20:.1f} MiB; error {res.error:.4f}", tuple(res.notes))
+        error = f"error {res.error:.4f}" if res.error == res.error else "output-only: no model"  # NaN: no rig
+        return Rendered(res.path, f"{res.size_bytes / 2**20:.1f} MiB; {error}", tuple(res.notes))
 
 
 class ModeShapeRenderer:
@@ -118,8 +119,8 @@ class ModeShapeRenderer:
     description = ("a mode shape identified from an experiment's responses (output-only) moving on the project's "
                    "geometry (MP4, or GIF); to .uff: the geometry (15/82) with every mode (55) for other tools")
     kind = "movie"
-    suffixes = (".mp4", ".gif", ".uff")
-    OPTIONS = frozenset({"mode", "fmin", "fmax", "max_order", "view", "workers", "fps"})
+    suffixes = (".mp4", ".gif", ".uff", ".html")
+    OPTIONS = frozenset({"mode", "fmin", "fmax", "max_order", "view", "workers", "fps", "reference"})
 
     def render(self, request: RenderRequest) -> Rendered:
         from .shapes import render_mode_shape
@@ -129,6 +130,8 @@ class ModeShapeRenderer:
                                           progress=request.progress, registries=request.registries,
                                           **{k: v for k, v in request.options.items()
                                              if v is not None and v is not False})
+        if isinstance(res, Path) and res.suffix.lower() in (".html", ".htm"):
+            return Rendered(res, f"interactive 3-D view of {n} mode shapes", tuple(notes))
         if isinstance(res, Path):
             return Rendered(res, f"geometry (UFF 15/82) and {n} mode shapes (UFF 55)", tuple(notes))
         return Rendered(res.path, f"{res.n_frames} frames at {res.fps:g} fps ({res.n_frames / res.fps:.1f} s), "
@@ -142,10 +145,11 @@ def builtin_renderers() -> list:
             FigureRenderer("residuals", "spectra of the measured coordinates and of their residual against the model"),
             DrawnFigure("frf", "FRFs: magnitude, phase and coherence per output", "frf",
                         ".modal_figures:frf_figure",
-                        frozenset({"band_hz", "outputs", "title", "model_hz", "f_range", "size", "dpi"}),
+                        frozenset({"band_hz", "outputs", "title", "model_hz", "f_range", "size", "dpi",
+                                   "model_H"}),
                         made_by="`odsuite frf --figure`"),
             DrawnFigure("stabilisation", "stabilisation diagram: poles per model order and the chosen modes", "modes",
-                        ".modal_figures:stabilisation_figure", frozenset({"freq", "H", "title", "background"}),
+                        ".modal_figures:stabilisation_figure", frozenset({"freq", "H", "title", "background", "size", "dpi", "log_frequency"}),
                         made_by="`odsuite modes --figure`"),
             DrawnFigure("mac", "MAC matrix: two sets of mode shapes, each value in its cell", "mac",
                         ".modal_figures:mac_figure",

@@ -14,6 +14,7 @@ import base64
 import html
 import json
 import math
+import os
 import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -73,8 +74,13 @@ def _img(path: Path, alt: str) -> str:
     return f'<figure><img src="{_data_uri(path, "image/png")}" alt="{_esc(alt)}"><figcaption>{_esc(alt)}</figcaption></figure>'
 
 
-def _table(header: Sequence[str], rows: Sequence[Sequence[Any]], *, id: str | None = None, caption: str = "") -> str:
-    """An HTML table; cells are escaped unless given as ``("raw", html)``."""
+def _table(header: Sequence[str], rows: Sequence[Sequence[Any]], *, id: str | None = None, caption: str = "",
+           empty: str = "") -> str:
+    """An HTML table; cells are escaped unless given as ``("raw", html)``. Without rows, no table:
+    the sentence ``empty`` (else the caption and "none") says why."""
+    if not rows:
+        ident = f' id="{_esc(id)}-none"' if id else ""
+        return f"<p class='empty'{ident}>{_esc(empty or (caption or 'table') + ': none.')}</p>"
     def cell(c: Any, tag: str) -> str:
         if isinstance(c, tuple) and c and c[0] == "raw":
             return f"<{tag}>{c[1]}</{tag}>"
@@ -113,10 +119,9 @@ def _heatmap(values: np.ndarray, rows: Sequence[str], cols: Sequence[str], path:
     return path
 
 
-def _mark_peaks(result, peaks: Sequence[Mapping[str, Any]], modes_hz: Sequence[float], path: Path) -> Path:
+def _mark_peaks(fig, peaks: Sequence[Mapping[str, Any]], modes_hz: Sequence[float]) -> None:
     """Mark the residual peaks (red: no model mode near, the model lacks them) and the model's modes
-    (grey) on every panel of a residual spectra figure, and save it again."""
-    fig = result.figure
+    (grey) on every panel of a residual spectra figure, before it is saved."""
     panels = [ax for ax in fig.axes if ax.get_visible()]
     for ax in panels:
         for f in modes_hz:
@@ -133,8 +138,6 @@ def _mark_peaks(result, peaks: Sequence[Mapping[str, Any]], modes_hz: Sequence[f
             Line2D([], [], color="tab:green", ls="--", label="residual peak near a model mode"),
             Line2D([], [], color="0.6", ls=":", label="model mode")]
         legend_below(fig, handles)
-    fig.savefig(path, dpi=FIGURE_DPI)
-    return path
 
 
 def load_diagnosis(source: str | Path | Mapping[str, Any]) -> dict[str, Any]:
@@ -264,13 +267,9 @@ def build_report(
     driving point: the accelerometer nearest the force point, along the force). ``registries``: the
     providers to open the project with (None: the installed plugins').
     """
-    from .figures import comparison_figure
+    from threadpoolctl import threadpool_limits
 
-    from odsuite.api import COORDINATE_NAMES, compare
-    from odsuite.api import coordinate_series, predict, prepare
-    from odsuite.api import history
-    from odsuite.api import current_revision, revision_model
-    from odsuite.api import open_project
+    from odsuite.api import COORDINATE_NAMES, compare, current_revision, open_project, predict, prepare, revision_model
 
     output = Path(output)
     if output.suffix.lower() not in (".html", ".htm"):
@@ -278,10 +277,14 @@ def build_report(
     say = progress or (lambda what: None)
     diag_doc = load_diagnosis(diagnosis) if diagnosis is not None else None
     notes: list[str] = []
-    with open_project(project_path, registries=registries) as project, tempfile.TemporaryDirectory(prefix="odsuite-report-") as tmpdir:
+    # one BLAS thread: the report's linear algebra is small, a second thread only spins on a busy core
+    with open_project(project_path, registries=registries) as project, \
+            tempfile.TemporaryDirectory(prefix="odsuite-report-") as tmpdir, threadpool_limits(1):
         tmp = Path(tmpdir)
-        if project.rig is None:
-            raise ConfigError(f"{project.path}: the project has no rig, so there is no model to report on")
+        if project.rig is None:  # output-only records of a structure: no model to compare with
+            from .oma_report import oma_report
+
+            return oma_report(project, output, tmp, say, notes)
         if movie_experiment is not None and movie_experiment not in project.experiment_names():
             raise ConfigError(f"{project.path}: --movie-experiment: no experiment {movie_experiment!r} "
                               f"(experiments: {', '.join(project.experiment_names()) or 'none'})")
@@ -289,115 +292,205 @@ def build_report(
         exps = prepare(project)
         rev = current_revision(project)
         rmodel = revision_model(project, rev)
-        cmp = compare(project, revision=rev, prepared=exps)
+        cmp = compare(project, revision=rev, prepared=exps, progress=lambda stage: say(f"comparing: {stage}"))
         doc = cmp.as_dict()
-        rig = project.rig
         modes_hz = [m["frequency_hz"] for m in doc["modes"]["model"]]
 
         experiments_html = _experiments_section(project, exps, cmp)
-        say("drawing the FRFs and MAC matrices")
-        modal_html = _modal_section(doc, _modal_figures(project, exps, cmp.modal_records or [], frf_channels, modes_hz,
-                                                        tmp))
-        say("drawing the overlays")
-        overlays, coord_series, preds = [], {}, {}
-        for e in exps:
-            model = rmodel.for_experiment(e.name)
-            pred = preds[e.name] = predict(model, e)
-            t = np.arange(e.n_samples) / e.fs
-            window = _window(e)  # the event, not the whole record (a 200 ms axis squashes it)
-            series = coordinate_series(rig, e, model)
-            coord_series[e.name] = series
-            parts = [f"<h3 id='overlay-{_esc(e.name)}'>{_esc(e.name)} (error {_fmt(cmp.experiments[e.name]['error'])})</h3>"]
-            for body, (gm, gp, _) in series.items():
-                f = comparison_figure(t, gm, gp, tmp / f"{e.name}-{body}.png", title=f"{e.name}: {body} at its centre of mass",
-                                      dpi=FIGURE_DPI, window=window)
-                parts.append(_img(f.path, f"{e.name}: generalized coordinates of the {body} at its centre of "
-                                  "mass, model (solid) and measured (dashed)"))
-            names = [s.name for s in e.sensors]
-            f = comparison_figure(t, e.measured, pred, tmp / f"{e.name}-channels.png", names=names, units=e.units,
-                                  title=f"{e.name}: accelerometers (acceleration stage)", dpi=FIGURE_DPI,
-                                  window=window)
-            parts.append(_img(f.path, f"{e.name}: every accelerometer after filter 1, model (solid) and "
-                              "measured (dashed)"))
-            overlays.append("".join(parts))
-
-        say("where the model fails")
-        failures = _failures_section(doc, exps, preds, modes_hz, tmp, COORDINATE_NAMES)
-
-        if diag_doc is None and run_diagnosis:
-            from odsuite.api import diagnose
-
-            say("diagnosing")
-            diag_doc = diagnose(project, prepared=exps).as_dict()
-        elif diag_doc is None:
-            notes.append("diagnosis skipped (--no-diagnose)")
-        candidates = _candidates_section(diag_doc, doc["revision"], notes)
-
-        say("history")
-        hist = history(project)
-        _draw(project, "history", None, tmp / "history.png", history=hist)
-        hist_html = (_img(tmp / "history.png", "pooled error per model revision")
-                     + _table(["revision", "parent", "effects", "error (NRMSE)"],
-                              [[r["revision"], "–" if r["parent"] is None else r["parent"],
-                                ", ".join(r["effects"]) or "rigid model", _fmt(r["error"])] for r in hist["revisions"]],
-                              id="history", caption=f"current revision: {hist['current']}"))
-
-        metadata_html = _metadata_section(project, exps)
-        movie_html, chosen = "<p>Movie left out (--no-movie).</p>", None
-        view_html = "<p>3-D view left out with the movie (--no-movie).</p>"
-        if movie:
-            chosen = movie_experiment or max(cmp.experiments, key=lambda n: cmp.experiments[n]["error"])
-            say(f"rendering the movie of {chosen}")
-            exp = next(e for e in exps if e.name == chosen)
-            series, corrected = _corrected_series(project, rig, exp, rev, coord_series[chosen])
-            movie_html = _movie_section(rig, exp, series, tmp, corrected)
-            view_html = _view_section(rig, exp, series, corrected)
-        else:
-            notes.append("movie skipped (--no-movie)")
-
-        effects = ", ".join(e["effect"] for e in rev.get("effects", [])) or "none (the rig's rigid model)"
-        worst_band = next((w for w in doc["worst"] if w["kind"] == "band"), None)
-        worst_ch = next((w for w in doc["worst"] if w["kind"] == "channel"), None)
-        story = (f"Model revision <span id='revision'>{_esc(doc['revision'])}</span> (effects: {_esc(effects)}) "
-                 f"against {len(exps)} experiment(s): pooled error <b id='error'>{_fmt(doc['error'])}</b>, "
-                 f"noise floor <span id='noise-floor'>{_fmt(doc['noise_floor_error'])}</span> "
-                 "(what a perfect model would leave).")
-        if worst_ch and worst_band:
-            story += (f" The worst channel is {_esc(worst_ch['name'])} ({_fmt(worst_ch['error'])}); the band "
-                      f"{_esc(worst_band['name'])} holds {100 * worst_band['residual_share']:.0f} % of the residual.")
-        lacking = [p for p in doc["residual_peaks"] if p["lacking"]]
-        if lacking:
-            story += (" Residual peaks without a model mode: "
-                      + ", ".join(f"{p['frequency_hz']:.0f} Hz" for p in lacking) + ".")
-        summary = f"<p>{story}</p>" + _table(
-            ["quantity", "value"],
-            [["project", project.path.name], ["rig", rig.name], ["current revision", doc["revision"]],
-             ["effects in the model", effects], ["error (pooled NRMSE, acceleration stage)", _fmt(doc["error"])],
-             ["noise floor", _fmt(doc["noise_floor_error"])],
-             ["model modes [Hz]", ", ".join(f"{f:.1f}" for f in modes_hz)]], id="summary-table")
+        preds = {e.name: predict(rmodel.for_experiment(e.name), e) for e in exps}
+        fault, windows = _fault(exps, preds, cmp.floor)
+        overlay_figures, coord_series = _overlay_figures(project.rig, exps, rmodel, preds, fault, windows, tmp)
+        import matplotlib.backends.backend_agg  # noqa: F401  imported once, before the fork: both processes draw
+        overlays_drawn = _Background(_draw_comparisons, overlay_figures)  # while the rest is drawn here
+        try:
+            say("drawing the FRFs and MAC matrices")
+            modal_html = _modal_section(doc, _modal_figures(project, exps, cmp.modal_records or [], frf_channels,
+                                                            modes_hz, tmp, model_for=rmodel.for_experiment))
+            say("where the model fails")
+            failures = _failures_section(doc, exps, preds, modes_hz, tmp, COORDINATE_NAMES)
+            candidates = _candidates_section(_diagnosis(project, exps, diag_doc, run_diagnosis, notes, say),
+                                             doc["revision"], notes)
+            say("history")
+            hist_html = _history_section(project, tmp)
+            metadata_html = _metadata_section(project, exps)
+            chosen = None
+            if movie:
+                chosen = movie_experiment or (fault.experiment if fault else
+                                              max(cmp.experiments, key=lambda n: cmp.experiments[n]["error"]))
+                say(f"rendering the movie of {chosen}")
+                exp = next(e for e in exps if e.name == chosen)
+                series, corrected = _corrected_series(project, project.rig, exp, rev, coord_series[chosen])
+                movie_html = _movie_section(project.rig, exp, series, tmp, corrected, windows.get(chosen), fault)
+                view_html = _view_section(project.rig, exp, series, corrected, windows.get(chosen))
+            else:
+                movie_html = "<p>Movie left out (--no-movie).</p>"
+                view_html = "<p>3-D view left out with the movie (--no-movie).</p>"
+                notes.append("movie skipped (--no-movie)")
+            view_html += _mode_view_section(project, cmp.modal_records or [], notes)
+            summary = _summary_section(project, exps, rev, doc, _model_modes_words(rmodel, exps, modes_hz))
+            say("drawing the overlays")
+            overlays_drawn.wait()
+        finally:
+            overlays_drawn.close()
+        overlays = _fault_words(fault) + _overlays_html(exps, cmp, overlay_figures)
 
     sections = [
         ("summary", "Summary", summary),
         ("modal", "Measured against model modes", modal_html),
         ("metadata", "Test record", metadata_html),
         ("experiments", "Rig and experiments", experiments_html),
-        ("overlays", "Measured against model", "".join(overlays)),
+        ("overlays", "Measured against model", overlays),
         ("failures", "Where the model fails", failures),
         ("candidates", "Candidate effects", candidates),
         ("history", "Error across model revisions", hist_html),
         ("movie", "Movie" + (f" of {chosen} with the model" if chosen else ""), movie_html),
         ("view3d", "Interactive 3-D view" + (f" of {chosen}" if chosen else ""), view_html),
     ]
-    page = _page(f"odsuite report: {Path(project_path).name}", sections, notes)
-    output.parent.mkdir(parents=True, exist_ok=True)
-    text = page.encode("utf-8")
-    write_output(output, len(text), lambda tmp: tmp.write_bytes(text))
-    size = output.stat().st_size
+    size = _write_page(output, _page(f"odsuite report: {Path(project_path).name}", sections, notes))
     if size > SIZE_BUDGET:
         notes.append(f"the page is {size / 2**20:.1f} MiB (budget {SIZE_BUDGET / 2**20:.0f} MiB); "
                      "--no-movie makes it smaller")
     return ReportResult(path=output, size_bytes=size, error=float(doc["error"]), sections=[s[0] for s in sections],
                         movie_experiment=chosen, notes=notes)
+
+
+def _overlay_figures(rig, exps, rmodel, preds: Mapping[str, np.ndarray], fault, windows: Mapping[str, tuple],
+                     tmp: Path) -> tuple[list[tuple[str, Path, dict, str]], dict]:
+    """Measured against model in time, per experiment: each body's generalized coordinates and every
+    accelerometer where the fault's band rings (and, in the fault's experiment, around the hit as a
+    second view), as figures to draw (experiment, path, ``comparison_figure``'s arguments, caption);
+    also each experiment's coordinate series for the later sections."""
+    from odsuite.api import coordinate_series
+
+    figures, coord_series = [], {}
+    for e in exps:
+        model = rmodel.for_experiment(e.name)
+        t = np.arange(e.n_samples) / e.fs
+        # where the fault's band rings (the hit alone is a second view below)
+        window = windows.get(e.name) or _window(e)
+        series = coord_series[e.name] = coordinate_series(rig, e, model)
+        for body, (gm, gp, _) in series.items():
+            figures.append((e.name, tmp / f"{e.name}-{body}.png",
+                            dict(t=t, measured=gm, model=gp, title=f"{e.name}: {body} at its centre of mass",
+                                 window=window),
+                            f"{e.name}: generalized coordinates of the {body} at its centre of mass, model (solid) "
+                            "and measured (dashed)"))
+        names = [s.name for s in e.sensors]
+        figures.append((e.name, tmp / f"{e.name}-channels.png",
+                        dict(t=t, measured=e.measured, model=preds[e.name], names=names, units=e.units,
+                             title=f"{e.name}: accelerometers (acceleration stage)", window=window),
+                        f"{e.name}: every accelerometer after filter 1, model (solid) and measured (dashed)"
+                        + _window_words(window, e, fault)))
+        if fault is not None and e.name == fault.experiment:  # one second view: the page has a budget
+            figures.append(_hit_view(e, preds[e.name], names, tmp))
+    return figures, coord_series
+
+
+def _draw_comparisons(figures: Sequence[tuple[str, Path, dict, str]]) -> None:
+    from .figures import comparison_figure
+
+    for _, path, args, _ in figures:
+        comparison_figure(path=path, dpi=FIGURE_DPI, **args)
+
+
+def _overlays_html(exps, cmp, figures: Sequence[tuple[str, Path, dict, str]]) -> str:
+    """The drawn overlay figures under a heading per experiment with its error."""
+    parts = []
+    for e in exps:
+        parts.append(f"<h3 id='overlay-{_esc(e.name)}'>{_esc(e.name)} "
+                     f"(error {_fmt(cmp.experiments[e.name]['error'])})</h3>")
+        parts += [_img(path, caption) for name, path, _, caption in figures if name == e.name]
+    return "".join(parts)
+
+
+class _Background:
+    """Runs one job in a forked process while this one goes on (the report's figures are
+    independent: two cores draw them in about half the time); in this process, at once, where a
+    process cannot fork or start children (a batch's worker)."""
+
+    def __init__(self, job: Callable[..., None], *args) -> None:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        self._pool = self._future = None
+        if ((os.cpu_count() or 1) > 1 and "fork" in multiprocessing.get_all_start_methods()
+                and not multiprocessing.current_process().daemon):
+            self._pool = ProcessPoolExecutor(1, multiprocessing.get_context("fork"))
+            self._future = self._pool.submit(job, *args)
+        else:
+            job(*args)
+
+    def wait(self) -> None:
+        """Until the job is done; its error, if any, raised here."""
+        if self._pool is not None:
+            try:
+                self._future.result()
+            finally:
+                self.close()
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+
+
+def _diagnosis(project, exps, diag_doc: Mapping[str, Any] | None, run_diagnosis: bool, notes: list[str],
+               say: Callable[[str], None]) -> Mapping[str, Any] | None:
+    """The diagnosis to show: the one given, else one run now (unless ``run_diagnosis`` is False)."""
+    if diag_doc is None and run_diagnosis:
+        from odsuite.api import diagnose
+
+        say("diagnosing")
+        return diagnose(project, prepared=exps).as_dict()
+    if diag_doc is None:
+        notes.append("diagnosis skipped (--no-diagnose)")
+    return diag_doc
+
+
+def _history_section(project, tmp: Path) -> str:
+    """The pooled error per model revision: a figure and a table."""
+    from odsuite.api import history
+
+    hist = history(project)
+    _draw(project, "history", None, tmp / "history.png", history=hist)
+    return (_img(tmp / "history.png", "pooled error per model revision")
+            + _table(["revision", "parent", "effects", "error (NRMSE)"],
+                     [[r["revision"], "–" if r["parent"] is None else r["parent"],
+                       ", ".join(r["effects"]) or "rigid model", _fmt(r["error"])] for r in hist["revisions"]],
+                     id="history", caption=f"current revision: {hist['current']}"))
+
+
+def _summary_section(project, exps, rev: Mapping[str, Any], doc: Mapping[str, Any], model_modes: str) -> str:
+    """The story in one paragraph (revision, error against the noise floor, the worst channel and
+    band, residual peaks the model lacks) and the summary table."""
+    effects = ", ".join(e["effect"] for e in rev.get("effects", [])) or "none (the rig's rigid model)"
+    worst_band = next((w for w in doc["worst"] if w["kind"] == "band"), None)
+    worst_ch = next((w for w in doc["worst"] if w["kind"] == "channel"), None)
+    story = (f"Model revision <span id='revision'>{_esc(doc['revision'])}</span> (effects: {_esc(effects)}) "
+             f"against {len(exps)} experiment(s): pooled error <b id='error'>{_fmt(doc['error'])}</b>, "
+             f"noise floor <span id='noise-floor'>{_fmt(doc['noise_floor_error'])}</span> "
+             "(what a perfect model would leave).")
+    if worst_ch and worst_band:
+        story += (f" The worst channel is {_esc(worst_ch['name'])} ({_fmt(worst_ch['error'])}); the band "
+                  f"{_esc(worst_band['name'])} holds {100 * worst_band['residual_share']:.0f} % of the residual.")
+    lacking = [p for p in doc["residual_peaks"] if p["lacking"]]
+    if lacking:
+        story += (" Residual peaks without a model mode: "
+                  + ", ".join(f"{p['frequency_hz']:.0f} Hz" for p in lacking) + ".")
+    return f"<p>{story}</p>" + _table(
+        ["quantity", "value"],
+        [["project", project.path.name], ["rig", project.rig.name], ["current revision", doc["revision"]],
+         ["effects in the model", effects], ["error (pooled NRMSE, acceleration stage)", _fmt(doc["error"])],
+         ["noise floor", _fmt(doc["noise_floor_error"])],
+         ["model modes [Hz]", model_modes]], id="summary-table")
+
+
+def _write_page(output: Path, page: str) -> int:
+    """Write the page all or nothing; its size in bytes."""
+    output.parent.mkdir(parents=True, exist_ok=True)
+    text = page.encode("utf-8")
+    write_output(output, len(text), lambda tmp: tmp.write_bytes(text))
+    return output.stat().st_size
 
 
 CSS = """
@@ -446,11 +539,56 @@ def driving_point(exp) -> int:
     return int(max(near, key=lambda k: abs(float(np.dot(exp.sensors[k].axis, exp.direction)))))
 
 
+def _model_frf(project, exp, model, frf, outputs: Sequence[str]) -> dict[str, np.ndarray]:
+    """The model's FRF (acceleration per force, its sensor dynamics included) from the record's force
+    point to each of ``outputs`` at the measured FRF's lines: what the measured one should be."""
+    from odsuite.api import Input, Output
+
+    channel_of = {n: k for k, n in enumerate(project.experiment(exp.name).channel_names)}
+    force = Input.force(exp.point, exp.direction, body=project.rig.force_body(exp.point, exp.force_body))
+    out = {}
+    for name in outputs:
+        sensor = project.rig.sensor_on_channel(channel_of[name])
+        if sensor is not None and sensor.quantity == "acceleration":
+            out[name] = model.transfer([force], [Output.sensor(sensor)], frf.frequency)[:, 0, 0]
+    return out
+
+
+def _missed_suspension_html(rec, model) -> str:
+    """A sentence naming the model's suspension modes in the record's band that no measured mode
+    lies within 10 % of (a suspension mode is often seen in the FRF but not picked as a stable pole)."""
+    from .mode_kinds import suspension_modes
+
+    flags = suspension_modes(model)
+    if flags is None or rec.band_hz is None:
+        return ""
+    f = model.modes().frequency_hz
+    missed = [v for v, s in zip(f, flags) if s and rec.band_hz[0] <= v <= rec.band_hz[1]
+              and not np.any(np.abs(np.asarray(rec.measured_hz) - v) <= 0.1 * v)]
+    if not missed:
+        return ""
+    return (f"<p>The model's suspension modes (the bodies together on their mounts) at "
+            f"{', '.join(f'{v:.1f}' for v in missed)} Hz lie in this record's band but were not identified "
+            "as stable poles; compare the FRF with the model's near them.</p>")
+
+
+def _stabilisation_html(project, rec, tag: str, tmp: Path) -> str:
+    """The record's stabilisation diagram: the poles the modal table's modes were chosen from."""
+    if rec.modes is None or getattr(rec.modes, "diagram", None) is None or rec.modes.band_hz is None:
+        return ""
+    _draw(project, "stabilisation", rec.experiment, tmp / f"stab-{tag}.png", modes=rec.modes,
+          freq=rec.frf.frequency, H=rec.frf.H, title=f"{rec.experiment}: stabilisation diagram",
+          size=(PRINT_WIDTH_IN, 4.0), dpi=FIGURE_DPI, log_frequency=rec.modes.band_hz[1] > 10 * rec.modes.band_hz[0])
+    return _img(tmp / f"stab-{tag}.png", f"{rec.experiment}: poles of every model order in the fit band (red: "
+                "frequency and damping stable), the chosen modes dashed, the rms FRF behind them")
+
+
 def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, modes_hz: Sequence[float],
-                   tmp: Path) -> str:
+                   tmp: Path, model_for=None) -> str:
     """Per hammer record: its FRFs (magnitude log-log, phase, coherence) for ``frf_channels`` or the
-    driving point, the model's modes dotted; and the MAC matrix of its measured modes against the
-    model's, beside the modal table."""
+    driving point, with the model's (``model_for(experiment)``) and its modes dotted; its
+    stabilisation diagram; and the MAC matrix of its measured modes against the model's, beside
+    the modal table."""
     by_name = {e.name: e for e in exps}
     parts = []
     for rec in records:
@@ -470,13 +608,16 @@ def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, m
         tag = f"{len(parts)}"
         # the model's modes near the band; where no mode was measured, every mode of the model
         model_hz = rec.model_hz if rec.measured_hz.size else modes_hz
+        model_H = (_model_frf(project, by_name[rec.experiment], model_for(rec.experiment), rec.frf, chosen)
+                   if model_for is not None else None)
         _draw(project, "frf", rec.experiment, tmp / f"frf-{tag}.png", frf=rec.frf, f_range=rec.band_hz, outputs=chosen,
-              model_hz=model_hz, title=f"experiment {rec.experiment}: {', '.join(chosen)}", size=(PRINT_WIDTH_IN, 5.2),
-              dpi=FIGURE_DPI)
+              model_hz=model_hz, title=f"record {rec.experiment}: {', '.join(chosen)}", size=(PRINT_WIDTH_IN, 5.2),
+              dpi=FIGURE_DPI, model_H=model_H)
         band = ("over the whole record's band (no usable band found)" if rec.band_hz is None else
                 f"over the band the modes are fitted in, {rec.band_hz[0]:.0f}-{rec.band_hz[1]:.0f} Hz")
         figs = [_img(tmp / f"frf-{tag}.png", f"{rec.experiment}: FRF of the {what} to the hammer force "
-                     f"(magnitude on log-log axes, phase, coherence) {band}; dotted: model modes")]
+                     f"(magnitude on log-log axes, phase where the coherence is good, coherence) {band}; "
+                     + ("black dashed: the model's FRF; " if model_H else "") + "dotted: model modes")]
         if rec.mac is not None:
             _draw(project, "mac", rec.experiment, tmp / f"mac-{tag}.png", mac=rec.mac,
                   labels_a=[f"{f:.1f} Hz" for f in rec.measured_hz], labels_b=[f"{f:.1f} Hz" for f in rec.model_hz],
@@ -488,6 +629,9 @@ def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, m
             figs.append("<p>No MAC: no measured modes in this record (see the notes above).</p>")
         else:
             figs.append("<p>No MAC: the record has fewer than two rig accelerometers, so no shape.</p>")
+        figs.append(_stabilisation_html(project, rec, tag, tmp))
+        if model_for is not None:
+            figs.insert(1, _missed_suspension_html(rec, model_for(rec.experiment)))
         parts.append(f"<h3 id='modal-{_esc(rec.experiment)}'>{_esc(rec.experiment)}</h3>"
                      f"<div class='modal-figs'>{''.join(figs)}</div>")
     return "".join(parts)
@@ -529,20 +673,25 @@ def _failures_section(doc: Mapping[str, Any], exps, preds: Mapping[str, np.ndarr
     band_err = np.array([[np.nan if v is None else v for v in row] for row in bands["error"]], dtype=float)
     heat_bands = _heatmap(band_err.T, bands["channels"], bands["labels"], tmp / "bands.png",
                           xlabel="frequency band [Hz]", ylabel="channel",
-                          title="error per channel and band (all experiments)")
+                          title=f"revision {doc['revision']} against the records: error per channel and band")
     rows = [(en, body) for en, bd in doc["coordinates"].items() for body in bd]
-    parts = [per_channel, worst, _img(heat_bands, "NRMSE of each channel in each frequency band, pooled over the experiments")]
+    parts = [per_channel, worst, _img(heat_bands, f"NRMSE of model revision {doc['revision']} against each channel in "
+                                      "each frequency band, pooled over the experiments (acceleration stage)")]
     if rows:
         coord = np.array([[doc["coordinates"][en][body][c] for c in coordinate_names] for en, body in rows])
         labels = [en if len({b for _, b in rows}) == 1 else f"{en}/{body}" for en, body in rows]
         heat_coords = _heatmap(coord, labels, list(coordinate_names), tmp / "coords.png",
                                xlabel="generalized coordinate (x, y, z [m]; θ, φ, ψ [rad])", ylabel="experiment",
-                               title="error per experiment and generalized coordinate")
-        parts.append(_img(heat_coords, "NRMSE of each generalized coordinate (displacements at G) per experiment"))
+                               title=f"revision {doc['revision']} against the records: error per coordinate")
+        parts.append(_img(heat_coords, f"NRMSE of model revision {doc['revision']} against each generalized coordinate "
+                          "(displacements at G, integrated twice from the accelerometers) per experiment: the "
+                          "integration lifts low-frequency noise and drift, so values near 1 persist for a right "
+                          "model; the acceleration-stage errors above decide the fit"))
     e = max(exps, key=lambda x: doc["experiments"][x.name]["error"])
     r = residual_spectra_figure(e.fs, e.measured, preds[e.name], tmp / "spectra.png", names=[s.name for s in e.sensors], units=e.units,
-                                title=f"{e.name} (the worst fit): measured and residual spectra", dpi=FIGURE_DPI)
-    parts.append(_img(_mark_peaks(r, doc["residual_peaks"], modes_hz, r.path),
+                                title=f"{e.name} (the worst fit): measured and residual spectra", dpi=FIGURE_DPI,
+                                before_save=lambda fig: _mark_peaks(fig, doc["residual_peaks"], modes_hz))
+    parts.append(_img(r.path,
                       f"{e.name}: PSD of each channel and of its residual; dashed: peaks of the pooled residual "
                       "(red where the model has no mode within 5 %), dotted: model modes"))
     peaks = [[f"{p['frequency_hz']:.1f}", f"{100 * p['share']:.2f} %", ", ".join(p["channels"]),
@@ -551,7 +700,11 @@ def _failures_section(doc: Mapping[str, Any], exps, preds: Mapping[str, np.ndarr
              for p in doc["residual_peaks"]]
     parts.append(_table(["frequency [Hz]", "share of the residual PSD", "strongest in", "model mode near [Hz]",
                          "lacking"], peaks, id="residual-peaks",
-                        caption="peaks of the pooled residual spectrum (also marked on the spectra above)"))
+                        caption="peaks of the pooled residual spectrum (also marked on the spectra above)",
+                        empty="No peak of the residual spectrum, pooled over experiments and channels, rises above "
+                              "the noise floor's spectrum at a single line (1 % false alarm over all lines) with 2 % "
+                              "of the residual's energy; a residual spread over a band shows in the diagnosis's "
+                              "resolved cells instead."))
     rig_rows = [[en, body, ", ".join(f"{k}: {100 * v:.1f} %" for k, v in r["fractions"].items()),
                  ", ".join(r["flagged"]) or "none", r["worst"]]
                 for en, bd in doc["rigidity"].items() for body, r in bd.items()]
@@ -583,8 +736,56 @@ def _candidates_section(diag: Mapping[str, Any] | None, revision: Any, notes: li
 
 
 def _window(exp) -> tuple[float, float]:
+    """The hit's window: from just before the contact to MOVIE_AFTER_S after it."""
     start = max(0.0, exp.trigger / exp.fs - MOVIE_BEFORE_S)
     return start, min((exp.n_samples - 1) / exp.fs, start + MOVIE_AFTER_S)
+
+
+def _model_modes_words(rmodel, exps, modes_hz: Sequence[float]) -> str:
+    """The model's modes, its suspension modes named as such (rigid-body modes on the mounts)."""
+    from .mode_kinds import mode_words, suspension_modes
+
+    return mode_words(modes_hz, suspension_modes(rmodel.for_experiment(exps[0].name)))
+
+
+def _fault(exps, preds: Mapping[str, np.ndarray], floor):
+    """The band where the model fails most (the resolved residual's strongest cell) and, per
+    experiment, the window in which that band's residual rings; (None, {}) when no cell is above
+    its floor (the pictures then show the hit)."""
+    from odsuite.api import resolve
+
+    from .fault_window import fault_windows, strongest_band
+
+    resolved = resolve(exps, [preds[e.name] for e in exps], floor) if floor is not None else None
+    band = strongest_band(resolved)
+    return band, fault_windows(exps, preds, band)
+
+
+def _fault_words(fault) -> str:
+    if fault is None:
+        return ("<p>No frequency band's residual is above its noise floor: the pictures show the "
+                f"{1e3 * MOVIE_AFTER_S:.0f} ms after each hit.</p>")
+    return (f"<p>The model fails most in {_esc(fault.words())}. The pictures below show where that band's "
+            "residual rings: from a quarter of its period before the hit until 95 % of its energy has "
+            f"gone, at least three periods; in {_esc(fault.experiment)} the {1e3 * MOVIE_AFTER_S:.0f} ms after "
+            "the hit follow as a second view.</p>")
+
+
+def _window_words(window: tuple[float, float], exp, fault) -> str:
+    at = exp.trigger / exp.fs
+    return (f"; {1e3 * (window[0] - at):+.0f} to {1e3 * (window[1] - at):+.0f} ms around the hit"
+            + (f" (where the {fault.band_hz[0]:.0f}-{fault.band_hz[1]:.0f} Hz residual rings)" if fault else ""))
+
+
+def _hit_view(e, pred: np.ndarray, names: Sequence[str], tmp: Path) -> tuple[str, Path, dict, str]:
+    """The accelerometers over the hit's own window, the second view beside the fault's: as a figure
+    to draw (see ``_overlay_figures``)."""
+    window = _window(e)
+    return (e.name, tmp / f"{e.name}-hit.png",
+            dict(t=np.arange(e.n_samples) / e.fs, measured=e.measured, model=pred, names=names, units=e.units,
+                 title=f"{e.name}: accelerometers around the hit", window=window),
+            f"{e.name}: every accelerometer after filter 1 around the hit, model (solid) and measured (dashed)"
+            + _window_words(window, e, None))
 
 
 def _corrected_series(project, rig, exp, rev, series: Mapping[str, tuple]) -> tuple[Mapping[str, tuple], Any]:
@@ -620,14 +821,15 @@ def _corrections_html(corrected) -> str:
                    if rows else "")
 
 
-def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path, corrected=None) -> str:
+def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path, corrected=None, window=None,
+                   fault=None) -> str:
     from .motion import magnification_words
     from .movie import gif_from_mp4, mp4_available, render_movie
     from .scene import Hammer, Style
 
     if not series:
         return "<p>No movie: the chains give no displacements, so there are no generalized coordinates.</p>"
-    start, stop = _window(exp)
+    start, stop = window or _window(exp)
     step = max(1, round((stop - start) * exp.fs / MOVIE_FRAMES))
     body = rig.force_body(exp.point, exp.force_body)
     hammer = Hammer(body if body in series else next(iter(series)), exp.point, exp.direction, exp.force)
@@ -638,7 +840,7 @@ def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path, corrected=N
                        corrected_coords=corrected[0] if corrected else None,
                        title=f"{exp.name}: measured (blue), " + ("corrected (green) " if corrected else "")
                        + "and model (orange band)", time_zero=exp.trigger / exp.fs,
-                       style=Style(font_size=8, line_width=1.5, model_width=5.0))
+                       style=Style(font_size=10, line_width=1.5, model_width=5.0))
     gif = res.path if res.format == "gif" else gif_from_mp4(res.path, tmp / "movie.gif", MOVIE_FPS)
     fallback = f'<img src="{_data_uri(gif, "image/gif")}" alt="movie of {_esc(exp.name)}">'
     shown = (fallback if res.format == "gif" else
@@ -648,7 +850,9 @@ def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path, corrected=N
     return (f"<figure>{shown}<figcaption>{_esc(exp.name)}: measured motion (blue)"
             + (" and corrected motion (green)" if corrected else "") + " with the model's (orange band), "
             f"{res.n_frames} frames from {1e3 * (start - exp.trigger / exp.fs):+.1f} ms to "
-            f"{1e3 * (stop - exp.trigger / exp.fs):+.1f} ms around the hit, {res.slowdown:.0f} times slower than "
+            f"{1e3 * (stop - exp.trigger / exp.fs):+.1f} ms around the hit"
+            + (f" (where the {fault.band_hz[0]:.0f}-{fault.band_hz[1]:.0f} Hz residual rings)" if fault and window else "")
+            + f", {res.slowdown:.0f} times slower than "
             f"real time, {_esc(magnification_words(res.magnify))}.</figcaption></figure>")
 
 
@@ -663,12 +867,46 @@ def _poster(gif: Path, path: Path) -> Path:
     return path
 
 
-def _view_section(rig, exp, series: Mapping[str, tuple], corrected=None) -> str:
+def _mode_view_section(project, records, notes: list[str]) -> str:
+    """The measured (EMA) mode shapes of the hammer records moving the rig's plates, one selector
+    entry per mode: each mode's sensor values solved for the bodies' motion like an ODS."""
+    from odsuite.api import mpc
+    from odsuite.contracts.solvers import harmonic_shapes
+
+    from .mode_view import mode_label, mode_view_data, mode_view_html, rig_modes
+
+    rig, coords, labels = project.rig, [], []
+    for rec in records:
+        res = rec.modes
+        if res is None or not len(res.frequency_hz):
+            continue
+        channel_of = {n: k for k, n in enumerate(project.experiment(rec.experiment).channel_names)}
+        sensors = [rig.sensor_on_channel(channel_of[n]) if n in channel_of else None for n in res.output_names]
+        for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio)):
+            values = {s.name: complex(v) for s, v in zip(sensors, res.shapes[:, k]) if s is not None}
+            try:
+                coords.append(harmonic_shapes(rig, values, project.registries.coordinate_solvers,
+                                              f"{project.path}: {rec.experiment} mode {k + 1}"))
+            except ConfigError as exc:
+                notes.append(f"mode view: {exc}")
+                continue
+            labels.append(mode_label("EMA", rec.experiment, k + 1, f, z, mpc(res.shapes[:, k])))
+    if not coords:
+        return "<h3>Measured mode shapes</h3><p>No measured mode shape to show (no hammer record's modes identified).</p>"
+    nodes, lines, modes = rig_modes(rig, coords, labels)
+    e1, _ = rig.horizontal_axes()
+    data = mode_view_data(nodes, lines, modes, up=rig.up, e1=e1)
+    return "<h3>Measured mode shapes</h3>" + mode_view_html(data)
+
+
+def _view_section(rig, exp, series: Mapping[str, tuple], corrected=None, window=None) -> str:
     from .viewer import viewer_data, viewer_html
 
     if not series:
         return "<p>No 3-D view: there are no generalized coordinates.</p>"
     start, stop = _window(exp)
+    if window is not None:  # the hit and the fault's band ringing after it: scrub through both
+        start, stop = min(start, window[0]), max(stop, window[1])
     data = viewer_data(rig, {b: gm for b, (gm, _, _) in series.items()}, exp.fs,
                        model_coords={b: gp for b, (_, gp, _) in series.items()},
                        start=int(round(start * exp.fs)), stop=int(round(stop * exp.fs)) + 1,

@@ -17,7 +17,7 @@ from odsuite.api import Rig
 from odsuite.api import PLOT_INDEX, plate_corners
 from odsuite.api import interrupts_held
 
-from .motion import check_coords, corners, magnified, plate_scale
+from .motion import _times, check_coords, corners, magnified, plate_scale
 
 #: The 12 edges of a box as corner-index pairs, taken from the Table 4.2 polyline (retraces dropped).
 EDGES = tuple(dict.fromkeys(tuple(sorted(p)) for p in zip(PLOT_INDEX[:-1], PLOT_INDEX[1:])))
@@ -134,11 +134,43 @@ def _lines_polydata(points: np.ndarray, edges) -> "pyvista.PolyData":  # noqa: F
 def title_and_label(plotter, size, style, title: str | None):
     """The title (if any) at the top left and, below it, the text actor each frame writes its time
     or phase into; returns that actor."""
+    import textwrap
+
     fs = style.font_size
     top = size[1] - 12
-    if title:
-        plotter.add_text(title, position=(12, top - 4 * fs), font_size=fs, color=style.text)
-    return plotter.add_text(" ", position=(12, top - (6 if title else 2) * fs - 4), font_size=fs, color=style.text)
+    # VTK's text is about fs pixels a character and 2 fs a line: long lines wrap to the frame's width
+    lines = [w for line in (title or "").split("\n")
+             for w in textwrap.wrap(line, max(20, int((size[0] - 24) / (0.95 * fs))))]
+    if lines:
+        plotter.add_text("\n".join(lines), position=(12, top - 2 * len(lines) * fs), font_size=fs, color=style.text)
+    return plotter.add_text(" ", position=(12, top - (2 * len(lines) + 2) * fs - 4), font_size=fs, color=style.text)
+
+
+#: the camera's margin around the plates, as a fraction of the largest plate: the magnified
+#: motion (15 %) and the axes and scale bar just outside the plates' corner
+AXES_ROOM = 0.2
+
+
+def scale_bar_length(scale: float, magnify: float) -> tuple[float, float]:
+    """(real, drawn) lengths (m) of the scale bar: the round amount of motion (1, 2 or 5 x 10^k m)
+    whose magnified length is nearest to a tenth of the plate size, and that magnified length."""
+    target = 0.1 * scale / magnify
+    exponent = np.floor(np.log10(target))
+    real = min((m * 10.0**e for e in (exponent - 1, exponent, exponent + 1) for m in (1.0, 2.0, 5.0)),
+               key=lambda v: abs(np.log(v / target)))
+    return float(real), float(real * magnify)
+
+
+def _spot_label(names: list[str]) -> str:
+    """One short label for the sensors at one spot: a triaxial's "P1_x P1_y P1_z" as "P1_xyz"."""
+    stems = {n.rpartition("_")[0] for n in names}
+    if len(names) > 1 and len(stems) == 1 and "" not in stems:
+        return f"{stems.pop()}_{''.join(n.rpartition('_')[2] for n in names)}"
+    return " ".join(names)
+
+
+def _mm(metres: float) -> str:
+    return f"{1e3 * metres:g} mm"
 
 
 class Scene:
@@ -169,6 +201,7 @@ class Scene:
         title: str = "",
         size: tuple[int, int] = (1280, 720),
         style: Style = Style(),
+        scale_bar: bool = True,
     ) -> None:
         pv = offscreen_pyvista()
 
@@ -197,6 +230,8 @@ class Scene:
             sets.append((corrected_coords, style.corrected, 0, False))
         sets.append((coords, style.measured, 0, False))
         scale = plate_scale(rig, list(coords))
+        self._magnify = magnify if scale_bar else None
+        self._towards_camera, self._up = view_direction(rig, *view), rig.up
         for k in range(2 if side else 1):
             self.plotter.subplot(0, k)
             self._static_plates(rig, set().union(*(c for c, _, v, _ in sets if v == k)), scale, ghost, solid, axes)
@@ -259,14 +294,37 @@ class Scene:
                                    lines=np.column_stack([np.full(n, 2), 2 * np.arange(n), 2 * np.arange(n) + 1]).ravel())
                 self.plotter.add_mesh(mesh, color=self.style.ghost, line_width=1.0, lighting=False)
         if axes:
-            bounds = self._bounds(rig, moving)
-            origin = np.array([bounds[0], bounds[2], bounds[4]]) - 0.25 * scale
-            tips = origin + 0.3 * scale * np.eye(3)
+            # just outside the plates' lower corner nearest the camera (nothing hides it), within
+            # the camera's margin (AXES_ROOM)
+            box = self._bounds(rig, moving).reshape(3, 2)
+            corner_points = np.array([[x, y, z] for x in box[0] for y in box[1] for z in box[2]])
+            up = np.asarray(rig.up, float)
+            lower = corner_points[np.argsort(corner_points @ up)[:4]]
+            corner = lower[np.argmax(lower @ self._towards_camera)]
+            out = corner - box.mean(axis=1)
+            origin = corner + 0.1 * scale * out / max(np.linalg.norm(out), 1e-12)
+            tips = origin + 0.2 * scale * np.eye(3)
             for tip, colour in zip(tips, ((0.8, 0, 0), (0, 0.6, 0), (0, 0, 0.8))):
                 self.plotter.add_mesh(pv.Line(origin, tip), color=colour, line_width=2.0, lighting=False)
             self.plotter.add_point_labels(tips, ["x", "y", "z"], shape=None, show_points=False,
                                           font_size=self.style.font_size, text_color=self.style.text,
                                           always_visible=True)
+            if self._magnify is not None:
+                self._scale_bar(origin, scale)
+
+    def _scale_bar(self, origin: np.ndarray, scale: float) -> None:
+        """A bar along x below the axes whose drawn length is a round amount of motion (mm) times
+        the magnification: the reader's ruler for the plates' excursions."""
+        import pyvista as pv
+
+        real, drawn = scale_bar_length(scale, self._magnify[0])
+        start = origin - 0.08 * scale * np.asarray(self._up, float)
+        end = start + np.array([drawn, 0.0, 0.0])
+        self.plotter.add_mesh(pv.Line(start, end), color=self.style.text, line_width=4.0, lighting=False)
+        label = pv.PolyData(((start + end) / 2 - 0.07 * scale * np.asarray(self._up, float))[None])
+        self.plotter.add_point_labels(label, [f"{_mm(real)} of motion (x{_times(self._magnify[0])})"], shape=None,
+                                      show_points=False, font_size=self.style.font_size - 1,
+                                      text_color=self.style.text, always_visible=True)
 
     def _sensor_marks(self, rig: Rig, coords, magnify) -> None:
         """A dot at every sensor position of a moving body, named (sensors sharing a spot share a label)."""
@@ -282,8 +340,8 @@ class Scene:
             dot = pv.PolyData(series[:1].copy())
             self.plotter.add_mesh(dot, color=self.style.sensor, point_size=9, render_points_as_spheres=True,
                                   lighting=False)
-            self.plotter.add_point_labels(dot, [" ".join(names)], shape=None, show_points=False,
-                                          font_size=self.style.font_size - 3, text_color=self.style.sensor,
+            self.plotter.add_point_labels(dot, [_spot_label(names)], shape=None, show_points=False,
+                                          font_size=self.style.font_size - 1, text_color=self.style.sensor,
                                           always_visible=True)
             self._moving.append((dot, series))
 
@@ -353,8 +411,8 @@ class Scene:
     def _camera(self, rig: Rig, coords, view, parallel: bool, side: bool) -> None:
         bounds = self._bounds(rig, set(coords))
         centre = bounds.reshape(3, 2).mean(1)
-        # room for the magnified motion and the axes beside the plates
-        pad = 0.35 * plate_scale(rig, list(coords))
+        # room for the magnified motion (DEFAULT_EXCURSION of the plate size) and the axes beside the plates
+        pad = AXES_ROOM * plate_scale(rig, list(coords))
         padded = bounds + np.array([-pad, pad] * 3)
         box = np.array([[x, y, z] for x in padded[:2] for y in padded[2:4] for z in padded[4:]])
         direction = view_direction(rig, *view)

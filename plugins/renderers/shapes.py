@@ -111,9 +111,12 @@ def identified_modes(project_path, experiment: str, fmin: float | None, fmax: fl
 
 
 def render_mode_shape(project_path, experiment: str, output, *, mode: int | None = None, fmin=None, fmax=None,
-                      max_order=None, view=None, workers=None, fps=None, progress=True, registries=None):
+                      max_order=None, view=None, workers=None, fps=None, progress=True, registries=None,
+                      reference=None):
     """A movie of mode ``mode`` (1-based) of ``experiment`` on the project's geometry, or with a
-    .uff ``output`` the geometry (15/82) with every mode's node motion (55)."""
+    .uff ``output`` the geometry (15/82) with every mode's node motion (55). ``experiment`` "a,b,c"
+    (names of several experiments): the setups of a roving survey, their modes merged through the
+    ``reference`` channels ("ch,ch"; default: those every setup has) and drawn over all channels."""
     from odsuite.api import open_project, project_geometry
 
     with open_project(project_path, registries=registries) as p:
@@ -121,11 +124,22 @@ def render_mode_shape(project_path, experiment: str, output, *, mode: int | None
         if geom is None:
             raise ConfigError(f"{p.path}: no geometry to draw the mode on; `odsuite import {p.path.name} FILE.toml "
                               "--name geometry` adds one (docs/geometry.md)")
-        if experiment not in p.experiment_names():
-            raise ConfigError(f"{p.path}: no experiment {experiment!r} "
-                              f"(experiments: {', '.join(p.experiment_names()) or 'none'})")
-    res = identified_modes(project_path, experiment, fmin, fmax, max_order)
-    names = list(res.output_names)
+        setups = [experiment] if experiment in p.experiment_names() else [e.strip() for e in experiment.split(",")]
+        for e in setups:
+            if e not in p.experiment_names():
+                raise ConfigError(f"{p.path}: no experiment {e!r} "
+                                  f"(experiments: {', '.join(p.experiment_names()) or 'none'})")
+    if len(setups) > 1:
+        from odsuite.api import project_setups_modes
+
+        band = None if fmin is None and fmax is None else (fmin, fmax)
+        refs = None if reference is None else [c.strip() for c in reference.split(",") if c.strip()]
+        res = project_setups_modes(project_path, setups, references=refs, f_band=band,
+                                   **({} if max_order is None else {"max_order": max_order}))
+        names, label = list(res.channels), f"setups {', '.join(setups)} merged"
+    else:
+        res = identified_modes(project_path, experiment, fmin, fmax, max_order)
+        names, label = list(res.output_names), experiment
     out = Path(output)
     if out.suffix.lower() in (".uff", ".unv"):
         from odsuite.contracts.importers import exporter
@@ -133,9 +147,11 @@ def render_mode_shape(project_path, experiment: str, output, *, mode: int | None
 
         modes = [(float(f), float(z), geom.node_motion(dict(zip(names, res.shapes[:, k]))))
                  for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio))]
-        exporter((registries or installed()).importers, "geometry").export_file(project_path, out, experiment,
+        exporter((registries or installed()).importers, "geometry").export_file(project_path, out, setups[0],
                                                                               modes=modes)
         return out, len(modes), []
+    if out.suffix.lower() in (".html", ".htm"):
+        return _mode_page(geom, res, names, label, out), len(res.frequency_hz), []
     n = len(res.frequency_hz)
     if mode is None or not 1 <= mode <= n:
         listed = ", ".join(f"{k + 1}: {f:.3f} Hz" for k, f in enumerate(res.frequency_hz))
@@ -143,8 +159,28 @@ def render_mode_shape(project_path, experiment: str, output, *, mode: int | None
     k = mode - 1
     f, z = float(res.frequency_hz[k]), float(res.damping_ratio[k])
     movie = render_shape_movie(geom, dict(zip(names, res.shapes[:, k])), f, out,
-                               title=f"{experiment}: mode {mode} of {n}, {f:.3f} Hz, damping {100 * z:.2f} %",
+                               title=f"{label}: mode {mode} of {n}, {f:.3f} Hz, damping {100 * z:.2f} %",
                                what=f"mode shape {mode}", view=_view(view), workers=workers, fps=fps,
                                progress=progress)
     return movie, n, [f"{name} not on geometry {geom.name!r}: not drawn" for name in names
                       if name not in set(geom.channels)]
+
+
+def _mode_page(geom: Geometry, res, names: list[str], label: str, out: Path) -> Path:
+    """A self-contained page with the interactive 3-D view of every mode on the geometry."""
+    import html
+
+    from odsuite.api import mpc, write_output
+
+    from .mode_view import geometry_modes, mode_label, mode_view_data, mode_view_html
+
+    kind = "merged OMA" if hasattr(res, "channels") else "OMA"
+    labels = [mode_label(kind, label, k + 1, f, z, mpc(res.shapes[:, k]))
+              for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio))]
+    nodes, lines, modes, fixed, sensors = geometry_modes(geom, names, res.shapes, labels)
+    body = mode_view_html(mode_view_data(nodes, lines, modes, fixed=fixed, sensors=sensors))
+    text = (f'<!DOCTYPE html><html><head><meta charset="utf-8"><title>{html.escape(label)}: mode shapes</title>'
+            f'</head><body><h1>{html.escape(label)}: mode shapes on {html.escape(geom.name)}</h1>{body}</body></html>')
+    data = text.encode("utf-8")
+    write_output(out, len(data), lambda tmp: tmp.write_bytes(data))
+    return out

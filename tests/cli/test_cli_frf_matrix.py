@@ -76,4 +76,6 @@ def test_matrix_needs_distinct_experiments_and_output_only_one(roving, capsys):
     assert main(["modes", str(roving), "--experiment", "hit1", "--experiment", "hit1"]) == 1
     assert "an experiment is named twice in hit1, hit1" in capsys.readouterr().err
     assert main(["modes", str(roving), "--experiment", "hit1", "--experiment", "hit2", "--output-only"]) == 1
-    assert "--output-only identifies modes of one record: give one --experiment" in capsys.readouterr().err
+    # several --output-only records are setups merged through reference channels: the same
+    # channels in both leave nothing roving (docs/modal.md)
+    assert "setup 'hit1' has only the reference channels" in capsys.readouterr().err

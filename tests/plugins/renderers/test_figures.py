@@ -116,3 +116,46 @@ def test_residual_spectrum_peaks_at_the_unmodelled_frequency(tmp_path):
     f, measured_a = ax_a.lines[0].get_xydata().T
     assert f[np.argmax(measured_a)] == pytest.approx(120, abs=fs / 2048)
     assert ax_a.lines[1].get_ydata().max() < 1e-20  # channel 1 fits exactly
+
+
+@pytest.mark.parametrize("kind", ["comparison", "spectra"])
+def test_many_panel_figures_keep_every_label_inside_and_apart(kind, tmp_path):
+    """The fixed margins that replace constrained layout on many-panel figures leave every label
+    on the figure, clear of the neighbouring panels, with the widest labels these figures draw
+    (five-character ticks, '(m/s²)²/Hz' over eleven decades)."""
+    rng = np.random.default_rng(3)
+    fs, n, k = 2048.0, 4096, 18
+    t = np.arange(n) / fs
+    measured = rng.standard_normal((n, k)) * np.logspace(-5, 0, k) * 999.0  # peaks up to -999 in [m/s²]
+    measured[:, 0] += 1e-8 * np.sin(2 * np.pi * 40 * t)  # a channel whose residual is ~1e-20
+    model = measured + 1e-3 * rng.standard_normal((n, k))
+    names, units = [f"M{j}_z" for j in range(k)], ["m/s^2"] * k
+    if kind == "comparison":
+        res = comparison_figure(t, measured, model, tmp_path / "c.png", names=names, units=units, title="H1: x",
+                                dpi=90, window=(0.1, 0.16))
+    else:
+        res = residual_spectra_figure(fs, measured, model, tmp_path / "s.png", names=names, units=units,
+                                      title="H1: spectra", dpi=90)
+    fig = res.figure
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    width, height = fig.bbox.width, fig.bbox.height
+    panels = [ax for ax in fig.axes if ax.get_visible()]
+    # every panel with its drawn tick labels, axis labels and title, the title and the legend
+    boxes = [ax.get_tightbbox(renderer) for ax in panels] + [leg.get_window_extent(renderer) for leg in fig.legends]
+    if fig._suptitle is not None:
+        boxes.append(fig._suptitle.get_window_extent(renderer))
+    for box in boxes:
+        assert box.x0 >= -0.5 and box.x1 <= width + 0.5 and box.y0 >= -0.5 and box.y1 <= height + 0.5, box
+    for leg in fig.legends:  # the legend under the panels
+        assert leg.get_window_extent(renderer).y1 <= min(ax.get_tightbbox(renderer).y0 for ax in panels) + 0.5
+    for ax in panels:  # a panel's y label and tick labels stay clear of the panel to its left
+        left = [o for o in panels if o.get_position().x1 < ax.get_position().x0
+                and abs(o.get_position().y0 - ax.get_position().y0) < 1e-6]
+        if not left:
+            continue
+        edge = max(o.get_window_extent(renderer).x1 for o in left)
+        assert ax.yaxis.get_tightbbox(renderer).x0 > edge
+    if fig._suptitle is not None:  # the title above every panel
+        top = max(ax.get_tightbbox(renderer).y1 for ax in panels)
+        assert fig._suptitle.get_window_extent(renderer).y0 >= top

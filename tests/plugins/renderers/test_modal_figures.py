@@ -49,6 +49,44 @@ def test_frf_figure_log_frequency_axes_units_and_print_type(tmp_path):
     assert (tmp_path / "frf.png").stat().st_size > 0
 
 
+def test_frf_figure_draws_the_models_frf_and_phase_only_where_coherence_is_good(tmp_path):
+    """The measured FRF is a closed-form SDOF accelerance (m = 2 kg, k = 8e5 N/m, ζ = 2 %), the
+    model's the same with k 10 % lower: the model's line is its magnitude and phase; the measured
+    phase is left out (NaN, shaded) where the coherence is below 0.8 and drawn where it is not."""
+    from odsuite.analysis.frf import FrfSet
+    from odsuite_plugins.renderers.modal_figures import COHERENCE_GOOD, frf_figure
+
+    m, zeta = 2.0, 0.02
+    f = np.linspace(0.0, 1000.0, 2001)
+    w = 2 * np.pi * f
+
+    def sdof(k):
+        return -(w**2) / (k - m * w**2 + 2j * zeta * np.sqrt(k * m) * w)
+
+    h, h_model = sdof(8e5), sdof(7.2e5)
+    coherence = np.where((f > 300.0) & (f < 500.0), 0.5, 0.99)
+    frf = FrfSet(f, h[None, :], coherence[None, :], "H1", ["(m/s^2)/N"], ["a1"], 5)
+    fig = frf_figure(frf, tmp_path / "frf.png", model_H={"a1": h_model}, size=(6.5, 5.2), dpi=90)
+    mag, phase, coh = fig.axes
+    model = [ln for ln in mag.lines if ln.get_label() == "model"]
+    assert len(model) == 1 and np.allclose(model[0].get_ydata(), np.abs(h_model[1:]))
+    def same_angle(deg, z):  # equal up to whole turns (the drawn phase is centred where it sits)
+        return np.allclose(np.exp(1j * np.radians(deg)), z / np.abs(z))
+
+    assert same_angle(phase.lines[1].get_ydata(), h_model[1:])
+    measured_phase = phase.lines[0].get_ydata()
+    bad = coherence[1:] < COHERENCE_GOOD
+    assert np.all(np.isnan(measured_phase[bad]))
+    assert same_angle(measured_phase[~bad], h[1:][~bad])
+    # centred where the phase sits: the SDOF's -180 to 0 deg sweep (it starts at the +-180 deg
+    # seam) is one line with no jump of a turn, within the axis
+    model_phase = phase.lines[1].get_ydata()
+    assert np.nanmax(np.abs(np.diff(model_phase))) < 90
+    lo, hi = phase.get_ylim()
+    assert lo <= np.nanmin(model_phase) and np.nanmax(model_phase) <= hi and hi - lo == pytest.approx(370.0)
+    assert phase.patches  # the left-out lines are shaded
+
+
 @pytest.fixture(scope="module")
 def sim_project(tmp_path_factory):
     """One simulated hit (T1) on the thesis rig: revision 0 and its noise floor."""

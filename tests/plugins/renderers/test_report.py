@@ -165,8 +165,9 @@ def test_report_is_self_contained(story):
     path, *_, result = story
     page = parse(result.path)
     assert 0 < result.size_bytes < 10 * 2**20
-    # the 3-D view's script is inline; nothing is fetched: links are in-page, sources data URIs
-    assert page.scripts == 2 and page.script_sources == []
+    # the two 3-D views' scripts (the recorded motion and the measured mode shapes, each its data
+    # and its code) are inline; nothing is fetched: links are in-page, sources data URIs
+    assert page.scripts == 4 and page.script_sources == []
     assert all(u.startswith(("#", "data:video/mp4;base64,")) for u in page.urls), [u[:40] for u in page.urls]
     kinds = []
     for src in page.images:
@@ -174,11 +175,16 @@ def test_report_is_self_contained(story):
         assert m, src[:60]
         with Image.open(io.BytesIO(base64.b64decode(m.group(2)))) as im:
             kinds.append((im.format, getattr(im, "n_frames", 1), im.size))
-    # three experiments x (coordinates + channels), two heat maps, residual spectra, history, movie,
-    # each hammer record's FRF and the MAC of each record with measured modes
+    # three experiments x (coordinates + channels), the channels around the hit in the experiment of
+    # the strongest band above its floor (which sets the first views' window), two heat maps, residual spectra,
+    # history, movie, each hammer record's FRF and stabilisation diagram and the MAC of each record
+    # with measured modes
     with open_project(path) as p:
         records = compare(p).modal_records
-    assert sum(k[0] == "PNG" for k in kinds) == 3 * 2 + 2 + 1 + 1 + len(records) + sum(r.mac is not None for r in records)
+    hit_views = 1 if "The model fails most in" in result.path.read_text() else 0
+    diagrams = sum(r.modes is not None and r.modes.diagram is not None for r in records)
+    assert sum(k[0] == "PNG" for k in kinds) == (3 * 2 + hit_views + 2 + 1 + 1 + len(records) + diagrams
+                                                 + sum(r.mac is not None for r in records))
     gif = [k for k in kinds if k[0] == "GIF"]
     assert len(gif) == 1 and gif[0][1] > 30 and gif[0][2] == (640, 360)
     assert result.movie_experiment in ("T1", "T3", "T5")
@@ -393,6 +399,27 @@ def test_frf_channel_that_no_record_has_is_one_line(story, tmp_path):
     with pytest.raises(ConfigError, match=r"--frf-channel 'nope': experiment 'T1' has no such response channel"):
         build_report(path, tmp_path / "r.html", run_diagnosis=False, movie=False, frf_channels=["nope"])
     assert not (tmp_path / "r.html").exists()
+
+
+def test_a_table_without_rows_is_one_sentence():
+    """No table prints its header with no rows: the sentence saying why stands in its place."""
+    from odsuite_plugins.renderers.report import _table
+
+    none = _table(["frequency [Hz]"], [], id="peaks", caption="peaks", empty="No peak stands above the floor.")
+    assert "<table" not in none and "No peak stands above the floor." in none
+    assert "<table" not in _table(["a"], [], caption="peaks") and "peaks: none." in _table(["a"], [], caption="peaks")
+    assert _table(["a"], [[1]], id="t").count("<tr>") == 2
+
+
+@pytest.mark.slow
+def test_report_has_no_empty_table_and_draws_the_models_frf(story):
+    """Every table of the page has a row under its header; each FRF figure has the model's line."""
+    *_, result = story
+    page = parse(result.path)
+    assert page.tables and all(len(rows) >= 2 for rows in page.tables.values())
+    text = result.path.read_text()
+    assert text.count("black dashed: the model&#x27;s FRF") == text.count("FRF of the driving point") > 0
+    assert text.count(": poles of every model order in the fit band") > 0  # the stabilisation diagrams
 
 
 def test_diagnosis_not_finite_reads_as_null(tmp_path):

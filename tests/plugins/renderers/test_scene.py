@@ -145,3 +145,18 @@ def test_bad_coordinates_are_named(thesis_rig):
     with pytest.raises(ConfigError, match="layout"):
         Scene(thesis_rig, {"platform": np.zeros((4, 6))}, model_coords={"platform": np.zeros((4, 6))},
               layout="stacked")
+
+
+def test_scale_bar_is_a_round_amount_of_motion_a_tenth_of_the_plate_long():
+    """The bar's real length is 1, 2 or 5 x 10^k m; magnified, it is within a factor sqrt(2.5) of a
+    tenth of the plate (the 1-2-5 steps' largest gap on a log scale); and its label says mm."""
+    from odsuite_plugins.renderers.scene import _mm, _spot_label, scale_bar_length
+
+    for scale, magnify in ((0.6, 3828.0), (0.4, 1.0), (1.2, 57.3), (0.3, 2.4e5)):
+        real, drawn = scale_bar_length(scale, magnify)
+        mantissa = real / 10.0 ** np.floor(np.log10(real) + 1e-9)
+        assert min(abs(mantissa - m) for m in (1.0, 2.0, 5.0)) < 1e-9
+        assert drawn == pytest.approx(real * magnify)
+        assert 1 / np.sqrt(2.5) <= drawn / (0.1 * scale) <= np.sqrt(2.5)
+    assert scale_bar_length(0.6, 3828.0)[0] == pytest.approx(2e-5) and _mm(2e-5) == "0.02 mm"
+    assert _spot_label(["P1_x", "P1_y", "P1_z"]) == "P1_xyz" and _spot_label(["a", "b"]) == "a b"

@@ -1,0 +1,46 @@
+"""A revision's error is stored by the writing commands with a stamp of the records it was
+computed on, read back by `info` and `history` while those records are unchanged, and computed
+again (the same number `compare` gives) once they change."""
+
+from __future__ import annotations
+
+import json
+
+from odsuite.analysis.history import data_stamp
+from odsuite.cli import main
+from odsuite.store.project import open_project
+
+
+def _json(capsys, *args) -> dict:
+    assert main([str(a) for a in args]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def test_process_stores_the_error_compare_gives_until_the_records_change(tmp_path, capsys):
+    p = tmp_path / "p.h5"
+    for argv in (["new", p], ["acquire", p, "--daq", "sim", "--name", "T1", "--scenario", "T1", "--seed", "1",
+                              "--samples", "2048"]):
+        assert main([str(a) for a in argv]) == 0
+    capsys.readouterr()
+    processed = _json(capsys, "process", p, "--json")
+    assert processed["experiments"]["T1"]["datasets"] and processed["revision"] == 0
+    with open_project(p) as proj:
+        metrics = proj.model_revisions()[0]["metrics"]
+        assert metrics["data_stamp"] == data_stamp(proj)
+    compared = _json(capsys, "compare", p, "--json")
+    assert metrics["error"] == compared["error"] == processed["error"] > 0
+    assert metrics["noise_floor_error"] == compared["noise_floor_error"] > 0
+    info = _json(capsys, "info", p, "--json")
+    assert info["model_revisions"][0]["error"] == metrics["error"]
+
+    # a second record: the stored error no longer holds; both readers compute the new one
+    assert main([str(a) for a in ["acquire", p, "--daq", "sim", "--name", "T2", "--scenario", "T2", "--seed", "2",
+                                  "--samples", "2048"]]) == 0
+    capsys.readouterr()
+    compared = _json(capsys, "compare", p, "--json")
+    hist = _json(capsys, "history", p, "--json")
+    info = _json(capsys, "info", p, "--json")
+    assert compared["error"] != metrics["error"]
+    assert hist["revisions"][0]["error"] == info["model_revisions"][0]["error"] == compared["error"]
+    with open_project(p) as proj:  # reading never writes
+        assert proj.model_revisions()[0]["metrics"] == metrics

@@ -1,0 +1,58 @@
+"""Suspension modes (the bodies together on their mounts) told from modes that deform the assembly,
+checked against the physics that defines them: stiffening the mounts between the bodies moves the
+second kind and leaves the first nearly where it was."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from odsuite_plugins.renderers.mode_kinds import mode_words, suspension_modes
+
+RIG = Path(__file__).resolve().parents[3] / "examples" / "rigs" / "plate-and-motor.toml"
+
+
+def _model(rig):
+    from odsuite.analysis.modelrev import base_model
+    from odsuite.contracts.plugins import build_registries, default_manager
+
+    return base_model(rig, registries=build_registries(default_manager()))
+
+
+def test_suspension_modes_are_those_the_inner_mounts_do_not_move():
+    from odsuite.contracts.plugins import build_registries, default_manager
+    from odsuite.domain.rig import load_rig
+
+    rig = load_rig(RIG, build_registries(default_manager()).sensor_types)
+    flags = suspension_modes(_model(rig))
+    # the same rig with the motor's mounts (between the bodies) ten times stiffer
+    stiff = dataclasses.replace(rig, springs=tuple(
+        dataclasses.replace(s, stiffness=10 * np.asarray(s.stiffness)) if s.group == "stiff" else s
+        for s in rig.springs))
+    before = _model(rig).modes().frequency_hz
+    after = _model(stiff).modes().frequency_hz
+    moved = np.abs(after - before) / before > 0.5  # sqrt(10) for a mode the inner mounts carry
+    assert flags is not None and flags.sum() == 6  # one rigid assembly on the floor: six modes
+    assert np.array_equal(flags, ~moved)
+    words = mode_words(before, flags)
+    assert "suspension" in words and f"{before[0]:.1f}" in words.split(";")[0]
+
+
+def test_report_names_the_suspension_modes_a_record_did_not_identify():
+    """Measured modes at the model's two highest suspension modes (within 10 %): the sentence names
+    the other four and not those; all six measured: no sentence."""
+    from types import SimpleNamespace
+
+    from odsuite.contracts.plugins import build_registries, default_manager
+    from odsuite.domain.rig import load_rig
+    from odsuite_plugins.renderers.report import _missed_suspension_html
+
+    model = _model(load_rig(RIG, build_registries(default_manager()).sensor_types))
+    f = model.modes().frequency_hz
+    sus = f[suspension_modes(model)]
+    rec = SimpleNamespace(band_hz=(1.0, 900.0), measured_hz=np.array([1.05 * sus[-2], 0.95 * sus[-1], f[-1]]))
+    text = _missed_suspension_html(rec, model)
+    assert all(f"{v:.1f}" in text for v in sus[:-2]) and not any(f"{v:.1f}" in text for v in sus[-2:])
+    assert _missed_suspension_html(SimpleNamespace(band_hz=(1.0, 900.0), measured_hz=sus), model) == ""
