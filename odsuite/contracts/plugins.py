@@ -18,6 +18,7 @@ import pluggy
 from odsuite.contracts import hookspecs
 from odsuite.domain.errors import PluginConflictError, PluginLoadError
 from odsuite.contracts.registry import Contract, Registry, Source
+from odsuite.contracts.timebound import PluginTimeout, plugin_seconds, time_bound
 
 ENTRY_POINT_GROUP = "odsuite"
 REQUIRED_BUILTINS = ("beam", "daq_ni", "daq_sim", "demo", "filters", "gencoord_padgaonkar", "importers", "models", "renderers")
@@ -121,6 +122,7 @@ def _load_entry_points(pm: PluginManager, blocked: set[str]) -> None:
     (pluggy would otherwise keep whichever it met first, and a stale or foreign package could
     silently stand in for a built-in)."""
     declared: dict[str, tuple[importlib.metadata.EntryPoint, str]] = {}
+    seconds = plugin_seconds()
     for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
         dist = ep.dist.name if ep.dist is not None else "?"
         seen = declared.get(ep.name)
@@ -137,12 +139,13 @@ def _load_entry_points(pm: PluginManager, blocked: set[str]) -> None:
         pm.sources[name] = Source(name, dist, ep.dist.version if ep.dist is not None else "?")
         try:
             # what a plugin prints at import is not odsuite's output (it would break --json)
-            with contextlib.redirect_stdout(io.StringIO()):
+            # a third-party plugin's import is time-bounded (an endless loop is left out, not a hang)
+            with contextlib.redirect_stdout(io.StringIO()), time_bound(seconds if pm.third_party(name) else 0):
                 plugin = ep.load()
             pm.register(plugin, name=name)
         # a broken third-party plugin names itself and is left out; sys.exit or a KeyboardInterrupt
         # raised by its own code too (a real Ctrl-C is the command line's own exception)
-        except (Exception, SystemExit, KeyboardInterrupt) as exc:
+        except (Exception, SystemExit, KeyboardInterrupt, PluginTimeout) as exc:
             if not pm.third_party(name):
                 raise PluginLoadError(f"plugin {name!r} ({ep.value}, distribution {dist!r}) failed to load: "
                                       f"{type(exc).__name__}: {exc}") from exc
@@ -180,8 +183,10 @@ def build_registries(pm: PluginManager) -> Registries:
             if impl.plugin_name in getattr(pm, "failures", {}):
                 continue
             try:
-                call(registry=registry.for_plugin(pm.source(impl.plugin_name), context))
-            except Exception as exc:  # noqa: BLE001 - a third-party hook that raises is left out
+                third = isinstance(pm, PluginManager) and pm.third_party(impl.plugin_name)
+                with time_bound(plugin_seconds() if third else 0):
+                    call(registry=registry.for_plugin(pm.source(impl.plugin_name), context))
+            except (Exception, PluginTimeout) as exc:  # noqa: BLE001 - a third-party hook that raises is left out
                 if not (isinstance(pm, PluginManager) and pm.third_party(impl.plugin_name)):
                     raise
                 pm.leave_out(impl.plugin_name, exc, f"in its hook {hook_name}")

@@ -9,6 +9,8 @@ platform's centre of mass G at rest, platform axes, z pointing down into the pla
 from __future__ import annotations
 
 import difflib
+import functools
+import math
 import os
 import stat
 import tomllib
@@ -199,13 +201,29 @@ class Rig:
         raise ConfigError(f"rig {self.name!r}: no body named {name!r}")
 
     def sensor(self, name: str) -> Sensor:
+        found = self._sensor_by_name.get(name)
+        if found is None:
+            raise ConfigError(f"rig {self.name!r}: no sensor named {name!r}")
+        return found
+
+    @functools.cached_property
+    def _sensor_by_name(self) -> dict[str, Sensor]:
+        """The first sensor of each name, found once (a walk per lookup was quadratic: 4,000 sensors)."""
+        out: dict[str, Sensor] = {}
         for s in self.sensors:
-            if s.name == name:
-                return s
-        raise ConfigError(f"rig {self.name!r}: no sensor named {name!r}")
+            out.setdefault(s.name, s)
+        return out
 
     def sensor_on_channel(self, channel: int) -> Sensor | None:
-        return next((s for s in self.sensors if s.channel == channel), None)
+        return self._sensor_by_channel.get(channel)
+
+    @functools.cached_property
+    def _sensor_by_channel(self) -> dict[int, Sensor]:
+        """The first sensor on each channel, found once (a walk per lookup was quadratic: 4,000 channels)."""
+        out: dict[int, Sensor] = {}
+        for s in self.sensors:
+            out.setdefault(s.channel, s)
+        return out
 
     @property
     def moving_bodies(self) -> tuple[Body, ...]:
@@ -306,15 +324,27 @@ def _depth(value: Any, limit: int, level: int = 0) -> int:
     return max((_depth(v, limit, level + 1) for v in items), default=level + 1)
 
 
+def _floats(value: Any) -> np.ndarray | None:
+    """A TOML list as floats; None when it is no list or holds an integer beyond a float (10**400)."""
+    try:
+        return np.asarray(value, dtype=float) if isinstance(value, list) else None
+    except (OverflowError, TypeError, ValueError):
+        return None
+
+
 def _vector(where: str, value: Any, n: int = 3) -> np.ndarray:
-    arr = np.asarray(value, dtype=float) if isinstance(value, list) else None
+    arr = _floats(value)
     if arr is None or arr.shape != (n,) or not np.all(np.isfinite(arr)):
         raise ConfigError(f"{where}: expected {n} finite numbers, got {value!r}")
     return arr
 
 
 def _number(where: str, value: Any, *, positive: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+    try:  # math, not numpy: an integer beyond int64 (10**41) is no numpy number
+        finite = not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+    except OverflowError:  # an integer beyond a float (10**400)
+        finite = False
+    if not finite:
         raise ConfigError(f"{where}: expected a finite number, got {value!r}")
     if positive and value <= 0:
         raise ConfigError(f"{where}: must be > 0, got {value!r}")
@@ -600,7 +630,7 @@ def _coefficients(where: str, value: Any, default: Any = None) -> np.ndarray:
     semi-definite (a negative stiffness or damping is not a spring)."""
     if value is None:
         value = default
-    arr = np.asarray(value, dtype=float) if isinstance(value, list) else None
+    arr = _floats(value)
     try:
         ok = arr is not None and arr.shape in ((3,), (3, 3)) and bool(np.all(np.isfinite(arr)))
     except (TypeError, ValueError):
@@ -712,6 +742,8 @@ def single_axis_sensor(entry: dict[str, Any], where: str, *, kind: str, quantity
     channel = entry.get("channel") if channel is None else channel
     if not isinstance(channel, int) or isinstance(channel, bool) or channel < 0:
         raise ConfigError(f"{where} field 'channel': expected a channel index >= 0, got {channel!r}")
+    if channel >= MAX_CHANNELS:  # else the rig loads and the project stored with it does not
+        raise ConfigError(f"{where} field 'channel': expected a channel index below {MAX_CHANNELS}, got {channel!r}")
     sensitivity = entry.get("sensitivity") if sensitivity is None else sensitivity
     uff_node = entry.get("uff_node")
     if uff_node is not None:

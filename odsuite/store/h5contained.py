@@ -1,5 +1,6 @@
 """The check that a project file holds only itself: no external links, soft links, external
-storage or virtual datasets, any of which would make HDF5 read another file when an object is read."""
+storage or virtual datasets, any of which would make HDF5 read another file when an object is read,
+and no object under two names (hard links), which every walk over the file would read once per name."""
 
 from __future__ import annotations
 
@@ -44,8 +45,16 @@ def refuse_outside(f: h5py.File, where: Path) -> None:
     reaches outside it: one ProjectFileError line naming the object."""
     found: list[str] = []
     failed: list[Exception] = []
+    twice: list[str] = []
+    names: dict[int, bytes] = {}  # object address -> its first name
 
     def visit(name: bytes, info) -> int | None:
+        if info.type == h5py.h5l.TYPE_HARD:
+            first = names.setdefault(info.u, name)
+            if first != name:  # odsuite writes one name per object; a second name would be read twice
+                twice.append(f"{name.decode('utf-8', 'replace')!r} names the same object as "
+                             f"{first.decode('utf-8', 'replace')!r} (a second hard link)")
+                return 1
         try:
             why = _outside(f, name, info)
         except Exception as exc:  # noqa: BLE001 - damaged metadata: raised below, unwrapped by h5py
@@ -61,3 +70,5 @@ def refuse_outside(f: h5py.File, where: Path) -> None:
         raise failed[0]
     if found:
         raise ReachesOutsideError(f"{where}: refused: {found[0]}; an odsuite project holds only itself")
+    if twice:
+        raise ProjectFileError(f"{where}: refused: {twice[0]}; an odsuite project names each object once")

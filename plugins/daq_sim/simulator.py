@@ -299,9 +299,10 @@ class SimulatedRig:
         all_chains = _record_chains(rig, systeminfo, chains, noise, adc_bits, true_sensitivity)
         raw = np.empty((n, rig.channel_count))
         clipped: dict[int, int] = {}
+        column = _sensor_columns(sensors)
         for ch in range(rig.channel_count):
             chain = all_chains[ch]
-            idx = next((i for i, s in enumerate(sensors) if s.channel == ch), None)
+            idx = column.get(ch)
             quantity = acc[:, idx] if idx is not None else np.zeros(n_fine)
             volts = run_analog(chain, quantity, fine)[::oversample][lead:]
             volts = volts + adc_input_disturbances(chain, n, fs, rng)
@@ -420,6 +421,15 @@ def _scaled_hits(hits, sc, force_peak, contact_ms) -> list[Hit]:
     return hits
 
 
+def _sensor_columns(sensors) -> dict[int, int]:
+    """Each channel's (first) sensor's column of the truth's output, found once (a search per
+    channel was quadratic: 4,000 sensors)."""
+    column: dict[int, int] = {}
+    for i, s in enumerate(sensors):
+        column.setdefault(s.channel, i)
+    return column
+
+
 def _struck_stream(rig, settings, hits, truth, all_chains, point, direction, force_body, oversample, rng):
     """Every channel's voltage over a stream long enough for the pre-trigger buffer, the hits and a
     late trigger (V, samples x channels), and the force at the fine rate (N)."""
@@ -439,12 +449,13 @@ def _struck_stream(rig, settings, hits, truth, all_chains, point, direction, for
     if acc.shape != (force.size, len(sensors)):
         raise HardwareError(f"simulator: the truth model returned shape {acc.shape}, expected {(force.size, len(sensors))}")
     volts = np.empty((n_stream, rig.channel_count))
+    column = _sensor_columns(sensors)
     for ch in range(rig.channel_count):
         chain = all_chains[ch]
         if ch == rig.force_channel:
             quantity = force
         else:
-            idx = next((i for i, s in enumerate(sensors) if s.channel == ch), None)
+            idx = column.get(ch)
             quantity = acc[:, idx] if idx is not None else np.zeros_like(force)
         analog = run_analog(chain, quantity, fine)[::oversample]
         volts[:, ch] = analog + adc_input_disturbances(chain, n_stream, fs, rng)

@@ -184,7 +184,8 @@ class LeastSquares:
 
     def suitability(self, rig: Rig, body: Body, sensors) -> float | None:
         """1 when the named sensors of ``body`` determine all its coordinates."""
-        names = tuple(s.name for s in body_sensors(rig, body) if s.name in set(sensors))
+        wanted = set(sensors)  # built once: inside the loop it made 4,000 sensors quadratic
+        names = tuple(s.name for s in body_sensors(rig, body) if s.name in wanted)
         try:
             self.matrix(rig, body, names)
         except ConfigError:

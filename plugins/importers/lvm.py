@@ -94,9 +94,21 @@ def _snap_delta_x(text: str, value: float) -> float:
     return value
 
 
-def read_lvm(path: str | Path) -> LvmData:
-    """Read a LabVIEW ``.lvm`` text file (Writer_Version 0.92 to 2, one or more segments)."""
-    path = Path(path)
+@dataclass
+class _Block:
+    """What the segments of an ``.lvm`` file hold: the (last) channel header's fields, the column
+    names, the value and time rows and where each segment starts."""
+
+    channel_header: dict[str, list[str]] = field(default_factory=dict)
+    names: list[str] | None = None
+    rows: list[list[float]] = field(default_factory=list)
+    times: list[list[float]] = field(default_factory=list)
+    segment_starts: list[int] = field(default_factory=list)
+    n_channels: int = 0
+
+
+def _lines(path: Path) -> list[str]:
+    """The file's lines, refused when it is no ``.lvm`` file (first line)."""
     check_text_file(path, "LabVIEW (.lvm)")
     try:
         text = path.read_bytes().decode("latin-1")
@@ -106,7 +118,11 @@ def read_lvm(path: str | Path) -> LvmData:
     if not lines or not lines[0].startswith("LabVIEW Measurement"):
         first = lines[0][:40] if lines else ""
         raise ConfigError(f"{path}: line 1 is {first!r}, not 'LabVIEW Measurement' (not an .lvm file)")
+    return lines
 
+
+def _file_header(path: Path, lines: list[str]) -> tuple[dict[str, str], int]:
+    """The file header's fields and the index of the line after its ``***End_of_Header***``."""
     header: dict[str, str] = {}
     i = 1
     while i < len(lines) and not lines[i].startswith(END_OF_HEADER):
@@ -116,6 +132,11 @@ def read_lvm(path: str | Path) -> LvmData:
         i += 1
     if i >= len(lines):
         raise ConfigError(f"{path}: file header has no {END_OF_HEADER} line")
+    return header, i + 1
+
+
+def _layout(path: Path, header: dict[str, str]) -> tuple[str, str, str]:
+    """The field separator, decimal separator and X_Columns the file header declares."""
     sep_name = header.get("Separator", "Tab")
     sep = _SEPARATORS.get(sep_name.lower())
     if sep is None:
@@ -124,27 +145,48 @@ def read_lvm(path: str | Path) -> LvmData:
     x_columns = header.get("X_Columns", "One")
     if x_columns not in ("No", "One", "Multi"):
         raise ConfigError(f"{path}: header field X_Columns has unknown value {x_columns!r}")
-    i += 1
+    return sep, decimal, x_columns
 
-    def number(field_text: str, lineno: int, what: str) -> float:
-        s = field_text.strip()
-        if decimal != ".":
-            s = s.replace(decimal, ".")
-        try:
-            return float(s) if s else float("nan")
-        except ValueError:
-            raise ConfigError(f"{path}: line {lineno}, {what}: {field_text!r} is not a number") from None
 
-    channel_header: dict[str, list[str]] = {}
-    names: list[str] | None = None
-    rows: list[list[float]] = []
-    times: list[list[float]] = []
-    segment_starts: list[int] = []
-    n_channels = 0
+def _number(path: Path, decimal: str, field_text: str, lineno: int, what: str) -> float:
+    """One cell's value (NaN when empty); LabVIEW writes no digit groups, so ``1_000`` (which
+    Python's float() reads as 1000) is no number either."""
+    s = field_text.strip()
+    if decimal != ".":
+        s = s.replace(decimal, ".")
+    try:
+        if "_" in s:
+            raise ValueError(s)
+        return float(s) if s else float("nan")
+    except ValueError:
+        raise ConfigError(f"{path}: line {lineno}, {what}: {field_text[:40]!r} is not a number") from None
+
+
+def _segment_columns(path: Path, block: _Block, x_columns: str, lineno: int) -> tuple[list[int], list[int]]:
+    """At a segment header's end: the value and time columns of its channels."""
+    if "Channels" not in block.channel_header:
+        raise ConfigError(f"{path}: line {lineno}: segment header without 'Channels'")
+    try:
+        n_channels = int(block.channel_header["Channels"][0])
+    except ValueError:
+        raise ConfigError(f"{path}: field Channels is {block.channel_header['Channels'][0]!r}, not an integer") from None
+    if not 1 <= n_channels <= MAX_CHANNELS:
+        raise ConfigError(f"{path}: line {lineno}: field Channels is {n_channels}; it must be from 1 to {MAX_CHANNELS}")
+    block.n_channels = n_channels
+    step = 2 if x_columns == "Multi" else 1
+    # column 0 is the (possibly empty) X column; Multi interleaves time and value
+    value_cols = [1 + step * k for k in range(n_channels)]
+    time_cols = [0] * n_channels if x_columns == "One" else [v - 1 for v in value_cols]
+    return value_cols, time_cols
+
+
+def _data_block(path: Path, lines: list[str], start: int, sep: str, decimal: str, x_columns: str) -> _Block:
+    """The segments from line index ``start`` on: channel headers, column names and data rows."""
+    block = _Block()
     value_cols: list[int] = []
     time_cols: list[int] = []
     in_data = False
-    for lineno in range(i + 1, len(lines) + 1):
+    for lineno in range(start + 1, len(lines) + 1):
         line = lines[lineno - 1]
         if not line.strip(sep + " \r"):
             continue
@@ -153,74 +195,80 @@ def read_lvm(path: str | Path) -> LvmData:
             if fields[0] == "Channels" and in_data:
                 in_data = False  # a new segment header
             if line.startswith(END_OF_HEADER):
-                if "Channels" not in channel_header:
-                    raise ConfigError(f"{path}: line {lineno}: segment header without 'Channels'")
-                try:
-                    n_channels = int(channel_header["Channels"][0])
-                except ValueError:
-                    raise ConfigError(
-                        f"{path}: field Channels is {channel_header['Channels'][0]!r}, not an integer"
-                    ) from None
-                if not 1 <= n_channels <= MAX_CHANNELS:
-                    raise ConfigError(f"{path}: line {lineno}: field Channels is {n_channels}; it must be "
-                                      f"from 1 to {MAX_CHANNELS}")
-                step = 2 if x_columns == "Multi" else 1
-                # column 0 is the (possibly empty) X column; Multi interleaves time and value
-                value_cols = [1 + step * k for k in range(n_channels)]
-                time_cols = [0] * n_channels if x_columns == "One" else [v - 1 for v in value_cols]
-                segment_starts.append(len(rows))
+                value_cols, time_cols = _segment_columns(path, block, x_columns, lineno)
+                block.segment_starts.append(len(block.rows))
                 in_data = True
                 continue
-            channel_header[fields[0]] = fields[1:]
+            block.channel_header[fields[0]] = fields[1:]
             continue
         if fields[0] == "X_Value":
-            names = [fields[c] for c in value_cols if c < len(fields)]
+            block.names = [fields[c] for c in value_cols if c < len(fields)]
             continue
+        # the channels' columns and one Comment column; more cells are no row LabVIEW wrote
+        if len(fields) > value_cols[-1] + 2:
+            raise ConfigError(f"{path}: line {lineno}: {len(fields)} cells, more than the {value_cols[-1] + 2} "
+                              f"of {block.n_channels} channel(s) and a comment")
         if len(fields) <= value_cols[-1]:
             # a truncated last row: pad with NaN so the columns stay aligned
             fields = fields + [""] * (value_cols[-1] + 1 - len(fields))
-        rows.append([number(fields[c], lineno, f"column {c + 1}") for c in value_cols])
+        block.rows.append([_number(path, decimal, fields[c], lineno, f"column {c + 1}") for c in value_cols])
         if x_columns != "No":
-            times.append([number(fields[c], lineno, f"column {c + 1}") for c in time_cols])
-    if not segment_starts:
+            block.times.append([_number(path, decimal, fields[c], lineno, f"column {c + 1}") for c in time_cols])
+    if not block.segment_starts:
         raise ConfigError(f"{path}: no channel header ({END_OF_HEADER} after 'Channels') found")
-    if not rows:
+    if not block.rows:
         raise ConfigError(f"{path}: no data rows after the channel header")
+    return block
 
-    def per_channel(key: str, default: str) -> list[str]:
-        vals = channel_header.get(key, [])
-        if x_columns == "Multi":
-            vals = vals[0::2]  # the header puts an empty cell over every time column
-        vals = list(vals[:n_channels])
-        return vals + [default] * (n_channels - len(vals))
 
+def _per_channel(block: _Block, x_columns: str, key: str, default: str) -> list[str]:
+    """A channel-header field's cells, one per channel (``default`` where missing)."""
+    vals = block.channel_header.get(key, [])
+    if x_columns == "Multi":
+        vals = vals[0::2]  # the header puts an empty cell over every time column
+    vals = list(vals[: block.n_channels])
+    return vals + [default] * (block.n_channels - len(vals))
+
+
+def _delta_x(path: Path, block: _Block, x_columns: str, decimal: str) -> list[float]:
+    """Each channel's sampling interval (s), checked against the sampling rates odsuite takes."""
     delta_x = []
-    for k, s in enumerate(per_channel("Delta_X", "1")):
-        dx = number(s, 0, f"Delta_X of channel {k}")
+    for k, s in enumerate(_per_channel(block, x_columns, "Delta_X", "1")):
+        dx = _number(path, decimal, s, 0, f"Delta_X of channel {k}")
         if not np.isfinite(dx) or dx <= 0:
             raise ConfigError(f"{path}: field Delta_X of channel {k} is {s!r}; it must be > 0")
         if not MIN_RATE_HZ <= 1.0 / dx <= MAX_RATE_HZ:
             raise ConfigError(f"{path}: field Delta_X of channel {k} is {s!r} s, a sampling rate outside "
                               f"{MIN_RATE_HZ:g}..{MAX_RATE_HZ:g} Hz")
         delta_x.append(_snap_delta_x(s.replace(decimal, "."), dx))
-    x0 = [number(s, 0, f"X0 of channel {k}") for k, s in enumerate(per_channel("X0", "0"))]
+    return delta_x
+
+
+def _channels(path: Path, block: _Block, x_columns: str, decimal: str) -> dict:
+    """The channels' names, units, intervals, X0 and declared sample counts (LvmData's fields)."""
+    x0 = [_number(path, decimal, s, 0, f"X0 of channel {k}")
+          for k, s in enumerate(_per_channel(block, x_columns, "X0", "0"))]
     declared = []
-    for s in per_channel("Samples", "0"):
+    for s in _per_channel(block, x_columns, "Samples", "0"):
         try:
             declared.append(int(s))
         except ValueError:
             declared.append(0)
-    if names is None or len(names) != n_channels:
-        names = [f"channel {k}" for k in range(n_channels)]
-    return LvmData(
-        path=path,
-        header=header,
-        channel_names=names,
-        units=per_channel("Y_Unit_Label", ""),
-        delta_x=delta_x,
-        x0=[v if np.isfinite(v) else 0.0 for v in x0],
-        data=np.asarray(rows, dtype=float),
-        time=np.asarray(times, dtype=float) if times else None,
-        declared_samples=declared,
-        segment_starts=segment_starts,
-    )
+    names = block.names
+    if names is None or len(names) != block.n_channels:
+        names = [f"channel {k}" for k in range(block.n_channels)]
+    return {"channel_names": names, "units": _per_channel(block, x_columns, "Y_Unit_Label", ""),
+            "delta_x": _delta_x(path, block, x_columns, decimal), "x0": [v if np.isfinite(v) else 0.0 for v in x0],
+            "declared_samples": declared}
+
+
+def read_lvm(path: str | Path) -> LvmData:
+    """Read a LabVIEW ``.lvm`` text file (Writer_Version 0.92 to 2, one or more segments)."""
+    path = Path(path)
+    lines = _lines(path)
+    header, start = _file_header(path, lines)
+    sep, decimal, x_columns = _layout(path, header)
+    block = _data_block(path, lines, start, sep, decimal, x_columns)
+    return LvmData(path=path, header=header, data=np.asarray(block.rows, dtype=float),
+                   time=np.asarray(block.times, dtype=float) if block.times else None,
+                   segment_starts=block.segment_starts, **_channels(path, block, x_columns, decimal))

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from odsuite.api import write_output
-from odsuite.api import ConfigError
+from odsuite.api import ConfigError, check_text_file
 
 #: Movie: frame size (pixels), frames per second, about this many frames, this long after the hit.
 MOVIE_SIZE = (640, 360)
@@ -38,6 +38,8 @@ FIGURE_DPI = 90
 PRINT_WIDTH_IN = 6.5
 #: The page should stay below this size; beyond it a note says what made it large.
 SIZE_BUDGET = 10 * 1024 * 1024
+#: a diagnosis document (``diagnose --json``) is a few kB; more is no diagnosis (bytes)
+DIAGNOSIS_BYTES = 16 * 2**20
 
 SECTIONS = ("summary", "modal", "metadata", "experiments", "overlays", "failures", "candidates", "history", "movie", "view3d")
 
@@ -145,11 +147,26 @@ def load_diagnosis(source: str | Path | Mapping[str, Any]) -> dict[str, Any]:
         doc = dict(source)
     else:
         try:
-            doc = json.loads(Path(source).read_text())
+            check_text_file(Path(source), "diagnosis (JSON)")  # a pipe or device is refused, never read
+            with open(source, "rb") as f:
+                text = f.read(DIAGNOSIS_BYTES + 1)
+            if len(text) > DIAGNOSIS_BYTES:
+                raise ConfigError(f"{where}: more than {DIAGNOSIS_BYTES} bytes, not a diagnosis from "
+                                  "`odsuite diagnose --json`")
+            # NaN and Infinity (json.dumps of a diagnosis made through the API) read as null, as
+            # `diagnose --json` writes them: a number that is not finite is no value to show
+            doc = json.loads(text.decode("utf-8"), parse_constant=lambda name: None)
+        except RecursionError:  # the JSON parser recurses per level of nesting
+            raise ConfigError(f"{where}: JSON nested too deeply to be a diagnosis from `odsuite diagnose --json`") from None
         except OSError as exc:
             raise ConfigError(f"{where}: cannot read the diagnosis ({exc.strerror or exc})") from None
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
             raise ConfigError(f"{where}: not a JSON document from `odsuite diagnose --json` ({exc})") from None
+        except ConfigError:
+            raise
+        except ValueError as exc:  # an integer of more than 4,300 digits (Python's conversion limit)
+            raise ConfigError(f"{where}: not a diagnosis from `odsuite diagnose --json` "
+                              f"({str(exc).splitlines()[0][:120]})") from None
     if not isinstance(doc, dict) or not isinstance(doc.get("candidates"), list):
         raise ConfigError(f"{where}: field 'candidates' missing or not a list (expected `odsuite diagnose --json` output)")
     for i, c in enumerate(doc["candidates"]):

@@ -210,6 +210,11 @@ def test_catalog_query_bounded(folder, capsys):
     assert json.loads(capsys.readouterr().out)[-1] == {"x": 20001}
     assert main(["catalog", "query", str(folder), "SELECT x'00ff10' AS b", "--json"]) == 0
     assert json.loads(capsys.readouterr().out) == [{"b": "00ff10"}]
+    # the table shows BLOBs in hexadecimal too, and cuts a long value at 1,000 characters
+    assert main(["catalog", "query", str(folder), "SELECT x'00ff10' AS b, zeroblob(5000) AS z, "
+                 "printf('%.*c', 3000, 'x') AS t"]) == 0
+    flat = "".join(ln.strip("│ ") for ln in capsys.readouterr().out.splitlines())
+    assert "00ff10" in flat and "(5000 bytes)" in flat and "(3000 characters)" in flat
 
 
 def test_catalog_refuses_a_project_reaching_outside(folder, tmp_path, capsys):

@@ -451,13 +451,19 @@ def test_registration_imports_no_heavy_module():
 def test_failing_third_party_plugin_is_left_out(tmp_path, body, why):
     """An installed plugin whose import or registration hook fails is one line naming it and its
     distribution; every other command runs, and `odsuite plugins --json` lists the failure."""
+    _left_out(tmp_path, body, why, {})
+
+
+def _left_out(tmp_path, body, why, env):
+    """``body`` installed as the plugin lab_broken (distribution lab-broken-plugin) is left out with
+    the line naming ``why``: by `plugins --json` and by `new`, which still runs."""
     site = tmp_path / "site"
     (site / "lab_broken_plugin-1.0.dist-info").mkdir(parents=True)
     (site / "lab_broken_plugin.py").write_text(body)
     (site / "lab_broken_plugin-1.0.dist-info" / "METADATA").write_text(
         "Metadata-Version: 2.1\nName: lab-broken-plugin\nVersion: 1.0\n")
     (site / "lab_broken_plugin-1.0.dist-info" / "entry_points.txt").write_text("[odsuite]\nlab_broken = lab_broken_plugin\n")
-    env = {**os.environ, "PYTHONPATH": str(site)}
+    env = {**os.environ, "PYTHONPATH": str(site), **env}
     line = f"note: plugin 'lab_broken' (distribution 'lab-broken-plugin') left out: it failed {why}\n"
     done = subprocess.run([sys.executable, "-m", "odsuite.cli", "plugins", "--json"], env=env, capture_output=True,
                           text=True, cwd=tmp_path)
@@ -467,3 +473,23 @@ def test_failing_third_party_plugin_is_left_out(tmp_path, body, why):
     done = subprocess.run([sys.executable, "-m", "odsuite.cli", "new", "q.h5"], env=env, capture_output=True,
                           text=True, cwd=tmp_path)
     assert (done.returncode, done.stderr) == (0, line) and (tmp_path / "q.h5").is_file()
+
+
+@pytest.mark.parametrize("body, why", [
+    ("while True:\n    pass\n", "to load: PluginTimeout: still running after 2 s (the bound is ODSUITE_PLUGIN_TIMEOUT)"),
+    ("import time\nwhile True:\n    try:\n        time.sleep(100)\n    except Exception:\n        pass\n",
+     "to load: PluginTimeout: still running after 2 s (the bound is ODSUITE_PLUGIN_TIMEOUT)"),
+    ("from odsuite import hookimpl\n@hookimpl\ndef odsuite_register_effects(registry):\n    while True:\n        pass\n",
+     "in its hook odsuite_register_effects: PluginTimeout: still running after 2 s (the bound is ODSUITE_PLUGIN_TIMEOUT)"),
+])
+def test_endless_plugin_is_left_out_after_its_time_bound(tmp_path, body, why):
+    """A plugin looping for ever at import or in its hook (even one swallowing the first
+    interruption) is left out after ODSUITE_PLUGIN_TIMEOUT seconds, not a hang."""
+    _left_out(tmp_path, body, why, {"ODSUITE_PLUGIN_TIMEOUT": "2"})
+
+
+def test_plugin_time_bound_is_checked(tmp_path):
+    done = subprocess.run([sys.executable, "-m", "odsuite.cli", "plugins"], capture_output=True, text=True,
+                          env={**os.environ, "ODSUITE_PLUGIN_TIMEOUT": "-1"}, cwd=tmp_path)
+    assert (done.returncode, done.stderr) == (1, "error: ODSUITE_PLUGIN_TIMEOUT: expected seconds from 0 (no bound) "
+                                                 "to 3600, got '-1'\n")

@@ -246,6 +246,9 @@ def _handmade(kind: str, command: str = "info") -> Callable[[Path], list[str]]:
                 e.attrs["force_channel"] = 99
             elif kind == "short names":
                 e.attrs["channel_names"] = np.array([b"force", b"ai1"])
+            elif kind == "3000 names":
+                for k in range(3000):
+                    f[f"experiments/h{k:04d}"] = e
         return [command, str(d / "x.h5")]
     return argv
 
@@ -257,6 +260,20 @@ def _uff_undefined_cs(d: Path):
                              y=[0.0, 0.0], z=[0.0, 0.0], return_full_dict=True)
     pyuff.UFF(str(d / "bad.uff")).write_sets([nodes], mode="overwrite")
     return _read_uff(d, "bad.uff")
+
+
+def _touch(path: Path) -> Path:
+    path.touch()
+    return path
+
+
+def _report_diagnosis(plant: Callable[[Path], object]) -> Callable[[Path], list[str]]:
+    """``report --diagnosis`` with the file ``plant`` makes (or names, when it returns a str)."""
+    def argv(d: Path) -> list[str]:
+        named = plant(d)
+        diag = named if isinstance(named, str) else str(d / "d.json")
+        return ["report", str(d / "p.h5"), "-o", str(d / "r.html"), "--diagnosis", diag, "--no-movie"]
+    return argv
 
 
 def _read_cod(d: Path):
@@ -536,6 +553,30 @@ CASES: list[Case] = [
          argv=_handmade('force channel 99', 'info')),
     Case('stored-channel-names', 'info on a project whose experiment stores 2 channel names for 11 columns', "{dir}/x.h5: experiment 'e1' field 'channel_names': expected 11 distinct names (one per raw column), got ['force', 'ai1']",
          argv=_handmade('short names', 'info')),
+    Case("lvm-underscore", ".lvm with data value `1_000` (Python reads 1000; LabVIEW writes no digit groups)", "{dir}/bad.lvm: line 20, column 2: '1_000' is not a number",
+         **lvm(LVM_TEXT.replace("\t1,5\t", "\t1_000\t"))),
+    Case("lvm-long-row", ".lvm with a row of 1,000,000 cells in a 2-channel file", "{dir}/bad.lvm: line 20: 1000000 cells, more than the 4 of 2 channel(s) and a comment",
+         **lvm(LVM_TEXT.replace("\t1,5\t2,0\n", "\t1,5\t2,0" + "\t1" * 999_997 + "\n"))),
+    Case("diagnosis-device", "report --diagnosis /dev/zero", "/dev/zero: not a regular file (a pipe or device), expected a diagnosis (JSON) file",
+         argv=_report_diagnosis(lambda d: "/dev/zero")),
+    Case("diagnosis-fifo", "report --diagnosis naming a named pipe (FIFO)", "{dir}/d.json: not a regular file (a pipe or device), expected a diagnosis (JSON) file",
+         argv=_report_diagnosis(lambda d: os.mkfifo(d / "d.json"))),
+    Case("diagnosis-deep", "report --diagnosis with arrays nested 100,000 deep", "{dir}/d.json: JSON nested too deeply to be a diagnosis from `odsuite diagnose --json`",
+         argv=_report_diagnosis(lambda d: (d / "d.json").write_text("[" * 100_000 + "]" * 100_000))),
+    Case("project-hard-links", "info on a project whose experiment group has 3,000 more names (hard links)", "{dir}/x.h5: refused: 'experiments/h0000' names the same object as 'experiments/e1' (a second hard link); an odsuite project names each object once",
+         argv=_handmade("3000 names", "info")),
+    Case("diagnosis-huge-integer", "report --diagnosis holding an integer of 100,000 digits", "{dir}/d.json: not a diagnosis from `odsuite diagnose --json` (Exceeds the limit (4300 digits) for integer string conversion",
+         argv=_report_diagnosis(lambda d: (d / "d.json").write_text("1" * 100_000))),
+    Case("rig-channel-beyond", "sensor on channel 4096 (odsuite records at most 4096 channels)", "{dir}/bad.toml: sensors[0] 'a1' field 'channel': expected a channel index below 4096, got 4096",
+         **new_rig(RIG_TOML.replace("channel = 1", "channel = 4096"))),
+    Case("rig-mass-integer", "body mass written as the integer 10**41 (beyond numpy's integers)", "{dir}/bad.toml: body 'plate' field 'mass': expected 1e-06 to 1e+07 kg, got 1e+41",
+         **new_rig(RIG_TOML.replace("mass = 2.0", "mass = 1" + "0" * 41))),
+    Case("rig-stiffness-integer", "spring stiffness written as the integer 10**400 (beyond a float)", "{dir}/bad.toml: springs[0] 's1' field 'stiffness': expected 3 numbers [x, y, z] or a 3x3 matrix, got [1000",
+         **new_rig(RIG_TOML + SPRING.replace("[1000.0, 1000.0, 1000.0]", "[1" + "0" * 400 + ", 1000.0, 1000.0]"))),
+    Case("catalog-query-empty", "catalog query with an empty query (no query at all lists the projects)", "catalog query '': expected one of projects, unexplained, errors, experiments, sensors, gains or a SELECT",
+         argv=lambda d: ["catalog", "query", str(d), ""]),
+    Case("diagnosis-huge", "report --diagnosis with a file of 17 MiB", "{dir}/d.json: more than 16777216 bytes, not a diagnosis from `odsuite diagnose --json`",
+         argv=_report_diagnosis(lambda d: os.truncate(_touch(d / "d.json"), 17 * 2**20))),
 ]
 
 

@@ -81,8 +81,27 @@ def test_representative_tries(tmp_path):
     assert table[0].split()[:2] == ["group", "tries"] and table[-1].split()[:2] == ["all", "3"]
 
 
+def test_round_four_representative_tries(tmp_path):
+    """Round four (redteam4.py): a project naming its experiment twice, /dev/zero as the diagnosis
+    and a plugin looping at import (bound 1 s) are each refused or left out in one line."""
+    from tests.reliability import redteam4 as rt4
+
+    labels = ("info: experiment group", "report --diagnosis: the device /dev/zero",
+              "info: a plugin that loops at import (bound 1 s)")
+    cases = [c for c in rt4.all_cases("hardlinks,diagnosis,plugins") if c.label in labels]
+    assert [c.label for c in cases] == list(labels)
+    master = _master(tmp_path)
+    for argv in (["new", "p.h5"], ["acquire", "p.h5", "--name", "s1", "--samples", "2048"]):
+        assert rt._run_setup(argv, master).returncode == 0
+    results = rt.run(cases, tmp_path / "work", timeout=60.0, jobs=2, master=master)
+    assert [(r.outcome, r.code) for r in results] == [("ok", 1), ("ok", 1), ("ok", 0)], [r.problems for r in results]
+    assert "names the same object" in results[0].stderr[0] and "not a regular file" in results[1].stderr[0]
+    assert "PluginTimeout: still running after 1 s" in results[2].stderr[0]
+
+
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="issue 33: fixes pending")
+@pytest.mark.xfail(strict=False, reason="issue 33: not run to its end since the fixes of round four (about half "
+                   "an hour of two idle cores); remove the mark when a whole run reports no failure")
 def test_redteam3_full(tmp_path):
     results = rt.run(rt.all_cases(), tmp_path, jobs=2)
     assert len(results) >= 450

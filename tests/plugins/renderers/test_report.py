@@ -420,3 +420,12 @@ def test_report_has_no_empty_table_and_draws_the_models_frf(story):
     text = result.path.read_text()
     assert text.count("black dashed: the model&#x27;s FRF") == text.count("FRF of the driving point") > 0
     assert text.count(": poles of every model order in the fit band") > 0  # the stabilisation diagrams
+
+
+def test_diagnosis_not_finite_reads_as_null(tmp_path):
+    """NaN and Infinity (json.dumps of an API diagnosis) read as null, as `diagnose --json` writes them."""
+    from odsuite_plugins.renderers.report import load_diagnosis
+
+    path = tmp_path / "d.json"
+    path.write_text('{"candidates": [{"effect": "stiffness", "error": NaN, "error_before": -Infinity, "x": 0.5}]}')
+    assert load_diagnosis(path)["candidates"] == [{"effect": "stiffness", "error": None, "error_before": None, "x": 0.5}]
