@@ -273,6 +273,9 @@ MAX_CHANNELS = 4096
 #: the model's matrices lose their meaning (1e308 N/m overflows, 1e-300 kg underflows)
 MASS_RANGE = (1e-6, 1e7)  # kg: a 1 mg sensor to a 10,000 t foundation
 INERTIA_MAX = 1e8  # kg m^2
+INERTIA_MIN = 1e-15  # kg m^2: a principal moment of a 1 mg, 0.03 mm body; below it, round-off
+#: V per SI unit: a 0.1 mV/g accelerometer is 1e-5 V/(m/s^2), a laser displacement sensor 1e4 V/m
+SENSITIVITY_RANGE = (1e-9, 1e9)
 STIFFNESS_MAX = 1e12  # N/m, N m/rad (and N s/m, N m s/rad for damping)
 SIZE_MAX = 1e3  # m: positions, sizes and corners within a kilometre of the origin
 #: a rig file is text of at most this many bytes, tables and arrays nested at most this deep
@@ -494,6 +497,9 @@ def _inertia(w: str, value: Any) -> np.ndarray:
     if np.linalg.eigvalsh(inertia).min() <= 0:
         raise ConfigError(f"{w} field 'inertia': not positive definite (eigenvalues {np.linalg.eigvalsh(inertia)})")
     moments = np.linalg.eigvalsh(inertia)
+    if moments[0] < INERTIA_MIN:
+        raise ConfigError(f"{w} field 'inertia': principal moment {moments[0]:g} kg m^2, below {INERTIA_MIN:g} "
+                          "(no body that carries a sensor is that small)")
     # no rigid body has one principal moment above the sum of the other two
     if moments[2] > (moments[0] + moments[1]) * (1 + 1e-9):
         raise ConfigError(f"{w} field 'inertia': principal moments {moments.tolist()} kg m^2 break the "
@@ -610,6 +616,14 @@ def _acquisition(table: Any, where0: str) -> Acquisition | None:
                        sensor_resonance_hz=opt_number("sensor_resonance_hz"), sensor_resonance_damping=damping)
 
 
+def _sensitivity(where: str, value: Any) -> float:
+    v = _number(where, value, positive=True)
+    if not SENSITIVITY_RANGE[0] <= v <= SENSITIVITY_RANGE[1]:
+        raise ConfigError(f"{where}: expected {SENSITIVITY_RANGE[0]:g} to {SENSITIVITY_RANGE[1]:g} V per SI unit, "
+                          f"got {value!r}")
+    return v
+
+
 def _force_channel(data: dict[str, Any], sensors: list[Sensor], where0: str) -> int | None:
     """The hammer's channel: the file's ``force_channel``, or its one force sensor's channel."""
     declared = data.get("force_channel")
@@ -622,6 +636,10 @@ def _force_channel(data: dict[str, Any], sensors: list[Sensor], where0: str) -> 
     if forces and declared is not None and declared != forces[0].channel:
         raise ConfigError(f"{where0}: field 'force_channel' = {declared} but force sensor {forces[0].name!r} is on "
                           f"channel {forces[0].channel}")
+    response = next((s for s in sensors if s.channel == declared and s not in forces), None)
+    if declared is not None and response is not None:
+        raise ConfigError(f"{where0}: field 'force_channel' = {declared} is sensor {response.name!r}'s channel "
+                          "(the hammer needs a channel of its own)")
     return forces[0].channel if forces else declared
 
 
@@ -752,7 +770,6 @@ def single_axis_sensor(entry: dict[str, Any], where: str, *, kind: str, quantity
         name=name, channel=channel, body=entry["body"],
         position=_vector(f"{where} field 'position'", entry.get("position")),
         axis=axis / np.linalg.norm(axis), sign=float(sign), kind=kind, serial=str(entry.get("serial", "")),
-        sensitivity=None if sensitivity is None else _number(f"{where} field 'sensitivity'", sensitivity,
-                                                             positive=True),
+        sensitivity=None if sensitivity is None else _sensitivity(f"{where} field 'sensitivity'", sensitivity),
         quantity=quantity, group=str(entry.get("group", group)), uff_node=uff_node,
     )
