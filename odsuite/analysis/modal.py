@@ -262,6 +262,7 @@ def select_poles(
     frequencies: list[float] | None = None,
     tol: float = 0.005,
     min_fraction: float = 0.3,
+    bandwidth: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Poles picked from the diagram and, per pole, the number of model orders with a stable pole
     in its cluster. Automatic: stable poles clustered in frequency (within ``tol``), clusters
@@ -292,7 +293,7 @@ def select_poles(
     f_all, z_all, o_all = f_all[order], z_all[order], o_all[order]
     clusters: list[list[int]] = []
     for i, f in enumerate(f_all):
-        if clusters and f - f_all[clusters[-1][0]] <= cluster_tol(tol, z_all[i]) * f:
+        if clusters and f - f_all[clusters[-1][0]] <= cluster_tol(tol, z_all[i], bandwidth) * f:
             clusters[-1].append(i)
         else:
             clusters.append([i])
@@ -306,7 +307,7 @@ def select_poles(
     inside = [lo <= abs(p) / (2 * np.pi) * (1 - 2 * zeta_of(p)) and abs(p) / (2 * np.pi) * (1 + 2 * zeta_of(p)) <= hi
               for p in out]
     out, keep = [p for p, i in zip(out, inside) if i], [k for k, i in zip(keep, inside) if i]
-    return _distinct(np.asarray(out, dtype=complex), np.asarray([n for _, n in keep], dtype=int), tol)
+    return _distinct(np.asarray(out, dtype=complex), np.asarray([n for _, n in keep], dtype=int), tol, bandwidth)
 
 
 #: a pole's estimates over model orders scatter by a fraction of its half-power bandwidth
@@ -316,9 +317,11 @@ def select_poles(
 CLUSTER_BANDWIDTH = 0.25
 
 
-def cluster_tol(tol: float, zeta) -> float:
-    """Relative frequency tolerance of a cluster of stable poles of damping ratio ``zeta``."""
-    return max(tol, CLUSTER_BANDWIDTH * float(np.max(zeta)))
+def cluster_tol(tol: float, zeta, bandwidth: float) -> float:
+    """Relative frequency tolerance of a cluster of stable poles of damping ratio ``zeta``
+    (``bandwidth``: the fraction of the half-bandwidth a cluster may span; 0: ``tol`` alone, as
+    output-only analysis keeps it: there merged poles of a record too short must not pass as one)."""
+    return max(tol, bandwidth * float(np.max(zeta)))
 
 
 #: a cluster wider than the fixed tolerance is a pole only when its damping agrees over the orders
@@ -334,7 +337,8 @@ def _consistent(f: np.ndarray, zeta: np.ndarray, tol: float) -> bool:
     return q3 - q1 <= CLUSTER_DAMPING_SPREAD * np.median(zeta)
 
 
-def _distinct(poles: np.ndarray, stable_orders: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+def _distinct(poles: np.ndarray, stable_orders: np.ndarray, tol: float, bandwidth: float
+              ) -> tuple[np.ndarray, np.ndarray]:
     """One pole per cluster: clusters are chained from their lowest member, so one physical pole
     whose estimates spread over more than ``tol`` can come out twice, a hair apart (the thesis
     rig's 222 Hz mode as 221.9 and 222.9 Hz); of neighbours within ``cluster_tol`` the one stable
@@ -342,7 +346,7 @@ def _distinct(poles: np.ndarray, stable_orders: np.ndarray, tol: float) -> tuple
     keep: list[int] = []
     zeta = -poles.real / np.maximum(np.abs(poles), np.finfo(float).tiny)
     for r in range(poles.size):
-        near = cluster_tol(tol, (zeta[r], zeta[keep[-1]]) if keep else zeta[r])
+        near = cluster_tol(tol, (zeta[r], zeta[keep[-1]]) if keep else zeta[r], bandwidth)
         if keep and abs(abs(poles[r]) - abs(poles[keep[-1]])) <= near * abs(poles[r]):
             if stable_orders[r] > stable_orders[keep[-1]]:
                 keep[-1] = r
@@ -483,7 +487,7 @@ def nested_fits(f: np.ndarray, h: np.ndarray, max_order: int, frequencies: list[
         asked = None if frequencies is None else [v for v in frequencies if floor < v <= top]
         if asked is not None and not asked:
             continue
-        p, c = select_poles(d, frequencies=asked)
+        p, c = select_poles(d, frequencies=asked, bandwidth=CLUSTER_BANDWIDTH)
         mine = (np.abs(p) / (2 * np.pi) > floor) & (np.abs(p) / (2 * np.pi) <= top)
         poles.append(p[mine])
         counts.append(c[mine])
