@@ -28,7 +28,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from odsuite.contracts.effects import applies, family
-from odsuite.diagnosis import checks, physical
+from odsuite.diagnosis import checks, joint, physical
 from odsuite.analysis.comparison import residual_peaks
 from odsuite.domain.errors import ConfigError
 from odsuite.diagnosis.fitting import (
@@ -556,6 +556,8 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
                     evidence=(f"not fitted: it refines {regs.effects.get(name).refines}'s fit, which is not "
                               "significant or leaves nothing above the noise floor, or another candidate "
                               "brings the error to the floor")))
+            pairs = _fit_pairs(job, candidates, res0, cmp.floor, scale)
+            evaluations += sum(c._problem.evaluations for c in pairs)
     finally:
         _JOBS.pop(token)
     for s in screened:
@@ -574,6 +576,10 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     candidates.sort(key=lambda c: (not c.significant, c.bic if c.fitted else math.inf, c.screened_error))
     _prefer_fewer_parameters(candidates, regs.effects)
     _prefer_named(candidates, regs.effects)
+    # an accepted pair goes first (it passed the tests against each member and every simpler single);
+    # the others are listed last with the reason
+    candidates[:0] = [c for c in pairs if c.significant]
+    candidates += [c for c in pairs if not c.significant]
     diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=noise, revision=rev.get("revision"),
                           candidates=candidates, residual_peaks=peaks, evaluations=evaluations,
                           not_applicable=not_applicable,
@@ -583,6 +589,47 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     if progress:
         progress("done", len(names), len(names))
     return diagnosis
+
+
+def _fit_pairs(job: Mapping[str, Any], candidates: Sequence[Candidate], res0, floor, scale: float
+               ) -> list[Candidate]:
+    """Pairs of the best significant singles whose residuals overlap, fitted jointly from their single
+    fits, when the best single leaves cells above the floor. At most one is accepted (significant,
+    odsuite.diagnosis.joint.accepted): the one of the lowest BIC; the others are returned not
+    significant with the reason."""
+    if res0 is None:
+        return []
+    singles = sorted((c for c in candidates if c.fitted and c.significant and getattr(c, "_resolved", None) is not None
+                      and joint.pairable(job["effects"].get(c.effect))),
+                     key=lambda c: c.bic)[:joint.PAIR_CANDIDATES]
+    if len(singles) < 2 or not singles[0]._resolved.detected():
+        return []
+    out = []
+    for a, b in itertools.combinations(singles, 2):
+        if not joint.overlap(a, b, res0):
+            continue
+        effect = joint.Joint([job["effects"].get(a.effect), job["effects"].get(b.effect)])
+        fixed = {f"{m.effect}.{k}": v for m in (a, b) for k, v in m._problem.fixed.items()}
+        problem = Problem(job["base"], effect, job["windows"], fixed, prior=job["prior"] / job["stride"],
+                          stride=job["stride"], full=job["exps"], noise_scale=job["scale"])
+        u0 = joint.start(problem, (a, b))
+        cand = _fit_candidate(Screened(effect, fixed, u0, problem.sse(u0), problem), job["windows"], job["sse0"],
+                              job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
+                              job["modes_before"], job["tail0"], job["force_levels"])
+        _judge(cand, job["exps"], floor, res0, job["sse0"], job["den"], scale)
+        ok, why = joint.accepted(cand, (a, b), candidates)
+        cand.significant = ok
+        cand.evidence = f"fitted jointly from the single fits: {why}; " + cand.evidence
+        words = _checks_words(cand)
+        if words:
+            cand.evidence += "; " + words
+        out.append(cand)
+    best = min((c for c in out if c.significant), key=lambda c: c.bic, default=None)
+    for c in out:
+        if c.significant and c is not best:
+            c.significant = False
+            c.evidence = f"a better pair is {best.effect}; " + c.evidence
+    return out
 
 
 def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], scale: float,
