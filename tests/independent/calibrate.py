@@ -194,7 +194,7 @@ def named(truth_kinds: list[str], diag: dict) -> bool:
     if not top.get("significant"):
         return False
     right = set().union(*(RIGHT.get(k, set()) for k in truth_kinds))
-    return bool(({top["effect"]} | set(top.get("confounded_with") or [])) & right)
+    return bool((set(top["effect"].split("+")) | set(top.get("confounded_with") or [])) & right)
 
 
 def run_one(spec: dict, out: Path) -> dict:
