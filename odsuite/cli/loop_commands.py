@@ -124,7 +124,7 @@ def diagnose_cmd(
 @app.command("add-effect")
 def add_effect_cmd(
     project: Path = typer.Argument(..., help="Project file."),
-    effect: str = typer.Argument(..., help="Registered effect name (see `odsuite diagnose`)."),
+    effect: str = typer.Argument(..., help="Registered effect name, or a pair A+B diagnose fitted jointly (see `odsuite diagnose`)."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
     """Fit an effect together with the current ones and store a new model revision."""

@@ -4,13 +4,13 @@ store the result as a new model revision."""
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from odsuite.contracts.effects import applies, family
 from odsuite.diagnosis import checks, physical
+from odsuite.diagnosis.joint import Joint
 from odsuite.domain.errors import ConfigError
 from odsuite.diagnosis.fitting import (
     Problem,
@@ -26,24 +26,6 @@ from odsuite.analysis.history import data_stamp
 from odsuite.analysis.modelrev import apply_effects, current_revision, instance_names, revision_model
 from odsuite.analysis.noise_floor import FLOOR_TOLERANCE
 from odsuite.analysis.prediction import prepare
-
-
-class _Joint:
-    """Several effects as one: parameters named "<effect>.<parameter>", applied in order."""
-
-    def __init__(self, effects: Sequence[Any]) -> None:
-        self.effects = list(effects)
-        self.name = "+".join(e.name for e in self.effects)
-        self.target = "model" if any(e.target == "model" for e in self.effects) else "chain"
-
-    def parameters(self, model) -> list:
-        return [replace(p, name=f"{e.name}.{p.name}") for e in self.effects for p in e.parameters(model)]
-
-    def apply(self, model, values: Mapping[str, float]):
-        for e in self.effects:
-            own = {k.split(".", 1)[1]: v for k, v in values.items() if k.split(".", 1)[0] == e.name}
-            model = e.apply(model, own)
-        return model
 
 
 def _flat(entries: Sequence[Mapping[str, Any]]) -> dict[str, float]:
@@ -73,6 +55,11 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     from odsuite.analysis.modelrev import base_model
 
     regs = project.registries
+    if "+" in name and name not in regs.effects.names():
+        # a pair the diagnosis fitted jointly: each added in turn, the last step refitting all of them
+        # together (as every addition does)
+        steps = [add_effect(project, part, progress=progress) for part in name.split("+")]
+        return steps[-1] | {"effect": name, "previous_error": steps[0]["previous_error"]}
     effect = regs.effects.get(name)
     rev = current_revision(project)
     model = revision_model(project, rev).shared
@@ -122,7 +109,7 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
              if any(p.name == k and p.choices for p in regs.effects.get(e["effect"]).parameters(current.shared))}
     fixed.update({f"{name}.{k}": v for k, v in screened.fixed.items()})
     joint = Problem(apply_effects(base_model(project.rig, rev.get("model"), registries=regs), held,
-                                  registries=regs), _Joint(joint_effects), windows,
+                                  registries=regs), Joint(joint_effects), windows,
                     fixed, prior, stride, full=exps, noise_scale=scale)
     u0 = _start(joint, refit)
     for i, f in enumerate(joint.free):  # the new effect starts where screening left it

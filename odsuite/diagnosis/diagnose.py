@@ -18,7 +18,6 @@ from __future__ import annotations
 import itertools
 import math
 import multiprocessing
-import os
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
@@ -28,7 +27,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from odsuite.contracts.effects import applies, family
-from odsuite.diagnosis import checks, physical
+from odsuite.diagnosis import checks, joint, physical
 from odsuite.analysis.comparison import residual_peaks
 from odsuite.domain.errors import ConfigError
 from odsuite.diagnosis.fitting import (
@@ -47,6 +46,16 @@ from odsuite.analysis.prediction import PreparedExperiment, predict, prepare
 from odsuite.domain.simulation import load_nonlinear_loop
 from odsuite.analysis import resolved as resolution
 from odsuite.analysis.noise_floor import FLOOR_TOLERANCE
+from odsuite.diagnosis.pool import JOBS, SMALL_JOB, TOKENS, InOrder, default_workers, worker_start  # noqa: F401
+from odsuite.diagnosis.ranking import (
+    is_significant,
+    makes_nonlinear,
+    mark_confounded,
+    mark_proxies,
+    prefer_fewer_parameters,
+    prefer_named,
+    tell_refinements_apart,
+)
 from odsuite.diagnosis.verdict import Signature, decide, message, signature
 
 #: how many screened candidates get a full fit and validation
@@ -55,8 +64,6 @@ FULL_FITS = 4
 UNIDENTIFIABLE_FRACTION = 0.1
 #: parameter correlations above this are reported as confounded
 CONFOUNDED_CORRELATION = 0.95
-#: candidates whose prediction changes have at least this cosine similarity are named as confounded
-CONFOUNDED_COSINE = 0.9
 
 @dataclass
 class Candidate:
@@ -323,67 +330,6 @@ def _judge(cand: Candidate, exps, floor, before, sse_before: float, den: float, 
     cand.significant = bool(validated_better and cand.likelihood_ratio > cand.gain_threshold)
 
 
-def is_significant(sse0: float, sse_validated: float, threshold: float) -> bool:
-    """The validated gain in sum of squares exceeds what fitting the candidate's parameters to the
-    calibrated noise would give with probability checks.FALSE_ALARM (``threshold``,
-    checks.gain_threshold)."""
-    return sse0 - sse_validated > threshold
-
-
-class _Deferred:
-    """A call run when its result is asked for: a fit that is never asked for costs nothing."""
-
-    def __init__(self, fn: Callable, args: tuple) -> None:
-        self._fn, self._args = fn, args
-
-    def cancel(self) -> bool:
-        return True
-
-    def result(self) -> Any:
-        return self._fn(*self._args)
-
-
-class _InOrder:
-    """The part of concurrent.futures' executor interface diagnose uses, one call after another
-    in this thread (workers=1)."""
-
-    def __enter__(self) -> _InOrder:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        return None
-
-    def map(self, fn: Callable, *items) -> Any:
-        return map(fn, *items)
-
-    def submit(self, fn: Callable, *args: Any) -> _Deferred:
-        return _Deferred(fn, args)
-
-
-def default_workers(n_candidates: int) -> int:
-    """As many worker processes as cores, at most 2 for a handful of candidates (a pool's start
-    and the fits' transfer cost more than a third process gains there) and never more than there
-    are candidates."""
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    return max(1, min(cores, n_candidates, 2 if n_candidates <= SMALL_JOB else cores))
-
-
-#: up to this many candidates a diagnosis is a small job (default_workers)
-SMALL_JOB = 32
-
-#: what a diagnosis's worker processes need, keyed by a token per call: filled before the pool
-#: forks, so the processes inherit it (models hold the effects' shape functions, which do not
-#: pickle) and only effect names, starts and fitted numbers travel
-_JOBS: dict[int, dict[str, Any]] = {}
-_TOKENS = itertools.count()
-
-
-def _worker_start() -> None:
-    # one BLAS thread per process: the processes share the cores, and a BLAS pool per process
-    # would spin against the other process's work
-    threadpool_limits(1)
-
-
 def _problem(job: Mapping[str, Any], name: str, fixed: Mapping[str, float] | None = None) -> Problem:
     problem = Problem(job["base"], job["effects"].get(name), job["windows"], prior=job["prior"] / job["stride"],
                       stride=job["stride"], full=job["exps"], noise_scale=job["scale"])
@@ -392,7 +338,7 @@ def _problem(job: Mapping[str, Any], name: str, fixed: Mapping[str, float] | Non
 
 def _screen_job(token: int, name: str) -> tuple[dict[str, float], np.ndarray, float, int] | None:
     """Screen one candidate: its discrete choices, start, sum of squares and evaluations."""
-    job = _JOBS[token]
+    job = JOBS[token]
     try:
         problem = _problem(job, name)
     except ConfigError:
@@ -405,7 +351,7 @@ def _fit_job(token: int, name: str, fixed: Mapping[str, float], u0: np.ndarray, 
              ) -> tuple[Candidate, dict[str, float], int]:
     """Fit one screened candidate; the candidate without its problem (rebuilt by the caller from
     the values it was fitted with), those values and the evaluations."""
-    job = _JOBS[token]
+    job = JOBS[token]
     problem = _problem(job, name, fixed)
     cand = _fit_candidate(Screened(problem.effect, dict(fixed), u0, sse, problem), job["windows"], job["sse0"],
                           job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
@@ -483,18 +429,18 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     # a daemonic process (a batch's worker) may not start processes of its own
     parallel = (workers > 1 and "fork" in multiprocessing.get_all_start_methods()
                 and not multiprocessing.current_process().daemon)
-    token = next(_TOKENS)
-    _JOBS[token] = {"base": base, "effects": regs.effects, "windows": windows, "exps": exps, "prior": prior,
+    token = next(TOKENS)
+    JOBS[token] = {"base": base, "effects": regs.effects, "windows": windows, "exps": exps, "prior": prior,
                     "stride": stride, "scale": scale, "sse0_win": sse0_win, "peak_hz": peak_hz, "sse0": sse0, "den": den,
                     "n_eff": n_eff, "noise": noise, "peaks": peaks, "rigidity": rigidity,
                     "modes_before": modes_before, "tail0": tail0, "force_levels": force_levels}
-    job = _JOBS[token]
+    job = JOBS[token]
     screened: list[Screened] = []
     evaluations = 0
     if parallel:  # a candidate may give the structure cubic springs: the workers inherit the loop
         load_nonlinear_loop()
-    pool = (ProcessPoolExecutor(workers, multiprocessing.get_context("fork"), initializer=_worker_start)
-            if parallel else _InOrder())
+    pool = (ProcessPoolExecutor(workers, multiprocessing.get_context("fork"), initializer=worker_start)
+            if parallel else InOrder())
     try:
         # one BLAS thread here too: a product's rounding may depend on the threads that share it,
         # and the result must not depend on ``workers``
@@ -556,8 +502,10 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
                     evidence=(f"not fitted: it refines {regs.effects.get(name).refines}'s fit, which is not "
                               "significant or leaves nothing above the noise floor, or another candidate "
                               "brings the error to the floor")))
+            pairs = _fit_pairs(job, candidates, res0, cmp.floor, scale)
+            evaluations += sum(c._problem.evaluations for c in pairs)
     finally:
-        _JOBS.pop(token)
+        JOBS.pop(token)
     for s in screened:
         if any(s is f for f in fitted):
             continue
@@ -568,12 +516,16 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
             evidence=f"screening only: one linearised step reaches error {err:.3g}",
             n_parameters=len(s.problem.free), bic=float("inf"), screened_error=err,
             fitted=False))
-    _mark_confounded([c for c in candidates if c.fitted], exps, scale)
-    _tell_refinements_apart(candidates, regs.effects, den)
-    _mark_proxies([c for c in candidates if c.fitted], base)
+    mark_confounded([c for c in candidates if c.fitted], exps, scale)
+    tell_refinements_apart(candidates, regs.effects, den)
+    mark_proxies([c for c in candidates if c.fitted], base)
     candidates.sort(key=lambda c: (not c.significant, c.bic if c.fitted else math.inf, c.screened_error))
-    _prefer_fewer_parameters(candidates, regs.effects)
-    _prefer_named(candidates, regs.effects)
+    prefer_fewer_parameters(candidates, regs.effects)
+    prefer_named(candidates, regs.effects)
+    # an accepted pair goes first (it passed the tests against each member and every simpler single);
+    # the others are listed last with the reason
+    candidates[:0] = [c for c in pairs if c.significant]
+    candidates += [c for c in pairs if not c.significant]
     diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=noise, revision=rev.get("revision"),
                           candidates=candidates, residual_peaks=peaks, evaluations=evaluations,
                           not_applicable=not_applicable,
@@ -583,6 +535,47 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     if progress:
         progress("done", len(names), len(names))
     return diagnosis
+
+
+def _fit_pairs(job: Mapping[str, Any], candidates: Sequence[Candidate], res0, floor, scale: float
+               ) -> list[Candidate]:
+    """Pairs of the best significant singles whose residuals overlap, fitted jointly from their single
+    fits, when the best single leaves cells above the floor. At most one is accepted (significant,
+    odsuite.diagnosis.joint.accepted): the one of the lowest BIC; the others are returned not
+    significant with the reason."""
+    if res0 is None:
+        return []
+    singles = sorted((c for c in candidates if c.fitted and c.significant and getattr(c, "_resolved", None) is not None
+                      and joint.pairable(job["effects"].get(c.effect))),
+                     key=lambda c: c.bic)[:joint.PAIR_CANDIDATES]
+    if len(singles) < 2 or not singles[0]._resolved.detected():
+        return []
+    out = []
+    for a, b in itertools.combinations(singles, 2):
+        if not joint.overlap(a, b, res0):
+            continue
+        effect = joint.Joint([job["effects"].get(a.effect), job["effects"].get(b.effect)])
+        fixed = {f"{m.effect}.{k}": v for m in (a, b) for k, v in m._problem.fixed.items()}
+        problem = Problem(job["base"], effect, job["windows"], fixed, prior=job["prior"] / job["stride"],
+                          stride=job["stride"], full=job["exps"], noise_scale=job["scale"])
+        u0 = joint.start(problem, (a, b))
+        cand = _fit_candidate(Screened(effect, fixed, u0, problem.sse(u0), problem), job["windows"], job["sse0"],
+                              job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
+                              job["modes_before"], job["tail0"], job["force_levels"])
+        _judge(cand, job["exps"], floor, res0, job["sse0"], job["den"], scale)
+        ok, why = joint.accepted(cand, (a, b), candidates)
+        cand.significant = ok
+        cand.evidence = f"fitted jointly from the single fits: {why}; " + cand.evidence
+        words = _checks_words(cand)
+        if words:
+            cand.evidence += "; " + words
+        out.append(cand)
+    best = min((c for c in out if c.significant), key=lambda c: c.bic, default=None)
+    for c in out:
+        if c.significant and c is not best:
+            c.significant = False
+            c.evidence = f"a better pair is {best.effect}; " + c.evidence
+    return out
 
 
 def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], scale: float,
@@ -616,37 +609,6 @@ def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], 
     return cand
 
 
-def _prefer_fewer_parameters(cands: list[Candidate], effects) -> None:
-    """A significant candidate confounded with the top one and with fewer parameters goes first
-    unless the top one's change of the resolved residual over it passes the likelihood-ratio test
-    for its extra parameters: a proxy with more freedom does not win on the same residual."""
-    if not cands or not cands[0].significant or getattr(cands[0], "_resolved", None) is None:
-        return
-    top = cands[0]
-    # a data-driven stand-in (a mode of any shape) is not promoted over a named mechanism
-    simpler = [c for c in cands[1:] if c.significant and c.fitted and c.effect in top.confounded_with
-               and not getattr(effects.get(c.effect), "data_driven", False)
-               and c.n_parameters < top.n_parameters and getattr(c, "_resolved", None) is not None]
-    for c in sorted(simpler, key=lambda c: c.n_parameters):
-        extra = top.n_parameters - c.n_parameters
-        if resolution.gain(c._resolved, top._resolved) <= resolution.gain_threshold(extra):
-            cands.remove(c)
-            cands.insert(0, c)
-            return
-
-
-def _prefer_named(cands: list[Candidate], effects) -> None:
-    """A data-driven stand-in on top (a mode of any shape) gives the first place to a significant
-    named mechanism it is confounded with: the same residual explained, and the cause named."""
-    if not cands or not cands[0].significant or not getattr(effects.get(cands[0].effect), "data_driven", False):
-        return
-    named = next((c for c in cands[1:] if c.significant and c.effect in cands[0].confounded_with
-                  and not getattr(effects.get(c.effect), "data_driven", False)), None)
-    if named is not None:
-        cands.remove(named)
-        cands.insert(0, named)
-
-
 def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
     """The verdict (from the resolved residual where the floor has bands), the signature of what
     is left (after the best significant candidate, if any) and the message."""
@@ -654,9 +616,9 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
     # amplitude dependence as the data show it: any fitted candidate whose parameters, fitted per
     # experiment, follow the force level, or a significant one that makes the model amplitude dependent
     amplitude = any(c.amplitude_dependent for c in d.candidates if c.fitted) or (
-        best is not None and _makes_nonlinear(best, base))
+        best is not None and makes_nonlinear(best, base))
     res_best = getattr(best, "_resolved", None) if best is not None else None
-    nonlinear = best is not None and _makes_nonlinear(best, base)
+    nonlinear = best is not None and makes_nonlinear(best, base)
     d.verdict = decide(d.baseline_error, d.noise_floor_error, best, before=res0, after=res_best,
                        amplitude_cause=nonlinear)
     modes = list(base.shared.modes().frequency_hz)
@@ -675,78 +637,3 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
         d.message += (f" Not tried, as they apply to other model families than this model's "
                       f"({family(base.shared)}): {', '.join(d.other_families)}.")
 
-
-def _mark_confounded(cands: Sequence[Candidate], exps, scale: float) -> None:
-    """Candidates that explain the same residual cannot be told apart by these experiments; name
-    each other: their fitted changes of the predictions differ by less than noise could
-    (checks.indistinguishable), or point the same way (cosine above CONFOUNDED_COSINE)."""
-    changes = {}
-    for c in cands:
-        if c.error_after >= c.screened_error * 1.5:
-            continue
-        p = c._problem
-        if p.linear:  # projected parameters are fitted at any search value: the base is without the effect
-            base_pred = np.concatenate([p.base_prediction(e).ravel() for e in p.exps])
-        else:
-            base_pred = np.concatenate([x.ravel() for x in p.predictions(np.zeros(0) if not p.free else p.zero())])
-        fit_pred = np.concatenate([x.ravel() for x in p.predictions(c._u)])
-        changes[c.effect] = fit_pred - base_pred
-    names = list(changes)
-    for i, a in enumerate(names):
-        for b in names[i + 1:]:
-            va, vb = changes[a], changes[b]
-            na, nb = np.linalg.norm(va), np.linalg.norm(vb)
-            if na == 0 or nb == 0:
-                continue
-            ca = next(c for c in cands if c.effect == a)
-            cb = next(c for c in cands if c.effect == b)
-            if (abs(va @ vb) / (na * nb) > CONFOUNDED_COSINE
-                    or checks.indistinguishable(va, vb, scale, ca.n_parameters + cb.n_parameters)):
-                ca.confounded_with.append(b)
-                cb.confounded_with.append(a)
-
-
-def _tell_refinements_apart(cands: Sequence[Candidate], effects, den: float) -> None:
-    """Refinements of one fit are told apart from it and from each other by the gain test, however
-    alike their changes of the predictions look: a refiner's significance is its gain over the fit
-    it refines, and of two refiners the better is apart when its gain over the other passes the test
-    for its own extra parameters."""
-    def apart(a: Candidate, b: Candidate) -> None:
-        if b.effect in a.confounded_with:
-            a.confounded_with.remove(b.effect)
-        if a.effect in b.confounded_with:
-            b.confounded_with.remove(a.effect)
-
-    refiners = [c for c in cands if c.fitted and getattr(effects.get(c.effect), "refines", None)]
-    for c in refiners:
-        if c.significant:
-            apart(c, next(b for b in cands if b.effect == effects.get(c.effect).refines))
-        for o in refiners:
-            if (o is not c and effects.get(o.effect).refines == effects.get(c.effect).refines
-                    and is_significant(o.validated_error**2 * den, c.validated_error**2 * den, c.gain_threshold)):
-                apart(c, o)
-
-
-def _makes_nonlinear(cand: Candidate, base) -> bool:
-    """The candidate's fitted model responds to the force level (cubic springs) where the base
-    model does not."""
-    if not base.shared.structure.is_linear:
-        return False
-    return not all(m.structure.is_linear for m in cand._problem.models(cand._u).values())
-
-
-def _mark_proxies(cands: Sequence[Candidate], base) -> None:
-    """A linear candidate whose parameters, fitted per experiment, follow the force level
-    (``amplitude_dependent``) is a proxy: a linear change cannot depend on the level, so it stands in
-    for amplitude-dependent physics. A candidate that makes the model amplitude dependent and fits
-    the records better (its error over all of them, not its leave-one-experiment-out error: left out,
-    the top force level is an extrapolation) is named by the proxy (``confounded_with``), and names
-    it: both describe the level-dependent part of the residual, which only one of them can cause."""
-    causes = [c for c in cands if _makes_nonlinear(c, base)]
-    for c in cands:
-        if not c.amplitude_dependent or c in causes:
-            continue
-        for n in causes:
-            if n.error_after < c.error_after and n.effect not in c.confounded_with:
-                c.confounded_with.append(n.effect)
-                n.confounded_with.append(c.effect)

@@ -49,7 +49,8 @@ TWO_BODY_PROCESSING = {"offset_samples": [0, 256],
                        "filter_at": ["signal", "integral"]}
 #: the library's effects that explain each hidden change
 RIGHT = {"stiffness": {"stiffness"}, "added_mass": {"mass_properties"}, "moved_com": {"mass_properties"},
-         "sensor_gain": {"sensor_gain"},
+         "sensor_gain": {"sensor_gain"}, "polarity_flip": {"sensor_polarity"}, "channel_delay": {"channel_delay"},
+         "sensor_tilt": {"sensor_orientation"}, "channel_swap": {"channel_swap"}, "scan_skew": {"scan_skew"},
          "flexible_mode": {"missing_mode", "coupled_mode", "plate_flexibility", "plate_flexibility_free"}}
 NULL_CONDITIONS = [
     {"noise_v": 50e-6},
@@ -76,7 +77,11 @@ def specs(which: str, n: int | None) -> list[dict]:
             out.append({"case": kind, "rig": rig, "seed": 200 + i, "force_n": FORCES[(i + i // 6) % 5]})
     elif which == "pairs":
         rows = [("pair-gain-com", "thesis"), ("pair-bending-stiffer", "thesis"), ("pair-mount-gain", "plate-motor"),
-                ("pair-gain-com", "plate-motor"), ("pair-bending-stiffer", "two-body"), ("pair-mount-gain", "two-body")]
+                ("pair-gain-com", "plate-motor"), ("pair-bending-stiffer", "two-body"), ("pair-mount-gain", "two-body"),
+                # measurement effects two at once (their corrections undo both)
+                ("polarity-flip+channel-delay", "thesis"), ("sensor-gain+sensor-tilt", "thesis"),
+                ("channel-swap+polarity-flip", "thesis"), ("polarity-flip+channel-delay", "two-body"),
+                ("sensor-gain+sensor-tilt", "plate-motor"), ("channel-swap+polarity-flip", "two-body")]
         for i in range(n or 3):
             kind, rig = rows[i % len(rows)]
             out.append({"case": kind, "rig": rig, "seed": 300 + i})
@@ -172,7 +177,14 @@ def diagnosis(project: Path) -> dict:
                 "validated_error": top.get("validated_error"), "confounded_with": top.get("confounded_with", []),
                 "parameters": top.get("parameters", {})},
         "message": d.get("message"), "model_evaluations": d.get("model_evaluations"),
+        "cells": (d.get("signature") or {}).get("cells", []),
     }
+
+
+def covers(truth_kinds: list[str], effects: list[str]) -> bool:
+    """Every hidden change is explained by one of ``effects`` (pairs "A+B" count as both)."""
+    names = {part for e in effects for part in e.split("+")}
+    return all(RIGHT.get(k, set()) & names for k in truth_kinds)
 
 
 def named(truth_kinds: list[str], diag: dict) -> bool:
@@ -182,7 +194,7 @@ def named(truth_kinds: list[str], diag: dict) -> bool:
     if not top.get("significant"):
         return False
     right = set().union(*(RIGHT.get(k, set()) for k in truth_kinds))
-    return bool(({top["effect"]} | set(top.get("confounded_with") or [])) & right)
+    return bool((set(top["effect"].split("+")) | set(top.get("confounded_with") or [])) & right)
 
 
 def run_one(spec: dict, out: Path) -> dict:
@@ -197,7 +209,8 @@ def run_one(spec: dict, out: Path) -> dict:
     lvms = [writers.write_lvm(folder / f"{stem}-r{i:02d}.lvm", without_unused(rec)) for i, rec in enumerate(records)]
     truth = writers.to_jsonable(case.truth_document())
     writers.write_truth(folder / f"{stem}-truth.json", truth | {"band_residual_to_noise": bands})
-    kinds = [e["kind"] for e in truth.get("effects", [truth["effect"]])]
+    kinds = [e["kind"] for e in truth["effects"]] if "effects" in truth else [truth["effect"]["kind"]]
+    truth.setdefault("effect", {"kind": "pair", "kinds": kinds})  # names joined by "+" list only their effects
     clipped = [rec.names[k] for rec in records for k in range(rec.volts.shape[1])
                if np.abs(rec.clean_volts[:, k]).max() >= case.actual.daq.adc_range[1]]
     result = {**spec, "truth": truth["effect"] | ({"effects": truth["effects"]} if "effects" in truth else {}),
@@ -288,8 +301,12 @@ def summarise(which: str, results: list[dict]) -> dict:
             if "final" in r:
                 row |= {"added": r["added"], "final_verdict": r["final"]["verdict"],
                         "final_error_to_floor": r["final"]["error_to_floor"]}
+                row |= {"first_names_all": covers(r["kinds"], [d["top"]["effect"]] if d["top"]["significant"] else []),
+                        "loop_names_all": covers(r["kinds"], r["added"]),
+                        "final_says_what_is_left": bool(r["final"].get("cells")),
+                        "final_cells": r["final"].get("cells", [])[:2]}
                 extra = f"; loop {' + '.join(r['added']) or '-'} -> {r['final']['error_to_floor']:.2f}x, " \
-                        f"{r['final']['verdict']}"
+                        f"{r['final']['verdict']}; all named: {'yes' if row['loop_names_all'] else 'no'}"
             if "after_fix" in r:
                 row |= {"after_fix_verdict": r["after_fix"]["verdict"],
                         "after_fix_error_to_floor": r["after_fix"]["error_to_floor"],
@@ -302,6 +319,18 @@ def summarise(which: str, results: list[dict]) -> dict:
                          f"{'yes' if r['named'] else 'no':5s} {d['verdict']}; {d['top']['effect']}"
                          f"{'' if d['top']['significant'] else ' (n.s.)'}{extra}")
         summary["rows"] = rows
+        if which == "pairs":
+            loop = [r for r in rows if "final_verdict" in r]
+            summary |= {"loop_cases": len(loop),
+                        "reach_floor": sum(r["final_verdict"] in ("explained", "nothing to explain") for r in loop),
+                        "named_all_first": sum(r["first_names_all"] for r in loop),
+                        "named_all_loop": sum(r["loop_names_all"] for r in loop),
+                        "left_said": sum(r["final_says_what_is_left"] for r in loop
+                                         if r["final_verdict"] not in ("explained", "nothing to explain"))}
+            lines.append(f"pairs: {summary['reach_floor']}/{len(loop)} reach the floor (explained or nothing left); "
+                         f"both changes named by the first diagnosis {summary['named_all_first']}, by the loop "
+                         f"{summary['named_all_loop']}; of those left above the floor, {summary['left_said']} "
+                         f"name the cells left")
         if which in ("faults", "fixed"):
             strong = [r for r in rows if r["band_ratio"] > 5]
             summary["above_5x"] = len(strong)
@@ -335,6 +364,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--n", type=int, default=None, help="cases in the set (default 40 nulls, 20 faults, "
                                                             "3 pairs, 4 fixed)")
     parser.add_argument("--workers", type=int, default=1, help="cases run at once (each diagnose on one core)")
+    parser.add_argument("--only", default=None, help="run only the cases whose id contains this text")
     parser.add_argument("--summary-only", action="store_true",
                         help="tabulate the cases already done in DIR, run nothing")
     args = parser.parse_args(argv)
@@ -342,6 +372,8 @@ def main(argv: list[str] | None = None) -> int:
     results_dir.mkdir(parents=True, exist_ok=True)
     todo, results = [], []
     for spec in specs(args.set, args.n):
+        if args.only and args.only not in spec["id"]:
+            continue
         done = results_dir / f"{spec['id']}.json"
         previous = json.loads(done.read_text()) if done.exists() else None
         if previous is not None and "error" not in previous:  # a failed case is run again
@@ -371,6 +403,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.summary_only:
         print(f"{len(results)} of {total} cases done", file=sys.stderr)
     order = {s["id"]: i for i, s in enumerate(specs(args.set, args.n))}
+    results = [r for r in results if r["id"] in order and (not args.only or args.only in r["id"])]
     results.sort(key=lambda r: order.get(r["id"], 1 << 30))
     summary = summarise(args.set, results)
     (args.out / f"{args.set}.json").write_text(json.dumps(writers.to_jsonable(summary | {"results": results}),

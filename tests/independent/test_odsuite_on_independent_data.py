@@ -156,6 +156,7 @@ def test_corrected_coordinates_are_the_true_motion_after_the_loop(tmp_path, caps
     proj = thesis_project(case, tmp_path / "f", capsys)
     assert main(["process", str(proj), "--corrected"]) == 0
     before = _corrected_error(proj, case, tmp_path / "f")
+    capsys.readouterr()  # what process and export printed: diagnose's JSON alone is read
     doc = _diagnose(proj, capsys)
     assert doc["candidates"][0]["effect"] == "sensor_polarity"
     assert main(["add-effect", str(proj), "sensor_polarity"]) == 0

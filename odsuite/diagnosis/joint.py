@@ -1,0 +1,100 @@
+"""Two causes at once: effects fitted together as one, and the pairs of the single candidates that
+the diagnosis fits jointly where their residuals overlap.
+
+A pair is accepted by the rules the singles are judged and ranked by: each member must remove
+significantly more than the other does alone (odsuite.analysis.resolved's likelihood ratio on the
+resolved, whitened residual, the test for its own parameters), and the pair must beat each member
+by the validated (held-out) error and by the BIC the singles are ranked with, so a pair is never
+named where one effect explains the residual; and no significant single with fewer parameters may explain it as well (the
+test for the pair's extra parameters), so a proxy pair is not preferred to a simpler cause.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from odsuite.analysis import resolved as resolution
+
+#: single candidates (significant, best first) whose pairs are fitted jointly
+PAIR_CANDIDATES = 3
+
+
+class Joint:
+    """Several effects as one: parameters named "<effect>.<parameter>", applied in order."""
+
+    def __init__(self, effects: Sequence[Any]) -> None:
+        self.effects = list(effects)
+        self.name = "+".join(e.name for e in self.effects)
+        self.target = "model" if any(e.target == "model" for e in self.effects) else "chain"
+        self.breaks_rigidity = any(getattr(e, "breaks_rigidity", False) for e in self.effects)
+
+    def parameters(self, model) -> list:
+        return [replace(p, name=f"{e.name}.{p.name}") for e in self.effects for p in e.parameters(model)]
+
+    def apply(self, model, values: Mapping[str, float]):
+        for e in self.effects:
+            own = {k.split(".", 1)[1]: v for k, v in values.items() if k.split(".", 1)[0] == e.name}
+            model = e.apply(model, own)
+        return model
+
+
+def pairable(effect) -> bool:
+    """An effect a joint fit can hold: one that solves no parameters of its own (a projection would
+    see the residual of the model without its partner) and refines no other fit."""
+    return not callable(getattr(effect, "linear_parameters", None)) and not getattr(effect, "refines", None)
+
+
+def overlap(a, b, before: resolution.Resolved) -> bool:
+    """Both candidates lower the residual in a common cell that is above its floor: their residuals
+    overlap there, so fitted alone each is biased by the other's part."""
+    ra, rb = a._resolved, b._resolved
+    for q0, lim, qa, qb in zip(before.ratios(), before.limit, ra.ratios(), rb.ratios()):
+        above = q0 > lim
+        if np.any(above & (qa < q0) & (qb < q0)):
+            return True
+    return False
+
+
+def start(problem, members: Sequence[Any]) -> np.ndarray:
+    """The joint problem's start: each member's single fit, in the joint's normalised units."""
+    u = problem.zero()
+    for i, f in enumerate(problem.free):
+        eff, name = f.param.name.split(".", 1)
+        c = next((m for m in members if m.effect == eff), None)
+        if c is None:
+            continue
+        v = c.per_experiment.get(f.experiment, {}).get(name) if f.experiment else c.values.get(name)
+        if v is not None:
+            u[i] = float(np.clip((float(v) - f.param.nominal) / f.scale, *f.bounds))
+    return u
+
+
+def accepted(pair, members: Sequence[Any], singles: Sequence[Any]) -> tuple[bool, str]:
+    """Whether the pair's joint fit is a finding, and the words why (or why not)."""
+    if not pair.significant:
+        return False, "the pair is not significant"
+    for m, other in (members, members[::-1]):
+        # on data it was not fitted to, and by the ranking's penalty for parameters, the pair must
+        # beat each member alone: a second effect that soaks up a sliver of a misfit the first
+        # leaves (its gain on the resolved residual is large wherever cells hold many lines) does not
+        if not (pair.validated_error < m.validated_error and pair.bic < m.bic):
+            return False, (f"{other.effect} does not improve {m.effect}'s validated error "
+                           f"({m.validated_error:.4g} -> {pair.validated_error:.4g}) by more than its "
+                           f"{pair.n_parameters - m.n_parameters} parameters' penalty")
+        extra = max(pair.n_parameters - m.n_parameters, 1)
+        g = resolution.gain(m._resolved, pair._resolved)
+        if not g > resolution.gain_threshold(extra):
+            return False, (f"{other.effect} adds no significant gain over {m.effect} alone "
+                           f"(likelihood ratio {g:.3g} for a limit of {resolution.gain_threshold(extra):.3g})")
+    for s in singles:
+        if s.significant and s.n_parameters < pair.n_parameters and getattr(s, "_resolved", None) is not None:
+            extra = pair.n_parameters - s.n_parameters
+            if resolution.gain(s._resolved, pair._resolved) <= resolution.gain_threshold(extra):
+                return False, f"{s.effect} alone explains as much with fewer parameters"
+    g = [resolution.gain(m._resolved, pair._resolved) for m in members]
+    return True, (f"each adds significantly over the other alone (likelihood ratio "
+                  f"{g[1]:.3g} over {members[1].effect}, {g[0]:.3g} over {members[0].effect})")

@@ -1,0 +1,66 @@
+"""The diagnosis's worker processes: candidates are screened and fitted on forked processes (or one
+after another in this process), each with one BLAS thread, sharing what they need through
+``JOBS``."""
+
+from __future__ import annotations
+
+import itertools
+import os
+from collections.abc import Callable
+from typing import Any
+
+from threadpoolctl import threadpool_limits
+
+
+class Deferred:
+    """A call run when its result is asked for: a fit that is never asked for costs nothing."""
+
+    def __init__(self, fn: Callable, args: tuple) -> None:
+        self._fn, self._args = fn, args
+
+    def cancel(self) -> bool:
+        return True
+
+    def result(self) -> Any:
+        return self._fn(*self._args)
+
+
+class InOrder:
+    """The part of concurrent.futures' executor interface diagnose uses, one call after another
+    in this thread (workers=1)."""
+
+    def __enter__(self) -> InOrder:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+    def map(self, fn: Callable, *items) -> Any:
+        return map(fn, *items)
+
+    def submit(self, fn: Callable, *args: Any) -> Deferred:
+        return Deferred(fn, args)
+
+
+def default_workers(n_candidates: int) -> int:
+    """As many worker processes as cores, at most 2 for a handful of candidates (a pool's start
+    and the fits' transfer cost more than a third process gains there) and never more than there
+    are candidates."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return max(1, min(cores, n_candidates, 2 if n_candidates <= SMALL_JOB else cores))
+
+
+#: up to this many candidates a diagnosis is a small job (default_workers)
+SMALL_JOB = 32
+
+#: what a diagnosis's worker processes need, keyed by a token per call: filled before the pool
+#: forks, so the processes inherit it (models hold the effects' shape functions, which do not
+#: pickle) and only effect names, starts and fitted numbers travel
+JOBS: dict[int, dict[str, Any]] = {}
+TOKENS = itertools.count()
+
+
+def worker_start() -> None:
+    # one BLAS thread per process: the processes share the cores, and a BLAS pool per process
+    # would spin against the other process's work
+    threadpool_limits(1)

@@ -1,0 +1,73 @@
+"""The pair rule of the diagnosis (odsuite.diagnosis.joint): a pair is accepted only when each member
+adds, over the other alone, more whitened excess than chi-square at 0.001 with the other's
+parameters (scipy's quantile), the pair beats each member by validated error and BIC, and no
+simpler single comes within the test. Resolved residuals built by hand: one experiment, two bands,
+one channel, every cell with 20 degrees of freedom and a limit of 3."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import scipy.stats
+
+from odsuite.analysis.resolved import Resolved
+from odsuite.diagnosis.joint import accepted, overlap
+
+DOF = 20.0
+LIMIT = 3.0
+
+
+def _res(ratios) -> Resolved:
+    q = np.array(ratios, float).reshape(2, 1)
+    n = np.full_like(q, DOF)
+    return Resolved(["r0"], [["x1"]], [[(10.0, 20.0), (20.0, 40.0)]], [q], [np.ones_like(q)], [n], [n],
+                    [np.full_like(q, LIMIT)])
+
+
+def _cand(name, ratios, k, validated, bic, significant=True):
+    return SimpleNamespace(effect=name, _resolved=_res(ratios), n_parameters=k, validated_error=validated,
+                           bic=bic, significant=significant)
+
+
+def test_each_member_must_add_beyond_the_chi_square_quantile_of_its_parameters():
+    a = _cand("a", [LIMIT + 5.0, LIMIT], 3, 0.02, 100.0)
+    b = _cand("b", [LIMIT, LIMIT + 5.0], 2, 0.02, 100.0)
+    # over a alone, b's part removes DOF * 5 = 100 of whitened excess; over b, a's part the same
+    pair = _cand("a+b", [LIMIT, LIMIT], 5, 0.01, 90.0)
+    assert 100.0 > scipy.stats.chi2.isf(1e-3, 3) and 100.0 > scipy.stats.chi2.isf(1e-3, 2)
+    ok, why = accepted(pair, (a, b), [a, b])
+    assert ok, why
+    # b's part only 0.5 above the limit: 10 of excess, below chi2.isf(0.001, 2) = 13.8
+    a_small = _cand("a", [LIMIT + 5.0, LIMIT + 0.5], 3, 0.02, 100.0)
+    b_big = _cand("b", [LIMIT, LIMIT + 0.5], 2, 0.02, 100.0)
+    assert DOF * 0.5 < scipy.stats.chi2.isf(1e-3, 2)
+    ok, why = accepted(pair, (a_small, b_big), [a_small, b_big])
+    assert not ok and "adds no significant gain" in why
+
+
+def test_a_pair_that_does_not_validate_better_than_a_member_is_refused():
+    a = _cand("a", [LIMIT + 5.0, LIMIT], 3, 0.02, 100.0)
+    b = _cand("b", [LIMIT, LIMIT + 5.0], 2, 0.02, 100.0)
+    worse = _cand("a+b", [LIMIT, LIMIT], 5, 0.0201, 90.0)  # held out, worse than a alone
+    assert not accepted(worse, (a, b), [a, b])[0]
+    penalised = _cand("a+b", [LIMIT, LIMIT], 5, 0.01, 100.5)  # a lower error, but not by the BIC
+    assert not accepted(penalised, (a, b), [a, b])[0]
+
+
+def test_a_simpler_single_that_explains_as_much_wins():
+    a = _cand("a", [LIMIT + 5.0, LIMIT], 3, 0.02, 100.0)
+    b = _cand("b", [LIMIT, LIMIT + 5.0], 2, 0.02, 100.0)
+    pair = _cand("a+b", [LIMIT, LIMIT], 5, 0.01, 90.0)
+    simple = _cand("c", [LIMIT + 0.1, LIMIT], 1, 0.011, 91.0)  # 2 left: below chi2.isf(0.001, 4)
+    ok, why = accepted(pair, (a, b), [a, b, simple])
+    assert not ok and "c alone" in why
+
+
+def test_overlap_needs_a_common_cell_above_the_floor_that_both_lower():
+    before = _res([LIMIT + 5.0, LIMIT + 5.0])
+    a = _cand("a", [LIMIT + 1.0, LIMIT + 5.0], 1, 0.0, 0.0)
+    b = _cand("b", [LIMIT + 5.0, LIMIT + 1.0], 1, 0.0, 0.0)
+    c = _cand("c", [LIMIT + 2.0, LIMIT + 2.0], 1, 0.0, 0.0)
+    assert not overlap(a, b, before)  # each lowers only its own band
+    assert overlap(a, c, before) and overlap(b, c, before)
