@@ -28,7 +28,6 @@ from pathlib import Path
 from typing import Any
 
 from odsuite.domain.errors import ConfigError, OdsuiteError
-from odsuite.store.diskspace import write_output
 from odsuite.store.h5contained import ReachesOutsideError
 from odsuite.analysis.noise_floor import FLOOR_TOLERANCE
 
