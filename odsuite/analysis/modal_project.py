@@ -18,7 +18,7 @@ from odsuite.analysis.frf import FrfSet, estimate_frf
 from odsuite.analysis.hammer import assess_hits
 from odsuite.analysis.modal import ModalResult, identify_modes
 from odsuite.store.project import DerivedArray, open_project
-from odsuite.domain.systeminfo import ChannelInfo, SensorType, Systeminfo
+from odsuite.domain.systeminfo import SensorType
 from odsuite.domain.version import __version__
 
 def _scale(exp) -> np.ndarray:
