@@ -368,15 +368,61 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     Candidates are screened and fitted on ``workers`` processes (default: default_workers; 1: one
     after another in this process). Each candidate's work is independent of the others' and runs
     in the same order of operations, so the result does not depend on ``workers``."""
-    from odsuite.analysis.comparison import compare
-
     if workers is not None and workers < 1:
         raise ConfigError(f"diagnose: workers must be at least 1, got {workers}")
     regs = project.registries
     rev = current_revision(project)
     base = revision_model(project, rev)
     exps = list(prepared) if prepared is not None else prepare(project, experiments)
+    names, refiners, not_applicable = _candidate_names(project, rev, base, effects)
+    cmp, job, before, res0 = _baseline(project, rev, base, exps)
+    # candidates go to forked processes, each with one BLAS thread (where the platform cannot fork,
+    # one after another): they inherit the records and models, and only effect names, starts and
+    # fitted numbers travel. On 2 cores BLAS threads mostly wait for each other on these small
+    # products (CPU time 1.7x the wall time): a process per core uses them better
+    workers = workers or default_workers(len(names))
+    # a daemonic process (a batch's worker) may not start processes of its own
+    parallel = (workers > 1 and "fork" in multiprocessing.get_all_start_methods()
+                and not multiprocessing.current_process().daemon)
+    token = next(TOKENS)
+    JOBS[token] = job
+    if parallel:  # a candidate may give the structure cubic springs: the workers inherit the loop
+        load_nonlinear_loop()
+    pool = (ProcessPoolExecutor(workers, multiprocessing.get_context("fork"), initializer=worker_start)
+            if parallel else InOrder())
+    try:
+        # one BLAS thread here too: a product's rounding may depend on the threads that share it,
+        # and the result must not depend on ``workers``
+        with pool, threadpool_limits(1):
+            screened, evaluations = _screen(pool, token, job, names, progress)
+            candidates, fitted, count = _fit_best(pool, token, job, screened[:full_fits], workers if parallel else 1,
+                                                  exps, cmp, res0, progress)
+            evaluations += count
+            candidates, count = _refined(job, refiners, candidates, cmp)
+            evaluations += count
+            pairs = _fit_pairs(job, candidates, res0, cmp.floor, job["scale"])
+            evaluations += sum(c._problem.evaluations for c in pairs)
+    finally:
+        JOBS.pop(token)
+    candidates += _screened_only(screened, fitted, job)
+    candidates = _ordered(candidates, pairs, exps, base, job)
+    diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=job["noise"], revision=rev.get("revision"),
+                          candidates=candidates, residual_peaks=job["peaks"], evaluations=evaluations,
+                          not_applicable=not_applicable,
+                          other_families=[n for n in not_applicable if getattr(regs.effects.get(n), "structures", None)
+                                          and not isinstance(base.shared.structure, regs.effects.get(n).structures)])
+    _conclude(diagnosis, cmp, base, exps, before, res0)
+    if progress:
+        progress("done", len(names), len(names))
+    return diagnosis
+
+
+def _candidate_names(project, rev, base, effects: Sequence[str] | None) -> tuple[list[str], list[str], list[str]]:
+    """The effects to try (those asked for, or every registered one not yet in the model or
+    repeatable), the refiners fitted after the effect they refine, and those that do not apply."""
+    regs = project.registries
     in_model = {e["effect"] for e in rev.get("effects", [])}
+
     def absent(n: str) -> bool:  # or one more of it can be added
         return n not in in_model or getattr(regs.effects.get(n), "repeatable", False)
 
@@ -395,146 +441,148 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     refiners = [n for n in names if getattr(regs.effects.get(n), "refines", None)]
     names += [b for b in dict.fromkeys(regs.effects.get(n).refines for n in refiners)
               if b not in names and b in regs.effects.names() and absent(b)]
-    names = [n for n in names if n not in refiners]
+    return [n for n in names if n not in refiners], refiners, not_applicable
+
+
+def _baseline(project, rev, base, exps):
+    """The current model against the records: the comparison, the job every candidate's work
+    reads (records, fit windows, noise scale, residual peaks, modes in the band), the model's
+    predictions and where it fails, resolved by experiment, channel and band."""
+    from odsuite.analysis.comparison import compare
+
     cmp = compare(project, revision=rev, prepared=exps, resonances=False)
     den = sum(float(np.sum(e.measured**2)) for e in exps)
     sse0 = cmp.error**2 * den
     windows = fit_windows(exps)
     sse0_win = sum(float(np.sum((w.measured - predict(base.for_experiment(w.name), w)) ** 2)) for w in windows)
-    tail0 = max(sse0 - sse0_win, 0.0)
     noise = cmp.noise_floor_error
-    # noise energy per independent sample of the calibrated floor: the scale of every test
-    scale = checks.noise_scale(cmp.floor, exps)
-    force_levels = {e.name: float(np.max(np.abs(e.force))) for e in exps}
     n_eff, f99 = effective_samples(exps)
-    stride = max(1, int(exps[0].fs / (5.0 * f99)))
-    prior = 1e-3 * max(noise**2, 1e-8) * den
     peaks = cmp.residual_peaks
-    peak_hz = [p["frequency_hz"] for p in peaks if p["lacking"]]
     rig_vals = [max(b["fractions"].values()) for per in cmp.rigidity.values() for b in per.values()
                 if b["fractions"]]
-    rigidity = float(np.median(rig_vals)) if rig_vals else None
-    # the modes within the records' band (a finite-element model's highest modes move most and
-    # are seen least)
-    modes_before = [f for f in base.shared.modes().frequency_hz if f <= f99]
+    job = {"base": base, "effects": project.registries.effects, "windows": windows, "exps": exps,
+           "prior": 1e-3 * max(noise**2, 1e-8) * den, "stride": max(1, int(exps[0].fs / (5.0 * f99))),
+           # noise energy per independent sample of the calibrated floor: the scale of every test
+           "scale": checks.noise_scale(cmp.floor, exps), "sse0_win": sse0_win,
+           "peak_hz": [p["frequency_hz"] for p in peaks if p["lacking"]], "sse0": sse0, "den": den,
+           "n_eff": n_eff, "noise": noise, "peaks": peaks,
+           "rigidity": float(np.median(rig_vals)) if rig_vals else None,
+           # the modes within the records' band (a finite-element model's highest modes move most
+           # and are seen least)
+           "modes_before": [f for f in base.shared.modes().frequency_hz if f <= f99],
+           "tail0": max(sse0 - sse0_win, 0.0),
+           "force_levels": {e.name: float(np.max(np.abs(e.force))) for e in exps}}
     # where the model fails, resolved by experiment, channel and band: the baseline of every gain test
     before = [predict(base.for_experiment(e.name), e) for e in exps]
-    res0 = resolution.resolve(exps, before, cmp.floor)
+    return cmp, job, before, resolution.resolve(exps, before, cmp.floor)
 
-    # candidates go to forked processes, each with one BLAS thread (where the platform cannot fork,
-    # one after another): they inherit the records and models, and only effect names, starts and
-    # fitted numbers travel. On 2 cores BLAS threads mostly wait for each other on these small
-    # products (CPU time 1.7x the wall time): a process per core uses them better
-    workers = workers or default_workers(len(names))
-    # a daemonic process (a batch's worker) may not start processes of its own
-    parallel = (workers > 1 and "fork" in multiprocessing.get_all_start_methods()
-                and not multiprocessing.current_process().daemon)
-    token = next(TOKENS)
-    JOBS[token] = {"base": base, "effects": regs.effects, "windows": windows, "exps": exps, "prior": prior,
-                    "stride": stride, "scale": scale, "sse0_win": sse0_win, "peak_hz": peak_hz, "sse0": sse0, "den": den,
-                    "n_eff": n_eff, "noise": noise, "peaks": peaks, "rigidity": rigidity,
-                    "modes_before": modes_before, "tail0": tail0, "force_levels": force_levels}
-    job = JOBS[token]
+
+def _screen(pool, token, job, names, progress) -> tuple[list[Screened], int]:
+    """Every candidate screened (one linearised step), best first; and the model evaluations spent."""
     screened: list[Screened] = []
     evaluations = 0
-    if parallel:  # a candidate may give the structure cubic springs: the workers inherit the loop
-        load_nonlinear_loop()
-    pool = (ProcessPoolExecutor(workers, multiprocessing.get_context("fork"), initializer=worker_start)
-            if parallel else InOrder())
-    try:
-        # one BLAS thread here too: a product's rounding may depend on the threads that share it,
-        # and the result must not depend on ``workers``
-        with pool, threadpool_limits(1):
-            for i, (name, done) in enumerate(zip(names, pool.map(_screen_job, [token] * len(names), names))):
-                if progress:
-                    progress(f"screening {name}", i, len(names))
-                if done is not None:
-                    fixed, u0, sse, count = done
-                    problem = _problem(job, name, fixed)
-                    screened.append(Screened(problem.effect, fixed, u0, sse, problem))
-                    evaluations += count
-            screened.sort(key=lambda s: s.sse)
-            candidates: list[Candidate] = []
-            top = screened[:full_fits]
-            best_win = sse0_win
-            fitted = []
+    for i, (name, done) in enumerate(zip(names, pool.map(_screen_job, [token] * len(names), names))):
+        if progress:
+            progress(f"screening {name}", i, len(names))
+        if done is not None:
+            fixed, u0, sse, count = done
+            problem = _problem(job, name, fixed)
+            screened.append(Screened(problem.effect, fixed, u0, sse, problem))
+            evaluations += count
+    screened.sort(key=lambda s: s.sse)
+    return screened, evaluations
 
-            def skipped(k: int) -> bool:
-                # a candidate whose screening took up less than half of what the best fit so far
-                # explains cannot compete: screening only ranks it. best_win only falls, so a
-                # candidate skipped before the fits ahead of it have finished stays skipped
-                return k > 0 and top[k].sse > best_win + 0.5 * (sse0_win - best_win)
 
-            jobs: dict[int, Any] = {}
-            queued = 0
-            for i, s in enumerate(top):
-                while queued < min(len(top), i + (workers if parallel else 1)):  # the pool busy ahead of i
-                    if not skipped(queued):
-                        t = top[queued]
-                        jobs[queued] = pool.submit(_fit_job, token, t.effect.name, t.fixed, t.u0, t.sse)
-                    queued += 1
-                if i not in jobs or skipped(i):
-                    if i in jobs:
-                        jobs[i].cancel()
-                    continue
-                fitted.append(s)
-                if progress:
-                    progress(f"fitting {s.effect.name}", i, len(top))
-                cand, fixed, count = jobs[i].result()
-                cand._problem = _problem(job, s.effect.name, fixed)
-                best_win = min(best_win, cand._sse_win)
-                evaluations += count
-                _judge(cand, exps, cmp.floor, res0, sse0, den, scale)
-                words = _checks_words(cand)
-                if words:
-                    cand.evidence += "; " + words
-                candidates.append(cand)
-            for name in refiners:
-                refined = _refine(job, name, candidates, scale, cmp.floor)
-                if refined is not None:
-                    candidates.append(refined)
-                    evaluations += refined._problem.evaluations
-                    continue
-                candidates.append(Candidate(
-                    effect=name, significant=False, error_after=cmp.error, validated_error=float("nan"),
-                    parameters={}, uncertainties={}, units={}, n_parameters=0, bic=float("inf"),
-                    screened_error=cmp.error, fitted=False,
-                    evidence=(f"not fitted: it refines {regs.effects.get(name).refines}'s fit, which is not "
-                              "significant or leaves nothing above the noise floor, or another candidate "
-                              "brings the error to the floor")))
-            pairs = _fit_pairs(job, candidates, res0, cmp.floor, scale)
-            evaluations += sum(c._problem.evaluations for c in pairs)
-    finally:
-        JOBS.pop(token)
+def _fit_best(pool, token, job, top: list[Screened], ahead: int, exps, cmp, res0, progress):
+    """The best screened candidates fitted in full (``ahead`` at a time), each judged against the
+    resolved floor; a candidate that cannot compete with the fits before it is left screened only.
+    Returns the candidates, the screened ones fitted, and the model evaluations spent."""
+    candidates: list[Candidate] = []
+    best_win = job["sse0_win"]
+    fitted = []
+    evaluations = 0
+
+    def skipped(k: int) -> bool:
+        # a candidate whose screening took up less than half of what the best fit so far
+        # explains cannot compete: screening only ranks it. best_win only falls, so a
+        # candidate skipped before the fits ahead of it have finished stays skipped
+        return k > 0 and top[k].sse > best_win + 0.5 * (job["sse0_win"] - best_win)
+
+    jobs: dict[int, Any] = {}
+    queued = 0
+    for i, s in enumerate(top):
+        while queued < min(len(top), i + ahead):  # the pool busy ahead of i
+            if not skipped(queued):
+                t = top[queued]
+                jobs[queued] = pool.submit(_fit_job, token, t.effect.name, t.fixed, t.u0, t.sse)
+            queued += 1
+        if i not in jobs or skipped(i):
+            if i in jobs:
+                jobs[i].cancel()
+            continue
+        fitted.append(s)
+        if progress:
+            progress(f"fitting {s.effect.name}", i, len(top))
+        cand, fixed, count = jobs[i].result()
+        cand._problem = _problem(job, s.effect.name, fixed)
+        best_win = min(best_win, cand._sse_win)
+        evaluations += count
+        _judge(cand, exps, cmp.floor, res0, job["sse0"], job["den"], job["scale"])
+        words = _checks_words(cand)
+        if words:
+            cand.evidence += "; " + words
+        candidates.append(cand)
+    return candidates, fitted, evaluations
+
+
+def _refined(job, refiners: list[str], candidates: list[Candidate], cmp) -> tuple[list[Candidate], int]:
+    """Each refiner fitted from the fit of the effect it refines, or listed as not fitted with why."""
+    evaluations = 0
+    for name in refiners:
+        refined = _refine(job, name, candidates, job["scale"], cmp.floor)
+        if refined is not None:
+            candidates.append(refined)
+            evaluations += refined._problem.evaluations
+            continue
+        candidates.append(Candidate(
+            effect=name, significant=False, error_after=cmp.error, validated_error=float("nan"),
+            parameters={}, uncertainties={}, units={}, n_parameters=0, bic=float("inf"),
+            screened_error=cmp.error, fitted=False,
+            evidence=(f"not fitted: it refines {job['effects'].get(name).refines}'s fit, which is not "
+                      "significant or leaves nothing above the noise floor, or another candidate "
+                      "brings the error to the floor")))
+    return candidates, evaluations
+
+
+def _screened_only(screened: list[Screened], fitted: list[Screened], job) -> list[Candidate]:
+    """The screened candidates not fitted in full, with the error their one step reaches."""
+    out = []
     for s in screened:
         if any(s is f for f in fitted):
             continue
-        err = math.sqrt((s.sse + tail0) / den)
-        candidates.append(Candidate(
+        err = math.sqrt((s.sse + job["tail0"]) / job["den"])
+        out.append(Candidate(
             effect=s.effect.name, significant=False, error_after=err,
             validated_error=float("nan"), parameters={}, uncertainties={}, units={},
             evidence=f"screening only: one linearised step reaches error {err:.3g}",
             n_parameters=len(s.problem.free), bic=float("inf"), screened_error=err,
             fitted=False))
-    mark_confounded([c for c in candidates if c.fitted], exps, scale)
-    tell_refinements_apart(candidates, regs.effects, den)
+    return out
+
+
+def _ordered(candidates: list[Candidate], pairs: list[Candidate], exps, base, job) -> list[Candidate]:
+    """The candidates in the order the verdict reads them: significant first by BIC, confounded,
+    proxy and refinement rules applied, an accepted pair ahead of all."""
+    effects = job["effects"]
+    mark_confounded([c for c in candidates if c.fitted], exps, job["scale"])
+    tell_refinements_apart(candidates, effects, job["den"])
     mark_proxies([c for c in candidates if c.fitted], base)
     candidates.sort(key=lambda c: (not c.significant, c.bic if c.fitted else math.inf, c.screened_error))
-    prefer_fewer_parameters(candidates, regs.effects)
-    prefer_named(candidates, regs.effects)
+    prefer_fewer_parameters(candidates, effects)
+    prefer_named(candidates, effects)
     # an accepted pair goes first (it passed the tests against each member and every simpler single);
     # the others are listed last with the reason
-    candidates[:0] = [c for c in pairs if c.significant]
-    candidates += [c for c in pairs if not c.significant]
-    diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=noise, revision=rev.get("revision"),
-                          candidates=candidates, residual_peaks=peaks, evaluations=evaluations,
-                          not_applicable=not_applicable,
-                          other_families=[n for n in not_applicable if getattr(regs.effects.get(n), "structures", None)
-                                          and not isinstance(base.shared.structure, regs.effects.get(n).structures)])
-    _conclude(diagnosis, cmp, base, exps, before, res0)
-    if progress:
-        progress("done", len(names), len(names))
-    return diagnosis
+    return [c for c in pairs if c.significant] + candidates + [c for c in pairs if not c.significant]
 
 
 def _fit_pairs(job: Mapping[str, Any], candidates: Sequence[Candidate], res0, floor, scale: float
