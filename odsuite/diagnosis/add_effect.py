@@ -123,9 +123,21 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     res = fit(joint, u0) if joint.free else None
     u = res.x if res is not None else joint.zero()
     sds, corr = uncertainties(joint, res, n_eff)[:2] if res is not None else (np.zeros(0), None)
+    new_entries = list(held) + _entries(joint, joint_effects, u, sds, corr)
+    if progress:
+        progress("comparing", 2, 3)
+    after = compare(project, revision={"model": rev.get("model"), "effects": new_entries}, prepared=exps,
+                    resonances=False)
+    warnings = _warnings(name, effect, joint, res, current.shared, exps, after)
+    return _stored(project, rev, name, new_entries, after, before, warnings)
+
+
+def _entries(joint: Problem, joint_effects, u, sds, corr) -> list[dict[str, Any]]:
+    """The revision's entries of the jointly fitted effects: values, per-experiment values,
+    uncertainties and physical quantities (each on the model the effects before it made)."""
     shared, per = joint.values(u)
-    new_entries = list(held)
-    model = joint.base.shared  # each effect's physical quantities on the model the ones before it made
+    entries = []
+    model = joint.base.shared
     for e in joint_effects:
         prefix = f"{e.name}."
         values = {k[len(prefix):]: v for k, v in shared.items() if k.startswith(prefix)}
@@ -137,17 +149,18 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
                   for f in joint.free]
         rows = physical.quantities(e, model, values, labels, sds, corr)
         model = e.apply(model, values)
-        new_entries.append({"effect": e.name, "values": values, "per_experiment": per_exp, "uncertainties": unc,
-                            **({"physical": rows} if rows else {})})
-    flat = _flat(new_entries)
-    if progress:
-        progress("comparing", 2, 3)
-    candidate_rev = {"model": rev.get("model"), "effects": new_entries}
-    after = compare(project, revision=candidate_rev, prepared=exps, resonances=False)
-    warnings = _warnings(name, effect, joint, res, current.shared, exps, after)
+        entries.append({"effect": e.name, "values": values, "per_experiment": per_exp, "uncertainties": unc,
+                        **({"physical": rows} if rows else {})})
+    return entries
+
+
+def _stored(project, rev, name: str, new_entries: list[dict], after, before: float, warnings: list[str]
+            ) -> dict[str, Any]:
+    """The new revision stored (its error stamped with the records it was computed on) and made
+    current; returns what add-effect reports."""
     metrics = {"error": after.error, "noise_floor_error": after.noise_floor_error, "added": name,
                "previous_error": before, "data_stamp": data_stamp(project)}
-    n = project.add_model_revision(new_entries, flat, metrics, rev["revision"], model=rev.get("model"))
+    n = project.add_model_revision(new_entries, _flat(new_entries), metrics, rev["revision"], model=rev.get("model"))
     return {"revision": n, "effect": name, "error": after.error, "previous_error": before,
             "noise_floor_error": after.noise_floor_error, "effects": new_entries, "warnings": warnings}
 
@@ -170,17 +183,12 @@ def _add_on_top(project, rev, entries, name: str, effect, screened, n_eff, exps,
     new_entries = [*entries, {"effect": name, "values": dict(shared),
                               "per_experiment": {x: d for x, d in per.items() if d}, "uncertainties": unc,
                               **({"physical": rows} if rows else {})}]
-    flat = _flat(new_entries)
     if progress:
         progress("comparing", 2, 3)
     after = compare(project, revision={"model": rev.get("model"), "effects": new_entries}, prepared=exps,
                     resonances=False)
     warnings = _warnings(name, effect, problem, res, problem.base.shared, exps, after, prefix="")
-    metrics = {"error": after.error, "noise_floor_error": after.noise_floor_error, "added": name,
-               "previous_error": before, "data_stamp": data_stamp(project)}
-    n = project.add_model_revision(new_entries, flat, metrics, rev["revision"], model=rev.get("model"))
-    return {"revision": n, "effect": name, "error": after.error, "previous_error": before,
-            "noise_floor_error": after.noise_floor_error, "effects": new_entries, "warnings": warnings}
+    return _stored(project, rev, name, new_entries, after, before, warnings)
 
 
 def _warnings(name: str, effect, joint: Problem, res, model, exps, after, prefix: str | None = None) -> list[str]:
