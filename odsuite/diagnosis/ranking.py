@@ -5,15 +5,16 @@ preference for fewer parameters and for named mechanisms over data-driven stand-
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import Any
 
 import numpy as np
 
 from odsuite.analysis import resolved as resolution
 from odsuite.diagnosis import checks
 
-if TYPE_CHECKING:
-    from odsuite.diagnosis.diagnose import Candidate
+#: diagnose's Candidate (fitted effect, its error and tests): named, not imported, since diagnose
+#: imports this module
+Candidate = Any
 
 #: candidates whose prediction changes have at least this cosine similarity are named as confounded
 CONFOUNDED_COSINE = 0.9
