@@ -348,11 +348,13 @@ def _identify(y, fs, f_band, max_order, block_rows, decimation, output_names, cr
                           f"with {settings.describe()}: {advice}")
     phi = np.empty((shapes[0].shape[0], poles.size), dtype=complex)
     for r, p in enumerate(poles):
-        # highest order where a pole lies within 0.5 % (select_poles' cluster width)
+        # highest order where a stable pole lies within 0.5 % (select_poles' cluster width): an
+        # unstable one there is often a numerical pole beside the mode, its shape a mixture
         for k in range(len(diagram.orders) - 1, -1, -1):
-            cand = diagram.poles[k]
+            stable = np.flatnonzero(diagram.stable[k])
+            cand = diagram.poles[k][stable]
             if cand.size and np.min(np.abs(np.abs(cand) - abs(p))) <= 0.005 * abs(p):
-                phi[:, r] = shapes[k][:, int(np.argmin(np.abs(np.abs(cand) - abs(p))))]
+                phi[:, r] = shapes[k][:, stable[int(np.argmin(np.abs(np.abs(cand) - abs(p))))]]
                 break
     f_std, z_std, count = _segment_scatter(y, fs, poles, (lo, hi), max_order, settings.block_rows)
     ok, reasons = _resolved(poles, f_std, count)

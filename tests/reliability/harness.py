@@ -18,7 +18,9 @@ Adding a writing command is one ``WritingCommand`` line in ``WRITING_COMMANDS``.
 
 from __future__ import annotations
 
+import fnmatch
 import hashlib
+import json
 import logging
 import os
 import random
@@ -67,8 +69,9 @@ class WritingCommand:
     """A command that writes into the project; ``argv`` builds its arguments (without ``odsuite``).
     ``program`` replaces ``odsuite`` (the harness's own tests run deliberately unsafe writers);
     ``needs`` names an input file without which the command is left out. ``updates`` names committed
-    units the command may change (still checked against a complete run), e.g. ``models`` whose
-    current revision add-effect moves."""
+    units the command may change, as shell-style patterns (still checked against a complete run):
+    ``models``, whose current revision add-effect moves; a revision's stored error, which process
+    writes."""
 
     name: str
     argv: Callable[[Context], list[str]]
@@ -84,8 +87,10 @@ WRITING_COMMANDS: tuple[WritingCommand, ...] = (
     WritingCommand("acquire", lambda c: [
         "acquire", str(c.project), "--daq", "sim", "--name", f"acq{c.index}", "--seed", str(c.index % 5),
         "--samples", "4096"]),
+    # process stores the current revision's error on the records it leaves (models/revisions/N)
     WritingCommand("process", lambda c: [
-        "process", str(c.project), "--experiment", c.rng.choice([e for e in c.experiments if "lvm" not in e])]),
+        "process", str(c.project), "--experiment", c.rng.choice([e for e in c.experiments if "lvm" not in e])],
+        updates=("models/revisions/*",)),
     WritingCommand("import-lvm", lambda c: [
         "import-lvm", str(c.project), str(c.inputs / "beam.lvm"), "--name", f"lvm{c.index}"], needs="beam.lvm"),
     WritingCommand("frf", lambda c: [
@@ -165,8 +170,26 @@ def _feed_attrs(h, obj) -> None:
         if key in VOLATILE_ATTRS:
             continue
         value = np.asarray(obj.attrs[key])
+        if key == "metrics":  # a revision's stored error: its data_stamp names the records' object ids
+            value = np.asarray(_without_stamp(obj.attrs[key]))
         h.update(key.encode())
         h.update(_bytes(value))
+
+
+def _updated(unit: str, updates: tuple[str, ...]) -> bool:
+    """Whether a command may change ``unit``: one ``updates`` names (shell-style patterns)."""
+    return any(fnmatch.fnmatchcase(unit, u) for u in updates)
+
+
+def _without_stamp(text) -> str:
+    text = text.decode() if isinstance(text, bytes) else str(text)
+    try:
+        metrics = json.loads(text)
+    except ValueError:  # not odsuite's JSON: hashed as it is
+        return text
+    if isinstance(metrics, dict):
+        metrics.pop("data_stamp", None)
+    return json.dumps(metrics, sort_keys=True)
 
 
 def units(path: Path) -> dict[str, str]:
@@ -362,7 +385,7 @@ def _check(run: Run, project: Path, before_units: dict[str, str], oracle: Callab
     if hidden:
         run.problems.append(f"half-written groups visible: {hidden}")
     run.changed = sorted(u for u in set(after) | set(before_units) if after.get(u) != before_units.get(u))
-    lost = [u for u in run.changed if u in before_units and u not in updates]
+    lost = [u for u in run.changed if u in before_units and not _updated(u, updates)]
     if lost:
         run.problems.append(f"committed units changed or lost: {lost}")
     if run.changed:
@@ -410,7 +433,7 @@ def run_kills(project: Path, inputs: Path, scratch: Path, n: int, seed: int, *,
             err = project.with_name(project.name + ".stderr").read_text(errors="replace").strip()
             run.problems.append(f"exit code {code}: {err.splitlines()[-1] if err else ''}")
         after = _check(run, project, committed, lambda: _oracle(cmd, argv, before, project, scratch), cmd.updates)
-        lost += sum(1 for u in run.changed if u in committed and u not in cmd.updates)
+        lost += sum(1 for u in run.changed if u in committed and not _updated(u, cmd.updates))
         committed = after
         runs.append(run)
         if progress:

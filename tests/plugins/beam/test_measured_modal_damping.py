@@ -38,8 +38,12 @@ def test_each_mode_takes_its_measured_partners_damping(registries):
     model = Model(BeamStructure(BeamSpec("beam", np.zeros(3), L, MU, EI, elements=12, damping_ratio=(0.03,),
                                          supports=truth.supports)))
     bending = model.structure.damped_modes_hz()
-    assert np.allclose(f[:4], bending[:4], rtol=2e-3)
-    np.testing.assert_allclose(z[:4], TRUE_ZETA, rtol=0.05)
+    # the record also shows the beam bouncing and rocking on its soft supports below the bending
+    # modes; each bending mode is the identified one nearest it
+    nearest = [int(np.argmin(np.abs(f - b))) for b in bending[:4]]
+    assert np.allclose(f[nearest], bending[:4], rtol=2e-3)
+    np.testing.assert_allclose(z[nearest], TRUE_ZETA, rtol=0.05)
+    np.testing.assert_allclose(f[:2], model.modes().frequency_hz[:2], rtol=2e-3)  # the supports' 7.1, 9.9 Hz
     params = effect.parameters(model)
     assert [p.nominal for p in params[:3]] == pytest.approx([0.03] * 3, rel=1e-6)
     # the ratios the projection finds, applied: the model's bending modes decay as the record's
