@@ -19,7 +19,7 @@ from odsuite.api import ConfigError, Geometry
 
 from .scene import EDGES, Style
 from .shapes import DRAWN_FRACTION
-from .viewer import _rgb
+from .viewer import _rgb, inline_scripts
 
 
 def mode_label(kind: str, source: str, k: int, f: float, z: float, mpc: float) -> str:
@@ -111,18 +111,10 @@ def mode_view_html(data: Mapping, element_id: str = "mode-view") -> str:
             f'</div><canvas width="960" height="540" aria-label="interactive 3-D view of the mode shapes"></canvas>'
             f'<p class="v-help">Drag to rotate, wheel or +/&minus; to zoom; {data["drawn"]}; blue: the mode shape '
             f'moving through its cycle, dashed grey: rest position, grey dots: fixed nodes, green dots: sensors.</p>'
-            f'<script type="application/json" class="m-data">{payload}</script>'
-            f"<script>{_SCRIPT.replace('__ID__', element_id)}</script></div>")
+            + inline_scripts(element_id, "m-data", payload, _SCRIPT))
 
 
 _SCRIPT = r"""
-(function () {
-  var errors = [];
-  window.addEventListener('error', function (e) { errors.push(String(e.message)); });
-  var root = document.getElementById('__ID__');
-  var data = JSON.parse(root.querySelector('.m-data').textContent);
-  var canvas = root.querySelector('canvas');
-  var ctx = canvas.getContext('2d', { willReadFrequently: location.hash === '#selftest' });
   var pick = root.querySelector('.m-mode'), play = root.querySelector('.m-play');
   var az = -60, el = 20, zoom = 1, phase = 0, timer = null, drag = null, c = data.centre_mm, ax = data.axes;
 

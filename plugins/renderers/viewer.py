@@ -99,20 +99,29 @@ def viewer_html(data: Mapping, element_id: str = "viewer") -> str:
             f'</div><p class="v-help">Drag to rotate, wheel or +/&minus; to zoom; {data["magnification"]}; '
             f'blue: measured' + (', green: corrected (diagnosed distortions removed)' if data.get("corrected") else '')
             + ', orange: model, dashed grey: rest position, light grey: still bodies.</p>'
-            f'<script type="application/json" class="v-data">{payload}</script>'
-            f"<script>{_SCRIPT.replace('__ID__', element_id)}</script></div>")
+            + inline_scripts(element_id, "v-data", payload, _SCRIPT))
+
+
+#: the start every inline 3-D view's script shares: errors kept for its self-test, its data, its canvas
+SCRIPT_PRELUDE = r"""
+(function () {
+  var errors = [];
+  window.addEventListener('error', function (e) { errors.push(String(e.message)); });
+  var root = document.getElementById('__ID__');
+  var data = JSON.parse(root.querySelector('.__DATA__').textContent);
+  var canvas = root.querySelector('canvas');
+  var ctx = canvas.getContext('2d', { willReadFrequently: location.hash === '#selftest' });"""
+
+
+def inline_scripts(element_id: str, data_class: str, payload: str, script: str) -> str:
+    """A view's data and its script (the shared prelude, then ``script``), closing its element."""
+    code = (SCRIPT_PRELUDE.replace("__DATA__", data_class) + script).replace("__ID__", element_id)
+    return f'<script type="application/json" class="{data_class}">{payload}</script><script>{code}</script></div>'
 
 
 # The drawing: the rig seen from azimuth/elevation (as the movie's view: azimuth in the horizontal
 # plane from e1 towards e2, elevation towards up), orthographic.
 _SCRIPT = r"""
-(function () {
-  var errors = [];
-  window.addEventListener('error', function (e) { errors.push(String(e.message)); });
-  var root = document.getElementById('__ID__');
-  var data = JSON.parse(root.querySelector('.v-data').textContent);
-  var canvas = root.querySelector('canvas');
-  var ctx = canvas.getContext('2d', { willReadFrequently: location.hash === '#selftest' });
   var scrub = root.querySelector('.v-scrub'), timeLabel = root.querySelector('.v-time');
   var play = root.querySelector('.v-play'), modelBox = root.querySelector('.v-model');
   var measuredBox = root.querySelector('.v-measured'), correctedBox = root.querySelector('.v-corrected');
