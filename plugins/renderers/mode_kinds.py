@@ -10,6 +10,9 @@ import numpy as np
 #: rigidly to it, by less than this share of its own motion (the plate-and-motor rig's six lowest
 #: modes stay below 0.12, its mount modes above 1)
 RIGID_TOLERANCE = 0.3
+#: and the rigid bodies carry at least this share of its kinetic energy (a flexible plate's mode,
+#: an effect's modal coordinate, carries none of it)
+RIGID_ENERGY_SHARE = 0.5
 
 
 def suspension_modes(model) -> np.ndarray | None:
@@ -21,7 +24,7 @@ def suspension_modes(model) -> np.ndarray | None:
         if not bodies:
             return None
         first = bodies[0].name
-        flags = np.ones(shapes.shape[1], dtype=bool)
+        flags = _rigid_energy_share(structure, bodies, shapes) >= RIGID_ENERGY_SHARE
         for b in bodies[1:]:
             own = structure.body_coordinates(b.name) @ shapes
             carried = structure.body_coordinates(first, at=b.com) @ shapes
@@ -30,6 +33,19 @@ def suspension_modes(model) -> np.ndarray | None:
     except (AttributeError, NotImplementedError, KeyError, ValueError):  # no rigid bodies (finite elements)
         return None
     return flags
+
+
+def _rigid_energy_share(structure, bodies, shapes) -> np.ndarray:
+    """Per mode, the share of its kinetic energy (shape^H M shape) in the rigid bodies' motion."""
+    total = np.real(np.einsum("ik,ij,jk->k", np.conj(shapes), structure.M, shapes))
+    rigid = np.zeros(shapes.shape[1])
+    for b in bodies:
+        q = structure.body_coordinates(b.name) @ shapes
+        mb = np.zeros((6, 6))
+        mb[:3, :3] = b.mass * np.eye(3)
+        mb[3:, 3:] = b.inertia
+        rigid += np.real(np.einsum("ik,ij,jk->k", np.conj(q), mb, q))
+    return rigid / np.maximum(total, 1e-300)
 
 
 def mode_words(frequency_hz, flags) -> str:

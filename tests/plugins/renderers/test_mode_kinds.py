@@ -56,3 +56,21 @@ def test_report_names_the_suspension_modes_a_record_did_not_identify():
     text = _missed_suspension_html(rec, model)
     assert all(f"{v:.1f}" in text for v in sus[:-2]) and not any(f"{v:.1f}" in text for v in sus[-2:])
     assert _missed_suspension_html(SimpleNamespace(band_hz=(1.0, 900.0), measured_hz=sus), model) == ""
+
+
+def test_a_flexible_plate_mode_is_not_a_suspension_mode():
+    """The thesis rig is one platform on four springs: its six rigid-body modes are suspension modes;
+    the plate's flexible mode (plate_flexibility at 640 Hz) moves no rigid body and is not one."""
+    from odsuite.analysis.modelrev import apply_effects
+    from odsuite.contracts.plugins import build_registries, default_manager
+    from odsuite.domain.rig import load_rig
+
+    regs = build_registries(default_manager())
+    rig = load_rig(Path(__file__).resolve().parents[3] / "plugins" / "models" / "rigs" / "thesis-dynamometer.toml",
+                   regs.sensor_types)
+    model = apply_effects(_model(rig), [{"effect": "plate_flexibility", "values": {
+        "frequency_hz": 640.0, "damping_ratio": 0.02, "twist": 0.4}}], registries=regs).shared
+    f = model.modes().frequency_hz
+    flags = suspension_modes(model)
+    assert f.size == 7 and abs(f[-1] - 640.0) < 1.0
+    assert flags.tolist() == [True] * 6 + [False]
