@@ -161,16 +161,7 @@ _SCRIPT = r"""
     if (timer) { clearInterval(timer); timer = null; play.textContent = 'play'; } else { start(); }
   });
   pick.addEventListener('change', draw);
-  root.querySelector('.m-zoom-in').addEventListener('click', function () { zoom *= 1.25; draw(); });
-  root.querySelector('.m-zoom-out').addEventListener('click', function () { zoom /= 1.25; draw(); });
-  canvas.addEventListener('wheel', function (e) { e.preventDefault(); zoom *= e.deltaY < 0 ? 1.1 : 1 / 1.1; draw(); }, { passive: false });
-  canvas.addEventListener('pointerdown', function (e) { drag = [e.clientX, e.clientY]; });
-  window.addEventListener('pointerup', function () { drag = null; });
-  canvas.addEventListener('pointermove', function (e) {
-    if (!drag) return;
-    az += 0.4 * (e.clientX - drag[0]); el = Math.max(-89, Math.min(89, el + 0.4 * (e.clientY - drag[1])));
-    drag = [e.clientX, e.clientY]; draw();
-  });
+  navigate('m');
   var hash = location.hash;
   // #mode=K: that mode held at its largest excursion (a still for a screenshot or a link)
   if (hash.indexOf('#mode=') === 0) { pick.value = String(parseInt(hash.slice(6), 10) - 1); play.textContent = 'play'; draw(); }

@@ -110,7 +110,22 @@ SCRIPT_PRELUDE = r"""
   var root = document.getElementById('__ID__');
   var data = JSON.parse(root.querySelector('.__DATA__').textContent);
   var canvas = root.querySelector('canvas');
-  var ctx = canvas.getContext('2d', { willReadFrequently: location.hash === '#selftest' });"""
+  var ctx = canvas.getContext('2d', { willReadFrequently: location.hash === '#selftest' });
+  // drag to rotate, wheel or +/- to zoom (az, el, zoom, drag and draw are the view's own)
+  function navigate(prefix) {
+    root.querySelector('.' + prefix + '-zoom-in').addEventListener('click', function () { zoom *= 1.25; draw(); });
+    root.querySelector('.' + prefix + '-zoom-out').addEventListener('click', function () { zoom /= 1.25; draw(); });
+    canvas.addEventListener('wheel', function (e) {
+      e.preventDefault(); zoom *= e.deltaY < 0 ? 1.1 : 1 / 1.1; draw();
+    }, { passive: false });
+    canvas.addEventListener('pointerdown', function (e) { drag = [e.clientX, e.clientY]; });
+    window.addEventListener('pointerup', function () { drag = null; });
+    canvas.addEventListener('pointermove', function (e) {
+      if (!drag) return;
+      az += 0.4 * (e.clientX - drag[0]); el = Math.max(-89, Math.min(89, el + 0.4 * (e.clientY - drag[1])));
+      drag = [e.clientX, e.clientY]; draw();
+    });
+  }"""
 
 
 def inline_scripts(element_id: str, data_class: str, payload: str, script: str) -> str:
@@ -180,18 +195,7 @@ _SCRIPT = r"""
     timer = setInterval(function () { show(frame + 1 < data.t_ms.length ? frame + 1 : 0); }, 40);
   });
   [modelBox, measuredBox, correctedBox].forEach(function (box) { if (box) box.addEventListener('change', draw); });
-  root.querySelector('.v-zoom-in').addEventListener('click', function () { zoom *= 1.25; draw(); });
-  root.querySelector('.v-zoom-out').addEventListener('click', function () { zoom /= 1.25; draw(); });
-  canvas.addEventListener('wheel', function (e) {
-    e.preventDefault(); zoom *= e.deltaY < 0 ? 1.1 : 1 / 1.1; draw();
-  }, { passive: false });
-  canvas.addEventListener('pointerdown', function (e) { drag = [e.clientX, e.clientY]; });
-  window.addEventListener('pointerup', function () { drag = null; });
-  canvas.addEventListener('pointermove', function (e) {
-    if (!drag) return;
-    az += 0.4 * (e.clientX - drag[0]); el = Math.max(-89, Math.min(89, el + 0.4 * (e.clientY - drag[1])));
-    drag = [e.clientX, e.clientY]; draw();
-  });
+  navigate('v');
   draw();
 
   if (location.hash === '#selftest') {
