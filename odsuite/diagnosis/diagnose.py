@@ -400,8 +400,10 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
             evaluations += count
             candidates, count = _refined(job, refiners, candidates, cmp)
             evaluations += count
-            pairs = _fit_pairs(job, candidates, res0, cmp.floor, job["scale"])
-            evaluations += sum(c._problem.evaluations for c in pairs)
+            pairs, partners, count = _fit_pairs(token, job, candidates, screened, res0, cmp.floor, job["scale"])
+            evaluations += count + sum(c._problem.evaluations for c in pairs)
+            candidates += partners
+            fitted += [s for s in screened if any(p.effect == s.effect.name for p in partners)]
     finally:
         JOBS.pop(token)
     candidates += _screened_only(screened, fitted, job)
@@ -585,33 +587,92 @@ def _ordered(candidates: list[Candidate], pairs: list[Candidate], exps, base, jo
     return [c for c in pairs if c.significant] + candidates + [c for c in pairs if not c.significant]
 
 
-def _fit_pairs(job: Mapping[str, Any], candidates: Sequence[Candidate], res0, floor, scale: float
-               ) -> list[Candidate]:
-    """Pairs of the best significant singles whose residuals overlap, fitted jointly from their single
-    fits, when the best single leaves cells above the floor. At most one is accepted (significant,
+def _partner(job: Mapping[str, Any], first: Candidate, names: Sequence[str]) -> tuple[Screened | None, int]:
+    """The effect that best explains what ``first``'s fit leaves: every other pairable candidate
+    screened on top of that fit. A second cause the first one masks (a flipped sensor beside two
+    swapped cables) gains little on the baseline, where its single screening ranks it low."""
+    on_top = {**job, "base": first._problem.revision(first._u)}
+    best, evaluations = None, 0
+    for name in names:
+        if name == first.effect or not joint.pairable(job["effects"].get(name)):
+            continue
+        try:
+            problem = _problem(on_top, name)
+        except ConfigError:
+            continue
+        s = screen(problem, first._sse_win, job["peak_hz"])
+        evaluations += problem.evaluations + (s.problem.evaluations if s.problem is not problem else 0)
+        if s.sse < first._sse_win and (best is None or s.sse < best.sse):
+            best = s
+    return best, evaluations
+
+
+def _single(token: int, job: Mapping[str, Any], screened: Sequence[Screened], name: str, exps, floor, res0
+            ) -> Candidate | None:
+    """``name`` fitted alone on the baseline from its screening, judged as the singles are (a pair's
+    members are each tested against the other alone)."""
+    s = next((t for t in screened if t.effect.name == name), None)
+    if s is None:
+        return None
+    cand, fixed, _ = _fit_job(token, name, s.fixed, s.u0, s.sse)
+    cand._problem = _problem(job, name, fixed)
+    _judge(cand, exps, floor, res0, job["sse0"], job["den"], job["scale"])
+    words = _checks_words(cand)
+    if words:
+        cand.evidence += "; " + words
+    return cand
+
+
+def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], screened: Sequence[Screened],
+               res0, floor, scale: float) -> tuple[list[Candidate], list[Candidate]]:
+    """Pairs of the best significant singles whose residuals overlap, and the best of them with the
+    effect that best explains what its fit leaves (_partner), fitted jointly from their fits, when
+    the best single leaves cells above the floor. At most one is accepted (significant,
     odsuite.diagnosis.joint.accepted): the one of the lowest BIC; the others are returned not
-    significant with the reason."""
+    significant with the reason. Also returns the partners fitted alone for the test (new singles)
+    and the model evaluations spent besides the pairs' own fits."""
     if res0 is None:
-        return []
+        return [], [], 0
     singles = sorted((c for c in candidates if c.fitted and c.significant and getattr(c, "_resolved", None) is not None
                       and joint.pairable(job["effects"].get(c.effect))),
                      key=lambda c: c.bic)[:joint.PAIR_CANDIDATES]
-    if len(singles) < 2 or not singles[0]._resolved.detected():
-        return []
+    if not singles or not singles[0]._resolved.detected():
+        return [], [], 0
+    # each pair's starts: its members' values and discrete choices
+    starts = {(a.effect, b.effect): [(joint.fitted(a), joint.fitted(b))]
+              for a, b in itertools.combinations(singles, 2) if joint.overlap(a, b, res0)}
+    added = []
+    partner, evaluations = _partner(job, singles[0], [s.effect.name for s in screened])
+    if partner is not None:
+        name = partner.effect.name
+        single = next((c for c in candidates if c.effect == name and c.fitted), None)
+        if single is None:  # fitted alone too: each member is tested against the other alone
+            single = _single(token, job, screened, name, job["exps"], floor, res0)
+            if single is not None:
+                added.append(single)
+                evaluations += single._problem.evaluations
+        if single is not None and getattr(single, "_resolved", None) is not None:
+            shared, per = partner.problem.values(partner.u0)
+            on_top = joint.Fitted(name, shared, per, dict(partner.problem.fixed))
+            starts.setdefault((singles[0].effect, name), []).insert(0, (joint.fitted(singles[0]), on_top))
     out = []
-    for a, b in itertools.combinations(singles, 2):
-        if not joint.overlap(a, b, res0):
-            continue
-        effect = joint.Joint([job["effects"].get(a.effect), job["effects"].get(b.effect)])
-        fixed = {f"{m.effect}.{k}": v for m in (a, b) for k, v in m._problem.fixed.items()}
-        problem = Problem(job["base"], effect, job["windows"], fixed, prior=job["prior"] / job["stride"],
-                          stride=job["stride"], full=job["exps"], noise_scale=job["scale"])
-        u0 = joint.start(problem, (a, b))
-        cand = _fit_candidate(Screened(effect, fixed, u0, problem.sse(u0), problem), job["windows"], job["sse0"],
-                              job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
-                              job["modes_before"], job["tail0"], job["force_levels"])
+    for (ea, eb), options in starts.items():
+        a = next(c for c in candidates + added if c.effect == ea)
+        b = next(c for c in candidates + added if c.effect == eb)
+        effect = joint.Joint([job["effects"].get(ea), job["effects"].get(eb)])
+        tried = []
+        for members in options:  # of several starts, the one nearest the data is fitted
+            fixed = {f"{m.effect}.{k}": v for m in members for k, v in m.fixed.items()}
+            problem = Problem(job["base"], effect, job["windows"], fixed, prior=job["prior"] / job["stride"],
+                              stride=job["stride"], full=job["exps"], noise_scale=job["scale"])
+            u0 = joint.start(problem, members)
+            tried.append(Screened(effect, fixed, u0, problem.sse(u0), problem))
+        best = min(tried, key=lambda t: t.sse)
+        evaluations += sum(t.problem.evaluations for t in tried if t is not best)  # the best's count with its fit
+        cand = _fit_candidate(best, job["windows"], job["sse0"], job["den"], job["n_eff"], job["noise"], job["peaks"],
+                              job["rigidity"], job["modes_before"], job["tail0"], job["force_levels"])
         _judge(cand, job["exps"], floor, res0, job["sse0"], job["den"], scale)
-        ok, why = joint.accepted(cand, (a, b), candidates)
+        ok, why = joint.accepted(cand, (a, b), candidates + added)
         cand.significant = ok
         cand.evidence = f"fitted jointly from the single fits: {why}; " + cand.evidence
         words = _checks_words(cand)
@@ -623,7 +684,7 @@ def _fit_pairs(job: Mapping[str, Any], candidates: Sequence[Candidate], res0, fl
         if c.significant and c is not best:
             c.significant = False
             c.evidence = f"a better pair is {best.effect}; " + c.evidence
-    return out
+    return out, added, evaluations
 
 
 def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], scale: float,

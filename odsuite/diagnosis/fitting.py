@@ -204,18 +204,17 @@ class Problem:
         self._projection = (key, out)
         return out
 
-    def models(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None) -> dict[str, Any]:
+    def revision(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None) -> RevisionModel:
+        """The base with the effect applied at ``u``: what a second effect is fitted on top of."""
         shared, per = self.values(u, exps)
         has_shared = any(f.experiment is None for f in self.free) or self.fixed or not self.free or self.linear
         model = self.effect.apply(self.base.shared, shared) if has_shared else self.base.shared
-        rm = RevisionModel(model, self.base.per_experiment)
-        out = {}
-        for e in self.exps:
-            m = rm.for_experiment(e.name)
-            if e.name in per:
-                m = self.effect.apply(m, {**{k: v for k, v in shared.items()}, **per[e.name]})
-            out[e.name] = m
-        return out
+        own = [(self.effect, {name: {**shared, **v} for name, v in per.items()})] if per else []
+        return RevisionModel(model, list(self.base.per_experiment) + own)
+
+    def models(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None) -> dict[str, Any]:
+        rm = self.revision(u, exps)
+        return {e.name: rm.for_experiment(e.name) for e in self.exps}
 
     def predictions(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None) -> list[np.ndarray]:
         exps = list(exps or self.exps)

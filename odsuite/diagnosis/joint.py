@@ -12,7 +12,7 @@ test for the pair's extra parameters), so a proxy pair is not preferred to a sim
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -40,6 +40,21 @@ class Joint:
             own = {k.split(".", 1)[1]: v for k, v in values.items() if k.split(".", 1)[0] == e.name}
             model = e.apply(model, own)
         return model
+
+
+@dataclass
+class Fitted:
+    """A member's start in a joint fit: its values, per experiment values and discrete choices."""
+
+    effect: str
+    values: Mapping[str, float]
+    per_experiment: Mapping[str, Mapping[str, float]]
+    fixed: Mapping[str, float]
+
+
+def fitted(c) -> Fitted:
+    """A fitted single candidate as a joint fit's start."""
+    return Fitted(c.effect, c.values, c.per_experiment, dict(c._problem.fixed))
 
 
 def pairable(effect) -> bool:
