@@ -593,8 +593,10 @@ def _partner(job: Mapping[str, Any], first: Candidate, names: Sequence[str]) -> 
     swapped cables) gains little on the baseline, where its single screening ranks it low."""
     on_top = {**job, "base": first._problem.revision(first._u)}
     best, evaluations = None, 0
+    a = job["effects"].get(first.effect)
     for name in names:
-        if name == first.effect or not joint.pairable(job["effects"].get(name)):
+        b = job["effects"].get(name)
+        if name == first.effect or not joint.pairable(b) or joint.joined(a, b, job["base"].shared) is None:
             continue
         try:
             problem = _problem(on_top, name)
@@ -640,7 +642,8 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
         return [], [], 0
     # each pair's starts: its members' values and discrete choices
     starts = {(a.effect, b.effect): [(joint.fitted(a), joint.fitted(b))]
-              for a, b in itertools.combinations(singles, 2) if joint.overlap(a, b, res0)}
+              for a, b in itertools.combinations(singles, 2) if joint.overlap(a, b, res0)
+              and joint.joined(job["effects"].get(a.effect), job["effects"].get(b.effect), job["base"].shared)}
     added = []
     partner, evaluations = _partner(job, singles[0], [s.effect.name for s in screened])
     if partner is not None:
@@ -659,7 +662,7 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
     for (ea, eb), options in starts.items():
         a = next(c for c in candidates + added if c.effect == ea)
         b = next(c for c in candidates + added if c.effect == eb)
-        effect = joint.Joint([job["effects"].get(ea), job["effects"].get(eb)])
+        effect = joint.joined(job["effects"].get(ea), job["effects"].get(eb), job["base"].shared)
         tried = []
         for members in options:  # of several starts, the one nearest the data is fitted
             fixed = {f"{m.effect}.{k}": v for m in members for k, v in m.fixed.items()}

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from odsuite.analysis import resolved as resolution
+from odsuite.analysis.prediction import predict
 
 #: single candidates (significant, best first) whose pairs are fitted jointly
 PAIR_CANDIDATES = 3
@@ -37,9 +38,50 @@ class Joint:
 
     def apply(self, model, values: Mapping[str, float]):
         for e in self.effects:
-            own = {k.split(".", 1)[1]: v for k, v in values.items() if k.split(".", 1)[0] == e.name}
-            model = e.apply(model, own)
+            model = e.apply(model, own(e, values))
         return model
+
+
+def own(effect, values: Mapping[str, float]) -> dict[str, float]:
+    """A member's values out of a joint's "<effect>.<parameter>" table."""
+    return {k.split(".", 1)[1]: v for k, v in values.items() if k.split(".", 1)[0] == effect.name}
+
+
+def projects(effect) -> bool:
+    """The effect solves parameters of its own by projection (a mode's participations)."""
+    return callable(getattr(effect, "linear_parameters", None))
+
+
+class ProjectingJoint(Joint):
+    """A pair whose second member solves its own parameters by projection (a mode's participations)
+    on the models the first has changed; the search runs over the rest, as for that member alone."""
+
+    def linear_parameters(self, model) -> list[str]:
+        last = self.effects[-1]
+        return [f"{last.name}.{n}" for n in last.linear_parameters(model)]
+
+    def project(self, models, values, exps, base, weights):
+        first, last = self.effects
+        moved = {n: first.apply(m, own(first, values)) for n, m in models.items()}
+        before = [predict(moved[e.name], e) for e in exps]
+        shared, per, deltas = last.project(moved, own(last, values), exps, before, weights)
+        return ({f"{last.name}.{k}": v for k, v in shared.items()},
+                {n: {f"{last.name}.{k}": v for k, v in t.items()} for n, t in per.items()},
+                [p - b + d for p, b, d in zip(before, base, deltas)])
+
+
+def joined(a, b, model) -> Joint | None:
+    """The pair of effects ``a`` and ``b`` as one, the projecting one last; None where a joint fit
+    cannot hold them: both project, or the other has values per experiment (a projection sees the
+    shared values only)."""
+    if projects(a) and projects(b):
+        return None
+    if projects(a) or projects(b):
+        first, last = (b, a) if projects(a) else (a, b)
+        if any(p.scope == "per_experiment" for p in first.parameters(model)):
+            return None
+        return ProjectingJoint([first, last])
+    return Joint([a, b])
 
 
 @dataclass
@@ -58,9 +100,8 @@ def fitted(c) -> Fitted:
 
 
 def pairable(effect) -> bool:
-    """An effect a joint fit can hold: one that solves no parameters of its own (a projection would
-    see the residual of the model without its partner) and refines no other fit."""
-    return not callable(getattr(effect, "linear_parameters", None)) and not getattr(effect, "refines", None)
+    """An effect a pair can hold: one that refines no other fit (it is fitted from that fit alone)."""
+    return not getattr(effect, "refines", None)
 
 
 def overlap(a, b, before: resolution.Resolved) -> bool:

@@ -9,6 +9,7 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 import scipy.stats
 
 from odsuite.analysis.resolved import Resolved
@@ -71,3 +72,50 @@ def test_overlap_needs_a_common_cell_above_the_floor_that_both_lower():
     c = _cand("c", [LIMIT + 2.0, LIMIT + 2.0], 1, 0.0, 0.0)
     assert not overlap(a, b, before)  # each lowers only its own band
     assert overlap(a, c, before) and overlap(b, c, before)
+
+
+def test_a_mode_paired_with_a_gain_solves_its_participations_through_the_gain(tmp_path, registries):
+    """ProjectingJoint: records made by the model with one sensor's gain 0.8 and a 731 Hz mode of
+    known participations (noise-free, odsuite's own prediction): at the true gain and frequency the
+    joint projection recovers every product phi_sensor x phi_force and the records exactly, where
+    the mode alone (the gain left at 1) cannot."""
+    import sys
+    from dataclasses import replace
+    from pathlib import Path
+
+    from odsuite.analysis.modelrev import revision_model
+    from odsuite.analysis.prediction import predict, prepare
+    from odsuite.diagnosis.joint import ProjectingJoint, joined
+    from odsuite.store.project import open_project
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from hidden_effects import make_project
+
+    path = make_project(tmp_path / "p.odsp", n_samples=2048, scenarios=("T1", "T6"))
+    gain, mode = registries.effects.get("sensor_gain"), registries.effects.get("missing_mode")
+    with open_project(path) as p:
+        exps = prepare(p)
+        model = revision_model(p).shared
+        sensors = [s.name for s in p.rig.sensors if s.quantity == "acceleration"]
+        phi = {f"phi_{s}": 0.5 + 0.1 * k * (-1) ** k for k, s in enumerate(sensors)}
+        force = {e.name: 0.6 - 0.3 * i for i, e in enumerate(exps)}
+        truth = gain.apply(model, {f"{sensors[2]}_gain": 0.8})
+        shape = {"frequency_hz": 731.0, "damping_ratio": 0.03, **phi}
+        exps = [replace(e, measured=predict(mode.apply(truth, {**shape, "phi_force": force[e.name]}), e)) for e in exps]
+        pair = joined(gain, mode, model)
+        assert isinstance(pair, ProjectingJoint) and pair.name == "sensor_gain+missing_mode"
+        models = {e.name: model for e in exps}
+        base = [predict(model, e) for e in exps]
+        values = {f"sensor_gain.{s}_gain": 0.8 if s == sensors[2] else 1.0 for s in sensors}
+        values |= {"missing_mode.frequency_hz": 731.0, "missing_mode.damping_ratio": 0.03}
+        shared, per, deltas = pair.project(models, values, exps, base, None)
+        for e in exps:
+            c = per[e.name]["missing_mode.phi_force"]
+            for s in sensors:
+                assert shared[f"missing_mode.phi_{s}"] * c == pytest.approx(phi[f"phi_{s}"] * force[e.name], rel=1e-6)
+        for e, b, d in zip(exps, base, deltas):
+            np.testing.assert_allclose(b + d, e.measured, rtol=0, atol=1e-7 * np.abs(e.measured).max())
+        # the mode alone, through the gain as the rig file gives it, leaves the gain's part
+        _, _, alone = mode.project(models, {"frequency_hz": 731.0, "damping_ratio": 0.03}, exps, base, None)
+        worst = max(np.abs(b + d - e.measured).max() / np.abs(e.measured).max() for e, b, d in zip(exps, base, alone))
+        assert worst > 1e-3
