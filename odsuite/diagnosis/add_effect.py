@@ -59,7 +59,7 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
         # a pair the diagnosis fitted jointly: each added in turn, the last step refitting all of them
         # together (as every addition does)
         steps = [add_effect(project, part, progress=progress) for part in name.split("+")]
-        return steps[-1] | {"effect": name, "previous_error": steps[0]["previous_error"]}
+        return steps[-1] | {"effect": name, "previous_error": steps[0]["previous_error"], "steps": steps}
     effect = regs.effects.get(name)
     rev = current_revision(project)
     model = revision_model(project, rev).shared

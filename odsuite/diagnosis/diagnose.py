@@ -627,8 +627,9 @@ def _single(token: int, job: Mapping[str, Any], screened: Sequence[Screened], na
 
 def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], screened: Sequence[Screened],
                res0, floor, scale: float) -> tuple[list[Candidate], list[Candidate]]:
-    """Pairs of the best significant singles whose residuals overlap, and the best of them with the
-    effect that best explains what its fit leaves (_partner), fitted jointly from their fits, when
+    """Pairs of the best significant singles whose residuals overlap, and the best single (and the
+    best named one) with the effect that best explains what its fit leaves (_partner), fitted
+    jointly from their fits, when
     the best single leaves cells above the floor. At most one is accepted (significant,
     odsuite.diagnosis.joint.accepted): the one of the lowest BIC; the others are returned not
     significant with the reason. Also returns the partners fitted alone for the test (new singles)
@@ -637,18 +638,24 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
         return [], [], 0
     singles = sorted((c for c in candidates if c.fitted and c.significant and getattr(c, "_resolved", None) is not None
                       and joint.pairable(job["effects"].get(c.effect))),
-                     key=lambda c: c.bic)[:joint.PAIR_CANDIDATES]
+                     key=lambda c: c.bic)
     if not singles or not singles[0]._resolved.detected():
         return [], [], 0
     # each pair's starts: its members' values and discrete choices
     starts = {(a.effect, b.effect): [(joint.fitted(a), joint.fitted(b))]
-              for a, b in itertools.combinations(singles, 2) if joint.overlap(a, b, res0)
+              for a, b in itertools.combinations(singles[:joint.PAIR_CANDIDATES], 2) if joint.overlap(a, b, res0)
               and joint.joined(job["effects"].get(a.effect), job["effects"].get(b.effect), job["base"].shared)}
-    added = []
-    partner, evaluations = _partner(job, singles[0], [s.effect.name for s in screened])
-    if partner is not None:
+    added, evaluations = [], 0
+    # the partner of the best single, and of the best named one where a data-driven stand-in (a
+    # mode of any shape) is best: the order prefer_named gives the singles
+    named = next((c for c in singles if not getattr(job["effects"].get(c.effect), "data_driven", False)), None)
+    for first in [singles[0]] + ([named] if named is not None and named is not singles[0] else []):
+        partner, count = _partner(job, first, [s.effect.name for s in screened])
+        evaluations += count
+        if partner is None:
+            continue
         name = partner.effect.name
-        single = next((c for c in candidates if c.effect == name and c.fitted), None)
+        single = next((c for c in candidates + added if c.effect == name and c.fitted), None)
         if single is None:  # fitted alone too: each member is tested against the other alone
             single = _single(token, job, screened, name, job["exps"], floor, res0)
             if single is not None:
@@ -657,7 +664,8 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
         if single is not None and getattr(single, "_resolved", None) is not None:
             shared, per = partner.problem.values(partner.u0)
             on_top = joint.Fitted(name, shared, per, dict(partner.problem.fixed))
-            starts.setdefault((singles[0].effect, name), []).insert(0, (joint.fitted(singles[0]), on_top))
+            key = next((k for k in starts if set(k) == {first.effect, name}), (first.effect, name))
+            starts.setdefault(key, []).insert(0, (joint.fitted(first), on_top))
     out = []
     for (ea, eb), options in starts.items():
         a = next(c for c in candidates + added if c.effect == ea)

@@ -296,10 +296,11 @@ def _loop(path: Path, rounds: int, console: Console):
                 break
             res = add_effect(p, best["effect"], progress=report)
             added.append(best["effect"])
-            errors.append(res["error"])
-            console.print(f"  add-effect {best['effect']}: revision {res['revision']}, error "
-                          f"{res['previous_error']:.4f} -> [bold]{res['error']:.4f}[/bold]", highlight=False,
-                          soft_wrap=True)
+            for step in res.get("steps", [res]):  # a pair "A+B" adds A, then B: a revision each
+                errors.append(step["error"])
+                console.print(f"  add-effect {step['effect']}: revision {step['revision']}, error "
+                              f"{step['previous_error']:.4f} -> [bold]{step['error']:.4f}[/bold]", highlight=False,
+                              soft_wrap=True)
         found = {e["effect"]: dict(e["values"]) for e in current_revision(p).get("effects", [])}
         base = revision_model(p, {"effects": []}).shared
     return errors, added, diagnosis_doc, noise, found, base
