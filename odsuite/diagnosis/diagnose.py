@@ -587,12 +587,14 @@ def _ordered(candidates: list[Candidate], pairs: list[Candidate], exps, base, jo
     return [c for c in pairs if c.significant] + candidates + [c for c in pairs if not c.significant]
 
 
-def _partner(job: Mapping[str, Any], first: Candidate, names: Sequence[str]) -> tuple[Screened | None, int]:
+def _partner(job: Mapping[str, Any], first: Candidate, names: Sequence[str]) -> tuple[list[Screened], int]:
     """The effect that best explains what ``first``'s fit leaves: every other pairable candidate
-    screened on top of that fit. A second cause the first one masks (a flipped sensor beside two
-    swapped cables) gains little on the baseline, where its single screening ranks it low."""
+    screened on top of that fit; and the best named one where a data-driven stand-in (a mode of any
+    shape) is best, as prefer_named orders singles. A second cause the first one masks (a flipped
+    sensor beside two swapped cables) gains little on the baseline, where its single screening
+    ranks it low."""
     on_top = {**job, "base": first._problem.revision(first._u)}
-    best, evaluations = None, 0
+    found, evaluations = [], 0
     a = job["effects"].get(first.effect)
     for name in names:
         b = job["effects"].get(name)
@@ -604,9 +606,11 @@ def _partner(job: Mapping[str, Any], first: Candidate, names: Sequence[str]) -> 
             continue
         s = screen(problem, first._sse_win, job["peak_hz"])
         evaluations += problem.evaluations + (s.problem.evaluations if s.problem is not problem else 0)
-        if s.sse < first._sse_win and (best is None or s.sse < best.sse):
-            best = s
-    return best, evaluations
+        if s.sse < first._sse_win:
+            found.append(s)
+    found.sort(key=lambda s: s.sse)
+    named = next((s for s in found if not getattr(s.effect, "data_driven", False)), None)
+    return found[:1] + ([named] if named is not None and found and named is not found[0] else []), evaluations
 
 
 def _single(token: int, job: Mapping[str, Any], screened: Sequence[Screened], name: str, exps, floor, res0
@@ -650,22 +654,21 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
     # mode of any shape) is best: the order prefer_named gives the singles
     named = next((c for c in singles if not getattr(job["effects"].get(c.effect), "data_driven", False)), None)
     for first in [singles[0]] + ([named] if named is not None and named is not singles[0] else []):
-        partner, count = _partner(job, first, [s.effect.name for s in screened])
+        partners, count = _partner(job, first, [s.effect.name for s in screened])
         evaluations += count
-        if partner is None:
-            continue
-        name = partner.effect.name
-        single = next((c for c in candidates + added if c.effect == name and c.fitted), None)
-        if single is None:  # fitted alone too: each member is tested against the other alone
-            single = _single(token, job, screened, name, job["exps"], floor, res0)
-            if single is not None:
-                added.append(single)
-                evaluations += single._problem.evaluations
-        if single is not None and getattr(single, "_resolved", None) is not None:
-            shared, per = partner.problem.values(partner.u0)
-            on_top = joint.Fitted(name, shared, per, dict(partner.problem.fixed))
-            key = next((k for k in starts if set(k) == {first.effect, name}), (first.effect, name))
-            starts.setdefault(key, []).insert(0, (joint.fitted(first), on_top))
+        for partner in partners:
+            name = partner.effect.name
+            single = next((c for c in candidates + added if c.effect == name and c.fitted), None)
+            if single is None:  # fitted alone too: each member is tested against the other alone
+                single = _single(token, job, screened, name, job["exps"], floor, res0)
+                if single is not None:
+                    added.append(single)
+                    evaluations += single._problem.evaluations
+            if single is not None and getattr(single, "_resolved", None) is not None:
+                shared, per = partner.problem.values(partner.u0)
+                on_top = joint.Fitted(name, shared, per, dict(partner.problem.fixed))
+                key = next((k for k in starts if set(k) == {first.effect, name}), (first.effect, name))
+                starts.setdefault(key, []).insert(0, (joint.fitted(first), on_top))
     out = []
     for (ea, eb), options in starts.items():
         a = next(c for c in candidates + added if c.effect == ea)
