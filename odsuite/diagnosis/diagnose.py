@@ -28,7 +28,7 @@ from threadpoolctl import threadpool_limits
 
 from odsuite.contracts.effects import applies, family
 from odsuite.diagnosis import checks, joint, physical
-from odsuite.analysis.comparison import residual_peaks
+from odsuite.analysis.comparison import noise_floor, residual_peaks
 from odsuite.domain.errors import ConfigError
 from odsuite.diagnosis.fitting import (
     Problem,
@@ -665,7 +665,17 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
     # experiment, follow the force level, or a significant one that makes the model amplitude dependent
     amplitude = any(c.amplitude_dependent for c in d.candidates if c.fitted) or (
         best is not None and makes_nonlinear(best, base))
-    res_best = getattr(best, "_resolved", None) if best is not None else None
+    res_best, floor_best = getattr(best, "_resolved", None) if best is not None else None, cmp.floor
+    after = None
+    if best is not None:
+        p = best._problem
+        after = p.predictions(best._u, p.full)
+        if res_best is not None:
+            # what is left is judged against the floor the candidate's model would leave if right
+            # (its signals' rounding, its response to the force channel's noise), as compare
+            # judges the revision that stores it
+            floor_best = noise_floor(exps, p.models(best._u), spectra=True)
+            res_best = resolution.resolve(exps, after, floor_best)
     nonlinear = best is not None and makes_nonlinear(best, base)
     d.verdict = decide(d.baseline_error, d.noise_floor_error, best, before=res0, after=res_best,
                        amplitude_cause=nonlinear)
@@ -675,9 +685,7 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
     sig_before = signature(exps, before, cmp.floor, d.residual_peaks, amplitude, res0)
     rest = None
     if best is not None and d.verdict != "nothing to explain":
-        p = best._problem
-        after = p.predictions(best._u, p.full)
-        rest = signature(exps, after, cmp.floor, residual_peaks(exps, after, modes, cmp.floor), amplitude, res_best)
+        rest = signature(exps, after, floor_best, residual_peaks(exps, after, modes, floor_best), amplitude, res_best)
     d.signature = rest if rest is not None else sig_before
     d.message = message(d.verdict, d.baseline_error, d.noise_floor_error, best, sig_before, rest)
     if d.verdict in ("unexplained", "partly explained") and d.other_families:
