@@ -596,8 +596,8 @@ def _fit_pairs(job: Mapping[str, Any], candidates: Sequence[Candidate], res0, fl
     singles = sorted((c for c in candidates if c.fitted and c.significant and getattr(c, "_resolved", None) is not None
                       and joint.pairable(job["effects"].get(c.effect))),
                      key=lambda c: c.bic)[:joint.PAIR_CANDIDATES]
-    if len(singles) < 2 or not singles[0]._resolved.detected():
-        return []
+    if len(singles) < 2 or not all(_leaves_cells(c, job) for c in candidates if c.fitted and c.significant):
+        return []  # a single or a refinement leaves nothing above the floor
     out = []
     for a, b in itertools.combinations(singles, 2):
         if not joint.overlap(a, b, res0):
@@ -626,6 +626,13 @@ def _fit_pairs(job: Mapping[str, Any], candidates: Sequence[Candidate], res0, fl
     return out
 
 
+def _leaves_cells(cand: Candidate, job: Mapping[str, Any]) -> bool:
+    """Whether the fitted candidate leaves a cell above its floor (the verdict's test; the pooled
+    error where the floor has no bands)."""
+    res = getattr(cand, "_resolved", None)
+    return res.detected() if res is not None else cand.error_after > FLOOR_TOLERANCE * job["noise"]
+
+
 def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], scale: float,
             floor=None) -> Candidate | None:
     """Fit the refining effect ``name`` from the fit of the effect it refines, when that one is
@@ -636,10 +643,10 @@ def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], 
     effect = job["effects"].get(name)
     start = next((c for c in candidates if c.effect == effect.refines and c.fitted), None)
     # refiners are fitted alike whatever their order: another refinement does not stop one
-    done = [c.error_after for c in candidates if c.fitted and c.significant
+    done = [c for c in candidates if c.fitted and c.significant
             and not getattr(job["effects"].get(c.effect), "refines", None)]
-    if (start is None or not start.significant or not start.error_after > FLOOR_TOLERANCE * job["noise"]
-            or min(done) <= FLOOR_TOLERANCE * job["noise"]):  # another candidate has explained it all
+    if (start is None or not start.significant or not _leaves_cells(start, job)
+            or not all(_leaves_cells(c, job) for c in done)):  # another candidate has explained it all
         return None
     problem, u0 = refined(start._problem, start._u, effect)
     cand = _fit_candidate(Screened(effect, problem.fixed, u0, problem.sse(u0), problem), job["windows"], job["sse0"],
@@ -661,10 +668,12 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
     """The verdict (from the resolved residual where the floor has bands), the signature of what
     is left (after the best significant candidate, if any) and the message."""
     best = next((c for c in d.candidates if c.significant and c.fitted), None)
-    # amplitude dependence as the data show it: any fitted candidate whose parameters, fitted per
-    # experiment, follow the force level, or a significant one that makes the model amplitude dependent
-    amplitude = any(c.amplitude_dependent for c in d.candidates if c.fitted) or (
-        best is not None and makes_nonlinear(best, base))
+    # amplitude dependence as the data show it: the best significant candidate's parameters, fitted
+    # per experiment, follow the force level, or it makes the model amplitude dependent (without
+    # one: any fitted candidate's). A stand-in's drifting parameters say it stands in, not that the
+    # structure is nonlinear: a mass fitted for a worn mount followed the force level
+    amplitude = (bool(best.amplitude_dependent) or makes_nonlinear(best, base) if best is not None
+                 else any(c.amplitude_dependent for c in d.candidates if c.fitted))
     res_best, floor_best = getattr(best, "_resolved", None) if best is not None else None, cmp.floor
     after = None
     if best is not None:
