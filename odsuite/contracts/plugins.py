@@ -153,16 +153,13 @@ def _load_entry_points(pm: PluginManager, blocked: set[str]) -> None:
 
 
 def _contracts() -> dict[str, Contract]:
-    """Each registry's contract, from the core module that documents it."""
-    from odsuite.contracts import daq, effects, importers, models, renderers, sensor_types, solvers, steps
-    from odsuite.domain.rig import Rig
+    """Each registry's contract, from the core module that documents it (imported at its first check)."""
+    def of(module: str) -> Contract:  # each contract module's Protocol and optional methods
+        return Contract(module=f"odsuite.contracts.{module}")
 
-    def of(module) -> Contract:  # each contract module's Protocol and optional methods
-        return Contract(module.PROTOCOL, getattr(module, "OPTIONAL_METHODS", ()))
-
-    return {"daq_backends": of(daq), "processing_steps": of(steps), "coordinate_solvers": of(solvers),
-            "models": of(models), "effects": of(effects), "renderers": of(renderers),
-            "sensor_types": of(sensor_types), "rigs": Contract(instance_of=Rig), "importers": of(importers)}
+    return {"daq_backends": of("daq"), "processing_steps": of("steps"), "coordinate_solvers": of("solvers"),
+            "models": of("models"), "effects": of("effects"), "renderers": of("renderers"),
+            "sensor_types": of("sensor_types"), "rigs": Contract(instance_of="odsuite.domain.rig:Rig"), "importers": of("importers")}
 
 
 def build_registries(pm: PluginManager) -> Registries:
