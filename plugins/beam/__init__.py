@@ -1,7 +1,6 @@
 """odsuite built-in plugin: a continuous beam (1-D finite elements) and the effects a slender
 beam model may lack, written against the core contracts as a lab's own model family would be."""
 
-import functools
 
 from odsuite.api import hookimpl
 
@@ -16,7 +15,6 @@ def _model():
     return beam_model
 
 
-@functools.cache
 def _effects() -> dict:
     from .effects import beam_effects
 

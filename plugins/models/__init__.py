@@ -1,6 +1,5 @@
 """odsuite built-in plugin: models, physical effects and the rigs they describe."""
 
-import functools
 import importlib
 from pathlib import Path
 
@@ -35,7 +34,6 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-@functools.cache
 def _sensor_types() -> dict:
     from .sensor_types import builtin_sensor_types
 
@@ -70,7 +68,6 @@ def _model(name: str):
     return getattr(importlib.import_module(f"{__name__}.{module}"), attribute)
 
 
-@functools.cache
 def _effects() -> dict:
     from .effects import builtin_effects
 
