@@ -84,7 +84,7 @@ class Entry:
     #: set for a provider added with ``add_deferred``: what makes it, called on first use, and
     #: attributes of it given at registration (read by ``attribute`` without making it)
     load: Callable[[], Any] | None = None
-    known: Mapping[str, Any] = field(default_factory=dict)
+    known: Mapping[str, Any] = field(default_factory=dict, compare=False)  # compare=False: entries stay hashable
 
     @property
     def plugin(self) -> str:
