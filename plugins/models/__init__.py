@@ -20,7 +20,7 @@ RIG_DIR = Path(__file__).with_name("rigs")
 SENSOR_TYPES = ("accelerometer", "triaxial_accelerometer", "force", "proximity", "voltage")
 MODELS = {"rigid-bodies": "rigid_bodies:rigid_bodies", "thesis-dynamometer": "thesis:thesis_dynamometer",
           "thesis-car-2dof": "thesis:thesis_car_2dof"}
-EFFECTS = ("stiffness", "damping", "nonlinear_stiffness", "mass_properties", "plate_flexibility",
+EFFECTS = ("stiffness", "spring_stiffness", "damping", "nonlinear_stiffness", "mass_properties", "plate_flexibility",
            "plate_flexibility_free", "sensor_gain", "sensor_polarity", "sensor_orientation", "sensor_position",
            "sensor_dynamics", "impact_location", "force_gain", "base_motion", "missing_mode", "coupled_mode",
            "mounted_mode", "channel_delay", "scan_skew", "channel_swap", "measured-modal-damping")
