@@ -28,8 +28,10 @@ def store_diagnosis(project, doc: Mapping[str, Any], stamp: Mapping[str, Any]) -
     """Store ``doc`` (``Diagnosis.as_dict()`` of every registered effect) with its revision, if the
     project still is as ``stamp`` (taken before diagnosing) says: records processed or a revision
     made meanwhile leave nothing stored. Returns whether it was stored."""
+    from odsuite.analysis.modelrev import current_revision
+
     revision = doc.get("revision")
-    if revision is None or revision != project.current_revision or dict(stamp) != diagnosis_stamp(project):
+    if revision is None or revision != current_revision(project)["revision"] or dict(stamp) != diagnosis_stamp(project):
         return False
     project.set_revision_metrics(revision, {KEY: {"stamp": dict(stamp), "document": dict(doc)}})
     return True

@@ -350,7 +350,7 @@ def _sections(project, c: _Compared, tmp: Path, notes: list[str], say: Callable[
         say("drawing the FRFs and MAC matrices")
         modal_html = _modal_section(c.doc, _modal_figures(project, c.exps, c.cmp.modal_records or [], frf_channels,
                                                           c.modes_hz, tmp, model_for=c.rmodel.for_experiment))
-        diag, source = _diagnosis(project, c.exps, diag_doc, run_diagnosis, notes, say)
+        diag, source = _diagnosis(project, c.exps, c.rev["revision"], diag_doc, run_diagnosis, notes, say)
         candidates = _candidates_section(diag, c.doc["revision"], notes, source)
         say("history")
         hist_html = _history_section(project, tmp)
@@ -490,11 +490,11 @@ class _Background:
         _JOBS.pop(self._token, None)
 
 
-def _diagnosis(project, exps, diag_doc: Mapping[str, Any] | None, run_diagnosis: bool, notes: list[str],
-               say: Callable[[str], None]) -> tuple[Mapping[str, Any] | None, str]:
+def _diagnosis(project, exps, revision: int, diag_doc: Mapping[str, Any] | None, run_diagnosis: bool,
+               notes: list[str], say: Callable[[str], None]) -> tuple[Mapping[str, Any] | None, str]:
     """The diagnosis to show and a sentence saying where it is from: the one given, else the one
-    ``odsuite diagnose`` kept with the current revision for the records as they are, else one run
-    now (unless ``run_diagnosis`` is False; it takes as long as ``odsuite diagnose``)."""
+    ``odsuite diagnose`` kept with ``revision`` (the current one) for the records as they are, else
+    one run now (unless ``run_diagnosis`` is False; it takes as long as ``odsuite diagnose``)."""
     from odsuite.api import stored_diagnosis
 
     if diag_doc is not None:
@@ -502,7 +502,6 @@ def _diagnosis(project, exps, diag_doc: Mapping[str, Any] | None, run_diagnosis:
     if not run_diagnosis:
         notes.append("diagnosis skipped (--no-diagnose)")
         return None, ""
-    revision = project.current_revision
     kept = stored_diagnosis(project, revision)
     if kept is not None:
         return kept, (f"The candidates below are from <code>odsuite diagnose</code>, kept with revision "

@@ -114,14 +114,14 @@ def test_the_report_shows_the_kept_diagnosis_and_diagnoses_when_there_is_none(pr
     told: list[str] = []
     with open_project(project) as p:
         notes: list[str] = []
-        doc, source = _diagnosis(p, prepare(p), None, True, notes, told.append)
+        doc, source = _diagnosis(p, prepare(p), 0, None, True, notes, told.append)
     assert len(ran) == 1 and told and told[0] == "diagnosing"
     assert "run now for this page" in source and "odsuite diagnose p.h5" in notes[0]
     with open_project(project, "a") as p:
         assert store_diagnosis(p, {**doc, "baseline_error": 0.125}, diagnosis_stamp(p))
     with open_project(project) as p:
         notes, told = [], []
-        doc, source = _diagnosis(p, prepare(p), None, True, notes, told.append)
+        doc, source = _diagnosis(p, prepare(p), 0, None, True, notes, told.append)
     assert len(ran) == 1 and not told and not notes  # not diagnosed again
     assert doc["baseline_error"] == 0.125 and "kept with revision 0" in source
     html = _candidates_section(doc, 0, notes, source)
