@@ -179,15 +179,14 @@ def physical_poles(lam: np.ndarray, f_band: tuple[float, float], max_damping: fl
 def stability_flags(prev: np.ndarray, lam: np.ndarray, tol_f: float, tol_zeta: float) -> tuple[np.ndarray, np.ndarray]:
     """Per pole of this order: frequency within ``tol_f`` of the nearest pole of the previous
     order, and (then) damping within ``tol_zeta`` of that pole's too."""
-    sf = np.zeros(lam.size, bool)
-    sz = np.zeros(lam.size, bool)
-    if prev.size:
-        for i, p in enumerate(lam):
-            q = prev[np.argmin(np.abs(np.abs(prev) - np.abs(p)))]
-            sf[i] = abs(abs(p) - abs(q)) <= tol_f * abs(q)
-            zp, zq = -p.real / abs(p), -q.real / abs(q)
-            sz[i] = sf[i] and abs(zp - zq) <= tol_zeta * zq
-    return sf, sz
+    if not prev.size or not lam.size:
+        return np.zeros(lam.size, bool), np.zeros(lam.size, bool)
+    a, b = np.abs(lam), np.abs(prev)
+    q = prev[np.argmin(np.abs(b[None, :] - a[:, None]), axis=1)]  # nearest in |pole|, first of equals
+    aq = np.abs(q)
+    sf = np.abs(a - aq) <= tol_f * aq
+    zq = -q.real / aq
+    return sf, sf & (np.abs(-lam.real / a - zq) <= tol_zeta * zq)
 
 
 def normal_matrices(X: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
