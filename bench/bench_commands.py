@@ -10,7 +10,7 @@ times, each as a whole process as a user starts it:
 
 - ``compare`` (target 2 s on a quiet machine), ``diagnose``, ``history --figure`` (PNG),
 - ``render`` of a 10 s movie of the hit nearest the soft mount (target 10 s) and ``render --model``,
-- ``report`` (it diagnoses again and renders its movie; target 15 s).
+- ``report`` (it shows the diagnosis ``diagnose`` kept with the revision and renders its movie; target 15 s).
 
 The baseline is a Python process that imports numpy and h5py, opens the project and reads every
 dataset in it (the samples and what ``process`` derived): the least any command that looks at the

@@ -141,6 +141,8 @@ _WHERE: dict[str, str] = {
     # diagnosis
     "diagnose": "odsuite.diagnosis.diagnose",
     "add_effect": "odsuite.diagnosis.add_effect",
+    "store_diagnosis": "odsuite.analysis.stored_diagnosis",
+    "stored_diagnosis": "odsuite.analysis.stored_diagnosis",
     # work over many projects
     "run_batch": "odsuite.ops.batch",
     "build_catalog": "odsuite.ops.catalog",

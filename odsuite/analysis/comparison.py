@@ -249,13 +249,15 @@ def pooled_error(exps: Sequence[PreparedExperiment], predictions: Sequence[np.nd
 
 
 def noise_floor(exps: Sequence[PreparedExperiment], model=None, *, spectra: bool = False) -> NoiseFloor:
-    """The calibrated noise floor (odsuite.analysis.noise_floor) of ``exps``; ``model`` (a
-    RevisionModel) carries the force channel's noise to the sensors (without it, that part is
-    left out)."""
+    """The calibrated noise floor (odsuite.analysis.noise_floor) of ``exps`` if ``model`` were
+    right: it carries the force channel's noise to the sensors and its signals set the rounding
+    error (without it, those parts are estimated from the records alone). ``model``: a
+    RevisionModel, or a mapping of experiment name to that experiment's model."""
     if model is None:
         return estimate(exps, spectra=spectra)
-    impulses = {e.name: impulse_response(model.for_experiment(e.name), e) for e in exps}
-    noise = {e.name: sensor_noise(model.for_experiment(e.name), e) for e in exps}
+    models = model if isinstance(model, Mapping) else {e.name: model.for_experiment(e.name) for e in exps}
+    impulses = {e.name: impulse_response(models[e.name], e) for e in exps}
+    noise = {e.name: sensor_noise(models[e.name], e) for e in exps}
     return estimate(exps, impulses, noise, spectra=spectra)
 
 
@@ -297,7 +299,7 @@ def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapp
 
 def _compare(project, *, experiments, revision, prepared, resonances, say) -> Comparison:
     from odsuite.analysis.modal_comparison import modal_records
-    from odsuite.analysis.modelrev import RevisionModel, base_model, current_revision, revision_model
+    from odsuite.analysis.modelrev import current_revision, revision_model
 
     rev = revision or current_revision(project)
     rmodel = revision_model(project, rev)
@@ -307,9 +309,12 @@ def _compare(project, *, experiments, revision, prepared, resonances, say) -> Co
     preds = [predict(rmodel.for_experiment(e.name), e) for e in exps]
     model_modes = rmodel.shared.modes()
     modes_hz = [float(f) for f in model_modes.frequency_hz]
-    # the floor of the rig's own model, whatever the revision: the same records, the same floor
+    # the floor a perfect model would leave is set by that model's own signals (a slow swing
+    # through few ADC codes rounds to low-frequency error) and response (the force channel's
+    # noise): the revision that claims to be right sets it; the rig's nominal model put 6x too
+    # little rounding error below 12 Hz under a car's correctly refitted rear spring
     say("the noise floor")
-    floor = noise_floor(exps, RevisionModel(base_model(project.rig, rev.get("model"), registries=project.registries)), spectra=True)
+    floor = noise_floor(exps, rmodel, spectra=True)
 
     per_exp, coords, rigidity = {}, {}, {}
     chan_num: dict[str, float] = {}

@@ -179,15 +179,14 @@ def physical_poles(lam: np.ndarray, f_band: tuple[float, float], max_damping: fl
 def stability_flags(prev: np.ndarray, lam: np.ndarray, tol_f: float, tol_zeta: float) -> tuple[np.ndarray, np.ndarray]:
     """Per pole of this order: frequency within ``tol_f`` of the nearest pole of the previous
     order, and (then) damping within ``tol_zeta`` of that pole's too."""
-    sf = np.zeros(lam.size, bool)
-    sz = np.zeros(lam.size, bool)
-    if prev.size:
-        for i, p in enumerate(lam):
-            q = prev[np.argmin(np.abs(np.abs(prev) - np.abs(p)))]
-            sf[i] = abs(abs(p) - abs(q)) <= tol_f * abs(q)
-            zp, zq = -p.real / abs(p), -q.real / abs(q)
-            sz[i] = sf[i] and abs(zp - zq) <= tol_zeta * zq
-    return sf, sz
+    if not prev.size or not lam.size:
+        return np.zeros(lam.size, bool), np.zeros(lam.size, bool)
+    a, b = np.abs(lam), np.abs(prev)
+    q = prev[np.argmin(np.abs(b[None, :] - a[:, None]), axis=1)]  # nearest in |pole|, first of equals
+    aq = np.abs(q)
+    sf = np.abs(a - aq) <= tol_f * aq
+    zq = -q.real / aq
+    return sf, sf & (np.abs(-lam.real / a - zq) <= tol_zeta * zq)
 
 
 def normal_matrices(X: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -200,6 +199,22 @@ def normal_matrices(X: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarra
     S = np.stack([-scipy.linalg.toeplitz(b.real, a.real) for a, b in zip(ahead, behind)])
     T = scipy.linalg.toeplitz(((np.abs(H) ** 2).sum(axis=0) @ X).real)
     return R, S, T
+
+
+def _reduced_normal(R: np.ndarray, S: np.ndarray, T: np.ndarray):
+    """``k -> T_k - sum_o S_o,k^T R_k^-1 S_o,k`` (the leading k x k blocks): LSCF's reduced normal
+    matrix of every order from one Cholesky factor. R_k = L_k L_k^T with L_k the leading block of
+    R's factor L, and the first k rows of L^-1 S_o need only its first k rows, so the sum is a
+    running sum over the rows of Y_o = L^-1 S_o: no solve per order (a solve per order and output
+    was half of LSCF's time); where R is not positive definite, the solve per order."""
+    try:
+        L = np.linalg.cholesky(R)
+    except np.linalg.LinAlgError:
+        return lambda k: T[:k, :k] - np.einsum("oji,ojl->il", S[:, :k, :k], np.linalg.solve(R[None, :k, :k], S[:, :k, :k]))
+    Y = scipy.linalg.solve_triangular(L, S.transpose(1, 0, 2).reshape(R.shape[0], -1), lower=True)
+    Y = Y.reshape(R.shape[0], S.shape[0], S.shape[2])  # row j, output o, column
+    rows = np.cumsum(np.einsum("joi,jol->jil", Y, Y), axis=0)  # rows[j] = sum over rows 0..j, outputs
+    return lambda k: T[:k, :k] - rows[k - 1, :k, :k]
 
 
 def lscf(
@@ -228,12 +243,12 @@ def lscf(
     if not H.shape[0]:
         raise ConfigError("no output responds on the given band")
     R, S, T = normal_matrices(X, H)
+    reduced = _reduced_normal(R, S, T)
     orders, poles, stable_f, stable = [], [], [], []
     prev = np.array([], dtype=complex)
     for m in range(min_order, max_order + 1, step):
         k = m + 1
-        Sk = S[:, :k, :k]
-        Mm = T[:k, :k] - np.einsum("oji,ojl->il", Sk, np.linalg.solve(R[None, :k, :k], Sk))
+        Mm = reduced(k)
         alpha = np.append(np.linalg.lstsq(Mm[:m, :m], -Mm[:m, m], rcond=None)[0], 1.0)
         z = np.roots(alpha[::-1])
         z = z[np.isfinite(z) & (z != 0)]

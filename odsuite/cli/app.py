@@ -79,10 +79,11 @@ class _DataConsole(Console):
     progress descriptions and messages alike); styles come from ``Text`` objects only."""
 
     def __init__(self, **kwargs) -> None:
-        super().__init__(markup=False, **kwargs)
+        # no emoji codes either: a name ":x:" prints as itself (and rich's table of them is not imported)
+        super().__init__(markup=False, emoji=False, **kwargs)
 
     def render_str(self, text: str, **kwargs) -> Text:
-        return super().render_str(shown(text), **{**kwargs, "markup": False})
+        return super().render_str(shown(text), **{**kwargs, "markup": False, "emoji": False})
 
 console = _DataConsole()
 
@@ -255,9 +256,8 @@ def _register_plugin_commands() -> None:
 def _quiet_flags(command) -> None:
     """On/off flags take no value, so their help shows no type: an empty metavar drops typer's
     ``<bool>`` (the help option included, which click makes once per command and caches)."""
-    import click
-
-    command.get_help_option(click.Context(command))
+    # the command's own Context class: typer carries its own click, a second one costs an import
+    command.get_help_option(command.context_class(command))
     for param in [*command.params, command._help_option]:
         if getattr(param, "is_flag", False):
             param.metavar = ""

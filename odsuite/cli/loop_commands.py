@@ -64,15 +64,20 @@ def diagnose_cmd(
     workers: int = typer.Option(None, "--workers", min=1, help="Processes that screen and fit candidates (default: "
                                 "one per core, at most 2 for a few dozen candidates; the result does not depend on it)."),
 ) -> None:
-    """Rank every registered physical effect by the error it removes (validated), best first."""
+    """Rank every registered physical effect by the error it removes (validated), best first. A
+    diagnosis of every effect is kept with the model revision: `odsuite report` shows it."""
+    from odsuite.analysis.stored_diagnosis import diagnosis_stamp
     from odsuite.diagnosis.diagnose import diagnose
     from odsuite.store.project import open_project
 
     with open_project(project) as p, _loop_progress() as bar:
+        stamp = None if effect else diagnosis_stamp(p)  # before: records changed meanwhile store nothing
         task = bar.add_task("diagnosing", total=None)
         result = diagnose(p, effects=effect or None, workers=workers,
                           progress=lambda what, i, n: bar.update(task, description=what, completed=i, total=n))
     doc = result.as_dict()
+    if stamp is not None:
+        _keep_diagnosis(project, doc, stamp)
     if as_json:
         _print_json(doc)
         return
@@ -119,6 +124,23 @@ def diagnose_cmd(
     if doc["not_applicable"]:
         console.print(f"not applicable to this model: {', '.join(doc['not_applicable'])}", highlight=False,
                       soft_wrap=True)
+
+
+def _keep_diagnosis(project: Path, doc: dict, stamp: dict) -> None:
+    """Store the diagnosis with its revision for `report`; where the project cannot be written
+    now (another command writes it, a read-only file) a note says so and nothing else changes."""
+    from odsuite.analysis.stored_diagnosis import store_diagnosis
+    from odsuite.store.project import open_project
+
+    try:
+        with open_project(project, "a") as p:
+            stored = store_diagnosis(p, doc, stamp)
+    except OSError as exc:
+        err_console.print(f"note: diagnosis not kept for `odsuite report`: {exc}", highlight=False, soft_wrap=True)
+        return
+    if not stored:
+        err_console.print("note: diagnosis not kept for `odsuite report`: the project's records or revision "
+                          "changed while diagnosing", highlight=False, soft_wrap=True)
 
 
 @app.command("add-effect")

@@ -25,7 +25,7 @@ def plugins_cmd(as_json: bool = typer.Option(False, "--json", help="Print one JS
         for name, _plugin in sorted(pm.list_name_plugin()):
             source = pm.source(name)
             registers = {f.name: getattr(regs, f.name).by_plugin(name) for f in fields(Registries)}
-            backends = {b: [{"flag": o.cli_flag, "type": o.type.__name__} for o in regs.daq_backends.get(b).options]
+            backends = {b: [{"flag": o.cli_flag, "type": o.type.__name__} for o in regs.daq_backends.attribute(b, "options")]
                         for b in regs.daq_backends.by_plugin(name)}
             doc[name] = {"distribution": source.distribution, "version": source.version,
                          "registers": {k: list(v) for k, v in registers.items() if v}, "daq_backend_options": backends}
@@ -43,7 +43,7 @@ def plugins_cmd(as_json: bool = typer.Option(False, "--json", help="Print one JS
             if names:
                 provided.append(f"{f.name.replace('_', ' ')}: {', '.join(names)}")
         for backend in regs.daq_backends.by_plugin(name):
-            options = regs.daq_backends.get(backend).options
+            options = regs.daq_backends.attribute(backend, "options")
             provided.append(f"  acquire --daq {backend} options:" + ("" if options else " none"))
             for o in options:  # each with its help: the unit and default live there
                 default = "" if o.default is None or o.type is bool or "default" in o.help else f" (default {o.default:g})" \

@@ -61,8 +61,10 @@ def report_cmd(
     project: Path = typer.Argument(..., help="Project file."),
     output: Path = typer.Option(..., "-o", "--output", help="The HTML page to write (self-contained)."),
     diagnosis: Path = typer.Option(None, "--diagnosis", help="Show this `odsuite diagnose --json` output "
-                                   "instead of diagnosing now."),
-    no_diagnose: bool = typer.Option(False, "--no-diagnose", help="Leave the candidate effects out (diagnosis takes ~20 s)."),
+                                   "(default: the diagnosis `odsuite diagnose` kept for the current revision "
+                                   "and records, else one made now)."),
+    no_diagnose: bool = typer.Option(False, "--no-diagnose", help="Leave the candidate effects out (a diagnosis "
+                                     "made now takes ~20 s; `odsuite diagnose` keeps one for the report)."),
     no_movie: bool = typer.Option(False, "--no-movie", help="Leave the movie out."),
     movie_experiment: str = typer.Option(None, "--movie-experiment", help="Experiment of the movie "
                                          "(default: the one the model fits worst)."),

@@ -7,19 +7,20 @@ facts that describe them (:func:`odsuite.processing.acquisition.acquire` streams
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
-from typing import Any, Protocol
-
-import numpy as np
+from typing import TYPE_CHECKING, Any, Protocol
 
 from odsuite.domain.errors import ConfigError
 from odsuite.domain.memory import free_memory
-from odsuite.domain.excitation import Excitation
-from odsuite.domain.rig import Rig
-from odsuite.domain.systeminfo import (
-    Systeminfo,
-)
+
+if TYPE_CHECKING:  # annotations only: `odsuite plugins` reads backend options without numpy
+    import numpy as np
+
+    from odsuite.domain.excitation import Excitation
+    from odsuite.domain.rig import Rig
+    from odsuite.domain.systeminfo import Systeminfo
 
 #: ``progress(stage, done, total)``: stage is "waiting for trigger" or "reading"; counts in samples.
 Progress = Callable[[str, int, int], None]
@@ -66,14 +67,14 @@ class AcquisitionSettings:
     chunk_size: int = 1024
 
     def __post_init__(self) -> None:
-        if not (np.isfinite(self.sampling_rate) and MIN_RATE_HZ <= self.sampling_rate <= MAX_RATE_HZ):
+        if not (math.isfinite(self.sampling_rate) and MIN_RATE_HZ <= self.sampling_rate <= MAX_RATE_HZ):
             raise ConfigError(f"acquisition setting 'sampling_rate': must be between {MIN_RATE_HZ:g} Hz and "
                               f"{MAX_RATE_HZ:g} Hz, got {self.sampling_rate!r} Hz")
         if int(self.n_samples) != self.n_samples or not 2 <= self.n_samples <= MAX_SAMPLES:
             raise ConfigError(f"acquisition setting 'n_samples': must be an integer from 2 to {MAX_SAMPLES}, "
                               f"got {self.n_samples!r}")
         for name in ("trigger_level", "trigger_timeout"):
-            if not np.isfinite(getattr(self, name)):
+            if not math.isfinite(getattr(self, name)):
                 raise ConfigError(f"acquisition setting {name!r}: must be a finite number, got {getattr(self, name)!r}")
         if int(self.pretrigger) != self.pretrigger or not 0 <= self.pretrigger < self.n_samples:
             raise ConfigError(
@@ -178,6 +179,8 @@ def rig_systeminfo(rig: Rig, sampling_rate: float) -> Systeminfo:
     """The Systeminfo an experimenter writes for a record on ``rig`` at ``sampling_rate``: the
     rig's own (``Systeminfo.for_rig``: the thesis rig's Table E.3), with low-pass cut-offs that the
     rate cannot hold brought down to Nyquist."""
+    from odsuite.domain.systeminfo import Systeminfo
+
     si = Systeminfo.for_rig(rig, sampling_rate)
     nyquist = sampling_rate / 2
     channels = [replace(c, cutoff_high=None if c.cutoff_high is None else min(c.cutoff_high, nyquist))

@@ -123,8 +123,18 @@ def _load_entry_points(pm: PluginManager, blocked: set[str]) -> None:
     silently stand in for a built-in)."""
     declared: dict[str, tuple[importlib.metadata.EntryPoint, str]] = {}
     seconds = plugin_seconds()
+    about: dict[int, tuple[str, str]] = {}  # name and version of each distribution: its metadata is parsed per
+    # read, so once per distribution, not once per entry point (the built-ins are nine of one)
+
+    def name_version(ep) -> tuple[str, str]:
+        if ep.dist is None:
+            return "?", "?"
+        if id(ep.dist) not in about:
+            about[id(ep.dist)] = (ep.dist.name, ep.dist.version)
+        return about[id(ep.dist)]
+
     for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
-        dist = ep.dist.name if ep.dist is not None else "?"
+        dist = name_version(ep)[0]
         seen = declared.get(ep.name)
         if seen is not None and seen[1] != dist:
             raise PluginConflictError(
@@ -136,7 +146,7 @@ def _load_entry_points(pm: PluginManager, blocked: set[str]) -> None:
     for name, (ep, dist) in declared.items():
         if name in blocked:
             continue
-        pm.sources[name] = Source(name, dist, ep.dist.version if ep.dist is not None else "?")
+        pm.sources[name] = Source(name, dist, name_version(ep)[1])
         try:
             # what a plugin prints at import is not odsuite's output (it would break --json)
             # a third-party plugin's import is time-bounded (an endless loop is left out, not a hang)
@@ -153,16 +163,13 @@ def _load_entry_points(pm: PluginManager, blocked: set[str]) -> None:
 
 
 def _contracts() -> dict[str, Contract]:
-    """Each registry's contract, from the core module that documents it."""
-    from odsuite.contracts import daq, effects, importers, models, renderers, sensor_types, solvers, steps
-    from odsuite.domain.rig import Rig
+    """Each registry's contract, from the core module that documents it (imported at its first check)."""
+    def of(module: str) -> Contract:  # each contract module's Protocol and optional methods
+        return Contract(module=f"odsuite.contracts.{module}")
 
-    def of(module) -> Contract:  # each contract module's Protocol and optional methods
-        return Contract(module.PROTOCOL, getattr(module, "OPTIONAL_METHODS", ()))
-
-    return {"daq_backends": of(daq), "processing_steps": of(steps), "coordinate_solvers": of(solvers),
-            "models": of(models), "effects": of(effects), "renderers": of(renderers),
-            "sensor_types": of(sensor_types), "rigs": Contract(instance_of=Rig), "importers": of(importers)}
+    return {"daq_backends": of("daq"), "processing_steps": of("steps"), "coordinate_solvers": of("solvers"),
+            "models": of("models"), "effects": of("effects"), "renderers": of("renderers"),
+            "sensor_types": of("sensor_types"), "rigs": Contract(instance_of="odsuite.domain.rig:Rig"), "importers": of("importers")}
 
 
 def build_registries(pm: PluginManager) -> Registries:

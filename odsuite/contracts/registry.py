@@ -7,8 +7,9 @@ plugin, its distribution, the provider and what is missing, never in the middle 
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from dataclasses import dataclass
+import importlib
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from odsuite.domain.errors import ConfigError, PluginConflictError, PluginError
@@ -38,15 +39,27 @@ class Contract:
 
     protocol: type | None = None
     optional_methods: tuple[str, ...] = ()
-    instance_of: type | None = None
+    #: a type, or "module:Type" imported at the first check
+    instance_of: type | str | None = None
+    #: the contract module whose ``PROTOCOL`` and ``OPTIONAL_METHODS`` these are, imported at the
+    #: first check (contract modules import numpy and the domain: building registries need not)
+    module: str | None = None
 
     def missing(self, provider: Any) -> list[str]:
-        if self.instance_of is not None and not isinstance(provider, self.instance_of):
-            return [f"to be a {self.instance_of.__module__}.{self.instance_of.__qualname__}"]
-        attributes, methods = protocol_members(self.protocol) if self.protocol is not None else ((), ())
+        kind = self.instance_of
+        if isinstance(kind, str):
+            module, _, name = kind.partition(":")
+            kind = getattr(importlib.import_module(module), name)
+        if kind is not None and not isinstance(provider, kind):
+            return [f"to be a {kind.__module__}.{kind.__qualname__}"]
+        protocol, optional = self.protocol, self.optional_methods
+        if self.module is not None:
+            module = importlib.import_module(self.module)
+            protocol, optional = module.PROTOCOL, getattr(module, "OPTIONAL_METHODS", ())
+        attributes, methods = protocol_members(protocol) if protocol is not None else ((), ())
         out = [f"attribute {a!r}" for a in attributes if not hasattr(provider, a)]
         out += [f"method {m}()" for m in methods if not callable(getattr(provider, m, None))]
-        out += [f"its optional {m} to be a method" for m in self.optional_methods
+        out += [f"its optional {m} to be a method" for m in optional
                 if getattr(provider, m, None) is not None and not callable(getattr(provider, m))]
         return out
 
@@ -68,6 +81,10 @@ class Entry:
     name: str
     provider: Any
     source: Source
+    #: set for a provider added with ``add_deferred``: what makes it, called on first use, and
+    #: attributes of it given at registration (read by ``attribute`` without making it)
+    load: Callable[[], Any] | None = None
+    known: Mapping[str, Any] = field(default_factory=dict, compare=False)  # compare=False: entries stay hashable
 
     @property
     def plugin(self) -> str:
@@ -107,16 +124,33 @@ class Registry:
         the order in which plugins are loaded.
         """
         source = source or Source("?")
+        self._check(name, provider, source)
+        self._put(Entry(name, provider, source), override)
+
+    def add_deferred(self, name: str, load: Callable[[], Any], *, override: bool = False,
+                     source: Source | None = None, **known: Any) -> None:
+        """Register as ``name`` the provider ``load()`` returns, made (and checked against the
+        contract) on first use: a registration that imports nothing, so every command starts at once.
+        ``known``: attributes of the provider that ``attribute`` reads without making it (a DAQ
+        backend's ``options`` for `odsuite plugins`); the provider made must have the same."""
+        source = source or Source("?")
+        self._check(name, None, source)
+        self._put(Entry(name, None, source, load, dict(known)), override)
+
+    def _check(self, name: str, provider: Any, source: Source) -> None:
+        """Refuse a bad name, or (``provider`` given) a provider that does not meet the contract."""
         if not isinstance(name, str) or not name:
             raise ConfigError(f"{source}: {self.kind} provider name must be a non-empty string, got {name!r}")
-        missing = self.contract.missing(provider)
+        missing = [] if provider is None else self.contract.missing(provider)
         if missing:
             raise PluginError(
                 f"{source}: {self.kind} {name!r} ({type(provider).__qualname__}) does not meet the "
                 f"{self.kind} contract: it needs {', '.join(missing)}; fix the plugin or start without it "
                 f"(ODSUITE_DISABLE_PLUGINS={source.plugin})"
             )
-        entry = Entry(name, provider, source)
+
+    def _put(self, entry: Entry, override: bool) -> None:
+        name = entry.name
         if override:
             self._overrides.append(entry)
             return
@@ -134,15 +168,30 @@ class Registry:
         self._overrides.clear()
 
     def get(self, name: str) -> Any:
+        return self.entry(name).provider
+
+    def entry(self, name: str) -> Entry:
         try:
-            return self._entries[name].provider
+            entry = self._entries[name]
         except KeyError:
             known = ", ".join(sorted(self._entries)) or "none"
             raise ConfigError(f"unknown {self.kind} {name!r} (known: {known})") from None
+        if entry.load is None:
+            return entry
+        provider = entry.load()
+        self._check(name, provider, entry.source)
+        differ = [a for a, value in entry.known.items() if getattr(provider, a, None) != value]
+        if differ:
+            raise PluginError(f"{entry.source}: {self.kind} {name!r} has other {', '.join(differ)} than it "
+                              "registered; fix the plugin")
+        self._entries[name] = entry = Entry(name, provider, entry.source)
+        return entry
 
-    def entry(self, name: str) -> Entry:
-        self.get(name)
-        return self._entries[name]
+    def attribute(self, name: str, attribute: str) -> Any:
+        """``attribute`` of provider ``name``: as registered with ``add_deferred`` (the provider is
+        not made), else the provider's own."""
+        known = self._entries[name].known if name in self._entries else {}
+        return known[attribute] if attribute in known else getattr(self.get(name), attribute)
 
     def __contains__(self, name: object) -> bool:
         return name in self._entries
@@ -157,7 +206,7 @@ class Registry:
         return sorted(self._entries)
 
     def items(self) -> list[tuple[str, Any]]:
-        return [(n, self._entries[n].provider) for n in self.names()]
+        return [(n, self.get(n)) for n in self.names()]
 
     def by_plugin(self, plugin: str) -> list[str]:
         return sorted(n for n, e in self._entries.items() if e.plugin == plugin)
@@ -181,3 +230,6 @@ class PluginRegistry:
 
     def add(self, name: str, provider: Any, *, override: bool = False) -> None:
         self._registry.add(name, provider, override=override, source=self.source)
+
+    def add_deferred(self, name: str, load: Callable[[], Any], *, override: bool = False, **known: Any) -> None:
+        self._registry.add_deferred(name, load, override=override, source=self.source, **known)

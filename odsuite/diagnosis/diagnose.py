@@ -28,7 +28,7 @@ from threadpoolctl import threadpool_limits
 
 from odsuite.contracts.effects import applies, family
 from odsuite.diagnosis import checks, joint, physical
-from odsuite.analysis.comparison import residual_peaks
+from odsuite.analysis.comparison import noise_floor, residual_peaks
 from odsuite.domain.errors import ConfigError
 from odsuite.diagnosis.fitting import (
     Problem,
@@ -643,8 +643,8 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
     singles = sorted((c for c in candidates if c.fitted and c.significant and getattr(c, "_resolved", None) is not None
                       and joint.pairable(job["effects"].get(c.effect))),
                      key=lambda c: c.bic)
-    if not singles or not singles[0]._resolved.detected():
-        return [], [], 0
+    if not singles or not all(_leaves_cells(c, job) for c in candidates if c.fitted and c.significant):
+        return [], [], 0  # a single or a refinement leaves nothing above the floor
     # each pair's starts: its members' values and discrete choices
     starts = {(a.effect, b.effect): [(joint.fitted(a), joint.fitted(b))]
               for a, b in itertools.combinations(singles[:joint.PAIR_CANDIDATES], 2) if joint.overlap(a, b, res0)
@@ -701,6 +701,13 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
     return out, added, evaluations
 
 
+def _leaves_cells(cand: Candidate, job: Mapping[str, Any]) -> bool:
+    """Whether the fitted candidate leaves a cell above its floor (the verdict's test; the pooled
+    error where the floor has no bands)."""
+    res = getattr(cand, "_resolved", None)
+    return res.detected() if res is not None else cand.error_after > FLOOR_TOLERANCE * job["noise"]
+
+
 def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], scale: float,
             floor=None) -> Candidate | None:
     """Fit the refining effect ``name`` from the fit of the effect it refines, when that one is
@@ -711,10 +718,10 @@ def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], 
     effect = job["effects"].get(name)
     start = next((c for c in candidates if c.effect == effect.refines and c.fitted), None)
     # refiners are fitted alike whatever their order: another refinement does not stop one
-    done = [c.error_after for c in candidates if c.fitted and c.significant
+    done = [c for c in candidates if c.fitted and c.significant
             and not getattr(job["effects"].get(c.effect), "refines", None)]
-    if (start is None or not start.significant or not start.error_after > FLOOR_TOLERANCE * job["noise"]
-            or min(done) <= FLOOR_TOLERANCE * job["noise"]):  # another candidate has explained it all
+    if (start is None or not start.significant or not _leaves_cells(start, job)
+            or not all(_leaves_cells(c, job) for c in done)):  # another candidate has explained it all
         return None
     problem, u0 = refined(start._problem, start._u, effect)
     cand = _fit_candidate(Screened(effect, problem.fixed, u0, problem.sse(u0), problem), job["windows"], job["sse0"],
@@ -736,11 +743,23 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
     """The verdict (from the resolved residual where the floor has bands), the signature of what
     is left (after the best significant candidate, if any) and the message."""
     best = next((c for c in d.candidates if c.significant and c.fitted), None)
-    # amplitude dependence as the data show it: any fitted candidate whose parameters, fitted per
-    # experiment, follow the force level, or a significant one that makes the model amplitude dependent
-    amplitude = any(c.amplitude_dependent for c in d.candidates if c.fitted) or (
-        best is not None and makes_nonlinear(best, base))
-    res_best = getattr(best, "_resolved", None) if best is not None else None
+    # amplitude dependence as the data show it: the best significant candidate's parameters, fitted
+    # per experiment, follow the force level, or it makes the model amplitude dependent (without
+    # one: any fitted candidate's). A stand-in's drifting parameters say it stands in, not that the
+    # structure is nonlinear: a mass fitted for a worn mount followed the force level
+    amplitude = (bool(best.amplitude_dependent) or makes_nonlinear(best, base) if best is not None
+                 else any(c.amplitude_dependent for c in d.candidates if c.fitted))
+    res_best, floor_best = getattr(best, "_resolved", None) if best is not None else None, cmp.floor
+    after = None
+    if best is not None:
+        p = best._problem
+        after = p.predictions(best._u, p.full)
+        if res_best is not None:
+            # what is left is judged against the floor the candidate's model would leave if right
+            # (its signals' rounding, its response to the force channel's noise), as compare
+            # judges the revision that stores it
+            floor_best = noise_floor(exps, p.models(best._u), spectra=True)
+            res_best = resolution.resolve(exps, after, floor_best)
     nonlinear = best is not None and makes_nonlinear(best, base)
     d.verdict = decide(d.baseline_error, d.noise_floor_error, best, before=res0, after=res_best,
                        amplitude_cause=nonlinear)
@@ -750,9 +769,7 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
     sig_before = signature(exps, before, cmp.floor, d.residual_peaks, amplitude, res0)
     rest = None
     if best is not None and d.verdict != "nothing to explain":
-        p = best._problem
-        after = p.predictions(best._u, p.full)
-        rest = signature(exps, after, cmp.floor, residual_peaks(exps, after, modes, cmp.floor), amplitude, res_best)
+        rest = signature(exps, after, floor_best, residual_peaks(exps, after, modes, floor_best), amplitude, res_best)
     d.signature = rest if rest is not None else sig_before
     d.message = message(d.verdict, d.baseline_error, d.noise_floor_error, best, sig_before, rest)
     if d.verdict in ("unexplained", "partly explained") and d.other_families:

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import errno
 import os
-import secrets
 import shutil
 import stat
 from collections.abc import Callable, Iterator
@@ -55,6 +54,8 @@ def write_output(path: Path, needed: int, write: Callable[[Path], object]) -> Pa
     path = Path(path)
     target = Path(os.path.realpath(path))
     ensure_space(target, needed, path, outcome="nothing written")
+    import secrets  # here, not at import: every command imports this module for its error lines
+
     # the suffix given stays last (a link's target may have another): writers pick the format from it
     tmp = target.with_name(f".{target.stem}.odsuite-out-{secrets.token_hex(4)}{path.suffix}")
     try:

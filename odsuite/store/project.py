@@ -559,8 +559,14 @@ class Project:
 
     # -- derived data
 
+    def _experiment_group(self, name: str) -> h5py.Group:
+        """The group of experiment ``name``, without reading its Systeminfo as ``experiment`` does."""
+        if name not in self._file()["experiments"]:
+            self.experiment(name)  # the unknown name's error
+        return self._file()["experiments"][name]
+
     def _derived_group(self, experiment: str, kind: str) -> h5py.Group:
-        g = self.experiment(experiment)._group()
+        g = self._experiment_group(experiment)
         if "derived" not in g or kind not in g["derived"]:
             raise ConfigError(f"{self.path}: experiment {experiment!r} has no derived data {kind!r} "
                               f"(has: {', '.join(self.derived_kinds(experiment)) or 'none'})")
@@ -651,7 +657,7 @@ class Project:
 
     @_reads("experiment {experiment!r} derived")
     def derived_kinds(self, experiment: str) -> list[str]:
-        g = self.experiment(experiment)._group()
+        g = self._experiment_group(experiment)
         return [k for k in g["derived"] if not k.startswith(".")] if "derived" in g else []
 
     # -- imported data that are not records (nodes, FRFs, modes of a file without time data)

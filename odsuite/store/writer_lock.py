@@ -16,14 +16,18 @@ import warnings
 from contextlib import suppress
 from pathlib import Path
 
-with warnings.catch_warnings():  # where the system has no OS lock, filelock says so at import
-    warnings.simplefilter("ignore", UserWarning)
-    import filelock
-
 from odsuite.domain.errors import ProjectFileError, ProjectLockedError
 
 #: First word of every lock file odsuite writes: tells its own (maybe stale) lock files from a user's.
 MARK = "odsuite-lock"
+
+
+def _filelock():
+    """filelock, imported by the first writer: a command that only reads never pays for it."""
+    with warnings.catch_warnings():  # where the system has no OS lock, filelock says so at import
+        warnings.simplefilter("ignore", UserWarning)
+        import filelock
+    return filelock
 
 
 def lock_path(project: Path) -> Path:
@@ -43,6 +47,7 @@ class WriterLock:
         # thread_local=False: a command may release from another thread than it acquired in. Where
         # the system has no OS lock (neither flock nor LockFileEx), filelock's FileLock is its
         # existence lock, which writes the file itself and reclaims it from a dead process.
+        filelock = _filelock()
         native = filelock.FileLock is not filelock.SoftFileLock
         self._lock = filelock.FileLock(self.path, thread_local=False, blocking=False,
                                        **({"on_acquired": self._claim} if native else {}))
@@ -66,7 +71,7 @@ class WriterLock:
                                    "remove it")
         try:
             self._lock.acquire()
-        except filelock.Timeout:
+        except _filelock().Timeout:
             raise ProjectLockedError(f"{self.project}: project is open in another process ({self._holder()}); "
                                      "close it there first") from None
         except OSError as exc:

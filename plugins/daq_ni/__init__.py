@@ -6,8 +6,14 @@
 from odsuite.api import hookimpl
 
 
-@hookimpl
-def odsuite_register_daq_backends(registry):
+def _backend():
     from odsuite_plugins.daq_ni.backend import NiDaq
 
-    registry.add("ni", NiDaq())
+    return NiDaq()
+
+
+@hookimpl
+def odsuite_register_daq_backends(registry):
+    from odsuite_plugins.daq_ni.options import OPTIONS
+
+    registry.add_deferred("ni", _backend, options=OPTIONS)  # imported on first use: every command starts at once

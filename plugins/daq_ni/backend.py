@@ -19,11 +19,11 @@ from typing import Any
 
 import numpy as np
 
+from odsuite_plugins.daq_ni.options import OPTIONS
 from odsuite.contracts.daq import (
     READING,
     WAITING,
     AcquisitionSettings,
-    BackendOption,
     Progress,
     Recording,
     channel_name,
@@ -80,11 +80,7 @@ class NiDaq:
 
     name = "ni"
     description = "National Instruments cards through NI-DAQmx (IEPE accelerometers, load cell)"
-    options = (BackendOption("device", str, "Dev1", "device name as in NI MAX"),
-               BackendOption("trigger_source", str, None,
-                             "digital trigger terminal, e.g. /Dev1/PFI0 (default: analog on the force channel)"),
-               BackendOption("iepe", bool, True, "plain voltage channels (external conditioning) instead of IEPE",
-                             flag="--voltage", when_given=False))
+    options = OPTIONS
 
     def record(
         self,

@@ -3,9 +3,15 @@
 from odsuite.api import hookimpl
 
 
-@hookimpl
-def odsuite_register_daq_backends(registry):
+def _backend():
     from odsuite_plugins.daq_sim.simulator import SimulatedRig
 
-    registry.add("sim", SimulatedRig())
+    return SimulatedRig()
+
+
+@hookimpl
+def odsuite_register_daq_backends(registry):
+    from odsuite_plugins.daq_sim.options import OPTIONS
+
+    registry.add_deferred("sim", _backend, options=OPTIONS)  # imported on first use: every command starts at once
 

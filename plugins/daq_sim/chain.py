@@ -38,7 +38,7 @@ class ChannelChain:
     limit_high: float = 5.0  # V
     noise_rms: float = 0.0  # V at the ADC input
     offset: float = 0.0  # V
-    drift: float = 0.0  # V/s
+    drift: float = 0.0  # V/s, while the drift is linear (drift_profile)
     hum_amplitude: float = 0.0  # V
     hum_hz: float = 60.0
 
@@ -150,10 +150,23 @@ def run_analog(chain: ChannelChain, quantity: np.ndarray, fs: float) -> np.ndarr
     return scipy.signal.sosfilt(chain.discrete_sos(fs), quantity)
 
 
+#: the front end's drift is linear for this long (s), then settles exponentially over as long again:
+#: warm-up drift is bounded, and a linear one at 1 mV/s had run a 10-minute operating record into
+#: the ADC's limits after 7 minutes; records shorter than this are unchanged
+DRIFT_LINEAR_S = 30.0
+
+
+def drift_profile(t: np.ndarray) -> np.ndarray:
+    """Seconds of drift at times ``t`` (s): t up to DRIFT_LINEAR_S, then settling (value and slope
+    continuous) towards 2 DRIFT_LINEAR_S."""
+    late = np.maximum(t - DRIFT_LINEAR_S, 0.0)
+    return np.minimum(t, DRIFT_LINEAR_S) + DRIFT_LINEAR_S * -np.expm1(-late / DRIFT_LINEAR_S)
+
+
 def adc_input_disturbances(chain: ChannelChain, n: int, fs: float, rng: np.random.Generator) -> np.ndarray:
-    """Offset + linear drift + white noise + mains hum, in volts, for ``n`` samples at ``fs``."""
+    """Offset + drift (``drift_profile``) + white noise + mains hum, in volts, for ``n`` samples at ``fs``."""
     t = np.arange(n) / fs
-    out = chain.offset + chain.drift * t
+    out = chain.offset + chain.drift * drift_profile(t)
     if chain.noise_rms:
         out = out + rng.normal(0.0, chain.noise_rms, n)
     if chain.hum_amplitude:

@@ -12,6 +12,7 @@ import numpy as np
 import scipy  # scipy.signal loads on first use: fast `odsuite plugins`
 
 from odsuite.api import ConfigError
+from odsuite_plugins.daq_sim.options import DEFAULT_BASE_RMS  # noqa: F401 (this module's default, defined beside the option)
 
 KINDS = ("random", "sweep", "unbalance", "base-random")
 #: kinds where the ground moves instead of a force acting at the force point
@@ -23,10 +24,6 @@ DEFAULT_FORCE_RMS = 0.5
 #: anti-aliasing filter's corner at the thesis's rates, so the sweep's top is still measured)
 SWEEP_BOTTOM = 0.0005
 SWEEP_TOP = 0.4
-#: default rms of the ground's acceleration along each axis (m/s^2), white up to the simulator's
-#: rate: the thesis rig's horizontal accelerometers (+-2.5 m/s^2 ranges) then peak near a third of
-#: their range over 5 min, two hundred ADC codes rms above their noise
-DEFAULT_BASE_RMS = 0.3
 
 
 @dataclass(frozen=True)

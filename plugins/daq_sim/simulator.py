@@ -29,6 +29,7 @@ from odsuite_plugins.daq_sim.operating import (
     parse_operating,
     rotation_length,
 )
+from odsuite_plugins.daq_sim.options import MAX_ADC_BITS, MAX_NOISE_SCALE, MIN_ADC_BITS, OPTIONS
 from odsuite_plugins.daq_sim.scenarios import SCENARIOS
 from odsuite_plugins.daq_sim.scenarios import scenario as get_scenario
 
@@ -36,7 +37,6 @@ from odsuite.contracts.daq import (
     READING,
     WAITING,
     AcquisitionSettings,
-    BackendOption,
     Progress,
     Recording,
     channel_name,
@@ -55,14 +55,14 @@ from odsuite.api import SensorType, Systeminfo
 #: m/s^2 along x, y, z, rad/s^2 about them through the rig origin) can record base motion.
 Truth = Callable[[np.ndarray, float, np.ndarray, np.ndarray], np.ndarray]
 
+#: without a declared anti-aliasing filter the thesis's 1 kHz one is drawn, but never above this
+#: fraction of the record's rate: every card filters below its Nyquist frequency, and a 1 kHz
+#: filter at 1024 samples/s let a hammer blow alias into the record (a perfect model of a rig
+#: written from docs/rig-format.md then read 21x its floor)
+ANTI_ALIAS_RATE_FRACTION = 0.4
 #: bipolar input ranges (V) of an NI E-series card (AT-MIO-16E-2): the card uses the smallest one
 #: that holds the limits the experimenter sets, e.g. -2..3 V is read on +-5 V
 E_SERIES_RANGES = (0.05, 0.1, 0.25, 0.5, 1.0, 2.5, 5.0, 10.0)
-#: ADC resolutions of real cards: 8-bit scopes to 24-bit sigma-delta (32 bits: the codes still
-#: fit a float64's mantissa)
-MIN_ADC_BITS, MAX_ADC_BITS = 8, 32
-#: a thousand times the thesis's floor is a few volts of noise: beyond it the record is noise
-MAX_NOISE_SCALE = 1000.0
 
 
 def adc_range(low: float, high: float) -> float:
@@ -74,7 +74,7 @@ def adc_range(low: float, high: float) -> float:
 def default_chains(rig: Rig, systeminfo: Systeminfo, *, noise: float = 1.0,
                    adc_bits: int | None = None) -> dict[int, ChannelChain]:
     """The thesis's chain for every channel: ICP sensors (sensitivities: the rig's sensors, the
-    Systeminfo's load cell), 1 kHz 8th-order anti-aliasing with the Systeminfo's gain (§5.1), a
+    Systeminfo's load cell), 1 kHz 8th-order anti-aliasing (at most ANTI_ALIAS_RATE_FRACTION of the rate) with the Systeminfo's gain (§5.1), a
     12-bit ADC (or ``adc_bits``) on the E-series range that holds the Systeminfo's limits.
 
     Noise levels are typical of the thesis's Fig. A.1 floor (a few LSB), scaled by ``noise`` (True
@@ -118,6 +118,8 @@ def default_chains(rig: Rig, systeminfo: Systeminfo, *, noise: float = 1.0,
             chain = replace(chain, **sensor_front)
         if filtered and (ch != rig.force_channel or aa.force_channel):
             chain = replace(chain, **filtered)
+        elif not filtered and chain.aaf_cutoff_hz is not None:
+            chain = replace(chain, aaf_cutoff_hz=min(chain.aaf_cutoff_hz, ANTI_ALIAS_RATE_FRACTION * info.sampling_rate))
         if adc_bits is not None:
             chain = replace(chain, adc_bits=adc_bits)
         chain = replace(chain, noise_rms=chain.noise_rms * noise, offset=chain.offset * noise,
@@ -152,28 +154,7 @@ class SimulatedRig:
     description = "the simulated rig: the rig's model struck by a virtual hammer, through ADC chains"
     #: the thesis tests ``scenario`` names: name -> Scenario (description, point, direction, hits)
     scenarios = SCENARIOS
-    options = (BackendOption("scenario", str, None, "thesis test T1..T8 (default T1 when no force point is given)"),
-               BackendOption("seed", int, 0, "random seed; one seed, one record"),
-               BackendOption("force_peak", float, None, "peak hammer force in N (default: the scenario's, "
-                                                        "else 20 N); several hits keep their ratios"),
-               BackendOption("contact_ms", float, None, "the blow's contact time, ms (default: the scenario's, "
-                             "else 0.5 ms; a hard tip 0.1-0.5 ms, a rubber tip or a sledge 2-20 ms)"),
-               BackendOption("truth_rig", str, None, "a rig file the record comes from instead of the project's rig "
-                             "(a hidden change: stiffer mounts, a moved mass, a tilted or mis-calibrated sensor); "
-                             "it has the project rig's channels (default: none, the project's rig)", flag="--truth"),
-               BackendOption("adc_bits", int, None, f"ADC resolution, bits {MIN_ADC_BITS}-{MAX_ADC_BITS} "
-                                                    "(default 12: the thesis's E-series card)"),
-               BackendOption("noise", float, 1.0, "scale of the ADC-input noise, offsets and drift "
-                                                  f"(1: the thesis's floor, 0: none, at most {MAX_NOISE_SCALE:g})"),
-               BackendOption("operating", str, None, "a running machine instead of the hammer: random, sweep or "
-                                                     "unbalance:HZ at the force point, or base-random: the ground "
-                                                     "moving in all six directions (no force channel stored); default: none, "
-                                                     "the hammer"),
-               BackendOption("force_rms", float, None, "operating: rms force in N (default 0.5 N; unbalance: the "
-                                                       "rotating force's magnitude)"),
-               BackendOption("base_rms", float, None, "base-random: rms ground acceleration in m/s^2 along each "
-                                                      f"axis (default {DEFAULT_BASE_RMS:g} m/s^2); the rotations' rms is it "
-                                                      "over the farthest accelerometer's distance from the rig origin"))
+    options = OPTIONS
 
     def __init__(self, truth_factory: Callable[..., Truth] | None = None) -> None:
         self._truth_factory = truth_factory

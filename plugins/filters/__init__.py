@@ -3,9 +3,17 @@
 from odsuite.api import hookimpl
 
 
+#: the steps ``steps.PROVIDERS`` defines, named here so that registering imports none of them
+STEPS = ("convert", "invert", "micro", "scale", "offset", "moving-average", "iir", "integrate")
+
+
+def _step(name: str):
+    from odsuite_plugins.filters.steps import PROVIDERS
+
+    return PROVIDERS[name]
+
+
 @hookimpl
 def odsuite_register_processing_steps(registry) -> None:
-    from odsuite_plugins.filters.steps import PROVIDERS  # on first use: `odsuite --help` starts fast
-
-    for name, provider in PROVIDERS.items():
-        registry.add(name, provider)
+    for name in STEPS:  # each imported on first use: every command starts at once
+        registry.add_deferred(name, lambda name=name: _step(name))

@@ -18,9 +18,17 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
+#: each solver's ``name``, so that registering imports neither
+SOLVERS = {"padgaonkar-nine": "PadgaonkarNine", "least-squares": "LeastSquares"}
+
+
+def _solver(name: str):
+    from odsuite_plugins.gencoord_padgaonkar import solvers
+
+    return getattr(solvers, SOLVERS[name])()
+
+
 @hookimpl
 def odsuite_register_coordinate_solvers(registry):
-    from odsuite_plugins.gencoord_padgaonkar.solvers import LeastSquares, PadgaonkarNine
-
-    registry.add(PadgaonkarNine.name, PadgaonkarNine())
-    registry.add(LeastSquares.name, LeastSquares())
+    for name in SOLVERS:  # imported on first use: every command starts at once
+        registry.add_deferred(name, lambda name=name: _solver(name))

@@ -47,12 +47,20 @@ class _SpringScale(Effect):
     field = ""
     unit_bounds = (0.05, 20.0)
     plausible = (0.05, 20.0)
+    #: each spring scaled on its own, whatever its group
+    per_spring = False
+
+    def _key(self, spring) -> str:
+        return spring.name if self.per_spring else (spring.group or spring.name)
 
     def parameters(self, model):
         lo, hi = self.unit_bounds
         groups: dict[str, list[str]] = {}
         for s in model.springs:
-            groups.setdefault(s.group or s.name, []).append(s.name)
+            groups.setdefault(self._key(s), []).append(s.name)
+        if self.per_spring and not any(len([t for t in model.springs if t.group and t.group == s.group]) > 1
+                                       for s in model.springs):
+            return []  # no group of like springs: the group scales are the springs' already
         return ([Parameter(f"scale_{a}", "1", 1.0, lo, hi, description=f"{self.field} along {a}, every spring",
                            plausible=self.plausible)
                  for a in AXES]
@@ -66,7 +74,7 @@ class _SpringScale(Effect):
         springs = []
         for s in model.springs:
             # rotational terms follow the spring's overall scale
-            rf = v[f"scale_{s.group or s.name}"]
+            rf = v[f"scale_{self._key(s)}"]
             if self.field == "stiffness":
                 springs.append(replace(s, stiffness=s.scaled("stiffness", axis * rf), rot_stiffness=s.rot_stiffness * rf))
             else:
@@ -80,7 +88,7 @@ class _SpringScale(Effect):
         out, seen = [], set()
         changed = {s.name: s for s in self._apply(model, v).structure.springs}
         for s in model.springs:
-            g = s.group or s.name
+            g = self._key(s)
             if g in seen:
                 continue
             seen.add(g)
@@ -98,6 +106,22 @@ class Stiffness(_SpringScale):
     # springs and mounts as built lie within a factor of two of their data-sheet stiffness
     plausible = (0.5, 2.0)
     description = "Spring stiffness scaled per axis (all springs) and per spring group (all axes)."
+
+
+class SpringStiffness(Stiffness):
+    """One spring of a group of like springs differs from the rest (a worn or softer mount among
+    four): the stiffness scaled per axis and per spring. It refines ``stiffness``, which scales a
+    group together as the rig file declares it, from that fit (each spring at its group's scale),
+    and counts only when the springs' own scales earn their place."""
+
+    name = "spring_stiffness"
+    refines = "stiffness"
+    per_spring = True
+    description = "Spring stiffness scaled per axis (all springs) and per spring, a spring of a group on its own."
+
+    def refined_start(self, model, values):
+        return {f"scale_{s.name}": values[f"scale_{s.group}"] for s in model.springs
+                if s.group and f"scale_{s.group}" in values}
 
 
 class Damping(_SpringScale):
@@ -563,6 +587,6 @@ def builtin_effects() -> list[Effect]:
     from .data_effects import data_effects
     from .modal_damping import modal_damping_effects
 
-    return [Stiffness(), Damping(), NonlinearStiffness(), MassProperties(), PlateFlexibility("kirchhoff"), PlateFlexibility("free"),
+    return [Stiffness(), SpringStiffness(), Damping(), NonlinearStiffness(), MassProperties(), PlateFlexibility("kirchhoff"), PlateFlexibility("free"),
             SensorGain(), SensorPolarity(), SensorOrientation(), SensorPosition(), SensorDynamicsEffect(),
             ImpactLocation(), ForceGain(), BaseMotion()] + data_effects() + modal_damping_effects()

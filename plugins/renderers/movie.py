@@ -428,9 +428,18 @@ def frame_labels(frames: np.ndarray, fs: float, *, time_zero: float | None = Non
     return out
 
 
+def _start_method() -> str:
+    """Fork where this process has drawn nothing (a spawned worker imports Python, numpy and
+    odsuite again: about a second of CPU each); spawn once it has, as a forked child would inherit
+    its OpenGL state (a GIF's palette is drawn here first)."""
+    import sys
+
+    drawn = "vtkmodules.vtkRenderingOpenGL2" in sys.modules
+    return "fork" if not drawn and "fork" in mp.get_all_start_methods() else "spawn"
+
+
 def _run_workers(job, frames, parts, sink, targets, advance) -> None:
-    # spawn: a forked child would inherit the parent's OpenGL state
-    ctx = mp.get_context("spawn")
+    ctx = mp.get_context(_start_method())
     q, stop = ctx.Queue(), ctx.Event()
     procs = [ctx.Process(target=_worker, args=(job, frames[p], int(p[0]), sink, targets[k], q, stop), daemon=True)
              for k, p in enumerate(parts)]

@@ -261,15 +261,16 @@ def build_report(
     """Write the project's report to ``output`` (one self-contained HTML file).
 
     ``diagnosis``: a stored ``odsuite diagnose --json`` document (file or mapping) to show; without
-    it the diagnosis runs now unless ``run_diagnosis`` is False. ``movie``: embed a GIF of
-    ``movie_experiment`` (default: the experiment the model fits worst) with the model overlaid.
-    ``frf_channels``: the channels whose FRFs are drawn for each hammer record (default: the
-    driving point: the accelerometer nearest the force point, along the force). ``registries``: the
-    providers to open the project with (None: the installed plugins').
+    it the page shows the diagnosis ``odsuite diagnose`` kept with the current revision for the
+    records as they are, else the diagnosis runs now unless ``run_diagnosis`` is False. ``movie``:
+    embed a GIF of ``movie_experiment`` (default: the experiment the model fits worst) with the
+    model overlaid. ``frf_channels``: the channels whose FRFs are drawn for each hammer record
+    (default: the driving point: the accelerometer nearest the force point, along the force).
+    ``registries``: the providers to open the project with (None: the installed plugins').
     """
     from threadpoolctl import threadpool_limits
 
-    from odsuite.api import COORDINATE_NAMES, compare, current_revision, open_project, predict, prepare, revision_model
+    from odsuite.api import open_project
 
     output = Path(output)
     if output.suffix.lower() not in (".html", ".htm"):
@@ -288,53 +289,81 @@ def build_report(
         if movie_experiment is not None and movie_experiment not in project.experiment_names():
             raise ConfigError(f"{project.path}: --movie-experiment: no experiment {movie_experiment!r} "
                               f"(experiments: {', '.join(project.experiment_names()) or 'none'})")
-        say("comparing")
-        exps = prepare(project)
-        rev = current_revision(project)
-        rmodel = revision_model(project, rev)
-        cmp = compare(project, revision=rev, prepared=exps, progress=lambda stage: say(f"comparing: {stage}"))
-        doc = cmp.as_dict()
-        modes_hz = [m["frequency_hz"] for m in doc["modes"]["model"]]
+        c = _compared(project, say)
+        sections, chosen = _sections(project, c, tmp, notes, say, diag_doc=diag_doc, run_diagnosis=run_diagnosis,
+                                     movie=movie, movie_experiment=movie_experiment, frf_channels=frf_channels)
+    size = _write_page(output, _page(f"odsuite report: {Path(project_path).name}", sections, notes))
+    if size > SIZE_BUDGET:
+        notes.append(f"the page is {size / 2**20:.1f} MiB (budget {SIZE_BUDGET / 2**20:.0f} MiB); "
+                     "--no-movie makes it smaller")
+    return ReportResult(path=output, size_bytes=size, error=float(c.doc["error"]), sections=[s[0] for s in sections],
+                        movie_experiment=chosen, notes=notes)
 
-        experiments_html = _experiments_section(project, exps, cmp)
-        preds = {e.name: predict(rmodel.for_experiment(e.name), e) for e in exps}
-        fault, windows = _fault(exps, preds, cmp.floor)
-        overlay_figures, coord_series = _overlay_figures(project.rig, exps, rmodel, preds, fault, windows, tmp)
-        import matplotlib.backends.backend_agg  # noqa: F401  imported once, before the fork: both processes draw
-        overlays_drawn = _Background(_draw_comparisons, overlay_figures)  # while the rest is drawn here
-        try:
-            say("drawing the FRFs and MAC matrices")
-            modal_html = _modal_section(doc, _modal_figures(project, exps, cmp.modal_records or [], frf_channels,
-                                                            modes_hz, tmp, model_for=rmodel.for_experiment))
-            say("where the model fails")
-            failures = _failures_section(doc, exps, preds, modes_hz, tmp, COORDINATE_NAMES)
-            candidates = _candidates_section(_diagnosis(project, exps, diag_doc, run_diagnosis, notes, say),
-                                             doc["revision"], notes)
-            say("history")
-            hist_html = _history_section(project, tmp)
-            metadata_html = _metadata_section(project, exps)
-            chosen = None
-            if movie:
-                chosen = movie_experiment or (fault.experiment if fault else
-                                              max(cmp.experiments, key=lambda n: cmp.experiments[n]["error"]))
-                say(f"rendering the movie of {chosen}")
-                exp = next(e for e in exps if e.name == chosen)
-                series, corrected = _corrected_series(project, project.rig, exp, rev, coord_series[chosen])
-                movie_html = _movie_section(project.rig, exp, series, tmp, corrected, windows.get(chosen), fault)
-                view_html = _view_section(project.rig, exp, series, corrected, windows.get(chosen))
-            else:
-                movie_html = "<p>Movie left out (--no-movie).</p>"
-                view_html = "<p>3-D view left out with the movie (--no-movie).</p>"
-                notes.append("movie skipped (--no-movie)")
-            view_html += _mode_view_section(project, cmp.modal_records or [], notes)
-            summary = _summary_section(project, exps, rev, doc, _model_modes_words(rmodel, exps, modes_hz))
-            say("drawing the overlays")
-            overlays_drawn.wait()
-        finally:
-            overlays_drawn.close()
-        overlays = _fault_words(fault) + _overlays_html(exps, cmp, overlay_figures)
 
-    sections = [
+@dataclass
+class _Compared:
+    """The current revision against the records: what every section draws from."""
+
+    exps: list
+    rev: Mapping[str, Any]
+    rmodel: Any
+    cmp: Any
+    doc: dict[str, Any]
+    modes_hz: list[float]
+    preds: dict[str, np.ndarray]
+    fault: Any
+    windows: dict[str, tuple]
+
+
+def _compared(project, say: Callable[[str], None]) -> _Compared:
+    """Compare the current revision with the records, predict each, and find the fault's band."""
+    from odsuite.api import compare, current_revision, predict, prepare, revision_model
+
+    say("comparing")
+    exps = prepare(project)
+    rev = current_revision(project)
+    rmodel = revision_model(project, rev)
+    cmp = compare(project, revision=rev, prepared=exps, progress=lambda stage: say(f"comparing: {stage}"))
+    doc = cmp.as_dict()
+    preds = {e.name: predict(rmodel.for_experiment(e.name), e) for e in exps}
+    fault, windows = _fault(exps, preds, cmp.floor)
+    return _Compared(exps, rev, rmodel, cmp, doc, [m["frequency_hz"] for m in doc["modes"]["model"]], preds, fault,
+                     windows)
+
+
+def _sections(project, c: _Compared, tmp: Path, notes: list[str], say: Callable[[str], None], *, diag_doc,
+              run_diagnosis: bool, movie: bool, movie_experiment: str | None,
+              frf_channels: Sequence[str] | None) -> tuple[list[tuple[str, str, str]], str | None]:
+    """Every section of the page (key, heading, HTML), and the movie's experiment (None without)."""
+    from odsuite.api import COORDINATE_NAMES
+
+    experiments_html = _experiments_section(project, c.exps, c.cmp)
+    overlay_figures, coord_series = _overlay_figures(project.rig, c.exps, c.rmodel, c.preds, c.fault, c.windows, tmp)
+    import matplotlib.backends.backend_agg  # noqa: F401  imported once, before the fork: both processes draw
+
+    def beside() -> str:  # about as much drawing as the rest does here (a profile's CPU seconds)
+        _draw_comparisons(overlay_figures)
+        return _failures_section(c.doc, c.exps, c.preds, c.modes_hz, tmp, COORDINATE_NAMES)
+
+    drawn_beside = _Background(beside)
+    try:
+        say("drawing the FRFs and MAC matrices")
+        modal_html = _modal_section(c.doc, _modal_figures(project, c.exps, c.cmp.modal_records or [], frf_channels,
+                                                          c.modes_hz, tmp, model_for=c.rmodel.for_experiment))
+        diag, source = _diagnosis(project, c.exps, c.rev["revision"], diag_doc, run_diagnosis, notes, say)
+        candidates = _candidates_section(diag, c.doc["revision"], notes, source)
+        say("history")
+        hist_html = _history_section(project, tmp)
+        metadata_html = _metadata_section(project, c.exps)
+        chosen, movie_html, view_html = _movie_and_view(project, c, coord_series, tmp, notes, say, movie,
+                                                        movie_experiment)
+        summary = _summary_section(project, c.exps, c.rev, c.doc, _model_modes_words(c.rmodel, c.exps, c.modes_hz))
+        say("drawing the overlays and where the model fails")
+        failures = drawn_beside.wait()
+    finally:
+        drawn_beside.close()
+    overlays = _fault_words(c.fault) + _overlays_html(c.exps, c.cmp, overlay_figures)
+    return [
         ("summary", "Summary", summary),
         ("modal", "Measured against model modes", modal_html),
         ("metadata", "Test record", metadata_html),
@@ -345,13 +374,27 @@ def build_report(
         ("history", "Error across model revisions", hist_html),
         ("movie", "Movie" + (f" of {chosen} with the model" if chosen else ""), movie_html),
         ("view3d", "Interactive 3-D view" + (f" of {chosen}" if chosen else ""), view_html),
-    ]
-    size = _write_page(output, _page(f"odsuite report: {Path(project_path).name}", sections, notes))
-    if size > SIZE_BUDGET:
-        notes.append(f"the page is {size / 2**20:.1f} MiB (budget {SIZE_BUDGET / 2**20:.0f} MiB); "
-                     "--no-movie makes it smaller")
-    return ReportResult(path=output, size_bytes=size, error=float(doc["error"]), sections=[s[0] for s in sections],
-                        movie_experiment=chosen, notes=notes)
+    ], chosen
+
+
+def _movie_and_view(project, c: _Compared, coord_series: Mapping[str, Mapping], tmp: Path, notes: list[str],
+                    say: Callable[[str], None], movie: bool, movie_experiment: str | None) -> tuple[str | None, str, str]:
+    """The movie's experiment (None without a movie), the movie and the 3-D views (the chosen
+    experiment's motion and the measured mode shapes)."""
+    chosen = None
+    if movie:
+        chosen = movie_experiment or (c.fault.experiment if c.fault else
+                                      max(c.cmp.experiments, key=lambda n: c.cmp.experiments[n]["error"]))
+        say(f"rendering the movie of {chosen}")
+        exp = next(e for e in c.exps if e.name == chosen)
+        series, corrected = _corrected_series(project, project.rig, exp, c.rev, coord_series[chosen])
+        movie_html = _movie_section(project.rig, exp, series, tmp, corrected, c.windows.get(chosen), c.fault)
+        view_html = _view_section(project.rig, exp, series, corrected, c.windows.get(chosen))
+    else:
+        movie_html = "<p>Movie left out (--no-movie).</p>"
+        view_html = "<p>3-D view left out with the movie (--no-movie).</p>"
+        notes.append("movie skipped (--no-movie)")
+    return chosen, movie_html, view_html + _mode_view_section(project, c.cmp.modal_records or [], notes)
 
 
 def _overlay_figures(rig, exps, rmodel, preds: Mapping[str, np.ndarray], fault, windows: Mapping[str, tuple],
@@ -403,48 +446,75 @@ def _overlays_html(exps, cmp, figures: Sequence[tuple[str, Path, dict, str]]) ->
     return "".join(parts)
 
 
-class _Background:
-    """Runs one job in a forked process while this one goes on (the report's figures are
-    independent: two cores draw them in about half the time); in this process, at once, where a
-    process cannot fork or start children (a batch's worker)."""
+#: jobs for a forked process, by token: the child inherits them with the fork, so no figure's data
+#: is pickled on the way there (only the job's result comes back)
+_JOBS: dict[int, Callable[[], Any]] = {}
 
-    def __init__(self, job: Callable[..., None], *args) -> None:
+
+def _run_job(token: int) -> Any:
+    return _JOBS[token]()
+
+
+class _Background:
+    """Runs one job (a function without arguments) in a forked process while this one goes on (the
+    report's figures are independent: two cores draw them in about half the time); in this
+    process, at once, where a process cannot fork or start children (a batch's worker)."""
+
+    def __init__(self, job: Callable[[], Any]) -> None:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
-        self._pool = self._future = None
+        self._pool = self._future = self._result = None
+        self._token = id(job)
         if ((os.cpu_count() or 1) > 1 and "fork" in multiprocessing.get_all_start_methods()
                 and not multiprocessing.current_process().daemon):
+            _JOBS[self._token] = job
             self._pool = ProcessPoolExecutor(1, multiprocessing.get_context("fork"))
-            self._future = self._pool.submit(job, *args)
+            self._future = self._pool.submit(_run_job, self._token)
         else:
-            job(*args)
+            self._result = job()
 
-    def wait(self) -> None:
-        """Until the job is done; its error, if any, raised here."""
+    def wait(self) -> Any:
+        """The job's result, when it is done; its error, if any, raised here."""
         if self._pool is not None:
             try:
-                self._future.result()
+                self._result = self._future.result()
             finally:
                 self.close()
+        return self._result
 
     def close(self) -> None:
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
+        _JOBS.pop(self._token, None)
 
 
-def _diagnosis(project, exps, diag_doc: Mapping[str, Any] | None, run_diagnosis: bool, notes: list[str],
-               say: Callable[[str], None]) -> Mapping[str, Any] | None:
-    """The diagnosis to show: the one given, else one run now (unless ``run_diagnosis`` is False)."""
-    if diag_doc is None and run_diagnosis:
-        from odsuite.api import diagnose
+def _diagnosis(project, exps, revision: int, diag_doc: Mapping[str, Any] | None, run_diagnosis: bool,
+               notes: list[str], say: Callable[[str], None]) -> tuple[Mapping[str, Any] | None, str]:
+    """The diagnosis to show and a sentence saying where it is from: the one given, else the one
+    ``odsuite diagnose`` kept with ``revision`` (the current one) for the records as they are, else
+    one run now (unless ``run_diagnosis`` is False; it takes as long as ``odsuite diagnose``)."""
+    from odsuite.api import stored_diagnosis
 
-        say("diagnosing")
-        return diagnose(project, prepared=exps).as_dict()
-    if diag_doc is None:
+    if diag_doc is not None:
+        return diag_doc, "The candidates below are from the diagnosis given to the report (--diagnosis)."
+    if not run_diagnosis:
         notes.append("diagnosis skipped (--no-diagnose)")
-    return diag_doc
+        return None, ""
+    kept = stored_diagnosis(project, revision)
+    if kept is not None:
+        return kept, (f"The candidates below are from <code>odsuite diagnose</code>, kept with revision "
+                      f"{_esc(revision)} for the records as they are now.")
+    from odsuite.api import diagnose
+
+    say("diagnosing")
+    doc = diagnose(project, prepared=exps,
+                   progress=lambda what, i, n: say(f"diagnosing: {what} ({i}/{n})" if n else f"diagnosing: {what}")).as_dict()
+    notes.append(f"no diagnosis kept with revision {revision} for these records: diagnosed now; "
+                 f"`odsuite diagnose {project.path.name}` keeps one that the next report shows at once")
+    return doc, ("The candidates below are from <code>odsuite diagnose</code>, run now for this page: none was "
+                 f"kept with revision {_esc(revision)} for the records as they are now.")
 
 
 def _history_section(project, tmp: Path) -> str:
@@ -715,10 +785,10 @@ def _failures_section(doc: Mapping[str, Any], exps, preds: Mapping[str, np.ndarr
     return "".join(parts)
 
 
-def _candidates_section(diag: Mapping[str, Any] | None, revision: Any, notes: list[str]) -> str:
+def _candidates_section(diag: Mapping[str, Any] | None, revision: Any, notes: list[str], source: str = "") -> str:
     if diag is None:
         return "<p>Diagnosis not run (--no-diagnose); run <code>odsuite diagnose</code> or drop the option.</p>"
-    text = (f"<p>Baseline error {_fmt(diag.get('baseline_error'))} (noise floor {_fmt(diag.get('noise_floor_error'))}) "
+    text = (f"<p>{source + ' ' if source else ''}Baseline error {_fmt(diag.get('baseline_error'))} (noise floor {_fmt(diag.get('noise_floor_error'))}) "
             f"on revision {_esc(diag.get('revision'))}. Each physical effect is fitted and validated on data "
             "the fit did not see; significant ones are listed first.</p>")
     if diag.get("revision") != revision:

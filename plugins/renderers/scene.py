@@ -220,6 +220,11 @@ class Scene:
         self.plotter = pv.Plotter(off_screen=True, window_size=self.size, shape=(1, 2) if side else (1, 1),
                                   line_smoothing=True, border=False)
         self.plotter.ren_win.SetMultiSamples(0)
+        # Plain alpha blending for the translucent lines (the rest position, the model's band):
+        # order-independent transparency cost two thirds of each frame in llvmpipe (31 -> 10 ms
+        # at 1280 x 720) and changed 0.1 % of the pixels, by at most 14 of 255 levels.
+        for renderer in self.plotter.renderers:
+            renderer.SetUseOIT(False)
         self.plotter.set_background(style.background)
         self._moving: list[tuple[object, np.ndarray]] = []  # (polydata, corners (n, 8, 3))
         # the model first, so the measured line is drawn over the model's band

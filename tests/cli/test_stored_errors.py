@@ -44,3 +44,27 @@ def test_process_stores_the_error_compare_gives_until_the_records_change(tmp_pat
     assert hist["revisions"][0]["error"] == info["model_revisions"][0]["error"] == compared["error"]
     with open_project(p) as proj:  # reading never writes
         assert proj.model_revisions()[0]["metrics"] == metrics
+
+
+def test_info_reads_the_stored_error_without_importing_the_comparison(tmp_path, capsys):
+    """`info` on a processed project prints revision 0's stored error and imports none of scipy,
+    the model or the comparison (its start-up is `bench/bench_startup.py`'s)."""
+    import subprocess
+    import sys
+
+    p = tmp_path / "p.h5"
+    for argv in (["new", p], ["acquire", p, "--daq", "sim", "--name", "T1", "--scenario", "T1", "--seed", "1",
+                              "--samples", "2048"], ["process", p]):
+        assert main([str(a) for a in argv]) == 0
+    capsys.readouterr()
+    with open_project(p) as proj:
+        stored = proj.model_revisions()[0]["metrics"]["error"]
+    heavy = ("scipy", "odsuite.domain.model", "odsuite.analysis.comparison", "matplotlib")
+    code = ("import contextlib, io, json, sys; from odsuite.cli import main\n"
+            "with contextlib.redirect_stdout(io.StringIO()) as out: code = main(['info', sys.argv[1], '--json'])\n"
+            "assert code == 0\n"
+            f"print(json.dumps([json.loads(out.getvalue())['model_revisions'][0]['error'], "
+            f"sorted(m for m in {heavy!r} if m in sys.modules)]))")
+    out = subprocess.run([sys.executable, "-c", code, str(p)], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert json.loads(out.stdout) == [stored, []]

@@ -432,14 +432,81 @@ def test_a_project_opens_without_the_plugin_that_registered_its_rig(tmp_path):
 
 def test_registration_imports_no_heavy_module():
     """Every command builds the registries before it runs: registering the installed plugins
-    imports none of scipy.signal, scipy.stats, scipy.interpolate, matplotlib, pyvista or VTK
-    (providers load them on first use), so `odsuite plugins` and `odsuite info` start at once."""
-    heavy = ("scipy.signal", "scipy.stats", "scipy.interpolate", "matplotlib", "pyvista", "vtk")
+    imports none of numpy, scipy (and its signal, stats, interpolate), h5py, matplotlib, pyvista or
+    VTK, nor the model, the rig or a contract module that needs them (providers load on first use),
+    and `odsuite plugins` runs without numpy, so it and `odsuite info` start at once."""
+    heavy = ("numpy", "scipy", "scipy.signal", "scipy.stats", "scipy.interpolate", "h5py", "matplotlib",
+             "pyvista", "vtk", "odsuite.domain.model", "odsuite.domain.rig", "odsuite.contracts.effects")
     code = ("import sys; from odsuite.contracts.plugins import registries; registries(); "
             f"print(sorted(m for m in {heavy!r} if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]"
+    code = ("import contextlib, io, sys; from odsuite.cli import main\n"
+            "with contextlib.redirect_stdout(io.StringIO()) as out: code = main(['plugins'])\n"
+            "assert code == 0 and 'acquire --daq sim options:' in out.getvalue(), out.getvalue()\n"
+            f"print(sorted(m for m in {heavy!r} if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]"
+
+
+def test_every_deferred_builtin_loads_as_registered(registries):
+    """The built-in plugins name their providers without importing them: each name loads a
+    provider that meets its kind's contract, under its own name, and a DAQ backend's options as
+    registered (what `odsuite plugins` printed) are the backend's own."""
+    from dataclasses import fields
+
+    for f in fields(registries):
+        registry = getattr(registries, f.name)
+        for name, provider in registry.items():  # loads and checks each deferred provider
+            assert registry.contract.missing(provider) == [], (f.name, name)
+            assert getattr(provider, "name", name) == name, (f.name, name)
+    for backend in ("sim", "ni"):
+        assert registries.daq_backends.attribute(backend, "options") is registries.daq_backends.get(backend).options
+    from odsuite_plugins.filters.steps import PROVIDERS
+
+    assert sorted(PROVIDERS) == [n for n in registries.processing_steps if registries.processing_steps.entry(n).plugin == "filters"]
+
+
+def test_deferred_provider_is_made_once_and_checked_when_first_used():
+    """``add_deferred``: nothing is made at registration; the first use makes the provider once,
+    checks it against the contract (one line naming the plugin) and against the attributes given
+    at registration, which ``attribute`` reads without making it."""
+    from odsuite.contracts.daq import BackendOption
+    from odsuite.contracts.registry import Contract, Registry, Source
+
+    made = []
+
+    class Backend:
+        description = "a lab card"
+        options = (BackendOption("gain", float, 1.0, "input gain"),)
+
+        def record(self, rig, settings, **kw):
+            raise AssertionError
+
+    def make(cls=Backend):
+        made.append(cls)
+        return cls()
+
+    registry = Registry("daq backend", Contract(module="odsuite.contracts.daq"))
+    lab = Source("lab", "lab-daq", "1.0")
+    registry.add_deferred("card", make, source=lab, options=Backend.options)
+    assert made == [] and "card" in registry and registry.names() == ["card"]
+    assert registry.attribute("card", "options") is Backend.options and made == []
+    assert registry.get("card") is registry.get("card") and made == [Backend]
+
+    class NoRecord:
+        description, options = "no record()", ()
+
+    registry.add_deferred("broken", lambda: make(NoRecord), source=lab)
+    with pytest.raises(PluginError) as err:
+        registry.get("broken")
+    assert "\n" not in str(err.value) and "'lab'" in str(err.value) and "record()" in str(err.value)
+
+    registry.add_deferred("other", make, source=lab, options=())
+    with pytest.raises(PluginError, match=r"'lab'.* 'other' has other options than it registered"):
+        registry.get("other")
 
 
 @pytest.mark.parametrize("body, why", [

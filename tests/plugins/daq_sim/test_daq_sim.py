@@ -276,3 +276,21 @@ def test_hidden_effect_changes_the_truth_not_the_systeminfo(thesis_rig):
         return f[band][np.argmax(spec[band])]
     zc = thesis_rig.sensor("zC").channel
     assert peak_hz(b[:, zc]) / peak_hz(a[:, zc]) == pytest.approx(1.2, rel=0.02)
+
+
+def test_front_end_drift_is_linear_then_settles():
+    """The ADC input's drift: linear for DRIFT_LINEAR_S (impact records are unchanged), then
+    settling with value and slope continuous, bounded at twice that (a 10-minute operating record
+    no longer runs into the ADC's limits)."""
+    from odsuite_plugins.daq_sim.chain import DRIFT_LINEAR_S, drift_profile
+
+    t = np.linspace(0.0, 20 * DRIFT_LINEAR_S, 200_001)
+    d = drift_profile(t)
+    early = t <= DRIFT_LINEAR_S
+    np.testing.assert_array_equal(d[early], t[early])
+    assert d[-1] < 2 * DRIFT_LINEAR_S and d[-1] == pytest.approx(2 * DRIFT_LINEAR_S, rel=1e-8)
+    assert drift_profile(np.array([2 * DRIFT_LINEAR_S]))[0] == pytest.approx(DRIFT_LINEAR_S * (2 - np.exp(-1)))
+    slope = np.diff(d) / np.diff(t)
+    k = np.searchsorted(t, DRIFT_LINEAR_S)
+    assert slope[k - 1] == pytest.approx(1.0) and slope[k + 1] == pytest.approx(1.0, abs=1e-3)
+    assert np.all(slope >= 0)

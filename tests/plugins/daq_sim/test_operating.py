@@ -230,8 +230,10 @@ def test_six_modes_from_base_motion_alone(tmp_path, capsys, seed):
     shape (MAC >= 0.95). With one random force no record of practical length separates them."""
     p = tmp_path / "b.h5"
     assert main(["new", str(p), "--rig", "thesis-dynamometer"]) == 0
+    capsys.readouterr()
     assert main(["acquire", str(p), "--daq", "sim", "--name", "b", "--rate", "1000", "--samples", "600000",
                  "--operating", "base-random", "--seed", str(seed)]) == 0
+    assert "clipped" not in capsys.readouterr().err  # docs/operating.md: no sample is clipped
     lam, shapes, names, _, _ = _model_modes(p)
     want = np.abs(lam) / (2 * np.pi)
     model = _json(capsys, ["model", str(p), "--json"])
