@@ -100,8 +100,12 @@ def fitted(c) -> Fitted:
 
 
 def pairable(effect) -> bool:
-    """An effect a pair can hold: one that refines no other fit (it is fitted from that fit alone)."""
-    return not getattr(effect, "refines", None)
+    """An effect the diagnosis pairs: one that refines no other fit (it is fitted from that fit
+    alone) and solves no parameters by projection. ProjectingJoint can hold the latter, but its
+    projected parameters (a mode's participations at every sensor and blow) are not counted in
+    the BIC and the likelihood-ratio test, so such a pair would beat a named cause with fewer true
+    parameters (a gain + 35 degree tilt was named sensor_orientation+missing_mode)."""
+    return not getattr(effect, "refines", None) and not projects(effect)
 
 
 def overlap(a, b, before: resolution.Resolved) -> bool:
