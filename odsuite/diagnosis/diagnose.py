@@ -630,11 +630,11 @@ def _single(token: int, job: Mapping[str, Any], screened: Sequence[Screened], na
 
 
 def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], screened: Sequence[Screened],
-               res0, floor, scale: float) -> tuple[list[Candidate], list[Candidate]]:
+               res0, floor, scale: float) -> tuple[list[Candidate], list[Candidate], int]:
     """Pairs of the best significant singles whose residuals overlap, and the best single (and the
     best named one) with the effect that best explains what its fit leaves (_partner), fitted
-    jointly from their fits, when
-    the best single leaves cells above the floor. At most one is accepted (significant,
+    jointly from their fits, when every significant candidate leaves cells above the floor. At
+    most one is accepted (significant,
     odsuite.diagnosis.joint.accepted): the one of the lowest BIC; the others are returned not
     significant with the reason. Also returns the partners fitted alone for the test (new singles)
     and the model evaluations spent besides the pairs' own fits."""
