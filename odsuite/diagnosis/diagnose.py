@@ -606,8 +606,11 @@ def _fit_pairs(job: Mapping[str, Any], candidates: Sequence[Candidate], res0, fl
         fixed = {f"{m.effect}.{k}": v for m in (a, b) for k, v in m._problem.fixed.items()}
         problem = Problem(job["base"], effect, job["windows"], fixed, prior=job["prior"] / job["stride"],
                           stride=job["stride"], full=job["exps"], noise_scale=job["scale"])
-        u0 = joint.start(problem, (a, b))
-        cand = _fit_candidate(Screened(effect, fixed, u0, problem.sse(u0), problem), job["windows"], job["sse0"],
+        # both single fits together may compensate one misfit twice (a stiffness and a mass both
+        # fitted to a softer spring): the search starts from the best of both, one or the other
+        sse0, u0 = min(((problem.sse(u), i, u) for i, u in enumerate(
+            joint.start(problem, m) for m in ((a, b), (a,), (b,)))), key=lambda t: t[:2])[::2]
+        cand = _fit_candidate(Screened(effect, fixed, u0, sse0, problem), job["windows"], job["sse0"],
                               job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
                               job["modes_before"], job["tail0"], job["force_levels"])
         _judge(cand, job["exps"], floor, res0, job["sse0"], job["den"], scale)
