@@ -21,6 +21,7 @@ import multiprocessing
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -400,7 +401,7 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
             evaluations += count
             candidates, count = _refined(job, refiners, candidates, cmp)
             evaluations += count
-            pairs = _fit_pairs(job, candidates, res0, cmp.floor, job["scale"])
+            pairs = _fit_pairs(job, candidates, res0, cmp.floor, job["scale"], pool, token)
             evaluations += sum(c._problem.evaluations for c in pairs)
     finally:
         JOBS.pop(token)
@@ -585,12 +586,12 @@ def _ordered(candidates: list[Candidate], pairs: list[Candidate], exps, base, jo
     return [c for c in pairs if c.significant] + candidates + [c for c in pairs if not c.significant]
 
 
-def _fit_pairs(job: Mapping[str, Any], candidates: Sequence[Candidate], res0, floor, scale: float
-               ) -> list[Candidate]:
+def _fit_pairs(job: Mapping[str, Any], candidates: Sequence[Candidate], res0, floor, scale: float,
+               pool=None, token: int | None = None) -> list[Candidate]:
     """Pairs of the best significant singles whose residuals overlap, fitted jointly from their single
-    fits, when the best single leaves cells above the floor. At most one is accepted (significant,
-    odsuite.diagnosis.joint.accepted): the one of the lowest BIC; the others are returned not
-    significant with the reason."""
+    fits, when the best single leaves cells above the floor (on ``pool``'s workers, where given). At
+    most one is accepted (significant, odsuite.diagnosis.joint.accepted): the one of the lowest BIC;
+    the others are returned not significant with the reason."""
     if res0 is None:
         return []
     singles = sorted((c for c in candidates if c.fitted and c.significant and getattr(c, "_resolved", None) is not None
@@ -598,21 +599,21 @@ def _fit_pairs(job: Mapping[str, Any], candidates: Sequence[Candidate], res0, fl
                      key=lambda c: c.bic)[:joint.PAIR_CANDIDATES]
     if len(singles) < 2 or not singles[0]._resolved.detected():
         return []
+    pairs = [(a, b) for a, b in itertools.combinations(singles, 2) if joint.overlap(a, b, res0)]
+    if pool is None:
+        token = next(TOKENS)
+        JOBS[token] = job
+    try:
+        # the pairs' fits are independent: all submitted before the first is judged
+        jobs = [(pool or InOrder()).submit(_pair_job, token, *_pair_spec(a, b)) for a, b in pairs]
+        fits = [j.result() for j in jobs]
+    finally:
+        if pool is None:
+            JOBS.pop(token)
     out = []
-    for a, b in itertools.combinations(singles, 2):
-        if not joint.overlap(a, b, res0):
-            continue
-        effect = joint.Joint([job["effects"].get(a.effect), job["effects"].get(b.effect)])
-        fixed = {f"{m.effect}.{k}": v for m in (a, b) for k, v in m._problem.fixed.items()}
-        problem = Problem(job["base"], effect, job["windows"], fixed, prior=job["prior"] / job["stride"],
-                          stride=job["stride"], full=job["exps"], noise_scale=job["scale"])
-        # both single fits together may compensate one misfit twice (a stiffness and a mass both
-        # fitted to a softer spring): the search starts from the best of both, one or the other
-        sse0, u0 = min(((problem.sse(u), i, u) for i, u in enumerate(
-            joint.start(problem, m) for m in ((a, b), (a,), (b,)))), key=lambda t: t[:2])[::2]
-        cand = _fit_candidate(Screened(effect, fixed, u0, sse0, problem), job["windows"], job["sse0"],
-                              job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
-                              job["modes_before"], job["tail0"], job["force_levels"])
+    for (a, b), (cand, count) in zip(pairs, fits):
+        cand._problem = _pair_problem(job, *_pair_spec(a, b)[:2])
+        cand._problem.evaluations = count
         _judge(cand, job["exps"], floor, res0, job["sse0"], job["den"], scale)
         ok, why = joint.accepted(cand, (a, b), candidates)
         cand.significant = ok
@@ -627,6 +628,36 @@ def _fit_pairs(job: Mapping[str, Any], candidates: Sequence[Candidate], res0, fl
             c.significant = False
             c.evidence = f"a better pair is {best.effect}; " + c.evidence
     return out
+
+
+def _pair_spec(a: Candidate, b: Candidate) -> tuple[list[str], dict[str, float], list[dict[str, Any]]]:
+    """What a worker needs to fit a pair: the effects, their fixed values and the single fits."""
+    fixed = {f"{m.effect}.{k}": v for m in (a, b) for k, v in m._problem.fixed.items()}
+    return [a.effect, b.effect], fixed, [{"effect": m.effect, "values": m.values, "per_experiment": m.per_experiment}
+                                          for m in (a, b)]
+
+
+def _pair_problem(job: Mapping[str, Any], names: Sequence[str], fixed: Mapping[str, float]) -> Problem:
+    effect = joint.Joint([job["effects"].get(n) for n in names])
+    return Problem(job["base"], effect, job["windows"], fixed, prior=job["prior"] / job["stride"],
+                   stride=job["stride"], full=job["exps"], noise_scale=job["scale"])
+
+
+def _pair_job(token: int, names: Sequence[str], fixed: Mapping[str, float], members: Sequence[Mapping[str, Any]]
+              ) -> tuple[Candidate, int]:
+    """Fit one pair jointly; the candidate without its problem and the evaluations spent."""
+    job = JOBS[token]
+    problem = _pair_problem(job, names, fixed)
+    singles = [SimpleNamespace(**m) for m in members]
+    # both single fits together may compensate one misfit twice (a stiffness and a mass both
+    # fitted to a softer spring): the search starts from the best of both, one or the other
+    sse0, u0 = min(((problem.sse(u), i, u) for i, u in enumerate(
+        joint.start(problem, m) for m in (singles, singles[:1], singles[1:]))), key=lambda t: t[:2])[::2]
+    cand = _fit_candidate(Screened(problem.effect, dict(fixed), u0, sse0, problem), job["windows"], job["sse0"],
+                          job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
+                          job["modes_before"], job["tail0"], job["force_levels"])
+    p = cand.__dict__.pop("_problem")
+    return cand, p.evaluations
 
 
 def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], scale: float,

@@ -288,7 +288,7 @@ class Problem:
         upper bound). Parameters that change one sensor's prediction alone (``Parameter.sensor``)
         are moved together with those of other sensors, each column taken from its own sensor's
         rows: the same numbers in fewer evaluations."""
-        J = np.zeros((r0.size, len(self.free)))
+        J = np.zeros((r0.size, len(self.free)), order="F")  # written by columns
         steps = np.zeros(len(self.free))
         for i, f in enumerate(self.free):
             lo, hi = f.bounds
@@ -297,6 +297,7 @@ class Problem:
                 h = 0.5 * (hi - u[i]) if hi - u[i] > u[i] - lo else -0.5 * (u[i] - lo)
             steps[i] = h
         batches, sensor_of_row = self._sensor_batches(exps or self.exps)
+        rows_of: dict[str, np.ndarray] = {}  # each sensor's rows, found once
         for batch in batches:
             batch = [i for i in batch if steps[i]]
             if not batch:
@@ -308,9 +309,12 @@ class Problem:
                 J[:, batch[0]] = -diff / steps[batch[0]]
                 continue
             for i in batch:
-                rows = sensor_of_row == self.free[i].param.sensor
+                sensor = self.free[i].param.sensor
+                if sensor not in rows_of:
+                    rows_of[sensor] = np.flatnonzero(sensor_of_row == sensor)
+                rows = rows_of[sensor]
                 J[rows, i] = -diff[rows] / steps[i]
-        return J
+        return np.ascontiguousarray(J)
 
     def _sensor_batches(self, exps: Sequence[PreparedExperiment]) -> tuple[list[list[int]], np.ndarray | None]:
         """Groups of free parameters that one evaluation can difference (at most one per sensor,
