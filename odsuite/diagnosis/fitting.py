@@ -222,7 +222,8 @@ class Problem:
             out[e.name] = m
         return out
 
-    def predictions(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None) -> list[np.ndarray]:
+    def predictions(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None,
+                    keep: bool = True) -> list[np.ndarray]:
         exps = list(exps or self.exps)
         if self.linear:  # the projection's change of prediction is the effect's whole change
             _, _, deltas = self.project(u, exps)
@@ -239,17 +240,18 @@ class Problem:
         out = [predict(models[e.name], e) for e in exps]
         for p in out:
             p.flags.writeable = False
-        self._predictions = [(key, out)] + self._predictions[:PREDICTIONS_KEPT - 1]
+        if keep:
+            self._predictions = [(key, out)] + self._predictions[:PREDICTIONS_KEPT - 1]
         return list(out)
 
     # residuals ---------------------------------------------------------------------------------
     def residual(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None,
-                 columns: Sequence[int] | None = None, stride: int | None = None) -> np.ndarray:
+                 columns: Sequence[int] | None = None, stride: int | None = None, keep: bool = True) -> np.ndarray:
         exps = exps or self.exps
         k = self.stride if stride is None else stride
         with np.errstate(over="ignore", invalid="ignore"):
             try:
-                preds = self.predictions(u, exps)
+                preds = self.predictions(u, exps, keep)
             except DivergedError:  # trial values that blow the response up: as unstable as can be
                 preds = [np.full(e.measured.shape, np.inf) for e in exps]
         parts = []
@@ -304,7 +306,7 @@ class Problem:
                 continue
             du = np.zeros_like(u)
             du[batch] = steps[batch]
-            diff = self.residual(u + du, exps) - r0
+            diff = self.residual(u + du, exps, keep=False) - r0  # a difference's point is not asked again
             if len(batch) == 1:
                 J[:, batch[0]] = -diff / steps[batch[0]]
                 continue
