@@ -15,6 +15,25 @@ thread, as diagnose runs them), diagnose / one evaluation in wall and in CPU tim
 holds on a loaded machine, where wall times do not), the verdict and top candidate (the same for
 every number of workers), and the speed-up of two worker processes over one. Run with
 `.venv/bin/python bench/bench_diagnose.py`.
+
+Figures on a shared two-core machine (CPU seconds of diagnose and its workers; evaluations' worth =
+CPU / one evaluation's CPU in the same run, which itself moved from 27 to 40 ms with the load, so
+the CPU seconds compare best across runs; wall times at these loads say nothing):
+
+| rig, workers | before: evaluations, CPU, worth (load 4.3-5.1) | after: evaluations, CPU, worth (load 11.0-12.9) |
+| --- | --- | --- |
+| thesis, 1 | 2130, 50.0 s, 1757 | 1471, 24.2 s, 722 |
+| thesis, 2 | 2130, 49.5 s, 1738 | 1471, 23.3 s, 696 |
+| two-body, 1 | 1163, 33.7 s, 847 | 1111, 22.6 s, 762 |
+| two-body, 2 | 1163, 33.7 s, 847 | 1111, 22.6 s, 761 |
+
+Verdicts, top candidates and errors the same (thesis "partly explained", stiffness 0.7088 -> 0.01256;
+two-body "explained", stiffness 0.4916 -> 0.2381). What changed: the band-limited force is kept
+between simulations (a tenth of an evaluation), a problem keeps its last predictions, a pair's search
+starts from the better of its single fits (the thesis rig's mass_properties+nonlinear_stiffness pair:
+700 -> 300 evaluations) and pairs run on the workers. Both targets are still missed: on the thesis
+rig the pairs' joint fits are half the CPU (the pair with cubic springs alone a third), on the
+two-body rig the screening of every candidate and the two full fits share it evenly.
 """
 
 from __future__ import annotations
