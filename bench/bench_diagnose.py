@@ -20,12 +20,12 @@ Figures on a shared two-core machine (CPU seconds of diagnose and its workers; e
 CPU / one evaluation's CPU in the same run, which itself moved from 27 to 40 ms with the load, so
 the CPU seconds compare best across runs; wall times at these loads say nothing):
 
-| rig, workers | before: evaluations, CPU, worth (load 4.3-5.1) | after: evaluations, CPU, worth (load 11.0-12.9) |
-| --- | --- | --- |
-| thesis, 1 | 2130, 50.0 s, 1757 | 1471, 24.2 s, 722 |
-| thesis, 2 | 2130, 49.5 s, 1738 | 1471, 23.3 s, 696 |
-| two-body, 1 | 1163, 33.7 s, 847 | 1111, 22.6 s, 762 |
-| two-body, 2 | 1163, 33.7 s, 847 | 1111, 22.6 s, 761 |
+| rig, workers | before: evaluations, CPU, worth (load 4.3-5.1) | after (load 11.0-12.9) | after, again (load 5.4-5.8) |
+| --- | --- | --- | --- |
+| thesis, 1 | 2130, 50.0 s, 1757 | 1471, 24.2 s, 722 | 1471, 30.0 s, 968 |
+| thesis, 2 | 2130, 49.5 s, 1738 | 1471, 23.3 s, 696 | 1471, 23.8 s, 765 |
+| two-body, 1 | 1163, 33.7 s, 847 | 1111, 22.6 s, 762 | 1111, 22.7 s, 716 |
+| two-body, 2 | 1163, 33.7 s, 847 | 1111, 22.6 s, 761 | 1111, 24.3 s, 767 |
 
 Verdicts, top candidates and errors the same (thesis "partly explained", stiffness 0.7088 -> 0.01256;
 two-body "explained", stiffness 0.4916 -> 0.2381). What changed: the band-limited force is kept
