@@ -2,10 +2,12 @@
 same run (the baseline):
 
 - the thesis rig: 5 experiments x 8192 samples (simulated, 16-bit ADC, a hidden stiffness change),
-  every registered effect, on one and on two worker processes; target 10 s;
+  every registered effect, on one and on two worker processes; target 3 s on two workers on a
+  quiet machine;
 - the two-body machine (projects/rigs/two-body-machine.toml): 3 hits x 8192 samples (simulated, a
   hidden stiffness change), every registered effect, with the candidate fits on one and on two
-  worker processes; target 30 s.
+  worker processes; target 5 s;
+- on both: at most CPU_TARGET evaluations' worth of CPU time (the CPU ratio below).
 
 Prints per rig: wall and CPU time (this process and its worker processes), model evaluations, the
 time of one evaluation of a structure-changing effect over all experiments (wall and CPU, one BLAS
@@ -13,6 +15,25 @@ thread, as diagnose runs them), diagnose / one evaluation in wall and in CPU tim
 holds on a loaded machine, where wall times do not), the verdict and top candidate (the same for
 every number of workers), and the speed-up of two worker processes over one. Run with
 `.venv/bin/python bench/bench_diagnose.py`.
+
+Figures on a shared two-core machine (CPU seconds of diagnose and its workers; evaluations' worth =
+CPU / one evaluation's CPU in the same run, which itself moved from 27 to 40 ms with the load, so
+the CPU seconds compare best across runs; wall times at these loads say nothing):
+
+| rig, workers | before: evaluations, CPU, worth (load 4.3-5.1) | after (load 11.0-12.9) | after, again (load 5.4-5.8) |
+| --- | --- | --- | --- |
+| thesis, 1 | 2130, 50.0 s, 1757 | 1471, 24.2 s, 722 | 1471, 30.0 s, 968 |
+| thesis, 2 | 2130, 49.5 s, 1738 | 1471, 23.3 s, 696 | 1471, 23.8 s, 765 |
+| two-body, 1 | 1163, 33.7 s, 847 | 1111, 22.6 s, 762 | 1111, 22.7 s, 716 |
+| two-body, 2 | 1163, 33.7 s, 847 | 1111, 22.6 s, 761 | 1111, 24.3 s, 767 |
+
+Verdicts, top candidates and errors the same (thesis "partly explained", stiffness 0.7088 -> 0.01256;
+two-body "explained", stiffness 0.4916 -> 0.2381). What changed: the band-limited force is kept
+between simulations (a tenth of an evaluation), a problem keeps its last predictions, a pair's search
+starts from the better of its single fits (the thesis rig's mass_properties+nonlinear_stiffness pair:
+700 -> 300 evaluations) and pairs run on the workers. Both targets are still missed: on the thesis
+rig the pairs' joint fits are half the CPU (the pair with cubic springs alone a third), on the
+two-body rig the screening of every candidate and the two full fits share it evenly.
 """
 
 from __future__ import annotations
@@ -37,6 +58,8 @@ from odsuite.analysis.prediction import predict, prepare  # noqa: E402
 from odsuite.store.project import open_project  # noqa: E402
 
 TWO_BODY = ROOT / "projects" / "rigs" / "two-body-machine.toml"
+#: diagnose's CPU time (all processes) in evaluations' worth, at most
+CPU_TARGET = 250
 #: the two-body rig's hits: down on the machine's top, along -x on its side, along +y on the base (mm)
 TWO_BODY_HITS = (((100, 50, 250), (0, 0, -1)), ((150, -50, 200), (-1, 0, 0)), ((100, -200, 25), (0, 1, 0)))
 
@@ -94,7 +117,8 @@ def run(path: Path, label: str, target: float, workers: tuple[int, ...]) -> None
     for w, (wall, cpu, d) in walls.items():
         print(f"  workers {w}: diagnose {wall:.1f} s wall ({cpu:.1f} s CPU), {d.evaluations} model evaluations, "
               f"{wall / one:.0f} evaluations' time wall, {cpu / one_cpu:.0f} in CPU "
-              f"(target {target:g} s: {'met' if wall <= target else 'missed'})")
+              f"(target {target:g} s: {'met' if wall <= target else 'missed'}; "
+              f"{CPU_TARGET} in CPU: {'met' if cpu / one_cpu <= CPU_TARGET else 'missed'})")
     if len(walls) > 1:
         print(f"  workers {workers[-1]} vs {workers[0]}: {walls[workers[0]][0] / walls[workers[-1]][0]:.2f}x wall")
     for w, (_, _, d) in walls.items():
@@ -106,9 +130,9 @@ def run(path: Path, label: str, target: float, workers: tuple[int, ...]) -> None
 def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         thesis = make_project(Path(tmp) / "thesis.odsp", [("stiffness", CASES["stiffness"])])
-        run(thesis, "thesis rig", 10.0, (1, 2))
+        run(thesis, "thesis rig", 3.0, (1, 2))
         machine = two_body_project(Path(tmp) / "two-body.odsp")
-        run(machine, "two-body machine", 30.0, (1, 2))
+        run(machine, "two-body machine", 5.0, (1, 2))
 
 
 if __name__ == "__main__":

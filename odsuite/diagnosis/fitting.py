@@ -117,6 +117,10 @@ def _scale(p) -> float:
     return 0.05 * min(size, span) if span > 0 else 1.0
 
 
+#: predictions a problem keeps (the latest), for the points it is asked about again
+PREDICTIONS_KEPT = 3
+
+
 class Problem:
     """Residuals of one candidate effect on top of the current revision, over all experiments."""
 
@@ -148,6 +152,7 @@ class Problem:
         self.linear = [n for n in (linear(base.shared) if linear else []) if n not in self.fixed]
         self._base_predictions: dict[tuple[str, int], np.ndarray] = {}
         self._projection: tuple[Any, Any] | None = None  # (key, result) of the last projection
+        self._predictions: list[tuple[Any, list[np.ndarray]]] = []  # (key, predictions), newest first
         self.free: list[_Free] = []
         for p in params:
             if p.choices is not None or p.name in self.fixed or p.name in self.linear:
@@ -216,24 +221,36 @@ class Problem:
         rm = self.revision(u, exps)
         return {e.name: rm.for_experiment(e.name) for e in self.exps}
 
-    def predictions(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None) -> list[np.ndarray]:
+    def predictions(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None,
+                    keep: bool = True) -> list[np.ndarray]:
         exps = list(exps or self.exps)
         if self.linear:  # the projection's change of prediction is the effect's whole change
             _, _, deltas = self.project(u, exps)
             return [self.base_prediction(e) + d for e, d in zip(exps, deltas)]
+        # a fit asks again for predictions it has made (its sums of squares, the tail, validation,
+        # the resolved test, the verdict's signature): the last few are kept
+        key = (u.tobytes(), tuple((e.name, e.n_samples) for e in exps))
+        kept = next((p for k, p in self._predictions if k == key), None)
+        if kept is not None:
+            return list(kept)
         self.evaluations += 1
         models = self.models(u)
         simulate_together(models, exps)
-        return [predict(models[e.name], e) for e in exps]
+        out = [predict(models[e.name], e) for e in exps]
+        for p in out:
+            p.flags.writeable = False
+        if keep:
+            self._predictions = [(key, out)] + self._predictions[:PREDICTIONS_KEPT - 1]
+        return list(out)
 
     # residuals ---------------------------------------------------------------------------------
     def residual(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None,
-                 columns: Sequence[int] | None = None, stride: int | None = None) -> np.ndarray:
+                 columns: Sequence[int] | None = None, stride: int | None = None, keep: bool = True) -> np.ndarray:
         exps = exps or self.exps
         k = self.stride if stride is None else stride
         with np.errstate(over="ignore", invalid="ignore"):
             try:
-                preds = self.predictions(u, exps)
+                preds = self.predictions(u, exps, keep)
             except DivergedError:  # trial values that blow the response up: as unstable as can be
                 preds = [np.full(e.measured.shape, np.inf) for e in exps]
         parts = []
@@ -272,7 +289,7 @@ class Problem:
         upper bound). Parameters that change one sensor's prediction alone (``Parameter.sensor``)
         are moved together with those of other sensors, each column taken from its own sensor's
         rows: the same numbers in fewer evaluations."""
-        J = np.zeros((r0.size, len(self.free)))
+        J = np.zeros((r0.size, len(self.free)), order="F")  # written by columns
         steps = np.zeros(len(self.free))
         for i, f in enumerate(self.free):
             lo, hi = f.bounds
@@ -281,20 +298,24 @@ class Problem:
                 h = 0.5 * (hi - u[i]) if hi - u[i] > u[i] - lo else -0.5 * (u[i] - lo)
             steps[i] = h
         batches, sensor_of_row = self._sensor_batches(exps or self.exps)
+        rows_of: dict[str, np.ndarray] = {}  # each sensor's rows, found once
         for batch in batches:
             batch = [i for i in batch if steps[i]]
             if not batch:
                 continue
             du = np.zeros_like(u)
             du[batch] = steps[batch]
-            diff = self.residual(u + du, exps) - r0
+            diff = self.residual(u + du, exps, keep=False) - r0  # a difference's point is not asked again
             if len(batch) == 1:
                 J[:, batch[0]] = -diff / steps[batch[0]]
                 continue
             for i in batch:
-                rows = sensor_of_row == self.free[i].param.sensor
+                sensor = self.free[i].param.sensor
+                if sensor not in rows_of:
+                    rows_of[sensor] = np.flatnonzero(sensor_of_row == sensor)
+                rows = rows_of[sensor]
                 J[rows, i] = -diff[rows] / steps[i]
-        return J
+        return np.ascontiguousarray(J)
 
     def _sensor_batches(self, exps: Sequence[PreparedExperiment]) -> tuple[list[list[int]], np.ndarray | None]:
         """Groups of free parameters that one evaluation can difference (at most one per sensor,

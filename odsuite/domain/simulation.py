@@ -78,13 +78,32 @@ def band_limited(u: np.ndarray, factor: int) -> np.ndarray:
     return np.fft.irfft(spec, n=m * factor, axis=0)[: (n - 1) * factor + 1] * factor
 
 
+#: the band-limited inputs last computed, by their samples: a fit simulates one force record
+#: hundreds of times with other models, and the input's transforms were a tenth of its cost
+_BAND_INPUTS: dict[tuple, np.ndarray] = {}
+BAND_INPUTS_KEPT = 32
+
+
+def _band_input(u: np.ndarray, factor: int) -> np.ndarray:
+    """:func:`band_limited` of ``u``, kept (read-only) for the next simulation of the same record."""
+    key = (u.shape, factor, u.tobytes())
+    out = _BAND_INPUTS.pop(key, None)
+    if out is None:
+        out = band_limited(u, factor)
+        out.flags.writeable = False
+        while len(_BAND_INPUTS) >= BAND_INPUTS_KEPT:
+            _BAND_INPUTS.pop(next(iter(_BAND_INPUTS)))
+    _BAND_INPUTS[key] = out  # the most recent last: the oldest goes first
+    return out
+
+
 def _simulate_band(ss: StateSpace, u: np.ndarray, fs: float) -> np.ndarray:
     """Response at the samples to the band-limited signal ``u`` implies: the states by a
     first-order hold of :func:`band_limited` on the fine grid, the feed-through at the samples
     (there the band-limited signal is ``u`` itself)."""
     f = BAND_OVERSAMPLE
     states = StateSpace(ss.A, ss.B, ss.C, np.zeros_like(ss.D))
-    y = simulate_state_space(states, band_limited(u, f), fs * f, hold="foh")[::f]
+    y = simulate_state_space(states, _band_input(u, f), fs * f, hold="foh")[::f]
     return y + u @ np.asarray(ss.D, float).T
 
 
@@ -252,9 +271,11 @@ def simulate_nonlinear_many(structure, drives, fs: float, hold: str = "foh") -> 
         drive[i, :len(u)] = u @ (structure.Minv @ bf).T
     grid = np.arange(steps) / sub
     fine = np.empty((len(records), steps, n))  # the inputs on the fine grid, linear between samples
-    for i in range(len(records)):
-        if hold == "band":
-            fine[i] = band_limited(drive[i], sub)
+    for i, ((bf, _), u) in enumerate(zip(drives, records)):
+        if hold == "band":  # the transform is linear: of the force (kept between calls), then mapped
+            padded = np.zeros((longest, u.shape[1]))
+            padded[:len(u)] = u
+            fine[i] = _band_input(padded, sub) @ (structure.Minv @ bf).T
             continue
         for j in range(n):
             fine[i, :, j] = np.interp(grid, np.arange(longest), drive[i, :, j])
