@@ -30,8 +30,9 @@ the CPU seconds compare best across runs; wall times at these loads say nothing)
 Verdicts, top candidates and errors the same (thesis "partly explained", stiffness 0.7088 -> 0.01256;
 two-body "explained", stiffness 0.4916 -> 0.2381). What changed: the band-limited force is kept
 between simulations (a tenth of an evaluation), a problem keeps its last predictions, a pair's search
-starts from the better of its single fits (the thesis rig's mass_properties+nonlinear_stiffness pair:
-700 -> 300 evaluations) and pairs run on the workers. Both targets are still missed: on the thesis
+starts from the better of its starts (the thesis rig's mass_properties+nonlinear_stiffness pair:
+700 -> 300 evaluations; measured with the pairs on the workers, which the partner search that came
+after runs in the main process). Both targets are still missed: on the thesis
 rig the pairs' joint fits are half the CPU (the pair with cubic springs alone a third), on the
 two-body rig the screening of every candidate and the two full fits share it evenly.
 """
