@@ -10,6 +10,7 @@ enough to call in a fitting loop: nothing is recomputed that the effect does not
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import replace
 
 import numpy as np
@@ -58,8 +59,8 @@ class _SpringScale(Effect):
         groups: dict[str, list[str]] = {}
         for s in model.springs:
             groups.setdefault(self._key(s), []).append(s.name)
-        if self.per_spring and not any(len([t for t in model.springs if t.group and t.group == s.group]) > 1
-                                       for s in model.springs):
+        alike = Counter(s.group for s in model.springs if s.group)
+        if self.per_spring and not any(n > 1 for n in alike.values()):
             return []  # no group of like springs: the group scales are the springs' already
         return ([Parameter(f"scale_{a}", "1", 1.0, lo, hi, description=f"{self.field} along {a}, every spring",
                            plausible=self.plausible)
