@@ -10,6 +10,7 @@ characters and undecodable bytes escaped), so a name like ``[/x]`` or ``x\\xff``
 
 from __future__ import annotations
 
+import copy
 import signal
 import sys
 from pathlib import Path
@@ -253,6 +254,20 @@ def _register_plugin_commands() -> None:
     default_manager().hook.odsuite_register_commands(app=app)
 
 
+def _commands_for(args: list[str]) -> typer.Typer:
+    """The app click's commands are built from: when the line starts with a command's name, that
+    command alone (building all of them costs a start-up more than ``info`` itself); the whole app
+    for anything else (``--help``, a misspelt name's suggestions, shell completion)."""
+    named = [c for c in app.registered_commands
+             if args and (c.name or typer.main.get_command_name(c.callback.__name__)) == args[0]]
+    if not named:
+        return app
+    narrowed = copy.copy(app)
+    # a name registered again (a plugin's, by ``main`` run twice in one process): click keeps the last
+    narrowed.registered_commands = named[-1:]
+    return narrowed
+
+
 def _quiet_flags(command) -> None:
     """On/off flags take no value, so their help shows no type: an empty metavar drops typer's
     ``<bool>`` (the help option included, which click makes once per command and caches)."""
@@ -307,7 +322,7 @@ def _run(argv: list[str] | None) -> int:
             raise _Interrupted()
         if (sys.argv[1:] if argv is None else argv) != ["--version"]:  # the version needs no plugin
             _register_plugin_commands()
-        command = typer.main.get_command(app)
+        command = typer.main.get_command(_commands_for(sys.argv[1:] if argv is None else argv))
         _quiet_flags(command)
         code = command.main(args=argv, standalone_mode=False, prog_name="odsuite")
     except (_Interrupted, KeyboardInterrupt) as exc:

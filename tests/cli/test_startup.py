@@ -1,0 +1,33 @@
+"""What the command line does at start-up to start sooner, checked to change nothing a user sees:
+only the command named is built (its options and help as in the whole app)."""
+
+from __future__ import annotations
+
+import sys
+
+import typer
+
+from odsuite.cli import main
+
+app_module = sys.modules["odsuite.cli.app"]
+
+
+def _signature(command) -> list:
+    """What click parses and shows of a command: each parameter's names, kind, default and help."""
+    return [(p.name, tuple(p.opts), type(p).__name__, repr(p.default), getattr(p, "help", None), p.required)
+            for p in command.params] + [command.help]
+
+
+def test_the_command_named_alone_is_built_as_in_the_whole_app(capsys):
+    for _ in range(2):  # plugin commands (the demo plugin's) are registered at each run, here twice
+        assert main(["plugins", "--json"]) == 0
+    capsys.readouterr()
+    whole = typer.main.get_command(app_module.app)
+    assert len(whole.commands) > 20 and "demo" in whole.commands
+    for name, command in whole.commands.items():
+        narrowed = typer.main.get_command(app_module._commands_for([name, "x"]))
+        assert list(narrowed.commands) == [name]
+        assert _signature(narrowed.commands[name]) == _signature(command), name
+        assert _signature(narrowed) == _signature(whole)  # --version and completion stay
+    for args in ([], ["--help"], ["--version"], ["inf"], ["x", "info"]):
+        assert app_module._commands_for(args) is app_module.app
