@@ -31,3 +31,28 @@ def test_the_command_named_alone_is_built_as_in_the_whole_app(capsys):
         assert _signature(narrowed) == _signature(whole)  # --version and completion stay
     for args in ([], ["--help"], ["--version"], ["inf"], ["x", "info"]):
         assert app_module._commands_for(args) is app_module.app
+
+
+def test_the_collector_is_off_while_the_program_loads_and_on_when_its_command_runs(monkeypatch, capsys):
+    """As the ``odsuite`` program, start-up runs without the garbage collector (its objects live as
+    long as the program); the command itself runs with it, the start-up's objects frozen out of it."""
+    import gc
+    import signal
+
+    handlers = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}  # the program ignores them at its end
+    seen = []
+    monkeypatch.setattr(app_module, "_AS_PROGRAM", True)
+    monkeypatch.setattr(app_module.console, "print", lambda *a, **k: seen.append(gc.isenabled()))
+    gc.disable()
+    try:
+        assert main(["plugins"]) == 0
+        assert seen == [True] and gc.isenabled() and gc.get_freeze_count() > 0
+        gc.disable()  # a command that fails before it runs leaves the collector on as well
+        assert main(["info", "no-such-file.h5"]) == 1
+        assert gc.isenabled()
+    finally:
+        gc.unfreeze()
+        gc.enable()
+        for s, handler in handlers.items():
+            signal.signal(s, handler)
+    capsys.readouterr()
