@@ -56,3 +56,31 @@ def test_the_collector_is_off_while_the_program_loads_and_on_when_its_command_ru
         for s, handler in handlers.items():
             signal.signal(s, handler)
     capsys.readouterr()
+
+
+def test_info_imports_only_what_it_shows(tmp_path, capsys):
+    """`info` on a processed project, once the installed entry points are cached: the same output
+    as the run that filled the cache, and none of importlib.metadata (nor the email parser it
+    reads metadata with), the writer lock's socket, scipy, the model or the comparison."""
+    import json
+    import os
+    import subprocess
+
+    p = tmp_path / "p.h5"
+    for argv in (["new", p], ["acquire", p, "--daq", "sim", "--name", "T1", "--scenario", "T1", "--seed", "1",
+                              "--samples", "2048"], ["process", p]):
+        assert main([str(a) for a in argv]) == 0
+    capsys.readouterr()
+    not_needed = ("importlib.metadata", "email", "socket", "scipy", "odsuite.domain.model",
+                  "odsuite.analysis.comparison", "matplotlib")
+    code = ("import contextlib, io, json, sys; from odsuite.cli import main\n"
+            "with contextlib.redirect_stdout(io.StringIO()) as out: code = main(['info', sys.argv[1]])\n"
+            f"print(json.dumps([code, out.getvalue(), sorted(m for m in {not_needed!r} if m in sys.modules)]))")
+    env = {**os.environ, "ODSUITE_CACHE_DIR": str(tmp_path / "cache")}
+    runs = [subprocess.run([sys.executable, "-c", code, str(p)], capture_output=True, text=True, timeout=300,
+                           env=env, cwd=tmp_path) for _ in range(2)]
+    assert [r.returncode for r in runs] == [0, 0], runs[0].stderr + runs[1].stderr
+    first, cached = (json.loads(r.stdout) for r in runs)
+    assert first[0] == cached[0] == 0 and "model revisions" in cached[1] and cached[1] == first[1]
+    assert "importlib.metadata" in first[2]  # the run that filled the cache read the metadata
+    assert cached[2] == []
