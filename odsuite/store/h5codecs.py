@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import typing
 import uuid
 from collections.abc import Iterable, Iterator, Mapping
@@ -160,7 +161,8 @@ def read_systeminfo(g: h5py.Group) -> Systeminfo:
                 kw[f.name] = None if np.isnan(v) else float(v)
         channels.append(ChannelInfo(**kw))
     rg = g["rig"]
-    opt = {n: (None if np.isnan(rg[n][()]) else float(rg[n][()])) for n in ("rx", "ry", "rz")}
+    opt = {n: float(rg[n][()]) for n in ("rx", "ry", "rz")}  # each dataset read once: a read costs more than the rest
+    opt = {n: None if math.isnan(v) else v for n, v in opt.items()}
     rig = RigInfo(
         use_in_gcc=bool(Attrs(rg)["use_in_gcc"]), use_in_ag=bool(Attrs(rg)["use_in_ag"]),
         plot_from_corner=bool(Attrs(rg)["plot_from_corner"]),
