@@ -20,17 +20,16 @@ import json
 import os
 import sys
 import zlib
-from dataclasses import dataclass
 from importlib import import_module
 from pathlib import Path
+from typing import NamedTuple
 
 _FORMAT = 1
 #: importlib.metadata loaded before odsuite: asked directly (what it answers may be patched)
 _LIVE = "importlib.metadata" in sys.modules
 
 
-@dataclass(frozen=True)
-class EntryPoint:
+class EntryPoint(NamedTuple):  # not a dataclass: that would compile six methods at each start
     """One entry point and the distribution declaring it (``importlib.metadata``'s, without it)."""
 
     name: str
