@@ -19,9 +19,10 @@ def data_stamp(project) -> str:
     derived data (a record re-acquired, re-processed, added or deleted changes it)."""
     h = hashlib.sha256()
     for name in project.experiment_names():
-        h.update(f"{name}\0{project.experiment(name).object_id}\0".encode())
-        for kind in project.derived_kinds(name):
-            h.update(f"{kind}\0{project.derived_info(name, kind)['object_id']}\0".encode())
+        record, derived = project.object_ids(name)
+        h.update(f"{name}\0{record}\0".encode())
+        for kind, object_id in derived.items():
+            h.update(f"{kind}\0{object_id}\0".encode())
     return h.hexdigest()[:16]
 
 

@@ -12,6 +12,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, Protocol
 
+from odsuite.contracts.backend_options import BackendOption  # a lab imports it from here too
 from odsuite.domain.errors import ConfigError
 from odsuite.domain.memory import free_memory
 
@@ -106,24 +107,6 @@ class Recording:
     #: filled while the chunks are consumed: per channel index, samples at the ADC's limits
     clipped: dict[int, int] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
-
-
-@dataclass(frozen=True)
-class BackendOption:
-    """An option a backend takes besides the common settings: the keyword ``record`` receives,
-    its type (int, float, str; bool for a flag), its default and help. On the command line it is
-    ``flag`` (default ``--name-with-dashes``); a flag gives ``when_given``."""
-
-    name: str
-    type: type
-    default: Any
-    help: str
-    flag: str = ""
-    when_given: Any = True
-
-    @property
-    def cli_flag(self) -> str:
-        return self.flag or "--" + self.name.replace("_", "-")
 
 
 class DaqBackend(Protocol):

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import contextlib
 import functools
-import importlib.metadata
 import io
 import os
 from dataclasses import dataclass, fields
@@ -16,6 +15,7 @@ from dataclasses import dataclass, fields
 import pluggy
 
 from odsuite.contracts import hookspecs
+from odsuite.domain import installed
 from odsuite.domain.errors import PluginConflictError, PluginLoadError
 from odsuite.contracts.registry import Contract, Registry, Source
 from odsuite.contracts.timebound import PluginTimeout, plugin_seconds, time_bound
@@ -121,20 +121,10 @@ def _load_entry_points(pm: PluginManager, blocked: set[str]) -> None:
     """Register every entry point of the group; a name declared by two distributions is refused
     (pluggy would otherwise keep whichever it met first, and a stale or foreign package could
     silently stand in for a built-in)."""
-    declared: dict[str, tuple[importlib.metadata.EntryPoint, str]] = {}
+    declared: dict[str, tuple[installed.EntryPoint, str]] = {}
     seconds = plugin_seconds()
-    about: dict[int, tuple[str, str]] = {}  # name and version of each distribution: its metadata is parsed per
-    # read, so once per distribution, not once per entry point (the built-ins are nine of one)
-
-    def name_version(ep) -> tuple[str, str]:
-        if ep.dist is None:
-            return "?", "?"
-        if id(ep.dist) not in about:
-            about[id(ep.dist)] = (ep.dist.name, ep.dist.version)
-        return about[id(ep.dist)]
-
-    for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
-        dist = name_version(ep)[0]
+    for ep in installed.entry_points(ENTRY_POINT_GROUP):
+        dist = ep.dist_name
         seen = declared.get(ep.name)
         if seen is not None and seen[1] != dist:
             raise PluginConflictError(
@@ -146,7 +136,7 @@ def _load_entry_points(pm: PluginManager, blocked: set[str]) -> None:
     for name, (ep, dist) in declared.items():
         if name in blocked:
             continue
-        pm.sources[name] = Source(name, dist, name_version(ep)[1])
+        pm.sources[name] = Source(name, dist, ep.dist_version)
         try:
             # what a plugin prints at import is not odsuite's output (it would break --json)
             # a third-party plugin's import is time-bounded (an endless loop is left out, not a hang)

@@ -78,6 +78,8 @@ class Source:
 
 @dataclass(frozen=True)
 class Entry:
+    """One registered provider: its name, the provider (or what makes it) and where it came from."""
+
     name: str
     provider: Any
     source: Source

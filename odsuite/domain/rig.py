@@ -58,6 +58,8 @@ class NineSensorSet:
 
 @dataclass(frozen=True)
 class Body:
+    """A body of the rig: a moving rigid body (mass, inertia) or a fixed one (the ground, a reference)."""
+
     name: str
     com: np.ndarray  # centre of mass at rest, rig frame
     mass: float | None = None  # None: not modelled as a moving rigid body (e.g. a fixed reference)
@@ -161,6 +163,8 @@ class Acquisition:
 
 @dataclass(frozen=True)
 class Rig:
+    """A rig: its bodies, the springs between them and the sensors on them, in the rig frame (SI)."""
+
     name: str
     description: str
     frame: str

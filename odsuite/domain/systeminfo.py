@@ -274,6 +274,8 @@ def _validate_channel(ch: ChannelInfo, k: int, source: str | Path, n_samples: in
 
 @dataclass
 class Systeminfo:
+    """What the acquisition recorded about each channel and the rig."""
+
     channels: list[ChannelInfo]
     rig: RigInfo = field(default_factory=RigInfo)
 

@@ -1,9 +1,7 @@
 """odsuite's version, read from the installed distribution (a module of its own so that every
 module can import it without importing the ``odsuite`` package's entry points)."""
 
-from importlib.metadata import PackageNotFoundError, version
+from odsuite.domain.installed import version
 
-try:
-    __version__ = version("odsuite")
-except PackageNotFoundError:  # running from a source tree without installation
-    __version__ = "0+unknown"
+# None: running from a source tree without installation
+__version__ = version("odsuite") or "0+unknown"

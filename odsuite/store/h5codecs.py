@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import typing
 import uuid
 from collections.abc import Iterable, Iterator, Mapping
@@ -138,29 +139,31 @@ def write_systeminfo(parent: h5py.Group, si: Systeminfo, names: list[str]) -> No
 
 def read_systeminfo(g: h5py.Group) -> Systeminfo:
     table = g["channels"][()]
-    present = set(table.dtype.names or ())
+    column = {name: i for i, name in enumerate(table.dtype.names or ())}
+    # a column added after the file was written is left out: its default
+    read = [(f.name, _CHANNEL_HINTS[f.name], column[f.name]) for f in dataclasses.fields(ChannelInfo)
+            if f.name in column]
     channels = []
-    for row in table:
+    for row in table.tolist():  # Python values: a numpy record's fields cost more to read than the file
         kw = {}
-        for f in dataclasses.fields(ChannelInfo):
-            if f.name not in present:  # a column added after the file was written: default
-                continue
-            hint, v = _CHANNEL_HINTS[f.name], row[f.name]
+        for name, hint, i in read:
+            v = row[i]
             if isinstance(hint, type) and issubclass(hint, IntEnum):
-                kw[f.name] = hint(int(v))
+                kw[name] = hint(int(v))
             elif hint is bool:
-                kw[f.name] = bool(v)
+                kw[name] = bool(v)
             elif hint is int:
-                kw[f.name] = int(v)
+                kw[name] = int(v)
             elif hint is str:
-                kw[f.name] = h5text.text(v)
+                kw[name] = h5text.text(v)
             elif hint is float:
-                kw[f.name] = float(v)
+                kw[name] = float(v)
             else:  # float | None
-                kw[f.name] = None if np.isnan(v) else float(v)
+                kw[name] = None if math.isnan(v) else float(v)
         channels.append(ChannelInfo(**kw))
     rg = g["rig"]
-    opt = {n: (None if np.isnan(rg[n][()]) else float(rg[n][()])) for n in ("rx", "ry", "rz")}
+    opt = {n: float(rg[n][()]) for n in ("rx", "ry", "rz")}  # each dataset read once: a read costs more than the rest
+    opt = {n: None if math.isnan(v) else v for n, v in opt.items()}
     rig = RigInfo(
         use_in_gcc=bool(Attrs(rg)["use_in_gcc"]), use_in_ag=bool(Attrs(rg)["use_in_ag"]),
         plot_from_corner=bool(Attrs(rg)["plot_from_corner"]),

@@ -28,6 +28,8 @@ from odsuite.domain.errors import ProjectVersionError, SchemaError
 
 @dataclass(frozen=True)
 class Migration:
+    """One step of the project format: the file upgraded in place from one version to the next."""
+
     from_version: str
     to_version: str
     apply: Callable[[h5py.File], None]

@@ -655,6 +655,14 @@ class Project:
                 "units": {n: h5text.text(Attrs(ds)["units"]) for n, ds in g.items()},
                 "dims": {n: tuple(h5text.text(d) for d in Attrs(ds)["dims"]) for n, ds in g.items()}}
 
+    @_reads("experiment {name!r} object ids")
+    def object_ids(self, name: str) -> tuple[str, dict[str, str]]:
+        """The object id of experiment ``name`` and of each of its derived kinds, read from their
+        attributes alone (``experiment`` and ``derived_info`` read its Systeminfo and every dataset's)."""
+        g = self._experiment_group(name)
+        return h5text.text(Attrs(g)["object_id"]), {
+            kind: h5text.text(Attrs(self._derived_group(name, kind))["object_id"]) for kind in self.derived_kinds(name)}
+
     @_reads("experiment {experiment!r} derived")
     def derived_kinds(self, experiment: str) -> list[str]:
         g = self._experiment_group(experiment)

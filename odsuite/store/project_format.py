@@ -30,10 +30,9 @@ def now() -> str:
     return datetime.now(timezone.utc).astimezone().isoformat(timespec="seconds")
 
 
-def _has_heap_text(path: Path) -> bool:
-    """Whether ``path`` keeps its root text in the global heap (format 1.0.0); reads no heap."""
-    with open_h5(path, path) as f, reading(path, "root attributes"):
-        return "odsuite_format" in f.attrs and h5text.is_variable_text(f.attrs.get_id("odsuite_format").dtype)
+def _heap_text(f: h5py.File) -> bool:
+    """Whether ``f`` keeps its root text in the global heap (format 1.0.0); reads no heap."""
+    return "odsuite_format" in f.attrs and h5text.is_variable_text(f.attrs.get_id("odsuite_format").dtype)
 
 
 def check_format(path: Path) -> str:
@@ -45,9 +44,9 @@ def check_format(path: Path) -> str:
         raise ProjectFileError(f"{path}: not a file")
     if not h5py.is_hdf5(path):
         raise NotAProjectError(f"{path}: not an HDF5 file, so not an odsuite project")
-    if _has_heap_text(path):
-        return HEAP_TEXT_VERSION  # read in a child process, see odsuite.store.project_migration
-    with open_h5(path, path) as f, reading(path, "root attributes"):
+    with open_h5(path, path) as f, reading(path, "root attributes"):  # opened once: each open walks the file
+        if _heap_text(f):
+            return HEAP_TEXT_VERSION  # read in a child process, see odsuite.store.project_migration
         fmt = f.attrs.get("odsuite_format")
         version = f.attrs.get("odsuite_format_version")
     if fmt is None or h5text.text(fmt) != FORMAT_NAME:

@@ -11,7 +11,6 @@ write is refused, never overwritten or deleted.
 from __future__ import annotations
 
 import os
-import socket
 import warnings
 from contextlib import suppress
 from pathlib import Path
@@ -35,6 +34,12 @@ def lock_path(project: Path) -> Path:
     real = Path(os.path.realpath(project))
     return real.with_name(f".{real.name}.odsuite-lock")
 
+
+
+def _host() -> str:
+    import socket  # here, not at the top: a command that only reads never imports it
+
+    return socket.gethostname()
 
 class WriterLock:
     """The held writer lock of one project (see ``acquire``)."""
@@ -62,7 +67,7 @@ class WriterLock:
                                    "written by odsuite; move it elsewhere")
         os.ftruncate(fd, 0)
         os.lseek(fd, 0, os.SEEK_SET)
-        os.write(fd, f"{MARK} {os.getpid()} {socket.gethostname()}\n".encode())
+        os.write(fd, f"{MARK} {os.getpid()} {_host()}\n".encode())
         self._fd = fd
 
     def acquire(self) -> WriterLock:
@@ -92,7 +97,7 @@ class WriterLock:
         except OSError:  # e.g. Windows: the holder's byte range cannot be read
             words = []
         pid = words[1] if len(words) > 1 and words[0] == MARK else "?"
-        host = f" on host {words[2]}" if len(words) > 2 and words[2] != socket.gethostname() else ""
+        host = f" on host {words[2]}" if len(words) > 2 and words[2] != _host() else ""
         return f"pid {pid}{host}"
 
     def fileno(self) -> int | None:

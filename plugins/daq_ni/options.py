@@ -1,7 +1,7 @@
 """The ``ni`` backend's own options: what `odsuite plugins` and `odsuite acquire` read without
 importing the backend."""
 
-from odsuite.contracts.daq import BackendOption
+from odsuite.contracts.backend_options import BackendOption  # not .daq: registering imports no more
 
 OPTIONS = (BackendOption("device", str, "Dev1", "device name as in NI MAX"),
            BackendOption("trigger_source", str, None,

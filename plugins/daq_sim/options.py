@@ -1,7 +1,7 @@
 """The ``sim`` backend's own options and the limits their help names: what `odsuite plugins` and
 `odsuite acquire` read without importing the simulator (numpy, the model)."""
 
-from odsuite.contracts.daq import BackendOption
+from odsuite.contracts.backend_options import BackendOption  # not .daq: registering imports no more
 
 #: ADC resolutions of real cards: 8-bit scopes to 24-bit sigma-delta (32 bits: the codes still
 #: fit a float64's mantissa)

@@ -10,12 +10,18 @@
 
 from odsuite.api import hookimpl
 
+#: the importers ``providers.builtin_importers`` makes, named here so that registering imports
+#: neither them nor the importer contract
+IMPORTERS = ("legacy", "lvm", "uff", "csv", "npy", "mat", "tdms", "geometry")
+
+
+def _importer(name: str):
+    from .providers import builtin_importers
+
+    return next(i for i in builtin_importers() if i.name == name)
+
 
 @hookimpl
 def odsuite_register_importers(registry):
-    from .providers import (
-        builtin_importers,  # on first use: `odsuite --help` starts fast
-    )
-
-    for importer in builtin_importers():
-        registry.add(importer.name, importer)
+    for name in IMPORTERS:  # each made on first use: every command starts at once
+        registry.add_deferred(name, lambda name=name: _importer(name))

@@ -9,10 +9,19 @@
 
 from odsuite.api import hookimpl
 
+#: the renderers ``providers.builtin_renderers`` makes, named here so that registering imports
+#: neither them nor the renderer contract
+RENDERERS = ("movie", "mode-shape", "projection", "overlay", "residuals", "frf", "stabilisation", "mac",
+             "history", "report")
+
+
+def _renderer(name: str):
+    from .providers import builtin_renderers
+
+    return next(r for r in builtin_renderers() if r.name == name)
+
 
 @hookimpl
 def odsuite_register_renderers(registry):
-    from .providers import builtin_renderers  # on first use: `odsuite --help` starts fast
-
-    for renderer in builtin_renderers():
-        registry.add(renderer.name, renderer)
+    for name in RENDERERS:  # each made on first use: every command starts at once
+        registry.add_deferred(name, lambda name=name: _renderer(name))

@@ -295,6 +295,22 @@ def test_process_experiment_table_e3_chunked_equals_in_memory(tmp_path, thesis_r
     project.close()
 
 
+def test_object_ids_are_those_the_full_readers_give(tmp_path, thesis_rig):
+    """``object_ids`` (what the stored errors' stamp hashes) reads the same ids as ``experiment`` and
+    ``derived_info``, which read every attribute; re-processing gives new derived ids."""
+    project, *_ = _pulse_project(tmp_path, thesis_rig, n=1001)
+    assert project.object_ids("pulse") == (project.experiment("pulse").object_id, {})
+    process_experiment(project, "pulse")
+    record, derived = project.object_ids("pulse")
+    assert sorted(derived) == sorted(project.derived_kinds("pulse")) and len(derived) == 2
+    assert (record, derived) == (project.experiment("pulse").object_id,
+                                 {k: project.derived_info("pulse", k)["object_id"] for k in derived})
+    process_experiment(project, "pulse")
+    assert project.object_ids("pulse")[0] == record
+    assert all(project.object_ids("pulse")[1][k] != derived[k] for k in derived)
+    project.close()
+
+
 def test_cli_process(tmp_path, thesis_rig, capsys):
     from odsuite.cli import main
 

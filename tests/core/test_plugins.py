@@ -467,6 +467,12 @@ def test_every_deferred_builtin_loads_as_registered(registries):
     from odsuite_plugins.filters.steps import PROVIDERS
 
     assert sorted(PROVIDERS) == [n for n in registries.processing_steps if registries.processing_steps.entry(n).plugin == "filters"]
+    from odsuite_plugins.importers.providers import builtin_importers
+    from odsuite_plugins.renderers.providers import builtin_renderers
+
+    # the names each plugin registers without importing its providers are those they make, once each
+    assert sorted(r.name for r in builtin_renderers()) == registries.renderers.by_plugin("renderers")
+    assert sorted(i.name for i in builtin_importers()) == registries.importers.by_plugin("importers")
 
 
 def test_deferred_provider_is_made_once_and_checked_when_first_used():
