@@ -6,7 +6,7 @@ no shape to compare)."""
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -14,7 +14,8 @@ import numpy as np
 from odsuite.domain.errors import ConfigError
 from odsuite.analysis.frf import FrfSet
 from odsuite.analysis.modal import mac, pair_modes
-from odsuite.analysis.modal_project import frf_modes, hit_flags, hits_frf
+from odsuite.analysis.modal_project import hit_flags, hits_frf
+from odsuite.analysis.stored_modes import IDENTIFICATION_ERRORS, identified_modes
 
 #: a model mode further than this (relative) from a measured one is not its partner: the model
 #: lacks that mode (a torsional mode seen by a bending model), and the row says so with nulls
@@ -62,17 +63,6 @@ def _shapes(model, rig, res, channel_of: dict[str, int], modes) -> tuple[np.ndar
     return res.shapes[keep], rows @ modes.shapes
 
 
-def _responding(frf):
-    """The FRFs of the outputs that respond (a channel a record leaves empty has H = 0)."""
-    keep = [k for k in range(frf.H.shape[0]) if np.any(frf.H[k] != 0)]
-    if len(keep) == frf.H.shape[0]:
-        return frf
-    if not keep:
-        raise ConfigError("no response channel responds to the hammer")
-    return replace(frf, H=frf.H[keep], coherence=frf.coherence[keep], units=[frf.units[k] for k in keep],
-                   output_names=[frf.output_names[k] for k in keep])
-
-
 def modal_records(project, experiments: Sequence[str], model_for
                   ) -> tuple[list[dict[str, Any]], list[str], list[RecordModes]]:
     """Rows ``{"experiment", "measured_hz", "model_hz", "measured_zeta", "model_zeta", "mac"}`` for
@@ -91,8 +81,8 @@ def modal_records(project, experiments: Sequence[str], model_for
             frf, hits = hits_frf(exp, f"{project.path}: experiment {name!r}", flagged_too=True)
             if not any(h.accepted for h in hits):
                 notes.append(f"{name}: every hit is flagged ({hit_flags(hits)}): its modes are identified anyway")
-            res = frf_modes(_responding(frf))
-        except (ConfigError, np.linalg.LinAlgError) as exc:  # ConfigError covers a record without a clean hit
+            res = identified_modes(project, name, frf)  # stored by `process` while the record is unchanged
+        except IDENTIFICATION_ERRORS as exc:  # ConfigError covers a record without a clean hit
             notes.append(f"{name}: measured modes not identified: {exc}")
             if frf is not None:  # the FRFs are there to look at all the same
                 records.append(RecordModes(name, frf, _usable_band(frf), np.empty(0), np.empty(0), None))
