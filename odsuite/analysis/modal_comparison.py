@@ -81,7 +81,7 @@ def modal_records(project, experiments: Sequence[str], model_for
             frf, hits = hits_frf(exp, f"{project.path}: experiment {name!r}", flagged_too=True)
             if not any(h.accepted for h in hits):
                 notes.append(f"{name}: every hit is flagged ({hit_flags(hits)}): its modes are identified anyway")
-            res = identified_modes(project, name, frf)  # stored by `process` while the record is unchanged
+            res = identified_modes(project, exp, frf)  # stored by `process` while the record is unchanged
         except IDENTIFICATION_ERRORS as exc:  # ConfigError covers a record without a clean hit
             notes.append(f"{name}: measured modes not identified: {exc}")
             if frf is not None:  # the FRFs are there to look at all the same

@@ -51,10 +51,11 @@ def identify(frf: FrfSet) -> ModalResult:
     return frf_modes(responding(frf))
 
 
-def identified_modes(project, name: str, frf: FrfSet) -> ModalResult:
-    """The modes of record ``name`` (whose FRFs are ``frf``): the stored ones while they hold, else
-    identified now. A stored failure raises a ConfigError with the message it was stored with."""
-    stored = _stored(project, name)
+def identified_modes(project, exp, frf: FrfSet) -> ModalResult:
+    """The modes of record ``exp`` (an experiment as read from ``project``, whose FRFs are ``frf``):
+    the stored ones while they hold, else identified now. A stored failure raises a ConfigError
+    with the message it was stored with."""
+    stored = _stored(project, exp)
     if stored is None:
         return identify(frf)
     if isinstance(stored, str):
@@ -116,14 +117,15 @@ def _arrays(res: ModalResult, frf: FrfSet) -> dict[str, DerivedArray]:
     }
 
 
-def _stored(project, name: str) -> ModalResult | str | None:
+def _stored(project, exp) -> ModalResult | str | None:
     """The stored modes (or the stored failure's message) if they hold for the record as it is."""
+    name = exp.name
     if KIND not in project.derived_kinds(name):
         return None
     info = project.derived_info(name, KIND)
     prov = info["provenance"]
     if (prov["plugin"] != PLUGIN or prov["version"] != __version__ or prov["parameters"] != PARAMETERS
-            or prov["inputs"] != [project.experiment(name).object_id]):
+            or prov["inputs"] != [exp.object_id]):
         return None
     attrs = info["attrs"]
     if attrs.get("failure"):

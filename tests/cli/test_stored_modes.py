@@ -46,10 +46,11 @@ def test_stored_modes_are_those_identified_from_the_record(processed):
     with open_project(processed) as p:
         for name in p.experiment_names():
             assert stored_modes.KIND in p.derived_kinds(name)
+            exp = p.experiment(name)
             with threadpool_limits(1):  # as compare identifies them: other BLAS threads round otherwise
-                frf, _ = hits_frf(p.experiment(name), name, flagged_too=True)
+                frf, _ = hits_frf(exp, name, flagged_too=True)
                 fresh = stored_modes.identify(frf)
-            read = stored_modes._stored(p, name)
+            read = stored_modes._stored(p, exp)
             assert read.poles.size > 0
             for field in ("poles", "residues", "shapes", "stable_orders"):
                 np.testing.assert_array_equal(getattr(read, field), getattr(fresh, field))
