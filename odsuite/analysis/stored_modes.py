@@ -4,15 +4,20 @@
 identification (LSCF on the record's FRFs) depends on the record alone, not on the model, yet cost
 0.2 s of CPU per record at every comparison. ``process`` stores it (``store_record_modes``) as the
 derived group ``KIND``; ``identified_modes`` reads it back while it holds: computed from this
-record (its object id, which a re-acquired record changes), with these settings and by this odsuite
-version. Otherwise, as in a project written before it was stored, the modes are identified again
-(nothing is written by a reader). A record whose modes cannot be identified stores why, so that
-the same note is printed without fitting again."""
+record (its object id, which a re-acquired record changes), with these settings, by this odsuite
+version and the same identification code (a fingerprint of its modules' source and of numpy's and
+scipy's versions: an edited source tree keeps its version). Otherwise, as in a project written
+before modes were stored, they are identified again (a reader writes nothing). A record whose modes
+cannot be identified stores why, so that the same note is printed without fitting again."""
 
 from __future__ import annotations
 
+import hashlib
+import importlib.util
 import json
 from dataclasses import replace
+from functools import cache
+from pathlib import Path
 
 import numpy as np
 from threadpoolctl import threadpool_limits
@@ -31,6 +36,9 @@ PLUGIN = "odsuite.hammer_modes"
 #: ``frf_modes`` with its defaults on the channels that respond): a stored group with other
 #: settings is not read
 PARAMETERS = {"estimator": "H1", "flagged_too": True, "max_order": 50, "band": "usable"}
+#: the modules whose code the identification runs (their source is part of the stamp)
+CODE = ("odsuite.analysis.frf", "odsuite.analysis.hammer", "odsuite.analysis.modal", "odsuite.analysis.modal_project",
+        "odsuite.analysis.stored_modes")
 #: errors an identification may end in; their message is the record's note
 IDENTIFICATION_ERRORS = (ConfigError, np.linalg.LinAlgError)
 
@@ -91,7 +99,18 @@ def store_record_modes(project, name: str) -> bool:
 
 
 def _provenance() -> dict:
-    return {"plugin": PLUGIN, "version": __version__, "parameters": PARAMETERS}
+    return {"plugin": PLUGIN, "version": __version__, "parameters": {**PARAMETERS, "code": code_stamp()}}
+
+
+@cache
+def code_stamp() -> str:
+    """A fingerprint of the identification's code: its modules' source, numpy's and scipy's versions."""
+    import scipy
+
+    h = hashlib.sha256(f"numpy {np.__version__} scipy {scipy.__version__}".encode())
+    for name in CODE:
+        h.update(Path(importlib.util.find_spec(name).origin).read_bytes())
+    return h.hexdigest()[:16]
 
 
 def _arrays(res: ModalResult, frf: FrfSet) -> dict[str, DerivedArray]:
@@ -124,8 +143,8 @@ def _stored(project, exp) -> ModalResult | str | None:
         return None
     info = project.derived_info(name, KIND)
     prov = info["provenance"]
-    if (prov["plugin"] != PLUGIN or prov["version"] != __version__ or prov["parameters"] != PARAMETERS
-            or prov["inputs"] != [exp.object_id]):
+    if (prov["plugin"] != PLUGIN or prov["version"] != __version__ or prov["inputs"] != [exp.object_id]
+            or prov["parameters"] != _provenance()["parameters"]):
         return None
     attrs = info["attrs"]
     if attrs.get("failure"):

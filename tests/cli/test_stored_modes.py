@@ -72,7 +72,8 @@ def test_compare_gives_the_same_document_with_and_without_stored_modes(processed
 
 def test_stored_modes_are_read_only_for_the_record_they_were_identified_from(processed, tmp_path, capsys):
     """Stored modes altered on purpose show in compare while their stamp holds; the same group
-    stamped with another record's id, or another odsuite version, is ignored."""
+    stamped with another record's id, another odsuite version or other identification code is
+    ignored."""
     truth = _json(capsys, "compare", processed, "--json")["modal"]
     altered = tmp_path / "altered.h5"
     shutil.copy(processed, altered)
@@ -83,7 +84,12 @@ def test_stored_modes_are_read_only_for_the_record_they_were_identified_from(pro
     want = [r["measured_hz"] for r in truth if r["experiment"] == "T1"]
     assert len(rows) == len(want)
     assert all(r["measured_hz"] > 1.9 * w for r, w in zip(rows, want))
-    for attr, value in (("inputs", np.array([b"another-record"])), ("plugin_version", b"0.0.0-other")):
+    with h5py.File(altered) as f:
+        params = json.loads(f["experiments"]["T1"]["derived"][stored_modes.KIND].attrs["parameters"])
+    assert params["code"] == stored_modes.code_stamp()
+    other_code = json.dumps({**params, "code": "edited-source"}).encode()
+    for attr, value in (("inputs", np.array([b"another-record"])), ("plugin_version", b"0.0.0-other"),
+                        ("parameters", other_code)):
         stale = tmp_path / f"stale-{attr}.h5"
         shutil.copy(altered, stale)
         with h5py.File(stale, "a") as f:
