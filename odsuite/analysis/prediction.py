@@ -296,13 +296,14 @@ def experiment_force(project, name: str) -> np.ndarray:
     return _force(exp, exp.raw(), f"{project.path}: experiment {name!r}", project.registries.processing_steps).force
 
 
-def prepare_experiment(project, name: str) -> PreparedExperiment:
-    """Read one experiment and run the measured side of the comparison."""
+def prepare_experiment(project, name: str, exp=None) -> PreparedExperiment:
+    """Read one experiment (``exp``: as already read from ``project``) and run the measured side
+    of the comparison."""
     rig: Rig | None = project.rig
     where = f"{project.path}: experiment {name!r}"
     if rig is None:
         raise ConfigError(f"{where}: the project has no rig, so there is no model to compare with")
-    exp = project.experiment(name)
+    exp = project.experiment(name) if exp is None else exp
     if exp.excitation is None:
         raise ConfigError(f"{where}: no force point/direction recorded; the model cannot be driven")
     si = exp.systeminfo
@@ -355,14 +356,16 @@ def prepare_experiment(project, name: str) -> PreparedExperiment:
 def prepare(project, experiments: Sequence[str] | None = None) -> list[PreparedExperiment]:
     """The named experiments, or every record with a hammer blow: operating records (no force
     channel) cannot drive a model and are left out unless named."""
+    read = {}
     if experiments:
         names = list(experiments)
     else:
-        names = [n for n in project.experiment_names() if project.experiment(n).excitation is not None]
+        read = {n: project.experiment(n) for n in project.experiment_names()}
+        names = [n for n, e in read.items() if e.excitation is not None]
     if not names:
         raise ConfigError(f"{project.path}: no hammer records to compare (import or acquire some first; "
                           "operating records have no force to drive a model)")
-    return [prepare_experiment(project, n) for n in names]
+    return [prepare_experiment(project, n, read.get(n)) for n in names]
 
 
 def _force_inputs(model, exp: PreparedExperiment) -> list:
