@@ -15,7 +15,7 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import json
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from functools import cache
 from pathlib import Path
 
@@ -24,7 +24,7 @@ from threadpoolctl import threadpool_limits
 
 from odsuite.analysis.frf import FrfSet
 from odsuite.analysis.modal import ModalResult, StabilisationDiagram
-from odsuite.analysis.modal_project import frf_modes, hits_frf
+from odsuite.analysis.modal_project import frf_modes, hit_flags, hits_frf
 from odsuite.domain.errors import ConfigError, OdsuiteError
 from odsuite.domain.version import __version__
 from odsuite.store.project import DerivedArray
@@ -63,12 +63,23 @@ def identified_modes(project, exp, frf: FrfSet) -> ModalResult:
     """The modes of record ``exp`` (an experiment as read from ``project``, whose FRFs are ``frf``):
     the stored ones while they hold, else identified now. A stored failure raises a ConfigError
     with the message it was stored with."""
-    stored = _stored(project, exp)
-    if stored is None:
-        return identify(frf)
-    if isinstance(stored, str):
-        raise ConfigError(stored)
-    return stored
+    stored = stored_modes(project, exp)
+    return identify(frf) if stored is None else stored.modes()
+
+
+@dataclass(frozen=True)
+class StoredModes:
+    """What ``process`` stored for a record: its modes or why they could not be identified, and
+    what the hammer checks found wrong with its hits when every hit was flagged ("" otherwise)."""
+
+    result: ModalResult | str
+    flagged: str
+
+    def modes(self) -> ModalResult:
+        """The modes; a stored failure raises a ConfigError with its message."""
+        if isinstance(self.result, str):
+            raise ConfigError(self.result)
+        return self.result
 
 
 def store_record_modes(project, name: str) -> bool:
@@ -78,7 +89,7 @@ def store_record_modes(project, name: str) -> bool:
     # one BLAS thread, as ``compare`` runs: the stored result is the one it would compute
     with threadpool_limits(1):
         try:
-            frf, _ = hits_frf(project.experiment(name), f"{project.path}: experiment {name!r}", flagged_too=True)
+            frf, hits = hits_frf(project.experiment(name), f"{project.path}: experiment {name!r}", flagged_too=True)
         except OdsuiteError:
             return False
         try:
@@ -87,11 +98,12 @@ def store_record_modes(project, name: str) -> bool:
             res = str(exc)
         except OdsuiteError:  # what compare does not note: left to it, as before
             return False
+    flagged = "" if any(h.accepted for h in hits) else hit_flags(hits)
     if isinstance(res, str):
-        project.write_derived(name, KIND, {}, provenance=_provenance(), attrs={"failure": res})
+        project.write_derived(name, KIND, {}, provenance=_provenance(), attrs={"failure": res, "flagged": flagged})
         return True
     project.write_derived(name, KIND, _arrays(res, frf), provenance=_provenance(),
-                          attrs={"failure": "", "output_names": json.dumps(res.output_names),
+                          attrs={"failure": "", "flagged": flagged, "output_names": json.dumps(res.output_names),
                                  "rejected": json.dumps(res.rejected),
                                  "band_hz": json.dumps(list(res.band_hz)),
                                  "diagram_band_hz": json.dumps(list(res.diagram.f_band))})
@@ -136,8 +148,9 @@ def _arrays(res: ModalResult, frf: FrfSet) -> dict[str, DerivedArray]:
     }
 
 
-def _stored(project, exp) -> ModalResult | str | None:
-    """The stored modes (or the stored failure's message) if they hold for the record as it is."""
+def stored_modes(project, exp) -> StoredModes | None:
+    """What ``process`` stored for record ``exp`` (an experiment as read from ``project``), if it
+    holds for the record as it is."""
     name = exp.name
     if KIND not in project.derived_kinds(name):
         return None
@@ -147,8 +160,9 @@ def _stored(project, exp) -> ModalResult | str | None:
             or prov["parameters"] != _provenance()["parameters"]):
         return None
     attrs = info["attrs"]
+    flagged = str(attrs.get("flagged", ""))
     if attrs.get("failure"):
-        return str(attrs["failure"])
+        return StoredModes(str(attrs["failure"]), flagged)
     a = project.read_derived(name, KIND)
     z = lambda part: _complex(a[f"{part}_real"], a[f"{part}_imag"])  # noqa: E731
     cuts = np.cumsum(a["diagram_counts"])[:-1]
@@ -157,9 +171,9 @@ def _stored(project, exp) -> ModalResult | str | None:
                                    split(z("diagram_poles")),
                                    split(a["diagram_stable_f"]), split(a["diagram_stable"]),
                                    tuple(float(v) for v in json.loads(attrs["diagram_band_hz"])))
-    return ModalResult(z("poles"), z("residues"), z("shapes"), json.loads(attrs["output_names"]), diagram,
-                       tuple(float(v) for v in json.loads(attrs["band_hz"])), a["stable_orders"],
-                       json.loads(attrs["rejected"]))
+    return StoredModes(ModalResult(z("poles"), z("residues"), z("shapes"), json.loads(attrs["output_names"]),
+                                   diagram, tuple(float(v) for v in json.loads(attrs["band_hz"])),
+                                   a["stable_orders"], json.loads(attrs["rejected"])), flagged)
 
 
 def _complex(re: np.ndarray, im: np.ndarray) -> np.ndarray:

@@ -50,7 +50,9 @@ def test_stored_modes_are_those_identified_from_the_record(processed):
             with threadpool_limits(1):  # as compare identifies them: other BLAS threads round otherwise
                 frf, _ = hits_frf(exp, name, flagged_too=True)
                 fresh = stored_modes.identify(frf)
-            read = stored_modes._stored(p, exp)
+            stored = stored_modes.stored_modes(p, exp)
+            assert stored.flagged == ""  # the simulated hits pass the hammer checks
+            read = stored.modes()
             assert read.poles.size > 0
             for field in ("poles", "residues", "shapes", "stable_orders"):
                 np.testing.assert_array_equal(getattr(read, field), getattr(fresh, field))
@@ -70,6 +72,18 @@ def test_compare_gives_the_same_document_with_and_without_stored_modes(processed
     assert with_modes == before
 
 
+def test_the_command_line_table_equals_the_one_with_figures(processed, capsys):
+    """`compare` asks for the table without figures (no FRFs where modes are stored); the report
+    asks for the figures too: the same rows and notes, FRFs only in the second."""
+    from odsuite.analysis.comparison import compare
+
+    with open_project(processed) as p:
+        table, full = compare(p, figures=False), compare(p)
+    assert table.as_dict() == full.as_dict() == _json(capsys, "compare", processed, "--json")
+    assert all(r.frf is None for r in table.modal_records)
+    assert all(r.frf.H.shape[0] == len(r.modes.output_names) for r in full.modal_records)
+
+
 def test_stored_modes_are_read_only_for_the_record_they_were_identified_from(processed, tmp_path, capsys):
     """Stored modes altered on purpose show in compare while their stamp holds; the same group
     stamped with another record's id, another odsuite version or other identification code is
@@ -80,7 +94,11 @@ def test_stored_modes_are_read_only_for_the_record_they_were_identified_from(pro
     with h5py.File(altered, "a") as f:
         g = f["experiments"]["T1"]["derived"][stored_modes.KIND]
         g["poles_imag"][...] = 2 * g["poles_imag"][()]  # every mode at about twice its frequency
-    rows = [r for r in _json(capsys, "compare", altered, "--json")["modal"] if r["experiment"] == "T1"]
+        g.attrs["flagged"] = b"hit at sample 9: clipped"  # the note a record of flagged hits gets
+    altered_doc = _json(capsys, "compare", altered, "--json")
+    assert altered_doc["modal_notes"] == ["T1: every hit is flagged (hit at sample 9: clipped): its modes are "
+                                          "identified anyway"]
+    rows = [r for r in altered_doc["modal"] if r["experiment"] == "T1"]
     want = [r["measured_hz"] for r in truth if r["experiment"] == "T1"]
     assert len(rows) == len(want)
     assert all(r["measured_hz"] > 1.9 * w for r, w in zip(rows, want))
