@@ -26,14 +26,14 @@ the outputs in DIR).
 records, scipy kept below 1.17 and each record's chains run in one executor call, back to back on a
 two-core machine shared with other work (wall and CPU ratios to the baseline of the same run):
 
-=====================  ============  ============  ============  ====================
-load (1 min)           before        after         after CPU     process (after)
-=====================  ============  ============  ============  ====================
-8.4 / 9.2              12.8x, 4.0 s  10.0x, 2.9 s  10.2x         7.6 s (before 8.3 s)
-7.2 / 7.8              12.3x, 3.9 s  6.6x, 2.4 s   6.6x          8.9 s (before 8.6 s)
-=====================  ============  ============  ============  ====================
+==============  =========================  =========================  ==================
+load (1 min)    before: wall ratio, CPU     after: wall ratio, CPU      process, before/after
+==============  =========================  =========================  ==================
+8.4, 9.2        12.8x, 4.0 s (11.2x)       10.0x, 2.9 s (10.2x)        8.3 s, 7.6 s
+7.2, 7.8        12.3x, 3.9 s (12.3x)       6.6x, 2.4 s (6.6x)          8.6 s, 8.9 s
+==============  =========================  =========================  ==================
 
-Wall ratio and CPU seconds; before: scipy 1.17.1. Seven alternating runs of each at load 5.8 (not
+Before: scipy 1.17.1; in brackets the CPU ratio. Seven alternating runs of each at load 5.8 (not
 this script): 11.1x and 4.07 s CPU before, 8.3x and 2.85 s CPU after. On a quiet machine compare
 took 3.0 s (11.4x) before; the ratios after put it at 1.7-2.2 s: about 1 s of imports (numpy, h5py,
 scipy.signal with scipy.stats) and 1 s of comparison. ``process`` identifies and stores each
