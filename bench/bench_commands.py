@@ -33,9 +33,10 @@ load (1 min)    before: wall ratio, CPU     after: wall ratio, CPU      process,
 7.2, 7.8        12.3x, 3.9 s (12.3x)       6.6x, 2.4 s (6.6x)          8.6 s, 8.9 s
 ==============  =========================  =========================  ==================
 
-Before: scipy 1.17.1; in brackets the CPU ratio. Seven alternating runs of each at load 5.8 (not
-this script): 11.1x and 4.07 s CPU before, 8.3x and 2.85 s CPU after. On a quiet machine compare
-took 3.0 s (11.4x) before; the ratios after put it at 1.7-2.2 s: about 1 s of imports (numpy, h5py,
+Before: scipy 1.17.1; in brackets the CPU ratio. Five alternating runs of each (``compare --json``
+on one processed project, not this script; medians) at load 5.3: 9.1x and 3.03 s CPU before, 6.4x
+and 2.17 s CPU after. On a quiet machine compare took 3.0 s (11.4x) before; the ratios and CPU
+seconds after put it at 1.7-2.2 s, not measured quiet: about 1 s of imports (numpy, h5py,
 scipy.signal with scipy.stats) and 1 s of comparison. ``process`` identifies and stores each
 record's modes (about 0.2 s CPU a record), which ``compare`` no longer does.
 """
