@@ -21,6 +21,24 @@ hold better on a loaded machine than wall times do.
 ``--quick`` skips the slowest steps (``diagnose``, ``render --model``, ``report``). Run with
 `.venv/bin/python bench/bench_commands.py [--quick] [--keep DIR]` (``--keep``: leave the project and
 the outputs in DIR).
+
+``compare``, ``--quick`` runs of the code before and after the measured modes were stored with the
+records, scipy kept below 1.17 and each record's chains run in one executor call, back to back on a
+two-core machine shared with other work (wall and CPU ratios to the baseline of the same run):
+
+==============  =========================  =========================  ==================
+load (1 min)    before: wall ratio, CPU     after: wall ratio, CPU      process, before/after
+==============  =========================  =========================  ==================
+8.4, 9.2        12.8x, 4.0 s (11.2x)       10.0x, 2.9 s (10.2x)        8.3 s, 7.6 s
+7.2, 7.8        12.3x, 3.9 s (12.3x)       6.6x, 2.4 s (6.6x)          8.6 s, 8.9 s
+==============  =========================  =========================  ==================
+
+Before: scipy 1.17.1; in brackets the CPU ratio. Five alternating runs of each (``compare --json``
+on one processed project, not this script; medians) at load 5.3: 9.1x and 3.03 s CPU before, 6.4x
+and 2.17 s CPU after. On a quiet machine compare took 3.0 s (11.4x) before; the ratios and CPU
+seconds after put it at 1.7-2.2 s, not measured quiet: about 1 s of imports (numpy, h5py,
+scipy.signal with scipy.stats) and 1 s of comparison. ``process`` identifies and stores each
+record's modes (about 0.2 s CPU a record), which ``compare`` no longer does.
 """
 
 from __future__ import annotations

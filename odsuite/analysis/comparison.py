@@ -286,18 +286,20 @@ def _coordinates(rig: Rig, exp: PreparedExperiment, model) -> tuple[dict, dict]:
 
 def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapping[str, Any] | None = None,
             prepared: Sequence[PreparedExperiment] | None = None, resonances: bool = True,
-            progress: Callable[[str], None] | None = None) -> Comparison:
+            figures: bool = True, progress: Callable[[str], None] | None = None) -> Comparison:
     """Compare the current model revision (or ``revision``) with every experiment. ``resonances``:
     also identify measured and model resonances from FRFs (a few seconds; the fitting loop, which
-    needs only the errors, leaves it out). ``progress(stage)`` is told each stage as it starts."""
+    needs only the errors, leaves it out). ``figures=False``: the modal table without what only
+    its figures draw (the records' FRFs where their modes are stored; ``modal_records``' FRFs
+    None). ``progress(stage)`` is told each stage as it starts."""
     # one BLAS thread: the matrices are small, and a second thread spinning for a busy core cost
     # 5.0 s CPU against 3.1 s (plate-and-motor bench project, loaded two-core machine)
     with threadpool_limits(1):
         return _compare(project, experiments=experiments, revision=revision, prepared=prepared,
-                        resonances=resonances, say=progress or (lambda stage: None))
+                        resonances=resonances, figures=figures, say=progress or (lambda stage: None))
 
 
-def _compare(project, *, experiments, revision, prepared, resonances, say) -> Comparison:
+def _compare(project, *, experiments, revision, prepared, resonances, figures, say) -> Comparison:
     from odsuite.analysis.modal_comparison import modal_records
     from odsuite.analysis.modelrev import current_revision, revision_model
 
@@ -359,8 +361,8 @@ def _compare(project, *, experiments, revision, prepared, resonances, say) -> Co
         worst.append({"kind": "band", "name": n, "error": v, "residual_share": share})
     if resonances:
         say("identifying modes")
-    modal, modal_notes, records = (modal_records(project, [e.name for e in exps], rmodel.for_experiment)
-                                   if resonances else (None, None, None))
+    modal, modal_notes, records = (modal_records(project, [e.name for e in exps], rmodel.for_experiment,
+                                                 frfs=figures) if resonances else (None, None, None))
     return Comparison(
         error=pooled_error(exps, preds), noise_floor_error=floor.error(),
         revision=rev.get("revision"), experiments=per_exp, channels=channels, coordinates=coords,

@@ -6,7 +6,7 @@ no shape to compare)."""
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -14,7 +14,8 @@ import numpy as np
 from odsuite.domain.errors import ConfigError
 from odsuite.analysis.frf import FrfSet
 from odsuite.analysis.modal import mac, pair_modes
-from odsuite.analysis.modal_project import frf_modes, hit_flags, hits_frf
+from odsuite.analysis.modal_project import hit_flags, hits_frf
+from odsuite.analysis.stored_modes import IDENTIFICATION_ERRORS, identified_modes, stored_modes
 
 #: a model mode further than this (relative) from a measured one is not its partner: the model
 #: lacks that mode (a torsional mode seen by a bending model), and the row says so with nulls
@@ -26,12 +27,12 @@ BAND_MARGIN = 1.5
 @dataclass(frozen=True)
 class RecordModes:
     """What the modal table of one record rests on, for its figures: the FRFs of every channel
-    over the hits used, the fit band (None where no usable band was found), the measured modes
+    over the hits used (None where only the table was asked for), the fit band (None where no usable band was found), the measured modes
     (none where they could not be identified), the model modes that could pair with them and the
     MAC matrix between the two (measured x model; None for a single-point record or no modes)."""
 
     experiment: str
-    frf: FrfSet
+    frf: FrfSet | None
     band_hz: tuple[float, float] | None
     measured_hz: np.ndarray
     model_hz: np.ndarray
@@ -62,24 +63,15 @@ def _shapes(model, rig, res, channel_of: dict[str, int], modes) -> tuple[np.ndar
     return res.shapes[keep], rows @ modes.shapes
 
 
-def _responding(frf):
-    """The FRFs of the outputs that respond (a channel a record leaves empty has H = 0)."""
-    keep = [k for k in range(frf.H.shape[0]) if np.any(frf.H[k] != 0)]
-    if len(keep) == frf.H.shape[0]:
-        return frf
-    if not keep:
-        raise ConfigError("no response channel responds to the hammer")
-    return replace(frf, H=frf.H[keep], coherence=frf.coherence[keep], units=[frf.units[k] for k in keep],
-                   output_names=[frf.output_names[k] for k in keep])
-
-
-def modal_records(project, experiments: Sequence[str], model_for
+def modal_records(project, experiments: Sequence[str], model_for, *, frfs: bool = True
                   ) -> tuple[list[dict[str, Any]], list[str], list[RecordModes]]:
     """Rows ``{"experiment", "measured_hz", "model_hz", "measured_zeta", "model_zeta", "mac"}`` for
     every measured mode of every record (model values None where the model has no mode within
     PAIR_TOLERANCE), notes for records whose modes could not be identified, and the
     :class:`RecordModes` of each record whose modes were (the report's FRF and MAC figures draw
-    them). ``model_for(name)`` is the model that predicts record ``name``."""
+    them). ``model_for(name)`` is the model that predicts record ``name``. ``frfs=False``: the
+    table alone; a record with stored modes (``stored_modes``) then has no FRFs estimated
+    (``RecordModes.frf`` None)."""
     rows: list[dict[str, Any]] = []
     notes: list[str] = []
     records: list[RecordModes] = []
@@ -87,12 +79,18 @@ def modal_records(project, experiments: Sequence[str], model_for
     for name in experiments:
         exp = project.experiment(name)
         frf = None
+        stored = None if frfs else stored_modes(project, exp)
         try:
-            frf, hits = hits_frf(exp, f"{project.path}: experiment {name!r}", flagged_too=True)
-            if not any(h.accepted for h in hits):
-                notes.append(f"{name}: every hit is flagged ({hit_flags(hits)}): its modes are identified anyway")
-            res = frf_modes(_responding(frf))
-        except (ConfigError, np.linalg.LinAlgError) as exc:  # ConfigError covers a record without a clean hit
+            if stored is None:
+                frf, hits = hits_frf(exp, f"{project.path}: experiment {name!r}", flagged_too=True)
+                flagged = "" if any(h.accepted for h in hits) else hit_flags(hits)
+            else:
+                flagged = stored.flagged
+            if flagged:
+                notes.append(f"{name}: every hit is flagged ({flagged}): its modes are identified anyway")
+            # stored by `process` while the record is unchanged
+            res = stored.modes() if stored is not None else identified_modes(project, exp, frf)
+        except IDENTIFICATION_ERRORS as exc:  # ConfigError covers a record without a clean hit
             notes.append(f"{name}: measured modes not identified: {exc}")
             if frf is not None:  # the FRFs are there to look at all the same
                 records.append(RecordModes(name, frf, _usable_band(frf), np.empty(0), np.empty(0), None))

@@ -21,7 +21,8 @@ def compare_cmd(
 
     with open_project(project) as p, _loop_progress() as bar:
         task = bar.add_task("comparing", total=None)
-        result = compare(p, progress=lambda stage: bar.update(task, description=f"comparing: {stage}")).as_dict()
+        result = compare(p, figures=False,  # the table only: no FRFs where the modes are stored
+                         progress=lambda stage: bar.update(task, description=f"comparing: {stage}")).as_dict()
     if as_json:
         _print_json(result)
         return

@@ -29,6 +29,7 @@ def process_cmd(
     from rich.progress import Progress
 
     from odsuite.analysis.history import store_current_error
+    from odsuite.analysis.stored_modes import store_record_modes
     from odsuite.processing.pipeline import process_experiment
     from odsuite.store.project import open_project
 
@@ -52,6 +53,8 @@ def process_cmd(
             if not corrected:
                 _ledger.start(name)
             summary = process_experiment(p, name, progress=lambda a, b, t=task: bar.update(t, completed=a, total=b))
+            bar.update(task, description=f"identifying the modes of {name}")
+            store_record_modes(p, name)  # `compare` reads them instead of identifying them again
             if not corrected:
                 _ledger.done()
             doc["experiments"][name] = summary

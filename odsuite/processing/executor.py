@@ -51,6 +51,14 @@ class Chain:
                 segs[-1].append(item)
         return segs
 
+    def through(self, tap: str) -> Chain:
+        """The chain up to ``tap``: the same samples there, and nothing computed after it."""
+        at = [k for k, i in enumerate(self.items) if isinstance(i, Tap) and i.name == tap]
+        if not at:
+            return self
+        end = next((k + 1 for k, s in enumerate(self.spec) if s.get("tap") == tap), len(self.spec))
+        return Chain(self.items[:at[0] + 1], self.spec[:end], self.fs)
+
     def run(self, x: np.ndarray) -> dict[str, np.ndarray]:
         """Process a whole record in memory (one chunk); returns every tap (same length as ``x``)."""
         x = np.asarray(x, dtype=float)

@@ -225,6 +225,21 @@ def test_chain_ends_in_a_tap():
     assert isinstance(chain.items[-1], Tap) and chain.taps == ["output"]
 
 
+def test_a_chain_through_a_tap_gives_the_same_samples_there():
+    # compare's measured side needs the acceleration stage only: the chain cut after its tap
+    v = np.random.default_rng(8).standard_normal(6000) * 0.05
+    sos = scipy.signal.ellip(8, 0.1, 60.0, 20.0, "highpass", fs=FS, output="sos")
+    for ch in (TABLE_E3, replace(TABLE_E3, zero_phase=True)):
+        chain = chain_for_channel(ch, registry=_installed_steps())
+        cut = chain.through("acceleration")
+        assert cut.taps == ["acceleration"] and len(cut.items) < len(chain.items)
+        np.testing.assert_array_equal(cut.run(v)["acceleration"], chain.run(v)["acceleration"])
+        if not ch.zero_phase:
+            x1 = -v / 0.20292
+            _close(cut.run(v)["acceleration"], scipy.signal.sosfilt(sos, x1 - x1[:400].mean()))
+        assert chain.through("no such tap") is chain
+
+
 def _pulse_project(tmp_path, thesis_rig, n=4000, **channel_changes):
     """A project whose accelerometers read an exact rigid-body pulse of the platform (sensor
     signals from odsuite.domain.rigidbody, through each channel's sign, sensitivity and gain)."""

@@ -1,0 +1,183 @@
+"""A hammer record's measured modes, identified once and stored with its derived data.
+
+``compare`` (and the report through it) pairs every record's measured modes with the model's; the
+identification (LSCF on the record's FRFs) depends on the record alone, not on the model, yet cost
+0.2 s of CPU per record at every comparison. ``process`` stores it (``store_record_modes``) as the
+derived group ``KIND``; ``identified_modes`` reads it back while it holds: computed from this
+record (its object id, which a re-acquired record changes), with these settings, by this odsuite
+version and the same identification code (a fingerprint of its modules' source and of numpy's and
+scipy's versions: an edited source tree keeps its version). Otherwise, as in a project written
+before modes were stored, they are identified again (a reader writes nothing). A record whose modes
+cannot be identified stores why, so that the same note is printed without fitting again."""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import json
+from dataclasses import dataclass, replace
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from odsuite.analysis.frf import FrfSet
+from odsuite.analysis.modal import ModalResult, StabilisationDiagram
+from odsuite.analysis.modal_project import frf_modes, hit_flags, hits_frf
+from odsuite.domain.errors import ConfigError, OdsuiteError
+from odsuite.domain.version import __version__
+from odsuite.store.project import DerivedArray
+
+#: the derived group the modes are stored as, and what it records as its source
+KIND = "hammer_modes"
+PLUGIN = "odsuite.hammer_modes"
+#: how the modes were identified (``hits_frf`` over every hit when all are flagged, then
+#: ``frf_modes`` with its defaults on the channels that respond): a stored group with other
+#: settings is not read
+PARAMETERS = {"estimator": "H1", "flagged_too": True, "max_order": 50, "band": "usable"}
+#: the modules whose code the identification runs (their source is part of the stamp)
+CODE = ("odsuite.analysis.frf", "odsuite.analysis.hammer", "odsuite.analysis.modal", "odsuite.analysis.modal_project",
+        "odsuite.analysis.stored_modes")
+#: errors an identification may end in; their message is the record's note
+IDENTIFICATION_ERRORS = (ConfigError, np.linalg.LinAlgError)
+
+
+def responding(frf: FrfSet) -> FrfSet:
+    """The FRFs of the outputs that respond (a channel a record leaves empty has H = 0)."""
+    keep = [k for k in range(frf.H.shape[0]) if np.any(frf.H[k] != 0)]
+    if len(keep) == frf.H.shape[0]:
+        return frf
+    if not keep:
+        raise ConfigError("no response channel responds to the hammer")
+    return replace(frf, H=frf.H[keep], coherence=frf.coherence[keep], units=[frf.units[k] for k in keep],
+                   output_names=[frf.output_names[k] for k in keep])
+
+
+def identify(frf: FrfSet) -> ModalResult:
+    """A record's modes from its hammer FRFs (raises one of ``IDENTIFICATION_ERRORS``)."""
+    return frf_modes(responding(frf))
+
+
+def identified_modes(project, exp, frf: FrfSet) -> ModalResult:
+    """The modes of record ``exp`` (an experiment as read from ``project``, whose FRFs are ``frf``):
+    the stored ones while they hold, else identified now. A stored failure raises a ConfigError
+    with the message it was stored with."""
+    stored = stored_modes(project, exp)
+    return identify(frf) if stored is None else stored.modes()
+
+
+@dataclass(frozen=True)
+class StoredModes:
+    """What ``process`` stored for a record: its modes or why they could not be identified, and
+    what the hammer checks found wrong with its hits when every hit was flagged ("" otherwise)."""
+
+    result: ModalResult | str
+    flagged: str
+
+    def modes(self) -> ModalResult:
+        """The modes; a stored failure raises a ConfigError with its message."""
+        if isinstance(self.result, str):
+            raise ConfigError(self.result)
+        return self.result
+
+
+def store_record_modes(project, name: str) -> bool:
+    """Identify record ``name``'s modes and store them (or why they cannot be identified) as
+    ``KIND``. A record without a force channel or a hit has no hammer modes: nothing is stored
+    (``compare`` says why when it reads the record). Returns whether something was stored."""
+    # one BLAS thread, as ``compare`` runs: the stored result is the one it would compute
+    with threadpool_limits(1):
+        try:
+            frf, hits = hits_frf(project.experiment(name), f"{project.path}: experiment {name!r}", flagged_too=True)
+        except OdsuiteError:
+            return False
+        try:
+            res = identify(frf)
+        except IDENTIFICATION_ERRORS as exc:
+            res = str(exc)
+        except OdsuiteError:  # what compare does not note: left to it, as before
+            return False
+    flagged = "" if any(h.accepted for h in hits) else hit_flags(hits)
+    if isinstance(res, str):
+        project.write_derived(name, KIND, {}, provenance=_provenance(), attrs={"failure": res, "flagged": flagged})
+        return True
+    project.write_derived(name, KIND, _arrays(res, frf), provenance=_provenance(),
+                          attrs={"failure": "", "flagged": flagged, "output_names": json.dumps(res.output_names),
+                                 "rejected": json.dumps(res.rejected),
+                                 "band_hz": json.dumps(list(res.band_hz)),
+                                 "diagram_band_hz": json.dumps(list(res.diagram.f_band))})
+    return True
+
+
+def _provenance() -> dict:
+    return {"plugin": PLUGIN, "version": __version__, "parameters": {**PARAMETERS, "code": code_stamp()}}
+
+
+@cache
+def code_stamp() -> str:
+    """A fingerprint of the identification's code: its modules' source, numpy's and scipy's versions."""
+    import scipy
+
+    h = hashlib.sha256(f"numpy {np.__version__} scipy {scipy.__version__}".encode())
+    for name in CODE:
+        h.update(Path(importlib.util.find_spec(name).origin).read_bytes())
+    return h.hexdigest()[:16]
+
+
+def _arrays(res: ModalResult, frf: FrfSet) -> dict[str, DerivedArray]:
+    d = res.diagram
+    units = dict(zip(frf.output_names, frf.units))
+    residue_units = ";".join(f"{units.get(n, '1')}*rad/s" for n in res.output_names)
+    mode_dims, out_dims = ("mode",), ("output", "mode")
+    return {
+        "poles_real": DerivedArray(res.poles.real, "rad/s", mode_dims),
+        "poles_imag": DerivedArray(res.poles.imag, "rad/s", mode_dims),
+        "residues_real": DerivedArray(res.residues.real, residue_units, out_dims),
+        "residues_imag": DerivedArray(res.residues.imag, residue_units, out_dims),
+        "shapes_real": DerivedArray(res.shapes.real, "1", out_dims),
+        "shapes_imag": DerivedArray(res.shapes.imag, "1", out_dims),
+        "stable_orders": DerivedArray(np.asarray(res.stable_orders), "1", mode_dims),
+        # the stabilisation diagram: every order's poles one after the other, ``diagram_counts`` per order
+        "diagram_orders": DerivedArray(np.asarray(d.orders), "1", ("order",)),
+        "diagram_counts": DerivedArray(np.array([len(p) for p in d.poles]), "1", ("order",)),
+        "diagram_poles_real": DerivedArray(np.concatenate(d.poles).real, "rad/s", ("pole",)),
+        "diagram_poles_imag": DerivedArray(np.concatenate(d.poles).imag, "rad/s", ("pole",)),
+        "diagram_stable_f": DerivedArray(np.concatenate(d.stable_f), "1", ("pole",)),
+        "diagram_stable": DerivedArray(np.concatenate(d.stable), "1", ("pole",)),
+    }
+
+
+def stored_modes(project, exp) -> StoredModes | None:
+    """What ``process`` stored for record ``exp`` (an experiment as read from ``project``), if it
+    holds for the record as it is."""
+    name = exp.name
+    if KIND not in project.derived_kinds(name):
+        return None
+    info = project.derived_info(name, KIND)
+    prov = info["provenance"]
+    if (prov["plugin"] != PLUGIN or prov["version"] != __version__ or prov["inputs"] != [exp.object_id]
+            or prov["parameters"] != _provenance()["parameters"]):
+        return None
+    attrs = info["attrs"]
+    flagged = str(attrs.get("flagged", ""))
+    if attrs.get("failure"):
+        return StoredModes(str(attrs["failure"]), flagged)
+    a = project.read_derived(name, KIND)
+    z = lambda part: _complex(a[f"{part}_real"], a[f"{part}_imag"])  # noqa: E731
+    cuts = np.cumsum(a["diagram_counts"])[:-1]
+    split = lambda x: np.split(x, cuts)  # noqa: E731
+    diagram = StabilisationDiagram([int(o) for o in a["diagram_orders"]],
+                                   split(z("diagram_poles")),
+                                   split(a["diagram_stable_f"]), split(a["diagram_stable"]),
+                                   tuple(float(v) for v in json.loads(attrs["diagram_band_hz"])))
+    return StoredModes(ModalResult(z("poles"), z("residues"), z("shapes"), json.loads(attrs["output_names"]),
+                                   diagram, tuple(float(v) for v in json.loads(attrs["band_hz"])),
+                                   a["stable_orders"], json.loads(attrs["rejected"])), flagged)
+
+
+def _complex(re: np.ndarray, im: np.ndarray) -> np.ndarray:
+    """The complex array stored as its parts, bit for bit (``re + 1j * im`` can flip a zero's sign)."""
+    out = np.empty(re.shape, dtype=complex)
+    out.real, out.imag = re, im
+    return out
