@@ -52,7 +52,8 @@ after on the same machine, one run after the other:
 One evaluation 32-34 ms CPU in both runs. Verdicts, top candidates and errors the same; on the
 thesis rig every candidate's significance and order the same, the singles' errors to four digits;
 the pair mass_properties+nonlinear_stiffness (not accepted before either) now stops at 45
-evaluations instead of 689. Where the CPU goes now (one worker, thesis): screening every candidate
+evaluations instead of 689. Where the CPU goes now (one worker, `bench/profile_diagnose_stages.py`
+splits it by stage and effect; thesis): screening every candidate
 ~30 %, the partner search ~20 %, the four full fits ~20 %, the pairs' joint fits ~15 %; two-body:
 screening ~60 %, the two full fits ~35 %. Both targets are still missed by 2.6-3.4x. Tried and
 left out: screening every candidate on the shortest head only and the best eight on the longer
