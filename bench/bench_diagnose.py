@@ -35,6 +35,31 @@ starts from the better of its starts (the thesis rig's mass_properties+nonlinear
 after runs in the main process). Both targets are still missed: on the thesis
 rig the pairs' joint fits are half the CPU (the pair with cubic springs alone a third), on the
 two-body rig the screening of every candidate and the two full fits share it evenly.
+
+The next round: a pair's joint fit also starts from each member's fit with the other nominal and
+stops where its linearisation cannot come within 4x of the simplest significant single's sum of
+squares (joint.accepted would reject it), every fit stops where its linearisation promises less
+than one noise energy, and a model's modal decomposition is kept for all experiments. Before and
+after on the same machine, one run after the other:
+
+| rig, workers | before: evaluations, CPU, worth (load 5.4-7.8) | after (load 5.2-5.7) |
+| --- | --- | --- |
+| thesis, 1 | 2612, 69.2 s, 2037 (192.2 s wall) | 1683, 27.9 s, 850 (33.8 s wall) |
+| thesis, 2 | 2612, 58.9 s, 1735 (84.6 s wall) | 1683, 22.9 s, 698 (35.1 s wall) |
+| two-body, 1 | 1111, 26.2 s, 785 (35.1 s wall) | 1023, 21.4 s, 670 (41.8 s wall) |
+| two-body, 2 | 1111, 28.6 s, 857 (52.7 s wall) | 1023, 20.8 s, 652 (26.8 s wall) |
+
+One evaluation 32-34 ms CPU in both runs. Verdicts, top candidates and errors the same; on the
+thesis rig every candidate's significance and order the same, the singles' errors to four digits;
+the pair mass_properties+nonlinear_stiffness (not accepted before either) now stops at 45
+evaluations instead of 689. Where the CPU goes now (one worker, `bench/profile_diagnose_stages.py`
+splits it by stage and effect; thesis): screening every candidate
+~30 %, the partner search ~20 %, the four full fits ~20 %, the pairs' joint fits ~15 %; two-body:
+screening ~60 %, the two full fits ~35 %. Both targets are still missed by 2.6-3.4x. Tried and
+left out: screening every candidate on the shortest head only and the best eight on the longer
+ones (thesis 1683 -> 1411 evaluations): a plate's bending mode that shows only on the longer heads
+was screened at no gain (0.709 instead of 0.672), so the shortest head cannot choose which to
+refine.
 """
 
 from __future__ import annotations

@@ -231,14 +231,17 @@ def _residual_effective_samples(problem: Problem, res) -> float:
 
 def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: float, noise: float,
                    peaks, rigidity, modes_before, tail0: float = 0.0,
-                   force_levels: Mapping[str, float] | None = None) -> Candidate:
+                   force_levels: Mapping[str, float] | None = None, target: float | None = None) -> Candidate:
     """Fit, validate and describe one screened candidate. Sums of squares of ``screened`` are over
-    the fit windows; ``tail0`` is the rest of the records' at the nominal model, ``sse0`` whole."""
+    the fit windows; ``tail0`` is the rest of the records' at the nominal model, ``sse0`` whole;
+    ``target``: the fit stops where it cannot come near it (fitting.fit)."""
     problem = screened.problem
     effect = problem.effect
+    stopped = False
     if problem.free:
         # screening has already stepped through the short heads to the whole windows
-        res = fit(problem, screened.u0, continuation=False)
+        res = fit(problem, screened.u0, continuation=False, target=target)
+        stopped = res.target_stop
         u = res.x
         # uncertainties from the residual as it is: its samples are correlated (filters, misfit)
         sds, corr, groups = uncertainties(problem, res, _residual_effective_samples(problem, res))
@@ -305,6 +308,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
     cand.implausible = checks.implausible(effect, problem.base.shared, params)
     cand.plausible = not cand.implausible
     cand._problem, cand._u, cand._sse_win = problem, u, sse_win  # kept for the confounding check
+    cand._stopped = stopped
     baseline = math.sqrt(sse0 / den)
     cand.evidence = _evidence(problem, cand, baseline, noise, peaks, rigidity, modes_before, modes_after)
     return cand
@@ -646,7 +650,10 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
     if not singles or not all(_leaves_cells(c, job) for c in candidates if c.fitted and c.significant):
         return [], [], 0  # a single or a refinement leaves nothing above the floor
     # each pair's starts: its members' values and discrete choices
-    starts = {(a.effect, b.effect): [(joint.fitted(a), joint.fitted(b))]
+    # (and each member's fit with the other at its nominal values: the nearer start where one
+    # member's fit compensated for what the other explains)
+    starts = {(a.effect, b.effect): [(joint.fitted(a), joint.fitted(b)), (joint.fitted(a), joint.nominal(b)),
+                                     (joint.nominal(a), joint.fitted(b))]
               for a, b in itertools.combinations(singles[:joint.PAIR_CANDIDATES], 2) if joint.overlap(a, b, res0)
               and joint.joined(job["effects"].get(a.effect), job["effects"].get(b.effect), job["base"].shared)}
     added, evaluations = [], 0
@@ -683,10 +690,17 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
             tried.append(Screened(effect, fixed, u0, problem.sse(u0), problem))
         best = min(tried, key=lambda t: t.sse)
         evaluations += sum(t.problem.evaluations for t in tried if t is not best)  # the best's count with its fit
+        # the simplest significant single it must beat (joint.accepted): its fit stops where it cannot
+        k = len(best.problem.free) + len(best.problem.fixed)
+        simpler = min((c for c in candidates + added if c.fitted and c.significant and c.n_parameters < k),
+                      key=lambda c: c._sse_win, default=None)
         cand = _fit_candidate(best, job["windows"], job["sse0"], job["den"], job["n_eff"], job["noise"], job["peaks"],
-                              job["rigidity"], job["modes_before"], job["tail0"], job["force_levels"])
+                              job["rigidity"], job["modes_before"], job["tail0"], job["force_levels"],
+                              target=None if simpler is None else simpler._sse_win)
         _judge(cand, job["exps"], floor, res0, job["sse0"], job["den"], scale)
         ok, why = joint.accepted(cand, (a, b), candidates + added)
+        if cand._stopped:
+            ok, why = False, f"its fit stopped where it could not come near {simpler.effect}'s error"
         cand.significant = ok
         cand.evidence = f"fitted jointly from the single fits: {why}; " + cand.evidence
         words = _checks_words(cand)

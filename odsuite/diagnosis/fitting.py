@@ -639,58 +639,106 @@ def refined(start: Problem, u: np.ndarray, effect) -> tuple[Problem, np.ndarray]
 #: nominal was differenced over 1e-14 of a step (in round-off, or in a filter at 1e15 Hz)
 DIFF_STEP = 1e-4
 #: a search stops when two of its iterations together lowered its objective (the data's sum of
-#: squares and the prior's) by less than this many noise energies per independent sample: one is
-#: the objective's one-standard-error scale, and every test needs ten or more (chi-square's
-#: quantile at checks.FALSE_ALARM: 10.8 for one parameter). Along a direction the data cannot see
-#: (a scale spread over axes and springs: a curved valley) trf otherwise crawls on for another
-#: eight iterations at about one each; such directions are reported as redundant groups
+#: squares and the prior's) by less than this many noise energies per independent sample, or when
+#: its linearisation at the current point promises less than that: one is the objective's
+#: one-standard-error scale, and every test needs ten or more (chi-square's quantile at
+#: checks.FALSE_ALARM: 10.8 for one parameter). Along a direction the data cannot see (a scale
+#: spread over axes and springs: a curved valley) a search otherwise crawls on for another eight
+#: iterations at about one each; such directions are reported as redundant groups
 STALL_GAIN = 1.0
+#: a fit given a ``target`` (the sum of squares of a simpler candidate it must beat) stops once its
+#: linearisation promises no better than this multiple of it while that promise fell by less than
+#: half over the last iteration: it can no longer pass the test against that candidate
+TARGET_FACTOR = 4.0
 
 
-def _stall_stop(problem: Problem):
-    """A callback ending the search when its gains fall below STALL_GAIN (None: no noise scale)."""
-    if problem.noise_scale <= 0:
-        return None
-    # the cost is half the strided sum of squares, which is about the whole one over the stride
-    least = 0.5 * STALL_GAIN * problem.noise_scale / problem.stride
-    costs: list[float] = []
+def _promise(J: np.ndarray, f: np.ndarray, free: np.ndarray) -> float:
+    """The objective's fall (in cost, half the sum of squares) that a full Gauss-Newton step over
+    the ``free`` parameters promises at this point."""
+    if not free.any():
+        return 0.0
+    Jf = J[:, free]
+    g = Jf.T @ f
+    step = np.linalg.lstsq(Jf.T @ Jf, g, rcond=1e-12)[0]
+    return max(0.5 * float(g @ step), 0.0)
 
-    def stalled(intermediate_result):
-        costs.append(float(intermediate_result.cost))
-        if len(costs) >= 3 and costs[-3] - costs[-1] < least:
+
+class _Stops:
+    """The search's stops, decided after each iteration (scipy's callback) from the objective and
+    the Jacobian at the point reached: two iterations together gained less than STALL_GAIN noise
+    energies (``least``, in cost), or the linearisation there promises less than that (the
+    curved valley's crawl gains no more than it promises), or (with ``target``) it cannot come
+    near the target (TARGET_FACTOR). ``target_stop`` says whether the last was why."""
+
+    def __init__(self, least: float, target: float | None, lo: np.ndarray, hi: np.ndarray) -> None:
+        self.least, self.target, self.lo, self.hi = least, target, lo, hi
+        self.costs: list[float] = []
+        self.promised: dict[bytes, float] = {}
+        self.reach_before = math.inf
+        self.target_stop = False
+
+    def jacobian(self, x: np.ndarray, J: np.ndarray, f: np.ndarray) -> None:
+        """Note what the linearisation at ``x`` promises (J = d f / d x)."""
+        g = J.T @ f
+        tol = AT_BOUND * np.maximum(1.0, np.abs(self.lo)), AT_BOUND * np.maximum(1.0, np.abs(self.hi))
+        held = ((x - self.lo <= tol[0]) & (g > 0)) | ((self.hi - x <= tol[1]) & (g < 0))
+        self.promised = {x.tobytes(): _promise(J, f, ~held)}
+
+    def __call__(self, intermediate_result) -> None:
+        cost = float(intermediate_result.cost)
+        self.costs.append(cost)
+        costs, least = self.costs, self.least
+        if least > 0 and len(costs) >= 3 and costs[-3] - costs[-1] < least:
             raise StopIteration
-
-    return stalled
+        promised = self.promised.get(np.asarray(intermediate_result.x).tobytes())
+        if promised is None:
+            return
+        if least > 0 and promised < least:
+            raise StopIteration
+        reach = cost - promised
+        if self.target is not None and reach > TARGET_FACTOR * self.target and reach > 0.5 * self.reach_before:
+            self.target_stop = True
+            raise StopIteration
+        self.reach_before = reach
 
 
 def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] | None = None,
-        max_nfev: int | None = None, continuation: bool = True):
+        max_nfev: int | None = None, continuation: bool = True, target: float | None = None):
     """Bounded output-error least squares from ``u0`` (on short heads of the records first);
-    returns scipy's result for the whole records (``jac`` = d residual / d u)."""
+    returns scipy's result for the whole records (``jac`` = d residual / d u). With ``target`` (a
+    sum of squares over every sample of ``problem``'s records) the fit stops where it cannot come
+    near it (_Stops; ``target_stop`` true)."""
     lo, hi = problem.lower_upper()
     u = np.clip(u0, lo, hi)
     n = len(problem.free)
     root = np.sqrt(problem.pull) if problem.prior else None
     stages = heads(exps or problem.exps) if continuation else [list(exps or problem.exps)]
+    # the cost is half the strided sum of squares, which is about the whole one over the stride
+    least = 0.5 * STALL_GAIN * problem.noise_scale / problem.stride if problem.noise_scale > 0 else 0.0
     for k, stage in enumerate(stages):
         last = k == len(stages) - 1
         seen: dict[bytes, np.ndarray] = {}  # the residual at the point scipy asks the Jacobian of
+        stops = _Stops(least, 0.5 * target / problem.stride if target is not None and last else None, lo, hi)
 
         def fun(x, stage=stage, seen=seen):
             seen.clear()
             seen[x.tobytes()] = r = problem.residual(x, stage)
             return np.concatenate([r, root * x]) if root is not None else r
 
-        def jac(x, stage=stage, seen=seen):
+        def jac(x, stage=stage, seen=seen, stops=stops):
             r = seen.get(x.tobytes())
-            J = -problem.jacobian(x, problem.residual(x, stage) if r is None else r, stage, step=DIFF_STEP)
-            return np.vstack([J, np.diag(root)]) if root is not None else J
+            r = problem.residual(x, stage) if r is None else r
+            J = -problem.jacobian(x, r, stage, step=DIFF_STEP)
+            if root is not None:
+                J, r = np.vstack([J, np.diag(root)]), np.concatenate([r, root * x])
+            stops.jacobian(x, J, r)
+            return J
 
         res = scipy.optimize.least_squares(
             fun, u, jac=jac, bounds=(lo, hi), method="trf", x_scale=1.0,
-            max_nfev=max_nfev or (8 if last else 4) * (n + 1), xtol=1e-6, ftol=1e-8,
-            callback=_stall_stop(problem),
+            max_nfev=max_nfev or (8 if last else 4) * (n + 1), xtol=1e-6, ftol=1e-8, callback=stops,
         )
+        res.target_stop = stops.target_stop
         u = res.x
     return res
 

@@ -99,6 +99,11 @@ def fitted(c) -> Fitted:
     return Fitted(c.effect, c.values, c.per_experiment, dict(c._problem.fixed))
 
 
+def nominal(c) -> Fitted:
+    """A fitted single candidate's start at its nominal values (its discrete choices kept)."""
+    return Fitted(c.effect, {}, {}, dict(c._problem.fixed))
+
+
 def pairable(effect) -> bool:
     """An effect the diagnosis pairs: one that refines no other fit (it is fitted from that fit
     alone) and solves no parameters by projection. ProjectingJoint can hold the latter, but its

@@ -107,6 +107,40 @@ def _simulate_band(ss: StateSpace, u: np.ndarray, fs: float) -> np.ndarray:
     return y + u @ np.asarray(ss.D, float).T
 
 
+#: the modal decompositions last computed, by their system matrix and sample time: the experiments
+#: of a fit simulate one model each, every one with the same A (a tenth of an evaluation's CPU)
+_MODALS: dict[tuple, tuple | None] = {}
+MODALS_KEPT = 8
+
+
+def _modal(A: np.ndarray, T: float) -> tuple | None:
+    """The balanced modal form of ``A`` at sample time ``T``: balancing scale, mode matrix, the
+    modes kept (one of each conjugate pair), their weights, eigenvalues, poles and phi terms; None
+    where the mode matrix is ill-conditioned (the matrix exponential then)."""
+    key = (A.shape, A.tobytes(), T, MAX_MODAL_CONDITION)
+    if key in _MODALS:
+        return _MODALS[key]
+    # balancing keeps the mode matrix well conditioned when states differ widely in scale
+    Ab, (scale, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
+    lam, V = np.linalg.eig(Ab)
+    out = None
+    pair = lam.imag > 0
+    real = lam.imag == 0
+    # eig of a real matrix returns exact conjugates
+    if np.linalg.cond(V) <= MAX_MODAL_CONDITION and 2 * pair.sum() + real.sum() == len(lam):
+        keep = pair | real
+        lk = lam[keep]
+        x = lk * T
+        # all modes at once: a call per mode costs more
+        out = (scale, V, keep, np.where(pair[keep], 2.0, 1.0), lk, np.exp(x), T * _phi(x, 1), T * _phi(x, 2))
+        for a in out:
+            a.flags.writeable = False
+    while len(_MODALS) >= MODALS_KEPT:
+        _MODALS.pop(next(iter(_MODALS)))
+    _MODALS[key] = out
+    return out
+
+
 def simulate_state_space(ss: StateSpace, u, fs: float, hold: str = "zoh") -> np.ndarray:
     """Response (n_samples, n_outputs) of ``ss`` from rest to samples ``u`` at ``fs`` Hz."""
     if hold not in HOLDS:
@@ -117,24 +151,13 @@ def simulate_state_space(ss: StateSpace, u, fs: float, hold: str = "zoh") -> np.
     if hold == "band":
         return _simulate_band(ss, u, fs)
     T = 1.0 / fs
-    # balancing keeps the mode matrix well conditioned when states differ widely in scale
-    A, (scale, _) = scipy.linalg.matrix_balance(ss.A, permute=False, separate=True)
-    lam, V = np.linalg.eig(A)
-    if np.linalg.cond(V) > MAX_MODAL_CONDITION:
+    modal = _modal(ss.A, T)
+    if modal is None:
         return _simulate_expm(ss, u, T, hold)
-    pair = lam.imag > 0
-    real = lam.imag == 0
-    if 2 * pair.sum() + real.sum() != len(lam):  # eig of a real matrix returns exact conjugates
-        return _simulate_expm(ss, u, T, hold)
-    keep = pair | real
-    weight = np.where(pair[keep], 2.0, 1.0)
+    scale, V, keep, weight, lk, p, g0, g1s = modal
     Bm = np.linalg.solve(V, (ss.B / scale[:, None]).astype(complex))[keep]  # modal input, n_modes x n_in
     Cm = ((ss.C * scale) @ V)[:, keep] * weight  # n_out x n_modes
-    lk = lam[keep]
-    x = lk * T
-    p = np.exp(x)
-    g0 = T * _phi(x, 1)
-    g1s = T * _phi(x, 2) if hold == "foh" else None  # all modes at once: a call per mode costs more
+    g1s = g1s if hold == "foh" else None
     # per (mode, input): the complex first-order recursion b(q)/(1 - p q^-1) run as two real
     # second-order filters (its real and imaginary parts, denominator |1 - p q^-1|^2) on the real
     # input; the modal input weight is folded into the output weights
