@@ -173,7 +173,7 @@ UNDOES = {"polarity_flip": "sensor_polarity", "sensor_gain": "sensor_gain", "sen
 
 
 @pytest.mark.parametrize("name, seed", [("channel-swap+polarity-flip", 1), ("sensor-gain+sensor-tilt", 1),
-                                        ("polarity-flip+channel-delay", 1)])
+                                        ("polarity-flip+channel-delay", 1), ("sensor-gain+sensor-tilt", 3)])
 def test_corrected_coordinates_are_the_true_motion_after_the_loop_on_two_faults(name, seed, tmp_path, capsys):
     """Two measurement faults at once, through the CLI: diagnose, add the top significant candidate
     (a pair "A+B" adds both), up to three rounds; both faults' effects are added and `process
