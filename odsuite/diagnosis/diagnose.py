@@ -611,28 +611,20 @@ def _partner(job: Mapping[str, Any], first: Candidate, names: Sequence[str]) -> 
     found.sort(key=lambda s: s.sse)
     named = next((s for s in found if not getattr(s.effect, "data_driven", False)), None)
     out = found[:1] + ([named] if named is not None and found and named is not found[0] else [])
-    # a partner with more parameters does not shut out the best one with fewer that competes with
-    # it: both are fitted jointly and the pairs' tests choose (on top of a biased first fit, a
-    # sensor position at its bounds out-screened the gain that, fitted jointly, reached the floor)
-    simpler = next((s for s in found if _size(s) < _size(found[0])), None) if found else None
-    if simpler is not None and all(simpler is not s for s in out) and _competes(first._sse_win, found[0].sse, simpler.sse):
-        out.append(simpler)
+    # and the best plausible one where the best lies outside its physical range: on top of a
+    # biased first fit, a sensor position at its bounds out-screened the gain that, fitted
+    # jointly, reached the floor; the pairs' tests choose
+    if found and _implausible(found[0]):
+        plausible = next((s for s in found if not _implausible(s)), None)
+        if plausible is not None and all(plausible is not s for s in out):
+            out.append(plausible)
     return out, evaluations
 
 
-#: a candidate that takes up less than this fraction of what a rival explains cannot compete with it
-COMPETES = 0.5
-
-
-def _competes(sse0: float, best: float, sse: float) -> bool:
-    """Whether a candidate reaching ``sse`` takes up at least COMPETES of what the one reaching
-    ``best`` removes from ``sse0``."""
-    return sse0 - sse >= COMPETES * (sse0 - best)
-
-
-def _size(s: Screened) -> int:
-    """A screened candidate's parameters, counted as a fitted one's n_parameters."""
-    return len(s.problem.free) + len(s.problem.fixed)
+def _implausible(s: Screened) -> list[str]:
+    """A screened candidate's values outside their physical range."""
+    shared, _ = s.problem.values(s.u0)
+    return checks.implausible(s.effect, s.problem.base.shared, {**s.problem.fixed, **shared})
 
 
 def _single(token: int, job: Mapping[str, Any], screened: Sequence[Screened], name: str, exps, floor, res0
@@ -677,7 +669,7 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
     named = next((c for c in singles if not getattr(job["effects"].get(c.effect), "data_driven", False)), None)
     seeds = [singles[0]] + ([named] if named is not None and named is not singles[0] else [])
     initial = len(seeds)
-    for first in seeds:  # grows by the simpler partners below, once
+    for first in seeds:  # grows by the partners of an implausible seed below, once
         partners, count = _partner(job, first, [s.effect.name for s in screened])
         evaluations += count
         for partner in partners:
@@ -690,11 +682,10 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
                     evaluations += single._problem.evaluations
             if single is None or getattr(single, "_resolved", None) is None:
                 continue
-            if (any(first is s for s in seeds[:initial]) and all(single is not s for s in seeds)
-                    and single.n_parameters < first.n_parameters
-                    and _competes(job["sse0"], first.error_after**2 * job["den"], single.error_after**2 * job["den"])):
-                # a simpler effect that explains much of what the seed does: the seed may stand in
-                # for it and a second cause, which the partner of the simpler one is
+            if (any(first is s for s in seeds[:initial]) and not first.plausible and single.plausible
+                    and single.n_parameters < first.n_parameters and all(single is not s for s in seeds)):
+                # a seed outside its physical range with more parameters than its partner may stand
+                # in for that one and a second cause: the partner's partner is searched too
                 seeds.append(single)
             shared, per = partner.problem.values(partner.u0)
             on_top = joint.Fitted(name, shared, per, dict(partner.problem.fixed))
