@@ -614,7 +614,21 @@ def _partner(job: Mapping[str, Any], first: Candidate, names: Sequence[str]) -> 
             found.append(s)
     found.sort(key=lambda s: s.sse)
     named = next((s for s in found if not getattr(s.effect, "data_driven", False)), None)
-    return found[:1] + ([named] if named is not None and found and named is not found[0] else []), evaluations
+    out = found[:1] + ([named] if named is not None and found and named is not found[0] else [])
+    # and the best plausible one where the best lies outside its physical range: on top of a
+    # biased first fit, a sensor position at its bounds out-screened the gain that, fitted
+    # jointly, reached the floor; the pairs' tests choose
+    if found and _implausible(found[0]):
+        plausible = next((s for s in found if not _implausible(s)), None)
+        if plausible is not None and all(plausible is not s for s in out):
+            out.append(plausible)
+    return out, evaluations
+
+
+def _implausible(s: Screened) -> list[str]:
+    """A screened candidate's values outside their physical range."""
+    shared, _ = s.problem.values(s.u0)
+    return checks.implausible(s.effect, s.problem.base.shared, {**s.problem.fixed, **shared})
 
 
 def _single(token: int, job: Mapping[str, Any], screened: Sequence[Screened], name: str, exps, floor, res0
@@ -660,7 +674,9 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
     # the partner of the best single, and of the best named one where a data-driven stand-in (a
     # mode of any shape) is best: the order prefer_named gives the singles
     named = next((c for c in singles if not getattr(job["effects"].get(c.effect), "data_driven", False)), None)
-    for first in [singles[0]] + ([named] if named is not None and named is not singles[0] else []):
+    seeds = [singles[0]] + ([named] if named is not None and named is not singles[0] else [])
+    initial = len(seeds)
+    for first in seeds:  # grows by the partners of an implausible seed below, once
         partners, count = _partner(job, first, [s.effect.name for s in screened])
         evaluations += count
         for partner in partners:
@@ -671,11 +687,17 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
                 if single is not None:
                     added.append(single)
                     evaluations += single._problem.evaluations
-            if single is not None and getattr(single, "_resolved", None) is not None:
-                shared, per = partner.problem.values(partner.u0)
-                on_top = joint.Fitted(name, shared, per, dict(partner.problem.fixed))
-                key = next((k for k in starts if set(k) == {first.effect, name}), (first.effect, name))
-                starts.setdefault(key, []).insert(0, (joint.fitted(first), on_top))
+            if single is None or getattr(single, "_resolved", None) is None:
+                continue
+            if (any(first is s for s in seeds[:initial]) and not first.plausible and single.plausible
+                    and single.n_parameters < first.n_parameters and all(single is not s for s in seeds)):
+                # a seed outside its physical range with more parameters than its partner may stand
+                # in for that one and a second cause: the partner's partner is searched too
+                seeds.append(single)
+            shared, per = partner.problem.values(partner.u0)
+            on_top = joint.Fitted(name, shared, per, dict(partner.problem.fixed))
+            key = next((k for k in starts if set(k) == {first.effect, name}), (first.effect, name))
+            starts.setdefault(key, []).insert(0, (joint.fitted(first), on_top))
     out = []
     for (ea, eb), options in starts.items():
         a = next(c for c in candidates + added if c.effect == ea)

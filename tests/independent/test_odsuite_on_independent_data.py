@@ -173,7 +173,7 @@ UNDOES = {"polarity_flip": "sensor_polarity", "sensor_gain": "sensor_gain", "sen
 
 
 @pytest.mark.parametrize("name, seed", [("channel-swap+polarity-flip", 1), ("sensor-gain+sensor-tilt", 1),
-                                        ("polarity-flip+channel-delay", 1)])
+                                        ("polarity-flip+channel-delay", 1), ("sensor-gain+sensor-tilt", 3)])
 def test_corrected_coordinates_are_the_true_motion_after_the_loop_on_two_faults(name, seed, tmp_path, capsys):
     """Two measurement faults at once, through the CLI: diagnose, add the top significant candidate
     (a pair "A+B" adds both), up to three rounds; both faults' effects are added and `process
@@ -183,7 +183,9 @@ def test_corrected_coordinates_are_the_true_motion_after_the_loop_on_two_faults(
     the first diagnosis names the pair, the second "nothing to explain"): swap zC/z2 + flipped x3:
     67 / 108 at revision 0, channel_swap+sensor_polarity, 1.04 / 1.01 after; x3 gain 0.753 + yC
     tilted 12 degrees: 11.0 / 13.6, sensor_orientation+sensor_gain, 0.40 / 0.40; flipped x3 + zC
-    48 us late: 67 / 96, sensor_polarity+channel_delay, 1.04 / 1.02."""
+    48 us late: 67 / 96, sensor_polarity+channel_delay, 1.04 / 1.02; x1 gain 0.80 + yC tilted 29
+    degrees (seed 3): 20.8 / 19.0, sensor_orientation+sensor_gain (a sensor_position at its bounds
+    ranks first among the singles), 0.34 / 0.38."""
     nominal = cases.build_case("nominal-16bit", seed=seed)
     proj = thesis_project(nominal, tmp_path / "n", capsys)
     assert main(["process", str(proj), "--corrected"]) == 0
