@@ -278,15 +278,14 @@ def select_poles(
     tol: float = 0.005,
     min_fraction: float = 0.3,
     bandwidth: float = 0.0,
-    edge: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Poles picked from the diagram and, per pole, the number of model orders with a stable pole
     in its cluster. Automatic: stable poles clustered in frequency (within ``tol``), clusters
     stable in at least ``min_fraction`` of the orders (and 3), each represented by its median
     frequency and damping: a physical pole reappears as the order grows, numerical poles wander.
     With ``frequencies`` (Hz): the cluster of stable poles nearest each given frequency (within
-    2 %), so a user can override the choice. With ``edge`` (automatic only) poles whose half-power
-    band reaches past the diagram's band are dropped (``half_power_inside``)."""
+    2 %), so a user can override the choice. Automatic picks drop poles whose half-power band
+    reaches past the diagram's band (``half_power_inside``)."""
     f_all, z_all, o_all = _stable_points(diagram)
     if frequencies is not None:
         out, counts = [], []
@@ -302,7 +301,7 @@ def select_poles(
         order = np.argsort(np.abs(out))
         return out[order], counts[order]
     out, counts = stable_clusters(f_all, z_all, o_all, len(diagram.orders), tol, min_fraction, bandwidth)
-    inside = half_power_inside(out, diagram.f_band) if edge else np.ones(out.size, bool)
+    inside = half_power_inside(out, diagram.f_band)
     return _distinct(out[inside], counts[inside], tol, bandwidth)
 
 

@@ -148,9 +148,7 @@ def _segment_scatter(y: np.ndarray, fs: float, poles: np.ndarray, band: tuple[fl
                                  f_band=band)
         except DimensionError:
             break  # segments too short to identify anything: no scatter
-        # no band-edge rule here: it judged the whole record's poles, and a segment's estimate of
-        # a kept pole near the edge scatters past it as often as not
-        seg, _ = select_poles(diagram, edge=False)
+        seg, _ = select_poles(diagram)
         if seg.size == 0:
             continue
         fs_seg = np.abs(seg) / (2 * np.pi)
