@@ -337,9 +337,9 @@ def _edge_advice(dropped: np.ndarray, lo: float, hi: float, fs: float) -> str:
                       f"{x:.3g}-{y:.3g} Hz)" for p, x, y in zip(dropped, a, b))
     keep = []
     if (a < lo).any():
-        keep.append(f"--fmin {max(0.0, float(np.min(a))):.3g}")
+        keep.append(f"--fmin {max(0.0, np.floor(float(np.min(a)))):.0f}")  # rounded outwards: it must hold them
     if (b > hi).any():
-        keep.append(f"--fmax {float(np.max(b)):.3g}" if np.max(b) <= fs / 2 else
+        keep.append(f"--fmax {np.ceil(float(np.max(b))):.0f}" if np.max(b) <= fs / 2 else
                     f"no --fmax below the Nyquist frequency {fs / 2:.4g} Hz")
     return (f" (stable but dropped because their half-power band reaches past the band's edge: {names}; "
             f"{' and '.join(keep)} would keep them)")
