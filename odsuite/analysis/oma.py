@@ -388,7 +388,7 @@ def _identify(y, fs, f_band, max_order, block_rows, decimation, output_names, cr
     settings = choose_settings(y, fs, f_band=f_band, block_rows=block_rows, decimation=decimation,
                                max_order=max_order)
     raw, fs_raw, first = y, fs, settings
-    for _ in range(WIDEN_TRIES):
+    for attempt in range(WIDEN_TRIES):
         lo, hi = settings.band_hz
         y = prepare(raw, fs_raw, settings)
         fs = settings.rate_hz
@@ -396,8 +396,8 @@ def _identify(y, fs, f_band, max_order, block_rows, decimation, output_names, cr
         poles, stable_orders = select_poles(diagram)
         dropped = edge_dropped(diagram)
         wider = _widened(settings, first, dropped, fs_raw, block_rows, y.shape[1])
-        if wider is None:
-            break
+        if wider is None or attempt == WIDEN_TRIES - 1:
+            break  # the last fit's settings stay with its diagram
         new = choose_settings(raw, fs_raw, f_band=(f_band[0] if f_band else None, wider[0]),
                               block_rows=block_rows, max_order=max_order)
         settings = OmaSettings(new.band_hz, new.highpass_hz, new.decimation, new.rate_hz, new.block_rows,
