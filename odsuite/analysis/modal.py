@@ -284,13 +284,9 @@ def select_poles(
     stable in at least ``min_fraction`` of the orders (and 3), each represented by its median
     frequency and damping: a physical pole reappears as the order grows, numerical poles wander.
     With ``frequencies`` (Hz): the cluster of stable poles nearest each given frequency (within
-    2 %), so a user can override the choice."""
-    f_all, z_all, o_all = [], [], []
-    for order, poles, st in zip(diagram.orders, diagram.poles, diagram.stable, strict=True):
-        f_all.extend(np.abs(poles[st]) / (2 * np.pi))
-        z_all.extend(-poles[st].real / np.abs(poles[st]))
-        o_all.extend([order] * int(st.sum()))
-    f_all, z_all, o_all = np.asarray(f_all), np.asarray(z_all), np.asarray(o_all)
+    2 %), so a user can override the choice. Automatic picks drop poles whose half-power band
+    reaches past the diagram's band (``half_power_inside``)."""
+    f_all, z_all, o_all = _stable_points(diagram)
     if frequencies is not None:
         out, counts = [], []
         for fr in frequencies:
@@ -304,6 +300,34 @@ def select_poles(
         out, counts = np.asarray(out), np.asarray(counts)
         order = np.argsort(np.abs(out))
         return out[order], counts[order]
+    out, counts = stable_clusters(f_all, z_all, o_all, len(diagram.orders), tol, min_fraction, bandwidth)
+    inside = half_power_inside(out, diagram.f_band)
+    return _distinct(out[inside], counts[inside], tol, bandwidth)
+
+
+def _stable_points(diagram: StabilisationDiagram) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    f_all, z_all, o_all = [], [], []
+    for order, poles, st in zip(diagram.orders, diagram.poles, diagram.stable, strict=True):
+        f_all.extend(np.abs(poles[st]) / (2 * np.pi))
+        z_all.extend(-poles[st].real / np.abs(poles[st]))
+        o_all.extend([order] * int(st.sum()))
+    return np.asarray(f_all), np.asarray(z_all), np.asarray(o_all)
+
+
+def edge_dropped(diagram: StabilisationDiagram, *, tol: float = 0.005, min_fraction: float = 0.3,
+                 bandwidth: float = 0.0) -> np.ndarray:
+    """The poles ``select_poles`` (same arguments) finds stable but drops because their half-power
+    band reaches past the diagram's band, by frequency."""
+    out, _ = stable_clusters(*_stable_points(diagram), len(diagram.orders), tol, min_fraction, bandwidth)
+    out = out[~half_power_inside(out, diagram.f_band)] if out.size else out
+    return out[np.argsort(np.abs(out))]
+
+
+def stable_clusters(f_all, z_all, o_all, n_orders: int, tol: float, min_fraction: float,
+                    bandwidth: float) -> tuple[np.ndarray, np.ndarray]:
+    """``select_poles``' clusters of stable poles (frequencies ``f_all`` Hz, damping ratios
+    ``z_all`` at orders ``o_all``) that are stable in enough of ``n_orders`` orders, as poles and
+    their counts of orders, before the band-edge rule (``half_power_inside``)."""
     order = np.argsort(f_all)
     f_all, z_all, o_all = f_all[order], z_all[order], o_all[order]
     clusters: list[list[int]] = []
@@ -312,17 +336,25 @@ def select_poles(
             clusters[-1].append(i)
         else:
             clusters.append([i])
-    need = max(3, int(np.ceil(min_fraction * len(diagram.orders))))
+    need = max(3, int(np.ceil(min_fraction * n_orders)))
     counts = [np.unique(o_all[c]).size for c in clusters]
     keep = [(c, n) for c, n in zip(clusters, counts) if n >= need and _consistent(f_all[c], z_all[c], tol)]
     out = [_pole(np.median(f_all[c]), np.median(z_all[c])) for c, _ in keep]
-    # a resonance is seen in the fit only with its half-power band (2 zeta f each side) inside it:
-    # a 12 %-damped pole 10 Hz above the bottom of the LADISK beam's 50-500 Hz fit is an edge effect
-    lo, hi = diagram.f_band
-    inside = [lo <= abs(p) / (2 * np.pi) * (1 - 2 * zeta_of(p)) and abs(p) / (2 * np.pi) * (1 + 2 * zeta_of(p)) <= hi
-              for p in out]
-    out, keep = [p for p, i in zip(out, inside) if i], [k for k, i in zip(keep, inside) if i]
-    return _distinct(np.asarray(out, dtype=complex), np.asarray([n for _, n in keep], dtype=int), tol, bandwidth)
+    return np.asarray(out, dtype=complex), np.asarray([n for _, n in keep], dtype=int)
+
+
+def half_power_band(poles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each pole's half-power band f (1 -+ 2 zeta), Hz."""
+    f, z = np.abs(poles) / (2 * np.pi), zeta_of(poles)
+    return f * (1 - 2 * z), f * (1 + 2 * z)
+
+
+def half_power_inside(poles: np.ndarray, band: tuple[float, float]) -> np.ndarray:
+    """Which poles have their half-power band inside ``band``: a resonance is seen in the fit only
+    then; a 12 %-damped pole 10 Hz above the bottom of the LADISK beam's 50-500 Hz fit is an edge
+    effect."""
+    a, b = half_power_band(np.asarray(poles, dtype=complex))
+    return (band[0] <= a) & (b <= band[1])
 
 
 #: a pole's estimates over model orders scatter by a fraction of its half-power bandwidth

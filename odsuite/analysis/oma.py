@@ -26,10 +26,13 @@ from odsuite.analysis.modal import (
     ModalResult,
     StabilisationDiagram,
     Unresolved,
+    edge_dropped,
+    half_power_band,
     normalise_shapes,
     physical_poles,
     select_poles,
     stability_flags,
+    zeta_of,
 )
 
 #: the highest SSI-cov state size unless given: every entry point (modes, render, report) uses it,
@@ -217,18 +220,20 @@ class OmaSettings:
     lag_span_s: float
     peaks_hz: tuple[float, ...]
     source: dict[str, str]
+    note: str = ""  # why a setting chosen from the record was changed after a first fit
 
     def to_dict(self) -> dict:
         return {"band_hz": [float(v) for v in self.band_hz], "highpass_hz": self.highpass_hz,
                 "decimation": self.decimation, "rate_hz": self.rate_hz, "block_rows": self.block_rows,
                 "lag_span_s": self.lag_span_s, "peaks_hz": [float(v) for v in self.peaks_hz],
-                "source": dict(self.source)}
+                "source": dict(self.source), "note": self.note}
 
     def describe(self) -> str:
         """One line: what was used, with units."""
         hp = f"high-passed at {self.highpass_hz:.3g} Hz, " if self.highpass_hz else ""
         return (f"band {self.band_hz[0]:.3g}-{self.band_hz[1]:.3g} Hz, {hp}decimated by {self.decimation} to "
-                f"{self.rate_hz:.4g} Hz, {self.block_rows} block rows (lags to {self.lag_span_s:.3g} s)")
+                f"{self.rate_hz:.4g} Hz, {self.block_rows} block rows (lags to {self.lag_span_s:.3g} s)"
+                + (f"; {self.note}" if self.note else ""))
 
 
 def record_peaks(y: np.ndarray, fs: float, lo: float = 0.0, hi: float | None = None) -> np.ndarray:
@@ -293,6 +298,53 @@ def choose_settings(y: np.ndarray, fs: float, *, f_band: tuple[float | None, flo
                        float((2 * block_rows - 1) / rate), tuple(float(v) for v in peaks), source)
 
 
+#: at most this many fits: the first, and refits with the band's top widened (``_widened``)
+WIDEN_TRIES = 3
+
+
+def _widened(settings: OmaSettings, first: OmaSettings, dropped: np.ndarray, fs: float,
+             block_rows: int | None, n_out: int) -> tuple[float, str] | None:
+    """Settings for a refit when the band's top was chosen from the record (``choose_settings``
+    places it by the peaks' frequencies alone) and the fit found stable poles that
+    ``select_poles`` drops because their half-power band f (1 + 2 zeta) reaches past it (a mode
+    more than 12.5 % damped under the 1.25 x peak top): the top goes up to hold them, but not past
+    the record's next spectral peak above the first top (its own mode would then need room), the
+    Nyquist frequency or the rows the lag span allows. Returns the new top (Hz) and why, or
+    None: no refit."""
+    if first.source["fmax"] != "from the record" or first.source["decimation"] != "from the record":
+        return None
+    lo, hi = settings.band_hz
+    a, b = half_power_band(dropped)
+    above = [p for p in first.peaks_hz if p > first.band_hz[1]]
+    limit = min(above[0] if above else fs / 2, fs / 2)
+    if block_rows is None and first.peaks_hz:
+        limit = min(limit, MAX_ROWS / n_out * 2 * first.peaks_hz[0] / (LAG_PERIODS * RATE_PER_BAND))
+    fits = (a >= lo) & (b > hi) & (b <= limit)
+    if not fits.any():
+        return None
+    top = float(np.max(b[fits]))
+    held = ", ".join(f"{abs(p) / (2 * np.pi):.4g} Hz ({100 * zeta_of(p):.3g} % damped)" for p in dropped[fits])
+    return top, (f"band's top widened from {first.band_hz[1]:.3g} Hz (chosen from the record's peaks) to hold "
+                 f"the half-power band f(1 + 2 zeta) of the stable poles at {held}")
+
+
+def _edge_advice(dropped: np.ndarray, lo: float, hi: float, fs: float) -> str:
+    """The refusal's words on stable poles dropped at the band's edges and the band that keeps them."""
+    if dropped.size == 0:
+        return ""
+    a, b = half_power_band(dropped)
+    names = ", ".join(f"{abs(p) / (2 * np.pi):.4g} Hz ({100 * zeta_of(p):.3g} % damped, half-power band "
+                      f"{x:.3g}-{y:.3g} Hz)" for p, x, y in zip(dropped, a, b))
+    keep = []
+    if (a < lo).any():
+        keep.append(f"--fmin {max(0.0, np.floor(float(np.min(a)))):.0f}")  # rounded outwards: it must hold them
+    if (b > hi).any():
+        keep.append(f"--fmax {np.ceil(float(np.max(b))):.0f}" if np.max(b) <= fs / 2 else
+                    f"no --fmax below the Nyquist frequency {fs / 2:.4g} Hz")
+    return (f" (stable but dropped because their half-power band reaches past the band's edge: {names}; "
+            f"{' and '.join(keep)} would keep them)")
+
+
 def prepare(y: np.ndarray, fs: float, settings: OmaSettings) -> np.ndarray:
     """The record as SSI-cov and FDD see it: mean removed, high-passed (zero phase, 4th-order
     Butterworth) and decimated (zero-phase FIR) as ``settings`` say."""
@@ -335,17 +387,27 @@ def identify_output_only(
 def _identify(y, fs, f_band, max_order, block_rows, decimation, output_names, cross_check) -> ModalResult:
     settings = choose_settings(y, fs, f_band=f_band, block_rows=block_rows, decimation=decimation,
                                max_order=max_order)
-    lo, hi = settings.band_hz
-    y = prepare(y, fs, settings)
-    fs = settings.rate_hz
-    diagram, shapes = ssi_cov(y, fs, max_order=max_order, block_rows=settings.block_rows, f_band=(lo, hi))
-    poles, stable_orders = select_poles(diagram)
+    raw, fs_raw, first = y, fs, settings
+    for attempt in range(WIDEN_TRIES):
+        lo, hi = settings.band_hz
+        y = prepare(raw, fs_raw, settings)
+        fs = settings.rate_hz
+        diagram, shapes = ssi_cov(y, fs, max_order=max_order, block_rows=settings.block_rows, f_band=(lo, hi))
+        poles, stable_orders = select_poles(diagram)
+        dropped = edge_dropped(diagram)
+        wider = _widened(settings, first, dropped, fs_raw, block_rows, y.shape[1])
+        if wider is None or attempt == WIDEN_TRIES - 1:
+            break  # the last fit's settings stay with its diagram
+        new = choose_settings(raw, fs_raw, f_band=(f_band[0] if f_band else None, wider[0]),
+                              block_rows=block_rows, max_order=max_order)
+        settings = OmaSettings(new.band_hz, new.highpass_hz, new.decimation, new.rate_hz, new.block_rows,
+                               new.lag_span_s, first.peaks_hz, dict(first.source, fmax="widened"), wider[1])
     advice = ("try more --block-rows (a longer lag span), a higher --max-order, or --fmin/--fmax around the "
               "modes you expect; if none helps, this record does not determine the modes (too short or noisy, "
               "or modes too damped and close for the inputs that drove it; see docs/operating.md)")
     if poles.size == 0:
         raise ConfigError(f"no pole in {lo:.3g}..{hi:.3g} Hz is stable over enough model orders (2..{max_order}) "
-                          f"with {settings.describe()}: {advice}")
+                          f"with {settings.describe()}{_edge_advice(dropped, lo, hi, fs_raw)}: {advice}")
     phi = np.empty((shapes[0].shape[0], poles.size), dtype=complex)
     for r, p in enumerate(poles):
         # highest order where a stable pole lies within 0.5 % (select_poles' cluster width): an

@@ -238,3 +238,34 @@ def test_defaults_on_a_second_structure():
         np.testing.assert_allclose(f[pick], true_f[:4], rtol=0.01)
         np.testing.assert_allclose(zeta[pick], 0.02, rtol=tol)
         assert np.diag(mac(shapes[:, pick], V[:, :4])).min() >= 0.95
+
+
+def _damped_mode_record(f_hz: float, zeta: float, seconds: float, fs: float, seed: int) -> np.ndarray:
+    """Accelerations of one mode (f_hz, zeta) to white force at two sensors (gains 1 and -0.7),
+    zero-order-hold simulation at 4 x the rate, decimated, 5 % measurement noise per channel."""
+    rng = np.random.default_rng(seed)
+    w = 2 * np.pi * f_hz
+    num, den, _ = scipy.signal.cont2discrete(([1.0, 0.0, 0.0], [1.0, 2 * zeta * w, w * w]), 1 / (4 * fs), "zoh")
+    a = scipy.signal.decimate(scipy.signal.lfilter(num.ravel(), den, rng.standard_normal(int(seconds * fs * 4))),
+                              4, ftype="fir")
+    y = np.column_stack([a, -0.7 * a])
+    return y + 0.05 * y.std(axis=0) * rng.standard_normal(y.shape)
+
+
+def test_band_top_holds_a_heavily_damped_mode():
+    """A 16 %-damped mode at 100 Hz: its spectral peak (~102 Hz) puts the band's top at 127 Hz, below
+    its half-power band's top 100 x (1 + 2 x 0.16) = 132 Hz, where select_poles drops it; the top
+    is widened to hold it (said in the settings), and the mode is the simulated one. With that
+    lower top given, the refusal names the dropped pole and the --fmax that keeps it."""
+    y = _damped_mode_record(100.0, 0.16, 400.0, 1000.0, 3)
+    res = identify_output_only(y, 1000.0, max_order=20, cross_check=False)
+    assert res.settings.source["fmax"] == "widened" and "to hold the half-power band" in res.settings.describe()
+    assert res.band_hz[1] >= 100.0 * (1 + 2 * 0.15)
+    np.testing.assert_allclose(res.frequency_hz, [100.0], rtol=0.02)
+    np.testing.assert_allclose(res.damping_ratio, [0.16], rtol=0.15)
+    with pytest.raises(ConfigError, match=r"dropped because their half-power band reaches past the band's edge: "
+                                          r"\d+\.?\d* Hz \(1\d\.?\d* % damped.*--fmax (\d+) would keep them") as err:
+        identify_output_only(y, 1000.0, f_band=(None, 125.0), max_order=20, cross_check=False)
+    advised = float(re.search(r"--fmax (\d+) would keep them", str(err.value)).group(1))
+    kept = identify_output_only(y, 1000.0, f_band=(None, advised), max_order=20, cross_check=False)
+    np.testing.assert_allclose(kept.frequency_hz, [100.0], rtol=0.02)
