@@ -163,17 +163,42 @@ def stored_modes(project, exp) -> StoredModes | None:
     flagged = str(attrs.get("flagged", ""))
     if attrs.get("failure"):
         return StoredModes(str(attrs["failure"]), flagged)
-    a = project.read_derived(name, KIND)
+    where = f"{project.path}: experiment {name!r}: derived {KIND!r}"
+    try:
+        return StoredModes(_decoded(project.read_derived(name, KIND), attrs), flagged)
+    except (KeyError, ValueError, TypeError) as exc:  # a group edited by hand or damaged: not modes
+        raise ConfigError(f"{where}: cannot be read as modes ({type(exc).__name__}: {exc}); "
+                          "run process again to store them anew") from None
+
+
+def _decoded(a: dict, attrs) -> ModalResult:
+    """The stored arrays and attributes as a ModalResult, each checked against the others (a
+    ValueError naming the field where they disagree or are not finite)."""
     z = lambda part: _complex(a[f"{part}_real"], a[f"{part}_imag"])  # noqa: E731
-    cuts = np.cumsum(a["diagram_counts"])[:-1]
+    poles, residues, shapes = z("poles"), z("residues"), z("shapes")
+    names = json.loads(attrs["output_names"])
+    m = poles.shape[0] if poles.ndim == 1 else -1
+    for field, arr, shape in (("poles", poles, (m,)), ("residues", residues, (len(names), m)),
+                              ("shapes", shapes, (len(names), m)), ("stable_orders", a["stable_orders"], (m,))):
+        if arr.shape != shape or not np.all(np.isfinite(arr)):
+            raise ValueError(f"field {field!r} has shape {arr.shape}, expected {shape} of finite numbers")
+    if not all(isinstance(n, str) for n in names):
+        raise ValueError(f"field 'output_names' is {names!r}, expected names")
+    counts = a["diagram_counts"]
+    n_poles = a["diagram_poles_real"].shape
+    if counts.ndim != 1 or np.any(counts < 0) or (int(counts.sum()),) != n_poles or counts.shape != a[
+            "diagram_orders"].shape or any(a[k].shape != n_poles for k in (
+            "diagram_poles_imag", "diagram_stable_f", "diagram_stable")):
+        raise ValueError(f"field 'diagram_counts' sums to {int(counts.sum())} poles, stored {n_poles}")
+    cuts = np.cumsum(counts)[:-1]
     split = lambda x: np.split(x, cuts)  # noqa: E731
     diagram = StabilisationDiagram([int(o) for o in a["diagram_orders"]],
                                    split(z("diagram_poles")),
                                    split(a["diagram_stable_f"]), split(a["diagram_stable"]),
                                    tuple(float(v) for v in json.loads(attrs["diagram_band_hz"])))
-    return StoredModes(ModalResult(z("poles"), z("residues"), z("shapes"), json.loads(attrs["output_names"]),
-                                   diagram, tuple(float(v) for v in json.loads(attrs["band_hz"])),
-                                   a["stable_orders"], json.loads(attrs["rejected"])), flagged)
+    return ModalResult(poles, residues, shapes, names, diagram,
+                       tuple(float(v) for v in json.loads(attrs["band_hz"])),
+                       a["stable_orders"], json.loads(attrs["rejected"]))
 
 
 def _complex(re: np.ndarray, im: np.ndarray) -> np.ndarray:

@@ -51,14 +51,20 @@ def entry_points(group: str) -> list[EntryPoint]:
     if _LIVE:
         return _read_entry_points(group)
     return [EntryPoint(*ep) for ep in _cached(f"entry_points {group}", lambda: [
-        [ep.name, ep.value, ep.dist_name, ep.dist_version] for ep in _read_entry_points(group)])]
+        [ep.name, ep.value, ep.dist_name, ep.dist_version] for ep in _read_entry_points(group)], _entry_rows)]
+
+
+def _entry_rows(answer) -> bool:
+    return isinstance(answer, list) and all(
+        isinstance(ep, list) and len(ep) == 4 and all(isinstance(v, str) for v in ep) for ep in answer)
 
 
 def version(distribution: str) -> str | None:
     """The installed version of ``distribution``, None when it is not installed."""
     if _LIVE:
         return _read_version(distribution)
-    return _cached(f"version {distribution}", lambda: _read_version(distribution))
+    return _cached(f"version {distribution}", lambda: _read_version(distribution),
+                   lambda answer: answer is None or isinstance(answer, str))
 
 
 def _read_entry_points(group: str) -> list[EntryPoint]:
@@ -113,9 +119,16 @@ def installed_key() -> list:
     return key
 
 
+def _absolute(variable: str) -> str | None:
+    """An environment variable naming a folder; a relative one is ignored (XDG's rule), as a cache
+    must not follow the working folder into a project's or a user's files."""
+    value = os.environ.get(variable)
+    return value if value and os.path.isabs(value) else None
+
+
 def cache_file() -> Path:
-    folder = os.environ.get("ODSUITE_CACHE_DIR") or os.path.join(
-        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "odsuite")
+    folder = _absolute("ODSUITE_CACHE_DIR") or os.path.join(
+        _absolute("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "odsuite")
     # one file per environment: two virtual environments used in turn do not evict each other
     return Path(folder) / f"installed-{zlib.crc32(sys.prefix.encode(errors='surrogateescape')):08x}.json"
 
@@ -132,9 +145,11 @@ def _doc() -> dict:
     return {"key": key, "answers": {}}
 
 
-def _cached(question: str, read):
+def _cached(question: str, read, valid):
+    """The cached answer to ``question``; ``read()`` when there is none or it is not of the form
+    ``valid`` accepts (a file edited by hand or by another version)."""
     doc = _doc()
-    if question not in doc["answers"]:
+    if question not in doc["answers"] or not valid(doc["answers"][question]):
         doc["answers"][question] = read()
         _write(doc)
     return doc["answers"][question]
@@ -145,7 +160,10 @@ def _write(doc: dict) -> None:
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp.write_text(json.dumps(doc), encoding="utf-8")
+        # a new file, never an existing one nor through a link planted at its (guessable) name
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o600)
+        with open(fd, "w", encoding="utf-8") as out:
+            out.write(json.dumps(doc))
         os.replace(tmp, path)  # readers see the old file or the new one, never half of one
     except OSError:
         with contextlib.suppress(OSError):

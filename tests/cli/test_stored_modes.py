@@ -133,3 +133,41 @@ def test_a_stored_failure_prints_the_note_it_was_stored_with(tmp_path, capsys, m
     assert doc["modal_notes"] == ["T1: measured modes not identified: a singular matrix met while identifying"]
     fresh = _json(capsys, "compare", _without_stored_modes(p, tmp_path / "old.h5"), "--json")
     assert [r["experiment"] for r in fresh["modal"]] == ["T1"] and fresh["modal_notes"] == []
+
+
+def _forge(src, dst, edit):
+    shutil.copy(src, dst)
+    with h5py.File(dst, "a") as f:
+        edit(f["experiments"]["T1"]["derived"][stored_modes.KIND])
+    return dst
+
+
+def _replace(name, value):
+    def edit(g):
+        del g[name]
+        g[name] = value
+    return edit
+
+
+FORGERIES = {
+    "missing dataset": lambda g: g.__delitem__("poles_imag"),
+    "shapes of the wrong shape": _replace("shapes_real", np.zeros((1, 1))),
+    "poles not finite": lambda g: g["poles_real"].write_direct(np.full(g["poles_real"].shape, np.nan)),
+    "counts past the poles": _replace("diagram_counts", np.array([10 ** 9])),
+    "output names not JSON": lambda g: g.attrs.__setitem__("output_names", "{not json"),
+    "band not numbers": lambda g: g.attrs.__setitem__("band_hz", json.dumps(["a", "b"])),
+}
+
+
+@pytest.mark.parametrize("forgery", sorted(FORGERIES))
+def test_forged_stored_modes_give_one_line_naming_them(processed, tmp_path, capsys, forgery):
+    """A ``hammer_modes`` group whose stamp matches but whose data cannot be modes (hand-edited,
+    damaged) is refused in one line naming the file, the record and the field; no traceback, and
+    the project is not changed."""
+    p = _forge(processed, tmp_path / "forged.h5", FORGERIES[forgery])
+    before = p.read_bytes()
+    assert main(["compare", str(p), "--json"]) != 0
+    err = capsys.readouterr().err.strip()
+    assert "Traceback" not in err and len(err.splitlines()) == 1, err
+    assert str(p) in err and "'T1'" in err and stored_modes.KIND in err, err
+    assert p.read_bytes() == before

@@ -90,3 +90,35 @@ def test_entry_point_load_follows_importlib_metadata():
         ours = installed.EntryPoint("n", value, "d", "1").load()
         assert ours is md.EntryPoint("n", value, "g").load(), value
 
+
+
+def test_cache_answers_of_wrong_types_are_read_again(tmp_path):
+    """A cache whose key matches but whose answers are not what was written (hand-edited, written
+    by another version) is read again, not trusted into a traceback."""
+    site = tmp_path / "site"
+    _dist(site, "forgedpkg", f"[{GROUP}]\nx = forgedpkg.mod:thing\n")
+    first = _ask(tmp_path, site)
+    assert first[0] == [["x", "forgedpkg.mod:thing", "forgedpkg", "1.0"]]
+    (cache,) = (tmp_path / "cache").glob("installed-*.json")
+    for forged in (5, [5], [["x"]], [[1, 2, 3, 4]], {"a": 1}):
+        doc = json.loads(cache.read_text())
+        doc["answers"] = {k: forged for k in doc["answers"]}
+        cache.write_text(json.dumps(doc))
+        assert _ask(tmp_path, site)[:2] == first[:2], forged
+
+
+def test_relative_cache_dir_writes_nothing_into_the_working_folder(tmp_path):
+    """``$ODSUITE_CACHE_DIR`` relative is ignored (as XDG's rule for its variables): a cache
+    follows no working folder into a project's or a user's files."""
+    site = tmp_path / "site"
+    _dist(site, "relpkg", f"[{GROUP}]\ny = relpkg:z\n")
+    work = tmp_path / "work"
+    work.mkdir()
+    env = {**os.environ, "ODSUITE_CACHE_DIR": "rel-cache", "XDG_CACHE_HOME": str(tmp_path / "xdg"),
+           "PYTHONPATH": str(site)}
+    out = subprocess.run([sys.executable, "-c", ASK, GROUP], capture_output=True, text=True, env=env,
+                         cwd=work, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert json.loads(out.stdout)[0] == [["y", "relpkg:z", "relpkg", "1.0"]]
+    assert list(work.iterdir()) == []
+    assert list((tmp_path / "xdg" / "odsuite").glob("installed-*.json"))
