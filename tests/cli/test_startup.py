@@ -61,8 +61,10 @@ def test_the_collector_is_off_while_the_program_loads_and_on_when_its_command_ru
 def test_info_imports_only_what_it_shows(tmp_path, capsys):
     """`info` on a processed project, once the installed entry points are cached: the same output
     as the run that filled the cache, and none of importlib.metadata (nor the email parser it
-    reads metadata with), the writer lock's socket, scipy, the model, the comparison, nor the
-    contracts of the DAQ backends, renderers and importers (registered by name)."""
+    reads metadata with), the writer lock's socket, scipy, the model, the comparison, the
+    contracts of the DAQ backends, renderers and importers (registered by name), nor the TOML
+    reader (a stored rig is JSON) and the rigid-body kinematics (the rig alone says which sensors
+    a body carries)."""
     import json
     import os
     import subprocess
@@ -74,7 +76,8 @@ def test_info_imports_only_what_it_shows(tmp_path, capsys):
     capsys.readouterr()
     not_needed = ("importlib.metadata", "email", "socket", "scipy", "odsuite.domain.model",
                   "odsuite.analysis.comparison", "matplotlib", "odsuite.contracts.daq",
-                  "odsuite.contracts.renderers", "odsuite.contracts.importers")
+                  "odsuite.contracts.renderers", "odsuite.contracts.importers", "tomllib",
+                  "odsuite.domain.rigidbody")
     code = ("import contextlib, io, json, sys; from odsuite.cli import main\n"
             "with contextlib.redirect_stdout(io.StringIO()) as out: code = main(['info', sys.argv[1]])\n"
             f"print(json.dumps([code, out.getvalue(), sorted(m for m in {not_needed!r} if m in sys.modules)]))")
