@@ -89,3 +89,14 @@ def test_info_imports_only_what_it_shows(tmp_path, capsys):
     assert first[0] == cached[0] == 0 and "model revisions" in cached[1] and cached[1] == first[1]
     assert "importlib.metadata" in first[2]  # the run that filled the cache read the metadata
     assert cached[2] == []
+    # as the odsuite program, info loads numpy with no BLAS worker thread (one spinning beside the
+    # command is CPU a shared machine takes from it): the process ends with its main thread alone
+    if os.path.isdir("/proc/self/task"):
+        program = ("import contextlib, io, os, sys; shown = sys.argv[2]; sys.argv = ['odsuite', 'info', sys.argv[1]]\n"
+                   "from odsuite.cli import main\n"
+                   "with contextlib.redirect_stdout(io.StringIO()) as out: code = main()\n"
+                   "print(code, len(os.listdir('/proc/self/task')), out.getvalue() == shown)")
+        env.pop("OPENBLAS_NUM_THREADS", None)
+        run = subprocess.run([sys.executable, "-c", program, str(p), cached[1]], capture_output=True, text=True,
+                             timeout=300, env=env, cwd=tmp_path)
+        assert run.stdout.split() == ["0", "1", "True"], run.stdout + run.stderr
