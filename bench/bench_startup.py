@@ -14,6 +14,14 @@ starts none (``odsuite.cli.app``), so one more row times the baseline with
 work alone. The interpreter is the one the script runs under and
 ``odsuite`` the one beside it: run with `.venv/bin/python bench/bench_startup.py [--runs N] [--check]`
 (``--check``: exit 1 when a command misses the target).
+
+Measured with ``--runs 7`` three times on two cores shared with other work (load 7.9-12.6),
+alternating with the code before ``info`` opened its file once and started no BLAS worker (wall /
+CPU ratios): ``--version`` 0.59-0.67x / 0.62-0.67x, ``plugins`` 0.63-0.73x / 0.70-0.71x, ``info
+P`` 1.43-1.55x / 1.48-1.55x (before: 1.59-1.73x / 1.50-1.70x); ``info P`` against the baseline with
+one BLAS thread 1.73-2.03x wall, 1.59-2.12x CPU. On a quiet machine the worker costs no wall time
+and ``info`` was 1.82x wall (load 0.4, ``--runs 5``, before these changes): its main thread's own
+work, not a wait, is what misses the target (docs/architecture.md, the start-up paragraph).
 """
 
 from __future__ import annotations
