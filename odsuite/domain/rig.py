@@ -263,7 +263,6 @@ class Rig:
         return min(moving, key=lambda b: float(np.linalg.norm(point - b.com))).name
 
 
-
 def body_sensors(rig: Rig, body: Body) -> tuple[Sensor, ...]:
     """The rig's sensors mounted on ``body``."""
     return tuple(s for s in rig.sensors if s.body == body.name)
