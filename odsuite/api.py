@@ -53,10 +53,10 @@ _WHERE: dict[str, str] = {
     "write_ctr": "odsuite.domain.systeminfo",
     # rigid-body kinematics (SI: m, rad; rig frame)
     "body_corners": "odsuite.domain.rigidbody",
-    "body_sensors": "odsuite.domain.rigidbody",
+    "body_sensors": "odsuite.domain.rig",
     "com_to_corner": "odsuite.domain.rigidbody",
     "COORDINATE_UNITS": "odsuite.domain.rigidbody",
-    "COORDINATES": "odsuite.domain.rigidbody",
+    "COORDINATES": "odsuite.domain.rig",
     "corner_to_com": "odsuite.domain.rigidbody",
     "CORNERS": "odsuite.domain.rigidbody",
     "plate_corners": "odsuite.domain.rigidbody",

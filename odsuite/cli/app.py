@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import copy
 import gc
+import os
 import signal
 import sys
 from pathlib import Path
@@ -29,6 +30,11 @@ if _AS_PROGRAM:
     # start-up makes objects that live as long as the program: collecting cycles among them is
     # wasted work (some 30 ms of CPU); on again, with them frozen, when the command runs
     gc.disable()
+    if sys.argv[1:2] in (["info"], ["history"], ["model"]):
+        # commands that read and summarise: numpy's OpenBLAS starts without worker threads (unless
+        # the user set a count), as a worker spins about 0.1 s of CPU once numpy loads, which a
+        # shared machine takes from the command itself
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import typer
 from rich.console import Console

@@ -25,8 +25,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from odsuite.domain.errors import ConfigError
-from odsuite.domain.rig import Body, Rig
-from odsuite.domain.rigidbody import body_sensors
+from odsuite.domain.rig import Body, Rig, body_sensors
 
 
 

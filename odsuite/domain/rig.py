@@ -13,7 +13,6 @@ import functools
 import math
 import os
 import stat
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -262,6 +261,11 @@ class Rig:
         if not moving:
             return None
         return min(moving, key=lambda b: float(np.linalg.norm(point - b.com))).name
+
+
+def body_sensors(rig: Rig, body: Body) -> tuple[Sensor, ...]:
+    """The rig's sensors mounted on ``body``."""
+    return tuple(s for s in rig.sensors if s.body == body.name)
 
 
 #: A sensor axis written with two decimals ([0.71, 0.71, 0]) is 0.4 % long; a length further from 1
@@ -713,6 +717,8 @@ def _springs(entries: Any, where0: str, moving: set[str], bodies: set[str]) -> t
 
 
 def load_rig(path: str | Path, sensor_types) -> Rig:
+    import tomllib  # here, not at the top: a stored rig is JSON, so reading a project needs no TOML
+
     path = Path(path)
     try:
         # non-blocking: opening a pipe must not wait for a writer (it is refused just after)

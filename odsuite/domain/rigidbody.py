@@ -29,7 +29,8 @@ import numpy as np
 
 from odsuite.domain.errors import ConfigError, DimensionError
 from odsuite.domain.rig import COORDINATES as COORDINATES  # the coordinates a body has, named here too
-from odsuite.domain.rig import Body, Plate, Rig, Sensor
+from odsuite.domain.rig import body_sensors as body_sensors  # a question to the rig, named here too
+from odsuite.domain.rig import Body, Plate, Rig
 
 #: SI units of the six generalized coordinates, in storage order.
 COORDINATE_UNITS = ("m", "m", "m", "rad", "rad", "rad")
@@ -219,11 +220,6 @@ def body_corners(body: Body, d_g: np.ndarray) -> np.ndarray:
         raise ConfigError(f"body {body.name!r} has no plate to draw")
     rest = plate_corners(body.plate)
     return body.com + transform_points(d_g, rest - body.com)
-
-
-def body_sensors(rig: Rig, body: Body) -> tuple[Sensor, ...]:
-    """The rig's sensors mounted on ``body``."""
-    return tuple(s for s in rig.sensors if s.body == body.name)
 
 
 def harmonic_motion(t: np.ndarray, amplitude: np.ndarray, frequency: np.ndarray,

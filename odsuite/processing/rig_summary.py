@@ -8,8 +8,7 @@ from typing import Any
 import numpy as np
 
 from odsuite.domain.errors import ConfigError
-from odsuite.domain.rig import Rig
-from odsuite.domain.rigidbody import body_sensors
+from odsuite.domain.rig import Rig, body_sensors
 from odsuite.contracts.solvers import choose_solver
 
 

@@ -40,7 +40,6 @@ from __future__ import annotations
 import functools
 import inspect
 import json
-import tomllib
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -81,6 +80,7 @@ from odsuite.store.project_format import (
     LIBVER,
     check_format,
     now,
+    open_checked,
 )
 from odsuite.store.project_migration import migrate_in_place, migrated_copy
 from odsuite.domain.rig import Rig, load_rig, rig_from_dict
@@ -301,13 +301,14 @@ class Project:
     rig: Rig | None  # None for projects created with --rig none
 
     def __init__(self, path: Path, mode: str, lock: IO[str] | None, read_path: Path | None = None,
-                 registries=None) -> None:
+                 registries=None, h5: h5py.File | None = None) -> None:
         self.path = path
         self._registries = registries
         self.mode = mode
         self._lock = lock
         self._read_path = read_path or path  # a private migrated copy for old versions in read mode
-        self._h5: h5py.File | None = open_h5(self._read_path, path)
+        # ``h5``: the file as ``open_checked`` left it open (each open walks the file)
+        self._h5: h5py.File | None = h5 if h5 is not None else open_h5(self._read_path, path)
         self._tx: h5py.File | None = None
         self._rig_cache: tuple[Rig | None] | None = None
 
@@ -387,9 +388,15 @@ class Project:
             if "rig" in f:
                 a = Attrs(f["rig"])
                 text, fmt = h5text.text(a["definition"]), h5text.text(a["definition_format"])
+                if fmt == "toml":  # only rigs stored before the JSON definitions: tomllib imported for them alone
+                    import tomllib
+
+                    decode, malformed = tomllib.loads, tomllib.TOMLDecodeError
+                else:
+                    decode, malformed = json.loads, json.JSONDecodeError
                 try:
-                    data = tomllib.loads(text) if fmt == "toml" else json.loads(text)
-                except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:
+                    data = decode(text)
+                except malformed as exc:
                     raise SchemaError(f"{self.path}: /rig definition is not valid {fmt}: {exc}") from None
                 source = h5text.text(a.get("source", ""))
                 data = migrations.rig_up_filled(data, text if fmt == "toml" else h5text.text(a.get("source_text", "")))
@@ -917,9 +924,15 @@ def open_project(path: str | Path, mode: str = "r", *, registries=None) -> Proje
     if mode not in ("r", "a"):
         raise ConfigError(f"{path}: open mode must be 'r' or 'a', got {mode!r}")
     if mode == "r":
-        version = check_format(path)
+        version, h5 = open_checked(path)
         if migrations.parse_version(version) >= migrations.parse_version(FORMAT_VERSION):
-            return Project(path, "r", None, registries=registries)
+            try:
+                return Project(path, "r", None, registries=registries, h5=h5)
+            except BaseException:
+                h5.close()
+                raise
+        if h5 is not None:
+            h5.close()
         tmp = migrated_copy(path, version)
         try:
             return Project(path, "r", None, read_path=tmp, registries=registries)

@@ -38,29 +38,45 @@ def _heap_text(f: h5py.File) -> bool:
 def check_format(path: Path) -> str:
     """Check that ``path`` is an odsuite project this version can read; returns its version
     (format 1.0.0 without reading its text: the migration checks it)."""
+    version, f = open_checked(path)
+    if f is not None:
+        f.close()
+    return version
+
+
+def open_checked(path: Path) -> tuple[str, h5py.File | None]:
+    """``check_format``'s checks and version, with the file left open for reading: each open walks
+    the file (``open_h5``), so a reader opens it once. None in place of the file for format 1.0.0,
+    which is read through a migrated copy (see ``odsuite.store.project_migration``)."""
     if not path.exists():
         raise ProjectFileError(f"{path}: no such project file")
     if not path.is_file():
         raise ProjectFileError(f"{path}: not a file")
     if not h5py.is_hdf5(path):
         raise NotAProjectError(f"{path}: not an HDF5 file, so not an odsuite project")
-    with open_h5(path, path) as f, reading(path, "root attributes"):  # opened once: each open walks the file
-        if _heap_text(f):
-            return HEAP_TEXT_VERSION  # read in a child process, see odsuite.store.project_migration
-        fmt = f.attrs.get("odsuite_format")
-        version = f.attrs.get("odsuite_format_version")
-    if fmt is None or h5text.text(fmt) != FORMAT_NAME:
-        raise NotAProjectError(
-            f"{path}: HDF5 file without the root attribute odsuite_format={FORMAT_NAME!r} "
-            f"(found {None if fmt is None else h5text.text(fmt)!r}); not an odsuite project"
-        )
-    if version is None:
-        raise SchemaError(f"{path}: root attribute odsuite_format_version is missing")
-    version = h5text.text(version)
-    have, ours = migrations.parse_version(version, str(path)), migrations.parse_version(FORMAT_VERSION)
-    if have[0] > ours[0]:
-        raise ProjectVersionError(
-            f"{path}: project format {version} is newer than the format this odsuite reads "
-            f"({FORMAT_VERSION}); upgrade odsuite"
-        )
-    return version
+    f = open_h5(path, path)
+    try:
+        with reading(path, "root attributes"):
+            if _heap_text(f):
+                f.close()
+                return HEAP_TEXT_VERSION, None
+            fmt = f.attrs.get("odsuite_format")
+            version = f.attrs.get("odsuite_format_version")
+        if fmt is None or h5text.text(fmt) != FORMAT_NAME:
+            raise NotAProjectError(
+                f"{path}: HDF5 file without the root attribute odsuite_format={FORMAT_NAME!r} "
+                f"(found {None if fmt is None else h5text.text(fmt)!r}); not an odsuite project"
+            )
+        if version is None:
+            raise SchemaError(f"{path}: root attribute odsuite_format_version is missing")
+        version = h5text.text(version)
+        have, ours = migrations.parse_version(version, str(path)), migrations.parse_version(FORMAT_VERSION)
+        if have[0] > ours[0]:
+            raise ProjectVersionError(
+                f"{path}: project format {version} is newer than the format this odsuite reads "
+                f"({FORMAT_VERSION}); upgrade odsuite"
+            )
+    except BaseException:
+        f.close()
+        raise
+    return version, f

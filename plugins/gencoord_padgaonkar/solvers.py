@@ -12,16 +12,10 @@ from collections.abc import Mapping
 import numpy as np
 
 from odsuite.api import ConfigError
-from odsuite.api import NINE_ROLES, Body, NineSensorSet, Rig
-from odsuite.api import (
-    COORDINATES,
-    Rigidity,
-    SolverResult,
-    body_sensors,
-    com_to_corner,
-    corner_to_com,
-    stack_signals,
-)
+from odsuite.api import COORDINATES, NINE_ROLES, Body, NineSensorSet, Rig, body_sensors
+
+# the kinematics (SolverResult, Rigidity, the transforms) are imported by the functions that solve:
+# choosing a solver (``suitability``, which `odsuite info` asks) needs the rig alone
 
 #: How far (m) a sensor may sit from its corner of the nine-sensor set.
 POSITION_TOLERANCE = 1e-3
@@ -59,6 +53,8 @@ def _nine_set(rig: Rig, body: Body) -> NineSensorSet:
 def _role_columns(rig: Rig, body: Body, nine: NineSensorSet,
                   signals: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
     """Signals of the nine roles along the body's +x, +y or +z axis, after checking the layout."""
+    from odsuite.api import stack_signals
+
     names = tuple(nine.sensors[r] for r in NINE_ROLES)
     where = f"rig {rig.name!r} body {body.name!r} nine_sensor_set"
     columns = stack_signals(signals, names, where)
@@ -116,6 +112,8 @@ class PadgaonkarNine:
 
     def solve(self, rig: Rig, body: Body, signals: Mapping[str, np.ndarray]) -> SolverResult:
         """Generalized coordinates at C and G from the nine sensors' processed signals."""
+        from odsuite.api import SolverResult, corner_to_com
+
         nine = _nine_set(rig, body)
         cols = _role_columns(rig, body, nine, signals)
         est = _estimates(cols, nine)
@@ -143,6 +141,8 @@ def rigidity_check(rig: Rig, body: Body, accelerations: Mapping[str, np.ndarray]
     The same combination works on displacements. A faulty or sign-flipped sensor shows on the axes
     whose pairs use it; the sensors used by exactly the flagged axes are named as suspects.
     """
+    from odsuite.api import Rigidity
+
     if not (isinstance(threshold, (int, float)) and threshold > 0):
         raise ConfigError(f"rigidity_check: threshold must be > 0, got {threshold!r}")
     nine = _nine_set(rig, body)
@@ -219,6 +219,8 @@ class LeastSquares:
 
     def solve(self, rig: Rig, body: Body, signals: Mapping[str, np.ndarray]) -> SolverResult:
         """Generalized coordinates at G (and C) from every signal of a sensor on ``body``."""
+        from odsuite.api import SolverResult, com_to_corner, stack_signals
+
         names = tuple(s.name for s in body_sensors(rig, body) if s.name in signals)
         k = len(body.dofs)
         if len(names) < k:

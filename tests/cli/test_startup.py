@@ -61,8 +61,10 @@ def test_the_collector_is_off_while_the_program_loads_and_on_when_its_command_ru
 def test_info_imports_only_what_it_shows(tmp_path, capsys):
     """`info` on a processed project, once the installed entry points are cached: the same output
     as the run that filled the cache, and none of importlib.metadata (nor the email parser it
-    reads metadata with), the writer lock's socket, scipy, the model, the comparison, nor the
-    contracts of the DAQ backends, renderers and importers (registered by name)."""
+    reads metadata with), the writer lock's socket, scipy, the model, the comparison, the
+    contracts of the DAQ backends, renderers and importers (registered by name), nor the TOML
+    reader (a stored rig is JSON) and the rigid-body kinematics (the rig alone says which sensors
+    a body carries)."""
     import json
     import os
     import subprocess
@@ -74,7 +76,8 @@ def test_info_imports_only_what_it_shows(tmp_path, capsys):
     capsys.readouterr()
     not_needed = ("importlib.metadata", "email", "socket", "scipy", "odsuite.domain.model",
                   "odsuite.analysis.comparison", "matplotlib", "odsuite.contracts.daq",
-                  "odsuite.contracts.renderers", "odsuite.contracts.importers")
+                  "odsuite.contracts.renderers", "odsuite.contracts.importers", "tomllib",
+                  "odsuite.domain.rigidbody")
     code = ("import contextlib, io, json, sys; from odsuite.cli import main\n"
             "with contextlib.redirect_stdout(io.StringIO()) as out: code = main(['info', sys.argv[1]])\n"
             f"print(json.dumps([code, out.getvalue(), sorted(m for m in {not_needed!r} if m in sys.modules)]))")
@@ -86,3 +89,14 @@ def test_info_imports_only_what_it_shows(tmp_path, capsys):
     assert first[0] == cached[0] == 0 and "model revisions" in cached[1] and cached[1] == first[1]
     assert "importlib.metadata" in first[2]  # the run that filled the cache read the metadata
     assert cached[2] == []
+    # as the odsuite program, info loads numpy with no BLAS worker thread (one spinning beside the
+    # command is CPU a shared machine takes from it): the process ends with its main thread alone
+    if os.path.isdir("/proc/self/task"):
+        program = ("import contextlib, io, os, sys; shown = sys.argv[2]; sys.argv = ['odsuite', 'info', sys.argv[1]]\n"
+                   "from odsuite.cli import main\n"
+                   "with contextlib.redirect_stdout(io.StringIO()) as out: code = main()\n"
+                   "print(code, len(os.listdir('/proc/self/task')), out.getvalue() == shown)")
+        env.pop("OPENBLAS_NUM_THREADS", None)
+        run = subprocess.run([sys.executable, "-c", program, str(p), cached[1]], capture_output=True, text=True,
+                             timeout=300, env=env, cwd=tmp_path)
+        assert run.stdout.split() == ["0", "1", "True"], run.stdout + run.stderr

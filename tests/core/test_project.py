@@ -211,6 +211,20 @@ def test_read_only_project_refuses_writes(tmp_path):
         p.add_experiment("e", np.zeros((2, 2)), sampling_rate=1.0, systeminfo=systeminfo(2), excitation=None)
 
 
+def test_a_reader_opens_and_walks_the_file_once(tmp_path, monkeypatch):
+    """Each open walks every object of the file (``refuse_outside``): a reader checks the format on
+    the file it then reads, instead of opening it again (a writer still checks before its lock)."""
+    from odsuite.store import h5damage
+
+    with create_project(tmp_path / "p.h5", rig=None) as p:
+        p.add_experiment("e", np.ones((4, 2)), sampling_rate=1.0, systeminfo=systeminfo(2), excitation=None)
+    walked = []
+    monkeypatch.setattr(h5damage, "refuse_outside", lambda f, where: walked.append(f.filename))
+    with open_project(tmp_path / "p.h5") as p:
+        assert p.experiment("e").raw().sum() == 8.0
+    assert walked == [str(tmp_path / "p.h5")]
+
+
 def test_model_revisions(tmp_path, thesis_rig):
     with create_project(tmp_path / "p.h5", rig=thesis_rig) as p:
         (r0,) = p.model_revisions()
