@@ -28,6 +28,7 @@ from odsuite.analysis.modal import (
     Unresolved,
     edge_dropped,
     half_power_band,
+    mac,
     normalise_shapes,
     physical_poles,
     select_poles,
@@ -132,18 +133,15 @@ SEPARATION_SIGMAS = 2.0
 
 
 def _segment_scatter(y: np.ndarray, fs: float, poles: np.ndarray, band: tuple[float, float],
-                     max_order: int, block_rows: int | None = None
-                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[int, np.ndarray]]]:
+                     max_order: int, block_rows: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per pole: standard errors of frequency (Hz) and damping ratio from the scatter of its
-    matched poles over ``SEGMENTS`` segments (sample std / sqrt(segments)), the number of
-    segments that hold it (a one-to-one match within ``MATCH_TOL``) and its matched shape in each
-    of those segments (segment index: shape)."""
+    matched poles over ``SEGMENTS`` segments (sample std / sqrt(segments)), and the number of
+    segments that hold it (a one-to-one match within ``MATCH_TOL``)."""
     from scipy.optimize import linear_sum_assignment
 
     f0 = np.abs(poles) / (2 * np.pi)
     found_f = [[] for _ in poles]
     found_z = [[] for _ in poles]
-    found_phi: list[dict[int, np.ndarray]] = [{} for _ in poles]
     n = y.shape[0] // SEGMENTS
     for k in range(SEGMENTS):
         try:
@@ -154,21 +152,18 @@ def _segment_scatter(y: np.ndarray, fs: float, poles: np.ndarray, band: tuple[fl
         seg, orders = select_poles(diagram)
         if seg.size == 0:
             continue
-        phi = _pole_shapes(diagram, shapes, seg)
-        one = _one_per_mode(seg, phi, orders)  # as the whole record's
-        seg, phi = seg[one], phi[:, one]
+        seg = seg[_one_per_mode(seg, _pole_shapes(diagram, shapes, seg), orders)]  # as the whole record's
         fs_seg = np.abs(seg) / (2 * np.pi)
         cost = np.abs(fs_seg[None, :] - f0[:, None]) / f0[:, None]
         for r, c in zip(*linear_sum_assignment(cost)):
             if cost[r, c] <= MATCH_TOL:
                 found_f[r].append(fs_seg[c])
                 found_z[r].append(-seg[c].real / abs(seg[c]))
-                found_phi[r][k] = phi[:, c]
     count = np.array([len(v) for v in found_f])
     with np.errstate(invalid="ignore"):
         f_std = np.array([np.std(v, ddof=1) / np.sqrt(len(v)) if len(v) > 1 else np.inf for v in found_f])
         z_std = np.array([np.std(v, ddof=1) / np.sqrt(len(v)) if len(v) > 1 else np.inf for v in found_z])
-    return f_std, z_std, count, found_phi
+    return f_std, z_std, count
 
 
 #: neighbouring poles whose shapes agree this well (MAC) and whose frequencies lie within each
@@ -197,8 +192,6 @@ def _pole_shapes(diagram: StabilisationDiagram, shapes: list[np.ndarray], poles:
 def _one_per_mode(poles: np.ndarray, phi: np.ndarray, stable_orders: np.ndarray) -> np.ndarray:
     """Which poles stay when neighbours that are one mode (``SAME_MODE_MAC``) are merged: of
     those, the pole stable over more model orders."""
-    from odsuite.analysis.modal import mac
-
     keep: list[int] = []
     lo, hi = half_power_band(poles)
     f = np.abs(poles) / (2 * np.pi)
@@ -315,15 +308,14 @@ def record_peaks(y: np.ndarray, fs: float, lo: float = 0.0, hi: float | None = N
         level = P[idx, c] / max(float(np.median(P[:, c])), np.finfo(float).tiny)
         for i, v in zip(idx, level):
             above = np.flatnonzero(smooth[i:, c] < P[i, c] / 2)  # a narrow line's average is below at once
-            found.append((freq[i], freq[i + above[0]] if above.size else freq[-1], v))
+            edge = freq[i + above[0]] if above.size else freq[-1]
+            found.append((freq[i], max(edge, freq[i] * (1 + WIDTH_SMOOTHING)), v))  # no finer than the average
     found.sort()
     peaks: list[tuple[float, float, float]] = []  # (frequency, upper edge, level) per resonance
     for f, b, level in found:
-        if peaks and (f <= peaks[-1][1]):
-            if level > peaks[-1][2]:
-                peaks[-1] = (f, max(b, peaks[-1][1]), level)
-            else:
-                peaks[-1] = (peaks[-1][0], max(b, peaks[-1][1]), peaks[-1][2])
+        if peaks and f <= peaks[-1][1]:
+            g, edge, top = peaks[-1]
+            peaks[-1] = (f if level > top else g, max(b, edge), max(level, top))
         else:
             peaks.append((f, b, level))
     return np.array([p[0] for p in peaks])
@@ -490,7 +482,7 @@ def _identify(y, fs, f_band, max_order, block_rows, decimation, output_names, cr
     phi = _pole_shapes(diagram, shapes, poles)
     one = _one_per_mode(poles, phi, stable_orders)
     poles, phi, stable_orders = poles[one], phi[:, one], stable_orders[one]
-    f_std, z_std, count, seg_phi = _segment_scatter(y, fs, poles, (lo, hi), max_order, settings.block_rows)
+    f_std, z_std, count = _segment_scatter(y, fs, poles, (lo, hi), max_order, settings.block_rows)
     ok, reasons = _resolved(poles, f_std, count)
     if not ok.any():
         found = "; ".join(f"{abs(p) / (2 * np.pi):.4g} Hz {reasons[r]}" for r, p in enumerate(poles))
