@@ -28,6 +28,7 @@ from odsuite.analysis.modal import (
     Unresolved,
     edge_dropped,
     half_power_band,
+    mac,
     normalise_shapes,
     physical_poles,
     select_poles,
@@ -144,13 +145,14 @@ def _segment_scatter(y: np.ndarray, fs: float, poles: np.ndarray, band: tuple[fl
     n = y.shape[0] // SEGMENTS
     for k in range(SEGMENTS):
         try:
-            diagram, _ = ssi_cov(y[k * n:(k + 1) * n], fs, max_order=max_order, block_rows=block_rows,
-                                 f_band=band)
+            diagram, shapes = ssi_cov(y[k * n:(k + 1) * n], fs, max_order=max_order, block_rows=block_rows,
+                                      f_band=band)
         except DimensionError:
             break  # segments too short to identify anything: no scatter
-        seg, _ = select_poles(diagram)
+        seg, orders = select_poles(diagram)
         if seg.size == 0:
             continue
+        seg = seg[_one_per_mode(seg, _pole_shapes(diagram, shapes, seg), orders)]  # as the whole record's
         fs_seg = np.abs(seg) / (2 * np.pi)
         cost = np.abs(fs_seg[None, :] - f0[:, None]) / f0[:, None]
         for r, c in zip(*linear_sum_assignment(cost)):
@@ -162,6 +164,45 @@ def _segment_scatter(y: np.ndarray, fs: float, poles: np.ndarray, band: tuple[fl
         f_std = np.array([np.std(v, ddof=1) / np.sqrt(len(v)) if len(v) > 1 else np.inf for v in found_f])
         z_std = np.array([np.std(v, ddof=1) / np.sqrt(len(v)) if len(v) > 1 else np.inf for v in found_z])
     return f_std, z_std, count
+
+
+#: neighbouring poles whose shapes agree this well (MAC) and whose frequencies lie within each
+#: other's half-power band are one mode: a heavily damped pole's estimates spread over several
+#: orders' worth of frequency and the clusters can split it (the thesis rig's 16 %-damped 227 Hz
+#: mode as 227.0 and 228.3 Hz, MAC 1.00), while two close modes have distinct shapes (its 97.4 and
+#: 98.3 Hz pair: MAC 0.33)
+SAME_MODE_MAC = 0.9
+
+
+def _pole_shapes(diagram: StabilisationDiagram, shapes: list[np.ndarray], poles: np.ndarray) -> np.ndarray:
+    """Each selected pole's shape (outputs x poles) from the highest order where a stable pole lies
+    within 0.5 % (select_poles' cluster width): an unstable one there is often a numerical pole
+    beside the mode, its shape a mixture."""
+    phi = np.empty((shapes[0].shape[0], poles.size), dtype=complex)
+    for r, p in enumerate(poles):
+        for k in range(len(diagram.orders) - 1, -1, -1):
+            stable = np.flatnonzero(diagram.stable[k])
+            cand = diagram.poles[k][stable]
+            if cand.size and np.min(np.abs(np.abs(cand) - abs(p))) <= 0.005 * abs(p):
+                phi[:, r] = shapes[k][:, stable[int(np.argmin(np.abs(np.abs(cand) - abs(p))))]]
+                break
+    return phi
+
+
+def _one_per_mode(poles: np.ndarray, phi: np.ndarray, stable_orders: np.ndarray) -> np.ndarray:
+    """Which poles stay when neighbours that are one mode (``SAME_MODE_MAC``) are merged: of
+    those, the pole stable over more model orders."""
+    keep: list[int] = []
+    lo, hi = half_power_band(poles)
+    f = np.abs(poles) / (2 * np.pi)
+    for r in range(poles.size):
+        q = keep[-1] if keep else None
+        if q is not None and f[r] <= hi[q] and f[q] >= lo[r] and mac(phi[:, [r]], phi[:, [q]])[0, 0] >= SAME_MODE_MAC:
+            if stable_orders[r] > stable_orders[q]:
+                keep[-1] = r
+            continue
+        keep.append(r)
+    return np.array(keep, dtype=int)
 
 
 def _resolved(poles: np.ndarray, f_std: np.ndarray, count: np.ndarray) -> tuple[np.ndarray, list[str]]:
@@ -236,18 +277,48 @@ class OmaSettings:
                 + (f"; {self.note}" if self.note else ""))
 
 
+#: peaks' half-power widths are measured on the spectrum averaged over this relative bandwidth
+#: either side of each line (a 1 %-damped peak, 2 % wide, is widened by about a third)
+WIDTH_SMOOTHING = 0.005
+
+
 def record_peaks(y: np.ndarray, fs: float, lo: float = 0.0, hi: float | None = None) -> np.ndarray:
-    """Frequencies (Hz) of the peaks of the channels' summed spectra (each channel divided by its
-    median level, so every channel counts) that stand ``fdd.PEAK_PROMINENCE`` above their
-    surroundings, within lo..hi; Welch with at least 31 half-overlapping segments."""
+    """Frequencies (Hz) of the record's resonance peaks within lo..hi: each channel's own spectrum's
+    peaks that stand ``fdd.PEAK_PROMINENCE`` above their surroundings (Welch with at least 31
+    half-overlapping segments), pooled over channels; peaks of different channels inside one
+    another's half-power width are one resonance, at its strongest channel's peak. Per channel, not
+    summed: a mode that moves only some channels (a heave among rocking modes) would stand less
+    than the prominence above a sum that the other channels dominate."""
     n = y.shape[0]
     nperseg = int(2 ** np.clip(np.floor(np.log2(n / 16)), 8, 16))
     if nperseg > n:
         return np.array([])
     freq, P = scipy.signal.welch(y, fs, nperseg=nperseg, axis=0)
-    level = np.sum(P / np.maximum(np.median(P, axis=0), np.finfo(float).tiny), axis=1)
-    idx = spectral_peaks(freq, level, (max(lo, 2 * freq[1]), fs / 2 if hi is None else hi))
-    return freq[idx]
+    band = (max(lo, 2 * freq[1]), fs / 2 if hi is None else hi)
+    # a peak's upper half-power edge: where the spectrum averaged over +-WIDTH_SMOOTHING of each
+    # line's frequency falls below half the peak (the raw lines scatter by a quarter, so a heavily
+    # damped hump's noisy top would halve within a few lines)
+    cum = np.vstack([np.zeros(P.shape[1]), np.cumsum(P, axis=0)])
+    left = np.searchsorted(freq, freq * (1 - WIDTH_SMOOTHING))
+    right = np.maximum(np.searchsorted(freq, freq * (1 + WIDTH_SMOOTHING), side="right"), left + 1)
+    smooth = (cum[right] - cum[left]) / (right - left)[:, None]
+    found = []  # (frequency, upper half-power edge, height above the channel's median)
+    for c in range(P.shape[1]):
+        idx = spectral_peaks(freq, P[:, c], band)
+        level = P[idx, c] / max(float(np.median(P[:, c])), np.finfo(float).tiny)
+        for i, v in zip(idx, level):
+            above = np.flatnonzero(smooth[i:, c] < P[i, c] / 2)  # a narrow line's average is below at once
+            edge = freq[i + above[0]] if above.size else freq[-1]
+            found.append((freq[i], max(edge, freq[i] * (1 + WIDTH_SMOOTHING)), v))  # no finer than the average
+    found.sort()
+    peaks: list[tuple[float, float, float]] = []  # (frequency, upper edge, level) per resonance
+    for f, b, level in found:
+        if peaks and f <= peaks[-1][1]:
+            g, edge, top = peaks[-1]
+            peaks[-1] = (f if level > top else g, max(b, edge), max(level, top))
+        else:
+            peaks.append((f, b, level))
+    return np.array([p[0] for p in peaks])
 
 
 def choose_settings(y: np.ndarray, fs: float, *, f_band: tuple[float | None, float | None] | None = None,
@@ -408,16 +479,9 @@ def _identify(y, fs, f_band, max_order, block_rows, decimation, output_names, cr
     if poles.size == 0:
         raise ConfigError(f"no pole in {lo:.3g}..{hi:.3g} Hz is stable over enough model orders (2..{max_order}) "
                           f"with {settings.describe()}{_edge_advice(dropped, lo, hi, fs_raw)}: {advice}")
-    phi = np.empty((shapes[0].shape[0], poles.size), dtype=complex)
-    for r, p in enumerate(poles):
-        # highest order where a stable pole lies within 0.5 % (select_poles' cluster width): an
-        # unstable one there is often a numerical pole beside the mode, its shape a mixture
-        for k in range(len(diagram.orders) - 1, -1, -1):
-            stable = np.flatnonzero(diagram.stable[k])
-            cand = diagram.poles[k][stable]
-            if cand.size and np.min(np.abs(np.abs(cand) - abs(p))) <= 0.005 * abs(p):
-                phi[:, r] = shapes[k][:, stable[int(np.argmin(np.abs(np.abs(cand) - abs(p))))]]
-                break
+    phi = _pole_shapes(diagram, shapes, poles)
+    one = _one_per_mode(poles, phi, stable_orders)
+    poles, phi, stable_orders = poles[one], phi[:, one], stable_orders[one]
     f_std, z_std, count = _segment_scatter(y, fs, poles, (lo, hi), max_order, settings.block_rows)
     ok, reasons = _resolved(poles, f_std, count)
     if not ok.any():
