@@ -673,6 +673,8 @@ def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, m
     driving point, with the model's (``model_for(experiment)``) and its modes dotted; its
     stabilisation diagram; and the MAC matrix of its measured modes against the model's, beside
     the modal table."""
+    from .modal_figures import frf_drawn
+
     by_name = {e.name: e for e in exps}
     parts = []
     for rec in records:
@@ -699,8 +701,10 @@ def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, m
               dpi=FIGURE_DPI, model_H=model_H)
         band = ("over the whole record's band (no usable band found)" if rec.band_hz is None else
                 f"over the band the modes are fitted in, {rec.band_hz[0]:.0f}-{rec.band_hz[1]:.0f} Hz")
+        drawn = frf_drawn(rec.frf, chosen)[2]  # where the record determines it, said as the figure says it
         figs = [_img(tmp / f"frf-{tag}.png", f"{rec.experiment}: FRF of the {what} to the hammer force "
-                     f"(magnitude on log-log axes, phase where the coherence is good, coherence) {band}; "
+                     f"(magnitude on log-log axes, phase where the coherence is good, coherence) {band}"
+                     + (f", {drawn}" if drawn else "") + "; "
                      + ("black dashed: the model's FRF; " if model_H else "") + "dotted: model modes")]
         if rec.mac is not None:
             _draw(project, "mac", rec.experiment, tmp / f"mac-{tag}.png", mac=rec.mac,

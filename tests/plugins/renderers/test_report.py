@@ -371,12 +371,14 @@ def test_report_draws_each_records_frf_and_mac(story, tmp_path, monkeypatch):
         assert [ax.get_xscale() for ax in (mag, phase, coh)] == ["log"] * 3 and mag.get_yscale() == "log"
         assert mag.get_ylabel() == "|H| [(m/s²)/N]" and coh.get_xlabel() == "frequency [Hz]"
         assert phase.get_ylabel() == "phase [°]"
-        # the magnitude drawn is |H| of that channel, the FRF compare identified the modes from
+        # the magnitude drawn is |H| of that channel, the FRF compare identified the modes from,
+        # with each record's straight line (offset, drift) removed, from 3 cycles per record up
         k = rec.frf.output_names.index(nearest[rec.experiment])
         f = rec.frf.frequency
         lo, hi = rec.band_hz or (0.0, np.inf)
-        pos = (f > 0) & (f >= lo) & (f <= hi)  # the fit band, not the noise above it
-        assert np.allclose(mag.lines[0].get_ydata(), np.abs(rec.frf.H[k, pos]))
+        pos = (f >= f[3]) & (f >= lo) & (f <= hi)  # the fit band, not the noise above it
+        assert np.allclose(mag.lines[0].get_ydata(), np.abs(rec.frf.H[k, pos] - rec.frf.trend[k, pos]))
+        assert "straight line (offset, drift) removed" in mag.get_title().replace("\n", " ")
         assert lo <= mag.get_xlim()[0] and mag.get_xlim()[1] <= hi
         assert fig.get_figwidth() <= PRINT_WIDTH_IN
         assert min(t.get_fontsize() for t in _visible_texts(fig)) >= SMALLEST_TYPE_PT
