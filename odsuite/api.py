@@ -116,6 +116,8 @@ _WHERE: dict[str, str] = {
     "history": "odsuite.analysis.history",
     # FRFs, modes and operating shapes
     "estimate_frf": "odsuite.analysis.frf",
+    "TREND_FREE_LINE": "odsuite.analysis.frf",
+    "TREND_SHARE": "odsuite.analysis.frf",
     "assess_hits": "odsuite.analysis.hammer",
     "pair_modes": "odsuite.analysis.modal",
     "PAIR_TOLERANCE": "odsuite.analysis.modal_comparison",

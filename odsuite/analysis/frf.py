@@ -17,6 +17,12 @@ from odsuite.domain.errors import ConfigError, DimensionError
 ESTIMATORS = ("H1", "H2", "Hv")
 #: power of (i omega) that turns a receptance (displacement/force) into each FRF form
 FORM_POWER = {"receptance": 0, "mobility": 1, "accelerance": 2}
+#: an FRF line counts as determined by the record where the records' straight-line trends leak
+#: at most this share of its magnitude into it (see ``FrfSet.trend``)
+TREND_SHARE = 1 / 3
+#: with the records' straight lines removed, the first line kept: a sine of k cycles in the record
+#: correlates 0.78/k with a straight line, so from 3 cycles on the removal takes below TREND_SHARE
+TREND_FREE_LINE = 3
 
 
 @dataclass(frozen=True)
@@ -31,6 +37,34 @@ class FrfSet:
     output_names: list[str]
     n_averages: int
     force_autospectrum: np.ndarray | None = None  # |F|^2 per hit, averaged (N^2); None when unknown
+    #: the part of H the acceleration records' least-squares straight lines make (outputs x f; 0 for
+    #: other responses): a structure back at rest where it started has acceleration integrating to
+    #: zero velocity and displacement change, so no straight-line part, and an offset or a drift of
+    #: the sensor leaks through a record that does not end where it began as 1/f into the lowest
+    #: lines; None when unknown
+    trend: np.ndarray | None = None
+
+    def detrended(self) -> FrfSet:
+        """H1 of the records with their straight lines removed: ``H - trend`` (H1 is linear in the
+        response). Determined from line ``TREND_FREE_LINE`` up; the coherence is the estimate's."""
+        if self.trend is None or self.estimator != "H1":
+            raise ConfigError(f"{self.estimator} FRFs: the straight-line trend is known only for H1 with its records")
+        return FrfSet(self.frequency, self.H - self.trend, self.coherence, self.estimator, self.units,
+                      self.output_names, self.n_averages, self.force_autospectrum, np.zeros_like(self.trend))
+
+    def determined_from(self, outputs: Sequence[str] | None = None, runs: int = 3) -> float:
+        """The lowest frequency (Hz) from which the trend leaks at most ``TREND_SHARE`` of |H| into
+        ``runs`` lines in a row, for every one of ``outputs`` (default all): below it the lowest
+        lines show the drift, not the structure. The first line above 0 Hz when the trend is unknown."""
+        pos = np.flatnonzero(self.frequency > 0)
+        if self.trend is None or not pos.size:
+            return float(self.frequency[pos[0]]) if pos.size else 0.0
+        rows = [self.output_names.index(n) for n in (outputs if outputs is not None else self.output_names)]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ok = np.all(np.abs(self.trend[rows][:, pos]) <= TREND_SHARE * np.abs(self.H[rows][:, pos]), axis=0)
+        run = np.convolve(ok.astype(int), np.ones(runs, int), mode="valid") == runs
+        first = int(np.argmax(run)) if run.any() else pos.size - 1
+        return float(self.frequency[pos[first]])
 
     def band(self, f_low: float, f_high: float) -> FrfSet:
         """The lines with f_low <= f <= f_high."""
@@ -38,9 +72,10 @@ class FrfSet:
         if keep.sum() < 2:
             raise ConfigError(f"band {f_low}..{f_high} Hz holds fewer than 2 frequency lines")
         gff = None if self.force_autospectrum is None else self.force_autospectrum[keep]
+        trend = None if self.trend is None else self.trend[:, keep]
         return FrfSet(
             self.frequency[keep], self.H[:, keep], self.coherence[:, keep], self.estimator,
-            self.units, self.output_names, self.n_averages, gff,
+            self.units, self.output_names, self.n_averages, gff, trend,
         )
 
 
@@ -76,6 +111,26 @@ def spectra(
     return np.asarray(gff), np.asarray(gxx), np.asarray(gfx), np.asarray(len(forces))
 
 
+def _trend_cross(forces: Sequence[np.ndarray], responses: Sequence[np.ndarray], window: np.ndarray | None,
+                 acceleration: np.ndarray) -> np.ndarray:
+    """sum conj(F) T over hits (o x f), T the spectrum of each acceleration record's least-squares
+    straight line (windowed like the record); 0 for the other responses."""
+    total = 0.0
+    for f, x in zip(forces, responses, strict=True):
+        x = np.asarray(x, dtype=float)
+        x = x[:, None] if x.ndim == 1 else x
+        t = np.linspace(-1.0, 1.0, x.shape[0])
+        basis = np.column_stack([np.ones_like(t), t])
+        line = basis @ np.linalg.lstsq(basis, x, rcond=None)[0] * acceleration[None, :]
+        f = np.asarray(f, dtype=float)
+        if window is not None:
+            w = np.asarray(window, dtype=float)
+            wf, wx = (w, w[:, None]) if w.ndim == 1 else (w[:, 0], w[:, 1:])
+            f, line = f * wf, line * wx
+        total = total + np.conj(np.fft.rfft(f)) * np.fft.rfft(line, axis=0).T
+    return np.asarray(total)
+
+
 def estimate_frf(
     forces: Sequence[np.ndarray],
     responses: Sequence[np.ndarray],
@@ -108,6 +163,10 @@ def estimate_frf(
     coh = np.where(np.isfinite(coh), coh, 0)
     n_out = gxx.shape[0]
     runits = list(response_units) if response_units is not None else ["m/s^2"] * n_out
+    acceleration = np.array([u == "m/s^2" for u in runits], dtype=float) if len(runits) == n_out else None
+    trend = None
+    if acceleration is not None and acceleration.any():
+        trend = _trend_cross(forces, responses, window, acceleration) / np.maximum(gff, tiny)
     names = list(output_names) if output_names is not None else [f"response {k}" for k in range(n_out)]
     if len(runits) != n_out or len(names) != n_out:
         raise DimensionError(f"{n_out} responses but {len(runits)} units and {len(names)} names")
@@ -120,6 +179,7 @@ def estimate_frf(
         output_names=names,
         n_averages=int(count),
         force_autospectrum=gff / count,
+        trend=trend,
     )
 
 

@@ -287,6 +287,11 @@ class Systeminfo:
     def n_channels(self) -> int:
         return len(self.channels)
 
+    def with_rate(self, sampling_rate: float) -> Systeminfo:
+        """This Systeminfo with every channel whose row 7 is unset (0 Hz) at ``sampling_rate``."""
+        return replace(self, channels=[ch if ch.sampling_rate else replace(ch, sampling_rate=float(sampling_rate))
+                                       for ch in self.channels])
+
     def validate(self, *, n_samples: int | None = None, source: str | Path = "systeminfo") -> None:
         """Raise a one-line ConfigError naming ``source``, row, channel and value of the first
         invalid setting. ``n_samples`` (record length) enables the offset-window check."""

@@ -205,7 +205,9 @@ class Experiment:
                                          h5text.text(a["force_body"]) if "force_body" in a else None)
         check_experiment(project.path, name, sampling_rate=self.sampling_rate, pretrigger=self.pretrigger,
                          channel_names=self.channel_names, shape=g["raw"].shape, excitation=self.excitation)
-        self.systeminfo = read_systeminfo(g["systeminfo"])
+        # every format version keeps the record's rate on the experiment; a Systeminfo written
+        # without one (row 7 left at 0 Hz, as API callers could) takes it from there
+        self.systeminfo = read_systeminfo(g["systeminfo"]).with_rate(self.sampling_rate)
 
     def _group(self) -> h5py.Group:
         return self._project._file()["experiments"][self.name]

@@ -109,9 +109,10 @@ def frf_figure(frf, path: str | Path, *, band_hz: tuple[float, float] | None = N
     if missing:
         raise ConfigError(f"FRF figure: no output {missing[0]!r}; outputs are {', '.join(frf.output_names)}")
     path = Path(path)
+    frf, lowest, drawn = frf_drawn(frf, names)
     fig = _new_figure(path, size)
     mag, phase, coh = fig.subplots(3, 1, sharex=True, height_ratios=(3, 1.5, 1))
-    pos = frf.frequency > 0
+    pos = frf.frequency >= lowest
     if f_range is not None:
         pos &= (frf.frequency >= f_range[0]) & (frf.frequency <= f_range[1])
         if pos.sum() < 2:
@@ -155,11 +156,33 @@ def frf_figure(frf, path: str | Path, *, band_hz: tuple[float, float] | None = N
                  ha="center", va="center", fontsize=9, color="0.3")
     coh.set_xlabel("frequency [Hz]")
     shaded = "" if band_hz is None else f"; shaded: fit band {band_hz[0]:.0f}-{band_hz[1]:.0f} Hz"
-    shaded += f"; phase only where coherence ≥ {COHERENCE_GOOD:g}"
+    shaded += f"; phase only where coherence ≥ {COHERENCE_GOOD:g}" + (f"; {drawn}" if drawn else "")
     hits = f"{frf.n_averages} hit" + ("s averaged" if frf.n_averages > 1 else "")
     mag.set_title(textwrap.fill(f"{title}: {frf.estimator} estimator, {hits}{shaded}", int(7 * size[0])),
                   fontsize=10)  # about 7 characters per inch at 10 pt
     return _save(fig, path, dpi)
+
+
+def frf_drawn(frf, names: Sequence[str]) -> tuple[object, float, str]:
+    """The FRFs to draw, the lowest frequency (Hz) the records determine and the words saying so.
+
+    An offset or a drift of an accelerometer, through a record that does not end where it began,
+    leaks as 1/f into the lowest lines (``FrfSet.trend``: a hammer record's single-hit H1 rose to
+    0.1 (m/s²)/N at 0.5 Hz on a 47 kg body from a drift of 0.009 m/s² per second). H1 is drawn with
+    the records' straight lines removed, from ``TREND_FREE_LINE`` cycles per record up; another
+    estimate from where the trend leaks at most ``TREND_SHARE`` of |H|."""
+    from odsuite.api import TREND_FREE_LINE, TREND_SHARE
+
+    f = frf.frequency[frf.frequency > 0]
+    if not f.size or frf.trend is None or not np.any(frf.trend):
+        return frf, float(f[0]) if f.size else 0.0, ""
+    if frf.estimator == "H1" and f.size > TREND_FREE_LINE:
+        lowest = float(f[TREND_FREE_LINE - 1])
+        return frf.detrended(), lowest, (f"each record's straight line (offset, drift) removed, drawn from "
+                                         f"{TREND_FREE_LINE} cycles per record ({lowest:.3g} Hz) up")
+    lowest = frf.determined_from(names)
+    return frf, lowest, (f"drawn from {lowest:.3g} Hz: below it the records' offset and drift make more "
+                         f"than {100 * TREND_SHARE:.0f} % of |H|")
 
 
 def _phase_degrees(h: np.ndarray, centre: float) -> np.ndarray:

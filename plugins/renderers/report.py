@@ -3,8 +3,9 @@ model per generalized coordinate and per channel, where the model fails, the can
 the error across revisions, a movie of one experiment with the model's motion overlaid and an
 interactive 3-D view of that motion.
 
-Figures are embedded as base64 PNG, the movie as a base64 MP4 in ``<video>`` with a GIF of the same
-frames as fallback, and the 3-D view as a canvas with an inline script: the page needs no network.
+Figures are embedded as base64 256-colour PNG, the movie as a base64 MP4 in ``<video>`` (a GIF where
+no H.264 encoder is at hand), and the 3-D view as a canvas with an inline script: the page needs no
+network.
 Every number shown comes from ``compare``, ``diagnose`` and ``history`` unchanged.
 """
 
@@ -36,8 +37,8 @@ FIGURE_DPI = 90
 #: Modal figures are drawn at the width of a printed A4/Letter text column (inches), so their type
 #: sizes are the printed ones.
 PRINT_WIDTH_IN = 6.5
-#: The page should stay below this size; beyond it a note says what made it large.
-SIZE_BUDGET = 10 * 1024 * 1024
+#: The page should stay below this size (a mail attachment); beyond it a note says what made it large.
+SIZE_BUDGET = 4 * 1024 * 1024
 #: a diagnosis document (``diagnose --json``) is a few kB; more is no diagnosis (bytes)
 DIAGNOSIS_BYTES = 16 * 2**20
 
@@ -70,8 +71,21 @@ def _data_uri(path: Path, mime: str) -> str:
     return f"data:{mime};base64,{base64.b64encode(path.read_bytes()).decode('ascii')}"
 
 
+def _palette_png(path: Path) -> Path:
+    """``path`` rewritten as a 256-colour PNG, a third of the bytes of matplotlib's RGBA one: its
+    antialiased lines and colour bars need no more colours; median cut keeps white white and moves
+    a pixel by 0.3/255 on average (no dithering: no speckle around the lines)."""
+    from PIL import Image
+
+    with Image.open(path) as im:
+        rgb = im.convert("RGB")
+    rgb.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(path)
+    return path
+
+
 def _img(path: Path, alt: str) -> str:
-    return f'<figure><img src="{_data_uri(path, "image/png")}" alt="{_esc(alt)}"><figcaption>{_esc(alt)}</figcaption></figure>'
+    return (f'<figure><img src="{_data_uri(_palette_png(path), "image/png")}" alt="{_esc(alt)}">'
+            f'<figcaption>{_esc(alt)}</figcaption></figure>')
 
 
 def _table(header: Sequence[str], rows: Sequence[Sequence[Any]], *, id: str | None = None, caption: str = "",
@@ -263,7 +277,7 @@ def build_report(
     ``diagnosis``: a stored ``odsuite diagnose --json`` document (file or mapping) to show; without
     it the page shows the diagnosis ``odsuite diagnose`` kept with the current revision for the
     records as they are, else the diagnosis runs now unless ``run_diagnosis`` is False. ``movie``:
-    embed a GIF of ``movie_experiment`` (default: the experiment the model fits worst) with the
+    embed a movie of ``movie_experiment`` (default: the experiment the model fits worst) with the
     model overlaid. ``frf_channels``: the channels whose FRFs are drawn for each hammer record
     (default: the driving point: the accelerometer nearest the force point, along the force).
     ``registries``: the providers to open the project with (None: the installed plugins').
@@ -659,6 +673,8 @@ def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, m
     driving point, with the model's (``model_for(experiment)``) and its modes dotted; its
     stabilisation diagram; and the MAC matrix of its measured modes against the model's, beside
     the modal table."""
+    from .modal_figures import frf_drawn
+
     by_name = {e.name: e for e in exps}
     parts = []
     for rec in records:
@@ -685,8 +701,10 @@ def _modal_figures(project, exps, records, frf_channels: Sequence[str] | None, m
               dpi=FIGURE_DPI, model_H=model_H)
         band = ("over the whole record's band (no usable band found)" if rec.band_hz is None else
                 f"over the band the modes are fitted in, {rec.band_hz[0]:.0f}-{rec.band_hz[1]:.0f} Hz")
+        drawn = frf_drawn(rec.frf, chosen)[2]  # where the record determines it, said as the figure says it
         figs = [_img(tmp / f"frf-{tag}.png", f"{rec.experiment}: FRF of the {what} to the hammer force "
-                     f"(magnitude on log-log axes, phase where the coherence is good, coherence) {band}; "
+                     f"(magnitude on log-log axes, phase where the coherence is good, coherence) {band}"
+                     + (f", {drawn}" if drawn else "") + "; "
                      + ("black dashed: the model's FRF; " if model_H else "") + "dotted: model modes")]
         if rec.mac is not None:
             _draw(project, "mac", rec.experiment, tmp / f"mac-{tag}.png", mac=rec.mac,
@@ -894,7 +912,7 @@ def _corrections_html(corrected) -> str:
 def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path, corrected=None, window=None,
                    fault=None) -> str:
     from .motion import magnification_words
-    from .movie import gif_from_mp4, mp4_available, render_movie
+    from .movie import mp4_available, render_movie
     from .scene import Hammer, Style
 
     if not series:
@@ -911,12 +929,13 @@ def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path, corrected=N
                        title=f"{exp.name}: measured (blue), " + ("corrected (green) " if corrected else "")
                        + "and model (orange band)", time_zero=exp.trigger / exp.fs,
                        style=Style(font_size=10, line_width=1.5, model_width=5.0))
-    gif = res.path if res.format == "gif" else gif_from_mp4(res.path, tmp / "movie.gif", MOVIE_FPS)
-    fallback = f'<img src="{_data_uri(gif, "image/gif")}" alt="movie of {_esc(exp.name)}">'
-    shown = (fallback if res.format == "gif" else
+    # no GIF copy inside <video>: a browser shows that fallback only when it has no <video> at all
+    shown = (f'<img src="{_data_uri(res.path, "image/gif")}" alt="movie of {_esc(exp.name)}">'
+             if res.format == "gif" else
              f'<video controls loop muted playsinline preload="auto" width="{MOVIE_SIZE[0]}" '
-             f'poster="{_data_uri(_poster(gif, tmp / "poster.png"), "image/png")}">'
-             f'<source src="{_data_uri(res.path, "video/mp4")}" type="video/mp4">{fallback}</video>')
+             f'poster="{_data_uri(_palette_png(_poster(res.path, res.n_frames, tmp / "poster.png")), "image/png")}">'
+             f'<source src="{_data_uri(res.path, "video/mp4")}" type="video/mp4">movie of {_esc(exp.name)} '
+             f'(MP4, H.264)</video>')
     return (f"<figure>{shown}<figcaption>{_esc(exp.name)}: measured motion (blue)"
             + (" and corrected motion (green)" if corrected else "") + " with the model's (orange band), "
             f"{res.n_frames} frames from {1e3 * (start - exp.trigger / exp.fs):+.1f} ms to "
@@ -926,14 +945,19 @@ def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path, corrected=N
             f"real time, {_esc(magnification_words(res.magnify))}.</figcaption></figure>")
 
 
-def _poster(gif: Path, path: Path) -> Path:
+def _poster(mp4: Path, n_frames: int, path: Path) -> Path:
     """A still of the movie (a frame a third of the way in, when the plates have moved) for the
     <video>'s poster: what a printed page and a player that has not started show."""
+    import imageio_ffmpeg
     from PIL import Image
 
-    with Image.open(gif) as im:
-        im.seek(im.n_frames // 3)
-        im.convert("RGB").save(path)
+    reader = imageio_ffmpeg.read_frames(str(mp4))
+    width, height = next(reader)["size"]
+    for k, frame in enumerate(reader):
+        if k == n_frames // 3:
+            Image.frombytes("RGB", (width, height), frame).save(path)
+            break
+    reader.close()
     return path
 
 

@@ -134,3 +134,35 @@ def test_figure_renderer_without_its_numbers_says_where_they_come_from(sim_proje
     assert capsys.readouterr().err.strip() == ("error: renderer 'frf' draws the numbers it is given (option 'frf'), "
                                                "not a stored experiment: use `odsuite frf --figure`")
     assert not out.exists()
+
+
+def test_frf_figure_draws_h1_without_the_records_straight_lines_from_three_cycles_up(tmp_path):
+    """A single hit on a 47 kg body on a 9.5 Hz suspension (scipy.signal.lsim) read by an
+    accelerometer drifting 0.009 m/s^2 per second: the figure draws H1 of the detrended records
+    (scipy.signal.detrend), from the line of 3 cycles per record (1.5 Hz) up, and its title says so;
+    without the records' trend known it draws from the first line, as before."""
+    import dataclasses
+
+    import scipy.signal
+
+    from odsuite.analysis.frf import estimate_frf
+    from odsuite_plugins.renderers.modal_figures import frf_figure
+
+    fs, n, m, fn, zeta = 2048.0, 4096, 47.0, 9.5, 0.05
+    k = m * (2 * np.pi * fn) ** 2
+    t = np.arange(n) / fs
+    x = (t - 0.1) / 0.004
+    force = np.where((x >= 0) & (x <= 1), 200.0 * np.sin(np.pi * x) ** 2, 0.0)
+    _, acc, _ = scipy.signal.lsim(scipy.signal.lti([1.0, 0.0, 0.0], [m, 2 * zeta * np.sqrt(k * m), k]), force, t)
+    acc = acc + 0.05 + 0.009 * t
+    frf = estimate_frf([force], [acc], fs, output_names=["z1"])
+    fig = frf_figure(frf, tmp_path / "frf.png", size=(6.5, 5.2), dpi=90)
+    mag = fig.axes[0]
+    ref = estimate_frf([force], [scipy.signal.detrend(acc)], fs).H[0]
+    assert mag.lines[0].get_xdata()[0] == pytest.approx(3 * fs / n)
+    np.testing.assert_allclose(mag.lines[0].get_ydata(), np.abs(ref[3:]), rtol=1e-9)
+    assert "straight line (offset, drift) removed, drawn from 3 cycles per record (1.5 Hz) up" in \
+        mag.get_title().replace("\n", " ")
+    unknown = frf_figure(dataclasses.replace(frf, trend=None), tmp_path / "raw.png")
+    assert unknown.axes[0].lines[0].get_xdata()[0] == pytest.approx(fs / n)
+    assert np.abs(unknown.axes[0].lines[0].get_ydata()[0]) > 50 * np.abs(ref[1])  # the drift, drawn raw
