@@ -88,6 +88,21 @@ CPU on one worker and 28.7 s on two, 989 / 979 worth (one evaluation 29 ms CPU, 
 windows' lengths a column's simulation is about half its cost, the rest (building the model, its
 eigen-decomposition, the sensors' rows, the combination of the basis signals) stays per column;
 screening (every candidate, mostly on short heads) is still about half of diagnose's CPU.
+
+This bench, main's code (before) and this one (after) one right after the other, load 2.0-2.7
+(other work on the machine):
+
+| rig, workers | before: evaluations, CPU, worth, wall | after |
+| --- | --- | --- |
+| thesis, 1 | 1683, 23.4 s, 639, 22.9 s | 1703, 20.6 s, 723, 21.0 s |
+| thesis, 2 | 1683, 27.4 s, 748, 22.6 s | 1703, 23.6 s, 825, 23.4 s |
+| two-body, 1 | 1023, 22.4 s, 505, 22.3 s | 1023, 19.2 s, 536, 19.4 s |
+| two-body, 2 | 1023, 20.6 s, 465, 20.1 s | 1023, 19.2 s, 538, 16.0 s |
+
+CPU seconds 7-14 % lower after; the worth column rose because the baseline evaluation measured
+36.6 / 44.3 ms CPU before (more than its 25.9 / 32.7 ms wall: threads other than the BLAS pool
+threadpool_limits holds) and 28.6 / 35.7 ms after: at this load the baseline, not diagnose,
+decides that ratio. Verdicts, top candidates and errors the same in every run.
 """
 
 from __future__ import annotations
