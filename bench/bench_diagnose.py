@@ -100,8 +100,8 @@ This bench, main's code (before) and this one (after) one right after the other,
 | two-body, 2 | 1023, 20.6 s, 465, 20.1 s | 1023, 19.2 s, 538, 16.0 s |
 
 CPU seconds 7-14 % lower after; the worth column rose because the baseline evaluation measured
-36.6 / 44.3 ms CPU before (more than its 25.9 / 32.7 ms wall: threads other than the BLAS pool
-threadpool_limits holds) and 28.6 / 35.7 ms after: at this load the baseline, not diagnose,
+36.6 / 44.3 ms CPU before (more than its 25.9 / 32.7 ms wall: some other thread of the process
+ran meanwhile; cause not found) and 28.6 / 35.7 ms after: at this load the baseline, not diagnose,
 decides that ratio. Verdicts, top candidates and errors the same in every run.
 """
 
