@@ -64,6 +64,45 @@ refine.
 On a quiet machine (load 0.9) after that round: thesis 1683 evaluations, 22.2 s on one worker and
 15.5 s on two, 553 / 471 evaluations' worth of CPU (one evaluation 31 ms wall, 41 ms CPU); two-body
 1023 evaluations, 18.4 s / 10.2 s, 470 / 473 worth. Targets (3 s / 5 s, 250 worth) missed.
+
+The next round: a Jacobian of three or more structure-changing columns linearises the structure's
+response in its modes' poles and residues (fitting.Problem._linearised: the modes' signals and
+their pole derivatives once per experiment, the channel chain once over them, each column a
+product) instead of simulating each column. Before and after on one worker, one run after the
+other in the same checkout (the old path by setting fitting.LINEARISED_FROM beyond any Jacobian):
+
+| rig, one worker | before: evaluations, CPU (load 1.1-3.7) | after |
+| --- | --- | --- |
+| thesis | 1683, 24.4 s CPU (872 worth, one evaluation 28 ms) | 1703, 19.8 s CPU (818 worth, 24 ms) |
+| two-body | 1023, 23.6 s CPU (792 worth, 30 ms) | 1023, 18.8 s CPU (553 worth, 34 ms) |
+
+The CPU seconds fell by a fifth on both rigs; the worth column moves with the baseline evaluation's
+own CPU time, which varied by a fifth between runs at that load. Verdicts, candidate order,
+significance, likelihood ratios and errors the same (errors to 4-5 digits); the thesis rig's search
+took 20 more evaluations. Jacobians alone (two-body fit windows, alternating, best of three):
+stiffness 223 -> 163 ms, mass_properties 389 -> 256 ms, damping 219 -> 168 ms; thesis
+mass_properties 102 -> 66 ms, its stiffness (7 columns) 66 -> 60 ms. After, at load 8.3 (other
+work on the machine; these wall times and CPU ratios say little): thesis 1703 evaluations, 29.0 s
+CPU on one worker and 28.7 s on two, 989 / 979 worth (one evaluation 29 ms CPU, 136 ms wall),
+156.6 / 153.1 s wall. Targets (3 s / 5 s, 250 worth) still missed by about 3x: at the fit
+windows' lengths a column's simulation is about half its cost, the rest (building the model, its
+eigen-decomposition, the sensors' rows, the combination of the basis signals) stays per column;
+screening (every candidate, mostly on short heads) is still about half of diagnose's CPU.
+
+This bench, main's code (before) and this one (after) one right after the other, load 2.0-2.7
+(other work on the machine):
+
+| rig, workers | before: evaluations, CPU, worth, wall | after |
+| --- | --- | --- |
+| thesis, 1 | 1683, 23.4 s, 639, 22.9 s | 1703, 20.6 s, 723, 21.0 s |
+| thesis, 2 | 1683, 27.4 s, 748, 22.6 s | 1703, 23.6 s, 825, 23.4 s |
+| two-body, 1 | 1023, 22.4 s, 505, 22.3 s | 1023, 19.2 s, 536, 19.4 s |
+| two-body, 2 | 1023, 20.6 s, 465, 20.1 s | 1023, 19.2 s, 538, 16.0 s |
+
+CPU seconds 7-14 % lower after; the worth column rose because the baseline evaluation measured
+36.6 / 44.3 ms CPU before (more than its 25.9 / 32.7 ms wall: some other thread of the process
+ran meanwhile; cause not found) and 28.6 / 35.7 ms after: at this load the baseline, not diagnose,
+decides that ratio. Verdicts, top candidates and errors the same in every run.
 """
 
 from __future__ import annotations

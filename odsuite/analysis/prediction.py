@@ -404,7 +404,7 @@ def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "accelerati
     """The model's physical signal at each sensor of ``exp`` (samples x sensors), from rest; the
     force seen with ``hold`` (default HOLD)."""
     from odsuite.domain.model import Output, StateSpace
-    from odsuite.domain.simulation import simulate_nonlinear, simulate_state_space
+    from odsuite.domain.simulation import simulate_state_space
 
     hold = hold or HOLD
 
@@ -422,17 +422,82 @@ def simulate_sensors(model, exp: PreparedExperiment, quantity: str = "accelerati
         ss = StateSpace(st.A, np.vstack([np.zeros_like(bf), minv_bf]), rows @ st.A[n:], rows @ minv_bf)
         y = simulate_state_space(ss, exp.force, exp.fs, hold=hold)
     else:
-        key = _cache_key(model, exp, hold)
-        if exp._cache is None or exp._cache[0] is not st or exp._cache[1] != key:
-            bf, _ = model.input_matrices(inputs)
-            minv_bf = st.Minv @ bf
-            if st.is_linear:
-                ss = StateSpace(st.A, np.vstack([np.zeros_like(bf), minv_bf]), st.A[n:], minv_bf)
-                exp._cache = (st, key, simulate_state_space(ss, exp.force, exp.fs, hold=hold))
-            else:  # cubic springs: the response depends on the force's level
-                exp._cache = (st, key, simulate_nonlinear(st, bf, exp.force, exp.fs, hold))
-        y = exp._cache[2] @ rows.T
+        y = _coordinates(model, exp, hold) @ rows.T
     return _analog_chain(model, exp, y)
+
+
+def _coordinate_system(model, exp: PreparedExperiment):
+    """The linear structure's state space from the hit's force to its coordinates' accelerations."""
+    from odsuite.domain.model import StateSpace
+
+    st = model.structure
+    bf, _ = model.input_matrices(_force_inputs(model, exp))
+    minv_bf = st.Minv @ bf
+    return StateSpace(st.A, np.vstack([np.zeros_like(bf), minv_bf]), st.A[st.n_dof:], minv_bf)
+
+
+def _coordinates(model, exp: PreparedExperiment, hold: str) -> np.ndarray:
+    """The coordinates' accelerations (samples x coordinates), kept on ``exp`` for its structure."""
+    from odsuite.domain.simulation import simulate_nonlinear, simulate_state_space
+
+    st = model.structure
+    key = _cache_key(model, exp, hold)
+    if exp._cache is None or exp._cache[0] is not st or exp._cache[1] != key:
+        if st.is_linear:
+            ss = _coordinate_system(model, exp)
+            exp._cache = (st, key, simulate_state_space(ss, exp.force, exp.fs, hold=hold))
+        else:  # cubic springs: the response depends on the force's level
+            bf, _ = model.input_matrices(_force_inputs(model, exp))
+            exp._cache = (st, key, simulate_nonlinear(st, bf, exp.force, exp.fs, hold))
+    return exp._cache[2]
+
+
+def linearised_predictions(model0, models: Sequence[Any], exp: PreparedExperiment, every: int = 1
+                           ) -> list[np.ndarray] | None:
+    """``predict(m, exp)`` for each of ``models`` (linear structures of ``model0``'s size near
+    it, with its chain), the structure's response to first order in its poles and residues about
+    ``model0``'s (simulation.linearised_band), the sensors' rows exact: a Jacobian's columns for
+    one simulation. The chain is linear and the same for every model: it filters the response's
+    basis signals once per distinct channel chain, not every model's every sensor. None where
+    that does not apply (then predict each). Every ``every``-th sample (a fit's stride)."""
+    from odsuite.domain.simulation import linearised_band
+
+    st0 = model0.structure
+    if (HOLD != "band" or not st0.is_linear or st0.n_dof > CACHED_COORDINATES or exp.operators is None
+            or any(not m.structure.is_linear or m.structure.n_dof != st0.n_dof or m.chain is not model0.chain
+                   for m in models)):
+        return None
+    lin = linearised_band(_coordinate_system(model0, exp), [_coordinate_system(m, exp) for m in models],
+                          exp.force, exp.fs)
+    if lin is None:
+        return None
+    basis, matrices = lin
+    q0 = _coordinates(model0, exp, HOLD)
+    rows0 = _sensor_rows(model0, exp.sensors)
+    pred0 = _digital_chain(exp, _analog_chain(model0, exp, q0 @ rows0.T))[::every]
+    signals = np.hstack([q0, basis])
+    # sensors whose chains are alike (dynamics, delay, processing) filter the signals once
+    chain = model0.chain
+    groups: dict[tuple, list[int]] = {}
+    for op in exp.operators:
+        for j in op.columns:
+            s = exp.sensors[j]
+            groups.setdefault((id(op), chain.sensor_dynamics(s.name), chain.delay.get(s.name, 0.0)), []).append(j)
+    outs = [pred0.copy() for _ in models]
+    rows = [_sensor_rows(m, exp.sensors) for m in models]
+    for cols in groups.values():
+        j = cols[0]
+        op = next(o for o in exp.operators if j in o.columns)
+        one = replace(exp, sensors=[exp.sensors[j]] * signals.shape[1],
+                      operators=[replace(op, columns=tuple(range(signals.shape[1])))])
+        filtered = _digital_chain(one, _analog_chain(model0, one, signals.copy()))[::every]
+        # every model's change in one product: the nominal coordinates through the rows' change,
+        # the coordinates' change through the rows
+        weights = np.hstack([np.vstack([(r[cols] - rows0[cols]).T, mat @ r[cols].T]) for r, mat in zip(rows, matrices)])
+        change = (filtered @ weights).reshape(len(filtered), len(models), len(cols))
+        for i, out in enumerate(outs):
+            out[:, cols] += change[:, i]
+    return outs
 
 
 def _analog_chain(model, exp: PreparedExperiment, y: np.ndarray) -> np.ndarray:

@@ -23,7 +23,7 @@ import scipy.optimize
 
 from odsuite.domain.errors import DivergedError
 from odsuite.analysis.modelrev import RevisionModel
-from odsuite.analysis.prediction import PreparedExperiment, predict, simulate_together
+from odsuite.analysis.prediction import PreparedExperiment, linearised_predictions, predict, simulate_together
 
 #: fits start on short heads of the records (s after the hit), then the whole record: a frequency
 #: error makes the time-domain residual oscillate in the parameter, a short head keeps it convex
@@ -117,6 +117,9 @@ def _scale(p) -> float:
     return 0.05 * min(size, span) if span > 0 else 1.0
 
 
+#: Jacobians with at least this many structure-changing columns linearise the structure's
+#: response (Problem._linearised): below it, the modes' signals cost about what the columns do
+LINEARISED_FROM = 3
 #: predictions a problem keeps (the latest), for the points it is asked about again
 PREDICTIONS_KEPT = 3
 
@@ -153,6 +156,7 @@ class Problem:
         self._base_predictions: dict[tuple[str, int], np.ndarray] = {}
         self._projection: tuple[Any, Any] | None = None  # (key, result) of the last projection
         self._predictions: list[tuple[Any, list[np.ndarray]]] = []  # (key, predictions), newest first
+        self._models: tuple[bytes | None, dict] = (None, {})  # (point, models) last predicted
         self.free: list[_Free] = []
         for p in params:
             if p.choices is not None or p.name in self.fixed or p.name in self.linear:
@@ -235,6 +239,7 @@ class Problem:
             return list(kept)
         self.evaluations += 1
         models = self.models(u)
+        self._models = (u.tobytes(), models)
         simulate_together(models, exps)
         out = [predict(models[e.name], e) for e in exps]
         for p in out:
@@ -247,15 +252,19 @@ class Problem:
     def residual(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None,
                  columns: Sequence[int] | None = None, stride: int | None = None, keep: bool = True) -> np.ndarray:
         exps = exps or self.exps
-        k = self.stride if stride is None else stride
         with np.errstate(over="ignore", invalid="ignore"):
             try:
                 preds = self.predictions(u, exps, keep)
             except DivergedError:  # trial values that blow the response up: as unstable as can be
                 preds = [np.full(e.measured.shape, np.inf) for e in exps]
+        return self._residual_of(preds, exps, columns, self.stride if stride is None else stride)
+
+    def _residual_of(self, preds: Sequence[np.ndarray], exps: Sequence[PreparedExperiment],
+                     columns: Sequence[int] | None = None, k: int = 1, strided: bool = False) -> np.ndarray:
+        """The residual of predictions of every sample (or of every k-th, ``strided``)."""
         parts = []
         for e, p in zip(exps, preds):
-            r = (e.measured - p)[::k]
+            r = e.measured[::k] - p if strided else (e.measured - p)[::k]
             cap = UNSTABLE_RESIDUAL * (np.abs(e.measured).max() + 1e-300)
             if not np.all(np.abs(r) <= cap):
                 # parameters that make the model unstable (its response grows without bound): a
@@ -298,6 +307,7 @@ class Problem:
                 h = 0.5 * (hi - u[i]) if hi - u[i] > u[i] - lo else -0.5 * (u[i] - lo)
             steps[i] = h
         batches, sensor_of_row = self._sensor_batches(exps or self.exps)
+        linearised = self._linearised(u, steps, exps or self.exps) if sensor_of_row is None else None
         rows_of: dict[str, np.ndarray] = {}  # each sensor's rows, found once
         for batch in batches:
             batch = [i for i in batch if steps[i]]
@@ -305,7 +315,10 @@ class Problem:
                 continue
             du = np.zeros_like(u)
             du[batch] = steps[batch]
-            diff = self.residual(u + du, exps, keep=False) - r0  # a difference's point is not asked again
+            if linearised is not None:
+                diff = linearised[batch[0]] - r0
+            else:  # a difference's point is not asked again
+                diff = self.residual(u + du, exps, keep=False) - r0
             if len(batch) == 1:
                 J[:, batch[0]] = -diff / steps[batch[0]]
                 continue
@@ -316,6 +329,40 @@ class Problem:
                 rows = rows_of[sensor]
                 J[rows, i] = -diff[rows] / steps[i]
         return np.ascontiguousarray(J)
+
+    def _linearised(self, u: np.ndarray, steps: np.ndarray, exps: Sequence[PreparedExperiment]
+                    ) -> dict[int, np.ndarray] | None:
+        """The residual at each point ``u`` + a step of one parameter, with the structure's
+        response linearised in its poles and residues about ``u``'s (prediction.
+        linearised_predictions): one simulation for all, where the steps change the structure
+        (a stiffness, a mass), at least LINEARISED_FROM of them and every experiment allows it.
+        Each counts as an evaluation; None where the steps are best simulated."""
+        moved = [i for i in range(len(u)) if steps[i]]
+        if self.linear or len(moved) < LINEARISED_FROM:
+            return None
+        try:
+            with np.errstate(over="ignore", invalid="ignore"):
+                # the models the residual at ``u`` was just predicted with: their structure's
+                # response is kept on the experiments
+                models0 = self._models[1] if self._models[0] == u.tobytes() else self.models(u)
+                points = []
+                for i in moved:
+                    du = np.zeros_like(u)
+                    du[i] = steps[i]
+                    points.append(self.models(u + du))
+                if any(p[e.name].structure is models0[e.name].structure for p in points for e in exps):
+                    return None  # a step that leaves the structure: its own simulation is cheap
+                preds = []
+                for e in exps:
+                    got = linearised_predictions(models0[e.name], [p[e.name] for p in points], e, self.stride)
+                    if got is None:
+                        return None
+                    preds.append(got)
+        except (DivergedError, np.linalg.LinAlgError):
+            return None
+        self.evaluations += len(moved)
+        return {i: self._residual_of([p[k] for p in preds], exps, None, self.stride, strided=True)
+                for k, i in enumerate(moved)}
 
     def _sensor_batches(self, exps: Sequence[PreparedExperiment]) -> tuple[list[list[int]], np.ndarray | None]:
         """Groups of free parameters that one evaluation can difference (at most one per sensor,

@@ -108,9 +108,10 @@ def _simulate_band(ss: StateSpace, u: np.ndarray, fs: float) -> np.ndarray:
 
 
 #: the modal decompositions last computed, by their system matrix and sample time: the experiments
-#: of a fit simulate one model each, every one with the same A (a tenth of an evaluation's CPU)
+#: of a fit simulate one model each, every one with the same A (a tenth of an evaluation's CPU), and a
+#: linearised Jacobian decomposes each of its columns' models for every experiment
 _MODALS: dict[tuple, tuple | None] = {}
-MODALS_KEPT = 8
+MODALS_KEPT = 32
 
 
 def _modal(A: np.ndarray, T: float) -> tuple | None:
@@ -139,6 +140,84 @@ def _modal(A: np.ndarray, T: float) -> tuple | None:
         _MODALS.pop(next(iter(_MODALS)))
     _MODALS[key] = out
     return out
+
+
+#: the poles' relative step for the modes' derivative signals (central differences: the step's
+#: error (step x record length x |pole|)^2 against the recursion's round-off over the step)
+POLE_STEP = 1e-6
+#: a change of the poles is linear while each pole moves by less than this fraction of its
+#: distance to the nearest other (nearly repeated modes exchange their shapes: the first-order
+#: change of each alone is no guide to their sum)
+LINEAR_POLE_MOVE = 1e-3
+
+
+def _residues(ss: StateSpace, modal: tuple) -> np.ndarray:
+    """Each kept mode's residue (outputs x modes x inputs): invariant to balancing and to the
+    eigenvectors' scaling, so comparable between two decompositions of nearby systems."""
+    scale, V, keep, weight = modal[:4]
+    Bm = np.linalg.solve(V, (ss.B / scale[:, None]).astype(complex))[keep]
+    Cm = ((ss.C * scale) @ V)[:, keep] * weight
+    return Cm[:, :, None] * Bm[None, :, :]
+
+
+def _mode_signals(lam: np.ndarray, T: float, ut: np.ndarray, every: int) -> np.ndarray:
+    """Each mode's complex first-order-hold recursion on each input row of ``ut`` from rest
+    (modes x inputs x samples), every ``every``-th sample kept."""
+    x = lam * T
+    p, g0, g1 = np.exp(x), T * _phi(x, 1), T * _phi(x, 2)
+    out = np.empty((len(lam), len(ut), len(range(0, ut.shape[1], every))), complex)
+    for i in range(len(lam)):
+        b0, b1 = g1[i], g0[i] - g1[i]
+        for j in range(len(ut)):
+            z, _ = scipy.signal.lfilter([b0, b1], [1.0, -p[i]], ut[j], zi=[-b0 * ut[j, 0]])
+            out[i, j] = z[::every]
+    return out
+
+
+def linearised_band(ss0: StateSpace, others, u, fs: float) -> tuple[np.ndarray, list[np.ndarray]] | None:
+    """The change of the ``band``-hold response to ``u`` from ``ss0``'s to each of ``others``'
+    (systems of its size near it), to first order in their poles and residues, as one set of
+    signals and a matrix per system: change = basis @ matrix (samples x outputs). The basis is the
+    modes' signals and their derivatives in the pole (real and imaginary parts) and ``u`` (the
+    feed-through), run once for all systems (a finite-difference Jacobian's columns without a
+    simulation each). None where a decomposition is ill-conditioned, the modes do not pair up, or
+    nearly repeated poles move."""
+    f = BAND_OVERSAMPLE
+    T = 1.0 / (fs * f)
+    u = check_input_record(u, ss0.B.shape[1])
+    m0 = _modal(ss0.A, T)
+    if m0 is None:
+        return None
+    lam0 = m0[4]
+    poles = np.concatenate([lam0, np.conj(lam0[lam0.imag != 0])])
+    dist = np.abs(lam0[:, None] - poles[None, :])
+    dist[np.arange(len(lam0)), np.arange(len(lam0))] = np.inf
+    gap = dist.min(axis=1)
+    R0 = _residues(ss0, m0)
+    matrices = []
+    for ss in others:
+        m = _modal(ss.A, T)
+        if m is None or len(m[4]) != len(lam0):
+            return None
+        order = np.argmin(np.abs(m[4][None, :] - lam0[:, None]), axis=1)
+        if len(set(order.tolist())) != len(order) or not np.array_equal(m[3][order], m0[3]):
+            return None
+        dlam = m[4][order] - lam0
+        if np.any(np.abs(dlam) > LINEAR_POLE_MOVE * gap):
+            return None
+        no = R0.shape[0]
+        dR = (_residues(ss, m)[:, order] - R0).reshape(no, -1).T  # (modes x inputs) x outputs
+        dP = (R0 * dlam[None, :, None]).reshape(no, -1).T
+        # Re(a z) = Re a Re z - Im a Im z
+        matrices.append(np.vstack([dR.real, -dR.imag, dP.real, -dP.imag,
+                                   (np.asarray(ss.D, float) - np.asarray(ss0.D, float)).T]))
+    ut = np.ascontiguousarray(_band_input(u, f).T)
+    Z = _mode_signals(lam0, T, ut, f)
+    h = POLE_STEP * np.maximum(np.abs(lam0), POLE_STEP / T)
+    dZ = (_mode_signals(lam0 + h, T, ut, f) - _mode_signals(lam0 - h, T, ut, f)) / (2 * h)[:, None, None]
+    nm, ni, n = Z.shape
+    Zf, dZf = Z.reshape(nm * ni, n).T, dZ.reshape(nm * ni, n).T
+    return np.hstack([Zf.real, Zf.imag, dZf.real, dZf.imag, u]), matrices
 
 
 def simulate_state_space(ss: StateSpace, u, fs: float, hold: str = "zoh") -> np.ndarray:
