@@ -74,8 +74,8 @@ def _data_uri(path: Path, mime: str) -> str:
 #: a figure is embedded with 256 colours only where each colour it draws over at least
 #: PALETTE_AREA pixels (a line's, a map cell's own colour, not an antialiased edge's) moves by at
 #: most PALETTE_TOLERANCE (of 255): median cut alone merges the rarer colours of a figure of many
-#: coloured lines (40 lines of a hue wheel: lines moved by up to 59/255, three pairs drawn in one
-#: colour); a few k-means rounds mend most, and what they do not stays an RGB PNG
+#: coloured lines (40 lines of a hue wheel: the lines' own colours moved by up to 42/255, three
+#: pairs drawn in one colour); a few k-means rounds mend most, and what they do not stays RGB
 PALETTE_TOLERANCE = 8
 PALETTE_AREA = 20
 
