@@ -51,7 +51,8 @@ def responding(frf: FrfSet) -> FrfSet:
     if not keep:
         raise ConfigError("no response channel responds to the hammer")
     return replace(frf, H=frf.H[keep], coherence=frf.coherence[keep], units=[frf.units[k] for k in keep],
-                   output_names=[frf.output_names[k] for k in keep])
+                   output_names=[frf.output_names[k] for k in keep],
+                   trend=None if frf.trend is None else frf.trend[keep])
 
 
 def identify(frf: FrfSet) -> ModalResult:

@@ -266,3 +266,25 @@ def test_a_real_low_suspension_mode_stays_after_the_straight_line_is_removed():
     assert abs(f[peak] - 2.0) <= fs / n
     assert np.abs(frf.H[0, peak]) == pytest.approx(np.abs(exact(f[peak])), rel=0.03)
     assert f[TREND_FREE_LINE] < 0.2 < 2.0
+
+
+def test_the_responding_channels_keep_their_own_trend():
+    """A record that leaves one channel empty (H = 0 there): the FRFs of the channels that respond
+    keep each channel's own straight-line trend, so their detrended H1 is that of the records with
+    scipy.signal.detrend applied (a drifting accelerometer on either side of the empty channel)."""
+    import scipy.signal
+
+    from odsuite.analysis.stored_modes import responding
+
+    fs, n = 1024.0, 2048
+    t = np.arange(n) / fs
+    rng = np.random.default_rng(3)
+    force = np.where(t < 0.004, 100.0, 0.0)
+    live = np.exp(-3 * t) * np.sin(2 * np.pi * 40 * t)
+    records = np.column_stack([live + 0.02 + 0.01 * t, np.zeros(n), 2 * live - 0.03 * t])
+    records[:, [0, 2]] += 1e-4 * rng.standard_normal((n, 2))
+    frf = estimate_frf([force], [records], fs, output_names=["a", "empty", "b"])
+    kept = responding(frf)
+    assert kept.output_names == ["a", "b"]
+    want = estimate_frf([force], [scipy.signal.detrend(records[:, [0, 2]], axis=0)], fs).H
+    np.testing.assert_allclose(kept.detrended().H, want, rtol=1e-9, atol=1e-12 * np.abs(want).max())

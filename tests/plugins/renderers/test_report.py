@@ -472,3 +472,36 @@ def test_figures_are_embedded_as_256_colour_pngs_that_keep_the_figure(tmp_path):
     white = (original == 255).all(axis=2)
     assert white.sum() > 0.3 * white.size and (shown[white] == 255).all()
     assert np.abs(shown - original).mean() < 0.5
+
+
+def test_a_figure_of_many_coloured_lines_keeps_each_lines_colour(tmp_path):
+    """40 lines around the hue wheel (as a stabilisation diagram or a many-channel overlay draws
+    them) have more colours with their antialiasing than a palette holds: each line's own colour
+    is still within 8/255 on the page and no two lines share one."""
+    from matplotlib import colormaps
+    from matplotlib.figure import Figure
+    from PIL import Image
+
+    from odsuite_plugins.renderers.report import FIGURE_DPI, _palette_png
+
+    x = np.linspace(0, 1, 400)
+    colours = [colormaps["hsv"](k / 40) for k in range(40)]
+    fig = Figure(figsize=(6.5, 4))
+    ax = fig.subplots()
+    for k, c in enumerate(colours):
+        ax.plot(x, np.sin(2 * np.pi * (k + 1) * x) + k, lw=1, color=c)
+    path = tmp_path / "lines.png"
+    fig.savefig(path, dpi=FIGURE_DPI)
+    with Image.open(path) as a:
+        original = np.asarray(a.convert("RGB")).astype(int)
+    _palette_png(path)
+    with Image.open(path) as b:
+        shown = np.asarray(b.convert("RGB")).astype(int)
+    drawn = set()
+    for c in colours:
+        rgb = np.round(np.array(c[:3]) * 255).astype(int)
+        line = np.all(np.abs(original - rgb) <= 1, axis=2)  # the line's own pixels, not its antialiased edge
+        assert line.sum() >= 10, c
+        assert np.abs(shown[line] - rgb).max() <= 8, (rgb, np.abs(shown[line] - rgb).max())
+        drawn.add(tuple(np.median(shown[line], axis=0)))
+    assert len(drawn) == len(colours)
