@@ -115,20 +115,14 @@ def _trend_cross(forces: Sequence[np.ndarray], responses: Sequence[np.ndarray], 
                  acceleration: np.ndarray) -> np.ndarray:
     """sum conj(F) T over hits (o x f), T the spectrum of each acceleration record's least-squares
     straight line (windowed like the record); 0 for the other responses."""
-    total = 0.0
-    for f, x in zip(forces, responses, strict=True):
+    lines = []
+    for x in responses:
         x = np.asarray(x, dtype=float)
         x = x[:, None] if x.ndim == 1 else x
         t = np.linspace(-1.0, 1.0, x.shape[0])
         basis = np.column_stack([np.ones_like(t), t])
-        line = basis @ np.linalg.lstsq(basis, x, rcond=None)[0] * acceleration[None, :]
-        f = np.asarray(f, dtype=float)
-        if window is not None:
-            w = np.asarray(window, dtype=float)
-            wf, wx = (w, w[:, None]) if w.ndim == 1 else (w[:, 0], w[:, 1:])
-            f, line = f * wf, line * wx
-        total = total + np.conj(np.fft.rfft(f)) * np.fft.rfft(line, axis=0).T
-    return np.asarray(total)
+        lines.append(basis @ np.linalg.lstsq(basis, x, rcond=None)[0] * acceleration[None, :])
+    return spectra(forces, lines, window)[2]
 
 
 def estimate_frf(
