@@ -950,10 +950,11 @@ def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path, corrected=N
                        + "and model (orange band)", time_zero=exp.trigger / exp.fs,
                        style=Style(font_size=10, line_width=1.5, model_width=5.0))
     # no GIF copy inside <video>: a browser shows that fallback only when it has no <video> at all
+    poster = _poster(res.path, res.n_frames, tmp / "poster.png") if res.format != "gif" else None
     shown = (f'<img src="{_data_uri(res.path, "image/gif")}" alt="movie of {_esc(exp.name)}">'
              if res.format == "gif" else
              f'<video controls loop muted playsinline preload="auto" width="{MOVIE_SIZE[0]}" '
-             f'poster="{_data_uri(_palette_png(_poster(res.path, res.n_frames, tmp / "poster.png")), "image/png")}">'
+             + (f'poster="{_data_uri(_palette_png(poster), "image/png")}"' if poster else "") + '>'
              f'<source src="{_data_uri(res.path, "video/mp4")}" type="video/mp4">movie of {_esc(exp.name)} '
              f'(MP4, H.264)</video>')
     return (f"<figure>{shown}<figcaption>{_esc(exp.name)}: measured motion (blue)"
@@ -965,19 +966,25 @@ def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path, corrected=N
             f"real time, {_esc(magnification_words(res.magnify))}.</figcaption></figure>")
 
 
-def _poster(mp4: Path, n_frames: int, path: Path) -> Path:
+def _poster(mp4: Path, n_frames: int, path: Path) -> Path | None:
     """A still of the movie (a frame a third of the way in, when the plates have moved) for the
     <video>'s poster: what a printed page and a player that has not started show."""
     import imageio_ffmpeg
     from PIL import Image
 
     reader = imageio_ffmpeg.read_frames(str(mp4))
-    width, height = next(reader)["size"]
-    for k, frame in enumerate(reader):
-        if k == n_frames // 3:
-            Image.frombytes("RGB", (width, height), frame).save(path)
-            break
-    reader.close()
+    try:
+        width, height = next(reader)["size"]
+        still = None
+        # the last frame decoded where the file holds fewer than a third of them
+        for k, still in enumerate(reader):
+            if k == n_frames // 3:
+                break
+    finally:
+        reader.close()
+    if still is None:
+        return None  # a player shows the first frame instead
+    Image.frombytes("RGB", (width, height), still).save(path)
     return path
 
 

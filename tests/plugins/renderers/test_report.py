@@ -505,3 +505,25 @@ def test_a_figure_of_many_coloured_lines_keeps_each_lines_colour(tmp_path):
         assert np.abs(shown[line] - rgb).max() <= 8, (rgb, np.abs(shown[line] - rgb).max())
         drawn.add(tuple(np.median(shown[line], axis=0)))
     assert len(drawn) == len(colours)
+
+
+def test_a_movie_shorter_than_its_frame_count_gets_its_last_frame_as_poster(tmp_path):
+    """The poster is the frame a third of the way in; a file that decodes fewer frames than the
+    renderer counted gets its last one, not a traceback."""
+    imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
+    from PIL import Image
+
+    from odsuite_plugins.renderers.report import _poster
+
+    size, levels = (64, 48), (30, 120, 220)
+    writer = imageio_ffmpeg.write_frames(str(tmp_path / "m.mp4"), size, fps=10, macro_block_size=16)
+    writer.send(None)
+    for level in levels:
+        writer.send(np.full((size[1], size[0], 3), level, np.uint8).tobytes())
+    writer.close()
+    poster = _poster(tmp_path / "m.mp4", 30, tmp_path / "poster.png")
+    grey = np.asarray(Image.open(poster)).mean()
+    assert abs(grey - levels[-1]) < 6
+    # where the frame a third of the way in exists, it is the one shown
+    poster = _poster(tmp_path / "m.mp4", 3, tmp_path / "poster2.png")
+    assert abs(np.asarray(Image.open(poster)).mean() - levels[1]) < 6
