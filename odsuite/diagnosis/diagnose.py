@@ -90,6 +90,10 @@ class Candidate:
     implausible: list[str] = field(default_factory=list)
     amplitude_dependent: list[str] = field(default_factory=list)
     per_experiment_fits: dict[str, dict[str, float]] = field(default_factory=dict)
+    #: its parameters fitted to the records' early (large) and late (small) part agree (checks.linearity)
+    early_late_agree: bool = True
+    early_late_fits: dict[str, dict[str, float]] = field(default_factory=dict)
+    early_late_differ: list[str] = field(default_factory=list)
     gain_threshold: float = float("nan")
     likelihood_ratio: float = float("nan")  # the whitened excess it removes (odsuite.analysis.resolved)
     #: the fit in physical quantities (the effect's ``physical``): label, value, unit, uncertainty, nominal
@@ -100,7 +104,9 @@ class Candidate:
             "effect", "significant", "error_after", "validated_error", "parameters", "uncertainties",
             "units", "evidence", "n_parameters", "bic", "screened_error", "unidentifiable",
             "confounded_parameters", "confounded_with", "validation", "fitted", "consistent", "plausible",
-            "implausible", "amplitude_dependent", "per_experiment_fits", "physical")}
+            "implausible", "amplitude_dependent", "per_experiment_fits", "early_late_agree", "early_late_differ",
+            "early_late_fits",
+            "physical")}
         d["likelihood_ratio"] = None if not math.isfinite(self.likelihood_ratio) else self.likelihood_ratio
         d["likelihood_ratio_limit"] = None if not math.isfinite(self.gain_threshold) else self.gain_threshold
         return d
@@ -305,6 +311,10 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         cons = checks.consistency(problem, res, force_levels or {}, checks.tolerated_misfit(noise, problem.full))
         cand.consistent, cand.amplitude_dependent = cons.consistent, cons.amplitude_dependent
         cand.per_experiment_fits = cons.per_experiment
+        # no pooled tolerance here: the resolved residual decides, and a contact's misfit sits in one band
+        lin = checks.linearity(problem, res)
+        cand.early_late_agree, cand.early_late_fits = lin.linear, {"early": lin.early, "late": lin.late}
+        cand.early_late_differ = lin.differing
     cand.implausible = checks.implausible(effect, problem.base.shared, params)
     cand.plausible = not cand.implausible
     cand._problem, cand._u, cand._sse_win = problem, u, sse_win  # kept for the confounding check
@@ -780,10 +790,12 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
     is left (after the best significant candidate, if any) and the message."""
     best = next((c for c in d.candidates if c.significant and c.fitted), None)
     # amplitude dependence as the data show it: the best significant candidate's parameters, fitted
-    # per experiment, follow the force level, or it makes the model amplitude dependent (without
-    # one: any fitted candidate's). A stand-in's drifting parameters say it stands in, not that the
-    # structure is nonlinear: a mass fitted for a worn mount followed the force level
-    amplitude = (bool(best.amplitude_dependent) or makes_nonlinear(best, base) if best is not None
+    # per experiment, follow the force level, or it makes the model amplitude dependent, or they
+    # disagree between the records' early (large) and late (small) part (without one: any fitted
+    # candidate's). A stand-in's drifting parameters say it stands in, not that the structure is
+    # nonlinear: a mass fitted for a worn mount followed the force level
+    amplitude = (bool(best.amplitude_dependent) or makes_nonlinear(best, base) or not best.early_late_agree
+                 if best is not None
                  else any(c.amplitude_dependent for c in d.candidates if c.fitted))
     res_best, floor_best = getattr(best, "_resolved", None) if best is not None else None, cmp.floor
     after = None

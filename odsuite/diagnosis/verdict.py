@@ -105,7 +105,9 @@ def decide(baseline: float, floor: float, best, *, before=None, after=None, ampl
             return "nothing to explain"
         if best is None:
             return "unexplained"
-        agrees = best.consistent or amplitude_cause
+        # a fit that holds on the large and the small part of each record alike (checks.linearity):
+        # one that does not takes up an amplitude-dependent residual the library has no effect for
+        agrees = (best.consistent or amplitude_cause) and getattr(best, "early_late_agree", True)
         if agrees and best.plausible and after is not None and not after.detected():
             return "explained"
         return "partly explained"
@@ -185,6 +187,10 @@ def message(verdict: str, baseline: float, floor: float, best, sig: Signature, r
         why.append(f"the error stays at {best.error_after:.3g}, {best.error_after / floor:.2f} times the floor")
     if not best.consistent:
         why.append("its parameters differ between experiments beyond their uncertainties")
+    if not getattr(best, "early_late_agree", True):
+        why.append("its parameters fitted to the early (large) and the late (small) part of the records differ "
+                   f"beyond their uncertainties ({', '.join(best.early_late_differ[:3])}): the residual it takes up "
+                   "changes with the amplitude within each record, as a contact, friction or a loose part's does")
     if not best.plausible:
         why.append("its fitted values lie outside their physical range (" + ", ".join(best.implausible[:3]) + ")")
     left = f" What is left lies in {_where(rest)}." if rest is not None else ""
