@@ -113,7 +113,7 @@ def consistency(problem, res, force_levels: Mapping[str, float], tolerated: floa
     gain = 0.0  # what fitting per experiment lowers the (strided) sum of squares by
     for i, e in enumerate(exps):
         rows = slice(starts[i], starts[i + 1])
-        fitted, part = _local_fit(problem, res.x, J[rows][:, shared], r[rows], shared, e.measured.shape[1])
+        fitted, part, _ = _local_fit(problem, res.x, J[rows][:, shared], r[rows], shared, e.measured.shape[1])
         gain += part
         for label, v, sd in fitted:
             values.setdefault(label, []).append((e.name, v, sd))
@@ -159,15 +159,15 @@ def consistency(problem, res, force_levels: Mapping[str, float], tolerated: floa
 
 
 def _local_fit(problem, x, Ji: np.ndarray, ri: np.ndarray, shared: Sequence[int], columns: int
-               ) -> tuple[list[tuple[str, float, float]], float]:
+               ) -> tuple[list[tuple[str, float, float]], float, np.ndarray]:
     """The shared parameters fitted to some rows of a joint fit alone: one Gauss-Newton step from
     it on those rows of the Jacobian, the covariance from their residual with its effective
     samples (``columns`` channels a row block). Returns (label, value, sd) of the parameters those
     rows determine (sd within a tenth of the range) and the (strided) sum of squares the step
-    removes."""
+    removes, and the step (in the fit's scaled units, one per shared parameter)."""
     H = Ji.T @ Ji
     if not np.any(H):
-        return [], 0.0
+        return [], 0.0, np.zeros(len(shared))
     w, V = np.linalg.eigh(H)
     keep = w > 1e-8 * w.max()
     Hinv = (V[:, keep] / w[keep]) @ V[:, keep].T
@@ -183,7 +183,7 @@ def _local_fit(problem, x, Ji: np.ndarray, ri: np.ndarray, shared: Sequence[int]
         if not np.isfinite(sd) or sd <= 0 or sd > 0.1 * (f.param.upper - f.param.lower):
             continue  # these rows do not determine it
         out.append((f.label, f.to_value(x[idx] + step[j]), sd))
-    return out, -float(step @ (Ji.T @ ri))
+    return out, -float(step @ (Ji.T @ ri)), step
 
 
 @dataclass
@@ -192,6 +192,7 @@ class Linearity:
     early: dict[str, float] = field(default_factory=dict)  # values fitted to the records' early part
     late: dict[str, float] = field(default_factory=dict)  # to their late part
     differing: list[str] = field(default_factory=list)  # parameters whose two values disagree
+    u: tuple = ()  # the fit's scaled unknowns with the early part's, the late part's values
 
 
 def linearity(problem, res, tolerated: float | None = None) -> Linearity:
@@ -224,13 +225,17 @@ def linearity(problem, res, tolerated: float | None = None) -> Linearity:
         start += size
     if not parts[0] or not columns:
         return Linearity()  # channel counts differ between records: no common row blocks
-    fits, gain = [], 0.0
+    fits, gain, us = [], 0.0, []
     for rows in parts:
         idx = np.concatenate(rows)
-        fitted, g = _local_fit(problem, res.x, J[idx], r[idx], shared, columns)
+        fitted, g, step = _local_fit(problem, res.x, J[idx], r[idx], shared, columns)
         fits.append({label: (v, sd) for label, v, sd in fitted})
         gain += g
-    out = Linearity(early={k: v for k, (v, _) in fits[0].items()}, late={k: v for k, (v, _) in fits[1].items()})
+        u = np.array(res.x, float)
+        u[shared] += step
+        us.append(u)
+    out = Linearity(early={k: v for k, (v, _) in fits[0].items()}, late={k: v for k, (v, _) in fits[1].items()},
+                    u=tuple(us))
     both = [k for k in fits[0] if k in fits[1]]
     if not both or (tolerated is not None and gain * problem.stride <= tolerated):
         return out

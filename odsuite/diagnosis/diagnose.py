@@ -314,7 +314,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         # no pooled tolerance here: the resolved residual decides, and a contact's misfit sits in one band
         lin = checks.linearity(problem, res)
         cand.early_late_agree, cand.early_late_fits = lin.linear, {"early": lin.early, "late": lin.late}
-        cand.early_late_differ = lin.differing
+        cand.early_late_differ, cand._early_late_u = lin.differing, lin.u
     cand.implausible = checks.implausible(effect, problem.base.shared, params)
     cand.plausible = not cand.implausible
     cand._problem, cand._u, cand._sse_win = problem, u, sse_win  # kept for the confounding check
@@ -789,14 +789,6 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
     """The verdict (from the resolved residual where the floor has bands), the signature of what
     is left (after the best significant candidate, if any) and the message."""
     best = next((c for c in d.candidates if c.significant and c.fitted), None)
-    # amplitude dependence as the data show it: the best significant candidate's parameters, fitted
-    # per experiment, follow the force level, or it makes the model amplitude dependent, or they
-    # disagree between the records' early (large) and late (small) part (without one: any fitted
-    # candidate's). A stand-in's drifting parameters say it stands in, not that the structure is
-    # nonlinear: a mass fitted for a worn mount followed the force level
-    amplitude = (bool(best.amplitude_dependent) or makes_nonlinear(best, base) or not best.early_late_agree
-                 if best is not None
-                 else any(c.amplitude_dependent for c in d.candidates if c.fitted))
     res_best, floor_best = getattr(best, "_resolved", None) if best is not None else None, cmp.floor
     after = None
     if best is not None:
@@ -808,6 +800,20 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
             # judges the revision that stores it
             floor_best = noise_floor(exps, p.models(best._u), spectra=True)
             res_best = resolution.resolve(exps, after, floor_best)
+    if res_best is not None and not best.early_late_agree and len(getattr(best, "_early_late_u", ())) == 2:
+        # the parts' fits differ beyond their uncertainties; it matters where the models fitted to
+        # them predict apart by more than the noise in some band of some channel (a verdict's cell)
+        early, late = (p.predictions(u, p.full) for u in best._early_late_u)
+        apart = resolution.resolve(exps, [e.measured - (a - b) for e, a, b in zip(exps, early, late)], floor_best)
+        best.early_late_agree = apart is None or not apart.detected()
+    # amplitude dependence as the data show it: the best significant candidate's parameters, fitted
+    # per experiment, follow the force level, or it makes the model amplitude dependent, or they
+    # disagree between the records' early (large) and late (small) part (without one: any fitted
+    # candidate's). A stand-in's drifting parameters say it stands in, not that the structure is
+    # nonlinear: a mass fitted for a worn mount followed the force level
+    amplitude = (bool(best.amplitude_dependent) or makes_nonlinear(best, base) or not best.early_late_agree
+                 if best is not None
+                 else any(c.amplitude_dependent for c in d.candidates if c.fitted))
     nonlinear = best is not None and makes_nonlinear(best, base)
     d.verdict = decide(d.baseline_error, d.noise_floor_error, best, before=res0, after=res_best,
                        amplitude_cause=nonlinear)

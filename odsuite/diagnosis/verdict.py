@@ -9,7 +9,8 @@ stays the number reported. Without bands the pooled error within ``FLOOR_TOLERAN
 - "nothing to explain": no cell above the floor;
 - "explained": a significant, plausible candidate leaves no cell above it, with parameters that
   agree across experiments (or that make the model amplitude dependent, whose per-experiment
-  values then follow the force level by design);
+  values then follow the force level by design) and between the early (large) and the late
+  (small) part of the records, as far as the noise can tell the two parts' models apart;
 - "partly explained": a significant candidate helps, but cells stay above the floor or its
   parameters are inconsistent or implausible;
 - "unexplained": nothing significant while cells are above the floor.
@@ -115,7 +116,8 @@ def decide(baseline: float, floor: float, best, *, before=None, after=None, ampl
         return "nothing to explain"
     if best is None:
         return "unexplained"
-    if best.consistent and best.plausible and best.error_after <= FLOOR_TOLERANCE * floor:
+    if (best.consistent and best.plausible and getattr(best, "early_late_agree", True)
+            and best.error_after <= FLOOR_TOLERANCE * floor):
         return "explained"
     return "partly explained"
 
