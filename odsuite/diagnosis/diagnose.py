@@ -802,16 +802,16 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
             res_best = resolution.resolve(exps, after, floor_best)
     if res_best is not None and not best.early_late_agree and len(getattr(best, "_early_late_u", ())) == 2:
         # the parts' fits differ beyond their uncertainties; it matters where the models fitted to
-        # them predict apart by more than the noise in some band of some channel (a verdict's cell)
+        # them predict apart by more than the noise in some band of some channel (a verdict's cell).
+        # A caution in the message, not the verdict: true added masses failed it as a rattle did
         early, late = (p.predictions(u, p.full) for u in best._early_late_u)
         apart = resolution.resolve(exps, [e.measured - (a - b) for e, a, b in zip(exps, early, late)], floor_best)
         best.early_late_agree = apart is None or not apart.detected()
     # amplitude dependence as the data show it: the best significant candidate's parameters, fitted
-    # per experiment, follow the force level, or it makes the model amplitude dependent, or they
-    # disagree between the records' early (large) and late (small) part (without one: any fitted
-    # candidate's). A stand-in's drifting parameters say it stands in, not that the structure is
-    # nonlinear: a mass fitted for a worn mount followed the force level
-    amplitude = (bool(best.amplitude_dependent) or makes_nonlinear(best, base) or not best.early_late_agree
+    # per experiment, follow the force level, or it makes the model amplitude dependent (without
+    # one: any fitted candidate's). A stand-in's drifting parameters say it stands in, not that the
+    # structure is nonlinear: a mass fitted for a worn mount followed the force level
+    amplitude = (bool(best.amplitude_dependent) or makes_nonlinear(best, base)
                  if best is not None
                  else any(c.amplitude_dependent for c in d.candidates if c.fitted))
     nonlinear = best is not None and makes_nonlinear(best, base)

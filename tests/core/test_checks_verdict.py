@@ -218,3 +218,13 @@ def test_a_fit_that_takes_up_an_amplitude_dependent_decay_differs_between_its_pa
     assert not lin.linear and "frequency_hz" in lin.differing
     assert lin.early["frequency_hz"] > lin.late["frequency_hz"] + 0.5
     assert lin.late["frequency_hz"] == pytest.approx(100.0, rel=0.01)
+
+
+def test_an_explained_verdict_cautions_where_the_early_and_late_fits_predict_apart():
+    # the caution does not decide the verdict (true added masses failed it as a rattle's stand-in did)
+    best = _Cand(error_after=0.011, effect="coupled_mode")
+    best.early_late_agree, best.early_late_differ = False, ["frequency_hz", "damping_ratio"]
+    assert decide(0.05, 0.01, best) == "explained"
+    words = message("explained", 0.05, 0.01, best, Signature(), None)
+    assert "Caution" in words and "frequency_hz" in words and "stand in" in words
+    assert "Caution" not in message("explained", 0.05, 0.01, _Cand(error_after=0.011), Signature(), None)
