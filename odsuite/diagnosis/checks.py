@@ -195,7 +195,7 @@ class Linearity:
     u: tuple = ()  # the fit's scaled unknowns with the early part's, the late part's values
 
 
-def linearity(problem, res, tolerated: float | None = None) -> Linearity:
+def linearity(problem, res) -> Linearity:
     """Whether a fit holds on the large and the small part of the records alike. A hit's response
     decays through many amplitudes within each record, so a linear effect's parameters fitted to
     the early part and to the late part agree within their uncertainties; a fit that takes up an
@@ -204,8 +204,8 @@ def linearity(problem, res, tolerated: float | None = None) -> Linearity:
     of its shared parameters) reaches half, so each part determines it alike; each parameter is
     fitted to the early rows of every record and to the late rows (one Gauss-Newton step each from
     the joint fit, as ``consistency``) and their difference tested (chi-square with one degree of
-    freedom, FALSE_ALARM, Bonferroni over the parameters). ``tolerated``: as in ``consistency``,
-    fitting the two parts apart must lower the sum of squares by more than the verdict tolerates."""
+    freedom, FALSE_ALARM, Bonferroni over the parameters). No pooled tolerance as ``consistency``
+    has: a contact's misfit sits in one band of one channel, far below a pooled one."""
     shared = [i for i, f in enumerate(problem.free) if f.experiment is None]
     if not shared or res is None:
         return Linearity()
@@ -225,19 +225,18 @@ def linearity(problem, res, tolerated: float | None = None) -> Linearity:
         start += size
     if not parts[0] or not columns:
         return Linearity()  # channel counts differ between records: no common row blocks
-    fits, gain, us = [], 0.0, []
+    fits, us = [], []
     for rows in parts:
         idx = np.concatenate(rows)
-        fitted, g, step = _local_fit(problem, res.x, J[idx], r[idx], shared, columns)
+        fitted, _, step = _local_fit(problem, res.x, J[idx], r[idx], shared, columns)
         fits.append({label: (v, sd) for label, v, sd in fitted})
-        gain += g
         u = np.array(res.x, float)
         u[shared] += step
         us.append(u)
     out = Linearity(early={k: v for k, (v, _) in fits[0].items()}, late={k: v for k, (v, _) in fits[1].items()},
                     u=tuple(us))
     both = [k for k in fits[0] if k in fits[1]]
-    if not both or (tolerated is not None and gain * problem.stride <= tolerated):
+    if not both:
         return out
     limit = float(scipy.stats.chi2.isf(FALSE_ALARM / len(both), 1))
     for k in both:
