@@ -162,8 +162,7 @@ def message(verdict: str, baseline: float, floor: float, best, sig: Signature, r
                 f"fits these data. {best.effect}{also} still removes more of the error than chance would "
                 f"(to {best.error_after:.3g}): a small effect at this noise. Record stronger hits (or quieter "
                 f"channels) to tell whether it matters.")
-    amp = (" The misfit changes with the amplitude (across force levels, or as each record's response "
-           "decays): the structure is amplitude dependent (a nonlinear "
+    amp = (" The misfit changes with the force level: the structure is amplitude dependent (a nonlinear "
            "stiffness, friction or a contact); test at several force levels and fit each level alone."
            if sig.amplitude_dependent else "")
     if verdict == "unexplained":
