@@ -789,6 +789,13 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
     """The verdict (from the resolved residual where the floor has bands), the signature of what
     is left (after the best significant candidate, if any) and the message."""
     best = next((c for c in d.candidates if c.significant and c.fitted), None)
+    # amplitude dependence as the data show it: the best significant candidate's parameters, fitted
+    # per experiment, follow the force level, or it makes the model amplitude dependent (without
+    # one: any fitted candidate's). A stand-in's drifting parameters say it stands in, not that the
+    # structure is nonlinear: a mass fitted for a worn mount followed the force level
+    amplitude = (bool(best.amplitude_dependent) or makes_nonlinear(best, base)
+                 if best is not None
+                 else any(c.amplitude_dependent for c in d.candidates if c.fitted))
     res_best, floor_best = getattr(best, "_resolved", None) if best is not None else None, cmp.floor
     after = None
     if best is not None:
@@ -807,13 +814,6 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
         early, late = (p.predictions(u, p.full) for u in best._early_late_u)
         apart = resolution.resolve(exps, [e.measured - (a - b) for e, a, b in zip(exps, early, late)], floor_best)
         best.early_late_agree = apart is None or not apart.detected()
-    # amplitude dependence as the data show it: the best significant candidate's parameters, fitted
-    # per experiment, follow the force level, or it makes the model amplitude dependent (without
-    # one: any fitted candidate's). A stand-in's drifting parameters say it stands in, not that the
-    # structure is nonlinear: a mass fitted for a worn mount followed the force level
-    amplitude = (bool(best.amplitude_dependent) or makes_nonlinear(best, base)
-                 if best is not None
-                 else any(c.amplitude_dependent for c in d.candidates if c.fitted))
     nonlinear = best is not None and makes_nonlinear(best, base)
     d.verdict = decide(d.baseline_error, d.noise_floor_error, best, before=res0, after=res_best,
                        amplitude_cause=nonlinear)
