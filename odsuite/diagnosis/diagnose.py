@@ -793,8 +793,7 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
     # per experiment, follow the force level, or it makes the model amplitude dependent (without
     # one: any fitted candidate's). A stand-in's drifting parameters say it stands in, not that the
     # structure is nonlinear: a mass fitted for a worn mount followed the force level
-    amplitude = (bool(best.amplitude_dependent) or makes_nonlinear(best, base)
-                 if best is not None
+    amplitude = (bool(best.amplitude_dependent) or makes_nonlinear(best, base) if best is not None
                  else any(c.amplitude_dependent for c in d.candidates if c.fitted))
     res_best, floor_best = getattr(best, "_resolved", None) if best is not None else None, cmp.floor
     after = None
