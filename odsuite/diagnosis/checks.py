@@ -113,27 +113,11 @@ def consistency(problem, res, force_levels: Mapping[str, float], tolerated: floa
     gain = 0.0  # what fitting per experiment lowers the (strided) sum of squares by
     for i, e in enumerate(exps):
         rows = slice(starts[i], starts[i + 1])
-        Ji, ri = J[rows][:, shared], r[rows]
-        H = Ji.T @ Ji
-        if not np.any(H):
-            continue
-        w, V = np.linalg.eigh(H)
-        keep = w > 1e-8 * w.max()
-        Hinv = (V[:, keep] / w[keep]) @ V[:, keep].T
-        step = -Hinv @ (Ji.T @ ri)
-        gain -= float(step @ (Ji.T @ ri))
-        n_i = ri.size
-        neff = effective_samples(ri.reshape(-1, e.measured.shape[1]))
-        s2 = float(ri @ ri) / max(1, n_i - len(shared)) * (n_i / neff)
-        cov = s2 * Hinv
-        for j, idx in enumerate(shared):
-            f = problem.free[idx]
-            sd = float(np.sqrt(max(cov[j, j], 0.0))) * f.scale
-            if not np.isfinite(sd) or sd <= 0 or sd > 0.1 * (f.param.upper - f.param.lower):
-                continue  # this experiment does not determine it
-            v = f.to_value(res.x[idx] + step[j])
-            values.setdefault(f.label, []).append((e.name, v, sd))
-            per.setdefault(e.name, {})[f.label] = v
+        fitted, part, _ = _local_fit(problem, res.x, J[rows][:, shared], r[rows], shared, e.measured.shape[1])
+        gain += part
+        for label, v, sd in fitted:
+            values.setdefault(label, []).append((e.name, v, sd))
+            per.setdefault(e.name, {})[label] = v
     tested = {k: v for k, v in values.items() if len(v) >= 2}
     out = Consistency(True, per)
     out.gain = gain * k
@@ -171,6 +155,95 @@ def consistency(problem, res, force_levels: Mapping[str, float], tolerated: floa
         # better than the tolerated misfit is the misfit's pull
         if label in out.amplitude_dependent or not immaterial:
             out.consistent = False
+    return out
+
+
+def _local_fit(problem, x, Ji: np.ndarray, ri: np.ndarray, shared: Sequence[int], columns: int
+               ) -> tuple[list[tuple[str, float, float]], float, np.ndarray]:
+    """The shared parameters fitted to some rows of a joint fit alone: one Gauss-Newton step from
+    it on those rows of the Jacobian, the covariance from their residual with its effective
+    samples (``columns`` channels a row block). Returns (label, value, sd) of the parameters those
+    rows determine (sd within a tenth of the range) and the (strided) sum of squares the step
+    removes, and the step (in the fit's scaled units, one per shared parameter)."""
+    H = Ji.T @ Ji
+    if not np.any(H):
+        return [], 0.0, np.zeros(len(shared))
+    w, V = np.linalg.eigh(H)
+    keep = w > 1e-8 * w.max()
+    Hinv = (V[:, keep] / w[keep]) @ V[:, keep].T
+    step = -Hinv @ (Ji.T @ ri)
+    n_i = ri.size
+    neff = effective_samples(ri.reshape(-1, columns))
+    s2 = float(ri @ ri) / max(1, n_i - len(shared)) * (n_i / neff)
+    cov = s2 * Hinv
+    out = []
+    for j, idx in enumerate(shared):
+        f = problem.free[idx]
+        sd = float(np.sqrt(max(cov[j, j], 0.0))) * f.scale
+        if not np.isfinite(sd) or sd <= 0 or sd > 0.1 * (f.param.upper - f.param.lower):
+            continue  # these rows do not determine it
+        out.append((f.label, f.to_value(x[idx] + step[j]), sd))
+    return out, -float(step @ (Ji.T @ ri)), step
+
+
+@dataclass
+class Linearity:
+    linear: bool = True
+    early: dict[str, float] = field(default_factory=dict)  # values fitted to the records' early part
+    late: dict[str, float] = field(default_factory=dict)  # to their late part
+    differing: list[str] = field(default_factory=list)  # parameters whose two values disagree
+    u: tuple = ()  # the fit's scaled unknowns with the early part's, the late part's values
+
+
+def linearity(problem, res) -> Linearity:
+    """Whether a fit holds on the large and the small part of the records alike. A hit's response
+    decays through many amplitudes within each record, so a linear effect's parameters fitted to
+    the early part and to the late part agree within their uncertainties; a fit that takes up an
+    amplitude-dependent residual (a contact closing only at large motion, friction) gives two
+    values. Each record is split where the candidate's own information (the squared Jacobian rows
+    of its shared parameters) reaches half, so each part determines it alike; each parameter is
+    fitted to the early rows of every record and to the late rows (one Gauss-Newton step each from
+    the joint fit, as ``consistency``) and their difference tested (chi-square with one degree of
+    freedom, FALSE_ALARM, Bonferroni over the parameters). No pooled tolerance as ``consistency``
+    has: a contact's misfit sits in one band of one channel, far below a pooled one."""
+    shared = [i for i, f in enumerate(problem.free) if f.experiment is None]
+    if not shared or res is None:
+        return Linearity()
+    n_data = res.fun.size - (len(problem.free) if problem.prior else 0)
+    J, r = res.jac[:n_data][:, shared], res.fun[:n_data]
+    parts: tuple[list[np.ndarray], list[np.ndarray]] = ([], [])
+    start, columns = 0, None
+    for e in problem.exps:
+        m = e.measured.shape[1]
+        size = len(range(0, e.n_samples, problem.stride)) * m
+        columns = m if columns in (None, m) else 0
+        info = np.cumsum(np.sum((J[start:start + size] ** 2).reshape(-1, m * len(shared)), axis=1))
+        if info[-1] > 0:
+            cut = int(np.searchsorted(info, 0.5 * info[-1])) + 1
+            parts[0].append(np.arange(start, start + cut * m))
+            parts[1].append(np.arange(start + cut * m, start + size))
+        start += size
+    if not parts[0] or not columns:
+        return Linearity()  # channel counts differ between records: no common row blocks
+    fits, us = [], []
+    for rows in parts:
+        idx = np.concatenate(rows)
+        fitted, _, step = _local_fit(problem, res.x, J[idx], r[idx], shared, columns)
+        fits.append({label: (v, sd) for label, v, sd in fitted})
+        u = np.array(res.x, float)
+        u[shared] += step
+        us.append(u)
+    out = Linearity(early={k: v for k, (v, _) in fits[0].items()}, late={k: v for k, (v, _) in fits[1].items()},
+                    u=tuple(us))
+    both = [k for k in fits[0] if k in fits[1]]
+    if not both:
+        return out
+    limit = float(scipy.stats.chi2.isf(FALSE_ALARM / len(both), 1))
+    for k in both:
+        (a, sa), (b, sb) = fits[0][k], fits[1][k]
+        if (a - b) ** 2 / (sa**2 + sb**2) > limit:
+            out.differing.append(k)
+    out.linear = not out.differing
     return out
 
 

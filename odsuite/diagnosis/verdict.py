@@ -9,7 +9,9 @@ stays the number reported. Without bands the pooled error within ``FLOOR_TOLERAN
 - "nothing to explain": no cell above the floor;
 - "explained": a significant, plausible candidate leaves no cell above it, with parameters that
   agree across experiments (or that make the model amplitude dependent, whose per-experiment
-  values then follow the force level by design);
+  values then follow the force level by design); the message cautions where its fits to the
+  records' early (large) and late (small) part predict apart beyond the noise (it may stand in
+  for an amplitude-dependent cause: checks.linearity);
 - "partly explained": a significant candidate helps, but cells stay above the floor or its
   parameters are inconsistent or implausible;
 - "unexplained": nothing significant while cells are above the floor.
@@ -173,6 +175,12 @@ def message(verdict: str, baseline: float, floor: float, best, sig: Signature, r
     if verdict == "explained":
         amp_words = (" Its effect depends on the force level, as the records do." if sig.amplitude_dependent
                      else "")
+        if not getattr(best, "early_late_agree", True):
+            # measured: a rattle's stand-in and two true added masses alike, so it does not decide
+            amp_words += (f" Caution: its parameters fitted to the early (large) and the late (small) part of "
+                          f"the records differ ({', '.join(best.early_late_differ[:3])}) and their models "
+                          f"predict apart beyond the noise: it may stand in for an amplitude-dependent cause "
+                          f"(a contact, friction, a loose part); record hits at other force levels to tell.")
         return (f"{head}; adding {name}{also} brings it to {best.error_after:.3g}, at the floor in every band "
                 f"of every channel, with parameters that agree across the experiments (or follow the force "
                 f"level as the effect does) and lie in their physical range.{amp_words} Run "
@@ -185,6 +193,10 @@ def message(verdict: str, baseline: float, floor: float, best, sig: Signature, r
         why.append(f"the error stays at {best.error_after:.3g}, {best.error_after / floor:.2f} times the floor")
     if not best.consistent:
         why.append("its parameters differ between experiments beyond their uncertainties")
+    if not getattr(best, "early_late_agree", True):
+        why.append("its parameters fitted to the early (large) and the late (small) part of the records differ "
+                   f"beyond their uncertainties ({', '.join(best.early_late_differ[:3])}): the residual it takes up "
+                   "changes with the amplitude within each record, as a contact, friction or a loose part's does")
     if not best.plausible:
         why.append("its fitted values lie outside their physical range (" + ", ".join(best.implausible[:3]) + ")")
     left = f" What is left lies in {_where(rest)}." if rest is not None else ""
