@@ -99,6 +99,12 @@ This bench, main's code (before) and this one (after) one right after the other,
 | two-body, 1 | 1023, 22.4 s, 505, 22.3 s | 1023, 19.2 s, 536, 19.4 s |
 | two-body, 2 | 1023, 20.6 s, 465, 20.1 s | 1023, 19.2 s, 538, 16.0 s |
 
+On a quiet machine (load 0.9) after that round, with the early/late check of the best candidate:
+thesis 1703 evaluations, 23.2 s CPU / 22.7 s wall on one worker, 19.7 s CPU / 16.0 s wall on two
+(698 / 591 evaluations' worth; one evaluation 22 ms wall, 33 ms CPU); two-body 1023 evaluations,
+18.5 s CPU on one and on two workers, 18.1 s / 9.6 s wall (399 / 400 worth; one evaluation 46 ms
+CPU). Verdicts and errors as above. Targets (3 s / 5 s, 250 worth) missed by 2.4-5x.
+
 CPU seconds 7-14 % lower after; the worth column rose because the baseline evaluation measured
 36.6 / 44.3 ms CPU before (more than its 25.9 / 32.7 ms wall: some other thread of the process
 ran meanwhile; cause not found) and 28.6 / 35.7 ms after: at this load the baseline, not diagnose,
