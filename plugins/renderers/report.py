@@ -88,15 +88,14 @@ def _palette_png(path: Path) -> Path:
 
     with Image.open(path) as im:
         rgb = im.convert("RGB")
-    original = np.asarray(rgb)
-    code = (original[..., 0].astype(np.int32) << 16) | (original[..., 1].astype(np.int32) << 8) | original[..., 2]
-    _, colour, area = np.unique(code.ravel(), return_inverse=True, return_counts=True)
+    original = np.asarray(rgb).astype(np.int16)
     for rounds in (0, 2):  # k-means rounds only where median cut alone moved a colour
         pal = rgb.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE, kmeans=rounds)
-        moved = np.abs(original.astype(np.int16) - np.asarray(pal.convert("RGB"), np.int16)).max(axis=2)
-        worst = np.zeros(area.size, np.int16)
-        np.maximum.at(worst, colour.ravel(), moved.ravel())
-        if worst[area >= PALETTE_AREA].max(initial=0) <= PALETTE_TOLERANCE:
+        moved = original[np.abs(original - np.asarray(pal.convert("RGB"), np.int16)).max(axis=2) > PALETTE_TOLERANCE]
+        # without dithering every pixel of a colour maps to the same entry, so the pixels moved
+        # too far are whole colours: only their areas need counting, not every pixel's
+        code = (moved[:, 0].astype(np.int32) << 16) | (moved[:, 1].astype(np.int32) << 8) | moved[:, 2]
+        if np.unique(code, return_counts=True)[1].max(initial=0) < PALETTE_AREA:
             pal.save(path)
             return path
     rgb.save(path)
