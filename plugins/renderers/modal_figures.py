@@ -126,13 +126,14 @@ def frf_figure(frf, path: str | Path, *, band_hz: tuple[float, float] | None = N
         line, = mag.loglog(f, np.abs(h), lw=0.8, label=label)
         good = frf.coherence[k, pos] >= COHERENCE_GOOD
         centre = _phase_centre(h) if len(names) == 1 else 0.0  # one axis for several outputs
-        phase.semilogx(f, np.where(good, _phase_degrees(h, centre), np.nan), lw=0.6, color=line.get_color())
+        phase.semilogx(*_unjoined_wraps(f, np.where(good, _phase_degrees(h, centre), np.nan)), lw=0.6,
+                       color=line.get_color())
         _shade_runs(phase, f, ~good)
         coh.semilogx(f, frf.coherence[k, pos], lw=0.6, color=line.get_color())
         if model_H is not None and name in model_H:
             hm = np.asarray(model_H[name])[pos]
             mag.loglog(f, np.abs(hm), lw=0.9, color="k", ls="--", label=f"model{'' if len(names) == 1 else ': ' + name}")
-            phase.semilogx(f, _phase_degrees(hm, centre), lw=0.7, color="k", ls="--")
+            phase.semilogx(*_unjoined_wraps(f, _phase_degrees(hm, centre)), lw=0.7, color="k", ls="--")
     for ax in (mag, phase, coh):
         if band_hz is not None:
             ax.axvspan(*band_hz, color="0.92", zorder=0)
@@ -189,6 +190,13 @@ def _phase_degrees(h: np.ndarray, centre: float) -> np.ndarray:
     """The phase in degrees within ±180° of ``centre``: a phase sitting near ±180° (a mass line) is
     then one line, not a band of jumps between the two."""
     return (np.degrees(np.angle(h)) - centre + 180.0) % 360.0 - 180.0 + centre
+
+
+def _unjoined_wraps(f: np.ndarray, degrees: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``f`` and ``degrees`` with a gap (NaN) where the phase wraps by a turn between two lines: a
+    phase at the edge of the axis is then drawn at one edge or the other, not as a spike across."""
+    wraps = np.flatnonzero(np.abs(np.diff(degrees)) > 180.0) + 1
+    return (np.insert(np.asarray(f, float), wraps, np.nan), np.insert(np.asarray(degrees, float), wraps, np.nan))
 
 
 def _phase_centre(h: np.ndarray) -> float:

@@ -166,3 +166,19 @@ def test_frf_figure_draws_h1_without_the_records_straight_lines_from_three_cycle
     unknown = frf_figure(dataclasses.replace(frf, trend=None), tmp_path / "raw.png")
     assert unknown.axes[0].lines[0].get_xdata()[0] == pytest.approx(fs / n)
     assert np.abs(unknown.axes[0].lines[0].get_ydata()[0]) > 50 * np.abs(ref[1])  # the drift, drawn raw
+
+
+def test_a_phase_wrapping_at_the_axis_edge_is_not_drawn_as_a_spike():
+    """A mass line's phase noisy about 180° wraps to -180° and back: the drawn line breaks there
+    (no segment spans more than half a turn), and every line's value is kept."""
+    from odsuite_plugins.renderers.modal_figures import _unjoined_wraps
+
+    rng = np.random.default_rng(3)
+    f = np.linspace(1.0, 100.0, 400)
+    h = -np.exp(1j * np.radians(rng.normal(0.0, 2.0, f.size)))  # about 180°, either side
+    degrees = np.degrees(np.angle(h))
+    assert np.abs(np.diff(degrees)).max() > 300  # the raw phase jumps across the axis
+    fx, px = _unjoined_wraps(f, degrees)
+    drawn = np.isfinite(px[:-1]) & np.isfinite(px[1:])
+    assert np.abs(np.diff(px))[drawn].max() <= 180.0
+    assert np.array_equal(px[np.isfinite(px)], degrees) and np.array_equal(fx[np.isfinite(fx)], f)
