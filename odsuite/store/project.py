@@ -478,6 +478,12 @@ class Project:
             raise ConfigError(f"{where}: n_samples must be an integer > 0, got {n_samples!r}")
         if not isinstance(systeminfo, Systeminfo):
             raise ConfigError(f"{where}: systeminfo must be a Systeminfo, got {type(systeminfo).__name__}")
+        for i, ch in enumerate(systeminfo.channels):
+            # row 7 is the channel's rate; a record stored at another rate would be read wrongly
+            if ch.sampling_rate and not np.isclose(ch.sampling_rate, sampling_rate, rtol=1e-9, atol=0.0):
+                raise ConfigError(f"{where}: systeminfo channel {i} row 7 (sampling rate) is "
+                                  f"{ch.sampling_rate:g} Hz but the record is sampled at {float(sampling_rate):g} Hz")
+        systeminfo = systeminfo.with_rate(sampling_rate)
 
         streamed = not isinstance(raw, np.ndarray | list | tuple)
         chunks: Iterator[Any] = iter(raw) if streamed else iter([raw])

@@ -27,8 +27,8 @@ from odsuite.domain.systeminfo import (
 HIT = Excitation(0, np.array([0.01, -0.02, -0.011]), np.array([0.0, 0.0, 1.0]))
 
 
-def systeminfo(n: int = 11) -> Systeminfo:
-    return Systeminfo([ChannelInfo(sensor_type=SensorType.ACCELEROMETER, sampling_rate=1000.0) for _ in range(n)])
+def systeminfo(n: int = 11, rate: float = 1000.0) -> Systeminfo:
+    return Systeminfo([ChannelInfo(sensor_type=SensorType.ACCELEROMETER, sampling_rate=rate) for _ in range(n)])
 
 
 def odd_systeminfo() -> Systeminfo:
@@ -64,7 +64,7 @@ def test_every_systeminfo_field_round_trips(tmp_path):
     raw = np.arange(30.0).reshape(10, 3)
     with create_project(tmp_path / "p.h5", rig=None) as p:
         p.add_experiment("e", raw, sampling_rate=2048.5, systeminfo=si, excitation=None)
-        p.add_experiment("defaults", raw, sampling_rate=1.0, systeminfo=systeminfo(3), excitation=None)
+        p.add_experiment("defaults", raw, sampling_rate=1000.0, systeminfo=systeminfo(3), excitation=None)
     with open_project(tmp_path / "p.h5") as p:
         back = p.experiment("e").systeminfo
         assert p.experiment("defaults").systeminfo == systeminfo(3)
@@ -137,21 +137,21 @@ def test_streamed_add_equals_array_add(tmp_path):
     raw = rng.normal(size=(10_007, 4))
     with create_project(tmp_path / "p.h5", rig=None) as p:
         p.add_experiment("known", (raw[i:i + 1000] for i in range(0, len(raw), 1000)), n_samples=len(raw),
-                         sampling_rate=500.0, systeminfo=systeminfo(4), excitation=None)
+                         sampling_rate=500.0, systeminfo=systeminfo(4, rate=500.0), excitation=None)
         p.add_experiment("unknown", (raw[i:i + 999] for i in range(0, len(raw), 999)),
-                         sampling_rate=500.0, systeminfo=systeminfo(4), excitation=None)
+                         sampling_rate=500.0, systeminfo=systeminfo(4, rate=500.0), excitation=None)
         assert p.experiment("known").channel_names == ["ch0", "ch1", "ch2", "ch3"]
         assert np.array_equal(p.experiment("known").raw(), raw)
         assert np.array_equal(p.experiment("unknown").raw(), raw)
         with pytest.raises(DimensionError, match="10007 rows, expected 20000"):
             p.add_experiment("short", iter([raw]), n_samples=20_000, sampling_rate=500.0,
-                             systeminfo=systeminfo(4), excitation=None)
+                             systeminfo=systeminfo(4, rate=500.0), excitation=None)
         assert p.experiment_names() == ["known", "unknown"]
 
 
 def test_derived_write_replace_stream_and_provenance(tmp_path):
     with create_project(tmp_path / "p.h5", rig=None) as p:
-        e = p.add_experiment("e", np.zeros((100, 2)), sampling_rate=100.0, systeminfo=systeminfo(2),
+        e = p.add_experiment("e", np.zeros((100, 2)), sampling_rate=100.0, systeminfo=systeminfo(2, rate=100.0),
                              excitation=None)
         acc = np.linspace(0, 1, 200).reshape(100, 2)
         p.write_derived("e", "processed", {"acc": DerivedArray(acc, "m/s^2", ("sample", "channel")),
@@ -191,14 +191,14 @@ def test_transaction_batches_into_one_copy(tmp_path, monkeypatch):
         copies.clear()
         with p.transaction():
             for i in range(5):
-                p.add_experiment(f"e{i}", np.full((10, 2), i), sampling_rate=10.0, systeminfo=systeminfo(2),
+                p.add_experiment(f"e{i}", np.full((10, 2), i), sampling_rate=10.0, systeminfo=systeminfo(2, rate=10.0),
                                  excitation=None)
             with open_project(tmp_path / "p.h5") as reader:  # nothing visible before the commit
                 assert reader.experiment_names() == []
             # a failed add inside the batch leaves no trace, the batch goes on
             with pytest.raises(ConfigError, match="channel 1"):
                 p.add_experiment("bad", iter([np.zeros((3, 2)), np.array([[0, np.nan]])]),
-                                 sampling_rate=10.0, systeminfo=systeminfo(2), excitation=None)
+                                 sampling_rate=10.0, systeminfo=systeminfo(2, rate=10.0), excitation=None)
         assert len(copies) == 1
         with open_project(tmp_path / "p.h5") as reader:
             assert reader.experiment_names() == [f"e{i}" for i in range(5)]
@@ -208,7 +208,7 @@ def test_transaction_batches_into_one_copy(tmp_path, monkeypatch):
 def test_read_only_project_refuses_writes(tmp_path):
     create_project(tmp_path / "p.h5", rig=None).close()
     with open_project(tmp_path / "p.h5") as p, pytest.raises(ProjectFileError, match="read-only"):
-        p.add_experiment("e", np.zeros((2, 2)), sampling_rate=1.0, systeminfo=systeminfo(2), excitation=None)
+        p.add_experiment("e", np.zeros((2, 2)), sampling_rate=1.0, systeminfo=systeminfo(2, rate=1.0), excitation=None)
 
 
 def test_a_reader_opens_and_walks_the_file_once(tmp_path, monkeypatch):
@@ -217,7 +217,7 @@ def test_a_reader_opens_and_walks_the_file_once(tmp_path, monkeypatch):
     from odsuite.store import h5damage
 
     with create_project(tmp_path / "p.h5", rig=None) as p:
-        p.add_experiment("e", np.ones((4, 2)), sampling_rate=1.0, systeminfo=systeminfo(2), excitation=None)
+        p.add_experiment("e", np.ones((4, 2)), sampling_rate=1.0, systeminfo=systeminfo(2, rate=1.0), excitation=None)
     walked = []
     monkeypatch.setattr(h5damage, "refuse_outside", lambda f, where: walked.append(f.filename))
     with open_project(tmp_path / "p.h5") as p:
@@ -252,7 +252,7 @@ def test_info_peaks_and_clipping(tmp_path):
     raw = rng.uniform(-4, 4, size=(20_000, 3))
     raw[100, 1] = 9.9995  # a 16-bit converter's top code on a +-10 V range
     raw[200, 2] = -5.0  # exactly at this channel's lower limit
-    si = systeminfo(3)
+    si = systeminfo(3, rate=2000.0)
     si.channels[2].limit_low = -5.0
     with create_project(tmp_path / "p.h5", rig=None) as p:
         p.add_experiment("e", raw, sampling_rate=2000.0, systeminfo=si, excitation=None)
@@ -272,7 +272,7 @@ def _numeric_datasets(f: h5py.File) -> list[h5py.Dataset]:
 
 def test_every_numeric_dataset_has_units_and_dims(tmp_path, thesis_rig):
     with create_project(tmp_path / "p.h5", rig=thesis_rig) as p:
-        p.add_experiment("e", np.zeros((50, 11)), sampling_rate=100.0, systeminfo=odd_systeminfo_11(),
+        p.add_experiment("e", np.zeros((50, 11)), sampling_rate=2048.5, systeminfo=odd_systeminfo_11(),
                          excitation=HIT)
         p.write_derived("e", "d", {"x": DerivedArray(np.zeros(5), "s", ("t",))}, provenance={"plugin": "t"})
     with h5py.File(tmp_path / "p.h5", "r") as f:
@@ -299,7 +299,7 @@ def test_text_is_stored_as_fixed_length_utf8(tmp_path, thesis_rig):
 
     si = odd_systeminfo_11()
     with create_project(tmp_path / "p.h5", rig=thesis_rig) as p:
-        p.add_experiment("Prüfung ζ", np.zeros((50, 11)), sampling_rate=100.0, systeminfo=si, excitation=HIT,
+        p.add_experiment("Prüfung ζ", np.zeros((50, 11)), sampling_rate=2048.5, systeminfo=si, excitation=HIT,
                          source="Prüfstand")
         p.write_derived("Prüfung ζ", "d", {"x": DerivedArray(np.zeros(5), "µm", ("t",))},
                         provenance={"plugin": "t"}, attrs={"note": "Δf = 2 Hz", "empty": ""})
@@ -327,10 +327,10 @@ def odd_systeminfo_11() -> Systeminfo:
 def test_failed_transaction_commits_nothing(tmp_path):
     path = tmp_path / "p.h5"
     with create_project(path, rig=None) as p:
-        p.add_experiment("keep", np.ones((5, 2)), sampling_rate=1.0, systeminfo=systeminfo(2), excitation=None)
+        p.add_experiment("keep", np.ones((5, 2)), sampling_rate=1.0, systeminfo=systeminfo(2, rate=1.0), excitation=None)
         before = path.read_bytes()
         with pytest.raises(KeyError), p.transaction():
-            p.add_experiment("lost", np.ones((5, 2)), sampling_rate=1.0, systeminfo=systeminfo(2), excitation=None)
+            p.add_experiment("lost", np.ones((5, 2)), sampling_rate=1.0, systeminfo=systeminfo(2, rate=1.0), excitation=None)
             p.write_derived("keep", "d", {"x": DerivedArray(np.zeros(2), "1", ("a",))}, provenance={"plugin": "t"})
             assert p.experiment_names() == ["keep", "lost"]  # the transaction sees its own writes
             raise KeyError("a plugin failed half-way")

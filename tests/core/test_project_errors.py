@@ -71,6 +71,8 @@ BAD_ADDS = [
     (dict(excitation=Excitation(3, np.zeros(3), np.array([1.0, 0, 0]))), ConfigError,
      "force channel must be a channel index 0..2, got 3"),
     (dict(name="a/b"), ConfigError, "without '/'"),
+    (dict(systeminfo=Systeminfo([ChannelInfo(), ChannelInfo(sampling_rate=5000.0), ChannelInfo()])), ConfigError,
+     r"systeminfo channel 1 row 7 \(sampling rate\) is 5000 Hz but the record is sampled at 100 Hz"),
     (dict(channel_names=["a", "a", "b"]), DimensionError, "3 distinct names"),
 ]
 
@@ -86,6 +88,15 @@ def test_bad_experiment_is_refused_and_project_unchanged(project_path, kw, error
         assert p.experiment_names() == ["e1", "e2"]
     assert _digest(project_path) == before
     assert sorted(x.name for x in project_path.parent.iterdir()) == ["p.h5"]
+
+
+def test_unset_row_7_is_stored_as_the_records_rate(project_path):
+    with open_project(project_path, "a") as p:
+        _add(p, systeminfo=Systeminfo([ChannelInfo(), ChannelInfo(sampling_rate=100.0), ChannelInfo()]))
+    with open_project(project_path) as p:
+        assert [ch.sampling_rate for ch in p.experiment("new").systeminfo.channels] == [100.0] * 3
+    with h5py.File(project_path, "r") as f:
+        assert f["experiments/new/systeminfo/channels"]["sampling_rate"].tolist() == [100.0] * 3
 
 
 def test_unknown_experiment_names_the_known_ones(project_path):
