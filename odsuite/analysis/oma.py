@@ -6,7 +6,8 @@ R_k = C A^(k-1) G, so the block Toeplitz matrix of R_1 .. R_(2i-1) factors into 
 times controllability; its SVD truncated to order n gives C and A (shift invariance of the
 observability matrix), and A's eigenvalues mu give the poles lambda = fs ln(mu), C's eigenvector
 image the (unscaled) mode shapes. Poles are stabilised over orders and picked like LSCF's
-(``modal.select_poles``).
+(``modal.select_poles``), with clusters as wide as a heavily damped pole wanders when their shapes
+agree (``_select``).
 
 Written here: sdypy-EMA has no output-only method, and the SSI-cov core is a few lines of numpy.
 """
@@ -146,11 +147,11 @@ def _segment_scatter(y: np.ndarray, fs: float, poles: np.ndarray, band: tuple[fl
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Per pole: standard errors of frequency (Hz) and damping ratio from the scatter of its
     matched poles over ``SEGMENTS`` segments (sample std / sqrt(segments)), the number of
-    segments that hold it (a one-to-one match within ``MATCH_TOL`` whose shape is nearer the
-    pole's ``phi`` than to no shape: MAC >= ``MATCH_MAC``) and, when their frequencies spread
-    beyond ``CLUSTER_TOL`` (as ``modal._consistent`` asks of a cluster over orders), the range of
-    their damping ratios over its median and the range allowed (``damping_range_allowed``; else
-    0 and 1)."""
+    segments that hold it (a one-to-one match within ``MATCH_TOL`` whose shape has MAC >=
+    ``MATCH_MAC`` with the pole's ``phi``), and per pole (columns) the range of the segments'
+    damping ratios over their median when their frequencies spread beyond ``CLUSTER_TOL`` (as
+    ``modal._consistent`` asks of a cluster over orders; else 0) and the range allowed
+    (``damping_range_allowed``)."""
     from scipy.optimize import linear_sum_assignment
 
     f0 = np.abs(poles) / (2 * np.pi)
@@ -225,7 +226,8 @@ def _select(diagram: StabilisationDiagram, shapes: list[np.ndarray], edges: bool
     order (``SAME_MODE_MAC``; a low order's shape of a close pair is a mixture): two close modes have
     distinct shapes (the 97.4 / 98.3 Hz pair: MAC 0.06-0.33) and stay two clusters however close.
     Returns the poles whose half-power band lies inside the diagram's band (ascending), their
-    counts of orders, their shapes (outputs x poles, from the highest order in the cluster) and
+    counts of orders, their shapes (outputs x poles, from the cluster's highest order within 0.5 %
+    of its median frequency: a wanderer's ends may be mixtures) and
     the poles dropped at the band's edges (``edges=False``: none dropped; a segment asked whether
     it holds the record's poles, whose band was chosen to hold them, is not cut by it again)."""
     f, z, o, phi = [], [], [], []
@@ -260,8 +262,8 @@ def _select(diagram: StabilisationDiagram, shapes: list[np.ndarray], edges: bool
         if n >= need and _consistent(f[c], z[c], CLUSTER_TOL):
             out.append(_pole(float(np.median(f[c])), float(np.median(z[c]))))
             counts.append(n)
-            near = c[np.abs(f[c] - np.median(f[c])) <= CLUSTER_TOL * np.median(f[c])]  # a wanderer's ends
-            rep.append(phi[(near if near.size else c)[np.argmax(o[near if near.size else c])]])  # may be mixtures
+            near = c[np.abs(f[c] - np.median(f[c])) <= CLUSTER_TOL * np.median(f[c])]
+            rep.append(phi[(near if near.size else c)[np.argmax(o[near if near.size else c])]])
     if not out:
         return np.array([], complex), np.array([], int), np.empty((shapes[0].shape[0], 0), complex), np.array([], complex)
     out, counts, rep = np.asarray(out), np.asarray(counts), np.column_stack(rep)
