@@ -176,16 +176,18 @@ def physical_poles(lam: np.ndarray, f_band: tuple[float, float], max_damping: fl
     return lam[keep][np.argsort(wn[keep])]
 
 
-def stability_flags(prev: np.ndarray, lam: np.ndarray, tol_f: float, tol_zeta: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per pole of this order: frequency within ``tol_f`` of the nearest pole of the previous
-    order, and (then) damping within ``tol_zeta`` of that pole's too."""
+def stability_flags(prev: np.ndarray, lam: np.ndarray, tol_f: float, tol_zeta: float,
+                    bandwidth: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Per pole of this order: frequency within ``tol_f`` (or ``bandwidth`` x its damping ratio
+    when larger, as ``cluster_tol``) of the nearest pole of the previous order, and (then) damping
+    within ``tol_zeta`` of that pole's too."""
     if not prev.size or not lam.size:
         return np.zeros(lam.size, bool), np.zeros(lam.size, bool)
     a, b = np.abs(lam), np.abs(prev)
     q = prev[np.argmin(np.abs(b[None, :] - a[:, None]), axis=1)]  # nearest in |pole|, first of equals
     aq = np.abs(q)
-    sf = np.abs(a - aq) <= tol_f * aq
     zq = -q.real / aq
+    sf = np.abs(a - aq) <= np.maximum(tol_f, bandwidth * zq) * aq
     return sf, sf & (np.abs(-lam.real / a - zq) <= tol_zeta * zq)
 
 

@@ -6,7 +6,8 @@ R_k = C A^(k-1) G, so the block Toeplitz matrix of R_1 .. R_(2i-1) factors into 
 times controllability; its SVD truncated to order n gives C and A (shift invariance of the
 observability matrix), and A's eigenvalues mu give the poles lambda = fs ln(mu), C's eigenvector
 image the (unscaled) mode shapes. Poles are stabilised over orders and picked like LSCF's
-(``modal.select_poles``).
+(``modal.select_poles``), with clusters as wide as a heavily damped pole wanders when their shapes
+agree (``_select``).
 
 Written here: sdypy-EMA has no output-only method, and the SSI-cov core is a few lines of numpy.
 """
@@ -25,13 +26,18 @@ from odsuite.analysis.fdd import spectral_peaks
 from odsuite.analysis.modal import (
     ModalResult,
     StabilisationDiagram,
+    CLUSTER_BANDWIDTH,
+    CLUSTER_DAMPING_SPREAD,
     Unresolved,
-    edge_dropped,
+    _consistent,
+    _distinct,
+    _pole,
+    cluster_tol,
     half_power_band,
+    half_power_inside,
     mac,
     normalise_shapes,
     physical_poles,
-    select_poles,
     stability_flags,
     zeta_of,
 )
@@ -110,7 +116,8 @@ def ssi_cov(
         phi = scale[:, None] * ((Un[:n_out, :n] * sq) @ psi)  # in the data's units
         kept = physical_poles(lam, band, max_damping)
         idx = [int(np.argmin(np.abs(lam - k))) for k in kept]
-        sf, sz = stability_flags(prev, kept, tol_f, tol_zeta)
+        # a heavily damped pole's estimate moves by a fraction of its half-power bandwidth per order
+        sf, sz = stability_flags(prev, kept, tol_f, tol_zeta, CLUSTER_BANDWIDTH)
         orders.append(n)
         poles.append(kept)
         shapes.append(phi[:, idx])
@@ -127,16 +134,24 @@ SEGMENTS = 4
 #: a segment's pole counts for a full-record pole within this relative distance (a pole further
 #: away is a different pole or none)
 MATCH_TOL = 0.05
+#: ... and shape: a segment's pole of another shape (MAC below this) is another mode or a
+#: noise pole, whose frequency would inflate the scatter
+MATCH_MAC = 0.5
 #: two neighbouring poles are told apart when their frequencies differ by more than this many
 #: combined standard errors (about 95 % for a normal scatter)
 SEPARATION_SIGMAS = 2.0
 
 
 def _segment_scatter(y: np.ndarray, fs: float, poles: np.ndarray, band: tuple[float, float],
-                     max_order: int, block_rows: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                     max_order: int, block_rows: int | None = None, phi: np.ndarray | None = None
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Per pole: standard errors of frequency (Hz) and damping ratio from the scatter of its
-    matched poles over ``SEGMENTS`` segments (sample std / sqrt(segments)), and the number of
-    segments that hold it (a one-to-one match within ``MATCH_TOL``)."""
+    matched poles over ``SEGMENTS`` segments (sample std / sqrt(segments)), the number of
+    segments that hold it (a one-to-one match within ``MATCH_TOL`` whose shape has MAC >=
+    ``MATCH_MAC`` with the pole's ``phi``), and per pole (columns) the range of the segments'
+    damping ratios over their median when their frequencies spread beyond ``CLUSTER_TOL`` (as
+    ``modal._consistent`` asks of a cluster over orders; else 0) and the range allowed
+    (``damping_range_allowed``)."""
     from scipy.optimize import linear_sum_assignment
 
     f0 = np.abs(poles) / (2 * np.pi)
@@ -149,12 +164,15 @@ def _segment_scatter(y: np.ndarray, fs: float, poles: np.ndarray, band: tuple[fl
                                       f_band=band)
         except DimensionError:
             break  # segments too short to identify anything: no scatter
-        seg, orders = select_poles(diagram)
+        seg, orders, seg_phi, _ = _select(diagram, shapes, edges=False)
         if seg.size == 0:
             continue
-        seg = seg[_one_per_mode(seg, _pole_shapes(diagram, shapes, seg), orders)]  # as the whole record's
+        one = _one_per_mode(seg, seg_phi, orders)  # as the whole record's
+        seg, seg_phi = seg[one], seg_phi[:, one]
         fs_seg = np.abs(seg) / (2 * np.pi)
         cost = np.abs(fs_seg[None, :] - f0[:, None]) / f0[:, None]
+        agree = mac(phi, seg_phi) >= MATCH_MAC if phi is not None else np.ones(cost.shape, bool)
+        cost = np.where(agree, cost, cost + 1.0)  # another mode's shape is no match
         for r, c in zip(*linear_sum_assignment(cost)):
             if cost[r, c] <= MATCH_TOL:
                 found_f[r].append(fs_seg[c])
@@ -163,7 +181,26 @@ def _segment_scatter(y: np.ndarray, fs: float, poles: np.ndarray, band: tuple[fl
     with np.errstate(invalid="ignore"):
         f_std = np.array([np.std(v, ddof=1) / np.sqrt(len(v)) if len(v) > 1 else np.inf for v in found_f])
         z_std = np.array([np.std(v, ddof=1) / np.sqrt(len(v)) if len(v) > 1 else np.inf for v in found_z])
-    return f_std, z_std, count
+        z_range = np.array([np.ptp(z) / np.median(z) if len(z) > 1 and np.ptp(f) > CLUSTER_TOL * np.median(f) else 0.0
+                            for f, z in zip(found_f, found_z)])
+    return f_std, z_std, count, np.column_stack([z_range, damping_range_allowed(poles, n / fs)])
+
+
+#: segments' damping ratios of one pole may spread by this many of a segment's relative standard
+#: deviations: the range of 4 normal samples exceeds 3.6 of them in 5 % of cases, and the scatter's
+#: formula (``damping_range_allowed``) is an order of magnitude, not SSI-cov's own (a 2.2 %-damped
+#: 8.1 Hz mode of a 3-channel roving setup, 75 s segments, spread by 62 %, 4.1 of them)
+DAMPING_RANGE_SIGMAS = 6.0
+
+
+def damping_range_allowed(poles: np.ndarray, seconds: float) -> np.ndarray:
+    """Relative range of damping ratios that segments of ``seconds`` may give one pole: a damping
+    estimate's relative scatter is about 1 / sqrt(pi zeta f T) (one over the root of the record's
+    independent half-power bandwidths: 11 % for a 2 %-damped 8 Hz mode in 150 s, 1.2 % for a
+    15 %-damped 98 Hz mode), ``DAMPING_RANGE_SIGMAS`` of those, and never less than
+    ``modal.CLUSTER_DAMPING_SPREAD``."""
+    bandwidths = np.pi * zeta_of(poles) * np.abs(poles) / (2 * np.pi) * seconds
+    return np.maximum(CLUSTER_DAMPING_SPREAD, DAMPING_RANGE_SIGMAS / np.sqrt(bandwidths))
 
 
 #: neighbouring poles whose shapes agree this well (MAC) and whose frequencies lie within each
@@ -174,19 +211,68 @@ def _segment_scatter(y: np.ndarray, fs: float, poles: np.ndarray, band: tuple[fl
 SAME_MODE_MAC = 0.9
 
 
-def _pole_shapes(diagram: StabilisationDiagram, shapes: list[np.ndarray], poles: np.ndarray) -> np.ndarray:
-    """Each selected pole's shape (outputs x poles) from the highest order where a stable pole lies
-    within 0.5 % (select_poles' cluster width): an unstable one there is often a numerical pole
-    beside the mode, its shape a mixture."""
-    phi = np.empty((shapes[0].shape[0], poles.size), dtype=complex)
-    for r, p in enumerate(poles):
-        for k in range(len(diagram.orders) - 1, -1, -1):
-            stable = np.flatnonzero(diagram.stable[k])
-            cand = diagram.poles[k][stable]
-            if cand.size and np.min(np.abs(np.abs(cand) - abs(p))) <= 0.005 * abs(p):
-                phi[:, r] = shapes[k][:, stable[int(np.argmin(np.abs(np.abs(cand) - abs(p))))]]
-                break
-    return phi
+#: stable poles join one cluster within ``select_poles``' 0.5 %, or a fraction of the half-power
+#: bandwidth when wider (``modal.cluster_tol``), and at least ``select_poles``' 30 % of the orders
+CLUSTER_TOL, MIN_FRACTION = 0.005, 0.3
+
+
+def _select(diagram: StabilisationDiagram, shapes: list[np.ndarray], edges: bool = True
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``select_poles``' clusters of stable poles, with shapes: a heavily damped pole's estimates
+    wander over the orders by a fraction of its half-power bandwidth 2 zeta f (the thesis rig's
+    16 %-damped 228 Hz mode over 225.7-229.4 Hz in a 2.5 min segment, MAC >= 0.93 with the record's
+    shape at every order), so a cluster spans ``CLUSTER_BANDWIDTH`` of zeta f, but a pole beyond
+    ``select_poles``' 0.5 % joins it only when its shape agrees with the cluster's at its highest
+    order (``SAME_MODE_MAC``; a low order's shape of a close pair is a mixture): two close modes have
+    distinct shapes (the 97.4 / 98.3 Hz pair: MAC 0.06-0.33) and stay two clusters however close.
+    Returns the poles whose half-power band lies inside the diagram's band (ascending), their
+    counts of orders, their shapes (outputs x poles, from the cluster's highest order within 0.5 %
+    of its median frequency: a wanderer's ends may be mixtures) and
+    the poles dropped at the band's edges (``edges=False``: none dropped; a segment asked whether
+    it holds the record's poles, whose band was chosen to hold them, is not cut by it again)."""
+    f, z, o, phi = [], [], [], []
+    for order, poles, st, shp in zip(diagram.orders, diagram.poles, diagram.stable, shapes, strict=True):
+        for i in np.flatnonzero(st):
+            f.append(abs(poles[i]) / (2 * np.pi))
+            z.append(zeta_of(poles[i]))
+            o.append(order)
+            phi.append(shp[:, i])
+    f, z, o = np.asarray(f), np.asarray(z), np.asarray(o)
+    clusters: list[list[int]] = []
+    for i in np.argsort(f, kind="stable"):
+        best, best_mac = None, SAME_MODE_MAC
+        if clusters and f[i] - f[clusters[-1][0]] <= CLUSTER_TOL * f[i]:
+            clusters[-1].append(int(i))  # select_poles' own rule
+            continue
+        for c in clusters:
+            top = max(c, key=lambda k: o[k])  # the highest order's shape: low orders' are mixtures
+            if f[i] - f[c[0]] <= cluster_tol(CLUSTER_TOL, z[i], CLUSTER_BANDWIDTH) * f[i]:
+                m = mac(phi[i][:, None], phi[top][:, None])[0, 0]
+                if m >= best_mac:
+                    best, best_mac = c, m
+        if best is None:
+            clusters.append([int(i)])
+        else:
+            best.append(int(i))
+    need = max(3, int(np.ceil(MIN_FRACTION * len(diagram.orders))))
+    out, counts, rep = [], [], []
+    for c in clusters:
+        c = np.array(sorted(c, key=lambda k: f[k]))
+        n = np.unique(o[c]).size
+        if n >= need and _consistent(f[c], z[c], CLUSTER_TOL):
+            out.append(_pole(float(np.median(f[c])), float(np.median(z[c]))))
+            counts.append(n)
+            near = c[np.abs(f[c] - np.median(f[c])) <= CLUSTER_TOL * np.median(f[c])]
+            rep.append(phi[(near if near.size else c)[np.argmax(o[near if near.size else c])]])
+    if not out:
+        return np.array([], complex), np.array([], int), np.empty((shapes[0].shape[0], 0), complex), np.array([], complex)
+    out, counts, rep = np.asarray(out), np.asarray(counts), np.column_stack(rep)
+    order = np.argsort(np.abs(out))
+    out, counts, rep = out[order], counts[order], rep[:, order]
+    inside = half_power_inside(out, diagram.f_band) if edges else np.ones(out.size, bool)
+    kept, _ = _distinct(out[inside], counts[inside], CLUSTER_TOL, 0.0)  # clusters split a hair apart
+    keep = np.isin(out, kept)
+    return out[keep], counts[keep], rep[:, keep], out[~inside]
 
 
 def _one_per_mode(poles: np.ndarray, phi: np.ndarray, stable_orders: np.ndarray) -> np.ndarray:
@@ -205,10 +291,21 @@ def _one_per_mode(poles: np.ndarray, phi: np.ndarray, stable_orders: np.ndarray)
     return np.array(keep, dtype=int)
 
 
-def _resolved(poles: np.ndarray, f_std: np.ndarray, count: np.ndarray) -> tuple[np.ndarray, list[str]]:
+def _resolved(poles: np.ndarray, f_std: np.ndarray, count: np.ndarray,
+              phi: np.ndarray | None = None, z_range: np.ndarray | None = None) -> tuple[np.ndarray, list[str]]:
     """Which poles are modes, and for the others why not: a pole held by fewer than half the
-    segments is not confirmed; two neighbours closer than ``SEPARATION_SIGMAS`` combined standard
-    errors cannot be told apart from this record, so neither is called a mode."""
+    segments is not confirmed, nor one damped enough for ``_select``'s wider clusters (the rules
+    that admit it are wider; below, they are ``select_poles``' own) whose segments' frequencies
+    spread beyond ``CLUSTER_TOL`` while their damping ratios spread by more than the segments
+    allow (``z_range``: relative range and allowed range per pole, ``damping_range_allowed``; a
+    pole has one damping; an estimate that
+    stands for several modes of one unmeasured force moves with their mixture: the thesis rig as
+    modelled, 150 s of one force, gives 104.1 Hz from segments at 12.3-15.9 % damping); two neighbours closer than ``SEPARATION_SIGMAS`` combined standard
+    errors whose shapes ``phi`` (outputs x poles; None: not known) agree (``SAME_MODE_MAC``)
+    cannot be told apart from this record, so neither is called a mode. Distinct shapes are two
+    modes however close: a heavily damped mode's frequency is uncertain by a fraction of its
+    half-power band, but its shape is fixed by every channel (the thesis rig's 97.4 / 98.3 Hz
+    pair, 1.05 Hz apart with standard errors 0.21 and 0.49 Hz, has shapes of MAC 0.06-0.33)."""
     f = np.abs(poles) / (2 * np.pi)
     ok = np.ones(poles.size, bool)
     reasons = [""] * poles.size
@@ -216,10 +313,16 @@ def _resolved(poles: np.ndarray, f_std: np.ndarray, count: np.ndarray) -> tuple[
         if count[r] < SEGMENTS / 2:
             ok[r] = False
             reasons[r] = f"found in only {count[r]} of {SEGMENTS} segments of the record"
+        elif (z_range is not None and z_range[r, 0] > z_range[r, 1]
+              and cluster_tol(CLUSTER_TOL, zeta_of(poles[r]), CLUSTER_BANDWIDTH) > CLUSTER_TOL):
+            ok[r] = False
+            reasons[r] = (f"its damping ratio disagrees over the segments of the record (range {100 * z_range[r, 0]:.0f} % "
+                          f"of its median, at most {100 * z_range[r, 1]:.0f} %)")
     confirmed = np.flatnonzero(ok)  # neighbours among the confirmed poles (the others have no scatter)
     for r, q in zip(confirmed[:-1], confirmed[1:]):
         gap, spread = f[q] - f[r], np.hypot(f_std[r], f_std[q])
-        if not gap > SEPARATION_SIGMAS * spread:
+        same = phi is None or mac(phi[:, [r]], phi[:, [q]])[0, 0] >= SAME_MODE_MAC
+        if same and not gap > SEPARATION_SIGMAS * spread:
             for a, b in ((r, q), (q, r)):
                 ok[a] = False
                 reasons[a] = reasons[a] or (
@@ -464,8 +567,7 @@ def _identify(y, fs, f_band, max_order, block_rows, decimation, output_names, cr
         y = prepare(raw, fs_raw, settings)
         fs = settings.rate_hz
         diagram, shapes = ssi_cov(y, fs, max_order=max_order, block_rows=settings.block_rows, f_band=(lo, hi))
-        poles, stable_orders = select_poles(diagram)
-        dropped = edge_dropped(diagram)
+        poles, stable_orders, phi, dropped = _select(diagram, shapes)
         wider = _widened(settings, first, dropped, fs_raw, block_rows, y.shape[1])
         if wider is None or attempt == WIDEN_TRIES - 1:
             break  # the last fit's settings stay with its diagram
@@ -479,11 +581,10 @@ def _identify(y, fs, f_band, max_order, block_rows, decimation, output_names, cr
     if poles.size == 0:
         raise ConfigError(f"no pole in {lo:.3g}..{hi:.3g} Hz is stable over enough model orders (2..{max_order}) "
                           f"with {settings.describe()}{_edge_advice(dropped, lo, hi, fs_raw)}: {advice}")
-    phi = _pole_shapes(diagram, shapes, poles)
     one = _one_per_mode(poles, phi, stable_orders)
     poles, phi, stable_orders = poles[one], phi[:, one], stable_orders[one]
-    f_std, z_std, count = _segment_scatter(y, fs, poles, (lo, hi), max_order, settings.block_rows)
-    ok, reasons = _resolved(poles, f_std, count)
+    f_std, z_std, count, z_range = _segment_scatter(y, fs, poles, (lo, hi), max_order, settings.block_rows, phi)
+    ok, reasons = _resolved(poles, f_std, count, phi, z_range)
     if not ok.any():
         found = "; ".join(f"{abs(p) / (2 * np.pi):.4g} Hz {reasons[r]}" for r, p in enumerate(poles))
         raise ConfigError(f"no stable pole in {lo:.3g}..{hi:.3g} Hz is confirmed as a mode with {settings.describe()} "
