@@ -27,7 +27,10 @@ Since ``info`` prints plain-text tables and imports no rich (four runs at load 1
 them alternating with the code before): ``--version`` 0.66-0.67x wall / 0.65-0.74x CPU,
 ``plugins`` 0.68-0.70x / 0.71-0.78x, ``info P`` 1.14-1.37x / 1.17-1.34x; against the baseline
 with one BLAS thread 1.51-1.53x wall, 1.48-1.54x CPU, where the code before gave 1.56-1.79x /
-1.52-1.76x in the alternating runs. No quiet machine was available to repeat the quiet figure.
+1.52-1.76x in the alternating runs. With hashlib off ``info``'s path as well, CPU seconds with
+``OPENBLAS_NUM_THREADS=1`` for both, 15 runs alternating with the code before (load 9.1-9.6,
+twice): ``info P`` 1.41x the baseline against 1.69-1.70x before, the ratio that was the quiet
+machine's wall ratio (1.74x). No quiet machine was available to repeat the quiet figure.
 """
 
 from __future__ import annotations
