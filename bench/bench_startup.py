@@ -20,8 +20,17 @@ alternating with the code before ``info`` opened its file once and started no BL
 CPU ratios): ``--version`` 0.59-0.67x / 0.62-0.67x, ``plugins`` 0.63-0.73x / 0.70-0.71x, ``info
 P`` 1.43-1.55x / 1.48-1.55x (before: 1.59-1.73x / 1.50-1.70x); ``info P`` against the baseline with
 one BLAS thread 1.73-2.03x wall, 1.59-2.12x CPU. On a quiet machine the worker costs no wall time
-and ``info`` was 1.82x wall (load 0.4, ``--runs 5``, before these changes): its main thread's own
+and ``info`` was 1.74-1.75x wall (load 0.9-1.3, baseline 0.23-0.24 s): its main thread's own
 work, not a wait, is what misses the target (docs/architecture.md, the start-up paragraph).
+
+Since ``info`` prints plain-text tables and imports no rich (four runs at load 10.0-11.1, two of
+them alternating with the code before): ``--version`` 0.66-0.67x wall / 0.65-0.74x CPU,
+``plugins`` 0.68-0.70x / 0.71-0.78x, ``info P`` 1.14-1.37x / 1.17-1.34x; against the baseline
+with one BLAS thread 1.51-1.53x wall, 1.48-1.54x CPU, where the code before gave 1.56-1.79x /
+1.52-1.76x in the alternating runs. With hashlib off ``info``'s path as well, CPU seconds with
+``OPENBLAS_NUM_THREADS=1`` for both, 15 runs alternating with the code before (load 9.1-9.6,
+twice): ``info P`` 1.41x the baseline against 1.69-1.70x before, the ratio that was the quiet
+machine's wall ratio (1.74x). No quiet machine was available to repeat the quiet figure.
 """
 
 from __future__ import annotations

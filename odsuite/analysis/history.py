@@ -8,8 +8,15 @@ revision's, so that ``info`` reads it instead of running a comparison."""
 
 from __future__ import annotations
 
-import hashlib
 from typing import Any
+
+try:  # hashlib loads OpenSSL, a few ms of every `info`: the lean built-in module first, as random.py does
+    from _sha2 import sha256  # Python 3.12+
+except ImportError:
+    try:
+        from _sha256 import sha256
+    except ImportError:
+        from hashlib import sha256
 
 from odsuite.domain.errors import ConfigError
 
@@ -17,7 +24,7 @@ from odsuite.domain.errors import ConfigError
 def data_stamp(project) -> str:
     """A fingerprint of the records a comparison reads: each experiment's identity and that of its
     derived data (a record re-acquired, re-processed, added or deleted changes it)."""
-    h = hashlib.sha256()
+    h = sha256()
     for name in project.experiment_names():
         record, derived = project.object_ids(name)
         h.update(f"{name}\0{record}\0".encode())

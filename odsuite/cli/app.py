@@ -37,9 +37,6 @@ if _AS_PROGRAM:
         os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import typer
-from rich.console import Console
-from rich.table import Table
-from rich.text import Text
 
 from odsuite.domain.errors import ConfigError, OdsuiteError
 from odsuite.store import diskspace
@@ -85,20 +82,42 @@ def echo_force_point(project, name: str, written: str | None) -> None:
                   highlight=False, soft_wrap=True)
 
 
-class _DataConsole(Console):
-    """A console that never reads markup and prints every string through ``shown`` (tables,
-    progress descriptions and messages alike); styles come from ``Text`` objects only."""
+class _LazyConsole:
+    """rich's console, made when a command first uses it (a command printing plain text, ``info``,
+    never imports rich): this object then becomes ``rich_console.DataConsole`` itself, so every
+    reference to it (imported by name, monkeypatched, given to rich) is the console."""
 
     def __init__(self, **kwargs) -> None:
-        # no emoji codes either: a name ":x:" prints as itself (and rich's table of them is not imported)
-        super().__init__(markup=False, emoji=False, **kwargs)
+        object.__setattr__(self, "_kwargs", kwargs)
 
-    def render_str(self, text: str, **kwargs) -> Text:
-        return super().render_str(shown(text), **{**kwargs, "markup": False, "emoji": False})
+    def _become(self) -> None:
+        from odsuite.cli.rich_console import DataConsole
 
-console = _DataConsole()
+        kwargs = self.__dict__.pop("_kwargs")
+        object.__setattr__(self, "__class__", DataConsole)
+        DataConsole.__init__(self, **kwargs)
 
-err_console = _DataConsole(stderr=True)
+    def __getattr__(self, name: str):
+        if name == "_kwargs":  # looked up while becoming: not there
+            raise AttributeError(name)
+        self._become()
+        return getattr(self, name)
+
+    def __setattr__(self, name: str, value) -> None:
+        self._become()
+        setattr(self, name, value)
+
+console = _LazyConsole()
+
+err_console = _LazyConsole(stderr=True)
+
+
+def console_width() -> int:
+    """The width tables are laid out in: the console's once made (tests set it), else what rich
+    would take: $COLUMNS, the terminal's, 80 when piped."""
+    import shutil
+
+    return shutil.get_terminal_size((80, 24)).columns if isinstance(console, _LazyConsole) else console.width
 
 
 class _Interrupted(BaseException):
@@ -244,6 +263,8 @@ def _loop_progress():
 
 def _modal_table(rows) -> Table:
     """compare's measured-against-model modes: frequencies (Hz), damping ratios (%), MAC."""
+    from rich.table import Table
+
     table = Table(title="measured against model modes (-: no model mode within 10 %)")
     table.add_column("record", no_wrap=True)
     for col in ("meas. Hz", "model Hz", "Δf", "meas. ζ %", "model ζ %", "Δζ", "MAC"):

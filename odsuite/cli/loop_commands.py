@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from rich.table import Table
 import typer
 
 from odsuite.cli.app import _figure_renderer, _loop_progress, _modal_table, _print_json, app, console, err_console, shown
@@ -16,6 +15,8 @@ def compare_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
     """Compare the current model revision with every experiment (like with like)."""
+    from rich.table import Table
+
     from odsuite.analysis.comparison import compare
     from odsuite.store.project import open_project
 
@@ -67,6 +68,8 @@ def diagnose_cmd(
 ) -> None:
     """Rank every registered physical effect by the error it removes (validated), best first. A
     diagnosis of every effect is kept with the model revision: `odsuite report` shows it."""
+    from rich.table import Table
+
     from odsuite.analysis.stored_diagnosis import diagnosis_stamp
     from odsuite.diagnosis.diagnose import diagnose
     from odsuite.store.project import open_project
@@ -178,6 +181,8 @@ def history_cmd(
     figure: Path = typer.Option(None, "--figure", help="Also draw the error per revision (PNG or SVG)."),
 ) -> None:
     """Model revisions with their effects and errors."""
+    from rich.table import Table
+
     from odsuite.analysis.history import history
     from odsuite.store.project import open_project
 

@@ -6,7 +6,6 @@ import math
 from pathlib import Path
 
 import typer
-from rich.table import Table
 
 from odsuite.domain.errors import ConfigError
 from odsuite.cli.app import _check_output, _figure_renderer, _print_json, _rendered_doc, app, console, err_console, shown
@@ -163,6 +162,8 @@ def _modes_options(at, f_min, f_max, reference, output_only, n_experiments, bloc
 
 def _print_modes(res, name: str) -> None:
     """The identified modes as tables: SSI or LSCF modes, and the EFDD cross-check of output-only ones."""
+    from rich.table import Table
+
     from odsuite.analysis.modal import fdd_doc, mpc
 
     lo, hi = res.band_hz
@@ -200,6 +201,8 @@ def _print_modes(res, name: str) -> None:
 def _merged_modes(project, experiments, reference, band, max_order, block_rows, decimate, drawers, mac_figure,
                   as_json) -> None:
     """modes --output-only over several setups: each identified alone, merged by PoSER."""
+    from rich.table import Table
+
     from odsuite.analysis.modal import frequency_labels, mac, mpc
     from odsuite.analysis.multisetup import project_setups_modes
     from odsuite.contracts.renderers import RenderRequest
@@ -255,6 +258,8 @@ def ods_cmd(
     """Operating deflection shape: every response's cross-spectrum to the reference sensor, scaled by
     the reference's autospectrum (rms amplitude and phase per sensor), and on a rig the bodies'
     generalized coordinates."""
+    from rich.table import Table
+
     import numpy as np
 
     from odsuite.analysis.ods import operating_shape

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from rich.table import Table
-from rich.text import Text
 import typer
 
 from odsuite.domain.errors import ConfigError
@@ -28,6 +26,9 @@ def batch_cmd(
     no_movie: bool = typer.Option(False, "--no-movie", help="report: leave the movie out."),
 ) -> None:
     """Run one command over many projects on dask.distributed, one project per task."""
+    from rich.table import Table
+    from rich.text import Text
+
     from odsuite.ops.batch import describe, run_batch
 
     if workers is not None and workers < 1:
@@ -74,6 +75,8 @@ def catalog_cmd(
     seconds: float = typer.Option(30.0, "--seconds", help="query: stop after this many seconds of work."),
 ) -> None:
     """Index every project under a folder into an SQLite catalogue beside them, or query it."""
+    from rich.table import Table
+
     from odsuite.ops.catalog import build_catalog, query
 
     if args[0] == "query":

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from rich.table import Table
-from rich.text import Text
 import typer
 
 from odsuite.cli.app import _print_json, app, console, shown
@@ -14,6 +12,9 @@ from odsuite.cli.app import _print_json, app, console, shown
 @app.command("plugins")
 def plugins_cmd(as_json: bool = typer.Option(False, "--json", help="Print one JSON document.")) -> None:
     """List registered plugins, their versions and what each registers."""
+    from rich.table import Table
+    from rich.text import Text
+
     from dataclasses import fields
 
     from odsuite.contracts.plugins import Registries, default_manager, registries
@@ -103,61 +104,52 @@ def info_cmd(project: Path = typer.Argument(..., help="Project file."),
         _print_json({**info, "rig_layout": layout,
                      "model_revisions": [{**r, "error": errors.get(r["revision"])} for r in revisions]})
         return
-    console.print(f"{info['path']}  format {info['format_version']}  rig: {info['rig'] or 'none'}",
-                  highlight=False, soft_wrap=True)
+    from odsuite.cli.text_table import text_table
+
+    # plain text, not rich: info is what a user runs most, and rich's import and layout would
+    # cost a quarter of its start-up
+    print(shown(f"{info['path']}  format {info['format_version']}  rig: {info['rig'] or 'none'}"))
     if layout is not None:
-        _print_rig_layout(layout)
-    table = Table(title="experiments")
-    for col in ("name", "channels", "fs (Hz)", "samples", "length (s)", "peak", "clipped",
-                "derived"):
-        table.add_column(col)
+        _print_rig_layout(layout, text_table)
+    rows = []
     for name, e in info["experiments"].items():
         peak_channel = max(e["peak_volts"], key=e["peak_volts"].get)
         clipped = ", ".join(f"{c} ({n})" for c, n in e["clipped_samples"].items())
-        table.add_row(name, str(len(e["channels"])), f"{e['sampling_rate']:g}",
-                      str(e["n_samples"]), f"{e['duration']:.4g}",
-                      "{:.4g} {} ({})".format(*e["peak"][peak_channel], peak_channel),
-                      Text(shown(clipped), style="red") if clipped else "-", ", ".join(e["derived"]) or "-")
-    console.print(table)
+        rows.append([name, str(len(e["channels"])), f"{e['sampling_rate']:g}", str(e["n_samples"]),
+                     f"{e['duration']:.4g}", "{:.4g} {} ({})".format(*e["peak"][peak_channel], peak_channel),
+                     clipped or "-", ", ".join(e["derived"]) or "-"])
+    print(text_table("experiments", ["name", "channels", "fs (Hz)", "samples", "length (s)", "peak",
+                                     "clipped samples", "derived"], rows))
     if info["imports"]:
-        console.print("imports (not records): " + ", ".join(f"{shown(n)} ({k})" for n, k in info["imports"].items()),
-                      highlight=False, soft_wrap=True)
+        print(shown("imports (not records): " + ", ".join(f"{n} ({k})" for n, k in info["imports"].items())))
     if revisions:
-        rt = Table(title=f"model revisions (current: {info['current_revision']})")
-        for col in ("revision", "model", "effects", "error"):
-            rt.add_column(col)
+        rows = []
         for r in revisions:
             effects = ", ".join(str(e.get("effect", e.get("name", e))) if isinstance(e, dict) else str(e)
                                 for e in r["effects"])
             error = errors.get(r["revision"])
-            rt.add_row(str(r["revision"]), r["model"] or "-", effects or "-",
-                       "-" if error is None else f"{error:.4f}")
-        console.print(rt)
+            rows.append([str(r["revision"]), r["model"] or "-", effects or "-",
+                         "-" if error is None else f"{error:.4f}"])
+        print(text_table(f"model revisions (current: {info['current_revision']})",
+                         ["revision", "model", "effects", "error (NRMSE)"], rows))
 
 
-def _print_rig_layout(layout: dict) -> None:
+def _print_rig_layout(layout: dict, text_table) -> None:
     import numpy as np
 
-    bodies = Table(title=f"rig {shown(layout['name'])}: bodies")
-    for col in ("body", "mass (kg)", "sensors", "coordinate solver"):
-        bodies.add_column(col)
-    for b in layout["bodies"]:
-        solver = b["solver"] or (Text("cannot solve: see `process`", style="yellow") if b["solver_problem"] else "-")
-        bodies.add_row(shown(b["name"]), f"{b['mass_kg']:.4g}" if b["moving"] else "fixed",
-                       str(len(b["sensors"])) if b["sensors"] else "-", solver)
-    console.print(bodies)
+    rows = [[b["name"], f"{b['mass_kg']:.4g}" if b["moving"] else "fixed",
+             str(len(b["sensors"])) if b["sensors"] else "-",
+             b["solver"] or ("cannot solve: see `process`" if b["solver_problem"] else "-")] for b in layout["bodies"]]
+    print(text_table(f"rig {layout['name']}: bodies", ["body", "mass (kg)", "sensors", "coordinate solver"], rows))
     if layout["springs"]:
-        springs = Table(title="springs")
-        for col in ("spring", "between", "at (mm)", "k x, y, z (kN/m)", "c x, y, z (N s/m)"):
-            springs.add_column(col)
+        rows = []
         for s in layout["springs"]:
             k = np.asarray(s["stiffness_n_per_m"], float)
             c = np.asarray(s["damping_n_s_per_m"], float)
             k, c = (np.diag(k) if k.ndim == 2 else k), (np.diag(c) if c.ndim == 2 else c)  # a matrix: its diagonal
-            springs.add_row(shown(s["name"]), f"{shown(s['body'])} - {shown(s['other'])}",
-                            ", ".join(f"{1e3 * v:.4g}" for v in s["position_m"]),
-                            ", ".join(f"{v / 1e3:.4g}" for v in k), ", ".join(f"{v:.4g}" for v in c))
-        console.print(springs)
+            rows.append([s["name"], f"{s['body']} - {s['other']}", ", ".join(f"{1e3 * v:.4g}" for v in s["position_m"]),
+                         ", ".join(f"{v / 1e3:.4g}" for v in k), ", ".join(f"{v:.4g}" for v in c)])
+        print(text_table("springs", ["spring", "between", "at (mm)", "k x, y, z (kN/m)", "c x, y, z (N s/m)"], rows))
 
 
 @app.command("model")
@@ -166,6 +158,8 @@ def model_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
     """The project's current model: revision, effects, parameters and modes (ascending)."""
+    from rich.table import Table
+
     import json
 
     from odsuite.analysis.modelrev import model_report

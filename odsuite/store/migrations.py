@@ -15,7 +15,6 @@ project untouched.
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -167,6 +166,10 @@ def rig_up_filled(data: dict, file_text: str) -> dict:
     """A stored rig definition with ``up`` filled in when it has none and ``file_text`` (the rig
     file it was made from) is a pre-``up`` release of the thesis rig; otherwise ``data`` as it is
     (a rig without ``up`` has z up, and nothing in the file says otherwise)."""
-    if "up" in data or hashlib.sha256(file_text.encode("utf-8")).hexdigest() not in THESIS_RIG_TEXTS_BEFORE_UP:
+    if "up" in data:
+        return data
+    import hashlib  # here: OpenSSL's load would cost every reading of a rig that has its `up`
+
+    if hashlib.sha256(file_text.encode("utf-8")).hexdigest() not in THESIS_RIG_TEXTS_BEFORE_UP:
         return data
     return {**data, "up": list(THESIS_RIG_UP)}

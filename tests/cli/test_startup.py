@@ -63,8 +63,9 @@ def test_info_imports_only_what_it_shows(tmp_path, capsys):
     as the run that filled the cache, and none of importlib.metadata (nor the email parser it
     reads metadata with), the writer lock's socket, scipy, the model, the comparison, the
     contracts of the DAQ backends, renderers and importers (registered by name), nor the TOML
-    reader (a stored rig is JSON) and the rigid-body kinematics (the rig alone says which sensors
-    a body carries)."""
+    reader (a stored rig is JSON), the rigid-body kinematics (the rig alone says which sensors
+    a body carries), rich (its tables are plain text) nor hashlib (OpenSSL: the errors' stamp
+    is read with the built-in SHA-256)."""
     import json
     import os
     import subprocess
@@ -77,7 +78,7 @@ def test_info_imports_only_what_it_shows(tmp_path, capsys):
     not_needed = ("importlib.metadata", "email", "socket", "scipy", "odsuite.domain.model",
                   "odsuite.analysis.comparison", "matplotlib", "odsuite.contracts.daq",
                   "odsuite.contracts.renderers", "odsuite.contracts.importers", "tomllib",
-                  "odsuite.domain.rigidbody")
+                  "odsuite.domain.rigidbody", "rich", "hashlib")
     code = ("import contextlib, io, json, sys; from odsuite.cli import main\n"
             "with contextlib.redirect_stdout(io.StringIO()) as out: code = main(['info', sys.argv[1]])\n"
             f"print(json.dumps([code, out.getvalue(), sorted(m for m in {not_needed!r} if m in sys.modules)]))")
