@@ -125,6 +125,17 @@ loaded machine (load 8.8-9.4 before, 9.3-4.8 after; wall times say nothing):
 | two-body, 1 | 1023, 25.2 s, 687 | 1013, 21.2 s, 525 |
 | two-body, 2 | 1023, 26.3 s, 718 | 1013, 24.4 s, 602 |
 
+Again, one right after the other at load 3.9-4.4 (CPU, worth, wall):
+
+| rig, workers | before | after |
+| --- | --- | --- |
+| thesis, 1 | 26.6 s, 780, 31.5 s | 26.2 s, 719, 26.7 s |
+| thesis, 2 | 26.3 s, 771, 26.4 s | 26.1 s, 715, 26.2 s |
+| two-body, 1 | 24.2 s, 598, 24.8 s | 23.0 s, 536, 23.5 s |
+| two-body, 2 | 24.6 s, 609, 24.8 s | 25.1 s, 583, 25.3 s |
+
+So the gain is small: 0-17 % of the CPU seconds, within the runs' own spread at these loads
+(one evaluation 32-43 ms CPU; two workers no faster than one, the second core being busy).
 Screening alone (two-body, one process, alternating, load 6): 9.7 / 11.7 s CPU before, 9.2 / 9.5
 s after. Verdicts, significance and errors the same (errors and likelihood ratios within 2e-7
 relative); the order changed only among candidates with no gain at all (screened error equal to
