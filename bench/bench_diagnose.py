@@ -109,6 +109,46 @@ CPU seconds 7-14 % lower after; the worth column rose because the baseline evalu
 36.6 / 44.3 ms CPU before (more than its 25.9 / 32.7 ms wall: some other thread of the process
 ran meanwhile; cause not found) and 28.6 / 35.7 ms after: at this load the baseline, not diagnose,
 decides that ratio. Verdicts, top candidates and errors the same in every run.
+
+The next round: a candidate that changes the sensors alone (gain, tilt, position, cables)
+simulates nothing and filters nothing per evaluation: the chain's filtering of the kept
+coordinates, once per distinct channel chain, is combined by its sensor rows
+(prediction.predict_sharing), the rows before their gain kept per structure (Model._unit_row);
+screening skips the sweep of a candidate with nothing to sweep and takes no gain below rounding
+(fitting.ROUNDING). Main's code (before) and this one (after), one right after the other on a
+loaded machine (load 8.8-9.4 before, 9.3-4.8 after; wall times say nothing):
+
+| rig, workers | before: evaluations, CPU, worth | after |
+| --- | --- | --- |
+| thesis, 1 | 1703, 33.3 s, 1036 | 1703, 27.8 s, 822 |
+| thesis, 2 | 1703, 26.6 s, 828 | 1703, 24.9 s, 735 |
+| two-body, 1 | 1023, 25.2 s, 687 | 1013, 21.2 s, 525 |
+| two-body, 2 | 1023, 26.3 s, 718 | 1013, 24.4 s, 602 |
+
+Again, one right after the other at load 3.9-4.4 (CPU, worth, wall):
+
+| rig, workers | before | after |
+| --- | --- | --- |
+| thesis, 1 | 26.6 s, 780, 31.5 s | 26.2 s, 719, 26.7 s |
+| thesis, 2 | 26.3 s, 771, 26.4 s | 26.1 s, 715, 26.2 s |
+| two-body, 1 | 24.2 s, 598, 24.8 s | 23.0 s, 536, 23.5 s |
+| two-body, 2 | 24.6 s, 609, 24.8 s | 25.1 s, 583, 25.3 s |
+
+So the gain is small: 0-17 % of the CPU seconds, within the runs' own spread at these loads
+(one evaluation 32-43 ms CPU; two workers no faster than one, the second core being busy).
+Screening alone (two-body, one process, alternating, load 6): 9.7 / 11.7 s CPU before, 9.2 / 9.5
+s after. Verdicts, significance and errors the same (errors and likelihood ratios within 2e-7
+relative); the order changed only among candidates with no gain at all (screened error equal to
+the baseline's to the last digit), which rounding noise used to order. Targets (250 worth, 3 s /
+5 s) still missed by 2-3x. Where the CPU goes (cProfile, two-body, one worker): screening ~12 s
+of ~20 s, of it ~7 s the structure-changing candidates (each start's damped step simulates new
+structures on three record heads; nonlinear_stiffness's eight cubic columns each a nonlinear
+simulation, for no gain on this rig), the two full fits ~7 s (per iteration a Jacobian of ~212,000
+rows and scipy's SVD of it, ~0.1 s). What a sound method would still need: screening by one step
+from one linearised Jacobian per candidate instead of a damped step on each head (it changes the
+screened errors of the candidates not fitted, so the nulls' and faults' calibration must be
+measured again), and the full fits' trust-region steps on the Jacobian's QR factor instead of
+all its rows.
 """
 
 from __future__ import annotations

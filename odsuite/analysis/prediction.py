@@ -139,6 +139,8 @@ class PreparedExperiment:
     # the last structure simulated and its coordinate accelerations: effects that only change the
     # sensors (gain, tilt, position) reuse them (a strong reference, so identity is safe)
     _cache: tuple | None = field(default=None, repr=False)
+    # the chains' filtering of those coordinates (prediction.predict_sharing): (_cache, {chain: signals})
+    _filtered: tuple | None = field(default=None, repr=False)
     force_body: str | None = None  # the body hit, when the experiment says (else: from the point)
     notes: list[str] = field(default_factory=list)  # what the record says against the rig file
     registries: Any = field(default=None, repr=False)  # the project's providers (solvers for coordinates)
@@ -724,6 +726,53 @@ def run_each(chains: Sequence, x: np.ndarray) -> list[dict[str, np.ndarray]]:
 def predict(model, exp: PreparedExperiment) -> np.ndarray:
     """Predicted signals at the acceleration stage, samples x sensors."""
     return _digital_chain(exp, simulate_sensors(model, exp))
+
+
+#: predict_sharing filters new chains (each: every coordinate's signal) beside the ones it keeps
+#: while their signals are at most this fraction of the sensors predict would filter
+NEW_CHAIN_SHARE = 0.5
+#: ... and at first (none kept yet) at most this many chains
+FIRST_CHAINS = 3
+
+
+def predict_sharing(model, exp: PreparedExperiment) -> np.ndarray:
+    """``predict(model, exp)`` for a model whose structure's response ``exp`` keeps (a candidate
+    that changes the sensors alone: gain, tilt, position, cables): the chain is linear, so its
+    filtering of the coordinates, done once per distinct channel chain and kept, combines by each
+    model's sensor rows (as linearised_predictions; equal to predict but for rounding). Otherwise,
+    or where the new chains cost more than predict's filtering (delays or dynamics that move each
+    evaluation: NEW_CHAIN_SHARE), predict."""
+    st = model.structure
+    if (not st.is_linear or st.n_dof > CACHED_COORDINATES or exp.operators is None or exp._cache is None
+            or exp._cache[0] is not st or exp._cache[1] != _cache_key(model, exp)):
+        return predict(model, exp)
+    chain = model.chain
+    groups: dict[tuple, list[int]] = {}
+    for op in exp.operators:
+        for j in op.columns:
+            s = exp.sensors[j]
+            groups.setdefault((id(op), chain.sensor_dynamics(s.name), chain.delay.get(s.name, 0.0),
+                               chain.front_end), []).append(j)
+    kept = exp._filtered[1] if exp._filtered is not None and exp._filtered[0] is exp._cache else {}
+    new = sum(k not in kept for k in groups)
+    # the first few chains of these coordinates are filtered though they cost more than predict's
+    # filtering (the sensors' candidates evaluate them again and again); later ones only while
+    # they cost less (a delay per channel makes every channel's chain new)
+    if new > FIRST_CHAINS if not kept else new * exp._cache[2].shape[1] > NEW_CHAIN_SHARE * len(exp.sensors):
+        return predict(model, exp)
+    q = exp._cache[2]
+    rows = _sensor_rows(model, exp.sensors)
+    out = np.empty((exp.n_samples, len(exp.sensors)))
+    for key, cols in groups.items():
+        if key not in kept:
+            op = next(o for o in exp.operators if cols[0] in o.columns)
+            one = replace(exp, sensors=[exp.sensors[cols[0]]] * q.shape[1],
+                          operators=[replace(op, columns=tuple(range(q.shape[1])))])
+            kept[key] = _digital_chain(one, _analog_chain(model, one, q.copy()))
+        out[:, cols] = kept[key] @ rows[cols].T
+    # kept with the coordinates they filter (the operators' identities are in the keys)
+    exp._filtered = (exp._cache, kept, exp.operators)
+    return out
 
 
 def flexible_mode_change(model, exp: PreparedExperiment, mode) -> np.ndarray:

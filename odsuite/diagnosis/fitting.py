@@ -23,7 +23,8 @@ import scipy.optimize
 
 from odsuite.domain.errors import DivergedError
 from odsuite.analysis.modelrev import RevisionModel
-from odsuite.analysis.prediction import PreparedExperiment, linearised_predictions, predict, simulate_together
+from odsuite.analysis.prediction import (PreparedExperiment, linearised_predictions, predict, predict_sharing,
+                                         simulate_together)
 
 #: fits start on short heads of the records (s after the hit), then the whole record: a frequency
 #: error makes the time-domain residual oscillate in the parameter, a short head keeps it convex
@@ -241,7 +242,7 @@ class Problem:
         models = self.models(u)
         self._models = (u.tobytes(), models)
         simulate_together(models, exps)
-        out = [predict(models[e.name], e) for e in exps]
+        out = [predict_sharing(models[e.name], e) for e in exps]
         for p in out:
             p.flags.writeable = False
         if keep:
@@ -490,6 +491,8 @@ def _sweep(problem: Problem, u: np.ndarray, exps, peaks_hz: Sequence[float]) -> 
     lowers the error on ``exps``; parameters are swept one after another (coordinate-wise), so
     the cost is the number of starts, not their product."""
     swept = [i for i, f in enumerate(problem.free) if f.param.starts and f.experiment is None]
+    if not swept:
+        return u
     batches, sensor_of_row = problem._sensor_batches(exps)
     if sensor_of_row is not None and all(problem.free[i].param.sensor is not None for i in swept):
         return _sweep_sensors(problem, u, exps, peaks_hz, [[i for i in b if i in swept] for b in batches],
@@ -579,6 +582,11 @@ def _activation(problem: Problem, start: np.ndarray, r: np.ndarray, J: np.ndarra
     return k, float(probe[k])
 
 
+#: relative changes of a sum of squares below this are rounding (predictions of one model computed
+#: in another order: prediction.predict_sharing)
+ROUNDING = 1e-9
+
+
 def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened:
     """Best start found by one Gauss-Newton step (and grids/choices where needed)."""
     effect = problem.effect
@@ -651,7 +659,7 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
             sse_swept = problem.sse(swept)
             if sse_swept < sse:
                 u, sse = swept, sse_swept
-        if sse < best_sse:
+        if sse < best_sse * (1 - ROUNDING):  # a gain in the last digits is the arithmetic's, not the data's
             best_sse, best_u = sse, u
     return Screened(effect, best_fixed, best_u, best_sse, problem)
 

@@ -727,6 +727,10 @@ class MeasurementChain:
         return None if dyn is None or dyn.is_identity() else dyn
 
 
+#: sensor rows kept per structure (Model._unit_row)
+UNIT_ROWS_KEPT = 4096
+
+
 class Model:
     """A linear model: a structure plus a measurement chain.
 
@@ -845,8 +849,23 @@ class Model:
                 continue
             rec = self._recorded(out)
             p, n, gain = self._sensed_along(rec)
-            rows[i] = gain * (n @ st.point_rows(rec.body, p) + st.flex_row(rec.body, p, n, rec.sensor_name))
+            rows[i] = gain * self._unit_row(rec, p, n)
         return outputs, rows
+
+    def _unit_row(self, rec, p, n) -> np.ndarray:
+        """A sensor's coordinate combination at point ``p`` along ``n`` before its gain, kept on the
+        structure (a diagnosis's candidates that change gains or cables ask for the same rows again
+        and again; a few small products per sensor each time)."""
+        st = self.structure
+        key = (rec.body, rec.sensor_name, np.asarray(p, float).tobytes(), np.asarray(n, float).tobytes())
+        kept = st.__dict__.setdefault("_unit_rows", {})
+        row = kept.get(key)
+        if row is None:
+            if len(kept) >= UNIT_ROWS_KEPT:  # positions and tilts searched: each trial a new key
+                kept.clear()
+            row = kept[key] = n @ st.point_rows(rec.body, p) + st.flex_row(rec.body, p, n, rec.sensor_name)
+            row.flags.writeable = False
+        return row
 
     def _recorded(self, out):
         """The output whose motion ``out``'s channel records: another sensor's when the chain swaps

@@ -93,3 +93,48 @@ def test_problem_jacobian_linearised_agrees_with_finite_differences(tmp_path):
                                   / fitting.DIFF_STEP for i in range(len(u))])
             err = np.linalg.norm(J - fd, axis=0) / np.linalg.norm(fd, axis=0)
             assert err.max() < 1e-3, (name, err)
+
+
+def test_predict_sharing_equals_predict_for_sensor_effects(tmp_path):
+    """A candidate that changes the sensors alone (gain, tilt, position, cables) is predicted from
+    the chain's filtering of the kept coordinates, combined by its sensor rows: the same numbers
+    as each sensor's own chain (predict) but for rounding; a delay on every channel (every
+    channel's chain new) takes predict's path."""
+    from dataclasses import replace
+
+    from hidden_effects import make_project
+
+    from odsuite.analysis.modelrev import revision_model
+    from odsuite.analysis.prediction import predict, predict_sharing, prepare
+    from odsuite.contracts.plugins import registries
+    from odsuite.store.project import open_project
+
+    path = make_project(tmp_path / "s.odsp", n_samples=2048)
+    effects = registries().effects
+    with open_project(path) as p:
+        e = prepare(p)[0]
+        base = revision_model(p).shared
+        names = [s.name for s in e.sensors]
+
+        def applied(name, **changed):
+            eff = effects.get(name)
+            return eff.apply(base, {**{q.name: q.nominal for q in eff.parameters(base)}, **changed})
+
+        models = [applied("sensor_gain", **{f"{names[1]}_gain": 1.3}),
+                  applied("channel_swap", pair=2.0, ratio=1.1),
+                  applied("sensor_orientation", **{f"{names[0]}_tilt_a": 0.07}),
+                  applied("sensor_position", **{f"{names[2]}_dx": 0.012})]
+        predict(base, e)  # the base structure's coordinates kept on the record
+        for m in models:
+            assert m.structure is base.structure
+            ref = predict(m, replace(e, _cache=None, _filtered=None))
+            got = predict_sharing(m, e)
+            assert e._filtered is not None and e._filtered[0] is e._cache  # the shared path is taken
+            assert np.abs(got - ref).max() <= 1e-10 * np.abs(ref).max()
+            assert np.abs(got - predict(base, e)).max() > 1e-3 * np.abs(ref).max()  # the effect shows
+        skew = applied("scan_skew", skew_s=2e-5)
+        kept = dict(e._filtered[1])
+        got = predict_sharing(skew, e)
+        assert set(e._filtered[1]) == set(kept)  # nothing filtered for a chain per channel
+        ref = predict(skew, replace(e, _cache=None, _filtered=None))
+        assert np.array_equal(got, ref)
