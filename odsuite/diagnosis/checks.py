@@ -2,8 +2,9 @@
 (:mod:`odsuite.analysis.noise_floor`): is a candidate's gain beyond what fitting its parameters to noise
 would give (``significant``), do its parameters fitted to each experiment alone agree
 (``consistent``; a spread that follows the force level is amplitude dependence), do they lie in the
-physical range the effect declares (``plausible``), and which candidates explain the same residual
-within the noise (``confounded_with``).
+physical range the effect declares (``plausible``), which candidates explain the same residual
+within the noise (``confounded_with``), and whether a fit to the records' early (large) part
+predicts their late (small) part (``held_out``: a stand-in for amplitude-dependent physics does not).
 
 Residual samples are correlated (filtered signals, systematic misfit): uncertainties use the
 effective number of independent samples from each residual's autocorrelation, not white-noise
