@@ -94,6 +94,8 @@ class Candidate:
     early_late_agree: bool = True
     early_late_fits: dict[str, dict[str, float]] = field(default_factory=dict)
     early_late_differ: list[str] = field(default_factory=list)
+    #: the cells where the early part's fit mispredicts the late part (checks.held_out; best candidate)
+    early_late_cells: list[dict[str, Any]] = field(default_factory=list)
     gain_threshold: float = float("nan")
     likelihood_ratio: float = float("nan")  # the whitened excess it removes (odsuite.analysis.resolved)
     #: the fit in physical quantities (the effect's ``physical``): label, value, unit, uncertainty, nominal
@@ -105,7 +107,7 @@ class Candidate:
             "units", "evidence", "n_parameters", "bic", "screened_error", "unidentifiable",
             "confounded_parameters", "confounded_with", "validation", "fitted", "consistent", "plausible",
             "implausible", "amplitude_dependent", "per_experiment_fits", "early_late_agree", "early_late_differ",
-            "early_late_fits",
+            "early_late_fits", "early_late_cells",
             "physical")}
         d["likelihood_ratio"] = None if not math.isfinite(self.likelihood_ratio) else self.likelihood_ratio
         d["likelihood_ratio_limit"] = None if not math.isfinite(self.gain_threshold) else self.gain_threshold
@@ -314,7 +316,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         # no pooled tolerance here: the resolved residual decides, and a contact's misfit sits in one band
         lin = checks.linearity(problem, res)
         cand.early_late_agree, cand.early_late_fits = lin.linear, {"early": lin.early, "late": lin.late}
-        cand.early_late_differ, cand._early_late_u = lin.differing, lin.u
+        cand.early_late_differ, cand._early_late_u, cand._early_late_cuts = lin.differing, lin.u, lin.cuts
     cand.implausible = checks.implausible(effect, problem.base.shared, params)
     cand.plausible = not cand.implausible
     cand._problem, cand._u, cand._sse_win = problem, u, sse_win  # kept for the confounding check
@@ -806,13 +808,13 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
             # judges the revision that stores it
             floor_best = noise_floor(exps, p.models(best._u), spectra=True)
             res_best = resolution.resolve(exps, after, floor_best)
-    if res_best is not None and not best.early_late_agree and len(getattr(best, "_early_late_u", ())) == 2:
-        # the parts' fits differ beyond their uncertainties; it matters where the models fitted to
-        # them predict apart by more than the noise in some band of some channel (a verdict's cell).
-        # A caution in the message, not the verdict: true added masses failed it as a rattle did
+    if res_best is not None and len(getattr(best, "_early_late_u", ())) == 2:
+        # the verdict's cell test on the late (small) part of the records as the early part's fit
+        # predicts it: the parts' parameter test alone took true added masses as a rattle's stand-in
         early, late = (p.predictions(u, p.full) for u in best._early_late_u)
-        apart = resolution.resolve(exps, [e.measured - (a - b) for e, a, b in zip(exps, early, late)], floor_best)
-        best.early_late_agree = apart is None or not apart.detected()
+        part = checks.held_out(exps, early, late, floor_best, best._early_late_cuts)
+        best.early_late_agree = part is None or not part.detected()
+        best.early_late_cells = [] if part is None else part.cells(3)
     nonlinear = best is not None and makes_nonlinear(best, base)
     d.verdict = decide(d.baseline_error, d.noise_floor_error, best, before=res0, after=res_best,
                        amplitude_cause=nonlinear)

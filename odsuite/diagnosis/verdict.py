@@ -9,9 +9,9 @@ stays the number reported. Without bands the pooled error within ``FLOOR_TOLERAN
 - "nothing to explain": no cell above the floor;
 - "explained": a significant, plausible candidate leaves no cell above it, with parameters that
   agree across experiments (or that make the model amplitude dependent, whose per-experiment
-  values then follow the force level by design); the message cautions where its fits to the
-  records' early (large) and late (small) part predict apart beyond the noise (it may stand in
-  for an amplitude-dependent cause: checks.linearity);
+  values then follow the force level by design), and its fit to the records' early (large) part
+  predicts their late (small) part at the floor (else it stands in for an amplitude-dependent
+  cause: checks.held_out);
 - "partly explained": a significant candidate helps, but cells stay above the floor or its
   parameters are inconsistent or implausible;
 - "unexplained": nothing significant while cells are above the floor.
@@ -107,7 +107,8 @@ def decide(baseline: float, floor: float, best, *, before=None, after=None, ampl
             return "nothing to explain"
         if best is None:
             return "unexplained"
-        agrees = best.consistent or amplitude_cause
+        # a fit to the records' early part that mispredicts their late part stands in (checks.held_out)
+        agrees = (best.consistent or amplitude_cause) and getattr(best, "early_late_agree", True)
         if agrees and best.plausible and after is not None and not after.detected():
             return "explained"
         return "partly explained"
@@ -193,7 +194,15 @@ def message(verdict: str, baseline: float, floor: float, best, sig: Signature, r
         why.append(f"the error stays at {best.error_after:.3g}, {best.error_after / floor:.2f} times the floor")
     if not best.consistent:
         why.append("its parameters differ between experiments beyond their uncertainties")
-    if not getattr(best, "early_late_agree", True):
+    cells = getattr(best, "early_late_cells", None)
+    if cells:
+        c = cells[0]
+        why.append(f"its fit to the early (large) part of the records mispredicts their late (small) part "
+                   f"({c['channel']} in {c['experiment']} at {c['band_hz'][0]:g}-{c['band_hz'][1]:g} Hz, "
+                   f"{c['residual_to_floor']:.3g}x its floor for a limit of {c['limit']:.3g}): the residual it "
+                   "takes up changes with the amplitude within each record, as a contact, friction or a loose "
+                   "part's does")
+    elif not getattr(best, "early_late_agree", True):
         why.append("its parameters fitted to the early (large) and the late (small) part of the records differ "
                    f"beyond their uncertainties ({', '.join(best.early_late_differ[:3])}): the residual it takes up "
                    "changes with the amplitude within each record, as a contact, friction or a loose part's does")

@@ -5,6 +5,7 @@ plausible ranges; the verdict's four words."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -12,7 +13,7 @@ import pytest
 from odsuite.diagnosis import checks
 from odsuite.contracts.effects import Parameter
 from odsuite.diagnosis.fitting import _Free
-from odsuite.analysis.noise_floor import FLOOR_TOLERANCE
+from odsuite.analysis.noise_floor import FLOOR_TOLERANCE, NoiseFloor, band_dof, band_edges, in_band
 from odsuite.diagnosis.verdict import Signature, decide, message
 
 
@@ -20,6 +21,11 @@ from odsuite.diagnosis.verdict import Signature, decide, message
 class _Exp:
     name: str
     measured: np.ndarray
+    fs: float = 1.0
+
+    @property
+    def sensors(self):
+        return [SimpleNamespace(name=f"c{j}") for j in range(self.measured.shape[1])]
 
     @property
     def n_samples(self) -> int:
@@ -228,3 +234,79 @@ def test_an_explained_verdict_cautions_where_the_early_and_late_fits_predict_apa
     words = message("explained", 0.05, 0.01, best, Signature(), None)
     assert "Caution" in words and "frequency_hz" in words and "stand in" in words
     assert "Caution" not in message("explained", 0.05, 0.01, _Cand(error_after=0.011), Signature(), None)
+
+
+def _ring_floor(sigma: float, n: int, fs: float, names) -> NoiseFloor:
+    """The floor of white noise of standard deviation ``sigma`` on one channel: sigma^2 per FFT line
+    at 0 and Nyquist, 2 sigma^2 between (Parseval)."""
+    lines = np.full((n // 2 + 1, 1), 2.0 * sigma**2)
+    lines[0] = lines[-1] = sigma**2
+    edges = band_edges(fs, n)
+    masks = in_band(fs, n, edges)
+    energy = np.array([lines[m].sum(axis=0) for m in masks])
+    total = {name: {"c0": n * sigma**2} for name in names}
+    return NoiseFloor(total, total, bands={name: (edges, energy, band_dof(lines, masks)) for name in names})
+
+
+def _ring_held_out(hardening: float, seed: int = 0):
+    """checks.held_out on _ring's records: the late part as the early part's fit predicts it."""
+    problem, res = _ring(hardening, seed=seed)
+    lin = checks.linearity(problem, res)
+    fs, t = 2000.0, np.arange(1000) / 2000.0
+
+    def model(u):
+        f, z = 100.0 + u[0], 0.02 + 0.01 * u[1]
+        return [(np.exp(-2 * np.pi * z * f * t) * np.sin(2 * np.pi * f * t))[:, None]] * len(problem.exps)
+
+    exps = [_Exp(e.name, e.measured, fs) for e in problem.exps]
+    floor = _ring_floor(0.01, 1000, fs, [e.name for e in exps])
+    early, late = (model(u) for u in lin.u)
+    return checks.held_out(exps, early, late, floor, lin.cuts), exps, early, late, lin.cuts, floor
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_linear_decay_fitted_on_its_early_part_predicts_its_late_part(seed):
+    part, *_ = _ring_held_out(0.0, seed)
+    assert not part.detected()
+    # the early fit's estimation noise in the late part is a small share of what the limit allows
+    assert max(float(np.max(q / lim)) for q, lim in zip(part.ratios(), part.limit)) < 0.2
+
+
+def test_an_amplitude_dependent_decay_fitted_on_its_early_part_mispredicts_its_late_part():
+    # 3 % higher frequency at the hit's amplitude: the early part's linear fit rings too fast where
+    # the motion has died away, in the band of the mode
+    part, exps, early, late, cuts, floor = _ring_held_out(0.03)
+    assert part.detected()
+    top = part.cells()[0]
+    assert top["band_hz"][0] <= 100.0 < top["band_hz"][1]
+    # the cell is the late part's residual energy under the early fit beyond its own fit's, over
+    # the floor's share of the late part (Parseval on the masked residuals)
+    e = next(x for x in exps if x.name == top["experiment"])
+    i = [x.name for x in exps].index(e.name)
+    late_only = np.arange(e.n_samples) >= cuts[e.name]
+    edges = floor.bands[e.name][0]
+    band = next(b for b, (lo, hi) in enumerate(edges) if lo <= 100.0 < hi)
+    lines = in_band(e.fs, e.n_samples, edges)[band]
+
+    def energy(pred):
+        r = np.where(late_only, e.measured[:, 0] - pred[:, 0], 0.0)
+        spec = np.abs(np.fft.rfft(r)) ** 2 / e.n_samples
+        spec[1:e.n_samples // 2] *= 2.0
+        return spec[lines].sum()
+
+    expected = (energy(early[i]) - energy(late[i])) / (floor.bands[e.name][1][band, 0] * late_only.mean())
+    assert top["residual_to_floor"] == pytest.approx(np.sqrt(expected), rel=1e-9)
+
+
+def test_an_early_fit_that_mispredicts_the_late_part_is_not_explained():
+    # a significant, plausible, consistent candidate that leaves no cell above the floor, but its
+    # fit to the early part mispredicts the late part (checks.held_out): it stands in
+    above, clean = SimpleNamespace(detected=lambda: True), SimpleNamespace(detected=lambda: False)
+    best = _Cand(error_after=0.011, effect="coupled_mode")
+    assert decide(0.05, 0.01, best, before=above, after=clean) == "explained"
+    best.early_late_agree = False
+    best.early_late_cells = [{"experiment": "r0", "channel": "m3_z", "band_hz": [80.0, 160.0],
+                              "residual_to_floor": 2.9, "limit": 2.0}]
+    assert decide(0.05, 0.01, best, before=above, after=clean) == "partly explained"
+    words = message("partly explained", 0.05, 0.01, best, Signature(), None)
+    assert "mispredicts their late (small) part" in words and "m3_z in r0 at 80-160 Hz" in words
