@@ -22,7 +22,7 @@ from odsuite.diagnosis.fitting import (
     screen,
     uncertainties,
 )
-from odsuite.analysis.history import data_stamp
+from odsuite.analysis.history import data_stamp, valid_metric
 from odsuite.analysis.modelrev import apply_effects, current_revision, instance_names, revision_model
 from odsuite.analysis.noise_floor import FLOOR_TOLERANCE
 from odsuite.analysis.prediction import prepare
@@ -71,6 +71,12 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     exps = prepare(project)
     den = sum(float(np.sum(e.measured**2)) for e in exps)
     cmp = compare(project, revision=rev, prepared=exps, resonances=False)
+    stamp = data_stamp(project)
+    if valid_metric(rev.get("metrics", {}), "error", stamp) is None:
+        # the revision's error on these records, just computed: kept, so `info` and `history` read
+        # it instead of comparing again (revision 0 had none after the first add-effect)
+        project.set_revision_metrics(rev["revision"], {"error": cmp.error, "noise_floor_error": cmp.noise_floor_error,
+                                                       "data_stamp": stamp})
     noise = cmp.noise_floor_error
     # the fits stop at gains below the noise, as the diagnosis's do
     scale = checks.noise_scale(cmp.floor, exps)

@@ -77,3 +77,23 @@ def test_info_reads_the_stored_error_without_importing_the_comparison(tmp_path, 
     out = subprocess.run([sys.executable, "-c", code, str(p)], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     assert json.loads(out.stdout) == [stored, []]
+
+
+def test_add_effect_keeps_the_parents_error_so_info_compares_nothing(tmp_path, capsys):
+    """After the first add-effect every revision's error is stored for the records: revision 0's
+    is the error add-effect started from (before, `info` compared it again on every call)."""
+    p = tmp_path / "p.h5"
+    for argv in (["new", p], ["acquire", p, "--daq", "sim", "--name", "T1", "--scenario", "T1", "--seed", "1",
+                              "--samples", "2048"], ["process", p]):
+        assert main([str(a) for a in argv]) == 0
+    with open_project(p, "a") as proj:  # as a project processed by an odsuite that stored nothing
+        proj.set_revision_metrics(0, {"error": None, "noise_floor_error": None, "data_stamp": None})
+    capsys.readouterr()
+    added = _json(capsys, "add-effect", p, "stiffness", "--json")
+    with open_project(p) as proj:
+        stamp = data_stamp(proj)
+        metrics = {r["revision"]: r["metrics"] for r in proj.model_revisions()}
+    assert metrics[0]["error"] == added["previous_error"] > 0 and metrics[0]["data_stamp"] == stamp
+    assert metrics[1]["error"] == added["error"] and metrics[1]["data_stamp"] == stamp
+    info = _json(capsys, "info", p, "--json")
+    assert [r["error"] for r in info["model_revisions"]] == [metrics[0]["error"], metrics[1]["error"]]
