@@ -4,7 +4,8 @@
 A revision's stored error holds for the records it was computed on: it carries a stamp of those
 records (``data_stamp``) and is read back only while the stamp matches. A revision without a valid
 stored error gets it computed when read (reading never writes); ``process`` stores the current
-revision's, so that ``info`` reads it instead of running a comparison."""
+revision's and ``add-effect`` the revision it started from and the new one, so that ``info`` reads
+them instead of running a comparison."""
 
 from __future__ import annotations
 

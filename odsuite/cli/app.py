@@ -40,6 +40,7 @@ import typer
 
 from odsuite.domain.errors import ConfigError, OdsuiteError
 from odsuite.store import diskspace
+from odsuite.cli.printable import shown  # noqa: F401  (commands import it from here)
 
 app = typer.Typer(
     name="odsuite",
@@ -48,17 +49,6 @@ app = typer.Typer(
     add_completion=True,  # --install-completion / --show-completion for bash, zsh, fish, PowerShell
     pretty_exceptions_enable=False,
 )
-
-
-def shown(value: object) -> str:
-    """User data as one printable line: control characters (newlines, ANSI escapes) and bytes that
-    were not UTF-8 (surrogate escapes of argv and file names) written as Python escapes."""
-    text = str(value)
-    if text.isprintable():
-        return text
-    return "".join(c if c.isprintable() else
-                   f"\\x{ord(c) - 0xDC00:02x}" if 0xDC80 <= ord(c) <= 0xDCFF else repr(c)[1:-1]
-                   for c in text)
 
 
 def echo_force_point(project, name: str, written: str | None) -> None:

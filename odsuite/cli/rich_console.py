@@ -6,7 +6,7 @@ from __future__ import annotations
 from rich.console import Console
 from rich.text import Text
 
-from odsuite.cli.app import shown
+from odsuite.cli.printable import shown
 
 
 class DataConsole(Console):

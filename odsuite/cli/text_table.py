@@ -5,7 +5,8 @@ name, or a number and its unit, is never split."""
 
 from __future__ import annotations
 
-from odsuite.cli.app import console_width, shown
+from odsuite.cli.app import console_width
+from odsuite.cli.printable import shown
 
 
 def _wrap(text: str, width: int, sep: str) -> list[str]:
