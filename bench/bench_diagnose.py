@@ -149,6 +149,13 @@ from one linearised Jacobian per candidate instead of a damped step on each head
 screened errors of the candidates not fitted, so the nulls' and faults' calibration must be
 measured again), and the full fits' trust-region steps on the Jacobian's QR factor instead of
 all its rows.
+
+On a quiet machine (load 0.2-1.3), the code before this round and after it with the held-out
+test besides, single runs of this script: thesis one worker 27.0 -> 20.3 s wall, 27.4 -> 20.9 s
+CPU (701 -> 513 worth), two workers 18.5 -> 20.9 s wall, 22.8 -> 25.8 s CPU (583 -> 633);
+two-body (1023 -> 1013 evaluations) one worker 18.7 -> 21.7 s wall, 19.1 -> 22.3 s CPU
+(477 -> 451), two workers 12.9 -> 12.3 s wall, 24.4 -> 23.0 s CPU (609 -> 465). Single runs
+scatter more than the change moves them.
 """
 
 from __future__ import annotations
