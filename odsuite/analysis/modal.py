@@ -268,7 +268,7 @@ def zeta_of(pole: complex) -> float:
     return -pole.real / abs(pole)
 
 
-def _pole(f_hz: float, zeta: float) -> complex:
+def pole_of(f_hz: float, zeta: float) -> complex:
     wn = 2 * np.pi * f_hz
     return complex(-zeta * wn, wn * np.sqrt(1 - zeta**2))
 
@@ -297,14 +297,14 @@ def select_poles(
                 raise ConfigError(f"no stable pole within 2 % of {fr} Hz in the stabilisation diagram")
             centre = f_all[near][np.argmin(np.abs(f_all[near] - fr))]
             cl = np.abs(f_all - centre) <= tol * centre
-            out.append(_pole(np.median(f_all[cl]), np.median(z_all[cl])))
+            out.append(pole_of(np.median(f_all[cl]), np.median(z_all[cl])))
             counts.append(np.unique(o_all[cl]).size)
         out, counts = np.asarray(out), np.asarray(counts)
         order = np.argsort(np.abs(out))
         return out[order], counts[order]
     out, counts = stable_clusters(f_all, z_all, o_all, len(diagram.orders), tol, min_fraction, bandwidth)
     inside = half_power_inside(out, diagram.f_band)
-    return _distinct(out[inside], counts[inside], tol, bandwidth)
+    return distinct_poles(out[inside], counts[inside], tol, bandwidth)
 
 
 def _stable_points(diagram: StabilisationDiagram) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -314,15 +314,6 @@ def _stable_points(diagram: StabilisationDiagram) -> tuple[np.ndarray, np.ndarra
         z_all.extend(-poles[st].real / np.abs(poles[st]))
         o_all.extend([order] * int(st.sum()))
     return np.asarray(f_all), np.asarray(z_all), np.asarray(o_all)
-
-
-def edge_dropped(diagram: StabilisationDiagram, *, tol: float = 0.005, min_fraction: float = 0.3,
-                 bandwidth: float = 0.0) -> np.ndarray:
-    """The poles ``select_poles`` (same arguments) finds stable but drops because their half-power
-    band reaches past the diagram's band, by frequency."""
-    out, _ = stable_clusters(*_stable_points(diagram), len(diagram.orders), tol, min_fraction, bandwidth)
-    out = out[~half_power_inside(out, diagram.f_band)] if out.size else out
-    return out[np.argsort(np.abs(out))]
 
 
 def stable_clusters(f_all, z_all, o_all, n_orders: int, tol: float, min_fraction: float,
@@ -340,8 +331,8 @@ def stable_clusters(f_all, z_all, o_all, n_orders: int, tol: float, min_fraction
             clusters.append([i])
     need = max(3, int(np.ceil(min_fraction * n_orders)))
     counts = [np.unique(o_all[c]).size for c in clusters]
-    keep = [(c, n) for c, n in zip(clusters, counts) if n >= need and _consistent(f_all[c], z_all[c], tol)]
-    out = [_pole(np.median(f_all[c]), np.median(z_all[c])) for c, _ in keep]
+    keep = [(c, n) for c, n in zip(clusters, counts) if n >= need and cluster_consistent(f_all[c], z_all[c], tol)]
+    out = [pole_of(np.median(f_all[c]), np.median(z_all[c])) for c, _ in keep]
     return np.asarray(out, dtype=complex), np.asarray([n for _, n in keep], dtype=int)
 
 
@@ -379,14 +370,14 @@ def cluster_tol(tol: float, zeta, bandwidth: float) -> float:
 CLUSTER_DAMPING_SPREAD = 0.2
 
 
-def _consistent(f: np.ndarray, zeta: np.ndarray, tol: float) -> bool:
+def cluster_consistent(f: np.ndarray, zeta: np.ndarray, tol: float) -> bool:
     if f[-1] - f[0] <= tol * f[-1]:
         return True
     q1, q3 = np.percentile(zeta, [25, 75])
     return q3 - q1 <= CLUSTER_DAMPING_SPREAD * np.median(zeta)
 
 
-def _distinct(poles: np.ndarray, stable_orders: np.ndarray, tol: float, bandwidth: float
+def distinct_poles(poles: np.ndarray, stable_orders: np.ndarray, tol: float, bandwidth: float
               ) -> tuple[np.ndarray, np.ndarray]:
     """One pole per cluster: clusters are chained from their lowest member, so one physical pole
     whose estimates spread over more than ``tol`` can come out twice, a hair apart (the thesis

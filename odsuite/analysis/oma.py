@@ -29,9 +29,9 @@ from odsuite.analysis.modal import (
     CLUSTER_BANDWIDTH,
     CLUSTER_DAMPING_SPREAD,
     Unresolved,
-    _consistent,
-    _distinct,
-    _pole,
+    cluster_consistent,
+    distinct_poles,
+    pole_of,
     cluster_tol,
     half_power_band,
     half_power_inside,
@@ -150,7 +150,7 @@ def _segment_scatter(y: np.ndarray, fs: float, poles: np.ndarray, band: tuple[fl
     segments that hold it (a one-to-one match within ``MATCH_TOL`` whose shape has MAC >=
     ``MATCH_MAC`` with the pole's ``phi``), and per pole (columns) the range of the segments'
     damping ratios over their median when their frequencies spread beyond ``CLUSTER_TOL`` (as
-    ``modal._consistent`` asks of a cluster over orders; else 0) and the range allowed
+    ``modal.cluster_consistent`` asks of a cluster over orders; else 0) and the range allowed
     (``damping_range_allowed``)."""
     from scipy.optimize import linear_sum_assignment
 
@@ -259,8 +259,8 @@ def _select(diagram: StabilisationDiagram, shapes: list[np.ndarray], edges: bool
     for c in clusters:
         c = np.array(sorted(c, key=lambda k: f[k]))
         n = np.unique(o[c]).size
-        if n >= need and _consistent(f[c], z[c], CLUSTER_TOL):
-            out.append(_pole(float(np.median(f[c])), float(np.median(z[c]))))
+        if n >= need and cluster_consistent(f[c], z[c], CLUSTER_TOL):
+            out.append(pole_of(float(np.median(f[c])), float(np.median(z[c]))))
             counts.append(n)
             near = c[np.abs(f[c] - np.median(f[c])) <= CLUSTER_TOL * np.median(f[c])]
             rep.append(phi[(near if near.size else c)[np.argmax(o[near if near.size else c])]])
@@ -270,7 +270,7 @@ def _select(diagram: StabilisationDiagram, shapes: list[np.ndarray], edges: bool
     order = np.argsort(np.abs(out))
     out, counts, rep = out[order], counts[order], rep[:, order]
     inside = half_power_inside(out, diagram.f_band) if edges else np.ones(out.size, bool)
-    kept, _ = _distinct(out[inside], counts[inside], CLUSTER_TOL, 0.0)  # clusters split a hair apart
+    kept, _ = distinct_poles(out[inside], counts[inside], CLUSTER_TOL, 0.0)  # clusters split a hair apart
     keep = np.isin(out, kept)
     return out[keep], counts[keep], rep[:, keep], out[~inside]
 

@@ -291,7 +291,7 @@ def test_neighbours_of_one_shape_are_one_mode():
     one stable over more orders kept; the thesis rig's close pair (97.4 / 98.3 Hz) with distinct
     shapes (MAC 0.0002 here) stays two; one shape 40 % apart (outside each other's half-power band,
     f (1 +- 2 zeta)) stays two."""
-    from odsuite.analysis.modal import _pole as pole
+    from odsuite.analysis.modal import pole_of as pole
     from odsuite.analysis.oma import SAME_MODE_MAC, _one_per_mode
 
     u = np.array([1.0, 0.5, -0.3, 0.2])
@@ -326,7 +326,7 @@ def test_close_poles_of_distinct_shapes_are_two_modes():
     """The thesis rig's close pair under base motion (seed 2): 97.29 and 98.34 Hz, 1.05 Hz apart with
     standard errors 0.21 and 0.49 Hz (gap below 2 x 0.53 Hz). With distinct shapes (MAC 0.07
     here) both are modes; with one shape neither is; without shapes the frequency rule alone."""
-    from odsuite.analysis.modal import _pole as pole
+    from odsuite.analysis.modal import pole_of as pole
     from odsuite.analysis.oma import SAME_MODE_MAC, _resolved
 
     poles = np.array([pole(97.29, 0.15), pole(98.34, 0.15)])
@@ -346,7 +346,7 @@ def test_damping_agreement_over_segments():
     6 / sqrt(pi x 0.022 x 8.1 x 75) = 0.97; 98 Hz at 15 % over 150 s gives 0.2. A heavily damped
     pole whose segments spread in frequency and by 26 % in damping (the thesis rig under one force,
     150 s) is refused; at 1.5 % damping the rule does not apply (select_poles' own clusters)."""
-    from odsuite.analysis.modal import _pole as pole
+    from odsuite.analysis.modal import pole_of as pole
     from odsuite.analysis.oma import _resolved, damping_range_allowed
 
     allowed = damping_range_allowed(np.array([pole(8.1, 0.022), pole(98.0, 0.15)]), np.array([75.0, 150.0]))
