@@ -110,7 +110,7 @@ def info_cmd(project: Path = typer.Argument(..., help="Project file."),
     # cost a quarter of its start-up
     print(shown(f"{info['path']}  format {info['format_version']}  rig: {info['rig'] or 'none'}"))
     if layout is not None:
-        _print_rig_layout(layout, text_table)
+        _print_rig_layout(layout)
     rows = []
     for name, e in info["experiments"].items():
         peak_channel = max(e["peak_volts"], key=e["peak_volts"].get)
@@ -134,8 +134,10 @@ def info_cmd(project: Path = typer.Argument(..., help="Project file."),
                          ["revision", "model", "effects", "error (NRMSE)"], rows))
 
 
-def _print_rig_layout(layout: dict, text_table) -> None:
+def _print_rig_layout(layout: dict) -> None:
     import numpy as np
+
+    from odsuite.cli.text_table import text_table
 
     rows = [[b["name"], f"{b['mass_kg']:.4g}" if b["moving"] else "fixed",
              str(len(b["sensors"])) if b["sensors"] else "-",
