@@ -92,12 +92,56 @@ def test_info_imports_only_what_it_shows(tmp_path, capsys):
     assert cached[2] == []
     # as the odsuite program, info loads numpy with no BLAS worker thread (one spinning beside the
     # command is CPU a shared machine takes from it): the process ends with its main thread alone
+    # (seen by an exit handler: the program ends in main, without the interpreter's teardown)
     if os.path.isdir("/proc/self/task"):
-        program = ("import contextlib, io, os, sys; shown = sys.argv[2]; sys.argv = ['odsuite', 'info', sys.argv[1]]\n"
+        program = ("import atexit, contextlib, io, os, sys; shown = sys.argv[2]; sys.argv = ['odsuite', 'info', sys.argv[1]]\n"
                    "from odsuite.cli import main\n"
-                   "with contextlib.redirect_stdout(io.StringIO()) as out: code = main()\n"
-                   "print(code, len(os.listdir('/proc/self/task')), out.getvalue() == shown)")
+                   "out = io.StringIO()\n"
+                   "atexit.register(lambda: sys.__stdout__.write(f\"{len(os.listdir('/proc/self/task'))} {out.getvalue() == shown}\\n\"))\n"
+                   "with contextlib.redirect_stdout(out): code = main()\n"
+                   "print('main returned', code)")
         env.pop("OPENBLAS_NUM_THREADS", None)
         run = subprocess.run([sys.executable, "-c", program, str(p), cached[1]], capture_output=True, text=True,
                              timeout=300, env=env, cwd=tmp_path)
-        assert run.stdout.split() == ["0", "1", "True"], run.stdout + run.stderr
+        assert (run.returncode, run.stdout.split()) == (0, ["1", "True"]), run.stdout + run.stderr
+
+
+def _program() -> str:
+    """The installed ``odsuite`` program beside this interpreter."""
+    import os
+
+    path = os.path.join(os.path.dirname(sys.executable), "odsuite")
+    assert os.access(path, os.X_OK), path
+    return path
+
+
+def test_a_summary_command_ends_without_the_teardown_as_it_would_with_it(tmp_path, capsys):
+    """``info``, ``history`` and ``model`` end the program in ``main`` once their output is flushed
+    (freeing every module costs them a tenth of their time): what they print, their exit codes and
+    their one-line errors are those of the same command run in-process; a reader that stops early
+    gets no traceback."""
+    import json
+    import subprocess
+
+    p = tmp_path / "p.h5"
+    for argv in (["new", p], ["acquire", p, "--daq", "sim", "--name", "T1", "--scenario", "T1", "--seed", "1",
+                              "--samples", "2048"], ["process", p]):
+        assert main([str(a) for a in argv]) == 0
+    capsys.readouterr()
+    for argv in (["info", str(p)], ["info", str(p), "--json"], ["history", str(p), "--json"],
+                 ["model", str(p), "--json"], ["info", str(tmp_path / "missing.h5")]):
+        code = main(argv)
+        in_process = capsys.readouterr()
+        run = subprocess.run([_program(), *argv], capture_output=True, text=True, timeout=300, cwd=tmp_path,
+                             env={**__import__("os").environ, "COLUMNS": str(app_module.console_width())})
+        assert run.returncode == code, (argv, run.stderr)
+        if argv[-1] == "--json":
+            assert json.loads(run.stdout) == json.loads(in_process.out), argv
+        elif code == 0:
+            assert "model revisions" in run.stdout and run.stdout == in_process.out
+        else:
+            assert run.stdout == "" and run.stderr.splitlines() == [f"error: {tmp_path / 'missing.h5'}: no such project file"]
+    # a reader that closes the pipe after a few bytes: no traceback, the writer's usual ending
+    reader = subprocess.run(f"'{_program()}' info '{p}' --json | head -c 10", shell=True, capture_output=True,
+                            text=True, timeout=300, cwd=tmp_path)
+    assert reader.stdout == json.dumps({"path": str(p)})[:10] and "Traceback" not in reader.stderr
