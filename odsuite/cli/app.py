@@ -440,9 +440,13 @@ def _failed(exc: Exception) -> int:
     except Exception as exc:
         if not diskspace.is_disk_full(exc):  # anything else is a bug and keeps its traceback
             raise
-        # an output file (movie, report, figure, text) ran into a full disk
-        where = Path(getattr(exc, "filename", None) or ([*_OUTPUTS] or [Path.cwd() / "-"])[-1])
-        line = diskspace.full_message(where, where, diskspace.written_so_far(where), outcome="nothing written")
+        # an output file (movie, report, figure, text) ran into a full disk, or the standard output did
+        named = getattr(exc, "filename", None) or ([*_OUTPUTS] or [None])[-1]
+        if named is None:
+            line = "standard output: no space left on the device it writes to; nothing more written"
+        else:
+            where = Path(named)
+            line = diskspace.full_message(where, where, diskspace.written_so_far(where), outcome="nothing written")
         for output, existed in _OUTPUTS.items():
             if not existed:
                 output.unlink(missing_ok=True)

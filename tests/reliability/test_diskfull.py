@@ -196,3 +196,22 @@ def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
+
+
+@pytest.mark.skipif(not __import__("os").path.exists("/dev/full"), reason="no /dev/full")
+def test_a_full_standard_output_is_named_as_such(master, tmp_path):
+    """Output redirected onto a full device (`> /dev/full`): one line naming the standard output,
+    not a file in the working folder; exit code 1; the project unchanged."""
+    import os
+    import subprocess
+    import sys
+
+    program = os.path.join(os.path.dirname(sys.executable), "odsuite")
+    before = master.read_bytes()
+    for argv in (["info", str(master)], ["plugins"], ["history", str(master), "--json"]):
+        with open("/dev/full", "w") as full:
+            run = subprocess.run([program, *argv], stdout=full, stderr=subprocess.PIPE, text=True, timeout=300,
+                                 cwd=tmp_path)
+        assert (run.returncode, run.stderr.splitlines()) == (
+            1, ["error: standard output: no space left on the device it writes to; nothing more written"]), argv
+    assert master.read_bytes() == before and os.listdir(tmp_path) == []
