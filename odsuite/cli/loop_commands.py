@@ -181,9 +181,8 @@ def history_cmd(
     figure: Path = typer.Option(None, "--figure", help="Also draw the error per revision (PNG or SVG)."),
 ) -> None:
     """Model revisions with their effects and errors."""
-    from rich.table import Table
-
     from odsuite.analysis.history import history
+    from odsuite.cli.text_table import text_table
     from odsuite.store.project import open_project
 
     from odsuite.contracts.renderers import RenderRequest
@@ -196,13 +195,10 @@ def history_cmd(
     if as_json:
         _print_json(doc)
         return
-    table = Table(title=f"model revisions (current: {doc['current']})")
-    for col in ("revision", "parent", "effects", "error"):
-        table.add_column(col)
-    for r in doc["revisions"]:
-        table.add_row(str(r["revision"]), "-" if r["parent"] is None else str(r["parent"]),
-                      ", ".join(r["effects"]) or "-", "-" if r["error"] is None else f"{r['error']:.4f}")
-    console.print(table)
+    print(text_table(f"model revisions (current: {doc['current']})", ["revision", "parent", "effects", "error (NRMSE)"],
+                     [[str(r["revision"]), "-" if r["parent"] is None else str(r["parent"]),
+                       ", ".join(r["effects"]) or "-", "-" if r["error"] is None else f"{r['error']:.4f}"]
+                      for r in doc["revisions"]]))
 
 
 @app.command("revert")

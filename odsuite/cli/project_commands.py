@@ -160,11 +160,10 @@ def model_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
     """The project's current model: revision, effects, parameters and modes (ascending)."""
-    from rich.table import Table
-
     import json
 
     from odsuite.analysis.modelrev import model_report
+    from odsuite.cli.text_table import text_table
     from odsuite.store.project import open_project
 
     with open_project(project) as p:
@@ -172,27 +171,21 @@ def model_cmd(
     if as_json:
         print(json.dumps(report))
         return
-    console.print(f"model {report['model']!r}, revision {report['revision']}, effects: "
-                  f"{', '.join(report['effects']) or 'none'}", highlight=False, soft_wrap=True)
+    print(shown(f"model {report['model']!r}, revision {report['revision']}, effects: "
+                f"{', '.join(report['effects']) or 'none'}"))
     if report["parameters"]:
-        params = Table(title="parameters")
-        for col in ("effect", "parameter", "value", "unit", "meaning"):
-            params.add_column(col)
+        rows = []
         for effect, values in report["parameters"].items():
             info = report["parameter_info"].get(effect.split("#")[0], {})  # "missing_mode#2": its second instance
             for name, value in values.items():
                 if name == "per_experiment":
                     continue
                 about = info.get(name, {})
-                params.add_row(shown(effect), shown(name), f"{value:.6g}", shown(about.get("unit", "")) or "-",
-                               shown(about.get("description", "")))
-        console.print(params)
-    table = Table(title="modes")
-    for col in ("mode", "frequency (Hz)", "damping ratio"):
-        table.add_column(col)
-    for i, m in enumerate(report["modes"], 1):
-        table.add_row(str(i), f"{m['frequency_hz']:.2f}", f"{m['damping_ratio']:.4f}")
-    console.print(table)
+                rows.append([effect, name, f"{value:.6g}", about.get("unit", "") or "-", about.get("description", "")])
+        print(text_table("parameters", ["effect", "parameter", "value", "unit", "meaning"], rows))
+    print(text_table("modes", ["mode", "frequency (Hz)", "damping ratio"],
+                     [[str(i), f"{m['frequency_hz']:.2f}", f"{m['damping_ratio']:.4f}"]
+                      for i, m in enumerate(report["modes"], 1)]))
 
 
 @app.command("verify")
