@@ -92,7 +92,9 @@ def model_report(project) -> dict[str, Any]:
     """The ``odsuite model --json`` document of the current revision: revision, model, parameters
     (per effect), ``parameter_info`` (per effect and parameter: unit and description, for the
     effects still registered), effects, modes (ascending; f = |lambda|/2 pi,
-    zeta = -Re lambda/|lambda|)."""
+    zeta = -Re lambda/|lambda|), ``physical`` (per effect: the quantities stored with it, e.g. each
+    spring's effective stiffness in N/m with its uncertainty and the rig's value; [] for effects
+    whose parameters are their quantities)."""
     rev = current_revision(project)
     rmodel = revision_model(project, rev)
     model = rmodel.shared
@@ -110,6 +112,7 @@ def model_report(project) -> dict[str, Any]:
                              **({"per_experiment": e["per_experiment"]} if e.get("per_experiment") else {})}
                        for key, e in zip(instance_names(effects), effects)},
         "parameter_info": info,
+        "physical": {key: list(e.get("physical") or []) for key, e in zip(instance_names(effects), effects)},
         "effects": [e["effect"] for e in effects],
         "modes": model.modes().as_list(),
         "description": model.describe(),

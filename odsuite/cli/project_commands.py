@@ -183,9 +183,24 @@ def model_cmd(
                 about = info.get(name, {})
                 rows.append([effect, name, f"{value:.6g}", about.get("unit", "") or "-", about.get("description", "")])
         print(text_table("parameters", ["effect", "parameter", "value", "unit", "meaning"], rows))
+    quantities = [[effect, r["label"], *_engineering(r["value"], r.get("uncertainty"), r.get("nominal"), r["unit"])]
+                  for effect, rs in report["physical"].items() for r in rs]
+    if quantities:
+        print(text_table("physical quantities (fitted, its standard deviation, the rig's value)",
+                         ["effect", "quantity", "fitted", "±", "rig", "unit"], quantities))
     print(text_table("modes", ["mode", "frequency (Hz)", "damping ratio"],
                      [[str(i), f"{m['frequency_hz']:.2f}", f"{m['damping_ratio']:.4f}"]
                       for i, m in enumerate(report["modes"], 1)]))
+
+
+def _engineering(value: float, sd: float | None, nominal: float | None, unit: str) -> list[str]:
+    """Value, standard deviation and the rig's value as text in one unit, forces per unit in kN or MN
+    where that reads shorter (2.62e+05 N/m as 262 kN/m)."""
+    scale, shown_unit = 1.0, unit
+    if unit.startswith("N") and abs(value) >= 1e4:
+        scale, shown_unit = (1e6, "M" + unit) if abs(value) >= 1e7 else (1e3, "k" + unit)
+    return [f"{value / scale:.5g}", "-" if sd is None else f"{sd / scale:.2g}",
+            "-" if nominal is None else f"{nominal / scale:.5g}", shown_unit if shown_unit not in ("", "1") else "-"]
 
 
 @app.command("verify")

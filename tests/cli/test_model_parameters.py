@@ -51,8 +51,23 @@ def test_model_and_history_read_at_80_columns(capsys, tmp_path, monkeypatch):
         assert f"{i:<4}  {m['frequency_hz']:.2f}" in text
     longest_word = max(len(w) for w in text.split())
     assert max(len(line) for line in rows) <= max(80, longest_word)
+    # each spring's effective damping as stored with the revision, in N s/m, with the rig's value
+    physical = report["physical"]["damping"]
+    assert physical and all(r["unit"] == "N s/m" and r["nominal"] > 0 for r in physical)
+    for r in physical:
+        assert [r["label"], f"{r['value']:.5g}"] in [c[1:3] for c in cells if c[0] == "damping"], r["label"]
     doc = json.loads(run(capsys, "history", p, "--json"))
     text = run(capsys, "history", p)
     for r in doc["revisions"]:
         assert any(line.split()[:1] == [str(r["revision"])] and f"{r['error']:.4f}" in line
                    for line in text.splitlines()), r
+
+
+def test_physical_quantities_read_in_engineering_units():
+    from odsuite.cli.project_commands import _engineering
+
+    assert _engineering(262000.0, 324.1, 262000.0, "N/m") == ["262", "0.32", "262", "kN/m"]
+    assert _engineering(1.64e7, 2.5e4, 1.26e7, "N/m") == ["16.4", "0.025", "12.6", "MN/m"]
+    assert _engineering(350.0, None, 400.0, "N s/m") == ["350", "-", "400", "N s/m"]
+    assert _engineering(37.7, 0.12, None, "kg") == ["37.7", "0.12", "-", "kg"]
+    assert _engineering(0.98, 0.01, 1.0, "1") == ["0.98", "0.01", "1", "-"]
