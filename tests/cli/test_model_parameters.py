@@ -15,12 +15,18 @@ def run(capsys, *args) -> str:
     return out
 
 
-def test_model_lists_each_effects_parameters(capsys, tmp_path):
+def damped_project(capsys, tmp_path):
+    """A processed one-hit project with the damping effect added (revision 1)."""
     p = tmp_path / "p.h5"
     run(capsys, "new", p)
     run(capsys, "acquire", p, "--name", "T1", "--samples", "2048", "--scenario", "T1", "--seed", "2")
     run(capsys, "process", p)
     run(capsys, "add-effect", p, "damping")
+    return p
+
+
+def test_model_lists_each_effects_parameters(capsys, tmp_path):
+    p = damped_project(capsys, tmp_path)
     report = json.loads(run(capsys, "model", p, "--json"))
     values = report["parameters"]["damping"]
     assert report["parameter_info"]["damping"]["scale_x"]["description"].startswith("damping along x")
@@ -35,11 +41,7 @@ def test_model_and_history_read_at_80_columns(capsys, tmp_path, monkeypatch):
     import sys
 
     monkeypatch.setattr(sys.modules["odsuite.cli.app"].console, "width", 80)
-    p = tmp_path / "p.h5"
-    run(capsys, "new", p)
-    run(capsys, "acquire", p, "--name", "T1", "--samples", "2048", "--scenario", "T1", "--seed", "2")
-    run(capsys, "process", p)
-    run(capsys, "add-effect", p, "damping")
+    p = damped_project(capsys, tmp_path)
     report = json.loads(run(capsys, "model", p, "--json"))
     text = run(capsys, "model", p)
     rows = text.splitlines()
