@@ -28,10 +28,9 @@ from odsuite.analysis.modal import (
     StabilisationDiagram,
     CLUSTER_BANDWIDTH,
     CLUSTER_DAMPING_SPREAD,
+    SAME_MODE_MAC,
     Unresolved,
-    cluster_consistent,
     distinct_poles,
-    pole_of,
     cluster_tol,
     half_power_band,
     half_power_inside,
@@ -39,6 +38,8 @@ from odsuite.analysis.modal import (
     normalise_shapes,
     physical_poles,
     stability_flags,
+    stable_clusters,
+    stable_points,
     zeta_of,
 )
 
@@ -203,14 +204,6 @@ def damping_range_allowed(poles: np.ndarray, seconds: float) -> np.ndarray:
     return np.maximum(CLUSTER_DAMPING_SPREAD, DAMPING_RANGE_SIGMAS / np.sqrt(bandwidths))
 
 
-#: neighbouring poles whose shapes agree this well (MAC) and whose frequencies lie within each
-#: other's half-power band are one mode: a heavily damped pole's estimates spread over several
-#: orders' worth of frequency and the clusters can split it (the thesis rig's 16 %-damped 227 Hz
-#: mode as 227.0 and 228.3 Hz, MAC 1.00), while two close modes have distinct shapes (its 97.4 and
-#: 98.3 Hz pair: MAC 0.33)
-SAME_MODE_MAC = 0.9
-
-
 #: stable poles join one cluster within ``select_poles``' 0.5 %, or a fraction of the half-power
 #: bandwidth when wider (``modal.cluster_tol``), and at least ``select_poles``' 30 % of the orders
 CLUSTER_TOL, MIN_FRACTION = 0.005, 0.3
@@ -218,55 +211,18 @@ CLUSTER_TOL, MIN_FRACTION = 0.005, 0.3
 
 def _select(diagram: StabilisationDiagram, shapes: list[np.ndarray], edges: bool = True
             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``select_poles``' clusters of stable poles, with shapes: a heavily damped pole's estimates
-    wander over the orders by a fraction of its half-power bandwidth 2 zeta f (the thesis rig's
-    16 %-damped 228 Hz mode over 225.7-229.4 Hz in a 2.5 min segment, MAC >= 0.93 with the record's
-    shape at every order), so a cluster spans ``CLUSTER_BANDWIDTH`` of zeta f, but a pole beyond
-    ``select_poles``' 0.5 % joins it only when its shape agrees with the cluster's at its highest
-    order (``SAME_MODE_MAC``; a low order's shape of a close pair is a mixture): two close modes have
-    distinct shapes (the 97.4 / 98.3 Hz pair: MAC 0.06-0.33) and stay two clusters however close.
-    Returns the poles whose half-power band lies inside the diagram's band (ascending), their
-    counts of orders, their shapes (outputs x poles, from the cluster's highest order within 0.5 %
-    of its median frequency: a wanderer's ends may be mixtures) and
-    the poles dropped at the band's edges (``edges=False``: none dropped; a segment asked whether
-    it holds the record's poles, whose band was chosen to hold them, is not cut by it again)."""
-    f, z, o, phi = [], [], [], []
-    for order, poles, st, shp in zip(diagram.orders, diagram.poles, diagram.stable, shapes, strict=True):
-        for i in np.flatnonzero(st):
-            f.append(abs(poles[i]) / (2 * np.pi))
-            z.append(zeta_of(poles[i]))
-            o.append(order)
-            phi.append(shp[:, i])
-    f, z, o = np.asarray(f), np.asarray(z), np.asarray(o)
-    clusters: list[list[int]] = []
-    for i in np.argsort(f, kind="stable"):
-        best, best_mac = None, SAME_MODE_MAC
-        if clusters and f[i] - f[clusters[-1][0]] <= CLUSTER_TOL * f[i]:
-            clusters[-1].append(int(i))  # select_poles' own rule
-            continue
-        for c in clusters:
-            top = max(c, key=lambda k: o[k])  # the highest order's shape: low orders' are mixtures
-            if f[i] - f[c[0]] <= cluster_tol(CLUSTER_TOL, z[i], CLUSTER_BANDWIDTH) * f[i]:
-                m = mac(phi[i][:, None], phi[top][:, None])[0, 0]
-                if m >= best_mac:
-                    best, best_mac = c, m
-        if best is None:
-            clusters.append([int(i)])
-        else:
-            best.append(int(i))
-    need = max(3, int(np.ceil(MIN_FRACTION * len(diagram.orders))))
-    out, counts, rep = [], [], []
-    for c in clusters:
-        c = np.array(sorted(c, key=lambda k: f[k]))
-        n = np.unique(o[c]).size
-        if n >= need and cluster_consistent(f[c], z[c], CLUSTER_TOL):
-            out.append(pole_of(float(np.median(f[c])), float(np.median(z[c]))))
-            counts.append(n)
-            near = c[np.abs(f[c] - np.median(f[c])) <= CLUSTER_TOL * np.median(f[c])]
-            rep.append(phi[(near if near.size else c)[np.argmax(o[near if near.size else c])]])
-    if not out:
-        return np.array([], complex), np.array([], int), np.empty((shapes[0].shape[0], 0), complex), np.array([], complex)
-    out, counts, rep = np.asarray(out), np.asarray(counts), np.column_stack(rep)
+    """``select_poles``' clusters of stable poles, with shapes (``modal.stable_clusters`` given the
+    shapes): a heavily damped pole's estimates wander over the orders by a fraction of its
+    half-power bandwidth 2 zeta f (the thesis rig's 16 %-damped 228 Hz mode over 225.7-229.4 Hz in
+    a 2.5 min segment, MAC >= 0.93 with the record's shape at every order), so a cluster spans
+    ``CLUSTER_BANDWIDTH`` of zeta f where the shapes agree. Returns the poles whose half-power band
+    lies inside the diagram's band (ascending), their counts of orders, their shapes (outputs x
+    poles) and the poles dropped at the band's edges (``edges=False``: none dropped; a segment
+    asked whether it holds the record's poles, whose band was chosen to hold them, is not cut by it
+    again)."""
+    f, z, o, phi = stable_points(diagram, shapes)
+    out, counts, rep = stable_clusters(f, z, o, len(diagram.orders), CLUSTER_TOL, MIN_FRACTION, CLUSTER_BANDWIDTH,
+                                       phi)
     order = np.argsort(np.abs(out))
     out, counts, rep = out[order], counts[order], rep[:, order]
     inside = half_power_inside(out, diagram.f_band) if edges else np.ones(out.size, bool)

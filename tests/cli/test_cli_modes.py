@@ -142,3 +142,40 @@ def test_palisaden_building_with_no_options(palisaden, capsys):
     for k in first:
         assert abs(fdd[k]["frequency_difference"]) <= 0.005 and fdd[k]["mac_ssi"] >= 0.95
         assert fdd[k]["frequency_std_hz"] is not None and fdd[k]["mpc"] >= 0.95
+
+
+
+# pyOMA-2 1.4.3's SSI-cov on the same record with its documented settings, modes taken at order 30
+# (where it labels all five stable), standard errors from its bootstrap: the printout of
+# tests/data/real/palisaden_building/make_pyoma2_upper_modes.py (see that folder's README)
+PEER_F = np.array([1.88202, 2.42162, 2.68901, 5.90118, 6.71648])
+PEER_F_STD = np.array([0.00159, 0.00152, 0.00188, 0.00526, 0.01043])
+PEER_ZETA = np.array([0.01570, 0.01506, 0.01526, 0.02521, 0.02742])
+PEER_ZETA_STD = np.array([0.00058, 0.00064, 0.00066, 0.00120, 0.00121])
+PEER_SHAPE = np.array([  # modes x ch1..ch6, as printed (4 decimals)
+    [0.0168 - 0.0028j, 0.8630 - 0.0003j, 0.0968 - 0.0026j, 1.0, 0.0325 - 0.0020j, -0.8895 + 0.0025j],
+    [1.0, 0.1799 + 0.0016j, 0.9828 - 0.0004j, -0.0645 - 0.0037j, 0.8729 - 0.0026j, -0.0934 - 0.0008j],
+    [0.4966 - 0.0059j, 1.0, 0.3633 - 0.0043j, -0.6098 - 0.0013j, -0.5764 - 0.0038j, -0.6903 - 0.0017j],
+    [-0.1610 + 0.0036j, 0.3871 - 0.0444j, -0.0660 + 0.0154j, 1.0, 0.0666 + 0.0016j, -0.4287 + 0.0255j],
+    [0.1063 + 0.0422j, -0.0687 + 0.0417j, 0.1331 + 0.0321j, -0.0057 + 0.0171j, 1.0, 0.3494 - 0.0024j],
+])
+
+
+def test_palisaden_modes_agree_with_pyoma2_where_both_find_one(palisaden, capsys):
+    """Every mode pyOMA2's SSI-cov finds in the band, the two above the published three (5.90 and
+    6.7 Hz) included, is one of odsuite's: frequency and damping within 3 combined standard errors
+    (odsuite's from its segments, pyOMA2's from its bootstrap), shape MAC >= 0.95."""
+    from odsuite.analysis.modal import mac
+
+    project, _ = palisaden
+    capsys.readouterr()
+    assert main(["modes", str(project), "--experiment", "ambient", "--output-only", "--json"]) == 0
+    modes = json.loads(capsys.readouterr().out)["modes"]
+    f = np.array([m["frequency_hz"] for m in modes])
+    ours = [modes[int(np.argmin(np.abs(f - f0)))] for f0 in PEER_F]
+    df = np.array([m["frequency_hz"] for m in ours]) - PEER_F
+    assert np.all(np.abs(df) <= 3 * np.hypot([m["frequency_std_hz"] for m in ours], PEER_F_STD))
+    dz = np.array([m["damping_ratio"] for m in ours]) - PEER_ZETA
+    assert np.all(np.abs(dz) <= 3 * np.hypot([m["damping_std"] for m in ours], PEER_ZETA_STD))
+    phi = np.array([[complex(*m["shape"][f"ch{c + 1}"]) for c in range(6)] for m in ours]).T
+    assert np.diag(mac(phi, PEER_SHAPE.T)).min() >= 0.95
