@@ -202,7 +202,8 @@ def assess_hits(
     force or response channel, or a record cut short by the data's end; noted (not rejected) when
     the response has not decayed below ``decay_limit`` x its peak at the record end (leakage: use
     an exponential window). Defaults: pretrigger 1 % of the record (at most the samples before the
-    first hit); records as long as the closest hits allow and the last hit's data reach. Limits
+    first hit; a given length the last hit's data miss by at most that: its record starts earlier);
+    records as long as the closest hits allow and the last hit's data reach. Limits
     are the converters' ranges in the signals' units (``is_clipped``); ``response_limits`` is one
     range for every response or one per response channel."""
     f = np.asarray(force, dtype=float)
@@ -218,6 +219,7 @@ def assess_hits(
     peaks = find_hits(f, threshold=threshold, min_gap=gap)
     if not peaks:
         return []
+    chosen_pretrigger = pretrigger is None
     if pretrigger is None:
         pretrigger = min(peaks[0], max((record_length or n) // 100, 1))
     if record_length is None:
@@ -229,6 +231,10 @@ def assess_hits(
     for p in peaks:
         start = p - pretrigger
         stop = start + record_length
+        if chosen_pretrigger and 0 < stop - n <= min(pretrigger, start):
+            # a length given (records of several experiments made equal) that the last hit misses by
+            # a few samples: the record starts that much earlier, in the quiet before the hit
+            start, stop = start - (stop - n), n
         reasons: list[str] = []
         notes: list[str] = []
         if start < 0 or stop > n:

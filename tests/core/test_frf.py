@@ -288,3 +288,25 @@ def test_the_responding_channels_keep_their_own_trend():
     assert kept.output_names == ["a", "b"]
     want = estimate_frf([force], [scipy.signal.detrend(records[:, [0, 2]], axis=0)], fs).H
     np.testing.assert_allclose(kept.detrended().H, want, rtol=1e-9, atol=1e-12 * np.abs(want).max())
+
+
+def test_a_given_length_the_last_hit_misses_by_a_few_samples_starts_earlier():
+    """Records made equal across experiments: a length one sample shorter than the hit's own default
+    (from 40 samples before the peak to the data's end) makes its 1 % pretrigger 36, which would end
+    the record 3 samples past the data; the record starts 1 sample later than the default instead,
+    and its FRF is the exact one. A pretrigger the caller chose is kept, and the record refused."""
+    f, a = mck.simulate(FS, 4.0, [(0.5, 0.004, 100.0)])
+    n = f.size
+    peak = int(np.argmax(f))
+    default = assess_hits(f, a, FS)[0]
+    assert default.accepted and (default.start, default.stop) == (peak - 40, n)
+    hit = assess_hits(f, a, FS, record_length=default.stop - default.start - 1)[0]
+    assert hit.accepted and (hit.start, hit.stop) == (peak - 39, n)
+    frf = estimate_frf([f[hit.start:hit.stop]], [a[hit.start:hit.stop]], FS)
+    exact = mck.accelerance(frf.frequency)
+    band = (frf.frequency > 5) & (frf.frequency < 200)
+    big = band[None, :] & (np.abs(exact) > 0.01 * np.abs(exact).max(axis=1, keepdims=True))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        assert (np.abs(frf.H - exact) / np.abs(exact))[big].max() < 1e-2
+    kept = assess_hits(f, a, FS, record_length=default.stop - default.start - 1, pretrigger=36)[0]
+    assert not kept.accepted and "runs past the data" in kept.reasons[0]
