@@ -452,7 +452,10 @@ def _widened(settings: OmaSettings, first: OmaSettings, dropped: np.ndarray, fs:
     fits = (a >= lo) & (b > hi) & (b <= limit)
     if not fits.any():
         return None
-    top = float(np.max(b[fits]))
+    # room for the refit's own estimate of the pole, which moves by a fraction of its bandwidth
+    # (a top exactly at the edge keeps it or not by the last digit)
+    room = CLUSTER_BANDWIDTH * zeta_of(dropped) * np.abs(dropped) / (2 * np.pi)
+    top = float(min(np.max((b + room)[fits]), limit))
     held = ", ".join(f"{abs(p) / (2 * np.pi):.4g} Hz ({100 * zeta_of(p):.3g} % damped)" for p in dropped[fits])
     return top, (f"band's top widened from {first.band_hz[1]:.3g} Hz (chosen from the record's peaks) to hold "
                  f"the half-power band f(1 + 2 zeta) of the stable poles at {held}")
