@@ -175,9 +175,10 @@ def _print_modes(res, name: str) -> None:
             + ("MPC",):
         table.add_column(col)
     digits = _frequency_digits(res.frequency_hz)
+    of_orders = f" of {len(res.diagram.orders)}" if res.diagram is not None else ""
     for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio), start=1):
         extra = (f"{res.frequency_std_hz[k - 1]:.2g}", f"{res.damping_std[k - 1]:.2g}") if scatter else ()
-        table.add_row(str(k), f"{f:.{digits}f}", f"{z:.5f}", str(res.stable_orders[k - 1]), *extra,
+        table.add_row(str(k), f"{f:.{digits}f}", f"{z:.5f}", f"{res.stable_orders[k - 1]}{of_orders}", *extra,
                       f"{mpc(res.shapes[:, k - 1]):.3f}")
     console.print(table)
     if res.fdd is not None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -43,6 +44,12 @@ def test_default_modes_on_the_ladisk_beam(beam_project, tmp_path, capsys):
     np.testing.assert_allclose(f, LADISK_F, rtol=0.005)
     np.testing.assert_allclose(zeta, LADISK_ZETA, rtol=0.10)
     assert all(m["stable_orders"] >= 15 for m in doc["modes"])
+    # the text says how many of the diagram's orders hold each mode
+    assert main(["modes", str(beam_project), "--experiment", "acceleration"]) == 0
+    text = capsys.readouterr().out
+    held = [tuple(map(int, m)) for m in re.findall(r"(\d+) of (\d+)", text)]
+    assert [h for h, _ in held] == [m["stable_orders"] for m in doc["modes"]]
+    assert len({n for _, n in held}) == 1 and all(h <= n for h, n in held)
     for png in (stab, tmp_path / "frf.png"):
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
