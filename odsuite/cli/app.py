@@ -443,7 +443,8 @@ def _failed(exc: Exception) -> int:
         # an output file (movie, report, figure, text) ran into a full disk, or the standard output did
         named = getattr(exc, "filename", None) or ([*_OUTPUTS] or [None])[-1]
         if named is None:
-            line = "standard output: no space left on the device it writes to; nothing more written"
+            # a failed write names no file: the standard output's, or a library's own file
+            line = "no space left on the device written to (the standard output, or a file odsuite does not name)"
         else:
             where = Path(named)
             line = diskspace.full_message(where, where, diskspace.written_so_far(where), outcome="nothing written")

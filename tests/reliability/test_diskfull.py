@@ -200,8 +200,8 @@ def _umask() -> int:
 
 @pytest.mark.skipif(not __import__("os").path.exists("/dev/full"), reason="no /dev/full")
 def test_a_full_standard_output_is_named_as_such(master, tmp_path):
-    """Output redirected onto a full device (`> /dev/full`): one line naming the standard output,
-    not a file in the working folder; exit code 1; the project unchanged."""
+    """Output redirected onto a full device (`> /dev/full`): one line naming the standard output
+    (a write names no file), not a file '-' in the working folder; exit code 1; the project unchanged."""
     import os
     import subprocess
     import sys
@@ -213,5 +213,5 @@ def test_a_full_standard_output_is_named_as_such(master, tmp_path):
             run = subprocess.run([program, *argv], stdout=full, stderr=subprocess.PIPE, text=True, timeout=300,
                                  cwd=tmp_path)
         assert (run.returncode, run.stderr.splitlines()) == (
-            1, ["error: standard output: no space left on the device it writes to; nothing more written"]), argv
+            1, ["error: no space left on the device written to (the standard output, or a file odsuite does not name)"]), argv
     assert master.read_bytes() == before and os.listdir(tmp_path) == []
