@@ -10,6 +10,7 @@ import numpy as np
 
 from odsuite.contracts.effects import applies, family
 from odsuite.diagnosis import checks, physical
+from odsuite.diagnosis.between_records import reported_sds
 from odsuite.diagnosis.joint import Joint
 from odsuite.domain.errors import ConfigError
 from odsuite.diagnosis.fitting import (
@@ -129,6 +130,7 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     res = fit(joint, u0) if joint.free else None
     u = res.x if res is not None else joint.zero()
     sds, corr = uncertainties(joint, res, n_eff)[:2] if res is not None else (np.zeros(0), None)
+    sds = reported_sds(sds, joint, res) if res is not None else sds
     new_entries = list(held) + _entries(joint, joint_effects, u, sds, corr)
     if progress:
         progress("comparing", 2, 3)
@@ -181,6 +183,7 @@ def _add_on_top(project, rev, entries, name: str, effect, screened, n_eff, exps,
     res = fit(problem, screened.u0, continuation=False) if problem.free else None
     u = res.x if res is not None else problem.zero()
     sds, corr = uncertainties(problem, res, n_eff)[:2] if res is not None else (np.zeros(0), None)
+    sds = reported_sds(sds, problem, res) if res is not None else sds
     shared, per = problem.values(u)
     unc = {f.label if f.experiment is None else f"{f.experiment}/{f.param.name}": float(sd)
            for f, sd in zip(problem.free, sds) if np.isfinite(sd)}
