@@ -83,6 +83,9 @@ def catalog_cmd(
 
     from odsuite.ops.catalog import build_catalog, query
 
+    folder = args[1] if args[0] == "query" and len(args) > 1 else args[0]
+    if not folder.strip():  # pathlib reads "" as ".": a name left empty by a script would index this folder
+        raise ConfigError(f"catalog: the folder name is empty ({folder!r})")
     if args[0] == "query":
         if len(args) < 2:
             raise typer.BadParameter("catalog query DIR [NAME|SELECT ...]")

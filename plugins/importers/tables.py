@@ -17,6 +17,7 @@ Units: m/s^2 (m/s2, m/s²), g, N, V (see docs/importing.md).
 from __future__ import annotations
 
 import csv
+import io
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -168,7 +169,8 @@ def read_csv_columns(file: Path, explicit: dict) -> Columns:
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(f"{where}: not a readable text file: {exc}") from None
     try:
-        rows = [r for r in csv.reader(text.splitlines()) if any(c.strip() for c in r)]
+        # the text as a stream: a quoted name that holds a line break keeps it (and is then refused)
+        rows = [r for r in csv.reader(io.StringIO(text, newline="")) if any(c.strip() for c in r)]
     except csv.Error as exc:  # a field over the csv module's limit (131072 characters)
         raise ConfigError(f"{where}: not a CSV table: {exc}") from None
     if not rows:

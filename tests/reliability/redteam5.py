@@ -66,11 +66,20 @@ def _json_check(d: Path, r: dict) -> list[tuple[str, str]]:
         doc = json.loads(out)
     except ValueError as exc:
         return [("bad json", f"stdout is not one JSON document ({exc}): {out[:80]!r}")]
-    if not isinstance(doc, dict):
+    if not isinstance(doc, dict) and not (isinstance(doc, list) and r.get("list_ok") and r["code"] == 0):
         return [("bad json", f"a JSON {type(doc).__name__}, not an object")]
     if r["code"] not in (0, None) and not isinstance(doc.get("error"), str):
         return [("bad json", f"failed (exit {r['code']}) without an 'error' line: {out[:80]!r}")]
     return []
+
+
+def _query_json(d: Path, r: dict) -> list[tuple[str, str]]:
+    """``catalog query --json`` prints its rows as one JSON list (docs/batch.md)."""
+    return _json_check(d, {**r, "list_ok": True})
+
+
+def _catalogued(d: Path, variant: int) -> None:
+    rt._run_setup(["catalog", "."], d)
 
 
 def _readable_after(project: str) -> Callable[[Path, dict], list[tuple[str, str]]]:
@@ -365,7 +374,7 @@ MAT: dict[str, tuple[Callable[[Path], None], tuple[str, ...], str]] = {
     "fs a cell": (_savemat({"data": SIG(), "fs": np.array([[1.0]], dtype=object), "units": "g"}), (), "refuse"),
     "fs a struct": (_savemat({"data": SIG(), "fs": {"a": 1}, "units": "g"}), (), "refuse"),
     "fs complex": (_savemat({"data": SIG(), "fs": 1000.0 + 1j, "units": "g"}), (), "refuse"),
-    "fs logical": (_savemat({"data": SIG(), "fs": np.array([[True]]), "units": "g"}), (), "refuse"),
+    "fs logical (scipy reads uint8 1: 1 Hz)": (_savemat({"data": SIG(), "fs": np.array([[True]]), "units": "g"}), (), "any"),
     "fs -5": (_savemat({"data": SIG(), "fs": -5.0, "units": "g"}), (), "refuse"),
     "fs 1e300": (_savemat({"data": SIG(), "fs": 1e300, "units": "g"}), (), "refuse"),
     "fs 1e-300": (_savemat({"data": SIG(), "fs": 1e-300, "units": "g"}), (), "refuse"),
@@ -1028,7 +1037,8 @@ COMMANDS: dict[str, tuple[list[str], str]] = {  # label -> (argv, expect)
     "render --json --slowdown 0": (["render", "p.h5", "s1", "-o", "m.gif", "--slowdown", "0", "--json"], "refuse"),
     "render --json --slowdown -1": (["render", "p.h5", "s1", "-o", "m.gif", "--slowdown=-1", "--json"], "refuse"),
     "render --json --duration 0": (["render", "p.h5", "s1", "-o", "m.gif", "--duration", "0", "--json"], "refuse"),
-    "render --json --duration 1e9": (["render", "p.h5", "s1", "-o", "m.gif", "--duration", "1e9", "--json"], "refuse"),
+    # a movie longer than the window plays every sample once: the longest the record gives
+    "render --json --duration 1e9": (["render", "p.h5", "s1", "-o", "m.gif", "--duration", "1e9", "--json"], "any"),
     "render --json --start after --end": (["render", "p.h5", "s1", "-o", "m.gif", "--start", "0.05", "--end", "0.01",
                                            "--json"], "refuse"),
     "render --json --start -1": (["render", "p.h5", "s1", "-o", "m.gif", "--start=-1", "--json"], "refuse"),
@@ -1056,7 +1066,10 @@ COMMANDS: dict[str, tuple[list[str], str]] = {  # label -> (argv, expect)
     "catalog --json of a missing folder": (["catalog", "nowhere", "--json"], "refuse"),
     "catalog --json of a file": (["catalog", "p.h5", "--json"], "refuse"),
     "catalog --json of an empty path": (["catalog", "", "--json"], "refuse"),
-    "catalog query --json --limit 0": (["catalog", "query", ".", "projects", "--json", "--limit", "0"], "any"),
+    "catalog query --json": (["catalog", "query", ".", "projects", "--json"], "any"),
+    "catalog query --json a SELECT": (["catalog", "query", ".", "SELECT 1 AS one", "--json"], "any"),
+    "catalog query --json of an empty folder name": (["catalog", "query", "", "--json"], "refuse"),
+    "catalog query --json --limit 0": (["catalog", "query", ".", "projects", "--json", "--limit", "0"], "refuse"),
     "catalog query --json --limit -1": (["catalog", "query", ".", "projects", "--json", "--limit=-1"], "refuse"),
     "catalog query --json --seconds 0": (["catalog", "query", ".", "projects", "--json", "--seconds", "0"], "any"),
     "catalog query --json --seconds -1": (["catalog", "query", ".", "projects", "--json", "--seconds=-1"], "refuse"),
@@ -1099,8 +1112,10 @@ def command_cases() -> list[Case]:
         writes = argv[0] in ("new", "acquire", "process", "revert") and expect != "refuse"
         projects = ("p.h5", "a.h5", "b.h5", "q.h5") if not writes else ()
         outputs += ("p.h5",) if writes else ()
-        out.append(Case("commands", label, lambda d, a=tuple(argv): list(a), expect=expect, outputs=outputs,
-                        projects=projects, check=_json_check if "--json" in argv else None, timeout=120.0))
+        query = argv[:2] == ["catalog", "query"]
+        out.append(Case("commands", label, lambda d, a=tuple(argv): list(a), _catalogued if query else None,
+                        expect=expect, outputs=outputs, projects=projects,
+                        check=(_query_json if query else _json_check) if "--json" in argv else None, timeout=120.0))
     return out
 
 

@@ -736,6 +736,10 @@ CASES: list[Case] = [
          argv=lambda d: ["modes", str(d / "p.h5"), "--experiment", "e1", "--max-order", "0"]),
     Case("modes-decimate-zero", "modes --output-only --decimate 0", "--decimate: a factor of at least 1, got 0",
          argv=lambda d: ["modes", str(d / "p.h5"), "--experiment", "e1", "--output-only", "--decimate", "0"]),
+    Case("import-csv-name-newline", "CSV column name holding a line break inside quotes", "{dir}/r.csv: channels: column 1 name: expected printable text of at most 200 characters (no control, escape or bidirectional characters), got 'a\\nb'",
+         **_csv('t,"a\nb [g]",a2 [g]\n0,0.1,0.2\n0.01,0.2,0.3\n0.02,0.5,0.1\n')),
+    Case("catalog-empty-folder", "catalog with an empty folder name (pathlib reads it as the current folder)", "catalog: the folder name is empty ('')",
+         argv=lambda d: ["catalog", ""]),
 ]
 
 
