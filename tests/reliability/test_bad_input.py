@@ -740,6 +740,8 @@ CASES: list[Case] = [
          **_csv('t,"a\nb [g]",a2 [g]\n0,0.1,0.2\n0.01,0.2,0.3\n0.02,0.5,0.1\n')),
     Case("catalog-empty-folder", "catalog with an empty folder name (pathlib reads it as the current folder)", "catalog: the folder name is empty ('')",
          argv=lambda d: ["catalog", ""]),
+    Case("catalog-seconds-nan", "catalog query --seconds nan (NaN is never late: the bound was off)", "--seconds: a finite time > 0 s, got nan",
+         argv=lambda d: ["catalog", "query", str(d), "projects", "--seconds", "nan"]),
 ]
 
 
