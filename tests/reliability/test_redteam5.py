@@ -1,6 +1,6 @@
 """Red team, round five (see redteam5.py): its two extra judgements judge what they are meant to,
 usage errors under ``--json`` print the error document, a handful of real tries run in seconds, and
-the whole run (620 tries, about a quarter of an hour on two cores) is behind the slow marker."""
+the whole run (623 tries, 12-20 minutes on two shared cores) is behind the slow marker."""
 
 from __future__ import annotations
 
