@@ -29,6 +29,7 @@ _WHERE: dict[str, str] = {
     "MAX_CHANNELS": "odsuite.domain.rig",
     "NINE_ROLES": "odsuite.domain.rig",
     "NineSensorSet": "odsuite.domain.rig",
+    "printable_name": "odsuite.domain.rig",
     "Rig": "odsuite.domain.rig",
     "rig_from_dict": "odsuite.domain.rig",
     "Sensor": "odsuite.domain.rig",
@@ -84,6 +85,7 @@ _WHERE: dict[str, str] = {
     "sampled_later": "odsuite.domain.simulation",
     # text files and outputs (room checked before writing)
     "check_text_file": "odsuite.domain.textfiles",
+    "free_memory": "odsuite.domain.memory",
     "read_text": "odsuite.domain.textfiles",
     "ensure_space": "odsuite.store.diskspace",
     "write_output": "odsuite.store.diskspace",

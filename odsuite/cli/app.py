@@ -203,6 +203,13 @@ def _rendered_doc(renderer, res) -> dict:
             "summary": res.summary, "notes": list(res.notes)}
 
 
+def check_workers(workers: int | None) -> None:
+    """--workers beyond 4 per core (as batch allows): each is a process, a million of them never start."""
+    most = 4 * (os.cpu_count() or 1)
+    if workers is not None and workers > most:
+        raise ConfigError(f"--workers: at most {most} processes (4 per core), got {workers}")
+
+
 def _figure_renderer(name: str, output: Path, project: Path, option: str):
     """The registered figure renderer ``name``, checked to write ``output`` (before any work)."""
     from odsuite.contracts.plugins import registries
@@ -434,8 +441,15 @@ def _failed(exc: Exception) -> int:
         err_console.print("aborted")
         return 1
     except click_exception as exc:
-        # usage errors (unknown option, missing argument) carry their own exit code
-        exc.show()
+        # usage errors (unknown option, missing argument, a value out of range): one line like every
+        # other error, the JSON document under --json, and click's own exit code (2)
+        line = exc.format_message()
+        ctx = getattr(exc, "ctx", None)
+        where = f" (odsuite {ctx.command_path.split(' ', 1)[-1]} --help)" if ctx is not None and " " in ctx.command_path \
+            else " (odsuite --help)"
+        err_console.print(f"error: {line}{where}", style="bold red", highlight=False, soft_wrap=True)
+        if _AS_JSON:
+            _print_json({"error": line})
         return exc.exit_code
     except Exception as exc:
         if not diskspace.is_disk_full(exc):  # anything else is a bug and keeps its traceback

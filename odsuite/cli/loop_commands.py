@@ -6,7 +6,8 @@ from pathlib import Path
 
 import typer
 
-from odsuite.cli.app import _figure_renderer, _loop_progress, _modal_table, _print_json, app, console, err_console, shown
+from odsuite.cli.app import (_figure_renderer, _loop_progress, _modal_table, _print_json, app, check_workers, console,
+                             err_console, shown)
 
 
 @app.command("compare")
@@ -74,6 +75,7 @@ def diagnose_cmd(
     from odsuite.diagnosis.diagnose import diagnose
     from odsuite.store.project import open_project
 
+    check_workers(workers)
     with open_project(project) as p, _loop_progress() as bar:
         stamp = None if effect else diagnosis_stamp(p)  # before: records changed meanwhile store nothing
         task = bar.add_task("diagnosing", total=None)

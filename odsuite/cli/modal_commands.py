@@ -84,7 +84,8 @@ def modes_cmd(
     from odsuite.analysis.modal_project import experiment_modes, experiment_output_only_modes, experiments_modes
     from odsuite.contracts.renderers import RenderRequest
 
-    freqs = _modes_options(at, f_min, f_max, reference, output_only, len(experiments), block_rows, decimate, figure)
+    freqs = _modes_options(at, f_min, f_max, reference, output_only, len(experiments), block_rows, decimate, figure,
+                           max_order)
     band = None if f_min is None and f_max is None else (f_min, f_max)
     if max_order is None:  # output-only: the library's default, so render and report find the same modes
         from odsuite.analysis.oma import MAX_ORDER
@@ -136,7 +137,7 @@ def modes_cmd(
             console.print(f"wrote {path}", highlight=False, soft_wrap=True)
 
 
-def _modes_options(at, f_min, f_max, reference, output_only, n_experiments, block_rows, decimate, figure):
+def _modes_options(at, f_min, f_max, reference, output_only, n_experiments, block_rows, decimate, figure, max_order=None):
     """The modes command's options checked before anything is computed; returns --at's frequencies (Hz)."""
     from odsuite.domain.errors import ConfigError
 
@@ -147,6 +148,11 @@ def _modes_options(at, f_min, f_max, reference, output_only, n_experiments, bloc
     for option, value in (("--fmin", f_min), ("--fmax", f_max)):
         if value is not None and not (math.isfinite(value) and value >= 0):  # before the FRF is stored
             raise ConfigError(f"{option}: must be a finite frequency >= 0 Hz, got {value}")
+    # orders below 2 and a decimation below 1 left the fits looping or indexing nothing
+    if max_order is not None and max_order < 2:
+        raise ConfigError(f"--max-order: a model order of at least 2, got {max_order}")
+    if decimate is not None and decimate < 1:
+        raise ConfigError(f"--decimate: a factor of at least 1, got {decimate}")
     if reference is not None and not (output_only and n_experiments > 1):
         raise ConfigError("--reference names the reference channels of several --output-only setups: give "
                           "--output-only and more than one --experiment")

@@ -44,8 +44,15 @@ def batch_cmd(
 
         result = run_batch(command, projects, scheduler=scheduler, workers=workers, options=options,
                            progress=progress)
-    if as_json:
-        _print_json(result.as_dict())
+    line = None
+    if not result.ok:
+        bad = [r for r in result.projects if r["status"] != "ok"]
+        first = shown(bad[0]["error"] or bad[0]["status"])
+        if not first.startswith(shown(bad[0]["project"])):  # most errors name their project already
+            first = f"{shown(bad[0]['project'])}: {first}"
+        line = f"batch {command}: {len(bad)} of {len(result.projects)} projects did not succeed (first: {first})"
+    if as_json:  # a batch that failed is a failed command: its document carries the error line too
+        _print_json(result.as_dict() | ({"error": line} if line else {}))
     else:
         table = Table(title=f"{command} on {len(result.projects)} projects ({result.workers} workers, "
                             f"{result.seconds:.1f} s)")
@@ -56,11 +63,8 @@ def batch_cmd(
             table.add_row(r["project"], Text(shown(r["status"]), style=style),
                           "-" if r["seconds"] is None else f"{r['seconds']:.1f}", describe(command, r))
         console.print(table)
-    if not result.ok:
-        bad = [r for r in result.projects if r["status"] != "ok"]
-        err_console.print(f"error: batch {command}: {len(bad)} of {len(result.projects)} projects did not succeed "
-                          f"(first: {shown(bad[0]['project'])}: {shown(bad[0]['error'] or bad[0]['status'])})",
-                          highlight=False, soft_wrap=True)
+    if line:
+        err_console.print(f"error: {line}", highlight=False, soft_wrap=True)
         raise typer.Exit(1)
 
 
@@ -79,6 +83,9 @@ def catalog_cmd(
 
     from odsuite.ops.catalog import build_catalog, query
 
+    folder = args[1] if args[0] == "query" and len(args) > 1 else args[0]
+    if not folder.strip():  # pathlib reads "" as ".": a name left empty by a script would index this folder
+        raise ConfigError(f"catalog: the folder name is empty ({folder!r})")
     if args[0] == "query":
         if len(args) < 2:
             raise typer.BadParameter("catalog query DIR [NAME|SELECT ...]")

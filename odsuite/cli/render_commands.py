@@ -8,7 +8,8 @@ import math
 import typer
 
 from odsuite.domain.errors import ConfigError
-from odsuite.cli.app import _check_output, _loop_progress, _print_json, _rendered_doc, app, console, err_console
+from odsuite.cli.app import (_check_output, _loop_progress, _print_json, _rendered_doc, app, check_workers, console,
+                             err_console)
 
 
 @app.command("render")
@@ -41,6 +42,14 @@ def render_cmd(
 
     if workers is not None and workers < 1:
         raise ConfigError(f"--workers: at least 1 render process, got {workers}")
+    check_workers(workers)
+    # the movie's timing, checked here: a renderer reads 0 as "not given" and NaN reaches int()
+    for option, value, least in (("--fps", fps, 0.0), ("--duration", duration, 0.0), ("--slowdown", slowdown, 0.0),
+                                 ("--start", start, None), ("--end", end, None)):
+        if value is not None and not (math.isfinite(value) and (least is None or value > least)):
+            raise ConfigError(f"{option}: must be a finite number{'' if least is None else ' > 0'}, got {value}")
+    if frame_step is not None and frame_step < 1:
+        raise ConfigError(f"--frame-step: at least 1 sample per frame, got {frame_step}")
     if ods is not None and not (math.isfinite(ods) and ods >= 0.01):  # as --cutoff: no line below 0.01 Hz
         raise ConfigError(f"--ods: must be a finite frequency >= 0.01 Hz, got {ods}")
     _check_output(output, project, "-o")

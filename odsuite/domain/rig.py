@@ -13,6 +13,7 @@ import functools
 import math
 import os
 import stat
+import unicodedata
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -456,7 +457,7 @@ def _body(b: Any, i: int, where0: str, earlier: list[Body]) -> Body:
         raise ConfigError(f"{w}: expected a table, got {b!r}")
     if not isinstance(b.get("name"), str) or not b["name"]:
         raise ConfigError(f"{w}: field 'name': expected a non-empty name, got {b.get('name')!r}")
-    if any(b["name"] == other.name for other in earlier):
+    if any(unicodedata.normalize("NFC", b["name"]) == unicodedata.normalize("NFC", other.name) for other in earlier):
         raise ConfigError(f"{w}: field 'name': a second body named {b['name']!r}")
     printable_name(f"{w}: field 'name'", b["name"])
     w = f"{where0}: body {b['name']!r}"
@@ -563,7 +564,8 @@ def _sensors(data: dict[str, Any], where0: str, sensor_types, body_names: set[st
     channels = [s.channel for s in sensors]
     if len(set(channels)) != len(channels):
         raise ConfigError(f"{where0}: two sensors share a channel ({sorted(channels)})")
-    if len({s.name for s in sensors}) != len(sensors):
+    # names that differ only in how Unicode composes them ('é' and 'e' + U+0301) print alike
+    if len({unicodedata.normalize("NFC", s.name) for s in sensors}) != len(sensors):
         raise ConfigError(f"{where0}: two sensors share a name ({sorted(s.name for s in sensors)})")
     return sensors, sensor_processing, processing_tables
 

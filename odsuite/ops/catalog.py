@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import html
+import math
 import os
 import secrets
 import shutil
@@ -414,6 +415,8 @@ def query(folder: str | Path, name_or_sql: str = "projects", *, rig: str | None 
         raise ConfigError(f"catalog query {name_or_sql!r}: expected one of {', '.join(QUERIES)} or a SELECT")
     if not limit >= 1:
         raise ConfigError(f"--limit: at least 1 row, got {limit}")
+    if not (math.isfinite(seconds) and seconds > 0):  # NaN never compares late: the query would run unbounded
+        raise ConfigError(f"--seconds: a finite time > 0 s, got {seconds}")
     bounds = _Bounds(seconds)
     with closing(connect(folder)) as db:
         db.set_progress_handler(bounds, 10_000)

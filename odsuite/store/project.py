@@ -73,7 +73,8 @@ from odsuite.store.h5codecs import (
     write_systeminfo,
 )
 from odsuite.store.h5damage import open_h5, reading
-from odsuite.store.stored_values import check_experiment, check_revision
+from odsuite.store.stored_values import (RATE_RANGE, RAW_MAX, as_number, check_experiment, check_raw_block,
+                                         check_revision, check_systeminfo)
 from odsuite.store.project_format import (
     CHUNK_BYTES,
     FORMAT_VERSION,
@@ -83,7 +84,7 @@ from odsuite.store.project_format import (
     open_checked,
 )
 from odsuite.store.project_migration import migrate_in_place, migrated_copy
-from odsuite.domain.rig import Rig, load_rig, rig_from_dict
+from odsuite.domain.rig import Rig, load_rig, printable_name, rig_from_dict
 from odsuite.store.storage import (
     acquire_lock,
     copy_on_write,
@@ -191,23 +192,35 @@ class Experiment:
         g = self._group()
         a = Attrs(g)
         self.object_id = h5text.text(a["object_id"])
-        self.sampling_rate = float(a["sampling_rate"])
+        self.sampling_rate = as_number(a["sampling_rate"])  # a text or complex number: named by the check
         self.pretrigger = int(a["pretrigger"])
         self.created = h5text.text(a["created"])
         self.source = h5text.text(a.get("source", ""))
         self.rig_name = h5text.text(a["rig"]) or None
         self.channel_names = [h5text.text(n) for n in a["channel_names"]]
-        self.n_samples, self.n_channels = (tuple(g["raw"].shape) + (0, 0))[:2]
+        raw = g["raw"]
+        if not isinstance(raw, h5py.Dataset):
+            raise ProjectFileError(f"{project.path}: experiment {name!r} field 'raw': expected a dataset, got a group")
+        plist = raw.id.get_create_plist()
+        if plist.get_nfilters() == 0 and raw.id.get_storage_size() < raw.size * raw.dtype.itemsize:
+            # odsuite writes every sample; chunks never written (a shape of 10^9 rows made by hand)
+            # would be read as fill values, for minutes
+            raise ProjectFileError(f"{project.path}: experiment {name!r} field 'raw': shape {raw.shape} of "
+                                   f"{raw.size * raw.dtype.itemsize} bytes, of which {raw.id.get_storage_size()} "
+                                   "are stored (not written by odsuite)")
+        self.n_samples, self.n_channels = (tuple(raw.shape) + (0, 0))[:2]
         self.excitation = None
         if "force_channel" in a:
             self.excitation = Excitation(int(a["force_channel"]), np.asarray(a["force_point"], dtype=float),
                                          np.asarray(a["force_direction"], dtype=float),
                                          h5text.text(a["force_body"]) if "force_body" in a else None)
         check_experiment(project.path, name, sampling_rate=self.sampling_rate, pretrigger=self.pretrigger,
-                         channel_names=self.channel_names, shape=g["raw"].shape, excitation=self.excitation)
+                         channel_names=self.channel_names, shape=raw.shape, excitation=self.excitation,
+                         dtype=raw.dtype)
         # every format version keeps the record's rate on the experiment; a Systeminfo written
         # without one (row 7 left at 0 Hz, as API callers could) takes it from there
         self.systeminfo = read_systeminfo(g["systeminfo"]).with_rate(self.sampling_rate)
+        check_systeminfo(project.path, name, self.systeminfo.channels)
 
     def _group(self) -> h5py.Group:
         return self._project._file()["experiments"][self.name]
@@ -228,10 +241,13 @@ class Experiment:
     def raw(self, start: int = 0, stop: int | None = None, channels=None) -> np.ndarray:
         """Raw volts, samples x channels (a slice of rows and optionally of channels, by index or name)."""
         try:
-            block = self._group()["raw"][start:stop]
+            # volts as float64, whatever real type a file written elsewhere holds (float16 has no linalg)
+            block = np.asarray(self._group()["raw"][start:stop], dtype=np.float64)
         except OSError as exc:
             raise ProjectFileError(f"{self._project.path}: experiment {self.name!r}: raw data cannot be read "
                                    f"(corrupted?): {exc}") from None
+        check_raw_block(self._project.path, self.name, block, range(self.n_samples)[start:stop].start,
+                        self.channel_names)
         if channels is None:
             return block
         if isinstance(channels, int | np.integer | str):
@@ -260,6 +276,12 @@ def _check_chunk(where: str, chunk: Any, n_channels: int | None, row0: int, name
         label = f" ({names[c]})" if names else ""
         raise ConfigError(f"{where}: raw sample {row0 + i}, channel {c}{label} is {float(arr[i, c])}; "
                           "raw volts must be finite numbers")
+    big = np.abs(arr) > RAW_MAX  # what the reader refuses (stored_values.check_raw_block)
+    if big.any():
+        i, c = np.argwhere(big)[0]
+        label = f" ({names[c]})" if names else ""
+        raise ConfigError(f"{where}: raw sample {row0 + i}, channel {c}{label} is {float(arr[i, c]):g}; "
+                          f"raw values must lie within {RAW_MAX:g}")
     return arr
 
 
@@ -427,7 +449,10 @@ class Project:
     @_reads("/experiments")
     def experiment_names(self) -> list[str]:
         """Names of the stored experiments, in the order they were added."""
-        return list(self._file()["experiments"].keys())
+        experiments = self._file()["experiments"]
+        if not isinstance(experiments, h5py.Group):
+            raise ProjectFileError(f"{self.path}: field 'experiments': expected a group, got a dataset")
+        return list(experiments.keys())
 
     @_reads("experiment {name!r}")
     def experiment(self, name: str) -> Experiment:
@@ -472,6 +497,10 @@ class Project:
         if isinstance(sampling_rate, bool) or not isinstance(sampling_rate, int | float | np.number) \
                 or not np.isfinite(sampling_rate) or sampling_rate <= 0:
             raise ConfigError(f"{where}: sampling_rate must be a finite number > 0 Hz, got {sampling_rate!r}")
+        # the range the project's reader accepts: a rate outside it would store a project that no longer opens
+        if not RATE_RANGE[0] <= sampling_rate <= RATE_RANGE[1]:
+            raise ConfigError(f"{where}: sampling_rate must be {RATE_RANGE[0]:g} to {RATE_RANGE[1]:g} Hz, "
+                              f"got {sampling_rate!r}")
         if not isinstance(pretrigger, int | np.integer) or pretrigger < 0:
             raise ConfigError(f"{where}: pretrigger must be an integer >= 0 samples, got {pretrigger!r}")
         if n_samples is not None and (not isinstance(n_samples, int | np.integer) or n_samples <= 0):
@@ -503,6 +532,8 @@ class Project:
                                  f"raw data have {n_ch}")
         if len(names) != n_ch or len(set(names)) != n_ch:
             raise DimensionError(f"{where}: channel_names must be {n_ch} distinct names, got {channel_names!r}")
+        for k, c in enumerate(names):
+            printable_name(f"{where}: channel {k} name", c)
         exc_attrs = self._excitation_attrs(where, excitation, n_ch)
 
         with self.transaction():
@@ -780,7 +811,13 @@ class Project:
     def current_revision(self) -> int | None:
         f = self._file()
         n = int(f["models"].attrs.get("current_revision", -1)) if "models" in f else -1
-        return None if n < 0 else n
+        if n < 0:
+            return None
+        revs = self._revisions()
+        if revs is None or str(n) not in revs:  # every command would look for it
+            raise ProjectFileError(f"{self.path}: models field 'current_revision': expected a stored revision "
+                                   f"({', '.join(revs.keys() if revs is not None else []) or 'none'}), got {n}")
+        return n
 
     def set_current_revision(self, n: int) -> None:
         self._require_writable()

@@ -148,6 +148,15 @@ def _layout(path: Path, header: dict[str, str]) -> tuple[str, str, str]:
     return sep, decimal, x_columns
 
 
+def plain_number(text: str) -> float:
+    """A number as measurement software writes it: ASCII digits without digit groups; Python's
+    float() also reads ``1_000`` as 1000 and other scripts' digits (``١٢``), which no DAQ writes
+    (ValueError)."""
+    if "_" in text or not text.isascii():
+        raise ValueError(text)
+    return float(text)
+
+
 def _number(path: Path, decimal: str, field_text: str, lineno: int, what: str) -> float:
     """One cell's value (NaN when empty); LabVIEW writes no digit groups, so ``1_000`` (which
     Python's float() reads as 1000) is no number either."""
@@ -155,9 +164,7 @@ def _number(path: Path, decimal: str, field_text: str, lineno: int, what: str) -
     if decimal != ".":
         s = s.replace(decimal, ".")
     try:
-        if "_" in s:
-            raise ValueError(s)
-        return float(s) if s else float("nan")
+        return plain_number(s) if s else float("nan")
     except ValueError:
         raise ConfigError(f"{path}: line {lineno}, {what}: {field_text[:40]!r} is not a number") from None
 

@@ -112,7 +112,7 @@ class TableImporter:
         from odsuite_plugins.importers.tables import read_columns
 
         c = read_columns(file, {"sampling_rate": rate, "channels": channels, "units": units, "variable": variable,
-                                "group": group})
+                                "group": group}, self.suffixes[0])
         notes = import_columns(project, file, name, c.names, c.units, c.data, c.fs, force_channel,
                                **_hammer(force_point, force_dir, force_body))
         return Imported(name, f"{self.name} file {Path(file).name}: {c.data.shape[1]} channels "

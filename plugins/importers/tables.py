@@ -17,13 +17,16 @@ Units: m/s^2 (m/s2, m/s²), g, N, V (see docs/importing.md).
 from __future__ import annotations
 
 import csv
+import io
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from odsuite.api import ConfigError, DimensionError
+from odsuite.api import MAX_CHANNELS, ConfigError, DimensionError, check_text_file, free_memory, printable_name
+from odsuite.contracts.daq import MAX_RATE_HZ, MIN_RATE_HZ
+from odsuite_plugins.importers.lvm import plain_number
 
 #: unit labels a column may carry (lower case); the importers store them as columns.UNITS says
 KNOWN_UNITS = ("m/s^2", "m/s2", "m/s²", "g", "n", "newtons", "v", "volts", "volt")
@@ -32,6 +35,9 @@ SIDECAR_FIELDS = ("sampling_rate", "channels", "units", "variable", "group")
 MAT_RATE = ("fs", "Fs", "sampling_rate", "rate")
 MAT_NAMES = ("channels", "channel_names", "names")
 MAT_UNITS = ("units",)
+#: no accelerometer, load cell or voltage input reads beyond this (in the file's unit): such a value
+#: is a wrong column or a fill value, and in g it would turn into an infinity in SI
+MAX_VALUE = 1e12
 
 
 @dataclass(frozen=True)
@@ -49,13 +55,27 @@ def sidecar(file: Path) -> dict:
     side = file.with_suffix(".toml")
     if not side.exists():
         return {}
+    check_text_file(side, "TOML sidecar")
     try:
         doc = tomllib.loads(side.read_text(encoding="utf-8"))
+    except RecursionError:  # tomllib recurses per nesting level
+        raise ConfigError(f"{side}: not a sidecar: arrays or tables nested too deeply") from None
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise ConfigError(f"{side}: not a readable TOML file: {exc}") from None
     unknown = sorted(set(doc) - set(SIDECAR_FIELDS))
     if unknown:
         raise ConfigError(f"{side}: unknown field {unknown[0]!r} (fields: {', '.join(SIDECAR_FIELDS)})")
+    for k, v in doc.items():
+        if k == "sampling_rate":
+            ok = isinstance(v, int | float) and not isinstance(v, bool)
+        elif k in ("channels", "units"):
+            ok = isinstance(v, str) or isinstance(v, list) and all(isinstance(x, str) for x in v)
+        else:
+            ok = isinstance(v, str)
+        if not ok:
+            want = {"sampling_rate": "a number of Hz", "channels": "a text or a list of texts",
+                    "units": "a text or a list of texts"}.get(k, "a text")
+            raise ConfigError(f"{side}: field {k!r}: expected {want}, got {_brief(v)}")
     return doc
 
 
@@ -81,13 +101,17 @@ def checked(where: str, data, names, units, fs, explicit: dict, may_transpose: b
         a = a[:, None]
     if a.ndim != 2:
         raise DimensionError(f"{where}: data: shape {a.shape}; expected samples x channels (2-D)")
-    if may_transpose and a.shape[1] > a.shape[0] and a.shape[0] <= 64:  # channels x samples, as MATLAB users store
+    if may_transpose and a.shape[1] > a.shape[0] and 0 < a.shape[0] <= 64:  # channels x samples, as MATLAB users store
         a = a.T
     if a.shape[0] < 2 or a.shape[1] < 1:
         raise DimensionError(f"{where}: data: shape {a.shape}; a record needs 2 or more samples of 1 or more channels")
     n = a.shape[1]
+    if n > MAX_CHANNELS:
+        raise DimensionError(f"{where}: data: {n} channels; odsuite records at most {MAX_CHANNELS}")
     names = explicit.get("channels", names)
     names = [f"ch{k + 1}" for k in range(n)] if names is None else _list(names, n, where, "channels")
+    for k, c in enumerate(names):
+        printable_name(f"{where}: channels: column {k + 1} name", c)
     dup = sorted({c for c in names if names.count(c) > 1})
     if dup or "" in names:
         raise ConfigError(f"{where}: channels: name {(dup or [''])[0]!r} is given twice or empty")
@@ -103,16 +127,25 @@ def checked(where: str, data, names, units, fs, explicit: dict, may_transpose: b
     if bad.size:
         i, k = bad[0]
         raise ConfigError(f"{where}: channel {names[k]!r}: sample {i}: value {a[i, k]} is not a finite number")
+    big = np.argwhere(np.abs(a) > MAX_VALUE)
+    if big.size:
+        i, k = big[0]
+        raise ConfigError(f"{where}: channel {names[k]!r}: sample {i}: value {a[i, k]:g} {units[k]} is beyond "
+                          f"{MAX_VALUE:g} {units[k]}, which no sensor reads")
     fs = explicit.get("sampling_rate", fs)
     if fs is None:
         raise ConfigError(f"{where}: sampling_rate: not given; give --rate or a sidecar "
                           f"{Path(where).with_suffix('.toml').name} (sampling_rate = ... in Hz)")
     try:
+        if isinstance(fs, bool):
+            raise TypeError(fs)
         fs = float(fs)
-    except (TypeError, ValueError):
-        raise ConfigError(f"{where}: sampling_rate: {fs!r} is not a number of Hz") from None
+    except (TypeError, ValueError, OverflowError):
+        raise ConfigError(f"{where}: sampling_rate: {_brief(fs)} is not a number of Hz") from None
     if not (np.isfinite(fs) and fs > 0):
         raise ConfigError(f"{where}: sampling_rate: {fs!r} Hz; must be a finite rate > 0 Hz")
+    if not MIN_RATE_HZ <= fs <= MAX_RATE_HZ:  # what a project stores and reads
+        raise ConfigError(f"{where}: sampling_rate: {fs:g} Hz is outside {MIN_RATE_HZ:g} to {MAX_RATE_HZ:g} Hz")
     return Columns(names, units, a, fs)
 
 
@@ -130,11 +163,16 @@ def read_csv_columns(file: Path, explicit: dict) -> Columns:
     """A CSV record: a header row of channel names (each may end in its unit, ``acc1 [m/s^2]``),
     then one row per sample; a first column named time/t (s) gives the rate."""
     where = str(file)
+    check_text_file(file, "CSV")
     try:
         text = file.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(f"{where}: not a readable text file: {exc}") from None
-    rows = [r for r in csv.reader(text.splitlines()) if any(c.strip() for c in r)]
+    try:
+        # the text as a stream: a quoted name that holds a line break keeps it (and is then refused)
+        rows = [r for r in csv.reader(io.StringIO(text, newline="")) if any(c.strip() for c in r)]
+    except csv.Error as exc:  # a field over the csv module's limit (131072 characters)
+        raise ConfigError(f"{where}: not a CSV table: {exc}") from None
     if not rows:
         raise ConfigError(f"{where}: empty: no header and no samples")
     header = [c.strip() for c in rows[0]]
@@ -147,7 +185,7 @@ def read_csv_columns(file: Path, explicit: dict) -> Columns:
         row = []
         for c, v in zip(names, r):
             try:
-                row.append(float(v))
+                row.append(plain_number(v.strip()))
             except ValueError:
                 raise ConfigError(f"{where}: line {line}: channel {c!r}: value {v.strip()!r} is not a number") from None
         values.append(row)
@@ -171,22 +209,71 @@ def read_csv_columns(file: Path, explicit: dict) -> Columns:
     return checked(where, data, names, given, fs, explicit)
 
 
+def _npy_size_checked(file: Path, where: str) -> None:
+    """Refuse, before numpy allocates it, an array whose header promises other bytes than the file
+    holds (a header saying 10^11 rows makes np.load ask for terabytes)."""
+    import math
+
+    import numpy.lib.format as fmt
+
+    with open(file, "rb") as f:
+        version = fmt.read_magic(f)
+        read = fmt.read_array_header_1_0 if version == (1, 0) else fmt.read_array_header_2_0
+        shape, _, dtype = read(f)
+        have = file.stat().st_size - f.tell()
+    if dtype.hasobject:
+        return  # np.load refuses object arrays itself (no pickles)
+    need = math.prod(shape) * dtype.itemsize
+    if need != have:
+        raise ConfigError(f"{where}: header says shape {shape} of {dtype} ({need} bytes), the file holds {have} "
+                          "bytes after it (cut short, or not written by numpy)")
+
+
 def read_npy_columns(file: Path, explicit: dict) -> Columns:
     where = str(file)
     try:
+        _npy_size_checked(file, where)
         data = np.load(file, allow_pickle=False)
+    except ConfigError:
+        raise
     except (OSError, ValueError, EOFError) as exc:
         raise ConfigError(f"{where}: not a NumPy .npy array file: {exc}") from None
-    if not np.issubdtype(data.dtype, np.number) or np.issubdtype(data.dtype, np.complexfloating):
+    if data.dtype.kind not in "fiu":  # not bool, complex, datetime64 or timedelta64
         raise ConfigError(f"{where}: data: dtype {data.dtype} is not real numbers")
     return checked(where, data, None, None, None, explicit, may_transpose=True)
 
 
-def _mat_text(value) -> list[str] | str:
+def _mat_text(value, where: str, variable: str) -> list[str] | str:
+    """Names or units: a char array, a cell array of char arrays (or of numbers)."""
     a = np.asarray(value)
+    if a.size == 0:
+        raise ConfigError(f"{where}: variable {variable!r}: empty")
     if a.dtype.kind in "US":
         return [str(v).strip() for v in a.ravel()] if a.size > 1 else str(a.ravel()[0]).strip()
-    return [str(np.asarray(v).ravel()[0]).strip() for v in a.ravel()]  # a cell array of strings
+    out = []
+    for v in a.ravel():  # a cell array
+        e = np.asarray(v)
+        if e.size == 0 or e.dtype.kind not in "USfiu":
+            raise ConfigError(f"{where}: variable {variable!r}: expected text in each cell, got {_brief(v)}")
+        out.append(str(e.ravel()[0]).strip())
+    return out
+
+
+def _brief(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _mat_rate(mat: dict, where: str) -> float | None:
+    """The sampling rate a .mat file holds (Hz): one real number under one of MAT_RATE's names."""
+    for k in MAT_RATE:
+        if k in mat:
+            a = mat[k]
+            if not isinstance(a, np.ndarray) or a.size != 1 or a.dtype.kind not in "fiu":
+                raise ConfigError(f"{where}: variable {k!r} (sampling rate): expected one real number of Hz, "
+                                  f"got {_brief(a)}")
+            return float(a.ravel()[0])
+    return None
 
 
 def read_mat_columns(file: Path, explicit: dict) -> Columns:
@@ -200,7 +287,7 @@ def read_mat_columns(file: Path, explicit: dict) -> Columns:
         mat = {k: v for k, v in scipy.io.loadmat(file).items() if not k.startswith("__")}
     except NotImplementedError:  # v7.3: HDF5
         mat = _mat73(file)
-    except (OSError, ValueError, TypeError) as exc:
+    except Exception as exc:  # noqa: BLE001 - scipy raises MatReadError, IndexError, ValueError... on a damaged file
         raise ConfigError(f"{where}: not a readable MATLAB .mat file: {exc}") from None
     numeric = {k: v for k, v in mat.items() if isinstance(v, np.ndarray) and v.dtype.kind in "fiu" and v.size > 1}
     variable = explicit.get("variable")
@@ -215,24 +302,41 @@ def read_mat_columns(file: Path, explicit: dict) -> Columns:
                           f"{'' if not numeric else '; name one with --variable'}")
     if not isinstance(data, np.ndarray) or data.dtype.kind not in "fiu":
         raise ConfigError(f"{where}: variable {variable!r}: not an array of real numbers")
-    fs = next((float(np.asarray(mat[k]).ravel()[0]) for k in MAT_RATE if k in mat and np.asarray(mat[k]).size == 1),
-              None)
-    names = next((_mat_text(mat[k]) for k in MAT_NAMES if k in mat), None)
-    units = next((_mat_text(mat[k]) for k in MAT_UNITS if k in mat), None)
+    fs = None if "sampling_rate" in explicit else _mat_rate(mat, where)
+    names = next((_mat_text(mat[k], where, k) for k in MAT_NAMES if k in mat), None)
+    units = next((_mat_text(mat[k], where, k) for k in MAT_UNITS if k in mat), None)
     return checked(f"{where}: variable {variable!r}", data, names, units, fs, explicit, may_transpose=True)
 
 
 def _mat73(file: Path) -> dict:
     import h5py
 
+    free = free_memory()
     try:
         with h5py.File(file, "r") as f:
             out = {}
-            for k, ds in f.items():
-                if isinstance(ds, h5py.Dataset) and ds.dtype.kind in "fiu":
-                    out[k] = np.asarray(ds[()]).T  # MATLAB stores column-major
+            for k in f:
+                # only the file's own datasets: a link, external storage or a virtual dataset would
+                # make HDF5 read another file (MATLAB writes none of them)
+                if not isinstance(f.get(k, getlink=True), h5py.HardLink):
+                    continue
+                ds = f[k]
+                if not isinstance(ds, h5py.Dataset) or ds.dtype.kind not in "fiu":
+                    continue
+                if ds.external or ds.is_virtual:
+                    raise ConfigError(f"{file}: variable {k!r}: its data are stored in other files (HDF5 "
+                                      "external storage or a virtual dataset); refused")
+                if free is not None and ds.size * 8 > free:
+                    raise ConfigError(f"{file}: variable {k!r}: shape {ds.shape} needs {ds.size * 8 / 2**20:.0f} "
+                                      f"MiB; only {free / 2**20:.0f} MiB of memory are free")
+                value = np.asarray(ds[()]).T  # MATLAB stores column-major
+                if ds.attrs.get("MATLAB_class") in (b"char", "char"):  # text as UTF-16 code units
+                    value = "".join(map(chr, value.ravel()))
+                out[k] = value
             return out
-    except OSError as exc:
+    except ConfigError:
+        raise
+    except (OSError, KeyError, ValueError, TypeError) as exc:  # h5py on a damaged file
         raise ConfigError(f"{file}: not a readable MATLAB .mat file (v7.3/HDF5): {exc}") from None
 
 
@@ -249,6 +353,11 @@ def read_tdms_columns(file: Path, explicit: dict) -> Columns:
     handler = logging.Handler(logging.WARNING)
     handler.emit = lambda record: heard.append(record.getMessage())
     log = logging.getLogger("nptdms")
+    # npTDMS gives each of its loggers a console handler: its warnings would be printed besides our line
+    own = [(lg, lg.handlers[:]) for n, lg in logging.root.manager.loggerDict.items()
+           if n.startswith("nptdms") and isinstance(lg, logging.Logger)]
+    for lg, _ in own:
+        lg.handlers = []
     log.addHandler(handler)
     try:
         tdms = TdmsFile.read(file)
@@ -259,6 +368,8 @@ def read_tdms_columns(file: Path, explicit: dict) -> Columns:
                           f"{str(exc)[:120]}") from None
     finally:
         log.removeHandler(handler)
+        for lg, handlers in own:
+            lg.handlers = handlers
     short = [m for m in heard if "less data than expected" in m or "not a multiple" in m]
     if short:
         raise ConfigError(f"{where}: the file is cut short (npTDMS: {short[0][:100]})")
@@ -285,7 +396,14 @@ def read_tdms_columns(file: Path, explicit: dict) -> Columns:
             raise ConfigError(f"{where}: channel {c.name!r}: data type {v.dtype} is not real numbers")
     units = [str(c.properties.get("unit_string", "")).strip() for c in chans]
     steps = {c.name: c.properties.get("wf_increment") for c in chans}
-    known = {k: float(v) for k, v in steps.items() if v is not None}
+    known = {}
+    for k, v in steps.items():
+        if v is None:
+            continue
+        if isinstance(v, bool | np.bool_) or not isinstance(v, int | float | np.integer | np.floating):
+            raise ConfigError(f"{where}: channel {k!r}: property wf_increment is {_brief(v)}, not a number of "
+                              "seconds")
+        known[k] = float(v)
     fs = None
     if known:
         if len(set(known.values())) > 1:
@@ -301,10 +419,14 @@ def read_tdms_columns(file: Path, explicit: dict) -> Columns:
 READERS = {".csv": read_csv_columns, ".npy": read_npy_columns, ".mat": read_mat_columns, ".tdms": read_tdms_columns}
 
 
-def read_columns(file: str | Path, options: dict) -> Columns:
-    """The file's record by its suffix, the sidecar's fields under the options given."""
+def read_columns(file: str | Path, options: dict, suffix: str | None = None) -> Columns:
+    """The file's record by ``suffix`` (the importer's, when --format chose it) or the file's own,
+    the sidecar's fields under the options given."""
     file = Path(file)
     if not file.is_file():
         raise ConfigError(f"{file}: no such file")
+    kind = (suffix or file.suffix).lower()
+    if kind not in READERS:
+        raise ConfigError(f"{file}: suffix {kind!r} is none of {', '.join(READERS)}")
     explicit = sidecar(file) | {k: v for k, v in options.items() if v is not None}
-    return READERS[file.suffix.lower()](file, explicit)
+    return READERS[kind](file, explicit)

@@ -246,6 +246,32 @@ def _handmade(kind: str, command: str = "info") -> Callable[[Path], list[str]]:
                 e.attrs["force_channel"] = 99
             elif kind == "short names":
                 e.attrs["channel_names"] = np.array([b"force", b"ai1"])
+            elif kind.startswith("raw as "):  # the record rewritten in another type, its attributes kept
+                attrs, raw = dict(e["raw"].attrs), e["raw"][()]
+                del e["raw"]
+                e["raw"] = raw.astype(np.float16) if kind == "raw as float16" else raw.astype("S8")
+                e["raw"].attrs.update(attrs)
+            elif kind == "raw NaN":  # written in place: the checksums of the file stay as they were
+                raw = e["raw"][()]
+                raw[700, 3] = np.nan
+                e["raw"][...] = raw
+            elif kind == "raw group":
+                del e["raw"]
+                e.create_group("raw")
+            elif kind == "raw unwritten":  # 10^9 rows declared, no chunk written
+                del e["raw"]
+                e.create_dataset("raw", shape=(10**9, 11), dtype="f8", chunks=(4096, 11))
+            elif kind == "sensitivity 0":
+                table = e["systeminfo/channels"][()]
+                table["sensitivity"][2] = 0.0
+                e["systeminfo/channels"][...] = table
+            elif kind == "rate complex":
+                e.attrs["sampling_rate"] = 20000 + 1j
+            elif kind == "no revision 0":
+                del f["models/revisions/0"]
+            elif kind == "experiments dataset":
+                del f["experiments"]
+                f["experiments"] = np.zeros(3)
             elif kind == "3000 names":
                 for k in range(3000):
                     f[f"experiments/h{k:04d}"] = e
@@ -274,6 +300,76 @@ def _report_diagnosis(plant: Callable[[Path], object]) -> Callable[[Path], list[
         diag = named if isinstance(named, str) else str(d / "d.json")
         return ["report", str(d / "p.h5"), "-o", str(d / "r.html"), "--diagnosis", diag, "--no-movie"]
     return argv
+
+
+def _imported(name: str, write: Callable[[Path], object], *options: str) -> Callable[[Path], list[str]]:
+    """``import p.h5 NAME`` of a record file ``write`` makes (npy, mat, tdms: written by their own libraries)."""
+    def argv(d: Path) -> list[str]:
+        write(d / name)
+        return ["import", str(d / "p.h5"), str(d / name), "--name", "new", *options]
+    return argv
+
+
+def _npy(data) -> Callable[[Path], None]:
+    return lambda path: np.save(path, data)
+
+
+def _npy_header(shape: tuple) -> Callable[[Path], None]:
+    """A .npy header promising ``shape`` float64 values, then 64 bytes."""
+    def write(path: Path) -> None:
+        import numpy.lib.format as fmt
+
+        with open(path, "wb") as f:
+            fmt.write_array_header_1_0(f, {"descr": "<f8", "fortran_order": False, "shape": shape})
+            f.write(bytes(64))
+    return write
+
+
+def _mat(**variables) -> Callable[[Path], None]:
+    def write(path: Path) -> None:
+        import scipy.io
+
+        scipy.io.savemat(path, {"data": np.sin(np.arange(200.0)).reshape(100, 2), **variables})
+    return write
+
+
+def _mat73_external(path: Path) -> None:
+    """A MATLAB v7.3 file (HDF5 behind MATLAB's 512-byte header) whose array is external storage on
+    another file."""
+    import h5py
+
+    (path.parent / "elsewhere.bin").write_bytes(bytes(1600))
+    with h5py.File(path, "w", userblock_size=512) as f:
+        f.create_dataset("data", shape=(2, 100), dtype="f8", external=[(str(path.parent / "elsewhere.bin"), 0, 1600)])
+        f["fs"] = np.array([[1000.0]])
+    with open(path, "r+b") as f:
+        f.write(b"MATLAB 7.3 MAT-file".ljust(124) + b"\x00\x02IM")
+
+
+def _tdms(**properties) -> Callable[[Path], None]:
+    def write(path: Path) -> None:
+        from nptdms import ChannelObject, GroupObject, TdmsWriter
+
+        with TdmsWriter(str(path)) as w:
+            w.write_segment([GroupObject("g"), ChannelObject("g", "a1", np.sin(np.arange(100.0)),
+                                                            properties={"unit_string": "m/s^2", **properties})])
+    return write
+
+
+def _csv(text: str, *options: str) -> dict:
+    return {"argv": lambda d: ["import", str(d / "p.h5"), str(d / "r.csv"), "--name", "new", *options],
+            "files": {"r.csv": text}}
+
+
+def _add_experiment_at(rate: float) -> Callable[[Path], object]:
+    def call(d: Path):
+        from odsuite.domain.systeminfo import ChannelInfo, SensorType, Systeminfo
+        from odsuite.store.project import open_project
+
+        with open_project(d / "p.h5", "a") as p:
+            return p.add_experiment("new", np.zeros((8, 1)), sampling_rate=rate, excitation=None,
+                                    systeminfo=Systeminfo([ChannelInfo(sensor_type=SensorType.VOLTAGE)]))
+    return call
 
 
 def _read_cod(d: Path):
@@ -585,6 +681,67 @@ CASES: list[Case] = [
          argv=lambda d: ["catalog", "query", str(d), ""]),
     Case("diagnosis-huge", "report --diagnosis with a file of 17 MiB", "{dir}/d.json: more than 16777216 bytes, not a diagnosis from `odsuite diagnose --json`",
          argv=_report_diagnosis(lambda d: os.truncate(_touch(d / "d.json"), 17 * 2**20))),
+    Case("import-rate-range", "import of a .npy record with --rate 1e9 (a project stores 0.1 Hz to 100 MHz)", "{dir}/r.npy: sampling_rate: 1e+09 Hz is outside 0.1 to 1e+08 Hz",
+         argv=_imported("r.npy", _npy(np.zeros((16, 2))), "--rate", "1e9", "--units", "g")),
+    Case("store-rate-range", "an experiment added at 1e300 Hz (API; the project's reader refuses such a rate)", "{dir}/p.h5: experiment 'new': sampling_rate must be 0.1 to 1e+08 Hz, got 1e+300",
+         call=_add_experiment_at(1e300)),
+    Case("import-csv-digit-group", "CSV value `1_000` (Python reads 1000; no DAQ writes digit groups)", "{dir}/r.csv: line 3: channel 'a1': value '1_000' is not a number",
+         **_csv("t,a1 [g],a2 [g]\n0,0.1,0.2\n0.01,1_000,0.3\n0.02,0.5,0.1\n")),
+    Case("import-csv-other-digits", "CSV value in Arabic-Indic digits", "{dir}/r.csv: line 3: channel 'a1': value '\u0661\u0662' is not a number",
+         **_csv("t,a1 [g],a2 [g]\n0,0.1,0.2\n0.01,\u0661\u0662,0.3\n0.02,0.5,0.1\n")),
+    Case("import-channel-name-escape", "CSV column named with an ANSI escape", "{dir}/r.csv: channels: column 1 name: expected printable text of at most 200 characters",
+         **_csv("t,\x1b[31ma [g],a2 [g]\n0,0.1,0.2\n0.01,0.2,0.3\n0.02,0.5,0.1\n")),
+    Case("import-value-huge", ".npy record holding 1e308 in g (infinite in m/s^2)", "{dir}/r.npy: channel 'ch1': sample 0: value 1e+308 g is beyond 1e+12 g, which no sensor reads",
+         argv=_imported("r.npy", _npy(np.full((16, 2), 1e308)), "--rate", "100", "--units", "g")),
+    Case("import-npy-header-shape", ".npy whose header says 10^11 x 2 values, holding 64 bytes", "{dir}/r.npy: header says shape (100000000000, 2) of float64 (1600000000000 bytes), the file holds 64 bytes after it",
+         argv=_imported("r.npy", _npy_header((10**11, 2)), "--rate", "100", "--units", "g")),
+    Case("import-mat-rate-text", ".mat whose `fs` is the text 'abc'", "{dir}/r.mat: variable 'fs' (sampling rate): expected one real number of Hz, got array(['abc'], dtype='<U3')",
+         argv=_imported("r.mat", _mat(fs="abc"), "--units", "g")),
+    Case("import-mat-corrupt", ".mat of 128 zero bytes", "{dir}/r.mat: not a readable MATLAB .mat file: Mat file appears to be corrupt",
+         argv=_imported("r.mat", lambda path: path.write_bytes(bytes(128)), "--units", "g", "--rate", "100")),
+    Case("import-mat-units-empty", ".mat whose `units` is an empty text", "{dir}/r.mat: variable 'units': empty",
+         argv=_imported("r.mat", _mat(fs=100.0, units=""))),
+    Case("import-mat73-external", "MATLAB v7.3 .mat whose array is HDF5 external storage on another file", "{dir}/r.mat: variable 'data': its data are stored in other files (HDF5 external storage or a virtual dataset); refused",
+         argv=_imported("r.mat", _mat73_external, "--units", "g")),
+    Case("import-tdms-increment-text", "TDMS channel whose wf_increment property is the text 'fast'", "{dir}/r.tdms: channel 'a1': property wf_increment is 'fast', not a number of seconds",
+         argv=_imported("r.tdms", _tdms(wf_increment="fast"))),
+    Case("import-sidecar-type", "sidecar r.toml with `units = 5`", "{dir}/r.toml: field 'units': expected a text or a list of texts, got 5",
+         argv=_imported("r.csv", lambda path: (path.write_text("a,b\n1,2\n3,4\n"), path.with_suffix(".toml").write_text("units = 5\n")), "--rate", "100")),
+    Case("rig-names-nfc", "two sensors named 'é', one composed (U+00E9) and one as e + U+0301", "{dir}/bad.toml: two sensors share a name",
+         **new_rig(RIG_TOML.replace('"a1"', '"\u00e9"') + RIG_TOML[RIG_TOML.index("[[sensors]]"):]
+                   .replace('"a1"', '"e\u0301"').replace("channel = 1", "channel = 2"))),
+    Case("import-sidecar-deep", "sidecar r.toml with arrays nested 10,000 deep", "{dir}/r.toml: not a sidecar: arrays or tables nested too deeply",
+         argv=_imported("r.csv", lambda path: (path.write_text("a,b\n1,2\n3,4\n"), path.with_suffix(".toml").write_text("x = " + "[" * 10_000 + "]" * 10_000 + "\n")), "--rate", "100")),
+    Case("stored-raw-text", "info on a project whose raw record is stored as text (bytes)", "{dir}/x.h5: experiment 'e1' field 'raw': expected real numbers (floating point or integer), got 'dtype |S8'",
+         argv=_handmade("raw as text", "info")),
+    Case("stored-raw-nan", "process on a project whose raw record holds a NaN at sample 700 (written in place)", "{dir}/x.h5: experiment 'e1' field 'raw': expected finite values within 1e+12 (sample 700, channel",
+         argv=_handmade("raw NaN", "process")),
+    Case("stored-raw-group", "info on a project whose raw record is a group", "{dir}/x.h5: experiment 'e1' field 'raw': expected a dataset, got a group",
+         argv=_handmade("raw group", "info")),
+    Case("stored-raw-unwritten", "info on a project whose raw record declares 10^9 rows and stores none", "{dir}/x.h5: experiment 'e1' field 'raw': shape (1000000000, 11) of 88000000000 bytes, of which 0 are stored (not written by odsuite)",
+         argv=_handmade("raw unwritten", "info")),
+    Case("stored-sensitivity-zero", "info on a project whose channel 2 stores sensitivity 0", "{dir}/x.h5: experiment 'e1' systeminfo channel 2 field 'sensitivity': expected a finite number other than 0, got 0.0",
+         argv=_handmade("sensitivity 0", "info")),
+    Case("stored-rate-complex", "info on a project whose experiment stores the sampling rate 20000+1j", "{dir}/x.h5: experiment 'e1' field 'sampling_rate': expected 0.1 to 1e+08 Hz, got np.complex128(20000+1j)",
+         argv=_handmade("rate complex", "info")),
+    Case("stored-current-revision", "process on a project whose current revision 0 was deleted", "{dir}/x.h5: models field 'current_revision': expected a stored revision (none), got 0",
+         argv=_handmade("no revision 0", "process")),
+    Case("stored-experiments-dataset", "info on a project whose experiments group is a dataset", "{dir}/x.h5: field 'experiments': expected a group, got a dataset",
+         argv=_handmade("experiments dataset", "info")),
+    Case("diagnose-workers-huge", "diagnose --workers 1000000 (more than 4 processes per core)", "processes (4 per core), got 1000000",
+         argv=lambda d: ["diagnose", str(d / "p.h5"), "--workers", "1000000"]),
+    Case("render-workers-huge", "render --workers 1000000 (more than 4 processes per core)", "processes (4 per core), got 1000000",
+         argv=lambda d: ["render", str(d / "p.h5"), "e1", "-o", str(d / "m.gif"), "--workers", "1000000"]),
+    Case("modes-max-order", "modes --max-order 0 (the fit looped for ever)", "--max-order: a model order of at least 2, got 0",
+         argv=lambda d: ["modes", str(d / "p.h5"), "--experiment", "e1", "--max-order", "0"]),
+    Case("modes-decimate-zero", "modes --output-only --decimate 0", "--decimate: a factor of at least 1, got 0",
+         argv=lambda d: ["modes", str(d / "p.h5"), "--experiment", "e1", "--output-only", "--decimate", "0"]),
+    Case("import-csv-name-newline", "CSV column name holding a line break inside quotes", "{dir}/r.csv: channels: column 1 name: expected printable text of at most 200 characters (no control, escape or bidirectional characters), got 'a\\nb'",
+         **_csv('t,"a\nb [g]",a2 [g]\n0,0.1,0.2\n0.01,0.2,0.3\n0.02,0.5,0.1\n')),
+    Case("catalog-empty-folder", "catalog with an empty folder name (pathlib reads it as the current folder)", "catalog: the folder name is empty ('')",
+         argv=lambda d: ["catalog", ""]),
+    Case("catalog-seconds-nan", "catalog query --seconds nan (NaN is never late: the bound was off)", "--seconds: a finite time > 0 s, got nan",
+         argv=lambda d: ["catalog", "query", str(d), "projects", "--seconds", "nan"]),
 ]
 
 
