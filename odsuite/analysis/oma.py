@@ -511,6 +511,10 @@ def identify_output_only(
     record also goes through EFDD (``fdd.efdd``), an independent estimator, kept in ``fdd``.
     Residues are not defined without a force: ``residues`` holds the unscaled shapes."""
     y = checked_responses(y)
+    if int(max_order) != max_order or max_order < 2:
+        raise ConfigError(f"output-only modes: max_order is a model order of at least 2, got {max_order}")
+    if decimation is not None and (int(decimation) != decimation or decimation < 1):
+        raise ConfigError(f"output-only modes: decimation is a whole factor of at least 1, got {decimation}")
     # one BLAS thread: the matrices are a few hundred wide, and threads spinning against a busy
     # machine made each SVD 4 s instead of 0.05 s
     with threadpool_limits(1):

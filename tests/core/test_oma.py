@@ -356,3 +356,18 @@ def test_damping_agreement_over_segments():
     ok, reasons = _resolved(poles, np.array([1.7, 0.1]), np.array([3, 4]), None, z_range)
     assert ok.tolist() == [False, True]
     assert reasons[0] == "its damping ratio disagrees over the segments of the record (range 26 % of its median, at most 20 %)"
+
+
+def test_orders_and_decimation_out_of_range_are_one_line():
+    """A model order below 2 (once an IndexError) and a decimation of 0 (a division by zero) are
+    refused by the function itself, as its command line refuses them."""
+    import pytest
+
+    from odsuite.analysis.oma import identify_output_only
+    from odsuite.domain.errors import ConfigError
+
+    y = np.random.default_rng(0).standard_normal((4096, 3))
+    for kwargs, words in (({"max_order": 1}, "max_order is a model order of at least 2, got 1"),
+                          ({"max_order": 2.5}, "got 2.5"), ({"decimation": 0}, "decimation is a whole factor of at least 1, got 0")):
+        with pytest.raises(ConfigError, match=words):
+            identify_output_only(y, 100.0, **kwargs)
