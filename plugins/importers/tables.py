@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import csv
 import io
+import re
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -159,18 +160,36 @@ def _unit_suffix(name: str) -> tuple[str, str | None]:
     return name, None
 
 
+def _delimiter(text: str) -> str:
+    """The header line's field separator: a semicolon or a tab where it has one (spreadsheets in
+    locales that write decimal commas separate fields so), else a comma."""
+    header = next((line for line in text.splitlines() if line.strip()), "")
+    return ";" if ";" in header else "\t" if "\t" in header else ","
+
+
+_DECIMAL_COMMA = re.compile(r"[+-]?[0-9]*,[0-9]+([eE][+-]?[0-9]+)?")
+
+
+def _decimal_point(value: str, delimiter: str) -> str:
+    """A number written with a decimal comma (``-0,125``, ``1,5e-3``) with a point instead, where
+    the fields are not separated by commas; anything else as it is."""
+    return value.replace(",", ".") if delimiter != "," and _DECIMAL_COMMA.fullmatch(value) else value
+
+
 def read_csv_columns(file: Path, explicit: dict) -> Columns:
     """A CSV record: a header row of channel names (each may end in its unit, ``acc1 [m/s^2]``),
-    then one row per sample; a first column named time/t (s) gives the rate."""
+    then one row per sample; a first column named time/t (s) gives the rate. Fields separated by
+    commas, or by semicolons or tabs (then numbers may have a decimal comma)."""
     where = str(file)
     check_text_file(file, "CSV")
     try:
         text = file.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(f"{where}: not a readable text file: {exc}") from None
+    delimiter = _delimiter(text)
     try:
         # the text as a stream: a quoted name that holds a line break keeps it (and is then refused)
-        rows = [r for r in csv.reader(io.StringIO(text, newline="")) if any(c.strip() for c in r)]
+        rows = [r for r in csv.reader(io.StringIO(text, newline=""), delimiter=delimiter) if any(c.strip() for c in r)]
     except csv.Error as exc:  # a field over the csv module's limit (131072 characters)
         raise ConfigError(f"{where}: not a CSV table: {exc}") from None
     if not rows:
@@ -185,7 +204,7 @@ def read_csv_columns(file: Path, explicit: dict) -> Columns:
         row = []
         for c, v in zip(names, r):
             try:
-                row.append(plain_number(v.strip()))
+                row.append(plain_number(_decimal_point(v.strip(), delimiter)))
             except ValueError:
                 raise ConfigError(f"{where}: line {line}: channel {c!r}: value {v.strip()!r} is not a number") from None
         values.append(row)

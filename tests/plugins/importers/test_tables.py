@@ -189,3 +189,23 @@ def test_a_channels_by_samples_npy_is_read_transposed(tmp_path, registries):
         exp = p.experiment("rec")
         assert exp.channel_names == ["ch1", "ch2", "ch3"] and exp.n_samples == 500
         assert np.allclose(physical(exp), DATA, rtol=1e-12)
+
+
+@pytest.mark.parametrize("delimiter", [";", "\t"])
+def test_a_csv_of_a_decimal_comma_locale_is_read(tmp_path, registries, delimiter):
+    """Fields separated by semicolons or tabs, numbers with decimal commas (what spreadsheets in
+    such locales write, by Python's csv module with the locale's number format): the same numbers,
+    names and units as the comma file."""
+    path = tmp_path / "r.csv"
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f, delimiter=delimiter)
+        w.writerow(["time"] + [f"{n} [{u}]" for n, u in zip(NAMES, UNITS)])
+        for k, row in enumerate(DATA):
+            w.writerow([repr(k / FS).replace(".", ",")] + [repr(float(v)).replace(".", ",") for v in row])
+    create_project(tmp_path / "p.h5", rig=None).close()
+    _import(registries, tmp_path / "p.h5", path)
+    with open_project(tmp_path / "p.h5") as p:
+        exp = p.experiment("rec")
+        assert exp.channel_names == NAMES and exp.sampling_rate == pytest.approx(FS, rel=1e-12)
+        si = physical(exp)
+        assert np.allclose(si, DATA * [1.0, G, 1.0], rtol=1e-12, atol=0)
