@@ -199,6 +199,10 @@ def history_cmd(
                      [[str(r["revision"]), "-" if r["parent"] is None else str(r["parent"]),
                        ", ".join(r["effects"]) or "-", "-" if r["error"] is None else f"{r['error']:.4f}"]
                       for r in doc["revisions"]]))
+    if renderer is not None:  # as `render` and `frf --figure` say what they wrote
+        from odsuite.cli.printable import shown
+
+        print(f"wrote {shown(figure)}")
 
 
 @app.command("revert")

@@ -41,6 +41,9 @@ def process_cmd(
             (p.transaction() if corrected else contextlib.nullcontext()):
         # with --corrected one transaction: all or nothing; without, each experiment commits on its own
         names = experiment or p.experiment_names()
+        if not names:  # else the command ends without a word
+            err_console.print(f"note: {project}: no experiments to process (acquire or import some first)",
+                              highlight=False, soft_wrap=True)
         notes: dict[str, list[str]] = {}  # a note (the rig's layout) holds for many experiments: said once
         doc: dict = {"project": str(project), "experiments": {}, "corrected": {}, "revision": p.current_revision,
                      "error": None}

@@ -223,3 +223,20 @@ def test_import_echoes_the_force_point_it_read(capsys, project, tmp_path):
         assert line == "force point (250, 100, 75) mm in the rig frame" + (", read from bare numbers as mm" if k else "") \
             + ", on 'plate'", line
         np.testing.assert_allclose(stored_point(capsys, project, f"u{k}"), [0.25, 0.1, 0.075], rtol=1e-12)
+
+
+def test_process_of_a_project_without_experiments_says_so(capsys, project):
+    code, out, err = run(capsys, "process", project)
+    assert code == 0 and out == "" and err.strip() == (f"note: {project}: no experiments to process "
+                                                         "(acquire or import some first)"), (out, err)
+    code, out, err = run(capsys, "process", project, "--json")
+    assert code == 0 and json.loads(out)["experiments"] == {}, out
+
+
+def test_history_figure_says_what_it_wrote(capsys, project, tmp_path):
+    fig = tmp_path / "h.png"
+    code, out, err = run(capsys, "history", project, "--figure", fig)
+    assert code == 0 and out.strip().splitlines()[-1] == f"wrote {fig}", (out, err)
+    assert fig.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    code, out, _ = run(capsys, "history", project, "--figure", fig, "--json")
+    assert code == 0 and json.loads(out)["current"] == 0
