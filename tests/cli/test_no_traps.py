@@ -240,3 +240,86 @@ def test_history_figure_says_what_it_wrote(capsys, project, tmp_path):
     assert fig.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     code, out, _ = run(capsys, "history", project, "--figure", fig, "--json")
     assert code == 0 and json.loads(out)["current"] == 0
+
+
+@pytest.mark.parametrize("field, old, new, words", [
+    ("com", "com = [0.0, 0.0, 0.0385]", "com = [0.0, 0.0, 38.5]",
+     "body 'block' field 'com' at (0, 0, 38500) mm is 38.4 m from the plate of body 'block'"),
+    ("position", "position = [-0.05, -0.03, 0.077]", "position = [-50.0, -30.0, 77.0]",
+     "sensor 'top_z' field 'position' at (-50000, -30000, 77000) mm is 96.5 m from the plate of body 'block'"),
+    ("spring", "position = [0.05, 0.0, 0.0]", "position = [50.0, 0.0, 0.0]",
+     "spring 'foot_c' field 'position' at (50000, 0, 0) mm is 49.9 m from the plate of body 'block'"),
+])
+def test_new_warns_of_a_position_given_in_mm(capsys, tmp_path, field, old, new, words):
+    """A 2 kg block on three feet, one triaxial and two single-axis accelerometers: a length in mm
+    loads as metres, a thousand times off; `new` says so, naming the field and the value."""
+    rig = BLOCK_ON_FEET.replace(old, new)
+    assert rig != BLOCK_ON_FEET
+    (tmp_path / "r.toml").write_text(rig)
+    code, _, err = run(capsys, "new", tmp_path / "p.h5", "--rig", tmp_path / "r.toml")
+    warned = [ln for ln in err.splitlines() if "from the plate" in ln]
+    assert code == 0 and warned == [f"warning: rig 'block-on-feet': {words}: positions are in m"], err
+    (tmp_path / "p.h5").unlink()
+    tmp_path.joinpath("ok.toml").write_text(BLOCK_ON_FEET)
+    code, _, err = run(capsys, "new", tmp_path / "p.h5", "--rig", tmp_path / "ok.toml")
+    assert code == 0 and "from the plate" not in err, err
+
+
+BLOCK_ON_FEET = """
+name = "block-on-feet"
+frame = "origin under the block's centre, z up"
+default_model = "rigid-bodies"
+[[bodies]]
+name = "block"
+mass = 2.0
+com = [0.0, 0.0, 0.0385]
+inertia = [[0.002055, 0, 0], [0, 0.003388, 0], [0, 0, 0.003467]]
+[bodies.plate]
+size = [0.12, 0.08, 0.077]
+corner = [-0.06, -0.04, 0.0]
+[[springs]]
+name = "foot_a"
+body = "block"
+position = [-0.05, -0.03, 0.0]
+stiffness = [4e4, 4e4, 1e5]
+group = "feet"
+[[springs]]
+name = "foot_b"
+body = "block"
+position = [-0.05, 0.03, 0.0]
+stiffness = [4e4, 4e4, 1e5]
+group = "feet"
+[[springs]]
+name = "foot_c"
+body = "block"
+position = [0.05, 0.0, 0.0]
+stiffness = [4e4, 4e4, 1e5]
+group = "feet"
+[[sensors]]
+name = "hammer"
+kind = "force"
+channel = 3
+sensitivity = 0.0115
+[[sensors]]
+name = "tri"
+kind = "triaxial_accelerometer"
+body = "block"
+position = [0.05, 0.03, 0.077]
+channels = [0, 1, 2]
+sensitivity = 0.0102
+[[sensors]]
+name = "top_z"
+body = "block"
+position = [-0.05, -0.03, 0.077]
+axis = [0, 0, 1]
+channel = 4
+sensitivity = 0.00102
+[[sensors]]
+name = "side_xy"
+body = "block"
+position = [0.06, -0.03, 0.04]
+axis = [0.6, 0.8, 0.0]
+channel = 5
+sign = -1
+sensitivity = 0.00102
+"""
