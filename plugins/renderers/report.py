@@ -996,6 +996,7 @@ def _mode_view_section(project, records, notes: list[str]) -> str:
     from .mode_view import mode_label, mode_view_data, mode_view_html, rig_modes
 
     rig, coords, labels = project.rig, [], []
+    failed: dict[str, list[str]] = {}  # why a mode cannot be drawn -> the modes: said once, not per mode
     for rec in records:
         res = rec.modes
         if res is None or not len(res.frequency_hz):
@@ -1004,13 +1005,19 @@ def _mode_view_section(project, records, notes: list[str]) -> str:
         sensors = [rig.sensor_on_channel(channel_of[n]) if n in channel_of else None for n in res.output_names]
         for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio)):
             values = {s.name: complex(v) for s, v in zip(sensors, res.shapes[:, k]) if s is not None}
+            where = f"{project.path}: {rec.experiment} mode {k + 1}"
             try:
-                coords.append(harmonic_shapes(rig, values, project.registries.coordinate_solvers,
-                                              f"{project.path}: {rec.experiment} mode {k + 1}"))
+                coords.append(harmonic_shapes(rig, values, project.registries.coordinate_solvers, where))
             except ConfigError as exc:
-                notes.append(f"mode view: {exc}")
+                text = str(exc)
+                failed.setdefault(text.removeprefix(f"{where}: "), []).append(f"{rec.experiment} mode {k + 1}")
                 continue
             labels.append(mode_label("EMA", rec.experiment, k + 1, f, z, mpc(res.shapes[:, k])))
+    for reason, modes in failed.items():
+        notes.append(f"mode view: {project.path}: {', '.join(modes)}: {reason}")
+    if not coords and failed:
+        return ("<h3>Measured mode shapes</h3><p>No measured mode shape to show: the modes identified cannot "
+                "be drawn on the plates (see the notes above).</p>")
     if not coords:
         return "<h3>Measured mode shapes</h3><p>No measured mode shape to show (no hammer record's modes identified).</p>"
     nodes, lines, modes = rig_modes(rig, coords, labels)

@@ -1,0 +1,74 @@
+"""The report's measured mode shapes on a rig whose sensors cannot give a body's motion: one note
+naming every mode it concerns, not the same long reason once per mode."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from odsuite.contracts.plugins import build_registries, make_plugin_manager
+from odsuite.domain.rig import load_rig
+
+#: a 2 kg block on three feet with five accelerometer axes: its six motions cannot be solved
+RIG = """
+name = "block-on-feet"
+[[bodies]]
+name = "block"
+mass = 2.0
+com = [0.0, 0.0, 0.0385]
+inertia = [[0.002055, 0, 0], [0, 0.003388, 0], [0, 0, 0.003467]]
+[bodies.plate]
+size = [0.12, 0.08, 0.077]
+corner = [-0.06, -0.04, 0.0]
+""" + "".join(f"""
+[[springs]]
+name = "foot_{k}"
+body = "block"
+position = [{x}, {y}, 0.0]
+stiffness = [4e4, 4e4, 1e5]
+""" for k, (x, y) in enumerate([(-0.05, -0.03), (-0.05, 0.03), (0.05, 0.0)])) + """
+[[sensors]]
+name = "hammer"
+kind = "force"
+channel = 3
+sensitivity = 0.0115
+[[sensors]]
+name = "tri"
+kind = "triaxial_accelerometer"
+body = "block"
+position = [0.05, 0.03, 0.077]
+channels = [0, 1, 2]
+sensitivity = 0.0102
+[[sensors]]
+name = "top_z"
+body = "block"
+position = [-0.05, -0.03, 0.077]
+axis = [0, 0, 1]
+channel = 4
+sensitivity = 0.00102
+"""
+
+
+def test_an_unsolvable_layout_is_one_note_for_every_mode(tmp_path):
+    from odsuite_plugins.renderers.report import _mode_view_section
+
+    (tmp_path / "r.toml").write_text(RIG)
+    reg = build_registries(make_plugin_manager())
+    rig = load_rig(tmp_path / "r.toml", reg.sensor_types)
+    names = ["tri_x", "tri_y", "tri_z", "force", "top_z"]
+    experiment = SimpleNamespace(channel_names=names)
+    project = SimpleNamespace(rig=rig, path=tmp_path / "p.h5", registries=reg, experiment=lambda name: experiment)
+
+    def record(name, n_modes):
+        shapes = np.ones((4, n_modes), complex)
+        modes = SimpleNamespace(frequency_hz=np.linspace(30.0, 80.0, n_modes), damping_ratio=np.full(n_modes, 0.04),
+                                output_names=["tri_x", "tri_y", "tri_z", "top_z"], shapes=shapes)
+        return SimpleNamespace(experiment=name, modes=modes)
+
+    notes: list[str] = []
+    html = _mode_view_section(project, [record("side", 1), record("corner", 2)], notes)
+    assert len(notes) == 1, notes
+    assert notes[0].startswith(f"mode view: {tmp_path / 'p.h5'}: side mode 1, corner mode 1, corner mode 2: "), notes
+    assert "body 'block'" in notes[0] and "six independent directions" in notes[0], notes
+    assert "cannot be drawn" in html and "no hammer record's modes identified" not in html
