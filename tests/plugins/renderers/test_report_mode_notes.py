@@ -72,3 +72,15 @@ def test_an_unsolvable_layout_is_one_note_for_every_mode(tmp_path):
     assert notes[0].startswith(f"mode view: {tmp_path / 'p.h5'}: side mode 1, corner mode 1, corner mode 2: "), notes
     assert "body 'block'" in notes[0] and "six independent directions" in notes[0], notes
     assert "cannot be drawn" in html and "no hammer record's modes identified" not in html
+
+
+def test_no_movie_names_the_sensor_layout_not_the_chains(tmp_path):
+    from odsuite_plugins.renderers.report import _movie_section, _view_section, _why_no_motion
+
+    (tmp_path / "r.toml").write_text(RIG)
+    reg = build_registries(make_plugin_manager())
+    project = SimpleNamespace(rig=load_rig(tmp_path / "r.toml", reg.sensor_types), registries=reg)
+    why = _why_no_motion(project)
+    assert why.startswith("no body's motion can be solved from its sensors (") and "body 'block'" in why, why
+    for html in (_movie_section(project.rig, None, {}, tmp_path, why=why), _view_section(project.rig, None, {}, why=why)):
+        assert "no body&#x27;s motion can be solved" in html and "chains" not in html, html
