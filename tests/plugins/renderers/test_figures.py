@@ -176,22 +176,28 @@ def test_screen_axes_keep_the_thesis_view_and_follow_a_rigs_up(eye):
         np.testing.assert_allclose(up, [0.0, 0.0, 1.0])
 
 
-def test_projection_of_a_z_up_rig_draws_the_upper_body_above_and_keeps_the_legend_inside(tmp_path):
+@pytest.mark.parametrize("path, above", [
+    # the machine's plate centre 150 mm above the base's in the rig (z up)
+    ("projects/rigs/two-body-machine.toml", {("machine", "base"): 150.0}),
+    # the motor 200 mm above the pump, the pump 175 mm above the frame
+    ("tests/data/rigs/pump-set.toml", {("motor", "pump"): 200.0, ("pump", "frame"): 175.0}),
+])
+def test_projection_of_a_z_up_rig_draws_the_upper_body_above_and_keeps_the_legend_inside(tmp_path, path, above):
     from pathlib import Path
 
     from odsuite.contracts.plugins import build_registries, make_plugin_manager
     from odsuite.domain.rig import load_rig
 
     reg = build_registries(make_plugin_manager())
-    rig = load_rig(Path(__file__).parents[3] / "projects" / "rigs" / "two-body-machine.toml", reg.sensor_types)
+    rig = load_rig(Path(__file__).parents[3] / path, reg.sensor_types)
     still = np.zeros((100, 6))
-    res = projection_figure(rig, {"base": still, "machine": still}, 2000.0, tmp_path / "p.png", eye="x",
-                            magnify=(1.0, 1.0), instants=(10, 20))
+    res = projection_figure(rig, {b.name: still for b in rig.bodies if b.mass is not None}, 2000.0,
+                            tmp_path / "p.png", eye="x", magnify=(1.0, 1.0), instants=(10, 20))
     ax = res.figure.axes[0]
     height = {name.split(":")[0]: ln.get_xydata()[:, 1].mean() for name, ln in
               ((ln.get_label(), ln) for ln in ax.lines) if "initial" in name}
-    # the machine's centre is 150 mm above the base's in the rig (z up): so on the screen
-    assert height["machine"] - height["base"] == pytest.approx(150.0, abs=1e-9)
+    for (upper, lower), dz in above.items():  # on the screen as in the rig
+        assert height[upper] - height[lower] == pytest.approx(dz, abs=1e-9)
     assert ax.get_ylabel().startswith("z")
     fig = res.figure
     box = fig.legends[0].get_window_extent(fig.canvas.get_renderer())

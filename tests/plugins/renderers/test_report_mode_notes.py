@@ -3,6 +3,7 @@ naming every mode it concerns, not the same long reason once per mode."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -11,52 +12,15 @@ from odsuite.contracts.plugins import build_registries, make_plugin_manager
 from odsuite.domain.rig import load_rig
 
 #: a 2 kg block on three feet with five accelerometer axes: its six motions cannot be solved
-RIG = """
-name = "block-on-feet"
-[[bodies]]
-name = "block"
-mass = 2.0
-com = [0.0, 0.0, 0.0385]
-inertia = [[0.002055, 0, 0], [0, 0.003388, 0], [0, 0, 0.003467]]
-[bodies.plate]
-size = [0.12, 0.08, 0.077]
-corner = [-0.06, -0.04, 0.0]
-""" + "".join(f"""
-[[springs]]
-name = "foot_{k}"
-body = "block"
-position = [{x}, {y}, 0.0]
-stiffness = [4e4, 4e4, 1e5]
-""" for k, (x, y) in enumerate([(-0.05, -0.03), (-0.05, 0.03), (0.05, 0.0)])) + """
-[[sensors]]
-name = "hammer"
-kind = "force"
-channel = 3
-sensitivity = 0.0115
-[[sensors]]
-name = "tri"
-kind = "triaxial_accelerometer"
-body = "block"
-position = [0.05, 0.03, 0.077]
-channels = [0, 1, 2]
-sensitivity = 0.0102
-[[sensors]]
-name = "top_z"
-body = "block"
-position = [-0.05, -0.03, 0.077]
-axis = [0, 0, 1]
-channel = 4
-sensitivity = 0.00102
-"""
+RIG = Path(__file__).parents[2] / "data" / "rigs" / "block-on-three-feet.toml"
 
 
 def test_an_unsolvable_layout_is_one_note_for_every_mode(tmp_path):
     from odsuite_plugins.renderers.report import _mode_view_section
 
-    (tmp_path / "r.toml").write_text(RIG)
     reg = build_registries(make_plugin_manager())
-    rig = load_rig(tmp_path / "r.toml", reg.sensor_types)
-    names = ["tri_x", "tri_y", "tri_z", "force", "top_z"]
+    rig = load_rig(RIG, reg.sensor_types)
+    names = ["tri_x", "tri_y", "tri_z", "force", "top_z", "side_xy"]
     experiment = SimpleNamespace(channel_names=names)
     project = SimpleNamespace(rig=rig, path=tmp_path / "p.h5", registries=reg, experiment=lambda name: experiment)
 
@@ -77,9 +41,8 @@ def test_an_unsolvable_layout_is_one_note_for_every_mode(tmp_path):
 def test_no_movie_names_the_sensor_layout_not_the_chains(tmp_path):
     from odsuite_plugins.renderers.report import _movie_section, _view_section, _why_no_motion
 
-    (tmp_path / "r.toml").write_text(RIG)
     reg = build_registries(make_plugin_manager())
-    project = SimpleNamespace(rig=load_rig(tmp_path / "r.toml", reg.sensor_types), registries=reg)
+    project = SimpleNamespace(rig=load_rig(RIG, reg.sensor_types), registries=reg)
     why = _why_no_motion(project)
     assert why.startswith("no body's motion can be solved from its sensors (") and "body 'block'" in why, why
     for html in (_movie_section(project.rig, None, {}, tmp_path, why=why), _view_section(project.rig, None, {}, why=why)):
