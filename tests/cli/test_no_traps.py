@@ -5,6 +5,7 @@ options with unit and default, notes once per project, an unsolvable layout name
 
 from __future__ import annotations
 
+import io
 import json
 import re
 from pathlib import Path
@@ -323,3 +324,21 @@ channel = 5
 sign = -1
 sensitivity = 0.00102
 """
+
+
+def test_compare_modal_table_keeps_every_number_at_80_columns():
+    """A narrow terminal wraps the headers; it cut the numbers before (a MAC of 0.766 read '0.7…')."""
+    from rich.console import Console
+
+    from odsuite.cli.app import _modal_table
+
+    rows = [{"experiment": "motor_side", "measured_hz": 96.56, "model_hz": 98.61, "measured_zeta": 0.06347,
+             "model_zeta": 0.05904, "mac": 0.766},
+            {"experiment": "pump_top", "measured_hz": 1117.5, "model_hz": None, "measured_zeta": 0.0607,
+             "model_zeta": None, "mac": None}]
+    console = Console(width=80, record=True, file=io.StringIO())
+    console.print(_modal_table(rows))
+    text = console.export_text()
+    assert "…" not in text and max(len(ln) for ln in text.splitlines()) <= 80, text
+    for number in ("96.56", "98.61", "+2.12%", "6.347", "5.904", "-7%", "0.766", "1117.50"):
+        assert number in text, (number, text)
