@@ -342,3 +342,24 @@ def test_compare_modal_table_keeps_every_number_at_80_columns():
     assert "…" not in text and max(len(ln) for ln in text.splitlines()) <= 80, text
     for number in ("96.56", "98.61", "+2.12%", "6.347", "5.904", "-7%", "0.766", "1117.50"):
         assert number in text, (number, text)
+
+
+def test_diagnose_table_keeps_every_effect_name_at_80_columns():
+    """The effect column folds a long name (a joint fit's, which `add-effect` takes) instead of
+    cutting it ('mass_properties+sensor_…')."""
+    from rich.console import Console
+
+    from odsuite.cli.loop_commands import _candidates_table
+
+    names = ["mass_properties+sensor_dynamics", "spring_stiffness", "plate_flexibility_free"]
+    rows = [{"effect": n, "significant": k == 0, "consistent": True, "plausible": True, "fitted": True,
+             "error_after": 0.0264 + k / 1000, "validated_error": float("nan") if k else 0.0265,
+             "confounded_with": []} for k, n in enumerate(names)]
+    console = Console(width=80, record=True, file=io.StringIO())
+    console.print(_candidates_table(rows, wide=False))
+    text = console.export_text()
+    assert max(len(ln) for ln in text.splitlines()) <= 80, text
+    cells = "".join(ln.split("│")[1].strip() for ln in text.splitlines() if ln.startswith("│"))
+    for n in names:
+        assert n in cells, (n, text)
+    assert "0.0264" in text and "0.0265" in text
