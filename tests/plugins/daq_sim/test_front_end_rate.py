@@ -125,3 +125,18 @@ def test_a_short_blow_reads_below_force_peak_through_the_undeclared_filter(tmp_p
     reference = scipy.signal.sosfilt(sos, force).max()
     assert peak == pytest.approx(reference, rel=0.02)
     assert peak == pytest.approx(61.0, abs=1.0)
+
+
+def test_acquire_says_the_force_peak_it_recorded(tmp_path, capsys):
+    """The line names the peak as recorded (through the 1 kHz filter: 61 N for --force-peak 100),
+    the same as `info` gives, so a short blow's smaller peak is seen at once."""
+    (tmp_path / "block.toml").write_text(BLOCK.replace("sampling_rate = 1024.0", "sampling_rate = 10000.0"))
+    p = tmp_path / "p.h5"
+    assert main(["new", str(p), "--rig", str(tmp_path / "block.toml")]) == 0
+    assert main(["acquire", str(p), "--name", "h", "--force-point=0,0,400", "--force-dir=-z", "--seed", "1",
+                 "--force-peak", "100", "--samples", "2048"]) == 0
+    line = capsys.readouterr().out.strip().splitlines()[-1]
+    said = float(line.rsplit("; force peak ", 1)[1].removesuffix(" N"))
+    assert main(["info", str(p), "--json"]) == 0
+    peak, unit = json.loads(capsys.readouterr().out)["experiments"]["h"]["peak"]["force"]
+    assert unit == "N" and said == pytest.approx(peak, rel=5e-3) and said == pytest.approx(61.0, abs=1.5)
