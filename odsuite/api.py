@@ -34,6 +34,8 @@ _WHERE: dict[str, str] = {
     "rig_from_dict": "odsuite.domain.rig",
     "Sensor": "odsuite.domain.rig",
     "single_axis_sensor": "odsuite.domain.rig",
+    "known_keys": "odsuite.domain.rig",
+    "SENSOR_KEYS": "odsuite.domain.rig",
     "Excitation": "odsuite.domain.excitation",
     # a structure's geometry: nodes, lines, faces, sensors on nodes (docs/geometry.md)
     "Geometry": "odsuite.domain.geometry",

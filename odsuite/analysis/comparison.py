@@ -206,9 +206,10 @@ def frf_comparison(exps: Sequence[PreparedExperiment], predictions: Sequence[np.
         elif len(fm.frequency[keep]) != len(freq) or not np.allclose(fm.frequency[keep], freq):
             continue  # records of another length: their lines do not stack
         hm, hp = fm.H[:, keep], fp.H[:, keep]
-        # lines where a channel barely responds (a z hit seen by an x sensor on the symmetry line)
-        # carry no information: they are left out, and a silent channel gets no value
-        seen = np.abs(hm) > 1e-6 * np.abs(hm).max()
+        # lines where a channel barely responds (a z hit seen by an x sensor on the symmetry line),
+        # measured or in the model (whose zero there would read as -300 dB), carry no information:
+        # they are left out, and a silent channel gets no value
+        seen = (np.abs(hm) > 1e-6 * np.abs(hm).max()) & (np.abs(hp) > 1e-6 * np.abs(hp).max())
         with np.errstate(divide="ignore", invalid="ignore"):
             db = np.where(seen, 20 * np.log10(np.abs(hp) / np.abs(hm)), np.nan)
         errors[e.name] = {s.name: (float(np.sqrt(np.nanmean(row**2))) if np.isfinite(row).any() else None)

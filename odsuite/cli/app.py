@@ -266,16 +266,20 @@ def _modal_table(rows) -> Table:
     from rich.table import Table
 
     table = Table(title="measured against model modes (-: no model mode within 10 %)")
-    table.add_column("record", no_wrap=True)
-    for col in ("meas. Hz", "model Hz", "Δf", "meas. ζ %", "model ζ %", "Δζ", "MAC"):
-        table.add_column(col, no_wrap=True)
+    cells = []
     for r in rows:
         paired = r["model_hz"] is not None
-        table.add_row(r["experiment"], f"{r['measured_hz']:.2f}", f"{r['model_hz']:.2f}" if paired else "-",
+        cells.append([r["experiment"], f"{r['measured_hz']:.2f}", f"{r['model_hz']:.2f}" if paired else "-",
                       f"{100 * (r['model_hz'] / r['measured_hz'] - 1):+.2f}%" if paired else "-",
                       f"{100 * r['measured_zeta']:.3f}", f"{100 * r['model_zeta']:.3f}" if paired else "-",
                       f"{100 * (r['model_zeta'] / r['measured_zeta'] - 1):+.0f}%" if paired and r["measured_zeta"] else "-",
-                      "-" if r["mac"] is None else f"{r['mac']:.3f}")
+                      "-" if r["mac"] is None else f"{r['mac']:.3f}"])
+    table.add_column("record", no_wrap=True)
+    # a narrow terminal wraps the headers, never cuts a number ("0.7…" for a MAC of 0.766)
+    for k, col in enumerate(("meas. Hz", "model Hz", "Δf", "meas. ζ %", "model ζ %", "Δζ", "MAC"), start=1):
+        table.add_column(col, min_width=max((len(c[k]) for c in cells), default=1))
+    for c in cells:
+        table.add_row(*c)
     return table
 
 

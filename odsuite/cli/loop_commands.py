@@ -69,8 +69,6 @@ def diagnose_cmd(
 ) -> None:
     """Rank every registered physical effect by the error it removes (validated), best first. A
     diagnosis of every effect is kept with the model revision: `odsuite report` shows it."""
-    from rich.table import Table
-
     from odsuite.analysis.stored_diagnosis import diagnosis_stamp
     from odsuite.diagnosis.diagnose import diagnose
     from odsuite.store.project import open_project
@@ -101,24 +99,7 @@ def diagnose_cmd(
             console.print(f"left above the floor, {label}: {shown(text)}", highlight=False, soft_wrap=True)
     if sig["amplitude_dependent"]:
         console.print("amplitude dependent: the fitted parameters follow the force level", highlight=False)
-    # narrow columns only: at 80 columns or piped, a wide evidence column wrapped one word per line
-    table = Table(title="candidate effects, best first (errors after the fit)")
-    for col, width in (("effect", 24), ("signif.", 7), ("consist.", 8), ("plausible", 9), ("fitted", 8),
-                       ("validated", 9)):
-        table.add_column(col, no_wrap=True, max_width=width, overflow="ellipsis")
-    wide = console.width >= 120  # else the confounded ones are named with the evidence below
-    if wide:
-        table.add_column("confounded with", overflow="fold")
-
-    def yes(v: bool) -> str:
-        return "yes" if v else "no"
-
-    for c in doc["candidates"]:
-        table.add_row(c["effect"], yes(c["significant"]), yes(c["consistent"]) if c["fitted"] else "-",
-                      yes(c["plausible"]) if c["fitted"] else "-", f"{c['error_after']:.4f}",
-                      "-" if c["validated_error"] != c["validated_error"] else f"{c['validated_error']:.4f}",
-                      *([", ".join(c["confounded_with"]) or "-"] if wide else []))
-    console.print(table)
+    console.print(_candidates_table(doc["candidates"], wide=console.width >= 120))
     # the evidence as paragraphs, wrapped at the console's width: the significant candidates' (and
     # the best one's when none is); every candidate's is in --json
     told = [c for c in doc["candidates"] if c["significant"]] or doc["candidates"][:1]
@@ -130,6 +111,33 @@ def diagnose_cmd(
     if doc["not_applicable"]:
         console.print(f"not applicable to this model: {', '.join(doc['not_applicable'])}", highlight=False,
                       soft_wrap=True)
+
+
+
+def _candidates_table(candidates, *, wide: bool):
+    """diagnose's candidates, best first; ``wide`` (120 columns or more) adds whom each is
+    confounded with (else they are named with the evidence below the table)."""
+    from rich.table import Table
+
+    # narrow columns only: at 80 columns or piped, a wide evidence column wrapped one word per line
+    table = Table(title="candidate effects, best first (errors after the fit)")
+    for col, width in (("effect", 24), ("signif.", 7), ("consist.", 8), ("plausible", 9), ("fitted", 8),
+                       ("validated", 9)):
+        # an effect's name folds onto a second line: it is what `add-effect` takes, so never cut
+        table.add_column(col, no_wrap=col != "effect", max_width=width,
+                         overflow="fold" if col == "effect" else "ellipsis")
+    if wide:
+        table.add_column("confounded with", overflow="fold")
+
+    def yes(v: bool) -> str:
+        return "yes" if v else "no"
+
+    for c in candidates:
+        table.add_row(c["effect"], yes(c["significant"]), yes(c["consistent"]) if c["fitted"] else "-",
+                      yes(c["plausible"]) if c["fitted"] else "-", f"{c['error_after']:.4f}",
+                      "-" if c["validated_error"] != c["validated_error"] else f"{c['validated_error']:.4f}",
+                      *([", ".join(c["confounded_with"]) or "-"] if wide else []))
+    return table
 
 
 def _keep_diagnosis(project: Path, doc: dict, stamp: dict) -> None:
@@ -201,6 +209,10 @@ def history_cmd(
                      [[str(r["revision"]), "-" if r["parent"] is None else str(r["parent"]),
                        ", ".join(r["effects"]) or "-", "-" if r["error"] is None else f"{r['error']:.4f}"]
                       for r in doc["revisions"]]))
+    if renderer is not None:  # as `render` and `frf --figure` say what they wrote
+        from odsuite.cli.printable import shown
+
+        print(f"wrote {shown(figure)}")
 
 
 @app.command("revert")

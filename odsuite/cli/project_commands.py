@@ -69,7 +69,7 @@ def new_cmd(
     """Create a new project file on a rig."""
     from odsuite.cli.app import err_console
     from odsuite.contracts.plugins import registries
-    from odsuite.processing.rig_summary import rig_layout
+    from odsuite.processing.rig_summary import far_from_bodies, rig_layout
     from odsuite.store.project import create_project
 
     created = create_project(project, rig)
@@ -82,6 +82,8 @@ def new_cmd(
             err_console.print(f"warning: {body['solver_problem']}; `process` will store no generalized "
                               f"coordinates for body {body['name']!r}",
                               style="yellow", highlight=False, soft_wrap=True)
+    for far in far_from_bodies(created.rig) if created.rig else []:
+        err_console.print(f"warning: {far}", style="yellow", highlight=False, soft_wrap=True)
 
 
 @app.command("info")

@@ -41,6 +41,9 @@ def process_cmd(
             (p.transaction() if corrected else contextlib.nullcontext()):
         # with --corrected one transaction: all or nothing; without, each experiment commits on its own
         names = experiment or p.experiment_names()
+        if not names:  # else the command ends without a word
+            err_console.print(f"note: {project}: no experiments to process (acquire or import some first)",
+                              highlight=False, soft_wrap=True)
         notes: dict[str, list[str]] = {}  # a note (the rig's layout) holds for many experiments: said once
         doc: dict = {"project": str(project), "experiments": {}, "corrected": {}, "revision": p.current_revision,
                      "error": None}
@@ -169,6 +172,12 @@ def acquire_cmd(
             bar.update(task, description=stage, completed=done, total=total)
 
         exp, rec = acquire(p, backend, name, settings, progress=progress, **options)
+        # as recorded, through the front end (a short blow reads below the hammer's set peak)
+        force_peak = None
+        if exp.excitation is not None:
+            fch = exp.excitation.force_channel
+            info = exp.systeminfo.channels[fch]
+            force_peak = float(abs(exp.raw(channels=fch)).max() / abs(info.sensitivity * info.daq_gain))
     for ch, count in rec.clipped.items():
         err_console.print(f"warning: channel {ch} ({rec.channel_names[ch]}): {count} samples clipped at the ADC limits",
                           style="yellow", highlight=False, soft_wrap=True)
@@ -176,4 +185,6 @@ def acquire_cmd(
         err_console.print(f"warning: {note}", style="yellow", highlight=False, soft_wrap=True)
     echo_force_point(project, name, force_point)
     console.print(f"acquired {name!r}: {exp.n_samples} samples x {exp.n_channels} channels at {exp.sampling_rate:g} Hz, "
-                  f"{exp.pretrigger} before the trigger ({rec.source})", highlight=False, soft_wrap=True)
+                  f"{exp.pretrigger} before the trigger ({rec.source})"
+                  + (f"; force peak {force_peak:.3g} N" if force_peak is not None else ""),
+                  highlight=False, soft_wrap=True)

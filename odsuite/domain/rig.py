@@ -304,9 +304,11 @@ def known_keys(where: str, table: dict[str, Any], known: tuple[str, ...], *, tab
     """Refuse a key ``table`` does not know, naming the nearest known one (a misspelt key would
     otherwise be ignored and its default used)."""
     for key in table:
-        if key in known or (tables_allowed and isinstance(table[key], dict)):
-            continue
         near = difflib.get_close_matches(str(key), known, n=1)
+        # a plugin's own table passes, unless its name is a known key misspelt ([acquisiton])
+        if key in known or (tables_allowed and isinstance(table[key], dict)
+                            and not difflib.get_close_matches(str(key), known, n=1, cutoff=0.8)):
+            continue
         hint = f"; did you mean {near[0]!r}?" if near else f" (known: {', '.join(known)})"
         raise ConfigError(f"{where}: unknown field {key!r}{hint}")
 
@@ -561,9 +563,12 @@ def _sensors(data: dict[str, Any], where0: str, sensor_types, body_names: set[st
             if "processing" in s:
                 sensor_processing[sensor.name] = parse_processing(s["processing"], f"{w} field 'processing'")
                 processing_tables[sensor.name] = s["processing"]
-    channels = [s.channel for s in sensors]
-    if len(set(channels)) != len(channels):
-        raise ConfigError(f"{where0}: two sensors share a channel ({sorted(channels)})")
+    first: dict[int, str] = {}
+    for s in sensors:
+        if s.channel in first:
+            raise ConfigError(f"{where0}: two sensors share a channel: {first[s.channel]!r} and {s.name!r} "
+                              f"(field 'channel', both {s.channel})")
+        first[s.channel] = s.name
     # names that differ only in how Unicode composes them ('é' and 'e' + U+0301) print alike
     if len({unicodedata.normalize("NFC", s.name) for s in sensors}) != len(sensors):
         raise ConfigError(f"{where0}: two sensors share a name ({sorted(s.name for s in sensors)})")

@@ -346,6 +346,8 @@ def _channel_for_rig(rig: Rig, k: int, fs: float) -> ChannelInfo:
     signal and after the first integration unless the rig says otherwise (§5.2); a rig-wide
     ``filter_at`` concerns accelerometers only. Sensors with sign -1 are inverted."""
     settings = {**_THESIS_CHANNEL, **{key: v for key, v in rig.processing.items() if key != "filters_on"}}
+    if rig.acquisition is not None and rig.acquisition.adc_range is not None:  # else +-10 V read clipped at 5 V
+        settings.update(limit_low=rig.acquisition.adc_range[0], limit_high=rig.acquisition.adc_range[1])
     sensor = rig.sensor_on_channel(k)
     if sensor is None:
         if k == rig.force_channel:

@@ -33,3 +33,36 @@ def rig_layout(rig: Rig, solvers) -> dict[str, Any]:
                 "damping_n_s_per_m": np.asarray(s.damping).tolist()} for s in rig.springs]
     return {"name": rig.name, "bodies": bodies, "springs": springs,
             "force_channel": rig.force_channel, "channel_count": rig.channel_count}
+
+
+def far_from_bodies(rig: Rig) -> list[str]:
+    """Points of ``rig`` farther from their body's plate than the plate's largest size (a centre of
+    mass, a sensor, a spring): one line each, since positions given in mm instead of m load without
+    an error and move the physics by a factor of a thousand."""
+    plates = {b.name: b.plate for b in rig.bodies if b.plate is not None}
+
+    def gap(body: str, point) -> float | None:
+        plate = plates.get(body)
+        if plate is None:
+            return None
+        lo, hi = np.asarray(plate.corner, float), np.asarray(plate.corner, float) + np.asarray(plate.size, float)
+        d = float(np.linalg.norm(np.maximum(0.0, np.maximum(lo - point, point - hi))))
+        return d if d > float(np.max(plate.size)) else None
+
+    def line(what: str, body: str, point, d: float) -> str:
+        p = ", ".join(f"{1e3 * v:.6g}" for v in np.asarray(point, float))
+        return (f"rig {rig.name!r}: {what} at ({p}) mm is {d:.3g} m from the plate of body {body!r}: "
+                "positions are in m")
+
+    out = []
+    for b in rig.bodies:
+        if (d := gap(b.name, np.asarray(b.com, float))) is not None:
+            out.append(line(f"body {b.name!r} field 'com'", b.name, b.com, d))
+    for s in rig.sensors:
+        if s.body is not None and s.position is not None and (d := gap(s.body, np.asarray(s.position, float))):
+            out.append(line(f"sensor {s.name!r} field 'position'", s.body, s.position, d))
+    for sp in rig.springs:
+        gaps = [gap(b, np.asarray(sp.position, float)) for b in (sp.body, sp.other) if b is not None]
+        if gaps and all(g is not None for g in gaps):  # near one of its two bodies is enough
+            out.append(line(f"spring {sp.name!r} field 'position'", sp.body, sp.position, min(gaps)))
+    return out

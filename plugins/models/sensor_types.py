@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from odsuite.api import ConfigError
-from odsuite.api import Sensor, single_axis_sensor
+from odsuite.api import SENSOR_KEYS, Sensor, known_keys, single_axis_sensor
 
 
 class SingleAxis:
@@ -29,6 +29,8 @@ class Triaxial:
     description = "three accelerometer axes at one point (three channels)"
 
     def sensors(self, entry, where):
+        known_keys(where, entry, tuple(k for k in SENSOR_KEYS if k not in ("channel", "axis"))
+                   + ("channels", "axes", "names"))
         name = entry.get("name")
         if not isinstance(name, str) or not name:
             raise ConfigError(f"{where} field 'name': expected a non-empty name, got {name!r}")
@@ -74,6 +76,7 @@ class HammerForce:
             if field_name in entry:
                 raise ConfigError(f"{where} field {field_name!r}: a hammer's force sensor has no {field_name} "
                                   "(the force point is given per experiment); give a 'body' for a fixed force sensor")
+        known_keys(where, entry, SENSOR_KEYS)
         channel, sens, sign = entry.get("channel"), entry.get("sensitivity"), entry.get("sign", 1)
         if not isinstance(channel, int) or isinstance(channel, bool) or channel < 0:
             raise ConfigError(f"{where} field 'channel': expected a channel index >= 0, got {channel!r}")

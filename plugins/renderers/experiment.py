@@ -197,13 +197,19 @@ def _figure(figure: str, rig, experiment: str, coords, model_coords, fs: float, 
             raise ConfigError(f"--view: viewpoint angles must be numbers, got {view!r}") from None
         return projection_figure(rig, coords, fs, output, force=force, eye=parts[0], view_angles=angles,
                                  magnify=magnify, title=f"{experiment}").path
-    body = next(iter(coords))
-    measured, predicted = coords[body], model_coords[body]
+    # every moving body: translations in the first column, rotations in the second (body by body)
+    bodies = list(coords)
+    order = [(b, k) for half in (range(3), range(3, 6)) for b in bodies for k in half]
+    measured = np.column_stack([coords[b][:, k] for b, k in order])
+    predicted = np.column_stack([model_coords[b][:, k] for b, k in order])
+    names = [COORDINATES[k] if len(bodies) == 1 else f"{b} {COORDINATES[k]}" for b, k in order]
+    units = [COORDINATE_UNITS[k] for _, k in order]
+    title = (f"{experiment}: {bodies[0]} at its centre of mass" if len(bodies) == 1
+             else f"{experiment}: {', '.join(bodies)} at their centres of mass")
     if figure == "overlay":
         t = np.arange(measured.shape[0]) / fs
-        return comparison_figure(t, measured, predicted, output, title=f"{experiment}: {body} at its centre of mass").path
-    return residual_spectra_figure(fs, measured, predicted, output, names=COORDINATES, units=COORDINATE_UNITS,
-                                   title=f"{experiment}: {body} at its centre of mass").path
+        return comparison_figure(t, measured, predicted, output, names=names, units=units, title=title).path
+    return residual_spectra_figure(fs, measured, predicted, output, names=names, units=units, title=title).path
 
 
 def _movie(rig, coords, fs, output, experiment, *, model_coords, magnify, corrected_coords=None, view, workers, frame_step, slowdown,

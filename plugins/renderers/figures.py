@@ -20,13 +20,31 @@ from .motion import (characteristic_instant, check_coords, contact_index, corner
                      magnification_words)
 
 FIGURE_FORMATS = (".png", ".svg", ".pdf")
-#: Screen (right, up) unit vectors for an eye on each rig axis looking at the origin; "up" is -z
-#: in the z-down rig frame, and the eye on z sits above the plates.
+#: Screen (right, up) unit vectors for an eye on each rig axis looking at the origin in the
+#: thesis's z-down rig frame ("up" is -z; the eye on z sits above the plates); see ``screen_axes``.
 EYES = {
     "x": (np.array([0.0, -1.0, 0.0]), np.array([0.0, 0.0, -1.0])),
     "y": (np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, -1.0])),
     "z": (np.array([1.0, 0.0, 0.0]), np.array([0.0, -1.0, 0.0])),
 }
+THESIS_UP = np.array([0.0, 0.0, -1.0])
+
+
+def screen_axes(eye: str, up: Sequence[float] = THESIS_UP) -> tuple[np.ndarray, np.ndarray]:
+    """Screen (right, up) for an eye on the rig axis ``eye`` looking at the origin, the rig's
+    ``up`` drawn upwards (an eye along ``up`` looks down on the plates); right x up points at
+    the eye, as in ``EYES``, which this gives for the thesis's up = -z."""
+    if eye not in EYES:
+        raise ConfigError(f"eye: expected one of {', '.join(EYES)}, got {eye!r}")
+    e = np.eye(3)["xyz".index(eye)]
+    u = np.asarray(up, dtype=float) / np.linalg.norm(up)
+    if abs(u @ e) < 0.9:
+        screen_up = (u - (u @ e) * e) / np.linalg.norm(u - (u @ e) * e)
+        return np.cross(screen_up, e), screen_up
+    right = np.eye(3)[0] if abs(u[0]) < 0.9 else np.eye(3)[1]
+    right = right - (right @ u) * u
+    right /= np.linalg.norm(right)
+    return right, np.cross(u, right)
 #: Thesis Sec. 5.3.2: the initial position is taken 50 samples before the impact.
 INITIAL_LEAD = 50
 #: Still plates, one (grey, line style) each so two of them can be told apart in print.
@@ -76,17 +94,17 @@ def _save(fig, path: str | Path, dpi: int) -> Path:
     return write_output(path, 0, lambda tmp: fig.savefig(tmp, dpi=dpi))  # a figure fits the reserve
 
 
-def project(points: np.ndarray, eye: str = "x", view_angles: Sequence[float] = (0.0, 0.0, 0.0)) -> np.ndarray:
+def project(points: np.ndarray, eye: str = "x", view_angles: Sequence[float] = (0.0, 0.0, 0.0),
+            up: Sequence[float] = THESIS_UP) -> np.ndarray:
     """Screen coordinates (..., 2) of rig-frame points (..., 3).
 
     Eq. 4.25: the points are first rotated by the viewpoint angles (theta_V, phi_V, psi_V, degrees)
-    with the odsuite rotation convention, then projected along the ``eye`` axis.
+    with the odsuite rotation convention, then projected along the ``eye`` axis, the rig's ``up``
+    upwards on the screen.
     """
-    if eye not in EYES:
-        raise ConfigError(f"eye: expected one of {', '.join(EYES)}, got {eye!r}")
+    right, up = screen_axes(eye, up)
     rv = rotation_matrix(np.radians(np.asarray(view_angles, dtype=float)))
     p = np.asarray(points, dtype=float) @ rv.T
-    right, up = EYES[eye]
     return np.stack([p @ right, p @ up], axis=-1)
 
 
@@ -134,14 +152,14 @@ def projection_figure(
         if body.plate is None:
             continue
         if body.name not in coords:
-            xy = project(plate_corners(body.plate)[list(PLOT_INDEX)], eye, view_angles) * 1e3
+            xy = project(plate_corners(body.plate)[list(PLOT_INDEX)], eye, view_angles, rig.up) * 1e3
             colour, ls = next(greys, STILL_GREYS[-1])
             drawn.append((xy, dict(ls=ls, color=colour, lw=1.0, label=f"{body.name} (does not move)")))
             continue
         d = coords[body.name][list(instants)]
         poly = corners(body, d, magnify)[:, list(PLOT_INDEX)]
         for k, (ls, what) in enumerate((("-.", "initial position"), ("-", "characteristic forced response"))):
-            xy = project(poly[k], eye, view_angles) * 1e3
+            xy = project(poly[k], eye, view_angles, rig.up) * 1e3
             drawn.append((xy, dict(ls=ls, color="k", lw=1.4 if k else 1.0,
                                    label=f"{body.name}: {what} (t = {1e3 * instants[k] / fs:.2f} ms)")))
     every = np.concatenate([xy for xy, _ in drawn])
@@ -157,13 +175,15 @@ def projection_figure(
         ax.plot(xy[:, 0], xy[:, 1], **style)
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
-    right, up = EYES[eye]
+    right, up = screen_axes(eye, rig.up)
     ax.set_xlabel(_axis_label(right))
     ax.set_ylabel(_axis_label(up))
     ax.set_aspect("equal", adjustable="box")
     head = title or f"eye on {eye}, view angles {tuple(float(a) for a in view_angles)} deg"
     ax.set_title(f"{head}\n{magnification_words(magnify)}", fontsize=10)
-    fig.legend(fontsize=8, loc="outside lower center", ncol=2, frameon=False)
+    # two columns only while two labels fit the figure's width (else they are cut at its edges)
+    longest = max(len(style["label"]) for _, style in drawn)
+    fig.legend(fontsize=8, loc="outside lower center", ncol=2 if longest <= 40 else 1, frameon=False)
     return FigureResult(_save(fig, path, dpi), fig, tuple(int(i) for i in instants), magnify)
 
 

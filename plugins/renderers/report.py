@@ -421,13 +421,25 @@ def _movie_and_view(project, c: _Compared, coord_series: Mapping[str, Mapping], 
         say(f"rendering the movie of {chosen}")
         exp = next(e for e in c.exps if e.name == chosen)
         series, corrected = _corrected_series(project, project.rig, exp, c.rev, coord_series[chosen])
-        movie_html = _movie_section(project.rig, exp, series, tmp, corrected, c.windows.get(chosen), c.fault)
-        view_html = _view_section(project.rig, exp, series, corrected, c.windows.get(chosen))
+        why = "" if series else _why_no_motion(project)
+        movie_html = _movie_section(project.rig, exp, series, tmp, corrected, c.windows.get(chosen), c.fault, why=why)
+        view_html = _view_section(project.rig, exp, series, corrected, c.windows.get(chosen), why=why)
     else:
         movie_html = "<p>Movie left out (--no-movie).</p>"
         view_html = "<p>3-D view left out with the movie (--no-movie).</p>"
         notes.append("movie skipped (--no-movie)")
     return chosen, movie_html, view_html + _mode_view_section(project, c.cmp.modal_records or [], notes)
+
+
+def _why_no_motion(project) -> str:
+    """Why no body's motion is drawn: the bodies' sensors cannot give it, else the chains give no
+    displacements."""
+    from odsuite.contracts.solvers import body_solvers
+
+    problems = body_solvers(project.rig, [s.name for s in project.rig.sensors],
+                            project.registries.coordinate_solvers)[1]
+    return (f"no body's motion can be solved from its sensors ({'; '.join(problems)})" if problems
+            else "the chains give no displacements")
 
 
 def _overlay_figures(rig, exps, rmodel, preds: Mapping[str, np.ndarray], fault, windows: Mapping[str, tuple],
@@ -929,13 +941,13 @@ def _corrections_html(corrected) -> str:
 
 
 def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path, corrected=None, window=None,
-                   fault=None) -> str:
+                   fault=None, why: str = "the chains give no displacements") -> str:
     from .motion import magnification_words
     from .movie import mp4_available, render_movie
     from .scene import Hammer, Style
 
     if not series:
-        return "<p>No movie: the chains give no displacements, so there are no generalized coordinates.</p>"
+        return f"<p>No movie: {_esc(why)}, so there are no generalized coordinates.</p>"
     start, stop = window or _window(exp)
     step = max(1, round((stop - start) * exp.fs / MOVIE_FRAMES))
     body = rig.force_body(exp.point, exp.force_body)
@@ -996,6 +1008,7 @@ def _mode_view_section(project, records, notes: list[str]) -> str:
     from .mode_view import mode_label, mode_view_data, mode_view_html, rig_modes
 
     rig, coords, labels = project.rig, [], []
+    failed: dict[str, list[str]] = {}  # why a mode cannot be drawn -> the modes: said once, not per mode
     for rec in records:
         res = rec.modes
         if res is None or not len(res.frequency_hz):
@@ -1004,13 +1017,19 @@ def _mode_view_section(project, records, notes: list[str]) -> str:
         sensors = [rig.sensor_on_channel(channel_of[n]) if n in channel_of else None for n in res.output_names]
         for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio)):
             values = {s.name: complex(v) for s, v in zip(sensors, res.shapes[:, k]) if s is not None}
+            where = f"{project.path}: {rec.experiment} mode {k + 1}"
             try:
-                coords.append(harmonic_shapes(rig, values, project.registries.coordinate_solvers,
-                                              f"{project.path}: {rec.experiment} mode {k + 1}"))
+                coords.append(harmonic_shapes(rig, values, project.registries.coordinate_solvers, where))
             except ConfigError as exc:
-                notes.append(f"mode view: {exc}")
+                text = str(exc)
+                failed.setdefault(text.removeprefix(f"{where}: "), []).append(f"{rec.experiment} mode {k + 1}")
                 continue
             labels.append(mode_label("EMA", rec.experiment, k + 1, f, z, mpc(res.shapes[:, k])))
+    for reason, modes in failed.items():
+        notes.append(f"mode view: {project.path}: {', '.join(modes)}: {reason}")
+    if not coords and failed:
+        return ("<h3>Measured mode shapes</h3><p>No measured mode shape to show: the modes identified cannot "
+                "be drawn on the plates (see the notes above).</p>")
     if not coords:
         return "<h3>Measured mode shapes</h3><p>No measured mode shape to show (no hammer record's modes identified).</p>"
     nodes, lines, modes = rig_modes(rig, coords, labels)
@@ -1019,11 +1038,12 @@ def _mode_view_section(project, records, notes: list[str]) -> str:
     return "<h3>Measured mode shapes</h3>" + mode_view_html(data)
 
 
-def _view_section(rig, exp, series: Mapping[str, tuple], corrected=None, window=None) -> str:
+def _view_section(rig, exp, series: Mapping[str, tuple], corrected=None, window=None,
+                  why: str = "the chains give no displacements") -> str:
     from .viewer import viewer_data, viewer_html
 
     if not series:
-        return "<p>No 3-D view: there are no generalized coordinates.</p>"
+        return f"<p>No 3-D view: {_esc(why)}, so there are no generalized coordinates.</p>"
     start, stop = _window(exp)
     if window is not None:  # the hit and the fault's band ringing after it: scrub through both
         start, stop = min(start, window[0]), max(stop, window[1])

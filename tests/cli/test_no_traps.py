@@ -5,6 +5,7 @@ options with unit and default, notes once per project, an unsolvable layout name
 
 from __future__ import annotations
 
+import io
 import json
 import re
 from pathlib import Path
@@ -223,3 +224,142 @@ def test_import_echoes_the_force_point_it_read(capsys, project, tmp_path):
         assert line == "force point (250, 100, 75) mm in the rig frame" + (", read from bare numbers as mm" if k else "") \
             + ", on 'plate'", line
         np.testing.assert_allclose(stored_point(capsys, project, f"u{k}"), [0.25, 0.1, 0.075], rtol=1e-12)
+
+
+def test_process_of_a_project_without_experiments_says_so(capsys, project):
+    code, out, err = run(capsys, "process", project)
+    assert code == 0 and out == "" and err.strip() == (f"note: {project}: no experiments to process "
+                                                         "(acquire or import some first)"), (out, err)
+    code, out, err = run(capsys, "process", project, "--json")
+    assert code == 0 and json.loads(out)["experiments"] == {}, out
+
+
+def test_history_figure_says_what_it_wrote(capsys, project, tmp_path):
+    fig = tmp_path / "h.png"
+    code, out, err = run(capsys, "history", project, "--figure", fig)
+    assert code == 0 and out.strip().splitlines()[-1] == f"wrote {fig}", (out, err)
+    assert fig.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    code, out, _ = run(capsys, "history", project, "--figure", fig, "--json")
+    assert code == 0 and json.loads(out)["current"] == 0
+
+
+@pytest.mark.parametrize("field, old, new, words", [
+    ("com", "com = [0.0, 0.0, 0.0385]", "com = [0.0, 0.0, 38.5]",
+     "body 'block' field 'com' at (0, 0, 38500) mm is 38.4 m from the plate of body 'block'"),
+    ("position", "position = [-0.05, -0.03, 0.077]", "position = [-50.0, -30.0, 77.0]",
+     "sensor 'top_z' field 'position' at (-50000, -30000, 77000) mm is 96.5 m from the plate of body 'block'"),
+    ("spring", "position = [0.05, 0.0, 0.0]", "position = [50.0, 0.0, 0.0]",
+     "spring 'foot_c' field 'position' at (50000, 0, 0) mm is 49.9 m from the plate of body 'block'"),
+])
+def test_new_warns_of_a_position_given_in_mm(capsys, tmp_path, field, old, new, words):
+    """A 2 kg block on three feet, one triaxial and two single-axis accelerometers: a length in mm
+    loads as metres, a thousand times off; `new` says so, naming the field and the value."""
+    rig = BLOCK_ON_FEET.replace(old, new)
+    assert rig != BLOCK_ON_FEET
+    (tmp_path / "r.toml").write_text(rig)
+    code, _, err = run(capsys, "new", tmp_path / "p.h5", "--rig", tmp_path / "r.toml")
+    warned = [ln for ln in err.splitlines() if "from the plate" in ln]
+    assert code == 0 and warned == [f"warning: rig 'block-on-feet': {words}: positions are in m"], err
+    (tmp_path / "p.h5").unlink()
+    tmp_path.joinpath("ok.toml").write_text(BLOCK_ON_FEET)
+    code, _, err = run(capsys, "new", tmp_path / "p.h5", "--rig", tmp_path / "ok.toml")
+    assert code == 0 and "from the plate" not in err, err
+
+
+BLOCK_ON_FEET = """
+name = "block-on-feet"
+frame = "origin under the block's centre, z up"
+default_model = "rigid-bodies"
+[[bodies]]
+name = "block"
+mass = 2.0
+com = [0.0, 0.0, 0.0385]
+inertia = [[0.002055, 0, 0], [0, 0.003388, 0], [0, 0, 0.003467]]
+[bodies.plate]
+size = [0.12, 0.08, 0.077]
+corner = [-0.06, -0.04, 0.0]
+[[springs]]
+name = "foot_a"
+body = "block"
+position = [-0.05, -0.03, 0.0]
+stiffness = [4e4, 4e4, 1e5]
+group = "feet"
+[[springs]]
+name = "foot_b"
+body = "block"
+position = [-0.05, 0.03, 0.0]
+stiffness = [4e4, 4e4, 1e5]
+group = "feet"
+[[springs]]
+name = "foot_c"
+body = "block"
+position = [0.05, 0.0, 0.0]
+stiffness = [4e4, 4e4, 1e5]
+group = "feet"
+[[sensors]]
+name = "hammer"
+kind = "force"
+channel = 3
+sensitivity = 0.0115
+[[sensors]]
+name = "tri"
+kind = "triaxial_accelerometer"
+body = "block"
+position = [0.05, 0.03, 0.077]
+channels = [0, 1, 2]
+sensitivity = 0.0102
+[[sensors]]
+name = "top_z"
+body = "block"
+position = [-0.05, -0.03, 0.077]
+axis = [0, 0, 1]
+channel = 4
+sensitivity = 0.00102
+[[sensors]]
+name = "side_xy"
+body = "block"
+position = [0.06, -0.03, 0.04]
+axis = [0.6, 0.8, 0.0]
+channel = 5
+sign = -1
+sensitivity = 0.00102
+"""
+
+
+def test_compare_modal_table_keeps_every_number_at_80_columns():
+    """A narrow terminal wraps the headers; it cut the numbers before (a MAC of 0.766 read '0.7…')."""
+    from rich.console import Console
+
+    from odsuite.cli.app import _modal_table
+
+    rows = [{"experiment": "motor_side", "measured_hz": 96.56, "model_hz": 98.61, "measured_zeta": 0.06347,
+             "model_zeta": 0.05904, "mac": 0.766},
+            {"experiment": "pump_top", "measured_hz": 1117.5, "model_hz": None, "measured_zeta": 0.0607,
+             "model_zeta": None, "mac": None}]
+    console = Console(width=80, record=True, file=io.StringIO())
+    console.print(_modal_table(rows))
+    text = console.export_text()
+    assert "…" not in text and max(len(ln) for ln in text.splitlines()) <= 80, text
+    for number in ("96.56", "98.61", "+2.12%", "6.347", "5.904", "-7%", "0.766", "1117.50"):
+        assert number in text, (number, text)
+
+
+def test_diagnose_table_keeps_every_effect_name_at_80_columns():
+    """The effect column folds a long name (a joint fit's, which `add-effect` takes) instead of
+    cutting it ('mass_properties+sensor_…')."""
+    from rich.console import Console
+
+    from odsuite.cli.loop_commands import _candidates_table
+
+    names = ["mass_properties+sensor_dynamics", "spring_stiffness", "plate_flexibility_free"]
+    rows = [{"effect": n, "significant": k == 0, "consistent": True, "plausible": True, "fitted": True,
+             "error_after": 0.0264 + k / 1000, "validated_error": float("nan") if k else 0.0265,
+             "confounded_with": []} for k, n in enumerate(names)]
+    console = Console(width=80, record=True, file=io.StringIO())
+    console.print(_candidates_table(rows, wide=False))
+    text = console.export_text()
+    assert max(len(ln) for ln in text.splitlines()) <= 80, text
+    cells = "".join(ln.split("│")[1].strip() for ln in text.splitlines() if ln.startswith("│"))
+    for n in names:
+        assert n in cells, (n, text)
+    assert "0.0264" in text and "0.0265" in text

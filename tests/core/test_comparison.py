@@ -212,3 +212,28 @@ def test_frf_magnitudes_of_a_perfect_and_a_stiffer_model(nominal):
     assert max(errors) < 1e-3  # dB
     # a 21 % stiffer truth moves every resonance by 10 %: decibels of difference in the band
     assert min(v for v in stiff["magnitude_error_db"]["T8stiff"].values() if v is not None) > 1.0
+
+
+def test_frf_magnitude_error_leaves_out_a_channel_the_model_keeps_still():
+    """A channel the model holds still by symmetry but whose record carries noise has no
+    magnitude error (it read 330 dB: the model's zero over the noise), while a responding
+    channel's error is the model's gain error: 20 log10(1.1) = 0.83 dB."""
+    from types import SimpleNamespace
+
+    import scipy.signal
+
+    from odsuite.analysis.comparison import frf_comparison
+
+    fs, n = FS, 8192
+    force = _half_sine(n, 200, 5e-4, 50.0)
+    sos = scipy.signal.butter(2, [60.0, 80.0], btype="bandpass", fs=fs, output="sos")
+    response = scipy.signal.sosfilt(sos, force)
+    rng = np.random.default_rng(5)
+    measured = np.column_stack([response, 1e-3 * rng.standard_normal(n)])
+    model = np.column_stack([1.1 * response, 1e-13 * rng.standard_normal(n)])  # rounding's dust
+    exp = SimpleNamespace(name="hit", fs=fs, force=force, measured=measured,
+                          sensors=[SimpleNamespace(name="a"), SimpleNamespace(name="b")])
+    out = frf_comparison([exp], [model], SimpleNamespace(as_list=lambda: []))
+    db = out["magnitude_error_db"]["hit"]
+    assert db["b"] is None
+    assert db["a"] == pytest.approx(20 * np.log10(1.1), abs=1e-6)

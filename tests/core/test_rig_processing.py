@@ -103,3 +103,23 @@ def test_a_bad_sensor_processing_field_names_the_sensor(registries):
     with pytest.raises(ConfigError) as err:
         rig_from_dict(rig_data(None, {"filter": {"type": "lowpass", "cutoff_hz": "fast"}}), registries.sensor_types)
     assert "'hammer'" in str(err.value) and "processing" in str(err.value) and "'fast'" in str(err.value)
+
+
+def test_the_acquisition_range_sets_the_channels_limits_and_what_counts_as_clipped(registries):
+    """A rig recording on +-10 V: a 7 V force sample is within range (it was counted clipped
+    against the thesis's +-5 V limits), a sample at the top code is clipped."""
+    from types import SimpleNamespace
+
+    from odsuite.store.clipping import scan
+
+    data = rig_data()
+    data["acquisition"] = {"adc_range": [-10.0, 10.0], "adc_bits": 16}
+    si = Systeminfo.for_rig(rig_from_dict(data, registries.sensor_types), FS)
+    assert [(c.limit_low, c.limit_high) for c in si.channels] == [(-10.0, 10.0)] * 2
+    assert (Systeminfo.for_rig(rig_from_dict(rig_data(), registries.sensor_types), FS).channels[0].limit_high
+            == 5.0)  # no range declared: the thesis's
+    volts = np.zeros((100, 2))
+    volts[10, 0], volts[20, 1] = 7.0, 10.0 - 20.0 / 2**16
+    record = SimpleNamespace(n_samples=100, n_channels=2, systeminfo=si, raw=lambda a=0, b=None: volts[a:b])
+    peak, clipped = scan(record)
+    assert peak.tolist() == [7.0, 10.0 - 20.0 / 2**16] and clipped.tolist() == [0, 1]

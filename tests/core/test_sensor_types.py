@@ -44,7 +44,17 @@ def test_triaxial_expands_into_three_single_axis_sensors(registries):
     (lambda d: d["sensors"][2].update(axes=[[1, 0, 0], [1, 0, 0], [0, 0, 1]]), ["sensors[2] 't2'", "field 'axes'",
                                                                             "not independent"]),
     (lambda d: d["sensors"][0].update(body="frame"), ["sensors[0] 't0'", "field 'body'", "'frame'"]),
-    (lambda d: d["sensors"][1].update(channels=[1, 5, 6]), ["two sensors share a channel"]),
+    (lambda d: d["sensors"][1].update(channels=[1, 5, 6]), ["two sensors share a channel", "'t0_x' and 't1_x'",
+                                                            "field 'channel'", "both 1"]),
+    # a misspelt field would be ignored and its default used (a sensitivity lost, a serial dropped)
+    (lambda d: d["sensors"][1].update(serail="A-1"), ["sensors[1] 't1'", "unknown field 'serail'",
+                                                      "did you mean 'serial'"]),
+    (lambda d: d["sensors"][1].update(channel=4), ["sensors[1] 't1'", "unknown field 'channel'",
+                                                   "did you mean 'channels'"]),
+    (lambda d: d["sensors"].append({"name": "hammer", "kind": "force", "channel": 0, "sensitivty": 0.00225}),
+     ["sensors[3] 'hammer'", "unknown field 'sensitivty'", "did you mean 'sensitivity'"]),
+    (lambda d: d.update(acquisiton={"sampling_rate": 5000.0}), ["unknown field 'acquisiton'",
+                                                                "did you mean 'acquisition'"]),
 ])
 def test_bad_sensor_entries_are_one_line(registries, change, words):
     data = block()

@@ -504,7 +504,7 @@ CASES: list[Case] = [
          **new_rig(RIG_TOML.replace("axis = [0.0, 0.0, 1.0]", "axis = [0.0, 0.0, 0.0]"))),
     Case("rig-unknown-body", "sensor on body `table`, not defined", "{dir}/bad.toml: sensors[0] 'a1' field 'body': no body named 'table'",
          **new_rig(RIG_TOML.replace('body = "plate"', 'body = "table"'))),
-    Case("rig-duplicate-channel", "two sensors on channel 1", '{dir}/bad.toml: two sensors share a channel ([1, 1])',
+    Case("rig-duplicate-channel", "two sensors on channel 1", "{dir}/bad.toml: two sensors share a channel: 'a1' and 'a2' (field 'channel', both 1)",
          **new_rig(RIG_TOML + RIG_TOML[RIG_TOML.index("[[sensors]]"):].replace('"a1"', '"a2"'))),
     Case("rig-negative-mass", "body mass -2 kg", "{dir}/bad.toml: body 'plate' field 'mass': must be > 0, got -2.0", **new_rig(RIG_TOML.replace("mass = 2.0", "mass = -2.0"))),
     Case("rig-inertia", "inertia not positive definite", "{dir}/bad.toml: body 'plate' field 'inertia': not positive definite",

@@ -100,3 +100,43 @@ def test_a_perfect_model_of_a_1024_hz_rig_is_at_its_floor(tmp_path, capsys):
     result = json.loads(capsys.readouterr().out)
     # before the cap: 1.94x (the blow's spectrum above 512 Hz folded into the force record)
     assert result["error"] <= 1.1 * result["noise_floor"], (result["error"], result["noise_floor"])
+
+
+def test_a_short_blow_reads_below_force_peak_through_the_undeclared_filter(tmp_path):
+    """docs/rig-format.md: a 0.5 ms blow of 100 N reads about 61 N through the thesis's 1 kHz
+    filter; the reference is scipy's own 8th-order Butterworth run on the same half-sine."""
+    import numpy as np
+    import scipy.signal
+
+    from odsuite.api import load_rig
+    from odsuite.contracts.plugins import registries
+    from odsuite_plugins.daq_sim.chain import run_analog
+    from odsuite_plugins.daq_sim.hammer import Hit, half_sine_force
+    from odsuite_plugins.daq_sim.simulator import default_chains, rig_systeminfo
+
+    (tmp_path / "block.toml").write_text(BLOCK.replace("sampling_rate = 1024.0", "sampling_rate = 10000.0"))
+    rig = load_rig(tmp_path / "block.toml", registries().sensor_types)
+    chain = default_chains(rig, rig_systeminfo(rig, 10_000.0))[rig.force_channel]
+    fine = 80_000.0
+    t = np.arange(8000) / fine
+    force = half_sine_force(t, [Hit(peak=100.0, width=0.5e-3)], t0=0.01)
+    peak = run_analog(chain, force, fine).max() / (chain.sensitivity * chain.gain)
+    sos = scipy.signal.butter(8, 1000.0, fs=fine, output="sos")
+    reference = scipy.signal.sosfilt(sos, force).max()
+    assert peak == pytest.approx(reference, rel=0.02)
+    assert peak == pytest.approx(61.0, abs=1.0)
+
+
+def test_acquire_says_the_force_peak_it_recorded(tmp_path, capsys):
+    """The line names the peak as recorded (through the 1 kHz filter: 61 N for --force-peak 100),
+    the same as `info` gives, so a short blow's smaller peak is seen at once."""
+    (tmp_path / "block.toml").write_text(BLOCK.replace("sampling_rate = 1024.0", "sampling_rate = 10000.0"))
+    p = tmp_path / "p.h5"
+    assert main(["new", str(p), "--rig", str(tmp_path / "block.toml")]) == 0
+    assert main(["acquire", str(p), "--name", "h", "--force-point=0,0,400", "--force-dir=-z", "--seed", "1",
+                 "--force-peak", "100", "--samples", "2048"]) == 0
+    line = capsys.readouterr().out.strip().splitlines()[-1]
+    said = float(line.rsplit("; force peak ", 1)[1].removesuffix(" N"))
+    assert main(["info", str(p), "--json"]) == 0
+    peak, unit = json.loads(capsys.readouterr().out)["experiments"]["h"]["peak"]["force"]
+    assert unit == "N" and said == pytest.approx(peak, rel=5e-3) and said == pytest.approx(61.0, abs=1.5)

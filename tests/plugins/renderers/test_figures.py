@@ -159,3 +159,77 @@ def test_many_panel_figures_keep_every_label_inside_and_apart(kind, tmp_path):
     if fig._suptitle is not None:  # the title above every panel
         top = max(ax.get_tightbbox(renderer).y1 for ax in panels)
         assert fig._suptitle.get_window_extent(renderer).y0 >= top
+
+
+@pytest.mark.parametrize("eye", ["x", "y", "z"])
+def test_screen_axes_keep_the_thesis_view_and_follow_a_rigs_up(eye):
+    from odsuite_plugins.renderers.figures import EYES, screen_axes
+
+    right, up = screen_axes(eye)  # the thesis's z-down frame: its table
+    np.testing.assert_allclose(right, EYES[eye][0], atol=1e-15)
+    np.testing.assert_allclose(up, EYES[eye][1], atol=1e-15)
+    right, up = screen_axes(eye, [0.0, 0.0, 1.0])
+    towards_eye = np.eye(3)["xyz".index(eye)]
+    # a right-handed screen (right x up towards the eye); z up on the screen, or the eye above
+    np.testing.assert_allclose(np.cross(right, up), towards_eye if eye != "z" else [0.0, 0.0, 1.0], atol=1e-15)
+    if eye != "z":
+        np.testing.assert_allclose(up, [0.0, 0.0, 1.0])
+
+
+@pytest.mark.parametrize("path, above", [
+    # the machine's plate centre 150 mm above the base's in the rig (z up)
+    ("projects/rigs/two-body-machine.toml", {("machine", "base"): 150.0}),
+    # the motor 200 mm above the pump, the pump 175 mm above the frame
+    ("tests/data/rigs/pump-set.toml", {("motor", "pump"): 200.0, ("pump", "frame"): 175.0}),
+])
+def test_projection_of_a_z_up_rig_draws_the_upper_body_above_and_keeps_the_legend_inside(tmp_path, path, above):
+    from pathlib import Path
+
+    from odsuite.contracts.plugins import build_registries, make_plugin_manager
+    from odsuite.domain.rig import load_rig
+
+    reg = build_registries(make_plugin_manager())
+    rig = load_rig(Path(__file__).parents[3] / path, reg.sensor_types)
+    still = np.zeros((100, 6))
+    res = projection_figure(rig, {b.name: still for b in rig.bodies if b.mass is not None}, 2000.0,
+                            tmp_path / "p.png", eye="x", magnify=(1.0, 1.0), instants=(10, 20))
+    ax = res.figure.axes[0]
+    height = {name.split(":")[0]: ln.get_xydata()[:, 1].mean() for name, ln in
+              ((ln.get_label(), ln) for ln in ax.lines) if "initial" in name}
+    for (upper, lower), dz in above.items():  # on the screen as in the rig
+        assert height[upper] - height[lower] == pytest.approx(dz, abs=1e-9)
+    assert ax.get_ylabel().startswith("z")
+    fig = res.figure
+    box = fig.legends[0].get_window_extent(fig.canvas.get_renderer())
+    assert box.x0 >= 0 and box.x1 <= fig.bbox.width and box.y0 >= 0
+
+
+@pytest.mark.parametrize("figure", ["overlay", "residuals"])
+def test_overlay_and_residual_figures_draw_every_moving_body(figure, tmp_path, monkeypatch):
+    from pathlib import Path
+
+    from odsuite.contracts.plugins import build_registries, make_plugin_manager
+    from odsuite.domain.rig import load_rig
+    from odsuite_plugins.renderers import experiment
+
+    reg = build_registries(make_plugin_manager())
+    rig = load_rig(Path(__file__).parents[3] / "projects" / "rigs" / "two-body-machine.toml", reg.sensor_types)
+    rng = np.random.default_rng(1)
+    coords = {"base": rng.normal(size=(512, 6)), "machine": rng.normal(size=(512, 6))}
+    model = {"base": 2 * coords["base"], "machine": 3 * coords["machine"]}
+    seen = {}
+    real = {"overlay": experiment.comparison_figure, "residuals": experiment.residual_spectra_figure}[figure]
+
+    def spy(*args, **kw):
+        seen.update(kw, measured=args[1], model=args[2])
+        return real(*args, **kw)
+
+    monkeypatch.setattr(experiment, {"overlay": "comparison_figure", "residuals": "residual_spectra_figure"}[figure], spy)
+    experiment._figure(figure, rig, "hit1", coords, model, 2000.0, tmp_path / "f.png", force=None, view=None,
+                       magnify=None)
+    # twelve panels, the machine's roll among them with its own model (3x the measured)
+    assert len(seen["names"]) == 12 and "machine theta" in seen["names"] and "base psi" in seen["names"]
+    j = seen["names"].index("machine theta")
+    np.testing.assert_array_equal(seen["measured"][:, j], coords["machine"][:, 3])
+    np.testing.assert_array_equal(seen["model"][:, j], model["machine"][:, 3])
+    assert seen["units"][j] == "rad" and "base, machine" in seen["title"]
