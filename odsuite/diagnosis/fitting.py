@@ -600,9 +600,9 @@ ROUNDING = 1e-9
 
 def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float], quick: bool = False) -> Screened:
     """Best start found by one Gauss-Newton step (and grids/choices where needed), carried through
-    the heads' continuation; ``quick``: by one damped step on the whole fit windows from the best
-    start (nominal where there is nothing to choose), the continuation left to :func:`continued`
-    for the candidates that are fitted."""
+    the heads' continuation; ``quick``: a candidate with one start (nominal: nothing to sweep, no
+    frequency or period) by one damped step on the whole fit windows, the continuation left to
+    :func:`continued` for the candidates that are fitted."""
     effect = problem.effect
     best_fixed: dict[str, float] = {}
     best_sse = sse0
@@ -644,9 +644,11 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float], quick: bool
         return out
     if quick and _plain(problem):
         out.swept = problem.zero()  # no start to choose: straight to the window's step
-    else:
-        out.start, out.swept = _head_start(problem, peaks_hz)
-    return _window_step(out) if quick else continued(out)
+        return _window_step(out)
+    # a frequency, a period or a swept start: the heads' continuation keeps its error convex (one
+    # step on the whole windows ranked a plate's bending mode below a mode of any shape)
+    out.start, out.swept = _head_start(problem, peaks_hz)
+    return continued(out)
 
 
 def _plain(problem: Problem) -> bool:
