@@ -156,6 +156,52 @@ CPU (701 -> 513 worth), two workers 18.5 -> 20.9 s wall, 22.8 -> 25.8 s CPU (583
 two-body (1023 -> 1013 evaluations) one worker 18.7 -> 21.7 s wall, 19.1 -> 22.3 s CPU
 (477 -> 451), two workers 12.9 -> 12.3 s wall, 24.4 -> 23.0 s CPU (609 -> 465). Single runs
 scatter more than the change moves them.
+
+The next round: screening by one damped step on the fit windows. A candidate with one start
+(nothing to sweep, no frequency or period: stiffness, damping, mass properties, gains, positions)
+is screened by one damped Gauss-Newton step from its Jacobian at nominal on the whole fit windows
+(linearised where the structure changes), judged by real evaluations (the first damping of
+fitting.LM_DAMPING that lowers the error), instead of a damped step on each of the three record
+heads; a candidate that goes on to a full fit is first carried through the heads' continuation
+from nominal (fitting.continued), so its fit starts and ends where it did. Candidates with a
+frequency, a period or swept starts keep the heads in screening: one step on the whole windows
+from their best start on the shortest head ranked the thesis plate's bending mode below a
+mounted mode (the hidden plate_flexibility case of tests/core/test_diagnosis.py named the wrong
+effect). A parameter's starts may be a ladder (Parameter.ladder, nonlinear_stiffness's hardening
+decades): the sweep stops climbing at the first rung that raises the error. Tried and left out:
+fits from the quick step's point without the continuation (two-body 950 evaluations instead of
+923, the fits' extra iterations eating the saving, the same errors).
+
+Main's code (before, load 6.1-6.2) and this (after, load 6.1-10.7), one right after the other, on
+a loaded machine (the CPU seconds moved with the load by more than the change, see the
+baseline's CPU):
+
+| rig, workers | before: evaluations, CPU, worth, wall | after |
+| --- | --- | --- |
+| thesis, 1 | 1703, 24.9 s, 824, 97.5 s | 1488, 22.8 s, 784, 39.3 s |
+| thesis, 2 | 1703, 23.6 s, 782, 87.7 s | 1488, 27.1 s, 935, 59.4 s |
+| two-body, 1 | 1013, 19.7 s, 653, 72.3 s | 933, 27.0 s, 568, 156.6 s |
+| two-body, 2 | 1013, 23.3 s, 771, 53.2 s | 933, 25.8 s, 544, 152.9 s |
+
+(one evaluation 30.2 / 30.2 ms CPU before, 29.0 / 47.5 ms after.) Again, one worker, one right
+after the other (load 7-8): two-body 1013 -> 933 evaluations, 22.8 -> 20.9 s CPU (658 -> 600
+worth); thesis 1703 -> 1488, 24.1 -> 25.2 s CPU (947 -> 891 worth; the after run's wall was
+188 s against 85 s: it shared the cores with more). Verdicts, messages and every fitted candidate
+(errors, validated errors, likelihood ratios) the same; of the screened-only candidates damping's
+screened error moved (two-body 0.402 -> 0.413, thesis 0.565 -> 0.601: one step on the windows
+reaches less than three on the heads), its rank among them too. So: 8-13 % fewer evaluations, a
+CPU gain within the runs' spread, targets (250 worth, 3 s / 5 s) missed by 2-3.5x. Leaving out the
+heads saves little: at these fit windows (2,500-4,800 samples with the 512 before the hit) a head
+is a fifth to a quarter of a window, so the two heads' Jacobians cost about 40 % of the window's,
+and the fitted candidates pay them again in their continuation. The CPU left is in the candidates
+with starts (the grids and sweeps of missing_mode, plate_flexibility(_free), channel_swap,
+channel_delay, nonlinear_stiffness: about three quarters of screening's ~330 worth on the two-body
+rig), the full fits' Jacobians and SVDs (two-body: two fits, ~190 worth) and, on the thesis rig,
+the partner search and the pairs' joint fits (~380 worth). What would still be needed: starts
+judged from one linearised Jacobian instead of a Jacobian and a step per start on the shortest
+head; the fits' trust-region steps from one QR factor; the cubic springs' columns at nominal as the
+linear structure's response to the cubic force of its nominal motion (first order, no nonlinear
+simulation per column).
 """
 
 from __future__ import annotations
