@@ -193,10 +193,14 @@ reaches less than three on the heads), its rank among them too. So: 8-13 % fewer
 CPU gain within the runs' spread, targets (250 worth, 3 s / 5 s) missed by 2-3.5x. Leaving out the
 heads saves little: at these fit windows (2,500-4,800 samples with the 512 before the hit) a head
 is a fifth to a quarter of a window, so the two heads' Jacobians cost about 40 % of the window's,
-and the fitted candidates pay them again in their continuation. The CPU left is in the candidates
-with starts (the grids and sweeps of missing_mode, plate_flexibility(_free), channel_swap,
-channel_delay, nonlinear_stiffness: about three quarters of screening's ~330 worth on the two-body
-rig), the full fits' Jacobians and SVDs (two-body: two fits, ~190 worth) and, on the thesis rig,
+and the fitted candidates pay them again in their continuation. By stage
+(bench/profile_diagnose_stages.py two-body, one worker; main's code at load 3, this at load 7, one
+evaluation 41 ms CPU in both): screening 17.7 -> 11.6 s CPU (436 -> 281 worth), the best
+candidates' stage 6.7 -> 11.2 s (166 -> 272 worth: their continuation about 3 s, the two fits 6.0
+-> 8.2 s at the higher load), diagnose 26.0 -> 24.7 s. The CPU left is in the candidates with
+starts (the grids and sweeps of missing_mode, plate_flexibility(_free), channel_swap,
+channel_delay, nonlinear_stiffness: about three quarters of screening's 281 worth on the two-body
+rig), the full fits' Jacobians and SVDs (two-body: two fits, ~200 worth) and, on the thesis rig,
 the partner search and the pairs' joint fits (~380 worth). What would still be needed: starts
 judged from one linearised Jacobian instead of a Jacobian and a step per start on the shortest
 head; the fits' trust-region steps from one QR factor; the cubic springs' columns at nominal as the
