@@ -36,7 +36,6 @@ from odsuite.diagnosis.fitting import (
     effective_samples,
     fit,
     fit_windows,
-    continued,
     refined,
     screen,
     uncertainties,
@@ -353,37 +352,24 @@ def _problem(job: Mapping[str, Any], name: str, fixed: Mapping[str, float] | Non
     return problem.derived(fixed) if fixed else problem
 
 
-def _screen_job(token: int, name: str) -> tuple[dict[str, float], np.ndarray, float, int, tuple] | None:
-    """Screen one candidate (one damped step on the fit windows, fitting.screen's ``quick``): its
-    discrete choices, point, sum of squares, evaluations and where a fit's continuation starts
-    (_carried)."""
+def _screen_job(token: int, name: str) -> tuple[dict[str, float], np.ndarray, float, int] | None:
+    """Screen one candidate: its discrete choices, start, sum of squares and evaluations."""
     job = JOBS[token]
     try:
         problem = _problem(job, name)
     except ConfigError:
         return None  # the effect does not apply to this rig (e.g. no base plate)
-    s = screen(problem, job["sse0_win"], job["peak_hz"], quick=True)
-    return (s.fixed, s.u0, s.sse, problem.evaluations + (s.problem.evaluations if s.problem is not problem else 0),
-            _carried(s))
+    s = screen(problem, job["sse0_win"], job["peak_hz"])
+    return s.fixed, s.u0, s.sse, problem.evaluations + (s.problem.evaluations if s.problem is not problem else 0)
 
 
-def _carried(s: Screened) -> tuple:
-    """What fitting.continued needs of a screening, beside its choices: it travels to the workers."""
-    return s.before, s.start, s.swept, s.quick
-
-
-def _fit_job(token: int, name: str, fixed: Mapping[str, float], u0: np.ndarray, sse: float,
-             carried: tuple | None = None) -> tuple[Candidate, dict[str, float], int]:
-    """Fit one screened candidate (from the heads' continuation of its screening, ``carried``);
-    the candidate without its problem (rebuilt by the caller from the values it was fitted with),
-    those values and the evaluations."""
+def _fit_job(token: int, name: str, fixed: Mapping[str, float], u0: np.ndarray, sse: float
+             ) -> tuple[Candidate, dict[str, float], int]:
+    """Fit one screened candidate; the candidate without its problem (rebuilt by the caller from
+    the values it was fitted with), those values and the evaluations."""
     job = JOBS[token]
     problem = _problem(job, name, fixed)
-    s = Screened(problem.effect, dict(fixed), u0, sse, problem)
-    if carried is not None:
-        s.before, s.start, s.swept, s.quick = carried
-        s = continued(s)
-    cand = _fit_candidate(s, job["windows"], job["sse0"],
+    cand = _fit_candidate(Screened(problem.effect, dict(fixed), u0, sse, problem), job["windows"], job["sse0"],
                           job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
                           job["modes_before"], job["tail0"], job["force_levels"])
     p = cand.__dict__.pop("_problem")
@@ -517,11 +503,9 @@ def _screen(pool, token, job, names, progress) -> tuple[list[Screened], int]:
         if progress:
             progress(f"screening {name}", i, len(names))
         if done is not None:
-            fixed, u0, sse, count, carried = done
+            fixed, u0, sse, count = done
             problem = _problem(job, name, fixed)
-            s = Screened(problem.effect, fixed, u0, sse, problem)
-            s.before, s.start, s.swept, s.quick = carried
-            screened.append(s)
+            screened.append(Screened(problem.effect, fixed, u0, sse, problem))
             evaluations += count
     screened.sort(key=lambda s: s.sse)
     return screened, evaluations
@@ -548,7 +532,7 @@ def _fit_best(pool, token, job, top: list[Screened], ahead: int, exps, cmp, res0
         while queued < min(len(top), i + ahead):  # the pool busy ahead of i
             if not skipped(queued):
                 t = top[queued]
-                jobs[queued] = pool.submit(_fit_job, token, t.effect.name, t.fixed, t.u0, t.sse, _carried(t))
+                jobs[queued] = pool.submit(_fit_job, token, t.effect.name, t.fixed, t.u0, t.sse)
             queued += 1
         if i not in jobs or skipped(i):
             if i in jobs:
@@ -636,7 +620,7 @@ def _partner(job: Mapping[str, Any], first: Candidate, names: Sequence[str]) -> 
             problem = _problem(on_top, name)
         except ConfigError:
             continue
-        s = screen(problem, first._sse_win, job["peak_hz"], quick=True)
+        s = screen(problem, first._sse_win, job["peak_hz"])
         evaluations += problem.evaluations + (s.problem.evaluations if s.problem is not problem else 0)
         if s.sse < first._sse_win:
             found.append(s)
@@ -666,7 +650,7 @@ def _single(token: int, job: Mapping[str, Any], screened: Sequence[Screened], na
     s = next((t for t in screened if t.effect.name == name), None)
     if s is None:
         return None
-    cand, fixed, _ = _fit_job(token, name, s.fixed, s.u0, s.sse, _carried(s))
+    cand, fixed, _ = _fit_job(token, name, s.fixed, s.u0, s.sse)
     cand._problem = _problem(job, name, fixed)
     _judge(cand, exps, floor, res0, job["sse0"], job["den"], job["scale"])
     words = _checks_words(cand)

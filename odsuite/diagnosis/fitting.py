@@ -435,13 +435,6 @@ class Screened:
     u0: np.ndarray
     sse: float
     problem: Problem
-    #: the sum of squares before the free parameters' search (after the discrete choices)
-    before: float = float("nan")
-    #: the best start on the shortest head (None: not sought) and the sweep's start
-    start: np.ndarray | None = None
-    swept: np.ndarray | None = None
-    #: screened by one step on the windows, without the heads' continuation (continued)
-    quick: bool = False
 
 
 def _tiny(J: np.ndarray, r: np.ndarray) -> np.ndarray:
@@ -598,13 +591,11 @@ def _activation(problem: Problem, start: np.ndarray, r: np.ndarray, J: np.ndarra
 ROUNDING = 1e-9
 
 
-def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float], quick: bool = False) -> Screened:
-    """Best start found by one Gauss-Newton step (and grids/choices where needed), carried through
-    the heads' continuation; ``quick``: a candidate with one start (nominal: nothing to sweep, no
-    frequency or period) by one damped step on the whole fit windows, the continuation left to
-    :func:`continued` for the candidates that are fitted."""
+def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened:
+    """Best start found by one Gauss-Newton step (and grids/choices where needed)."""
     effect = problem.effect
     best_fixed: dict[str, float] = {}
+    best_u = problem.zero()
     best_sse = sse0
     # discrete parameters: each choice alone, then greedily combined; with global starts, each
     # choice is scored after its sweep (a mode's body only shows near the mode's frequency)
@@ -639,89 +630,42 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float], quick: bool
         best_fixed = dict(chosen)
     if best_fixed:
         problem = problem.derived(best_fixed)
-    out = Screened(effect, best_fixed, problem.zero(), best_sse, problem, before=best_sse, quick=True)
-    if not problem.free:
-        return out
-    if quick and _plain(problem):
-        out.swept = problem.zero()  # no start to choose: straight to the window's step
-        return _window_step(out)
-    # a frequency, a period or a swept start: the heads' continuation keeps its error convex (one
-    # step on the whole windows ranked a plate's bending mode below a mode of any shape)
-    out.start, out.swept = _head_start(problem, peaks_hz)
-    return continued(out)
-
-
-def _plain(problem: Problem) -> bool:
-    """Whether the search has a single start (nominal): no parameter to sweep and none that the
-    grid may start (a frequency or a period)."""
-    return not any(f.param.starts or (f.param.unit in ("Hz", "s") and f.experiment is None) for f in problem.free)
-
-
-def _head_start(problem: Problem, peaks_hz: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
-    """The best start found on the shortest head (nominal, the sweep's, the grid's), each moved by
-    one damped step there; and the sweep's start."""
-    stages = heads(problem.exps)
-    first = stages[0]
-    u0 = problem.zero()
-    r0 = problem.residual(u0, first)
-    J0 = problem.jacobian(u0, r0, exps=first)
-    best_start, best_head = u0, float(r0 @ r0)
-    activation: tuple[int, float] | None = None
-    swept = _sweep(problem, u0, _sweep_stage(problem, stages), peaks_hz)
-    for start in [u0] + ([swept] if swept is not u0 else []) + _grid_starts(problem, r0, J0, peaks_hz):
-        r = r0 if start is u0 else problem.residual(start, first)
-        J = J0 if start is u0 else problem.jacobian(start, r, exps=first)
-        if start is not u0:
-            activation = activation or _activation(problem, start, r, J, first)
-            if activation is not None and _tiny(J, r)[activation[0]]:
-                start = start.copy()
-                start[activation[0]] = activation[1]
-                r = problem.residual(start, first)
-                J = problem.jacobian(start, r, exps=first)
-        u = _lm_step(problem, J, r, start, first)
-        sse = float(np.sum(problem.residual(u, first) ** 2))
-        if sse < best_head:
-            best_start, best_head = u, sse
-    return best_start, swept
-
-
-def _kept(s: Screened, u: np.ndarray, sse: float) -> Screened:
-    """``s`` at ``u`` where its error beats the sweep's start and the search's start."""
-    if s.swept is not None and s.swept.any():  # damped steps may lead a good start astray
-        sse_swept = s.problem.sse(s.swept)
-        if sse_swept < sse:
-            u, sse = s.swept, sse_swept
-    if sse < s.before * (1 - ROUNDING):  # a gain in the last digits is the arithmetic's, not the data's
-        s.u0, s.sse = u, sse
-    return s
-
-
-def _window_step(s: Screened) -> Screened:
-    """Screening's own step: one damped Gauss-Newton step on the fit windows from the Jacobian
-    at the start (linearised where the structure changes), judged by real evaluations."""
-    problem = s.problem
-    u = s.start if s.start is not None else problem.zero()
-    r = problem.residual(u)
-    u = _lm_step(problem, problem.jacobian(u, r), r, u, problem.exps)
-    return _kept(s, u, problem.sse(u))
-
-
-def continued(s: Screened) -> Screened:
-    """A screened candidate carried through the heads' continuation (a damped step on each longer
-    head from its best start on the shortest): where a fit starts. A frequency's error makes the
-    whole window's residual oscillate in the parameter, which the heads keep convex. The same as
-    screening without ``quick``."""
-    if not s.quick or not s.problem.free:
-        return s
-    problem = s.problem
-    start = s.start if s.start is not None else _head_start(problem, ())[0]
-    out = Screened(s.effect, s.fixed, problem.zero(), s.before, problem, before=s.before, start=start,
-                   swept=s.swept, quick=False)
-    u = start
-    for exps in heads(problem.exps)[1:]:
-        r = problem.residual(u, exps)
-        u = _lm_step(problem, problem.jacobian(u, r, exps=exps), r, u, exps)
-    return _kept(out, u, problem.sse(u))
+    if problem.free:
+        stages = heads(problem.exps)
+        first = stages[0]
+        u0 = problem.zero()
+        r0 = problem.residual(u0, first)
+        J0 = problem.jacobian(u0, r0, exps=first)
+        # the best start on the shortest head, then one damped step on each longer head
+        best_start, best_head = u0, float(r0 @ r0)
+        activation: tuple[int, float] | None = None
+        swept = _sweep(problem, u0, _sweep_stage(problem, stages), peaks_hz)
+        for start in [u0] + ([swept] if swept is not u0 else []) + _grid_starts(problem, r0, J0, peaks_hz):
+            r = r0 if start is u0 else problem.residual(start, first)
+            J = J0 if start is u0 else problem.jacobian(start, r, exps=first)
+            if start is not u0:
+                activation = activation or _activation(problem, start, r, J, first)
+                if activation is not None and _tiny(J, r)[activation[0]]:
+                    start = start.copy()
+                    start[activation[0]] = activation[1]
+                    r = problem.residual(start, first)
+                    J = problem.jacobian(start, r, exps=first)
+            u = _lm_step(problem, J, r, start, first)
+            sse = float(np.sum(problem.residual(u, first) ** 2))
+            if sse < best_head:
+                best_start, best_head = u, sse
+        u = best_start
+        for exps in stages[1:]:
+            r = problem.residual(u, exps)
+            u = _lm_step(problem, problem.jacobian(u, r, exps=exps), r, u, exps)
+        sse = problem.sse(u)
+        if swept is not u0:  # damped steps judged on short heads may lead a good start astray
+            sse_swept = problem.sse(swept)
+            if sse_swept < sse:
+                u, sse = swept, sse_swept
+        if sse < best_sse * (1 - ROUNDING):  # a gain in the last digits is the arithmetic's, not the data's
+            best_sse, best_u = sse, u
+    return Screened(effect, best_fixed, best_u, best_sse, problem)
 
 
 # ---------------------------------------------------------------------------------------------
