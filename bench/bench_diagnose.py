@@ -185,7 +185,15 @@ decade of every spring group (each a nonlinear simulation over the whole windows
 rig, whose slow suspension leaves no head for the sweep). Measured with the quick screening above
 (the same code but for the ladder, one after the other): two-body 923 -> 883 evaluations, thesis
 1426 -> 1398; verdicts, messages and every fitted candidate (the thesis rig's nonlinear_stiffness
-fit included) the same.
+fit included) the same. On this code against main's, one worker, one right after the other (load
+3.4-4.5): two-body 1013 -> 973 evaluations, 21.0 -> 22.0 s CPU (613 -> 597 worth); thesis 1703 ->
+1675, 27.8 -> 25.8 s CPU (666 -> 723 worth: the baseline evaluation's CPU moved 42 -> 36 ms);
+candidate tables the same to the digits printed (every candidate's significance, errors,
+screened errors, likelihood ratios), verdicts and messages too. A few per cent of the evaluations,
+no CPU gain beyond the runs' spread. Calibration on this code (niced, one set at a time but nulls
+beside faults, --workers 1): faults 20/20 named and explained; nulls no significant candidate in
+40/40 ("nothing to explain" 38, "unexplained" 2: seeds 123 and 136, as before); outside 0/8
+"explained"; the pairs' slow tests (two_faults, corrected, rattle) 7 passed.
 
 Where the CPU is (main's code, bench/profile_diagnose_stages.py, one worker, load 2-3; one
 evaluation 41 ms / 28 ms CPU): two-body 26.0 s = 640 worth, screening 436 of it (the candidates
