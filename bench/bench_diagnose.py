@@ -190,7 +190,18 @@ fit included) the same. On this code against main's, one worker, one right after
 1675, 27.8 -> 25.8 s CPU (666 -> 723 worth: the baseline evaluation's CPU moved 42 -> 36 ms);
 candidate tables the same to the digits printed (every candidate's significance, errors,
 screened errors, likelihood ratios), verdicts and messages too. A few per cent of the evaluations,
-no CPU gain beyond the runs' spread. Calibration on this code (niced, one set at a time but nulls
+no CPU gain beyond the runs' spread. This script, main's code (load 4.0-4.4) then this (load
+3.0-4.4, falling to 0.2 at its end):
+
+| rig, workers | before: evaluations, CPU, worth, wall | after |
+| --- | --- | --- |
+| thesis, 1 | 1703, 22.0 s, 857, 48.5 s | 1675, 24.7 s, 770, 35.6 s |
+| thesis, 2 | 1703, 27.9 s, 1087, 52.6 s | 1675, 22.3 s, 695, 21.5 s |
+| two-body, 1 | 1013, 21.5 s, 507, 41.9 s | 973, 19.4 s, 495, 20.7 s |
+| two-body, 2 | 1013, 21.5 s, 508, 23.7 s | 973, 19.7 s, 504, 15.6 s |
+
+(one evaluation 25.7 / 42.4 ms CPU before, 32.1 / 39.2 ms after); verdicts and top candidates
+the same. Calibration on this code (niced, one set at a time but nulls
 beside faults, --workers 1): faults 20/20 named and explained; nulls no significant candidate in
 40/40 ("nothing to explain" 38, "unexplained" 2: seeds 123 and 136, as before); outside 0/8
 "explained"; the pairs' slow tests (two_faults, corrected, rattle) 7 passed.
