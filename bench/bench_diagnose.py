@@ -156,6 +156,68 @@ CPU (701 -> 513 worth), two workers 18.5 -> 20.9 s wall, 22.8 -> 25.8 s CPU (583
 two-body (1023 -> 1013 evaluations) one worker 18.7 -> 21.7 s wall, 19.1 -> 22.3 s CPU
 (477 -> 451), two workers 12.9 -> 12.3 s wall, 24.4 -> 23.0 s CPU (609 -> 465). Single runs
 scatter more than the change moves them.
+
+The next round tried the screening by one damped step on the fit windows: a candidate with one
+start (nothing to sweep, no frequency or period: stiffness, damping, mass properties, gains,
+positions) screened by one damped Gauss-Newton step from its Jacobian at nominal on the whole fit
+windows (linearised where the structure changes), judged by real evaluations, instead of a damped
+step on each of the three record heads; a candidate going on to a full fit carried through the
+heads' continuation first, so its fit started and ended where it did. On the benches it gave the
+same verdicts, messages and fitted candidates with 8-13 % fewer evaluations (thesis 1703 -> 1488,
+two-body 1013 -> 933) and CPU within the loaded runs' spread (load 6-10: one worker two-body
+22.8 -> 20.9 s, thesis 24.1 -> 25.2 s; by stage on the two-body rig screening 17.7 -> 11.6 s CPU,
+the fitted candidates' continuation about 3 s more in the fit stage): at these fit windows
+(2,500-4,800 samples with the 512 before the hit) a head is a fifth to a quarter of a window, so
+leaving out the heads saves the two heads' Jacobians, about 40 % of the window's, and the fitted
+candidates pay them again. It was taken out again: the calibration's faults set named 17 of 20
+(main 20/20: thesis softer-mount s200 and s218, two-body softer-mount s202 missed). On s218 the
+one step on the windows screened stiffness at 0.380 where the heads reach 0.067, below
+mass_properties, and the fit stage skipped it as unable to compete: a mount change that moves
+modes by 5-15 % (there 97 -> 90 Hz and 217 -> 188 Hz) makes the whole window's error as
+non-convex as a frequency's, so the cheap step misranks the effects the heads were for. Candidates with starts kept the heads throughout (one step on the
+windows from their best start on the shortest head had also ranked the thesis plate's bending mode
+below a mounted mode). Also tried and left out: fits from that step's point without the
+continuation (two-body 950 evaluations instead of 923: the fits' extra iterations).
+
+Kept: a parameter's starts may be a ladder (Parameter.ladder, nonlinear_stiffness's hardening
+decades), which the sweep climbs until a rung raises the error, instead of simulating every
+decade of every spring group (each a nonlinear simulation over the whole windows on the two-body
+rig, whose slow suspension leaves no head for the sweep). Measured with the quick screening above
+(the same code but for the ladder, one after the other): two-body 923 -> 883 evaluations, thesis
+1426 -> 1398; verdicts, messages and every fitted candidate (the thesis rig's nonlinear_stiffness
+fit included) the same. On this code against main's, one worker, one right after the other (load
+3.4-4.5): two-body 1013 -> 973 evaluations, 21.0 -> 22.0 s CPU (613 -> 597 worth); thesis 1703 ->
+1675, 27.8 -> 25.8 s CPU (666 -> 723 worth: the baseline evaluation's CPU moved 42 -> 36 ms);
+candidate tables the same to the digits printed (every candidate's significance, errors,
+screened errors, likelihood ratios), verdicts and messages too. A few per cent of the evaluations,
+no CPU gain beyond the runs' spread. This script, main's code (load 4.0-4.4) then this (load
+3.0-4.4, falling to 0.2 at its end):
+
+| rig, workers | before: evaluations, CPU, worth, wall | after |
+| --- | --- | --- |
+| thesis, 1 | 1703, 22.0 s, 857, 48.5 s | 1675, 24.7 s, 770, 35.6 s |
+| thesis, 2 | 1703, 27.9 s, 1087, 52.6 s | 1675, 22.3 s, 695, 21.5 s |
+| two-body, 1 | 1013, 21.5 s, 507, 41.9 s | 973, 19.4 s, 495, 20.7 s |
+| two-body, 2 | 1013, 21.5 s, 508, 23.7 s | 973, 19.7 s, 504, 15.6 s |
+
+(one evaluation 25.7 / 42.4 ms CPU before, 32.1 / 39.2 ms after); verdicts and top candidates
+the same. Calibration on this code (niced, one set at a time but nulls
+beside faults, --workers 1): faults 20/20 named and explained; nulls no significant candidate in
+40/40 ("nothing to explain" 38, "unexplained" 2: seeds 123 and 136, as before); outside 0/8
+"explained"; the pairs' slow tests (two_faults, corrected, rattle) 7 passed.
+
+Where the CPU is (main's code, bench/profile_diagnose_stages.py, one worker, load 2-3; one
+evaluation 41 ms / 28 ms CPU): two-body 26.0 s = 640 worth, screening 436 of it (the candidates
+with starts or grids, missing_mode, plate_flexibility(_free), channel_swap, channel_delay,
+nonlinear_stiffness, about three quarters; nonlinear_stiffness alone 172), the two full fits 166
+(their Jacobians, ~0.25 s each, and scipy's SVDs, ~0.11 s each); thesis 22.2 s = 791 worth, the
+pairs 381 (the partner search 170), screening 206, the four full fits 135. Targets (250 worth,
+3 s / 5 s) missed by 2.5-3x. What a sound method would still need: a cheaper continuation, not
+fewer heads (the heads are what keeps a stiffness's error convex); starts judged from one
+linearised Jacobian instead of a Jacobian and a step per start on the shortest head; the fits'
+trust-region steps from one QR factor; the cubic springs' columns at nominal as the linear
+structure's response to the cubic force of its nominal motion (first order, no nonlinear
+simulation per column).
 """
 
 from __future__ import annotations

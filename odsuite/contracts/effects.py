@@ -117,7 +117,10 @@ class Parameter:
     ``starts`` are values the screening tries besides the nominal (global starts for angles and
     frequencies, whose error surface has local minima). ``sensor`` names the one sensor whose
     prediction the parameter alone changes (a gain, a tilt): the screening's finite differences
-    then move the parameters of different sensors in one evaluation."""
+    then move the parameters of different sensors in one evaluation. ``ladder``: the starts are
+    magnitudes in increasing order away from the nominal (a hardening's decades), along which the
+    error falls towards the value the data hold and rises beyond it: the screening stops climbing
+    at the first start that raises the error."""
 
     name: str
     unit: str
@@ -130,6 +133,7 @@ class Parameter:
     plausible: tuple[float, float] | None = None
     starts: tuple[float, ...] | None = None
     sensor: str | None = None
+    ladder: bool = False
 
     def as_dict(self) -> dict:
         return {"name": self.name, "unit": self.unit, "nominal": self.nominal, "lower": self.lower,

@@ -503,6 +503,7 @@ def _sweep(problem: Problem, u: np.ndarray, exps, peaks_hz: Sequence[float]) -> 
         f = problem.free[i]
         p = f.param
         values = list(p.starts) + (list(peaks_hz) if p.unit == "Hz" else [])
+        last = best_sse  # a ladder's previous rung (Parameter.ladder)
         for c in values:
             if not p.lower <= c <= p.upper:
                 continue
@@ -511,6 +512,9 @@ def _sweep(problem: Problem, u: np.ndarray, exps, peaks_hz: Sequence[float]) -> 
             sse = float(np.sum(problem.residual(trial, exps) ** 2))
             if sse < best_sse:
                 best, best_sse = trial, sse
+            if p.ladder and sse > last:  # past the value the data hold: the higher rungs are worse
+                break
+            last = sse
     return best
 
 

@@ -160,7 +160,7 @@ class NonlinearStiffness(Effect):
         return groups
 
     def parameters(self, model):
-        return [Parameter(f"hardening_{g}", "1", 0.0, 0.0, 1000.0, starts=HARDENING_STARTS,
+        return [Parameter(f"hardening_{g}", "1", 0.0, 0.0, 1000.0, starts=HARDENING_STARTS, ladder=True,
                           description=f"relative stiffness rise of {g} at a {1e6 * HARDENING_REFERENCE_M:g} um deflection"
                           + (f" ({', '.join(n)})" if n != [g] else ""))
                 for g, n in self._groups(model).items()]
