@@ -304,11 +304,13 @@ def known_keys(where: str, table: dict[str, Any], known: tuple[str, ...], *, tab
     """Refuse a key ``table`` does not know, naming the nearest known one (a misspelt key would
     otherwise be ignored and its default used)."""
     for key in table:
-        near = difflib.get_close_matches(str(key), known, n=1)
-        # a plugin's own table passes, unless its name is a known key misspelt ([acquisiton])
-        if key in known or (tables_allowed and isinstance(table[key], dict)
-                            and not difflib.get_close_matches(str(key), known, n=1, cutoff=0.8)):
+        if key in known:  # the usual case first: matching every key costs a rig's load 10 ms
             continue
+        # a plugin's own table passes, unless its name is a known key misspelt ([acquisiton])
+        if tables_allowed and isinstance(table[key], dict) and not difflib.get_close_matches(
+                str(key), known, n=1, cutoff=0.8):
+            continue
+        near = difflib.get_close_matches(str(key), known, n=1)
         hint = f"; did you mean {near[0]!r}?" if near else f" (known: {', '.join(known)})"
         raise ConfigError(f"{where}: unknown field {key!r}{hint}")
 
