@@ -50,6 +50,13 @@ def test_the_collector_is_off_while_the_program_loads_and_on_when_its_command_ru
         gc.disable()  # a command that fails before it runs leaves the collector on as well
         assert main(["info", "no-such-file.h5"]) == 1
         assert gc.isenabled()
+        # a summary command (info, history, model) runs with it off to its end, then exits at once
+        ended = []
+        monkeypatch.setattr(app_module, "_SUMMARY", True)
+        monkeypatch.setattr(app_module, "_exit_now", lambda code: ended.append((code, gc.isenabled())))
+        gc.disable()
+        assert main(["info", "no-such-file.h5"]) == 1
+        assert ended == [(1, False)]
     finally:
         gc.unfreeze()
         gc.enable()
