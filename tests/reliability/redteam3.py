@@ -1429,34 +1429,46 @@ def table(results: list[Result]) -> str:
     return "\n".join(lines)
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m tests.reliability.redteam3", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--out", type=Path, required=True, help="folder for the tries and redteam3.json")
-    ap.add_argument("--only", help=f"run these groups of tries only (comma-separated: {', '.join(GROUPS)})")
-    ap.add_argument("--timeout", type=float, default=TIMEOUT, help="seconds per try before it is a hang")
+def selected(groups: dict, only: str | None) -> list[Case]:
+    """The tries of the comma-separated groups ``only`` (every group's when None)."""
+    names = None if only is None else {g.strip() for g in only.split(",")}
+    return [c for name, make in groups.items() if names is None or name in names for c in make()]
+
+
+def command_line(name: str, doc: str, groups: dict, argv: list[str] | None, *, failures=FAILURES,
+                 timeout: float = TIMEOUT, prepare=None) -> int:
+    """A red-team round's command line: run its groups' tries, print the table, write NAME.json;
+    exit 1 when a try ended in one of ``failures``. ``prepare(out)``: a master project the tries copy."""
+    ap = argparse.ArgumentParser(prog=f"python -m tests.reliability.{name}", description=doc.split("\n\n")[0])
+    ap.add_argument("--out", type=Path, required=True, help=f"folder for the tries and {name}.json")
+    ap.add_argument("--only", help=f"run these groups of tries only (comma-separated: {', '.join(groups)})")
+    ap.add_argument("--timeout", type=float, default=timeout, help="seconds per try before it is a hang")
     ap.add_argument("--jobs", type=int, default=2, help="tries run at once")
     ap.add_argument("--match", help="only tries whose label contains this text")
     args = ap.parse_args(argv)
-    only = [g.strip() for g in args.only.split(",")] if args.only else list(GROUPS)
-    unknown = [g for g in only if g not in GROUPS]
+    unknown = [g for g in (args.only or "").split(",") if g.strip() and g.strip() not in groups]
     if unknown:
-        ap.error(f"--only: unknown group(s) {', '.join(unknown)} (known: {', '.join(GROUPS)})")
-    cases = [c for g in only for c in GROUPS[g]()]
-    if args.match:
-        cases = [c for c in cases if args.match in c.label]
+        ap.error(f"--only: unknown group(s) {', '.join(unknown)} (known: {', '.join(groups)})")
+    cases = [c for c in selected(groups, args.only) if args.match is None or args.match in c.label]
+    print(f"{len(cases)} tries", flush=True)
 
     def progress(i, n, r):
-        print(f"[{i}/{n}] {r.outcome:15s} {r.seconds:6.1f} s  {r.group}: {r.label[:90]}", flush=True)
+        print(f"[{i}/{n}] {r.outcome:16s} {r.seconds:6.1f} s  {r.group}: {r.label[:90]}", flush=True)
 
     started = time.monotonic()
-    results = run(cases, args.out, args.timeout, args.jobs, progress)
+    extra = {} if prepare is None else {"master": prepare(args.out)}
+    results = run(cases, args.out, args.timeout, args.jobs, progress, **extra)
     print(table(results))
     print(f"{len(results)} tries in {time.monotonic() - started:.0f} s")
-    (args.out / "redteam3.json").write_text(json.dumps(
+    (args.out / f"{name}.json").write_text(json.dumps(
         {"timeout_s": args.timeout, "tries": [r.as_dict() for r in results],
          "counts": {g: dict(Counter(r.outcome for r in results if r.group == g)) for g in {r.group for r in results}}},
         indent=1, ensure_ascii=True))
-    return 0 if not any(r.outcome in FAILURES for r in results) else 1
+    return 0 if not any(r.outcome in failures for r in results) else 1
+
+
+def main(argv: list[str] | None = None) -> int:
+    return command_line("redteam3", __doc__, GROUPS, argv)
 
 
 if __name__ == "__main__":

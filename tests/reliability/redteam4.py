@@ -13,11 +13,8 @@ the table by group and outcome and writes ``DIR/redteam4.json``.
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
 import sys
-from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
 
@@ -311,30 +308,11 @@ GROUPS: dict[str, Callable[[], list[Case]]] = {
 
 
 def all_cases(only: str | None = None) -> list[Case]:
-    names = None if only is None else set(only.split(","))
-    return [c for name, make in GROUPS.items() if names is None or name in names for c in make()]
+    return rt.selected(GROUPS, only)
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, required=True)
-    ap.add_argument("--only", help=f"comma-separated groups ({', '.join(GROUPS)})")
-    ap.add_argument("--timeout", type=float, default=rt.TIMEOUT)
-    ap.add_argument("--jobs", type=int, default=2)
-    args = ap.parse_args(argv)
-    cases = all_cases(args.only)
-    print(f"{len(cases)} tries", flush=True)
-
-    def progress(i: int, n: int, r) -> None:
-        print(f"[{i}/{n}] {r.outcome:15s} {r.seconds:6.1f} s  {r.group}: {r.label[:90]}", flush=True)
-
-    results = rt.run(cases, args.out, timeout=args.timeout, jobs=args.jobs, progress=progress)
-    print(rt.table(results))
-    (args.out / "redteam4.json").write_text(json.dumps(
-        {"tries": [r.as_dict() for r in results],
-         "counts": {g: dict(Counter(r.outcome for r in results if r.group == g)) for g in {r.group for r in results}}},
-        indent=1))
-    return 0 if not any(r.outcome in rt.FAILURES for r in results) else 1
+    return rt.command_line("redteam4", __doc__, GROUPS, argv)
 
 
 if __name__ == "__main__":
