@@ -32,7 +32,8 @@ if _AS_PROGRAM:
     gc.disable()
 
 #: a command that reads and summarises, writing no file
-_SUMMARY = _AS_PROGRAM and sys.argv[1:2] in (["info"], ["history"], ["model"]) and "--figure" not in sys.argv
+_SUMMARY = (_AS_PROGRAM and sys.argv[1:2] in (["info"], ["history"], ["model"])
+            and not any(a.startswith("--figure") for a in sys.argv))
 
 if _SUMMARY:
     # numpy's OpenBLAS starts without worker threads (unless the user set a count), as a worker
