@@ -167,9 +167,13 @@ def projection_figure(
     pad = 0.04 * (hi - lo).max()
     lo, hi = lo - pad, hi + pad
     width, height = hi - lo
-    # the figure takes the content's shape (equal scales), the legend goes underneath
+    # two legend columns only while two labels fit the figure's width (else they are cut at its edges)
+    ncol = 2 if max(len(style["label"]) for _, style in drawn) <= 40 else 1
+    # the figure takes the content's shape (equal scales); the titles, the x label and the legend's
+    # rows underneath get their own room (a one-column legend of four rows pushed the title off)
     fig_w = 6.4
-    fig = _new_figure((fig_w, min(9.0, max(2.6, fig_w * height / width + 1.4))))
+    room = 1.0 + 0.17 * -(-len(drawn) // ncol)
+    fig = _new_figure((fig_w, min(9.0 + room, max(2.6, fig_w * height / width + room))))
     ax = fig.add_subplot()
     for xy, style in drawn:
         ax.plot(xy[:, 0], xy[:, 1], **style)
@@ -181,9 +185,7 @@ def projection_figure(
     ax.set_aspect("equal", adjustable="box")
     head = title or f"eye on {eye}, view angles {tuple(float(a) for a in view_angles)} deg"
     ax.set_title(f"{head}\n{magnification_words(magnify)}", fontsize=10)
-    # two columns only while two labels fit the figure's width (else they are cut at its edges)
-    longest = max(len(style["label"]) for _, style in drawn)
-    fig.legend(fontsize=8, loc="outside lower center", ncol=2 if longest <= 40 else 1, frameon=False)
+    fig.legend(fontsize=8, loc="outside lower center", ncol=ncol, frameon=False)
     return FigureResult(_save(fig, path, dpi), fig, tuple(int(i) for i in instants), magnify)
 
 

@@ -60,6 +60,22 @@ def test_projection_draws_table_4_2_polylines(thesis_rig, tmp_path):
     assert ax.get_title().endswith("motion drawn 3,000 times larger than it is")
 
 
+def test_a_flat_projection_keeps_its_title_inside_the_figure(thesis_rig, tmp_path):
+    """Seen side-on (no view angles) the thesis rig is 5 times wider than high, and its legend's
+    labels are too long for two columns: four rows under the drawing. The title (two lines) stays
+    inside the figure as saved (it was pushed above the top edge)."""
+    d = np.zeros((600, 6))
+    d[300:, 2] = 1e-6 * np.sin(np.linspace(0, 6, 300))
+    res = projection_figure(thesis_rig, {"platform": d}, 20000.0, tmp_path / "p.png", eye="x",
+                            magnify=(3000.0, 3000.0), instants=(250, 400))
+    fig, ax = res.figure, res.figure.axes[0]
+    assert len(fig.legends[0].get_texts()) == 4 and fig.legends[0]._ncols == 1
+    renderer = fig.canvas.get_renderer()
+    fig.draw(renderer)  # the layout as saved
+    title = ax.title.get_window_extent(renderer)
+    assert title.y0 >= 0 and title.y1 <= fig.bbox.height
+
+
 def test_projection_default_instants_use_the_force(thesis_rig, tmp_path):
     n, n0 = 800, 300
     d = np.zeros((n, 6))
