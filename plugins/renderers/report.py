@@ -645,13 +645,21 @@ def _modal_section(doc: Mapping[str, Any], figures: str = "") -> str:
 SAME_POINT_M = 1e-3
 
 
+#: a sensor measures along the force when its axis is within 60 degrees of the blow's line
+ALONG_FORCE_COS = 0.5
+
+
 def driving_point(exp) -> int:
     """The driving point (column of ``exp.sensors``): of the accelerometers nearest the force
-    point, the one whose axis lies closest to the force direction."""
+    point among those that measure along the force (any, when none does), the one whose axis lies
+    closest to the force direction. A z sensor beside an x blow sees little of it: its FRF is noise."""
+    along = np.array([0.0 if s.axis is None else abs(float(np.dot(s.axis, exp.direction))) for s in exp.sensors])
     dist = np.array([np.inf if s.position is None else float(np.linalg.norm(np.asarray(s.position) - exp.point))
                      for s in exp.sensors])
+    if np.isfinite(dist[along >= ALONG_FORCE_COS]).any():
+        dist = np.where(along >= ALONG_FORCE_COS, dist, np.inf)
     near = np.flatnonzero(dist <= dist.min() + SAME_POINT_M)
-    return int(max(near, key=lambda k: abs(float(np.dot(exp.sensors[k].axis, exp.direction)))))
+    return int(max(near, key=lambda k: along[k]))
 
 
 def _model_frf(project, exp, model, frf, outputs: Sequence[str]) -> dict[str, np.ndarray]:
