@@ -30,7 +30,9 @@ def rig_layout(rig: Rig, solvers) -> dict[str, Any]:
     springs = [{"name": s.name, "body": s.body, "other": s.other or "ground", "group": s.group,
                 "position_m": np.asarray(s.position).tolist(),
                 "stiffness_n_per_m": np.asarray(s.stiffness).tolist(),
-                "damping_n_s_per_m": np.asarray(s.damping).tolist()} for s in rig.springs]
+                "damping_n_s_per_m": np.asarray(s.damping).tolist(),
+                "rot_stiffness_n_m_per_rad": np.asarray(s.rot_stiffness).tolist(),
+                "rot_damping_n_m_s_per_rad": np.asarray(s.rot_damping).tolist()} for s in rig.springs]
     return {"name": rig.name, "bodies": bodies, "springs": springs,
             "force_channel": rig.force_channel, "channel_count": rig.channel_count}
 
