@@ -787,11 +787,13 @@ def _failures_section(doc: Mapping[str, Any], exps, preds: Mapping[str, np.ndarr
     from .figures import residual_spectra_figure
 
     names = list(doc["channels"])
-    per_channel = _table(["experiment", "all", *names],
-                         [[en, _fmt(d["error"]), *(_fmt(d["channels"].get(n)) for n in names)]
-                          for en, d in doc["experiments"].items()]
-                         + [["all", _fmt(doc["error"]), *(_fmt(doc["channels"][n]) for n in names)]],
-                         id="channel-errors", caption="error per experiment and channel (NRMSE, acceleration stage)")
+    # a row per channel, as `compare` prints it: a rig's 21 channels as columns ran off the page
+    experiments = doc["experiments"]
+    per_channel = _table(["channel", *experiments, "all"],
+                         [[n, *(_fmt(d["channels"].get(n)) for d in experiments.values()), _fmt(doc["channels"][n])]
+                          for n in names]
+                         + [["all", *(_fmt(d["error"]) for d in experiments.values()), _fmt(doc["error"])]],
+                         id="channel-errors", caption="error per channel and experiment (NRMSE, acceleration stage)")
     worst = _table(["kind", "name", "error (NRMSE)", "share of the residual"],
                    [[w["kind"], w["name"], _fmt(w["error"]),
                      f"{100 * w['residual_share']:.1f} %" if "residual_share" in w else "–"] for w in doc["worst"]],

@@ -125,14 +125,16 @@ def test_report_numbers_are_compares(story):
     assert cmp["error"] < 0.05 and added["previous_error"] > 0.5
     assert page.text["error"] == f"{cmp['error']:.4f}"
     assert page.text["noise-floor"] == f"{cmp['noise_floor_error']:.4f}"
-    rows = page.tables["channel-errors"]
-    names = rows[0][2:]
-    assert names == list(cmp["channels"])
+    rows = page.tables["channel-errors"]  # a row per channel, a column per experiment, then all
+    experiments = rows[0][1:-1]
+    assert experiments == list(cmp["experiments"]) and rows[0][-1] == "all"
+    assert [r[0] for r in rows[1:]] == [*cmp["channels"], "all"]
     for row in rows[1:]:
-        d = cmp if row[0] == "all" else cmp["experiments"][row[0]]
-        chans = cmp["channels"] if row[0] == "all" else d["channels"]
-        assert row[1] == f"{d['error']:.4f}"
-        assert row[2:] == [f"{chans[n]:.4f}" for n in names]
+        if row[0] == "all":
+            assert row[1:] == [f"{cmp['experiments'][e]['error']:.4f}" for e in experiments] + [f"{cmp['error']:.4f}"]
+        else:
+            assert row[1:] == [f"{cmp['experiments'][e]['channels'][row[0]]:.4f}" for e in experiments] + [
+                f"{cmp['channels'][row[0]]:.4f}"]
     assert [r[0] for r in page.tables["experiments"][1:]] == ["T1", "T3", "T5"]
     worst = page.tables["worst"][1:]
     assert [(r[0], r[1], r[2]) for r in worst] == [(w["kind"], w["name"], f"{w['error']:.4f}") for w in cmp["worst"]]
