@@ -22,6 +22,11 @@ except ImportError:
 from odsuite.domain.errors import ConfigError
 
 
+#: derived kinds no comparison reads: the FRFs `frf` and `modes` store again at every run (that
+#: dropped every revision's stored error and the kept diagnosis, as if the records had changed)
+NOT_COMPARED = frozenset({"frf"})
+
+
 def data_stamp(project) -> str:
     """A fingerprint of the records a comparison reads: each experiment's identity and that of its
     derived data (a record re-acquired, re-processed, added or deleted changes it)."""
@@ -30,6 +35,8 @@ def data_stamp(project) -> str:
         record, derived = project.object_ids(name)
         h.update(f"{name}\0{record}\0".encode())
         for kind, object_id in derived.items():
+            if kind in NOT_COMPARED:
+                continue
             h.update(f"{kind}\0{object_id}\0".encode())
     return h.hexdigest()[:16]
 

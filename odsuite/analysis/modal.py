@@ -614,7 +614,7 @@ def identify_modes(
         lo, hi = data_lo if lo is None else lo, data_hi if hi is None else hi
     keep = (freq >= lo) & (freq <= hi) & (freq > 0)
     if keep.sum() <= max_order:
-        raise ConfigError(f"band {lo}..{hi} Hz holds {keep.sum()} lines; model order {max_order} needs more")
+        raise ConfigError(f"band {lo:.4g}-{hi:.4g} Hz holds {keep.sum()} lines; model order {max_order} needs more")
     f, h = freq[keep], H[:, keep]
     diagram, poles, stable_orders = nested_fits(f, h, max_order, frequencies)
     rejected: list[str] = []
@@ -634,7 +634,7 @@ def identify_modes(
         rejected.append(f"{abs(poles[worst]) / (2 * np.pi):.2f} Hz: {why}")
         poles, stable_orders = np.delete(poles, worst), np.delete(stable_orders, worst)
     if poles.size == 0:
-        raise ConfigError(f"no stable poles found in {lo:g}..{hi:g} Hz up to model order {max_order}"
+        raise ConfigError(f"no stable poles found in {lo:.4g}-{hi:.4g} Hz up to model order {max_order}"
                           + (f" ({'; '.join(rejected)})" if rejected else ""))
     res = lsfd(f, h, poles, form=form)
     if window_tau is not None:

@@ -310,8 +310,17 @@ def ods_cmd(
                       f"{res.coherence[name]:.3f}")
     console.print(table)
     for body, d in res.coordinates.items():
-        parts = [f"{c} {abs(v):.3g} {u} ∠{np.degrees(np.angle(v)):+.0f}°"
+        parts = [f"{c} {_small(abs(v), u)} ∠{np.degrees(np.angle(v)):+.0f}°"
                  for c, v, u in zip(COORDINATES, d, COORDINATE_UNITS)]
         console.print(f"{shown(body)} at G (rms displacement): " + ", ".join(parts), highlight=False, soft_wrap=True)
     if rendered is not None:
         console.print(f"wrote {rendered.path} ({rendered.summary})", highlight=False, soft_wrap=True)
+
+
+def _small(value: float, unit: str) -> str:
+    """A small amplitude as an engineer writes it: 36 nm, 4.41 µrad, 1.2 mm (not 3.6e-08 m)."""
+    for factor, prefix in ((1.0, ""), (1e-3, "m"), (1e-6, "µ")):
+        if value >= factor:
+            return f"{value / factor:.3g} {prefix}{unit}"
+    return f"{value / 1e-9:.3g} n{unit}"
+

@@ -154,6 +154,13 @@ def _print_rig_layout(layout: dict) -> None:
             rows.append([s["name"], f"{s['body']} - {s['other']}", ", ".join(f"{1e3 * v:.4g}" for v in s["position_m"]),
                          ", ".join(f"{v / 1e3:.4g}" for v in k), ", ".join(f"{v:.4g}" for v in c)])
         print(text_table("springs", ["spring", "between", "at (mm)", "k x, y, z (kN/m)", "c x, y, z (N s/m)"], rows))
+        # on the relative rotation (a pad's shear resists a roll two springs on one line cannot)
+        rows = [[s["name"], ", ".join(f"{v / 1e3:.4g}" for v in s["rot_stiffness_n_m_per_rad"]),
+                 ", ".join(f"{v:.4g}" for v in s["rot_damping_n_m_s_per_rad"])]
+                for s in layout["springs"] if any(s["rot_stiffness_n_m_per_rad"]) or any(s["rot_damping_n_m_s_per_rad"])]
+        if rows:
+            print(text_table("springs on the relative rotation", ["spring", "k θ, φ, ψ (kN m/rad)",
+                                                                  "c θ, φ, ψ (N m s/rad)"], rows))
 
 
 @app.command("model")

@@ -30,7 +30,9 @@ def rig_layout(rig: Rig, solvers) -> dict[str, Any]:
     springs = [{"name": s.name, "body": s.body, "other": s.other or "ground", "group": s.group,
                 "position_m": np.asarray(s.position).tolist(),
                 "stiffness_n_per_m": np.asarray(s.stiffness).tolist(),
-                "damping_n_s_per_m": np.asarray(s.damping).tolist()} for s in rig.springs]
+                "damping_n_s_per_m": np.asarray(s.damping).tolist(),
+                "rot_stiffness_n_m_per_rad": np.asarray(s.rot_stiffness).tolist(),
+                "rot_damping_n_m_s_per_rad": np.asarray(s.rot_damping).tolist()} for s in rig.springs]
     return {"name": rig.name, "bodies": bodies, "springs": springs,
             "force_channel": rig.force_channel, "channel_count": rig.channel_count}
 
@@ -49,18 +51,24 @@ def far_from_bodies(rig: Rig) -> list[str]:
         d = float(np.linalg.norm(np.maximum(0.0, np.maximum(lo - point, point - hi))))
         return d if d > float(np.max(plate.size)) else None
 
+    where = f"rig {rig.name!r}" + (f" ({rig.source})" if rig.source else "")
+
     def line(what: str, body: str, point, d: float) -> str:
         p = ", ".join(f"{1e3 * v:.6g}" for v in np.asarray(point, float))
-        return (f"rig {rig.name!r}: {what} at ({p}) mm is {d:.3g} m from the plate of body {body!r}: "
-                "positions are in m")
+        return f"{where}: {what} at ({p}) mm is {d:.3g} m from the plate of body {body!r}: positions are in m"
 
     out = []
     for b in rig.bodies:
         if (d := gap(b.name, np.asarray(b.com, float))) is not None:
             out.append(line(f"body {b.name!r} field 'com'", b.name, b.com, d))
+    entries: dict[str, list] = {}  # a triaxial accelerometer's axes share one [[sensors]] entry: one line
     for s in rig.sensors:
         if s.body is not None and s.position is not None and (d := gap(s.body, np.asarray(s.position, float))):
-            out.append(line(f"sensor {s.name!r} field 'position'", s.body, s.position, d))
+            entries.setdefault(s.group or s.name, []).append((s, d))
+    for entry, axes in entries.items():
+        s, d = axes[0]
+        named = repr(s.name) if len(axes) == 1 else f"{entry!r} ({', '.join(a.name for a, _ in axes)})"
+        out.append(line(f"sensor {named} field 'position'", s.body, s.position, d))
     for sp in rig.springs:
         gaps = [gap(b, np.asarray(sp.position, float)) for b in (sp.body, sp.other) if b is not None]
         if gaps and all(g is not None for g in gaps):  # near one of its two bodies is enough

@@ -141,6 +141,9 @@ def _resolve_rig(rig: Rig | str | Path | None, regs) -> Rig | None:
         rig_file = False
     if rig_file:
         loaded = load_rig(rig, regs.sensor_types)
+        if not loaded.bodies:  # nothing to place sensors on, model or draw ('none' is the rig-less project)
+            raise ConfigError(f"{rig}: field 'bodies': no [[bodies]] table; a rig needs at least one body "
+                              "(a project without geometry: --rig none)")
         check_asked_solvers(loaded, regs.coordinate_solvers)
         if loaded.default_model is not None and loaded.default_model not in regs.models:
             raise ConfigError(f"{rig}: field 'default_model': no model named {loaded.default_model!r} "

@@ -167,6 +167,19 @@ def _delimiter(text: str) -> str:
     return ";" if ";" in header else "\t" if "\t" in header else ","
 
 
+_SEPARATOR_WORDS = {",": "commas", ";": "semicolons", "\t": "tabs"}
+
+
+def _field_count_message(where: str, line: int, fields: int, header_fields: int, delimiter: str) -> str:
+    """A row whose field count differs from the header's, naming the separator both were split by
+    (the header chose it: a header without any separator is the usual cause)."""
+    counted = f"{fields} field{'s' if fields != 1 else ''} separated by {_SEPARATOR_WORDS[delimiter]}"
+    if header_fields == 1:
+        return (f"{where}: line {line}: {counted}, the header has 1 (it holds no comma, semicolon or tab: "
+                "separate its names as the data are)")
+    return f"{where}: line {line}: {counted} (the header's separator), the header has {header_fields}"
+
+
 _DECIMAL_COMMA = re.compile(r"[+-]?[0-9]*,[0-9]+([eE][+-]?[0-9]+)?")
 
 
@@ -200,7 +213,7 @@ def read_csv_columns(file: Path, explicit: dict) -> Columns:
     values = []
     for line, r in enumerate(rows[1:], start=2):
         if len(r) != len(header):
-            raise DimensionError(f"{where}: line {line}: {len(r)} fields, the header has {len(header)}")
+            raise DimensionError(_field_count_message(where, line, len(r), len(header), delimiter))
         row = []
         for c, v in zip(names, r):
             try:

@@ -49,6 +49,8 @@ def screen_axes(eye: str, up: Sequence[float] = THESIS_UP) -> tuple[np.ndarray, 
 INITIAL_LEAD = 50
 #: Still plates, one (grey, line style) each so two of them can be told apart in print.
 STILL_GREYS = (("0.35", "-"), ("0.6", "--"), ("0.75", ":"))
+#: A moving body drawn at rest because its sensors give it no coordinates: not a still plate.
+UNMEASURED_STYLE = ("tab:brown", ":")
 
 
 @dataclass(frozen=True)
@@ -147,14 +149,21 @@ def projection_figure(
         if not 0 <= i < n:
             raise ConfigError(f"instants: sample {i} outside the record of {n} samples")
     drawn = []  # (xy, style) so the axes can be fitted to the content before drawing
-    greys = iter(STILL_GREYS)
+    # a still plate's style is its own (its place among the massless bodies), the same in every figure
+    # of the rig whichever moving bodies have coordinates
+    still = [b.name for b in rig.bodies if b.mass is None]
     for body in rig.bodies:
         if body.plate is None:
             continue
         if body.name not in coords:
             xy = project(plate_corners(body.plate)[list(PLOT_INDEX)], eye, view_angles, rig.up) * 1e3
-            colour, ls = next(greys, STILL_GREYS[-1])
-            drawn.append((xy, dict(ls=ls, color=colour, lw=1.0, label=f"{body.name} (does not move)")))
+            if body.mass is None:
+                colour, ls = STILL_GREYS[min(still.index(body.name), len(STILL_GREYS) - 1)]
+                label = f"{body.name} (does not move)"
+            else:
+                colour, ls = UNMEASURED_STYLE
+                label = f"{body.name} at rest (moves; its sensors give no coordinates)"
+            drawn.append((xy, dict(ls=ls, color=colour, lw=1.0, label=label)))
             continue
         d = coords[body.name][list(instants)]
         poly = corners(body, d, magnify)[:, list(PLOT_INDEX)]

@@ -645,13 +645,21 @@ def _modal_section(doc: Mapping[str, Any], figures: str = "") -> str:
 SAME_POINT_M = 1e-3
 
 
+#: a sensor measures along the force when its axis is within 60 degrees of the blow's line
+ALONG_FORCE_COS = 0.5
+
+
 def driving_point(exp) -> int:
     """The driving point (column of ``exp.sensors``): of the accelerometers nearest the force
-    point, the one whose axis lies closest to the force direction."""
+    point among those that measure along the force (any, when none does), the one whose axis lies
+    closest to the force direction. A z sensor beside an x blow sees little of it: its FRF is noise."""
+    along = np.array([0.0 if s.axis is None else abs(float(np.dot(s.axis, exp.direction))) for s in exp.sensors])
     dist = np.array([np.inf if s.position is None else float(np.linalg.norm(np.asarray(s.position) - exp.point))
                      for s in exp.sensors])
+    if np.isfinite(dist[along >= ALONG_FORCE_COS]).any():
+        dist = np.where(along >= ALONG_FORCE_COS, dist, np.inf)
     near = np.flatnonzero(dist <= dist.min() + SAME_POINT_M)
-    return int(max(near, key=lambda k: abs(float(np.dot(exp.sensors[k].axis, exp.direction)))))
+    return int(max(near, key=lambda k: along[k]))
 
 
 def _model_frf(project, exp, model, frf, outputs: Sequence[str]) -> dict[str, np.ndarray]:
@@ -779,11 +787,13 @@ def _failures_section(doc: Mapping[str, Any], exps, preds: Mapping[str, np.ndarr
     from .figures import residual_spectra_figure
 
     names = list(doc["channels"])
-    per_channel = _table(["experiment", "all", *names],
-                         [[en, _fmt(d["error"]), *(_fmt(d["channels"].get(n)) for n in names)]
-                          for en, d in doc["experiments"].items()]
-                         + [["all", _fmt(doc["error"]), *(_fmt(doc["channels"][n]) for n in names)]],
-                         id="channel-errors", caption="error per experiment and channel (NRMSE, acceleration stage)")
+    # a row per channel, as `compare` prints it: a rig's 21 channels as columns ran off the page
+    experiments = doc["experiments"]
+    per_channel = _table(["channel", *experiments, "all"],
+                         [[n, *(_fmt(d["channels"].get(n)) for d in experiments.values()), _fmt(doc["channels"][n])]
+                          for n in names]
+                         + [["all", *(_fmt(d["error"]) for d in experiments.values()), _fmt(doc["error"])]],
+                         id="channel-errors", caption="error per channel and experiment (NRMSE, acceleration stage)")
     worst = _table(["kind", "name", "error (NRMSE)", "share of the residual"],
                    [[w["kind"], w["name"], _fmt(w["error"]),
                      f"{100 * w['residual_share']:.1f} %" if "residual_share" in w else "–"] for w in doc["worst"]],

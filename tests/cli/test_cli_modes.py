@@ -186,3 +186,28 @@ def test_palisaden_modes_agree_with_pyoma2_where_both_find_one(palisaden, capsys
     assert np.all(np.abs(dz) <= 3 * np.hypot([m["damping_std"] for m in ours], PEER_ZETA_STD))
     phi = np.array([[complex(*m["shape"][f"ch{c + 1}"]) for c in range(6)] for m in ours]).T
     assert np.diag(mac(phi, PEER_SHAPE.T)).min() >= 0.95
+
+def test_ods_prints_the_bodies_motion_with_a_prefix(tmp_path, capsys):
+    """The coordinates' rms amplitudes read as an engineer writes them (36 nm, 1.13 µrad), each
+    the JSON document's number; they printed as 3.6e-08 m."""
+    import json
+    import re
+
+    p = tmp_path / "p.h5"
+    for argv in (["new", p], ["acquire", p, "--daq", "sim", "--name", "s1", "--scenario", "T1", "--samples", "2048"],
+                 ["process", p]):
+        assert main([str(a) for a in argv]) == 0
+    capsys.readouterr()
+    ods = ["ods", str(p), "s1", "--reference", "zC", "--at", "100"]
+    assert main(ods + ["--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert main(ods) == 0
+    line = next(t for t in capsys.readouterr().out.splitlines() if t.startswith("platform at G"))
+    scale = {"m": 1.0, "mm": 1e-3, "µm": 1e-6, "nm": 1e-9, "rad": 1.0, "mrad": 1e-3, "µrad": 1e-6, "nrad": 1e-9}
+    printed = dict((c, (float(v), u)) for c, v, u in re.findall(r"(\w+) ([0-9.]+) (\S+) ∠", line))
+    assert set(printed) == {"x", "y", "z", "theta", "phi", "psi"}
+    for c, (value, unit) in printed.items():
+        assert 1 <= value < 1000 or unit in ("nm", "nrad", "m", "rad")
+        assert unit.endswith(doc["coordinate_units"][c]) and not re.search(r"\de[-+]", line)
+        exact = abs(complex(*doc["coordinates"]["platform"][c]))
+        assert value * scale[unit] == pytest.approx(exact, rel=6e-3)

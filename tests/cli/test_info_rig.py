@@ -47,3 +47,24 @@ def test_a_body_its_sensors_cannot_solve_is_said(capsys, tmp_path):
     bodies = {b["name"]: b for b in json.loads(run(capsys, "info", p, "--json"))["rig_layout"]["bodies"]}
     assert bodies["machine"]["solver"] is None and "machine" in bodies["machine"]["solver_problem"]
     assert bodies["base"]["solver"] == "least-squares" and len(bodies["base"]["sensors"]) == 15
+
+
+def test_info_lists_the_springs_rotational_stiffness(capsys, tmp_path):
+    """The three-body stand's two isolators resist the roll about the line joining them only by
+    their rotational stiffness (30 kN m/rad each): `info` shows it, and only for springs that have
+    one (it showed none, as if the rig rolled freely)."""
+    rig = Path(__file__).resolve().parents[1] / "data" / "rigs" / "three-body-stand.toml"
+    p = tmp_path / "p.h5"
+    run(capsys, "new", p, "--rig", rig)
+    springs = {s["name"]: s for s in json.loads(run(capsys, "info", p, "--json"))["rig_layout"]["springs"]}
+    assert springs["iso_left"]["rot_stiffness_n_m_per_rad"] == [3e4, 3e4, 3e4]
+    assert springs["iso_right"]["rot_damping_n_m_s_per_rad"] == [10.0, 10.0, 10.0]
+    assert springs["ped_1"]["rot_stiffness_n_m_per_rad"] == [0.0, 0.0, 0.0]
+    text = run(capsys, "info", p)
+    table = text[text.index("springs on the relative rotation"):]
+    rows = [line.split()[0] for line in table.splitlines()[3:] if line.strip()]
+    assert rows[:2] == ["iso_left", "iso_right"] and "ped_1" not in rows
+    assert "iso_left   30, 30, 30" in table
+    p2 = tmp_path / "q.h5"
+    run(capsys, "new", p2, "--rig", RIG_FILE)
+    assert "relative rotation" not in run(capsys, "info", p2)

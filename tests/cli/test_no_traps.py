@@ -250,6 +250,10 @@ def test_history_figure_says_what_it_wrote(capsys, project, tmp_path):
      "sensor 'top_z' field 'position' at (-50000, -30000, 77000) mm is 96.5 m from the plate of body 'block'"),
     ("spring", "position = [0.05, 0.0, 0.0]", "position = [50.0, 0.0, 0.0]",
      "spring 'foot_c' field 'position' at (50000, 0, 0) mm is 49.9 m from the plate of body 'block'"),
+    # one [[sensors]] entry, one line (its three axes gave three)
+    ("triaxial", "position = [0.05, 0.03, 0.077]", "position = [50.0, 30.0, 77.0]",
+     "sensor 'tri' (tri_x, tri_y, tri_z) field 'position' at (50000, 30000, 77000) mm is 96.5 m from the plate of "
+     "body 'block'"),
 ])
 def test_new_warns_of_a_position_given_in_mm(capsys, tmp_path, field, old, new, words):
     """A 2 kg block on three feet, one triaxial and two single-axis accelerometers: a length in mm
@@ -259,7 +263,7 @@ def test_new_warns_of_a_position_given_in_mm(capsys, tmp_path, field, old, new, 
     (tmp_path / "r.toml").write_text(rig)
     code, _, err = run(capsys, "new", tmp_path / "p.h5", "--rig", tmp_path / "r.toml")
     warned = [ln for ln in err.splitlines() if "from the plate" in ln]
-    assert code == 0 and warned == [f"warning: rig 'block-on-feet': {words}: positions are in m"], err
+    assert code == 0 and warned == [f"warning: rig 'block-on-feet' ({tmp_path / 'r.toml'}): {words}: positions are in m"], err
     (tmp_path / "p.h5").unlink()
     tmp_path.joinpath("ok.toml").write_text(BLOCK_ON_FEET)
     code, _, err = run(capsys, "new", tmp_path / "p.h5", "--rig", tmp_path / "ok.toml")

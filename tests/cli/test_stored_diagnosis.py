@@ -126,3 +126,23 @@ def test_the_report_shows_the_kept_diagnosis_and_diagnoses_when_there_is_none(pr
     assert doc["baseline_error"] == 0.125 and "kept with revision 0" in source
     html = _candidates_section(doc, 0, notes, source)
     assert "kept with revision 0" in html and "stiffness" in html and "0.1250" in html
+
+
+def test_the_kept_diagnosis_outlives_an_frf_run(project, capsys, monkeypatch):
+    """`frf` and `modes` store the record's FRFs again at every run; no comparison reads them, so
+    the kept diagnosis (and the revision's stored error) still hold afterwards."""
+    import odsuite.diagnosis.diagnose as diagnosis
+
+    monkeypatch.setattr(diagnosis, "diagnose", lambda p, **kw: _Doc(p.current_revision))
+    _run("diagnose", project, "--json")
+    with open_project(project) as p:
+        before = data_stamp(p)
+        assert stored_diagnosis(p, 0) is not None
+    _run("frf", project, "--experiment", "T1")
+    _run("frf", project, "--experiment", "T1")
+    with open_project(project) as p:
+        assert "frf" in p.derived_kinds("T1")
+        assert data_stamp(p) == before and stored_diagnosis(p, 0) is not None
+    _run("process", project)  # the records processed again: it no longer holds
+    with open_project(project) as p:
+        assert data_stamp(p) != before and stored_diagnosis(p, 0) is None

@@ -283,3 +283,14 @@ def test_lscf_normal_matrices_equal_the_direct_products():
     for s, h in zip(S, H):
         assert s == pytest.approx(-(X.conj().T @ (h[:, None] * X)).real, abs=1e-9)
     assert T == pytest.approx(sum((X.conj().T @ ((np.abs(h) ** 2)[:, None] * X)).real for h in H), abs=1e-9)
+
+
+def test_a_band_without_modes_is_named_in_readable_hertz():
+    """The band of a refusal reads as an engineer writes it (it printed 1.31993..1878.26 Hz)."""
+    f = np.linspace(0, 1000.0, 2001)
+    rng = np.random.default_rng(0)
+    noise = rng.normal(size=(3, f.size)) + 1j * rng.normal(size=(3, f.size))
+    with pytest.raises(ConfigError, match=r"^no stable poles found in 1\.235-876\.5 Hz up to model order 20$"):
+        identify_modes(f, noise, f_band=(1.23456, 876.54321), max_order=20)
+    with pytest.raises(ConfigError, match=r"^band 1\.235-5\.432 Hz holds 8 lines; model order 20 needs more$"):
+        identify_modes(f, noise, f_band=(1.23456, 5.4321), max_order=20)

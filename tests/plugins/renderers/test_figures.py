@@ -249,3 +249,29 @@ def test_overlay_and_residual_figures_draw_every_moving_body(figure, tmp_path, m
     np.testing.assert_array_equal(seen["measured"][:, j], coords["machine"][:, 3])
     np.testing.assert_array_equal(seen["model"][:, j], model["machine"][:, 3])
     assert seen["units"][j] == "rad" and "base, machine" in seen["title"]
+
+
+def test_a_still_plate_keeps_its_style_whichever_bodies_have_coordinates(tmp_path):
+    """The two-body machine's floor (no mass) is drawn alike whether or not the machine has
+    coordinates; a machine without them is drawn at rest, not called still (it took the floor's
+    solid grey and the floor became dashed, as if the styles had swapped between two figures)."""
+    from pathlib import Path
+
+    from odsuite.contracts.plugins import registries
+    from odsuite.domain.rig import load_rig
+
+    rig = load_rig(Path(__file__).parents[3] / "projects" / "rigs" / "two-body-machine.toml",
+                   registries().sensor_types)
+    d = np.zeros((600, 6))
+    d[300:, 2] = 1e-6 * np.sin(np.linspace(0, 6, 300))
+    styles = []
+    for bodies in (("base", "machine"), ("base",)):
+        res = projection_figure(rig, {b: d for b in bodies}, 5120.0, tmp_path / f"{len(bodies)}.png",
+                                magnify=(3000.0, 3000.0), instants=(250, 400))
+        lines = {ln.get_label(): ln for ln in res.figure.axes[0].lines}
+        floor = lines["floor (does not move)"]
+        styles.append((floor.get_color(), floor.get_linestyle()))
+        machine = [name for name in lines if name.startswith("machine")]
+        if "machine" not in bodies:
+            assert machine == ["machine at rest (moves; its sensors give no coordinates)"]
+    assert styles[0] == styles[1]

@@ -125,14 +125,16 @@ def test_report_numbers_are_compares(story):
     assert cmp["error"] < 0.05 and added["previous_error"] > 0.5
     assert page.text["error"] == f"{cmp['error']:.4f}"
     assert page.text["noise-floor"] == f"{cmp['noise_floor_error']:.4f}"
-    rows = page.tables["channel-errors"]
-    names = rows[0][2:]
-    assert names == list(cmp["channels"])
+    rows = page.tables["channel-errors"]  # a row per channel, a column per experiment, then all
+    experiments = rows[0][1:-1]
+    assert experiments == list(cmp["experiments"]) and rows[0][-1] == "all"
+    assert [r[0] for r in rows[1:]] == [*cmp["channels"], "all"]
     for row in rows[1:]:
-        d = cmp if row[0] == "all" else cmp["experiments"][row[0]]
-        chans = cmp["channels"] if row[0] == "all" else d["channels"]
-        assert row[1] == f"{d['error']:.4f}"
-        assert row[2:] == [f"{chans[n]:.4f}" for n in names]
+        if row[0] == "all":
+            assert row[1:] == [f"{cmp['experiments'][e]['error']:.4f}" for e in experiments] + [f"{cmp['error']:.4f}"]
+        else:
+            assert row[1:] == [f"{cmp['experiments'][e]['channels'][row[0]]:.4f}" for e in experiments] + [
+                f"{cmp['channels'][row[0]]:.4f}"]
     assert [r[0] for r in page.tables["experiments"][1:]] == ["T1", "T3", "T5"]
     worst = page.tables["worst"][1:]
     assert [(r[0], r[1], r[2]) for r in worst] == [(w["kind"], w["name"], f"{w['error']:.4f}") for w in cmp["worst"]]
@@ -347,11 +349,13 @@ def test_report_draws_each_records_frf_and_mac(story, tmp_path, monkeypatch):
         cmp = compare(p)
         rig = p.rig
         # the driving point, found independently: of the sensors at the point nearest each record's
-        # force point (a corner's three axes), the one along the hammer's direction
+        # force point (a corner's three axes) among those within 60 degrees of the blow's line (any,
+        # when none is), the one along the hammer's direction
         nearest = {}
         for name in p.experiment_names():
             exc = p.experiment(name).excitation
             sensors = [s for s in rig.sensors if s.position is not None]
+            sensors = [s for s in sensors if abs(np.dot(s.axis, exc.direction)) >= 0.5] or sensors
             d = min(np.linalg.norm(s.position - exc.point) for s in sensors)
             corner = [s for s in sensors if np.linalg.norm(s.position - exc.point) <= d + 1e-3]
             nearest[name] = max(corner, key=lambda s: abs(np.dot(s.axis, exc.direction))).name
@@ -527,3 +531,25 @@ def test_a_movie_shorter_than_its_frame_count_gets_its_last_frame_as_poster(tmp_
     # where the frame a third of the way in exists, it is the one shown
     poster = _poster(tmp_path / "m.mp4", 3, tmp_path / "poster2.png")
     assert abs(np.asarray(Image.open(poster)).mean() - levels[1]) < 6
+
+
+def test_the_driving_point_measures_along_the_blow():
+    """A blow along -x at a frame's end: the single-axis z sensor 0.12 m away is nearer than the
+    triaxial sensor 0.21 m away, but sees little of the blow; the driving point is the triaxial's x
+    axis (the report drew the z sensor's FRF, which was noise). Without any sensor along the blow,
+    the nearest one is kept."""
+    from types import SimpleNamespace
+
+    from odsuite_plugins.renderers.report import driving_point
+
+    def sensor(position, axis):
+        return SimpleNamespace(position=np.array(position), axis=np.array(axis, float))
+
+    triaxial = [sensor([0.95, -0.15, 0.17], a) for a in np.eye(3)]
+    z_near = sensor([0.95, 0.15, 0.17], [0, 0, 1])
+    point, direction = np.array([1.0, 0.05, 0.11]), np.array([-1.0, 0.0, 0.0])
+    exp = SimpleNamespace(sensors=[z_near, *triaxial], point=point, direction=direction)
+    assert np.linalg.norm(z_near.position - point) < np.linalg.norm(triaxial[0].position - point)
+    assert driving_point(exp) == 1  # the triaxial's x axis
+    sideways = SimpleNamespace(sensors=[z_near, triaxial[1]], point=point, direction=direction)
+    assert driving_point(sideways) == 0

@@ -160,3 +160,28 @@ def test_scale_bar_is_a_round_amount_of_motion_a_tenth_of_the_plate_long():
         assert 1 / np.sqrt(2.5) <= drawn / (0.1 * scale) <= np.sqrt(2.5)
     assert scale_bar_length(0.6, 3828.0)[0] == pytest.approx(2e-5) and _mm(2e-5) == "0.02 mm"
     assert _spot_label(["P1_x", "P1_y", "P1_z"]) == "P1_xyz" and _spot_label(["a", "b"]) == "a b"
+
+
+def test_the_hammer_arrow_is_sized_by_the_body_it_hits(registries):
+    """On the three-body stand (a 2 m frame, a 0.3 m head on top) a blow on the head draws an arrow
+    half the head's plate long (0.2 m: a tenth of the frame at least), not half the frame's (1 m,
+    which ran out of the picture through the title); on the thesis platform it stays half its plate."""
+    from pathlib import Path
+
+    from odsuite.domain.rig import load_rig
+    from odsuite_plugins.renderers.scene import Hammer, Scene
+
+    rig = load_rig(Path(__file__).resolve().parents[2] / "data" / "rigs" / "three-body-stand.toml",
+                   registries.sensor_types)
+    lengths = {}
+    for name, point in (("head", [0.05, 0.04, 0.67]), ("frame", [-0.9, 0.0, 0.17])):
+        coords = {b: np.zeros((2, 6)) for b in ("frame", "pedestal", "head")}
+        hammer = Hammer(name, np.array(point), np.array([0.0, 0.0, -1.0]), np.array([0.0, 10.0]))
+        scene = Scene(rig, coords, axes=False, ghost=False, hammer=hammer, size=(320, 240))
+        try:
+            arrow = next(series for _, series in scene._moving if series.shape[1:] == (4, 3))
+        finally:
+            scene.close()
+        np.testing.assert_allclose(arrow[0, 1], point)  # the tip on the force point
+        lengths[name] = float(np.linalg.norm(arrow[0, 0] - arrow[0, 1]))
+    assert lengths["head"] == pytest.approx(0.2) and lengths["frame"] == pytest.approx(1.0)
