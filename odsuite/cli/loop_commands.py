@@ -165,7 +165,7 @@ def add_effect_cmd(
 ) -> None:
     """Fit an effect together with the current ones and store a new model revision."""
     from odsuite.diagnosis.add_effect import add_effect
-    from odsuite.diagnosis.physical import text as physical_text
+    from odsuite.diagnosis.physical import moved, text as physical_text
     from odsuite.store.project import open_project
 
     with open_project(project, "a") as p, _loop_progress() as bar:
@@ -178,8 +178,11 @@ def add_effect_cmd(
     console.print(f"revision {result['revision']}: + {effect}; error {result['previous_error']:.4f} -> "
                   f"{result['error']:.4f} (noise floor {result['noise_floor_error']:.4f})", highlight=False)
     rows = next((e.get("physical") for e in reversed(result["effects"]) if e["effect"] == effect), None)
-    if rows:  # the quantities stored, as stored
-        console.print(f"{effect}: {shown(physical_text(rows))}", highlight=False)
+    if rows:  # the quantities that moved most, as stored; all of them in `odsuite model`
+        most = moved(rows, limit=6)
+        rest = len(rows) - len(most)
+        more = f" ({rest} more, moved less: `odsuite model {project}`)" if rest else ""
+        console.print(f"{effect}: {shown(physical_text(most))}{more}", highlight=False)
     for line in result["warnings"]:
         err_console.print(f"warning: {shown(line)}", highlight=False, soft_wrap=True)
 

@@ -203,11 +203,10 @@ def model_cmd(
 
 
 def _engineering(value: float, sd: float | None, nominal: float | None, unit: str) -> list[str]:
-    """Value, standard deviation and the rig's value as text in one unit, forces per unit in kN or MN
-    where that reads shorter (2.62e+05 N/m as 262 kN/m)."""
-    scale, shown_unit = 1.0, unit
-    if unit.startswith("N") and abs(value) >= 1e4:
-        scale, shown_unit = (1e6, "M" + unit) if abs(value) >= 1e7 else (1e3, "k" + unit)
+    """Value, standard deviation and the rig's value as text in one unit (physical.engineering_unit)."""
+    from odsuite.diagnosis.physical import engineering_unit
+
+    scale, shown_unit = engineering_unit(value, unit)
     return [f"{value / scale:.5g}", "-" if sd is None else f"{sd / scale:.2g}",
             "-" if nominal is None else f"{nominal / scale:.5g}", shown_unit if shown_unit not in ("", "1") else "-"]
 

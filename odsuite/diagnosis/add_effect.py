@@ -10,7 +10,7 @@ import numpy as np
 
 from odsuite.contracts.effects import applies, family
 from odsuite.diagnosis import checks, physical
-from odsuite.diagnosis.between_records import reported_sds
+from odsuite.diagnosis.between_records import leave_one_record_out_covariance, reported_sds
 from odsuite.diagnosis.joint import Joint
 from odsuite.domain.errors import ConfigError
 from odsuite.diagnosis.fitting import (
@@ -129,9 +129,8 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
         progress(f"fitting {', '.join(e.name for e in joint_effects)}", 1, 3)
     res = fit(joint, u0) if joint.free else None
     u = res.x if res is not None else joint.zero()
-    sds, corr = uncertainties(joint, res, n_eff)[:2] if res is not None else (np.zeros(0), None)
-    sds = reported_sds(sds, joint, res) if res is not None else sds
-    new_entries = list(held) + _entries(joint, joint_effects, u, sds, corr)
+    fit_sds, corr = uncertainties(joint, res, n_eff)[:2] if res is not None else (np.zeros(0), None)
+    new_entries = list(held) + _entries(joint, joint_effects, u, fit_sds, corr, res)
     if progress:
         progress("comparing", 2, 3)
     after = compare(project, revision={"model": rev.get("model"), "effects": new_entries}, prepared=exps,
@@ -140,9 +139,10 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     return _stored(project, rev, name, new_entries, after, before, warnings)
 
 
-def _entries(joint: Problem, joint_effects, u, sds, corr) -> list[dict[str, Any]]:
+def _entries(joint: Problem, joint_effects, u, fit_sds, corr, res) -> list[dict[str, Any]]:
     """The revision's entries of the jointly fitted effects: values, per-experiment values,
     uncertainties and physical quantities (each on the model the effects before it made)."""
+    sds, spread = _between_records(fit_sds, joint, res)
     shared, per = joint.values(u)
     entries = []
     model = joint.base.shared
@@ -155,11 +155,19 @@ def _entries(joint: Problem, joint_effects, u, sds, corr) -> list[dict[str, Any]
                for f, sd in zip(joint.free, sds) if f.param.name.startswith(prefix) and np.isfinite(sd)}
         labels = [f.param.name[len(prefix):] if f.experiment is None and f.param.name.startswith(prefix) else ""
                   for f in joint.free]
-        rows = physical.quantities(e, model, values, labels, sds, corr)
+        rows = physical.quantities(e, model, values, labels, fit_sds, corr, spread)
         model = e.apply(model, values)
         entries.append({"effect": e.name, "values": values, "per_experiment": per_exp, "uncertainties": unc,
                         **({"physical": rows} if rows else {})})
     return entries
+
+
+def _between_records(fit_sds: np.ndarray, problem: Problem, res) -> tuple[np.ndarray, np.ndarray | None]:
+    """Each parameter's reported sd (the larger of the fit's and the jackknife's over records) and
+    the jackknife's covariance, from which the physical quantities take theirs."""
+    if res is None:
+        return fit_sds, None
+    return reported_sds(fit_sds, problem, res), leave_one_record_out_covariance(problem, res)
 
 
 def _stored(project, rev, name: str, new_entries: list[dict], after, before: float, warnings: list[str]
@@ -182,13 +190,14 @@ def _add_on_top(project, rev, entries, name: str, effect, screened, n_eff, exps,
         progress(f"fitting {name}", 1, 3)
     res = fit(problem, screened.u0, continuation=False) if problem.free else None
     u = res.x if res is not None else problem.zero()
-    sds, corr = uncertainties(problem, res, n_eff)[:2] if res is not None else (np.zeros(0), None)
-    sds = reported_sds(sds, problem, res) if res is not None else sds
+    fit_sds, corr = uncertainties(problem, res, n_eff)[:2] if res is not None else (np.zeros(0), None)
+    sds, spread = _between_records(fit_sds, problem, res)
     shared, per = problem.values(u)
     unc = {f.label if f.experiment is None else f"{f.experiment}/{f.param.name}": float(sd)
            for f, sd in zip(problem.free, sds) if np.isfinite(sd)}
     rows = physical.quantities(effect, problem.base.shared, {**problem.fixed, **shared},
-                               [f.param.name if f.experiment is None else "" for f in problem.free], sds, corr)
+                               [f.param.name if f.experiment is None else "" for f in problem.free], fit_sds, corr,
+                               spread)
     new_entries = [*entries, {"effect": name, "values": dict(shared),
                               "per_experiment": {x: d for x, d in per.items() if d}, "uncertainties": unc,
                               **({"physical": rows} if rows else {})}]

@@ -1,13 +1,20 @@
-"""How far a fitted value moves between records: the leave-one-record-out jackknife of a fit.
+"""How far a fitted value moves between records: the leave-one-record-out jackknife of a fit, in
+its infinitesimal (cluster-robust) form.
 
 The fit's own standard deviations (``fitting.uncertainties``) read the residual as noise, inflated
 for its samples' correlation. A model that misses some physics leaves a residual that is not
 noise: it pulls the fitted values, and pulls them differently in each record (another force
-point, another force level excites the missing physics differently). The jackknife over records
-sees that pull as the spread of the values refitted without each record in turn, so a value
-reported with ``max(fit's sd, jackknife sd)`` is not more certain than the records agree. A
-misfit every record shares alike (the same pull in all) stays unseen, as it would with any
-number of records of the same test.
+point, another force level excites the missing physics differently). The spread between records
+sees that pull, so a value reported with ``max(fit's sd, between-records sd)`` is not more certain
+than the records agree. A misfit every record shares alike (the same pull in all) stays unseen, as
+it would with any number of records of the same test.
+
+Each record's pull is its gradient at the joint fit, ``g_h = J_h^T r_h``, turned into a step by the
+joint fit's information ``A = J^T J``: ``cov = n / (n - 1) * A^-1 (sum g_h g_h^T) A^-1``. For
+records of equal information this is the jackknife of refits without each record to first order;
+unlike those refits it does not blow up where one record alone determines a direction (the rest
+then leave it undetermined, and a refit without that record moves along it anywhere): the
+jackknife's spread there is that of the refits' freedom, not of the records' disagreement.
 """
 
 from __future__ import annotations
@@ -18,11 +25,11 @@ import numpy as np
 MIN_RECORDS = 3
 
 
-def leave_one_record_out_sds(problem, res) -> np.ndarray | None:
-    """Per free parameter (value units), the jackknife standard deviation over the problem's
-    records: each record's rows left out in turn by one Gauss-Newton step from the joint fit
-    (exact for a linear model), ``sqrt((n - 1) / n * sum((u_i - mean)^2))``. NaN for a parameter
-    of one record (nothing refits it without that record); None for fewer than ``MIN_RECORDS``."""
+def leave_one_record_out_covariance(problem, res) -> np.ndarray | None:
+    """The between-records covariance of the problem's free parameters (value units, module
+    docstring). NaN rows and columns for a parameter of one record (no other record holds it);
+    None for fewer than ``MIN_RECORDS``. Its off-diagonal terms matter: parameters the data do not
+    separate (a scale per axis times one per spring) move together, their determined products not."""
     exps = problem.exps
     if len(exps) < MIN_RECORDS or not problem.free:
         return None
@@ -32,19 +39,23 @@ def leave_one_record_out_sds(problem, res) -> np.ndarray | None:
     if sum(sizes) != n_data:
         return None
     starts = np.concatenate([[0], np.cumsum(sizes)])
-    A = J.T @ J
-    steps = []
-    for i in range(len(exps)):
-        Jh, rh = J[starts[i]:starts[i + 1]], r[starts[i]:starts[i + 1]]
-        # r = measured - model and J = dr/du: at the joint fit the other records' gradient is
-        # -J_h^T r_h, and their Gauss-Newton step (A - J_h^T J_h)^-1 J_h^T r_h
-        steps.append(np.linalg.lstsq(A - Jh.T @ Jh, Jh.T @ rh, rcond=1e-10)[0])
-    d = np.asarray(steps)
-    n = len(exps)
-    var = (n - 1) / n * np.sum((d - d.mean(axis=0)) ** 2, axis=0)
+    pulls = np.array([J[a:b].T @ r[a:b] for a, b in zip(starts[:-1], starts[1:])])
+    steps = np.linalg.lstsq(J.T @ J, pulls.T, rcond=1e-10)[0].T  # A^-1 g_h, undetermined directions left out
     scales = np.array([f.scale for f in problem.free])
+    d = steps * scales
+    n = len(exps)
+    cov = n / (n - 1) * d.T @ d
     own = np.array([f.experiment is not None for f in problem.free])
-    return np.where(own, np.nan, np.sqrt(var) * scales)
+    cov[own, :] = np.nan
+    cov[:, own] = np.nan
+    return cov
+
+
+def leave_one_record_out_sds(problem, res) -> np.ndarray | None:
+    """Per free parameter (value units), the jackknife standard deviation over the problem's
+    records (the square root of :func:`leave_one_record_out_covariance`'s diagonal)."""
+    cov = leave_one_record_out_covariance(problem, res)
+    return None if cov is None else np.sqrt(np.diag(cov))
 
 
 def reported_sds(fit_sds: np.ndarray, problem, res) -> np.ndarray:

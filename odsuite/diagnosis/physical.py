@@ -19,10 +19,14 @@ STEP = 1e-3
 
 
 def quantities(effect, model, values: Mapping[str, float], labels: Sequence[str] = (),
-               sds: Sequence[float] = (), corr: np.ndarray | None = None) -> list[dict[str, Any]]:
+               sds: Sequence[float] = (), corr: np.ndarray | None = None,
+               spread: np.ndarray | None = None) -> list[dict[str, Any]]:
     """``effect.physical(model, values)`` as rows {label, value, unit, uncertainty}, the uncertainty
-    propagated linearly from the shared parameters ``labels`` (standard deviations ``sds``,
-    correlation ``corr``; None: independent). [] when the effect reports no physical quantities."""
+    propagated linearly from the shared parameters ``labels`` (the fit's standard deviations
+    ``sds``, correlation ``corr``; None: independent), or from ``spread`` where that gives more (a
+    covariance of the same parameters between records, between_records; propagated as a whole so
+    that parameters moving together leave their determined products as certain as they are).
+    [] when the effect reports no physical quantities."""
     physical = getattr(effect, "physical", None)
     if physical is None:
         return []
@@ -51,6 +55,10 @@ def quantities(effect, model, values: Mapping[str, float], labels: Sequence[str]
         c = np.eye(len(usable)) if corr is None else np.asarray(corr, float)[np.ix_(usable, usable)]
         cov = c * np.outer(sd[usable], sd[usable])
         var = np.einsum("ij,jk,ik->i", J, cov, J)
+        if spread is not None:
+            between = np.asarray(spread, float)[np.ix_(usable, usable)]
+            if np.all(np.isfinite(between)):
+                var = np.fmax(var, np.einsum("ij,jk,ik->i", J, between, J))
     return [{"label": r[0], "value": float(r[1]), "unit": r[2],
              "uncertainty": float(np.sqrt(max(v, 0.0))) if np.isfinite(v) else None, "nominal": None if n is None else float(n)}
             for r, v, n in zip(rows, var, nominal)]
@@ -69,13 +77,22 @@ def moved(rows: Sequence[Mapping[str, Any]], limit: int = 4) -> list[Mapping[str
     return out[:limit]
 
 
+def engineering_unit(value: float, unit: str) -> tuple[float, str]:
+    """The divisor and unit a quantity reads shortest in: forces per unit in kN or MN (2.62e+05 N/m
+    as 262 kN/m); other units as they are."""
+    if unit.startswith("N") and abs(value) >= 1e4:
+        return (1e6, "M" + unit) if abs(value) >= 1e7 else (1e3, "k" + unit)
+    return 1.0, unit
+
+
 def text(rows: Sequence[Mapping[str, Any]]) -> str:
-    """'label = value ± sd unit (rig: nominal); ...'."""
+    """'label = value ± sd unit (model: nominal); ...', each in its engineering_unit."""
     parts = []
     for r in rows:
-        unit = "" if r["unit"] in ("", "1") else f" {r['unit']}"
+        scale, shown_unit = engineering_unit(r["value"], r["unit"])
+        unit = "" if shown_unit in ("", "1") else f" {shown_unit}"
         sd = r.get("uncertainty")
-        pm = f" ± {sd:.2g}" if sd is not None and sd > 0 else ""
-        was = f" (model: {r['nominal']:.4g})" if r["nominal"] is not None else ""
-        parts.append(f"{r['label']} = {r['value']:.4g}{pm}{unit}{was}")
+        pm = f" ± {sd / scale:.2g}" if sd is not None and sd > 0 else ""
+        was = f" (model: {r['nominal'] / scale:.4g})" if r["nominal"] is not None else ""
+        parts.append(f"{r['label']} = {r['value'] / scale:.4g}{pm}{unit}{was}")
     return "; ".join(parts)

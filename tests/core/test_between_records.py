@@ -1,4 +1,4 @@
-"""The jackknife over records (``diagnosis.between_records``) against exact refits and against the
+"""The spread between records (``diagnosis.between_records``) against exact refits and against the
 truth: on a linear model whose records each carry their own systematic misfit, the fit's own
 standard deviation (the residual read as noise) claims far too much, the jackknife's covers the
 truth as often as a t-distribution with n - 1 degrees of freedom says."""
@@ -10,7 +10,8 @@ from types import SimpleNamespace
 import numpy as np
 from scipy import stats
 
-from odsuite.diagnosis.between_records import leave_one_record_out_sds, reported_sds
+from odsuite.diagnosis.between_records import (leave_one_record_out_covariance, leave_one_record_out_sds,
+                                               reported_sds)
 
 N_RECORDS, N_SAMPLES, THETA = 5, 400, 2.0
 
@@ -41,13 +42,51 @@ def _fit(xs, ys):
     return theta, problem, res, white
 
 
-def test_leaving_a_record_out_is_the_exact_refit_for_a_linear_model():
+def test_leaving_a_record_out_is_the_refit_to_first_order_for_a_linear_model():
+    """The cluster-robust closed form, and within a percent of the jackknife of exact refits
+    without each record (records of about equal information)."""
     rng = np.random.default_rng(0)
     xs, ys = _records(rng, 0.3, 0.01)
     theta, problem, res, _ = _fit(xs, ys)
+    a = sum(x @ x for x in xs)
+    pulls = [x @ (y - theta * x) for x, y in zip(xs, ys)]
+    sandwich = np.sqrt(N_RECORDS / (N_RECORDS - 1) * sum(g * g for g in pulls)) / a
+    np.testing.assert_allclose(leave_one_record_out_sds(problem, res), [sandwich], rtol=1e-10)
     refits = [_fit(xs[:i] + xs[i + 1:], ys[:i] + ys[i + 1:])[0] for i in range(N_RECORDS)]
-    expected = np.sqrt((N_RECORDS - 1) / N_RECORDS * np.sum((np.array(refits) - np.mean(refits)) ** 2))
-    np.testing.assert_allclose(leave_one_record_out_sds(problem, res), [expected], rtol=1e-10)
+    jackknife = np.sqrt((N_RECORDS - 1) / N_RECORDS * np.sum((np.array(refits) - np.mean(refits)) ** 2))
+    np.testing.assert_allclose(leave_one_record_out_sds(problem, res), [jackknife], rtol=0.01)
+
+
+def test_a_direction_one_record_alone_determines_does_not_blow_up():
+    """Two parameters, the second's own part of the prediction seen well by one record only (a
+    spring only one blow excites) and barely by the rest: refits without that record move freely
+    along it, and their jackknife is 29x the fit's sd on pure noise; the spread between records
+    stays within the fit's, as it should with nothing but noise in the records."""
+    rng = np.random.default_rng(0)
+    t = np.arange(N_SAMPLES) / 1000.0
+    cols, ys = [], []
+    for k in range(N_RECORDS):
+        x = np.exp(-8 * t) * np.sin(2 * np.pi * 37 * t + rng.uniform(0, 2 * np.pi))
+        w = 0.5 * x + (3e-2 if k == 0 else 1e-3) * np.exp(-8 * t) * np.cos(2 * np.pi * 53 * t)
+        cols.append(np.column_stack([x, w]))
+        ys.append(cols[-1] @ [THETA, 1.0] + rng.normal(0, 0.01, N_SAMPLES))
+
+    def fitted(keep):
+        X, y = np.vstack([cols[i] for i in keep]), np.concatenate([ys[i] for i in keep])
+        return X, y, np.linalg.lstsq(X, y, rcond=None)[0]
+
+    X, y, u = fitted(range(N_RECORDS))
+    problem = SimpleNamespace(exps=[SimpleNamespace(n_samples=N_SAMPLES, measured=np.zeros((N_SAMPLES, 1)))
+                                    for _ in ys], stride=1, prior=False,
+                              free=[SimpleNamespace(experiment=None, scale=1.0) for _ in range(2)])
+    res = SimpleNamespace(jac=-X, fun=y - X @ u)
+    fit_sd = np.sqrt(np.diag(np.linalg.inv(X.T @ X)) * np.sum(res.fun ** 2) / (y.size - 2))
+    refits = np.array([fitted([j for j in range(N_RECORDS) if j != i])[2] for i in range(N_RECORDS)])
+    jackknife = np.sqrt((N_RECORDS - 1) / N_RECORDS * np.sum((refits - refits.mean(axis=0)) ** 2, axis=0))
+    assert np.all(jackknife > 10 * fit_sd)  # the case: refits without record 0 are free along it
+    between = np.sqrt(np.diag(leave_one_record_out_covariance(problem, res)))
+    assert np.all(between < fit_sd)
+    np.testing.assert_array_equal(reported_sds(fit_sd, problem, res), fit_sd)
 
 
 def test_the_jackknife_covers_the_truth_where_the_fits_own_sd_does_not():

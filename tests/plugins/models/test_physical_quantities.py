@@ -65,6 +65,24 @@ def test_undetermined_split_leaves_the_product_determined(registries, two_body):
     assert row(rows, "stiffness of mount1 along z")["uncertainty"] == pytest.approx(0.3 * 2**0.5 * k["mount1"][2], rel=1e-6)
 
 
+def test_spread_between_records_propagated_as_a_whole(registries, two_body):
+    """A spread between records of the same two parameters, moving together (the product fixed),
+    adds nothing to mount1's determined stiffness; where it is wider along scale_z alone,
+    isolator3's sd is that spread's, not the fit's."""
+    model, toml = two_body
+    k = {s["name"]: s["stiffness"] for s in toml["springs"]}
+    fit_corr = np.array([[1.0, -1.0], [-1.0, 1.0]])
+    together = np.array([[1.0, -1.0], [-1.0, 1.0]]) * 0.5**2  # sd 0.5 each, the product unmoved
+    rows = quantities(registries.effects.get("stiffness"), model, {"scale_z": 1.0, "scale_mount1": 1.0},
+                      ["scale_z", "scale_mount1"], [0.3, 0.3], fit_corr, together)
+    assert row(rows, "stiffness of mount1 along z")["uncertainty"] == pytest.approx(0.0, abs=1e-6 * k["mount1"][2])
+    assert row(rows, "stiffness of isolator3 along z")["uncertainty"] == pytest.approx(0.5 * k["isolator3"][2], rel=1e-6)
+    # narrower than the fit's: the fit's stays
+    rows = quantities(registries.effects.get("stiffness"), model, {"scale_z": 1.0, "scale_mount1": 1.0},
+                      ["scale_z", "scale_mount1"], [0.3, 0.3], fit_corr, together * 0.01)
+    assert row(rows, "stiffness of isolator3 along z")["uncertainty"] == pytest.approx(0.3 * k["isolator3"][2], rel=1e-6)
+
+
 def test_masses_in_kg_and_centre_of_mass_in_mm(registries, two_body):
     model, toml = two_body
     machine = next(b for b in toml["bodies"] if b["name"] == "machine")
