@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 import scipy.optimize
+import scipy.signal
 
 from odsuite.domain.errors import DivergedError
 from odsuite.analysis.modelrev import RevisionModel
@@ -520,6 +521,56 @@ def _grid_starts(problem: Problem, r0: np.ndarray, J: np.ndarray, peaks_hz: Sequ
     return starts
 
 
+#: grid starts of a structure's resonance frequency that screening steps from: the others are
+#: ranked out by _resonance_gain (a start costs a Jacobian and a damped step, one a projection)
+GRID_KEPT = 2
+#: the damping ratio of the basis signals that rank a frequency grid
+GRID_DAMPING = 0.02
+
+
+def _resonance_gain(frequency_hz: float, r: np.ndarray, exps: Sequence[PreparedExperiment], stride: int) -> float:
+    """The most a resonance at ``frequency_hz`` can take off the residual ``r`` (strided, as
+    Problem.residual) on ``exps``: its least-squares projection, channel by channel, on the force
+    convolved with a damped sine and cosine at that frequency (any amplitude and phase at each
+    sensor: linear, where a mode's start otherwise costs a simulation, a Jacobian and a step)."""
+    gain, at = 0.0, 0
+    for e in exps:
+        rows = len(range(0, e.n_samples, stride))
+        ch = e.measured.shape[1]
+        re = r[at:at + rows * ch].reshape(rows, ch)
+        at += rows * ch
+        w = 2 * np.pi * frequency_hz
+        t = np.arange(e.n_samples) / e.fs
+        decay = np.exp(-GRID_DAMPING * w * t)
+        wd = w * math.sqrt(1 - GRID_DAMPING**2)
+        force = np.asarray(e.force, float).reshape(e.n_samples, -1).sum(axis=1)
+        basis = np.column_stack([scipy.signal.fftconvolve(force, decay * f(wd * t))[:e.n_samples]
+                                 for f in (np.sin, np.cos)])[::stride]
+        coef, *_ = np.linalg.lstsq(basis, re, rcond=None)
+        gain += float(np.sum((basis @ coef) ** 2))
+    return gain
+
+
+def _ranked_grid(problem: Problem, starts: list[np.ndarray], r: np.ndarray, exps: Sequence[PreparedExperiment]
+                 ) -> list[np.ndarray]:
+    """The GRID_KEPT grid starts of each resonance frequency of the structure (a parameter in Hz
+    of an effect on the model) whose resonance could take most off the residual ``r`` on
+    ``exps`` (_resonance_gain), in the grid's order; other grid starts all kept."""
+    by_param: dict[int, list[int]] = {}
+    for k, u in enumerate(starts):
+        i = int(np.flatnonzero(u)[0]) if u.any() else -1
+        if i >= 0 and problem.free[i].param.unit == "Hz" and getattr(problem.effect, "target", "model") == "model":
+            by_param.setdefault(i, []).append(k)
+    dropped: set[int] = set()
+    for i, ks in by_param.items():
+        if len(ks) <= GRID_KEPT:
+            continue
+        f = problem.free[i]
+        gains = [_resonance_gain(f.to_value(starts[k][i]), r, exps, problem.stride) for k in ks]
+        dropped.update(ks[j] for j in np.argsort(gains)[::-1][GRID_KEPT:])
+    return [u for k, u in enumerate(starts) if k not in dropped]
+
+
 def _sweep(problem: Problem, u: np.ndarray, exps, peaks_hz: Sequence[float]) -> np.ndarray:
     """Global starts: each shared parameter that declares ``starts`` (an angle, a frequency) set
     to each of them in turn, frequencies also to the residual's peaks, keeping a value whenever it
@@ -675,7 +726,10 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
         best_start, best_head = u0, float(r0 @ r0)
         activation: tuple[int, float] | None = None
         swept = _sweep(problem, u0, _sweep_stage(problem, stages), peaks_hz)
-        for start in [u0] + ([swept] if swept is not u0 else []) + _grid_starts(problem, r0, J0, peaks_hz):
+        grid = _grid_starts(problem, r0, J0, peaks_hz)
+        if grid:
+            grid = _ranked_grid(problem, grid, problem.residual(u0, stages[-1]), stages[-1])
+        for start in [u0] + ([swept] if swept is not u0 else []) + grid:
             r = r0 if start is u0 else problem.residual(start, first)
             J = J0 if start is u0 else problem.jacobian(start, r, exps=first, tangent=True)
             if start is not u0:
