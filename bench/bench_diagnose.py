@@ -218,6 +218,39 @@ linearised Jacobian instead of a Jacobian and a step per start on the shortest h
 trust-region steps from one QR factor; the cubic springs' columns at nominal as the linear
 structure's response to the cubic force of its nominal motion (first order, no nonlinear
 simulation per column).
+
+The next round judges two kinds of screening start without simulating each: nonlinear_stiffness's
+columns from zero hardening are the linear structure's response to the cubic force of the nominal
+motion (prediction.cubic_change_predictions; one recursion per mode), and a structure's
+resonance-frequency grid (plate_flexibility's starts) is ranked by projecting the fit windows'
+residual on the force convolved with a damped sine and cosine at each frequency, only the best two
+(fitting.GRID_KEPT) getting a Jacobian and a damped step. Evaluations: thesis 1675 -> 1455,
+two-body 973 -> 879. Screening alone (profile_diagnose_stages, two-body, one worker): 484 -> 346
+worth (nonlinear_stiffness 197 -> 38) though the load rose from 3.6 to 8-11 (the untouched full fits
+read 185 -> 222 worth meanwhile); thesis plate_flexibility's screening 1.70 -> 0.51 s CPU, the free
+shape's 1.95 -> 0.51 s, both to the same screened error and values. The bench, main's code then
+this, one right after the other at load 8.7-11 (CPU seconds, worth; wall times there say nothing):
+
+| rig, workers | before: evaluations, CPU, worth | after |
+| --- | --- | --- |
+| thesis, 1 | 1675, 32.4 s, 913 | 1455, 23.8 s, 938 |
+| thesis, 2 | 1675, 26.5 s, 747 | 1455, 27.0 s, 1065 |
+| two-body, 1 | 973, 21.9 s, 621 | 879, 21.4 s, 610 |
+| two-body, 2 | 973, 19.8 s, 562 | 879, 21.2 s, 605 |
+
+(one evaluation 35.5 / 35.3 ms CPU before, 25.3 / 35.0 ms after: the worth column follows it.) At
+this load the CPU gain is within the runs' spread. Verdicts, top candidates and errors the same;
+thesis candidate table the same to the digits printed (every significance, error, screened error,
+likelihood ratio); two-body the same but for the order among candidates with no gain (the free
+plate shape's gain below the fifth digit came from a start now ranked out). The demo's loop the
+same (0.469 -> stiffness -> plate_flexibility at 639.9 Hz -> "nothing to explain"). Calibration
+on this code (niced, --workers 1, nulls beside faults, at load 6-11): faults n 20: 20/20 named
+and explained (s215 also calls missing_mode significant, as main's code does); nulls n 20: 20/20
+"nothing to explain", no significant candidate in 20/20; outside n 8: 0/8 "explained". Targets
+(250 worth, 3 s / 5 s) still missed by 2-3x: the two-body rig's two full fits alone are about 190
+worth, and the rest of screening is spread over a dozen candidates at 10-45 worth each (the
+structure-changing ones' Jacobians at one natural step are simulated column by column: the
+linearisation refuses poles that move that far).
 """
 
 from __future__ import annotations

@@ -502,6 +502,40 @@ def linearised_predictions(model0, models: Sequence[Any], exp: PreparedExperimen
     return outs
 
 
+def cubic_change_predictions(model0, models: Sequence[Any], exp: PreparedExperiment, every: int = 1
+                             ) -> list[np.ndarray] | None:
+    """The change of ``predict(m, exp)`` from ``model0``'s for each of ``models`` (``model0``'s
+    linear structure with cubic springs added, its chain) to first order in the cubic
+    coefficients: the linear structure's response to the springs' cubic force along ``model0``'s
+    motion, a linear simulation where each model would need a nonlinear one. None where that does
+    not apply. Every ``every``-th sample."""
+    from odsuite.domain.model import StateSpace
+    from odsuite.domain.simulation import simulate_many_inputs, simulate_state_space
+
+    st0 = model0.structure
+    if not st0.is_linear or st0.n_dof > CACHED_COORDINATES or any(
+            m.structure.is_linear or m.structure.n_dof != st0.n_dof or m.chain is not model0.chain
+            or not np.array_equal(m.structure.A, st0.A) for m in models):
+        return None
+    n = st0.n_dof
+    ss = _coordinate_system(model0, exp)
+    moving = replace(ss, C=np.hstack([np.eye(n), np.zeros((n, n))]), D=np.zeros((n, ss.B.shape[1])))
+    q0 = simulate_state_space(moving, exp.force, exp.fs, hold=HOLD)  # the coordinates' displacements
+    # the cubic force enters as an acceleration (M^-1 f), linear between samples as in the
+    # nonlinear integrator; its response's accelerations include that input directly
+    pushed = StateSpace(st0.A, np.vstack([np.zeros((n, n)), np.eye(n)]), st0.A[n:], np.eye(n))
+    out = []
+    for m in models:
+        E, c = m.structure.cubic_rows()
+        d = q0 @ E.T
+        w = -((c * d * d * d) @ E) @ st0.Minv.T
+        dq = simulate_many_inputs(pushed, w, exp.fs)
+        if dq is None:
+            return None
+        out.append(_digital_chain(exp, _analog_chain(m, exp, dq @ _sensor_rows(m, exp.sensors).T))[::every])
+    return out
+
+
 def _analog_chain(model, exp: PreparedExperiment, y: np.ndarray) -> np.ndarray:
     """The chain's parts between the structure and the converter on the sensors' accelerations
     ``y`` (samples x sensors, changed in place): sensor dynamics, front end, sampling delays."""

@@ -20,11 +20,12 @@ from typing import Any
 
 import numpy as np
 import scipy.optimize
+import scipy.signal
 
 from odsuite.domain.errors import DivergedError
 from odsuite.analysis.modelrev import RevisionModel
-from odsuite.analysis.prediction import (PreparedExperiment, linearised_predictions, predict, predict_sharing,
-                                         simulate_together)
+from odsuite.analysis.prediction import (PreparedExperiment, cubic_change_predictions, linearised_predictions, predict,
+                                         predict_sharing, simulate_together)
 
 #: fits start on short heads of the records (s after the hit), then the whole record: a frequency
 #: error makes the time-domain residual oscillate in the parameter, a short head keeps it convex
@@ -294,11 +295,12 @@ class Problem:
         return out
 
     def jacobian(self, u: np.ndarray, r0: np.ndarray, exps: Sequence[PreparedExperiment] | None = None,
-                 step: float = 1.0) -> np.ndarray:
+                 step: float = 1.0, tangent: bool = False) -> np.ndarray:
         """Forward differences of the residual on ``exps`` (``step`` natural steps, backwards at an
         upper bound). Parameters that change one sensor's prediction alone (``Parameter.sensor``)
         are moved together with those of other sensors, each column taken from its own sensor's
-        rows: the same numbers in fewer evaluations."""
+        rows: the same numbers in fewer evaluations. With ``tangent``, steps that add cubic springs
+        to a linear structure are taken to first order in them (Problem._cubic_tangent)."""
         J = np.zeros((r0.size, len(self.free)), order="F")  # written by columns
         steps = np.zeros(len(self.free))
         for i, f in enumerate(self.free):
@@ -309,6 +311,8 @@ class Problem:
             steps[i] = h
         batches, sensor_of_row = self._sensor_batches(exps or self.exps)
         linearised = self._linearised(u, steps, exps or self.exps) if sensor_of_row is None else None
+        if linearised is None and tangent and sensor_of_row is None:
+            linearised = self._cubic_tangent(u, steps, r0, exps or self.exps)
         rows_of: dict[str, np.ndarray] = {}  # each sensor's rows, found once
         for batch in batches:
             batch = [i for i in batch if steps[i]]
@@ -364,6 +368,38 @@ class Problem:
         self.evaluations += len(moved)
         return {i: self._residual_of([p[k] for p in preds], exps, None, self.stride, strided=True)
                 for k, i in enumerate(moved)}
+
+    def _cubic_tangent(self, u: np.ndarray, steps: np.ndarray, r0: np.ndarray, exps: Sequence[PreparedExperiment]
+                       ) -> dict[int, np.ndarray] | None:
+        """The residual at each point ``u`` + a step of one parameter where ``u``'s structure is
+        linear and every step adds cubic springs to it alone (a hardening from zero), to first
+        order in their coefficients (prediction.cubic_change_predictions): a linear simulation per
+        step instead of a nonlinear one. The steps' real effect is far from linear (a step is a
+        hardening of several times the stiffness at a micrometre), so this is the tangent, what a
+        Gauss-Newton step assumes, not the secant. Each counts as an evaluation; None elsewhere."""
+        moved = [i for i in range(len(u)) if steps[i]]
+        if self.linear or not moved:
+            return None
+        try:
+            with np.errstate(over="ignore", invalid="ignore"):
+                models0 = self._models[1] if self._models[0] == u.tobytes() else self.models(u)
+                if any(not models0[e.name].structure.is_linear for e in exps):
+                    return None
+                points = []
+                for i in moved:
+                    du = np.zeros_like(u)
+                    du[i] = steps[i]
+                    points.append(self.models(u + du))
+                changes = []
+                for e in exps:
+                    got = cubic_change_predictions(models0[e.name], [p[e.name] for p in points], e, self.stride)
+                    if got is None:
+                        return None
+                    changes.append(got)
+        except (DivergedError, np.linalg.LinAlgError):
+            return None
+        self.evaluations += len(moved)
+        return {i: r0 - np.concatenate([c[k].ravel() for c in changes]) for k, i in enumerate(moved)}
 
     def _sensor_batches(self, exps: Sequence[PreparedExperiment]) -> tuple[list[list[int]], np.ndarray | None]:
         """Groups of free parameters that one evaluation can difference (at most one per sensor,
@@ -483,6 +519,56 @@ def _grid_starts(problem: Problem, r0: np.ndarray, J: np.ndarray, peaks_hz: Sequ
                 u[i] = (c - f.param.nominal) / f.scale
                 starts.append(u)
     return starts
+
+
+#: grid starts of a structure's resonance frequency that screening steps from: the others are
+#: ranked out by _resonance_gain (a start costs a Jacobian and a damped step, one a projection)
+GRID_KEPT = 2
+#: the damping ratio of the basis signals that rank a frequency grid
+GRID_DAMPING = 0.02
+
+
+def _resonance_gain(frequency_hz: float, r: np.ndarray, exps: Sequence[PreparedExperiment], stride: int) -> float:
+    """The most a resonance at ``frequency_hz`` can take off the residual ``r`` (strided, as
+    Problem.residual) on ``exps``: its least-squares projection, channel by channel, on the force
+    convolved with a damped sine and cosine at that frequency (any amplitude and phase at each
+    sensor: linear, where a mode's start otherwise costs a simulation, a Jacobian and a step)."""
+    gain, at = 0.0, 0
+    for e in exps:
+        rows = len(range(0, e.n_samples, stride))
+        ch = e.measured.shape[1]
+        re = r[at:at + rows * ch].reshape(rows, ch)
+        at += rows * ch
+        w = 2 * np.pi * frequency_hz
+        t = np.arange(e.n_samples) / e.fs
+        decay = np.exp(-GRID_DAMPING * w * t)
+        wd = w * math.sqrt(1 - GRID_DAMPING**2)
+        force = np.asarray(e.force, float).reshape(e.n_samples, -1).sum(axis=1)
+        basis = np.column_stack([scipy.signal.fftconvolve(force, decay * f(wd * t))[:e.n_samples]
+                                 for f in (np.sin, np.cos)])[::stride]
+        coef, *_ = np.linalg.lstsq(basis, re, rcond=None)
+        gain += float(np.sum((basis @ coef) ** 2))
+    return gain
+
+
+def _ranked_grid(problem: Problem, starts: list[np.ndarray], r: np.ndarray, exps: Sequence[PreparedExperiment]
+                 ) -> list[np.ndarray]:
+    """The GRID_KEPT grid starts of each resonance frequency of the structure (a parameter in Hz
+    of an effect on the model) whose resonance could take most off the residual ``r`` on
+    ``exps`` (_resonance_gain), in the grid's order; other grid starts all kept."""
+    by_param: dict[int, list[int]] = {}
+    for k, u in enumerate(starts):
+        i = int(np.flatnonzero(u)[0]) if u.any() else -1
+        if i >= 0 and problem.free[i].param.unit == "Hz" and getattr(problem.effect, "target", "model") == "model":
+            by_param.setdefault(i, []).append(k)
+    dropped: set[int] = set()
+    for i, ks in by_param.items():
+        if len(ks) <= GRID_KEPT:
+            continue
+        f = problem.free[i]
+        gains = [_resonance_gain(f.to_value(starts[k][i]), r, exps, problem.stride) for k in ks]
+        dropped.update(ks[j] for j in np.argsort(gains)[::-1][GRID_KEPT:])
+    return [u for k, u in enumerate(starts) if k not in dropped]
 
 
 def _sweep(problem: Problem, u: np.ndarray, exps, peaks_hz: Sequence[float]) -> np.ndarray:
@@ -635,21 +721,24 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
         first = stages[0]
         u0 = problem.zero()
         r0 = problem.residual(u0, first)
-        J0 = problem.jacobian(u0, r0, exps=first)
+        J0 = problem.jacobian(u0, r0, exps=first, tangent=True)
         # the best start on the shortest head, then one damped step on each longer head
         best_start, best_head = u0, float(r0 @ r0)
         activation: tuple[int, float] | None = None
         swept = _sweep(problem, u0, _sweep_stage(problem, stages), peaks_hz)
-        for start in [u0] + ([swept] if swept is not u0 else []) + _grid_starts(problem, r0, J0, peaks_hz):
+        grid = _grid_starts(problem, r0, J0, peaks_hz)
+        if grid:
+            grid = _ranked_grid(problem, grid, problem.residual(u0, stages[-1]), stages[-1])
+        for start in [u0] + ([swept] if swept is not u0 else []) + grid:
             r = r0 if start is u0 else problem.residual(start, first)
-            J = J0 if start is u0 else problem.jacobian(start, r, exps=first)
+            J = J0 if start is u0 else problem.jacobian(start, r, exps=first, tangent=True)
             if start is not u0:
                 activation = activation or _activation(problem, start, r, J, first)
                 if activation is not None and _tiny(J, r)[activation[0]]:
                     start = start.copy()
                     start[activation[0]] = activation[1]
                     r = problem.residual(start, first)
-                    J = problem.jacobian(start, r, exps=first)
+                    J = problem.jacobian(start, r, exps=first, tangent=True)
             u = _lm_step(problem, J, r, start, first)
             sse = float(np.sum(problem.residual(u, first) ** 2))
             if sse < best_head:
@@ -657,7 +746,7 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
         u = best_start
         for exps in stages[1:]:
             r = problem.residual(u, exps)
-            u = _lm_step(problem, problem.jacobian(u, r, exps=exps), r, u, exps)
+            u = _lm_step(problem, problem.jacobian(u, r, exps=exps, tangent=True), r, u, exps)
         sse = problem.sse(u)
         if swept is not u0:  # damped steps judged on short heads may lead a good start astray
             sse_swept = problem.sse(swept)

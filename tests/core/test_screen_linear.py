@@ -1,0 +1,81 @@
+"""Screening's cheap judgements: cubic springs' Jacobian columns to first order from a linear
+structure (prediction.cubic_change_predictions, simulation.simulate_many_inputs), against scipy's
+simulation and the nonlinear integrator's differences; a resonance grid ranked by projection
+(fitting._resonance_gain), against a mode simulated by scipy."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import scipy.signal
+
+from odsuite.domain.model import StateSpace
+from odsuite.domain.simulation import simulate_many_inputs
+
+sys.path.insert(0, str(Path(__file__).parent))
+
+
+def test_many_inputs_is_scipys_first_order_hold_simulation():
+    A = np.array([[0, 0, 1, 0], [0, 0, 0, 1], [-4e5, 1e5, -20, 5], [1e5, -2e5, 5, -10]], float)
+    ss = StateSpace(A, np.vstack([np.zeros((2, 2)), np.eye(2)]), A[2:], np.eye(2))
+    fs, n = 5000.0, 800
+    u = np.random.default_rng(3).normal(size=(n, 2))
+    _, ref, _ = scipy.signal.lsim((ss.A, ss.B, ss.C, ss.D), u, np.arange(n) / fs, interp=True)
+    got = simulate_many_inputs(ss, u, fs)
+    assert np.abs(got - ref).max() <= 1e-8 * np.abs(ref).max()
+
+
+def test_cubic_tangent_is_the_limit_of_nonlinear_simulations(tmp_path):
+    import odsuite.diagnosis.fitting as fitting
+    from hidden_effects import CASES, make_project
+
+    from odsuite.analysis.modelrev import revision_model
+    from odsuite.analysis.prediction import prepare
+    from odsuite.contracts.plugins import registries
+    from odsuite.store.project import open_project
+
+    path = make_project(tmp_path / "s.odsp", [("stiffness", CASES["stiffness"])], n_samples=2048)
+    with open_project(path) as p:
+        exps, base = prepare(p), revision_model(p)
+        problem = fitting.Problem(base, registries().effects.get("nonlinear_stiffness"),
+                                  fitting.fit_windows(exps), stride=2)
+        head = fitting.heads(problem.exps)[1]
+        u0 = problem.zero()
+        r0 = problem.residual(u0, head)
+        h = 1e-3  # natural steps: a hardening of 5e-3 at a micrometre
+        before = problem.evaluations
+        J = problem.jacobian(u0, r0, head, step=h, tangent=True)
+        assert problem.evaluations - before == len(u0)  # each column counts as an evaluation
+        # forward differences of the nonlinear integrator, at half and at the whole step: their
+        # extrapolation to zero step is the derivative the tangent claims
+        fd = [problem.jacobian(u0, r0, head, step=s) for s in (h / 2, h)]
+        limit = 2 * fd[0] - fd[1]
+        err = np.linalg.norm(J - limit, axis=0) / np.linalg.norm(limit, axis=0)
+        assert err.max() < 2e-3, err
+        assert np.linalg.norm(J, axis=0).min() > 0
+
+
+def test_resonance_gain_ranks_the_mode_that_is_there():
+    import odsuite.diagnosis.fitting as fitting
+
+    fs, n, f0, zeta = 5120.0, 2048, 180.0, 0.01
+    t = np.arange(n) / fs
+    force = np.where(t < 1e-3, np.sin(np.pi * t / 1e-3) ** 2, 0.0) * 100.0
+    w = 2 * np.pi * f0
+    # the reference: a mode's acceleration (a''' + 2 zeta w a' + w^2 a = F), simulated by scipy,
+    # seen at three sensors with their own participation
+    mode = scipy.signal.lti([1.0, 0.0, 0.0], [1.0, 2 * zeta * w, w * w])
+    _, acc, _ = scipy.signal.lsim(mode, force, t)
+    measured = acc[:, None] * np.array([1.0, -0.4, 2.5])[None, :]
+    exp = SimpleNamespace(n_samples=n, fs=fs, force=force, measured=measured)
+    r = measured.ravel()
+    grid = (40.0, 90.0, f0, 400.0, 900.0)
+    gains = [fitting._resonance_gain(f, r, [exp], 1) for f in grid]
+    assert int(np.argmax(gains)) == grid.index(f0)
+    # most of it, though its damping is half GRID_DAMPING and a hit's acceleration starts with the
+    # force itself (0.84 here)
+    assert gains[grid.index(f0)] > 0.8 * float(r @ r)
+    assert max(g for f, g in zip(grid, gains) if f != f0) < 0.2 * float(r @ r)
