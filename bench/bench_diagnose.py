@@ -239,7 +239,12 @@ each). This script, main then this, one after the other at load 6-11 (wall times
 | two-body, 2 | 973, 25.0 s, 753 | 922, 17.5 s, 430 |
 
 (one evaluation 38.8 / 33.2 ms CPU before, 30.3 / 40.7 ms after: the worth column follows the
-baseline). Verdicts, significance and the candidate tables' order the same; fitted errors within
+baseline). Two more sittings, main then this, CPU seconds on one / two workers: at load 3.7
+thesis 22.0 / 20.4 -> 22.3 / 23.8 s, two-body 17.2 / 17.5 -> 18.3 / 17.9 s; at load 1.3-2.1
+thesis 19.6 / 25.0 -> 25.2 / 20.5 s, two-body 21.8 / 20.7 -> 15.7 / 18.6 s (wall 16-25 s, two-body
+on two workers 9.5-11 s). The whole diagnose's CPU scatters by a quarter between runs, more than
+the fits change it; the fit stage alone, measured again at load 2: two-body 5.1 -> 3.1 s, thesis
+6.3 -> 5.0 s (diagnose 17.1 -> 15.0 s and 21.2 -> 20.2 s). Verdicts, significance and the candidate tables' order the same; fitted errors within
 6e-5 relative but for the pair mass_properties+nonlinear_stiffness, stopped where it cannot come
 near stiffness (1.6e-3); the two-body stiffness's 11 scales moved up to 8 sds along the direction
 the data cannot see (reported as one redundant group; the printed mount stiffnesses the same).
