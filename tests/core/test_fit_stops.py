@@ -18,17 +18,17 @@ def test_the_promise_is_the_fall_to_the_linear_least_squares_optimum():
     J, f = rng.normal(size=(200, 5)), rng.normal(size=200)
     best = np.linalg.lstsq(J, f, rcond=None)[0]
     optimum = 0.5 * float(np.sum((f - J @ best) ** 2))
-    assert _promise(J, f, np.ones(5, bool)) == pytest.approx(0.5 * float(f @ f) - optimum, rel=1e-10)
+    assert _promise(J.T @ J, J.T @ f, np.ones(5, bool)) == pytest.approx(0.5 * float(f @ f) - optimum, rel=1e-10)
     # a parameter held at its bound: the optimum over the others
     keep = np.array([True, False, True, True, True])
     best = np.linalg.lstsq(J[:, keep], f, rcond=None)[0]
     optimum = 0.5 * float(np.sum((f - J[:, keep] @ best) ** 2))
-    assert _promise(J, f, keep) == pytest.approx(0.5 * float(f @ f) - optimum, rel=1e-10)
-    assert _promise(J, f, np.zeros(5, bool)) == 0.0
+    assert _promise(J.T @ J, J.T @ f, keep) == pytest.approx(0.5 * float(f @ f) - optimum, rel=1e-10)
+    assert _promise(J.T @ J, J.T @ f, np.zeros(5, bool)) == 0.0
 
 
 def _step(stops: _Stops, x: np.ndarray, J: np.ndarray, f: np.ndarray) -> None:
-    stops.jacobian(x, J, f)
+    stops.jacobian(x, J.T @ J, J.T @ f)
     stops(SimpleNamespace(x=x, cost=0.5 * float(f @ f)))
 
 
