@@ -732,6 +732,9 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
                               job["rigidity"], job["modes_before"], job["tail0"], job["force_levels"],
                               target=None if simpler is None else simpler._sse_win)
         _judge(cand, job["exps"], floor, res0, job["sse0"], job["den"], scale)
+        if cand._resolved is not None:  # each member at its nominal values: the other alone (joint.added)
+            cand._without = {m: resolution.resolve(job["exps"], cand._problem.predictions(
+                joint.without(cand._problem, cand._u, m), cand._problem.full), floor) for m in (ea, eb)}
         ok, why = joint.accepted(cand, (a, b), candidates + added)
         if cand._stopped:
             ok, why = False, f"its fit stopped where it could not come near {simpler.effect}'s error"
