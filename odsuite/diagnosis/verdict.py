@@ -14,8 +14,8 @@ stays the number reported. Without bands the pooled error within ``FLOOR_TOLERAN
   cause: checks.held_out);
 - "partly explained": a significant candidate helps, but cells stay above the floor or its
   parameters are inconsistent or implausible; where it passes its own tests and only cells are
-  left, the message says a second effect is left (the held-out test is not run then: the late
-  part's own fit would take up some of what is left);
+  left, the message says something else is left (a second effect, or one it partly stands in for;
+  the held-out test is not run then: the late part's own fit would take up some of what is left);
 - "unexplained": nothing significant while cells are above the floor.
 """
 
@@ -213,9 +213,10 @@ def message(verdict: str, baseline: float, floor: float, best, sig: Signature, r
         why.append("its fitted values lie outside their physical range (" + ", ".join(best.implausible[:3]) + ")")
     left = f" What is left lies in {_where(rest)}." if rest is not None else ""
     if why and len(why) == 1 and rest is not None and rest.cells and best.consistent and best.plausible:
-        # it passes its own tests and only leaves cells above the floor: a second effect is left
-        return (f"{head}; {name}{also} explains most of it, with parameters that agree across the experiments "
-                f"and lie in their physical range, but {why[0]}: a second effect is left.{left}{amp} Run "
-                f"`odsuite add-effect PROJECT {name}` to keep it and diagnose again to look for the rest.")
+        # it passes its own tests and only leaves cells above the floor: something else is there
+        return (f"{head}; {name}{also} explains part of it and passes its own tests (parameters that agree "
+                f"across the experiments and lie in their physical range), but {why[0]}: something else is left, "
+                f"a second effect or one that {name} partly stands in for.{left}{amp} To look for it, keep {name} "
+                f"(`odsuite add-effect PROJECT {name}`) and diagnose again.")
     return (f"{head}; {name}{also} explains part of it, but " + "; ".join(why) + f". It may stand in for "
             f"physics the library lacks.{left}{amp} Add it only as a stopgap, and look for the cause there.")

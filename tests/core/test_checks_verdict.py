@@ -376,7 +376,7 @@ def test_the_early_part_fits_the_determined_sum_of_two_corners_within_their_boun
     assert early["highpass_hz"] + early["coupler_highpass_hz"] == pytest.approx(0.5, abs=0.15)
 
 
-def test_a_candidate_that_passes_its_tests_and_leaves_cells_says_a_second_effect_is_left():
+def test_a_candidate_that_passes_its_tests_and_leaves_cells_says_something_else_is_left():
     # a foot's stiffness fitted exactly, 0.63x the pooled floor, and an undeclared coupling's cells
     # left: "partly explained" is right, and the words say what is left, not that it stands in
     best = _Cand(error_after=0.028, effect="spring_stiffness")
@@ -386,11 +386,11 @@ def test_a_candidate_that_passes_its_tests_and_leaves_cells_says_a_second_effect
     above = SimpleNamespace(detected=lambda: True)
     assert decide(0.861, 0.0444, best, before=above, after=above) == "partly explained"
     words = message("partly explained", 0.861, 0.0444, best, Signature(cells=[cell]), rest)
-    assert "a second effect is left" in words and "tri_y in h3 at 12.5-25 Hz" in words
+    assert "something else is left, a second effect" in words and "tri_y in h3 at 12.5-25 Hz" in words
     assert "add-effect PROJECT spring_stiffness" in words
-    assert "stand in" not in words and "contact" not in words and "stopgap" not in words
+    assert "contact" not in words and "stopgap" not in words and "physics the library lacks" not in words
     # an implausible one with cells left still may stand in
     odd = _Cand(error_after=0.028, plausible=False)
     odd.implausible = ["scale_foot_c"]
     words = message("partly explained", 0.861, 0.0444, odd, Signature(), rest)
-    assert "stand in" in words and "second effect" not in words
+    assert "physics the library lacks" in words and "second effect" not in words
