@@ -25,11 +25,11 @@ def _res(ratios) -> Resolved:
                     [np.full_like(q, LIMIT)])
 
 
-def _cand(name, change, ratios, k):
+def _cand(name, change, ratios, k, data_driven=False):
     """A fitted candidate whose model changes the (one experiment's) prediction by ``change``."""
     change = np.asarray(change, float)[:, None]
     problem = SimpleNamespace(linear=False, free=[0], exps=[None], zero=lambda: np.zeros(1),
-                              predictions=lambda u: [change * u[0]])
+                              predictions=lambda u: [change * u[0]], effect=SimpleNamespace(data_driven=data_driven))
     return SimpleNamespace(effect=name, _problem=problem, _u=np.ones(1), error_after=0.1, screened_error=0.2,
                            n_parameters=k, confounded_with=[], _resolved=_res(ratios))
 
@@ -57,3 +57,18 @@ def test_alike_changes_that_explain_as_much_are_confounded():
     assert DOF * 0.4 < scipy.stats.chi2.isf(1e-3, 4)
     mark_confounded([a, b], None, 1.0)
     assert a.confounded_with == ["spring_stiffness"] and b.confounded_with == ["stiffness"]
+
+
+def test_a_data_driven_stand_in_that_explains_more_stays_confounded_with_the_named_mechanism():
+    # a mode of any shape (20 parameters) explains more of the plate's bending residual than the
+    # named plate mode (5): its freedom, not a different cause; they still name each other
+    t = np.linspace(0, 1, 200)
+    shape = np.sin(40 * t)
+    plate = _cand("plate_flexibility", shape, [LIMIT + 5.0, LIMIT + 5.0], 5)
+    mode = _cand("mounted_mode", shape * 1.1 + 0.01 * np.cos(7 * t), [LIMIT, LIMIT], 20, data_driven=True)
+    mark_confounded([plate, mode], None, 1.0)
+    assert plate.confounded_with == ["mounted_mode"] and mode.confounded_with == ["plate_flexibility"]
+    # a named mechanism that explains as much more is told apart
+    named = _cand("spring_stiffness", shape * 1.1 + 0.01 * np.cos(7 * t), [LIMIT, LIMIT], 20)
+    mark_confounded([_cand("plate_flexibility", shape, [LIMIT + 5.0, LIMIT + 5.0], 5), named], None, 1.0)
+    assert named.confounded_with == []
