@@ -17,6 +17,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+import scipy.optimize
 import scipy.stats
 
 from odsuite.analysis import resolved as resolution
@@ -160,13 +161,20 @@ def consistency(problem, res, force_levels: Mapping[str, float], tolerated: floa
     return out
 
 
-def _local_fit(problem, x, Ji: np.ndarray, ri: np.ndarray, shared: Sequence[int], columns: int
-               ) -> tuple[list[tuple[str, float, float]], float, np.ndarray]:
+def _local_fit(problem, x, Ji: np.ndarray, ri: np.ndarray, shared: Sequence[int], columns: int,
+               bounded: bool = False) -> tuple[list[tuple[str, float, float]], float, np.ndarray]:
     """The shared parameters fitted to some rows of a joint fit alone: one Gauss-Newton step from
     it on those rows of the Jacobian, the covariance from their residual with its effective
     samples (``columns`` channels a row block). Returns (label, value, sd) of the parameters those
     rows determine (sd within a tenth of the range) and the (strided) sum of squares the step
-    removes, and the step (in the fit's scaled units, one per shared parameter)."""
+    removes, and the step (in the fit's scaled units, one per shared parameter).
+
+    ``bounded``: the step is the linearised least squares within the parameters' bounds, as the
+    joint fit is. Unbounded, a combination these rows hardly determine takes a step of their noise
+    over almost no information, and the model's clipping at the bounds then turns it into an
+    error of the combinations they do determine (two high-pass corners in cascade, their sum
+    determined, their difference not: fitted to a record's early part 0 and 4.5 Hz for a sum of
+    0.33 Hz); within the bounds the undetermined combination moves along them, at no cost."""
     H = Ji.T @ Ji
     if not np.any(H):
         return [], 0.0, np.zeros(len(shared))
@@ -174,6 +182,8 @@ def _local_fit(problem, x, Ji: np.ndarray, ri: np.ndarray, shared: Sequence[int]
     keep = w > 1e-8 * w.max()
     Hinv = (V[:, keep] / w[keep]) @ V[:, keep].T
     step = -Hinv @ (Ji.T @ ri)
+    if bounded:
+        step = _bounded_step(problem, x, Ji, ri, shared, step)
     n_i = ri.size
     neff = effective_samples(ri.reshape(-1, columns))
     s2 = float(ri @ ri) / max(1, n_i - len(shared)) * (n_i / neff)
@@ -186,6 +196,22 @@ def _local_fit(problem, x, Ji: np.ndarray, ri: np.ndarray, shared: Sequence[int]
             continue  # these rows do not determine it
         out.append((f.label, f.to_value(x[idx] + step[j]), sd))
     return out, -float(step @ (Ji.T @ ri)), step
+
+
+def _bounded_step(problem, x, Ji: np.ndarray, ri: np.ndarray, shared: Sequence[int], step: np.ndarray
+                  ) -> np.ndarray:
+    """The Gauss-Newton step on rows ``Ji``, ``ri`` kept within the shared parameters' bounds
+    (scipy's bounded linear least squares; the unbounded ``step`` where it stays within them)."""
+    lo = np.array([problem.free[i].bounds[0] for i in shared]) - np.asarray(x, float)[shared]
+    hi = np.array([problem.free[i].bounds[1] for i in shared]) - np.asarray(x, float)[shared]
+    if np.all((step >= lo) & (step <= hi)):
+        return step
+    seen = np.any(Ji != 0, axis=0)  # a column without information stays where the joint fit put it
+    out = np.zeros(len(shared))
+    if np.any(seen):
+        lo_s, hi_s = np.minimum(lo[seen], 0.0), np.maximum(hi[seen], 0.0)
+        out[seen] = scipy.optimize.lsq_linear(Ji[:, seen], -ri, bounds=(lo_s, hi_s), method="bvls").x
+    return out
 
 
 @dataclass
@@ -233,7 +259,7 @@ def linearity(problem, res) -> Linearity:
     fits, us = [], []
     for rows in parts:
         idx = np.concatenate(rows)
-        fitted, _, step = _local_fit(problem, res.x, J[idx], r[idx], shared, columns)
+        fitted, _, step = _local_fit(problem, res.x, J[idx], r[idx], shared, columns, bounded=True)
         fits.append({label: (v, sd) for label, v, sd in fitted})
         u = np.array(res.x, float)
         u[shared] += step

@@ -732,6 +732,9 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
                               job["rigidity"], job["modes_before"], job["tail0"], job["force_levels"],
                               target=None if simpler is None else simpler._sse_win)
         _judge(cand, job["exps"], floor, res0, job["sse0"], job["den"], scale)
+        if cand._resolved is not None:  # each member at its nominal values: the other alone (joint.added)
+            cand._without = {m: resolution.resolve(job["exps"], cand._problem.predictions(
+                joint.without(cand._problem, cand._u, m), cand._problem.full), floor) for m in (ea, eb)}
         ok, why = joint.accepted(cand, (a, b), candidates + added)
         if cand._stopped:
             ok, why = False, f"its fit stopped where it could not come near {simpler.effect}'s error"
@@ -808,9 +811,11 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
             # judges the revision that stores it
             floor_best = noise_floor(exps, p.models(best._u), spectra=True)
             res_best = resolution.resolve(exps, after, floor_best)
-    if res_best is not None and len(getattr(best, "_early_late_u", ())) == 2:
+    if res_best is not None and not res_best.detected() and len(getattr(best, "_early_late_u", ())) == 2:
         # the verdict's cell test on the late (small) part of the records as the early part's fit
-        # predicts it: the parts' parameter test alone took true added masses as a rattle's stand-in
+        # predicts it: the parts' parameter test alone took true added masses as a rattle's stand-in.
+        # Only where the candidate leaves no cell above the floor: else the late part's own fit
+        # takes up some of what is left (a second effect) and the test measures that, not the candidate
         early, late = (p.predictions(u, p.full) for u in best._early_late_u)
         part = checks.held_out(exps, early, late, floor_best, best._early_late_cuts)
         best.early_late_agree = part is None or not part.detected()

@@ -13,7 +13,9 @@ stays the number reported. Without bands the pooled error within ``FLOOR_TOLERAN
   predicts their late (small) part at the floor (else it stands in for an amplitude-dependent
   cause: checks.held_out);
 - "partly explained": a significant candidate helps, but cells stay above the floor or its
-  parameters are inconsistent or implausible;
+  parameters are inconsistent or implausible; where it passes its own tests and only cells are
+  left, the message says something else is left (a second effect, or one it partly stands in for;
+  the held-out test is not run then: the late part's own fit would take up some of what is left);
 - "unexplained": nothing significant while cells are above the floor.
 """
 
@@ -195,6 +197,7 @@ def message(verdict: str, baseline: float, floor: float, best, sig: Signature, r
     if not best.consistent:
         why.append("its parameters differ between experiments beyond their uncertainties")
     cells = getattr(best, "early_late_cells", None)
+    left_cells = rest is not None and bool(rest.cells)  # then the parts' tests see what is left, not it
     if cells:
         c = cells[0]
         why.append(f"its fit to the early (large) part of the records mispredicts their late (small) part "
@@ -202,12 +205,18 @@ def message(verdict: str, baseline: float, floor: float, best, sig: Signature, r
                    f"{c['residual_to_floor']:.3g}x its floor for a limit of {c['limit']:.3g}): the residual it "
                    "takes up changes with the amplitude within each record, as a contact, friction or a loose "
                    "part's does")
-    elif not getattr(best, "early_late_agree", True):
+    elif not getattr(best, "early_late_agree", True) and not left_cells:
         why.append("its parameters fitted to the early (large) and the late (small) part of the records differ "
                    f"beyond their uncertainties ({', '.join(best.early_late_differ[:3])}): the residual it takes up "
                    "changes with the amplitude within each record, as a contact, friction or a loose part's does")
     if not best.plausible:
         why.append("its fitted values lie outside their physical range (" + ", ".join(best.implausible[:3]) + ")")
     left = f" What is left lies in {_where(rest)}." if rest is not None else ""
+    if why and len(why) == 1 and rest is not None and rest.cells and best.consistent and best.plausible:
+        # it passes its own tests and only leaves cells above the floor: something else is there
+        return (f"{head}; {name}{also} explains part of it and passes its own tests (parameters that agree "
+                f"across the experiments and lie in their physical range), but {why[0]}: something else is left, "
+                f"a second effect or one that {name} partly stands in for.{left}{amp} To look for it, keep {name} "
+                f"(`odsuite add-effect PROJECT {name}`) and diagnose again.")
     return (f"{head}; {name}{also} explains part of it, but " + "; ".join(why) + f". It may stand in for "
             f"physics the library lacks.{left}{amp} Add it only as a stopgap, and look for the cause there.")

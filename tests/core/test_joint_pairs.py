@@ -119,3 +119,19 @@ def test_a_mode_paired_with_a_gain_solves_its_participations_through_the_gain(tm
         _, _, alone = mode.project(models, {"frequency_hz": 731.0, "damping_ratio": 0.03}, exps, base, None)
         worst = max(np.abs(b + d - e.measured).max() / np.abs(e.measured).max() for e, b, d in zip(exps, base, alone))
         assert worst > 1e-3
+
+
+def test_a_member_is_tested_against_the_pair_without_it_where_that_beats_the_others_single_fit():
+    # b's single fit stopped short (nothing removed); the pair with a at its nominal values (b alone
+    # at the pair's values) leaves what the pair leaves: a adds nothing, whatever b's single says
+    a = _cand("a", [LIMIT + 5.0, LIMIT + 0.2], 10, 0.02, 100.0)
+    b = _cand("b", [LIMIT + 5.0, LIMIT + 5.0], 4, 0.03, 110.0)
+    pair = _cand("a+b", [LIMIT, LIMIT], 14, 0.01, 90.0)
+    assert accepted(pair, (a, b), [a, b])[0]  # against b's single fit a seems to add 100
+    pair._without = {"a": _res([LIMIT + 0.1, LIMIT]), "b": _res([LIMIT + 5.0, LIMIT + 0.2])}
+    assert DOF * 0.1 < scipy.stats.chi2.isf(1e-3, 10)
+    ok, why = accepted(pair, (a, b), [a, b])
+    assert not ok and "a adds no significant gain over b alone" in why
+    # where the pair without a member leaves more than the other's single fit, the single decides
+    pair._without = {"a": _res([LIMIT + 9.0, LIMIT + 9.0]), "b": _res([LIMIT + 9.0, LIMIT + 9.0])}
+    assert accepted(pair, (a, b), [a, b])[0]
