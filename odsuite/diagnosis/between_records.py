@@ -10,7 +10,8 @@ than the records agree. A misfit every record shares alike (the same pull in all
 it would with any number of records of the same test.
 
 Each record's pull is its gradient at the joint fit, ``g_h = J_h^T r_h``, turned into a step by the
-joint fit's information ``A = J^T J``: ``cov = n / (n - 1) * A^-1 (sum g_h g_h^T) A^-1``. For
+joint fit's information ``A = J^T J``, ``d_h = A^-1 g_h``: ``cov = n / (n - 1) * sum (d_h - mean)(d_h -
+mean)^T`` (the mean is zero at an unbounded optimum without a prior). For
 records of equal information this is the jackknife of refits without each record to first order;
 unlike those refits it does not blow up where one record alone determines a direction (the rest
 then leave it undetermined, and a refit without that record moves along it anywhere): the
@@ -42,7 +43,9 @@ def leave_one_record_out_covariance(problem, res) -> np.ndarray | None:
     pulls = np.array([J[a:b].T @ r[a:b] for a, b in zip(starts[:-1], starts[1:])])
     steps = np.linalg.lstsq(J.T @ J, pulls.T, rcond=1e-10)[0].T  # A^-1 g_h, undetermined directions left out
     scales = np.array([f.scale for f in problem.free])
-    d = steps * scales
+    # centred: the pulls sum to zero only at an unbounded optimum without a prior; a parameter held
+    # at a bound is pulled alike by every record, which is no disagreement between them
+    d = (steps - steps.mean(axis=0)) * scales
     n = len(exps)
     cov = n / (n - 1) * d.T @ d
     own = np.array([f.experiment is not None for f in problem.free])

@@ -894,10 +894,13 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
     of J at every iteration (~212,000 rows on the two-body rig: 0.1 s, 25x the product J^T J),
     though its steps depend on J^T J and J^T f alone, and differences every column after every
     accepted step (each column a simulation). The steps, their acceptance and termination are
-    scipy's own functions; without ``broyden`` the iterates are scipy's (to rounding).
+    scipy's own functions; without ``broyden`` the iterates are scipy's to rounding where J is well
+    conditioned (J^T J squares its condition number: a split the data barely determine, held by the
+    prior alone, lands elsewhere along it at the same cost).
 
     ``jac(x, f)`` is d f / d x at ``x`` (``f`` the residual there). An updated Jacobian gives way to
-    a differenced one (BROYDEN_RUN, BROYDEN_MISS) and never ends the search: where ``stops`` (which
+    a differenced one (BROYDEN_RUN, BROYDEN_MISS) and never ends the search: where the gradient,
+    scipy's ftol test (which reads the Jacobian's promise) or ``stops`` (which
     sees each Jacobian's G = J^T J and g = J^T f and, after each iteration, the cost and point:
     scipy's callback) stop on its promise, the differenced Jacobian decides; the result's ``jac``
     is always differenced (uncertainties and validation use it)."""
@@ -927,6 +930,9 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
         v, dv = CL_scaling_vector(x, g, lb, ub)
         g_norm = float(np.linalg.norm(g * v, ord=np.inf))
         if g_norm < GTOL:
+            if not exact:  # an updated Jacobian's gradient: the differenced one decides
+                differenced()
+                continue
             status = 1
         if status is not None or nfev == max_nfev:
             break
@@ -967,10 +973,14 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
         if refresh:
             differenced()
             continue
+        confirm = status in (2, 4) and not exact  # small gain for what an updated Jacobian promised
+        if confirm:
+            status = None
         if actual_reduction > 0:
             x_old, f_old = x, f
             x, f, cost = x_new, f_new, cost_new
-            if broyden and status is None and run < BROYDEN_RUN and abs(1 - ratio) <= BROYDEN_MISS:
+            if (broyden and not confirm and status is None and run < BROYDEN_RUN
+                    and abs(1 - ratio) <= BROYDEN_MISS):
                 # the secant through the step: J += (df - J dx) dx^T / |dx|^2
                 dx = x - x_old
                 J = J + np.outer((f - f_old - J @ dx) / float(dx @ dx), dx)
@@ -994,6 +1004,7 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
                 break
     if not exact:
         differenced()
+        g_norm = float(np.linalg.norm(g * CL_scaling_vector(x, g, lb, ub)[0], ord=np.inf))
     return OptimizeResult(x=x, cost=cost, fun=f, jac=J, grad=g, optimality=g_norm,
                           active_mask=find_active_constraints(x, lb, ub, rtol=xtol), nfev=nfev, njev=njev,
                           status=0 if status is None else status)

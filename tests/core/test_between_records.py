@@ -127,3 +127,14 @@ def test_too_few_records_or_a_records_own_parameter_report_the_fits_sd():
     assert np.isnan(leave_one_record_out_sds(problem, res)[0])
     assert reported_sds(np.array([white]), problem, res)[0] == white
     assert np.isnan(reported_sds(np.array([np.nan]), problem, res)[0])  # undetermined stays so
+
+
+def test_a_parameter_held_at_a_bound_is_not_spread_by_its_pull():
+    """Held at a bound 0.1 below where the records put it: every record pulls the same way, which is
+    no disagreement between them (uncentred, that pull alone read as a spread of 0.05 in 2)."""
+    rng = np.random.default_rng(5)
+    xs, ys = _records(rng, 0.0, 0.01)
+    _, problem, res, white = _fit(xs, ys)
+    x, y = np.concatenate(xs), np.concatenate(ys)
+    res.fun = y - (THETA - 0.1) * x  # the fit at its lower bound
+    assert leave_one_record_out_sds(problem, res)[0] < 3 * white
