@@ -181,7 +181,7 @@ def add_effect_cmd(
     if rows:  # the quantities that moved most, as stored; all of them in `odsuite model`
         most = moved(rows, limit=6)
         rest = len(rows) - len(most)
-        more = f" ({rest} more, moved less: `odsuite model {project}`)" if rest else ""
+        more = f" ({rest} more: `odsuite model {project}`)" if rest else ""
         console.print(f"{effect}: {shown(physical_text(most))}{more}", highlight=False)
     for line in result["warnings"]:
         err_console.print(f"warning: {shown(line)}", highlight=False, soft_wrap=True)

@@ -10,7 +10,7 @@ import numpy as np
 
 from odsuite.contracts.effects import applies, family
 from odsuite.diagnosis import checks, physical
-from odsuite.diagnosis.between_records import leave_one_record_out_covariance, reported_sds
+from odsuite.diagnosis.between_records import between_records_covariance, reported_sds
 from odsuite.diagnosis.joint import Joint
 from odsuite.domain.errors import ConfigError
 from odsuite.diagnosis.fitting import (
@@ -163,11 +163,11 @@ def _entries(joint: Problem, joint_effects, u, fit_sds, corr, res) -> list[dict[
 
 
 def _between_records(fit_sds: np.ndarray, problem: Problem, res) -> tuple[np.ndarray, np.ndarray | None]:
-    """Each parameter's reported sd (the larger of the fit's and the jackknife's over records) and
-    the jackknife's covariance, from which the physical quantities take theirs."""
+    """Each parameter's reported sd (the larger of the fit's and the one between records) and the
+    covariance between records, from which the physical quantities take theirs."""
     if res is None:
         return fit_sds, None
-    return reported_sds(fit_sds, problem, res), leave_one_record_out_covariance(problem, res)
+    return reported_sds(fit_sds, problem, res), between_records_covariance(problem, res)
 
 
 def _stored(project, rev, name: str, new_entries: list[dict], after, before: float, warnings: list[str]

@@ -26,7 +26,7 @@ import numpy as np
 MIN_RECORDS = 3
 
 
-def leave_one_record_out_covariance(problem, res) -> np.ndarray | None:
+def between_records_covariance(problem, res) -> np.ndarray | None:
     """The between-records covariance of the problem's free parameters (value units, module
     docstring). NaN rows and columns for a parameter of one record (no other record holds it);
     None for fewer than ``MIN_RECORDS``. Its off-diagonal terms matter: parameters the data do not
@@ -54,16 +54,16 @@ def leave_one_record_out_covariance(problem, res) -> np.ndarray | None:
     return cov
 
 
-def leave_one_record_out_sds(problem, res) -> np.ndarray | None:
-    """Per free parameter (value units), the jackknife standard deviation over the problem's
-    records (the square root of :func:`leave_one_record_out_covariance`'s diagonal)."""
-    cov = leave_one_record_out_covariance(problem, res)
+def between_records_sds(problem, res) -> np.ndarray | None:
+    """Per free parameter (value units), the standard deviation between the problem's records (the
+    square root of :func:`between_records_covariance`'s diagonal)."""
+    cov = between_records_covariance(problem, res)
     return None if cov is None else np.sqrt(np.diag(cov))
 
 
 def reported_sds(fit_sds: np.ndarray, problem, res) -> np.ndarray:
-    """The larger of the fit's standard deviation and the jackknife's over records, per parameter."""
-    spread = leave_one_record_out_sds(problem, res)
+    """The larger of the fit's standard deviation and the one between records, per parameter."""
+    spread = between_records_sds(problem, res)
     if spread is None:
         return fit_sds
     return np.where(np.isfinite(fit_sds), np.fmax(fit_sds, spread), fit_sds)  # undetermined stays so

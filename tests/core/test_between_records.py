@@ -10,7 +10,7 @@ from types import SimpleNamespace
 import numpy as np
 from scipy import stats
 
-from odsuite.diagnosis.between_records import (leave_one_record_out_covariance, leave_one_record_out_sds,
+from odsuite.diagnosis.between_records import (between_records_covariance, between_records_sds,
                                                reported_sds)
 
 N_RECORDS, N_SAMPLES, THETA = 5, 400, 2.0
@@ -51,10 +51,10 @@ def test_leaving_a_record_out_is_the_refit_to_first_order_for_a_linear_model():
     a = sum(x @ x for x in xs)
     pulls = [x @ (y - theta * x) for x, y in zip(xs, ys)]
     sandwich = np.sqrt(N_RECORDS / (N_RECORDS - 1) * sum(g * g for g in pulls)) / a
-    np.testing.assert_allclose(leave_one_record_out_sds(problem, res), [sandwich], rtol=1e-10)
+    np.testing.assert_allclose(between_records_sds(problem, res), [sandwich], rtol=1e-10)
     refits = [_fit(xs[:i] + xs[i + 1:], ys[:i] + ys[i + 1:])[0] for i in range(N_RECORDS)]
     jackknife = np.sqrt((N_RECORDS - 1) / N_RECORDS * np.sum((np.array(refits) - np.mean(refits)) ** 2))
-    np.testing.assert_allclose(leave_one_record_out_sds(problem, res), [jackknife], rtol=0.01)
+    np.testing.assert_allclose(between_records_sds(problem, res), [jackknife], rtol=0.01)
 
 
 def test_a_direction_one_record_alone_determines_does_not_blow_up():
@@ -84,7 +84,7 @@ def test_a_direction_one_record_alone_determines_does_not_blow_up():
     refits = np.array([fitted([j for j in range(N_RECORDS) if j != i])[2] for i in range(N_RECORDS)])
     jackknife = np.sqrt((N_RECORDS - 1) / N_RECORDS * np.sum((refits - refits.mean(axis=0)) ** 2, axis=0))
     assert np.all(jackknife > 10 * fit_sd)  # the case: refits without record 0 are free along it
-    between = np.sqrt(np.diag(leave_one_record_out_covariance(problem, res)))
+    between = np.sqrt(np.diag(between_records_covariance(problem, res)))
     assert np.all(between < fit_sd)
     np.testing.assert_array_equal(reported_sds(fit_sd, problem, res), fit_sd)
 
@@ -120,11 +120,11 @@ def test_too_few_records_or_a_records_own_parameter_report_the_fits_sd():
     rng = np.random.default_rng(3)
     xs, ys = _records(rng, 0.3, 0.01)
     _, problem, res, white = _fit(xs[:2], ys[:2])
-    assert leave_one_record_out_sds(problem, res) is None
+    assert between_records_sds(problem, res) is None
     assert reported_sds(np.array([white]), problem, res)[0] == white
     _, problem, res, white = _fit(xs, ys)
     problem.free[0].experiment = "T1"
-    assert np.isnan(leave_one_record_out_sds(problem, res)[0])
+    assert np.isnan(between_records_sds(problem, res)[0])
     assert reported_sds(np.array([white]), problem, res)[0] == white
     assert np.isnan(reported_sds(np.array([np.nan]), problem, res)[0])  # undetermined stays so
 
@@ -137,4 +137,4 @@ def test_a_parameter_held_at_a_bound_is_not_spread_by_its_pull():
     _, problem, res, white = _fit(xs, ys)
     x, y = np.concatenate(xs), np.concatenate(ys)
     res.fun = y - (THETA - 0.1) * x  # the fit at its lower bound
-    assert leave_one_record_out_sds(problem, res)[0] < 3 * white
+    assert between_records_sds(problem, res)[0] < 3 * white

@@ -43,7 +43,6 @@ def test_alike_changes_of_which_one_explains_far_more_are_not_confounded():
     va, vb = foot._problem.predictions(foot._u)[0].ravel(), mass._problem.predictions(mass._u)[0].ravel()
     assert abs(va @ vb) / (np.linalg.norm(va) * np.linalg.norm(vb)) > 0.99
     # the foot leaves 2 x DOF x 5 = 200 less whitened excess: beyond chi2.isf(0.001, 6) = 22.5
-    assert 200.0 > scipy.stats.chi2.isf(1e-3, 6)
     mark_confounded([foot, mass], None, 1.0)
     assert foot.confounded_with == [] and mass.confounded_with == []
 

@@ -164,8 +164,9 @@ def test_scale_bar_is_a_round_amount_of_motion_a_tenth_of_the_plate_long():
 
 def test_the_hammer_arrow_is_sized_by_the_body_it_hits(registries):
     """On the three-body stand (a 2 m frame, a 0.3 m head on top) a blow on the head draws an arrow
-    half the head's plate long (0.2 m: a tenth of the frame at least), not half the frame's (1 m,
-    which ran out of the picture through the title); on the thesis platform it stays half its plate."""
+    of a tenth of the scene (0.2 m, more than half the head's 0.3 m plate), not half the frame's
+    (1 m, which ran out of the picture through the title); on the thesis platform it stays half its
+    plate."""
     from pathlib import Path
 
     from odsuite.domain.rig import load_rig
