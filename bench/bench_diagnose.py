@@ -286,6 +286,22 @@ partner search. Calibration on this code (niced, --workers 1, faults and nulls s
 faults 20/20 named and explained; nulls 20/20 "nothing to explain", no significant candidate;
 the pairs' slow tests (two_faults, corrected) 5 passed; `odsuite demo`'s loop 0.469 -> stiffness
 -> plate_flexibility -> "nothing to explain".
+
+The screening and fits rounds merged with the statistics' changes, on a quiet machine (load
+0.4-0.9; the same code but for the fits' confirmation of an updated Jacobian's stop in the second):
+
+| rig, workers | evaluations | CPU, worth, wall | again |
+| --- | --- | --- | --- |
+| thesis, 1 | 1431 | 19.2 s, 479, 18.7 s | 21.9 s, 553, 21.6 s |
+| thesis, 2 | 1431 | 23.8 s, 594, 18.9 s | 18.8 s, 474, 14.9 s |
+| two-body, 1 | 828 | 14.7 s, 353, 14.1 s | 14.6 s, 338, 14.1 s |
+| two-body, 2 | 828 | 15.7 s, 377, 8.8 s | 16.4 s, 382, 8.7 s |
+
+Against the round before (load 1-2: thesis 1675 evaluations, 22.0 s CPU; two-body 973, 20.3 s):
+thesis 0-13 % less CPU, two-body 28 %. Verdicts and errors the same. Calibration on that code:
+nulls n 40 no significant candidate in 40/40, faults n 20 20/20 named and explained, outside n 8
+0/8 "explained". Targets (250 worth, 3 s / 5 s) still missed by 1.4-2.2x in CPU worth and 1.7-5x
+in wall time.
 """
 
 from __future__ import annotations
