@@ -356,19 +356,12 @@ class Problem:
                 # the models the residual at ``u`` was just predicted with: their structure's
                 # response is kept on the experiments
                 models0 = self._models[1] if self._models[0] == u.tobytes() else self.models(u)
-                points = []
-                for i in moved:
-                    du = np.zeros_like(u)
-                    du[i] = steps[i]
-                    points.append(self.models(u + du))
+                points = self._stepped_models(u, steps, moved)
                 if any(p[e.name].structure is models0[e.name].structure for p in points for e in exps):
                     return None  # a step that leaves the structure: its own simulation is cheap
-                preds = []
-                for e in exps:
-                    got = linearised_predictions(models0[e.name], [p[e.name] for p in points], e, self.stride)
-                    if got is None:
-                        return None
-                    preds.append(got)
+                preds = self._each_experiment(linearised_predictions, models0, points, exps)
+                if preds is None:
+                    return None
         except (DivergedError, np.linalg.LinAlgError):
             return None
         self.evaluations += len(moved)
@@ -391,21 +384,35 @@ class Problem:
                 models0 = self._models[1] if self._models[0] == u.tobytes() else self.models(u)
                 if any(not models0[e.name].structure.is_linear for e in exps):
                     return None
-                points = []
-                for i in moved:
-                    du = np.zeros_like(u)
-                    du[i] = steps[i]
-                    points.append(self.models(u + du))
-                changes = []
-                for e in exps:
-                    got = cubic_change_predictions(models0[e.name], [p[e.name] for p in points], e, self.stride)
-                    if got is None:
-                        return None
-                    changes.append(got)
+                changes = self._each_experiment(cubic_change_predictions, models0,
+                                                self._stepped_models(u, steps, moved), exps)
+                if changes is None:
+                    return None
         except (DivergedError, np.linalg.LinAlgError):
             return None
         self.evaluations += len(moved)
         return {i: r0 - np.concatenate([c[k].ravel() for c in changes]) for k, i in enumerate(moved)}
+
+    def _stepped_models(self, u: np.ndarray, steps: np.ndarray, moved: Sequence[int]) -> list[dict[str, Any]]:
+        """The models at ``u`` + a step of each ``moved`` parameter in turn."""
+        points = []
+        for i in moved:
+            du = np.zeros_like(u)
+            du[i] = steps[i]
+            points.append(self.models(u + du))
+        return points
+
+    def _each_experiment(self, predicted, models0: Mapping[str, Any], points: Sequence[Mapping[str, Any]],
+                         exps: Sequence[PreparedExperiment]) -> list | None:
+        """``predicted(model at u, models at the steps, experiment, stride)`` on each experiment;
+        None where one of them declines."""
+        out = []
+        for e in exps:
+            got = predicted(models0[e.name], [p[e.name] for p in points], e, self.stride)
+            if got is None:
+                return None
+            out.append(got)
+        return out
 
     def _sensor_batches(self, exps: Sequence[PreparedExperiment]) -> tuple[list[list[int]], np.ndarray | None]:
         """Groups of free parameters that one evaluation can difference (at most one per sensor,

@@ -11,18 +11,9 @@ from types import SimpleNamespace
 import numpy as np
 import scipy.stats
 
-from odsuite.analysis.resolved import Resolved
 from odsuite.diagnosis.ranking import mark_confounded
 
-DOF = 20.0
-LIMIT = 3.0
-
-
-def _res(ratios) -> Resolved:
-    q = np.array(ratios, float).reshape(2, 1)
-    n = np.full_like(q, DOF)
-    return Resolved(["r0"], [["x1"]], [[(10.0, 20.0), (20.0, 40.0)]], [q], [np.ones_like(q)], [n], [n],
-                    [np.full_like(q, LIMIT)])
+from tests.core.test_joint_pairs import DOF, LIMIT, _res
 
 
 def _cand(name, change, ratios, k, data_driven=False):
