@@ -10,7 +10,7 @@ import numpy as np
 
 from odsuite.contracts.effects import applies, family
 from odsuite.diagnosis import checks, physical
-from odsuite.diagnosis.between_records import between_records_covariance, reported_sds
+from odsuite.diagnosis.between_records import between_records_covariance, larger_sds
 from odsuite.diagnosis.joint import Joint
 from odsuite.domain.errors import ConfigError
 from odsuite.diagnosis.fitting import (
@@ -167,7 +167,8 @@ def _between_records(fit_sds: np.ndarray, problem: Problem, res) -> tuple[np.nda
     covariance between records, from which the physical quantities take theirs."""
     if res is None:
         return fit_sds, None
-    return reported_sds(fit_sds, problem, res), between_records_covariance(problem, res)
+    cov = between_records_covariance(problem, res)  # once: the sds and the quantities both read it
+    return larger_sds(fit_sds, cov), cov
 
 
 def _stored(project, rev, name: str, new_entries: list[dict], after, before: float, warnings: list[str]

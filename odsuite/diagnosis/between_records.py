@@ -63,7 +63,12 @@ def between_records_sds(problem, res) -> np.ndarray | None:
 
 def reported_sds(fit_sds: np.ndarray, problem, res) -> np.ndarray:
     """The larger of the fit's standard deviation and the one between records, per parameter."""
-    spread = between_records_sds(problem, res)
-    if spread is None:
+    return larger_sds(fit_sds, between_records_covariance(problem, res))
+
+
+def larger_sds(fit_sds: np.ndarray, cov: np.ndarray | None) -> np.ndarray:
+    """:func:`reported_sds` from a covariance between records already at hand (None: the fit's)."""
+    if cov is None:
         return fit_sds
+    spread = np.sqrt(np.diag(cov))
     return np.where(np.isfinite(fit_sds), np.fmax(fit_sds, spread), fit_sds)  # undetermined stays so
