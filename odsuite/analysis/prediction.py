@@ -63,7 +63,13 @@ class StageOperator:
             a, n = self.offset
             y -= y[a:a + n].mean(axis=0)
         for sos, zero_phase in self.filters:
-            y = scipy.signal.sosfiltfilt(sos, y, axis=0) if zero_phase else scipy.signal.sosfilt(sos, y, axis=0)
+            if zero_phase:
+                y = scipy.signal.sosfiltfilt(sos, y, axis=0)
+            else:  # sosfilt's arithmetic in place, without its checks and copies (many calls per fit)
+                from odsuite.domain.recursions import sections_in_place
+
+                y = np.ascontiguousarray(y, dtype=float)
+                sections_in_place(sos, y)
         return y
 
     @property
@@ -100,7 +106,10 @@ def stage_operators(channels: Sequence[Any], volts_per_unit: Sequence[float], st
                 elif isinstance(op, WindowMean) and offset is None and not filters:
                     offset = (op.start, op.length)
                 elif isinstance(op, Filter):
-                    filters.append((np.ascontiguousarray(op.sos), op.zero_phase))
+                    sos = np.ascontiguousarray(op.sos, dtype=float)
+                    if sos.ndim != 2 or sos.shape[1] != 6 or not np.all(sos[:, 3] == 1.0):
+                        return None  # not normalised sections: the chains themselves run
+                    filters.append((sos, op.zero_phase))
                 else:  # a window mean after a filter: not an operator of this form
                     return None
         # conversion times volts per unit is 1 (or 1e6) up to rounding: equal chains share a group
@@ -554,7 +563,10 @@ def _analog_chain(model, exp: PreparedExperiment, y: np.ndarray) -> np.ndarray:
         num, den = _sensor_filter(dyn, exp.fs)
         y[:, cols] = scipy.signal.lfilter(num, den, y[:, cols], axis=0)
     if chain.front_end is not None:
-        y = scipy.signal.sosfilt(_analog_sos(chain.front_end, exp.fs), y, axis=0)
+        from odsuite.domain.recursions import sections_in_place
+
+        y = np.array(y, dtype=float, order="C")
+        sections_in_place(_analog_sos(chain.front_end, exp.fs), y)
     delays = [chain.delay.get(s.name, 0.0) for s in exp.sensors]
     if any(delays):
         y = sampled_later(y, exp.fs, delays)

@@ -102,8 +102,13 @@ def _simulate_band(ss: StateSpace, u: np.ndarray, fs: float) -> np.ndarray:
     first-order hold of :func:`band_limited` on the fine grid, the feed-through at the samples
     (there the band-limited signal is ``u`` itself)."""
     f = BAND_OVERSAMPLE
+    T = 1.0 / (fs * f)
+    modal = _modal(ss.A, T)
     states = StateSpace(ss.A, ss.B, ss.C, np.zeros_like(ss.D))
-    y = simulate_state_space(states, _band_input(u, f), fs * f, hold="foh")[::f]
+    if modal is None:
+        y = _simulate_expm(states, _band_input(u, f), T, "foh")[::f]
+    else:  # the fine grid's recursions kept at the samples alone
+        y = _simulate_modal(states, _band_input(u, f), modal, "foh", every=f)
     return y + u @ np.asarray(ss.D, float).T
 
 
@@ -233,16 +238,24 @@ def simulate_state_space(ss: StateSpace, u, fs: float, hold: str = "zoh") -> np.
     modal = _modal(ss.A, T)
     if modal is None:
         return _simulate_expm(ss, u, T, hold)
+    return _simulate_modal(ss, u, modal, hold)
+
+
+def _simulate_modal(ss: StateSpace, u: np.ndarray, modal: tuple, hold: str, every: int = 1) -> np.ndarray:
+    """:func:`simulate_state_space` by ``_modal``'s decomposition, every ``every``-th sample."""
     scale, V, keep, weight, lk, p, g0, g1s = modal
     Bm = np.linalg.solve(V, (ss.B / scale[:, None]).astype(complex))[keep]  # modal input, n_modes x n_in
     Cm = ((ss.C * scale) @ V)[:, keep] * weight  # n_out x n_modes
-    g1s = g1s if hold == "foh" else None
     # per (mode, input): the complex first-order recursion b(q)/(1 - p q^-1) run as two real
     # second-order filters (its real and imaginary parts, denominator |1 - p q^-1|^2) on the real
-    # input; the modal input weight is folded into the output weights
+    # input; the modal input weight is folded into the output weights. All in one compiled call,
+    # lfilter's arithmetic (recursions.second_order_rows)
     ut = np.ascontiguousarray(u.T)
     nm, ni = len(lk), ut.shape[0]
-    Zri = np.empty((2 * nm * ni, len(u)))  # real parts, then imaginary parts
+    rows = 2 * nm * ni  # real parts (mode, input), then imaginary parts
+    nums, dens, zi = np.empty((rows, 3)), np.empty((rows, 3)), np.zeros((rows, 2))
+    # the coefficients mode by mode in scalars: numpy's vectorised complex products round
+    # differently in the last bit
     for i in range(nm):
         if hold == "zoh":
             b0, b1 = 0.0, g0[i]
@@ -254,17 +267,20 @@ def simulate_state_space(ss: StateSpace, u, fs: float, hold: str = "zoh") -> np.
         den = np.array([1.0, -2 * p[i].real, abs(p[i]) ** 2])
         for j in range(ni):
             for part, row in ((np.real, i * ni + j), (np.imag, (nm + i) * ni + j)):
+                nums[row], dens[row] = part(num), den
                 if hold == "foh":
                     # start from rest whatever u[0] is: cancel the homogeneous response b0 u0 p^n
                     c = b0 * ut[j, 0]
-                    zi = [-part(c), -part(c * p[i]) - den[1] * part(c)]
-                    Zri[row], _ = scipy.signal.lfilter(part(num), den, ut[j], zi=zi)
-                else:
-                    Zri[row] = scipy.signal.lfilter(part(num), den, ut[j])
+                    zi[row] = -part(c), -part(c * p[i]) - den[1] * part(c)
+    source = np.tile(np.arange(ni), 2 * nm)
+    from odsuite.domain.recursions import second_order_rows  # numba loads on first use
+
+    Zri = np.empty((rows, len(range(0, len(u), every))))
+    second_order_rows(nums, dens, zi, source, ut, every, Zri)
     fold = (Cm[:, :, None] * Bm[None, :, :]).reshape(len(Cm), nm * ni)  # output x (mode, input)
     yt = np.hstack([fold.real, -fold.imag]) @ Zri  # Re(sum Cm Bm z), outputs x samples
     for k, j in zip(*np.nonzero(ss.D)):
-        yt[k] += ss.D[k, j] * ut[j]
+        yt[k] += ss.D[k, j] * ut[j, ::every]
     return yt.T  # samples x outputs (a transposed view: no copy)
 
 
