@@ -13,24 +13,20 @@ import numpy as np
 
 
 @numba.njit(cache=True, nogil=True)
-def second_order_rows(num, den, zi, source, u, every, out):
-    """Row r of ``out``: ``lfilter(num[r], den[r], u[source[r]], zi=zi[r])`` (``den[r, 0]`` = 1),
-    every ``every``-th sample from the first."""
+def second_order_rows(num, den, zi, source, u, out):
+    """Row r of ``out``: ``lfilter(num[r], den[r], u[source[r]], zi=zi[r])`` (``den[r, 0]`` = 1)."""
     n = u.shape[1]
     for r in range(num.shape[0]):
         b0, b1, b2 = num[r, 0], num[r, 1], num[r, 2]
         a1, a2 = den[r, 1], den[r, 2]
         z0, z1 = zi[r, 0], zi[r, 1]
         x = u[source[r]]
-        kept = 0
         for k in range(n):
             xn = x[k]
             y = z0 + b0 * xn
             z0 = z1 + xn * b1 - y * a1
             z1 = xn * b2 - y * a2
-            if k == kept * every:
-                out[r, kept] = y
-                kept += 1
+            out[r, k] = y
 
 
 @numba.njit(cache=True, nogil=True)
@@ -49,3 +45,22 @@ def sections_in_place(sos, x):
                 z[i, s, 1] = sos[s, 2] * x_cur - sos[s, 5] * x_new
                 x_cur = x_new
             x[k, i] = x_cur
+
+
+@numba.njit(cache=True, nogil=True)
+def chain_columns(x, cols, factor, offsets, sos, out):
+    """Columns ``cols`` of ``x`` (samples x signals), times ``factor``, less ``offsets`` (one per
+    column), through the sections ``sos`` from rest, into the same columns of ``out``: what
+    ``y = x[:, cols] * factor; y -= offsets; out[:, cols] = sosfilt(sos, y, axis=0)`` gives,
+    without the copies."""
+    n, m, ns = x.shape[0], cols.shape[0], sos.shape[0]
+    z = np.zeros((m, ns, 2))
+    for k in range(n):
+        for i in range(m):
+            x_cur = x[k, cols[i]] * factor - offsets[i]
+            for s in range(ns):
+                x_new = sos[s, 0] * x_cur + z[i, s, 0]
+                z[i, s, 0] = sos[s, 1] * x_cur - sos[s, 4] * x_new + z[i, s, 1]
+                z[i, s, 1] = sos[s, 2] * x_cur - sos[s, 5] * x_new
+                x_cur = x_new
+            out[k, cols[i]] = x_cur
