@@ -264,12 +264,14 @@ def _simulate_modal(ss: StateSpace, u: np.ndarray, modal: tuple, hold: str) -> n
         num = np.array([b0, b1 - b0 * pc, -b1 * pc])
         den = np.array([1.0, -2 * p[i].real, abs(p[i]) ** 2])
         for j in range(ni):
-            for part, row in ((np.real, i * ni + j), (np.imag, (nm + i) * ni + j)):
-                nums[row], dens[row] = part(num), den
-                if hold == "foh":
-                    # start from rest whatever u[0] is: cancel the homogeneous response b0 u0 p^n
-                    c = b0 * ut[j, 0]
-                    zi[row] = -part(c), -part(c * p[i]) - den[1] * part(c)
+            re, im = i * ni + j, (nm + i) * ni + j
+            nums[re], nums[im], dens[re], dens[im] = num.real, num.imag, den, den
+            if hold == "foh":
+                # start from rest whatever u[0] is: cancel the homogeneous response b0 u0 p^n
+                c = b0 * ut[j, 0]
+                cp = c * p[i]
+                zi[re] = -c.real, -cp.real - den[1] * c.real
+                zi[im] = -c.imag, -cp.imag - den[1] * c.imag
     source = np.tile(np.arange(ni), 2 * nm)
     from odsuite.domain.recursions import second_order_rows  # numba loads on first use
 
