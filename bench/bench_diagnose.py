@@ -302,6 +302,21 @@ thesis 0-13 % less CPU, two-body 28 %. Verdicts and errors the same. Calibration
 nulls n 40 no significant candidate in 40/40, faults n 20 20/20 named and explained, outside n 8
 0/8 "explained". Targets (250 worth, 3 s / 5 s) still missed by 1.4-2.2x in CPU worth and 1.7-5x
 in wall time.
+
+The next round made one evaluation cheaper to the bit (odsuite/domain/recursions.py: a simulation's
+mode recursions and a channel group's scaling, offset and causal sections in one compiled call each,
+lfilter's and sosfilt's operations in their order; a cubic-coefficient fit's linear set-up kept;
+every prediction and Jacobian of both benches' diagnoses traced equal to main's, so no
+recalibration). One evaluation, alternating, best of 7 x 10 (load 8-15): thesis 20.5-25.8 ->
+11.5-14.4 ms CPU, two-body 30.2-34.9 -> 18.7-20.4 ms; on the record heads (5 x 614 samples) 6.0 ->
+3.5-5.0 ms. Diagnose, thesis, one worker, alternating main / this (load 12-15): 20.1, 20.5, 19.4 s
+-> 13.7, 15.3, 13.7 s CPU. This script, main then this at load 15-17, then this then main at load 15-18
+(CPU s, worth; evaluations and verdicts the same): thesis one worker 22.3 (975) -> 13.8 (1068),
+19.5 (616) -> 20.5 (869); two workers 22.2 (972) -> 14.3 (1099), 20.6 (652) -> 18.6 (788);
+two-body one worker 16.9 (536) -> 12.5 (576), 14.8 (474) -> 13.2 (617); two workers 17.3 (549)
+-> 14.0 (644), 14.7 (470) -> 14.2 (665). Diagnose's CPU falls by about as much as the baseline's
+(both run the same prediction code, long records and short heads alike), so the worth column does
+not fall; the targets are still missed by 2-4x in worth.
 """
 
 from __future__ import annotations
