@@ -293,7 +293,7 @@ def cabinet_rig() -> RigBundle:
     single("unit_z2", "unit", (unit_corner[0] + 0.34, unit_corner[1] + 0.02, unit_top), ez, 0.5 / g)
     # mounted upside down under a lip: its output is negative along +z
     single("unit_z3", "unit", (unit_corner[0] + 0.02, unit_corner[1] + 0.28, unit_top), ez, 0.5 / g, sign=-1.0)
-    single("unit_y", "unit", (unit_corner[0] + 0.34, unit_corner[1], unit_corner[2] + 0.15), ey, 0.5 / g)
+    single("unit_y2", "unit", (unit_corner[0] + 0.34, unit_corner[1], unit_corner[2] + 0.15), ey, 0.5 / g)
     hits = [
         Hit("cabinet", np.array([cab_corner[0], 0.05, 1.40]), ex.copy(), 20.0, 1.0e-3),  # +x, high on the -x face
         Hit("cabinet", np.array([0.10, cab_corner[1] + cab_size[1], 0.50]), -ey, 20.0, 1.0e-3),  # -y, low
