@@ -134,3 +134,26 @@ def test_odsuite_accepts_the_cabinet_rig_file(tmp_path, capsys):
     assert {b["name"]: b["mass_kg"] for b in layout["bodies"]} == {"cabinet": 70.0, "unit": 32.0}
     assert all(b["solver"] == "least-squares" and b["solver_problem"] is None for b in layout["bodies"])
     assert len(layout["springs"]) == 7
+
+
+@pytest.mark.xfail(strict=True, reason="diagnose: the early/late cell test refuses the true stiffness fit on the "
+                                       "cabinet (the early part, 38-61 ms, leaves the feet loose and its late-part "
+                                       "prediction is judged against the noise alone, in the rocking band): "
+                                       "'partly explained' where the simulated rig's own file says nothing is left")
+def test_a_softer_unit_mount_fitted_right_is_explained(tmp_path):
+    """faults seed 202 (unit_mount1 x 0.7105, 30 N), only the stiffness effect tried: the right
+    spring is fitted, and a project on the simulated rig's own file leaves nothing to explain, so
+    the verdict should be 'explained'."""
+    spec = next(s for s in calibrate.specs("faults", 3, ("cabinet",)) if s["seed"] == 202)
+    case = calibrate.build(spec)
+    truth = writers.to_jsonable(case.truth_document())
+    rig = writers.write_rig_toml(tmp_path / "rig.toml", case.nominal)
+    lvms = [writers.write_lvm(tmp_path / f"r{i:02d}.lvm", calibrate.without_unused(rec))
+            for i, rec in enumerate(case.simulate())]
+    project = calibrate.make_project(tmp_path, rig, lvms, truth)
+    d = json.loads(calibrate.odsuite("diagnose", project, "--effect", "stiffness", "--json", "--workers", "1"))
+    top = d["candidates"][0]
+    assert top["effect"] == "stiffness" and top["significant"]
+    assert top["parameters"]["scale_unit_mount1"] == pytest.approx(case.truth["effect"]["factor"], abs=0.02)
+    assert d["baseline_error"] > 3 * d["noise_floor_error"]
+    assert d["verdict"] == "explained", (d["verdict"], top["early_late_cells"])
