@@ -209,8 +209,13 @@ def message(verdict: str, baseline: float, floor: float, best, sig: Signature, r
         why.append("its parameters fitted to the early (large) and the late (small) part of the records differ "
                    f"beyond their uncertainties ({', '.join(best.early_late_differ[:3])}): the residual it takes up "
                    "changes with the amplitude within each record, as a contact, friction or a loose part's does")
-    if not best.plausible:
-        why.append("its fitted values lie outside their physical range (" + ", ".join(best.implausible[:3]) + ")")
+    edge = getattr(best, "at_records_edge", [])
+    if edge:
+        why.append("its fit stopped at the records' Nyquist frequency (" + ", ".join(edge[:3]) + "): the top of "
+                   "what they resolve")
+    outside = [n for n in best.implausible if n not in edge] if not best.plausible else []
+    if outside:
+        why.append("its fitted values lie outside their physical range (" + ", ".join(outside[:3]) + ")")
     left = f" What is left lies in {_where(rest)}." if rest is not None else ""
     if why and len(why) == 1 and rest is not None and rest.cells and best.consistent and best.plausible:
         # it passes its own tests and only leaves cells above the floor: something else is there
