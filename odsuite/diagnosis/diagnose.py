@@ -93,8 +93,10 @@ class Candidate:
     at_records_edge: list[str] = field(default_factory=list)
     amplitude_dependent: list[str] = field(default_factory=list)
     per_experiment_fits: dict[str, dict[str, float]] = field(default_factory=dict)
-    #: its parameters fitted to the records' early (large) and late (small) part agree (checks.linearity)
-    early_late_agree: bool = True
+    #: its parameters fitted to the records' early (large) and late (small) part agree (checks.linearity;
+    #: for the best, the held-out test decides); None: not tested (``early_late_note`` says why)
+    early_late_agree: bool | None = True
+    early_late_note: str = ""
     early_late_fits: dict[str, dict[str, float]] = field(default_factory=dict)
     early_late_differ: list[str] = field(default_factory=list)
     #: the cells where the early part's fit mispredicts the late part (checks.held_out; best candidate)
@@ -109,7 +111,7 @@ class Candidate:
             "effect", "significant", "error_after", "validated_error", "parameters", "uncertainties",
             "units", "evidence", "n_parameters", "bic", "screened_error", "unidentifiable",
             "confounded_parameters", "confounded_with", "validation", "fitted", "consistent", "plausible",
-            "implausible", "at_records_edge", "amplitude_dependent", "per_experiment_fits", "early_late_agree", "early_late_differ",
+            "implausible", "at_records_edge", "amplitude_dependent", "per_experiment_fits", "early_late_agree", "early_late_note", "early_late_differ",
             "early_late_fits", "early_late_cells",
             "physical")}
         d["likelihood_ratio"] = None if not math.isfinite(self.likelihood_ratio) else self.likelihood_ratio
@@ -829,6 +831,11 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
         part = checks.held_out(exps, early, late, floor_best, best._early_late_cuts)
         best.early_late_agree = part is None or not part.detected()
         best.early_late_cells = [] if part is None else part.cells(3)
+    elif res_best is not None and res_best.detected():
+        # the parts' parameter test then sees what is left too, not the candidate: neither decides
+        best.early_late_agree = None
+        best.early_late_note = ("not tested: cells stay above the floor after it, and the late part's own fit "
+                                "would take up some of them")
     nonlinear = best is not None and makes_nonlinear(best, base)
     d.verdict = decide(d.baseline_error, d.noise_floor_error, best, before=res0, after=res_best,
                        amplitude_cause=nonlinear)
