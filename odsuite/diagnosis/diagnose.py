@@ -36,6 +36,7 @@ from odsuite.diagnosis.fitting import (
     effective_samples,
     fit,
     fit_windows,
+    records_band,
     refined,
     screen,
     uncertainties,
@@ -88,10 +89,14 @@ class Candidate:
     consistent: bool = True
     plausible: bool = True
     implausible: list[str] = field(default_factory=list)
+    #: of those, the frequencies the fit stopped at the records' Nyquist frequency (not resolved)
+    at_records_edge: list[str] = field(default_factory=list)
     amplitude_dependent: list[str] = field(default_factory=list)
     per_experiment_fits: dict[str, dict[str, float]] = field(default_factory=dict)
-    #: its parameters fitted to the records' early (large) and late (small) part agree (checks.linearity)
-    early_late_agree: bool = True
+    #: its parameters fitted to the records' early (large) and late (small) part agree (checks.linearity;
+    #: for the best, the held-out test decides); None: not tested (``early_late_note`` says why)
+    early_late_agree: bool | None = True
+    early_late_note: str = ""
     early_late_fits: dict[str, dict[str, float]] = field(default_factory=dict)
     early_late_differ: list[str] = field(default_factory=list)
     #: the cells where the early part's fit mispredicts the late part (checks.held_out; best candidate)
@@ -106,7 +111,7 @@ class Candidate:
             "effect", "significant", "error_after", "validated_error", "parameters", "uncertainties",
             "units", "evidence", "n_parameters", "bic", "screened_error", "unidentifiable",
             "confounded_parameters", "confounded_with", "validation", "fitted", "consistent", "plausible",
-            "implausible", "amplitude_dependent", "per_experiment_fits", "early_late_agree", "early_late_differ",
+            "implausible", "at_records_edge", "amplitude_dependent", "per_experiment_fits", "early_late_agree", "early_late_note", "early_late_differ",
             "early_late_fits", "early_late_cells",
             "physical")}
         d["likelihood_ratio"] = None if not math.isfinite(self.likelihood_ratio) else self.likelihood_ratio
@@ -191,8 +196,12 @@ def _checks_words(cand: Candidate) -> str:
         spread = ", ".join(cand.amplitude_dependent) if cand.amplitude_dependent else "some parameters"
         words.append(f"fitted per experiment, {spread} differ beyond their uncertainties"
                      + (" and follow the force level (amplitude dependent)" if cand.amplitude_dependent else ""))
-    if cand.implausible:
-        words.append(f"outside the physical range: {', '.join(cand.implausible[:4])}")
+    edge = cand.at_records_edge
+    if edge:
+        words.append(f"{', '.join(edge[:4])} at the records' Nyquist frequency ({cand._nyquist_hz:g} Hz): "
+                     "the fit stopped at the top of what they resolve")
+    if [n for n in cand.implausible if n not in edge]:
+        words.append(f"outside the physical range: {', '.join(n for n in cand.implausible[:4] if n not in edge)}")
     return "; ".join(words)
 
 
@@ -317,7 +326,9 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         lin = checks.linearity(problem, res)
         cand.early_late_agree, cand.early_late_fits = lin.linear, {"early": lin.early, "late": lin.late}
         cand.early_late_differ, cand._early_late_u, cand._early_late_cuts = lin.differing, lin.u, lin.cuts
-    cand.implausible = checks.implausible(effect, problem.base.shared, params)
+    cand.implausible = checks.implausible(effect, problem.base.shared, params, problem.params)
+    cand.at_records_edge = checks.at_records_edge(problem.params, params)
+    cand._nyquist_hz = records_band(problem.full)[0]
     cand.plausible = not cand.implausible
     cand._problem, cand._u, cand._sse_win = problem, u, sse_win  # kept for the confounding check
     cand._stopped = stopped
@@ -640,7 +651,7 @@ def _partner(job: Mapping[str, Any], first: Candidate, names: Sequence[str]) -> 
 def _implausible(s: Screened) -> list[str]:
     """A screened candidate's values outside their physical range."""
     shared, _ = s.problem.values(s.u0)
-    return checks.implausible(s.effect, s.problem.base.shared, {**s.problem.fixed, **shared})
+    return checks.implausible(s.effect, s.problem.base.shared, {**s.problem.fixed, **shared}, s.problem.params)
 
 
 def _single(token: int, job: Mapping[str, Any], screened: Sequence[Screened], name: str, exps, floor, res0
@@ -820,6 +831,11 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
         part = checks.held_out(exps, early, late, floor_best, best._early_late_cuts)
         best.early_late_agree = part is None or not part.detected()
         best.early_late_cells = [] if part is None else part.cells(3)
+    elif res_best is not None and res_best.detected():
+        # the parts' parameter test then sees what is left too, not the candidate: neither decides
+        best.early_late_agree = None
+        best.early_late_note = ("not tested: cells stay above the floor after it, and the late part's own fit "
+                                "would take up some of them")
     nonlinear = best is not None and makes_nonlinear(best, base)
     d.verdict = decide(d.baseline_error, d.noise_floor_error, best, before=res0, after=res_best,
                        amplitude_cause=nonlinear)
