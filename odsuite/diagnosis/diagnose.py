@@ -440,6 +440,7 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
             fitted += [s for s in screened if any(p.effect == s.effect.name for p in partners)]
     finally:
         JOBS.pop(token)
+        _ON_TOP[:] = [None, None]  # the records it holds (where the partner search ran here)
     candidates += _screened_only(screened, fitted, job)
     candidates = _ordered(candidates, pairs, exps, base, job)
     diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=job["noise"], revision=rev.get("revision"),
