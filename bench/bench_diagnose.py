@@ -302,6 +302,20 @@ thesis 0-13 % less CPU, two-body 28 %. Verdicts and errors the same. Calibration
 nulls n 40 no significant candidate in 40/40, faults n 20 20/20 named and explained, outside n 8
 0/8 "explained". Targets (250 worth, 3 s / 5 s) still missed by 1.4-2.2x in CPU worth and 1.7-5x
 in wall time.
+
+The next round balanced the worker processes. Each task's CPU by process
+(bench/profile_diagnose_workers.py) showed the thesis rig's partner search and pairs' joint fits
+running in the main process while both workers idled (10 of 22 s CPU), which bounded two workers'
+speed-up at 1.27x (critical path, the main process's CPU plus the busiest worker's per stage: 17.3
+of 22.0 s). Both now run on the workers, a fit's kept predictions travel back with it, and a
+worker that has finished takes the next full fit. Same sitting, load 16: critical path 14.0 of
+23.8 s CPU, at most 1.70x; two-body (no pairs) 10.8 of 17.8 s before, 12.9 of 21.7 after (1.66x,
+1.68x): what remains is the main process's own work (baseline, ordering, verdict: about 2 s) and
+the fits' uneven ends (mass properties 3 s beside stiffness 2 s). This script after it (load 14-15, wall times say
+nothing): thesis 1431 evaluations, 22.2 / 22.0 s CPU on one / two workers (793 / 785 worth, one
+evaluation 28 ms CPU); two-body 828, 16.8 / 15.6 s (501 / 465 worth, 33.5 ms). Candidate tables
+and evaluations on one worker bit for bit as before on both rigs; on two within round-off (the
+last digits of a few sensor-only candidates, as before between one and two workers).
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -68,6 +68,11 @@ def fit_windows(exps: Sequence[PreparedExperiment]) -> list[PreparedExperiment]:
         end = last + max(WINDOW_MARGIN * max(last - e.trigger, 0), WINDOW_MIN_S * e.fs)
         out.append(e.head(int(math.ceil(end))))
     return out
+
+
+def records_band(exps: Sequence[PreparedExperiment]) -> tuple[float, float]:
+    """The records' Nyquist frequency and their widest frequency line (Hz)."""
+    return min(e.fs for e in exps) / 2, max(e.fs / e.n_samples for e in exps)
 
 
 def heads(exps: Sequence[PreparedExperiment]) -> list[list[PreparedExperiment]]:
@@ -154,7 +159,11 @@ class Problem:
         self.prior = prior
         self.effect = effect
         self.exps = list(exps)
-        params = effect.parameters(base.shared)
+        # a mode's frequency within what the records resolve (Parameter.within_records); its
+        # steps and prior as declared, so a search that stays inside moves as before
+        declared = {p.name: p for p in effect.parameters(base.shared)}
+        nyquist, line = records_band(self.full)
+        self.params = params = [p.within_records(nyquist, line) for p in declared.values()]
         self.discrete = [p for p in params if p.choices is not None]
         self.fixed = dict(fixed or {})  # discrete choices and parameters held at a value
         # parameters the effect solves by linear least squares at every evaluation (variable
@@ -170,10 +179,10 @@ class Problem:
             if p.choices is not None or p.name in self.fixed or p.name in self.linear:
                 continue
             if p.scope == "per_experiment":
-                self.free += [_Free(p, e.name, _scale(p)) for e in self.exps]
+                self.free += [_Free(p, e.name, _scale(declared[p.name])) for e in self.exps]
             else:
-                self.free.append(_Free(p, None, _scale(p)))
-        self.pull = np.array([prior * _prior_share(f) for f in self.free])
+                self.free.append(_Free(p, None, _scale(declared[p.name])))
+        self.pull = np.array([prior * _prior_share(replace(f, param=declared[f.param.name])) for f in self.free])
         self.evaluations = 0
 
     # values ------------------------------------------------------------------------------------
