@@ -305,8 +305,10 @@ class Problem:
         """Forward differences of the residual on ``exps`` (``step`` natural steps, backwards at an
         upper bound). Parameters that change one sensor's prediction alone (``Parameter.sensor``)
         are moved together with those of other sensors, each column taken from its own sensor's
-        rows: the same numbers in fewer evaluations. With ``tangent``, steps that add cubic springs
-        to a linear structure are taken to first order in them (Problem._cubic_tangent)."""
+        rows: the same numbers in fewer evaluations. With ``tangent`` (screening), the derivative
+        where it is cheaper than the difference: structure-changing columns linearised over
+        DIFF_STEP natural steps (Problem._linearised), steps that add cubic springs to a linear
+        structure to first order in them (Problem._cubic_tangent)."""
         J = np.zeros((r0.size, len(self.free)), order="F")  # written by columns
         steps = np.zeros(len(self.free))
         for i, f in enumerate(self.free):
@@ -316,7 +318,15 @@ class Problem:
                 h = 0.5 * (hi - u[i]) if hi - u[i] > u[i] - lo else -0.5 * (u[i] - lo)
             steps[i] = h
         batches, sensor_of_row = self._sensor_batches(exps or self.exps)
-        linearised = self._linearised(u, steps, exps or self.exps) if sensor_of_row is None else None
+        linearised = None
+        if sensor_of_row is None:
+            # a tangent's columns are derivatives: taken over DIFF_STEP, where the poles move
+            # little enough for the linearisation (over a natural step they move as far as their
+            # gaps, and each column was simulated)
+            small = steps * DIFF_STEP if tangent else steps
+            linearised = self._linearised(u, small, exps or self.exps)
+            if linearised is not None:
+                steps = small
         if linearised is None and tangent and sensor_of_row is None:
             linearised = self._cubic_tangent(u, steps, r0, exps or self.exps)
         rows_of: dict[str, np.ndarray] = {}  # each sensor's rows, found once
