@@ -302,6 +302,23 @@ thesis 0-13 % less CPU, two-body 28 %. Verdicts and errors the same. Calibration
 nulls n 40 no significant candidate in 40/40, faults n 20 20/20 named and explained, outside n 8
 0/8 "explained". Targets (250 worth, 3 s / 5 s) still missed by 1.4-2.2x in CPU worth and 1.7-5x
 in wall time.
+
+The next round: screening's structure-changing Jacobian columns on the heads are derivatives,
+linearised over DIFF_STEP natural steps (over a natural step the poles moved as far as their gaps:
+the linearisation refused every one and each column was simulated), and the damped step takes its
+Gram matrix and gradient once (a sensor candidate's whole-window Jacobian was copied and multiplied
+twice). Screening Jacobians (two-body) mass_properties 0.96 -> 0.46 s CPU, damping 0.55 -> 0.26,
+stiffness 0.40 -> 0.26; sensor_position's whole-window step 0.19 -> 0.04 s. Screening alone (every
+candidate, one process, main and this alternating twice at load 10-17): two-body 10.5-10.6 ->
+7.0-7.1 s CPU, thesis 5.5-6.2 -> 4.8-4.9 s. This script, main then this at load 11-16 (wall times
+say nothing): thesis 1431 -> 1369 evaluations, 24.6 -> 21.1 s CPU on one worker, 23.3 -> 18.9 s on
+two; two-body 828 -> 835, 17.2 -> 13.9 s and 17.0 -> 13.3 s. Verdicts, top candidates, the
+significant candidates and their order the same; screened errors moved (thesis stiffness 0.0505 ->
+0.0650, its fit then 19 evaluations instead of 33; damping 0.5648 -> 0.5661), fitted errors within
+3e-5 relative, validated ones within 2e-3 (two-body mass_properties 0.4891 -> 0.4899). Demo loop
+unchanged; calibration on this code (niced, --workers 1, n 12 each): faults 12/12 named and
+explained, nulls 12/12 "nothing to explain" with no significant candidate. Targets still missed by
+1.5-2x in CPU worth.
 """
 
 from __future__ import annotations
