@@ -316,6 +316,23 @@ nothing): thesis 1431 evaluations, 22.2 / 22.0 s CPU on one / two workers (793 /
 evaluation 28 ms CPU); two-body 828, 16.8 / 15.6 s (501 / 465 worth, 33.5 ms). Candidate tables
 and evaluations on one worker bit for bit as before on both rigs; on two within round-off (the
 last digits of a few sensor-only candidates, as before between one and two workers).
+
+The next round: screening's structure-changing Jacobian columns on the heads are derivatives,
+linearised over DIFF_STEP natural steps (over a natural step the poles moved as far as their gaps:
+the linearisation refused every one and each column was simulated), and the damped step takes its
+Gram matrix and gradient once (a sensor candidate's whole-window Jacobian was copied and multiplied
+twice). Screening Jacobians (two-body) mass_properties 0.96 -> 0.46 s CPU, damping 0.55 -> 0.26,
+stiffness 0.40 -> 0.26; sensor_position's whole-window step 0.19 -> 0.04 s. Screening alone (every
+candidate, one process, main and this alternating twice at load 10-17): two-body 10.5-10.6 ->
+7.0-7.1 s CPU, thesis 5.5-6.2 -> 4.8-4.9 s. This script, main then this at load 11-16 (wall times
+say nothing): thesis 1431 -> 1369 evaluations, 24.6 -> 21.1 s CPU on one worker, 23.3 -> 18.9 s on
+two; two-body 828 -> 835, 17.2 -> 13.9 s and 17.0 -> 13.3 s. Verdicts, top candidates, the
+significant candidates and their order the same; screened errors moved (thesis stiffness 0.0505 ->
+0.0650, its fit then 19 evaluations instead of 33; damping 0.5648 -> 0.5661), fitted errors within
+3e-5 relative, validated ones within 2e-3 (two-body mass_properties 0.4891 -> 0.4899). Demo loop
+unchanged; calibration on this code (niced, --workers 1, n 12 each): faults 12/12 named and
+explained, nulls 12/12 "nothing to explain" with no significant candidate. Targets still missed by
+1.5-2x in CPU worth.
 """
 
 from __future__ import annotations
