@@ -347,7 +347,12 @@ recalibration; measured on the code before the two rounds above were merged). On
 two-body one worker 16.9 (536) -> 12.5 (576), 14.8 (474) -> 13.2 (617); two workers 17.3 (549)
 -> 14.0 (644), 14.7 (470) -> 14.2 (665). Diagnose's CPU falls by about as much as the baseline's
 (both run the same prediction code, long records and short heads alike), so the worth column does
-not fall; the targets are still missed by 2-4x in worth.
+not fall. Merged with the two rounds above, this script, main then this at load 4.5-5 (CPU s,
+worth; wall): thesis 1369 evaluations, one worker 21.1 (652; 31.5 s) -> 12.3 (850; 17.5 s), two
+16.0 (496; 24.3 s) -> 12.7 (873; 19.2 s); two-body 835, one worker 10.7 (366) -> 9.9 (411), two
+11.7 (401) -> 10.8 (450); one evaluation 32.3 -> 14.5 and 29.1 -> 24.0 ms CPU; every prediction
+and Jacobian of both diagnoses again equal to main's to the bit. Targets still missed by 1.6-3.5x
+in worth and 4-6x in wall time.
 """
 
 from __future__ import annotations
