@@ -333,6 +333,26 @@ significant candidates and their order the same; screened errors moved (thesis s
 unchanged; calibration on this code (niced, --workers 1, n 12 each): faults 12/12 named and
 explained, nulls 12/12 "nothing to explain" with no significant candidate. Targets still missed by
 1.5-2x in CPU worth.
+
+The next round made one evaluation cheaper to the bit (odsuite/domain/recursions.py: a simulation's
+mode recursions and a channel group's scaling, offset and causal sections in one compiled call each,
+lfilter's and sosfilt's operations in their order; a cubic-coefficient fit's linear set-up kept;
+every prediction and Jacobian of both benches' diagnoses traced equal to main's, so no
+recalibration; measured on the code before the two rounds above were merged). One evaluation, alternating, best of 7 x 10 (load 8-15): thesis 20.5-25.8 ->
+11.5-14.4 ms CPU, two-body 30.2-34.9 -> 18.7-20.4 ms; on the record heads (5 x 614 samples) 6.0 ->
+3.5-5.0 ms. Diagnose, thesis, one worker, alternating main / this (load 12-15): 20.1, 20.5, 19.4 s
+-> 13.7, 15.3, 13.7 s CPU. This script, main then this at load 15-17, then this then main at load 15-18
+(CPU s, worth; evaluations and verdicts the same): thesis one worker 22.3 (975) -> 13.8 (1068),
+19.5 (616) -> 20.5 (869); two workers 22.2 (972) -> 14.3 (1099), 20.6 (652) -> 18.6 (788);
+two-body one worker 16.9 (536) -> 12.5 (576), 14.8 (474) -> 13.2 (617); two workers 17.3 (549)
+-> 14.0 (644), 14.7 (470) -> 14.2 (665). Diagnose's CPU falls by about as much as the baseline's
+(both run the same prediction code, long records and short heads alike), so the worth column does
+not fall. Merged with the two rounds above, this script, main then this at load 4.5-5 (CPU s,
+worth; wall): thesis 1369 evaluations, one worker 21.1 (652; 31.5 s) -> 12.3 (850; 17.5 s), two
+16.0 (496; 24.3 s) -> 12.7 (873; 19.2 s); two-body 835, one worker 10.7 (366) -> 9.9 (411), two
+11.7 (401) -> 10.8 (450); one evaluation 32.3 -> 14.5 and 29.1 -> 24.0 ms CPU; every prediction
+and Jacobian of both diagnoses again equal to main's to the bit. Targets still missed by 1.6-3.5x
+in worth and 4-6x in wall time.
 """
 
 from __future__ import annotations

@@ -137,6 +137,20 @@ LINEARISED_FROM = 3
 PREDICTIONS_KEPT = 3
 
 
+#: the records' peaks (the unstable residual's cap), by the arrays' identities (kept alive here)
+_PEAKS: dict[int, tuple[np.ndarray, float]] = {}
+
+
+def _peak(measured: np.ndarray) -> float:
+    """max |measured|, kept per record: a residual is taken thousands of times per diagnosis."""
+    got = _PEAKS.get(id(measured))
+    if got is None or got[0] is not measured:
+        if len(_PEAKS) >= 64:
+            _PEAKS.clear()
+        got = _PEAKS[id(measured)] = (measured, float(np.abs(measured).max()))
+    return got[1]
+
+
 class Problem:
     """Residuals of one candidate effect on top of the current revision, over all experiments."""
 
@@ -282,9 +296,9 @@ class Problem:
         """The residual of predictions of every sample (or of every k-th, ``strided``)."""
         parts = []
         for e, p in zip(exps, preds):
-            r = e.measured[::k] - p if strided else (e.measured - p)[::k]
-            cap = UNSTABLE_RESIDUAL * (np.abs(e.measured).max() + 1e-300)
-            if not np.all(np.abs(r) <= cap):
+            r = e.measured[::k] - (p if strided else p[::k])
+            cap = UNSTABLE_RESIDUAL * (_peak(e.measured) + 1e-300)
+            if not np.abs(r).max(initial=0.0) <= cap:  # nan too
                 # parameters that make the model unstable (its response grows without bound): a
                 # residual far worse than predicting nothing keeps the fit away, where inf or nan
                 # (or their finite differences) would stop it
