@@ -303,6 +303,57 @@ nulls n 40 no significant candidate in 40/40, faults n 20 20/20 named and explai
 0/8 "explained". Targets (250 worth, 3 s / 5 s) still missed by 1.4-2.2x in CPU worth and 1.7-5x
 in wall time.
 
+The next round balanced the worker processes. Each task's CPU by process
+(bench/profile_diagnose_workers.py) showed the thesis rig's partner search and pairs' joint fits
+running in the main process while both workers idled (10 of 22 s CPU), which bounded two workers'
+speed-up at 1.27x (critical path, the main process's CPU plus the busiest worker's per stage: 17.3
+of 22.0 s). Both now run on the workers, a fit's kept predictions travel back with it, and a
+worker that has finished takes the next full fit. Same sitting, load 16: critical path 14.0 of
+23.8 s CPU, at most 1.70x; two-body (no pairs) 10.8 of 17.8 s before, 12.9 of 21.7 after (1.66x,
+1.68x): what remains is the main process's own work (baseline, ordering, verdict: about 2 s) and
+the fits' uneven ends (mass properties 3 s beside stiffness 2 s). This script after it (load 14-15, wall times say
+nothing): thesis 1431 evaluations, 22.2 / 22.0 s CPU on one / two workers (793 / 785 worth, one
+evaluation 28 ms CPU); two-body 828, 16.8 / 15.6 s (501 / 465 worth, 33.5 ms). Candidate tables
+and evaluations on one worker bit for bit as before on both rigs; on two within round-off (the
+last digits of a few sensor-only candidates, as before between one and two workers).
+
+The next round: screening's structure-changing Jacobian columns on the heads are derivatives,
+linearised over DIFF_STEP natural steps (over a natural step the poles moved as far as their gaps:
+the linearisation refused every one and each column was simulated), and the damped step takes its
+Gram matrix and gradient once (a sensor candidate's whole-window Jacobian was copied and multiplied
+twice). Screening Jacobians (two-body) mass_properties 0.96 -> 0.46 s CPU, damping 0.55 -> 0.26,
+stiffness 0.40 -> 0.26; sensor_position's whole-window step 0.19 -> 0.04 s. Screening alone (every
+candidate, one process, main and this alternating twice at load 10-17): two-body 10.5-10.6 ->
+7.0-7.1 s CPU, thesis 5.5-6.2 -> 4.8-4.9 s. This script, main then this at load 11-16 (wall times
+say nothing): thesis 1431 -> 1369 evaluations, 24.6 -> 21.1 s CPU on one worker, 23.3 -> 18.9 s on
+two; two-body 828 -> 835, 17.2 -> 13.9 s and 17.0 -> 13.3 s. Verdicts, top candidates, the
+significant candidates and their order the same; screened errors moved (thesis stiffness 0.0505 ->
+0.0650, its fit then 19 evaluations instead of 33; damping 0.5648 -> 0.5661), fitted errors within
+3e-5 relative, validated ones within 2e-3 (two-body mass_properties 0.4891 -> 0.4899). Demo loop
+unchanged; calibration on this code (niced, --workers 1, n 12 each): faults 12/12 named and
+explained, nulls 12/12 "nothing to explain" with no significant candidate. Targets still missed by
+1.5-2x in CPU worth.
+
+The next round made one evaluation cheaper to the bit (odsuite/domain/recursions.py: a simulation's
+mode recursions and a channel group's scaling, offset and causal sections in one compiled call each,
+lfilter's and sosfilt's operations in their order; a cubic-coefficient fit's linear set-up kept;
+every prediction and Jacobian of both benches' diagnoses traced equal to main's, so no
+recalibration; measured on the code before the two rounds above were merged). One evaluation, alternating, best of 7 x 10 (load 8-15): thesis 20.5-25.8 ->
+11.5-14.4 ms CPU, two-body 30.2-34.9 -> 18.7-20.4 ms; on the record heads (5 x 614 samples) 6.0 ->
+3.5-5.0 ms. Diagnose, thesis, one worker, alternating main / this (load 12-15): 20.1, 20.5, 19.4 s
+-> 13.7, 15.3, 13.7 s CPU. This script, main then this at load 15-17, then this then main at load 15-18
+(CPU s, worth; evaluations and verdicts the same): thesis one worker 22.3 (975) -> 13.8 (1068),
+19.5 (616) -> 20.5 (869); two workers 22.2 (972) -> 14.3 (1099), 20.6 (652) -> 18.6 (788);
+two-body one worker 16.9 (536) -> 12.5 (576), 14.8 (474) -> 13.2 (617); two workers 17.3 (549)
+-> 14.0 (644), 14.7 (470) -> 14.2 (665). Diagnose's CPU falls by about as much as the baseline's
+(both run the same prediction code, long records and short heads alike), so the worth column does
+not fall. Merged with the two rounds above, this script, main then this at load 4.5-5 (CPU s,
+worth; wall): thesis 1369 evaluations, one worker 21.1 (652; 31.5 s) -> 12.3 (850; 17.5 s), two
+16.0 (496; 24.3 s) -> 12.7 (873; 19.2 s); two-body 835, one worker 10.7 (366) -> 9.9 (411), two
+11.7 (401) -> 10.8 (450); one evaluation 32.3 -> 14.5 and 29.1 -> 24.0 ms CPU; every prediction
+and Jacobian of both diagnoses again equal to main's to the bit. Targets still missed by 1.6-3.5x
+in worth and 4-6x in wall time.
+
 The next round: the partner search (diagnose._partner, each candidate screened again on top of
 the best single's fit) judges a candidate without discrete choices, projected parameters, starts
 or a frequency or period by one damped Gauss-Newton step from its Jacobian at that fit on the
@@ -322,6 +373,9 @@ stiffness+nonlinear_stiffness 39 evaluations, rejected for a likelihood ratio of
 validation (~1 s). Next: stop a joint fit from its linearisation where it cannot beat the member
 joint.accepted tests it against (the BIC and likelihood-ratio rules, not only 4x the simplest
 single's sum of squares).
+Merged with main's worker-run partner search (one worker, load 3.9, main then this one right
+after the other): thesis 1369 -> 1263 evaluations, the partner search 350 -> 278 evaluations and
+3.5 -> 2.8 s CPU, diagnose 24.1 -> 23.4 s CPU; the candidate table the same to every digit.
 """
 
 from __future__ import annotations

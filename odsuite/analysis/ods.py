@@ -1,5 +1,6 @@
 """Operating deflection shapes from operating records (a running machine, no force measured):
 cross-spectra of every response to a reference sensor, scaled by the reference's autospectrum.
+A hammer record's transient is taken whole (one unwindowed segment: lines fs / n).
 
 At a frequency line f the shape of response i is G_ri(f) / sqrt(G_rr(f)) (Welch, Hann window,
 "spectrum" scaling): its magnitude is the response's rms amplitude in that line wherever the
@@ -90,11 +91,15 @@ def operating_shape(project, experiment: str, reference: str, frequency_hz: floa
         raise ConfigError(f"{where}: --reference {reference!r} is not a response channel "
                           f"(responses: {', '.join(names)})")
     data = physical(exp)[:, cols]
-    nper = segment_length(data.shape[0], fs)
-    if data.shape[0] < 2 * nper:
+    # a hammer record holds its transient whole: one segment of the record's length, unwindowed,
+    # gives lines fs / n (Welch segments of a 0.4 s record gave 10-20 Hz lines and cut the transient)
+    hammer = exp.excitation is not None
+    nper = data.shape[0] if hammer else segment_length(data.shape[0], fs)
+    if not hammer and data.shape[0] < 2 * nper:
         raise ConfigError(f"{where}: {data.shape[0]} samples are too few for an ODS (at least {2 * nper})")
     r = names.index(reference)
-    kw = {"fs": fs, "window": "hann", "nperseg": nper, "noverlap": nper // 2, "scaling": "spectrum", "axis": 0}
+    kw = {"fs": fs, "window": "boxcar" if hammer else "hann", "nperseg": nper, "noverlap": 0 if hammer else nper // 2,
+          "scaling": "spectrum", "axis": 0}
     freq, g_rr = scipy.signal.welch(data[:, r], **kw)
     line = int(np.argmin(np.abs(freq - frequency_hz)))
     if g_rr[line] <= 0:
@@ -118,9 +123,12 @@ def operating_shape(project, experiment: str, reference: str, frequency_hz: floa
         else:
             notes.append(f"no response channel is one of rig {rig.name!r}'s accelerometers: no coordinates")
     weak = [n for n, c in zip(names, coherence) if c < 0.5]
-    if weak:  # an ODS is a shape only where the responses move with the reference
+    if hammer:
+        notes.append(f"a hammer record: the spectrum of the whole record ({fs / nper:.3g} Hz lines), one segment, "
+                     "so the coherence is 1 by construction and says nothing")
+    elif weak:  # an ODS is a shape only where the responses move with the reference
         notes.append(f"coherence with {reference} below 0.5 at {freq[line]:g} Hz: {', '.join(weak)}")
     return OperatingShape(experiment, reference, float(frequency_hz), float(freq[line]), float(fs / nper),
-                          int((data.shape[0] - nper) // (nper // 2) + 1), dict(zip(names, shape)), units,
+                          1 if hammer else int((data.shape[0] - nper) // (nper // 2) + 1), dict(zip(names, shape)), units,
                           dict(zip(names, coherence)), coordinates, tuple(notes))
 

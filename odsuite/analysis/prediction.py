@@ -63,8 +63,40 @@ class StageOperator:
             a, n = self.offset
             y -= y[a:a + n].mean(axis=0)
         for sos, zero_phase in self.filters:
-            y = scipy.signal.sosfiltfilt(sos, y, axis=0) if zero_phase else scipy.signal.sosfilt(sos, y, axis=0)
+            if zero_phase:
+                y = scipy.signal.sosfiltfilt(sos, y, axis=0)
+            else:  # sosfilt's arithmetic in place, without its checks and copies (many calls per fit)
+                from odsuite.domain.recursions import sections_in_place
+
+                y = np.ascontiguousarray(y, dtype=float)
+                sections_in_place(sos, y)
         return y
+
+    @functools.cached_property
+    def _fused(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The columns and the filters' sections in one cascade, where every filter is causal."""
+        if any(zero_phase for _, zero_phase in self.filters):
+            return None
+        sos = np.concatenate([s for s, _ in self.filters]) if self.filters else np.zeros((0, 6))
+        return np.asarray(self.columns, dtype=np.int64), np.ascontiguousarray(sos, dtype=float)
+
+    def apply_into(self, x: np.ndarray, out: np.ndarray) -> None:
+        """``out[:, columns] = apply(x[:, columns])``, in one compiled pass where the filters are
+        causal (the same numbers: recursions.chain_columns)."""
+        # (apply's offset of a scaled copy is summed in that copy's memory order: left to it)
+        if self._fused is None or x.dtype != float or (self.offset is not None and self.factor != 1.0):
+            cols = list(self.columns)
+            out[:, cols] = self.apply(x[:, cols])
+            return
+        from odsuite.domain.recursions import chain_columns
+
+        cols, sos = self._fused
+        offsets = np.zeros(len(cols))
+        if self.offset is not None:
+            a, n = self.offset
+            # as apply's copy holds it (C order: numpy sums a column in that order)
+            offsets = np.ascontiguousarray(x[a:a + n][:, cols]).mean(axis=0)
+        chain_columns(x, cols, self.factor, offsets, sos, out)
 
     @property
     def min_samples(self) -> int:
@@ -100,7 +132,10 @@ def stage_operators(channels: Sequence[Any], volts_per_unit: Sequence[float], st
                 elif isinstance(op, WindowMean) and offset is None and not filters:
                     offset = (op.start, op.length)
                 elif isinstance(op, Filter):
-                    filters.append((np.ascontiguousarray(op.sos), op.zero_phase))
+                    sos = np.ascontiguousarray(op.sos, dtype=float)
+                    if sos.ndim != 2 or sos.shape[1] != 6 or not np.all(sos[:, 3] == 1.0):
+                        return None  # not normalised sections: the chains themselves run
+                    filters.append((sos, op.zero_phase))
                 else:  # a window mean after a filter: not an operator of this form
                     return None
         # conversion times volts per unit is 1 (or 1e6) up to rounding: equal chains share a group
@@ -373,8 +408,15 @@ def prepare(project, experiments: Sequence[str] | None = None) -> list[PreparedE
 def _force_inputs(model, exp: PreparedExperiment) -> list:
     from odsuite.domain.model import Input
 
+    # kept on the experiment for its model's rig (the body hit: a search over the rig's plates;
+    # every evaluation asks again), not copied to its heads
+    kept = exp.__dict__.get("_force_inputs")
+    if kept is not None and kept[0] is model.rig:
+        return kept[1]
     body = model.rig.force_body(exp.point, exp.force_body) if model.rig is not None else None
-    return [Input.force(exp.point, exp.direction, body=body)]
+    inputs = [Input.force(exp.point, exp.direction, body=body)]
+    exp.__dict__["_force_inputs"] = (model.rig, inputs)
+    return inputs
 
 
 def _cache_key(model, exp: PreparedExperiment, hold: str = HOLD) -> tuple:
@@ -554,7 +596,10 @@ def _analog_chain(model, exp: PreparedExperiment, y: np.ndarray) -> np.ndarray:
         num, den = _sensor_filter(dyn, exp.fs)
         y[:, cols] = scipy.signal.lfilter(num, den, y[:, cols], axis=0)
     if chain.front_end is not None:
-        y = scipy.signal.sosfilt(_analog_sos(chain.front_end, exp.fs), y, axis=0)
+        from odsuite.domain.recursions import sections_in_place
+
+        y = np.array(y, dtype=float, order="F")  # the order sosfilt(..., axis=0) returns
+        sections_in_place(_analog_sos(chain.front_end, exp.fs), y)
     delays = [chain.delay.get(s.name, 0.0) for s in exp.sensors]
     if any(delays):
         y = sampled_later(y, exp.fs, delays)
@@ -832,10 +877,9 @@ def _digital_chain(exp: PreparedExperiment, physical: np.ndarray) -> np.ndarray:
     """Physical signals at the sensors through each channel's processing to the acceleration stage."""
     if exp.operators is None:
         return through_chain(exp, physical)[stage_names("acceleration")[0]]
-    out = np.empty_like(physical)
+    out = np.empty_like(physical)  # its memory order too: later sums over it add in that order
     for op in exp.operators:
-        cols = list(op.columns)
-        out[:, cols] = op.apply(physical[:, cols])
+        op.apply_into(physical, out)
     return out
 
 

@@ -300,7 +300,8 @@ def ods_cmd(
     for note in res.notes:
         err_console.print(f"note: {note}", highlight=False, soft_wrap=True)
     console.print(f"{shown(experiment)}: operating deflection shape at {res.frequency_hz:.3f} Hz (line nearest "
-                  f"{res.requested_hz:g} Hz; {res.resolution_hz:.3g} Hz lines, {res.n_segments} segments), "
+                  f"{res.requested_hz:g} Hz; {res.resolution_hz:.3g} Hz lines, {res.n_segments} segment"
+                  f"{'s' if res.n_segments != 1 else ''}), "
                   f"phases relative to {shown(reference)}", highlight=False, soft_wrap=True)
     table = Table(box=None)
     for col in ("sensor", "amplitude (rms)", "phase (°)", "coherence"):

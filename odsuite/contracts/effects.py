@@ -78,7 +78,7 @@ ratios identified in the modal domain.)
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Protocol
 
 from odsuite.domain.errors import ConfigError
@@ -120,7 +120,9 @@ class Parameter:
     then move the parameters of different sensors in one evaluation. ``ladder``: the starts are
     magnitudes in increasing order away from the nominal (a hardening's decades), along which the
     error falls towards the value the data hold and rises beyond it: the screening stops climbing
-    at the first start that raises the error."""
+    at the first start that raises the error. ``below_nyquist``: a frequency of the response the
+    records must resolve (a mode's): a fit bounds it below their Nyquist frequency, and a fit
+    ending within one frequency line of that bound is not plausible (``within_records``)."""
 
     name: str
     unit: str
@@ -134,6 +136,18 @@ class Parameter:
     starts: tuple[float, ...] | None = None
     sensor: str | None = None
     ladder: bool = False
+    below_nyquist: bool = False
+
+    def within_records(self, nyquist_hz: float, line_hz: float) -> Parameter:
+        """This parameter as records sampled up to ``nyquist_hz`` with lines ``line_hz`` apart can
+        hold it: a ``below_nyquist`` frequency bounded by the Nyquist frequency, plausible only
+        below its last line (a mode there is not resolved); any other parameter unchanged."""
+        if not self.below_nyquist or self.upper <= nyquist_hz - line_hz:
+            return self
+        upper = max(nyquist_hz, self.lower)
+        low, high = self.plausible or (self.lower, self.upper)
+        return replace(self, upper=upper, nominal=min(self.nominal, upper),
+                       plausible=(low, min(high, max(upper - line_hz, self.lower))))
 
     def as_dict(self) -> dict:
         return {"name": self.name, "unit": self.unit, "nominal": self.nominal, "lower": self.lower,

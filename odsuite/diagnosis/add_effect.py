@@ -4,6 +4,7 @@ store the result as a new model revision."""
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -220,11 +221,16 @@ def _warnings(name: str, effect, joint: Problem, res, model, exps, after, prefix
     own = {k[len(prefix):]: v for k, v in shared.items() if k.startswith(prefix)}
     own.update({f"{x}/{k[len(prefix):]}": v for x, d in per.items() for k, v in d.items() if k.startswith(prefix)})
     out = []
-    ranges = {p.name: p for p in effect.parameters(model)}
-    for label in checks.implausible(effect, model, own):
+    # as the fit bounded them (a mode's frequency below the records' Nyquist frequency)
+    ranges = {p.name[len(prefix):]: replace(p, name=p.name[len(prefix):]) for p in joint.params
+              if p.name.startswith(prefix)}
+    edge = checks.at_records_edge(list(ranges.values()), own)
+    for label in checks.implausible(effect, model, own, list(ranges.values())):
         p = ranges[label.split("/")[-1]]
-        out.append(f"{name}: {label} = {own[label]:.4g} {p.unit} lies outside its physical range "
-                   f"[{p.plausible[0]:.4g}, {p.plausible[1]:.4g}]: implausible")
+        out.append(f"{name}: {label} = {own[label]:.4g} {p.unit} " + (
+            f"stopped at the records' Nyquist frequency {p.upper:g} {p.unit}, above what they resolve: implausible"
+            if label in edge else
+            f"lies outside its physical range [{p.plausible[0]:.4g}, {p.plausible[1]:.4g}]: implausible"))
     if res is not None:
         cons = checks.consistency(joint, res, {e.name: float(np.max(np.abs(e.force))) for e in exps},
                                   checks.tolerated_misfit(after.noise_floor_error, exps))

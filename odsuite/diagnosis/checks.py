@@ -308,15 +308,25 @@ def tolerated_misfit(floor_error: float, exps: Sequence) -> float:
     return (FLOOR_TOLERANCE**2 - 1.0) * floor_error**2 * den
 
 
-def implausible(effect, model, values: Mapping[str, float | None]) -> list[str]:
-    """The fitted values outside the physical range their parameter declares (``plausible``)."""
-    ranges = {p.name: getattr(p, "plausible", None) for p in effect.parameters(model)}
+def implausible(effect, model, values: Mapping[str, float | None], params: Sequence | None = None) -> list[str]:
+    """The fitted values outside the physical range their parameter declares (``plausible``);
+    ``params``: the parameters as the fit bounded them (a problem's, Parameter.within_records),
+    else the effect's own."""
+    ranges = {p.name: getattr(p, "plausible", None) for p in (effect.parameters(model) if params is None else params)}
     out = []
     for label, v in values.items():
         rng = ranges.get(label.split("/")[-1])
         if rng is not None and v is not None and not rng[0] <= v <= rng[1]:
             out.append(label)
     return out
+
+
+def at_records_edge(params: Sequence, values: Mapping[str, float | None]) -> list[str]:
+    """The fitted frequencies (``below_nyquist``) within the records' last frequency line: beyond
+    their plausible top, the fit stopped at the Nyquist bound (Parameter.within_records)."""
+    edge = {p.name: p for p in params if getattr(p, "below_nyquist", False) and p.plausible}
+    return [label for label, v in values.items()
+            if (p := edge.get(label.split("/")[-1])) is not None and v is not None and v > p.plausible[1]]
 
 
 def indistinguishable(change_a: np.ndarray, change_b: np.ndarray, scale: float, k: int) -> bool:

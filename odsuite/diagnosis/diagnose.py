@@ -19,7 +19,7 @@ import itertools
 import math
 import multiprocessing
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -38,6 +38,7 @@ from odsuite.diagnosis.fitting import (
     effective_samples,
     fit,
     fit_windows,
+    records_band,
     refined,
     screen,
     uncertainties,
@@ -90,10 +91,14 @@ class Candidate:
     consistent: bool = True
     plausible: bool = True
     implausible: list[str] = field(default_factory=list)
+    #: of those, the frequencies the fit stopped at the records' Nyquist frequency (not resolved)
+    at_records_edge: list[str] = field(default_factory=list)
     amplitude_dependent: list[str] = field(default_factory=list)
     per_experiment_fits: dict[str, dict[str, float]] = field(default_factory=dict)
-    #: its parameters fitted to the records' early (large) and late (small) part agree (checks.linearity)
-    early_late_agree: bool = True
+    #: its parameters fitted to the records' early (large) and late (small) part agree (checks.linearity;
+    #: for the best, the held-out test decides); None: not tested (``early_late_note`` says why)
+    early_late_agree: bool | None = True
+    early_late_note: str = ""
     early_late_fits: dict[str, dict[str, float]] = field(default_factory=dict)
     early_late_differ: list[str] = field(default_factory=list)
     #: the cells where the early part's fit mispredicts the late part (checks.held_out; best candidate)
@@ -108,7 +113,7 @@ class Candidate:
             "effect", "significant", "error_after", "validated_error", "parameters", "uncertainties",
             "units", "evidence", "n_parameters", "bic", "screened_error", "unidentifiable",
             "confounded_parameters", "confounded_with", "validation", "fitted", "consistent", "plausible",
-            "implausible", "amplitude_dependent", "per_experiment_fits", "early_late_agree", "early_late_differ",
+            "implausible", "at_records_edge", "amplitude_dependent", "per_experiment_fits", "early_late_agree", "early_late_note", "early_late_differ",
             "early_late_fits", "early_late_cells",
             "physical")}
         d["likelihood_ratio"] = None if not math.isfinite(self.likelihood_ratio) else self.likelihood_ratio
@@ -193,8 +198,12 @@ def _checks_words(cand: Candidate) -> str:
         spread = ", ".join(cand.amplitude_dependent) if cand.amplitude_dependent else "some parameters"
         words.append(f"fitted per experiment, {spread} differ beyond their uncertainties"
                      + (" and follow the force level (amplitude dependent)" if cand.amplitude_dependent else ""))
-    if cand.implausible:
-        words.append(f"outside the physical range: {', '.join(cand.implausible[:4])}")
+    edge = cand.at_records_edge
+    if edge:
+        words.append(f"{', '.join(edge[:4])} at the records' Nyquist frequency ({cand._nyquist_hz:g} Hz): "
+                     "the fit stopped at the top of what they resolve")
+    if [n for n in cand.implausible if n not in edge]:
+        words.append(f"outside the physical range: {', '.join(n for n in cand.implausible[:4] if n not in edge)}")
     return "; ".join(words)
 
 
@@ -319,7 +328,9 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         lin = checks.linearity(problem, res)
         cand.early_late_agree, cand.early_late_fits = lin.linear, {"early": lin.early, "late": lin.late}
         cand.early_late_differ, cand._early_late_u, cand._early_late_cuts = lin.differing, lin.u, lin.cuts
-    cand.implausible = checks.implausible(effect, problem.base.shared, params)
+    cand.implausible = checks.implausible(effect, problem.base.shared, params, problem.params)
+    cand.at_records_edge = checks.at_records_edge(problem.params, params)
+    cand._nyquist_hz = records_band(problem.full)[0]
     cand.plausible = not cand.implausible
     cand._problem, cand._u, cand._sse_win = problem, u, sse_win  # kept for the confounding check
     cand._stopped = stopped
@@ -354,28 +365,45 @@ def _problem(job: Mapping[str, Any], name: str, fixed: Mapping[str, float] | Non
     return problem.derived(fixed) if fixed else problem
 
 
-def _screen_job(token: int, name: str) -> tuple[dict[str, float], np.ndarray, float, int] | None:
-    """Screen one candidate: its discrete choices, start, sum of squares and evaluations."""
-    job = JOBS[token]
+def _screen_job(token: int, name: str, job: Mapping[str, Any] | None = None
+                ) -> tuple[dict[str, float], np.ndarray, float, int] | None:
+    """Screen one candidate (on the baseline, or on ``job``'s base by _screen_on_top): its discrete choices, start,
+    sum of squares and evaluations."""
+    on_top, job = job is not None, job or JOBS[token]
     try:
         problem = _problem(job, name)
     except ConfigError:
         return None  # the effect does not apply to this rig (e.g. no base plate)
-    s = screen(problem, job["sse0_win"], job["peak_hz"])
+    s = (_screen_on_top if on_top else screen)(problem, job["sse0_win"], job["peak_hz"])
     return s.fixed, s.u0, s.sse, problem.evaluations + (s.problem.evaluations if s.problem is not problem else 0)
 
 
+#: the last seed's job a worker built for _partner_job: (key, job with that fit as the base)
+_ON_TOP: list[Any] = [None, None]
+
+
+def _partner_job(token: int, seed: tuple[str, Mapping[str, float], np.ndarray, float], name: str
+                 ) -> tuple[dict[str, float], np.ndarray, float, int] | None:
+    """Screen ``name`` on top of the seed's fit (its effect, discrete choices, values and sum of
+    squares over the fit windows), as _screen_job on the baseline: _partner's search."""
+    first, fixed, u, sse_win = seed
+    key = (token, first, tuple(sorted(fixed.items())), u.tobytes())
+    if _ON_TOP[0] != key:  # the fit's model, rebuilt once per seed in each process
+        job = JOBS[token]
+        _ON_TOP[:] = [key, {**job, "base": _problem(job, first, fixed).revision(u), "sse0_win": sse_win}]
+    return _screen_job(token, name, _ON_TOP[1])
+
+
 def _fit_job(token: int, name: str, fixed: Mapping[str, float], u0: np.ndarray, sse: float
-             ) -> tuple[Candidate, dict[str, float], int]:
+             ) -> tuple[Candidate, tuple]:
     """Fit one screened candidate; the candidate without its problem (rebuilt by the caller from
-    the values it was fitted with), those values and the evaluations."""
+    what _kept hands back: the values it was fitted with, its evaluations, its predictions)."""
     job = JOBS[token]
     problem = _problem(job, name, fixed)
     cand = _fit_candidate(Screened(problem.effect, dict(fixed), u0, sse, problem), job["windows"], job["sse0"],
                           job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
                           job["modes_before"], job["tail0"], job["force_levels"])
-    p = cand.__dict__.pop("_problem")
-    return cand, p.fixed, p.evaluations
+    return cand, _kept(cand.__dict__.pop("_problem"))
 
 
 def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequence[str] | None = None,
@@ -418,12 +446,14 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
             evaluations += count
             candidates, count = _refined(job, refiners, candidates, cmp)
             evaluations += count
-            pairs, partners, count = _fit_pairs(token, job, candidates, screened, res0, cmp.floor, job["scale"])
+            pairs, partners, count = _fit_pairs(token, job, candidates, screened, res0, cmp.floor, job["scale"],
+                                                pool)
             evaluations += count + sum(c._problem.evaluations for c in pairs)
             candidates += partners
             fitted += [s for s in screened if any(p.effect == s.effect.name for p in partners)]
     finally:
         JOBS.pop(token)
+        _ON_TOP[:] = [None, None]  # the records it holds (where the partner search ran here)
     candidates += _screened_only(screened, fitted, job)
     candidates = _ordered(candidates, pairs, exps, base, job)
     diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=job["noise"], revision=rev.get("revision"),
@@ -522,29 +552,46 @@ def _fit_best(pool, token, job, top: list[Screened], ahead: int, exps, cmp, res0
     fitted = []
     evaluations = 0
 
-    def skipped(k: int) -> bool:
+    def skipped(k: int, win: float | None = None) -> bool:
         # a candidate whose screening took up less than half of what the best fit so far
-        # explains cannot compete: screening only ranks it. best_win only falls, so a
-        # candidate skipped before the fits ahead of it have finished stays skipped
-        return k > 0 and top[k].sse > best_win + 0.5 * (job["sse0_win"] - best_win)
+        # explains cannot compete: screening only ranks it
+        win = best_win if win is None else win
+        return k > 0 and top[k].sse > win + 0.5 * (job["sse0_win"] - win)
+
+    def submit(k: int) -> None:
+        t = top[k]
+        jobs[k] = pool.submit(_fit_job, token, t.effect.name, t.fixed, t.u0, t.sse)
 
     jobs: dict[int, Any] = {}
     queued = 0
     for i, s in enumerate(top):
-        while queued < min(len(top), i + ahead):  # the pool busy ahead of i
-            if not skipped(queued):
-                t = top[queued]
-                jobs[queued] = pool.submit(_fit_job, token, t.effect.name, t.fixed, t.u0, t.sse)
-            queued += 1
-        if i not in jobs or skipped(i):
+        while True:
+            # a process that has finished takes the next candidate while the fit of i runs on; a
+            # finished fit ahead of i may already rule that one out (a guess: each is judged in
+            # order below, and submitted then if the guess was wrong)
+            done = [jobs[k].result()[0]._sse_win for k in jobs
+                    if k >= i and jobs[k].done() and jobs[k].exception() is None]
+            busy = sum(1 for k in jobs if k >= i and not jobs[k].done())
+            while queued < len(top) and (queued <= i or busy < ahead):
+                if not skipped(queued, min([best_win, *done])):
+                    submit(queued)
+                    busy += 1
+                queued += 1
+            if ahead == 1 or i not in jobs or jobs[i].done():
+                break
+            wait([jobs[k] for k in jobs if k >= i and not jobs[k].done()], return_when=FIRST_COMPLETED)
+        if skipped(i):
             if i in jobs:
                 jobs[i].cancel()
             continue
+        if i not in jobs:
+            submit(i)
         fitted.append(s)
         if progress:
             progress(f"fitting {s.effect.name}", i, len(top))
-        cand, fixed, count = jobs[i].result()
-        cand._problem = _problem(job, s.effect.name, fixed)
+        cand, kept = jobs[i].result()
+        cand._problem = _kept_back(_problem(job, s.effect.name, kept[0]), kept)
+        count = kept[1]
         best_win = min(best_win, cand._sse_win)
         evaluations += count
         _judge(cand, exps, cmp.floor, res0, job["sse0"], job["den"], job["scale"])
@@ -605,27 +652,27 @@ def _ordered(candidates: list[Candidate], pairs: list[Candidate], exps, base, jo
     return [c for c in pairs if c.significant] + candidates + [c for c in pairs if not c.significant]
 
 
-def _partner(job: Mapping[str, Any], first: Candidate, names: Sequence[str]) -> tuple[list[Screened], int]:
+def _partner(job: Mapping[str, Any], first: Candidate, names: Sequence[str], pool=None, token: int = 0
+             ) -> tuple[list[Screened], int]:
     """The effect that best explains what ``first``'s fit leaves: every other pairable candidate
     screened on top of that fit; and the best named one where a data-driven stand-in (a mode of any
     shape) is best, as prefer_named orders singles. A second cause the first one masks (a flipped
     sensor beside two swapped cables) gains little on the baseline, where its single screening
-    ranks it low."""
+    ranks it low. The screenings run on ``pool`` (one after another without one)."""
+    pool = pool or InOrder()
     on_top = {**job, "base": first._problem.revision(first._u)}
     found, evaluations = [], 0
     a = job["effects"].get(first.effect)
-    for name in names:
-        b = job["effects"].get(name)
-        if name == first.effect or not joint.pairable(b) or joint.joined(a, b, job["base"].shared) is None:
+    names = [n for n in names if n != first.effect and joint.pairable(job["effects"].get(n))
+             and joint.joined(a, job["effects"].get(n), job["base"].shared) is not None]
+    seed = (first.effect, dict(first._problem.fixed), first._u, first._sse_win)
+    for name, done in zip(names, pool.map(_partner_job, [token] * len(names), [seed] * len(names), names)):
+        if done is None:
             continue
-        try:
-            problem = _problem(on_top, name)
-        except ConfigError:
-            continue
-        s = _screen_on_top(problem, first._sse_win, job["peak_hz"])
-        evaluations += problem.evaluations + (s.problem.evaluations if s.problem is not problem else 0)
-        if s.sse < first._sse_win:
-            found.append(s)
+        fixed, u0, sse, count = done
+        evaluations += count
+        if sse < first._sse_win:
+            found.append(Screened(job["effects"].get(name), fixed, u0, sse, _problem(on_top, name, fixed)))
     found.sort(key=lambda s: s.sse)
     named = next((s for s in found if not getattr(s.effect, "data_driven", False)), None)
     out = found[:1] + ([named] if named is not None and found and named is not found[0] else [])
@@ -662,7 +709,7 @@ def _screen_on_top(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> 
 def _implausible(s: Screened) -> list[str]:
     """A screened candidate's values outside their physical range."""
     shared, _ = s.problem.values(s.u0)
-    return checks.implausible(s.effect, s.problem.base.shared, {**s.problem.fixed, **shared})
+    return checks.implausible(s.effect, s.problem.base.shared, {**s.problem.fixed, **shared}, s.problem.params)
 
 
 def _single(token: int, job: Mapping[str, Any], screened: Sequence[Screened], name: str, exps, floor, res0
@@ -672,8 +719,8 @@ def _single(token: int, job: Mapping[str, Any], screened: Sequence[Screened], na
     s = next((t for t in screened if t.effect.name == name), None)
     if s is None:
         return None
-    cand, fixed, _ = _fit_job(token, name, s.fixed, s.u0, s.sse)
-    cand._problem = _problem(job, name, fixed)
+    cand, kept = _fit_job(token, name, s.fixed, s.u0, s.sse)
+    cand._problem = _problem(job, name, kept[0])
     _judge(cand, exps, floor, res0, job["sse0"], job["den"], job["scale"])
     words = _checks_words(cand)
     if words:
@@ -682,7 +729,7 @@ def _single(token: int, job: Mapping[str, Any], screened: Sequence[Screened], na
 
 
 def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], screened: Sequence[Screened],
-               res0, floor, scale: float) -> tuple[list[Candidate], list[Candidate], int]:
+               res0, floor, scale: float, pool=None) -> tuple[list[Candidate], list[Candidate], int]:
     """Pairs of the best significant singles whose residuals overlap, and the best single (and the
     best named one) with the effect that best explains what its fit leaves (_partner), fitted
     jointly from their fits, when every significant candidate leaves cells above the floor. At
@@ -690,6 +737,7 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
     odsuite.diagnosis.joint.accepted): the one of the lowest BIC; the others are returned not
     significant with the reason. Also returns the partners fitted alone for the test (new singles)
     and the model evaluations spent besides the pairs' own fits."""
+    pool = pool or InOrder()
     if res0 is None:
         return [], [], 0
     singles = sorted((c for c in candidates if c.fitted and c.significant and getattr(c, "_resolved", None) is not None
@@ -711,7 +759,7 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
     seeds = [singles[0]] + ([named] if named is not None and named is not singles[0] else [])
     initial = len(seeds)
     for first in seeds:  # grows by the partners of an implausible seed below, once
-        partners, count = _partner(job, first, [s.effect.name for s in screened])
+        partners, count = _partner(job, first, [s.effect.name for s in screened], pool, token)
         evaluations += count
         for partner in partners:
             name = partner.effect.name
@@ -733,26 +781,15 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
             key = next((k for k in starts if set(k) == {first.effect, name}), (first.effect, name))
             starts.setdefault(key, []).insert(0, (joint.fitted(first), on_top))
     out = []
-    for (ea, eb), options in starts.items():
+    # the pairs' fits on the pool, judged here in order
+    significant = [(c.n_parameters, c._sse_win, c.effect) for c in candidates + added if c.fitted and c.significant]
+    fits = [pool.submit(_pair_job, token, key, options, significant) for key, options in starts.items()]
+    for ((ea, eb), options), fitting in zip(starts.items(), fits):
         a = next(c for c in candidates + added if c.effect == ea)
         b = next(c for c in candidates + added if c.effect == eb)
-        effect = joint.joined(job["effects"].get(ea), job["effects"].get(eb), job["base"].shared)
-        tried = []
-        for members in options:  # of several starts, the one nearest the data is fitted
-            fixed = {f"{m.effect}.{k}": v for m in members for k, v in m.fixed.items()}
-            problem = Problem(job["base"], effect, job["windows"], fixed, prior=job["prior"] / job["stride"],
-                              stride=job["stride"], full=job["exps"], noise_scale=job["scale"])
-            u0 = joint.start(problem, members)
-            tried.append(Screened(effect, fixed, u0, problem.sse(u0), problem))
-        best = min(tried, key=lambda t: t.sse)
-        evaluations += sum(t.problem.evaluations for t in tried if t is not best)  # the best's count with its fit
-        # the simplest significant single it must beat (joint.accepted): its fit stops where it cannot
-        k = len(best.problem.free) + len(best.problem.fixed)
-        simpler = min((c for c in candidates + added if c.fitted and c.significant and c.n_parameters < k),
-                      key=lambda c: c._sse_win, default=None)
-        cand = _fit_candidate(best, job["windows"], job["sse0"], job["den"], job["n_eff"], job["noise"], job["peaks"],
-                              job["rigidity"], job["modes_before"], job["tail0"], job["force_levels"],
-                              target=None if simpler is None else simpler._sse_win)
+        cand, kept, count, simpler = fitting.result()
+        evaluations += count
+        cand._problem = _kept_back(_pair_problem(job, ea, eb, kept[0]), kept)
         _judge(cand, job["exps"], floor, res0, job["sse0"], job["den"], scale)
         if cand._resolved is not None:  # each member at its nominal values: the other alone (joint.added)
             # not a member of discrete choices alone (a polarity): with none of its parameters free
@@ -762,7 +799,7 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
                 if any(f.param.name.split(".", 1)[0] == m for f in cand._problem.free)}
         ok, why = joint.accepted(cand, (a, b), candidates + added)
         if cand._stopped:
-            ok, why = False, f"its fit stopped where it could not come near {simpler.effect}'s error"
+            ok, why = False, f"its fit stopped where it could not come near {simpler}'s error"
         cand.significant = ok
         cand.evidence = f"fitted jointly from the single fits: {why}; " + cand.evidence
         words = _checks_words(cand)
@@ -775,6 +812,48 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
             c.significant = False
             c.evidence = f"a better pair is {best.effect}; " + c.evidence
     return out, added, evaluations
+
+
+def _pair_problem(job: Mapping[str, Any], ea: str, eb: str, fixed: Mapping[str, float]) -> Problem:
+    effect = joint.joined(job["effects"].get(ea), job["effects"].get(eb), job["base"].shared)
+    return Problem(job["base"], effect, job["windows"], fixed, prior=job["prior"] / job["stride"],
+                   stride=job["stride"], full=job["exps"], noise_scale=job["scale"])
+
+
+def _pair_job(token: int, pair: tuple[str, str], options: Sequence[Sequence[joint.Fitted]],
+              significant: Sequence[tuple[int, float, str]]) -> tuple[Candidate, tuple, int, str | None]:
+    """Fit one pair jointly from the nearest of its starts (``options``: the members' starts); it
+    stops where it cannot come near the simplest significant single it must beat (``significant``:
+    each one's parameters, sum of squares over the fit windows and effect). Returns the candidate
+    without its problem (_kept), the evaluations of the starts not fitted, and that single's name."""
+    job = JOBS[token]
+    tried = []
+    for members in options:  # of several starts, the one nearest the data is fitted
+        fixed = {f"{m.effect}.{k}": v for m in members for k, v in m.fixed.items()}
+        problem = _pair_problem(job, *pair, fixed)
+        u0 = joint.start(problem, members)
+        tried.append(Screened(problem.effect, fixed, u0, problem.sse(u0), problem))
+    best = min(tried, key=lambda t: t.sse)
+    other = sum(t.problem.evaluations for t in tried if t is not best)  # the best's count with its fit
+    # the simplest significant single it must beat (joint.accepted): its fit stops where it cannot
+    k = len(best.problem.free) + len(best.problem.fixed)
+    simpler = min((c for c in significant if c[0] < k), key=lambda c: c[1], default=None)
+    cand = _fit_candidate(best, job["windows"], job["sse0"], job["den"], job["n_eff"], job["noise"], job["peaks"],
+                          job["rigidity"], job["modes_before"], job["tail0"], job["force_levels"],
+                          target=None if simpler is None else simpler[1])
+    return cand, _kept(cand.__dict__.pop("_problem")), other, None if simpler is None else simpler[2]
+
+
+def _kept(p: Problem) -> tuple:
+    """What a fitted problem hands back from a worker process: its fixed values, evaluations and
+    the predictions and projection it kept (the judgement asks for them again)."""
+    return p.fixed, p.evaluations, p._predictions, p._projection
+
+
+def _kept_back(problem: Problem, kept: tuple) -> Problem:
+    """``problem`` (rebuilt from the kept fixed values) as the worker's was (_kept)."""
+    _, problem.evaluations, problem._predictions, problem._projection = kept
+    return problem
 
 
 def _leaves_cells(cand: Candidate, job: Mapping[str, Any]) -> bool:
@@ -845,6 +924,11 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
         part = checks.held_out(exps, early, late, floor_best, best._early_late_cuts)
         best.early_late_agree = part is None or not part.detected()
         best.early_late_cells = [] if part is None else part.cells(3)
+    elif res_best is not None and res_best.detected():
+        # the parts' parameter test then sees what is left too, not the candidate: neither decides
+        best.early_late_agree = None
+        best.early_late_note = ("not tested: cells stay above the floor after it, and the late part's own fit "
+                                "would take up some of them")
     nonlinear = best is not None and makes_nonlinear(best, base)
     d.verdict = decide(d.baseline_error, d.noise_floor_error, best, before=res0, after=res_best,
                        amplitude_cause=nonlinear)

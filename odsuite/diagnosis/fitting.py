@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -68,6 +68,11 @@ def fit_windows(exps: Sequence[PreparedExperiment]) -> list[PreparedExperiment]:
         end = last + max(WINDOW_MARGIN * max(last - e.trigger, 0), WINDOW_MIN_S * e.fs)
         out.append(e.head(int(math.ceil(end))))
     return out
+
+
+def records_band(exps: Sequence[PreparedExperiment]) -> tuple[float, float]:
+    """The records' Nyquist frequency and their widest frequency line (Hz)."""
+    return min(e.fs for e in exps) / 2, max(e.fs / e.n_samples for e in exps)
 
 
 def heads(exps: Sequence[PreparedExperiment]) -> list[list[PreparedExperiment]]:
@@ -132,6 +137,20 @@ LINEARISED_FROM = 3
 PREDICTIONS_KEPT = 3
 
 
+#: the records' peaks (the unstable residual's cap), by the arrays' identities (kept alive here)
+_PEAKS: dict[int, tuple[np.ndarray, float]] = {}
+
+
+def _peak(measured: np.ndarray) -> float:
+    """max |measured|, kept per record: a residual is taken thousands of times per diagnosis."""
+    got = _PEAKS.get(id(measured))
+    if got is None or got[0] is not measured:
+        if len(_PEAKS) >= 64:
+            _PEAKS.clear()
+        got = _PEAKS[id(measured)] = (measured, float(np.abs(measured).max()))
+    return got[1]
+
+
 class Problem:
     """Residuals of one candidate effect on top of the current revision, over all experiments."""
 
@@ -154,7 +173,11 @@ class Problem:
         self.prior = prior
         self.effect = effect
         self.exps = list(exps)
-        params = effect.parameters(base.shared)
+        # a mode's frequency within what the records resolve (Parameter.within_records); its
+        # steps and prior as declared, so a search that stays inside moves as before
+        declared = {p.name: p for p in effect.parameters(base.shared)}
+        nyquist, line = records_band(self.full)
+        self.params = params = [p.within_records(nyquist, line) for p in declared.values()]
         self.discrete = [p for p in params if p.choices is not None]
         self.fixed = dict(fixed or {})  # discrete choices and parameters held at a value
         # parameters the effect solves by linear least squares at every evaluation (variable
@@ -165,15 +188,16 @@ class Problem:
         self._projection: tuple[Any, Any] | None = None  # (key, result) of the last projection
         self._predictions: list[tuple[Any, list[np.ndarray]]] = []  # (key, predictions), newest first
         self._models: tuple[bytes | None, dict] = (None, {})  # (point, models) last predicted
+        self._batches: dict[tuple, tuple] = {}  # _sensor_batches per set of records
         self.free: list[_Free] = []
         for p in params:
             if p.choices is not None or p.name in self.fixed or p.name in self.linear:
                 continue
             if p.scope == "per_experiment":
-                self.free += [_Free(p, e.name, _scale(p)) for e in self.exps]
+                self.free += [_Free(p, e.name, _scale(declared[p.name])) for e in self.exps]
             else:
-                self.free.append(_Free(p, None, _scale(p)))
-        self.pull = np.array([prior * _prior_share(f) for f in self.free])
+                self.free.append(_Free(p, None, _scale(declared[p.name])))
+        self.pull = np.array([prior * _prior_share(replace(f, param=declared[f.param.name])) for f in self.free])
         self.evaluations = 0
 
     # values ------------------------------------------------------------------------------------
@@ -272,9 +296,9 @@ class Problem:
         """The residual of predictions of every sample (or of every k-th, ``strided``)."""
         parts = []
         for e, p in zip(exps, preds):
-            r = e.measured[::k] - p if strided else (e.measured - p)[::k]
-            cap = UNSTABLE_RESIDUAL * (np.abs(e.measured).max() + 1e-300)
-            if not np.all(np.abs(r) <= cap):
+            r = e.measured[::k] - (p if strided else p[::k])
+            cap = UNSTABLE_RESIDUAL * (_peak(e.measured) + 1e-300)
+            if not np.abs(r).max(initial=0.0) <= cap:  # nan too
                 # parameters that make the model unstable (its response grows without bound): a
                 # residual far worse than predicting nothing keeps the fit away, where inf or nan
                 # (or their finite differences) would stop it
@@ -305,9 +329,10 @@ class Problem:
         """Forward differences of the residual on ``exps`` (``step`` natural steps, backwards at an
         upper bound). Parameters that change one sensor's prediction alone (``Parameter.sensor``)
         are moved together with those of other sensors, each column taken from its own sensor's
-        rows: the same numbers in fewer evaluations. With ``tangent``, steps that add cubic springs
-        to a linear structure are taken to first order in them (Problem._cubic_tangent)."""
-        J = np.zeros((r0.size, len(self.free)), order="F")  # written by columns
+        rows: the same numbers in fewer evaluations. With ``tangent`` (screening), the derivative
+        where it is cheaper than the difference: structure-changing columns linearised over
+        DIFF_STEP natural steps (Problem._linearised), steps that add cubic springs to a linear
+        structure to first order in them (Problem._cubic_tangent)."""
         steps = np.zeros(len(self.free))
         for i, f in enumerate(self.free):
             lo, hi = f.bounds
@@ -315,11 +340,21 @@ class Problem:
             if not lo <= u[i] + h <= hi:
                 h = 0.5 * (hi - u[i]) if hi - u[i] > u[i] - lo else -0.5 * (u[i] - lo)
             steps[i] = h
-        batches, sensor_of_row = self._sensor_batches(exps or self.exps)
-        linearised = self._linearised(u, steps, exps or self.exps) if sensor_of_row is None else None
-        if linearised is None and tangent and sensor_of_row is None:
+        batches, rows_of = self._sensor_batches(exps or self.exps)
+        # written by columns: whole ones into Fortran order (then copied), a sensor's rows alone
+        # (a few per cent of each column) straight into C order, 4x faster than that copy
+        J = np.zeros((r0.size, len(self.free)), order="F" if rows_of is None else "C")
+        linearised = None
+        if rows_of is None:
+            # a tangent's columns are derivatives: taken over DIFF_STEP, where the poles move
+            # little enough for the linearisation (over a natural step they move as far as their
+            # gaps, and each column was simulated)
+            small = steps * DIFF_STEP if tangent else steps
+            linearised = self._linearised(u, small, exps or self.exps)
+            if linearised is not None:
+                steps = small
+        if linearised is None and tangent and rows_of is None:
             linearised = self._cubic_tangent(u, steps, r0, exps or self.exps)
-        rows_of: dict[str, np.ndarray] = {}  # each sensor's rows, found once
         for batch in batches:
             batch = [i for i in batch if steps[i]]
             if not batch:
@@ -334,10 +369,7 @@ class Problem:
                 J[:, batch[0]] = -diff / steps[batch[0]]
                 continue
             for i in batch:
-                sensor = self.free[i].param.sensor
-                if sensor not in rows_of:
-                    rows_of[sensor] = np.flatnonzero(sensor_of_row == sensor)
-                rows = rows_of[sensor]
+                rows = rows_of[self.free[i].param.sensor]
                 J[rows, i] = -diff[rows] / steps[i]
         return np.ascontiguousarray(J)
 
@@ -414,9 +446,18 @@ class Problem:
             out.append(got)
         return out
 
-    def _sensor_batches(self, exps: Sequence[PreparedExperiment]) -> tuple[list[list[int]], np.ndarray | None]:
+    def _sensor_batches(self, exps: Sequence[PreparedExperiment]
+                        ) -> tuple[list[list[int]], dict[str, np.ndarray] | None]:
         """Groups of free parameters that one evaluation can difference (at most one per sensor,
-        shared ones of sensors every experiment records), and each residual row's sensor."""
+        shared ones of sensors every experiment records), and each sensor's residual rows; kept
+        per set of records (screening asks again for every step and start)."""
+        key = tuple((e.name, e.n_samples) for e in exps)
+        if key not in self._batches:
+            self._batches[key] = self._new_sensor_batches(exps)
+        return self._batches[key]
+
+    def _new_sensor_batches(self, exps: Sequence[PreparedExperiment]
+                            ) -> tuple[list[list[int]], dict[str, np.ndarray] | None]:
         local = [i for i, f in enumerate(self.free) if f.param.sensor is not None and f.experiment is None
                  and all(f.param.sensor in {s.name for s in e.sensors} for e in exps)]
         if len(local) < 2:
@@ -430,9 +471,15 @@ class Problem:
             else:
                 slot.append(i)
         batches += [[i] for i in range(len(self.free)) if i not in local]
-        names = [np.tile(np.array([s.name for s in e.sensors], dtype=object), len(range(0, e.n_samples, self.stride)))
-                 for e in exps]
-        return batches, np.concatenate(names)
+        rows: dict[str, list[np.ndarray]] = {}
+        at = 0
+        for e in exps:  # a residual is each experiment's (samples, channels), raveled
+            names, n = [s.name for s in e.sensors], len(range(0, e.n_samples, self.stride))
+            for name in dict.fromkeys(names):
+                cols = np.array([j for j, m in enumerate(names) if m == name])
+                rows.setdefault(name, []).append(at + (np.arange(n)[:, None] * len(names) + cols).ravel())
+            at += n * len(names)
+        return batches, {name: np.concatenate(parts) for name, parts in rows.items()}
 
     def zero(self) -> np.ndarray:
         return np.zeros(len(self.free))
@@ -454,13 +501,16 @@ def _lm_step(problem: Problem, J: np.ndarray, r: np.ndarray, u: np.ndarray, exps
     lo, hi = problem.lower_upper()
     # parameters the residual cannot see here stay put (a mode's frequency while its amplitudes are
     # zero): the linearisation says nothing about them
-    act = ~_tiny(J, r) & ~_repeated(J)
+    # one Gram matrix and gradient for all three (a sensor's candidate on the whole windows: 54
+    # columns of 212,000 rows, whose copy by columns alone took four times the product's time)
+    G, Jr = J.T @ J, J.T @ r
+    act = ~_tiny(J, r, G) & ~_repeated(J, G)
     if not act.any():
         return u
-    Ja, ua = J[:, act], u[act]
+    ua = u[act]
     pull = problem.pull[act]
-    JtJ = Ja.T @ Ja + np.diag(pull)
-    g = Ja.T @ r - pull * ua
+    JtJ = G[np.ix_(act, act)] + np.diag(pull)
+    g = Jr[act] - pull * ua
     diag = np.diag(JtJ).copy()
     diag[diag <= 0] = max(float(diag.max(initial=0.0)), 1e-300)
     cost = float(r @ r) + float(u @ (problem.pull * u))
@@ -486,9 +536,10 @@ class Screened:
     problem: Problem
 
 
-def _tiny(J: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """Columns of a Jacobian that are zero (but for round-off) next to the others and the residual."""
-    norms = np.linalg.norm(J, axis=0)
+def _tiny(J: np.ndarray, r: np.ndarray, G: np.ndarray | None = None) -> np.ndarray:
+    """Columns of a Jacobian that are zero (but for round-off) next to the others and the residual
+    (``G``: J's Gram matrix, where it is at hand)."""
+    norms = np.linalg.norm(J, axis=0) if G is None else np.sqrt(np.maximum(np.diag(G), 0.0))
     scale = max(float(np.max(norms, initial=0.0)), float(np.linalg.norm(r)))
     return norms <= 1e-7 * (scale if scale > 0 else 1.0)
 
@@ -497,12 +548,12 @@ def _tiny(J: np.ndarray, r: np.ndarray) -> np.ndarray:
 SAME_COLUMN = 1e-6
 
 
-def _repeated(J: np.ndarray) -> np.ndarray:
+def _repeated(J: np.ndarray, G: np.ndarray | None = None) -> np.ndarray:
     """Columns equal to an earlier one: exchangeable parameters at this point (two high-pass
     corners of one filter, both at 0). A step splits evenly between them, and from an even split
     every later step does too: the fit never leaves the symmetric line (two corners at 8.7 Hz where
-    the data hold one at 20 Hz). The first of them takes the step alone."""
-    G = J.T @ J
+    the data hold one at 20 Hz). The first of them takes the step alone. ``G``: J's Gram matrix."""
+    G = J.T @ J if G is None else G
     sq = np.diag(G)
     # |J_i - J_j|^2 from the Gram matrix: one product for every pair
     same = (sq[:, None] + sq[None, :] - 2 * G <= SAME_COLUMN**2 * sq[:, None]) & (sq[:, None] > 0)
@@ -592,10 +643,9 @@ def _sweep(problem: Problem, u: np.ndarray, exps, peaks_hz: Sequence[float]) -> 
     swept = [i for i, f in enumerate(problem.free) if f.param.starts and f.experiment is None]
     if not swept:
         return u
-    batches, sensor_of_row = problem._sensor_batches(exps)
-    if sensor_of_row is not None and all(problem.free[i].param.sensor is not None for i in swept):
-        return _sweep_sensors(problem, u, exps, peaks_hz, [[i for i in b if i in swept] for b in batches],
-                              sensor_of_row)
+    batches, rows_of = problem._sensor_batches(exps)
+    if rows_of is not None and all(problem.free[i].param.sensor is not None for i in swept):
+        return _sweep_sensors(problem, u, exps, peaks_hz, [[i for i in b if i in swept] for b in batches], rows_of)
     best = u
     best_sse = float(np.sum(problem.residual(u, exps) ** 2))
     for i in swept:
@@ -618,13 +668,13 @@ def _sweep(problem: Problem, u: np.ndarray, exps, peaks_hz: Sequence[float]) -> 
 
 
 def _sweep_sensors(problem: Problem, u: np.ndarray, exps, peaks_hz: Sequence[float], batches: list[list[int]],
-                   sensor_of_row: np.ndarray) -> np.ndarray:
+                   rows_of: Mapping[str, np.ndarray]) -> np.ndarray:
     """:func:`_sweep` of parameters that each change one sensor's prediction alone: the
     parameters of different sensors are set to a start together, and each keeps it when its own
     sensor's rows lower their error (the other sensors' rows cannot change the comparison)."""
     best = u
     r = problem.residual(u, exps)
-    rows = {name: sensor_of_row == name for name in {problem.free[i].param.sensor for b in batches for i in b}}
+    rows = {name: rows_of[name] for name in {problem.free[i].param.sensor for b in batches for i in b}}
     best_sse = {name: float(np.sum(r[m] ** 2)) for name, m in rows.items()}
     for batch in batches:
         values: list[list[float]] = []

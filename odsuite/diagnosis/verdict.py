@@ -110,7 +110,8 @@ def decide(baseline: float, floor: float, best, *, before=None, after=None, ampl
         if best is None:
             return "unexplained"
         # a fit to the records' early part that mispredicts their late part stands in (checks.held_out)
-        agrees = (best.consistent or amplitude_cause) and getattr(best, "early_late_agree", True)
+        # (None: not tested, as where cells are left: no disagreement, and the cells decide)
+        agrees = (best.consistent or amplitude_cause) and getattr(best, "early_late_agree", True) is not False
         if agrees and best.plausible and after is not None and not after.detected():
             return "explained"
         return "partly explained"
@@ -178,7 +179,7 @@ def message(verdict: str, baseline: float, floor: float, best, sig: Signature, r
     if verdict == "explained":
         amp_words = (" Its effect depends on the force level, as the records do." if sig.amplitude_dependent
                      else "")
-        if not getattr(best, "early_late_agree", True):
+        if getattr(best, "early_late_agree", True) is False:
             # measured: a rattle's stand-in and two true added masses alike, so it does not decide
             amp_words += (f" Caution: its parameters fitted to the early (large) and the late (small) part of "
                           f"the records differ ({', '.join(best.early_late_differ[:3])}) and their models "
@@ -205,12 +206,17 @@ def message(verdict: str, baseline: float, floor: float, best, sig: Signature, r
                    f"{c['residual_to_floor']:.3g}x its floor for a limit of {c['limit']:.3g}): the residual it "
                    "takes up changes with the amplitude within each record, as a contact, friction or a loose "
                    "part's does")
-    elif not getattr(best, "early_late_agree", True) and not left_cells:
+    elif getattr(best, "early_late_agree", True) is False and not left_cells:
         why.append("its parameters fitted to the early (large) and the late (small) part of the records differ "
                    f"beyond their uncertainties ({', '.join(best.early_late_differ[:3])}): the residual it takes up "
                    "changes with the amplitude within each record, as a contact, friction or a loose part's does")
-    if not best.plausible:
-        why.append("its fitted values lie outside their physical range (" + ", ".join(best.implausible[:3]) + ")")
+    edge = getattr(best, "at_records_edge", [])
+    if edge:
+        why.append("its fit stopped at the records' Nyquist frequency (" + ", ".join(edge[:3]) + "): the top of "
+                   "what they resolve")
+    outside = [n for n in best.implausible if n not in edge] if not best.plausible else []
+    if outside:
+        why.append("its fitted values lie outside their physical range (" + ", ".join(outside[:3]) + ")")
     left = f" What is left lies in {_where(rest)}." if rest is not None else ""
     if why and len(why) == 1 and rest is not None and rest.cells and best.consistent and best.plausible:
         # it passes its own tests and only leaves cells above the floor: something else is there

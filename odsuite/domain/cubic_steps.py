@@ -11,13 +11,19 @@ import numpy as np
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _affine(base, sign, g, M, out):
-    """out = base + sign g @ M (a vector times a small matrix; out may be base)."""
-    for i in range(out.shape[0]):
-        acc = 0.0
-        for j in range(g.shape[0]):
-            acc += g[j] * M[j, i]
-        out[i] = base[i] + sign * acc
+def _affine(base, sign, g, M, acc, out):
+    """out = base + sign g @ M (a vector times a small matrix; out may be base). Row by row of
+    ``M`` into the scratch ``acc``: the inner loop runs along M's rows (vectorised), each sum in
+    the same order as element by element."""
+    n = out.shape[0]
+    for i in range(n):
+        acc[i] = 0.0
+    for j in range(g.shape[0]):
+        gj = g[j]
+        for i in range(n):
+            acc[i] += gj * M[j, i]
+    for i in range(n):
+        out[i] = base[i] + sign * acc[i]
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -42,18 +48,19 @@ def cubic_steps(step_t, deflect_t, linear, linear_deflection, end_pull_t, end_de
     d_base = np.empty(m)
     d = np.empty(m)
     g = np.empty(m)
+    acc = np.empty(max(n_state, m))
     for r in range(n_records):
         xg[:] = 0.0
         states[0, r, :] = 0.0
         for k in range(n_steps):
-            _affine(linear[r, k], 1.0, xg, step_t, x)
-            _affine(linear_deflection[r, k], 1.0, xg, deflect_t, d_base)
-            _affine(d_base, -1.0, xg[n_state:], end_deflection_t, d)  # predictor: the start's force held
+            _affine(linear[r, k], 1.0, xg, step_t, acc, x)
+            _affine(linear_deflection[r, k], 1.0, xg, deflect_t, acc, d_base)
+            _affine(d_base, -1.0, xg[n_state:], end_deflection_t, acc, d)  # predictor: the start's force held
             _cubed(c, d, g)
-            _affine(d_base, -1.0, g, end_deflection_t, d)  # corrector: the force at the predicted end
+            _affine(d_base, -1.0, g, end_deflection_t, acc, d)  # corrector: the force at the predicted end
             _cubed(c, d, g)
-            _affine(x, -1.0, g, end_pull_t, x)
-            _affine(d_base, -1.0, g, end_deflection_t, d)
+            _affine(x, -1.0, g, end_pull_t, acc, x)
+            _affine(d_base, -1.0, g, end_deflection_t, acc, d)
             _cubed(c, d, xg[n_state:])
             xg[:n_state] = x
             states[k + 1, r, :] = x

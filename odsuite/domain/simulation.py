@@ -102,8 +102,11 @@ def _simulate_band(ss: StateSpace, u: np.ndarray, fs: float) -> np.ndarray:
     first-order hold of :func:`band_limited` on the fine grid, the feed-through at the samples
     (there the band-limited signal is ``u`` itself)."""
     f = BAND_OVERSAMPLE
+    T = 1.0 / (fs * f)
+    modal = _modal(ss.A, T)
     states = StateSpace(ss.A, ss.B, ss.C, np.zeros_like(ss.D))
-    y = simulate_state_space(states, _band_input(u, f), fs * f, hold="foh")[::f]
+    fine = _band_input(u, f)
+    y = (_simulate_expm(states, fine, T, "foh") if modal is None else _simulate_modal(states, fine, modal, "foh"))[::f]
     return y + u @ np.asarray(ss.D, float).T
 
 
@@ -233,16 +236,24 @@ def simulate_state_space(ss: StateSpace, u, fs: float, hold: str = "zoh") -> np.
     modal = _modal(ss.A, T)
     if modal is None:
         return _simulate_expm(ss, u, T, hold)
+    return _simulate_modal(ss, u, modal, hold)
+
+
+def _simulate_modal(ss: StateSpace, u: np.ndarray, modal: tuple, hold: str) -> np.ndarray:
+    """:func:`simulate_state_space` by ``_modal``'s decomposition."""
     scale, V, keep, weight, lk, p, g0, g1s = modal
     Bm = np.linalg.solve(V, (ss.B / scale[:, None]).astype(complex))[keep]  # modal input, n_modes x n_in
     Cm = ((ss.C * scale) @ V)[:, keep] * weight  # n_out x n_modes
-    g1s = g1s if hold == "foh" else None
     # per (mode, input): the complex first-order recursion b(q)/(1 - p q^-1) run as two real
     # second-order filters (its real and imaginary parts, denominator |1 - p q^-1|^2) on the real
-    # input; the modal input weight is folded into the output weights
+    # input; the modal input weight is folded into the output weights. All in one compiled call,
+    # lfilter's arithmetic (recursions.second_order_rows)
     ut = np.ascontiguousarray(u.T)
     nm, ni = len(lk), ut.shape[0]
-    Zri = np.empty((2 * nm * ni, len(u)))  # real parts, then imaginary parts
+    rows = 2 * nm * ni  # real parts (mode, input), then imaginary parts
+    nums, dens, zi = np.empty((rows, 3)), np.empty((rows, 3)), np.zeros((rows, 2))
+    # the coefficients mode by mode in scalars: numpy's vectorised complex products round
+    # differently in the last bit
     for i in range(nm):
         if hold == "zoh":
             b0, b1 = 0.0, g0[i]
@@ -253,14 +264,19 @@ def simulate_state_space(ss: StateSpace, u, fs: float, hold: str = "zoh") -> np.
         num = np.array([b0, b1 - b0 * pc, -b1 * pc])
         den = np.array([1.0, -2 * p[i].real, abs(p[i]) ** 2])
         for j in range(ni):
-            for part, row in ((np.real, i * ni + j), (np.imag, (nm + i) * ni + j)):
-                if hold == "foh":
-                    # start from rest whatever u[0] is: cancel the homogeneous response b0 u0 p^n
-                    c = b0 * ut[j, 0]
-                    zi = [-part(c), -part(c * p[i]) - den[1] * part(c)]
-                    Zri[row], _ = scipy.signal.lfilter(part(num), den, ut[j], zi=zi)
-                else:
-                    Zri[row] = scipy.signal.lfilter(part(num), den, ut[j])
+            re, im = i * ni + j, (nm + i) * ni + j
+            nums[re], nums[im], dens[re], dens[im] = num.real, num.imag, den, den
+            if hold == "foh":
+                # start from rest whatever u[0] is: cancel the homogeneous response b0 u0 p^n
+                c = b0 * ut[j, 0]
+                cp = c * p[i]
+                zi[re] = -c.real, -cp.real - den[1] * c.real
+                zi[im] = -c.imag, -cp.imag - den[1] * c.imag
+    source = np.tile(np.arange(ni), 2 * nm)
+    from odsuite.domain.recursions import second_order_rows  # numba loads on first use
+
+    Zri = np.empty((rows, len(u)))
+    second_order_rows(nums, dens, zi, source, ut, Zri)
     fold = (Cm[:, :, None] * Bm[None, :, :]).reshape(len(Cm), nm * ni)  # output x (mode, input)
     yt = np.hstack([fold.real, -fold.imag]) @ Zri  # Re(sum Cm Bm z), outputs x samples
     for k, j in zip(*np.nonzero(ss.D)):
@@ -356,24 +372,16 @@ def simulate_nonlinear(structure, bf: np.ndarray, u, fs: float, hold: str = "foh
     return simulate_nonlinear_many(structure, [(bf, u)], fs, hold)[0]
 
 
-def simulate_nonlinear_many(structure, drives, fs: float, hold: str = "foh") -> list[np.ndarray]:
-    """:func:`simulate_nonlinear` for several inputs ``drives`` [(bf, u), ...] at once (records of
-    any lengths, e.g. every experiment of a fit): one time loop advances them all, so its Python
-    cost is paid once.
+#: the linear parts of the nonlinear simulations last set up (:func:`_nonlinear_setup`), by
+#: structure and inputs; each holds the inputs' part of every step (megabytes)
+_NONLINEAR_SETUPS: dict[tuple, tuple] = {}
+NONLINEAR_SETUPS_KEPT = 2
 
-    An exponential integrator: the linear part is exact (the matrix exponential over a step, the
-    input and the cubic force linear across it); the cubic force at the step's end comes from a
-    predictor and one corrector. Written here because scipy.integrate's solvers cost a Python call
-    per stage and step through each hit at a rate set by the input's kinks; this one costs a few
-    small products per step, in compiled code (odsuite.domain.cubic_steps)."""
-    from odsuite.domain.cubic_steps import cubic_steps
 
-    records = [check_input_record(u, bf.shape[1]) for bf, u in drives]
+def _nonlinear_setup(structure, E: np.ndarray, bfs, records, fs: float, hold: str, sub: int) -> tuple:
+    """What :func:`simulate_nonlinear_many`'s time loop needs besides the cubic coefficients:
+    the step's matrices and the inputs' part of every step (read-only)."""
     n = structure.n_dof
-    E, c = structure.cubic_rows()
-    if hold not in ("foh", "band"):
-        raise ConfigError(f"hold: expected 'foh' or 'band', got {hold!r}")
-    sub = NONLINEAR_STEPS_PER_SAMPLE * (BAND_OVERSAMPLE if hold == "band" else 1)
     h = 1.0 / (fs * sub)
     # first-order-hold discretisation of x' = A x + [0; I] w (w: an acceleration input)
     big = np.zeros((4 * n, 4 * n))
@@ -390,11 +398,11 @@ def simulate_nonlinear_many(structure, drives, fs: float, hold: str = "foh") -> 
     longest = max(len(u) for u in records)
     steps = (longest - 1) * sub + 1
     drive = np.zeros((len(records), longest, n))  # input accelerations, zero after a record's end
-    for i, ((bf, _), u) in enumerate(zip(drives, records)):
+    for i, (bf, u) in enumerate(zip(bfs, records)):
         drive[i, :len(u)] = u @ (structure.Minv @ bf).T
     grid = np.arange(steps) / sub
     fine = np.empty((len(records), steps, n))  # the inputs on the fine grid, linear between samples
-    for i, ((bf, _), u) in enumerate(zip(drives, records)):
+    for i, (bf, u) in enumerate(zip(bfs, records)):
         if hold == "band":  # the transform is linear: of the force (kept between calls), then mapped
             padded = np.zeros((longest, u.shape[1]))
             padded[:len(u)] = u
@@ -405,11 +413,47 @@ def simulate_nonlinear_many(structure, drives, fs: float, hold: str = "foh") -> 
     # the inputs' part of each step (products of 2-D arrays: numpy's stacked products are slower)
     linear = (fine[:, :-1].reshape(-1, n) @ start.T + fine[:, 1:].reshape(-1, n) @ end.T).reshape(
         len(records), steps - 1, 2 * n)
-    states = np.empty((steps, len(records), 2 * n))
     step_t = np.ascontiguousarray(np.vstack([phi.T, -start_pull.T]))
     linear_deflection = (linear.reshape(-1, 2 * n) @ Eq.T).reshape(len(records), steps - 1, -1)
-    cubic_steps(step_t, np.ascontiguousarray(step_t @ Eq.T), linear, linear_deflection, np.ascontiguousarray(end_pull.T),
-                np.ascontiguousarray(end_deflection.T), np.ascontiguousarray(c, dtype=float), states)
+    out = (pull, drive, linear, linear_deflection, step_t, np.ascontiguousarray(step_t @ Eq.T),
+           np.ascontiguousarray(end_pull.T), np.ascontiguousarray(end_deflection.T))
+    for a in out:
+        a.flags.writeable = False
+    return out
+
+
+def simulate_nonlinear_many(structure, drives, fs: float, hold: str = "foh") -> list[np.ndarray]:
+    """:func:`simulate_nonlinear` for several inputs ``drives`` [(bf, u), ...] at once (records of
+    any lengths, e.g. every experiment of a fit): one time loop advances them all, so its Python
+    cost is paid once.
+
+    An exponential integrator: the linear part is exact (the matrix exponential over a step, the
+    input and the cubic force linear across it); the cubic force at the step's end comes from a
+    predictor and one corrector. Written here because scipy.integrate's solvers cost a Python call
+    per stage and step through each hit at a rate set by the input's kinks; this one costs a few
+    small products per step, in compiled code (odsuite.domain.cubic_steps)."""
+    from odsuite.domain.cubic_steps import cubic_steps
+
+    records = [check_input_record(u, bf.shape[1]) for bf, u in drives]
+    E, c = structure.cubic_rows()
+    if hold not in ("foh", "band"):
+        raise ConfigError(f"hold: expected 'foh' or 'band', got {hold!r}")
+    sub = NONLINEAR_STEPS_PER_SAMPLE * (BAND_OVERSAMPLE if hold == "band" else 1)
+    n = structure.n_dof
+    # a fit of cubic coefficients alone simulates one linear structure with one set of inputs
+    # again and again: all but the time loop is kept between calls
+    key = (structure.A.tobytes(), structure.Minv.tobytes(), E.shape, E.tobytes(), fs, hold, sub,
+           tuple((bf.shape, bf.tobytes(), u.shape, u.tobytes()) for (bf, _), u in zip(drives, records)))
+    setup = _NONLINEAR_SETUPS.pop(key, None)
+    if setup is None:
+        setup = _nonlinear_setup(structure, E, [bf for bf, _ in drives], records, fs, hold, sub)
+        while len(_NONLINEAR_SETUPS) >= NONLINEAR_SETUPS_KEPT:
+            _NONLINEAR_SETUPS.pop(next(iter(_NONLINEAR_SETUPS)))
+    _NONLINEAR_SETUPS[key] = setup  # the most recent last
+    pull, drive, linear, linear_deflection, step_t, deflect_t, end_pull_t, end_deflection_t = setup
+    states = np.empty((linear.shape[1] + 1, len(records), 2 * n))
+    cubic_steps(step_t, deflect_t, linear, linear_deflection, end_pull_t, end_deflection_t,
+                np.ascontiguousarray(c, dtype=float), states)
     if not np.all(np.isfinite(states)):
         raise DivergedError("nonlinear simulation diverged (cubic springs too strong for this force)")
     out = []

@@ -58,7 +58,7 @@ class MissingMode(Effect):
         if not sensors:
             return []
         out = [Parameter("frequency_hz", "Hz", 500.0, 1.0, 20000.0, starts=FREQUENCY_STARTS,
-                         description="natural frequency of the mode"),
+                         description="natural frequency of the mode", below_nyquist=True),
                Parameter("damping_ratio", "1", 0.02, 0.0005, 0.5, starts=DAMPING_STARTS,
                          description="modal damping ratio")]
         bodies = self._bodies(model)

@@ -275,7 +275,7 @@ class PlateFlexibility(Effect):
         # structure damps it lightly
         top = float(np.max(model.modes().frequency_hz, initial=20.0))
         common = [Parameter("frequency_hz", "Hz", 400.0, 20.0, 5000.0, description="natural frequency as mounted",
-                            plausible=(min(top, 5000.0), 5000.0)),
+                            plausible=(min(top, 5000.0), 5000.0), below_nyquist=True),
                   Parameter("damping_ratio", "1", 0.02, 0.0, 0.5, description="modal damping ratio",
                             plausible=(0.0, 0.1))]
         if len(plated) > 1:

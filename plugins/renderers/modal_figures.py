@@ -79,8 +79,11 @@ def stabilisation_figure(result, path: str | Path, *, freq: np.ndarray, H: np.nd
     mag.set_ylabel(background, color="tab:green")
     ax.set_zorder(mag.get_zorder() + 1)
     ax.patch.set_visible(False)
-    ax.legend(loc="lower right", fontsize=8, framealpha=0.9)
-    ax.set_title(textwrap.fill(f"{title}: {len(result.frequency_hz)} modes in {result.band_hz[0]:.0f}-"
+    # under the axes, where it covers no pole (inside, at lower right, it hid the low orders' poles)
+    fig.legend(handles=ax.get_legend_handles_labels()[0], loc="outside lower center", ncol=3, fontsize=8,
+               frameon=False)
+    n = len(result.frequency_hz)
+    ax.set_title(textwrap.fill(f"{title}: {n} mode{'' if n == 1 else 's'} in {result.band_hz[0]:.0f}-"
                                f"{result.band_hz[1]:.0f} Hz", int(7 * size[0])), fontsize=10)
     return _save(fig, path, dpi)
 

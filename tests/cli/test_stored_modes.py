@@ -132,7 +132,9 @@ def test_a_stored_failure_prints_the_note_it_was_stored_with(tmp_path, capsys, m
     assert doc["modal"] == []
     assert doc["modal_notes"] == ["T1: measured modes not identified: a singular matrix met while identifying"]
     fresh = _json(capsys, "compare", _without_stored_modes(p, tmp_path / "old.h5"), "--json")
-    assert [r["experiment"] for r in fresh["modal"]] == ["T1"] and fresh["modal_notes"] == []
+    # identified again: the 216.9 and 227.5 Hz modes of the blow on the platform's centre
+    assert [r["experiment"] for r in fresh["modal"]] == ["T1", "T1"] and fresh["modal_notes"] == []
+    assert all(abs(r["measured_hz"] / r["model_hz"] - 1) < 0.005 and r["mac"] > 0.85 for r in fresh["modal"])
 
 
 def _forge(src, dst, edit):

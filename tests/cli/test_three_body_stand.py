@@ -96,3 +96,37 @@ def test_a_blow_on_the_axis_gives_the_chains_accelerance(capsys, tmp_path):
     # the blow on the axis moves nothing sideways: the in-plane channels see < 3 % of the head's z
     for channel in ("H1_x", "H1_y", "P3", "F1_x"):
         assert np.linalg.norm(frf.H[names.index(channel), band]) < 0.03 * np.linalg.norm(accelerance[:, 2])
+
+    # the default `modes` finds the chain's three modes (the 15 in-plane channels, noise at an axis
+    # blow, hid them from every model order while each output weighed alike), at the closed form's
+    # frequencies and damping ratios: the roots of det(K + s C + s^2 M) = 0
+    A = np.block([[np.zeros((3, 3)), np.eye(3)], [-np.linalg.solve(M, K), -np.linalg.solve(M, C)]])
+    poles = np.linalg.eigvals(A)
+    poles = poles[poles.imag > 0][np.argsort(np.abs(poles[poles.imag > 0]))]
+    f_chain, zeta_chain = np.abs(poles) / (2 * np.pi), -poles.real / np.abs(poles)  # 23.86, 75.70, 130.38 Hz
+    code, out, err = run(capsys, "modes", p, "--experiment", "centre", "--json")
+    assert code == 0, err
+    modes = json.loads(out)["modes"]
+    f_id = np.array([m["frequency_hz"] for m in modes])
+    zeta_id = np.array([m["damping_ratio"] for m in modes])
+    assert len(modes) == 3, f_id
+    # 2.5 Hz lines: the 5 %-damped first mode's half-power band spans two of them
+    assert np.all(np.abs(f_id / f_chain - 1) < [0.01, 0.002, 0.002]), (f_id, f_chain)
+    assert np.all(np.abs(zeta_id / zeta_chain - 1) < [0.15, 0.05, 0.05]), (zeta_id, zeta_chain)
+    # so `compare` sets them against the model's modes (the report's section)
+    code, out, err = run(capsys, "compare", p, "--json")
+    pairs = json.loads(out)["modal"]
+    assert [round(r["model_hz"], 2) for r in pairs] == [round(x, 2) for x in f_chain]
+    assert all(r["mac"] > 0.99 for r in pairs), pairs
+
+    # the ODS of a hammer record on its own lines (fs / n = 2.5 Hz; Welch segments gave 10 Hz and
+    # answered --at 75 with 70 Hz), the pedestal against the head as the chain's accelerances at 75 Hz
+    code, out, err = run(capsys, "ods", p, "centre", "--reference", "H1_z", "--at", "75", "--json")
+    assert code == 0, err
+    doc = json.loads(out)
+    assert (doc["frequency_hz"], doc["resolution_hz"], doc["segments"]) == (75.0, 2.5, 1)
+    assert "coherence is 1 by construction" in doc["notes"][0]
+    w75 = 2 * np.pi * 75.0
+    a75 = np.linalg.solve(K - w75 ** 2 * M + 1j * w75 * C, [0.0, 0.0, 1.0])
+    ratio = complex(*doc["shape"]["P1_z"]) / complex(*doc["shape"]["H1_z"])
+    assert abs(ratio - a75[1] / a75[2]) < 0.05 * abs(a75[1] / a75[2]), (ratio, a75[1] / a75[2])

@@ -394,3 +394,64 @@ def test_a_candidate_that_passes_its_tests_and_leaves_cells_says_something_else_
     odd.implausible = ["scale_foot_c"]
     words = message("partly explained", 0.861, 0.0444, odd, Signature(), rest)
     assert "physics the library lacks" in words and "second effect" not in words
+
+
+def test_a_modes_frequency_is_bounded_by_the_records_nyquist_frequency(registries, thesis_rig):
+    """A mode above the records' Nyquist frequency is not in them: missing_mode was fitted at
+    2561 Hz on records sampled at 5120 Hz and called plausible. The fit's bound is the Nyquist
+    frequency, and a fit within the last line of it is not plausible (said as such)."""
+    from odsuite.diagnosis.fitting import _Free, _scale, records_band
+
+    model = registries.models.get("thesis-dynamometer")(thesis_rig)
+    mode = registries.effects.get("missing_mode")
+    records = [SimpleNamespace(fs=5120.0, n_samples=2048), SimpleNamespace(fs=10240.0, n_samples=4096)]
+    nyquist, line = records_band(records)
+    assert (nyquist, line) == (2560.0, 2.5)  # the slower record's Nyquist, the widest line
+    own = {p.name: p for p in mode.parameters(model)}
+    bounded = {p.name: p.within_records(nyquist, line) for p in own.values()}
+    f = bounded["frequency_hz"]
+    assert (own["frequency_hz"].upper, f.upper, f.lower, f.nominal, f.plausible) == (20000.0, 2560.0, 1.0, 500.0,
+                                                                                     (1.0, 2557.5))
+    assert all(bounded[n] is own[n] for n in own if n != "frequency_hz")  # the rest unchanged
+    # the search cannot leave the band: a step far beyond it reads as the bound
+    free = _Free(f, None, _scale(f))
+    assert free.to_value(free.bounds[1] + 100.0) == 2560.0
+    at_edge, inside = {"frequency_hz": 2560.0, "damping_ratio": 0.02}, {"frequency_hz": 2550.0, "damping_ratio": 0.02}
+    assert checks.implausible(mode, model, at_edge) == []  # the effect's own bounds know no records
+    assert checks.implausible(mode, model, at_edge, list(bounded.values())) == ["frequency_hz"]
+    assert checks.at_records_edge(list(bounded.values()), at_edge) == ["frequency_hz"]
+    assert checks.at_records_edge(list(bounded.values()), inside) == []
+    # a plate's mode (plausible up to 5 kHz) is held below the same Nyquist frequency
+    plate = {p.name: p for p in registries.effects.get("plate_flexibility").parameters(model)}["frequency_hz"]
+    assert plate.within_records(nyquist, line).upper == 2560.0
+    assert plate.within_records(10000.0, 2.5) is plate  # 5 kHz is below 10 kHz: as declared
+    # said in the verdict's words, not as a value outside the physical range
+    best = _Cand(error_after=0.03, effect="missing_mode", plausible=False)
+    best.implausible = best.at_records_edge = ["frequency_hz"]
+    words = message("partly explained", 0.05, 0.01, best, Signature(), None)
+    assert "stopped at the records' Nyquist frequency (frequency_hz)" in words, words
+    assert "physical range" not in words, words
+
+
+def test_a_fit_on_records_is_bounded_by_their_nyquist_frequency(tmp_path, registries):
+    """The fitting problem of a mode on the thesis rig's records (20 kHz) bounds its frequency at
+    10 kHz, not at the effect's declared 20 kHz."""
+    import sys
+    from pathlib import Path
+
+    from odsuite.analysis.modelrev import revision_model
+    from odsuite.analysis.prediction import prepare
+    from odsuite.diagnosis.fitting import Problem
+    from odsuite.store.project import open_project
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from hidden_effects import make_project
+
+    path = make_project(tmp_path / "p.h5", n_samples=2048, scenarios=("T1",))
+    with open_project(path) as p:
+        exps = prepare(p)
+        problem = Problem(revision_model(p), registries.effects.get("missing_mode"), exps)
+    f = next(x for x in problem.free if x.param.name == "frequency_hz")
+    assert exps[0].fs == 20000.0 and f.param.upper == 10000.0
+    assert f.param.plausible == (1.0, 10000.0 - 20000.0 / exps[0].n_samples)
+    assert f.to_value(f.bounds[1]) == 10000.0

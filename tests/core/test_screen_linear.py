@@ -1,7 +1,8 @@
 """Screening's cheap judgements: cubic springs' Jacobian columns to first order from a linear
 structure (prediction.cubic_change_predictions, simulation.simulate_many_inputs), against scipy's
 simulation and the nonlinear integrator's differences; a resonance grid ranked by projection
-(fitting._resonance_gain), against a mode simulated by scipy."""
+(fitting._resonance_gain), against a mode simulated by scipy; a structure change's screening
+columns as derivatives, against simulated differences' zero-step limit."""
 
 from __future__ import annotations
 
@@ -79,3 +80,40 @@ def test_resonance_gain_ranks_the_mode_that_is_there():
     # force itself (0.84 here)
     assert gains[grid.index(f0)] > 0.8 * float(r @ r)
     assert max(g for f, g in zip(grid, gains) if f != f0) < 0.2 * float(r @ r)
+
+
+def test_screening_jacobian_is_the_derivative_of_simulations(tmp_path, monkeypatch):
+    """Screening's structure-changing columns on a head are the derivative (linearised over
+    DIFF_STEP), not the difference over a natural step (whose poles move as far as their gaps):
+    against the zero-step limit of simulated differences."""
+    import odsuite.diagnosis.fitting as fitting
+    from hidden_effects import CASES, make_project
+
+    from odsuite.analysis.modelrev import revision_model
+    from odsuite.analysis.prediction import prepare
+    from odsuite.contracts.plugins import registries
+    from odsuite.store.project import open_project
+
+    path = make_project(tmp_path / "s.odsp", [("stiffness", CASES["stiffness"])], n_samples=2048)
+    with open_project(path) as p:
+        exps, base = prepare(p), revision_model(p)
+        for name in ("stiffness", "mass_properties"):
+            problem = fitting.Problem(base, registries().effects.get(name), fitting.fit_windows(exps), stride=2)
+            head = fitting.heads(problem.exps)[0]
+            u0 = problem.zero()
+            r0 = problem.residual(u0, head)
+            before = problem.evaluations
+            J = problem.jacobian(u0, r0, head, tangent=True)
+            assert problem.evaluations - before == len(u0)  # each column counts as an evaluation
+            # the reference: simulated forward differences at two small steps, extrapolated to zero
+            monkeypatch.setattr(fitting, "LINEARISED_FROM", 10**9)
+            h = 0.02
+            fd = [problem.jacobian(u0, r0, head, step=s) for s in (h / 2, h)]
+            limit = 2 * fd[0] - fd[1]
+            secant = problem.jacobian(u0, r0, head)  # a natural step, simulated
+            monkeypatch.undo()
+            norm = np.linalg.norm(limit, axis=0)
+            err = np.linalg.norm(J - limit, axis=0) / norm
+            assert err.max() < 1e-4, (name, err)  # 4e-6 and 6e-6 here
+            # the natural step's difference is 9 % off it
+            assert np.linalg.norm(secant - limit, axis=0).max() / norm.max() > 0.03

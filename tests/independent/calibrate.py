@@ -3,6 +3,7 @@ only: for each case a project is made from the case's rig file, its LabVIEW reco
 (`odsuite import`), processed and diagnosed (`odsuite diagnose --json`).
 
     python -m tests.independent.calibrate --out DIR --set nulls|faults|pairs|fixed|outside [--n N] [--workers W]
+        [--rigs thesis,two-body,plate-motor]
 
 - nulls: no hidden change (several rigs, noise levels, drift, hum, double hits, force levels):
   verdict counts and how many have any significant candidate (the false-alarm rate, with its
@@ -36,12 +37,14 @@ import numpy as np
 
 from . import cases, truthbands, writers
 
+#: the rigs the sets cycle through by default (`--rigs` picks others from rigs.RIGS, e.g. cabinet)
 RIGS = ("thesis", "two-body", "plate-motor")
 FORCES = (5.0, 10.0, 30.0, 100.0, 200.0)  # N
 #: samples per record: enough for each rig's response to fade (thesis: 0.1 s at 20 kHz; two-body
 #: 0.2 s at 10.24 kHz, its isolators' 11 Hz for two periods; plate-motor 0.4 s at 5120 Hz), short enough
 #: for two shared cores
-SAMPLES = {"thesis": 2048, "two-body": 2048, "plate-motor": 2048}
+SAMPLES = {"thesis": 2048, "two-body": 2048, "plate-motor": 2048,
+           "cabinet": 2048}  # 0.68 s at 3000 Hz: three periods of its 4.6 Hz rocking
 #: the chain a lab gives records without a .CTR when the rig's lowest mode is below 20 Hz (the
 #: two-body rig's isolators ring at 11 Hz): a 4 Hz high-pass instead of the default 20 Hz
 TWO_BODY_PROCESSING = {"offset_samples": [0, 256],
@@ -64,16 +67,18 @@ NULL_CONDITIONS = [
 ]
 
 
-def specs(which: str, n: int | None) -> list[dict]:
-    """The cases of a set, deterministic: rig, case, seed, force and noise options."""
+def specs(which: str, n: int | None, rigs: tuple[str, ...] = RIGS) -> list[dict]:
+    """The cases of a set, deterministic: rig, case, seed, force and noise options. ``rigs``: the
+    rigs cycled through (the default three give the cases as they always were)."""
     out = []
+    r = len(rigs)
     if which == "nulls":
         for i in range(n or 40):
-            rig, cond = RIGS[i % 3], NULL_CONDITIONS[(i // 3) % len(NULL_CONDITIONS)]
+            rig, cond = rigs[i % r], NULL_CONDITIONS[(i // r) % len(NULL_CONDITIONS)]
             out.append({"case": "null", "rig": rig, "seed": 100 + i, "force_n": FORCES[i % 5], **cond})
     elif which == "faults":
         for i in range(n or 20):
-            kind, rig = ("softer-mount", "added-mass")[i % 2], RIGS[(i // 2) % 3]
+            kind, rig = ("softer-mount", "added-mass")[i % 2], rigs[(i // 2) % r]
             out.append({"case": kind, "rig": rig, "seed": 200 + i, "force_n": FORCES[(i + i // 6) % 5]})
     elif which == "pairs":
         rows = [("pair-gain-com", "thesis"), ("pair-bending-stiffer", "thesis"), ("pair-mount-gain", "plate-motor"),
@@ -84,6 +89,7 @@ def specs(which: str, n: int | None) -> list[dict]:
                 ("sensor-gain+sensor-tilt", "plate-motor"), ("channel-swap+polarity-flip", "two-body")]
         for i in range(n or 3):
             kind, rig = rows[i % len(rows)]
+            rig = rig if rigs == RIGS else rigs[i % r]  # other rigs: the same kinds, cycled over them
             out.append({"case": kind, "rig": rig, "seed": 300 + i})
     elif which == "fixed":
         rows = [("softer-mount", "plate-motor", 10.0), ("added-mass", "two-body", 100.0),
@@ -91,10 +97,11 @@ def specs(which: str, n: int | None) -> list[dict]:
                 ("softer-mount", "two-body", 30.0), ("added-mass", "thesis", 10.0)]
         for i in range(n or 4):
             kind, rig, force = rows[i % len(rows)]
+            rig = rig if rigs == RIGS else rigs[i % r]
             out.append({"case": kind, "rig": rig, "seed": 400 + i, "force_n": force})
     elif which == "outside":
         for i in range(n or 4):
-            kind, rig = ("coulomb-friction", "rattle")[i % 2], RIGS[(i // 2) % 3]
+            kind, rig = ("coulomb-friction", "rattle")[i % 2], rigs[(i // 2) % r]
             out.append({"case": kind, "rig": rig, "seed": 500 + i, "force_n": FORCES[(2 + i) % 5]})
     else:
         raise KeyError(which)
@@ -364,14 +371,21 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--n", type=int, default=None, help="cases in the set (default 40 nulls, 20 faults, "
                                                             "3 pairs, 4 fixed)")
     parser.add_argument("--workers", type=int, default=1, help="cases run at once (each diagnose on one core)")
+    parser.add_argument("--rigs", default=",".join(RIGS),
+                        help=f"comma-separated rigs the set cycles through (default {','.join(RIGS)}; "
+                             f"known: {', '.join(cases.RIGS)})")
     parser.add_argument("--only", default=None, help="run only the cases whose id contains this text")
     parser.add_argument("--summary-only", action="store_true",
                         help="tabulate the cases already done in DIR, run nothing")
     args = parser.parse_args(argv)
+    rigs = tuple(x.strip() for x in args.rigs.split(",") if x.strip())
+    unknown = [x for x in rigs if x not in cases.RIGS]
+    if not rigs or unknown:
+        parser.error(f"--rigs: unknown rig {', '.join(unknown) or '(none given)'}; known: {', '.join(cases.RIGS)}")
     results_dir = args.out / "results"
     results_dir.mkdir(parents=True, exist_ok=True)
     todo, results = [], []
-    for spec in specs(args.set, args.n):
+    for spec in specs(args.set, args.n, rigs):
         if args.only and args.only not in spec["id"]:
             continue
         done = results_dir / f"{spec['id']}.json"
@@ -402,7 +416,7 @@ def main(argv: list[str] | None = None) -> int:
                 keep(fut.result())
     if args.summary_only:
         print(f"{len(results)} of {total} cases done", file=sys.stderr)
-    order = {s["id"]: i for i, s in enumerate(specs(args.set, args.n))}
+    order = {s["id"]: i for i, s in enumerate(specs(args.set, args.n, rigs))}
     results = [r for r in results if r["id"] in order and (not args.only or args.only in r["id"])]
     results.sort(key=lambda r: order.get(r["id"], 1 << 30))
     summary = summarise(args.set, results)

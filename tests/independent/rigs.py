@@ -211,3 +211,113 @@ def plate_motor_rig() -> RigBundle:
 
 
 RIGS = {"thesis": thesis_rig, "two-body": two_body_rig, "plate-motor": plate_motor_rig}
+
+
+def _inclined(k_axial: float, k_shear: float, axis) -> np.ndarray:
+    """3x3 stiffness (or damping) of a mount stiff along unit ``axis`` and soft across it."""
+    n = np.asarray(axis, float) / np.linalg.norm(axis)
+    return k_shear * np.eye(3) + (k_axial - k_shear) * np.outer(n, n)
+
+
+def cabinet_rig() -> RigBundle:
+    """A tall steel cabinet (0.6 x 0.5 x 1.6 m, 70 kg, its centre of mass low and a little off
+    centre) on four soft rubber mounts at its base corners, carrying a heavy 32 kg unit (a
+    0.36 x 0.30 x 0.25 m box, off the roof's centre towards a corner) on three mounts inclined
+    25 degrees inward (each 5x stiffer along its own axis than across: a full 3x3 stiffness in rig
+    axes). Linear modes: rocking on the corner mounts 4.6 and 5.5 Hz, the rest of the suspension
+    24-29 Hz, the unit on its mounts 124-307 Hz. Sensors of mixed sensitivity: on
+    the cabinet a 1000 mV/g triaxial near the base, a 500 mV/g triaxial near the roof mounted on a
+    wedge (its axes turned 30 degrees about z and 20 degrees about its own x), a 1000 mV/g y
+    accelerometer at mid-height; on the unit a 100 mV/g triaxial and three 500 mV/g single axes,
+    one of them mounted upside down (sign -1). The hammer (11.2 mV/N, a medium tip: 1 ms pulses,
+    20 N by default) is channel 0; a 16-bit +-5 V DAQ at 3000 samples/s behind an 8th-order
+    600 Hz Butterworth (-64 dB at the Nyquist frequency). Frame: origin on the floor under the cabinet's footprint centre, z up.
+    Written from the rig format's description alone."""
+    cab_size, unit_size = (0.6, 0.5, 1.6), (0.36, 0.30, 0.25)
+    cab_corner = np.array([-0.3, -0.25, 0.04])  # 40 mm corner mounts
+    # a cabinet is heavy at its base (the frame, a transformer): its centre of mass at 0.44 of its height
+    cab_com = np.array([0.012, -0.008, cab_corner[2] + 0.44 * cab_size[2]])
+    cabinet = RigidBody("cabinet", 70.0, cab_com, box_inertia(70.0, cab_size),
+                        plate={"size": list(cab_size), "corner": cab_corner.tolist()})
+    roof = cab_corner[2] + cab_size[2]
+    unit_corner = np.array([-0.05, -0.22, roof + 0.03])  # towards the +x -y corner; 30 mm mounts
+    unit_com = unit_corner + np.array(unit_size) / 2
+    unit = RigidBody("unit", 32.0, unit_com, box_inertia(32.0, unit_size),
+                     plate={"size": list(unit_size), "corner": unit_corner.tolist()})
+    springs = []
+    for i, (sx, sy) in enumerate([(-1, -1), (1, -1), (1, 1), (-1, 1)]):
+        # rubber 3.5x stiffer in compression than in shear; 2 % damping in rocking, 5-10 % in the rest
+        springs.append(Spring(f"foot{i + 1}", "cabinet", np.array([0.27 * sx, 0.22 * sy, 0.04]),
+                              np.array([2.0e5, 2.0e5, 7.0e5]), np.array([150.0, 150.0, 900.0])))
+    # three mounts under the unit at 120 degrees, each axis tilted 25 degrees towards the unit's centre
+    for i, angle in enumerate(np.radians([90.0, 210.0, 330.0])):
+        radial = np.array([np.cos(angle), np.sin(angle), 0.0])
+        pos = np.array([unit_com[0], unit_com[1], roof + 0.015]) + 0.13 * radial
+        axis = np.array([0.0, 0.0, 1.0]) * np.cos(np.radians(25)) - radial * np.sin(np.radians(25))
+        springs.append(Spring(f"unit_mount{i + 1}", "unit", pos, _inclined(3.0e7, 6.0e6, axis),
+                              _inclined(1500.0, 400.0, axis), other="cabinet"))
+    g = 9.80665
+    ex, ey, ez = np.eye(3)
+
+    def turned(about_z_deg: float, about_x_deg: float) -> list[np.ndarray]:
+        """The rig-axis unit vectors turned about z, then about the turned x axis."""
+        cz, sz = np.cos(np.radians(about_z_deg)), np.sin(np.radians(about_z_deg))
+        Rz = np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]])
+        cx, sx = np.cos(np.radians(about_x_deg)), np.sin(np.radians(about_x_deg))
+        Rx = np.array([[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]])
+        R = Rz @ Rx
+        return [R[:, k].copy() for k in range(3)]
+
+    accs: list[Accelerometer] = []
+    channel = 1
+
+    def triaxial(housing, body, point, axes, sens):
+        nonlocal channel
+        for name, axis in zip("xyz", axes):
+            accs.append(Accelerometer(f"{housing}_{name}", channel, body, np.array(point, float), axis,
+                                      sens, triaxial=housing, iepe_corner_hz=0.3))
+            channel += 1
+
+    def single(name, body, point, axis, sens, sign=1.0):
+        nonlocal channel
+        accs.append(Accelerometer(name, channel, body, np.array(point, float), np.array(axis, float), sens,
+                                  sign=sign, iepe_corner_hz=0.3))
+        channel += 1
+
+    triaxial("base", "cabinet", (-0.30, -0.25, 0.20), [ex, ey, ez], 1.0 / g)  # 1000 mV/g, on the -x face
+    triaxial("top", "cabinet", (0.30, 0.25, 1.50), turned(30.0, 20.0), 0.5 / g)  # on a wedge, +x face
+    single("mid_y", "cabinet", (-0.20, -0.25, 0.90), ey, 1.0 / g)  # on the -y face
+    triaxial("unit", "unit", (unit_corner[0] + 0.02, unit_corner[1] + 0.02, unit_corner[2] + unit_size[2]),
+             [ex, ey, ez], 0.1 / g)  # 100 mV/g
+    unit_top = unit_corner[2] + unit_size[2]
+    single("unit_z2", "unit", (unit_corner[0] + 0.34, unit_corner[1] + 0.02, unit_top), ez, 0.5 / g)
+    # mounted upside down under a lip: its output is negative along +z
+    single("unit_z3", "unit", (unit_corner[0] + 0.02, unit_corner[1] + 0.28, unit_top), ez, 0.5 / g, sign=-1.0)
+    single("unit_y2", "unit", (unit_corner[0] + 0.34, unit_corner[1], unit_corner[2] + 0.15), ey, 0.5 / g)
+    hits = [
+        Hit("cabinet", np.array([cab_corner[0], 0.05, 1.40]), ex.copy(), 20.0, 1.0e-3),  # +x, high on the -x face
+        Hit("cabinet", np.array([0.10, cab_corner[1] + cab_size[1], 0.50]), -ey, 20.0, 1.0e-3),  # -y, low
+        Hit("unit", np.array([unit_corner[0] + 0.25, unit_corner[1] + 0.20, unit_top]), -ez, 20.0, 1.0e-3),
+        Hit("unit", np.array([unit_corner[0] + unit_size[0], unit_corner[1] + 0.10, unit_corner[2] + 0.12]),
+            -ex, 20.0, 1.0e-3),
+    ]
+    return RigBundle(
+        name="tall-cabinet",
+        description="A tall cabinet on four soft corner mounts with a heavy unit on three inclined mounts "
+                    "off its roof's centre; sensors of mixed sensitivity, one triaxial on a wedge",
+        frame="origin on the floor under the cabinet's footprint centre; x along its width, y its depth, z up",
+        structure=Structure([cabinet, unit], springs), accelerometers=accs,
+        force_sensor=ForceSensor("hammer", 0, 11.2e-3),
+        daq=Daq(sampling_rate=3000.0, n_samples=4096, pre_trigger=256, adc_bits=16, adc_range=(-5.0, 5.0),
+                aa_family="butter", aa_order=8, aa_cutoff_hz=600.0),
+        hits=hits, spring_groups={"feet": [s.name for s in springs[:4]],
+                                  "unit_mounts": [s.name for s in springs[4:]]},
+        up=ez,
+        # rocking at 5 Hz: the default 20 Hz high-pass would remove it
+        processing={"offset_samples": [0, 256],
+                    "filter": {"family": "butterworth", "type": "highpass", "order": 2, "cutoff_hz": 1.0},
+                    "filter_at": ["signal", "integral"]},
+    )
+
+
+RIGS["cabinet"] = cabinet_rig

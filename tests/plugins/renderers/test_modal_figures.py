@@ -182,3 +182,29 @@ def test_a_phase_wrapping_at_the_axis_edge_is_not_drawn_as_a_spike():
     drawn = np.isfinite(px[:-1]) & np.isfinite(px[1:])
     assert np.abs(np.diff(px))[drawn].max() <= 180.0
     assert np.array_equal(px[np.isfinite(px)], degrees) and np.array_equal(fx[np.isfinite(fx)], f)
+
+
+def test_stabilisation_figure_keeps_its_legend_off_the_poles_and_counts_one_mode(tmp_path):
+    """A closed-form SDOF accelerance (m = 2 kg, k = 8e5 N/m, ζ = 2 %): one mode, at 100.7 Hz;
+    the title says "1 mode" (it said "1 modes") and the legend sits under the axes, where it
+    covers no pole (inside, at lower right, it hid the low orders' poles)."""
+    from odsuite.analysis.modal import identify_modes
+    from odsuite_plugins.renderers.modal_figures import stabilisation_figure
+
+    m, k, zeta = 2.0, 8e5, 0.02
+    fn = np.sqrt(k / m) / (2 * np.pi)
+    f = np.linspace(0.0, 1000.0, 2001)
+    w = 2 * np.pi * f
+    h = -(w**2) / (k - m * w**2 + 2j * zeta * np.sqrt(k * m) * w)
+    h = h + 1e-4 * np.abs(h).max() * np.random.default_rng(0).standard_normal(f.size)
+    res = identify_modes(f, h[None, :], f_band=(20.0, 400.0), max_order=20)
+    assert res.frequency_hz == pytest.approx([fn], rel=1e-3) and res.damping_ratio == pytest.approx([zeta], rel=0.02)
+    fig = stabilisation_figure(res, tmp_path / "stab.png", freq=f, H=h[None, :], title="sdof", size=(6.5, 4.5))
+    ax = fig.axes[0]
+    assert ax.get_title().startswith("sdof: 1 mode in 20-400 Hz")
+    assert ax.get_legend() is None and len(fig.legends) == 1
+    assert [t.get_text() for t in fig.legends[0].get_texts()] == ["new pole", "stable frequency",
+                                                                 "stable frequency and damping"]
+    fig.draw_without_rendering()  # the constrained layout as saved
+    legend, axes = fig.legends[0].get_window_extent(), ax.get_window_extent()
+    assert legend.y1 <= axes.y0, (legend, axes)  # wholly under the axes: no pole behind it
