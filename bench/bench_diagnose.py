@@ -353,6 +353,29 @@ worth; wall): thesis 1369 evaluations, one worker 21.1 (652; 31.5 s) -> 12.3 (85
 11.7 (401) -> 10.8 (450); one evaluation 32.3 -> 14.5 and 29.1 -> 24.0 ms CPU; every prediction
 and Jacobian of both diagnoses again equal to main's to the bit. Targets still missed by 1.6-3.5x
 in worth and 4-6x in wall time.
+
+The next round: the partner search (diagnose._partner, each candidate screened again on top of
+the best single's fit) judges a candidate without discrete choices, projected parameters, starts
+or a frequency or period by one damped Gauss-Newton step from its Jacobian at that fit on the
+whole fit windows (diagnose._screen_on_top) instead of a step on each head: the residual left
+there is small, and the heads are for the non-convex parameters, which keep fitting.screen
+(sensor_dynamics' corner frequencies, screened by the one step too, gained nothing where the
+heads take 0.9 % off). Thesis rig (the two-body rig's diagnose tries no pairs: unchanged): 1431
+-> 1317 evaluations, the partner search 419 -> 305 (mass_properties 40 -> 12, damping 31 -> 9,
+impact_location 51 -> 17); bench/profile_diagnose_stages.py thesis, main then this one right
+after the other at load 13-16: diagnose 25.1 -> 21.9 s CPU, the pairs 10.9 -> 8.6 s, the
+partner search 4.6 -> 3.1 s. The candidate table the same to every digit (every error,
+screened error, likelihood ratio, the four pairs' fits and reasons); the pairs calibration's
+gain + moved centre of mass (s300) names mass_properties+sensor_gain as before (x3 0.7108,
+parameters within 1e-6 relative), 1149 -> 1067 evaluations. The pairs are still a third of the
+thesis rig's CPU: the partner candidates with starts or grids (~1.6 s), the joint fits (~2 s:
+stiffness+nonlinear_stiffness 39 evaluations, rejected for a likelihood ratio of -25) and their
+validation (~1 s). Next: stop a joint fit from its linearisation where it cannot beat the member
+joint.accepted tests it against (the BIC and likelihood-ratio rules, not only 4x the simplest
+single's sum of squares).
+Merged with main's worker-run partner search (one worker, load 3.9, main then this one right
+after the other): thesis 1369 -> 1263 evaluations, the partner search 350 -> 278 evaluations and
+3.5 -> 2.8 s CPU, diagnose 24.1 -> 23.4 s CPU; the candidate table the same to every digit.
 """
 
 from __future__ import annotations

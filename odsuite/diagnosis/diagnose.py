@@ -31,8 +31,10 @@ from odsuite.diagnosis import checks, joint, physical
 from odsuite.analysis.comparison import noise_floor, residual_peaks
 from odsuite.domain.errors import ConfigError
 from odsuite.diagnosis.fitting import (
+    ROUNDING,
     Problem,
     Screened,
+    _lm_step,
     effective_samples,
     fit,
     fit_windows,
@@ -365,14 +367,14 @@ def _problem(job: Mapping[str, Any], name: str, fixed: Mapping[str, float] | Non
 
 def _screen_job(token: int, name: str, job: Mapping[str, Any] | None = None
                 ) -> tuple[dict[str, float], np.ndarray, float, int] | None:
-    """Screen one candidate (on the baseline, or on ``job``'s base): its discrete choices, start,
+    """Screen one candidate (on the baseline, or on ``job``'s base by _screen_on_top): its discrete choices, start,
     sum of squares and evaluations."""
-    job = job or JOBS[token]
+    on_top, job = job is not None, job or JOBS[token]
     try:
         problem = _problem(job, name)
     except ConfigError:
         return None  # the effect does not apply to this rig (e.g. no base plate)
-    s = screen(problem, job["sse0_win"], job["peak_hz"])
+    s = (_screen_on_top if on_top else screen)(problem, job["sse0_win"], job["peak_hz"])
     return s.fixed, s.u0, s.sse, problem.evaluations + (s.problem.evaluations if s.problem is not problem else 0)
 
 
@@ -684,6 +686,26 @@ def _partner(job: Mapping[str, Any], first: Candidate, names: Sequence[str], poo
     return out, evaluations
 
 
+def _screen_on_top(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened:
+    """A candidate screened on top of a fitted first effect (_partner; ``sse0`` that fit's sum of
+    squares). Where the first fit is good the residual left is small, so a candidate without
+    discrete choices, projected parameters, starts or a frequency or period (the parameters whose
+    error is not convex, which fitting.screen's heads and sweeps are for) is judged by one damped
+    Gauss-Newton step from its Jacobian at the fitted model on the whole fit windows (linearised
+    where the structure changes), not by a step on each head; the others are screened as on the
+    baseline."""
+    if (problem.discrete or problem.linear or not problem.free
+            or any(f.param.starts or f.param.unit in ("Hz", "s") for f in problem.free)):
+        return screen(problem, sse0, peaks_hz)
+    u0 = problem.zero()
+    r0 = problem.residual(u0)
+    u = _lm_step(problem, problem.jacobian(u0, r0, tangent=True), r0, u0, problem.exps)
+    sse = problem.sse(u)
+    if sse < sse0 * (1 - ROUNDING):  # as screen: a gain in the last digits is the arithmetic's
+        return Screened(problem.effect, {}, u, sse, problem)
+    return Screened(problem.effect, {}, u0, sse0, problem)
+
+
 def _implausible(s: Screened) -> list[str]:
     """A screened candidate's values outside their physical range."""
     shared, _ = s.problem.values(s.u0)
@@ -770,8 +792,11 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
         cand._problem = _kept_back(_pair_problem(job, ea, eb, kept[0]), kept)
         _judge(cand, job["exps"], floor, res0, job["sse0"], job["den"], scale)
         if cand._resolved is not None:  # each member at its nominal values: the other alone (joint.added)
+            # not a member of discrete choices alone (a polarity): with none of its parameters free
+            # the point is the pair's own, a gain of 0 over "the other alone"
             cand._without = {m: resolution.resolve(job["exps"], cand._problem.predictions(
-                joint.without(cand._problem, cand._u, m), cand._problem.full), floor) for m in (ea, eb)}
+                joint.without(cand._problem, cand._u, m), cand._problem.full), floor) for m in (ea, eb)
+                if any(f.param.name.split(".", 1)[0] == m for f in cand._problem.free)}
         ok, why = joint.accepted(cand, (a, b), candidates + added)
         if cand._stopped:
             ok, why = False, f"its fit stopped where it could not come near {simpler}'s error"
