@@ -104,6 +104,38 @@ def test_trial_values_that_blow_the_simulation_up_are_a_bad_fit_not_an_error(hid
     assert s.sse < problem.sse(top)
 
 
+def test_trial_values_no_physical_body_has_are_a_bad_fit_not_an_error(hidden):
+    """A mass-properties trial with the moments at their lower bound and the products of inertia at
+    their upper one gives an inertia that is not positive definite (a diagnosis round stopped on
+    it with "field 'inertia': not positive definite"). The fit's residual is then the capped one,
+    and the search goes on from its start."""
+    import numpy as np
+
+    from odsuite.domain.errors import ConfigError
+    from odsuite.diagnosis.fitting import UNSTABLE_RESIDUAL, Problem, fit_windows, screen
+    from odsuite.analysis.modelrev import current_revision, revision_model
+    from odsuite.contracts.plugins import registries
+    from odsuite.analysis.prediction import prepare
+    from odsuite.store.project import open_project
+
+    with open_project(hidden("nominal", []), "r") as p:
+        exps = prepare(p)
+        base = revision_model(p, current_revision(p))
+    problem = Problem(base, registries().effects.get("mass_properties"), fit_windows(exps), full=exps)
+    lower, upper = problem.lower_upper()
+    names = [f.param.name for f in problem.free]
+    bad = np.where([n.endswith(("Ixx_scale", "Iyy_scale", "Izz_scale")) for n in names], lower,
+                   np.where([n.endswith(("Ixy", "Ixz", "Iyz")) for n in names], upper, problem.zero()))
+    with pytest.raises(ConfigError, match="not positive definite"):
+        problem.predictions(bad)
+    r = problem.residual(bad)
+    cap = max(UNSTABLE_RESIDUAL * np.abs(e.measured).max() for e in problem.exps)
+    assert np.all(np.isfinite(r)) and np.abs(r).max() == pytest.approx(cap, rel=0.01)
+    sse0 = problem.sse(problem.zero())
+    assert problem.sse(bad) > 100 * sse0
+    assert screen(problem, sse0, ()).sse <= sse0
+
+
 def test_nominal_truth_nothing_significant(hidden):
     """Nothing hidden in the structure: the rigid model is the truth, the verdict is "nothing to
     explain" and no structural candidate may claim an improvement."""
