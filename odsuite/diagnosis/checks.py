@@ -116,7 +116,7 @@ def consistency(problem, res, force_levels: Mapping[str, float], tolerated: floa
     gain = 0.0  # what fitting per experiment lowers the (strided) sum of squares by
     for i, e in enumerate(exps):
         rows = slice(starts[i], starts[i + 1])
-        fitted, part, _ = _local_fit(problem, res.x, J[rows][:, shared], r[rows], shared, e.measured.shape[1])
+        fitted, part, _, _ = _local_fit(problem, res.x, J[rows][:, shared], r[rows], shared, e.measured.shape[1])
         gain += part
         for label, v, sd in fitted:
             values.setdefault(label, []).append((e.name, v, sd))
@@ -162,12 +162,12 @@ def consistency(problem, res, force_levels: Mapping[str, float], tolerated: floa
 
 
 def _local_fit(problem, x, Ji: np.ndarray, ri: np.ndarray, shared: Sequence[int], columns: int,
-               bounded: bool = False) -> tuple[list[tuple[str, float, float]], float, np.ndarray]:
+               bounded: bool = False) -> tuple[list[tuple[str, float, float]], float, np.ndarray, np.ndarray]:
     """The shared parameters fitted to some rows of a joint fit alone: one Gauss-Newton step from
     it on those rows of the Jacobian, the covariance from their residual with its effective
     samples (``columns`` channels a row block). Returns (label, value, sd) of the parameters those
     rows determine (sd within a tenth of the range) and the (strided) sum of squares the step
-    removes, and the step (in the fit's scaled units, one per shared parameter).
+    removes, the step and its covariance (in the fit's scaled units, one per shared parameter).
 
     ``bounded``: the step is the linearised least squares within the parameters' bounds, as the
     joint fit is. Unbounded, a combination these rows hardly determine takes a step of their noise
@@ -177,7 +177,7 @@ def _local_fit(problem, x, Ji: np.ndarray, ri: np.ndarray, shared: Sequence[int]
     0.33 Hz); within the bounds the undetermined combination moves along them, at no cost."""
     H = Ji.T @ Ji
     if not np.any(H):
-        return [], 0.0, np.zeros(len(shared))
+        return [], 0.0, np.zeros(len(shared)), np.zeros((len(shared), len(shared)))
     w, V = np.linalg.eigh(H)
     keep = w > 1e-8 * w.max()
     Hinv = (V[:, keep] / w[keep]) @ V[:, keep].T
@@ -195,7 +195,7 @@ def _local_fit(problem, x, Ji: np.ndarray, ri: np.ndarray, shared: Sequence[int]
         if not np.isfinite(sd) or sd <= 0 or sd > 0.1 * (f.param.upper - f.param.lower):
             continue  # these rows do not determine it
         out.append((f.label, f.to_value(x[idx] + step[j]), sd))
-    return out, -float(step @ (Ji.T @ ri)), step
+    return out, -float(step @ (Ji.T @ ri)), step, cov
 
 
 def _bounded_step(problem, x, Ji: np.ndarray, ri: np.ndarray, shared: Sequence[int], step: np.ndarray
@@ -222,6 +222,9 @@ class Linearity:
     differing: list[str] = field(default_factory=list)  # parameters whose two values disagree
     u: tuple = ()  # the fit's scaled unknowns with the early part's, the late part's values
     cuts: dict[str, int] = field(default_factory=dict)  # per record, the sample where its late part starts
+    #: the early part's fit: covariance of its shared unknowns (scaled units), their indices in the fit
+    cov: np.ndarray | None = None
+    shared: tuple = ()
 
 
 def linearity(problem, res) -> Linearity:
@@ -256,16 +259,17 @@ def linearity(problem, res) -> Linearity:
         start += size
     if not parts[0] or not columns:
         return Linearity()  # channel counts differ between records: no common row blocks
-    fits, us = [], []
+    fits, us, covs = [], [], []
     for rows in parts:
         idx = np.concatenate(rows)
-        fitted, _, step = _local_fit(problem, res.x, J[idx], r[idx], shared, columns, bounded=True)
+        fitted, _, step, cov = _local_fit(problem, res.x, J[idx], r[idx], shared, columns, bounded=True)
         fits.append({label: (v, sd) for label, v, sd in fitted})
         u = np.array(res.x, float)
         u[shared] += step
         us.append(u)
+        covs.append(cov)
     out = Linearity(early={k: v for k, (v, _) in fits[0].items()}, late={k: v for k, (v, _) in fits[1].items()},
-                    u=tuple(us), cuts=cuts)
+                    u=tuple(us), cuts=cuts, cov=covs[0], shared=tuple(shared))
     both = [k for k in fits[0] if k in fits[1]]
     if not both:
         return out
@@ -278,8 +282,41 @@ def linearity(problem, res) -> Linearity:
     return out
 
 
+def early_spread(problem, lin: Linearity | None, exps: Sequence | None = None) -> list[list[np.ndarray]]:
+    """The early part's estimation spread as changes of the predictions: per principal direction of
+    its covariance (``Linearity.cov``), the change one standard deviation along it makes, from the
+    early fit (``Linearity.u[0]``), per experiment of ``exps`` (the problem's own by default). Taken
+    within the bounds and scaled up to the standard deviation where a bound is nearer (the model
+    clips there). Empty without a covariance."""
+    if lin is None or lin.cov is None or len(lin.u) != 2 or not np.any(lin.cov):
+        return []
+    u0 = np.asarray(lin.u[0], float)
+    shared = list(lin.shared)
+    lo = np.array([problem.free[i].bounds[0] for i in shared]) - u0[shared]
+    hi = np.array([problem.free[i].bounds[1] for i in shared]) - u0[shared]
+    w, V = np.linalg.eigh(lin.cov)
+    base = None
+    out = []
+    for lam, v in zip(w, V.T):
+        if lam <= 1e-12 * w.max():
+            continue
+        d = np.sqrt(lam) * v
+        # the longer way within the bounds, at most one standard deviation
+        reach = [min([1.0] + [float(b / x) for b, x in zip(np.where(sd * d > 0, hi, lo), sd * d) if x != 0])
+                 for sd in (1.0, -1.0)]
+        sign = 1.0 if reach[0] >= reach[1] else -1.0
+        t = max(reach) * sign
+        if abs(t) < 1e-3:
+            continue
+        u = u0.copy()
+        u[shared] += t * d
+        base = problem.predictions(u0, exps) if base is None else base
+        out.append([(a - b) / t for a, b in zip(problem.predictions(u, exps), base)])
+    return out
+
+
 def held_out(exps: Sequence, early: Sequence[np.ndarray], late: Sequence[np.ndarray], floor,
-             cuts: Mapping[str, int]) -> resolution.Resolved | None:
+             cuts: Mapping[str, int], spread: Sequence[Sequence[np.ndarray]] = ()) -> resolution.Resolved | None:
     """The late (small) part of each record as the model fitted to the early (large) part predicts
     it, against the late part's own fit, by the verdict's cell test: per experiment, channel and
     band the residual energy beyond the own fit's, over the floor's share of the part (its
@@ -288,7 +325,15 @@ def held_out(exps: Sequence, early: Sequence[np.ndarray], late: Sequence[np.ndar
     acts at one amplitude only does not. Not the other way round: the late part's fit, its
     estimation noise carried by the early part's large response, mispredicts that part even for a
     true cause (measured: added masses 8-23x the limit). ``cuts``: per record, the sample where
-    its late part starts (``Linearity.cuts``). None without the floor's bands or a cut."""
+    its late part starts (``Linearity.cuts``). None without the floor's bands or a cut.
+
+    ``spread`` (``early_spread``): the early fit's own parameter uncertainty carried into the late
+    part, as a prediction interval does. A true cause's early fit is off by delta ~ N(0, cov), whose
+    late-part energy in a cell is a Gaussian quadratic form of mean S (the directions' energies
+    there summed); such a form exceeds x S with probability at most P(chi2_1 > x) for x >= 1.54
+    (Szekely and Bakirov 2003). A cell is then above only beyond limit x floor share + x_S S, x_S
+    the chi-square(1) quantile at the cell test's per-cell false-alarm rate: a true cause fails the
+    test with probability at most 2 DETECTION_FALSE_ALARM (the noise's share and the spread's)."""
     if not all(e.name in cuts for e in exps):
         return None
     masks = [(np.arange(e.n_samples) >= cuts[e.name])[:, None] for e in exps]
@@ -297,8 +342,19 @@ def held_out(exps: Sequence, early: Sequence[np.ndarray], late: Sequence[np.ndar
     if held is None or own is None:
         return None
     share = [float(m.mean()) for m in masks]
+    floors = [f * s for f, s in zip(held.floor, share)]
+    if spread:
+        n_cells = sum(f.size for f in held.floor)
+        x_s = float(scipy.stats.chi2.isf(resolution.DETECTION_FALSE_ALARM / max(n_cells, 1), 1))
+        energy = [np.zeros_like(f) for f in floors]
+        for change in spread:
+            one = resolution.resolve(exps, [e.measured - np.where(m, d, 0.0) for e, m, d in zip(exps, masks, change)],
+                                     floor)
+            energy = [a + b for a, b in zip(energy, one.residual)]
+        # limit x (floor share + S x_S / limit) = limit x floor share + x_S S
+        floors = [f + x_s * s / lim for f, s, lim in zip(floors, energy, held.limit)]
     return replace(held, residual=[np.maximum(a - b, 0.0) for a, b in zip(held.residual, own.residual)],
-                   floor=[f * s for f, s in zip(held.floor, share)])
+                   floor=floors)
 
 
 def tolerated_misfit(floor_error: float, exps: Sequence) -> float:

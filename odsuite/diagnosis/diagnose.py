@@ -328,6 +328,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         lin = checks.linearity(problem, res)
         cand.early_late_agree, cand.early_late_fits = lin.linear, {"early": lin.early, "late": lin.late}
         cand.early_late_differ, cand._early_late_u, cand._early_late_cuts = lin.differing, lin.u, lin.cuts
+        cand._early_late = lin
     cand.implausible = checks.implausible(effect, problem.base.shared, params, problem.params)
     cand.at_records_edge = checks.at_records_edge(problem.params, params)
     cand._nyquist_hz = records_band(problem.full)[0]
@@ -921,7 +922,8 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
         # Only where the candidate leaves no cell above the floor: else the late part's own fit
         # takes up some of what is left (a second effect) and the test measures that, not the candidate
         early, late = (p.predictions(u, p.full) for u in best._early_late_u)
-        part = checks.held_out(exps, early, late, floor_best, best._early_late_cuts)
+        part = checks.held_out(exps, early, late, floor_best, best._early_late_cuts,
+                               checks.early_spread(p, getattr(best, "_early_late", None), p.full))
         best.early_late_agree = part is None or not part.detected()
         best.early_late_cells = [] if part is None else part.cells(3)
     elif res_best is not None and res_best.detected():

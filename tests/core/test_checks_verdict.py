@@ -9,6 +9,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+import scipy.stats
 
 from odsuite.diagnosis import checks
 from odsuite.contracts.effects import Parameter
@@ -296,6 +297,74 @@ def test_an_amplitude_dependent_decay_fitted_on_its_early_part_mispredicts_its_l
 
     expected = (energy(early[i]) - energy(late[i])) / (floor.bands[e.name][1][band, 0] * late_only.mean())
     assert top["residual_to_floor"] == pytest.approx(np.sqrt(expected), rel=1e-9)
+
+
+def _late_band_energy(x: np.ndarray, cut: int, fs: float, lo: float, hi: float) -> float:
+    """Energy of ``x`` from sample ``cut`` on between ``lo`` and ``hi`` Hz (Parseval, one-sided)."""
+    r = np.where(np.arange(len(x)) >= cut, x, 0.0)
+    spec = np.abs(np.fft.rfft(r)) ** 2 / len(r)
+    spec[1:len(r) // 2] *= 2.0
+    f = np.fft.rfftfreq(len(r), 1.0 / fs)
+    return float(spec[(f >= lo) & (f < hi)].sum())
+
+
+def test_the_early_fits_spread_carried_into_the_late_part_is_its_mean_misprediction():
+    # a linear ring over 60 noise draws: the late-part energy in the mode's band of the early fit's
+    # prediction less the truth's averages the spread early_spread carries there (measured 0.99;
+    # a prediction interval from the covariance), and held_out's floor is the noise share plus the
+    # spread at its chi-square(1) quantile (Szekely-Bakirov) over the cell's limit
+    fs, t = 2000.0, np.arange(1000) / 2000.0
+
+    def model(u):
+        f, z = 100.0 + u[0], 0.02 + 0.01 * u[1]
+        return np.exp(-2 * np.pi * z * f * t) * np.sin(2 * np.pi * f * t)
+
+    edges = band_edges(fs, 1000)
+    lo, hi = next((a, b) for a, b in edges if a <= 100.0 < b)
+    truth = model(np.zeros(2))
+    missed, spread_energy = [], []
+    for seed in range(60):
+        problem, res = _ring(0.0, seed=seed)
+        problem.predictions = lambda u, exps=None: [model(u)[:, None]] * 2
+        lin = checks.linearity(problem, res)
+        cut = lin.cuts["r0"]
+        spread = checks.early_spread(problem, lin)
+        assert len(spread) == 2
+        missed.append(_late_band_energy(model(lin.u[0]) - truth, cut, fs, lo, hi))
+        spread_energy.append(sum(_late_band_energy(d[0][:, 0], cut, fs, lo, hi) for d in spread))
+    assert np.mean(missed) / np.mean(spread_energy) == pytest.approx(1.0, abs=0.35)
+
+    exps = [_Exp(e.name, e.measured, fs) for e in problem.exps]
+    floor = _ring_floor(0.01, 1000, fs, [e.name for e in exps])
+    early, late = ([model(u)[:, None]] * 2 for u in lin.u)
+    plain = checks.held_out(exps, early, late, floor, lin.cuts)
+    wide = checks.held_out(exps, early, late, floor, lin.cuts, spread)
+    band = next(b for b, (a, _) in enumerate(edges) if a == lo)
+    n_cells = sum(f.size for f in plain.floor)
+    x_s = scipy.stats.chi2.isf(0.01 / n_cells, 1)
+    assert wide.floor[0][band, 0] == pytest.approx(
+        plain.floor[0][band, 0] + x_s * spread_energy[-1] / plain.limit[0][band, 0], rel=1e-9)
+    assert np.allclose(wide.residual[0], plain.residual[0])
+
+
+def test_an_amplitude_dependent_decay_mispredicts_beyond_the_early_fits_own_spread():
+    # the 3 % hardening ring: beyond the early fit's own spread in the late part too (measured 4.2x the
+    # limit in energy with the spread, 20x without)
+    problem, res = _ring(0.03)
+    fs, t = 2000.0, np.arange(1000) / 2000.0
+
+    def model(u):
+        f, z = 100.0 + u[0], 0.02 + 0.01 * u[1]
+        return [(np.exp(-2 * np.pi * z * f * t) * np.sin(2 * np.pi * f * t))[:, None]] * 2
+
+    problem.predictions = lambda u, exps=None: model(u)
+    lin = checks.linearity(problem, res)
+    exps = [_Exp(e.name, e.measured, fs) for e in problem.exps]
+    floor = _ring_floor(0.01, 1000, fs, [e.name for e in exps])
+    early, late = (model(u) for u in lin.u)
+    part = checks.held_out(exps, early, late, floor, lin.cuts, checks.early_spread(problem, lin))
+    assert part.detected()
+    assert max(float(np.max(q / lim)) for q, lim in zip(part.ratios(), part.limit)) > 2.0
 
 
 def test_an_early_fit_that_mispredicts_the_late_part_is_not_explained():
