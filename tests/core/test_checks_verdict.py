@@ -4,7 +4,7 @@ plausible ranges; the verdict's four words."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -494,6 +494,12 @@ def test_a_modes_frequency_is_bounded_by_the_records_nyquist_frequency(registrie
     plate = {p.name: p for p in registries.effects.get("plate_flexibility").parameters(model)}["frequency_hz"]
     assert plate.within_records(nyquist, line).upper == 2560.0
     assert plate.within_records(10000.0, 2.5) is plate  # 5 kHz is below 10 kHz: as declared
+    # a declared bound within the last line below the Nyquist frequency is kept, never raised, and
+    # the start stays a line inside it
+    near = plate.within_records(5001.0, 2.5)
+    assert (near.upper, near.plausible[1], near.nominal <= 5000.0 - 2.5) == (5000.0, 4997.5, True)
+    edge = replace(plate, nominal=5000.0).within_records(5001.0, 2.5)
+    assert edge.nominal == 4997.5
     # said in the verdict's words, not as a value outside the physical range
     best = _Cand(error_after=0.03, effect="missing_mode", plausible=False)
     best.implausible = best.at_records_edge = ["frequency_hz"]
