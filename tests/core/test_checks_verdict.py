@@ -325,7 +325,7 @@ def test_the_early_fits_spread_carried_into_the_late_part_is_its_mean_mispredict
     missed, spread_energy = [], []
     for seed in range(60):
         problem, res = _ring(0.0, seed=seed)
-        problem.predictions = lambda u, exps=None: [model(u)[:, None]] * 2
+        problem.predictions = lambda u, exps=None, keep=True: [model(u)[:, None]] * 2
         lin = checks.linearity(problem, res)
         cut = lin.cuts["r0"]
         spread = checks.early_spread(problem, lin)
@@ -357,7 +357,7 @@ def test_an_amplitude_dependent_decay_mispredicts_beyond_the_early_fits_own_spre
         f, z = 100.0 + u[0], 0.02 + 0.01 * u[1]
         return [(np.exp(-2 * np.pi * z * f * t) * np.sin(2 * np.pi * f * t))[:, None]] * 2
 
-    problem.predictions = lambda u, exps=None: model(u)
+    problem.predictions = lambda u, exps=None, keep=True: model(u)
     lin = checks.linearity(problem, res)
     exps = [_Exp(e.name, e.measured, fs) for e in problem.exps]
     floor = _ring_floor(0.01, 1000, fs, [e.name for e in exps])
