@@ -144,9 +144,9 @@ class Parameter:
         below its last line (a mode there is not resolved); any other parameter unchanged."""
         if not self.below_nyquist or self.upper <= nyquist_hz - line_hz:
             return self
-        upper = max(nyquist_hz, self.lower)
+        upper = max(min(self.upper, nyquist_hz), self.lower)
         low, high = self.plausible or (self.lower, self.upper)
-        return replace(self, upper=upper, nominal=min(self.nominal, upper),
+        return replace(self, upper=upper, nominal=max(min(self.nominal, upper - line_hz), self.lower),
                        plausible=(low, min(high, max(upper - line_hz, self.lower))))
 
     def as_dict(self) -> dict:

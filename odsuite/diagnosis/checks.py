@@ -310,8 +310,9 @@ def early_spread(problem, lin: Linearity | None, exps: Sequence | None = None) -
             continue
         u = u0.copy()
         u[shared] += t * d
-        base = problem.predictions(u0, exps) if base is None else base
-        out.append([(a - b) / t for a, b in zip(problem.predictions(u, exps), base)])
+        # not kept: the fit's own kept predictions stay for what follows
+        base = problem.predictions(u0, exps, keep=False) if base is None else base
+        out.append([(a - b) / t for a, b in zip(problem.predictions(u, exps, keep=False), base)])
     return out
 
 
@@ -332,8 +333,13 @@ def held_out(exps: Sequence, early: Sequence[np.ndarray], late: Sequence[np.ndar
     late-part energy in a cell is a Gaussian quadratic form of mean S (the directions' energies
     there summed); such a form exceeds x S with probability at most P(chi2_1 > x) for x >= 1.54
     (Szekely and Bakirov 2003). A cell is then above only beyond limit x floor share + x_S S, x_S
-    the chi-square(1) quantile at the cell test's per-cell false-alarm rate: a true cause fails the
-    test with probability at most 2 DETECTION_FALSE_ALARM (the noise's share and the spread's)."""
+    the chi-square(1) quantile at the cell test's per-cell false-alarm rate: each of the two
+    energies passes its own allowance with at most DETECTION_FALSE_ALARM, so a true cause fails the
+    test with about 2 DETECTION_FALSE_ALARM (not a strict bound: the noise's and the spread's cross
+    term, zero on average, is left out; (sqrt(a) + sqrt(b))^2 would bound it, at a weaker test).
+    The spread's covariance comes from the early part's own residual, so a stand-in's misfit there
+    widens it: the test refuses a stand-in less readily than the noise alone would (the outside
+    sets' friction and rattles measure what it still refuses)."""
     if not all(e.name in cuts for e in exps):
         return None
     masks = [(np.arange(e.n_samples) >= cuts[e.name])[:, None] for e in exps]

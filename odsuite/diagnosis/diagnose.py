@@ -721,7 +721,7 @@ def _single(token: int, job: Mapping[str, Any], screened: Sequence[Screened], na
     if s is None:
         return None
     cand, kept = _fit_job(token, name, s.fixed, s.u0, s.sse)
-    cand._problem = _problem(job, name, kept[0])
+    cand._problem = _kept_back(_problem(job, name, kept[0]), kept)
     _judge(cand, exps, floor, res0, job["sse0"], job["den"], job["scale"])
     words = _checks_words(cand)
     if words:
@@ -854,6 +854,9 @@ def _kept(p: Problem) -> tuple:
 def _kept_back(problem: Problem, kept: tuple) -> Problem:
     """``problem`` (rebuilt from the kept fixed values) as the worker's was (_kept)."""
     _, problem.evaluations, problem._predictions, problem._projection = kept
+    for _, predictions in problem._predictions:  # read-only, as the worker kept them (unpickled: writeable)
+        for p in predictions:
+            p.flags.writeable = False
     return problem
 
 

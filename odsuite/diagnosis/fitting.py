@@ -28,7 +28,7 @@ from scipy.optimize._lsq.common import (CL_scaling_vector, check_termination, fi
                                         make_strictly_feasible, solve_lsq_trust_region, update_tr_radius)
 from scipy.optimize._lsq.trf import select_step
 
-from odsuite.domain.errors import ConfigError
+from odsuite.domain.errors import DivergedError, NonPhysicalError
 from odsuite.analysis.modelrev import RevisionModel
 from odsuite.analysis.prediction import (PreparedExperiment, cubic_change_predictions, linearised_predictions, predict,
                                          predict_sharing, simulate_together)
@@ -287,8 +287,8 @@ class Problem:
         with np.errstate(over="ignore", invalid="ignore"):
             try:
                 preds = self.predictions(u, exps, keep)
-            except ConfigError:  # trial values that blow the response up (DivergedError) or that no
-                # physical model has (an inertia not positive definite): as bad as can be
+            except (DivergedError, NonPhysicalError):  # trial values that blow the response up or
+                # that no physical body has (an inertia not positive definite): as bad as can be
                 preds = [np.full(e.measured.shape, np.inf) for e in exps]
         return self._residual_of(preds, exps, columns, self.stride if stride is None else stride)
 
@@ -395,7 +395,7 @@ class Problem:
                 preds = self._each_experiment(linearised_predictions, models0, points, exps)
                 if preds is None:
                     return None
-        except (ConfigError, np.linalg.LinAlgError):  # simulated column by column instead
+        except (DivergedError, NonPhysicalError, np.linalg.LinAlgError):  # simulated column by column instead
             return None
         self.evaluations += len(moved)
         return {i: self._residual_of([p[k] for p in preds], exps, None, self.stride, strided=True)
@@ -421,7 +421,7 @@ class Problem:
                                                 self._stepped_models(u, steps, moved), exps)
                 if changes is None:
                     return None
-        except (ConfigError, np.linalg.LinAlgError):  # simulated column by column instead
+        except (DivergedError, NonPhysicalError, np.linalg.LinAlgError):  # simulated column by column instead
             return None
         self.evaluations += len(moved)
         return {i: r0 - np.concatenate([c[k].ravel() for c in changes]) for k, i in enumerate(moved)}

@@ -2,15 +2,15 @@
 
 Its arithmetic is a few products of matrices of a dozen rows per step; numpy would pay a Python
 call per product and step (about 45 us a step on five records at once), compiled code pays none
-(about 1 us). Kept in its own module so that numba loads only when a model has cubic springs."""
+(about 1 us). Its own module: a linear model's simulation loads only the recursions'."""
 
 from __future__ import annotations
 
-import numba
+from odsuite.domain.compiled import compiled
 import numpy as np
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _affine(base, sign, g, M, acc, out):
     """out = base + sign g @ M (a vector times a small matrix; out may be base). Row by row of
     ``M`` into the scratch ``acc``: the inner loop runs along M's rows (vectorised), each sum in
@@ -26,13 +26,13 @@ def _affine(base, sign, g, M, acc, out):
         out[i] = base[i] + sign * acc[i]
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _cubed(c, d, out):
     for j in range(d.shape[0]):
         out[j] = c[j] * d[j] * d[j] * d[j]
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def cubic_steps(step_t, deflect_t, linear, linear_deflection, end_pull_t, end_deflection_t, c, states):
     """Advance every record through its steps; ``states[k, r]`` is record r's state after step k.
 

@@ -19,6 +19,11 @@ class DivergedError(ConfigError):
     a user's model is wrong, a fit's trial values are far off."""
 
 
+class NonPhysicalError(ConfigError):
+    """Values no physical body has (an inertia that is not positive definite): a user's model is
+    wrong, a fit's trial values are outside what the model can hold."""
+
+
 class DimensionError(OdsuiteError, ValueError):
     """Arrays or channel lists do not have the shapes that belong together."""
 

@@ -20,7 +20,7 @@ from types import MappingProxyType
 import numpy as np
 import scipy  # scipy.signal and scipy.linalg load on first use: fast `odsuite plugins`
 
-from odsuite.domain.errors import ConfigError
+from odsuite.domain.errors import ConfigError, NonPhysicalError
 from odsuite.domain.rig import COORDINATES, Body, Rig, Sensor
 
 #: Generalized coordinates of one body, in order.
@@ -90,7 +90,7 @@ class RigidBody:
             raise ConfigError(f"{w} field 'inertia': not symmetric: {inertia.tolist()}")
         eig = np.linalg.eigvalsh(inertia)
         if eig.min() <= 0:
-            raise ConfigError(f"{w} field 'inertia': not positive definite (eigenvalues {eig.tolist()} kg m^2)")
+            raise NonPhysicalError(f"{w} field 'inertia': not positive definite (eigenvalues {eig.tolist()} kg m^2)")
         unknown = [d for d in self.dofs if d not in COORDS]
         if unknown or not self.dofs or len(set(self.dofs)) != len(self.dofs):
             raise ConfigError(f"{w} field 'dofs': expected distinct names from {COORDS}, got {self.dofs!r}")

@@ -8,18 +8,18 @@ whose argument checks and axis moves cost as much as the filtering on short reco
 
 from __future__ import annotations
 
-import numba
+from odsuite.domain.compiled import compiled
 import numpy as np
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _step(b0, b1, b2, a1, a2, xn, z0, z1):
     """One sample of lfilter's direct form II transposed (a0 = 1): output and new delays."""
     y = z0 + b0 * xn
     return y, z1 + xn * b1 - y * a1, xn * b2 - y * a2
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def second_order_rows(num, den, zi, source, u, out):
     """Row r of ``out``: ``lfilter(num[r], den[r], u[source[r]], zi=zi[r])`` (``den[r, 0]`` = 1).
     Rows run two at a time: each recursion waits on its own last output, two keep the processor
@@ -36,7 +36,7 @@ def second_order_rows(num, den, zi, source, u, out):
             out[s, k], w0, w1 = _step(c0, c1, c2, e1, e2, v[k], w0, w1)
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def sections_in_place(sos, x):
     """``x`` (samples x signals) through the second-order sections ``sos`` from rest, each column
     a signal, written back into ``x``: ``scipy.signal.sosfilt(sos, x, axis=0)``."""
@@ -54,7 +54,7 @@ def sections_in_place(sos, x):
             x[k, i] = x_cur
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def chain_columns(x, cols, factor, offsets, sos, out):
     """Columns ``cols`` of ``x`` (samples x signals), times ``factor``, less ``offsets`` (one per
     column), through the sections ``sos`` from rest, into the same columns of ``out``: what

@@ -4,7 +4,7 @@ plausible ranges; the verdict's four words."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -325,7 +325,7 @@ def test_the_early_fits_spread_carried_into_the_late_part_is_its_mean_mispredict
     missed, spread_energy = [], []
     for seed in range(60):
         problem, res = _ring(0.0, seed=seed)
-        problem.predictions = lambda u, exps=None: [model(u)[:, None]] * 2
+        problem.predictions = lambda u, exps=None, keep=True: [model(u)[:, None]] * 2
         lin = checks.linearity(problem, res)
         cut = lin.cuts["r0"]
         spread = checks.early_spread(problem, lin)
@@ -357,7 +357,7 @@ def test_an_amplitude_dependent_decay_mispredicts_beyond_the_early_fits_own_spre
         f, z = 100.0 + u[0], 0.02 + 0.01 * u[1]
         return [(np.exp(-2 * np.pi * z * f * t) * np.sin(2 * np.pi * f * t))[:, None]] * 2
 
-    problem.predictions = lambda u, exps=None: model(u)
+    problem.predictions = lambda u, exps=None, keep=True: model(u)
     lin = checks.linearity(problem, res)
     exps = [_Exp(e.name, e.measured, fs) for e in problem.exps]
     floor = _ring_floor(0.01, 1000, fs, [e.name for e in exps])
@@ -494,6 +494,12 @@ def test_a_modes_frequency_is_bounded_by_the_records_nyquist_frequency(registrie
     plate = {p.name: p for p in registries.effects.get("plate_flexibility").parameters(model)}["frequency_hz"]
     assert plate.within_records(nyquist, line).upper == 2560.0
     assert plate.within_records(10000.0, 2.5) is plate  # 5 kHz is below 10 kHz: as declared
+    # a declared bound within the last line below the Nyquist frequency is kept, never raised, and
+    # the start stays a line inside it
+    near = plate.within_records(5001.0, 2.5)
+    assert (near.upper, near.plausible[1], near.nominal <= 5000.0 - 2.5) == (5000.0, 4997.5, True)
+    edge = replace(plate, nominal=5000.0).within_records(5001.0, 2.5)
+    assert edge.nominal == 4997.5
     # said in the verdict's words, not as a value outside the physical range
     best = _Cand(error_after=0.03, effect="missing_mode", plausible=False)
     best.implausible = best.at_records_edge = ["frequency_hz"]

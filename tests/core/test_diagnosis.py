@@ -111,7 +111,7 @@ def test_trial_values_no_physical_body_has_are_a_bad_fit_not_an_error(hidden):
     and the search goes on from its start."""
     import numpy as np
 
-    from odsuite.domain.errors import ConfigError
+    from odsuite.domain.errors import ConfigError, NonPhysicalError
     from odsuite.diagnosis.fitting import UNSTABLE_RESIDUAL, Problem, fit_windows, screen
     from odsuite.analysis.modelrev import current_revision, revision_model
     from odsuite.contracts.plugins import registries
@@ -126,12 +126,26 @@ def test_trial_values_no_physical_body_has_are_a_bad_fit_not_an_error(hidden):
     names = [f.param.name for f in problem.free]
     bad = np.where([n.endswith(("Ixx_scale", "Iyy_scale", "Izz_scale")) for n in names], lower,
                    np.where([n.endswith(("Ixy", "Ixz", "Iyz")) for n in names], upper, problem.zero()))
-    with pytest.raises(ConfigError, match="not positive definite"):
+    with pytest.raises(NonPhysicalError, match="not positive definite"):
         problem.predictions(bad)
     r = problem.residual(bad)
     cap = max(UNSTABLE_RESIDUAL * np.abs(e.measured).max() for e in problem.exps)
     assert np.all(np.isfinite(r)) and np.abs(r).max() == pytest.approx(cap, rel=0.01)
     sse0 = problem.sse(problem.zero())
+    # any other error of the model stays an error (a broken effect must say why, not rank last)
+    effect = problem.effect
+
+    class Broken:
+        def __getattr__(self, name):
+            return getattr(effect, name)
+
+        def apply(self, *args):
+            raise ConfigError("effect 'mass_properties': no moving body")
+
+    problem.effect = Broken()
+    with pytest.raises(ConfigError, match="no moving body"):
+        problem.residual(problem.zero() + 1e-3)
+    problem.effect = effect
     assert problem.sse(bad) > 100 * sse0
     assert screen(problem, sse0, ()).sse <= sse0
 

@@ -231,7 +231,7 @@ def test_a_rattle_that_a_mode_takes_up_is_not_explained(tmp_path):
     project = calibrate.make_project(tmp_path, rig, lvms, writers.to_jsonable(case.truth_document()))
     doc = json.loads(calibrate.odsuite("diagnose", project, "--json"))
     best = next(c for c in doc["candidates"] if c["significant"])
-    assert not best["early_late_agree"] and "frequency_hz" in best["early_late_differ"], best
+    assert best["early_late_agree"] is False and "frequency_hz" in best["early_late_differ"], best
     early, late = best["early_late_fits"]["early"], best["early_late_fits"]["late"]
     assert abs(early["frequency_hz"] / late["frequency_hz"] - 1) > 0.05  # parts disagree on the mode itself
     assert "stand in" in doc["message"] and best["effect"] in doc["message"]
