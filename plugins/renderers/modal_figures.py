@@ -63,6 +63,7 @@ def stabilisation_figure(result, path: str | Path, *, freq: np.ndarray, H: np.nd
     ax.set_ylim(0, max(d.orders) + 2)
     ax.set_xlabel("frequency (Hz)")
     ax.set_ylabel("model order")
+    ax.yaxis.get_major_locator().set_params(integer=True)  # orders are whole numbers
     labels = frequency_labels(result.frequency_hz)
     for k, (f, z) in enumerate(zip(result.frequency_hz, result.damping_ratio, strict=True)):
         ax.axvline(f, color="k", lw=0.8, ls="--")
@@ -83,8 +84,9 @@ def stabilisation_figure(result, path: str | Path, *, freq: np.ndarray, H: np.nd
     fig.legend(handles=ax.get_legend_handles_labels()[0], loc="outside lower center", ncol=3, fontsize=8,
                frameon=False)
     n = len(result.frequency_hz)
+    # a no-break space keeps the unit with its number when the title wraps
     ax.set_title(textwrap.fill(f"{title}: {n} mode{'' if n == 1 else 's'} in {result.band_hz[0]:.0f}-"
-                               f"{result.band_hz[1]:.0f} Hz", int(7 * size[0])), fontsize=10)
+                               f"{result.band_hz[1]:.0f}\u00a0Hz", int(7 * size[0])), fontsize=10)
     return _save(fig, path, dpi)
 
 

@@ -201,10 +201,15 @@ def test_stabilisation_figure_keeps_its_legend_off_the_poles_and_counts_one_mode
     assert res.frequency_hz == pytest.approx([fn], rel=1e-3) and res.damping_ratio == pytest.approx([zeta], rel=0.02)
     fig = stabilisation_figure(res, tmp_path / "stab.png", freq=f, H=h[None, :], title="sdof", size=(6.5, 4.5))
     ax = fig.axes[0]
-    assert ax.get_title().startswith("sdof: 1 mode in 20-400 Hz")
+    assert ax.get_title().startswith("sdof: 1 mode in 20-400\u00a0Hz")
+    # wrapped, the unit stays with its number (the report's titles put "Hz" on a line alone)
+    wrapped = stabilisation_figure(res, tmp_path / "wrapped.png", freq=f, H=h[None, :],
+                                   title="T2: stabilisation diagram", size=(6.5, 4.5)).axes[0].get_title()
+    assert len(wrapped.splitlines()) == 2 and wrapped.splitlines()[-1].strip() == "20-400\u00a0Hz", wrapped
     assert ax.get_legend() is None and len(fig.legends) == 1
     assert [t.get_text() for t in fig.legends[0].get_texts()] == ["new pole", "stable frequency",
                                                                  "stable frequency and damping"]
     fig.draw_without_rendering()  # the constrained layout as saved
+    assert all(float(t).is_integer() for t in ax.get_yticks())  # model orders: no 2.5
     legend, axes = fig.legends[0].get_window_extent(), ax.get_window_extent()
     assert legend.y1 <= axes.y0, (legend, axes)  # wholly under the axes: no pole behind it
