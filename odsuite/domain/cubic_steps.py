@@ -6,8 +6,9 @@ call per product and step (about 45 us a step on five records at once), compiled
 
 from __future__ import annotations
 
-from odsuite.domain.compiled import compiled
 import numpy as np
+
+from odsuite.domain.compiled import compiled
 
 
 @compiled(nogil=True, inline="always")

@@ -8,8 +8,9 @@ whose argument checks and axis moves cost as much as the filtering on short reco
 
 from __future__ import annotations
 
-from odsuite.domain.compiled import compiled
 import numpy as np
+
+from odsuite.domain.compiled import compiled
 
 
 @compiled(nogil=True, inline="always")
@@ -36,22 +37,12 @@ def second_order_rows(num, den, zi, source, u, out):
             out[s, k], w0, w1 = _step(c0, c1, c2, e1, e2, v[k], w0, w1)
 
 
-@compiled(nogil=True)
 def sections_in_place(sos, x):
     """``x`` (samples x signals) through the second-order sections ``sos`` from rest, each column
-    a signal, written back into ``x``: ``scipy.signal.sosfilt(sos, x, axis=0)``."""
-    n, m = x.shape
-    ns = sos.shape[0]
-    z = np.zeros((m, ns, 2))
-    for k in range(n):
-        for i in range(m):
-            x_cur = x[k, i]
-            for s in range(ns):
-                x_new = sos[s, 0] * x_cur + z[i, s, 0]
-                z[i, s, 0] = sos[s, 1] * x_cur - sos[s, 4] * x_new + z[i, s, 1]
-                z[i, s, 1] = sos[s, 2] * x_cur - sos[s, 5] * x_new
-                x_cur = x_new
-            x[k, i] = x_cur
+    a signal, written back into ``x``: ``scipy.signal.sosfilt(sos, x, axis=0)`` (chain_columns on
+    every column, unscaled: times 1 and less 0 are exact)."""
+    m = x.shape[1]
+    chain_columns(x, np.arange(m), 1.0, np.zeros(m), sos, x)
 
 
 @compiled(nogil=True)
@@ -59,7 +50,7 @@ def chain_columns(x, cols, factor, offsets, sos, out):
     """Columns ``cols`` of ``x`` (samples x signals), times ``factor``, less ``offsets`` (one per
     column), through the sections ``sos`` from rest, into the same columns of ``out``: what
     ``y = x[:, cols] * factor; y -= offsets; out[:, cols] = sosfilt(sos, y, axis=0)`` gives,
-    without the copies."""
+    without the copies; ``out`` may be ``x`` (each sample is read before it is written)."""
     n, m, ns = x.shape[0], cols.shape[0], sos.shape[0]
     z = np.zeros((m, ns, 2))
     for k in range(n):
