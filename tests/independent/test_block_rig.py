@@ -142,6 +142,15 @@ def _well_excited(H, own, lam, freq):
     return np.array(out)
 
 
+def _assert_found(poles, frequency_hz, damping_ratio, blow):
+    """Each true pole has an identified mode within 1 % in frequency and 20 % in damping ratio."""
+    for p in poles:
+        f, z = abs(p) / (2 * np.pi), -p.real / abs(p)
+        k = int(np.argmin(np.abs(frequency_hz - f)))
+        assert frequency_hz[k] == pytest.approx(f, rel=0.01), (blow, f, frequency_hz)
+        assert damping_ratio[k] == pytest.approx(z, rel=0.2), (blow, f, z, damping_ratio)
+
+
 @pytest.mark.parametrize("blow", ["E1", "E2", "E3"])
 def test_modes_are_found_on_the_exact_frfs_of_a_short_record(blow):
     """The fit itself on this rig: the exact FRFs (no noise) of each blow on the lines of a
@@ -157,18 +166,14 @@ def test_modes_are_found_on_the_exact_frfs_of_a_short_record(blow):
     excited = _well_excited(H, own, lam, freq[1:])
     assert excited.sum() >= 4, excited
     res = identify_modes(freq, np.hstack([np.zeros((H.shape[0], 1)), H]), f_band=(None, 1.02 / 1e-3))
-    for p in lam[excited]:
-        f, z = abs(p) / (2 * np.pi), -p.real / abs(p)
-        k = int(np.argmin(np.abs(res.frequency_hz - f)))
-        assert res.frequency_hz[k] == pytest.approx(f, rel=0.01), (f, res.frequency_hz)
-        assert res.damping_ratio[k] == pytest.approx(z, rel=0.2), (f, z, res.damping_ratio)
+    _assert_found(lam[excited], res.frequency_hz, res.damping_ratio, blow)
 
 
 @pytest.mark.xfail(strict=True, reason=(
     "no blow's modes are identified ('no stable poles'): at 100 N most channels respond 14-46 ADC "
     "codes against 0.5-1 code of noise, the 50 Hz hum (1.6 codes) makes the 50 Hz line of a single "
     "hit's H1 up to 14 x the structure's, and 1/f noise and drift 3-12 x below 20 Hz; the fit finds "
-    "the modes on the same lines without noise (test above)"))
+    "the modes on the same lines without noise, not with 0.3 % of noise (the exact-FRF tests)"))
 def test_modes_of_records_struck_at_100_newton(tmp_path, capsys):
     """The null case, every blow 100 N, through `odsuite modes`: each blow's well-excited modes
     (on its exact FRFs, ``_well_excited``) within 1 % in frequency and 20 % in damping ratio of the
@@ -179,10 +184,28 @@ def test_modes_of_records_struck_at_100_newton(tmp_path, capsys):
     for blow in ("E1", "E2", "E3"):
         H, own, lam = _exact_accelerance(truth, blow, freq)
         modes = json.loads(_odsuite(capsys, "modes", project, "--experiment", blow, "--json"))["modes"]
-        found = np.array([m["frequency_hz"] for m in modes])
-        zeta = np.array([m["damping_ratio"] for m in modes])
-        for p in lam[_well_excited(H, own, lam, freq)]:
-            f, z = abs(p) / (2 * np.pi), -p.real / abs(p)
-            k = int(np.argmin(np.abs(found - f)))
-            assert found[k] == pytest.approx(f, rel=0.01), (blow, f, found)
-            assert zeta[k] == pytest.approx(z, rel=0.2), (blow, f, z, zeta)
+        _assert_found(lam[_well_excited(H, own, lam, freq)], np.array([m["frequency_hz"] for m in modes]),
+                      np.array([m["damping_ratio"] for m in modes]), blow)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "no stable poles: the stabilisation keeps 1-2 of the six poles (the 22-44 Hz ones are stable "
+    "in too few of the 49 orders when fitted over 0-510 Hz, the lowest nested band at 2.3 Hz "
+    "lines), and the synthesis check, whose +-3 half-power bandwidths of a 5-10 % damped mode "
+    "span the missing neighbours, then refuses the rest"))
+@pytest.mark.parametrize("blow", ["E1", "E2", "E3"])
+def test_modes_survive_noise_of_three_per_mille_of_the_peak(blow):
+    """The exact FRFs on the lines of the records `odsuite modes` fits (1806 samples: 2.27 Hz),
+    with complex white noise of 0.3 % of each output's peak per line (far below the records'
+    own: 2-30 % of |H| near the modes at 100 N): every well-excited mode found as on the exact
+    FRFs (1 % in frequency, 20 % in damping ratio)."""
+    from odsuite.analysis.modal import identify_modes
+
+    freq = np.fft.rfftfreq(1806, 1 / 4096.0)
+    H, own, lam = _exact_accelerance(blocksim.make_truth("null"), blow, freq[1:])
+    excited = _well_excited(H, own, lam, freq[1:])
+    rng = np.random.default_rng(0)
+    noise = (rng.normal(size=H.shape) + 1j * rng.normal(size=H.shape)) / np.sqrt(2)
+    H = H + 0.003 * np.abs(H).max(axis=1, keepdims=True) * noise
+    res = identify_modes(freq, np.hstack([np.zeros((H.shape[0], 1)), H]), f_band=(None, 1.02 / 1e-3))
+    _assert_found(lam[excited], res.frequency_hz, res.damping_ratio, blow)
