@@ -103,3 +103,109 @@ def test_a_softer_mount_struck_at_100_newton_is_named_a_stiffness(tmp_path, caps
     for label, ratio in fitted.items():
         expected = 0.6 if "soft2" in label else 1.0
         assert ratio == pytest.approx(expected, rel=0.05 if expected < 1 else 0.1), label
+
+
+def _exact_accelerance(truth, blow, freq):
+    """Accelerance (outputs x lines, (m/s^2)/N) of the rig's accelerometer axes to a blow, from the
+    simulator's M, K, C, and each mode's own term (outputs x lines x modes) with its poles: the
+    state-space eigenvectors, independent of odsuite."""
+    M, K, C, com = blocksim.system_matrices(truth)
+    _, point, _, direction = next(b for b in blocksim.BLOWS if b[0] == blow)
+    n = M.shape[0]
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-linalg.solve(M, K), -linalg.solve(M, C)]])
+    B = np.concatenate([np.zeros(n), linalg.solve(M, blocksim.point_map(np.asarray(point) - com).T
+                                                  @ np.asarray(direction, float))])
+    S = np.array([np.asarray(ax, float) @ blocksim.point_map(np.asarray(pos, float) - com)
+                  for _, _, pos, ax, _, _ in blocksim.sensor_channels(truth.rig)])
+    lam, V = linalg.eig(A)
+    left = linalg.solve(V, B)  # modal participation of the force
+    s = 2j * np.pi * np.asarray(freq)[None, :, None]
+    terms = (S @ V[:n])[:, None, :] * left[None, None, :] * s**2 / (s - lam[None, None, :])
+    up = np.flatnonzero(lam.imag > 0)
+    up = up[np.argsort(np.abs(lam[up]))]
+    partner = [int(np.argmin(np.abs(lam - lam[r].conj()))) for r in up]
+    own = terms[..., up] + terms[..., partner]
+    return terms.sum(axis=2), own, lam[up]
+
+
+def _well_excited(H, own, lam, freq):
+    """Which modes a blow excites well, judged on the exact FRFs by the rules ``check_poles``
+    holds a pole to: its own term at least half of |H| at its frequency, and |H| there at least
+    its level 3 half-power bandwidths to either side (a peak of its own), in some output."""
+    out = []
+    for r, p in enumerate(lam):
+        f0, half = abs(p) / (2 * np.pi), 3 * 2 * (-p.real / (2 * np.pi))
+        i = int(np.argmin(np.abs(freq - f0)))
+        dominance = np.max(np.abs(own[:, i, r]) / np.abs(H[:, i]))
+        level = np.array([[np.interp(f0 + d, freq, np.abs(h)) for d in (-half, 0.0, half)] for h in H])
+        out.append(dominance >= 0.5 and np.max(level[:, 1] / level[:, [0, 2]].max(axis=1)) >= 1)
+    return np.array(out)
+
+
+def _assert_found(poles, frequency_hz, damping_ratio, blow):
+    """Each true pole has an identified mode within 1 % in frequency and 20 % in damping ratio."""
+    for p in poles:
+        f, z = abs(p) / (2 * np.pi), -p.real / abs(p)
+        k = int(np.argmin(np.abs(frequency_hz - f)))
+        assert frequency_hz[k] == pytest.approx(f, rel=0.01), (blow, f, frequency_hz)
+        assert damping_ratio[k] == pytest.approx(z, rel=0.2), (blow, f, z, damping_ratio)
+
+
+@pytest.mark.parametrize("blow", ["E1", "E2", "E3"])
+def test_modes_are_found_on_the_exact_frfs_of_a_short_record(blow):
+    """The fit itself on this rig: the exact FRFs (no noise) of each blow on the lines of a
+    2048-sample record at 4096 Hz (2 Hz apart), up to the usable band of a 1 ms half-sine blow
+    (1.02 / T, docs/modal.md). Every mode the blow excites well (``_well_excited``) is found,
+    frequency within 1 % (the stability criterion's tolerance between orders) and damping ratio
+    within 20 % (a wide cluster's damping may spread by 20 % over the orders,
+    CLUSTER_DAMPING_SPREAD, and the median is reported)."""
+    from odsuite.analysis.modal import identify_modes
+
+    freq = np.fft.rfftfreq(2048, 1 / 4096.0)
+    H, own, lam = _exact_accelerance(blocksim.make_truth("null"), blow, freq[1:])
+    excited = _well_excited(H, own, lam, freq[1:])
+    assert excited.sum() >= 4, excited
+    res = identify_modes(freq, np.hstack([np.zeros((H.shape[0], 1)), H]), f_band=(None, 1.02 / 1e-3))
+    _assert_found(lam[excited], res.frequency_hz, res.damping_ratio, blow)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "no blow's modes are identified ('no stable poles'): at 100 N most channels respond 14-46 ADC "
+    "codes against 0.5-1 code of noise, the 50 Hz hum (1.6 codes) makes the 50 Hz line of a single "
+    "hit's H1 up to 14 x the structure's, and 1/f noise and drift 3-12 x below 20 Hz; the fit finds "
+    "the modes on the same lines without noise, not with 0.3 % of noise (the exact-FRF tests)"))
+def test_modes_of_records_struck_at_100_newton(tmp_path, capsys):
+    """The null case, every blow 100 N, through `odsuite modes`: each blow's well-excited modes
+    (on its exact FRFs, ``_well_excited``) within 1 % in frequency and 20 % in damping ratio of the
+    simulator's poles, as on the exact FRFs."""
+    project = _project(tmp_path, capsys, "null", 1, 100.0, "lab")
+    truth = blocksim.make_truth("null")
+    freq = np.fft.rfftfreq(2048, 1 / 4096.0)[1:]
+    for blow in ("E1", "E2", "E3"):
+        H, own, lam = _exact_accelerance(truth, blow, freq)
+        modes = json.loads(_odsuite(capsys, "modes", project, "--experiment", blow, "--json"))["modes"]
+        _assert_found(lam[_well_excited(H, own, lam, freq)], np.array([m["frequency_hz"] for m in modes]),
+                      np.array([m["damping_ratio"] for m in modes]), blow)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "no stable poles: over 0-510 Hz, the lowest nested band at 2.3 Hz lines, no model order up "
+    "to 50 has a pole within 1 % of the 22-60 Hz modes (E1; over 0-250 Hz they come in 10-23 of "
+    "the 49 orders), and the synthesis check, whose +-3 half-power bandwidths of a 5-10 % damped "
+    "mode span the missing neighbours, then refuses the rest"))
+@pytest.mark.parametrize("blow", ["E1", "E2", "E3"])
+def test_modes_survive_noise_of_three_per_mille_of_the_peak(blow):
+    """The exact FRFs on the lines of the records `odsuite modes` fits (1806 samples: 2.27 Hz),
+    with complex white noise of 0.3 % of each output's peak per line (far below the records'
+    own: 2-30 % of |H| near the modes at 100 N): every well-excited mode found as on the exact
+    FRFs (1 % in frequency, 20 % in damping ratio)."""
+    from odsuite.analysis.modal import identify_modes
+
+    freq = np.fft.rfftfreq(1806, 1 / 4096.0)
+    H, own, lam = _exact_accelerance(blocksim.make_truth("null"), blow, freq[1:])
+    excited = _well_excited(H, own, lam, freq[1:])
+    rng = np.random.default_rng(0)
+    noise = (rng.normal(size=H.shape) + 1j * rng.normal(size=H.shape)) / np.sqrt(2)
+    H = H + 0.003 * np.abs(H).max(axis=1, keepdims=True) * noise
+    res = identify_modes(freq, np.hstack([np.zeros((H.shape[0], 1)), H]), f_band=(None, 1.02 / 1e-3))
+    _assert_found(lam[excited], res.frequency_hz, res.damping_ratio, blow)
