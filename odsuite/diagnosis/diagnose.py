@@ -795,8 +795,8 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
         if cand._resolved is not None:  # each member at its nominal values: the other alone (joint.added)
             # not a member of discrete choices alone (a polarity): with none of its parameters free
             # the point is the pair's own, a gain of 0 over "the other alone"
-            cand._without = {m: resolution.resolve(job["exps"], cand._problem.predictions(
-                joint.without(cand._problem, cand._u, m), cand._problem.full), floor) for m in (ea, eb)
+            cand._without = {m: resolution.resolve(job["exps"], joint.without(
+                cand._problem, cand._u, m, cand._problem.full), floor) for m in (ea, eb)
                 if any(f.param.name.split(".", 1)[0] == m for f in cand._problem.free)}
         ok, why = joint.accepted(cand, (a, b), candidates + added)
         if cand._stopped:

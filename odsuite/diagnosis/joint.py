@@ -140,15 +140,24 @@ def start(problem, members: Sequence[Any]) -> np.ndarray:
     return u
 
 
-def without(problem, u: np.ndarray, effect: str) -> np.ndarray:
-    """A joint fit's unknowns with ``effect``'s parameters at their nominal values: the other
-    member alone, at the values the pair fitted it to."""
+def without(problem, u: np.ndarray, effect: str, exps=None) -> list[np.ndarray]:
+    """A joint fit's predictions on ``exps`` (the fit's own where None) with ``effect`` left out:
+    the other member alone, at the values the pair fitted it to. A projected member (a
+    ProjectingJoint's last) is left out by predicting the first member's model: with its searched
+    values at their nominal ones (a mode at its nominal frequency) the projection would still fit
+    it there."""
+    exps = list(exps or problem.exps)
+    members = getattr(problem.effect, "effects", [])
+    if isinstance(problem.effect, ProjectingJoint) and members[-1].name == effect:
+        first = members[0]
+        shared, _ = problem.values(u, exps)
+        return [predict(first.apply(problem.base.for_experiment(e.name), own(first, shared)), e) for e in exps]
     out = np.array(u, float)
     zero = problem.zero()
     for i, f in enumerate(problem.free):
         if f.param.name.split(".", 1)[0] == effect:
             out[i] = zero[i]
-    return out
+    return problem.predictions(out, exps)
 
 
 def added(pair, m, other) -> float:
