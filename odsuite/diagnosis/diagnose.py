@@ -456,7 +456,7 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
         JOBS.pop(token)
         _ON_TOP[:] = [None, None]  # the records it holds (where the partner search ran here)
     candidates += _screened_only(screened, fitted, job)
-    judged = _spent(candidates)
+    judged = _spent(candidates + pairs)  # _ordered adds the pairs
     candidates = _ordered(candidates, pairs, exps, base, job)
     diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=job["noise"], revision=rev.get("revision"),
                           candidates=candidates, residual_peaks=job["peaks"], evaluations=evaluations,
