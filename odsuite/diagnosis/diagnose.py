@@ -167,11 +167,14 @@ def _evidence(problem: Problem, cand: Candidate, baseline: float, noise: float,
         words.append(f"fitted {desc}")
     words.append(f"validated error {baseline:.3g} -> {cand.validated_error:.3g} ({cand.validation}); "
                  f"noise floor {noise:.3g}")
-    if len(cand.confounded_parameters) > 2:  # one phrase, not a list of overlapping groups
+    # the factors the data cannot separate (a scale per axis times one per spring) are neither
+    # printed nor named where the effect reports quantities: those are what the factors determine,
+    # each with the uncertainty their correlations give it
+    if not cand.physical and len(cand.confounded_parameters) > 2:  # one phrase, not overlapping groups
         names = list(dict.fromkeys(n for g in cand.confounded_parameters for n in g))
         words.append(f"these data cannot separate {', '.join(names)} "
                      f"({len(cand.confounded_parameters)} overlapping groups)")
-    else:
+    elif not cand.physical:
         for group in cand.confounded_parameters:
             words.append(f"only the combination of {', '.join(group)} is determined")
     if cand.unidentifiable:

@@ -43,6 +43,28 @@ class Joint:
             model = e.apply(model, own(e, values))
         return model
 
+    def values(self, model, values: Mapping[str, float] | None = None) -> dict[str, float]:
+        """Each member's values completed with its nominals, on the model the members before it made."""
+        out = {}
+        for e in self.effects:
+            v = e.values(model, own(e, values or {}))
+            out.update({f"{e.name}.{k}": x for k, x in v.items()})
+            model = e.apply(model, v)
+        return out
+
+    def physical(self, model, values: Mapping[str, float]) -> list[tuple[str, float, str]]:
+        """The members' physical quantities (each on the model the members before it made), and the
+        values of a member that reports none: a pair is reported as its members are."""
+        rows = []
+        for e in self.effects:
+            v = e.values(model, own(e, values))
+            if getattr(e, "physical", None) is not None:
+                rows += list(e.physical(model, v))
+            else:
+                rows += [(f"{e.name} {p.name}", v[p.name], p.unit) for p in e.parameters(model) if p.name in v]
+            model = e.apply(model, v)
+        return rows
+
 
 def own(effect, values: Mapping[str, float]) -> dict[str, float]:
     """A member's values out of a joint's "<effect>.<parameter>" table."""
