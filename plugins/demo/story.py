@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+import textwrap
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -115,8 +116,10 @@ def _print_comparison(console: Console, doc: Mapping[str, Any]) -> None:
 
 
 def _print_candidates(console: Console, doc: Mapping[str, Any], rows: int = 6) -> None:
-    table = Table(title=f"diagnose (revision {doc['revision']}): candidate effects, best first "
-                        "(errors after the fit)", title_justify="left")
+    # the title on a line of its own: as the table's title it wrapped at the table's narrow width
+    console.print(f"diagnose (revision {doc['revision']}): candidate effects, best first (errors after the fit)",
+                  highlight=False)
+    table = Table()
     # no column of fitted factors: a split the data do not determine (a scale per axis times one per
     # spring); what is determined is printed, in physical units, with each effect added
     table.add_column("effect", no_wrap=True)
@@ -304,7 +307,9 @@ def _loop(path: Path, rounds: int, console: Console):
                 rows = next((e.get("physical") for e in reversed(step["effects"]) if e["effect"] == step["effect"]),
                             None)
                 if rows:  # what moved most, as `odsuite add-effect` prints it
-                    console.print(f"    {physical_text(moved_quantities(rows, limit=3))}", highlight=False)
+                    console.print(textwrap.fill(physical_text(moved_quantities(rows, limit=3)), console.width,
+                                                initial_indent="    ", subsequent_indent="    ",
+                                                break_on_hyphens=False), highlight=False, soft_wrap=True)
         found = {e["effect"]: dict(e["values"]) for e in current_revision(p).get("effects", [])}
         base = revision_model(p, {"effects": []}).shared
     return errors, added, diagnosis_doc, noise, found, base

@@ -88,3 +88,5 @@ def test_the_candidates_table_prints_no_split_of_factors_and_fits_80_columns():
     assert "scale_" not in text and "0.946" not in text
     rows = [line for line in text.splitlines() if "stiffness" in line]
     assert len(rows) == 2 and all(len(line) <= 80 for line in text.splitlines())
+    # the title is a line of its own, not folded at the narrow table's width
+    assert "candidate effects, best first (errors after the fit)" in text
