@@ -56,6 +56,13 @@ calibration (tests/independent/calibrate.py) rerun where a screened or fitted nu
 | 9 | a simulation's mode recursions and a channel group's sections in one compiled call each (odsuite/domain/recursions.py: lfilter's and sosfilt's operations in their order, every prediction and Jacobian of both benches equal to the bit); a cubic-coefficient fit's linear set-up kept | one thesis evaluation 32.3 -> 14.5 ms CPU, two-body 29.1 -> 24.0 ms; thesis diagnose 21.1 -> 12.3 s CPU on one worker (load 4.5-5) |
 | 10 | the partner search judges a candidate without discrete choices, projected parameters, starts or a frequency by one damped step at the first effect's fit on the whole windows (`diagnose._screen_on_top`) | thesis 1369 -> 1263 evaluations, the partner search 350 -> 278 (load 3.9) |
 
+The evaluations column counts, since the rounds above, every evaluation the diagnosis makes:
+before, a discrete choice's trials (channel_swap tries every pair of sensors, each on a problem of
+its own), the judgement of a fit on the whole records and the ranking's and the verdict's
+predictions went uncounted and the pairs' own were counted twice (channel_swap alone on a thesis
+project: 23 reported for 65 made; every effect: 1942 reported for 1943 made,
+`tests/core/test_evaluation_count.py`); counts before and after are not comparable.
+
 Tried and left out (do not redo without a new reason):
 - screening every candidate on the shortest record head only: a plate's bending mode that shows
   only on the longer heads was screened at no gain (0.709 instead of 0.672);

@@ -147,6 +147,8 @@ _WHERE: dict[str, str] = {
     # diagnosis
     "diagnose": "odsuite.diagnosis.diagnose",
     "add_effect": "odsuite.diagnosis.add_effect",
+    "physical_text": "odsuite.diagnosis.physical:text",
+    "moved_quantities": "odsuite.diagnosis.physical:moved",
     "store_diagnosis": "odsuite.analysis.stored_diagnosis",
     "stored_diagnosis": "odsuite.analysis.stored_diagnosis",
     # work over many projects

@@ -293,6 +293,10 @@ def quantisation_step(volts: np.ndarray) -> np.ndarray:
 GRID_TOLERANCE = 0.01
 #: distinct values that make a grid: a small signal on a coarse converter may use only three codes
 GRID_VALUES = 3
+#: codes a converter resolves at most (32 bits): a smaller step across a record's span is float
+#: data's, whose codes would be too many to tell from integers (beyond 2**53 every float is one;
+#: a record ringing down to subnormal numbers overflows)
+GRID_CODES = 2**32
 
 
 def adc_steps(volts: np.ndarray, declared: float | None) -> tuple[np.ndarray, list[int]]:
@@ -304,7 +308,8 @@ def adc_steps(volts: np.ndarray, declared: float | None) -> tuple[np.ndarray, li
     observed = quantisation_step(volts)
     steps, differ = [], []
     for j, (col, s) in enumerate(zip(np.atleast_2d(volts.T), observed)):
-        codes = (np.unique(col) - col.min()) / s if s > 0 else np.zeros(0)
+        span = col.max() - col.min() if col.size else 0.0
+        codes = (np.unique(col) - col.min()) / s if s > 0 and span <= GRID_CODES * s else np.zeros(0)
         on_grid = codes.size >= GRID_VALUES and bool(np.all(np.abs(codes - np.round(codes)) <= GRID_TOLERANCE))
         if declared and not on_grid:
             steps.append(declared)

@@ -85,6 +85,11 @@ def diagnose_cmd(
     if as_json:
         _print_json(doc)
         return
+    _print_diagnosis(doc)
+
+
+def _print_diagnosis(doc) -> None:
+    """diagnose's document as text at the console's width."""
     console.print(f"revision {doc['revision']}: error {doc['baseline_error']:.4f} "
                   f"(noise floor {doc['noise_floor']:.4f}, {doc['residual_to_floor']:.2f}x)", highlight=False)
     console.print(f"verdict: {doc['verdict']}", highlight=False)
@@ -109,8 +114,8 @@ def diagnose_cmd(
     if len(told) < len(doc["candidates"]):
         console.print(f"({len(doc['candidates']) - len(told)} more candidates' evidence: --json)", highlight=False)
     if doc["not_applicable"]:
-        console.print(f"not applicable to this model: {', '.join(doc['not_applicable'])}", highlight=False,
-                      soft_wrap=True)
+        # wrapped at the console's width between names, as the paragraphs above are
+        console.print(f"not applicable to this model: {', '.join(doc['not_applicable'])}", highlight=False)
 
 
 

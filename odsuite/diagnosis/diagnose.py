@@ -167,11 +167,14 @@ def _evidence(problem: Problem, cand: Candidate, baseline: float, noise: float,
         words.append(f"fitted {desc}")
     words.append(f"validated error {baseline:.3g} -> {cand.validated_error:.3g} ({cand.validation}); "
                  f"noise floor {noise:.3g}")
-    if len(cand.confounded_parameters) > 2:  # one phrase, not a list of overlapping groups
+    # the factors the data cannot separate (a scale per axis times one per spring) are neither
+    # printed nor named where the effect reports quantities: those are what the factors determine,
+    # each with the uncertainty their correlations give it
+    if not cand.physical and len(cand.confounded_parameters) > 2:  # one phrase, not overlapping groups
         names = list(dict.fromkeys(n for g in cand.confounded_parameters for n in g))
         words.append(f"these data cannot separate {', '.join(names)} "
                      f"({len(cand.confounded_parameters)} overlapping groups)")
-    else:
+    elif not cand.physical:
         for group in cand.confounded_parameters:
             words.append(f"only the combination of {', '.join(group)} is determined")
     if cand.unidentifiable:
@@ -376,7 +379,7 @@ def _screen_job(token: int, name: str, job: Mapping[str, Any] | None = None
     except ConfigError:
         return None  # the effect does not apply to this rig (e.g. no base plate)
     s = (_screen_on_top if on_top else screen)(problem, job["sse0_win"], job["peak_hz"])
-    return s.fixed, s.u0, s.sse, problem.evaluations + (s.problem.evaluations if s.problem is not problem else 0)
+    return s.fixed, s.u0, s.sse, problem.evaluations + (s.problem.evaluations if s.problem is not problem else 0) + s.tried
 
 
 #: the last seed's job a worker built for _partner_job: (key, job with that fit as the base)
@@ -456,6 +459,7 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
         JOBS.pop(token)
         _ON_TOP[:] = [None, None]  # the records it holds (where the partner search ran here)
     candidates += _screened_only(screened, fitted, job)
+    judged = _spent(candidates + pairs)  # _ordered adds the pairs
     candidates = _ordered(candidates, pairs, exps, base, job)
     diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=job["noise"], revision=rev.get("revision"),
                           candidates=candidates, residual_peaks=job["peaks"], evaluations=evaluations,
@@ -463,9 +467,15 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
                           other_families=[n for n in not_applicable if getattr(regs.effects.get(n), "structures", None)
                                           and not isinstance(base.shared.structure, regs.effects.get(n).structures)])
     _conclude(diagnosis, cmp, base, exps, before, res0)
+    diagnosis.evaluations += _spent(candidates) - judged  # the ranking's and the verdict's
     if progress:
         progress("done", len(names), len(names))
     return diagnosis
+
+
+def _spent(candidates: Sequence[Candidate]) -> int:
+    """The model evaluations the candidates' problems have made so far."""
+    return sum(c._problem.evaluations for c in candidates if getattr(c, "_problem", None) is not None)
 
 
 def _candidate_names(project, rev, base, effects: Sequence[str] | None) -> tuple[list[str], list[str], list[str]]:
@@ -592,10 +602,9 @@ def _fit_best(pool, token, job, top: list[Screened], ahead: int, exps, cmp, res0
             progress(f"fitting {s.effect.name}", i, len(top))
         cand, kept = jobs[i].result()
         cand._problem = _kept_back(_problem(job, s.effect.name, kept[0]), kept)
-        count = kept[1]
         best_win = min(best_win, cand._sse_win)
-        evaluations += count
         _judge(cand, exps, cmp.floor, res0, job["sse0"], job["den"], job["scale"])
+        evaluations += cand._problem.evaluations  # the fit's and the judgement's
         words = _checks_words(cand)
         if words:
             cand.evidence += "; " + words
@@ -795,8 +804,8 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
         if cand._resolved is not None:  # each member at its nominal values: the other alone (joint.added)
             # not a member of discrete choices alone (a polarity): with none of its parameters free
             # the point is the pair's own, a gain of 0 over "the other alone"
-            cand._without = {m: resolution.resolve(job["exps"], cand._problem.predictions(
-                joint.without(cand._problem, cand._u, m), cand._problem.full), floor) for m in (ea, eb)
+            cand._without = {m: resolution.resolve(job["exps"], joint.without(
+                cand._problem, cand._u, m, cand._problem.full), floor) for m in (ea, eb)
                 if any(f.param.name.split(".", 1)[0] == m for f in cand._problem.free)}
         ok, why = joint.accepted(cand, (a, b), candidates + added)
         if cand._stopped:

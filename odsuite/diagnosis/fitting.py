@@ -535,6 +535,8 @@ class Screened:
     u0: np.ndarray
     sse: float
     problem: Problem
+    #: the evaluations of the discrete choices tried, each on a problem of its own
+    tried: int = 0
 
 
 def _tiny(J: np.ndarray, r: np.ndarray, G: np.ndarray | None = None) -> np.ndarray:
@@ -759,6 +761,7 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
 
     chosen: dict[str, float] = {}
     best_score = score(problem) if swept and problem.discrete else best_sse
+    tried = 0  # the evaluations of the choices tried, each on a problem of its own
     for _ in range(3):
         trial_best = None
         for p in problem.discrete:
@@ -769,6 +772,7 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
                     continue
                 trial = problem.derived({**chosen, p.name: c})
                 sse = score(trial)
+                tried += trial.evaluations
                 if trial_best is None or sse < trial_best[0]:
                     trial_best = (sse, p.name, c)
         if trial_best is None or trial_best[0] >= best_score * 0.999:
@@ -818,7 +822,7 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
                 u, sse = swept, sse_swept
         if sse < best_sse * (1 - ROUNDING):  # a gain in the last digits is the arithmetic's, not the data's
             best_sse, best_u = sse, u
-    return Screened(effect, best_fixed, best_u, best_sse, problem)
+    return Screened(effect, best_fixed, best_u, best_sse, problem, tried)
 
 
 # ---------------------------------------------------------------------------------------------

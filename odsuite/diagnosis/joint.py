@@ -43,6 +43,28 @@ class Joint:
             model = e.apply(model, own(e, values))
         return model
 
+    def values(self, model, values: Mapping[str, float] | None = None) -> dict[str, float]:
+        """Each member's values completed with its nominals, on the model the members before it made."""
+        out = {}
+        for e in self.effects:
+            v = e.values(model, own(e, values or {}))
+            out.update({f"{e.name}.{k}": x for k, x in v.items()})
+            model = e.apply(model, v)
+        return out
+
+    def physical(self, model, values: Mapping[str, float]) -> list[tuple[str, float, str]]:
+        """The members' physical quantities (each on the model the members before it made), and the
+        values of a member that reports none: a pair is reported as its members are."""
+        rows = []
+        for e in self.effects:
+            v = e.values(model, own(e, values))
+            if getattr(e, "physical", None) is not None:
+                rows += list(e.physical(model, v))
+            else:
+                rows += [(f"{e.name} {p.name}", v[p.name], p.unit) for p in e.parameters(model) if p.name in v]
+            model = e.apply(model, v)
+        return rows
+
 
 def own(effect, values: Mapping[str, float]) -> dict[str, float]:
     """A member's values out of a joint's "<effect>.<parameter>" table."""
@@ -140,15 +162,24 @@ def start(problem, members: Sequence[Any]) -> np.ndarray:
     return u
 
 
-def without(problem, u: np.ndarray, effect: str) -> np.ndarray:
-    """A joint fit's unknowns with ``effect``'s parameters at their nominal values: the other
-    member alone, at the values the pair fitted it to."""
+def without(problem, u: np.ndarray, effect: str, exps=None) -> list[np.ndarray]:
+    """A joint fit's predictions on ``exps`` (the fit's own where None) with ``effect`` left out:
+    the other member alone, at the values the pair fitted it to. A projected member (a
+    ProjectingJoint's last) is left out by predicting the first member's model: with its searched
+    values at their nominal ones (a mode at its nominal frequency) the projection would still fit
+    it there."""
+    exps = list(exps or problem.exps)
+    members = getattr(problem.effect, "effects", [])
+    if isinstance(problem.effect, ProjectingJoint) and members[-1].name == effect:
+        first = members[0]
+        shared, _ = problem.values(u, exps)
+        return [predict(first.apply(problem.base.for_experiment(e.name), own(first, shared)), e) for e in exps]
     out = np.array(u, float)
     zero = problem.zero()
     for i, f in enumerate(problem.free):
         if f.param.name.split(".", 1)[0] == effect:
             out[i] = zero[i]
-    return out
+    return problem.predictions(out, exps)
 
 
 def added(pair, m, other) -> float:

@@ -152,7 +152,10 @@ class SpringDamper:
             if f in ("stiffness", "damping") and v.shape == (3, 3):
                 if not np.all(np.isfinite(v)) or not np.allclose(v, v.T, rtol=1e-12, atol=0):
                     raise ConfigError(f"{w} field {f!r}: a 3x3 matrix must be finite and symmetric, got {v.tolist()}")
-                low = np.linalg.eigvalsh(v).min()
+                eig = np.linalg.eigvalsh(v)
+                # an eigenvalue zero but for eigvalsh's round-off (a mount's matrix with one axis
+                # scaled to 0 gave -1.5e-28) is zero
+                low = eig.min() if eig.min() < -16 * np.finfo(float).eps * np.abs(eig).max() else 0.0
             else:
                 v = _vec3(f"{w} field {f!r}", raw)
                 low = v.min()

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+import textwrap
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -115,18 +116,19 @@ def _print_comparison(console: Console, doc: Mapping[str, Any]) -> None:
 
 
 def _print_candidates(console: Console, doc: Mapping[str, Any], rows: int = 6) -> None:
-    table = Table(title=f"diagnose (revision {doc['revision']}): candidate effects, best first "
-                        "(errors after the fit)", title_justify="left")
+    # the title on a line of its own: as the table's title it wrapped at the table's narrow width
+    console.print(f"diagnose (revision {doc['revision']}): candidate effects, best first (errors after the fit)",
+                  highlight=False)
+    table = Table()
+    # no column of fitted factors: a split the data do not determine (a scale per axis times one per
+    # spring); what is determined is printed, in physical units, with each effect added
     table.add_column("effect", no_wrap=True)
-    for col in ("signif.", "fitted", "validated", "key values"):
+    for col in ("signif.", "fitted", "validated"):
         table.add_column(col)
     for c in doc["candidates"][:rows]:
         validated = c["validated_error"]
-        shown = [(k, v) for k, v in c["parameters"].items() if isinstance(v, float) and "/" not in k]
-        values = ", ".join(f"{k} {v:.3g}" for k, v in shown[:2]) + (", ..." if len(shown) > 2 else "")
         table.add_row(c["effect"], "[green]yes[/green]" if c["significant"] else "no", f"{c['error_after']:.4f}",
-                      "-" if validated is None or math.isnan(validated) else f"{validated:.4f}",
-                      values or "-")
+                      "-" if validated is None or math.isnan(validated) else f"{validated:.4f}")
     console.print(table)
     rest = doc["candidates"][rows:]
     if rest:
@@ -264,7 +266,8 @@ def _loop(path: Path, rounds: int, console: Console):
     nothing is left to explain or no candidate is significant. Returns the errors per revision,
     the effects added, the last diagnosis, the noise floor, the effects found with their values
     and the model without them."""
-    from odsuite.api import add_effect, compare, current_revision, diagnose, open_project, prepare, revision_model
+    from odsuite.api import (add_effect, compare, current_revision, diagnose, moved_quantities, open_project,
+                             physical_text, prepare, revision_model)
 
     errors: list[float] = []
     added: list[str] = []
@@ -301,6 +304,12 @@ def _loop(path: Path, rounds: int, console: Console):
                 console.print(f"  add-effect {step['effect']}: revision {step['revision']}, error "
                               f"{step['previous_error']:.4f} -> [bold]{step['error']:.4f}[/bold]", highlight=False,
                               soft_wrap=True)
+                rows = next((e.get("physical") for e in reversed(step["effects"]) if e["effect"] == step["effect"]),
+                            None)
+                if rows:  # what moved most, as `odsuite add-effect` prints it
+                    console.print(textwrap.fill(physical_text(moved_quantities(rows, limit=3)), console.width,
+                                                initial_indent="    ", subsequent_indent="    ",
+                                                break_on_hyphens=False), highlight=False, soft_wrap=True)
         found = {e["effect"]: dict(e["values"]) for e in current_revision(p).get("effects", [])}
         base = revision_model(p, {"effects": []}).shared
     return errors, added, diagnosis_doc, noise, found, base

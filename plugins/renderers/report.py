@@ -852,12 +852,17 @@ def _candidates_section(diag: Mapping[str, Any] | None, revision: Any, notes: li
             "the fit did not see; significant ones are listed first.</p>")
     if diag.get("revision") != revision:
         notes.append(f"the diagnosis was made on revision {diag.get('revision')}, the current one is {revision}")
+    from odsuite.api import moved_quantities, physical_text
+
     rows = []
     for rank, c in enumerate(diag["candidates"], start=1):
         units = c.get("units") or {}
-        # "1" marks a dimensionless factor: no unit to print
-        params = ", ".join(f"{k} = {_fmt(v, '.4g')}" + (f" {units[k]}" if units.get(k) not in (None, "", "1") else "")
-                           for k, v in (c.get("parameters") or {}).items())
+        # an effect's physical quantities where it reports them (a stiffness per spring in N/m, not
+        # the factors per axis and per spring the data cannot separate); "1" marks a dimensionless
+        # factor: no unit to print
+        params = (physical_text(moved_quantities(c["physical"], limit=6)) if c.get("physical") else
+                  ", ".join(f"{k} = {_fmt(v, '.4g')}" + (f" {units[k]}" if units.get(k) not in (None, "", "1") else "")
+                            for k, v in (c.get("parameters") or {}).items()))
         rows.append([rank, c["effect"], "yes" if c.get("significant") else "no", _fmt(c.get("error_after")),
                      _fmt(c.get("validated_error")), params or "–", c.get("evidence", "")])
     return text + _table(["rank", "effect", "significant", "error after", "validated error", "parameters",

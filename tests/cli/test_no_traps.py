@@ -367,3 +367,28 @@ def test_diagnose_table_keeps_every_effect_name_at_80_columns():
     for n in names:
         assert n in cells, (n, text)
     assert "0.0264" in text and "0.0265" in text
+
+
+def test_diagnose_text_keeps_to_80_columns_piped(monkeypatch):
+    """diagnose at 80 columns, piped: the list of effects that do not apply wraps between names like
+    the paragraphs (it ran on as one line of 230 characters)."""
+    from rich.console import Console
+
+    from odsuite.cli import loop_commands
+
+    console = Console(width=80, record=True, file=io.StringIO())
+    monkeypatch.setattr(loop_commands, "console", console)
+    names = ["base_motion", "beam-mass-scale", "beam-modal-damping", "beam-positions", "beam-sensor-mass",
+             "beam-shear-rotary", "beam-stiffness-scale", "beam-supports", "beam-supports-alike",
+             "measured-modal-damping", "spring_stiffness"]
+    c = {"effect": "stiffness", "significant": True, "consistent": True, "plausible": True, "fitted": True,
+         "error_after": 0.2381, "validated_error": 0.2381, "confounded_with": [],
+         "evidence": "fitted stiffness of mount4 along z = 799.8 ± 0.5 kN/m (model: 1000)"}
+    doc = {"revision": 0, "baseline_error": 0.4916, "noise_floor": 0.2379, "residual_to_floor": 2.07,
+           "verdict": "explained", "message": "The model's error is 0.492.", "candidates": [c],
+           "signature": {"channels": [], "experiments": [], "bands": [], "peaks_hz": [], "amplitude_dependent": False},
+           "not_applicable": names}
+    loop_commands._print_diagnosis(doc)
+    text = console.export_text()
+    assert max(len(ln) for ln in text.splitlines()) <= 80, text
+    assert all(n in text.replace("\n", " ") for n in names)

@@ -85,7 +85,8 @@ def test_a_mode_paired_with_a_gain_solves_its_participations_through_the_gain(tm
 
     from odsuite.analysis.modelrev import revision_model
     from odsuite.analysis.prediction import predict, prepare
-    from odsuite.diagnosis.joint import ProjectingJoint, joined
+    from odsuite.diagnosis.fitting import Problem
+    from odsuite.diagnosis.joint import ProjectingJoint, joined, without
     from odsuite.store.project import open_project
 
     sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -119,6 +120,22 @@ def test_a_mode_paired_with_a_gain_solves_its_participations_through_the_gain(tm
         _, _, alone = mode.project(models, {"frequency_hz": 731.0, "damping_ratio": 0.03}, exps, base, None)
         worst = max(np.abs(b + d - e.measured).max() / np.abs(e.measured).max() for e, b, d in zip(exps, base, alone))
         assert worst > 1e-3
+        # the pair without the mode is the gain alone: no mode projected at its nominal frequency
+        problem = Problem(revision_model(p), pair, exps)
+        u = problem.zero()
+        for i, f in enumerate(problem.free):
+            if f.param.name == f"sensor_gain.{sensors[2]}_gain":
+                u[i] = (0.8 - f.param.nominal) / f.scale
+        for e, got in zip(exps, without(problem, u, "missing_mode")):
+            np.testing.assert_array_equal(got, predict(truth, e))
+        # and without the gain, the mode alone at the pair's frequency, its participations projected
+        mode_alone = Problem(revision_model(p), mode, exps)
+        v = mode_alone.zero()
+        for j, g in enumerate(mode_alone.free):
+            i = next(i for i, f in enumerate(problem.free) if f.param.name == f"missing_mode.{g.param.name}")
+            v[j] = u[i]
+        for got, want in zip(without(problem, u, "sensor_gain"), mode_alone.predictions(v)):
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max())
 
 
 def test_a_member_is_tested_against_the_pair_without_it_where_that_beats_the_others_single_fit():

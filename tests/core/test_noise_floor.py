@@ -144,6 +144,25 @@ def test_the_converters_step_comes_from_the_recorded_grid_when_there_is_one():
     assert steps[0] == pytest.approx(coarse, rel=1e-9) and steps[1] < 1e-6 and differ == []
 
 
+def test_float_data_ringing_down_to_tiny_values_is_no_grid():
+    """Noise-free float records that ring down far below any converter's step: their smallest step
+    between values (1e-25 V; 5e-324, a subnormal number, where the ringing reaches it) is no
+    converter's, so the declared step stands, without a note and without an overflow."""
+    import warnings
+
+    from odsuite.analysis.prediction import adc_steps
+
+    declared = 10.0 / 2**16
+    t = np.arange(4096)
+    slow = 1e-3 * np.sin(0.3 * t) * np.exp(-0.01 * t)  # down to 1e-21 V
+    to_subnormal = 4e-3 * np.sin(0.3 * t) * np.exp(-0.18 * t)
+    assert np.abs(to_subnormal[to_subnormal != 0]).min() < np.finfo(float).tiny
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        steps, differ = adc_steps(np.column_stack([slow, to_subnormal]), declared)
+    assert steps.tolist() == [declared, declared] and differ == []
+
+
 @pytest.mark.parametrize("offset", [0.0, 0.3, -0.42])
 def test_the_converters_offset_and_noise_come_from_the_record(offset):
     """A decaying oscillation spanning a few codes, rounded at a known offset (in codes) with known

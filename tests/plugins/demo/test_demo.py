@@ -66,3 +66,27 @@ def test_demo_finds_both_hidden_effects_and_the_error_falls_each_round(tmp_path,
     assert report.exists() and "<html" in report.read_text()[:500].lower()
     assert "both hidden effects found" in text
     assert " -> ".join(f"{e:.3f}" for e in errors) in text
+
+
+def test_the_candidates_table_prints_no_split_of_factors_and_fits_80_columns():
+    """The demo's table of candidates: the fitted factors of a scale per axis times one per spring
+    are a split the data do not determine; they are not printed (the determined stiffness in N/m is,
+    with each effect added), and the table fits an 80-column terminal without folding."""
+    import io
+
+    from rich.console import Console
+
+    from odsuite_plugins.demo.story import _print_candidates
+
+    stiffness = {"effect": "stiffness", "significant": True, "error_after": 0.1505, "validated_error": 0.1506,
+                 "parameters": {"scale_x": 0.946, "scale_y": 0.941, "scale_z": 1.21, "scale_spring1": 1.07}}
+    pair = {**stiffness, "effect": "stiffness+plate_flexibility", "error_after": 0.0134, "validated_error": 0.0155,
+            "parameters": {"stiffness.scale_x": 0.957, "plate_flexibility.frequency_hz": 640.0}}
+    out = io.StringIO()
+    _print_candidates(Console(file=out, width=80), {"revision": 0, "candidates": [pair, stiffness]})
+    text = out.getvalue()
+    assert "scale_" not in text and "0.946" not in text
+    rows = [line for line in text.splitlines() if "stiffness" in line]
+    assert len(rows) == 2 and all(len(line) <= 80 for line in text.splitlines())
+    # the title is a line of its own, not folded at the narrow table's width
+    assert "candidate effects, best first (errors after the fit)" in text

@@ -1,0 +1,57 @@
+"""The model evaluations diagnose reports are every evaluation its candidates' problems made: a
+discrete choice's trials (channel_swap tries every pair of sensors), the judgement of a fit on the
+whole records, the ranking's and the verdict's predictions. Tallied here on every problem as it
+counts, one worker so that every problem lives in this process."""
+
+from __future__ import annotations
+
+from collections import Counter
+
+import pytest
+
+from hidden_effects import make_project
+
+
+class _Tally:
+    """Problem.evaluations as a descriptor that adds each increase to ``counts``, except where a
+    count is copied onto a rebuilt problem (diagnose._kept_back: counted where it was made)."""
+
+    def __init__(self) -> None:
+        self.counts: Counter = Counter()
+        self.copying = False
+
+    def __get__(self, obj, typ=None):
+        return self if obj is None else obj.__dict__.get("_tallied", 0)
+
+    def __set__(self, obj, value) -> None:
+        old = obj.__dict__.get("_tallied")
+        if old is not None and value > old and not self.copying:
+            self.counts[obj.effect.name] += value - old
+        obj.__dict__["_tallied"] = value
+
+
+def test_diagnose_reports_every_evaluation_of_a_discrete_choices_trials(tmp_path, monkeypatch):
+    from odsuite.diagnosis import diagnose as dg
+    from odsuite.diagnosis import fitting
+    from odsuite.store.project import open_project
+
+    path = make_project(tmp_path / "p.odsp", [("channel_swap", {"pair": 1.0, "ratio": 1.0})], n_samples=2048,
+                        scenarios=("T1", "T5", "T6"))
+    tally = _Tally()
+    monkeypatch.setattr(fitting.Problem, "evaluations", tally, raising=False)
+    kept_back = dg._kept_back
+
+    def copied(problem, kept):
+        tally.copying = True
+        try:
+            return kept_back(problem, kept)
+        finally:
+            tally.copying = False
+
+    monkeypatch.setattr(dg, "_kept_back", copied)
+    with open_project(path) as p:
+        d = dg.diagnose(p, effects=["channel_swap"], workers=1)
+        pairs = len(p.registries.effects.get("channel_swap").parameters(dg.revision_model(p).shared)[0].choices) - 1
+    assert pairs >= 20  # nine accelerometers of one kind
+    assert tally.counts["channel_swap"] > pairs
+    assert d.evaluations == sum(tally.counts.values())
