@@ -664,26 +664,28 @@ SWEEP_KEPT = 4
 
 def _climb_grid(problem: Problem, i: int, best: np.ndarray, best_sse: float, grid: Sequence[float], exps
                 ) -> tuple[np.ndarray, float]:
-    """_sweep of the resonance frequency ``i`` over its ``grid`` of starts (SWEEP_KEPT)."""
+    """_sweep of the resonance frequency ``i`` over its ``grid`` of starts (ascending), from
+    ``best`` (its sum of squares ``best_sse`` on ``exps``): SWEEP_KEPT ranked starts, then the
+    climb. Returns the lowest start found and its sum of squares, or ``best`` where none is lower
+    (of equal ones the lowest frequency, as the sweep through every start kept the first)."""
     f = problem.free[i]
-    base = problem._residual_of([problem.base_prediction(e) for e in exps], exps, None, problem.stride)
-    gains = _resonance_gains(grid, base, exps, problem.stride)
+    without = problem._residual_of([problem.base_prediction(e) for e in exps], exps, None, problem.stride)
+    gains = _resonance_gains(grid, without, exps, problem.stride)
     sse: dict[int, float] = {}
     at: dict[int, np.ndarray] = {}
 
-    def tried(ks) -> None:
-        for k in sorted(k for k in ks if 0 <= k < len(grid) and k not in sse):  # in the grid's order
+    def evaluate(ks) -> None:
+        for k in sorted(k for k in ks if 0 <= k < len(grid) and k not in sse):
             at[k] = best.copy()
             at[k][i] = (grid[k] - f.param.nominal) / f.scale
             sse[k] = float(np.sum(problem.residual(at[k], exps) ** 2))
 
-    tried(np.argsort(-gains, kind="stable")[:SWEEP_KEPT])
+    evaluate(np.argsort(-gains, kind="stable")[:SWEEP_KEPT])
     while True:
         k = min(sse, key=lambda j: (sse[j], j))
         if all(j in sse for j in (k - 1, k + 1) if 0 <= j < len(grid)):
             break
-        tried((k - 1, k + 1))
-    k = min(sse, key=lambda j: (sse[j], j))
+        evaluate((k - 1, k + 1))
     return (at[k], sse[k]) if sse[k] < best_sse else (best, best_sse)
 
 
