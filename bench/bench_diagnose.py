@@ -55,6 +55,7 @@ calibration (tests/independent/calibrate.py) rerun where a screened or fitted nu
 | 8 | screening's structure-changing Jacobian columns as linearised derivatives over `fitting.DIFF_STEP` (over a natural step the poles moved as far as their gaps and every column was simulated); the damped step's Gram matrix once | screening two-body 10.5 -> 7.0 s CPU, thesis 5.5-6.2 -> 4.8 s (load 10-17); screened errors moved (thesis stiffness 0.0505 -> 0.0650), fitted ones within 3e-5 relative |
 | 9 | a simulation's mode recursions and a channel group's sections in one compiled call each (odsuite/domain/recursions.py: lfilter's and sosfilt's operations in their order, every prediction and Jacobian of both benches equal to the bit); a cubic-coefficient fit's linear set-up kept | one thesis evaluation 32.3 -> 14.5 ms CPU, two-body 29.1 -> 24.0 ms; thesis diagnose 21.1 -> 12.3 s CPU on one worker (load 4.5-5) |
 | 10 | the partner search judges a candidate without discrete choices, projected parameters, starts or a frequency by one damped step at the first effect's fit on the whole windows (`diagnose._screen_on_top`) | thesis 1369 -> 1263 evaluations, the partner search 350 -> 278 (load 3.9) |
+| 11 | a resonance frequency's sweep (missing_mode's 73 starts) ranked by projection, all frequencies in one convolution (`fitting._resonance_gains`); the best `fitting.SWEEP_KEPT` evaluated, then a climb to a better neighbour (`fitting._climb_grid`) | missing_mode's screening thesis 110 -> 42 evaluations, 0.77 -> 0.35 s CPU, two-body 181 -> 46, 1.59 -> 0.48 s; all screening thesis 4.33 -> 4.13 s, two-body 7.32 -> 5.81 s, every effect's screened sum of squares the same (one after the other, load 25); diagnose thesis 1277 -> 1209, two-body 836 -> 701 evaluations; every candidate's significance, validated and screened error the same on both; CPU within the spread of runs at load 20-30 (thesis 20.4 -> 14.0 s on one worker, 18.5 -> 20.4 s on two; two-body 13.4 -> 13.2, 13.6 -> 11.4 s) |
 
 The evaluations column counts, since the rounds above, every evaluation the diagnosis makes:
 before, a discrete choice's trials (channel_swap tries every pair of sensors, each on a problem of
@@ -72,6 +73,13 @@ Tried and left out (do not redo without a new reason):
   short heads are what keeps it convex (the partner search, on the small residual a fit leaves,
   may take that step: round 10);
 - fits from that step's point without the heads' continuation (more iterations, no gain);
+- nonlinear_stiffness's sweep rungs and damped steps judged by the cubic tangent before a
+  nonlinear simulation: the tangent matches the simulations where a rung hardens by 1 % at a
+  micrometre or less (thesis spring1 at 0.01: 0.931 of the head's error both), not at the rungs
+  the data hold (at 0.1: 0.851 against 0.627 simulated; at 1: 53.5 against 2.91), and after one
+  group has moved it keeps 0.001 for the fourth group where the simulations keep 1.0 (0.2627
+  against 0.2564): it would change the kept start, and nonlinear_stiffness is fitted and paired
+  on the thesis bench;
 - step tripling along a fit that crawls (thesis stiffness: 17 -> 14 Jacobians, 11 more evaluations,
   another end point); geodesic acceleration does not apply (the crawl is along a straight line).
 
@@ -79,8 +87,11 @@ What remains (thesis, one worker, by stage): the pairs about a third (partner ca
 starts or grids, the joint fits, their validation), screening about a third, the full fits a
 quarter (thesis stiffness crawls through 17 Jacobians). Next: stop a joint fit from its
 linearisation where it cannot pass `joint.accepted`; a line search along a fit's repeated
-direction; nonlinear_stiffness's screening steps judged by the cubic tangent before a nonlinear
-simulation.
+direction. Screening's largest after round 11: thesis nonlinear_stiffness (50 evaluations: its
+ladder's nonlinear simulations, and on the longer heads Jacobians differenced over a natural
+step at a hardened point, whose damped steps all failed on the thesis bench: 16 of the 50);
+two-body mass_properties (66: three linearised Jacobians of 20 columns) and channel_swap (about 150
+pairs, each a whole-window prediction of every channel where a swap changes two).
 """
 
 from __future__ import annotations

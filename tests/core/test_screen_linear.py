@@ -1,7 +1,7 @@
 """Screening's cheap judgements: cubic springs' Jacobian columns to first order from a linear
 structure (prediction.cubic_change_predictions, simulation.simulate_many_inputs), against scipy's
 simulation and the nonlinear integrator's differences; a resonance grid ranked by projection
-(fitting._resonance_gain), against a mode simulated by scipy; a structure change's screening
+(fitting._resonance_gains), against a mode simulated by scipy; a structure change's screening
 columns as derivatives, against simulated differences' zero-step limit."""
 
 from __future__ import annotations
@@ -74,7 +74,7 @@ def test_resonance_gain_ranks_the_mode_that_is_there():
     exp = SimpleNamespace(n_samples=n, fs=fs, force=force, measured=measured)
     r = measured.ravel()
     grid = (40.0, 90.0, f0, 400.0, 900.0)
-    gains = [fitting._resonance_gain(f, r, [exp], 1) for f in grid]
+    gains = fitting._resonance_gains(grid, r, [exp], 1)
     assert int(np.argmax(gains)) == grid.index(f0)
     # most of it, though its damping is half GRID_DAMPING and a hit's acceleration starts with the
     # force itself (0.84 here)
@@ -117,3 +117,42 @@ def test_screening_jacobian_is_the_derivative_of_simulations(tmp_path, monkeypat
             assert err.max() < 1e-4, (name, err)  # 4e-6 and 6e-6 here
             # the natural step's difference is 9 % off it
             assert np.linalg.norm(secant - limit, axis=0).max() / norm.max() > 0.03
+
+
+def test_resonance_sweep_ranks_its_grid_and_finds_the_whole_grids_best(tmp_path):
+    """missing_mode's frequency sweep on a head: the start the effect's own error (the same
+    projected fit) finds when every one of its 73 starts is evaluated, found from a few of them
+    (_climb_grid): the hidden plate mode at 610 Hz, and on a stiffness change what stands in best."""
+    import odsuite.diagnosis.fitting as fitting
+    from hidden_effects import CASES, make_project
+
+    from odsuite.analysis.modelrev import revision_model
+    from odsuite.analysis.prediction import prepare
+    from odsuite.contracts.plugins import registries
+    from odsuite.store.project import open_project
+
+    for name in ("plate_flexibility_free", "stiffness"):
+        path = make_project(tmp_path / f"{name}.odsp", [(name, CASES[name])], n_samples=2048)
+        with open_project(path) as p:
+            exps, base = prepare(p), revision_model(p)
+            problem = fitting.Problem(base, registries().effects.get("missing_mode"), fitting.fit_windows(exps),
+                                      stride=2)
+            head = fitting.heads(problem.exps)[0]
+            i = next(k for k, f in enumerate(problem.free) if f.param.name == "frequency_hz")
+            f = problem.free[i]
+            grid = [c for c in f.param.starts if f.param.lower <= c <= f.param.upper]
+            u0 = problem.zero()
+
+            def error(c):
+                u = u0.copy()
+                u[i] = (c - f.param.nominal) / f.scale
+                return float(np.sum(problem.residual(u, head) ** 2))
+
+            every = [error(c) for c in grid]  # the reference: the whole grid evaluated
+            before = problem.evaluations
+            u, sse = fitting._climb_grid(problem, i, u0, error(f.param.nominal), grid, head)
+            assert problem.evaluations - before <= 10  # of 73 starts
+            assert f.to_value(u[i]) == grid[int(np.argmin(every))]
+            assert sse == min(every)
+            if name == "plate_flexibility_free":
+                assert abs(f.to_value(u[i]) / CASES[name]["frequency_hz"] - 1) < 0.05
