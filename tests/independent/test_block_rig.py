@@ -103,3 +103,25 @@ def test_a_softer_mount_struck_at_100_newton_is_named_a_stiffness(tmp_path, caps
     for label, ratio in fitted.items():
         expected = 0.6 if "soft2" in label else 1.0
         assert ratio == pytest.approx(expected, rel=0.05 if expected < 1 else 0.1), label
+
+
+def test_a_fitted_number_has_one_uncertainty_in_diagnose_add_effect_and_model(tmp_path, capsys):
+    """The softer mount's stiffnesses as diagnose prints them, add-effect stores them and model
+    reads them back: the same values with the same uncertainties (diagnose printed the fit's own,
+    2.8 kN/m along y, while the revision stored the spread between the four records, 5.1)."""
+    project = _project(tmp_path, capsys, "soft", 101, 100.0, "lab")
+    d = _diagnose(capsys, project, "spring_stiffness")
+    fitted = next(c for c in d["candidates"] if c["effect"] == "spring_stiffness")
+    added = json.loads(_odsuite(capsys, "add-effect", project, "spring_stiffness", "--json"))
+    stored = json.loads(_odsuite(capsys, "model", project, "--json"))["physical"]["spring_stiffness"]
+    entry = next(e for e in added["effects"] if e["effect"] == "spring_stiffness")
+    assert [r["label"] for r in fitted["physical"]] == [r["label"] for r in entry["physical"]] \
+        == [r["label"] for r in stored]
+    for shown, kept, read in zip(fitted["physical"], entry["physical"], stored):
+        assert kept == read
+        assert shown["value"] == pytest.approx(kept["value"], rel=1e-3), shown["label"]
+        assert shown["uncertainty"] == pytest.approx(kept["uncertainty"], rel=0.02), shown["label"]
+    along_y = next(r for r in stored if r["label"] == "stiffness of soft2 along y")
+    assert along_y["value"] == pytest.approx(180e3, abs=2 * along_y["uncertainty"])
+    for name, sd in fitted["uncertainties"].items():
+        assert sd == pytest.approx(entry["uncertainties"][name], rel=0.02), name
