@@ -125,3 +125,20 @@ def test_a_fitted_number_has_one_uncertainty_in_diagnose_add_effect_and_model(tm
     assert along_y["value"] == pytest.approx(180e3, abs=2 * along_y["uncertainty"])
     for name, sd in fitted["uncertainties"].items():
         assert sd == pytest.approx(entry["uncertainties"][name], rel=0.02), name
+
+
+@pytest.mark.slow
+def test_every_line_fits_80_columns_on_the_block_rig(tmp_path, capsys, monkeypatch):
+    """At 80 columns (a terminal that wide, or piped) compare's notes, diagnose's table of every
+    effect (pairs among them) and its list of effects that do not apply, add-effect and model fit
+    the width; they ran 94-220 characters, and a pair's name broke inside a word."""
+    from odsuite import cli
+
+    monkeypatch.setattr(cli.console, "width", 80)
+    project = _project(tmp_path, capsys, "soft", 101, 100.0, "lab")
+    out = {args[0]: _odsuite(capsys, *args) for args in (
+        ["compare", project], ["diagnose", project, "--workers", "1"],
+        ["add-effect", project, "spring_stiffness"], ["model", project], ["info", project])}
+    assert "not applicable to this model" in out["diagnose"] and "mass_properties+" in out["diagnose"]
+    too_long = [(command, line) for command, text in out.items() for line in text.splitlines() if len(line) > 80]
+    assert not too_long, too_long
