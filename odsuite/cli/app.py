@@ -114,6 +114,25 @@ def console_width() -> int:
     return shutil.get_terminal_size((80, 24)).columns if isinstance(console, _LazyConsole) else console.width
 
 
+def wrapped(text: str) -> list[str]:
+    """``text`` (user data included: it goes through ``shown``) as lines wrapped at its spaces to
+    the console's width, each continuation line indented two spaces past the text's own indent; a
+    word longer than a line (a path) stays whole on its own line."""
+    import textwrap
+
+    text = shown(text)
+    indent = text[:len(text) - len(text.lstrip(" "))]
+    return textwrap.wrap(text.strip(" "), console_width(), initial_indent=indent, subsequent_indent=indent + "  ",
+                         break_long_words=False, break_on_hyphens=False) or [""]
+
+
+def paragraph(text: str, out=None, *, style: str | None = None) -> None:
+    """``text`` printed on ``out`` (the console) as :func:`wrapped` lines."""
+    for line in wrapped(text):
+        # a line each: the console shows a line break inside a string as the escape it is in data
+        (console if out is None else out).print(line, style=style, highlight=False, soft_wrap=True)
+
+
 class _Interrupted(BaseException):
     """Ctrl-C, raised instead of KeyboardInterrupt so click does not turn it into 'Aborted!'; every
     ``finally`` and copy-on-write cleanup still runs."""

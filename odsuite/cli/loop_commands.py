@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from odsuite.cli.app import (_figure_renderer, _loop_progress, _modal_table, _print_json, app, check_workers, console,
-                             err_console, shown)
+                             console_width, err_console, paragraph, shown)
 
 
 @app.command("compare")
@@ -56,7 +56,7 @@ def compare_cmd(
     if result.get("modal"):
         console.print(_modal_table(result["modal"]))
     for note in (result.get("modal_notes") or []) + (result.get("notes") or []):
-        console.print(note, highlight=False, soft_wrap=True)
+        paragraph(note)
 
 
 @app.command("diagnose")
@@ -101,10 +101,10 @@ def _print_diagnosis(doc) -> None:
              ("peaks", ", ".join(f"{p:.0f} Hz" for p in sig["peaks_hz"]))]
     for label, text in where:
         if text:
-            console.print(f"left above the floor, {label}: {shown(text)}", highlight=False, soft_wrap=True)
+            paragraph(f"left above the floor, {label}: {text}")
     if sig["amplitude_dependent"]:
         console.print("amplitude dependent: the fitted parameters follow the force level", highlight=False)
-    console.print(_candidates_table(doc["candidates"], wide=console.width >= 120))
+    console.print(_candidates_table(doc["candidates"], console_width()))
     # the evidence as paragraphs, wrapped at the console's width: the significant candidates' (and
     # the best one's when none is); every candidate's is in --json
     told = [c for c in doc["candidates"] if c["significant"]] or doc["candidates"][:1]
@@ -114,32 +114,48 @@ def _print_diagnosis(doc) -> None:
     if len(told) < len(doc["candidates"]):
         console.print(f"({len(doc['candidates']) - len(told)} more candidates' evidence: --json)", highlight=False)
     if doc["not_applicable"]:
-        # wrapped at the console's width between names, as the paragraphs above are
-        console.print(f"not applicable to this model: {', '.join(doc['not_applicable'])}", highlight=False)
+        paragraph(f"not applicable to this model: {', '.join(doc['not_applicable'])}")
 
 
 
-def _candidates_table(candidates, *, wide: bool):
-    """diagnose's candidates, best first; ``wide`` (120 columns or more) adds whom each is
-    confounded with (else they are named with the evidence below the table)."""
+#: diagnose's table: the checks and the errors after the fit, each column as wide as its header
+_CHECKS = ("signif.", "consist.", "plausible")
+_ERRORS = ("fitted", "validated")
+
+
+def _candidates_table(candidates, width: int):
+    """diagnose's candidates, best first, laid out in ``width`` columns; 120 or more add whom each
+    is confounded with (else they are named with the evidence below the table). An effect's name
+    is what `add-effect` takes, so it is never cut or broken: where the names and the three checks
+    do not fit side by side the checks fold into one column, and a pair's name longer than the
+    room left breaks after its '+' only."""
     from rich.table import Table
-
-    # narrow columns only: at 80 columns or piped, a wide evidence column wrapped one word per line
-    table = Table(title="candidate effects, best first (errors after the fit)")
-    for col, width in (("effect", 24), ("signif.", 7), ("consist.", 8), ("plausible", 9), ("fitted", 8),
-                       ("validated", 9)):
-        # an effect's name folds onto a second line: it is what `add-effect` takes, so never cut
-        table.add_column(col, no_wrap=col != "effect", max_width=width,
-                         overflow="fold" if col == "effect" else "ellipsis")
-    if wide:
-        table.add_column("confounded with", overflow="fold")
 
     def yes(v: bool) -> str:
         return "yes" if v else "no"
 
+    def room(sizes) -> int:  # the effect column's room beside columns this wide (rich: 3 per column, 1 border)
+        return width - sum(sizes) - 3 * (len(sizes) + 1) - 1
+
+    longest = max((len(c["effect"]) for c in candidates), default=len("effect"))
+    wide = width >= 120
+    folded = not wide and longest > room([len(h) for h in _CHECKS + _ERRORS])
+    # folded, the checks read "yes no  -" under their three names
+    columns = {" ".join(_CHECKS): 3 * len(_CHECKS) + 2} if folded else {h: len(h) for h in _CHECKS}
+    columns.update({h: len(h) for h in _ERRORS})
+    fits = longest <= room(list(columns.values()))
+    table = Table(title="candidate effects, best first (errors after the fit)")
+    table.add_column("effect", no_wrap=fits, overflow="fold")
+    for col, size in columns.items():
+        table.add_column(col, no_wrap=size == len(col), width=size, overflow="ellipsis")
+    if wide:
+        table.add_column("confounded with", overflow="fold")
     for c in candidates:
-        table.add_row(c["effect"], yes(c["significant"]), yes(c["consistent"]) if c["fitted"] else "-",
-                      yes(c["plausible"]) if c["fitted"] else "-", f"{c['error_after']:.4f}",
+        name = c["effect"] if fits else c["effect"].replace("+", "+\n")
+        tests = [yes(c["significant"]), yes(c["consistent"]) if c["fitted"] else "-",
+                 yes(c["plausible"]) if c["fitted"] else "-"]
+        table.add_row(name, *([" ".join(f"{t:<3}" for t in tests).rstrip()] if folded else tests),
+                      f"{c['error_after']:.4f}",
                       "-" if c["validated_error"] != c["validated_error"] else f"{c['validated_error']:.4f}",
                       *([", ".join(c["confounded_with"]) or "-"] if wide else []))
     return table
@@ -155,11 +171,11 @@ def _keep_diagnosis(project: Path, doc: dict, stamp: dict) -> None:
         with open_project(project, "a") as p:
             stored = store_diagnosis(p, doc, stamp)
     except OSError as exc:
-        err_console.print(f"note: diagnosis not kept for `odsuite report`: {exc}", highlight=False, soft_wrap=True)
+        paragraph(f"note: diagnosis not kept for `odsuite report`: {exc}", err_console)
         return
     if not stored:
-        err_console.print("note: diagnosis not kept for `odsuite report`: the project's records or revision "
-                          "changed while diagnosing", highlight=False, soft_wrap=True)
+        paragraph("note: diagnosis not kept for `odsuite report`: the project's records or revision changed while "
+                  "diagnosing", err_console)
 
 
 @app.command("add-effect")
@@ -189,7 +205,7 @@ def add_effect_cmd(
         more = f" ({rest} more: `odsuite model {project}`)" if rest else ""
         console.print(f"{effect}: {shown(physical_text(most))}{more}", highlight=False)
     for line in result["warnings"]:
-        err_console.print(f"warning: {shown(line)}", highlight=False, soft_wrap=True)
+        paragraph(f"warning: {line}", err_console)
 
 
 @app.command("history")

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from odsuite.cli.app import _print_json, app, console, shown
+from odsuite.cli.app import _print_json, app, console, shown, wrapped
 
 
 @app.command("plugins")
@@ -110,7 +110,7 @@ def info_cmd(project: Path = typer.Argument(..., help="Project file."),
 
     # plain text, not rich: info is what a user runs most, and rich's import and layout would
     # cost a quarter of its start-up
-    print(shown(f"{info['path']}  format {info['format_version']}  rig: {info['rig'] or 'none'}"))
+    print("\n".join(wrapped(f"{info['path']}  format {info['format_version']}  rig: {info['rig'] or 'none'}")))
     if layout is not None:
         _print_rig_layout(layout)
     rows = []
@@ -191,12 +191,12 @@ def model_cmd(
                     continue
                 about = info.get(name, {})
                 rows.append([effect, name, f"{value:.6g}", about.get("unit", "") or "-", about.get("description", "")])
-        print(text_table("parameters", ["effect", "parameter", "value", "unit", "meaning"], rows))
+        print(text_table("parameters", ["effect", "parameter", "value", "unit", "meaning"], rows, prose=("meaning",)))
     quantities = [[effect, r["label"], *_engineering(r["value"], r.get("uncertainty"), r.get("nominal"), r["unit"])]
                   for effect, rs in report["physical"].items() for r in rs]
     if quantities:
         print(text_table("physical quantities (fitted, its standard deviation, the rig's value)",
-                         ["effect", "quantity", "fitted", "±", "rig", "unit"], quantities))
+                         ["effect", "quantity", "fitted", "±", "rig", "unit"], quantities, prose=("quantity",)))
     print(text_table("modes", ["mode", "frequency (Hz)", "damping ratio"],
                      [[str(i), f"{m['frequency_hz']:.2f}", f"{m['damping_ratio']:.4f}"]
                       for i, m in enumerate(report["modes"], 1)]))

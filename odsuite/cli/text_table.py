@@ -1,7 +1,8 @@
 """Tables as plain aligned text, for commands that print a summary without rich (``info``): a
 title line, a header underlined with dashes, one row per line. When the table is wider than the
 console, the widest column wraps: a header at its spaces, a cell after its commas only, so that a
-name, or a number and its unit, is never split."""
+name, or a number and its unit, is never split; a column of prose (a parameter's meaning) at its
+spaces."""
 
 from __future__ import annotations
 
@@ -25,14 +26,17 @@ def _wrap(text: str, width: int, sep: str) -> list[str]:
     return lines
 
 
-def text_table(title: str, columns: list[str], rows: list[list[str]], width: int | None = None) -> str:
-    """The table as lines of text ending in a newline; every cell goes through ``shown``."""
+def text_table(title: str, columns: list[str], rows: list[list[str]], width: int | None = None,
+               prose: tuple[str, ...] = ()) -> str:
+    """The table as lines of text ending in a newline; every cell goes through ``shown``. The
+    columns named in ``prose`` wrap their cells at spaces, the others after commas only."""
     header = [shown(c) for c in columns]
     body = [[shown(c) for c in row] for row in rows]
     width = console_width() if width is None else width
+    seps = [" " if c in prose else ", " for c in columns]
 
     def wrapped(i: int, w: int) -> list[list[str]]:  # column i's header and cells at width w
-        return [_wrap(header[i], w, " "), *(_wrap(row[i], w, ", ") for row in body)]
+        return [_wrap(header[i], w, " "), *(_wrap(row[i], w, seps[i]) for row in body)]
 
     def used(i: int, w: int) -> int:
         return max(len(line) for cell in wrapped(i, w) for line in cell)
@@ -48,7 +52,7 @@ def text_table(title: str, columns: list[str], rows: list[list[str]], width: int
         widths[i] = used(i, widths[i] - 1)
     out = [shown(title)]
     for k, cells in enumerate([[wrapped(i, widths[i])[0] for i in range(n)],
-                               *([_wrap(row[i], widths[i], ", ") for i in range(n)] for row in body)]):
+                               *([_wrap(row[i], widths[i], seps[i]) for i in range(n)] for row in body)]):
         for j in range(max(len(c) for c in cells)):
             out.append("  ".join((c[j] if j < len(c) else "").ljust(w) for c, w in zip(cells, widths)).rstrip())
         if k == 0:

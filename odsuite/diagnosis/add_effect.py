@@ -11,7 +11,7 @@ import numpy as np
 
 from odsuite.contracts.effects import applies, family
 from odsuite.diagnosis import checks, physical
-from odsuite.diagnosis.between_records import between_records_covariance, larger_sds
+from odsuite.diagnosis.between_records import reported_with_covariance
 from odsuite.diagnosis.joint import Joint
 from odsuite.domain.errors import ConfigError
 from odsuite.diagnosis.fitting import (
@@ -82,7 +82,7 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     noise = cmp.noise_floor_error
     # the fits stop at gains below the noise, as the diagnosis's do
     scale = checks.noise_scale(cmp.floor, exps)
-    n_eff, f99 = effective_samples(exps)
+    f99 = effective_samples(exps)[1]
     stride = max(1, int(exps[0].fs / (5.0 * f99)))
     prior = 1e-3 * max(noise**2, 1e-8) * den / stride
     before = cmp.error
@@ -99,14 +99,14 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
         res = fit(s.problem, s.u0, continuation=False) if s.problem.free else None
         problem, u0 = refined(s.problem, res.x if res is not None else s.problem.zero(), effect)
         return _add_on_top(project, rev, entries, name, effect, Screened(effect, problem.fixed, u0, 0.0, problem),
-                           n_eff, exps, before, progress)
+                           exps, before, progress)
     single = Problem(current, effect, windows, prior=prior, stride=stride, full=exps, noise_scale=scale)
     screened = screen(single, single.sse(single.zero()), peaks)
     if single.linear:
         # an effect that solves its own linear parameters (a mode's participations) is fitted on
         # top of the current effects, as the diagnosis fitted it: refitting everything jointly
         # would hand those parameters to the nonlinear search, which cannot find them
-        return _add_on_top(project, rev, entries, name, effect, screened, n_eff, exps, before, progress)
+        return _add_on_top(project, rev, entries, name, effect, screened, exps, before, progress)
     # the joint problem names parameters by effect: instances of an effect stored more than once
     # (a repeatable one) are held as stored, the rest refitted
     count = [e["effect"] for e in entries] + [name]
@@ -130,7 +130,7 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
         progress(f"fitting {', '.join(e.name for e in joint_effects)}", 1, 3)
     res = fit(joint, u0) if joint.free else None
     u = res.x if res is not None else joint.zero()
-    fit_sds, corr = uncertainties(joint, res, n_eff)[:2] if res is not None else (np.zeros(0), None)
+    fit_sds, corr = uncertainties(joint, res, checks.residual_effective_samples(joint, res))[:2] if res is not None else (np.zeros(0), None)
     new_entries = list(held) + _entries(joint, joint_effects, u, fit_sds, corr, res)
     if progress:
         progress("comparing", 2, 3)
@@ -143,7 +143,7 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
 def _entries(joint: Problem, joint_effects, u, fit_sds, corr, res) -> list[dict[str, Any]]:
     """The revision's entries of the jointly fitted effects: values, per-experiment values,
     uncertainties and physical quantities (each on the model the effects before it made)."""
-    sds, spread = _between_records(fit_sds, joint, res)
+    sds, spread = reported_with_covariance(fit_sds, joint, res)
     shared, per = joint.values(u)
     entries = []
     model = joint.base.shared
@@ -163,15 +163,6 @@ def _entries(joint: Problem, joint_effects, u, fit_sds, corr, res) -> list[dict[
     return entries
 
 
-def _between_records(fit_sds: np.ndarray, problem: Problem, res) -> tuple[np.ndarray, np.ndarray | None]:
-    """Each parameter's reported sd (the larger of the fit's and the one between records) and the
-    covariance between records, from which the physical quantities take theirs."""
-    if res is None:
-        return fit_sds, None
-    cov = between_records_covariance(problem, res)  # once: the sds and the quantities both read it
-    return larger_sds(fit_sds, cov), cov
-
-
 def _stored(project, rev, name: str, new_entries: list[dict], after, before: float, warnings: list[str]
             ) -> dict[str, Any]:
     """The new revision stored (its error stamped with the records it was computed on) and made
@@ -183,7 +174,7 @@ def _stored(project, rev, name: str, new_entries: list[dict], after, before: flo
             "noise_floor_error": after.noise_floor_error, "effects": new_entries, "warnings": warnings}
 
 
-def _add_on_top(project, rev, entries, name: str, effect, screened, n_eff, exps, before, progress) -> dict[str, Any]:
+def _add_on_top(project, rev, entries, name: str, effect, screened, exps, before, progress) -> dict[str, Any]:
     """Fit ``effect`` alone on the current revision's model and store it after the current effects."""
     from odsuite.analysis.comparison import compare
 
@@ -192,8 +183,8 @@ def _add_on_top(project, rev, entries, name: str, effect, screened, n_eff, exps,
         progress(f"fitting {name}", 1, 3)
     res = fit(problem, screened.u0, continuation=False) if problem.free else None
     u = res.x if res is not None else problem.zero()
-    fit_sds, corr = uncertainties(problem, res, n_eff)[:2] if res is not None else (np.zeros(0), None)
-    sds, spread = _between_records(fit_sds, problem, res)
+    fit_sds, corr = uncertainties(problem, res, checks.residual_effective_samples(problem, res))[:2] if res is not None else (np.zeros(0), None)
+    sds, spread = reported_with_covariance(fit_sds, problem, res)
     shared, per = problem.values(u)
     unc = {f.label if f.experiment is None else f"{f.experiment}/{f.param.name}": float(sd)
            for f, sd in zip(problem.free, sds) if np.isfinite(sd)}

@@ -63,7 +63,16 @@ def between_records_sds(problem, res) -> np.ndarray | None:
 
 def reported_sds(fit_sds: np.ndarray, problem, res) -> np.ndarray:
     """The larger of the fit's standard deviation and the one between records, per parameter."""
-    return larger_sds(fit_sds, between_records_covariance(problem, res))
+    return reported_with_covariance(fit_sds, problem, res)[0]
+
+
+def reported_with_covariance(fit_sds: np.ndarray, problem, res) -> tuple[np.ndarray, np.ndarray | None]:
+    """:func:`reported_sds` and the covariance between records it took them from (None: the fit's
+    alone), from which physical quantities take theirs: what diagnose prints and add-effect stores."""
+    if res is None:
+        return fit_sds, None
+    cov = between_records_covariance(problem, res)  # once: the sds and the quantities both read it
+    return larger_sds(fit_sds, cov), cov
 
 
 def larger_sds(fit_sds: np.ndarray, cov: np.ndarray | None) -> np.ndarray:

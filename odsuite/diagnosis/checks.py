@@ -51,6 +51,18 @@ def effective_samples(residual: np.ndarray) -> float:
     return max(total, 1.0)
 
 
+def residual_effective_samples(problem, res) -> float:
+    """Independent samples in a fit's residual, from each experiment's residual autocorrelation
+    (on the strided samples the fit sees, as its Jacobian): what its uncertainties are scaled by."""
+    n_data = res.fun.size - (len(problem.free) if problem.prior else 0)
+    total, start = 0.0, 0
+    for e in problem.exps:
+        size = len(range(0, e.n_samples, problem.stride)) * e.measured.shape[1]
+        total += effective_samples(res.fun[start:start + size].reshape(-1, e.measured.shape[1]))
+        start += size
+    return min(total, float(n_data))
+
+
 def noise_scale(floor, exps: Sequence) -> float:
     """Noise energy per independent sample of the floor (physical units squared): the floor's
     energy over its effective samples, these from the spectral flatness of its spectra

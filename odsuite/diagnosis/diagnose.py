@@ -28,6 +28,7 @@ from threadpoolctl import threadpool_limits
 
 from odsuite.contracts.effects import applies, family
 from odsuite.diagnosis import checks, joint, physical
+from odsuite.diagnosis.between_records import reported_with_covariance
 from odsuite.analysis.comparison import noise_floor, residual_peaks
 from odsuite.domain.errors import ConfigError
 from odsuite.diagnosis.fitting import (
@@ -239,18 +240,6 @@ class Diagnosis:
                 "not_applicable": self.not_applicable, "other_families": self.other_families}
 
 
-def _residual_effective_samples(problem: Problem, res) -> float:
-    """Independent samples in a fit's residual, from each experiment's residual autocorrelation
-    (on the strided samples the fit sees, as its Jacobian)."""
-    n_data = res.fun.size - (len(problem.free) if problem.prior else 0)
-    total, start = 0.0, 0
-    for e in problem.exps:
-        size = len(range(0, e.n_samples, problem.stride)) * e.measured.shape[1]
-        total += checks.effective_samples(res.fun[start:start + size].reshape(-1, e.measured.shape[1]))
-        start += size
-    return min(total, float(n_data))
-
-
 def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: float, noise: float,
                    peaks, rigidity, modes_before, tail0: float = 0.0,
                    force_levels: Mapping[str, float] | None = None, target: float | None = None) -> Candidate:
@@ -266,7 +255,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         stopped = res.target_stop
         u = res.x
         # uncertainties from the residual as it is: its samples are correlated (filters, misfit)
-        sds, corr, groups = uncertainties(problem, res, _residual_effective_samples(problem, res))
+        sds, corr, groups = uncertainties(problem, res, checks.residual_effective_samples(problem, res))
         unident = [f.label for f, sd in zip(problem.free, sds)
                    if not np.isfinite(sd) or sd > UNIDENTIFIABLE_FRACTION * (f.param.upper - f.param.lower)]
         if unident and len(unident) < len(problem.free):
@@ -278,17 +267,20 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
                 keep = [i for i, f in enumerate(screened.problem.free) if f.param.name not in held]
                 res = fit(problem, u[keep], continuation=False)
                 u = res.x
-                sds, corr, groups = uncertainties(problem, res, _residual_effective_samples(problem, res))
+                sds, corr, groups = uncertainties(problem, res, checks.residual_effective_samples(problem, res))
         sse = problem.sse(u)
         confounded = groups + [[problem.free[i].label, problem.free[j].label]
                                for i in range(len(problem.free)) for j in range(i + 1, len(problem.free))
                                if abs(corr[i, j]) > CONFOUNDED_CORRELATION
                                and not any(problem.free[i].label in g and problem.free[j].label in g
                                            for g in groups)]
+        # reported as add-effect stores them: not more certain than the records agree
+        shown_sds, spread = reported_with_covariance(sds, problem, res)
     else:
         u = problem.zero()
         sse = screened.sse
         sds, unident, confounded, corr = np.zeros(0), [], [], None
+        shown_sds, spread = sds, None
     sse_win = sse
     tail = problem.tail_sse(u)
     sse += tail
@@ -296,7 +288,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
     params: dict[str, float | None] = {}
     uncert: dict[str, float | None] = {}
     units: dict[str, str] = {}
-    for f, sd in zip(problem.free, sds):
+    for f, sd in zip(problem.free, shown_sds):
         params[f.label] = f.to_value(u[problem.free.index(f)])
         uncert[f.label] = float(sd) if np.isfinite(sd) else None
         units[f.label] = f.param.unit
@@ -322,7 +314,8 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         per_experiment=per, values={n: v for n, v in shared.items()},
     )
     labels = [f.param.name if f.experiment is None else "" for f in problem.free]
-    cand.physical = physical.quantities(effect, problem.base.shared, {**problem.fixed, **shared}, labels, sds, corr)
+    cand.physical = physical.quantities(effect, problem.base.shared, {**problem.fixed, **shared}, labels, sds, corr,
+                                        spread)
     if problem.free:
         cons = checks.consistency(problem, res, force_levels or {}, checks.tolerated_misfit(noise, problem.full))
         cand.consistent, cand.amplitude_dependent = cons.consistent, cons.amplitude_dependent

@@ -189,6 +189,72 @@ def _decimal_point(value: str, delimiter: str) -> str:
     return value.replace(",", ".") if delimiter != "," and _DECIMAL_COMMA.fullmatch(value) else value
 
 
+_NUMBER_TEXT = re.compile(r"[+-]?([0-9]*)(?:\.([0-9]*))?(?:[eE]([+-]?[0-9]+))?")
+
+
+def _shown_digits(text: str) -> tuple[int, int]:
+    """The decimals and significant digits a number's text shows: '0.000244' -> (6, 3),
+    '2.44141e-04' -> (9, 6), '0' -> (0, 0)."""
+    m = _NUMBER_TEXT.fullmatch(text)
+    if m is None:
+        return 0, 0
+    whole, frac, exp = m.group(1), m.group(2) or "", int(m.group(3) or 0)
+    return len(frac) - exp, len((whole + frac).lstrip("0"))
+
+
+def _rate_of_time_column(where: str, column: str, texts: list[str], t: np.ndarray) -> float:
+    """The sampling rate (Hz) of an evenly spaced time column (s), from its whole span.
+
+    A lab's file rounds its times (``%.6f`` at 4096 Hz has steps of 0.000244 and 0.000245 s), so
+    each time may lie off the even grid by half a unit of its last printed digit. That unit comes
+    from the column itself: the most decimals and the most significant digits any row shows (a
+    fixed-decimals format and a significant-digits one alike; a row whose trailing zeros were
+    dropped keeps the others' precision), plus the float's own rounding. Steps or times off the
+    grid by more are uneven sampling, refused naming the row."""
+    n = t.size - 1
+    line0 = 2  # the header is line 1
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        k = int(bad[0])
+        raise ConfigError(f"{where}: line {line0 + k}: channel {column!r}: value {texts[k]!r} is not a finite time")
+    if n < 1:
+        raise ConfigError(f"{where}: channel {column!r}: one time only; the rate needs two or more")
+    decimals, significant = map(max, zip(*(_shown_digits(x) for x in texts)))
+    with np.errstate(divide="ignore"):
+        magnitude = np.floor(np.log10(np.abs(t)))
+    unit = np.maximum(10.0 ** -decimals, np.where(t == 0, 0.0, 10.0 ** (magnitude + 1 - significant)))
+    half = 0.5 * unit + 2 * np.spacing(np.abs(t).max())
+    steps = np.diff(t)
+    if not np.all(steps > 0):
+        k = int(np.flatnonzero(steps <= 0)[0]) + 1
+        raise ConfigError(f"{where}: line {line0 + k}: channel {column!r}: value {texts[k]!r} does not come after "
+                          f"the time before it ({texts[k - 1]!r})")
+    span = t[-1] - t[0]
+    dt = span / n
+    # a step between two rounded times, against the mean step between the two rounded ends
+    allowed = half[:-1] + half[1:] + (half[0] + half[-1]) / n
+    off = np.flatnonzero(np.abs(steps - dt) > allowed)
+    if off.size:
+        k = int(off[0]) + 1
+        raise ConfigError(f"{where}: line {line0 + k}: channel {column!r}: value {texts[k]!r} is {steps[k - 1]:.6g} s "
+                          f"after the time before it, the mean step {dt:.6g} s (the column's rounding allows "
+                          f"{allowed[k - 1]:.2g} s either way): not evenly spaced")
+    # every time against the grid through the ends: a slowly changing rate
+    allowed = half + half[0] + half[-1] + n * np.spacing(np.abs(t).max())
+    deviation = np.abs(t - (t[0] + dt * np.arange(n + 1)))
+    off = np.flatnonzero(deviation > allowed)
+    if off.size:
+        k = int(off[0])
+        raise ConfigError(f"{where}: line {line0 + k}: channel {column!r}: value {texts[k]!r} lies {deviation[k]:.2g} s "
+                          f"off the even spacing from the first time to the last (the column's rounding allows "
+                          f"{allowed[k]:.2g} s): not evenly spaced")
+    # the rate as the fewest digits the rounded ends allow: a 4096 Hz file of 6 decimals is 4096 Hz
+    lo = n / (span + half[0] + half[-1])
+    hi = n / (span - half[0] - half[-1]) if span > half[0] + half[-1] else np.inf
+    fs = n / span
+    return next((r for r in (float(f"{fs:.{d}g}") for d in range(1, 18)) if lo <= r <= hi), fs)
+
+
 def read_csv_columns(file: Path, explicit: dict) -> Columns:
     """A CSV record: a header row of channel names (each may end in its unit, ``acc1 [m/s^2]``),
     then one row per sample; a first column named time/t (s) gives the rate. Fields separated by
@@ -226,12 +292,8 @@ def read_csv_columns(file: Path, explicit: dict) -> Columns:
     data = np.array(values)
     fs = None
     if names[0].lower() in ("time", "t") and len(names) > 1:
-        t = data[:, 0]
-        dt = np.diff(t)
-        if dt.size == 0 or not np.all(dt > 0) or np.ptp(dt) > 1e-6 * abs(dt.mean()) + 1e-12:
-            raise ConfigError(f"{where}: channel {names[0]!r}: the time column is not evenly spaced "
-                              f"(steps {dt.min() if dt.size else 0:g} to {dt.max() if dt.size else 0:g} s)")
-        fs = 1.0 / float(dt.mean())
+        texts = [_decimal_point(r[0].strip(), delimiter) for r in rows[1:]]
+        fs = _rate_of_time_column(where, names[0], texts, data[:, 0])
         names, units, data = names[1:], units[1:], data[:, 1:]
     given = None if all(u is None for u in units) else units
     if given is not None and any(u is None for u in units):

@@ -348,24 +348,33 @@ def test_compare_modal_table_keeps_every_number_at_80_columns():
         assert number in text, (number, text)
 
 
-def test_diagnose_table_keeps_every_effect_name_at_80_columns():
-    """The effect column folds a long name (a joint fit's, which `add-effect` takes) instead of
-    cutting it ('mass_properties+sensor_…')."""
+@pytest.mark.parametrize("names", [
+    ["mass_properties+sensor_dynamics", "spring_stiffness", "plate_flexibility_free"],
+    ["mass_properties+stiffness", "spring_stiffness", "sensor_gain"],
+    ["plate_flexibility_free+measured-modal-damping", "spring_stiffness"],
+])
+def test_diagnose_table_keeps_every_effect_name_whole_at_80_columns(names):
+    """An effect's name is what `add-effect` takes: at 80 columns the table folds its three checks
+    into one column rather than break a name ('mass_properties+stiffn / ess' before), and only a
+    pair longer than the room left breaks, after its '+'; each name reads whole on one line."""
     from rich.console import Console
 
     from odsuite.cli.loop_commands import _candidates_table
 
-    names = ["mass_properties+sensor_dynamics", "spring_stiffness", "plate_flexibility_free"]
-    rows = [{"effect": n, "significant": k == 0, "consistent": True, "plausible": True, "fitted": True,
+    rows = [{"effect": n, "significant": k == 0, "consistent": True, "plausible": k == 0, "fitted": k < 2,
              "error_after": 0.0264 + k / 1000, "validated_error": float("nan") if k else 0.0265,
              "confounded_with": []} for k, n in enumerate(names)]
     console = Console(width=80, record=True, file=io.StringIO())
-    console.print(_candidates_table(rows, wide=False))
+    console.print(_candidates_table(rows, 80))
     text = console.export_text()
     assert max(len(ln) for ln in text.splitlines()) <= 80, text
-    cells = "".join(ln.split("│")[1].strip() for ln in text.splitlines() if ln.startswith("│"))
+    cells = [ln.split("│")[1].strip() for ln in text.splitlines() if ln.startswith("│")]
     for n in names:
-        assert n in cells, (n, text)
+        parts = [n] if len(n) <= 40 else [p + "+" for p in n.split("+")[:-1]] + [n.split("+")[-1]]
+        for part in parts:
+            assert part in cells, (part, text)
+    checks = [ln.split("│")[2].strip() for ln in text.splitlines() if ln.startswith("│") and ln.split("│")[2].strip()]
+    assert checks[:2] == ["yes yes yes", "no  yes no"], text
     assert "0.0264" in text and "0.0265" in text
 
 
@@ -392,3 +401,28 @@ def test_diagnose_text_keeps_to_80_columns_piped(monkeypatch):
     text = console.export_text()
     assert max(len(ln) for ln in text.splitlines()) <= 80, text
     assert all(n in text.replace("\n", " ") for n in names)
+
+
+def test_prose_lines_wrap_at_their_words_with_their_indent_at_80_columns(capsys, monkeypatch):
+    """compare's notes and diagnose's list of effects that do not apply ran 137-220 characters on
+    one line: wrapped at spaces within 80 columns, continuation lines indented past the line's own
+    indent, every word kept whole (a path longer than a line on a line of its own)."""
+    from odsuite import cli
+    from odsuite.cli.app import paragraph
+
+    monkeypatch.setattr(cli.console, "width", 80)
+    notes = ["E1: measured modes not identified: no stable poles found in 2.273-702.4 Hz up to model order 50 "
+             "(87.36 Hz: synthesis misfit 49 % near it)",
+             "not applicable to this model: base_motion, beam-mass-scale, beam-modal-damping, beam-positions, "
+             "beam-sensor-mass, beam-shear-rotary, beam-stiffness-scale, beam-supports, beam-supports-alike, "
+             "measured-modal-damping",
+             "    an indented note about /a/" + "very-long/" * 10 + "path.h5 that cannot break"]
+    for note in notes:
+        capsys.readouterr()
+        paragraph(note)
+        lines = capsys.readouterr().out.splitlines()
+        indent = note[:len(note) - len(note.lstrip())]
+        assert len(lines) > 1 and lines[0].startswith(indent) and not lines[0].startswith(indent + " ")
+        assert all(ln.startswith(indent + "  ") and not ln.startswith(indent + "   ") for ln in lines[1:]), lines
+        assert " ".join(ln.strip() for ln in lines) == note.strip()
+        assert all(len(ln) <= 80 for ln in lines if "/" not in ln), lines

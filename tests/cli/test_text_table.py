@@ -74,3 +74,21 @@ def test_info_reads_at_80_columns(tmp_path, capsys, monkeypatch):
     assert f"{doc['model_revisions'][0]['error']:.4f}" in out
     for s in doc["rig_layout"]["springs"]:
         assert f"{s['name']}  {s['body']} - {s['other']}" in out
+
+
+def test_a_column_of_prose_wraps_at_its_spaces():
+    """`model`'s parameters: the meaning is prose and wraps at its spaces (the table ran 94 wide at
+    80 columns); the names and numbers beside it stay whole."""
+    rows = [["spring_stiffness", "scale_soft2", "0.659167", "1", "stiffness of soft2, every axis, a meaning that "
+             "runs on past the edge of an eighty-column terminal"],
+            ["mass_properties", "dm", "-0.0123", "kg", "mass added to the body"]]
+    columns = ["effect", "parameter", "value", "unit", "meaning"]
+    text = text_table("parameters", columns, rows, width=80, prose=("meaning",))
+    lines = text.splitlines()
+    assert max(len(line) for line in lines) <= 80 and len(lines) > 5
+    dashes = lines[_dashes(lines)]
+    starts = [0] + [i + 3 for i, (a, b) in enumerate(zip(dashes, dashes[1:])) if a == "-" and b == " "]
+    for i, row in enumerate(rows):
+        assert _cells(text, starts, i) == row
+    # without prose the meaning breaks after its commas only, and the table stays wider
+    assert max(len(line) for line in text_table("parameters", columns, rows, width=80).splitlines()) > 80

@@ -209,3 +209,42 @@ def test_modes_survive_noise_of_three_per_mille_of_the_peak(blow):
     H = H + 0.003 * np.abs(H).max(axis=1, keepdims=True) * noise
     res = identify_modes(freq, np.hstack([np.zeros((H.shape[0], 1)), H]), f_band=(None, 1.02 / 1e-3))
     _assert_found(lam[excited], res.frequency_hz, res.damping_ratio, blow)
+
+
+def test_a_fitted_number_has_one_uncertainty_in_diagnose_add_effect_and_model(tmp_path, capsys):
+    """The softer mount's stiffnesses as diagnose prints them, add-effect stores them and model
+    reads them back: the same values with the same uncertainties (diagnose printed the fit's own,
+    2.8 kN/m along y, while the revision stored the spread between the four records, 5.1)."""
+    project = _project(tmp_path, capsys, "soft", 101, 100.0, "lab")
+    d = _diagnose(capsys, project, "spring_stiffness")
+    fitted = next(c for c in d["candidates"] if c["effect"] == "spring_stiffness")
+    added = json.loads(_odsuite(capsys, "add-effect", project, "spring_stiffness", "--json"))
+    stored = json.loads(_odsuite(capsys, "model", project, "--json"))["physical"]["spring_stiffness"]
+    entry = next(e for e in added["effects"] if e["effect"] == "spring_stiffness")
+    assert [r["label"] for r in fitted["physical"]] == [r["label"] for r in entry["physical"]] \
+        == [r["label"] for r in stored]
+    for shown, kept, read in zip(fitted["physical"], entry["physical"], stored):
+        assert kept == read
+        assert shown["value"] == pytest.approx(kept["value"], rel=1e-3), shown["label"]
+        assert shown["uncertainty"] == pytest.approx(kept["uncertainty"], rel=0.02), shown["label"]
+    along_y = next(r for r in stored if r["label"] == "stiffness of soft2 along y")
+    assert along_y["value"] == pytest.approx(180e3, abs=2 * along_y["uncertainty"])
+    for name, sd in fitted["uncertainties"].items():
+        assert sd == pytest.approx(entry["uncertainties"][name], rel=0.02), name
+
+
+@pytest.mark.slow
+def test_every_line_fits_80_columns_on_the_block_rig(tmp_path, capsys, monkeypatch):
+    """At 80 columns (a terminal that wide, or piped) compare's notes, diagnose's table of every
+    effect (pairs among them) and its list of effects that do not apply, add-effect and model fit
+    the width; they ran 94-220 characters, and a pair's name broke inside a word."""
+    from odsuite import cli
+
+    monkeypatch.setattr(cli.console, "width", 80)
+    project = _project(tmp_path, capsys, "soft", 101, 100.0, "lab")
+    out = {args[0]: _odsuite(capsys, *args) for args in (
+        ["compare", project], ["diagnose", project, "--workers", "1"],
+        ["add-effect", project, "spring_stiffness"], ["model", project], ["info", project])}
+    assert "not applicable to this model" in out["diagnose"] and "mass_properties+" in out["diagnose"]
+    too_long = [(command, line) for command, text in out.items() for line in text.splitlines() if len(line) > 80]
+    assert not too_long, too_long

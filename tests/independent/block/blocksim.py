@@ -229,9 +229,9 @@ def write_csv(path, cols):
     names = list(cols)
     header = ",".join(["time [s]"] + [f"{n} [V]" for n in names[1:]])
     data = np.column_stack([cols[n] for n in names])
-    # the time column in full: odsuite refuses steps that differ in the 9th digit
+    # the time column rounded as a lab's program writes it (steps 0.000244140 and 0.000244141 s)
     np.savetxt(path, data, delimiter=",", header=header, comments="",
-               fmt=["%.17g"] + ["%.9g"] * (len(names) - 1))
+               fmt=["%.9f"] + ["%.9g"] * (len(names) - 1))
 
 
 # The four blows of every case: point (m), direction, name; the last one double-hit

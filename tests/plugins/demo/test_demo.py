@@ -26,7 +26,7 @@ def test_spring_totals_are_the_hand_summed_stiffness_ratios(thesis_rig):
 
 
 @pytest.mark.slow
-def test_demo_finds_both_hidden_effects_and_the_error_falls_each_round(tmp_path, capsys):
+def test_demo_finds_both_hidden_effects_and_the_error_falls_each_round(tmp_path, capsys, monkeypatch):
     from odsuite.cli import main
     from odsuite.analysis.history import history
     from odsuite.analysis.modelrev import current_revision
@@ -66,6 +66,16 @@ def test_demo_finds_both_hidden_effects_and_the_error_falls_each_round(tmp_path,
     assert report.exists() and "<html" in report.read_text()[:500].lower()
     assert "both hidden effects found" in text
     assert " -> ".join(f"{e:.3f}" for e in errors) in text
+
+    # the project's summaries at 80 columns (a terminal that wide, or piped): `model`'s table was 94
+    from odsuite import cli
+
+    monkeypatch.setattr(cli.console, "width", 80)
+    project = str(out / PROJECT_NAME)
+    for command in (["model"], ["history"], ["info"], ["compare"], ["diagnose", "--workers", "1"]):
+        assert main([command[0], project, *command[1:]]) == 0
+        lines = capsys.readouterr().out.splitlines()
+        assert max(len(line) for line in lines) <= 80, (command, [ln for ln in lines if len(ln) > 80])
 
 
 def test_the_candidates_table_prints_no_split_of_factors_and_fits_80_columns():

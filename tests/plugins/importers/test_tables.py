@@ -209,3 +209,58 @@ def test_a_csv_of_a_decimal_comma_locale_is_read(tmp_path, registries, delimiter
         assert exp.channel_names == NAMES and exp.sampling_rate == pytest.approx(FS, rel=1e-12)
         si = physical(exp)
         assert np.allclose(si, DATA * [1.0, G, 1.0], rtol=1e-12, atol=0)
+
+
+def _write_timed_csv(path: Path, times: list[str]) -> None:
+    """DATA's first len(times) rows with the time column as given (text, as a lab's program wrote it)."""
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["time [s]"] + [f"{n} [{u}]" for n, u in zip(NAMES, UNITS)])
+        for t, row in zip(times, DATA):
+            w.writerow([t] + [repr(float(v)) for v in row])
+
+
+@pytest.mark.parametrize("fmt", ["%.6f", "%.9f", "%.6g", "%.4e", "%.5f"])
+def test_a_csv_whose_times_are_rounded_is_read_at_the_rate_of_its_span(tmp_path, registries, fmt):
+    """4096 Hz with times rounded to 6 decimals has steps of 0.000244 and 0.000245 s (9 decimals:
+    0.000244140 and 0.000244141): evenly spaced within the printed precision; the rate is 4096 Hz,
+    the fewest digits the span's rounded ends allow."""
+    fs = 4096.0
+    _write_timed_csv(tmp_path / "r.csv", [fmt % (k / fs) for k in range(len(DATA))])
+    create_project(tmp_path / "p.h5", rig=None).close()
+    _import(registries, tmp_path / "p.h5", tmp_path / "r.csv")
+    with open_project(tmp_path / "p.h5") as p:
+        exp = p.experiment("rec")
+        assert exp.sampling_rate == fs and exp.n_samples == len(DATA)
+        assert np.allclose(physical(exp), DATA * [1.0, G, 1.0], rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize("case, line, value, words", [
+    ("a sample missing", 302, "0.073486", ["0.000488 s after the time before it", "allows 1e-06 s"]),
+    ("one time late by 3 units", 302, "0.073245", ["0.000247 s after", "mean step 0.00024414 s"]),
+    ("a rate 1e-3 faster at the end", 9, "0.001709", ["1.7e-06 s off the even spacing", "allows 1.5e-06 s"]),
+    ("a time before the one above", 7, "0.000000", ["does not come after", "'0.000977'"]),
+])
+def test_unevenly_sampled_rounded_times_are_refused_in_one_line(tmp_path, registries, case, line, value, words):
+    """Times of 6 decimals off the even spacing by more than their rounding: refused naming file,
+    column, row (its line) and value."""
+    fs, n = 4096.0, len(DATA)
+    t = np.arange(n) / fs
+    if case == "a sample missing":
+        t = np.delete(t, 300)
+    elif case == "one time late by 3 units":
+        t[300] += 3e-6
+    elif case == "a rate 1e-3 faster at the end":
+        t = t * (1 + 1e-3 * np.arange(n) / n)
+    else:
+        t[5] = 0.0
+    _write_timed_csv(tmp_path / "r.csv", ["%.6f" % x for x in t])
+    create_project(tmp_path / "p.h5", rig=None).close()
+    with pytest.raises(OdsuiteError) as err:
+        _import(registries, tmp_path / "p.h5", tmp_path / "r.csv")
+    message = str(err.value)
+    assert "\n" not in message
+    for w in ["r.csv", f"line {line}", "channel 'time'", f"value {value!r}", *words]:
+        assert w in message, (w, message)
+    with open_project(tmp_path / "p.h5") as p:
+        assert p.experiment_names() == []
