@@ -383,10 +383,14 @@ def test_diagnose_text_keeps_to_80_columns_piped(monkeypatch):
     the paragraphs (it ran on as one line of 230 characters)."""
     from rich.console import Console
 
+    import importlib
+
     from odsuite.cli import loop_commands
 
     console = Console(width=80, record=True, file=io.StringIO())
     monkeypatch.setattr(loop_commands, "console", console)
+    # paragraph() prints on the app module's console (the package's `app` is the typer app)
+    monkeypatch.setattr(importlib.import_module("odsuite.cli.app"), "console", console)
     names = ["base_motion", "beam-mass-scale", "beam-modal-damping", "beam-positions", "beam-sensor-mass",
              "beam-shear-rotary", "beam-stiffness-scale", "beam-supports", "beam-supports-alike",
              "measured-modal-damping", "spring_stiffness"]
