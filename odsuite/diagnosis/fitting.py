@@ -305,7 +305,8 @@ class Problem:
 
     # residuals ---------------------------------------------------------------------------------
     def residual(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None,
-                 columns: Sequence[int] | None = None, stride: int | None = None, keep: bool = True) -> np.ndarray:
+                 columns: Sequence[int] | None = None, stride: int | None = None, keep: bool = True,
+                 weighted: bool = True) -> np.ndarray:
         exps = exps or self.exps
         with np.errstate(over="ignore", invalid="ignore"):
             try:
@@ -313,7 +314,8 @@ class Problem:
             except (DivergedError, NonPhysicalError):  # trial values that blow the response up or
                 # that no physical body has (an inertia not positive definite): as bad as can be
                 preds = [np.full(e.measured.shape, np.inf) for e in exps]
-        return self._residual_of(preds, exps, columns, self.stride if stride is None else stride)
+        return self._residual_of(preds, exps, columns, self.stride if stride is None else stride,
+                                 weighted=weighted)
 
     def _residual_of(self, preds: Sequence[np.ndarray], exps: Sequence[PreparedExperiment],
                      columns: Sequence[int] | None = None, k: int = 1, strided: bool = False,
@@ -341,13 +343,7 @@ class Problem:
 
     def sse(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None) -> float:
         """Sum of squares over every sample (the contract's error: unweighted), not only the strided ones."""
-        exps = exps or self.exps
-        with np.errstate(over="ignore", invalid="ignore"):
-            try:
-                preds = self.predictions(u, exps)
-            except (DivergedError, NonPhysicalError):
-                preds = [np.full(e.measured.shape, np.inf) for e in exps]
-        r = self._residual_of(preds, exps, weighted=False)
+        r = self.residual(u, exps, stride=1, weighted=False)
         return float(r @ r)
 
     def tail_sse(self, u: np.ndarray) -> float:
