@@ -97,7 +97,7 @@ def test_trial_values_that_blow_the_simulation_up_are_a_bad_fit_not_an_error(hid
     top = problem.lower_upper()[1]
     with pytest.raises(DivergedError):
         problem.predictions(top)
-    r = problem.residual(top)
+    r = problem.residual(top, weighted=False)  # in each channel's own units (channel_weights)
     cap = max(UNSTABLE_RESIDUAL * np.abs(e.measured).max() for e in problem.exps)
     assert np.all(np.isfinite(r)) and np.abs(r).max() == pytest.approx(cap, rel=0.01)
     s = screen(problem, problem.sse(problem.zero()), ())
@@ -128,7 +128,7 @@ def test_trial_values_no_physical_body_has_are_a_bad_fit_not_an_error(hidden):
                    np.where([n.endswith(("Ixy", "Ixz", "Iyz")) for n in names], upper, problem.zero()))
     with pytest.raises(NonPhysicalError, match="not positive definite"):
         problem.predictions(bad)
-    r = problem.residual(bad)
+    r = problem.residual(bad, weighted=False)  # in each channel's own units (channel_weights)
     cap = max(UNSTABLE_RESIDUAL * np.abs(e.measured).max() for e in problem.exps)
     assert np.all(np.isfinite(r)) and np.abs(r).max() == pytest.approx(cap, rel=0.01)
     sse0 = problem.sse(problem.zero())

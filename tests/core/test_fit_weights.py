@@ -1,0 +1,75 @@
+"""The fits' residual whitened channel by channel (odsuite.diagnosis.fitting.channel_weights): a
+quiet, precise channel among loud ones keeps its weight, so a right cause fitted to all of them
+leaves that channel at its own noise; the contract's error stays the unweighted sum of squares."""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from hidden_effects import make_project  # noqa: E402
+
+from odsuite.analysis.modelrev import current_revision, revision_model  # noqa: E402
+from odsuite.analysis.noise_floor import active_var  # noqa: E402
+from odsuite.analysis.prediction import prepare  # noqa: E402
+from odsuite.diagnosis.fitting import Problem, channel_weights, fit, fit_windows  # noqa: E402
+from odsuite.store.project import open_project  # noqa: E402
+
+#: the other channels' noise, in standard deviations of their own: a 100 mV/g sensor beside a
+#: 10 V/g one reads in physical units about this much louder
+LOUD = 300.0
+
+
+@pytest.fixture(scope="module")
+def stiffer(tmp_path_factory):
+    """One thesis hit (T1, 2048 samples at 20 kHz) of a rig whose springs are 30 % stiffer
+    vertically; every channel but xC with white noise of LOUD times its own added (seeded), and its
+    noise variance as the record's noise estimate would give it."""
+    path = make_project(tmp_path_factory.mktemp("weights") / "stiffer.h5", [("stiffness", {"scale_z": 1.3})],
+                        n_samples=2048, scenarios=("T1",))
+    with open_project(path) as project:
+        base = revision_model(project, current_revision(project))
+        (e,) = prepare(project, None)
+        effect = project.registries.effects.get("stiffness")
+    quiet = [s.name for s in e.sensors].index("xC")
+    loud = LOUD * np.sqrt(e.noise_var)
+    loud[quiet] = 0.0
+    noisy = np.random.default_rng(1).standard_normal(e.measured.shape) * loud
+    e = replace(e, measured=e.measured + noisy, noise_var=e.noise_var + loud**2)
+    return base, effect, e, quiet
+
+
+def test_weights_are_each_channels_inverse_noise_keeping_the_pooled_noise_energy(stiffer):
+    _, _, e, quiet = stiffer
+    w = channel_weights([e])[e.name]
+    var = active_var(np.asarray(e.noise_var), np.asarray(e.lsb))
+    # noise whitened: every channel's per-sample variance the same, their sum as before
+    np.testing.assert_allclose(w**2 * var, np.full(len(var), var.mean()), rtol=1e-12)
+    assert float(np.sum(w**2 * var)) == pytest.approx(float(np.sum(var)), rel=1e-12)
+    assert w[quiet] > 0.9 * LOUD * np.max(np.delete(w, quiet))
+
+
+def test_a_right_fit_leaves_the_quiet_channel_at_its_noise(stiffer):
+    base, effect, e, quiet = stiffer
+    windows = fit_windows([e])
+    problem = Problem(base, effect, windows, full=[e])
+    res = fit(problem, problem.zero())
+    (predicted,) = problem.predictions(res.x, [e])
+    r = e.measured - predicted
+    n = windows[0].n_samples
+    # where the response is (the fit window), the quiet channel's residual energy against its
+    # noise energy there: near 1 for the maximum-likelihood fit (measured 1.05); fitted unweighted,
+    # the loud channels' noise moved the springs and left xC at 6.3x
+    assert float(np.sum(r[:n, quiet] ** 2)) / (n * float(e.noise_var[quiet])) < 1.3
+    # the loud channels are at their own noise too
+    others = np.delete(np.arange(r.shape[1]), quiet)
+    ratio = np.sum(r[:n, others] ** 2, axis=0) / (n * np.asarray(e.noise_var)[others])
+    assert np.all(np.abs(ratio - 1.0) < 0.15), ratio
+    # the contract's error is the unweighted sum of squares
+    assert problem.sse(res.x, [e]) == pytest.approx(float(np.sum(r**2)), rel=1e-12)
