@@ -23,7 +23,8 @@ seconds compare best across runs and wall times only on a quiet machine. A chang
 evaluation cheaper (the compiled recursions below) lowers the baseline as much as diagnose, and
 the worth column then rises although everything is faster.
 
-Where it stands (quiet machine; this script):
+Where it stands (quiet machine; this script; before round 11, which took the evaluations to 1220
+and 824):
 
 | rig, workers | evaluations | CPU, worth (one evaluation's CPU), wall |
 | --- | --- | --- |
@@ -55,6 +56,7 @@ calibration (tests/independent/calibrate.py) rerun where a screened or fitted nu
 | 8 | screening's structure-changing Jacobian columns as linearised derivatives over `fitting.DIFF_STEP` (over a natural step the poles moved as far as their gaps and every column was simulated); the damped step's Gram matrix once | screening two-body 10.5 -> 7.0 s CPU, thesis 5.5-6.2 -> 4.8 s (load 10-17); screened errors moved (thesis stiffness 0.0505 -> 0.0650), fitted ones within 3e-5 relative |
 | 9 | a simulation's mode recursions and a channel group's sections in one compiled call each (odsuite/domain/recursions.py: lfilter's and sosfilt's operations in their order, every prediction and Jacobian of both benches equal to the bit); a cubic-coefficient fit's linear set-up kept | one thesis evaluation 32.3 -> 14.5 ms CPU, two-body 29.1 -> 24.0 ms; thesis diagnose 21.1 -> 12.3 s CPU on one worker (load 4.5-5) |
 | 10 | the partner search judges a candidate without discrete choices, projected parameters, starts or a frequency by one damped step at the first effect's fit on the whole windows (`diagnose._screen_on_top`) | thesis 1369 -> 1263 evaluations, the partner search 350 -> 278 (load 3.9) |
+| 11 | the fits search factors (dimensionless, nominal 1, a positive lower bound: stiffness, mass and inertia scales, gains) in the logarithms of their values (`fitting.search`): an axis's scale times a spring group's is a hyperbola of equal error in natural steps, along which the thesis stiffness fit crawled (each step about one noise energy), a straight line in logarithms | thesis stiffness fit 19 -> 9 residuals, 11 -> 6 Jacobians (96 -> 51 evaluations), the same cost within 2e-7 and the same products of scales; two-body stiffness fit 3 -> 2 Jacobians; diagnose thesis 1277 -> 1220 evaluations, two-body 836 -> 824; CPU on one worker thesis 21.5 -> 14.6 s, two-body 12.9 -> 12.8 s (load 22-25, the baseline's CPU 13.0 and 17.4 ms in the two runs); thesis by stage (profile_diagnose_stages, load 20+): the fits 4.21 -> 3.46 s CPU, the stiffness fit 78 -> 33 evaluations' worth, diagnose 14.7 -> 12.8 s; calibration faults n10 10/10 named and explained |
 
 Tried and left out (do not redo without a new reason):
 - screening every candidate on the shortest record head only: a plate's bending mode that shows
@@ -66,13 +68,15 @@ Tried and left out (do not redo without a new reason):
   may take that step: round 10);
 - fits from that step's point without the heads' continuation (more iterations, no gain);
 - step tripling along a fit that crawls (thesis stiffness: 17 -> 14 Jacobians, 11 more evaluations,
-  another end point); geodesic acceleration does not apply (the crawl is along a straight line).
+  another end point); the crawl's line was a chord of the scales' hyperbola (round 11).
 
 What remains (thesis, one worker, by stage): the pairs about a third (partner candidates with
 starts or grids, the joint fits, their validation), screening about a third, the full fits a
-quarter (thesis stiffness crawls through 17 Jacobians). Next: stop a joint fit from its
-linearisation where it cannot pass `joint.accepted`; a line search along a fit's repeated
-direction; nonlinear_stiffness's screening steps judged by the cubic tangent before a nonlinear
+quarter (before round 11). Next: stop a joint fit from its
+linearisation where it cannot pass `joint.accepted`; a line search along a fit's first steps (the
+thesis stiffness fit's first four gain 1.3-1.7x what their Gauss-Newton step promises, in
+either coordinates: a parabola through the cost, its slope and the step's cost would step
+further); nonlinear_stiffness's screening steps judged by the cubic tangent before a nonlinear
 simulation.
 """
 

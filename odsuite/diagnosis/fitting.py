@@ -1081,29 +1081,39 @@ def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] 
     stages = heads(exps or problem.exps) if continuation else [list(exps or problem.exps)]
     # the cost is half the strided sum of squares, which is about the whole one over the stride
     least = 0.5 * STALL_GAIN * problem.noise_scale / problem.stride if problem.noise_scale > 0 else 0.0
-    coords = _FactorLogs(problem.free)
-    lo_w, hi_w = coords.search(lo), coords.search(hi)
     for k, stage in enumerate(stages):
         last = k == len(stages) - 1
-        stops = _Stops(least, 0.5 * target / problem.stride if target is not None and last else None, lo_w, hi_w)
 
-        def fun(w, stage=stage):
-            x = coords.natural(w)
+        def fun(x, stage=stage):
             r = problem.residual(x, stage)
             return np.concatenate([r, root * x]) if root is not None else r
 
-        def jac(w, f, stage=stage):
-            x = coords.natural(w)
+        def jac(x, f, stage=stage):
             r = f[:f.size - n] if root is not None else f
             J = -problem.jacobian(x, r, stage, step=DIFF_STEP)
-            J = np.vstack([J, np.diag(root)]) if root is not None else J
-            return J * coords.derivative(w)  # d f / d w = d f / d u times d u / d w, by columns
+            return np.vstack([J, np.diag(root)]) if root is not None else J
 
-        res = _trf(fun, jac, coords.search(u), lo_w, hi_w, max_nfev=max_nfev or (8 if last else 4) * (n + 1),
-                   xtol=1e-6, ftol=1e-8, stops=stops)
-        res.target_stop = stops.target_stop
-        coords.natural_result(res, lo, hi)
+        res = search(fun, jac, u, lo, hi, problem.free, least=least,
+                     target=0.5 * target / problem.stride if target is not None and last else None,
+                     max_nfev=max_nfev or (8 if last else 4) * (n + 1))
         u = res.x
+    return res
+
+
+def search(fun, jac, u0: np.ndarray, lo: np.ndarray, hi: np.ndarray, free: Sequence[_Free], *, least: float,
+           target: float | None, max_nfev: int, xtol: float = 1e-6, ftol: float = 1e-8) -> OptimizeResult:
+    """_trf from ``u0`` within ``lo``..``hi`` over ``free`` (natural steps; ``fun(u)`` the
+    residual, ``jac(u, f)`` d f / d u), the factors searched in logarithms (_FactorLogs), stopped
+    by _Stops(``least``, ``target``, in cost); the result in natural steps, with ``target_stop``."""
+    coords = _FactorLogs(free)
+    lo_w, hi_w = coords.search(lo), coords.search(hi)
+    stops = _Stops(least, target, lo_w, hi_w)
+    res = _trf(lambda w: fun(coords.natural(w)),
+               # d f / d w = d f / d u times d u / d w, by columns
+               lambda w, f: jac(coords.natural(w), f) * coords.derivative(w),
+               coords.search(u0), lo_w, hi_w, max_nfev=max_nfev, xtol=xtol, ftol=ftol, stops=stops)
+    res.target_stop = stops.target_stop
+    coords.natural_result(res, lo, hi)
     return res
 
 
