@@ -1070,7 +1070,7 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
 
 def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] | None = None,
         max_nfev: int | None = None, continuation: bool = True, target: float | None = None):
-    """Bounded output-error least squares from ``u0`` (on short heads of the records first, _trf);
+    """Bounded output-error least squares from ``u0`` (on short heads of the records first, search);
     returns the result (scipy's fields) for the whole records (``jac`` = d residual / d u). With ``target`` (a
     sum of squares over every sample of ``problem``'s records) the fit stops where it cannot come
     near it (_Stops; ``target_stop`` true)."""
