@@ -23,7 +23,8 @@ seconds compare best across runs and wall times only on a quiet machine. A chang
 evaluation cheaper (the compiled recursions below) lowers the baseline as much as diagnose, and
 the worth column then rises although everything is faster.
 
-Where it stands (quiet machine; this script):
+Where it stands (quiet machine; this script; before round 11, which took the evaluations to 1220
+and 824):
 
 | rig, workers | evaluations | CPU, worth (one evaluation's CPU), wall |
 | --- | --- | --- |
@@ -56,6 +57,7 @@ calibration (tests/independent/calibrate.py) rerun where a screened or fitted nu
 | 9 | a simulation's mode recursions and a channel group's sections in one compiled call each (odsuite/domain/recursions.py: lfilter's and sosfilt's operations in their order, every prediction and Jacobian of both benches equal to the bit); a cubic-coefficient fit's linear set-up kept | one thesis evaluation 32.3 -> 14.5 ms CPU, two-body 29.1 -> 24.0 ms; thesis diagnose 21.1 -> 12.3 s CPU on one worker (load 4.5-5) |
 | 10 | the partner search judges a candidate without discrete choices, projected parameters, starts or a frequency by one damped step at the first effect's fit on the whole windows (`diagnose._screen_on_top`) | thesis 1369 -> 1263 evaluations, the partner search 350 -> 278 (load 3.9) |
 | 11 | a resonance frequency's sweep (missing_mode's 73 starts) ranked by projection, all frequencies in one convolution (`fitting._resonance_gains`); the best `fitting.SWEEP_KEPT` evaluated, then a climb to a better neighbour (`fitting._climb_grid`) | missing_mode's screening thesis 110 -> 42 evaluations, 0.77 -> 0.35 s CPU, two-body 181 -> 46, 1.59 -> 0.48 s; all screening thesis 4.33 -> 4.13 s, two-body 7.32 -> 5.81 s, every effect's screened sum of squares the same (one after the other, load 25); diagnose thesis 1277 -> 1209, two-body 836 -> 701 evaluations; every candidate's significance, validated and screened error the same on both; CPU within the spread of runs at load 20-30 (thesis 20.4 -> 14.0 s on one worker, 18.5 -> 20.4 s on two; two-body 13.4 -> 13.2, 13.6 -> 11.4 s) |
+| 12 | the fits search factors (dimensionless, nominal 1, a positive lower bound: stiffness, mass and inertia scales, gains) in the logarithms of their values (`fitting.search`): an axis's scale times a spring group's is a hyperbola of equal error in natural steps, along which the thesis stiffness fit crawled (each step about one noise energy), a straight line in logarithms | thesis stiffness fit 19 -> 9 residuals, 11 -> 6 Jacobians (96 -> 51 evaluations), the same cost within 2e-7 and the same products of scales; two-body stiffness fit 3 -> 2 Jacobians; diagnose thesis 1277 -> 1220 evaluations, two-body 836 -> 824; CPU on one worker thesis 21.5 -> 14.6 s, two-body 12.9 -> 12.8 s (load 22-25, the baseline's CPU 13.0 and 17.4 ms in the two runs); thesis by stage (profile_diagnose_stages, load 20+): the fits 4.21 -> 3.46 s CPU, the stiffness fit 78 -> 33 evaluations' worth, diagnose 14.7 -> 12.8 s; calibration faults n10 10/10 named and explained, nulls n12 0/12 significant |
 
 The evaluations column counts, since the rounds above, every evaluation the diagnosis makes:
 before, a discrete choice's trials (channel_swap tries every pair of sensors, each on a problem of
@@ -81,17 +83,19 @@ Tried and left out (do not redo without a new reason):
   against 0.2564): it would change the kept start, and nonlinear_stiffness is fitted and paired
   on the thesis bench;
 - step tripling along a fit that crawls (thesis stiffness: 17 -> 14 Jacobians, 11 more evaluations,
-  another end point); geodesic acceleration does not apply (the crawl is along a straight line).
+  another end point); the crawl's line was a chord of the scales' hyperbola (round 11).
 
 What remains (thesis, one worker, by stage): the pairs about a third (partner candidates with
 starts or grids, the joint fits, their validation), screening about a third, the full fits a
-quarter (thesis stiffness crawls through 17 Jacobians). Next: stop a joint fit from its
-linearisation where it cannot pass `joint.accepted`; a line search along a fit's repeated
-direction. Screening's largest after round 11: thesis nonlinear_stiffness (50 evaluations: its
-ladder's nonlinear simulations, and on the longer heads Jacobians differenced over a natural
-step at a hardened point, whose damped steps all failed on the thesis bench: 16 of the 50);
-two-body mass_properties (66: three linearised Jacobians of 20 columns) and channel_swap (about 150
-pairs, each a whole-window prediction of every channel where a swap changes two).
+quarter (before round 12: the thesis stiffness fit crawled through 17 Jacobians). Next: stop
+a joint fit from its linearisation where it cannot pass `joint.accepted`; a line search along a
+fit's first steps (the thesis stiffness fit's first four gain 1.3-1.7x what their Gauss-Newton
+step promises, in either coordinates: a parabola through the cost, its slope and the step's cost
+would step further). Screening's largest after round 11: thesis nonlinear_stiffness (50
+evaluations: its ladder's nonlinear simulations, and on the longer heads Jacobians differenced
+over a natural step at a hardened point, whose damped steps all failed on the thesis bench: 16 of
+the 50); two-body mass_properties (66: three linearised Jacobians of 20 columns) and channel_swap
+(about 150 pairs, each a whole-window prediction of every channel where a swap changes two).
 """
 
 from __future__ import annotations

@@ -1167,7 +1167,7 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
 
 def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] | None = None,
         max_nfev: int | None = None, continuation: bool = True, target: float | None = None):
-    """Bounded output-error least squares from ``u0`` (on short heads of the records first, _trf);
+    """Bounded output-error least squares from ``u0`` (on short heads of the records first, search);
     returns the result (scipy's fields) for the whole records (``jac`` = d residual / d u). With ``target`` (a
     sum of squares over every sample of ``problem``'s records) the fit stops where it cannot come
     near it (_Stops; ``target_stop`` true)."""
@@ -1180,7 +1180,6 @@ def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] 
     least = 0.5 * STALL_GAIN * problem.noise_scale / problem.stride if problem.noise_scale > 0 else 0.0
     for k, stage in enumerate(stages):
         last = k == len(stages) - 1
-        stops = _Stops(least, 0.5 * target / problem.stride if target is not None and last else None, lo, hi)
 
         def fun(x, stage=stage):
             r = problem.residual(x, stage)
@@ -1191,11 +1190,73 @@ def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] 
             J = -problem.jacobian(x, r, stage, step=DIFF_STEP)
             return np.vstack([J, np.diag(root)]) if root is not None else J
 
-        res = _trf(fun, jac, u, lo, hi, max_nfev=max_nfev or (8 if last else 4) * (n + 1), xtol=1e-6, ftol=1e-8,
-                   stops=stops)
-        res.target_stop = stops.target_stop
+        res = search(fun, jac, u, lo, hi, problem.free, least=least,
+                     target=0.5 * target / problem.stride if target is not None and last else None,
+                     max_nfev=max_nfev or (8 if last else 4) * (n + 1))
         u = res.x
     return res
+
+
+def search(fun, jac, u0: np.ndarray, lo: np.ndarray, hi: np.ndarray, free: Sequence[_Free], *, least: float,
+           target: float | None, max_nfev: int, xtol: float = 1e-6, ftol: float = 1e-8) -> OptimizeResult:
+    """_trf from ``u0`` within ``lo``..``hi`` over ``free`` (natural steps; ``fun(u)`` the
+    residual, ``jac(u, f)`` d f / d u), the factors searched in logarithms (_FactorLogs), stopped
+    by _Stops(``least``, ``target``, in cost); the result in natural steps, with ``target_stop``."""
+    coords = _FactorLogs(free)
+    lo_w, hi_w = coords.search(lo), coords.search(hi)
+    stops = _Stops(least, target, lo_w, hi_w)
+    res = _trf(lambda w: fun(coords.natural(w)),
+               # d f / d w = d f / d u times d u / d w, by columns
+               lambda w, f: jac(coords.natural(w), f) * coords.derivative(w),
+               coords.search(u0), lo_w, hi_w, max_nfev=max_nfev, xtol=xtol, ftol=ftol, stops=stops)
+    res.target_stop = stops.target_stop
+    coords.natural_result(res, lo, hi)
+    return res
+
+
+class _FactorLogs:
+    """The coordinates a fit searches in: a factor (a dimensionless parameter of nominal 1 and a
+    positive lower bound: a stiffness's or a mass's scale, a gain) in the logarithm of its value,
+    every other parameter in natural steps (u). Scales multiply (a spring's stiffness is an axis's
+    scale times its group's), so where one scale can stand in for another the valley of equal error
+    is a hyperbola in u, along which the search crawled in short steps (a straight step along its
+    tangent climbs its walls); in logarithms it is a straight line. The map is w = ln(1 + k u) / k
+    with k = scale (nominal 1): at the nominal value w = u and d u / d w = 1, so steps, the prior
+    and the finite differences keep their sizes there. The objective is the same function of the
+    parameters in either coordinates: only the path to its minimum changes."""
+
+    def __init__(self, free: Sequence[_Free]) -> None:
+        self.mask = np.array([f.param.unit == "1" and f.param.nominal == 1.0 and f.param.lower > 0 for f in free],
+                             bool)
+        self.k = np.array([f.scale if m else 1.0 for f, m in zip(free, self.mask)])
+
+    def search(self, u: np.ndarray) -> np.ndarray:
+        if not self.mask.any():
+            return np.asarray(u, float)
+        w = np.array(u, float)
+        w[self.mask] = np.log1p(self.k[self.mask] * w[self.mask]) / self.k[self.mask]
+        return w
+
+    def natural(self, w: np.ndarray) -> np.ndarray:
+        if not self.mask.any():
+            return w
+        u = np.array(w, float)
+        u[self.mask] = np.expm1(self.k[self.mask] * u[self.mask]) / self.k[self.mask]
+        return u
+
+    def derivative(self, w: np.ndarray) -> np.ndarray:
+        """d u / d w at ``w``."""
+        return np.where(self.mask, np.exp(np.where(self.mask, self.k * w, 0.0)), 1.0)
+
+    def natural_result(self, res, lo: np.ndarray, hi: np.ndarray) -> None:
+        """``res`` (_trf's, in search coordinates) in natural steps: its point, Jacobian and
+        gradient."""
+        if not self.mask.any():
+            return
+        dudw = self.derivative(res.x)
+        res.x = np.clip(self.natural(res.x), lo, hi)
+        res.jac = res.jac / dudw
+        res.grad = res.grad / dudw
 
 
 def effective_samples(exps: Sequence[PreparedExperiment]) -> tuple[float, float]:

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from odsuite.diagnosis.fitting import _Stops, _trf
+from odsuite.contracts.effects import Parameter
+from odsuite.diagnosis.fitting import STALL_GAIN, _Free, _Stops, _trf, search
 
 T = np.linspace(0.0, 1.0, 4000)
 LO, HI = np.array([0.0, 0.0, 5.0, -3.0, -1.0]), np.array([2.0, 10.0, 9.0, 3.0, 0.45])
@@ -73,3 +74,59 @@ def test_an_updated_jacobian_does_not_end_the_search(seed, x0):
     assert ref.status == updated.status == 2  # both ended by the ftol test
     assert 2 * (updated.cost - ref.cost) < 0.01 * noise**2
     assert updated.njev <= ref.njev
+
+
+def _scaled_sine(seed: int, pull: float):
+    """A decaying sine whose frequency goes as the square root of two factors' product (a
+    stiffness's scale along an axis times a spring's) and whose amplitude is a third factor,
+    measured with NOISE_SCALED, and the weak prior that alone decides how the product splits; in
+    natural steps of 0.05 from 1 (u), with forward differences."""
+    truth = (1.25, 1.28, 1.3)
+
+    def model(v):
+        a, b, c = v
+        return c * np.exp(-4 * T_SCALED) * np.sin(2 * np.pi * 8 * np.sqrt(a * b) * T_SCALED)
+
+    y = model(truth) + NOISE_SCALED * np.random.default_rng(seed).standard_normal(T_SCALED.size)
+    root = np.full(3, np.sqrt(pull))
+
+    def fun(u):
+        return np.concatenate([model(1 + 0.05 * u) - y, root * u])
+
+    def jac(u, f=None):
+        f0 = fun(u)
+        return np.column_stack([(fun(u + 1e-4 * e) - f0) / 1e-4 for e in np.eye(3)])
+
+    return fun, jac
+
+
+T_SCALED = np.linspace(0.0, 0.5, 2000)
+NOISE_SCALED = 0.01
+
+
+@pytest.mark.parametrize("seed, u0", [(1, [12.0, 0.0, 0.0]), (2, [0.0, 10.0, 4.0]), (3, [-5.0, 20.0, 2.0])])
+def test_factors_searched_in_logarithms_reach_scipys_minimum_in_fewer_evaluations(seed, u0):
+    # the product of two factors is what the data see: its valley of equal error is a hyperbola
+    # in natural steps, along which the prior moves the search in short steps; in the factors'
+    # logarithms (fitting.search) it is a straight line
+    fun, jac = _scaled_sine(seed, 1e-3)
+    free = [_Free(Parameter(name, "1", 1.0, 0.25, 4.0), None, 0.05) for name in "abc"]
+    lo, hi, u0 = np.full(3, -15.0), np.full(3, 60.0), np.array(u0)
+    ref = scipy.optimize.least_squares(fun, u0, jac=jac, bounds=(lo, hi), method="trf", x_scale=1.0, xtol=1e-12,
+                                       ftol=1e-12, gtol=1e-12, max_nfev=500)
+    least = 0.5 * STALL_GAIN * NOISE_SCALED**2  # one noise energy, in cost
+    before = _trf(fun, jac, u0, lo, hi, max_nfev=32, xtol=1e-6, ftol=1e-8, stops=_Stops(least, None, lo, hi))
+    logs = search(fun, jac, u0, lo, hi, free, least=least, target=None, max_nfev=32)
+    # within half a noise energy of scipy's minimum (sum of squares, sigma^2)
+    assert 2 * (logs.cost - ref.cost) < 0.5 * NOISE_SCALED**2
+    # what the data see, the product and the amplitude, within a hundredth of their standard deviations
+    v, v_ref = 1 + 0.05 * logs.x, 1 + 0.05 * ref.x
+    J = jac(ref.x)[:T_SCALED.size] / 0.05  # per unit of the factors
+    cov = np.linalg.pinv(J.T @ J) * 2 * ref.cost / (T_SCALED.size - 3)
+    grad_product = np.array([v_ref[1], v_ref[0], 0.0])
+    sd_product = float(np.sqrt(grad_product @ cov @ grad_product))
+    assert abs(v[0] * v[1] - v_ref[0] * v_ref[1]) < 0.01 * sd_product
+    assert abs(v[2] - v_ref[2]) < 0.01 * np.sqrt(cov[2, 2])
+    # in fewer evaluations of the residual (a Jacobian is three) than the search in natural steps
+    assert logs.nfev + 3 * logs.njev < before.nfev + 3 * before.njev
+    np.testing.assert_allclose(logs.jac, jac(logs.x), rtol=0, atol=1e-9)  # d f / d u, at the point returned
