@@ -14,7 +14,7 @@ validated by leaving one experiment out; per-experiment parameters on held-out c
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -879,10 +879,14 @@ class _Stops:
     the Jacobian at the point reached: two iterations together gained less than STALL_GAIN noise
     energies (``least``, in cost), or the linearisation there promises less than that (the
     curved valley's crawl gains no more than it promises), or (with ``target``) it cannot come
-    near the target (TARGET_FACTOR). ``target_stop`` says whether the last was why."""
+    near the target (TARGET_FACTOR), or ``cannot_pass(x, promised)`` says that from ``x``, gaining
+    what the linearisation there promises (in cost), the fit cannot pass the test it is made for.
+    ``target_stop`` says whether one of the last two was why."""
 
-    def __init__(self, least: float, target: float | None, lo: np.ndarray, hi: np.ndarray) -> None:
+    def __init__(self, least: float, target: float | None, lo: np.ndarray, hi: np.ndarray,
+                 cannot_pass: Callable[[np.ndarray, float], bool] | None = None) -> None:
         self.least, self.target, self.lo, self.hi = least, target, lo, hi
+        self.cannot_pass = cannot_pass
         self.costs: list[float] = []
         self.promised: dict[bytes, float] = {}
         self.reach_before = math.inf
@@ -918,6 +922,9 @@ class _Stops:
             self.target_stop = True
             raise StopIteration
         self.reach_before = reach
+        if self.cannot_pass is not None and self.cannot_pass(x, promised):
+            self.target_stop = True
+            raise StopIteration
 
 
 #: scipy least_squares' default gradient tolerance, which _trf keeps
@@ -1069,11 +1076,13 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
 
 
 def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] | None = None,
-        max_nfev: int | None = None, continuation: bool = True, target: float | None = None):
+        max_nfev: int | None = None, continuation: bool = True, target: float | None = None,
+        cannot_pass: Callable[[np.ndarray, float], bool] | None = None):
     """Bounded output-error least squares from ``u0`` (on short heads of the records first, _trf);
     returns the result (scipy's fields) for the whole records (``jac`` = d residual / d u). With ``target`` (a
     sum of squares over every sample of ``problem``'s records) the fit stops where it cannot come
-    near it (_Stops; ``target_stop`` true)."""
+    near it, and with ``cannot_pass`` where that says it cannot pass its test (_Stops; ``target_stop``
+    true)."""
     lo, hi = problem.lower_upper()
     u = np.clip(u0, lo, hi)
     n = len(problem.free)
@@ -1083,7 +1092,8 @@ def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] 
     least = 0.5 * STALL_GAIN * problem.noise_scale / problem.stride if problem.noise_scale > 0 else 0.0
     for k, stage in enumerate(stages):
         last = k == len(stages) - 1
-        stops = _Stops(least, 0.5 * target / problem.stride if target is not None and last else None, lo, hi)
+        stops = _Stops(least, 0.5 * target / problem.stride if target is not None and last else None, lo, hi,
+                       cannot_pass if last else None)
 
         def fun(x, stage=stage):
             r = problem.residual(x, stage)
