@@ -14,7 +14,7 @@ validated by leaving one experiment out; per-experiment parameters on held-out c
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -976,10 +976,14 @@ class _Stops:
     the Jacobian at the point reached: two iterations together gained less than STALL_GAIN noise
     energies (``least``, in cost), or the linearisation there promises less than that (the
     curved valley's crawl gains no more than it promises), or (with ``target``) it cannot come
-    near the target (TARGET_FACTOR). ``target_stop`` says whether the last was why."""
+    near the target (TARGET_FACTOR), or ``cannot_pass(x, promised)`` says that from ``x``, gaining
+    what the linearisation there promises (in cost), the fit cannot pass the test it is made for.
+    ``target_stop`` says whether one of the last two was why."""
 
-    def __init__(self, least: float, target: float | None, lo: np.ndarray, hi: np.ndarray) -> None:
+    def __init__(self, least: float, target: float | None, lo: np.ndarray, hi: np.ndarray,
+                 cannot_pass: Callable[[np.ndarray, float], bool] | None = None) -> None:
         self.least, self.target, self.lo, self.hi = least, target, lo, hi
+        self.cannot_pass = cannot_pass
         self.costs: list[float] = []
         self.promised: dict[bytes, float] = {}
         self.reach_before = math.inf
@@ -1015,6 +1019,9 @@ class _Stops:
             self.target_stop = True
             raise StopIteration
         self.reach_before = reach
+        if self.cannot_pass is not None and self.cannot_pass(x, promised):
+            self.target_stop = True
+            raise StopIteration
 
 
 #: scipy least_squares' default gradient tolerance, which _trf keeps
@@ -1166,11 +1173,13 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
 
 
 def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] | None = None,
-        max_nfev: int | None = None, continuation: bool = True, target: float | None = None):
+        max_nfev: int | None = None, continuation: bool = True, target: float | None = None,
+        cannot_pass: Callable[[np.ndarray, float], bool] | None = None):
     """Bounded output-error least squares from ``u0`` (on short heads of the records first, search);
     returns the result (scipy's fields) for the whole records (``jac`` = d residual / d u). With ``target`` (a
     sum of squares over every sample of ``problem``'s records) the fit stops where it cannot come
-    near it (_Stops; ``target_stop`` true)."""
+    near it, and with ``cannot_pass`` where that says it cannot pass its test (_Stops; ``target_stop``
+    true)."""
     lo, hi = problem.lower_upper()
     u = np.clip(u0, lo, hi)
     n = len(problem.free)
@@ -1192,19 +1201,22 @@ def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] 
 
         res = search(fun, jac, u, lo, hi, problem.free, least=least,
                      target=0.5 * target / problem.stride if target is not None and last else None,
-                     max_nfev=max_nfev or (8 if last else 4) * (n + 1))
+                     cannot_pass=cannot_pass if last else None, max_nfev=max_nfev or (8 if last else 4) * (n + 1))
         u = res.x
     return res
 
 
 def search(fun, jac, u0: np.ndarray, lo: np.ndarray, hi: np.ndarray, free: Sequence[_Free], *, least: float,
-           target: float | None, max_nfev: int, xtol: float = 1e-6, ftol: float = 1e-8) -> OptimizeResult:
+           target: float | None, max_nfev: int, xtol: float = 1e-6, ftol: float = 1e-8,
+           cannot_pass: Callable[[np.ndarray, float], bool] | None = None) -> OptimizeResult:
     """_trf from ``u0`` within ``lo``..``hi`` over ``free`` (natural steps; ``fun(u)`` the
     residual, ``jac(u, f)`` d f / d u), the factors searched in logarithms (_FactorLogs), stopped
-    by _Stops(``least``, ``target``, in cost); the result in natural steps, with ``target_stop``."""
+    by _Stops(``least``, ``target``, ``cannot_pass``, in cost; ``cannot_pass`` is asked at natural
+    points); the result in natural steps, with ``target_stop``."""
     coords = _FactorLogs(free)
     lo_w, hi_w = coords.search(lo), coords.search(hi)
-    stops = _Stops(least, target, lo_w, hi_w)
+    stops = _Stops(least, target, lo_w, hi_w,
+                   None if cannot_pass is None else lambda w, promised: cannot_pass(coords.natural(w), promised))
     res = _trf(lambda w: fun(coords.natural(w)),
                # d f / d w = d f / d u times d u / d w, by columns
                lambda w, f: jac(coords.natural(w), f) * coords.derivative(w),
