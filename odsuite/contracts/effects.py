@@ -43,6 +43,11 @@ Optional: ``breaks_rigidity`` (bool, default False): the effect makes a rigid bo
 sensors disagree (a flexible mode, a sensor fault), so the diagnosis cites the rigidity check's
 residual as evidence for it.
 
+Optional: ``adds_body`` (bool, default False): away from its nominal values the effect gives the
+model another moving body (the base moving on its mounts). Paired with another effect it is
+applied last, so the other's parameters keep the names they have on the model without it (per
+body only where there are several).
+
 Each :class:`Parameter` may declare ``plausible`` (low, high): the physically plausible range of
 its value, narrower than the bounds the fit may explore (a sensor resonance near the sensor's rated
 band, a tilt below 45 degrees, a mass change within the body's own mass). A fit outside it is
@@ -163,6 +168,7 @@ class Effect:
     target: str = "model"  # "model" or "chain"
     description: str = ""
     breaks_rigidity: bool = False
+    adds_body: bool = False
     #: each addition is one more instance (a second missing mode), not a refit of the first
     repeatable: bool = False
     #: a stand-in that presupposes no shape (a mode of any shape): a named mechanism that explains

@@ -95,9 +95,9 @@ class ProjectingJoint(Joint):
 
 
 def joined(a, b, model) -> Joint | None:
-    """The pair of effects ``a`` and ``b`` as one, the projecting one last; None where a joint fit
-    cannot hold them: both project, or the other has values per experiment (a projection sees the
-    shared values only)."""
+    """The pair of effects ``a`` and ``b`` as one, the projecting one (or one that ``adds_body``)
+    last; None where a joint fit cannot hold them: both project, or the other has values per
+    experiment (a projection sees the shared values only)."""
     if projects(a) and projects(b):
         return None
     if projects(a) or projects(b):
@@ -105,6 +105,9 @@ def joined(a, b, model) -> Joint | None:
         if any(p.scope == "per_experiment" for p in first.parameters(model)):
             return None
         return ProjectingJoint([first, last])
+    if getattr(a, "adds_body", False) and not getattr(b, "adds_body", False):
+        # the other's parameters are named on the model without the new body
+        a, b = b, a
     return Joint([a, b])
 
 

@@ -540,6 +540,7 @@ class BaseMotion(Effect):
     structures = (Structure,)  # rigid bodies on springs
     name = "base_motion"
     target = "model"
+    adds_body = True  # the base, once compliant, is a moving body of its own
     description = "The base moves on its own mounts (compliance per mount, base mass, mount damping)."
 
     def __init__(self, body: str = "base") -> None:

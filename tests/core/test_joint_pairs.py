@@ -152,3 +152,33 @@ def test_a_member_is_tested_against_the_pair_without_it_where_that_beats_the_oth
     # where the pair without a member leaves more than the other's single fit, the single decides
     pair._without = {"a": _res([LIMIT + 9.0, LIMIT + 9.0]), "b": _res([LIMIT + 9.0, LIMIT + 9.0])}
     assert accepted(pair, (a, b), [a, b])[0]
+
+
+def test_a_pair_with_an_effect_that_adds_a_body_applies_it_last(tmp_path, registries):
+    """base_motion makes the rig's base a moving body; mass_properties names its parameters per
+    body only where there are several. Paired, base_motion is applied last, so mass_properties'
+    values as its single fit names them hold (applied first, the pair stopped diagnose with 'unknown
+    parameter(s) mass_scale ...'), and the pair is mass_properties' model with base_motion on top."""
+    import sys
+    from pathlib import Path
+
+    from odsuite.analysis.modelrev import revision_model
+    from odsuite.diagnosis.joint import joined
+    from odsuite.store.project import open_project
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from hidden_effects import make_project
+
+    path = make_project(tmp_path / "p.odsp", n_samples=1024, scenarios=("T1",))
+    base, mass = registries.effects.get("base_motion"), registries.effects.get("mass_properties")
+    with open_project(path) as p:
+        model = revision_model(p).shared
+    compliant = {"base_motion.compliance": 1e-6}
+    assert len(base.apply(model, {"compliance": 1e-6}).bodies) == len(model.bodies) + 1
+    pair = joined(base, mass, model)
+    assert pair.name == "mass_properties+base_motion"
+    got = pair.apply(model, {"mass_properties.mass_scale": 1.3, **compliant})
+    want = base.apply(mass.apply(model, {"mass_scale": 1.3}), {"compliance": 1e-6})
+    assert len(got.bodies) == 2
+    assert [b.mass for b in got.bodies] == pytest.approx([b.mass for b in want.bodies])
+    assert got.bodies[0].mass == pytest.approx(1.3 * model.bodies[0].mass)
