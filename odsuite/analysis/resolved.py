@@ -80,8 +80,9 @@ class Resolved:
         return rows[:top]
 
     def strongest(self) -> float:
-        """The largest sqrt(residual / floor) energy ratio of any cell."""
-        return float(max((np.sqrt(np.max(q)) for q in self.ratios() if q.size), default=0.0))
+        """The largest sqrt(residual / floor) energy ratio of any judged cell (a finite limit)."""
+        judged = [q[np.isfinite(lim)] for q, lim in zip(self.ratios(), self.limit)]
+        return float(max((np.sqrt(np.max(q)) for q in judged if q.size), default=0.0))
 
 
 def resolve(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFloor) -> Resolved | None:
@@ -104,9 +105,11 @@ def resolve(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFloor
         flo.append(f_energy)
         dof.append(f_dof)
         rdof.append(np.clip(own, 1.0, f_dof))
-    n_cells = sum(f.size for f in flo)
+    # a band the quiet samples do not resolve has its floor carried down unseen: it is not judged
+    seen = [np.broadcast_to(floor.seen.get(e.name, np.ones(len(d), bool))[:, None], d.shape) for e, d in zip(exps, dof)]
+    n_cells = sum(int(s.sum()) for s in seen)
     alpha = DETECTION_FALSE_ALARM / max(n_cells, 1)
-    limit = [DETECTION_TOLERANCE * scipy.stats.chi2.isf(alpha, d) / d for d in dof]
+    limit = [np.where(s, DETECTION_TOLERANCE * scipy.stats.chi2.isf(alpha, d) / d, np.inf) for s, d in zip(seen, dof)]
     return Resolved(names, chans, bands, res, flo, dof, rdof, limit)
 
 
