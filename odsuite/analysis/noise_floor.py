@@ -10,7 +10,8 @@ Four parts, each estimated from the record itself:
   energy (not the fitted one's);
 - quantisation: while the signal moves through the ADC's codes its rounding error is uniform
   (lsb^2 / 12), which a quiet stretch sitting on one code does not show; with the model's signals
-  (odsuite.analysis.prediction.sensor_noise) it is simulated at the converter's offset the record tells;
+  and the fitted hum and drift (odsuite.analysis.prediction.sensor_noise) it is simulated at the
+  converter's offset and noise the record tells;
 - the force channel's noise through the model: the model is driven by the measured force, so the
   load cell's noise inside the force window reaches every predicted channel. Its expected energy is
   the window's noise energy times the energy of the model's response to a unit impulse (exact for
