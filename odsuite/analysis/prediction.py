@@ -775,8 +775,12 @@ def sensor_noise(model, exp: PreparedExperiment, realisations: int = NOISE_REALI
     hum = np.zeros_like(v)
     if exp.volts_disturbance is not None:
         hum = exp.volts_disturbance - np.median(exp.volts_disturbance[: max(exp.trigger, 1)], axis=0)
+    # the codes tell a noise below a code (there it decides how white the rounding is); a wider
+    # one is the quiet samples' level less the rounding's share, which the likelihood's grid of
+    # noises up to a code would misread
+    narrow = np.sqrt(np.asarray(exp.noise_var, float)) * volts_per_stage < step
     told = {j: converter_offsets(v[:, j], exp.volts[:, j], step[j], exp.trigger, realisations, hum[:, j])
-            for j in np.flatnonzero(step > 0)}
+            for j in np.flatnonzero((step > 0) & narrow)}
     told = {j: t for j, t in told.items() if t is not None}
     out = []
     for i in range(realisations):
