@@ -10,7 +10,8 @@ Four parts, each estimated from the record itself:
   energy (not the fitted one's);
 - quantisation: while the signal moves through the ADC's codes its rounding error is uniform
   (lsb^2 / 12), which a quiet stretch sitting on one code does not show; with the model's signals
-  (odsuite.analysis.prediction.sensor_noise) it is simulated at the converter's offset the record tells;
+  and the fitted hum and drift (odsuite.analysis.prediction.sensor_noise) it is simulated at the
+  converter's offset and noise the record tells;
 - the force channel's noise through the model: the model is driven by the measured force, so the
   load cell's noise inside the force window reaches every predicted channel. Its expected energy is
   the window's noise energy times the energy of the model's response to a unit impulse (exact for
@@ -66,6 +67,17 @@ def band_edges(fs: float, n_samples: int) -> list[tuple[float, float]]:
         f *= 2
     edges.append(fs / 2)
     return list(zip(edges[:-1], edges[1:]))
+
+
+def resolves_band(quiet_samples: int, fs: float, bands: Sequence[tuple[float, float]]) -> np.ndarray:
+    """Per band, whether a stretch of ``quiet_samples`` samples resolves it: a line of its own
+    spectrum (k fs / quiet_samples, k >= 1) lies in the band. Below its first line a stretch shows
+    no spectrum at all: a noise that rises there (1/f-like, a slow wander) is not seen in it.
+    0 samples: not known, every band counts as resolved."""
+    if quiet_samples <= 0:
+        return np.ones(len(bands), bool)
+    first = fs / quiet_samples
+    return np.array([max(first, first * np.ceil(lo / first)) < hi for lo, hi in bands])
 
 
 def line_energies(x: np.ndarray) -> np.ndarray:
@@ -153,8 +165,8 @@ def split_noise(raw: np.ndarray, trigger: int, fs: float) -> QuietFit:
     Quiet samples: before the hit (less a guard) and after the response has died into the noise.
     The mains frequency (50 or 60 Hz) is the one whose sinusoid holds more of the record (hum
     persists through it, a hit's response does not); its harmonics are fitted only when the quiet
-    samples span two of its periods beyond the pre-trigger (on a shorter stretch the sinusoids are
-    nearly collinear with the constant)."""
+    samples, before the hit and after the response, hold two of its periods (on fewer the
+    sinusoids are nearly collinear with the constant)."""
     x = np.atleast_2d(raw.T).T
     n = x.shape[0]
     guard = int(round(HIT_GUARD_S * fs))
@@ -177,7 +189,7 @@ def split_noise(raw: np.ndarray, trigger: int, fs: float) -> QuietFit:
     end = min(n, end + int(0.25 * max(end - trigger, 0)))  # a margin, as the fit windows
     quiet = pre.copy()
     quiet[end:] = True
-    harmonics = MAINS_HARMONICS if (n - end) >= 2 * fs / mains else 1
+    harmonics = MAINS_HARMONICS if int(quiet.sum()) >= 2 * fs / mains else 1
     # the line is fitted always (else the hum's sinusoid takes a drift's ramp and carries it over
     # the record), and extended over the record where quiet samples lie at both ends
     basis = disturbance_basis(n, fs, (mains,), harmonics, line=True)
@@ -240,6 +252,9 @@ class NoiseFloor:
     # (bands x sensors), from the expected line energies of its parts
     bands: dict[str, tuple[list[tuple[float, float]], np.ndarray, np.ndarray]] = field(
         default_factory=dict, repr=False)
+    # per experiment: per band, whether the quiet samples the noise is measured on resolve it
+    # (resolves_band); where not, the floor there is the broadband level carried down unseen
+    seen: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
 
     def total(self, experiments: Sequence[str] | None = None, channels: Sequence[str] | None = None
               ) -> tuple[float, float]:
@@ -290,6 +305,7 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
     parts: dict[str, dict[str, dict[str, float]]] = {}
     specs: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     banded: dict[str, tuple[list[tuple[float, float]], np.ndarray, np.ndarray]] = {}
+    seen: dict[str, np.ndarray] = {}
     for e in exps:
         n = e.n_samples
         white = np.asarray(e.noise_var, float)
@@ -339,4 +355,5 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
             bands = band_edges(e.fs, n)
             masks = in_band(e.fs, n, bands)
             banded[e.name] = (bands, np.array([lines[m].sum(axis=0) for m in masks]), band_dof(lines, masks))
-    return NoiseFloor(energy, measured, parts, specs, banded)
+            seen[e.name] = resolves_band(getattr(e, "quiet_samples", 0), e.fs, bands)
+    return NoiseFloor(energy, measured, parts, specs, banded, seen)

@@ -170,7 +170,11 @@ class PreparedExperiment:
     lsb: np.ndarray | None = None
     adc_step_v: np.ndarray | None = None
     disturbance: np.ndarray | None = None
+    # the same disturbances as recorded (samples x sensors, volts): the converter rounds them too
+    volts_disturbance: np.ndarray | None = None
     force_noise_energy: float = 0.0
+    # how many samples the noise is measured on (before the hit, after the response; 0: not known)
+    quiet_samples: int = 0
     # the last structure simulated and its coordinate accelerations: effects that only change the
     # sensors (gain, tilt, position) reuse them (a strong reference, so identity is safe)
     _cache: tuple | None = field(default=None, repr=False)
@@ -192,7 +196,8 @@ class PreparedExperiment:
         if n >= self.n_samples:
             return self
         return replace(self, force=self.force[:n], volts=self.volts[:n], measured=self.measured[:n],
-                       disturbance=None if self.disturbance is None else self.disturbance[:n])
+                       disturbance=None if self.disturbance is None else self.disturbance[:n],
+                       volts_disturbance=None if self.volts_disturbance is None else self.volts_disturbance[:n])
 
 
 def find_trigger(force: np.ndarray) -> int:
@@ -390,7 +395,8 @@ def prepare_experiment(project, name: str, exp=None) -> PreparedExperiment:
         direction=np.asarray(exp.excitation.direction, float), sensors=sensors, columns=columns,
         volts=volts, measured=measured, volts_per_unit=np.asarray(vpu), chains=chains, trigger=trigger,
         noise_var=white, units=units, operators=stage_operators(infos, vpu, steps), lsb=lsb, adc_step_v=step,
-        disturbance=disturbance, force_noise_energy=fw.noise_energy, force_body=exp.excitation.body,
+        disturbance=disturbance, volts_disturbance=quiet.disturbance, quiet_samples=int(quiet.quiet.sum()),
+        force_noise_energy=fw.noise_energy, force_body=exp.excitation.body,
         notes=notes, registries=project.registries,
     )
 
@@ -698,7 +704,7 @@ def _code_loglik(codes: np.ndarray, x: np.ndarray, blur: np.ndarray, offsets: np
 
 
 def converter_offsets(v: np.ndarray, volts: np.ndarray, step: float, trigger: int,
-                      count: int) -> tuple[np.ndarray, np.ndarray] | None:
+                      count: int, disturbance: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray] | None:
     """``count`` offsets (volts) of a signal against its converter's codes, drawn evenly from
     what the record allows, and with each the white noise (volts) before rounding. The samples
     before the hit tell the noise and, when it spreads them over a few codes, the offset; a
@@ -709,7 +715,10 @@ def converter_offsets(v: np.ndarray, volts: np.ndarray, step: float, trigger: in
     drifts through the codes before the hit (offsets are then uniform over a code).
 
     The model's own error blurs each sample by its share of the signal, that share measured where
-    the signal spans many codes (there rounding hardly matters)."""
+    the signal spans many codes (there rounding hardly matters). ``disturbance`` (volts): the hum
+    and drift fitted on the record, which the converter rounds with the signal: a hum of a code or
+    two moves the samples through the codes, and taken for noise it would hide how small the noise
+    is (and with it how white the rounding is)."""
     pre = volts[: max(trigger, 1)]
     ref = volts[int(np.argmin(np.abs(volts - np.median(pre))))]
     codes = (volts - ref) / step
@@ -717,14 +726,15 @@ def converter_offsets(v: np.ndarray, volts: np.ndarray, step: float, trigger: in
         return None
     codes = np.round(codes)
     grid = (np.arange(OFFSET_GRID) + 0.5) / OFFSET_GRID - 0.5
-    x = v / step
+    signal = v / step
+    x = signal if disturbance is None else signal + disturbance / step
     # the noise before rounding: the most likely over the first half of the samples before the hit
     # (the hammer's contact and the response start before the detected hit); offsets free; a
     # hundredth of a code at least (the model's discretisation)
-    quiet = np.flatnonzero(np.abs(x[: len(pre) // 2]) < 0.01)
+    quiet = np.flatnonzero(np.abs(signal[: len(pre) // 2]) < 0.01)
     if quiet.size < 2:
         return None
-    line = np.polyval(np.polyfit(quiet, codes[quiet], 1), quiet[[0, -1]])
+    line = np.polyval(np.polyfit(quiet, codes[quiet] - x[quiet], 1), quiet[[0, -1]])
     if abs(line[1] - line[0]) >= DRIFT_CODES:
         return None  # drift moves the signal through the codes: the offset is immaterial
     spread = float(np.std(codes[quiet]))
@@ -734,11 +744,11 @@ def converter_offsets(v: np.ndarray, volts: np.ndarray, step: float, trigger: in
     quiet_loglik = np.array([_code_loglik(codes[quiet], x[quiet], np.full(quiet.size, s), grid) for s in sigmas])
     noise = sigmas[np.argmax(quiet_loglik, axis=0)]
     # the signal's small oscillations then tell the offset
-    big = np.abs(x) > 2 * OFFSET_CODES
-    share2 = float(np.sum((codes[big] - x[big]) ** 2) / np.sum(x[big] ** 2)) if big.any() else 0.0
-    small = np.flatnonzero(np.abs(x) <= OFFSET_CODES)
+    big = np.abs(signal) > 2 * OFFSET_CODES
+    share2 = float(np.sum((codes[big] - x[big]) ** 2) / np.sum(signal[big] ** 2)) if big.any() else 0.0
+    small = np.flatnonzero(np.abs(signal) <= OFFSET_CODES)
     small = small[:: max(1, small.size // OFFSET_SAMPLES)]
-    loglik = np.array([_code_loglik(codes[small], x[small], np.sqrt(s**2 + share2 * x[small] ** 2), grid[[k]])[0]
+    loglik = np.array([_code_loglik(codes[small], x[small], np.sqrt(s**2 + share2 * signal[small] ** 2), grid[[k]])[0]
                        for k, s in enumerate(noise)])
     w = np.exp(loglik - loglik.max())
     cdf = np.cumsum(w) / w.sum()
@@ -748,11 +758,13 @@ def converter_offsets(v: np.ndarray, volts: np.ndarray, step: float, trigger: in
 
 def sensor_noise(model, exp: PreparedExperiment, realisations: int = NOISE_REALISATIONS) -> list[np.ndarray]:
     """Realisations of what a perfect model leaves of the sensors' own noise at the acceleration
-    stage: the model's signals in volts plus white noise (measured on the raw codes where the
-    record tells it, else the quiet samples' level less its rounding share, Sheppard) at an offset on the ADC's codes (where the record tells it:
-    converter_offsets; else at random), rounded to them, minus the signals, through each channel's
-    chain. The rounding error of a signal that moves through few codes is not white (it repeats
-    the signal's own frequencies) and depends on that offset: simulated, it is right."""
+    stage: the model's signals in volts with the record's fitted hum and drift, plus white noise
+    (measured on the raw codes where the record tells it, else the quiet samples' level less its
+    rounding share, Sheppard) at an offset on the ADC's codes (where the record tells it:
+    converter_offsets; else at random), rounded to them, minus signals and disturbances, through
+    each channel's chain. The rounding error of a signal that moves through few codes is not white
+    (it repeats the signal's own frequencies, and the hum's) and depends on that offset and on how
+    much noise dithers it: simulated, it is right."""
     if exp.operators is None or exp.adc_step_v is None:
         return []
     rng = np.random.default_rng(0)  # reproducible floors
@@ -764,12 +776,16 @@ def sensor_noise(model, exp: PreparedExperiment, realisations: int = NOISE_REALI
     rounding = np.where(step > 0, exp.lsb**2 / 12.0, 0.0)
     sigma_v = np.sqrt(np.maximum(np.asarray(exp.noise_var) - rounding, 0.0)) * volts_per_stage
     v = physical * vpu
-    # hum or drift of a code or more moves the signal through the codes itself: the offset is
-    # then immaterial and not told by the model's signal, which leaves them out
-    moved = (np.ptp(exp.disturbance, axis=0) * volts_per_stage >= step if exp.disturbance is not None
-             else np.zeros(len(step), bool))
-    told = {j: converter_offsets(v[:, j], exp.volts[:, j], step[j], exp.trigger, realisations)
-            for j in np.flatnonzero((step > 0) & ~moved)}
+    # the hum and drift, level with the codes before the hit (the offset places them on the codes)
+    hum = np.zeros_like(v)
+    if exp.volts_disturbance is not None:
+        hum = exp.volts_disturbance - np.median(exp.volts_disturbance[: max(exp.trigger, 1)], axis=0)
+    # the codes tell a noise below a code (there it decides how white the rounding is); a wider
+    # one is the quiet samples' level less the rounding's share, which the likelihood's grid of
+    # noises up to a code would misread
+    narrow = np.sqrt(np.asarray(exp.noise_var, float)) * volts_per_stage < step
+    told = {j: converter_offsets(v[:, j], exp.volts[:, j], step[j], exp.trigger, realisations, hum[:, j])
+            for j in np.flatnonzero((step > 0) & narrow)}
     told = {j: t for j, t in told.items() if t is not None}
     out = []
     for i in range(realisations):
@@ -778,9 +794,9 @@ def sensor_noise(model, exp: PreparedExperiment, realisations: int = NOISE_REALI
         for j, (picks, noise) in told.items():
             # the noise measured on the raw codes: the acceleration stage's is filtered
             offset[j], sigma[j] = picks[i], noise[i]
-        x = v + offset + rng.standard_normal(v.shape) * sigma
+        x = v + hum + offset + rng.standard_normal(v.shape) * sigma
         q = np.where(step > 0, np.round(x / np.where(step > 0, step, 1.0)) * step, x)
-        err = (q - offset - v) / vpu
+        err = (q - offset - v - hum) / vpu
         stage = np.empty_like(err)
         for op in exp.operators:
             cols = list(op.columns)

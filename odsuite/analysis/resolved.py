@@ -6,7 +6,9 @@ A cell's ratio rho = residual energy / floor energy; with nu the floor's degrees
 (noise_floor.band_dof), nu rho is chi-square with nu degrees of freedom for a perfect model. A cell
 is *above the floor* when rho exceeds its limit: ``DETECTION_TOLERANCE`` (the floor's calibration)
 times the chi-square quantile at ``DETECTION_FALSE_ALARM`` shared over all cells (Bonferroni). The
-model fails somewhere when any cell is above.
+model fails somewhere when any cell is above. A band the quiet samples do not resolve
+(noise_floor.resolves_band) is not judged: its floor is the broadband level carried down to where
+the noise was not seen.
 
 A change of the model (a candidate effect) is tested by the likelihood ratio of the whitened
 residual, counted only above the limits: ``excess`` = sum over cells of nu max(0, rho - limit), and
@@ -80,8 +82,9 @@ class Resolved:
         return rows[:top]
 
     def strongest(self) -> float:
-        """The largest sqrt(residual / floor) energy ratio of any cell."""
-        return float(max((np.sqrt(np.max(q)) for q in self.ratios() if q.size), default=0.0))
+        """The largest sqrt(residual / floor) energy ratio of any judged cell (a finite limit)."""
+        judged = [q[np.isfinite(lim)] for q, lim in zip(self.ratios(), self.limit)]
+        return float(max((np.sqrt(np.max(q)) for q in judged if q.size), default=0.0))
 
 
 def resolve(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFloor) -> Resolved | None:
@@ -104,9 +107,11 @@ def resolve(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFloor
         flo.append(f_energy)
         dof.append(f_dof)
         rdof.append(np.clip(own, 1.0, f_dof))
-    n_cells = sum(f.size for f in flo)
+    # a band the quiet samples do not resolve has its floor carried down unseen: it is not judged
+    seen = [np.broadcast_to(floor.seen.get(e.name, np.ones(len(d), bool))[:, None], d.shape) for e, d in zip(exps, dof)]
+    n_cells = sum(int(s.sum()) for s in seen)
     alpha = DETECTION_FALSE_ALARM / max(n_cells, 1)
-    limit = [DETECTION_TOLERANCE * scipy.stats.chi2.isf(alpha, d) / d for d in dof]
+    limit = [np.where(s, DETECTION_TOLERANCE * scipy.stats.chi2.isf(alpha, d) / d, np.inf) for s, d in zip(seen, dof)]
     return Resolved(names, chans, bands, res, flo, dof, rdof, limit)
 
 

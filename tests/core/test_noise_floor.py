@@ -211,6 +211,47 @@ def test_the_converters_noise_before_the_hit_when_it_spreads_over_codes():
     assert np.std(np.round(volts[:trigger] / step)) > 0.42  # the rounded samples spread wider
 
 
+def test_the_converters_noise_under_a_hum_of_two_codes():
+    """White noise of 0.16 code under a 50 Hz hum of two codes peak to peak: the hum moves the
+    samples through the codes, which taken for noise reads about 0.7 code; told the hum (fitted on
+    the record), the noise the record tells is the 0.16 (within 0.05 code), and the rounding error
+    simulated with it has the true error's energy above 800 Hz (15 %), where without the noise the
+    rounding of the hum alone puts under half of it."""
+    from odsuite.analysis.prediction import converter_offsets
+
+    rng = np.random.default_rng(13)
+    step, n, trigger, fs, sigma = 1e-3, 2048, 256, 4096.0, 0.16
+    t = np.arange(n) / fs
+    hum = 1.0 * step * np.sin(2 * np.pi * 50.0 * t + 0.4)
+    v = np.zeros(n)
+    v[trigger:] = 30 * step * np.sin(2 * np.pi * 40.0 * t[: n - trigger]) * np.exp(-t[: n - trigger] / 0.05)
+    volts = np.round((v + hum + 0.21 * step + sigma * step * rng.standard_normal(n)) / step) * step
+    picks, noise = converter_offsets(v, volts, step, trigger, 4, hum)
+    assert np.all(np.abs(noise / step - sigma) <= 0.05), noise / step
+    _, blind = converter_offsets(v, volts, step, trigger, 4)
+    assert np.all(blind / step > 0.5), blind / step
+    sos = scipy.signal.butter(8, 800.0, "highpass", fs=fs, output="sos")
+
+    def high(d, s, seed):
+        x = v + hum + d + s * np.random.default_rng(seed).standard_normal(n)
+        return float(np.sum(scipy.signal.sosfiltfilt(sos, np.round(x / step) * step - d - v - hum) ** 2))
+
+    true = np.mean([high(0.21 * step, sigma * step, k) for k in range(8)])
+    assert np.mean([high(d, s, 20 + k) for k, (d, s) in enumerate(zip(picks, noise))]) == pytest.approx(true, rel=0.15)
+    assert np.mean([high(d, 0.0, 0) for d in picks]) < true / 2
+
+
+def test_a_band_below_the_quiet_samples_first_line_is_not_resolved():
+    """256 quiet samples at 4096 Hz (62.5 ms) see lines at 16, 32, ... Hz: the octave 12.5-25 Hz
+    holds one, the band up to 12.5 Hz none; 0 samples (not known) resolves every band."""
+    from odsuite.analysis.noise_floor import resolves_band
+
+    bands = [(2.0, 12.5), (12.5, 25.0), (25.0, 50.0), (1600.0, 2048.0)]
+    assert resolves_band(256, 4096.0, bands).tolist() == [False, True, True, True]
+    assert resolves_band(1024, 4096.0, bands).tolist() == [True, True, True, True]
+    assert resolves_band(0, 4096.0, bands).tolist() == [True] * 4
+
+
 def test_a_drift_before_a_response_that_never_dies_is_neither_noise_nor_hum():
     """A record whose response rings to its end (no quiet tail) with a drift: the line is fitted on
     the samples before the hit, so the noise is the white noise's variance (within 5 %) and the

@@ -66,10 +66,6 @@ def test_simulator_modes_are_odsuite_models_modes(tmp_path, capsys):
                                rtol=1e-6)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "a null under white noise is 'unexplained': cells at 800-2048 Hz above the floor (up to 10x), "
-    "where the model driven by the recorded force (first-order hold, this module) leaves only the "
-    "ADC's rounding"))
 def test_records_of_the_rig_itself_leave_nothing_to_explain_white_noise(tmp_path, capsys):
     """A null (the truth is the rig file exactly) under white ADC noise and a 50 Hz hum, blows of
     5-200 N, one a double hit: nothing to explain."""
@@ -78,9 +74,6 @@ def test_records_of_the_rig_itself_leave_nothing_to_explain_white_noise(tmp_path
     assert d["verdict"] == "nothing to explain", d["signature"]["cells"]
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "a null with 1/f-like ADC noise, a 50 Hz hum with its 150 Hz harmonic and a slow drift is "
-    "'unexplained': cells at 1-12.5 Hz and 100-200 Hz above the floor, peaks at 4 and 150 Hz"))
 def test_records_of_the_rig_itself_leave_nothing_to_explain_lab_noise(tmp_path, capsys):
     """The same null under a lab's noise: white plus 1/f-like noise, hum at 50 and 150 Hz, an
     offset and a slow drift, 16-bit rounding."""
