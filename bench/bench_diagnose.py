@@ -23,20 +23,22 @@ seconds compare best across runs and wall times only on a quiet machine. A chang
 evaluation cheaper (the compiled recursions below) lowers the baseline as much as diagnose, and
 the worth column then rises although everything is faster.
 
-Where it stands (quiet machine; this script; before round 11, which took the evaluations to 1220
-and 824):
+Where it stands (quiet machine, load 1.0-1.1; this script, after rounds 11-13 and the fits'
+residual whitened per channel; evaluations counted as the note below the rounds says):
 
 | rig, workers | evaluations | CPU, worth (one evaluation's CPU), wall |
 | --- | --- | --- |
-| thesis, 1 | 1277 | 15.7 s, 676 (23.2 ms), 15.3 s |
-| thesis, 2 | 1277 | 16.5 s, 709, 9.3 s (1.64x faster than one) |
-| two-body, 1 | 835 | 11.8 s, 409 (28.8 ms), 11.0 s |
-| two-body, 2 | 835 | 12.9 s, 447, 7.7 s (1.43x) |
+| thesis, 1 | 1213 | 10.7 s, 578 (18.5 ms), 10.4 s |
+| thesis, 2 | 1213 | 11.5 s, 622, 6.7 s (1.54x faster than one) |
+| two-body, 1 | 886 | 8.4 s, 392 (21.5 ms), 7.8 s |
+| two-body, 2 | 886 | 9.4 s, 438, 5.8 s (1.35x) |
 
-(load 1.0-1.5; verdicts thesis "partly explained", stiffness 0.7088 -> 0.01256 at a floor of
-0.01166; two-body "explained", stiffness 0.4916 -> 0.2381 at 0.2379.) Before
-rounds 7-10, quiet: thesis 19.2-21.9 s CPU on one worker, 14.9-18.9 s wall on two; two-body
-14.6 s, 8.7 s. Targets (250 worth, 3 s / 5 s) missed: 1.6-2.8x in worth, 1.5-3.1x in wall time. The
+(verdicts thesis "partly explained", stiffness 0.7088 -> 0.01256 at a floor of 0.01165;
+two-body "explained", stiffness 0.4916 -> 0.2381 at 0.2379.) Before rounds 11-13 (load 1.0-1.5):
+thesis 15.7 s CPU, 676 worth (23.2 ms) on one worker, 9.3 s wall on two; two-body 11.8 s CPU,
+409 worth (28.8 ms), 7.7 s wall. Before rounds 7-10, quiet: thesis 19.2-21.9 s CPU on one
+worker, 14.9-18.9 s wall on two; two-body 14.6 s, 8.7 s. Targets (250 worth, 3 s / 5 s) missed:
+1.6-2.5x in worth, 1.2-2.2x in wall time. The
 baseline is measured after one untimed evaluation (the first loads or compiles the recursions:
 measured with it, the baseline read 141 ms CPU and the worth column "met").
 
@@ -87,9 +89,9 @@ Tried and left out (do not redo without a new reason):
   energies): the thesis stiffness+nonlinear_stiffness lowered stiffness's error 0.012560 ->
   0.012554 while its likelihood ratio over it was -25 (the two disagree in sign); and a bound of
   the likelihood ratio from the promise by the residual's norm (Cauchy-Schwarz over the cells):
-  hundreds where the test needs 18.5. Round 11 measures the ratio at the point reached instead;
+  hundreds where the test needs 18.5. Round 13 measures the ratio at the point reached instead;
 - step tripling along a fit that crawls (thesis stiffness: 17 -> 14 Jacobians, 11 more evaluations,
-  another end point); the crawl's line was a chord of the scales' hyperbola (round 11).
+  another end point); the crawl's line was a chord of the scales' hyperbola (round 12).
 
 What remains (thesis, one worker, by stage): the pairs about a third (the partner search 278
 evaluations, partner candidates with starts or grids: plate_flexibility 36, plate_flexibility_free

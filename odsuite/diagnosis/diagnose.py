@@ -30,7 +30,7 @@ from odsuite.contracts.effects import applies, family
 from odsuite.diagnosis import checks, joint, physical
 from odsuite.diagnosis.between_records import reported_with_covariance
 from odsuite.analysis.comparison import noise_floor, residual_peaks
-from odsuite.domain.errors import ConfigError
+from odsuite.domain.errors import ConfigError, DivergedError, NonPhysicalError
 from odsuite.diagnosis.fitting import (
     ROUNDING,
     Problem,
@@ -336,6 +336,8 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
     cand._nyquist_hz = records_band(problem.full)[0]
     cand.plausible = not cand.implausible
     cand._problem, cand._u, cand._sse_win = problem, u, sse_win  # kept for the confounding check
+    # the fit windows' sum as the fits weigh it (whitened per channel): a pair's fit stops on it
+    cand._cost_win = float(np.sum(problem.residual(u, stride=1) ** 2))
     cand._stopped = stopped
     baseline = math.sqrt(sse0 / den)
     cand.evidence = _evidence(problem, cand, baseline, noise, peaks, rigidity, modes_before, modes_after)
@@ -791,7 +793,7 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
             starts.setdefault(key, []).insert(0, (joint.fitted(first), on_top))
     out = []
     # the pairs' fits on the pool, judged here in order
-    significant = [(c.n_parameters, c._sse_win, c.effect, getattr(c, "_resolved", None))
+    significant = [(c.n_parameters, c._cost_win, c.effect, getattr(c, "_resolved", None))
                    for c in candidates + added if c.fitted and c.significant]
     fits = [pool.submit(_pair_job, token, key, options, significant) for key, options in starts.items()]
     for ((ea, eb), options), fitting in zip(starts.items(), fits):
@@ -882,9 +884,14 @@ def _cannot_pass(problem: Problem, simpler: Sequence[tuple[int, str, Any]], floo
     unit = 2.0 * problem.stride / problem.noise_scale if problem.noise_scale > 0 else 0.0  # cost -> noise energies
 
     def cannot_pass(x: np.ndarray, promised: float) -> bool:
+        del why[1:]  # words of an earlier call that a differenced Jacobian overruled
         if not tests or unit == 0.0:
             return False
-        res = resolution.resolve(problem.full, problem.predictions(x, problem.full), floor)
+        try:
+            predictions = problem.predictions(x, problem.full)
+        except (DivergedError, NonPhysicalError):  # a trial point the fit itself scores as bad
+            return False
+        res = resolution.resolve(problem.full, predictions, floor)
         if res is None:
             tests.clear()
             return False
