@@ -324,6 +324,7 @@ def _compare(project, *, experiments, revision, prepared, resonances, figures, s
     chan_den: dict[str, float] = {}
     band_num = band_den = None
     labels: list[str] = []
+    sensor_names: list[str] = []
     for e, p in zip(exps, preds):
         per_ch = nrmse(e.measured, p, axis=0)
         per_exp[e.name] = {
@@ -337,14 +338,17 @@ def _compare(project, *, experiments, revision, prepared, resonances, figures, s
             chan_den[s.name] = chan_den.get(s.name, 0.0) + float(np.sum(e.measured[:, j] ** 2))
         labels, berr, bshare = band_errors(e.measured, p, e.fs)
         energy = np.sum(e.measured**2, axis=0)
-        num = (berr**2) * bshare * energy  # residual energy per band and channel
-        den = bshare * energy
-        band_num = num if band_num is None else band_num + num
-        band_den = den if band_den is None else band_den + den
+        # residual energy per band and channel, summed by sensor (an experiment may leave one out)
+        if band_num is None:
+            sensor_names = list(dict.fromkeys(s.name for x in exps for s in x.sensors))
+            band_num = np.zeros((len(labels), len(sensor_names)))
+            band_den = np.zeros_like(band_num)
+        at = [sensor_names.index(s.name) for s in e.sensors]
+        band_num[:, at] += (berr**2) * bshare * energy
+        band_den[:, at] += bshare * energy
         coords[e.name], rigidity[e.name] = _coordinates(project.rig, e, rmodel.for_experiment(e.name))
     channels = {n: float(np.sqrt(chan_num[n] / chan_den[n])) if chan_den[n] > 0 else float("nan")
                 for n in chan_num}
-    sensor_names = [s.name for s in exps[0].sensors]
     band_table = np.sqrt(band_num / np.where(band_den > 0, band_den, np.nan))
     band_share = band_den / np.nansum(band_den)
     bands = {"labels": labels, "channels": sensor_names,

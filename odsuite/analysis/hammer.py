@@ -111,6 +111,16 @@ def _steep_codes(run: int) -> float:
     return 2.0 * (((run + 1) / (run - 1)) ** 2 + 1.0)
 
 
+def held_range(signal: np.ndarray, low: float, high: float) -> tuple[float, float] | None:
+    """The converter range (low, high) a record declares, in the signal's units, when the signal
+    stays inside it; None when samples lie beyond it. A card picks the smallest hardware range that
+    holds the limits the operator asked for (NI: 0.05..10 V), so samples beyond the declared limits
+    show the real range is wider and not known (clipping is then told by flat tops alone)."""
+    lo, hi = sorted((low, high))
+    x = np.asarray(signal, dtype=float)
+    return (lo, hi) if x.size and x.min() >= lo and x.max() <= hi else None
+
+
 def is_clipped(signal: np.ndarray, *, limits: tuple[float, float] | None = None, run: int = 3) -> bool:
     """True when the signal reaches its converter's range or shows a clipped flat top.
 
@@ -134,6 +144,8 @@ def is_clipped(signal: np.ndarray, *, limits: tuple[float, float] | None = None,
     steep = _steep_codes(run) * step
     baseline = np.median(x)
     reach = np.abs(x - baseline).max()
+    if reach == 0.0:
+        return False  # a constant signal away from the limits: no response, not a cut-off one
     for extreme, sign in ((x.max(), 1.0), (x.min(), -1.0)):
         if sign * (extreme - baseline) < 0.5 * reach:
             continue  # the quiet side of a one-sided pulse: its extreme is the baseline, not a limit

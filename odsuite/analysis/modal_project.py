@@ -15,7 +15,7 @@ import numpy as np
 
 from odsuite.domain.errors import ConfigError
 from odsuite.analysis.frf import FrfSet, estimate_frf
-from odsuite.analysis.hammer import assess_hits
+from odsuite.analysis.hammer import assess_hits, held_range
 from odsuite.analysis.modal import ModalResult, identify_modes
 from odsuite.store.project import DerivedArray, open_project
 from odsuite.domain.systeminfo import SensorType
@@ -45,16 +45,10 @@ def response_columns(exp) -> list[int]:
 
 
 def _converter_ranges(exp, data: np.ndarray) -> list[tuple[float, float] | None]:
-    """Each channel's converter range in the channel's SI units, None where unknown. The Systeminfo
-    DAQ limits are what the operator asked for; a card then picks the smallest hardware range
-    holding them (NI: 0.05..10 V), so samples beyond the limits show the real range is wider and
-    not known here (clipping is then told by flat tops alone, see ``hammer.is_clipped``)."""
-    out: list[tuple[float, float] | None] = []
-    for k, (c, s) in enumerate(zip(exp.systeminfo.channels, _scale(exp))):
-        lo, hi = sorted((c.limit_low * s, c.limit_high * s))
-        inside = data[:, k].min() >= lo and data[:, k].max() <= hi
-        out.append((lo, hi) if inside else None)
-    return out
+    """Each channel's converter range in the channel's SI units, None where unknown
+    (``hammer.held_range``: the Systeminfo DAQ limits where the samples stay inside them)."""
+    return [held_range(data[:, k], c.limit_low * s, c.limit_high * s)
+            for k, (c, s) in enumerate(zip(exp.systeminfo.channels, _scale(exp)))]
 
 
 def hits_frf(exp, where: str, *, estimator: str = "H1", record_length: int | None = None,

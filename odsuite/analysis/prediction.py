@@ -18,6 +18,7 @@ import scipy.special
 
 from odsuite.processing.chain_spec import chain_for_channel, stage_names
 from odsuite.processing.executor import run_array
+from odsuite.analysis.hammer import held_range, is_clipped
 from odsuite.domain.errors import ConfigError
 from odsuite.analysis.noise_floor import (
     active_var,
@@ -375,15 +376,29 @@ def prepare_experiment(project, name: str, exp=None) -> PreparedExperiment:
         units.append(("u" if ch.micro_units else "") + ch.unit)
     if not sensors:
         raise ConfigError(f"{where}: no accelerometer channel matches a sensor of rig {rig.name!r}")
+    clipped = [j for j, (k, ch) in enumerate(zip(columns, infos))
+               if is_clipped(raw[:, k], limits=held_range(raw[:, k], ch.limit_low, ch.limit_high))]
+    if len(clipped) == len(sensors):
+        raise ConfigError(f"{where}: every response channel is clipped at its converter's limits "
+                          f"(channels {', '.join(str(k) for k in columns)}): record again with a wider "
+                          "input range or a softer blow")
+    # a model cannot follow a signal the converter cut off: a clipped channel's residual is the
+    # clipping, which no effect explains, so the channel is left out of this experiment
+    clip_notes = [f"{where}: channel {columns[j]} ({sensors[j].name}) is clipped at its converter's limits: "
+                  "left out of this experiment's comparison" for j in clipped]
+    kept = [j for j in range(len(sensors)) if j not in clipped]
+    sensors, columns, vpu, chains, units, infos = ([x[j] for j in kept] for x in (sensors, columns, vpu, chains,
+                                                                                    units, infos))
     to_tap = [chain.through(tap) for chain in chains]  # the integrals after it are not needed here
     volts = raw[:, columns]
     measured = np.column_stack([r[tap] for r in run_each(to_tap, volts)])
     trigger = exp.pretrigger if exp.pretrigger > 0 else find_trigger(force)
     micro = np.array([1e6 if si.channels[k].micro_units else 1.0 for k in columns])
     step, differ = adc_steps(volts, lsb_v)
-    notes = [f"{where}: channel {columns[j]} ({sensors[j].name}) is recorded on a {1e3 * step[j]:.4g} mV grid, "
-             f"{step[j] / lsb_v:.3g}x the {1e3 * lsb_v:.4g} mV step the rig's [acquisition] declares: the noise "
-             "floor uses the recorded grid" for j in differ]
+    notes = clip_notes + [
+        f"{where}: channel {columns[j]} ({sensors[j].name}) is recorded on a {1e3 * step[j]:.4g} mV grid, "
+        f"{step[j] / lsb_v:.3g}x the {1e3 * lsb_v:.4g} mV step the rig's [acquisition] declares: the noise "
+        "floor uses the recorded grid" for j in differ]
     lsb = step / np.abs(np.asarray(vpu)) * micro
     quiet = split_noise(volts, trigger, exp.sampling_rate)
     disturbance = np.column_stack([r[tap] for r in run_each(to_tap, quiet.disturbance)])

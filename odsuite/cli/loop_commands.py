@@ -37,8 +37,9 @@ def compare_cmd(
     for exp in experiments:
         table.add_column(shown(exp), justify="right")
     table.add_column("all", justify="right")
-    for n in result["channels"]:
-        table.add_row(shown(n), *(f"{result['experiments'][e]['channels'].get(n, float('nan')):.3f}"
+    for n in result["channels"]:  # "-": the channel is not compared in that experiment
+        table.add_row(shown(n), *(f"{result['experiments'][e]['channels'][n]:.3f}"
+                                  if n in result["experiments"][e]["channels"] else "-"
                                   for e in experiments), f"{result['channels'][n]:.3f}")
     table.add_row("all", *(f"{result['experiments'][e]['error']:.3f}" for e in experiments), f"{result['error']:.3f}",
                   style="bold")
@@ -115,6 +116,8 @@ def _print_diagnosis(doc) -> None:
         console.print(f"({len(doc['candidates']) - len(told)} more candidates' evidence: --json)", highlight=False)
     if doc["not_applicable"]:
         paragraph(f"not applicable to this model: {', '.join(doc['not_applicable'])}")
+    for note in doc["notes"]:
+        paragraph(note)
 
 
 

@@ -225,6 +225,8 @@ class Diagnosis:
     verdict: str = ""
     signature: Signature = field(default_factory=Signature)
     message: str = ""
+    #: what the records say against the rig or the comparison (a clipped channel left out)
+    notes: list[str] = field(default_factory=list)
 
     @property
     def residual_to_floor(self) -> float:
@@ -237,7 +239,8 @@ class Diagnosis:
                 "baseline_error": self.baseline_error, "noise_floor_error": self.noise_floor_error,
                 "revision": self.revision, "candidates": [c.as_dict() for c in self.candidates],
                 "residual_peaks": self.residual_peaks, "model_evaluations": self.evaluations,
-                "not_applicable": self.not_applicable, "other_families": self.other_families}
+                "not_applicable": self.not_applicable, "other_families": self.other_families,
+                "notes": self.notes}
 
 
 def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: float, noise: float,
@@ -464,7 +467,7 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     candidates = _ordered(candidates, pairs, exps, base, job)
     diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=job["noise"], revision=rev.get("revision"),
                           candidates=candidates, residual_peaks=job["peaks"], evaluations=evaluations,
-                          not_applicable=not_applicable,
+                          not_applicable=not_applicable, notes=[n for e in exps for n in e.notes],
                           other_families=[n for n in not_applicable if getattr(regs.effects.get(n), "structures", None)
                                           and not isinstance(base.shared.structure, regs.effects.get(n).structures)])
     _conclude(diagnosis, cmp, base, exps, before, res0)
