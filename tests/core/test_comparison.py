@@ -237,3 +237,66 @@ def test_frf_magnitude_error_leaves_out_a_channel_the_model_keeps_still():
     db = out["magnitude_error_db"]["hit"]
     assert db["b"] is None
     assert db["a"] == pytest.approx(20 * np.log10(1.1), abs=1e-6)
+
+
+def test_a_clipped_channel_is_left_out_of_that_experiment(tmp_path):
+    """The truth recorded twice, once with zC cut off at a converter range of 60 % of its peak (the
+    record declares that range): the model equal to the truth still compares at zero error, zC
+    compared in the unclipped record only, and compare says why. Compared with the clipped samples,
+    the same model is far off in zC."""
+    from odsuite.analysis.modelrev import base_model
+    from odsuite.analysis.comparison import nrmse
+
+    path = tmp_path / "clipped.h5"
+    p = create_project(path)
+    rig = p.rig
+    model = base_model(rig, registries=p.registries)
+    point, direction = np.array([0.0, 0.004122, -0.011399]), np.array([0.0, 0.0, 1.0])
+    raw, si = _independent_record(rig, model, point, direction, _half_sine(N, PRE, 1e-3, 50.0))
+    zc = next(s.channel for s in rig.sensors if s.name == "zC")
+    limit = 0.6 * np.abs(raw[:, zc]).max()
+    clipped = raw.copy()
+    clipped[:, zc] = np.clip(raw[:, zc], -limit, limit)
+    channels = list(si.channels)
+    channels[zc] = replace(channels[zc], limit_low=-limit, limit_high=limit)
+    for name, data, info in (("T8", raw, si), ("T8clip", clipped, replace(si, channels=channels))):
+        p.add_experiment(name, data, sampling_rate=FS, systeminfo=info,
+                         excitation=Excitation(rig.force_channel, point, direction), pretrigger=PRE)
+    exps = prepare(p)
+    result = compare(p)
+    p.close()
+    by_name = {e.name: e for e in exps}
+    assert [s.name for s in by_name["T8"].sensors] == [s.name for s in rig.sensors]
+    assert [s.name for s in by_name["T8clip"].sensors] == [s.name for s in rig.sensors if s.name != "zC"]
+    assert zc not in by_name["T8clip"].columns
+    assert any(f"channel {zc} (zC) is clipped" in n for n in result.notes)
+    assert result.error < 1e-6
+    assert "zC" not in result.experiments["T8clip"]["channels"] and "zC" in result.channels
+    assert result.bands["channels"] == [s.name for s in rig.sensors]
+    # what leaving it out avoids: the clipped record's zC through its chain against the truth's
+    j = [s.name for s in rig.sensors].index("zC")
+    cut = chain_for_channel(channels[zc], registry=_installed_steps()).run(clipped[:, zc])["acceleration"]
+    assert nrmse(by_name["T8"].measured[:, j], cut) > 0.1
+
+
+def test_every_channel_clipped_is_refused_naming_them(tmp_path):
+    from odsuite.analysis.modelrev import base_model
+    from odsuite.domain.errors import ConfigError
+
+    path = tmp_path / "all-clipped.h5"
+    p = create_project(path)
+    rig = p.rig
+    model = base_model(rig, registries=p.registries)
+    point, direction = np.array([0.01, 0.004122, -0.011399]), np.array([0.3, 0.3, 0.9])
+    raw, si = _independent_record(rig, model, point, direction, _half_sine(N, PRE, 1e-3, 50.0))
+    channels = list(si.channels)
+    for s in rig.sensors:
+        limit = 0.5 * np.abs(raw[:, s.channel]).max()
+        raw[:, s.channel] = np.clip(raw[:, s.channel], -limit, limit)
+        channels[s.channel] = replace(channels[s.channel], limit_low=-limit, limit_high=limit)
+    p.add_experiment("T9", raw, sampling_rate=FS, systeminfo=replace(si, channels=channels),
+                     excitation=Excitation(rig.force_channel, point, direction / np.linalg.norm(direction)),
+                     pretrigger=PRE)
+    with pytest.raises(ConfigError, match=r"experiment 'T9': every response channel is clipped"):
+        prepare(p)
+    p.close()

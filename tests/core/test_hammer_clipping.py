@@ -56,6 +56,13 @@ def test_amplifier_saturation_below_the_converter_range_is_clipped():
     assert is_clipped(volts, limits=(-5.0, 5.0))
 
 
+def test_a_constant_channel_is_not_clipped_but_one_at_a_limit_is():
+    # a channel that sees no response (a sensor across the blow's line) holds one value throughout
+    assert not is_clipped(np.zeros(4096))
+    assert not is_clipped(np.full(4096, 0.3), limits=(-5.0, 5.0))
+    assert is_clipped(np.full(4096, 5.0), limits=(-5.0, 5.0))
+
+
 def test_converter_range_end_is_clipped_even_without_a_flat_top():
     volts = _adc(_hit(peak=5.02))  # beyond +5 V - 1/2 lsb: the top code (5 V - 1 lsb), held 2 samples
     assert np.count_nonzero(volts == volts.max()) < 3
