@@ -116,7 +116,7 @@ def _print_diagnosis(doc) -> None:
         console.print(f"({len(doc['candidates']) - len(told)} more candidates' evidence: --json)", highlight=False)
     if doc["not_applicable"]:
         paragraph(f"not applicable to this model: {', '.join(doc['not_applicable'])}")
-    for note in doc["notes"]:
+    for note in doc.get("notes", ()):  # a document written before diagnose kept notes has none
         paragraph(note)
 
 

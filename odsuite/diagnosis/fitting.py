@@ -1353,7 +1353,7 @@ def validate(problem: Problem, u: np.ndarray, res) -> tuple[float, str]:
     k = problem.stride
     sizes = [len(range(0, e.n_samples, k)) * e.measured.shape[1] for e in exps]
     starts = np.concatenate([[0], np.cumsum(sizes)])
-    ncols = exps[0].measured.shape[1]
+    ncols = max(e.measured.shape[1] for e in exps)  # an experiment may leave a clipped channel out
     blocks = None
     if (any(f.experiment is not None for f in problem.free) or len(exps) < 2) and any(
             f.param.sensor is not None for f in problem.free):
