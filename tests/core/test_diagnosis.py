@@ -41,6 +41,14 @@ def _true_error(project, effects, exps) -> float:
     return compare(project, revision=rev, prepared=exps).error
 
 
+def _simulators_own(cand) -> set[str]:
+    """The members of a pair that are the simulator's own, not hidden: its accelerometers' 54 kHz
+    mounted resonance, which the thesis rig file does not declare (test_nominal_truth_nothing_significant
+    allows sensor_dynamics to find it between 30 and 80 kHz)."""
+    period = cand.parameters.get("sensor_dynamics.resonance_period_s")
+    return {"sensor_dynamics"} if period and 30e3 <= 1 / period <= 80e3 else set()
+
+
 def _check_found(path: Path, effects) -> None:
     """Rounds of diagnose + add_effect of the top candidate find every hidden effect (a pair
     fitted jointly finds both of its members in one round), and the error ends within 2x of the
@@ -64,7 +72,7 @@ def _check_found(path: Path, effects) -> None:
             named = (members | set(top.confounded_with)) & (hidden - found)
             assert named, (f"top {top.effect} (confounded with {top.confounded_with}) is not one of "
                            f"{sorted(hidden - found)}")
-            if not members <= hidden:
+            if not members <= hidden | _simulators_own(top):
                 # a stand-in may only be named when the diagnosis says it is confounded
                 assert top.confounded_with
             found |= named
