@@ -30,6 +30,7 @@ from odsuite.analysis.prediction import (
     predict,
     prepare,
     sensor_noise,
+    solved_bodies,
 )
 from odsuite.domain.rig import Rig
 
@@ -164,6 +165,8 @@ class Comparison:
     floor: NoiseFloor | None = None
     # what the modal table rests on (FRFs, MAC matrices) for figures; not part of the JSON
     modal_records: list | None = None
+    # the model's predictions of the records (samples x sensors each); not part of the JSON
+    predictions: list[np.ndarray] | None = field(default=None, repr=False)
 
     @property
     def residual_to_floor(self) -> float:
@@ -267,14 +270,19 @@ def noise_floor_error(exps: Sequence[PreparedExperiment], model=None) -> float:
     return noise_floor(exps, model).error()
 
 
-def _coordinates(rig: Rig, exp: PreparedExperiment, model) -> tuple[dict, dict]:
-    """Per-coordinate errors of the generalized coordinates, for every body whose motion its sensors
-    determine, and the rigidity check on the measured accelerations where the body's solver has one."""
+def _coordinates(rig: Rig, exp: PreparedExperiment, model, errors: bool = True) -> tuple[dict, dict]:
+    """Per-coordinate errors of the generalized coordinates (``errors``), for every body whose motion
+    its sensors determine, and the rigidity check on the measured accelerations where the body's
+    solver has one."""
     from odsuite.contracts.solvers import choose_solver
 
     coords, rigidity = {}, {}
-    for name, (gm, gp, cols) in coordinate_series(rig, exp, model).items():
-        coords[name] = {c: float(nrmse(gm[:, i], gp[:, i])) for i, c in enumerate(COORDINATE_NAMES)}
+    # without the errors, no coordinates are solved: the rigidity check reads the measured signals alone
+    series = coordinate_series(rig, exp, model) if errors else {
+        c.body.name: (None, None, list(idx.values())) for c, idx in solved_bodies(rig, exp)}
+    for name, (gm, gp, cols) in series.items():
+        if errors:
+            coords[name] = {c: float(nrmse(gm[:, i], gp[:, i])) for i, c in enumerate(COORDINATE_NAMES)}
         signals = {exp.sensors[j].name: exp.measured[:, j] for j in cols}
         solver = choose_solver(rig, rig.body(name), signals, exp.registries.coordinate_solvers).solver
         if not hasattr(solver, "rigidity_check"):
@@ -287,20 +295,23 @@ def _coordinates(rig: Rig, exp: PreparedExperiment, model) -> tuple[dict, dict]:
 
 def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapping[str, Any] | None = None,
             prepared: Sequence[PreparedExperiment] | None = None, resonances: bool = True,
-            figures: bool = True, progress: Callable[[str], None] | None = None) -> Comparison:
+            figures: bool = True, progress: Callable[[str], None] | None = None,
+            coordinates: bool = True) -> Comparison:
     """Compare the current model revision (or ``revision``) with every experiment. ``resonances``:
     also identify measured and model resonances from FRFs (a few seconds; the fitting loop, which
     needs only the errors, leaves it out). ``figures=False``: the modal table without what only
     its figures draw (the records' FRFs where their modes are stored; ``modal_records``' FRFs
-    None). ``progress(stage)`` is told each stage as it starts."""
+    None). ``coordinates=False``: no generalized coordinates' errors (the rigidity check stays).
+    ``progress(stage)`` is told each stage as it starts."""
     # one BLAS thread: the matrices are small, and a second thread spinning for a busy core cost
     # 5.0 s CPU against 3.1 s (plate-and-motor bench project, loaded two-core machine)
     with threadpool_limits(1):
         return _compare(project, experiments=experiments, revision=revision, prepared=prepared,
-                        resonances=resonances, figures=figures, say=progress or (lambda stage: None))
+                        resonances=resonances, figures=figures, say=progress or (lambda stage: None),
+                        coordinates=coordinates)
 
 
-def _compare(project, *, experiments, revision, prepared, resonances, figures, say) -> Comparison:
+def _compare(project, *, experiments, revision, prepared, resonances, figures, say, coordinates) -> Comparison:
     from odsuite.analysis.modal_comparison import modal_records
     from odsuite.analysis.modelrev import current_revision, revision_model
 
@@ -346,7 +357,7 @@ def _compare(project, *, experiments, revision, prepared, resonances, figures, s
         at = [sensor_names.index(s.name) for s in e.sensors]
         band_num[:, at] += (berr**2) * bshare * energy
         band_den[:, at] += bshare * energy
-        coords[e.name], rigidity[e.name] = _coordinates(project.rig, e, rmodel.for_experiment(e.name))
+        coords[e.name], rigidity[e.name] = _coordinates(project.rig, e, rmodel.for_experiment(e.name), coordinates)
     channels = {n: float(np.sqrt(chan_num[n] / chan_den[n])) if chan_den[n] > 0 else float("nan")
                 for n in chan_num}
     band_table = np.sqrt(band_num / np.where(band_den > 0, band_den, np.nan))
@@ -376,5 +387,5 @@ def _compare(project, *, experiments, revision, prepared, resonances, figures, s
                **(frf_comparison(exps, preds, model_modes) if resonances else {})},
         residual_peaks=residual_peaks(exps, preds, modes_hz, floor), worst=worst, floor=floor,
         modal=modal, modal_notes=modal_notes, modal_records=records,
-        notes=[n for e in exps for n in e.notes],
+        notes=[n for e in exps for n in e.notes], predictions=preds,
     )

@@ -424,6 +424,15 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     in the same order of operations, so the result does not depend on ``workers``."""
     if workers is not None and workers < 1:
         raise ConfigError(f"diagnose: workers must be at least 1, got {workers}")
+    # one BLAS thread throughout, not only around the candidates' work: the baseline, the ranking
+    # and the verdict multiply small matrices too, where a second thread spinning for a busy core
+    # cost 5x the CPU (the two-body bench's verdict: 1.6 s against 0.3 s); and a product's
+    # rounding may depend on the threads that share it
+    with threadpool_limits(1):
+        return _diagnose(project, effects, experiments, full_fits, progress, prepared, workers)
+
+
+def _diagnose(project, effects, experiments, full_fits, progress, prepared, workers) -> Diagnosis:
     regs = project.registries
     rev = current_revision(project)
     base = revision_model(project, rev)
@@ -445,9 +454,7 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     pool = (ProcessPoolExecutor(workers, multiprocessing.get_context("fork"), initializer=worker_start)
             if parallel else InOrder())
     try:
-        # one BLAS thread here too: a product's rounding may depend on the threads that share it,
-        # and the result must not depend on ``workers``
-        with pool, threadpool_limits(1):
+        with pool:
             screened, evaluations = _screen(pool, token, job, names, progress)
             candidates, fitted, count = _fit_best(pool, token, job, screened[:full_fits], workers if parallel else 1,
                                                   exps, cmp, res0, progress)
@@ -515,7 +522,7 @@ def _baseline(project, rev, base, exps):
     predictions and where it fails, resolved by experiment, channel and band."""
     from odsuite.analysis.comparison import compare
 
-    cmp = compare(project, revision=rev, prepared=exps, resonances=False)
+    cmp = compare(project, revision=rev, prepared=exps, resonances=False, coordinates=False)
     den = sum(float(np.sum(e.measured**2)) for e in exps)
     sse0 = cmp.error**2 * den
     windows = fit_windows(exps)
@@ -538,7 +545,7 @@ def _baseline(project, rev, base, exps):
            "tail0": max(sse0 - sse0_win, 0.0),
            "force_levels": {e.name: float(np.max(np.abs(e.force))) for e in exps}}
     # where the model fails, resolved by experiment, channel and band: the baseline of every gain test
-    before = [predict(base.for_experiment(e.name), e) for e in exps]
+    before = cmp.predictions
     return cmp, job, before, resolution.resolve(exps, before, cmp.floor)
 
 

@@ -155,6 +155,25 @@ def test_error_is_the_pooled_nrmse_after_the_filter_chain(nominal):
     assert result.error > 0.1  # a 10 % frequency shift is a large time-domain error
 
 
+def test_without_coordinates_the_rigidity_check_and_the_predictions_stay(nominal):
+    """compare(coordinates=False), as diagnose's baseline asks, solves no generalized coordinates:
+    its rigidity check, read from the measured accelerations alone, is the full comparison's, and the
+    predictions it hands back are the model's and give its error by hand."""
+    path, _, _ = nominal
+    import odsuite
+
+    with odsuite.open_project(path) as p:
+        full = compare(p, experiments=["T8stiff"])
+        lean = compare(p, experiments=["T8stiff"], coordinates=False)
+        exps = prepare(p, ["T8stiff"])
+    assert full.coordinates["T8stiff"] and lean.coordinates["T8stiff"] == {}
+    assert lean.rigidity["T8stiff"] and lean.rigidity == full.rigidity
+    assert lean.error == full.error
+    m, q = exps[0].measured, lean.predictions[0]
+    assert q.shape == m.shape
+    assert lean.error == pytest.approx(np.sqrt(np.sum((m - q) ** 2) / np.sum(m**2)), rel=1e-12)
+
+
 def test_noise_floor_from_the_pretrigger(nominal, tmp_path):
     """White noise of known RMS on every accelerometer: the noise floor estimate matches the
     expected noise energy over the signal energy, and a perfect model's error sits on it."""
