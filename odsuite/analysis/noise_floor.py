@@ -96,6 +96,15 @@ def in_band(fs: float, n_samples: int, bands: Sequence[tuple[float, float]]) -> 
     return [(f >= lo) & ((f < hi) if hi < fs / 2 else (f <= hi)) & (f > 0) for lo, hi in bands]
 
 
+def band_slices(fs: float, n_samples: int, bands: Sequence[tuple[float, float]]) -> list[slice]:
+    """``in_band``'s masks as the runs of lines they are: indexing by one gives a view, not a copy."""
+    out = []
+    for m in in_band(fs, n_samples, bands):
+        idx = np.flatnonzero(m)
+        out.append(slice(int(idx[0]), int(idx[-1]) + 1) if idx.size else slice(0, 0))
+    return out
+
+
 def band_dof(lines: np.ndarray, masks: Sequence[np.ndarray], smooth: int = 5) -> np.ndarray:
     """Degrees of freedom of a noise's energy per band (bands x columns) from its expected line
     energies: 2 (sum S)^2 / sum S^2 over the band's lines (2 per line when flat, fewer where a
