@@ -73,20 +73,27 @@ PEAK_FALSE_ALARM = 0.01
 PEAK_MIN_SHARE = 0.02
 
 
+def residual_spectra(exps: Sequence[PreparedExperiment], predictions: Sequence[np.ndarray]
+                     ) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Each record's residual Welch spectrum (frequencies, PSD samples x sensors) at the first
+    record's sampling rate, as ``residual_peaks`` takes them."""
+    return [welch(e.measured - p, exps[0].fs, e.n_samples) for e, p in zip(exps, predictions)]
+
+
 def residual_peaks(exps: Sequence[PreparedExperiment], predictions: Sequence[np.ndarray],
                    model_modes_hz: Sequence[float] = (), floor: NoiseFloor | None = None, *,
-                   max_peaks: int = 5) -> list[dict[str, Any]]:
+                   max_peaks: int = 5, spectra: Sequence[tuple[np.ndarray, np.ndarray]] | None = None
+                   ) -> list[dict[str, Any]]:
     """Peaks of the pooled residual spectrum that the noise floor does not explain, each with the
     channels where it is strongest and whether a model mode lies within 5 % of it ("lacking" when
     none does). A frequency counts when the residual's Welch spectrum exceeds the floor's by more
     than its chi-square spread allows (``PEAK_FALSE_ALARM`` over all frequencies: Bonferroni);
-    without a floor, every prominent peak is listed."""
-    fs = exps[0].fs
+    without a floor, every prominent peak is listed. ``spectra``: ``residual_spectra``'s, where
+    the caller has them."""
     psd_sum = floor_sum = None
     per_channel: dict[str, np.ndarray] = {}
     segments = 1
-    for e, p in zip(exps, predictions):
-        f, pxx = welch(e.measured - p, fs, e.n_samples)
+    for e, (f, pxx) in zip(exps, spectra if spectra is not None else residual_spectra(exps, predictions)):
         nfft = 2 * (len(f) - 1)
         segments = max(1, 1 + (e.n_samples - nfft) // (nfft // 2))
         psd_sum = pxx.sum(axis=1) if psd_sum is None else psd_sum + pxx.sum(axis=1)
@@ -167,6 +174,8 @@ class Comparison:
     modal_records: list | None = None
     # the model's predictions of the records (samples x sensors each); not part of the JSON
     predictions: list[np.ndarray] | None = field(default=None, repr=False)
+    # their residuals' Welch spectra (residual_spectra); not part of the JSON
+    residual_spectra: list[tuple[np.ndarray, np.ndarray]] | None = field(default=None, repr=False)
 
     @property
     def residual_to_floor(self) -> float:
@@ -379,13 +388,14 @@ def _compare(project, *, experiments, revision, prepared, resonances, figures, s
         say("identifying modes")
     modal, modal_notes, records = (modal_records(project, [e.name for e in exps], rmodel.for_experiment,
                                                  frfs=figures) if resonances else (None, None, None))
+    spectra = residual_spectra(exps, preds)
     return Comparison(
         error=pooled_error(exps, preds), noise_floor_error=floor.error(),
         revision=rev.get("revision"), experiments=per_exp, channels=channels, coordinates=coords,
         bands=bands, rigidity=rigidity,
         modes={"model": model_modes.as_list(),
                **(frf_comparison(exps, preds, model_modes) if resonances else {})},
-        residual_peaks=residual_peaks(exps, preds, modes_hz, floor), worst=worst, floor=floor,
+        residual_peaks=residual_peaks(exps, preds, modes_hz, floor, spectra=spectra), worst=worst, floor=floor,
         modal=modal, modal_notes=modal_notes, modal_records=records,
-        notes=[n for e in exps for n in e.notes], predictions=preds,
+        notes=[n for e in exps for n in e.notes], predictions=preds, residual_spectra=spectra,
     )
