@@ -30,6 +30,7 @@ from odsuite.analysis.prediction import (
     predict,
     prepare,
     sensor_noise,
+    solved_bodies,
 )
 from odsuite.domain.rig import Rig
 
@@ -72,20 +73,27 @@ PEAK_FALSE_ALARM = 0.01
 PEAK_MIN_SHARE = 0.02
 
 
+def residual_spectra(exps: Sequence[PreparedExperiment], predictions: Sequence[np.ndarray]
+                     ) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Each record's residual Welch spectrum (frequencies, PSD samples x sensors) at the first
+    record's sampling rate, as ``residual_peaks`` takes them."""
+    return [welch(e.measured - p, exps[0].fs, e.n_samples) for e, p in zip(exps, predictions)]
+
+
 def residual_peaks(exps: Sequence[PreparedExperiment], predictions: Sequence[np.ndarray],
                    model_modes_hz: Sequence[float] = (), floor: NoiseFloor | None = None, *,
-                   max_peaks: int = 5) -> list[dict[str, Any]]:
+                   max_peaks: int = 5, spectra: Sequence[tuple[np.ndarray, np.ndarray]] | None = None
+                   ) -> list[dict[str, Any]]:
     """Peaks of the pooled residual spectrum that the noise floor does not explain, each with the
     channels where it is strongest and whether a model mode lies within 5 % of it ("lacking" when
     none does). A frequency counts when the residual's Welch spectrum exceeds the floor's by more
     than its chi-square spread allows (``PEAK_FALSE_ALARM`` over all frequencies: Bonferroni);
-    without a floor, every prominent peak is listed."""
-    fs = exps[0].fs
+    without a floor, every prominent peak is listed. ``spectra``: ``residual_spectra``'s, where
+    the caller has them."""
     psd_sum = floor_sum = None
     per_channel: dict[str, np.ndarray] = {}
     segments = 1
-    for e, p in zip(exps, predictions):
-        f, pxx = welch(e.measured - p, fs, e.n_samples)
+    for e, (f, pxx) in zip(exps, spectra if spectra is not None else residual_spectra(exps, predictions)):
         nfft = 2 * (len(f) - 1)
         segments = max(1, 1 + (e.n_samples - nfft) // (nfft // 2))
         psd_sum = pxx.sum(axis=1) if psd_sum is None else psd_sum + pxx.sum(axis=1)
@@ -164,6 +172,10 @@ class Comparison:
     floor: NoiseFloor | None = None
     # what the modal table rests on (FRFs, MAC matrices) for figures; not part of the JSON
     modal_records: list | None = None
+    # the model's predictions of the records (samples x sensors each); not part of the JSON
+    predictions: list[np.ndarray] | None = field(default=None, repr=False)
+    # their residuals' Welch spectra (residual_spectra); not part of the JSON
+    residual_spectra: list[tuple[np.ndarray, np.ndarray]] | None = field(default=None, repr=False)
 
     @property
     def residual_to_floor(self) -> float:
@@ -267,14 +279,19 @@ def noise_floor_error(exps: Sequence[PreparedExperiment], model=None) -> float:
     return noise_floor(exps, model).error()
 
 
-def _coordinates(rig: Rig, exp: PreparedExperiment, model) -> tuple[dict, dict]:
-    """Per-coordinate errors of the generalized coordinates, for every body whose motion its sensors
-    determine, and the rigidity check on the measured accelerations where the body's solver has one."""
+def _coordinates(rig: Rig, exp: PreparedExperiment, model, errors: bool = True) -> tuple[dict, dict]:
+    """Per-coordinate errors of the generalized coordinates (``errors``), for every body whose motion
+    its sensors determine, and the rigidity check on the measured accelerations where the body's
+    solver has one."""
     from odsuite.contracts.solvers import choose_solver
 
     coords, rigidity = {}, {}
-    for name, (gm, gp, cols) in coordinate_series(rig, exp, model).items():
-        coords[name] = {c: float(nrmse(gm[:, i], gp[:, i])) for i, c in enumerate(COORDINATE_NAMES)}
+    # without the errors, no coordinates are solved: the rigidity check reads the measured signals alone
+    series = coordinate_series(rig, exp, model) if errors else {
+        c.body.name: (None, None, list(idx.values())) for c, idx in solved_bodies(rig, exp)}
+    for name, (gm, gp, cols) in series.items():
+        if errors:
+            coords[name] = {c: float(nrmse(gm[:, i], gp[:, i])) for i, c in enumerate(COORDINATE_NAMES)}
         signals = {exp.sensors[j].name: exp.measured[:, j] for j in cols}
         solver = choose_solver(rig, rig.body(name), signals, exp.registries.coordinate_solvers).solver
         if not hasattr(solver, "rigidity_check"):
@@ -287,20 +304,23 @@ def _coordinates(rig: Rig, exp: PreparedExperiment, model) -> tuple[dict, dict]:
 
 def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapping[str, Any] | None = None,
             prepared: Sequence[PreparedExperiment] | None = None, resonances: bool = True,
-            figures: bool = True, progress: Callable[[str], None] | None = None) -> Comparison:
+            figures: bool = True, progress: Callable[[str], None] | None = None,
+            coordinates: bool = True) -> Comparison:
     """Compare the current model revision (or ``revision``) with every experiment. ``resonances``:
     also identify measured and model resonances from FRFs (a few seconds; the fitting loop, which
     needs only the errors, leaves it out). ``figures=False``: the modal table without what only
     its figures draw (the records' FRFs where their modes are stored; ``modal_records``' FRFs
-    None). ``progress(stage)`` is told each stage as it starts."""
+    None). ``coordinates=False``: no generalized coordinates' errors (the rigidity check stays).
+    ``progress(stage)`` is told each stage as it starts."""
     # one BLAS thread: the matrices are small, and a second thread spinning for a busy core cost
     # 5.0 s CPU against 3.1 s (plate-and-motor bench project, loaded two-core machine)
     with threadpool_limits(1):
         return _compare(project, experiments=experiments, revision=revision, prepared=prepared,
-                        resonances=resonances, figures=figures, say=progress or (lambda stage: None))
+                        resonances=resonances, figures=figures, say=progress or (lambda stage: None),
+                        coordinates=coordinates)
 
 
-def _compare(project, *, experiments, revision, prepared, resonances, figures, say) -> Comparison:
+def _compare(project, *, experiments, revision, prepared, resonances, figures, say, coordinates) -> Comparison:
     from odsuite.analysis.modal_comparison import modal_records
     from odsuite.analysis.modelrev import current_revision, revision_model
 
@@ -346,7 +366,7 @@ def _compare(project, *, experiments, revision, prepared, resonances, figures, s
         at = [sensor_names.index(s.name) for s in e.sensors]
         band_num[:, at] += (berr**2) * bshare * energy
         band_den[:, at] += bshare * energy
-        coords[e.name], rigidity[e.name] = _coordinates(project.rig, e, rmodel.for_experiment(e.name))
+        coords[e.name], rigidity[e.name] = _coordinates(project.rig, e, rmodel.for_experiment(e.name), coordinates)
     channels = {n: float(np.sqrt(chan_num[n] / chan_den[n])) if chan_den[n] > 0 else float("nan")
                 for n in chan_num}
     band_table = np.sqrt(band_num / np.where(band_den > 0, band_den, np.nan))
@@ -368,13 +388,14 @@ def _compare(project, *, experiments, revision, prepared, resonances, figures, s
         say("identifying modes")
     modal, modal_notes, records = (modal_records(project, [e.name for e in exps], rmodel.for_experiment,
                                                  frfs=figures) if resonances else (None, None, None))
+    spectra = residual_spectra(exps, preds)
     return Comparison(
         error=pooled_error(exps, preds), noise_floor_error=floor.error(),
         revision=rev.get("revision"), experiments=per_exp, channels=channels, coordinates=coords,
         bands=bands, rigidity=rigidity,
         modes={"model": model_modes.as_list(),
                **(frf_comparison(exps, preds, model_modes) if resonances else {})},
-        residual_peaks=residual_peaks(exps, preds, modes_hz, floor), worst=worst, floor=floor,
+        residual_peaks=residual_peaks(exps, preds, modes_hz, floor, spectra=spectra), worst=worst, floor=floor,
         modal=modal, modal_notes=modal_notes, modal_records=records,
-        notes=[n for e in exps for n in e.notes],
+        notes=[n for e in exps for n in e.notes], predictions=preds, residual_spectra=spectra,
     )

@@ -96,6 +96,15 @@ def in_band(fs: float, n_samples: int, bands: Sequence[tuple[float, float]]) -> 
     return [(f >= lo) & ((f < hi) if hi < fs / 2 else (f <= hi)) & (f > 0) for lo, hi in bands]
 
 
+def band_slices(fs: float, n_samples: int, bands: Sequence[tuple[float, float]]) -> list[slice]:
+    """``in_band``'s masks as the runs of lines they are: indexing by one gives a view, not a copy."""
+    out = []
+    for m in in_band(fs, n_samples, bands):
+        idx = np.flatnonzero(m)
+        out.append(slice(int(idx[0]), int(idx[-1]) + 1) if idx.size else slice(0, 0))
+    return out
+
+
 def band_dof(lines: np.ndarray, masks: Sequence[np.ndarray], smooth: int = 5) -> np.ndarray:
     """Degrees of freedom of a noise's energy per band (bands x columns) from its expected line
     energies: 2 (sum S)^2 / sum S^2 over the band's lines (2 per line when flat, fewer where a
@@ -283,12 +292,22 @@ class NoiseFloor:
                 "parts": self.parts}
 
 
-def welch(x: np.ndarray, fs: float, n_samples: int) -> tuple[np.ndarray, np.ndarray]:
-    """Welch spectrum (Hann, half overlap) with the segment length all spectra here share."""
+def _segment(n_samples: int) -> int:
+    """The Welch segment length all spectra here share: NFFT, halved for short records."""
     nfft = NFFT
     while nfft > n_samples:
         nfft //= 2
-    return scipy.signal.welch(x, fs=fs, nperseg=nfft, axis=0)
+    return nfft
+
+
+def welch(x: np.ndarray, fs: float, n_samples: int) -> tuple[np.ndarray, np.ndarray]:
+    """Welch spectrum (Hann, half overlap) with the segment length all spectra here share."""
+    return scipy.signal.welch(x, fs=fs, nperseg=_segment(n_samples), axis=0)
+
+
+def welch_frequencies(fs: float, n_samples: int) -> np.ndarray:
+    """The frequencies of ``welch``'s spectra (Hz)."""
+    return np.fft.rfftfreq(_segment(n_samples), 1.0 / fs)
 
 
 def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
@@ -328,15 +347,19 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
         parts[e.name] = {"broadband": float(broadband.sum()), "hum_and_trend": float(hum.sum()),
                          "force_noise": float(force_part.sum())}
         if spectra:
-            f, _ = welch(np.zeros((n, 1)), e.fs, n)
+            f = welch_frequencies(e.fs, n)
+            # every part's spectrum in one call: Welch transforms each column alone
+            blocks = [*simulated, *(b for b in (e.disturbance, h) if b is not None)]
+            spectra_of = iter(np.split(welch(np.concatenate(blocks, axis=1), e.fs, n)[1],
+                                       np.cumsum([b.shape[1] for b in blocks])[:-1], axis=1) if blocks else [])
             if simulated:
-                psd = np.mean([welch(r, e.fs, n)[1] for r in simulated], axis=0)
+                psd = np.mean([next(spectra_of) for _ in simulated], axis=0)
             else:  # flat one-sided density whose integral is the per-sample variance
                 psd = np.tile(broadband / n * 2.0 / e.fs, (len(f), 1))
             if e.disturbance is not None:
-                psd = psd + welch(e.disturbance, e.fs, n)[1]
+                psd = psd + next(spectra_of)
             if h is not None:
-                psd = psd + e.force_noise_energy * welch(h, e.fs, n)[1]
+                psd = psd + e.force_noise_energy * next(spectra_of)
             specs[e.name] = (f, psd)
             # the expected energy per line of every part, scaled so that each sensor's lines add up
             # to its floor energy (the rounding's share where no realisation simulates it)

@@ -924,25 +924,35 @@ def _integrates(exp: PreparedExperiment) -> bool:
     return all(t in chain.taps for chain in exp.chains for t in stage_names("acceleration"))
 
 
+def solved_bodies(rig: Rig, exp: PreparedExperiment) -> list[tuple[Any, dict[str, int]]]:
+    """The bodies whose motion ``exp``'s sensors determine (contracts.solvers.body_solvers' choice
+    for each), each with its sensors' columns in ``exp``; none when some channel is not integrated
+    twice (no displacements)."""
+    from odsuite.contracts.solvers import body_solvers
+
+    if not _integrates(exp):
+        return []
+    column = {s.name: j for j, s in enumerate(exp.sensors)}
+    return [(c, {n: column[n] for n in c.sensors})
+            for c in body_solvers(rig, column, exp.registries.coordinate_solvers)[0]]
+
+
 def coordinate_series(rig: Rig, exp: PreparedExperiment, model) -> dict[str, tuple[np.ndarray, np.ndarray, list[int]]]:
     """Per body whose motion its sensors determine: measured and model generalized coordinates at
     its G (samples x 6; m, rad), both from displacements after the full chain and the body's
     solver, and the body's columns in ``exp``. Empty when some channel is not integrated twice (no
     displacements)."""
-    from odsuite.contracts.solvers import body_solvers
-
     taps = stage_names("acceleration")
     out: dict[str, tuple[np.ndarray, np.ndarray, list[int]]] = {}
-    if not _integrates(exp):
+    bodies = solved_bodies(rig, exp)
+    if not bodies:
         return out
     predicted = through_chain(exp, simulate_sensors(model, exp), taps)
     measured = {t: np.empty_like(exp.measured) for t in taps}
     for j, res in enumerate(run_each(exp.chains, exp.volts)):
         for t in taps:
             measured[t][:, j] = res[t]
-    column = {s.name: j for j, s in enumerate(exp.sensors)}
-    for c in body_solvers(rig, column, exp.registries.coordinate_solvers)[0]:
-        idx = {n: column[n] for n in c.sensors}
+    for c, idx in bodies:
         gm = c.solver.solve(rig, c.body, {n: measured["displacement"][:, j] for n, j in idx.items()}).at_g
         gp = c.solver.solve(rig, c.body, {n: predicted["displacement"][:, j] for n, j in idx.items()}).at_g
         out[c.body.name] = (gm, gp, list(idx.values()))

@@ -26,9 +26,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import scipy.special
 import scipy.stats
 
-from odsuite.analysis.noise_floor import FLOOR_TOLERANCE, NoiseFloor, in_band, line_energies
+from odsuite.analysis.noise_floor import FLOOR_TOLERANCE, NoiseFloor, band_slices, line_energies
 
 #: probability that noise at the floor puts any cell of a comparison above its limit
 DETECTION_FALSE_ALARM = 0.01
@@ -96,10 +97,9 @@ def resolve(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFloor
     for e, p in zip(exps, predictions):
         edges, f_energy, f_dof = floor.bands[e.name]
         lines = line_energies(e.measured - p)
-        masks = in_band(e.fs, e.n_samples, edges)
-        r = np.array([lines[m].sum(axis=0) for m in masks])
-        own = np.array([2.0 * lines[m].sum(axis=0) ** 2 / np.maximum(np.sum(lines[m] ** 2, axis=0), 1e-300)
-                        for m in masks])
+        per_band = [lines[b] for b in band_slices(e.fs, e.n_samples, edges)]
+        r = np.array([b.sum(axis=0) for b in per_band])
+        own = np.array([2.0 * b.sum(axis=0) ** 2 / np.maximum(np.sum(b**2, axis=0), 1e-300) for b in per_band])
         names.append(e.name)
         chans.append([s.name for s in e.sensors])
         bands.append(list(edges))
@@ -111,7 +111,8 @@ def resolve(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFloor
     seen = [np.broadcast_to(floor.seen.get(e.name, np.ones(len(d), bool))[:, None], d.shape) for e, d in zip(exps, dof)]
     n_cells = sum(int(s.sum()) for s in seen)
     alpha = DETECTION_FALSE_ALARM / max(n_cells, 1)
-    limit = [np.where(s, DETECTION_TOLERANCE * scipy.stats.chi2.isf(alpha, d) / d, np.inf) for s, d in zip(seen, dof)]
+    # chi2.isf(alpha, d) as scipy.stats computes it, without its argument handling on every comparison
+    limit = [np.where(s, DETECTION_TOLERANCE * scipy.special.chdtri(d, alpha) / d, np.inf) for s, d in zip(seen, dof)]
     return Resolved(names, chans, bands, res, flo, dof, rdof, limit)
 
 

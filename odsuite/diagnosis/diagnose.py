@@ -29,7 +29,7 @@ from threadpoolctl import threadpool_limits
 from odsuite.contracts.effects import applies, family
 from odsuite.diagnosis import checks, joint, physical
 from odsuite.diagnosis.between_records import reported_with_covariance
-from odsuite.analysis.comparison import noise_floor, residual_peaks
+from odsuite.analysis.comparison import noise_floor, residual_peaks, residual_spectra
 from odsuite.domain.errors import ConfigError, DivergedError, NonPhysicalError
 from odsuite.diagnosis.fitting import (
     ROUNDING,
@@ -288,6 +288,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         shown_sds, spread = sds, None
     sse_win = sse
     tail = problem.tail_sse(u)
+    at_fit = problem.predictions(u, problem.full)  # kept by tail_sse where the records are cut
     sse += tail
     shared, per = problem.values(u)
     params: dict[str, float | None] = {}
@@ -344,6 +345,9 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
     cand._stopped = stopped
     baseline = math.sqrt(sse0 / den)
     cand.evidence = _evidence(problem, cand, baseline, noise, peaks, rigidity, modes_before, modes_after)
+    # the judgement (_judge) and the verdict predict the whole records at the fit again; the checks
+    # above predicted other points since
+    problem.keep(u, at_fit, problem.full)
     return cand
 
 
@@ -424,6 +428,15 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     in the same order of operations, so the result does not depend on ``workers``."""
     if workers is not None and workers < 1:
         raise ConfigError(f"diagnose: workers must be at least 1, got {workers}")
+    # one BLAS thread throughout, not only around the candidates' work: the baseline, the ranking
+    # and the verdict multiply small matrices too, where a second thread spinning for a busy core
+    # cost up to 5x the CPU (the two-body bench's verdict: 1.66 s against 0.55 s); and a product's
+    # rounding may depend on the threads that share it
+    with threadpool_limits(1):
+        return _diagnose(project, effects, experiments, full_fits, progress, prepared, workers)
+
+
+def _diagnose(project, effects, experiments, full_fits, progress, prepared, workers) -> Diagnosis:
     regs = project.registries
     rev = current_revision(project)
     base = revision_model(project, rev)
@@ -445,9 +458,7 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     pool = (ProcessPoolExecutor(workers, multiprocessing.get_context("fork"), initializer=worker_start)
             if parallel else InOrder())
     try:
-        # one BLAS thread here too: a product's rounding may depend on the threads that share it,
-        # and the result must not depend on ``workers``
-        with pool, threadpool_limits(1):
+        with pool:
             screened, evaluations = _screen(pool, token, job, names, progress)
             candidates, fitted, count = _fit_best(pool, token, job, screened[:full_fits], workers if parallel else 1,
                                                   exps, cmp, res0, progress)
@@ -515,7 +526,7 @@ def _baseline(project, rev, base, exps):
     predictions and where it fails, resolved by experiment, channel and band."""
     from odsuite.analysis.comparison import compare
 
-    cmp = compare(project, revision=rev, prepared=exps, resonances=False)
+    cmp = compare(project, revision=rev, prepared=exps, resonances=False, coordinates=False)
     den = sum(float(np.sum(e.measured**2)) for e in exps)
     sse0 = cmp.error**2 * den
     windows = fit_windows(exps)
@@ -538,7 +549,7 @@ def _baseline(project, rev, base, exps):
            "tail0": max(sse0 - sse0_win, 0.0),
            "force_levels": {e.name: float(np.max(np.abs(e.force))) for e in exps}}
     # where the model fails, resolved by experiment, channel and band: the baseline of every gain test
-    before = [predict(base.for_experiment(e.name), e) for e in exps]
+    before = cmp.predictions
     return cmp, job, before, resolution.resolve(exps, before, cmp.floor)
 
 
@@ -1006,10 +1017,16 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
     modes = list(base.shared.modes().frequency_hz)
     if before is None:
         before = [predict(base.for_experiment(e.name), e) for e in exps]
-    sig_before = signature(exps, before, cmp.floor, d.residual_peaks, amplitude, res0)
+    # the residuals' spectra the peaks took (at the first record's rate) serve the signature where
+    # every record has that rate
+    one_rate = all(e.fs == exps[0].fs for e in exps)
+    sig_before = signature(exps, before, cmp.floor, d.residual_peaks, amplitude, res0,
+                           cmp.residual_spectra if one_rate and before is cmp.predictions else None)
     rest = None
     if best is not None and d.verdict != "nothing to explain":
-        rest = signature(exps, after, floor_best, residual_peaks(exps, after, modes, floor_best), amplitude, res_best)
+        spectra = residual_spectra(exps, after)
+        rest = signature(exps, after, floor_best, residual_peaks(exps, after, modes, floor_best, spectra=spectra),
+                         amplitude, res_best, spectra if one_rate else None)
     d.signature = rest if rest is not None else sig_before
     d.message = message(d.verdict, d.baseline_error, d.noise_floor_error, best, sig_before, rest)
     if d.verdict in ("unexplained", "partly explained") and d.other_families:

@@ -300,8 +300,17 @@ class Problem:
         for p in out:
             p.flags.writeable = False
         if keep:
-            self._predictions = [(key, out)] + self._predictions[:PREDICTIONS_KEPT - 1]
+            self.keep(u, out, exps)
         return list(out)
+
+    def keep(self, u: np.ndarray, predictions: Sequence[np.ndarray],
+             exps: Sequence[PreparedExperiment] | None = None) -> None:
+        """Keep ``predictions`` (``predictions(u, exps)``'s) first among the kept ones: the last to go."""
+        if self.linear:  # the projection keeps its own
+            return
+        key = (u.tobytes(), tuple((e.name, e.n_samples) for e in (exps or self.exps)))
+        rest = [(k, p) for k, p in self._predictions if k != key]
+        self._predictions = [(key, list(predictions))] + rest[:PREDICTIONS_KEPT - 1]
 
     # residuals ---------------------------------------------------------------------------------
     def residual(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None,

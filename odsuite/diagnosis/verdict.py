@@ -51,10 +51,12 @@ class Signature:
 
 
 def signature(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFloor,
-              peaks: Sequence[dict[str, Any]], amplitude_dependent: bool, resolved=None) -> Signature:
+              peaks: Sequence[dict[str, Any]], amplitude_dependent: bool, resolved=None,
+              spectra: Sequence[tuple[np.ndarray, np.ndarray]] | None = None) -> Signature:
     """Where a residual exceeds the floor by more than FLOOR_TOLERANCE (amplitude): per band (Welch
     spectra of residual and floor), per channel and per experiment (energies), strongest first;
-    with the residual's peaks above the floor and the ``resolved`` cells above it."""
+    with the residual's peaks above the floor and the ``resolved`` cells above it. ``spectra``:
+    the residuals' Welch spectra at each record's own rate, where the caller has them."""
     sig = Signature(peaks_hz=[round(float(p["frequency_hz"]), 1) for p in peaks],
                     amplitude_dependent=amplitude_dependent)
     if resolved is not None:
@@ -65,14 +67,14 @@ def signature(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFlo
     flo_c: dict[str, float] = {}
     band_r = band_f = None
     f = None
-    for e, p in zip(exps, predictions):
+    for i, (e, p) in enumerate(zip(exps, predictions)):
         r = e.measured - p
         res_e[e.name] = float(np.sum(r**2))
         for j, s in enumerate(e.sensors):
             res_c[s.name] = res_c.get(s.name, 0.0) + float(np.sum(r[:, j] ** 2))
             flo_c[s.name] = flo_c.get(s.name, 0.0) + floor.energy[e.name][s.name]
         if e.name in floor.spectra:
-            f, pr = welch(r, e.fs, e.n_samples)
+            f, pr = spectra[i] if spectra is not None else welch(r, e.fs, e.n_samples)
             fl = floor.spectra[e.name][1]
             if fl.shape == pr.shape:
                 band_r = pr.sum(axis=1) if band_r is None else band_r + pr.sum(axis=1)

@@ -155,6 +155,47 @@ def test_error_is_the_pooled_nrmse_after_the_filter_chain(nominal):
     assert result.error > 0.1  # a 10 % frequency shift is a large time-domain error
 
 
+def test_without_coordinates_the_rigidity_check_and_the_predictions_stay(nominal):
+    """compare(coordinates=False), as diagnose's baseline asks, solves no generalized coordinates:
+    its rigidity check, read from the measured accelerations alone, is the full comparison's, and the
+    predictions it hands back are the model's and give its error by hand."""
+    path, _, _ = nominal
+    import odsuite
+
+    with odsuite.open_project(path) as p:
+        full = compare(p, experiments=["T8stiff"])
+        lean = compare(p, experiments=["T8stiff"], coordinates=False)
+        exps = prepare(p, ["T8stiff"])
+    assert full.coordinates["T8stiff"] and lean.coordinates["T8stiff"] == {}
+    assert lean.rigidity["T8stiff"] and lean.rigidity == full.rigidity
+    assert lean.error == full.error
+    m, q = exps[0].measured, lean.predictions[0]
+    assert q.shape == m.shape
+    assert lean.error == pytest.approx(np.sqrt(np.sum((m - q) ** 2) / np.sum(m**2)), rel=1e-12)
+
+
+def test_the_residual_spectra_compare_keeps_are_scipys_welch(nominal):
+    """The residuals' Welch spectra compare keeps (for diagnose's verdict) are scipy's of measured
+    minus predicted (Hann, 2048 samples, half overlap), and its residual peaks read from them are
+    the ones computed afresh."""
+    from odsuite.analysis.comparison import residual_peaks
+
+    path, _, _ = nominal
+    import odsuite
+
+    with odsuite.open_project(path) as p:
+        result = compare(p, experiments=["T8stiff"], coordinates=False)
+        exps = prepare(p, ["T8stiff"])
+    e, q = exps[0], result.predictions[0]
+    f, pxx = result.residual_spectra[0]
+    f_ref, p_ref = scipy.signal.welch(e.measured - q, fs=e.fs, window="hann", nperseg=2048, noverlap=1024, axis=0)
+    assert np.array_equal(f, f_ref)
+    assert np.allclose(pxx, p_ref, rtol=1e-12, atol=0.0)
+    modes = [m["frequency_hz"] for m in result.modes["model"]]
+    assert residual_peaks(exps, result.predictions, modes, result.floor) == residual_peaks(
+        exps, result.predictions, modes, result.floor, spectra=result.residual_spectra)
+
+
 def test_noise_floor_from_the_pretrigger(nominal, tmp_path):
     """White noise of known RMS on every accelerometer: the noise floor estimate matches the
     expected noise energy over the signal energy, and a perfect model's error sits on it."""

@@ -283,3 +283,34 @@ def test_the_held_out_test_skipped_where_cells_are_left_says_not_tested(tmp_path
     for agree in (None, False, True):
         best.early_late_agree = agree
         assert decide(d.baseline_error, d.noise_floor_error, best, before=above, after=above) == "partly explained"
+
+
+def test_every_stage_runs_on_one_blas_thread(tmp_path, monkeypatch):
+    """The baseline and the verdict run on one BLAS thread, as the candidates' work does, whatever
+    the caller allows: on two cores a second thread spinning on these small products cost 5x the
+    CPU, and a product's rounding may depend on the threads that share it."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    import odsuite.diagnosis.diagnose as diag
+    from odsuite.store.project import open_project
+
+    threads: dict[str, list[int]] = {}
+
+    def recording(name):
+        original = getattr(diag, name)
+
+        def wrapped(*args, **kwargs):
+            threads[name] = [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+            return original(*args, **kwargs)
+
+        monkeypatch.setattr(diag, name, wrapped)
+
+    for name in ("_baseline", "_screen", "_ordered", "_conclude"):
+        recording(name)
+    path = make_project(tmp_path / "one.odsp", [("stiffness", CASES["stiffness"])], n_samples=2048,
+                        scenarios=("T1", "T3"))
+    with open_project(path, "r") as p, threadpool_limits(2, user_api="blas"):
+        allowed = [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+        diag.diagnose(p, effects=["stiffness"], workers=1)
+    assert set(threads) == {"_baseline", "_screen", "_ordered", "_conclude"}
+    assert all(n == [1] * len(allowed) for n in threads.values()), (threads, allowed)

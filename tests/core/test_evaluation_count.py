@@ -55,3 +55,29 @@ def test_diagnose_reports_every_evaluation_of_a_discrete_choices_trials(tmp_path
     assert pairs >= 20  # nine accelerometers of one kind
     assert tally.counts["channel_swap"] > pairs
     assert d.evaluations == sum(tally.counts.values())
+
+
+def test_the_judgement_of_a_fit_predicts_nothing_again(tmp_path, monkeypatch):
+    """A fitted candidate's judgement (diagnose._judge: its resolved residual over the whole
+    records) reads the prediction its fit made there, kept past the checks that predict other
+    points since: no model evaluation."""
+    from odsuite.diagnosis import diagnose as dg
+    from odsuite.store.project import open_project
+
+    from hidden_effects import CASES
+
+    spent: list[tuple[str, int]] = []
+    judge = dg._judge
+
+    def counted(cand, *args, **kwargs):
+        before = cand._problem.evaluations
+        judge(cand, *args, **kwargs)
+        spent.append((cand.effect, cand._problem.evaluations - before))
+
+    monkeypatch.setattr(dg, "_judge", counted)
+    path = make_project(tmp_path / "p.odsp", [("stiffness", CASES["stiffness"])], n_samples=2048,
+                        scenarios=("T1", "T3", "T5"))
+    with open_project(path) as p:
+        dg.diagnose(p, effects=["stiffness", "damping"], workers=1)
+    assert "stiffness" in {e for e, _ in spent}  # fitted (damping may be ranked by its screening alone)
+    assert all(n == 0 for _, n in spent), spent
