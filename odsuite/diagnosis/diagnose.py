@@ -44,6 +44,7 @@ from odsuite.diagnosis.fitting import (
     screen,
     uncertainties,
     validate,
+    weight_notes,
 )
 from odsuite.analysis.modelrev import current_revision, revision_model
 from odsuite.analysis.prediction import PreparedExperiment, predict, prepare
@@ -225,7 +226,8 @@ class Diagnosis:
     verdict: str = ""
     signature: Signature = field(default_factory=Signature)
     message: str = ""
-    #: what the records say against the rig or the comparison (a clipped channel left out)
+    #: what the records say against the rig or the comparison (a clipped channel left out), and
+    #: channels the fits weigh without a noise estimate (fitting.weight_notes)
     notes: list[str] = field(default_factory=list)
 
     @property
@@ -246,11 +248,12 @@ class Diagnosis:
 def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: float, noise: float,
                    peaks, rigidity, modes_before, tail0: float = 0.0,
                    force_levels: Mapping[str, float] | None = None, target: float | None = None,
-                   cannot_pass: Callable[[np.ndarray, float], bool] | None = None) -> Candidate:
+                   cannot_pass: Callable[[np.ndarray, float], bool] | None = None, floor=None) -> Candidate:
     """Fit, validate and describe one screened candidate. Sums of squares of ``screened`` are over
     the fit windows; ``tail0`` is the rest of the records' at the nominal model, ``sse0`` whole;
     ``target``, ``cannot_pass``: the fit stops where it cannot come near that or pass its test
-    (fitting.fit)."""
+    (fitting.fit); ``floor``: the records' noise floor, whose tolerated misfit the consistency
+    check allows (None: none)."""
     problem = screened.problem
     effect = problem.effect
     stopped = False
@@ -326,7 +329,8 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
     if stopped:
         cand.early_late_agree, cand.early_late_note = None, "not tested: its fit stopped early"
     elif problem.free:
-        cons = checks.consistency(problem, res, force_levels or {}, checks.tolerated_misfit(noise, problem.full))
+        tolerated = None if floor is None else checks.tolerated_misfit(floor, problem.full, problem.weights)
+        cons = checks.consistency(problem, res, force_levels or {}, tolerated)
         cand.consistent, cand.amplitude_dependent = cons.consistent, cons.amplitude_dependent
         cand.per_experiment_fits = cons.per_experiment
         # no pooled tolerance here: the resolved residual decides, and a contact's misfit sits in one band
@@ -410,7 +414,7 @@ def _fit_job(token: int, name: str, fixed: Mapping[str, float], u0: np.ndarray, 
     problem = _problem(job, name, fixed)
     cand = _fit_candidate(Screened(problem.effect, dict(fixed), u0, sse, problem), job["windows"], job["sse0"],
                           job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
-                          job["modes_before"], job["tail0"], job["force_levels"])
+                          job["modes_before"], job["tail0"], job["force_levels"], floor=job["floor"])
     return cand, _kept(cand.__dict__.pop("_problem"))
 
 
@@ -467,7 +471,7 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     candidates = _ordered(candidates, pairs, exps, base, job)
     diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=job["noise"], revision=rev.get("revision"),
                           candidates=candidates, residual_peaks=job["peaks"], evaluations=evaluations,
-                          not_applicable=not_applicable, notes=[n for e in exps for n in e.notes],
+                          not_applicable=not_applicable, notes=[n for e in exps for n in e.notes] + weight_notes(exps),
                           other_families=[n for n in not_applicable if getattr(regs.effects.get(n), "structures", None)
                                           and not isinstance(base.shared.structure, regs.effects.get(n).structures)])
     _conclude(diagnosis, cmp, base, exps, before, res0)
@@ -861,7 +865,8 @@ def _pair_job(token: int, pair: tuple[str, str], options: Sequence[Sequence[join
                                job["floor"], k, why)
     cand = _fit_candidate(best, job["windows"], job["sse0"], job["den"], job["n_eff"], job["noise"], job["peaks"],
                           job["rigidity"], job["modes_before"], job["tail0"], job["force_levels"],
-                          target=None if simpler is None else simpler[1], cannot_pass=cannot_pass)
+                          target=None if simpler is None else simpler[1], cannot_pass=cannot_pass,
+                          floor=job["floor"])
     return cand, _kept(cand.__dict__.pop("_problem")), other, why[-1] if why else ""
 
 
@@ -951,7 +956,7 @@ def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], 
     problem, u0 = refined(start._problem, start._u, effect)
     cand = _fit_candidate(Screened(effect, problem.fixed, u0, problem.sse(u0), problem), job["windows"], job["sse0"],
                           job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
-                          job["modes_before"], job["tail0"], job["force_levels"])
+                          job["modes_before"], job["tail0"], job["force_levels"], floor=job["floor"])
     den = job["den"]
     cand._problem = problem
     _judge(cand, job["exps"], floor, getattr(start, "_resolved", None), start.validated_error**2 * den, den, scale,
