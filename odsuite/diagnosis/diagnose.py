@@ -90,7 +90,8 @@ class Candidate:
     fitted: bool = True
     per_experiment: dict[str, dict[str, float]] = field(default_factory=dict)
     values: dict[str, float] = field(default_factory=dict)
-    consistent: bool = True
+    #: None: not checked (screened only, or its fit stopped early)
+    consistent: bool | None = True
     plausible: bool = True
     implausible: list[str] = field(default_factory=list)
     #: of those, the frequencies the fit stopped at the records' Nyquist frequency (not resolved)
@@ -199,7 +200,7 @@ def _moved_modes(before: Sequence[float], after: Sequence[float], limit: int = 3
 
 def _checks_words(cand: Candidate) -> str:
     words = []
-    if not cand.consistent:
+    if cand.consistent is False:
         spread = ", ".join(cand.amplitude_dependent) if cand.amplitude_dependent else "some parameters"
         words.append(f"fitted per experiment, {spread} differ beyond their uncertainties"
                      + (" and follow the force level (amplitude dependent)" if cand.amplitude_dependent else ""))
@@ -327,6 +328,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
     cand.physical = physical.quantities(effect, problem.base.shared, {**problem.fixed, **shared}, labels, sds, corr,
                                         spread)
     if stopped:
+        cand.consistent = None
         cand.early_late_agree, cand.early_late_note = None, "not tested: its fit stopped early"
     elif problem.free:
         tolerated = None if floor is None else checks.tolerated_misfit(floor, problem.full, problem.weights)
@@ -651,7 +653,7 @@ def _screened_only(screened: list[Screened], fitted: list[Screened], job) -> lis
             validated_error=float("nan"), parameters={}, uncertainties={}, units={},
             evidence=f"screening only: one linearised step reaches error {err:.3g}",
             n_parameters=len(s.problem.free), bic=float("inf"), screened_error=err,
-            fitted=False))
+            fitted=False, consistent=None))
     return out
 
 
