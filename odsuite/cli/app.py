@@ -116,14 +116,19 @@ def console_width() -> int:
 
 def wrapped(text: str) -> list[str]:
     """``text`` (user data included: it goes through ``shown``) as lines wrapped at its spaces to
-    the console's width, each continuation line indented two spaces past the text's own indent; a
-    word longer than a line (a path) stays whole on its own line."""
+    the console's width, each continuation line indented two spaces past its line's own indent; a
+    word longer than a line (a path) stays whole on its own line. A line break in ``text`` (a
+    message of several lines quoted in a note) starts a line of its own, wrapped alike: ``shown``
+    would print it as the two characters of its escape."""
     import textwrap
 
-    text = shown(text)
-    indent = text[:len(text) - len(text.lstrip(" "))]
-    return textwrap.wrap(text.strip(" "), console_width(), initial_indent=indent, subsequent_indent=indent + "  ",
-                         break_long_words=False, break_on_hyphens=False) or [""]
+    out = []
+    for part in str(text).split("\n"):
+        part = shown(part.rstrip("\r"))
+        indent = part[:len(part) - len(part.lstrip(" "))]
+        out += textwrap.wrap(part.strip(" "), console_width(), initial_indent=indent, subsequent_indent=indent + "  ",
+                             break_long_words=False, break_on_hyphens=False) or [""]
+    return out
 
 
 def paragraph(text: str, out=None, *, style: str | None = None) -> None:

@@ -155,7 +155,8 @@ def _candidates_table(candidates, width: int):
         table.add_column("confounded with", overflow="fold")
     for c in candidates:
         name = c["effect"] if fits else c["effect"].replace("+", "+\n")
-        tests = [yes(c["significant"]), yes(c["consistent"]) if c["fitted"] else "-",
+        # "-": not checked (screened only, or a pair whose fit stopped early)
+        tests = [yes(c["significant"]), "-" if c["consistent"] is None or not c["fitted"] else yes(c["consistent"]),
                  yes(c["plausible"]) if c["fitted"] else "-"]
         table.add_row(name, *([" ".join(f"{t:<3}" for t in tests).rstrip()] if folded else tests),
                       f"{c['error_after']:.4f}",

@@ -54,20 +54,9 @@ def between_records_covariance(problem, res) -> np.ndarray | None:
     return cov
 
 
-def between_records_sds(problem, res) -> np.ndarray | None:
-    """Per free parameter (value units), the standard deviation between the problem's records (the
-    square root of :func:`between_records_covariance`'s diagonal)."""
-    cov = between_records_covariance(problem, res)
-    return None if cov is None else np.sqrt(np.diag(cov))
-
-
-def reported_sds(fit_sds: np.ndarray, problem, res) -> np.ndarray:
-    """The larger of the fit's standard deviation and the one between records, per parameter."""
-    return reported_with_covariance(fit_sds, problem, res)[0]
-
-
 def reported_with_covariance(fit_sds: np.ndarray, problem, res) -> tuple[np.ndarray, np.ndarray | None]:
-    """:func:`reported_sds` and the covariance between records it took them from (None: the fit's
+    """Per parameter the larger of the fit's standard deviation and the one between records
+    (:func:`larger_sds`), and the covariance between records it took them from (None: the fit's
     alone), from which physical quantities take theirs: what diagnose prints and add-effect stores."""
     if res is None:
         return fit_sds, None
@@ -76,7 +65,8 @@ def reported_with_covariance(fit_sds: np.ndarray, problem, res) -> tuple[np.ndar
 
 
 def larger_sds(fit_sds: np.ndarray, cov: np.ndarray | None) -> np.ndarray:
-    """:func:`reported_sds` from a covariance between records already at hand (None: the fit's)."""
+    """The larger of the fit's standard deviation and the one between records (the square root of
+    ``cov``'s diagonal, between_records_covariance), per parameter (None: the fit's)."""
     if cov is None:
         return fit_sds
     spread = np.sqrt(np.diag(cov))

@@ -92,7 +92,8 @@ class Consistency:
     per_experiment: dict[str, dict[str, float]] = field(default_factory=dict)
     spread: dict[str, float] = field(default_factory=dict)  # chi-square / its limit, per parameter
     amplitude_dependent: list[str] = field(default_factory=list)
-    gain: float = 0.0  # sum of squares (every sample) that fitting per experiment would remove
+    #: the sum of squares (every sample, whitened as the fit's residual) fitting per experiment would remove
+    gain: float = 0.0
 
 
 #: values needed to see a trend with the force level: a line through three leaves one degree of
@@ -108,7 +109,8 @@ def consistency(problem, res, force_levels: Mapping[str, float], tolerated: floa
     whose values follow log(force level) (weighted slope beyond its own FALSE_ALARM, and the rest
     within the spread noise allows) are amplitude dependent.
 
-    ``tolerated``: a misfit energy (sum of squares over every sample) the verdict tolerates. When
+    ``tolerated``: a misfit energy (sum of squares over every sample, weighted as the fit's
+    residual: ``tolerated_misfit`` with the problem's weights) the verdict tolerates. When
     fitting per experiment would lower the sum of squares by less, scattered differences are
     immaterial: a residual that the verdict accepts, a little beyond the floor and aligned with
     the parameter's direction, pulls each experiment's value a little (a 0.8 % spread of a scan
@@ -375,11 +377,18 @@ def held_out(exps: Sequence, early: Sequence[np.ndarray], late: Sequence[np.ndar
                    floor=floors)
 
 
-def tolerated_misfit(floor_error: float, exps: Sequence) -> float:
-    """The sum of squares beyond the noise floor's that the verdict accepts as "at the floor"
-    (an error up to FLOOR_TOLERANCE x the floor's), over every sample of ``exps``."""
-    den = sum(float(np.sum(e.measured**2)) for e in exps)
-    return (FLOOR_TOLERANCE**2 - 1.0) * floor_error**2 * den
+def tolerated_misfit(floor, exps: Sequence, weights: Mapping[str, np.ndarray] | None = None) -> float:
+    """The sum of squares beyond the noise floor's that the verdict accepts as "at the floor" (an
+    error up to FLOOR_TOLERANCE x the floor's), over every sample of ``exps``, each channel's floor
+    energy (``floor``: a NoiseFloor) times its weight squared as the fits weigh their residual
+    (``weights``: fitting.channel_weights; None: unweighted): the gain ``consistency`` compares it
+    with is a sum of the whitened residual, so both are in the noise's units."""
+    total = 0.0
+    for e in exps:
+        chans = floor.energy.get(e.name, {})
+        w = np.ones(len(e.sensors)) if weights is None else np.asarray(weights[e.name], float)
+        total += sum(chans.get(s.name, 0.0) * float(wj) ** 2 for s, wj in zip(e.sensors, w))
+    return (FLOOR_TOLERANCE**2 - 1.0) * total
 
 
 def implausible(effect, model, values: Mapping[str, float | None], params: Sequence | None = None) -> list[str]:

@@ -44,6 +44,7 @@ from odsuite.diagnosis.fitting import (
     screen,
     uncertainties,
     validate,
+    weight_notes,
 )
 from odsuite.analysis.modelrev import current_revision, revision_model
 from odsuite.analysis.prediction import PreparedExperiment, predict, prepare
@@ -89,7 +90,8 @@ class Candidate:
     fitted: bool = True
     per_experiment: dict[str, dict[str, float]] = field(default_factory=dict)
     values: dict[str, float] = field(default_factory=dict)
-    consistent: bool = True
+    #: None: not checked (screened only, or its fit stopped early)
+    consistent: bool | None = True
     plausible: bool = True
     implausible: list[str] = field(default_factory=list)
     #: of those, the frequencies the fit stopped at the records' Nyquist frequency (not resolved)
@@ -198,7 +200,7 @@ def _moved_modes(before: Sequence[float], after: Sequence[float], limit: int = 3
 
 def _checks_words(cand: Candidate) -> str:
     words = []
-    if not cand.consistent:
+    if cand.consistent is False:
         spread = ", ".join(cand.amplitude_dependent) if cand.amplitude_dependent else "some parameters"
         words.append(f"fitted per experiment, {spread} differ beyond their uncertainties"
                      + (" and follow the force level (amplitude dependent)" if cand.amplitude_dependent else ""))
@@ -225,7 +227,8 @@ class Diagnosis:
     verdict: str = ""
     signature: Signature = field(default_factory=Signature)
     message: str = ""
-    #: what the records say against the rig or the comparison (a clipped channel left out)
+    #: what the records say against the rig or the comparison (a clipped channel left out), and
+    #: channels the fits weigh without a noise estimate (fitting.weight_notes)
     notes: list[str] = field(default_factory=list)
 
     @property
@@ -246,11 +249,12 @@ class Diagnosis:
 def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: float, noise: float,
                    peaks, rigidity, modes_before, tail0: float = 0.0,
                    force_levels: Mapping[str, float] | None = None, target: float | None = None,
-                   cannot_pass: Callable[[np.ndarray, float], bool] | None = None) -> Candidate:
+                   cannot_pass: Callable[[np.ndarray, float], bool] | None = None, floor=None) -> Candidate:
     """Fit, validate and describe one screened candidate. Sums of squares of ``screened`` are over
     the fit windows; ``tail0`` is the rest of the records' at the nominal model, ``sse0`` whole;
     ``target``, ``cannot_pass``: the fit stops where it cannot come near that or pass its test
-    (fitting.fit)."""
+    (fitting.fit); ``floor``: the records' noise floor, whose tolerated misfit the consistency
+    check allows (None: none)."""
     problem = screened.problem
     effect = problem.effect
     stopped = False
@@ -325,9 +329,11 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
     cand.physical = physical.quantities(effect, problem.base.shared, {**problem.fixed, **shared}, labels, sds, corr,
                                         spread)
     if stopped:
+        cand.consistent = None
         cand.early_late_agree, cand.early_late_note = None, "not tested: its fit stopped early"
     elif problem.free:
-        cons = checks.consistency(problem, res, force_levels or {}, checks.tolerated_misfit(noise, problem.full))
+        tolerated = None if floor is None else checks.tolerated_misfit(floor, problem.full, problem.weights)
+        cons = checks.consistency(problem, res, force_levels or {}, tolerated)
         cand.consistent, cand.amplitude_dependent = cons.consistent, cons.amplitude_dependent
         cand.per_experiment_fits = cons.per_experiment
         # no pooled tolerance here: the resolved residual decides, and a contact's misfit sits in one band
@@ -414,7 +420,7 @@ def _fit_job(token: int, name: str, fixed: Mapping[str, float], u0: np.ndarray, 
     problem = _problem(job, name, fixed)
     cand = _fit_candidate(Screened(problem.effect, dict(fixed), u0, sse, problem), job["windows"], job["sse0"],
                           job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
-                          job["modes_before"], job["tail0"], job["force_levels"])
+                          job["modes_before"], job["tail0"], job["force_levels"], floor=job["floor"])
     return cand, _kept(cand.__dict__.pop("_problem"))
 
 
@@ -478,7 +484,7 @@ def _diagnose(project, effects, experiments, full_fits, progress, prepared, work
     candidates = _ordered(candidates, pairs, exps, base, job)
     diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=job["noise"], revision=rev.get("revision"),
                           candidates=candidates, residual_peaks=job["peaks"], evaluations=evaluations,
-                          not_applicable=not_applicable, notes=[n for e in exps for n in e.notes],
+                          not_applicable=not_applicable, notes=[n for e in exps for n in e.notes] + weight_notes(exps),
                           other_families=[n for n in not_applicable if getattr(regs.effects.get(n), "structures", None)
                                           and not isinstance(base.shared.structure, regs.effects.get(n).structures)])
     _conclude(diagnosis, cmp, base, exps, before, res0)
@@ -658,7 +664,7 @@ def _screened_only(screened: list[Screened], fitted: list[Screened], job) -> lis
             validated_error=float("nan"), parameters={}, uncertainties={}, units={},
             evidence=f"screening only: one linearised step reaches error {err:.3g}",
             n_parameters=len(s.problem.free), bic=float("inf"), screened_error=err,
-            fitted=False))
+            fitted=False, consistent=None))
     return out
 
 
@@ -872,7 +878,8 @@ def _pair_job(token: int, pair: tuple[str, str], options: Sequence[Sequence[join
                                job["floor"], k, why)
     cand = _fit_candidate(best, job["windows"], job["sse0"], job["den"], job["n_eff"], job["noise"], job["peaks"],
                           job["rigidity"], job["modes_before"], job["tail0"], job["force_levels"],
-                          target=None if simpler is None else simpler[1], cannot_pass=cannot_pass)
+                          target=None if simpler is None else simpler[1], cannot_pass=cannot_pass,
+                          floor=job["floor"])
     return cand, _kept(cand.__dict__.pop("_problem")), other, why[-1] if why else ""
 
 
@@ -962,7 +969,7 @@ def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], 
     problem, u0 = refined(start._problem, start._u, effect)
     cand = _fit_candidate(Screened(effect, problem.fixed, u0, problem.sse(u0), problem), job["windows"], job["sse0"],
                           job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
-                          job["modes_before"], job["tail0"], job["force_levels"])
+                          job["modes_before"], job["tail0"], job["force_levels"], floor=job["floor"])
     den = job["den"]
     cand._problem = problem
     _judge(cand, job["exps"], floor, getattr(start, "_resolved", None), start.validated_error**2 * den, den, scale,

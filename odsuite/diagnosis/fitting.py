@@ -76,23 +76,47 @@ def records_band(exps: Sequence[PreparedExperiment]) -> tuple[float, float]:
     return min(e.fs for e in exps) / 2, max(e.fs / e.n_samples for e in exps)
 
 
-def channel_weights(exps: Sequence[PreparedExperiment]) -> dict[str, np.ndarray]:
-    """Per experiment, each channel's weight in the fits' residual: the inverse of its noise's
-    standard deviation (white noise and rounding while the signal moves), scaled so that noise keeps
-    its pooled energy (the noise scale and the fits' stops stay as they are). The fit is then the
-    maximum-likelihood one for independent channel noise. Unweighted, in physical units, channels of
-    a small sensitivity (loud noise) outweigh a quiet, precise one: a cabinet's 1000 mV/g channel
-    was left at 4.7x its noise in one band by a right added mass fitted to its 100 mV/g neighbours.
-    All ones where a channel has no noise estimate."""
-    var = {}
+def _channel_noise(exps: Sequence[PreparedExperiment]) -> dict[str, np.ndarray]:
+    """Per experiment, each channel's noise variance while the signal moves (active_var): at least
+    its quantisation's step^2/12, so a near-noiseless channel's weight is capped by its converter;
+    nan where neither the noise nor the step is known (or both are zero)."""
+    out = {}
     for e in exps:
         lsb = np.zeros(len(e.sensors)) if e.lsb is None else np.asarray(e.lsb, float)
-        var[e.name] = active_var(np.asarray(e.noise_var, float), lsb)
+        with np.errstate(invalid="ignore"):
+            v = active_var(np.asarray(e.noise_var, float), np.nan_to_num(lsb, nan=0.0))
+        out[e.name] = np.where(np.isfinite(v) & (v > 0), v, np.nan)
+    return out
+
+
+def channel_weights(exps: Sequence[PreparedExperiment]) -> dict[str, np.ndarray]:
+    """Per experiment, each channel's weight in the fits' residual: the inverse of its noise's
+    standard deviation (white noise and rounding while the signal moves; the rounding's step^2/12
+    caps the weight), scaled so that noise keeps its pooled energy (the noise scale and the fits'
+    stops stay as they are). The fit is then the maximum-likelihood one for independent channel
+    noise. Unweighted, in physical units, channels of a small sensitivity (loud noise) outweigh a
+    quiet, precise one: a cabinet's 1000 mV/g channel was left at 4.7x its noise in one band by a
+    right added mass fitted to its 100 mV/g neighbours. A channel without a noise estimate weighs 1,
+    as if its noise were the others' mean (weight_notes says which)."""
+    var = _channel_noise(exps)
     pooled = np.concatenate(list(var.values())) if var else np.zeros(0)
-    if pooled.size == 0 or not np.all(np.isfinite(pooled)) or np.min(pooled) <= 0:
+    known = pooled[np.isfinite(pooled)]
+    if known.size == 0:
         return {e.name: np.ones(len(e.sensors)) for e in exps}
-    ref = float(np.mean(pooled))
-    return {name: np.sqrt(ref / v) for name, v in var.items()}
+    ref = float(np.mean(known))
+    return {name: np.where(np.isfinite(v), np.sqrt(ref / v), 1.0) for name, v in var.items()}
+
+
+def weight_notes(exps: Sequence[PreparedExperiment]) -> list[str]:
+    """A note per experiment whose channels' noise is unknown (channel_weights weighs them 1)."""
+    out = []
+    for e in exps:
+        unknown = [s.name for s, v in zip(e.sensors, _channel_noise([e])[e.name]) if not np.isfinite(v)]
+        if unknown:
+            out.append(f"experiment {e.name!r}: no noise estimate for channel(s) {', '.join(unknown)} (neither a "
+                       "noise level nor a converter step): the fits weigh them as if their noise were the other "
+                       "channels' mean")
+    return out
 
 
 def heads(exps: Sequence[PreparedExperiment]) -> list[list[PreparedExperiment]]:

@@ -202,7 +202,7 @@ def _shown_digits(text: str) -> tuple[int, int]:
     return len(frac) - exp, len((whole + frac).lstrip("0"))
 
 
-def _rate_of_time_column(where: str, column: str, texts: list[str], t: np.ndarray) -> float:
+def _rate_of_time_column(where: str, column: str, texts: list[str], t: np.ndarray, lines: list[int]) -> float:
     """The sampling rate (Hz) of an evenly spaced time column (s), from its whole span.
 
     A lab's file rounds its times (``%.6f`` at 4096 Hz has steps of 0.000244 and 0.000245 s), so
@@ -210,13 +210,12 @@ def _rate_of_time_column(where: str, column: str, texts: list[str], t: np.ndarra
     from the column itself: the most decimals and the most significant digits any row shows (a
     fixed-decimals format and a significant-digits one alike; a row whose trailing zeros were
     dropped keeps the others' precision), plus the float's own rounding. Steps or times off the
-    grid by more are uneven sampling, refused naming the row."""
+    grid by more are uneven sampling, refused naming the row (``lines``: each time's line in the file)."""
     n = t.size - 1
-    line0 = 2  # the header is line 1
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
         k = int(bad[0])
-        raise ConfigError(f"{where}: line {line0 + k}: channel {column!r}: value {texts[k]!r} is not a finite time")
+        raise ConfigError(f"{where}: line {lines[k]}: channel {column!r}: value {texts[k]!r} is not a finite time")
     if n < 1:
         raise ConfigError(f"{where}: channel {column!r}: one time only; the rate needs two or more")
     decimals, significant = map(max, zip(*(_shown_digits(x) for x in texts)))
@@ -227,7 +226,7 @@ def _rate_of_time_column(where: str, column: str, texts: list[str], t: np.ndarra
     steps = np.diff(t)
     if not np.all(steps > 0):
         k = int(np.flatnonzero(steps <= 0)[0]) + 1
-        raise ConfigError(f"{where}: line {line0 + k}: channel {column!r}: value {texts[k]!r} does not come after "
+        raise ConfigError(f"{where}: line {lines[k]}: channel {column!r}: value {texts[k]!r} does not come after "
                           f"the time before it ({texts[k - 1]!r})")
     span = t[-1] - t[0]
     dt = span / n
@@ -236,7 +235,7 @@ def _rate_of_time_column(where: str, column: str, texts: list[str], t: np.ndarra
     off = np.flatnonzero(np.abs(steps - dt) > allowed)
     if off.size:
         k = int(off[0]) + 1
-        raise ConfigError(f"{where}: line {line0 + k}: channel {column!r}: value {texts[k]!r} is {steps[k - 1]:.6g} s "
+        raise ConfigError(f"{where}: line {lines[k]}: channel {column!r}: value {texts[k]!r} is {steps[k - 1]:.6g} s "
                           f"after the time before it, the mean step {dt:.6g} s (the column's rounding allows "
                           f"{allowed[k - 1]:.2g} s either way): not evenly spaced")
     # every time against the grid through the ends: a slowly changing rate
@@ -245,7 +244,7 @@ def _rate_of_time_column(where: str, column: str, texts: list[str], t: np.ndarra
     off = np.flatnonzero(deviation > allowed)
     if off.size:
         k = int(off[0])
-        raise ConfigError(f"{where}: line {line0 + k}: channel {column!r}: value {texts[k]!r} lies {deviation[k]:.2g} s "
+        raise ConfigError(f"{where}: line {lines[k]}: channel {column!r}: value {texts[k]!r} lies {deviation[k]:.2g} s "
                           f"off the even spacing from the first time to the last (the column's rounding allows "
                           f"{allowed[k]:.2g} s): not evenly spaced")
     # the rate as the fewest digits the rounded ends allow: a 4096 Hz file of 6 decimals is 4096 Hz
@@ -268,7 +267,13 @@ def read_csv_columns(file: Path, explicit: dict) -> Columns:
     delimiter = _delimiter(text)
     try:
         # the text as a stream: a quoted name that holds a line break keeps it (and is then refused)
-        rows = [r for r in csv.reader(io.StringIO(text, newline=""), delimiter=delimiter) if any(c.strip() for c in r)]
+        reader = csv.reader(io.StringIO(text, newline=""), delimiter=delimiter)
+        rows, lines, read = [], [], 0
+        for r in reader:  # blank lines skipped, each row with its first line in the file (refusals name it)
+            if any(c.strip() for c in r):
+                rows.append(r)
+                lines.append(read + 1)
+            read = reader.line_num
     except csv.Error as exc:  # a field over the csv module's limit (131072 characters)
         raise ConfigError(f"{where}: not a CSV table: {exc}") from None
     if not rows:
@@ -277,7 +282,7 @@ def read_csv_columns(file: Path, explicit: dict) -> Columns:
     parsed = [_unit_suffix(h) for h in header]
     names, units = [p[0] for p in parsed], [p[1] for p in parsed]
     values = []
-    for line, r in enumerate(rows[1:], start=2):
+    for line, r in zip(lines[1:], rows[1:]):
         if len(r) != len(header):
             raise DimensionError(_field_count_message(where, line, len(r), len(header), delimiter))
         row = []
@@ -293,7 +298,7 @@ def read_csv_columns(file: Path, explicit: dict) -> Columns:
     fs = None
     if names[0].lower() in ("time", "t") and len(names) > 1:
         texts = [_decimal_point(r[0].strip(), delimiter) for r in rows[1:]]
-        fs = _rate_of_time_column(where, names[0], texts, data[:, 0])
+        fs = _rate_of_time_column(where, names[0], texts, data[:, 0], lines[1:])
         names, units, data = names[1:], units[1:], data[:, 1:]
     given = None if all(u is None for u in units) else units
     if given is not None and any(u is None for u in units):

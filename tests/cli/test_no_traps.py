@@ -407,6 +407,21 @@ def test_diagnose_text_keeps_to_80_columns_piped(monkeypatch):
     assert all(n in text.replace("\n", " ") for n in names)
 
 
+def test_a_note_of_several_lines_prints_each_line_wrapped(capsys, monkeypatch):
+    """A note quoting a message of several lines printed its line break as the two characters of
+    its escape ("\\n") in one long line: each line is printed and wrapped on its own."""
+    from odsuite import cli
+    from odsuite.cli.app import paragraph
+
+    monkeypatch.setattr(cli.console, "width", 80)
+    first = "E1: measured modes not identified: " + "the first line of the message " * 3
+    paragraph(first + "\n  the second line\x1b[31m")
+    lines = capsys.readouterr().out.splitlines()
+    assert "\\n" not in "".join(lines) and all(len(ln) <= 80 for ln in lines), lines
+    assert " ".join(ln.strip() for ln in lines[:-1]) == first.strip() and len(lines) > 2
+    assert lines[-1] == "  the second line\\x1b[31m"  # its own indent; a control character still escaped
+
+
 def test_prose_lines_wrap_at_their_words_with_their_indent_at_80_columns(capsys, monkeypatch):
     """compare's notes and diagnose's list of effects that do not apply ran 137-220 characters on
     one line: wrapped at spaces within 80 columns, continuation lines indented past the line's own

@@ -10,8 +10,18 @@ from types import SimpleNamespace
 import numpy as np
 from scipy import stats
 
-from odsuite.diagnosis.between_records import (between_records_covariance, between_records_sds,
-                                               reported_sds)
+from odsuite.diagnosis.between_records import between_records_covariance, reported_with_covariance
+
+
+def between_records_sds(problem, res):
+    """The between-records standard deviations: the covariance's diagonal, square-rooted."""
+    cov = between_records_covariance(problem, res)
+    return None if cov is None else np.sqrt(np.diag(cov))
+
+
+def reported_sds(fit_sds, problem, res):
+    """The standard deviations diagnose and add-effect report."""
+    return reported_with_covariance(fit_sds, problem, res)[0]
 
 N_RECORDS, N_SAMPLES, THETA = 5, 400, 2.0
 

@@ -129,11 +129,18 @@ def test_one_experiment_far_surer_than_the_others_leaves_the_slope_undetermined(
     assert [c.per_experiment[f"e{i}"]["k"] for i in range(3)] == pytest.approx(thetas, abs=0.01)
 
 
-def test_the_tolerated_misfit_is_the_floor_tolerance_band():
+def test_the_tolerated_misfit_is_the_floor_tolerance_band_weighted_as_the_fits_residual():
     exps = [_Exp("a", np.full((10, 2), 3.0)), _Exp("b", np.full((5, 2), 4.0))]
-    den = 10 * 2 * 9.0 + 5 * 2 * 16.0
+    energy = {"a": {"c0": 0.5, "c1": 2.0}, "b": {"c0": 1.0, "c1": 0.25}}
+    floor = NoiseFloor(energy, {n: {c: 1.0 for c in chans} for n, chans in energy.items()})
     # an error of 1.3 x the floor's: (1.3^2 - 1) of the floor's energy beyond it
-    assert checks.tolerated_misfit(0.1, exps) == pytest.approx((1.3**2 - 1) * 0.01 * den)
+    assert checks.tolerated_misfit(floor, exps) == pytest.approx((1.3**2 - 1) * 3.75)
+    # the consistency gain is a sum of the whitened residual: each channel's floor energy counts
+    # with its weight squared (a force noise equal in physical units on a quiet, heavily weighted
+    # channel and a loud one is not the same share of their noises)
+    weights = {"a": np.array([2.0, 0.5]), "b": np.array([1.0, 3.0])}
+    assert checks.tolerated_misfit(floor, exps, weights) == pytest.approx(
+        (1.3**2 - 1) * (0.5 * 4.0 + 2.0 * 0.25 + 1.0 * 1.0 + 0.25 * 9.0))
 
 
 class _Effect:

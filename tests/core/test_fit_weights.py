@@ -18,7 +18,7 @@ from hidden_effects import make_project  # noqa: E402
 from odsuite.analysis.modelrev import current_revision, revision_model  # noqa: E402
 from odsuite.analysis.noise_floor import active_var  # noqa: E402
 from odsuite.analysis.prediction import prepare  # noqa: E402
-from odsuite.diagnosis.fitting import Problem, channel_weights, fit, fit_windows  # noqa: E402
+from odsuite.diagnosis.fitting import Problem, channel_weights, fit, fit_windows, weight_notes  # noqa: E402
 from odsuite.store.project import open_project  # noqa: E402
 
 #: the other channels' noise, in standard deviations of their own: a 100 mV/g sensor beside a
@@ -73,3 +73,35 @@ def test_a_right_fit_leaves_the_quiet_channel_at_its_noise(stiffer):
     assert np.all(np.abs(ratio - 1.0) < 0.15), ratio
     # the contract's error is the unweighted sum of squares
     assert problem.sse(res.x, [e]) == pytest.approx(float(np.sum(r**2)), rel=1e-12)
+
+
+def test_a_channel_without_a_noise_estimate_weighs_one_and_is_named(stiffer):
+    # its noise and its converter step unknown (zero): the others keep their whitening (they all
+    # fell back to ones, silently), it weighs as if its noise were theirs on average
+    _, _, e, quiet = stiffer
+    blind = (quiet + 1) % len(e.sensors)
+    noise, lsb = np.array(e.noise_var, float), np.array(e.lsb, float)
+    noise[blind], lsb[blind] = 0.0, 0.0
+    e = replace(e, noise_var=noise, lsb=lsb)
+    w = channel_weights([e])[e.name]
+    var = active_var(noise, lsb)
+    known = np.delete(np.arange(len(var)), blind)
+    np.testing.assert_allclose(w[known], np.sqrt(var[known].mean() / var[known]), rtol=1e-12)
+    assert w[blind] == 1.0
+    (note,) = weight_notes([e])
+    assert e.sensors[blind].name in note and e.name in note
+    assert weight_notes([replace(e, noise_var=np.array(e.noise_var) + 1.0)]) == []
+
+
+def test_a_near_noiseless_channel_weighs_no_more_than_its_converter_step_allows(stiffer):
+    # a channel's noise cannot be below its rounding's step^2/12: a noise estimate of ~0 with a
+    # known step is weighed at the step's rounding, not at 1e15 times the others
+    _, _, e, quiet = stiffer
+    noise = np.array(e.noise_var, float)
+    noise[quiet] = 1e-30
+    e = replace(e, noise_var=noise)
+    w = channel_weights([e])[e.name]
+    step = float(np.asarray(e.lsb)[quiet])
+    var = np.maximum(noise, np.asarray(e.lsb, float) ** 2 / 12.0)
+    assert w[quiet] == pytest.approx(np.sqrt(var.mean() / (step**2 / 12.0)), rel=1e-12)
+    assert np.isfinite(w).all() and w[quiet] < 1e6 * np.median(w)

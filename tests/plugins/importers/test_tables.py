@@ -264,3 +264,22 @@ def test_unevenly_sampled_rounded_times_are_refused_in_one_line(tmp_path, regist
         assert w in message, (w, message)
     with open_project(tmp_path / "p.h5") as p:
         assert p.experiment_names() == []
+
+
+@pytest.mark.parametrize("text, line, words", [
+    # a value that is not a number after blank lines (a spreadsheet's empty rows): its line in the file
+    ("\ntime,a [g],b [g]\n0,1,2\n\n\n0.001,3,4\n\n0.002,5,abc\n", 8, ["channel 'b'", "'abc'"]),
+    # a row of too few fields, and a time that goes back, each after blank lines
+    ("time,a [g],b [g]\n\n0,1,2\n\n0.001,3\n", 5, ["2 fields"]),
+    ("time,a [g],b [g]\n0,1,2\n\n0.001,3,4\n\n\n0.0005,5,6\n", 7, ["channel 'time'", "does not come after"]),
+    # a quoted field holding a line break counts its lines: the next row's line is the file's
+    ('time,a [g],b [g]\n0,1,"2\n"\n\n0.001,3,x\n', 5, ["channel 'b'", "'x'"]),
+])
+def test_a_csv_refusal_names_the_files_line_across_blank_lines(tmp_path, registries, text, line, words):
+    (tmp_path / "r.csv").write_text(text)
+    create_project(tmp_path / "p.h5", rig=None).close()
+    with pytest.raises(OdsuiteError) as err:
+        _import(registries, tmp_path / "p.h5", tmp_path / "r.csv")
+    message = str(err.value)
+    for w in ["r.csv", f"line {line}:", *words]:
+        assert w in message, (w, message)
