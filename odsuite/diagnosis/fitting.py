@@ -176,7 +176,8 @@ class Problem:
 
     def __init__(self, base: RevisionModel, effect, exps: Sequence[PreparedExperiment],
                  fixed: Mapping[str, float] | None = None, prior: float = 0.0, stride: int = 1,
-                 full: Sequence[PreparedExperiment] | None = None, noise_scale: float = 0.0) -> None:
+                 full: Sequence[PreparedExperiment] | None = None, noise_scale: float = 0.0,
+                 weights: Mapping[str, np.ndarray] | None = None) -> None:
         self.base = base
         # noise energy per independent sample (checks.noise_scale): gains far below it change no
         # test, so the search stops there (0: scipy's relative tolerances alone)
@@ -194,8 +195,8 @@ class Problem:
         self.effect = effect
         self.exps = list(exps)
         # the residual whitened channel by channel (channel_weights); sums reported as the
-        # contract's error (sse) are not
-        self.weights = channel_weights(self.full)
+        # contract's error (sse) are not; ``weights``: those of the same records, where at hand
+        self.weights = channel_weights(self.full) if weights is None else weights
         # a mode's frequency within what the records resolve (Parameter.within_records); its
         # steps and prior as declared, so a search that stays inside moves as before
         declared = {p.name: p for p in effect.parameters(base.shared)}
@@ -355,7 +356,7 @@ class Problem:
     def derived(self, fixed: Mapping[str, float]) -> Problem:
         """The same problem with other parameters fixed."""
         out = Problem(self.base, self.effect, self.exps, fixed, self.prior, self.stride, self.full,
-                      self.noise_scale)
+                      self.noise_scale, self.weights)
         out._base_predictions = self._base_predictions  # the same base model: share its predictions
         return out
 
