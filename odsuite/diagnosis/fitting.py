@@ -506,15 +506,7 @@ class Problem:
                  and all(f.param.sensor in {s.name for s in e.sensors} for e in exps)]
         if len(local) < 2:
             return [[i] for i in range(len(self.free))], None
-        batches: list[list[int]] = []
-        for i in local:  # the first group without this parameter's sensor
-            slot = next((b for b in batches if all(self.free[j].param.sensor != self.free[i].param.sensor
-                                                   for j in b)), None)
-            if slot is None:
-                batches.append([i])
-            else:
-                slot.append(i)
-        batches += [[i] for i in range(len(self.free)) if i not in local]
+        batches = self._groups(local, lambda f: f.param.sensor)
         rows: dict[str, list[np.ndarray]] = {}
         at = 0
         for e in exps:  # a residual is each experiment's (samples, channels), raveled
@@ -524,6 +516,18 @@ class Problem:
                 rows.setdefault(name, []).append(at + (np.arange(n)[:, None] * len(names) + cols).ravel())
             at += n * len(names)
         return batches, {name: np.concatenate(parts) for name, parts in rows.items()}
+
+    def _groups(self, members: Sequence[int], owner: Callable[[_Free], Any]) -> list[list[int]]:
+        """The free parameters ``members`` in groups of distinct ``owner`` (each into the first
+        group without its owner), then every other free parameter alone."""
+        groups: list[list[int]] = []
+        for i in members:
+            slot = next((g for g in groups if all(owner(self.free[j]) != owner(self.free[i]) for j in g)), None)
+            if slot is None:
+                groups.append([i])
+            else:
+                slot.append(i)
+        return groups + [[i] for i in range(len(self.free)) if i not in members]
 
     def _experiment_batches(self, exps: Sequence[PreparedExperiment]
                             ) -> tuple[list[list[int]], dict[str, slice]] | None:
@@ -540,15 +544,7 @@ class Problem:
             if self.linear or len(own) < 2:
                 self._batches[key] = None
             else:
-                batches: list[list[int]] = []
-                for i in own:  # the first group without this parameter's experiment
-                    slot = next((b for b in batches if all(self.free[j].experiment != self.free[i].experiment
-                                                           for j in b)), None)
-                    if slot is None:
-                        batches.append([i])
-                    else:
-                        slot.append(i)
-                batches += [[i] for i in range(len(self.free)) if i not in own]
+                batches = self._groups(own, lambda f: f.experiment)
                 rows, at = {}, 0
                 for e in exps:  # a residual is each experiment's (samples, channels), raveled
                     n = len(range(0, e.n_samples, self.stride)) * len(e.sensors)
