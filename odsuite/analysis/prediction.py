@@ -636,13 +636,30 @@ def _sensor_rows(model, sensors: Sequence[Sensor]) -> np.ndarray:
     """The sensors' acceleration rows of ``model`` (Model.output_rows), kept on the model: every
     experiment of a fit evaluates one model, and the rows cost a few small products per sensor.
     Keyed by the sensors' identities (the rig's objects, kept alive with the entry)."""
-    from odsuite.domain.model import Output
-
     key = tuple(map(id, sensors))
     cache = model.__dict__.setdefault("_sensor_rows", {})
     if key not in cache:
-        cache[key] = (tuple(sensors), model.output_rows([Output.sensor(s) for s in sensors])[1])
+        cache[key] = (tuple(sensors), model.output_rows(_sensor_outputs(sensors))[1])
     return cache[key][1]
+
+
+#: the outputs of sets of sensors (rig objects, frozen), by the sensors' identities (kept alive
+#: with the entry): every new model asks for its sensors' rows, and building an output normalises
+#: its axis, a third of the rows' cost
+_OUTPUTS: dict[tuple[int, ...], tuple[tuple[Sensor, ...], list]] = {}
+OUTPUTS_KEPT = 64
+
+
+def _sensor_outputs(sensors: Sequence[Sensor]) -> list:
+    from odsuite.domain.model import Output
+
+    key = tuple(map(id, sensors))
+    got = _OUTPUTS.get(key)
+    if got is None or any(a is not b for a, b in zip(got[0], sensors)):
+        if len(_OUTPUTS) >= OUTPUTS_KEPT:
+            _OUTPUTS.clear()
+        got = _OUTPUTS[key] = (tuple(sensors), [Output.sensor(s) for s in sensors])
+    return got[1]
 
 
 @functools.lru_cache(maxsize=256)

@@ -200,7 +200,8 @@ class Problem:
 
     def __init__(self, base: RevisionModel, effect, exps: Sequence[PreparedExperiment],
                  fixed: Mapping[str, float] | None = None, prior: float = 0.0, stride: int = 1,
-                 full: Sequence[PreparedExperiment] | None = None, noise_scale: float = 0.0) -> None:
+                 full: Sequence[PreparedExperiment] | None = None, noise_scale: float = 0.0,
+                 weights: Mapping[str, np.ndarray] | None = None) -> None:
         self.base = base
         # noise energy per independent sample (checks.noise_scale): gains far below it change no
         # test, so the search stops there (0: scipy's relative tolerances alone)
@@ -218,8 +219,8 @@ class Problem:
         self.effect = effect
         self.exps = list(exps)
         # the residual whitened channel by channel (channel_weights); sums reported as the
-        # contract's error (sse) are not
-        self.weights = channel_weights(self.full)
+        # contract's error (sse) are not; ``weights``: those of the same records, where at hand
+        self.weights = channel_weights(self.full) if weights is None else weights
         # a mode's frequency within what the records resolve (Parameter.within_records); its
         # steps and prior as declared, so a search that stays inside moves as before
         declared = {p.name: p for p in effect.parameters(base.shared)}
@@ -388,7 +389,7 @@ class Problem:
     def derived(self, fixed: Mapping[str, float]) -> Problem:
         """The same problem with other parameters fixed."""
         out = Problem(self.base, self.effect, self.exps, fixed, self.prior, self.stride, self.full,
-                      self.noise_scale)
+                      self.noise_scale, self.weights)
         out._base_predictions = self._base_predictions  # the same base model: share its predictions
         return out
 
@@ -397,7 +398,8 @@ class Problem:
         """Forward differences of the residual on ``exps`` (``step`` natural steps, backwards at an
         upper bound). Parameters that change one sensor's prediction alone (``Parameter.sensor``)
         are moved together with those of other sensors, each column taken from its own sensor's
-        rows: the same numbers in fewer evaluations. With ``tangent`` (screening), the derivative
+        rows: the same numbers in fewer evaluations; so are parameters of one experiment each
+        (scope ``per_experiment``) where no column is linearised. With ``tangent`` (screening), the derivative
         where it is cheaper than the difference: structure-changing columns linearised over
         DIFF_STEP natural steps (Problem._linearised), steps that add cubic springs to a linear
         structure to first order in them (Problem._cubic_tangent)."""
@@ -409,9 +411,7 @@ class Problem:
                 h = 0.5 * (hi - u[i]) if hi - u[i] > u[i] - lo else -0.5 * (u[i] - lo)
             steps[i] = h
         batches, rows_of = self._sensor_batches(exps or self.exps)
-        # written by columns: whole ones into Fortran order (then copied), a sensor's rows alone
-        # (a few per cent of each column) straight into C order, 4x faster than that copy
-        J = np.zeros((r0.size, len(self.free)), order="F" if rows_of is None else "C")
+        by_experiment = False  # a batched column's rows: its sensor's, or its experiment's
         linearised = None
         if rows_of is None:
             # a tangent's columns are derivatives: taken over DIFF_STEP, where the poles move
@@ -423,6 +423,13 @@ class Problem:
                 steps = small
         if linearised is None and tangent and rows_of is None:
             linearised = self._cubic_tangent(u, steps, r0, exps or self.exps)
+        if linearised is None and rows_of is None:
+            own = self._experiment_batches(exps or self.exps)
+            if own is not None:
+                (batches, rows_of), by_experiment = own, True
+        # written by columns: whole ones into Fortran order (then copied), a sensor's rows alone
+        # (a few per cent of each column) straight into C order, 4x faster than that copy
+        J = np.zeros((r0.size, len(self.free)), order="F" if rows_of is None else "C")
         for batch in batches:
             batch = [i for i in batch if steps[i]]
             if not batch:
@@ -437,7 +444,8 @@ class Problem:
                 J[:, batch[0]] = -diff / steps[batch[0]]
                 continue
             for i in batch:
-                rows = rows_of[self.free[i].param.sensor]
+                f = self.free[i]
+                rows = rows_of[f.experiment if by_experiment else f.param.sensor]
                 J[rows, i] = -diff[rows] / steps[i]
         return np.ascontiguousarray(J)
 
@@ -531,15 +539,7 @@ class Problem:
                  and all(f.param.sensor in {s.name for s in e.sensors} for e in exps)]
         if len(local) < 2:
             return [[i] for i in range(len(self.free))], None
-        batches: list[list[int]] = []
-        for i in local:  # the first group without this parameter's sensor
-            slot = next((b for b in batches if all(self.free[j].param.sensor != self.free[i].param.sensor
-                                                   for j in b)), None)
-            if slot is None:
-                batches.append([i])
-            else:
-                slot.append(i)
-        batches += [[i] for i in range(len(self.free)) if i not in local]
+        batches = self._groups(local, lambda f: f.param.sensor)
         rows: dict[str, list[np.ndarray]] = {}
         at = 0
         for e in exps:  # a residual is each experiment's (samples, channels), raveled
@@ -549,6 +549,42 @@ class Problem:
                 rows.setdefault(name, []).append(at + (np.arange(n)[:, None] * len(names) + cols).ravel())
             at += n * len(names)
         return batches, {name: np.concatenate(parts) for name, parts in rows.items()}
+
+    def _groups(self, members: Sequence[int], owner: Callable[[_Free], Any]) -> list[list[int]]:
+        """The free parameters ``members`` in groups of distinct ``owner`` (each into the first
+        group without its owner), then every other free parameter alone."""
+        groups: list[list[int]] = []
+        for i in members:
+            slot = next((g for g in groups if all(owner(self.free[j]) != owner(self.free[i]) for j in g)), None)
+            if slot is None:
+                groups.append([i])
+            else:
+                slot.append(i)
+        return groups + [[i] for i in range(len(self.free)) if i not in members]
+
+    def _experiment_batches(self, exps: Sequence[PreparedExperiment]
+                            ) -> tuple[list[list[int]], dict[str, slice]] | None:
+        """Groups of free parameters of one experiment each (scope ``per_experiment``: a hit's
+        point) that one evaluation can difference, and each experiment's residual rows; None where
+        fewer than two such parameters, or where a projection (``linear``) couples the experiments.
+        A step of one experiment's parameter changes that experiment's model alone, so its column
+        is zero in the others' rows: a thesis impact_location Jacobian took 15 evaluations of 5
+        records each for 3 records' worth of change."""
+        key = ("experiments",) + tuple((e.name, e.n_samples) for e in exps)
+        if key not in self._batches:
+            names = [e.name for e in exps]
+            own = [i for i, f in enumerate(self.free) if f.experiment in names and f.param.sensor is None]
+            if self.linear or len(own) < 2:
+                self._batches[key] = None
+            else:
+                batches = self._groups(own, lambda f: f.experiment)
+                rows, at = {}, 0
+                for e in exps:  # a residual is each experiment's (samples, channels), raveled
+                    n = len(range(0, e.n_samples, self.stride)) * len(e.sensors)
+                    rows[e.name] = slice(at, at + n)
+                    at += n
+                self._batches[key] = (batches, rows)
+        return self._batches[key]
 
     def zero(self) -> np.ndarray:
         return np.zeros(len(self.free))

@@ -46,8 +46,11 @@ def rotated(v: np.ndarray, rotation: np.ndarray) -> np.ndarray:
 
 
 def point_map(r: np.ndarray) -> np.ndarray:
-    """``T(r) = [I | -[r]x]`` (3x6): displacement of the point at offset ``r`` from ``d``."""
-    return np.hstack([np.eye(3), -skew(np.asarray(r, dtype=float))])
+    """``T(r) = [I | -[r]x]`` (3x6): displacement of the point at offset ``r`` from ``d``. Written
+    out (``-skew(r)``'s entries, its zeros negative as there): every model's springs and sensors
+    ask for it, and the stacked form cost four array constructions each time."""
+    x, y, z = np.asarray(r, dtype=float)
+    return np.array([[1.0, 0.0, 0.0, -0.0, z, -y], [0.0, 1.0, 0.0, -z, -0.0, x], [0.0, 0.0, 1.0, y, -x, -0.0]])
 
 
 def _vec3(where: str, value) -> np.ndarray:
@@ -531,7 +534,17 @@ class Structure(LinearStructure):
         return row
 
     def _spring_ends(self, s: SpringDamper) -> tuple[np.ndarray, np.ndarray]:
-        """Relative translation (3 x n) and rotation (3 x n) of a spring's ends."""
+        """Relative translation (3 x n) and rotation (3 x n) of a spring's ends, kept per spring
+        (K, C and the base matrices each ask for them)."""
+        kept = self.__dict__.setdefault("_ends", {})
+        got = kept.get(id(s))
+        if got is None or got[0] is not s:
+            P, R = self._new_spring_ends(s)
+            P.flags.writeable = R.flags.writeable = False
+            got = kept[id(s)] = (s, P, R)
+        return got[1], got[2]
+
+    def _new_spring_ends(self, s: SpringDamper) -> tuple[np.ndarray, np.ndarray]:
         P = np.zeros((3, self.n_dof))
         R = np.zeros((3, self.n_dof))
         if s.body is not None:

@@ -395,6 +395,25 @@ class ChannelDelay(Effect):
         return rig, {**signals, **{s.name: y[:, j] for j, s in enumerate(sensors)}}
 
 
+#: ChannelSwap's pairs and their description per set of sensors (frozen rig objects), by the
+#: sensors' identities (kept alive with the entry): a screening builds a problem per pair, each
+#: asking for the parameters (a rig of 18 accelerometers: 153 pairs named in one string)
+_PAIRS: dict[tuple[int, ...], tuple[tuple, tuple[tuple[str, str], ...], str]] = {}
+
+
+def _swap_pairs(sensors: tuple) -> tuple[tuple[tuple[str, str], ...], str]:
+    key = tuple(map(id, sensors))
+    got = _PAIRS.get(key)
+    if got is None or any(a is not b for a, b in zip(got[0], sensors)):
+        pairs = tuple((a.name, b.name) for i, a in enumerate(sensors) for b in sensors[i + 1:]
+                      if (a.kind, a.quantity) == (b.kind, b.quantity))
+        if len(_PAIRS) >= 16:
+            _PAIRS.clear()
+        got = _PAIRS[key] = (sensors, pairs, "the exchanged pair: 0 = none, " + ", ".join(
+            f"{k + 1} = {a}/{b}" for k, (a, b) in enumerate(pairs)))
+    return got[1], got[2]
+
+
 class ChannelSwap(Effect):
     """Two channels of one kind (two accelerometers, say) carry each other's sensor: their cables
     were exchanged. A discrete parameter, the pair (0: none; the diagnosis tries every pair on the
@@ -411,23 +430,21 @@ class ChannelSwap(Effect):
     @staticmethod
     def pairs(sensors) -> list[tuple[str, str]]:
         """Every pair of sensors of one kind and quantity, in rig order (choice k is pair k - 1)."""
-        return [(a.name, b.name) for i, a in enumerate(sensors) for b in sensors[i + 1:]
-                if (a.kind, a.quantity) == (b.kind, b.quantity)]
+        return list(_swap_pairs(tuple(sensors))[0])
 
     def parameters(self, model):
-        pairs = self.pairs(_accelerometers(model))
+        pairs, described = _swap_pairs(_accelerometers(model))
         if not pairs or model.rig is None:
             return []
         return [Parameter("pair", "1", 0.0, 0.0, float(len(pairs)), choices=tuple(map(float, range(len(pairs) + 1))),
-                          description="the exchanged pair: 0 = none, " + ", ".join(
-                              f"{k + 1} = {a}/{b}" for k, (a, b) in enumerate(pairs))),
+                          description=described),
                 # sensors of one type differ by a few per cent in sensitivity
                 Parameter("ratio", "1", 1.0, 0.5, 2.0, plausible=(0.8, 1.25),
                           description="second sensor's sensitivity / first sensor's, of the exchanged pair")]
 
     def pair(self, sensors, v) -> tuple[str, str] | None:
         k = int(v.get("pair", 0.0))
-        return self.pairs(sensors)[k - 1] if k else None
+        return _swap_pairs(tuple(sensors))[0][k - 1] if k else None
 
     def _apply(self, model, v):
         pair = self.pair(_accelerometers(model), v)
