@@ -525,11 +525,27 @@ def _coordinates(model, exp: PreparedExperiment, hold: str) -> np.ndarray:
 def linearised_predictions(model0, models: Sequence[Any], exp: PreparedExperiment, every: int = 1
                            ) -> list[np.ndarray] | None:
     """``predict(m, exp)`` for each of ``models`` (linear structures of ``model0``'s size near
-    it, with its chain), the structure's response to first order in its poles and residues about
+    it, with its chain): ``model0``'s prediction plus linearised_changes. None where that does not
+    apply (then predict each). Every ``every``-th sample (a fit's stride)."""
+    change = linearised_changes(model0, models, exp, every)
+    if change is None:
+        return None
+    q0 = _coordinates(model0, exp, HOLD)
+    pred0 = _digital_chain(exp, _analog_chain(model0, exp, q0 @ _sensor_rows(model0, exp.sensors).T))[::every]
+    return [pred0 + change[:, :, i] for i in range(len(models))]
+
+
+def linearised_changes(model0, models: Sequence[Any], exp: PreparedExperiment, every: int = 1,
+                       scales: np.ndarray | None = None, out: np.ndarray | None = None) -> np.ndarray | None:
+    """The change of ``predict(m, exp)`` from ``model0``'s for each of ``models`` (linear
+    structures of ``model0``'s size near it, with its chain; samples x sensors x models, every
+    ``every``-th sample), the structure's response to first order in its poles and residues about
     ``model0``'s (simulation.linearised_band), the sensors' rows exact: a Jacobian's columns for
     one simulation. The chain is linear and the same for every model: it filters the response's
-    basis signals once per distinct channel chain, not every model's every sensor. None where
-    that does not apply (then predict each). Every ``every``-th sample (a fit's stride)."""
+    basis signals once per distinct channel chain, and every model's change is one product of
+    those with its weights, not a prediction of its own. Each sensor's change of each model times
+    ``scales`` (sensors x models; a Jacobian's channel weight over its step), written into ``out``
+    where given (C-ordered, that shape). None where that does not apply."""
     from odsuite.domain.simulation import linearised_band
 
     st0 = model0.structure
@@ -544,7 +560,6 @@ def linearised_predictions(model0, models: Sequence[Any], exp: PreparedExperimen
     basis, matrices = lin
     q0 = _coordinates(model0, exp, HOLD)
     rows0 = _sensor_rows(model0, exp.sensors)
-    pred0 = _digital_chain(exp, _analog_chain(model0, exp, q0 @ rows0.T))[::every]
     signals = np.hstack([q0, basis])
     # sensors whose chains are alike (dynamics, delay, processing) filter the signals once
     chain = model0.chain
@@ -553,7 +568,14 @@ def linearised_predictions(model0, models: Sequence[Any], exp: PreparedExperimen
         for j in op.columns:
             s = exp.sensors[j]
             groups.setdefault((id(op), chain.sensor_dynamics(s.name), chain.delay.get(s.name, 0.0)), []).append(j)
-    outs = [pred0.copy() for _ in models]
+    n_sensors, n_models = len(exp.sensors), len(models)
+    n = len(range(0, exp.n_samples, every))
+    if out is None:
+        out = np.empty((n, n_sensors, n_models))
+    whole = (len(groups) == 1 and next(iter(groups.values())) == list(range(n_sensors))
+             and out.flags.c_contiguous)
+    if not whole:
+        out[...] = 0.0  # a sensor no operator processes is not changed
     rows = [_sensor_rows(m, exp.sensors) for m in models]
     for cols in groups.values():
         j = cols[0]
@@ -561,13 +583,18 @@ def linearised_predictions(model0, models: Sequence[Any], exp: PreparedExperimen
         one = replace(exp, sensors=[exp.sensors[j]] * signals.shape[1],
                       operators=[replace(op, columns=tuple(range(signals.shape[1])))])
         filtered = _digital_chain(one, _analog_chain(model0, one, signals.copy()))[::every]
-        # every model's change in one product: the nominal coordinates through the rows' change,
-        # the coordinates' change through the rows
-        weights = np.hstack([np.vstack([(r[cols] - rows0[cols]).T, mat @ r[cols].T]) for r, mat in zip(rows, matrices)])
-        change = (filtered @ weights).reshape(len(filtered), len(models), len(cols))
-        for i, out in enumerate(outs):
-            out[:, cols] += change[:, i]
-    return outs
+        # every model's change in one product, sensor by sensor: the nominal coordinates through
+        # the rows' change, the coordinates' change through the rows
+        weights = np.stack([np.vstack([(r[cols] - rows0[cols]).T, mat @ r[cols].T]) for r, mat in zip(rows, matrices)],
+                           axis=2)  # signals x sensors x models
+        if scales is not None:
+            weights *= scales[cols][None]
+        weights = weights.reshape(len(weights), -1)
+        if whole:
+            np.matmul(filtered, weights, out=out.reshape(n, n_sensors * n_models))
+        else:
+            out[:, cols] = (filtered @ weights).reshape(n, len(cols), n_models)
+    return out
 
 
 def cubic_change_predictions(model0, models: Sequence[Any], exp: PreparedExperiment, every: int = 1

@@ -31,7 +31,7 @@ from scipy.optimize._lsq.trf import select_step
 from odsuite.domain.errors import DivergedError, NonPhysicalError
 from odsuite.analysis.modelrev import RevisionModel
 from odsuite.analysis.noise_floor import active_var
-from odsuite.analysis.prediction import (PreparedExperiment, cubic_change_predictions, linearised_predictions, predict,
+from odsuite.analysis.prediction import (PreparedExperiment, cubic_change_predictions, linearised_changes, predict,
                                          predict_sharing, simulate_together)
 
 #: fits start on short heads of the records (s after the hit), then the whole record: a frequency
@@ -412,16 +412,15 @@ class Problem:
             steps[i] = h
         batches, rows_of = self._sensor_batches(exps or self.exps)
         by_experiment = False  # a batched column's rows: its sensor's, or its experiment's
-        linearised = None
         if rows_of is None:
             # a tangent's columns are derivatives: taken over DIFF_STEP, where the poles move
             # little enough for the linearisation (over a natural step they move as far as their
             # gaps, and each column was simulated)
-            small = steps * DIFF_STEP if tangent else steps
-            linearised = self._linearised(u, small, exps or self.exps)
-            if linearised is not None:
-                steps = small
-        if linearised is None and tangent and rows_of is None:
+            J = self._linearised(u, steps * DIFF_STEP if tangent else steps, r0, exps or self.exps)
+            if J is not None:
+                return J
+        linearised = None
+        if tangent and rows_of is None:
             linearised = self._cubic_tangent(u, steps, r0, exps or self.exps)
         if linearised is None and rows_of is None:
             own = self._experiment_batches(exps or self.exps)
@@ -449,16 +448,22 @@ class Problem:
                 J[rows, i] = -diff[rows] / steps[i]
         return np.ascontiguousarray(J)
 
-    def _linearised(self, u: np.ndarray, steps: np.ndarray, exps: Sequence[PreparedExperiment]
-                    ) -> dict[int, np.ndarray] | None:
-        """The residual at each point ``u`` + a step of one parameter, with the structure's
-        response linearised in its poles and residues about ``u``'s (prediction.
-        linearised_predictions): one simulation for all, where the steps change the structure
-        (a stiffness, a mass), at least LINEARISED_FROM of them and every experiment allows it.
-        Each counts as an evaluation; None where the steps are best simulated."""
+    def _linearised(self, u: np.ndarray, steps: np.ndarray, r0: np.ndarray, exps: Sequence[PreparedExperiment]
+                    ) -> np.ndarray | None:
+        """The Jacobian (as ``jacobian``'s: minus the residual's change over each parameter's step
+        from ``u``, whose residual is ``r0``) with the structure's response linearised in its poles
+        and residues about ``u``'s (prediction.linearised_changes): one simulation for all, where
+        the steps change the structure (a stiffness, a mass), at least LINEARISED_FROM of them and
+        every experiment allows it. Each column is the change of the predictions times the
+        channel's weight over the step, written straight into the Jacobian's rows: the same
+        numbers as differencing residuals of the linearised predictions but for rounding (better:
+        no difference of two nearly equal residuals), where no row of them reaches the unstable
+        residual's cap (Problem._residual_of), which the bound max |r0| + max |change| rules out.
+        Each column counts as an evaluation; None where the steps are best simulated."""
         moved = [i for i in range(len(u)) if steps[i]]
         if self.linear or len(moved) < LINEARISED_FROM:
             return None
+        J = np.empty((r0.size, len(moved)))
         try:
             with np.errstate(over="ignore", invalid="ignore"):
                 # the models the residual at ``u`` was just predicted with: their structure's
@@ -467,14 +472,28 @@ class Problem:
                 points = self._stepped_models(u, steps, moved)
                 if any(p[e.name].structure is models0[e.name].structure for p in points for e in exps):
                     return None  # a step that leaves the structure: its own simulation is cheap
-                preds = self._each_experiment(linearised_predictions, models0, points, exps)
-                if preds is None:
-                    return None
+                at = 0
+                for e in exps:
+                    n, w = len(range(0, e.n_samples, self.stride)), self.weights[e.name]
+                    size = n * len(w)
+                    block = J[at:at + size].reshape(n, len(w), len(moved))
+                    if linearised_changes(models0[e.name], [p[e.name] for p in points], e, self.stride,
+                                          w[:, None] / steps[moved][None, :], block) is None:
+                        return None
+                    reach = (float(np.max(np.abs(r0[at:at + size].reshape(n, len(w)) / w)))
+                             + max(float(block.max()), -float(block.min())) * float(np.max(np.abs(steps[moved])))
+                             / float(np.min(w)))
+                    if not reach <= UNSTABLE_RESIDUAL * _peak(e.measured):  # nan too: simulated instead
+                        return None
+                    at += size
         except (DivergedError, NonPhysicalError, np.linalg.LinAlgError):  # simulated column by column instead
             return None
         self.evaluations += len(moved)
-        return {i: self._residual_of([p[k] for p in preds], exps, None, self.stride, strided=True)
-                for k, i in enumerate(moved)}
+        if len(moved) == len(u):
+            return J
+        out = np.zeros((r0.size, len(u)))
+        out[:, moved] = J
+        return out
 
     def _cubic_tangent(self, u: np.ndarray, steps: np.ndarray, r0: np.ndarray, exps: Sequence[PreparedExperiment]
                        ) -> dict[int, np.ndarray] | None:
@@ -1110,6 +1129,10 @@ BROYDEN_RUN = 3
 BROYDEN_MISS = 0.5
 
 
+#: rows of the Jacobian a Broyden update adds at a time
+UPDATE_ROWS = 8192
+
+
 def _square_root(J: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """A (n x n) and c with A^T A = J^T J and A^T c = J^T f (J = Q A, c = Q^T f for Q with
     orthonormal columns), from the eigen-decomposition of J^T J; also J^T J and J^T f. A direction
@@ -1219,9 +1242,12 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
             x, f, cost = x_new, f_new, cost_new
             if (broyden and not confirm and status is None and run < BROYDEN_RUN
                     and abs(1 - ratio) <= BROYDEN_MISS):
-                # the secant through the step: J += (df - J dx) dx^T / |dx|^2
+                # the secant through the step: J += (df - J dx) dx^T / |dx|^2, in place (J is
+                # this search's own) and by blocks of rows (no temporary of J's size)
                 dx = x - x_old
-                J = J + np.outer((f - f_old - J @ dx) / float(dx @ dx), dx)
+                a = (f - f_old - J @ dx) / float(dx @ dx)
+                for at in range(0, m, UPDATE_ROWS):
+                    J[at:at + UPDATE_ROWS] += np.outer(a[at:at + UPDATE_ROWS], dx)
                 exact, run = False, run + 1
                 A, c, G, g = _square_root(J, f)
                 stops.jacobian(x, G, g)
@@ -1272,8 +1298,14 @@ def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] 
 
         def jac(x, f, stage=stage):
             r = f[:f.size - n] if root is not None else f
-            J = -problem.jacobian(x, r, stage, step=DIFF_STEP)
-            return np.vstack([J, np.diag(root)]) if root is not None else J
+            J = problem.jacobian(x, r, stage, step=DIFF_STEP)
+            if root is None:
+                return np.negative(J, out=J)
+            # the prior's rows below the data's, in one new array (a Jacobian holds 10-40 MB)
+            out = np.empty((J.shape[0] + n, n))
+            np.negative(J, out=out[:J.shape[0]])
+            out[J.shape[0]:] = np.diag(root)
+            return out
 
         res = search(fun, jac, u, lo, hi, problem.free, least=least,
                      target=0.5 * target / problem.stride if target is not None and last else None,
@@ -1294,8 +1326,8 @@ def search(fun, jac, u0: np.ndarray, lo: np.ndarray, hi: np.ndarray, free: Seque
     stops = _Stops(least, target, lo_w, hi_w,
                    None if cannot_pass is None else lambda w, promised: cannot_pass(coords.natural(w), promised))
     res = _trf(lambda w: fun(coords.natural(w)),
-               # d f / d w = d f / d u times d u / d w, by columns
-               lambda w, f: jac(coords.natural(w), f) * coords.derivative(w),
+               # d f / d w = d f / d u times d u / d w, by columns (in place: ``jac`` returns a new array)
+               lambda w, f: coords.in_search(jac(coords.natural(w), f), w),
                coords.search(u0), lo_w, hi_w, max_nfev=max_nfev, xtol=xtol, ftol=ftol, stops=stops)
     res.target_stop = stops.target_stop
     coords.natural_result(res, lo, hi)
@@ -1335,6 +1367,12 @@ class _FactorLogs:
     def derivative(self, w: np.ndarray) -> np.ndarray:
         """d u / d w at ``w``."""
         return np.where(self.mask, np.exp(np.where(self.mask, self.k * w, 0.0)), 1.0)
+
+    def in_search(self, J: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """``J`` = d f / d u at ``w`` as d f / d w, its columns scaled in place."""
+        if self.mask.any():
+            J *= self.derivative(w)
+        return J
 
     def natural_result(self, res, lo: np.ndarray, hi: np.ndarray) -> None:
         """``res`` (_trf's, in search coordinates) in natural steps: its point, Jacobian and

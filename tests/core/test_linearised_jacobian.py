@@ -84,7 +84,7 @@ def test_problem_jacobian_linearised_agrees_with_finite_differences(tmp_path):
             u = np.clip(np.random.default_rng(5).normal(0.0, 0.5, len(problem.free)), lo, hi)
             r0 = problem.residual(u)
             steps = np.full(len(u), fitting.DIFF_STEP)
-            assert problem._linearised(u, steps, problem.exps) is not None  # the path under test is taken
+            assert problem._linearised(u, steps, r0, problem.exps) is not None  # the path under test is taken
             before = problem.evaluations
             J = problem.jacobian(u, r0, step=fitting.DIFF_STEP)
             assert problem.evaluations - before == len(u)  # each column counts as an evaluation
@@ -138,3 +138,50 @@ def test_predict_sharing_equals_predict_for_sensor_effects(tmp_path):
         assert set(e._filtered[1]) == set(kept)  # nothing filtered for a chain per channel
         ref = predict(skew, replace(e, _cache=None, _filtered=None))
         assert np.array_equal(got, ref)
+
+
+def test_jacobian_columns_from_the_changes_equal_the_differenced_linearised_residuals(tmp_path):
+    """The linearised Jacobian is written from each model's change of prediction times the
+    channel's weight over the step (prediction.linearised_changes), not by differencing the
+    residuals of the linearised predictions (prediction.linearised_predictions), which it equals
+    but for rounding (the difference cancels all but the change's digits); into the rows of a
+    C-ordered Jacobian, on a rig whose channels have two chains (two operator groups) and at a
+    stride."""
+    import odsuite.diagnosis.fitting as fitting
+    from hidden_effects import CASES, make_project
+
+    from odsuite.analysis.modelrev import revision_model
+    from odsuite.analysis.prediction import linearised_changes, linearised_predictions, predict, prepare
+    from odsuite.contracts.plugins import registries
+    from odsuite.store.project import open_project
+
+    path = make_project(tmp_path / "s.odsp", [("stiffness", CASES["stiffness"])], n_samples=2048)
+    with open_project(path) as p:
+        exps, base = prepare(p), revision_model(p)
+        assert len(exps[0].operators) > 1  # more than one chain: the changes are written group by group
+        for name in ("stiffness", "mass_properties"):
+            problem = fitting.Problem(base, registries().effects.get(name), fitting.fit_windows(exps), stride=3)
+            lo, hi = problem.lower_upper()
+            u = np.clip(np.random.default_rng(7).normal(0.0, 0.5, len(problem.free)), lo, hi)
+            r0 = problem.residual(u)
+            steps = np.where(np.arange(len(u)) % 2 == 0, 1.0, -1.0) * fitting.DIFF_STEP
+            J = problem._linearised(u, steps, r0, problem.exps)
+            assert J is not None and J.flags.c_contiguous and J.shape == (r0.size, len(u))
+            # the columns as they were taken: residuals of the linearised predictions, differenced
+            models0 = problem.models(u)
+            points = problem._stepped_models(u, steps, range(len(u)))
+            preds = [linearised_predictions(models0[e.name], [q[e.name] for q in points], e, problem.stride)
+                     for e in problem.exps]
+            ref = np.column_stack([
+                -(problem._residual_of([pe[i] for pe in preds], problem.exps, None, problem.stride, strided=True)
+                  - r0) / steps[i] for i in range(len(u))])
+            err = np.linalg.norm(J - ref, axis=0) / np.linalg.norm(ref, axis=0)
+            assert err.max() < 1e-8, (name, err)
+            # unscaled, the changes are the linearised predictions less the model's own at u
+            e = problem.exps[0]
+            change = linearised_changes(models0[e.name], [q[e.name] for q in points], e, problem.stride)
+            assert change.shape == (preds[0][0].shape[0], len(e.sensors), len(u))
+            own = predict(models0[e.name], e)[::problem.stride]
+            for i in (0, len(u) - 1):
+                diff = preds[0][i] - own
+                assert np.abs(change[:, :, i] - diff).max() <= 1e-6 * np.abs(diff).max()
