@@ -545,8 +545,9 @@ class Problem:
     def _sensor_batches(self, exps: Sequence[PreparedExperiment]
                         ) -> tuple[list[list[int]], dict[str, np.ndarray] | None]:
         """Groups of free parameters that one evaluation can difference (at most one per sensor,
-        shared ones of sensors every experiment records), and each sensor's residual rows; kept
-        per set of records (screening asks again for every step and start)."""
+        shared ones of sensors some experiment records: where one leaves a sensor out, as a
+        clipped channel, the sensor's parameter changes nothing there), and each sensor's residual
+        rows; kept per set of records (screening asks again for every step and start)."""
         key = tuple((e.name, e.n_samples) for e in exps)
         if key not in self._batches:
             self._batches[key] = self._new_sensor_batches(exps)
@@ -555,7 +556,7 @@ class Problem:
     def _new_sensor_batches(self, exps: Sequence[PreparedExperiment]
                             ) -> tuple[list[list[int]], dict[str, np.ndarray] | None]:
         local = [i for i, f in enumerate(self.free) if f.param.sensor is not None and f.experiment is None
-                 and all(f.param.sensor in {s.name for s in e.sensors} for e in exps)]
+                 and any(f.param.sensor in {s.name for s in e.sensors} for e in exps)]
         if len(local) < 2:
             return [[i] for i in range(len(self.free))], None
         batches = self._groups(local, lambda f: f.param.sensor)
