@@ -378,14 +378,18 @@ def prepare_experiment(project, name: str, exp=None) -> PreparedExperiment:
         raise ConfigError(f"{where}: no accelerometer channel matches a sensor of rig {rig.name!r}")
     clipped = [j for j, (k, ch) in enumerate(zip(columns, infos))
                if is_clipped(raw[:, k], limits=held_range(raw[:, k], ch.limit_low, ch.limit_high))]
-    if len(clipped) == len(sensors):
-        raise ConfigError(f"{where}: every response channel is clipped at its converter's limits "
-                          f"(channels {', '.join(str(k) for k in columns)}): record again with a wider "
-                          "input range or a softer blow")
     # a model cannot follow a signal the converter cut off: a clipped channel's residual is the
-    # clipping, which no effect explains, so the channel is left out of this experiment
-    clip_notes = [f"{where}: channel {columns[j]} ({sensors[j].name}) is clipped at its converter's limits: "
-                  "left out of this experiment's comparison" for j in clipped]
+    # clipping, which no effect explains, so the channel is left out of this experiment; where every
+    # channel is clipped (the real beam's camera record: its one accelerometer for a few samples at
+    # a time in the first 10 ms) it is compared anyway, and the note says so
+    if len(clipped) == len(sensors):
+        clip_notes = [f"{where}: every response channel is clipped at its converter's limits (channels "
+                      f"{', '.join(str(k) for k in columns)}): compared anyway, and part of its error is the "
+                      "clipping"]
+        clipped = []
+    else:
+        clip_notes = [f"{where}: channel {columns[j]} ({sensors[j].name}) is clipped at its converter's limits: "
+                      "left out of this experiment's comparison" for j in clipped]
     kept = [j for j in range(len(sensors)) if j not in clipped]
     sensors, columns, vpu, chains, units, infos = ([x[j] for j in kept] for x in (sensors, columns, vpu, chains,
                                                                                     units, infos))

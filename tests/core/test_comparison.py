@@ -320,9 +320,10 @@ def test_a_clipped_channel_is_left_out_of_that_experiment(tmp_path):
     assert nrmse(by_name["T8"].measured[:, j], cut) > 0.1
 
 
-def test_every_channel_clipped_is_refused_naming_them(tmp_path):
+def test_every_channel_clipped_is_compared_anyway_with_a_note(tmp_path):
+    """A record whose every response channel is clipped (the real beam's camera record) keeps them
+    all, and the note says part of the error is the clipping."""
     from odsuite.analysis.modelrev import base_model
-    from odsuite.domain.errors import ConfigError
 
     path = tmp_path / "all-clipped.h5"
     p = create_project(path)
@@ -338,6 +339,8 @@ def test_every_channel_clipped_is_refused_naming_them(tmp_path):
     p.add_experiment("T9", raw, sampling_rate=FS, systeminfo=replace(si, channels=channels),
                      excitation=Excitation(rig.force_channel, point, direction / np.linalg.norm(direction)),
                      pretrigger=PRE)
-    with pytest.raises(ConfigError, match=r"experiment 'T9': every response channel is clipped"):
-        prepare(p)
+    (exp,) = prepare(p)
     p.close()
+    assert [s.name for s in exp.sensors] == [s.name for s in rig.sensors]
+    assert len(exp.notes) == 1 and "experiment 'T9': every response channel is clipped" in exp.notes[0]
+    assert "compared anyway" in exp.notes[0]
