@@ -361,7 +361,7 @@ def load_nonlinear_loop() -> None:
     from odsuite.domain.cubic_steps import cubic_steps
 
     z = np.zeros
-    cubic_steps(z((1, 1)), z((1, 1)), z((1, 1, 1)), z((1, 1, 1)), z((1, 1)), z((1, 1)), z(1), z((2, 1, 1)))
+    cubic_steps(z((3, 3)), z((1, 1, 3)), z((1, 2)), z((1, 1)), z(1), z((2, 1, 2)))
 
 
 def simulate_nonlinear(structure, bf: np.ndarray, u, fs: float, hold: str = "foh") -> np.ndarray:
@@ -413,9 +413,10 @@ def _nonlinear_setup(structure, E: np.ndarray, bfs, records, fs: float, hold: st
     # the inputs' part of each step (products of 2-D arrays: numpy's stacked products are slower)
     linear = (fine[:, :-1].reshape(-1, n) @ start.T + fine[:, 1:].reshape(-1, n) @ end.T).reshape(
         len(records), steps - 1, 2 * n)
-    step_t = np.ascontiguousarray(np.vstack([phi.T, -start_pull.T]))
+    step_t = np.vstack([phi.T, -start_pull.T])
     linear_deflection = (linear.reshape(-1, 2 * n) @ Eq.T).reshape(len(records), steps - 1, -1)
-    out = (pull, drive, linear, linear_deflection, step_t, np.ascontiguousarray(step_t @ Eq.T),
+    # the state's and the deflections' parts side by side: one product per step gives both
+    out = (pull, drive, np.concatenate([linear, linear_deflection], axis=2), np.hstack([step_t, step_t @ Eq.T]),
            np.ascontiguousarray(end_pull.T), np.ascontiguousarray(end_deflection.T))
     for a in out:
         a.flags.writeable = False
@@ -450,10 +451,9 @@ def simulate_nonlinear_many(structure, drives, fs: float, hold: str = "foh") -> 
         while len(_NONLINEAR_SETUPS) >= NONLINEAR_SETUPS_KEPT:
             _NONLINEAR_SETUPS.pop(next(iter(_NONLINEAR_SETUPS)))
     _NONLINEAR_SETUPS[key] = setup  # the most recent last
-    pull, drive, linear, linear_deflection, step_t, deflect_t, end_pull_t, end_deflection_t = setup
-    states = np.empty((linear.shape[1] + 1, len(records), 2 * n))
-    cubic_steps(step_t, deflect_t, linear, linear_deflection, end_pull_t, end_deflection_t,
-                np.ascontiguousarray(c, dtype=float), states)
+    pull, drive, inputs, step_t, end_pull_t, end_deflection_t = setup
+    states = np.empty((inputs.shape[1] + 1, len(records), 2 * n))
+    cubic_steps(step_t, inputs, end_pull_t, end_deflection_t, np.ascontiguousarray(c, dtype=float), states)
     if not np.all(np.isfinite(states)):
         raise DivergedError("nonlinear simulation diverged (cubic springs too strong for this force)")
     out = []
