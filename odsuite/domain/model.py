@@ -496,6 +496,10 @@ class Structure(LinearStructure):
             self._select[b.name] = sel
             start += len(b.dofs)
         self._flex_start = start
+        # what follows from the bodies and flexible modes alone (M, M^-1, the sensors' rows) is
+        # shared with the structures built from the same ones (a stiffness or damping change)
+        self._frame = _frame(self.bodies, self.flexible_modes)
+        self._unit_rows = self._frame["_unit_rows"]  # Model._unit_row's
 
     def body(self, name: str | None) -> RigidBody:
         if name is None:  # the first body is the main one (effects append bodies after it)
@@ -562,6 +566,21 @@ class Structure(LinearStructure):
 
     @functools.cached_property
     def M(self) -> np.ndarray:
+        return self._framed("M", self._mass_matrix)
+
+    @functools.cached_property
+    def Minv(self) -> np.ndarray:
+        return self._framed("Minv", lambda: np.linalg.inv(self.M))
+
+    def _framed(self, name: str, make: Callable[[], np.ndarray]) -> np.ndarray:
+        """``make()``, kept (read-only) for the structures of the same bodies and flexible modes."""
+        value = self._frame.get(name)
+        if value is None:
+            value = self._frame[name] = make()
+            value.flags.writeable = False
+        return value
+
+    def _mass_matrix(self) -> np.ndarray:
         m = np.zeros((self.n_dof, self.n_dof))
         for b in self.bodies:
             sel = self._select[b.name]
@@ -745,6 +764,22 @@ class MeasurementChain:
 
 #: sensor rows kept per structure (Model._unit_row)
 UNIT_ROWS_KEPT = 4096
+
+#: what structures of the same bodies and flexible modes share (Structure._frame), by their
+#: identities (kept alive with the entry): the candidates that change springs alone build a new
+#: structure per evaluation, and each assembled M, inverted it and built its sensors' rows again
+_FRAMES: dict[tuple[int, int], tuple[tuple, tuple, dict]] = {}
+FRAMES_KEPT = 64
+
+
+def _frame(bodies: tuple, flexible_modes: tuple) -> dict:
+    key = (id(bodies), id(flexible_modes))
+    got = _FRAMES.get(key)
+    if got is None or got[0] is not bodies or got[1] is not flexible_modes:
+        if len(_FRAMES) >= FRAMES_KEPT:
+            _FRAMES.clear()
+        got = _FRAMES[key] = (bodies, flexible_modes, {"_unit_rows": {}})
+    return got[2]
 
 
 class Model:

@@ -1,6 +1,8 @@
 """What models keep between evaluations gives the numbers the direct computation gives, to the bit:
 a point's map written out, a structure's spring ends shared by K, C and the base matrices, the
-sensors' outputs shared by every model's rows, channel_swap's pairs named once per rig."""
+sensors' outputs shared by every model's rows, channel_swap's pairs named once per rig, the mass
+matrix, its inverse and the sensors' rows shared by structures of the same bodies and flexible
+modes."""
 
 from __future__ import annotations
 
@@ -55,6 +57,28 @@ def test_kept_sensor_outputs_give_each_models_own_rows(registries, thesis_rig):
         assert _sensor_rows(m, sensors).tobytes() == want.tobytes()
     other = sensors[::-1]  # another set of the same sensors: its own outputs
     assert _sensor_rows(model, other).tobytes() == model.output_rows([Output.sensor(s) for s in other])[1].tobytes()
+
+
+def test_structures_of_the_same_bodies_share_what_follows_from_them(registries, thesis_rig):
+    model = registries.models.get("rigid-bodies")(thesis_rig)
+    sensors = [s for s in thesis_rig.sensors if s.quantity == "acceleration"]
+    outputs = [Output.sensor(s) for s in sensors]
+    stiffer = registries.effects.get("stiffness").apply(model, {"scale_z": 1.3})
+    heavier = registries.effects.get("mass_properties").apply(
+        model, {q.name: (1.2 if q.name.endswith("mass_scale") else q.nominal)
+                for q in registries.effects.get("mass_properties").parameters(model)})
+    st, other = model.structure, stiffer.structure
+    assert other is not st and other.bodies is st.bodies and not np.array_equal(other.K, st.K)
+    rows = model.output_rows(outputs)[1]
+    assert other.M is st.M and other.Minv is st.Minv and not st.M.flags.writeable
+    assert stiffer.output_rows(outputs)[1].tobytes() == rows.tobytes()
+    assert other._unit_rows is st._unit_rows and len(st._unit_rows) >= len(sensors)  # built once
+    # the same numbers as a structure that shares nothing (copies of the bodies and modes)
+    alone = Structure(list(st.bodies), st.springs, list(st.flexible_modes))
+    assert alone.M is not st.M and alone._unit_rows is not st._unit_rows
+    assert alone.M.tobytes() == st.M.tobytes() and alone.Minv.tobytes() == st.Minv.tobytes()
+    assert model.replace(structure=alone).output_rows(outputs)[1].tobytes() == rows.tobytes()
+    assert heavier.structure.bodies is not st.bodies and not np.array_equal(heavier.structure.M, st.M)
 
 
 def test_channel_swap_pairs_and_their_names_kept_per_rig(registries, thesis_rig):
