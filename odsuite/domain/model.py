@@ -496,6 +496,12 @@ class Structure(LinearStructure):
             self._select[b.name] = sel
             start += len(b.dofs)
         self._flex_start = start
+        # what follows from the bodies and flexible modes alone (M, M^-1) is shared with the
+        # structures built from the same ones (a stiffness or damping change), what follows from
+        # their geometry (the sensors' rows, the springs' ends) with those of the same centres of
+        # mass too (a mass or inertia change)
+        self._frame = _frame(self.bodies, self.flexible_modes)
+        self._unit_rows, self._ends = _geometry(self.bodies, self.flexible_modes)
 
     def body(self, name: str | None) -> RigidBody:
         if name is None:  # the first body is the main one (effects append bodies after it)
@@ -536,13 +542,13 @@ class Structure(LinearStructure):
     def _spring_ends(self, s: SpringDamper) -> tuple[np.ndarray, np.ndarray]:
         """Relative translation (3 x n) and rotation (3 x n) of a spring's ends, kept per spring
         (K, C and the base matrices each ask for them)."""
-        kept = self.__dict__.setdefault("_ends", {})
-        got = kept.get(id(s))
-        if got is None or got[0] is not s:
+        key = (s.name, s.body, s.other, np.asarray(s.point, float).tobytes())  # all the ends read of s
+        got = self._ends.get(key)
+        if got is None:
             P, R = self._new_spring_ends(s)
             P.flags.writeable = R.flags.writeable = False
-            got = kept[id(s)] = (s, P, R)
-        return got[1], got[2]
+            got = self._ends[key] = (P, R)
+        return got
 
     def _new_spring_ends(self, s: SpringDamper) -> tuple[np.ndarray, np.ndarray]:
         P = np.zeros((3, self.n_dof))
@@ -562,6 +568,21 @@ class Structure(LinearStructure):
 
     @functools.cached_property
     def M(self) -> np.ndarray:
+        return self._framed("M", self._mass_matrix)
+
+    @functools.cached_property
+    def Minv(self) -> np.ndarray:
+        return self._framed("Minv", lambda: np.linalg.inv(self.M))
+
+    def _framed(self, name: str, make: Callable[[], np.ndarray]) -> np.ndarray:
+        """``make()``, kept (read-only) for the structures of the same bodies and flexible modes."""
+        value = self._frame.get(name)
+        if value is None:
+            value = self._frame[name] = make()
+            value.flags.writeable = False
+        return value
+
+    def _mass_matrix(self) -> np.ndarray:
         m = np.zeros((self.n_dof, self.n_dof))
         for b in self.bodies:
             sel = self._select[b.name]
@@ -745,6 +766,37 @@ class MeasurementChain:
 
 #: sensor rows kept per structure (Model._unit_row)
 UNIT_ROWS_KEPT = 4096
+
+#: what structures of the same bodies and flexible modes share (Structure._frame: M, M^-1), by their
+#: identities (kept alive with the entry): the candidates that change springs alone build a new
+#: structure per evaluation, and each assembled M, inverted it and built its sensors' rows again
+_FRAMES: dict[tuple[int, int], tuple[tuple, tuple, dict]] = {}
+FRAMES_KEPT = 64
+
+
+def _frame(bodies: tuple, flexible_modes: tuple) -> dict:
+    key = (id(bodies), id(flexible_modes))
+    got = _FRAMES.get(key)
+    if got is None or got[0] is not bodies or got[1] is not flexible_modes:
+        if len(_FRAMES) >= FRAMES_KEPT:
+            _FRAMES.clear()
+        got = _FRAMES[key] = (bodies, flexible_modes, {})
+    return got[2]
+
+
+#: the sensors' rows and the springs' ends of structures of the same geometry (bodies' names,
+#: centres of mass and coordinates; the same flexible modes, kept alive with the entry)
+_GEOMETRIES: dict[tuple, tuple[tuple, dict, dict]] = {}
+
+
+def _geometry(bodies: tuple, flexible_modes: tuple) -> tuple[dict, dict]:
+    key = (tuple((b.name, np.asarray(b.com, float).tobytes(), tuple(b.dofs)) for b in bodies), id(flexible_modes))
+    got = _GEOMETRIES.get(key)
+    if got is None or got[0] is not flexible_modes:
+        if len(_GEOMETRIES) >= FRAMES_KEPT:
+            _GEOMETRIES.clear()
+        got = _GEOMETRIES[key] = (flexible_modes, {}, {})
+    return got[1], got[2]
 
 
 class Model:

@@ -62,3 +62,23 @@ def chain_columns(x, cols, factor, offsets, sos, out):
                 z[i, s, 1] = sos[s, 2] * x_cur - sos[s, 5] * x_new
                 x_cur = x_new
             out[k, cols[i]] = x_cur
+
+
+@compiled(nogil=True)
+def first_order_rows(num, pole, zi, source, u, every, out):
+    """Row r of ``out``: ``lfilter(num[r], [1, -pole[r]], u[source[r]], zi=[zi[r]])[::every]``
+    (complex coefficients, a real input), in the real arithmetic lfilter's complex filter does
+    (its products by the input's zero imaginary part and by a0 = 1 are exact and left out)."""
+    n = u.shape[1]
+    for r in range(num.shape[0]):
+        b0r, b0i, b1r, b1i = num[r, 0].real, num[r, 0].imag, num[r, 1].real, num[r, 1].imag
+        ar, ai = -pole[r].real, -pole[r].imag
+        zr, zim = zi[r].real, zi[r].imag
+        x = u[source[r]]
+        for k in range(n):
+            yr = zr + b0r * x[k]
+            yi = zim + b0i * x[k]
+            zr = b1r * x[k] - (ar * yr - ai * yi)
+            zim = b1i * x[k] - (ai * yr + ar * yi)
+            if k % every == 0:
+                out[r, k // every] = complex(yr, yi)

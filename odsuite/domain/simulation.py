@@ -165,15 +165,22 @@ def _residues(ss: StateSpace, modal: tuple) -> np.ndarray:
 
 def _mode_signals(lam: np.ndarray, T: float, ut: np.ndarray, every: int) -> np.ndarray:
     """Each mode's complex first-order-hold recursion on each input row of ``ut`` from rest
-    (modes x inputs x samples), every ``every``-th sample kept."""
+    (modes x inputs x samples), every ``every``-th sample kept: ``lfilter([b0, b1], [1, -p], u,
+    zi=[-b0 u[0]])`` per mode and input in one compiled call (recursions.first_order_rows)."""
+    from odsuite.domain.recursions import first_order_rows  # numba loads on first use
+
     x = lam * T
     p, g0, g1 = np.exp(x), T * _phi(x, 1), T * _phi(x, 2)
-    out = np.empty((len(lam), len(ut), len(range(0, ut.shape[1], every))), complex)
-    for i in range(len(lam)):
+    nm, ni = len(lam), len(ut)
+    num, zi = np.empty((nm * ni, 2), complex), np.empty(nm * ni, complex)
+    # the coefficients mode by mode in scalars, as lfilter was given them
+    for i in range(nm):
         b0, b1 = g1[i], g0[i] - g1[i]
-        for j in range(len(ut)):
-            z, _ = scipy.signal.lfilter([b0, b1], [1.0, -p[i]], ut[j], zi=[-b0 * ut[j, 0]])
-            out[i, j] = z[::every]
+        for j in range(ni):
+            num[i * ni + j] = b0, b1
+            zi[i * ni + j] = -b0 * ut[j, 0]
+    out = np.empty((nm, ni, len(range(0, ut.shape[1], every))), complex)
+    first_order_rows(num, np.repeat(p, ni), zi, np.tile(np.arange(ni), nm), ut, every, out.reshape(nm * ni, -1))
     return out
 
 

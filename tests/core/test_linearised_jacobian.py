@@ -185,3 +185,25 @@ def test_jacobian_columns_from_the_changes_equal_the_differenced_linearised_resi
             for i in (0, len(u) - 1):
                 diff = preds[0][i] - own
                 assert np.abs(change[:, :, i] - diff).max() <= 1e-6 * np.abs(diff).max()
+
+
+def test_mode_signals_are_each_modes_lfilter_to_the_bit():
+    """The modes' signals in one compiled call equal scipy's lfilter run per mode and input, as
+    they were: every number of a linearised Jacobian is unchanged."""
+    import scipy.signal
+
+    from odsuite.domain.simulation import _mode_signals, _phi
+
+    rng = np.random.default_rng(7)
+    lam = np.array([-3.0 + 2 * np.pi * 150j, -0.5 + 2 * np.pi * 40j, -80.0, -20.0 + 2 * np.pi * 900j])
+    T = 1.0 / 4096.0
+    ut = rng.standard_normal((2, 1501))
+    x = lam * T
+    p, g0, g1 = np.exp(x), T * _phi(x, 1), T * _phi(x, 2)
+    for every in (1, 2):
+        got = _mode_signals(lam, T, ut, every)
+        for i in range(len(lam)):
+            b0, b1 = g1[i], g0[i] - g1[i]
+            for j in range(len(ut)):
+                ref, _ = scipy.signal.lfilter([b0, b1], [1.0, -p[i]], ut[j], zi=[-b0 * ut[j, 0]])
+                assert np.array_equal(got[i, j], ref[::every])

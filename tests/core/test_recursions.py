@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.signal
 
-from odsuite.domain.recursions import second_order_rows, sections_in_place
+from odsuite.domain.recursions import first_order_rows, second_order_rows, sections_in_place
 
 
 def test_second_order_rows_are_lfilter_to_the_bit():
@@ -22,6 +22,21 @@ def test_second_order_rows_are_lfilter_to_the_bit():
         out = np.empty((rows, u.shape[1]))
         second_order_rows(num[:rows], den[:rows], zi[:rows], source[:rows], u, out)
         assert np.array_equal(out, ref[:rows])
+
+
+def test_first_order_rows_are_complex_lfilter_to_the_bit():
+    rng = np.random.default_rng(4)
+    u = rng.standard_normal((2, 3001))
+    pole = 0.999 * np.exp(1j * rng.uniform(0.01, 3.0, 6))
+    num = rng.standard_normal((6, 2)) + 1j * rng.standard_normal((6, 2))
+    zi = rng.standard_normal(6) + 1j * rng.standard_normal(6)
+    source = np.array([0, 1] * 3)
+    for every in (1, 2, 3):
+        ref = np.array([scipy.signal.lfilter(num[r], [1.0, -pole[r]], u[source[r]], zi=[zi[r]])[0][::every]
+                        for r in range(6)])
+        out = np.empty(ref.shape, complex)
+        first_order_rows(num, pole, zi, source, u, every, out)
+        assert np.array_equal(out, ref)
 
 
 def test_sections_in_place_are_sosfilt_to_the_bit():
