@@ -280,20 +280,27 @@ def test_frf_magnitude_error_leaves_out_a_channel_the_model_keeps_still():
     assert db["a"] == pytest.approx(20 * np.log10(1.1), abs=1e-6)
 
 
+def _truth_project(path, point, direction):
+    """A new project and the truth's record of a 50 N blow at ``point`` along ``direction``
+    (raw volts and Systeminfo, not stored)."""
+    from odsuite.analysis.modelrev import base_model
+
+    p = create_project(path)
+    model = base_model(p.rig, registries=p.registries)
+    raw, si = _independent_record(p.rig, model, point, direction, _half_sine(N, PRE, 1e-3, 50.0))
+    return p, raw, si
+
+
 def test_a_clipped_channel_is_left_out_of_that_experiment(tmp_path):
     """The truth recorded twice, once with zC cut off at a converter range of 60 % of its peak (the
     record declares that range): the model equal to the truth still compares at zero error, zC
     compared in the unclipped record only, and compare says why. Compared with the clipped samples,
     the same model is far off in zC."""
-    from odsuite.analysis.modelrev import base_model
     from odsuite.analysis.comparison import nrmse
 
-    path = tmp_path / "clipped.h5"
-    p = create_project(path)
-    rig = p.rig
-    model = base_model(rig, registries=p.registries)
     point, direction = np.array([0.0, 0.004122, -0.011399]), np.array([0.0, 0.0, 1.0])
-    raw, si = _independent_record(rig, model, point, direction, _half_sine(N, PRE, 1e-3, 50.0))
+    p, raw, si = _truth_project(tmp_path / "clipped.h5", point, direction)
+    rig = p.rig
     zc = next(s.channel for s in rig.sensors if s.name == "zC")
     limit = 0.6 * np.abs(raw[:, zc]).max()
     clipped = raw.copy()
@@ -323,14 +330,9 @@ def test_a_clipped_channel_is_left_out_of_that_experiment(tmp_path):
 def test_every_channel_clipped_is_compared_anyway_with_a_note(tmp_path):
     """A record whose every response channel is clipped (the real beam's camera record) keeps them
     all, and the note says part of the error is the clipping."""
-    from odsuite.analysis.modelrev import base_model
-
-    path = tmp_path / "all-clipped.h5"
-    p = create_project(path)
-    rig = p.rig
-    model = base_model(rig, registries=p.registries)
     point, direction = np.array([0.01, 0.004122, -0.011399]), np.array([0.3, 0.3, 0.9])
-    raw, si = _independent_record(rig, model, point, direction, _half_sine(N, PRE, 1e-3, 50.0))
+    p, raw, si = _truth_project(tmp_path / "all-clipped.h5", point, direction)
+    rig = p.rig
     channels = list(si.channels)
     for s in rig.sensors:
         limit = 0.5 * np.abs(raw[:, s.channel]).max()
