@@ -8,6 +8,7 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from odsuite.contracts.effects import applies, family
 from odsuite.diagnosis import checks, physical
@@ -53,6 +54,14 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     """Fit effect ``name`` together with the current revision's effects (all their parameters
     refitted) and store the result as a new revision, made current. Returns the new revision's
     number, its error and the previous error."""
+    # on one BLAS thread, as diagnose: a product's rounding depends on the threads that share it,
+    # and the revision stored must not depend on how the process was started (a fit on two threads
+    # ended 4e-9 from one on one, OPENBLAS_NUM_THREADS=1 inherited or not)
+    with threadpool_limits(1):
+        return _add_effect(project, name, progress=progress)
+
+
+def _add_effect(project, name: str, *, progress: Callable[[str, int, int], None] | None = None) -> dict[str, Any]:
     from odsuite.analysis.comparison import compare
     from odsuite.analysis.modelrev import base_model
 
