@@ -526,19 +526,6 @@ def _coordinates(model, exp: PreparedExperiment, hold: str) -> np.ndarray:
     return exp._cache[2]
 
 
-def linearised_predictions(model0, models: Sequence[Any], exp: PreparedExperiment, every: int = 1
-                           ) -> list[np.ndarray] | None:
-    """``predict(m, exp)`` for each of ``models`` (linear structures of ``model0``'s size near
-    it, with its chain): ``model0``'s prediction plus linearised_changes. None where that does not
-    apply (then predict each). Every ``every``-th sample (a fit's stride)."""
-    change = linearised_changes(model0, models, exp, every)
-    if change is None:
-        return None
-    q0 = _coordinates(model0, exp, HOLD)
-    pred0 = _digital_chain(exp, _analog_chain(model0, exp, q0 @ _sensor_rows(model0, exp.sensors).T))[::every]
-    return [pred0 + change[:, :, i] for i in range(len(models))]
-
-
 def linearised_changes(model0, models: Sequence[Any], exp: PreparedExperiment, every: int = 1,
                        scales: np.ndarray | None = None, out: np.ndarray | None = None) -> np.ndarray | None:
     """The change of ``predict(m, exp)`` from ``model0``'s for each of ``models`` (linear
@@ -902,7 +889,7 @@ def predict_sharing(model, exp: PreparedExperiment) -> np.ndarray:
     """``predict(model, exp)`` for a model whose structure's response ``exp`` keeps (a candidate
     that changes the sensors alone: gain, tilt, position, cables): the chain is linear, so its
     filtering of the coordinates, done once per distinct channel chain and kept, combines by each
-    model's sensor rows (as linearised_predictions; equal to predict but for rounding). Otherwise,
+    model's sensor rows (as linearised_changes; equal to predict but for rounding). Otherwise,
     or where the new chains cost more than predict's filtering (delays or dynamics that move each
     evaluation: NEW_CHAIN_SHARE), predict."""
     st = model.structure

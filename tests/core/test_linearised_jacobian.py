@@ -1,5 +1,5 @@
 """The diagnosis's linearised Jacobian (odsuite.domain.simulation.linearised_band,
-odsuite.analysis.prediction.linearised_predictions, fitting.Problem._linearised): a change of the
+odsuite.analysis.prediction.linearised_changes, fitting.Problem._linearised): a change of the
 structure's response to first order in its poles and residues, against central differences of
 the exact simulation and against the finite-difference Jacobian it replaces."""
 
@@ -143,7 +143,7 @@ def test_predict_sharing_equals_predict_for_sensor_effects(tmp_path):
 def test_jacobian_columns_from_the_changes_equal_the_differenced_linearised_residuals(tmp_path):
     """The linearised Jacobian is written from each model's change of prediction times the
     channel's weight over the step (prediction.linearised_changes), not by differencing the
-    residuals of the linearised predictions (prediction.linearised_predictions), which it equals
+    residuals of the linearised predictions (the model's own plus those changes), which it equals
     but for rounding (the difference cancels all but the change's digits); into the rows of a
     C-ordered Jacobian, on a rig whose channels have two chains (two operator groups) and at a
     stride."""
@@ -151,7 +151,7 @@ def test_jacobian_columns_from_the_changes_equal_the_differenced_linearised_resi
     from hidden_effects import CASES, make_project
 
     from odsuite.analysis.modelrev import revision_model
-    from odsuite.analysis.prediction import linearised_changes, linearised_predictions, predict, prepare
+    from odsuite.analysis.prediction import linearised_changes, predict, prepare
     from odsuite.contracts.plugins import registries
     from odsuite.store.project import open_project
 
@@ -170,8 +170,11 @@ def test_jacobian_columns_from_the_changes_equal_the_differenced_linearised_resi
             # the columns as they were taken: residuals of the linearised predictions, differenced
             models0 = problem.models(u)
             points = problem._stepped_models(u, steps, range(len(u)))
-            preds = [linearised_predictions(models0[e.name], [q[e.name] for q in points], e, problem.stride)
-                     for e in problem.exps]
+            preds = []
+            for e in problem.exps:
+                own_e = predict(models0[e.name], e)[::problem.stride]
+                ch = linearised_changes(models0[e.name], [q[e.name] for q in points], e, problem.stride)
+                preds.append([own_e + ch[:, :, i] for i in range(len(u))])
             ref = np.column_stack([
                 -(problem._residual_of([pe[i] for pe in preds], problem.exps, None, problem.stride, strided=True)
                   - r0) / steps[i] for i in range(len(u))])
@@ -182,9 +185,11 @@ def test_jacobian_columns_from_the_changes_equal_the_differenced_linearised_resi
             change = linearised_changes(models0[e.name], [q[e.name] for q in points], e, problem.stride)
             assert change.shape == (preds[0][0].shape[0], len(e.sensors), len(u))
             own = predict(models0[e.name], e)[::problem.stride]
+            # against the exact simulation of the stepped models: first order in the step
             for i in (0, len(u) - 1):
-                diff = preds[0][i] - own
-                assert np.abs(change[:, :, i] - diff).max() <= 1e-6 * np.abs(diff).max()
+                exact = predict(points[i][e.name], e)[::problem.stride] - own
+                # (measured 0.7-2.7e-5: second order in a step of fitting.DIFF_STEP natural steps)
+                assert np.abs(change[:, :, i] - exact).max() <= 1e-3 * np.abs(exact).max()
 
 
 def test_mode_signals_are_each_modes_lfilter_to_the_bit():
