@@ -210,6 +210,8 @@ def add_effect_cmd(
         console.print(f"{effect}: {shown(physical_text(most))}{more}", highlight=False)
     for line in result["warnings"]:
         paragraph(f"warning: {line}", err_console)
+    for note in result.get("notes", ()):
+        paragraph(note)
 
 
 @app.command("history")

@@ -24,6 +24,7 @@ from odsuite.diagnosis.fitting import (
     refined,
     screen,
     uncertainties,
+    weight_notes,
 )
 from odsuite.analysis.history import data_stamp, valid_metric
 from odsuite.analysis.modelrev import apply_effects, current_revision, instance_names, revision_model
@@ -146,7 +147,7 @@ def _add_effect(project, name: str, *, progress: Callable[[str, int, int], None]
     after = compare(project, revision={"model": rev.get("model"), "effects": new_entries}, prepared=exps,
                     resonances=False)
     warnings = _warnings(name, effect, joint, res, current.shared, exps, after)
-    return _stored(project, rev, name, new_entries, after, before, warnings)
+    return _stored(project, rev, name, new_entries, after, before, warnings, exps)
 
 
 def _entries(joint: Problem, joint_effects, u, fit_sds, corr, res) -> list[dict[str, Any]]:
@@ -172,15 +173,17 @@ def _entries(joint: Problem, joint_effects, u, fit_sds, corr, res) -> list[dict[
     return entries
 
 
-def _stored(project, rev, name: str, new_entries: list[dict], after, before: float, warnings: list[str]
-            ) -> dict[str, Any]:
+def _stored(project, rev, name: str, new_entries: list[dict], after, before: float, warnings: list[str],
+            exps) -> dict[str, Any]:
     """The new revision stored (its error stamped with the records it was computed on) and made
     current; returns what add-effect reports."""
     metrics = {"error": after.error, "noise_floor_error": after.noise_floor_error, "added": name,
                "previous_error": before, "data_stamp": data_stamp(project)}
     n = project.add_model_revision(new_entries, _flat(new_entries), metrics, rev["revision"], model=rev.get("model"))
     return {"revision": n, "effect": name, "error": after.error, "previous_error": before,
-            "noise_floor_error": after.noise_floor_error, "effects": new_entries, "warnings": warnings}
+            "noise_floor_error": after.noise_floor_error, "effects": new_entries, "warnings": warnings,
+            # what the comparison left out (clipped channels) and the channels the fit weighed blind
+            "notes": list(after.notes) + weight_notes(exps)}
 
 
 def _add_on_top(project, rev, entries, name: str, effect, screened, exps, before, progress) -> dict[str, Any]:
@@ -208,7 +211,7 @@ def _add_on_top(project, rev, entries, name: str, effect, screened, exps, before
     after = compare(project, revision={"model": rev.get("model"), "effects": new_entries}, prepared=exps,
                     resonances=False)
     warnings = _warnings(name, effect, problem, res, problem.base.shared, exps, after, prefix="")
-    return _stored(project, rev, name, new_entries, after, before, warnings)
+    return _stored(project, rev, name, new_entries, after, before, warnings, exps)
 
 
 def _warnings(name: str, effect, joint: Problem, res, model, exps, after, prefix: str | None = None) -> list[str]:

@@ -297,6 +297,7 @@ def test_a_clipped_channel_is_left_out_of_that_experiment(tmp_path):
     compared in the unclipped record only, and compare says why. Compared with the clipped samples,
     the same model is far off in zC."""
     from odsuite.analysis.comparison import nrmse
+    from odsuite.diagnosis.add_effect import add_effect
 
     point, direction = np.array([0.0, 0.004122, -0.011399]), np.array([0.0, 0.0, 1.0])
     p, raw, si = _truth_project(tmp_path / "clipped.h5", point, direction)
@@ -312,7 +313,9 @@ def test_a_clipped_channel_is_left_out_of_that_experiment(tmp_path):
                          excitation=Excitation(rig.force_channel, point, direction), pretrigger=PRE)
     exps = prepare(p)
     result = compare(p)
+    added = add_effect(p, "force_gain")  # add-effect reports what its comparison left out as well
     p.close()
+    assert any(f"channel {zc} (zC) is clipped" in n for n in added["notes"])
     by_name = {e.name: e for e in exps}
     assert [s.name for s in by_name["T8"].sensors] == [s.name for s in rig.sensors]
     assert [s.name for s in by_name["T8clip"].sensors] == [s.name for s in rig.sensors if s.name != "zC"]
