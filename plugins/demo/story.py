@@ -101,18 +101,26 @@ def _record(project, console: Console) -> None:
                            seed=10 + i, adc_bits=ADC_BITS, effects=[(e, dict(v)) for e, v in HIDDEN_EFFECTS])
         clipped = "".join(f", [red]{n} samples of {rec.channel_names[ch]} clipped[/red]"
                           for ch, n in rec.clipped.items())
-        console.print(f"  {name}: {sim.scenarios[name].description}; {peak:g} N hammer, "
-                      f"{exp.n_samples} samples x {exp.n_channels} channels{clipped}", highlight=False, soft_wrap=True)
+        _say(console, f"  {name}: {sim.scenarios[name].description}; {peak:g} N hammer, "
+                      f"{exp.n_samples} samples x {exp.n_channels} channels{clipped}")
+
+
+def _say(console: Console, text: str) -> None:
+    """One narrative line wrapped at the console's width (80 columns when piped), its continuation
+    indented under it; a path or a number is never broken."""
+    indent = " " * (len(text) - len(text.lstrip(" ")))
+    console.print(textwrap.fill(text, console.width, subsequent_indent=indent + "  ", break_long_words=False,
+                                break_on_hyphens=False), highlight=False, soft_wrap=True)
 
 
 def _print_comparison(console: Console, doc: Mapping[str, Any]) -> None:
     worst = ", ".join(f"{w['name']} {w['error']:.3f}" for w in doc["worst"] if w["kind"] == "channel")
-    console.print(f"  compare: error [bold]{doc['error']:.4f}[/bold] (noise floor {doc['noise_floor_error']:.4f}); "
-                  f"worst channels: {worst}", highlight=False, soft_wrap=True)
+    _say(console, f"  compare: error [bold]{doc['error']:.4f}[/bold] (noise floor {doc['noise_floor_error']:.4f}); "
+                  f"worst channels: {worst}")
     for peak in doc["residual_peaks"]:
         if peak["lacking"]:
-            console.print(f"  residual peak at {peak['frequency_hz']:.0f} Hz in {', '.join(peak['channels'])}: "
-                          "the model has no mode there", highlight=False, soft_wrap=True)
+            _say(console, f"  residual peak at {peak['frequency_hz']:.0f} Hz in {', '.join(peak['channels'])}: "
+                          "the model has no mode there")
 
 
 def _print_candidates(console: Console, doc: Mapping[str, Any], rows: int = 6) -> None:
@@ -133,8 +141,7 @@ def _print_candidates(console: Console, doc: Mapping[str, Any], rows: int = 6) -
     rest = doc["candidates"][rows:]
     if rest:
         significant = sum(c["significant"] for c in rest)
-        console.print(f"  ({len(rest)} more candidates, {significant or 'none'} significant)", highlight=False,
-                      soft_wrap=True)
+        _say(console, f"  ({len(rest)} more candidates, {significant or 'none'} significant)")
 
 
 def _write_outputs(out: Path, project_path: Path, diagnosis: Mapping[str, Any] | None,
@@ -155,18 +162,17 @@ def _write_outputs(out: Path, project_path: Path, diagnosis: Mapping[str, Any] |
             "model": True, "start": max(0.0, hit + MOVIE_WINDOW_S[0]), "end": hit + MOVIE_WINDOW_S[1],
             "frame_step": MOVIE_FRAME_STEP}, progress=False))
     files["movie"] = Path(movie.path)
-    console.print(f"  movie: {movie.path} ({movie.summary}; measured and model motion overlaid)",
-                  highlight=False, soft_wrap=True)
+    _say(console, f"  movie: {movie.path} ({movie.summary}; measured and model motion overlaid)")
     for note in movie.notes:
-        console.print(f"  note: {note}", highlight=False, soft_wrap=True)
-    console.print(f"  history figure: {files['history']}", highlight=False, soft_wrap=True)
+        _say(console, f"  note: {note}")
+    _say(console, f"  history figure: {files['history']}")
     res = registries().renderers.get("report").render(RenderRequest(
         project_path, None, out / "report.html",
         {"diagnosis": diagnosis, "run_diagnosis": False, "movie_experiment": movie_exp}))
     files["report"] = Path(res.path)
-    console.print(f"  report: {res.path} ({res.summary})", highlight=False, soft_wrap=True)
+    _say(console, f"  report: {res.path} ({res.summary})")
     for note in res.notes:
-        console.print(f"  note: {note}", highlight=False, soft_wrap=True)
+        _say(console, f"  note: {note}")
     return files
 
 
@@ -205,8 +211,7 @@ def run_demo(out: str | Path = "demo-output", *, rounds: int = ROUNDS, console: 
 
     _step(console, 4, "the loop: compare, diagnose, add the best effect", started)
     errors, added, diagnosis_doc, noise, found, base = _loop(path, rounds, console)
-    console.print("  error per revision: " + " -> ".join(f"{e:.3f}" for e in errors) + f" (noise floor {noise:.4f})",
-                  highlight=False, soft_wrap=True)
+    _say(console, "  error per revision: " + " -> ".join(f"{e:.3f}" for e in errors) + f" (noise floor {noise:.4f})")
 
     _step(console, 5, "report, movie and history figure", started)
     files = _write_outputs(out, path, diagnosis_doc, console)
@@ -221,8 +226,8 @@ def run_demo(out: str | Path = "demo-output", *, rounds: int = ROUNDS, console: 
     extra = [n for n in found if n not in hidden]
     verdict = ("both hidden effects found" if not missed and not extra else
                f"missed: {', '.join(missed) or 'none'}; not hidden but added: {', '.join(extra) or 'none'}")
-    console.print(f"  {verdict}; hidden truth written to {files['hidden_truth']}; "
-                  f"{time.monotonic() - started:.0f} s in all", highlight=False, soft_wrap=True)
+    _say(console, f"  {verdict}; hidden truth written to {files['hidden_truth']}; "
+                  f"{time.monotonic() - started:.0f} s in all")
     return result
 
 
@@ -234,29 +239,28 @@ def _recorded_project(path: Path, console: Console, started: float) -> None:
     p = create_project(path, "thesis-dynamometer")
     try:
         modes = revision_model(p).shared.modes().frequency_hz
-        console.print(f"  {path}: rig {p.rig.name}, model {p.rig.default_model!r} (rigid platform on four "
-                      f"springs), modes {', '.join(f'{f:.0f}' for f in modes)} Hz", highlight=False, soft_wrap=True)
+        _say(console, f"  {path}: rig {p.rig.name}, model {p.rig.default_model!r} (rigid platform on four "
+                      f"springs), modes {', '.join(f'{f:.0f}' for f in modes)} Hz")
 
         _step(console, 2, "impact tests on the simulated rig", started)
-        console.print(f"  {len(SCENARIOS)} hammer tests at {SAMPLING_RATE:g} Hz, {ADC_BITS}-bit ADC; the simulated "
-                      "rig differs from the model in two ways the loop has to find", highlight=False, soft_wrap=True)
+        _say(console, f"  {len(SCENARIOS)} hammer tests at {SAMPLING_RATE:g} Hz, {ADC_BITS}-bit ADC; the simulated "
+                      "rig differs from the model in two ways the loop has to find")
         _record(p, console)
 
         _step(console, 3, "process to generalized coordinates", started)
         for name in p.experiment_names():
             s = process_experiment(p, name)
-            console.print(f"  {name}: {', '.join(s['datasets'])} (channels {s['channels'][0]}..{s['channels'][-1]})",
-                          highlight=False, soft_wrap=True)
+            _say(console, f"  {name}: {', '.join(s['datasets'])} (channels {s['channels'][0]}..{s['channels'][-1]})")
         info = p.info()
         near = {}
         for name, e in info["experiments"].items():
             for ch in e["clipped"]:
                 near.setdefault(ch, []).append(name)
         near_txt = "; ".join(f"{ch} in {', '.join(names)}" for ch, names in near.items()) or "none"
-        console.print(f"  info: {len(info['experiments'])} experiments, "
+        _say(console, f"  info: {len(info['experiments'])} experiments, "
                       f"{sum(e['n_samples'] for e in info['experiments'].values())} samples per channel in all, "
                       f"derived {', '.join(sorted({d for e in info['experiments'].values() for d in e['derived']}))}; "
-                      f"channels reaching their Systeminfo input limits: {near_txt}", highlight=False, soft_wrap=True)
+                      f"channels reaching their Systeminfo input limits: {near_txt}")
     finally:
         p.close()
 
@@ -289,21 +293,20 @@ def _loop(path: Path, rounds: int, console: Console):
             _print_comparison(console, cmp)
             diagnosis_doc = diagnose(p, prepared=exps, progress=report).as_dict()
             _print_candidates(console, diagnosis_doc)
-            console.print(f"  verdict: {diagnosis_doc['verdict']}", highlight=False, soft_wrap=True)
+            _say(console, f"  verdict: {diagnosis_doc['verdict']}")
             best = next((c for c in diagnosis_doc["candidates"] if c["significant"]), None)
             if diagnosis_doc["verdict"] == "nothing to explain":
-                console.print("  the error is within the noise floor: the loop stops", highlight=False, soft_wrap=True)
+                _say(console, "  the error is within the noise floor: the loop stops")
                 break
             if best is None:
-                console.print("  no candidate is significant: the loop stops", highlight=False, soft_wrap=True)
+                _say(console, "  no candidate is significant: the loop stops")
                 break
             res = add_effect(p, best["effect"], progress=report)
             added.append(best["effect"])
             for step in res.get("steps", [res]):  # a pair "A+B" adds A, then B: a revision each
                 errors.append(step["error"])
-                console.print(f"  add-effect {step['effect']}: revision {step['revision']}, error "
-                              f"{step['previous_error']:.4f} -> [bold]{step['error']:.4f}[/bold]", highlight=False,
-                              soft_wrap=True)
+                _say(console, f"  add-effect {step['effect']}: revision {step['revision']}, error "
+                              f"{step['previous_error']:.4f} -> [bold]{step['error']:.4f}[/bold]")
                 rows = next((e.get("physical") for e in reversed(step["effects"]) if e["effect"] == step["effect"]),
                             None)
                 if rows:  # what moved most, as `odsuite add-effect` prints it

@@ -65,6 +65,8 @@ def test_demo_finds_both_hidden_effects_and_the_error_falls_each_round(tmp_path,
     report = out / "report.html"
     assert report.exists() and "<html" in report.read_text()[:500].lower()
     assert "both hidden effects found" in text
+    # the narrative wraps at the console's width (80 when piped); only a lone path may run over
+    assert not [ln for ln in text.splitlines() if len(ln) > 80 and len(ln.split()) > 2]
     assert " -> ".join(f"{e:.3f}" for e in errors) in text
 
     # the project's summaries at 80 columns (a terminal that wide, or piped): `model`'s table was 94
@@ -100,3 +102,20 @@ def test_the_candidates_table_prints_no_split_of_factors_and_fits_80_columns():
     assert len(rows) == 2 and all(len(line) <= 80 for line in text.splitlines())
     # the title is a line of its own, not folded at the narrow table's width
     assert "candidate effects, best first (errors after the fit)" in text
+
+
+def test_a_narrative_line_wraps_at_the_console_width_without_breaking_a_path():
+    import io
+
+    from rich.console import Console
+
+    from odsuite_plugins.demo.story import _say
+
+    path = "/a/rather/long/directory/name/that/holds/the/demo/output/of/this/run/report.html"
+    out = io.StringIO()
+    _say(Console(file=out, width=80), f"  report: {path} (6 sections, 14 figures; the residual by band and "
+                                      "channel, the candidates and the verdict)")
+    lines = out.getvalue().splitlines()
+    assert len(lines) >= 3 and all(len(ln) <= 80 or ln.split() == [path] for ln in lines)
+    assert path in lines[1] and all(ln.startswith("    ") for ln in lines[1:])  # under the first line
+    assert " ".join(" ".join(lines).split()).startswith(f"report: {path} (6 sections")
