@@ -22,7 +22,7 @@ import scipy.signal
 import scipy.stats
 from threadpoolctl import threadpool_limits
 
-from odsuite.analysis.noise_floor import FLOOR_TOLERANCE, NoiseFloor, estimate, welch
+from odsuite.analysis.noise_floor import FLOOR_TOLERANCE, NoiseFloor, estimate, on_grid, pooled_grid, welch
 from odsuite.analysis.prediction import (
     PreparedExperiment,
     coordinate_series,
@@ -75,9 +75,9 @@ PEAK_MIN_SHARE = 0.02
 
 def residual_spectra(exps: Sequence[PreparedExperiment], predictions: Sequence[np.ndarray]
                      ) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Each record's residual Welch spectrum (frequencies, PSD samples x sensors) at the first
-    record's sampling rate, as ``residual_peaks`` takes them."""
-    return [welch(e.measured - p, exps[0].fs, e.n_samples) for e, p in zip(exps, predictions)]
+    """Each record's residual Welch spectrum (frequencies, PSD samples x sensors) at its own
+    sampling rate, as ``residual_peaks`` takes them."""
+    return [welch(e.measured - p, e.fs, e.n_samples) for e, p in zip(exps, predictions)]
 
 
 def residual_peaks(exps: Sequence[PreparedExperiment], predictions: Sequence[np.ndarray],
@@ -93,12 +93,18 @@ def residual_peaks(exps: Sequence[PreparedExperiment], predictions: Sequence[np.
     psd_sum = floor_sum = None
     per_channel: dict[str, np.ndarray] = {}
     segments = 1
-    for e, (f, pxx) in zip(exps, spectra if spectra is not None else residual_spectra(exps, predictions)):
-        nfft = 2 * (len(f) - 1)
+    spectra = spectra if spectra is not None else residual_spectra(exps, predictions)
+    if not spectra:
+        return []
+    # records of other rates or lengths pool on one frequency grid
+    f = pooled_grid([fe for fe, _ in spectra])
+    for e, (fe, pxx) in zip(exps, spectra):
+        nfft = 2 * (len(fe) - 1)
         segments = max(1, 1 + (e.n_samples - nfft) // (nfft // 2))
+        pxx = on_grid(f, fe, pxx)
         psd_sum = pxx.sum(axis=1) if psd_sum is None else psd_sum + pxx.sum(axis=1)
-        if floor is not None and e.name in floor.spectra and len(floor.spectra[e.name][0]) == len(f):
-            fl = floor.spectra[e.name][1].sum(axis=1)
+        if floor is not None and e.name in floor.spectra:
+            fl = on_grid(f, *floor.spectra[e.name]).sum(axis=1)
             floor_sum = fl if floor_sum is None else floor_sum + fl
         for j, s in enumerate(e.sensors):
             per_channel[s.name] = per_channel.get(s.name, 0) + pxx[:, j]

@@ -305,6 +305,22 @@ def welch(x: np.ndarray, fs: float, n_samples: int) -> tuple[np.ndarray, np.ndar
     return scipy.signal.welch(x, fs=fs, nperseg=_segment(n_samples), axis=0)
 
 
+def on_grid(f_ref: np.ndarray, f: np.ndarray, psd: np.ndarray) -> np.ndarray:
+    """A spectrum (frequencies x channels) at the frequencies ``f_ref``: spectra of records of
+    other rates or lengths pool on one grid (a density, so interpolated; equal grids unchanged)."""
+    if len(f) == len(f_ref) and np.array_equal(f, f_ref):
+        return psd
+    return np.column_stack([np.interp(f_ref, f, col) for col in psd.reshape(len(f), -1).T]).reshape(
+        len(f_ref), *psd.shape[1:])
+
+
+def pooled_grid(grids: Sequence[np.ndarray]) -> np.ndarray:
+    """The grid spectra of several records pool on: the first record's, up to the lowest Nyquist
+    frequency among them (above it a slower record holds nothing)."""
+    top = min(float(g[-1]) for g in grids)
+    return grids[0][grids[0] <= top]
+
+
 def welch_frequencies(fs: float, n_samples: int) -> np.ndarray:
     """The frequencies of ``welch``'s spectra (Hz)."""
     return np.fft.rfftfreq(_segment(n_samples), 1.0 / fs)

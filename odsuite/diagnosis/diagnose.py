@@ -1024,16 +1024,14 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
     modes = list(base.shared.modes().frequency_hz)
     if before is None:
         before = [predict(base.for_experiment(e.name), e) for e in exps]
-    # the residuals' spectra the peaks took (at the first record's rate) serve the signature where
-    # every record has that rate
-    one_rate = all(e.fs == exps[0].fs for e in exps)
+    # the residuals' spectra the peaks took serve the signature
     sig_before = signature(exps, before, cmp.floor, d.residual_peaks, amplitude, res0,
-                           cmp.residual_spectra if one_rate and before is cmp.predictions else None)
+                           cmp.residual_spectra if before is cmp.predictions else None)
     rest = None
     if best is not None and d.verdict != "nothing to explain":
         spectra = residual_spectra(exps, after)
         rest = signature(exps, after, floor_best, residual_peaks(exps, after, modes, floor_best, spectra=spectra),
-                         amplitude, res_best, spectra if one_rate else None)
+                         amplitude, res_best, spectra)
     d.signature = rest if rest is not None else sig_before
     d.message = message(d.verdict, d.baseline_error, d.noise_floor_error, best, sig_before, rest)
     if d.verdict in ("unexplained", "partly explained") and d.other_families:

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from odsuite.analysis.comparison import BAND_EDGES_HZ
-from odsuite.analysis.noise_floor import FLOOR_TOLERANCE, NoiseFloor, welch
+from odsuite.analysis.noise_floor import FLOOR_TOLERANCE, NoiseFloor, on_grid, pooled_grid, welch
 
 VERDICTS = ("nothing to explain", "explained", "partly explained", "unexplained")
 
@@ -66,7 +66,7 @@ def signature(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFlo
     res_c: dict[str, float] = {}
     flo_c: dict[str, float] = {}
     band_r = band_f = None
-    f = None
+    banded = []
     for i, (e, p) in enumerate(zip(exps, predictions)):
         r = e.measured - p
         res_e[e.name] = float(np.sum(r**2))
@@ -74,11 +74,12 @@ def signature(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFlo
             res_c[s.name] = res_c.get(s.name, 0.0) + float(np.sum(r[:, j] ** 2))
             flo_c[s.name] = flo_c.get(s.name, 0.0) + floor.energy[e.name][s.name]
         if e.name in floor.spectra:
-            f, pr = spectra[i] if spectra is not None else welch(r, e.fs, e.n_samples)
-            fl = floor.spectra[e.name][1]
-            if fl.shape == pr.shape:
-                band_r = pr.sum(axis=1) if band_r is None else band_r + pr.sum(axis=1)
-                band_f = fl.sum(axis=1) if band_f is None else band_f + fl.sum(axis=1)
+            fe, pr = spectra[i] if spectra is not None else welch(r, e.fs, e.n_samples)
+            banded.append((fe, pr.sum(axis=1), on_grid(fe, *floor.spectra[e.name]).sum(axis=1)))
+    if banded:  # records of other rates or lengths pool on one grid
+        f = pooled_grid([fe for fe, _, _ in banded])
+        band_r = sum(on_grid(f, fe, pr) for fe, pr, _ in banded)
+        band_f = sum(on_grid(f, fe, fl) for fe, _, fl in banded)
 
     def ranked(res: dict[str, float], flo: dict[str, float], key: str) -> list[dict[str, Any]]:
         rows = [{key: n, "residual_to_floor": float(np.sqrt(res[n] / flo[n])), "excess_share": res[n] - flo[n]}

@@ -349,3 +349,21 @@ def test_every_channel_clipped_is_compared_anyway_with_a_note(tmp_path):
     assert [s.name for s in exp.sensors] == [s.name for s in rig.sensors]
     assert len(exp.notes) == 1 and "experiment 'T9': every response channel is clipped" in exp.notes[0]
     assert "compared anyway" in exp.notes[0]
+
+
+def test_residual_peaks_of_records_at_two_rates_stay_at_their_frequency():
+    """A 200 Hz residual in a record at 10240 Hz and one at 5120 Hz: one peak at 200 Hz. Read at
+    the first record's rate, the slower record's line showed as a second peak at 400 Hz."""
+    from types import SimpleNamespace
+
+    from odsuite.analysis.comparison import residual_peaks
+
+    def record(name, fs, n):
+        t = np.arange(n) / fs
+        line = np.sin(2 * np.pi * 200.0 * t) * np.exp(-t / 0.2)
+        return SimpleNamespace(name=name, fs=fs, n_samples=n, sensors=[SimpleNamespace(name="z1")],
+                               measured=line[:, None])
+
+    exps = [record("fast", 10240.0, 8192), record("slow", 5120.0, 4096)]
+    peaks = residual_peaks(exps, [np.zeros_like(e.measured) for e in exps])
+    assert [round(p["frequency_hz"] / 5) * 5 for p in peaks] == [200]
