@@ -8,7 +8,7 @@ both turned into generalized coordinates by the same solvers. Like is compared w
 from __future__ import annotations
 
 import functools
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -925,23 +925,36 @@ def predict_sharing(model, exp: PreparedExperiment) -> np.ndarray:
     return out
 
 
-def flexible_mode_change(model, exp: PreparedExperiment, mode) -> np.ndarray:
+def flexible_mode_change(model, exp: PreparedExperiment, mode,
+                         unit: Callable[[], np.ndarray] | None = None) -> np.ndarray:
     """What adding the flexible ``mode`` to ``model``'s structure changes in ``predict(model, exp)``
     (samples x sensors). The mode's coordinate is uncoupled from the others (its own rows of M, C
     and K), so its response adds to theirs: one 1-degree-of-freedom simulation through the chain,
-    instead of the whole structure's again (a search over a mode's frequency and damping)."""
-    from odsuite.domain.model import Output, StateSpace
-    from odsuite.domain.simulation import simulate_state_space
+    instead of the whole structure's again (a search over a mode's frequency and damping). The
+    response is linear in the mode's participations: ``unit`` (where given) returns
+    flexible_mode_unit's for the mode's frequency and damping, kept by a caller that asks again
+    for other participations."""
+    from odsuite.domain.model import Output
 
     b, c = model.flexible_participation(mode, _force_inputs(model, exp)[0], [Output.sensor(s) for s in exp.sensors])
     if b == 0.0 or not c.any():
         return np.zeros((exp.n_samples, len(exp.sensors)))
-    w = 2 * np.pi * mode.frequency_hz
-    rate = np.array([-w * w, -2 * mode.damping_ratio * w])
-    # q'' + 2 zeta w q' + w^2 q = b F, its acceleration out
-    sdof = StateSpace(np.array([[0.0, 1.0], rate]), np.array([[0.0], [b]]), rate[None, :], np.array([[b]]))
+    g = unit() if unit is not None else flexible_mode_unit(model, exp, mode.frequency_hz, mode.damping_ratio)
+    return g * (b * c)[None, :]
+
+
+def flexible_mode_unit(model, exp: PreparedExperiment, frequency_hz: float, damping_ratio: float) -> np.ndarray:
+    """flexible_mode_change of an uncoupled mode at ``frequency_hz`` and ``damping_ratio`` whose
+    participation is 1 at the force and at every sensor (samples x sensors)."""
+    from odsuite.domain.model import StateSpace
+    from odsuite.domain.simulation import simulate_state_space
+
+    w = 2 * np.pi * frequency_hz
+    rate = np.array([-w * w, -2 * damping_ratio * w])
+    # q'' + 2 zeta w q' + w^2 q = F, its acceleration out
+    sdof = StateSpace(np.array([[0.0, 1.0], rate]), np.array([[0.0], [1.0]]), rate[None, :], np.array([[1.0]]))
     accel = simulate_state_space(sdof, exp.force, exp.fs, hold=HOLD)
-    return _digital_chain(exp, _analog_chain(model, exp, accel * c[None, :]))
+    return _digital_chain(exp, _analog_chain(model, exp, accel * np.ones((1, len(exp.sensors)))))
 
 
 def _digital_chain(exp: PreparedExperiment, physical: np.ndarray) -> np.ndarray:

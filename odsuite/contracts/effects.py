@@ -105,7 +105,7 @@ class EffectProvider(Protocol):
 
 PROTOCOL = EffectProvider
 #: optional members that, where given, must be methods
-OPTIONAL_METHODS = ("held_when", "refined_start", "linear_parameters", "project", "correct")
+OPTIONAL_METHODS = ("held_when", "refined_start", "linear_parameters", "project", "correct", "added_mode")
 #: the stages of a measurement effect, in the order corrections undo them (see ``correct``)
 CORRECTION_STAGES = ("channel", "wiring", "sensor")
 

@@ -31,8 +31,9 @@ from scipy.optimize._lsq.trf import select_step
 from odsuite.domain.errors import DivergedError, NonPhysicalError
 from odsuite.analysis.modelrev import RevisionModel
 from odsuite.analysis.noise_floor import active_var
-from odsuite.analysis.prediction import (PreparedExperiment, cubic_change_predictions, linearised_changes, predict,
-                                         predict_sharing, simulate_together)
+from odsuite.analysis.prediction import (PreparedExperiment, cubic_change_predictions, flexible_mode_change,
+                                         flexible_mode_unit, linearised_changes, predict, predict_sharing,
+                                         simulate_together)
 
 #: fits start on short heads of the records (s after the hit), then the whole record: a frequency
 #: error makes the time-domain residual oscillate in the parameter, a short head keeps it convex
@@ -181,6 +182,11 @@ LINEARISED_FROM = 3
 PREDICTIONS_KEPT = 3
 
 
+#: an added mode's responses to unit participations a problem keeps (each experiment's, per
+#: frequency and damping): a Jacobian's amplitude columns and its point's share one
+UNITS_KEPT = 32
+
+
 #: the records' peaks (the unstable residual's cap), by the arrays' identities (kept alive here)
 _PEAKS: dict[int, tuple[np.ndarray, float]] = {}
 
@@ -237,6 +243,8 @@ class Problem:
         self._predictions: list[tuple[Any, list[np.ndarray]]] = []  # (key, predictions), newest first
         self._models: tuple[bytes | None, dict] = (None, {})  # (point, models) last predicted
         self._batches: dict[tuple, tuple] = {}  # _sensor_batches per set of records
+        # an added mode's responses to unit participations (_with_added_mode), oldest first
+        self._units: dict[tuple, np.ndarray] = {}
         self.free: list[_Free] = []
         for p in params:
             if p.choices is not None or p.name in self.fixed or p.name in self.linear:
@@ -318,6 +326,13 @@ class Problem:
         if kept is not None:
             return list(kept)
         self.evaluations += 1
+        out = self._with_added_mode(u, exps)
+        if out is not None:
+            for p in out:
+                p.flags.writeable = False
+            if keep:
+                self.keep(u, out, exps)
+            return list(out)
         models = self.models(u)
         self._models = (u.tobytes(), models)
         simulate_together(models, exps)
@@ -327,6 +342,50 @@ class Problem:
         if keep:
             self.keep(u, out, exps)
         return list(out)
+
+    def _with_added_mode(self, u: np.ndarray, exps: Sequence[PreparedExperiment]) -> list[np.ndarray] | None:
+        """The predictions at ``u`` where the effect adds one uncoupled flexible mode to the base's
+        linear structure and changes nothing else (its ``added_mode``): the base's predictions plus
+        the mode's response alone (prediction.flexible_mode_change), the response to unit
+        participations kept per frequency and damping (a step of an amplitude simulates nothing).
+        None where that does not hold: the whole model is simulated."""
+        got = self._added_mode(u, exps)
+        if got is None:
+            return None
+        models, mode = got
+        if mode is None:
+            return [self.base_prediction(e).copy() for e in exps]
+        out = []
+        for e in exps:
+            key = (e.name, e.n_samples, mode.body, mode.frequency_hz, mode.damping_ratio)
+
+            def unit(key=key, e=e) -> np.ndarray:
+                kept = self._units.get(key)
+                if kept is None:
+                    if len(self._units) >= UNITS_KEPT:
+                        self._units.pop(next(iter(self._units)))
+                    kept = self._units[key] = flexible_mode_unit(models[e.name], e, mode.frequency_hz,
+                                                                 mode.damping_ratio)
+                return kept
+
+            out.append(self.base_prediction(e) + flexible_mode_change(models[e.name], e, mode, unit))
+        return out
+
+    def _added_mode(self, u: np.ndarray, exps: Sequence[PreparedExperiment]) -> tuple[dict, Any] | None:
+        """Each experiment's base model and the uncoupled flexible mode the effect adds at ``u``
+        (None: it adds none), where that is all it changes on a linear structure (``added_mode``);
+        None elsewhere."""
+        added = getattr(self.effect, "added_mode", None)
+        if added is None or self.linear or any(f.experiment is not None for f in self.free):
+            return None
+        models = {e.name: self.base.for_experiment(e.name) for e in exps}
+        if any(not m.structure.is_linear for m in models.values()):
+            return None
+        shared, _ = self._search_values(u)
+        mode = added(self.base.shared, self.effect.values(self.base.shared, shared))
+        if mode is not None and (mode.at_springs or mode.parts):
+            return None
+        return models, mode
 
     def keep(self, u: np.ndarray, predictions: Sequence[np.ndarray],
              exps: Sequence[PreparedExperiment] | None = None) -> None:
@@ -391,6 +450,7 @@ class Problem:
         out = Problem(self.base, self.effect, self.exps, fixed, self.prior, self.stride, self.full,
                       self.noise_scale, self.weights)
         out._base_predictions = self._base_predictions  # the same base model: share its predictions
+        out._units = self._units
         return out
 
     def jacobian(self, u: np.ndarray, r0: np.ndarray, exps: Sequence[PreparedExperiment] | None = None,
@@ -412,7 +472,13 @@ class Problem:
             steps[i] = h
         batches, rows_of = self._sensor_batches(exps or self.exps)
         by_experiment = False  # a batched column's rows: its sensor's, or its experiment's
-        if rows_of is None:
+        added = self._added_mode(u, exps or self.exps) if tangent and rows_of is None else None
+        if added is not None and added[1] is not None:
+            # an added uncoupled mode's columns differenced over DIFF_STEP on its response alone
+            # (_with_added_mode: two 1-degree-of-freedom simulations for the frequency and the
+            # damping, the amplitudes' none), where the linearisation simulates the whole structure
+            steps = steps * DIFF_STEP
+        elif rows_of is None:
             # a tangent's columns are derivatives: taken over DIFF_STEP, where the poles move
             # little enough for the linearisation (over a natural step they move as far as their
             # gaps, and each column was simulated)

@@ -292,9 +292,17 @@ class PlateFlexibility(Effect):
             Parameter("phi_force", "kg^-1/2", 0.0, -5.0, 5.0, description="participation at the force points")]
 
     def _apply(self, model, v):
+        mode = self.added_mode(model, v)
+        if mode is None:
+            return model
+        return _with_structure(model, flexible_modes=model.structure.flexible_modes + (mode,))
+
+    def added_mode(self, model, v) -> FlexibleMode | None:
+        """The uncoupled flexible mode ``apply`` adds to ``model``'s structure at the values ``v``
+        and nothing else: None where it adds none (every amplitude zero)."""
         amps = {k: val for k, val in v.items() if k not in ("frequency_hz", "damping_ratio", "body")}
         if not any(amps.values()):
-            return model
+            return None
         body = self._plated(model)[int(v.get("body", 0.0))]
         if self.shape == "kirchhoff":
             plate = model.rig.body(body).plate
@@ -315,9 +323,8 @@ class PlateFlexibility(Effect):
             def shape(point, direction, tag):
                 return table.get(tag, 0.0)
 
-        mode = FlexibleMode(f"{self.name}{len(model.structure.flexible_modes) + 1}", body,
+        return FlexibleMode(f"{self.name}{len(model.structure.flexible_modes) + 1}", body,
                             v["frequency_hz"], v["damping_ratio"], shape)
-        return _with_structure(model, flexible_modes=model.structure.flexible_modes + (mode,))
 
 
 def _scaled(signals, factors: dict[str, float]) -> dict:
