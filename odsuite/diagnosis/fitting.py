@@ -1176,7 +1176,7 @@ def _further(fun, x: np.ndarray, cost: float, slope: float, step: np.ndarray, co
 
 
 def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: int, xtol: float, ftol: float,
-         stops: _Stops, broyden: bool = True) -> OptimizeResult:
+         stops: _Stops, broyden: bool = True, further: bool = True) -> OptimizeResult:
     """scipy's least_squares(method="trf", x_scale=1, tr_solver="exact") with bounds, run on the
     n x n square root of J^T J (_square_root) in place of J's m rows, and (``broyden``) with
     Jacobians updated along accepted steps. Written here because scipy's takes an SVD of every row
@@ -1185,7 +1185,8 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
     accepted step (each column a simulation). The steps, their acceptance and termination are
     scipy's own functions; without ``broyden`` the iterates are scipy's to rounding where J is well
     conditioned (J^T J squares its condition number: a split the data barely determine, held by the
-    prior alone, lands elsewhere along it at the same cost).
+    prior alone, lands elsewhere along it at the same cost) and without ``further`` (an accepted
+    step taken further along its line, _further).
 
     ``jac(x, f)`` is d f / d x at ``x`` (``f`` the residual there). An updated Jacobian gives way to
     a differenced one (BROYDEN_RUN, BROYDEN_MISS) and never ends the search: where the gradient,
@@ -1272,7 +1273,7 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
             status = None
         if actual_reduction > 0:
             x_old, f_old = x, f
-            if status is None and nfev < max_nfev:
+            if further and status is None and nfev < max_nfev:
                 further = _further(fun, x, cost, float(g @ step), step, cost_new, lb, ub, stops.least)
                 if further is not None:
                     nfev += 1
