@@ -1214,8 +1214,35 @@ def _square_root(J: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
     return A, c, G, g
 
 
+#: a step is taken further along its line (_further) at most this many times its length, ...
+FURTHER_MAX = 4.0
+#: ... where the parabola through the cost, its slope and the step's cost puts the line's minimum
+#: at least this many times the step's length
+FURTHER_MIN = 1.25
+
+
+def _further(fun, x: np.ndarray, cost: float, slope: float, step: np.ndarray, cost_step: float,
+             lb: np.ndarray, ub: np.ndarray, least: float) -> tuple[np.ndarray, np.ndarray, float, float] | None:
+    """The point, residual, cost and multiple t of ``step`` at the minimum of the parabola through
+    the ``cost`` at ``x``, its ``slope`` along ``step`` (g . step) and ``cost_step`` at x + step,
+    evaluated; None (nothing evaluated) where that minimum lies within FURTHER_MIN steps or
+    promises less than ``least`` more than x + step. A Gauss-Newton step ignores the residual's
+    curvature: where the residual stays large (a candidate that does not fit) or the valley bends,
+    each step fell 1.3-1.7x what it promised and reached about half way along its line, so the
+    search converged linearly at a Jacobian (20 columns: 20 simulations' worth) per iteration."""
+    curvature = cost_step - cost - slope
+    t = FURTHER_MAX if curvature <= 0 else min(-slope / (2.0 * curvature), FURTHER_MAX)
+    if t < FURTHER_MIN or cost_step - (cost + slope * t + curvature * t * t) < least:
+        return None
+    x_t = make_strictly_feasible(x + t * step, lb, ub, rstep=0)
+    f_t = fun(x_t)
+    if not np.all(np.isfinite(f_t)):
+        return x_t, f_t, math.inf, t
+    return x_t, f_t, 0.5 * float(f_t @ f_t), t
+
+
 def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: int, xtol: float, ftol: float,
-         stops: _Stops, broyden: bool = True) -> OptimizeResult:
+         stops: _Stops, broyden: bool = True, further: bool = True) -> OptimizeResult:
     """scipy's least_squares(method="trf", x_scale=1, tr_solver="exact") with bounds, run on the
     n x n square root of J^T J (_square_root) in place of J's m rows, and (``broyden``) with
     Jacobians updated along accepted steps. Written here because scipy's takes an SVD of every row
@@ -1224,7 +1251,8 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
     accepted step (each column a simulation). The steps, their acceptance and termination are
     scipy's own functions; without ``broyden`` the iterates are scipy's to rounding where J is well
     conditioned (J^T J squares its condition number: a split the data barely determine, held by the
-    prior alone, lands elsewhere along it at the same cost).
+    prior alone, lands elsewhere along it at the same cost) and without ``further`` (an accepted
+    step taken further along its line, _further).
 
     ``jac(x, f)`` is d f / d x at ``x`` (``f`` the residual there). An updated Jacobian gives way to
     a differenced one (BROYDEN_RUN, BROYDEN_MISS) and never ends the search: where the gradient,
@@ -1278,6 +1306,11 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
             p_h, alpha, _ = solve_lsq_trust_region(n, m, uf, s, V, Delta, initial_alpha=alpha)
             p = d * p_h
             step, step_h, predicted = select_step(x, J_h, diag_h, g_h, p, p_h, d, Delta, lb, ub, theta)
+            if exact and predicted < stops.least:
+                # within the region its linearisation is trusted in, it promises less than one noise
+                # energy (the region shrank on steps that gained nothing): the least stop's rule
+                status = -2
+                break
             x_new = make_strictly_feasible(x + step, lb, ub, rstep=0)
             f_new = fun(x_new)
             nfev += 1
@@ -1306,6 +1339,13 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
             status = None
         if actual_reduction > 0:
             x_old, f_old = x, f
+            if further and status is None and nfev < max_nfev:
+                further = _further(fun, x, cost, float(g @ step), step, cost_new, lb, ub, stops.least)
+                if further is not None:
+                    nfev += 1
+                    if further[2] < cost_new:
+                        x_new, f_new, cost_new, t = further
+                        Delta = max(Delta, t * step_h_norm)
             x, f, cost = x_new, f_new, cost_new
             if (broyden and not confirm and status is None and run < BROYDEN_RUN
                     and abs(1 - ratio) <= BROYDEN_MISS):

@@ -1,8 +1,10 @@
 """The diagnosis's own trust-region least squares (odsuite.diagnosis.fitting._trf) against scipy's
 least_squares(method="trf") on a bounded nonlinear problem (a decaying sine, its frequency and
-phase far from linear): without Broyden updates the same iterates, evaluations and minimum; with
-them the same minimum in fewer Jacobians, and (with a loose ftol) no earlier stop than scipy's on an
-updated Jacobian's promise."""
+phase far from linear): without Broyden updates and steps taken further the same iterates,
+evaluations and minimum; with them the same minimum in fewer Jacobians, and (with a loose ftol) no
+earlier stop than scipy's on an updated Jacobian's promise. A step taken further (fitting._further)
+against the closed-form minimum of a quadratic cost, and on a fit whose residual stays large
+(Gauss-Newton steps fall short along their line) against scipy's minimum."""
 
 from __future__ import annotations
 
@@ -11,7 +13,7 @@ import pytest
 import scipy.optimize
 
 from odsuite.contracts.effects import Parameter
-from odsuite.diagnosis.fitting import STALL_GAIN, _Free, _Stops, _trf, search
+from odsuite.diagnosis.fitting import FURTHER_MAX, STALL_GAIN, _Free, _further, _Stops, _trf, search
 
 T = np.linspace(0.0, 1.0, 4000)
 LO, HI = np.array([0.0, 0.0, 5.0, -3.0, -1.0]), np.array([2.0, 10.0, 9.0, 3.0, 0.45])
@@ -24,7 +26,7 @@ def test_trf_is_scipys_trf_without_updates_and_reaches_its_minimum_with_them(x0)
     ref = scipy.optimize.least_squares(fun, x0, jac=jac, bounds=(LO, HI), method="trf", x_scale=1.0,
                                        max_nfev=60, xtol=1e-6, ftol=1e-8)
     same = _trf(fun, jac, x0, LO, HI, max_nfev=60, xtol=1e-6, ftol=1e-8, stops=_Stops(0.0, None, LO, HI),
-                broyden=False)
+                broyden=False, further=False)
     assert (same.nfev, same.njev, same.status) == (ref.nfev, ref.njev, ref.status)
     np.testing.assert_allclose(same.x, ref.x, rtol=0, atol=1e-8)
     assert same.cost == pytest.approx(ref.cost, rel=1e-12)
@@ -130,3 +132,76 @@ def test_factors_searched_in_logarithms_reach_scipys_minimum_in_fewer_evaluation
     # in fewer evaluations of the residual (a Jacobian is three) than the search in natural steps
     assert logs.nfev + 3 * logs.njev < before.nfev + 3 * before.njev
     np.testing.assert_allclose(logs.jac, jac(logs.x), rtol=0, atol=1e-9)  # d f / d u, at the point returned
+
+
+def test_a_step_taken_further_lands_on_a_quadratic_costs_minimum_along_its_line():
+    # a linear residual: the cost along any line is a parabola, whose minimum lstsq gives in closed form
+    rng = np.random.default_rng(4)
+    A, b = rng.standard_normal((50, 3)), rng.standard_normal(50)
+
+    def fun(x):
+        return A @ x - b
+
+    x = np.zeros(3)
+    best = np.linalg.lstsq(A, b, rcond=None)[0]
+    lo, hi = np.full(3, -10.0), np.full(3, 10.0)
+    cost = 0.5 * float(b @ b)
+    slope = float((A.T @ fun(x)) @ (0.4 * best))
+    out = _further(fun, x, cost, slope, 0.4 * best, 0.5 * float(fun(0.4 * best) @ fun(0.4 * best)), lo, hi, 0.0)
+    assert out is not None
+    x_t, f_t, cost_t, t = out
+    assert t == pytest.approx(2.5, rel=1e-9)
+    np.testing.assert_allclose(x_t, best, rtol=1e-9, atol=1e-12)
+    assert cost_t == pytest.approx(0.5 * float(fun(best) @ fun(best)), rel=1e-12)
+    np.testing.assert_allclose(f_t, fun(best), rtol=0, atol=1e-12)
+    # the full step reaches the minimum already: nothing evaluated
+    full = 0.5 * float(fun(best) @ fun(best))
+    assert _further(fun, x, cost, float((A.T @ fun(x)) @ best), best, full, lo, hi, 0.0) is None
+    # a short step whose parabola promises less than ``least`` more: nothing evaluated
+    gain = 0.5 * float(fun(0.4 * best) @ fun(0.4 * best)) - full
+    assert _further(fun, x, cost, slope, 0.4 * best, full + gain, lo, hi, 2 * gain) is None
+    # a cost falling faster than linear along the line: at most FURTHER_MAX steps, within the bounds
+    out = _further(fun, x, cost, slope, 0.1 * best, cost + 2 * slope, lo, hi, 0.0)
+    assert out[3] == FURTHER_MAX
+    np.testing.assert_allclose(out[0], np.clip(FURTHER_MAX * 0.1 * best, lo, hi))
+
+
+def _large_residual(seed: int):
+    """One decay and a sine fitted to two decays and a sine of another frequency, measured with
+    NOISE_LARGE: the residual stays large where it fits, so Gauss-Newton's curvature (J^T J alone)
+    is not the cost's and its steps fall short along their line."""
+    y = (np.exp(-3 * T) + 0.6 * np.exp(-20 * T) + 0.3 * np.sin(9 * T)
+         + NOISE_LARGE * np.random.default_rng(seed).standard_normal(T.size))
+
+    def fun(x):
+        return x[0] * np.exp(-x[1] * T) + x[2] * np.sin(x[3] * T) - y
+
+    def jac(x, f=None):
+        f0 = fun(x)
+        return np.column_stack([(fun(x + 1e-7 * e) - f0) / 1e-7 for e in np.eye(4)])
+
+    return fun, jac
+
+
+NOISE_LARGE = 0.01
+
+
+def test_steps_taken_further_reach_scipys_minimum_where_the_residual_stays_large():
+    lo, hi = np.array([0.0, 0.0, -2.0, 1.0]), np.array([3.0, 30.0, 2.0, 20.0])
+    least = 0.5 * STALL_GAIN * NOISE_LARGE**2  # one noise energy, in cost
+    jacobians = {True: 0, False: 0}
+    for seed, x0 in [(0, [0.5, 1.0, 0.1, 5.0]), (1, [0.5, 1.0, 0.1, 5.0]), (2, [0.5, 1.0, 0.1, 5.0]),
+                     (1, [2.0, 10.0, 0.5, 12.0])]:
+        fun, jac = _large_residual(seed)
+        x0 = np.array(x0)
+        ref = scipy.optimize.least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale=1.0,
+                                           xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=500)
+        for further in (True, False):
+            res = _trf(fun, jac, x0, lo, hi, max_nfev=60, xtol=1e-6, ftol=1e-8, stops=_Stops(least, None, lo, hi),
+                       further=further)
+            # within the search's own tolerance of scipy's minimum: one noise energy (sum of squares)
+            assert 2 * (res.cost - ref.cost) < STALL_GAIN * NOISE_LARGE**2
+            np.testing.assert_allclose(res.jac, jac(res.x), rtol=0, atol=1e-12)  # a differenced Jacobian
+            jacobians[further] += res.njev
+    # each step falls short along its line: taken further, the search needs fewer Jacobians
+    assert jacobians[True] < jacobians[False]
