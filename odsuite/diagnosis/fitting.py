@@ -1479,10 +1479,11 @@ def residual_score_covariance(J: np.ndarray, r: np.ndarray, blocks: Sequence[tup
         S = (scipy.ndimage.uniform_filter1d(P.real, width, axis=0, mode="reflect")
              + 1j * scipy.ndimage.uniform_filter1d(P.imag, width, axis=0, mode="reflect"))
         # the one-sided spectrum counts every frequency but zero and Nyquist twice
-        twice = np.full(R.shape[0], 2.0)
+        twice = np.full((R.shape[0], 1, 1), 2.0)
         twice[0] = 1.0
         twice[-1] = 1.0
-        B += np.einsum("f,fcp,fcd,fdq->pq", twice, G.conj(), S, G, optimize=True).real / nfft
+        SG = np.matmul(S, G) * twice  # per frequency, channels x parameters
+        B += (G.conj().reshape(-1, p).T @ SG.reshape(-1, p)).real / nfft
     return (B + B.T) / 2
 
 
