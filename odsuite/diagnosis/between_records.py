@@ -1,8 +1,8 @@
 """How far a fitted value moves between records: the leave-one-record-out jackknife of a fit, in
 its infinitesimal (cluster-robust) form.
 
-The fit's own standard deviations (``fitting.uncertainties``) read the residual as noise, inflated
-for its samples' correlation. A model that misses some physics leaves a residual that is not
+The fit's own standard deviations (``fitting.uncertainties``) read the residual as noise, coloured
+as its spectra say. A model that misses some physics leaves a residual that is not
 noise: it pulls the fitted values, and pulls them differently in each record (another force
 point, another force level excites the missing physics differently). The spread between records
 sees that pull, so a value reported with ``max(fit's sd, between-records sd)`` is not more certain

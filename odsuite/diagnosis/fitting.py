@@ -19,8 +19,9 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
-import scipy.signal
 import scipy.linalg
+import scipy.ndimage
+import scipy.signal
 from scipy.optimize import OptimizeResult
 # scipy's trust-region reflective pieces (private, pinned with scipy <1.17 in pyproject.toml): _trf
 # runs them on a small square root of J^T J instead of the whole Jacobian
@@ -1509,14 +1510,18 @@ def effective_samples(exps: Sequence[PreparedExperiment]) -> tuple[float, float]
 def uncertainties(problem: Problem, res, n_eff: float) -> tuple[np.ndarray, np.ndarray, list[list[str]]]:
     """Standard deviations (value units), correlations and redundant groups at the fit.
 
-    The residual variance is inflated by N / N_eff for the samples' correlation. Directions the
-    data cannot see at all (an effect whose parameters overlap, e.g. a global scale spread over axes
-    and springs) are left out of the covariance (pseudo-inverse) and reported as groups whose
-    combination alone is determined.
+    The sandwich covariance ``A^+ B A^+`` (A = J^T J, B = Var(J^T r), residual_score_covariance):
+    the residual's noise is coloured (the force channel's noise through the model rings at the
+    resonances, where the Jacobian's columns are large too), so the gradient's variance is read
+    per frequency against the residual's own spectrum. Rows in another layout than the
+    experiments' strided samples fall back to ``s2 (J^T J)^+`` with the residual variance
+    inflated by N / ``n_eff``. Directions the data cannot see at all (an effect whose parameters
+    overlap, e.g. a global scale spread over axes and springs) are left out of the covariance
+    (pseudo-inverse) and reported as groups whose combination alone is determined.
     """
     J = res.jac[: res.jac.shape[0] - len(problem.free)] if problem.prior else res.jac
     n, p = J.shape
-    s2 = float(np.sum(res.fun[:n] ** 2)) / max(1, n - p) * (n / n_eff)
+    r = res.fun[:n]
     JtJ = J.T @ J
     w, V = np.linalg.eigh(JtJ)
     null = w <= 1e-8 * max(float(w.max(initial=0.0)), 1e-300)
@@ -1526,12 +1531,66 @@ def uncertainties(problem: Problem, res, n_eff: float) -> tuple[np.ndarray, np.n
         if len(members) > 1 and members not in groups:
             groups.append(members)
     inv_w = np.where(null, 0.0, 1.0 / np.where(null, 1.0, w))
-    cov = s2 * (V * inv_w) @ V.T
+    A_plus = (V * inv_w) @ V.T
+    blocks = _experiment_blocks(problem, n)
+    if blocks is None:
+        cov = float(r @ r) / max(1, n - p) * (n / n_eff) * A_plus
+    else:
+        # the fitted residual lacks the p directions the fit took out of it: as s2's n - p
+        B = residual_score_covariance(J, r, blocks) * (n / max(1, n - p))
+        cov = A_plus @ B @ A_plus
     sd_u = np.sqrt(np.clip(np.diag(cov), 0, None))
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(sd_u, sd_u)
     scales = np.array([f.scale for f in problem.free])
     return sd_u * scales, np.nan_to_num(corr), groups
+
+
+def _experiment_blocks(problem: Problem, n: int) -> list[tuple[int, int, int]] | None:
+    """(first row, samples, channels) of each experiment's rows in the fit's residual (its strided
+    samples, channels within a sample); None when the rows are laid out otherwise."""
+    blocks, start = [], 0
+    for e in problem.exps:
+        m, c = len(range(0, e.n_samples, problem.stride)), e.measured.shape[1]
+        blocks.append((start, m, c))
+        start += m * c
+    return blocks if start == n else None
+
+
+#: half-width of the smoothing of the residual's cross-spectra, in the record's own frequency
+#: resolution (1 / its duration): the raw periodogram at one frequency is one draw (two degrees
+#: of freedom); averaged over 2 x 2 + 1 resolution bins, as Welch's averaging of five segments
+#: would, while a resonance of the residual stays narrower than the window only where the record
+#: resolves it no better
+SPECTRAL_SMOOTHING_BINS = 2
+
+
+def residual_score_covariance(J: np.ndarray, r: np.ndarray, blocks: Sequence[tuple[int, int, int]]) -> np.ndarray:
+    """Var(J^T r) for a residual whose noise is stationary within each experiment and independent
+    between them: per experiment ``sum over frequencies of Re(J(f)^H S(f) J(f)) / N``, J(f) the
+    discrete Fourier transform of the Jacobian's rows (zero-padded to N, so no lag wraps), S(f) the
+    residual's cross-spectral matrix between the experiment's channels (they share the force's
+    noise) from its periodogram smoothed over frequency (SPECTRAL_SMOOTHING_BINS): the raw
+    periodogram is the product of the residual with itself, which a fit has made orthogonal to
+    the Jacobian at zero lag. White noise of variance s2 gives ``s2 J^T J``."""
+    p = J.shape[1]
+    B = np.zeros((p, p))
+    for start, m, c in blocks:
+        rows = slice(start, start + m * c)
+        nfft = 1 << int(np.ceil(np.log2(2 * m)))
+        R = np.fft.rfft(r[rows].reshape(m, c), nfft, axis=0)  # frequencies x channels
+        G = np.fft.rfft(J[rows].reshape(m, c, p), nfft, axis=0)  # frequencies x channels x parameters
+        P = R[:, :, None] * R[:, None, :].conj() / m
+        width = 2 * int(round(SPECTRAL_SMOOTHING_BINS * nfft / m)) + 1
+        S = (scipy.ndimage.uniform_filter1d(P.real, width, axis=0, mode="reflect")
+             + 1j * scipy.ndimage.uniform_filter1d(P.imag, width, axis=0, mode="reflect"))
+        # the one-sided spectrum counts every frequency but zero and Nyquist twice
+        twice = np.full((R.shape[0], 1, 1), 2.0)
+        twice[0] = 1.0
+        twice[-1] = 1.0
+        SG = np.matmul(S, G) * twice  # per frequency, channels x parameters
+        B += (G.conj().reshape(-1, p).T @ SG.reshape(-1, p)).real / nfft
+    return (B + B.T) / 2
 
 
 def validate(problem: Problem, u: np.ndarray, res) -> tuple[float, str]:
