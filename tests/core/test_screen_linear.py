@@ -8,6 +8,7 @@ a failed damped step's point kept."""
 from __future__ import annotations
 
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -18,6 +19,24 @@ from odsuite.domain.model import StateSpace
 from odsuite.domain.simulation import simulate_many_inputs
 
 sys.path.insert(0, str(Path(__file__).parent))
+
+
+@contextmanager
+def stiffened_problem(tmp_path, effect: str):
+    """The fit problem of ``effect`` (fit windows, every second sample) on a thesis project of
+    2048 samples per record with a hidden stiffness change, its project open."""
+    import odsuite.diagnosis.fitting as fitting
+    from hidden_effects import CASES, make_project
+
+    from odsuite.analysis.modelrev import revision_model
+    from odsuite.analysis.prediction import prepare
+    from odsuite.contracts.plugins import registries
+    from odsuite.store.project import open_project
+
+    path = make_project(tmp_path / "s.odsp", [("stiffness", CASES["stiffness"])], n_samples=2048)
+    with open_project(path) as p:
+        exps, base = prepare(p), revision_model(p)
+        yield fitting.Problem(base, registries().effects.get(effect), fitting.fit_windows(exps), stride=2)
 
 
 def test_many_inputs_is_scipys_first_order_hold_simulation():
@@ -32,18 +51,8 @@ def test_many_inputs_is_scipys_first_order_hold_simulation():
 
 def test_cubic_tangent_is_the_limit_of_nonlinear_simulations(tmp_path):
     import odsuite.diagnosis.fitting as fitting
-    from hidden_effects import CASES, make_project
 
-    from odsuite.analysis.modelrev import revision_model
-    from odsuite.analysis.prediction import prepare
-    from odsuite.contracts.plugins import registries
-    from odsuite.store.project import open_project
-
-    path = make_project(tmp_path / "s.odsp", [("stiffness", CASES["stiffness"])], n_samples=2048)
-    with open_project(path) as p:
-        exps, base = prepare(p), revision_model(p)
-        problem = fitting.Problem(base, registries().effects.get("nonlinear_stiffness"),
-                                  fitting.fit_windows(exps), stride=2)
+    with stiffened_problem(tmp_path, "nonlinear_stiffness") as problem:
         head = fitting.heads(problem.exps)[1]
         u0 = problem.zero()
         r0 = problem.residual(u0, head)
@@ -66,18 +75,8 @@ def test_screening_jacobian_at_a_hardened_point_is_the_derivative(tmp_path):
     DIFF_STEP), not the difference over a natural step (a hardening grown five-fold and more):
     against the zero-step limit of the simulations' differences."""
     import odsuite.diagnosis.fitting as fitting
-    from hidden_effects import CASES, make_project
 
-    from odsuite.analysis.modelrev import revision_model
-    from odsuite.analysis.prediction import prepare
-    from odsuite.contracts.plugins import registries
-    from odsuite.store.project import open_project
-
-    path = make_project(tmp_path / "s.odsp", [("stiffness", CASES["stiffness"])], n_samples=2048)
-    with open_project(path) as p:
-        exps, base = prepare(p), revision_model(p)
-        problem = fitting.Problem(base, registries().effects.get("nonlinear_stiffness"),
-                                  fitting.fit_windows(exps), stride=2)
+    with stiffened_problem(tmp_path, "nonlinear_stiffness") as problem:
         head = fitting.heads(problem.exps)[1]
         u = np.array([0.02, 0.02, 0.02, 0.2])  # hardenings 0.1, 0.1, 0.1 and 1 at a micrometre
         r = problem.residual(u, head)
@@ -99,17 +98,8 @@ def test_failed_damped_steps_keep_the_point_they_stay_at(tmp_path):
     """A damped step whose every trial raises the error returns its point, whose predictions
     (pushed out of the kept ones by the trials) are still kept: asked again, no evaluation."""
     import odsuite.diagnosis.fitting as fitting
-    from hidden_effects import CASES, make_project
 
-    from odsuite.analysis.modelrev import revision_model
-    from odsuite.analysis.prediction import prepare
-    from odsuite.contracts.plugins import registries
-    from odsuite.store.project import open_project
-
-    path = make_project(tmp_path / "s.odsp", [("stiffness", CASES["stiffness"])], n_samples=2048)
-    with open_project(path) as p:
-        exps, base = prepare(p), revision_model(p)
-        problem = fitting.Problem(base, registries().effects.get("stiffness"), fitting.fit_windows(exps), stride=2)
+    with stiffened_problem(tmp_path, "stiffness") as problem:
         head = fitting.heads(problem.exps)[0]
         u0 = problem.zero()
         r0 = problem.residual(u0, head)
