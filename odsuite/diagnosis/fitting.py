@@ -322,10 +322,9 @@ class Problem:
             return [self.base_prediction(e) + d for e, d in zip(exps, deltas)]
         # a fit asks again for predictions it has made (its sums of squares, the tail, validation,
         # the resolved test, the verdict's signature): the last few are kept
-        key = (u.tobytes(), tuple((e.name, e.n_samples) for e in exps))
-        kept = next((p for k, p in self._predictions if k == key), None)
+        kept = self.kept(u, exps)
         if kept is not None:
-            return list(kept)
+            return kept
         self.evaluations += 1
         out = self._with_added_mode(u, exps)
         if out is not None:
@@ -387,6 +386,12 @@ class Problem:
         if mode is not None and (mode.at_springs or mode.parts):
             return None
         return models, mode
+
+    def kept(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None) -> list[np.ndarray] | None:
+        """``predictions(u, exps)`` where they are kept, without evaluating; None where not."""
+        key = (u.tobytes(), tuple((e.name, e.n_samples) for e in (exps or self.exps)))
+        got = next((p for k, p in self._predictions if k == key), None)
+        return None if got is None else list(got)
 
     def keep(self, u: np.ndarray, predictions: Sequence[np.ndarray],
              exps: Sequence[PreparedExperiment] | None = None) -> None:
@@ -489,6 +494,11 @@ class Problem:
         linearised = None
         if tangent and rows_of is None:
             linearised = self._cubic_tangent(u, steps, r0, exps or self.exps)
+            if linearised is None and self._own_cubic_at(u):
+                # the effect's own cubic springs at ``u``: a derivative, over DIFF_STEP. Over a
+                # natural step a hardening grows many-fold (thesis: 0.1-1 by 5), and the secant
+                # sent every damped step on the longer heads uphill (8 of 8 on the thesis bench)
+                steps = steps * DIFF_STEP
         if linearised is None and rows_of is None:
             own = self._experiment_batches(exps or self.exps)
             if own is not None:
@@ -587,6 +597,14 @@ class Problem:
         self.evaluations += len(moved)
         return {i: r0 - np.concatenate([(c[k] * self.weights[e.name]).ravel() for c, e in zip(changes, exps)])
                 for k, i in enumerate(moved)}
+
+    def _own_cubic_at(self, u: np.ndarray) -> bool:
+        """Whether the structure at ``u`` has cubic springs that the base's has not."""
+        if self.linear:
+            return False
+        models0 = self._models[1] if self._models[0] == u.tobytes() else self.models(u)
+        return (any(not m.structure.is_linear for m in models0.values())
+                and self.base.shared.structure.is_linear)
 
     def _stepped_models(self, u: np.ndarray, steps: np.ndarray, moved: Sequence[int]) -> list[dict[str, Any]]:
         """The models at ``u`` + a step of each ``moved`` parameter in turn."""
@@ -706,12 +724,17 @@ def _lm_step(problem: Problem, J: np.ndarray, r: np.ndarray, u: np.ndarray, exps
     diag = np.diag(JtJ).copy()
     diag[diag <= 0] = max(float(diag.max(initial=0.0)), 1e-300)
     cost = float(r @ r) + float(u @ (problem.pull * u))
+    # the trials push ``u``'s kept predictions out (Problem.keep), which its callers ask for again
+    # where every trial fails (the error at the point a screening stays at)
+    held = problem.kept(u, exps)
     for lam in LM_DAMPING:
         u1 = u.copy()
         u1[act] += np.linalg.solve(JtJ + lam * np.diag(diag), g)
         u1 = np.clip(u1, lo, hi)
         if float(np.sum(problem.residual(u1, exps) ** 2)) + float(u1 @ (problem.pull * u1)) < cost:
             return u1
+    if held is not None:
+        problem.keep(u, held, exps)
     return u
 
 

@@ -2,11 +2,13 @@
 structure (prediction.cubic_change_predictions, simulation.simulate_many_inputs), against scipy's
 simulation and the nonlinear integrator's differences; a resonance grid ranked by projection
 (fitting._resonance_gains), against a mode simulated by scipy; a structure change's screening
-columns as derivatives, against simulated differences' zero-step limit."""
+columns as derivatives, against simulated differences' zero-step limit, and a hardened point's;
+a failed damped step's point kept."""
 
 from __future__ import annotations
 
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -17,6 +19,24 @@ from odsuite.domain.model import StateSpace
 from odsuite.domain.simulation import simulate_many_inputs
 
 sys.path.insert(0, str(Path(__file__).parent))
+
+
+@contextmanager
+def stiffened_problem(tmp_path, effect: str):
+    """The fit problem of ``effect`` (fit windows, every second sample) on a thesis project of
+    2048 samples per record with a hidden stiffness change, its project open."""
+    import odsuite.diagnosis.fitting as fitting
+    from hidden_effects import CASES, make_project
+
+    from odsuite.analysis.modelrev import revision_model
+    from odsuite.analysis.prediction import prepare
+    from odsuite.contracts.plugins import registries
+    from odsuite.store.project import open_project
+
+    path = make_project(tmp_path / "s.odsp", [("stiffness", CASES["stiffness"])], n_samples=2048)
+    with open_project(path) as p:
+        exps, base = prepare(p), revision_model(p)
+        yield fitting.Problem(base, registries().effects.get(effect), fitting.fit_windows(exps), stride=2)
 
 
 def test_many_inputs_is_scipys_first_order_hold_simulation():
@@ -31,18 +51,8 @@ def test_many_inputs_is_scipys_first_order_hold_simulation():
 
 def test_cubic_tangent_is_the_limit_of_nonlinear_simulations(tmp_path):
     import odsuite.diagnosis.fitting as fitting
-    from hidden_effects import CASES, make_project
 
-    from odsuite.analysis.modelrev import revision_model
-    from odsuite.analysis.prediction import prepare
-    from odsuite.contracts.plugins import registries
-    from odsuite.store.project import open_project
-
-    path = make_project(tmp_path / "s.odsp", [("stiffness", CASES["stiffness"])], n_samples=2048)
-    with open_project(path) as p:
-        exps, base = prepare(p), revision_model(p)
-        problem = fitting.Problem(base, registries().effects.get("nonlinear_stiffness"),
-                                  fitting.fit_windows(exps), stride=2)
+    with stiffened_problem(tmp_path, "nonlinear_stiffness") as problem:
         head = fitting.heads(problem.exps)[1]
         u0 = problem.zero()
         r0 = problem.residual(u0, head)
@@ -57,6 +67,51 @@ def test_cubic_tangent_is_the_limit_of_nonlinear_simulations(tmp_path):
         err = np.linalg.norm(J - limit, axis=0) / np.linalg.norm(limit, axis=0)
         assert err.max() < 2e-3, err
         assert np.linalg.norm(J, axis=0).min() > 0
+
+
+def test_screening_jacobian_at_a_hardened_point_is_the_derivative(tmp_path):
+    """Where the effect's own cubic springs are in the structure (a hardening screened from a
+    sweep's rung), screening's Jacobian is the nonlinear simulations' derivative (differenced over
+    DIFF_STEP), not the difference over a natural step (a hardening grown five-fold and more):
+    against the zero-step limit of the simulations' differences."""
+    import odsuite.diagnosis.fitting as fitting
+
+    with stiffened_problem(tmp_path, "nonlinear_stiffness") as problem:
+        head = fitting.heads(problem.exps)[1]
+        u = np.array([0.02, 0.02, 0.02, 0.2])  # hardenings 0.1, 0.1, 0.1 and 1 at a micrometre
+        r = problem.residual(u, head)
+        before = problem.evaluations
+        J = problem.jacobian(u, r, head, tangent=True)
+        assert problem.evaluations - before == len(u)  # a nonlinear simulation per column
+        h = 2e-4  # natural steps
+        fd = [problem.jacobian(u, r, head, step=s) for s in (h / 2, h)]
+        limit = 2 * fd[0] - fd[1]
+        secant = problem.jacobian(u, r, head)  # a natural step
+        norm = np.linalg.norm(limit, axis=0)
+        err = np.linalg.norm(J - limit, axis=0) / norm
+        assert err.max() < 5e-3, err  # the forward difference's own error: 2.5e-4 to 1.9e-3 here
+        off = np.linalg.norm(secant - limit, axis=0) / norm
+        assert off.min() > 0.5, off  # 0.93-1.01 here
+
+
+def test_failed_damped_steps_keep_the_point_they_stay_at(tmp_path):
+    """A damped step whose every trial raises the error returns its point, whose predictions
+    (pushed out of the kept ones by the trials) are still kept: asked again, no evaluation."""
+    import odsuite.diagnosis.fitting as fitting
+
+    with stiffened_problem(tmp_path, "stiffness") as problem:
+        head = fitting.heads(problem.exps)[0]
+        u0 = problem.zero()
+        r0 = problem.residual(u0, head)
+        kept = problem.predictions(u0, head)
+        uphill = -problem.jacobian(u0, r0, head, tangent=True)  # every step it gives raises the error
+        before = problem.evaluations
+        u = fitting._lm_step(problem, uphill, r0, u0, head)
+        assert u is u0
+        assert problem.evaluations - before == len(fitting.LM_DAMPING) > fitting.PREDICTIONS_KEPT
+        again = problem.predictions(u0, head)
+        assert problem.evaluations - before == len(fitting.LM_DAMPING)
+        assert all(a is b for a, b in zip(again, kept))
 
 
 def test_resonance_gain_ranks_the_mode_that_is_there():
