@@ -174,6 +174,8 @@ def _eigen_changes(ss0: StateSpace, modal: tuple, others: Sequence[StateSpace]
     of one per system. None where a mode's shape would turn by more than LINEAR_POLE_MOVE towards
     another's (nearly repeated modes: the first order is no guide)."""
     scale, V, keep, weight, lk = modal[:5]
+    if not others:
+        return np.empty((0, len(lk)), complex), np.empty((0, ss0.C.shape[0], len(lk), ss0.B.shape[1]), complex)
     W = np.linalg.inv(V)
     balanced = scale[None, :] / scale[:, None]  # D^-1 X D
     lam = np.einsum("ij,ji->i", W, (ss0.A * balanced) @ V)  # every eigenvalue, conjugates too
