@@ -16,6 +16,7 @@ eigenvalues) the matrix-exponential discretisation (as in scipy.signal.lsim) is 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 import scipy  # scipy.signal and scipy.linalg load on first use: fast `odsuite plugins`
@@ -163,6 +164,38 @@ def _residues(ss: StateSpace, modal: tuple) -> np.ndarray:
     return Cm[:, :, None] * Bm[None, :, :]
 
 
+def _eigen_changes(ss0: StateSpace, modal: tuple, others: Sequence[StateSpace]
+                   ) -> tuple[np.ndarray, np.ndarray] | None:
+    """Each of ``others``' change of the kept modes' eigenvalues (systems x modes) and residues
+    (systems x outputs x modes x inputs, as :func:`_residues`) from ``ss0``'s (``modal``: its
+    decomposition), to first order in the change of A, B and C: with E = V^-1 dA V in the
+    balanced coordinates, d lambda_i = E_ii and the mode matrix moves to V (I + F), F_ji = E_ji /
+    (lambda_i - lambda_j), its inverse to (I - F) V^-1: products of the one decomposition instead
+    of one per system. None where a mode's shape would turn by more than LINEAR_POLE_MOVE towards
+    another's (nearly repeated modes: the first order is no guide)."""
+    scale, V, keep, weight, lk = modal[:5]
+    if not others:
+        return np.empty((0, len(lk)), complex), np.empty((0, ss0.C.shape[0], len(lk), ss0.B.shape[1]), complex)
+    W = np.linalg.inv(V)
+    balanced = scale[None, :] / scale[:, None]  # D^-1 X D
+    lam = np.einsum("ij,ji->i", W, (ss0.A * balanced) @ V)  # every eigenvalue, conjugates too
+    lam[keep] = lk
+    E = W @ (np.stack([ss.A - ss0.A for ss in others]) * balanced) @ V
+    apart = lam[None, :] - lam[:, None]  # [j, i]: lambda_i - lambda_j
+    np.fill_diagonal(apart, np.inf)
+    F = E / apart
+    if not np.max(np.abs(F)) <= LINEAR_POLE_MOVE:
+        return None
+    dlam = np.diagonal(E, axis1=1, axis2=2)[:, keep]
+    Bb, Cb = ss0.B / scale[:, None], ss0.C * scale
+    WB, CV = W @ Bb, Cb @ V
+    dWB = W @ (np.stack([ss.B - ss0.B for ss in others]) / scale[:, None]) - F @ WB
+    dCV = (np.stack([ss.C - ss0.C for ss in others]) * scale) @ V + CV @ F
+    dR = (dCV[:, :, keep, None] * WB[None, None, keep, :] + CV[None, :, keep, None] * dWB[:, None, keep, :]
+          ) * weight[None, None, :, None]
+    return dlam, dR
+
+
 def _mode_signals(lam: np.ndarray, T: float, ut: np.ndarray, every: int) -> np.ndarray:
     """Each mode's complex first-order-hold recursion on each input row of ``ut`` from rest
     (modes x inputs x samples), every ``every``-th sample kept: ``lfilter([b0, b1], [1, -p], u,
@@ -190,8 +223,9 @@ def linearised_band(ss0: StateSpace, others, u, fs: float) -> tuple[np.ndarray, 
     signals and a matrix per system: change = basis @ matrix (samples x outputs). The basis is the
     modes' signals and their derivatives in the pole (real and imaginary parts) and ``u`` (the
     feed-through), run once for all systems (a finite-difference Jacobian's columns without a
-    simulation each). None where a decomposition is ill-conditioned, the modes do not pair up, or
-    nearly repeated poles move."""
+    simulation each); the poles' and residues' changes from ``ss0``'s decomposition alone
+    (:func:`_eigen_changes`). None where that decomposition is ill-conditioned or nearly repeated
+    poles move or exchange shapes."""
     f = BAND_OVERSAMPLE
     T = 1.0 / (fs * f)
     u = check_input_record(u, ss0.B.shape[1])
@@ -204,19 +238,16 @@ def linearised_band(ss0: StateSpace, others, u, fs: float) -> tuple[np.ndarray, 
     dist[np.arange(len(lam0)), np.arange(len(lam0))] = np.inf
     gap = dist.min(axis=1)
     R0 = _residues(ss0, m0)
+    others = list(others)
+    changes = _eigen_changes(ss0, m0, others)
+    if changes is None:
+        return None
     matrices = []
-    for ss in others:
-        m = _modal(ss.A, T)
-        if m is None or len(m[4]) != len(lam0):
-            return None
-        order = np.argmin(np.abs(m[4][None, :] - lam0[:, None]), axis=1)
-        if len(set(order.tolist())) != len(order) or not np.array_equal(m[3][order], m0[3]):
-            return None
-        dlam = m[4][order] - lam0
+    for ss, dlam, dR in zip(others, *changes):
         if np.any(np.abs(dlam) > LINEAR_POLE_MOVE * gap):
             return None
         no = R0.shape[0]
-        dR = (_residues(ss, m)[:, order] - R0).reshape(no, -1).T  # (modes x inputs) x outputs
+        dR = dR.reshape(no, -1).T  # (modes x inputs) x outputs
         dP = (R0 * dlam[None, :, None]).reshape(no, -1).T
         # Re(a z) = Re a Re z - Im a Im z
         matrices.append(np.vstack([dR.real, -dR.imag, dP.real, -dP.imag,
