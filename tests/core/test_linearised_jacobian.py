@@ -140,6 +140,65 @@ def test_predict_sharing_equals_predict_for_sensor_effects(tmp_path):
         assert np.array_equal(got, ref)
 
 
+def test_predict_sharing_takes_kept_spectra_and_columns_with_predicts_numbers(tmp_path):
+    """A search over channel delays (every channel's chain new at each point) shifts the undelayed
+    signals' kept spectra: predict's numbers to the bit, at point after point, and again after the
+    rows change (a gain with the delays). Exchanged cables, pair after pair, take the columns the
+    last prediction had for their rows: each prediction the one computed afresh (a column product
+    gives a column the same sum beside any others; checked to rounding, 1e-13) and predict's to
+    1e-10; so is one sensor's gain, whose single new column is computed beside a kept one."""
+    from dataclasses import replace
+
+    from hidden_effects import make_project
+
+    from odsuite.analysis.modelrev import revision_model
+    from odsuite.analysis.prediction import predict, predict_sharing, prepare
+    from odsuite.contracts.plugins import registries
+    from odsuite.store.project import open_project
+
+    path = make_project(tmp_path / "s.odsp", n_samples=2048)
+    effects = registries().effects
+    with open_project(path) as p:
+        e = prepare(p)[0]
+        base = revision_model(p).shared
+        names = [s.name for s in e.sensors]
+
+        def applied(model, name, **changed):
+            eff = effects.get(name)
+            return eff.apply(model, {**{q.name: q.nominal for q in eff.parameters(model)}, **changed})
+
+        def fresh():
+            return replace(e, _filtered=None)  # the coordinates kept, no prediction (e: the loop's)
+
+        predict(base, e)
+        rng = np.random.default_rng(3)
+        delayed = [applied(base, "channel_delay", **{f"{n}_delay": float(d) for n, d in
+                                                     zip(names, rng.uniform(-60e-6, 60e-6, len(names)))})
+                   for _ in range(3)]
+        delayed.append(applied(delayed[0], "sensor_gain", **{f"{names[1]}_gain": 1.2}))
+        delayed.append(applied(base, "scan_skew", skew_s=7e-6))
+        for m in delayed:
+            got = predict_sharing(m, e)
+            assert "delayed" in e._filtered[3]  # the kept spectra's path
+            assert np.array_equal(got, predict(m, replace(e, _cache=None, _filtered=None)))
+        assert not np.array_equal(predict_sharing(delayed[0], e), predict_sharing(delayed[3], e))
+
+        pairs = effects.get("channel_swap").parameters(base)[0].choices[1:]
+        one_gain = applied(base, "sensor_gain", **{f"{names[2]}_gain": 0.9})
+        # the record's chains (two groups of channels), and one chain for every channel
+        one_chain = replace(e, operators=[replace(e.operators[0], columns=tuple(range(len(names))))],
+                            _filtered=None)
+        assert len(e.operators) > 1
+        for e in (e, one_chain):
+            for m in [applied(base, "channel_swap", pair=k) for k in pairs] + [one_gain, base]:
+                got = predict_sharing(m, e)
+                assert any(isinstance(k, tuple) for k in e._filtered[3])  # a kept prediction's columns
+                again = predict_sharing(m, fresh())
+                assert np.abs(got - again).max() <= 1e-13 * np.abs(again).max()
+                ref = predict(m, replace(e, _cache=None, _filtered=None))
+                assert np.abs(got - ref).max() <= 1e-10 * np.abs(ref).max()
+
+
 def test_jacobian_columns_from_the_changes_equal_the_differenced_linearised_residuals(tmp_path):
     """The linearised Jacobian is written from each model's change of prediction times the
     channel's weight over the step (prediction.linearised_changes), not by differencing the
