@@ -343,6 +343,8 @@ def simulate(model: Model, inputs, u, fs: float, outputs, hold: str = "zoh") -> 
 #: channel out shifts the others)
 _PHASES: dict[tuple, np.ndarray] = {}
 PHASES_KEPT = 4
+#: ... each of at most this many bytes (a long record's are left to go)
+PHASE_BYTES_KEPT = 32e6
 
 
 def sampled_later(y: np.ndarray, fs: float, delays, spectrum: np.ndarray | None = None) -> np.ndarray:
@@ -364,7 +366,9 @@ def sampled_later(y: np.ndarray, fs: float, delays, spectrum: np.ndarray | None 
         if len(_PHASES) >= PHASES_KEPT:
             _PHASES.clear()
         w = 2 * np.pi * np.fft.rfftfreq(2 * n, 1.0 / fs)
-        phase = _PHASES[key] = np.exp(1j * np.outer(w, delays[moved]))
+        phase = np.exp(1j * np.outer(w, delays[moved]))
+        if phase.nbytes <= PHASE_BYTES_KEPT:
+            _PHASES[key] = phase
     spec *= phase
     out[:, moved] = np.fft.irfft(spec, n=2 * n, axis=0)[:n]
     return out
