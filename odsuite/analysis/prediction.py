@@ -179,7 +179,8 @@ class PreparedExperiment:
     # the last structure simulated and its coordinate accelerations: effects that only change the
     # sensors (gain, tilt, position) reuse them (a strong reference, so identity is safe)
     _cache: tuple | None = field(default=None, repr=False)
-    # the chains' filtering of those coordinates (prediction.predict_sharing): (_cache, {chain: signals})
+    # the chains' filtering of those coordinates (prediction.predict_sharing): (_cache, {chain: signals},
+    # operators, {chain: last prediction, "delayed": the undelayed signals and their spectra})
     _filtered: tuple | None = field(default=None, repr=False)
     force_body: str | None = None  # the body hit, when the experiment says (else: from the point)
     notes: list[str] = field(default_factory=list)  # what the record says against the rig file
@@ -627,6 +628,16 @@ def _analog_chain(model, exp: PreparedExperiment, y: np.ndarray) -> np.ndarray:
     ``y`` (samples x sensors, changed in place): sensor dynamics, front end, sampling delays."""
     from odsuite.domain.simulation import sampled_later
 
+    y = _sensor_side(model, exp, y)
+    delays = [model.chain.delay.get(s.name, 0.0) for s in exp.sensors]
+    if any(delays):
+        y = sampled_later(y, exp.fs, delays)
+    return y
+
+
+def _sensor_side(model, exp: PreparedExperiment, y: np.ndarray) -> np.ndarray:
+    """The analog chain before the sampling delays (sensor dynamics, front end) on ``y`` (changed
+    in place)."""
     chain = model.chain
     # the sensors' own dynamics in series, on their sampled signals (one small system per sensor:
     # identical sensors would make one big system's modes repeated and defective); sensors with
@@ -644,9 +655,6 @@ def _analog_chain(model, exp: PreparedExperiment, y: np.ndarray) -> np.ndarray:
 
         y = np.array(y, dtype=float, order="F")  # the order sosfilt(..., axis=0) returns
         sections_in_place(_analog_sos(chain.front_end, exp.fs), y)
-    delays = [chain.delay.get(s.name, 0.0) for s in exp.sensors]
-    if any(delays):
-        y = sampled_later(y, exp.fs, delays)
     return y
 
 
@@ -889,9 +897,11 @@ def predict_sharing(model, exp: PreparedExperiment) -> np.ndarray:
     """``predict(model, exp)`` for a model whose structure's response ``exp`` keeps (a candidate
     that changes the sensors alone: gain, tilt, position, cables): the chain is linear, so its
     filtering of the coordinates, done once per distinct channel chain and kept, combines by each
-    model's sensor rows (as linearised_changes; equal to predict but for rounding). Otherwise,
-    or where the new chains cost more than predict's filtering (delays or dynamics that move each
-    evaluation: NEW_CHAIN_SHARE), predict."""
+    model's sensor rows (as linearised_changes; equal to predict but for rounding); a channel whose
+    row the last such prediction had takes that prediction's column (exchanged cables: a swap
+    moves two rows). Where the new chains cost more than predict's filtering (delays or dynamics
+    that move each evaluation: NEW_CHAIN_SHARE), predict's own numbers: with delays, from the
+    undelayed signals' spectra, kept (_predict_delayed). Otherwise predict."""
     st = model.structure
     if (not st.is_linear or st.n_dof > CACHED_COORDINATES or exp.operators is None or exp._cache is None
             or exp._cache[0] is not st or exp._cache[1] != _cache_key(model, exp)):
@@ -903,13 +913,15 @@ def predict_sharing(model, exp: PreparedExperiment) -> np.ndarray:
             s = exp.sensors[j]
             groups.setdefault((id(op), chain.sensor_dynamics(s.name), chain.delay.get(s.name, 0.0),
                                chain.front_end), []).append(j)
-    kept = exp._filtered[1] if exp._filtered is not None and exp._filtered[0] is exp._cache else {}
+    if exp._filtered is None or exp._filtered[0] is not exp._cache:
+        exp._filtered = (exp._cache, {}, exp.operators, {})
+    kept, last = exp._filtered[1], exp._filtered[3]
     new = sum(k not in kept for k in groups)
     # the first few chains of these coordinates are filtered though they cost more than predict's
     # filtering (the sensors' candidates evaluate them again and again); later ones only while
     # they cost less (a delay per channel makes every channel's chain new)
     if new > FIRST_CHAINS if not kept else new * exp._cache[2].shape[1] > NEW_CHAIN_SHARE * len(exp.sensors):
-        return predict(model, exp)
+        return _predict_delayed(model, exp, last) if any(k[2] for k in groups) else predict(model, exp)
     q = exp._cache[2]
     rows = _sensor_rows(model, exp.sensors)
     out = np.empty((exp.n_samples, len(exp.sensors)))
@@ -919,10 +931,52 @@ def predict_sharing(model, exp: PreparedExperiment) -> np.ndarray:
             one = replace(exp, sensors=[exp.sensors[cols[0]]] * q.shape[1],
                           operators=[replace(op, columns=tuple(range(q.shape[1])))])
             kept[key] = _digital_chain(one, _analog_chain(model, one, q.copy()))
-        out[:, cols] = kept[key] @ rows[cols].T
-    # kept with the coordinates they filter (the operators' identities are in the keys)
-    exp._filtered = (exp._cache, kept, exp.operators)
+        _combined(kept[key], rows, cols, out, last.get(key))
+        last[key] = (out, {rows[j].tobytes(): j for j in cols}, len(cols))
+    out.flags.writeable = False  # its columns are taken again (last)
     return out
+
+
+def _combined(filtered: np.ndarray, rows: np.ndarray, cols: list[int], out: np.ndarray, last) -> None:
+    """``out[:, cols] = filtered @ rows[cols].T``, each column whose row ``last`` (a prediction,
+    its columns by their rows' bytes, how many it combined) had copied from it. A product of two
+    or more columns gives each column the numbers it has in any other (matrix-matrix: each entry
+    the same sum); of one (matrix-vector) a sum in another order: a single column left to compute
+    is computed with another beside it."""
+    if last is None or len(cols) < 2 or last[2] < 2:
+        out[:, cols] = filtered @ rows[cols].T
+        return
+    prior, where, _ = last
+    found = {j: where.get(rows[j].tobytes()) for j in cols}
+    have = [(j, k) for j, k in found.items() if k is not None]
+    todo = [j for j, k in found.items() if k is None]
+    if len(cols) == out.shape[1] and prior.shape == out.shape:
+        out[...] = prior  # one copy, then the columns that moved (a swap: two)
+        have = [(j, k) for j, k in have if j != k]
+    if have:
+        out[:, [j for j, _ in have]] = prior[:, [k for _, k in have]]
+    if len(todo) == 1:
+        beside = next(j for j in cols if j != todo[0])
+        out[:, todo] = (filtered @ rows[[todo[0], beside]].T)[:, :1]
+    elif todo:
+        out[:, todo] = filtered @ rows[todo].T
+
+
+def _predict_delayed(model, exp: PreparedExperiment, last: dict) -> np.ndarray:
+    """``predict(model, exp)`` (its numbers) for delayed channels of a structure ``exp`` keeps: the
+    sensors' signals before their delays and their spectra kept in ``last`` for the model's rows
+    and analog chain (a search over delays shifts the same signals again and again)."""
+    from odsuite.domain.simulation import sampled_later
+
+    chain = model.chain
+    rows = _sensor_rows(model, exp.sensors)
+    key = (rows.tobytes(), tuple(chain.sensor_dynamics(s.name) for s in exp.sensors), chain.front_end)
+    got = last.get("delayed")
+    if got is None or got[0] != key:
+        y = _sensor_side(model, exp, exp._cache[2] @ rows.T)  # as simulate_sensors
+        got = last["delayed"] = (key, y, np.fft.rfft(y, n=2 * y.shape[0], axis=0))
+    delays = [chain.delay.get(s.name, 0.0) for s in exp.sensors]
+    return _digital_chain(exp, sampled_later(got[1], exp.fs, delays, spectrum=got[2]))
 
 
 def flexible_mode_change(model, exp: PreparedExperiment, mode,

@@ -369,19 +369,38 @@ def simulate(model: Model, inputs, u, fs: float, outputs, hold: str = "zoh") -> 
     return simulate_state_space(model.state_space(inputs, outputs), u, fs, hold)
 
 
-def sampled_later(y: np.ndarray, fs: float, delays) -> np.ndarray:
+#: the phase shifts exp(j w tau) sampled_later applied last, by samples, rate and delays: a
+#: diagnosis shifts every experiment's channels by the same delays in turn (a record that leaves a
+#: channel out shifts the others)
+_PHASES: dict[tuple, np.ndarray] = {}
+PHASES_KEPT = 4
+#: ... each of at most this many bytes (a long record's are left to go)
+PHASE_BYTES_KEPT = 32e6
+
+
+def sampled_later(y: np.ndarray, fs: float, delays, spectrum: np.ndarray | None = None) -> np.ndarray:
     """Each column of ``y`` (samples x channels, sampled at ``fs`` Hz from rest) as it would be
     sampled ``delays[k]`` seconds later: a phase shift exp(j w tau) of its spectrum, zero-padded to
-    twice its length so that nothing wraps around (exact for band-limited signals)."""
+    twice its length so that nothing wraps around (exact for band-limited signals). ``spectrum``:
+    ``np.fft.rfft(y, n=2 * len(y), axis=0)`` where the caller keeps it (a search over delays shifts
+    the same signals again and again; each column's transform is its own, so the same numbers)."""
     n = y.shape[0]
     delays = np.asarray(delays, float)
     # columns sampled on time are left as they are (not through the transform's round-off): a
     # channel's delay then changes that channel alone
     moved = np.flatnonzero(delays)
     out = np.array(y, dtype=float)
-    spec = np.fft.rfft(out[:, moved], n=2 * n, axis=0)
-    w = 2 * np.pi * np.fft.rfftfreq(2 * n, 1.0 / fs)
-    spec *= np.exp(1j * np.outer(w, delays[moved]))
+    spec = np.fft.rfft(out[:, moved], n=2 * n, axis=0) if spectrum is None else spectrum[:, moved]
+    key = (n, fs, delays[moved].tobytes())
+    phase = _PHASES.get(key)
+    if phase is None:
+        if len(_PHASES) >= PHASES_KEPT:
+            _PHASES.clear()
+        w = 2 * np.pi * np.fft.rfftfreq(2 * n, 1.0 / fs)
+        phase = np.exp(1j * np.outer(w, delays[moved]))
+        if phase.nbytes <= PHASE_BYTES_KEPT:
+            _PHASES[key] = phase
+    spec *= phase
     out[:, moved] = np.fft.irfft(spec, n=2 * n, axis=0)[:n]
     return out
 

@@ -95,49 +95,98 @@ def test_problem_jacobian_linearised_agrees_with_finite_differences(tmp_path):
             assert err.max() < 1e-3, (name, err)
 
 
-def test_predict_sharing_equals_predict_for_sensor_effects(tmp_path):
+@pytest.fixture
+def sensor_case(tmp_path):
+    """A thesis record (its coordinates not yet simulated), its rig's model and sensor names."""
+    from hidden_effects import make_project
+
+    from odsuite.analysis.modelrev import revision_model
+    from odsuite.analysis.prediction import prepare
+    from odsuite.store.project import open_project
+
+    with open_project(make_project(tmp_path / "s.odsp", n_samples=2048)) as p:
+        e = prepare(p)[0]
+        yield e, revision_model(p).shared, [s.name for s in e.sensors]
+
+
+def _applied(model, name: str, **changed):
+    """``model`` with effect ``name`` at its nominal values but ``changed``."""
+    from odsuite.contracts.plugins import registries
+
+    eff = registries().effects.get(name)
+    return eff.apply(model, {**{q.name: q.nominal for q in eff.parameters(model)}, **changed})
+
+
+def test_predict_sharing_equals_predict_for_sensor_effects(sensor_case):
     """A candidate that changes the sensors alone (gain, tilt, position, cables) is predicted from
     the chain's filtering of the kept coordinates, combined by its sensor rows: the same numbers
     as each sensor's own chain (predict) but for rounding; a delay on every channel (every
     channel's chain new) takes predict's path."""
     from dataclasses import replace
 
-    from hidden_effects import make_project
+    from odsuite.analysis.prediction import predict, predict_sharing
 
-    from odsuite.analysis.modelrev import revision_model
-    from odsuite.analysis.prediction import predict, predict_sharing, prepare
+    e, base, names = sensor_case
+    models = [_applied(base, "sensor_gain", **{f"{names[1]}_gain": 1.3}),
+              _applied(base, "channel_swap", pair=2.0, ratio=1.1),
+              _applied(base, "sensor_orientation", **{f"{names[0]}_tilt_a": 0.07}),
+              _applied(base, "sensor_position", **{f"{names[2]}_dx": 0.012})]
+    predict(base, e)  # the base structure's coordinates kept on the record
+    for m in models:
+        assert m.structure is base.structure
+        ref = predict(m, replace(e, _cache=None, _filtered=None))
+        got = predict_sharing(m, e)
+        assert e._filtered is not None and e._filtered[0] is e._cache  # the shared path is taken
+        assert np.abs(got - ref).max() <= 1e-10 * np.abs(ref).max()
+        assert np.abs(got - predict(base, e)).max() > 1e-3 * np.abs(ref).max()  # the effect shows
+    skew = _applied(base, "scan_skew", skew_s=2e-5)
+    kept = dict(e._filtered[1])
+    got = predict_sharing(skew, e)
+    assert set(e._filtered[1]) == set(kept)  # nothing filtered for a chain per channel
+    ref = predict(skew, replace(e, _cache=None, _filtered=None))
+    assert np.array_equal(got, ref)
+
+
+def test_predict_sharing_takes_kept_spectra_and_columns_with_predicts_numbers(sensor_case):
+    """A search over channel delays (every channel's chain new at each point) shifts the undelayed
+    signals' kept spectra: predict's numbers to the bit, at point after point, and again after the
+    rows change (a gain with the delays). Exchanged cables, pair after pair, take the columns the
+    last prediction had for their rows: each prediction the one computed afresh (a column product
+    gives a column the same sum beside any others; checked to rounding, 1e-13) and predict's to
+    1e-10; so is one sensor's gain, whose single new column is computed beside a kept one."""
+    from dataclasses import replace
+
+    from odsuite.analysis.prediction import predict, predict_sharing
     from odsuite.contracts.plugins import registries
-    from odsuite.store.project import open_project
 
-    path = make_project(tmp_path / "s.odsp", n_samples=2048)
-    effects = registries().effects
-    with open_project(path) as p:
-        e = prepare(p)[0]
-        base = revision_model(p).shared
-        names = [s.name for s in e.sensors]
+    e, base, names = sensor_case
+    predict(base, e)
+    rng = np.random.default_rng(3)
+    delayed = [_applied(base, "channel_delay", **{f"{n}_delay": float(d) for n, d in
+                                                  zip(names, rng.uniform(-60e-6, 60e-6, len(names)))})
+               for _ in range(3)]
+    delayed.append(_applied(delayed[0], "sensor_gain", **{f"{names[1]}_gain": 1.2}))
+    delayed.append(_applied(base, "scan_skew", skew_s=7e-6))
+    for m in delayed:
+        got = predict_sharing(m, e)
+        assert "delayed" in e._filtered[3]  # the kept spectra's path
+        assert np.array_equal(got, predict(m, replace(e, _cache=None, _filtered=None)))
+    assert not np.array_equal(predict_sharing(delayed[0], e), predict_sharing(delayed[3], e))
 
-        def applied(name, **changed):
-            eff = effects.get(name)
-            return eff.apply(base, {**{q.name: q.nominal for q in eff.parameters(base)}, **changed})
-
-        models = [applied("sensor_gain", **{f"{names[1]}_gain": 1.3}),
-                  applied("channel_swap", pair=2.0, ratio=1.1),
-                  applied("sensor_orientation", **{f"{names[0]}_tilt_a": 0.07}),
-                  applied("sensor_position", **{f"{names[2]}_dx": 0.012})]
-        predict(base, e)  # the base structure's coordinates kept on the record
-        for m in models:
-            assert m.structure is base.structure
-            ref = predict(m, replace(e, _cache=None, _filtered=None))
+    pairs = registries().effects.get("channel_swap").parameters(base)[0].choices[1:]
+    one_gain = _applied(base, "sensor_gain", **{f"{names[2]}_gain": 0.9})
+    # the record's chains (two groups of channels), and one chain for every channel
+    one_chain = replace(e, operators=[replace(e.operators[0], columns=tuple(range(len(names))))],
+                        _filtered=None)
+    assert len(e.operators) > 1
+    for e in (e, one_chain):
+        for m in [_applied(base, "channel_swap", pair=k) for k in pairs] + [one_gain, base]:
             got = predict_sharing(m, e)
-            assert e._filtered is not None and e._filtered[0] is e._cache  # the shared path is taken
+            assert any(isinstance(k, tuple) for k in e._filtered[3])  # a kept prediction's columns
+            again = predict_sharing(m, replace(e, _filtered=None))  # the coordinates kept, no prediction
+            assert np.abs(got - again).max() <= 1e-13 * np.abs(again).max()
+            ref = predict(m, replace(e, _cache=None, _filtered=None))
             assert np.abs(got - ref).max() <= 1e-10 * np.abs(ref).max()
-            assert np.abs(got - predict(base, e)).max() > 1e-3 * np.abs(ref).max()  # the effect shows
-        skew = applied("scan_skew", skew_s=2e-5)
-        kept = dict(e._filtered[1])
-        got = predict_sharing(skew, e)
-        assert set(e._filtered[1]) == set(kept)  # nothing filtered for a chain per channel
-        ref = predict(skew, replace(e, _cache=None, _filtered=None))
-        assert np.array_equal(got, ref)
 
 
 def test_jacobian_columns_from_the_changes_equal_the_differenced_linearised_residuals(tmp_path):
