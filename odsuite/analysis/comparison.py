@@ -321,7 +321,6 @@ def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapp
 
 
 def _compare(project, *, experiments, revision, prepared, resonances, figures, say, coordinates) -> Comparison:
-    from odsuite.analysis.modal_comparison import modal_records
     from odsuite.analysis.modelrev import current_revision, revision_model
 
     rev = revision or current_revision(project)
@@ -384,10 +383,13 @@ def _compare(project, *, experiments, revision, prepared, resonances, figures, s
                  float(np.nansum(band_num[i]) / np.nansum(band_num))) for i in range(len(labels))]
     for n, v, share in sorted(weighted, key=lambda t: -t[2])[:3]:
         worst.append({"kind": "band", "name": n, "error": v, "residual_share": share})
-    if resonances:
+    modal = modal_notes = records = None
+    if resonances:  # imported here: the fitting loop's comparisons (resonances=False) never load it
+        from odsuite.analysis.modal_comparison import modal_records
+
         say("identifying modes")
-    modal, modal_notes, records = (modal_records(project, [e.name for e in exps], rmodel.for_experiment,
-                                                 frfs=figures) if resonances else (None, None, None))
+        modal, modal_notes, records = modal_records(project, [e.name for e in exps], rmodel.for_experiment,
+                                                    frfs=figures)
     spectra = residual_spectra(exps, preds)
     return Comparison(
         error=pooled_error(exps, preds), noise_floor_error=floor.error(),
