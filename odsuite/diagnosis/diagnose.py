@@ -533,7 +533,7 @@ def _baseline(project, rev, base, exps):
     predictions and where it fails, resolved by experiment, channel and band."""
     from odsuite.analysis.comparison import compare
 
-    cmp = compare(project, revision=rev, prepared=exps, resonances=False, coordinates=False)
+    cmp = compare(project, revision=rev, prepared=exps, resonances=False, coordinates=False, tables=False)
     den = sum(float(np.sum(e.measured**2)) for e in exps)
     sse0 = cmp.error**2 * den
     windows = fit_windows(exps)
