@@ -308,26 +308,49 @@ def _coordinates(rig: Rig, exp: PreparedExperiment, model, errors: bool = True) 
     return coords, rigidity
 
 
+def _tables(labels, sensor_names, band_num, band_den, channels, coords) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """The band table (each band's and channel's error and share of the measured energy) and the
+    worst channels, coordinates and bands."""
+    band_table = np.sqrt(band_num / np.where(band_den > 0, band_den, np.nan))
+    band_share = band_den / np.nansum(band_den)
+    bands = {"labels": labels, "channels": sensor_names,
+             "error": [[None if not np.isfinite(v) else float(v) for v in row] for row in band_table],
+             "energy_share": [[float(v) for v in row] for row in band_share]}
+    worst: list[dict[str, Any]] = []
+    for n, v in sorted(channels.items(), key=lambda kv: -kv[1])[:3]:
+        worst.append({"kind": "channel", "name": n, "error": v})
+    flat_coords = [(f"{en}/{b}/{c}", v) for en, bd in coords.items() for b, cd in bd.items() for c, v in cd.items()]
+    for n, v in sorted(flat_coords, key=lambda kv: -kv[1])[:3]:
+        worst.append({"kind": "coordinate", "name": n, "error": v})
+    weighted = [(labels[i], float(np.nansum(band_num[i]) / np.nansum(band_den[i])) ** 0.5,
+                 float(np.nansum(band_num[i]) / np.nansum(band_num))) for i in range(len(labels))]
+    for n, v, share in sorted(weighted, key=lambda t: -t[2])[:3]:
+        worst.append({"kind": "band", "name": n, "error": v, "residual_share": share})
+    return bands, worst
+
+
 def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapping[str, Any] | None = None,
             prepared: Sequence[PreparedExperiment] | None = None, resonances: bool = True,
             figures: bool = True, progress: Callable[[str], None] | None = None,
-            coordinates: bool = True) -> Comparison:
+            coordinates: bool = True, tables: bool = True) -> Comparison:
     """Compare the current model revision (or ``revision``) with every experiment. ``resonances``:
     also identify measured and model resonances from FRFs (a few seconds; the fitting loop, which
     needs only the errors, leaves it out). ``figures=False``: the modal table without what only
     its figures draw (the records' FRFs where their modes are stored; ``modal_records``' FRFs
     None). ``coordinates=False``: no generalized coordinates' errors (the rigidity check stays).
+    ``tables=False``: no errors per experiment, channel and band nor the worst of them (left empty:
+    the fitting loop reads the pooled error, the floor, the residual peaks and the rigidity check).
     ``progress(stage)`` is told each stage as it starts."""
     # one BLAS thread: the matrices are small, and a second thread spinning for a busy core cost
     # 5.0 s CPU against 3.1 s (plate-and-motor bench project, loaded two-core machine)
     with threadpool_limits(1):
         return _compare(project, experiments=experiments, revision=revision, prepared=prepared,
                         resonances=resonances, figures=figures, say=progress or (lambda stage: None),
-                        coordinates=coordinates)
+                        coordinates=coordinates, tables=tables)
 
 
-def _compare(project, *, experiments, revision, prepared, resonances, figures, say, coordinates) -> Comparison:
-    from odsuite.analysis.modal_comparison import modal_records
+def _compare(project, *, experiments, revision, prepared, resonances, figures, say, coordinates,
+             tables) -> Comparison:
     from odsuite.analysis.modelrev import current_revision, revision_model
 
     rev = revision or current_revision(project)
@@ -352,6 +375,9 @@ def _compare(project, *, experiments, revision, prepared, resonances, figures, s
     labels: list[str] = []
     sensor_names: list[str] = []
     for e, p in zip(exps, preds):
+        coords[e.name], rigidity[e.name] = _coordinates(project.rig, e, rmodel.for_experiment(e.name), coordinates)
+        if not tables:
+            continue
         per_ch = nrmse(e.measured, p, axis=0)
         per_exp[e.name] = {
             "error": float(nrmse(e.measured, p)),
@@ -372,28 +398,16 @@ def _compare(project, *, experiments, revision, prepared, resonances, figures, s
         at = [sensor_names.index(s.name) for s in e.sensors]
         band_num[:, at] += (berr**2) * bshare * energy
         band_den[:, at] += bshare * energy
-        coords[e.name], rigidity[e.name] = _coordinates(project.rig, e, rmodel.for_experiment(e.name), coordinates)
     channels = {n: float(np.sqrt(chan_num[n] / chan_den[n])) if chan_den[n] > 0 else float("nan")
                 for n in chan_num}
-    band_table = np.sqrt(band_num / np.where(band_den > 0, band_den, np.nan))
-    band_share = band_den / np.nansum(band_den)
-    bands = {"labels": labels, "channels": sensor_names,
-             "error": [[None if not np.isfinite(v) else float(v) for v in row] for row in band_table],
-             "energy_share": [[float(v) for v in row] for row in band_share]}
-    worst: list[dict[str, Any]] = []
-    for n, v in sorted(channels.items(), key=lambda kv: -kv[1])[:3]:
-        worst.append({"kind": "channel", "name": n, "error": v})
-    flat_coords = [(f"{en}/{b}/{c}", v) for en, bd in coords.items() for b, cd in bd.items() for c, v in cd.items()]
-    for n, v in sorted(flat_coords, key=lambda kv: -kv[1])[:3]:
-        worst.append({"kind": "coordinate", "name": n, "error": v})
-    weighted = [(labels[i], float(np.nansum(band_num[i]) / np.nansum(band_den[i])) ** 0.5,
-                 float(np.nansum(band_num[i]) / np.nansum(band_num))) for i in range(len(labels))]
-    for n, v, share in sorted(weighted, key=lambda t: -t[2])[:3]:
-        worst.append({"kind": "band", "name": n, "error": v, "residual_share": share})
-    if resonances:
+    bands, worst = _tables(labels, sensor_names, band_num, band_den, channels, coords) if tables else ({}, [])
+    modal = modal_notes = records = None
+    if resonances:  # imported here: the fitting loop's comparisons (resonances=False) never load it
+        from odsuite.analysis.modal_comparison import modal_records
+
         say("identifying modes")
-    modal, modal_notes, records = (modal_records(project, [e.name for e in exps], rmodel.for_experiment,
-                                                 frfs=figures) if resonances else (None, None, None))
+        modal, modal_notes, records = modal_records(project, [e.name for e in exps], rmodel.for_experiment,
+                                                    frfs=figures)
     spectra = residual_spectra(exps, preds)
     return Comparison(
         error=pooled_error(exps, preds), noise_floor_error=floor.error(),

@@ -23,6 +23,7 @@ and experiment) lets the residual's peaks and bands be tested against what noise
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -96,13 +97,19 @@ def in_band(fs: float, n_samples: int, bands: Sequence[tuple[float, float]]) -> 
     return [(f >= lo) & ((f < hi) if hi < fs / 2 else (f <= hi)) & (f > 0) for lo, hi in bands]
 
 
-def band_slices(fs: float, n_samples: int, bands: Sequence[tuple[float, float]]) -> list[slice]:
+def band_slices(fs: float, n_samples: int, bands: Sequence[tuple[float, float]]) -> tuple[slice, ...]:
     """``in_band``'s masks as the runs of lines they are: indexing by one gives a view, not a copy."""
+    return _band_slices(float(fs), int(n_samples), tuple((float(lo), float(hi)) for lo, hi in bands))
+
+
+@functools.lru_cache(maxsize=64)
+def _band_slices(fs: float, n_samples: int, bands: tuple[tuple[float, float], ...]) -> tuple[slice, ...]:
+    # kept: a diagnosis resolves the same records' residuals dozens of times
     out = []
     for m in in_band(fs, n_samples, bands):
         idx = np.flatnonzero(m)
         out.append(slice(int(idx[0]), int(idx[-1]) + 1) if idx.size else slice(0, 0))
-    return out
+    return tuple(out)
 
 
 def band_dof(lines: np.ndarray, masks: Sequence[np.ndarray], smooth: int = 5) -> np.ndarray:

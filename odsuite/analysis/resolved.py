@@ -88,6 +88,22 @@ class Resolved:
         return float(max((np.sqrt(np.max(q)) for q in judged if q.size), default=0.0))
 
 
+def _per_band(e, prediction: np.ndarray, edges: Sequence[tuple[float, float]]) -> list[np.ndarray]:
+    """The residual's energy per line of its spectrum (lines x channels), band by band."""
+    lines = line_energies(e.measured - prediction)
+    return [lines[b] for b in band_slices(e.fs, e.n_samples, edges)]
+
+
+def residual_energies(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFloor
+                      ) -> list[np.ndarray] | None:
+    """``resolve(exps, predictions, floor).residual`` alone (bands x channels per experiment),
+    without the degrees of freedom and limits; None where ``resolve`` is."""
+    if not all(e.name in floor.bands for e in exps):
+        return None
+    return [np.array([b.sum(axis=0) for b in _per_band(e, p, floor.bands[e.name][0])])
+            for e, p in zip(exps, predictions)]
+
+
 def resolve(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFloor) -> Resolved | None:
     """The residual of ``predictions`` resolved against ``floor`` (estimated with ``spectra=True``);
     None when the floor has no bands for these experiments."""
@@ -96,8 +112,7 @@ def resolve(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFloor
     names, chans, bands, res, flo, dof, rdof = [], [], [], [], [], [], []
     for e, p in zip(exps, predictions):
         edges, f_energy, f_dof = floor.bands[e.name]
-        lines = line_energies(e.measured - p)
-        per_band = [lines[b] for b in band_slices(e.fs, e.n_samples, edges)]
+        per_band = _per_band(e, p, edges)
         r = np.array([b.sum(axis=0) for b in per_band])
         own = np.array([2.0 * b.sum(axis=0) ** 2 / np.maximum(np.sum(b**2, axis=0), 1e-300) for b in per_band])
         names.append(e.name)

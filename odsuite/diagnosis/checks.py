@@ -256,7 +256,10 @@ def linearity(problem, res) -> Linearity:
     if not shared or res is None:
         return Linearity()
     n_data = res.fun.size - (len(problem.free) if problem.prior else 0)
-    J, r = res.jac[:n_data][:, shared], res.fun[:n_data]
+    # every column shared (no per-experiment parameter): the Jacobian as it is, not a copy of all its
+    # columns (two-body mass_properties: 35 MB); what is computed below reads it row by row alike
+    J = res.jac[:n_data] if shared == list(range(res.jac.shape[1])) else res.jac[:n_data][:, shared]
+    r = res.fun[:n_data]
     parts: tuple[list[np.ndarray], list[np.ndarray]] = ([], [])
     cuts: dict[str, int] = {}
     start, columns = 0, None
@@ -367,10 +370,10 @@ def held_out(exps: Sequence, early: Sequence[np.ndarray], late: Sequence[np.ndar
         n_cells = sum(f.size for f in held.floor)
         x_s = float(scipy.stats.chi2.isf(resolution.DETECTION_FALSE_ALARM / max(n_cells, 1), 1))
         energy = [np.zeros_like(f) for f in floors]
-        for change in spread:
-            one = resolution.resolve(exps, [e.measured - np.where(m, d, 0.0) for e, m, d in zip(exps, masks, change)],
-                                     floor)
-            energy = [a + b for a, b in zip(energy, one.residual)]
+        for change in spread:  # only their energies: resolve's limits and degrees of freedom are held's
+            one = resolution.residual_energies(
+                exps, [e.measured - np.where(m, d, 0.0) for e, m, d in zip(exps, masks, change)], floor)
+            energy = [a + b for a, b in zip(energy, one)]
         # limit x (floor share + S x_S / limit) = limit x floor share + x_S S
         floors = [f + x_s * s / lim for f, s, lim in zip(floors, energy, held.limit)]
     return replace(held, residual=[np.maximum(a - b, 0.0) for a, b in zip(held.residual, own.residual)],

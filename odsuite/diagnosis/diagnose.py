@@ -36,6 +36,7 @@ from odsuite.diagnosis.fitting import (
     Problem,
     Screened,
     _lm_step,
+    channel_weights,
     effective_samples,
     fit,
     fit_windows,
@@ -379,7 +380,7 @@ def _judge(cand: Candidate, exps, floor, before, sse_before: float, den: float, 
 
 def _problem(job: Mapping[str, Any], name: str, fixed: Mapping[str, float] | None = None) -> Problem:
     problem = Problem(job["base"], job["effects"].get(name), job["windows"], prior=job["prior"] / job["stride"],
-                      stride=job["stride"], full=job["exps"], noise_scale=job["scale"])
+                      stride=job["stride"], full=job["exps"], noise_scale=job["scale"], weights=job["weights"])
     return problem.derived(fixed) if fixed else problem
 
 
@@ -532,7 +533,7 @@ def _baseline(project, rev, base, exps):
     predictions and where it fails, resolved by experiment, channel and band."""
     from odsuite.analysis.comparison import compare
 
-    cmp = compare(project, revision=rev, prepared=exps, resonances=False, coordinates=False)
+    cmp = compare(project, revision=rev, prepared=exps, resonances=False, coordinates=False, tables=False)
     den = sum(float(np.sum(e.measured**2)) for e in exps)
     sse0 = cmp.error**2 * den
     windows = fit_windows(exps)
@@ -553,7 +554,9 @@ def _baseline(project, rev, base, exps):
            # and are seen least)
            "modes_before": [f for f in base.shared.modes().frequency_hz if f <= f99],
            "tail0": max(sse0 - sse0_win, 0.0),
-           "force_levels": {e.name: float(np.max(np.abs(e.force))) for e in exps}}
+           "force_levels": {e.name: float(np.max(np.abs(e.force))) for e in exps},
+           # every candidate's channel weights (fitting.channel_weights of the whole records), once
+           "weights": channel_weights(exps)}
     # where the model fails, resolved by experiment, channel and band: the baseline of every gain test
     before = cmp.predictions
     return cmp, job, before, resolution.resolve(exps, before, cmp.floor)
@@ -850,7 +853,7 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
 def _pair_problem(job: Mapping[str, Any], ea: str, eb: str, fixed: Mapping[str, float]) -> Problem:
     effect = joint.joined(job["effects"].get(ea), job["effects"].get(eb), job["base"].shared)
     return Problem(job["base"], effect, job["windows"], fixed, prior=job["prior"] / job["stride"],
-                   stride=job["stride"], full=job["exps"], noise_scale=job["scale"])
+                   stride=job["stride"], full=job["exps"], noise_scale=job["scale"], weights=job["weights"])
 
 
 def _pair_job(token: int, pair: tuple[str, str], options: Sequence[Sequence[joint.Fitted]],
@@ -986,11 +989,12 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
     """The verdict (from the resolved residual where the floor has bands), the signature of what
     is left (after the best significant candidate, if any) and the message."""
     best = next((c for c in d.candidates if c.significant and c.fitted), None)
+    nonlinear = best is not None and makes_nonlinear(best, base)  # builds the fit's models: once
     # amplitude dependence as the data show it: the best significant candidate's parameters, fitted
     # per experiment, follow the force level, or it makes the model amplitude dependent (without
     # one: any fitted candidate's). A stand-in's drifting parameters say it stands in, not that the
     # structure is nonlinear: a mass fitted for a worn mount followed the force level
-    amplitude = (bool(best.amplitude_dependent) or makes_nonlinear(best, base) if best is not None
+    amplitude = (bool(best.amplitude_dependent) or nonlinear if best is not None
                  else any(c.amplitude_dependent for c in d.candidates if c.fitted))
     res_best, floor_best = getattr(best, "_resolved", None) if best is not None else None, cmp.floor
     after = None
@@ -1018,7 +1022,6 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
         best.early_late_agree = None
         best.early_late_note = ("not tested: cells stay above the floor after it, and the late part's own fit "
                                 "would take up some of them")
-    nonlinear = best is not None and makes_nonlinear(best, base)
     d.verdict = decide(d.baseline_error, d.noise_floor_error, best, before=res0, after=res_best,
                        amplitude_cause=nonlinear)
     modes = list(base.shared.modes().frequency_hz)

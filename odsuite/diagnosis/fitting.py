@@ -1118,7 +1118,7 @@ def refined(start: Problem, u: np.ndarray, effect) -> tuple[Problem, np.ndarray]
     if held is not None:
         fixed.update(held(start.base.shared, fixed))
     problem = Problem(start.base, effect, start.exps, fixed, start.prior, start.stride, full=start.full,
-                      noise_scale=start.noise_scale)
+                      noise_scale=start.noise_scale, weights=start.weights)
     shared, per = start.values(u)
     begin = getattr(effect, "refined_start", None)
     if begin is not None:

@@ -537,3 +537,20 @@ def test_a_fit_on_records_is_bounded_by_their_nyquist_frequency(tmp_path, regist
     assert exps[0].fs == 20000.0 and f.param.upper == 10000.0
     assert f.param.plausible == (1.0, 10000.0 - 20000.0 / exps[0].n_samples)
     assert f.to_value(f.bounds[1]) == 10000.0
+
+
+def test_linearity_reads_a_jacobian_of_shared_columns_as_it_is_laid_out():
+    # every parameter shared: linearity reads the fit's Jacobian without copying its columns; the
+    # Jacobian in either memory order, or a copy of every column, gives the same numbers to the bit
+    problem, res = _ring(0.03)
+    ref = checks.linearity(problem, SimpleNamespace(x=res.x, fun=res.fun, jac=np.array(res.jac[:, [0, 1]], order="C")))
+    for jac in (np.asfortranarray(res.jac), np.ascontiguousarray(res.jac)):
+        lin = checks.linearity(problem, SimpleNamespace(x=res.x, fun=res.fun, jac=jac))
+        assert lin.early == ref.early and lin.late == ref.late and lin.cuts == ref.cuts
+        assert np.array_equal(lin.cov, ref.cov) and all(np.array_equal(a, b) for a, b in zip(lin.u, ref.u))
+    # a per-experiment column among them is left out of the early and late fits
+    extra = _Free(Parameter("gain", "1", 1.0, 0.5, 2.0), "r0", 0.01)
+    mixed = replace(problem, free=[*problem.free, extra])
+    jac = np.column_stack([res.jac, np.linspace(0, 1, res.jac.shape[0])])
+    lin = checks.linearity(mixed, SimpleNamespace(x=np.append(res.x, 0.0), fun=res.fun, jac=jac))
+    assert lin.early == ref.early and lin.late == ref.late and np.array_equal(lin.cov, ref.cov)

@@ -174,6 +174,25 @@ def test_without_coordinates_the_rigidity_check_and_the_predictions_stay(nominal
     assert lean.error == pytest.approx(np.sqrt(np.sum((m - q) ** 2) / np.sum(m**2)), rel=1e-12)
 
 
+def test_without_tables_what_the_fitting_loop_reads_stays(nominal):
+    """compare(tables=False), as diagnose's baseline asks, leaves out the errors per experiment,
+    channel and band: the pooled error, the floor, the residual peaks and spectra, the rigidity
+    check and the predictions are the full comparison's to the bit."""
+    path, _, _ = nominal
+    import odsuite
+
+    with odsuite.open_project(path) as p:
+        full = compare(p, experiments=["T8stiff"], coordinates=False)
+        lean = compare(p, experiments=["T8stiff"], coordinates=False, tables=False)
+    assert full.experiments and full.channels and full.bands and full.worst
+    assert lean.experiments == {} and lean.channels == {} and lean.bands == {} and lean.worst == []
+    assert lean.error == full.error and lean.noise_floor_error == full.noise_floor_error
+    assert lean.residual_peaks == full.residual_peaks and lean.rigidity == full.rigidity
+    assert lean.floor.energy == full.floor.energy
+    assert all(np.array_equal(a, b) for a, b in zip(lean.predictions, full.predictions))
+    assert all(np.array_equal(a[1], b[1]) for a, b in zip(lean.residual_spectra, full.residual_spectra))
+
+
 def test_the_residual_spectra_compare_keeps_are_scipys_welch(nominal):
     """The residuals' Welch spectra compare keeps (for diagnose's verdict) are scipy's of measured
     minus predicted (Hann, 2048 samples, half overlap), and its residual peaks read from them are

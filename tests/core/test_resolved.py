@@ -101,3 +101,24 @@ def test_a_model_error_in_one_band_is_found_there_however_quiet_the_rest():
     assert not after.detected()
     assert resolved.gain(res, after) == pytest.approx(res.excess(res.residual_dof))
     assert resolved.gain(res, after) > resolved.gain_threshold(1)
+
+
+def test_the_residual_energies_alone_are_resolves_and_parsevals():
+    # residual_energies (held_out's spread) is resolve's residual to the bit, and each band's
+    # energy is the residual's FFT lines in that band (Parseval: they add up to sum r^2)
+    rng = np.random.default_rng(3)
+    exps = _null(rng)
+    floor = _white_floor(SIGMA)
+    preds = [0.5 * e.measured + 0.01 * rng.standard_normal((N, CHANNELS)) for e in exps]
+    fast = resolved.residual_energies(exps, preds, floor)
+    full = resolved.resolve(exps, preds, floor)
+    edges = band_edges(FS, N)
+    masks = in_band(FS, N, edges)
+    for e, p, a, b in zip(exps, preds, fast, full.residual):
+        assert np.array_equal(a, b)
+        r = e.measured - p
+        spec = np.abs(np.fft.rfft(r, axis=0)) ** 2 / N
+        spec[1:N // 2] *= 2.0
+        assert np.allclose(a, [spec[m].sum(axis=0) for m in masks], rtol=1e-12)
+        assert a.sum(axis=0) == pytest.approx(np.sum(r**2, axis=0) - spec[0], rel=1e-12)
+    assert resolved.residual_energies(exps, preds, NoiseFloor({}, {})) is None
