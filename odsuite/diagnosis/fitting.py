@@ -1275,8 +1275,8 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
     accepted step (each column a simulation). The steps, their acceptance and termination are
     scipy's own functions; without ``broyden`` the iterates are scipy's to rounding where J is well
     conditioned (J^T J squares its condition number: a split the data barely determine, held by the
-    prior alone, lands elsewhere along it at the same cost) and without ``further`` (an accepted
-    step taken further along its line, _further).
+    prior alone, lands elsewhere along it at the same cost) and without ``further`` (accepted
+    steps taken further along their line, _further, until it first declines one).
 
     ``jac(x, f)`` is d f / d x at ``x`` (``f`` the residual there). An updated Jacobian gives way to
     a differenced one (BROYDEN_RUN, BROYDEN_MISS) and never ends the search: where the gradient,
@@ -1364,11 +1364,14 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
         if actual_reduction > 0:
             x_old, f_old = x, f
             if further and status is None and nfev < max_nfev:
-                further = _further(fun, x, cost, float(g @ step), step, cost_new, lb, ub, stops.least)
-                if further is not None:
+                longer = _further(fun, x, cost, float(g @ step), step, cost_new, lb, ub, stops.least)
+                # once the parabola puts the minimum within reach, later steps are not taken further
+                # (tried after every step: more evaluations and Jacobians on the large-residual fits)
+                further = longer is not None
+                if longer is not None:
                     nfev += 1
-                    if further[2] < cost_new:
-                        x_new, f_new, cost_new, t = further
+                    if longer[2] < cost_new:
+                        x_new, f_new, cost_new, t = longer
                         Delta = max(Delta, t * step_h_norm)
             x, f, cost = x_new, f_new, cost_new
             if (broyden and not confirm and status is None and run < BROYDEN_RUN
