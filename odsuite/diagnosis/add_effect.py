@@ -140,7 +140,7 @@ def _add_effect(project, name: str, *, progress: Callable[[str, int, int], None]
         progress(f"fitting {', '.join(e.name for e in joint_effects)}", 1, 3)
     res = fit(joint, u0) if joint.free else None
     u = res.x if res is not None else joint.zero()
-    fit_sds, corr = uncertainties(joint, res, checks.residual_effective_samples(joint, res))[:2] if res is not None else (np.zeros(0), None)
+    fit_sds, corr = uncertainties(joint, res, lambda: checks.residual_effective_samples(joint, res))[:2] if res is not None else (np.zeros(0), None)
     new_entries = list(held) + _entries(joint, joint_effects, u, fit_sds, corr, res)
     if progress:
         progress("comparing", 2, 3)
@@ -195,7 +195,7 @@ def _add_on_top(project, rev, entries, name: str, effect, screened, exps, before
         progress(f"fitting {name}", 1, 3)
     res = fit(problem, screened.u0, continuation=False) if problem.free else None
     u = res.x if res is not None else problem.zero()
-    fit_sds, corr = uncertainties(problem, res, checks.residual_effective_samples(problem, res))[:2] if res is not None else (np.zeros(0), None)
+    fit_sds, corr = uncertainties(problem, res, lambda: checks.residual_effective_samples(problem, res))[:2] if res is not None else (np.zeros(0), None)
     sds, spread = reported_with_covariance(fit_sds, problem, res)
     shared, per = problem.values(u)
     unc = {f.label if f.experiment is None else f"{f.experiment}/{f.param.name}": float(sd)

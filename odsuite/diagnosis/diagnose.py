@@ -265,7 +265,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         stopped = res.target_stop
         u = res.x
         # uncertainties from the residual as it is: its samples are correlated (filters, misfit)
-        sds, corr, groups = uncertainties(problem, res, checks.residual_effective_samples(problem, res))
+        sds, corr, groups = uncertainties(problem, res, lambda: checks.residual_effective_samples(problem, res))
         unident = [f.label for f, sd in zip(problem.free, sds)
                    if not np.isfinite(sd) or sd > UNIDENTIFIABLE_FRACTION * (f.param.upper - f.param.lower)]
         if unident and len(unident) < len(problem.free) and not stopped:
@@ -277,7 +277,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
                 keep = [i for i, f in enumerate(screened.problem.free) if f.param.name not in held]
                 res = fit(problem, u[keep], continuation=False)
                 u = res.x
-                sds, corr, groups = uncertainties(problem, res, checks.residual_effective_samples(problem, res))
+                sds, corr, groups = uncertainties(problem, res, lambda: checks.residual_effective_samples(problem, res))
         sse = problem.sse(u)
         confounded = groups + [[problem.free[i].label, problem.free[j].label]
                                for i in range(len(problem.free)) for j in range(i + 1, len(problem.free))

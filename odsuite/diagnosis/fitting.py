@@ -1533,7 +1533,8 @@ def effective_samples(exps: Sequence[PreparedExperiment]) -> tuple[float, float]
     return max(total, 1.0), f99
 
 
-def uncertainties(problem: Problem, res, n_eff: float) -> tuple[np.ndarray, np.ndarray, list[list[str]]]:
+def uncertainties(problem: Problem, res, n_eff: float | Callable[[], float]
+                  ) -> tuple[np.ndarray, np.ndarray, list[list[str]]]:
     """Standard deviations (value units), correlations and redundant groups at the fit.
 
     The sandwich covariance ``A^+ B A^+`` (A = J^T J, B = Var(J^T r), residual_score_covariance):
@@ -1541,7 +1542,7 @@ def uncertainties(problem: Problem, res, n_eff: float) -> tuple[np.ndarray, np.n
     resonances, where the Jacobian's columns are large too), so the gradient's variance is read
     per frequency against the residual's own spectrum. Rows in another layout than the
     experiments' strided samples fall back to ``s2 (J^T J)^+`` with the residual variance
-    inflated by N / ``n_eff``. Directions the data cannot see at all (an effect whose parameters
+    inflated by N / ``n_eff`` (a number, or a function asked only there). Directions the data cannot see at all (an effect whose parameters
     overlap, e.g. a global scale spread over axes and springs) are left out of the covariance
     (pseudo-inverse) and reported as groups whose combination alone is determined.
     """
@@ -1560,6 +1561,7 @@ def uncertainties(problem: Problem, res, n_eff: float) -> tuple[np.ndarray, np.n
     A_plus = (V * inv_w) @ V.T
     blocks = _experiment_blocks(problem, n)
     if blocks is None:
+        n_eff = n_eff() if callable(n_eff) else n_eff
         cov = float(r @ r) / max(1, n - p) * (n / n_eff) * A_plus
     else:
         # the fitted residual lacks the p directions the fit took out of it: as s2's n - p

@@ -103,3 +103,24 @@ def test_undetermined_directions_stay_out_and_are_named():
     var_sum = sds[0] ** 2 + sds[1] ** 2 + 2 * corr[0, 1] * sds[0] * sds[1]
     assert np.sqrt(var_sum) == np.float64(np.sqrt(var_sum))
     assert abs(np.sqrt(var_sum) / one[0] - 1) < 0.02
+
+
+def test_the_effective_samples_are_asked_for_only_where_the_rows_are_laid_out_otherwise():
+    """The N / N_eff fallback reads ``n_eff`` (a number or a function); the sandwich does not ask."""
+    rng = np.random.default_rng(3)
+    J = _jacobian()[:, :1]
+    r = _noise(rng, ringing_sd=0.0)
+    asked = []
+
+    def n_eff() -> float:
+        asked.append(1)
+        return r.size / 4
+
+    problem = _problem(1)
+    sandwich = uncertainties(problem, SimpleNamespace(jac=-J, fun=r), n_eff)[0]
+    assert asked == []
+    other_layout = SimpleNamespace(**{**vars(problem), "stride": 2})  # rows no longer every sample
+    fallback = uncertainties(other_layout, SimpleNamespace(jac=-J, fun=r), n_eff)[0]
+    assert asked == [1]
+    assert fallback[0] == uncertainties(other_layout, SimpleNamespace(jac=-J, fun=r), r.size / 4)[0][0]
+    assert sandwich[0] > 0
