@@ -1608,16 +1608,21 @@ def residual_score_covariance(J: np.ndarray, r: np.ndarray, blocks: Sequence[tup
         nfft = 1 << int(np.ceil(np.log2(2 * m)))
         R = np.fft.rfft(r[rows].reshape(m, c), nfft, axis=0)  # frequencies x channels
         G = np.fft.rfft(J[rows].reshape(m, c, p), nfft, axis=0)  # frequencies x channels x parameters
-        P = R[:, :, None] * R[:, None, :].conj() / m
+        n_f = R.shape[0]
         width = 2 * int(round(SPECTRAL_SMOOTHING_BINS * nfft / m)) + 1
-        S = (scipy.ndimage.uniform_filter1d(P.real, width, axis=0, mode="reflect")
-             + 1j * scipy.ndimage.uniform_filter1d(P.imag, width, axis=0, mode="reflect"))
-        # the one-sided spectrum counts every frequency but zero and Nyquist twice
-        twice = np.full((R.shape[0], 1, 1), 2.0)
-        twice[0] = 1.0
-        twice[-1] = 1.0
-        SG = np.matmul(S, G) * twice  # per frequency, channels x parameters
-        B += (G.conj().reshape(-1, p).T @ SG.reshape(-1, p)).real / nfft
+        # S(f) is the mean of the rank-one R R^H / m over the window about f (its edges reflected,
+        # as scipy.ndimage's "reflect"), so J(f)^H S(f) J(f) is the mean of a a^H / m, a = J(f)^H
+        # R(f + k): the channels' cross-spectral matrices are never formed (21 channels and 20
+        # parameters: a tenth of the products)
+        near = np.arange(n_f)[:, None] + np.arange(-(width // 2), width // 2 + 1)[None, :]
+        near = np.where(near < 0, -near - 1, np.where(near >= n_f, 2 * n_f - 1 - near, near))
+        # conj(a) (X X^H's real part is the same for conj(X)): the small R conjugated, not G
+        a = np.matmul(G.transpose(0, 2, 1), R.conj()[near].transpose(0, 2, 1))  # frequencies x parameters x window
+        # the one-sided spectrum counts every frequency but zero and Nyquist twice (X carries the root)
+        root_twice = np.full(n_f, np.sqrt(2.0))
+        root_twice[[0, -1]] = 1.0
+        X = (a * root_twice[:, None, None]).transpose(1, 0, 2).reshape(p, -1)
+        B += (X @ X.conj().T).real / (width * m * nfft)
     return (B + B.T) / 2
 
 

@@ -124,3 +124,36 @@ def test_the_effective_samples_are_asked_for_only_where_the_rows_are_laid_out_ot
     assert asked == [1]
     assert fallback[0] == uncertainties(other_layout, SimpleNamespace(jac=-J, fun=r), r.size / 4)[0][0]
     assert sandwich[0] > 0
+
+
+def test_score_covariance_equals_the_smoothed_cross_spectral_matrices_formed_explicitly():
+    """The rank-one form (no cross-spectral matrix formed) against S(f) built and smoothed as
+    written: per frequency J(f)^H S(f) J(f), S the periodogram R R^H / m smoothed by
+    scipy.ndimage over the window, edges reflected; two records of 3 channels, coloured noise."""
+    import scipy.ndimage
+
+    from odsuite.diagnosis.fitting import SPECTRAL_SMOOTHING_BINS, residual_score_covariance
+
+    rng = np.random.default_rng(4)
+    blocks, start, p = [], 0, 4
+    for m in (300, 517):
+        blocks.append((start, m, 3))
+        start += m * 3
+    J = rng.standard_normal((start, p))
+    r = np.convolve(rng.standard_normal(start), np.ones(7), "same")
+    expected = np.zeros((p, p))
+    for first, m, c in blocks:
+        rows = slice(first, first + m * c)
+        nfft = 1 << int(np.ceil(np.log2(2 * m)))
+        R = np.fft.rfft(r[rows].reshape(m, c), nfft, axis=0)
+        G = np.fft.rfft(J[rows].reshape(m, c, p), nfft, axis=0)
+        P = R[:, :, None] * R[:, None, :].conj() / m
+        width = 2 * int(round(SPECTRAL_SMOOTHING_BINS * nfft / m)) + 1
+        S = (scipy.ndimage.uniform_filter1d(P.real, width, axis=0, mode="reflect")
+             + 1j * scipy.ndimage.uniform_filter1d(P.imag, width, axis=0, mode="reflect"))
+        twice = np.full(len(R), 2.0)
+        twice[[0, -1]] = 1.0
+        for f in range(len(R)):
+            expected += twice[f] * (G[f].conj().T @ S[f] @ G[f]).real / nfft
+    got = residual_score_covariance(J, r, blocks)
+    assert np.allclose(got, (expected + expected.T) / 2, rtol=1e-12, atol=1e-12 * np.abs(expected).max())
