@@ -23,9 +23,24 @@ seconds compare best across runs and wall times only on a quiet machine. A chang
 evaluation cheaper (the compiled recursions below) lowers the baseline as much as diagnose, and
 the worth column then rises although everything is faster.
 
-Where it stands (quiet machine, load 0.2-1; this script after rounds 14-18, a clipped channel left
-out of its record's comparison and the baseline measured on one BLAS thread, least of five
-rounds; three runs):
+Where it stands after rounds 19-24 and the sandwich uncertainties (load 0.2-1, but the baseline's
+own CPU moved 9.0-22 ms between runs; two sittings, this code and the code before round 19 run in
+turn, the first run of a fresh checkout, which compiles the recursions, left out):
+
+| rig, workers | evaluations | CPU, worth, wall: after | before (rounds 14-18) |
+| --- | --- | --- | --- |
+| thesis, 1 | 669 (703) | 4.3-4.7 s, 459-477 | 4.5 s, 500 |
+| thesis, 2 | | 4.0-4.3 s CPU, 2.5-2.7 s wall | 4.9 s, 2.9 s |
+| two-body, 1 | 801 (866) | 6.2-7.3 s, 420-509 | 6.3-6.7 s, 388-396 |
+| two-body, 2 | | 7.5-7.8 s CPU, 4.5-4.8 s wall | 6.8-8.2 s, 4.3-5.2 s |
+
+Each round cut its own stage (rows 19-24 below), but the whole diagnose's CPU stays within the
+runs' spread of the code before them: the two-body fits' uncertainties now take the sandwich
+covariance (`fitting.residual_score_covariance`, 0.2 s CPU a fit there after its rank-one form,
+1.15 s as first written). Targets: 250 worth missed 1.7-2x; wall on two workers met on thesis
+(3 s) and two-body (5 s) in these runs. Before, after rounds 14-18 (quiet machine, load 0.2-1, a
+clipped channel left out of its record's comparison and the baseline measured on one BLAS
+thread, least of five rounds; three runs):
 
 | rig, workers | evaluations | CPU, worth (one evaluation's CPU), wall |
 | --- | --- | --- |
