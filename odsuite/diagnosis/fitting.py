@@ -1615,7 +1615,8 @@ def residual_score_covariance(J: np.ndarray, r: np.ndarray, blocks: Sequence[tup
         # R(f + k): the channels' cross-spectral matrices are never formed (21 channels and 20
         # parameters: a tenth of the products)
         near = np.arange(n_f)[:, None] + np.arange(-(width // 2), width // 2 + 1)[None, :]
-        near = np.where(near < 0, -near - 1, np.where(near >= n_f, 2 * n_f - 1 - near, near))
+        near = near % (2 * n_f)  # mirrored as often as a window wider than a short record needs
+        near = np.where(near >= n_f, 2 * n_f - 1 - near, near)
         # conj(a) (X X^H's real part is the same for conj(X)): the small R conjugated, not G
         a = np.matmul(G.transpose(0, 2, 1), R.conj()[near].transpose(0, 2, 1))  # frequencies x parameters x window
         # the one-sided spectrum counts every frequency but zero and Nyquist twice (X carries the root)
