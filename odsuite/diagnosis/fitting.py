@@ -20,7 +20,6 @@ from typing import Any
 
 import numpy as np
 import scipy.linalg
-import scipy.ndimage
 import scipy.signal
 from scipy.optimize import OptimizeResult
 # scipy's trust-region reflective pieces (private, pinned with scipy <1.17 in pyproject.toml): _trf
@@ -1542,9 +1541,10 @@ def uncertainties(problem: Problem, res, n_eff: float | Callable[[], float]
     resonances, where the Jacobian's columns are large too), so the gradient's variance is read
     per frequency against the residual's own spectrum. Rows in another layout than the
     experiments' strided samples fall back to ``s2 (J^T J)^+`` with the residual variance
-    inflated by N / ``n_eff`` (a number, or a function asked only there). Directions the data cannot see at all (an effect whose parameters
-    overlap, e.g. a global scale spread over axes and springs) are left out of the covariance
-    (pseudo-inverse) and reported as groups whose combination alone is determined.
+    inflated by N / ``n_eff`` (a number, or a function asked only there). Directions the data
+    cannot see at all (an effect whose parameters overlap, e.g. a global scale spread over axes and
+    springs) are left out of the covariance (pseudo-inverse) and reported as groups whose
+    combination alone is determined.
     """
     J = res.jac[: res.jac.shape[0] - len(problem.free)] if problem.prior else res.jac
     n, p = J.shape
