@@ -92,7 +92,7 @@ def residual_peaks(exps: Sequence[PreparedExperiment], predictions: Sequence[np.
     the caller has them."""
     psd_sum = floor_sum = None
     per_channel: dict[str, np.ndarray] = {}
-    segments = 1
+    floor_var = 0.0  # sum over records of floor^2 / degrees of freedom (Satterthwaite)
     spectra = spectra if spectra is not None else residual_spectra(exps, predictions)
     if not spectra:
         return []
@@ -106,15 +106,20 @@ def residual_peaks(exps: Sequence[PreparedExperiment], predictions: Sequence[np.
         if floor is not None and e.name in floor.spectra:
             fl = on_grid(f, *floor.spectra[e.name]).sum(axis=1)
             floor_sum = fl if floor_sum is None else floor_sum + fl
+            # Welch with a Hann window and half overlap: about 1.8 degrees of freedom per segment
+            # (Welch 1967); a rig's channels share the force's noise and disturbances, so they
+            # are not counted as independent
+            floor_var = floor_var + fl**2 / (1.8 * segments)
         for j, s in enumerate(e.sensors):
             per_channel[s.name] = per_channel.get(s.name, 0) + pxx[:, j]
     if psd_sum is None or not np.any(psd_sum > 0):
         return []
     if floor_sum is not None:
-        # Welch with a Hann window and half overlap: about 1.8 degrees of freedom per segment
-        # (Welch 1967), pooled over experiments; a rig's channels share the force's noise and
-        # disturbances, so they are not counted as independent
-        dof = 1.8 * segments * len(exps)
+        # records pooled per frequency as a sum of scaled chi-squares: Satterthwaite's degrees of
+        # freedom (sum F)^2 / sum (F^2 / dof), each record's floor F and Welch segments its own
+        # (records of other lengths or noise levels count less than a plain count of records)
+        dof = floor_sum**2 / np.maximum(floor_var, 1e-300)
+        dof = np.where(floor_sum > 0, dof, 1.8)
         limit = scipy.stats.chi2.isf(PEAK_FALSE_ALARM / len(f), dof) / dof
         # most frequencies of a residual hold noise alone: their median ratio to the floor takes
         # out the floor's overall calibration (within its tolerance) before single lines are tested
