@@ -290,3 +290,79 @@ def test_eigen_changes_are_the_first_order_of_the_decompositions(which):
     (lam_big, res_big), (lam_small, res_small) = gaps
     assert lam_big < 1e-3 and res_big < 1e-3, gaps  # within the step of 1e-3
     assert lam_small < 0.15 * lam_big and res_small < 0.15 * res_big, gaps
+
+
+def test_jacobian_written_negated_into_a_given_array_equals_the_new_one_negated_to_the_bit(tmp_path):
+    """A fit's Jacobian (d residual / d u, the prior's rows below) written into one array per stage
+    (``Problem.jacobian(out=, negated=True)``: the sign in the linearised columns' weights) is
+    the negation of the Jacobian as a new array, bit for bit: linearised columns (all moved, or
+    one unmoved) and differenced ones (a sensor effect), whatever the array held."""
+    import odsuite.diagnosis.fitting as fitting
+    from hidden_effects import CASES, make_project
+
+    from odsuite.analysis.modelrev import revision_model
+    from odsuite.analysis.prediction import prepare
+    from odsuite.contracts.plugins import registries
+    from odsuite.store.project import open_project
+
+    path = make_project(tmp_path / "s.odsp", [("stiffness", CASES["stiffness"])], n_samples=2048)
+    with open_project(path) as p:
+        exps, base = prepare(p), revision_model(p)
+        taken = []
+        for name in ("mass_properties", "stiffness", "sensor_gain"):
+            problem = fitting.Problem(base, registries().effects.get(name), fitting.fit_windows(exps), stride=2)
+            lo, hi = problem.lower_upper()
+            u = np.clip(np.random.default_rng(3).normal(0.0, 0.5, len(problem.free)), lo, hi)
+            r0 = problem.residual(u)
+            ref = problem.jacobian(u, r0, step=fitting.DIFF_STEP)
+            out = np.full((r0.size + 3, len(u)), np.nan)
+            got = problem.jacobian(u, r0, step=fitting.DIFF_STEP, out=out, negated=True)
+            assert got is out and np.all(np.isnan(out[r0.size:]))  # rows past the residual's left alone
+            assert np.array_equal(out[:r0.size], -ref), name
+            assert np.array_equal(problem.jacobian(u, r0, step=fitting.DIFF_STEP, negated=True), -ref)
+            steps = np.full(len(u), fitting.DIFF_STEP)
+            lin = problem._linearised(u, steps, r0, problem.exps)
+            taken.append((name, lin is not None))
+            if lin is not None:  # a column unmoved (a parameter whose bounds meet): zero, the rest as before
+                steps[1] = 0.0
+                part = problem._linearised(u, steps, r0, problem.exps)
+                out = np.full((r0.size, len(u)), np.nan)
+                assert problem._linearised(u, steps, r0, problem.exps, out, -1.0) is out
+                assert np.array_equal(out, -part) and not out[:, 1].any() and part[:, 0].any()
+        assert ("mass_properties", True) in taken and ("sensor_gain", False) in taken  # both paths
+
+
+def test_fit_with_its_jacobians_in_one_array_ends_where_new_arrays_end(tmp_path, monkeypatch):
+    """The fit's search over one Jacobian array per stage (each Jacobian overwrites the last, the
+    Broyden updates change it in place) reaches the same point, cost and Jacobian to the bit as
+    with a new array per Jacobian."""
+    import odsuite.diagnosis.fitting as fitting
+    from hidden_effects import CASES, make_project
+
+    from odsuite.analysis.modelrev import revision_model
+    from odsuite.analysis.prediction import prepare
+    from odsuite.contracts.plugins import registries
+    from odsuite.store.project import open_project
+
+    path = make_project(tmp_path / "s.odsp", [("stiffness", CASES["stiffness"])], n_samples=2048)
+    with open_project(path) as p:
+        exps, base = prepare(p), revision_model(p)
+        problem = fitting.Problem(base, registries().effects.get("mass_properties"), fitting.fit_windows(exps),
+                                  stride=2)
+        u0 = np.zeros(len(problem.free))
+        got = fitting.fit(problem, u0)
+        original = fitting.Problem.jacobian
+
+        def new_arrays(self, u, r0, exps=None, step=1.0, tangent=False, out=None, negated=False):
+            J = -original(self, u, r0, exps, step, tangent)  # a new array, negated afterwards
+            if out is None:
+                return J
+            fresh = np.empty_like(out)  # the fit's array left untouched
+            fresh[:r0.size] = J
+            fresh[r0.size:] = out[r0.size:]
+            return fresh
+
+        monkeypatch.setattr(fitting.Problem, "jacobian", new_arrays)
+        ref = fitting.fit(problem, u0)
+        assert ref.njev >= 2 and got.njev == ref.njev and got.nfev == ref.nfev
+        assert np.array_equal(got.x, ref.x) and got.cost == ref.cost and np.array_equal(got.jac, ref.jac)
