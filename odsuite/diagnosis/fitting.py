@@ -459,8 +459,7 @@ class Problem:
         return out
 
     def jacobian(self, u: np.ndarray, r0: np.ndarray, exps: Sequence[PreparedExperiment] | None = None,
-                 step: float = 1.0, tangent: bool = False, out: np.ndarray | None = None,
-                 negated: bool = False) -> np.ndarray:
+                 step: float = 1.0, tangent: bool = False) -> np.ndarray:
         """Forward differences of the residual on ``exps`` (``step`` natural steps, backwards at an
         upper bound). Parameters that change one sensor's prediction alone (``Parameter.sensor``)
         are moved together with those of other sensors, each column taken from its own sensor's
@@ -468,10 +467,7 @@ class Problem:
         (scope ``per_experiment``) where no column is linearised. With ``tangent`` (screening), the derivative
         where it is cheaper than the difference: structure-changing columns linearised over
         DIFF_STEP natural steps (Problem._linearised), steps that add cubic springs to a linear
-        structure to first order in them (Problem._cubic_tangent). With ``out`` (C-ordered, at
-        least ``r0.size`` rows) the Jacobian is written into its first rows and returned, ``negated``
-        (d residual / d u) where asked: a fit's Jacobian of 221436 x 20 rows is 35 MB, and a new
-        array for it and another for its negation paged in 70 MB per Jacobian."""
+        structure to first order in them (Problem._cubic_tangent)."""
         steps = np.zeros(len(self.free))
         for i, f in enumerate(self.free):
             lo, hi = f.bounds
@@ -491,10 +487,9 @@ class Problem:
             # a tangent's columns are derivatives: taken over DIFF_STEP, where the poles move
             # little enough for the linearisation (over a natural step they move as far as their
             # gaps, and each column was simulated)
-            J = self._linearised(u, steps * DIFF_STEP if tangent else steps, r0, exps or self.exps,
-                                 None if out is None else out[:r0.size], -1.0 if negated else 1.0)
+            J = self._linearised(u, steps * DIFF_STEP if tangent else steps, r0, exps or self.exps)
             if J is not None:
-                return J if out is None else out
+                return J
         linearised = None
         if tangent and rows_of is None:
             linearised = self._cubic_tangent(u, steps, r0, exps or self.exps)
@@ -527,16 +522,10 @@ class Problem:
                 f = self.free[i]
                 rows = rows_of[f.experiment if by_experiment else f.param.sensor]
                 J[rows, i] = -diff[rows] / steps[i]
-        if out is None:
-            return np.ascontiguousarray(J) if not negated else np.negative(J, order="C")
-        if negated:
-            np.negative(J, out=out[:r0.size])
-        else:
-            out[:r0.size] = J
-        return out
+        return np.ascontiguousarray(J)
 
-    def _linearised(self, u: np.ndarray, steps: np.ndarray, r0: np.ndarray, exps: Sequence[PreparedExperiment],
-                    out: np.ndarray | None = None, sign: float = 1.0) -> np.ndarray | None:
+    def _linearised(self, u: np.ndarray, steps: np.ndarray, r0: np.ndarray, exps: Sequence[PreparedExperiment]
+                    ) -> np.ndarray | None:
         """The Jacobian (as ``jacobian``'s: minus the residual's change over each parameter's step
         from ``u``, whose residual is ``r0``) with the structure's response linearised in its poles
         and residues about ``u``'s (prediction.linearised_changes): one simulation for all, where
@@ -546,14 +535,11 @@ class Problem:
         numbers as differencing residuals of the linearised predictions but for rounding (better:
         no difference of two nearly equal residuals), where no row of them reaches the unstable
         residual's cap (Problem._residual_of), which the bound max |r0| + max |change| rules out.
-        Each column counts as an evaluation; None where the steps are best simulated. Written
-        into ``out`` (C-ordered, ``r0.size`` rows) where given, times ``sign`` (-1: the residual's
-        derivative; a sign is exact in every product and sum)."""
+        Each column counts as an evaluation; None where the steps are best simulated."""
         moved = [i for i in range(len(u)) if steps[i]]
         if self.linear or len(moved) < LINEARISED_FROM:
             return None
-        whole = len(moved) == len(u)
-        J = out if whole and out is not None else np.empty((r0.size, len(moved)))
+        J = np.empty((r0.size, len(moved)))
         try:
             with np.errstate(over="ignore", invalid="ignore"):
                 # the models the residual at ``u`` was just predicted with: their structure's
@@ -568,7 +554,7 @@ class Problem:
                     size = n * len(w)
                     block = J[at:at + size].reshape(n, len(w), len(moved))
                     if linearised_changes(models0[e.name], [p[e.name] for p in points], e, self.stride,
-                                          w[:, None] / (sign * steps[moved])[None, :], block) is None:
+                                          w[:, None] / steps[moved][None, :], block) is None:
                         return None
                     reach = (float(np.max(np.abs(r0[at:at + size].reshape(n, len(w)) / w)))
                              + max(float(block.max()), -float(block.min())) * float(np.max(np.abs(steps[moved])))
@@ -579,12 +565,9 @@ class Problem:
         except (DivergedError, NonPhysicalError, np.linalg.LinAlgError):  # simulated column by column instead
             return None
         self.evaluations += len(moved)
-        if whole:
+        if len(moved) == len(u):
             return J
-        if out is None:
-            out = np.zeros((r0.size, len(u)))
-        else:
-            out[...] = 0.0
+        out = np.zeros((r0.size, len(u)))
         out[:, moved] = J
         return out
 
@@ -1446,19 +1429,16 @@ def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] 
             r = problem.residual(x, stage)
             return np.concatenate([r, root * x]) if root is not None else r
 
-        held: list[np.ndarray] = []
-
-        def jac(x, f, stage=stage, held=held):
+        def jac(x, f, stage=stage):
             r = f[:f.size - n] if root is not None else f
-            # one array per stage, written in place by each Jacobian (a Jacobian holds 10-40 MB:
-            # a new one paged in afresh each time), the prior's rows below the data's. _trf drops
-            # its last Jacobian when it asks for the next, and keeps the stage's last as its result
-            if not held:
-                held.append(np.empty((r.size + (n if root is not None else 0), n)))
-            J = problem.jacobian(x, r, stage, step=DIFF_STEP, out=held[0], negated=True)
-            if root is not None:
-                J[r.size:] = np.diag(root)
-            return J
+            J = problem.jacobian(x, r, stage, step=DIFF_STEP)
+            if root is None:
+                return np.negative(J, out=J)
+            # the prior's rows below the data's, in one new array (a Jacobian holds 10-40 MB)
+            out = np.empty((J.shape[0] + n, n))
+            np.negative(J, out=out[:J.shape[0]])
+            out[J.shape[0]:] = np.diag(root)
+            return out
 
         res = search(fun, jac, u, lo, hi, problem.free, least=least,
                      target=0.5 * target / problem.stride if target is not None and last else None,
