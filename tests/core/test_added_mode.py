@@ -171,3 +171,4 @@ def test_missing_mode_projection_reuses_unit_responses_across_bodies(tmp_path, m
             without = problem._residual_of([problem.base_prediction(e) for e in head], head, None, problem.stride)
             kept = problem._gains[(tuple(grid), tuple((e.name, e.n_samples) for e in head))]
             np.testing.assert_array_equal(kept, fitting._resonance_gains(grid, without, head, problem.stride))
+
