@@ -77,7 +77,10 @@ exps, base, weights) -> (shared, per_experiment, deltas)`` returns them for the 
 ``measured - base`` of each prepared experiment (rows weighted by ``weights``, None: all), and each
 experiment's change of prediction. The fit then searches only the remaining parameters. (A
 projection may also read its parameters off the records without a least-squares fit: modal damping
-ratios identified in the modal domain.)
+ratios identified in the modal domain.) An effect whose change is an added uncoupled mode's
+response declares ``projects_added_mode = True``; its ``project`` then also takes ``unit_response``, a
+callable (experiment, frequency_hz, damping_ratio) -> the response to unit participations on that
+experiment's model (prediction.flexible_mode_unit), which the caller keeps.
 """
 
 from __future__ import annotations

@@ -183,9 +183,11 @@ LINEARISED_FROM = 3
 PREDICTIONS_KEPT = 3
 
 
-#: an added mode's responses to unit participations a problem keeps (each experiment's, per
-#: frequency and damping): a Jacobian's amplitude columns and its point's share one
-UNITS_KEPT = 32
+#: the bytes of an added mode's responses to unit participations a problem and the problems derived
+#: from it keep (each experiment's, per frequency and damping): a Jacobian's amplitude columns and
+#: its point's share one, and each choice of the mode's body sweeps the same frequencies (a count
+#: of 32 let one body's sweep push out what the next asked again for)
+UNITS_BYTES_KEPT = 32e6
 
 
 #: the records' peaks (the unstable residual's cap), by the arrays' identities (kept alive here)
@@ -246,6 +248,8 @@ class Problem:
         self._batches: dict[tuple, tuple] = {}  # _sensor_batches per set of records
         # an added mode's responses to unit participations (_with_added_mode), oldest first
         self._units: dict[tuple, np.ndarray] = {}
+        # _climb_grid's ranking of a grid on the residual without the effect, per grid and records
+        self._gains: dict[tuple, np.ndarray] = {}
         self.free: list[_Free] = []
         for p in params:
             if p.choices is not None or p.name in self.fixed or p.name in self.linear:
@@ -298,7 +302,11 @@ class Problem:
         self.evaluations += 1
         shared, _ = self._search_values(u)
         models = {e.name: self.base.for_experiment(e.name) for e in exps}
-        out = self.effect.project(models, shared, exps, [self.base_prediction(e) for e in exps], weights)
+        base = [self.base_prediction(e) for e in exps]
+        if getattr(self.effect, "projects_added_mode", False):  # its mode's unit responses kept here
+            out = self.effect.project(models, shared, exps, base, weights, unit_response=self.unit_response)
+        else:
+            out = self.effect.project(models, shared, exps, base, weights)
         self._projection = (key, out)
         return out
 
@@ -357,19 +365,27 @@ class Problem:
             return [self.base_prediction(e).copy() for e in exps]
         out = []
         for e in exps:
-            key = (e.name, e.n_samples, mode.body, mode.frequency_hz, mode.damping_ratio)
-
-            def unit(key=key, e=e) -> np.ndarray:
-                kept = self._units.get(key)
-                if kept is None:
-                    if len(self._units) >= UNITS_KEPT:
-                        self._units.pop(next(iter(self._units)))
-                    kept = self._units[key] = flexible_mode_unit(models[e.name], e, mode.frequency_hz,
-                                                                 mode.damping_ratio)
-                return kept
+            def unit(e=e) -> np.ndarray:
+                return self.unit_response(e, mode.frequency_hz, mode.damping_ratio)
 
             out.append(self.base_prediction(e) + flexible_mode_change(models[e.name], e, mode, unit))
         return out
+
+    def unit_response(self, e: PreparedExperiment, frequency_hz: float, damping_ratio: float) -> np.ndarray:
+        """flexible_mode_unit on the base model of ``e``, kept per experiment, length, frequency
+        and damping (UNITS_BYTES_KEPT, shared by the derived problems: the same base and records). It
+        does not depend on the mode's body or participations: a search over a mode's body or its
+        amplitudes asks again for the same frequencies."""
+        key = (e.name, e.n_samples, frequency_hz, damping_ratio)
+        kept = self._units.get(key)
+        if kept is None:
+            held = sum(a.nbytes for a in self._units.values())
+            while self._units and held > UNITS_BYTES_KEPT:
+                held -= self._units.pop(next(iter(self._units))).nbytes
+            kept = self._units[key] = flexible_mode_unit(self.base.for_experiment(e.name), e, frequency_hz,
+                                                         damping_ratio)
+            kept.flags.writeable = False
+        return kept
 
     def _added_mode(self, u: np.ndarray, exps: Sequence[PreparedExperiment]) -> tuple[dict, Any] | None:
         """Each experiment's base model and the uncoupled flexible mode the effect adds at ``u``
@@ -467,6 +483,7 @@ class Problem:
                       self.noise_scale, self.weights)
         out._base_predictions = self._base_predictions  # the same base model: share its predictions
         out._units = self._units
+        out._gains = self._gains
         return out
 
     def jacobian(self, u: np.ndarray, r0: np.ndarray, exps: Sequence[PreparedExperiment] | None = None,
@@ -924,8 +941,11 @@ def _climb_grid(problem: Problem, i: int, best: np.ndarray, best_sse: float, gri
     climb. Returns the lowest start found and its sum of squares, or ``best`` where none is lower
     (of equal ones the lowest frequency, as the sweep through every start kept the first)."""
     f = problem.free[i]
-    without = problem._residual_of([problem.base_prediction(e) for e in exps], exps, None, problem.stride)
-    gains = _resonance_gains(grid, without, exps, problem.stride)
+    key = (tuple(grid), tuple((e.name, e.n_samples) for e in exps))
+    gains = problem._gains.get(key)
+    if gains is None:  # the residual without the effect: the same for each discrete choice's problem
+        without = problem._residual_of([problem.base_prediction(e) for e in exps], exps, None, problem.stride)
+        gains = problem._gains[key] = _resonance_gains(grid, without, exps, problem.stride)
     sse: dict[int, float] = {}
     at: dict[int, np.ndarray] = {}
 

@@ -397,7 +397,12 @@ def sampled_later(y: np.ndarray, fs: float, delays, spectrum: np.ndarray | None 
         if len(_PHASES) >= PHASES_KEPT:
             _PHASES.clear()
         w = 2 * np.pi * np.fft.rfftfreq(2 * n, 1.0 / fs)
-        phase = np.exp(1j * np.outer(w, delays[moved]))
+        # each distinct delay's column once (a search moves every channel to the same start): the
+        # complex exponential costs more than the inverse transform; each entry the same product
+        distinct, which = np.unique(delays[moved], return_inverse=True)
+        phase = np.exp(1j * np.outer(w, distinct))
+        if not np.array_equal(distinct, delays[moved]):  # repeated or out of order: each channel's own
+            phase = phase[:, which]
         if phase.nbytes <= PHASE_BYTES_KEPT:
             _PHASES[key] = phase
     spec *= phase

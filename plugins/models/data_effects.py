@@ -12,7 +12,8 @@ other's sensor. The last three describe the measurement and undo themselves on r
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import scipy  # scipy.interpolate loads on first use: registration stays light
@@ -126,12 +127,19 @@ class MissingMode(Effect):
             return _with_modes(model, flex[:same[-1]] + (mode,) + flex[same[-1] + 1:])
         return _with_modes(model, flex + (mode,))
 
+    #: ``project`` takes ``unit_response``: the caller's kept responses (see project)
+    projects_added_mode = True
+
     def project(self, models: Mapping[str, Model], values: Mapping[str, float], exps: Sequence,
-                base: Sequence[np.ndarray], weights: Sequence[np.ndarray] | None
+                base: Sequence[np.ndarray], weights: Sequence[np.ndarray] | None,
+                unit_response: Callable[[Any, float, float], np.ndarray] | None = None
                 ) -> tuple[dict[str, float], dict[str, dict[str, float]], list[np.ndarray]]:
         """Participations by weighted least squares: the response at sensor j of experiment e is
         ``phi_j c_e G_ej(t)`` (``G``: the prediction's change with every participation 1), a
-        rank-one table fitted by alternating least squares from its SVD."""
+        rank-one table fitted by alternating least squares from its SVD. ``unit_response(experiment,
+        frequency_hz, damping_ratio)``, where given, returns flexible_mode_unit's response on
+        ``models[experiment.name]``, kept by the caller (a search over the mode's body asks again
+        for the same frequencies)."""
         from odsuite.api import flexible_mode_change, predict
 
         first = next(iter(models.values()))
@@ -150,7 +158,8 @@ class MissingMode(Effect):
                    for f in model.structure.flexible_modes):  # _apply replaces that mode: predict the whole
                 g = predict(self.apply(model, unit), e) - b
             else:  # the mode is added: its response alone
-                g = flexible_mode_change(model, e, mode)
+                g = flexible_mode_change(model, e, mode, None if unit_response is None else
+                                         lambda e=e: unit_response(e, mode.frequency_hz, mode.damping_ratio))
             w = np.ones(e.n_samples) if weights is None else weights[i]
             r = e.measured - b
             cols = [col[s.name] for s in e.sensors]

@@ -99,3 +99,76 @@ def test_added_mode_screening_columns_are_the_derivative(tmp_path, monkeypatch):
         assert norm.min() > 0
         err = np.linalg.norm(J - limit, axis=0) / norm
         assert err.max() < 1e-3, err
+
+
+def _two_body(path):
+    """Two hits on the two-body machine (two bodies: missing_mode has a choice of body), a mode
+    hidden on its top."""
+    from odsuite.contracts.daq import AcquisitionSettings
+    from odsuite.contracts.plugins import registries
+    from odsuite.processing.acquisition import acquire
+    from odsuite.store.project import create_project
+
+    rig = Path(__file__).resolve().parents[2] / "projects" / "rigs" / "two-body-machine.toml"
+    p = create_project(path, rig=str(rig))
+    try:
+        for i, (point, direction) in enumerate((((0.1, 0.05, 0.25), (0, 0, -1)), ((0.15, -0.05, 0.2), (-1, 0, 0)))):
+            acquire(p, registries().daq_backends.get("sim"), f"hit{i + 1}",
+                    AcquisitionSettings(sampling_rate=10240.0, n_samples=2048, pretrigger=256),
+                    point=point, direction=direction, seed=30 + i, effects=[("stiffness", {"scale_z": 0.8})])
+    finally:
+        p.close()
+    return path
+
+
+def test_missing_mode_projection_reuses_unit_responses_across_bodies(tmp_path, monkeypatch):
+    """missing_mode's projection on the problems of each body choice (derived from one problem)
+    takes the unit responses the family keeps (Problem.unit_response): the same numbers to the bit
+    as the effect's own projection, which simulates each again, and one simulation per
+    experiment, frequency and damping for all bodies; _climb_grid's ranking of a frequency grid
+    (kept per family) the same as computed on each choice's problem."""
+    import odsuite.diagnosis.fitting as fitting
+    from odsuite.analysis.modelrev import revision_model
+    from odsuite.analysis.prediction import prepare
+    from odsuite.contracts.plugins import registries
+    from odsuite.store.project import open_project
+
+    made: list[tuple] = []
+    unit = fitting.flexible_mode_unit
+
+    def counted(model, e, f, zeta):
+        made.append((e.name, e.n_samples, f, zeta))
+        return unit(model, e, f, zeta)
+
+    monkeypatch.setattr(fitting, "flexible_mode_unit", counted)
+    effect = registries().effects.get("missing_mode")
+    with open_project(_two_body(tmp_path / "p.odsp")) as p:
+        exps, base = prepare(p), revision_model(p)
+        root = fitting.Problem(base, effect, fitting.fit_windows(exps))
+        bodies = next(d for d in root.discrete if d.name == "body").choices
+        assert len(bodies) == 2
+        head = fitting.heads(root.exps)[0]
+        points = ({"frequency_hz": 180.0, "damping_ratio": 0.02}, {"frequency_hz": 415.0, "damping_ratio": 0.05})
+        for body in bodies:
+            problem = root.derived({"body": body})
+            for v in points:
+                u = _point(problem, v)
+                for exps_ in (problem.exps, head):
+                    shared, per, deltas = problem.project(u, exps_)
+                    models = {e.name: base.for_experiment(e.name) for e in exps_}
+                    want = effect.project(models, {**problem.fixed, **v}, exps_,
+                                          [problem.base_prediction(e) for e in exps_], None)
+                    assert (shared, per) == (want[0], want[1])
+                    for d, w in zip(deltas, want[2]):
+                        np.testing.assert_array_equal(d, w)
+        # through the problems: each response simulated once for both bodies (the effect's own
+        # projection above simulates them again, uncounted: prediction's own reference)
+        assert len(made) == len(set(made)) == len(points) * 2 * len(exps)
+        for body in bodies:
+            problem = root.derived({"body": body})
+            grid = sorted(c for c in problem.free[0].param.starts if problem.free[0].param.lower <= c)
+            fitting._climb_grid(problem, 0, problem.zero(), np.inf, grid, head)
+            without = problem._residual_of([problem.base_prediction(e) for e in head], head, None, problem.stride)
+            kept = problem._gains[(tuple(grid), tuple((e.name, e.n_samples) for e in head))]
+            np.testing.assert_array_equal(kept, fitting._resonance_gains(grid, without, head, problem.stride))
+

@@ -105,3 +105,47 @@ def test_a_near_noiseless_channel_weighs_no_more_than_its_converter_step_allows(
     var = np.maximum(noise, np.asarray(e.lsb, float) ** 2 / 12.0)
     assert w[quiet] == pytest.approx(np.sqrt(var.mean() / (step**2 / 12.0)), rel=1e-12)
     assert np.isfinite(w).all() and w[quiet] < 1e6 * np.median(w)
+
+
+def test_residual_written_in_place_is_the_concatenated_one(tmp_path):
+    """Problem._residual_of writes each experiment's residual into the whole: the same numbers to the
+    bit as the concatenation of each part (the expression it replaced, written out here), strided
+    or not, weighted or not, of some columns, and capped where a prediction blows up (inf, nan)."""
+    import odsuite.diagnosis.fitting as fitting
+    from hidden_effects import make_project
+
+    from odsuite.analysis.modelrev import revision_model
+    from odsuite.analysis.prediction import prepare
+    from odsuite.contracts.plugins import registries
+    from odsuite.store.project import open_project
+
+    def concatenated(problem, preds, exps, columns, k, strided, weighted):
+        parts = []
+        for e, p in zip(exps, preds):
+            r = e.measured[::k] - (p if strided else p[::k])
+            cap = fitting.UNSTABLE_RESIDUAL * (np.abs(e.measured).max() + 1e-300)
+            if not np.abs(r).max(initial=0.0) <= cap:
+                r = np.clip(np.nan_to_num(r, nan=cap, posinf=cap, neginf=-cap), -cap, cap)
+            if weighted:
+                r = r * problem.weights[e.name]
+            parts.append((r if columns is None else r[:, columns]).ravel())
+        return np.concatenate(parts)
+
+    path = make_project(tmp_path / "p.odsp", [], n_samples=2048, scenarios=("T1", "T3"))
+    with open_project(path) as p:
+        exps, base = prepare(p), revision_model(p)
+        problem = fitting.Problem(base, registries().effects.get("stiffness"), fitting.fit_windows(exps), stride=3)
+        preds = [problem.base_prediction(e) for e in problem.exps]
+        blown = [preds[0], preds[1].copy()]
+        blown[1][5, 2], blown[1][9, 0], blown[1][11, 1] = np.inf, np.nan, -1e30
+        for ps in (preds, blown):
+            for columns in (None, [0, 2]):
+                for k in (1, 3):
+                    for weighted in (True, False):
+                        got = problem._residual_of(ps, problem.exps, columns, k, weighted=weighted)
+                        want = concatenated(problem, ps, problem.exps, columns, k, False, weighted)
+                        assert np.isfinite(got).all()
+                        np.testing.assert_array_equal(got, want)
+            strided = [q[::3] for q in ps]
+            np.testing.assert_array_equal(problem._residual_of(strided, problem.exps, None, 3, strided=True),
+                                          concatenated(problem, strided, problem.exps, None, 3, True, True))
