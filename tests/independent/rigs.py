@@ -336,11 +336,11 @@ def skid_rig() -> RigBundle:
     inclined 40 degrees from the vertical towards the skid's long centre line (focal mounting, 5x
     stiffer in compression than in shear). The motor (75 kg, 0.50 x 0.30 x 0.32 m) and the pump
     (48 kg, its centre of mass towards its volute, off its box's centre) each sit on four stiff
-    rubber pads on the skid (4x stiffer in compression). Linear modes 5.6-56 Hz. Sensors of mixed
+    rubber pads on the skid (4x stiffer in compression). Linear modes 6.1-55 Hz. Sensors of mixed
     sensitivity: on the skid a 500 mV/g triaxial and three 1000 mV/g single axes (one pointing
     along -y); on the motor a 100 mV/g triaxial and three 1000 mV/g single axes; on the pump a
-    500 mV/g triaxial, two 500 mV/g single axes and one 500 mV/g on the volute's sloping face (its axis 35 degrees from vertical,
-    in neither the x-z nor the y-z plane). A 2.25 mV/N hammer with a soft tip (2 ms pulses) on
+    500 mV/g triaxial, two 500 mV/g single axes and one 500 mV/g on the volute's sloping face (its
+    axis 35 degrees from vertical, in neither the x-z nor the y-z plane). A 2.25 mV/N hammer with a soft tip (2 ms pulses) on
     channel 0; a 24-bit +-5 V DAQ at 2048 samples/s (51.2 kHz / 25) behind a 6th-order elliptic
     anti-aliasing filter at 700 Hz; IEPE coupling at 0.5 Hz. Frame: origin on the floor under the
     skid's centre, x along the skid from the motor to the pump, y across, z up.
