@@ -219,6 +219,14 @@ def _inclined(k_axial: float, k_shear: float, axis) -> np.ndarray:
     return k_shear * np.eye(3) + (k_axial - k_shear) * np.outer(n, n)
 
 
+def _one_hertz_highpass(pre_trigger: int) -> dict:
+    """The [processing] table of a rig with modes below 20 Hz: offset from the pre-trigger samples,
+    a 2nd-order 1 Hz Butterworth high-pass instead of the default 20 Hz elliptic."""
+    return {"offset_samples": [0, pre_trigger],
+            "filter": {"family": "butterworth", "type": "highpass", "order": 2, "cutoff_hz": 1.0},
+            "filter_at": ["signal", "integral"]}
+
+
 def cabinet_rig() -> RigBundle:
     """A tall steel cabinet (0.6 x 0.5 x 1.6 m, 70 kg, its centre of mass low and a little off
     centre) on four soft rubber mounts at its base corners, carrying a heavy 32 kg unit (a
@@ -314,9 +322,7 @@ def cabinet_rig() -> RigBundle:
                                   "unit_mounts": [s.name for s in springs[4:]]},
         up=ez,
         # rocking at 5 Hz: the default 20 Hz high-pass would remove it
-        processing={"offset_samples": [0, 256],
-                    "filter": {"family": "butterworth", "type": "highpass", "order": 2, "cutoff_hz": 1.0},
-                    "filter_at": ["signal", "integral"]},
+        processing=_one_hertz_highpass(256),
     )
 
 
@@ -423,9 +429,7 @@ def skid_rig() -> RigBundle:
                                   "pump_pads": [s.name for s in springs[8:]]},
         up=ez,
         # the lowest mode near 6 Hz: the default 20 Hz high-pass would remove it
-        processing={"offset_samples": [0, 128],
-                    "filter": {"family": "butterworth", "type": "highpass", "order": 2, "cutoff_hz": 1.0},
-                    "filter_at": ["signal", "integral"]},
+        processing=_one_hertz_highpass(128),
     )
 
 
