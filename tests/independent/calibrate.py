@@ -44,7 +44,8 @@ FORCES = (5.0, 10.0, 30.0, 100.0, 200.0)  # N
 #: 0.2 s at 10.24 kHz, its isolators' 11 Hz for two periods; plate-motor 0.4 s at 5120 Hz), short enough
 #: for two shared cores
 SAMPLES = {"thesis": 2048, "two-body": 2048, "plate-motor": 2048,
-           "cabinet": 2048}  # 0.68 s at 3000 Hz: three periods of its 4.6 Hz rocking
+           "cabinet": 2048,  # 0.68 s at 3000 Hz: three periods of its 4.6 Hz rocking
+           "skid": 2048}  # 1.0 s at 2048 Hz: six periods of its 6.1 Hz mode
 #: the chain a lab gives records without a .CTR when the rig's lowest mode is below 20 Hz (the
 #: two-body rig's isolators ring at 11 Hz): a 4 Hz high-pass instead of the default 20 Hz
 TWO_BODY_PROCESSING = {"offset_samples": [0, 256],

@@ -32,7 +32,7 @@ CASES = {"softer-mount": ("spring_stiffness", "stiffness"), "softer-axis": ("sti
          "added-mass": ("mass_properties",)}
 #: a group-and-axis change is one product of the stiffness effect only where the rig has one group
 RIG_CASES = {"thesis": ("softer-mount", "softer-axis", "added-mass"), "two-body": ("softer-mount", "added-mass"),
-             "cabinet": ("softer-mount", "added-mass")}
+             "cabinet": ("softer-mount", "added-mass"), "skid": ("softer-mount", "added-mass")}
 FORCES = (5.0, 30.0, 200.0)  # N
 NOISES = ({}, {"noise_fraction": 0.01}, {"noise_fraction": 0.03})
 AXES = "xyz"

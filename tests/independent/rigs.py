@@ -219,6 +219,14 @@ def _inclined(k_axial: float, k_shear: float, axis) -> np.ndarray:
     return k_shear * np.eye(3) + (k_axial - k_shear) * np.outer(n, n)
 
 
+def _one_hertz_highpass(pre_trigger: int) -> dict:
+    """The [processing] table of a rig with modes below 20 Hz: offset from the pre-trigger samples,
+    a 2nd-order 1 Hz Butterworth high-pass instead of the default 20 Hz elliptic."""
+    return {"offset_samples": [0, pre_trigger],
+            "filter": {"family": "butterworth", "type": "highpass", "order": 2, "cutoff_hz": 1.0},
+            "filter_at": ["signal", "integral"]}
+
+
 def cabinet_rig() -> RigBundle:
     """A tall steel cabinet (0.6 x 0.5 x 1.6 m, 70 kg, its centre of mass low and a little off
     centre) on four soft rubber mounts at its base corners, carrying a heavy 32 kg unit (a
@@ -314,10 +322,115 @@ def cabinet_rig() -> RigBundle:
                                   "unit_mounts": [s.name for s in springs[4:]]},
         up=ez,
         # rocking at 5 Hz: the default 20 Hz high-pass would remove it
-        processing={"offset_samples": [0, 256],
-                    "filter": {"family": "butterworth", "type": "highpass", "order": 2, "cutoff_hz": 1.0},
-                    "filter_at": ["signal", "integral"]},
+        processing=_one_hertz_highpass(256),
     )
 
 
 RIGS["cabinet"] = cabinet_rig
+
+
+def _tilted_axis(from_z_deg: float, towards) -> np.ndarray:
+    """+z turned ``from_z_deg`` degrees towards the horizontal unit vector ``towards``."""
+    t = np.radians(from_z_deg)
+    h = np.asarray(towards, float) / np.linalg.norm(towards)
+    return np.array([0.0, 0.0, np.cos(t)]) + np.sin(t) * h
+
+
+def skid_rig() -> RigBundle:
+    """A centrifugal pump and its motor on a welded steel skid: three rigid bodies. The skid (a
+    1.4 x 0.7 x 0.16 m channel frame, 110 kg) stands on four rubber mounts at its corners, each
+    inclined 40 degrees from the vertical towards the skid's long centre line (focal mounting, 5x
+    stiffer in compression than in shear). The motor (75 kg, 0.50 x 0.30 x 0.32 m) and the pump
+    (48 kg, its centre of mass towards its volute, off its box's centre) each sit on four stiff
+    rubber pads on the skid (4x stiffer in compression). Linear modes 6.1-55 Hz. Sensors of mixed
+    sensitivity: on the skid a 500 mV/g triaxial and three 1000 mV/g single axes (one pointing
+    along -y); on the motor a 100 mV/g triaxial and three 1000 mV/g single axes; on the pump a
+    500 mV/g triaxial, two 500 mV/g single axes and one 500 mV/g on the volute's sloping face (its
+    axis 35 degrees from vertical, in neither the x-z nor the y-z plane). A 2.25 mV/N hammer with a soft tip (2 ms pulses) on
+    channel 0; a 24-bit +-5 V DAQ at 2048 samples/s (51.2 kHz / 25) behind a 6th-order elliptic
+    anti-aliasing filter at 700 Hz; IEPE coupling at 0.5 Hz. Frame: origin on the floor under the
+    skid's centre, x along the skid from the motor to the pump, y across, z up.
+    Written from the rig format's description alone."""
+    g = 9.80665
+    ex, ey, ez = np.eye(3)
+    skid_size, skid_corner = (1.4, 0.7, 0.16), np.array([-0.7, -0.35, 0.10])  # 100 mm mounts
+    skid_top = skid_corner[2] + skid_size[2]
+    # a channel frame carries its steel at the rim: 1.3x the solid box's inertia
+    skid = RigidBody("skid", 110.0, np.array([0.015, -0.01, 0.18]), 1.3 * box_inertia(110.0, skid_size),
+                     plate={"size": list(skid_size), "corner": skid_corner.tolist()})
+    motor_size, motor_corner = (0.50, 0.30, 0.32), np.array([-0.62, -0.15, skid_top + 0.02])
+    motor = RigidBody("motor", 75.0, motor_corner + np.array(motor_size) / 2, box_inertia(75.0, motor_size),
+                      plate={"size": list(motor_size), "corner": motor_corner.tolist()})
+    pump_size, pump_corner = (0.46, 0.34, 0.36), np.array([0.08, -0.17, skid_top + 0.02])
+    # the volute is the heavy part: centre of mass towards +x and a little off the shaft line
+    pump_com = pump_corner + np.array([0.29, 0.19, 0.17])
+    pump = RigidBody("pump", 48.0, pump_com, box_inertia(48.0, pump_size),
+                     plate={"size": list(pump_size), "corner": pump_corner.tolist()})
+    springs = []
+    for i, (sx, sy) in enumerate([(-1, -1), (1, -1), (1, 1), (-1, 1)]):
+        axis = _tilted_axis(40.0, [0.0, -sy, 0.0])
+        springs.append(Spring(f"skid_mount{i + 1}", "skid", np.array([0.64 * sx, 0.31 * sy, 0.05]),
+                              _inclined(5.0e5, 1.0e5, axis), _inclined(900.0, 200.0, axis)))
+    for body, corner, size, k in (("motor", motor_corner, motor_size, 8.0e5), ("pump", pump_corner, pump_size, 6.0e5)):
+        for i, (sx, sy) in enumerate([(-1, -1), (1, -1), (1, 1), (-1, 1)]):
+            pos = np.array([corner[0] + size[0] * (0.5 + 0.42 * sx), corner[1] + size[1] * (0.5 + 0.45 * sy),
+                            skid_top + 0.01])
+            springs.append(Spring(f"{body}_pad{i + 1}", body, pos, np.array([k / 4, k / 4, k]),
+                                  np.array([k / 4, k / 4, k]) * 2.5e-4, other="skid"))
+
+    accs: list[Accelerometer] = []
+    channel = 1
+
+    def triaxial(housing, body, point, sens):
+        nonlocal channel
+        for name, axis in zip("xyz", (ex, ey, ez)):
+            accs.append(Accelerometer(f"{housing}_{name}", channel, body, np.array(point, float), axis.copy(),
+                                      sens, triaxial=housing, iepe_corner_hz=0.5))
+            channel += 1
+
+    def single(name, body, point, axis, sens):
+        nonlocal channel
+        accs.append(Accelerometer(name, channel, body, np.array(point, float), np.asarray(axis, float), sens,
+                                  iepe_corner_hz=0.5))
+        channel += 1
+
+    triaxial("skid_a", "skid", (-0.66, -0.32, skid_top), 0.5 / g)
+    single("skid_z2", "skid", (0.66, 0.32, skid_top), ez, 1.0 / g)
+    single("skid_z3", "skid", (0.66, -0.32, skid_top), ez, 1.0 / g)
+    single("skid_y2", "skid", (0.55, skid_corner[1], 0.18), -ey, 1.0 / g)  # on the -y face, pointing out
+    motor_top = motor_corner[2] + motor_size[2]
+    triaxial("motor_nde", "motor", (motor_corner[0] + 0.05, 0.0, motor_top), 0.1 / g)
+    single("motor_de_z1", "motor", (motor_corner[0] + 0.45, 0.12, motor_top), ez, 1.0 / g)
+    single("motor_de_z2", "motor", (motor_corner[0] + 0.45, -0.12, motor_top), ez, 1.0 / g)
+    single("motor_de_y", "motor", (motor_corner[0] + 0.45, motor_corner[1] + 0.30, 0.50), ey, 1.0 / g)
+    pump_top = pump_corner[2] + pump_size[2]
+    triaxial("pump_brg", "pump", (pump_corner[0] + 0.06, pump_corner[1] + 0.17, pump_top), 0.5 / g)
+    single("pump_volute", "pump", (pump_corner[0] + 0.40, pump_corner[1] + 0.28, pump_top - 0.03),
+           _tilted_axis(35.0, [np.cos(np.radians(25.0)), np.sin(np.radians(25.0)), 0.0]), 0.5 / g)
+    single("pump_z2", "pump", (pump_corner[0] + 0.40, pump_corner[1] + 0.04, pump_top), ez, 0.5 / g)
+    single("pump_x", "pump", (pump_corner[0] + pump_size[0], pump_corner[1] + 0.08, 0.45), ex, 0.5 / g)
+    hits = [
+        Hit("skid", np.array([0.23, skid_corner[1], 0.21]), ey.copy(), 50.0, 2.0e-3),  # on the -y face
+        Hit("motor", np.array([motor_corner[0] + 0.31, motor_corner[1] + 0.21, motor_top]), -ez, 50.0, 2.0e-3),
+        Hit("pump", np.array([pump_corner[0] + pump_size[0], pump_corner[1] + 0.23, 0.39]), -ex, 50.0, 2.0e-3),
+        Hit("skid", np.array([skid_corner[0], 0.12, 0.19]), ex.copy(), 50.0, 2.0e-3),  # the motor end
+    ]
+    return RigBundle(
+        name="pump-skid",
+        description="A pump and its motor on a welded skid on four inclined rubber mounts, each machine on "
+                    "four pads; mixed sensitivities, one accelerometer on a sloping face",
+        frame="origin on the floor under the skid's centre; x from the motor to the pump, y across, z up",
+        structure=Structure([skid, motor, pump], springs), accelerometers=accs,
+        force_sensor=ForceSensor("hammer", 0, 2.25e-3),
+        daq=Daq(sampling_rate=2048.0, n_samples=2048, pre_trigger=128, adc_bits=24, adc_range=(-5.0, 5.0),
+                aa_family="ellip", aa_order=6, aa_cutoff_hz=700.0),
+        hits=hits, spring_groups={"skid_mounts": [s.name for s in springs[:4]],
+                                  "motor_pads": [s.name for s in springs[4:8]],
+                                  "pump_pads": [s.name for s in springs[8:]]},
+        up=ez,
+        # the lowest mode near 6 Hz: the default 20 Hz high-pass would remove it
+        processing=_one_hertz_highpass(128),
+    )
+
+
+RIGS["skid"] = skid_rig

@@ -49,6 +49,35 @@ def _mk_from_rig_file(doc: dict) -> tuple[np.ndarray, np.ndarray]:
     return M, K
 
 
+def generator_modes_checked_against_the_rig_file(doc: dict, rig) -> np.ndarray:
+    """The generator's natural frequencies of ``rig`` (Hz), each checked to be a root of
+    det(K - w^2 M) with M and K assembled from the rig file ``doc``: by Sylvester's law of inertia
+    the count of negative eigenvalues of K - lam M is the number of modes below lam, so it steps
+    by one across each of them (six per body, all distinct) and nowhere else."""
+    M, K = _mk_from_rig_file(doc)
+    f = Model(rig.structure).natural_frequencies()
+    assert len(f) == 6 * len(doc["bodies"]) and np.all(np.diff(f) > 0.05)
+
+    def below(freq_hz):
+        return int(np.sum(linalg.eigvalsh(K - (2 * np.pi * freq_hz) ** 2 * M) < 0))
+
+    for k, fk in enumerate(f):
+        assert below(fk * (1 - 1e-7)) == k and below(fk * (1 + 1e-7)) == k + 1, fk
+    return f
+
+
+def rig_layout(tmp_path: Path, capsys, rig) -> dict:
+    """`info --json`'s rig layout of a project that `odsuite new` made on the written rig file."""
+    from odsuite.cli import main
+
+    toml = writers.write_rig_toml(tmp_path / "rig.toml", rig)
+    project = tmp_path / "p.h5"
+    assert main(["new", str(project), "--rig", str(toml)]) == 0
+    capsys.readouterr()
+    assert main(["info", str(project), "--json"]) == 0
+    return json.loads(capsys.readouterr().out)["rig_layout"]
+
+
 @pytest.fixture(scope="module")
 def plate_motor_doc(tmp_path_factory):
     path = writers.write_rig_toml(tmp_path_factory.mktemp("rig") / "plate-motor.toml", plate_motor_rig())
@@ -191,14 +220,7 @@ def test_band_ratio_is_zero_for_a_null_and_grows_with_the_force():
 def test_odsuite_accepts_the_plate_motor_rig_file(tmp_path, capsys):
     """`odsuite new` on the written rig file: both bodies, their masses, a coordinate solver for
     each (two triaxials and a z sensor see six independent directions) and the eight springs."""
-    from odsuite.cli import main
-
-    toml = writers.write_rig_toml(tmp_path / "plate-motor.toml", plate_motor_rig())
-    project = tmp_path / "p.h5"
-    assert main(["new", str(project), "--rig", str(toml)]) == 0
-    capsys.readouterr()
-    assert main(["info", str(project), "--json"]) == 0
-    layout = json.loads(capsys.readouterr().out)["rig_layout"]
+    layout = rig_layout(tmp_path, capsys, plate_motor_rig())
     assert {b["name"]: b["mass_kg"] for b in layout["bodies"]} == {"plate": 37.7, "motor": 8.0}
     assert all(b["solver"] == "least-squares" and b["solver_problem"] is None for b in layout["bodies"])
     assert len(layout["bodies"][0]["sensors"]) == 7 and len(layout["springs"]) == 8
