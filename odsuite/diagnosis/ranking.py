@@ -30,13 +30,18 @@ def is_significant(sse0: float, sse_validated: float, threshold: float) -> bool:
 def prefer_fewer_parameters(cands: list[Candidate], effects) -> None:
     """A significant candidate confounded with the top one and with fewer parameters goes first
     unless the top one's change of the resolved residual over it passes the likelihood-ratio test
-    for its extra parameters: a proxy with more freedom does not win on the same residual."""
+    for its extra parameters: a proxy with more freedom does not win on the same residual. Nor does
+    a proxy with less: a simpler candidate whose parameters, fitted per experiment, disagree is not
+    promoted over a top one whose parameters agree (a stiffness pattern standing in for a pump's
+    added mass fits each hit with other values; the mass, with twice the parameters, fits all
+    hits with one)."""
     if not cands or not cands[0].significant or getattr(cands[0], "_resolved", None) is None:
         return
     top = cands[0]
     # a data-driven stand-in (a mode of any shape) is not promoted over a named mechanism
     simpler = [c for c in cands[1:] if c.significant and c.fitted and c.effect in top.confounded_with
                and not getattr(effects.get(c.effect), "data_driven", False)
+               and (c.consistent is not False or top.consistent is False)
                and c.n_parameters < top.n_parameters and getattr(c, "_resolved", None) is not None]
     for c in sorted(simpler, key=lambda c: c.n_parameters):
         extra = top.n_parameters - c.n_parameters
