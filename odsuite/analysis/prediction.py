@@ -988,9 +988,7 @@ def flexible_mode_change(model, exp: PreparedExperiment, mode,
     response is linear in the mode's participations: ``unit`` (where given) returns
     flexible_mode_unit's for the mode's frequency and damping, kept by a caller that asks again
     for other participations."""
-    from odsuite.domain.model import Output
-
-    b, c = model.flexible_participation(mode, _force_inputs(model, exp)[0], [Output.sensor(s) for s in exp.sensors])
+    b, c = model.flexible_participation(mode, _force_inputs(model, exp)[0], _sensor_outputs(exp.sensors))
     if b == 0.0 or not c.any():
         return np.zeros((exp.n_samples, len(exp.sensors)))
     g = unit() if unit is not None else flexible_mode_unit(model, exp, mode.frequency_hz, mode.damping_ratio)
