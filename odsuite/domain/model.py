@@ -606,6 +606,22 @@ class Structure(LinearStructure):
         return m
 
     def _assemble(self, lin: str, rot: str, flex: Callable[[FlexibleMode], float]) -> np.ndarray:
+        """The springs' ``lin`` and ``rot`` coefficients assembled, kept (read-only) with the springs'
+        ends for the structures of the same geometry and the same coefficients: a stiffness
+        candidate's every evaluation assembles the damping its base had, a damping candidate's the
+        stiffness, a hardening's both."""
+        key = (lin, rot, *((s.name, s.body, s.other, s.point.tobytes(), getattr(s, lin).tobytes(),
+                            getattr(s, rot).tobytes()) for s in self.springs))
+        kept = self._ends.setdefault(_ASSEMBLED, {})
+        got = kept.get(key)
+        if got is None:
+            if len(kept) >= ASSEMBLED_KEPT:  # a search over coefficients: each trial a new key
+                kept.clear()
+            got = kept[key] = self._assembled(lin, rot, flex)
+            got.flags.writeable = False
+        return got
+
+    def _assembled(self, lin: str, rot: str, flex: Callable[[FlexibleMode], float]) -> np.ndarray:
         k = np.zeros((self.n_dof, self.n_dof))
         for s in self.springs:
             P, R = self._spring_ends(s)
@@ -773,6 +789,10 @@ class MeasurementChain:
 UNIT_ROWS_KEPT = 4096
 #: the keys of a model's rows and force columns among them (Model._on_geometry)
 _OUTPUTS, _INPUTS = object(), object()
+#: the key of the assembled K and C among a geometry's spring ends (Structure._assemble), and how
+#: many of them are kept
+_ASSEMBLED = object()
+ASSEMBLED_KEPT = 64
 
 #: what structures of the same bodies and flexible modes share (Structure._frame: M, M^-1), by their
 #: identities (kept alive with the entry): the candidates that change springs alone build a new

@@ -175,3 +175,30 @@ def test_effect_values_kept_per_model_check_as_the_parameters_declare(registries
     # a model of one body fewer springs has fewer parameters: its own, not the first model's
     fewer = model.replace(structure=Structure(model.bodies, model.springs[:1], model.structure.flexible_modes))
     assert set(stiff.values(fewer)) == {p.name for p in stiff.parameters(fewer)} != set(stiff.values(model))
+
+
+def test_assembled_stiffness_and_damping_kept_for_the_same_coefficients(registries, thesis_rig, monkeypatch):
+    """K and C are kept with a geometry's spring ends for the same springs' coefficients: a
+    stiffness change takes its base's C, a damping change its K, each equal to the bit to a
+    structure's that keeps nothing; a moved spring or changed coefficient assembles its own."""
+    from dataclasses import replace
+
+    import odsuite.domain.model as model_module
+
+    model = registries.models.get("rigid-bodies")(thesis_rig)
+    st = model.structure
+    stiffer = registries.effects.get("stiffness").apply(model, {"scale_z": 1.3}).structure
+    damper = registries.effects.get("damping").apply(model, {"scale_x": 2.0}).structure
+    moved = Structure(st.bodies, (replace(st.springs[0], point=st.springs[0].point + 0.01),) + st.springs[1:],
+                      st.flexible_modes)
+    assert stiffer.C is st.C and damper.K is st.K and not st.K.flags.writeable
+    assert stiffer.K is not st.K and damper.C is not st.C and moved.K is not st.K and moved.C is not st.C
+    want = {}
+    monkeypatch.setattr(model_module, "_geometry", lambda bodies, modes: ({}, {}))
+    for name, s in (("base", st), ("stiffer", stiffer), ("damper", damper), ("moved", moved)):
+        alone = _fresh(s)
+        want[name] = (alone.K, alone.C)
+        assert alone.K.tobytes() == s.K.tobytes() and alone.C.tobytes() == s.C.tobytes(), name
+    assert want["stiffer"][0].tobytes() != want["base"][0].tobytes()
+    assert want["damper"][1].tobytes() != want["base"][1].tobytes()
+    assert want["moved"][0].tobytes() != want["base"][0].tobytes()
