@@ -88,6 +88,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Protocol
+from types import MappingProxyType
 
 from odsuite.domain.errors import ConfigError
 from odsuite.domain.model import Model
@@ -191,22 +192,33 @@ class Effect:
 
     def values(self, model: Model, values: Mapping[str, float] | None = None) -> dict[str, float]:
         """Complete ``values`` with nominals; refuse unknown names and values outside the bounds."""
-        params = {p.name: p for p in self.parameters(model)}
+        params = self._declared(model)
         values = dict(values or {})
         unknown = sorted(set(values) - set(params))
         if unknown:
             raise ConfigError(f"effect {self.name!r}: unknown parameter(s) {unknown} (known: {sorted(params)})")
         out = {}
-        for name, p in params.items():
-            v = float(values.get(name, p.nominal))
-            if p.choices is not None:
-                if v not in p.choices:
-                    raise ConfigError(f"effect {self.name!r} parameter {name!r}: expected one of {p.choices}, got {v!r}")
-            elif not (p.lower <= v <= p.upper):
-                raise ConfigError(f"effect {self.name!r} parameter {name!r}: {v!r} {p.unit} is outside "
-                                  f"[{p.lower}, {p.upper}]")
+        for name, (nominal, choices, lower, upper, unit) in params.items():
+            v = float(values.get(name, nominal))
+            if choices is not None:
+                if v not in choices:
+                    raise ConfigError(f"effect {self.name!r} parameter {name!r}: expected one of {choices}, got {v!r}")
+            elif not (lower <= v <= upper):
+                raise ConfigError(f"effect {self.name!r} parameter {name!r}: {v!r} {unit} is outside "
+                                  f"[{lower}, {upper}]")
             out[name] = v
         return out
+
+    def _declared(self, model: Model) -> dict[str, tuple]:
+        """Each parameter's nominal, choices, bounds and unit for ``model``, kept on the model per
+        effect (kept alive with the entry): a fit applies the effect to one base model at every
+        evaluation, and ``parameters`` builds every Parameter and its description again."""
+        kept = model.__dict__.setdefault("_declared", {})
+        got = kept.get(id(self))
+        if got is None or got[0] is not self:
+            got = kept[id(self)] = (self, MappingProxyType(
+                {p.name: (p.nominal, p.choices, p.lower, p.upper, p.unit) for p in self.parameters(model)}))
+        return got[1]
 
     def apply(self, model: Model, values: Mapping[str, float] | None = None) -> Model:
         """The model with this effect at ``values`` (nominal where missing)."""

@@ -151,7 +151,8 @@ class _Free:
             return float(self.param.lower)
         if hi - u <= AT_BOUND * max(1.0, abs(hi)):
             return float(self.param.upper)
-        return float(np.clip(self.param.nominal + u * self.scale, self.param.lower, self.param.upper))
+        # np.clip's numbers (a NaN stays NaN) without its dispatch: every evaluation maps each value
+        return float(min(max(self.param.nominal + u * self.scale, self.param.lower), self.param.upper))
 
     @property
     def bounds(self) -> tuple[float, float]:

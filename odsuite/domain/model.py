@@ -54,8 +54,11 @@ def point_map(r: np.ndarray) -> np.ndarray:
 
 
 def _vec3(where: str, value) -> np.ndarray:
-    arr = np.asarray(value, dtype=float).reshape(-1)
-    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+    # a model's own vectors (an effect's scaled springs, moved centres) are float arrays already:
+    # taken as they are, without np.all's dispatch (every new model validates its springs again)
+    arr = value if type(value) is np.ndarray and value.shape == (3,) and value.dtype == float else \
+        np.asarray(value, dtype=float).reshape(-1)
+    if arr.shape != (3,) or not np.isfinite(arr).all():
         raise ConfigError(f"{where}: expected 3 finite numbers, got {value!r}")
     return arr
 
@@ -89,7 +92,9 @@ class RigidBody:
         inertia = np.asarray(self.inertia, dtype=float)
         if inertia.shape != (3, 3) or not np.all(np.isfinite(inertia)):
             raise ConfigError(f"{w} field 'inertia': expected a finite 3x3 matrix, got {self.inertia!r}")
-        if not np.allclose(inertia, inertia.T, rtol=1e-12, atol=0):
+        # np.allclose(inertia, inertia.T, rtol=1e-12, atol=0) on finite entries, without its
+        # dispatch (a mass candidate builds its bodies at every evaluation)
+        if not (np.abs(inertia - inertia.T) <= 1e-12 * np.abs(inertia.T)).all():
             raise ConfigError(f"{w} field 'inertia': not symmetric: {inertia.tolist()}")
         eig = np.linalg.eigvalsh(inertia)
         if eig.min() <= 0:
@@ -601,6 +606,22 @@ class Structure(LinearStructure):
         return m
 
     def _assemble(self, lin: str, rot: str, flex: Callable[[FlexibleMode], float]) -> np.ndarray:
+        """The springs' ``lin`` and ``rot`` coefficients assembled, kept (read-only) with the springs'
+        ends for the structures of the same geometry and the same coefficients: a stiffness
+        candidate's every evaluation assembles the damping its base had, a damping candidate's the
+        stiffness, a hardening's both."""
+        key = (lin, rot, *((s.name, s.body, s.other, s.point.tobytes(), getattr(s, lin).tobytes(),
+                            getattr(s, rot).tobytes()) for s in self.springs))
+        kept = self._ends.setdefault(_ASSEMBLED, {})
+        got = kept.get(key)
+        if got is None:
+            if len(kept) >= ASSEMBLED_KEPT:  # a search over coefficients: each trial a new key
+                kept.clear()
+            got = kept[key] = self._assembled(lin, rot, flex)
+            got.flags.writeable = False
+        return got
+
+    def _assembled(self, lin: str, rot: str, flex: Callable[[FlexibleMode], float]) -> np.ndarray:
         k = np.zeros((self.n_dof, self.n_dof))
         for s in self.springs:
             P, R = self._spring_ends(s)
@@ -766,6 +787,12 @@ class MeasurementChain:
 
 #: sensor rows kept per structure (Model._unit_row)
 UNIT_ROWS_KEPT = 4096
+#: the keys of a model's rows and force columns among them (Model._on_geometry)
+_OUTPUTS, _INPUTS = object(), object()
+#: the key of the assembled K and C among a geometry's spring ends (Structure._assemble), and how
+#: many of them are kept
+_ASSEMBLED = object()
+ASSEMBLED_KEPT = 64
 
 #: what structures of the same bodies and flexible modes share (Structure._frame: M, M^-1), by their
 #: identities (kept alive with the entry): the candidates that change springs alone build a new
@@ -869,8 +896,16 @@ class Model:
         """(Bf, Bv), n_dof x n_in: generalized force per unit input and, for base inputs, per unit
         input rate (the ground's velocity through the dampers). For forces this is Eq. 3.6-3.10's
         Cu (moments M = r x F about the centre of mass)."""
-        st = self.structure
         inputs = _flatten(inputs)
+        if any(inp.kind not in ("force", "moment") for inp in inputs):  # the base's read the springs and M
+            return self._input_matrices(inputs)
+        # a force's and a moment's columns follow from the geometry and the chain's force gain and offset
+        chain = self.chain
+        key = (_INPUTS, float(chain.force_gain).hex(), np.asarray(chain.force_offset, float).tobytes(), *map(id, inputs))
+        return self._on_geometry(key, tuple(inputs), lambda: self._input_matrices(inputs))
+
+    def _input_matrices(self, inputs: list) -> tuple[np.ndarray, np.ndarray]:
+        st = self.structure
         bf = np.zeros((st.n_dof, len(inputs)))
         bv = np.zeros_like(bf)
         kg = cg = None
@@ -892,7 +927,22 @@ class Model:
                 bf[:, j] = -st.M @ self.ground_follow([inp])[:, 0]
             else:
                 raise ConfigError(f"input {inp.name!r}: unknown kind {inp.kind!r}")
+        bf.flags.writeable = bv.flags.writeable = False
         return bf, bv
+
+    def _on_geometry(self, key: tuple, keep: tuple, make: Callable[[], object]):
+        """``make()``, kept with the sensors' unit rows (what follows from the structure's geometry:
+        shared by the structures of the same bodies' centres and flexible modes, Structure) under
+        ``key``, which holds the identities of ``keep`` (the chain's parts, rig and outputs it reads;
+        kept alive with the entry): a stiffness or damping candidate's every evaluation is a new model
+        of the same geometry and chain, whose sensor rows and force columns are the last ones'."""
+        kept = self.structure.__dict__.setdefault("_unit_rows", {})
+        got = kept.get(key)
+        if got is None or any(a is not b for a, b in zip(got[0], keep)):
+            if len(kept) >= UNIT_ROWS_KEPT:
+                kept.clear()
+            got = kept[key] = (keep, make())
+        return got[1]
 
     def ground_follow(self, inputs) -> np.ndarray:
         """n_dof x n_in: the coordinates' rigid motion with the ground per unit input (the ground's
@@ -908,8 +958,15 @@ class Model:
     def output_rows(self, outputs) -> tuple[list[Output], np.ndarray]:
         """(outputs, rows n_out x n_dof): each output's coordinate combination (chain's sensor
         position, tilt and gain included; dynamics not)."""
-        st = self.structure
         outputs = _flatten(outputs)
+        # the rows read the chain's sensor gains, offsets, tilts and exchanged cables (each a mapping an
+        # effect replaces as a whole: a delay's or a dynamics' candidate keeps them) and the rig
+        c = self.chain
+        read = (c.gain, c.offset, c.tilt, c.swap, self.rig, *outputs)
+        return outputs, self._on_geometry((_OUTPUTS, *map(id, read)), read, lambda: self._output_rows(outputs))
+
+    def _output_rows(self, outputs: list) -> np.ndarray:
+        st = self.structure
         rows = np.zeros((len(outputs), st.n_dof))
         for i, out in enumerate(outputs):
             if out.kind == "coordinate":
@@ -918,7 +975,8 @@ class Model:
             rec = self._recorded(out)
             p, n, gain = self._sensed_along(rec)
             rows[i] = gain * self._unit_row(rec, p, n)
-        return outputs, rows
+        rows.flags.writeable = False
+        return rows
 
     def _unit_row(self, rec, p, n) -> np.ndarray:
         """A sensor's coordinate combination at point ``p`` along ``n`` before its gain, kept on the

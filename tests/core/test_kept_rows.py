@@ -105,3 +105,100 @@ def test_channel_swap_pairs_and_their_names_kept_per_rig(registries, thesis_rig)
     assert first[0].description == again[0].description == "the exchanged pair: 0 = none, " + ", ".join(
         f"{k + 1} = {a}/{b}" for k, (a, b) in enumerate(want))
     assert effect.pair(sensors, {"pair": float(len(want))}) == want[-1]
+
+
+def _moved(effect, model, share: float = 0.3) -> dict[str, float]:
+    """Every continuous parameter of ``effect`` a share of the way from its nominal to a bound."""
+    out = {}
+    for p in effect.parameters(model):
+        if p.choices is None:
+            out[p.name] = p.nominal + share * ((p.upper if p.upper > p.nominal else p.lower) - p.nominal)
+    return out
+
+
+def test_rows_and_force_columns_kept_for_a_geometry_and_chain_are_a_fresh_models(registries, thesis_rig):
+    """A model's sensor rows and force columns are kept with its structure's geometry and chain
+    (Model._on_geometry): a stiffness change takes its base's; a moved sensor, tilted axis,
+    exchanged cable, moved centre of mass or force gain its own, equal to the bit to those of a
+    model that keeps nothing (and different from the base's, so a stale entry would show)."""
+    from odsuite.analysis.prediction import _sensor_outputs
+    from odsuite.domain.model import Input, Model
+
+    model = registries.models.get("rigid-bodies")(thesis_rig)
+    sensors = [s for s in thesis_rig.sensors if s.quantity == "acceleration"]
+    outputs = _sensor_outputs(sensors)
+    inputs = [Input.force([0.05, -0.02, 0.1], [0.3, 0.2, -1.0], body=model.bodies[0].name)]
+    rows, (bf, _) = model.output_rows(outputs)[1], model.input_matrices(inputs)
+    stiffer = registries.effects.get("stiffness").apply(model, {"scale_z": 1.3, "scale_x": 0.7})
+    assert stiffer.output_rows(outputs)[1] is rows and stiffer.input_matrices(inputs)[0] is bf  # kept
+    assert not rows.flags.writeable and not bf.flags.writeable
+    delayed = registries.effects.get("channel_delay")
+    delayed = delayed.apply(model, _moved(delayed, model))
+    assert delayed.chain.delay and delayed.output_rows(outputs)[1] is rows  # a delay moves no row
+    changed = {name: registries.effects.get(name).apply(model, _moved(registries.effects.get(name), model))
+               for name in ("sensor_position", "sensor_orientation", "sensor_gain", "mass_properties", "force_gain")}
+    changed["channel_swap"] = registries.effects.get("channel_swap").apply(model, {"pair": 1.0})
+    for name, m in {"base": model, "stiffness": stiffer, **changed}.items():
+        for _ in range(2):  # computed, then kept
+            got_rows, (got_bf, _) = m.output_rows(outputs)[1], m.input_matrices(inputs)
+            fresh = Model(_fresh(m.structure), m.chain, rig=m.rig)  # a geometry of its own ...
+            fresh.structure.__dict__["_unit_rows"] = {}  # ... that keeps nothing yet
+            assert got_rows.tobytes() == fresh._output_rows(list(outputs)).tobytes(), name
+            assert got_bf.tobytes() == fresh._input_matrices(list(inputs))[0].tobytes(), name
+        moves_rows = name not in ("base", "stiffness", "force_gain")
+        assert moves_rows == (got_rows.tobytes() != rows.tobytes()), name
+        assert (name in ("mass_properties", "force_gain")) == (got_bf.tobytes() != bf.tobytes()), name
+    # a base input reads the springs: never kept with the geometry
+    base = [Input.base_translation([0.0, 0.0, 1.0])]
+    assert stiffer.input_matrices(base)[0].tobytes() != model.input_matrices(base)[0].tobytes()
+
+
+def test_effect_values_kept_per_model_check_as_the_parameters_declare(registries, thesis_rig):
+    """Effect.values reads each parameter's nominal and bounds kept per model and effect: the
+    values, the refusals, and another model's own parameters as ``parameters`` gives them."""
+    import pytest
+
+    from odsuite.domain.errors import ConfigError
+
+    model = registries.models.get("rigid-bodies")(thesis_rig)
+    stiff, swap = registries.effects.get("stiffness"), registries.effects.get("channel_swap")
+    for effect in (stiff, swap):
+        for _ in range(2):
+            assert effect.values(model) == {p.name: float(p.nominal) for p in effect.parameters(model)}
+    assert stiff.values(model, {"scale_z": 2.0})["scale_z"] == 2.0
+    with pytest.raises(ConfigError, match="outside"):
+        stiff.values(model, {"scale_z": 100.0})
+    with pytest.raises(ConfigError, match="unknown"):
+        stiff.values(model, {"scale_q": 1.0})
+    with pytest.raises(ConfigError, match="expected one of"):
+        swap.values(model, {"pair": 0.5})
+    # a model of one body fewer springs has fewer parameters: its own, not the first model's
+    fewer = model.replace(structure=Structure(model.bodies, model.springs[:1], model.structure.flexible_modes))
+    assert set(stiff.values(fewer)) == {p.name for p in stiff.parameters(fewer)} != set(stiff.values(model))
+
+
+def test_assembled_stiffness_and_damping_kept_for_the_same_coefficients(registries, thesis_rig, monkeypatch):
+    """K and C are kept with a geometry's spring ends for the same springs' coefficients: a
+    stiffness change takes its base's C, a damping change its K, each equal to the bit to a
+    structure's that keeps nothing; a moved spring or changed coefficient assembles its own."""
+    from dataclasses import replace
+
+    import odsuite.domain.model as model_module
+
+    model = registries.models.get("rigid-bodies")(thesis_rig)
+    st = model.structure
+    stiffer = registries.effects.get("stiffness").apply(model, {"scale_z": 1.3}).structure
+    damper = registries.effects.get("damping").apply(model, {"scale_x": 2.0}).structure
+    moved = Structure(st.bodies, (replace(st.springs[0], point=st.springs[0].point + 0.01),) + st.springs[1:],
+                      st.flexible_modes)
+    assert stiffer.C is st.C and damper.K is st.K and not st.K.flags.writeable
+    assert stiffer.K is not st.K and damper.C is not st.C and moved.K is not st.K and moved.C is not st.C
+    want = {}
+    monkeypatch.setattr(model_module, "_geometry", lambda bodies, modes: ({}, {}))
+    for name, s in (("base", st), ("stiffer", stiffer), ("damper", damper), ("moved", moved)):
+        alone = _fresh(s)
+        want[name] = (alone.K, alone.C)
+        assert alone.K.tobytes() == s.K.tobytes() and alone.C.tobytes() == s.C.tobytes(), name
+    assert want["stiffer"][0].tobytes() != want["base"][0].tobytes()
+    assert want["damper"][1].tobytes() != want["base"][1].tobytes()
+    assert want["moved"][0].tobytes() != want["base"][0].tobytes()
