@@ -1617,14 +1617,17 @@ def force_noise_covariance(problem: Problem, res) -> np.ndarray:
         window = np.flatnonzero(e.force)
         if a <= 0 or not window.size or not 0 <= e.trigger < e.n_samples:
             continue
-        shifted = np.zeros((window.size, e.n_samples, c))
-        for k, s in enumerate(window - e.trigger):
+        Jb = J[start:start + m * c]
+        shifted = np.zeros_like(g)  # one shift at a time: a window holds a hundred samples and more
+        for s in window - e.trigger:
+            shifted[:] = 0.0
             if s >= 0:
-                shifted[k, s:] = g[:e.n_samples - s]
+                shifted[s:] = g[:e.n_samples - s]
             else:
-                shifted[k, :s] = g[-s:]
-        C = shifted[:, ::problem.stride].reshape(window.size, m * c) @ J[start:start + m * c]
-        B += C.T @ C / window.size  # each sample's variance: the energy (a^2 in g) over the window's samples
+                shifted[:s] = g[-s:]
+            cs = shifted[::problem.stride].ravel() @ Jb
+            # each sample's variance: the energy (a^2 in g) over the window's samples
+            B += np.outer(cs, cs) / window.size
     A_plus = np.linalg.pinv(J.T @ J, rcond=1e-8, hermitian=True)  # uncertainties' undetermined directions
     return A_plus @ B @ A_plus
 
