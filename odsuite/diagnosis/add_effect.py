@@ -25,6 +25,7 @@ from odsuite.diagnosis.fitting import (
     screen,
     uncertainties,
     weight_notes,
+    with_force_noise,
 )
 from odsuite.analysis.history import data_stamp, valid_metric
 from odsuite.analysis.modelrev import apply_effects, current_revision, instance_names, revision_model
@@ -141,6 +142,8 @@ def _add_effect(project, name: str, *, progress: Callable[[str, int, int], None]
     res = fit(joint, u0) if joint.free else None
     u = res.x if res is not None else joint.zero()
     fit_sds, corr = uncertainties(joint, res, lambda: checks.residual_effective_samples(joint, res))[:2] if res is not None else (np.zeros(0), None)
+    if res is not None:
+        fit_sds, corr = with_force_noise(joint, res, fit_sds, corr)
     new_entries = list(held) + _entries(joint, joint_effects, u, fit_sds, corr, res)
     if progress:
         progress("comparing", 2, 3)
@@ -196,6 +199,8 @@ def _add_on_top(project, rev, entries, name: str, effect, screened, exps, before
     res = fit(problem, screened.u0, continuation=False) if problem.free else None
     u = res.x if res is not None else problem.zero()
     fit_sds, corr = uncertainties(problem, res, lambda: checks.residual_effective_samples(problem, res))[:2] if res is not None else (np.zeros(0), None)
+    if res is not None:
+        fit_sds, corr = with_force_noise(problem, res, fit_sds, corr)
     sds, spread = reported_with_covariance(fit_sds, problem, res)
     shared, per = problem.values(u)
     unc = {f.label if f.experiment is None else f"{f.experiment}/{f.param.name}": float(sd)

@@ -1628,6 +1628,78 @@ def uncertainties(problem: Problem, res, n_eff: float | Callable[[], float]
     return sd_u * scales, np.nan_to_num(corr), groups
 
 
+def force_noise_covariance(problem: Problem, res) -> np.ndarray:
+    """The covariance (search units) the force channel's noise adds to the fit at ``res`` beyond
+    what ``uncertainties`` reads from the residual (errors in the variables). The model is driven
+    with the measured force f + n; n is zero outside the force window (the samples where the
+    windowed force is not) and white within it, of energy ``force_noise_energy`` (N^2) spread
+    evenly. Its response G n is a sum of the model's impulse responses from those few samples,
+    a transient as the hit's own response, not noise stationary over the record as the sandwich
+    reads the residual (a coherent sum over frequencies averaged as if incoherent: the thesis rig's
+    stiffnesses up to 5 sd off with force noise alone). Here its part of the gradient is summed
+    directly: ``A^+ (sum over window samples s of var_s c_s c_s^T) A^+``, c_s = J^T g_s, g_s the
+    response to a unit kick at s, read as the change of the residual when the force is kicked at
+    its trigger sample and shifted to s (the model is time-invariant from rest; a nonlinear
+    structure's noise response is linearised about the hit's by a kick of the noise's size). The
+    sandwich's own reading of that response stays: the sum is conservative by it. The mean of
+    (G' n)^T (G n), the bias the noise also gives, is second order in it and left out.
+    Effects that project parameters (a mode's participations) get none: their projection would
+    refit on the kicked force."""
+    p = len(problem.free)
+    if problem.linear or not p or not any(e.force_noise_energy > 0 for e in problem.exps):
+        return np.zeros((p, p))
+    J = res.jac[: res.jac.shape[0] - p] if problem.prior else res.jac
+    blocks = _experiment_blocks(problem, J.shape[0])
+    if blocks is None:
+        return np.zeros((p, p))
+    kicked_exps, size = [], []
+    for e in problem.exps:
+        kick = np.zeros_like(e.force)
+        size.append(math.sqrt(e.force_noise_energy))
+        if 0 <= e.trigger < kick.size:
+            kick[e.trigger] = size[-1]
+        # the experiment's caches hold the unkicked force's simulation: not carried over
+        kicked_exps.append(replace(e, force=e.force + kick, _cache=None, _filtered=None))
+    kicked = Problem(problem.base, problem.effect, kicked_exps, problem.fixed, problem.prior, problem.stride,
+                     problem.full, problem.noise_scale, problem.weights)
+    response = problem.residual(res.x, stride=1) - kicked.residual(res.x, stride=1)  # every sample
+    B = np.zeros((p, p))
+    first = 0
+    for e, (start, m, c), a in zip(problem.exps, blocks, size):
+        g = response[first:first + e.n_samples * c].reshape(e.n_samples, c)
+        first += e.n_samples * c
+        window = np.flatnonzero(e.force)
+        if a <= 0 or not window.size or not 0 <= e.trigger < e.n_samples:
+            continue
+        Jb = J[start:start + m * c]
+        shifted = np.zeros_like(g)  # one shift at a time: a window holds a hundred samples and more
+        for s in window - e.trigger:
+            shifted[:] = 0.0
+            if s >= 0:
+                shifted[s:] = g[:e.n_samples - s]
+            else:
+                shifted[:s] = g[-s:]
+            cs = shifted[::problem.stride].ravel() @ Jb
+            # each sample's variance: the energy (a^2 in g) over the window's samples
+            B += np.outer(cs, cs) / window.size
+    A_plus = np.linalg.pinv(J.T @ J, rcond=1e-8, hermitian=True)  # uncertainties' undetermined directions
+    return A_plus @ B @ A_plus
+
+
+def with_force_noise(problem: Problem, res, sds: np.ndarray, corr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``uncertainties``' standard deviations (value units) and correlations with the force
+    channel's noise added (force_noise_covariance); a variance the addition would make negative
+    (the sandwich's reading of that noise above the rank one's) stays as it was."""
+    scales = np.array([f.scale for f in problem.free])
+    cov = corr * np.outer(sds, sds) + force_noise_covariance(problem, res) * np.outer(scales, scales)
+    var = np.diag(cov)
+    sd = np.where(var > 0, np.sqrt(np.clip(var, 0, None)), sds)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = np.clip(cov / np.outer(sd, sd), -1, 1)
+    np.fill_diagonal(out, 1.0)
+    return sd, np.nan_to_num(out)
+
+
 def _experiment_blocks(problem: Problem, n: int) -> list[tuple[int, int, int]] | None:
     """(first row, samples, channels) of each experiment's rows in the fit's residual (its strided
     samples, channels within a sample); None when the rows are laid out otherwise."""
