@@ -107,7 +107,9 @@ def consistency(problem, res, force_levels: Mapping[str, float], tolerated: floa
     with its effective samples) and the spread tested: chi-square of the values about their
     weighted mean against FALSE_ALARM (Bonferroni over the parameters). Inconsistent parameters
     whose values follow log(force level) (weighted slope beyond its own FALSE_ALARM, and the rest
-    within the spread noise allows) are amplitude dependent.
+    within the spread noise allows) are amplitude dependent. The levels are measured with the
+    force channel's noise (force_level_noise, _trend): hits at one force, whose levels differ by
+    that noise alone, show no trend however their values scatter.
 
     ``tolerated``: a misfit energy (sum of squares over every sample, weighted as the fit's
     residual: ``tolerated_misfit`` with the problem's weights) the verdict tolerates. When
@@ -141,6 +143,7 @@ def consistency(problem, res, force_levels: Mapping[str, float], tolerated: floa
     if not tested:
         return out
     alpha = FALSE_ALARM / len(tested)
+    noise = force_level_noise(exps)
     for label, rows in tested.items():
         v = np.array([x[1] for x in rows])
         sd = np.array([x[2] for x in rows])
@@ -154,18 +157,12 @@ def consistency(problem, res, force_levels: Mapping[str, float], tolerated: floa
         immaterial = tolerated is not None and out.gain <= tolerated
         levels = np.array([force_levels.get(x[0], np.nan) for x in rows])
         if len(v) >= AMPLITUDE_LEVELS and np.all(np.isfinite(levels)) and np.ptp(np.log(levels)) > 0:
-            X = np.column_stack([np.ones(len(v)), np.log(levels)])
-            root = np.sqrt(wts)
-            # by least squares on the weighted rows: one experiment far surer than the others
-            # leaves the slope undetermined (a singular normal matrix), not an error
-            coef, _, rank, sv = np.linalg.lstsq(X * root[:, None], v * root, rcond=None)
-            if rank < 2:
+            level_sd = np.array([noise.get(x[0], 0.0) for x in rows]) / levels
+            trend = _trend(np.log(levels), level_sd, v, sd)
+            if trend is None:
                 continue
-            rest = float(np.sum(wts * (v - X @ coef) ** 2))
-            _, _, vt = np.linalg.svd(X * root[:, None], full_matrices=False)
-            slope_var = float(np.sum((vt[:, 1] / sv) ** 2))  # [(X^T W X)^-1]_11
-            slope_sd = float(np.sqrt(slope_var * max(1.0, rest / max(1, len(v) - 2))))
-            if (abs(coef[1]) / slope_sd > scipy.stats.norm.isf(alpha / 2)
+            slope, slope_sd, rest = trend
+            if (abs(slope) / slope_sd > scipy.stats.norm.isf(alpha / 2)
                     and rest <= scipy.stats.chi2.isf(alpha, len(v) - 2)):
                 out.amplitude_dependent.append(label)
         # a spread that follows the force level is physics however small; scatter that fits no
@@ -173,6 +170,49 @@ def consistency(problem, res, force_levels: Mapping[str, float], tolerated: floa
         if label in out.amplitude_dependent or not immaterial:
             out.consistent = False
     return out
+
+
+def force_level_noise(exps: Sequence) -> dict[str, float]:
+    """Per experiment, the noise of its force level (N): the force channel's noise per sample inside
+    the hits' window (its noise energy over the window's samples, the tapers counted whole, so a
+    little under). Experiments that do not say have none."""
+    out = {}
+    for e in exps:
+        force, energy = getattr(e, "force", None), getattr(e, "force_noise_energy", 0.0)
+        inside = np.count_nonzero(force) if force is not None else 0
+        if energy > 0 and inside:
+            out[e.name] = float(np.sqrt(energy / inside))
+    return out
+
+
+def _trend(x: np.ndarray, x_sd: np.ndarray, v: np.ndarray, sd: np.ndarray) -> tuple[float, float, float] | None:
+    """The slope of values ``v`` (sd ``sd``) against ``x`` measured with noise ``x_sd``: (slope, its sd,
+    the weighted sum of squares left about the line), None where the weighted rows leave it
+    undetermined. A level's noise moves its value by slope x its noise, so each value weighs by
+    its effective variance sd^2 + slope^2 x_sd^2 (Orear's method, iterated to the slope it gives).
+    Levels that differ by no more than their noise then bound the slope's z by how far apart they
+    are (a scatter of values a steep line through levels apart by noise alone fits is no trend);
+    levels far apart leave the weights as they were."""
+    X = np.column_stack([np.ones(len(v)), x])
+    slope = 0.0
+    for _ in range(50):
+        wts = 1.0 / (sd**2 + slope**2 * x_sd**2)
+        root = np.sqrt(wts)
+        # by least squares on the weighted rows: one experiment far surer than the others
+        # leaves the slope undetermined (a singular normal matrix), not an error
+        coef, _, rank, sv = np.linalg.lstsq(X * root[:, None], v * root, rcond=None)
+        if rank < 2:
+            return None
+        done = abs(coef[1] - slope) <= 1e-9 * abs(coef[1])
+        slope = float(coef[1])
+        if done:
+            break
+    wts = 1.0 / (sd**2 + slope**2 * x_sd**2)
+    root = np.sqrt(wts)
+    rest = float(np.sum(wts * (v - X @ coef) ** 2))
+    _, sv, vt = np.linalg.svd(X * root[:, None], full_matrices=False)
+    slope_var = float(np.sum((vt[:, 1] / sv) ** 2))  # [(X^T W X)^-1]_11
+    return slope, float(np.sqrt(slope_var * max(1.0, rest / max(1, len(v) - 2)))), rest
 
 
 def _local_fit(problem, x, Ji: np.ndarray, ri: np.ndarray, shared: Sequence[int], columns: int,

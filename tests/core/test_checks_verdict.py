@@ -23,6 +23,8 @@ class _Exp:
     name: str
     measured: np.ndarray
     fs: float = 1.0
+    force: np.ndarray | None = None  # N, the hit as the model is driven by it (zero outside its window)
+    force_noise_energy: float = 0.0  # N^2, the force channel's noise summed over that window
 
     @property
     def sensors(self):
@@ -127,6 +129,67 @@ def test_one_experiment_far_surer_than_the_others_leaves_the_slope_undetermined(
     # three values: too few to tell a trend with the force level from scatter
     assert not c.consistent and c.amplitude_dependent == []
     assert [c.per_experiment[f"e{i}"]["k"] for i in range(3)] == pytest.approx(thetas, abs=0.01)
+
+
+def _hits(peaks_n, thetas, force_sd=0.02, seed=0):
+    """Records of a 300 Hz, 2 % damped oscillator hit once each (1 ms half-sines of ``peaks_n``),
+    the force measured with white noise ``force_sd`` inside its window: each record is theta_i
+    times the response to the true force, the model theta times the response to the measured one
+    (the force channel's noise through the resonance: a coloured residual). The joint least-squares
+    fit of one shared theta."""
+    fs, n, f0, zeta = 5120.0, 1024, 300.0, 0.02
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / fs
+    wd = 2 * np.pi * f0 * np.sqrt(1 - zeta**2)
+    h = np.exp(-zeta * 2 * np.pi * f0 * t) * np.sin(wd * t) * wd / fs  # impulse response, gain ~1
+    inside = np.arange(n) < 12
+    exps, g, data = [], [], []
+    for i, (peak, theta) in enumerate(zip(peaks_n, thetas)):
+        true = np.where(t < 1e-3, peak * np.sin(np.pi * t / 1e-3), 0.0)
+        measured = np.where(inside, true + force_sd * rng.standard_normal(n), 0.0)
+        g.append(np.convolve(measured, h)[:n])
+        data.append(theta * np.convolve(true, h)[:n] + 1e-3 * rng.standard_normal(n))
+        exps.append(_Exp(f"e{i}", data[-1][:, None], fs, measured, force_sd**2 * int(inside.sum())))
+    G, D = np.concatenate(g), np.concatenate(data)
+    theta = float(G @ D / (G @ G))
+    problem = _Problem(exps, [_Free(Parameter("k", "1", 1.0, 0.0, 10.0), None, 1.0)])
+    levels = {e.name: float(np.max(np.abs(e.force))) for e in exps}
+    return problem, _Result(np.array([theta - 1.0]), D - theta * G, -G[:, None]), levels
+
+
+def test_hits_at_one_force_whose_levels_differ_by_the_force_noise_show_no_trend():
+    # four hits at 200 N: their measured levels differ by the force channel's noise alone (about
+    # 0.02 N in 193 N, the half-sine's top between samples). A scatter of the values (the misfit's
+    # pull, 2e-3, far beyond their sd of 1e-5) that follows those levels is a slope of 20 per
+    # e-fold of the force: the levels' own noise moves each value by 2e-3, so the trend is not in
+    # the data
+    peaks = [200.0] * 4
+    problem, res, levels = _hits(peaks, [1.0] * 4)
+    x = np.log([levels[f"e{i}"] for i in range(4)])
+    thetas = 1.0 + 20.0 * (x - x.mean())
+    assert np.ptp(thetas) > 1e-3
+    problem, res, levels = _hits(peaks, thetas)
+    c = checks.consistency(problem, res, levels)
+    # each value within the force noise's pull (sd 9e-5 over seeds: the fit takes up the part of the
+    # force noise's ringing along the model, which no residual-based sd sees)
+    assert [c.per_experiment[f"e{i}"]["k"] for i in range(4)] == pytest.approx(thetas, abs=5e-4)
+    assert not c.consistent and c.spread["k"] > 1  # the spread is real: inconsistent, not a trend
+    assert c.amplitude_dependent == []
+    # the same values with the levels taken as exact (no force noise said) were called a trend
+    for e in problem.exps:
+        e.force_noise_energy = 0.0
+    assert checks.consistency(problem, res, levels).amplitude_dependent == ["k"]
+
+
+def test_a_hardening_spring_hit_at_several_levels_is_amplitude_dependent_through_the_force_noise():
+    # a stiffness that rises 1 % per e-fold of the force, hit at 20-200 N with the same force noise:
+    # the levels lie far beyond their noise, the trend stands as without it
+    peaks = [20.0, 50.0, 100.0, 200.0]
+    thetas = [1.0 + 0.01 * np.log(p / 200.0) for p in peaks]
+    problem, res, levels = _hits(peaks, thetas)
+    c = checks.consistency(problem, res, levels)
+    assert [c.per_experiment[f"e{i}"]["k"] for i in range(4)] == pytest.approx(thetas, abs=1e-3)
+    assert not c.consistent and c.amplitude_dependent == ["k"]
 
 
 def test_the_tolerated_misfit_is_the_floor_tolerance_band_weighted_as_the_fits_residual():
