@@ -23,9 +23,21 @@ seconds compare best across runs and wall times only on a quiet machine. A chang
 evaluation cheaper (the compiled recursions below) lowers the baseline as much as diagnose, and
 the worth column then rises although everything is faster.
 
-Where it stands after rounds 19-24 and the sandwich uncertainties (load 0.2-1, but the baseline's
-own CPU moved 9.0-22 ms between runs; two sittings, this code and the code before round 19 run in
-turn, the first run of a fresh checkout, which compiles the recursions, left out):
+Where it stands after rounds 25-28 (load 1.3, two sittings, this code and the code before round
+25 run in turn, each checkout's first, compiling run left out):
+
+| rig, workers | evaluations | CPU, worth (one evaluation), wall: after | before (rounds 19-24) |
+| --- | --- | --- | --- |
+| thesis, 1 | 669 | 2.9-3.1 s, 357-365 (8.2-8.4 ms) | 3.2-3.6 s, 364-373 (8.8-9.5 ms) |
+| thesis, 2 | | 3.3-3.4 s CPU, 2.0-2.3 s wall | 3.7-3.8 s, 2.2-2.3 s |
+| two-body, 1 | 801 | 4.5-4.6 s, 357 (12.5-13.0 ms) | 5.2 s, 368-372 (13.9-14.2 ms) |
+| two-body, 2 | | 4.8-5.0 s CPU, 3.1-4.5 s wall | 5.6-6.1 s, 3.7-3.8 s |
+
+Diagnose's CPU fell 10-13 %; so did one evaluation's (round 25's kept sensor rows and spring
+matrices serve the baseline too), and the worth column stays at 357-365: 1.4-1.5x the 250
+target. Wall on two workers meets 3 s and 5 s. Where it stood after rounds 19-24 and the
+sandwich uncertainties (load 0.2-1, but the baseline's own CPU moved 9.0-22 ms between runs; two
+sittings, that code and the code before round 19 in turn):
 
 | rig, workers | evaluations | CPU, worth, wall: after | before (rounds 14-18) |
 | --- | --- | --- | --- |
