@@ -284,7 +284,8 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
                                if abs(corr[i, j]) > CONFOUNDED_CORRELATION
                                and not any(problem.free[i].label in g and problem.free[j].label in g
                                            for g in groups)]
-        # reported as add-effect stores them: not more certain than the records agree
+        # reported as add-effect stores them (not more certain than the records agree), less the
+        # force channel's noise term add-effect adds (fitting.with_force_noise: a simulation a fit)
         shown_sds, spread = reported_with_covariance(sds, problem, res)
     else:
         u = problem.zero()
