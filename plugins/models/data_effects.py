@@ -335,7 +335,9 @@ def _rank_one(R: np.ndarray, N: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         den = (c * c) @ N
         phi = np.where(den > 0, (c @ R) / np.where(den > 0, den, 1.0), 0.0)
         den = N @ (phi * phi)
-        c = np.where(den > 0, (R @ phi) / np.where(den > 0, den, 1.0), 0.0)
+        last, c = c, np.where(den > 0, (R @ phi) / np.where(den > 0, den, 1.0), 0.0)
+        if c.tobytes() == last.tobytes():  # a sweep is a function of c alone: the rest would repeat it
+            break
     return phi, c
 
 
