@@ -220,17 +220,17 @@ def test_rank_one_participations_recovered_exactly():
 
 
 def _rank_one_every_sweep(R, N, sweeps):
-    """_rank_one as first written: every sweep run (the reference for its early stop)."""
-    seen = N > 1e-12 * float(np.max(N, initial=0.0))
-    R, N = np.where(seen, R, 0.0), np.where(seen, N, 0.0)
-    a = np.where(seen, R / np.where(seen, N, 1.0), 0.0)
-    u, s, vt = np.linalg.svd(a * np.sqrt(N))
-    c, phi = u[:, 0] * np.sqrt(s[0]), vt[0] * np.sqrt(s[0])
+    """_rank_one as first written, every sweep run (the reference for its early stop): its start
+    (no sweep), then ``sweeps`` sweeps. The tables here have no entry it masks out."""
+    import odsuite_plugins.models.data_effects as de
+
+    saved, de.RANK_ONE_SWEEPS = de.RANK_ONE_SWEEPS, 0
+    try:
+        phi, c = de._rank_one(R, N)
+    finally:
+        de.RANK_ONE_SWEEPS = saved
     for _ in range(sweeps):
-        den = (c * c) @ N
-        phi = np.where(den > 0, (c @ R) / np.where(den > 0, den, 1.0), 0.0)
-        den = N @ (phi * phi)
-        c = np.where(den > 0, (R @ phi) / np.where(den > 0, den, 1.0), 0.0)
+        phi, c = de._rank_one_sweep(R, N, c)
     return phi, c
 
 
