@@ -580,9 +580,14 @@ class Problem:
                 # the models the residual at ``u`` was just predicted with: their structure's
                 # response is kept on the experiments
                 models0 = self._models[1] if self._models[0] == u.tobytes() else self.models(u)
-                points = self._stepped_models(u, steps, moved)
-                if any(p[e.name].structure is models0[e.name].structure for p in points for e in exps):
-                    return None  # a step that leaves the structure: its own simulation is cheap
+                # a step that leaves the structure: its own simulation is cheap. Known from the
+                # first such step, before the other steps' models are built (a hit's point per
+                # experiment: 15 models of 5 experiments each, all of them thrown away)
+                points = self._stepped_models(u, steps, moved,
+                                              lambda p: any(p[e.name].structure is models0[e.name].structure
+                                                            for e in exps))
+                if points is None:
+                    return None
                 at = 0
                 for e in exps:
                     n, w = len(range(0, e.n_samples, self.stride)), self.weights[e.name]
@@ -622,8 +627,12 @@ class Problem:
                 models0 = self._models[1] if self._models[0] == u.tobytes() else self.models(u)
                 if any(not models0[e.name].structure.is_linear for e in exps):
                     return None
-                changes = self._each_experiment(cubic_change_predictions, models0,
-                                                self._stepped_models(u, steps, moved), exps)
+                # cubic_change_predictions declines a step whose structure stays linear: known
+                # from the first one, before the others' models are built
+                points = self._stepped_models(u, steps, moved,
+                                              lambda p: any(p[e.name].structure.is_linear for e in exps))
+                changes = None if points is None else self._each_experiment(cubic_change_predictions, models0,
+                                                                            points, exps)
                 if changes is None:
                     return None
         except (DivergedError, NonPhysicalError, np.linalg.LinAlgError):  # simulated column by column instead
@@ -640,13 +649,17 @@ class Problem:
         return (any(not m.structure.is_linear for m in models0.values())
                 and self.base.shared.structure.is_linear)
 
-    def _stepped_models(self, u: np.ndarray, steps: np.ndarray, moved: Sequence[int]) -> list[dict[str, Any]]:
-        """The models at ``u`` + a step of each ``moved`` parameter in turn."""
+    def _stepped_models(self, u: np.ndarray, steps: np.ndarray, moved: Sequence[int],
+                        declined: Callable[[dict[str, Any]], bool] | None = None) -> list[dict[str, Any]] | None:
+        """The models at ``u`` + a step of each ``moved`` parameter in turn; None as soon as one
+        step's models are ``declined``."""
         points = []
         for i in moved:
             du = np.zeros_like(u)
             du[i] = steps[i]
             points.append(self.models(u + du))
+            if declined is not None and declined(points[-1]):
+                return None
         return points
 
     def _each_experiment(self, predicted, models0: Mapping[str, Any], points: Sequence[Mapping[str, Any]],

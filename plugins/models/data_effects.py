@@ -332,11 +332,18 @@ def _rank_one(R: np.ndarray, N: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     u, s, vt = np.linalg.svd(a * np.sqrt(N))
     c, phi = u[:, 0] * np.sqrt(s[0]), vt[0] * np.sqrt(s[0])
     for _ in range(RANK_ONE_SWEEPS):
-        den = (c * c) @ N
-        phi = np.where(den > 0, (c @ R) / np.where(den > 0, den, 1.0), 0.0)
-        den = N @ (phi * phi)
-        c = np.where(den > 0, (R @ phi) / np.where(den > 0, den, 1.0), 0.0)
+        last, (phi, c) = c, _rank_one_sweep(R, N, c)
+        if c.tobytes() == last.tobytes():  # a sweep is a function of c alone: the rest would repeat it
+            break
     return phi, c
+
+
+def _rank_one_sweep(R: np.ndarray, N: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One alternating least-squares sweep of _rank_one from ``c``: phi given c, then c given phi."""
+    den = (c * c) @ N
+    phi = np.where(den > 0, (c @ R) / np.where(den > 0, den, 1.0), 0.0)
+    den = N @ (phi * phi)
+    return phi, np.where(den > 0, (R @ phi) / np.where(den > 0, den, 1.0), 0.0)
 
 
 class ChannelDelay(Effect):

@@ -219,6 +219,50 @@ def test_rank_one_participations_recovered_exactly():
     assert np.allclose(np.outer(c_fit, phi_fit), np.outer(c, phi), rtol=1e-9, atol=1e-12)
 
 
+def _rank_one_every_sweep(R, N, sweeps):
+    """_rank_one as first written, every sweep run (the reference for its early stop): its start
+    (no sweep), then ``sweeps`` sweeps. The tables here have no entry it masks out."""
+    import odsuite_plugins.models.data_effects as de
+
+    saved, de.RANK_ONE_SWEEPS = de.RANK_ONE_SWEEPS, 0
+    try:
+        phi, c = de._rank_one(R, N)
+    finally:
+        de.RANK_ONE_SWEEPS = saved
+    for _ in range(sweeps):
+        phi, c = de._rank_one_sweep(R, N, c)
+    return phi, c
+
+
+def test_rank_one_stops_where_a_sweep_repeats_with_every_sweeps_numbers(monkeypatch):
+    """The alternating sweeps stop once one leaves c as it was (each is a function of c alone):
+    the numbers of every sweep run, to the bit, on tables that reach that point early and on noisy
+    ones that may not; and a table that reaches it is not swept on (a million sweeps allowed)."""
+    import time
+
+    import odsuite_plugins.models.data_effects as de
+
+    rng = np.random.default_rng(5)
+    tables = []
+    for k in range(40):
+        phi, c = rng.normal(size=18), rng.normal(size=3)
+        N = rng.uniform(1.0, 5.0, (3, 18))
+        noise = (0.0, 1e-3, 0.3)[k % 3]
+        tables.append((N * np.outer(c, phi) + noise * rng.normal(size=N.shape), N))
+    for R, N in tables:
+        got = de._rank_one(R, N)
+        want = _rank_one_every_sweep(R, N, de.RANK_ONE_SWEEPS)
+        assert all(g.tobytes() == w.tobytes() for g, w in zip(got, want))
+    # a table whose sweeps repeat within RANK_ONE_SWEEPS (noisy tables among them)
+    R, N = next((R, N) for R, N in tables if _rank_one_every_sweep(R, N, de.RANK_ONE_SWEEPS - 1)[1].tobytes()
+                == _rank_one_every_sweep(R, N, de.RANK_ONE_SWEEPS)[1].tobytes())
+    monkeypatch.setattr(de, "RANK_ONE_SWEEPS", 10**6)
+    c0 = time.process_time()
+    got = de._rank_one(R, N)
+    assert time.process_time() - c0 < 2.0  # every sweep: about 30 s
+    assert all(g.tobytes() == w.tobytes() for g, w in zip(got, _rank_one_every_sweep(R, N, 200)))
+
+
 def test_a_missing_modes_response_alone_is_the_whole_structures_change(tmp_path, registries):
     """missing_mode's search predicts only the added mode (its coordinate is uncoupled): equal to
     the whole structure simulated with and without it, through every part of the chain that a
