@@ -1283,37 +1283,12 @@ def _square_root(J: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
     J does not see has a zero row in A and zero in c."""
     G = J.T @ J
     g = J.T @ f
-    A, c = _model_root(G, g)
-    return A, c, G, g
-
-
-def _model_root(H: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A (n x n) and c with A^T A = H and A^T c = g, from the eigen-decomposition of the model's
-    Hessian H (positive semi-definite): the model cost + g.p + p^T H p / 2 as |A p + c|^2 / 2 plus
-    a constant, the form the trust region's steps are solved in."""
-    w, V = np.linalg.eigh(H)
+    w, V = np.linalg.eigh(G)
     s = np.sqrt(np.clip(w, 0.0, None))
     A = s[:, None] * V.T
     with np.errstate(divide="ignore", invalid="ignore"):
         c = np.where(s > 0, (V.T @ g) / np.where(s > 0, s, 1.0), 0.0)
-    return A, c
-
-
-def _secant_update(S: np.ndarray, step: np.ndarray, y: np.ndarray, y_structured: np.ndarray) -> np.ndarray:
-    """Dennis, Gay and Welsch's structured secant update (NL2SOL's) of S, the estimate of the
-    residual's own curvature sum_i f_i Hess(f_i) that Gauss-Newton's J^T J leaves out: the
-    symmetric update nearest S (in the norm weighted by the gradient's change y = g_new - g_old)
-    with S_new step = y_structured = (J_new - J_old)^T f_new, after S is sized down by Oren and
-    Luenberger's factor min(1, |step . y_structured| / |step^T S step|). S unchanged where
-    y . step <= 0 (no curvature seen along the step)."""
-    ys = float(y @ step)
-    if ys <= 0:
-        return S
-    sSs = float(step @ S @ step)
-    if sSs != 0:
-        S = min(1.0, abs(float(step @ y_structured)) / abs(sSs)) * S
-    z = y_structured - S @ step
-    return S + (np.outer(z, y) + np.outer(y, z)) / ys - (float(z @ step) / ys**2) * np.outer(y, y)
+    return A, c, G, g
 
 
 #: a step is taken further along its line (_further) at most this many times its length, ...
@@ -1344,7 +1319,7 @@ def _further(fun, x: np.ndarray, cost: float, slope: float, step: np.ndarray, co
 
 
 def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: int, xtol: float, ftol: float,
-         stops: _Stops, broyden: bool = True, further: bool = True, secant: bool = True) -> OptimizeResult:
+         stops: _Stops, broyden: bool = True, further: bool = True) -> OptimizeResult:
     """scipy's least_squares(method="trf", x_scale=1, tr_solver="exact") with bounds, run on the
     n x n square root of J^T J (_square_root) in place of J's m rows, and (``broyden``) with
     Jacobians updated along accepted steps. Written here because scipy's takes an SVD of every row
@@ -1361,18 +1336,7 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
     scipy's ftol test (which reads the Jacobian's promise) or ``stops`` (which
     sees each Jacobian's G = J^T J and g = J^T f and, after each iteration, the cost and point:
     scipy's callback) stop on its promise, the differenced Jacobian decides; the result's ``jac``
-    is always differenced (uncertainties and validation use it).
-
-    With ``secant``, once an updated Jacobian has misled (its step gained nothing and was taken
-    again from a differenced one), the steps from differenced Jacobians take J^T J + S, S the
-    residual's own curvature sum f_i Hess(f_i) by the structured secant update (_secant_update,
-    NL2SOL's) from each pair of differenced Jacobians either side of an accepted step, where
-    J^T J + S is positive definite. Near the minimum of a fit whose residual stays large (a
-    candidate that explains part of the data) Gauss-Newton converges linearly, each differenced
-    Jacobian promising 0.06-0.26x the last, and every Broyden step there gained nothing. Where
-    J^T J + S promises less than the least stop within the region, or its step ends the search by
-    scipy's ftol or xtol test, Gauss-Newton's model decides (the stops read its promise); a fit
-    whose updated Jacobians never mislead (a small residual) is the same without it."""
+    is always differenced (uncertainties and validation use it)."""
     x = make_strictly_feasible(np.asarray(x0, float), lb, ub)
     f = fun(x)
     J = jac(x, f)
@@ -1382,23 +1346,14 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
     A, c, G, g = _square_root(J, f)
     stops.jacobian(x, G, g)
     exact, run = True, 0  # whether J is differenced; updates since it was
-    # the residual's curvature (_secant_update), whether the steps' model takes it (after an
-    # updated Jacobian misled), and the last step from a differenced Jacobian that feeds it
-    S, curving, stepped, augmented, plain_next = np.zeros((n, n)), False, None, False, False
 
     def differenced() -> None:
-        nonlocal J, A, c, G, g, exact, run, njev, S, stepped, augmented
+        nonlocal J, A, c, G, g, exact, run, njev
         J = jac(x, f)
         njev += 1
         exact, run = True, 0
         A, c, G, g = _square_root(J, f)
         stops.jacobian(x, G, g)
-        if stepped is not None:  # two differenced Jacobians either side of a step
-            dx, g_before, crossed = stepped
-            S, stepped = _secant_update(S, dx, g - g_before, g - crossed), None
-        augmented = curving and not plain_next and np.linalg.eigvalsh(G + S)[0] > 0
-        if augmented:
-            A, c = _model_root(G + S, g)  # J^T J + S: else Gauss-Newton's own model
 
     v, _ = CL_scaling_vector(x, g, lb, ub)
     Delta = float(np.linalg.norm(x / v**0.5)) or 1.0
@@ -1423,15 +1378,12 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
         f_aug[:n] = c
         uf = U.T @ f_aug
         theta = max(0.995, 1 - g_norm)
-        actual_reduction, ratio, refresh, plain = -1.0, 1.0, False, False
+        actual_reduction, ratio, refresh = -1.0, 1.0, False
         while actual_reduction <= 0 and nfev < max_nfev:
             p_h, alpha, _ = solve_lsq_trust_region(n, m, uf, s, V, Delta, initial_alpha=alpha)
             p = d * p_h
             step, step_h, predicted = select_step(x, J_h, diag_h, g_h, p, p_h, d, Delta, lb, ub, theta)
             if exact and predicted < stops.least:
-                if augmented:  # J^T J + S promises nothing more here: Gauss-Newton's model decides
-                    plain = True
-                    break
                 # within the region its linearisation is trusted in, it promises less than one noise
                 # energy (the region shrank on steps that gained nothing): the least stop's rule
                 status = -2
@@ -1456,23 +1408,14 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
                 break
             alpha *= Delta / Delta_new
             Delta = Delta_new
-        if plain:
-            A, c = _model_root(G, g)
-            augmented = False
-            continue
         if refresh:
-            # a rank-one secant of J does not carry a large residual's curvature: from here on the
-            # steps from a differenced Jacobian take J^T J + S
-            curving = secant
             differenced()
             continue
-        # small gain for what an updated Jacobian, or J^T J + S, promised: Gauss-Newton's decides
-        confirm = status in (2, 4) and (not exact or augmented)
-        plain_next = confirm and augmented
+        confirm = status in (2, 4) and not exact  # small gain for what an updated Jacobian promised
         if confirm:
             status = None
         if actual_reduction > 0:
-            x_old, f_old, g_old = x, f, g
+            x_old, f_old = x, f
             if further and status is None and nfev < max_nfev:
                 longer = _further(fun, x, cost, float(g @ step), step, cost_new, lb, ub, stops.least)
                 # once the parabola puts the minimum within reach, later steps are not taken further
@@ -1484,9 +1427,6 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
                         x_new, f_new, cost_new, t = longer
                         Delta = max(Delta, t * step_h_norm)
             x, f, cost = x_new, f_new, cost_new
-            # the step and, from the differenced Jacobian it was taken on, (J_old^T f_new) for the
-            # structured secant once J is differenced at the new point
-            stepped = (x - x_old, g_old, J.T @ f) if secant and exact else None
             if (broyden and not confirm and status is None and run < BROYDEN_RUN
                     and abs(1 - ratio) <= BROYDEN_MISS):
                 # the secant through the step: J += (df - J dx) dx^T / |dx|^2, in place (J is
@@ -1495,7 +1435,7 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
                 a = (f - f_old - J @ dx) / float(dx @ dx)
                 for at in range(0, m, UPDATE_ROWS):
                     J[at:at + UPDATE_ROWS] += np.outer(a[at:at + UPDATE_ROWS], dx)
-                exact, run, augmented = False, run + 1, False
+                exact, run = False, run + 1
                 A, c, G, g = _square_root(J, f)
                 stops.jacobian(x, G, g)
             else:

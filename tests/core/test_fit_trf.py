@@ -4,10 +4,7 @@ phase far from linear): without Broyden updates and steps taken further the same
 evaluations and minimum; with them the same minimum in fewer Jacobians, and (with a loose ftol) no
 earlier stop than scipy's on an updated Jacobian's promise. A step taken further (fitting._further)
 against the closed-form minimum of a quadratic cost, and on a fit whose residual stays large
-(Gauss-Newton steps fall short along their line) against scipy's minimum. The residual's own
-curvature (the structured secant, fitting._secant_update) against its secant condition and a
-closed form, and near a large residual's minimum against scipy's minimum in fewer Jacobians than
-without it; where the data fit exactly, the same iterates as without it."""
+(Gauss-Newton steps fall short along their line) against scipy's minimum."""
 
 from __future__ import annotations
 
@@ -233,91 +230,3 @@ def test_steps_are_not_taken_further_after_the_first_declined(monkeypatch):
              stops=_Stops(least, None, lo, hi))
         assert answers and answers[0]  # taken further at first
         assert False not in answers[:-1]  # nothing asked after a decline
-
-
-def _near_minimum_runs(fun, jac, x0, lo, hi, least):
-    """The search with the structured secant, without it (Broyden's updates alone) and plain
-    Gauss-Newton (every Jacobian differenced, no step taken further), from ``x0``."""
-    kw = dict(max_nfev=60, xtol=1e-6, ftol=1e-8)
-    return {"secant": _trf(fun, jac, x0, lo, hi, stops=_Stops(least, None, lo, hi), **kw),
-            "broyden": _trf(fun, jac, x0, lo, hi, stops=_Stops(least, None, lo, hi), secant=False, **kw),
-            "plain": _trf(fun, jac, x0, lo, hi, stops=_Stops(least, None, lo, hi), broyden=False, further=False,
-                          secant=False, **kw)}
-
-
-NEAR_STARTS = ([1.1, 0.9, 1.1, 0.97], [0.9, 1.15, 0.9, 1.02])  # relative to the minimum, as a fit from its screening
-
-
-def test_the_residuals_curvature_reaches_scipys_minimum_in_fewer_jacobians_where_the_residual_stays_large():
-    """Near its minimum a large residual's own curvature (sum f_i Hess f_i) is what J^T J leaves
-    out: Gauss-Newton converges linearly there and a rank-one update of J misleads. J^T J plus the
-    structured secant's estimate of it (fitting._secant_update) reaches scipy's minimum in fewer
-    Jacobians than the search without it, and that in fewer than plain Gauss-Newton."""
-    lo, hi = np.array([0.0, 0.0, -2.0, 1.0]), np.array([3.0, 30.0, 2.0, 20.0])
-    least = 0.5 * STALL_GAIN * NOISE_LARGE**2  # one noise energy, in cost
-    jacobians = {"secant": 0, "broyden": 0, "plain": 0}
-    for seed in range(6):
-        fun, jac = _large_residual(seed)
-        ref = scipy.optimize.least_squares(fun, np.array([0.5, 1.0, 0.1, 5.0]), jac=jac, bounds=(lo, hi),
-                                           method="trf", x_scale=1.0, xtol=1e-12, ftol=1e-12, gtol=1e-12,
-                                           max_nfev=500)
-        for start in NEAR_STARTS:
-            runs = _near_minimum_runs(fun, jac, ref.x * np.array(start), lo, hi, least)
-            for res in runs.values():
-                # within the search's own tolerance of scipy's minimum: one noise energy (sum of squares)
-                assert 2 * (res.cost - ref.cost) < STALL_GAIN * NOISE_LARGE**2
-            np.testing.assert_allclose(runs["secant"].jac, jac(runs["secant"].x), rtol=0, atol=1e-12)
-            for name, res in runs.items():
-                jacobians[name] += res.njev
-    assert jacobians["secant"] < jacobians["broyden"] < jacobians["plain"]
-
-
-def test_the_residuals_curvature_changes_nothing_where_the_residual_vanishes():
-    # data the model fits exactly: no updated Jacobian misleads, so J^T J alone (Gauss-Newton's
-    # quadratic convergence) and the same iterates and counts as the search without the secant
-    truth = np.array([1.2, 3.0, 0.3, 9.0])
-    y = truth[0] * np.exp(-truth[1] * T) + truth[2] * np.sin(truth[3] * T)
-
-    def fun(x):
-        return x[0] * np.exp(-x[1] * T) + x[2] * np.sin(x[3] * T) - y
-
-    def jac(x, f=None):
-        f0 = fun(x)
-        return np.column_stack([(fun(x + 1e-7 * e) - f0) / 1e-7 for e in np.eye(4)])
-
-    lo, hi = np.array([0.0, 0.0, -2.0, 1.0]), np.array([3.0, 30.0, 2.0, 20.0])
-    least = 0.5 * STALL_GAIN * NOISE_LARGE**2
-    for start in NEAR_STARTS + ([0.5, 0.4, 2.0, 0.9],):
-        runs = _near_minimum_runs(fun, jac, truth * np.array(start), lo, hi, least)
-        assert (runs["secant"].njev, runs["secant"].nfev) == (runs["broyden"].njev, runs["broyden"].nfev)
-        assert runs["secant"].njev <= runs["plain"].njev
-        np.testing.assert_array_equal(runs["secant"].x, runs["broyden"].x)
-        np.testing.assert_allclose(runs["secant"].x, truth, rtol=0, atol=1e-3)
-
-
-def test_the_structured_secant_update_meets_its_secant_condition():
-    # S_new step = (J_new - J_old)^T f_new, S symmetric; the residual f = (x0^2 - a, x0 x1 - b,
-    # x1^2 - c) has sum f_i Hess f_i = [[2 f0, f1], [f1, 2 f2]], which the update meets along the step
-    from odsuite.diagnosis.fitting import _secant_update
-
-    a, b, c = 3.0, -1.0, 5.0
-
-    def f(x):
-        return np.array([x[0] ** 2 - a, x[0] * x[1] - b, x[1] ** 2 - c])
-
-    def J(x):
-        return np.array([[2 * x[0], 0.0], [x[1], x[0]], [0.0, 2 * x[1]]])
-
-    x_old, x_new = np.array([1.5, -0.5]), np.array([1.7, -0.6])  # y . step > 0: curvature seen
-    step, f_new = x_new - x_old, f(x_new)
-    y = J(x_new).T @ f_new - J(x_old).T @ f(x_old)
-    y_structured = (J(x_new) - J(x_old)).T @ f_new
-    S = _secant_update(np.array([[0.4, 0.1], [0.1, -0.2]]), step, y, y_structured)
-    np.testing.assert_allclose(S @ step, y_structured, rtol=1e-12, atol=1e-12)
-    np.testing.assert_allclose(S, S.T, rtol=0, atol=1e-15)
-    # J(x) is linear in x here: (J_new - J_old)^T f_new is exactly sum f_i Hess f_i (at x_new) times the step
-    exact = np.array([[2 * f_new[0], f_new[1]], [f_new[1], 2 * f_new[2]]])
-    np.testing.assert_allclose(exact @ step, y_structured, rtol=1e-12)
-    # no curvature seen along the step (y . step <= 0): S stays
-    S0 = np.eye(2)
-    np.testing.assert_array_equal(_secant_update(S0, step, -y, y_structured), S0)
