@@ -250,25 +250,37 @@ class Diagnosis:
 def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: float, noise: float,
                    peaks, rigidity, modes_before, tail0: float = 0.0,
                    force_levels: Mapping[str, float] | None = None, target: float | None = None,
-                   cannot_pass: Callable[[np.ndarray, float], bool] | None = None, floor=None) -> Candidate:
+                   cannot_pass: Callable[[np.ndarray, float], bool] | None = None, floor=None,
+                   out_of_reach: Callable[[np.ndarray, float], bool] | None = None,
+                   why: Sequence[str] = ()) -> Candidate:
     """Fit, validate and describe one screened candidate. Sums of squares of ``screened`` are over
     the fit windows; ``tail0`` is the rest of the records' at the nominal model, ``sse0`` whole;
     ``target``, ``cannot_pass``: the fit stops where it cannot come near that or pass its test
-    (fitting.fit); ``floor``: the records' noise floor, whose tolerated misfit the consistency
-    check allows (None: none)."""
+    (fitting.fit), and is neither validated nor checked; ``out_of_reach``: the fit stops where it
+    cannot come near the top or change its own significance (_out_of_reach, the words why in
+    ``why``), and is validated and judged at the point reached but not checked further; ``floor``:
+    the records' noise floor, whose tolerated misfit the consistency check allows (None: none)."""
     problem = screened.problem
     effect = problem.effect
-    stopped = False
+    stopped = short = False
     if problem.free:
         # screening has already stepped through the short heads to the whole windows
-        res = fit(problem, screened.u0, continuation=False, target=target, cannot_pass=cannot_pass)
-        stopped = res.target_stop
+        res = fit(problem, screened.u0, continuation=False, target=target,
+                  cannot_pass=cannot_pass if out_of_reach is None else out_of_reach)
+        stopped, short = (False, res.target_stop) if out_of_reach is not None else (res.target_stop, False)
+        checked = None
+        if short and out_of_reach.passes:
+            # significance asks for a validated error below the baseline's too: where it is not
+            # there, its significance is not decided and the fit goes on to its end
+            checked = validate(problem, res.x, res)
+            if not checked[0] + problem.tail_sse(res.x) < sse0:
+                res, short, checked = fit(problem, res.x, continuation=False, jac0=res.jac), False, None
         u = res.x
         # uncertainties from the residual as it is: its samples are correlated (filters, misfit)
         sds, corr, groups = uncertainties(problem, res, lambda: checks.residual_effective_samples(problem, res))
         unident = [f.label for f, sd in zip(problem.free, sds)
                    if not np.isfinite(sd) or sd > UNIDENTIFIABLE_FRACTION * (f.param.upper - f.param.lower)]
-        if unident and len(unident) < len(problem.free) and not stopped:
+        if unident and len(unident) < len(problem.free) and not stopped and not short:
             # hold what the data cannot see at its nominal value and refit the rest
             held = {f.param.name: f.param.nominal for f in problem.free
                     if f.label in unident and f.experiment is None}
@@ -311,7 +323,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         uncert[name] = None
     # a fit stopped where it cannot pass its test is not validated, refitted or checked further
     sse_val, how = (math.nan, "not validated: its fit stopped early") if stopped else \
-        validate(problem, u, res if problem.free else None)
+        checked if short and checked is not None else validate(problem, u, res if problem.free else None)
     sse_val += tail
     k = len(problem.free) + len(problem.fixed)
     bic = n_eff * math.log(max(sse_val, 1e-300) / den) + k * math.log(n_eff) if not stopped else math.inf
@@ -330,7 +342,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
     labels = [f.param.name if f.experiment is None else "" for f in problem.free]
     cand.physical = physical.quantities(effect, problem.base.shared, {**problem.fixed, **shared}, labels, sds, corr,
                                         spread)
-    if stopped:
+    if stopped or short:
         cand.consistent = None
         cand.early_late_agree, cand.early_late_note = None, "not tested: its fit stopped early"
     elif problem.free:
@@ -350,9 +362,12 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
     cand._problem, cand._u, cand._sse_win = problem, u, sse_win  # kept for the confounding check
     # the fit windows' sum as the fits weigh it (whitened per channel): a pair's fit stops on it
     cand._cost_win = float(np.sum(problem.residual(u, stride=1) ** 2))
-    cand._stopped = stopped
+    cand._stopped, cand._short, cand._screened_sse = stopped, short, screened.sse
     baseline = math.sqrt(sse0 / den)
     cand.evidence = _evidence(problem, cand, baseline, noise, peaks, rigidity, modes_before, modes_after)
+    if short:
+        cand.evidence = (f"{why[-1]}: its values, errors and test at the point reached, its consistency "
+                         f"not checked; " + cand.evidence)
     # the judgement (_judge) and the verdict predict the whole records at the fit again; the checks
     # above predicted other points since
     problem.keep(u, at_fit, problem.full)
@@ -414,16 +429,72 @@ def _partner_job(token: int, seed: tuple[str, Mapping[str, float], np.ndarray, f
     return _screen_job(token, name, _ON_TOP[1])
 
 
-def _fit_job(token: int, name: str, fixed: Mapping[str, float], u0: np.ndarray, sse: float
-             ) -> tuple[Candidate, tuple]:
-    """Fit one screened candidate; the candidate without its problem (rebuilt by the caller from
-    what _kept hands back: the values it was fitted with, its evaluations, its predictions)."""
+def _fit_job(token: int, name: str, fixed: Mapping[str, float], u0: np.ndarray, sse: float,
+             top: tuple[float, Sequence[int]] | None = None) -> tuple[Candidate, tuple]:
+    """Fit one screened candidate; the candidate without its problem (rebuilt by the caller from what
+    _kept hands back: the values it was fitted with, its evaluations, its predictions). With
+    ``top`` (an upper bound of the best single fit's cost, and the parameter counts of the
+    candidates fitted) the fit stops where it cannot matter (_out_of_reach)."""
     job = JOBS[token]
     problem = _problem(job, name, fixed)
+    why: list[str] = []
+    hook = None if top is None else _out_of_reach(problem, *top, job["n_eff"], job["floor"], job["res0"], why)
     cand = _fit_candidate(Screened(problem.effect, dict(fixed), u0, sse, problem), job["windows"], job["sse0"],
                           job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
-                          job["modes_before"], job["tail0"], job["force_levels"], floor=job["floor"])
+                          job["modes_before"], job["tail0"], job["force_levels"], floor=job["floor"],
+                          out_of_reach=hook, why=why)
     return cand, _kept(cand.__dict__.pop("_problem"))
+
+
+def _cost(problem: Problem, u: np.ndarray) -> float:
+    """A fit's objective at ``u`` (fitting.fit: half the strided, weighted sum of squares over the
+    fit windows and its prior's)."""
+    r = problem.residual(u)
+    return 0.5 * (float(r @ r) + float(np.sum(problem.pull * u**2)))
+
+
+def _out_of_reach(problem: Problem, top: float, counts: Sequence[int], n_eff: float, floor, before, why: list[str]
+                  ) -> Callable[[np.ndarray, float], bool]:
+    """Whether a single candidate's fit (``problem``) at ``x``, gaining at most JOINT_REACH times
+    the fall ``promised`` (in cost) that its linearisation there promises, can no longer matter:
+    (a) its significance is decided (its likelihood ratio over the baseline ``before`` already
+    passes its test, and grows as the fit goes on, or cannot reach it), and (b) it cannot come
+    near the top: its cost, less that reach, stays above ``top`` (a fit's cost at its screened
+    point: the best single fit's ends at or below it, whatever order the fits run in) by more than
+    the likelihood-ratio limit of its and the most parameters of another fitted candidate
+    (``counts``: the ranking's tests between two candidates, the parsimony rule's and the
+    confounding's) and by more than BIC's penalty for its parameters beyond the fewest. Appends the
+    words why to ``why`` when it says stop; each check of (a) predicts the whole records once."""
+    k = len(problem.free) + len(problem.fixed)
+    unit = 2.0 * problem.stride / problem.noise_scale if problem.noise_scale > 0 else 0.0  # cost -> noise energies
+    limit, apart = resolution.gain_threshold(k), resolution.gain_threshold(k + max(counts, default=0))
+    penalty = max(k - min(counts, default=k), 0) * math.log(max(n_eff, 1.0))
+
+    def out_of_reach(x: np.ndarray, promised: float) -> bool:
+        if unit == 0.0 or before is None:
+            return False
+        reach = JOINT_REACH * promised
+        least = _cost(problem, x) - reach  # the fit's predictions at x are kept: no evaluation
+        if (least - top) * unit <= apart or least <= 0 or n_eff * math.log(least / top) <= penalty:
+            return False
+        try:
+            res = resolution.resolve(problem.full, problem.predictions(x, problem.full), floor)
+        except (DivergedError, NonPhysicalError):
+            return False
+        if res is None:
+            return False
+        g = resolution.gain(before, res)
+        out_of_reach.passes = limit < g
+        if limit < g or g + reach * unit <= limit:
+            why.append(f"its fit stopped where it could not come near the top (cost {(least + reach) * unit:.4g} "
+                       f"noise energies, at most {reach * unit:.3g} less by its linearisation, against at most "
+                       f"{top * unit:.4g} for the best) nor change its significance (likelihood ratio {g:.4g}, "
+                       f"limit {limit:.3g})")
+            return True
+        return False
+
+    out_of_reach.passes = False  # whether it stopped as passing its likelihood-ratio test
+    return out_of_reach
 
 
 def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequence[str] | None = None,
@@ -463,6 +534,7 @@ def _diagnose(project, effects, experiments, full_fits, progress, prepared, work
     parallel = (workers > 1 and "fork" in multiprocessing.get_all_start_methods()
                 and not multiprocessing.current_process().daemon)
     token = next(TOKENS)
+    job["res0"] = res0
     JOBS[token] = job
     if parallel:  # a candidate may give the structure cubic springs: the workers inherit the loop
         load_nonlinear_loop()
@@ -474,7 +546,7 @@ def _diagnose(project, effects, experiments, full_fits, progress, prepared, work
             candidates, fitted, count = _fit_best(pool, token, job, screened[:full_fits], workers if parallel else 1,
                                                   exps, cmp, res0, progress)
             evaluations += count
-            candidates, count = _refined(job, refiners, candidates, cmp)
+            candidates, count = _refined(token, job, refiners, candidates, cmp)
             evaluations += count
             pairs, partners, count = _fit_pairs(token, job, candidates, screened, res0, cmp.floor, job["scale"],
                                                 pool)
@@ -590,6 +662,15 @@ def _fit_best(pool, token, job, top: list[Screened], ahead: int, exps, cmp, res0
     best_win = job["sse0_win"]
     fitted = []
     evaluations = 0
+    # the cost at the best screened point: the first candidate is always fitted, from there, so the
+    # best single fit ends at or below it whatever order the fits finish in; a fit that cannot
+    # come near it nor change its own significance stops (_out_of_reach)
+    bound = None
+    if top and res0 is not None:
+        first = top[0].problem
+        spent = first.evaluations
+        bound = (_cost(first, top[0].u0), [len(t.problem.free) + len(t.problem.fixed) for t in top])
+        evaluations += first.evaluations - spent
 
     def skipped(k: int, win: float | None = None) -> bool:
         # a candidate whose screening took up less than half of what the best fit so far
@@ -599,7 +680,7 @@ def _fit_best(pool, token, job, top: list[Screened], ahead: int, exps, cmp, res0
 
     def submit(k: int) -> None:
         t = top[k]
-        jobs[k] = pool.submit(_fit_job, token, t.effect.name, t.fixed, t.u0, t.sse)
+        jobs[k] = pool.submit(_fit_job, token, t.effect.name, t.fixed, t.u0, t.sse, bound)
 
     jobs: dict[int, Any] = {}
     queued = 0
@@ -640,10 +721,16 @@ def _fit_best(pool, token, job, top: list[Screened], ahead: int, exps, cmp, res0
     return candidates, fitted, evaluations
 
 
-def _refined(job, refiners: list[str], candidates: list[Candidate], cmp) -> tuple[list[Candidate], int]:
-    """Each refiner fitted from the fit of the effect it refines, or listed as not fitted with why."""
+def _refined(token, job, refiners: list[str], candidates: list[Candidate], cmp) -> tuple[list[Candidate], int]:
+    """Each refiner fitted from the fit of the effect it refines (taken to its end where it
+    stopped out of reach of the top: _finished), or listed as not fitted with why."""
     evaluations = 0
     for name in refiners:
+        refines = job["effects"].get(name).refines
+        at = next((i for i, c in enumerate(candidates) if c.effect == refines and c.fitted), None)
+        if at is not None and candidates[at]._short:
+            candidates[at], count = _finished(token, job, candidates[at], cmp.floor)
+            evaluations += count
         refined = _refine(job, name, candidates, job["scale"], cmp.floor)
         if refined is not None:
             candidates.append(refined)
@@ -757,13 +844,30 @@ def _single(token: int, job: Mapping[str, Any], screened: Sequence[Screened], na
     s = next((t for t in screened if t.effect.name == name), None)
     if s is None:
         return None
-    cand, kept = _fit_job(token, name, s.fixed, s.u0, s.sse)
+    return _judged(token, job, name, s.fixed, s.u0, s.sse, exps, floor, res0)
+
+
+def _judged(token: int, job: Mapping[str, Any], name: str, fixed, u0: np.ndarray, sse: float, exps, floor, res0
+            ) -> Candidate:
+    """``name`` fitted in full from ``u0`` (``sse``: its screening's sum of squares) and judged
+    against the baseline."""
+    cand, kept = _fit_job(token, name, fixed, u0, sse)
     cand._problem = _kept_back(_problem(job, name, kept[0]), kept)
     _judge(cand, exps, floor, res0, job["sse0"], job["den"], job["scale"])
     words = _checks_words(cand)
     if words:
         cand.evidence += "; " + words
     return cand
+
+
+def _finished(token: int, job: Mapping[str, Any], cand: Candidate, floor) -> tuple[Candidate, int]:
+    """A single whose fit stopped out of reach of the top (_out_of_reach) fitted on from where it
+    stopped to its end, and judged and checked as every full fit: what starts from its values
+    (a pair, a refinement) needs them converged. Returns it and the evaluations spent."""
+    p = cand._problem
+    done = _judged(token, job, cand.effect, dict(p.fixed), cand._u, cand._screened_sse, job["exps"], floor,
+                   job["res0"])
+    return done, done._problem.evaluations
 
 
 def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], screened: Sequence[Screened],
@@ -783,6 +887,15 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
                      key=lambda c: c.bic)
     if not singles or not all(_leaves_cells(c, job) for c in candidates if c.fitted and c.significant):
         return [], [], 0  # a single or a refinement leaves nothing above the floor
+    evaluations = 0
+    if any(c._short for c in singles):  # the pairs start from the singles' fits: each taken to its end
+        for i, c in enumerate(candidates):
+            if c.fitted and getattr(c, "_short", False):
+                candidates[i], count = _finished(token, job, c, floor)
+                evaluations += count
+        singles = sorted((c for c in candidates if c.fitted and c.significant
+                          and getattr(c, "_resolved", None) is not None
+                          and joint.pairable(job["effects"].get(c.effect))), key=lambda c: c.bic)
     # each pair's starts: its members' values and discrete choices
     # (and each member's fit with the other at its nominal values: the nearer start where one
     # member's fit compensated for what the other explains)
@@ -790,7 +903,7 @@ def _fit_pairs(token: int, job: Mapping[str, Any], candidates: list[Candidate], 
                                      (joint.nominal(a), joint.fitted(b))]
               for a, b in itertools.combinations(singles[:joint.PAIR_CANDIDATES], 2) if joint.overlap(a, b, res0)
               and joint.joined(job["effects"].get(a.effect), job["effects"].get(b.effect), job["base"].shared)}
-    added, evaluations = [], 0
+    added = []
     # the partner of the best single, and of the best named one where a data-driven stand-in (a
     # mode of any shape) is best: the order prefer_named gives the singles
     named = next((c for c in singles if not getattr(job["effects"].get(c.effect), "data_driven", False)), None)

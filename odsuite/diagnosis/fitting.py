@@ -1476,12 +1476,13 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
 
 def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] | None = None,
         max_nfev: int | None = None, continuation: bool = True, target: float | None = None,
-        cannot_pass: Callable[[np.ndarray, float], bool] | None = None):
+        cannot_pass: Callable[[np.ndarray, float], bool] | None = None, jac0: np.ndarray | None = None):
     """Bounded output-error least squares from ``u0`` (on short heads of the records first, search);
     returns the result (scipy's fields) for the whole records (``jac`` = d residual / d u). With ``target`` (a
     sum of squares over every sample of ``problem``'s records) the fit stops where it cannot come
     near it, and with ``cannot_pass`` where that says it cannot pass its test (_Stops; ``target_stop``
-    true)."""
+    true). ``jac0``: the Jacobian at ``u0`` (a stopped fit's ``jac``, going on without
+    ``continuation``), taken for the first instead of differencing it again."""
     lo, hi = problem.lower_upper()
     u = np.clip(u0, lo, hi)
     n = len(problem.free)
@@ -1497,6 +1498,10 @@ def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] 
             return np.concatenate([r, root * x]) if root is not None else r
 
         def jac(x, f, stage=stage):
+            nonlocal jac0
+            if jac0 is not None and last:
+                J, jac0 = jac0.copy(), None  # the search scales it in place
+                return J
             r = f[:f.size - n] if root is not None else f
             J = problem.jacobian(x, r, stage, step=DIFF_STEP)
             if root is None:
