@@ -574,3 +574,12 @@ def test_the_driving_point_measures_along_the_blow():
     assert driving_point(exp) == 1  # the triaxial's x axis
     sideways = SimpleNamespace(sensors=[z_near, triaxial[1]], point=point, direction=direction)
     assert driving_point(sideways) == 0
+
+
+def test_a_force_direction_prints_no_negative_zero():
+    """The -x blow of T5 read (-1.00, -0.00, -0.00) in the experiments table."""
+    from odsuite_plugins.renderers.report import _direction
+
+    assert _direction(-np.array([1.0, 0.0, 0.0])) == "(-1.00, +0.00, +0.00)"
+    assert _direction([0.0, -1e-17, 1.0]) == "(+0.00, +0.00, +1.00)"
+    assert _direction([0.6, -0.8, 0.0]) == "(+0.60, -0.80, +0.00)"
