@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import scipy.signal
 import scipy.special
+from threadpoolctl import threadpool_limits
 
 from odsuite.processing.chain_spec import chain_for_channel, stage_names
 from odsuite.processing.executor import run_array
@@ -1068,7 +1069,10 @@ def experiment_coordinates(project, name: str, revision: Mapping[str, Any] | Non
 
     exp = prepare_experiment(project, name)
     model = revision_model(project, revision or current_revision(project)).for_experiment(name)
-    series = coordinate_series(project.rig, exp, model)
+    # one BLAS thread, as compare runs: two threads summed the 4096-sample solves in another order
+    # and the drawn motion's errors left compare's by 1e-10 relative
+    with threadpool_limits(1):
+        series = coordinate_series(project.rig, exp, model)
     if not series and _integrates(exp):  # the chains are whole: the sensor layout is why
         from odsuite.contracts.solvers import body_solvers
 

@@ -145,6 +145,8 @@ def _modes_options(at, f_min, f_max, reference, output_only, n_experiments, bloc
         freqs = [float(v) for v in at.split(",")] if at else None
     except ValueError:
         raise ConfigError(f"--at {at!r}: expected comma-separated frequencies in Hz") from None
+    if freqs is not None and not all(math.isfinite(f) and f > 0 for f in freqs):  # nan, -inf: a traceback in the fit
+        raise ConfigError(f"--at {at!r}: frequencies must be finite and > 0 Hz")
     for option, value in (("--fmin", f_min), ("--fmax", f_max)):
         if value is not None and not (math.isfinite(value) and value >= 0):  # before the FRF is stored
             raise ConfigError(f"{option}: must be a finite frequency >= 0 Hz, got {value}")

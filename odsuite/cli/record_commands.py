@@ -55,9 +55,11 @@ def process_cmd(
             task = bar.add_task(f"processing {name}", total=None)
             if not corrected:
                 _ledger.start(name)
-            summary = process_experiment(p, name, progress=lambda a, b, t=task: bar.update(t, completed=a, total=b))
-            bar.update(task, description=f"identifying the modes of {name}")
-            store_record_modes(p, name)  # `compare` reads them instead of identifying them again
+            with p.transaction():  # the record and its modes in one commit: a failure leaves neither
+                summary = process_experiment(p, name, progress=lambda a, b, t=task: bar.update(t, completed=a,
+                                                                                                total=b))
+                bar.update(task, description=f"identifying the modes of {name}")
+                store_record_modes(p, name)  # `compare` reads them instead of identifying them again
             if not corrected:
                 _ledger.done()
             doc["experiments"][name] = summary

@@ -208,6 +208,11 @@ def load_diagnosis(source: str | Path | Mapping[str, Any]) -> dict[str, Any]:
     return doc
 
 
+def _direction(unit: Sequence[float]) -> str:
+    """A force direction as signed components: a -x blow is (-1.00, +0.00, +0.00), not -0.00."""
+    return "(" + ", ".join(f"{round(float(v), 2) + 0.0:+.2f}" for v in unit) + ")"
+
+
 def _experiments_section(project, exps, comparison) -> str:
     from odsuite.api import assess_hits
 
@@ -220,7 +225,7 @@ def _experiments_section(project, exps, comparison) -> str:
         clipped = ", ".join(f"{c} ({n} samples)" for c, n in d["clipped_samples"].items()) or "none"
         p = 1e3 * e.point
         rows.append([e.name, f"({p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f})",
-                     "(" + ", ".join(f"{v:+.2f}" for v in e.direction) + ")", d["n_samples"],
+                     _direction(e.direction), d["n_samples"],
                      f"{d['sampling_rate']:g}", f"{np.max(np.abs(e.force)):.1f}",
                      f"{len(hits)}" + (f" (rejected: {', '.join(rejected)})" if rejected else ""), clipped,
                      _fmt(comparison.experiments[e.name]["error"])])

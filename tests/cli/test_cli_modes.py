@@ -93,6 +93,14 @@ def test_figure_name_must_have_a_known_suffix(beam_project, tmp_path, capsys):
     assert not bad.exists()
 
 
+@pytest.mark.parametrize("at", ["nan", "-inf", "inf", "0", "700,-1"])
+def test_at_frequencies_not_finite_and_positive_are_refused_in_one_line(beam_project, capsys, at):
+    """--at nan and -inf reached the fit and ended in a traceback (numpy's concatenate)."""
+    capsys.readouterr()
+    assert main(["modes", str(beam_project), "--experiment", "acceleration", "--at", at]) == 1
+    assert capsys.readouterr().err.strip() == f"error: --at {at!r}: frequencies must be finite and > 0 Hz"
+
+
 PALISADEN_SSI = np.array([1.882, 2.421, 2.689])  # published (README): SSI-cov
 PALISADEN_FSDD = np.array([1.879, 2.423, 2.674])  # and FSDD
 

@@ -137,6 +137,28 @@ def test_a_stored_failure_prints_the_note_it_was_stored_with(tmp_path, capsys, m
     assert all(abs(r["measured_hz"] / r["model_hz"] - 1) < 0.005 and r["mac"] > 0.85 for r in fresh["modal"])
 
 
+def test_a_record_whose_modes_cannot_be_stored_is_not_stored_either(tmp_path, capsys, monkeypatch):
+    """process commits a record and its modes together: a disk that fills up while the modes are
+    written leaves the project as it was (the processed record had been committed alone)."""
+    from odsuite.domain.errors import DiskFullError
+
+    p = tmp_path / "p.h5"
+    for argv in (["new", p], ["acquire", p, "--daq", "sim", "--name", "T1", "--scenario", "T1", "--seed", "1",
+                              "--samples", "2048"]):
+        assert main([str(a) for a in argv]) == 0
+    before = p.read_bytes()
+
+    def disk_full(project, name):
+        raise DiskFullError(f"{project.path}: no space left on /: needed ~2.3 MB, 2.0 MB free; project unchanged")
+
+    monkeypatch.setattr(stored_modes, "store_record_modes", disk_full)
+    capsys.readouterr()
+    assert main(["process", str(p)]) == 1
+    assert capsys.readouterr().err.strip() == f"error: {p}: no space left on /: needed ~2.3 MB, 2.0 MB free; " \
+                                              "project unchanged"
+    assert p.read_bytes() == before
+
+
 def _forge(src, dst, edit):
     shutil.copy(src, dst)
     with h5py.File(dst, "a") as f:

@@ -129,12 +129,18 @@ def test_report_numbers_are_compares(story):
     experiments = rows[0][1:-1]
     assert experiments == list(cmp["experiments"]) and rows[0][-1] == "all"
     assert [r[0] for r in rows[1:]] == [*cmp["channels"], "all"]
+    # a channel clipped at its converter's limits is left out of that experiment's comparison (compare
+    # notes it): its cell is a dash; here the stiffer z suspension clips T3's x1 and x3
+    clipped = {m.groups() for n in cmp["notes"]
+               for m in [re.search(r"experiment '(\w+)': channel \d+ \((\w+)\) is clipped at its converter", n)] if m}
+    left_out = {(e, ch) for e in experiments for ch in cmp["channels"] if ch not in cmp["experiments"][e]["channels"]}
+    assert left_out == clipped
     for row in rows[1:]:
         if row[0] == "all":
             assert row[1:] == [f"{cmp['experiments'][e]['error']:.4f}" for e in experiments] + [f"{cmp['error']:.4f}"]
         else:
-            assert row[1:] == [f"{cmp['experiments'][e]['channels'][row[0]]:.4f}" for e in experiments] + [
-                f"{cmp['channels'][row[0]]:.4f}"]
+            assert row[1:] == ["–" if (e, row[0]) in clipped else f"{cmp['experiments'][e]['channels'][row[0]]:.4f}"
+                               for e in experiments] + [f"{cmp['channels'][row[0]]:.4f}"]
     assert [r[0] for r in page.tables["experiments"][1:]] == ["T1", "T3", "T5"]
     worst = page.tables["worst"][1:]
     assert [(r[0], r[1], r[2]) for r in worst] == [(w["kind"], w["name"], f"{w['error']:.4f}") for w in cmp["worst"]]
@@ -198,6 +204,21 @@ def test_report_is_self_contained(story, tmp_path):
     reader = imageio_ffmpeg.read_frames(str(mp4))
     assert next(reader)["size"] == (640, 360) and sum(1 for _ in reader) > 30
     assert result.movie_experiment in ("T1", "T3", "T5")
+
+
+def test_model_coordinates_are_compares_to_the_bit(tmp_path):
+    """The motion render --model and the report draw is solved on compare's one BLAS thread: on
+    two threads the 4096-sample solves summed in another order (1e-10 relative from compare's)."""
+    from odsuite.analysis.comparison import COORDINATE_NAMES, compare, nrmse
+    from odsuite.analysis.prediction import experiment_coordinates
+    from odsuite.store.project import open_project
+    from tests.core.hidden_effects import make_project
+
+    path = make_project(tmp_path / "p.h5", [("stiffness", {"scale_z": 1.6})], n_samples=4096, scenarios=("T1",))
+    with open_project(path) as p:
+        want = compare(p, resonances=False, figures=False).as_dict()["coordinates"]["T1"]["platform"]
+        gm, gp = experiment_coordinates(p, "T1")["platform"]
+    assert [float(nrmse(gm[:, i], gp[:, i])) for i in range(6)] == [want[c] for c in COORDINATE_NAMES]
 
 
 @pytest.mark.slow
@@ -553,3 +574,12 @@ def test_the_driving_point_measures_along_the_blow():
     assert driving_point(exp) == 1  # the triaxial's x axis
     sideways = SimpleNamespace(sensors=[z_near, triaxial[1]], point=point, direction=direction)
     assert driving_point(sideways) == 0
+
+
+def test_a_force_direction_prints_no_negative_zero():
+    """The -x blow of T5 read (-1.00, -0.00, -0.00) in the experiments table."""
+    from odsuite_plugins.renderers.report import _direction
+
+    assert _direction(-np.array([1.0, 0.0, 0.0])) == "(-1.00, +0.00, +0.00)"
+    assert _direction([0.0, -1e-17, 1.0]) == "(+0.00, +0.00, +1.00)"
+    assert _direction([0.6, -0.8, 0.0]) == "(+0.60, -0.80, +0.00)"
