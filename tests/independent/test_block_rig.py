@@ -235,6 +235,8 @@ def test_every_line_fits_80_columns_on_the_block_rig(tmp_path, capsys, monkeypat
     out = {args[0]: _odsuite(capsys, *args) for args in (
         ["compare", project], ["diagnose", project, "--workers", "1"],
         ["add-effect", project, "spring_stiffness"], ["model", project], ["info", project])}
-    assert "not applicable to this model" in out["diagnose"] and "mass_properties+" in out["diagnose"]
+    # the softer mount alone explains these records, so no pair is fitted here; a pair's name at 80
+    # columns is tested on its own (tests/cli/test_no_traps.py)
+    assert "not applicable to this model" in out["diagnose"] and "spring_stiffness" in out["diagnose"]
     too_long = [(command, line) for command, text in out.items() for line in text.splitlines() if len(line) > 80]
     assert not too_long, too_long
