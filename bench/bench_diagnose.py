@@ -185,6 +185,17 @@ thesis fit starts at its end point and then spends 10 of its 21 evaluations on r
 trust-region trials (the forward-differenced gradient there promises more than one noise energy
 that no shorter step finds): a stop of the retries once a trial's predicted gain is below
 STALL_GAIN noise energies would take them, in every fit (calibration).
+
+Cost added after round 28: the force channel's noise term a fitted candidate's consistency check
+and printed uncertainties carry (fitting.force_noise_scores: one simulation of a kick and the
+window's shifted responses against the Jacobian as one FFT cross-correlation), measured inside
+diagnose in the same run (load 10-12, one worker): thesis 68-82 ms of 5.0-5.2 s CPU (1.4-1.6 %),
+two-body 138-153 ms of 7.4-7.7 s (1.8-2.1 %); evaluations, verdicts, the significant candidates
+and their order unchanged on both. The sum shift by shift it replaces took 41-66 ms a thesis fit
+and 101-198 ms a two-body fit where the FFT takes 15-29 and 59-85 (the same numbers to 1e-12). Not
+kept: the Jacobian's transform along contiguous samples (a transposed copy first: 32 against 28 ms
+on a two-body record). Not tried: sharing the Jacobian's transform with the sandwich
+(fitting.residual_score_covariance takes it at twice the record's length).
 """
 
 from __future__ import annotations
