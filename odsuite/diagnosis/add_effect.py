@@ -248,7 +248,7 @@ def _warnings(name: str, effect, joint: Problem, res, model, exps, after, prefix
             f"lies outside its physical range [{p.plausible[0]:.4g}, {p.plausible[1]:.4g}]: implausible"))
     if res is not None:
         cons = checks.consistency(joint, res, {e.name: float(np.max(np.abs(e.force))) for e in exps},
-                                  checks.tolerated_misfit(after.floor, joint.full, joint.weights), scores)
+                                  checks.tolerated_misfit(after.floor, joint.full, joint.weights), force_noise)
         mine = [k for k, v in cons.spread.items() if k.startswith(prefix) and v > 1]
         if mine and not cons.consistent:
             amp = [k for k in cons.amplitude_dependent if k.startswith(prefix)]
