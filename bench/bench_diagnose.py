@@ -195,6 +195,17 @@ trust-region trials (the forward-differenced gradient there promises more than o
 that no shorter step finds). Round 23's stop ends them once a trial predicts less than
 STALL_GAIN; traced in round 29 the region's trials still predict 20 down to 1.06 over 8 trials
 (the bounded steps shorten slowly), so the count stays.
+
+Cost added after round 28: the force channel's noise term a fitted candidate's consistency check
+and printed uncertainties carry (fitting.force_noise_scores: one simulation of a kick and the
+window's shifted responses against the Jacobian as one FFT cross-correlation), measured inside
+diagnose in the same run (load 10-12, one worker): thesis 68-82 ms of 5.0-5.2 s CPU (1.4-1.6 %),
+two-body 138-153 ms of 7.4-7.7 s (1.8-2.1 %); evaluations, verdicts, the significant candidates
+and their order unchanged on both. The sum shift by shift it replaces took 41-66 ms a thesis fit
+and 101-198 ms a two-body fit where the FFT takes 15-29 and 59-85 (the same numbers to 1e-12). Not
+kept: the Jacobian's transform along contiguous samples (a transposed copy first: 32 against 28 ms
+on a two-body record). Not tried: sharing the Jacobian's transform with the sandwich
+(fitting.residual_score_covariance takes it at twice the record's length).
 """
 
 from __future__ import annotations

@@ -26,6 +26,7 @@ from odsuite.diagnosis.fitting import (
     uncertainties,
     weight_notes,
     with_force_noise,
+    force_noise_scores,
 )
 from odsuite.analysis.history import data_stamp, valid_metric
 from odsuite.analysis.modelrev import apply_effects, current_revision, instance_names, revision_model
@@ -142,14 +143,16 @@ def _add_effect(project, name: str, *, progress: Callable[[str, int, int], None]
     res = fit(joint, u0) if joint.free else None
     u = res.x if res is not None else joint.zero()
     fit_sds, corr = uncertainties(joint, res, lambda: checks.residual_effective_samples(joint, res))[:2] if res is not None else (np.zeros(0), None)
+    scores = None
     if res is not None:
-        fit_sds, corr = with_force_noise(joint, res, fit_sds, corr)
+        scores = force_noise_scores(joint, res)
+        fit_sds, corr = with_force_noise(joint, res, fit_sds, corr, scores)
     new_entries = list(held) + _entries(joint, joint_effects, u, fit_sds, corr, res)
     if progress:
         progress("comparing", 2, 3)
     after = compare(project, revision={"model": rev.get("model"), "effects": new_entries}, prepared=exps,
                     resonances=False)
-    warnings = _warnings(name, effect, joint, res, current.shared, exps, after)
+    warnings = _warnings(name, effect, joint, res, current.shared, exps, after, force_noise=scores)
     return _stored(project, rev, name, new_entries, after, before, warnings, exps)
 
 
@@ -199,8 +202,10 @@ def _add_on_top(project, rev, entries, name: str, effect, screened, exps, before
     res = fit(problem, screened.u0, continuation=False) if problem.free else None
     u = res.x if res is not None else problem.zero()
     fit_sds, corr = uncertainties(problem, res, lambda: checks.residual_effective_samples(problem, res))[:2] if res is not None else (np.zeros(0), None)
+    scores = None
     if res is not None:
-        fit_sds, corr = with_force_noise(problem, res, fit_sds, corr)
+        scores = force_noise_scores(problem, res)
+        fit_sds, corr = with_force_noise(problem, res, fit_sds, corr, scores)
     sds, spread = reported_with_covariance(fit_sds, problem, res)
     shared, per = problem.values(u)
     unc = {f.label if f.experiment is None else f"{f.experiment}/{f.param.name}": float(sd)
@@ -215,15 +220,17 @@ def _add_on_top(project, rev, entries, name: str, effect, screened, exps, before
         progress("comparing", 2, 3)
     after = compare(project, revision={"model": rev.get("model"), "effects": new_entries}, prepared=exps,
                     resonances=False)
-    warnings = _warnings(name, effect, problem, res, problem.base.shared, exps, after, prefix="")
+    warnings = _warnings(name, effect, problem, res, problem.base.shared, exps, after, prefix="", force_noise=scores)
     return _stored(project, rev, name, new_entries, after, before, warnings, exps)
 
 
-def _warnings(name: str, effect, joint: Problem, res, model, exps, after, prefix: str | None = None) -> list[str]:
+def _warnings(name: str, effect, joint: Problem, res, model, exps, after, prefix: str | None = None,
+              force_noise=None) -> list[str]:
     """One line each when the added effect is implausible (a value outside its declared physical
     range), inconsistent (its parameters fitted per experiment disagree), or a proxy (the error
     stays above the noise floor's tolerance): add-effect refuses nothing, but says so. ``prefix``:
-    how the problem names the effect's parameters (a joint problem: "<effect>.")."""
+    how the problem names the effect's parameters (a joint problem: "<effect>."); ``force_noise``:
+    the fit's force_noise_scores, for the consistency check."""
     prefix = f"{name}." if prefix is None else prefix
     shared, per = joint.values(res.x) if res is not None else ({}, {})
     own = {k[len(prefix):]: v for k, v in shared.items() if k.startswith(prefix)}
@@ -241,7 +248,7 @@ def _warnings(name: str, effect, joint: Problem, res, model, exps, after, prefix
             f"lies outside its physical range [{p.plausible[0]:.4g}, {p.plausible[1]:.4g}]: implausible"))
     if res is not None:
         cons = checks.consistency(joint, res, {e.name: float(np.max(np.abs(e.force))) for e in exps},
-                                  checks.tolerated_misfit(after.floor, joint.full, joint.weights))
+                                  checks.tolerated_misfit(after.floor, joint.full, joint.weights), force_noise)
         mine = [k for k, v in cons.spread.items() if k.startswith(prefix) and v > 1]
         if mine and not cons.consistent:
             amp = [k for k in cons.amplitude_dependent if k.startswith(prefix)]

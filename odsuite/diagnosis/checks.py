@@ -101,7 +101,8 @@ class Consistency:
 AMPLITUDE_LEVELS = 4
 
 
-def consistency(problem, res, force_levels: Mapping[str, float], tolerated: float | None = None) -> Consistency:
+def consistency(problem, res, force_levels: Mapping[str, float], tolerated: float | None = None,
+                force_noise: Sequence[np.ndarray] | None = None) -> Consistency:
     """Each shared parameter fitted to each experiment alone (one Gauss-Newton step from the joint
     fit on that experiment's rows of the Jacobian; its covariance from that experiment's residual
     with its effective samples) and the spread tested: chi-square of the values about their
@@ -110,6 +111,13 @@ def consistency(problem, res, force_levels: Mapping[str, float], tolerated: floa
     within the spread noise allows) are amplitude dependent. The levels are measured with the
     force channel's noise (force_level_noise, _trend): hits at one force, whose levels differ by
     that noise alone, show no trend however their values scatter.
+
+    ``force_noise``: per experiment, the covariance the force channel's noise in its window gives
+    the gradient (fitting.force_noise_scores, the fit's search units, all its parameters). The
+    model is driven with the measured force: that noise rings through the model as a transient
+    alike the hit's response, which the fit partly takes up along the parameters, so each value
+    scatters by it beyond what its residual shows (a 300 Hz oscillator: 9e-5 against 7e-6). Each
+    value's covariance then has its part, propagated through that experiment's own fit.
 
     ``tolerated``: a misfit energy (sum of squares over every sample, weighted as the fit's
     residual: ``tolerated_misfit`` with the problem's weights) the verdict tolerates. When
@@ -132,7 +140,9 @@ def consistency(problem, res, force_levels: Mapping[str, float], tolerated: floa
     gain = 0.0  # what fitting per experiment lowers the (strided) sum of squares by
     for i, e in enumerate(exps):
         rows = slice(starts[i], starts[i + 1])
-        fitted, part, _, _ = _local_fit(problem, res.x, J[rows][:, shared], r[rows], shared, e.measured.shape[1])
+        scores = None if force_noise is None else force_noise[i][np.ix_(shared, shared)]
+        fitted, part, _, _ = _local_fit(problem, res.x, J[rows][:, shared], r[rows], shared, e.measured.shape[1],
+                                        scores=scores)
         gain += part
         for label, v, sd in fitted:
             values.setdefault(label, []).append((e.name, v, sd))
@@ -216,7 +226,8 @@ def _trend(x: np.ndarray, x_sd: np.ndarray, v: np.ndarray, sd: np.ndarray) -> tu
 
 
 def _local_fit(problem, x, Ji: np.ndarray, ri: np.ndarray, shared: Sequence[int], columns: int,
-               bounded: bool = False) -> tuple[list[tuple[str, float, float]], float, np.ndarray, np.ndarray]:
+               bounded: bool = False, scores: np.ndarray | None = None
+               ) -> tuple[list[tuple[str, float, float]], float, np.ndarray, np.ndarray]:
     """The shared parameters fitted to some rows of a joint fit alone: one Gauss-Newton step from
     it on those rows of the Jacobian, the covariance from their residual with its effective
     samples (``columns`` channels a row block). Returns (label, value, sd) of the parameters those
@@ -228,7 +239,11 @@ def _local_fit(problem, x, Ji: np.ndarray, ri: np.ndarray, shared: Sequence[int]
     over almost no information, and the model's clipping at the bounds then turns it into an
     error of the combinations they do determine (two high-pass corners in cascade, their sum
     determined, their difference not: fitted to a record's early part 0 and 4.5 Hz for a sum of
-    0.33 Hz); within the bounds the undetermined combination moves along them, at no cost."""
+    0.33 Hz); within the bounds the undetermined combination moves along them, at no cost.
+
+    ``scores``: the covariance of these rows' gradient ``Ji^T ri`` beyond what their residual
+    shows (the force channel's noise: fitting.force_noise_scores), added through the step's
+    ``H^+``."""
     H = Ji.T @ Ji
     if not np.any(H):
         return [], 0.0, np.zeros(len(shared)), np.zeros((len(shared), len(shared)))
@@ -242,6 +257,8 @@ def _local_fit(problem, x, Ji: np.ndarray, ri: np.ndarray, shared: Sequence[int]
     neff = effective_samples(ri.reshape(-1, columns))
     s2 = float(ri @ ri) / max(1, n_i - len(shared)) * (n_i / neff)
     cov = s2 * Hinv
+    if scores is not None:
+        cov = cov + Hinv @ scores @ Hinv
     out = []
     for j, idx in enumerate(shared):
         f = problem.free[idx]

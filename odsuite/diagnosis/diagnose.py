@@ -40,12 +40,14 @@ from odsuite.diagnosis.fitting import (
     effective_samples,
     fit,
     fit_windows,
+    force_noise_scores,
     records_band,
     refined,
     screen,
     uncertainties,
     validate,
     weight_notes,
+    with_force_noise,
 )
 from odsuite.analysis.modelrev import current_revision, revision_model
 from odsuite.analysis.prediction import PreparedExperiment, predict, prepare
@@ -296,14 +298,17 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
                                if abs(corr[i, j]) > CONFOUNDED_CORRELATION
                                and not any(problem.free[i].label in g and problem.free[j].label in g
                                            for g in groups)]
-        # reported as add-effect stores them (not more certain than the records agree), less the
-        # force channel's noise term add-effect adds (fitting.with_force_noise: a simulation a fit)
+        # the force channel's noise per experiment (a simulation a fit): the consistency check's
+        # values scatter by it, and the reported uncertainties have it as add-effect stores them
+        # (not more certain than the records agree either)
+        scores = force_noise_scores(problem, res)
+        sds, corr = with_force_noise(problem, res, sds, corr, scores)
         shown_sds, spread = reported_with_covariance(sds, problem, res)
     else:
         u = problem.zero()
         sse = screened.sse
         sds, unident, confounded, corr = np.zeros(0), [], [], None
-        shown_sds, spread = sds, None
+        shown_sds, spread, scores = sds, None, None
     sse_win = sse
     tail = problem.tail_sse(u)
     at_fit = problem.predictions(u, problem.full)  # kept by tail_sse where the records are cut
@@ -347,7 +352,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         cand.early_late_agree, cand.early_late_note = None, "not tested: its fit stopped early"
     elif problem.free:
         tolerated = None if floor is None else checks.tolerated_misfit(floor, problem.full, problem.weights)
-        cons = checks.consistency(problem, res, force_levels or {}, tolerated)
+        cons = checks.consistency(problem, res, force_levels or {}, tolerated, scores)
         cand.consistent, cand.amplitude_dependent = cons.consistent, cons.amplitude_dependent
         cand.per_experiment_fits = cons.per_experiment
         # no pooled tolerance here: the resolved residual decides, and a contact's misfit sits in one band

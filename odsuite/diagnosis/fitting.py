@@ -1646,7 +1646,7 @@ def uncertainties(problem: Problem, res, n_eff: float | Callable[[], float]
     return sd_u * scales, np.nan_to_num(corr), groups
 
 
-def force_noise_covariance(problem: Problem, res) -> np.ndarray:
+def force_noise_covariance(problem: Problem, res, scores: Sequence[np.ndarray] | None = None) -> np.ndarray:
     """The covariance (search units) the force channel's noise adds to the fit at ``res`` beyond
     what ``uncertainties`` reads from the residual (errors in the variables). The model is driven
     with the measured force f + n; n is zero outside the force window (the samples where the
@@ -1655,21 +1655,83 @@ def force_noise_covariance(problem: Problem, res) -> np.ndarray:
     a transient as the hit's own response, not noise stationary over the record as the sandwich
     reads the residual (a coherent sum over frequencies averaged as if incoherent: the thesis rig's
     stiffnesses up to 5 sd off with force noise alone). Here its part of the gradient is summed
-    directly: ``A^+ (sum over window samples s of var_s c_s c_s^T) A^+``, c_s = J^T g_s, g_s the
-    response to a unit kick at s, read as the change of the residual when the force is kicked at
-    its trigger sample and shifted to s (the model is time-invariant from rest; a nonlinear
-    structure's noise response is linearised about the hit's by a kick of the noise's size). The
-    sandwich's own reading of that response stays: the sum is conservative by it. The mean of
-    (G' n)^T (G n), the bias the noise also gives, is second order in it and left out.
-    Effects that project parameters (a mode's participations) get none: their projection would
-    refit on the kicked force."""
+    directly: ``A^+ (sum over experiments of force_noise_scores) A^+``. The sandwich's own reading
+    of that response stays: the sum is conservative by it. The mean of (G' n)^T (G n), the bias
+    the noise also gives, is second order in it and left out. ``scores``: force_noise_scores',
+    where at hand."""
     p = len(problem.free)
-    if problem.linear or not p or not any(e.force_noise_energy > 0 for e in problem.exps):
+    scores = force_noise_scores(problem, res) if scores is None else scores
+    if not p or not any(np.any(b) for b in scores):
         return np.zeros((p, p))
     J = res.jac[: res.jac.shape[0] - p] if problem.prior else res.jac
+    A_plus = np.linalg.pinv(J.T @ J, rcond=1e-8, hermitian=True)  # uncertainties' undetermined directions
+    return A_plus @ sum(scores) @ A_plus
+
+
+def force_noise_scores(problem: Problem, res, responses: Sequence[np.ndarray] | None = None) -> list[np.ndarray]:
+    """Per experiment, the covariance (search units) of the gradient's part ``J_i^T G n_i`` that
+    the force channel's noise n_i in its window gives (force_noise_covariance; checks.consistency
+    propagates each experiment's alone to its own fit): ``sum over window samples s of var_s c_s
+    c_s^T``, c_s = J_i^T g_s, g_s the residual's response to a unit force sample at s, each
+    sample's variance ``force_noise_energy`` over the window's samples. g_s is the response to a
+    kick at the trigger sample shifted to s (the model is time-invariant from rest), all c_s one
+    product of the Jacobian's rows with the shifted responses. ``responses``: per experiment that
+    response (every sample x channel, weighted as the residual, per N); by default read as the
+    change of the residual when the force is kicked at its trigger (a nonlinear structure's noise
+    response linearised about the hit's by a kick of the noise's size). Effects that project
+    parameters (a mode's participations) get none: their projection would refit on the kicked
+    force."""
+    p = len(problem.free)
+    none = [np.zeros((p, p)) for _ in problem.exps]
+    J = res.jac[: res.jac.shape[0] - p] if problem.prior else res.jac
     blocks = _experiment_blocks(problem, J.shape[0])
-    if blocks is None:
-        return np.zeros((p, p))
+    if not p or blocks is None or not any(e.force_noise_energy > 0 for e in problem.exps):
+        return none
+    if responses is None:
+        if problem.linear:
+            return none
+        responses = _kick_responses(problem, res)
+    out = []
+    for e, (start, m, c), g in zip(problem.exps, blocks, responses):
+        window = np.flatnonzero(e.force)
+        if e.force_noise_energy <= 0 or not window.size or not 0 <= e.trigger < e.n_samples:
+            out.append(np.zeros((p, p)))
+            continue
+        C = _shifted_products(J[start:start + m * c].reshape(m, c, p), np.asarray(g, float).reshape(e.n_samples, c),
+                              window - e.trigger, problem.stride)
+        out.append(C.T @ C * (e.force_noise_energy / window.size))
+    return out
+
+
+def _shifted_products(Jb: np.ndarray, g: np.ndarray, shifts: np.ndarray, stride: int) -> np.ndarray:
+    """Rows ``sum over samples j and channels of Jb[j] g[stride j - s]`` for each shift s (g zero
+    outside its samples): the Jacobian's rows (strided samples x channels x parameters) against a
+    response delayed by s, all shifts at once as a cross-correlation by FFT. The Jacobian at every
+    stride-th sample is the whole-rate sequence with zeros between, whose transform of length
+    stride x L is its own of length L repeated; L long enough that no shift wraps."""
+    m, c, p = Jb.shape
+    n = g.shape[0]
+    L = scipy.fft.next_fast_len(-(-(max(n, stride * m) + int(np.max(np.abs(shifts)))) // stride) + 1, real=True)
+    N = stride * L
+    Jf = scipy.fft.rfft(Jb, L, axis=0)  # L // 2 + 1 x channels x parameters
+    if stride > 1:
+        f = np.arange(N // 2 + 1) % L
+        mirrored = f > L // 2
+        # the whole-rate transform's frequency f is the strided one's f mod L, those past L / 2 the
+        # conjugates of their mirror images (a real sequence's)
+        Jf = Jf[np.where(mirrored, L - f, f)]
+        Jf[mirrored] = Jf[mirrored].conj()
+    Gf = scipy.fft.rfft(g, N, axis=0)  # N // 2 + 1 x channels
+    # correlation: sum_t a[t] b[t - s] is the inverse transform of conj(A) B at lag -s (summed over
+    # the channels as one product per frequency)
+    X = np.matmul(Gf.conj()[:, None, :], Jf)[:, 0, :].conj()
+    corr = scipy.fft.irfft(X, N, axis=0)
+    return corr[(-np.asarray(shifts)) % N]
+
+
+def _kick_responses(problem: Problem, res) -> list[np.ndarray]:
+    """Per experiment, the residual's response (every sample x channel, weighted, per N) to a kick of
+    the force of the noise's size (its energy's root) at the trigger sample."""
     kicked_exps, size = [], []
     for e in problem.exps:
         kick = np.zeros_like(e.force)
@@ -1681,35 +1743,22 @@ def force_noise_covariance(problem: Problem, res) -> np.ndarray:
     kicked = Problem(problem.base, problem.effect, kicked_exps, problem.fixed, problem.prior, problem.stride,
                      problem.full, problem.noise_scale, problem.weights)
     response = problem.residual(res.x, stride=1) - kicked.residual(res.x, stride=1)  # every sample
-    B = np.zeros((p, p))
-    first = 0
-    for e, (start, m, c), a in zip(problem.exps, blocks, size):
-        g = response[first:first + e.n_samples * c].reshape(e.n_samples, c)
-        first += e.n_samples * c
-        window = np.flatnonzero(e.force)
-        if a <= 0 or not window.size or not 0 <= e.trigger < e.n_samples:
-            continue
-        Jb = J[start:start + m * c]
-        shifted = np.zeros_like(g)  # one shift at a time: a window holds a hundred samples and more
-        for s in window - e.trigger:
-            shifted[:] = 0.0
-            if s >= 0:
-                shifted[s:] = g[:e.n_samples - s]
-            else:
-                shifted[:s] = g[-s:]
-            cs = shifted[::problem.stride].ravel() @ Jb
-            # each sample's variance: the energy (a^2 in g) over the window's samples
-            B += np.outer(cs, cs) / window.size
-    A_plus = np.linalg.pinv(J.T @ J, rcond=1e-8, hermitian=True)  # uncertainties' undetermined directions
-    return A_plus @ B @ A_plus
+    out, first = [], 0
+    for e, a in zip(problem.exps, size):
+        n = e.n_samples * e.measured.shape[1]
+        out.append(response[first:first + n].reshape(e.n_samples, -1) / a if a > 0 else np.zeros((e.n_samples, 1)))
+        first += n
+    return out
 
 
-def with_force_noise(problem: Problem, res, sds: np.ndarray, corr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def with_force_noise(problem: Problem, res, sds: np.ndarray, corr: np.ndarray,
+                     scores: Sequence[np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``uncertainties``' standard deviations (value units) and correlations with the force
-    channel's noise added (force_noise_covariance); a variance the addition would make negative
-    (the sandwich's reading of that noise above the rank one's) stays as it was."""
+    channel's noise added (force_noise_covariance; ``scores``: force_noise_scores', where at hand);
+    a variance the addition would make negative (the sandwich's reading of that noise above the
+    rank one's) stays as it was."""
     scales = np.array([f.scale for f in problem.free])
-    cov = corr * np.outer(sds, sds) + force_noise_covariance(problem, res) * np.outer(scales, scales)
+    cov = corr * np.outer(sds, sds) + force_noise_covariance(problem, res, scores) * np.outer(scales, scales)
     var = np.diag(cov)
     sd = np.where(var > 0, np.sqrt(np.clip(var, 0, None)), sds)
     with np.errstate(invalid="ignore", divide="ignore"):
