@@ -1729,6 +1729,12 @@ def _shifted_products(Jb: np.ndarray, g: np.ndarray, shifts: np.ndarray, stride:
     return corr[(-np.asarray(shifts)) % N]
 
 
+def _count_on(problem: Problem, helper: Problem) -> None:
+    """``helper``'s evaluations (a problem built for one computation of ``problem``'s) counted as
+    ``problem``'s: diagnose reports the evaluations its candidates' problems count."""
+    problem.evaluations += helper.evaluations
+
+
 def _kick_responses(problem: Problem, res) -> list[np.ndarray]:
     """Per experiment, the residual's response (every sample x channel, weighted, per N) to a kick of
     the force of the noise's size (its energy's root) at the trigger sample."""
@@ -1743,6 +1749,7 @@ def _kick_responses(problem: Problem, res) -> list[np.ndarray]:
     kicked = Problem(problem.base, problem.effect, kicked_exps, problem.fixed, problem.prior, problem.stride,
                      problem.full, problem.noise_scale, problem.weights)
     response = problem.residual(res.x, stride=1) - kicked.residual(res.x, stride=1)  # every sample
+    _count_on(problem, kicked)
     out, first = [], 0
     for e, a in zip(problem.exps, size):
         n = e.n_samples * e.measured.shape[1]

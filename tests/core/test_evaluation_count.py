@@ -49,6 +49,16 @@ def test_diagnose_reports_every_evaluation_of_a_discrete_choices_trials(tmp_path
             tally.copying = False
 
     monkeypatch.setattr(dg, "_kept_back", copied)
+    count_on = fitting._count_on
+
+    def counted_on(problem, helper):  # a helper problem's evaluations, tallied where they were made
+        tally.copying = True
+        try:
+            return count_on(problem, helper)
+        finally:
+            tally.copying = False
+
+    monkeypatch.setattr(fitting, "_count_on", counted_on)
     with open_project(path) as p:
         d = dg.diagnose(p, effects=["channel_swap"], workers=1)
         pairs = len(p.registries.effects.get("channel_swap").parameters(dg.revision_model(p).shared)[0].choices) - 1
