@@ -744,11 +744,6 @@ OUTLIERS = 0.01
 #: signal through the codes (the offset is then immaterial) and would pass for noise. White noise
 #: of a third of a code over 200 samples tilts a fitted line by 0.1 code (one standard deviation)
 DRIFT_CODES = 0.25
-#: at any offset the rounding keeps a perfect model's residual codes within one code of each other
-#: (samples sitting on a code against samples moving through the codes): a line through them rises
-#: by at most 1.5 codes over evenly spread samples (a one-code step halfway); one rising by more
-#: (and by DRIFT_CODES, the noise's tilt) is a drift the fitted disturbance misses
-ROUNDING_RISE_CODES = 1.5
 #: samples the offset's likelihood is evaluated on (evenly spread): beyond a few thousand the
 #: posterior is a point already, and the floor is computed on every comparison
 OFFSET_SAMPLES = 2048
@@ -776,8 +771,7 @@ def converter_offsets(v: np.ndarray, volts: np.ndarray, step: float, trigger: in
     never leaves its code puts it near the code's middle, one that flips codes near a threshold.
     The rounding error of a signal that spans few codes depends on that offset (zero for a signal
     within half a code of a code's middle). None: the record does not lie on the step's grid, or
-    drifts through the codes before the hit or over the samples that tell the offset (offsets are
-    then uniform over a code).
+    drifts through the codes before the hit (offsets are then uniform over a code).
 
     The model's own error blurs each sample by its share of the signal, that share measured where
     the signal spans many codes (there rounding hardly matters). ``disturbance`` (volts): the hum
@@ -813,14 +807,6 @@ def converter_offsets(v: np.ndarray, volts: np.ndarray, step: float, trigger: in
     share2 = float(np.sum((codes[big] - x[big]) ** 2) / np.sum(signal[big] ** 2)) if big.any() else 0.0
     small = np.flatnonzero(np.abs(signal) <= OFFSET_CODES)
     small = small[:: max(1, small.size // OFFSET_SAMPLES)]
-    # the same over the samples that tell the offset: a drift fitted on a few quiet samples and
-    # carried over the record (sharing its ramp with a hum's sinusoid over under a period) can miss
-    # it by codes there, and the likelihood would pick the offsets whose noise is widest (a 16-bit
-    # drift record: 0.45-0.95 code for 0.33, the floor's broadband part 2.4x the noise's energy)
-    if small.size >= 2:
-        line = np.polyval(np.polyfit(small, codes[small] - x[small], 1), small[[0, -1]])
-        if abs(line[1] - line[0]) >= ROUNDING_RISE_CODES + DRIFT_CODES:
-            return None
     loglik = np.array([_code_loglik(codes[small], x[small], np.sqrt(s**2 + share2 * signal[small] ** 2), grid[[k]])[0]
                        for k, s in enumerate(noise)])
     w = np.exp(loglik - loglik.max())
