@@ -39,26 +39,18 @@ def test_diagnose_reports_every_evaluation_of_a_discrete_choices_trials(tmp_path
                         scenarios=("T1", "T5", "T6"))
     tally = _Tally()
     monkeypatch.setattr(fitting.Problem, "evaluations", tally, raising=False)
-    kept_back = dg._kept_back
 
-    def copied(problem, kept):
-        tally.copying = True
-        try:
-            return kept_back(problem, kept)
-        finally:
-            tally.copying = False
+    def copying(move):  # counts moved from one problem to another, tallied where they were made
+        def moved(*args):
+            tally.copying = True
+            try:
+                return move(*args)
+            finally:
+                tally.copying = False
+        return moved
 
-    monkeypatch.setattr(dg, "_kept_back", copied)
-    count_on = fitting._count_on
-
-    def counted_on(problem, helper):  # a helper problem's evaluations, tallied where they were made
-        tally.copying = True
-        try:
-            return count_on(problem, helper)
-        finally:
-            tally.copying = False
-
-    monkeypatch.setattr(fitting, "_count_on", counted_on)
+    monkeypatch.setattr(dg, "_kept_back", copying(dg._kept_back))
+    monkeypatch.setattr(fitting, "_count_on", copying(fitting._count_on))
     with open_project(path) as p:
         d = dg.diagnose(p, effects=["channel_swap"], workers=1)
         pairs = len(p.registries.effects.get("channel_swap").parameters(dg.revision_model(p).shared)[0].choices) - 1
