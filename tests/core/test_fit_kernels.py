@@ -111,13 +111,15 @@ def test_score_covariance_is_the_complex_sum_of_outer_products():
     """Var(J^T r) as sum over frequencies f and window offsets k of Re(a a^H), a = J(f)^T
     conj(R(f + k)), each frequency but zero and Nyquist twice, written out with complex outer
     products: the real product of the interleaved real and imaginary parts equals it."""
+    from test_uncertainties import score_transform_length
+
     from odsuite.diagnosis.fitting import SPECTRAL_SMOOTHING_BINS, residual_score_covariance
 
     rng = np.random.default_rng(11)
     m, c, p = 400, 3, 5
     J = rng.standard_normal((m * c, p))
     r = np.convolve(rng.standard_normal(m * c), np.ones(5), "same")
-    nfft = 1 << int(np.ceil(np.log2(2 * m)))
+    nfft = score_transform_length(m)  # 800
     R = np.fft.rfft(r.reshape(m, c), nfft, axis=0)
     G = np.fft.rfft(J.reshape(m, c, p), nfft, axis=0)
     n_f = len(R)

@@ -126,10 +126,24 @@ def test_the_effective_samples_are_asked_for_only_where_the_rows_are_laid_out_ot
     assert sandwich[0] > 0
 
 
+def score_transform_length(m: int) -> int:
+    """The least even number of at least 2 m (no lag of m samples wraps) with no prime factor
+    above 5, by trial: the score covariance's transform length for records of m samples."""
+    def smooth(n: int) -> bool:
+        for q in (2, 3, 5):
+            while n % q == 0:
+                n //= q
+        return n == 1
+
+    return next(n for n in range(2 * m, 4 * m + 4, 2) if smooth(n))
+
+
 def test_score_covariance_equals_the_smoothed_cross_spectral_matrices_formed_explicitly():
     """The rank-one form (no cross-spectral matrix formed) against S(f) built and smoothed as
     written: per frequency J(f)^H S(f) J(f), S the periodogram R R^H / m smoothed by
-    scipy.ndimage over the window, edges reflected; two records of 3 channels, coloured noise."""
+    scipy.ndimage over the window, edges reflected, at the transform length
+    score_transform_length (517 samples: 1080, where the power of two above 2 m is 2048); two
+    records of 3 channels, coloured noise."""
     import scipy.ndimage
 
     from odsuite.diagnosis.fitting import SPECTRAL_SMOOTHING_BINS, residual_score_covariance
@@ -144,7 +158,7 @@ def test_score_covariance_equals_the_smoothed_cross_spectral_matrices_formed_exp
     expected = np.zeros((p, p))
     for first, m, c in blocks:
         rows = slice(first, first + m * c)
-        nfft = 1 << int(np.ceil(np.log2(2 * m)))
+        nfft = score_transform_length(m)
         R = np.fft.rfft(r[rows].reshape(m, c), nfft, axis=0)
         G = np.fft.rfft(J[rows].reshape(m, c, p), nfft, axis=0)
         P = R[:, :, None] * R[:, None, :].conj() / m
