@@ -497,13 +497,7 @@ class Problem:
         where it is cheaper than the difference: structure-changing columns linearised over
         DIFF_STEP natural steps (Problem._linearised), steps that add cubic springs to a linear
         structure to first order in them (Problem._cubic_tangent)."""
-        steps = np.zeros(len(self.free))
-        for i, f in enumerate(self.free):
-            lo, hi = f.bounds
-            h = step if u[i] + step <= hi else -step
-            if not lo <= u[i] + h <= hi:
-                h = 0.5 * (hi - u[i]) if hi - u[i] > u[i] - lo else -0.5 * (u[i] - lo)
-            steps[i] = h
+        steps = self._steps(u, step)
         batches, rows_of = self._sensor_batches(exps or self.exps)
         by_experiment = False  # a batched column's rows: its sensor's, or its experiment's
         added = self._added_mode(u, exps or self.exps) if tangent and rows_of is None else None
@@ -558,6 +552,55 @@ class Problem:
                 for rows in rows_of[f.param.sensor]:
                     J[rows, i] = -diff[rows] / steps[i]
         return np.ascontiguousarray(J)
+
+    def _steps(self, u: np.ndarray, step: float) -> np.ndarray:
+        """Each free parameter's difference step at ``u`` (``step`` natural steps, backwards at an
+        upper bound, half the room left where neither fits)."""
+        steps = np.zeros(len(self.free))
+        for i, f in enumerate(self.free):
+            lo, hi = f.bounds
+            h = step if u[i] + step <= hi else -step
+            if not lo <= u[i] + h <= hi:
+                h = 0.5 * (hi - u[i]) if hi - u[i] > u[i] - lo else -0.5 * (u[i] - lo)
+            steps[i] = h
+        return steps
+
+    def tangent(self, u: np.ndarray, r0: np.ndarray, exps: Sequence[PreparedExperiment] | None = None
+                ) -> Normal:
+        """Screening's Jacobian at ``u`` (``jacobian(u, r0, exps, tangent=True)``) as the normal
+        equations its damped steps read. Where every column is a sensor's parameter differenced
+        with other sensors' (_sensor_batches), the Jacobian is not formed: each column is zero but
+        on its sensor's rows, so J^T J is one small product per sensor and zero between sensors (a
+        two-body sensor_position Jacobian on the fit windows: 54 columns of 221436 rows, 96 MB
+        written and multiplied for 1.8 MB of values). The same sums of products as J^T J's over
+        the whole columns, in another order."""
+        exps = list(exps or self.exps)
+        batches, rows_of = self._sensor_batches(exps)
+        steps = self._steps(u, 1.0)
+        moved = [b for b in ([i for i in b if steps[i]] for b in batches) if b]
+        if rows_of is None or any(len(b) < 2 for b in moved):  # a whole column: the Jacobian itself
+            return Normal.of(self.jacobian(u, r0, exps, tangent=True), r0)
+        slices = self._sensor_slices(exps)
+
+        def rows(x: np.ndarray, sensor: str) -> np.ndarray:
+            return np.concatenate([x[s] for s in slices[sensor]])
+
+        columns: dict[int, np.ndarray] = {}
+        for batch in moved:
+            du = np.zeros_like(u)
+            du[batch] = steps[batch]
+            diff = self.residual(u + du, exps, keep=False) - r0  # a difference's point is not asked again
+            for i in batch:
+                columns[i] = -rows(diff, self.free[i].param.sensor) / steps[i]
+        G, g = np.zeros((len(u), len(u))), np.zeros(len(u))
+        by_sensor: dict[str, list[int]] = {}
+        for i in columns:
+            by_sensor.setdefault(self.free[i].param.sensor, []).append(i)
+        for sensor, ii in by_sensor.items():
+            V = np.stack([columns[i] for i in ii])
+            G[np.ix_(ii, ii)] = V @ V.T
+            g[ii] = V @ rows(r0, sensor)
+        return Normal(G, g)
 
     def _linearised(self, u: np.ndarray, steps: np.ndarray, r0: np.ndarray, exps: Sequence[PreparedExperiment]
                     ) -> np.ndarray | None:
@@ -768,16 +811,46 @@ class Problem:
 LM_DAMPING = (1e-3, 1e-1, 1.0, 10.0)
 
 
-def _lm_step(problem: Problem, J: np.ndarray, r: np.ndarray, u: np.ndarray, exps) -> np.ndarray:
-    """The first damped Gauss-Newton step (r = measured - model, J = d model / d u) that lowers
-    the error on ``exps``, clipped to the bounds; ``u`` when none does."""
+class Normal:
+    """A Jacobian's normal equations at a residual r: J^T J and J^T r (``G``, ``g``), and J
+    where it was formed (then its products are taken where first asked for)."""
+
+    def __init__(self, G: np.ndarray | None, g: np.ndarray | None, J: np.ndarray | None = None,
+                 r: np.ndarray | None = None) -> None:
+        self._G, self._g, self.J, self._r = G, g, J, r
+
+    @classmethod
+    def of(cls, J: np.ndarray, r: np.ndarray) -> Normal:
+        return cls(None, None, J, r)
+
+    @property
+    def G(self) -> np.ndarray:
+        if self._G is None:
+            self._G = self.J.T @ self.J
+        return self._G
+
+    @property
+    def g(self) -> np.ndarray:
+        if self._g is None:
+            self._g = self.J.T @ self._r
+        return self._g
+
+    def tiny(self, r: np.ndarray) -> np.ndarray:
+        """_tiny of the Jacobian's columns (from J where formed, else from J^T J)."""
+        return _tiny(self.J, r, None if self.J is not None else self.G)
+
+
+def _lm_step(problem: Problem, J: np.ndarray | Normal, r: np.ndarray, u: np.ndarray, exps) -> np.ndarray:
+    """The first damped Gauss-Newton step (r = measured - model, J = d model / d u, or its normal
+    equations at r) that lowers the error on ``exps``, clipped to the bounds; ``u`` when none does."""
     lo, hi = problem.lower_upper()
     # parameters the residual cannot see here stay put (a mode's frequency while its amplitudes are
     # zero): the linearisation says nothing about them
     # one Gram matrix and gradient for all three (a sensor's candidate on the whole windows: 54
     # columns of 212,000 rows, whose copy by columns alone took four times the product's time)
-    G, Jr = J.T @ J, J.T @ r
-    act = ~_tiny(J, r, G) & ~_repeated(J, G)
+    normal = J if isinstance(J, Normal) else Normal.of(J, r)
+    G, Jr = normal.G, normal.g
+    act = ~_tiny(normal.J, r, G) & ~_repeated(normal.J, G)
     if not act.any():
         return u
     ua = u[act]
@@ -816,7 +889,7 @@ class Screened:
     tried: int = 0
 
 
-def _tiny(J: np.ndarray, r: np.ndarray, G: np.ndarray | None = None) -> np.ndarray:
+def _tiny(J: np.ndarray | None, r: np.ndarray, G: np.ndarray | None = None) -> np.ndarray:
     """Columns of a Jacobian that are zero (but for round-off) next to the others and the residual
     (``G``: J's Gram matrix, where it is at hand)."""
     norms = np.linalg.norm(J, axis=0) if G is None else np.sqrt(np.maximum(np.diag(G), 0.0))
@@ -828,7 +901,7 @@ def _tiny(J: np.ndarray, r: np.ndarray, G: np.ndarray | None = None) -> np.ndarr
 SAME_COLUMN = 1e-6
 
 
-def _repeated(J: np.ndarray, G: np.ndarray | None = None) -> np.ndarray:
+def _repeated(J: np.ndarray | None, G: np.ndarray | None = None) -> np.ndarray:
     """Columns equal to an earlier one: exchangeable parameters at this point (two high-pass
     corners of one filter, both at 0). A step splits evenly between them, and from an even split
     every later step does too: the fit never leaves the symmetric line (two corners at 8.7 Hz where
@@ -837,17 +910,17 @@ def _repeated(J: np.ndarray, G: np.ndarray | None = None) -> np.ndarray:
     sq = np.diag(G)
     # |J_i - J_j|^2 from the Gram matrix: one product for every pair
     same = (sq[:, None] + sq[None, :] - 2 * G <= SAME_COLUMN**2 * sq[:, None]) & (sq[:, None] > 0)
-    out = np.zeros(J.shape[1], bool)
-    for j in range(1, J.shape[1]):
+    out = np.zeros(G.shape[0], bool)
+    for j in range(1, len(out)):
         out[j] = bool(np.any(same[:j, j] & ~out[:j]))
     return out
 
 
-def _grid_starts(problem: Problem, r0: np.ndarray, J: np.ndarray, peaks_hz: Sequence[float]) -> list[np.ndarray]:
+def _grid_starts(problem: Problem, r0: np.ndarray, J: Normal, peaks_hz: Sequence[float]) -> list[np.ndarray]:
     """Starting points for parameters the residual cannot see at their nominal value: frequencies
     (unit Hz) and periods (unit s) from the residual's peaks and a logarithmic grid."""
     starts = []
-    tiny = _tiny(J, r0)
+    tiny = J.tiny(r0)
     for i, f in enumerate(problem.free):
         if not tiny[i] or f.param.unit not in ("Hz", "s") or f.experiment is not None or f.param.starts:
             continue
@@ -1061,13 +1134,13 @@ def _sweep_stage(problem: Problem, stages: list[list[PreparedExperiment]]) -> li
     return stages[-1]
 
 
-def _activation(problem: Problem, start: np.ndarray, r: np.ndarray, J: np.ndarray, exps
+def _activation(problem: Problem, start: np.ndarray, r: np.ndarray, J: Normal, exps
                 ) -> tuple[int, float] | None:
     """Products of amplitudes (a mode's participation at a sensor times at the force point) are
     invisible at zero, one at a time. Among the amplitudes (nominal 0) that are still invisible at
     ``start``, the one whose Jacobian column is largest when all of them are moved at once couples
     to the most others: moved alone, it makes the rest linear. Returns its index and value."""
-    tiny = _tiny(J, r)
+    tiny = J.tiny(r)
     amp = [i for i, f in enumerate(problem.free)
            if tiny[i] and f.param.nominal == 0 and f.param.unit not in ("Hz", "s") and f.experiment is None]
     if len(amp) < 2:
@@ -1134,7 +1207,7 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
         first = stages[0]
         u0 = problem.zero()
         r0 = problem.residual(u0, first)
-        J0 = problem.jacobian(u0, r0, exps=first, tangent=True)
+        J0 = problem.tangent(u0, r0, first)
         # the best start on the shortest head, then one damped step on each longer head
         best_start, best_head = u0, float(r0 @ r0)
         activation: tuple[int, float] | None = None
@@ -1144,14 +1217,14 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
             grid = _ranked_grid(problem, grid, problem.residual(u0, stages[-1]), stages[-1])
         for start in [u0] + ([swept] if swept is not u0 else []) + grid:
             r = r0 if start is u0 else problem.residual(start, first)
-            J = J0 if start is u0 else problem.jacobian(start, r, exps=first, tangent=True)
+            J = J0 if start is u0 else problem.tangent(start, r, first)
             if start is not u0:
                 activation = activation or _activation(problem, start, r, J, first)
-                if activation is not None and _tiny(J, r)[activation[0]]:
+                if activation is not None and J.tiny(r)[activation[0]]:
                     start = start.copy()
                     start[activation[0]] = activation[1]
                     r = problem.residual(start, first)
-                    J = problem.jacobian(start, r, exps=first, tangent=True)
+                    J = problem.tangent(start, r, first)
             u = _lm_step(problem, J, r, start, first)
             sse = float(np.sum(problem.residual(u, first) ** 2))
             if sse < best_head:
@@ -1159,7 +1232,7 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
         u = best_start
         for exps in stages[1:]:
             r = problem.residual(u, exps)
-            u = _lm_step(problem, problem.jacobian(u, r, exps=exps, tangent=True), r, u, exps)
+            u = _lm_step(problem, problem.tangent(u, r, exps), r, u, exps)
         sse = problem.sse(u)
         if swept is not u0:  # damped steps judged on short heads may lead a good start astray
             sse_swept = problem.sse(swept)

@@ -211,3 +211,31 @@ def test_resonance_sweep_ranks_its_grid_and_finds_the_whole_grids_best(tmp_path)
             assert sse == min(every)
             if name == "plate_flexibility_free":
                 assert abs(f.to_value(u[i]) / CASES[name]["frequency_hz"] - 1) < 0.05
+
+
+def test_sensor_tangent_normal_equations_are_the_jacobians(tmp_path):
+    """Screening's normal equations of a candidate whose every column is one sensor's parameter
+    (sensor_position: three coordinates per sensor, differenced with the other sensors') are taken
+    without the Jacobian: J^T J and J^T r equal those of the formed Jacobian (its zeros off each
+    sensor's rows included) to rounding, for the same evaluations, and so does the damped step."""
+    import odsuite.diagnosis.fitting as fitting
+
+    with stiffened_problem(tmp_path, "sensor_position") as problem:
+        head = fitting.heads(problem.exps)[-1]
+        u0 = problem.zero()
+        r0 = problem.residual(u0, head)
+        before = problem.evaluations
+        normal = problem.tangent(u0, r0, head)
+        spent = problem.evaluations - before
+        assert normal.J is None  # not formed
+        J = problem.jacobian(u0, r0, head, tangent=True)
+        assert problem.evaluations - before == 2 * spent < len(u0)  # batched: fewer than a column each
+        G, g = J.T @ J, J.T @ r0
+        assert np.abs(normal.G - G).max() <= 1e-12 * np.abs(G).max()
+        assert np.abs(normal.g - g).max() <= 1e-12 * np.abs(g).max()
+        assert np.array_equal(normal.G == 0, G == 0)  # zero between sensors, as the whole columns' products
+        assert np.array_equal(normal.tiny(r0), fitting._tiny(J, r0))
+        step = fitting._lm_step(problem, normal, r0, u0, head)
+        formed = fitting._lm_step(problem, J, r0, u0, head)
+        assert np.abs(step).max() > 0
+        assert np.abs(step - formed).max() <= 1e-9 * np.abs(formed).max()
