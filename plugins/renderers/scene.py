@@ -594,7 +594,8 @@ class Scene:
             poly.points[:] = series[index]
             poly.GetPoints().Modified()
             poly.Modified()
-        for text, series, offset, _ in self._sensor_labels:
+        # a shape's scene borrows this method and names no sensors
+        for text, series, offset, _ in self.__dict__.get("_sensor_labels", ()):
             text.SetPosition(*(self._to_display(series[index]) + offset))
         if self._hammer is not None:
             actor, contact = self._hammer
