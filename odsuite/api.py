@@ -85,6 +85,10 @@ _WHERE: dict[str, str] = {
     "simulate": "odsuite.domain.simulation",
     "simulate_nonlinear": "odsuite.domain.simulation",
     "sampled_later": "odsuite.domain.simulation",
+    # units and errors as printed for people (one style in pictures, report and command line)
+    "error_text": "odsuite.domain.display",
+    "per_unit": "odsuite.domain.display",
+    "unit_text": "odsuite.domain.display",
     # text files and outputs (room checked before writing)
     "check_text_file": "odsuite.domain.textfiles",
     "free_memory": "odsuite.domain.memory",

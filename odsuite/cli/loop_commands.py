@@ -6,6 +6,8 @@ from pathlib import Path
 
 import typer
 
+from odsuite.domain.display import error_text
+
 from odsuite.cli.app import (_figure_renderer, _loop_progress, _modal_table, _print_json, app, check_workers, console,
                              console_width, err_console, paragraph, shown)
 
@@ -38,17 +40,17 @@ def compare_cmd(
         table.add_column(shown(exp), justify="right")
     table.add_column("all", justify="right")
     for n in result["channels"]:  # "-": the channel is not compared in that experiment
-        table.add_row(shown(n), *(f"{result['experiments'][e]['channels'][n]:.3f}"
+        table.add_row(shown(n), *(error_text(result['experiments'][e]['channels'][n])
                                   if n in result["experiments"][e]["channels"] else "-"
-                                  for e in experiments), f"{result['channels'][n]:.3f}")
-    table.add_row("all", *(f"{result['experiments'][e]['error']:.3f}" for e in experiments), f"{result['error']:.3f}",
+                                  for e in experiments), error_text(result['channels'][n]))
+    table.add_row("all", *(error_text(result['experiments'][e]['error']) for e in experiments), error_text(result['error']),
                   style="bold")
     console.print(table)
     worst = Table(title="where the model fails most")
     for col in ("kind", "name", "error"):
         worst.add_column(col)
     for w in result["worst"]:
-        worst.add_row(w["kind"], w["name"], f"{w['error']:.3f}")
+        worst.add_row(w["kind"], w["name"], error_text(w["error"]))
     console.print(worst)
     for peak in result["residual_peaks"]:
         where = "no model mode there" if peak["lacking"] else f"near the model's mode at {peak['model_mode_hz']:.0f} Hz"

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import typer
 
+from odsuite.domain.display import unit_text
 from odsuite.domain.errors import ConfigError
 from odsuite.cli.app import _check_output, _figure_renderer, _print_json, _rendered_doc, app, console, err_console, shown
 
@@ -104,7 +105,7 @@ def modes_cmd(
         res, freq, spectrum, unit = experiment_output_only_modes(project, experiments[0], f_band=band,
                                                                  max_order=max_order, block_rows=block_rows,
                                                                  decimation=decimate)
-        background = f"rms amplitude spectral density of the outputs ({unit.replace('^2', '²')})"
+        background = f"rms amplitude spectral density of the outputs ({unit_text(unit)})"
     elif len(experiments) > 1:
         res, freq, spectrum, references = experiments_modes(project, experiments, f_band=band, max_order=max_order,
                                                             frequencies=freqs)
@@ -309,7 +310,7 @@ def ods_cmd(
     for col in ("sensor", "amplitude (rms)", "phase (°)", "coherence"):
         table.add_column(col)
     for name, v in res.shape.items():
-        table.add_row(shown(name), f"{abs(v):.4g} {res.units[name]}", f"{np.degrees(np.angle(v)):+.1f}",
+        table.add_row(shown(name), f"{abs(v):.4g} {unit_text(res.units[name])}", f"{np.degrees(np.angle(v)):+.1f}",
                       f"{res.coherence[name]:.3f}")
     console.print(table)
     for body, d in res.coordinates.items():

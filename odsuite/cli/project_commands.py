@@ -205,10 +205,11 @@ def model_cmd(
 def _engineering(value: float, sd: float | None, nominal: float | None, unit: str) -> list[str]:
     """Value, standard deviation and the rig's value as text in one unit (physical.engineering_unit)."""
     from odsuite.diagnosis.physical import engineering_unit
+    from odsuite.domain.display import unit_text
 
     scale, shown_unit = engineering_unit(value, unit)
     return [f"{value / scale:.5g}", "-" if sd is None else f"{sd / scale:.2g}",
-            "-" if nominal is None else f"{nominal / scale:.5g}", shown_unit if shown_unit not in ("", "1") else "-"]
+            "-" if nominal is None else f"{nominal / scale:.5g}", unit_text(shown_unit) if shown_unit not in ("", "1") else "-"]
 
 
 @app.command("verify")

@@ -30,6 +30,7 @@ from odsuite.contracts.effects import applies, family
 from odsuite.diagnosis import checks, joint, physical
 from odsuite.diagnosis.between_records import reported_with_covariance
 from odsuite.analysis.comparison import noise_floor, residual_peaks, residual_spectra
+from odsuite.domain.display import error_text
 from odsuite.domain.errors import ConfigError, DivergedError, NonPhysicalError
 from odsuite.diagnosis.fitting import (
     ROUNDING,
@@ -171,8 +172,8 @@ def _evidence(problem: Problem, cand: Candidate, baseline: float, noise: float,
     desc = physical.text(shown) if cand.physical else _describe_values(problem, cand.parameters, cand.uncertainties)
     if desc:
         words.append(f"fitted {desc}")
-    words.append(f"validated error {baseline:.3g} -> {cand.validated_error:.3g} ({cand.validation}); "
-                 f"noise floor {noise:.3g}")
+    words.append(f"validated error {error_text(baseline)} -> {error_text(cand.validated_error)} ({cand.validation}); "
+                 f"noise floor {error_text(noise)}")
     # the factors the data cannot separate (a scale per axis times one per spring) are neither
     # printed nor named where the effect reports quantities: those are what the factors determine,
     # each with the uncertainty their correlations give it
@@ -761,7 +762,7 @@ def _screened_only(screened: list[Screened], fitted: list[Screened], job) -> lis
         out.append(Candidate(
             effect=s.effect.name, significant=False, error_after=err,
             validated_error=float("nan"), parameters={}, uncertainties={}, units={},
-            evidence=f"screening only: one linearised step reaches error {err:.3g}",
+            evidence=f"screening only: one linearised step reaches error {error_text(err)}",
             n_parameters=len(s.problem.free), bic=float("inf"), screened_error=err,
             fitted=False, consistent=None))
     return out
@@ -1099,8 +1100,8 @@ def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], 
     cand._problem = problem
     _judge(cand, job["exps"], floor, getattr(start, "_resolved", None), start.validated_error**2 * den, den, scale,
            k=max(cand.n_parameters - start.n_parameters, 1))
-    cand.evidence += (f"; fitted from {start.effect}'s fit (validated error {start.validated_error:.4g} -> "
-                      f"{cand.validated_error:.4g})")
+    cand.evidence += (f"; fitted from {start.effect}'s fit (validated error {error_text(start.validated_error)} -> "
+                      f"{error_text(cand.validated_error)})")
     words = _checks_words(cand)
     if words:
         cand.evidence += "; " + words

@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from odsuite.domain.display import unit_text
+
 #: finite-difference step of the propagation, as a fraction of a parameter's standard deviation
 STEP = 1e-3
 
@@ -90,7 +92,7 @@ def text(rows: Sequence[Mapping[str, Any]]) -> str:
     parts = []
     for r in rows:
         scale, shown_unit = engineering_unit(r["value"], r["unit"])
-        unit = "" if shown_unit in ("", "1") else f" {shown_unit}"
+        unit = "" if shown_unit in ("", "1") else f" {unit_text(shown_unit)}"
         sd = r.get("uncertainty")
         pm = f" ± {sd / scale:.2g}" if sd is not None and sd > 0 else ""
         was = f" (model: {r['nominal'] / scale:.4g})" if r["nominal"] is not None else ""

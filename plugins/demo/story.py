@@ -25,6 +25,8 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn
 from rich.table import Table
 
+from odsuite.api import error_text
+
 #: The truth's hidden effects: a 30 % stiffer vertical suspension and a platform twist mode at
 #: 640 Hz, 2 % damping (well inside the accelerometer and filter bands, beyond every rigid mode)
 HIDDEN_EFFECTS: tuple[tuple[str, dict[str, float]], ...] = (
@@ -114,7 +116,7 @@ def _say(console: Console, text: str) -> None:
 
 
 def _print_comparison(console: Console, doc: Mapping[str, Any]) -> None:
-    worst = ", ".join(f"{w['name']} {w['error']:.3f}" for w in doc["worst"] if w["kind"] == "channel")
+    worst = ", ".join(f"{w['name']} {error_text(w['error'])}" for w in doc["worst"] if w["kind"] == "channel")
     _say(console, f"  compare: error [bold]{doc['error']:.4f}[/bold] (noise floor {doc['noise_floor_error']:.4f}); "
                   f"worst channels: {worst}")
     for peak in doc["residual_peaks"]:
@@ -211,7 +213,7 @@ def run_demo(out: str | Path = "demo-output", *, rounds: int = ROUNDS, console: 
 
     _step(console, 4, "the loop: compare, diagnose, add the best effect", started)
     errors, added, diagnosis_doc, noise, found, base = _loop(path, rounds, console)
-    _say(console, "  error per revision: " + " -> ".join(f"{e:.3f}" for e in errors) + f" (noise floor {noise:.4f})")
+    _say(console, "  error per revision: " + " -> ".join(error_text(e) for e in errors) + f" (noise floor {noise:.4f})")
 
     _step(console, 5, "report, movie and history figure", started)
     files = _write_outputs(out, path, diagnosis_doc, console)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from odsuite.api import write_output
+from odsuite.api import unit_text, write_output
 from odsuite.api import ConfigError, DimensionError
 from odsuite.api import Rig
 from odsuite.api import COORDINATE_UNITS, COORDINATES, PLOT_INDEX, plate_corners, rotation_matrix
@@ -261,7 +261,7 @@ def comparison_figure(
         ax.plot(t * 1e3, b[:, j], "-", color="k", lw=1.0, label="model", zorder=3)
         ax.plot(t * 1e3, a[:, j], "--", color="tab:blue", lw=1.0, label="measured", zorder=2)
         prefix, scale = _prefix(max(np.abs(a[:, j]).max(), np.abs(b[:, j]).max()))
-        ax.set_ylabel(f"{names[j]} [{prefix}{_pretty(units[j])}]")
+        ax.set_ylabel(f"{names[j]} [{prefix}{unit_text(units[j])}]")
         ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _, s=scale: f"{v / s:g}"))
         ax.grid(alpha=0.3)
     for ax in axes[k:]:
@@ -314,7 +314,7 @@ def residual_spectra_figure(
         ax.loglog(f[1:], np.maximum(pr[1:, j], tiny), color="tab:red", lw=0.9, label="residual")
         ax.set_xlim(f[1], f[-1])
         ax.set_title(names[j], fontsize=9, y=1.0)  # placed: matplotlib skips measuring the tick labels for room
-        ax.set_ylabel(f"PSD [({_pretty(units[j])})²/Hz]", fontsize=8)
+        ax.set_ylabel(f"PSD [({unit_text(units[j])})²/Hz]", fontsize=8)
         ax.grid(alpha=0.3, which="both")
     for ax in axes[k:]:
         ax.set_visible(False)
@@ -335,7 +335,3 @@ def legend_below(fig, handles) -> None:
         old.remove()
     fig.legend(handles=handles, fontsize=8, loc="outside lower center", ncol=min(len(handles), 3), frameon=False)
 
-
-def _pretty(unit: str) -> str:
-    """A unit as printed: m/s^2 -> m/s²."""
-    return unit.replace("^2", "²").replace("^3", "³")

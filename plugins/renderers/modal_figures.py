@@ -11,9 +11,12 @@ from pathlib import Path
 
 import numpy as np
 
-from odsuite.api import ConfigError, DimensionError, frequency_labels, write_output
+from odsuite.api import ConfigError, DimensionError, frequency_labels, unit_text, write_output
 
 _SUFFIXES = (".png", ".svg", ".pdf")
+
+#: the share of the stabilisation diagram's height the poles take; the modes' labels sit above
+POLE_SHARE = 0.55
 
 
 def _new_figure(path: Path, size: tuple[float, float]):
@@ -60,16 +63,19 @@ def stabilisation_figure(result, path: str | Path, *, freq: np.ndarray, H: np.nd
     if log_frequency:  # a band over decades: the lowest modes are not squeezed into its first pixels
         ax.set_xscale("log")
     ax.set_xlim(*result.band_hz)
-    ax.set_ylim(0, max(d.orders) + 2)
+    # the poles in the lower 55 % of the axes, the modes' labels in the band above them (drawn
+    # among the poles, the labels hid them)
+    ax.set_ylim(0, (max(d.orders) + 2) / (POLE_SHARE if len(result.frequency_hz) else 1.0))
     ax.set_xlabel("frequency (Hz)")
     ax.set_ylabel("model order")
     ax.yaxis.get_major_locator().set_params(integer=True)  # orders are whole numbers
+    ax.set_yticks([t for t in ax.get_yticks() if 0 <= t <= max(d.orders)])  # none in the labels' band
     labels = frequency_labels(result.frequency_hz)
     for k, (f, z) in enumerate(zip(result.frequency_hz, result.damping_ratio, strict=True)):
         ax.axvline(f, color="k", lw=0.8, ls="--")
         n = "" if result.stable_orders is None else f", {int(result.stable_orders[k])} orders"
-        top = max(d.orders) + 1 - (k % 3) * 0.14 * max(d.orders)  # staggered: close modes stay readable
-        ax.annotate(f"{labels[k]}\nζ = {100 * z:.2f} %{n}", (f, top), fontsize=8,
+        top = 0.99 - (k % 3) * 0.15  # staggered: close modes stay readable
+        ax.annotate(f"{labels[k]}\nζ = {100 * z:.2f} %{n}", (f, top), xycoords=("data", "axes fraction"), fontsize=8,
                     ha="left", va="top", xytext=(3, 0), textcoords="offset points",
                     bbox={"boxstyle": "round", "fc": "white", "ec": "0.6", "alpha": 0.85})
     freq = np.asarray(freq, dtype=float)
@@ -88,10 +94,6 @@ def stabilisation_figure(result, path: str | Path, *, freq: np.ndarray, H: np.nd
     ax.set_title(textwrap.fill(f"{title}: {n} mode{'' if n == 1 else 's'} in {result.band_hz[0]:.0f}-"
                                f"{result.band_hz[1]:.0f}\u00a0Hz", int(7 * size[0])), fontsize=10)
     return _save(fig, path, dpi)
-
-
-def _unit(text: str) -> str:
-    return text.replace("^2", "²").replace("^3", "³")
 
 
 #: the phase of an FRF is drawn only where its coherence reaches this (elsewhere it is noise)
@@ -127,7 +129,7 @@ def frf_figure(frf, path: str | Path, *, band_hz: tuple[float, float] | None = N
     for name in names:
         k = frf.output_names.index(name)
         h = frf.H[k, pos]
-        label = name if len(units) == 1 else f"{name} [{_unit(frf.units[k])}]"
+        label = name if len(units) == 1 else f"{name} [{unit_text(frf.units[k])}]"
         line, = mag.loglog(f, np.abs(h), lw=0.8, label=label)
         good = frf.coherence[k, pos] >= COHERENCE_GOOD
         centre = _phase_centre(h) if len(names) == 1 else 0.0  # one axis for several outputs
@@ -146,7 +148,7 @@ def frf_figure(frf, path: str | Path, *, band_hz: tuple[float, float] | None = N
             ax.axvline(fm, color="0.45", lw=0.7, ls=":", label="model mode" if ax is mag and j == 0 else None)
         ax.grid(True, which="both", lw=0.3)
     mag.set_xlim(f[0], f[-1])
-    mag.set_ylabel(f"|H| [{_unit(units.pop())}]" if len(units) == 1 else "|H| [see legend]")
+    mag.set_ylabel(f"|H| [{unit_text(units.pop())}]" if len(units) == 1 else "|H| [see legend]")
     mag.legend(fontsize=8, loc="best")
     phase.set_ylabel("phase [°]")
     from matplotlib.ticker import MultipleLocator

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from odsuite.api import ConfigError
+from odsuite.api import ConfigError, unit_text
 
 from .report import FIGURE_DPI, PRINT_WIDTH_IN, _draw, _esc, _fmt, _img, _table
 
@@ -29,7 +29,7 @@ LEFT_OUT = ("Comparison with a model, the diagnosis of candidate effects, the er
 
 
 def _unit(unit: str | None) -> str:
-    return (unit or "–").replace("^2", "²")
+    return unit_text(unit) if unit else "–"
 
 
 def _records(project) -> list[str]:
@@ -101,7 +101,7 @@ def _singular_values_figure(project, name: str, res, path: Path) -> str:
                         fontsize=7, color="tab:red")
     ax.set_xlim(freq[keep][0] if keep.any() else lo, hi)
     ax.set_xlabel("frequency [Hz]")
-    ax.set_ylabel(f"dB re 1 ({unit})²/Hz".replace("^2", "²"))
+    ax.set_ylabel(f"dB re 1 ({unit_text(unit)})²/Hz")
     ax.set_title(f"{name}: singular values of the PSD matrix ({len(outs)} channels)", fontsize=10)
     ax.grid(True, color="0.9")
     # channels that see the same motion leave singular values at round-off: draw 50 dB below the first

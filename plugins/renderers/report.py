@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from odsuite.api import write_output
+from odsuite.api import per_unit, unit_text, write_output
 from odsuite.api import ConfigError, check_text_file
 
 #: Movie: frame size (pixels), frames per second, about this many frames, this long after the hit.
@@ -259,7 +259,7 @@ def _metadata_section(project, exps) -> str:
         sensor = project.rig.sensor_on_channel(k)
         unit = ("u" if ch.micro_units else "") + ch.unit
         chan_rows.append([k, names[k] if k < len(names) else "–", ch.quantity, ch.serial or "–",
-                          f"{ch.sensitivity:.6g} V/" + (f"({unit})" if "/" in unit else unit), f"{ch.daq_gain:g}",
+                          f"{ch.sensitivity:.6g} {per_unit('V', unit)}", f"{ch.daq_gain:g}",
                           "–" if sensor is None or sensor.position is None
                           else "(" + ", ".join(f"{1e3 * v:.1f}" for v in sensor.position) + ")"])
     # a DAQ gain is a .CTR Systeminfo's field (the rig's own or a legacy import's); the rig format has none
@@ -866,7 +866,7 @@ def _candidates_section(diag: Mapping[str, Any] | None, revision: Any, notes: li
         # the factors per axis and per spring the data cannot separate); "1" marks a dimensionless
         # factor: no unit to print
         params = (physical_text(moved_quantities(c["physical"], limit=6)) if c.get("physical") else
-                  ", ".join(f"{k} = {_fmt(v, '.4g')}" + (f" {units[k]}" if units.get(k) not in (None, "", "1") else "")
+                  ", ".join(f"{k} = {_fmt(v, '.4g')}" + (f" {unit_text(units[k])}" if units.get(k) not in (None, "", "1") else "")
                             for k, v in (c.get("parameters") or {}).items()))
         rows.append([rank, c["effect"], "yes" if c.get("significant") else "no", _fmt(c.get("error_after")),
                      _fmt(c.get("validated_error")), params or "–", c.get("evidence", "")])

@@ -36,7 +36,7 @@ class Style:
     model: tuple[float, float, float] = (0.85, 0.35, 0.0)
     corrected: tuple[float, float, float] = (0.0, 0.55, 0.2)
     static: tuple[float, float, float] = (0.55, 0.55, 0.55)
-    ghost: tuple[float, float, float] = (0.35, 0.35, 0.35)
+    ghost: tuple[float, float, float] = (0.25, 0.25, 0.25)
     text: tuple[float, float, float] = (0.1, 0.1, 0.1)
     marker: tuple[float, float, float] = (1.0, 0.0, 0.0)
     sensor: tuple[float, float, float] = (0.0, 0.45, 0.25)
@@ -169,6 +169,16 @@ def _spot_label(names: list[str]) -> str:
     return " ".join(names)
 
 
+#: pixels between a sensor's dot and its name; half the side of the square a dot keeps free of names
+LABEL_GAP_PX = 8.0
+DOT_ROOM_PX = 6.0
+
+
+def _overlap(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two boxes (xmin, xmax, ymin, ymax) share area."""
+    return bool(a[0] < b[1] and b[0] < a[1] and a[2] < b[3] and b[2] < a[3])
+
+
 def _mm(metres: float) -> str:
     return f"{1e3 * metres:g} mm"
 
@@ -237,6 +247,9 @@ class Scene:
         scale = plate_scale(rig, list(coords))
         self._magnify = magnify if scale_bar else None
         self._towards_camera, self._up = view_direction(rig, *view), rig.up
+        self._decorations: list[np.ndarray] = []  # points of the axes and scale bar, kept in view
+        # (text, dot series (n, 3), offset from the dot in pixels, its body's centre)
+        self._sensor_labels: list[tuple[object, np.ndarray, np.ndarray, np.ndarray]] = []
         for k in range(2 if side else 1):
             self.plotter.subplot(0, k)
             self._static_plates(rig, set().union(*(c for c, _, v, _ in sets if v == k)), scale, ghost, solid, axes)
@@ -253,8 +266,11 @@ class Scene:
         if hammer is not None:
             self._hammer_arrow(rig, hammer, coords, magnify, scale)
         self._label = title_and_label(self.plotter, self.size, style, title)
+        # pixels from the top the title and the frame's clock take (the clock's line is the lowest)
+        self._title_px = self.size[1] - self._label.GetPosition()[1] + style.font_size
         self._legend(side, model_coords is not None, ghost, hammer is not None, sensors, corrected_coords is not None)
         self._camera(rig, coords, view, parallel, side)
+        self._place_sensor_labels(rig, coords)
 
     # -- construction ------------------------------------------------------------------------
     def _add_plate(self, pts: np.ndarray, colour, solid: bool, markers: bool, opacity: float = 1.0,
@@ -297,18 +313,22 @@ class Scene:
                 n = len(segs)
                 mesh = pv.PolyData(segs.reshape(-1, 3),
                                    lines=np.column_stack([np.full(n, 2), 2 * np.arange(n), 2 * np.arange(n) + 1]).ravel())
-                self.plotter.add_mesh(mesh, color=self.style.ghost, line_width=1.0, lighting=False)
+                # as wide as the measured line: at one pixel, smoothed, the dashes faded to a faint grey
+                self.plotter.add_mesh(mesh, color=self.style.ghost, line_width=self.style.line_width, lighting=False)
         if axes:
-            # just outside the plates' lower corner nearest the camera (nothing hides it), within
-            # the camera's margin (AXES_ROOM)
+            # just outside the plates' lower corner leftmost in the picture, within the camera's
+            # margin (AXES_ROOM): the corner nearest the camera put them at the bottom edge, under
+            # the legend
             box = self._bounds(rig, moving).reshape(3, 2)
             corner_points = np.array([[x, y, z] for x in box[0] for y in box[1] for z in box[2]])
             up = np.asarray(rig.up, float)
             lower = corner_points[np.argsort(corner_points @ up)[:4]]
-            corner = lower[np.argmax(lower @ self._towards_camera)]
+            right = np.cross(-self._towards_camera, up)
+            corner = lower[np.argmin(lower @ right)]
             out = corner - box.mean(axis=1)
             origin = corner + 0.1 * scale * out / max(np.linalg.norm(out), 1e-12)
             tips = origin + 0.2 * scale * np.eye(3)
+            self._decorations += [origin, *tips]
             for tip, colour in zip(tips, ((0.8, 0, 0), (0, 0.6, 0), (0, 0, 0.8))):
                 self.plotter.add_mesh(pv.Line(origin, tip), color=colour, line_width=2.0, lighting=False)
             self.plotter.add_point_labels(tips, ["x", "y", "z"], shape=None, show_points=False,
@@ -318,15 +338,17 @@ class Scene:
                 self._scale_bar(origin, scale)
 
     def _scale_bar(self, origin: np.ndarray, scale: float) -> None:
-        """A bar along x below the axes whose drawn length is a round amount of motion (mm) times
-        the magnification: the reader's ruler for the plates' excursions."""
+        """A bar along x beyond the axes' x whose drawn length is a round amount of motion (mm)
+        times the magnification: the reader's ruler for the plates' excursions (below the origin
+        its name was drawn across the z axis)."""
         import pyvista as pv
 
         real, drawn = scale_bar_length(scale, self._magnify[0])
-        start = origin - 0.08 * scale * np.asarray(self._up, float)
+        start = origin + np.array([0.3 * scale, 0.0, 0.0])
         end = start + np.array([drawn, 0.0, 0.0])
         self.plotter.add_mesh(pv.Line(start, end), color=self.style.text, line_width=4.0, lighting=False)
         label = pv.PolyData(((start + end) / 2 - 0.07 * scale * np.asarray(self._up, float))[None])
+        self._decorations += [start, end, label.points[0]]
         self.plotter.add_point_labels(label, [f"{_mm(real)} of motion (x{_times(self._magnify[0])})"], shape=None,
                                       show_points=False, font_size=self.style.font_size - 1,
                                       text_color=self.style.text, always_visible=True)
@@ -334,6 +356,7 @@ class Scene:
     def _sensor_marks(self, rig: Rig, coords, magnify) -> None:
         """A dot at every sensor position of a moving body, named (sensors sharing a spot share a label)."""
         import pyvista as pv
+        from vtkmodules.vtkRenderingCore import vtkTextActor
 
         spots: dict[tuple, list[str]] = {}
         for s in rig.sensors:
@@ -345,10 +368,22 @@ class Scene:
             dot = pv.PolyData(series[:1].copy())
             self.plotter.add_mesh(dot, color=self.style.sensor, point_size=9, render_points_as_spheres=True,
                                   lighting=False)
-            self.plotter.add_point_labels(dot, [_spot_label(names)], shape=None, show_points=False,
-                                          font_size=self.style.font_size - 1, text_color=self.style.sensor,
-                                          always_visible=True)
             self._moving.append((dot, series))
+            # the name is screen text placed beside the dot each frame (_place_sensor_labels): a
+            # label anchored on its point was drawn under the dot and across its neighbours'
+            text = vtkTextActor()
+            text.SetInput(_spot_label(names))
+            prop = text.GetTextProperty()
+            prop.SetFontSize(self.style.font_size - 1)
+            prop.SetColor(self.style.sensor)
+            prop.SetBold(True)
+            prop.SetFontFamilyToArial()
+            prop.SetVerticalJustificationToCentered()
+            # on a patch of the background: the plates' edges crossed the letters
+            prop.SetBackgroundColor(self.style.background)
+            prop.SetBackgroundOpacity(0.85)
+            self.plotter.add_actor(text, reset_camera=False)
+            self._sensor_labels.append((text, series, np.zeros(2), body.com))
 
     def _hammer_arrow(self, rig: Rig, hammer: Hammer, coords, magnify, scale: float) -> None:
         """An arrow ending on the force point, red while in contact: half the hit body's plate long
@@ -409,6 +444,53 @@ class Scene:
             self.plotter.subplot(0, 0)
             self.plotter.add_text("measured", position="upper_right", font_size=st.font_size, color=st.measured)
 
+    def _to_display(self, point: np.ndarray, k: int = 0) -> np.ndarray:
+        """Pixel (x, y from the bottom left) of a world point in viewport ``k``."""
+        renderer = self.plotter.renderers[k]
+        renderer.SetWorldPoint(*point, 1.0)
+        renderer.WorldToDisplay()
+        return np.array(renderer.GetDisplayPoint()[:2])
+
+    def text_box(self, text) -> np.ndarray:
+        """Pixel box (xmin, xmax, ymin, ymax; y from the bottom) a text actor covers where it is."""
+        box = np.zeros(4)
+        text.GetBoundingBox(self.plotter.renderers[0], box)  # relative to the actor's position
+        x, y = text.GetPosition()
+        return box + np.array([x, x, y, y])
+
+    def sensor_label_boxes(self) -> dict[str, np.ndarray]:
+        """Each sensor name's pixel box in the last frame (y from the bottom)."""
+        return {text.GetInput(): self.text_box(text) for text, _, _, _ in self._sensor_labels}
+
+    def _place_sensor_labels(self, rig: Rig, coords) -> None:
+        """Each sensor's name beside its dot, on the side (left or right) away from its plate's
+        centre, moved along the screen's vertical until it covers neither another name nor a dot
+        (at rest)."""
+        if not self._sensor_labels:
+            return
+        dots = [self._to_display(series[0]) for _, series, _, _ in self._sensor_labels]
+        taken = [np.array([x - DOT_ROOM_PX, x + DOT_ROOM_PX, y - DOT_ROOM_PX, y + DOT_ROOM_PX]) for x, y in dots]
+        placed = []
+        for (text, series, _, centre), dot in zip(self._sensor_labels, dots):
+            away = dot - self._to_display(centre)
+            prop = text.GetTextProperty()
+            if away[0] >= 0:
+                prop.SetJustificationToLeft()
+            else:
+                prop.SetJustificationToRight()
+            offset = np.array([LABEL_GAP_PX if away[0] >= 0 else -LABEL_GAP_PX, 0.0])
+            step = 1.0 if away[1] >= 0 else -1.0
+            for _ in range(50):
+                text.SetPosition(*(dot + offset))
+                box = self.text_box(text)
+                clash = [b for b in taken if _overlap(box, b)]
+                if not clash:
+                    break
+                offset = offset + np.array([0.0, 3.0 * step])
+            taken.append(box)
+            placed.append((text, series, offset, centre))
+        self._sensor_labels = placed
+
     @staticmethod
     def _bounds(rig: Rig, names) -> np.ndarray:
         """x/y/z bounds of every plate of the rig (a still reference plate too: none is cut off)."""
@@ -422,6 +504,8 @@ class Scene:
         pad = AXES_ROOM * plate_scale(rig, list(coords))
         padded = bounds + np.array([-pad, pad] * 3)
         box = np.array([[x, y, z] for x in padded[:2] for y in padded[2:4] for z in padded[4:]])
+        if self._decorations:  # the axes and scale bar lie outside the plates' corner
+            box = np.concatenate([box, np.array(self._decorations)])
         direction = view_direction(rig, *view)
         for k in range(2 if side else 1):
             self.plotter.subplot(0, k)
@@ -434,22 +518,59 @@ class Scene:
             self.plotter.reset_camera(bounds=padded)
             # reset_camera fits the bounding sphere, which leaves a wide margin around a flat
             # rig: zoom until the padded box's projection just fills the viewport
-            cam.zoom(0.95 / self._filled(self.plotter.renderers[k], box))
+            # fill the viewport below the title, centred there: the axes and scale bar outside
+            # the plates' corner ran out of the frame's bottom edge while the top stayed empty
+            below_title = 1.0 - 2.0 * self._title_px / self.size[1]
+            for _ in range(2):
+                cam.zoom(1.0 / self._band_filled(self.plotter.renderers[k], box, (-0.95, below_title - 0.05)))
+                self._centre(self.plotter.renderers[k], box, (below_title - 0.95) / 2.0)
         if side:
             self.plotter.link_views()
         self.plotter.subplot(0, 0)
 
     @staticmethod
-    def _filled(renderer, points: np.ndarray) -> float:
-        """The larger of the fractions of the viewport's width and height that ``points`` span."""
+    def _centre(renderer, points: np.ndarray, middle_y: float = 0.0) -> None:
+        """Move the camera across its view (focal point and position together) so the middle of
+        ``points``' projection lands on the viewport's horizontal centre, at height ``middle_y``
+        (view coordinates, -1 to 1)."""
+        cam = renderer.GetActiveCamera()
+        xy = Scene._view_points(renderer, points)
+        mid = (xy.max(0) + xy.min(0)) / 2.0 - np.array([0.0, middle_y])  # view coordinates: -1 to 1
+        if cam.GetParallelProjection():
+            half_h = cam.GetParallelScale()
+        else:
+            half_h = cam.GetDistance() * np.tan(np.radians(cam.GetViewAngle()) / 2.0)
+        half_w = half_h * renderer.GetTiledAspectRatio()
+        up = np.asarray(cam.GetViewUp(), float)
+        right = np.cross(np.asarray(cam.GetDirectionOfProjection(), float), up)
+        shift = mid[0] * half_w * right / np.linalg.norm(right) + mid[1] * half_h * up
+        cam.SetFocalPoint(*(np.asarray(cam.GetFocalPoint()) + shift))
+        cam.SetPosition(*(np.asarray(cam.GetPosition()) + shift))
+
+    @staticmethod
+    def _view_points(renderer, points: np.ndarray) -> np.ndarray:
+        """View coordinates (-1 to 1 across the viewport) of world points."""
         xy = []
         for p in points:
             renderer.SetWorldPoint(*p, 1.0)
             renderer.WorldToView()
             xy.append(renderer.GetViewPoint()[:2])
-        xy = np.array(xy)
+        return np.array(xy)
+
+    @staticmethod
+    def _filled(renderer, points: np.ndarray) -> float:
+        """The larger of the fractions of the viewport's width and height that ``points`` span."""
+        xy = Scene._view_points(renderer, points)
         span = (xy.max(0) - xy.min(0)) / 2.0  # view coordinates run from -1 to 1
         return float(max(span.max(), 1e-6))
+
+    @staticmethod
+    def _band_filled(renderer, points: np.ndarray, height: tuple[float, float]) -> float:
+        """The larger of the fractions of the viewport's width (less a 5 % margin each side) and
+        of the ``height`` band (view coordinates) that ``points`` span."""
+        xy = Scene._view_points(renderer, points)
+        extent = xy.max(0) - xy.min(0)
+        return float(max(extent[0] / 1.9, extent[1] / (height[1] - height[0]), 1e-6))
 
     # -- drawing -----------------------------------------------------------------------------
     @property
@@ -473,6 +594,9 @@ class Scene:
             poly.points[:] = series[index]
             poly.GetPoints().Modified()
             poly.Modified()
+        # a shape's scene borrows this method and names no sensors
+        for text, series, offset, _ in self.__dict__.get("_sensor_labels", ()):
+            text.SetPosition(*(self._to_display(series[index]) + offset))
         if self._hammer is not None:
             actor, contact = self._hammer
             hit = bool(contact[index])

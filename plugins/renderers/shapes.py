@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from odsuite.api import ConfigError, Geometry
+from odsuite.api import ConfigError, Geometry, unit_text
 
 from .movie import FORMATS, MovieResult, frame_labels, mp4_available, write_movie, _even
 from .scene import Style
@@ -87,7 +87,7 @@ def geometry_ods_movie(project, experiment: str, output, *, ods_hz: float, refer
     if reference is None:
         raise ConfigError(f"{project.path}: experiment {experiment!r}: give the ODS's --reference sensor")
     ods = operating_shape(project, experiment, reference, ods_hz)
-    unit = next(iter(ods.units.values()), "")
+    unit = unit_text(next(iter(ods.units.values()), ""))
     res = render_shape_movie(geom, ods.shape, ods.frequency_hz, output,
                              title=f"{experiment}: operating deflection shape at {ods.frequency_hz:.3f} Hz "
                                    f"(phases to {reference})", what="operating deflection shape", unit=unit,

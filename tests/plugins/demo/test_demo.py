@@ -67,7 +67,8 @@ def test_demo_finds_both_hidden_effects_and_the_error_falls_each_round(tmp_path,
     assert "both hidden effects found" in text
     # the narrative wraps at the console's width (80 when piped); only a lone path may run over
     assert not [ln for ln in text.splitlines() if len(ln) > 80 and len(ln.split()) > 2]
-    assert " -> ".join(f"{e:.3f}" for e in errors) in text
+    # each revision's error printed as the history figure labels it (four decimals: 0.0134, not 0.013)
+    assert " -> ".join(f"{e:.4f}" for e in errors) in text
 
     # the project's summaries at 80 columns (a terminal that wide, or piped): `model`'s table was 94
     from odsuite import cli

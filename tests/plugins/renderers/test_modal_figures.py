@@ -213,3 +213,28 @@ def test_stabilisation_figure_keeps_its_legend_off_the_poles_and_counts_one_mode
     assert all(float(t).is_integer() for t in ax.get_yticks())  # model orders: no 2.5
     legend, axes = fig.legends[0].get_window_extent(), ax.get_window_extent()
     assert legend.y1 <= axes.y0, (legend, axes)  # wholly under the axes: no pole behind it
+
+
+def test_stabilisation_mode_labels_sit_above_the_poles(tmp_path):
+    """Each mode's label lies in the band above the highest order's poles: no pole is under it
+    (drawn at the top orders, the labels hid the poles there)."""
+    from odsuite.analysis.modal import identify_modes
+    from odsuite_plugins.renderers.modal_figures import stabilisation_figure
+
+    f = np.linspace(0.0, 1000.0, 2001)
+    w = 2 * np.pi * f
+    h = sum(-(w**2) / (k - m * w**2 + 2j * 0.02 * np.sqrt(k * m) * w) for m, k in ((2.0, 8e5), (1.0, 2.5e6)))
+    h = h + 1e-4 * np.abs(h).max() * np.random.default_rng(1).standard_normal(f.size)
+    res = identify_modes(f, h[None, :], f_band=(20.0, 600.0), max_order=20)
+    assert len(res.frequency_hz) == 2
+    fig = stabilisation_figure(res, tmp_path / "stab.png", freq=f, H=h[None, :], title="2 dof", size=(6.5, 4.5))
+    fig.draw_without_rendering()
+    ax = fig.axes[0]
+    labels = [t for t in ax.texts if "ζ" in t.get_text()]
+    assert len(labels) == 2
+    poles = np.concatenate([ax.transData.transform(c.get_offsets()) for c in ax.collections
+                            if len(c.get_offsets())])
+    for label in labels:
+        box = label.get_window_extent()
+        under = (poles[:, 0] >= box.x0) & (poles[:, 0] <= box.x1) & (poles[:, 1] >= box.y0) & (poles[:, 1] <= box.y1)
+        assert not under.any(), (label.get_text(), poles[under])

@@ -186,3 +186,51 @@ def test_the_hammer_arrow_is_sized_by_the_body_it_hits(registries):
         np.testing.assert_allclose(arrow[0, 1], point)  # the tip on the force point
         lengths[name] = float(np.linalg.norm(arrow[0, 0] - arrow[0, 1]))
     assert lengths["head"] == pytest.approx(0.2) and lengths["frame"] == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("view", [(60.0, 25.0), (-35.0, 40.0)])
+def test_sensor_names_cover_no_other_name_nor_a_dot(thesis_rig, view):
+    """Each spot's name is beside its dot: no two names' boxes overlap and none covers a dot (a
+    name anchored on its point was drawn under the dot and across the neighbouring names)."""
+    from odsuite_plugins.renderers.scene import DOT_ROOM_PX, Scene, _overlap
+
+    coords = {"platform": np.stack([np.zeros(6), POSE])}
+    scene = Scene(thesis_rig, coords, magnify=H, view=view, size=(1280, 720), title="T6: a title")
+    try:
+        for index in (0, 1):
+            scene.frame(index)
+            boxes = scene.sensor_label_boxes()
+            dots = [scene._to_display(series[index]) for _, series, _, _ in scene._sensor_labels]
+            assert len(boxes) == 4
+            names = list(boxes)
+            for i, a in enumerate(names):
+                for b in names[i + 1:]:
+                    assert not _overlap(boxes[a], boxes[b]), (a, b, boxes[a], boxes[b])
+                for x, y in dots:
+                    dot = np.array([x - DOT_ROOM_PX / 2, x + DOT_ROOM_PX / 2, y - DOT_ROOM_PX / 2, y + DOT_ROOM_PX / 2])
+                    assert not _overlap(boxes[a], dot), (a, boxes[a], (x, y))
+    finally:
+        scene.close()
+
+
+@pytest.mark.parametrize("view", [(60.0, 25.0), (-35.0, 40.0), (150.0, 20.0)])
+def test_axes_and_scale_bar_lie_inside_the_frame_below_the_title(thesis_rig, view):
+    """The axes' origin and tips and the scale bar fall inside the frame, a text line clear of
+    its edges, below the title and clock and above the progress bar (the axes ran out of the
+    frame's bottom edge)."""
+    from odsuite_plugins.renderers.scene import Scene
+
+    w, h = 1280, 720
+    scene = Scene(thesis_rig, {"platform": np.zeros((1, 6))}, magnify=H, view=view, size=(w, h),
+                  title="T6: measured motion\nslow motion; magnified")
+    try:
+        scene.frame(0, "t = 0 ms", progress=0.5)
+        points = world_to_pixel(scene.renderer(), scene._decorations, h)
+        clock_bottom = h - scene._label.GetPosition()[1]
+    finally:
+        scene.close()
+    assert len(points) == 7  # origin, three tips, the bar's ends and its name
+    margin = scene.style.font_size
+    assert (points[:, 0] > margin).all() and (points[:, 0] < w - margin).all(), points
+    assert (points[:, 1] > clock_bottom + margin).all(), (points, clock_bottom)
+    assert (points[:, 1] < h - max(4, h // 120) - margin).all(), points

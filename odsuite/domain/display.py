@@ -1,0 +1,30 @@
+"""How units and errors are printed for people: one style in the pictures, the report and the
+command line.
+
+Units are stored as ASCII (``m/s^2``, ``(m/s^2)/N``: what readers and writers of files exchange);
+what a user reads has superscripts (``m/s²``). A model error (pooled NRMSE) is printed with four
+decimals wherever it appears, so the text and the figures beside it show the same number.
+"""
+
+from __future__ import annotations
+
+_SUPERSCRIPTS = {"^2": "²", "^3": "³", "^-1": "⁻¹", "^-2": "⁻²"}
+
+
+def unit_text(unit: str) -> str:
+    """A stored unit as printed: ``m/s^2`` -> ``m/s²``, ``V/(m/s^2)`` -> ``V/(m/s²)``."""
+    for ascii_, shown in sorted(_SUPERSCRIPTS.items(), key=lambda kv: -len(kv[0])):
+        unit = unit.replace(ascii_, shown)
+    return unit
+
+
+def per_unit(numerator: str, unit: str) -> str:
+    """``numerator`` per ``unit`` as printed, the unit in parentheses when it is itself a ratio:
+    ``per_unit("V", "m/s^2")`` -> ``V/(m/s²)``."""
+    shown = unit_text(unit)
+    return f"{numerator}/({shown})" if "/" in shown or " " in shown else f"{numerator}/{shown}"
+
+
+def error_text(error: float) -> str:
+    """A model error (NRMSE) as printed everywhere: four decimals (0.0134, never 0.013)."""
+    return f"{error:.4f}"

@@ -1,0 +1,25 @@
+"""Units and model errors are printed one way for people: superscripts, four decimals."""
+
+from __future__ import annotations
+
+import pytest
+
+from odsuite.domain.display import error_text, per_unit, unit_text
+
+
+@pytest.mark.parametrize("stored, shown", [("m/s^2", "m/s²"), ("(m/s^2)/N", "(m/s²)/N"), ("kg m^2", "kg m²"),
+                                           ("m^3", "m³"), ("N/m", "N/m"), ("1", "1")])
+def test_stored_units_print_with_superscripts(stored, shown):
+    assert unit_text(stored) == shown
+
+
+def test_a_sensitivity_per_ratio_unit_is_parenthesised():
+    assert per_unit("V", "m/s^2") == "V/(m/s²)"
+    assert per_unit("V", "N") == "V/N"
+    assert per_unit("V", "um/s^2") == "V/(um/s²)"
+
+
+def test_an_error_prints_with_four_decimals_as_the_figures_label_it():
+    # the history figure labels its bars f"{e:.4f}"; the text says the same number
+    assert error_text(0.013417) == "0.0134" == f"{0.013417:.4f}"
+    assert error_text(0.46921) == "0.4692"
