@@ -1170,6 +1170,30 @@ def _snapshot(d: Path) -> dict[str, tuple[str, str]]:
     return out
 
 
+def _mtimes(d: Path) -> dict[Path, tuple[int, int]]:
+    """Access and modification times (ns) of every entry under ``d`` (links not followed)."""
+    out = {}
+    for root, dirs, files in os.walk(d, followlinks=False):
+        for name in dirs + files:
+            p = Path(root) / name
+            try:
+                st = p.lstat()
+            except OSError:
+                continue
+            out[p] = (st.st_atime_ns, st.st_mtime_ns)
+    return out
+
+
+def _set_mtimes(times: dict[Path, tuple[int, int]]) -> None:
+    """Give the entries the times they had in the first run, so that a second run differs from the
+    first in the outside files' contents only (a catalogue stores its projects' mtimes)."""
+    for p, ns in times.items():
+        try:
+            os.utime(p, ns=ns, follow_symlinks=False)
+        except OSError:
+            pass
+
+
 def _limits() -> None:
     resource.setrlimit(resource.RLIMIT_AS, (MEMORY_LIMIT, MEMORY_LIMIT))
 
@@ -1301,6 +1325,7 @@ def run_case(case: Case, master: Path, d: Path, timeout: float) -> Result:
     except Exception as exc:  # noqa: BLE001 - the harness's own failure is reported, not raised
         return Result(case.group, case.label, [], "setup failed", None, 0.0, [("setup failed", repr(exc))], [], [])
     before = _snapshot(d)
+    set_up_times = _mtimes(d)
     project_before = {p: _sha(d / p) for p in case.projects}
     try:
         r = _execute(case, d, limit)
@@ -1365,6 +1390,7 @@ def run_case(case: Case, master: Path, d: Path, timeout: float) -> Result:
             _normal(v) for _, v in sorted(outputs.items())]
         try:
             _setup(case, master, d, 1)
+            _set_mtimes(set_up_times)
             before2 = _snapshot(d)
             r2 = _execute(case, d, limit)
             outputs2 = _outputs_of(case, d, before2)
