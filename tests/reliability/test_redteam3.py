@@ -110,3 +110,15 @@ def test_redteam3_full(tmp_path):
     assert len(results) >= 450
     bad = [r.as_dict() for r in results if r.outcome in rt.FAILURES]
     assert not bad, rt.table(results) + "\n" + "\n".join(f"{b['outcome']}: {b['label']}" for b in bad[:50])
+
+
+def test_catalogue_lists_a_project_with_outside_storage_refused(tmp_path):
+    """`catalog .` beside a project whose raw data are external storage on the user's key lists it
+    refused and ends ok: neither the key's bytes nor the time its setup wrote it reach the catalogue."""
+    (case,) = [c for c in rt.all_cases("hdf5") if c.label == "catalog: external storage (key) at raw"]
+    master = _master(tmp_path)
+    for argv in (["new", "p.h5"], ["acquire", "p.h5", "--name", "s1", "--samples", "2048"], ["process", "p.h5"]):
+        assert rt._run_setup(argv, master).returncode == 0
+    (result,) = rt.run([case], tmp_path / "work", timeout=60.0, jobs=1, master=master)
+    assert (result.outcome, result.code) == ("ok", 1), result.problems
+    assert "p.h5: refused: dataset 'experiments/s1/raw' has external storage" in result.stderr[0]
