@@ -1,5 +1,5 @@
 """Red team, round three (see redteam3.py): the harness judges what it is meant to judge, and a
-representative handful of real tries runs in seconds; the whole run (about 690 tries, half an hour
+representative handful of real tries runs in seconds; the whole run (about 500 tries, 20-25 minutes
 on two cores) is behind the slow marker and must end with no traceback, hang, harmed file or read
 outside the project."""
 
@@ -103,8 +103,6 @@ def test_round_four_representative_tries(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="issue 33: not run to its end since the fixes of round four (about half "
-                   "an hour of two idle cores); remove the mark when a whole run reports no failure")
 def test_redteam3_full(tmp_path):
     results = rt.run(rt.all_cases(), tmp_path, jobs=2)
     assert len(results) >= 450
