@@ -1,5 +1,5 @@
 """Red team, round three (see redteam3.py): the harness judges what it is meant to judge, and a
-representative handful of real tries runs in seconds; the whole run (about 690 tries, half an hour
+representative handful of real tries runs in seconds; the whole run (about 500 tries, 20-25 minutes
 on two cores) is behind the slow marker and must end with no traceback, hang, harmed file or read
 outside the project."""
 
@@ -47,6 +47,9 @@ SELF_TESTS = [
     (Case("self", "prints a digest of the key", lambda d: [], _home, canary=True,
           program=PY + ["import hashlib; print(hashlib.sha1(open('home/.ssh/id_rsa','rb').read()[100:]).hexdigest())"]),
      "read outside"),
+    (Case("self", "prints the mtime of a project its setup rewrote", lambda d: [],
+          lambda d, v: (_home(d, v), (d / "p.h5").write_text("p")), canary=True,
+          program=PY + ["import os, time; time.sleep(0.01); print(os.stat('p.h5').st_mtime_ns)"]), "ok"),
     (Case("self", "changes the project and fails", lambda d: [], lambda d, v: (d / "p.h5").write_text("p"),
           program=PY + ["import sys; open('p.h5', 'a').write('x'); print('error: no', file=sys.stderr); sys.exit(1)"]),
      "changed project"),
@@ -100,10 +103,20 @@ def test_round_four_representative_tries(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="issue 33: not run to its end since the fixes of round four (about half "
-                   "an hour of two idle cores); remove the mark when a whole run reports no failure")
 def test_redteam3_full(tmp_path):
     results = rt.run(rt.all_cases(), tmp_path, jobs=2)
     assert len(results) >= 450
     bad = [r.as_dict() for r in results if r.outcome in rt.FAILURES]
     assert not bad, rt.table(results) + "\n" + "\n".join(f"{b['outcome']}: {b['label']}" for b in bad[:50])
+
+
+def test_catalogue_lists_a_project_with_outside_storage_refused(tmp_path):
+    """`catalog .` beside a project whose raw data are external storage on the user's key lists it
+    refused and ends ok: neither the key's bytes nor the time its setup wrote it reach the catalogue."""
+    (case,) = [c for c in rt.all_cases("hdf5") if c.label == "catalog: external storage (key) at raw"]
+    master = _master(tmp_path)
+    for argv in (["new", "p.h5"], ["acquire", "p.h5", "--name", "s1", "--samples", "2048"], ["process", "p.h5"]):
+        assert rt._run_setup(argv, master).returncode == 0
+    (result,) = rt.run([case], tmp_path / "work", timeout=60.0, jobs=1, master=master)
+    assert (result.outcome, result.code) == ("ok", 1), result.problems
+    assert "p.h5: refused: dataset 'experiments/s1/raw' has external storage" in result.stderr[0]
