@@ -815,6 +815,14 @@ def converter_offsets(v: np.ndarray, volts: np.ndarray, step: float, trigger: in
     return grid[picks] * step, noise[picks] * step
 
 
+@functools.lru_cache(maxsize=8)
+def _record_basis(n: int, fs: float) -> np.ndarray:
+    """disturbance_basis over a record, kept: every channel's floor of every comparison fits it."""
+    basis = disturbance_basis(n, fs)
+    basis.flags.writeable = False
+    return basis
+
+
 def carried_disturbance(v: np.ndarray, volts: np.ndarray, step: float, trigger: int, fs: float,
                         disturbance: np.ndarray) -> np.ndarray:
     """The hum and drift (volts, level with the codes before the hit) that a perfect model's signal
@@ -826,7 +834,7 @@ def carried_disturbance(v: np.ndarray, volts: np.ndarray, step: float, trigger: 
     record missed a 16-bit drift record's codes by up to 26 codes: the converter rounds the drift
     itself, and a miss taken for noise read it as 0.45-0.95 code for 0.33."""
     small = np.abs(v) <= OFFSET_CODES * step
-    basis = disturbance_basis(len(v), fs)
+    basis = _record_basis(len(v), fs)
     if small.sum() <= 2 * basis.shape[1]:
         return disturbance
     coef, *_ = np.linalg.lstsq(basis[small], (volts - v - disturbance)[small], rcond=None)
