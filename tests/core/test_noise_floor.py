@@ -241,6 +241,73 @@ def test_the_converters_noise_under_a_hum_of_two_codes():
     assert np.mean([high(d, 0.0, 0) for d in picks]) < true / 2
 
 
+def _simulated_rounding(v, volts, step, trigger, fs, count, rng):
+    """What a perfect model's signal ``v`` leaves of a record's noise and rounding, simulated as
+    odsuite.analysis.prediction.sensor_noise does (one raw channel, no chain), ``count`` times."""
+    from odsuite.analysis.noise_floor import split_noise
+    from odsuite.analysis.prediction import carried_disturbance, converter_offsets
+
+    fit = split_noise(volts[:, None], trigger, fs)
+    hum = fit.disturbance[:, 0] - np.median(fit.disturbance[:trigger, 0])
+    hum = carried_disturbance(v, volts, step, trigger, fs, hum)
+    told = converter_offsets(v, volts, step, trigger, count, hum)
+    if told is None:
+        white = fit.white(volts[:, None], fit.disturbance, fit.local_drift)[0]
+        told = (rng.uniform(0.0, 1.0, count) * step, np.full(count, np.sqrt(max(white - step**2 / 12, 0.0))))
+    return [np.round((v + hum + d + s * rng.standard_normal(len(v))) / step) * step - d - v - hum
+            for d, s in zip(*told)]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_floors_sensor_noise_on_a_record_drifting_through_the_codes(seed):
+    """A response ringing to the record's end (quiet samples before the hit only: 12 ms) under
+    white noise of a third of a code and a drift of 20 codes over the record, as a 16-bit card
+    records a drifting accelerometer. The hum's sinusoid fitted on under a period of it shares the
+    ramp with the line, and the pair carried over the record misses codes of the drift; taken for
+    noise, those read 0.45-0.9 code. The drift moves the signal through the codes, so the
+    rounding is uniform: the floor's noise and rounding give the closed form sigma^2 + lsb^2/12
+    per sample, within the sampling error of the 128 quiet samples the noise is told on and the
+    0.05-code grid it is told on (together 9 % of the sum: 3 of them). Taking the drift's miss for
+    noise made it up to 3x."""
+    rng = np.random.default_rng(seed)
+    step, fs, n, trigger, sigma, slope = 1e-3, 20e3, 4096, 256, 0.33, 0.1  # V, Hz, -, -, codes, V/s
+    t = np.arange(n) / fs
+    ring = t[trigger:] - t[trigger]
+    v = np.concatenate([np.zeros(trigger), 8 * step * np.sin(2 * np.pi * 310 * ring) * np.exp(-ring / 0.5)])
+    truth = slope * t + 0.21 * step
+    volts = np.round((v + truth + sigma * step * rng.standard_normal(n)) / step) * step
+    expected = (sigma**2 + 1 / 12) * step**2
+    assert np.mean((volts - v - truth) ** 2) == pytest.approx(expected, rel=0.06)  # the closed form holds
+    sim = _simulated_rounding(v, volts, step, trigger, fs, 4, rng)
+    assert np.mean(np.square(sim)) == pytest.approx(expected, rel=0.27), np.mean(np.square(sim)) / expected
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_floor_covers_the_rounding_of_a_sub_code_trend(seed):
+    """White noise of 0.15 code, a hum of a code and a drift of 4 codes over the record (lab noise
+    on a 16-bit card: a real trend, the codes rising far beyond what rounding alone does): the
+    quiet samples before the hit (62 ms) see too little of the drift to carry it, but the record's
+    codes around the model's signal show it. Its rounding, dithered by the small noise, sets the
+    top octave of what a perfect model leaves: the floor simulates that octave's energy as the
+    record's own error has it, within what the noise's 0.05-code grid (a third of this noise)
+    moves the flips' density (a third). The drift's miss taken for noise made it 11-12x."""
+    rng = np.random.default_rng(100 + seed)
+    step, fs, n, trigger, sigma = 1e-3, 4096.0, 2048, 256, 0.15
+    t = np.arange(n) / fs
+    ring = t[trigger:] - t[trigger]
+    v = np.concatenate([np.zeros(trigger), 40 * step * np.sin(2 * np.pi * 60.0 * ring) * np.exp(-ring / 0.08)])
+    truth = 1.0 * step * np.sin(2 * np.pi * 50.0 * t + 0.4) + 4 * step * t / t[-1] + 0.21 * step
+    volts = np.round((v + truth + sigma * step * rng.standard_normal(n)) / step) * step
+    top = slice(n // 4, None)  # fs/4 to fs/2
+
+    def high(err):
+        return float(np.sum(np.abs(np.fft.rfft(err)[top]) ** 2))
+
+    true = high(volts - v - truth)
+    sim = [high(e) for e in _simulated_rounding(v, volts, step, trigger, fs, 4, rng)]
+    assert np.mean(sim) == pytest.approx(true, rel=0.35), np.mean(sim) / true
+
+
 def test_a_band_below_the_quiet_samples_first_line_is_not_resolved():
     """256 quiet samples at 4096 Hz (62.5 ms) see lines at 16, 32, ... Hz: the octave 12.5-25 Hz
     holds one, the band up to 12.5 Hz none; 0 samples (not known) resolves every band."""
