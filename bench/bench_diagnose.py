@@ -23,7 +23,21 @@ seconds compare best across runs and wall times only on a quiet machine. A chang
 evaluation cheaper (the compiled recursions below) lowers the baseline as much as diagnose, and
 the worth column then rises although everything is faster.
 
-Where it stands after rounds 29-31 and the force-noise term (load 0-1.4, one sitting, this code
+Where it stands after rounds 32-34 and the floor's refitted disturbance (load 0.5-1.3, one
+sitting, this code and the code before round 32 run in turn three times; the baseline's own CPU
+moved 8.3-20.6 ms between runs, so the least CPU compares best):
+
+| rig, workers | evaluations | CPU (least, range), worth (range): after | before (rounds 29-31) |
+| --- | --- | --- | --- |
+| thesis, 1 | 828 (594) | 4.9 s, 4.9-6.8 s; 413-527 | 3.9 s, 3.9-10.6 s; 455-1272 |
+| thesis, 2 | | 3.9-4.7 s wall | 2.1-6.1 s wall |
+| two-body, 1 | 954 (809) | 6.3 s, 6.3-7.2 s; 307-476 | 6.1 s, 6.1-7.1 s; 396-438 |
+| two-body, 2 | | 4.2-4.9 s wall | 4.6-5.1 s wall |
+
+Round 32's folds, each refitted to its own minimum, cost the thesis bench a quarter more CPU (234
+evaluations more) and its 3 s wall target on two workers; on two-body rounds 33-34 offset its 145
+more. A validated error that was 2.4x its fold's own minimum is worth more than that time; a fold's
+cheaper stop comes next. Where it stood after rounds 29-31 and the force-noise term (load 0-1.4, one sitting, this code
 and the code before round 29 run in turn four times; the baseline's own CPU moved 8.9-19.6 ms
 between runs, so the least CPU compares best):
 
