@@ -1410,7 +1410,7 @@ def _further(fun, x: np.ndarray, cost: float, slope: float, step: np.ndarray, co
 
 
 def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: int, xtol: float, ftol: float,
-         stops: _Stops, broyden: bool = True, further: bool = True) -> OptimizeResult:
+         stops: _Stops, broyden: bool = True, further: bool = True, secant_ends: bool = False) -> OptimizeResult:
     """scipy's least_squares(method="trf", x_scale=1, tr_solver="exact") with bounds, run on the
     n x n square root of J^T J (_square_root) in place of J's m rows, and (``broyden``) with
     Jacobians updated along accepted steps. Written here because scipy's takes an SVD of every row
@@ -1427,7 +1427,9 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
     scipy's ftol test (which reads the Jacobian's promise) or ``stops`` (which
     sees each Jacobian's G = J^T J and g = J^T f and, after each iteration, the cost and point:
     scipy's callback) stop on its promise, the differenced Jacobian decides; the result's ``jac``
-    is always differenced (uncertainties and validation use it)."""
+    is always differenced (uncertainties and validation use it). With ``secant_ends`` (a caller that
+    reads the point alone: a validation fold) an updated Jacobian may end the search, and the
+    result's ``jac`` may be an updated one."""
     x = make_strictly_feasible(np.asarray(x0, float), lb, ub)
     f = fun(x)
     J = jac(x, f)
@@ -1454,7 +1456,7 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
         v, dv = CL_scaling_vector(x, g, lb, ub)
         g_norm = float(np.linalg.norm(g * v, ord=np.inf))
         if g_norm < GTOL:
-            if not exact:  # an updated Jacobian's gradient: the differenced one decides
+            if not exact and not secant_ends:  # an updated Jacobian's gradient: the differenced one decides
                 differenced()
                 continue
             status = 1
@@ -1502,7 +1504,7 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
         if refresh:
             differenced()
             continue
-        confirm = status in (2, 4) and not exact  # small gain for what an updated Jacobian promised
+        confirm = status in (2, 4) and not exact and not secant_ends  # small gain for what an updated Jacobian promised
         if confirm:
             status = None
         if actual_reduction > 0:
@@ -1535,7 +1537,7 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
         try:
             stops(OptimizeResult(x=x, fun=f, nit=iteration, nfev=nfev, cost=cost))
         except StopIteration:
-            if exact or stops.stalled:
+            if exact or stops.stalled or secant_ends:
                 status = -2
                 break
             differenced()  # an updated Jacobian's promise: the differenced one decides
@@ -1544,7 +1546,7 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
             except StopIteration:
                 status = -2
                 break
-    if not exact:
+    if not exact and not secant_ends:
         differenced()
         g_norm = float(np.linalg.norm(g * CL_scaling_vector(x, g, lb, ub)[0], ord=np.inf))
     return OptimizeResult(x=x, cost=cost, fun=f, jac=J, grad=g, optimality=g_norm,
@@ -1555,7 +1557,7 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
 def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] | None = None,
         max_nfev: int | None = None, continuation: bool = True, target: float | None = None,
         cannot_pass: Callable[[np.ndarray, float], bool] | None = None, jac0: np.ndarray | None = None,
-        rows: np.ndarray | None = None, short_of: float = 0.0):
+        rows: np.ndarray | None = None, short_of: float = 0.0, secant_ends: bool = False):
     """Bounded output-error least squares from ``u0`` (on short heads of the records first, search);
     returns the result (scipy's fields) for the whole records (``jac`` = d residual / d u). With ``target`` (a
     sum of squares over every sample of ``problem``'s records) the fit stops where it cannot come
@@ -1564,7 +1566,8 @@ def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] 
     ``continuation``), taken for the first instead of differencing it again. ``rows``: the
     residual's (strided) rows the fit sees, a mask over them (a validation fold's kept rows;
     without ``continuation``). ``short_of`` (in cost): the fit also stops where its linearisation
-    promises less than that (a fold goes as far as the fit it validates went)."""
+    promises less than that (a fold goes as far as the fit it validates went). ``secant_ends``: the
+    point alone is read (a fold), so an updated Jacobian may end the search (_trf)."""
     lo, hi = problem.lower_upper()
     u = np.clip(u0, lo, hi)
     n = len(problem.free)
@@ -1602,18 +1605,19 @@ def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] 
 
         res = search(fun, jac, u, lo, hi, problem.free, least=least,
                      target=0.5 * target / problem.stride if target is not None and last else None,
-                     cannot_pass=cannot_pass if last else None, max_nfev=max_nfev or (8 if last else 4) * (n + 1))
+                     cannot_pass=cannot_pass if last else None, max_nfev=max_nfev or (8 if last else 4) * (n + 1),
+                     secant_ends=secant_ends and last)
         u = res.x
     return res
 
 
 def search(fun, jac, u0: np.ndarray, lo: np.ndarray, hi: np.ndarray, free: Sequence[_Free], *, least: float,
            target: float | None, max_nfev: int, xtol: float = 1e-6, ftol: float = 1e-8,
-           cannot_pass: Callable[[np.ndarray, float], bool] | None = None) -> OptimizeResult:
+           cannot_pass: Callable[[np.ndarray, float], bool] | None = None, secant_ends: bool = False) -> OptimizeResult:
     """_trf from ``u0`` within ``lo``..``hi`` over ``free`` (natural steps; ``fun(u)`` the
     residual, ``jac(u, f)`` d f / d u), the factors searched in logarithms (_FactorLogs), stopped
     by _Stops(``least``, ``target``, ``cannot_pass``, in cost; ``cannot_pass`` is asked at natural
-    points); the result in natural steps, with ``target_stop``."""
+    points; ``secant_ends``: _trf's); the result in natural steps, with ``target_stop``."""
     coords = _FactorLogs(free)
     lo_w, hi_w = coords.search(lo), coords.search(hi)
     stops = _Stops(least, target, lo_w, hi_w,
@@ -1621,7 +1625,8 @@ def search(fun, jac, u0: np.ndarray, lo: np.ndarray, hi: np.ndarray, free: Seque
     res = _trf(lambda w: fun(coords.natural(w)),
                # d f / d w = d f / d u times d u / d w, by columns (in place: ``jac`` returns a new array)
                lambda w, f: coords.in_search(jac(coords.natural(w), f), w),
-               coords.search(u0), lo_w, hi_w, max_nfev=max_nfev, xtol=xtol, ftol=ftol, stops=stops)
+               coords.search(u0), lo_w, hi_w, max_nfev=max_nfev, xtol=xtol, ftol=ftol, stops=stops,
+               secant_ends=secant_ends)
     res.target_stop = stops.target_stop
     coords.natural_result(res, lo, hi)
     return res
@@ -1995,7 +2000,7 @@ def validate(problem: Problem, u: np.ndarray, res) -> tuple[float, str]:
         # the full fit's Jacobian on the fold's rows is the fold's own at the start: differenced
         kept = rows if rows is not None else np.repeat([x is not held[0] for x in exps], sizes)
         fold = fit(problem, u, exps=fitted, continuation=False, rows=rows,
-                   jac0=np.concatenate([J[kept], prior_rows]), short_of=short_of)
+                   jac0=np.concatenate([J[kept], prior_rows]), short_of=short_of, secant_ends=True)
         r = problem.residual(fold.x, held, stride=1, weighted=False)
         total += float(np.sum(r * r if scored is None else r[scored] ** 2))
     return total, how

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
-from odsuite.diagnosis.fitting import _Free, validate
+from odsuite.diagnosis.fitting import _Free, fit, validate
 
 T = np.linspace(0.0, 1.0, 400)
 PHASES = (0.0, 1.1, 2.3)
@@ -113,3 +113,29 @@ def test_the_validated_error_is_each_folds_own_minimum_wherever_in_the_valley_th
     # each fold stops within a noise energy of its minimum's cost (the fit's own stop); along the
     # folds' flat valleys the held-out error moves 1.1 % within that
     assert one == pytest.approx(reference, rel=0.02)
+
+
+def test_a_fold_ends_on_its_updated_jacobian_and_validates_as_its_minimum():
+    # a fold reads its point alone: where the secant through its steps says it is done, the
+    # differenced Jacobian that would confirm it is not taken
+    problem = _Curve(np.array([0.0, 0.6]), seed=3)
+    best = least_squares(problem.residual, np.array([0.01, 0.5]), xtol=1e-15, ftol=1e-15, gtol=1e-15).x
+    J = _fitted(problem, best).jac
+    jacobians = {}
+    for ends in (False, True):
+        calls = []
+        difference = problem.jacobian
+        problem.jacobian = lambda *a, **k: (calls.append(1), difference(*a, **k))[1]  # noqa: B023
+        held = reference = 0.0
+        for i, e in enumerate(problem.exps):
+            rest = [x for x in problem.exps if x is not e]
+            fold = fit(problem, best, exps=rest, continuation=False, secant_ends=ends,
+                       jac0=np.delete(J, np.s_[i * T.size:(i + 1) * T.size], axis=0))
+            minimum = least_squares(lambda x: problem.residual(x, rest), best, xtol=1e-14, ftol=1e-14, gtol=1e-14)
+            held += float(np.sum(problem.residual(fold.x, [e]) ** 2))
+            reference += float(np.sum(problem.residual(minimum.x, [e]) ** 2))
+        # validated as by scipy's fold minima, within the test above's tolerance
+        assert held == pytest.approx(reference, rel=0.02)
+        problem.jacobian = difference
+        jacobians[ends] = len(calls)
+    assert jacobians[True] < jacobians[False]

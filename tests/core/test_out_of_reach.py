@@ -1,6 +1,7 @@
 """A single candidate's full fit stops where it can no longer matter (diagnose._out_of_reach):
 its significance decided at the point reached and its error, less what its linearisation still
-promises, far above the best screened candidate's. The stop saves evaluations and changes no
+promises, far above the best screened candidate's; one that passes its test has its consistency
+(amplitude dependence, which decides its confounding) checked there. The stop saves evaluations and changes no
 outcome: the same verdict, top, significance and order as the fits let run to their ends."""
 
 from __future__ import annotations
@@ -41,9 +42,11 @@ def test_a_fit_out_of_reach_stops_and_changes_no_outcome(stiffer, monkeypatch):
     stopped = _diagnosis(stiffer)
     short = [c for c in stopped.candidates if "could not come near the top" in c.evidence]
     assert short, "no fit stopped on this problem: the test would not test the stop"
-    for c in short:  # reported at the point reached, not checked further
-        assert c.fitted and c.consistent is None and c.early_late_agree is None
+    for c in short:  # reported at the point reached; one that passes its test has its consistency checked there
+        passing = "test and consistency at the point reached" in c.evidence
+        assert c.fitted and c.early_late_agree is None and (c.consistent is not None) == passing
         assert c is not stopped.candidates[0]
+    assert any("test and consistency at the point reached" in c.evidence for c in short)
 
     def never(*args, **kwargs):
         def out_of_reach(x, promised):
@@ -58,4 +61,6 @@ def test_a_fit_out_of_reach_stops_and_changes_no_outcome(stiffer, monkeypatch):
     for c in short:  # the finished fit's significance is the stopped one's, and it stays below the top
         done = next(f for f in full.candidates if f.effect == c.effect)
         assert done.significant == c.significant and done is not full.candidates[0]
+        if c.consistent is not None:  # checked at the point reached as at the fit's end
+            assert (c.consistent, c.amplitude_dependent) == (done.consistent, done.amplitude_dependent)
     assert stopped.evaluations < full.evaluations
