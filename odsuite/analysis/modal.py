@@ -688,9 +688,13 @@ def identify_modes(
                "flank or noise)"][int(np.argmax(shortfall[:, worst]))]
         rejected.append(f"{abs(poles[worst]) / (2 * np.pi):.2f} Hz: {why}")
         poles, stable_orders = np.delete(poles, worst), np.delete(stable_orders, worst)
+    if poles.size == 0 and rejected:
+        # stable poles were found: said "no stable poles", it read as if the record held nothing
+        raise ConfigError(f"no mode passed its checks in {lo:.4g}-{hi:.4g} Hz (lines {f[1] - f[0]:.3g} Hz apart: "
+                          f"modes closer than a few lines are not separated); stable poles rejected: "
+                          f"{'; '.join(rejected)}")
     if poles.size == 0:
-        raise ConfigError(f"no stable poles found in {lo:.4g}-{hi:.4g} Hz up to model order {max_order}"
-                          + (f" ({'; '.join(rejected)})" if rejected else ""))
+        raise ConfigError(f"no stable poles found in {lo:.4g}-{hi:.4g} Hz up to model order {max_order}")
     res = lsfd(f, h, poles, form=form)
     if window_tau is not None:
         poles = poles + 1.0 / window_tau  # the structure's own poles (see hammer.correct_exponential_window)

@@ -163,6 +163,8 @@ class _Ledger:
         self.stored: list[str] = []
         self.current: str | None = None
         self.commits_at_start = 0
+        #: the whole line once a command's work has ended (a batch printing its table)
+        self.settled: str | None = None
 
     def plan(self, target: Path, units: list[str]) -> None:
         self.target, self.planned, self.commits_at_start = target, list(units), len(_commits())
@@ -175,7 +177,12 @@ class _Ledger:
             self.stored.append(self.current)
         self.current = None
 
+    def settle(self, line: str) -> None:
+        self.settled = line
+
     def line(self) -> str:
+        if self.settled is not None:
+            return self.settled
         if self.current is not None and len(_commits()) > self.commits_at_start:
             self.done()
         if self.target is None:

@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from odsuite.domain.errors import ConfigError
-from odsuite.cli.app import _loop_progress, _print_json, app, console, err_console, shown
+from odsuite.cli.app import _ledger, _loop_progress, _print_json, app, console, err_console, shown
 
 
 @app.command("batch")
@@ -29,7 +29,7 @@ def batch_cmd(
     from rich.table import Table
     from rich.text import Text
 
-    from odsuite.ops.batch import describe, run_batch
+    from odsuite.ops.batch import describe, run_batch, settled_line
 
     if workers is not None and workers < 1:
         raise ConfigError(f"--workers: at least 1 worker process, got {workers}")
@@ -44,6 +44,7 @@ def batch_cmd(
 
         result = run_batch(command, projects, scheduler=scheduler, workers=workers, options=options,
                            progress=progress)
+        _ledger.settle(settled_line(result))  # a Ctrl-C from here on tells what the batch did
     line = None
     if not result.ok:
         bad = [r for r in result.projects if r["status"] != "ok"]

@@ -300,13 +300,29 @@ def _interrupted_line(command: str, paths: Sequence[Path], before: dict[Path, An
     """The one line of an interrupted batch: for a writing command the projects that changed
     (seen on disk once the workers are gone), else those that finished."""
     if COMMANDS[command][1]:
-        changed = [p for p in paths if _fingerprint(p) != before[p]]
-        rest = [p for p in paths if p not in changed]
-        if not changed:
-            return "interrupted: nothing stored, no project changed"
-        return (f"interrupted: {command} stored in {', '.join(map(str, changed))}; "
-                f"unchanged: {', '.join(map(str, rest)) or 'none'}")
+        return _stored_line(command, [p for p in paths if _fingerprint(p) != before[p]], paths)
     done = [p for p in paths if records.get(str(p), {}).get("status") == "ok"]
+    return _finished_line(done, paths)
+
+
+def settled_line(result: BatchResult) -> str:
+    """The one line of an interrupt that comes after the batch's work ended (while its table is
+    printed): what the records say it stored or finished. Before, the command's own line said
+    "nothing stored" of three projects add-effect had just written."""
+    paths = [r["project"] for r in result.projects]
+    done = [r["project"] for r in result.projects if r["status"] == "ok"]
+    return _stored_line(result.command, done, paths) if COMMANDS[result.command][1] else _finished_line(done, paths)
+
+
+def _stored_line(command: str, changed: Sequence, paths: Sequence) -> str:
+    if not changed:
+        return "interrupted: nothing stored, no project changed"
+    rest = [p for p in paths if p not in changed]
+    return (f"interrupted: {command} stored in {', '.join(map(str, changed))}; "
+            f"unchanged: {', '.join(map(str, rest)) or 'none'}")
+
+
+def _finished_line(done: Sequence, paths: Sequence) -> str:
     return (f"interrupted: nothing stored; finished: {', '.join(map(str, done)) or 'none'} "
             f"of {len(paths)} projects")
 

@@ -262,7 +262,9 @@ def _recorded_project(path: Path, console: Console, started: float) -> None:
         _say(console, f"  info: {len(info['experiments'])} experiments, "
                       f"{sum(e['n_samples'] for e in info['experiments'].values())} samples per channel in all, "
                       f"derived {', '.join(sorted({d for e in info['experiments'].values() for d in e['derived']}))}; "
-                      f"channels reaching their Systeminfo input limits: {near_txt}")
+                      f"channels reaching their Systeminfo input limits: {near_txt}"
+                      + (" (the thesis's input ranges at its hammer levels: a model cannot follow a clipped "
+                         "signal, so each is left out of its experiment's comparison)" if near else ""))
     finally:
         p.close()
 

@@ -8,6 +8,7 @@ joins a body to the ground or to another body at its position (thesis Eq. 3.3-3.
 from __future__ import annotations
 
 import numpy as np
+import scipy.linalg
 
 from odsuite.api import ConfigError
 from odsuite.api import Model, RigidBody, SpringDamper
@@ -16,6 +17,10 @@ from odsuite.api import Rig
 #: a stiffness eigenvalue below this fraction of the largest is a motion no spring resists (the
 #: matrices are assembled from positive coefficients, so rounding is ~1e-16 of the largest)
 UNRESTRAINED = 1e-10
+#: a motion whose undamped natural frequency is below this (Hz) is one no spring holds in any
+#: measurement (a period of over a quarter of an hour): springs of 1e-300 N/m pass the relative test
+#: above, since every coefficient is as small, and gave modes of 0 Hz and damping ratios of -1
+SLOWEST_HZ = 1e-3
 
 
 def rigid_bodies(rig: Rig | None) -> Model:
@@ -39,7 +44,20 @@ def rigid_bodies(rig: Rig | None) -> Model:
     eig, vec = np.linalg.eigh(k)
     if eig[0] <= UNRESTRAINED * eig[-1]:
         names = [f"{b.name}.{d}" for b in bodies for d in b.dofs]
-        free = vec[:, 0]
-        motion = " + ".join(f"{v:.2g} {n}" for v, n in zip(free, names) if abs(v) > 0.1)
+        motion = _motion(vec[:, 0], names)
         raise ConfigError(f"{where}: the springs do not resist the motion {motion}: add or reorient springs")
+    w2, shapes = scipy.linalg.eigh(k, model.M)
+    if w2[0] < (2 * np.pi * SLOWEST_HZ) ** 2:
+        names = [f"{b.name}.{d}" for b in bodies for d in b.dofs]
+        motion = _motion(shapes[:, 0] / shapes[np.argmax(np.abs(shapes[:, 0])), 0], names)  # its largest part +1
+        hz = np.sqrt(max(w2[0], 0.0)) / (2 * np.pi)
+        raise ConfigError(f"{where}: the springs hardly resist the motion {motion}: its natural frequency is "
+                          f"{hz:.3g} Hz (below {SLOWEST_HZ:g} Hz); check the springs' 'stiffness' (N/m)")
     return model
+
+
+def _motion(shape: np.ndarray, names: list[str]) -> str:
+    """A motion's larger parts as a sum of its coordinates ("0.44 base.theta - 0.22 machine.y")."""
+    parts = [(v, n) for v, n in zip(shape, names) if abs(v) > 0.1]
+    return "".join(f"{'' if i == 0 else (' - ' if v < 0 else ' + ')}{v if i == 0 else abs(v):.2g} {n}"
+                   for i, (v, n) in enumerate(parts))

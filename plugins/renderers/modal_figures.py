@@ -66,7 +66,7 @@ def stabilisation_figure(result, path: str | Path, *, freq: np.ndarray, H: np.nd
     # the poles in the lower 55 % of the axes, the modes' labels in the band above them (drawn
     # among the poles, the labels hid them)
     ax.set_ylim(0, (max(d.orders) + 2) / (POLE_SHARE if len(result.frequency_hz) else 1.0))
-    ax.set_xlabel("frequency (Hz)")
+    ax.set_xlabel("frequency [Hz]")
     ax.set_ylabel("model order")
     ax.yaxis.get_major_locator().set_params(integer=True)  # orders are whole numbers
     ax.set_yticks([t for t in ax.get_yticks() if 0 <= t <= max(d.orders)])  # none in the labels' band

@@ -151,10 +151,15 @@ def title_and_label(plotter, size, style, title: str | None):
 AXES_ROOM = 0.2
 
 
+#: the scale bar's drawn length, as a fraction of the plate size (15-18 % of the frame's width)
+BAR_OF_PLATE = 1.0
+
+
 def scale_bar_length(scale: float, magnify: float) -> tuple[float, float]:
     """(real, drawn) lengths (m) of the scale bar: the round amount of motion (1, 2 or 5 x 10^k m)
-    whose magnified length is nearest to a tenth of the plate size, and that magnified length."""
-    target = 0.1 * scale / magnify
+    whose magnified length is nearest to the plate size, and that magnified length (at a tenth,
+    the bar was a few pixels beside its label in a 1280-pixel frame)."""
+    target = BAR_OF_PLATE * scale / magnify
     exponent = np.floor(np.log10(target))
     real = min((m * 10.0**e for e in (exponent - 1, exponent, exponent + 1) for m in (1.0, 2.0, 5.0)),
                key=lambda v: abs(np.log(v / target)))
@@ -338,16 +343,20 @@ class Scene:
                 self._scale_bar(origin, scale)
 
     def _scale_bar(self, origin: np.ndarray, scale: float) -> None:
-        """A bar along x beyond the axes' x whose drawn length is a round amount of motion (mm)
+        """A bar across the picture beyond the axes whose drawn length is a round amount of motion (mm)
         times the magnification: the reader's ruler for the plates' excursions (below the origin
         its name was drawn across the z axis)."""
         import pyvista as pv
 
         real, drawn = scale_bar_length(scale, self._magnify[0])
-        start = origin + np.array([0.3 * scale, 0.0, 0.0])
-        end = start + np.array([drawn, 0.0, 0.0])
+        # across the picture (along the rig's x it ran down across its own name in an oblique view)
+        up = np.asarray(self._up, float)
+        across = np.cross(-self._towards_camera, up)
+        across /= max(np.linalg.norm(across), 1e-12)
+        start = origin + 0.3 * scale * across
+        end = start + drawn * across
         self.plotter.add_mesh(pv.Line(start, end), color=self.style.text, line_width=4.0, lighting=False)
-        label = pv.PolyData(((start + end) / 2 - 0.07 * scale * np.asarray(self._up, float))[None])
+        label = pv.PolyData((start - 0.1 * scale * up)[None])  # its name under the bar, from its left end
         self._decorations += [start, end, label.points[0]]
         self.plotter.add_point_labels(label, [f"{_mm(real)} of motion (x{_times(self._magnify[0])})"], shape=None,
                                       show_points=False, font_size=self.style.font_size - 1,

@@ -10,6 +10,7 @@ import math
 import os
 import shutil
 import signal
+import sys
 import time
 from pathlib import Path
 
@@ -259,3 +260,29 @@ def test_interrupted_batch_names_the_projects_that_changed(projects):
         "interrupted: nothing stored, no project changed"
     assert _interrupted_line("info", projects, before, {str(projects[0]): {"status": "ok"}}) == \
         f"interrupted: nothing stored; finished: {projects[0]} of 3 projects"
+
+
+def test_an_interrupt_after_the_batch_ended_says_what_it_stored(projects, monkeypatch, capfd):
+    """Ctrl-C while the table prints, after add-effect had written every project: the line names
+    them (it said "interrupted: nothing stored" of three projects just written)."""
+    import odsuite.ops.batch as batch
+    from odsuite import cli
+
+    def ran(command, paths, **kwargs):
+        return batch.BatchResult(command, "local", 1, [{"project": str(p), "status": "ok" if i < 2 else "failed",
+                                                        "result": None, "error": None, "seconds": 0.1,
+                                                        "host": None, "pid": None} for i, p in enumerate(paths)])
+
+    def cut(*args, **kwargs):  # what the command line's Ctrl-C handler raises
+        raise sys.modules["odsuite.cli.app"]._Interrupted()
+
+    monkeypatch.setattr(batch, "run_batch", ran)
+    monkeypatch.setattr(batch, "describe", cut)
+    code = cli.main(["batch", "add-effect", *map(str, projects), "--effect", "stiffness"])
+    last = capfd.readouterr().err.strip().splitlines()[-1]
+    assert code == 130
+    assert last == f"interrupted: add-effect stored in {projects[0]}, {projects[1]}; unchanged: {projects[2]}"
+    monkeypatch.setattr(batch, "run_batch", lambda command, paths, **kw: ran(command, paths))
+    cli.main(["batch", "info", *map(str, projects)])
+    assert capfd.readouterr().err.strip().splitlines()[-1] == \
+        f"interrupted: nothing stored; finished: {projects[0]}, {projects[1]} of 3 projects"

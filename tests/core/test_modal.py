@@ -294,3 +294,18 @@ def test_a_band_without_modes_is_named_in_readable_hertz():
         identify_modes(f, noise, f_band=(1.23456, 876.54321), max_order=20)
     with pytest.raises(ConfigError, match=r"^band 1\.235-5\.432 Hz holds 8 lines; model order 20 needs more$"):
         identify_modes(f, noise, f_band=(1.23456, 5.4321), max_order=20)
+
+
+def test_a_record_whose_stable_poles_all_fail_their_checks_says_so(monkeypatch):
+    """Stable poles found and every one rejected is not "no stable poles found" (the demo's T2
+    read as if its record held nothing): the line names the rejected poles and the line spacing."""
+    import odsuite.analysis.modal as modal
+
+    f = np.linspace(0.0, 1000.0, 2001)
+    w = 2 * np.pi * f
+    h = -(w**2) / (8e5 - 2.0 * w**2 + 2j * 0.02 * np.sqrt(8e5 * 2.0) * w)
+    assert len(identify_modes(f, h[None, :], f_band=(20.0, 600.0), max_order=20).frequency_hz) == 1
+    monkeypatch.setattr(modal, "MAX_SYNTHESIS_ERROR", 1e-12)  # no fit is that good: every pole fails
+    with pytest.raises(ConfigError, match=r"^no mode passed its checks in 20-600 Hz \(lines 0\.5 Hz apart: .*\); "
+                                          r"stable poles rejected: 100\.[0-9]{2} Hz: synthesis misfit"):
+        identify_modes(f, h[None, :], f_band=(20.0, 600.0), max_order=20)

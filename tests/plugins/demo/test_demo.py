@@ -65,6 +65,8 @@ def test_demo_finds_both_hidden_effects_and_the_error_falls_each_round(tmp_path,
     report = out / "report.html"
     assert report.exists() and "<html" in report.read_text()[:500].lower()
     assert "both hidden effects found" in text
+    # a channel at its input limits is said to be left out of its experiment's comparison
+    assert "input limits: none" in text or "left out of its experiment's comparison" in text
     # the narrative wraps at the console's width (80 when piped); only a lone path may run over
     assert not [ln for ln in text.splitlines() if len(ln) > 80 and len(ln.split()) > 2]
     # each revision's error printed as the history figure labels it (four decimals: 0.0134, not 0.013)

@@ -83,3 +83,25 @@ def test_bodies_the_springs_do_not_hold_are_refused_by_the_model(registries):
     sideways["bodies"][1]["dofs"] = ["x", "z"]  # nothing resists the machine's sliding along x
     with pytest.raises(ConfigError, match=r"do not resist the motion .*machine\.x"):
         registries.models.get("rigid-bodies")(rig_from_dict(sideways, registries.sensor_types))
+
+
+def test_springs_too_soft_to_hold_anything_are_refused_by_the_model(registries):
+    """Springs of 1e-300 N/m pass the relative rank test (every coefficient is as small) but hold
+    nothing: the motion's natural frequency, sqrt(k / m) / 2 pi, is named in the one line."""
+    with pytest.raises(ConfigError, match=r"hardly resist the motion 0\.68 base\.z \+ 1 machine\.z: its natural frequency is "
+                       r"[0-9.]+e-15[0-9] Hz") as err:
+        registries.models.get("rigid-bodies")(rig_from_dict(chain(k1=1e-300, k2=1e-300), registries.sensor_types))
+    assert "\n" not in str(err.value)
+    # just below and just above the limit (one body: f = sqrt(k / m) / 2 pi)
+    m = 20.0
+    for hz, refused in ((0.9e-3, True), (1.1e-3, False)):
+        k = m * (2 * np.pi * hz) ** 2
+        data = chain(k1=k, m1=m)
+        data["bodies"] = data["bodies"][:1]
+        data["springs"] = data["springs"][:1]
+        build = lambda: registries.models.get("rigid-bodies")(rig_from_dict(data, registries.sensor_types))  # noqa: E731
+        if refused:
+            with pytest.raises(ConfigError, match=r"natural frequency is 0\.0009 Hz"):
+                build()
+        else:
+            assert np.isclose(build().modes().frequency_hz[0], hz, rtol=1e-9)

@@ -238,3 +238,5 @@ def test_stabilisation_mode_labels_sit_above_the_poles(tmp_path):
         box = label.get_window_extent()
         under = (poles[:, 0] >= box.x0) & (poles[:, 0] <= box.x1) & (poles[:, 1] >= box.y0) & (poles[:, 1] <= box.y1)
         assert not under.any(), (label.get_text(), poles[under])
+    # units in brackets, as every other picture writes them
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("frequency [Hz]", "model order")
