@@ -376,6 +376,9 @@ def main(argv: list[str] | None = None) -> int:
                         help=f"comma-separated rigs the set cycles through (default {','.join(RIGS)}; "
                              f"known: {', '.join(cases.RIGS)})")
     parser.add_argument("--only", default=None, help="run only the cases whose id contains this text")
+    parser.add_argument("--disturb", default="",
+                        help=f"comma-separated disturbances laid over every case of the set as well "
+                             f"(known: {', '.join(cases.DISTURBANCES)}; e.g. flicker: 1/f sensor noise)")
     parser.add_argument("--summary-only", action="store_true",
                         help="tabulate the cases already done in DIR, run nothing")
     args = parser.parse_args(argv)
@@ -383,10 +386,23 @@ def main(argv: list[str] | None = None) -> int:
     unknown = [x for x in rigs if x not in cases.RIGS]
     if not rigs or unknown:
         parser.error(f"--rigs: unknown rig {', '.join(unknown) or '(none given)'}; known: {', '.join(cases.RIGS)}")
+    extra = [x.strip() for x in args.disturb.split(",") if x.strip()]
+    unknown = [x for x in extra if x not in cases.DISTURBANCES]
+    if unknown:
+        parser.error(f"--disturb: unknown disturbance {', '.join(unknown)}; known: {', '.join(cases.DISTURBANCES)}")
+
+    def all_specs():
+        out = specs(args.set, args.n, rigs)
+        for spec in out:
+            if extra:
+                spec["disturbances"] = list(dict.fromkeys(spec.get("disturbances", []) + extra))
+                spec["id"] += "-" + "-".join(extra)
+        return out
+
     results_dir = args.out / "results"
     results_dir.mkdir(parents=True, exist_ok=True)
     todo, results = [], []
-    for spec in specs(args.set, args.n, rigs):
+    for spec in all_specs():
         if args.only and args.only not in spec["id"]:
             continue
         done = results_dir / f"{spec['id']}.json"
@@ -417,7 +433,7 @@ def main(argv: list[str] | None = None) -> int:
                 keep(fut.result())
     if args.summary_only:
         print(f"{len(results)} of {total} cases done", file=sys.stderr)
-    order = {s["id"]: i for i, s in enumerate(specs(args.set, args.n, rigs))}
+    order = {s["id"]: i for i, s in enumerate(all_specs())}
     results = [r for r in results if r["id"] in order and (not args.only or args.only in r["id"])]
     results.sort(key=lambda r: order.get(r["id"], 1 << 30))
     summary = summarise(args.set, results)

@@ -472,6 +472,14 @@ def drift(case: Case, rng: np.random.Generator) -> None:
     case.truth["effect"] = {"kind": "drift", "drift_v_per_s": case.actual.daq.drift_v_per_s}
 
 
+def flicker(case: Case, rng: np.random.Generator) -> None:
+    n = 1 + max(a.channel for a in case.actual.accelerometers)
+    case.actual.daq.flicker_v = float(np.max(case.actual.daq.noise_rms_v))
+    case.actual.daq.flicker_corner_hz = rng.uniform(20.0, 200.0, n)
+    case.truth["effect"] = {"kind": "flicker", "flicker_v": case.actual.daq.flicker_v,
+                            "flicker_corner_hz": case.actual.daq.flicker_corner_hz}
+
+
 def mains_hum(case: Case, rng: np.random.Generator) -> None:
     n = 1 + max(a.channel for a in case.actual.accelerometers)
     case.actual.daq.hum_hz = float(rng.choice([50.0, 60.0]))
@@ -589,7 +597,7 @@ CASES.update({
 })
 
 #: what may be laid over any case (its own random stream: the case's draws do not change)
-DISTURBANCES = ("drift", "hum", "double-hit")
+DISTURBANCES = ("drift", "hum", "double-hit", "flicker")
 
 
 def _disturb(case: Case, which, rng: np.random.Generator) -> None:
@@ -598,7 +606,7 @@ def _disturb(case: Case, which, rng: np.random.Generator) -> None:
     for name in which:
         if name not in DISTURBANCES:
             raise KeyError(f"unknown disturbance {name!r}; known: {', '.join(DISTURBANCES)}")
-        {"drift": drift, "hum": mains_hum, "double-hit": double_hit}[name](case, rng)
+        {"drift": drift, "hum": mains_hum, "double-hit": double_hit, "flicker": flicker}[name](case, rng)
         notes[name] = case.truth.pop("effect")
     if effect is not None:
         case.truth["effect"] = effect

@@ -387,6 +387,14 @@ def daq_disturbances(daq, t: np.ndarray, n_ch: int, rng: np.random.Generator) ->
     out = hum[None, :] * np.sin(2 * np.pi * daq.hum_hz * t[:, None] + phase[None, :])
     out += drift[None, :] * t[:, None]
     out += noise[None, :] * rng.standard_normal((t.size, n_ch))
+    corner = np.broadcast_to(np.asarray(daq.flicker_corner_hz, float), (n_ch,))
+    if corner.any():  # drawn last: records without it keep their draws
+        f = np.fft.rfftfreq(t.size, t[1] - t[0])
+        shape = np.zeros_like(f)
+        shape[1:] = 1.0 / np.sqrt(f[1:])  # density times corner / f, from the white level's
+        spectrum = np.fft.rfft(rng.standard_normal((t.size, n_ch)), axis=0) * shape[:, None]
+        level = np.broadcast_to(np.asarray(daq.flicker_v, float), (n_ch,)) * np.sqrt(corner)
+        out += level[None, :] * np.fft.irfft(spectrum, t.size, axis=0)
     return out
 
 

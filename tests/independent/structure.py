@@ -181,6 +181,10 @@ class Daq:
     hum_v: float | np.ndarray = 0.0  # mains hum amplitude per channel
     hum_hz: float = 50.0
     drift_v_per_s: float | np.ndarray = 0.0  # linear drift per channel
+    # 1/f (flicker) noise per channel, as an IEPE accelerometer's rises at low frequency: its
+    # spectral density is flicker_v's white level's times flicker_corner_hz / f (equal at the corner)
+    flicker_v: float | np.ndarray = 0.0  # V rms of the white noise whose density sets the 1/f level
+    flicker_corner_hz: float | np.ndarray = 0.0
     # internal rate = oversample * sampling_rate: 64+ points per hammer pulse, and a cubic spline
     # between fine points is exact to ~1e-8 for the 1-2 kHz the anti-aliasing filter passes
     oversample: int = 8

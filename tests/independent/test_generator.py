@@ -296,6 +296,23 @@ def test_adc_levels_noise_and_load_cell():
     assert abs(np.std(residual) / 1e-3 - 1) < 0.02  # 22528 samples: the std is known to ~0.5 %
 
 
+def test_flicker_noise_rises_as_one_over_f_below_its_corner():
+    """The 1/f disturbance's density is the white level's times corner / f: averaged over 16
+    channels and Welch segments, each octave's density over the white noise's density follows
+    1 + corner / f within 15 % (a real IEPE accelerometer's noise rises so below 100-300 Hz)."""
+    from .rigsim import daq_disturbances
+
+    fs, n, corner = 10240.0, 2**15, 100.0
+    daq = Daq(sampling_rate=fs, n_samples=n, noise_rms_v=50e-6, flicker_v=50e-6, flicker_corner_hz=corner)
+    x = daq_disturbances(daq, np.arange(n) / fs, 16, np.random.default_rng(4))
+    f, psd = signal.welch(x, fs, nperseg=4096, axis=0)
+    white = (50e-6) ** 2 / (fs / 2)
+    for lo in (10.0, 20.0, 40.0, 80.0, 160.0, 320.0, 640.0, 1280.0):
+        band = (f >= lo) & (f < 2 * lo)
+        expected = np.mean(1 + corner / f[band])
+        assert np.mean(psd[band]) / white == pytest.approx(expected, rel=0.15), lo
+
+
 # ---------------------------------------------------------------------------------------------
 # writers against odsuite's readers
 
