@@ -1,6 +1,7 @@
 """The validated (held-out) error of a fit (odsuite.diagnosis.fitting.validate): each fold
-refitted to its own minimum, so that it does not depend on where in the full fit's flat valley
-the fit ended, against each fold fitted by scipy's least_squares."""
+refitted towards its own minimum (as far as the full fit went; its search may end on its
+Broyden-updated Jacobian), so that it does not depend on where in the full fit's flat valley the
+fit ended, against each fold fitted by scipy's least_squares."""
 
 from __future__ import annotations
 
