@@ -286,6 +286,9 @@ INERTIA_MIN = 1e-15  # kg m^2: a principal moment of a 1 mg, 0.03 mm body; below
 #: V per SI unit: a 0.1 mV/g accelerometer is 1e-5 V/(m/s^2), a laser displacement sensor 1e4 V/m
 SENSITIVITY_RANGE = (1e-9, 1e9)
 STIFFNESS_MAX = 1e12  # N/m, N m/rad (and N s/m, N m s/rad for damping)
+#: a nonzero coefficient below this is a typo: a 1 mg body on it swings slower than once a day, and
+#: subnormal values (1e-300) break the simulation's matrix balancing
+STIFFNESS_MIN = 1e-12
 SIZE_MAX = 1e3  # m: positions, sizes and corners within a kilometre of the origin
 #: a rig file is text of at most this many bytes, tables and arrays nested at most this deep
 RIG_FILE_BYTES = 16 * 2**20
@@ -677,6 +680,9 @@ def _coefficients(where: str, value: Any, default: Any = None) -> np.ndarray:
     low = np.min(arr) if arr.ndim == 1 else np.linalg.eigvalsh(arr).min()
     if low < 0:
         raise ConfigError(f"{where}: must not be negative, got {value!r}")
+    main = arr if arr.ndim == 1 else np.diag(arr)
+    if np.any((main != 0) & (np.abs(main) < STIFFNESS_MIN)):
+        raise ConfigError(f"{where}: expected 0 or at least {STIFFNESS_MIN:g} (SI), got {value!r}")
     return arr
 
 

@@ -679,6 +679,8 @@ CASES: list[Case] = [
          **new_rig(RIG_TOML.replace("mass = 2.0", "mass = 1" + "0" * 41))),
     Case("rig-stiffness-integer", "spring stiffness written as the integer 10**400 (beyond a float)", "{dir}/bad.toml: springs[0] 's1' field 'stiffness': expected 3 numbers [x, y, z] or a 3x3 matrix, got [1000",
          **new_rig(RIG_TOML + SPRING.replace("[1000.0, 1000.0, 1000.0]", "[1" + "0" * 400 + ", 1000.0, 1000.0]"))),
+    Case("rig-stiffness-tiny", "spring stiffness of 1e-300 N/m (subnormal; the simulation's balancing warns)", "{dir}/bad.toml: springs[0] 's1' field 'stiffness': expected 0 or at least 1e-12 (SI), got [1e-300, 1e-300, 1e-300]",
+         **new_rig(RIG_TOML + SPRING.replace("[1000.0, 1000.0, 1000.0]", "[1e-300, 1e-300, 1e-300]"))),
     Case("catalog-query-empty", "catalog query with an empty query (no query at all lists the projects)", "catalog query '': expected one of projects, unexplained, errors, experiments, sensors, gains or a SELECT",
          argv=lambda d: ["catalog", "query", str(d), ""]),
     Case("diagnosis-huge", "report --diagnosis with a file of 17 MiB", "{dir}/d.json: more than 16777216 bytes, not a diagnosis from `odsuite diagnose --json`",
