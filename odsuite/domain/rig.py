@@ -286,7 +286,7 @@ INERTIA_MIN = 1e-15  # kg m^2: a principal moment of a 1 mg, 0.03 mm body; below
 #: V per SI unit: a 0.1 mV/g accelerometer is 1e-5 V/(m/s^2), a laser displacement sensor 1e4 V/m
 SENSITIVITY_RANGE = (1e-9, 1e9)
 STIFFNESS_MAX = 1e12  # N/m, N m/rad (and N s/m, N m s/rad for damping)
-#: a nonzero coefficient below this is a typo: a 1 mg body on it swings slower than once a day, and
+#: a nonzero coefficient below this is a typo: a 1 mg body on it swings once in about two hours, and
 #: subnormal values (1e-300) break the simulation's matrix balancing
 STIFFNESS_MIN = 1e-12
 SIZE_MAX = 1e3  # m: positions, sizes and corners within a kilometre of the origin

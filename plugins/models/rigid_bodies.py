@@ -18,8 +18,8 @@ from odsuite.api import Rig
 #: matrices are assembled from positive coefficients, so rounding is ~1e-16 of the largest)
 UNRESTRAINED = 1e-10
 #: a motion whose undamped natural frequency is below this (Hz) is one no spring holds in any
-#: measurement (a period of over a quarter of an hour): springs of 1e-300 N/m pass the relative test
-#: above, since every coefficient is as small, and gave modes of 0 Hz and damping ratios of -1
+#: measurement (a period of over a quarter of an hour): springs all equally soft pass the relative
+#: test above (1e-300 N/m gave modes of 0 Hz and damping ratios of -1)
 SLOWEST_HZ = 1e-3
 
 
