@@ -41,14 +41,13 @@ def rigid_bodies(rig: Rig | None) -> Model:
     model = Model.build(bodies, springs, name="rigid-bodies", rig=rig,
                         info={"source": str(rig.source) if rig.source else rig.name})
     k = model.K
+    names = [f"{b.name}.{d}" for b in bodies for d in b.dofs]
     eig, vec = np.linalg.eigh(k)
     if eig[0] <= UNRESTRAINED * eig[-1]:
-        names = [f"{b.name}.{d}" for b in bodies for d in b.dofs]
         motion = _motion(vec[:, 0], names)
         raise ConfigError(f"{where}: the springs do not resist the motion {motion}: add or reorient springs")
     w2, shapes = scipy.linalg.eigh(k, model.M)
     if w2[0] < (2 * np.pi * SLOWEST_HZ) ** 2:
-        names = [f"{b.name}.{d}" for b in bodies for d in b.dofs]
         motion = _motion(shapes[:, 0] / shapes[np.argmax(np.abs(shapes[:, 0])), 0], names)  # its largest part +1
         hz = np.sqrt(max(w2[0], 0.0)) / (2 * np.pi)
         raise ConfigError(f"{where}: the springs hardly resist the motion {motion}: its natural frequency is "
