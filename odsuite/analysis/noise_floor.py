@@ -32,6 +32,8 @@ import numpy as np
 import scipy.ndimage
 import scipy.signal
 
+from odsuite.analysis import noise_colour
+
 #: mains frequencies and harmonics fitted as hum (Hz): 50 Hz and 60 Hz grids, up to the 3rd
 MAINS_HZ = (50.0, 60.0)
 MAINS_HARMONICS = 3
@@ -333,6 +335,12 @@ def welch_frequencies(fs: float, n_samples: int) -> np.ndarray:
     return np.fft.rfftfreq(_segment(n_samples), 1.0 / fs)
 
 
+def _coloured(flat: np.ndarray, colour: np.ndarray) -> np.ndarray:
+    """A flat density coloured, each column keeping its integral (its per-sample variance)."""
+    out = flat * colour
+    return out * flat.sum(axis=0) / np.where(out.sum(axis=0) > 0, out.sum(axis=0), np.inf)
+
+
 def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
              sensor_noise: Mapping[str, Sequence[np.ndarray]] | None = None, *, spectra: bool = False) -> NoiseFloor:
     """The noise floor of ``exps`` (PreparedExperiments); ``impulses`` maps an experiment's name to
@@ -348,6 +356,7 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
     specs: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     banded: dict[str, tuple[list[tuple[float, float]], np.ndarray, np.ndarray]] = {}
     seen: dict[str, np.ndarray] = {}
+    colours = noise_colour.by_sensor(exps)
     for e in exps:
         n = e.n_samples
         white = np.asarray(e.noise_var, float)
@@ -358,6 +367,21 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
         else:
             n_active = moving_samples(e.measured, lsb, e.fs).sum(axis=0)
             broadband = white * n + n_active * (active_var(white, lsb) - white)
+        # the sensors' noise rises at low frequency where the samples before the hit say so
+        # (noise_colour): its expected energy per line, coloured, and the broadband energy with it
+        colour = noise_colour.gains(colours, e, np.fft.rfftfreq(n, 1.0 / e.fs))
+        sensor_lines = None
+        if spectra or colour is not None:
+            if simulated:
+                # a few realisations scatter line by line; the sensors' noise is smooth in frequency
+                sensor_lines = scipy.ndimage.uniform_filter1d(np.mean([line_energies(r) for r in simulated], axis=0),
+                                                              SMOOTH_LINES, axis=0, mode="nearest")
+            else:
+                sensor_lines = np.tile(broadband / (n // 2 + 1), (n // 2 + 1, 1))
+            if colour is not None:
+                white_sum = sensor_lines.sum(axis=0)
+                sensor_lines = sensor_lines * colour
+                broadband = broadband * sensor_lines.sum(axis=0) / np.where(white_sum > 0, white_sum, np.inf)
         hum = (np.sum(e.disturbance**2, axis=0) if e.disturbance is not None else np.zeros(len(e.sensors)))
         force_part = np.zeros(len(e.sensors))
         h = None
@@ -377,8 +401,11 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
                                        np.cumsum([b.shape[1] for b in blocks])[:-1], axis=1) if blocks else [])
             if simulated:
                 psd = np.mean([next(spectra_of) for _ in simulated], axis=0)
-            else:  # flat one-sided density whose integral is the per-sample variance
-                psd = np.tile(broadband / n * 2.0 / e.fs, (len(f), 1))
+                if colour is not None:
+                    psd = psd * noise_colour.gains(colours, e, f)
+            else:  # one-sided density whose integral is the per-sample variance
+                flat = np.tile(broadband / n * 2.0 / e.fs, (len(f), 1))
+                psd = flat if colour is None else _coloured(flat, noise_colour.gains(colours, e, f))
             if e.disturbance is not None:
                 psd = psd + next(spectra_of)
             if h is not None:
@@ -386,12 +413,7 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
             specs[e.name] = (f, psd)
             # the expected energy per line of every part, scaled so that each sensor's lines add up
             # to its floor energy (the rounding's share where no realisation simulates it)
-            if simulated:
-                # a few realisations scatter line by line; the sensors' noise is smooth in frequency
-                lines = scipy.ndimage.uniform_filter1d(np.mean([line_energies(r) for r in simulated], axis=0),
-                                                       SMOOTH_LINES, axis=0, mode="nearest")
-            else:
-                lines = np.tile(broadband / (n // 2 + 1), (n // 2 + 1, 1))
+            lines = sensor_lines
             if e.disturbance is not None:
                 lines = lines + line_energies(e.disturbance)
             if h is not None:

@@ -177,6 +177,8 @@ class PreparedExperiment:
     force_noise_energy: float = 0.0
     # how many samples the noise is measured on (before the hit, after the response; 0: not known)
     quiet_samples: int = 0
+    # the first sample of the quiet tail after the response (-1: not known; n_samples: none)
+    quiet_tail: int = -1
     # the last structure simulated and its coordinate accelerations: effects that only change the
     # sensors (gain, tilt, position) reuse them (a strong reference, so identity is safe)
     _cache: tuple | None = field(default=None, repr=False)
@@ -346,6 +348,16 @@ def experiment_force(project, name: str) -> np.ndarray:
     return _force(exp, exp.raw(), f"{project.path}: experiment {name!r}", project.registries.processing_steps).force
 
 
+def quiet_tail(quiet: np.ndarray, trigger: int) -> int:
+    """The first sample of the quiet stretch that runs to a record's end after its hit (the
+    record's length where its last sample is not quiet)."""
+    n = len(quiet)
+    if n == 0 or not quiet[-1]:
+        return n
+    loud = np.flatnonzero(~quiet[trigger:])
+    return trigger + int(loud[-1]) + 1 if loud.size else trigger
+
+
 def prepare_experiment(project, name: str, exp=None) -> PreparedExperiment:
     """Read one experiment (``exp``: as already read from ``project``) and run the measured side
     of the comparison."""
@@ -417,6 +429,7 @@ def prepare_experiment(project, name: str, exp=None) -> PreparedExperiment:
         volts=volts, measured=measured, volts_per_unit=np.asarray(vpu), chains=chains, trigger=trigger,
         noise_var=white, units=units, operators=stage_operators(infos, vpu, steps), lsb=lsb, adc_step_v=step,
         disturbance=disturbance, volts_disturbance=quiet.disturbance, quiet_samples=int(quiet.quiet.sum()),
+        quiet_tail=quiet_tail(quiet.quiet, trigger),
         force_noise_energy=fw.noise_energy, force_body=exp.excitation.body,
         notes=notes, registries=project.registries,
     )

@@ -1,0 +1,156 @@
+"""The colour of the sensors' own noise: how its density rises at low frequency (an IEPE
+accelerometer's noise rises as 1/f below 100-300 Hz), measured on the samples before the hit.
+
+The noise floor simulates the sensors' noise white at the quiet samples' level. Where the noise
+rises at low frequency, a perfect model's residual in the low bands is then many times its floor
+there (and a little below it at high frequency). This module fits, per sensor and pooled over
+the experiments, a density ``white + rise f^-exponent`` to the periodograms of its quiet stretches
+(before the hit, and the tail after the response has died into the noise; raw volts, less the
+fitted offset, hum and a line: no filter has rung there), and keeps the rise only where a
+likelihood-ratio test against white noise says it is there. The smooth law is the guard against
+a mode still ringing in a quiet tail: that is one or two lines, which no rise fits.
+
+The floor's sensor-noise lines are multiplied by the fitted density over its mean (the quiet
+samples' level is that mean), never by less than one: a colour the fit gets a little wrong
+lowers no floor. Below the stretch's first line the fitted law is carried down.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.optimize
+import scipy.signal
+import scipy.stats
+
+#: exponents of the rise tried (density ~ f^-exponent): 1/f noise, and slower and faster rises
+EXPONENTS = (0.5, 1.0, 1.5, 2.0)
+#: lines fitted: up to this fraction of the sampling rate (above it the converter's anti-alias
+#: filter shapes an analog noise, which the simulated noise does not follow)
+TOP_FRACTION = 1.0 / 8.0
+#: each stretch's lines are taken relative to their mean from this fraction of the sampling rate
+#: to TOP_FRACTION (where a rise below 200 Hz has faded, at rates from 3 kHz)
+REFERENCE = 1.0 / 16.0
+#: fewest samples a quiet stretch must hold to count (8 lines from REFERENCE to TOP_FRACTION)
+MIN_SAMPLES = 128
+#: a rise is kept when the likelihood ratio against white noise exceeds chi-square with two degrees
+#: of freedom (the rise and its exponent) at this probability
+COLOUR_FALSE_ALARM = 0.01
+#: samples kept clear of the hit (s), as noise_floor.HIT_GUARD_S
+HIT_GUARD_S = 1e-3
+
+
+@dataclass(frozen=True)
+class Colour:
+    """A sensor's noise density relative to its quiet level: white + rise f^-exponent."""
+
+    white: float
+    rise: float
+    exponent: float
+
+    def density(self, f: np.ndarray) -> np.ndarray:
+        f = np.asarray(f, float)
+        return self.white + self.rise * np.power(np.where(f > 0, f, np.inf), -self.exponent)
+
+
+def quiet_stretches(exp) -> list[tuple[int, int]]:
+    """The quiet stretches of a PreparedExperiment that hold at least MIN_SAMPLES samples: before
+    the hit (less a guard) and the tail after the response has died into the noise."""
+    out = [(0, int(exp.trigger) - int(round(HIT_GUARD_S * exp.fs)))]
+    if 0 <= exp.quiet_tail < exp.n_samples:
+        out.append((int(exp.quiet_tail), exp.n_samples))
+    return [(a, b) for a, b in out if b - a >= MIN_SAMPLES]
+
+
+def quiet_lines(exp) -> tuple[np.ndarray, np.ndarray] | None:
+    """Frequencies (Hz) and periodogram lines (lines x sensors) of the quiet stretches of a
+    PreparedExperiment (raw volts, less the fitted offset, hum and a line per stretch), each
+    stretch's over its mean between REFERENCE and TOP_FRACTION of the sampling rate (the same
+    frequencies for every stretch, whatever its length); None when no stretch is long enough."""
+    fs, ls = [], []
+    for a, b in quiet_stretches(exp):
+        x = np.asarray(exp.volts[a:b], float)
+        if exp.volts_disturbance is not None:
+            x = x - exp.volts_disturbance[a:b]
+        x = scipy.signal.detrend(x, axis=0, type="linear")
+        spec = np.abs(np.fft.rfft(x, axis=0)) ** 2
+        f = np.fft.rfftfreq(b - a, 1.0 / exp.fs)
+        keep = (f > 0) & (f <= TOP_FRACTION * exp.fs)
+        ref = np.mean(spec[keep & (f > REFERENCE * exp.fs)], axis=0)
+        fs.append(f[keep])
+        ls.append(spec[keep] / np.where(ref > 0, ref, np.inf))
+    if not fs:
+        return None
+    return np.concatenate(fs), np.concatenate(ls)
+
+
+def _nll(mu: np.ndarray, r: np.ndarray) -> float:
+    # periodogram lines are exponential about their density
+    return float(np.sum(np.log(mu) + r / mu))
+
+
+def fit(f: np.ndarray, r: np.ndarray) -> Colour | None:
+    """The density white + rise f^-exponent that fits the lines ``r`` at ``f`` best (maximum
+    likelihood); None unless it beats white noise by the likelihood-ratio test."""
+    ok = np.isfinite(r) & (f > 0)
+    f, r = f[ok], r[ok]
+    if len(r) < 8 or np.mean(r) <= 0:
+        return None
+    flat = _nll(np.full(len(r), np.mean(r)), r)
+    best, best_nll = None, flat
+    for a in EXPONENTS:
+        x = f ** -a
+
+        def nll(p, x=x):
+            return _nll(np.exp(p[0]) + np.exp(p[1]) * x, r)
+
+        # start: half the level white, the other half in the rise at the lowest line
+        start = np.log([0.5 * np.mean(r), max(0.5 * np.mean(r) / x.max(), 1e-300)])
+        res = scipy.optimize.minimize(nll, start, method="Nelder-Mead",
+                                      options={"xatol": 1e-4, "fatol": 1e-6, "maxiter": 400})
+        if res.fun < best_nll:
+            best, best_nll = Colour(float(np.exp(res.x[0])), float(np.exp(res.x[1])), a), float(res.fun)
+    if best is None or 2.0 * (flat - best_nll) <= scipy.stats.chi2.isf(COLOUR_FALSE_ALARM, 2):
+        return None
+    return best
+
+
+def by_sensor(exps: Sequence) -> dict[str, Colour]:
+    """Per sensor name, its noise's colour from every experiment's samples before the hit (pooled:
+    the colour is the sensor's); sensors whose noise is white are left out."""
+    pooled: dict[str, tuple[list, list]] = {}
+    for e in exps:
+        lines = quiet_lines(e)
+        if lines is None:
+            continue
+        f, r = lines
+        for j, s in enumerate(e.sensors):
+            fs_, rs = pooled.setdefault(s.name, ([], []))
+            fs_.append(f)
+            rs.append(r[:, j])
+    out = {}
+    for name, (fs_, rs) in pooled.items():
+        colour = fit(np.concatenate(fs_), np.concatenate(rs))
+        if colour is not None:
+            out[name] = colour
+    return out
+
+
+def gains(colours: Mapping[str, Colour], exp, f: np.ndarray) -> np.ndarray | None:
+    """Per frequency ``f`` (Hz) and sensor of ``exp``, the factor on its white noise's density:
+    the fitted density over its mean between the first line its longest quiet stretch shows and
+    Nyquist (the quiet samples' variance is about that mean), at least one; None when every
+    sensor's noise is white."""
+    if not any(s.name in colours for s in exp.sensors):
+        return None
+    longest = max((b - a for a, b in quiet_stretches(exp)), default=exp.n_samples)
+    seen = np.fft.rfftfreq(longest, 1.0 / exp.fs)[1:]
+    out = np.ones((len(f), len(exp.sensors)))
+    for j, s in enumerate(exp.sensors):
+        c = colours.get(s.name)
+        if c is not None:
+            out[:, j] = np.maximum(1.0, c.density(f) / np.mean(c.density(seen)))
+    out[np.asarray(f) <= 0] = 1.0
+    return out
