@@ -58,6 +58,9 @@ LOWEST_BAND_HZ = 12.5
 LOWEST_BAND_LINES = 4
 #: lines averaged over to take the expected spectrum of the simulated sensor noise
 SMOOTH_LINES = 17
+#: a band is judged where the quiet stretches (of every record, pooled) show at least this many
+#: lines in it: one line of one short tail is one noisy value, and may hold a mode still ringing
+RESOLVING_LINES = 2
 
 
 def band_edges(fs: float, n_samples: int) -> list[tuple[float, float]]:
@@ -73,15 +76,26 @@ def band_edges(fs: float, n_samples: int) -> list[tuple[float, float]]:
     return list(zip(edges[:-1], edges[1:]))
 
 
-def resolves_band(quiet_samples: int, fs: float, bands: Sequence[tuple[float, float]]) -> np.ndarray:
-    """Per band, whether a stretch of ``quiet_samples`` samples resolves it: a line of its own
-    spectrum (k fs / quiet_samples, k >= 1) lies in the band. Below its first line a stretch shows
-    no spectrum at all: a noise that rises there (1/f-like, a slow wander) is not seen in it.
-    0 samples: not known, every band counts as resolved."""
-    if quiet_samples <= 0:
+def resolves_band(stretches: Sequence[tuple[int, float]] | None, bands: Sequence[tuple[float, float]],
+                  least: int = RESOLVING_LINES) -> np.ndarray:
+    """Per band, whether the quiet stretches (each ``(samples, sampling rate)``; the records' of one
+    sensor pooled, its noise is the same in each) resolve it: at least ``least`` lines of their own
+    spectra (k fs / samples, k >= 1) lie in the band. Below a stretch's first line it shows no
+    spectrum at all: a noise that rises there (1/f-like, a slow wander) is not seen in it; and a
+    stretch before the hit and one after the response, apart, see no lower (0.05 s and 0.06 s of
+    them judged a null's 2.5-12.5 Hz as if they were one of 0.11 s). None: not known, every band
+    counts as resolved."""
+    if stretches is None:
         return np.ones(len(bands), bool)
-    first = fs / quiet_samples
-    return np.array([max(first, first * np.ceil(lo / first)) < hi for lo, hi in bands])
+    count = np.zeros(len(bands), int)
+    for samples, fs in stretches:
+        if samples < 2:
+            continue
+        first = fs / samples
+        for i, (lo, hi) in enumerate(bands):
+            # lines k first with lo <= k first < hi, k >= 1
+            count[i] += max(0, int(np.ceil(hi / first)) - max(1, int(np.ceil(lo / first))))
+    return count >= least
 
 
 def line_energies(x: np.ndarray) -> np.ndarray:
@@ -358,6 +372,9 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
     banded: dict[str, tuple[list[tuple[float, float]], np.ndarray, np.ndarray]] = {}
     seen: dict[str, np.ndarray] = {}
     colours = noise_colour.by_sensor(exps)
+    known = all(getattr(e, "quiet_tail", -1) >= 0 for e in exps)
+    stretches = ([(b - a, e.fs) for e in exps for a, b in noise_colour.quiet_stretches(e, shortest=2)]
+                 if known else None)
     for e in exps:
         n = e.n_samples
         white = np.asarray(e.noise_var, float)
@@ -424,5 +441,5 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
             bands = band_edges(e.fs, n)
             masks = in_band(e.fs, n, bands)
             banded[e.name] = (bands, np.array([lines[m].sum(axis=0) for m in masks]), band_dof(lines, masks))
-            seen[e.name] = resolves_band(getattr(e, "quiet_samples", 0), e.fs, bands)
+            seen[e.name] = resolves_band(stretches, bands)
     return NoiseFloor(energy, measured, parts, specs, banded, seen)

@@ -175,10 +175,10 @@ class PreparedExperiment:
     # the same disturbances as recorded (samples x sensors, volts): the converter rounds them too
     volts_disturbance: np.ndarray | None = None
     force_noise_energy: float = 0.0
-    # how many samples the noise is measured on (before the hit, after the response; 0: not known)
-    quiet_samples: int = 0
     # the first sample of the quiet tail after the response (-1: not known; n_samples: none)
     quiet_tail: int = -1
+    # the samples before the hit the noise is measured on (0 to this; 0: none)
+    quiet_before: int = 0
     # the last structure simulated and its coordinate accelerations: effects that only change the
     # sensors (gain, tilt, position) reuse them (a strong reference, so identity is safe)
     _cache: tuple | None = field(default=None, repr=False)
@@ -348,6 +348,12 @@ def experiment_force(project, name: str) -> np.ndarray:
     return _force(exp, exp.raw(), f"{project.path}: experiment {name!r}", project.registries.processing_steps).force
 
 
+def quiet_before(quiet: np.ndarray) -> int:
+    """How many samples from a record's start are quiet (before its hit)."""
+    loud = np.flatnonzero(~quiet)
+    return int(loud[0]) if loud.size else len(quiet)
+
+
 def quiet_tail(quiet: np.ndarray, trigger: int) -> int:
     """The first sample of the quiet stretch that runs to a record's end after its hit (the
     record's length where its last sample is not quiet)."""
@@ -428,8 +434,8 @@ def prepare_experiment(project, name: str, exp=None) -> PreparedExperiment:
         direction=np.asarray(exp.excitation.direction, float), sensors=sensors, columns=columns,
         volts=volts, measured=measured, volts_per_unit=np.asarray(vpu), chains=chains, trigger=trigger,
         noise_var=white, units=units, operators=stage_operators(infos, vpu, steps), lsb=lsb, adc_step_v=step,
-        disturbance=disturbance, volts_disturbance=quiet.disturbance, quiet_samples=int(quiet.quiet.sum()),
-        quiet_tail=quiet_tail(quiet.quiet, trigger),
+        disturbance=disturbance, volts_disturbance=quiet.disturbance,
+        quiet_tail=quiet_tail(quiet.quiet, trigger), quiet_before=quiet_before(quiet.quiet),
         force_noise_energy=fw.noise_energy, force_body=exp.excitation.body,
         notes=notes, registries=project.registries,
     )

@@ -64,8 +64,8 @@ def test_a_one_over_f_rise_is_found_and_its_low_band_is_right(corner):
 class _Exp:
     """What noise_colour reads of a PreparedExperiment."""
 
-    def __init__(self, volts, trigger, quiet_tail, names):
-        self.volts, self.trigger, self.quiet_tail, self.fs = volts, trigger, quiet_tail, FS
+    def __init__(self, volts, quiet_before, quiet_tail, names):
+        self.volts, self.quiet_before, self.quiet_tail, self.fs = volts, quiet_before, quiet_tail, FS
         self.volts_disturbance = None
         self.sensors = [type("S", (), {"name": n})() for n in names]
 
@@ -81,7 +81,7 @@ def test_the_floors_factor_is_at_least_one_and_follows_the_rise_where_it_is_seen
     exps = []
     for _ in range(3):
         volts = np.column_stack([_one_over_f(4096, 200.0, rng), rng.standard_normal(4096)])
-        exps.append(_Exp(volts, trigger=1030, quiet_tail=3072, names=["rising", "white"]))
+        exps.append(_Exp(volts, quiet_before=1024, quiet_tail=3072, names=["rising", "white"]))
     colours = noise_colour.by_sensor(exps)
     assert set(colours) == {"rising"}
     f = np.fft.rfftfreq(4096, 1.0 / FS)

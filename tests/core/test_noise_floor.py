@@ -310,13 +310,18 @@ def test_the_floor_covers_the_rounding_of_a_sub_code_trend(seed):
 
 def test_a_band_below_the_quiet_samples_first_line_is_not_resolved():
     """256 quiet samples at 4096 Hz (62.5 ms) see lines at 16, 32, ... Hz: the octave 12.5-25 Hz
-    holds one, the band up to 12.5 Hz none; 0 samples (not known) resolves every band."""
+    holds one, the band up to 12.5 Hz none; a band is judged where two lines are seen, the records'
+    stretches pooled (one sensor's noise in each); two stretches apart see no lower than each
+    alone; None (not known) resolves every band."""
     from odsuite.analysis.noise_floor import resolves_band
 
     bands = [(2.0, 12.5), (12.5, 25.0), (25.0, 50.0), (1600.0, 2048.0)]
-    assert resolves_band(256, 4096.0, bands).tolist() == [False, True, True, True]
-    assert resolves_band(1024, 4096.0, bands).tolist() == [True, True, True, True]
-    assert resolves_band(0, 4096.0, bands).tolist() == [True] * 4
+    assert resolves_band([(256, 4096.0)], bands).tolist() == [False, False, True, True]
+    assert resolves_band([(256, 4096.0)] * 2, bands).tolist() == [False, True, True, True]
+    # 256 before the hit and 256 after the response: not one stretch of 512 (8 Hz lines)
+    assert resolves_band([(256, 4096.0), (256, 4096.0), (512, 4096.0)], bands).tolist() == [False, True, True, True]
+    assert resolves_band([(1024, 4096.0)], bands).tolist() == [True, True, True, True]
+    assert resolves_band(None, bands).tolist() == [True] * 4
 
 
 def test_a_drift_before_a_response_that_never_dies_is_neither_noise_nor_hum():

@@ -480,6 +480,12 @@ def flicker(case: Case, rng: np.random.Generator) -> None:
                             "flicker_corner_hz": case.actual.daq.flicker_corner_hz}
 
 
+def common_noise(case: Case, rng: np.random.Generator) -> None:
+    """A white noise every channel shares, as loud as each channel's own (a ground loop)."""
+    case.actual.daq.common_v = float(np.max(case.actual.daq.noise_rms_v))
+    case.truth["effect"] = {"kind": "common_noise", "common_v": case.actual.daq.common_v}
+
+
 def mains_hum(case: Case, rng: np.random.Generator) -> None:
     n = 1 + max(a.channel for a in case.actual.accelerometers)
     case.actual.daq.hum_hz = float(rng.choice([50.0, 60.0]))
@@ -597,7 +603,7 @@ CASES.update({
 })
 
 #: what may be laid over any case (its own random stream: the case's draws do not change)
-DISTURBANCES = ("drift", "hum", "double-hit", "flicker")
+DISTURBANCES = ("drift", "hum", "double-hit", "flicker", "common")
 
 
 def _disturb(case: Case, which, rng: np.random.Generator) -> None:
@@ -606,7 +612,8 @@ def _disturb(case: Case, which, rng: np.random.Generator) -> None:
     for name in which:
         if name not in DISTURBANCES:
             raise KeyError(f"unknown disturbance {name!r}; known: {', '.join(DISTURBANCES)}")
-        {"drift": drift, "hum": mains_hum, "double-hit": double_hit, "flicker": flicker}[name](case, rng)
+        {"drift": drift, "hum": mains_hum, "double-hit": double_hit, "flicker": flicker,
+         "common": common_noise}[name](case, rng)
         notes[name] = case.truth.pop("effect")
     if effect is not None:
         case.truth["effect"] = effect

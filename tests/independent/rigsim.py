@@ -379,7 +379,8 @@ def simulate(setup: Setup, rng: np.random.Generator, nominal_scale: dict[str, fl
 
 
 def daq_disturbances(daq, t: np.ndarray, n_ch: int, rng: np.random.Generator) -> np.ndarray:
-    """Mains hum (random phase per channel), linear drift and white noise, (len(t), n_ch) volts."""
+    """Mains hum (random phase per channel), linear drift, white noise, 1/f noise and a white noise
+    shared by every channel, (len(t), n_ch) volts."""
     hum = np.broadcast_to(np.asarray(daq.hum_v, float), (n_ch,))
     drift = np.broadcast_to(np.asarray(daq.drift_v_per_s, float), (n_ch,))
     noise = np.broadcast_to(np.asarray(daq.noise_rms_v, float), (n_ch,))
@@ -395,6 +396,8 @@ def daq_disturbances(daq, t: np.ndarray, n_ch: int, rng: np.random.Generator) ->
         spectrum = np.fft.rfft(rng.standard_normal((t.size, n_ch)), axis=0) * shape[:, None]
         level = np.broadcast_to(np.asarray(daq.flicker_v, float), (n_ch,)) * np.sqrt(corner)
         out += level[None, :] * np.fft.irfft(spectrum, t.size, axis=0)
+    if daq.common_v:  # drawn after the rest: records without it keep their draws
+        out += daq.common_v * rng.standard_normal(t.size)[:, None]
     return out
 
 

@@ -185,6 +185,9 @@ class Daq:
     # spectral density is flicker_v's white level's times flicker_corner_hz / f (equal at the corner)
     flicker_v: float | np.ndarray = 0.0  # V rms of the white noise whose density sets the 1/f level
     flicker_corner_hz: float | np.ndarray = 0.0
+    # white noise every channel shares (V rms; a ground loop's or the DAQ's common-mode noise, the same
+    # volts on every input)
+    common_v: float = 0.0
     # internal rate = oversample * sampling_rate: 64+ points per hammer pulse, and a cubic spline
     # between fine points is exact to ~1e-8 for the 1-2 kHz the anti-aliasing filter passes
     oversample: int = 8

@@ -1,9 +1,9 @@
 """Nulls under 1/f sensor noise (the generator's ``flicker`` disturbance: density the white level's
-times corner / f, corners 20-200 Hz, as an IEPE accelerometer's rises at low frequency). The noise
-floor assumes the quiet samples' broadband noise is white, so a perfect model's residual at
-2.5-25 Hz reads 4.6-7.1x its floor there and the verdict says "unexplained" (2 of 15 such nulls,
-both on the plate-motor rig, whose 0.4 s records resolve those bands). Kept as a known failure
-until the floor carries the quiet samples' own spectrum at low frequencies."""
+times corner / f, corners 20-200 Hz, as an IEPE accelerometer's rises at low frequency). With a
+white floor a perfect model's residual at 2.5-25 Hz read 4.6-7.1x its floor there and the verdict
+said "unexplained" (these two of 15 such nulls, both on the plate-motor rig, whose 0.4 s records
+resolve those bands); the floor now carries the rise its quiet stretches show
+(odsuite.analysis.noise_colour)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,6 @@ from . import calibrate
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="the noise floor has no 1/f part: a null's low bands read 4.6-7.1x it")
 @pytest.mark.parametrize("seed", [102, 105])
 def test_a_null_under_flicker_noise_has_nothing_to_explain(tmp_path, seed):
     spec = {"case": "null", "rig": "plate-motor", "seed": seed, "force_n": calibrate.FORCES[seed % 5],

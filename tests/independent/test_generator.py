@@ -494,3 +494,17 @@ def test_cli_writes_files_and_truth(tmp_path, capsys):
     assert "unknown case 'nope'" in capsys.readouterr().err
     assert cases.main([str(tmp_path), "--formats", "lvm,csv"]) == 1
     assert "unknown csv" in capsys.readouterr().err
+
+
+def test_common_noise_is_the_same_volts_on_every_channel():
+    """The ``common`` disturbance: a white noise every channel shares, as loud as each channel's own
+    white noise, so two channels' noises correlate by one half."""
+    from .rigsim import daq_disturbances
+
+    fs, n = 5120.0, 2**15
+    daq = Daq(sampling_rate=fs, n_samples=n, noise_rms_v=50e-6, common_v=50e-6)
+    x = daq_disturbances(daq, np.arange(n) / fs, 6, np.random.default_rng(5))
+    c = np.corrcoef(x.T)
+    off = c[~np.eye(6, dtype=bool)]
+    assert np.all(np.abs(off - 0.5) < 0.03), off
+    assert np.std(x, axis=0) == pytest.approx(np.full(6, 50e-6 * np.sqrt(2)), rel=0.02)
