@@ -70,11 +70,16 @@ def pre_hit_lines(exp) -> tuple[np.ndarray, np.ndarray] | None:
     """Frequencies (Hz) and periodogram lines (lines x sensors) of the quiet samples before the
     hit of a PreparedExperiment (raw volts, less the fitted offset, hum and a line), over their
     mean between REFERENCE and TOP_FRACTION of the sampling rate (the same frequencies for every
-    record, whatever its length); None when fewer than MIN_SAMPLES precede the hit."""
+    record, whatever its length; NaN where a sensor reads one code); None when fewer than
+    MIN_SAMPLES precede the hit."""
     end = int(exp.quiet_before)
     if end < MIN_SAMPLES:
         return None
     x = np.asarray(exp.volts[:end], float)
+    # samples that read one converter code (the noise below a code) tell nothing of the colour:
+    # they are left out (less the fitted disturbances their lines are rounding residue, and as
+    # zeros they read as a density far below the other records')
+    still = np.ptp(x, axis=0) == 0
     if exp.volts_disturbance is not None:
         x = x - exp.volts_disturbance[:end]
     x = scipy.signal.detrend(x, axis=0, type="linear")
@@ -82,7 +87,7 @@ def pre_hit_lines(exp) -> tuple[np.ndarray, np.ndarray] | None:
     f = np.fft.rfftfreq(end, 1.0 / exp.fs)
     keep = (f > 0) & (f <= TOP_FRACTION * exp.fs)
     ref = np.mean(spec[keep & (f > REFERENCE * exp.fs)], axis=0)
-    return f[keep], spec[keep] / np.where(ref > 0, ref, np.inf)
+    return f[keep], spec[keep] / np.where(still | (ref <= 0), np.nan, ref)
 
 
 def _nll(mu: np.ndarray, r: np.ndarray) -> float:
