@@ -16,7 +16,10 @@ a softer mount's 12.5-25 Hz cells at 1.46x their limit fell to 0.84x).
 
 The floor's sensor-noise lines are multiplied by the fitted density over its mean (the quiet
 samples' level is that mean), never by less than one: a colour the fit gets a little wrong
-lowers no floor. Below the first line before the hit the fitted law is carried down.
+lowers no floor. Below the first line before the hit the fitted law is carried down, to the first
+line of the longest quiet stretch (below it nothing is judged). A bump of noise (30-60 Hz) is
+fitted as a rise too, and carried down it raises the floor below the bump where the noise is
+white.
 """
 
 from __future__ import annotations
@@ -168,10 +171,14 @@ def gains(colours: Mapping[str, Colour], exp, f: np.ndarray) -> np.ndarray | Non
         return None
     longest = max((b - a for a, b in quiet_stretches(exp)), default=exp.n_samples)
     seen = np.fft.rfftfreq(longest, 1.0 / exp.fs)[1:]
+    # below the first line any quiet stretch shows no band is judged: the law is not carried
+    # there (a 1/f^2 law gave 2.5-5 Hz factors of 10-213, raising the floor's pooled energy,
+    # the scale of every test, for nothing)
+    at = np.maximum(np.asarray(f, float), seen[0] if seen.size else 0.0)
     out = np.ones((len(f), len(exp.sensors)))
     for j, s in enumerate(exp.sensors):
         c = colours.get(s.name)
         if c is not None:
-            out[:, j] = np.maximum(1.0, c.density(f) / np.mean(c.density(seen)))
+            out[:, j] = np.maximum(1.0, c.density(at) / np.mean(c.density(seen)))
     out[np.asarray(f) <= 0] = 1.0
     return out

@@ -91,6 +91,10 @@ def test_the_floors_factor_is_at_least_one_and_follows_the_rise_where_it_is_seen
     # quiet level is 1 + 200 ln(512) / 2555 = 1.49 of it: the factor 7.4, within 20 %
     at20 = np.argmin(np.abs(f - 20.0))
     assert g[at20, 0] == pytest.approx((1 + 200.0 / f[at20]) / (1 + 200.0 * np.log(512) / 2555.0), rel=0.2)
+    # below the longest quiet stretch's first line (5 Hz: 1024 samples) no band is judged: the law
+    # is held there, not carried down
+    below = (f > 0) & (f < FS / 1024)
+    assert below.any() and np.all(g[below, 0] == g[np.argmin(np.abs(f - FS / 1024)), 0])
 
 
 def test_a_record_where_a_sensor_reads_constant_leaves_its_colour_as_the_others_give_it():
