@@ -4,7 +4,8 @@ Four parts, each estimated from the record itself:
 
 - broadband noise: the variance of the quiet samples (before the hit, and after the response has
   died into the noise) at the acceleration stage, once mains lines and a trend are fitted out;
-  white, or rising at low frequency where the quiet stretches show it (odsuite.analysis.noise_colour);
+  white, or rising at low frequency where the samples before the hit show it
+  (odsuite.analysis.noise_colour);
 - mains hum and trend: sinusoids at 50 and 60 Hz and their harmonics plus a line, fitted on the
   quiet samples and extended over the whole record (they persist through the response); a line
   fitted at one end only where its slope is beyond three standard errors, shrunk to its expected
