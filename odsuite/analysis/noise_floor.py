@@ -65,10 +65,18 @@ RESOLVING_LINES = 2
 
 
 def band_edges(fs: float, n_samples: int) -> list[tuple[float, float]]:
-    """Frequency bands of the resolved residual (Hz): [one line, lowest), then octaves to Nyquist.
-    The zero-frequency line is left out: the chains' offsets and high-passes shape it."""
-    lowest = max(LOWEST_BAND_HZ, LOWEST_BAND_LINES * fs / n_samples)
-    edges = [fs / n_samples]
+    """Frequency bands of the resolved residual (Hz): octaves from the record's first line to
+    Nyquist, the lowest holding at least ``LOWEST_BAND_LINES`` lines. Below ``LOWEST_BAND_HZ`` they
+    are octaves too, not one band: a band is judged where the quiet samples show it
+    (resolves_band), and a noise that rises at low frequency holds its energy at a band's bottom,
+    which a line at its top does not witness. The zero-frequency line is left out: the chains'
+    offsets and high-passes shape it."""
+    first = fs / n_samples
+    lowest = max(LOWEST_BAND_HZ, LOWEST_BAND_LINES * first)
+    low = [lowest]
+    while low[0] / 2 > LOWEST_BAND_LINES * first:
+        low.insert(0, low[0] / 2)
+    edges = [first, *low[:-1]]
     f = lowest
     while f < fs / 2:
         edges.append(f)
@@ -97,6 +105,19 @@ def resolves_band(stretches: Sequence[tuple[int, float]] | None, bands: Sequence
             # lines k first with lo <= k first < hi, k >= 1
             count[i] += max(0, int(np.ceil(hi / first)) - max(1, int(np.ceil(lo / first))))
     return count >= least
+
+
+def witnesses(exps: Sequence) -> list[tuple[int, float]]:
+    """The quiet stretches (``(samples, sampling rate)``) that decide which bands are judged
+    (resolves_band): the samples before the hit that the noise's colour is measured from
+    (noise_colour.MIN_SAMPLES or more), since the floor's spectrum is known only where they show
+    it. A tail witnesses the noise's level but may hold a mode still ringing, so the floor's colour
+    is not taken from it (noise_colour), and a band only a tail shows is not judged: with 1/f noise
+    on a 70 kg cabinet, tails of 0.16-0.29 s put 1.5-6.25 Hz cells of nulls at 1.2-1.5x their limit.
+    Where no record has such samples before its hit, the floor is white and every quiet stretch
+    witnesses it."""
+    before = [(int(e.quiet_before), e.fs) for e in exps if e.quiet_before >= noise_colour.MIN_SAMPLES]
+    return before or [(b - a, e.fs) for e in exps for a, b in noise_colour.quiet_stretches(e, shortest=2)]
 
 
 def line_energies(x: np.ndarray) -> np.ndarray:
@@ -374,8 +395,7 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
     seen: dict[str, np.ndarray] = {}
     colours = noise_colour.by_sensor(exps)
     known = all(getattr(e, "quiet_tail", -1) >= 0 for e in exps)
-    stretches = ([(b - a, e.fs) for e in exps for a, b in noise_colour.quiet_stretches(e, shortest=2)]
-                 if known else None)
+    stretches = witnesses(exps) if known else None
     for e in exps:
         n = e.n_samples
         white = np.asarray(e.noise_var, float)

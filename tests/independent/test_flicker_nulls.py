@@ -25,13 +25,12 @@ def test_a_null_under_flicker_noise_has_nothing_to_explain(tmp_path, seed):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="the cabinet's lowest band (1.5-12.5 Hz) is judged on the 11.7 Hz line "
-                   "of 0.085 s before each hit, while 1/f noise holds its energy at 1.5-6 Hz, which no quiet "
-                   "stretch shows: cells read 1.24-1.48x their limit")
 @pytest.mark.parametrize("seed", [100, 107])
 def test_a_null_under_flicker_noise_on_the_cabinet_has_nothing_to_explain(tmp_path, seed):
     # the calibration's cabinet nulls (`--set nulls --rigs cabinet --disturb flicker`): 5 of 8 read
-    # "unexplained", none with a significant candidate
+    # "unexplained" when one band ran from 1.5 to 12.5 Hz, judged on the 11.7 Hz line of the 0.085 s
+    # before each hit (s107: 1.48x its limit), and when the quiet tails alone decided that 1.5-6.25 Hz
+    # was judged, though the floor's colour is not measured from them (s100: 1.37x)
     spec = calibrate.specs("nulls", 8, ("cabinet",))[seed - 100]
     spec["disturbances"] = [*spec.get("disturbances", []), "flicker"]
     spec["id"] += "-flicker"
