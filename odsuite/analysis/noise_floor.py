@@ -53,13 +53,13 @@ FLOOR_TOLERANCE = 1.3
 DRIFT_SLOPE_Z = 3.0
 #: Welch segment length of residual and floor spectra (samples; halved for short records)
 NFFT = 2048
-#: the top edge of the lowest band of the resolved residual (Hz): octaves run from it to Nyquist
+#: an edge of the resolved residual's bands (Hz): octaves run from it up to Nyquist and down
 LOWEST_BAND_HZ = 12.5
 #: the lowest band holds at least this many lines of the record's spectrum
 LOWEST_BAND_LINES = 4
 #: lines averaged over to take the expected spectrum of the simulated sensor noise
 SMOOTH_LINES = 17
-#: a band is judged where the quiet stretches (of every record, pooled) show at least this many
+#: a band is judged where the samples before the hit (of every record, pooled; witnesses) show at least this many
 #: lines in it: one line of one short tail is one noisy value, and may hold a mode still ringing
 RESOLVING_LINES = 2
 
@@ -307,8 +307,8 @@ class NoiseFloor:
     # (bands x sensors), from the expected line energies of its parts
     bands: dict[str, tuple[list[tuple[float, float]], np.ndarray, np.ndarray]] = field(
         default_factory=dict, repr=False)
-    # per experiment: per band, whether the quiet samples the noise is measured on resolve it
-    # (resolves_band); where not, the floor there is the broadband level carried down unseen
+    # per experiment: per band, whether the samples the noise's spectrum is measured on resolve it
+    # (witnesses, resolves_band); where not, the floor there is carried down unseen
     seen: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
 
     def total(self, experiments: Sequence[str] | None = None, channels: Sequence[str] | None = None

@@ -6,8 +6,8 @@ A cell's ratio rho = residual energy / floor energy; with nu the floor's degrees
 (noise_floor.band_dof), nu rho is chi-square with nu degrees of freedom for a perfect model. A cell
 is *above the floor* when rho exceeds its limit: ``DETECTION_TOLERANCE`` (the floor's calibration)
 times the chi-square quantile at ``DETECTION_FALSE_ALARM`` shared over all cells (Bonferroni). The
-model fails somewhere when any cell is above. A band the quiet samples do not resolve
-(noise_floor.resolves_band) is not judged: its floor is the broadband level carried down to where
+model fails somewhere when any cell is above. A band the samples before the hit do not resolve
+(noise_floor.witnesses, resolves_band) is not judged: its floor is the broadband level carried down to where
 the noise was not seen.
 
 A change of the model (a candidate effect) is tested by the likelihood ratio of the whitened

@@ -349,3 +349,37 @@ def test_a_drift_before_a_response_that_never_dies_is_neither_noise_nor_hum():
             assert np.sum(fit.disturbance**2) < 0.1 * n * sigma**2
         else:
             assert np.sum((fit.disturbance[:, 0] - drift) ** 2) < 1e-3 * np.sum(drift**2)
+
+
+def test_the_bands_below_12_5_hz_are_octaves_the_lowest_holding_four_lines():
+    from odsuite.analysis.noise_floor import band_edges
+
+    # 2048 samples at 3000 Hz: lines every 1.465 Hz; 3.125 Hz would leave two lines below it
+    assert band_edges(3000.0, 2048)[:3] == [(3000.0 / 2048, 6.25), (6.25, 12.5), (12.5, 25.0)]
+    # 4000 samples at 2000 Hz: lines every 0.5 Hz, 3.125 Hz leaves six below it, 1.5625 Hz three
+    assert band_edges(2000.0, 4000)[:4] == [(0.5, 3.125), (3.125, 6.25), (6.25, 12.5), (12.5, 25.0)]
+    # a short record: the lowest band is four lines wide, octaves above it
+    assert band_edges(1000.0, 100)[:2] == [(10.0, 40.0), (40.0, 80.0)]
+    edges = band_edges(5120.0, 2048)
+    assert edges[-1] == (1600.0, 2560.0) and all(b[1] == c[0] for b, c in zip(edges, edges[1:]))
+
+
+def test_the_bands_are_judged_on_the_samples_before_the_hit_the_tails_only_without_them():
+    """The floor's colour is measured on the samples before the hit alone (a tail may hold a mode
+    still ringing), so they decide which bands are judged; records without 128 samples before any
+    hit fall back on every quiet stretch (the floor is then white)."""
+    from types import SimpleNamespace
+
+    from odsuite.analysis.noise_floor import band_edges, resolves_band, witnesses
+
+    def record(before, tail):
+        return SimpleNamespace(fs=3000.0, n_samples=2048, quiet_before=before, quiet_tail=2048 - tail)
+
+    exps = [record(256, 864), record(256, 492)]
+    assert witnesses(exps) == [(256, 3000.0), (256, 3000.0)]
+    bands = band_edges(3000.0, 2048)[:3]
+    # 256 samples see 11.7, 23.4 Hz, ...; the tails (3.5 and 6.1 Hz lines) would judge 1.5-6.25 Hz
+    assert resolves_band(witnesses(exps), bands).tolist() == [False, True, True]
+    short = [record(100, 864), record(100, 492)]
+    assert sorted(witnesses(short)) == [(100, 3000.0), (100, 3000.0), (492, 3000.0), (864, 3000.0)]
+    assert resolves_band(witnesses(short), bands).tolist() == [True, True, True]

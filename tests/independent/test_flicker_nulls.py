@@ -3,7 +3,8 @@ times corner / f, corners 20-200 Hz, as an IEPE accelerometer's rises at low fre
 white floor a perfect model's residual at 2.5-25 Hz read 4.6-7.1x its floor there and the verdict
 said "unexplained" (these two of 15 such nulls, both on the plate-motor rig, whose 0.4 s records
 resolve those bands); the floor now carries the rise the samples before the hit show
-(odsuite.analysis.noise_colour), and judges a band only where its quiet stretches show two lines."""
+(odsuite.analysis.noise_colour), and judges a band only where the samples before the hit show two
+lines in it."""
 
 from __future__ import annotations
 
