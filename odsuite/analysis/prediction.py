@@ -179,6 +179,9 @@ class PreparedExperiment:
     quiet_tail: int = -1
     # the samples before the hit the noise is measured on (0 to this; 0: none)
     quiet_before: int = 0
+    # the mains frequency (Hz) and how many of its harmonics ``volts_disturbance`` fits as hum
+    hum_hz: float = 0.0
+    hum_harmonics: int = 0
     # the last structure simulated and its coordinate accelerations: effects that only change the
     # sensors (gain, tilt, position) reuse them (a strong reference, so identity is safe)
     _cache: tuple | None = field(default=None, repr=False)
@@ -436,6 +439,7 @@ def prepare_experiment(project, name: str, exp=None) -> PreparedExperiment:
         noise_var=white, units=units, operators=stage_operators(infos, vpu, steps), lsb=lsb, adc_step_v=step,
         disturbance=disturbance, volts_disturbance=quiet.disturbance,
         quiet_tail=quiet_tail(quiet.quiet, trigger), quiet_before=quiet_before(quiet.quiet),
+        hum_hz=quiet.mains_hz, hum_harmonics=quiet.harmonics,
         force_noise_energy=fw.noise_energy, force_body=exp.excitation.body,
         notes=notes, registries=project.registries,
     )
