@@ -34,6 +34,8 @@ import numpy as np
 import scipy.signal
 import scipy.stats
 
+from odsuite.analysis.disturbances import disturbance_basis
+
 #: exponents of the rise tried (density ~ f^-exponent): 1/f noise, and slower and faster rises
 EXPONENTS = (0.5, 1.0, 1.5, 2.0)
 #: lines fitted: up to this fraction of the sampling rate (above it the converter's anti-alias
@@ -103,7 +105,7 @@ def pre_hit_lines(exp) -> tuple[np.ndarray, np.ndarray] | None:
 def white_share(exp) -> np.ndarray:
     """Per line of the periodogram of the samples before the hit (pre_hit_lines), the share of a
     white noise's energy there that is left once the disturbances fitted on the quiet samples
-    (offset, line, mains hum and harmonics: noise_floor.split_noise) and the detrend are taken out.
+    (offset, line, mains hum and harmonics: disturbances, noise_floor.split_noise) and the detrend are taken out.
     On 128 samples at 2048 Hz the hum's sinusoids at 50, 100 and 150 Hz took 95, 82 and 63 % of
     the 48, 96 and 144 Hz lines: read as the noise's own, a rise of 1/f with a 196 Hz corner was not
     found (likelihood ratio 5.1 for a limit of 9.2; 10.3 on the lines so corrected).
@@ -116,8 +118,6 @@ def white_share(exp) -> np.ndarray:
     qa = np.fft.rfft(q, axis=0)  # Q^T e_k, lines x 2
     left = end - np.sum(np.abs(qa) ** 2, axis=1)
     if getattr(exp, "volts_disturbance", None) is not None:
-        from odsuite.analysis.noise_floor import disturbance_basis  # noise_floor imports this module
-
         n = int(exp.n_samples)
         basis = disturbance_basis(n, exp.fs, (exp.hum_hz,) if exp.hum_harmonics else (), max(exp.hum_harmonics, 1))
         quiet = np.zeros(n, bool)

@@ -35,10 +35,8 @@ import scipy.ndimage
 import scipy.signal
 
 from odsuite.analysis import noise_colour
+from odsuite.analysis.disturbances import MAINS_HARMONICS, MAINS_HZ, disturbance_basis
 
-#: mains frequencies and harmonics fitted as hum (Hz): 50 Hz and 60 Hz grids, up to the 3rd
-MAINS_HZ = (50.0, 60.0)
-MAINS_HARMONICS = 3
 #: samples kept clear of the hit (s): zero-phase filters ring backwards from it
 HIT_GUARD_S = 1e-3
 #: the response has died into the noise where the excess energy left in the record is below this
@@ -163,19 +161,6 @@ def band_dof(lines: np.ndarray, masks: Sequence[np.ndarray], smooth: int = 5) ->
         b = s[m]
         out.append(2.0 * np.sum(b, axis=0) ** 2 / np.maximum(np.sum(b**2, axis=0), 1e-300))
     return np.maximum(np.array(out), 1.0)
-
-
-def disturbance_basis(n: int, fs: float, mains: Sequence[float] = MAINS_HZ,
-                      harmonics: int = MAINS_HARMONICS, line: bool = True) -> np.ndarray:
-    """Columns: a constant, a line (``line``), and sine/cosine pairs at the mains frequencies and
-    harmonics."""
-    t = np.arange(n) / fs
-    cols = [np.ones(n)] + ([t - t.mean()] if line else [])
-    for f0 in mains:
-        for h in range(1, harmonics + 1):
-            if h * f0 < fs / 2:
-                cols += [np.sin(2 * np.pi * h * f0 * t), np.cos(2 * np.pi * h * f0 * t)]
-    return np.column_stack(cols)
 
 
 def _fit(x: np.ndarray, basis: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:

@@ -21,9 +21,9 @@ from odsuite.processing.chain_spec import chain_for_channel, stage_names
 from odsuite.processing.executor import run_array
 from odsuite.analysis.hammer import held_range, is_clipped
 from odsuite.domain.errors import ConfigError
+from odsuite.analysis.disturbances import disturbance_basis
 from odsuite.analysis.noise_floor import (
     active_var,
-    disturbance_basis,
     moving_samples,
     split_noise,
 )
@@ -850,7 +850,7 @@ def carried_disturbance(v: np.ndarray, volts: np.ndarray, step: float, trigger: 
                         disturbance: np.ndarray) -> np.ndarray:
     """The hum and drift (volts, level with the codes before the hit) that a perfect model's signal
     ``v`` leaves in the record ``volts``: ``disturbance`` (fitted on the quiet samples alone) plus
-    the same disturbances' basis (odsuite.analysis.noise_floor.disturbance_basis, its constant
+    the same disturbances' basis (odsuite.analysis.disturbances.disturbance_basis, its constant
     left to the converter offset) fitted to what it leaves wherever the signal lies within
     OFFSET_CODES of zero, over the whole record. Fitted on 12 ms of quiet samples, under one mains
     period, a drift's line and the hum's sinusoid share its ramp, and the pair carried over the
