@@ -20,3 +20,27 @@ def test_a_softer_mount_at_5_n_is_named_despite_its_ringing_quiet_tails(tmp_path
     assert "error" not in result, result.get("error")
     d = result["diagnosis"]
     assert result["named"] and d["verdict"] == "explained", (d["verdict"], d["significant"], d.get("cells"))
+
+
+def test_a_tail_ringing_near_the_mains_frequency_colours_no_white_sensor(tmp_path):
+    """The two-body rig's added mass at 5 N, white sensor noise, no hum: split_noise fits a 60 Hz hum
+    on the quiet samples, the tails' ringing near 61 Hz in it, and carried into the samples before
+    the hit it raised their 61 Hz line to 1.86x its neighbours; divided by its share, 4 of 18 white
+    sensors were coloured. The colour's disturbances are fitted on the samples before the hit alone."""
+    from odsuite import open_project
+    from odsuite.analysis import noise_colour
+    from odsuite.analysis.prediction import prepare
+
+    from . import writers
+
+    spec = {"case": "added-mass", "rig": "two-body", "seed": 206, "force_n": 5.0, "noise_v": 100e-6,
+            "set": "faults", "id": "two-body-added-mass-s206"}
+    case = calibrate.build(spec)
+    records = case.simulate()
+    rig_toml = writers.write_rig_toml(tmp_path / "rig.toml", case.nominal)
+    lvms = [writers.write_lvm(tmp_path / f"r{i:02d}.lvm", calibrate.without_unused(r)) for i, r in enumerate(records)]
+    project = calibrate.make_project(tmp_path, rig_toml, lvms, writers.to_jsonable(case.truth_document()))
+    with open_project(project) as p:
+        exps = prepare(p)
+    assert {e.hum_hz for e in exps} == {60.0}
+    assert noise_colour.by_sensor(exps) == {}
