@@ -5,7 +5,7 @@ The noise floor simulates the sensors' noise white at the quiet samples' level. 
 rises at low frequency, a perfect model's residual in the low bands is then many times its floor
 there (and a little below it at high frequency). This module fits, per sensor and pooled over
 the experiments, a density ``white + rise f^-exponent`` to the periodograms of the quiet samples
-before the hit (raw volts, less the fitted offset, hum and a line: no filter has rung there), and
+before the hit (raw volts, less an offset, hum and a line fitted on them: no filter has rung there), and
 keeps the rise only where a likelihood-ratio test against white noise says it is there. Each line
 is divided by the share of a white noise's energy the fitted disturbances and the detrend leave
 there (white_share), and lines left with less than half of it are not used: on a short stretch the
