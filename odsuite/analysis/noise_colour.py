@@ -79,7 +79,7 @@ def quiet_stretches(exp, shortest: int = MIN_SAMPLES) -> list[tuple[int, int]]:
 
 def pre_hit_lines(exp) -> tuple[np.ndarray, np.ndarray] | None:
     """Frequencies (Hz) and periodogram lines (lines x sensors) of the quiet samples before the
-    hit of a PreparedExperiment (raw volts, less the fitted offset, hum and a line), over their
+    hit of a PreparedExperiment (raw volts, less an offset, hum and a line fitted on them alone), over their
     mean between REFERENCE and TOP_FRACTION of the sampling rate (the same frequencies for every
     record, whatever its length; NaN where a sensor reads one code); None when fewer than
     MIN_SAMPLES precede the hit."""
