@@ -83,39 +83,43 @@ def band_edges(fs: float, n_samples: int) -> list[tuple[float, float]]:
     return list(zip(edges[:-1], edges[1:]))
 
 
-def resolves_band(stretches: Sequence[tuple[int, float]] | None, bands: Sequence[tuple[float, float]],
+def resolves_band(stretches: Sequence[np.ndarray] | None, bands: Sequence[tuple[float, float]],
                   least: int = RESOLVING_LINES) -> np.ndarray:
-    """Per band, whether the quiet stretches (each ``(samples, sampling rate)``; the records' of one
-    sensor pooled, its noise is the same in each) resolve it: at least ``least`` lines of their own
-    spectra (k fs / samples, k >= 1) lie in the band. Below a stretch's first line it shows no
-    spectrum at all: a noise that rises there (1/f-like, a slow wander) is not seen in it; and a
-    stretch before the hit and one after the response, apart, see no lower (0.05 s and 0.06 s of
-    them judged a null's 2.5-12.5 Hz as if they were one of 0.11 s). None: not known, every band
-    counts as resolved."""
+    """Per band, whether the quiet stretches (each the frequencies of the lines of its own spectrum
+    that tell the noise's density, Hz; the records' of one sensor pooled, its noise is the same in
+    each) resolve it: at least ``least`` of those lines lie in the band. Below a stretch's first
+    line it shows no spectrum at all: a noise that rises there (1/f-like, a slow wander) is not
+    seen in it; and a stretch before the hit and one after the response, apart, see no lower
+    (0.05 s and 0.06 s of them judged a null's 2.5-12.5 Hz as if they were one of 0.11 s). None:
+    not known, every band counts as resolved."""
     if stretches is None:
         return np.ones(len(bands), bool)
     count = np.zeros(len(bands), int)
-    for samples, fs in stretches:
-        if samples < 2:
-            continue
-        first = fs / samples
+    for lines in stretches:
+        lines = np.asarray(lines, float)
         for i, (lo, hi) in enumerate(bands):
-            # lines k first with lo <= k first < hi, k >= 1
-            count[i] += max(0, int(np.ceil(hi / first)) - max(1, int(np.ceil(lo / first))))
+            count[i] += int(np.count_nonzero((lines >= lo) & (lines < hi)))
     return count >= least
 
 
-def witnesses(exps: Sequence) -> list[tuple[int, float]]:
-    """The quiet stretches (``(samples, sampling rate)``) that decide which bands are judged
-    (resolves_band): the samples before the hit that the noise's colour is measured from
-    (noise_colour.MIN_SAMPLES or more), since the floor's spectrum is known only where they show
-    it. A tail witnesses the noise's level but may hold a mode still ringing, so the floor's colour
-    is not taken from it (noise_colour), and a band only a tail shows is not judged: with 1/f noise
-    on a 70 kg cabinet, tails of 0.16-0.29 s put 1.5-6.25 Hz cells of nulls at 1.2-1.5x their limit.
-    Where no record has such samples before its hit, the floor is white and every quiet stretch
-    witnesses it."""
-    before = [(int(e.quiet_before), e.fs) for e in exps if e.quiet_before >= noise_colour.MIN_SAMPLES]
-    return before or [(b - a, e.fs) for e in exps for a, b in noise_colour.quiet_stretches(e, shortest=2)]
+def stretch_lines(samples: int, fs: float) -> np.ndarray:
+    """The lines k fs / samples (k >= 1, up to Nyquist) a stretch of ``samples`` shows (Hz)."""
+    return np.arange(1, samples // 2 + 1) * fs / samples if samples >= 2 else np.zeros(0)
+
+
+def witnesses(exps: Sequence) -> list[np.ndarray]:
+    """The lines (Hz, per quiet stretch) that decide which bands are judged (resolves_band): those
+    of the samples before the hit that the noise's colour is measured from (noise_colour.MIN_SAMPLES
+    or more), since the floor's spectrum is known only where they show it, less the lines the
+    disturbances fitted on them take (noise_colour.usable_lines: on 240 samples at 20 kHz a 60 Hz
+    sinusoid takes 99 % of the 83 Hz line, and a noise band's flank put 78-156 Hz cells of nulls at
+    3.7x their limit). A tail witnesses the noise's level but may hold a mode still ringing, so
+    the floor's colour is not taken from it (noise_colour), and a band only a tail shows is not
+    judged: with 1/f noise on a 70 kg cabinet, tails of 0.16-0.29 s put 1.5-6.25 Hz cells of nulls
+    at 1.2-1.5x their limit. Where no record has such samples before its hit, the floor is white
+    and every quiet stretch witnesses it."""
+    before = [lines for lines in (noise_colour.usable_lines(e) for e in exps) if lines is not None]
+    return before or [stretch_lines(b - a, e.fs) for e in exps for a, b in noise_colour.quiet_stretches(e, shortest=2)]
 
 
 def line_energies(x: np.ndarray) -> np.ndarray:
@@ -378,7 +382,8 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
     specs: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     banded: dict[str, tuple[list[tuple[float, float]], np.ndarray, np.ndarray]] = {}
     seen: dict[str, np.ndarray] = {}
-    colours = noise_colour.by_sensor(exps)
+    # the colour's excess is tested in the bands the residual is judged in
+    colours = noise_colour.by_sensor(exps, band_edges(exps[0].fs, exps[0].n_samples) if exps else ())
     known = all(getattr(e, "quiet_tail", -1) >= 0 for e in exps)
     stretches = witnesses(exps) if known else None
     for e in exps:

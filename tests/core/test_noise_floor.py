@@ -313,14 +313,18 @@ def test_a_band_below_the_quiet_samples_first_line_is_not_resolved():
     holds one, the band up to 12.5 Hz none; a band is judged where two lines are seen, the records'
     stretches pooled (one sensor's noise in each); two stretches apart see no lower than each
     alone; None (not known) resolves every band."""
-    from odsuite.analysis.noise_floor import resolves_band
+    from odsuite.analysis.noise_floor import resolves_band, stretch_lines
 
     bands = [(2.0, 12.5), (12.5, 25.0), (25.0, 50.0), (1600.0, 2048.0)]
-    assert resolves_band([(256, 4096.0)], bands).tolist() == [False, False, True, True]
-    assert resolves_band([(256, 4096.0)] * 2, bands).tolist() == [False, True, True, True]
+    quarter = stretch_lines(256, 4096.0)
+    assert quarter[:2].tolist() == [16.0, 32.0] and quarter[-1] == 2048.0
+    assert resolves_band([quarter], bands).tolist() == [False, False, True, True]
+    assert resolves_band([quarter] * 2, bands).tolist() == [False, True, True, True]
     # 256 before the hit and 256 after the response: not one stretch of 512 (8 Hz lines)
-    assert resolves_band([(256, 4096.0), (256, 4096.0), (512, 4096.0)], bands).tolist() == [False, True, True, True]
-    assert resolves_band([(1024, 4096.0)], bands).tolist() == [True, True, True, True]
+    assert resolves_band([quarter, quarter, stretch_lines(512, 4096.0)], bands).tolist() == [False, True, True, True]
+    assert resolves_band([stretch_lines(1024, 4096.0)], bands).tolist() == [True, True, True, True]
+    # lines the fitted disturbances take are no witnesses: the 16 Hz line left out
+    assert resolves_band([quarter[1:]] * 2, bands).tolist() == [False, False, True, True]
     assert resolves_band(None, bands).tolist() == [True] * 4
 
 
@@ -370,16 +374,40 @@ def test_the_bands_are_judged_on_the_samples_before_the_hit_the_tails_only_witho
     hit fall back on every quiet stretch (the floor is then white)."""
     from types import SimpleNamespace
 
-    from odsuite.analysis.noise_floor import band_edges, resolves_band, witnesses
+    from odsuite.analysis.noise_floor import band_edges, resolves_band, stretch_lines, witnesses
 
     def record(before, tail):
         return SimpleNamespace(fs=3000.0, n_samples=2048, quiet_before=before, quiet_tail=2048 - tail)
 
     exps = [record(256, 864), record(256, 492)]
-    assert witnesses(exps) == [(256, 3000.0), (256, 3000.0)]
+    seen = witnesses(exps)
+    # 256 samples see 11.7, 23.4 Hz, ... (the detrend leaves the first line 0.68 of a white
+    # noise's energy: it counts)
+    assert len(seen) == 2 and all(np.allclose(w, stretch_lines(256, 3000.0)) for w in seen)
     bands = band_edges(3000.0, 2048)[:3]
-    # 256 samples see 11.7, 23.4 Hz, ...; the tails (3.5 and 6.1 Hz lines) would judge 1.5-6.25 Hz
-    assert resolves_band(witnesses(exps), bands).tolist() == [False, True, True]
+    # the tails (3.5 and 6.1 Hz lines) would judge 1.5-6.25 Hz
+    assert resolves_band(seen, bands).tolist() == [False, True, True]
     short = [record(100, 864), record(100, 492)]
-    assert sorted(witnesses(short)) == [(100, 3000.0), (100, 3000.0), (492, 3000.0), (864, 3000.0)]
+    assert sorted(len(w) for w in witnesses(short)) == [50, 50, 246, 432]
     assert resolves_band(witnesses(short), bands).tolist() == [True, True, True]
+
+
+def test_a_line_the_hum_fit_takes_is_no_witness():
+    """240 samples before the hit at 20 kHz (12 ms): the 60 Hz sinusoid fitted on them takes 99 %
+    of a white noise's energy at their first line (83 Hz), so the floor's colour is not known
+    there and 78-156 Hz is not judged (a noise band's flank put cells of nulls there at 3.7x their
+    limit); without a hum fit the line counts."""
+    from types import SimpleNamespace
+
+    from odsuite.analysis.noise_floor import band_edges, resolves_band, witnesses
+
+    def record(hum):
+        return SimpleNamespace(fs=20000.0, n_samples=2048, quiet_before=240, quiet_tail=2048,
+                               volts_disturbance=np.zeros((2048, 1)) if hum else None, hum_hz=60.0, hum_harmonics=1)
+
+    bands = band_edges(20000.0, 2048)[2:4]
+    assert bands == [(78.125, 156.25), (156.25, 312.5)]
+    with_hum = witnesses([record(True)] * 3)
+    assert not np.any(np.isclose(with_hum[0], 20000.0 / 240)) and np.isclose(with_hum[0][0], 2 * 20000.0 / 240)
+    assert resolves_band(with_hum, bands).tolist() == [False, True]
+    assert resolves_band(witnesses([record(False)] * 3), bands).tolist() == [True, True]

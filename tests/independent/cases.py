@@ -486,6 +486,22 @@ def common_noise(case: Case, rng: np.random.Generator) -> None:
     case.truth["effect"] = {"kind": "common_noise", "common_v": case.actual.daq.common_v}
 
 
+def ambient(case: Case, rng: np.random.Generator) -> None:
+    """Floor vibration in every record: a noise band around 8-40 Hz (quality 2-5) on every
+    accelerometer's channel, 3x as loud (rms) as its white noise (the hammer's load cell, in the
+    hand, does not feel it)."""
+    force = case.actual.force_sensor
+    n = 1 + max([a.channel for a in case.actual.accelerometers] + ([force.channel] if force else []))
+    level = 3.0 * float(np.max(case.actual.daq.noise_rms_v)) * np.ones(n)
+    if force is not None:
+        level[force.channel] = 0.0
+    case.actual.daq.ambient_v = level
+    case.actual.daq.ambient_hz = float(rng.uniform(8.0, 40.0))
+    case.actual.daq.ambient_q = float(rng.uniform(2.0, 5.0))
+    case.truth["effect"] = {"kind": "ambient", "ambient_v": case.actual.daq.ambient_v,
+                            "ambient_hz": case.actual.daq.ambient_hz, "ambient_q": case.actual.daq.ambient_q}
+
+
 def mains_hum(case: Case, rng: np.random.Generator) -> None:
     n = 1 + max(a.channel for a in case.actual.accelerometers)
     case.actual.daq.hum_hz = float(rng.choice([50.0, 60.0]))
@@ -603,7 +619,7 @@ CASES.update({
 })
 
 #: what may be laid over any case (its own random stream: the case's draws do not change)
-DISTURBANCES = ("drift", "hum", "double-hit", "flicker", "common")
+DISTURBANCES = ("drift", "hum", "double-hit", "flicker", "common", "ambient")
 
 
 def _disturb(case: Case, which, rng: np.random.Generator) -> None:
@@ -613,7 +629,7 @@ def _disturb(case: Case, which, rng: np.random.Generator) -> None:
         if name not in DISTURBANCES:
             raise KeyError(f"unknown disturbance {name!r}; known: {', '.join(DISTURBANCES)}")
         {"drift": drift, "hum": mains_hum, "double-hit": double_hit, "flicker": flicker,
-         "common": common_noise}[name](case, rng)
+         "common": common_noise, "ambient": ambient}[name](case, rng)
         notes[name] = case.truth.pop("effect")
     if effect is not None:
         case.truth["effect"] = effect

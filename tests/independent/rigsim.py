@@ -379,8 +379,8 @@ def simulate(setup: Setup, rng: np.random.Generator, nominal_scale: dict[str, fl
 
 
 def daq_disturbances(daq, t: np.ndarray, n_ch: int, rng: np.random.Generator) -> np.ndarray:
-    """Mains hum (random phase per channel), linear drift, white noise, 1/f noise and a white noise
-    shared by every channel, (len(t), n_ch) volts."""
+    """Mains hum (random phase per channel), linear drift, white noise, 1/f noise, a white noise
+    shared by every channel and a band of ambient vibration, (len(t), n_ch) volts."""
     hum = np.broadcast_to(np.asarray(daq.hum_v, float), (n_ch,))
     drift = np.broadcast_to(np.asarray(daq.drift_v_per_s, float), (n_ch,))
     noise = np.broadcast_to(np.asarray(daq.noise_rms_v, float), (n_ch,))
@@ -398,6 +398,14 @@ def daq_disturbances(daq, t: np.ndarray, n_ch: int, rng: np.random.Generator) ->
         out += level[None, :] * np.fft.irfft(spectrum, t.size, axis=0)
     if daq.common_v:  # drawn after the rest: records without it keep their draws
         out += daq.common_v * rng.standard_normal(t.size)[:, None]
+    ambient = np.broadcast_to(np.asarray(daq.ambient_v, float), (n_ch,))
+    if ambient.any():  # drawn after the rest: records without it keep their draws
+        f = np.fft.rfftfreq(t.size, t[1] - t[0])
+        x = f / daq.ambient_hz
+        gain = 1.0 / np.sqrt((1.0 - x ** 2) ** 2 + (x / daq.ambient_q) ** 2)  # a resonance's magnitude
+        band = np.fft.irfft(np.fft.rfft(rng.standard_normal((t.size, n_ch)), axis=0) * gain[:, None], t.size, axis=0)
+        band /= np.sqrt(np.mean(band ** 2, axis=0))
+        out += ambient[None, :] * band
     return out
 
 

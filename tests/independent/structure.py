@@ -188,6 +188,11 @@ class Daq:
     # white noise every channel shares (V rms; a ground loop's or the DAQ's common-mode noise, the same
     # volts on every input)
     common_v: float = 0.0
+    # ambient floor vibration as the sensors see it: a random noise band around ambient_hz (a
+    # two-pole resonance of quality ambient_q), V rms per channel, in every record and before the hit
+    ambient_v: float | np.ndarray = 0.0
+    ambient_hz: float = 20.0
+    ambient_q: float = 3.0
     # internal rate = oversample * sampling_rate: 64+ points per hammer pulse, and a cubic spline
     # between fine points is exact to ~1e-8 for the 1-2 kHz the anti-aliasing filter passes
     oversample: int = 8
