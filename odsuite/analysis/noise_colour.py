@@ -185,11 +185,9 @@ def _fit_law(x: np.ndarray, r: np.ndarray, iterations: int = 40) -> tuple[float,
     return white, rise
 
 
-def fit(f: np.ndarray, r: np.ndarray, bands: Sequence[tuple[float, float]] = ()) -> Colour | None:
+def fit(f: np.ndarray, r: np.ndarray) -> Colour | None:
     """The density white + rise f^-exponent that fits the lines ``r`` at ``f`` best (maximum
-    likelihood), kept where it beats white noise by the likelihood-ratio test; then, in each of
-    ``bands`` that holds lines, an excess over that law where their sum is beyond what it gives
-    (excess_in). None when the noise is white in every band."""
+    likelihood); None unless it beats white noise by the likelihood-ratio test."""
     ok = np.isfinite(r) & (f > 0)
     f, r = f[ok], r[ok]
     if len(r) < 8 or np.mean(r) <= 0:
@@ -205,34 +203,51 @@ def fit(f: np.ndarray, r: np.ndarray, bands: Sequence[tuple[float, float]] = ())
         if nll < best_nll:
             best, best_nll = Colour(white, rise, a), nll
     if best is None or 2.0 * (flat - best_nll) <= scipy.stats.chi2.isf(COLOUR_FALSE_ALARM, 2):
-        best = Colour(float(np.mean(r)), 0.0, 0.0)
-    excess = excess_in(f, r, best, bands)
-    if best.rise == 0.0 and not excess:
         return None
-    return Colour(best.white, best.rise, best.exponent, excess)
+    return best
 
 
-def excess_in(f: np.ndarray, r: np.ndarray, law: Colour, bands: Sequence[tuple[float, float]]
-              ) -> tuple[tuple[float, float, float], ...]:
-    """The bands whose lines hold more than ``law`` gives, with the factor they hold (their sum over
-    the law's). No test: a band of noise (floor vibration around 8-40 Hz, quality 2-5) is one or
-    two lines of a short stretch, four lines over four records, too few for a test at 1 % to find
-    the 3-10x it holds over a law fitted to them all (white + rise left 25-50 Hz cells of nulls at
-    1.1-1.4x their limit); on white noise the factor raises a band's floor where its few lines
-    happen to scatter high (by 10-20 % on average where four lines hold a band)."""
-    mu = law.law(f)
-    out = []
+def shared_excess(sensors: Mapping[str, tuple[np.ndarray, np.ndarray, Colour]],
+                  bands: Sequence[tuple[float, float]]) -> dict[str, tuple[tuple[float, float, float], ...]]:
+    """Per sensor, the bands (lo, hi, factor) where the lines before the hit hold more than its
+    law (``sensors``: name -> lines' frequencies, lines, law) gives: a band of noise that no rise
+    holds, such as a floor's vibration at 8-40 Hz, which every sensor feels. A band is tested on
+    every sensor's lines pooled: 2 sum(r / law) beyond chi-square with two degrees of freedom per
+    line at COLOUR_FALSE_ALARM shared over the bands that hold lines (one sensor's one or two lines
+    in a band are too few: tested alone at that rate a band of 3-10x its law was missed on most
+    sensors, and taken without a test their scatter lowered white-noise sensitivity: a softer
+    mount's 20-40 Hz cell fell from 1.17x its limit to below it). Where the pooled lines hold it,
+    each sensor's factor is its own lines' sum over its law's, at least the pooled one."""
+    held = []
     for lo, hi in bands:
-        m = (f >= lo) & (f < hi)
-        if m.any() and np.sum(r[m]) > np.sum(mu[m]):
-            out.append((float(lo), float(hi), float(np.sum(r[m]) / np.sum(mu[m]))))
-    return tuple(out)
+        stat = dof = total = expected = 0.0
+        own = {}
+        for name, (f, r, law) in sensors.items():
+            m = (f >= lo) & (f < hi) & np.isfinite(r)
+            if not m.any():
+                continue
+            mu = law.law(f[m])
+            stat += 2.0 * float(np.sum(r[m] / mu))
+            dof += 2.0 * int(m.sum())
+            total += float(np.sum(r[m]))
+            expected += float(np.sum(mu))
+            own[name] = float(np.sum(r[m]) / np.sum(mu))
+        if dof:
+            held.append((lo, hi, stat, dof, total / expected, own))
+    out: dict[str, list[tuple[float, float, float]]] = {}
+    for lo, hi, stat, dof, pooled, own in held:
+        if stat > scipy.stats.chi2.isf(COLOUR_FALSE_ALARM / len(held), dof):
+            for name, ratio in own.items():
+                factor = max(pooled, ratio)
+                if factor > 1.0:
+                    out.setdefault(name, []).append((float(lo), float(hi), factor))
+    return {name: tuple(v) for name, v in out.items()}
 
 
 def by_sensor(exps: Sequence, bands: Sequence[tuple[float, float]] = ()) -> dict[str, Colour]:
     """Per sensor name, its noise's colour from every experiment's samples before the hit (pooled:
-    the colour is the sensor's), with its excess in ``bands`` (fit); sensors whose noise is white
-    are left out."""
+    the colour is the sensor's), with the excess over it in ``bands`` that every sensor's lines
+    together show (shared_excess); sensors whose noise is white are left out."""
     pooled: dict[str, tuple[list, list]] = {}
     for e in exps:
         lines = pre_hit_lines(e)
@@ -243,11 +258,19 @@ def by_sensor(exps: Sequence, bands: Sequence[tuple[float, float]] = ()) -> dict
             fs_, rs = pooled.setdefault(s.name, ([], []))
             fs_.append(f)
             rs.append(r[:, j])
-    out = {}
+    laws = {}
     for name, (fs_, rs) in pooled.items():
-        colour = fit(np.concatenate(fs_), np.concatenate(rs), bands)
-        if colour is not None:
-            out[name] = colour
+        f, r = np.concatenate(fs_), np.concatenate(rs)
+        ok = np.isfinite(r) & (f > 0)
+        if ok.sum() < 8 or not np.mean(r[ok]) > 0:
+            continue
+        colour = fit(f, r)
+        laws[name] = (f, r, colour if colour is not None else Colour(float(np.mean(r[ok])), 0.0, 0.0))
+    excess = shared_excess(laws, bands)
+    out = {}
+    for name, (_, _, law) in laws.items():
+        if law.rise > 0.0 or name in excess:
+            out[name] = Colour(law.white, law.rise, law.exponent, excess.get(name, ()))
     return out
 
 
