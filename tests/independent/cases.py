@@ -697,7 +697,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--noise", type=float, default=None, help="white noise per channel, V rms (default 50e-6)")
     parser.add_argument("--noise-fraction", type=float, default=0.0,
                         help="more white noise: this fraction of each channel's clean rms (0.03: 3 %%)")
-    parser.add_argument("--disturb", default="", help="comma-separated: drift, hum, double-hit")
+    parser.add_argument("--disturb", default="", help=f"comma-separated: {', '.join(DISTURBANCES)}")
     parser.add_argument("--list", action="store_true", help="list the cases and exit")
     args = parser.parse_args(argv)
     if args.list:

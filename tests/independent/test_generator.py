@@ -508,3 +508,24 @@ def test_common_noise_is_the_same_volts_on_every_channel():
     off = c[~np.eye(6, dtype=bool)]
     assert np.all(np.abs(off - 0.5) < 0.03), off
     assert np.std(x, axis=0) == pytest.approx(np.full(6, 50e-6 * np.sqrt(2)), rel=0.02)
+
+
+def test_ambient_vibration_is_a_noise_band_at_its_frequency_on_the_channels_that_feel_it():
+    """The ``ambient`` disturbance: on each channel that feels it, a noise band of the set rms
+    whose Welch density peaks at ambient_hz (Q 3: half its power within f0 (1 +- 1/(2Q))), apart
+    from channel to channel; a channel set to zero (the load cell) holds the white noise alone."""
+    import scipy.signal
+
+    from .rigsim import daq_disturbances
+
+    fs, n, f0 = 2048.0, 2**16, 20.0
+    level = np.array([0.0, 150e-6, 150e-6, 150e-6])
+    daq = Daq(sampling_rate=fs, n_samples=n, noise_rms_v=1e-9, ambient_v=level, ambient_hz=f0, ambient_q=3.0)
+    x = daq_disturbances(daq, np.arange(n) / fs, 4, np.random.default_rng(6))
+    assert np.std(x[:, 0]) == pytest.approx(1e-9, rel=0.02)
+    assert np.std(x[:, 1:], axis=0) == pytest.approx(level[1:], rel=1e-3)
+    f, p = scipy.signal.welch(x[:, 1:], fs=fs, nperseg=4096, axis=0)
+    assert np.all(np.abs(f[np.argmax(p, axis=0)] - f0) < 2.0), f[np.argmax(p, axis=0)]
+    near = (f > f0 * (1 - 1 / 6)) & (f < f0 * (1 + 1 / 6))
+    assert np.all(p[near].sum(axis=0) / p.sum(axis=0) > 0.4)
+    assert abs(np.corrcoef(x[:, 1], x[:, 2])[0, 1]) < 0.05
