@@ -94,12 +94,17 @@ def resolves_band(stretches: Sequence[np.ndarray] | None, bands: Sequence[tuple[
     not known, every band counts as resolved."""
     if stretches is None:
         return np.ones(len(bands), bool)
+    return band_lines(stretches, bands) >= least
+
+
+def band_lines(stretches: Sequence[np.ndarray], bands: Sequence[tuple[float, float]]) -> np.ndarray:
+    """Per band, how many of the quiet stretches' lines (resolves_band) lie in it."""
     count = np.zeros(len(bands), int)
     for lines in stretches:
         lines = np.asarray(lines, float)
         for i, (lo, hi) in enumerate(bands):
             count[i] += int(np.count_nonzero((lines >= lo) & (lines < hi)))
-    return count >= least
+    return count
 
 
 def stretch_lines(samples: int, fs: float) -> np.ndarray:
@@ -299,6 +304,8 @@ class NoiseFloor:
     # per experiment: per band, whether the samples the noise's spectrum is measured on resolve it
     # (witnesses, resolves_band); where not, the floor there is carried down unseen
     seen: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    # per experiment: per band, how many lines of those samples lie in it (band_lines)
+    witness_lines: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
 
     def total(self, experiments: Sequence[str] | None = None, channels: Sequence[str] | None = None
               ) -> tuple[float, float]:
@@ -382,6 +389,7 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
     specs: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     banded: dict[str, tuple[list[tuple[float, float]], np.ndarray, np.ndarray]] = {}
     seen: dict[str, np.ndarray] = {}
+    counted: dict[str, np.ndarray] = {}
     # the colour's excess is tested in the bands the residual is judged in
     colours = noise_colour.by_sensor(exps, band_edges(exps[0].fs, exps[0].n_samples) if exps else ())
     known = all(getattr(e, "quiet_tail", -1) >= 0 for e in exps)
@@ -453,4 +461,6 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
             masks = in_band(e.fs, n, bands)
             banded[e.name] = (bands, np.array([lines[m].sum(axis=0) for m in masks]), band_dof(lines, masks))
             seen[e.name] = resolves_band(stretches, bands)
-    return NoiseFloor(energy, measured, parts, specs, banded, seen)
+            if stretches is not None:
+                counted[e.name] = band_lines(stretches, bands)
+    return NoiseFloor(energy, measured, parts, specs, banded, seen, counted)

@@ -54,6 +54,9 @@ class Resolved:
     dof: list[np.ndarray]  # the floor's
     residual_dof: list[np.ndarray]  # the residual's own (its spectrum's flatness)
     limit: list[np.ndarray]  # per cell, the ratio above which it is above the floor
+    # per experiment and band, the lines of the samples before the hits that measure its noise
+    # (noise_floor.band_lines; None: not known)
+    noise_lines: list[np.ndarray | None] | None = None
 
     def ratios(self) -> list[np.ndarray]:
         return [r / np.where(f > 0, f, np.inf) for r, f in zip(self.residual, self.floor)]
@@ -69,13 +72,15 @@ class Resolved:
     def cells(self, top: int = 8) -> list[dict[str, Any]]:
         """The cells above the floor, strongest (whitened excess) first."""
         rows = []
-        for e, chans, bands, q, lim, n in zip(self.experiments, self.channels, self.bands, self.ratios(),
-                                             self.limit, self.dof):
+        lines = self.noise_lines or [None] * len(self.experiments)
+        for e, chans, bands, q, lim, n, seen in zip(self.experiments, self.channels, self.bands, self.ratios(),
+                                                   self.limit, self.dof, lines):
             for b, c in zip(*np.nonzero(q > lim)):
                 rows.append({"experiment": e, "channel": chans[c],
                              "band_hz": [round(bands[b][0], 1), round(bands[b][1], 1)],
                              "residual_to_floor": float(np.sqrt(q[b, c])),
                              "limit": float(np.sqrt(lim[b, c])),
+                             **({} if seen is None else {"noise_lines": int(seen[b])}),
                              "_excess": float(n[b, c] * (q[b, c] - lim[b, c]))})
         rows.sort(key=lambda r: -r["_excess"])
         for r in rows:
@@ -128,7 +133,8 @@ def resolve(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFloor
     alpha = DETECTION_FALSE_ALARM / max(n_cells, 1)
     # chi2.isf(alpha, d) as scipy.stats computes it, without its argument handling on every comparison
     limit = [np.where(s, DETECTION_TOLERANCE * scipy.special.chdtri(d, alpha) / d, np.inf) for s, d in zip(seen, dof)]
-    return Resolved(names, chans, bands, res, flo, dof, rdof, limit)
+    return Resolved(names, chans, bands, res, flo, dof, rdof, limit,
+                    [floor.witness_lines.get(e.name) for e in exps])
 
 
 def gain_threshold(k: int) -> float:

@@ -145,6 +145,24 @@ def _where(sig: Signature) -> str:
     return "; ".join(parts) if parts else "no single channel, band or experiment"
 
 
+#: a band's noise measured on fewer lines of the samples before the hits than this is named in the
+#: verdict: a band of noise there (a floor's vibration under one line) reads as a misfit (the skid
+#: rig's 0.0625 s before each hit sees 25-50 Hz in its 32 Hz line alone: 2 of 8 nulls with a floor
+#: vibration at 24-37 Hz read "unexplained")
+FEW_NOISE_LINES = 8
+
+
+def _few_noise_lines(sig: Signature) -> str:
+    """Words on the strongest cell's band when few lines before the hits measure its noise."""
+    if not sig.cells or sig.cells[0].get("noise_lines", FEW_NOISE_LINES) >= FEW_NOISE_LINES:
+        return ""
+    c = sig.cells[0]
+    lo, hi = c["band_hz"]
+    return (f" The noise at {lo:g}-{hi:g} Hz is measured on only {c['noise_lines']} lines of the samples before "
+            f"the hits, so a band of noise there (a floor's vibration) would read the same: record "
+            f"{2.0 / lo:.2g} s or more before each hit to tell.")
+
+
 def message(verdict: str, baseline: float, floor: float, best, sig: Signature, rest: Signature | None) -> str:
     """One paragraph a vibration engineer can act on."""
     ratio = baseline / floor if floor > 0 else float("inf")
@@ -174,9 +192,9 @@ def message(verdict: str, baseline: float, floor: float, best, sig: Signature, r
            if sig.amplitude_dependent else "")
     if verdict == "unexplained":
         return (f"{head}, and no candidate effect removes a significant part of it. The residual lies in "
-                f"{_where(sig)}.{amp} The missing physics is not in the effect library: inspect those "
-                "channels' spectra and the rig there (loose parts, contacts, friction, a sensor or cable), "
-                "or add an effect of your own.")
+                f"{_where(sig)}.{amp}{_few_noise_lines(sig)} The missing physics is not in the effect library: "
+                "inspect those channels' spectra and the rig there (loose parts, contacts, friction, a sensor or "
+                "cable), or add an effect of your own.")
     name = best.effect
     also = f" (it cannot be told apart from {', '.join(best.confounded_with)} with these data)" if best.confounded_with else ""
     if verdict == "explained":

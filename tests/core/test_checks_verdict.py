@@ -612,6 +612,19 @@ def test_a_candidate_that_passes_its_tests_and_leaves_cells_says_something_else_
     assert "physics the library lacks" in words and "second effect" not in words
 
 
+def test_an_unexplained_cell_whose_noise_few_lines_measure_says_so():
+    # the skid rig's 0.0625 s before each hit sees 25-50 Hz in one line (32 Hz) per record: a floor's
+    # vibration at 37 Hz there read "unexplained"; the words say how few lines measure that band's
+    # noise and how long to record before each hit; with enough lines (or not known) they say nothing
+    cell = {"experiment": "r2", "channel": "motor_de_z2", "band_hz": [25.0, 50.0], "residual_to_floor": 3.64,
+            "limit": 3.4, "noise_lines": 4}
+    words = message("unexplained", 0.975, 1.0, None, Signature(cells=[cell]), None)
+    assert "measured on only 4 lines of the samples before the hits" in words
+    assert "record 0.08 s or more before each hit" in words
+    for known in ({**cell, "noise_lines": 8}, {k: v for k, v in cell.items() if k != "noise_lines"}):
+        assert "before the hits" not in message("unexplained", 0.975, 1.0, None, Signature(cells=[known]), None)
+
+
 def test_a_modes_frequency_is_bounded_by_the_records_nyquist_frequency(registries, thesis_rig):
     """A mode above the records' Nyquist frequency is not in them: missing_mode was fitted at
     2561 Hz on records sampled at 5120 Hz and called plausible. The fit's bound is the Nyquist
