@@ -205,6 +205,16 @@ def named(truth_kinds: list[str], diag: dict) -> bool:
     return bool((set(top["effect"].split("+")) | set(top.get("confounded_with") or [])) & right)
 
 
+def project_of(spec: dict, folder: Path) -> Path:
+    """The case of ``spec`` simulated and imported into a project in ``folder`` (its rig file and
+    records beside it), without its diagnosis: for tests that read the floor or the colour alone."""
+    case = build(spec)
+    records = case.simulate()
+    rig_toml = writers.write_rig_toml(folder / "rig.toml", case.nominal)
+    lvms = [writers.write_lvm(folder / f"r{i:02d}.lvm", without_unused(r)) for i, r in enumerate(records)]
+    return make_project(folder, rig_toml, lvms, writers.to_jsonable(case.truth_document()))
+
+
 def run_one(spec: dict, out: Path) -> dict:
     t0 = time.time()
     folder = out / "cases" / spec["id"]

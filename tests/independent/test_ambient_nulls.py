@@ -20,14 +20,7 @@ def _strongest(tmp_path, spec):
     from odsuite.analysis.comparison import compare
     from odsuite.analysis.prediction import prepare
 
-    from . import writers
-
-    case = calibrate.build(spec)
-    records = case.simulate()
-    rig_toml = writers.write_rig_toml(tmp_path / "rig.toml", case.nominal)
-    lvms = [writers.write_lvm(tmp_path / f"r{i:02d}.lvm", calibrate.without_unused(r)) for i, r in enumerate(records)]
-    project = calibrate.make_project(tmp_path, rig_toml, lvms, writers.to_jsonable(case.truth_document()))
-    with open_project(project) as p:
+    with open_project(calibrate.project_of(spec, tmp_path)) as p:
         exps = prepare(p)
         cmp = compare(p, prepared=exps, resonances=False, coordinates=False, tables=False)
     res = resolved.resolve(exps, cmp.predictions, cmp.floor)

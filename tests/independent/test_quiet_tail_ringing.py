@@ -31,16 +31,9 @@ def test_a_tail_ringing_near_the_mains_frequency_colours_no_white_sensor(tmp_pat
     from odsuite.analysis import noise_colour
     from odsuite.analysis.prediction import prepare
 
-    from . import writers
-
     spec = {"case": "added-mass", "rig": "two-body", "seed": 206, "force_n": 5.0, "noise_v": 100e-6,
             "set": "faults", "id": "two-body-added-mass-s206"}
-    case = calibrate.build(spec)
-    records = case.simulate()
-    rig_toml = writers.write_rig_toml(tmp_path / "rig.toml", case.nominal)
-    lvms = [writers.write_lvm(tmp_path / f"r{i:02d}.lvm", calibrate.without_unused(r)) for i, r in enumerate(records)]
-    project = calibrate.make_project(tmp_path, rig_toml, lvms, writers.to_jsonable(case.truth_document()))
-    with open_project(project) as p:
+    with open_project(calibrate.project_of(spec, tmp_path)) as p:
         exps = prepare(p)
     assert {e.hum_hz for e in exps} == {60.0}
     assert noise_colour.by_sensor(exps) == {}
