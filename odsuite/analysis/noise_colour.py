@@ -58,7 +58,7 @@ COLOUR_FALSE_ALARM = 0.01
 class Colour:
     """A sensor's noise density relative to its quiet level: white + rise f^-exponent, times
     ``excess`` in the bands (lo, hi, factor) where the lines before the hit hold more than that law
-    (a noise band: floor vibration at 10-30 Hz, which no rise holds)."""
+    (a noise band, such as a floor's vibration at 8-40 Hz, which no rise holds: shared_excess)."""
 
     white: float
     rise: float

@@ -73,14 +73,14 @@ class Resolved:
         """The cells above the floor, strongest (whitened excess) first."""
         rows = []
         lines = self.noise_lines or [None] * len(self.experiments)
-        for e, chans, bands, q, lim, n, seen in zip(self.experiments, self.channels, self.bands, self.ratios(),
-                                                   self.limit, self.dof, lines):
+        for e, chans, bands, q, lim, n, counts in zip(self.experiments, self.channels, self.bands, self.ratios(),
+                                                     self.limit, self.dof, lines):
             for b, c in zip(*np.nonzero(q > lim)):
                 rows.append({"experiment": e, "channel": chans[c],
                              "band_hz": [round(bands[b][0], 1), round(bands[b][1], 1)],
                              "residual_to_floor": float(np.sqrt(q[b, c])),
                              "limit": float(np.sqrt(lim[b, c])),
-                             **({} if seen is None else {"noise_lines": int(seen[b])}),
+                             **({} if counts is None else {"noise_lines": int(counts[b])}),
                              "_excess": float(n[b, c] * (q[b, c] - lim[b, c]))})
         rows.sort(key=lambda r: -r["_excess"])
         for r in rows:
