@@ -301,11 +301,15 @@ class NoiseFloor:
     # (bands x sensors), from the expected line energies of its parts
     bands: dict[str, tuple[list[tuple[float, float]], np.ndarray, np.ndarray]] = field(
         default_factory=dict, repr=False)
-    # per experiment: per band, whether the samples the noise's spectrum is measured on resolve it
-    # (witnesses, resolves_band); where not, the floor there is carried down unseen
-    seen: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
-    # per experiment: per band, how many lines of those samples lie in it (band_lines)
+    # per experiment: per band, how many lines of the samples the noise's spectrum is measured on
+    # lie in it (witnesses, band_lines); absent: not known
     witness_lines: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+
+    def judged(self, experiment: str, n_bands: int) -> np.ndarray:
+        """Per band of ``experiment``, whether those samples resolve it (resolves_band); where not,
+        the floor there is carried down unseen. Every band where the lines are not known."""
+        lines = self.witness_lines.get(experiment)
+        return np.ones(n_bands, bool) if lines is None else lines >= RESOLVING_LINES
 
     def total(self, experiments: Sequence[str] | None = None, channels: Sequence[str] | None = None
               ) -> tuple[float, float]:
@@ -388,7 +392,6 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
     parts: dict[str, dict[str, dict[str, float]]] = {}
     specs: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     banded: dict[str, tuple[list[tuple[float, float]], np.ndarray, np.ndarray]] = {}
-    seen: dict[str, np.ndarray] = {}
     counted: dict[str, np.ndarray] = {}
     # the colour's excess is tested in the bands the residual is judged in
     colours = noise_colour.by_sensor(exps, band_edges(exps[0].fs, exps[0].n_samples) if exps else ())
@@ -460,7 +463,6 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
             bands = band_edges(e.fs, n)
             masks = in_band(e.fs, n, bands)
             banded[e.name] = (bands, np.array([lines[m].sum(axis=0) for m in masks]), band_dof(lines, masks))
-            seen[e.name] = resolves_band(stretches, bands)
             if stretches is not None:
                 counted[e.name] = band_lines(stretches, bands)
-    return NoiseFloor(energy, measured, parts, specs, banded, seen, counted)
+    return NoiseFloor(energy, measured, parts, specs, banded, counted)

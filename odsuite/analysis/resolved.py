@@ -128,7 +128,7 @@ def resolve(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFloor
         dof.append(f_dof)
         rdof.append(np.clip(own, 1.0, f_dof))
     # a band the quiet samples do not resolve has its floor carried down unseen: it is not judged
-    seen = [np.broadcast_to(floor.seen.get(e.name, np.ones(len(d), bool))[:, None], d.shape) for e, d in zip(exps, dof)]
+    seen = [np.broadcast_to(floor.judged(e.name, len(d))[:, None], d.shape) for e, d in zip(exps, dof)]
     n_cells = sum(int(s.sum()) for s in seen)
     alpha = DETECTION_FALSE_ALARM / max(n_cells, 1)
     # chi2.isf(alpha, d) as scipy.stats computes it, without its argument handling on every comparison
