@@ -172,8 +172,8 @@ def _evidence(problem: Problem, cand: Candidate, baseline: float, noise: float,
     desc = physical.text(shown) if cand.physical else _describe_values(problem, cand.parameters, cand.uncertainties)
     if desc:
         words.append(f"fitted {desc}")
-    words.append(f"validated error {error_text(baseline)} -> {error_text(cand.validated_error)} ({cand.validation}); "
-                 f"noise floor {error_text(noise)}")
+    words.append((f"validated error {error_text(baseline)} -> {error_text(cand.validated_error)} ({cand.validation})"
+                  if math.isfinite(cand.validated_error) else cand.validation) + f"; noise floor {error_text(noise)}")
     # the factors the data cannot separate (a scale per axis times one per spring) are neither
     # printed nor named where the effect reports quantities: those are what the factors determine,
     # each with the uncertainty their correlations give it
@@ -255,14 +255,15 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
                    force_levels: Mapping[str, float] | None = None, target: float | None = None,
                    cannot_pass: Callable[[np.ndarray, float], bool] | None = None, floor=None,
                    out_of_reach: Callable[[np.ndarray, float], bool] | None = None,
-                   why: Sequence[str] = ()) -> Candidate:
+                   why: Sequence[str] = (), settle: bool = True) -> Candidate:
     """Fit, validate and describe one screened candidate. Sums of squares of ``screened`` are over
     the fit windows; ``tail0`` is the rest of the records' at the nominal model, ``sse0`` whole;
     ``target``, ``cannot_pass``: the fit stops where it cannot come near that or pass its test
     (fitting.fit), and is neither validated nor checked; ``out_of_reach``: the fit stops where it
     cannot come near the top or change its own significance (_out_of_reach, the words why in
-    ``why``), and is validated and judged at the point reached, its consistency checked only where it
-    passes its test; ``floor``:
+    ``why``), and is judged at the point reached, its consistency checked only where it passes its
+    test, and validated (the other half of its significance) only where it passes and ``settle``
+    (else the caller settles it where its significance is read: _settled); ``floor``:
     the records' noise floor, whose tolerated misfit the consistency check allows (None: none)."""
     problem = screened.problem
     effect = problem.effect
@@ -273,7 +274,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
                   cannot_pass=cannot_pass if out_of_reach is None else out_of_reach)
         stopped, short = (False, res.target_stop) if out_of_reach is not None else (res.target_stop, False)
         checked = None
-        if short and out_of_reach.passes:
+        if short and out_of_reach.passes and settle:
             # significance asks for a validated error below the baseline's too: where it is not
             # there, its significance is not decided and the fit goes on to its end
             checked = validate(problem, res.x, res)
@@ -328,12 +329,18 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
     for name, c in problem.fixed.items():
         params[name] = c
         uncert[name] = None
-    # a fit stopped where it cannot pass its test is not validated, refitted or checked further
-    sse_val, how = (math.nan, "not validated: its fit stopped early") if stopped else \
-        checked if short and checked is not None else validate(problem, u, res if problem.free else None)
+    # a fit stopped where it cannot pass its test is not validated, refitted or checked further; nor
+    # is one stopped out of reach of the top where its test's outcome is left to the caller
+    if stopped:
+        sse_val, how = math.nan, "not validated: its fit stopped early"
+    elif short and checked is None:
+        sse_val, how = math.nan, (UNSETTLED if out_of_reach.passes else
+                                  "not validated: its fit stopped where it could not pass its likelihood-ratio test")
+    else:
+        sse_val, how = checked if short else validate(problem, u, res if problem.free else None)
     sse_val += tail
     k = len(problem.free) + len(problem.fixed)
-    bic = n_eff * math.log(max(sse_val, 1e-300) / den) + k * math.log(n_eff) if not stopped else math.inf
+    bic = n_eff * math.log(max(sse_val, 1e-300) / den) + k * math.log(n_eff) if math.isfinite(sse_val) else math.inf
     modes_after = None
     if effect.target == "model" and shared:
         after = list(problem.models(u)[exps[0].name].modes().frequency_hz)
@@ -445,11 +452,12 @@ def _partner_job(token: int, seed: tuple[str, Mapping[str, float], np.ndarray, f
 
 
 def _fit_job(token: int, name: str, fixed: Mapping[str, float], u0: np.ndarray, sse: float,
-             top: tuple[float, Sequence[int]] | None = None) -> tuple[Candidate, tuple]:
+             top: tuple[float, Sequence[int]] | None = None, settle: bool = True) -> tuple[Candidate, tuple]:
     """Fit one screened candidate; the candidate without its problem (rebuilt by the caller from what
     _kept hands back: the values it was fitted with, its evaluations, its predictions). With
     ``top`` (an upper bound of the best single fit's cost, and the parameter counts of the
-    candidates fitted) the fit stops where it cannot matter (_out_of_reach)."""
+    candidates fitted) the fit stops where it cannot matter (_out_of_reach); one stopped so is
+    validated only where ``settle`` (_fit_candidate)."""
     job = JOBS[token]
     problem = _problem(job, name, fixed)
     why: list[str] = []
@@ -457,7 +465,7 @@ def _fit_job(token: int, name: str, fixed: Mapping[str, float], u0: np.ndarray, 
     cand = _fit_candidate(Screened(problem.effect, dict(fixed), u0, sse, problem), job["windows"], job["sse0"],
                           job["den"], job["n_eff"], job["noise"], job["peaks"], job["rigidity"],
                           job["modes_before"], job["tail0"], job["force_levels"], floor=job["floor"],
-                          out_of_reach=hook, why=why)
+                          out_of_reach=hook, why=why, settle=settle)
     return cand, _kept(cand.__dict__.pop("_problem"))
 
 
@@ -695,7 +703,7 @@ def _fit_best(pool, token, job, top: list[Screened], ahead: int, exps, cmp, res0
 
     def submit(k: int) -> None:
         t = top[k]
-        jobs[k] = pool.submit(_fit_job, token, t.effect.name, t.fixed, t.u0, t.sse, bound)
+        jobs[k] = pool.submit(_fit_job, token, t.effect.name, t.fixed, t.u0, t.sse, bound, False)
 
     jobs: dict[int, Any] = {}
     queued = 0
@@ -724,16 +732,51 @@ def _fit_best(pool, token, job, top: list[Screened], ahead: int, exps, cmp, res0
         fitted.append(s)
         if progress:
             progress(f"fitting {s.effect.name}", i, len(top))
-        cand, kept = jobs[i].result()
-        cand._problem = _kept_back(_problem(job, s.effect.name, kept[0]), kept)
+        cand = _received(job, exps, cmp, res0, s, *jobs[i].result())
         best_win = min(best_win, cand._sse_win)
-        _judge(cand, exps, cmp.floor, res0, job["sse0"], job["den"], job["scale"])
         evaluations += cand._problem.evaluations  # the fit's and the judgement's
-        words = _checks_words(cand)
-        if words:
-            cand.evidence += "; " + words
         candidates.append(cand)
+    unsettled = [i for i, c in enumerate(candidates) if c.validation == UNSETTLED]
+    if unsettled and not _decided_without(candidates, job):
+        # their significance is read (a pair, a refinement, the order): each fitted again as far and
+        # validated there, as the fit had it settled itself
+        again = {i: pool.submit(_fit_job, token, fitted[i].effect.name, fitted[i].fixed, fitted[i].u0,
+                                fitted[i].sse, bound, True) for i in unsettled}
+        for i, done in again.items():
+            candidates[i] = _received(job, exps, cmp, res0, fitted[i], *done.result())
+            evaluations += candidates[i]._problem.evaluations
     return candidates, fitted, evaluations
+
+
+def _received(job: Mapping[str, Any], exps, cmp, res0, s: Screened, cand: Candidate, kept: tuple) -> Candidate:
+    """A fit from _fit_job with its problem rebuilt, judged against the baseline and its checks' words
+    added."""
+    cand._problem = _kept_back(_problem(job, s.effect.name, kept[0]), kept)
+    _judge(cand, exps, cmp.floor, res0, job["sse0"], job["den"], job["scale"])
+    words = _checks_words(cand)
+    if words:
+        cand.evidence += "; " + words
+    return cand
+
+
+#: the validation of a fit stopped out of reach of the top as passing its likelihood-ratio test,
+#: left out where its significance changes nothing (_decided_without)
+UNSETTLED = ("not validated: its fit stopped out of reach of the top, and a candidate that leaves nothing above "
+             "the floor decides the diagnosis, so its significance is left undecided")
+
+
+def _decided_without(candidates: Sequence[Candidate], job: Mapping[str, Any]) -> bool:
+    """Whether the significance of fits stopped out of reach of the top (each behind the best by more
+    than the tests between two candidates and BIC's penalty allow) can change nothing the diagnosis
+    reads: a significant named mechanism leaves no cell above the floor (no pair is then fitted and
+    nothing refined), and no data-driven stand-in is significant (prefer_named would give its
+    place to a significant named mechanism it is confounded with, however far behind)."""
+    def stand_in(c: Candidate) -> bool:
+        return bool(getattr(job["effects"].get(c.effect), "data_driven", False))
+
+    significant = [c for c in candidates if c.fitted and c.significant]
+    return (any(not stand_in(c) and not _leaves_cells(c, job) for c in significant)
+            and not any(stand_in(c) for c in significant))
 
 
 def _refined(token, job, refiners: list[str], candidates: list[Candidate], cmp) -> tuple[list[Candidate], int]:
