@@ -281,10 +281,16 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
             if not checked[0] + problem.tail_sse(res.x) < sse0:
                 res, short, checked = fit(problem, res.x, continuation=False, jac0=res.jac), False, None
         u = res.x
-        # uncertainties from the residual as it is: its samples are correlated (filters, misfit)
-        sds, corr, groups = uncertainties(problem, res, lambda: checks.residual_effective_samples(problem, res))
-        unident = [f.label for f, sd in zip(problem.free, sds)
-                   if not np.isfinite(sd) or sd > UNIDENTIFIABLE_FRACTION * (f.param.upper - f.param.lower)]
+        # stopped out of reach and left unsettled (_settled fits it again where it is read): short of
+        # its minimum its residual holds what it has not fitted yet, which no uncertainty reads as noise
+        unsettled = short and checked is None and out_of_reach.passes
+        if unsettled:
+            sds, corr, groups = np.full(len(problem.free), np.nan), np.eye(len(problem.free)), []
+        else:
+            # uncertainties from the residual as it is: its samples are correlated (filters, misfit)
+            sds, corr, groups = uncertainties(problem, res, lambda: checks.residual_effective_samples(problem, res))
+        unident = [f.label for f, sd in zip(problem.free, sds) if not unsettled and (
+            not np.isfinite(sd) or sd > UNIDENTIFIABLE_FRACTION * (f.param.upper - f.param.lower))]
         if unident and len(unident) < len(problem.free) and not stopped and not short:
             # hold what the data cannot see at its nominal value and refit the rest
             held = {f.param.name: f.param.nominal for f in problem.free
@@ -305,8 +311,11 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         # values scatter by it, and the reported uncertainties have it as add-effect stores them
         # (not more certain than the records agree either)
         scores = force_noise_scores(problem, res)
-        sds, corr = with_force_noise(problem, res, sds, corr, scores)
-        shown_sds, spread = reported_with_covariance(sds, problem, res)
+        if unsettled:
+            shown_sds, spread = sds, None
+        else:
+            sds, corr = with_force_noise(problem, res, sds, corr, scores)
+            shown_sds, spread = reported_with_covariance(sds, problem, res)
     else:
         u = problem.zero()
         sse = screened.sse
@@ -761,7 +770,8 @@ def _received(job: Mapping[str, Any], exps, cmp, res0, s: Screened, cand: Candid
 
 #: the validation of a fit stopped out of reach of the top as passing its likelihood-ratio test,
 #: left out where its significance changes nothing (_decided_without)
-UNSETTLED = ("not validated: its fit stopped out of reach of the top, and a candidate that leaves nothing above "
+UNSETTLED = ("not validated, nor its uncertainties read: its fit stopped out of reach of the top, and a candidate "
+             "that leaves nothing above "
              "the floor decides the diagnosis, so its significance is left undecided")
 
 
