@@ -34,9 +34,12 @@ def test_worker_processes_give_the_serial_result(project):
     top = serial.candidates[0]
     assert top.effect == "stiffness" and top.significant
     assert top.error_after < 0.5 * serial.baseline_error
-    # the rule that leaves weak candidates to screening ran, and fitted ones were validated
+    # the rule that leaves weak candidates to screening ran, and fitted ones were validated (but for a
+    # fit stopped out of reach of a top that explains all, whose significance is left undecided)
     assert any(not c.fitted for c in serial.candidates)
-    assert all(math.isfinite(c.validated_error) for c in serial.candidates if c.fitted)
+    from odsuite.diagnosis.diagnose import UNSETTLED
+    assert all(math.isfinite(c.validated_error) or (c.validation == UNSETTLED and not c.significant)
+               for c in serial.candidates if c.fitted)
 
 
 def test_default_workers_one_per_core_at_most_two_for_a_small_job(monkeypatch):

@@ -1,11 +1,15 @@
 """A single candidate's full fit stops where it can no longer matter (diagnose._out_of_reach):
 its significance decided at the point reached and its error, less what its linearisation still
 promises, far above the best screened candidate's; one that passes its test has its consistency
-(amplitude dependence, which decides its confounding) checked there. The stop saves evaluations and changes no
-outcome: the same verdict, top, significance and order as the fits let run to their ends."""
+(amplitude dependence, which decides its confounding) checked there. Its validation, the other half of its
+significance, is left out where a named candidate leaves nothing above the floor (diagnose._decided_without):
+it is then not called significant. Where its significance is read (diagnose._settled fits it again and
+validates it), the outcome is the one of the fits let run to their ends: the same verdict, top, significance
+and order. The stop saves evaluations."""
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -54,13 +58,52 @@ def test_a_fit_out_of_reach_stops_and_changes_no_outcome(stiffer, monkeypatch):
         out_of_reach.passes = False
         return out_of_reach
 
+    # the same diagnosis with every stopped fit's significance read: each settled
+    with monkeypatch.context() as m:
+        m.setattr(diagnose_module, "_decided_without", lambda *a: False)
+        settled = _diagnosis(stiffer)
+    unsettled = [c for c in stopped.candidates if c.validation == diagnose_module.UNSETTLED]
+    assert unsettled, "no stopped fit was left unsettled: the test would not test it"
+    assert not any(c.validation == diagnose_module.UNSETTLED for c in settled.candidates)
+
     monkeypatch.setattr(diagnose_module, "_out_of_reach", never)
     full = _diagnosis(stiffer)
     assert not any("could not come near the top" in c.evidence for c in full.candidates)
-    assert _outcome(stopped) == _outcome(full)
-    for c in short:  # the finished fit's significance is the stopped one's, and it stays below the top
+    assert _outcome(settled) == _outcome(full)
+    # left unsettled: the same verdict and top, and the same significance of every other candidate
+    assert stopped.verdict == full.verdict == "explained" and stopped.candidates[0].effect == full.candidates[0].effect
+    for c in unsettled:
+        assert c.fitted and not c.significant and math.isnan(c.validated_error) and math.isinf(c.bic)
+        assert all(v is None for v in c.uncertainties.values())
+    assert ([c.effect for c in stopped.candidates if c.significant]
+            == [c.effect for c in full.candidates if c.significant and all(u.effect != c.effect for u in unsettled)])
+    for c in short:  # the finished fit's significance is the settled one's, and it stays below the top
         done = next(f for f in full.candidates if f.effect == c.effect)
-        assert done.significant == c.significant and done is not full.candidates[0]
+        again = next(f for f in settled.candidates if f.effect == c.effect)
+        assert done.significant == again.significant and done is not full.candidates[0]
         if c.consistent is not None:  # checked at the point reached as at the fit's end
             assert (c.consistent, c.amplitude_dependent) == (done.consistent, done.amplitude_dependent)
-    assert stopped.evaluations < full.evaluations
+    assert stopped.evaluations < settled.evaluations and stopped.evaluations < full.evaluations
+
+
+def test_the_stopped_fits_are_settled_unless_a_named_candidate_leaves_nothing():
+    """_decided_without: a significant named mechanism leaving no cell above the floor decides; one that
+    leaves cells (a pair or a refinement may follow) or a significant data-driven stand-in (prefer_named
+    may promote a named one however far behind) does not."""
+    from types import SimpleNamespace
+
+    from odsuite.contracts.plugins import registries
+
+    effects = registries().effects
+    assert getattr(effects.get("missing_mode"), "data_driven", False)
+    job = {"effects": effects, "noise": 0.01}
+
+    def cand(effect, error, significant=True):
+        return SimpleNamespace(effect=effect, fitted=True, significant=significant, error_after=error, _resolved=None)
+
+    explains = cand("stiffness", 0.01)  # at the floor (pooled: no bands in this job)
+    leaves = cand("stiffness", 0.2)
+    assert diagnose_module._decided_without([explains, cand("mass_properties", 0.3, False)], job)
+    assert not diagnose_module._decided_without([leaves, cand("mass_properties", 0.3, False)], job)
+    assert not diagnose_module._decided_without([explains, cand("missing_mode", 0.01)], job)
+    assert not diagnose_module._decided_without([cand("stiffness", 0.01, significant=False)], job)
