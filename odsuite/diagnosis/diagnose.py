@@ -745,16 +745,26 @@ def _fit_best(pool, token, job, top: list[Screened], ahead: int, exps, cmp, res0
         best_win = min(best_win, cand._sse_win)
         evaluations += cand._problem.evaluations  # the fit's and the judgement's
         candidates.append(cand)
-    unsettled = [i for i, c in enumerate(candidates) if c.validation == UNSETTLED]
-    if unsettled and not _decided_without(candidates, job):
-        # their significance is read (a pair, a refinement, the order): each fitted again as far and
-        # validated there, as the fit had it settled itself
-        again = {i: pool.submit(_fit_job, token, fitted[i].effect.name, fitted[i].fixed, fitted[i].u0,
-                                fitted[i].sse, bound, True) for i in unsettled}
-        for i, done in again.items():
-            candidates[i] = _received(job, exps, cmp, res0, fitted[i], *done.result())
-            evaluations += candidates[i]._problem.evaluations
+    evaluations += _settled(pool, token, job, candidates, fitted, bound, exps, cmp, res0)
     return candidates, fitted, evaluations
+
+
+def _settled(pool, token, job, candidates: list[Candidate], fitted: Sequence[Screened], bound, exps, cmp, res0
+             ) -> int:
+    """The fits stopped out of reach of the top left unsettled (UNSETTLED) fitted again as far and
+    validated there, as a fit that settles itself, where their significance is read (a pair, a
+    refinement, the order: _decided_without); in place in ``candidates`` (``fitted``: their
+    screenings, in the same order). Returns the model evaluations spent."""
+    unsettled = [i for i, c in enumerate(candidates) if c.validation == UNSETTLED]
+    if not unsettled or _decided_without(candidates, job):
+        return 0
+    again = {i: pool.submit(_fit_job, token, fitted[i].effect.name, fitted[i].fixed, fitted[i].u0,
+                            fitted[i].sse, bound, True) for i in unsettled}
+    evaluations = 0
+    for i, done in again.items():
+        candidates[i] = _received(job, exps, cmp, res0, fitted[i], *done.result())
+        evaluations += candidates[i]._problem.evaluations
+    return evaluations
 
 
 def _received(job: Mapping[str, Any], exps, cmp, res0, s: Screened, cand: Candidate, kept: tuple) -> Candidate:
