@@ -272,17 +272,19 @@ def pooled_error(exps: Sequence[PreparedExperiment], predictions: Sequence[np.nd
     return float(np.sqrt(num / den)) if den > 0 else float("nan")
 
 
-def noise_floor(exps: Sequence[PreparedExperiment], model=None, *, spectra: bool = False) -> NoiseFloor:
+def noise_floor(exps: Sequence[PreparedExperiment], model=None, *, spectra: bool = False,
+                colours: Mapping[str, Any] | None = None) -> NoiseFloor:
     """The calibrated noise floor (odsuite.analysis.noise_floor) of ``exps`` if ``model`` were
     right: it carries the force channel's noise to the sensors and its signals set the rounding
     error (without it, those parts are estimated from the records alone). ``model``: a
-    RevisionModel, or a mapping of experiment name to that experiment's model."""
+    RevisionModel, or a mapping of experiment name to that experiment's model. ``colours``: the
+    sensors' noise colours of these records where known (another floor's: NoiseFloor.colours)."""
     if model is None:
-        return estimate(exps, spectra=spectra)
+        return estimate(exps, spectra=spectra, colours=colours)
     models = model if isinstance(model, Mapping) else {e.name: model.for_experiment(e.name) for e in exps}
     impulses = {e.name: impulse_response(models[e.name], e) for e in exps}
     noise = {e.name: sensor_noise(models[e.name], e) for e in exps}
-    return estimate(exps, impulses, noise, spectra=spectra)
+    return estimate(exps, impulses, noise, spectra=spectra, colours=colours)
 
 
 def noise_floor_error(exps: Sequence[PreparedExperiment], model=None) -> float:

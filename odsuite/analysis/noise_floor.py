@@ -304,6 +304,9 @@ class NoiseFloor:
     # per experiment: per band, how many lines of the samples the noise's spectrum is measured on
     # lie in it (witnesses, band_lines); absent: not known
     witness_lines: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    # per sensor, its noise's colour (noise_colour.by_sensor): the records' alone, so a floor of the
+    # same records for another model takes it from here
+    colours: dict[str, Any] = field(default_factory=dict, repr=False)
 
     def judged(self, experiment: str, n_bands: int) -> np.ndarray:
         """Per band of ``experiment``, whether those samples resolve it (resolves_band); where not,
@@ -379,14 +382,16 @@ def _coloured(flat: np.ndarray, colour: np.ndarray) -> np.ndarray:
 
 
 def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
-             sensor_noise: Mapping[str, Sequence[np.ndarray]] | None = None, *, spectra: bool = False) -> NoiseFloor:
+             sensor_noise: Mapping[str, Sequence[np.ndarray]] | None = None, *, spectra: bool = False,
+             colours: Mapping[str, Any] | None = None) -> NoiseFloor:
     """The noise floor of ``exps`` (PreparedExperiments); ``impulses`` maps an experiment's name to
     its model's response to a unit force sample (odsuite.analysis.prediction.impulse_response), which
     carries the force channel's noise to every channel (without it that part is left out);
     ``sensor_noise`` to simulated realisations of the sensors' noise and rounding
     (odsuite.analysis.prediction.sensor_noise; without them: white noise and a uniform rounding error
     where the signal moves through the codes). ``spectra``: also the floor's Welch spectra, for
-    peak and band tests."""
+    peak and band tests. ``colours``: the sensors' noise colours of these records (a floor's of
+    the same records for another model: NoiseFloor.colours), found again where absent."""
     energy: dict[str, dict[str, float]] = {}
     measured: dict[str, dict[str, float]] = {}
     parts: dict[str, dict[str, dict[str, float]]] = {}
@@ -394,7 +399,8 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
     banded: dict[str, tuple[list[tuple[float, float]], np.ndarray, np.ndarray]] = {}
     counted: dict[str, np.ndarray] = {}
     # the colour's excess is tested in the bands the residual is judged in
-    colours = noise_colour.by_sensor(exps, band_edges(exps[0].fs, exps[0].n_samples) if exps else ())
+    if colours is None:
+        colours = noise_colour.by_sensor(exps, band_edges(exps[0].fs, exps[0].n_samples) if exps else ())
     known = all(getattr(e, "quiet_tail", -1) >= 0 for e in exps)
     stretches = witnesses(exps) if known else None
     for e in exps:
@@ -465,4 +471,4 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
             banded[e.name] = (bands, np.array([lines[m].sum(axis=0) for m in masks]), band_dof(lines, masks))
             if stretches is not None:
                 counted[e.name] = band_lines(stretches, bands)
-    return NoiseFloor(energy, measured, parts, specs, banded, counted)
+    return NoiseFloor(energy, measured, parts, specs, banded, counted, dict(colours))

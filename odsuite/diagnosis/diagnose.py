@@ -1200,7 +1200,7 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
             # what is left is judged against the floor the candidate's model would leave if right
             # (its signals' rounding, its response to the force channel's noise), as compare
             # judges the revision that stores it
-            floor_best = noise_floor(exps, p.models(best._u), spectra=True)
+            floor_best = noise_floor(exps, p.models(best._u), spectra=True, colours=cmp.floor.colours)
             res_best = resolution.resolve(exps, after, floor_best)
     if res_best is not None and not res_best.detected() and len(getattr(best, "_early_late_u", ())) == 2:
         # the verdict's cell test on the late (small) part of the records as the early part's fit

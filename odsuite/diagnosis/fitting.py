@@ -1353,6 +1353,15 @@ class _Stops:
             self.target_stop = True
             raise StopIteration
 
+    def at_start(self, x: np.ndarray) -> bool:
+        """``cannot_pass`` at the start, from its differenced Jacobian, before a first step: a fit
+        from a screened point far behind the best stops there, not one step and one Jacobian
+        later. The other stops wait for the steps they judge."""
+        promised = self.promised.get(x.tobytes())
+        self.target_stop = bool(promised is not None and self.cannot_pass is not None
+                                and self.cannot_pass(x, promised))
+        return self.target_stop
+
 
 #: scipy least_squares' default gradient tolerance, which _trf keeps
 GTOL = 1e-8
@@ -1439,6 +1448,7 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
     A, c, G, g = _square_root(J, f)
     stops.jacobian(x, G, g)
     exact, run = True, 0  # whether J is differenced; updates since it was
+    stopped_at_start = stops.at_start(x)
 
     def differenced() -> None:
         nonlocal J, A, c, G, g, exact, run, njev
@@ -1452,7 +1462,10 @@ def _trf(fun, jac, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, *, max_nfev: 
     Delta = float(np.linalg.norm(x / v**0.5)) or 1.0
     f_aug = np.zeros(2 * n)
     alpha, iteration, status, g_norm = 0.0, 0, None, math.inf
-    while True:
+    if stopped_at_start:
+        status = -2
+        g_norm = float(np.linalg.norm(g * CL_scaling_vector(x, g, lb, ub)[0], ord=np.inf))
+    while not stopped_at_start:
         v, dv = CL_scaling_vector(x, g, lb, ub)
         g_norm = float(np.linalg.norm(g * v, ord=np.inf))
         if g_norm < GTOL:

@@ -20,10 +20,10 @@ from odsuite.domain.rig import Acquisition, AntiAliasing, rig_from_dict
 from test_comparison import FS, N, PRE, _half_sine, _independent_record
 
 
-def _project(tmp_path, name, force_noise=0.0, hum=0.0, white=0.0, seed=0):
+def _project(tmp_path, name, force_noise=0.0, hum=0.0, white=0.0, seed=0, walk=0.0):
     """A thesis-rig project whose record is the model's own response (a perfect model), with
     white noise of ``force_noise`` N on the force channel, and ``hum`` (50 Hz, m/s^2) plus ``white``
-    (m/s^2) on every accelerometer."""
+    (m/s^2) plus a random walk of ``walk`` (m/s^2) steps on every accelerometer."""
     from odsuite.analysis.modelrev import base_model
 
     p = create_project(tmp_path / f"{name}.h5")
@@ -36,7 +36,8 @@ def _project(tmp_path, name, force_noise=0.0, hum=0.0, white=0.0, seed=0):
     t = np.arange(N) / FS
     for s in rig.sensors:
         ch = si.channels[s.channel]
-        disturbance = hum * np.sin(2 * np.pi * 50.0 * t + rng.uniform(0, 2 * np.pi)) + white * rng.standard_normal(N)
+        disturbance = (hum * np.sin(2 * np.pi * 50.0 * t + rng.uniform(0, 2 * np.pi)) + white * rng.standard_normal(N)
+                       + walk * np.cumsum(rng.standard_normal(N)))
         raw[:, s.channel] += disturbance * ch.sensitivity * ch.daq_gain
     p.add_experiment("T", raw, sampling_rate=FS, systeminfo=si,
                      excitation=Excitation(rig.force_channel, point, direction), pretrigger=PRE)
@@ -54,6 +55,29 @@ def test_the_force_channels_noise_reaches_the_prediction_as_the_floor_says(tmp_p
         ratios.append((c.error / c.noise_floor_error) ** 2)
         p.close()
     assert np.mean(ratios) == pytest.approx(1.0, abs=0.2), ratios
+
+
+def test_a_floor_for_another_model_of_the_same_records_takes_their_colours_as_found(tmp_path):
+    # the sensors' colours are the records' alone: diagnose's floor for the best fit's model takes
+    # the baseline's (NoiseFloor.colours), and it is the floor found anew to the bit
+    from odsuite.analysis.comparison import noise_floor
+    from odsuite.analysis.modelrev import revision_model
+    from odsuite.analysis.prediction import prepare
+
+    p = _project(tmp_path, "walk", white=0.02, walk=0.002, seed=7)
+    c = compare(p, resonances=False)
+    assert c.floor.colours and all(col.rise > 0 for col in c.floor.colours.values())
+    exps = prepare(p)
+    stiffer = p.registries.effects.get("stiffness").apply(revision_model(p).shared, {"scale_z": 1.2})
+    models = {e.name: stiffer for e in exps}
+    again = noise_floor(exps, models, spectra=True, colours=c.floor.colours)
+    fresh = noise_floor(exps, models, spectra=True)
+    assert again.energy == fresh.energy and again.colours == fresh.colours
+    for name, (edges, energy, dof) in fresh.bands.items():
+        assert again.bands[name][0] == edges
+        assert np.array_equal(again.bands[name][1], energy) and np.array_equal(again.bands[name][2], dof)
+    assert np.array_equal(again.spectra["T"][1], fresh.spectra["T"][1])
+    p.close()
 
 
 def test_mains_hum_and_white_noise_are_in_the_floor(tmp_path):
