@@ -136,6 +136,8 @@ def _candidates_table(candidates, width: int):
     room left breaks after its '+' only."""
     from rich.table import Table
 
+    from odsuite.diagnosis.diagnose import UNSETTLED
+
     def yes(v: bool) -> str:
         return "yes" if v else "no"
 
@@ -157,8 +159,10 @@ def _candidates_table(candidates, width: int):
         table.add_column("confounded with", overflow="fold")
     for c in candidates:
         name = c["effect"] if fits else c["effect"].replace("+", "+\n")
-        # "-": not checked (screened only, or a pair whose fit stopped early)
-        tests = [yes(c["significant"]), "-" if c["consistent"] is None or not c["fitted"] else yes(c["consistent"]),
+        # "-": not checked (screened only, or a pair whose fit stopped early; its significance: not
+        # decided, as nothing the diagnosis reads turns on it)
+        tests = ["-" if c.get("validation") == UNSETTLED else yes(c["significant"]),
+                 "-" if c["consistent"] is None or not c["fitted"] else yes(c["consistent"]),
                  yes(c["plausible"]) if c["fitted"] else "-"]
         table.add_row(name, *([" ".join(f"{t:<3}" for t in tests).rstrip()] if folded else tests),
                       f"{c['error_after']:.4f}",

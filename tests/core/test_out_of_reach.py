@@ -9,6 +9,7 @@ and order. The stop saves evaluations."""
 
 from __future__ import annotations
 
+import io
 import math
 import sys
 from pathlib import Path
@@ -75,6 +76,16 @@ def test_a_fit_out_of_reach_stops_and_changes_no_outcome(stiffer, monkeypatch):
     for c in unsettled:
         assert c.fitted and not c.significant and math.isnan(c.validated_error) and math.isinf(c.bic)
         assert all(v is None for v in c.uncertainties.values())
+    # diagnose's table says "-" (not decided) in its significance column, not "no"
+    from rich.console import Console
+
+    from odsuite.cli.loop_commands import _candidates_table
+
+    console = Console(width=100, record=True, file=io.StringIO())
+    console.print(_candidates_table([c.as_dict() for c in stopped.candidates], 100))
+    rows = {line.split("│")[1].strip(): line.split("│")[2].strip() for line in console.export_text().splitlines()
+            if line.count("│") > 3}
+    assert all(rows[c.effect] == "-" for c in unsettled) and rows[stopped.candidates[0].effect] == "yes"
     assert ([c.effect for c in stopped.candidates if c.significant]
             == [c.effect for c in full.candidates if c.significant and all(u.effect != c.effect for u in unsettled)])
     for c in short:  # the finished fit's significance is the settled one's, and it stays below the top
