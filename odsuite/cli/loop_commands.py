@@ -136,8 +136,6 @@ def _candidates_table(candidates, width: int):
     room left breaks after its '+' only."""
     from rich.table import Table
 
-    from odsuite.diagnosis.diagnose import UNSETTLED
-
     def yes(v: bool) -> str:
         return "yes" if v else "no"
 
@@ -161,7 +159,7 @@ def _candidates_table(candidates, width: int):
         name = c["effect"] if fits else c["effect"].replace("+", "+\n")
         # "-": not checked (screened only, or a pair whose fit stopped early; its significance: not
         # decided, as nothing the diagnosis reads turns on it)
-        tests = ["-" if c.get("validation") == UNSETTLED else yes(c["significant"]),
+        tests = [yes(c["significant"]) if c.get("significance_decided", True) else "-",
                  "-" if c["consistent"] is None or not c["fitted"] else yes(c["consistent"]),
                  yes(c["plausible"]) if c["fitted"] else "-"]
         table.add_row(name, *([" ".join(f"{t:<3}" for t in tests).rstrip()] if folded else tests),

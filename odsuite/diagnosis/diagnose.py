@@ -123,6 +123,8 @@ class Candidate:
             "implausible", "at_records_edge", "amplitude_dependent", "per_experiment_fits", "early_late_agree", "early_late_note", "early_late_differ",
             "early_late_fits", "early_late_cells",
             "physical")}
+        # false: left undecided (UNSETTLED), and ``significant`` false with it
+        d["significance_decided"] = self.validation != UNSETTLED
         d["likelihood_ratio"] = None if not math.isfinite(self.likelihood_ratio) else self.likelihood_ratio
         d["likelihood_ratio_limit"] = None if not math.isfinite(self.gain_threshold) else self.gain_threshold
         return d

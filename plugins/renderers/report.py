@@ -868,7 +868,9 @@ def _candidates_section(diag: Mapping[str, Any] | None, revision: Any, notes: li
         params = (physical_text(moved_quantities(c["physical"], limit=6)) if c.get("physical") else
                   ", ".join(f"{k} = {_fmt(v, '.4g')}" + (f" {unit_text(units[k])}" if units.get(k) not in (None, "", "1") else "")
                             for k, v in (c.get("parameters") or {}).items()))
-        rows.append([rank, c["effect"], "yes" if c.get("significant") else "no", _fmt(c.get("error_after")),
+        decided = c.get("significance_decided", True)  # false: nothing the diagnosis reads turned on it
+        rows.append([rank, c["effect"], ("yes" if c.get("significant") else "no") if decided else "not decided",
+                     _fmt(c.get("error_after")),
                      _fmt(c.get("validated_error")), params or "–", c.get("evidence", "")])
     return text + _table(["rank", "effect", "significant", "error after", "validated error", "parameters",
                           "evidence"], rows, id="candidates")

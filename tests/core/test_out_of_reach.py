@@ -86,6 +86,13 @@ def test_a_fit_out_of_reach_stops_and_changes_no_outcome(stiffer, monkeypatch):
     rows = {line.split("│")[1].strip(): line.split("│")[2].strip() for line in console.export_text().splitlines()
             if line.count("│") > 3}
     assert all(rows[c.effect] == "-" for c in unsettled) and rows[stopped.candidates[0].effect] == "yes"
+    # and the report "not decided"
+    from plugins.renderers.report import _candidates_section
+
+    doc = stopped.as_dict()
+    assert [c["significance_decided"] for c in doc["candidates"]] == [c not in unsettled for c in stopped.candidates]
+    html = _candidates_section(doc, doc["revision"], [])
+    assert html.count("not decided") == len(unsettled)
     assert ([c.effect for c in stopped.candidates if c.significant]
             == [c.effect for c in full.candidates if c.significant and all(u.effect != c.effect for u in unsettled)])
     for c in short:  # the finished fit's significance is the settled one's, and it stays below the top
