@@ -36,6 +36,8 @@ TRIGGER_FRACTION = 0.05
 #: below (the anti-aliasing filter smears a hammer pulse over a few milliseconds).
 WINDOW_FRACTION = 0.02
 WINDOW_BEFORE_S = 0.5e-3
+#: a resting head keeps this much before the force acts: the band-limited force rings into it
+REST_MARGIN_S = 5e-3
 WINDOW_AFTER_S = 3e-3
 NOISE_MULTIPLE = 5.0
 #: structures with up to this many coordinates keep every coordinate's simulated acceleration, so
@@ -189,12 +191,58 @@ class PreparedExperiment:
     # operators, {chain: last prediction, "delayed": the undelayed signals and their spectra})
     _filtered: tuple | None = field(default=None, repr=False)
     force_body: str | None = None  # the body hit, when the experiment says (else: from the point)
+    # the record's sample this one starts at (a head cut after the samples at rest: resting_head)
+    first: int = 0
     notes: list[str] = field(default_factory=list)  # what the record says against the rig file
     registries: Any = field(default=None, repr=False)  # the project's providers (solvers for coordinates)
 
     @property
     def n_samples(self) -> int:
         return self.measured.shape[0]
+
+    @property
+    def span(self) -> tuple[str, int, int]:
+        """Which samples of which record this is: what a prediction's or residual's key names."""
+        return self.name, self.first, self.n_samples
+
+    def resting_head(self, n: int) -> PreparedExperiment:
+        """``head(n)`` without its samples before the force acts, less REST_MARGIN_S. The model is at
+        rest there (the force window is zero before the hit; its band-limited form rings into
+        them at 1e-6 of the response), so the predictions of the samples kept are the head's to a
+        few 1e-5 of their peak, and the residual's rows cut are the measured noise alone, the same
+        at every parameter value: a screening's steps on the head are the same for a fraction of
+        the samples (0.01 s after a hit with 512 samples before it: a half or a fifth of them). A
+        chain's offset over samples at rest is nil on a prediction and left out. The head itself
+        where a chain runs as it is recorded, filters both ways, or takes an offset over samples
+        cut and samples the force acts in."""
+        head = self.head(n)
+        acting = np.flatnonzero(np.any(np.reshape(head.force, (head.n_samples, -1)) != 0, axis=1))
+        if not acting.size or head.operators is None:
+            return head
+        first = max(0, int(acting[0]) - int(round(REST_MARGIN_S * self.fs)))
+        operators = []
+        for op in head.operators:
+            if any(zero_phase for _, zero_phase in op.filters):
+                return head
+            if op.offset is None:
+                operators.append(op)
+            elif sum(op.offset) <= acting[0]:  # an offset over samples at rest: the prediction's is nil
+                operators.append(replace(op, offset=None))
+            elif op.offset[0] >= first:
+                operators.append(replace(op, offset=(op.offset[0] - first, op.offset[1])))
+            else:
+                return head
+        if first == 0:
+            return head
+
+        def cut(x):
+            return None if x is None else x[first:]
+
+        return replace(head, force=head.force[first:], volts=head.volts[first:], measured=head.measured[first:],
+                       disturbance=cut(head.disturbance), volts_disturbance=cut(head.volts_disturbance),
+                       trigger=head.trigger - first, first=head.first + first, operators=operators,
+                       quiet_tail=head.quiet_tail - first if head.quiet_tail >= first else -1, quiet_before=0,
+                       _cache=None, _filtered=None)
 
     def head(self, n: int) -> PreparedExperiment:
         """The first ``n`` samples (a causal chain gives the same predictions there; fits use short

@@ -754,9 +754,9 @@ def _fit_best(pool, token, job, top: list[Screened], ahead: int, exps, cmp, res0
 def _settled(pool, token, job, candidates: list[Candidate], fitted: Sequence[Screened], bound, exps, cmp, res0
              ) -> int:
     """The fits stopped out of reach of the top left unsettled (UNSETTLED) fitted again as far and
-    validated there, as a fit that settles itself, where their significance is read (a pair, a
-    refinement, the order: _decided_without); in place in ``candidates`` (``fitted``: their
-    screenings, in the same order). Returns the model evaluations spent."""
+    validated there, as a fit that settles itself, where their significance may be read (a pair, a
+    refinement, the best's place, a proxy's name: _decided_without); in place in ``candidates``
+    (``fitted``: their screenings, in the same order). Returns the model evaluations spent."""
     unsettled = [i for i, c in enumerate(candidates) if c.validation == UNSETTLED]
     if not unsettled or _decided_without(candidates, job):
         return 0
@@ -788,17 +788,38 @@ UNSETTLED = ("not validated, nor its uncertainties read: its fit stopped out of 
 
 
 def _decided_without(candidates: Sequence[Candidate], job: Mapping[str, Any]) -> bool:
-    """Whether the significance of fits stopped out of reach of the top (each behind the best by more
-    than the tests between two candidates and BIC's penalty allow) can change nothing the diagnosis
-    reads: a significant named mechanism leaves no cell above the floor (no pair is then fitted and
-    nothing refined), and no data-driven stand-in is significant (prefer_named would give its
-    place to a significant named mechanism it is confounded with, however far behind)."""
+    """Whether the significance of the fits stopped out of reach of the top and left unsettled can
+    change nothing the diagnosis reads:
+    - a significant named mechanism (the lead: the lowest BIC of those) leaves no cell above the
+      floor: no pair is then fitted and nothing refined;
+    - no data-driven stand-in is significant: prefer_named would give its place to a significant
+      named mechanism it is confounded with, however far behind;
+    - none could go before the lead: its BIC from its error at the point reached (its validated
+      error is higher) is above the lead's, and where it has fewer parameters the lead explains
+      significantly more than it (prefer_fewer_parameters would put it first otherwise);
+    - none has values that follow the force level: mark_proxies would name it beside an
+      amplitude-dependent cause, as the fit's end (where the fit would go on) decides."""
     def stand_in(c: Candidate) -> bool:
         return bool(getattr(job["effects"].get(c.effect), "data_driven", False))
 
     significant = [c for c in candidates if c.fitted and c.significant]
-    return (any(not stand_in(c) and not _leaves_cells(c, job) for c in significant)
-            and not any(stand_in(c) for c in significant))
+    explaining = [c for c in significant if not stand_in(c) and not _leaves_cells(c, job)]
+    if not explaining or any(stand_in(c) for c in significant):
+        return False
+    lead = min(significant, key=lambda c: c.bic)
+    n_eff = job["n_eff"]
+    for c in candidates:
+        if c.validation != UNSETTLED:
+            continue
+        lowest = n_eff * math.log(max(c.error_after**2, 1e-300)) + c.n_parameters * math.log(n_eff)
+        if not lowest > lead.bic or c.amplitude_dependent:
+            return False
+        if c.n_parameters < lead.n_parameters and not (
+                getattr(c, "_resolved", None) is not None and getattr(lead, "_resolved", None) is not None
+                and resolution.gain(c._resolved, lead._resolved) > resolution.gain_threshold(
+                    lead.n_parameters - c.n_parameters)):
+            return False
+    return True
 
 
 def _refined(token, job, refiners: list[str], candidates: list[Candidate], cmp) -> tuple[list[Candidate], int]:

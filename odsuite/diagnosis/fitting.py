@@ -122,8 +122,9 @@ def weight_notes(exps: Sequence[PreparedExperiment]) -> list[str]:
 
 
 def heads(exps: Sequence[PreparedExperiment]) -> list[list[PreparedExperiment]]:
-    """The experiments cut to each of HEADS_S after their hit, then whole."""
-    stages = [[e.head(e.trigger + int(round(t * e.fs))) for e in exps] for t in HEADS_S]
+    """The experiments cut to each of HEADS_S after their hit, without their samples at rest before
+    it (PreparedExperiment.resting_head), then whole."""
+    stages = [[e.resting_head(e.trigger + int(round(t * e.fs))) for e in exps] for t in HEADS_S]
     return stages + [list(exps)]
 
 
@@ -286,7 +287,7 @@ class Problem:
 
     def base_prediction(self, e: PreparedExperiment) -> np.ndarray:
         """The prediction without this effect (cached per experiment and length)."""
-        key = (e.name, e.n_samples)
+        key = e.span
         if key not in self._base_predictions:
             self._base_predictions[key] = predict(self.base.for_experiment(e.name), e)
         return self._base_predictions[key]
@@ -296,7 +297,7 @@ class Problem:
         """The effect's projected parameters at ``u`` fitted on ``exps`` (rows weighted by
         ``weights``), and each experiment's change of prediction."""
         exps = list(exps or self.exps)
-        key = (u.tobytes(), tuple((e.name, e.n_samples) for e in exps),
+        key = (u.tobytes(), tuple(e.span for e in exps),
                None if weights is None else tuple(w.tobytes() for w in weights))
         if self._projection is not None and self._projection[0] == key:
             return self._projection[1]
@@ -377,7 +378,7 @@ class Problem:
         and damping (UNITS_BYTES_KEPT, shared by the derived problems: the same base and records). It
         does not depend on the mode's body or participations: a search over a mode's body or its
         amplitudes asks again for the same frequencies."""
-        key = (e.name, e.n_samples, frequency_hz, damping_ratio)
+        key = (*e.span, frequency_hz, damping_ratio)
         kept = self._units.get(key)
         if kept is None:
             held = sum(a.nbytes for a in self._units.values())
@@ -406,7 +407,7 @@ class Problem:
 
     def kept(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None) -> list[np.ndarray] | None:
         """``predictions(u, exps)`` where they are kept, without evaluating; None where not."""
-        key = (u.tobytes(), tuple((e.name, e.n_samples) for e in (exps or self.exps)))
+        key = (u.tobytes(), tuple(e.span for e in (exps or self.exps)))
         got = next((p for k, p in self._predictions if k == key), None)
         return None if got is None else list(got)
 
@@ -415,7 +416,7 @@ class Problem:
         """Keep ``predictions`` (``predictions(u, exps)``'s) first among the kept ones: the last to go."""
         if self.linear:  # the projection keeps its own
             return
-        key = (u.tobytes(), tuple((e.name, e.n_samples) for e in (exps or self.exps)))
+        key = (u.tobytes(), tuple(e.span for e in (exps or self.exps)))
         rest = [(k, p) for k, p in self._predictions if k != key]
         self._predictions = [(key, list(predictions))] + rest[:PREDICTIONS_KEPT - 1]
 
@@ -723,7 +724,7 @@ class Problem:
         shared ones of sensors some experiment records: where one leaves a sensor out, as a
         clipped channel, the sensor's parameter changes nothing there), and each sensor's residual
         rows; kept per set of records (screening asks again for every step and start)."""
-        key = tuple((e.name, e.n_samples) for e in exps)
+        key = tuple(e.span for e in exps)
         if key not in self._batches:
             self._batches[key] = self._new_sensor_batches(exps)
         return self._batches[key]
@@ -749,7 +750,7 @@ class Problem:
         """Each sensor's residual rows (_sensor_batches) as a strided slice per experiment and
         channel: a Jacobian's column of a sensor's parameter is written through them in a third of
         the time that the rows as an index array took (gathered, then scattered)."""
-        key = ("slices",) + tuple((e.name, e.n_samples) for e in exps)
+        key = ("slices",) + tuple(e.span for e in exps)
         if key not in self._batches:
             slices: dict[str, list[slice]] = {}
             at = 0
@@ -781,7 +782,7 @@ class Problem:
         A step of one experiment's parameter changes that experiment's model alone, so its column
         is zero in the others' rows: a thesis impact_location Jacobian took 15 evaluations of 5
         records each for 3 records' worth of change."""
-        key = ("experiments",) + tuple((e.name, e.n_samples) for e in exps)
+        key = ("experiments",) + tuple(e.span for e in exps)
         if key not in self._batches:
             names = [e.name for e in exps]
             own = [i for i, f in enumerate(self.free) if f.experiment in names and f.param.sensor is None]
@@ -1028,7 +1029,7 @@ def _climb_grid(problem: Problem, i: int, best: np.ndarray, best_sse: float, gri
     climb. Returns the lowest start found and its sum of squares, or ``best`` where none is lower
     (of equal ones the lowest frequency, as the sweep through every start kept the first)."""
     f = problem.free[i]
-    key = (tuple(grid), tuple((e.name, e.n_samples) for e in exps))
+    key = (tuple(grid), tuple(e.span for e in exps))
     gains = problem._gains.get(key)
     if gains is None:  # the residual without the effect: the same for each discrete choice's problem
         without = problem._residual_of([problem.base_prediction(e) for e in exps], exps, None, problem.stride)
@@ -1356,9 +1357,12 @@ class _Stops:
     def at_start(self, x: np.ndarray) -> bool:
         """``cannot_pass`` at the start, from its differenced Jacobian, before a first step: a fit
         from a screened point far behind the best stops there, not one step and one Jacobian
-        later. The other stops wait for the steps they judge."""
+        later. Not where the start is its own minimum to within the least stop (its linearisation
+        promises less: a screening that converged), which the search's own stops end as before;
+        the other stops wait for the steps they judge."""
         promised = self.promised.get(x.tobytes())
         self.target_stop = bool(promised is not None and self.cannot_pass is not None
+                                and not (self.least > 0 and promised < self.least)
                                 and self.cannot_pass(x, promised))
         return self.target_stop
 

@@ -137,7 +137,9 @@ def _print_candidates(console: Console, doc: Mapping[str, Any], rows: int = 6) -
         table.add_column(col)
     for c in doc["candidates"][:rows]:
         validated = c["validated_error"]
-        table.add_row(c["effect"], "[green]yes[/green]" if c["significant"] else "no", f"{c['error_after']:.4f}",
+        # "-": left undecided, as nothing the diagnosis reads turns on it (significance_decided)
+        shown = ("[green]yes[/green]" if c["significant"] else "no") if c.get("significance_decided", True) else "-"
+        table.add_row(c["effect"], shown, f"{c['error_after']:.4f}",
                       "-" if validated is None or math.isnan(validated) else f"{validated:.4f}")
     console.print(table)
     rest = doc["candidates"][rows:]

@@ -10,6 +10,7 @@ and order. The stop saves evaluations."""
 from __future__ import annotations
 
 import io
+import json
 import math
 import sys
 from pathlib import Path
@@ -59,10 +60,13 @@ def test_a_fit_out_of_reach_stops_and_changes_no_outcome(stiffer, monkeypatch):
         out_of_reach.passes = False
         return out_of_reach
 
-    # the same diagnosis with every stopped fit's significance read: each settled
+    # the same diagnosis with every stopped fit's significance read: each settled, alike on two workers
     with monkeypatch.context() as m:
         m.setattr(diagnose_module, "_decided_without", lambda *a: False)
         settled = _diagnosis(stiffer)
+        with open_project(stiffer) as project:
+            two = diagnose_module.diagnose(project, effects=EFFECTS, workers=2)
+    assert json.dumps(two.as_dict()) == json.dumps(settled.as_dict()) and two.evaluations == settled.evaluations
     unsettled = [c for c in stopped.candidates if c.validation == diagnose_module.UNSETTLED]
     assert unsettled, "no stopped fit was left unsettled: the test would not test it"
     assert not any(c.validation == diagnose_module.UNSETTLED for c in settled.candidates)
@@ -101,7 +105,7 @@ def test_a_fit_out_of_reach_stops_and_changes_no_outcome(stiffer, monkeypatch):
         assert done.significant == again.significant and done is not full.candidates[0]
         if c.consistent is not None:  # checked at the point reached as at the fit's end
             assert (c.consistent, c.amplitude_dependent) == (done.consistent, done.amplitude_dependent)
-    assert stopped.evaluations < settled.evaluations and stopped.evaluations < full.evaluations
+    assert stopped.evaluations < full.evaluations
 
 
 def test_the_stopped_fits_are_settled_unless_a_named_candidate_leaves_nothing():
@@ -114,10 +118,11 @@ def test_the_stopped_fits_are_settled_unless_a_named_candidate_leaves_nothing():
 
     effects = registries().effects
     assert getattr(effects.get("missing_mode"), "data_driven", False)
-    job = {"effects": effects, "noise": 0.01}
+    job = {"effects": effects, "noise": 0.01, "n_eff": 1000.0}
 
     def cand(effect, error, significant=True):
-        return SimpleNamespace(effect=effect, fitted=True, significant=significant, error_after=error, _resolved=None)
+        return SimpleNamespace(effect=effect, fitted=True, significant=significant, error_after=error, _resolved=None,
+                               bic=math.log(error), validation="leave one experiment out", n_parameters=7)
 
     explains = cand("stiffness", 0.01)  # at the floor (pooled: no bands in this job)
     leaves = cand("stiffness", 0.2)
@@ -125,3 +130,46 @@ def test_the_stopped_fits_are_settled_unless_a_named_candidate_leaves_nothing():
     assert not diagnose_module._decided_without([leaves, cand("mass_properties", 0.3, False)], job)
     assert not diagnose_module._decided_without([explains, cand("missing_mode", 0.01)], job)
     assert not diagnose_module._decided_without([cand("stiffness", 0.01, significant=False)], job)
+    # the resolved test where the floor has bands: a cell above it is left
+    resolved = cand("stiffness", 0.2)
+    resolved._resolved = SimpleNamespace(detected=lambda: False)
+    assert diagnose_module._decided_without([resolved, cand("mass_properties", 0.3, False)], job)
+    resolved._resolved = SimpleNamespace(detected=lambda: True)
+    assert not diagnose_module._decided_without([resolved, cand("mass_properties", 0.3, False)], job)
+
+
+def test_a_stopped_fit_that_could_go_first_is_settled():
+    """An unsettled fit with fewer parameters whose BIC at the point reached is not above the lead's,
+    or that the lead does not explain significantly more than, or whose values follow the force
+    level, is settled (_decided_without)."""
+    from types import SimpleNamespace
+
+    from odsuite.analysis import resolved as resolution
+    from odsuite.contracts.plugins import registries
+
+    job = {"effects": registries().effects, "noise": 0.01, "n_eff": 1000.0}
+    lead = SimpleNamespace(effect="mass_properties", fitted=True, significant=True, error_after=0.01,
+                           validation="leave one experiment out", n_parameters=10, bic=1000.0 * math.log(0.0105**2) + 10 * math.log(1000.0), _resolved=None)
+
+    def unsettled(error, k=4, amplitude=(), gain=None):
+        c = SimpleNamespace(effect="stiffness", fitted=True, significant=False, error_after=error, n_parameters=k,
+                            validation=diagnose_module.UNSETTLED, amplitude_dependent=list(amplitude), _resolved=None)
+        if gain is not None:  # both judged on the resolved residual: the lead leaves no cell
+            c._resolved = SimpleNamespace(detected=lambda: True)
+            lead._resolved = SimpleNamespace(detected=lambda: False)
+        return c
+
+    far = unsettled(0.3, k=12)
+    assert diagnose_module._decided_without([lead, far], job)
+    # its BIC at the point reached below the lead's: 6 parameters fewer make up for 1.4 % more error
+    assert not diagnose_module._decided_without([lead, unsettled(0.0106, k=12 - 8)], job)
+    assert not diagnose_module._decided_without([lead, unsettled(0.3, k=12, amplitude=["stiffness_z"])], job)
+    # fewer parameters: the lead must explain significantly more (the resolved test)
+    original = resolution.gain
+    try:
+        resolution.gain = lambda a, b: 1e6
+        assert diagnose_module._decided_without([lead, unsettled(0.3, k=4, gain=True)], job)
+        resolution.gain = lambda a, b: 1.0
+        assert not diagnose_module._decided_without([lead, unsettled(0.3, k=4, gain=True)], job)
+    finally:
+        resolution.gain = original

@@ -1,0 +1,98 @@
+"""A screening's short heads without the samples before the force acts (PreparedExperiment.resting_head):
+the model is at rest there, so the predictions of the samples kept are the whole head's to a few
+1e-5 of their peak (linear and cubic springs alike; the noise is a percent), the rows cut are the
+measured noise alone, and a screening on them reaches the same errors to 1e-3 and the same fits. Where a chain's offset window spans the cut the head
+stays whole."""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from hidden_effects import make_project  # noqa: E402
+
+from odsuite.analysis.modelrev import revision_model  # noqa: E402
+from odsuite.analysis.prediction import REST_MARGIN_S, prepare, predict  # noqa: E402
+from odsuite.store.project import open_project  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def softer(tmp_path_factory):
+    """Two thesis hits (4096 samples, 512 before the trigger) of a rig whose springs are softer vertically."""
+    path = make_project(tmp_path_factory.mktemp("rest") / "softer.h5", [("stiffness", {"scale_z": 0.8})],
+                        n_samples=4096, scenarios=("T1", "T4"))
+    with open_project(path) as p:
+        yield p, prepare(p)
+
+
+def _models(project):
+    base = revision_model(project).shared
+    effects = project.registries.effects
+    return {"linear": effects.get("stiffness").apply(base, {"scale_z": 0.9}),
+            "cubic": effects.get("nonlinear_stiffness").apply(base, {f"hardening_{g}": 5.0 for g in
+                                                                     effects.get("nonlinear_stiffness")._groups(base)})}
+
+
+@pytest.mark.parametrize("kind", ["linear", "cubic"])
+@pytest.mark.parametrize("after_s", [0.01, 0.04])
+def test_a_resting_head_predicts_the_heads_samples(softer, kind, after_s):
+    project, exps = softer
+    model = _models(project)[kind]
+    for e in exps:
+        n = e.trigger + int(round(after_s * e.fs))
+        head, resting = e.head(n), e.resting_head(n)
+        acting = int(np.flatnonzero(e.force)[0])
+        assert resting.first == acting - int(round(REST_MARGIN_S * e.fs)) > 0
+        assert resting.n_samples == head.n_samples - resting.first and resting.trigger == e.trigger - resting.first
+        assert np.array_equal(resting.measured, head.measured[resting.first:])
+        assert resting.span != head.span  # never the same key for kept predictions
+        whole = predict(model, replace(head, _cache=None, _filtered=None))
+        cut = predict(model, resting)
+        peak = np.max(np.abs(whole))
+        # the samples cut: the model at rest (the band-limited force rings into them, no more)
+        assert np.max(np.abs(whole[:resting.first])) < 1e-5 * peak
+        assert np.max(np.abs(cut - whole[resting.first:])) < 3e-5 * peak
+
+
+def test_a_chains_offset_over_the_cut_keeps_the_head_whole(softer):
+    # the thesis chain's offsets (the means of samples 0-400 and 0-100) lie where the model is at
+    # rest (the force acts from 490): the prediction's are nil, and the head is cut. One over the
+    # force's start keeps it whole; one after the cut moves with it
+    _, exps = softer
+    e = exps[0]
+    n = e.trigger + int(round(0.01 * e.fs))
+    assert [op.offset for op in e.operators] == [(0, 400), (0, 100)]
+    resting = e.resting_head(n)
+    first, acting = resting.first, int(np.flatnonzero(e.force)[0])
+    assert first > 0 and all(op.offset is None for op in resting.operators)
+    spanning = replace(e, operators=[replace(op, offset=(first - 10, acting - first + 20)) for op in e.operators])
+    assert spanning.resting_head(n).first == 0 and spanning.resting_head(n).n_samples == n
+    after = replace(e, operators=[replace(op, offset=(first + 10, 100)) for op in e.operators])
+    assert [op.offset for op in after.resting_head(n).operators] == [(10, 100)] * len(e.operators)
+
+
+def test_screening_on_resting_heads_reaches_the_same_errors(softer, monkeypatch):
+    from odsuite.diagnosis import fitting
+    from odsuite.diagnosis.diagnose import diagnose
+
+    project, exps = softer
+    effects = ["stiffness", "mass_properties", "nonlinear_stiffness", "sensor_gain", "channel_delay"]
+    rest = diagnose(project, effects=effects, prepared=[replace(e, _cache=None) for e in exps], workers=1)
+
+    def whole_heads(exps):
+        return [[e.head(e.trigger + int(round(t * e.fs))) for e in exps] for t in fitting.HEADS_S] + [list(exps)]
+
+    monkeypatch.setattr(fitting, "heads", whole_heads)
+    whole = diagnose(project, effects=effects, prepared=[replace(e, _cache=None) for e in exps], workers=1)
+    assert [c.effect for c in rest.candidates] == [c.effect for c in whole.candidates]
+    assert rest.verdict == whole.verdict and rest.candidates[0].effect == "stiffness"
+    for a, b in zip(rest.candidates, whole.candidates):
+        assert a.screened_error == pytest.approx(b.screened_error, rel=1e-3)
+        assert a.fitted == b.fitted and a.significant == b.significant
+    assert rest.candidates[0].error_after == pytest.approx(whole.candidates[0].error_after, rel=1e-6)
