@@ -169,6 +169,6 @@ def test_missing_mode_projection_reuses_unit_responses_across_bodies(tmp_path, m
             grid = sorted(c for c in problem.free[0].param.starts if problem.free[0].param.lower <= c)
             fitting._climb_grid(problem, 0, problem.zero(), np.inf, grid, head)
             without = problem._residual_of([problem.base_prediction(e) for e in head], head, None, problem.stride)
-            kept = problem._gains[(tuple(grid), tuple((e.name, e.n_samples) for e in head))]
+            kept = problem._gains[(tuple(grid), tuple(e.span for e in head))]
             np.testing.assert_array_equal(kept, fitting._resonance_gains(grid, without, head, problem.stride))
 
