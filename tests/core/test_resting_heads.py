@@ -6,20 +6,15 @@ stays whole."""
 
 from __future__ import annotations
 
-import sys
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from hidden_effects import make_project  # noqa: E402
-
-from odsuite.analysis.modelrev import revision_model  # noqa: E402
-from odsuite.analysis.prediction import REST_MARGIN_S, prepare, predict  # noqa: E402
-from odsuite.store.project import open_project  # noqa: E402
+from hidden_effects import make_project
+from odsuite.analysis.modelrev import revision_model
+from odsuite.analysis.prediction import REST_MARGIN_S, prepare, predict
+from odsuite.store.project import open_project
 
 
 @pytest.fixture(scope="module")
