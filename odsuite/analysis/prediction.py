@@ -205,21 +205,23 @@ class PreparedExperiment:
         """Which samples of which record this is: what a prediction's or residual's key names."""
         return self.name, self.first, self.n_samples
 
-    def resting_head(self, n: int) -> PreparedExperiment:
+    def resting_head(self, n: int, align: int = 1) -> PreparedExperiment:
         """``head(n)`` without its samples before the force acts, less REST_MARGIN_S. The model is at
         rest there (the force window is zero before the hit; its band-limited form rings into
         them at 1e-6 of the response), so the predictions of the samples kept are the head's to a
         few 1e-5 of their peak, and the residual's rows cut are the measured noise alone, the same
         at every parameter value: a screening's steps on the head are the same for a fraction of
         the samples (0.01 s after a hit with 512 samples before it: a half or a fifth of them). A
-        chain's offset over samples at rest is nil on a prediction and left out. The head itself
-        where a chain runs as it is recorded, filters both ways, or takes an offset over samples
-        cut and samples the force acts in."""
+        chain's offset over samples at rest is nil on a prediction and left out. The cut is at a
+        multiple of ``align``: a residual of every ``align``-th sample keeps the head's own. The
+        head itself where a chain runs as it is recorded, filters both ways, or takes an offset
+        over samples cut and samples the force acts in."""
         head = self.head(n)
         acting = np.flatnonzero(np.any(np.reshape(head.force, (head.n_samples, -1)) != 0, axis=1))
         if not acting.size or head.operators is None:
             return head
         first = max(0, int(acting[0]) - int(round(REST_MARGIN_S * self.fs)))
+        first -= first % max(1, align)
         operators = []
         for op in head.operators:
             if any(zero_phase for _, zero_phase in op.filters):

@@ -121,10 +121,11 @@ def weight_notes(exps: Sequence[PreparedExperiment]) -> list[str]:
     return out
 
 
-def heads(exps: Sequence[PreparedExperiment]) -> list[list[PreparedExperiment]]:
+def heads(exps: Sequence[PreparedExperiment], stride: int = 1) -> list[list[PreparedExperiment]]:
     """The experiments cut to each of HEADS_S after their hit, without their samples at rest before
-    it (PreparedExperiment.resting_head), then whole."""
-    stages = [[e.resting_head(e.trigger + int(round(t * e.fs))) for e in exps] for t in HEADS_S]
+    it (PreparedExperiment.resting_head: cut at a multiple of ``stride``, so a residual taken
+    every ``stride`` samples keeps the whole head's samples), then whole."""
+    stages = [[e.resting_head(e.trigger + int(round(t * e.fs)), stride) for e in exps] for t in HEADS_S]
     return stages + [list(exps)]
 
 
@@ -1175,7 +1176,7 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
     def score(trial: Problem) -> float:
         if not swept:
             return trial.sse(trial.zero())
-        first = heads(trial.exps)[0]
+        first = heads(trial.exps, trial.stride)[0]
         return float(np.sum(trial.residual(_sweep(trial, trial.zero(), first, peaks_hz), first) ** 2))
 
     chosen: dict[str, float] = {}
@@ -1204,7 +1205,7 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
     if best_fixed:
         problem = problem.derived(best_fixed)
     if problem.free:
-        stages = heads(problem.exps)
+        stages = heads(problem.exps, problem.stride)
         first = stages[0]
         u0 = problem.zero()
         r0 = problem.residual(u0, first)
@@ -1589,7 +1590,7 @@ def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] 
     u = np.clip(u0, lo, hi)
     n = len(problem.free)
     root = np.sqrt(problem.pull) if problem.prior else None
-    stages = heads(exps or problem.exps) if continuation else [list(exps or problem.exps)]
+    stages = heads(exps or problem.exps, problem.stride) if continuation else [list(exps or problem.exps)]
     # the cost is half the strided sum of squares, which is about the whole one over the stride
     least = 0.5 * STALL_GAIN * problem.noise_scale / problem.stride if problem.noise_scale > 0 else 0.0
     least = max(least, short_of)
