@@ -23,15 +23,16 @@ seconds compare best across runs and wall times only on a quiet machine. A chang
 evaluation cheaper (the compiled recursions below) lowers the baseline as much as diagnose, and
 the worth column then rises although everything is faster.
 
-Where it stands after rounds 37-39 (quiet machine, load 0.3, one sitting, this code and the code
-before round 37 run in turn twice):
+Where it stands after rounds 37-39 (quiet machine, load 0.1-0.3, one sitting, this code and the
+code before round 37 run in turn twice; the second two-body run's baseline read 15.1 ms, half as
+much again as its usual, and its 176 is left out):
 
 | rig, workers | evaluations | CPU, worth: after | before (rounds 35-36 and the floor's colour) |
 | --- | --- | --- | --- |
-| thesis, 1 | 578 (714) | 1.8 s; 277-284 | 2.7-2.9 s; 419-436 |
-| thesis, 2 | | 1.2 s wall | 2.0 s wall |
-| two-body, 1 | 722 (824) | 2.5-2.6 s; 252-255 | 3.6-3.7 s; 341-367 |
-| two-body, 2 | | 1.9 s wall | 2.6-2.8 s wall |
+| thesis, 1 | 588 (714) | 1.9 s; 282-287 | 2.8 s; 435-436 |
+| thesis, 2 | | 1.3 s wall | 2.0-2.2 s wall |
+| two-body, 1 | 722 (824) | 2.7-2.8 s; 251 | 3.7-3.9 s; 355-371 |
+| two-body, 2 | | 1.9-2.0 s wall | 2.7-2.8 s wall |
 
 Round 37: a fit stopped out of reach of the top as passing its test is validated, and given
 uncertainties, only where its significance is read (diagnose._settled, _decided_without): the
@@ -40,11 +41,11 @@ profile_diagnose_stages) and two-body mass_properties' (37 worth, and its sandwi
 spent on calling them significant beside a fit at the floor. Round 38: such a fit may stop at its
 start (_Stops.at_start; thesis 604 -> 588 evaluations, two-body 744 -> 722), and the verdict's floor
 takes the baseline floor's noise colours. Round 39: the screening's heads leave out the samples at
-rest before the hit (PreparedExperiment.resting_head): its 0.01 s heads are 322 of 712 samples
-(thesis) and 163 of 614 (two-body), thesis 588 -> 578 evaluations. Verdicts, tops and errors as
-before (thesis 0.7088 -> 0.01219 at a floor of 0.01163, two-body 0.4916 -> 0.2381 at 0.2381); the
-calibration's 13 sets read case by case as before. The 250-worth target stays missed: thesis 1.1x,
-two-body 1.01-1.02x. Not done yet: the fit windows and the screening's last stage without their
+rest before the hit (PreparedExperiment.resting_head), cut at a multiple of the residual's stride:
+its 0.01 s heads are 322 of 712 samples (thesis) and 163 of 614 (two-body). Verdicts, tops and
+errors as before (thesis 0.7088 -> 0.01219 at a floor of 0.01163, two-body 0.4916 -> 0.2381 at
+0.2381); the calibration's 12 sets read case by case as before. The 250-worth target stays missed:
+thesis 1.1x, two-body at it (251). Not done yet: the fit windows and the screening's last stage without their
 samples at rest (a fifth of a thesis window, a tenth to a fifth of two-body's; the sums of squares
 of the rows left out reported as the tail's are), and the sensor-local discrete choices
 (sensor_polarity: 18 evaluations on two-body) tried together as _sweep_sensors does starts.
