@@ -783,8 +783,7 @@ def _received(job: Mapping[str, Any], exps, cmp, res0, s: Screened, cand: Candid
 #: the validation of a fit stopped out of reach of the top as passing its likelihood-ratio test,
 #: left out where its significance changes nothing (_decided_without)
 UNSETTLED = ("not validated, nor its uncertainties read: its fit stopped out of reach of the top, and a candidate "
-             "that leaves nothing above "
-             "the floor decides the diagnosis, so its significance is left undecided")
+             "that leaves nothing above the floor decides the diagnosis, so its significance is left undecided")
 
 
 def _decided_without(candidates: Sequence[Candidate], job: Mapping[str, Any]) -> bool:
