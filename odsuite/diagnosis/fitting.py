@@ -287,7 +287,7 @@ class Problem:
         return shared, per
 
     def base_prediction(self, e: PreparedExperiment) -> np.ndarray:
-        """The prediction without this effect (cached per experiment and length)."""
+        """The prediction without this effect (cached per experiment and the samples it covers: span)."""
         key = e.span
         if key not in self._base_predictions:
             self._base_predictions[key] = predict(self.base.for_experiment(e.name), e)
