@@ -1069,7 +1069,7 @@ def _predict_delayed(model, exp: PreparedExperiment, last: dict) -> np.ndarray:
     """``predict(model, exp)`` (its numbers) for delayed channels of a structure ``exp`` keeps: the
     sensors' signals before their delays and their spectra kept in ``last`` for the model's rows
     and analog chain (a search over delays shifts the same signals again and again)."""
-    from odsuite.domain.simulation import sampled_later
+    from odsuite.domain.simulation import delay_length, sampled_later
 
     chain = model.chain
     rows = _sensor_rows(model, exp.sensors)
@@ -1077,7 +1077,7 @@ def _predict_delayed(model, exp: PreparedExperiment, last: dict) -> np.ndarray:
     got = last.get("delayed")
     if got is None or got[0] != key:
         y = _sensor_side(model, exp, exp._cache[2] @ rows.T)  # as simulate_sensors
-        got = last["delayed"] = (key, y, np.fft.rfft(y, n=2 * y.shape[0], axis=0))
+        got = last["delayed"] = (key, y, np.fft.rfft(y, n=delay_length(y.shape[0]), axis=0))
     delays = [chain.delay.get(s.name, 0.0) for s in exp.sensors]
     return _digital_chain(exp, sampled_later(got[1], exp.fs, delays, spectrum=got[2]))
 

@@ -378,11 +378,22 @@ PHASES_KEPT = 4
 PHASE_BYTES_KEPT = 32e6
 
 
+def delay_length(n: int) -> int:
+    """The length sampled_later transforms ``n`` samples at: twice them (a shift's tails do not
+    wrap onto the record), up to the next length whose factors are 2, 3 and 5. A length with a
+    large prime factor costs the transform ten times as much (2 x 2141 samples: 1.4 ms against
+    0.14 ms at 4096, 12 channels); the padding's length moves a shifted sample by 1e-6 of the
+    record's peak at most, at its last samples."""
+    import scipy.fft
+
+    return int(scipy.fft.next_fast_len(2 * n, real=True))
+
+
 def sampled_later(y: np.ndarray, fs: float, delays, spectrum: np.ndarray | None = None) -> np.ndarray:
     """Each column of ``y`` (samples x channels, sampled at ``fs`` Hz from rest) as it would be
     sampled ``delays[k]`` seconds later: a phase shift exp(j w tau) of its spectrum, zero-padded to
-    twice its length so that nothing wraps around (exact for band-limited signals). ``spectrum``:
-    ``np.fft.rfft(y, n=2 * len(y), axis=0)`` where the caller keeps it (a search over delays shifts
+    at least twice its length so that nothing wraps around (exact for band-limited signals:
+    delay_length). ``spectrum``: ``np.fft.rfft(y, n=delay_length(len(y)), axis=0)`` where the caller keeps it (a search over delays shifts
     the same signals again and again; each column's transform is its own, so the same numbers)."""
     n = y.shape[0]
     delays = np.asarray(delays, float)
@@ -390,13 +401,14 @@ def sampled_later(y: np.ndarray, fs: float, delays, spectrum: np.ndarray | None 
     # channel's delay then changes that channel alone
     moved = np.flatnonzero(delays)
     out = np.array(y, dtype=float)
-    spec = np.fft.rfft(out[:, moved], n=2 * n, axis=0) if spectrum is None else spectrum[:, moved]
+    m = delay_length(n)
+    spec = np.fft.rfft(out[:, moved], n=m, axis=0) if spectrum is None else spectrum[:, moved]
     key = (n, fs, delays[moved].tobytes())
     phase = _PHASES.get(key)
     if phase is None:
         if len(_PHASES) >= PHASES_KEPT:
             _PHASES.clear()
-        w = 2 * np.pi * np.fft.rfftfreq(2 * n, 1.0 / fs)
+        w = 2 * np.pi * np.fft.rfftfreq(m, 1.0 / fs)
         # each distinct delay's column once (a search moves every channel to the same start): the
         # complex exponential costs more than the inverse transform; each entry the same product
         distinct, which = np.unique(delays[moved], return_inverse=True)
@@ -406,7 +418,7 @@ def sampled_later(y: np.ndarray, fs: float, delays, spectrum: np.ndarray | None 
         if phase.nbytes <= PHASE_BYTES_KEPT:
             _PHASES[key] = phase
     spec *= phase
-    out[:, moved] = np.fft.irfft(spec, n=2 * n, axis=0)[:n]
+    out[:, moved] = np.fft.irfft(spec, n=m, axis=0)[:n]
     return out
 
 

@@ -95,8 +95,13 @@ def test_hardening_raises_the_response_frequency_with_the_force_level(registries
     assert peaks[1] > peaks[0] + 5.0
 
 
-def test_sampled_later_shifts_a_band_limited_signal():
-    n = 4096
+@pytest.mark.parametrize("n", [4096, 2141])
+def test_sampled_later_shifts_a_band_limited_signal(n):
+    # 2141 samples: twice them have a large prime factor, so the transform pads further (to 4320)
+    from odsuite.domain.simulation import delay_length
+
+    assert delay_length(n) >= 2 * n
+    assert delay_length(2141) == 4320 and delay_length(4096) == 8192
     t = np.arange(n) / FS
 
     def pulse(tt):  # a Gaussian-windowed 800 Hz burst: band-limited far below Nyquist
@@ -123,7 +128,7 @@ def test_sampled_later_repeated_and_unordered_delays_shift_each_column_by_its_ow
     for delays in ([20e-6] * 5, [63e-6, 7e-6, 63e-6, -20e-6, 7e-6], [5e-6, 0.0, -5e-6, 0.0, 5e-6]):
         simulation._PHASES.clear()
         got = sampled_later(y, FS, delays)
-        spectrum = np.fft.rfft(y, n=2 * n, axis=0)
+        spectrum = np.fft.rfft(y, n=simulation.delay_length(n), axis=0)
         for k, tau in enumerate(delays):
             simulation._PHASES.clear()
             alone = sampled_later(y[:, [k]], FS, [tau])
@@ -131,9 +136,10 @@ def test_sampled_later_repeated_and_unordered_delays_shift_each_column_by_its_ow
             np.testing.assert_array_equal(sampled_later(y, FS, delays, spectrum=spectrum)[:, k], alone[:, 0])
         # against each column's own phase shift computed here (the transforms of several columns
         # at once round otherwise: 2e-16 of a peak near 1)
-        w = 2 * np.pi * np.fft.rfftfreq(2 * n, 1.0 / FS)
+        w = 2 * np.pi * np.fft.rfftfreq(simulation.delay_length(n), 1.0 / FS)
         for k, tau in enumerate(delays):
-            want = np.fft.irfft(spectrum[:, k] * np.exp(1j * w * tau), n=2 * n)[:n] if tau else y[:, k]
+            m = simulation.delay_length(n)
+            want = np.fft.irfft(spectrum[:, k] * np.exp(1j * w * tau), n=m)[:n] if tau else y[:, k]
             np.testing.assert_allclose(got[:, k], want, rtol=0, atol=1e-14)
 
 
