@@ -1163,6 +1163,56 @@ def _activation(problem: Problem, start: np.ndarray, r: np.ndarray, J: Normal, e
 ROUNDING = 1e-9
 
 
+def _sensor_choices(problem: Problem, chosen: Mapping[str, float]) -> list:
+    """The discrete parameters not yet chosen that change one sensor's prediction alone
+    (``Parameter.sensor``: a polarity), where two or more of them can be tried together."""
+    recorded = {s.name for e in problem.exps for s in e.sensors}
+    local = [p for p in problem.discrete if p.name not in chosen and p.sensor in recorded]
+    return local if len(local) >= 2 else []
+
+
+def _sensor_sums(r: np.ndarray, exps: Sequence[PreparedExperiment]) -> dict[str, float]:
+    """Each sensor's part of the sum of squares of ``r``, a residual of every sample (Problem.sse's)."""
+    out: dict[str, float] = {}
+    at = 0
+    for e in exps:
+        block = r[at:at + e.n_samples * len(e.sensors)].reshape(e.n_samples, len(e.sensors))
+        at += block.size
+        for s, v in zip(e.sensors, np.einsum("ij,ij->j", block, block)):
+            out[s.name] = out.get(s.name, 0.0) + float(v)
+    return out
+
+
+def _scored_together(problem: Problem, chosen: Mapping[str, float], local: Sequence
+                     ) -> tuple[list[tuple[float, str, float]], int]:
+    """Each choice of the sensor-local discrete parameters ``local`` on top of ``chosen``, scored as
+    screen scores a choice alone (the sum of squares at the nominal values), from evaluations that
+    set one choice of every sensor at once: a choice changes its sensor's rows alone, so its score
+    is the sum without it less its sensor's part there plus that part with it (a polarity of 18
+    sensors: 2 evaluations instead of 18). Returns (score, parameter, choice) and the evaluations."""
+    base = problem.derived(dict(chosen))
+    r0 = base.residual(base.zero(), stride=1, weighted=False)
+    total, before = float(r0 @ r0), _sensor_sums(r0, problem.exps)
+    spent = base.evaluations
+    rounds: list[dict[str, tuple]] = []  # each: sensor -> (parameter, choice), one per sensor
+    for p in local:
+        for c in p.choices:
+            if c == p.nominal:
+                continue
+            slot = next((r for r in rounds if p.sensor not in r), None)
+            if slot is None:
+                rounds.append(slot := {})
+            slot[p.sensor] = (p, c)
+    out = []
+    for together in rounds:
+        trial = problem.derived({**chosen, **{p.name: c for p, c in together.values()}})
+        after = _sensor_sums(trial.residual(trial.zero(), stride=1, weighted=False), problem.exps)
+        spent += trial.evaluations
+        out += [(total - before.get(sensor, 0.0) + after.get(sensor, 0.0), p.name, c)
+                for sensor, (p, c) in together.items()]
+    return out, spent
+
+
 def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened:
     """Best start found by one Gauss-Newton step (and grids/choices where needed)."""
     effect = problem.effect
@@ -1182,10 +1232,18 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
     chosen: dict[str, float] = {}
     best_score = score(problem) if swept and problem.discrete else best_sse
     tried = 0  # the evaluations of the choices tried, each on a problem of its own
+    summed = False  # whether the best score is a sum of sensors' parts (_scored_together)
     for _ in range(3):
         trial_best = None
+        local = [] if swept else _sensor_choices(problem, chosen)
+        if local:
+            got, spent = _scored_together(problem, chosen, local)
+            tried += spent
+            for sse, name, c in got:
+                if trial_best is None or sse < trial_best[0]:
+                    trial_best = (sse, name, c, True)
         for p in problem.discrete:
-            if p.name in chosen:
+            if p.name in chosen or any(p.name == q.name for q in local):
                 continue
             for c in p.choices:
                 if c == p.nominal:
@@ -1194,16 +1252,18 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
                 sse = score(trial)
                 tried += trial.evaluations
                 if trial_best is None or sse < trial_best[0]:
-                    trial_best = (sse, p.name, c)
+                    trial_best = (sse, p.name, c, False)
         if trial_best is None or trial_best[0] >= best_score * 0.999:
             break
-        best_score = trial_best[0]
+        best_score, summed = trial_best[0], trial_best[3]
         if not swept:
             best_sse = best_score
         chosen[trial_best[1]] = trial_best[2]
         best_fixed = dict(chosen)
     if best_fixed:
         problem = problem.derived(best_fixed)
+        if summed:  # the sum of squares itself, not the sum of its sensors' parts (rounding)
+            best_sse = problem.sse(problem.zero())
     if problem.free:
         stages = heads(problem.exps, problem.stride)
         first = stages[0]

@@ -373,7 +373,7 @@ class SensorPolarity(_PerSensor):
 
     def parameters(self, model):
         return [Parameter(f"{s.name}_polarity", "1", 1.0, -1.0, 1.0, choices=(1.0, -1.0),
-                          description=f"polarity of sensor {s.name} (channel {s.channel})")
+                          description=f"polarity of sensor {s.name} (channel {s.channel})", sensor=s.name)
                 for s in _sensors(model)]
 
     def _apply(self, model, v):
