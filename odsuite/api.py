@@ -80,6 +80,7 @@ _WHERE: dict[str, str] = {
     "SensorDynamics": "odsuite.domain.model",
     "skew": "odsuite.domain.model",
     "rotated": "odsuite.domain.model",
+    "cross": "odsuite.domain.model",
     "SpringDamper": "odsuite.domain.model",
     "Structure": "odsuite.domain.model",
     "simulate": "odsuite.domain.simulation",

@@ -35,6 +35,14 @@ def skew(r: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
 
 
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross(a, b)`` of two 3-vectors, the same products and differences, without its axis
+    handling (a diagnosis turns and tilts sensors thousands of times: 17 us a call against 2)."""
+    a0, a1, a2 = a
+    b0, b1, b2 = b
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+
+
 def rotated(v: np.ndarray, rotation: np.ndarray) -> np.ndarray:
     """``v`` turned by the rotation vector ``rotation`` (axis times angle, rad; Rodrigues): exact
     for large angles, where a small-angle tilt ``v + rotation x v`` would shorten the angle."""
@@ -42,7 +50,7 @@ def rotated(v: np.ndarray, rotation: np.ndarray) -> np.ndarray:
     if angle == 0:
         return v
     k = rotation / angle
-    return v * np.cos(angle) + np.cross(k, v) * np.sin(angle) + k * (k @ v) * (1 - np.cos(angle))
+    return v * np.cos(angle) + cross(k, v) * np.sin(angle) + k * (k @ v) * (1 - np.cos(angle))
 
 
 def point_map(r: np.ndarray) -> np.ndarray:

@@ -19,7 +19,7 @@ import scipy  # scipy.signal loads on first use: registration stays light
 from odsuite.contracts.effects import Effect, Parameter
 from odsuite.api import ConfigError
 from odsuite.api import FlexibleMode, Model, RigidBody, SensorDynamics, SpringDamper, Structure
-from odsuite.api import rotated
+from odsuite.api import cross, rotated
 
 #: density used where a rig gives a plate but no mass (steel, as App. C's inertia listing)
 STEEL_DENSITY = 7841.0
@@ -387,9 +387,9 @@ class SensorPolarity(_PerSensor):
 
 def _perpendicular(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     helper = np.eye(3)[np.argmin(np.abs(axis))]
-    e1 = np.cross(axis, helper)
+    e1 = cross(axis, helper)
     e1 /= np.linalg.norm(e1)
-    return e1, np.cross(axis, e1)
+    return e1, cross(axis, e1)
 
 
 #: tilts the screening starts from (rad, each component): a mount turned by tens of degrees sits
