@@ -23,7 +23,36 @@ seconds compare best across runs and wall times only on a quiet machine. A chang
 evaluation cheaper (the compiled recursions below) lowers the baseline as much as diagnose, and
 the worth column then rises although everything is faster.
 
-Where it stands after rounds 37-39 (quiet machine, load 0.1-0.3, one sitting, this code and the
+Where it stands after rounds 40-42 (load 0.7-1.2, one sitting, this code and the code before
+round 40 run in turn three times; the first before-run's two-body baseline read 14.8 ms against
+its usual 10.7-10.9, and its 208 is left out):
+
+| rig, workers | evaluations | CPU, worth: after | before (rounds 37-39) |
+| --- | --- | --- | --- |
+| thesis, 1 | 581 (588) | 1.6-1.8 s; 260, 276, 281 | 1.8-2.1 s; 285, 291, 294 |
+| thesis, 2 | | 1.1-1.5 s wall | 1.3-1.7 s wall |
+| two-body, 1 | 706 (722) | 2.4-2.6 s; 217, 233, 233 | 2.9-3.1 s; 267, 268 |
+| two-body, 2 | | 1.8-2.3 s wall | 2.0-2.2 s wall |
+
+Round 40: a delayed channel's shift transforms at a length of factors 2, 3 and 5 at least twice
+the record (simulation.delay_length): the fit windows' 1922-2141 samples gave lengths with a large
+prime factor (2 x 2141), ten times slower transforms (channel_delay's and scan_skew's evaluations
+on the whole windows); a shifted sample moves by 1e-6 of the peak at most. Round 41: diagnose
+freezes the objects that exist before it for the call (diagnose._outliving_left_alone): one full
+garbage collection over a script's 150,000 objects cost 50-60 ms. Round 42: discrete choices
+that change one sensor alone (a polarity, now declared with Parameter.sensor) are screened
+together (fitting._scored_together: sensor_polarity 9 -> 2 evaluations on the thesis, 18 -> 2 on
+two-body), and a sensor's tilt takes a 3-vector cross product without numpy's axis handling (the
+same products). The calibration's 12 sets read case by case and table by table as before.
+Thesis still 1.1x the 250-worth target; two-body met. Measured and not done: the floor's Welch
+spectra by hand (scipy's is as fast), the fit windows without their samples at rest (3-5 %, within
+the spread), early_spread linearised (its directions move the two-body's close modes' shapes
+beyond LINEAR_POLE_MOVE: refused), a mode's unit response filtered once per chain (no gain seen).
+Where the thesis CPU goes now (py-spy, 12 diagnoses): screening 57 %, fits 28 %, the baseline 8 %,
+the verdict 6 %; Jacobians 33 %, the damped steps' trials 12 % (98 trial evaluations in
+screening, 43 of them failing), nonlinear simulations 10 %, the two noise floors 10 %.
+
+Where it stood after rounds 37-39 (quiet machine, load 0.1-0.3, one sitting, this code and the
 code before round 37 run in turn twice; the second two-body run's baseline read 15.1 ms, half as
 much again as its usual, and its 176 is left out):
 
