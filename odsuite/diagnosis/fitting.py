@@ -730,17 +730,30 @@ class Problem:
             self._batches[key] = self._new_sensor_batches(exps)
         return self._batches[key]
 
+    def recorded(self, e: PreparedExperiment) -> list[str]:
+        """The sensor whose motion each of ``e``'s channels records, in column order: its own, or
+        the other's where the model's chain exchanged their cables (a channel swap in the revision
+        or among the fixed choices): a sensor's parameter changes the channel that records it."""
+        key = ("recorded", e.name)
+        if key not in self._batches:  # cables are exchanged by the revision or a discrete choice alone
+            self._batches[key] = self.effect.apply(self.base.for_experiment(e.name), dict(self.fixed)).chain.swap
+        swap = self._batches[key]
+        return [swap.get(s.name, s.name) for s in e.sensors]
+
     def _new_sensor_batches(self, exps: Sequence[PreparedExperiment]
                             ) -> tuple[list[list[int]], dict[str, np.ndarray] | None]:
+        if sum(f.param.sensor is not None and f.experiment is None for f in self.free) < 2:
+            return [[i] for i in range(len(self.free))], None
+        recorded = {name for e in exps for name in self.recorded(e)}
         local = [i for i, f in enumerate(self.free) if f.param.sensor is not None and f.experiment is None
-                 and any(f.param.sensor in {s.name for s in e.sensors} for e in exps)]
+                 and f.param.sensor in recorded]
         if len(local) < 2:
             return [[i] for i in range(len(self.free))], None
         batches = self._groups(local, lambda f: f.param.sensor)
         rows: dict[str, list[np.ndarray]] = {}
         at = 0
         for e in exps:  # a residual is each experiment's (samples, channels), raveled
-            names, n = [s.name for s in e.sensors], len(range(0, e.n_samples, self.stride))
+            names, n = self.recorded(e), len(range(0, e.n_samples, self.stride))
             for name in dict.fromkeys(names):
                 cols = np.array([j for j, m in enumerate(names) if m == name])
                 rows.setdefault(name, []).append(at + (np.arange(n)[:, None] * len(names) + cols).ravel())
@@ -756,7 +769,7 @@ class Problem:
             slices: dict[str, list[slice]] = {}
             at = 0
             for e in exps:  # a residual is each experiment's (samples, channels), raveled
-                names, n = [s.name for s in e.sensors], len(range(0, e.n_samples, self.stride))
+                names, n = self.recorded(e), len(range(0, e.n_samples, self.stride))
                 for j, name in enumerate(names):
                     slices.setdefault(name, []).append(slice(at + j, at + n * len(names), len(names)))
                 at += n * len(names)
@@ -1166,20 +1179,23 @@ ROUNDING = 1e-9
 def _sensor_choices(problem: Problem, chosen: Mapping[str, float]) -> list:
     """The discrete parameters not yet chosen that change one sensor's prediction alone
     (``Parameter.sensor``: a polarity), where two or more of them can be tried together."""
-    recorded = {s.name for e in problem.exps for s in e.sensors}
+    if sum(p.sensor is not None and p.name not in chosen for p in problem.discrete) < 2:
+        return []
+    recorded = {name for e in problem.exps for name in problem.recorded(e)}
     local = [p for p in problem.discrete if p.name not in chosen and p.sensor in recorded]
     return local if len(local) >= 2 else []
 
 
-def _sensor_sums(r: np.ndarray, exps: Sequence[PreparedExperiment]) -> dict[str, float]:
-    """Each sensor's part of the sum of squares of ``r``, a residual of every sample (Problem.sse's)."""
+def _sensor_sums(problem: Problem, r: np.ndarray) -> dict[str, float]:
+    """Each sensor's part of the sum of squares of ``r``, a residual of every sample of the
+    problem's records (Problem.sse's): the rows of the channels that record it (Problem.recorded)."""
     out: dict[str, float] = {}
     at = 0
-    for e in exps:
+    for e in problem.exps:
         block = r[at:at + e.n_samples * len(e.sensors)].reshape(e.n_samples, len(e.sensors))
         at += block.size
-        for s, v in zip(e.sensors, np.einsum("ij,ij->j", block, block)):
-            out[s.name] = out.get(s.name, 0.0) + float(v)
+        for name, v in zip(problem.recorded(e), np.einsum("ij,ij->j", block, block)):
+            out[name] = out.get(name, 0.0) + float(v)
     return out
 
 
@@ -1192,7 +1208,7 @@ def _scored_together(problem: Problem, chosen: Mapping[str, float], local: Seque
     sensors: 2 evaluations instead of 18). Returns (score, parameter, choice) and the evaluations."""
     base = problem.derived(dict(chosen))
     r0 = base.residual(base.zero(), stride=1, weighted=False)
-    total, before = float(r0 @ r0), _sensor_sums(r0, problem.exps)
+    total, before = float(r0 @ r0), _sensor_sums(base, r0)
     spent = base.evaluations
     rounds: list[dict[str, tuple]] = []  # each: sensor -> (parameter, choice), one per sensor
     for p in local:
@@ -1206,7 +1222,7 @@ def _scored_together(problem: Problem, chosen: Mapping[str, float], local: Seque
     out = []
     for together in rounds:
         trial = problem.derived({**chosen, **{p.name: c for p, c in together.values()}})
-        after = _sensor_sums(trial.residual(trial.zero(), stride=1, weighted=False), problem.exps)
+        after = _sensor_sums(base, trial.residual(trial.zero(), stride=1, weighted=False))
         spent += trial.evaluations
         out += [(total - before.get(sensor, 0.0) + after.get(sensor, 0.0), p.name, c)
                 for sensor, (p, c) in together.items()]

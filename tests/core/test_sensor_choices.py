@@ -62,3 +62,43 @@ def test_no_choice_is_taken_where_none_helps(monkeypatch, tmp_path):
     together = _screened(path, True, monkeypatch)
     assert alone[0] == together[0] == {} and together[1] == alone[1] == together[2]
     assert alone[3] == 1 + alone[4] and together[3] == 1 + 2
+
+
+def test_a_sensors_parameter_reads_the_channel_that_records_it_where_cables_are_exchanged(flipped):
+    # the model's chain exchanges the cables of x1 and z1 (a channel swap in the revision): x1's
+    # polarity and gain then change channel z1's prediction. Each choice's score together equals
+    # its sum of squares alone, and a gain's Jacobian differenced with the other sensors' equals
+    # its columns differenced one at a time (before, x1's and z1's were read off each other's
+    # channel: their scores and columns exchanged)
+    import numpy as np
+
+    from odsuite.analysis.modelrev import RevisionModel
+
+    with open_project(flipped) as project:
+        nominal = revision_model(project)
+        chain = nominal.shared.chain.with_items("swap", {"x1": "z1", "z1": "x1"})
+        base = RevisionModel(nominal.shared.replace(chain=chain), list(nominal.per_experiment))
+        exps = prepare(project)
+        windows = fitting.fit_windows(exps)
+        problem = fitting.Problem(base, project.registries.effects.get("sensor_polarity"), windows, full=exps)
+        assert problem.recorded(windows[0])[3:5] == ["z1", "x1"]
+        alone = {}
+        for p in problem.discrete:
+            one = problem.derived({p.name: -1.0})
+            alone[p.name] = one.sse(one.zero())
+        together, _ = fitting._scored_together(problem, {}, fitting._sensor_choices(problem, {}))
+        assert len(together) == len(alone) == 9
+        for score, name, choice in together:
+            assert choice == -1.0 and score == pytest.approx(alone[name], rel=1e-12)
+        assert alone["x1_polarity"] != pytest.approx(alone["z1_polarity"], rel=1e-3)
+
+        gain = fitting.Problem(base, project.registries.effects.get("sensor_gain"), windows, full=exps)
+        u = gain.zero()
+        r0 = gain.residual(u)
+        steps = gain._steps(u, 1.0)
+        columns = []
+        for i in range(len(u)):
+            du = np.zeros_like(u)
+            du[i] = steps[i]
+            columns.append(-(gain.residual(u + du, keep=False) - r0) / steps[i])
+        np.testing.assert_allclose(gain.jacobian(u, r0), np.column_stack(columns), rtol=0, atol=1e-12)
