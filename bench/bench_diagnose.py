@@ -37,7 +37,7 @@ its usual 10.7-10.9, and its 208 is left out):
 Round 40: a delayed channel's shift transforms at a length of factors 2, 3 and 5 at least twice
 the record (simulation.delay_length): the fit windows' 1922-2141 samples gave lengths with a large
 prime factor (2 x 2141), ten times slower transforms (channel_delay's and scan_skew's evaluations
-on the whole windows); a shifted sample moves by 1e-6 of the peak at most. Round 41: diagnose
+on the whole windows); a shifted sample moves by about 1e-6 of the peak (up to 1.3e-6). Round 41: diagnose
 freezes the objects that exist before it for the call (diagnose._outliving_left_alone): one full
 garbage collection over a script's 150,000 objects cost 50-60 ms. Round 42: discrete choices
 that change one sensor alone (a polarity, now declared with Parameter.sensor) are screened

@@ -1248,7 +1248,6 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
     chosen: dict[str, float] = {}
     best_score = score(problem) if swept and problem.discrete else best_sse
     tried = 0  # the evaluations of the choices tried, each on a problem of its own
-    summed = False  # whether the best score is a sum of sensors' parts (_scored_together)
     for _ in range(3):
         trial_best = None
         local = [] if swept else _sensor_choices(problem, chosen)
@@ -1269,17 +1268,20 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
                 tried += trial.evaluations
                 if trial_best is None or sse < trial_best[0]:
                     trial_best = (sse, p.name, c, False)
+        if trial_best is not None and trial_best[3] and trial_best[0] < best_score * 0.999:
+            # a sum of sensors' parts that promises a gain: the sum itself decides, and is kept
+            whole = problem.derived({**chosen, trial_best[1]: trial_best[2]})
+            trial_best = (score(whole), trial_best[1], trial_best[2], False)
+            tried += whole.evaluations
         if trial_best is None or trial_best[0] >= best_score * 0.999:
             break
-        best_score, summed = trial_best[0], trial_best[3]
+        best_score = trial_best[0]
         if not swept:
             best_sse = best_score
         chosen[trial_best[1]] = trial_best[2]
         best_fixed = dict(chosen)
     if best_fixed:
         problem = problem.derived(best_fixed)
-        if summed:  # the sum of squares itself, not the sum of its sensors' parts (rounding)
-            best_sse = problem.sse(problem.zero())
     if problem.free:
         stages = heads(problem.exps, problem.stride)
         first = stages[0]

@@ -382,8 +382,8 @@ def delay_length(n: int) -> int:
     """The length sampled_later transforms ``n`` samples at: twice them (a shift's tails do not
     wrap onto the record), up to the next length whose factors are 2, 3 and 5. A length with a
     large prime factor costs the transform ten times as much (2 x 2141 samples: 1.4 ms against
-    0.14 ms at 4096, 12 channels); the padding's length moves a shifted sample by 1e-6 of the
-    record's peak at most, at its last samples."""
+    0.14 ms at 4096, 12 channels); the padding's length moves a shifted sample by about 1e-6 of
+    the record's peak (up to 1.3e-6 on the thesis bench's windows, at a window's ends)."""
     import scipy.fft
 
     return int(scipy.fft.next_fast_len(2 * n, real=True))
@@ -393,8 +393,9 @@ def sampled_later(y: np.ndarray, fs: float, delays, spectrum: np.ndarray | None 
     """Each column of ``y`` (samples x channels, sampled at ``fs`` Hz from rest) as it would be
     sampled ``delays[k]`` seconds later: a phase shift exp(j w tau) of its spectrum, zero-padded to
     at least twice its length so that nothing wraps around (exact for band-limited signals:
-    delay_length). ``spectrum``: ``np.fft.rfft(y, n=delay_length(len(y)), axis=0)`` where the caller keeps it (a search over delays shifts
-    the same signals again and again; each column's transform is its own, so the same numbers)."""
+    delay_length). ``spectrum``: ``np.fft.rfft(y, n=delay_length(len(y)), axis=0)`` where the
+    caller keeps it (a search over delays shifts the same signals again and again; each column's
+    transform is its own, so the same numbers)."""
     n = y.shape[0]
     delays = np.asarray(delays, float)
     # columns sampled on time are left as they are (not through the transform's round-off): a

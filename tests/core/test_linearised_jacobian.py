@@ -147,19 +147,26 @@ def test_predict_sharing_equals_predict_for_sensor_effects(sensor_case):
     assert np.array_equal(got, ref)
 
 
-def test_predict_sharing_takes_kept_spectra_and_columns_with_predicts_numbers(sensor_case):
+@pytest.mark.parametrize("samples", [None, 1922])
+def test_predict_sharing_takes_kept_spectra_and_columns_with_predicts_numbers(sensor_case, samples):
     """A search over channel delays (every channel's chain new at each point) shifts the undelayed
     signals' kept spectra: predict's numbers to the bit, at point after point, and again after the
     rows change (a gain with the delays). Exchanged cables, pair after pair, take the columns the
     last prediction had for their rows: each prediction the one computed afresh (a column product
     gives a column the same sum beside any others; checked to rounding, 1e-13) and predict's to
-    1e-10; so is one sensor's gain, whose single new column is computed beside a kept one."""
+    1e-10; so is one sensor's gain, whose single new column is computed beside a kept one. On a
+    head of 1922 samples too, whose delays transform at 3888 samples, not twice them (3844 = 2^2
+    31^2: simulation.delay_length)."""
     from dataclasses import replace
 
     from odsuite.analysis.prediction import predict, predict_sharing
     from odsuite.contracts.plugins import registries
+    from odsuite.domain.simulation import delay_length
 
     e, base, names = sensor_case
+    if samples is not None:
+        e = e.head(samples)
+        assert delay_length(e.n_samples) == 3888
     predict(base, e)
     rng = np.random.default_rng(3)
     delayed = [_applied(base, "channel_delay", **{f"{n}_delay": float(d) for n, d in

@@ -102,3 +102,25 @@ def test_a_sensors_parameter_reads_the_channel_that_records_it_where_cables_are_
             du[i] = steps[i]
             columns.append(-(gain.residual(u + du, keep=False) - r0) / steps[i])
         np.testing.assert_allclose(gain.jacobian(u, r0), np.column_stack(columns), rtol=0, atol=1e-12)
+
+
+def test_a_choice_scored_by_its_sensors_part_is_taken_only_where_the_whole_sum_falls(flipped, monkeypatch):
+    # a split that credits each sensor's part to the next sensor (an effect that broke the
+    # sensor-local promise) promises the wrong flip: the whole sum, taken before the choice is,
+    # refuses it, and the screening never returns a choice worse than none
+    split = fitting._sensor_sums
+
+    def shifted(problem, r):
+        parts = split(problem, r)
+        names = list(parts)
+        return {names[(k + 1) % len(names)]: v for k, v in enumerate(parts.values())}
+
+    monkeypatch.setattr(fitting, "_sensor_sums", shifted)
+    with open_project(flipped) as project:
+        exps = prepare(project)
+        problem = fitting.Problem(revision_model(project), project.registries.effects.get("sensor_polarity"),
+                                  fitting.fit_windows(exps), full=exps)
+        sse0 = problem.sse(problem.zero())
+        s = fitting.screen(problem, sse0, ())
+    assert s.sse <= sse0
+    assert s.fixed in ({}, {"x1_polarity": -1.0})
