@@ -196,21 +196,45 @@ def _eigen_changes(ss0: StateSpace, modal: tuple, others: Sequence[StateSpace]
     return dlam, dR
 
 
+#: _mode_signals' coefficients last computed, by poles, sample time and inputs: a linearised
+#: Jacobian runs one structure's poles on every experiment's records (their series cost more than
+#: the recursions on a short head)
+_MODE_COEFFICIENTS: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+MODE_COEFFICIENTS_KEPT = 16
+
+
+def _mode_coefficients(lam: np.ndarray, T: float, ni: int) -> tuple[np.ndarray, np.ndarray]:
+    """Each mode's pole over a step, and its numerator [b0, b1] once per input (modes x inputs
+    rows), of the first-order-hold recursion of :func:`_mode_signals` (kept)."""
+    key = (lam.tobytes(), T, ni)
+    got = _MODE_COEFFICIENTS.get(key)
+    if got is None:
+        x = lam * T
+        p, g0, g1 = np.exp(x), T * _phi(x, 1), T * _phi(x, 2)
+        num = np.empty((len(lam) * ni, 2), complex)
+        for i in range(len(lam)):  # in scalars, as lfilter was given them
+            b0, b1 = g1[i], g0[i] - g1[i]
+            for j in range(ni):
+                num[i * ni + j] = b0, b1
+        while len(_MODE_COEFFICIENTS) >= MODE_COEFFICIENTS_KEPT:
+            _MODE_COEFFICIENTS.pop(next(iter(_MODE_COEFFICIENTS)))
+        got = _MODE_COEFFICIENTS[key] = (p, num)
+    return got
+
+
 def _mode_signals(lam: np.ndarray, T: float, ut: np.ndarray, every: int) -> np.ndarray:
     """Each mode's complex first-order-hold recursion on each input row of ``ut`` from rest
     (modes x inputs x samples), every ``every``-th sample kept: ``lfilter([b0, b1], [1, -p], u,
     zi=[-b0 u[0]])`` per mode and input in one compiled call (recursions.first_order_rows)."""
     from odsuite.domain.recursions import first_order_rows  # numba loads on first use
 
-    x = lam * T
-    p, g0, g1 = np.exp(x), T * _phi(x, 1), T * _phi(x, 2)
     nm, ni = len(lam), len(ut)
-    num, zi = np.empty((nm * ni, 2), complex), np.empty(nm * ni, complex)
-    # the coefficients mode by mode in scalars, as lfilter was given them
+    p, num = _mode_coefficients(lam, T, ni)
+    zi = np.empty(nm * ni, complex)
+    # mode by mode in scalars, as lfilter was given them
     for i in range(nm):
-        b0, b1 = g1[i], g0[i] - g1[i]
+        b0 = num[i * ni, 0]
         for j in range(ni):
-            num[i * ni + j] = b0, b1
             zi[i * ni + j] = -b0 * ut[j, 0]
     out = np.empty((nm, ni, len(range(0, ut.shape[1], every))), complex)
     first_order_rows(num, np.repeat(p, ni), zi, np.tile(np.arange(ni), nm), ut, every, out.reshape(nm * ni, -1))

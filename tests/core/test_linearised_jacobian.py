@@ -250,18 +250,21 @@ def test_jacobian_columns_from_the_changes_equal_the_differenced_linearised_resi
 
 def test_mode_signals_are_each_modes_lfilter_to_the_bit():
     """The modes' signals in one compiled call equal scipy's lfilter run per mode and input, as
-    they were: every number of a linearised Jacobian is unchanged."""
+    they were: every number of a linearised Jacobian is unchanged. Also where the coefficients
+    are those kept from another record's call (every experiment of a Jacobian runs the same poles)."""
     import scipy.signal
 
+    from odsuite.domain import simulation
     from odsuite.domain.simulation import _mode_signals, _phi
 
     rng = np.random.default_rng(7)
     lam = np.array([-3.0 + 2 * np.pi * 150j, -0.5 + 2 * np.pi * 40j, -80.0, -20.0 + 2 * np.pi * 900j])
     T = 1.0 / 4096.0
-    ut = rng.standard_normal((2, 1501))
     x = lam * T
     p, g0, g1 = np.exp(x), T * _phi(x, 1), T * _phi(x, 2)
-    for every in (1, 2):
+    simulation._MODE_COEFFICIENTS.clear()
+    for ut, every in [(rng.standard_normal((2, 1501)), 1), (rng.standard_normal((2, 1501)), 2),
+                      (rng.standard_normal((2, 977)), 1)]:
         got = _mode_signals(lam, T, ut, every)
         for i in range(len(lam)):
             b0, b1 = g1[i], g0[i] - g1[i]
