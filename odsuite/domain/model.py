@@ -36,9 +36,11 @@ def skew(r: np.ndarray) -> np.ndarray:
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.cross(a, b)`` of two 3-vectors (1-D: stacked vectors are np.cross's), the same products
-    and differences, without its axis handling (a diagnosis turns and tilts sensors thousands of
-    times: 17 us a call against 2)."""
+    """``np.cross(a, b)``: of two 3-vectors the same products and differences without its axis
+    handling (a diagnosis turns and tilts sensors thousands of times: 17 us a call against 2);
+    stacked vectors are left to np.cross."""
+    if np.ndim(a) != 1 or np.ndim(b) != 1:
+        return np.cross(a, b)
     a0, a1, a2 = a
     b0, b1, b2 = b
     return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
