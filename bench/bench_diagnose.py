@@ -9,11 +9,11 @@ same run (the baseline):
   worker processes; target 5 s;
 - on both: at most CPU_TARGET evaluations' worth of CPU time (the CPU ratio below).
 
-Prints per rig: wall and CPU time (this process and its worker processes), model evaluations, the
-time of one evaluation of a structure-changing effect over all experiments (wall and CPU, one BLAS
-thread, as diagnose runs them), diagnose / one evaluation in wall and in CPU time, the verdict and
-top candidate (the same for every number of workers), and the speed-up of two worker processes
-over one. Run with `.venv/bin/python bench/bench_diagnose.py`; where the CPU goes:
+Prints per rig: diagnose's wall and CPU time (its process and its worker processes), the least of
+RUNS runs and every run's CPU, model evaluations, the time of one evaluation of a
+structure-changing effect over all experiments (wall and CPU, one BLAS thread, as diagnose runs
+them), diagnose / one evaluation in wall and in CPU time, the verdict and top candidate (the same
+for every run and number of workers), and the speed-up of two worker processes over one. Run with `.venv/bin/python bench/bench_diagnose.py`; where the CPU goes:
 `bench/profile_diagnose_stages.py thesis|two-body` (by stage and effect, one worker) and
 `bench/profile_diagnose_workers.py thesis|two-body` (the critical path on two workers).
 
@@ -22,6 +22,63 @@ the same run. On a loaded machine the baseline's own CPU moves by a third betwee
 seconds compare best across runs and wall times only on a quiet machine. A change that makes one
 evaluation cheaper (the compiled recursions below) lowers the baseline as much as diagnose, and
 the worth column then rises although everything is faster.
+
+How it is measured since round 43: each rig's diagnosis runs RUNS times per number of workers,
+each in a process forked from the state the baseline left (the code loaded and the caches as the
+baseline's evaluations filled them: a first diagnosis, as a command's), and the least CPU and
+wall are judged, as the baseline's least round is; every run's CPU and worth are printed. The
+same work's CPU moves a great deal on this two-core virtual machine at loads below 1.5 with no
+time stolen by the host: the thesis bench's first diagnosis 1.6-2.8 s from run to run and sitting
+to sitting (worth 253-413), the baseline 6.3-9.5 ms, the two-body baseline 10.0-15.6 ms.
+
+Where it stands after round 43 (three sittings at load 0.6-1.4, this code and round 42's run in
+turn, each the least of three forked runs; the machine ran slow in these sittings: round 42's
+code read 258-281 thesis and 215-240 two-body in the last session's):
+
+| rig, workers | evaluations | this code: CPU, worth | round 42's: CPU, worth |
+| --- | --- | --- | --- |
+| thesis, 1 | 581 | 2.09-2.31 s; 316, 289, 313 | 1.90-2.66 s; 285, 280, 311 |
+| thesis, 2 | | 1.4-1.8 s wall | 1.6-1.9 s wall |
+| two-body, 1 | 706 | 2.98-3.29 s; 245, 287, 231 | 2.94-3.49 s; 221, 202, 250 |
+| two-body, 2 | | 2.2-2.7 s wall | 2.2-2.6 s wall |
+
+Round 43: a linearised Jacobian runs one structure's poles on every experiment's records; the
+recursions' coefficients (each pole's exponential and its phi series, 24 terms of complex
+arithmetic per mode and series) are kept per poles, step and inputs (simulation._mode_coefficients)
+instead of computed for each experiment again: the same numbers, both benches' diagnose JSON the
+same to the bit; one linearised residual and Jacobian on the thesis bench's whole windows
+23.4-25.6 -> 18.8-21.8 ms CPU (three in turn). About a hundredth of diagnose: within the spread
+above. The 250-worth target stays missed on the thesis bench (1.1-1.3x in these sittings) and is
+met or missed on the two-body bench from run to run.
+
+Measured this round and not done (do not redo without a new reason):
+- the phase shifts of sampled_later kept per delay, so that a delay's Jacobian, moving one
+  channel at a time, would transform the others' again: no gain (channel_delay's and scan_skew's
+  screening 53.6 and 66.4 -> 53.9 and 60.8 ms with the caches cleared between diagnoses): the
+  batched sensor columns and the damped steps move every channel's delay at once;
+- the cubic time loop's sums held in registers, four or eight outputs at a time record by record,
+  instead of in memory across records: slower (5 records x 16384 steps 19.9 -> 21.4 and 23.2 ms;
+  the same bits); a forward-mode derivative of the loop for the hardening's Jacobians would do the
+  multiply-adds of the four differenced simulations it replaces (their set-up is already kept);
+- the first head's nominal predictions shared between candidates: a structure-changing effect at
+  its nominal values builds a new structure, a sensor's shares the coordinates already (5 ms);
+- damped-step trials simulated on the next head's length so that its residual is at hand: only
+  the first head is a prefix of the second (the whole windows keep their samples at rest), about 2
+  evaluations' worth;
+- the verdict's early-fit spread (checks.early_spread: ten whole-record simulations on the
+  two-body bench, about 12 worth, none on the thesis) by the linearised tangent, the delta method
+  its held-out bound assumes: some 9 worth on two-body; it changes the spread, so needs the
+  calibration;
+- channel_swap's pairs scored several at a time (disjoint pairs in one evaluation, as
+  polarities are): two-body 7.4 worth (153 pair evaluations), thesis 3.2; needs the effect to
+  apply several pairs at once.
+Where the thesis bench's 250 would come from: screening's whole-window stage is 45 worth of
+predictions (124 evaluations) and about 10 of linearised Jacobians, most of it on candidates far
+behind the top (screened 0.57-0.69 against 0.0755, the baseline 0.7088). Refining on the whole
+windows only the candidates in contention would save some 30 worth, but the whole-window step is
+what finds an effect that shows late in the records (a low mode's damping: 0.36 cycles of the 9 Hz
+mode in the 0.04 s head), and no quantity short of that step's Jacobian bounds what it can gain;
+not built.
 
 Where it stands after rounds 40-42 (load 0.7-1.2, one sitting, this code and the code before
 round 40 run in turn three times; the first before-run's two-body baseline read 14.8 ms against
@@ -397,7 +454,7 @@ def one_evaluation(project, exps, rounds: int = 5, reps: int = 10) -> tuple[floa
 #: diagnoses timed per rig and number of workers, each in a process forked from the state the
 #: baseline left (a first diagnosis there, as a command's: the same work every time); the least
 #: is judged, as the baseline's least round is. On this kind of machine one diagnosis's CPU moved
-#: 1.6-2.4 s from run to run for the same work (quiet, thesis bench), the baseline's 6.3-7.5 ms
+#: 1.6-2.8 s from run to run for the same work (thesis bench, load below 1.5), the baseline's 6.3-9.5 ms
 RUNS = 3
 
 
