@@ -31,16 +31,16 @@ same work's CPU moves a great deal on this two-core virtual machine at loads bel
 time stolen by the host: the thesis bench's first diagnosis 1.6-2.8 s from run to run and sitting
 to sitting (worth 253-413), the baseline 6.3-9.5 ms, the two-body baseline 10.0-15.6 ms.
 
-Where it stands after round 43 (three sittings at load 0.6-1.4, this code and round 42's run in
+Where it stands after round 43 (seven sittings at load 0.2-1.4, this code and round 42's run in
 turn, each the least of three forked runs; the machine ran slow in these sittings: round 42's
-code read 258-281 thesis and 215-240 two-body in the last session's):
+code read 258-281 thesis and 215-240 two-body in the last session's; medians in brackets):
 
 | rig, workers | evaluations | this code: CPU, worth | round 42's: CPU, worth |
 | --- | --- | --- | --- |
-| thesis, 1 | 581 | 2.09-2.31 s; 316, 289, 313 | 1.90-2.66 s; 285, 280, 311 |
-| thesis, 2 | | 1.4-1.8 s wall | 1.6-1.9 s wall |
-| two-body, 1 | 706 | 2.98-3.29 s; 245, 287, 231 | 2.94-3.49 s; 221, 202, 250 |
-| two-body, 2 | | 2.2-2.7 s wall | 2.2-2.6 s wall |
+| thesis, 1 | 581 | 1.9-2.3 s (2.1); 281-316 (305) | 1.9-2.7 s (2.0); 271-311 (285) |
+| thesis, 2 | | 1.3-1.8 s wall | 1.4-1.9 s wall |
+| two-body, 1 | 706 | 2.6-3.3 s (2.9); 231-289 (245) | 2.9-3.5 s (3.0); 202-307 (250) |
+| two-body, 2 | | 2.1-2.7 s wall | 2.1-2.6 s wall |
 
 Round 43: a linearised Jacobian runs one structure's poles on every experiment's records; the
 recursions' coefficients (each pole's exponential and its phi series, 24 terms of complex
@@ -49,7 +49,8 @@ instead of computed for each experiment again: the same numbers, both benches' d
 same to the bit; one linearised residual and Jacobian on the thesis bench's whole windows
 23.4-25.6 -> 18.8-21.8 ms CPU (three in turn). About a hundredth of diagnose: within the spread
 above. The 250-worth target stays missed on the thesis bench (1.1-1.3x in these sittings) and is
-met or missed on the two-body bench from run to run.
+met or missed on the two-body bench from run to run. The calibration's 12 sets read case by case
+and table by table as before.
 
 Measured this round and not done (do not redo without a new reason):
 - the phase shifts of sampled_later kept per delay, so that a delay's Jacobian, moving one
