@@ -31,7 +31,7 @@ same work's CPU moves a great deal on this two-core virtual machine at loads bel
 time stolen by the host: the thesis bench's first diagnosis 1.6-2.8 s from run to run and sitting
 to sitting (worth 253-413), the baseline 6.3-9.5 ms, the two-body baseline 10.0-15.6 ms.
 
-Where it stands after round 43 (seven sittings at load 0.2-1.4, this code and round 42's run in
+Where it stands after round 43 (seven sittings at load 0.6-1.4, this code and round 42's run in
 turn, each the least of three forked runs; the machine ran slow in these sittings: round 42's
 code read 258-281 thesis and 215-240 two-body in the last session's; medians in brackets):
 
