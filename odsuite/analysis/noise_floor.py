@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 import scipy.ndimage
 import scipy.signal
+import scipy.stats
 
 from odsuite.analysis import noise_colour
 from odsuite.analysis.disturbances import MAINS_HARMONICS, MAINS_HZ, disturbance_basis
@@ -47,7 +48,8 @@ QUIET_FRACTION = 0.05
 #: residual within it cannot be told from noise
 FLOOR_TOLERANCE = 1.3
 #: a drift fitted on quiet samples at one end of a record is carried over it when its slope lies
-#: beyond this many standard errors (noise alone: 0.3 % of records)
+#: beyond this many standard errors (noise alone: 0.3 % of records); a hum's sinusoid pair where
+#: its amplitude does, at the same probability (chi-square with two degrees of freedom)
 DRIFT_SLOPE_Z = 3.0
 #: Welch segment length of residual and floor spectra (samples; halved for short records)
 NFFT = 2048
@@ -191,8 +193,8 @@ class QuietFit:
     disturbance: np.ndarray  # samples x columns (volts): offset, drift where both ends are quiet, hum
     mains_hz: float
     harmonics: int
-    # samples x columns (volts): the part of a drift fitted on quiet samples at one end only that
-    # its slope's uncertainty leaves out of ``disturbance``; not noise either
+    # samples x columns (volts): the part of a drift and a hum fitted on quiet samples at one end
+    # only that their uncertainty leaves out of ``disturbance``; not noise either
     local_drift: np.ndarray | None = None
 
     def white(self, stage: np.ndarray, stage_disturbance: np.ndarray,
@@ -205,15 +207,16 @@ class QuietFit:
 
 def split_noise(raw: np.ndarray, trigger: int, fs: float) -> QuietFit:
     """The quiet samples of a raw record (volts, before the chain: no filter transients) and its
-    disturbances fitted on them: an offset, a line (drift: where quiet samples lie at one end only,
-    extended over the record when its slope is seen, shrunk by its uncertainty, the rest kept as ``local_drift`` for
-    the noise's estimate only), and the mains hum.
+    disturbances fitted on them: an offset, a line (drift) and the mains hum (where quiet samples
+    lie at one end only, each extended over the record where it is seen, shrunk by its
+    uncertainty, the rest kept as ``local_drift`` for the noise's estimate only).
     Put through a channel's chain, the disturbances reach the acceleration stage as they do in the
     measurement, the high-pass's ringing on a drift included.
 
     Quiet samples: before the hit (less a guard) and after the response has died into the noise.
-    The mains frequency (50 or 60 Hz) is the one whose sinusoid holds more of the record (hum
-    persists through it, a hit's response does not); its harmonics are fitted only when the quiet
+    The mains frequency (50 or 60 Hz) is the one whose sinusoid holds more of the samples before
+    the hit where they hold two of its periods, else of the record (hum persists through it, a
+    hit's response does not); its harmonics are fitted only when the quiet
     samples, before the hit and after the response, hold two of its periods (on fewer the
     sinusoids are nearly collinear with the constant)."""
     x = np.atleast_2d(raw.T).T
@@ -223,9 +226,12 @@ def split_noise(raw: np.ndarray, trigger: int, fs: float) -> QuietFit:
     pre[: max(0, trigger - guard)] = True
     if pre.sum() < 32:  # no pre-trigger: the last eighth (a lightly damped rig has died away there)
         pre[-max(32, n // 8):] = True
-    everywhere = np.ones(n, bool)
-    held = [(float(np.sum(_fit(x, disturbance_basis(n, fs, (f0,), 1), everywhere)[1] ** 2)), f0) for f0 in MAINS_HZ]
-    mains = max(held)[1]
+    # the mains frequency is the one whose fit leaves the least of the samples before the hit where
+    # they hold two periods of each, else of the record: a response still ringing at the record's
+    # end leaks into either sinusoid (a 30 Hz ring at 500x the noise chose 60 Hz under a 50 Hz
+    # hum of 7x the noise)
+    seen = pre if pre.sum() >= 2.0 * fs / min(MAINS_HZ) else np.ones(n, bool)
+    mains = min((_fit(x, disturbance_basis(n, fs, (f0,), 1), seen)[2], f0) for f0 in MAINS_HZ)[1]
     # the response has died into the noise where the excess energy left (beyond the broadband
     # noise and the disturbances fitted before the hit) is below QUIET_FRACTION of the record's
     # noise energy
@@ -247,17 +253,32 @@ def split_noise(raw: np.ndarray, trigger: int, fs: float) -> QuietFit:
         fitted = basis @ coef
         return QuietFit(quiet, fitted - fitted.mean(axis=0), mains, harmonics)
     # quiet samples at one end only (a record shorter than the response): drift goes on through the
-    # response, so the line belongs to what a perfect model leaves. Extended over the record, a
-    # slope fitted to noise alone would add its variance times the record's sum of t^2 (growing as
-    # its length cubed): the line is kept where its slope b lies beyond DRIFT_SLOPE_Z standard
-    # errors, shrunk to the unbiased energy b^2 - var
-    rss = np.sum((x[quiet] - basis[quiet] @ coef) ** 2, axis=0)
-    slope_var = rss / max(1, int(quiet.sum()) - basis.shape[1]) * np.linalg.pinv(basis[quiet].T @ basis[quiet])[1, 1]
-    seen = coef[1] ** 2 > DRIFT_SLOPE_Z**2 * slope_var
-    shrink = np.where(seen, np.sqrt(np.maximum(0.0, 1.0 - slope_var / np.maximum(coef[1] ** 2, 1e-300))), 0.0)
-    line = np.outer(basis[:, 1], coef[1])
-    fitted = basis @ coef - line * (1.0 - shrink)
-    return QuietFit(quiet, fitted - fitted.mean(axis=0), mains, harmonics, line * (1.0 - shrink))
+    # response, so the line belongs to what a perfect model leaves; so does the hum. Extended over
+    # the record, a component fitted to noise alone adds its variance times the record's length
+    # (a line's grows as that length cubed): each component (the line, each sinusoid pair) is kept
+    # where it lies beyond DRIFT_SLOPE_Z standard errors (its coefficients' covariance given the
+    # others'), shrunk to its unbiased energy. A few milliseconds before the hit (96 samples at
+    # 20 kHz) hold a quarter period of the mains, nearly a line: fitted to white noise alone, the
+    # hum's amplitude came out 20x the noise, and carried over the record it set the floor at 5x
+    # a perfect model's error
+    resid = x[quiet] - basis[quiet] @ coef
+    noise = np.sum(resid**2, axis=0) / max(1, int(quiet.sum()) - basis.shape[1])
+    cov = np.linalg.pinv(basis[quiet].T @ basis[quiet])
+    kept = coef.copy()  # the offset is kept as fitted
+    for cols in [[1]] + [[k, k + 1] for k in range(2, basis.shape[1], 2)]:
+        c = coef[cols]
+        stat = np.einsum("ik,ij,jk->k", c, np.linalg.pinv(cov[np.ix_(cols, cols)]), c) / np.where(noise > 0, noise, np.inf)
+        limit = _seen_limit(len(cols))
+        kept[cols] = c * np.where(stat > limit, np.sqrt(np.maximum(0.0, 1.0 - len(cols) / np.maximum(stat, 1e-300))), 0.0)
+    fitted = basis @ kept
+    return QuietFit(quiet, fitted - fitted.mean(axis=0), mains, harmonics, basis @ (coef - kept))
+
+
+@functools.cache
+def _seen_limit(dof: int) -> float:
+    """The chi-square quantile a component of ``dof`` coefficients must pass to be carried over a
+    record: the probability of DRIFT_SLOPE_Z standard errors (two-sided) for one."""
+    return float(scipy.stats.chi2.isf(2.0 * scipy.stats.norm.sf(DRIFT_SLOPE_Z), dof))
 
 
 def moving_samples(x: np.ndarray, lsb: np.ndarray | float, fs: float) -> np.ndarray:

@@ -168,7 +168,7 @@ def test_the_lines_the_hum_fit_takes_are_given_back_at_the_promised_false_alarm_
     """A hum's sinusoids fitted on 254 samples take most of a white noise's energy at the lines
     beside 50, 100 and 150 Hz (noise_colour.white_share): read as the noise's own, a 1/f rise with
     a 200 Hz corner was found on 129 of 200 sensors, with a 50 Hz corner on 14. Divided by their
-    share (the lines it leaves under half out), 187 and 80 of 200; white noise 16 of 2000 (the
+    share (the lines it leaves under half out), 187 and 80 of 200; white noise 7 of 2000 (the
     promise: 1 %)."""
     rng = np.random.default_rng(5)
     records = _hit_records(0.0, rng)
