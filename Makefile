@@ -7,7 +7,10 @@ STAMP := $(VENV)/.installed
 
 .PHONY: venv sysdeps demo test bench stress fuzz report-check clean
 
+# the project's own modules compiled to bytecode: an editable install leaves them to each import,
+# which compiles them again in every process where Python writes no bytecode (PYTHONDONTWRITEBYTECODE)
 venv: $(STAMP)
+	@$(BIN)/python -m compileall -q odsuite plugins >/dev/null
 
 # Optional system tools some tests use (h5dump; headless Chromium for the report page). Installed
 # with apt-get when running as root on Debian/Ubuntu; elsewhere those tests skip and say what to

@@ -130,7 +130,7 @@ def build(spec: dict) -> cases.Case:
     case = cases.build_case(spec["case"], spec["seed"], spec["rig"], SAMPLES[spec["rig"]],
                             force_n=spec.get("force_n"), noise_v=spec.get("noise_v"),
                             noise_fraction=spec.get("noise_fraction", 0.0),
-                            disturbances=spec.get("disturbances", ()))
+                            disturbances=spec.get("disturbances", ()), pre_trigger=spec.get("pre_trigger"))
     if spec["rig"] == "two-body":
         case.nominal.processing = TWO_BODY_PROCESSING
         case.actual.processing = TWO_BODY_PROCESSING
@@ -389,6 +389,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--disturb", default="",
                         help=f"comma-separated disturbances laid over every case of the set as well "
                              f"(known: {', '.join(cases.DISTURBANCES)}; e.g. flicker: 1/f sensor noise)")
+    parser.add_argument("--pre-trigger", type=int, default=None,
+                        help="samples before each record's first hit in every case of the set (default: the rig's)")
     parser.add_argument("--summary-only", action="store_true",
                         help="tabulate the cases already done in DIR, run nothing")
     args = parser.parse_args(argv)
@@ -407,6 +409,9 @@ def main(argv: list[str] | None = None) -> int:
             if extra:
                 spec["disturbances"] = list(dict.fromkeys(spec.get("disturbances", []) + extra))
                 spec["id"] += "-" + "-".join(extra)
+            if args.pre_trigger is not None:
+                spec["pre_trigger"] = args.pre_trigger
+                spec["id"] += f"-pre{args.pre_trigger}"
         return out
 
     results_dir = args.out / "results"

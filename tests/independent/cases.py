@@ -639,13 +639,14 @@ def _disturb(case: Case, which, rng: np.random.Generator) -> None:
 
 def build_case(name: str, seed: int, rig: str = "thesis", n_samples: int | None = None, *,
                force_n: float | None = None, noise_v: float | None = None, noise_fraction: float = 0.0,
-               disturbances=()) -> Case:
+               disturbances=(), pre_trigger: int | None = None) -> Case:
     """The case ``name`` on base rig ``rig`` ("thesis", "two-body" or "plate-motor"), drawn with
     ``seed``. Options (each left at its default keeps the case as it always was):
     ``force_n``: every record's (first) blow has this peak force, N (the hit points are still
     jittered); ``noise_v``: the white noise per channel, V rms (default 50 uV);
     ``noise_fraction``: more white noise, this fraction of each channel's clean rms;
-    ``disturbances``: any of "drift", "hum", "double-hit", drawn from a stream of their own.
+    ``disturbances``: any of "drift", "hum", "double-hit", drawn from a stream of their own;
+    ``pre_trigger``: samples before the first hit (default: the rig's).
     Names joined by "+" ("polarity-flip+channel-swap") draw each change in turn; the truth's
     "effects" lists them."""
     parts = name.split("+")
@@ -656,6 +657,8 @@ def build_case(name: str, seed: int, rig: str = "thesis", n_samples: int | None 
     nominal = RIGS[rig]()
     if n_samples is not None:
         nominal.daq.n_samples = n_samples
+    if pre_trigger is not None:
+        nominal.daq.pre_trigger = int(pre_trigger)
     rng = np.random.default_rng([seed, 0])
     case = Case(name, rig, seed, nominal, nominal.copy(), [])
     case.actual.daq.noise_rms_v = FLOOR_NOISE_V
@@ -677,9 +680,11 @@ def build_case(name: str, seed: int, rig: str = "thesis", n_samples: int | None 
         case.actual.daq.noise_rms_v = float(noise_v)
     case.actual.daq.noise_fraction = float(noise_fraction)
     _disturb(case, tuple(disturbances), np.random.default_rng([seed, 2]))
-    if force_n is not None or noise_v is not None or noise_fraction or disturbances:
+    if force_n is not None or noise_v is not None or noise_fraction or disturbances or pre_trigger is not None:
         case.truth["options"] = {"force_n": force_n, "noise_v": case.actual.daq.noise_rms_v,
                                  "noise_fraction": noise_fraction, "disturbances": list(disturbances)}
+        if pre_trigger is not None:
+            case.truth["options"]["pre_trigger"] = int(pre_trigger)
     return case
 
 
@@ -698,6 +703,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--noise-fraction", type=float, default=0.0,
                         help="more white noise: this fraction of each channel's clean rms (0.03: 3 %%)")
     parser.add_argument("--disturb", default="", help=f"comma-separated: {', '.join(DISTURBANCES)}")
+    parser.add_argument("--pre-trigger", type=int, default=None, help="samples before the first hit (default: the rig's)")
     parser.add_argument("--list", action="store_true", help="list the cases and exit")
     args = parser.parse_args(argv)
     if args.list:
@@ -714,7 +720,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         case = build_case(args.case, args.seed, args.rig, args.samples, force_n=args.force, noise_v=args.noise,
                           noise_fraction=args.noise_fraction,
-                          disturbances=[d for d in args.disturb.split(",") if d])
+                          disturbances=[d for d in args.disturb.split(",") if d], pre_trigger=args.pre_trigger)
     except KeyError as exc:
         print(f"error: {exc.args[0]}", file=sys.stderr)
         return 1
