@@ -198,10 +198,17 @@ class QuietFit:
     local_drift: np.ndarray | None = None
 
     def white(self, stage: np.ndarray, stage_disturbance: np.ndarray,
-              stage_drift: np.ndarray | None = None) -> np.ndarray:
+              stage_drift: np.ndarray | None = None, offset_error: np.ndarray | None = None) -> np.ndarray:
         """Per column, the broadband variance of the quiet samples of a signal after the chain once
-        the disturbances and a local drift (through the same chain) are taken out."""
+        the disturbances and a local drift (through the same chain) are taken out, and, in the
+        columns where ``offset_error`` (the chain's response to a constant) is not zero, that
+        response's multiple that fits them best (an offset removed with an error)."""
         rest = (stage - stage_disturbance - (0.0 if stage_drift is None else stage_drift))[self.quiet]
+        if offset_error is not None and len(rest) > 2:
+            shape = offset_error[self.quiet]
+            norm = np.einsum("ij,ij->j", shape, shape)
+            fit = np.divide(np.einsum("ij,ij->j", shape, rest), norm, out=np.zeros_like(norm), where=norm > 0)
+            rest = rest - shape * fit
         return np.var(rest, axis=0) if len(rest) > 1 else np.zeros(stage.shape[1])
 
 

@@ -481,7 +481,26 @@ def prepare_experiment(project, name: str, exp=None) -> PreparedExperiment:
     disturbance = np.column_stack([r[tap] for r in run_each(to_tap, quiet.disturbance)])
     drift = (None if quiet.local_drift is None else
              np.column_stack([r[tap] for r in run_each(to_tap, quiet.local_drift)]))
-    white = quiet.white(measured, disturbance, drift)
+    before = quiet_before(quiet.quiet)
+    reaching = [j for j, ch in enumerate(infos) if ch.offset_length > 0 and 0 < before < ch.offset_start + ch.offset_length]
+    offset_error = None
+    if reaching:
+        # an offset window that reaches into the hit removes a mean that holds part of the response;
+        # the filters' response to that error runs through the samples before the hit (a decay from
+        # 4 m/s^2 on a thesis rig record with 48 samples before it: its noise read 100x too high).
+        # A model's signal passes the same window, so the residual keeps no such error; the noise's
+        # estimate takes the chain's response to a constant out
+        offset_error = np.zeros_like(measured)
+        for j in reaching:
+            no_offset = chain_for_channel(replace(infos[j], offset_length=0), registry=steps,
+                                          where=f"{where} channel {columns[j]}").through(tap)
+            offset_error[:, j] = no_offset.run(np.ones(len(volts)))[tap]
+        notes.append(f"{where}: the offset window of channel(s) "
+                     + ", ".join(f"{columns[j]} ({sensors[j].name}, samples {infos[j].offset_start}-"
+                                 f"{infos[j].offset_start + infos[j].offset_length - 1})" for j in reaching)
+                     + f" reaches into the hit at sample {trigger}: the mean it removes holds part of the response "
+                     f"(set the rig's [processing] offset_samples = [0, {before}] and import again)")
+    white = quiet.white(measured, disturbance, drift, offset_error)
     return PreparedExperiment(
         name=name, fs=exp.sampling_rate, force=force, point=np.asarray(exp.excitation.point, float),
         direction=np.asarray(exp.excitation.direction, float), sensors=sensors, columns=columns,
