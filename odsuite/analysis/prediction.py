@@ -495,11 +495,13 @@ def prepare_experiment(project, name: str, exp=None) -> PreparedExperiment:
             no_offset = chain_for_channel(replace(infos[j], offset_length=0), registry=steps,
                                           where=f"{where} channel {columns[j]}").through(tap)
             offset_error[:, j] = no_offset.run(np.ones(len(volts)))[tap]
-        notes.append(f"{where}: the offset window of channel(s) "
-                     + ", ".join(f"{columns[j]} ({sensors[j].name}, samples {infos[j].offset_start}-"
-                                 f"{infos[j].offset_start + infos[j].offset_length - 1})" for j in reaching)
-                     + f" reaches into the hit at sample {trigger}: the mean it removes holds part of the response "
-                     f"(set the rig's [processing] offset_samples = [0, {before}] and import again)")
+        past = [j for j in reaching if infos[j].offset_start + infos[j].offset_length > trigger]
+        if past:  # (a window that ends in the guard before the trigger holds at most the hit's first rise)
+            notes.append(f"{where}: the offset window of channel(s) "
+                         + ", ".join(f"{columns[j]} ({sensors[j].name}, samples {infos[j].offset_start}-"
+                                     f"{infos[j].offset_start + infos[j].offset_length - 1})" for j in past)
+                         + f" reaches into the hit at sample {trigger}: the mean it removes holds part of the "
+                         f"response (set the rig's [processing] offset_samples = [0, {before}] and import again)")
     white = quiet.white(measured, disturbance, drift, offset_error)
     return PreparedExperiment(
         name=name, fs=exp.sampling_rate, force=force, point=np.asarray(exp.excitation.point, float),
