@@ -40,6 +40,8 @@ from odsuite.analysis.disturbances import MAINS_HARMONICS, MAINS_HZ, disturbance
 
 #: samples kept clear of the hit (s): zero-phase filters ring backwards from it
 HIT_GUARD_S = 1e-3
+#: fewest quiet samples before the hit the noise is measured on; with fewer, the record's last eighth
+FEWEST_BEFORE = 32
 #: the response has died into the noise where the excess energy left in the record is below this
 #: fraction of the record's noise energy (as the fit windows)
 QUIET_FRACTION = 0.05
@@ -231,8 +233,8 @@ def split_noise(raw: np.ndarray, trigger: int, fs: float) -> QuietFit:
     guard = int(round(HIT_GUARD_S * fs))
     pre = np.zeros(n, bool)
     pre[: max(0, trigger - guard)] = True
-    if pre.sum() < 32:  # no pre-trigger: the last eighth (a lightly damped rig has died away there)
-        pre[-max(32, n // 8):] = True
+    if pre.sum() < FEWEST_BEFORE:  # no pre-trigger: the last eighth (a lightly damped rig has died away there)
+        pre[-max(FEWEST_BEFORE, n // 8):] = True
     # the mains frequency is the one whose fit leaves the least of the samples before the hit where
     # they hold two periods of each, else of the record: a response still ringing at the record's
     # end leaks into either sinusoid (a 30 Hz ring at 500x the noise chose 60 Hz under a 50 Hz

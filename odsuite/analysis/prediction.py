@@ -23,6 +23,7 @@ from odsuite.analysis.hammer import held_range, is_clipped
 from odsuite.domain.errors import ConfigError
 from odsuite.analysis.disturbances import disturbance_basis
 from odsuite.analysis.noise_floor import (
+    FEWEST_BEFORE,
     active_var,
     moving_samples,
     split_noise,
@@ -482,6 +483,10 @@ def prepare_experiment(project, name: str, exp=None) -> PreparedExperiment:
     drift = (None if quiet.local_drift is None else
              np.column_stack([r[tap] for r in run_each(to_tap, quiet.local_drift)]))
     before = quiet_before(quiet.quiet)
+    if before < FEWEST_BEFORE:
+        notes.append(f"{where}: {before} samples before the hit (fewer than {FEWEST_BEFORE}): the noise is measured "
+                     "on the record's last samples, where the response may still ring, and the floor may read high "
+                     "(record more samples before the trigger)")
     reaching = [j for j, ch in enumerate(infos) if ch.offset_length > 0 and 0 < before < ch.offset_start + ch.offset_length]
     offset_error = None
     if reaching:

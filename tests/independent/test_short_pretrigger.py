@@ -39,3 +39,13 @@ def test_a_perfect_models_error_is_its_floor_with_a_few_milliseconds_before_the_
         assert len(reaching) == (len(exps) if pre_trigger < 96 else 0), [e.notes for e in exps]
         c = compare(p, prepared=exps, resonances=False)
     assert 1.0 / FLOOR_TOLERANCE < c.error / c.noise_floor_error < FLOOR_TOLERANCE, (c.error, c.noise_floor_error)
+
+
+def test_a_record_without_samples_before_the_hit_says_where_its_noise_is_measured(tmp_path):
+    # no pre-trigger: the noise is measured on the record's last eighth, where the thesis rig's
+    # suspension may still ring (this null's floor read 3.8x its error); the note says so
+    spec = calibrate.specs("nulls", 10)[3] | {"pre_trigger": 0, "set": "nulls", "id": "no-pretrigger"}
+    path = calibrate.project_of(spec, tmp_path)
+    with open_project(path) as p:
+        exps = prepare(p)
+    assert all(any("0 samples before the hit (fewer than 32)" in n for n in e.notes) for e in exps), [e.notes for e in exps]
