@@ -501,12 +501,13 @@ def prepare_experiment(project, name: str, exp=None) -> PreparedExperiment:
                                           where=f"{where} channel {columns[j]}").through(tap)
             offset_error[:, j] = no_offset.run(np.ones(len(volts)))[tap]
         past = [j for j in reaching if infos[j].offset_start + infos[j].offset_length > trigger]
-        if past:  # (a window that ends in the guard before the trigger holds at most the hit's first rise)
-            notes.append(f"{where}: the offset window of channel(s) "
-                         + ", ".join(f"{columns[j]} ({sensors[j].name}, samples {infos[j].offset_start}-"
-                                     f"{infos[j].offset_start + infos[j].offset_length - 1})" for j in past)
-                         + f" reaches into the hit at sample {trigger}: the mean it removes holds part of the "
-                         f"response (set the rig's [processing] offset_samples = [0, {before}] and import again)")
+        windows: dict[tuple[int, int], list[str]] = {}
+        for j in past:  # (a window that ends in the guard before the trigger holds at most the hit's first rise)
+            windows.setdefault((infos[j].offset_start, infos[j].offset_length), []).append(sensors[j].name)
+        for (start, length), names in windows.items():
+            notes.append(f"{where}: the offset window (samples {start}-{start + length - 1}) of {', '.join(names)} "
+                         f"reaches into the hit at sample {trigger}: the mean it removes holds part of the response "
+                         f"(set the rig's [processing] offset_samples = [0, {before}] and import again)")
     white = quiet.white(measured, disturbance, drift, offset_error)
     return PreparedExperiment(
         name=name, fs=exp.sampling_rate, force=force, point=np.asarray(exp.excitation.point, float),
