@@ -487,22 +487,26 @@ def prepare_experiment(project, name: str, exp=None) -> PreparedExperiment:
         notes.append(f"{where}: {before} samples before the hit (fewer than {FEWEST_BEFORE}): the noise is measured "
                      "on the record's last samples, where the response may still ring, and the floor may read high "
                      "(record more samples before the trigger)")
-    reaching = [j for j, ch in enumerate(infos) if ch.offset_length > 0 and 0 < before < ch.offset_start + ch.offset_length]
+    reaching = [j for j, ch in enumerate(infos) if ch.offset_length > 0 and before < ch.offset_start + ch.offset_length]
     offset_error = None
     if reaching:
         # an offset window that reaches into the hit removes a mean that holds part of the response;
         # the filters' response to that error runs through the samples before the hit (a decay from
-        # 4 m/s^2 on a thesis rig record with 48 samples before it: its noise read 100x too high).
-        # A model's signal passes the same window, so the residual keeps no such error; the noise's
-        # estimate takes the chain's response to a constant out
+        # 4 m/s^2 on a thesis rig record with 48 samples before it: its noise read 100x too high),
+        # and, with none before it, through the last samples the noise is measured on (a thesis
+        # rig null's floor 3.8x its error). A model's signal passes the same window, so the
+        # residual keeps no such error; the noise's estimate takes the chain's response to a
+        # constant out
         offset_error = np.zeros_like(measured)
         for j in reaching:
             no_offset = chain_for_channel(replace(infos[j], offset_length=0), registry=steps,
                                           where=f"{where} channel {columns[j]}").through(tap)
             offset_error[:, j] = no_offset.run(np.ones(len(volts)))[tap]
-        past = [j for j in reaching if infos[j].offset_start + infos[j].offset_length > trigger]
+        # (a window that ends in the guard before the trigger holds at most the hit's first rise; with
+        # no samples before the hit no window avoids it, and the note above says so)
+        past = [j for j in reaching if before > 0 and infos[j].offset_start + infos[j].offset_length > trigger]
         windows: dict[tuple[int, int], list[str]] = {}
-        for j in past:  # (a window that ends in the guard before the trigger holds at most the hit's first rise)
+        for j in past:
             windows.setdefault((infos[j].offset_start, infos[j].offset_length), []).append(sensors[j].name)
         for (start, length), names in windows.items():
             notes.append(f"{where}: the offset window (samples {start}-{start + length - 1}) of {', '.join(names)} "

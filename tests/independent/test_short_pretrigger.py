@@ -8,7 +8,9 @@ independent generator's thesis rig (20 kHz). Two things went wrong there:
   it (48): the mean it removes holds part of the response, and the high-pass's response to that
   error ran through the samples before the hit, where the noise is measured (100x too high, the
   floor 12x the error). A model's signal passes the same window, so the residual keeps no such
-  error; the noise's estimate takes the chain's response to a constant out, and a note says so."""
+  error; the noise's estimate takes the chain's response to a constant out, and a note says so;
+- with no samples before the hit the noise is measured on the record's last samples, through which
+  that error decays too."""
 
 from __future__ import annotations
 
@@ -41,11 +43,19 @@ def test_a_perfect_models_error_is_its_floor_with_a_few_milliseconds_before_the_
     assert 1.0 / FLOOR_TOLERANCE < c.error / c.noise_floor_error < FLOOR_TOLERANCE, (c.error, c.noise_floor_error)
 
 
-def test_a_record_without_samples_before_the_hit_says_where_its_noise_is_measured(tmp_path):
-    # no pre-trigger: the noise is measured on the record's last eighth, where the thesis rig's
-    # suspension may still ring (this null's floor read 3.8x its error); the note says so
-    spec = calibrate.specs("nulls", 10)[3] | {"pre_trigger": 0, "set": "nulls", "id": "no-pretrigger"}
+@pytest.mark.parametrize("index", [0, 3, 6])
+def test_a_record_without_samples_before_the_hit_has_its_floor(tmp_path, index):
+    # no pre-trigger: the noise is measured on the record's last samples, and the note says so.
+    # The offset window (the first 100 samples) holds the hit, and its error, the chain's response
+    # to a constant, decays through those samples: taken out only where some samples preceded the
+    # hit, these thesis nulls' floors read 1.25x, 3.8x and 1.4x their error
+    spec = calibrate.specs("nulls", 10)[index] | {"pre_trigger": 0, "set": "nulls", "id": f"no-pretrigger-{index}"}
+    assert spec["rig"] == "thesis"
     path = calibrate.project_of(spec, tmp_path)
     with open_project(path) as p:
         exps = prepare(p)
-    assert all(any("0 samples before the hit (fewer than 32)" in n for n in e.notes) for e in exps), [e.notes for e in exps]
+        assert all(any("0 samples before the hit (fewer than 32)" in n for n in e.notes) for e in exps), \
+            [e.notes for e in exps]
+        assert not any("reaches into the hit" in n for e in exps for n in e.notes)
+        c = compare(p, prepared=exps, resonances=False)
+    assert 1.0 / FLOOR_TOLERANCE < c.error / c.noise_floor_error < FLOOR_TOLERANCE, (c.error, c.noise_floor_error)
