@@ -1,4 +1,5 @@
-"""A screening's short heads without the samples before the force acts (PreparedExperiment.resting_head):
+"""A screening's short heads and the fit windows without the samples before the force acts
+(PreparedExperiment.resting_head):
 the model is at rest there, so the predictions of the samples kept are the whole head's to a few
 1e-5 of their peak (linear and cubic springs alike; the noise is a percent), the rows cut are the
 measured noise alone, and a screening on them (cut at a multiple of the residual's stride, so it
@@ -83,22 +84,44 @@ def test_a_chains_offset_over_the_cut_keeps_the_head_whole(softer):
     assert [op.offset for op in after.resting_head(n).operators] == [(10, 100)] * len(e.operators)
 
 
-def test_screening_on_resting_heads_reaches_the_same_errors(softer, monkeypatch):
+def test_the_fit_windows_leave_out_the_samples_at_rest(softer):
+    from odsuite.diagnosis.fitting import fit_windows
+
+    _, exps = softer
+    for e, w, w3 in zip(exps, fit_windows(exps), fit_windows(exps, 3)):
+        acting = int(np.flatnonzero(e.force)[0])
+        assert w.first == acting - int(round(REST_MARGIN_S * e.fs)) > 0 and w3.first % 3 == 0
+        assert w3.first + w3.n_samples == w.first + w.n_samples < e.n_samples
+        assert np.array_equal(w.measured, e.measured[w.first:w.first + w.n_samples])
+
+
+def test_screening_and_fits_on_resting_heads_and_windows_reach_the_same_errors(softer, monkeypatch):
+    from odsuite.diagnosis import diagnose as diagnosis
     from odsuite.diagnosis import fitting
-    from odsuite.diagnosis.diagnose import diagnose
 
     project, exps = softer
     effects = ["stiffness", "mass_properties", "nonlinear_stiffness", "sensor_gain", "channel_delay"]
-    rest = diagnose(project, effects=effects, prepared=[replace(e, _cache=None) for e in exps], workers=1)
+    rest = diagnosis.diagnose(project, effects=effects, prepared=[replace(e, _cache=None) for e in exps], workers=1)
 
     def whole_heads(exps, stride=1):
         return [[e.head(e.trigger + int(round(t * e.fs))) for e in exps] for t in fitting.HEADS_S] + [list(exps)]
 
+    def whole_windows(exps, stride=1):
+        return [e.head(w.first + w.n_samples) for e, w in zip(exps, fitting.fit_windows(exps, stride))]
+
     monkeypatch.setattr(fitting, "heads", whole_heads)
-    whole = diagnose(project, effects=effects, prepared=[replace(e, _cache=None) for e in exps], workers=1)
+    monkeypatch.setattr(diagnosis, "fit_windows", whole_windows)
+    whole = diagnosis.diagnose(project, effects=effects, prepared=[replace(e, _cache=None) for e in exps], workers=1)
     assert [c.effect for c in rest.candidates] == [c.effect for c in whole.candidates]
     assert rest.verdict == whole.verdict and rest.candidates[0].effect == "stiffness"
     for a, b in zip(rest.candidates, whole.candidates):
         assert a.screened_error == pytest.approx(b.screened_error, rel=1e-4)
         assert a.fitted == b.fitted and a.significant == b.significant
-    assert rest.candidates[0].error_after == pytest.approx(whole.candidates[0].error_after, rel=1e-6)
+    top, other = rest.candidates[0], whole.candidates[0]
+    # each fit stops within a noise energy of its minimum (fitting.STALL_GAIN): 2.3e-6 of the error apart
+    assert top.error_after == pytest.approx(other.error_after, rel=1e-5)
+    # the residual's spectrum, which the uncertainties read, is taken on the samples the Jacobian covers
+    for name, value in top.parameters.items():
+        sd = top.uncertainties[name]
+        assert value == pytest.approx(other.parameters[name], abs=0.1 * sd)
+        assert sd == pytest.approx(other.uncertainties[name], rel=0.2)
