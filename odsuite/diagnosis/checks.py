@@ -329,7 +329,7 @@ def linearity(problem, res) -> Linearity:
             cut = int(np.searchsorted(info, 0.5 * info[-1])) + 1
             parts[0].append(np.arange(start, start + cut * m))
             parts[1].append(np.arange(start + cut * m, start + size))
-            cuts[e.name] = cut * problem.stride
+            cuts[e.name] = e.first + cut * problem.stride  # in the record's samples (a window may start later)
         start += size
     if not parts[0] or not columns:
         return Linearity()  # channel counts differ between records: no common row blocks

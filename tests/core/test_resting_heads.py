@@ -95,6 +95,30 @@ def test_the_fit_windows_leave_out_the_samples_at_rest(softer):
         assert np.array_equal(w.measured, e.measured[w.first:w.first + w.n_samples])
 
 
+def test_the_early_and_late_parts_are_cut_in_the_records_samples(softer):
+    # checks.linearity splits each fit window where the fit's information reaches half, and the
+    # verdict's held-out test cuts the whole records there: a window that starts after the samples
+    # at rest puts the cut that much later in its record (read in the window's own samples, the
+    # late part took in half the early part's response: a rattle then read "explained")
+    from odsuite.analysis.modelrev import revision_model
+    from odsuite.contracts.plugins import registries
+    from odsuite.diagnosis import checks, fitting
+
+    project, exps = softer
+    base = revision_model(project)
+    effect = registries().effects.get("stiffness")
+    cuts = {}
+    for kind, windows in (("rest", fitting.fit_windows(exps, 2)),
+                          ("whole", [e.head(w.first + w.n_samples) for e, w in zip(exps, fitting.fit_windows(exps, 2))])):
+        problem = fitting.Problem(base, effect, windows, full=exps, stride=2)
+        res = fitting.fit(problem, problem.zero())
+        cuts[kind] = checks.linearity(problem, res).cuts
+    assert all(w.first > 0 for w in fitting.fit_windows(exps, 2))
+    for e in exps:
+        assert e.trigger < cuts["rest"][e.name] < e.trigger + int(round(0.1 * e.fs))
+        assert abs(cuts["rest"][e.name] - cuts["whole"][e.name]) <= 4, cuts
+
+
 def test_screening_and_fits_on_resting_heads_and_windows_reach_the_same_errors(softer, monkeypatch):
     from odsuite.diagnosis import diagnose as diagnosis
     from odsuite.diagnosis import fitting
