@@ -666,16 +666,15 @@ def _baseline(project, rev, base, exps):
     cmp = compare(project, revision=rev, prepared=exps, resonances=False, coordinates=False, tables=False)
     den = sum(float(np.sum(e.measured**2)) for e in exps)
     sse0 = cmp.error**2 * den
-    n_eff, f99 = effective_samples(exps)
-    stride = max(1, int(exps[0].fs / (5.0 * f99)))
-    windows = fit_windows(exps, stride)
+    windows = fit_windows(exps)
     sse0_win = sum(float(np.sum((w.measured - predict(base.for_experiment(w.name), w)) ** 2)) for w in windows)
     noise = cmp.noise_floor_error
+    n_eff, f99 = effective_samples(exps)
     peaks = cmp.residual_peaks
     rig_vals = [max(b["fractions"].values()) for per in cmp.rigidity.values() for b in per.values()
                 if b["fractions"]]
     job = {"base": base, "effects": project.registries.effects, "windows": windows, "exps": exps, "floor": cmp.floor,
-           "prior": 1e-3 * max(noise**2, 1e-8) * den, "stride": stride,
+           "prior": 1e-3 * max(noise**2, 1e-8) * den, "stride": max(1, int(exps[0].fs / (5.0 * f99))),
            # noise energy per independent sample of the calibrated floor: the scale of every test
            "scale": checks.noise_scale(cmp.floor, exps), "sse0_win": sse0_win,
            "peak_hz": [p["frequency_hz"] for p in peaks if p["lacking"]], "sse0": sse0, "den": den,

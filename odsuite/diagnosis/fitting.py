@@ -55,12 +55,11 @@ UNSTABLE_RESIDUAL = 1e3
 AT_BOUND = 1e-8
 
 
-def fit_windows(exps: Sequence[PreparedExperiment], stride: int = 1) -> list[PreparedExperiment]:
+def fit_windows(exps: Sequence[PreparedExperiment]) -> list[PreparedExperiment]:
     """Each experiment cut where its response has died away into the noise (a hammer response
-    decays within tens of milliseconds of records that last far longer), and without its samples
-    at rest before the hit (PreparedExperiment.resting_head, cut at a multiple of ``stride``):
-    fits and screening see the same information for a fraction of the cost. The sum of squares of
-    the rest is added back where an error is reported."""
+    decays within tens of milliseconds of records that last far longer): fits and screening see
+    the same information for a fraction of the cost. The sum of squares of the rest is added back
+    where an error is reported."""
     out = []
     for e in exps:
         power = np.sum(e.measured**2, axis=1)
@@ -70,7 +69,7 @@ def fit_windows(exps: Sequence[PreparedExperiment], stride: int = 1) -> list[Pre
         above = np.flatnonzero(tail > TAIL_FRACTION * n * var)
         last = int(above[-1]) if above.size else e.trigger
         end = last + max(WINDOW_MARGIN * max(last - e.trigger, 0), WINDOW_MIN_S * e.fs)
-        out.append(e.resting_head(int(math.ceil(end)), stride))
+        out.append(e.head(int(math.ceil(end))))
     return out
 
 
