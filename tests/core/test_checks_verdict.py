@@ -27,6 +27,7 @@ class _Exp:
     force: np.ndarray | None = None  # N, the hit as the model is driven by it (zero outside its window)
     force_noise_energy: float = 0.0  # N^2, the force channel's noise summed over that window
     trigger: int = 0  # the hit's first sample
+    first: int = 0  # its first sample in its record (a fit window's)
 
     @property
     def sensors(self):
