@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import textwrap
 import time
 from collections.abc import Mapping
@@ -207,10 +208,8 @@ def run_demo(out: str | Path = "demo-output", *, rounds: int = ROUNDS, console: 
     started = time.monotonic()
     console = console or Console()
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    _demo_folder(out)
     path = out / PROJECT_NAME
-    for old in [path, out / "hidden-truth.json"]:
-        old.unlink(missing_ok=True)
     _recorded_project(path, console, started)
 
     _step(console, 4, "the loop: compare, diagnose, add the best effect", started)
@@ -233,6 +232,43 @@ def run_demo(out: str | Path = "demo-output", *, rounds: int = ROUNDS, console: 
     _say(console, f"  {verdict}; hidden truth written to {files['hidden_truth']}; "
                   f"{time.monotonic() - started:.0f} s in all")
     return result
+
+
+#: the file that marks a folder as the demo's own: its outputs are replaced when the demo runs there again
+MARKER = ".odsuite-demo"
+#: what the demo writes (the movie's name: MOVIE_EXPERIMENT's, .mp4 or the renderer's fallback)
+OUTPUTS = (PROJECT_NAME, "hidden-truth.json", "history.png", "report.html")
+
+
+def _demo_folder(out: Path) -> None:
+    """Make ``out`` the demo's folder, its earlier project and truth file removed; refuse (one line,
+    nothing touched) a path that is not a folder, a folder of someone else's files (without the
+    demo's marker, and not all of an earlier demo's outputs alone), and an output in the way that
+    is not a writable file."""
+    from odsuite.api import ConfigError
+
+    if out.is_symlink() and not out.exists():
+        raise ConfigError(f"{out}: a link to nothing: demo --out takes a folder for its project, report, movie and figures")
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"{out}: not a folder: demo --out takes a folder for its project, report, movie and figures")
+    if out.is_dir() and not (out / MARKER).is_file():
+        names = {p.name for p in out.iterdir()}
+        earlier = set(OUTPUTS) <= names and all(n in OUTPUTS or n.startswith(f"{MOVIE_EXPERIMENT}.") for n in names)
+        if names and not earlier:
+            raise ConfigError(f"{out}: a folder the demo did not write ({len(names)} entries, no {MARKER}): its files "
+                              "would be replaced; choose a new or empty folder")
+    for name in OUTPUTS:
+        target = out / name
+        if target.is_symlink() or (target.exists() and not target.is_file()):
+            raise ConfigError(f"{target}: not a file the demo wrote (a link, folder or device): remove it or choose "
+                              "another folder")
+        if target.exists() and not os.access(target, os.W_OK):
+            raise ConfigError(f"{target}: read-only: left as it is; choose another folder")
+    out.mkdir(parents=True, exist_ok=True)
+    (out / MARKER).write_text("written by `odsuite demo`: its project, report, movie and figures here are replaced "
+                              "when it runs here again\n")
+    for name in (PROJECT_NAME, "hidden-truth.json"):
+        (out / name).unlink(missing_ok=True)
 
 
 def _recorded_project(path: Path, console: Console, started: float) -> None:

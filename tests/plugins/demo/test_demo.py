@@ -122,3 +122,49 @@ def test_a_narrative_line_wraps_at_the_console_width_without_breaking_a_path():
     assert len(lines) >= 3 and all(len(ln) <= 80 or ln.split() == [path] for ln in lines)
     assert path in lines[1] and all(ln.startswith("    ") for ln in lines[1:])  # under the first line
     assert " ".join(" ".join(lines).split()).startswith(f"report: {path} (6 sections")
+
+
+def _demo_refuses(args, capsys) -> str:
+    from odsuite.cli import main
+
+    assert main(["demo", *args]) != 0
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    return err
+
+
+def test_the_demo_leaves_a_folder_it_did_not_write_as_it_is(tmp_path, capsys):
+    # a user's own project named demo.h5 (read-only too) was replaced by the demo's
+    lab = tmp_path / "lab"
+    lab.mkdir()
+    mine = lab / PROJECT_NAME
+    mine.write_bytes(b"my project")
+    mine.chmod(0o444)
+    assert "did not write" in _demo_refuses(["--out", str(lab)], capsys)
+    assert mine.read_bytes() == b"my project" and sorted(p.name for p in lab.iterdir()) == [PROJECT_NAME]
+    # a file, a link to nothing, a folder where the demo writes its project: one line each
+    (tmp_path / "notes.txt").write_text("notes\n")
+    assert "not a folder" in _demo_refuses(["--out", str(tmp_path / "notes.txt")], capsys)
+    (tmp_path / "gone").symlink_to(tmp_path / "nowhere")
+    assert "link to nothing" in _demo_refuses(["--out", str(tmp_path / "gone")], capsys)
+    ours = tmp_path / "ours"
+    ours.mkdir()
+    (ours / ".odsuite-demo").write_text("")
+    (ours / PROJECT_NAME).mkdir()
+    assert "not a file the demo wrote" in _demo_refuses(["--out", str(ours)], capsys)
+    assert (ours / PROJECT_NAME).is_dir()
+
+
+def test_the_demo_takes_back_its_own_folder(tmp_path):
+    from odsuite_plugins.demo.story import MARKER, OUTPUTS, _demo_folder
+
+    earlier = tmp_path / "demo-output"  # an earlier version's outputs, without the marker
+    earlier.mkdir()
+    for name in (*OUTPUTS, "T6.mp4"):
+        (earlier / name).write_text("old")
+    _demo_folder(earlier)
+    assert (earlier / MARKER).is_file() and not (earlier / PROJECT_NAME).exists()
+    assert (earlier / "report.html").read_text() == "old"  # replaced when the demo writes it
+    fresh = tmp_path / "new" / "folder"
+    _demo_folder(fresh)
+    assert sorted(p.name for p in fresh.iterdir()) == [MARKER]
