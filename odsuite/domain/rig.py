@@ -174,6 +174,8 @@ class Rig:
     channel_count: int
     default_model: str | None
     systeminfo_file: Path | None = None  # a legacy .CTR with the rig's default Systeminfo
+    #: that file's text where a project keeps it (read instead of the file: a project never reads outside itself)
+    systeminfo_text: str | None = None
     springs: tuple[Spring, ...] = ()
     source: Path | None = None
     extra: dict[str, Any] = field(default_factory=dict)

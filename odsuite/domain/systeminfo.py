@@ -320,11 +320,12 @@ class Systeminfo:
         fs = float(sampling_rate)
         channels = [_channel_for_rig(rig, k, fs) for k in range(n)]
         rig_info = _rig_info_from_geometry(rig)
-        if rig.systeminfo_file is not None:
+        if rig.systeminfo_text is not None or rig.systeminfo_file is not None:
             with warnings.catch_warnings():
                 # the rig's own file is curated: its codes were reviewed when it was shipped
                 warnings.simplefilter("ignore", OdsuiteWarning)
-                default = read_ctr(rig.systeminfo_file)
+                default = (read_ctr(rig.systeminfo_file) if rig.systeminfo_text is None else
+                           parse_ctr(rig.systeminfo_text, source=rig.systeminfo_file or "systeminfo"))
             for k, ch in enumerate(default.channels[:n]):
                 channels[k] = replace(ch, sampling_rate=fs)
             rig_info = default.rig

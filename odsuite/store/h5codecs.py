@@ -24,6 +24,7 @@ from odsuite.store.h5damage import first_line
 from odsuite.store.project_format import FORMAT_NAME, FORMAT_VERSION, now
 from odsuite.domain.rig import COORDINATES, Rig
 from odsuite.domain.systeminfo import ChannelInfo, RigInfo, Systeminfo
+from odsuite.domain.textfiles import read_text
 from odsuite.domain.version import __version__
 
 
@@ -228,7 +229,7 @@ def rig_to_dict(rig: Rig) -> dict[str, Any]:
     if rig.default_model is not None:
         out["default_model"] = rig.default_model
     if rig.systeminfo_file is not None:
-        out["systeminfo"] = str(rig.systeminfo_file)
+        out["systeminfo"] = Path(rig.systeminfo_file).name  # its text is kept beside (write_rig)
     if "" in rig.processing_tables:
         out["processing"] = rig.processing_tables[""]
     out["up"] = vec(rig.up)
@@ -241,9 +242,14 @@ def write_rig(f: h5py.File, rig: Rig) -> None:
     kept beside it."""
     g = typed_group(f, "rig", "rig")
     from_file = rig.source is not None and Path(rig.source).is_file()
+    # the rig's .CTR, read once as the project is made: the project keeps its text and never reads the path again
+    ctr = rig.systeminfo_text
+    if ctr is None and rig.systeminfo_file is not None:
+        ctr = read_text(rig.systeminfo_file, "Systeminfo (.CTR)")
     h5text.set_attrs(g, {"name": rig.name, "definition": to_json(f"rig {rig.name!r}", rig_to_dict(rig)),
                          "definition_format": "json", "source": str(rig.source) if from_file else "",
-                         "source_text": Path(rig.source).read_text(encoding="utf-8") if from_file else ""})
+                         "source_text": Path(rig.source).read_text(encoding="utf-8") if from_file else "",
+                         "systeminfo_text": ctr or ""})
 
 
 def write_revision(f: h5py.File, n: int, model: str | None, parent: int | None, texts: dict[str, str]) -> None:

@@ -42,7 +42,7 @@ import inspect
 import json
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import IO, Any
 
@@ -431,8 +431,25 @@ class Project:
                     rig = rig_from_dict(data, self.registries.sensor_types, source=Path(source) if source else None)
                 except ConfigError as exc:  # the stored copy is at fault, not the file it came from
                     raise SchemaError(f"{self.path}: stored rig definition (/rig): {exc}") from None
+                rig = self._kept_systeminfo(rig, h5text.text(a.get("systeminfo_text", "")))
             self._rig_cache = (rig,)
         return self._rig_cache[0]
+
+    def _kept_systeminfo(self, rig: Rig, text: str) -> Rig:
+        """The stored rig with its .CTR's text as the project keeps it. A project never reads
+        outside itself: the path its definition names is not read, but for one stored before the
+        text was kept, whose file is a registered rig's own (the thesis rig's table, shipped with
+        the plugins: found there on any machine); otherwise the rig's channels are described from
+        its sensors."""
+        if rig.systeminfo_file is None:
+            return rig
+        if text:
+            return replace(rig, systeminfo_text=text)
+        name = Path(rig.systeminfo_file).name
+        shipped = next((r.systeminfo_file for _, r in self.registries.rigs.items()
+                        if getattr(r, "systeminfo_file", None) is not None and Path(r.systeminfo_file).name == name),
+                       None)
+        return replace(rig, systeminfo_file=shipped, systeminfo_text=None)
 
     @property
     @_reads("root attributes")

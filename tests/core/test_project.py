@@ -337,3 +337,33 @@ def test_failed_transaction_commits_nothing(tmp_path):
         assert p.experiment_names() == ["keep"] and p.derived_kinds("keep") == []
     assert path.read_bytes() == before
     assert sorted(x.name for x in tmp_path.iterdir()) == ["p.h5"]
+
+
+def test_a_project_keeps_its_rigs_ctr_and_never_reads_the_path_it_names(tmp_path, thesis_rig):
+    # the stored rig named the .CTR by its absolute path, read at every `acquire`: a definition edited
+    # to name any local file had that file read (and its first field printed in the error)
+    import json
+
+    from odsuite.store import h5text
+
+    path = tmp_path / "p.h5"
+    create_project(path, thesis_rig).close()
+    with h5py.File(path, "r") as f:
+        assert json.loads(f["rig"].attrs["definition"])["systeminfo"] == "thesis-table-e3.CTR"
+        assert h5text.text(f["rig"].attrs["systeminfo_text"]) == thesis_rig.systeminfo_file.read_text(encoding="utf-8")
+    with open_project(path, "r") as p:
+        assert p.rig.systeminfo_text is not None
+        assert Systeminfo.for_rig(p.rig, 20000.0) == Systeminfo.for_rig(thesis_rig, 20000.0)
+    secret = tmp_path / "secret.txt"
+    secret.write_text("hunter2\n" + "0\n" * 33)
+    for named, kept in ((str(secret), None), ("/elsewhere/thesis-table-e3.CTR", thesis_rig.systeminfo_file)):
+        with h5py.File(path, "r+") as f:  # as stored before the text was kept, or edited by hand
+            d = json.loads(f["rig"].attrs["definition"])
+            d["systeminfo"] = named
+            f["rig"].attrs["definition"] = json.dumps(d)
+            f["rig"].attrs["systeminfo_text"] = ""
+        with open_project(path, "r") as p:
+            # a registered rig's own table (shipped with the plugins) is found there; no other path is read
+            assert p.rig.systeminfo_file == kept and p.rig.systeminfo_text is None
+            channels = Systeminfo.for_rig(p.rig, 20000.0).channels
+            assert len(channels) == p.rig.channel_count and all("hunter2" not in c.location for c in channels)
