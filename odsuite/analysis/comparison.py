@@ -224,6 +224,8 @@ def frf_comparison(exps: Sequence[PreparedExperiment], predictions: Sequence[np.
         fm = estimate_frf([e.force], [e.measured], e.fs)
         fp = estimate_frf([e.force], [p], e.fs)
         keep = (fm.frequency >= lo) & (fm.frequency <= hi)
+        if np.count_nonzero(keep) < 2:  # a record too short for its rate: its lines step over the band
+            continue
         if freq is None:
             freq = fm.frequency[keep]
         elif len(fm.frequency[keep]) != len(freq) or not np.allclose(fm.frequency[keep], freq):
@@ -241,7 +243,13 @@ def frf_comparison(exps: Sequence[PreparedExperiment], predictions: Sequence[np.
         stacks["model"].append(hp)
     identified: dict[str, list[dict[str, float]]] = {}
     notes = []
+    if not stacks["measured"]:
+        notes.append(f"no record has two FRF lines within {lo:g}-{hi:g} Hz (lines {exps[0].fs / exps[0].n_samples:.4g} Hz "
+                     "apart): no FRFs compared")
     for side, parts in stacks.items():
+        if not parts:
+            identified[side] = []
+            continue
         try:
             res = identify_modes(freq, np.vstack(parts), f_band=(lo, hi), max_order=40)
             identified[side] = [{"frequency_hz": float(f), "damping_ratio": float(z)}
@@ -329,8 +337,10 @@ def _tables(labels, sensor_names, band_num, band_den, channels, coords) -> tuple
     flat_coords = [(f"{en}/{b}/{c}", v) for en, bd in coords.items() for b, cd in bd.items() for c, v in cd.items()]
     for n, v in sorted(flat_coords, key=lambda kv: -kv[1])[:3]:
         worst.append({"kind": "coordinate", "name": n, "error": v})
-    weighted = [(labels[i], float(np.nansum(band_num[i]) / np.nansum(band_den[i])) ** 0.5,
-                 float(np.nansum(band_num[i]) / np.nansum(band_num))) for i in range(len(labels))]
+    with np.errstate(invalid="ignore", divide="ignore"):  # a band no record has energy in (a record of 10 MHz)
+        weighted = [(labels[i], float(np.nansum(band_num[i]) / np.nansum(band_den[i])) ** 0.5,
+                     float(np.nansum(band_num[i]) / np.nansum(band_num))) for i in range(len(labels))]
+    weighted = [w for w in weighted if np.isfinite(w[1]) and np.isfinite(w[2])]
     for n, v, share in sorted(weighted, key=lambda t: -t[2])[:3]:
         worst.append({"kind": "band", "name": n, "error": v, "residual_share": share})
     return bands, worst

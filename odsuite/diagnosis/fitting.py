@@ -1110,7 +1110,9 @@ def _sweep_sensors(problem: Problem, u: np.ndarray, exps, peaks_hz: Sequence[flo
     sensor's rows lower their error (the other sensors' rows cannot change the comparison)."""
     best = u
     r = problem.residual(u, exps)
-    rows = {name: rows_of[name] for name in {problem.free[i].param.sensor for b in batches for i in b}}
+    # (a sensor no record holds has no rows: its parameters cannot move the residual and stay put)
+    rows = {name: rows_of[name] for name in {problem.free[i].param.sensor for b in batches for i in b}
+            if name in rows_of}
     best_sse = {name: float(np.sum(r[m] ** 2)) for name, m in rows.items()}
     for batch in batches:
         values: list[list[float]] = []
@@ -1128,6 +1130,8 @@ def _sweep_sensors(problem: Problem, u: np.ndarray, exps, peaks_hz: Sequence[flo
             r = problem.residual(trial, exps)
             for i, _ in moved:
                 name = problem.free[i].param.sensor
+                if name not in rows:
+                    continue
                 sse = float(np.sum(r[rows[name]] ** 2))
                 if sse < best_sse[name]:
                     best = best.copy() if best is u else best

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from odsuite.domain.display import unit_text
+from odsuite.domain.errors import NonPhysicalError
 
 #: finite-difference step of the propagation, as a fraction of a parameter's standard deviation
 STEP = 1e-3
@@ -33,7 +34,10 @@ def quantities(effect, model, values: Mapping[str, float], labels: Sequence[str]
     if physical is None:
         return []
     complete = effect.values(model, {k: v for k, v in values.items() if v is not None})
-    rows = physical(model, complete)
+    try:
+        rows = physical(model, complete)
+    except NonPhysicalError:  # a fit stopped where no physical body has its values: none to report
+        return []
     # the model's own values, where the effect at its nominal reports the same quantities (a
     # missing mode reports none: the model has no such mode)
     at_nominal = physical(model, effect.values(model, {}))
@@ -53,7 +57,10 @@ def quantities(effect, model, values: Mapping[str, float], labels: Sequence[str]
                 J[:, col] = (np.array([r[1] for r in physical(model, moved)], float) - base) / h
             except Exception:  # a step past a bound: the other side
                 moved[labels[i]] -= 2 * h
-                J[:, col] = (base - np.array([r[1] for r in physical(model, moved)], float)) / h
+                try:
+                    J[:, col] = (base - np.array([r[1] for r in physical(model, moved)], float)) / h
+                except NonPhysicalError:  # no physical body on either side: no uncertainty to carry
+                    J[:, col] = np.nan
         c = np.eye(len(usable)) if corr is None else np.asarray(corr, float)[np.ix_(usable, usable)]
         cov = c * np.outer(sd[usable], sd[usable])
         var = np.einsum("ij,jk,ik->i", J, cov, J)

@@ -1,0 +1,49 @@
+"""Records that hold some of a rig's channels, at rates a rig file does not expect: the two-body
+machine's rig with a CSV of one triaxial's three channels. `diagnose` stopped on a sensor
+parameter of a sensor no record holds (a KeyError in the sweep of sensor starts) and, at 10 MHz, on
+a mass fit that ended where no physical body has its inertia (its physical quantities); `compare`
+on a band without two FRF lines (a reduction of an empty array) and printed a warning for a band
+without energy."""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from pathlib import Path
+
+import pytest
+
+from odsuite.cli import main
+
+RIG = Path(__file__).resolve().parents[2] / "projects" / "rigs" / "two-body-machine.toml"
+
+
+def _project(tmp_path: Path, rate: float) -> Path:
+    rig = tmp_path / "rig.toml"
+    shutil.copy(RIG, rig)
+    lines = ["hammer [N],m1_x [m/s^2],m1_y [m/s^2],m1_z [m/s^2]"]
+    for k in range(2048):
+        a = math.exp(-(k - 100) / 300) * math.sin((k - 100) / 5) if k >= 100 else 0.0
+        lines.append(f"{10.0 if 100 <= k < 103 else 0.0},{a},{0.5 * a},{0.2 * a}")
+    (tmp_path / "r.csv").write_text("\n".join(lines) + "\n")
+    p = tmp_path / "p.h5"
+    assert main(["new", str(p), "--rig", str(rig)]) == 0
+    assert main(["import", str(p), str(tmp_path / "r.csv"), "--name", "x", "--rate", f"{rate:g}",
+                 "--force-point=100,50,250", "--force-dir=-z"]) == 0
+    return p
+
+
+@pytest.mark.parametrize("rate", [10240.0, 1e7])
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_a_record_of_some_channels_is_compared_and_diagnosed(tmp_path, capsys, rate):
+    p = _project(tmp_path, rate)
+    capsys.readouterr()
+    assert main(["compare", str(p), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["error"] > 0.5  # a made-up decay the model does not hold
+    if rate > 1e6:
+        assert any("no record has two FRF lines" in n for n in doc["modes"]["notes"]), doc["modes"]["notes"]
+    assert main(["diagnose", str(p), "--json"]) == 0
+    diagnosis = json.loads(capsys.readouterr().out)
+    assert diagnosis["verdict"] and diagnosis["candidates"]
