@@ -69,6 +69,12 @@ def checked_responses(y) -> np.ndarray:
         raise DimensionError(f"responses have shape {y.shape}; expected samples x outputs, many more samples")
     if not np.all(np.isfinite(y)):
         raise ConfigError("responses hold NaN or infinite samples")
+    if y.shape[1] == 0:
+        raise ConfigError("responses: no response channel (a force channel alone): no motion to identify modes from")
+    still = [j for j in range(y.shape[1]) if np.ptp(y[:, j]) == 0]
+    if len(still) == y.shape[1]:
+        raise ConfigError(f"responses: every channel is constant ({y.shape[1]} of {y.shape[1]}): no motion to "
+                          "identify modes from")
     return y
 
 

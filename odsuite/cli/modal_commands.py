@@ -21,7 +21,7 @@ def frf_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
     """FRFs over the accepted hammer hits of an experiment (stored as derived 'frf')."""
-    from odsuite.domain.errors import ConfigError
+    from odsuite.domain.errors import ConfigError, DimensionError
     from odsuite.analysis.frf import usable_band
     from odsuite.analysis.modal_project import experiment_frf
     from odsuite.contracts.renderers import RenderRequest
@@ -34,7 +34,7 @@ def frf_cmd(
     try:
         band = usable_band(frf.frequency, frf.force_autospectrum, frf.coherence, frf.n_averages)
         usable = f"usable band {band[0]:.1f}-{band[1]:.1f} Hz"
-    except ConfigError as exc:  # the FRFs are stored all the same: say why no band, do not fail
+    except (ConfigError, DimensionError) as exc:  # the FRFs are stored all the same: say why no band, do not fail
         band, usable = None, str(exc).split(";")[0]
     if renderer is not None:
         renderer.render(RenderRequest(project, experiment, figure, {"frf": frf, "band_hz": band,

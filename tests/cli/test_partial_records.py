@@ -47,3 +47,34 @@ def test_a_record_of_some_channels_is_compared_and_diagnosed(tmp_path, capsys, r
     assert main(["diagnose", str(p), "--json"]) == 0
     diagnosis = json.loads(capsys.readouterr().out)
     assert diagnosis["verdict"] and diagnosis["candidates"]
+
+
+def test_frfs_of_a_record_too_short_for_a_band_are_stored_and_say_why(tmp_path, capsys):
+    # the FRFs were stored, then `frf` ended with an error (exit 1) on the band it could not give
+    p = tmp_path / "f.h5"
+    (tmp_path / "r.csv").write_text("time,hammer [N],a [m/s^2]\n0,0.0001,-3.9\n0.0005,0.001,0.001\n"
+                                    "0.001,0.0003,-0.0009\n0.0015,-0.0003,0.002\n")
+    assert main(["new", str(p), "--rig", "none"]) == 0
+    assert main(["import", str(p), str(tmp_path / "r.csv"), "--name", "x"]) == 0
+    capsys.readouterr()
+    assert main(["frf", str(p), "--experiment", "x", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["usable_band_hz"] is None and "2 lines above 0 Hz" in doc["usable_band_note"]
+    assert main(["info", str(p), "--json"]) == 0
+    assert "frf" in json.loads(capsys.readouterr().out)["experiments"]["x"]["derived"]
+
+
+@pytest.mark.parametrize("columns", [["hammer [N]", "a [m/s^2]"], ["hammer [N]"]])
+def test_output_only_modes_of_a_record_without_motion_say_so(tmp_path, capsys, columns):
+    # responses all zero, or a force channel alone: SSI-cov's eigenvalues of NaN (a LinAlgError)
+    p = tmp_path / "z.h5"
+    rows = [",".join(columns)] + [",".join([f"{10.0 if 256 <= k < 259 else 0.0}", "0.0"][:len(columns)])
+                                  for k in range(2048)]
+    (tmp_path / "z.csv").write_text("\n".join(rows) + "\n")
+    assert main(["new", str(p), "--rig", "none"]) == 0
+    assert main(["import", str(p), str(tmp_path / "z.csv"), "--name", "x", "--rate", "2000"]) == 0
+    capsys.readouterr()
+    assert main(["modes", str(p), "--experiment", "x", "--output-only", "--json"]) != 0
+    captured = capsys.readouterr()
+    assert "no motion to identify modes from" in json.loads(captured.out)["error"]
+    assert len(captured.err.strip().splitlines()) == 1
