@@ -28,7 +28,13 @@ def _bad(path: Path, where: str, field: str, value: Any, expected: str) -> Proje
 
 
 def _number(x: Any) -> bool:
-    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
+    if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)):
+        return False
+    try:  # JSON's integers have no bound: one past a float's range is no number the analyses can use
+        float(x)
+    except OverflowError:
+        return False
+    return True
 
 
 def as_number(value: Any) -> Any:

@@ -564,6 +564,10 @@ def _edit_project(path: Path, kind: str) -> None:
             rev.attrs["parameters"] = "[1]"
         elif kind == "parameters text":
             rev.attrs["parameters"] = '{"scale_z": "big"}'
+        elif kind == "parameters 1e400":  # a JSON integer past a float's range (an OverflowError in model)
+            big = "1" + "0" * 400
+            rev.attrs["effects"] = '[{"effect": "stiffness", "values": {"scale_z": %s}}]' % big
+            rev.attrs["parameters"] = '{"stiffness.scale_z": %s}' % big
         elif kind == "model unknown":
             rev.attrs["model"] = "nosuch"
         elif kind == "current revision 99":
@@ -631,7 +635,7 @@ def _edit_project(path: Path, kind: str) -> None:
 
 
 HANDMADE = ("metrics abc", "metrics list", "metrics not JSON", "metrics NaN", "effects dict",
-            "effects numbers", "effects unknown", "parameters list", "model unknown",
+            "effects numbers", "effects unknown", "parameters list", "parameters 1e400", "model unknown",
             "current revision 99", "current revision text", "sampling rate 0", "sampling rate NaN",
             "sampling rate text", "force channel 99", "short channel names", "pretrigger huge", "raw NaN",
             "raw empty", "raw 1-D text", "rig definition not JSON", "rig mass 1e41", "format version 999",
@@ -640,7 +644,7 @@ HANDMADE = ("metrics abc", "metrics list", "metrics not JSON", "metrics NaN", "e
 
 def handmade_cases() -> list[Case]:
     out = []
-    model_side = ("info", "compare", "add-effect")
+    model_side = ("info", "compare", "add-effect", "model")
     data_side = ("info", "process", "export-uff")
     cmds = {"info": (["info", "p.h5"], ()), "history": (["history", "p.h5"], ()), "model": (["model", "p.h5"], ()),
             "compare": (["compare", "p.h5"], ()), "add-effect": (["add-effect", "p.h5", "stiffness"], ()),

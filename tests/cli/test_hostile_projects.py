@@ -1,0 +1,28 @@
+"""Project files edited by hand, read back: one line naming the file and field, never a traceback."""
+
+from __future__ import annotations
+
+import json
+
+import h5py
+import pytest
+
+from odsuite.cli import main
+
+
+@pytest.mark.parametrize("command", [["model"], ["compare"], ["history"]])
+def test_a_stored_parameter_past_a_floats_range_is_refused_in_one_line(tmp_path, capsys, command):
+    # JSON's integers have no bound: 10**400 passed the stored-value check as a number, and turning
+    # it into a float stopped `model`, `compare`, `report` and `diagnose` (OverflowError)
+    p = tmp_path / "p.h5"
+    assert main(["new", str(p)]) == 0
+    big = "1" + "0" * 400
+    with h5py.File(p, "r+") as f:
+        rev = f["models/revisions/0"]
+        rev.attrs["effects"] = '[{"effect": "stiffness", "values": {"scale_z": %s}}]' % big
+        rev.attrs["parameters"] = '{"stiffness.scale_z": %s}' % big
+    capsys.readouterr()
+    assert main([*command, str(p), "--json"]) != 0
+    captured = capsys.readouterr()
+    assert len(captured.err.strip().splitlines()) == 1 and "Traceback" not in captured.err
+    assert "model revision 0" in json.loads(captured.out)["error"]
