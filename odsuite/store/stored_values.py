@@ -27,6 +27,11 @@ def _bad(path: Path, where: str, field: str, value: Any, expected: str) -> Proje
     return ProjectFileError(f"{path}: {where} field {field!r}: expected {expected}, got {shown}")
 
 
+#: a stored force point farther than this from the rig's origin (m) is no lab's: 1e300 m ran
+#: through every analysis as overflow warnings
+MAX_POINT_M = 1e4
+
+
 def _number(x: Any) -> bool:
     if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)):
         return False
@@ -57,12 +62,23 @@ def check_raw_block(path: Path, name: str, block: np.ndarray, row0: int, channel
 
 
 def check_systeminfo(path: Path, name: str, channels: list) -> None:
-    """The stored channel table's divisors: sensitivity and DAQ gain finite and not 0."""
+    """The stored channel table's divisors (sensitivity and DAQ gain finite and not 0, the
+    sensitivity within the writers' range) and filter orders within theirs (an order of 10^12
+    asked a filter design for terabytes)."""
+    from odsuite.domain.filter_kinds import MAX_FILTER_ORDER
+    from odsuite.domain.systeminfo import MAX_SENSITIVITY, MIN_SENSITIVITY
+
     for k, ch in enumerate(channels):
+        where = f"experiment {name!r} systeminfo channel {k}"
         for field in ("sensitivity", "daq_gain"):
             v = getattr(ch, field)
             if not (_number(v) and math.isfinite(v) and v != 0):
-                raise _bad(path, f"experiment {name!r} systeminfo channel {k}", field, v, "a finite number other than 0")
+                raise _bad(path, where, field, v, "a finite number other than 0")
+        if not MIN_SENSITIVITY <= abs(ch.sensitivity) <= MAX_SENSITIVITY:
+            raise _bad(path, where, "sensitivity", ch.sensitivity,
+                       f"{MIN_SENSITIVITY:g} to {MAX_SENSITIVITY:g} V per unit in magnitude")
+        if not (_number(ch.filter_order) and 0 <= ch.filter_order <= MAX_FILTER_ORDER):
+            raise _bad(path, where, "filter_order", ch.filter_order, f"0 to {MAX_FILTER_ORDER}")
 
 
 def check_experiment(path: Path, name: str, *, sampling_rate: Any, pretrigger: Any, channel_names: list,
@@ -87,6 +103,9 @@ def check_experiment(path: Path, name: str, *, sampling_rate: Any, pretrigger: A
             if np.shape(vec) != (3,) or not np.all(np.isfinite(vec)) or (field == "force_direction"
                                                                          and not np.any(vec)):
                 raise _bad(path, where, field, np.asarray(vec).tolist(), "3 finite numbers (m; a direction not zero)")
+        if np.max(np.abs(excitation.point)) > MAX_POINT_M:
+            raise _bad(path, where, "force_point", np.asarray(excitation.point).tolist(),
+                       f"coordinates within {MAX_POINT_M:g} m of the rig's origin")
 
 
 def check_revision(path: Path, key: str, effects: Any, parameters: Any, metrics: Any) -> None:

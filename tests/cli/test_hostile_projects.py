@@ -26,3 +26,25 @@ def test_a_stored_parameter_past_a_floats_range_is_refused_in_one_line(tmp_path,
     captured = capsys.readouterr()
     assert len(captured.err.strip().splitlines()) == 1 and "Traceback" not in captured.err
     assert "model revision 0" in json.loads(captured.out)["error"]
+
+
+@pytest.mark.parametrize("edit", ["filter order", "force point"])
+def test_a_stored_record_beyond_the_writers_limits_is_refused_in_one_line(tmp_path, capsys, edit):
+    # a channel's filter order of 10^12 (its design asked for terabytes) and a force point 1e300 m
+    # away (overflow warnings through every analysis) were read back as stored
+    p = tmp_path / "p.h5"
+    assert main(["new", str(p)]) == 0
+    assert main(["acquire", str(p), "--daq", "sim", "--name", "T2", "--scenario", "T2", "--samples", "2048"]) == 0
+    with h5py.File(p, "r+") as f:
+        g = f["experiments/T2"]
+        if edit == "filter order":
+            table = g["systeminfo/channels"][()]
+            table["filter_order"][2] = 10**12
+            g["systeminfo/channels"][...] = table
+        else:
+            g.attrs["force_point"] = [1e300, 0.0, 0.0]
+    capsys.readouterr()
+    assert main(["compare", str(p), "--json"]) != 0
+    captured = capsys.readouterr()
+    assert len(captured.err.strip().splitlines()) == 1 and "Traceback" not in captured.err, captured.err
+    assert ("filter_order" if edit == "filter order" else "force_point") in json.loads(captured.out)["error"]
