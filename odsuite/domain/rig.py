@@ -33,6 +33,9 @@ FORCE_POINT_SLACK = 2e-3
 NINE_ROLES = ("xC", "yC", "zC", "x1", "z1", "y2", "z2", "x3", "y3")
 
 
+#: frequencies a rig file may give (Hz): sampling rates, an IEPE supply's corner, a sensor's resonance
+FREQUENCY_RANGE_HZ = (1e-4, 1e8)
+
 @dataclass(frozen=True)
 class Plate:
     """A box drawn for a body: size (L, W, H along body x, y, z) and its corner of least x, y, z."""
@@ -600,6 +603,14 @@ def _acquisition(table: Any, where0: str) -> Acquisition | None:
     def opt_number(key: str) -> float | None:
         return None if table.get(key) is None else _number(f"{w} field {key!r}", table[key], positive=True)
 
+    def opt_hz(key: str) -> float | None:
+        # a corner of 1e300 Hz (or 1e-300) is accepted as a number and breaks the sensor's discretisation
+        v = opt_number(key)
+        if v is not None and not FREQUENCY_RANGE_HZ[0] <= v <= FREQUENCY_RANGE_HZ[1]:
+            raise ConfigError(f"{w} field {key!r}: expected {FREQUENCY_RANGE_HZ[0]:g} to {FREQUENCY_RANGE_HZ[1]:g} Hz, "
+                              f"got {v!r}")
+        return v
+
     bits = table.get("adc_bits")
     if bits is not None:
         bits = _integer(f"{w} field 'adc_bits'", bits, 0, 32) or None
@@ -625,7 +636,7 @@ def _acquisition(table: Any, where0: str) -> Acquisition | None:
             raise ConfigError(f"{wa}.force_channel: expected true or false, got {force!r}")
         aa = AntiAliasing(
             family=family, order=_integer(f"{wa}.order", aa.get("order"), 1, 16),
-            cutoff_hz=_number(f"{wa}.cutoff_hz", aa.get("cutoff_hz"), positive=True),
+            cutoff_hz=_number(f"{wa}.cutoff_hz", aa.get("cutoff_hz"), positive=True),  # checked against the rate where used
             ripple_db=_number(f"{wa}.ripple_db", aa.get("ripple_db", 0.1), positive=True),
             attenuation_db=_number(f"{wa}.attenuation_db", aa.get("attenuation_db", 60.0), positive=True),
             force_channel=force)
@@ -633,9 +644,9 @@ def _acquisition(table: Any, where0: str) -> Acquisition | None:
                       positive=True)
     if damping >= 1:
         raise ConfigError(f"{w} field 'sensor_resonance_damping': expected a ratio below 1, got {damping!r}")
-    return Acquisition(sampling_rate=opt_number("sampling_rate"), pre_trigger=pre, adc_bits=bits,
-                       adc_range=adc_range, anti_aliasing=aa, iepe_corner_hz=opt_number("iepe_corner_hz"),
-                       sensor_resonance_hz=opt_number("sensor_resonance_hz"), sensor_resonance_damping=damping)
+    return Acquisition(sampling_rate=opt_hz("sampling_rate"), pre_trigger=pre, adc_bits=bits,
+                       adc_range=adc_range, anti_aliasing=aa, iepe_corner_hz=opt_hz("iepe_corner_hz"),
+                       sensor_resonance_hz=opt_hz("sensor_resonance_hz"), sensor_resonance_damping=damping)
 
 
 def _sensitivity(where: str, value: Any) -> float:

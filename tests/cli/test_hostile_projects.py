@@ -48,3 +48,21 @@ def test_a_stored_record_beyond_the_writers_limits_is_refused_in_one_line(tmp_pa
     captured = capsys.readouterr()
     assert len(captured.err.strip().splitlines()) == 1 and "Traceback" not in captured.err, captured.err
     assert ("filter_order" if edit == "filter order" else "force_point") in json.loads(captured.out)["error"]
+
+
+@pytest.mark.parametrize("field, value", [("iepe_corner_hz", "1e300"), ("sensor_resonance_hz", "1e-300")])
+def test_a_rig_frequency_out_of_any_lab_range_is_refused_by_new(tmp_path, capsys, field, value):
+    # accepted as a positive number, a corner of 1e300 Hz stopped `acquire` in the sensor's
+    # discretisation (LinAlgError)
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[2] / "projects" / "rigs" / "two-body-machine.toml").read_text()
+    assert "\niepe_corner_hz = " in text  # in the [acquisition] table
+    rig = tmp_path / "rig.toml"
+    given = f"{field} = {value}" if field == "iepe_corner_hz" else f"iepe_corner_hz = 0.5\n{field} = {value}"
+    rig.write_text("\n".join(given if line.startswith("iepe_corner_hz = ") else line for line in text.splitlines()) + "\n")
+    capsys.readouterr()
+    assert main(["new", str(tmp_path / "p.h5"), "--rig", str(rig)]) != 0
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and f"field {field!r}: expected 0.0001 to 1e+08 Hz" in err, err
+    assert not (tmp_path / "p.h5").exists()
