@@ -36,6 +36,7 @@ NINE_ROLES = ("xC", "yC", "zC", "x1", "z1", "y2", "z2", "x3", "y3")
 #: frequencies a rig file may give (Hz): sampling rates, an IEPE supply's corner, a sensor's resonance
 FREQUENCY_RANGE_HZ = (1e-4, 1e8)
 
+
 @dataclass(frozen=True)
 class Plate:
     """A box drawn for a body: size (L, W, H along body x, y, z) and its corner of least x, y, z."""
@@ -636,7 +637,7 @@ def _acquisition(table: Any, where0: str) -> Acquisition | None:
             raise ConfigError(f"{wa}.force_channel: expected true or false, got {force!r}")
         aa = AntiAliasing(
             family=family, order=_integer(f"{wa}.order", aa.get("order"), 1, 16),
-            cutoff_hz=_number(f"{wa}.cutoff_hz", aa.get("cutoff_hz"), positive=True),  # checked against the rate where used
+            cutoff_hz=_number(f"{wa}.cutoff_hz", aa.get("cutoff_hz"), positive=True),
             ripple_db=_number(f"{wa}.ripple_db", aa.get("ripple_db", 0.1), positive=True),
             attenuation_db=_number(f"{wa}.attenuation_db", aa.get("attenuation_db", 60.0), positive=True),
             force_channel=force)
