@@ -116,6 +116,8 @@ def check_revision(path: Path, key: str, effects: Any, parameters: Any, metrics:
         v = metrics.get(k)
         if v is not None and not _number(v):
             raise _bad(path, where, f"metrics.{k}", v, "a number or null")
+        if v is not None and float(v) < 0:  # an error is a root of sums of squares
+            raise _bad(path, where, f"metrics.{k}", v, "a number >= 0 or null")
     if not isinstance(parameters, dict) or not all(_number(v) for v in parameters.values()):
         raise _bad(path, where, "parameters", parameters, "a table of numbers")
     if not isinstance(effects, list):

@@ -95,7 +95,8 @@ def checked(where: str, data, names, units, fs, explicit: dict, may_transpose: b
     known unit per column, a finite rate > 0; ``explicit`` (options, sidecar) fill and override.
     ``may_transpose``: an unnamed array that is channels x samples is read transposed."""
     try:
-        a = np.asarray(data, dtype=float)
+        with np.errstate(over="ignore"):  # a float128 of 1e400 becomes inf, refused below in one line
+            a = np.asarray(data, dtype=float)
     except (TypeError, ValueError):
         raise ConfigError(f"{where}: data: not an array of numbers (dtype {np.asarray(data).dtype})") from None
     if a.ndim == 1:

@@ -66,3 +66,29 @@ def test_a_rig_frequency_out_of_any_lab_range_is_refused_by_new(tmp_path, capsys
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and f"field {field!r}: expected 0.0001 to 1e+08 Hz" in err, err
     assert not (tmp_path / "p.h5").exists()
+
+
+def test_a_negative_stored_error_is_refused_in_one_line(tmp_path, capsys):
+    # it ran into the history figure's log axis (a matplotlib warning beside the figure)
+    p = tmp_path / "p.h5"
+    assert main(["new", str(p)]) == 0
+    with h5py.File(p, "r+") as f:
+        f["models/revisions/0"].attrs["metrics"] = '{"error": -0.5}'
+    capsys.readouterr()
+    assert main(["history", str(p), "--figure", str(tmp_path / "h.png")]) != 0
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "metrics.error" in err and ">= 0" in err, err
+    assert not (tmp_path / "h.png").exists()
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_an_npy_of_long_doubles_past_a_floats_range_gets_one_line(tmp_path, capsys):
+    import numpy as np
+
+    np.save(tmp_path / "x.npy", np.full((100, 2), np.longdouble("1e400")))
+    (tmp_path / "x.toml").write_text('units = "m/s^2"\n')
+    assert main(["new", str(tmp_path / "p.h5"), "--rig", "none"]) == 0
+    capsys.readouterr()
+    assert main(["import", str(tmp_path / "p.h5"), str(tmp_path / "x.npy"), "--rate", "1000", "--name", "x"]) != 0
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "x.npy" in err, err
