@@ -102,6 +102,10 @@ def operating_shape(project, experiment: str, reference: str, frequency_hz: floa
           "scaling": "spectrum", "axis": 0}
     freq, g_rr = scipy.signal.welch(data[:, r], **kw)
     line = int(np.argmin(np.abs(freq - frequency_hz)))
+    if freq[line] <= 0:  # a record too short for the frequency: its shape has no displacement
+        apart = freq[1] - freq[0] if len(freq) > 1 else fs
+        raise ConfigError(f"{where}: the line nearest {frequency_hz:g} Hz is 0 Hz (lines {apart:g} Hz apart "
+                          f"on {data.shape[0]} samples): too few samples for an ODS there")
     if g_rr[line] <= 0:
         raise ConfigError(f"{where}: reference {reference!r} holds no signal at {freq[line]:g} Hz")
     _, g_ri = scipy.signal.csd(data[:, [r]], data, **kw)

@@ -92,3 +92,17 @@ def test_an_npy_of_long_doubles_past_a_floats_range_gets_one_line(tmp_path, caps
     assert main(["import", str(tmp_path / "p.h5"), str(tmp_path / "x.npy"), "--rate", "1000", "--name", "x"]) != 0
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "x.npy" in err, err
+
+
+def test_an_ods_at_a_frequency_a_short_record_cannot_resolve_gets_one_line(tmp_path, capsys):
+    # four samples: the line nearest 500 Hz is 0 Hz, and the displacement there divided by zero
+    # (two RuntimeWarnings before the error line)
+    p = tmp_path / "o.h5"
+    (tmp_path / "o.csv").write_text("time,xC [m/s^2],zC [m/s^2]\n0,0.0001,-3.9\n0.0005,0.001,0.001\n"
+                                    "0.001,0.0003,-0.0009\n0.0015,-0.0003,0.002\n")
+    assert main(["new", str(p)]) == 0
+    assert main(["import", str(p), str(tmp_path / "o.csv"), "--name", "x"]) == 0
+    capsys.readouterr()
+    assert main(["ods", str(p), "x", "--reference", "xC", "--at", "500"]) != 0
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "the line nearest 500 Hz is 0 Hz" in err, err
