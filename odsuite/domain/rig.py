@@ -35,6 +35,8 @@ NINE_ROLES = ("xC", "yC", "zC", "x1", "z1", "y2", "z2", "x3", "y3")
 
 #: frequencies a rig file may give (Hz): sampling rates, an IEPE supply's corner, a sensor's resonance
 FREQUENCY_RANGE_HZ = (1e-4, 1e8)
+#: the lowest sampling rate, as acquire's and a stored record's
+LOWEST_RATE_HZ = 0.1
 
 
 @dataclass(frozen=True)
@@ -604,12 +606,11 @@ def _acquisition(table: Any, where0: str) -> Acquisition | None:
     def opt_number(key: str) -> float | None:
         return None if table.get(key) is None else _number(f"{w} field {key!r}", table[key], positive=True)
 
-    def opt_hz(key: str) -> float | None:
+    def opt_hz(key: str, lowest: float = FREQUENCY_RANGE_HZ[0]) -> float | None:
         # a corner of 1e300 Hz (or 1e-300) is accepted as a number and breaks the sensor's discretisation
         v = opt_number(key)
-        if v is not None and not FREQUENCY_RANGE_HZ[0] <= v <= FREQUENCY_RANGE_HZ[1]:
-            raise ConfigError(f"{w} field {key!r}: expected {FREQUENCY_RANGE_HZ[0]:g} to {FREQUENCY_RANGE_HZ[1]:g} Hz, "
-                              f"got {v!r}")
+        if v is not None and not lowest <= v <= FREQUENCY_RANGE_HZ[1]:
+            raise ConfigError(f"{w} field {key!r}: expected {lowest:g} to {FREQUENCY_RANGE_HZ[1]:g} Hz, got {v!r}")
         return v
 
     bits = table.get("adc_bits")
@@ -645,7 +646,7 @@ def _acquisition(table: Any, where0: str) -> Acquisition | None:
                       positive=True)
     if damping >= 1:
         raise ConfigError(f"{w} field 'sensor_resonance_damping': expected a ratio below 1, got {damping!r}")
-    return Acquisition(sampling_rate=opt_hz("sampling_rate"), pre_trigger=pre, adc_bits=bits,
+    return Acquisition(sampling_rate=opt_hz("sampling_rate", LOWEST_RATE_HZ), pre_trigger=pre, adc_bits=bits,
                        adc_range=adc_range, anti_aliasing=aa, iepe_corner_hz=opt_hz("iepe_corner_hz"),
                        sensor_resonance_hz=opt_hz("sensor_resonance_hz"), sensor_resonance_damping=damping)
 

@@ -238,6 +238,16 @@ def _handmade(kind: str, command: str = "info") -> Callable[[Path], list[str]]:
                 rev.attrs["metrics"] = "[1, 2]"
             elif kind == "effects dict":
                 rev.attrs["effects"] = '{"stiffness": 1}'
+            elif kind == "metrics negative":
+                rev.attrs["metrics"] = '{"error": -0.5}'
+            elif kind == "parameter 1e400":
+                rev.attrs["parameters"] = '{"stiffness.scale_z": 1%s}' % ("0" * 400)
+            elif kind == "filter order 1e12":
+                table = e["systeminfo/channels"][()]
+                table["filter_order"][2] = 10**12
+                e["systeminfo/channels"][...] = table
+            elif kind == "force point 1e300":
+                e.attrs["force_point"] = [1e300, 0.0, 0.0]
             elif kind == "rate 0":
                 e.attrs["sampling_rate"] = 0.0
             elif kind == "rate NaN":
@@ -496,6 +506,8 @@ CASES: list[Case] = [
     Case("not-a-project", "info on a text file", '{dir}/notes.h5: not an HDF5 file, so not an odsuite project', argv=lambda d: ["info", str(d / "notes.h5")],
          files={"notes.h5": "just notes\n"}),
     # rig definitions (TOML), through `odsuite new --rig FILE`
+    Case("rig-iepe-corner", "rig file whose [acquisition] iepe_corner_hz is 1e300", "{dir}/bad.toml: acquisition field 'iepe_corner_hz': expected 0.0001 to 1e+08 Hz, got 1e+300",
+         **new_rig(RIG_TOML + '[acquisition]\niepe_corner_hz = 1e300\n')),
     Case("rig-invalid-toml", "rig file with `name = ` and no value", '{dir}/bad.toml: not valid TOML: Invalid value (at line 1, column 8)', **new_rig('name = \n')),
     Case("rig-missing-name", "rig file without `name`", "{dir}/bad.toml: missing field 'name'", **new_rig(RIG_TOML.replace('name = "bench"\n', ""))),
     Case("rig-bad-vector", "sensor position with 2 numbers", "{dir}/bad.toml: sensors[0] 'a1' field 'position': expected 3 finite numbers, got [0.0, 0.0]",
@@ -651,6 +663,14 @@ CASES: list[Case] = [
          argv=_handmade('metrics list', 'compare')),
     Case('stored-effects-dict', 'info on a project whose revision 0 stores effects as a table, not a list', "{dir}/x.h5: model revision 0 field 'effects': expected a list of effect tables, got",
          argv=_handmade('effects dict', 'info')),
+    Case('stored-metrics-negative', 'info on a project whose revision 0 stores the metric error -0.5', "{dir}/x.h5: model revision 0 field 'metrics.error': expected a number >= 0 or null, got -0.5",
+         argv=_handmade('metrics negative', 'info')),
+    Case('stored-parameter-1e400', 'model on a project whose revision 0 stores a parameter of 10^400 (a JSON integer)', "{dir}/x.h5: model revision 0 field 'parameters': expected a table of numbers, got",
+         argv=_handmade('parameter 1e400', 'model')),
+    Case('stored-filter-order', 'compare on a project whose experiment stores a filter order of 10^12 on channel 2', "{dir}/x.h5: experiment 'e1' systeminfo channel 2 field 'filter_order': expected 0 to 30, got 1000000000000",
+         argv=_handmade('filter order 1e12', 'compare')),
+    Case('stored-force-point', 'info on a project whose experiment stores a force point 1e300 m away', "{dir}/x.h5: experiment 'e1' field 'force_point': expected coordinates within 10000 m of the rig's origin, got [1e+300, 0.0, 0.0]",
+         argv=_handmade('force point 1e300', 'info')),
     Case('stored-rate-zero', 'info on a project whose experiment stores sampling rate 0', "{dir}/x.h5: experiment 'e1' field 'sampling_rate': expected 0.1 to 1e+08 Hz, got 0.0",
          argv=_handmade('rate 0', 'info')),
     Case('stored-rate-nan', 'process on a project whose experiment stores sampling rate NaN', "{dir}/x.h5: experiment 'e1' field 'sampling_rate': expected 0.1 to 1e+08 Hz, got nan",
