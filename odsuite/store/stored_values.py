@@ -63,20 +63,21 @@ def check_raw_block(path: Path, name: str, block: np.ndarray, row0: int, channel
 
 def check_systeminfo(path: Path, name: str, channels: list) -> None:
     """The stored channel table's divisors (sensitivity and DAQ gain finite and not 0, the
-    sensitivity within the writers' range) and filter orders within theirs (an order of 10^12
-    asked a filter design for terabytes)."""
+    sensitivity within what any writer stores) and filter orders within the writers' range (an
+    order of 10^12 asked a filter design for terabytes)."""
     from odsuite.domain.filter_kinds import MAX_FILTER_ORDER
-    from odsuite.domain.systeminfo import MAX_SENSITIVITY, MIN_SENSITIVITY
+    from odsuite.domain.rig import SENSITIVITY_RANGE
 
+    # the widest writer's range: a rig file's V per SI unit, per micro-unit on a micro-units channel
+    lowest, highest = 1e-6 * SENSITIVITY_RANGE[0], SENSITIVITY_RANGE[1]
     for k, ch in enumerate(channels):
         where = f"experiment {name!r} systeminfo channel {k}"
         for field in ("sensitivity", "daq_gain"):
             v = getattr(ch, field)
             if not (_number(v) and math.isfinite(v) and v != 0):
                 raise _bad(path, where, field, v, "a finite number other than 0")
-        if not MIN_SENSITIVITY <= abs(ch.sensitivity) <= MAX_SENSITIVITY:
-            raise _bad(path, where, "sensitivity", ch.sensitivity,
-                       f"{MIN_SENSITIVITY:g} to {MAX_SENSITIVITY:g} V per unit in magnitude")
+        if not lowest <= abs(ch.sensitivity) <= highest:
+            raise _bad(path, where, "sensitivity", ch.sensitivity, f"{lowest:g} to {highest:g} V per unit in magnitude")
         if not (_number(ch.filter_order) and 0 <= ch.filter_order <= MAX_FILTER_ORDER):
             raise _bad(path, where, "filter_order", ch.filter_order, f"0 to {MAX_FILTER_ORDER}")
 

@@ -106,3 +106,22 @@ def test_an_ods_at_a_frequency_a_short_record_cannot_resolve_gets_one_line(tmp_p
     assert main(["ods", str(p), "x", "--reference", "xC", "--at", "500"]) != 0
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "the line nearest 500 Hz is 0 Hz" in err, err
+
+
+def test_a_project_written_from_a_rig_at_its_sensitivity_limit_reads_back(tmp_path, capsys):
+    # the read-back check must take what the writers store: a rig file allows up to 1e9 V per SI
+    # unit, and a check at the .CTR reader's 1e3 made this project unreadable after its import
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[2] / "projects" / "rigs" / "two-body-machine.toml").read_text()
+    assert "\nsensitivity = 0.0102 " in text
+    rig = tmp_path / "rig.toml"
+    rig.write_text(text.replace("\nsensitivity = 0.0102 ", "\nsensitivity = 2000.0 "))
+    (tmp_path / "r.csv").write_text("hammer [N],m1_x [m/s^2]\n" + "".join(
+        f"{10.0 if 100 <= k < 103 else 0.0},{0.01 * (k % 7)}\n" for k in range(1024)))
+    p = tmp_path / "p.h5"
+    assert main(["new", str(p), "--rig", str(rig)]) == 0
+    assert main(["import", str(p), str(tmp_path / "r.csv"), "--name", "x", "--rate", "10240",
+                 "--force-point=100,50,250", "--force-dir=-z"]) == 0
+    capsys.readouterr()
+    assert main(["info", str(p), "--json"]) == 0, capsys.readouterr().err
