@@ -78,7 +78,8 @@ def check_systeminfo(path: Path, name: str, channels: list) -> None:
                 raise _bad(path, where, field, v, "a finite number other than 0")
         if not lowest <= abs(ch.sensitivity) <= highest:
             raise _bad(path, where, "sensitivity", ch.sensitivity, f"{lowest:g} to {highest:g} V per unit in magnitude")
-        if not (_number(ch.filter_order) and 0 <= ch.filter_order <= MAX_FILTER_ORDER):
+        # (as the .CTR reader: an order is read only where the channel's filters are on)
+        if ch.filters_on and not (_number(ch.filter_order) and 0 <= ch.filter_order <= MAX_FILTER_ORDER):
             raise _bad(path, where, "filter_order", ch.filter_order, f"0 to {MAX_FILTER_ORDER}")
 
 
