@@ -867,7 +867,8 @@ def _code_loglik(codes: np.ndarray, x: np.ndarray, blur: np.ndarray, offsets: np
 
 
 def converter_offsets(v: np.ndarray, volts: np.ndarray, step: float, trigger: int,
-                      count: int, disturbance: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray] | None:
+                      count: int, disturbance: np.ndarray | None = None, tail: int = -1
+                      ) -> tuple[np.ndarray, np.ndarray] | None:
     """``count`` offsets (volts) of a signal against its converter's codes, drawn evenly from
     what the record allows, and with each the white noise (volts) before rounding. The samples
     before the hit tell the noise and, when it spreads them over a few codes, the offset; a
@@ -881,22 +882,32 @@ def converter_offsets(v: np.ndarray, volts: np.ndarray, step: float, trigger: in
     the signal spans many codes (there rounding hardly matters). ``disturbance`` (volts): the hum
     and drift fitted on the record, which the converter rounds with the signal: a hum of a code or
     two moves the samples through the codes, and taken for noise it would hide how small the noise
-    is (and with it how white the rounding is)."""
-    pre = volts[: max(trigger, 1)]
+    is (and with it how white the rounding is). ``tail``: the first sample of the quiet stretch
+    that ends the record (PreparedExperiment.quiet_tail), which tells the noise where fewer than two
+    samples before the hit do (a record that starts at its hit)."""
+    signal = v / step
+    x = signal if disturbance is None else signal + disturbance / step
+    # the noise before rounding: the most likely over the first half of the samples before the hit
+    # (the hammer's contact and the response start before the detected hit) where the model's
+    # signal is still; offsets free; a hundredth of a code at least (the model's discretisation)
+    quiet = np.flatnonzero(np.abs(signal[: max(trigger, 1) // 2]) < 0.01)
+    stretch = slice(0, max(trigger, 1))
+    if quiet.size < 2 and 0 <= tail < len(v):
+        # a tail rings on below a code: its samples all tell the noise about the signal, unless hum
+        # or drift moves them through the codes there (the offset is then immaterial)
+        if np.ptp(x[tail:] - signal[tail:]) >= DRIFT_CODES:
+            return None
+        quiet = tail + np.flatnonzero(np.abs(signal[tail:]) <= OFFSET_CODES)
+        stretch = slice(tail, len(v))
+    if quiet.size < 2:
+        return None
+    pre = volts[stretch]
     ref = volts[int(np.argmin(np.abs(volts - np.median(pre))))]
     codes = (volts - ref) / step
     if not np.all(np.abs(codes - np.round(codes)) <= GRID_TOLERANCE):
         return None
     codes = np.round(codes)
     grid = (np.arange(OFFSET_GRID) + 0.5) / OFFSET_GRID - 0.5
-    signal = v / step
-    x = signal if disturbance is None else signal + disturbance / step
-    # the noise before rounding: the most likely over the first half of the samples before the hit
-    # (the hammer's contact and the response start before the detected hit); offsets free; a
-    # hundredth of a code at least (the model's discretisation)
-    quiet = np.flatnonzero(np.abs(signal[: len(pre) // 2]) < 0.01)
-    if quiet.size < 2:
-        return None
     line = np.polyval(np.polyfit(quiet, codes[quiet] - x[quiet], 1), quiet[[0, -1]])
     if abs(line[1] - line[0]) >= DRIFT_CODES:
         return None  # drift moves the signal through the codes: the offset is immaterial
@@ -976,7 +987,7 @@ def sensor_noise(model, exp: PreparedExperiment, realisations: int = NOISE_REALI
     narrow = np.sqrt(np.asarray(exp.noise_var, float)) * volts_per_stage < step
     for j in np.flatnonzero((step > 0) & narrow):
         hum[:, j] = carried_disturbance(v[:, j], exp.volts[:, j], step[j], exp.trigger, exp.fs, hum[:, j])
-    told = {j: converter_offsets(v[:, j], exp.volts[:, j], step[j], exp.trigger, realisations, hum[:, j])
+    told = {j: converter_offsets(v[:, j], exp.volts[:, j], step[j], exp.trigger, realisations, hum[:, j], exp.quiet_tail)
             for j in np.flatnonzero((step > 0) & narrow)}
     told = {j: t for j, t in told.items() if t is not None}
     out = []

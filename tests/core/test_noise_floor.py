@@ -282,6 +282,33 @@ def _simulated_rounding(v, volts, step, trigger, fs, count, rng):
             for d, s in zip(*told)]
 
 
+@pytest.mark.parametrize("offset", [0.0, 0.45])
+def test_a_record_that_starts_at_its_hit_tells_the_noise_on_its_quiet_tail(offset):
+    """A record whose first sample is its hit: no sample before it tells the noise, and its quiet
+    tail does. Noise of a third of a code, rounded at an offset (in codes): the record's spread
+    there is the rounded noise's, which depends on the offset, and Sheppard's lsb^2/12 taken off
+    it reads 0.23 code at a zero offset and 0.42 at 0.45 (on a two-body null, 0.14 for 0.33: its
+    floor too low, cells 2.6-3.1x at 0.6-5 kHz). Told by the tail, the noise is the third within
+    a fifth; a drift of two codes across the tail moves its samples through the codes, and the
+    offset is not told."""
+    from odsuite.analysis.prediction import converter_offsets
+
+    rng = np.random.default_rng(14)
+    step, n, sigma = 1e-3, 2048, 1.0 / 3.0
+    t = np.arange(n) / 10240.0
+    v = 40.0 * step * np.sin(2 * np.pi * 120.0 * t) * np.exp(-t / 0.02)  # about a code at 0.09 s
+    volts = np.round((v + offset * step + sigma * step * rng.standard_normal(n)) / step) * step
+    tail = 1300
+    assert np.abs(v[tail:]).max() < step
+    assert converter_offsets(v, volts, step, 0, 4) is None  # no sample before the hit
+    picks, noise = converter_offsets(v, volts, step, 0, 4, tail=tail)
+    assert np.all(noise / step == pytest.approx(sigma, rel=0.2)), noise / step
+    assert np.all(np.abs(picks / step - offset) <= 0.15), picks / step
+    drift = 2.0 * step * np.clip((np.arange(n) - tail) / (n - tail), 0.0, None)
+    drifting = np.round((v + drift + offset * step + sigma * step * rng.standard_normal(n)) / step) * step
+    assert converter_offsets(v, drifting, step, 0, 4, drift, tail) is None
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_the_floors_sensor_noise_on_a_record_drifting_through_the_codes(seed):
     """A response ringing to the record's end (quiet samples before the hit only: 12 ms) under

@@ -19,6 +19,7 @@ import pytest
 from odsuite.analysis.comparison import compare
 from odsuite.analysis.noise_floor import FLOOR_TOLERANCE
 from odsuite.analysis.prediction import prepare
+from odsuite.analysis.resolved import resolve
 from odsuite.store.project import open_project
 
 from . import calibrate
@@ -58,4 +59,22 @@ def test_a_record_without_samples_before_the_hit_has_its_floor(tmp_path, index):
             [e.notes for e in exps]
         assert not any("reaches into the hit" in n for e in exps for n in e.notes)
         c = compare(p, prepared=exps, resonances=False)
+    assert 1.0 / FLOOR_TOLERANCE < c.error / c.noise_floor_error < FLOOR_TOLERANCE, (c.error, c.noise_floor_error)
+
+
+def test_a_two_body_record_without_samples_before_the_hit_tells_its_converters_noise(tmp_path):
+    # the noise (50 uV, a third of the 16-bit card's code) is narrower than a code, so how white its
+    # rounding is depends on the converter's offset, which the samples before the hit tell; with
+    # none, the quiet tail tells it. Left at random with the noise from the tail's spread less
+    # Sheppard's share (0.14 code for 0.33 on two channels whose offsets rounded little), the
+    # floor was too low at high frequency: five cells at 0.6-5 kHz, 2.6-3.1x their floor
+    spec = calibrate.specs("nulls", 10)[1] | {"pre_trigger": 0, "set": "nulls", "id": "no-pretrigger-two-body"}
+    assert spec["rig"] == "two-body" and spec["noise_v"] == 50e-6
+    path = calibrate.project_of(spec, tmp_path)
+    with open_project(path) as p:
+        exps = prepare(p)
+        assert all(e.trigger == 0 and 0 < e.quiet_tail < e.n_samples for e in exps)
+        c = compare(p, prepared=exps, resonances=False)
+    res = resolve(exps, c.predictions, c.floor)
+    assert not res.detected(), res.cells(5)
     assert 1.0 / FLOOR_TOLERANCE < c.error / c.noise_floor_error < FLOOR_TOLERANCE, (c.error, c.noise_floor_error)
