@@ -204,8 +204,9 @@ class Effect:
                 if v not in choices:
                     raise ConfigError(f"effect {self.name!r} parameter {name!r}: expected one of {choices}, got {v!r}")
             elif not (lower <= v <= upper):
-                raise ConfigError(f"effect {self.name!r} parameter {name!r}: {v!r} {unit} is outside "
-                                  f"[{lower}, {upper}]")
+                unit_text = "" if unit in ("", "1") else f" {unit}"  # a factor's unit is 1: no word
+                raise ConfigError(f"effect {self.name!r} parameter {name!r}: expected {lower:g} to {upper:g}{unit_text}, "
+                                  f"got {v!r}")
             out[name] = v
         return out
 

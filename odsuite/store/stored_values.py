@@ -120,8 +120,9 @@ def check_revision(path: Path, key: str, effects: Any, parameters: Any, metrics:
             raise _bad(path, where, f"metrics.{k}", v, "a number or null")
         if v is not None and float(v) < 0:  # an error is a root of sums of squares
             raise _bad(path, where, f"metrics.{k}", v, "a number >= 0 or null")
-    if not isinstance(parameters, dict) or not all(_number(v) for v in parameters.values()):
-        raise _bad(path, where, "parameters", parameters, "a table of numbers")
+    # a fitted value is finite (an uncertainty may be unknown: null)
+    if not isinstance(parameters, dict) or not all(_number(v) and math.isfinite(v) for v in parameters.values()):
+        raise _bad(path, where, "parameters", parameters, "a table of finite numbers")
     if not isinstance(effects, list):
         raise _bad(path, where, "effects", effects, "a list of effect tables")
     for e in effects:
@@ -131,6 +132,8 @@ def check_revision(path: Path, key: str, effects: Any, parameters: Any, metrics:
             values = e.get(table, {})
             if not isinstance(values, dict) or not all(v is None or _number(v) for v in values.values()):
                 raise _bad(path, where, f"effects[{e['effect']!r}].{table}", values, "a table of numbers")
+        if not all(v is None or math.isfinite(v) for v in e.get("values", {}).values()):
+            raise _bad(path, where, f"effects[{e['effect']!r}].values", e["values"], "a table of finite numbers")
         per = e.get("per_experiment", {})
         if not isinstance(per, dict) or not all(isinstance(v, dict) and all(_number(x) for x in v.values())
                                                 for v in per.values()):

@@ -11,12 +11,13 @@ from odsuite.cli import main
 
 
 @pytest.mark.parametrize("command", [["model"], ["compare"], ["history"]])
-def test_a_stored_parameter_past_a_floats_range_is_refused_in_one_line(tmp_path, capsys, command):
+@pytest.mark.parametrize("big", ["1" + "0" * 400, "NaN"])
+def test_a_stored_parameter_past_a_floats_range_is_refused_in_one_line(tmp_path, capsys, command, big):
     # JSON's integers have no bound: 10**400 passed the stored-value check as a number, and turning
-    # it into a float stopped `model`, `compare`, `report` and `diagnose` (OverflowError)
+    # it into a float stopped `model`, `compare`, `report` and `diagnose` (OverflowError). A NaN
+    # passed it too, and the model's bounds check said "nan 1 is outside [0.25, 4.0]" without the file
     p = tmp_path / "p.h5"
     assert main(["new", str(p)]) == 0
-    big = "1" + "0" * 400
     with h5py.File(p, "r+") as f:
         rev = f["models/revisions/0"]
         rev.attrs["effects"] = '[{"effect": "stiffness", "values": {"scale_z": %s}}]' % big
