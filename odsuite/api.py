@@ -20,6 +20,8 @@ _WHERE: dict[str, str] = {
     "__version__": "odsuite.domain.version",
     # plugins: the hook marker and the registries (notebooks and tests build their own)
     "hookimpl": "odsuite.contracts.hookspecs",
+    # a plugin's command: the one line a Ctrl-C prints, where it wrote files of its own
+    "say_on_interrupt": "odsuite.contracts.interrupts",
     "make_plugin_manager": "odsuite.contracts.plugins",
     "registries": "odsuite.contracts.plugins",
     "Registries": "odsuite.contracts.plugins",

@@ -42,6 +42,7 @@ if _SUMMARY:
 
 import typer
 
+from odsuite.contracts.interrupts import said_on_interrupt, say_on_interrupt
 from odsuite.domain.errors import ConfigError, OdsuiteError
 from odsuite.store import diskspace
 from odsuite.cli.printable import shown  # noqa: F401  (commands import it from here)
@@ -183,6 +184,8 @@ class _Ledger:
     def line(self) -> str:
         if self.settled is not None:
             return self.settled
+        if said_on_interrupt() is not None:  # a plugin's command knows what it wrote
+            return said_on_interrupt()
         if self.current is not None and len(_commits()) > self.commits_at_start:
             self.done()
         if self.target is None:
@@ -385,6 +388,7 @@ def _exit_now(code: int) -> None:
 
 def _main(argv: list[str] | None) -> int:
     _ledger.reset()
+    say_on_interrupt(None)
     _OUTPUTS.clear()
     if not _AS_PROGRAM:  # called again in the same process (tests, scripts): a fresh start
         _INTERRUPTS.clear()

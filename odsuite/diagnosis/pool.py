@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import itertools
 import os
+import signal
 from collections.abc import Callable
 from typing import Any
 
@@ -67,3 +68,12 @@ def worker_start() -> None:
     # one BLAS thread per process: the processes share the cores, and a BLAS pool per process
     # would spin against the other process's work
     threadpool_limits(1)
+    # a terminal's Ctrl-C reaches every process of the command: the command line reports it once,
+    # and a worker ends without a word (forked, it would raise the command's interrupt and print
+    # its traceback); a task it runs ends as the command's does
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, _end_quietly)
+
+
+def _end_quietly(signum: int, frame: object) -> None:
+    raise SystemExit(1)  # multiprocessing ends a process on SystemExit without a traceback

@@ -26,7 +26,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn
 from rich.table import Table
 
-from odsuite.api import error_text
+from odsuite.api import error_text, say_on_interrupt
 
 #: The truth's hidden effects: a 30 % stiffer vertical suspension and a platform twist mode at
 #: 640 Hz, 2 % damping (well inside the accelerometer and filter bands, beyond every rigid mode)
@@ -209,6 +209,7 @@ def run_demo(out: str | Path = "demo-output", *, rounds: int = ROUNDS, console: 
     console = console or Console()
     out = Path(out)
     _demo_folder(out)
+    say_on_interrupt(f"interrupted: {out} holds what the demo wrote so far; run it again to replace it")
     path = out / PROJECT_NAME
     _recorded_project(path, console, started)
 

@@ -52,6 +52,8 @@ COMMANDS: tuple[InterruptedCommand, ...] = (
     InterruptedCommand("import-legacy", lambda p, i, o, k: [
         "import-legacy", str(p), str(i / "T8.DAT"), "--systeminfo", str(TABLE_E3), "--name", f"leg{k}",
         "--force-point", "0,4.122,-11.399", "--force-dir", "+z"], (0.5, 1.8)),
+    # its candidates screened on two forked worker processes, which a terminal's Ctrl-C reaches too
+    InterruptedCommand("diagnose", lambda p, i, o, k: ["diagnose", str(p), "--workers", "2"], (1.0, 2.4)),
     InterruptedCommand("render", lambda p, i, o, k: [
         "render", str(p), "s1", "-o", str(o / "m.gif"), "--workers", "2", "--frame-step", "32"], (3.0, 12.0)),
     # 96 frames: two render processes, each with its ffmpeg encoder, and the segments joined

@@ -168,3 +168,27 @@ def test_the_demo_takes_back_its_own_folder(tmp_path):
     fresh = tmp_path / "new" / "folder"
     _demo_folder(fresh)
     assert sorted(p.name for p in fresh.iterdir()) == [MARKER]
+
+
+def test_ctrl_c_during_the_demo_names_the_folder_it_wrote(tmp_path, capsys, monkeypatch):
+    # the command line's own line said "interrupted: nothing stored" while the folder held the
+    # marker and what the demo had written so far: a plugin's command says what it leaves
+    from odsuite.cli import main
+    from odsuite_plugins.demo import story
+
+    import signal
+
+    def interrupted(path, console, started):
+        path.write_bytes(b"half a project")
+        signal.raise_signal(signal.SIGINT)
+
+    monkeypatch.setattr(story, "_recorded_project", interrupted)
+    out = tmp_path / "out"
+    assert main(["demo", "--out", str(out)]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"interrupted: {out} holds what the demo wrote so far; run it again to replace it"], err
+    # the next command's Ctrl-C is its own again
+    assert main(["info", str(tmp_path / "none.h5")]) != 0
+    from odsuite.contracts.interrupts import said_on_interrupt
+
+    assert said_on_interrupt() is None
