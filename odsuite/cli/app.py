@@ -410,7 +410,8 @@ def _main(argv: list[str] | None) -> int:
 
 def _run(argv: list[str] | None) -> int:
     global _AS_JSON
-    _AS_JSON = "--json" in (sys.argv[1:] if argv is None else argv)
+    # "--json=1" is a usage error, which a script that asked for JSON still reads as JSON
+    _AS_JSON = any(a == "--json" or a.startswith("--json=") for a in (sys.argv[1:] if argv is None else argv))
     try:
         if _INTERRUPTS:  # Ctrl-C while the program loaded
             raise _Interrupted()
@@ -475,6 +476,19 @@ def _failed(exc: Exception) -> int:
         line = _ledger.after_error(str(exc))
         err_console.print(f"error: {line}", style="bold red", highlight=False, soft_wrap=True)
         if _AS_JSON:  # a script reading stdout gets its one document too
+            _print_json({"error": line})
+        return 1
+    except MemoryError:
+        # the memory ran out past the command's own checks (another program took it meanwhile):
+        # a state of the machine, not a bug
+        from odsuite.domain.memory import free_memory
+
+        free = free_memory()
+        now = "" if free is None else f" ({free / 2**20:.0f} MiB free now)"
+        line = _ledger.after_error(f"out of memory{now}: close other programs, or give the command less to hold at "
+                                   "once; project unchanged")
+        err_console.print(f"error: {line}", style="bold red", highlight=False, soft_wrap=True)
+        if _AS_JSON:
             _print_json({"error": line})
         return 1
     except typer.Exit as exc:

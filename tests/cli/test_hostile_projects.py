@@ -126,3 +126,23 @@ def test_a_project_written_from_a_rig_at_its_sensitivity_limit_reads_back(tmp_pa
                  "--force-point=100,50,250", "--force-dir=-z"]) == 0
     capsys.readouterr()
     assert main(["info", str(p), "--json"]) == 0, capsys.readouterr().err
+
+
+def test_memory_running_out_past_the_checks_is_one_line(tmp_path, capsys, monkeypatch):
+    # a 2 GiB sparse CSV passed the free-memory check (8 bytes per byte of text) and, with another
+    # program taking memory meanwhile, its parse ran out: a MemoryError traceback
+    import odsuite.analysis.comparison as comparison
+
+    p = tmp_path / "p.h5"
+    assert main(["new", str(p)]) == 0
+    assert main(["acquire", str(p), "--daq", "sim", "--name", "T2", "--scenario", "T2", "--samples", "2048"]) == 0
+
+    def no_memory(*args, **kwargs):
+        raise MemoryError
+
+    monkeypatch.setattr(comparison, "compare", no_memory)
+    capsys.readouterr()
+    assert main(["compare", str(p), "--json"]) == 1
+    out, err = capsys.readouterr()
+    assert err.count("\n") == 1 and err.startswith("error: out of memory") and "Traceback" not in err, err
+    assert json.loads(out)["error"].startswith("out of memory")

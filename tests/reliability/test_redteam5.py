@@ -39,6 +39,14 @@ def test_usage_error_under_json(argv, message, capsys):
     assert err.count("\n") == 1 and err.startswith(f"error: {message} (odsuite {argv[0]} --help)"), err
 
 
+def test_a_value_given_to_json_is_a_usage_error_a_script_reads_as_json(capsys):
+    # "--json=1" was not taken for --json: the usage error came without the JSON document
+    assert main(["info", "p.h5", "--json=1"]) == 2
+    out, err = capsys.readouterr()
+    assert json.loads(out) == {"error": "Option '--json' does not take a value."}
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+
+
 def test_usage_error_one_line_without_json(capsys):
     assert main(["info", "p.h5", "--bogus"]) == 2
     out, err = capsys.readouterr()
