@@ -65,6 +65,13 @@ estimate on records without samples before the hit, which neither bench has): at
 least of three forked runs, thesis 1.81 s CPU, 276 worth (the baseline 6.6 ms), two-body 2.66 s,
 266 worth (10.0 ms); the 250 target stays missed on both by about 1.1x.
 
+Round 46 (no change to the search; a record that starts at its hit now tells its converter's
+offset on its quiet tail, which neither bench has: both benches' diagnose the same to the bit):
+three sittings at load 0.5-1.8, the least of three forked runs each, thesis 278 / 245 / 288 worth
+(1.7 / 2.2 / 1.8 s CPU, the baseline 6.1 / 9.0 / 6.3 ms), two-body 210 / 276 / 264 (2.5 / 3.2 /
+2.8 s, 11.8 / 11.5 / 10.7 ms). scipy's Welch on the floor's blocks (36 columns of 8192 samples)
+is not beaten by a hand-written one (11.5 against 13.7 ms): the floors' spectra stay scipy's.
+
 Measured in rounds 43-45 and not done (do not redo without a new reason):
 - the fit windows without their samples at rest before the hit (PreparedExperiment.resting_head,
   as the screening's heads): 1.82 -> 1.65 s CPU on the thesis bench, 2.66 -> 2.46 s on the
