@@ -21,7 +21,7 @@ import math
 import multiprocessing
 from collections.abc import Callable, Mapping, Sequence
 from contextlib import contextmanager
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, wait
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -57,7 +57,7 @@ from odsuite.analysis.prediction import PreparedExperiment, predict, prepare
 from odsuite.domain.simulation import load_nonlinear_loop
 from odsuite.analysis import resolved as resolution
 from odsuite.analysis.noise_floor import FLOOR_TOLERANCE
-from odsuite.diagnosis.pool import JOBS, SMALL_JOB, TOKENS, InOrder, default_workers, worker_start  # noqa: F401
+from odsuite.diagnosis.pool import JOBS, SMALL_JOB, TOKENS, InOrder, default_workers, forked_pool, worker_start  # noqa: F401
 from odsuite.diagnosis.ranking import (
     is_significant,
     makes_nonlinear,
@@ -592,8 +592,7 @@ def _diagnose(project, effects, experiments, full_fits, progress, prepared, work
     JOBS[token] = job
     if parallel:  # a candidate may give the structure cubic springs: the workers inherit the loop
         load_nonlinear_loop()
-    pool = (ProcessPoolExecutor(workers, multiprocessing.get_context("fork"), initializer=worker_start)
-            if parallel else InOrder())
+    pool = forked_pool(workers) if parallel else InOrder()
     try:
         with pool:
             screened, evaluations = _screen(pool, token, job, names, progress)

@@ -5,9 +5,11 @@ after another in this process), each with one BLAS thread, sharing what they nee
 from __future__ import annotations
 
 import itertools
+import multiprocessing
 import os
 import signal
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 from threadpoolctl import threadpool_limits
@@ -64,15 +66,31 @@ JOBS: dict[int, dict[str, Any]] = {}
 TOKENS = itertools.count()
 
 
+def forked_pool(workers: int) -> ProcessPoolExecutor:
+    """``workers`` forked processes (worker_start), every one started before this returns with a
+    Ctrl-C held back meanwhile: a process forked with the command line's handler and interrupted
+    before its initializer ran printed that handler's traceback (1 of 5 interrupted diagnoses)."""
+    from odsuite.store.storage import interrupts_held
+
+    pool = ProcessPoolExecutor(workers, multiprocessing.get_context("fork"), initializer=worker_start)
+    try:
+        with interrupts_held():
+            pool.submit(int)  # a fork context starts every process at the first task
+    except BaseException:
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    return pool
+
+
 def worker_start() -> None:
-    # one BLAS thread per process: the processes share the cores, and a BLAS pool per process
-    # would spin against the other process's work
-    threadpool_limits(1)
     # a terminal's Ctrl-C reaches every process of the command: the command line reports it once,
     # and a worker ends without a word (forked, it would raise the command's interrupt and print
     # its traceback); a task it runs ends as the command's does
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, _end_quietly)
+    # one BLAS thread per process: the processes share the cores, and a BLAS pool per process
+    # would spin against the other process's work
+    threadpool_limits(1)
 
 
 def _end_quietly(signum: int, frame: object) -> None:
