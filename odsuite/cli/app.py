@@ -11,10 +11,12 @@ characters and undecodable bytes escaped), so a name like ``[/x]`` or ``x\\xff``
 from __future__ import annotations
 
 import copy
+import functools
 import gc
 import os
 import signal
 import sys
+import threading
 from pathlib import Path
 
 #: Ctrl-Cs received: one while the command line loads (imports take about a second) is held here
@@ -364,6 +366,14 @@ def _unraisable(hook_args) -> None:
         sys.__unraisablehook__(hook_args)
 
 
+def _thread_failed(previous, hook_args) -> None:
+    # a thread that fails after the command's interrupt fails because of it (a process pool's
+    # manager thread setting a cancelled future's exception when its workers ended: CPython's
+    # InvalidStateError, 1 of 30 interrupted diagnoses): the interrupt's line says what happened
+    if not _INTERRUPTS:
+        previous(hook_args)
+
+
 def main(argv: list[str] | None = None) -> int:
     code = _main(argv)
     if _SUMMARY:
@@ -397,11 +407,15 @@ def _main(argv: list[str] | None) -> int:
     except ValueError:  # not the main thread: interrupts stay Python's
         previous = None
     hook, sys.unraisablehook = sys.unraisablehook, _unraisable
+    thread_hook = threading.excepthook
+    threading.excepthook = functools.partial(_thread_failed, thread_hook)
     try:
         return _run(argv)
     finally:
         _collect_from_now()
         sys.unraisablehook = hook
+        if not _AS_PROGRAM:  # the program's own threads may fail as it exits, after its line
+            threading.excepthook = thread_hook
         if previous is not None:
             # the program's work is done: a late Ctrl-C must not kill the exiting interpreter
             for s, handler in previous.items():

@@ -85,13 +85,26 @@ def forked_pool(workers: int) -> ProcessPoolExecutor:
 def worker_start() -> None:
     # a terminal's Ctrl-C reaches every process of the command: the command line reports it once,
     # and a worker ends without a word (forked, it would raise the command's interrupt and print
-    # its traceback); a task it runs ends as the command's does
+    # its traceback); a task it runs ends as the command's does. While this initializer runs it
+    # only silences the process: an exception here is logged with its traceback
+    # (concurrent.futures), and the command ends the process anyway
     for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, _end_quietly)
+        signal.signal(sig, _silenced)
     # one BLAS thread per process: the processes share the cores, and a BLAS pool per process
     # would spin against the other process's work
     threadpool_limits(1)
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, _end_quietly)
+
+
+def _silenced(signum: int, frame: object) -> None:
+    # after the command's interrupt nothing this process prints is news: a queue read that the
+    # command's own exit cut short ended in an EOFError traceback (1 of 20 interrupted diagnoses)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 2)
+    os.close(devnull)
 
 
 def _end_quietly(signum: int, frame: object) -> None:
+    _silenced(signum, frame)
     raise SystemExit(1)  # multiprocessing ends a process on SystemExit without a traceback
