@@ -67,9 +67,10 @@ least of three forked runs, thesis 1.81 s CPU, 276 worth (the baseline 6.6 ms), 
 
 Round 46 (no change to the search; a record that starts at its hit now tells its converter's
 offset on its quiet tail, which neither bench has: both benches' diagnose the same to the bit):
-three sittings at load 0.5-1.8, the least of three forked runs each, thesis 278 / 245 / 288 worth
-(1.7 / 2.2 / 1.8 s CPU, the baseline 6.1 / 9.0 / 6.3 ms), two-body 210 / 276 / 264 (2.5 / 3.2 /
-2.8 s, 11.8 / 11.5 / 10.7 ms). scipy's Welch on the floor's blocks (36 columns of 8192 samples)
+five sittings at load 0.2-1.8, the least of three forked runs each, thesis 278 / 245 / 288 / 351
+/ 221 worth (1.7 / 2.2 / 1.8 / 2.3 / 1.9 s CPU, the baseline 6.1 / 9.0 / 6.3 / 6.5 / 8.4 ms),
+two-body 210 / 276 / 264 / 247 / 248 (2.5 / 3.2 / 2.8 / 2.7 / 2.8 s, 11.8 / 11.5 / 10.7 / 10.8 /
+11.4 ms): medians 278 and 248. A sitting's worth figure moves by a third on the same code. scipy's Welch on the floor's blocks (36 columns of 8192 samples)
 is not beaten by a hand-written one (11.5 against 13.7 ms): the floors' spectra stay scipy's.
 
 Measured in rounds 43-45 and not done (do not redo without a new reason):
