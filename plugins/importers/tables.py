@@ -262,7 +262,10 @@ def read_csv_columns(file: Path, explicit: dict) -> Columns:
     where = str(file)
     check_text_file(file, "CSV")
     try:
-        text = file.read_text(encoding="utf-8-sig")
+        raw = file.read_bytes()
+        # UTF-8, or UTF-16 where its byte-order mark says so (a spreadsheet's "Unicode text")
+        text = raw.decode("utf-16" if raw[:2] in (b"\xff\xfe", b"\xfe\xff") else "utf-8-sig")
+        del raw
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(f"{where}: not a readable text file: {exc}") from None
     # no text holds NUL characters: a binary (or sparse) file named .csv, refused before the csv

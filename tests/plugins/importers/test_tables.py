@@ -108,6 +108,11 @@ def _bad(tmp_path: Path, case: str) -> tuple[Path, dict]:
     if case == "empty csv":
         (t / "r.csv").write_text("")
         return t / "r.csv", {}
+    if case == "binary csv":  # a sparse file: a header, then zeros (the csv module took 12 GB for 2 GiB)
+        with open(t / "r.csv", "wb") as f:
+            f.write(b"a [g]\n")
+            f.truncate(1 << 20)
+        return t / "r.csv", {"rate": 100.0}
     if case == "ragged csv":
         (t / "r.csv").write_text("time,a [g],b [g]\n0,1,2\n0.001,3\n")
         return t / "r.csv", {}
@@ -142,6 +147,7 @@ def _bad(tmp_path: Path, case: str) -> tuple[Path, dict]:
 
 @pytest.mark.parametrize("case, words", [
     ("empty csv", ["r.csv", "empty"]),
+    ("binary csv", ["r.csv", "NUL character at line 2", "binary data"]),
     ("ragged csv", ["r.csv", "line 3", "2 fields", "header has 3"]),
     ("text in numbers", ["r.csv", "line 3", "channel 'b'", "'abc'"]),
     ("nan", ["r.csv", "channel 'a'", "sample 1", "nan"]),
@@ -191,13 +197,14 @@ def test_a_channels_by_samples_npy_is_read_transposed(tmp_path, registries):
         assert np.allclose(physical(exp), DATA, rtol=1e-12)
 
 
-@pytest.mark.parametrize("delimiter", [";", "\t"])
-def test_a_csv_of_a_decimal_comma_locale_is_read(tmp_path, registries, delimiter):
+@pytest.mark.parametrize("delimiter, encoding", [(";", "utf-8"), ("\t", "utf-8"), ("\t", "utf-16")])
+def test_a_csv_of_a_decimal_comma_locale_is_read(tmp_path, registries, delimiter, encoding):
     """Fields separated by semicolons or tabs, numbers with decimal commas (what spreadsheets in
     such locales write, by Python's csv module with the locale's number format): the same numbers,
-    names and units as the comma file."""
+    names and units as the comma file. A spreadsheet's "Unicode text" is UTF-16 with its byte-order
+    mark (it was refused as undecodable UTF-8)."""
     path = tmp_path / "r.csv"
-    with open(path, "w", newline="") as f:
+    with open(path, "w", newline="", encoding=encoding) as f:
         w = csv.writer(f, delimiter=delimiter)
         w.writerow(["time"] + [f"{n} [{u}]" for n, u in zip(NAMES, UNITS)])
         for k, row in enumerate(DATA):
