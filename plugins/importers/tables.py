@@ -255,12 +255,35 @@ def _rate_of_time_column(where: str, column: str, texts: list[str], t: np.ndarra
     return next((r for r in (float(f"{fs:.{d}g}") for d in range(1, 18)) if lo <= r <= hi), fs)
 
 
+def _first_nul_line(file: Path, block: int = 1 << 20) -> int | None:
+    """The line of a byte-oriented file's first NUL byte (None: none, or UTF-16, whose text holds
+    them): read block by block, so a binary or sparse file named .csv is refused at its first
+    block, not after the whole of it has been read (a sparse 2 GiB file: 10 s)."""
+    try:
+        with open(file, "rb") as f:
+            if f.read(2) in (b"\xff\xfe", b"\xfe\xff"):
+                return None
+            f.seek(0)
+            lines = 1
+            while chunk := f.read(block):
+                at = chunk.find(b"\x00")
+                if at >= 0:
+                    return lines + chunk.count(b"\n", 0, at)
+                lines += chunk.count(b"\n")
+    except OSError:
+        return None  # the read below names it
+    return None
+
+
 def read_csv_columns(file: Path, explicit: dict) -> Columns:
     """A CSV record: a header row of channel names (each may end in its unit, ``acc1 [m/s^2]``),
     then one row per sample; a first column named time/t (s) gives the rate. Fields separated by
     commas, or by semicolons or tabs (then numbers may have a decimal comma)."""
     where = str(file)
     check_text_file(file, "CSV")
+    nul = _first_nul_line(file)
+    if nul is not None:
+        raise ConfigError(f"{where}: not a CSV table: a NUL character at line {nul} (binary data)")
     try:
         raw = file.read_bytes()
         # UTF-8, or UTF-16 where its byte-order mark says so (a spreadsheet's "Unicode text")
@@ -268,8 +291,8 @@ def read_csv_columns(file: Path, explicit: dict) -> Columns:
         del raw
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(f"{where}: not a readable text file: {exc}") from None
-    # no text holds NUL characters: a binary (or sparse) file named .csv, refused before the csv
-    # module holds it as one field (a sparse 2 GiB file took 12 GB and 40 s to refuse)
+    # no text holds NUL characters (a UTF-16 file's bytes do: its text is checked), refused before
+    # the csv module holds it as one field (a sparse 2 GiB file took 12 GB and 40 s to refuse)
     nul = text.find("\x00")
     if nul >= 0:
         raise ConfigError(f"{where}: not a CSV table: a NUL character at line {text.count(chr(10), 0, nul) + 1} "

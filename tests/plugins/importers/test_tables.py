@@ -290,3 +290,23 @@ def test_a_csv_refusal_names_the_files_line_across_blank_lines(tmp_path, registr
     message = str(err.value)
     for w in ["r.csv", f"line {line}:", *words]:
         assert w in message, (w, message)
+
+
+def test_a_binary_csv_is_refused_at_its_first_block(tmp_path, registries, monkeypatch):
+    # a 64 MiB sparse file: refused on the bytes of its first block, before the whole file is
+    # read and decoded (the refusal of a 2 GiB one had taken 10 s and 4 GB)
+    with open(tmp_path / "r.csv", "wb") as f:
+        f.write(b"a [g]\n1.0\n")
+        f.truncate(64 << 20)
+    monkeypatch.setattr(Path, "read_bytes", lambda self: pytest.fail(f"{self} read whole"))
+    create_project(tmp_path / "p.h5", rig=None).close()
+    with pytest.raises(OdsuiteError, match=r"r\.csv: not a CSV table: a NUL character at line 3 \(binary data\)"):
+        _import(registries, tmp_path / "p.h5", tmp_path / "r.csv", rate=100.0)
+
+
+def test_a_nul_in_a_utf16_csv_is_refused(tmp_path, registries):
+    # UTF-16's bytes hold NULs in every ASCII character: its decoded text is what is checked
+    (tmp_path / "r.csv").write_bytes("a [g]\n1.0\n\x002.0\n".encode("utf-16"))
+    create_project(tmp_path / "p.h5", rig=None).close()
+    with pytest.raises(OdsuiteError, match=r"NUL character at line 3"):
+        _import(registries, tmp_path / "p.h5", tmp_path / "r.csv", rate=100.0)
