@@ -94,6 +94,7 @@ _WHERE: dict[str, str] = {
     "unit_text": "odsuite.domain.display",
     # text files and outputs (room checked before writing)
     "check_text_file": "odsuite.domain.textfiles",
+    "plain_number": "odsuite.domain.textfiles",
     "free_memory": "odsuite.domain.memory",
     "read_text": "odsuite.domain.textfiles",
     "ensure_space": "odsuite.store.diskspace",

@@ -303,6 +303,10 @@ RATE_PER_BAND = 2.5
 #: the Toeplitz matrix's rows at most (block rows x outputs): its SVD's cost grows with their cube;
 #: when the lag span needs more, the band's top comes down instead (fewer samples per period)
 MAX_ROWS = 1200
+#: the most Toeplitz rows a given --block-rows may make (an SVD of 4800 rows takes about a minute)
+GIVEN_ROWS_MAX = 4 * MAX_ROWS
+#: the fewest samples a given --decimate may leave: the segments' scatter and the lags need them
+MIN_DECIMATED = 256
 #: the band holds at most one spectral peak per this many model orders (each mode takes two
 #: states, and noise takes about as many again)
 ORDERS_PER_PEAK = 4
@@ -423,12 +427,22 @@ def choose_settings(y: np.ndarray, fs: float, *, f_band: tuple[float | None, flo
         raise ConfigError(f"--decimate {decimation}: the rate {fs / max(decimation, 1):g} Hz must stay above twice "
                           f"the band's top {hi:g} Hz (give a smaller factor or a lower --fmax)")
     rate = fs / decimation
+    left = len(y) // decimation
+    if source["decimation"] == "given" and left < MIN_DECIMATED:
+        raise ConfigError(f"--decimate {decimation}: leaves {left} samples of the record's {len(y)} (at least "
+                          f"{MIN_DECIMATED} are needed: give a smaller factor)")
     if block_rows is None:
         need = int(np.ceil(LAG_PERIODS * rate / f1 / 2)) if f1 else 20
         block_rows = max(need, int(np.ceil(max_order / n_out)) + 1)
     elif block_rows * n_out < max_order:
         raise ConfigError(f"--block-rows {block_rows}: {block_rows} x {n_out} outputs cannot hold model order "
                           f"{max_order} (give at least {int(np.ceil(max_order / n_out))} or a lower --max-order)")
+    elif 4 * block_rows > left:
+        raise ConfigError(f"--block-rows {block_rows}: its lags (2 x {block_rows}) need at least {4 * block_rows} "
+                          f"samples at {rate:g} Hz; the record has {left}")
+    elif block_rows * n_out > GIVEN_ROWS_MAX:
+        raise ConfigError(f"--block-rows {block_rows}: {block_rows} x {n_out} outputs = {block_rows * n_out} "
+                          f"Toeplitz rows, at most {GIVEN_ROWS_MAX} (its SVD grows with their cube)")
     highpass = 0.5 * lo if lo > 0 else (HIGHPASS_FRACTION * f1 if f1 else None)
     return OmaSettings((lo, float(hi)), highpass, int(decimation), float(rate), int(block_rows),
                        float((2 * block_rows - 1) / rate), tuple(float(v) for v in peaks), source)

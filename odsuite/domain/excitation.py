@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from odsuite.domain.errors import ConfigError
+from odsuite.domain.textfiles import plain_number
 
 
 @dataclass(frozen=True)
@@ -93,7 +94,7 @@ def _three_numbers(value: str | Sequence[float], option: str, expected: str = "t
     parts = value.split(",") if isinstance(value, str) else list(value)
     value = value if shown is None else shown
     try:
-        numbers = np.array([float(p) for p in parts], dtype=float)
+        numbers = np.array([plain_number(p.strip()) if isinstance(p, str) else float(p) for p in parts], dtype=float)
     except (TypeError, ValueError):
         raise ConfigError(f"{option}: expected {expected}, got {value!r}") from None
     if numbers.shape != (3,):

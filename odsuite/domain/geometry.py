@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from odsuite.domain.errors import ConfigError
+from odsuite.domain.rig import SIZE_MAX
 
 #: the inverse-distance weights' power (documented in docs/geometry.md)
 IDW_POWER = 2.0
@@ -77,22 +78,45 @@ class Geometry:
 
     def __post_init__(self) -> None:
         w = self.where
-        ids = np.asarray(self.node_ids)
-        xyz = np.asarray(self.xyz, dtype=float)
+        ids = _numbers(self.node_ids, w, "node ids")
+        xyz = _numbers(self.xyz, w, "node coordinates")
         if ids.ndim != 1 or ids.size == 0:
             raise ConfigError(f"{w}: nodes: none given")
+        bad = np.flatnonzero(~_whole(ids))
+        if bad.size:
+            raise ConfigError(f"{w}: node id {ids[bad[0]]:g} is not a node number (a whole number below 2^31)")
         if xyz.shape != (ids.size, 3):
             raise ConfigError(f"{w}: nodes: coordinates have shape {xyz.shape}, expected ({ids.size}, 3)")
         bad = np.flatnonzero(~np.isfinite(xyz).all(axis=1))
         if bad.size:
             raise ConfigError(f"{w}: node {int(ids[bad[0]])}: coordinates {xyz[bad[0]].tolist()} are not finite")
+        bad = np.flatnonzero(np.abs(xyz).max(axis=1) > SIZE_MAX)
+        if bad.size:
+            raise ConfigError(f"{w}: node {int(ids[bad[0]])}: coordinates {xyz[bad[0]].tolist()} m lie beyond "
+                              f"{SIZE_MAX:g} m of the origin")
         uniq, counts = np.unique(ids, return_counts=True)
         if (counts > 1).any():
             raise ConfigError(f"{w}: node {int(uniq[counts > 1][0])} is given twice")
         object.__setattr__(self, "node_ids", ids.astype(int))
         object.__setattr__(self, "xyz", xyz)
-        lines = np.asarray(self.lines, dtype=int).reshape(-1, 2)
-        object.__setattr__(self, "lines", lines)
+        lines = _numbers(self.lines, w, "lines")
+        if lines.size % 2 or (lines.ndim == 2 and lines.shape[1] != 2 and lines.size) or not _whole(lines).all():
+            raise ConfigError(f"{w}: lines: expected pairs of node ids, got shape {lines.shape}")
+        object.__setattr__(self, "lines", lines.astype(int).reshape(-1, 2))
+        object.__setattr__(self, "faces", tuple(_node_ids(f, w, "face") for f in _sequence(self.faces, w, "faces")))
+        object.__setattr__(self, "fixed", _node_ids(self.fixed, w, "fixed"))
+        rigid = []
+        for group in _sequence(self.rigid, w, "rigid"):
+            if not isinstance(group, (list, tuple)) or len(group) != 2 or not isinstance(group[0], str):
+                raise ConfigError(f"{w}: rigid: {_brief(group)} is not a group (name, node ids)")
+            rigid.append((group[0], _node_ids(group[1], w, f"rigid {group[0]!r}")))
+        object.__setattr__(self, "rigid", tuple(rigid))
+        for sensor in _sequence(self.sensors, w, "sensors"):
+            if not isinstance(sensor, GeometrySensor) or not isinstance(sensor.channel, str):
+                raise ConfigError(f"{w}: sensors: {_brief(sensor)} is not a sensor (channel, node, direction)")
+        object.__setattr__(self, "sensors", tuple(
+            GeometrySensor(s.channel, _node_ids([s.node], w, f"sensor {s.channel!r} node")[0],
+                           parse_direction(s.direction, f"{w}: sensor {s.channel!r}")) for s in self.sensors))
         known = set(int(i) for i in ids)
         for what, nodes in ([("line", tuple(l)) for l in lines.tolist()] + [("face", tuple(f)) for f in self.faces]
                             + [("fixed", tuple(self.fixed))] + [(f"rigid {n!r}", tuple(g)) for n, g in self.rigid]
@@ -203,6 +227,39 @@ class Geometry:
         return np.tensordot(self.motion_matrix(names), v, axes=([2], [0]))
 
 
+def _brief(value) -> str:
+    text = " ".join(repr(value).split())  # one line: an array's repr spans several
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _numbers(value, where: str, what: str) -> np.ndarray:
+    """``value`` as an array of floats, or one line naming it."""
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{where}: {what}: expected numbers, got {_brief(value)}") from None
+
+
+def _whole(values: np.ndarray) -> np.ndarray:
+    """Which values are node numbers: whole and below 2^31 (a C integer's range)."""
+    with np.errstate(invalid="ignore"):
+        return np.isfinite(values) & (np.round(values) == values) & (np.abs(values) < 2**31)
+
+
+def _sequence(value, where: str, what: str) -> Sequence:
+    if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple, np.ndarray)):
+        raise ConfigError(f"{where}: {what}: expected a list, got {_brief(value)}")
+    return value
+
+
+def _node_ids(value, where: str, what: str) -> tuple[int, ...]:
+    """A list of node numbers, or one line naming ``what``."""
+    ids = _numbers(_sequence(value, where, what), where, what)
+    if ids.ndim != 1 or not _whole(ids).all():
+        raise ConfigError(f"{where}: {what}: expected node numbers, got {_brief(value)}")
+    return tuple(int(v) for v in ids)
+
+
 def _cross_matrix(r: np.ndarray) -> np.ndarray:
     """[r]x: [r]x @ v = r x v."""
     return np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]], dtype=float)
@@ -223,11 +280,19 @@ def geometry_record(geom: Geometry) -> tuple[dict[str, tuple[np.ndarray, str, tu
 
 
 def geometry_from_record(name: str, arrays: Mapping[str, np.ndarray], attrs: Mapping, where: str) -> Geometry:
-    """The geometry :func:`geometry_record` stored."""
-    return Geometry(name, np.asarray(arrays["node_ids"]), np.asarray(arrays["xyz"]), np.asarray(arrays["lines"]),
-                    tuple(tuple(f) for f in attrs.get("faces", [])),
-                    tuple(GeometrySensor(c, int(n), tuple(d)) for c, n, d in attrs.get("sensors", [])),
-                    tuple(attrs.get("fixed", [])), tuple((n, tuple(g)) for n, g in attrs.get("rigid", [])), where)
+    """The geometry :func:`geometry_record` stored; a field edited out of shape is one line naming it."""
+    for field_name in ("node_ids", "xyz", "lines"):
+        if field_name not in arrays:
+            raise ConfigError(f"{where}: field {field_name!r} is missing")
+    sensors = []
+    for entry in _sequence(attrs.get("sensors", []), where, "field 'sensors'"):
+        if not isinstance(entry, (list, tuple)) or len(entry) != 3 or not isinstance(entry[0], str):
+            raise ConfigError(f"{where}: field 'sensors': expected [[channel, node, [dx, dy, dz]], ...], "
+                              f"got {_brief(entry)}")
+        sensors.append(GeometrySensor(*entry))
+    return Geometry(name, arrays["node_ids"], arrays["xyz"], arrays["lines"],
+                    tuple(_sequence(attrs.get("faces", []), where, "field 'faces'")), tuple(sensors),
+                    attrs.get("fixed", []), tuple(_sequence(attrs.get("rigid", []), where, "field 'rigid'")), where)
 
 
 def project_geometry(project, name: str | None = None) -> Geometry | None:

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from odsuite.domain.errors import ConfigError
-from odsuite.domain.rig_processing import parse_processing
+from odsuite.domain.rig_processing import check_ripple, parse_processing
 
 #: Generalized coordinates of a body, in order (m, m, m, rad, rad, rad).
 COORDINATES = ("x", "y", "z", "theta", "phi", "psi")
@@ -425,6 +425,8 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
                 raise ConfigError(f"{where0}: body {b.name!r} nine_sensor_set names unknown sensor(s) {unknown}")
     systeminfo_file = None
     if data.get("systeminfo"):
+        if not isinstance(data["systeminfo"], str):
+            raise ConfigError(f"{where0} field 'systeminfo': expected a .CTR file name, got {data['systeminfo']!r}")
         base = source.parent if source else Path.cwd()
         systeminfo_file = base / data["systeminfo"]
     known = set(TOP_KEYS) - {"acquisition"}
@@ -595,6 +597,13 @@ def _up(value: Any, where0: str) -> np.ndarray:
     return up / np.linalg.norm(up)
 
 
+#: the [acquisition] table's fields (docs/rig-format.md)
+ACQUISITION_KEYS = ("sampling_rate", "pre_trigger", "adc_bits", "adc_range", "anti_aliasing", "iepe_corner_hz",
+                    "sensor_resonance_hz", "sensor_resonance_damping")
+#: the widest ADC input range (V): a DAQ card's is at most a few hundred volts
+ADC_RANGE_MAX_V = 1e3
+
+
 def _acquisition(table: Any, where0: str) -> Acquisition | None:
     """The ``[acquisition]`` table, validated (errors name the field and the value)."""
     if table is None:
@@ -602,6 +611,7 @@ def _acquisition(table: Any, where0: str) -> Acquisition | None:
     w = f"{where0}: acquisition"
     if not isinstance(table, dict):
         raise ConfigError(f"{w}: expected a table, got {table!r}")
+    known_keys(w, table, ACQUISITION_KEYS)
 
     def opt_number(key: str) -> float | None:
         return None if table.get(key) is None else _number(f"{w} field {key!r}", table[key], positive=True)
@@ -621,6 +631,8 @@ def _acquisition(table: Any, where0: str) -> Acquisition | None:
         lo_hi = _vector(f"{w} field 'adc_range'", adc_range, 2)
         if not lo_hi[1] > lo_hi[0]:
             raise ConfigError(f"{w} field 'adc_range': expected [low, high] volts with high > low, got {adc_range!r}")
+        if max(abs(lo_hi[0]), abs(lo_hi[1])) > ADC_RANGE_MAX_V:
+            raise ConfigError(f"{w} field 'adc_range': expected volts within +-{ADC_RANGE_MAX_V:g} V, got {adc_range!r}")
         adc_range = (float(lo_hi[0]), float(lo_hi[1]))
     pre = table.get("pre_trigger")
     if pre is not None:
@@ -642,6 +654,8 @@ def _acquisition(table: Any, where0: str) -> Acquisition | None:
             ripple_db=_number(f"{wa}.ripple_db", aa.get("ripple_db", 0.1), positive=True),
             attenuation_db=_number(f"{wa}.attenuation_db", aa.get("attenuation_db", 60.0), positive=True),
             force_channel=force)
+        if family == "elliptic":
+            check_ripple(wa, aa.ripple_db, aa.attenuation_db)
     damping = _number(f"{w} field 'sensor_resonance_damping'", table.get("sensor_resonance_damping", 0.03),
                       positive=True)
     if damping >= 1:

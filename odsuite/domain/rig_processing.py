@@ -57,7 +57,19 @@ def _filter(where: str, value: Any) -> dict[str, Any]:
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < 200:
                 raise ConfigError(f"{where}.{key}: expected dB in (0, 200), got {v!r}")
             out[key] = float(v)
+    if out["filter_family"] is FilterFamily.ELLIPTIC:
+        check_ripple(where, out.get("ripple_db", DEFAULT_RIPPLE_DB), out.get("attenuation_db", DEFAULT_ATTENUATION_DB))
     return out
+
+
+#: the pass-band ripple and stop-band attenuation a filter table leaves out (Table E.2 rows 10-11's)
+DEFAULT_RIPPLE_DB, DEFAULT_ATTENUATION_DB = 0.1, 60.0
+
+
+def check_ripple(where: str, ripple_db: float, attenuation_db: float) -> None:
+    """An elliptic filter's ripple must stay below its attenuation (scipy finds no such filter)."""
+    if ripple_db >= attenuation_db:
+        raise ConfigError(f"{where}: ripple_db {ripple_db:g} must be below attenuation_db {attenuation_db:g}")
 
 
 def parse_processing(table: Any, where: str) -> dict[str, Any]:

@@ -47,3 +47,12 @@ def read_text(path: str | Path, what: str) -> str:
         return raw.decode("utf-8")
     except UnicodeDecodeError:
         return raw.decode("latin-1")
+
+
+def plain_number(text: str) -> float:
+    """A number as measurement software (or a person at a terminal) writes it: ASCII digits
+    without digit groups; Python's float() also reads ``1_000`` as 1000 and other scripts' digits
+    (``١٢``), which no DAQ writes (ValueError)."""
+    if "_" in text or not text.isascii():
+        raise ValueError(text)
+    return float(text)

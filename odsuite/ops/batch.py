@@ -113,9 +113,17 @@ def _add_effect(path: Path, options: Mapping[str, Any]) -> dict[str, Any]:
 
 def _output(path: Path, options: Mapping[str, Any], suffix: str) -> Path:
     """``<out>/<project stem><suffix>``; ``out`` defaults to the project's folder."""
+    from odsuite.store.storage import check_output
+
     out = Path(options.get("out") or path.parent)
     out.mkdir(parents=True, exist_ok=True)
-    return out / f"{path.stem}{suffix}"
+    output = out / f"{path.stem}{suffix}"
+    # a name the user did not give: never written through a link (a report over the file it points to)
+    if output.is_symlink():
+        raise ConfigError(f"{output}: a link, which batch never writes through (the name comes from {path.name}); "
+                          "remove it")
+    check_output(output, path, "--out")
+    return output
 
 
 def _render_with(renderer, path: Path, experiment: str | None, output: Path, options: Mapping[str, Any]

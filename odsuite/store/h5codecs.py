@@ -9,6 +9,7 @@ import json
 import math
 import typing
 import uuid
+import warnings
 from collections.abc import Iterable, Iterator, Mapping
 from enum import IntEnum
 from pathlib import Path
@@ -23,7 +24,7 @@ from odsuite.domain.errors import ConfigError
 from odsuite.store.h5damage import first_line
 from odsuite.store.project_format import FORMAT_NAME, FORMAT_VERSION, now
 from odsuite.domain.rig import COORDINATES, Rig
-from odsuite.domain.systeminfo import ChannelInfo, RigInfo, Systeminfo
+from odsuite.domain.systeminfo import ChannelInfo, RigInfo, Systeminfo, parse_ctr
 from odsuite.domain.textfiles import read_text
 from odsuite.domain.version import __version__
 
@@ -246,6 +247,9 @@ def write_rig(f: h5py.File, rig: Rig) -> None:
     ctr = rig.systeminfo_text
     if ctr is None and rig.systeminfo_file is not None:
         ctr = read_text(rig.systeminfo_file, "Systeminfo (.CTR)")
+        with warnings.catch_warnings():  # its codes are checked as every recording reads them
+            warnings.simplefilter("ignore")
+            parse_ctr(ctr, source=rig.systeminfo_file)  # a file that is no .CTR refused now, not at each acquire
     h5text.set_attrs(g, {"name": rig.name, "definition": to_json(f"rig {rig.name!r}", rig_to_dict(rig)),
                          "definition_format": "json", "source": str(rig.source) if from_file else "",
                          "source_text": Path(rig.source).read_text(encoding="utf-8") if from_file else "",

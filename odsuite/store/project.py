@@ -62,6 +62,7 @@ from odsuite.domain.errors import (
     SchemaError,
 )
 from odsuite.domain.excitation import Excitation
+from odsuite.domain.memory import free_memory
 from odsuite.store.h5codecs import (
     Attrs,
     dataset,
@@ -95,6 +96,16 @@ from odsuite.store.storage import (
     tmp_path,
 )
 from odsuite.domain.systeminfo import Systeminfo
+
+
+def check_written(ds: h5py.Dataset, where: str) -> None:
+    """Refuse a dataset whose chunks were never written: odsuite writes every value, and a shape
+    of 10^9 rows made by hand would be read as fill values, for minutes and gigabytes."""
+    plist = ds.id.get_create_plist()
+    size = ds.size * ds.dtype.itemsize
+    if plist.get_nfilters() == 0 and ds.id.get_storage_size() < size:
+        raise ProjectFileError(f"{where}: shape {ds.shape} of {size} bytes, of which "
+                               f"{ds.id.get_storage_size()} are stored (not written by odsuite)")
 
 
 @dataclass(frozen=True)
@@ -204,13 +215,7 @@ class Experiment:
         raw = g["raw"]
         if not isinstance(raw, h5py.Dataset):
             raise ProjectFileError(f"{project.path}: experiment {name!r} field 'raw': expected a dataset, got a group")
-        plist = raw.id.get_create_plist()
-        if plist.get_nfilters() == 0 and raw.id.get_storage_size() < raw.size * raw.dtype.itemsize:
-            # odsuite writes every sample; chunks never written (a shape of 10^9 rows made by hand)
-            # would be read as fill values, for minutes
-            raise ProjectFileError(f"{project.path}: experiment {name!r} field 'raw': shape {raw.shape} of "
-                                   f"{raw.size * raw.dtype.itemsize} bytes, of which {raw.id.get_storage_size()} "
-                                   "are stored (not written by odsuite)")
+        check_written(raw, f"{project.path}: experiment {name!r} field 'raw'")
         self.n_samples, self.n_channels = (tuple(raw.shape) + (0, 0))[:2]
         self.excitation = None
         if "force_channel" in a:
@@ -777,7 +782,18 @@ class Project:
         attrs = {k: h5text.readable(v) for k, v in g.attrs.items()}
         for k in json.loads(attrs.pop("json_attrs", "[]")):
             attrs[k] = json.loads(attrs[k])
-        return {k: ds[()] for k, ds in g.items()}, attrs
+        arrays = {}
+        for k, ds in g.items():
+            where = f"{self.path}: import {name!r} field {k!r}"
+            if not isinstance(ds, h5py.Dataset):
+                raise ProjectFileError(f"{where}: expected a dataset, got a group")
+            check_written(ds, where)
+            free, size = free_memory(), ds.size * ds.dtype.itemsize
+            if free is not None and size > free:  # compressed: what is stored says nothing of what reading takes
+                raise ProjectFileError(f"{where}: shape {ds.shape} needs {size / 2**20:.0f} MiB to read; only "
+                                       f"{free / 2**20:.0f} MiB of memory are free")
+            arrays[k] = ds[()]
+        return arrays, attrs
 
     # -- model revisions
 
@@ -950,6 +966,9 @@ def create_project(path: str | Path, rig: Rig | str | None = "thesis-dynamometer
     rig = _resolve_rig(rig, registries)
     if not path.parent.is_dir():
         raise ProjectFileError(f"{path}: directory {path.parent} does not exist")
+    if rig is not None and rig.default_model and rig.default_model in registries.models:
+        # the rig's model built once: a [beam] table it refuses is refused now, not at every later command
+        registries.models.get(rig.default_model)(rig)
     lock = acquire_lock(path)
     try:
         if path.exists():

@@ -20,11 +20,21 @@ FIELDS = {"body", "first_mode_hz", "bending_stiffness", "theory", "gyration_rati
           "sensor_position_range", "hammer_offset_range"}
 
 
+#: the largest bending stiffness (N m^2) a rig file may give
+BENDING_STIFFNESS_MAX = 1e15
+
+
 def _number(where: str, value: Any, low: float = 0.0, *, strict: bool = True) -> float:
     ok = isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value)
     if not ok or (value <= low if strict else value < low):
         raise ConfigError(f"{where}: expected a number {'>' if strict else '>='} {low:g}, got {value!r}")
     return float(value)
+
+
+def _elements(where: str, value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not 2 <= value <= 2000:
+        raise ConfigError(f"{where} field 'elements': expected an integer in 2..2000, got {value!r}")
+    return value
 
 
 def range_of(rig, key: str, default: tuple[float, float]) -> tuple[float, float]:
@@ -66,6 +76,8 @@ def spec_from_rig(rig) -> BeamSpec:
     kappa = _number(f"{where} field 'shear_coefficient'", table.get("shear_coefficient", 5 / 6))
     zeta = table.get("damping_ratio", 0.005)
     zeta = tuple(zeta) if isinstance(zeta, list) else (zeta,)
+    if not zeta or any(isinstance(z, bool) or not isinstance(z, (int, float)) or not 0 <= z < 1 for z in zeta):
+        raise ConfigError(f"{where} field 'damping_ratio': expected ratios in [0, 1), got {table.get('damping_ratio')!r}")
     supports = []
     for i, s in enumerate(table.get("supports", [])):
         w = f"{where} supports[{i}]"
@@ -79,10 +91,14 @@ def spec_from_rig(rig) -> BeamSpec:
                     gyration_ratio_sq=float(table.get("gyration_ratio_sq",
                                                       body.plate.size[2] ** 2 / 12 / length**2 if theory == "timoshenko" else 0.0)),
                     shear_flexibility=2 * (1 + nu) / kappa, ends=tuple(ends),
-                    elements=table.get("elements", 40), damping_ratio=zeta,
+                    elements=_elements(where, table.get("elements", 40)), damping_ratio=zeta,
                     support_damping_ratio=table.get("support_damping_ratio", 0.1), supports=tuple(supports))
     if "bending_stiffness" in table:
-        return replace(spec, bending_stiffness=_number(f"{where} field 'bending_stiffness'", table["bending_stiffness"]))
+        ei = _number(f"{where} field 'bending_stiffness'", table["bending_stiffness"])
+        if ei > BENDING_STIFFNESS_MAX:  # its element matrices overflow long before 1e300
+            raise ConfigError(f"{where} field 'bending_stiffness': expected at most {BENDING_STIFFNESS_MAX:g} N m^2 "
+                              f"(a bridge girder's is 1e12), got {ei:g}")
+        return replace(spec, bending_stiffness=ei)
     if "first_mode_hz" not in table:
         raise ConfigError(f"{where}: give 'first_mode_hz' (the data's first bending mode) or 'bending_stiffness' (N m^2)")
     f1 = _number(f"{where} field 'first_mode_hz'", table["first_mode_hz"])

@@ -68,12 +68,17 @@ def rotation_length(positions: np.ndarray) -> float:
     return length
 
 
+#: the strongest ground motion simulated (m/s^2 rms, about 1000 g): beyond any floor or vehicle,
+#: and every sample of the record would clip
+BASE_RMS_MAX = 1e4
+
+
 def ground_accelerations(n: int, base_rms: float, length_m: float, rng: np.random.Generator) -> np.ndarray:
     """Independent white Gaussian accelerations of the ground (n x 6, at the simulator's rate):
     ``base_rms`` m/s^2 along x, y, z, then ``base_rms / length_m`` rad/s^2 about them through the
     rig origin."""
-    if not (np.isfinite(base_rms) and base_rms > 0):
-        raise ConfigError(f"--base-rms: must be > 0 m/s^2, got {base_rms!r}")
+    if not (np.isfinite(base_rms) and 0 < base_rms <= BASE_RMS_MAX):
+        raise ConfigError(f"--base-rms: must be > 0 and at most {BASE_RMS_MAX:g} m/s^2, got {base_rms!r}")
     scale = np.r_[np.full(3, base_rms), np.full(3, base_rms / length_m)]
     return rng.standard_normal((n, 6)) * scale
 

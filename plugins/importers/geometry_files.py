@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from odsuite.api import ConfigError
+from odsuite.api import ConfigError, check_text_file
 from odsuite.api import Geometry, GeometrySensor, parse_direction
 
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "in": 0.0254, "ft": 0.3048}
@@ -38,8 +38,8 @@ def _int(value, where: str, field: str) -> int:
         f = float(value)
     except (TypeError, ValueError):
         raise ConfigError(f"{where}: {field}: {value!r} is not a node number") from None
-    if not np.isfinite(f) or f != int(f):
-        raise ConfigError(f"{where}: {field}: {value!r} is not a node number")
+    if not np.isfinite(f) or f != int(f) or abs(f) >= 2**31:
+        raise ConfigError(f"{where}: {field}: {value!r} is not a node number (a whole number below 2^31)")
     return int(f)
 
 
@@ -62,7 +62,7 @@ def _scale(units, where: str) -> float:
 def _sensor(entry, where: str) -> GeometrySensor:
     if isinstance(entry, dict):
         entry = [entry.get("channel"), entry.get("node"), entry.get("direction")]
-    if len(entry) != 3 or entry[0] in (None, ""):
+    if not isinstance(entry, (list, tuple)) or len(entry) != 3 or entry[0] in (None, ""):
         raise ConfigError(f"{where}: sensors: {entry!r} is not [channel, node, direction]")
     return GeometrySensor(str(entry[0]).strip(), _int(entry[1], where, f"sensor {entry[0]!r} node"),
                           parse_direction(entry[2], f"{where}: sensor {entry[0]!r}"))
@@ -72,14 +72,19 @@ def _assemble(name, where, scale, nodes, lines, faces, fixed, rigid, sensors) ->
     if not nodes:
         raise ConfigError(f"{where}: nodes: none given")
     for n in nodes:
+        if not isinstance(n, (list, tuple)):
+            raise ConfigError(f"{where}: nodes: {n!r} is not [id, x, y, z]")
         if len(n) != 4:
             raise ConfigError(f"{where}: node {n[0] if n else ''!r}: {max(len(n) - 1, 0)} coordinates, "
                               "expected x, y, z")
     ids = [_int(n[0], where, "node id") for n in nodes]
     xyz = [[_float(v, where, f"node {ids[k]} coordinate") * scale for v in n[1:]] for k, n in enumerate(nodes)]
     for l in lines:
-        if len(l) != 2:
+        if not isinstance(l, (list, tuple)) or len(l) != 2:
             raise ConfigError(f"{where}: line {l!r}: a line joins 2 nodes")
+    for f in faces:
+        if not isinstance(f, (list, tuple)):
+            raise ConfigError(f"{where}: face {f!r}: expected a list of 3 or more nodes")
     return Geometry(name, np.array(ids), np.array(xyz, dtype=float).reshape(len(ids), 3),
                     np.array([[_int(v, where, "line node") for v in l] for l in lines], dtype=int).reshape(-1, 2),
                     tuple(tuple(_int(v, where, "face node") for v in f) for f in faces),
@@ -87,12 +92,25 @@ def _assemble(name, where, scale, nodes, lines, faces, fixed, rigid, sensors) ->
                     tuple((str(n), tuple(_int(v, where, f"rigid {n!r} node") for v in g)) for n, g in rigid), where)
 
 
-def read_geometry_toml(path: str | Path, name: str) -> Geometry:
+def _text(path: str | Path, encoding: str) -> str:
+    """A geometry table's text; a pipe, a device or a file beyond the free memory refused before
+    reading (a FIFO would block, /dev/zero never ends)."""
+    check_text_file(Path(path), "geometry table")
+    try:
+        return Path(path).read_text(encoding=encoding)
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path}: not a readable text file: {exc}") from None
+
+
+def _toml_entries(path: str | Path) -> dict:
+    """A TOML geometry table's fields, each checked for its shape."""
     where = str(path)
     try:
-        doc = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        doc = tomllib.loads(_text(path, "utf-8"))
+    except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{where}: not a readable TOML file: {exc}") from None
+    except RecursionError:  # tomllib recurses per nesting level
+        raise ConfigError(f"{where}: not a geometry table: nested too deep") from None
     unknown = sorted(set(doc) - {"units", "nodes", "lines", "faces", "fixed", "rigid", "sensors", "name"})
     if unknown:
         raise ConfigError(f"{where}: unknown field {unknown[0]!r} (fields: units, nodes, lines, faces, fixed, rigid, "
@@ -102,23 +120,23 @@ def read_geometry_toml(path: str | Path, name: str) -> Geometry:
             raise ConfigError(f"{where}: {key}: expected a list, got {doc[key]!r}")
     rigid = []
     for g in doc.get("rigid", []):
-        if not isinstance(g, dict) or "nodes" not in g:
-            raise ConfigError(f"{where}: rigid: {g!r} is not a table with name and nodes")
-        rigid.append((g.get("name", f"group {len(rigid) + 1}"), g["nodes"]))
-    for n in doc.get("nodes", []):
-        if not isinstance(n, list):
-            raise ConfigError(f"{where}: nodes: {n!r} is not [id, x, y, z]")
-    return _assemble(name, where, _scale(doc.get("units", "m"), where), doc.get("nodes", []), doc.get("lines", []),
-                     doc.get("faces", []), doc.get("fixed", []), rigid,
-                     [_sensor(s, where) for s in doc.get("sensors", [])])
+        if not isinstance(g, dict) or not isinstance(g.get("nodes"), list):
+            raise ConfigError(f"{where}: rigid: {g!r} is not a table with name and a list of nodes")
+        rigid.append((str(g.get("name", f"group {len(rigid) + 1}")), g["nodes"]))
+    return {"nodes": doc.get("nodes", []), "lines": doc.get("lines", []), "faces": doc.get("faces", []),
+            "fixed": doc.get("fixed", []), "rigid": rigid, "scale": _scale(doc.get("units", "m"), where),
+            "sensors": [_sensor(s, where) for s in doc.get("sensors", [])]}
+
+
+def read_geometry_toml(path: str | Path, name: str) -> Geometry:
+    e = _toml_entries(path)
+    return _assemble(name, str(path), e["scale"], e["nodes"], e["lines"], e["faces"], e["fixed"], e["rigid"],
+                     e["sensors"])
 
 
 def _csv_entries(path: str | Path) -> dict:
     where = str(path)
-    try:
-        text = Path(path).read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{where}: not a readable text file: {exc}") from None
+    text = _text(path, "utf-8-sig")
     e = {"nodes": [], "lines": [], "faces": [], "fixed": [], "rigid": [], "sensors": [], "scale": 1.0}
     for k, row in enumerate(csv.reader(text.splitlines()), start=1):
         row = [c.strip() for c in row]
@@ -177,17 +195,10 @@ def _read_table(path: str | Path, name: str, node_rows: list) -> Geometry:
     """A sensor table (TOML or CSV; its own nodes, if any, are added to the file's) read against
     ``node_rows`` (id, x, y, z in m)."""
     path = Path(path)
-    if path.suffix.lower() == ".toml":
-        try:
-            doc = tomllib.loads(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-            raise ConfigError(f"{path}: not a readable TOML file: {exc}") from None
-        rigid = [(g.get("name", f"group {k + 1}"), g["nodes"]) for k, g in enumerate(doc.get("rigid", []))]
-        e = {"nodes": doc.get("nodes", []), "lines": doc.get("lines", []), "faces": doc.get("faces", []),
-             "fixed": doc.get("fixed", []), "rigid": rigid, "scale": _scale(doc.get("units", "m"), str(path)),
-             "sensors": [_sensor(s, str(path)) for s in doc.get("sensors", [])]}
-    else:
-        e = _csv_entries(path)
+    e = _toml_entries(path) if path.suffix.lower() == ".toml" else _csv_entries(path)
+    for n in e["nodes"]:
+        if not isinstance(n, (list, tuple)) or not n:
+            raise ConfigError(f"{path}: nodes: {n!r} is not [id, x, y, z]")
     own = [[n[0], *(_float(v, str(path), "node coordinate") * e["scale"] for v in n[1:])] for n in e["nodes"]]
     return _assemble(name, str(path), 1.0, node_rows + own, e["lines"], e["faces"], e["fixed"], e["rigid"],
                      e["sensors"])

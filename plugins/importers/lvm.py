@@ -19,7 +19,7 @@ import numpy as np
 from odsuite.contracts.daq import MAX_RATE_HZ, MIN_RATE_HZ
 from odsuite.api import ConfigError
 from odsuite.api import MAX_CHANNELS
-from odsuite.api import check_text_file
+from odsuite.api import check_text_file, plain_number
 
 END_OF_HEADER = "***End_of_Header***"
 _SEPARATORS = {"tab": "\t", "comma": ",", "semicolon": ";", "space": " "}
@@ -146,15 +146,6 @@ def _layout(path: Path, header: dict[str, str]) -> tuple[str, str, str]:
     if x_columns not in ("No", "One", "Multi"):
         raise ConfigError(f"{path}: header field X_Columns has unknown value {x_columns!r}")
     return sep, decimal, x_columns
-
-
-def plain_number(text: str) -> float:
-    """A number as measurement software writes it: ASCII digits without digit groups; Python's
-    float() also reads ``1_000`` as 1000 and other scripts' digits (``١٢``), which no DAQ writes
-    (ValueError)."""
-    if "_" in text or not text.isascii():
-        raise ValueError(text)
-    return float(text)
 
 
 def _number(path: Path, decimal: str, field_text: str, lineno: int, what: str) -> float:

@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from odsuite.api import MAX_CHANNELS, ConfigError, DimensionError, check_text_file, free_memory, printable_name
+from odsuite.api import (MAX_CHANNELS, ConfigError, DimensionError, check_text_file, free_memory, plain_number,
+                         printable_name)
 from odsuite.contracts.daq import MAX_RATE_HZ, MIN_RATE_HZ
-from odsuite_plugins.importers.lvm import plain_number
 
 #: unit labels a column may carry (lower case); the importers store them as columns.UNITS says
 KNOWN_UNITS = ("m/s^2", "m/s2", "m/s²", "g", "n", "newtons", "v", "volts", "volt")
@@ -203,8 +203,10 @@ def _shown_digits(text: str) -> tuple[int, int]:
     return len(frac) - exp, len((whole + frac).lstrip("0"))
 
 
-def _rate_of_time_column(where: str, column: str, texts: list[str], t: np.ndarray, lines: list[int]) -> float:
-    """The sampling rate (Hz) of an evenly spaced time column (s), from its whole span.
+def _rate_of_time_column(where: str, column: str, texts: list[str], t: np.ndarray, lines: list[int],
+                         time_unit: str = "s") -> float:
+    """The sampling rate (per ``time_unit``) of an evenly spaced time column (in ``time_unit``), from its
+    whole span.
 
     A lab's file rounds its times (``%.6f`` at 4096 Hz has steps of 0.000244 and 0.000245 s), so
     each time may lie off the even grid by half a unit of its last printed digit. That unit comes
@@ -236,18 +238,18 @@ def _rate_of_time_column(where: str, column: str, texts: list[str], t: np.ndarra
     off = np.flatnonzero(np.abs(steps - dt) > allowed)
     if off.size:
         k = int(off[0]) + 1
-        raise ConfigError(f"{where}: line {lines[k]}: channel {column!r}: value {texts[k]!r} is {steps[k - 1]:.6g} s "
-                          f"after the time before it, the mean step {dt:.6g} s (the column's rounding allows "
-                          f"{allowed[k - 1]:.2g} s either way): not evenly spaced")
+        raise ConfigError(f"{where}: line {lines[k]}: channel {column!r}: value {texts[k]!r} is {steps[k - 1]:.6g} {time_unit} "
+                          f"after the time before it, the mean step {dt:.6g} {time_unit} (the column's rounding allows "
+                          f"{allowed[k - 1]:.2g} {time_unit} either way): not evenly spaced")
     # every time against the grid through the ends: a slowly changing rate
     allowed = half + half[0] + half[-1] + n * np.spacing(np.abs(t).max())
     deviation = np.abs(t - (t[0] + dt * np.arange(n + 1)))
     off = np.flatnonzero(deviation > allowed)
     if off.size:
         k = int(off[0])
-        raise ConfigError(f"{where}: line {lines[k]}: channel {column!r}: value {texts[k]!r} lies {deviation[k]:.2g} s "
+        raise ConfigError(f"{where}: line {lines[k]}: channel {column!r}: value {texts[k]!r} lies {deviation[k]:.2g} {time_unit} "
                           f"off the even spacing from the first time to the last (the column's rounding allows "
-                          f"{allowed[k]:.2g} s): not evenly spaced")
+                          f"{allowed[k]:.2g} {time_unit}): not evenly spaced")
     # the rate as the fewest digits the rounded ends allow: a 4096 Hz file of 6 decimals is 4096 Hz
     lo = n / (span + half[0] + half[-1])
     hi = n / (span - half[0] - half[-1]) if span > half[0] + half[-1] else np.inf
@@ -273,6 +275,11 @@ def _first_nul_line(file: Path, block: int = 1 << 20) -> int | None:
     except OSError:
         return None  # the read below names it
     return None
+
+
+#: a time column's units (its header's ``[unit]``): how many make a second (a rate per unit times
+#: it is per second, exactly where the rate is a whole number)
+TIME_UNITS = {"s": 1.0, "ms": 1e3, "us": 1e6, "\u00b5s": 1e6, "ns": 1e9}
 
 
 def read_csv_columns(file: Path, explicit: dict) -> Columns:
@@ -330,8 +337,13 @@ def read_csv_columns(file: Path, explicit: dict) -> Columns:
     data = np.array(values)
     fs = None
     if names[0].lower() in ("time", "t") and len(names) > 1:
+        unit = (units[0] or "s").strip()
+        if unit not in TIME_UNITS:
+            raise ConfigError(f"{where}: channel {names[0]!r}: time unit {unit!r} is not one of "
+                              f"{', '.join(TIME_UNITS)}")
         texts = [_decimal_point(r[0].strip(), delimiter) for r in rows[1:]]
-        fs = _rate_of_time_column(where, names[0], texts, data[:, 0], lines[1:])
+        # the rate in the column's own unit, then per second (a rounding check needs its printed digits)
+        fs = _rate_of_time_column(where, names[0], texts, data[:, 0], lines[1:], unit) * TIME_UNITS[unit]
         names, units, data = names[1:], units[1:], data[:, 1:]
     given = None if all(u is None for u in units) else units
     if given is not None and any(u is None for u in units):

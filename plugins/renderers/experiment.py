@@ -14,7 +14,7 @@ from odsuite.contracts.renderers import parse_pair
 from odsuite.api import COORDINATE_UNITS, COORDINATES
 
 from .figures import comparison_figure, projection_figure, residual_spectra_figure
-from .motion import contact_index, event_window
+from .motion import check_coords, contact_index, event_window
 from .movie import MovieResult, render_movie
 from .scene import Hammer
 
@@ -215,6 +215,7 @@ def _figure(figure: str, rig, experiment: str, coords, model_coords, fs: float, 
 def _movie(rig, coords, fs, output, experiment, *, model_coords, magnify, corrected_coords=None, view, workers, frame_step, slowdown,
            progress, hammer, ods_hz, ods_source, start, end, fps, duration) -> MovieResult:
     """The movie with its story: the window around the hit, a title saying what is shown."""
+    coords = check_coords(rig, coords)  # before the window is measured on them
     n = next(iter(coords.values())).shape[0]
     time_zero = None
     if ods_hz is not None:

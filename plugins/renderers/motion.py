@@ -14,6 +14,10 @@ from odsuite.api import body_corners, plate_corners, point_displacements
 DEFAULT_EXCURSION = 0.15
 
 
+#: the largest generalized coordinate drawn (m, rad): a plate moving further does not vibrate
+MOTION_MAX = 1e3
+
+
 def check_coords(rig: Rig, coords: Mapping[str, np.ndarray], what: str = "coords") -> dict[str, np.ndarray]:
     """Validate ``{body: (n, 6)}`` against the rig: known bodies with plates, finite, equal lengths."""
     out: dict[str, np.ndarray] = {}
@@ -28,6 +32,10 @@ def check_coords(rig: Rig, coords: Mapping[str, np.ndarray], what: str = "coords
         if not np.all(np.isfinite(d)):
             bad = int(np.argwhere(~np.isfinite(d))[0, 0])
             raise ConfigError(f"{what}[{name!r}]: non-finite value at sample {bad}")
+        if np.abs(d).max(initial=0.0) > MOTION_MAX:
+            bad = np.unravel_index(int(np.argmax(np.abs(d))), d.shape)
+            raise ConfigError(f"{what}[{name!r}]: {d[bad]:g} ({'m' if bad[1] < 3 else 'rad'}) at sample {bad[0]}: "
+                              f"not a vibration (beyond {MOTION_MAX:g}); the stored coordinates are damaged")
         out[name] = d
         lengths.add(d.shape[0])
     if not out:

@@ -346,7 +346,14 @@ def render_movie(
                                     slowdown=slowdown, duration=duration)
     notes = []
     if fmt == "mp4" and not mp4_available():
-        path = path.with_suffix(".gif")
+        fallback = path.with_suffix(".gif")
+        # a name the user did not give: never through a link, never over a file that is no GIF (a
+        # project named run.gif); an earlier fallback's GIF is replaced, as the .mp4 would be
+        if fallback.is_symlink() or (fallback.exists() and not _is_gif(fallback)):
+            raise ConfigError(f"{path}: no H.264 encoder (imageio-ffmpeg with libx264) here, and {fallback.name}, "
+                              f"the GIF written instead, is {'a link' if fallback.is_symlink() else 'another file'}: "
+                              f"give -o {fallback.name} to replace it, or another name")
+        path = fallback
         fmt = "gif"
         notes.append(f"no H.264 encoder (imageio-ffmpeg with libx264) available: wrote {path.name} instead")
     size = _even(size)
@@ -364,6 +371,14 @@ def render_movie(
     path = write_movie(job, frames, path, fmt, size, workers, progress)
     return MovieResult(path=path, format=fmt, n_frames=len(frames), fps=fps, magnify=magnify,
                        frame_step=step, slowdown=slow, notes=notes)
+
+
+def _is_gif(path: Path) -> bool:
+    try:
+        with open(path, "rb") as f:
+            return f.read(6) in (b"GIF87a", b"GIF89a")
+    except OSError:
+        return False
 
 
 def write_movie(job: dict, frames: np.ndarray, path: Path, fmt: str, size: tuple[int, int], workers: int,

@@ -74,7 +74,8 @@ class DrawnFigure:
         from odsuite.api import ConfigError
 
         request.unknown_options(self.options, self.name)
-        kwargs = {k: v for k, v in request.options.items() if v is not None and k != self.data}
+        # an option this figure does not take passes unknown_options only unset (None or False): not handed over
+        kwargs = {k: v for k, v in request.options.items() if v is not None and k != self.data and k in self.options}
         data = request.options.get(self.data)
         if data is None and self.compute is None:
             raise ConfigError(f"renderer {self.name!r} draws the numbers it is given (option {self.data!r}), "

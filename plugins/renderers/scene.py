@@ -127,6 +127,9 @@ def _point_series(body, d: np.ndarray, point: np.ndarray, magnify) -> np.ndarray
 def _lines_polydata(points: np.ndarray, edges) -> "pyvista.PolyData":  # noqa: F821
     import pyvista as pv
 
+    edges = list(edges)
+    if not edges:  # a geometry of nodes alone: each a vertex, drawn as a dot
+        return pv.PolyData(np.asarray(points, dtype=float))
     lines = np.hstack([[2, a, b] for a, b in edges]).astype(np.int64)
     return pv.PolyData(np.asarray(points, dtype=float), lines=lines)
 

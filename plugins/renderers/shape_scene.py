@@ -53,7 +53,8 @@ class ShapeScene:
             shell.SetPoints(lines.GetPoints())  # one set of points poses both
             self.plotter.add_mesh(shell, color=tuple(0.35 + 0.65 * np.asarray(style.measured)), opacity=0.35,
                                   show_edges=False, lighting=False)
-        self.plotter.add_mesh(lines, color=style.measured, line_width=style.line_width + 0.5, lighting=False)
+        self.plotter.add_mesh(lines, color=style.measured, line_width=style.line_width + 0.5, point_size=9,
+                              render_points_as_spheres=not len(edges), lighting=False)
         self._moving.append((lines, self._series))
         fixed = [g.index(n) for n in g.fixed]
         if fixed:

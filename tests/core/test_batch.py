@@ -285,3 +285,20 @@ def test_an_interrupt_after_the_batch_ended_says_what_it_stored(projects, monkey
     cli.main(["batch", "info", *map(str, projects)])  # a reading command: it stored nothing
     assert capfd.readouterr().err.strip().splitlines()[-1] == \
         f"interrupted: nothing stored; finished: {projects[0]}, {projects[1]} of 3 projects"
+
+
+def test_a_link_at_a_name_batch_derives_is_refused(tmp_path):
+    # batch report writes <out>/<project>-report.html, a name the user did not give: a link there
+    # (to the user's notes) is refused in one line, never written through
+    from odsuite.domain.errors import ConfigError
+    from odsuite.ops.batch import _output
+
+    (tmp_path / "out").mkdir()
+    notes = tmp_path / "notes.txt"
+    notes.write_text("NOTES")
+    (tmp_path / "out" / "p-report.html").symlink_to(notes)
+    with pytest.raises(ConfigError, match=r"p-report\.html: a link, which batch never writes through "
+                                          r"\(the name comes from p\.h5\); remove it"):
+        _output(tmp_path / "p.h5", {"out": str(tmp_path / "out")}, "-report.html")
+    assert notes.read_text() == "NOTES"
+    assert _output(tmp_path / "q.h5", {"out": str(tmp_path / "out")}, "-report.html") == tmp_path / "out" / "q-report.html"

@@ -310,3 +310,23 @@ def test_a_nul_in_a_utf16_csv_is_refused(tmp_path, registries):
     create_project(tmp_path / "p.h5", rig=None).close()
     with pytest.raises(OdsuiteError, match=r"NUL character at line 3"):
         _import(registries, tmp_path / "p.h5", tmp_path / "r.csv", rate=100.0)
+
+
+@pytest.mark.parametrize("header, scale, delimiter", [("time [ms]", 1e3, ","), ("t (us)", 1e6, ";"), ("time [s]", 1.0, ",")])
+def test_a_time_column_in_ms_or_us_gives_the_rate_per_second(tmp_path, registries, header, scale, delimiter):
+    # 'time [ms]' was read as seconds: 4 Hz for a 4000 Hz record, silently
+    t = np.arange(400) / 4000.0
+    rows = [f"{header}{delimiter}a1 [g]"] + [f"{x * scale:.6f}{delimiter}{np.sin(600 * x):.6f}" for x in t]
+    text = "\n".join(rows) + "\n"
+    (tmp_path / "r.csv").write_text(text.replace(".", ",") if delimiter == ";" else text)
+    create_project(tmp_path / "p.h5", rig=None).close()
+    _import(registries, tmp_path / "p.h5", tmp_path / "r.csv")
+    with open_project(tmp_path / "p.h5") as p:
+        assert p.experiment("rec").sampling_rate == 4000.0
+
+
+def test_a_time_column_in_another_unit_is_refused(tmp_path, registries):
+    (tmp_path / "r.csv").write_text("time [h],a1 [g]\n0,1\n1,2\n")
+    create_project(tmp_path / "p.h5", rig=None).close()
+    with pytest.raises(OdsuiteError, match=r"r\.csv: channel 'time': time unit 'h' is not one of s, ms, us"):
+        _import(registries, tmp_path / "p.h5", tmp_path / "r.csv")

@@ -73,6 +73,22 @@ def test_gif_when_mp4_encoding_is_unavailable(thesis_rig, tmp_path, monkeypatch)
         assert im.info["duration"] == 40  # 25 fps
 
 
+@pytest.mark.parametrize("existing", ["link", "project"])
+def test_the_gif_fallback_never_replaces_a_file_the_user_did_not_name(thesis_rig, tmp_path, monkeypatch, existing):
+    # -o m.mp4 without an H.264 encoder writes m.gif: a link there (to the user's talk.gif), or a
+    # file that is no GIF (a project named m.gif), is refused in one line and left as it was
+    monkeypatch.setattr(movie, "mp4_available", lambda: False)
+    kept = tmp_path / ("talk.gif" if existing == "link" else "m.gif")
+    kept.write_bytes(b"\x89HDF\r\n\x1a\n precious")
+    if existing == "link":
+        (tmp_path / "m.gif").symlink_to(kept)
+    with pytest.raises(ConfigError, match=r"m\.mp4: no H\.264 encoder .* m\.gif, the GIF written instead, is "
+                                          f"{'a link' if existing == 'link' else 'another file'}: give -o m\\.gif"):
+        render_movie(thesis_rig, decaying_motion(60), FS, tmp_path / "m.mp4", frame_step=5, size=(160, 120),
+                     workers=1, progress=False)
+    assert kept.read_bytes() == b"\x89HDF\r\n\x1a\n precious"
+
+
 def test_mp4_available_here():
     assert movie.mp4_available()
 
