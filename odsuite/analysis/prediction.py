@@ -13,6 +13,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
+import scipy.fft
 import scipy.signal
 import scipy.special
 from threadpoolctl import threadpool_limits
@@ -758,9 +759,54 @@ def _sensor_side(model, exp: PreparedExperiment, y: np.ndarray) -> np.ndarray:
     if chain.front_end is not None:
         from odsuite.domain.recursions import sections_in_place
 
+        slow, fast = _split_front_end(chain.front_end, exp.fs)
         y = np.array(y, dtype=float, order="F")  # the order sosfilt(..., axis=0) returns
-        sections_in_place(_analog_sos(chain.front_end, exp.fs), y)
+        if slow is not None:
+            sections_in_place(_analog_sos(slow, exp.fs), y)
+        if fast is not None:
+            y = _in_band(fast, exp.fs, y)
     return y
+
+
+#: a front end's poles below this fraction of the sampling rate (Hz) are discretised by the
+#: bilinear map (its frequency warping under 1 % there); the others act through their exact
+#: in-band response
+BILINEAR_BELOW = 1.0 / 20.0
+
+
+@functools.lru_cache(maxsize=64)
+def _split_front_end(analog, fs: float):
+    """``analog`` (AnalogFilter) as a slow part (its high-passes: poles below BILINEAR_BELOW x fs,
+    with as many zeros at 0, unit gain above them) and the rest (the anti-aliasing filter, a
+    mounted resonance: every other pole and zero and the whole gain); None for a part without
+    poles. The bilinear map would put a 30 kHz mounted resonance at 2472 Hz on a 5120 Hz record
+    (it folds the whole axis into the band): a null read 118x its floor there."""
+    from odsuite.domain.model import AnalogFilter
+
+    poles = list(analog.poles)
+    slow_p = [p for p in poles if abs(p) < 2 * np.pi * BILINEAR_BELOW * fs]
+    zeros = list(analog.zeros)
+    slow_z = [z for z in zeros if z == 0][:len(slow_p)]
+    fast_z = list(zeros)
+    for z in slow_z:
+        fast_z.remove(z)
+    fast_p = [p for p in poles if abs(p) >= 2 * np.pi * BILINEAR_BELOW * fs]
+    if not fast_p and not fast_z:
+        return analog, None  # as one part: the same sections as before the split
+    slow = AnalogFilter(tuple(slow_z), tuple(slow_p), 1.0) if slow_p else None
+    return slow, AnalogFilter(tuple(fast_z), tuple(fast_p), analog.gain)
+
+
+def _in_band(analog, fs: float, y: np.ndarray) -> np.ndarray:
+    """``y`` (samples x columns) through ``analog``'s exact response at each frequency of the band,
+    by the FFT over twice the record (no wrap: such a filter's response lasts milliseconds). The
+    sampled signal of a filtered band-limited signal: what a front end's fast part does to the
+    record, aliasing nothing into it and warping nothing."""
+    n = y.shape[0]
+    nfft = scipy.fft.next_fast_len(2 * n, real=True)
+    z, p, k = analog.zpk()
+    _, h = scipy.signal.freqs_zpk(z, p, k, worN=2 * np.pi * np.fft.rfftfreq(nfft, 1.0 / fs))
+    return np.asfortranarray(scipy.fft.irfft(scipy.fft.rfft(y, nfft, axis=0) * h[:, None], nfft, axis=0)[:n])
 
 
 def _sensor_rows(model, sensors: Sequence[Sensor]) -> np.ndarray:
@@ -820,9 +866,8 @@ sensor_filter = _sensor_filter
 @functools.lru_cache(maxsize=64)
 def _analog_sos(analog, fs: float) -> np.ndarray:
     """An analog filter (zeros, poles, gain) as digital second-order sections by the bilinear
-    transform: a front end holds parts far above the Nyquist frequency (a sensor's mounted
-    resonance at tens of kHz), which a hold-equivalent discretisation would alias, while the
-    bilinear map keeps their in-band effect (frequency warping: under 1 % below fs / 20)."""
+    transform: for a front end's slow part (_split_front_end), whose frequency warping is under
+    1 % below fs / 20; a hold-equivalent discretisation would alias what lies above."""
     z, p, k = (np.asarray(v, complex) for v in analog.zpk())
     zd, pd, kd = scipy.signal.bilinear_zpk(z, p, float(np.real(k)), fs)
     return scipy.signal.zpk2sos(zd, pd, kd)

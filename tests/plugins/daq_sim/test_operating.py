@@ -166,7 +166,9 @@ def test_operating_records_are_refused_where_a_force_is_needed(thesis_heave, cap
     (["--operating", "base-random", "--force-point=0,0,0", "--force-dir=+z"], "drop --force-rms, --force-point"),
     (["--operating", "base-random:3"], "--operating base-random: takes no value"),
     (["--operating", "random", "--base-rms", "1"], "--base-rms sets the ground's motion: give --operating base-random"),
-    (["--operating", "base-random", "--base-rms", "-1"], "--base-rms: must be > 0 m/s^2, got -1.0"),
+    (["--operating", "base-random", "--base-rms", "-1"], "--base-rms: must be > 0 and at most 10000 m/s^2, got -1.0"),
+    # every sample of a 1e300 m/s^2 ground motion clipped, and the record was stored
+    (["--operating", "base-random", "--base-rms", "1e300"], "--base-rms: must be > 0 and at most 10000 m/s^2, got 1e+300"),
 ])
 def test_bad_operating_options_are_one_line(tmp_path, capsys, args, words):
     p = tmp_path / "p.h5"
