@@ -761,10 +761,13 @@ def pair_modes(
     *,
     shapes_a: np.ndarray | None = None,
     shapes_b: np.ndarray | None = None,
+    within: float | None = None,
 ) -> list[dict]:
     """Pair modes of A (e.g. test) with modes of B (model or another test): by the best MAC when
     both shapes are given, else by nearest frequency; one-to-one, best pairs first. Rows hold both
-    frequencies and dampings, their differences (B - A, relative to A) and the MAC."""
+    frequencies and dampings, their differences (B - A, relative to A) and the MAC. ``within``: only
+    modes whose frequencies differ by at most this fraction pair (a mode of B far away, alike in
+    shape, otherwise took a measured mode from its partner 0.4 % away)."""
     f_a, f_b = np.asarray(f_a, float), np.asarray(f_b, float)
     zeta_a, zeta_b = np.asarray(zeta_a, float), np.asarray(zeta_b, float)
     if shapes_a is not None and shapes_b is not None:
@@ -778,6 +781,8 @@ def pair_modes(
     for flat in np.argsort(score, axis=None)[::-1]:
         i, j = np.unravel_index(flat, score.shape)
         if i in used_a or j in used_b:
+            continue
+        if within is not None and abs(f_b[j] - f_a[i]) > within * f_a[i]:
             continue
         used_a.add(i)
         used_b.add(j)

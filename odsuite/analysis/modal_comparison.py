@@ -108,7 +108,8 @@ def modal_records(project, experiments: Sequence[str], model_for, *, frfs: bool 
         shapes = _shapes(model, rig, res, channel_of, modes) if rig is not None else None
         pairs = pair_modes(res.frequency_hz, res.damping_ratio, modes.frequency_hz[keep], modes.damping_ratio[keep],
                            shapes_a=shapes[0] if shapes is not None else None,
-                           shapes_b=shapes[1][:, keep] if shapes is not None else None) if keep.size else []
+                           shapes_b=shapes[1][:, keep] if shapes is not None else None,
+                           within=PAIR_TOLERANCE) if keep.size else []
         partner = {p["mode_a"]: p for p in pairs if abs(p["frequency_difference"]) <= PAIR_TOLERANCE}
         for i, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio)):
             p = partner.get(i)

@@ -206,12 +206,19 @@ def add_effect_cmd(
         return
     console.print(f"revision {result['revision']}: + {effect}; error {result['previous_error']:.4f} -> "
                   f"{result['error']:.4f} (noise floor {result['noise_floor_error']:.4f})", highlight=False)
-    rows = next((e.get("physical") for e in reversed(result["effects"]) if e["effect"] == effect), None)
-    if rows:  # the quantities that moved most, as stored; all of them in `odsuite model`
-        most = moved(rows, limit=6)
-        rest = len(rows) - len(most)
-        more = f" ({rest} more: `odsuite model {project}`)" if rest else ""
-        console.print(f"{effect}: {shown(physical_text(most))}{more}", highlight=False)
+    for member in effect.split("+"):  # a pair adds both
+        entry = next((e for e in reversed(result["effects"]) if e["effect"] == member), None)
+        if entry is None:
+            continue
+        rows = entry.get("physical")
+        if rows:  # the quantities that moved most, as stored; all of them in `odsuite model`
+            most = moved(rows, limit=6)
+            rest = len(rows) - len(most)
+            more = f" ({rest} more: `odsuite model {project}`)" if rest else ""
+            console.print(f"{member}: {shown(physical_text(most))}{more}", highlight=False)
+        elif entry.get("values"):  # an effect without physical quantities (a gain): its fitted values
+            values = ", ".join(f"{k} = {v:.6g}" for k, v in entry["values"].items() if isinstance(v, (int, float)))
+            console.print(f"{member}: {shown(values)}", highlight=False)
     for line in result["warnings"]:
         paragraph(f"warning: {line}", err_console)
     for note in result.get("notes", ()):

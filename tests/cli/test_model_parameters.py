@@ -73,3 +73,16 @@ def test_physical_quantities_read_in_engineering_units():
     assert _engineering(350.0, None, 400.0, "N s/m") == ["350", "-", "400", "N s/m"]
     assert _engineering(37.7, 0.12, None, "kg") == ["37.7", "0.12", "-", "kg"]
     assert _engineering(0.98, 0.01, 1.0, "1") == ["0.98", "0.01", "1", "-"]
+
+
+def test_add_effect_prints_each_members_fitted_values(capsys, tmp_path):
+    # a pair's add-effect printed no parameter, and an effect without physical quantities (a gain) none
+    p = tmp_path / "p.h5"
+    run(capsys, "new", p)
+    run(capsys, "acquire", p, "--name", "T1", "--samples", "2048", "--scenario", "T1", "--seed", "2")
+    run(capsys, "process", p)
+    out = run(capsys, "add-effect", p, "force_gain")
+    gain = json.loads(run(capsys, "model", p, "--json"))["parameters"]["force_gain"]["gain"]
+    assert f"force_gain: gain = {gain:.6g}" in out
+    out = run(capsys, "add-effect", p, "damping+sensor_gain")
+    assert re.search(r"^damping: .*damping", out, re.M) and re.search(r"^sensor_gain: ", out, re.M), out

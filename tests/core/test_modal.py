@@ -309,3 +309,16 @@ def test_a_record_whose_stable_poles_all_fail_their_checks_says_so(monkeypatch):
     with pytest.raises(ConfigError, match=r"^no mode passed its checks in 20-600 Hz \(lines 0\.5 Hz apart: .*\); "
                                           r"stable poles rejected: 100\.[0-9]{2} Hz: synthesis misfit"):
         identify_modes(f, h[None, :], f_band=(20.0, 600.0), max_order=20)
+
+
+def test_pairing_by_shape_keeps_within_the_frequency_window():
+    # measured 154.3 Hz is the model's 154.9 Hz mode; a model mode at 210 Hz alike in shape (MAC
+    # 0.99 against 0.95) took it, and the table showed "-" beside a model mode 0.4 % away
+    shapes_a = np.array([[1.0], [0.0], [0.3]])
+    shapes_b = np.array([[1.0, 1.0], [0.3, 0.05], [0.3, 0.3]])
+    loose = pair_modes([154.3], [0.01], [154.9, 210.0], [0.01, 0.01], shapes_a=shapes_a, shapes_b=shapes_b)
+    assert [r["mode_b"] for r in loose] == [1]
+    rows = pair_modes([154.3], [0.01], [154.9, 210.0], [0.01, 0.01], shapes_a=shapes_a, shapes_b=shapes_b,
+                      within=0.10)
+    assert [r["mode_b"] for r in rows] == [0] and rows[0]["frequency_b_hz"] == 154.9
+    assert pair_modes([154.3], [0.01], [210.0], [0.01], within=0.10) == []
