@@ -116,7 +116,7 @@ def _print_diagnosis(doc) -> None:
         console.print(f"{c['effect']}{confounded}: {shown(c['evidence'])}", highlight=False)
     if len(told) < len(doc["candidates"]):
         console.print(f"({len(doc['candidates']) - len(told)} more candidates' evidence: --json)", highlight=False)
-    if doc["not_applicable"]:
+    if doc["not_applicable"] and "Not tried, as they apply to other model families" not in doc["message"]:
         paragraph(f"not applicable to this model: {', '.join(doc['not_applicable'])}")
     for note in doc.get("notes", ()):  # a document written before diagnose kept notes has none
         paragraph(note)

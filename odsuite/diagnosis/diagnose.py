@@ -1276,5 +1276,5 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
     if d.verdict in ("unexplained", "partly explained") and d.other_families:
         # why the library may hold nothing for it here: what it holds for other model families
         d.message += (f" Not tried, as they apply to other model families than this model's "
-                      f"({family(base.shared)}): {', '.join(d.other_families)}.")
+                      f"({base.shared.name or family(base.shared)}): {', '.join(d.other_families)}.")
 

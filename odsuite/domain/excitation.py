@@ -55,8 +55,11 @@ def check_force_point(rig, point, where: str = "force point") -> None:
         return
     nearest = min(gaps, key=gaps.get)
     if gaps[nearest] > FORCE_POINT_SLACK:
-        raise ConfigError(f"{where} ({_mm(p)}) mm is outside every body of rig {rig.name!r}: the nearest, "
-                          f"{nearest!r}, is {1e3 * gaps[nearest]:.1f} mm away")
+        # the body a hammer can hit: the nearest moving one (the floor's plate is nearer under a frame)
+        moving = {name: gap for name, gap in gaps.items() if boxes[name][2]}
+        near = min(moving, key=moving.get) if moving else nearest
+        raise ConfigError(f"{where} ({_mm(p)}) mm is outside every body of rig {rig.name!r}: the nearest "
+                          f"{'moving body' if moving else 'body'}, {near!r}, is {1e3 * gaps[near]:.1f} mm away")
     if not any(moving and gaps[name] <= FORCE_POINT_SLACK for name, (_, _, moving) in boxes.items()):
         moving = [name for name, (_, _, m) in boxes.items() if m]
         raise ConfigError(f"{where} ({_mm(p)}) mm lies on {nearest!r}, which has no mass and does not move: "

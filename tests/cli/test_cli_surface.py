@@ -80,7 +80,7 @@ def test_force_point_off_every_body_is_refused_in_one_line(sim_project, capsys):
     code, out, err = run(capsys, "acquire", sim_project, "--daq", "sim", "--name", "off",
                          "--force-point=500,0,0", "--force-dir=+z")
     assert code == 1 and err.strip().count("\n") == 0
-    assert "outside every body" in err and "'reference', is 252.2 mm away" in err
+    assert "outside every body" in err and "the nearest moving body, 'platform', is 451.6 mm away" in err
     code, _, err = run(capsys, "info", sim_project, "--json")
     assert "off" not in json.loads(_)["experiments"]
 

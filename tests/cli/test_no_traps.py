@@ -62,7 +62,8 @@ def test_metres_written_as_bare_numbers_land_on_the_floor_and_are_refused(capsys
     assert "(bare numbers are mm) (0.2, 0.15, 0.01) mm lies on 'floor', which has no mass" in err
     # as metres it is 40 mm under the plate and 10 mm above the floor: outside every body
     code, _, err = run(capsys, "acquire", project, "--name", "a", "--force-point=0.2,0.15,0.01m", "--force-dir=-z", *SHORT)
-    assert code == 1 and "outside every body" in err and "'floor', is 10.0 mm away" in err, err
+    # the body a hammer can hit is named: the plate 40 mm above, not the floor 10 mm below
+    assert code == 1 and "outside every body" in err and "the nearest moving body, 'plate', is 40.0 mm away" in err, err
 
 
 @pytest.mark.parametrize("written, direction, expected, face", [
