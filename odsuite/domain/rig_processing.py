@@ -5,6 +5,7 @@ UFF file, the simulated rig), as overrides of a channel's Table E.2 settings, wi
 
 from __future__ import annotations
 
+import difflib
 import math
 from typing import Any
 
@@ -78,7 +79,9 @@ def parse_processing(table: Any, where: str) -> dict[str, Any]:
         raise ConfigError(f"{where}: expected a table, got {table!r}")
     unknown = sorted(set(table) - set(KEYS))
     if unknown:
-        raise ConfigError(f"{where}: unknown field(s) {', '.join(unknown)} (known: {', '.join(KEYS)})")
+        near = difflib.get_close_matches(str(unknown[0]), KEYS, n=1)
+        hint = f"; did you mean {near[0]!r}?" if near else ""
+        raise ConfigError(f"{where}: unknown field(s) {', '.join(unknown)} (known: {', '.join(KEYS)}){hint}")
     out: dict[str, Any] = {}
     if "offset_samples" in table:
         v = table["offset_samples"]
