@@ -337,6 +337,9 @@ class NoiseFloor:
     # per sensor, its noise's colour (noise_colour.by_sensor): the records' alone, so a floor of the
     # same records for another model takes it from here
     colours: dict[str, Any] = field(default_factory=dict, repr=False)
+    # per experiment: the part of ``bands``' energy (bands x sensors) the colour adds to the sensors'
+    # white noise, which only the few lines before the hits measure (resolved.floor_error)
+    coloured: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
 
     def judged(self, experiment: str, n_bands: int) -> np.ndarray:
         """Per band of ``experiment``, whether those samples resolve it (resolves_band); where not,
@@ -428,6 +431,7 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
     specs: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     banded: dict[str, tuple[list[tuple[float, float]], np.ndarray, np.ndarray]] = {}
     counted: dict[str, np.ndarray] = {}
+    coloured: dict[str, np.ndarray] = {}
     # the colour's excess is tested in the bands the residual is judged in
     if colours is None:
         colours = noise_colour.by_sensor(exps, band_edges(exps[0].fs, exps[0].n_samples) if exps else ())
@@ -454,8 +458,10 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
                                                               SMOOTH_LINES, axis=0, mode="nearest")
             else:
                 sensor_lines = np.tile(broadband / (n // 2 + 1), (n // 2 + 1, 1))
+            excess_lines = None
             if colour is not None:
                 white_sum = sensor_lines.sum(axis=0)
+                excess_lines = sensor_lines * (colour - 1.0)
                 sensor_lines = sensor_lines * colour
                 broadband = broadband * sensor_lines.sum(axis=0) / np.where(white_sum > 0, white_sum, np.inf)
         hum = (np.sum(e.disturbance**2, axis=0) if e.disturbance is not None else np.zeros(len(e.sensors)))
@@ -495,10 +501,13 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
             if h is not None:
                 lines = lines + e.force_noise_energy * line_energies(h)
             sums = lines.sum(axis=0)
-            lines = lines * np.where(sums > 0, total / np.where(sums > 0, sums, 1.0), 1.0)
+            to_total = np.where(sums > 0, total / np.where(sums > 0, sums, 1.0), 1.0)
+            lines = lines * to_total
             bands = band_edges(e.fs, n)
             masks = in_band(e.fs, n, bands)
             banded[e.name] = (bands, np.array([lines[m].sum(axis=0) for m in masks]), band_dof(lines, masks))
+            if excess_lines is not None:
+                coloured[e.name] = np.array([(excess_lines * to_total)[m].sum(axis=0) for m in masks])
             if stretches is not None:
                 counted[e.name] = band_lines(stretches, bands)
-    return NoiseFloor(energy, measured, parts, specs, banded, counted, dict(colours))
+    return NoiseFloor(energy, measured, parts, specs, banded, counted, dict(colours), coloured)
