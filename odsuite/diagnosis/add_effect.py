@@ -201,7 +201,11 @@ def _add_on_top(project, rev, entries, name: str, effect, screened, exps, before
         progress(f"fitting {name}", 1, 3)
     res = fit(problem, screened.u0, continuation=False) if problem.free else None
     u = res.x if res is not None else problem.zero()
-    fit_sds, corr = uncertainties(problem, res, lambda: checks.residual_effective_samples(problem, res))[:2] if res is not None else (np.zeros(0), None)
+    nulls = np.zeros((len(problem.free), 0))
+    if res is not None:
+        fit_sds, corr, _, nulls = uncertainties(problem, res, lambda: checks.residual_effective_samples(problem, res))
+    else:
+        fit_sds, corr = np.zeros(0), None
     scores = None
     if res is not None:
         scores = force_noise_scores(problem, res)
@@ -213,6 +217,7 @@ def _add_on_top(project, rev, entries, name: str, effect, screened, exps, before
     rows = physical.quantities(effect, problem.base.shared, {**problem.fixed, **shared},
                                [f.param.name if f.experiment is None else "" for f in problem.free], fit_sds, corr,
                                spread)
+    physical.mark_undetermined(rows, effect, problem.base.shared, lambda x: problem.searched_values(x, shared), u, nulls)
     new_entries = [*entries, {"effect": name, "values": dict(shared),
                               "per_experiment": {x: d for x, d in per.items() if d}, "uncertainties": unc,
                               **({"physical": rows} if rows else {})}]

@@ -289,10 +289,11 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         # its minimum its residual holds what it has not fitted yet, which no uncertainty reads as noise
         unsettled = short and checked is None and out_of_reach.passes
         if unsettled:
-            sds, corr, groups = np.full(len(problem.free), np.nan), np.eye(len(problem.free)), []
+            sds, corr, groups, nulls = (np.full(len(problem.free), np.nan), np.eye(len(problem.free)), [],
+                                        np.zeros((len(problem.free), 0)))
         else:
             # uncertainties from the residual as it is: its samples are correlated (filters, misfit)
-            sds, corr, groups = uncertainties(problem, res, lambda: checks.residual_effective_samples(problem, res))
+            sds, corr, groups, nulls = uncertainties(problem, res, lambda: checks.residual_effective_samples(problem, res))
         unident = [f.label for f, sd in zip(problem.free, sds) if not unsettled and (
             not np.isfinite(sd) or sd > UNIDENTIFIABLE_FRACTION * (f.param.upper - f.param.lower))]
         if unident and len(unident) < len(problem.free) and not stopped and not short:
@@ -304,7 +305,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
                 keep = [i for i, f in enumerate(screened.problem.free) if f.param.name not in held]
                 res = fit(problem, u[keep], continuation=False)
                 u = res.x
-                sds, corr, groups = uncertainties(problem, res, lambda: checks.residual_effective_samples(problem, res))
+                sds, corr, groups, nulls = uncertainties(problem, res, lambda: checks.residual_effective_samples(problem, res))
         sse = problem.sse(u)
         confounded = groups + [[problem.free[i].label, problem.free[j].label]
                                for i in range(len(problem.free)) for j in range(i + 1, len(problem.free))
@@ -324,7 +325,7 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         u = problem.zero()
         sse = screened.sse
         sds, unident, confounded, corr = np.zeros(0), [], [], None
-        shown_sds, spread, scores = sds, None, None
+        shown_sds, spread, scores, nulls = sds, None, None, np.zeros((0, 0))
     sse_win = sse
     tail = problem.tail_sse(u)
     at_fit = problem.predictions(u, problem.full)  # kept by tail_sse where the records are cut
@@ -369,6 +370,8 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
     labels = [f.param.name if f.experiment is None else "" for f in problem.free]
     cand.physical = physical.quantities(effect, problem.base.shared, {**problem.fixed, **shared}, labels, sds, corr,
                                         spread)
+    physical.mark_undetermined(cand.physical, effect, problem.base.shared,
+                               lambda x: problem.searched_values(x, shared), u, nulls)
     # one that stopped out of reach as passing its test is named: whether its values follow the force
     # level (a proxy for amplitude-dependent physics, ranking.mark_proxies) decides its confounding, so
     # its consistency is checked at the point reached (a weak hardening series' mass_properties, left

@@ -275,6 +275,11 @@ class Problem:
                 per.setdefault(f.experiment, {})[f.param.name] = f.to_value(x)
         return shared, per
 
+    def searched_values(self, u: np.ndarray, projected: Mapping[str, float]) -> dict[str, float]:
+        """The shared values at search point ``u``, the projected ones held at ``projected`` (a
+        fit's): what a step along a direction the data cannot see changes (physical.mark_undetermined)."""
+        return {**projected, **self._search_values(u)[0]}
+
     def values(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None
                ) -> tuple[dict[str, float], dict[str, dict[str, float]]]:
         """Shared and per-experiment values at ``u``, the projected ones fitted on ``exps``."""
@@ -1798,8 +1803,9 @@ def effective_samples(exps: Sequence[PreparedExperiment]) -> tuple[float, float]
 
 
 def uncertainties(problem: Problem, res, n_eff: float | Callable[[], float]
-                  ) -> tuple[np.ndarray, np.ndarray, list[list[str]]]:
-    """Standard deviations (value units), correlations and redundant groups at the fit.
+                  ) -> tuple[np.ndarray, np.ndarray, list[list[str]], np.ndarray]:
+    """Standard deviations (value units), correlations, redundant groups and the directions the
+    data cannot see (search units, parameters x directions, unit length) at the fit.
 
     The sandwich covariance ``A^+ B A^+`` (A = J^T J, B = Var(J^T r), residual_score_covariance):
     the residual's noise is coloured (the force channel's noise through the model rings at the
@@ -1836,7 +1842,7 @@ def uncertainties(problem: Problem, res, n_eff: float | Callable[[], float]
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(sd_u, sd_u)
     scales = np.array([f.scale for f in problem.free])
-    return sd_u * scales, np.nan_to_num(corr), groups
+    return sd_u * scales, np.nan_to_num(corr), groups, V[:, null]
 
 
 def force_noise_covariance(problem: Problem, res, scores: Sequence[np.ndarray] | None = None) -> np.ndarray:

@@ -73,6 +73,38 @@ def quantities(effect, model, values: Mapping[str, float], labels: Sequence[str]
             for r, v, n in zip(rows, var, nominal)]
 
 
+#: a step along a direction the data cannot see (search units: natural steps), taken both ways
+NULL_STEP = 1e-2
+
+
+def mark_undetermined(rows: list[dict[str, Any]], effect, model, values_at, x: np.ndarray, nulls: np.ndarray) -> None:
+    """Mark, in place, the rows (``quantities``') that move along a direction the data cannot see
+    (``nulls``: search units, fitting.uncertainties'): their value is one of many that fit alike,
+    so they get no uncertainty and ``determined`` false. Six isolators in two rows of three under a
+    rigid frame: one pattern of their vertical stiffnesses moves nothing a sensor sees, and each
+    isolator's fitted stiffness read 127 ± 0.07 kN/m where the truth was 120 (the prior picks a
+    point of the valley). ``values_at(x)``: the effect's values at search point ``x``."""
+    physical = getattr(effect, "physical", None)
+    if not rows or physical is None or nulls.size == 0:
+        return
+    base = np.array([r["value"] for r in rows], float)
+    for k in range(nulls.shape[1]):
+        try:
+            ends = [np.array([r[1] for r in physical(model, effect.values(model, values_at(x + t * nulls[:, k])))],
+                             float) for t in (NULL_STEP, -NULL_STEP)]
+        except NonPhysicalError:
+            continue
+        if any(e.shape != base.shape for e in ends):
+            continue
+        # central: a determined combination (a spring's stiffness where only a scale per axis and
+        # one per group trade off) moves at second order, an undetermined one at first
+        slope = np.abs(ends[0] - ends[1]) / (2 * NULL_STEP)
+        for r, s_, v in zip(rows, slope, base):
+            if s_ > 1e-6 * max(abs(v), 1e-300):
+                r["uncertainty"] = None
+                r["determined"] = False
+
+
 def moved(rows: Sequence[Mapping[str, Any]], limit: int = 4) -> list[Mapping[str, Any]]:
     """The rows that moved from their nominal most, in their own uncertainties (or relatively where
     none is known), at most ``limit``; rows that did not move are left out."""
@@ -102,6 +134,10 @@ def text(rows: Sequence[Mapping[str, Any]]) -> str:
         unit = "" if shown_unit in ("", "1") else f" {unit_text(shown_unit)}"
         sd = r.get("uncertainty")
         pm = f" ± {sd / scale:.2g}" if sd is not None and sd > 0 else ""
-        was = f" (model: {r['nominal'] / scale:.4g})" if r["nominal"] is not None else ""
+        alike = "one of many values the data fit alike"
+        if r.get("determined", True) is False:
+            was = f" (model: {r['nominal'] / scale:.4g}; {alike})" if r["nominal"] is not None else f" ({alike})"
+        else:
+            was = f" (model: {r['nominal'] / scale:.4g})" if r["nominal"] is not None else ""
         parts.append(f"{r['label']} = {r['value'] / scale:.4g}{pm}{unit}{was}")
     return "; ".join(parts)

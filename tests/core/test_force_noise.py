@@ -53,7 +53,7 @@ def draws(tmp_path_factory):
                     _filtered=None)
         problem = Problem(base, effect, fit_windows([d]), full=[d])
         res = fit(problem, truth)
-        sds, corr, _ = uncertainties(problem, res, float(res.fun.size))
+        sds, corr, _, _ = uncertainties(problem, res, float(res.fun.size))
         scales = np.array([f.scale for f in problem.free])
         sandwich = corr * np.outer(sds, sds) / np.outer(scales, scales)  # search units, as the fit's steps
         out.append((res.x - truth, sandwich, force_noise_covariance(problem, res), res.jac.T @ res.jac))

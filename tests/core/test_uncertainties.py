@@ -96,9 +96,11 @@ def test_undetermined_directions_stay_out_and_are_named():
     J = np.hstack([J1, J1])
     r = _noise(rng, ringing_sd=0.0)
     r = r - J1[:, 0] * (J1[:, 0] @ r) / (J1[:, 0] @ J1[:, 0])
-    sds, corr, groups = uncertainties(_problem(2), SimpleNamespace(jac=-J, fun=r), n_eff=r.size)
+    sds, corr, groups, nulls = uncertainties(_problem(2), SimpleNamespace(jac=-J, fun=r), n_eff=r.size)
     one = uncertainties(_problem(1), SimpleNamespace(jac=-J1, fun=r), n_eff=r.size)[0]
     assert groups == [["a0", "a1"]]
+    # the direction the data cannot see: a0 up, a1 down, equally (search units, unit length)
+    assert nulls.shape == (2, 1) and np.allclose(np.abs(nulls[:, 0]), np.sqrt(0.5)) and nulls[0, 0] * nulls[1, 0] < 0
     # var(a0 + a1) from the pseudo-inverse covariance: the one-column fit's
     var_sum = sds[0] ** 2 + sds[1] ** 2 + 2 * corr[0, 1] * sds[0] * sds[1]
     assert np.sqrt(var_sum) == np.float64(np.sqrt(var_sum))
@@ -171,3 +173,30 @@ def test_score_covariance_equals_the_smoothed_cross_spectral_matrices_formed_exp
             expected += twice[f] * (G[f].conj().T @ S[f] @ G[f]).real / nfft
     got = residual_score_covariance(J, r, blocks)
     assert np.allclose(got, (expected + expected.T) / 2, rtol=1e-12, atol=1e-12 * np.abs(expected).max())
+
+
+def test_a_quantity_along_a_direction_the_data_cannot_see_is_not_determined():
+    # two parameters whose difference the data cannot see (null direction (1, -1)): each alone is
+    # one of many values that fit alike, their sum is determined; a product of two factors traded
+    # off in logarithms (a stiffness scale per axis times one per group) stays determined
+    from odsuite.diagnosis.physical import mark_undetermined
+
+    class Effect:
+        @staticmethod
+        def values(model, v):
+            return dict(v)
+
+        @staticmethod
+        def physical(model, v):
+            return [("a", v["a"], "N/m"), ("b", v["b"], "N/m"), ("a + b", v["a"] + v["b"], "N/m"),
+                    ("a b", np.exp(v["la"] + v["lb"]), "N/m")]
+
+    def values_at(x):
+        return {"a": 1.0 + x[0], "b": 2.0 + x[1], "la": x[2], "lb": x[3]}
+
+    nulls = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]]) / np.sqrt(2)
+    rows = [{"label": k, "value": v, "unit": u, "uncertainty": 0.1, "nominal": v}
+            for k, v, u in Effect.physical(None, values_at(np.zeros(4)))]
+    mark_undetermined(rows, Effect, None, values_at, np.zeros(4), nulls)
+    assert [r.get("determined", True) for r in rows] == [False, False, True, True]
+    assert [r["uncertainty"] for r in rows] == [None, None, 0.1, 0.1]
