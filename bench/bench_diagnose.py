@@ -73,6 +73,17 @@ two-body 210 / 276 / 264 / 247 / 248 (2.5 / 3.2 / 2.8 / 2.7 / 2.8 s, 11.8 / 11.5
 11.4 ms): medians 278 and 248. A sitting's worth figure moves by a third on the same code. scipy's Welch on the floor's blocks (36 columns of 8192 samples)
 is not beaten by a hand-written one (11.5 against 13.7 ms): the floors' spectra stay scipy's.
 
+Round 47 (no change to the search; the two-body bench's records are simulated at 16 internal steps
+per sample where they were 8, and the cell limits carry a noise colour's estimation error, which
+neither bench has: the thesis bench's diagnose the same to the bit, the two-body's 706 -> 701
+evaluations, 0.4916 -> 0.4912 to 0.2381 -> 0.2379 at a floor of 0.2365 -> 0.2363, the same verdict
+and top): three sittings at load 0.7-1.0, the least of three forked runs each, thesis 298 / 236 /
+276 worth (2.0 / 1.9 / 1.8 s CPU, the baseline 6.7 / 8.1 / 6.5 ms), two-body 214 / 182 / 193
+(3.2 / 2.6 / 2.6 s, 14.9 / 14.1 / 13.5 ms). The two-body baseline read 13.5-14.9 ms in these
+sittings against 10.0-11.8 before, with its diagnose's CPU as before (2.5-3.2 s): its worth figure
+fell with it, so it does not compare; old and new prediction code in turn on one project read
+9.8-10.1 ms alike. The 250 target stays missed on the thesis bench (median 276).
+
 Measured in rounds 43-45 and not done (do not redo without a new reason):
 - the fit windows without their samples at rest before the hit (PreparedExperiment.resting_head,
   as the screening's heads): 1.82 -> 1.65 s CPU on the thesis bench, 2.66 -> 2.46 s on the
