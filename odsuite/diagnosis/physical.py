@@ -75,6 +75,9 @@ def quantities(effect, model, values: Mapping[str, float], labels: Sequence[str]
 
 #: a step along a direction the data cannot see (search units: natural steps), taken both ways
 NULL_STEP = 1e-2
+#: a quantity moving by more than this fraction of itself per natural step along such a direction
+#: is not determined by the data
+UNDETERMINED_SLOPE = 1e-4
 
 
 def mark_undetermined(rows: list[dict[str, Any]], effect, model, values_at, x: np.ndarray, nulls: np.ndarray) -> None:
@@ -97,10 +100,11 @@ def mark_undetermined(rows: list[dict[str, Any]], effect, model, values_at, x: n
         if any(e.shape != base.shape for e in ends):
             continue
         # central: a determined combination (a spring's stiffness where only a scale per axis and
-        # one per group trade off) moves at second order, an undetermined one at first
+        # one per group trade off) moves at third order, an undetermined one at first (a spring's
+        # stiffness by about 5 % of itself per natural step)
         slope = np.abs(ends[0] - ends[1]) / (2 * NULL_STEP)
         for r, s_, v in zip(rows, slope, base):
-            if s_ > 1e-6 * max(abs(v), 1e-300):
+            if s_ > UNDETERMINED_SLOPE * max(abs(v), 1e-300):
                 r["uncertainty"] = None
                 r["determined"] = False
 
