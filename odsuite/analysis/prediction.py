@@ -804,9 +804,18 @@ def _in_band(analog, fs: float, y: np.ndarray) -> np.ndarray:
     record, aliasing nothing into it and warping nothing."""
     n = y.shape[0]
     nfft = scipy.fft.next_fast_len(2 * n, real=True)
-    z, p, k = analog.zpk()
-    _, h = scipy.signal.freqs_zpk(z, p, k, worN=2 * np.pi * np.fft.rfftfreq(nfft, 1.0 / fs))
+    h = _response_lines(analog, fs, nfft)
     return np.asfortranarray(scipy.fft.irfft(scipy.fft.rfft(y, nfft, axis=0) * h[:, None], nfft, axis=0)[:n])
+
+
+@functools.lru_cache(maxsize=16)
+def _response_lines(analog, fs: float, nfft: int) -> np.ndarray:
+    """``analog``'s response at the lines of an ``nfft``-point real FFT: the same for every
+    evaluation of a fit, so kept."""
+    z, p, k = analog.zpk()
+    h = scipy.signal.freqs_zpk(z, p, k, worN=2 * np.pi * np.fft.rfftfreq(nfft, 1.0 / fs))[1]
+    h.flags.writeable = False
+    return h
 
 
 def _sensor_rows(model, sensors: Sequence[Sensor]) -> np.ndarray:
