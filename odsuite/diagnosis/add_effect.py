@@ -98,7 +98,7 @@ def _add_effect(project, name: str, *, progress: Callable[[str, int, int], None]
     stride = max(1, int(exps[0].fs / (5.0 * f99)))
     prior = 1e-3 * max(noise**2, 1e-8) * den / stride
     before = cmp.error
-    windows = fit_windows(exps)
+    windows = fit_windows(exps, stride)
     if progress:
         progress(f"screening {name}", 0, 3)
     current = revision_model(project, {**rev, "effects": entries})

@@ -142,7 +142,7 @@ def consistency(problem, res, force_levels: Mapping[str, float], tolerated: floa
         rows = slice(starts[i], starts[i + 1])
         scores = None if force_noise is None else force_noise[i][np.ix_(shared, shared)]
         fitted, part, _, _ = _local_fit(problem, res.x, J[rows][:, shared], r[rows], shared, e.measured.shape[1],
-                                        scores=scores)
+                                        scores=scores, spread_rows=_with_rest(problem, e, r[rows]))
         gain += part
         for label, v, sd in fitted:
             values.setdefault(label, []).append((e.name, v, sd))
@@ -226,7 +226,7 @@ def _trend(x: np.ndarray, x_sd: np.ndarray, v: np.ndarray, sd: np.ndarray) -> tu
 
 
 def _local_fit(problem, x, Ji: np.ndarray, ri: np.ndarray, shared: Sequence[int], columns: int,
-               bounded: bool = False, scores: np.ndarray | None = None
+               bounded: bool = False, scores: np.ndarray | None = None, spread_rows: np.ndarray | None = None
                ) -> tuple[list[tuple[str, float, float]], float, np.ndarray, np.ndarray]:
     """The shared parameters fitted to some rows of a joint fit alone: one Gauss-Newton step from
     it on those rows of the Jacobian, the covariance from their residual with its effective
@@ -243,7 +243,11 @@ def _local_fit(problem, x, Ji: np.ndarray, ri: np.ndarray, shared: Sequence[int]
 
     ``scores``: the covariance of these rows' gradient ``Ji^T ri`` beyond what their residual
     shows (the force channel's noise: fitting.force_noise_scores), added through the step's
-    ``H^+``."""
+    ``H^+``.
+
+    ``spread_rows``: the residual the covariance's variance is read from, where it holds more rows
+    than ``ri`` (the rows at rest before the windows, Problem.at_rest, in the records' order);
+    ``ri`` by default."""
     H = Ji.T @ Ji
     if not np.any(H):
         return [], 0.0, np.zeros(len(shared)), np.zeros((len(shared), len(shared)))
@@ -253,9 +257,10 @@ def _local_fit(problem, x, Ji: np.ndarray, ri: np.ndarray, shared: Sequence[int]
     step = -Hinv @ (Ji.T @ ri)
     if bounded:
         step = _bounded_step(problem, x, Ji, ri, shared, step)
-    n_i = ri.size
-    neff = effective_samples(ri.reshape(-1, columns))
-    s2 = float(ri @ ri) / max(1, n_i - len(shared)) * (n_i / neff)
+    rv = ri if spread_rows is None else spread_rows
+    n_i = rv.size
+    neff = effective_samples(rv.reshape(-1, columns))
+    s2 = float(rv @ rv) / max(1, n_i - len(shared)) * (n_i / neff)
     cov = s2 * Hinv
     if scores is not None:
         cov = cov + Hinv @ scores @ Hinv
@@ -283,6 +288,13 @@ def _bounded_step(problem, x, Ji: np.ndarray, ri: np.ndarray, shared: Sequence[i
         lo_s, hi_s = np.minimum(lo[seen], 0.0), np.maximum(hi[seen], 0.0)
         out[seen] = scipy.optimize.lsq_linear(Ji[:, seen], -ri, bounds=(lo_s, hi_s), method="bvls").x
     return out
+
+
+def _with_rest(problem, e, rows: np.ndarray) -> np.ndarray:
+    """A record's residual rows with the rows at rest before its window (Problem.at_rest), whose
+    Jacobian is zero: a part's variance is read over both, as over a window that kept them."""
+    rest = problem.at_rest(e)
+    return np.concatenate([rest.ravel(), rows]) if rest.size else rows
 
 
 @dataclass
@@ -318,6 +330,7 @@ def linearity(problem, res) -> Linearity:
     J = res.jac[:n_data] if shared == list(range(res.jac.shape[1])) else res.jac[:n_data][:, shared]
     r = res.fun[:n_data]
     parts: tuple[list[np.ndarray], list[np.ndarray]] = ([], [])
+    early_spread_rows: list[np.ndarray] = []  # the early rows with the rows at rest before them
     cuts: dict[str, int] = {}
     start, columns = 0, None
     for e in problem.exps:
@@ -329,14 +342,16 @@ def linearity(problem, res) -> Linearity:
             cut = int(np.searchsorted(info, 0.5 * info[-1])) + 1
             parts[0].append(np.arange(start, start + cut * m))
             parts[1].append(np.arange(start + cut * m, start + size))
+            early_spread_rows.append(_with_rest(problem, e, r[start:start + cut * m]))
             cuts[e.name] = e.first + cut * problem.stride  # in the record's samples (a window may start later)
         start += size
     if not parts[0] or not columns:
         return Linearity()  # channel counts differ between records: no common row blocks
     fits, us, covs = [], [], []
-    for rows in parts:
+    for part, rows in enumerate(parts):
         idx = np.concatenate(rows)
-        fitted, _, step, cov = _local_fit(problem, res.x, J[idx], r[idx], shared, columns, bounded=True)
+        fitted, _, step, cov = _local_fit(problem, res.x, J[idx], r[idx], shared, columns, bounded=True,
+                                          spread_rows=np.concatenate(early_spread_rows) if part == 0 else None)
         fits.append({label: (v, sd) for label, v, sd in fitted})
         u = np.array(res.x, float)
         u[shared] += step

@@ -508,13 +508,15 @@ def _out_of_reach(problem: Problem, top: float, counts: Sequence[int], n_eff: fl
     unit = 2.0 * problem.stride / problem.noise_scale if problem.noise_scale > 0 else 0.0  # cost -> noise energies
     limit, apart = resolution.gain_threshold(k), resolution.gain_threshold(k + max(counts, default=0))
     penalty = max(k - min(counts, default=k), 0) * math.log(max(n_eff, 1.0))
+    rest = problem.rest_cost()  # BIC's ratio of costs over the windows with their rows at rest
 
     def out_of_reach(x: np.ndarray, promised: float) -> bool:
         if unit == 0.0 or before is None:
             return False
         reach = JOINT_REACH * promised
         least = _cost(problem, x) - reach  # the fit's predictions at x are kept: no evaluation
-        if (least - top) * unit <= apart or least <= 0 or n_eff * math.log(least / top) <= penalty:
+        if ((least - top) * unit <= apart or least <= 0
+                or n_eff * math.log((least + rest) / (top + rest)) <= penalty):
             return False
         try:
             res = resolution.resolve(problem.full, problem.predictions(x, problem.full), floor)
@@ -525,9 +527,9 @@ def _out_of_reach(problem: Problem, top: float, counts: Sequence[int], n_eff: fl
         g = resolution.gain(before, res)
         out_of_reach.passes = limit < g
         if limit < g or g + reach * unit <= limit:
-            why.append(f"its fit stopped where it could not come near the top (cost {(least + reach) * unit:.4g} "
+            why.append(f"its fit stopped where it could not come near the top (cost {(least + reach + rest) * unit:.4g} "
                        f"noise energies, at most {reach * unit:.3g} less by its linearisation, against at most "
-                       f"{top * unit:.4g} for the best) nor change its significance (likelihood ratio {g:.4g}, "
+                       f"{(top + rest) * unit:.4g} for the best) nor change its significance (likelihood ratio {g:.4g}, "
                        f"limit {limit:.3g})")
             return True
         return False
@@ -668,15 +670,16 @@ def _baseline(project, rev, base, exps):
     cmp = compare(project, revision=rev, prepared=exps, resonances=False, coordinates=False, tables=False)
     den = sum(float(np.sum(e.measured**2)) for e in exps)
     sse0 = cmp.error**2 * den
-    windows = fit_windows(exps)
+    n_eff, f99 = effective_samples(exps)
+    stride = max(1, int(exps[0].fs / (5.0 * f99)))
+    windows = fit_windows(exps, stride)
     sse0_win = sum(float(np.sum((w.measured - predict(base.for_experiment(w.name), w)) ** 2)) for w in windows)
     noise = cmp.noise_floor_error
-    n_eff, f99 = effective_samples(exps)
     peaks = cmp.residual_peaks
     rig_vals = [max(b["fractions"].values()) for per in cmp.rigidity.values() for b in per.values()
                 if b["fractions"]]
     job = {"base": base, "effects": project.registries.effects, "windows": windows, "exps": exps, "floor": cmp.floor,
-           "prior": 1e-3 * max(noise**2, 1e-8) * den, "stride": max(1, int(exps[0].fs / (5.0 * f99))),
+           "prior": 1e-3 * max(noise**2, 1e-8) * den, "stride": stride,
            # noise energy per independent sample of the calibrated floor: the scale of every test
            "scale": checks.noise_scale(cmp.floor, exps), "sse0_win": sse0_win,
            "peak_hz": [p["frequency_hz"] for p in peaks if p["lacking"]], "sse0": sse0, "den": den,

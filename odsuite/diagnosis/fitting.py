@@ -55,11 +55,13 @@ UNSTABLE_RESIDUAL = 1e3
 AT_BOUND = 1e-8
 
 
-def fit_windows(exps: Sequence[PreparedExperiment]) -> list[PreparedExperiment]:
+def fit_windows(exps: Sequence[PreparedExperiment], stride: int = 1) -> list[PreparedExperiment]:
     """Each experiment cut where its response has died away into the noise (a hammer response
-    decays within tens of milliseconds of records that last far longer): fits and screening see
-    the same information for a fraction of the cost. The sum of squares of the rest is added back
-    where an error is reported."""
+    decays within tens of milliseconds of records that last far longer), and without its samples
+    at rest before the hit (PreparedExperiment.resting_head, cut at a multiple of ``stride``, the
+    fits' residual's): fits and screening see the same information for a fraction of the cost.
+    The sum of squares of the rest is added back where an error is reported; the rows at rest
+    count in the checks' variance estimates as they did in the fits' residual (Problem.at_rest)."""
     out = []
     for e in exps:
         power = np.sum(e.measured**2, axis=1)
@@ -69,7 +71,7 @@ def fit_windows(exps: Sequence[PreparedExperiment]) -> list[PreparedExperiment]:
         above = np.flatnonzero(tail > TAIL_FRACTION * n * var)
         last = int(above[-1]) if above.size else e.trigger
         end = last + max(WINDOW_MARGIN * max(last - e.trigger, 0), WINDOW_MIN_S * e.fs)
-        out.append(e.head(int(math.ceil(end))))
+        out.append(e.resting_head(int(math.ceil(end)), stride))
     return out
 
 
@@ -253,6 +255,7 @@ class Problem:
         self._units: dict[tuple, np.ndarray] = {}
         # _climb_grid's ranking of a grid on the residual without the effect, per grid and records
         self._gains: dict[tuple, np.ndarray] = {}
+        self._at_rest: dict[tuple[str, int], np.ndarray] = {}
         self.free: list[_Free] = []
         for p in params:
             if p.choices is not None or p.name in self.fixed or p.name in self.linear:
@@ -468,6 +471,37 @@ class Problem:
             if columns is not None:
                 parts.append(r[:, columns].ravel())
         return out if columns is None else np.concatenate(parts)
+
+    def at_rest(self, e: PreparedExperiment) -> np.ndarray:
+        """The residual's rows (strided samples x channels, weighted) of ``e``'s record before its
+        window's first sample (fit_windows: the samples at rest before the hit). The model is at
+        rest there, so they are the measured noise at every parameter value: no fit simulates
+        them, and the checks that read a variance off the residual (checks._local_fit, the
+        sandwich of ``uncertainties``) count them as they counted them in a window that kept them. Empty where the window starts where the problem's whole record does."""
+        got = self._at_rest.get((e.name, e.first))
+        if got is None:
+            got = self._at_rest[e.name, e.first] = self._rows_cut(e)[::self.stride] * self.weights[e.name]
+        return got
+
+    def _rows_cut(self, e: PreparedExperiment) -> np.ndarray:
+        """The measured samples of ``e``'s whole record before its window (``full`` may be the
+        windows themselves: none), at a multiple of the stride from the record's start."""
+        whole = next((f for f in self.full if f.name == e.name), None)
+        cut = e.first - whole.first if whole is not None else 0
+        if cut > 0 and cut % self.stride:
+            raise ValueError(f"record {e.name!r}: its window starts {cut} samples in, not at a multiple of the "
+                             f"fit's stride {self.stride} (fit_windows(exps, stride))")
+        return whole.measured[:cut] if cut > 0 else e.measured[:0]
+
+    def rest_cost(self) -> float:
+        """The rows at rest's part of the fits' cost (half their strided, weighted sum of squares):
+        the constant a window that kept them adds to every cost. Tests on a ratio of two costs
+        read it (diagnose._out_of_reach, _Stops' target), as they did on such windows."""
+        return 0.5 * sum(float(np.sum(self.at_rest(e) ** 2)) for e in self.exps)
+
+    def rest_sse(self) -> float:
+        """The rows at rest's part of ``sse`` (every sample, unweighted), likewise."""
+        return sum(float(np.sum(self._rows_cut(e) ** 2)) for e in self.exps)
 
     def row_weights(self, exps: Sequence[PreparedExperiment] | None = None, k: int = 1) -> np.ndarray:
         """Each row's channel weight in ``residual(..., stride=k)`` (channel_weights)."""
@@ -1256,6 +1290,9 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
 
     chosen: dict[str, float] = {}
     best_score = score(problem) if swept and problem.discrete else best_sse
+    # a choice gains a thousandth of the windows' sum of squares with their rows at rest (the heads'
+    # sums leave them out alike)
+    rest = 0.0 if swept else problem.rest_sse()
     tried = 0  # the evaluations of the choices tried, each on a problem of its own
     for _ in range(3):
         trial_best = None
@@ -1277,12 +1314,12 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
                 tried += trial.evaluations
                 if trial_best is None or sse < trial_best[0]:
                     trial_best = (sse, p.name, c, False)
-        if trial_best is not None and trial_best[3] and trial_best[0] < best_score * 0.999:
+        if trial_best is not None and trial_best[3] and trial_best[0] + rest < (best_score + rest) * 0.999:
             # a sum of sensors' parts that promises a gain: the sum itself decides, and is kept
             whole = problem.derived({**chosen, trial_best[1]: trial_best[2]})
             trial_best = (score(whole), trial_best[1], trial_best[2], False)
             tried += whole.evaluations
-        if trial_best is None or trial_best[0] >= best_score * 0.999:
+        if trial_best is None or trial_best[0] + rest >= (best_score + rest) * 0.999:
             break
         best_score = trial_best[0]
         if not swept:
@@ -1402,8 +1439,9 @@ class _Stops:
     ``target_stop`` says whether one of the last two was why."""
 
     def __init__(self, least: float, target: float | None, lo: np.ndarray, hi: np.ndarray,
-                 cannot_pass: Callable[[np.ndarray, float], bool] | None = None) -> None:
+                 cannot_pass: Callable[[np.ndarray, float], bool] | None = None, rest: float = 0.0) -> None:
         self.least, self.target, self.lo, self.hi = least, target, lo, hi
+        self.rest = rest  # the cost of rows the fit leaves out, in both costs TARGET_FACTOR compares
         self.cannot_pass = cannot_pass
         self.costs: list[float] = []
         self.promised: dict[bytes, float] = {}
@@ -1434,7 +1472,8 @@ class _Stops:
         if least > 0 and promised < least:
             raise StopIteration
         reach = cost - promised
-        if self.target is not None and reach > TARGET_FACTOR * self.target and reach > 0.5 * self.reach_before:
+        if (self.target is not None and reach + self.rest > TARGET_FACTOR * (self.target + self.rest)
+                and reach > 0.5 * self.reach_before):
             self.target_stop = True
             raise StopIteration
         self.reach_before = reach
@@ -1708,25 +1747,28 @@ def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] 
             out[J.shape[0]:] = np.diag(root)
             return out
 
+        targeted = target is not None and last
         res = search(fun, jac, u, lo, hi, problem.free, least=least,
-                     target=0.5 * target / problem.stride if target is not None and last else None,
+                     target=0.5 * target / problem.stride if targeted else None,
                      cannot_pass=cannot_pass if last else None, max_nfev=max_nfev or (8 if last else 4) * (n + 1),
-                     secant_ends=secant_ends and last)
+                     secant_ends=secant_ends and last, rest=problem.rest_cost() if targeted and exps is None else 0.0)
         u = res.x
     return res
 
 
 def search(fun, jac, u0: np.ndarray, lo: np.ndarray, hi: np.ndarray, free: Sequence[_Free], *, least: float,
            target: float | None, max_nfev: int, xtol: float = 1e-6, ftol: float = 1e-8,
-           cannot_pass: Callable[[np.ndarray, float], bool] | None = None, secant_ends: bool = False) -> OptimizeResult:
+           cannot_pass: Callable[[np.ndarray, float], bool] | None = None, secant_ends: bool = False,
+           rest: float = 0.0) -> OptimizeResult:
     """_trf from ``u0`` within ``lo``..``hi`` over ``free`` (natural steps; ``fun(u)`` the
     residual, ``jac(u, f)`` d f / d u), the factors searched in logarithms (_FactorLogs), stopped
-    by _Stops(``least``, ``target``, ``cannot_pass``, in cost; ``cannot_pass`` is asked at natural
-    points; ``secant_ends``: _trf's); the result in natural steps, with ``target_stop``."""
+    by _Stops(``least``, ``target``, ``cannot_pass``, ``rest``, in cost; ``cannot_pass`` is asked at
+    natural points; ``secant_ends``: _trf's); the result in natural steps, with ``target_stop``."""
     coords = _FactorLogs(free)
     lo_w, hi_w = coords.search(lo), coords.search(hi)
     stops = _Stops(least, target, lo_w, hi_w,
-                   None if cannot_pass is None else lambda w, promised: cannot_pass(coords.natural(w), promised))
+                   None if cannot_pass is None else lambda w, promised: cannot_pass(coords.natural(w), promised),
+                   rest)
     res = _trf(lambda w: fun(coords.natural(w)),
                # d f / d w = d f / d u times d u / d w, by columns (in place: ``jac`` returns a new array)
                lambda w, f: coords.in_search(jac(coords.natural(w), f), w),
@@ -1831,12 +1873,15 @@ def uncertainties(problem: Problem, res, n_eff: float | Callable[[], float]
     inv_w = np.where(null, 0.0, 1.0 / np.where(null, 1.0, w))
     A_plus = (V * inv_w) @ V.T
     blocks = _experiment_blocks(problem, n)
-    if blocks is None:
+    if blocks is None:  # (rows at rest not counted: their layout is the experiments' blocks')
         n_eff = n_eff() if callable(n_eff) else n_eff
         cov = float(r @ r) / max(1, n - p) * (n / n_eff) * A_plus
     else:
-        # the fitted residual lacks the p directions the fit took out of it: as s2's n - p
-        B = residual_score_covariance(J, r, blocks) * (n / max(1, n - p))
+        # the fitted residual lacks the p directions the fit took out of it: as s2's n - p (the
+        # rows at rest before the windows counted, as in uncertainties' variance)
+        rest = [problem.at_rest(e) for e in problem.exps]
+        n_all = n + sum(x.size for x in rest)
+        B = residual_score_covariance(J, r, blocks, rest) * (n_all / max(1, n_all - p))
         cov = A_plus @ B @ A_plus
     sd_u = np.sqrt(np.clip(np.diag(cov), 0, None))
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -2001,23 +2046,31 @@ def _score_length(m: int) -> int:
     return 2 * scipy.fft.next_fast_len(m, real=True)
 
 
-def residual_score_covariance(J: np.ndarray, r: np.ndarray, blocks: Sequence[tuple[int, int, int]]) -> np.ndarray:
+def residual_score_covariance(J: np.ndarray, r: np.ndarray, blocks: Sequence[tuple[int, int, int]],
+                              at_rest: Sequence[np.ndarray] | None = None) -> np.ndarray:
     """Var(J^T r) for a residual whose noise is stationary within each experiment and independent
     between them: per experiment ``sum over frequencies of Re(J(f)^H S(f) J(f)) / N``, J(f) the
     discrete Fourier transform of the Jacobian's rows (zero-padded to N, so no lag wraps), S(f) the
     residual's cross-spectral matrix between the experiment's channels (they share the force's
     noise) from its periodogram smoothed over frequency (SPECTRAL_SMOOTHING_BINS): the raw
     periodogram is the product of the residual with itself, which a fit has made orthogonal to
-    the Jacobian at zero lag. White noise of variance s2 gives ``s2 J^T J``."""
+    the Jacobian at zero lag. White noise of variance s2 gives ``s2 J^T J``. ``at_rest``: per
+    block, residual rows before it whose Jacobian is zero (Problem.at_rest): they count in S(f)
+    as part of the record. Rows of zeros before J's shift its transform by a phase common to its
+    channels and parameters at each frequency, which J(f)^H S(f) J(f) does not see: J's own rows
+    are transformed, zero-padded to the whole length."""
     p = J.shape[1]
     B = np.zeros((p, p))
-    for start, m, c in blocks:
+    for b, (start, m, c) in enumerate(blocks):
         rows = slice(start, start + m * c)
+        rest = None if at_rest is None or not len(at_rest[b]) else at_rest[b]
+        resid = r[rows].reshape(m, c) if rest is None else np.concatenate([rest, r[rows].reshape(m, c)])
+        m = resid.shape[0]
         nfft = _score_length(m)
         # scipy's transforms: numpy's numbers to the bit (the same pocketfft), a tenth faster on
         # the Jacobian's many columns
-        R = scipy.fft.rfft(r[rows].reshape(m, c), nfft, axis=0)  # frequencies x channels
-        G = scipy.fft.rfft(J[rows].reshape(m, c, p), nfft, axis=0)  # frequencies x channels x parameters
+        R = scipy.fft.rfft(resid, nfft, axis=0)  # frequencies x channels
+        G = scipy.fft.rfft(J[rows].reshape(-1, c, p), nfft, axis=0)  # frequencies x channels x parameters
         n_f = R.shape[0]
         width = 2 * int(round(SPECTRAL_SMOOTHING_BINS * nfft / m)) + 1
         # S(f) is the mean of the rank-one R R^H / m over the window about f (its edges reflected,
@@ -2081,8 +2134,8 @@ def validate(problem: Problem, u: np.ndarray, res) -> tuple[float, str]:
     if (any(f.experiment is not None for f in problem.free) or len(exps) < 2) and any(
             f.param.sensor is not None for f in problem.free):
         # a sensor's own parameter is never fitted on held-out channels: hold out time instead
-        def block(e, step):
-            return np.repeat(np.arange(0, e.n_samples, step) // max(1, int(round(BLOCK_S * e.fs))),
+        def block(e, step):  # counted from the record's start: a window cut at rest keeps its blocks
+            return np.repeat((e.first + np.arange(0, e.n_samples, step)) // max(1, int(round(BLOCK_S * e.fs))),
                              e.measured.shape[1])
         folds = [(exps, np.concatenate([block(e, k) % 2 != h for e in exps]), exps,
                   np.concatenate([block(e, 1) % 2 == h for e in exps])) for h in (0, 1)]
@@ -2125,7 +2178,8 @@ def _validate_blocks(problem: Problem, u: np.ndarray) -> float:
     exps = problem.exps
     total = 0.0
     for held in (0, 1):
-        masks = [((np.arange(e.n_samples) // max(1, int(round(BLOCK_S * e.fs)))) % 2) == held for e in exps]
+        masks = [(((e.first + np.arange(e.n_samples)) // max(1, int(round(BLOCK_S * e.fs)))) % 2) == held
+                 for e in exps]
         _, _, deltas = problem.project(u, exps, [(~m).astype(float) for m in masks])
         for e, d, m in zip(exps, deltas, masks):
             r = (e.measured - problem.base_prediction(e) - d)[m]

@@ -45,6 +45,9 @@ class _Problem:
     stride: int = 1
     prior: float = 0.0
 
+    def at_rest(self, e):  # the windows start at their records' start: no rows at rest cut
+        return e.measured[:0]
+
 
 @dataclass
 class _Result:
@@ -373,6 +376,44 @@ def test_a_fit_that_takes_up_an_amplitude_dependent_decay_differs_between_its_pa
     assert not lin.linear and "frequency_hz" in lin.differing
     assert lin.early["frequency_hz"] > lin.late["frequency_hz"] + 0.5
     assert lin.late["frequency_hz"] == pytest.approx(100.0, rel=0.01)
+
+
+@dataclass
+class _CutProblem(_Problem):
+    """A problem whose windows were cut after their records' samples at rest (fit_windows): the
+    rows cut, the residual's there, are at hand (Problem.at_rest)."""
+    rest: dict = field(default_factory=dict)
+
+    def at_rest(self, e):
+        return self.rest.get(e.name, e.measured[:0])
+
+
+def test_the_checks_read_their_variance_over_the_rows_at_rest_a_window_cut():
+    # a stand-in's fit (the hardening decay's linear one), its records led by 300 samples of noise
+    # at rest: the checks on the windows without them, given those rows, read what they read on
+    # the windows that kept them (there the Jacobian's rows are zero)
+    problem, res = _ring(0.03)
+    rng = np.random.default_rng(7)
+    n0 = 300
+    quiet = {e.name: 0.01 * rng.standard_normal((n0, 1)) for e in problem.exps}
+    n = problem.exps[0].n_samples
+    whole = _Problem([_Exp(e.name, np.concatenate([quiet[e.name], e.measured])) for e in problem.exps], problem.free)
+    whole_res = SimpleNamespace(
+        x=res.x, fun=np.concatenate([np.concatenate([quiet[e.name][:, 0], res.fun[i * n:(i + 1) * n]])
+                                     for i, e in enumerate(problem.exps)]),
+        jac=np.concatenate([np.concatenate([np.zeros((n0, 2)), res.jac[i * n:(i + 1) * n]])
+                            for i, e in enumerate(problem.exps)]))
+    cut = _CutProblem([replace(e, first=n0) for e in problem.exps], problem.free, rest=quiet)
+    levels = {"r0": 10.0, "r1": 100.0}
+    a, b = checks.linearity(whole, whole_res), checks.linearity(cut, res)
+    assert a.cuts == b.cuts and a.cuts["r0"] > n0
+    assert np.allclose(a.cov, b.cov, rtol=1e-10) and a.early == pytest.approx(b.early, rel=1e-12)
+    assert a.late == pytest.approx(b.late, rel=1e-12)
+    ca, cb = checks.consistency(whole, whole_res, levels), checks.consistency(cut, res, levels)
+    assert ca.spread == pytest.approx(cb.spread, rel=1e-9) and ca.per_experiment == cb.per_experiment
+    # without them the stand-in's misfit alone sets the early part's variance: a wider spread
+    alone = checks.linearity(_CutProblem(cut.exps, problem.free), res)
+    assert np.trace(alone.cov) > 1.2 * np.trace(b.cov)
 
 
 def test_an_explained_verdict_cautions_where_the_early_and_late_fits_predict_apart():

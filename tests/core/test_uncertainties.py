@@ -38,6 +38,7 @@ def _noise(rng, white_sd: float = 0.3, ringing_sd: float = 3.0) -> np.ndarray:
 
 def _problem(p: int):
     return SimpleNamespace(exps=[SimpleNamespace(n_samples=M, measured=np.zeros((M, C)))], stride=1, prior=False,
+                           at_rest=lambda e: e.measured[:0],
                            free=[SimpleNamespace(label=f"a{i}", scale=1.0, experiment=None) for i in range(p)])
 
 
@@ -173,6 +174,31 @@ def test_score_covariance_equals_the_smoothed_cross_spectral_matrices_formed_exp
             expected += twice[f] * (G[f].conj().T @ S[f] @ G[f]).real / nfft
     got = residual_score_covariance(J, r, blocks)
     assert np.allclose(got, (expected + expected.T) / 2, rtol=1e-12, atol=1e-12 * np.abs(expected).max())
+
+
+def test_score_covariance_counts_the_rows_at_rest_a_window_cut_as_rows_of_zero_jacobian():
+    """Rows at rest cut from a window (Problem.at_rest) count in the residual's spectrum as they
+    did in the window that kept them, where the Jacobian's rows are zero: the same covariance
+    (their transform differs from J's own by a phase that J(f)^H S(f) J(f) does not see)."""
+    from odsuite.diagnosis.fitting import residual_score_covariance
+
+    rng = np.random.default_rng(11)
+    p, c = 3, 2
+    sizes, rests = (400, 257), (120, 37)
+    J_cut, r_cut, J_whole, r_whole, blocks_cut, blocks_whole, at_rest = [], [], [], [], [], [], []
+    for m, m0 in zip(sizes, rests):
+        J = rng.standard_normal((m * c, p))
+        r = np.convolve(rng.standard_normal(m * c), np.ones(5), "same")
+        rest = rng.standard_normal((m0, c))
+        blocks_cut.append((sum(x.shape[0] for x in J_cut), m, c))
+        blocks_whole.append((sum(x.shape[0] for x in J_whole), m + m0, c))
+        J_cut.append(J), r_cut.append(r), at_rest.append(rest)
+        J_whole.append(np.concatenate([np.zeros((m0 * c, p)), J])), r_whole.append(np.concatenate([rest.ravel(), r]))
+    got = residual_score_covariance(np.concatenate(J_cut), np.concatenate(r_cut), blocks_cut, at_rest)
+    want = residual_score_covariance(np.concatenate(J_whole), np.concatenate(r_whole), blocks_whole)
+    assert np.allclose(got, want, rtol=1e-10, atol=1e-12 * np.abs(want).max())
+    without = residual_score_covariance(np.concatenate(J_cut), np.concatenate(r_cut), blocks_cut)
+    assert not np.allclose(without, want, rtol=0.05)
 
 
 def test_a_quantity_along_a_direction_the_data_cannot_see_is_not_determined():
