@@ -31,6 +31,7 @@ from scipy.optimize._lsq.trf import select_step
 
 from odsuite.domain.errors import DivergedError, NonPhysicalError
 from odsuite.analysis.modelrev import RevisionModel
+from odsuite.analysis.noise_colour import quiet_stretches
 from odsuite.analysis.noise_floor import active_var
 from odsuite.analysis.prediction import (PreparedExperiment, cubic_change_predictions, flexible_mode_change,
                                          flexible_mode_unit, linearised_changes, predict, predict_sharing,
@@ -492,6 +493,18 @@ class Problem:
             raise ValueError(f"record {e.name!r}: its window starts {cut} samples in, not at a multiple of the "
                              f"fit's stride {self.stride} (fit_windows(exps, stride))")
         return whole.measured[:cut] if cut > 0 else e.measured[:0]
+
+    def noise_rows(self, e: PreparedExperiment) -> list[np.ndarray]:
+        """The measured noise alone of ``e``'s whole record, strided and weighted as the fit's
+        residual: its quiet stretches before the hit and after the response has died away
+        (noise_colour.quiet_stretches), each a block of samples x channels. What the noise makes
+        of an estimate is read there, where no misfit of the model adds to it (checks.linearity).
+        Empty where the record tells none."""
+        whole = next((f for f in self.full if f.name == e.name), None)
+        if whole is None:
+            return []
+        return [whole.measured[a:b:self.stride] * self.weights[e.name]
+                for a, b in quiet_stretches(whole) if len(range(a, b, self.stride)) >= 4]
 
     def rest_cost(self) -> float:
         """The rows at rest's part of the fits' cost (half their strided, weighted sum of squares):

@@ -48,6 +48,9 @@ class _Problem:
     def at_rest(self, e):  # the windows start at their records' start: no rows at rest cut
         return e.measured[:0]
 
+    def noise_rows(self, e):  # records that tell no noise of their own: the residual's variance
+        return []
+
 
 @dataclass
 class _Result:
@@ -414,6 +417,37 @@ def test_the_checks_read_their_variance_over_the_rows_at_rest_a_window_cut():
     # without them the stand-in's misfit alone sets the early part's variance: a wider spread
     alone = checks.linearity(_CutProblem(cut.exps, problem.free), res)
     assert np.trace(alone.cov) > 1.2 * np.trace(b.cov)
+
+
+@dataclass
+class _QuietProblem(_Problem):
+    """Records that tell their noise alone: a quiet stretch of each (Problem.noise_rows)."""
+    quiet: dict = field(default_factory=dict)
+
+    def noise_rows(self, e):
+        return [self.quiet[e.name]]
+
+
+def test_the_early_spread_is_the_noises_not_the_misfits():
+    # the early part's covariance (the held-out test's spread) under the records' own noise, read
+    # on 2000 quiet samples of each (sd 0.01, as the records'): a linear oscillator's fit (a true
+    # cause) and the hardening decay's linear fit (a stand-in) get the spread the noise gives
+    # both, sigma^2 (J^T J)^+ on their early rows; read off their residuals, the stand-in's grew
+    # many-fold by its misfit. The parameter test's values and verdict stay the residual's
+    rng = np.random.default_rng(3)
+    traces = {}
+    for hardening in (0.0, 0.03):
+        problem, res = _ring(hardening)
+        quiet = {e.name: 0.01 * rng.standard_normal((2000, 1)) for e in problem.exps}
+        a = checks.linearity(problem, res)
+        b = checks.linearity(_QuietProblem(problem.exps, problem.free, quiet=quiet), res)
+        assert a.early == b.early and a.late == b.late and a.differing == b.differing
+        rows = np.concatenate([np.arange(i * 1000, a.cuts[e.name] + i * 1000) for i, e in enumerate(problem.exps)])
+        J = res.jac[rows]
+        assert np.allclose(b.cov, 1e-4 * np.linalg.inv(J.T @ J), rtol=0.1)
+        traces[hardening] = (float(np.trace(a.cov)), float(np.trace(b.cov)))
+    (true_a, true_b), (stand_a, stand_b) = traces[0.0], traces[0.03]
+    assert stand_a / true_a > 5 and 0.5 < stand_b / true_b < 2, traces
 
 
 def test_an_explained_verdict_cautions_where_the_early_and_late_fits_predict_apart():
