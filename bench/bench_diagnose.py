@@ -84,15 +84,24 @@ sittings against 10.0-11.8 before, with its diagnose's CPU as before (2.5-3.2 s)
 fell with it, so it does not compare; old and new prediction code in turn on one project read
 9.8-10.1 ms alike. The 250 target stays missed on the thesis bench (median 276).
 
+Round 48: the fit windows without their samples at rest before the hit (fitting.fit_windows,
+PreparedExperiment.resting_head, as the screening's heads; thesis windows 1532-1754 samples
+after 387-390 cut, two-body 2259-4614 after 451). The checks that read a variance off the fit's
+residual count the rows cut (Problem.at_rest), and the tests on a ratio of two costs their
+constant (Problem.rest_cost, rest_sse), so both benches' diagnose JSON is within 2e-3 relative
+of before (the predictions differ by the front end's in-band response over another length), the
+same verdicts, tops and evaluations, and the calibration's 11 sets read case by case as before.
+The held-out test's spread now takes the sensors' noise alone (checks.noise_variance), which
+it had read off the early rows' residual; the benches' diagnose the same. A first diagnosis, the
+least of five forked runs, this code and round 47's in turn three times (load 0.9-1.0): thesis
+1.69 / 1.75 / 1.71 s CPU against 1.80 / 1.83 / 1.83 (252 / 274 / 264 worth against 267 / 293 /
+273), two-body 2.41 / 2.33 / 2.38 s against 2.66 / 2.56 / 2.56 (193 / 210 / 211 against 209 /
+204 / 223). A profile of a second diagnosis (profile_diagnose_stages) gains more (thesis 289 ->
+233-238 worth), as the first diagnosis pays its caches' set-up alike before and after. This
+bench after it: thesis 272 worth (1.75 s CPU, 1.2 s wall on two workers), two-body 232 (2.35 s,
+1.8 s): the 250 target stays missed on the thesis bench by about 1.1x.
+
 Measured in rounds 43-45 and not done (do not redo without a new reason):
-- the fit windows without their samples at rest before the hit (PreparedExperiment.resting_head,
-  as the screening's heads): 1.82 -> 1.65 s CPU on the thesis bench, 2.66 -> 2.46 s on the
-  two-body (the same evaluations and verdicts), but it moves the statistics, not only the cost:
-  the held-out test's spread (checks.linearity's early part) takes its level from the early
-  rows' residual, which the noise-only rows before the hit had diluted, and the calibration's
-  two-body rattle at 5 N read 'explained' by coupled_mode (its late part 3.80x the floor against
-  a limit of 3.47 before: 'partly explained'). A spread whose level comes from the noise floor
-  rather than the residual would make the cut safe, and needs the calibration;
 - the phase shifts of sampled_later kept per delay, so that a delay's Jacobian, moving one
   channel at a time, would transform the others' again: no gain (channel_delay's and scan_skew's
   screening 53.6 and 66.4 -> 53.9 and 60.8 ms with the caches cleared between diagnoses): the
