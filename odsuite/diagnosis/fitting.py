@@ -478,7 +478,8 @@ class Problem:
         window's first sample (fit_windows: the samples at rest before the hit). The model is at
         rest there, so they are the measured noise at every parameter value: no fit simulates
         them, and the checks that read a variance off the residual (checks._local_fit, the
-        sandwich of ``uncertainties``) count them as they counted them in a window that kept them. Empty where the window starts where the problem's whole record does."""
+        sandwich of ``uncertainties``) count them as they counted them in a window that kept
+        them. Empty where the window starts where the problem's whole record does."""
         got = self._at_rest.get((e.name, e.first))
         if got is None:
             got = self._at_rest[e.name, e.first] = self._rows_cut(e)[::self.stride] * self.weights[e.name]
