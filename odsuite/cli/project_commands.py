@@ -195,7 +195,10 @@ def model_cmd(
                 about = info.get(name, {})
                 rows.append([effect, name, f"{value:.6g}", about.get("unit", "") or "-", about.get("description", "")])
         print(text_table("parameters", ["effect", "parameter", "value", "unit", "meaning"], rows, prose=("meaning",)))
-    quantities = [[effect, r["label"], *_engineering(r["value"], r.get("uncertainty"), r.get("nominal"), r["unit"])]
+    # a value the data do not determine alone is one of many that fit alike: said so, beside the
+    # combinations of such values that they determine (rows of their own)
+    quantities = [[effect, r["label"] + (" (alone: not determined)" if r.get("determined", True) is False else ""),
+                   *_engineering(r["value"], r.get("uncertainty"), r.get("nominal"), r["unit"])]
                   for effect, rs in report["physical"].items() for r in rs]
     if quantities:
         print(text_table("physical quantities (fitted, its standard deviation, the rig's value)",

@@ -142,12 +142,14 @@ def _add_effect(project, name: str, *, progress: Callable[[str, int, int], None]
         progress(f"fitting {', '.join(e.name for e in joint_effects)}", 1, 3)
     res = fit(joint, u0) if joint.free else None
     u = res.x if res is not None else joint.zero()
-    fit_sds, corr = uncertainties(joint, res, lambda: checks.residual_effective_samples(joint, res))[:2] if res is not None else (np.zeros(0), None)
+    fit_sds, corr, nulls = np.zeros(0), None, np.zeros((len(joint.free), 0))
+    if res is not None:
+        fit_sds, corr, _, nulls = uncertainties(joint, res, lambda: checks.residual_effective_samples(joint, res))
     scores = None
     if res is not None:
         scores = force_noise_scores(joint, res)
         fit_sds, corr = with_force_noise(joint, res, fit_sds, corr, scores)
-    new_entries = list(held) + _entries(joint, joint_effects, u, fit_sds, corr, res)
+    new_entries = list(held) + _entries(joint, joint_effects, u, fit_sds, corr, res, nulls)
     if progress:
         progress("comparing", 2, 3)
     after = compare(project, revision={"model": rev.get("model"), "effects": new_entries}, prepared=exps,
@@ -156,9 +158,11 @@ def _add_effect(project, name: str, *, progress: Callable[[str, int, int], None]
     return _stored(project, rev, name, new_entries, after, before, warnings, exps)
 
 
-def _entries(joint: Problem, joint_effects, u, fit_sds, corr, res) -> list[dict[str, Any]]:
+def _entries(joint: Problem, joint_effects, u, fit_sds, corr, res, nulls: np.ndarray) -> list[dict[str, Any]]:
     """The revision's entries of the jointly fitted effects: values, per-experiment values,
-    uncertainties and physical quantities (each on the model the effects before it made)."""
+    uncertainties and physical quantities (each on the model the effects before it made; those
+    that move along a direction the data cannot see (``nulls``) marked, the effect's own values
+    moved along it)."""
     sds, spread = reported_with_covariance(fit_sds, joint, res)
     shared, per = joint.values(u)
     entries = []
@@ -172,7 +176,13 @@ def _entries(joint: Problem, joint_effects, u, fit_sds, corr, res) -> list[dict[
                for f, sd in zip(joint.free, sds) if f.param.name.startswith(prefix) and np.isfinite(sd)}
         labels = [f.param.name[len(prefix):] if f.experiment is None and f.param.name.startswith(prefix) else ""
                   for f in joint.free]
-        rows = physical.quantities(e, model, values, labels, fit_sds, corr, spread)
+        propagation: dict[str, Any] = {}
+        rows = physical.quantities(e, model, values, labels, fit_sds, corr, spread, propagation)
+
+        def own(x: np.ndarray, prefix: str = prefix) -> dict[str, float]:
+            return {k[len(prefix):]: v for k, v in joint.searched_values(x, shared).items() if k.startswith(prefix)}
+
+        physical.mark_undetermined(rows, e, model, own, u, nulls, propagation)
         model = e.apply(model, values)
         entries.append({"effect": e.name, "values": values, "per_experiment": per_exp, "uncertainties": unc,
                         **({"physical": rows} if rows else {})})
@@ -214,10 +224,12 @@ def _add_on_top(project, rev, entries, name: str, effect, screened, exps, before
     shared, per = problem.values(u)
     unc = {f.label if f.experiment is None else f"{f.experiment}/{f.param.name}": float(sd)
            for f, sd in zip(problem.free, sds) if np.isfinite(sd)}
+    propagation: dict[str, Any] = {}
     rows = physical.quantities(effect, problem.base.shared, {**problem.fixed, **shared},
                                [f.param.name if f.experiment is None else "" for f in problem.free], fit_sds, corr,
-                               spread)
-    physical.mark_undetermined(rows, effect, problem.base.shared, lambda x: problem.searched_values(x, shared), u, nulls)
+                               spread, propagation)
+    physical.mark_undetermined(rows, effect, problem.base.shared, lambda x: problem.searched_values(x, shared), u, nulls,
+                               propagation)
     new_entries = [*entries, {"effect": name, "values": dict(shared),
                               "per_experiment": {x: d for x, d in per.items() if d}, "uncertainties": unc,
                               **({"physical": rows} if rows else {})}]

@@ -368,10 +368,11 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         per_experiment=per, values={n: v for n, v in shared.items()},
     )
     labels = [f.param.name if f.experiment is None else "" for f in problem.free]
+    propagation: dict[str, Any] = {}
     cand.physical = physical.quantities(effect, problem.base.shared, {**problem.fixed, **shared}, labels, sds, corr,
-                                        spread)
+                                        spread, propagation)
     physical.mark_undetermined(cand.physical, effect, problem.base.shared,
-                               lambda x: problem.searched_values(x, shared), u, nulls)
+                               lambda x: problem.searched_values(x, shared), u, nulls, propagation)
     # one that stopped out of reach as passing its test is named: whether its values follow the force
     # level (a proxy for amplitude-dependent physics, ranking.mark_proxies) decides its confounding, so
     # its consistency is checked at the point reached (a weak hardening series' mass_properties, left
