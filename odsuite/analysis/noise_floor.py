@@ -64,6 +64,10 @@ SMOOTH_LINES = 17
 #: a band is judged where the samples before the hit (of every record, pooled; witnesses) show at least this many
 #: lines in it: one line of one short tail is one noisy value, and may hold a mode still ringing
 RESOLVING_LINES = 2
+#: the steepest rise of a sensor's noise below the lowest line the quiet samples show (density as
+#: f^-RISE_BOUND): the noise's colour is fitted within f^-0.5 to f^-2 (noise_colour), so a band
+#: below the lines seen is judged against the floor times that rise at most (NoiseFloor.unseen_rise)
+RISE_BOUND = 2.0
 
 
 def band_edges(fs: float, n_samples: int) -> list[tuple[float, float]]:
@@ -340,12 +344,34 @@ class NoiseFloor:
     # per experiment: the part of ``bands``' energy (bands x sensors) the colour adds to the sensors'
     # white noise, which only the few lines before the hits measure (resolved.floor_error)
     coloured: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    # per experiment: the lowest line (Hz) of the quiet stretches in its lowest judged band; below it
+    # the noise is not seen, and may rise at most as RISE_BOUND allows (unseen_rise)
+    witnessed_from_hz: dict[str, float] = field(default_factory=dict, repr=False)
 
     def judged(self, experiment: str, n_bands: int) -> np.ndarray:
         """Per band of ``experiment``, whether those samples resolve it (resolves_band); where not,
         the floor there is carried down unseen. Every band where the lines are not known."""
         lines = self.witness_lines.get(experiment)
         return np.ones(n_bands, bool) if lines is None else lines >= RESOLVING_LINES
+
+    def unseen_rise(self, experiment: str, bands: Sequence[tuple[float, float]], fs: float, n_samples: int
+                    ) -> np.ndarray:
+        """Per band, the factor by which the sensors' noise may exceed the floor there where the
+        quiet stretches do not show it (1 where they do): below the lowest line they show, a noise
+        rising no faster than f^-RISE_BOUND from there, averaged over the band's lines of the
+        record's spectrum (the noise's colour, noise_colour, is fitted within f^-0.5 to f^-2).
+        Infinite where no line below the band is seen (a gap between judged bands, or nothing seen)."""
+        judged = self.judged(experiment, len(bands))
+        out = np.where(judged, 1.0, np.inf)
+        lowest = self.witnessed_from_hz.get(experiment)
+        if lowest is None:
+            return out
+        f = np.fft.rfftfreq(n_samples, 1.0 / fs)
+        for i, (lo, hi) in enumerate(bands):
+            lines = f[(f >= lo) & (f < hi) & (f > 0)]
+            if not judged[i] and hi <= lowest and lines.size:
+                out[i] = float(np.mean((lowest / lines) ** RISE_BOUND))
+        return out
 
     def total(self, experiments: Sequence[str] | None = None, channels: Sequence[str] | None = None
               ) -> tuple[float, float]:
@@ -431,6 +457,7 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
     specs: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     banded: dict[str, tuple[list[tuple[float, float]], np.ndarray, np.ndarray]] = {}
     counted: dict[str, np.ndarray] = {}
+    lowest: dict[str, float] = {}
     coloured: dict[str, np.ndarray] = {}
     # the colour's excess is tested in the bands the residual is judged in
     if colours is None:
@@ -510,4 +537,9 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
                 coloured[e.name] = np.array([(excess_lines * to_total)[m].sum(axis=0) for m in masks])
             if stretches is not None:
                 counted[e.name] = band_lines(stretches, bands)
-    return NoiseFloor(energy, measured, parts, specs, banded, counted, dict(colours), coloured)
+                first = next((b for b, c in zip(bands, counted[e.name]) if c >= RESOLVING_LINES), None)
+                shown = [x for lines in stretches for x in np.asarray(lines, float)
+                         if first is not None and first[0] <= x < first[1]]
+                if shown:
+                    lowest[e.name] = min(shown)
+    return NoiseFloor(energy, measured, parts, specs, banded, counted, dict(colours), coloured, lowest)

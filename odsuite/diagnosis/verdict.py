@@ -158,9 +158,10 @@ def _few_noise_lines(sig: Signature) -> str:
         return ""
     c = sig.cells[0]
     lo, hi = c["band_hz"]
-    return (f" The noise at {lo:g}-{hi:g} Hz is measured on only {c['noise_lines']} lines of the samples before "
-            f"the hits, so a band of noise there (a floor's vibration) would read the same: record "
-            f"{2.0 / lo:.2g} s or more before each hit to tell.")
+    seen = (f"is measured on only {c['noise_lines']} lines of the samples before the hits" if c["noise_lines"] else
+            "is not measured on any quiet samples (it is taken to rise at most as a sensor's noise may)")
+    return (f" The noise at {lo:g}-{hi:g} Hz {seen}, so a band of noise there (a floor's vibration) would read the "
+            f"same: record {2.0 / lo:.2g} s or more before each hit to tell.")
 
 
 def message(verdict: str, baseline: float, floor: float, best, sig: Signature, rest: Signature | None) -> str:
