@@ -245,14 +245,10 @@ def test_the_rattle_recorded_from_its_hit_is_not_explained(tmp_path):
     early part's residual, with no samples at rest to dilute it, `coupled_mode` passed and the
     verdict was "explained" (measured since: b2_z at 40-80 Hz in r1, 4.09x its floor for a limit
     of 3.99)."""
-    from . import calibrate, writers
+    from . import calibrate
 
     spec = dict(next(s for s in calibrate.specs("outside", 4) if s["seed"] == 503), pre_trigger=0)
-    case = calibrate.build(spec)
-    records = case.simulate()
-    rig = writers.write_rig_toml(tmp_path / "rig.toml", case.nominal)
-    lvms = [writers.write_lvm(tmp_path / f"r{i:02d}.lvm", calibrate.without_unused(r)) for i, r in enumerate(records)]
-    project = calibrate.make_project(tmp_path, rig, lvms, writers.to_jsonable(case.truth_document()))
+    project = calibrate.project_of(spec, tmp_path)
     doc = json.loads(calibrate.odsuite("diagnose", project, "--json"))
     best = next(c for c in doc["candidates"] if c["significant"])
     assert best["effect"] == "coupled_mode" and best["early_late_agree"] is False, best
@@ -266,14 +262,10 @@ def test_a_softer_mount_recorded_from_its_hit_is_named(tmp_path):
     left unjudged and the verdict read "nothing to explain" (the strongest judged cell 3.92x its
     floor); judged against the steepest rise a sensor's noise may have below 40 Hz (f^-2: 2.4x the
     floor there), it is 118x the white floor on m2_z in r0, and the softer mount is named."""
-    from . import calibrate, writers
+    from . import calibrate
 
     spec = dict(next(s for s in calibrate.specs("fixed", 5) if s["seed"] == 404), pre_trigger=0)
-    case = calibrate.build(spec)
-    records = case.simulate()
-    rig = writers.write_rig_toml(tmp_path / "rig.toml", case.nominal)
-    lvms = [writers.write_lvm(tmp_path / f"r{i:02d}.lvm", calibrate.without_unused(r)) for i, r in enumerate(records)]
-    project = calibrate.make_project(tmp_path, rig, lvms, writers.to_jsonable(case.truth_document()))
+    project = calibrate.project_of(spec, tmp_path)
     doc = json.loads(calibrate.odsuite("diagnose", project, "--json"))
     top = doc["candidates"][0]
     assert top["effect"] == "stiffness" and top["significant"], doc["message"]
