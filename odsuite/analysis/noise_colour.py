@@ -94,10 +94,24 @@ def pre_hit_lines(exp) -> tuple[np.ndarray, np.ndarray] | None:
     record, whatever its length; NaN where a sensor reads one code); None when fewer than
     MIN_SAMPLES precede the hit."""
     end = int(exp.quiet_before)
-    if end < MIN_SAMPLES:
+    return None if end < MIN_SAMPLES else _stretch_lines(exp, 0, end)
+
+
+def tail_lines(exp) -> tuple[np.ndarray, np.ndarray] | None:
+    """pre_hit_lines of the quiet tail after the response (None where it holds fewer than
+    MIN_SAMPLES): for records with no samples before their hit, where a band of noise every
+    sensor feels (a floor's vibration) shows nowhere else. A mode still ringing there shows as
+    such a band too: it raises the floor where it rings, which hides no null's misfit."""
+    start = int(exp.quiet_tail)
+    if not 0 <= start <= exp.n_samples - MIN_SAMPLES:
         return None
-    share = white_share(exp)
-    x = np.asarray(exp.volts[:end], float)
+    return _stretch_lines(exp, start, int(exp.n_samples))
+
+
+def _stretch_lines(exp, start: int, end: int) -> tuple[np.ndarray, np.ndarray]:
+    """pre_hit_lines of the samples ``start:end``."""
+    share = white_share(exp, start, end)
+    x = np.asarray(exp.volts[start:end], float)
     # samples that read one converter code (the noise below a code) tell nothing of the colour:
     # they are left out (less the fitted disturbances their lines are rounding residue, and as
     # zeros they read as a density far below the other records')
@@ -107,10 +121,10 @@ def pre_hit_lines(exp) -> tuple[np.ndarray, np.ndarray] | None:
         # still ringing near the mains frequency puts into these samples a sinusoid that is not
         # there (white two-body records: their 61 Hz line at 1.86x its neighbours; divided by its
         # share, a rise on 4 of 18 white sensors)
-        basis = _pre_hit_basis(exp)
+        basis = _stretch_basis(exp, start, end)
         x = x - basis @ np.linalg.lstsq(basis, x, rcond=None)[0]
     x = scipy.signal.detrend(x, axis=0, type="linear")
-    f = np.fft.rfftfreq(end, 1.0 / exp.fs)
+    f = np.fft.rfftfreq(end - start, 1.0 / exp.fs)
     keep = (f > 0) & (f <= TOP_FRACTION * exp.fs) & (share >= LEAST_SHARE)
     spec = np.abs(np.fft.rfft(x, axis=0)) ** 2 / np.where(share > 0, share, 1.0)[:, None]
     ref = np.mean(spec[keep & (f > REFERENCE * exp.fs)], axis=0)
@@ -122,22 +136,27 @@ def usable_lines(exp) -> np.ndarray | None:
     hit that tell the noise's density (white_share at least LEAST_SHARE): the bands the floor's
     colour is known in (noise_floor.witnesses); None when fewer than MIN_SAMPLES precede the hit."""
     end = int(exp.quiet_before)
-    if end < MIN_SAMPLES:
-        return None
-    f = np.fft.rfftfreq(end, 1.0 / exp.fs)
-    return f[(f > 0) & (white_share(exp) >= LEAST_SHARE)]
+    return None if end < MIN_SAMPLES else usable_stretch_lines(exp, 0, end)
 
 
-def _pre_hit_basis(exp) -> np.ndarray:
+def usable_stretch_lines(exp, start: int, end: int) -> np.ndarray:
+    """usable_lines of the quiet samples ``start:end`` (a record's tail after the response: the
+    noise's witness where no record has samples before its hit)."""
+    f = np.fft.rfftfreq(end - start, 1.0 / exp.fs)
+    return f[(f > 0) & (white_share(exp, start, end) >= LEAST_SHARE)]
+
+
+def _stretch_basis(exp, start: int, end: int) -> np.ndarray:
     """The disturbances split_noise fits (offset, line, the mains hum and its harmonics), on the
-    samples before the hit."""
+    samples ``start:end``."""
     basis = disturbance_basis(int(exp.n_samples), exp.fs, (exp.hum_hz,) if exp.hum_harmonics else (),
                               max(exp.hum_harmonics, 1))
-    return basis[: int(exp.quiet_before)]
+    return basis[start:end]
 
 
-def white_share(exp) -> np.ndarray:
-    """Per line of the periodogram of the samples before the hit (pre_hit_lines), the share of a
+def white_share(exp, start: int = 0, end: int | None = None) -> np.ndarray:
+    """Per line of the periodogram of the samples ``start:end`` (default: those before the hit,
+    pre_hit_lines), the share of a
     white noise's energy there that is left once the disturbances (offset, line, mains hum and
     harmonics, as split_noise fits them, on these samples alone) and the detrend are taken out.
     On 128 samples at 2048 Hz the hum's sinusoids at 50, 100 and 150 Hz took 95, 82 and 63 % of
@@ -146,17 +165,18 @@ def white_share(exp) -> np.ndarray:
     For white noise the residual's covariance is sigma^2 D (I - B G B^T) D (B the basis on these
     samples, G the inverse of its Gram matrix, D the detrend), so the share of line k is
     (|D e_k|^2 - (B^T D e_k)^H G (B^T D e_k)) / samples, by FFTs."""
-    end = int(exp.quiet_before)
-    t = np.arange(end, dtype=float)
-    q, _ = np.linalg.qr(np.column_stack([np.ones(end), t - t.mean()]))
+    end = int(exp.quiet_before) if end is None else end
+    m = end - start
+    t = np.arange(m, dtype=float)
+    q, _ = np.linalg.qr(np.column_stack([np.ones(m), t - t.mean()]))
     qa = np.fft.rfft(q, axis=0)  # Q^T e_k, lines x 2
-    left = end - np.sum(np.abs(qa) ** 2, axis=1)
+    left = m - np.sum(np.abs(qa) ** 2, axis=1)
     if getattr(exp, "volts_disturbance", None) is not None:
-        bp = _pre_hit_basis(exp)
+        bp = _stretch_basis(exp, start, end)
         gram = np.linalg.pinv(bp.T @ bp)
         bd = np.fft.rfft(bp, axis=0) - qa @ (q.T @ bp)  # B^T D e_k, lines x columns
         left = left - np.real(np.einsum("ki,ij,kj->k", bd.conj(), gram, bd))
-    return np.maximum(left, 0.0) / end
+    return np.maximum(left, 0.0) / m
 
 
 def _nll(mu: np.ndarray, r: np.ndarray) -> float:
@@ -249,8 +269,11 @@ def by_sensor(exps: Sequence, bands: Sequence[tuple[float, float]] = ()) -> dict
     the colour is the sensor's), with the excess over it in ``bands`` that every sensor's lines
     together show (shared_excess); sensors whose noise is white are left out."""
     pooled: dict[str, tuple[list, list]] = {}
-    for e in exps:
-        lines = pre_hit_lines(e)
+    # where no record has samples before its hit, their quiet tails show a band of noise every
+    # sensor feels (a floor's vibration), not a rise: a mode still ringing there rises too
+    before = [pre_hit_lines(e) for e in exps]
+    tails = not any(lines is not None for lines in before)
+    for e, lines in zip(exps, [tail_lines(e) for e in exps] if tails else before):
         if lines is None:
             continue
         f, r = lines
@@ -264,7 +287,7 @@ def by_sensor(exps: Sequence, bands: Sequence[tuple[float, float]] = ()) -> dict
         ok = np.isfinite(r) & (f > 0)
         if ok.sum() < 8 or not np.mean(r[ok]) > 0:
             continue
-        colour = fit(f, r)
+        colour = None if tails else fit(f, r)
         laws[name] = (f, r, colour if colour is not None else Colour(float(np.mean(r[ok])), 0.0, 0.0))
     excess = shared_excess(laws, bands)
     out = {}

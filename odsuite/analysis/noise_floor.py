@@ -64,10 +64,6 @@ SMOOTH_LINES = 17
 #: a band is judged where the samples before the hit (of every record, pooled; witnesses) show at least this many
 #: lines in it: one line of one short tail is one noisy value, and may hold a mode still ringing
 RESOLVING_LINES = 2
-#: the steepest rise of a sensor's noise below the lowest line the quiet samples show (density as
-#: f^-RISE_BOUND): the noise's colour is fitted within f^-0.5 to f^-2 (noise_colour), so a band
-#: below the lines seen is judged against the floor times that rise at most (NoiseFloor.unseen_rise)
-RISE_BOUND = 2.0
 
 
 def band_edges(fs: float, n_samples: int) -> list[tuple[float, float]]:
@@ -115,11 +111,6 @@ def band_lines(stretches: Sequence[np.ndarray], bands: Sequence[tuple[float, flo
     return count
 
 
-def stretch_lines(samples: int, fs: float) -> np.ndarray:
-    """The lines k fs / samples (k >= 1, up to Nyquist) a stretch of ``samples`` shows (Hz)."""
-    return np.arange(1, samples // 2 + 1) * fs / samples if samples >= 2 else np.zeros(0)
-
-
 def witnesses(exps: Sequence) -> list[np.ndarray]:
     """The lines (Hz, per quiet stretch) that decide which bands are judged (resolves_band): those
     of the samples before the hit that the noise's colour is measured from (noise_colour.MIN_SAMPLES
@@ -129,10 +120,13 @@ def witnesses(exps: Sequence) -> list[np.ndarray]:
     3.7x their limit). A tail witnesses the noise's level but may hold a mode still ringing, so
     the floor's colour is not taken from it (noise_colour), and a band only a tail shows is not
     judged: with 1/f noise on a 70 kg cabinet, tails of 0.16-0.29 s put 1.5-6.25 Hz cells of nulls
-    at 1.2-1.5x their limit. Where no record has such samples before its hit, the floor is white
-    and every quiet stretch witnesses it."""
+    at 1.2-1.5x their limit. Where no record has such samples before its hit, its quiet stretches
+    (the tail after the response, and the few samples before the hit) witness it, by the lines their own disturbances' fit leaves (noise_colour.usable_stretch_lines:
+    on 256 samples at 5120 Hz the hum's fit took the 40 Hz line, and counted, a floor's vibration
+    at 25-50 Hz put plate-and-motor nulls recorded from their hit at 2.5-5x their limit there)."""
     before = [lines for lines in (noise_colour.usable_lines(e) for e in exps) if lines is not None]
-    return before or [stretch_lines(b - a, e.fs) for e in exps for a, b in noise_colour.quiet_stretches(e, shortest=2)]
+    return before or [noise_colour.usable_stretch_lines(e, a, b) for e in exps
+                      for a, b in noise_colour.quiet_stretches(e, shortest=2)]
 
 
 def line_energies(x: np.ndarray) -> np.ndarray:
@@ -344,34 +338,12 @@ class NoiseFloor:
     # per experiment: the part of ``bands``' energy (bands x sensors) the colour adds to the sensors'
     # white noise, which only the few lines before the hits measure (resolved.floor_error)
     coloured: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
-    # per experiment: the lowest line (Hz) of the quiet stretches in its lowest judged band; below it
-    # the noise is not seen, and may rise at most as RISE_BOUND allows (unseen_rise)
-    witnessed_from_hz: dict[str, float] = field(default_factory=dict, repr=False)
 
     def judged(self, experiment: str, n_bands: int) -> np.ndarray:
         """Per band of ``experiment``, whether those samples resolve it (resolves_band); where not,
         the floor there is carried down unseen. Every band where the lines are not known."""
         lines = self.witness_lines.get(experiment)
         return np.ones(n_bands, bool) if lines is None else lines >= RESOLVING_LINES
-
-    def unseen_rise(self, experiment: str, bands: Sequence[tuple[float, float]], fs: float, n_samples: int
-                    ) -> np.ndarray:
-        """Per band, the factor by which the sensors' noise may exceed the floor there where the
-        quiet stretches do not show it (1 where they do): below the lowest line they show, a noise
-        rising no faster than f^-RISE_BOUND from there, averaged over the band's lines of the
-        record's spectrum (the noise's colour, noise_colour, is fitted within f^-0.5 to f^-2).
-        Infinite where no line below the band is seen (a gap between judged bands, or nothing seen)."""
-        judged = self.judged(experiment, len(bands))
-        out = np.where(judged, 1.0, np.inf)
-        lowest = self.witnessed_from_hz.get(experiment)
-        if lowest is None:
-            return out
-        f = np.fft.rfftfreq(n_samples, 1.0 / fs)
-        for i, (lo, hi) in enumerate(bands):
-            lines = f[(f >= lo) & (f < hi) & (f > 0)]
-            if not judged[i] and hi <= lowest and lines.size:
-                out[i] = float(np.mean((lowest / lines) ** RISE_BOUND))
-        return out
 
     def total(self, experiments: Sequence[str] | None = None, channels: Sequence[str] | None = None
               ) -> tuple[float, float]:
@@ -457,7 +429,6 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
     specs: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     banded: dict[str, tuple[list[tuple[float, float]], np.ndarray, np.ndarray]] = {}
     counted: dict[str, np.ndarray] = {}
-    lowest: dict[str, float] = {}
     coloured: dict[str, np.ndarray] = {}
     # the colour's excess is tested in the bands the residual is judged in
     if colours is None:
@@ -537,9 +508,4 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
                 coloured[e.name] = np.array([(excess_lines * to_total)[m].sum(axis=0) for m in masks])
             if stretches is not None:
                 counted[e.name] = band_lines(stretches, bands)
-                first = next((b for b, c in zip(bands, counted[e.name]) if c >= RESOLVING_LINES), None)
-                shown = [x for lines in stretches for x in np.asarray(lines, float)
-                         if first is not None and first[0] <= x < first[1]]
-                if shown:
-                    lowest[e.name] = min(shown)
-    return NoiseFloor(energy, measured, parts, specs, banded, counted, dict(colours), coloured, lowest)
+    return NoiseFloor(energy, measured, parts, specs, banded, counted, dict(colours), coloured)

@@ -57,6 +57,8 @@ class Resolved:
     # per experiment and band, the lines of the samples before the hits that measure its noise
     # (noise_floor.band_lines; None: not known)
     noise_lines: list[np.ndarray | None] | None = None
+    # per cell, the limit a band no quiet sample shows would have if it were judged (inf where judged)
+    unjudged_limit: list[np.ndarray] | None = None
 
     def ratios(self) -> list[np.ndarray]:
         return [r / np.where(f > 0, f, np.inf) for r, f in zip(self.residual, self.floor)]
@@ -85,6 +87,20 @@ class Resolved:
         rows.sort(key=lambda r: -r["_excess"])
         for r in rows:
             r.pop("_excess")
+        return rows[:top]
+
+    def unjudged(self, top: int = 3) -> list[dict[str, Any]]:
+        """The cells of bands no quiet sample shows (not judged: a floor's vibration or a noise
+        rising there would read as a misfit) whose residual exceeds the limit they would have
+        against a white floor, strongest first: what records that start at their hit cannot tell."""
+        rows = []
+        for e, chans, bands, q, lim in zip(self.experiments, self.channels, self.bands, self.ratios(),
+                                           self.unjudged_limit or []):
+            for b, c in zip(*np.nonzero(q > lim)):
+                rows.append({"experiment": e, "channel": chans[c],
+                             "band_hz": [round(bands[b][0], 1), round(bands[b][1], 1)],
+                             "residual_to_floor": float(np.sqrt(q[b, c])), "limit": float(np.sqrt(lim[b, c]))})
+        rows.sort(key=lambda r: -r["residual_to_floor"] / r["limit"])
         return rows[:top]
 
     def strongest(self) -> float:
@@ -127,27 +143,24 @@ def resolve(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFloor
         flo.append(f_energy)
         dof.append(f_dof)
         rdof.append(np.clip(own, 1.0, f_dof))
-    # a band the quiet samples do not resolve has its floor carried down unseen: judged against the
-    # steepest rise the noise may have below the lines seen (records that start at their hit show
-    # only a short tail: a two-body softer mount at 30 N, 118x its white floor at 20-40 Hz, read
-    # "nothing to explain" where that band was not judged), else not judged
-    rise = [floor.unseen_rise(e.name, floor.bands[e.name][0], e.fs, e.n_samples) for e in exps]
-    seen = [np.broadcast_to(np.isfinite(r)[:, None], d.shape) for r, d in zip(rise, dof)]
+    # a band the quiet samples do not resolve has its floor carried down unseen: it is not judged
+    seen = [np.broadcast_to(floor.judged(e.name, len(d))[:, None], d.shape) for e, d in zip(exps, dof)]
     n_cells = sum(int(s.sum()) for s in seen)
     alpha = DETECTION_FALSE_ALARM / max(n_cells, 1)
     witnessed = [floor.witness_lines.get(e.name) for e in exps]
     n_bands = max((int(s[:, 0].sum()) for s in seen if s.size), default=1)
-    limit = []
-    for e, s, d, f, lines, up in zip(exps, seen, dof, flo, witnessed, rise):
+    limit, unjudged = [], []
+    for e, s, d, f, lines in zip(exps, seen, dof, flo, witnessed):
         # chi2.isf(alpha, d) as scipy.stats computes it, without its argument handling on every comparison
-        lim = DETECTION_TOLERANCE * scipy.special.chdtri(d, alpha) / d * np.where(np.isfinite(up), up, 1.0)[:, None]
+        lim = DETECTION_TOLERANCE * scipy.special.chdtri(d, alpha) / d
         coloured = floor.coloured.get(e.name)
         if lines is not None and coloured is not None:
             share = np.clip(coloured / np.where(f > 0, f, np.inf), 0.0, 1.0)
             low_by = 1.0 + (floor_error(lines, n_bands)[:, None] - 1.0) * share
             lim = np.maximum(lim, low_by * scipy.special.chdtri(d, alpha / 2) / d)
         limit.append(np.where(s, lim, np.inf))
-    return Resolved(names, chans, bands, res, flo, dof, rdof, limit, witnessed)
+        unjudged.append(np.where(s, np.inf, lim))
+    return Resolved(names, chans, bands, res, flo, dof, rdof, limit, witnessed, unjudged)
 
 
 def floor_error(lines: np.ndarray, n_bands: int) -> np.ndarray:

@@ -43,11 +43,15 @@ class Signature:
     # the resolved cells above the floor (experiment, channel, band), strongest first
     cells: list[dict[str, Any]] = field(default_factory=list)
     strongest_cell: float | None = None  # the largest sqrt(residual / floor) of any cell
+    # cells of bands no quiet sample shows, above the limit they would have were the noise white
+    # there (Resolved.unjudged): not judged, and named
+    unjudged: list[dict[str, Any]] = field(default_factory=list)
 
     def as_dict(self) -> dict[str, Any]:
         return {"bands": self.bands, "channels": self.channels, "experiments": self.experiments,
                 "peaks_hz": self.peaks_hz, "amplitude_dependent": self.amplitude_dependent,
-                "cells": self.cells, "strongest_cell_to_floor": self.strongest_cell}
+                "cells": self.cells, "strongest_cell_to_floor": self.strongest_cell,
+                "unjudged_cells": self.unjudged}
 
 
 def signature(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFloor,
@@ -62,6 +66,7 @@ def signature(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFlo
     if resolved is not None:
         sig.cells = resolved.cells()
         sig.strongest_cell = resolved.strongest()
+        sig.unjudged = resolved.unjudged()
     res_e: dict[str, float] = {}
     res_c: dict[str, float] = {}
     flo_c: dict[str, float] = {}
@@ -158,10 +163,20 @@ def _few_noise_lines(sig: Signature) -> str:
         return ""
     c = sig.cells[0]
     lo, hi = c["band_hz"]
-    seen = (f"is measured on only {c['noise_lines']} lines of the samples before the hits" if c["noise_lines"] else
-            "is not measured on any quiet samples (it is taken to rise at most as a sensor's noise may)")
-    return (f" The noise at {lo:g}-{hi:g} Hz {seen}, so a band of noise there (a floor's vibration) would read the "
-            f"same: record {2.0 / lo:.2g} s or more before each hit to tell.")
+    return (f" The noise at {lo:g}-{hi:g} Hz is measured on only {c['noise_lines']} lines of the samples before "
+            f"the hits, so a band of noise there (a floor's vibration) would read the same: record "
+            f"{2.0 / lo:.2g} s or more before each hit to tell.")
+
+
+def _unjudged(sig: Signature) -> str:
+    """Words on the strongest cell of a band no quiet sample shows, where it is above the limit it
+    would have were the noise white there: these data cannot tell it from a floor's vibration."""
+    c = sig.unjudged[0]
+    lo, hi = c["band_hz"]
+    return (f" But no quiet samples show the noise at {lo:g}-{hi:g} Hz, where {c['channel']} in {c['experiment']} "
+            f"is {c['residual_to_floor']:.3g}x the floor a white noise would leave (limit {c['limit']:.3g}x): a "
+            f"model error there cannot be told from a floor's vibration or a noise rising at low frequency, so "
+            f"that band is not judged. Record {2.0 / max(lo, 1e-9):.2g} s or more before each hit to judge it.")
 
 
 def message(verdict: str, baseline: float, floor: float, best, sig: Signature, rest: Signature | None) -> str:
@@ -173,6 +188,9 @@ def message(verdict: str, baseline: float, floor: float, best, sig: Signature, r
         head += (f"; by channel and band, {c['channel']} in {c['experiment']} at {c['band_hz'][0]:g}-"
                  f"{c['band_hz'][1]:g} Hz is {c['residual_to_floor']:.3g}x the floor there")
     if verdict == "nothing to explain" and sig.strongest_cell is not None:
+        if sig.unjudged:
+            return (f"{head}; no band the noise is measured in exceeds what noise, hum and quantisation leave "
+                    f"there (the strongest is {sig.strongest_cell:.2f}x its floor).{_unjudged(sig)}")
         return (f"{head}; no band of any channel exceeds what noise, hum and quantisation leave there (the "
                 f"strongest is {sig.strongest_cell:.2f}x its floor), so these data show nothing the model "
                 "lacks. Record more or stronger hits (or quieter channels) to look for smaller effects.")

@@ -359,12 +359,17 @@ def test_the_floor_covers_the_rounding_of_a_sub_code_trend(seed):
     assert np.mean(sim) == pytest.approx(true, rel=0.35), np.mean(sim) / true
 
 
+def stretch_lines(samples: int, fs: float) -> np.ndarray:
+    """The lines k fs / samples (k >= 1, up to Nyquist) a stretch of ``samples`` shows (Hz)."""
+    return np.arange(1, samples // 2 + 1) * fs / samples
+
+
 def test_a_band_below_the_quiet_samples_first_line_is_not_resolved():
     """256 quiet samples at 4096 Hz (62.5 ms) see lines at 16, 32, ... Hz: the octave 12.5-25 Hz
     holds one, the band up to 12.5 Hz none; a band is judged where two lines are seen, the records'
     stretches pooled (one sensor's noise in each); two stretches apart see no lower than each
     alone; None (not known) resolves every band."""
-    from odsuite.analysis.noise_floor import resolves_band, stretch_lines
+    from odsuite.analysis.noise_floor import resolves_band
 
     bands = [(2.0, 12.5), (12.5, 25.0), (25.0, 50.0), (1600.0, 2048.0)]
     quarter = stretch_lines(256, 4096.0)
@@ -472,7 +477,7 @@ def test_the_bands_are_judged_on_the_samples_before_the_hit_the_tails_only_witho
     hit fall back on every quiet stretch (the floor is then white)."""
     from types import SimpleNamespace
 
-    from odsuite.analysis.noise_floor import band_edges, resolves_band, stretch_lines, witnesses
+    from odsuite.analysis.noise_floor import band_edges, resolves_band, witnesses
 
     def record(before, tail):
         return SimpleNamespace(fs=3000.0, n_samples=2048, quiet_before=before, quiet_tail=2048 - tail)

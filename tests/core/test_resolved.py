@@ -172,20 +172,3 @@ def test_the_residual_energies_alone_are_resolves_and_parsevals():
         assert a.sum(axis=0) == pytest.approx(np.sum(r**2, axis=0) - spec[0], rel=1e-12)
     assert resolved.residual_energies(exps, preds, NoiseFloor({}, {})) is None
 
-
-def test_a_band_below_the_quiet_lines_is_judged_against_the_steepest_noise_rise():
-    """Records that start at their hit: the quiet tail of 256 samples at 10240 Hz shows lines from
-    40 Hz. Below, the noise is not seen; it may rise at most as f^-2 (noise_colour's steepest), so
-    a band's floor may be that many times higher, averaged over the band's lines of the record
-    (2048 samples: 5 Hz apart); a band above a gap stays unjudged."""
-    from odsuite.analysis.noise_floor import NoiseFloor
-
-    bands = [(5.0, 20.0), (20.0, 40.0), (40.0, 80.0), (80.0, 160.0), (160.0, 320.0)]
-    floor = NoiseFloor({}, {}, witness_lines={"r0": np.array([0, 0, 3, 0, 6])}, witnessed_from_hz={"r0": 40.0})
-    rise = floor.unseen_rise("r0", bands, 10240.0, 2048)
-    assert rise[0] == pytest.approx(np.mean([(40.0 / f) ** 2 for f in (5.0, 10.0, 15.0)]), rel=1e-12)
-    assert rise[1] == pytest.approx(np.mean([(40.0 / f) ** 2 for f in (20.0, 25.0, 30.0, 35.0)]), rel=1e-12)
-    assert rise[2] == 1.0 and rise[4] == 1.0
-    assert rise[3] == np.inf  # a gap above the lowest band seen: not judged
-    # without the lowest line (no quiet stretch known) every band counts as seen, as before
-    assert np.all(NoiseFloor({}, {}).unseen_rise("r0", bands, 10240.0, 2048) == 1.0)
