@@ -15,7 +15,9 @@ Only the samples before the hit: a quiet tail after the response may still hold 
 which rises at low frequency too, and taken for noise it raised the floor where a softer mount
 shows (on white-noise records hit at 5-10 N, a rise was found on 24 of 150 sensors from the
 tails, 5 of 150 from their lines above 20 Hz, 2 in 1000 white sensors from samples before a hit;
-a softer mount's 12.5-25 Hz cells at 1.46x their limit fell to 0.84x).
+a softer mount's 12.5-25 Hz cells at 1.46x their limit fell to 0.84x). Records with no samples
+before their hit have only their tails: there no rise is fitted, but a band of noise every
+sensor's tail lines show together (a floor's vibration) is kept as before a hit (tail_lines).
 
 The floor's sensor-noise lines are multiplied by the fitted density over its mean (the quiet
 samples' level is that mean), never by less than one: a colour the fit gets a little wrong
