@@ -37,6 +37,8 @@ in ``odsuite.store.project_format``, ``odsuite.store.h5codecs`` and ``odsuite.st
 
 from __future__ import annotations
 
+import os
+
 import functools
 import inspect
 import json
@@ -966,6 +968,10 @@ def create_project(path: str | Path, rig: Rig | str | None = "thesis-dynamometer
     rig = _resolve_rig(rig, registries)
     if not path.parent.is_dir():
         raise ProjectFileError(f"{path}: directory {path.parent} does not exist")
+    if path.is_symlink():
+        # a new project is a new file: writing it would replace the user's link with it
+        raise ProjectFileError(f"{path}: is a symbolic link (to {os.readlink(path)}); a new project is created "
+                               "only as a new file: give the name it should have, or remove the link")
     if rig is not None and rig.default_model and rig.default_model in registries.models:
         # the rig's model built once: a [beam] table it refuses is refused now, not at every later command
         registries.models.get(rig.default_model)(rig)
