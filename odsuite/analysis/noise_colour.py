@@ -15,9 +15,10 @@ Only the samples before the hit: a quiet tail after the response may still hold 
 which rises at low frequency too, and taken for noise it raised the floor where a softer mount
 shows (on white-noise records hit at 5-10 N, a rise was found on 24 of 150 sensors from the
 tails, 5 of 150 from their lines above 20 Hz, 2 in 1000 white sensors from samples before a hit;
-a softer mount's 12.5-25 Hz cells at 1.46x their limit fell to 0.84x). Records with no samples
-before their hit have only their tails: there no rise is fitted, but a band of noise every
-sensor's tail lines show together (a floor's vibration) is kept as before a hit (tail_lines).
+a softer mount's 12.5-25 Hz cells at 1.46x their limit fell to 0.84x). Nor a band of noise the
+tails show together: records with no samples before their hit have only their tails, and there
+the modes still ringing raised the floor where a softer mount shows (two of 20 recorded so, hit at
+10 N, 8.4-17.5x their noise, read "nothing to explain").
 
 The floor's sensor-noise lines are multiplied by the fitted density over its mean (the quiet
 samples' level is that mean), never by less than one: a colour the fit gets a little wrong
@@ -97,17 +98,6 @@ def pre_hit_lines(exp) -> tuple[np.ndarray, np.ndarray] | None:
     MIN_SAMPLES precede the hit."""
     end = int(exp.quiet_before)
     return None if end < MIN_SAMPLES else _stretch_lines(exp, 0, end)
-
-
-def tail_lines(exp) -> tuple[np.ndarray, np.ndarray] | None:
-    """pre_hit_lines of the quiet tail after the response (None where it holds fewer than
-    MIN_SAMPLES): for records with no samples before their hit, where a band of noise every
-    sensor feels (a floor's vibration) shows nowhere else. A mode still ringing there shows as
-    such a band too: it raises the floor where it rings, which hides no null's misfit."""
-    start = int(exp.quiet_tail)
-    if not 0 <= start <= exp.n_samples - MIN_SAMPLES:
-        return None
-    return _stretch_lines(exp, start, int(exp.n_samples))
 
 
 def _stretch_lines(exp, start: int, end: int) -> tuple[np.ndarray, np.ndarray]:
@@ -271,11 +261,8 @@ def by_sensor(exps: Sequence, bands: Sequence[tuple[float, float]] = ()) -> dict
     the colour is the sensor's), with the excess over it in ``bands`` that every sensor's lines
     together show (shared_excess); sensors whose noise is white are left out."""
     pooled: dict[str, tuple[list, list]] = {}
-    # where no record has samples before its hit, their quiet tails show a band of noise every
-    # sensor feels (a floor's vibration), not a rise: a mode still ringing there rises too
-    before = [pre_hit_lines(e) for e in exps]
-    tails = not any(lines is not None for lines in before)
-    for e, lines in zip(exps, [tail_lines(e) for e in exps] if tails else before):
+    for e in exps:
+        lines = pre_hit_lines(e)
         if lines is None:
             continue
         f, r = lines
@@ -289,7 +276,7 @@ def by_sensor(exps: Sequence, bands: Sequence[tuple[float, float]] = ()) -> dict
         ok = np.isfinite(r) & (f > 0)
         if ok.sum() < 8 or not np.mean(r[ok]) > 0:
             continue
-        colour = None if tails else fit(f, r)
+        colour = fit(f, r)
         laws[name] = (f, r, colour if colour is not None else Colour(float(np.mean(r[ok])), 0.0, 0.0))
     excess = shared_excess(laws, bands)
     out = {}
