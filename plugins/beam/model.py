@@ -41,8 +41,9 @@ def range_of(rig, key: str, default: tuple[float, float]) -> tuple[float, float]
     """A [lower, upper] pair (m) of the rig's [beam] table."""
     table = rig.extra.get("beam", {}) if rig is not None else {}
     value = table.get(key, list(default))
-    where = f"rig {rig.name!r} [beam] field {key!r}" if rig is not None else key
-    if not (isinstance(value, list) and len(value) == 2 and all(isinstance(v, (int, float)) for v in value)
+    where = (f"{rig.source or 'rig ' + repr(rig.name)} [beam] field {key!r}") if rig is not None else key
+    if not (isinstance(value, list) and len(value) == 2
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) for v in value)
             and value[0] <= value[1]):
         raise ConfigError(f"{where}: expected [lower, upper] in m, got {value!r}")
     return float(value[0]), float(value[1])
@@ -78,12 +79,19 @@ def spec_from_rig(rig) -> BeamSpec:
     zeta = tuple(zeta) if isinstance(zeta, list) else (zeta,)
     if not zeta or any(isinstance(z, bool) or not isinstance(z, (int, float)) or not 0 <= z < 1 for z in zeta):
         raise ConfigError(f"{where} field 'damping_ratio': expected ratios in [0, 1), got {table.get('damping_ratio')!r}")
+    support_zeta = table.get("support_damping_ratio", 0.1)
+    if isinstance(support_zeta, bool) or not isinstance(support_zeta, (int, float)) or not 0 <= support_zeta < 1:
+        raise ConfigError(f"{where} field 'support_damping_ratio': expected a ratio in [0, 1), got {support_zeta!r}")
     supports = []
     for i, s in enumerate(table.get("supports", [])):
         w = f"{where} supports[{i}]"
         if not isinstance(s, Mapping):
             raise ConfigError(f"{w}: expected a table with name, position and stiffness, got {s!r}")
-        supports.append(Support(str(s.get("name", f"support{i + 1}")),
+        name = str(s.get("name", f"support{i + 1}"))
+        if any(x.name == name for x in supports):
+            # each support is fitted by its name: two of one name would be one parameter
+            raise ConfigError(f"{w} field 'name': a second support named {name!r}")
+        supports.append(Support(name,
                                 _number(f"{w} field 'position'", s.get("position"), 0.0, strict=False),
                                 _number(f"{w} field 'stiffness'", s.get("stiffness"), 0.0, strict=False)))
     spec = BeamSpec(body=body.name, origin=origin, length=length, mass_per_length=body.mass / length,
@@ -92,7 +100,13 @@ def spec_from_rig(rig) -> BeamSpec:
                                                       body.plate.size[2] ** 2 / 12 / length**2 if theory == "timoshenko" else 0.0)),
                     shear_flexibility=2 * (1 + nu) / kappa, ends=tuple(ends),
                     elements=_elements(where, table.get("elements", 40)), damping_ratio=zeta,
-                    support_damping_ratio=table.get("support_damping_ratio", 0.1), supports=tuple(supports))
+                    support_damping_ratio=float(support_zeta), supports=tuple(supports))
+    # the ranges the positions' effect searches, refused now rather than when it runs
+    range_of(rig, "sensor_position_range", (0.0, length))
+    range_of(rig, "hammer_offset_range", (-0.1 * length, 0.1 * length))
+    if "bending_stiffness" in table and "first_mode_hz" in table:
+        raise ConfigError(f"{where}: give 'first_mode_hz' or 'bending_stiffness', not both (each sets the beam's "
+                          "bending stiffness)")
     if "bending_stiffness" in table:
         ei = _number(f"{where} field 'bending_stiffness'", table["bending_stiffness"])
         if ei > BENDING_STIFFNESS_MAX:  # its element matrices overflow long before 1e300
@@ -104,7 +118,12 @@ def spec_from_rig(rig) -> BeamSpec:
     f1 = _number(f"{where} field 'first_mode_hz'", table["first_mode_hz"])
     # EI from the first bending mode of the bare beam on its ends (no supports): f scales with sqrt(EI)
     bare = BeamStructure(replace(spec, supports=(), theory="euler-bernoulli", gyration_ratio_sq=0.0))
-    return replace(spec, bending_stiffness=(f1 / bare.bending_frequencies_hz()[0]) ** 2)
+    with np.errstate(over="ignore", under="ignore"):
+        ei = (f1 / bare.bending_frequencies_hz()[0]) ** 2
+    if not 0 < ei <= BENDING_STIFFNESS_MAX:  # its element matrices overflow long before 1e300
+        raise ConfigError(f"{where} field 'first_mode_hz': {f1:g} Hz needs a bending stiffness of {ei:.3g} N m^2, "
+                          f"outside (0, {BENDING_STIFFNESS_MAX:g}] (a bridge girder's is 1e12)")
+    return replace(spec, bending_stiffness=ei)
 
 
 def beam_model(rig) -> Model:

@@ -129,6 +129,17 @@ def _rig_with(tmp_path: Path, source: Path, old: str, new: str) -> Path:
     (BEAM_RIG, "first_mode_hz = 695.0", "bending_stiffness = 1e300",
      ["[beam] field 'bending_stiffness': expected at most 1e+15 N m^2"]),
     (BEAM_RIG, "elements = 40", 'elements = "forty"', ["[beam] field 'elements': expected an integer in 2..2000"]),
+    # round 7: fields a later command refused, or that were silently merged or ignored
+    (BEAM_RIG, 'name = "foam_right"', 'name = "foam_left"', ["[beam] supports[1] field 'name': a second support named 'foam_left'"]),
+    (BEAM_RIG, "first_mode_hz = 695.0", "first_mode_hz = 695.0\nbending_stiffness = 100.0",
+     ["[beam]: give 'first_mode_hz' or 'bending_stiffness', not both"]),
+    (BEAM_RIG, "first_mode_hz = 695.0", "first_mode_hz = 1e300", ["[beam] field 'first_mode_hz': 1e+300 Hz needs a bending stiffness of inf N m^2"]),
+    (BEAM_RIG, "first_mode_hz = 695.0", "first_mode_hz = 1e-300", ["[beam] field 'first_mode_hz': 1e-300 Hz needs a bending stiffness of 0 N m^2"]),
+    (BEAM_RIG, "support_damping_ratio = 0.2", "support_damping_ratio = -1", ["[beam] field 'support_damping_ratio': expected a ratio in [0, 1), got -1"]),
+    (BEAM_RIG, "hammer_offset_range = [-0.130, 0.130]", "hammer_offset_range = [nan, 0.1]",
+     ["[beam] field 'hammer_offset_range': expected [lower, upper] in m, got [nan, 0.1]"]),
+    (BEAM_RIG, "sensor_position_range = [0.0, 0.140]", "sensor_position_range = [0.2, 0.1]",
+     ["[beam] field 'sensor_position_range': expected [lower, upper] in m, got [0.2, 0.1]"]),
 ])
 def test_a_rig_refused_by_new_leaves_no_project(tmp_path, capsys, source, old, new, words):
     rig = _rig_with(tmp_path, source, old, new)
