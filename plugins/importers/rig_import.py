@@ -95,6 +95,23 @@ def _sensitivities_for(rig: Rig, in_volts: dict[int, int], names: Sequence[str],
                                       else replace(s, sensitivity=1.0) for s in rig.sensors))
 
 
+#: how the name of a column that is the hammer's force begins (name_key spelling: "Hammer 2", "force1")
+FORCE_NAMES = ("force", "hammer", "impact", "loadcell")
+
+
+def _force_column(rig: Rig, names: Sequence[str], units: Sequence[str]) -> str | None:
+    """The column that is the force where its name does not match the rig's force sensor: the one
+    column in N, else the one named like a force (docs/importing.md); None where none or several."""
+    by_name = {name_key(s.name) for s in rig.sensors}
+    free = [k for k, n in enumerate(names) if name_key(n) not in by_name]
+    in_newtons = [k for k in free if k < len(units) and PHYSICAL_UNITS.get(units[k].strip().lower(), ("",))[0] == "force"]
+    named = [k for k in free if name_key(names[k]).startswith(FORCE_NAMES)]
+    for found in (in_newtons, named):
+        if len(found) == 1:
+            return names[found[0]]
+    return None
+
+
 def onto_rig(rig: Rig, names: Sequence[str], units: Sequence[str], data: np.ndarray, fs: float, where: str,
              point: np.ndarray | None, direction: np.ndarray | None, force_column: str | None = None,
              force_body: str | None = None, mapping: dict[int, int] | None = None,
@@ -106,6 +123,8 @@ def onto_rig(rig: Rig, names: Sequence[str], units: Sequence[str], data: np.ndar
     (e.g. by UFF node). A record with no force column and
     no ``point``/``direction`` is an operating record (responses only, no excitation)."""
     if mapping is None:
+        if force_column is None and rig.force_channel is not None:
+            force_column = _force_column(rig, names, units)
         mapping = columns_to_channels(rig, names, where, force_column, what)[0]
     operating = (point is None and direction is None and force_column is None
                  and (rig.force_channel is None or rig.force_channel not in mapping.values()))

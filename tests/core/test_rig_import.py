@@ -65,3 +65,20 @@ def test_records_that_do_not_fit_the_rig_are_one_line(rig, names, units, point, 
         onto_rig(rig, names, units, data, 1000.0, "f.lvm", point, HIT[1])
     msg = str(err.value)
     assert "\n" not in msg and msg.startswith("f.lvm") and all(w in msg for w in words), msg
+
+
+@pytest.mark.parametrize("names, units", [
+    (["force", "m1_x"], ["N", "g"]),  # named like a force, in N
+    (["load [kN]", "m1_x"], ["N", "g"]),  # in N, named otherwise
+    (["Hammer 2", "m1_x"], ["V", "g"]),  # named like a force (without the rig's force sensor's name)
+])
+def test_a_force_column_not_named_like_the_rigs_force_sensor_is_the_force(rig, names, units):
+    # docs/importing.md: a column in N (or named like a force) is the force; it was refused as a
+    # column that matches no sensor unless --force-channel named it
+    data = np.array([[10.0, 0.5]] * 4)
+    rec = onto_rig(rig, names, units, data, 1000.0, "f.csv", *HIT)
+    assert rec.excitation.force_channel == rig.force_channel
+    assert rec.raw[0, rig.force_channel] == pytest.approx(10.0)
+    # two candidates: the user names it (--force-channel)
+    with pytest.raises(ConfigError, match="match no sensor"):
+        onto_rig(rig, ["force", "impact", "m1_x"], ["N", "N", "g"], np.zeros((4, 3)), 1000.0, "f.csv", *HIT)
