@@ -156,7 +156,9 @@ def onto_rig(rig: Rig, names: Sequence[str], units: Sequence[str], data: np.ndar
             # the value is the sensor's own output: stored as it is, converted to SI by the sensitivity;
             # limits far above the peaks, so that volt limits never clip g or N
             peak = float(np.ceil(2 * np.abs(data[:, k]).max())) if data.shape[0] else 1.0
-            info = replace(info, sensitivity=per_si, limit_high=max(10.0, peak), limit_low=-max(10.0, peak))
+            # a value in physical units carries its sign already: a channel the rig's .CTR inverts
+            # (the thesis rig's accelerometers) read back negated through export-uff and import
+            info = replace(info, sensitivity=per_si, invert=False, limit_high=max(10.0, peak), limit_low=-max(10.0, peak))
         elif unit not in VOLTS and unit:
             raise ConfigError(f"{where}: {what} {names[k]!r}: unit {units[k]!r} is neither volts nor one of "
                               f"{', '.join(sorted(PHYSICAL_UNITS))}")

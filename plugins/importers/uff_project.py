@@ -234,7 +234,8 @@ def _rig_mapping(rig: Rig, records: list[UffFunction], fidx: int | None, where: 
     if not out or not strict:
         return out
     for k, f in enumerate(records):
-        if k != fidx and k not in out:
+        # node 0, direction 0: a channel without a sensor (export-uff writes a rig's spare channels so)
+        if k != fidx and k not in out and (f.rsp_node, f.rsp_dir) != (0, 0):
             raise ConfigError(f"{where}: time record {names[k]!r} at UFF node {f.rsp_node} direction {f.rsp_dir:+d} "
                               f"matches no sensor of rig {rig.name!r} (sensor nodes: "
                               f"{', '.join(str(n) for n in sorted({n for n, _ in at.values()}))})")
@@ -264,7 +265,7 @@ def _import_onto_rig(project, rig: Rig, uff_path: Path, name: str, content, reco
     signs, by_name = np.ones(len(records)), False
     if by_node:
         mapping = {k: ch for k, (ch, _) in by_node.items()}
-        signs = np.array([by_node[k][1] for k in range(len(records))])
+        signs = np.array([by_node[k][1] if k in by_node else 1.0 for k in range(len(records))])
     else:
         mapping, by_name = columns_to_channels(rig, names, where, None if fidx is None else names[fidx],
                                                "time record")

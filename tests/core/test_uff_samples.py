@@ -180,3 +180,21 @@ def test_export_through_pyuff_imports_back_identically(thesis_with_frf, tmp_path
         np.testing.assert_array_equal(fb["H_real"], fa["H_real"])
         np.testing.assert_array_equal(fb["H_imag"], fa["H_imag"])
         np.testing.assert_allclose(fb["frequency"], fa["frequency"], rtol=1e-5)
+
+
+def test_export_imports_back_onto_the_thesis_rig(thesis_with_frf, tmp_path):
+    """rig-format.md: an export imports back onto the same rig. The thesis rig's spare channel (no
+    sensor: UFF node 0, direction 0) was refused as matching no sensor, and its accelerometers, which
+    its .CTR inverts, came back negated (a value in m/s^2 carries its sign already)."""
+    from odsuite.analysis.prediction import prepare
+
+    out = tmp_path / "e1.uff"
+    assert main(["export-uff", str(thesis_with_frf), "e1", "-o", str(out)]) == 0
+    q = tmp_path / "q.h5"
+    assert main(["new", str(q)]) == 0
+    assert main(["import", str(q), str(out), "--name", "e1"]) == 0
+    with open_project(thesis_with_frf) as a, open_project(q) as b:
+        (pa,), (pb,) = prepare(a, ["e1"]), prepare(b, ["e1"])
+        assert [s.name for s in pb.sensors] == [s.name for s in pa.sensors]
+        np.testing.assert_allclose(pb.measured, pa.measured, rtol=1e-6, atol=1e-6 * np.abs(pa.measured).max())
+        np.testing.assert_allclose(pb.force, pa.force, rtol=1e-6, atol=1e-6 * np.abs(pa.force).max())
