@@ -157,6 +157,7 @@ _WHERE: dict[str, str] = {
     "add_effect": "odsuite.diagnosis.add_effect",
     "physical_text": "odsuite.diagnosis.physical:text",
     "moved_quantities": "odsuite.diagnosis.physical:moved",
+    "check_diagnosis": "odsuite.analysis.diagnosis_document",
     "store_diagnosis": "odsuite.analysis.stored_diagnosis",
     "stored_diagnosis": "odsuite.analysis.stored_diagnosis",
     # work over many projects

@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from odsuite.analysis.diagnosis_document import check_diagnosis
 from odsuite.analysis.history import data_stamp
 
 #: the revision metrics' key the diagnosis is stored under
@@ -41,8 +42,8 @@ def stored_diagnosis(project, revision: int | None) -> dict[str, Any] | None:
     """The diagnosis stored with ``revision``, if it holds for the project as it is now; else None."""
     rev = next((r for r in project.model_revisions() if r["revision"] == revision), None)
     entry = rev["metrics"].get(KEY) if rev is not None else None
-    if not isinstance(entry, dict) or not isinstance(entry.get("document"), dict):
+    if not isinstance(entry, dict) or entry.get("stamp") != diagnosis_stamp(project):
         return None
-    if entry.get("stamp") != diagnosis_stamp(project):
-        return None
-    return entry["document"]
+    # the report shows it: a document changed by hand is refused here, in one line
+    return check_diagnosis(entry.get("document"), f"{project.path}: model revision {revision}",
+                           f"metrics.{KEY}.document.")

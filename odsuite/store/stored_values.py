@@ -32,7 +32,8 @@ def _bad(path: Path, where: str, field: str, value: Any, expected: str) -> Proje
 MAX_POINT_M = 1e4
 
 
-def _number(x: Any) -> bool:
+def is_number(x: Any) -> bool:
+    """A real number a float can hold (not a bool, not a JSON integer past a float's range)."""
     if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)):
         return False
     try:  # JSON's integers have no bound: one past a float's range is no number the analyses can use
@@ -44,7 +45,7 @@ def _number(x: Any) -> bool:
 
 def as_number(value: Any) -> Any:
     """A stored attribute as a float when it is a real number, else as it is (for the check to name)."""
-    return float(value) if _number(value) else value
+    return float(value) if is_number(value) else value
 
 
 def check_raw_block(path: Path, name: str, block: np.ndarray, row0: int, channel_names: list[str]) -> None:
@@ -74,12 +75,12 @@ def check_systeminfo(path: Path, name: str, channels: list) -> None:
         where = f"experiment {name!r} systeminfo channel {k}"
         for field in ("sensitivity", "daq_gain"):
             v = getattr(ch, field)
-            if not (_number(v) and math.isfinite(v) and v != 0):
+            if not (is_number(v) and math.isfinite(v) and v != 0):
                 raise _bad(path, where, field, v, "a finite number other than 0")
         if not lowest <= abs(ch.sensitivity) <= highest:
             raise _bad(path, where, "sensitivity", ch.sensitivity, f"{lowest:g} to {highest:g} V per unit in magnitude")
         # (as the .CTR reader: an order is read only where the channel's filters are on)
-        if ch.filters_on and not (_number(ch.filter_order) and 0 <= ch.filter_order <= MAX_FILTER_ORDER):
+        if ch.filters_on and not (is_number(ch.filter_order) and 0 <= ch.filter_order <= MAX_FILTER_ORDER):
             raise _bad(path, where, "filter_order", ch.filter_order, f"0 to {MAX_FILTER_ORDER}")
 
 
@@ -91,7 +92,7 @@ def check_experiment(path: Path, name: str, *, sampling_rate: Any, pretrigger: A
     if dtype is not None and np.dtype(dtype).kind not in "fiu":
         raise _bad(path, where, "raw", f"dtype {np.dtype(dtype)}", "real numbers (floating point or integer)")
     n_samples, n_channels = shape
-    if not (_number(sampling_rate) and math.isfinite(sampling_rate)
+    if not (is_number(sampling_rate) and math.isfinite(sampling_rate)
             and RATE_RANGE[0] <= sampling_rate <= RATE_RANGE[1]):
         raise _bad(path, where, "sampling_rate", sampling_rate, f"{RATE_RANGE[0]:g} to {RATE_RANGE[1]:g} Hz")
     if not 0 <= pretrigger <= n_samples:
@@ -116,12 +117,12 @@ def check_revision(path: Path, key: str, effects: Any, parameters: Any, metrics:
         raise _bad(path, where, "metrics", metrics, "a table (JSON object)")
     for k in NUMERIC_METRICS:
         v = metrics.get(k)
-        if v is not None and not _number(v):
+        if v is not None and not is_number(v):
             raise _bad(path, where, f"metrics.{k}", v, "a number or null")
         if v is not None and float(v) < 0:  # an error is a root of sums of squares
             raise _bad(path, where, f"metrics.{k}", v, "a number >= 0 or null")
     # a fitted value is finite (an uncertainty may be unknown: null)
-    if not isinstance(parameters, dict) or not all(_number(v) and math.isfinite(v) for v in parameters.values()):
+    if not isinstance(parameters, dict) or not all(is_number(v) and math.isfinite(v) for v in parameters.values()):
         raise _bad(path, where, "parameters", parameters, "a table of finite numbers")
     if not isinstance(effects, list):
         raise _bad(path, where, "effects", effects, "a list of effect tables")
@@ -130,12 +131,12 @@ def check_revision(path: Path, key: str, effects: Any, parameters: Any, metrics:
             raise _bad(path, where, "effects", e, "a table naming its 'effect'")
         for table in ("values", "uncertainties"):
             values = e.get(table, {})
-            if not isinstance(values, dict) or not all(v is None or _number(v) for v in values.values()):
+            if not isinstance(values, dict) or not all(v is None or is_number(v) for v in values.values()):
                 raise _bad(path, where, f"effects[{e['effect']!r}].{table}", values, "a table of numbers")
         if not all(v is None or math.isfinite(v) for v in e.get("values", {}).values()):
             raise _bad(path, where, f"effects[{e['effect']!r}].values", e["values"], "a table of finite numbers")
         per = e.get("per_experiment", {})
-        if not isinstance(per, dict) or not all(isinstance(v, dict) and all(_number(x) for x in v.values())
+        if not isinstance(per, dict) or not all(isinstance(v, dict) and all(is_number(x) for x in v.values())
                                                 for v in per.values()):
             raise _bad(path, where, f"effects[{e['effect']!r}].per_experiment", per,
                        "a table of experiments' tables of numbers")

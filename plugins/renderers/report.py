@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from odsuite.api import per_unit, unit_text, write_output
-from odsuite.api import ConfigError, check_text_file
+from odsuite.api import ConfigError, check_diagnosis, check_text_file
 
 #: Movie: frame size (pixels), frames per second, about this many frames, this long after the hit.
 MOVIE_SIZE = (640, 360)
@@ -200,12 +200,7 @@ def load_diagnosis(source: str | Path | Mapping[str, Any]) -> dict[str, Any]:
         except ValueError as exc:  # an integer of more than 4,300 digits (Python's conversion limit)
             raise ConfigError(f"{where}: not a diagnosis from `odsuite diagnose --json` "
                               f"({str(exc).splitlines()[0][:120]})") from None
-    if not isinstance(doc, dict) or not isinstance(doc.get("candidates"), list):
-        raise ConfigError(f"{where}: field 'candidates' missing or not a list (expected `odsuite diagnose --json` output)")
-    for i, c in enumerate(doc["candidates"]):
-        if not isinstance(c, Mapping) or not isinstance(c.get("effect"), str):
-            raise ConfigError(f"{where}: candidates[{i}] has no 'effect' name, got {c!r:.80}")
-    return doc
+    return check_diagnosis(doc, f"{where}:")
 
 
 def _direction(unit: Sequence[float]) -> str:

@@ -4,6 +4,7 @@ given to the command byte-identical. The table there and ``CASES`` here must lis
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
@@ -309,6 +310,40 @@ def _report_diagnosis(plant: Callable[[Path], object]) -> Callable[[Path], list[
         named = plant(d)
         diag = named if isinstance(named, str) else str(d / "d.json")
         return ["report", str(d / "p.h5"), "-o", str(d / "r.html"), "--diagnosis", diag, "--no-movie"]
+    return argv
+
+
+#: a diagnosis as `diagnose --json` writes it, the fields the report shows
+DIAGNOSIS = {"revision": 0, "baseline_error": 0.1, "noise_floor_error": 0.01, "candidates": [
+    {"effect": "stiffness", "significant": True, "error_after": 0.05, "validated_error": 0.06,
+     "parameters": {"scale_z": 1.2}, "units": {"scale_z": "1"}, "evidence": "", "physical": []}]}
+
+
+def _diagnosis_with(field: str, value) -> dict:
+    """DIAGNOSIS with one top-level field, or one of its candidate's (``candidates[0].NAME``), changed."""
+    import copy
+
+    doc = copy.deepcopy(DIAGNOSIS)
+    table, name = (doc["candidates"][0], field.split(".")[1]) if field.startswith("candidates[0].") else (doc, field)
+    table[name] = value
+    return doc
+
+
+def _bad_diagnosis_file(field: str, value) -> Callable[[Path], list[str]]:
+    return _report_diagnosis(lambda d: (d / "d.json").write_text(json.dumps(_diagnosis_with(field, value))))
+
+
+def _bad_stored_diagnosis(field: str, value) -> Callable[[Path], list[str]]:
+    """``report`` on x.h5, a copy of p.h5 whose revision 0 keeps a diagnosis (as `diagnose` keeps
+    one) with ``field`` changed by hand."""
+    def argv(d: Path) -> list[str]:
+        from odsuite.analysis.stored_diagnosis import diagnosis_stamp, store_diagnosis
+        from odsuite.store.project import open_project
+
+        shutil.copyfile(d / "p.h5", d / "x.h5")
+        with open_project(d / "x.h5", "a") as p:
+            assert store_diagnosis(p, _diagnosis_with(field, value), diagnosis_stamp(p))
+        return ["report", str(d / "x.h5"), "-o", str(d / "r.html"), "--no-movie"]
     return argv
 
 
@@ -707,6 +742,24 @@ CASES: list[Case] = [
          argv=lambda d: ["catalog", "query", str(d), ""]),
     Case("diagnosis-huge", "report --diagnosis with a file of 17 MiB", "{dir}/d.json: more than 16777216 bytes, not a diagnosis from `odsuite diagnose --json`",
          argv=_report_diagnosis(lambda d: os.truncate(_touch(d / "d.json"), 17 * 2**20))),
+    Case("diagnosis-parameters-text", "report --diagnosis whose candidate's parameters are the text 'x'", "{dir}/d.json: field 'candidates[0].parameters': expected a table of numbers (or null) by parameter name, got 'x'",
+         argv=_bad_diagnosis_file("candidates[0].parameters", "x")),
+    Case("diagnosis-units-list", "report --diagnosis whose candidate's units are the list [1]", "{dir}/d.json: field 'candidates[0].units': expected a table of unit texts (or null) by parameter name, got [1]",
+         argv=_bad_diagnosis_file("candidates[0].units", [1])),
+    Case("diagnosis-physical-number", "report --diagnosis whose candidate's physical quantities are the number 5", "{dir}/d.json: field 'candidates[0].physical': expected a list of quantities, got 5",
+         argv=_bad_diagnosis_file("candidates[0].physical", 5)),
+    Case("diagnosis-physical-row", "report --diagnosis whose candidate's physical quantity has the value 'x'", "{dir}/d.json: field 'candidates[0].physical[0]': expected a table of label and unit (texts), value (a number), nominal and uncertainty (numbers or null), got",
+         argv=_bad_diagnosis_file("candidates[0].physical", [{"label": "k", "value": "x", "unit": "N/m", "nominal": None}])),
+    Case("diagnosis-error-text", "report --diagnosis whose candidate's validated error is the text 'x'", "{dir}/d.json: field 'candidates[0].validated_error': expected a number or null, got 'x'",
+         argv=_bad_diagnosis_file("candidates[0].validated_error", "x")),
+    Case("diagnosis-baseline-text", "report --diagnosis whose baseline error is the text 'x'", "{dir}/d.json: field 'baseline_error': expected a number or null, got 'x'",
+         argv=_bad_diagnosis_file("baseline_error", "x")),
+    Case("diagnosis-candidates-number", "report --diagnosis whose candidates are the number 5", "{dir}/d.json: field 'candidates': expected a list of candidate tables (the output of `odsuite diagnose --json`), got 5",
+         argv=_bad_diagnosis_file("candidates", 5)),
+    Case("stored-diagnosis-parameters", "report on a project whose revision 0 keeps a diagnosis whose candidate's parameters are the text 'x'", "{dir}/x.h5: model revision 0 field 'metrics.diagnosis.document.candidates[0].parameters': expected a table of numbers (or null) by parameter name, got 'x'",
+         argv=_bad_stored_diagnosis("candidates[0].parameters", "x")),
+    Case("stored-diagnosis-units", "report on a project whose revision 0 keeps a diagnosis whose candidate's units are the number 5", "{dir}/x.h5: model revision 0 field 'metrics.diagnosis.document.candidates[0].units': expected a table of unit texts (or null) by parameter name, got 5",
+         argv=_bad_stored_diagnosis("candidates[0].units", 5)),
     Case("import-rate-range", "import of a .npy record with --rate 1e9 (a project stores 0.1 Hz to 100 MHz)", "{dir}/r.npy: sampling_rate: 1e+09 Hz is outside 0.1 to 1e+08 Hz",
          argv=_imported("r.npy", _npy(np.zeros((16, 2))), "--rate", "1e9", "--units", "g")),
     Case("store-rate-range", "an experiment added at 1e300 Hz (API; the project's reader refuses such a rate)", "{dir}/p.h5: experiment 'new': sampling_rate must be 0.1 to 1e+08 Hz, got 1e+300",

@@ -301,9 +301,9 @@ def test_bad_input_is_one_line(tmp_path):
     with pytest.raises(ConfigError, match=r"d\.json: not a JSON document"):
         load_diagnosis(bad)
     bad.write_text(json.dumps({"baseline_error": 0.1}))
-    with pytest.raises(ConfigError, match=r"d\.json: field 'candidates' missing"):
+    with pytest.raises(ConfigError, match=r"d\.json: field 'candidates': expected a list of candidate tables .*, got None"):
         load_diagnosis(bad)
-    with pytest.raises(ConfigError, match=r"candidates\[1\] has no 'effect'"):
+    with pytest.raises(ConfigError, match=r"field 'candidates\[1\]\.effect': expected an effect name, got None"):
         load_diagnosis({"candidates": [{"effect": "stiffness"}, {"name": 3}]})
     with pytest.raises(ConfigError, match="missing.json: cannot read"):
         load_diagnosis(tmp_path / "missing.json")
