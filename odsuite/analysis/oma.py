@@ -305,6 +305,9 @@ RATE_PER_BAND = 2.5
 MAX_ROWS = 1200
 #: the most Toeplitz rows a given --block-rows may make (an SVD of 4800 rows takes about a minute)
 GIVEN_ROWS_MAX = 4 * MAX_ROWS
+#: the highest model order SSI-cov is asked for: it solves an eigenproblem per even order, so its
+#: time grows with the order's fourth power (order 400 took 41 s on 3 outputs, 1000 would take half an hour)
+MAX_GIVEN_ORDER = 400
 #: the fewest samples a given --decimate may leave: the segments' scatter and the lags need them
 MIN_DECIMATED = 256
 #: the band holds at most one spectral peak per this many model orders (each mode takes two
@@ -390,6 +393,20 @@ def record_peaks(y: np.ndarray, fs: float, lo: float = 0.0, hi: float | None = N
     return np.array([p[0] for p in peaks])
 
 
+def _order_fits(max_order: int, n_out: int, samples: int, rate: float) -> None:
+    """Refuse a model order the record cannot hold, before any matrix is made: its block rows (the
+    fewest that hold it, ``ceil(order / outputs) + 1``) need lags of twice their number in a record
+    of at least four times as many samples (as a given --block-rows), and at most MAX_GIVEN_ORDER."""
+    rows = int(np.ceil(max_order / n_out)) + 1
+    if 4 * rows > samples:
+        raise ConfigError(f"--max-order {max_order}: {rows} block rows x {n_out} outputs hold it, whose lags "
+                          f"(2 x {rows}) need at least {4 * rows} samples at {rate:g} Hz; the record has {samples} "
+                          "(give a lower --max-order)")
+    if max_order > MAX_GIVEN_ORDER:
+        raise ConfigError(f"--max-order {max_order}: at most {MAX_GIVEN_ORDER} (SSI-cov solves an eigenproblem per "
+                          "even order, its time grows with the order's fourth power)")
+
+
 def choose_settings(y: np.ndarray, fs: float, *, f_band: tuple[float | None, float | None] | None = None,
                     block_rows: int | None = None, decimation: int | None = None,
                     max_order: int = MAX_ORDER) -> OmaSettings:
@@ -400,6 +417,7 @@ def choose_settings(y: np.ndarray, fs: float, *, f_band: tuple[float | None, flo
     of f1 (at most ``MAX_ROWS`` Toeplitz rows: the band's top comes down to fit). Anything given
     is kept as given."""
     n_out = y.shape[1]
+    _order_fits(max_order, n_out, len(y), fs)  # before the spectra: no decimation leaves more samples
     lo, hi = f_band if f_band is not None else (None, None)
     source = {"fmin": "given" if lo is not None else "from the record",
               "fmax": "given" if hi is not None else "from the record",
@@ -432,6 +450,7 @@ def choose_settings(y: np.ndarray, fs: float, *, f_band: tuple[float | None, flo
         raise ConfigError(f"--decimate {decimation}: leaves {left} samples of the record's {len(y)} (at least "
                           f"{MIN_DECIMATED} are needed: give a smaller factor)")
     if block_rows is None:
+        _order_fits(max_order, n_out, left, rate)
         need = int(np.ceil(LAG_PERIODS * rate / f1 / 2)) if f1 else 20
         block_rows = max(need, int(np.ceil(max_order / n_out)) + 1)
     elif block_rows * n_out < max_order:
