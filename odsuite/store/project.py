@@ -42,6 +42,7 @@ import os
 import functools
 import inspect
 import json
+import math
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
@@ -64,6 +65,7 @@ from odsuite.domain.errors import (
     SchemaError,
 )
 from odsuite.domain.excitation import Excitation
+from odsuite.contracts.daq import check_record_fits
 from odsuite.domain.memory import free_memory
 from odsuite.store.h5codecs import (
     Attrs,
@@ -100,14 +102,32 @@ from odsuite.store.storage import (
 from odsuite.domain.systeminfo import Systeminfo
 
 
+#: odsuite compresses nothing (its raw records carry only a checksum) and no measurement compresses
+#: this far: a dataset stored this many times smaller is a "bomb" made by hand (10^7 rows of zeros
+#: in a few MB), which would be read for minutes and gigabytes ...
+MAX_COMPRESSION = 100
+#: ... once it declares this many bytes (smaller ones cost nothing to read)
+COMPRESSION_CHECKED_BYTES = 2**26
+
+
 def check_written(ds: h5py.Dataset, where: str) -> None:
-    """Refuse a dataset whose chunks were never written: odsuite writes every value, and a shape
-    of 10^9 rows made by hand would be read as fill values, for minutes and gigabytes."""
-    plist = ds.id.get_create_plist()
-    size = ds.size * ds.dtype.itemsize
-    if plist.get_nfilters() == 0 and ds.id.get_storage_size() < size:
-        raise ProjectFileError(f"{where}: shape {ds.shape} of {size} bytes, of which "
-                               f"{ds.id.get_storage_size()} are stored (not written by odsuite)")
+    """Refuse a dataset odsuite did not write, from its storage alone (before a value is read):
+    chunks never written (odsuite writes every value, and a shape of 10^9 rows made by hand would be
+    read as fill values, for minutes and gigabytes) or values stored in far fewer bytes than they
+    take (MAX_COMPRESSION)."""
+    size, stored = ds.size * ds.dtype.itemsize, ds.id.get_storage_size()
+    if ds.id.get_create_plist().get_nfilters() == 0 and stored < size:
+        raise ProjectFileError(f"{where}: shape {ds.shape} of {size} bytes, of which {stored} are stored "
+                               "(not written by odsuite)")
+    if ds.chunks is not None:  # compressed chunks say nothing by their bytes: count them
+        expected = math.prod(-(-n // c) for n, c in zip(ds.shape, ds.chunks, strict=True))
+        if ds.id.get_num_chunks() < expected:
+            raise ProjectFileError(f"{where}: shape {ds.shape} of {size} bytes in {expected} chunks, of which "
+                                   f"{ds.id.get_num_chunks()} are stored (not written by odsuite)")
+    if size > COMPRESSION_CHECKED_BYTES and stored * MAX_COMPRESSION < size:
+        raise ProjectFileError(f"{where}: shape {ds.shape} of {size} bytes stored in {stored} bytes, compressed "
+                               f"{size / max(stored, 1):.0f}:1 (no measurement compresses beyond "
+                               f"{MAX_COMPRESSION}:1; not written by odsuite)")
 
 
 @dataclass(frozen=True)
@@ -250,6 +270,10 @@ class Experiment:
     @_reads("experiment {self.name!r} raw data")
     def raw(self, start: int = 0, stop: int | None = None, channels=None) -> np.ndarray:
         """Raw volts, samples x channels (a slice of rows and optionally of channels, by index or name)."""
+        # refused before it is read (as an acquisition of that size): compressed, its stored bytes
+        # say nothing of the memory reading takes
+        check_record_fits(len(range(self.n_samples)[start:stop]), self.n_channels,
+                          f"{self._project.path}: experiment {self.name!r} field 'raw'")
         try:
             # volts as float64, whatever real type a file written elsewhere holds (float16 has no linalg)
             block = np.asarray(self._group()["raw"][start:stop], dtype=np.float64)
@@ -891,9 +915,14 @@ class Project:
             if not isinstance(group, h5py.Group):
                 raise ProjectFileError(f"{self.path}: experiment {name!r} is a {type(group).__name__}, "
                                        "not an experiment group")
+            raw = group.get("raw")
+            if isinstance(raw, h5py.Dataset) and not raw.fletcher32:  # odsuite writes every record with one
+                raise ProjectFileError(f"{self.path}: experiment {name!r}: dataset {raw.name} has no checksum, "
+                                       "so it cannot be verified (not written by odsuite)")
             group.visititems(
                 lambda _n, o: datasets.append(o) if isinstance(o, h5py.Dataset) and o.fletcher32 else None)
             for ds in datasets:
+                check_written(ds, f"{self.path}: experiment {name!r}: dataset {ds.name}")
                 try:
                     for sel in ds.iter_chunks():
                         ds[sel]

@@ -165,6 +165,16 @@ def _full_disk_acquire(d: Path, free: int):
                          systeminfo=Systeminfo([ChannelInfo() for _ in range(2)]), excitation=None)
 
 
+def _read_raw_short_of_memory(d: Path, free: int):
+    """e1's raw record read while the machine reports ``free`` bytes of memory free (API)."""
+    from unittest import mock
+
+    from odsuite.store.project import open_project
+
+    with mock.patch("odsuite.contracts.daq.free_memory", return_value=free), open_project(d / "p.h5") as p:
+        return p.experiment("e1").raw()
+
+
 def _uff_on_rig(d: Path, how: str):
     """A UFF file imported onto a project on the bench rig, whose sensor a1 (no sensitivity)
     declares UFF node 5 and measures along +z: the hammer's record and a1's, changed by ``how``."""
@@ -272,6 +282,17 @@ def _handmade(kind: str, command: str = "info") -> Callable[[Path], list[str]]:
             elif kind == "raw unwritten":  # 10^9 rows declared, no chunk written
                 del e["raw"]
                 e.create_dataset("raw", shape=(10**9, 11), dtype="f8", chunks=(4096, 11))
+            elif kind == "raw unwritten gzip":  # compressed chunks: their bytes say nothing, their count does
+                del e["raw"]
+                e.create_dataset("raw", shape=(10**9, 11), dtype="f8", chunks=(65536, 11), compression="gzip")
+            elif kind in ("raw bomb", "raw no checksum"):  # rewritten whole (a bomb: 10^6 rows of zeros)
+                attrs, raw = dict(e["raw"].attrs), e["raw"][()]
+                del e["raw"]
+                if kind == "raw bomb":
+                    e.create_dataset("raw", data=np.zeros((10**6, 11)), chunks=(65536, 11), compression="gzip")
+                else:
+                    e["raw"] = raw
+                e["raw"].attrs.update(attrs)
             elif kind == "sensitivity 0":
                 table = e["systeminfo/channels"][()]
                 table["sensitivity"][2] = 0.0
@@ -803,6 +824,14 @@ CASES: list[Case] = [
          argv=_handmade("raw group", "info")),
     Case("stored-raw-unwritten", "info on a project whose raw record declares 10^9 rows and stores none", "{dir}/x.h5: experiment 'e1' field 'raw': shape (1000000000, 11) of 88000000000 bytes, of which 0 are stored (not written by odsuite)",
          argv=_handmade("raw unwritten", "info")),
+    Case("stored-raw-unwritten-gzip", "info on a project whose gzip-compressed raw record declares 10^9 rows and stores no chunk (info ran for minutes)", "{dir}/x.h5: experiment 'e1' field 'raw': shape (1000000000, 11) of 88000000000 bytes in 15259 chunks, of which 0 are stored (not written by odsuite)",
+         argv=_handmade("raw unwritten gzip", "info")),
+    Case("stored-raw-bomb", "compare on a project whose raw record is 10^6 x 11 zeros, gzip-compressed a thousandfold", "{dir}/x.h5: experiment 'e1' field 'raw': shape (1000000, 11) of 88000000 bytes stored in",
+         argv=_handmade("raw bomb", "compare")),
+    Case("stored-raw-no-checksum", "verify on a project whose raw record was rewritten without its checksum (verify said intact)", "{dir}/x.h5: experiment 'e1': dataset /experiments/e1/raw has no checksum, so it cannot be verified (not written by odsuite)",
+         argv=_handmade("raw no checksum", "verify")),
+    Case("stored-raw-memory", "e1's raw record read with 0.1 MB of memory free (API)", "{dir}/p.h5: experiment 'e1' field 'raw': a record of",
+         call=lambda d: _read_raw_short_of_memory(d, 100_000)),
     Case("stored-sensitivity-zero", "info on a project whose channel 2 stores sensitivity 0", "{dir}/x.h5: experiment 'e1' systeminfo channel 2 field 'sensitivity': expected a finite number other than 0, got 0.0",
          argv=_handmade("sensitivity 0", "info")),
     Case("stored-rate-complex", "info on a project whose experiment stores the sampling rate 20000+1j", "{dir}/x.h5: experiment 'e1' field 'sampling_rate': expected 0.1 to 1e+08 Hz, got np.complex128(20000+1j)",
