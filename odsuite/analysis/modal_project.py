@@ -93,23 +93,28 @@ def experiment_frf(
                              estimator=estimator, record_length=record_length)
         if before_store is not None:
             before_store(frf)
-        dims = ("output", "frequency")
-        p.write_derived(
-            experiment, "frf",
-            {
-                "frequency": DerivedArray(frf.frequency, "Hz", ("frequency",)),
-                "H_real": DerivedArray(frf.H.real, ";".join(frf.units), dims),
-                "H_imag": DerivedArray(frf.H.imag, ";".join(frf.units), dims),
-                "coherence": DerivedArray(frf.coherence, "1", dims),
-            },
-            provenance={"plugin": "odsuite.frf", "version": __version__,
-                        "parameters": json.dumps({"estimator": estimator, "record_length": record_length}),
-                        "inputs": experiment},
-            attrs={"outputs": json.dumps(frf.output_names), "n_averages": frf.n_averages,
-                   "hits": json.dumps([{"peak": h.peak_index, "accepted": h.accepted, "reasons": list(h.reasons)}
-                                       for h in hits])},
-        )
+        _store_frf(p, experiment, frf, hits, estimator, record_length)
     return frf, hits
+
+
+def _store_frf(p, experiment: str, frf: FrfSet, hits: list, estimator: str, record_length: int | None) -> None:
+    """An experiment's FRFs as its derived group ``frf``, with the settings they were estimated with."""
+    dims = ("output", "frequency")
+    p.write_derived(
+        experiment, "frf",
+        {
+            "frequency": DerivedArray(frf.frequency, "Hz", ("frequency",)),
+            "H_real": DerivedArray(frf.H.real, ";".join(frf.units), dims),
+            "H_imag": DerivedArray(frf.H.imag, ";".join(frf.units), dims),
+            "coherence": DerivedArray(frf.coherence, "1", dims),
+        },
+        provenance={"plugin": "odsuite.frf", "version": __version__,
+                    "parameters": json.dumps({"estimator": estimator, "record_length": record_length}),
+                    "inputs": experiment},
+        attrs={"outputs": json.dumps(frf.output_names), "n_averages": frf.n_averages,
+               "hits": json.dumps([{"peak": h.peak_index, "accepted": h.accepted, "reasons": list(h.reasons)}
+                                   for h in hits])},
+    )
 
 
 def frf_modes(frf: FrfSet, *, f_band: tuple[float, float] | None = None, max_order: int = 50,
@@ -137,8 +142,8 @@ def experiments_modes(
     max_order: int = 50, frequencies: list[float] | None = None,
 ) -> tuple[ModalResult, np.ndarray, np.ndarray, dict[str, dict]]:
     """Modes of an FRF matrix across experiments: a roving hammer (each experiment hits another
-    point) or several references. Every experiment's FRFs (stored as its derived "frf") on the
-    same lines are stacked into one matrix whose rows are "output @ experiment", and fitted with
+    point) or several references. Every experiment's FRFs (stored as its derived "frf" once the
+    fit passed, all in one commit) on the same lines are stacked into one matrix whose rows are "output @ experiment", and fitted with
     one common denominator (LSCF, ``modal.identify_modes``); the default band is the overlap of the
     experiments' usable bands. Returns the modes (shapes per row), the frequency lines, the matrix
     (rows x lines) and each experiment's reference (force point in m, direction)."""
@@ -146,10 +151,23 @@ def experiments_modes(
 
     if len(set(experiments)) != len(experiments):
         raise ConfigError(f"{project}: an experiment is named twice in {', '.join(experiments)}")
-    frfs = [experiment_frf(project, e)[0] for e in experiments]
-    lines = {f.frequency.size for f in frfs}
-    if len(lines) > 1:  # each hit's window ends where its response has decayed: one common length
-        frfs = [experiment_frf(project, e, record_length=2 * (min(lines) - 1))[0] for e in experiments]
+    # computed first and stored only when the fit succeeds: a failing command leaves the project as it was
+    with open_project(project) as p:
+        def estimated(record_length: int | None) -> list[tuple[FrfSet, list]]:
+            return [hits_frf(p.experiment(e), f"{project}: experiment {e!r}", record_length=record_length)
+                    for e in experiments]
+
+        record_length = None
+        found = estimated(record_length)
+        lines = {f.frequency.size for f, _ in found}
+        if len(lines) > 1:  # each hit's window ends where its response has decayed: one common length
+            record_length = 2 * (min(lines) - 1)
+            found = estimated(record_length)
+        references = {}
+        for e in experiments:
+            exc = p.experiment(e).excitation
+            references[e] = {"point_m": [float(v) for v in exc.point], "direction": [float(v) for v in exc.direction]}
+    frfs = [f for f, _ in found]
     first = frfs[0]
     for e, f in zip(experiments[1:], frfs[1:]):
         if f.frequency.shape != first.frequency.shape or not np.allclose(f.frequency, first.frequency):
@@ -167,11 +185,9 @@ def experiments_modes(
     rows = [f"{o} @ {e}" for e, f in zip(experiments, frfs) for o in f.output_names]
     res = identify_modes(first.frequency, H, f_band=(lo, hi), max_order=max_order, frequencies=frequencies,
                          output_names=rows)
-    references = {}
-    with open_project(project) as p:
-        for e in experiments:
-            exc = p.experiment(e).excitation
-            references[e] = {"point_m": [float(v) for v in exc.point], "direction": [float(v) for v in exc.direction]}
+    with open_project(project, "a") as p:  # one commit: every experiment's FRFs
+        for e, (frf, hits) in zip(experiments, found):
+            _store_frf(p, e, frf, hits, "H1", record_length)
     return res, first.frequency, H, references
 
 

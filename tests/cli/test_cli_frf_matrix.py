@@ -79,3 +79,21 @@ def test_matrix_needs_distinct_experiments_and_output_only_one(roving, capsys):
     # several --output-only records are setups merged through reference channels: the same
     # channels in both leave nothing roving (docs/modal.md)
     assert "setup 'hit1' has only the reference channels" in capsys.readouterr().err
+
+
+def test_a_failing_matrix_fit_stores_nothing_and_a_passing_one_every_frf(roving, tmp_path, capsys):
+    """The experiments' FRFs are stored only once the fit passed, all in one commit (they were
+    stored before the fit, so a failing `modes` changed the project)."""
+    import shutil
+
+    p = tmp_path / "r.h5"
+    shutil.copyfile(roving, p)
+    before = p.read_bytes()
+    capsys.readouterr()
+    assert main(["modes", str(p), "--experiment", "hit1", "--experiment", "hit2", "--fmin", "5", "--fmax", "6"]) == 1
+    assert "needs more" in capsys.readouterr().err
+    assert p.read_bytes() == before
+    assert main(["modes", str(p), "--experiment", "hit1", "--experiment", "hit2", "--fmin", "5", "--fmax", "200",
+                 "--max-order", "30", "--json"]) == 0
+    with open_project(p) as proj:
+        assert all("frf" in proj.derived_kinds(e) for e in ("hit1", "hit2"))
