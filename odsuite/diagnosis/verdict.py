@@ -163,8 +163,9 @@ def _few_noise_lines(sig: Signature) -> str:
         return ""
     c = sig.cells[0]
     lo, hi = c["band_hz"]
-    return (f" The noise at {lo:g}-{hi:g} Hz is measured on only {c['noise_lines']} lines of the samples before "
-            f"the hits, so a band of noise there (a floor's vibration) would read the same: record "
+    return (f" The noise at {lo:g}-{hi:g} Hz is measured on only {c['noise_lines']} lines of the quiet samples "
+            f"(before the hits, or the records' tails where none precede them), so a band of noise there (a "
+            f"floor's vibration, a sensor's noise rising at low frequency) would read the same: record "
             f"{2.0 / lo:.2g} s or more before each hit to tell.")
 
 

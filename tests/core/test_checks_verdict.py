@@ -695,7 +695,7 @@ def test_an_unexplained_cell_whose_noise_few_lines_measure_says_so():
     cell = {"experiment": "r2", "channel": "motor_de_z2", "band_hz": [25.0, 50.0], "residual_to_floor": 3.64,
             "limit": 3.4, "noise_lines": 4}
     words = message("unexplained", 0.975, 1.0, None, Signature(cells=[cell]), None)
-    assert "measured on only 4 lines of the samples before the hits" in words
+    assert "measured on only 4 lines of the quiet samples (before the hits" in words
     assert "record 0.08 s or more before each hit" in words
     for known in ({**cell, "noise_lines": 8}, {k: v for k, v in cell.items() if k != "noise_lines"}):
         assert "before the hits" not in message("unexplained", 0.975, 1.0, None, Signature(cells=[known]), None)
