@@ -109,12 +109,14 @@ def reserve_private(tmp: Path, project: Path) -> None:
 
 def check_output(output: Path, project: Path | None, option: str) -> Path:
     """Refuse an output path that is the project, one of its sidecar files, a folder, or inside a
-    folder that does not exist; one line naming the option and the path."""
+    folder that does not exist (also as a link's target); one line naming the option and the path."""
     output = Path(output)
     if output.is_dir():
         raise ProjectFileError(f"{option} {output}: is a folder; give a file name")
-    if not output.parent.is_dir():
-        raise ProjectFileError(f"{option} {output}: folder {output.parent} does not exist")
+    # a link is written where it points (write_output), so the folder that must exist is its target's
+    folder = Path(os.path.realpath(output)).parent if output.parent.is_dir() else output.parent
+    if not folder.is_dir():
+        raise ProjectFileError(f"{option} {output}: folder {folder} does not exist")
     if project is not None:
         project = Path(project)
         real_output, real_project = os.path.realpath(output), os.path.realpath(project)  # no error on loops

@@ -648,6 +648,8 @@ CASES: list[Case] = [
          argv=lambda d: ["export-legacy", str(d / "p.h5"), "e1", "--cod", str(d)]),
     Case("output-missing-folder", "render -o into a folder that does not exist", "-o {dir}/none/m.gif: folder {dir}/none does not exist",
          argv=lambda d: ["render", str(d / "p.h5"), "e1", "-o", str(d / "none" / "m.gif")]),
+    Case("output-link-missing-folder", "export-uff -o naming a link into a folder that does not exist", "-o {dir}/d.uff: folder {dir}/none does not exist",
+         argv=lambda d: ((d / "d.uff").symlink_to(d / "none" / "x.uff"), ["export-uff", str(d / "p.h5"), "e1", "-o", str(d / "d.uff")])[1]),
     Case("dat-fifo", "a named pipe (FIFO) given as the .DAT file", "{dir}/pipe.DAT: not a regular file (a pipe or device), expected a data (.DAT/.VIZ) file",
          argv=lambda d: (os.mkfifo(d / "pipe.DAT"), legacy(ctr="good.CTR", dat="pipe.DAT")(d))[1]),
     Case("dat-device", "/dev/zero given as the .DAT file", "/dev/zero: not a regular file (a pipe or device), expected a data (.DAT/.VIZ) file",
