@@ -97,7 +97,10 @@ def magnification_words(magnify: tuple[float, float]) -> str:
     """The magnification (H_t, H_r) as a reader understands it: how much larger than life."""
     h_t, h_r = magnify
     if np.isclose(h_t, h_r, rtol=1e-6):
-        return f"motion drawn {_times(h_t)} times larger than it is"
+        return f"motion drawn {_times(h_t)} times larger than it is" if h_t > 0 else "motion held still (x0)"
+    if 0 in (h_t, h_r):  # x0 shows the other motion alone ("0 times larger" read as a mistake)
+        still, moving, h = ("translations", "rotations", h_r) if h_t == 0 else ("rotations", "translations", h_t)
+        return f"{still} held still (x0), {moving} drawn {_times(h)} times larger than they are"
     return f"translations drawn {_times(h_t)} times, rotations {_times(h_r)} times larger than they are"
 
 

@@ -253,7 +253,8 @@ class Scene:
             sets.append((corrected_coords, style.corrected, 0, False))
         sets.append((coords, style.measured, 0, False))
         scale = plate_scale(rig, list(coords))
-        self._magnify = magnify if scale_bar else None
+        # translations drawn x0 (held still) have no ruler: any motion is a bar of no length
+        self._magnify = magnify if scale_bar and magnify[0] > 0 else None
         self._towards_camera, self._up = view_direction(rig, *view), rig.up
         self._decorations: list[np.ndarray] = []  # points of the axes and scale bar, kept in view
         # (text, dot series (n, 3), offset from the dot in pixels, its body's centre)

@@ -137,6 +137,7 @@ def test_labels_tell_time_from_the_hit_and_the_force(thesis_rig):
     assert frame_labels(np.array([5]), 4000.0, ods_hz=100.0) == ["phase 45 deg of the cycle at 100 Hz"]
     assert magnification_words((5780.0, 5780.0)) == "motion drawn 5,780 times larger than it is"
     assert magnification_words((2.5, 40.0)) == "translations drawn 2.5 times, rotations 40 times larger than they are"
+    assert magnification_words((0.0, 40.0)) == "translations held still (x0), rotations drawn 40 times larger than they are"
 
 
 @pytest.mark.render

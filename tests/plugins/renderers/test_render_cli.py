@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import imageio_ffmpeg
 import numpy as np
 import pytest
@@ -51,6 +53,19 @@ def test_render_movie(project, tmp_path, capsys):
     assert "translations drawn 2,000 times, rotations 3,000 times larger than they are" in stdout
     frames, _ = imageio_ffmpeg.count_frames_and_secs(str(out))
     assert frames == -(-d.shape[0] // 64)
+
+
+@pytest.mark.render
+def test_render_magnify_zero_holds_that_motion_still(project, tmp_path, capsys):
+    """A factor 0 draws the other motion alone, without the scale bar (a ruler of motion drawn x0 has
+    no length: it divided by zero); --json stays one document."""
+    path, _ = project
+    for magnify, words in (("0,0", "motion held still (x0)"),
+                           ("0,3000", "translations held still (x0), rotations drawn 3,000 times larger")):
+        code, stdout, err = run(capsys, "render", path, "T5", "-o", tmp_path / "m.gif", "--magnify", magnify,
+                                "--duration", "0.2", "--workers", "1", "--json")
+        assert code == 0, err
+        assert words in json.loads(stdout)["summary"]
 
 
 def test_render_figures(project, tmp_path, capsys):
