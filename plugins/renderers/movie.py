@@ -46,6 +46,9 @@ GIF_PALETTE_FRAMES = 6
 #: Bytes per pixel of a frame, for the room a movie needs: about twice what the wireframe scene
 #: measured (1280 x 720: GIF 23 kB a frame, H.264 3 kB).
 MOVIE_BYTES_PER_PIXEL = {"gif": 0.05, "mp4": 0.008}
+#: Frame rates a movie can have: a GIF frame lasts at most 655.35 s (its delay is a 16-bit count of
+#: 10 ms); ffmpeg takes the rate as a fraction of 32-bit integers, and no screen shows 1000 a second.
+FPS_RANGE = (1 / 655.35, 1000.0)
 
 
 @dataclass(frozen=True)
@@ -386,6 +389,9 @@ def write_movie(job: dict, frames: np.ndarray, path: Path, fmt: str, size: tuple
     """Render ``job``'s scene at ``frames`` (its sample indices) into ``path`` (``fmt`` "mp4" or
     "gif", the fallback already chosen) with ``workers`` processes; ``job`` holds the scene, the
     frame ``labels``, ``fps`` and ``n_frames``."""
+    if not FPS_RANGE[0] <= job["fps"] <= FPS_RANGE[1]:
+        raise ConfigError(f"fps: expected {FPS_RANGE[0]:.4g} to {FPS_RANGE[1]:g} frames per second (a GIF frame "
+                          f"lasts at most 655.35 s), got {job['fps']:.6g}")
     labels = job["labels"]
     workers = max(1, min(int(workers), len(frames) // MIN_FRAMES_PER_WORKER or 1))
     path.parent.mkdir(parents=True, exist_ok=True)

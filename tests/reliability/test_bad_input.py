@@ -601,6 +601,10 @@ CASES: list[Case] = [
     Case("acquire-trigger-nan", "acquire --trigger-level nan", "acquisition setting 'trigger_level': must be a finite number, got nan",
          argv=lambda d: ["acquire", str(d / "p.h5"), "--trigger-level", "nan", "--name", "new"]),
     Case("render-workers", "render --workers 0", "--workers: at least 1 render process, got 0", argv=lambda d: ["render", str(d / "p.h5"), "e1", "-o", str(d / "m.gif"), "--workers", "0"]),
+    Case("render-fps-tiny", "render --duration 3000 --fps 0.001 (a GIF frame's delay overflowed)", "fps: expected 0.001526 to 1000 frames per second (a GIF frame lasts at most 655.35 s), got 0.001",
+         argv=lambda d: ["render", str(d / "processed.h5"), "e1", "-o", str(d / "m.gif"), "--duration", "3000", "--fps", "0.001"]),
+    Case("render-fps-huge", "render -o m.mp4 --fps 1e300 (ffmpeg refused the rate)", "fps: expected 0.001526 to 1000 frames per second (a GIF frame lasts at most 655.35 s), got 1e+300",
+         argv=lambda d: ["render", str(d / "processed.h5"), "e1", "-o", str(d / "m.mp4"), "--fps", "1e300"]),
     Case("lvm-channels-zero", ".lvm with Channels 0", "{dir}/bad.lvm: line 17: field Channels is 0; it must be from 1 to 4096", **lvm(LVM_TEXT.replace("Channels\t2", "Channels\t0"))),
     Case("lvm-channels-negative", ".lvm with Channels -1", "{dir}/bad.lvm: line 17: field Channels is -1; it must be from 1 to 4096", **lvm(LVM_TEXT.replace("Channels\t2", "Channels\t-1"))),
     Case("lvm-channels-huge", ".lvm with Channels 1000000000", "{dir}/bad.lvm: line 17: field Channels is 1000000000; it must be from 1 to 4096", **lvm(LVM_TEXT.replace("Channels\t2", "Channels\t1000000000"))),
@@ -865,19 +869,22 @@ CASES: list[Case] = [
 
 @pytest.fixture(scope="module")
 def master(tmp_path_factory):
-    """A thesis-rig project holding experiment e1 (a legacy import), and the good input files."""
+    """A thesis-rig project holding experiment e1 (a legacy import), processed.h5 the same processed
+    (to render), and the good input files."""
     d = tmp_path_factory.mktemp("master")
     (d / "good.DAT").write_text(GOOD_DAT)
     (d / "good.CTR").write_text(CTR_TEXT)
     assert main(["new", str(d / "p.h5")]) == 0
     assert main(legacy(ctr="good.CTR", name="e1")(d)) == 0
+    shutil.copyfile(d / "p.h5", d / "processed.h5")
+    assert main(["process", str(d / "processed.h5")]) == 0
     return d
 
 
 @pytest.mark.filterwarnings("ignore::odsuite.domain.errors.OdsuiteWarning")
 @pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
 def test_bad_input(case, master, tmp_path, capsys):
-    for f in ("p.h5", "good.DAT", "good.CTR"):
+    for f in ("p.h5", "processed.h5", "good.DAT", "good.CTR"):
         shutil.copyfile(master / f, tmp_path / f)
     for name, content in case.files.items():
         (tmp_path / name).write_bytes(content if isinstance(content, bytes) else content.encode())
