@@ -109,6 +109,23 @@ def parse_pair(text: str | None, what: str) -> tuple[float, float] | None:
     return (a, b)
 
 
+def check_view_angles(angles: tuple[float, ...], text: str) -> tuple[float, ...]:
+    """``--view`` angles (degrees) within a turn either way: NaN drew nothing, inf warned, and
+    1e300 degrees names no direction at all."""
+    if not all(math.isfinite(a) and abs(a) <= 360 for a in angles):
+        raise ConfigError(f"--view: angles must be finite numbers of degrees from -360 to 360, got {text!r}")
+    return angles
+
+
+def parse_view(text: str | None) -> tuple[float, float] | None:
+    """A movie's ``--view`` 'AZ,EL' -> (azimuth, elevation) in degrees, the elevation at most 90
+    either way (beyond, the camera looks over the top); None stays None."""
+    pair = parse_pair(text, "--view")
+    if pair is not None and abs(check_view_angles(pair, text)[1]) > 90:
+        raise ConfigError(f"--view: the elevation must be from -90 to 90 degrees, got {text!r}")
+    return pair
+
+
 def parse_magnify(text: str | None) -> tuple[float, float] | None:
     """``--magnify`` 'H_t,H_r' -> (H_t, H_r), both finite and >= 0 (a negative factor would mirror
     the motion); None stays None."""

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from odsuite.api import ConfigError
-from odsuite.contracts.renderers import parse_pair
+from odsuite.contracts.renderers import check_view_angles, parse_view
 from odsuite.api import COORDINATE_UNITS, COORDINATES
 
 from .figures import comparison_figure, projection_figure, residual_spectra_figure
@@ -195,6 +195,7 @@ def _figure(figure: str, rig, experiment: str, coords, model_coords, fs: float, 
             angles = tuple(float(v) for v in parts[1:]) or (0.0, 0.0, 0.0)
         except ValueError:
             raise ConfigError(f"--view: viewpoint angles must be numbers, got {view!r}") from None
+        check_view_angles(angles, view)
         return projection_figure(rig, coords, fs, output, force=force, eye=parts[0], view_angles=angles,
                                  magnify=magnify, title=f"{experiment}").path
     # every moving body: translations in the first column, rotations in the second (body by body)
@@ -238,7 +239,7 @@ def _movie(rig, coords, fs, output, experiment, *, model_coords, magnify, correc
         duration = DEFAULT_DURATION
     return render_movie(rig, coords, fs, output, model_coords=model_coords, corrected_coords=corrected_coords,
                         magnify=magnify,
-                        view=parse_pair(view, "--view") or (60.0, 25.0), workers=workers,
+                        view=parse_view(view) or (60.0, 25.0), workers=workers,
                         frame_step=frame_step, slowdown=slowdown, duration=duration, progress=progress,
                         start=start or 0.0, stop=end, fps=fps or 25.0, hammer=hammer, title=title,
                         time_zero=time_zero, ods_hz=ods_hz)

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from odsuite.api import ConfigError, Geometry, unit_text
+from odsuite.contracts.renderers import parse_view
 
 from .movie import FORMATS, MovieResult, frame_labels, mp4_available, write_movie, _even
 from .scene import Style
@@ -72,12 +73,6 @@ def render_shape_movie(geometry: Geometry, values: Mapping[str, complex], freque
                        frame_step=0, slowdown=frequency_hz * FRAMES_PER_CYCLE / fps, notes=notes)
 
 
-def _view(text: str | None) -> tuple[float, float] | None:
-    from odsuite.contracts.renderers import parse_pair
-
-    return parse_pair(text, "--view")
-
-
 def geometry_ods_movie(project, experiment: str, output, *, ods_hz: float, reference: str | None, view=None,
                        workers=None, fps=None, progress=True) -> MovieResult:
     """The operating deflection shape of ``experiment`` at ``ods_hz`` on the project's geometry."""
@@ -91,7 +86,7 @@ def geometry_ods_movie(project, experiment: str, output, *, ods_hz: float, refer
     res = render_shape_movie(geom, ods.shape, ods.frequency_hz, output,
                              title=f"{experiment}: operating deflection shape at {ods.frequency_hz:.3f} Hz "
                                    f"(phases to {reference})", what="operating deflection shape", unit=unit,
-                             view=_view(view), workers=workers, fps=fps, progress=progress)
+                             view=parse_view(view), workers=workers, fps=fps, progress=progress)
     missing = [c for c in ods.shape if c not in set(geom.channels)]
     if missing:
         res.notes.append(f"channel(s) {', '.join(missing)} have no sensor on geometry {geom.name!r}: not drawn")
@@ -160,7 +155,7 @@ def render_mode_shape(project_path, experiment: str, output, *, mode: int | None
     f, z = float(res.frequency_hz[k]), float(res.damping_ratio[k])
     movie = render_shape_movie(geom, dict(zip(names, res.shapes[:, k])), f, out,
                                title=f"{label}: mode {mode} of {n}, {f:.3f} Hz, damping {100 * z:.2f} %",
-                               what=f"mode shape {mode}", view=_view(view), workers=workers, fps=fps,
+                               what=f"mode shape {mode}", view=parse_view(view), workers=workers, fps=fps,
                                progress=progress)
     return movie, n, [f"{name} not on geometry {geom.name!r}: not drawn" for name in names
                       if name not in set(geom.channels)]

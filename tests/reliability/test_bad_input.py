@@ -438,6 +438,11 @@ def _add_experiment_at(rate: float) -> Callable[[Path], object]:
     return call
 
 
+def _render(output: str, *options: str) -> Callable[[Path], list[str]]:
+    """``render`` of e1 in processed.h5 (its motion computed) into ``output``."""
+    return lambda d: ["render", str(d / "processed.h5"), "e1", "-o", str(d / output), *options]
+
+
 def _read_cod(d: Path):
     from odsuite_plugins.importers.legacy import read_cod
 
@@ -559,6 +564,14 @@ CASES: list[Case] = [
          argv=lambda d: ["render", str(d / "p.h5"), "e1", "-o", str(d / "m.gif"), "--magnify", "big,2"]),
     Case("magnify-negative", "render --magnify=-5,2", "--magnify: magnification factors must be finite numbers >= 0, got '-5,2'",
          argv=lambda d: ["render", str(d / "p.h5"), "e1", "-o", str(d / "m.gif"), "--magnify=-5,2"]),
+    Case("view-nan", "render --view nan,0 (a movie with nothing drawn)", "--view: angles must be finite numbers of degrees from -360 to 360, got 'nan,0'",
+         argv=_render("m.gif", "--view", "nan,0")),
+    Case("view-projection-inf", "render --figure projection --view x,inf,0,0", "--view: angles must be finite numbers of degrees from -360 to 360, got 'x,inf,0,0'",
+         argv=_render("v.png", "--figure", "projection", "--view", "x,inf,0,0")),
+    Case("view-huge", "render --view 1e300,1e300 (degrees that name no direction)", "--view: angles must be finite numbers of degrees from -360 to 360, got '1e300,1e300'",
+         argv=_render("m.gif", "--view", "1e300,1e300")),
+    Case("view-elevation", "render --view 0,91 (the camera over the top)", "--view: the elevation must be from -90 to 90 degrees, got '0,91'",
+         argv=_render("m.gif", "--view", "0,91")),
     Case("not-a-project", "info on a text file", '{dir}/notes.h5: not an HDF5 file, so not an odsuite project', argv=lambda d: ["info", str(d / "notes.h5")],
          files={"notes.h5": "just notes\n"}),
     # rig definitions (TOML), through `odsuite new --rig FILE`
@@ -602,9 +615,9 @@ CASES: list[Case] = [
          argv=lambda d: ["acquire", str(d / "p.h5"), "--trigger-level", "nan", "--name", "new"]),
     Case("render-workers", "render --workers 0", "--workers: at least 1 render process, got 0", argv=lambda d: ["render", str(d / "p.h5"), "e1", "-o", str(d / "m.gif"), "--workers", "0"]),
     Case("render-fps-tiny", "render --duration 3000 --fps 0.001 (a GIF frame's delay overflowed)", "fps: expected 0.001526 to 1000 frames per second (a GIF frame lasts at most 655.35 s), got 0.001",
-         argv=lambda d: ["render", str(d / "processed.h5"), "e1", "-o", str(d / "m.gif"), "--duration", "3000", "--fps", "0.001"]),
+         argv=_render("m.gif", "--duration", "3000", "--fps", "0.001")),
     Case("render-fps-huge", "render -o m.mp4 --fps 1e300 (ffmpeg refused the rate)", "fps: expected 0.001526 to 1000 frames per second (a GIF frame lasts at most 655.35 s), got 1e+300",
-         argv=lambda d: ["render", str(d / "processed.h5"), "e1", "-o", str(d / "m.mp4"), "--fps", "1e300"]),
+         argv=_render("m.mp4", "--fps", "1e300")),
     Case("lvm-channels-zero", ".lvm with Channels 0", "{dir}/bad.lvm: line 17: field Channels is 0; it must be from 1 to 4096", **lvm(LVM_TEXT.replace("Channels\t2", "Channels\t0"))),
     Case("lvm-channels-negative", ".lvm with Channels -1", "{dir}/bad.lvm: line 17: field Channels is -1; it must be from 1 to 4096", **lvm(LVM_TEXT.replace("Channels\t2", "Channels\t-1"))),
     Case("lvm-channels-huge", ".lvm with Channels 1000000000", "{dir}/bad.lvm: line 17: field Channels is 1000000000; it must be from 1 to 4096", **lvm(LVM_TEXT.replace("Channels\t2", "Channels\t1000000000"))),
