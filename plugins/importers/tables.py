@@ -39,6 +39,8 @@ MAT_UNITS = ("units",)
 #: no accelerometer, load cell or voltage input reads beyond this (in the file's unit): such a value
 #: is a wrong column or a fill value, and in g it would turn into an infinity in SI
 MAX_VALUE = 1e12
+#: names a message lists before it cuts the list (5,000 --channels names made a 34 kB line)
+LISTED = 8
 
 
 @dataclass(frozen=True)
@@ -80,13 +82,18 @@ def sidecar(file: Path) -> dict:
     return doc
 
 
+def _listed(names: list[str]) -> str:
+    """Names for a message, the first ``LISTED`` of a long list and their count."""
+    return ", ".join(names[:LISTED]) + (f", ... ({len(names)} in all)" if len(names) > LISTED else "")
+
+
 def _list(value, n: int, where: str, field: str) -> list[str]:
     """A list of ``n`` strings from a list or a comma-separated string; one string for all."""
     if isinstance(value, str):
         value = [v.strip() for v in value.split(",")] if "," in value else [value.strip()] * (n if field == "units" else 1)
     items = [str(v).strip() for v in value]
     if len(items) != n:
-        raise DimensionError(f"{where}: {field}: {len(items)} given for {n} column(s) ({', '.join(items)})")
+        raise DimensionError(f"{where}: {field}: {len(items)} given for {n} column(s) ({_listed(items)})")
     return items
 
 
@@ -119,7 +126,7 @@ def checked(where: str, data, names, units, fs, explicit: dict, may_transpose: b
         raise ConfigError(f"{where}: channels: name {(dup or [''])[0]!r} is given twice or empty")
     units = explicit.get("units", units)
     if units is None:
-        raise ConfigError(f"{where}: units: not given (channels {', '.join(names)}); give --units or "
+        raise ConfigError(f"{where}: units: not given (channels {_listed(names)}); give --units or "
                           f"a sidecar {Path(where).with_suffix('.toml').name} (units = \"m/s^2\")")
     units = _list(units, n, where, "units")
     for c, u in zip(names, units):

@@ -90,7 +90,9 @@ def default_magnification(rig: Rig, *coord_sets: Mapping[str, np.ndarray],
 
 
 def _times(h: float) -> str:
-    return f"{h:,.0f}" if h >= 100 else f"{h:.3g}"
+    """A magnification as a reader counts it: 18,221 with digit groups; a huge one as 1e+300 (it
+    printed 301 digits)."""
+    return f"{h:,.0f}" if 100 <= h < 1e7 else f"{h:.3g}"
 
 
 def magnification_words(magnify: tuple[float, float]) -> str:

@@ -105,7 +105,7 @@ def frame_plan(n_samples: int, fs: float, *, fps: float, start: float = 0.0, sto
             raise ConfigError(f"slowdown: must be > 0, got {slowdown!r}")
         exact = fs / (fps * slowdown)
         if exact < 0.5:
-            raise ConfigError(f"slowdown {slowdown:g} needs {1 / exact:.1f} frames per sample at {fps:g} fps "
+            raise ConfigError(f"slowdown {slowdown:g} needs {1 / exact:.3g} frames per sample at {fps:g} fps "
                               f"and {fs:g} Hz; the largest is {fs / fps:g}")
         frame_step = max(1, int(round(exact)))
     step = 1 if frame_step is None else int(frame_step)

@@ -138,6 +138,7 @@ def test_labels_tell_time_from_the_hit_and_the_force(thesis_rig):
     assert magnification_words((5780.0, 5780.0)) == "motion drawn 5,780 times larger than it is"
     assert magnification_words((2.5, 40.0)) == "translations drawn 2.5 times, rotations 40 times larger than they are"
     assert magnification_words((0.0, 40.0)) == "translations held still (x0), rotations drawn 40 times larger than they are"
+    assert magnification_words((1e300, 1e300)) == "motion drawn 1e+300 times larger than it is"
 
 
 @pytest.mark.render
