@@ -352,6 +352,37 @@ def _quiet_flags(command) -> None:
         _quiet_flags(sub)
 
 
+class _NoDigitGroups:
+    """Mixed into click's int and float types: ``1_000`` is refused, as data files refuse it
+    (Python's int() and float() read it as 1000)."""
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, str) and "_" in value:
+            import reprlib
+
+            raise ConfigError(f"{max(param.opts, key=len)}: expected a number without digit groups ('_'), "
+                              f"got {reprlib.repr(value)}")
+        return super().convert(value, param, ctx)
+
+
+@functools.cache
+def _without_digit_groups(number_type: type) -> type:
+    return type(number_type.__name__, (_NoDigitGroups, number_type), {})
+
+
+def _plain_numbers(command) -> None:
+    """Every int and float option and argument of ``command`` and its subcommands refuses digit
+    groups (``_NoDigitGroups``); one place for the options of every command, plugins' included."""
+    for param in command.params:
+        # by name: typer brings its own click (as for ClickException in _failed)
+        if {c.__name__ for c in type(param.type).__mro__} & {"IntParamType", "FloatParamType"} \
+                and not isinstance(param.type, _NoDigitGroups):
+            param.type = copy.copy(param.type)  # click's INT and FLOAT are shared: left as they are
+            param.type.__class__ = _without_digit_groups(type(param.type))
+    for sub in getattr(command, "commands", {}).values():
+        _plain_numbers(sub)
+
+
 def _on_interrupt(signum, frame) -> None:
     # one interrupt ends the command; further ones wait for its cleanup (temporary copies, workers)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -433,6 +464,7 @@ def _run(argv: list[str] | None) -> int:
             _register_plugin_commands()
         command = typer.main.get_command(_commands_for(sys.argv[1:] if argv is None else argv))
         _quiet_flags(command)
+        _plain_numbers(command)
         _collect_from_now()
         code = command.main(args=argv, standalone_mode=False, prog_name="odsuite")
     except (_Interrupted, KeyboardInterrupt) as exc:

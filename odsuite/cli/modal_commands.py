@@ -141,9 +141,10 @@ def modes_cmd(
 def _modes_options(at, f_min, f_max, reference, output_only, n_experiments, block_rows, decimate, figure, max_order=None):
     """The modes command's options checked before anything is computed; returns --at's frequencies (Hz)."""
     from odsuite.domain.errors import ConfigError
+    from odsuite.domain.textfiles import plain_number
 
     try:
-        freqs = [float(v) for v in at.split(",")] if at else None
+        freqs = [plain_number(v) for v in at.split(",")] if at else None
     except ValueError:
         raise ConfigError(f"--at {at!r}: expected comma-separated frequencies in Hz") from None
     if freqs is not None and not all(math.isfinite(f) and f > 0 for f in freqs):  # nan, -inf: a traceback in the fit

@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from odsuite.domain.errors import ConfigError
+from odsuite.domain.textfiles import plain_number
 
 KINDS = ("movie", "figure", "page")
 
@@ -103,7 +104,7 @@ def parse_pair(text: str | None, what: str) -> tuple[float, float] | None:
     if text is None:
         return None
     try:
-        a, b = (float(v) for v in text.split(","))
+        a, b = (plain_number(v) for v in text.split(","))
     except ValueError:
         raise ConfigError(f"{what}: expected two numbers 'A,B', got {text!r}") from None
     return (a, b)

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from odsuite.api import ConfigError
+from odsuite.api import ConfigError, plain_number
 from odsuite.contracts.renderers import check_view_angles, parse_view
 from odsuite.api import COORDINATE_UNITS, COORDINATES
 
@@ -192,7 +192,7 @@ def _figure(figure: str, rig, experiment: str, coords, model_coords, fs: float, 
         if len(parts) not in (1, 4):
             raise ConfigError(f"--view: for the projection expected 'EYE' or 'EYE,THETA,PHI,PSI', got {view!r}")
         try:
-            angles = tuple(float(v) for v in parts[1:]) or (0.0, 0.0, 0.0)
+            angles = tuple(plain_number(v) for v in parts[1:]) or (0.0, 0.0, 0.0)
         except ValueError:
             raise ConfigError(f"--view: viewpoint angles must be numbers, got {view!r}") from None
         check_view_angles(angles, view)
