@@ -162,22 +162,30 @@ def _few_noise_lines(sig: Signature) -> str:
     if not sig.cells or sig.cells[0].get("noise_lines", FEW_NOISE_LINES) >= FEW_NOISE_LINES:
         return ""
     c = sig.cells[0]
-    lo, hi = c["band_hz"]
-    return (f" The noise at {lo:g}-{hi:g} Hz is measured on only {c['noise_lines']} lines of the quiet samples "
+    return (f" The noise at {_band(c)} Hz is measured on only {c['noise_lines']} lines of the quiet samples "
             f"(before the hits, or the records' tails where none precede them), so a band of noise there (a "
-            f"floor's vibration, a sensor's noise rising at low frequency) would read the same: record "
-            f"{2.0 / lo:.2g} s or more before each hit to tell.")
+            f"floor's vibration, a sensor's noise rising at low frequency) would read the same: "
+            f"{_record_before(c, 'tell')}")
 
 
 def _unjudged(sig: Signature) -> str:
     """Words on the strongest cell of a band no quiet sample shows, where it is above the limit it
     would have were the noise white there: these data cannot tell it from a floor's vibration."""
     c = sig.unjudged[0]
-    lo, hi = c["band_hz"]
-    return (f" But no quiet samples show the noise at {lo:g}-{hi:g} Hz, where {c['channel']} in {c['experiment']} "
+    return (f" But no quiet samples show the noise at {_band(c)} Hz, where {c['channel']} in {c['experiment']} "
             f"is {c['residual_to_floor']:.3g}x the floor a white noise would leave (limit {c['limit']:.3g}x): a "
             f"model error there cannot be told from a floor's vibration or a noise rising at low frequency, so "
-            f"that band is not judged. Record {2.0 / max(lo, 1e-9):.2g} s or more before each hit to judge it.")
+            f"that band is not judged. {_record_before(c, 'judge it').capitalize()}")
+
+
+def _band(cell: dict[str, Any]) -> str:
+    lo, hi = cell["band_hz"]
+    return f"{lo:g}-{hi:g}"
+
+
+def _record_before(cell: dict[str, Any], to: str) -> str:
+    """How long to record before each hit for a cell's band to hold two periods of its lowest line."""
+    return f"record {2.0 / max(cell['band_hz'][0], 1e-9):.2g} s or more before each hit to {to}."
 
 
 def message(verdict: str, baseline: float, floor: float, best, sig: Signature, rest: Signature | None) -> str:
