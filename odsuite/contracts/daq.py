@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 from odsuite.contracts.backend_options import BackendOption  # a lab imports it from here too
 from odsuite.domain.errors import ConfigError
-from odsuite.domain.memory import free_memory
+from odsuite.domain.memory import check_record_fits  # noqa: F401  (a backend refuses a record with it)
 
 if TYPE_CHECKING:  # annotations only: `odsuite plugins` reads backend options without numpy
     import numpy as np
@@ -37,16 +37,6 @@ MAX_RATE_HZ = 1e8
 #: Samples per channel: 2**34 float64 samples are 128 GiB per channel, beyond any machine's memory;
 #: the memory actually free is checked when the record is set up (``check_record_fits``).
 MAX_SAMPLES = 2**34
-
-
-def check_record_fits(n_samples: int, n_channels: int, where: str) -> None:
-    """Refuse, before anything is allocated, a record whose float64 samples exceed the memory
-    this machine has free."""
-    need = int(n_samples) * int(n_channels) * 8
-    free = free_memory()
-    if free is not None and need > free:
-        raise ConfigError(f"{where}: a record of {n_samples} samples x {n_channels} channels needs "
-                          f"{need / 2**20:.0f} MiB; only {free / 2**20:.0f} MiB of memory are free")
 
 
 @dataclass(frozen=True)

@@ -65,8 +65,7 @@ from odsuite.domain.errors import (
     SchemaError,
 )
 from odsuite.domain.excitation import Excitation
-from odsuite.contracts.daq import check_record_fits
-from odsuite.domain.memory import free_memory
+from odsuite.domain.memory import check_record_fits, free_memory
 from odsuite.store.h5codecs import (
     Attrs,
     dataset,

@@ -171,7 +171,7 @@ def _read_raw_short_of_memory(d: Path, free: int):
 
     from odsuite.store.project import open_project
 
-    with mock.patch("odsuite.contracts.daq.free_memory", return_value=free), open_project(d / "p.h5") as p:
+    with mock.patch("odsuite.domain.memory.free_memory", return_value=free), open_project(d / "p.h5") as p:
         return p.experiment("e1").raw()
 
 
