@@ -101,6 +101,17 @@ least of five forked runs, this code and round 47's in turn three times (load 0.
 bench after it: thesis 272 worth (1.75 s CPU, 1.2 s wall on two workers), two-body 232 (2.35 s,
 1.8 s): the 250 target stays missed on the thesis bench by about 1.1x.
 
+Round 49 (no change to the search; item 5's determined combinations and the red team's fixes
+change no evaluation): at load 0.6, the least of three forked runs, thesis 254 worth (1.65 s CPU,
+the baseline 6.5 ms; runs 254 / 264 / 257), two-body 220 (2.33 s, 10.6 ms). Looked at and not done:
+the first diagnosis pays about 30 worth more than a second, first-touch memory (15,500 page
+faults, 60 MB, on a fresh heap; 21,000 in the forked child, copy-on-write), from the floors'
+transient arrays and the nonlinear set-up; and the sensors' chain recursion vectorised over padded
+columns (recursions.chain_columns: the same bits, 2.9x faster on a linearised Jacobian's 31
+signals, 1.2x on 7) and the modal recursion's coefficients kept per decomposition, which lower
+the baseline's evaluation more than diagnose, so the worth column rises although every command
+is faster.
+
 Measured in rounds 43-45 and not done (do not redo without a new reason):
 - the phase shifts of sampled_later kept per delay, so that a delay's Jacobian, moving one
   channel at a time, would transform the others' again: no gain (channel_delay's and scan_skew's
