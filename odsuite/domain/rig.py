@@ -587,6 +587,15 @@ def _sensors(data: dict[str, Any], where0: str, sensor_types, body_names: set[st
     # names that differ only in how Unicode composes them ('é' and 'e' + U+0301) print alike
     if len({unicodedata.normalize("NFC", s.name) for s in sensors}) != len(sensors):
         raise ConfigError(f"{where0}: two sensors share a name ({sorted(s.name for s in sensors)})")
+    # a UFF record names its node and line: two sensors along one line at one given node could not be
+    # told apart (export-uff refused the rig, new had accepted it)
+    noded = [s for s in sensors if s.uff_node is not None and s.axis is not None]
+    for i, a in enumerate(noded):
+        for b in noded[i + 1:]:
+            if a.uff_node == b.uff_node and abs(abs(float(np.dot(a.axis, b.axis))) - 1.0) < 1e-6:
+                raise ConfigError(f"{where0}: sensors {a.name!r} and {b.name!r} measure along one line at "
+                                  f"uff_node {a.uff_node}: a UFF record could not tell them apart (give one "
+                                  "of them another uff_node)")
     return sensors, sensor_processing, processing_tables
 
 
@@ -626,6 +635,8 @@ def _acquisition(table: Any, where0: str) -> Acquisition | None:
     bits = table.get("adc_bits")
     if bits is not None:
         bits = _integer(f"{w} field 'adc_bits'", bits, 0, 32) or None
+        if bits == 1:  # a one-bit converter measures no vibration (the simulated one starts at 2)
+            raise ConfigError(f"{w} field 'adc_bits': expected 0 (not stated) or 2 to 32, got 1")
     adc_range = table.get("adc_range")
     if adc_range is not None:
         lo_hi = _vector(f"{w} field 'adc_range'", adc_range, 2)

@@ -18,6 +18,9 @@ import scipy  # scipy.signal and scipy.linalg load on first use: fast `odsuite p
 
 from odsuite.api import ConfigError
 
+#: the highest anti-aliasing order the simulated analog front end models (a rig file may state 16)
+MAX_AAF_ORDER = 12
+
 
 @dataclass(frozen=True)
 class ChannelChain:
@@ -56,8 +59,8 @@ class ChannelChain:
                 raise bad(f, "must be > 0 or None")
         if not 0 < self.resonance_damping < 1:
             raise bad("resonance_damping", "must be in (0, 1)")
-        if not 1 <= self.aaf_order <= 12:
-            raise bad("aaf_order", "must be 1..12")
+        if not 1 <= self.aaf_order <= MAX_AAF_ORDER:
+            raise bad("aaf_order", f"must be 1..{MAX_AAF_ORDER}")
         if not 2 <= self.adc_bits <= 32:
             raise bad("adc_bits", "must be 2..32")
         if not self.limit_high > self.limit_low:

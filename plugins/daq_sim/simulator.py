@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 from odsuite_plugins.daq_sim.chain import (
+    MAX_AAF_ORDER,
     ChannelChain,
     adc_input_disturbances,
     run_analog,
@@ -121,6 +122,9 @@ def default_chains(rig: Rig, systeminfo: Systeminfo, *, noise: float = 1.0,
             everywhere["adc_bits"] = acq.adc_bits
         if acq.adc_range is not None:
             everywhere.update(limit_low=acq.adc_range[0], limit_high=acq.adc_range[1])
+    if aa is not None and aa.order > MAX_AAF_ORDER:
+        raise ConfigError(f"{rig.source or 'rig ' + repr(rig.name)} [acquisition] field 'anti_aliasing.order': the "
+                          f"simulated DAQ models orders 1 to {MAX_AAF_ORDER}, got {aa.order}")
     filtered = {"aaf_order": aa.order, "aaf_cutoff_hz": aa.cutoff_hz} if aa is not None else {}
     chains: dict[int, ChannelChain] = {}
     for ch in range(rig.channel_count):

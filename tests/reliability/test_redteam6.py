@@ -130,6 +130,10 @@ def _rig_with(tmp_path: Path, source: Path, old: str, new: str) -> Path:
      ["[beam] field 'bending_stiffness': expected at most 1e+15 N m^2"]),
     (BEAM_RIG, "elements = 40", 'elements = "forty"', ["[beam] field 'elements': expected an integer in 2..2000"]),
     # round 7: fields a later command refused, or that were silently merged or ignored
+    (TWO_BODY_RIG, "adc_bits = 24", "adc_bits = 1", ["acquisition field 'adc_bits': expected 0 (not stated) or 2 to 32, got 1"]),
+    (TWO_BODY_RIG, 'channels = [4, 5, 6]', 'channels = [4, 5, 6]\nuff_node = 3\n[[sensors]]\nname = "b2z"\nbody = "base"\n'
+     'position = [0.0, 0.0, 0.05]\naxis = [0.0, 0.0, -1.0]\nchannel = 19\nuff_node = 3',
+     ["sensors 'b2_z' and 'b2z' measure along one line at uff_node 3"]),
     (BEAM_RIG, 'name = "foam_right"', 'name = "foam_left"', ["[beam] supports[1] field 'name': a second support named 'foam_left'"]),
     (BEAM_RIG, "first_mode_hz = 695.0", "first_mode_hz = 695.0\nbending_stiffness = 100.0",
      ["[beam]: give 'first_mode_hz' or 'bending_stiffness', not both"]),

@@ -256,3 +256,19 @@ def test_ods_movie(thesis_heave, tmp_path, capsys):
     out = tmp_path / "ods.gif"
     assert main(["ods", str(thesis_heave), "z", "--reference", "zC", "--at", "216.9", "--movie", str(out)]) == 0
     assert "wrote" in capsys.readouterr().out and out.read_bytes()[:6] == b"GIF89a"
+
+
+def test_an_anti_aliasing_order_the_simulator_does_not_model_names_the_rig_file(tmp_path, capsys):
+    # docs/rig-format.md allows orders 1..16; the simulated front end models 1..12, and said so in
+    # "chain field 'aaf_order' must be 1..12", naming no file
+    rig = Path(__file__).resolve().parents[3] / "projects" / "rigs" / "two-body-machine.toml"
+    text = rig.read_text()
+    assert 'family = "butterworth", order = 8, cutoff_hz = 2000.0' in text
+    bad = tmp_path / "aa.toml"
+    bad.write_text(text.replace('family = "butterworth", order = 8, cutoff_hz = 2000.0', 'family = "butterworth", order = 16, cutoff_hz = 2000.0', 1))
+    assert main(["new", str(tmp_path / "p.h5"), "--rig", str(bad)]) == 0
+    capsys.readouterr()
+    assert main(["acquire", str(tmp_path / "p.h5"), "--name", "h", "--force-point=100mm,50mm,250mm",
+                 "--force-dir=-z", "--samples", "1024"]) == 1
+    err = capsys.readouterr().err
+    assert "aa.toml [acquisition] field 'anti_aliasing.order': the simulated DAQ models orders 1 to 12, got 16" in err
