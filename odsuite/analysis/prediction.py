@@ -430,6 +430,7 @@ def prepare_experiment(project, name: str, exp=None) -> PreparedExperiment:
     if exp.excitation is None:
         raise ConfigError(f"{where}: no force point/direction recorded; the model cannot be driven")
     si = exp.systeminfo
+    si.validate(n_samples=exp.n_samples, source=f"{where} systeminfo")  # as process does
     raw = exp.raw()
     acquisition = getattr(rig, "acquisition", None)
     lsb_v = acquisition.lsb_v if acquisition is not None else None

@@ -8,6 +8,7 @@ from typing import Any
 from odsuite.contracts.daq import AcquisitionSettings, DaqBackend, Progress, Recording, check_record_fits
 from odsuite.domain.errors import ConfigError
 from odsuite.domain.excitation import check_force_point
+from odsuite.domain.systeminfo import Systeminfo
 from odsuite.store.project import Experiment, Project
 
 
@@ -36,6 +37,11 @@ def acquire(
         raise ConfigError("--force-body needs --force-point and --force-dir")
     channels = project.rig.channel_count if project.rig is not None else 1
     check_record_fits(settings.n_samples, channels, f"{project.path}: --samples {settings.n_samples}")
+    if project.rig is not None:
+        # a rig's offset window or filter the record cannot hold is refused before it is recorded
+        # (compare refused it after, naming no file, experiment or channel)
+        Systeminfo.for_rig(project.rig, settings.sampling_rate).validate(
+            n_samples=settings.n_samples, source=f"{project.path}: rig {project.rig.name!r} for --samples {settings.n_samples}")
     rec = backend.record(project.rig, settings, progress=progress, **options)
     exp = project.add_experiment(
         name,

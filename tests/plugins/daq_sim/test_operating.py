@@ -272,3 +272,24 @@ def test_an_anti_aliasing_order_the_simulator_does_not_model_names_the_rig_file(
                  "--force-dir=-z", "--samples", "1024"]) == 1
     err = capsys.readouterr().err
     assert "aa.toml [acquisition] field 'anti_aliasing.order': the simulated DAQ models orders 1 to 12, got 16" in err
+
+
+def test_a_record_shorter_than_the_rigs_offset_window_is_refused_before_it_is_recorded(tmp_path, capsys):
+    # the rig's offset window (samples 0-1023) in a record of 512 samples: acquire stored the record
+    # and compare then refused it in "step 'offset': window samples 0..1023 lies outside the record
+    # of 512 samples", naming no project, experiment or channel
+    rig = Path(__file__).resolve().parents[3] / "projects" / "rigs" / "two-body-machine.toml"
+    text = rig.read_text()
+    assert "offset_samples = [0, 256]" in text
+    bad = tmp_path / "off.toml"
+    bad.write_text(text.replace("offset_samples = [0, 256]", "offset_samples = [0, 1024]", 1))
+    p = tmp_path / "p.h5"
+    assert main(["new", str(p), "--rig", str(bad)]) == 0
+    capsys.readouterr()
+    assert main(["acquire", str(p), "--name", "h", "--force-point=100mm,50mm,250mm", "--force-dir=-z",
+                 "--samples", "512", "--pretrigger", "100"]) == 1
+    err = capsys.readouterr().err
+    assert f"{p}: rig 'two-body-machine' for --samples 512: row 16 (offset length), channel 0: offset window samples " \
+           "0..1023 lies outside the record of 512 samples" in err
+    with open_project(p) as project:
+        assert project.experiment_names() == []
