@@ -996,6 +996,8 @@ def create_project(path: str | Path, rig: Rig | str | None = "thesis-dynamometer
     rig = _resolve_rig(rig, registries)
     if not path.parent.is_dir():
         raise ProjectFileError(f"{path}: directory {path.parent} does not exist")
+    if path.is_dir():  # the writer lock read a folder's links as a file's hard links
+        raise ProjectFileError(f"{path}: is a folder; give the new project's file name")
     if path.is_symlink():
         # a new project is a new file: writing it would replace the user's link with it
         raise ProjectFileError(f"{path}: is a symbolic link (to {os.readlink(path)}); a new project is created "

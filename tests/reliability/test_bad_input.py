@@ -699,6 +699,8 @@ CASES: list[Case] = [
          argv=lambda d: ["acquire", str(d / "p.h5"), "--name", "n", "--samples", "1024", "--pretrigger", "100"], files={".p.h5.odsuite-lock": "my notes\n"}),
     Case("project-hard-link", "acquire into a project that has a second hard link", "{dir}/p.h5: project has 2 hard links (names of one file), which a write would split; keep one name or give each a copy (cp) to change it",
          argv=lambda d: (os.link(d / "p.h5", d / "p2.h5"), ["acquire", str(d / "p.h5"), "--name", "n", "--samples", "1024", "--pretrigger", "100"])[1]),
+    Case("new-folder", "new on a folder (its links were read as a file's hard links)", "{dir}: is a folder; give the new project's file name",
+         argv=lambda d: ["new", str(d)]),
     Case("new-link", "new on a symbolic link to a project in a folder that does not exist", "{dir}/n.h5: is a symbolic link (to {dir}/gone/sub/n.h5); a new project is created only as a new file: give the name it should have, or remove the link",
          argv=lambda d: (os.symlink(d / "gone" / "sub" / "n.h5", d / "n.h5"), ["new", str(d / "n.h5")])[1]),
     Case("disk-full", "add an experiment with 0.3 MB free on the project's disk (API)", "{dir}/p.h5: no space left on", call=lambda d: _full_disk_acquire(d, 300_000)),
