@@ -258,37 +258,34 @@ def test_ods_movie(thesis_heave, tmp_path, capsys):
     assert "wrote" in capsys.readouterr().out and out.read_bytes()[:6] == b"GIF89a"
 
 
+def _acquire_on_two_body_rig_with(tmp_path, capsys, old: str, new: str, samples: str) -> tuple[Path, str]:
+    """A project on the two-body rig file with ``old`` replaced by ``new``, and the standard error of
+    an acquisition of ``samples`` samples into it (which must fail)."""
+    text = (Path(__file__).resolve().parents[3] / "projects" / "rigs" / "two-body-machine.toml").read_text()
+    assert old in text
+    rig = tmp_path / "changed.toml"
+    rig.write_text(text.replace(old, new, 1))
+    p = tmp_path / "p.h5"
+    assert main(["new", str(p), "--rig", str(rig)]) == 0
+    capsys.readouterr()
+    assert main(["acquire", str(p), "--name", "h", "--force-point=100mm,50mm,250mm", "--force-dir=-z",
+                 "--samples", samples, "--pretrigger", "100"]) == 1
+    return p, capsys.readouterr().err
+
+
 def test_an_anti_aliasing_order_the_simulator_does_not_model_names_the_rig_file(tmp_path, capsys):
     # docs/rig-format.md allows orders 1..16; the simulated front end models 1..12, and said so in
     # "chain field 'aaf_order' must be 1..12", naming no file
-    rig = Path(__file__).resolve().parents[3] / "projects" / "rigs" / "two-body-machine.toml"
-    text = rig.read_text()
-    assert 'family = "butterworth", order = 8, cutoff_hz = 2000.0' in text
-    bad = tmp_path / "aa.toml"
-    bad.write_text(text.replace('family = "butterworth", order = 8, cutoff_hz = 2000.0', 'family = "butterworth", order = 16, cutoff_hz = 2000.0', 1))
-    assert main(["new", str(tmp_path / "p.h5"), "--rig", str(bad)]) == 0
-    capsys.readouterr()
-    assert main(["acquire", str(tmp_path / "p.h5"), "--name", "h", "--force-point=100mm,50mm,250mm",
-                 "--force-dir=-z", "--samples", "1024"]) == 1
-    err = capsys.readouterr().err
-    assert "aa.toml [acquisition] field 'anti_aliasing.order': the simulated DAQ models orders 1 to 12, got 16" in err
+    _, err = _acquire_on_two_body_rig_with(tmp_path, capsys, 'family = "butterworth", order = 8, cutoff_hz = 2000.0',
+                                           'family = "butterworth", order = 16, cutoff_hz = 2000.0', "1024")
+    assert "changed.toml [acquisition] field 'anti_aliasing.order': the simulated DAQ models orders 1 to 12, got 16" in err
 
 
 def test_a_record_shorter_than_the_rigs_offset_window_is_refused_before_it_is_recorded(tmp_path, capsys):
     # the rig's offset window (samples 0-1023) in a record of 512 samples: acquire stored the record
     # and compare then refused it in "step 'offset': window samples 0..1023 lies outside the record
     # of 512 samples", naming no project, experiment or channel
-    rig = Path(__file__).resolve().parents[3] / "projects" / "rigs" / "two-body-machine.toml"
-    text = rig.read_text()
-    assert "offset_samples = [0, 256]" in text
-    bad = tmp_path / "off.toml"
-    bad.write_text(text.replace("offset_samples = [0, 256]", "offset_samples = [0, 1024]", 1))
-    p = tmp_path / "p.h5"
-    assert main(["new", str(p), "--rig", str(bad)]) == 0
-    capsys.readouterr()
-    assert main(["acquire", str(p), "--name", "h", "--force-point=100mm,50mm,250mm", "--force-dir=-z",
-                 "--samples", "512", "--pretrigger", "100"]) == 1
-    err = capsys.readouterr().err
+    p, err = _acquire_on_two_body_rig_with(tmp_path, capsys, "offset_samples = [0, 256]", "offset_samples = [0, 1024]", "512")
     assert f"{p}: rig 'two-body-machine' for --samples 512: row 16 (offset length), channel 0: offset window samples " \
            "0..1023 lies outside the record of 512 samples" in err
     with open_project(p) as project:
