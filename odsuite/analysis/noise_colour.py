@@ -97,13 +97,10 @@ def pre_hit_lines(exp) -> tuple[np.ndarray, np.ndarray] | None:
     record, whatever its length; NaN where a sensor reads one code); None when fewer than
     MIN_SAMPLES precede the hit."""
     end = int(exp.quiet_before)
-    return None if end < MIN_SAMPLES else _stretch_lines(exp, 0, end)
-
-
-def _stretch_lines(exp, start: int, end: int) -> tuple[np.ndarray, np.ndarray]:
-    """pre_hit_lines of the samples ``start:end``."""
-    share = white_share(exp, start, end)
-    x = np.asarray(exp.volts[start:end], float)
+    if end < MIN_SAMPLES:
+        return None
+    share = white_share(exp)
+    x = np.asarray(exp.volts[:end], float)
     # samples that read one converter code (the noise below a code) tell nothing of the colour:
     # they are left out (less the fitted disturbances their lines are rounding residue, and as
     # zeros they read as a density far below the other records')
@@ -113,10 +110,10 @@ def _stretch_lines(exp, start: int, end: int) -> tuple[np.ndarray, np.ndarray]:
         # still ringing near the mains frequency puts into these samples a sinusoid that is not
         # there (white two-body records: their 61 Hz line at 1.86x its neighbours; divided by its
         # share, a rise on 4 of 18 white sensors)
-        basis = _stretch_basis(exp, start, end)
+        basis = _stretch_basis(exp, 0, end)
         x = x - basis @ np.linalg.lstsq(basis, x, rcond=None)[0]
     x = scipy.signal.detrend(x, axis=0, type="linear")
-    f = np.fft.rfftfreq(end - start, 1.0 / exp.fs)
+    f = np.fft.rfftfreq(end, 1.0 / exp.fs)
     keep = (f > 0) & (f <= TOP_FRACTION * exp.fs) & (share >= LEAST_SHARE)
     spec = np.abs(np.fft.rfft(x, axis=0)) ** 2 / np.where(share > 0, share, 1.0)[:, None]
     ref = np.mean(spec[keep & (f > REFERENCE * exp.fs)], axis=0)
@@ -148,9 +145,9 @@ def _stretch_basis(exp, start: int, end: int) -> np.ndarray:
 
 def white_share(exp, start: int = 0, end: int | None = None) -> np.ndarray:
     """Per line of the periodogram of the samples ``start:end`` (default: those before the hit,
-    pre_hit_lines), the share of a
-    white noise's energy there that is left once the disturbances (offset, line, mains hum and
-    harmonics, as split_noise fits them, on these samples alone) and the detrend are taken out.
+    pre_hit_lines), the share of a white noise's energy there that is left once the disturbances
+    (offset, line, mains hum and harmonics, as split_noise fits them, on these samples alone) and
+    the detrend are taken out.
     On 128 samples at 2048 Hz the hum's sinusoids at 50, 100 and 150 Hz took 95, 82 and 63 % of
     the 48, 96 and 144 Hz lines: read as the noise's own, a rise of 1/f with a 196 Hz corner was not
     found (likelihood ratio 5.1 for a limit of 9.2).

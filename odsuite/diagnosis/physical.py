@@ -152,8 +152,7 @@ def determined_combinations(rows: Sequence[Mapping[str, Any]], S: np.ndarray,
         w = np.zeros(len(rows))
         for i, c in weights.items():
             w[i] = c
-        values = np.array([rows[i]["value"] for i in range(len(rows))], float) * (w != 0)
-        size = float(np.abs(w) @ np.abs(values))
+        size = sum(abs(c * rows[i]["value"]) for i, c in weights.items())
         if np.abs(S @ w).max() > UNDETERMINED_SLOPE * max(size, 1e-300):
             return
         sd = None
@@ -164,7 +163,7 @@ def determined_combinations(rows: Sequence[Mapping[str, Any]], S: np.ndarray,
                 var = max(var, float(g @ propagation["between"] @ g))
             sd = float(np.sqrt(max(var, 0.0)))
         nominals = [rows[i]["nominal"] for i in weights]
-        out.append({"label": f"{key[1]}{joined}{key[2]}", "value": float(w @ np.nan_to_num(values)),
+        out.append({"label": f"{key[1]}{joined}{key[2]}", "value": float(sum(c * rows[i]["value"] for i, c in weights.items())),
                     "unit": key[0], "uncertainty": sd,
                     "nominal": None if any(n is None for n in nominals) else
                     float(sum(c * rows[i]["nominal"] for i, c in weights.items())),
