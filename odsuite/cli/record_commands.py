@@ -36,6 +36,9 @@ def process_cmd(
     # below 0.01 Hz no hammer record (seconds long) has a frequency line: checked before anything is stored
     if cutoff is not None and not (math.isfinite(cutoff) and cutoff >= 0.01):
         raise ConfigError(f"--cutoff: must be a finite frequency >= 0.01 Hz, got {cutoff}")
+    if cutoff is not None and not corrected:  # else ignored without a word
+        raise ConfigError(f"--cutoff {cutoff:g} Hz: sets where the corrected coordinates hand over to the model, "
+                          "so it applies with --corrected only; add --corrected or leave --cutoff out")
     with open_project(project, "a") as p, Progress(console=err_console, transient=True,
                                                    disable=not err_console.is_terminal) as bar, \
             (p.transaction() if corrected else contextlib.nullcontext()):
