@@ -111,6 +111,23 @@ def check_experiment(path: Path, name: str, *, sampling_rate: Any, pretrigger: A
                        f"coordinates within {MAX_POINT_M:g} m of the rig's origin")
 
 
+#: the units odsuite stores an experiment's numbers in; another unit (a file written elsewhere, an
+#: older tool's "kHz" or "mm") would be read as these, silently wrong by its factor
+EXPERIMENT_UNITS = {"sampling_rate_units": "Hz", "force_point_units": "m"}
+RAW_UNITS = "V"
+
+
+def check_experiment_units(path: Path, name: str, units: dict[str, Any], raw_units: Any) -> None:
+    """The unit attributes of an experiment (``units``: the ones it holds of EXPERIMENT_UNITS) and
+    of its raw dataset (None where absent) are the ones odsuite reads its numbers in."""
+    where = f"experiment {name!r}"
+    for field, value in units.items():
+        if value != EXPERIMENT_UNITS[field]:
+            raise _bad(path, where, field, value, f"{EXPERIMENT_UNITS[field]!r} (the unit odsuite reads it in)")
+    if raw_units is not None and raw_units != RAW_UNITS:
+        raise _bad(path, where, "raw.units", raw_units, f"{RAW_UNITS!r} (raw records are volts)")
+
+
 def check_revision(path: Path, key: str, effects: Any, parameters: Any, metrics: Any) -> None:
     where = f"model revision {key}"
     if not isinstance(metrics, dict):

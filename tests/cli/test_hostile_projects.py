@@ -51,6 +51,24 @@ def test_a_stored_record_beyond_the_writers_limits_is_refused_in_one_line(tmp_pa
     assert ("filter_order" if edit == "filter order" else "force_point") in json.loads(captured.out)["error"]
 
 
+@pytest.mark.parametrize("where, field, value", [("", "force_point_units", "mm"), ("", "sampling_rate_units", "kHz"),
+                                                  ("raw", "units", "mV")])
+def test_a_stored_unit_other_than_odsuites_is_refused_in_one_line(tmp_path, capsys, where, field, value):
+    # the unit attributes were never read: a force point stored in mm was taken as metres, a rate
+    # in kHz as Hz, raw millivolts as volts
+    p = tmp_path / "p.h5"
+    assert main(["new", str(p)]) == 0
+    assert main(["acquire", str(p), "--daq", "sim", "--name", "T2", "--scenario", "T2", "--samples", "2048"]) == 0
+    with h5py.File(p, "r+") as f:
+        f["experiments/T2" + (f"/{where}" if where else "")].attrs[field] = value
+    capsys.readouterr()
+    assert main(["compare", str(p), "--json"]) != 0
+    captured = capsys.readouterr()
+    assert len(captured.err.strip().splitlines()) == 1 and "Traceback" not in captured.err, captured.err
+    error = json.loads(captured.out)["error"]
+    assert f"experiment 'T2' field '{'raw.' if where else ''}{field}'" in error and repr(value) in error, error
+
+
 @pytest.mark.parametrize("field, value", [("iepe_corner_hz", "1e300"), ("sensor_resonance_hz", "1e-300")])
 def test_a_rig_frequency_out_of_any_lab_range_is_refused_by_new(tmp_path, capsys, field, value):
     # accepted as a positive number, a corner of 1e300 Hz stopped `acquire` in the sensor's
