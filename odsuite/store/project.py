@@ -43,6 +43,7 @@ import functools
 import inspect
 import json
 import math
+import unicodedata
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
@@ -77,8 +78,9 @@ from odsuite.store.h5codecs import (
     write_systeminfo,
 )
 from odsuite.store.h5damage import open_h5, reading
-from odsuite.store.stored_values import (RATE_RANGE, RAW_MAX, as_number, check_experiment, check_raw_block,
-                                         check_revision, check_systeminfo)
+from odsuite.store.stored_values import (EXPERIMENT_UNITS, RATE_RANGE, RAW_MAX, as_number, check_experiment,
+                                          check_experiment_units, check_raw_block,
+                                          check_revision, check_systeminfo)
 from odsuite.store.project_format import (
     CHUNK_BYTES,
     FORMAT_VERSION,
@@ -156,6 +158,24 @@ def _check_name(where: str, what: str, name: Any) -> str:
     if not name.isprintable():  # newlines, escape sequences, undecodable bytes: not storable as text
         raise ConfigError(f"{where}: {what} name must be printable text without control characters or "
                           f"undecodable bytes, got {name!r}")
+    if len(name) > MAX_NAME:
+        raise ConfigError(f"{where}: {what} name must be at most {MAX_NAME} characters, got {len(name)}: "
+                          f"{name[:40]!r}...")
+    # one spelling of an accented letter: 'é' typed as one character or as 'e' and its accent (a
+    # file name from macOS) names the same experiment
+    return unicodedata.normalize("NFC", name)
+
+
+#: the longest name of an experiment, import or dataset (as a rig's names: they head tables and files)
+MAX_NAME = 200
+
+
+def _stored_name(group: h5py.Group, name: Any) -> Any:
+    """``name`` as ``group`` holds it: the composed (NFC) spelling where only that is stored."""
+    if isinstance(name, str) and name not in group:
+        composed = unicodedata.normalize("NFC", name)
+        if composed in group:
+            return composed
     return name
 
 
@@ -246,6 +266,9 @@ class Experiment:
         check_experiment(project.path, name, sampling_rate=self.sampling_rate, pretrigger=self.pretrigger,
                          channel_names=self.channel_names, shape=raw.shape, excitation=self.excitation,
                          dtype=raw.dtype)
+        raw_attrs = Attrs(raw)
+        check_experiment_units(project.path, name, {k: h5text.text(a[k]) for k in EXPERIMENT_UNITS if k in a},
+                               h5text.text(raw_attrs["units"]) if "units" in raw_attrs else None)
         # every format version keeps the record's rate on the experiment; a Systeminfo written
         # without one (row 7 left at 0 Hz, as API callers could) takes it from there
         self.systeminfo = read_systeminfo(g["systeminfo"]).with_rate(self.sampling_rate)
@@ -506,6 +529,7 @@ class Project:
 
     @_reads("experiment {name!r}")
     def experiment(self, name: str) -> Experiment:
+        name = _stored_name(self._file()["experiments"], name)
         if name not in self._file()["experiments"]:
             known = ", ".join(self.experiment_names()) or "none"
             raise ConfigError(f"{self.path}: no experiment named {name!r} (experiments: {known})")
@@ -540,8 +564,8 @@ class Project:
         """Add an experiment atomically. ``raw`` is an array (samples x channels) or an iterator of
         row-chunks (then ``n_samples`` may be given); a crash at any point leaves no half experiment."""
         self._require_writable()
+        name = _check_name(str(self.path), "experiment", name)
         where = f"{self.path}: experiment {name!r}"
-        _check_name(str(self.path), "experiment", name)
         if name in self._file()["experiments"]:
             raise ConfigError(f"{where} already exists; choose another name")
         if isinstance(sampling_rate, bool) or not isinstance(sampling_rate, int | float | np.number) \
@@ -657,6 +681,7 @@ class Project:
 
     def _experiment_group(self, name: str) -> h5py.Group:
         """The group of experiment ``name``, without reading its Systeminfo as ``experiment`` does."""
+        name = _stored_name(self._file()["experiments"], name)
         if name not in self._file()["experiments"]:
             self.experiment(name)  # the unknown name's error
         return self._file()["experiments"][name]
@@ -771,8 +796,8 @@ class Project:
         """Store, atomically, what a file held besides records as ``imports/<name>``: ``kind``
         ("nodes", "frf", "modes"), numeric ``arrays`` with units and dims, text ``attrs``."""
         self._require_writable()
+        name = _check_name(str(self.path), "import", name)
         where = f"{self.path}: import {name!r}"
-        _check_name(str(self.path), "import", name)
         with self.transaction():
             root = self._tx["imports"] if "imports" in self._tx else typed_group(self._tx, "imports", "import_set")
             if name in root:

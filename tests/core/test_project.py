@@ -149,6 +149,20 @@ def test_streamed_add_equals_array_add(tmp_path):
         assert p.experiment_names() == ["known", "unknown"]
 
 
+def test_an_accented_name_is_one_experiment_however_it_is_spelled(tmp_path):
+    # 'é' as one character (NFC, as typed) or as 'e' and a combining accent (NFD, a macOS file
+    # name): two experiments that print alike, and a name typed one way missed the other
+    composed, decomposed = "mesure-\u00e9", "mesure-e\u0301"
+    raw = np.zeros((64, 2))
+    with create_project(tmp_path / "p.h5", rig=None) as p:
+        p.add_experiment(decomposed, raw, sampling_rate=500.0, systeminfo=systeminfo(2, rate=500.0), excitation=None)
+        assert p.experiment_names() == [composed]
+        assert p.experiment(decomposed).name == p.experiment(composed).name == composed
+        with pytest.raises(ConfigError, match="already exists"):
+            p.add_experiment(composed, raw, sampling_rate=500.0, systeminfo=systeminfo(2, rate=500.0), excitation=None)
+        assert p.experiment_names() == [composed]
+
+
 def test_derived_write_replace_stream_and_provenance(tmp_path):
     with create_project(tmp_path / "p.h5", rig=None) as p:
         e = p.add_experiment("e", np.zeros((100, 2)), sampling_rate=100.0, systeminfo=systeminfo(2, rate=100.0),
