@@ -7,7 +7,10 @@ imports this module at registration costs nothing at start-up.
 
 from __future__ import annotations
 
+import functools
 import importlib
+import inspect
+import os
 
 #: public name -> the module that defines it (``module:attribute`` where the name differs)
 _WHERE: dict[str, str] = {
@@ -175,9 +178,62 @@ def __getattr__(name: str):
         module, _, attribute = _WHERE[name].partition(":")
     except KeyError:
         raise AttributeError(f"module 'odsuite.api' has no attribute {name!r}") from None
-    value = getattr(importlib.import_module(module), attribute or name)
+    value = _checked(getattr(importlib.import_module(module), attribute or name))
     globals()[name] = value  # later lookups skip this function
     return value
+
+
+#: arguments of a project's functions that name one experiment, and that name several
+_ONE_EXPERIMENT = ("name", "experiment")
+_EXPERIMENTS = ("experiments",)
+
+
+def _checked(function):
+    """A function whose first argument is a project, checking what a notebook most often gets wrong
+    before it runs: a path given for the open project (or an open project where its path is asked), a number for an experiment's name, one name
+    for a list of them. Inside, a path read as a project said "'str' object has no attribute
+    'model_revisions'", and a name's letters were taken for names."""
+    if not inspect.isfunction(function):
+        return function
+    parameters = inspect.signature(function).parameters
+    if next(iter(parameters), None) != "project":
+        return function
+    signature = inspect.signature(function)
+    # a few open the project themselves (their own worker processes read it): they take its path
+    by_path = "Path" in str(parameters["project"].annotation)
+
+    @functools.wraps(function)
+    def call(*args, **kwargs):
+        from odsuite.domain.errors import ConfigError
+        from odsuite.store.project import Project
+
+        try:
+            bound = signature.bind(*args, **kwargs).arguments
+        except TypeError as exc:
+            raise ConfigError(f"{function.__name__}: {exc}") from None
+        project = bound["project"]
+        if by_path and not isinstance(project, str | os.PathLike):
+            raise ConfigError(f"{function.__name__}: expected a project file's path as its first argument, got "
+                              f"{type(project).__name__} {_short(project)}")
+        if not by_path and not isinstance(project, Project):
+            raise ConfigError(f"{function.__name__}: expected an open project (open_project(path)) as its first "
+                              f"argument, got {type(project).__name__} {_short(project)}")
+        for key in _ONE_EXPERIMENT:
+            if key in bound and bound[key] is not None and not isinstance(bound[key], str):
+                raise ConfigError(f"{function.__name__}: {key!r} names an experiment (text), got {_short(bound[key])}")
+        for key in _EXPERIMENTS:
+            value = bound.get(key)
+            # a list's members are checked; another iterable is left unread for the function
+            if isinstance(value, str | bytes) or isinstance(value, list | tuple) and not all(isinstance(v, str) for v in value):
+                raise ConfigError(f"{function.__name__}: {key!r} is a list of experiment names, got {_short(value)}")
+        return function(*args, **kwargs)
+
+    return call
+
+
+def _short(value) -> str:
+    shown = repr(value)
+    return shown if len(shown) <= 80 else shown[:77] + "..."
 
 
 def __dir__() -> list[str]:

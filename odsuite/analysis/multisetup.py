@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -179,7 +180,7 @@ def merge_setups(results: Sequence[ModalResult], setups: Sequence[str], referenc
                        unpaired, dict(zip(setups, results)))
 
 
-def project_setups_modes(project, experiments: Sequence[str], *, references: Sequence[str] | None = None,
+def project_setups_modes(project: str | Path, experiments: Sequence[str], *, references: Sequence[str] | None = None,
                          f_band: tuple[float | None, float | None] | None = None, max_order: int | None = None,
                          block_rows: int | None = None, decimation: int | None = None) -> MergedModes:
     """Modes of a roving survey stored as one experiment per setup: each setup's response channels

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from odsuite.contracts.daq import AcquisitionSettings, DaqBackend, Progress, Recording, check_record_fits
+from odsuite.contracts.daq import (AcquisitionSettings, DaqBackend, Progress, Recording, check_backend_options,
+                                   check_record_fits)
 from odsuite.domain.errors import ConfigError
 from odsuite.domain.excitation import check_force_point
 from odsuite.domain.systeminfo import Systeminfo
@@ -27,6 +28,11 @@ def acquire(
     and direction, ...). Chunks are written as they arrive; the experiment becomes visible only
     once complete. Returns the stored experiment and the recording (its clipping counts, notes).
     """
+    check_backend_options(backend, options)
+    if not isinstance(name, str):
+        raise ConfigError(f"acquire: the experiment name must be text, got {name!r}")
+    if settings is not None and not isinstance(settings, AcquisitionSettings):
+        raise ConfigError(f"acquire: settings must be an AcquisitionSettings, got {type(settings).__name__}")
     if name in project.experiment_names():
         raise ConfigError(f"{project.path}: experiment {name!r} already exists; choose another --name")
     settings = settings or AcquisitionSettings()

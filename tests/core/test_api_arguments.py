@@ -1,0 +1,87 @@
+"""What a notebook most often gets wrong calling odsuite.api gets one line naming the function,
+the argument and the value: before, a path given for the open project said "'str' object has no
+attribute 'model_revisions'", a text seed "invalid literal for int()", and a single experiment name
+was read letter by letter."""
+
+from __future__ import annotations
+
+import pytest
+
+from odsuite import api
+from odsuite.contracts.daq import AcquisitionSettings
+from odsuite.domain.errors import ConfigError
+
+
+@pytest.fixture(scope="module")
+def project_path(tmp_path_factory):
+    path = tmp_path_factory.mktemp("api") / "p.h5"
+    sim = api.registries().daq_backends.get("sim")
+    with api.create_project(path):
+        pass
+    with api.open_project(path, "a") as p:
+        api.acquire(p, sim, "T2", AcquisitionSettings(n_samples=2048), scenario="T2", seed=1)
+    return path
+
+
+@pytest.mark.parametrize("function", ["history", "compare", "diagnose", "prepare", "current_revision"])
+def test_a_path_for_the_open_project_is_named(project_path, function):
+    with pytest.raises(ConfigError, match=rf"^{function}: expected an open project \(open_project\(path\)\) as its "
+                                          rf"first argument, got str '.*p\.h5'$"):
+        getattr(api, function)(str(project_path))
+
+
+def test_one_name_for_a_list_of_experiments_is_named(project_path):
+    with api.open_project(project_path) as p:
+        with pytest.raises(ConfigError, match=r"^prepare: 'experiments' is a list of experiment names, got 'T2'$"):
+            api.prepare(p, experiments="T2")
+        with pytest.raises(ConfigError, match=r"^process_experiment: 'name' names an experiment \(text\), got 3$"):
+            api.process_experiment(p, 3)
+        # a list of names, and an iterator (left unread by the check), still work
+        assert [e.name for e in api.prepare(p, experiments=["T2"])] == ["T2"]
+        assert [e.name for e in api.prepare(p, experiments=iter(["T2"]))] == ["T2"]
+
+
+@pytest.mark.parametrize("options, message", [
+    ({"seed": "x"}, "acquire: backend option 'seed': expected an integer, got 'x'"),
+    ({"seed": 1.5}, "acquire: backend option 'seed': expected an integer, got 1.5"),
+    ({"force_peak": "a"}, "acquire: backend option 'force_peak': expected a number, got 'a'"),
+    ({"scenario": 3}, "acquire: backend option 'scenario': expected text, got 3"),
+    ({"bogus": 1}, "acquire: the backend takes no option 'bogus' (its options: adc_bits, base_rms, capture, "
+                   "contact_ms, direction, force_body, force_peak, force_rms, noise, operating, point, scenario, "
+                   "seed, truth_rig)"),
+])
+def test_a_backend_option_of_the_wrong_type_is_named(project_path, options, message):
+    sim = api.registries().daq_backends.get("sim")
+    with api.open_project(project_path, "a") as p:
+        with pytest.raises(ConfigError) as err:
+            api.acquire(p, sim, "new", AcquisitionSettings(n_samples=1024), **options)
+        assert str(err.value) == message
+        assert "new" not in p.experiment_names()
+
+
+def test_a_backend_name_or_a_settings_dict_is_named(project_path):
+    sim = api.registries().daq_backends.get("sim")
+    with api.open_project(project_path, "a") as p:
+        with pytest.raises(ConfigError, match=r"^acquire: backend must be a registered acquisition backend "
+                                              r"\(registries\(\)\.daq_backends\.get\(NAME\)\), got str 'sim'$"):
+            api.acquire(p, "sim", "new")
+        with pytest.raises(ConfigError, match=r"^acquire: settings must be an AcquisitionSettings, got dict$"):
+            api.acquire(p, sim, "new", {"n_samples": 1024})
+        # a whole float is an integer seed: the record is the one seed 2 gives
+        exp, _ = api.acquire(p, sim, "seed2", AcquisitionSettings(n_samples=1024), scenario="T2", seed=2.0)
+        twin, _ = api.acquire(p, sim, "seed2b", AcquisitionSettings(n_samples=1024), scenario="T2", seed=2)
+        assert (exp.raw() == twin.raw()).all()
+
+
+@pytest.mark.parametrize("field, value", [("sampling_rate", "x"), ("n_samples", True), ("mode", 1)])
+def test_a_setting_of_the_wrong_type_is_named(field, value):
+    with pytest.raises(ConfigError, match=rf"^acquisition setting '{field}': must be (a number|text), got {value!r}$"):
+        AcquisitionSettings(**{field: value})
+
+
+def test_a_function_that_opens_the_project_itself_asks_for_its_path(project_path):
+    # the output-only modes open the file in their own worker processes: a path, not an open project
+    with api.open_project(project_path) as p:
+        with pytest.raises(ConfigError, match=r"^experiment_output_only_modes: expected a project file's path as its "
+                                              r"first argument, got Project "):
+            api.experiment_output_only_modes(p, "T2")
