@@ -38,9 +38,13 @@ def ensure_space(target: Path, needed: int, whose: Path | str, outcome: str = "p
     needed = int(needed) + METADATA_RESERVE
     folder = Path(target).parent
     try:
-        free = shutil.disk_usage(folder).free
+        usage = shutil.disk_usage(folder)
     except OSError:  # the folder's disk does not say: the write itself will tell
         return
+    free = usage.free
+    if usage.total == 0:  # /proc, /sys: no disk at all, not a full one
+        raise DiskFullError(f"{whose}: {mount_point(folder)} is a virtual file system that holds no files; "
+                            f"give a path in another folder; {outcome}")
     if free < needed:
         raise DiskFullError(full_message(whose, folder, needed, free, outcome))
 

@@ -77,6 +77,9 @@ class WriterLock:
         try:
             self._lock.acquire()
         except _filelock().Timeout:
+            if not os.path.lexists(self.path):  # held by no one: filelock could not create it, and says only Timeout
+                raise ProjectFileError(f"{self.project}: cannot create lock file {self.path}: "
+                                       f"{self._why_not_created()}") from None
             raise ProjectLockedError(f"{self.project}: project is open in another process ({self._holder()}); "
                                      "close it there first") from None
         except OSError as exc:
@@ -85,6 +88,16 @@ class WriterLock:
             raise ProjectFileError(f"{self.project}: cannot create lock file {self.path}: "
                                    f"{exc.strerror or exc}") from None
         return self
+
+    def _why_not_created(self) -> str:
+        """The system's reason the lock file cannot be created (a read-only or virtual folder)."""
+        try:
+            fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o644)
+        except OSError as exc:
+            return exc.strerror or str(exc)
+        os.close(fd)
+        os.unlink(self.path)
+        return "the folder refused it"
 
     def _holder(self) -> str:
         """"pid N" of the process holding the lock (and its host when it is another)."""
