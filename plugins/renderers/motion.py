@@ -95,6 +95,15 @@ def _times(h: float) -> str:
     return f"{h:,.0f}" if 100 <= h < 1e7 else f"{h:.3g}"
 
 
+def speed_words(slowdown: float) -> str:
+    """Playback speed (movie time / real time) as a reader says it: '40 times slower than real
+    time', '4 times faster than real time' (a factor below 1 printed as '0 times slower')."""
+    if abs(np.log(slowdown)) < 0.005:  # within half a percent: 3 digits would print 1
+        return "real time"
+    factor = slowdown if slowdown > 1 else 1 / slowdown
+    return f"{_times(factor)} times {'slower' if slowdown > 1 else 'faster'} than real time"
+
+
 def magnification_words(magnify: tuple[float, float]) -> str:
     """The magnification (H_t, H_r) as a reader understands it: how much larger than life."""
     h_t, h_r = magnify

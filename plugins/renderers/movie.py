@@ -32,7 +32,7 @@ from odsuite.api import ConfigError, OdsuiteError
 from odsuite.api import Rig
 from odsuite.api import interrupts_deferred, interrupts_held
 
-from .motion import check_coords, default_magnification, magnification_words
+from .motion import check_coords, default_magnification, magnification_words, speed_words
 from .scene import Hammer, Scene, Style
 
 FORMATS = ("mp4", "gif")
@@ -361,7 +361,7 @@ def render_movie(
         notes.append(f"no H.264 encoder (imageio-ffmpeg with libx264) available: wrote {path.name} instead")
     size = _even(size)
     labels = frame_labels(frames, fs, time_zero=time_zero, ods_hz=ods_hz, hammer=hammer)
-    speed = f"{slow:,.0f} times slower than real time" if slow >= 1.5 else f"{slow:.2f} x real time"
+    speed = speed_words(slow)
     title = "\n".join(t for t in (title, f"{speed if ods_hz is None else ''}"
                                           f"{'; ' if ods_hz is None else ''}{magnification_words(magnify)}") if t)
     job = {"rig": rig, "coords": coords, "fps": fps, "labels": labels, "n_frames": len(frames),

@@ -20,7 +20,7 @@ class MovieRenderer:
 
     def render(self, request: RenderRequest) -> Rendered:
         from .experiment import render_experiment
-        from .motion import magnification_words
+        from .motion import magnification_words, speed_words
 
         request.unknown_options(MOVIE_OPTIONS, self.name)
         res = render_experiment(request.project, request.experiment, request.output, progress=request.progress,
@@ -29,7 +29,7 @@ class MovieRenderer:
             return Rendered(res.path, f"{res.n_frames} frames at {res.fps:g} fps ({res.n_frames / res.fps:.1f} s), "
                                       "the shape on the project's geometry", tuple(res.notes))
         return Rendered(res.path, f"{res.n_frames} frames at {res.fps:g} fps ({res.n_frames / res.fps:.1f} s), "
-                                  f"{res.slowdown:,.0f} times slower than real time, {magnification_words(res.magnify)}",
+                                  f"{speed_words(res.slowdown)}, {magnification_words(res.magnify)}",
                         tuple(res.notes))
 
 

@@ -959,7 +959,7 @@ def _corrections_html(corrected) -> str:
 
 def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path, corrected=None, window=None,
                    fault=None, why: str = "the chains give no displacements") -> str:
-    from .motion import magnification_words
+    from .motion import magnification_words, speed_words
     from .movie import mp4_available, render_movie
     from .scene import Hammer, Style
 
@@ -990,8 +990,7 @@ def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path, corrected=N
             f"{res.n_frames} frames from {1e3 * (start - exp.trigger / exp.fs):+.1f} ms to "
             f"{1e3 * (stop - exp.trigger / exp.fs):+.1f} ms around the hit"
             + (f" (where the {fault.band_hz[0]:.0f}-{fault.band_hz[1]:.0f} Hz residual rings)" if fault and window else "")
-            + f", {res.slowdown:.0f} times slower than "
-            f"real time, {_esc(magnification_words(res.magnify))}.</figcaption></figure>")
+            + f", {speed_words(res.slowdown)}, {_esc(magnification_words(res.magnify))}.</figcaption></figure>")
 
 
 def _poster(mp4: Path, n_frames: int, path: Path) -> Path | None:

@@ -89,6 +89,17 @@ def test_the_gif_fallback_never_replaces_a_file_the_user_did_not_name(thesis_rig
     assert kept.read_bytes() == b"\x89HDF\r\n\x1a\n precious"
 
 
+def test_speed_words_read_right_on_both_sides_of_real_time():
+    from odsuite_plugins.renderers.motion import speed_words
+
+    assert speed_words(800.0) == "800 times slower than real time"
+    assert speed_words(12345.0) == "12,345 times slower than real time"
+    assert speed_words(1.5) == "1.5 times slower than real time"
+    assert speed_words(0.25) == "4 times faster than real time"
+    assert speed_words(0.3) == "3.33 times faster than real time"
+    assert speed_words(1.002) == "real time"
+
+
 def test_mp4_available_here():
     assert movie.mp4_available()
 

@@ -68,6 +68,16 @@ def test_render_magnify_zero_holds_that_motion_still(project, tmp_path, capsys):
         assert words in json.loads(stdout)["summary"]
 
 
+@pytest.mark.render
+def test_render_summary_tells_the_speed_the_movie_plays_at(project, tmp_path, capsys):
+    """Faster than real time reads 'N times faster' (it printed '0 times slower')."""
+    path, _ = project
+    code, stdout, err = run(capsys, "render", path, "T5", "-o", tmp_path / "m.mp4", "--slowdown", "0.25",
+                            "--start", "0", "--workers", "1")
+    assert code == 0, err
+    assert "4 times faster than real time" in stdout
+
+
 def test_render_figures(project, tmp_path, capsys):
     path, d = project
     code, stdout, err = run(capsys, "render", path, "T5", "-o", tmp_path / "proj.png", "--figure", "projection",
