@@ -28,7 +28,7 @@ def render_cmd(
     reference: str = typer.Option(None, "--reference", help="With --ods: the reference sensor of an operating record's ODS (cross-spectra)."),
     start: float = typer.Option(None, "--start", help="Movie window start, s from the record's start (default: just before the hit)."),
     end: float = typer.Option(None, "--end", help="Movie window end, s (default: when the motion has decayed to a tenth)."),
-    fps: float = typer.Option(None, "--fps", help="Movie frames per second (default 25)."),
+    fps: float = typer.Option(None, "--fps", help="Movie frames per second (default 25; a GIF at most 50, at the nearest 100/k)."),
     duration: float = typer.Option(None, "--duration", help="Movie length, s (default 10; or set --frame-step / --slowdown)."),
     renderer_name: str = typer.Option(None, "--renderer", help="A registered renderer by name (e.g. mode-shape), as --figure."),
     mode: int = typer.Option(None, "--mode", help="mode-shape: the mode to animate (1 = lowest)."),
@@ -104,5 +104,5 @@ def _say_rendered(renderer, res, as_json: bool) -> None:
         _print_json(_rendered_doc(renderer, res))
         return
     for note in res.notes:
-        err_console.print(f"note: {note}", highlight=False)
+        err_console.print(f"note: {note}", highlight=False, soft_wrap=True)
     console.print(f"wrote {res.path} ({res.summary})", highlight=False, soft_wrap=True)

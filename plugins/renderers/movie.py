@@ -49,6 +49,9 @@ MOVIE_BYTES_PER_PIXEL = {"gif": 0.05, "mp4": 0.008}
 #: Frame rates a movie can have: a GIF frame lasts at most 655.35 s (its delay is a 16-bit count of
 #: 10 ms); ffmpeg takes the rate as a fraction of 32-bit integers, and no screen shows 1000 a second.
 FPS_RANGE = (1 / 655.35, 1000.0)
+#: A GIF frame's delay is a whole number of hundredths of a second, and browsers and viewers play a
+#: delay under 2/100 s as 1/10 s: no GIF plays faster than 50 frames per second.
+GIF_MAX_FPS = 50.0
 
 
 @dataclass(frozen=True)
@@ -119,6 +122,35 @@ def frame_plan(n_samples: int, fs: float, *, fps: float, start: float = 0.0, sto
     return np.arange(i0, i1, step), step, fs / (fps * step)
 
 
+def _gif_delay(fps: float) -> int:
+    """A GIF frame's delay (hundredths of a second) nearest to 1/fps."""
+    return min(65535, max(2, round(100.0 / fps)))
+
+
+def playback_fps(fps: float, fmt: str, *, fallback: bool = False) -> tuple[float, str | None]:
+    """The rate a movie of format ``fmt`` plays at when ``fps`` is asked, and a note when the two
+    differ: an MP4 plays any rate, a GIF the nearest of 100/k (its delays are whole centiseconds:
+    30 asked plays at 33.33). Refused outside ``FPS_RANGE`` and a GIF above ``GIF_MAX_FPS``
+    (``fallback``: the GIF stands in for an MP4 this machine cannot encode)."""
+    if not FPS_RANGE[0] <= fps <= FPS_RANGE[1]:
+        raise ConfigError(f"fps: expected {FPS_RANGE[0]:.4g} to {FPS_RANGE[1]:g} frames per second (a GIF frame "
+                          f"lasts at most 655.35 s), got {fps:.6g}")
+    if fmt != "gif":
+        return float(fps), None
+    # refused rather than written slower: the movie and its summary would disagree by the ratio
+    if fps > GIF_MAX_FPS:
+        instead = ("; there is no H.264 encoder here for the .mp4" if fallback else ", or write an .mp4")
+        raise ConfigError(f"--fps {fps:g}: a GIF plays at most {GIF_MAX_FPS:g} frames per second (its frame "
+                          f"delays are whole hundredths of a second and players slow delays under 2/100 s "
+                          f"down); give --fps {GIF_MAX_FPS:g} or less{instead}")
+    delay = _gif_delay(fps)
+    real = 100.0 / delay
+    if abs(real - fps) <= 1e-9 * fps:
+        return real, None
+    return real, (f"a GIF's frame delays are whole hundredths of a second: it plays at {real:.4g} fps "
+                  f"({delay}/100 s a frame), not {fps:g}")
+
+
 def _even(size: tuple[int, int]) -> tuple[int, int]:
     w, h = (int(v) for v in size)
     if w < 16 or h < 16:
@@ -148,7 +180,7 @@ class _GifFrames:
     def __init__(self, target: Path, palette: "Image.Image", fps: float) -> None:  # noqa: F821
         self._fp = open(target, "wb")
         self._palette = palette
-        self._delay = max(20, round(1000 / fps))  # GIF delays are whole centiseconds
+        self._delay = 10 * _gif_delay(fps)  # ms, a whole number of centiseconds as the GIF stores it
 
     def send(self, frame: np.ndarray) -> None:
         from PIL import GifImagePlugin, Image
@@ -345,10 +377,14 @@ def render_movie(
     if magnify is None:
         magnify = default_magnification(rig, coords, *[c for c in (model_coords, corrected_coords) if c])
     magnify = (float(magnify[0]), float(magnify[1]))
+    notes = []
+    no_h264 = fmt == "mp4" and not mp4_available()
+    # the rate the movie plays at plans the frames: a duration or slowdown asked is what is seen
+    fps, note = playback_fps(fps, "gif" if no_h264 else fmt, fallback=no_h264)
+    notes += [note] if note else []
     frames, step, slow = frame_plan(n, fs, fps=fps, start=start, stop=stop, frame_step=frame_step,
                                     slowdown=slowdown, duration=duration)
-    notes = []
-    if fmt == "mp4" and not mp4_available():
+    if no_h264:
         fallback = path.with_suffix(".gif")
         # a name the user did not give: never through a link, never over a file that is no GIF (a
         # project named run.gif); an earlier fallback's GIF is replaced, as the .mp4 would be
@@ -389,9 +425,7 @@ def write_movie(job: dict, frames: np.ndarray, path: Path, fmt: str, size: tuple
     """Render ``job``'s scene at ``frames`` (its sample indices) into ``path`` (``fmt`` "mp4" or
     "gif", the fallback already chosen) with ``workers`` processes; ``job`` holds the scene, the
     frame ``labels``, ``fps`` and ``n_frames``."""
-    if not FPS_RANGE[0] <= job["fps"] <= FPS_RANGE[1]:
-        raise ConfigError(f"fps: expected {FPS_RANGE[0]:.4g} to {FPS_RANGE[1]:g} frames per second (a GIF frame "
-                          f"lasts at most 655.35 s), got {job['fps']:.6g}")
+    playback_fps(job["fps"], fmt)
     labels = job["labels"]
     workers = max(1, min(int(workers), len(frames) // MIN_FRAMES_PER_WORKER or 1))
     path.parent.mkdir(parents=True, exist_ok=True)

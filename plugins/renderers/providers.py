@@ -26,11 +26,14 @@ class MovieRenderer:
         res = render_experiment(request.project, request.experiment, request.output, progress=request.progress,
                                 registries=request.registries, **{k: v for k, v in request.options.items() if v is not None})
         if getattr(res, "frame_step", None) == 0:  # a shape on the project's geometry
-            return Rendered(res.path, f"{res.n_frames} frames at {res.fps:g} fps ({res.n_frames / res.fps:.1f} s), "
-                                      "the shape on the project's geometry", tuple(res.notes))
-        return Rendered(res.path, f"{res.n_frames} frames at {res.fps:g} fps ({res.n_frames / res.fps:.1f} s), "
-                                  f"{speed_words(res.slowdown)}, {magnification_words(res.magnify)}",
+            return Rendered(res.path, f"{_frames(res)}, the shape on the project's geometry", tuple(res.notes))
+        return Rendered(res.path, f"{_frames(res)}, {speed_words(res.slowdown)}, {magnification_words(res.magnify)}",
                         tuple(res.notes))
+
+
+def _frames(res) -> str:
+    """A movie's frames and the rate it plays at (a GIF's: 33.33 for 30 asked)."""
+    return f"{res.n_frames} frames at {res.fps:.4g} fps ({res.n_frames / res.fps:.1f} s)"
 
 
 class FigureRenderer:
@@ -135,8 +138,8 @@ class ModeShapeRenderer:
             return Rendered(res, f"interactive 3-D view of {n} mode shapes", tuple(notes))
         if isinstance(res, Path):
             return Rendered(res, f"geometry (UFF 15/82) and {n} mode shapes (UFF 55)", tuple(notes))
-        return Rendered(res.path, f"{res.n_frames} frames at {res.fps:g} fps ({res.n_frames / res.fps:.1f} s), "
-                                  f"mode {request.options.get('mode')} of {n}", tuple(res.notes) + tuple(notes))
+        return Rendered(res.path, f"{_frames(res)}, mode {request.options.get('mode')} of {n}",
+                        tuple(res.notes) + tuple(notes))
 
 
 def builtin_renderers() -> list:

@@ -625,6 +625,8 @@ CASES: list[Case] = [
          argv=_render("m.gif", "--duration", "3000", "--fps", "0.001")),
     Case("render-fps-huge", "render -o m.mp4 --fps 1e300 (ffmpeg refused the rate)", "fps: expected 0.001526 to 1000 frames per second (a GIF frame lasts at most 655.35 s), got 1e+300",
          argv=_render("m.mp4", "--fps", "1e300")),
+    Case("render-gif-fps-above-50", "render -o m.gif --fps 60 (played at 50 fps, reported as 60)", "--fps 60: a GIF plays at most 50 frames per second (its frame delays are whole hundredths of a second and players slow delays under 2/100 s down); give --fps 50 or less, or write an .mp4",
+         argv=_render("m.gif", "--fps", "60")),
     Case("render-slowdown-huge", "render --slowdown 1e300 (its message printed a number of 298 digits)", "slowdown 1e+300 needs 1.25e+297 frames per sample at 25 fps",
          argv=_render("m.gif", "--slowdown", "1e300")),
     Case("lvm-channels-zero", ".lvm with Channels 0", "{dir}/bad.lvm: line 17: field Channels is 0; it must be from 1 to 4096", **lvm(LVM_TEXT.replace("Channels\t2", "Channels\t0"))),

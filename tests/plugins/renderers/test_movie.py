@@ -89,6 +89,25 @@ def test_the_gif_fallback_never_replaces_a_file_the_user_did_not_name(thesis_rig
     assert kept.read_bytes() == b"\x89HDF\r\n\x1a\n precious"
 
 
+@pytest.mark.render
+def test_a_gif_plays_at_the_rate_it_reports(thesis_rig, tmp_path):
+    """A GIF's frame delays are whole centiseconds: 30 fps asked plays at 100/3 (3 cs a frame),
+    which the result, its note and the slowdown state; above 50 fps (delays under 2 cs, which
+    players slow down) a GIF is refused and nothing is written."""
+    res = render_movie(thesis_rig, decaying_motion(60), FS, tmp_path / "m.gif", frame_step=5, fps=30,
+                       size=(160, 120), workers=1, progress=False)
+    with Image.open(res.path) as im:
+        assert im.info["duration"] == 30
+    assert res.fps == pytest.approx(100 / 3) and res.slowdown == pytest.approx(FS / (100 / 3 * 5))
+    assert res.notes == ["a GIF's frame delays are whole hundredths of a second: it plays at 33.33 fps "
+                         "(3/100 s a frame), not 30"]
+    with pytest.raises(ConfigError, match=r"^--fps 60: a GIF plays at most 50 frames per second .* or write an \.mp4$"):
+        render_movie(thesis_rig, decaying_motion(60), FS, tmp_path / "fast.gif", frame_step=5, fps=60,
+                     size=(160, 120), workers=1, progress=False)
+    assert not (tmp_path / "fast.gif").exists()
+    assert movie.playback_fps(60, "mp4") == (60, None) and movie.playback_fps(50, "gif") == (50, None)
+
+
 def test_speed_words_read_right_on_both_sides_of_real_time():
     from odsuite_plugins.renderers.motion import speed_words
 

@@ -69,13 +69,19 @@ def test_render_magnify_zero_holds_that_motion_still(project, tmp_path, capsys):
 
 
 @pytest.mark.render
-def test_render_summary_tells_the_speed_the_movie_plays_at(project, tmp_path, capsys):
-    """Faster than real time reads 'N times faster' (it printed '0 times slower')."""
+def test_render_summary_tells_the_speed_and_rate_the_movie_plays_at(project, tmp_path, capsys):
+    """Faster than real time reads 'N times faster' (it printed '0 times slower'); a GIF asked for
+    30 fps plays at 33.33 (whole-centisecond delays), which the summary prints."""
     path, _ = project
     code, stdout, err = run(capsys, "render", path, "T5", "-o", tmp_path / "m.mp4", "--slowdown", "0.25",
                             "--start", "0", "--workers", "1")
     assert code == 0, err
     assert "4 times faster than real time" in stdout
+    code, stdout, err = run(capsys, "render", path, "T5", "-o", tmp_path / "m.gif", "--fps", "30",
+                            "--frame-step", "64", "--start", "0", "--workers", "1")
+    assert code == 0, err
+    assert "32 frames at 33.33 fps (1.0 s), 9.38 times slower than real time" in stdout
+    assert "it plays at 33.33 fps (3/100 s a frame), not 30" in err and len(err.strip().splitlines()) == 1
 
 
 def test_render_figures(project, tmp_path, capsys):
