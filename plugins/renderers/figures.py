@@ -16,8 +16,8 @@ from odsuite.api import ConfigError, DimensionError
 from odsuite.api import Rig
 from odsuite.api import COORDINATE_UNITS, COORDINATES, PLOT_INDEX, plate_corners, rotation_matrix
 
-from .motion import (characteristic_instant, check_coords, contact_index, corners, default_magnification,
-                     magnification_words)
+from .motion import (characteristic_instant, check_coords, check_magnification, contact_index, corners,
+                     default_magnification, magnification_words)
 
 FIGURE_FORMATS = (".png", ".svg", ".pdf")
 #: Screen (right, up) unit vectors for an eye on each rig axis looking at the origin in the
@@ -148,6 +148,7 @@ def projection_figure(
     for i in instants:
         if not 0 <= i < n:
             raise ConfigError(f"instants: sample {i} outside the record of {n} samples")
+    check_magnification(rig, magnify, {b: d[list(instants)] for b, d in coords.items()})
     drawn = []  # (xy, style) so the axes can be fitted to the content before drawing
     # a still plate's style is its own (its place among the massless bodies), the same in every figure
     # of the rig whichever moving bodies have coordinates

@@ -89,6 +89,39 @@ def default_magnification(rig: Rig, *coord_sets: Mapping[str, np.ndarray],
     return (h, h)
 
 
+#: The largest corner excursion drawn, in plate sizes: the camera frames the plates with a fifth of a
+#: plate to spare, so a plate drawn moving ten times its size is outside the picture nearly always.
+DRAWN_MAX = 10.0
+
+
+def check_magnification(rig: Rig, magnify: tuple[float, float], *coord_sets: Mapping[str, np.ndarray]) -> None:
+    """Refuse a magnification (H_t, H_r) whose drawn motion of ``coord_sets`` (the samples drawn) is
+    not finite or reaches more than ``DRAWN_MAX`` plate sizes (small-angle form, as the default's),
+    naming --magnify and the largest pair in the same ratio that stays within."""
+    given = f"--magnify {magnify[0]:g},{magnify[1]:g}"
+    if not all(np.isfinite(h) and h >= 0 for h in magnify):
+        raise ConfigError(f"{given}: magnification factors must be finite numbers >= 0")
+    top = max(magnify)
+    if top == 0:
+        return
+    # the drawn excursion is linear in (H_t, H_r): measured at the largest factor 1, it cannot overflow
+    unit = 0.0
+    for coords in coord_sets:
+        for name, d in coords.items():
+            body = rig.body(name)
+            disp = point_displacements(magnified(d, (magnify[0] / top, magnify[1] / top)),
+                                       plate_corners(body.plate) - body.com, linear=True)
+            unit = max(unit, float(np.linalg.norm(disp, axis=-1).max(initial=0.0)))
+    scale = plate_scale(rig, list(coord_sets[0]))
+    drawn = unit * top  # inf when it overflows: refused as well
+    if drawn > DRAWN_MAX * scale:
+        most = DRAWN_MAX * scale / unit
+        times = f"{drawn / scale:.3g} times" if np.isfinite(drawn / scale) else "beyond any number of times"
+        raise ConfigError(f"{given}: draws the largest corner motion {times} the plate's {1e3 * scale:.0f} mm "
+                          f"size, more than the {DRAWN_MAX:g} times a picture can show; at most --magnify "
+                          f"{most * (magnify[0] / top):.3g},{most * (magnify[1] / top):.3g} for this motion")
+
+
 def _times(h: float) -> str:
     """A magnification as a reader counts it: 18,221 with digit groups; a huge one as 1e+300 (it
     printed 301 digits)."""

@@ -32,7 +32,7 @@ from odsuite.api import ConfigError, OdsuiteError
 from odsuite.api import Rig
 from odsuite.api import interrupts_deferred, interrupts_held
 
-from .motion import check_coords, default_magnification, magnification_words, speed_words
+from .motion import check_coords, check_magnification, default_magnification, magnification_words, speed_words
 from .scene import Hammer, Scene, Style
 
 FORMATS = ("mp4", "gif")
@@ -384,6 +384,8 @@ def render_movie(
     notes += [note] if note else []
     frames, step, slow = frame_plan(n, fs, fps=fps, start=start, stop=stop, frame_step=frame_step,
                                     slowdown=slowdown, duration=duration)
+    check_magnification(rig, magnify, *({b: d[frames] for b, d in c.items()}
+                                        for c in (coords, model_coords, corrected_coords) if c))
     if no_h264:
         fallback = path.with_suffix(".gif")
         # a name the user did not give: never through a link, never over a file that is no GIF (a

@@ -566,6 +566,8 @@ CASES: list[Case] = [
          argv=lambda d: ["render", str(d / "p.h5"), "e1", "-o", str(d / "m.gif"), "--magnify", "1_0,2"]),
     Case("magnify-negative", "render --magnify=-5,2", "--magnify: magnification factors must be finite numbers >= 0, got '-5,2'",
          argv=lambda d: ["render", str(d / "p.h5"), "e1", "-o", str(d / "m.gif"), "--magnify=-5,2"]),
+    Case("magnify-huge", "render --magnify 1e300,1e300 (drew overflowed geometry)", "--magnify 1e+300,1e+300: draws the largest corner motion 9.42e+295 times the plate's 170 mm size, more than the 10 times a picture can show; at most --magnify 1.06e+05,1.06e+05 for this motion",
+         argv=_render("m.gif", "--magnify", "1e300,1e300")),
     Case("view-nan", "render --view nan,0 (a movie with nothing drawn)", "--view: angles must be finite numbers of degrees from -360 to 360, got 'nan,0'",
          argv=_render("m.gif", "--view", "nan,0")),
     Case("view-projection-inf", "render --figure projection --view x,inf,0,0", "--view: angles must be finite numbers of degrees from -360 to 360, got 'x,inf,0,0'",

@@ -84,6 +84,20 @@ def test_render_summary_tells_the_speed_and_rate_the_movie_plays_at(project, tmp
     assert "it plays at 33.33 fps (3/100 s a frame), not 30" in err and len(err.strip().splitlines()) == 1
 
 
+def test_render_refuses_a_magnification_no_picture_can_show(project, tmp_path, capsys):
+    """--magnify 1e300 drew overflowed geometry (a movie and a projection figure were written): a
+    drawn motion beyond ten plate sizes is refused in one line giving the largest factor that fits,
+    which is then drawn."""
+    path, _ = project
+    for out, extra in (("m.gif", ("--duration", "0.2", "--workers", "1")), ("p.png", ("--figure", "projection"))):
+        code, _, err = run(capsys, "render", path, "T5", "-o", tmp_path / out, "--magnify", "1e300,1e300", *extra)
+        assert code == 1 and len(err.strip().splitlines()) == 1, err
+        assert "--magnify 1e+300,1e+300: draws the largest corner motion" in err
+        assert "more than the 10 times a picture can show" in err and not (tmp_path / out).exists()
+        most = err.split("at most --magnify ")[1].split(" ")[0]
+        assert run(capsys, "render", path, "T5", "-o", tmp_path / out, "--magnify", most, *extra)[0] == 0
+
+
 def test_render_figures(project, tmp_path, capsys):
     path, d = project
     code, stdout, err = run(capsys, "render", path, "T5", "-o", tmp_path / "proj.png", "--figure", "projection",
