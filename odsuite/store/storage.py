@@ -8,6 +8,7 @@ the next writer removes copies left by an interrupted write.
 
 from __future__ import annotations
 
+import errno
 import logging
 import os
 import shutil
@@ -108,11 +109,20 @@ def reserve_private(tmp: Path, project: Path) -> None:
 
 
 def check_output(output: Path, project: Path | None, option: str) -> Path:
-    """Refuse an output path that is the project, one of its sidecar files, a folder, or inside a
-    folder that does not exist (also as a link's target); one line naming the option and the path."""
+    """Refuse an output path that is the project, one of its sidecar files, a folder, a link that
+    loops, or inside a folder that does not exist (also as a link's target); one line naming the
+    option and the path."""
     output = Path(output)
     if output.is_dir():
         raise ProjectFileError(f"{option} {output}: is a folder; give a file name")
+    if output.is_symlink():
+        try:
+            os.stat(output)
+        except OSError as exc:
+            # a link leading back to itself has no target to write through to: the write replaced it
+            if exc.errno == errno.ELOOP:
+                raise ProjectFileError(f"{option} {output}: is a symbolic link that leads back to itself (a loop), "
+                                       "which has no file to write to; remove it or give another file name") from None
     # a link is written where it points (write_output), so the folder that must exist is its target's
     folder = Path(os.path.realpath(output)).parent if output.parent.is_dir() else output.parent
     if not folder.is_dir():

@@ -684,6 +684,8 @@ CASES: list[Case] = [
          argv=lambda d: ["export-uff", str(d / "p.h5"), "e1", "-o", "/proc/x.uff"]),
     Case("new-in-proc", "new /proc/p.h5 (it said 'project is open in another process (pid ?)')", "/proc/p.h5: cannot create lock file /proc/.p.h5.odsuite-lock: No such file or directory",
          argv=lambda d: ["new", "/proc/p.h5"]),
+    Case("output-link-loop", "render -o naming a symbolic link to itself (the link was replaced by the figure)", "-o {dir}/loop.png: is a symbolic link that leads back to itself (a loop), which has no file to write to; remove it or give another file name",
+         argv=lambda d: ((d / "loop.png").symlink_to("loop.png"), _render("loop.png", "--figure", "projection")(d))[1]),
     Case("dat-fifo", "a named pipe (FIFO) given as the .DAT file", "{dir}/pipe.DAT: not a regular file (a pipe or device), expected a data (.DAT/.VIZ) file",
          argv=lambda d: (os.mkfifo(d / "pipe.DAT"), legacy(ctr="good.CTR", dat="pipe.DAT")(d))[1]),
     Case("dat-device", "/dev/zero given as the .DAT file", "/dev/zero: not a regular file (a pipe or device), expected a data (.DAT/.VIZ) file",

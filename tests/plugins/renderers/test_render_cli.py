@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import imageio_ffmpeg
 import numpy as np
@@ -96,6 +97,22 @@ def test_render_refuses_a_magnification_no_picture_can_show(project, tmp_path, c
         assert "more than the 10 times a picture can show" in err and not (tmp_path / out).exists()
         most = err.split("at most --magnify ")[1].split(" ")[0]
         assert run(capsys, "render", path, "T5", "-o", tmp_path / out, "--magnify", most, *extra)[0] == 0
+
+
+def test_an_output_link_that_loops_is_refused_and_kept(project, tmp_path, capsys):
+    """-o naming a link to itself (or two links to each other) was replaced by the file written:
+    refused in one line naming the option and the link, which stays a link to the same name."""
+    path, _ = project
+    (tmp_path / "loop.png").symlink_to("loop.png")
+    (tmp_path / "a.uff").symlink_to("b.uff")
+    (tmp_path / "b.uff").symlink_to("a.uff")
+    for args, link in ((("render", path, "T5", "-o", tmp_path / "loop.png", "--figure", "projection"), "loop.png"),
+                       (("export-uff", path, "T5", "-o", tmp_path / "a.uff"), "a.uff")):
+        code, _, err = run(capsys, *args)
+        assert code == 1 and len(err.strip().splitlines()) == 1, err
+        assert f"-o {tmp_path / link}: is a symbolic link that leads back to itself (a loop)" in err
+    assert (tmp_path / "loop.png").readlink() == Path("loop.png") and (tmp_path / "a.uff").readlink() == Path("b.uff")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["T5.DAT", "a.uff", "b.uff", "loop.png", "p.h5"]
 
 
 def test_render_figures(project, tmp_path, capsys):
