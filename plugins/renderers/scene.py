@@ -75,6 +75,16 @@ def view_direction(rig: Rig, azimuth: float, elevation: float) -> np.ndarray:
     return np.cos(e) * (np.cos(a) * e1 + np.sin(a) * e2) + np.sin(e) * rig.up
 
 
+def view_up(rig: Rig, azimuth: float, elevation: float) -> np.ndarray:
+    """The picture's up: the rig's up squared to the view direction, cos(el) up - sin(el) h (h the
+    horizontal towards the camera). The rig's up itself lies along the view at elevation +-90 (VTK
+    warned within 2.6 degrees of it and chose another); this turns smoothly into the pole, where
+    the rig's side towards the azimuth is at the bottom seen from above, at the top from below."""
+    a, e = np.radians(azimuth), np.radians(elevation)
+    e1, e2 = rig.horizontal_axes()
+    return np.cos(e) * np.asarray(rig.up, float) - np.sin(e) * (np.cos(a) * e1 + np.sin(a) * e2)
+
+
 def dash_dot_segments(p0: np.ndarray, p1: np.ndarray, period: float) -> np.ndarray:
     """A dash-dotted line from p0 to p1 as segments (k, 2, 3): dash 55 %, gap, dot 10 %, gap."""
     length = float(np.linalg.norm(p1 - p0))
@@ -255,7 +265,7 @@ class Scene:
         scale = plate_scale(rig, list(coords))
         # translations drawn x0 (held still) have no ruler: any motion is a bar of no length
         self._magnify = magnify if scale_bar and magnify[0] > 0 else None
-        self._towards_camera, self._up = view_direction(rig, *view), rig.up
+        self._towards_camera, self._up = view_direction(rig, *view), view_up(rig, *view)
         self._decorations: list[np.ndarray] = []  # points of the axes and scale bar, kept in view
         # (text, dot series (n, 3), offset from the dot in pixels, its body's centre)
         self._sensor_labels: list[tuple[object, np.ndarray, np.ndarray, np.ndarray]] = []
@@ -330,9 +340,8 @@ class Scene:
             # the legend
             box = self._bounds(rig, moving).reshape(3, 2)
             corner_points = np.array([[x, y, z] for x in box[0] for y in box[1] for z in box[2]])
-            up = np.asarray(rig.up, float)
-            lower = corner_points[np.argsort(corner_points @ up)[:4]]
-            right = np.cross(-self._towards_camera, up)
+            lower = corner_points[np.argsort(corner_points @ np.asarray(rig.up, float))[:4]]
+            right = np.cross(-self._towards_camera, self._up)
             corner = lower[np.argmin(lower @ right)]
             out = corner - box.mean(axis=1)
             origin = corner + 0.1 * scale * out / max(np.linalg.norm(out), 1e-12)
@@ -525,7 +534,7 @@ class Scene:
             cam = self.plotter.camera
             cam.focal_point = centre
             cam.position = centre + direction
-            cam.up = tuple(rig.up)
+            cam.up = tuple(self._up)
             if parallel:
                 self.plotter.enable_parallel_projection()
             self.plotter.reset_camera(bounds=padded)

@@ -18,6 +18,13 @@ def view_vector(azimuth: float, elevation: float) -> np.ndarray:
     return np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
 
 
+def view_up_vector(azimuth: float, elevation: float) -> np.ndarray:
+    """The picture's up, z squared to the view (as :func:`.scene.view_up`): z lies along the view
+    at elevation +-90."""
+    a, e = np.radians(azimuth), np.radians(elevation)
+    return np.array([-np.sin(e) * np.cos(a), -np.sin(e) * np.sin(a), np.cos(e)])
+
+
 class ShapeScene:
     """``motion`` (frames, nodes, 3; m, already scaled for drawing) moves the geometry's nodes;
     :meth:`frame` poses them at one frame and returns RGB, as :class:`.scene.Scene` does."""
@@ -104,7 +111,7 @@ class ShapeScene:
         cam = self.plotter.camera
         cam.focal_point = centre
         cam.position = centre + view_vector(*view)
-        cam.up = (0.0, 0.0, 1.0)
+        cam.up = tuple(view_up_vector(*view))
         self.plotter.reset_camera(bounds=np.column_stack([box.min(0), box.max(0)]).ravel())
         cam.zoom(0.9 / Scene._filled(self.plotter.renderers[0], box))
 

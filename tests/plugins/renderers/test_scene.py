@@ -69,6 +69,27 @@ def test_corners_land_on_projected_pixels(thesis_rig, parallel, view):
     assert np.linalg.norm(rest - want, axis=1).max() > 10
 
 
+@pytest.mark.parametrize("elevation", [90.0, -90.0])
+def test_straight_down_or_up_the_picture_is_the_one_just_off_the_pole(thesis_rig, elevation, capfd):
+    """At elevation +-90 the rig's up lies along the view: VTK warned 'Resetting view-up since view
+    plane normal is parallel' and turned the picture its own way. The picture's up is the rig's up
+    squared to the view: no warning, and the corners land where they do 0.1 degree off the pole."""
+    from odsuite_plugins.renderers.scene import Scene
+
+    body = thesis_rig.body("platform")
+    pixels = []
+    for view in ((30.0, elevation), (30.0, elevation - np.sign(elevation) * 0.1)):
+        scene = Scene(thesis_rig, {"platform": POSE[None, :]}, magnify=H, view=view, ghost=False,
+                      markers=True, sensors=False, size=(640, 480))
+        try:
+            scene.frame(0)
+            pixels.append(world_to_pixel(scene.renderer(), expected_corners(body, POSE, H), 480))
+        finally:
+            scene.close()
+    assert "view-up" not in capfd.readouterr().err
+    assert np.abs(pixels[0] - pixels[1]).max() < 2.0, pixels
+
+
 def test_sensor_dots_and_hammer_arrow_follow_the_pose(thesis_rig):
     """Each sensor spot (sensors sharing a position share a dot) is drawn where the posed point
     projects; the hammer arrow turns red exactly while the force is in contact."""
@@ -213,7 +234,7 @@ def test_sensor_names_cover_no_other_name_nor_a_dot(thesis_rig, view):
         scene.close()
 
 
-@pytest.mark.parametrize("view", [(60.0, 25.0), (-35.0, 40.0), (150.0, 20.0)])
+@pytest.mark.parametrize("view", [(60.0, 25.0), (-35.0, 40.0), (150.0, 20.0), (30.0, 90.0), (30.0, -90.0)])
 def test_axes_and_scale_bar_lie_inside_the_frame_below_the_title(thesis_rig, view):
     """The axes' origin and tips and the scale bar fall inside the frame, a text line clear of
     its edges, below the title and clock and above the progress bar (the axes ran out of the

@@ -69,6 +69,28 @@ def test_the_drawn_motion_is_the_operating_shape(mast):
 
 
 @pytest.mark.render
+@pytest.mark.parametrize("elevation", [90.0, -90.0])
+def test_a_shape_seen_straight_down_or_up_warns_nothing(elevation, capfd):
+    """The picture's up is z squared to the view: at elevation +-90 z lies along it, and VTK warned
+    that it reset the view-up (and turned the picture its own way)."""
+    from odsuite.domain.geometry import Geometry
+    from odsuite_plugins.renderers.shape_scene import ShapeScene, view_up_vector, view_vector
+
+    g = Geometry("mast", np.array([1, 2, 3]), np.array([[0, 0, 0], [0, 0, 2], [1, 0, 4]], float), [[1, 2], [2, 3]])
+    scene = ShapeScene(g, np.zeros((1, 3, 3)), view=(30.0, elevation), size=(320, 240))
+    try:
+        scene.frame(0)
+        up = np.asarray(scene.plotter.camera.GetViewUp())
+    finally:
+        scene.close()
+    assert "view-up" not in capfd.readouterr().err
+    # the up VTK keeps is the one given, the limit of the picture just off the pole
+    assert np.allclose(up, view_up_vector(30.0, elevation)) and abs(up @ view_vector(30.0, elevation)) < 1e-12
+    assert np.allclose(view_up_vector(30.0, elevation), view_up_vector(30.0, elevation - np.sign(elevation) * 1e-4),
+                       atol=1e-5)
+
+
+@pytest.mark.render
 def test_ods_movie_without_a_rig(mast, tmp_path, capsys):
     out = tmp_path / "ods.mp4"
     code, stdout, err = run(capsys, "ods", mast, "rec", "--reference", "a", "--at", F0, "--movie", out, "--json")
