@@ -19,6 +19,7 @@ from __future__ import annotations
 import csv
 import io
 import re
+import struct
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -491,6 +492,45 @@ def _mat73(file: Path) -> dict:
         raise ConfigError(f"{file}: not a readable MATLAB .mat file (v7.3/HDF5): {exc}") from None
 
 
+#: a TDMS segment's lead-in: tag, table of contents, version, then the offsets of the next segment
+#: and of the raw data, each counted from the lead-in's end
+TDMS_LEAD_IN = 28
+TDMS_UNSET = 0xFFFFFFFFFFFFFFFF
+
+
+def _tdms_cut(file: Path) -> str | None:
+    """How a TDMS file stops short of what its segments' lead-ins declare (None: it holds them all).
+    npTDMS reads a file cut inside a lead-in as if it ended before it (a record of fewer samples),
+    and one cut inside the first segment's metadata as a file of no groups."""
+    size = file.stat().st_size
+    if size == 0:
+        return "empty: 0 bytes, no TDMS segment"
+    pos = 0
+    with open(file, "rb") as f:
+        while pos < size:
+            f.seek(pos)
+            lead = f.read(TDMS_LEAD_IN)
+            if lead[:4] != b"TDSm"[:len(lead)]:
+                return (f"not a TDMS file: it starts with {lead[:4]!r}, not b'TDSm'" if pos == 0 else
+                        f"damaged: the segment at byte {pos} starts with {lead[:4]!r}, not b'TDSm'")
+            if len(lead) < TDMS_LEAD_IN:
+                return (f"cut short at byte {size}: the segment at byte {pos} has {len(lead)} of its "
+                        f"{TDMS_LEAD_IN} lead-in bytes")
+            toc = struct.unpack("<l", lead[4:8])[0]
+            nxt, meta = struct.unpack((">" if toc & (1 << 6) else "<") + "QQ", lead[12:28])
+            start = pos + TDMS_LEAD_IN
+            if nxt == TDMS_UNSET:  # the writer stopped before it closed the segment
+                return f"cut short: the segment at byte {pos} was never completed (its length is unset)"
+            if start + meta > size:
+                return (f"cut short at byte {size}: the segment at byte {pos} declares metadata up to byte "
+                        f"{start + meta}")
+            if start + nxt > size:
+                return (f"cut short at byte {size}: the segment at byte {pos} declares data up to byte "
+                        f"{start + nxt}")
+            pos = start + nxt
+    return None
+
+
 def read_tdms_columns(file: Path, explicit: dict) -> Columns:
     """An NI TDMS file (npTDMS): the channels of ``group`` (default: the file's only group), each
     with its ``unit_string`` and ``wf_increment`` (s) properties."""
@@ -499,6 +539,12 @@ def read_tdms_columns(file: Path, explicit: dict) -> Columns:
     import logging
 
     where = str(file)
+    try:
+        cut = _tdms_cut(file)
+    except OSError as exc:
+        raise ConfigError(f"{where}: not a readable TDMS file: {exc.strerror or exc}") from None
+    if cut is not None:
+        raise ConfigError(f"{where}: {cut}")
     # npTDMS reads a file cut short as far as it goes and only logs it: its warnings are caught
     heard: list[str] = []
     handler = logging.Handler(logging.WARNING)
@@ -521,17 +567,19 @@ def read_tdms_columns(file: Path, explicit: dict) -> Columns:
         log.removeHandler(handler)
         for lg, handlers in own:
             lg.handlers = handlers
-    short = [m for m in heard if "less data than expected" in m or "not a multiple" in m]
+    short = [m for m in heard if any(w in m for w in ("less data than expected", "not a multiple", "incomplete"))]
     if short:
         raise ConfigError(f"{where}: the file is cut short (npTDMS: {short[0][:100]})")
     names = [g.name for g in groups]
     group = explicit.get("group")
+    if not groups:
+        raise ConfigError(f"{where}: no groups, so no channels")
     if group is None:
         if len(groups) != 1:
-            raise ConfigError(f"{where}: group: {'none' if not groups else ', '.join(names)}; name one with --group")
+            raise ConfigError(f"{where}: group: {len(names)} groups ({_listed(names)}); name one with --group")
         g = groups[0]
     elif group not in names:
-        raise ConfigError(f"{where}: group: no {group!r} (groups: {', '.join(names) or 'none'})")
+        raise ConfigError(f"{where}: group: no {group!r} (groups: {_listed(names)})")
     else:
         g = tdms[group]
     chans = g.channels()

@@ -422,6 +422,14 @@ def _tdms(**properties) -> Callable[[Path], None]:
     return write
 
 
+def _cut(write: Callable[[Path], None], keep: int) -> Callable[[Path], None]:
+    """The file ``write`` makes, cut after its first ``keep`` bytes."""
+    def cut(path: Path) -> None:
+        write(path)
+        path.write_bytes(path.read_bytes()[:keep])
+    return cut
+
+
 def _csv(text: str, *options: str) -> dict:
     return {"argv": lambda d: ["import", str(d / "p.h5"), str(d / "r.csv"), "--name", "new", *options],
             "files": {"r.csv": text}}
@@ -853,6 +861,8 @@ CASES: list[Case] = [
          argv=_imported("r.mat", _mat73_external, "--units", "g")),
     Case("import-tdms-increment-text", "TDMS channel whose wf_increment property is the text 'fast'", "{dir}/r.tdms: channel 'a1': property wf_increment is 'fast', not a number of seconds",
          argv=_imported("r.tdms", _tdms(wf_increment="fast"))),
+    Case("import-tdms-cut-metadata", "TDMS file of its first 40 bytes, cut inside its metadata (asked for --group)", "{dir}/r.tdms: cut short at byte 40: the segment at byte 0 declares metadata up to byte 126",
+         argv=_imported("r.tdms", _cut(_tdms(), 40))),
     Case("import-sidecar-type", "sidecar r.toml with `units = 5`", "{dir}/r.toml: field 'units': expected a text or a list of texts, got 5",
          argv=_imported("r.csv", lambda path: (path.write_text("a,b\n1,2\n3,4\n"), path.with_suffix(".toml").write_text("units = 5\n")), "--rate", "100")),
     Case("rig-names-nfc", "two sensors named 'é', one composed (U+00E9) and one as e + U+0301", "{dir}/bad.toml: two sensors share a name",

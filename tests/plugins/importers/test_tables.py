@@ -330,3 +330,64 @@ def test_a_time_column_in_another_unit_is_refused(tmp_path, registries):
     create_project(tmp_path / "p.h5", rig=None).close()
     with pytest.raises(OdsuiteError, match=r"r\.csv: channel 'time': time unit 'h' is not one of s, ms, us"):
         _import(registries, tmp_path / "p.h5", tmp_path / "r.csv")
+
+
+def _tdms_cut_at(path: Path, where: str) -> int:
+    """A two-segment TDMS file (the record, then 500 samples more) cut ``where``; the length it keeps."""
+    import struct
+
+    from nptdms import ChannelObject, TdmsWriter
+
+    _write_tdms(path)
+    with TdmsWriter(str(path), mode="a") as w:
+        w.write_segment([ChannelObject("Measurements", n, DATA[:, k]) for k, n in enumerate(NAMES)])
+    blob = path.read_bytes()
+    next_offset, meta = struct.unpack("<QQ", blob[12:28])
+    second = 28 + next_offset
+    keep = {"inside the lead-in": 10, "after the lead-in": 28, "inside the metadata": 28 + meta - 5,
+            "inside the data": 28 + meta + 100, "before the data's last byte": second - 1,
+            "inside the second lead-in": second + 10, "inside the second segment's data": len(blob) - 3}[where]
+    path.write_bytes(blob[:keep])
+    return keep
+
+
+@pytest.mark.parametrize("where", ["inside the lead-in", "after the lead-in", "inside the metadata", "inside the data",
+                                   "before the data's last byte", "inside the second lead-in",
+                                   "inside the second segment's data"])
+def test_a_tdms_file_cut_anywhere_is_refused_as_cut_short(tmp_path, registries, where):
+    # cut inside the first metadata npTDMS read no groups ('name one with --group'); cut inside a later
+    # lead-in, a file of fewer samples was imported
+    keep = _tdms_cut_at(tmp_path / "r.tdms", where)
+    create_project(tmp_path / "p.h5", rig=None).close()
+    with pytest.raises(OdsuiteError) as err:
+        _import(registries, tmp_path / "p.h5", tmp_path / "r.tdms")
+    message = str(err.value)
+    assert message.startswith(f"{tmp_path / 'r.tdms'}: cut short at byte {keep}: the segment at byte ")
+    assert "\n" not in message and "--group" not in message
+    with open_project(tmp_path / "p.h5") as p:
+        assert p.experiment_names() == []
+
+
+def test_an_empty_tdms_file_is_refused_as_empty(tmp_path, registries):
+    (tmp_path / "r.tdms").write_bytes(b"")
+    create_project(tmp_path / "p.h5", rig=None).close()
+    with pytest.raises(OdsuiteError, match=r"r\.tdms: empty: 0 bytes, no TDMS segment$"):
+        _import(registries, tmp_path / "p.h5", tmp_path / "r.tdms")
+
+
+def test_a_tdms_file_of_many_groups_names_a_few(tmp_path, registries):
+    # each of 3000 groups was named in the message asking for --group
+    from nptdms import ChannelObject, GroupObject, TdmsWriter
+
+    with TdmsWriter(str(tmp_path / "r.tdms")) as w:
+        w.write_segment([GroupObject(f"run{i}") for i in range(3000)] + [
+            ChannelObject(f"run{i}", "a1", DATA[:4, 0], properties={"unit_string": "g"}) for i in range(3000)])
+    create_project(tmp_path / "p.h5", rig=None).close()
+    with pytest.raises(OdsuiteError) as err:
+        _import(registries, tmp_path / "p.h5", tmp_path / "r.tdms")
+    assert str(err.value) == (f"{tmp_path / 'r.tdms'}: group: 3000 groups (run0, run1, run2, run3, run4, run5, run6, "
+                              "run7, ... (3000 in all)); name one with --group")
+    with pytest.raises(OdsuiteError) as err:
+        _import(registries, tmp_path / "p.h5", tmp_path / "r.tdms", group="run3000")
+    assert str(err.value).endswith("group: no 'run3000' (groups: run0, run1, run2, run3, run4, run5, run6, run7, "
+                                   "... (3000 in all))")
