@@ -428,6 +428,43 @@ def _mat_rate(mat: dict, where: str) -> float | None:
     return None
 
 
+#: a MATLAB v5-v7.2 file: a header of this many bytes, then one element per variable, each a tag
+#: (type, byte count) and its bytes
+MAT_HEADER = 128
+
+
+def _mat_cut(file: Path) -> str | None:
+    """How a v5-v7.2 .mat file stops short of what its variables' tags declare (None: it holds them
+    all, or is of another version). scipy reads a file cut inside a tag as if it ended before it (a
+    file without its later variables)."""
+    from scipy.io.matlab import matfile_version
+
+    size = file.stat().st_size
+    with open(file, "rb") as f:
+        if f.read(6) == b"MATLAB" and size < MAT_HEADER:  # v5 or v7.3 (HDF5 behind this header)
+            return f"cut short at byte {size}: its header has {size} of its {MAT_HEADER} bytes"
+        f.seek(0)
+        try:
+            if matfile_version(f)[0] != 1:
+                return None
+        except Exception:  # noqa: BLE001 - not a .mat file at all: scipy's read names it
+            return None
+        order = "<" if f.seek(126) == 126 and f.read(2) == b"IM" else ">"
+        pos, k = MAT_HEADER, 1
+        while pos < size:
+            f.seek(pos)
+            tag = f.read(8)
+            if len(tag) < 8:
+                return f"cut short at byte {size}: variable {k}'s tag at byte {pos} has {len(tag)} of its 8 bytes"
+            kind, count = struct.unpack(order + "II", tag)
+            end = pos + 8 + count
+            if end > size:
+                return f"cut short at byte {size}: variable {k} at byte {pos} declares its data up to byte {end}"
+            pos = end + (-count % 8 if kind != 15 else 0)  # all but compressed ones padded to 8 bytes
+            k += 1
+    return None
+
+
 def read_mat_columns(file: Path, explicit: dict) -> Columns:
     """A MATLAB .mat (v4-v7.2 via scipy.io; v7.3 is HDF5, via h5py): the array ``variable``, else
     the file's only 2-D numeric array; ``fs``/``sampling_rate``, ``channels`` and ``units``
@@ -435,6 +472,12 @@ def read_mat_columns(file: Path, explicit: dict) -> Columns:
     import scipy.io
 
     where = str(file)
+    try:
+        cut = _mat_cut(file)
+    except OSError as exc:
+        raise ConfigError(f"{where}: not a readable MATLAB .mat file: {exc.strerror or exc}") from None
+    if cut is not None:
+        raise ConfigError(f"{where}: {cut}")
     try:
         mat = {k: v for k, v in scipy.io.loadmat(file).items() if not k.startswith("__")}
     except NotImplementedError:  # v7.3: HDF5

@@ -855,6 +855,8 @@ CASES: list[Case] = [
          argv=_imported("r.mat", _mat(fs="abc"), "--units", "g")),
     Case("import-mat-corrupt", ".mat of 128 zero bytes", "{dir}/r.mat: not a readable MATLAB .mat file: Mat file appears to be corrupt",
          argv=_imported("r.mat", lambda path: path.write_bytes(bytes(128)), "--units", "g", "--rate", "100")),
+    Case("import-mat-cut-tag", ".mat cut 3 bytes into its second variable's tag (read as a file without `fs` and `units`)", "{dir}/r.mat: cut short at byte 1787: variable 2's tag at byte 1784 has 3 of its 8 bytes",
+         argv=_imported("r.mat", _cut(_mat(fs=100.0, units="g"), 1787))),
     Case("import-mat-units-empty", ".mat whose `units` is an empty text", "{dir}/r.mat: variable 'units': empty",
          argv=_imported("r.mat", _mat(fs=100.0, units=""))),
     Case("import-mat73-external", "MATLAB v7.3 .mat whose array is HDF5 external storage on another file", "{dir}/r.mat: variable 'data': its data are stored in other files (HDF5 external storage or a virtual dataset); refused",

@@ -391,3 +391,27 @@ def test_a_tdms_file_of_many_groups_names_a_few(tmp_path, registries):
         _import(registries, tmp_path / "p.h5", tmp_path / "r.tdms", group="run3000")
     assert str(err.value).endswith("group: no 'run3000' (groups: run0, run1, run2, run3, run4, run5, run6, run7, "
                                    "... (3000 in all))")
+
+
+@pytest.mark.parametrize("compressed", [False, True])
+@pytest.mark.parametrize("where", ["inside the header", "inside a tag", "inside the data", "inside the last variable"])
+def test_a_mat_file_cut_short_is_refused_naming_where(tmp_path, registries, compressed, where):
+    # scipy read a file cut inside a tag as one without its later variables, and named a cut header
+    # 'index out of range'
+    scipy.io.savemat(tmp_path / "full.mat", {"data": DATA, "fs": FS, "units": "g"}, do_compression=compressed)
+    blob = (tmp_path / "full.mat").read_bytes()
+    first = 128 + 8 + int.from_bytes(blob[132:136], "little")  # the end of the first variable
+    first += 0 if compressed else -first % 8
+    keep = {"inside the header": 60, "inside a tag": first + 3, "inside the data": 128 + 8 + 40,
+            "inside the last variable": len(blob) - 1}[where]
+    (tmp_path / "r.mat").write_bytes(blob[:keep])
+    create_project(tmp_path / "p.h5", rig=None).close()
+    with pytest.raises(OdsuiteError) as err:
+        _import(registries, tmp_path / "p.h5", tmp_path / "r.mat")
+    expected = {"inside the header": "cut short at byte 60: its header has 60 of its 128 bytes",
+                "inside a tag": f"cut short at byte {keep}: variable 2's tag at byte {first} has 3 of its 8 bytes",
+                "inside the data": f"cut short at byte {keep}: variable 1 at byte 128 declares its data up to byte ",
+                "inside the last variable": f"cut short at byte {keep}: variable 3 at byte "}[where]
+    assert str(err.value).startswith(f"{tmp_path / 'r.mat'}: {expected}"), str(err.value)
+    with open_project(tmp_path / "p.h5") as p:
+        assert p.experiment_names() == []
