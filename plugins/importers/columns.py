@@ -24,7 +24,16 @@ UNITS = {
     "m/s^2": (SensorType.ACCELEROMETER, 1.0), "m/s2": (SensorType.ACCELEROMETER, 1.0),
     "m/s²": (SensorType.ACCELEROMETER, 1.0),
     "g": (SensorType.ACCELEROMETER, 1.0 / G), "volts": (SensorType.VOLTAGE, 1.0), "v": (SensorType.VOLTAGE, 1.0),
+    "volt": (SensorType.VOLTAGE, 1.0),
 }
+
+
+def check_units(names: list[str], units: list[str], where: str) -> None:
+    """Refuse a unit label none of UNITS (an empty one is a column without a unit): 'mg', 'kN' or
+    'mm/s^2' stored as they are would be read at the wrong scale."""
+    for n, u in zip(names, units):
+        if u.strip() and u.strip().lower() not in UNITS:
+            raise ConfigError(f"{where}: channel {n!r}: unit {u!r} is not one of m/s^2, g, N, V")
 
 
 def force_index(names: list[str], units: list[str], force_channel: str | None, where: str) -> int | None:
@@ -73,6 +82,7 @@ def import_columns(project: str | Path, file: str | Path, name: str, names: list
                    force_body: str | None = None) -> tuple[str, ...]:
     """Add a file's named columns (``data``: samples x columns in ``units``, at ``fs`` Hz) to a
     project as experiment ``name``, as :func:`import_lvm` says; returns notes for the user."""
+    check_units(list(names), list(units), str(file))
     with open_project(project, "a") as p:
         on_rig = p.rig is not None and (force_point is not None or force_dir is not None
                                         or names_the_rig(p.rig, names))

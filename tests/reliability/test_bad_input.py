@@ -544,6 +544,8 @@ CASES: list[Case] = [
     Case("lvm-delta-x", ".lvm with Delta_X 0", "{dir}/bad.lvm: field Delta_X of channel 0 is '0'; it must be > 0", **lvm(LVM_TEXT.replace("1,0E-4\t1,0E-4", "0\t0"))),
     Case("lvm-no-data", ".lvm with a channel header and no rows", '{dir}/bad.lvm: no data rows after the channel header',
          **lvm(LVM_TEXT[:LVM_TEXT.index("\t0,5")])),
+    Case("lvm-unit-prefix", ".lvm whose force column is labelled `mN` (stored as volts at scale 1)", "{dir}/bad.lvm: channel 'Force': unit 'mN' is not one of m/s^2, g, N, V",
+         **lvm(LVM_TEXT.replace("Y_Unit_Label\tNewtons", "Y_Unit_Label\tmN"))),
     Case("lvm-force-channel", "--force-channel names no channel of the file", "{dir}/bad.lvm: no channel 'Hammer'; channels are Force, Response", **lvm(LVM_TEXT, "--force-channel", "Hammer")),
     # UFF (API)
     Case("uff-missing", "UFF file that does not exist (API)", '{dir}/none.uff: UFF file not found', call=lambda d: _read_uff(d, "none.uff")),

@@ -415,3 +415,54 @@ def test_a_mat_file_cut_short_is_refused_naming_where(tmp_path, registries, comp
     assert str(err.value).startswith(f"{tmp_path / 'r.mat'}: {expected}"), str(err.value)
     with open_project(tmp_path / "p.h5") as p:
         assert p.experiment_names() == []
+
+
+LVM_HEAD = ("LabVIEW Measurement\t\nWriter_Version\t2\nReader_Version\t2\nSeparator\tTab\nDecimal_Separator\t.\n"
+            "Multi_Headings\tYes\nX_Columns\tNo\nTime_Pref\tAbsolute\n***End_of_Header***\t\n\t\n"
+            "Channels\t2\t\t\nSamples\t4\t4\t\nY_Unit_Label\t{unit}\tm/s^2\t\nX_Dimension\tTime\tTime\t\n"
+            "X0\t0.0E+0\t0.0E+0\t\nDelta_X\t1.0E-3\t1.0E-3\t\n***End_of_Header***\t\t\t\n"
+            "X_Value\ta\tr\tComment\n\t0.5\t1.0\n\t1.5\t2.0\n\t0.1\t-1.0\n\t0.0\t0.5\n")
+
+
+def _record_in(tmp_path: Path, fmt: str, unit: str) -> Path:
+    """Columns a = 0.5, 1.5, 0.1, 0 in ``unit`` and r in m/s^2 at 1000 Hz, written as ``fmt``."""
+    a, r = [0.5, 1.5, 0.1, 0.0], [1.0, 2.0, -1.0, 0.5]
+    if fmt == "lvm":
+        (tmp_path / "r.lvm").write_text(LVM_HEAD.format(unit=unit), encoding="latin-1")
+    elif fmt == "csv":
+        (tmp_path / "r.csv").write_text(f"time,a [{unit}],r [m/s^2]\n" + "".join(
+            f"{k / 1000},{x},{y}\n" for k, (x, y) in enumerate(zip(a, r))), encoding="utf-8")
+    else:
+        _write_tdms(tmp_path / "r.tdms", np.column_stack([a, r]), ["a", "r"], [unit, "m/s^2"], 1e-3)
+    return tmp_path / f"r.{fmt}"
+
+
+@pytest.mark.parametrize("fmt", ["csv", "tdms", "lvm"])
+@pytest.mark.parametrize("unit, si, sensor", [("m/s^2", 1.5, "ACCELEROMETER"), ("M/S^2", 1.5, "ACCELEROMETER"),
+                                              ("g", 1.5 * G, "ACCELEROMETER"), ("G", 1.5 * G, "ACCELEROMETER"),
+                                              ("N", 1.5, "LOADCELL"), ("Newtons", 1.5, "LOADCELL"),
+                                              ("V", 1.5, "VOLTAGE"), ("volt", 1.5, "VOLTAGE"), ("Volts", 1.5, "VOLTAGE")])
+def test_a_known_unit_is_stored_in_si(tmp_path, registries, fmt, unit, si, sensor):
+    # 'volt' was accepted as a unit but stored as no sensor (left out of processing)
+    file = _record_in(tmp_path, fmt, unit)
+    create_project(tmp_path / "p.h5", rig=None).close()
+    _import(registries, tmp_path / "p.h5", file)
+    with open_project(tmp_path / "p.h5") as p:
+        exp = p.experiment("rec")
+        assert physical(exp)[1, 0] == pytest.approx(si, rel=1e-12)
+        assert physical(exp)[1, 1] == 2.0
+        assert exp.systeminfo.channels[0].sensor_type.name == sensor
+
+
+@pytest.mark.parametrize("fmt", ["csv", "tdms", "lvm"])
+@pytest.mark.parametrize("unit", ["mg", "km", "km/s^2", "mm/s^2", "mN", "kN", "MN", "mV", "kV", "lbf", "ft/s^2"])
+def test_a_unit_of_another_scale_is_refused_naming_channel_and_unit(tmp_path, registries, fmt, unit):
+    # a LabVIEW column in mg, mN or mm/s^2 was stored as volts at scale 1, silently
+    file = _record_in(tmp_path, fmt, unit)
+    create_project(tmp_path / "p.h5", rig=None).close()
+    with pytest.raises(OdsuiteError) as err:
+        _import(registries, tmp_path / "p.h5", file)
+    assert str(err.value).startswith(str(file))
+    assert str(err.value).endswith(f"channel 'a': unit {unit!r} is not one of m/s^2, g, N, V")
+    with open_project(tmp_path / "p.h5") as p:
+        assert p.experiment_names() == []
