@@ -16,6 +16,7 @@ from odsuite.api import ChannelInfo, SensorType, Systeminfo
 from odsuite.api import Excitation, open_project
 from odsuite_plugins.importers.lvm import read_lvm
 from odsuite_plugins.importers.rig_import import names_the_rig, onto_rig
+from odsuite_plugins.importers.tables import _listed
 
 G = 9.80665
 #: LabVIEW unit labels -> (sensor type, volts per SI unit of the stored value)
@@ -42,7 +43,7 @@ def force_index(names: list[str], units: list[str], force_channel: str | None, w
     only). A column whose unit says it is a response is never taken as the force."""
     if force_channel is not None:
         if force_channel not in names:
-            raise ConfigError(f"{where}: no channel {force_channel!r}; channels are {', '.join(names)}")
+            raise ConfigError(f"{where}: no channel {force_channel!r}; channels are {_listed(names)}")
         k = names.index(force_channel)
         stype = UNITS.get(units[k].strip().lower(), (SensorType.NONE, 1.0))[0]
         if stype not in (SensorType.LOADCELL, SensorType.NONE, SensorType.VOLTAGE):
@@ -51,7 +52,8 @@ def force_index(names: list[str], units: list[str], force_channel: str | None, w
         return k
     cand = [i for i, (n, u) in enumerate(zip(names, units)) if u.lower() in ("n", "newtons") or "force" in n.lower()]
     if len(cand) > 1:
-        raise ConfigError(f"{where}: cannot tell the force channel among {', '.join(names)}; give --force-channel")
+        raise ConfigError(f"{where}: cannot tell the force channel among {_listed([names[k] for k in cand])}; "
+                          "give --force-channel")
     return cand[0] if cand else None
 
 
@@ -97,7 +99,7 @@ def import_columns(project: str | Path, file: str | Path, name: str, names: list
             raise ConfigError(f"{file}: --force-point/--force-dir/--force-body need a project with a rig geometry")
         notes: tuple[str, ...] = ()
         if p.rig is not None:  # e.g. a single-point beam test kept beside the rig's records
-            notes = (f"{file}: its columns ({', '.join(names)}) are not rig {p.rig.name!r}'s channels: "
+            notes = (f"{file}: its columns ({_listed(list(names))}) are not rig {p.rig.name!r}'s channels: "
                      "stored as they are, without the rig's geometry",)
         fidx = force_index(list(names), list(units), force_channel, str(file))
         if fidx is None:

@@ -109,14 +109,14 @@ class TableImporter:
     def import_file(self, project, file, name, *, rate=None, channels=None, units=None, variable=None, group=None,
                     force_channel=None, force_point=None, force_dir=None, force_body=None) -> Imported:
         from odsuite_plugins.importers.columns import import_columns
-        from odsuite_plugins.importers.tables import read_columns
+        from odsuite_plugins.importers.tables import _listed, read_columns
 
         c = read_columns(file, {"sampling_rate": rate, "channels": channels, "units": units, "variable": variable,
                                 "group": group}, self.suffixes[0])
         notes = import_columns(project, file, name, c.names, c.units, c.data, c.fs, force_channel,
                                **_hammer(force_point, force_dir, force_body))
         return Imported(name, f"{self.name} file {Path(file).name}: {c.data.shape[1]} channels "
-                              f"({', '.join(f'{n} [{u}]' for n, u in zip(c.names, c.units))}) x {c.data.shape[0]} "
+                              f"({_listed([f'{n} [{u}]' for n, u in zip(c.names, c.units)])}) x {c.data.shape[0]} "
                               f"samples at {c.fs:g} Hz as experiment {name!r}", tuple(notes))
 
 

@@ -488,12 +488,12 @@ def read_mat_columns(file: Path, explicit: dict) -> Columns:
     variable = explicit.get("variable")
     if variable is not None:
         if variable not in mat:
-            raise ConfigError(f"{where}: variable: no {variable!r} (variables: {', '.join(mat) or 'none'})")
+            raise ConfigError(f"{where}: variable: no {variable!r} (variables: {_listed(list(mat)) or 'none'})")
         data = mat[variable]
     elif len(numeric) == 1:
         variable, data = next(iter(numeric.items()))
     else:
-        raise ConfigError(f"{where}: variable: {'no numeric array' if not numeric else 'arrays ' + ', '.join(numeric)}"
+        raise ConfigError(f"{where}: variable: {'no numeric array' if not numeric else f'{len(numeric)} arrays ({_listed(list(numeric))})'}"
                           f"{'' if not numeric else '; name one with --variable'}")
     if not isinstance(data, np.ndarray) or data.dtype.kind not in "fiu":
         raise ConfigError(f"{where}: variable {variable!r}: not an array of real numbers")
@@ -632,7 +632,7 @@ def read_tdms_columns(file: Path, explicit: dict) -> Columns:
     lengths = {c.name: len(v) for c, v in zip(chans, cols)}
     if len(set(lengths.values())) > 1:
         raise DimensionError(f"{where}: group {g.name!r}: channels of different lengths "
-                             f"({', '.join(f'{k} {v}' for k, v in lengths.items())} samples)")
+                             f"({_listed([f'{k} {v}' for k, v in lengths.items()])} samples)")
     for c, v in zip(chans, cols):
         if v.dtype.kind not in "fiu":
             raise ConfigError(f"{where}: channel {c.name!r}: data type {v.dtype} is not real numbers")
@@ -650,7 +650,7 @@ def read_tdms_columns(file: Path, explicit: dict) -> Columns:
     if known:
         if len(set(known.values())) > 1:
             raise ConfigError(f"{where}: group {g.name!r}: channels sampled at different rates (wf_increment "
-                              f"{', '.join(f'{k} {v:g} s' for k, v in known.items())})")
+                              f"{_listed([f'{k} {v:g} s' for k, v in known.items()])})")
         step = next(iter(known.values()))
         fs = 1.0 / step if step > 0 else step
     missing = [c.name for c, u in zip(chans, units) if not u]

@@ -466,3 +466,27 @@ def test_a_unit_of_another_scale_is_refused_naming_channel_and_unit(tmp_path, re
     assert str(err.value).endswith(f"channel 'a': unit {unit!r} is not one of m/s^2, g, N, V")
     with open_project(tmp_path / "p.h5") as p:
         assert p.experiment_names() == []
+
+
+def test_a_mat_file_of_thousands_of_arrays_names_a_few(tmp_path, registries):
+    # each of 3000 arrays was named in the message asking for --variable (a 20 kB line)
+    scipy.io.savemat(tmp_path / "r.mat", {f"run{i}": np.arange(3.0) + i for i in range(3000)})
+    create_project(tmp_path / "p.h5", rig=None).close()
+    with pytest.raises(OdsuiteError) as err:
+        _import(registries, tmp_path / "p.h5", tmp_path / "r.mat", rate=FS, units="g")
+    assert str(err.value) == (f"{tmp_path / 'r.mat'}: variable: 3000 arrays (run0, run1, run2, run3, run4, run5, run6, "
+                              "run7, ... (3000 in all)); name one with --variable")
+    with pytest.raises(OdsuiteError) as err:
+        _import(registries, tmp_path / "p.h5", tmp_path / "r.mat", rate=FS, units="g", variable="data")
+    assert str(err.value).endswith("variable: no 'data' (variables: run0, run1, run2, run3, run4, run5, run6, run7, "
+                                   "... (3000 in all))")
+
+
+def test_the_summary_of_a_record_of_thousands_of_channels_names_a_few(tmp_path, registries):
+    # the summary line named all 3000 channels with their units (44 kB)
+    _write_tdms(tmp_path / "r.tdms", np.tile(DATA[:, :1], 3000), [f"c{k}" for k in range(3000)], ["g"] * 3000)
+    create_project(tmp_path / "p.h5", rig=None).close()
+    res = _import(registries, tmp_path / "p.h5", tmp_path / "r.tdms")
+    assert res.summary == ("tdms file r.tdms: 3000 channels (c0 [g], c1 [g], c2 [g], c3 [g], c4 [g], c5 [g], c6 [g], "
+                           "c7 [g], ... (3000 in all)) x 500 samples at 2048 Hz as experiment 'rec'")
+    assert all(len(n) < 400 for n in res.notes)
