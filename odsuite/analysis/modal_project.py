@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from odsuite.domain.errors import ConfigError
+from odsuite.domain.errors import ConfigError, DimensionError
 from odsuite.analysis.frf import FrfSet, estimate_frf
 from odsuite.analysis.hammer import assess_hits, held_range
 from odsuite.analysis.modal import ModalResult, identify_modes
@@ -211,8 +211,11 @@ def experiment_output_only_modes(
         names = [exp.channel_names[k] for k in outs]
         units = {exp.systeminfo.channels[k].unit for k in outs}
         fs = exp.sampling_rate
-    res = identify_output_only(data[:, outs], fs, f_band=f_band, max_order=max_order, block_rows=block_rows,
-                               decimation=decimation, output_names=names)
+    try:
+        res = identify_output_only(data[:, outs], fs, f_band=f_band, max_order=max_order, block_rows=block_rows,
+                                   decimation=decimation, output_names=names)
+    except (ConfigError, DimensionError) as exc:  # said of the responses alone: the record is named here
+        raise type(exc)(f"{project}: experiment {experiment!r}: {exc}") from None
     freq, psd = scipy.signal.welch(data[:, outs], fs, nperseg=min(4096, data.shape[0]), axis=0)
     unit = f"{units.pop()}/√Hz" if len(units) == 1 else "mixed units"
     return res, freq, np.sqrt(psd.T), unit

@@ -204,10 +204,7 @@ def project_setups_modes(project: str | Path, experiments: Sequence[str], *, ref
             names.append((e, [exp.channel_names[k] for k in response_columns(exp)]))
     refs = check_references(names, references, where)
     results = []
-    for e in experiments:
-        try:
-            results.append(experiment_output_only_modes(project, e, f_band=f_band, max_order=max_order,
-                                                        block_rows=block_rows, decimation=decimation)[0])
-        except ConfigError as exc:
-            raise ConfigError(f"setup {e!r}: {exc}") from None
+    for e in experiments:  # a refusal names the project and the setup's experiment
+        results.append(experiment_output_only_modes(project, e, f_band=f_band, max_order=max_order,
+                                                    block_rows=block_rows, decimation=decimation)[0])
     return merge_setups(results, experiments, refs, where)

@@ -219,3 +219,17 @@ def test_ods_prints_the_bodies_motion_with_a_prefix(tmp_path, capsys):
         assert unit.endswith(doc["coordinate_units"][c]) and not re.search(r"\de[-+]", line)
         exact = abs(complex(*doc["coordinates"]["platform"][c]))
         assert value * scale[unit] == pytest.approx(exact, rel=6e-3)
+
+
+def test_a_short_operating_record_is_refused_naming_project_and_experiment(tmp_path, capsys):
+    # the refusal named the model order and the samples but neither the project nor the record
+    project = tmp_path / "p.h5"
+    np.save(tmp_path / "short.npy", np.random.default_rng(1).normal(size=(40, 3)))
+    assert main(["new", str(project), "--rig", "none"]) == 0
+    assert main(["import", str(project), str(tmp_path / "short.npy"), "--name", "walk", "--rate", "100",
+                 "--units", "m/s^2"]) == 0
+    capsys.readouterr()
+    assert main(["modes", str(project), "--experiment", "walk", "--output-only"]) == 1
+    assert capsys.readouterr().err == (
+        f"error: {project}: experiment 'walk': --max-order 40: 15 block rows x 3 outputs hold it, whose lags "
+        "(2 x 15) need at least 60 samples at 100 Hz; the record has 40 (give a lower --max-order)\n")

@@ -101,8 +101,8 @@ def test_modes_output_only_through_the_cli(tmp_path, operating, capsys):
     assert main(["modes", str(p), "--experiment", "run", "--output-only", "--block-rows", "2", "--json"]) == 1
     captured = capsys.readouterr()
     # the output-only default order is 40 (oma.MAX_ORDER): 14 block rows x 3 outputs hold it
-    line = ("--block-rows 2: 2 x 3 outputs cannot hold model order 40 (give at least 14 or a lower "
-            "--max-order)")
+    line = (f"{p}: experiment 'run': --block-rows 2: 2 x 3 outputs cannot hold model order 40 (give at least 14 "
+            "or a lower --max-order)")
     assert json.loads(captured.out) == {"error": line} and captured.err.strip() == f"error: {line}"
 
 
