@@ -665,6 +665,8 @@ def read_columns(file: str | Path, options: dict, suffix: str | None = None) -> 
     """The file's record by ``suffix`` (the importer's, when --format chose it) or the file's own,
     the sidecar's fields under the options given."""
     file = Path(file)
+    if file.is_dir():
+        raise ConfigError(f"{file}: a folder, not a file")
     if not file.is_file():
         raise ConfigError(f"{file}: no such file")
     kind = (suffix or file.suffix).lower()

@@ -5,6 +5,7 @@ malformed file refused in one line naming file, field or channel and value."""
 from __future__ import annotations
 
 import csv
+import re
 from pathlib import Path
 
 import numpy as np
@@ -490,3 +491,12 @@ def test_the_summary_of_a_record_of_thousands_of_channels_names_a_few(tmp_path, 
     assert res.summary == ("tdms file r.tdms: 3000 channels (c0 [g], c1 [g], c2 [g], c3 [g], c4 [g], c5 [g], c6 [g], "
                            "c7 [g], ... (3000 in all)) x 500 samples at 2048 Hz as experiment 'rec'")
     assert all(len(n) < 400 for n in res.notes)
+
+
+@pytest.mark.parametrize("fmt", ["csv", "npy", "mat", "tdms"])
+def test_a_folder_named_like_a_record_is_refused_as_a_folder(tmp_path, registries, fmt):
+    # it was refused as 'no such file', beside the folder it is
+    (tmp_path / f"r.{fmt}").mkdir()
+    create_project(tmp_path / "p.h5", rig=None).close()
+    with pytest.raises(OdsuiteError, match=rf"^{re.escape(str(tmp_path / f'r.{fmt}'))}: a folder, not a file$"):
+        _import(registries, tmp_path / "p.h5", tmp_path / f"r.{fmt}", rate=FS, units="g")
