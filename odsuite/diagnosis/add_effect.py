@@ -71,8 +71,14 @@ def _add_effect(project, name: str, *, progress: Callable[[str, int, int], None]
     regs = project.registries
     if "+" in name and name not in regs.effects.names():
         # a pair the diagnosis fitted jointly: each added in turn, the last step refitting all of them
-        # together (as every addition does)
-        steps = [add_effect(project, part, progress=progress) for part in name.split("+")]
+        # together (as every addition does); every name known before the first is fitted, and the
+        # steps stored in one commit: a step that fails leaves the project as it was
+        for part in name.split("+"):
+            if part not in regs.effects.names():
+                raise ConfigError(f"{project.path}: effect {name!r}: unknown effect {part!r} "
+                                  f"(known: {', '.join(regs.effects.names())})")
+        with project.transaction():
+            steps = [add_effect(project, part, progress=progress) for part in name.split("+")]
         return steps[-1] | {"effect": name, "previous_error": steps[0]["previous_error"], "steps": steps}
     effect = regs.effects.get(name)
     rev = current_revision(project)
