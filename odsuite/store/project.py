@@ -579,6 +579,9 @@ class Project:
             raise ConfigError(f"{where}: pretrigger must be an integer >= 0 samples, got {pretrigger!r}")
         if n_samples is not None and (not isinstance(n_samples, int | np.integer) or n_samples <= 0):
             raise ConfigError(f"{where}: n_samples must be an integer > 0, got {n_samples!r}")
+        if n_samples is not None and pretrigger > n_samples:
+            raise ConfigError(f"{where}: pretrigger must be 0 to {n_samples} samples (the record's length), "
+                              f"got {pretrigger}")
         if not isinstance(systeminfo, Systeminfo):
             raise ConfigError(f"{where}: systeminfo must be a Systeminfo, got {type(systeminfo).__name__}")
         for i, ch in enumerate(systeminfo.channels):
@@ -599,6 +602,9 @@ class Project:
         first = _check_chunk(where, first, None, 0, names if len(names) == n_ch else None)
         if not streamed:
             n_samples = first.shape[0]
+            if pretrigger > n_samples:
+                raise ConfigError(f"{where}: pretrigger must be 0 to {n_samples} samples (the record's length), "
+                                  f"got {pretrigger}")
         if first.shape[0] == 0 and not streamed:
             raise DimensionError(f"{where}: raw data have no samples (shape {first.shape})")
         if len(systeminfo.channels) != n_ch:
@@ -621,6 +627,12 @@ class Project:
                              **exc_attrs}.items():
                     h5text.set_attrs(g, {k: v})
                 write_systeminfo(g, systeminfo, names)
+                # what the reader would refuse is never stored (a streamed record's length is known
+                # only now): read back with every check of the reader
+                try:
+                    Experiment(self, name)
+                except ProjectFileError as exc:
+                    raise ConfigError(str(exc)) from None
             except BaseException:
                 del experiments[name]  # keep an enclosing transaction free of a half experiment
                 raise
@@ -928,10 +940,13 @@ class Project:
 
     @_reads()
     def verify(self) -> dict[str, int]:
-        """Read every checksummed dataset; ProjectFileError names the first corrupted experiment.
+        """Read every checksummed dataset, after every check the readers make of the model
+        revisions and of each experiment (a missing record, a field out of range: what `info` would
+        refuse is never "intact"); ProjectFileError names the first fault.
 
         Returns the number of datasets checked per experiment.
         """
+        self.model_revisions()
         checked: dict[str, int] = {}
         for name in self.experiment_names():
             datasets: list[h5py.Dataset] = []
@@ -939,9 +954,13 @@ class Project:
             if not isinstance(group, h5py.Group):
                 raise ProjectFileError(f"{self.path}: experiment {name!r} is a {type(group).__name__}, "
                                        "not an experiment group")
-            raw = group.get("raw")
-            if isinstance(raw, h5py.Dataset) and not raw.fletcher32:  # odsuite writes every record with one
-                raise ProjectFileError(f"{self.path}: experiment {name!r}: dataset {raw.name} has no checksum, "
+            self.experiment(name)
+            unchecked: list[str] = []
+            # odsuite writes every record and every derived dataset that holds a value with a checksum
+            group.visititems(lambda n, o: unchecked.append(o.name) if isinstance(o, h5py.Dataset) and not o.fletcher32
+                             and (n == "raw" or n.startswith("derived/") and o.size) else None)
+            if unchecked:
+                raise ProjectFileError(f"{self.path}: experiment {name!r}: dataset {unchecked[0]} has no checksum, "
                                        "so it cannot be verified (not written by odsuite)")
             group.visititems(
                 lambda _n, o: datasets.append(o) if isinstance(o, h5py.Dataset) and o.fletcher32 else None)

@@ -381,3 +381,15 @@ def test_a_project_keeps_its_rigs_ctr_and_never_reads_the_path_it_names(tmp_path
             assert p.rig.systeminfo_file == kept and p.rig.systeminfo_text is None
             channels = Systeminfo.for_rig(p.rig, 20000.0).channels
             assert len(channels) == p.rig.channel_count and all("hunter2" not in c.location for c in channels)
+
+
+@pytest.mark.parametrize("streamed", [False, True])
+def test_a_record_the_reader_would_refuse_is_not_stored(tmp_path, streamed):
+    # a pre-trigger longer than the record was stored, then refused by every reader: info, compare
+    # and report failed on the project for good
+    raw = np.zeros((100, 2))
+    with create_project(tmp_path / "p.h5", rig=None) as p:
+        with pytest.raises(ConfigError, match=r"experiment 'e1'.*pretrigger.* 0 to 100 samples.*got 500"):
+            p.add_experiment("e1", iter([raw[:60], raw[60:]]) if streamed else raw, sampling_rate=500.0,
+                             systeminfo=systeminfo(2, rate=500.0), excitation=None, pretrigger=500)
+        assert p.experiment_names() == []

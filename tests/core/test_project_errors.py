@@ -190,6 +190,44 @@ def test_corrupted_raw_chunk_is_named_by_verify(project_path, tmp_path):
             p.experiment("e2").raw(rows, rows + 10)
 
 
+@pytest.mark.parametrize("damage, named", [
+    (lambda f: f.__delitem__("experiments/e2/raw"), "experiment 'e2'"),
+    (lambda f: f["experiments/e2"].attrs.__setitem__("pretrigger", 10**6), "field 'pretrigger'"),
+    (lambda f: f["experiments/e1"].attrs.__setitem__("sampling_rate", "fast"), "field 'sampling_rate'"),
+])
+def test_verify_runs_the_readers_checks(project_path, tmp_path, damage, named):
+    # verify said "intact" (exit 0) for a project whose record was deleted or whose fields `info`
+    # refuses: it read the checksummed datasets alone
+    bad = tmp_path / "bad.h5"
+    shutil.copyfile(project_path, bad)
+    with h5py.File(bad, "r+") as f:
+        damage(f)
+    with open_project(bad) as p:
+        with pytest.raises(ProjectFileError) as err:
+            p.verify()
+    assert named in _one_line(err.value) and str(bad) in str(err.value)
+
+
+def test_verify_names_a_derived_dataset_rewritten_without_its_checksum(project_path, tmp_path):
+    from odsuite.store.project import DerivedArray
+
+    with open_project(project_path, "a") as p:
+        p.write_derived("e1", "processed", {"acceleration": DerivedArray(np.ones((10, 3)), "m/s^2", ("sample", "channel"))},
+                        provenance={"plugin": "test", "version": "1", "parameters": {}, "inputs": []})
+    with open_project(project_path) as p:
+        assert p.verify() == {"e1": 2, "e2": 1}
+    with h5py.File(project_path, "r+") as f:
+        g = f["experiments/e1/derived/processed"]
+        attrs = dict(g["acceleration"].attrs)
+        del g["acceleration"]
+        g.create_dataset("acceleration", data=np.zeros((10, 3)))  # no checksum: the count dropped it
+        g["acceleration"].attrs.update(attrs)
+    with open_project(project_path) as p:
+        with pytest.raises(ProjectFileError, match=r"experiment 'e1': dataset /experiments/e1/derived/processed/"
+                                                   r"acceleration has no checksum"):
+            p.verify()
+
+
 def test_failed_write_is_a_project_error_and_changes_nothing(project_path, monkeypatch):
     before = _digest(project_path)
     with open_project(project_path, "a") as p:
