@@ -25,6 +25,7 @@ from odsuite.domain.errors import ConfigError
 from odsuite.analysis.disturbances import disturbance_basis
 from odsuite.analysis.noise_floor import (
     FEWEST_BEFORE,
+    HIT_GUARD_S,
     active_var,
     moving_samples,
     split_noise,
@@ -486,9 +487,13 @@ def prepare_experiment(project, name: str, exp=None) -> PreparedExperiment:
              np.column_stack([r[tap] for r in run_each(to_tap, quiet.local_drift)]))
     before = quiet_before(quiet.quiet)
     if before < FEWEST_BEFORE:
-        notes.append(f"{where}: {before} samples before the hit (fewer than {FEWEST_BEFORE}): the noise is measured "
-                     "on the record's last samples, where the response may still ring, and the floor may read high "
-                     "(record more samples before the trigger)")
+        # the samples just before the hit are left out (zero-phase filters ring backwards from it):
+        # a record needs that many more before its trigger than it counts quiet
+        guard = int(round(HIT_GUARD_S * exp.sampling_rate))
+        notes.append(f"{where}: {before} quiet samples before the hit (fewer than {FEWEST_BEFORE}; of {trigger} before "
+                     f"the trigger, the last {1e3 * HIT_GUARD_S:g} ms are left out): the noise is measured on the "
+                     "record's last samples, where the response may still ring, and the floor may read high (record "
+                     f"{FEWEST_BEFORE + guard} or more samples before the trigger)")
     reaching = [j for j, ch in enumerate(infos) if ch.offset_length > 0 and before < ch.offset_start + ch.offset_length]
     offset_error = None
     if reaching:

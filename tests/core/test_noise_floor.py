@@ -535,3 +535,22 @@ def test_a_tail_line_the_hum_fit_takes_is_no_witness():
     assert not np.any(np.isclose(with_hum[0], 40.0)) and np.any(np.isclose(with_hum[0], 20.0))
     assert not resolves_band(with_hum, bands)[i]
     assert resolves_band(witnesses([record(False)] * 4), bands)[i]
+
+
+def test_too_few_samples_before_the_hit_says_how_many_to_record(tmp_path):
+    # a rig recording 32 samples before its trigger read "31 samples before the hit (fewer than 32)"
+    # on every record, the guard left out before the hit unsaid, so the rig's own setting could
+    # never be met
+    from odsuite.api import acquire, create_project, open_project, prepare, registries
+    from odsuite.contracts.daq import AcquisitionSettings
+
+    path = tmp_path / "p.h5"
+    with create_project(path):
+        pass
+    with open_project(path, "a") as p:
+        acquire(p, registries().daq_backends.get("sim"), "T2", AcquisitionSettings(n_samples=2048, pretrigger=32),
+                scenario="T2", seed=1)
+    with open_project(path) as p:
+        notes = [n for e in prepare(p) for n in e.notes if "before the hit" in n]
+    assert len(notes) == 1 and "quiet samples before the hit (fewer than 32; of 32 before the trigger, the last 1 ms " \
+        "are left out)" in notes[0] and "(record 52 or more samples before the trigger)" in notes[0], notes

@@ -55,7 +55,7 @@ def test_a_record_without_samples_before_the_hit_has_its_floor(tmp_path, index):
     path = calibrate.project_of(spec, tmp_path)
     with open_project(path) as p:
         exps = prepare(p)
-        assert all(any("0 samples before the hit (fewer than 32)" in n for n in e.notes) for e in exps), \
+        assert all(any("0 quiet samples before the hit (fewer than 32; " in n for n in e.notes) for e in exps), \
             [e.notes for e in exps]
         assert not any("reaches into the hit" in n for e in exps for n in e.notes)
         c = compare(p, prepared=exps, resonances=False)
