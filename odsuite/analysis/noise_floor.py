@@ -196,6 +196,9 @@ class QuietFit:
     # samples x columns (volts): the part of a drift and a hum fitted on quiet samples at one end
     # only that their uncertainty leaves out of ``disturbance``; not noise either
     local_drift: np.ndarray | None = None
+    # the record's last eighth was louder than its few samples before the hit (still ringing) and
+    # was left out of the noise's estimate: how many times, in the loudest channel's variance
+    ringing_tail: float | None = None
 
     def white(self, stage: np.ndarray, stage_disturbance: np.ndarray,
               stage_drift: np.ndarray | None = None, offset_error: np.ndarray | None = None) -> np.ndarray:
@@ -231,8 +234,13 @@ def split_noise(raw: np.ndarray, trigger: int, fs: float) -> QuietFit:
     guard = int(round(HIT_GUARD_S * fs))
     pre = np.zeros(n, bool)
     pre[: max(0, trigger - guard)] = True
+    ringing = None
     if pre.sum() < FEWEST_BEFORE:  # no pre-trigger: the last eighth (a lightly damped rig has died away there)
-        pre[-max(FEWEST_BEFORE, n // 8):] = True
+        last = np.zeros(n, bool)
+        last[-max(FEWEST_BEFORE, n // 8):] = True
+        ringing = _still_ringing(x, pre, last)
+        if ringing is None:
+            pre |= last
     # the mains frequency is the one whose fit leaves the least of the samples before the hit where
     # they hold two periods of each, else of the record: a response still ringing at the record's
     # end leaks into either sinusoid (a 30 Hz ring at 500x the noise chose 60 Hz under a 50 Hz
@@ -258,7 +266,7 @@ def split_noise(raw: np.ndarray, trigger: int, fs: float) -> QuietFit:
     coef, *_ = np.linalg.lstsq(basis[quiet], x[quiet], rcond=None)
     if bool(quiet[0]) and bool(quiet[-1]):
         fitted = basis @ coef
-        return QuietFit(quiet, fitted - fitted.mean(axis=0), mains, harmonics)
+        return QuietFit(quiet, fitted - fitted.mean(axis=0), mains, harmonics, ringing_tail=ringing)
     # quiet samples at one end only (a record shorter than the response): drift goes on through the
     # response, so the line belongs to what a perfect model leaves; so does the hum. Extended over
     # the record, a component fitted to noise alone adds its variance times the record's length
@@ -278,7 +286,32 @@ def split_noise(raw: np.ndarray, trigger: int, fs: float) -> QuietFit:
         limit = _seen_limit(len(cols))
         kept[cols] = c * np.where(stat > limit, np.sqrt(np.maximum(0.0, 1.0 - len(cols) / np.maximum(stat, 1e-300))), 0.0)
     fitted = basis @ kept
-    return QuietFit(quiet, fitted - fitted.mean(axis=0), mains, harmonics, basis @ (coef - kept))
+    return QuietFit(quiet, fitted - fitted.mean(axis=0), mains, harmonics, basis @ (coef - kept), ringing)
+
+
+#: fewest samples before the hit that can tell the last eighth of a record still rings
+FEWEST_TO_COMPARE = 8
+#: the chance that noise alone makes the last eighth read as still ringing (an F test per channel)
+RINGING_ALARM = 1e-3
+
+
+def _still_ringing(x: np.ndarray, pre: np.ndarray, last: np.ndarray) -> float | None:
+    """How many times louder (variance, the loudest channel) the samples ``last`` are than ``pre``,
+    where that exceeds what noise of one level allows (F test at RINGING_ALARM, Bonferroni over the
+    channels); None where it does not, or where ``pre`` holds too few samples to tell. An undamped
+    rig's last eighth held its ringing at 400x the noise of the 31 samples before the hit, and
+    taken for noise it set the floor at 13x the model's error."""
+    k, m = int(pre.sum()), int(last.sum())
+    if k < FEWEST_TO_COMPARE or m < 3:
+        return None
+    before = np.var(x[pre], axis=0, ddof=1)
+    t = np.arange(m)
+    after = x[last] - np.polyval(np.polyfit(t, x[last], 1), t[:, None])
+    after = np.sum(after**2, axis=0) / (m - 2)  # a drift over the tail is no ringing
+    ratio = after / np.where(before > 0, before, np.finfo(float).tiny)
+    limit = float(scipy.stats.f.isf(RINGING_ALARM / x.shape[1], m - 2, k - 1))
+    loudest = float(np.max(ratio))
+    return loudest if loudest > limit else None
 
 
 @functools.cache

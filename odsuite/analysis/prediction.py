@@ -490,10 +490,14 @@ def prepare_experiment(project, name: str, exp=None) -> PreparedExperiment:
         # the samples just before the hit are left out (zero-phase filters ring backwards from it):
         # a record needs that many more before its trigger than it counts quiet
         guard = int(round(HIT_GUARD_S * exp.sampling_rate))
-        notes.append(f"{where}: {before} quiet samples before the hit (fewer than {FEWEST_BEFORE}; of {trigger} before "
-                     f"the trigger, the last {1e3 * HIT_GUARD_S:g} ms are left out): the noise is measured on the "
-                     "record's last samples, where the response may still ring, and the floor may read high (record "
-                     f"{FEWEST_BEFORE + guard} or more samples before the trigger)")
+        counted = (f"{before} quiet samples before the hit (fewer than {FEWEST_BEFORE}; of {trigger} before the "
+                   f"trigger, the last {1e3 * HIT_GUARD_S:g} ms are left out)")
+        more = f"(record {FEWEST_BEFORE + guard} or more samples before the trigger)"
+        notes.append(f"{where}: {counted}: the noise is measured on them alone, less surely, as the record's last "
+                     f"samples still ring ({quiet.ringing_tail:.3g}x their variance) {more}"
+                     if quiet.ringing_tail is not None else
+                     f"{where}: {counted}: the noise is measured on the record's last samples, where the response "
+                     f"may still ring, and the floor may read high {more}")
     reaching = [j for j, ch in enumerate(infos) if ch.offset_length > 0 and before < ch.offset_start + ch.offset_length]
     offset_error = None
     if reaching:
@@ -1035,7 +1039,11 @@ def sensor_noise(model, exp: PreparedExperiment, realisations: int = NOISE_REALI
     step = np.asarray(exp.adc_step_v, float)
     volts_per_stage = np.abs(vpu) / micro
     rounding = np.where(step > 0, exp.lsb**2 / 12.0, 0.0)
-    sigma_v = np.sqrt(np.maximum(np.asarray(exp.noise_var) - rounding, 0.0)) * volts_per_stage
+    # the quiet level less the rounding's share (Sheppard); where the level is at most that share
+    # the rounding was not uniform (a still signal on few codes) and the level is the noise's bound:
+    # taken whole (it left no noise at all, and a still channel of a 12-bit card read 4.3x its floor)
+    noise_var = np.asarray(exp.noise_var, float)
+    sigma_v = np.sqrt(np.where(noise_var > rounding, noise_var - rounding, noise_var)) * volts_per_stage
     v = physical * vpu
     # the hum and drift, level with the codes before the hit (the offset places them on the codes)
     hum = np.zeros_like(v)

@@ -554,3 +554,26 @@ def test_too_few_samples_before_the_hit_says_how_many_to_record(tmp_path):
         notes = [n for e in prepare(p) for n in e.notes if "before the hit" in n]
     assert len(notes) == 1 and "quiet samples before the hit (fewer than 32; of 32 before the trigger, the last 1 ms " \
         "are left out)" in notes[0] and "(record 52 or more samples before the trigger)" in notes[0], notes
+
+
+@pytest.mark.parametrize("decay_s, rings", [(None, True), (0.05, False)])
+def test_a_last_eighth_still_ringing_is_not_taken_for_noise(decay_s, rings):
+    # with fewer than 32 quiet samples before the hit the record's last eighth joins them; an
+    # undamped rig rings there at full strength, and its noise read as that ringing (the floor at
+    # 13x a perfect model's error)
+    from odsuite.analysis.noise_floor import split_noise
+
+    fs, n, trigger = 512.0, 4096, 32
+    rng = np.random.default_rng(3)
+    x = 0.01 * rng.standard_normal((n, 2))
+    t = np.arange(n - trigger) / fs
+    ring = np.sin(2 * np.pi * 39.0 * t) * (1.0 if decay_s is None else np.exp(-t / decay_s))
+    x[trigger:, 0] += ring
+    x[trigger:, 1] += 0.5 * ring
+    q = split_noise(x, trigger, fs)
+    assert q.quiet[:31].all() and not q.quiet[31:trigger + 1].any()
+    if rings:
+        # the ringing's variance (0.5) over the noise's (1e-4): 5000x
+        assert q.ringing_tail == pytest.approx(5000, rel=0.5) and not q.quiet[-1]
+    else:
+        assert q.ringing_tail is None and q.quiet[-n // 8:].all()
