@@ -18,12 +18,14 @@ the measured FRF at its resonance (not an anti-resonance or a noise fit): see ``
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import math
 
 import numpy as np
 import scipy.linalg
 
+from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError, DimensionError
 from odsuite.analysis.frf import FORM_POWER, usable_band
 
@@ -655,13 +657,15 @@ def identify_modes(
     force_autospectrum: np.ndarray | None = None,
     coherence: np.ndarray | None = None,
     n_averages: int = 1,
+    where: str = "identify_modes",
 ) -> ModalResult:
     """LSCF stabilisation diagram -> pole selection -> LSFD residues on the band ``f_band``
     (default, also for an edge given as None: ``frf.usable_band`` of the force autospectrum and
     coherence when given, else the whole FRF without 0 Hz). Automatic selection then drops poles that fail ``check_poles`` (named
     in ``rejected``); poles asked for with ``frequencies`` are kept. ``window_tau`` (s): the FRFs
     were measured with an exponential window of that time constant; the reported poles have its
-    damping removed."""
+    damping removed. ``where``: the function named when an argument is refused."""
+    max_order, frequencies, f_band = fit_arguments(where, max_order, frequencies, f_band)
     freq, H = _check(freq, H)
     lo, hi = f_band if f_band is not None else (None, None)
     if lo is None or hi is None:
@@ -700,6 +704,22 @@ def identify_modes(
         poles = poles + 1.0 / window_tau  # the structure's own poles (see hammer.correct_exponential_window)
     return ModalResult(poles, res, normalise_shapes(res), list(output_names or []), diagram,
                        (float(f[0]), float(f[-1])), stable_orders, rejected)
+
+
+def fit_arguments(where: str, max_order: Any, frequencies: Any, f_band: Any
+                  ) -> tuple[int, list[float] | None, tuple[float | None, float | None] | None]:
+    """The fit's options checked before it runs: an order below 2 grew the nested bands without end
+    (memory too), a text order, a NaN or a negative frequency raised inside the fit."""
+    max_order = arguments.whole(where, "max_order", max_order, low=2)
+    if frequencies is not None:
+        frequencies = [arguments.real(where, "frequencies", f, positive=True)
+                       for f in arguments.listed(where, "frequencies", frequencies, "frequencies in Hz")]
+    if f_band is not None:
+        edges = arguments.listed(where, "f_band", f_band, "two frequencies (low, high) in Hz")
+        if len(edges) != 2:
+            arguments.refuse(where, "f_band", f_band, "two frequencies (low, high) in Hz, either may be None")
+        f_band = tuple(None if v is None else arguments.real(where, "f_band", v, minimum=0) for v in edges)
+    return max_order, frequencies, f_band
 
 
 def frequency_labels(freqs) -> list[str]:

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError, DimensionError
 from odsuite.analysis.frf import FrfSet, estimate_frf
 from odsuite.analysis.hammer import assess_hits, held_range
@@ -121,9 +122,11 @@ def frf_modes(frf: FrfSet, *, f_band: tuple[float, float] | None = None, max_ord
               frequencies: list[float] | None = None) -> ModalResult:
     """Modes identified from hammer FRFs, on the band where the hammer's force spectrum and the
     coherence are usable (``frf.usable_band``) unless ``f_band`` (or one edge of it) is given."""
+    if not isinstance(frf, FrfSet):
+        arguments.refuse("frf_modes", "frf", frf, "an FrfSet (estimate_frf)")
     return identify_modes(frf.frequency, frf.H, f_band=f_band, max_order=max_order, frequencies=frequencies,
                           output_names=frf.output_names, force_autospectrum=frf.force_autospectrum,
-                          coherence=frf.coherence, n_averages=frf.n_averages)
+                          coherence=frf.coherence, n_averages=frf.n_averages, where="frf_modes")
 
 
 def experiment_modes(

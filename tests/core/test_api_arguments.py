@@ -5,6 +5,9 @@ was read letter by letter."""
 
 from __future__ import annotations
 
+import signal
+
+import numpy as np
 import pytest
 
 from odsuite import api
@@ -85,3 +88,38 @@ def test_a_function_that_opens_the_project_itself_asks_for_its_path(project_path
         with pytest.raises(ConfigError, match=r"^experiment_output_only_modes: expected a project file's path as its "
                                               r"first argument, got Project "):
             api.experiment_output_only_modes(p, "T2")
+
+
+@pytest.fixture(scope="module")
+def noise_frf():
+    rng = np.random.default_rng(0)
+    return api.estimate_frf([rng.standard_normal(1024)], [rng.standard_normal(1024)], 1000.0)
+
+
+@pytest.mark.parametrize("options, message", [
+    # an order of 0 or below grew the nested fit bands without end (and memory with them)
+    ({"max_order": 0}, "'max_order' must be an integer of at least 2, got 0"),
+    ({"max_order": -1}, "'max_order' must be an integer of at least 2, got -1"),
+    ({"max_order": "x"}, "'max_order' must be an integer of at least 2, got 'x'"),
+    ({"frequencies": [float("nan")]}, "'frequencies' must be a finite number > 0, got nan"),
+    ({"frequencies": 12.0}, "'frequencies' must be a list of frequencies in Hz, got 12.0"),
+    ({"f_band": (1.0, float("inf"))}, "'f_band' must be a finite number >= 0, got inf"),
+])
+def test_frf_modes_refuses_a_wrong_fit_option(noise_frf, options, message):
+    def hung(*_):
+        raise TimeoutError("frf_modes still running after 20 s")
+
+    old = signal.signal(signal.SIGALRM, hung)
+    signal.alarm(20)
+    try:
+        with pytest.raises(ConfigError) as err:
+            api.frf_modes(noise_frf, **options)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    assert str(err.value) == f"frf_modes: {message}"
+
+
+def test_frf_modes_refuses_what_is_not_an_frf_set():
+    with pytest.raises(ConfigError, match=r"^frf_modes: 'frf' must be an FrfSet \(estimate_frf\), got None$"):
+        api.frf_modes(None)
