@@ -19,7 +19,7 @@ import os
 import socket
 import time
 import uuid
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -351,9 +351,14 @@ def run_batch(command: str, projects: Sequence[str | Path], *, scheduler: str | 
     monitoring). The cluster started here is always closed before returning."""
     from distributed import Client, LocalCluster, as_completed
 
+    # one path is text (or a Path): its characters were run as projects, one task each
+    if isinstance(projects, str | bytes | os.PathLike) or not isinstance(projects, Iterable):
+        raise ConfigError(f"run_batch: 'projects' is a list of project paths, got {projects!r}")
     options = dict(options or {})
     paths = _check_projects(command, projects, options)
     most = 4 * (os.cpu_count() or 1)
+    if workers is not None and not (isinstance(workers, int) and not isinstance(workers, bool)):
+        raise ConfigError(f"run_batch: 'workers' must be an integer from 1 to {most} (4 per core), got {workers!r}")
     if workers is not None and not 1 <= workers <= most:
         raise ConfigError(f"batch: --workers must be from 1 to {most} (4 per core), got {workers}")
     if scheduler is not None:

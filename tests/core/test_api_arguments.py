@@ -6,6 +6,7 @@ was read letter by letter."""
 from __future__ import annotations
 
 import signal
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -123,3 +124,19 @@ def test_frf_modes_refuses_a_wrong_fit_option(noise_frf, options, message):
 def test_frf_modes_refuses_what_is_not_an_frf_set():
     with pytest.raises(ConfigError, match=r"^frf_modes: 'frf' must be an FrfSet \(estimate_frf\), got None$"):
         api.frf_modes(None)
+
+
+@pytest.mark.parametrize("projects", ["base.h5", Path("base.h5")])
+def test_run_batch_refuses_one_path_for_the_list(tmp_path, monkeypatch, projects):
+    # a path's characters were run as projects, one task each
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ConfigError) as err:
+        api.run_batch("info", projects, workers=1)
+    assert str(err.value) == f"run_batch: 'projects' is a list of project paths, got {projects!r}"
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_run_batch_refuses_a_text_worker_count(project_path):
+    with pytest.raises(ConfigError, match=r"^run_batch: 'workers' must be an integer from 1 to \d+ \(4 per core\), "
+                                          r"got '2'$"):
+        api.run_batch("info", [project_path], workers="2")
