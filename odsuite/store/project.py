@@ -44,7 +44,7 @@ import inspect
 import json
 import math
 import unicodedata
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -65,6 +65,7 @@ from odsuite.domain.errors import (
     ProjectVersionError,
     SchemaError,
 )
+from odsuite.domain.arguments import shown
 from odsuite.domain.excitation import Excitation
 from odsuite.domain.memory import check_record_fits, free_memory
 from odsuite.store.h5codecs import (
@@ -205,16 +206,34 @@ def _resolve_rig(rig: Rig | str | Path | None, regs) -> Rig | None:
                       "and not a .toml rig file")
 
 
+def _integer(value: Any) -> bool:
+    return isinstance(value, int | np.integer) and not isinstance(value, bool)
+
+
+#: annotations of the reading methods' arguments checked by ``_reads``: the test, and the words for it
+_ARGUMENT_TYPES: dict[str, tuple[Callable[[Any], bool], str]] = {
+    "str": (lambda v: isinstance(v, str), "text"),
+    "int": (_integer, "an integer"),
+    "int | None": (lambda v: v is None or _integer(v), "an integer or None"),
+}
+
+
 def _reads(what: str = "") -> Callable:
     """Decorator: run a reading method of Project/Experiment under :func:`reading`; ``what`` is
     formatted with the call's arguments, e.g. ``"experiment {experiment!r}"``."""
 
     def wrap(fn: Callable) -> Callable:
         signature = inspect.signature(fn)
+        checked = {k: p.annotation for k, p in signature.parameters.items() if p.annotation in _ARGUMENT_TYPES}
 
         @functools.wraps(fn)
         def method(self, *args, **kw):
             bound = signature.bind(self, *args, **kw).arguments
+            # a wrong argument is the caller's, not the file's: refused before anything is read
+            for key, annotation in checked.items():
+                if key in bound and not _ARGUMENT_TYPES[annotation][0](bound[key]):
+                    raise ConfigError(f"{type(self).__name__}.{fn.__name__}: {key!r} must be "
+                                      f"{_ARGUMENT_TYPES[annotation][1]}, got {shown(bound[key])}")
             project = self if isinstance(self, Project) else bound.get("project", getattr(self, "_project", None))
             with reading(project.path, what.format(**bound)):
                 return fn(self, *args, **kw)
@@ -279,6 +298,9 @@ class Experiment:
 
     def channel_index(self, channel: int | str) -> int:
         """Index of a channel given by index or name."""
+        if not isinstance(channel, str) and not _integer(channel):  # 1.5 was read as channel 1
+            raise ConfigError(f"Experiment.channel_index: 'channel' must be a channel's index or name, "
+                              f"got {shown(channel)}")
         if isinstance(channel, str):
             if channel not in self.channel_names:
                 raise ConfigError(f"{self._project.path}: experiment {self.name!r} has no channel {channel!r} "
@@ -292,23 +314,28 @@ class Experiment:
     @_reads("experiment {self.name!r} raw data")
     def raw(self, start: int = 0, stop: int | None = None, channels=None) -> np.ndarray:
         """Raw volts, samples x channels (a slice of rows and optionally of channels, by index or name)."""
+        # the channels asked for are the caller's: checked before the file is read
+        if channels is None or isinstance(channels, int | np.integer | str):
+            columns = None if channels is None else self.channel_index(channels)
+        elif isinstance(channels, Iterable) and not isinstance(channels, bytes | Mapping):
+            columns = [self.channel_index(c) for c in channels]
+        else:
+            raise ConfigError(f"Experiment.raw: 'channels' must be a channel's index or name or a list of them, "
+                              f"got {shown(channels)}")
         # refused before it is read (as an acquisition of that size): compressed, its stored bytes
         # say nothing of the memory reading takes
         check_record_fits(len(range(self.n_samples)[start:stop]), self.n_channels,
                           f"{self._project.path}: experiment {self.name!r} field 'raw'")
+        raw = self._group()["raw"]  # a closed project is said so, not taken for a corrupted record
         try:
             # volts as float64, whatever real type a file written elsewhere holds (float16 has no linalg)
-            block = np.asarray(self._group()["raw"][start:stop], dtype=np.float64)
+            block = np.asarray(raw[start:stop], dtype=np.float64)
         except OSError as exc:
             raise ProjectFileError(f"{self._project.path}: experiment {self.name!r}: raw data cannot be read "
                                    f"(corrupted?): {exc}") from None
         check_raw_block(self._project.path, self.name, block, range(self.n_samples)[start:stop].start,
                         self.channel_names)
-        if channels is None:
-            return block
-        if isinstance(channels, int | np.integer | str):
-            return block[:, self.channel_index(channels)]
-        return block[:, [self.channel_index(c) for c in channels]]
+        return block if columns is None else block[:, columns]
 
     def __repr__(self) -> str:
         return (f"Experiment({self.name!r}, {self.n_samples} samples x {self.n_channels} channels, "
@@ -409,7 +436,7 @@ class Project:
         if self._tx is not None:
             return self._tx
         if self._h5 is None:
-            raise ProjectFileError(f"{self.path}: project is closed")
+            raise ProjectFileError(f"{self.path}: project is closed (open_project again to read it)")
         return self._h5
 
     def _require_writable(self) -> None:

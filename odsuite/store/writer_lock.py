@@ -80,7 +80,11 @@ class WriterLock:
             if not os.path.lexists(self.path):  # held by no one: filelock could not create it, and says only Timeout
                 raise ProjectFileError(f"{self.project}: cannot create lock file {self.path}: "
                                        f"{self._why_not_created()}") from None
-            raise ProjectLockedError(f"{self.project}: project is open in another process ({self._holder()}); "
+            holder = self._holder()
+            if holder == f"pid {os.getpid()}":  # this process's own lock: "another process" sent people looking
+                raise ProjectLockedError(f"{self.project}: project is already open for writing in this process; "
+                                         "close that one first (or use it)") from None
+            raise ProjectLockedError(f"{self.project}: project is open in another process ({holder}); "
                                      "close it there first") from None
         except OSError as exc:
             if isinstance(exc, ProjectFileError):

@@ -140,3 +140,26 @@ def test_run_batch_refuses_a_text_worker_count(project_path):
     with pytest.raises(ConfigError, match=r"^run_batch: 'workers' must be an integer from 1 to \d+ \(4 per core\), "
                                           r"got '2'$"):
         api.run_batch("info", [project_path], workers="2")
+
+
+def test_a_projects_own_methods_refuse_a_wrong_argument_without_blaming_the_file(project_path):
+    # before, each said "project file is damaged (...)", and channel 1.5 was read as channel 1
+    with api.open_project(project_path) as p:
+        e = p.experiment("T2")
+        for call, message in [
+            (lambda: p.experiment(5), "Project.experiment: 'name' must be text, got 5"),
+            (lambda: p.read_derived("T2", None), "Project.read_derived: 'kind' must be text, got None"),
+            (lambda: e.raw("a"), "Experiment.raw: 'start' must be an integer, got 'a'"),
+            (lambda: e.raw(0, 1.5), "Experiment.raw: 'stop' must be an integer or None, got 1.5"),
+            (lambda: e.raw(0, 10, channels=1.5), "Experiment.raw: 'channels' must be a channel's index or name or a "
+                                                 "list of them, got 1.5"),
+            (lambda: e.channel_index(1.5), "Experiment.channel_index: 'channel' must be a channel's index or name, "
+                                           "got 1.5"),
+        ]:
+            with pytest.raises(ConfigError) as err:
+                call()
+            assert str(err.value) == message
+        assert e.raw(np.int64(2), 4, channels=[0, e.channel_names[1]]).shape == (2, 2)
+    with pytest.raises(api.OdsuiteError) as err:
+        e.raw(0, 10)
+    assert str(err.value) == f"{project_path}: project is closed (open_project again to read it)"

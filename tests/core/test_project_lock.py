@@ -27,7 +27,9 @@ def test_second_writer_is_refused_readers_are_not(tmp_path):
     with create_project(path, rig=None) as writer:
         with pytest.raises(ProjectLockedError) as err:
             open_project(path, "a")
-        assert str(err.value) == f"{path}: project is open in another process (pid {os.getpid()}); close it there first"
+        # this process's own writer: "another process (pid <our pid>)" sent people looking for one
+        assert str(err.value) == (f"{path}: project is already open for writing in this process; close that one "
+                                  "first (or use it)")
         writer.add_experiment("e", np.ones((4, 2)), sampling_rate=1.0, systeminfo=_si(2), excitation=None)
         with open_project(path) as reader:  # a reader opens while the writer holds the lock
             assert reader.experiment_names() == ["e"]
