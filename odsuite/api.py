@@ -186,6 +186,8 @@ def __getattr__(name: str):
 #: arguments of a project's functions that name one experiment, and that name several
 _ONE_EXPERIMENT = ("name", "experiment")
 _EXPERIMENTS = ("experiments",)
+#: functions whose ``name`` is not an experiment's: what it names instead
+_NAMES_OTHER = {"add_effect": "an effect", "project_geometry": "a geometry"}
 
 
 def _checked(function):
@@ -220,7 +222,8 @@ def _checked(function):
                               f"argument, got {type(project).__name__} {_short(project)}")
         for key in _ONE_EXPERIMENT:
             if key in bound and bound[key] is not None and not isinstance(bound[key], str):
-                raise ConfigError(f"{function.__name__}: {key!r} names an experiment (text), got {_short(bound[key])}")
+                what = _NAMES_OTHER.get(function.__name__, "an experiment") if key == "name" else "an experiment"
+                raise ConfigError(f"{function.__name__}: {key!r} names {what} (text), got {_short(bound[key])}")
         for key in _EXPERIMENTS:
             value = bound.get(key)
             # a list's members are checked; another iterable is left unread for the function

@@ -358,6 +358,9 @@ def compare(project, *, experiments: Sequence[str] | None = None, revision: Mapp
     ``tables=False``: no errors per experiment, channel and band nor the worst of them (left empty:
     the fitting loop reads the pooled error, the floor, the residual peaks and the rigidity check).
     ``progress(stage)`` is told each stage as it starts."""
+    from odsuite.analysis.modelrev import check_revision
+
+    check_revision("compare", revision)
     # one BLAS thread: the matrices are small, and a second thread spinning for a busy core cost
     # 5.0 s CPU against 3.1 s (plate-and-motor bench project, loaded two-core machine)
     with threadpool_limits(1):

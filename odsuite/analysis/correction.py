@@ -289,9 +289,10 @@ def _within(effect, model, name: str, value: float | None, sd: float) -> float |
 def ideal_chain_model(project, revision: Mapping[str, Any] | None = None):
     """The revision's model without its measurement effects that undo themselves: the structure
     as fitted, seen by an ideal chain (a RevisionModel; what corrected records are compared with)."""
-    from odsuite.analysis.modelrev import apply_effects, base_model, current_revision
+    from odsuite.analysis.modelrev import apply_effects, base_model, check_revision, current_revision
     from odsuite.contracts.effects import corrects
 
+    check_revision("ideal_chain_model", revision)
     rev = revision or current_revision(project)
     regs = project.registries
     kept = [e for e in rev.get("effects", []) if not corrects(regs.effects.get(e["effect"]))]

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.signal
 
+from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError
 
 #: a peak of the first singular value (log10) must stand this far above the higher of its two
@@ -46,6 +47,9 @@ def resolution_segment(f1: float, fs: float, n: int) -> int:
 def spectral_matrix(y: np.ndarray, fs: float, nperseg: int) -> tuple[np.ndarray, np.ndarray]:
     """One-sided cross-spectral density matrix (lines x outputs x outputs, unit^2/Hz) by Welch's
     method: Hann windows, half overlapping, each segment's mean removed."""
+    # 0 was a slice step of zero, 1 a segment without a window
+    nperseg = arguments.whole("spectral_matrix", "nperseg", nperseg, low=2)
+    fs = arguments.real("spectral_matrix", "fs", fs, positive=True)
     y = np.asarray(y, dtype=float)
     nperseg = int(min(nperseg, y.shape[0]))
     step = nperseg // 2

@@ -7,14 +7,18 @@ complex, in (response unit)/(force unit), e.g. ``(m/s^2)/N``.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError, DimensionError
 
 ESTIMATORS = ("H1", "H2", "Hv")
+#: units a force record may be in (the FRF's unit is the response's over it)
+FORCE_UNITS = ("N", "kN", "mN", "lbf")
 #: power of (i omega) that turns a receptance (displacement/force) into each FRF form
 FORM_POWER = {"receptance": 0, "mobility": 1, "accelerance": 2}
 #: an FRF line counts as determined by the record where the records' straight-line trends leak
@@ -142,6 +146,7 @@ def estimate_frf(
     squares estimate between them; coherence = |Gfx|^2/(Gff Gxx)."""
     if estimator not in ESTIMATORS:
         raise ConfigError(f"FRF estimator {estimator!r} is not one of {', '.join(ESTIMATORS)}")
+    _check_arguments(forces, responses, fs, window, force_unit)
     gff, gxx, gfx, count = spectra(forces, responses, window)
     n = np.asarray(forces[0]).shape[0]
     tiny = np.finfo(float).tiny
@@ -175,6 +180,28 @@ def estimate_frf(
         force_autospectrum=gff / count,
         trend=trend,
     )
+
+
+def _check_arguments(forces: Any, responses: Any, fs: Any, window: Any, force_unit: Any) -> None:
+    """estimate_frf's arguments before any spectrum: a rate of 0 divided by zero, a NaN one gave NaN
+    frequencies, a window of another length a broadcast error, any text was taken for a force unit."""
+    for name, value in (("forces", forces), ("responses", responses)):
+        if isinstance(value, str | bytes | Mapping) or not isinstance(value, Sequence | np.ndarray):
+            arguments.refuse("estimate_frf", name, value, "a list of records, one per hit")
+    arguments.real("estimate_frf", "fs", fs, positive=True)
+    if force_unit not in FORCE_UNITS:
+        arguments.refuse("estimate_frf", "force_unit", force_unit, f"a force unit ({', '.join(FORCE_UNITS)})")
+    if window is None or not len(forces) or not len(responses):
+        return
+    n = np.shape(forces[0])[0] if np.ndim(forces[0]) else 0
+    outputs = np.shape(responses[0])[1] if np.ndim(responses[0]) == 2 else 1
+    try:
+        shape = np.asarray(window, dtype=float).shape
+    except (TypeError, ValueError):
+        shape = None
+    if shape not in ((n,), (n, 1 + outputs)):
+        raise ConfigError(f"estimate_frf: 'window' must be {n} samples (or {n} x {1 + outputs}: the force's, then "
+                          f"each response's), got {arguments.shown(window) if shape is None else f'shape {shape}'}")
 
 
 #: The band ends where the hammer's force autospectrum has fallen this far below its low-frequency

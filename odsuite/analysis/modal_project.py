@@ -236,8 +236,7 @@ def ods_coordinates(project, experiment: str, frequency_hz: float) -> dict[str, 
     from odsuite.analysis.modal import ods
     from odsuite.contracts.solvers import harmonic_shapes
 
-    if not (np.isfinite(frequency_hz) and frequency_hz > 0):
-        raise ConfigError(f"ODS frequency: must be > 0 Hz, got {frequency_hz!r}")
+    frequency_hz = arguments.real("ods_coordinates", "frequency_hz", frequency_hz, positive=True)
     exp = prepare_experiment(project, experiment)
     frf = estimate_frf([exp.force], [exp.measured], exp.fs)
     accel = ods(frf.frequency, frf.H, frequency_hz)

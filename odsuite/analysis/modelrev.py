@@ -11,6 +11,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError
 from odsuite.domain.model import AnalogFilter
 
@@ -79,7 +80,28 @@ def current_revision(project) -> dict[str, Any]:
     return revs[n if n in revs else min(revs)]
 
 
+def check_revision(where: str, revision: Any) -> None:
+    """``revision`` as the functions taking one accept it: None (the current one) or a revision as
+    ``project.model_revisions()`` lists it, whose ``effects`` is a list of ``{"effect": name, ...}``.
+    A number raised an AttributeError; a dict without effects was compared as the rig's model."""
+    if revision is None:
+        return
+    expected = ("a model revision (an entry of project.model_revisions() or current_revision(project)) "
+                "or None for the current one")
+    if not isinstance(revision, Mapping) or "effects" not in revision:
+        arguments.refuse(where, "revision", revision, expected)
+    effects = revision["effects"]
+    if isinstance(effects, str | bytes | Mapping) or not isinstance(effects, Sequence) or not all(
+            isinstance(e, Mapping) and isinstance(e.get("effect"), str) for e in effects):
+        raise ConfigError(f"{where}: 'revision' field 'effects' must be a list of {{'effect': NAME, ...}}, "
+                          f"got {arguments.shown(effects)}")
+    if not isinstance(revision.get("model"), str | None):
+        raise ConfigError(f"{where}: 'revision' field 'model' must be a model's name or None, "
+                          f"got {arguments.shown(revision['model'])}")
+
+
 def revision_model(project, revision: Mapping[str, Any] | None = None) -> RevisionModel:
+    check_revision("revision_model", revision)
     rev = revision or current_revision(project)
     if project.rig is None:
         raise ConfigError(f"{project.path}: the project has no rig, so it has no model")

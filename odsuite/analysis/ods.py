@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.signal
 
+from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError
 from odsuite.domain.rig import COORDINATES
 
@@ -79,6 +80,7 @@ def operating_shape(project, experiment: str, reference: str, frequency_hz: floa
     from odsuite.analysis.modal_project import physical, response_columns
     from odsuite.contracts.solvers import harmonic_shapes
 
+    frequency_hz = arguments.real("operating_shape", "frequency_hz", frequency_hz, positive=True)
     where = f"{project.path}: experiment {experiment!r}"
     exp = project.experiment(experiment)
     fs = exp.sampling_rate

@@ -1277,8 +1277,9 @@ def experiment_coordinates(project, name: str, revision: Mapping[str, Any] | Non
     """Measured and model generalized coordinates of one experiment per nine-sensor body, for the
     current model revision (or ``revision``): the model driven by the measured force, predicted at
     the sensors and put through the experiment's chain and solver like the measurement."""
-    from odsuite.analysis.modelrev import current_revision, revision_model
+    from odsuite.analysis.modelrev import check_revision, current_revision, revision_model
 
+    check_revision("experiment_coordinates", revision)
     exp = prepare_experiment(project, name)
     model = revision_model(project, revision or current_revision(project)).for_experiment(name)
     # one BLAS thread, as compare runs: two threads summed the 4096-sample solves in another order

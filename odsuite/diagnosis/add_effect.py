@@ -14,6 +14,7 @@ from odsuite.contracts.effects import applies, family
 from odsuite.diagnosis import checks, physical
 from odsuite.diagnosis.between_records import reported_with_covariance
 from odsuite.diagnosis.joint import Joint
+from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError
 from odsuite.diagnosis.fitting import (
     Problem,
@@ -57,6 +58,8 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     """Fit effect ``name`` together with the current revision's effects (all their parameters
     refitted) and store the result as a new revision, made current. Returns the new revision's
     number, its error and the previous error."""
+    if not isinstance(name, str) or not name:  # None raised inside
+        raise ConfigError(f"add_effect: 'name' names an effect (text), got {arguments.shown(name)}")
     # on one BLAS thread, as diagnose: a product's rounding depends on the threads that share it,
     # and the revision stored must not depend on how the process was started (a fit on two threads
     # ended 4e-9 from one on one, OPENBLAS_NUM_THREADS=1 inherited or not)

@@ -32,6 +32,7 @@ from odsuite.contracts.effects import applies, family
 from odsuite.diagnosis import checks, joint, physical
 from odsuite.diagnosis.between_records import reported_with_covariance
 from odsuite.analysis.comparison import noise_floor, residual_peaks, residual_spectra
+from odsuite.domain import arguments
 from odsuite.domain.display import error_text
 from odsuite.domain.errors import ConfigError, DivergedError, NonPhysicalError
 from odsuite.diagnosis.fitting import (
@@ -550,8 +551,10 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     a candidate that changes only the sensors predicts through its process's kept simulation where
     that holds the base model's, or simulates afresh, and the two sum in another order (screened
     errors a few 1e-13 apart between runs on several workers; decisions are not that fine)."""
-    if workers is not None and workers < 1:
-        raise ConfigError(f"diagnose: workers must be at least 1, got {workers}")
+    if workers is not None:
+        arguments.whole("diagnose", "workers", workers, low=1)
+    # -1 fitted all but the last candidate; text raised inside
+    arguments.whole("diagnose", "full_fits", full_fits, low=1)
     # one BLAS thread throughout, not only around the candidates' work: the baseline, the ranking
     # and the verdict multiply small matrices too, where a second thread spinning for a busy core
     # cost up to 5x the CPU (the two-body bench's verdict: 1.66 s against 0.55 s); and a product's

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError
 from odsuite.domain.textfiles import plain_number
 
@@ -136,11 +137,16 @@ def read_force_point(value: str | Sequence[float], option: str = "--force-point"
 def parse_force_point(value: str | Sequence[float]) -> np.ndarray:
     """``"X,Y,Z"`` -> metres: numbers with units (``200mm``, ``0.2m``) or bare numbers in mm (for the
     thesis rig from the platform's centre of mass, platform axes, as Table 5.3)."""
+    if not isinstance(value, str | Sequence | np.ndarray):  # None raised "not iterable"
+        arguments.refuse("parse_force_point", "value", value, "three numbers 'X,Y,Z' (text or a list)")
     return read_force_point(value)[0]
 
 
 def parse_force_direction(value: str | Sequence[float]) -> np.ndarray:
     """``+x``, ``-x``, ``+y``, ``-y``, ``+z``, ``-z`` or a vector ``"dx,dy,dz"`` -> a unit vector."""
+    if not isinstance(value, str | Sequence | np.ndarray):  # 5 raised "not iterable"
+        arguments.refuse("parse_force_direction", "value", value, "an axis (+x, -x, +y, -y, +z, -z) or three "
+                         "numbers 'dx,dy,dz'")
     if isinstance(value, str):
         text = value.strip().lower()
         sign, axis = (text[0], text[1:]) if text[:1] in "+-" and len(text) == 2 else ("+", text)

@@ -14,12 +14,14 @@ import math
 import os
 import stat
 import unicodedata
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError
 from odsuite.domain.rig_processing import check_ripple, parse_processing
 
@@ -406,6 +408,9 @@ def rig_from_dict(data: dict[str, Any], sensor_types, source: Path | None = None
     """Build and validate a rig from parsed TOML; errors name the file, field and value. Each
     ``[[sensors]]`` entry is read by the sensor type its ``kind`` names (``sensor_types``: the
     registry of sensor types; default kind "accelerometer")."""
+    if not isinstance(data, Mapping):
+        arguments.refuse("rig_from_dict", "data", data, "a rig's tables as a dict (a parsed rig file)")
+    _check_sensor_types("rig_from_dict", sensor_types)
     where0 = str(source) if source else "rig"
     name = _rig_name(data, where0)
     bodies: list[Body] = []
@@ -771,9 +776,19 @@ def _springs(entries: Any, where0: str, moving: set[str], bodies: set[str]) -> t
     return tuple(out)
 
 
+def _check_sensor_types(where: str, sensor_types: Any) -> None:
+    """The registry a rig's sensors are read by (None raised inside, at the first sensor)."""
+    if not all(callable(getattr(sensor_types, k, None)) for k in ("get", "names", "__contains__")):
+        arguments.refuse(where, "sensor_types", sensor_types, "the registry of sensor types "
+                         "(registries().sensor_types)")
+
+
 def load_rig(path: str | Path, sensor_types) -> Rig:
     import tomllib  # here, not at the top: a stored rig is JSON, so reading a project needs no TOML
 
+    if not isinstance(path, str | os.PathLike):
+        arguments.refuse("load_rig", "path", path, "a rig file's path")
+    _check_sensor_types("load_rig", sensor_types)
     path = Path(path)
     try:
         # non-blocking: opening a pipe must not wait for a writer (it is refused just after)

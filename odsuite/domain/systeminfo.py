@@ -16,6 +16,7 @@ from decimal import Decimal
 from enum import IntEnum
 from pathlib import Path
 
+from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError, OdsuiteWarning
 from odsuite.domain.filter_kinds import MAX_FILTER_ORDER, FilterFamily, FilterType
 from odsuite.domain.rig import NINE_ROLES, Rig
@@ -548,6 +549,8 @@ def _rig(rows: list[list[str]], source: str | Path) -> RigInfo:
 
 def parse_ctr(text: str, source: str | Path = "systeminfo") -> Systeminfo:
     """Parse the text of a ``.CTR`` file (34 rows x n channels, Table E.2) into SI units."""
+    if not isinstance(text, str):  # a path or None raised inside (read_ctr reads a file)
+        arguments.refuse("parse_ctr", "text", text, "the text of a .CTR file (read_ctr reads one from its path)")
     rows = _ctr_rows(text, source)
     head = rows[0]
     n = len(head)

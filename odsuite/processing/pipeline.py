@@ -15,6 +15,7 @@ from odsuite.processing.chain_spec import (
     channel_unit,
     stage_names,
 )
+from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError
 from odsuite.processing.executor import DEFAULT_CHUNK, run_chains
 from odsuite.domain.systeminfo import ChannelInfo
@@ -54,6 +55,16 @@ def process_experiment(project, name: str, *, chain: Sequence[Mapping[str, Any]]
     from odsuite import __version__
     from odsuite.domain.systeminfo import SensorType
 
+    # before the record is read: a text chunk raised inside, and workers=0 ran on every core
+    chunk = arguments.whole("process_experiment", "chunk", chunk, low=1)
+    if workers is not None:
+        workers = arguments.whole("process_experiment", "workers", workers, low=1)
+    if chain is not None:
+        chain = arguments.listed("process_experiment", "chain", chain, "steps {'step': NAME, ...}")
+        for step in chain:
+            if not isinstance(step, Mapping):
+                raise ConfigError(f"process_experiment: 'chain' must be a list of steps {{'step': NAME, ...}}, "
+                                  f"got an entry {arguments.shown(step)}")
     regs = project.registries
     exp = project.experiment(name)
     si = exp.systeminfo

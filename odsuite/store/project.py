@@ -956,6 +956,11 @@ class Project:
     def set_revision_metrics(self, n: int, metrics: Mapping[str, Any]) -> None:
         """Merge ``metrics`` (e.g. the comparison error) into revision ``n``'s metrics."""
         self._require_writable()
+        if not isinstance(metrics, Mapping):
+            raise ConfigError(f"Project.set_revision_metrics: 'metrics' must be a dict of metrics, got {shown(metrics)}")
+        for key, value in metrics.items():  # a NaN error was stored, and history showed it
+            if isinstance(value, float | np.floating) and not math.isfinite(value):
+                raise ConfigError(f"Project.set_revision_metrics: metric {key!r} must be a finite number, got {value}")
         revs = {r["revision"]: r for r in self.model_revisions()}
         if n not in revs:
             raise ConfigError(f"{self.path}: no model revision {n!r} (revisions: {sorted(revs) or 'none'})")
@@ -1052,6 +1057,13 @@ def check_asked_solvers(rig: Rig, solvers) -> None:
             choose_solver(rig, body, [s.name for s in body_sensors(rig, body)], solvers)
 
 
+def _path_argument(where: str, path: Any) -> Path:
+    """A project file's path; anything else named (pathlib said "expected str, bytes or os.PathLike")."""
+    if not isinstance(path, str | os.PathLike):
+        raise ConfigError(f"{where}: 'path' must be a project file's path, got {shown(path)}")
+    return Path(path)
+
+
 def create_project(path: str | Path, rig: Rig | str | None = "thesis-dynamometer", *, registries=None) -> Project:
     """Create a new project file (refuses to overwrite) and return it open for writing.
 
@@ -1059,7 +1071,10 @@ def create_project(path: str | Path, rig: Rig | str | None = "thesis-dynamometer
     model revision 0 (no effects, the rig's default model) is created too. ``registries``: the
     providers to work with (default: the installed plugins'; see ``Project.registries``).
     """
-    path = Path(path)
+    path = _path_argument("create_project", path)
+    if rig is not None and not isinstance(rig, Rig | str | os.PathLike):
+        raise ConfigError(f"create_project: 'rig' must be a Rig, a registered rig's name, a .toml rig file or None, "
+                          f"got {shown(rig)}")
     if registries is None:
         from odsuite.contracts.plugins import registries as installed
 
@@ -1111,7 +1126,7 @@ def open_project(path: str | Path, mode: str = "r", *, registries=None) -> Proje
     Files of an older format version are migrated on read (a private copy in read mode; the
     project itself, atomically, in write mode).
     """
-    path = Path(path)
+    path = _path_argument("open_project", path)
     if mode not in ("r", "a"):
         raise ConfigError(f"{path}: open mode must be 'r' or 'a', got {mode!r}")
     if mode == "r":

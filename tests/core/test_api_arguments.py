@@ -163,3 +163,84 @@ def test_a_projects_own_methods_refuse_a_wrong_argument_without_blaming_the_file
     with pytest.raises(api.OdsuiteError) as err:
         e.raw(0, 10)
     assert str(err.value) == f"{project_path}: project is closed (open_project again to read it)"
+
+
+def test_a_wrong_argument_to_a_projects_function_leaves_the_project_unchanged(project_path):
+    # workers=0 ran (on every core) and full_fits=-1 fitted all but the last candidate; a text
+    # chunk, a number for the chain or the revision raised inside
+    before = project_path.read_bytes()
+    with api.open_project(project_path, "a") as p:
+        rev = api.current_revision(p)
+        for call, message in [
+            (lambda: api.process_experiment(p, "T2", workers=0),
+             "process_experiment: 'workers' must be an integer of at least 1, got 0"),
+            (lambda: api.process_experiment(p, "T2", chunk="x"),
+             "process_experiment: 'chunk' must be an integer of at least 1, got 'x'"),
+            (lambda: api.process_experiment(p, "T2", chain=5),
+             "process_experiment: 'chain' must be a list of steps {'step': NAME, ...}, got 5"),
+            (lambda: api.diagnose(p, full_fits=-1), "diagnose: 'full_fits' must be an integer of at least 1, got -1"),
+            (lambda: api.diagnose(p, full_fits="x"), "diagnose: 'full_fits' must be an integer of at least 1, got 'x'"),
+            (lambda: api.add_effect(p, None), "add_effect: 'name' names an effect (text), got None"),
+            (lambda: api.add_effect(p, 5), "add_effect: 'name' names an effect (text), got 5"),
+            (lambda: api.compare(p, revision=5), "compare: 'revision' must be a model revision (an entry of "
+             "project.model_revisions() or current_revision(project)) or None for the current one, got 5"),
+            # a dict without effects was compared as the rig's model, its revision None
+            (lambda: api.compare(p, revision={"x": 1}), "compare: 'revision' must be a model revision (an entry of "
+             "project.model_revisions() or current_revision(project)) or None for the current one, got {'x': 1}"),
+            (lambda: api.revision_model(p, {"effects": 5}),
+             "revision_model: 'revision' field 'effects' must be a list of {'effect': NAME, ...}, got 5"),
+            (lambda: api.ods_coordinates(p, "T2", "10"),
+             "ods_coordinates: 'frequency_hz' must be a finite number > 0, got '10'"),
+            (lambda: p.set_revision_metrics(0, 5), "Project.set_revision_metrics: 'metrics' must be a dict of metrics, "
+                                                   "got 5"),
+            # a NaN error was stored, and history showed it
+            (lambda: p.set_revision_metrics(0, {"error": float("nan")}),
+             "Project.set_revision_metrics: metric 'error' must be a finite number, got nan"),
+        ]:
+            with pytest.raises(ConfigError) as err:
+                call()
+            assert str(err.value) == message
+        assert api.revision_model(p, rev).shared is not None  # a stored revision is one
+    assert project_path.read_bytes() == before
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: api.open_project(None), "open_project: 'path' must be a project file's path, got None"),
+    (lambda: api.open_project(5), "open_project: 'path' must be a project file's path, got 5"),
+    (lambda: api.estimate_frf([np.ones(64)], [np.ones(64)], 0.0), "estimate_frf: 'fs' must be a finite number > 0, "
+                                                                 "got 0.0"),
+    (lambda: api.estimate_frf([np.ones(64)], [np.ones(64)], float("nan")),
+     "estimate_frf: 'fs' must be a finite number > 0, got nan"),
+    (lambda: api.estimate_frf([np.ones(64)], [np.ones(64)], 100.0, window=np.ones(5)),
+     "estimate_frf: 'window' must be 64 samples (or 64 x 2: the force's, then each response's), got shape (5,)"),
+    (lambda: api.estimate_frf([np.ones(64)], [np.ones(64)], 100.0, force_unit="parsec"),
+     "estimate_frf: 'force_unit' must be a force unit (N, kN, mN, lbf), got 'parsec'"),
+    (lambda: api.spectral_matrix(np.ones((256, 2)), 100.0, 0),
+     "spectral_matrix: 'nperseg' must be an integer of at least 2, got 0"),
+    (lambda: api.parse_force_point(None),
+     "parse_force_point: 'value' must be three numbers 'X,Y,Z' (text or a list), got None"),
+    (lambda: api.parse_force_direction(5), "parse_force_direction: 'value' must be an axis (+x, -x, +y, -y, +z, -z) "
+                                           "or three numbers 'dx,dy,dz', got 5"),
+    (lambda: api.rig_from_dict(5, api.registries().sensor_types),
+     "rig_from_dict: 'data' must be a rig's tables as a dict (a parsed rig file), got 5"),
+    (lambda: api.parse_ctr(None),
+     "parse_ctr: 'text' must be the text of a .CTR file (read_ctr reads one from its path), got None"),
+])
+def test_a_wrong_argument_is_one_line_naming_the_function(call, message):
+    with pytest.raises(ConfigError) as err:
+        call()
+    assert str(err.value) == message
+
+
+def test_create_project_and_load_rig_name_a_wrong_rig_argument(tmp_path):
+    with pytest.raises(ConfigError) as err:
+        api.create_project(tmp_path / "c.h5", rig=5)
+    assert str(err.value) == ("create_project: 'rig' must be a Rig, a registered rig's name, a .toml rig file or "
+                              "None, got 5")
+    assert list(tmp_path.iterdir()) == []
+    rig_file = tmp_path / "r.toml"
+    rig_file.write_text('name = "r"\n')
+    with pytest.raises(ConfigError) as err:
+        api.load_rig(rig_file, None)
+    assert str(err.value) == ("load_rig: 'sensor_types' must be the registry of sensor types "
+                              "(registries().sensor_types), got None")

@@ -61,7 +61,7 @@ def test_workers_must_be_positive(project):
     from odsuite.domain.errors import ConfigError
     from odsuite.store.project import open_project
 
-    with open_project(project) as p, pytest.raises(ConfigError, match="workers must be at least 1"):
+    with open_project(project) as p, pytest.raises(ConfigError, match="^diagnose: .workers. must be an integer of at least 1, got 0$"):
         diagnose(p, effects=EFFECTS, workers=0)
 
 
