@@ -177,3 +177,17 @@ def test_modes_and_render_merge_the_same_modes(palisaden_setups, capsys):
     modes = [m["frequency_hz"] for m in json.loads(capsys.readouterr().out)["modes"]]
     rendered = project_setups_modes(palisaden_setups, ["a", "b", "c"]).frequency_hz
     np.testing.assert_allclose(modes, rendered, rtol=1e-9)
+
+
+def test_api_output_only_modes_take_the_projects_path(palisaden_setups):
+    """Through odsuite.api (which checks a project argument) the two functions that open the project
+    in their own worker processes take its path, str or Path: a rig-less project's report lists
+    these modes."""
+    from odsuite import api
+    from odsuite.analysis.multisetup import project_setups_modes
+
+    merged = api.project_setups_modes(str(palisaden_setups), ["a", "b", "c"])
+    np.testing.assert_array_equal(merged.frequency_hz,
+                                  project_setups_modes(palisaden_setups, ["a", "b", "c"]).frequency_hz)
+    res, freq, spectrum, unit = api.experiment_output_only_modes(palisaden_setups, "a")
+    assert len(res.frequency_hz) >= 1 and freq.shape[0] == spectrum.shape[-1]
