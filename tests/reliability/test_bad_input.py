@@ -916,7 +916,37 @@ CASES: list[Case] = [
          argv=lambda d: ["catalog", ""]),
     Case("catalog-seconds-nan", "catalog query --seconds nan (NaN is never late: the bound was off)", "--seconds: a finite time > 0 s, got nan",
          argv=lambda d: ["catalog", "query", str(d), "projects", "--seconds", "nan"]),
+    Case("api-frf-modes-order-zero", "frf_modes with max_order=0 (API; the fit grew its bands for ever)", "frf_modes: 'max_order' must be an integer of at least 2, got 0",
+         call=lambda d: _api().frf_modes(_noise_frf(), max_order=0)),
+    Case("api-estimate-frf-rate-zero", "estimate_frf at fs=0 (API; ZeroDivisionError)", "estimate_frf: 'fs' must be a finite number > 0, got 0.0",
+         call=lambda d: _api().estimate_frf([np.ones(64)], [np.ones(64)], 0.0)),
+    Case("api-process-workers-zero", "process_experiment with workers=0 (API; it ran on every core)", "process_experiment: 'workers' must be an integer of at least 1, got 0",
+         call=lambda d: _on_project(d, lambda api, p: api.process_experiment(p, "e1", workers=0))),
+    Case("api-raw-start-text", "e1's raw record read from row 'a' (API; it said the project file is damaged)", "Experiment.raw: 'start' must be an integer, got 'a'",
+         call=lambda d: _on_project(d, lambda api, p: p.experiment("e1").raw("a"))),
+    Case("api-compare-revision-number", "compare with revision=5 (API; AttributeError)", "compare: 'revision' must be a model revision (an entry of project.model_revisions() or current_revision(project)) or None for the current one, got 5",
+         call=lambda d: _on_project(d, lambda api, p: api.compare(p, revision=5))),
+    Case("api-run-batch-one-path", "run_batch given one project's path for its list (API; each character was run as a project)", "run_batch: 'projects' is a list of project paths, got '{dir}/p.h5'",
+         call=lambda d: _api().run_batch("info", str(d / "p.h5"), workers=1)),
 ]
+
+
+def _api():
+    from odsuite import api
+
+    return api
+
+
+def _noise_frf():
+    rng = np.random.default_rng(0)
+    return _api().estimate_frf([rng.standard_normal(1024)], [rng.standard_normal(1024)], 1000.0)
+
+
+def _on_project(d: Path, call: Callable) -> None:
+    """``call(api, project)`` on p.h5 open for writing."""
+    api = _api()
+    with api.open_project(d / "p.h5", "a") as p:
+        call(api, p)
 
 
 @pytest.fixture(scope="module")
