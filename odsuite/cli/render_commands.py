@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from pathlib import Path
-import math
 
 import typer
 
@@ -38,28 +37,19 @@ def render_cmd(
 ) -> None:
     """Wireframe movie of an experiment's plates, or a figure, by a registered renderer."""
     from odsuite.contracts.plugins import registries
-    from odsuite.contracts.renderers import RenderRequest, choose_renderer, parse_magnify
+    from odsuite.contracts.renderers import RenderRequest, check_render_options, choose_renderer
 
-    if workers is not None and workers < 1:
-        raise ConfigError(f"--workers: at least 1 render process, got {workers}")
+    options = {"model": model, "magnify": magnify, "view": view, "workers": workers,
+               "frame_step": frame_step, "slowdown": slowdown, "ods_hz": ods, "reference": reference, "start": start,
+               "end": end, "fps": fps, "duration": duration, "mode": mode, "fmin": f_min, "fmax": f_max}
+    # the renderer checks them too (for Python callers); here before the output and renderer are chosen
+    options = check_render_options(options)
     check_workers(workers)
-    # the movie's timing, checked here: a renderer reads 0 as "not given" and NaN reaches int()
-    for option, value, least in (("--fps", fps, 0.0), ("--duration", duration, 0.0), ("--slowdown", slowdown, 0.0),
-                                 ("--start", start, None), ("--end", end, None)):
-        if value is not None and not (math.isfinite(value) and (least is None or value > least)):
-            raise ConfigError(f"{option}: must be a finite number{'' if least is None else ' > 0'}, got {value}")
-    if frame_step is not None and frame_step < 1:
-        raise ConfigError(f"--frame-step: at least 1 sample per frame, got {frame_step}")
-    if ods is not None and not (math.isfinite(ods) and ods >= 0.01):  # as --cutoff: no line below 0.01 Hz
-        raise ConfigError(f"--ods: must be a finite frequency >= 0.01 Hz, got {ods}")
     _check_output(output, project, "-o")
     if renderer_name is not None and figure is not None:
         raise ConfigError("--renderer and --figure both name the renderer: give one")
     renderer = choose_renderer(registries().renderers, output, figure or renderer_name,
                                "figure" if figure else "movie")
-    options = {"model": model, "magnify": parse_magnify(magnify), "view": view, "workers": workers,
-               "frame_step": frame_step, "slowdown": slowdown, "ods_hz": ods, "reference": reference, "start": start,
-               "end": end, "fps": fps, "duration": duration, "mode": mode, "fmin": f_min, "fmax": f_max}
     res = renderer.render(RenderRequest(project, experiment, output, options,
                                         progress=err_console.is_terminal and not as_json))
     _say_rendered(renderer, res, as_json)

@@ -20,6 +20,7 @@ page renderer ``report``.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -44,6 +45,18 @@ class RenderRequest:
     #: the providers to open the project with (``open_project(..., registries=)``); None: the
     #: installed plugins'
     registries: Any = None
+
+    def __post_init__(self) -> None:
+        if self.options is None:
+            object.__setattr__(self, "options", {})
+        elif not isinstance(self.options, Mapping):
+            raise ConfigError(f"render options: expected a mapping of option names to values, "
+                              f"got {type(self.options).__name__}")
+
+    def checked_options(self, known: set[str] | frozenset[str], renderer: str) -> dict[str, Any]:
+        """The set options after :meth:`unknown_options` and :func:`check_render_options`."""
+        self.unknown_options(known, renderer)
+        return {k: v for k, v in check_render_options(self.options).items() if v is not None}
 
     def unknown_options(self, known: set[str] | frozenset[str], renderer: str) -> None:
         """Refuse options the renderer does not take (set ones only; None means not given)."""
@@ -131,6 +144,69 @@ def parse_magnify(text: str | None) -> tuple[float, float] | None:
     """``--magnify`` 'H_t,H_r' -> (H_t, H_r), both finite and >= 0 (a negative factor would mirror
     the motion); None stays None."""
     pair = parse_pair(text, "--magnify")
-    if pair is not None and not all(math.isfinite(v) and v >= 0 for v in pair):
-        raise ConfigError(f"--magnify: magnification factors must be finite numbers >= 0, got {text!r}")
+    return None if pair is None else check_magnify(pair, text)
+
+
+def _shown(value: Any) -> str:
+    """A value in a message: a number as typed (nan, 0.0), anything else quoted with its type's look."""
+    return str(value) if isinstance(value, numbers.Real) and not isinstance(value, bool) else repr(value)
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
+def check_render_options(options: Mapping[str, Any]) -> dict[str, Any]:
+    """The experiment renderers' options as ``odsuite render`` checks them, named by its options, so
+    a request from Python is refused with the same line (a NaN rate reached int(), a text duration
+    compared with 0). Returns the options with ``magnify`` as a pair (text 'H_t,H_r' is parsed);
+    other keys pass unchecked."""
+    out = dict(options)
+    for key, value in options.items():
+        if value is None:
+            continue
+        flag = {"ods_hz": "--ods", "frame_step": "--frame-step"}.get(key, f"--{key}")
+        if key in ("fps", "duration", "slowdown", "start", "end"):
+            positive = key not in ("start", "end")
+            if not (_is_number(value) and math.isfinite(value) and (not positive or value > 0)):
+                raise ConfigError(f"{flag}: must be a finite number{' > 0' if positive else ''}, got {_shown(value)}")
+        elif key == "ods_hz" and not (_is_number(value) and math.isfinite(value) and value >= 0.01):
+            # as --cutoff: no line below 0.01 Hz
+            raise ConfigError(f"--ods: must be a finite frequency >= 0.01 Hz, got {_shown(value)}")
+        elif key in ("fmin", "fmax") and not (_is_number(value) and math.isfinite(value) and value >= 0):
+            raise ConfigError(f"{flag}: must be a finite frequency >= 0 Hz, got {_shown(value)}")
+        elif key in ("workers", "frame_step", "mode"):
+            if not isinstance(value, numbers.Integral) or isinstance(value, bool):
+                raise ConfigError(f"{flag}: expected a whole number, got {_shown(value)}")
+            if key == "workers" and value < 1:
+                raise ConfigError(f"--workers: at least 1 render process, got {value}")
+            if key == "frame_step" and value < 1:
+                raise ConfigError(f"--frame-step: at least 1 sample per frame, got {value}")
+        elif key in ("view", "reference") and not isinstance(value, str):
+            what = "'AZ,EL' or 'EYE[,THETA,PHI,PSI]'" if key == "view" else "a sensor name"
+            raise ConfigError(f"{flag}: expected text, {what}, got {_shown(value)}")
+        elif key == "model" and not isinstance(value, bool):
+            raise ConfigError(f"--model: expected True or False, got {_shown(value)}")
+        elif key == "magnify":
+            out[key] = _magnify_pair(value)
+    return out
+
+
+def _magnify_pair(value: Any) -> tuple[float, float]:
+    """``magnify`` as text 'H_t,H_r' or a pair of numbers -> (H_t, H_r), checked as --magnify."""
+    if isinstance(value, str):
+        return parse_magnify(value)
+    try:
+        pair = tuple(value)
+    except TypeError:
+        pair = ()
+    if len(pair) != 2 or not all(_is_number(v) for v in pair):
+        raise ConfigError(f"--magnify: expected two numbers 'A,B', got {_shown(value)}")
+    return check_magnify((float(pair[0]), float(pair[1])), value)
+
+
+def check_magnify(pair: tuple[float, float], given: Any) -> tuple[float, float]:
+    """Magnification factors, both finite and >= 0 (a negative factor would mirror the motion)."""
+    if not all(math.isfinite(v) and v >= 0 for v in pair):
+        raise ConfigError(f"--magnify: magnification factors must be finite numbers >= 0, got {given!r}")
     return pair

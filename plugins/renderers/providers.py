@@ -22,9 +22,9 @@ class MovieRenderer:
         from .experiment import render_experiment
         from .motion import magnification_words, speed_words
 
-        request.unknown_options(MOVIE_OPTIONS, self.name)
+        options = request.checked_options(MOVIE_OPTIONS, self.name)
         res = render_experiment(request.project, request.experiment, request.output, progress=request.progress,
-                                registries=request.registries, **{k: v for k, v in request.options.items() if v is not None})
+                                registries=request.registries, **options)
         if getattr(res, "frame_step", None) == 0:  # a shape on the project's geometry
             return Rendered(res.path, f"{_frames(res)}, the shape on the project's geometry", tuple(res.notes))
         return Rendered(res.path, f"{_frames(res)}, {speed_words(res.slowdown)}, {magnification_words(res.magnify)}",
@@ -49,10 +49,9 @@ class FigureRenderer:
     def render(self, request: RenderRequest) -> Rendered:
         from .experiment import render_experiment
 
-        request.unknown_options(FIGURE_OPTIONS, self.name)
+        options = request.checked_options(FIGURE_OPTIONS, self.name)
         path = render_experiment(request.project, request.experiment, request.output, figure=self.name,
-                                 progress=request.progress, registries=request.registries,
-                                 **{k: v for k, v in request.options.items() if v is not None})
+                                 progress=request.progress, registries=request.registries, **options)
         return Rendered(path, f"{self.name} figure of {request.experiment}")
 
 
@@ -129,11 +128,10 @@ class ModeShapeRenderer:
     def render(self, request: RenderRequest) -> Rendered:
         from .shapes import render_mode_shape
 
-        request.unknown_options(self.OPTIONS, self.name)
+        options = request.checked_options(self.OPTIONS, self.name)
         res, n, notes = render_mode_shape(request.project, request.experiment, request.output,
                                           progress=request.progress, registries=request.registries,
-                                          **{k: v for k, v in request.options.items()
-                                             if v is not None and v is not False})
+                                          **{k: v for k, v in options.items() if v is not False})
         if isinstance(res, Path) and res.suffix.lower() in (".html", ".htm"):
             return Rendered(res, f"interactive 3-D view of {n} mode shapes", tuple(notes))
         if isinstance(res, Path):

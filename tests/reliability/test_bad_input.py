@@ -451,6 +451,17 @@ def _render(output: str, *options: str) -> Callable[[Path], list[str]]:
     return lambda d: ["render", str(d / "processed.h5"), "e1", "-o", str(d / output), *options]
 
 
+def _render_api(renderer: str, output: str, options) -> Callable[[Path], object]:
+    """The registered ``renderer`` drawing e1 of processed.h5 into ``output`` with ``options`` (API)."""
+    def call(d: Path):
+        from odsuite.contracts.plugins import registries
+        from odsuite.contracts.renderers import RenderRequest
+
+        return registries().renderers.get(renderer).render(RenderRequest(d / "processed.h5", "e1", d / output, options,
+                                                                         progress=False))
+    return call
+
+
 def _read_cod(d: Path):
     from odsuite_plugins.importers.legacy import read_cod
 
@@ -928,6 +939,14 @@ CASES: list[Case] = [
          call=lambda d: _on_project(d, lambda api, p: api.compare(p, revision=5))),
     Case("api-run-batch-one-path", "run_batch given one project's path for its list (API; each character was run as a project)", "run_batch: 'projects' is a list of project paths, got '{dir}/p.h5'",
          call=lambda d: _api().run_batch("info", str(d / "p.h5"), workers=1)),
+    Case("render-api-fps-nan", "movie renderer with options {\"fps\": nan} (API; NaN reached int())", "--fps: must be a finite number > 0, got nan",
+         call=_render_api("movie", "m.gif", {"fps": float("nan")})),
+    Case("render-api-duration-text", "movie renderer with options {\"duration\": \"6\"} (API; compared text with 0)", "--duration: must be a finite number > 0, got '6'",
+         call=_render_api("movie", "m.gif", {"duration": "6"})),
+    Case("render-api-view-number", "projection renderer with options {\"view\": 5} (API; .split() of a number)", "--view: expected text, 'AZ,EL' or 'EYE[,THETA,PHI,PSI]', got 5",
+         call=_render_api("projection", "p.png", {"view": 5})),
+    Case("render-api-options-list", "a RenderRequest whose options are a list (API)", "render options: expected a mapping of option names to values, got list",
+         call=_render_api("movie", "m.gif", ["fps"])),
 ]
 
 

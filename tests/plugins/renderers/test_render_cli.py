@@ -136,3 +136,54 @@ def test_render_errors_are_one_line(project, tmp_path, capsys):
                         ((path, "T5", "-o", tmp_path / "m.png", "--figure", "bars"), "--figure")):
         code, _, err = run(capsys, "render", *args)
         assert code == 1 and words in err and len(err.strip().splitlines()) == 1, err
+
+
+API_REFUSALS = [  # (renderer, output, options, the one line; the same as `odsuite render` where it has the option)
+    ("movie", "m.gif", {"fps": float("nan")}, "--fps: must be a finite number > 0, got nan"),
+    ("movie", "m.mp4", {"duration": "6"}, "--duration: must be a finite number > 0, got '6'"),
+    ("movie", "m.gif", {"frame_step": 0}, "--frame-step: at least 1 sample per frame, got 0"),
+    ("movie", "m.gif", {"workers": 2.5}, "--workers: expected a whole number, got 2.5"),
+    ("movie", "m.gif", {"magnify": (1.0, -2.0)}, "--magnify: magnification factors must be finite numbers >= 0, got (1.0, -2.0)"),
+    ("movie", "m.gif", {"magnify": "5"}, "--magnify: expected two numbers 'A,B', got '5'"),
+    ("projection", "p.png", {"view": 5}, "--view: expected text, 'AZ,EL' or 'EYE[,THETA,PHI,PSI]', got 5"),
+    ("projection", "p.png", {"model": "yes"}, "--model: expected True or False, got 'yes'"),
+]
+
+
+@pytest.mark.parametrize("name,out,options,line", API_REFUSALS, ids=[f"{r[0]}-{next(iter(r[2]))}" for r in API_REFUSALS])
+def test_the_renderer_api_refuses_bad_options_in_one_line(project, tmp_path, name, out, options, line):
+    """Through RenderRequest a NaN rate reached int(), a text duration a comparison and a number as
+    the projection's view .split(): each is the ConfigError `odsuite render` gives, nothing written."""
+    from odsuite.contracts.plugins import registries
+    from odsuite.contracts.renderers import RenderRequest
+    from odsuite.domain.errors import ConfigError
+
+    path, _ = project
+    before = path.read_bytes()
+    with pytest.raises(ConfigError) as info:
+        registries().renderers.get(name).render(RenderRequest(path, "T5", tmp_path / out, options, progress=False))
+    assert str(info.value) == line
+    assert path.read_bytes() == before and not (tmp_path / out).exists()
+
+
+def test_the_cli_and_the_api_give_the_same_line(project, tmp_path, capsys):
+    from odsuite.contracts.plugins import registries
+    from odsuite.contracts.renderers import RenderRequest
+    from odsuite.domain.errors import ConfigError
+
+    path, _ = project
+    code, _, err = run(capsys, "render", path, "T5", "-o", tmp_path / "m.gif", "--fps", "nan")
+    assert code == 1
+    with pytest.raises(ConfigError) as info:
+        registries().renderers.get("movie").render(RenderRequest(path, "T5", tmp_path / "m.gif", {"fps": float("nan")}))
+    assert err == f"error: {info.value}\n"
+
+
+def test_a_request_without_options_is_one_without_options(tmp_path):
+    """options=None was read with .items() (AttributeError); anything but a mapping is refused."""
+    from odsuite.contracts.renderers import RenderRequest
+    from odsuite.domain.errors import ConfigError
+
+    assert RenderRequest(tmp_path / "p.h5", "T5", tmp_path / "m.gif", None).options == {}
+    with pytest.raises(ConfigError, match=r"^render options: expected a mapping of option names to values, got list$"):
+        RenderRequest(tmp_path / "p.h5", "T5", tmp_path / "m.gif", ["fps"])
