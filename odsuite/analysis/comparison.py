@@ -312,7 +312,9 @@ def _coordinates(rig: Rig, exp: PreparedExperiment, model, errors: bool = True) 
         c.body.name: (None, None, list(idx.values())) for c, idx in solved_bodies(rig, exp)}
     for name, (gm, gp, cols) in series.items():
         if errors:
-            coords[name] = {c: float(nrmse(gm[:, i], gp[:, i])) for i, c in enumerate(COORDINATE_NAMES)}
+            # a coordinate outside the body's dofs is held still by the model: no error to rank
+            dofs = rig.body(name).dofs
+            coords[name] = {c: float(nrmse(gm[:, i], gp[:, i])) for i, c in enumerate(COORDINATE_NAMES) if c in dofs}
         signals = {exp.sensors[j].name: exp.measured[:, j] for j in cols}
         solver = choose_solver(rig, rig.body(name), signals, exp.registries.coordinate_solvers).solver
         if not hasattr(solver, "rigidity_check"):
@@ -334,7 +336,9 @@ def _tables(labels, sensor_names, band_num, band_den, channels, coords) -> tuple
     worst: list[dict[str, Any]] = []
     for n, v in sorted(channels.items(), key=lambda kv: -kv[1])[:3]:
         worst.append({"kind": "channel", "name": n, "error": v})
-    flat_coords = [(f"{en}/{b}/{c}", v) for en, bd in coords.items() for b, cd in bd.items() for c, v in cd.items()]
+    # NaN: the coordinate neither moved nor was predicted to (no error to rank)
+    flat_coords = [(f"{en}/{b}/{c}", v) for en, bd in coords.items() for b, cd in bd.items() for c, v in cd.items()
+                   if np.isfinite(v)]
     for n, v in sorted(flat_coords, key=lambda kv: -kv[1])[:3]:
         worst.append({"kind": "coordinate", "name": n, "error": v})
     with np.errstate(invalid="ignore", divide="ignore"):  # a band no record has energy in (a record of 10 MHz)

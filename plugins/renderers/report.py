@@ -807,7 +807,9 @@ def _failures_section(doc: Mapping[str, Any], exps, preds: Mapping[str, np.ndarr
     parts = [per_channel, worst, _img(heat_bands, f"NRMSE of model revision {doc['revision']} against each channel in "
                                       "each frequency band, pooled over the experiments (acceleration stage)")]
     if rows:
-        coord = np.array([[doc["coordinates"][en][body][c] for c in coordinate_names] for en, body in rows])
+        # a coordinate outside the body's dofs has no error: a blank cell
+        coord = np.array([[doc["coordinates"][en][body].get(c, np.nan) for c in coordinate_names]
+                          for en, body in rows], dtype=float)
         labels = [en if len({b for _, b in rows}) == 1 else f"{en}/{body}" for en, body in rows]
         heat_coords = _heatmap(coord, labels, list(coordinate_names), tmp / "coords.png",
                                xlabel="generalized coordinate (x, y, z [m]; θ, φ, ψ [rad])", ylabel="experiment",

@@ -415,3 +415,71 @@ def test_residual_peaks_pool_records_of_other_lengths_and_noise_by_their_degrees
         peaks = residual_peaks(exps, [np.zeros_like(e.measured) for e in exps], (), SimpleNamespace(spectra=spectra))
         false_peaks += bool(peaks)
     assert false_peaks <= 2, false_peaks
+
+
+SLAB_RIG = """
+name = "slab"
+default_model = "rigid-bodies"
+channel_count = 4
+[acquisition]
+sampling_rate = 2048.0
+pre_trigger = 256
+[processing]
+offset_samples = [0, 200]
+filter = { family = "butterworth", type = "highpass", order = 2, cutoff_hz = 2.0 }
+filter_at = ["signal", "integral"]
+[[bodies]]
+name = "slab"
+mass = 47.1
+com = [0.0, 0.0, 0.0625]
+inertia = [[0.6305, 0.0, 0.0], [0.0, 1.4154, 0.0], [0.0, 0.0, 2.041]]
+dofs = ["z", "theta", "phi"]
+plate = { size = [0.6, 0.4, 0.025], corner = [-0.3, -0.2, 0.05] }
+""" + "".join(f"""
+[[springs]]
+name = "k{k}"
+body = "slab"
+position = [{x}, {y}, 0.05]
+stiffness = [60000.0, 60000.0, 250000.0]
+damping = [100.0, 100.0, 200.0]
+group = "k"
+""" for k, (x, y) in enumerate(((-0.25, -0.15), (0.25, -0.15), (-0.25, 0.15), (0.25, 0.15)), 1)) + """
+[[sensors]]
+name = "hammer"
+kind = "force"
+channel = 0
+sensitivity = 0.00225
+""" + "".join(f"""
+[[sensors]]
+name = "a{k}"
+kind = "accelerometer"
+body = "slab"
+position = [{x}, {y}, 0.075]
+axis = [0.0, 0.0, 1.0]
+channel = {k}
+sensitivity = 0.0102
+""" for k, (x, y) in enumerate(((-0.28, -0.18), (0.28, -0.18), (-0.28, 0.18)), 1))
+
+
+def test_coordinates_a_body_cannot_move_in_are_not_ranked(tmp_path, capsys):
+    """A plate moving in z, theta and phi only: its x, y and psi errors (NaN: neither side moves)
+    were listed among 'where the model fails most' and as nulls in --json; only its dofs are."""
+    import json
+
+    from odsuite.cli import main
+
+    (tmp_path / "slab.toml").write_text(SLAB_RIG)
+    p = str(tmp_path / "s.h5")
+    assert main(["new", p, "--rig", str(tmp_path / "slab.toml")]) == 0
+    assert main(["acquire", p, "--name", "e1", "--force-point", "0.1,0.05,0.075m", "--force-dir", "-z"]) == 0
+    assert main(["process", p]) == 0
+    capsys.readouterr()
+    assert main(["compare", p, "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert list(doc["coordinates"]["e1"]["slab"]) == ["z", "theta", "phi"]
+    assert all(np.isfinite(v) for v in doc["coordinates"]["e1"]["slab"].values())
+    assert sorted(w["name"] for w in doc["worst"] if w["kind"] == "coordinate") == \
+        ["e1/slab/phi", "e1/slab/theta", "e1/slab/z"]
+    assert main(["compare", p]) == 0
+    out = capsys.readouterr().out
+    assert "e1/slab/z" in out and "slab/x" not in out and "slab/y" not in out and "nan" not in out
