@@ -93,6 +93,7 @@ _WHERE: dict[str, str] = {
     "sampled_later": "odsuite.domain.simulation",
     # units and errors as printed for people (one style in pictures, report and command line)
     "error_text": "odsuite.domain.display",
+    "fixed": "odsuite.domain.display",
     "per_unit": "odsuite.domain.display",
     "unit_text": "odsuite.domain.display",
     # text files and outputs (room checked before writing)

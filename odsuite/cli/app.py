@@ -45,6 +45,7 @@ if _SUMMARY:
 import typer
 
 from odsuite.contracts.interrupts import said_on_interrupt, say_on_interrupt
+from odsuite.domain.display import fixed
 from odsuite.domain.errors import ConfigError, OdsuiteError
 from odsuite.store import diskspace
 from odsuite.cli.printable import shown  # noqa: F401  (commands import it from here)
@@ -308,7 +309,7 @@ def _modal_table(rows) -> Table:
         paired = r["model_hz"] is not None
         cells.append([r["experiment"], f"{r['measured_hz']:.2f}", f"{r['model_hz']:.2f}" if paired else "-",
                       f"{100 * (r['model_hz'] / r['measured_hz'] - 1):+.2f}%" if paired else "-",
-                      f"{100 * r['measured_zeta']:.3f}", f"{100 * r['model_zeta']:.3f}" if paired else "-",
+                      fixed(100 * r["measured_zeta"], 3), fixed(100 * r["model_zeta"], 3) if paired else "-",
                       f"{100 * (r['model_zeta'] / r['measured_zeta'] - 1):+.0f}%" if paired and r["measured_zeta"] else "-",
                       "-" if r["mac"] is None else f"{r['mac']:.3f}"])
     table.add_column("record", no_wrap=True)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from odsuite.domain.display import unit_text
+from odsuite.domain.display import fixed, unit_text
 from odsuite.domain.errors import ConfigError
 from odsuite.cli.app import _check_output, _figure_renderer, _print_json, _rendered_doc, app, console, err_console, shown
 
@@ -188,7 +188,7 @@ def _print_modes(res, name: str) -> None:
     of_orders = f" of {len(res.diagram.orders)}" if res.diagram is not None else ""
     for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio), start=1):
         extra = (f"{res.frequency_std_hz[k - 1]:.2g}", f"{res.damping_std[k - 1]:.2g}") if scatter else ()
-        table.add_row(str(k), f"{f:.{digits}f}", f"{z:.5f}", f"{res.stable_orders[k - 1]}{of_orders}", *extra,
+        table.add_row(str(k), f"{f:.{digits}f}", fixed(z, 5), f"{res.stable_orders[k - 1]}{of_orders}", *extra,
                       f"{mpc(res.shapes[:, k - 1]):.3f}")
     console.print(table)
     if res.fdd is not None:
@@ -199,7 +199,7 @@ def _print_modes(res, name: str) -> None:
         for m in fdd["modes"]:
             std = ["-" if v is None else f"{v:.2g}" for v in (m["frequency_std_hz"], m["damping_std"])]
             paired = m["ssi_mode"] is not None
-            ft.add_row(f"{m['frequency_hz']:.{digits}f}", f"{m['damping_ratio']:.5f}", *std, f"{m['mpc']:.3f}",
+            ft.add_row(f"{m['frequency_hz']:.{digits}f}", fixed(m["damping_ratio"], 5), *std, f"{m['mpc']:.3f}",
                        str(m["ssi_mode"] + 1) if paired else "-",
                        f"{100 * m['frequency_difference']:+.2f} %" if paired else "-",
                        f"{m['mac_ssi']:.3f}" if paired else "-")
@@ -241,7 +241,7 @@ def _merged_modes(project, experiments, reference, band, max_order, block_rows, 
     digits = _frequency_digits(res.frequency_hz)
     for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio)):
         per = res.per_setup[k]
-        table.add_row(str(k + 1), f"{f:.{digits}f}", f"{res.frequency_spread_hz[k]:.2g}", f"{z:.5f}",
+        table.add_row(str(k + 1), f"{f:.{digits}f}", f"{res.frequency_spread_hz[k]:.2g}", fixed(z, 5),
                       f"{res.damping_spread[k]:.2g}", f"{mpc(res.shapes[:, k]):.3f}",
                       f"{min(v[2] for v in per.values()):.3f}", *[f"{per[e][0]:.{digits}f}" for e in experiments])
     console.print(table)

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import typer
 
+from odsuite.domain.display import fixed
 from odsuite.cli.app import _print_json, app, console, shown, wrapped
 
 
@@ -204,7 +205,7 @@ def model_cmd(
         print(text_table("physical quantities (fitted, its standard deviation, the rig's value)",
                          ["effect", "quantity", "fitted", "±", "rig", "unit"], quantities, prose=("quantity",)))
     print(text_table("modes", ["mode", "frequency (Hz)", "damping ratio"],
-                     [[str(i), f"{m['frequency_hz']:.2f}", f"{m['damping_ratio']:.4f}"]
+                     [[str(i), f"{m['frequency_hz']:.2f}", fixed(m["damping_ratio"], 4)]
                       for i, m in enumerate(report["modes"], 1)]))
 
 

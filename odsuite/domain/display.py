@@ -25,6 +25,13 @@ def per_unit(numerator: str, unit: str) -> str:
     return f"{numerator}/({shown})" if "/" in shown or " " in shown else f"{numerator}/{shown}"
 
 
+def fixed(value: float, decimals: int) -> str:
+    """``value`` with ``decimals`` decimals, a value that rounds to zero without a sign: an
+    undamped mode's damping ratio is 0.0000, not -0.0000."""
+    text = f"{value:.{decimals}f}"
+    return text[1:] if text.startswith("-") and not text.strip("-0.") else text
+
+
 def error_text(error: float) -> str:
     """A model error (NRMSE) as printed everywhere: four decimals (0.0134, never 0.013)."""
     return f"{error:.4f}"

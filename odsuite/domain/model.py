@@ -474,7 +474,7 @@ class LinearStructure:
         order = np.argsort(absl, kind="stable")
         lam, vec, absl = lam[order], vec[:, order], absl[order]
         with np.errstate(invalid="ignore", divide="ignore"):
-            zeta = np.where(absl > 0, -lam.real / absl, 1.0)
+            zeta = np.where(absl > 0, -lam.real / absl, 1.0) + 0.0  # an undamped mode: 0, not -0.0
         big = vec[np.argmax(np.abs(vec), axis=0), np.arange(vec.shape[1])]
         shapes = vec / big
         return Modes(lam, absl / (2 * np.pi), zeta, shapes, self.dof_names)

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from odsuite.api import per_unit, unit_text, write_output
+from odsuite.api import fixed, per_unit, unit_text, write_output
 from odsuite.api import ConfigError, check_diagnosis, check_text_file
 
 #: Movie: frame size (pixels), frames per second, about this many frames, this long after the hit.
@@ -60,7 +60,8 @@ class ReportResult:
 def _fmt(v: Any, spec: str = ".4f") -> str:
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
         return "–"
-    return format(v, spec)
+    # fixed decimals: a zero never signed (an undamped model's ζ)
+    return fixed(v, int(spec[1:-1])) if spec.startswith(".") and spec.endswith("f") else format(v, spec)
 
 
 def _esc(v: Any) -> str:

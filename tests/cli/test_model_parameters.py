@@ -109,3 +109,16 @@ def test_a_pair_that_fails_leaves_the_project_as_it_was(capsys, tmp_path, pair, 
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1, err
     assert p.read_bytes() == before
+
+
+def test_an_undamped_models_damping_ratios_print_as_zero(capsys, tmp_path):
+    """Springs with damping [0, 0, 0]: the modes listed damping ratio -0.0000 (and -0.0 in --json)."""
+    from tests.core.test_comparison import SLAB_RIG
+
+    (tmp_path / "slab.toml").write_text(re.sub(r"damping = \[.*\]", "damping = [0.0, 0.0, 0.0]", SLAB_RIG))
+    run(capsys, "new", tmp_path / "p.h5", "--rig", tmp_path / "slab.toml")
+    text = run(capsys, "model", tmp_path / "p.h5")
+    rows = [ln.split() for ln in text.splitlines() if re.match(r"^[123] ", ln)]
+    assert [r[2] for r in rows] == ["0.0000"] * 3, text
+    modes = json.loads(run(capsys, "model", tmp_path / "p.h5", "--json"))["modes"]
+    assert [str(m["damping_ratio"]) for m in modes] == ["0.0"] * 3

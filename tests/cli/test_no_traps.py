@@ -349,6 +349,22 @@ def test_compare_modal_table_keeps_every_number_at_80_columns():
         assert number in text, (number, text)
 
 
+def test_compare_modal_table_prints_an_undamped_models_zeta_as_zero():
+    """A model of undamped springs printed 'model ζ % -0.000'."""
+    from rich.console import Console
+
+    from odsuite.cli.app import _modal_table
+
+    rows = [{"experiment": "e1", "measured_hz": 23.2, "model_hz": 23.19, "measured_zeta": 0.0213,
+             "model_zeta": -0.0, "mac": 0.99},
+            {"experiment": "e1", "measured_hz": 30.1, "model_hz": 30.09, "measured_zeta": 0.0301,
+             "model_zeta": -3e-9, "mac": 0.98}]
+    console = Console(width=120, record=True, file=io.StringIO())
+    console.print(_modal_table(rows))
+    text = console.export_text()
+    assert "-0.000" not in text and text.count(" 0.000 ") == 2, text
+
+
 @pytest.mark.parametrize("names", [
     ["mass_properties+sensor_dynamics", "spring_stiffness", "plate_flexibility_free"],
     ["mass_properties+stiffness", "spring_stiffness", "sensor_gain"],

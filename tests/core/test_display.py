@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from odsuite.domain.display import error_text, per_unit, unit_text
+from odsuite.domain.display import error_text, fixed, per_unit, unit_text
 
 
 @pytest.mark.parametrize("stored, shown", [("m/s^2", "m/s²"), ("(m/s^2)/N", "(m/s²)/N"), ("kg m^2", "kg m²"),
@@ -23,3 +23,10 @@ def test_an_error_prints_with_four_decimals_as_the_figures_label_it():
     # the history figure labels its bars f"{e:.4f}"; the text says the same number
     assert error_text(0.013417) == "0.0134" == f"{0.013417:.4f}"
     assert error_text(0.46921) == "0.4692"
+
+
+@pytest.mark.parametrize("value, decimals, shown", [(-0.0, 4, "0.0000"), (-4e-6, 4, "0.0000"), (-0.00051, 3, "-0.001"),
+                                                    (0.02, 3, "0.020"), (-12.5, 1, "-12.5"), (float("nan"), 2, "nan")])
+def test_a_number_that_rounds_to_zero_prints_without_a_sign(value, decimals, shown):
+    # an undamped model's damping ratio printed -0.0000
+    assert fixed(value, decimals) == shown
