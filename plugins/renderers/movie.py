@@ -358,10 +358,7 @@ def render_movie(
     the phase instead. ``corrected_coords``: the motion with the measurement's diagnosed
     distortions removed (``process --corrected``), overlaid in a third colour.
     """
-    path = Path(path)
-    fmt = path.suffix.lower().lstrip(".")
-    if fmt not in FORMATS:
-        raise ConfigError(f"{path}: movie format must be .mp4 or .gif, got {path.suffix or 'no suffix'!r}")
+    path, fmt, fps, notes = movie_target(Path(path), fps)
     coords = check_coords(rig, coords)
     n = next(iter(coords.values())).shape[0]
     if model_coords is not None:
@@ -377,26 +374,11 @@ def render_movie(
     if magnify is None:
         magnify = default_magnification(rig, coords, *[c for c in (model_coords, corrected_coords) if c])
     magnify = (float(magnify[0]), float(magnify[1]))
-    notes = []
-    no_h264 = fmt == "mp4" and not mp4_available()
     # the rate the movie plays at plans the frames: a duration or slowdown asked is what is seen
-    fps, note = playback_fps(fps, "gif" if no_h264 else fmt, fallback=no_h264)
-    notes += [note] if note else []
     frames, step, slow = frame_plan(n, fs, fps=fps, start=start, stop=stop, frame_step=frame_step,
                                     slowdown=slowdown, duration=duration)
     check_magnification(rig, magnify, *({b: d[frames] for b, d in c.items()}
                                         for c in (coords, model_coords, corrected_coords) if c))
-    if no_h264:
-        fallback = path.with_suffix(".gif")
-        # a name the user did not give: never through a link, never over a file that is no GIF (a
-        # project named run.gif); an earlier fallback's GIF is replaced, as the .mp4 would be
-        if fallback.is_symlink() or (fallback.exists() and not _is_gif(fallback)):
-            raise ConfigError(f"{path}: no H.264 encoder (imageio-ffmpeg with libx264) here, and {fallback.name}, "
-                              f"the GIF written instead, is {'a link' if fallback.is_symlink() else 'another file'}: "
-                              f"give -o {fallback.name} to replace it, or another name")
-        path = fallback
-        fmt = "gif"
-        notes.append(f"no H.264 encoder (imageio-ffmpeg with libx264) available: wrote {path.name} instead")
     size = _even(size)
     labels = frame_labels(frames, fs, time_zero=time_zero, ods_hz=ods_hz, hammer=hammer)
     speed = speed_words(slow)
@@ -412,6 +394,28 @@ def render_movie(
     path = write_movie(job, frames, path, fmt, size, workers, progress)
     return MovieResult(path=path, format=fmt, n_frames=len(frames), fps=fps, magnify=magnify,
                        frame_step=step, slowdown=slow, notes=notes)
+
+
+def movie_target(path: Path, fps: float) -> tuple[Path, str, float, list[str]]:
+    """Where a movie asked as ``path`` (.mp4 or .gif) is written, its format, the rate it plays at
+    for ``fps`` asked and notes: a .gif beside an .mp4 when no H.264 encoder is available."""
+    fmt = path.suffix.lower().lstrip(".")
+    if fmt not in FORMATS:
+        raise ConfigError(f"{path}: movie format must be .mp4 or .gif, got {path.suffix or 'no suffix'!r}")
+    no_h264 = fmt == "mp4" and not mp4_available()
+    fps, note = playback_fps(fps, "gif" if no_h264 else fmt, fallback=no_h264)
+    notes = [note] if note else []
+    if no_h264:
+        fallback = path.with_suffix(".gif")
+        # a name the user did not give: never through a link, never over a file that is no GIF (a
+        # project named run.gif); an earlier fallback's GIF is replaced, as the .mp4 would be
+        if fallback.is_symlink() or (fallback.exists() and not _is_gif(fallback)):
+            raise ConfigError(f"{path}: no H.264 encoder (imageio-ffmpeg with libx264) here, and {fallback.name}, "
+                              f"the GIF written instead, is {'a link' if fallback.is_symlink() else 'another file'}: "
+                              f"give -o {fallback.name} to replace it, or another name")
+        path, fmt = fallback, "gif"
+        notes.append(f"no H.264 encoder (imageio-ffmpeg with libx264) available: wrote {path.name} instead")
+    return path, fmt, fps, notes
 
 
 def _is_gif(path: Path) -> bool:

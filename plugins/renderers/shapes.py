@@ -13,7 +13,7 @@ import numpy as np
 from odsuite.api import ConfigError, Geometry, unit_text
 from odsuite.contracts.renderers import parse_view
 
-from .movie import FORMATS, MovieResult, frame_labels, mp4_available, playback_fps, write_movie, _even
+from .movie import MovieResult, frame_labels, movie_target, write_movie, _even
 from .scene import Style
 from .shape_scene import ShapeScene
 
@@ -46,17 +46,7 @@ def render_shape_movie(geometry: Geometry, values: Mapping[str, complex], freque
                        workers: int | None = None, fps: float | None = None, progress: bool = True,
                        style: Style = Style()) -> MovieResult:
     """A movie (MP4, else GIF) of the shape ``values`` (channel -> complex) at ``frequency_hz``."""
-    path = Path(output)
-    fmt = path.suffix.lower().lstrip(".")
-    if fmt not in FORMATS:
-        raise ConfigError(f"{path}: movie format must be .mp4 or .gif, got {path.suffix or 'no suffix'!r}")
-    notes = []
-    no_h264 = fmt == "mp4" and not mp4_available()
-    fps, note = playback_fps(25.0 if fps is None else float(fps), "gif" if no_h264 else fmt, fallback=no_h264)
-    notes += [note] if note else []
-    if no_h264:
-        path, fmt = path.with_suffix(".gif"), "gif"
-        notes.append(f"no H.264 encoder (imageio-ffmpeg with libx264) available: wrote {path.name} instead")
+    path, fmt, fps, notes = movie_target(Path(output), 25.0 if fps is None else float(fps))
     motion, factor, _ = shape_motion(geometry, values)
     frames = np.arange(motion.shape[0])
     labels = frame_labels(frames, frequency_hz * FRAMES_PER_CYCLE, ods_hz=frequency_hz)

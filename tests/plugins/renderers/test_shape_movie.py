@@ -160,3 +160,28 @@ def test_the_building_as_a_rig_of_floors(tmp_path, capsys, real_data):
     # x, y, z, theta, phi, psi: y dominates x and the twist (psi times a 10 m lever); no z, theta, phi seen
     assert abs(floor[1]) > 5 * abs(floor[0]) and abs(floor[1]) > 5 * abs(floor[5]) * 10.0
     assert floor[2] == floor[3] == floor[4] == 0
+
+
+@pytest.mark.parametrize("existing", ["link", "project"])
+def test_a_shape_movies_gif_fallback_never_replaces_a_file_the_user_did_not_name(tmp_path, monkeypatch, existing):
+    """-o m.mp4 without an H.264 encoder writes m.gif: the shape movie wrote it through a link (into
+    the user's talk.gif) or over a file that is no GIF, which the plate movie refused; the same one
+    line now, and the file is left as it was."""
+    from odsuite.domain.errors import ConfigError
+    from odsuite.domain.geometry import Geometry, GeometrySensor
+    from odsuite_plugins.renderers import movie
+    from odsuite_plugins.renderers.shapes import render_shape_movie
+
+    monkeypatch.setattr(movie, "mp4_available", lambda: False)
+    g = Geometry("mast", np.array([1, 2, 3]), np.array([[0, 0, 0], [0, 0, 2], [0, 0, 4]], float), [[1, 2], [2, 3]],
+                 sensors=(GeometrySensor("a", 3, (1.0, 0.0, 0.0)),), fixed=(1,))
+    kept = tmp_path / ("talk.gif" if existing == "link" else "m.gif")
+    kept.write_bytes(b"\x89HDF\r\n\x1a\n precious")
+    if existing == "link":
+        (tmp_path / "m.gif").symlink_to(kept)
+    with pytest.raises(ConfigError, match=r"m\.mp4: no H\.264 encoder .* m\.gif, the GIF written instead, is "
+                                          f"{'a link' if existing == 'link' else 'another file'}: give -o m\\.gif"):
+        render_shape_movie(g, {"a": 1.0 + 0j}, 5.0, tmp_path / "m.mp4", title="mast", what="mode shape 1",
+                           workers=1, progress=False)
+    assert kept.read_bytes() == b"\x89HDF\r\n\x1a\n precious"
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted({"m.gif", kept.name})
