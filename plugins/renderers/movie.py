@@ -88,8 +88,10 @@ def frame_plan(n_samples: int, fs: float, *, fps: float, start: float = 0.0, sto
     """Sample indices of the frames, the step between them and the slow-motion factor.
 
     ``slowdown`` = movie seconds per second of the record; it sets the step as fs / (fps x
-    slowdown). ``duration`` (s) = the movie's length; it sets the step so the window lasts about
-    that long (never below one sample per frame). Default: every sample is a frame.
+    slowdown). ``duration`` (s) = the movie's length: round(fps x duration) frames at the whole
+    step nearest to the window's samples per frame, so the last frame may lie a little past
+    ``stop`` (less than half a step per frame); fewer when the window holds fewer samples than
+    that or the record ends first. Default: every sample is a frame.
     """
     if fs <= 0 or not np.isfinite(fs):
         raise ConfigError(f"sampling rate: must be > 0 Hz, got {fs!r}")
@@ -97,12 +99,19 @@ def frame_plan(n_samples: int, fs: float, *, fps: float, start: float = 0.0, sto
         raise ConfigError(f"fps: must be > 0, got {fps!r}")
     if sum(v is not None for v in (frame_step, slowdown, duration)) > 1:
         raise ConfigError("give either frame_step, slowdown or duration, not several")
+    i0 = int(round(start * fs))
+    i1 = n_samples if stop is None else min(n_samples, int(round(stop * fs)) + 1)
+    if not 0 <= i0 < i1:
+        raise ConfigError(f"time window: start {start:g} s, stop {stop} s select no sample of a "
+                          f"{n_samples / fs:g} s record")
+    wanted = None
     if duration is not None:
         if not duration > 0:
             raise ConfigError(f"duration: must be > 0 s, got {duration!r}")
-        i0 = int(round(start * fs))
-        i1 = n_samples if stop is None else min(n_samples, int(round(stop * fs)) + 1)
-        frame_step = max(1, int(round((i1 - i0) / (fps * duration))))
+        wanted = max(1, round(fps * duration))
+        # a window of fewer samples than frames is shown sample by sample, not stretched past its end
+        frame_step = max(1, int(round((i1 - i0) / wanted)))
+        wanted = min(wanted, i1 - i0)
     if slowdown is not None:
         if slowdown <= 0:
             raise ConfigError(f"slowdown: must be > 0, got {slowdown!r}")
@@ -114,12 +123,24 @@ def frame_plan(n_samples: int, fs: float, *, fps: float, start: float = 0.0, sto
     step = 1 if frame_step is None else int(frame_step)
     if step < 1:
         raise ConfigError(f"frame_step: must be >= 1 sample, got {frame_step!r}")
-    i0 = int(round(start * fs))
-    i1 = n_samples if stop is None else min(n_samples, int(round(stop * fs)) + 1)
-    if not 0 <= i0 < i1:
-        raise ConfigError(f"time window: start {start:g} s, stop {stop} s select no sample of a "
-                          f"{n_samples / fs:g} s record")
-    return np.arange(i0, i1, step), step, fs / (fps * step)
+    frames = np.arange(i0, i1, step)
+    if wanted is not None:
+        frames = np.arange(i0, min(n_samples, i0 + wanted * step), step)[:wanted]
+    return frames, step, fs / (fps * step)
+
+
+def duration_note(frames: np.ndarray, fps: float, duration: float | None) -> str | None:
+    """Why a movie is shorter than the ``duration`` asked (the window or the record has too few
+    samples for that many frames), or None."""
+    if duration is None or len(frames) >= round(fps * duration):
+        return None
+    return (f"the movie lasts {seconds_text(len(frames) / fps)}, not the {duration:g} s asked: the window's "
+            f"samples give {len(frames)} frames at {fps:.4g} fps (a lower --fps or a longer window lengthens it)")
+
+
+def seconds_text(seconds: float) -> str:
+    """A movie's length: three significant digits below 100 s (0.04 s, 1.2 s), whole seconds above."""
+    return f"{seconds:.0f} s" if seconds >= 100 else f"{seconds:.3g} s"
 
 
 def _gif_delay(fps: float) -> int:
@@ -377,6 +398,8 @@ def render_movie(
     # the rate the movie plays at plans the frames: a duration or slowdown asked is what is seen
     frames, step, slow = frame_plan(n, fs, fps=fps, start=start, stop=stop, frame_step=frame_step,
                                     slowdown=slowdown, duration=duration)
+    short = duration_note(frames, fps, duration)
+    notes += [short] if short else []
     check_magnification(rig, magnify, *({b: d[frames] for b, d in c.items()}
                                         for c in (coords, model_coords, corrected_coords) if c))
     size = _even(size)

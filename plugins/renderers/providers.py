@@ -33,7 +33,10 @@ class MovieRenderer:
 
 def _frames(res) -> str:
     """A movie's frames and the rate it plays at (a GIF's: 33.33 for 30 asked)."""
-    return f"{res.n_frames} frames at {res.fps:.4g} fps ({res.n_frames / res.fps:.1f} s)"
+    from .movie import seconds_text
+
+    return (f"{res.n_frames} frame{'' if res.n_frames == 1 else 's'} at {res.fps:.4g} fps "
+            f"({seconds_text(res.n_frames / res.fps)})")
 
 
 class FigureRenderer:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import imageio_ffmpeg
 import numpy as np
 import pytest
@@ -134,9 +136,43 @@ def test_frame_plan():
         frame_plan(1000, FS, fps=25, start=1.0)
     with pytest.raises(ConfigError, match="either"):
         frame_plan(1000, FS, fps=25, slowdown=10, frame_step=2)
-    # a 4 s movie of a 0.05 s window (1000 samples) at 25 fps: 100 frames, every 10th sample
+    # a 4 s movie of a 0.05 s window (1001 samples, the stop's included) at 25 fps: 100 frames, every
+    # 10th sample (it wrote 101, 4.04 s)
     frames, step, slow = frame_plan(4000, FS, fps=25, start=0.05, stop=0.1, duration=4)
-    assert step == 10 and len(frames) == 101 and slow == pytest.approx(80)
+    assert step == 10 and len(frames) == 100 and slow == pytest.approx(80)
+
+
+@pytest.mark.parametrize("stop, fps, duration, step, n", [
+    (0.0055, 5, 1, 22, 5),      # 111 samples for 5 frames: it wrote 6 (1.2 s)
+    (0.0187, 25, 10, 2, 250),   # 375 samples, 1.5 a frame: a step of 2 past the stop (it wrote 188, 7.52 s)
+    (0.0499, 25, 10, 4, 250),   # the default 10 s of a 0.05 s window
+])
+def test_a_movie_lasts_the_duration_asked(stop, fps, duration, step, n):
+    frames, got_step, _ = frame_plan(4000, FS, fps=fps, stop=stop, duration=duration)
+    assert got_step == step and len(frames) == n == round(fps * duration)
+    assert np.all(np.diff(frames) == step) and frames[0] == 0
+    assert movie.duration_note(frames, fps, duration) is None
+
+
+def test_a_window_of_fewer_samples_than_frames_is_not_stretched_and_says_so():
+    # 9 samples for 25 frames (1 s at 25 fps): each sample once, and a note saying why 0.36 s
+    frames, step, _ = frame_plan(4000, FS, fps=25, stop=0.0004, duration=1)
+    assert frames.tolist() == list(range(9)) and step == 1
+    assert movie.duration_note(frames, 25, 1) == ("the movie lasts 0.36 s, not the 1 s asked: the window's samples "
+                                                  "give 9 frames at 25 fps (a lower --fps or a longer window "
+                                                  "lengthens it)")
+
+
+@pytest.mark.parametrize("n, fps, words", [(1, 25.0, "1 frame at 25 fps (0.04 s)"), (2, 50.0, "2 frames at 50 fps (0.04 s)"),
+                                           (32, 100 / 3, "32 frames at 33.33 fps (0.96 s)"),
+                                           (250, 25.0, "250 frames at 25 fps (10 s)"),
+                                           (5000, 25.0, "5000 frames at 25 fps (200 s)")])
+def test_the_summary_counts_frames_and_seconds_in_words(n, fps, words):
+    # it read '1 frames ... (0.0 s)'
+    from odsuite_plugins.renderers.movie import MovieResult
+    from odsuite_plugins.renderers.providers import _frames
+
+    assert _frames(MovieResult(Path("m.gif"), "gif", n, fps, (1.0, 1.0), 1, 1.0)) == words
 
 
 def test_event_window_spans_the_hit_and_the_decay(thesis_rig):

@@ -81,7 +81,7 @@ def test_render_summary_tells_the_speed_and_rate_the_movie_plays_at(project, tmp
     code, stdout, err = run(capsys, "render", path, "T5", "-o", tmp_path / "m.gif", "--fps", "30",
                             "--frame-step", "64", "--start", "0", "--workers", "1")
     assert code == 0, err
-    assert "32 frames at 33.33 fps (1.0 s), 9.38 times slower than real time" in stdout
+    assert "32 frames at 33.33 fps (0.96 s), 9.38 times slower than real time" in stdout
     assert "it plays at 33.33 fps (3/100 s a frame), not 30" in err and len(err.strip().splitlines()) == 1
 
 
