@@ -28,8 +28,9 @@ from odsuite.api import fixed, per_unit, unit_text, write_output
 from odsuite.api import ConfigError, check_diagnosis, check_text_file
 
 #: Movie: frame size (pixels), frames per second, about this many frames, this long after the hit.
+#: The rate is one a GIF plays exactly (8/100 s a frame), should the movie be one.
 MOVIE_SIZE = (640, 360)
-MOVIE_FPS = 15.0
+MOVIE_FPS = 12.5
 MOVIE_FRAMES = 90
 MOVIE_AFTER_S = 0.06
 MOVIE_BEFORE_S = 0.002
@@ -990,7 +991,7 @@ def _movie_section(rig, exp, series: Mapping[str, tuple], tmp: Path, corrected=N
              f'(MP4, H.264)</video>')
     return (f"<figure>{shown}<figcaption>{_esc(exp.name)}: measured motion (blue)"
             + (" and corrected motion (green)" if corrected else "") + " with the model's (orange band), "
-            f"{res.n_frames} frames from {1e3 * (start - exp.trigger / exp.fs):+.1f} ms to "
+            f"{res.n_frames} frames at {res.fps:.4g} fps from {1e3 * (start - exp.trigger / exp.fs):+.1f} ms to "
             f"{1e3 * (stop - exp.trigger / exp.fs):+.1f} ms around the hit"
             + (f" (where the {fault.band_hz[0]:.0f}-{fault.band_hz[1]:.0f} Hz residual rings)" if fault and window else "")
             + f", {speed_words(res.slowdown)}, {_esc(magnification_words(res.magnify))}.</figcaption></figure>")

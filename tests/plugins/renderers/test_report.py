@@ -583,3 +583,12 @@ def test_a_force_direction_prints_no_negative_zero():
     assert _direction(-np.array([1.0, 0.0, 0.0])) == "(-1.00, +0.00, +0.00)"
     assert _direction([0.0, -1e-17, 1.0]) == "(+0.00, +0.00, +1.00)"
     assert _direction([0.6, -0.8, 0.0]) == "(+0.60, -0.80, +0.00)"
+
+
+def test_the_report_movie_plays_at_its_rate_as_a_gif_too():
+    """A GIF's frame delays are whole hundredths of a second: the report's 15 fps played at 14.29
+    when the movie fell back to GIF; its rate is one a GIF plays exactly."""
+    from odsuite_plugins.renderers.movie import playback_fps
+    from odsuite_plugins.renderers.report import MOVIE_FPS
+
+    assert playback_fps(MOVIE_FPS, "gif") == (MOVIE_FPS, None) == playback_fps(MOVIE_FPS, "mp4")
