@@ -671,6 +671,10 @@ def identify_modes(
     if lo is None or hi is None:
         data_lo, data_hi = usable_band(freq, force_autospectrum, coherence, n_averages)
         lo, hi = data_lo if lo is None else lo, data_hi if hi is None else hi
+    # a band edge past the last line (at the Nyquist frequency, within a line) was cut there without a word
+    if len(freq) > 1 and max(lo, hi) > freq[-1] + (freq[-1] - freq[-2]):
+        raise ConfigError(f"band {lo:.5g}-{hi:.5g} Hz: the FRFs end at {freq[-1]:.5g} Hz, the Nyquist frequency; "
+                          f"give --fmin and --fmax within it")
     keep = (freq >= lo) & (freq <= hi) & (freq > 0)
     if keep.sum() <= max_order:
         raise ConfigError(f"band {lo:.4g}-{hi:.4g} Hz holds {keep.sum()} lines; model order {max_order} needs more")

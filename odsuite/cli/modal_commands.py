@@ -144,7 +144,7 @@ def _modes_options(at, f_min, f_max, reference, output_only, n_experiments, bloc
     from odsuite.domain.textfiles import plain_number
 
     try:
-        freqs = [plain_number(v) for v in at.split(",")] if at else None
+        freqs = [plain_number(v) for v in at.split(",")] if at is not None else None  # "" is no frequency
     except ValueError:
         raise ConfigError(f"--at {at!r}: expected comma-separated frequencies in Hz") from None
     if freqs is not None and not all(math.isfinite(f) and f > 0 for f in freqs):  # nan, -inf: a traceback in the fit

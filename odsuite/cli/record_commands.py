@@ -148,6 +148,12 @@ def acquire_cmd(
         sampling_rate=rate, n_samples=samples, pretrigger=pretrigger, trigger_level=trigger_level,
         trigger_slope=trigger_slope, trigger_timeout=trigger_timeout,
         mode="continuous" if continuous else "finite")
+    if not continuous and trigger_slope == "rising" and trigger_level <= 0:
+        # kept, not refused: a level below any signal is how a test fires at once on a simulated card
+        err_console.print(f"note: --trigger-level {trigger_level:g} N with the rising slope is at or below the force at "
+                          "rest (0 N): it fires on noise or as the force comes back up after the blow, not at the "
+                          "blow's onset (a level above 0 N catches a blow that reads positive; --trigger-slope "
+                          "falling with a level below 0 N one that reads negative)", highlight=False, soft_wrap=True)
     moved = None
     if force_point is not None or force_dir is not None:
         if force_point is None or force_dir is None:

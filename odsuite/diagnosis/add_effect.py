@@ -64,7 +64,24 @@ def add_effect(project, name: str, *, progress: Callable[[str, int, int], None] 
     # and the revision stored must not depend on how the process was started (a fit on two threads
     # ended 4e-9 from one on one, OPENBLAS_NUM_THREADS=1 inherited or not)
     with threadpool_limits(1):
-        return _add_effect(project, name, progress=progress)
+        again = _already_in(project, name)
+        result = _add_effect(project, name, progress=progress)
+    if again:
+        result["notes"] = [again, *result.get("notes", [])]
+    return result
+
+
+def _already_in(project, name: str) -> str | None:
+    """The note for an effect the current revision holds already (it is refitted, not added twice:
+    the new revision has the same effects), or None."""
+    regs = project.registries
+    if name not in regs.effects.names() or getattr(regs.effects.get(name), "repeatable", False):
+        return None
+    rev = current_revision(project)
+    if not any(e["effect"] == name for e in rev.get("effects", [])):
+        return None
+    return (f"{name} is in revision {rev['revision']} already: it was refitted with the others, and the new revision "
+            "holds the same effects")
 
 
 def _add_effect(project, name: str, *, progress: Callable[[str, int, int], None] | None = None) -> dict[str, Any]:
@@ -74,15 +91,23 @@ def _add_effect(project, name: str, *, progress: Callable[[str, int, int], None]
     regs = project.registries
     if "+" in name and name not in regs.effects.names():
         # a pair the diagnosis fitted jointly: each added in turn, the last step refitting all of them
-        # together (as every addition does); every name known before the first is fitted, and the
-        # steps stored in one commit: a step that fails leaves the project as it was
-        for part in name.split("+"):
+        # together (as every addition does); every name is known and named once before the first is
+        # fitted, and the steps are stored in one commit: a step that fails leaves the project as it was
+        parts = name.split("+")
+        for part in parts:
             if part not in regs.effects.names():
                 raise ConfigError(f"{project.path}: effect {name!r}: unknown effect {part!r} "
                                   f"(known: {', '.join(regs.effects.names())})")
+        twice = next((p for p in parts if parts.count(p) > 1 and not getattr(regs.effects.get(p), "repeatable", False)),
+                     None)
+        if twice is not None:  # it stored two revisions of the one effect
+            raise ConfigError(f"{project.path}: effect {name!r} names {twice!r} twice; a model holds it once "
+                              f"(give {twice!r})")
         with project.transaction():
-            steps = [add_effect(project, part, progress=progress) for part in name.split("+")]
-        return steps[-1] | {"effect": name, "previous_error": steps[0]["previous_error"], "steps": steps}
+            steps = [add_effect(project, part, progress=progress) for part in parts]
+        notes = list(dict.fromkeys(n for step in steps for n in step.get("notes", [])))
+        return steps[-1] | {"effect": name, "previous_error": steps[0]["previous_error"], "steps": steps,
+                            "notes": notes}
     effect = regs.effects.get(name)
     rev = current_revision(project)
     model = revision_model(project, rev).shared

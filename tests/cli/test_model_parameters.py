@@ -122,3 +122,38 @@ def test_an_undamped_models_damping_ratios_print_as_zero(capsys, tmp_path):
     assert [r[2] for r in rows] == ["0.0000"] * 3, text
     modes = json.loads(run(capsys, "model", tmp_path / "p.h5", "--json"))["modes"]
     assert [str(m["damping_ratio"]) for m in modes] == ["0.0"] * 3
+
+
+def test_adding_an_effect_the_model_holds_refits_it_and_says_so(capsys, tmp_path):
+    """A second `add-effect damping` stored another revision with the same effects and no word; it
+    still refits (as every addition refits all effects), and one note says so."""
+    p = damped_project(capsys, tmp_path)
+    code = main(["add-effect", str(p), "damping"])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    assert out.count("damping is in revision 1 already: it was refitted with the others, and the new") == 1, out
+    doc = json.loads(run(capsys, "model", p, "--json"))
+    assert doc["revision"] == 2 and [e for e in doc["parameters"]] == ["damping"]
+
+
+def test_a_pair_naming_one_effect_twice_is_refused(capsys, tmp_path):
+    """`add-effect P damping+damping` stored two revisions of the one effect."""
+    p = damped_project(capsys, tmp_path)
+    before = p.read_bytes()
+    assert main(["add-effect", str(p), "damping+damping"]) == 1
+    _, err = capsys.readouterr()
+    assert err == f"error: {p}: effect 'damping+damping' names 'damping' twice; a model holds it once (give 'damping')\n"
+    assert p.read_bytes() == before
+
+
+def test_a_rising_trigger_at_a_negative_level_is_noted(capsys, tmp_path):
+    """--trigger-level -1 with the rising slope ran without a word; it is kept (a level below every
+    signal fires at once, which tests use) with one note."""
+    p = tmp_path / "p.h5"
+    run(capsys, "new", p)
+    assert main(["acquire", str(p), "--name", "T1", "--samples", "2048", "--trigger-level", "-1"]) == 0
+    _, err = capsys.readouterr()
+    assert err.count("note: --trigger-level -1 N with the rising slope is at or below the force at rest (0 N)") == 1
+    assert main(["acquire", str(p), "--name", "T2", "--samples", "2048", "--trigger-level", "-1",
+                 "--trigger-slope", "falling"]) == 0
+    assert "note" not in capsys.readouterr().err

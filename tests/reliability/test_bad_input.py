@@ -947,6 +947,12 @@ CASES: list[Case] = [
          call=_render_api("projection", "p.png", {"view": 5})),
     Case("render-api-options-list", "a RenderRequest whose options are a list (API)", "render options: expected a mapping of option names to values, got list",
          call=_render_api("movie", "m.gif", ["fps"])),
+    Case("modes-at-empty", "modes --at '' (ran as if absent)", "--at '': expected comma-separated frequencies in Hz",
+         argv=lambda d: ["modes", str(d / "p.h5"), "--experiment", "e1", "--at", ""]),
+    Case("modes-fmax-above-nyquist", "modes --fmax 1e300 (the band was cut at the Nyquist frequency without a word)", "-1e+300 Hz: the FRFs end at 10000 Hz, the Nyquist frequency; give --fmin and --fmax within it",
+         argv=lambda d: ["modes", str(d / "p.h5"), "--experiment", "e1", "--fmax", "1e300"]),
+    Case("add-effect-pair-twice", "add-effect damping+damping (stored two revisions of the one effect)", "{dir}/p.h5: effect 'damping+damping' names 'damping' twice; a model holds it once (give 'damping')",
+         argv=lambda d: ["add-effect", str(d / "p.h5"), "damping+damping"]),
 ]
 
 
