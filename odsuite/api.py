@@ -207,6 +207,7 @@ def _checked(function):
 
     @functools.wraps(function)
     def call(*args, **kwargs):
+        from odsuite.domain.arguments import shown
         from odsuite.domain.errors import ConfigError
         from odsuite.store.project import Project
 
@@ -217,27 +218,22 @@ def _checked(function):
         project = bound["project"]
         if by_path and not isinstance(project, str | os.PathLike):
             raise ConfigError(f"{function.__name__}: expected a project file's path as its first argument, got "
-                              f"{type(project).__name__} {_short(project)}")
+                              f"{type(project).__name__} {shown(project)}")
         if not by_path and not isinstance(project, Project):
             raise ConfigError(f"{function.__name__}: expected an open project (open_project(path)) as its first "
-                              f"argument, got {type(project).__name__} {_short(project)}")
+                              f"argument, got {type(project).__name__} {shown(project)}")
         for key in _ONE_EXPERIMENT:
             if key in bound and bound[key] is not None and not isinstance(bound[key], str):
                 what = _NAMES_OTHER.get(function.__name__, "an experiment") if key == "name" else "an experiment"
-                raise ConfigError(f"{function.__name__}: {key!r} names {what} (text), got {_short(bound[key])}")
+                raise ConfigError(f"{function.__name__}: {key!r} names {what} (text), got {shown(bound[key])}")
         for key in _EXPERIMENTS:
             value = bound.get(key)
             # a list's members are checked; another iterable is left unread for the function
             if isinstance(value, str | bytes) or isinstance(value, list | tuple) and not all(isinstance(v, str) for v in value):
-                raise ConfigError(f"{function.__name__}: {key!r} is a list of experiment names, got {_short(value)}")
+                raise ConfigError(f"{function.__name__}: {key!r} is a list of experiment names, got {shown(value)}")
         return function(*args, **kwargs)
 
     return call
-
-
-def _short(value) -> str:
-    shown = repr(value)
-    return shown if len(shown) <= 80 else shown[:77] + "..."
 
 
 def __dir__() -> list[str]:

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, Protocol
 
 from odsuite.contracts.backend_options import BackendOption  # a lab imports it from here too
+from odsuite.domain.arguments import shown
 from odsuite.domain.errors import ConfigError
 from odsuite.domain.memory import check_record_fits  # noqa: F401  (a backend refuses a record with it)
 
@@ -174,7 +175,7 @@ def check_backend_options(backend: Any, options: dict[str, Any], where: str = "a
     parses them (parse_backend_options); from Python a wrong one reached the backend as a raw error."""
     if not callable(getattr(backend, "record", None)) or not isinstance(getattr(backend, "options", None), tuple):
         raise ConfigError(f"{where}: backend must be a registered acquisition backend "
-                          f"(registries().daq_backends.get(NAME)), got {type(backend).__name__} {_short(backend)}")
+                          f"(registries().daq_backends.get(NAME)), got {type(backend).__name__} {shown(backend)}")
     declared = {o.name: o for o in backend.options}
     # a backend's record may take keywords beyond the options a user sets (a test's hidden effects)
     takes = {k: v for k, v in inspect.signature(backend.record).parameters.items()
@@ -197,18 +198,13 @@ def check_backend_options(backend: Any, options: dict[str, Any], where: str = "a
               isinstance(value, opt.type))
         if not ok:
             raise ConfigError(f"{where}: backend option {key!r}: expected {_TYPE_WORDS.get(opt.type, opt.type.__name__)}, "
-                              f"got {_short(value)}")
+                              f"got {shown(value)}")
         if opt.type is int:
             options[key] = int(value)
 
 
 #: the options every backend receives besides its own (DaqBackend.record)
 COMMON_OPTIONS = ("point", "direction", "force_body", "capture")
-
-
-def _short(value: Any) -> str:
-    shown = repr(value)
-    return shown if len(shown) <= 80 else shown[:77] + "..."
 
 
 def rig_systeminfo(rig: Rig, sampling_rate: float) -> Systeminfo:

@@ -9,8 +9,6 @@ import numbers
 from collections.abc import Mapping, Sequence
 from typing import Any, NoReturn
 
-import numpy as np
-
 from odsuite.domain.errors import ConfigError
 
 
@@ -50,6 +48,8 @@ def text(where: str, name: str, value: Any, what: str = "text") -> str:
 
 def listed(where: str, name: str, value: Any, what: str) -> list:
     """A list, tuple or 1-D array (not text, not a mapping: one of ``what`` given for the list)."""
+    import numpy as np  # here: the messages' helpers above load with any command, numpy need not
+
     if isinstance(value, np.ndarray) and value.ndim == 1:
         return value.tolist()
     if isinstance(value, str | bytes | Mapping) or not isinstance(value, Sequence):
