@@ -428,6 +428,17 @@ def _mat_rate(mat: dict, where: str) -> float | None:
     return None
 
 
+def _refuse_cut(file: Path, cut_of, kind: str) -> None:
+    """Refuse ``file`` in one line where ``cut_of`` (_mat_cut, _tdms_cut) finds it cut short: the
+    readers take a file cut inside a tag or a lead-in for a shorter, whole one."""
+    try:
+        cut = cut_of(file)
+    except OSError as exc:
+        raise ConfigError(f"{file}: not a readable {kind} file: {exc.strerror or exc}") from None
+    if cut is not None:
+        raise ConfigError(f"{file}: {cut}")
+
+
 #: a MATLAB v5-v7.2 file: a header of this many bytes, then one element per variable, each a tag
 #: (type, byte count) and its bytes
 MAT_HEADER = 128
@@ -472,12 +483,7 @@ def read_mat_columns(file: Path, explicit: dict) -> Columns:
     import scipy.io
 
     where = str(file)
-    try:
-        cut = _mat_cut(file)
-    except OSError as exc:
-        raise ConfigError(f"{where}: not a readable MATLAB .mat file: {exc.strerror or exc}") from None
-    if cut is not None:
-        raise ConfigError(f"{where}: {cut}")
+    _refuse_cut(file, _mat_cut, "MATLAB .mat")
     try:
         mat = {k: v for k, v in scipy.io.loadmat(file).items() if not k.startswith("__")}
     except NotImplementedError:  # v7.3: HDF5
@@ -582,12 +588,7 @@ def read_tdms_columns(file: Path, explicit: dict) -> Columns:
     import logging
 
     where = str(file)
-    try:
-        cut = _tdms_cut(file)
-    except OSError as exc:
-        raise ConfigError(f"{where}: not a readable TDMS file: {exc.strerror or exc}") from None
-    if cut is not None:
-        raise ConfigError(f"{where}: {cut}")
+    _refuse_cut(file, _tdms_cut, "TDMS")
     # npTDMS reads a file cut short as far as it goes and only logs it: its warnings are caught
     heard: list[str] = []
     handler = logging.Handler(logging.WARNING)
