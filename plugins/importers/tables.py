@@ -369,9 +369,14 @@ def _npy_size_checked(file: Path, where: str) -> None:
     import numpy.lib.format as fmt
 
     with open(file, "rb") as f:
-        version = fmt.read_magic(f)
-        read = fmt.read_array_header_1_0 if version == (1, 0) else fmt.read_array_header_2_0
-        shape, _, dtype = read(f)
+        try:
+            version = fmt.read_magic(f)
+            read = fmt.read_array_header_1_0 if version == (1, 0) else fmt.read_array_header_2_0
+            shape, _, dtype = read(f)
+        except OSError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - numpy parses a damaged header with tokenize and ast
+            raise ConfigError(f"{where}: not a NumPy .npy array file: header: {_library_message(exc)}") from None
         have = file.stat().st_size - f.tell()
     if dtype.hasobject:
         return  # np.load refuses object arrays itself (no pickles)
@@ -389,7 +394,7 @@ def read_npy_columns(file: Path, explicit: dict) -> Columns:
     except ConfigError:
         raise
     except (OSError, ValueError, EOFError) as exc:
-        raise ConfigError(f"{where}: not a NumPy .npy array file: {exc}") from None
+        raise ConfigError(f"{where}: not a NumPy .npy array file: {_library_message(exc)}") from None
     if data.dtype.kind not in "fiu":  # not bool, complex, datetime64 or timedelta64
         raise ConfigError(f"{where}: data: dtype {data.dtype} is not real numbers")
     return checked(where, data, None, None, None, explicit, may_transpose=True)
@@ -409,6 +414,14 @@ def _mat_text(value, where: str, variable: str) -> list[str] | str:
             raise ConfigError(f"{where}: variable {variable!r}: expected text in each cell, got {_brief(v)}")
         out.append(str(e.ravel()[0]).strip())
     return out
+
+
+def _library_message(exc: BaseException) -> str:
+    """A reader library's message about a damaged file as a short printable line (scipy quotes the
+    damaged bytes themselves, line breaks included)."""
+    text = str(exc).strip() or type(exc).__name__
+    text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+    return text if len(text) <= 120 else text[:117] + "..."
 
 
 def _brief(value) -> str:
@@ -489,7 +502,7 @@ def read_mat_columns(file: Path, explicit: dict) -> Columns:
     except NotImplementedError:  # v7.3: HDF5
         mat = _mat73(file)
     except Exception as exc:  # noqa: BLE001 - scipy raises MatReadError, IndexError, ValueError... on a damaged file
-        raise ConfigError(f"{where}: not a readable MATLAB .mat file: {exc}") from None
+        raise ConfigError(f"{where}: not a readable MATLAB .mat file: {_library_message(exc)}") from None
     numeric = {k: v for k, v in mat.items() if isinstance(v, np.ndarray) and v.dtype.kind in "fiu" and v.size > 1}
     variable = explicit.get("variable")
     if variable is not None:
@@ -537,8 +550,8 @@ def _mat73(file: Path) -> dict:
             return out
     except ConfigError:
         raise
-    except (OSError, KeyError, ValueError, TypeError) as exc:  # h5py on a damaged file
-        raise ConfigError(f"{file}: not a readable MATLAB .mat file (v7.3/HDF5): {exc}") from None
+    except (OSError, KeyError, ValueError, TypeError, RuntimeError) as exc:  # h5py on a damaged file
+        raise ConfigError(f"{file}: not a readable MATLAB .mat file (v7.3/HDF5): {_library_message(exc)}") from None
 
 
 #: a TDMS segment's lead-in: tag, table of contents, version, then the offsets of the next segment
@@ -606,7 +619,7 @@ def read_tdms_columns(file: Path, explicit: dict) -> Columns:
         cols_read = {g.name: [np.asarray(c[:]) for c in g.channels()] for g in groups}
     except Exception as exc:  # npTDMS raises ValueError, KeyError, EOFError... on a damaged file
         raise ConfigError(f"{where}: not a readable TDMS file (cut short or damaged?): {type(exc).__name__}: "
-                          f"{str(exc)[:120]}") from None
+                          f"{_library_message(exc)}") from None
     finally:
         log.removeHandler(handler)
         for lg, handlers in own:

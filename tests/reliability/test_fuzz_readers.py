@@ -208,11 +208,80 @@ def _ctr_bases() -> tuple[bytes, ...]:
     return table, format_ctr(read_ctr(TABLE_E3)).encode()
 
 
+#: what a table's file does not say (a file that says it wins where it may: a CSV's units, a .mat's rate)
+TABLE_OPTIONS = {".npy": {"sampling_rate": 1000.0, "units": "m/s^2"}}
+TABLE = np.round(legacy_volts(24)[:, :3], 4)
+
+
+def _read_table(path: Path) -> None:
+    from odsuite_plugins.importers.tables import read_columns
+
+    read_columns(path, dict(TABLE_OPTIONS.get(path.suffix, {})))
+
+
+def _csv_bases(tmp: Path) -> tuple[bytes, ...]:
+    header = ["time [s]", "acc1 [m/s^2]", "acc2 [g]", "force [N]"]
+    rows = [[f"{k / 1000:.3f}"] + [repr(float(v)) for v in r] for k, r in enumerate(TABLE.tolist())]
+    comma = "\n".join(",".join(r) for r in [header] + rows) + "\n"
+    # a decimal-comma locale's spreadsheet, as UTF-16 "Unicode text"
+    semi = "\r\n".join(";".join(c.replace(".", ",") if k else c for k, c in enumerate(r))
+                        for r in [header] + rows) + "\r\n"
+    return comma.encode(), semi.encode("utf-16"), semi.encode()
+
+
+def _npy_bases(tmp: Path) -> tuple[bytes, ...]:
+    out = []
+    for a in (TABLE, TABLE.astype(">f4").T, (TABLE * 1000).astype("<i2")):
+        np.save(tmp / "b.npy", a)
+        out.append((tmp / "b.npy").read_bytes())
+    return tuple(out)
+
+
+def _mat_bases(tmp: Path) -> tuple[bytes, ...]:
+    import h5py
+    import scipy.io
+
+    variables = {"data": TABLE, "fs": 1000.0, "channels": np.array(["acc1", "acc2", "force"], dtype=object),
+                 "units": np.array(["m/s^2", "g", "N"], dtype=object)}
+    out = []
+    for kw in ({}, {"do_compression": True}, {"format": "4"}):
+        v = variables if kw.get("format") != "4" else {"data": TABLE, "fs": np.array([[1000.0]]), "units": "m/s^2"}
+        scipy.io.savemat(tmp / "b.mat", v, **kw)
+        out.append((tmp / "b.mat").read_bytes())
+    # v7.3: HDF5 behind MATLAB's header, column-major, text as UTF-16 code units
+    with h5py.File(tmp / "b.mat", "w", userblock_size=512) as f:
+        f.create_dataset("data", data=TABLE.T)
+        f.create_dataset("fs", data=[[1000.0]])
+        f.create_dataset("units", data=np.array([[ord(c)] for c in "m/s^2"], dtype="u2"))
+        f["units"].attrs["MATLAB_class"] = np.bytes_("char")
+    with open(tmp / "b.mat", "r+b") as f:
+        f.write(b"MATLAB 7.3 MAT-file".ljust(116) + bytes(8) + b"\x00\x02IM")
+    out.append((tmp / "b.mat").read_bytes())
+    return tuple(out)
+
+
+def _tdms_bases(tmp: Path) -> tuple[bytes, ...]:
+    from nptdms import ChannelObject, GroupObject, TdmsWriter
+
+    path = tmp / "b.tdms"
+    with TdmsWriter(str(path)) as w:
+        # two segments: the second one's metadata refers back to the first one's
+        for part in (TABLE[:12], TABLE[12:]):
+            w.write_segment([GroupObject("Measurements")] + [
+                ChannelObject("Measurements", n, part[:, k], properties={"unit_string": u, "wf_increment": 1e-3})
+                for k, (n, u) in enumerate(zip(("acc1", "acc2", "force"), ("m/s^2", "g", "N")))])
+    return (path.read_bytes(),)
+
+
 READERS = {
     "ctr": (_read_ctr, lambda tmp: _ctr_bases(), "x.CTR"),
     "dat": (_read_dat, lambda tmp: ("".join("\t".join(map(repr, r)) + "\n"
                                             for r in legacy_volts(40).tolist()).encode(),), "x.DAT"),
     "uff": (_read_uff, _uff_bases, "x.uff"),
+    "csv": (_read_table, _csv_bases, "x.csv"),
+    "npy": (_read_table, _npy_bases, "x.npy"),
+    "mat": (_read_table, _mat_bases, "x.mat"),
+    "tdms": (_read_table, _tdms_bases, "x.tdms"),
     "project": (_read_project, lambda tmp: (_project_base(tmp),), "x.h5"),
     # format 1.0.0 kept text in HDF5's global heap: read first in a child process (~0.3 s a case)
     "project-1.0.0": (_read_project, lambda tmp: (FROZEN_1_0_0.read_bytes(),), "x.h5"),
