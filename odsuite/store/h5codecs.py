@@ -10,7 +10,7 @@ import math
 import typing
 import uuid
 import warnings
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from enum import IntEnum
 from pathlib import Path
 from typing import Any
@@ -139,30 +139,45 @@ def write_systeminfo(parent: h5py.Group, si: Systeminfo, names: list[str]) -> No
         dataset(rg, n, np.nan if v is None else float(v), "m", [])
 
 
-def read_systeminfo(g: h5py.Group) -> Systeminfo:
+def _expected(hint: Any) -> str:
+    if isinstance(hint, type) and issubclass(hint, IntEnum):
+        return "one of " + ", ".join(f"{m.value} ({m.name.lower()})" for m in hint)
+    return {bool: "true or false", int: "an integer", str: "text"}.get(hint, "a number")
+
+
+def read_systeminfo(g: h5py.Group, refuse: Callable[[int, str, Any, str], Exception]) -> Systeminfo:
+    """The stored Systeminfo; a value of another type, outside its table's codes or a unit other
+    than its sensor type's is ``refuse(channel, field, value, expected)``, raised."""
     table = g["channels"][()]
     column = {name: i for i, name in enumerate(table.dtype.names or ())}
     # a column added after the file was written is left out: its default
     read = [(f.name, _CHANNEL_HINTS[f.name], column[f.name]) for f in dataclasses.fields(ChannelInfo)
             if f.name in column]
     channels = []
-    for row in table.tolist():  # Python values: a numpy record's fields cost more to read than the file
+    for k, row in enumerate(table.tolist()):  # Python values: a numpy record's fields cost more to read than the file
         kw = {}
         for name, hint, i in read:
             v = row[i]
-            if isinstance(hint, type) and issubclass(hint, IntEnum):
-                kw[name] = hint(int(v))
-            elif hint is bool:
-                kw[name] = bool(v)
-            elif hint is int:
-                kw[name] = int(v)
-            elif hint is str:
-                kw[name] = h5text.text(v)
-            elif hint is float:
-                kw[name] = float(v)
-            else:  # float | None
-                kw[name] = None if math.isnan(v) else float(v)
-        channels.append(ChannelInfo(**kw))
+            try:
+                if isinstance(hint, type) and issubclass(hint, IntEnum):
+                    kw[name] = hint(v)
+                elif hint is bool:
+                    kw[name] = bool(v)
+                elif hint is int:
+                    kw[name] = int(v) if isinstance(v, int) else v.__index__()
+                elif hint is str:
+                    kw[name] = h5text.text(v)
+                elif hint is float:
+                    kw[name] = float(v)
+                else:  # float | None
+                    kw[name] = None if math.isnan(v) else float(v)
+            except (TypeError, ValueError, AttributeError, UnicodeDecodeError):
+                raise refuse(k, name, v, _expected(hint)) from None
+        ch = ChannelInfo(**kw)
+        # the unit odsuite writes for the channel's sensor type: another would be shown, not converted
+        if "unit" in column and row[column["unit"]] != ch.unit.encode():
+            raise refuse(k, "unit", h5text.readable(row[column["unit"]]), f"{ch.unit!r} (its sensor type's unit)")
+        channels.append(ch)
     rg = g["rig"]
     opt = {n: float(rg[n][()]) for n in ("rx", "ry", "rz")}  # each dataset read once: a read costs more than the rest
     opt = {n: None if math.isnan(v) else v for n, v in opt.items()}

@@ -79,9 +79,10 @@ from odsuite.store.h5codecs import (
     write_systeminfo,
 )
 from odsuite.store.h5damage import open_h5, reading
-from odsuite.store.stored_values import (EXPERIMENT_UNITS, RATE_RANGE, RAW_MAX, as_number, check_experiment,
-                                          check_experiment_units, check_raw_block,
-                                          check_revision, check_systeminfo)
+from odsuite.store.stored_values import (EXPERIMENT_UNITS, RATE_RANGE, RAW_MAX, as_number, as_vector,
+                                          check_experiment, check_experiment_units, check_raw_block,
+                                          check_parent, check_revision, check_systeminfo,
+                                          systeminfo_refusal)
 from odsuite.store.project_format import (
     CHUNK_BYTES,
     FORMAT_VERSION,
@@ -267,11 +268,13 @@ class Experiment:
         a = Attrs(g)
         self.object_id = h5text.text(a["object_id"])
         self.sampling_rate = as_number(a["sampling_rate"])  # a text or complex number: named by the check
-        self.pretrigger = int(a["pretrigger"])
+        self.pretrigger = a["pretrigger"]  # an integer: a text or float is named by the check
         self.created = h5text.text(a["created"])
         self.source = h5text.text(a.get("source", ""))
         self.rig_name = h5text.text(a["rig"]) or None
-        self.channel_names = [h5text.text(n) for n in a["channel_names"]]
+        names = a["channel_names"]
+        self.channel_names = ([h5text.text(n) for n in names] if isinstance(names, np.ndarray) and names.ndim == 1
+                              else h5text.readable(names))
         raw = g["raw"]
         if not isinstance(raw, h5py.Dataset):
             raise ProjectFileError(f"{project.path}: experiment {name!r} field 'raw': expected a dataset, got a group")
@@ -279,19 +282,23 @@ class Experiment:
         self.n_samples, self.n_channels = (tuple(raw.shape) + (0, 0))[:2]
         self.excitation = None
         if "force_channel" in a:
-            self.excitation = Excitation(int(a["force_channel"]), np.asarray(a["force_point"], dtype=float),
-                                         np.asarray(a["force_direction"], dtype=float),
+            self.excitation = Excitation(a["force_channel"], as_vector(a["force_point"]),
+                                         as_vector(a["force_direction"]),
                                          h5text.text(a["force_body"]) if "force_body" in a else None)
         check_experiment(project.path, name, sampling_rate=self.sampling_rate, pretrigger=self.pretrigger,
                          channel_names=self.channel_names, shape=raw.shape, excitation=self.excitation,
                          dtype=raw.dtype)
+        self.pretrigger = int(self.pretrigger)
+        if self.excitation is not None:
+            self.excitation = replace(self.excitation, force_channel=int(self.excitation.force_channel))
         raw_attrs = Attrs(raw)
         check_experiment_units(project.path, name, {k: h5text.text(a[k]) for k in EXPERIMENT_UNITS if k in a},
                                h5text.text(raw_attrs["units"]) if "units" in raw_attrs else None)
         # every format version keeps the record's rate on the experiment; a Systeminfo written
         # without one (row 7 left at 0 Hz, as API callers could) takes it from there
-        self.systeminfo = read_systeminfo(g["systeminfo"]).with_rate(self.sampling_rate)
-        check_systeminfo(project.path, name, self.systeminfo.channels)
+        self.systeminfo = read_systeminfo(
+            g["systeminfo"], lambda k, *bad: systeminfo_refusal(project.path, name, k, *bad)).with_rate(self.sampling_rate)
+        check_systeminfo(project.path, name, self.systeminfo.channels, self.n_channels)
 
     def _group(self) -> h5py.Group:
         return self._project._file()["experiments"][self.name]
@@ -495,6 +502,9 @@ class Project:
             if "rig" in f:
                 a = Attrs(f["rig"])
                 text, fmt = h5text.text(a["definition"]), h5text.text(a["definition_format"])
+                if fmt not in ("json", "toml"):  # decoded as JSON, another format would be read as a different rig
+                    raise ProjectFileError(f"{self.path}: rig field 'definition_format': expected 'json' or 'toml' "
+                                           f"(the formats odsuite writes), got {fmt!r}")
                 if fmt == "toml":  # only rigs stored before the JSON definitions: tomllib imported for them alone
                     import tomllib
 
@@ -918,9 +928,10 @@ class Project:
         if revs is None:
             return []
         out = []
+        keys = set(revs)
         for key, g in revs.items():
             a = Attrs(g)
-            parent = int(a["parent"])
+            parent = check_parent(self.path, key, a["parent"], keys)
             rev = {"revision": int(key), "model": h5text.text(a["model"]) or None,
                    "effects": json.loads(h5text.text(a["effects"])),
                    "parameters": json.loads(h5text.text(a["parameters"])),

@@ -22,6 +22,8 @@ NUMERIC_METRICS = ("error", "noise_floor_error", "previous_error")
 
 
 def _bad(path: Path, where: str, field: str, value: Any, expected: str) -> ProjectFileError:
+    if isinstance(value, np.ndarray | np.generic):  # as stored: [1, 2], 512.7, not array(...), np.float64(...)
+        value = value.tolist()
     shown = repr(value)
     shown = shown if len(shown) <= 120 else shown[:117] + "..."
     return ProjectFileError(f"{path}: {where} field {field!r}: expected {expected}, got {shown}")
@@ -43,6 +45,19 @@ def is_number(x: Any) -> bool:
     return True
 
 
+def is_integer(x: Any) -> bool:
+    """An integer as odsuite stores counts and indices (not a bool, a float or a text of digits)."""
+    return isinstance(x, int | np.integer) and not isinstance(x, bool)
+
+
+def as_vector(value: Any) -> Any:
+    """A stored attribute as a float array when it holds numbers, else as it is (for the check to name)."""
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        return value
+
+
 def as_number(value: Any) -> Any:
     """A stored attribute as a float when it is a real number, else as it is (for the check to name)."""
     return float(value) if is_number(value) else value
@@ -62,13 +77,21 @@ def check_raw_block(path: Path, name: str, block: np.ndarray, row0: int, channel
                    f"finite values within {RAW_MAX:g} (sample {row0 + i}, channel {label!r})")
 
 
-def check_systeminfo(path: Path, name: str, channels: list) -> None:
-    """The stored channel table's divisors (sensitivity and DAQ gain finite and not 0, the
-    sensitivity within what any writer stores) and filter orders within the writers' range (an
-    order of 10^12 asked a filter design for terabytes)."""
+def systeminfo_refusal(path: Path, name: str, channel: int, field: str, value: Any, expected: str) -> ProjectFileError:
+    """The error for a stored channel table's ``field`` of ``channel``."""
+    return _bad(path, f"experiment {name!r} systeminfo channel {channel}", field, value, expected)
+
+
+def check_systeminfo(path: Path, name: str, channels: list, n_channels: int) -> None:
+    """The stored channel table: one channel per raw column, divisors (sensitivity and DAQ gain
+    finite and not 0, the sensitivity within what any writer stores) and filter orders within the
+    writers' range (an order of 10^12 asked a filter design for terabytes)."""
     from odsuite.domain.filter_kinds import MAX_FILTER_ORDER
     from odsuite.domain.rig import SENSITIVITY_RANGE
 
+    if len(channels) != n_channels:
+        raise _bad(path, f"experiment {name!r}", "systeminfo.channels", len(channels),
+                   f"{n_channels} rows (one per raw column)")
     # the widest writer's range: a rig file's V per SI unit, per micro-unit on a micro-units channel
     lowest, highest = 1e-6 * SENSITIVITY_RANGE[0], SENSITIVITY_RANGE[1]
     for k, ch in enumerate(channels):
@@ -95,17 +118,18 @@ def check_experiment(path: Path, name: str, *, sampling_rate: Any, pretrigger: A
     if not (is_number(sampling_rate) and math.isfinite(sampling_rate)
             and RATE_RANGE[0] <= sampling_rate <= RATE_RANGE[1]):
         raise _bad(path, where, "sampling_rate", sampling_rate, f"{RATE_RANGE[0]:g} to {RATE_RANGE[1]:g} Hz")
-    if not 0 <= pretrigger <= n_samples:
-        raise _bad(path, where, "pretrigger", pretrigger, f"0 to {n_samples} samples")
-    if len(channel_names) != n_channels or len(set(channel_names)) != n_channels:
+    if not (is_integer(pretrigger) and 0 <= pretrigger <= n_samples):
+        raise _bad(path, where, "pretrigger", pretrigger, f"an integer 0 to {n_samples} samples")
+    if (not isinstance(channel_names, list) or len(channel_names) != n_channels
+            or len(set(channel_names)) != n_channels):
         raise _bad(path, where, "channel_names", channel_names, f"{n_channels} distinct names (one per raw column)")
     if excitation is not None:
-        if not 0 <= excitation.force_channel < n_channels:
+        if not (is_integer(excitation.force_channel) and 0 <= excitation.force_channel < n_channels):
             raise _bad(path, where, "force_channel", excitation.force_channel, f"a channel 0 to {n_channels - 1}")
         for field, vec in (("force_point", excitation.point), ("force_direction", excitation.direction)):
-            if np.shape(vec) != (3,) or not np.all(np.isfinite(vec)) or (field == "force_direction"
-                                                                         and not np.any(vec)):
-                raise _bad(path, where, field, np.asarray(vec).tolist(), "3 finite numbers (m; a direction not zero)")
+            if (not isinstance(vec, np.ndarray) or vec.shape != (3,) or not np.all(np.isfinite(vec))
+                    or (field == "force_direction" and not np.any(vec))):
+                raise _bad(path, where, field, vec, "3 finite numbers (m; a direction not zero)")
         if np.max(np.abs(excitation.point)) > MAX_POINT_M:
             raise _bad(path, where, "force_point", np.asarray(excitation.point).tolist(),
                        f"coordinates within {MAX_POINT_M:g} m of the rig's origin")
@@ -126,6 +150,16 @@ def check_experiment_units(path: Path, name: str, units: dict[str, Any], raw_uni
             raise _bad(path, where, field, value, f"{EXPERIMENT_UNITS[field]!r} (the unit odsuite reads it in)")
     if raw_units is not None and raw_units != RAW_UNITS:
         raise _bad(path, where, "raw.units", raw_units, f"{RAW_UNITS!r} (raw records are volts)")
+
+
+def check_parent(path: Path, key: str, parent: Any, keys: set[str]) -> int:
+    """A revision's stored parent: -1 (none) or a stored revision before it (odsuite numbers a
+    revision after its parent: one that is its own or a later one's child is a loop)."""
+    if not (is_integer(parent) and (parent == -1 or str(parent) in keys and parent < int(key))):
+        before = sorted(int(k) for k in keys if k.isdigit() and int(k) < int(key))
+        raise _bad(path, f"model revision {key}", "parent", parent,
+                   f"-1 (none) or a stored revision before it ({', '.join(map(str, before)) or 'none'})")
+    return int(parent)
 
 
 def check_revision(path: Path, key: str, effects: Any, parameters: Any, metrics: Any) -> None:

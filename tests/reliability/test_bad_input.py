@@ -267,6 +267,33 @@ def _handmade(kind: str, command: str = "info") -> Callable[[Path], list[str]]:
                 e.attrs["force_channel"] = 99
             elif kind == "short names":
                 e.attrs["channel_names"] = np.array([b"force", b"ai1"])
+            elif kind == "names an int":
+                e.attrs["channel_names"] = 5
+            elif kind.startswith("pretrigger "):
+                e.attrs["pretrigger"] = {"pretrigger text": "512", "pretrigger 512.7": 512.7,
+                                         "pretrigger array": [1, 2]}[kind]
+            elif kind == "force channel text":
+                e.attrs["force_channel"] = "zero"
+            elif kind == "force direction text":
+                e.attrs["force_direction"] = "up"
+            elif kind in ("unit furlong", "integration 77"):
+                table = e["systeminfo/channels"][()]
+                if kind == "unit furlong":  # a column wide enough for it
+                    table = table.astype([(n, "S8" if n == "unit" else table.dtype[n]) for n in table.dtype.names])
+                    del e["systeminfo/channels"]
+                    e["systeminfo/channels"] = table
+                    table["unit"][2] = b"furlong"
+                else:
+                    table["integration"][2] = 77
+                e["systeminfo/channels"][...] = table
+            elif kind == "systeminfo 3 rows":
+                table = e["systeminfo/channels"][:3]
+                del e["systeminfo/channels"]
+                e["systeminfo/channels"] = table
+            elif kind == "rig yaml":
+                f["rig"].attrs["definition_format"] = "yaml"
+            elif kind == "own parent":
+                rev.attrs["parent"] = 0
             elif kind.startswith("raw as "):  # the record rewritten in another type, its attributes kept
                 attrs, raw = dict(e["raw"].attrs), e["raw"][()]
                 del e["raw"]
@@ -800,6 +827,28 @@ CASES: list[Case] = [
          argv=_handmade('force channel 99', 'info')),
     Case('stored-channel-names', 'info on a project whose experiment stores 2 channel names for 11 columns', "{dir}/x.h5: experiment 'e1' field 'channel_names': expected 11 distinct names (one per raw column), got ['force', 'ai1']",
          argv=_handmade('short names', 'info')),
+    Case('stored-channel-names-int', 'info on a project whose experiment stores the channel names as the number 5', "{dir}/x.h5: experiment 'e1' field 'channel_names': expected 11 distinct names (one per raw column), got 5",
+         argv=_handmade('names an int', 'info')),
+    Case('stored-pretrigger-text', "compare on a project whose experiment stores the pretrigger as the text '512'", "{dir}/x.h5: experiment 'e1' field 'pretrigger': expected an integer 0 to 4096 samples, got '512'",
+         argv=_handmade('pretrigger text', 'compare')),
+    Case('stored-pretrigger-fraction', 'info on a project whose experiment stores the pretrigger 512.7', "{dir}/x.h5: experiment 'e1' field 'pretrigger': expected an integer 0 to 4096 samples, got 512.7",
+         argv=_handmade('pretrigger 512.7', 'info')),
+    Case('stored-pretrigger-array', 'info on a project whose experiment stores the pretrigger as an array [1, 2]', "{dir}/x.h5: experiment 'e1' field 'pretrigger': expected an integer 0 to 4096 samples, got [1, 2]",
+         argv=_handmade('pretrigger array', 'info')),
+    Case('stored-force-channel-text', "info on a project whose experiment stores the force channel as the text 'zero'", "{dir}/x.h5: experiment 'e1' field 'force_channel': expected a channel 0 to 10, got 'zero'",
+         argv=_handmade('force channel text', 'info')),
+    Case('stored-force-direction-text', "info on a project whose experiment stores the force direction as the text 'up'", "{dir}/x.h5: experiment 'e1' field 'force_direction': expected 3 finite numbers (m; a direction not zero), got 'up'",
+         argv=_handmade('force direction text', 'info')),
+    Case('stored-unit-furlong', 'compare on a project whose channel 2 (an accelerometer) stores the unit `furlong`', "{dir}/x.h5: experiment 'e1' systeminfo channel 2 field 'unit': expected 'm/s^2' (its sensor type's unit), got 'furlong'",
+         argv=_handmade('unit furlong', 'compare')),
+    Case('stored-integration-77', 'compare on a project whose channel 2 stores the integration code 77', "{dir}/x.h5: experiment 'e1' systeminfo channel 2 field 'integration': expected one of 0 (none), 1 (double), 2 (single), got 77",
+         argv=_handmade('integration 77', 'compare')),
+    Case('stored-systeminfo-rows', 'info on a project whose channel table has 3 rows for 11 raw columns', "{dir}/x.h5: experiment 'e1' field 'systeminfo.channels': expected 11 rows (one per raw column), got 3",
+         argv=_handmade('systeminfo 3 rows', 'info')),
+    Case('stored-rig-format', 'info on a project whose rig definition says its format is `yaml`', "{dir}/x.h5: rig field 'definition_format': expected 'json' or 'toml' (the formats odsuite writes), got 'yaml'",
+         argv=_handmade('rig yaml', 'info')),
+    Case('stored-own-parent', 'history on a project whose revision 0 names itself as its parent', "{dir}/x.h5: model revision 0 field 'parent': expected -1 (none) or a stored revision before it (none), got 0",
+         argv=_handmade('own parent', 'history')),
     Case("lvm-underscore", ".lvm with data value `1_000` (Python reads 1000; LabVIEW writes no digit groups)", "{dir}/bad.lvm: line 20, column 2: '1_000' is not a number",
          **lvm(LVM_TEXT.replace("\t1,5\t", "\t1_000\t"))),
     Case("lvm-long-row", ".lvm with a row of 1,000,000 cells in a 2-channel file", "{dir}/bad.lvm: line 20: 1000000 cells, more than the 4 of 2 channel(s) and a comment",
@@ -903,7 +952,7 @@ CASES: list[Case] = [
          call=lambda d: _read_raw_short_of_memory(d, 100_000)),
     Case("stored-sensitivity-zero", "info on a project whose channel 2 stores sensitivity 0", "{dir}/x.h5: experiment 'e1' systeminfo channel 2 field 'sensitivity': expected a finite number other than 0, got 0.0",
          argv=_handmade("sensitivity 0", "info")),
-    Case("stored-rate-complex", "info on a project whose experiment stores the sampling rate 20000+1j", "{dir}/x.h5: experiment 'e1' field 'sampling_rate': expected 0.1 to 1e+08 Hz, got np.complex128(20000+1j)",
+    Case("stored-rate-complex", "info on a project whose experiment stores the sampling rate 20000+1j", "{dir}/x.h5: experiment 'e1' field 'sampling_rate': expected 0.1 to 1e+08 Hz, got (20000+1j)",
          argv=_handmade("rate complex", "info")),
     Case("stored-current-revision", "process on a project whose current revision 0 was deleted", "{dir}/x.h5: models field 'current_revision': expected a stored revision (none), got 0",
          argv=_handmade("no revision 0", "process")),
