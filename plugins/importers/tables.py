@@ -458,9 +458,9 @@ MAT_HEADER = 128
 
 
 def _mat_cut(file: Path) -> str | None:
-    """How a v5-v7.2 .mat file stops short of what its variables' tags declare (None: it holds them
-    all, or is of another version). scipy reads a file cut inside a tag as if it ended before it (a
-    file without its later variables)."""
+    """How a v5-v7.2 .mat file stops short of what its variables' tags declare, or holds an element
+    scipy cannot read safely (None: neither, or of another version). scipy reads a file cut inside a
+    tag as if it ended before it (a file without its later variables)."""
     from scipy.io.matlab import matfile_version
 
     size = file.stat().st_size
@@ -484,21 +484,110 @@ def _mat_cut(file: Path) -> str | None:
             end = pos + 8 + count
             if end > size:
                 return f"cut short at byte {size}: variable {k} at byte {pos} declares its data up to byte {end}"
+            damage = _mat_damage(f, pos, end, order)
+            if damage is not None:
+                return f"damaged: variable {k} at byte {pos}: {damage}"
             pos = end + (-count % 8 if kind != 15 else 0)  # all but compressed ones padded to 8 bytes
             k += 1
     return None
+
+
+#: the data types of a v5 element's tag and their item sizes (None: elements inside; 8, 10 and 11
+#: are reserved). scipy's reader crashes the process (a segmentation fault) on a type not listed.
+MAT_TYPES = {1: 1, 2: 1, 3: 2, 4: 2, 5: 4, 6: 4, 7: 4, 9: 8, 12: 8, 13: 8, 14: None, 15: None, 16: 1, 17: 2, 18: 4}
+#: cells of cells nested deeper than this are no record (and would exhaust Python's recursion)
+MAT_DEPTH = 64
+
+
+def _mat_damage(f, start: int, end: int, order: str, depth: int = 0) -> str | None:
+    """What is wrong with the v5 element at byte ``start`` of stream ``f`` (the file, or a compressed
+    variable's data) and the elements inside it, up to byte ``end``; None: nothing."""
+    import zlib
+
+    if depth > MAT_DEPTH:
+        return f"elements nested deeper than {MAT_DEPTH} levels"
+    f.seek(start)
+    tag = f.read(8)
+    if len(tag) < 8:
+        return f"an element's tag has {len(tag)} of its 8 bytes"
+    kind, count = struct.unpack(order + "II", tag)
+    small = kind >> 16  # a small element: type and byte count in the tag's first 4 bytes, data in the others
+    if small:
+        kind, count = kind & 0xFFFF, small
+    if kind not in MAT_TYPES or (kind == 15 and depth):
+        return f"an element of data type {kind}, which MATLAB does not write"
+    if MAT_TYPES[kind] and count % MAT_TYPES[kind]:
+        return f"an element of data type {kind} of {count} bytes, not a whole number of {MAT_TYPES[kind]}-byte values"
+    if start + 8 + (0 if small else count) > end:
+        return f"an element of {count} bytes runs past the end of the element holding it"
+    if kind == 15:
+        try:
+            inner = zlib.decompress(f.read(count))
+        except zlib.error as exc:
+            return f"its compressed data cannot be decompressed ({exc})"
+        if len(inner) < 8:
+            return f"its compressed data hold {len(inner)} bytes, not an element"
+        return _mat_damage(io.BytesIO(inner), 0, len(inner), order, depth + 1)
+    pos, stop = start + 8, start + 8 + count
+    while kind == 14 and pos < stop:  # a matrix: its flags, dimensions, name and data, each an element
+        if pos + 8 > stop:
+            return "an element cut short by the end of the matrix holding it"
+        damage = _mat_damage(f, pos, stop, order, depth + 1)
+        if damage is not None:
+            return damage
+        f.seek(pos)
+        head, size = struct.unpack(order + "II", f.read(8))
+        pos += 8 if head >> 16 else 8 + size + (-size % 8)
+    return None
+
+
+def _loadmat_apart(file: Path) -> dict:
+    """scipy.io.loadmat(file) run in a forked child: scipy's compiled reader crashes the process on
+    some damaged files (a char array's dimensions past its data, a complex flag without imaginary
+    part), which is then refused naming the signal instead of ending odsuite without a word."""
+    import os
+    import pickle
+    import signal
+
+    import scipy.io
+
+    if not hasattr(os, "fork"):
+        return scipy.io.loadmat(file)
+    read_end, write_end = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: the variables or the exception, pickled, then out without cleanup
+        os.close(read_end)
+        try:
+            try:
+                result = ("ok", scipy.io.loadmat(file))
+            except BaseException as exc:  # noqa: BLE001 - sent to the parent, which decides
+                result = ("error", exc if isinstance(exc, NotImplementedError) else ValueError(_library_message(exc)))
+            with os.fdopen(write_end, "wb") as out:
+                pickle.dump(result, out, protocol=pickle.HIGHEST_PROTOCOL)
+        finally:
+            os._exit(0)
+    os.close(write_end)
+    with os.fdopen(read_end, "rb") as pipe:
+        data = pipe.read()
+    status = os.waitpid(pid, 0)[1]
+    if os.WIFSIGNALED(status) or not data:
+        code = os.WTERMSIG(status) if os.WIFSIGNALED(status) else os.WEXITSTATUS(status)
+        name = signal.Signals(code).name if os.WIFSIGNALED(status) else f"exit code {code}"
+        raise ValueError(f"scipy's reader crashed on it ({name}): the file is damaged")
+    kind, value = pickle.loads(data)
+    if kind == "error":
+        raise value
+    return value
 
 
 def read_mat_columns(file: Path, explicit: dict) -> Columns:
     """A MATLAB .mat (v4-v7.2 via scipy.io; v7.3 is HDF5, via h5py): the array ``variable``, else
     the file's only 2-D numeric array; ``fs``/``sampling_rate``, ``channels`` and ``units``
     variables when present."""
-    import scipy.io
-
     where = str(file)
     _refuse_cut(file, _mat_cut, "MATLAB .mat")
     try:
-        mat = {k: v for k, v in scipy.io.loadmat(file).items() if not k.startswith("__")}
+        mat = {k: v for k, v in _loadmat_apart(file).items() if not k.startswith("__")}
     except NotImplementedError:  # v7.3: HDF5
         mat = _mat73(file)
     except Exception as exc:  # noqa: BLE001 - scipy raises MatReadError, IndexError, ValueError... on a damaged file

@@ -439,6 +439,26 @@ def _mat73_external(path: Path) -> None:
         f.write(b"MATLAB 7.3 MAT-file".ljust(124) + b"\x00\x02IM")
 
 
+def _patched(write: Callable[[Path], object], old: bytes, new: bytes) -> Callable[[Path], None]:
+    """The file ``write`` makes with the first ``old`` bytes in it replaced by as many ``new`` ones."""
+    def patched(path: Path) -> None:
+        write(path)
+        data = path.read_bytes()
+        assert len(old) == len(new) and old in data
+        path.write_bytes(data.replace(old, new, 1))
+    return patched
+
+
+def _mat73(path: Path) -> None:
+    import h5py
+
+    with h5py.File(path, "w", userblock_size=512) as f:
+        f["data"] = np.sin(np.arange(200.0)).reshape(2, 100)
+        f["fs"] = np.array([[1000.0]])
+    with open(path, "r+b") as f:
+        f.write(b"MATLAB 7.3 MAT-file".ljust(124) + b"\x00\x02IM")
+
+
 def _tdms(**properties) -> Callable[[Path], None]:
     def write(path: Path) -> None:
         from nptdms import ChannelObject, GroupObject, TdmsWriter
@@ -921,6 +941,14 @@ CASES: list[Case] = [
          argv=_imported("r.mat", _cut(_mat(fs=100.0, units="g"), 1787))),
     Case("import-mat-units-empty", ".mat whose `units` is an empty text", "{dir}/r.mat: variable 'units': empty",
          argv=_imported("r.mat", _mat(fs=100.0, units=""))),
+    Case('import-npy-header-damaged', ".npy whose header reads `'fortran_order': F[lse` (numpy's parser raised TokenError)", "{dir}/r.npy: not a NumPy .npy array file: header: ('EOF in multi-line statement', (2, 0))",
+         argv=_imported("r.npy", _patched(_npy(np.ones((16, 2))), b"False", b"F[lse"), "--rate", "100", "--units", "g")),
+    Case('import-mat-element-type', ".mat whose array's data element has the reserved data type 8", '{dir}/r.mat: damaged: variable 1 at byte 128: an element of data type 8, which MATLAB does not write',
+         argv=_imported("r.mat", _patched(_mat(fs=100.0, units="g"), b"data\x09\x00\x00\x00", b"data\x08\x00\x00\x00"))),
+    Case('import-mat-crash', ".mat whose array is flagged complex without an imaginary part (scipy's reader crashed the process)", "{dir}/r.mat: not a readable MATLAB .mat file: scipy's reader crashed on it (SIGSEGV): the file is damaged",
+         argv=_imported("r.mat", _patched(_mat(fs=100.0, units="g"), b"\x06\x00\x00\x00\x00\x00\x00\x00\x05", b"\x06\x08\x00\x00\x00\x00\x00\x00\x05"))),
+    Case('import-mat73-damaged', "MATLAB v7.3 .mat whose root group's heap signature is overwritten (h5py raised RuntimeError)", '{dir}/r.mat: not a readable MATLAB .mat file (v7.3/HDF5): Link iteration failed (bad local heap signature)',
+         argv=_imported("r.mat", _patched(_mat73, b"HEAP", b"XEAP"), "--units", "g")),
     Case("import-mat73-external", "MATLAB v7.3 .mat whose array is HDF5 external storage on another file", "{dir}/r.mat: variable 'data': its data are stored in other files (HDF5 external storage or a virtual dataset); refused",
          argv=_imported("r.mat", _mat73_external, "--units", "g")),
     Case("import-tdms-increment-text", "TDMS channel whose wf_increment property is the text 'fast'", "{dir}/r.tdms: channel 'a1': property wf_increment is 'fast', not a number of seconds",
