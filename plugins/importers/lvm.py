@@ -111,9 +111,14 @@ def _lines(path: Path) -> list[str]:
     """The file's lines, refused when it is no ``.lvm`` file (first line)."""
     check_text_file(path, "LabVIEW (.lvm)")
     try:
-        text = path.read_bytes().decode("latin-1")
+        raw = path.read_bytes()
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read LabVIEW file ({exc.strerror})") from exc
+    try:  # UTF-8 where it decodes ('m/s²' read as 'm/sÂ²' otherwise), else the system code page LabVIEW writes in
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        text = raw.decode("latin-1")
+    del raw
     lines = text.splitlines()
     if not lines or not lines[0].startswith("LabVIEW Measurement"):
         first = lines[0][:40] if lines else ""

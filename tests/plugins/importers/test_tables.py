@@ -455,6 +455,20 @@ def test_a_known_unit_is_stored_in_si(tmp_path, registries, fmt, unit, si, senso
         assert exp.systeminfo.channels[0].sensor_type.name == sensor
 
 
+@pytest.mark.parametrize("encoding", ["utf-8", "latin-1"])
+def test_an_lvm_file_in_utf8_or_the_code_page_gives_the_same_record(tmp_path, registries, encoding):
+    # decoded as latin-1 only, a UTF-8 'm/s²' read as 'm/sÂ²' and was refused
+    (tmp_path / "r.lvm").write_text(LVM_HEAD.format(unit="m/s²").replace("\ta\tr\t", "\ta µ\tr\t"), encoding=encoding)
+    create_project(tmp_path / "p.h5", rig=None).close()
+    _import(registries, tmp_path / "p.h5", tmp_path / "r.lvm")
+    with open_project(tmp_path / "p.h5") as p:
+        exp = p.experiment("rec")
+        assert exp.channel_names == ["a µ", "r"]
+        assert [c.sensor_type.name for c in exp.systeminfo.channels] == ["ACCELEROMETER", "ACCELEROMETER"]
+        assert physical(exp).tolist() == [[0.5, 1.0], [1.5, 2.0], [0.1, -1.0], [0.0, 0.5]]
+        assert exp.sampling_rate == 1000.0
+
+
 @pytest.mark.parametrize("fmt", ["csv", "tdms", "lvm"])
 @pytest.mark.parametrize("unit", ["mg", "km", "km/s^2", "mm/s^2", "mN", "kN", "MN", "mV", "kV", "lbf", "ft/s^2"])
 def test_a_unit_of_another_scale_is_refused_naming_channel_and_unit(tmp_path, registries, fmt, unit):
