@@ -29,12 +29,14 @@ UNITS = {
 }
 
 
-def check_units(names: list[str], units: list[str], where: str) -> None:
-    """Refuse a unit label none of UNITS (an empty one is a column without a unit): 'mg', 'kN' or
-    'mm/s^2' stored as they are would be read at the wrong scale."""
+def check_units(names: list[str], units: list[str], where: str, kept: tuple[str, ...] = ()) -> None:
+    """Refuse a unit label none of UNITS nor ``kept`` (labels stored at scale 1 without a sensor; an
+    empty one is a column without a unit): 'mg', 'kN' or 'mm/s^2' stored as they are would be read
+    at the wrong scale."""
     for n, u in zip(names, units):
-        if u.strip() and u.strip().lower() not in UNITS:
-            raise ConfigError(f"{where}: channel {n!r}: unit {u!r} is not one of m/s^2, g, N, V")
+        if u.strip() and u.strip().lower() not in UNITS and u.strip().lower() not in [k.lower() for k in kept]:
+            also = f" ({', '.join(kept)} kept as they are)" if kept else ""
+            raise ConfigError(f"{where}: channel {n!r}: unit {u!r} is not one of m/s^2, g, N, V{also}")
 
 
 def force_index(names: list[str], units: list[str], force_channel: str | None, where: str) -> int | None:

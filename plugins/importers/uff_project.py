@@ -16,7 +16,7 @@ import numpy as np
 from odsuite.api import write_output
 from odsuite.api import ConfigError
 from odsuite.api import physical
-from odsuite_plugins.importers.columns import UNITS, force_index, operating_note
+from odsuite_plugins.importers.columns import UNITS, check_units, force_index, operating_note
 from odsuite.api import DerivedArray, Excitation, Project, open_project
 from odsuite.api import Rig
 from odsuite_plugins.importers.rig_import import columns_to_channels, name_key, names_the_rig, onto_rig
@@ -33,6 +33,10 @@ from odsuite_plugins.importers.uff import (
     write_uff,
 )
 from odsuite.api import __version__
+
+#: ordinate labels of a record stored as it is, at scale 1 without a sensor: UFF's "not specified"
+#: and SI units odsuite has no sensor type for (pyuff's samples record sound pressure in Pa)
+UFF_KEPT_UNITS = ("NONE", "Pa", "m", "m/s")
 
 #: Corners of a plate's top face (body z points down into the plate: z = 0 is the top) in drawing order.
 _TOP_FACE = ("FLL", "FRL", "RRL", "RLL")
@@ -174,6 +178,7 @@ def _import_records(project, uff_path: Path, name: str, content, records: list[U
     if fidx is None:
         notes += (operating_note(str(uff_path)),)
     fs = _sampling_rate(dt)
+    check_units(names, units, str(uff_path), kept=UFF_KEPT_UNITS)
     raw = np.column_stack([f.data for f in records]).astype(float)
     # values in engineering units, not volts: converter limits well above the peaks, so no false clipping
     limits = np.maximum(10.0, np.ceil(2 * np.abs(raw).max(axis=0)))

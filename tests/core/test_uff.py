@@ -258,3 +258,39 @@ def test_files_without_datasets_are_refused(tmp_path, thesis_record):
     with pytest.raises(ConfigError, match="cut.uff: "):
         import_uff(tmp_path / "q.h5", tmp_path / "cut.uff", "x")
     assert (tmp_path / "q.h5").read_bytes() == before
+
+
+def _imported_without_rig(tmp_path, unit: str):
+    from odsuite.analysis.modal_project import physical
+    from odsuite.store.project import create_project, open_project
+    from odsuite_plugins.importers.uff_project import import_uff
+
+    write_uff(tmp_path / "r.uff", functions=[time_function("acc", np.array([0.5, 1.5, 0.1, 0.0]), 1e-3, unit,
+                                                           node=1, direction=3)], binary=False)
+    create_project(tmp_path / "p.h5", rig=None).close()
+    import_uff(tmp_path / "p.h5", tmp_path / "r.uff", "e")
+    with open_project(tmp_path / "p.h5") as p:
+        exp = p.experiment("e")
+        return physical(exp)[:, 0].tolist(), exp.systeminfo.channels[0].sensor_type.name
+
+
+@pytest.mark.parametrize("unit, si, sensor", [("g", [4.903325, 14.709975, 0.980665, 0.0], "ACCELEROMETER"),
+                                              ("m/s^2", [0.5, 1.5, 0.1, 0.0], "ACCELEROMETER"),
+                                              ("m/s²", [0.5, 1.5, 0.1, 0.0], "ACCELEROMETER"),
+                                              ("N", [0.5, 1.5, 0.1, 0.0], "LOADCELL"),
+                                              ("Pa", [0.5, 1.5, 0.1, 0.0], "NONE")])
+def test_a_uff_record_without_a_rig_is_stored_in_si(tmp_path, unit, si, sensor):
+    assert _imported_without_rig(tmp_path, unit) == (pytest.approx(si, rel=1e-15), sensor)
+
+
+@pytest.mark.parametrize("unit", ["mg", "mm/s^2", "mN", "kN", "mV", "lbf", "in/s^2"])
+def test_a_uff_record_without_a_rig_in_a_unit_of_another_scale_is_refused(tmp_path, unit):
+    # stored as volts at scale 1 (no sensor): 1.5 mg read as 1.5 instead of 0.0147 m/s^2
+    with pytest.raises(ConfigError) as info:
+        _imported_without_rig(tmp_path, unit)
+    assert str(info.value) == (f"{tmp_path / 'r.uff'}: channel 'acc': unit {unit!r} is not one of m/s^2, g, N, V "
+                               "(NONE, Pa, m, m/s kept as they are)")
+    from odsuite.store.project import open_project
+
+    with open_project(tmp_path / "p.h5") as p:
+        assert p.experiment_names() == []

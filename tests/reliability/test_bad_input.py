@@ -192,6 +192,18 @@ def _uff_on_rig(d: Path, how: str):
     return import_uff(d / "r.h5", d / "r.uff", "new", force_point=np.zeros(3), force_dir=np.array([0.0, 0.0, 1.0]))
 
 
+def _uff_without_rig(unit: str) -> Callable[[Path], list[str]]:
+    """``import`` of a UFF time record in ``unit`` into r.h5, a project without a rig."""
+    def argv(d: Path) -> list[str]:
+        from odsuite.store.project import create_project
+        from odsuite_plugins.importers.uff import time_function, write_uff
+
+        create_project(d / "r.h5", rig=None).close()
+        write_uff(d / "r.uff", functions=[time_function("acc", np.sin(np.arange(10.0)), 1e-3, unit, node=1, direction=3)])
+        return ["import", str(d / "r.h5"), str(d / "r.uff"), "--name", "new"]
+    return argv
+
+
 def _full_disk_export(d: Path, free: int):
     """Export e1 as UFF while the output's disk reports ``free`` bytes free (API, patched disk_usage);
     nothing of the output may be left."""
@@ -604,6 +616,8 @@ CASES: list[Case] = [
          **lvm(LVM_TEXT[:LVM_TEXT.index("\t0,5")])),
     Case("lvm-unit-prefix", ".lvm whose force column is labelled `mN` (stored as volts at scale 1)", "{dir}/bad.lvm: channel 'Force': unit 'mN' is not one of m/s^2, g, N, V",
          **lvm(LVM_TEXT.replace("Y_Unit_Label\tNewtons", "Y_Unit_Label\tmN"))),
+    Case('uff-unit-prefix', 'UFF time record in `mg` imported into a project without a rig (stored as volts at scale 1)', "{dir}/r.uff: channel 'acc': unit 'mg' is not one of m/s^2, g, N, V (NONE, Pa, m, m/s kept as they are)",
+         argv=_uff_without_rig('mg')),
     Case("lvm-force-channel", "--force-channel names no channel of the file", "{dir}/bad.lvm: no channel 'Hammer'; channels are Force, Response", **lvm(LVM_TEXT, "--force-channel", "Hammer")),
     # UFF (API)
     Case("uff-missing", "UFF file that does not exist (API)", '{dir}/none.uff: UFF file not found', call=lambda d: _read_uff(d, "none.uff")),
