@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import operator
 import typing
 import uuid
 import warnings
@@ -164,10 +165,12 @@ def read_systeminfo(g: h5py.Group, refuse: Callable[[int, str, Any, str], Except
                 elif hint is bool:
                     kw[name] = bool(v)
                 elif hint is int:
-                    kw[name] = int(v) if isinstance(v, int) else v.__index__()
+                    kw[name] = operator.index(v)  # not a float, nor a text of digits
                 elif hint is str:
                     kw[name] = h5text.text(v)
                 elif hint is float:
+                    if isinstance(v, bytes | str):  # float() would read a text of digits
+                        raise TypeError(v)
                     kw[name] = float(v)
                 else:  # float | None
                     kw[name] = None if math.isnan(v) else float(v)

@@ -288,13 +288,15 @@ def _handmade(kind: str, command: str = "info") -> Callable[[Path], list[str]]:
                 e.attrs["force_channel"] = "zero"
             elif kind == "force direction text":
                 e.attrs["force_direction"] = "up"
-            elif kind in ("unit furlong", "integration 77"):
+            elif kind in ("unit furlong", "integration 77", "sensitivity text"):
                 table = e["systeminfo/channels"][()]
-                if kind == "unit furlong":  # a column wide enough for it
-                    table = table.astype([(n, "S8" if n == "unit" else table.dtype[n]) for n in table.dtype.names])
+                if kind != "integration 77":  # the column as text wide enough for it
+                    column = "unit" if kind == "unit furlong" else "sensitivity"
+                    table = table.astype([(n, "S8" if n == column else table.dtype[n]) for n in table.dtype.names])
                     del e["systeminfo/channels"]
                     e["systeminfo/channels"] = table
-                    table["unit"][2] = b"furlong"
+                    if kind == "unit furlong":
+                        table["unit"][2] = b"furlong"
                 else:
                     table["integration"][2] = 77
                 e["systeminfo/channels"][...] = table
@@ -877,6 +879,8 @@ CASES: list[Case] = [
          argv=_handmade('unit furlong', 'compare')),
     Case('stored-integration-77', 'compare on a project whose channel 2 stores the integration code 77', "{dir}/x.h5: experiment 'e1' systeminfo channel 2 field 'integration': expected one of 0 (none), 1 (double), 2 (single), got 77",
          argv=_handmade('integration 77', 'compare')),
+    Case('stored-sensitivity-text', "info on a project whose channel table stores the sensitivities as text ('0.002248' on channel 0)", "{dir}/x.h5: experiment 'e1' systeminfo channel 0 field 'sensitivity': expected a number, got b'0.002248'",
+         argv=_handmade('sensitivity text', 'info')),
     Case('stored-systeminfo-rows', 'info on a project whose channel table has 3 rows for 11 raw columns', "{dir}/x.h5: experiment 'e1' field 'systeminfo.channels': expected 11 rows (one per raw column), got 3",
          argv=_handmade('systeminfo 3 rows', 'info')),
     Case('stored-rig-format', 'info on a project whose rig definition says its format is `yaml`', "{dir}/x.h5: rig field 'definition_format': expected 'json' or 'toml' (the formats odsuite writes), got 'yaml'",
