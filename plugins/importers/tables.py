@@ -559,11 +559,12 @@ def _loadmat_apart(file: Path) -> dict:
         os.close(read_end)
         try:
             try:
-                result = ("ok", scipy.io.loadmat(file))
-            except BaseException as exc:  # noqa: BLE001 - sent to the parent, which decides
-                result = ("error", exc if isinstance(exc, NotImplementedError) else ValueError(_library_message(exc)))
+                payload = pickle.dumps(("ok", scipy.io.loadmat(file)), protocol=pickle.HIGHEST_PROTOCOL)
+            except Exception as exc:  # noqa: BLE001 - sent to the parent, which decides
+                payload = pickle.dumps(("error", exc if isinstance(exc, NotImplementedError) else
+                                        ValueError(_library_message(exc))))
             with os.fdopen(write_end, "wb") as out:
-                pickle.dump(result, out, protocol=pickle.HIGHEST_PROTOCOL)
+                out.write(payload)
         finally:
             os._exit(0)
     os.close(write_end)
