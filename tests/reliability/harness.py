@@ -373,7 +373,7 @@ def _check(run: Run, project: Path, before_units: dict[str, str], oracle: Callab
         finally:
             logger.removeHandler(records)
     except Exception as exc:  # noqa: BLE001 - any failure to open is what the harness reports
-        run.problems.append(f"project does not open after the kill: {type(exc).__name__}: {exc}")
+        run.problems.append(f"project does not open or verify after the kill: {type(exc).__name__}: {exc}")
         return before_units
     run.recovered = any("left by an interrupted write" in m for m in records.messages)
     if leftovers and not run.recovered:

@@ -81,13 +81,15 @@ UNSAFE = textwrap.dedent("""
 
 @pytest.mark.parametrize("what, found", [
     ("overwrite", "committed units changed or lost: ['experiments/old-T1']"),
-    ("half", "units differ from a complete run: ['experiments/half']"),
-    ("open", "project does not open after the kill: ProjectFileError: "),
+    # verify reads each experiment as the readers do: the half-written one, without its attributes
+    ("half", "project does not open or verify after the kill: ProjectFileError: "),
+    ("open", "project does not open or verify after the kill: ProjectFileError: "),
 ])
 def test_harness_sees_an_unsafe_writer(project, seeded, tmp_path, what, found):
     unsafe = WritingCommand("unsafe", lambda c: [str(c.project), what], program=(sys.executable, "-c", UNSAFE))
     report = run_kills(project, seeded[1], tmp_path / "scratch", 1, seed=0, commands=[unsafe], modes=("point",))
-    assert [p for p in report.runs[0].problems if p.startswith(found)], report.runs[0].problems
+    assert [p for p in report.runs[0].problems if p.startswith(found) and (what != "half" or "experiment 'half'" in p)], \
+        report.runs[0].problems
     assert report.survived == 0
     assert report.lost == (1 if what == "overwrite" else 0)
 
