@@ -513,7 +513,8 @@ def _nonlinear_setup(structure, E: np.ndarray, bfs, records, fs: float, hold: st
     linear = (fine[:, :-1].reshape(-1, n) @ start.T + fine[:, 1:].reshape(-1, n) @ end.T).reshape(
         len(records), steps - 1, 2 * n)
     step_t = np.vstack([phi.T, -start_pull.T])
-    linear_deflection = (linear.reshape(-1, 2 * n) @ Eq.T).reshape(len(records), steps - 1, -1)
+    # the deflections' count given: a record of one sample has no step, and -1 reads nothing from none
+    linear_deflection = (linear.reshape(-1, 2 * n) @ Eq.T).reshape(len(records), steps - 1, Eq.shape[0])
     # the state's and the deflections' parts side by side: one product per step gives both
     out = (pull, drive, np.concatenate([linear, linear_deflection], axis=2), np.hstack([step_t, step_t @ Eq.T]),
            np.ascontiguousarray(end_pull.T), np.ascontiguousarray(end_deflection.T))

@@ -76,3 +76,17 @@ def test_records_together_are_each_record_alone_to_the_bit(hardening):
     together = simulate_nonlinear_many(structure, drives, FS, "foh")
     for (bf, u), y in zip(drives, together):
         assert np.array_equal(simulate_nonlinear(structure, bf, u, FS, "foh"), y)
+
+
+@pytest.mark.parametrize("hold", ["foh", "band"])
+def test_a_record_of_one_sample_is_its_input_alone(hardening, hold):
+    # a diagnosis's shortest window of a record held one sample, and the set-up's reshape of no
+    # steps raised (diagnose stopped with a ValueError on a slab rig's noisy null)
+    structure, drives = hardening
+    bf, u = drives[0]
+    one = u[:1] + 5.0
+    y = simulate_nonlinear_many(structure, [(bf, one)], FS, hold)[0]
+    # at rest, no cubic force: the acceleration is the force's own, M^-1 B f
+    n = structure.n_dof
+    expected = (np.zeros((1, 2 * n)) @ structure.A[n:].T + one @ (structure.Minv @ bf).T)
+    assert y.shape == expected.shape and np.allclose(y, expected, rtol=1e-12, atol=0)
