@@ -981,6 +981,12 @@ def converter_offsets(v: np.ndarray, volts: np.ndarray, step: float, trigger: in
     # small noise near a threshold or a larger one farther in): the most likely noise per offset
     quiet_loglik = np.array([_code_loglik(codes[quiet], x[quiet], np.full(quiet.size, s), grid) for s in sigmas])
     noise = sigmas[np.argmax(quiet_loglik, axis=0)]
+    if np.ptp(codes[quiet] - np.round(x[quiet])) == 0:
+        # no sample left its code: the samples bound the noise from above only, and the most likely
+        # is the grid's least (a twelve-bit slab's quiet channels read 0.01 code for 0.19, their
+        # floor a quarter of a null's error); the mean square over what they allow instead
+        w = np.exp(quiet_loglik - quiet_loglik.max(axis=0))
+        noise = np.sqrt((sigmas[:, None] ** 2 * w).sum(axis=0) / w.sum(axis=0))
     # the signal's small oscillations then tell the offset
     big = np.abs(signal) > 2 * OFFSET_CODES
     share2 = float(np.sum((codes[big] - x[big]) ** 2) / np.sum(signal[big] ** 2)) if big.any() else 0.0
