@@ -70,7 +70,7 @@ def new_cmd(
     """Create a new project file on a rig."""
     from odsuite.cli.app import err_console
     from odsuite.contracts.plugins import registries
-    from odsuite.processing.rig_summary import far_from_bodies, rig_layout
+    from odsuite.processing.rig_summary import far_from_bodies, rig_layout, undamped
     from odsuite.store.project import create_project
 
     created = create_project(project, rig)
@@ -85,6 +85,8 @@ def new_cmd(
                               style="yellow", highlight=False, soft_wrap=True)
     for far in far_from_bodies(created.rig) if created.rig else []:
         err_console.print(f"warning: {far}", style="yellow", highlight=False, soft_wrap=True)
+    if created.rig is not None and (line := undamped(created.rig)) is not None:
+        err_console.print(f"note: {line}", highlight=False, soft_wrap=True)
 
 
 @app.command("info")

@@ -37,6 +37,18 @@ def rig_layout(rig: Rig, solvers) -> dict[str, Any]:
             "force_channel": rig.force_channel, "channel_count": rig.channel_count}
 
 
+def undamped(rig: Rig) -> str | None:
+    """A line where ``rig`` has springs and none of them damping (the rig format's default): its
+    modes then ring without end, and every hit's response far outlasts a damped structure's."""
+    if not rig.springs or any(np.any(np.asarray(s.damping, float)) or np.any(np.asarray(s.rot_damping, float))
+                              for s in rig.springs):
+        return None
+    where = f"rig {rig.name!r}" + (f" ({rig.source})" if rig.source else "")
+    return (f"{where}: no spring has damping (the rig format's default is none), so the model's modes ring "
+            "without end; give each spring's `damping` (N s/m), or let `diagnose` fit the `damping` effect, "
+            "which gives an undamped model a damping ratio per axis")
+
+
 def far_from_bodies(rig: Rig) -> list[str]:
     """Points of ``rig`` farther from their body's plate than the plate's largest size (a centre of
     mass, a sensor, a spring): one line each, since positions given in mm instead of m load without

@@ -96,7 +96,7 @@ class _SpringScale(Effect):
             k = np.diag(changed[s.name].matrix(self.field))
             who = g if g == s.name else f"{g} (each, e.g. {s.name})"
             out += [(f"{self.field} of {who} along {a}", float(k[i]), unit)
-                    for i, a in enumerate(AXES) if np.diag(s.matrix(self.field))[i] > 0]
+                    for i, a in enumerate(AXES) if np.diag(s.matrix(self.field))[i] > 0 or k[i] > 0]
         return out
 
 
@@ -125,13 +125,49 @@ class SpringStiffness(Stiffness):
                 if s.group and f"scale_{s.group}" in values}
 
 
+#: the largest damping ratio an undamped model's suspension may be given (rubber mounts: 5-15 %)
+UNDAMPED_ZETA_MAX = 0.5
+
+
 class Damping(_SpringScale):
+    """Spring damping scaled per axis and per spring group. A model whose springs have no damping
+    at all (the rig format's default) has nothing to scale: there the effect gives every spring,
+    along each axis, the damping of a ratio ``zeta`` of its share of the body it carries,
+    ``c = 2 zeta sqrt(k m)`` (m: the body's mass over the springs on it)."""
+
     name = "damping"
     field = "damping"
     unit_bounds = (0.0, 20.0)
     # damping is known to within an order of magnitude at best
     plausible = (0.1, 10.0)
-    description = "Spring damping scaled per axis (all springs) and per spring group (all axes)."
+    description = ("Spring damping scaled per axis (all springs) and per spring group (all axes); on an "
+                   "undamped model, a damping ratio per axis.")
+
+    @staticmethod
+    def _undamped(model) -> bool:
+        return not any(np.any(s.matrix("damping")) or np.any(s.rot_damping) for s in model.springs)
+
+    def parameters(self, model):
+        if not self._undamped(model):
+            return super().parameters(model)
+        return [Parameter(f"zeta_{a}", "1", 0.0, 0.0, UNDAMPED_ZETA_MAX, plausible=(0.0, 0.2),
+                          description=f"damping ratio of every spring along {a} (the model had none)")
+                for a in AXES]
+
+    def _apply(self, model, v):
+        if not self._undamped(model):
+            return super()._apply(model, v)
+        st = model.structure
+        carried = Counter(b for s in model.springs for b in (s.body, s.other) if b)
+        springs = []
+        for s in model.springs:
+            # the share of the lightest body it holds: a spring between two bodies damps their
+            # relative motion, which the lighter one mostly makes
+            m = min(st.body(b).mass / carried[b] for b in (s.body, s.other) if b)
+            k = np.clip(np.diag(s.matrix("stiffness")), 0.0, None)
+            zeta = np.array([v[f"zeta_{a}"] for a in AXES])
+            springs.append(replace(s, damping=2.0 * zeta * np.sqrt(k * m)))
+        return _with_structure(model, springs=tuple(springs))
 
 
 #: deflection at which a hardening parameter is stated: hammer tests move suspensions by

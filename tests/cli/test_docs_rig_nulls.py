@@ -54,3 +54,31 @@ def test_a_twelve_bit_slab_null_has_nothing_to_explain(tmp_path, capsys):
     assert d["verdict"] == "nothing to explain", d["message"]
     assert not [c["effect"] for c in d["candidates"] if c.get("significant")]
     assert d["baseline_error"] / d["noise_floor_error"] < 1.3  # 1.52 before
+
+
+def test_an_undamped_model_gains_the_damping_its_records_show(tmp_path, capsys):
+    # the damping effect scaled the springs' damping, which the rig format leaves at zero: it
+    # changed nothing (5.2174 -> 5.2174), and a sensor tilt near its bound was the top candidate
+    rigs = RIG.parent
+    p = tmp_path / "p.h5"
+    run(capsys, "new", p, "--rig", rigs / "heavy-press.toml")
+    for name, point, direction, seed, force in (("p1", "200,200,850", "-z", 11, 12), ("p2", "1300,800,850", "-z", 12, 15),
+                                                ("p3", "1500,300,600", "-x", 13, 5)):
+        run(capsys, "acquire", p, "--samples", "4096", "--contact-ms", "2", "--truth", rigs / "heavy-press-damped.toml",
+            "--name", name, f"--force-point={point}", f"--force-dir={direction}", "--seed", seed, "--force-peak", force)
+    run(capsys, "process", p)
+    d = json.loads(run(capsys, "diagnose", p, "--json"))
+    assert d["verdict"] == "explained" and d["candidates"][0]["effect"] == "damping", d["message"]
+    run(capsys, "add-effect", p, "damping")
+    rows = {r["label"]: r["value"] for r in json.loads(run(capsys, "model", p, "--json"))["physical"]["damping"]}
+    # the truth: 800, 800 and 1600 N s/m, 2 % of each isolator's critical damping
+    for axis, truth in (("x", 800.0), ("y", 800.0), ("z", 1600.0)):
+        assert abs(rows[f"damping of iso (each, e.g. iso1) along {axis}"] / truth - 1) < 0.05, rows
+
+
+def test_new_says_a_rig_without_damping_rings_without_end(tmp_path, capsys):
+    rigs = RIG.parent
+    assert main(["new", str(tmp_path / "u.h5"), "--rig", str(rigs / "heavy-press.toml")]) == 0
+    assert "note: rig 'heavy-press' (" in capsys.readouterr().err
+    assert main(["new", str(tmp_path / "d.h5"), "--rig", str(rigs / "heavy-press-damped.toml")]) == 0
+    assert "no spring has damping" not in capsys.readouterr().err

@@ -273,3 +273,23 @@ def test_a_lab_registers_its_own_effect(model, thesis_rig):
 def test_spring_to_unknown_body_refused():
     with pytest.raises(ConfigError, match="unknown body"):
         Model.build([RigidBody("p", 1.0, np.eye(3))], [SpringDamper("s", (0, 0, 0), "p", "q", (1, 1, 1))])
+
+
+def test_damping_gives_an_undamped_model_a_ratio_per_axis(registries):
+    # scaling the damping of springs that have none changed nothing: on such a model the effect
+    # sets c = 2 zeta sqrt(k m), m the body's mass over the springs on it
+    from pathlib import Path
+
+    from odsuite.domain.rig import load_rig
+
+    rigs = Path(__file__).resolve().parents[2] / "data" / "rigs"
+    undamped = registries.models.get("rigid-bodies")(load_rig(rigs / "heavy-press.toml", registries.sensor_types))
+    damping = registries.effects.get("damping")
+    assert [p.name for p in damping.parameters(undamped)] == ["zeta_x", "zeta_y", "zeta_z"]
+    damped = damping.apply(undamped, {"zeta_x": 0.02, "zeta_y": 0.02, "zeta_z": 0.02})
+    # 1200 kg on six isolators of 2, 2 and 8 MN/m: 2 x 0.02 x sqrt(k x 200 kg) = 800, 800, 1600 N s/m
+    for s in damped.structure.springs:
+        assert np.allclose(np.diag(s.matrix("damping")), [800.0, 800.0, 1600.0], rtol=1e-12)
+    # a model with damping keeps the scales
+    truth = registries.models.get("rigid-bodies")(load_rig(rigs / "heavy-press-damped.toml", registries.sensor_types))
+    assert [p.name for p in damping.parameters(truth)][:3] == ["scale_x", "scale_y", "scale_z"]
