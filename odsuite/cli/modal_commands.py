@@ -170,6 +170,10 @@ def _modes_options(at, f_min, f_max, reference, output_only, n_experiments, bloc
     return freqs
 
 
+#: standard errors apart beyond which SSI-cov's and EFDD's damping of one mode are said to disagree
+DAMPING_APART = 3.0
+
+
 def _print_modes(res, name: str) -> None:
     """The identified modes as tables: SSI or LSCF modes, and the EFDD cross-check of output-only ones."""
     from rich.table import Table
@@ -204,6 +208,15 @@ def _print_modes(res, name: str) -> None:
                        f"{100 * m['frequency_difference']:+.2f} %" if paired else "-",
                        f"{m['mac_ssi']:.3f}" if paired else "-")
         console.print(ft)
+        for m in fdd["modes"]:
+            if m["damping_apart"] is not None and m["damping_apart"] > DAMPING_APART:
+                k = m["ssi_mode"]
+                err_console.print(
+                    f"note: mode {k + 1} ({res.frequency_hz[k]:.{digits}f} Hz): SSI-cov's damping ratio "
+                    f"{res.damping_ratio[k]:.3g} and EFDD's {m['damping_ratio']:.3g} lie {m['damping_apart']:.0f} times "
+                    "their standard errors apart, which measure the scatter between the record's segments, not "
+                    "either method's bias: read its damping as uncertain within that range",
+                    highlight=False, soft_wrap=True)
     for u in res.unresolved:
         err_console.print(f"note: the pole at {u.frequency_hz:.{digits}f} Hz (damping ratio {u.damping_ratio:.3f}) is not "
                           f"reported as a mode: {u.reason}", highlight=False, soft_wrap=True)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 import re
 
 import numpy as np
@@ -233,3 +234,21 @@ def test_a_short_operating_record_is_refused_naming_project_and_experiment(tmp_p
     assert capsys.readouterr().err == (
         f"error: {project}: experiment 'walk': --max-order 40: 15 block rows x 3 outputs hold it, whose lags "
         "(2 x 15) need at least 60 samples at 100 Hz; the record has 40 (give a lower --max-order)\n")
+
+
+def test_ssi_and_efdd_damping_far_apart_are_said_to_be_uncertain(tmp_path, capsys):
+    # each method's damping came with a standard error of 2-3 % of it (the scatter between the
+    # record's segments), and they differed by 4x with nothing said
+    sample = Path(__file__).resolve().parents[1] / "data" / "real" / "pyuff_uff_samples" / "mpstd_set001_58b_4ch_accel.uff"
+    p = tmp_path / "u.h5"
+    assert main(["new", str(p), "--rig", "none"]) == 0
+    assert main(["import", str(p), str(sample), "--name", "mps"]) == 0
+    capsys.readouterr()
+    assert main(["modes", str(p), "--experiment", "mps", "--output-only", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    fdd = doc["fdd"] if "fdd" in doc else doc["experiments"]["mps"]["fdd"]
+    apart = [m for m in fdd["modes"] if m["damping_apart"] is not None and m["damping_apart"] > 3]
+    assert [round(m["frequency_hz"]) for m in apart] == [182], fdd["modes"]
+    assert main(["modes", str(p), "--experiment", "mps", "--output-only"]) == 0
+    err = capsys.readouterr().err
+    assert "SSI-cov's damping ratio 0.00108 and EFDD's 0.00462 lie" in err and "182.2" in err, err
