@@ -14,7 +14,7 @@ import numpy as np
 from odsuite.domain.errors import ConfigError
 from odsuite.analysis.frf import FrfSet
 from odsuite.analysis.modal import mac, pair_modes
-from odsuite.analysis.modal_project import hit_flags, hits_frf
+from odsuite.analysis.modal_project import all_flagged, flagged_note, hits_frf
 from odsuite.analysis.stored_modes import IDENTIFICATION_ERRORS, identified_modes, stored_modes
 
 #: a model mode further than this (relative) from a measured one is not its partner: the model
@@ -83,11 +83,11 @@ def modal_records(project, experiments: Sequence[str], model_for, *, frfs: bool 
         try:
             if stored is None:
                 frf, hits = hits_frf(exp, f"{project.path}: experiment {name!r}", flagged_too=True)
-                flagged = "" if any(h.accepted for h in hits) else hit_flags(hits)
+                flagged = all_flagged(hits)
             else:
                 flagged = stored.flagged
             if flagged:
-                notes.append(f"{name}: every hit is flagged ({flagged}): its modes are identified anyway")
+                notes.append(f"{name}: {flagged_note(flagged)}")
             # stored by `process` while the record is unchanged
             res = stored.modes() if stored is not None else identified_modes(project, exp, frf)
         except IDENTIFICATION_ERRORS as exc:  # ConfigError covers a record without a clean hit

@@ -82,16 +82,28 @@ def hit_flags(hits) -> str:
     return "; ".join(f"hit at sample {h.peak_index}: {', '.join(h.reasons)}" for h in hits if not h.accepted)
 
 
+def all_flagged(hits) -> str:
+    """``hit_flags`` when every hit is flagged (its FRFs then rest on flagged hits), else ""."""
+    return "" if any(h.accepted for h in hits) else hit_flags(hits)
+
+
+def flagged_note(flags: str) -> str:
+    """What a record whose every hit is flagged (``all_flagged``) is told when its modes are
+    identified from those hits all the same."""
+    return f"every hit is flagged ({flags}): its modes are identified from them anyway and may be biased"
+
+
 def experiment_frf(
     project: str | Path, experiment: str, *, estimator: str = "H1", record_length: int | None = None,
-    before_store: Callable[[FrfSet], object] | None = None,
+    before_store: Callable[[FrfSet], object] | None = None, flagged_too: bool = False,
 ) -> tuple[FrfSet, list]:
-    """FRFs of every channel to the force channel over the experiment's accepted hits; stored as
-    the derived group ``frf`` (H real/imag, coherence). Returns the FRFs and the hit list.
-    ``before_store(frf)`` runs first: when it fails (a fit on these FRFs), nothing is stored."""
+    """FRFs of every channel to the force channel over the experiment's accepted hits (``hits_frf``,
+    ``flagged_too`` as there); stored as the derived group ``frf`` (H real/imag, coherence).
+    Returns the FRFs and the hit list. ``before_store(frf)`` runs first: when it fails (a fit on
+    these FRFs), nothing is stored."""
     with open_project(project, "a") as p:
         frf, hits = hits_frf(p.experiment(experiment), f"{project}: experiment {experiment!r}",
-                             estimator=estimator, record_length=record_length)
+                             estimator=estimator, record_length=record_length, flagged_too=flagged_too)
         if before_store is not None:
             before_store(frf)
         _store_frf(p, experiment, frf, hits, estimator, record_length)
@@ -131,25 +143,27 @@ def frf_modes(frf: FrfSet, *, f_band: tuple[float, float] | None = None, max_ord
 
 def experiment_modes(
     project: str | Path, experiment: str, *, f_band: tuple[float, float] | None = None,
-    max_order: int = 50, frequencies: list[float] | None = None,
-) -> tuple[ModalResult, FrfSet]:
-    """Modes identified from the experiment's FRFs (``frf_modes``), and those FRFs, stored."""
+    max_order: int = 50, frequencies: list[float] | None = None, flagged_too: bool = False,
+) -> tuple[ModalResult, FrfSet, list]:
+    """Modes identified from the experiment's FRFs (``frf_modes``), those FRFs, stored, and the
+    hit list (``flagged_too`` as in ``hits_frf``)."""
     found: list[ModalResult] = []
-    frf, _ = experiment_frf(project, experiment, before_store=lambda frf: found.append(
+    frf, hits = experiment_frf(project, experiment, flagged_too=flagged_too, before_store=lambda frf: found.append(
         frf_modes(frf, f_band=f_band, max_order=max_order, frequencies=frequencies)))
-    return found[0], frf
+    return found[0], frf, hits
 
 
 def experiments_modes(
     project: str | Path, experiments: list[str], *, f_band: tuple[float | None, float | None] | None = None,
-    max_order: int = 50, frequencies: list[float] | None = None,
-) -> tuple[ModalResult, np.ndarray, np.ndarray, dict[str, dict]]:
+    max_order: int = 50, frequencies: list[float] | None = None, flagged_too: bool = False,
+) -> tuple[ModalResult, np.ndarray, np.ndarray, dict[str, dict], dict[str, list]]:
     """Modes of an FRF matrix across experiments: a roving hammer (each experiment hits another
     point) or several references. Every experiment's FRFs (stored as its derived "frf" once the
     fit passed, all in one commit) on the same lines are stacked into one matrix whose rows are "output @ experiment", and fitted with
     one common denominator (LSCF, ``modal.identify_modes``); the default band is the overlap of the
     experiments' usable bands. Returns the modes (shapes per row), the frequency lines, the matrix
-    (rows x lines) and each experiment's reference (force point in m, direction)."""
+    (rows x lines), each experiment's reference (force point in m, direction) and its hit list
+    (``flagged_too`` as in ``hits_frf``)."""
     from odsuite.analysis.frf import usable_band
 
     if len(set(experiments)) != len(experiments):
@@ -157,8 +171,8 @@ def experiments_modes(
     # computed first and stored only when the fit succeeds: a failing command leaves the project as it was
     with open_project(project) as p:
         def estimated(record_length: int | None) -> list[tuple[FrfSet, list]]:
-            return [hits_frf(p.experiment(e), f"{project}: experiment {e!r}", record_length=record_length)
-                    for e in experiments]
+            return [hits_frf(p.experiment(e), f"{project}: experiment {e!r}", record_length=record_length,
+                             flagged_too=flagged_too) for e in experiments]
 
         record_length = None
         found = estimated(record_length)
@@ -191,7 +205,7 @@ def experiments_modes(
     with open_project(project, "a") as p:  # one commit: every experiment's FRFs
         for e, (frf, hits) in zip(experiments, found):
             _store_frf(p, e, frf, hits, "H1", record_length)
-    return res, first.frequency, H, references
+    return res, first.frequency, H, references, {e: hits for e, (_, hits) in zip(experiments, found)}
 
 
 def experiment_output_only_modes(

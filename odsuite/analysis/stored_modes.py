@@ -24,7 +24,7 @@ from threadpoolctl import threadpool_limits
 
 from odsuite.analysis.frf import FrfSet
 from odsuite.analysis.modal import ModalResult, StabilisationDiagram
-from odsuite.analysis.modal_project import frf_modes, hit_flags, hits_frf
+from odsuite.analysis.modal_project import all_flagged, frf_modes, hits_frf
 from odsuite.domain.errors import ConfigError, OdsuiteError
 from odsuite.domain.version import __version__
 from odsuite.store.project import DerivedArray
@@ -99,7 +99,7 @@ def store_record_modes(project, name: str) -> bool:
             res = str(exc)
         except OdsuiteError:  # what compare does not note: left to it, as before
             return False
-    flagged = "" if any(h.accepted for h in hits) else hit_flags(hits)
+    flagged = all_flagged(hits)
     if isinstance(res, str):
         project.write_derived(name, KIND, {}, provenance=_provenance(), attrs={"failure": res, "flagged": flagged})
         return True

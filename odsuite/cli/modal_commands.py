@@ -82,7 +82,8 @@ def modes_cmd(
     the setups of a roving survey, merged through their reference channels)."""
     import json
 
-    from odsuite.analysis.modal_project import experiment_modes, experiment_output_only_modes, experiments_modes
+    from odsuite.analysis.modal_project import (all_flagged, experiment_modes, experiment_output_only_modes,
+                                                experiments_modes, flagged_note)
     from odsuite.contracts.renderers import RenderRequest
 
     freqs = _modes_options(at, f_min, f_max, reference, output_only, len(experiments), block_rows, decimate, figure,
@@ -96,6 +97,7 @@ def modes_cmd(
                for name, path, option in (("stabilisation", figure, "--figure"), ("mac", mac_figure, "--mac-figure"))
                if path is not None}
     references = None
+    hits = {}  # per experiment, for the FRF fits: those whose every hit is flagged are named
     name = ", ".join(experiments)
     if output_only:
         if len(experiments) > 1:
@@ -107,12 +109,17 @@ def modes_cmd(
                                                                  decimation=decimate)
         background = f"rms amplitude spectral density of the outputs ({unit_text(unit)})"
     elif len(experiments) > 1:
-        res, freq, spectrum, references = experiments_modes(project, experiments, f_band=band, max_order=max_order,
-                                                            frequencies=freqs)
+        res, freq, spectrum, references, hits = experiments_modes(
+            project, experiments, f_band=band, max_order=max_order, frequencies=freqs, flagged_too=True)
         background = "rms |H| of the FRF matrix (FRF units)"
     else:
-        res, frf = experiment_modes(project, experiments[0], f_band=band, max_order=max_order, frequencies=freqs)
+        # a record whose every hit is flagged still has modes to show, as compare shows them: named below
+        res, frf, hits[experiments[0]] = experiment_modes(project, experiments[0], f_band=band, max_order=max_order,
+                                                          frequencies=freqs, flagged_too=True)
         freq, spectrum, background = frf.frequency, frf.H, "rms |H| of the outputs (FRF units)"
+    flagged = {e: f for e, h in hits.items() if (f := all_flagged(h))}
+    for e, f in flagged.items():
+        err_console.print(f"note: {project}: experiment {e!r}: {flagged_note(f)}", highlight=False, soft_wrap=True)
     if figure is not None:
         drawers["stabilisation"].render(RenderRequest(project, name, figure, {
             "modes": res, "freq": freq, "H": spectrum, "title": f"stabilisation diagram of {name}",
@@ -130,6 +137,8 @@ def modes_cmd(
         doc = res.to_dict()
         if references is not None:
             doc["references"] = references
+        if not output_only:
+            doc["flagged_hits"] = flagged
         print(json.dumps(doc))
         return
     _print_modes(res, name)

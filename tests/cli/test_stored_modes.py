@@ -97,7 +97,7 @@ def test_stored_modes_are_read_only_for_the_record_they_were_identified_from(pro
         g.attrs["flagged"] = b"hit at sample 9: clipped"  # the note a record of flagged hits gets
     altered_doc = _json(capsys, "compare", altered, "--json")
     assert altered_doc["modal_notes"] == ["T1: every hit is flagged (hit at sample 9: clipped): its modes are "
-                                          "identified anyway"]
+                                          "identified from them anyway and may be biased"]
     rows = [r for r in altered_doc["modal"] if r["experiment"] == "T1"]
     want = [r["measured_hz"] for r in truth if r["experiment"] == "T1"]
     assert len(rows) == len(want)
