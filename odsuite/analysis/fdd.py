@@ -46,11 +46,20 @@ def resolution_segment(f1: float, fs: float, n: int) -> int:
 
 def spectral_matrix(y: np.ndarray, fs: float, nperseg: int) -> tuple[np.ndarray, np.ndarray]:
     """One-sided cross-spectral density matrix (lines x outputs x outputs, unit^2/Hz) by Welch's
-    method: Hann windows, half overlapping, each segment's mean removed."""
+    method: Hann windows, half overlapping, each segment's mean removed. ``y``: samples x outputs
+    (a 1-D signal is one output)."""
     # 0 was a slice step of zero, 1 a segment without a window
     nperseg = arguments.whole("spectral_matrix", "nperseg", nperseg, low=2)
     fs = arguments.real("spectral_matrix", "fs", fs, positive=True)
-    y = np.asarray(y, dtype=float)
+    try:
+        y = np.asarray(y, dtype=float)
+    except (TypeError, ValueError):
+        arguments.refuse("spectral_matrix", "y", y, "numbers, samples x outputs")
+    shape = y.shape
+    y = y[:, None] if y.ndim == 1 else y  # a 1-D signal gave numpy's AxisError
+    if y.ndim != 2 or y.shape[0] < 2 or y.shape[1] < 1:
+        raise ConfigError(f"spectral_matrix: 'y' must be samples x outputs (2 or more samples), got an array of "
+                          f"shape {shape}")
     nperseg = int(min(nperseg, y.shape[0]))
     step = nperseg // 2
     seg = np.lib.stride_tricks.sliding_window_view(y, nperseg, axis=0)[::step]  # segs x outputs x nperseg

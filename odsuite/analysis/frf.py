@@ -89,7 +89,7 @@ def spectra(
     """Averaged auto and cross spectra over hits: Gff (f), Gxx (o x f), Gfx = sum conj(F) X
     (o x f) and the number of hits. ``window`` (samples, or samples x (1 + outputs) with the force
     window first) multiplies each record before the FFT."""
-    if len(forces) != len(responses) or not forces:
+    if len(forces) != len(responses) or len(forces) == 0:  # an array of hits has no truth value
         raise DimensionError(f"{len(forces)} force records but {len(responses)} response records")
     n = np.asarray(forces[0]).shape[0]
     gff = 0.0
@@ -140,12 +140,14 @@ def estimate_frf(
     response_units: Sequence[str] | None = None,
     output_names: Sequence[str] | None = None,
 ) -> FrfSet:
-    """FRFs of every response to the force, averaged over the given hits (equal-length records).
+    """FRFs of every response to the force, averaged over the given hits (equal-length records;
+    as arrays, one hit's 1-D force or a 2-D array of hits: ``_hits``).
 
     H1 = Gfx/Gff (noise on the response), H2 = Gxx/Gxf (noise on the force), Hv the total-least-
     squares estimate between them; coherence = |Gfx|^2/(Gff Gxx)."""
     if estimator not in ESTIMATORS:
         raise ConfigError(f"FRF estimator {estimator!r} is not one of {', '.join(ESTIMATORS)}")
+    forces, responses = _hits(forces, responses)
     _check_arguments(forces, responses, fs, window, force_unit)
     gff, gxx, gfx, count = spectra(forces, responses, window)
     n = np.asarray(forces[0]).shape[0]
@@ -182,6 +184,24 @@ def estimate_frf(
     )
 
 
+def _hits(forces: Any, responses: Any) -> tuple[Any, Any]:
+    """estimate_frf's records as lists of hits where they come as arrays: a 1-D force is one hit
+    (its response: samples, or samples x outputs), a 2-D one hits x samples (responses: hits x
+    samples, or hits x samples x outputs). Lists pass as they are."""
+    if not isinstance(forces, np.ndarray):
+        return forces, responses
+    if forces.ndim not in (1, 2):
+        raise ConfigError(f"estimate_frf: 'forces' must be a list of records, one per hit (or an array: samples, "
+                          f"or hits x samples), got an array of shape {forces.shape}")
+    one = forces.ndim == 1
+    expected = "samples (x outputs)" if one else "hits x samples (x outputs)"
+    if not isinstance(responses, np.ndarray) or responses.ndim not in ((1, 2) if one else (2, 3)):
+        got = f"an array of shape {responses.shape}" if isinstance(responses, np.ndarray) else arguments.shown(responses)
+        raise ConfigError(f"estimate_frf: 'responses' must be an array of {expected}, as 'forces' is an array of "
+                          f"{'samples' if one else 'hits x samples'}, got {got}")
+    return ([forces], [responses]) if one else (list(forces), list(responses))
+
+
 def _check_arguments(forces: Any, responses: Any, fs: Any, window: Any, force_unit: Any) -> None:
     """estimate_frf's arguments before any spectrum: a rate of 0 divided by zero, a NaN one gave NaN
     frequencies, a window of another length a broadcast error, any text was taken for a force unit."""
@@ -189,6 +209,15 @@ def _check_arguments(forces: Any, responses: Any, fs: Any, window: Any, force_un
         if isinstance(value, str | bytes | Mapping) or not isinstance(value, Sequence | np.ndarray):
             arguments.refuse("estimate_frf", name, value, "a list of records, one per hit")
     arguments.real("estimate_frf", "fs", fs, positive=True)
+    if not len(forces):
+        arguments.refuse("estimate_frf", "forces", forces, "a list of records, one per hit")
+    if len(responses) != len(forces):
+        raise ConfigError(f"estimate_frf: 'responses' must be one record per hit, as 'forces' ({len(forces)}), "
+                          f"got {len(responses)}")
+    for k, f in enumerate(forces):  # an empty record reached numpy's FFT
+        if np.ndim(f) != 1 or np.shape(f)[0] < 2:
+            raise ConfigError(f"estimate_frf: 'forces' must be records of 2 or more samples each, got hit {k} of "
+                              f"shape {np.shape(f)}")
     if force_unit not in FORCE_UNITS:
         arguments.refuse("estimate_frf", "force_unit", force_unit, f"a force unit ({', '.join(FORCE_UNITS)})")
     if window is None or not len(forces) or not len(responses):

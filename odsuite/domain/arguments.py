@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import re
 from collections.abc import Mapping, Sequence
 from typing import Any, NoReturn
 
@@ -13,8 +14,8 @@ from odsuite.domain.errors import ConfigError
 
 
 def shown(value: Any) -> str:
-    """``repr(value)``, cut to 80 characters."""
-    text = repr(value)
+    """``repr(value)`` on one line (an array's repr wraps), cut to 80 characters."""
+    text = re.sub(r"\s*\n\s*", " ", repr(value))
     return text if len(text) <= 80 else text[:77] + "..."
 
 

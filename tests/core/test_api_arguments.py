@@ -217,6 +217,30 @@ def test_a_wrong_argument_to_a_projects_function_leaves_the_project_unchanged(pr
      "estimate_frf: 'force_unit' must be a force unit (N, kN, mN, lbf), got 'parsec'"),
     (lambda: api.spectral_matrix(np.ones((256, 2)), 100.0, 0),
      "spectral_matrix: 'nperseg' must be an integer of at least 2, got 0"),
+    # an empty record reached numpy's FFT ("Invalid number of FFT data points (0)")
+    (lambda: api.estimate_frf([np.array([])], [np.array([])], 1000.0),
+     "estimate_frf: 'forces' must be records of 2 or more samples each, got hit 0 of shape (0,)"),
+    (lambda: api.estimate_frf(np.array([]), np.array([]), 1000.0),
+     "estimate_frf: 'forces' must be records of 2 or more samples each, got hit 0 of shape (0,)"),
+    (lambda: api.estimate_frf([], [], 1000.0), "estimate_frf: 'forces' must be a list of records, one per hit, got []"),
+    (lambda: api.estimate_frf([np.ones(64), np.ones(64)], [np.ones(64)], 1000.0),
+     "estimate_frf: 'responses' must be one record per hit, as 'forces' (2), got 1"),
+    # arrays whose hits do not match (2 force records and 64 response records before)
+    (lambda: api.estimate_frf(np.ones((2, 64)), np.ones(64), 1000.0),
+     "estimate_frf: 'responses' must be an array of hits x samples (x outputs), as 'forces' is an array of hits x "
+     "samples, got an array of shape (64,)"),
+    (lambda: api.estimate_frf(np.ones(64), [np.ones(64)], 1000.0),
+     "estimate_frf: 'responses' must be an array of samples (x outputs), as 'forces' is an array of samples, got "
+     "[array([1., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1..."),
+    (lambda: api.estimate_frf(np.ones((2, 2, 64)), np.ones((2, 2, 64)), 1000.0),
+     "estimate_frf: 'forces' must be a list of records, one per hit (or an array: samples, or hits x samples), "
+     "got an array of shape (2, 2, 64)"),
+    # a 1-D signal is one output; other shapes gave numpy's AxisError or text's ValueError
+    (lambda: api.spectral_matrix(np.ones((4, 4, 4)), 100.0, 4),
+     "spectral_matrix: 'y' must be samples x outputs (2 or more samples), got an array of shape (4, 4, 4)"),
+    (lambda: api.spectral_matrix(np.ones(1), 100.0, 4),
+     "spectral_matrix: 'y' must be samples x outputs (2 or more samples), got an array of shape (1,)"),
+    (lambda: api.spectral_matrix("abc", 100.0, 4), "spectral_matrix: 'y' must be numbers, samples x outputs, got 'abc'"),
     (lambda: api.parse_force_point(None),
      "parse_force_point: 'value' must be three numbers 'X,Y,Z' (text or a list), got None"),
     (lambda: api.parse_force_direction(5), "parse_force_direction: 'value' must be an axis (+x, -x, +y, -y, +z, -z) "
@@ -230,6 +254,40 @@ def test_a_wrong_argument_is_one_line_naming_the_function(call, message):
     with pytest.raises(ConfigError) as err:
         call()
     assert str(err.value) == message
+
+
+def test_estimate_frf_takes_one_hit_or_an_array_of_hits_as_arrays():
+    """One hit as plain 1-D arrays, and a 2-D array of hits (3-D responses: hits x samples x
+    outputs), give the FRFs of the same hits given as lists."""
+    rng = np.random.default_rng(1)
+    f, x = rng.standard_normal((2, 256)), rng.standard_normal((2, 256, 3))
+    as_lists = api.estimate_frf([f[0]], [x[0]], 1000.0)
+    for one in (api.estimate_frf(f[0], x[0], 1000.0), api.estimate_frf(f[:1], x[:1], 1000.0)):
+        assert one.n_averages == 1
+        np.testing.assert_array_equal(one.H, as_lists.H)
+        np.testing.assert_array_equal(one.coherence, as_lists.coherence)
+    single = api.estimate_frf(f[0], x[0, :, 0], 1000.0)  # one output as a 1-D array
+    np.testing.assert_array_equal(single.H, as_lists.H[:1])
+    both = api.estimate_frf(f, x, 1000.0)
+    assert both.n_averages == 2 and both.H.shape == (3, 129)
+    np.testing.assert_array_equal(both.H, api.estimate_frf(list(f), list(x), 1000.0).H)
+    np.testing.assert_array_equal(api.estimate_frf(f, x[:, :, 0], 1000.0).H, both.H[:1])
+
+
+def test_spectral_matrix_takes_a_1d_signal_as_one_output():
+    y = np.random.default_rng(2).standard_normal(4096)
+    freq, G = api.spectral_matrix(y, 100.0, 256)
+    freq_2d, G_2d = api.spectral_matrix(y[:, None], 100.0, 256)
+    assert G.shape == (129, 1, 1)
+    np.testing.assert_array_equal(freq, freq_2d)
+    np.testing.assert_array_equal(G, G_2d)
+
+
+def test_a_wrong_value_is_shown_on_one_line():
+    from odsuite.domain.arguments import shown
+
+    assert shown(np.ones((3, 40))) == "array([[1., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1..."
+    assert shown("a\nb") == "'a\\nb'"  # text keeps its escapes
 
 
 def test_create_project_and_load_rig_name_a_wrong_rig_argument(tmp_path):
