@@ -8,7 +8,8 @@ sensitivity that converts them to SI (1 V per unit, g -> m/s^2 through 1/9.81 V 
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -130,6 +131,15 @@ def _store_frf(p, experiment: str, frf: FrfSet, hits: list, estimator: str, reco
     )
 
 
+@contextmanager
+def said_of(where: str) -> Iterator[None]:
+    """A fit's errors, which speak of the data alone, prefixed with the record they are about."""
+    try:
+        yield
+    except (ConfigError, DimensionError) as exc:
+        raise type(exc)(f"{where}: {exc}") from None
+
+
 def frf_modes(frf: FrfSet, *, f_band: tuple[float, float] | None = None, max_order: int = 50,
               frequencies: list[float] | None = None) -> ModalResult:
     """Modes identified from hammer FRFs, on the band where the hammer's force spectrum and the
@@ -148,8 +158,12 @@ def experiment_modes(
     """Modes identified from the experiment's FRFs (``frf_modes``), those FRFs, stored, and the
     hit list (``flagged_too`` as in ``hits_frf``)."""
     found: list[ModalResult] = []
-    frf, hits = experiment_frf(project, experiment, flagged_too=flagged_too, before_store=lambda frf: found.append(
-        frf_modes(frf, f_band=f_band, max_order=max_order, frequencies=frequencies)))
+
+    def fit(frf: FrfSet) -> None:
+        with said_of(f"{project}: experiment {experiment!r}"):
+            found.append(frf_modes(frf, f_band=f_band, max_order=max_order, frequencies=frequencies))
+
+    frf, hits = experiment_frf(project, experiment, flagged_too=flagged_too, before_store=fit)
     return found[0], frf, hits
 
 
@@ -191,7 +205,10 @@ def experiments_modes(
             raise ConfigError(f"{project}: experiment {e!r} has other frequency lines ({f.frequency.size} up to "
                               f"{f.frequency[-1]:g} Hz) than {experiments[0]!r} ({first.frequency.size} up to "
                               f"{first.frequency[-1]:g} Hz): an FRF matrix needs one sampling rate and record length")
-    bands = [usable_band(f.frequency, f.force_autospectrum, f.coherence, f.n_averages) for f in frfs]
+    bands = []
+    for e, f in zip(experiments, frfs):
+        with said_of(f"{project}: experiment {e!r}"):
+            bands.append(usable_band(f.frequency, f.force_autospectrum, f.coherence, f.n_averages))
     lo, hi = f_band if f_band is not None else (None, None)
     lo = max(b[0] for b in bands) if lo is None else lo
     hi = min(b[1] for b in bands) if hi is None else hi
@@ -200,8 +217,9 @@ def experiments_modes(
                           f"({'; '.join(f'{e} {b[0]:g}-{b[1]:g} Hz' for e, b in zip(experiments, bands))})")
     H = np.vstack([f.H for f in frfs])
     rows = [f"{o} @ {e}" for e, f in zip(experiments, frfs) for o in f.output_names]
-    res = identify_modes(first.frequency, H, f_band=(lo, hi), max_order=max_order, frequencies=frequencies,
-                         output_names=rows)
+    with said_of(f"{project}: experiments {', '.join(map(repr, experiments))}"):
+        res = identify_modes(first.frequency, H, f_band=(lo, hi), max_order=max_order, frequencies=frequencies,
+                             output_names=rows)
     with open_project(project, "a") as p:  # one commit: every experiment's FRFs
         for e, (frf, hits) in zip(experiments, found):
             _store_frf(p, e, frf, hits, "H1", record_length)
@@ -228,11 +246,9 @@ def experiment_output_only_modes(
         names = [exp.channel_names[k] for k in outs]
         units = {exp.systeminfo.channels[k].unit for k in outs}
         fs = exp.sampling_rate
-    try:
+    with said_of(f"{project}: experiment {experiment!r}"):
         res = identify_output_only(data[:, outs], fs, f_band=f_band, max_order=max_order, block_rows=block_rows,
                                    decimation=decimation, output_names=names)
-    except (ConfigError, DimensionError) as exc:  # said of the responses alone: the record is named here
-        raise type(exc)(f"{project}: experiment {experiment!r}: {exc}") from None
     freq, psd = scipy.signal.welch(data[:, outs], fs, nperseg=min(4096, data.shape[0]), axis=0)
     unit = f"{units.pop()}/√Hz" if len(units) == 1 else "mixed units"
     return res, freq, np.sqrt(psd.T), unit

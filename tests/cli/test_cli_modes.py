@@ -97,6 +97,21 @@ def test_modes_of_a_record_whose_every_hit_is_flagged_are_identified_with_a_note
     assert json.loads(captured.out)["flagged_hits"] == {} and "flagged" not in captured.err
 
 
+def test_a_fit_that_finds_no_mode_names_the_project_and_experiment(beam_project, capsys):
+    """The LADISK beam has no mode between its rigid-body motion and 695 Hz: the fit's refusal
+    named neither the file nor the record; --json still prints one document."""
+    for experiments, named in ((["acceleration"], "experiment 'acceleration'"),
+                               (["acceleration", "camera"], "experiments 'acceleration', 'camera'")):
+        args = ["modes", str(beam_project), *[a for e in experiments for a in ("--experiment", e)],
+                "--fmin", "100", "--fmax", "400"]
+        want = f"{beam_project}: {named}: no stable poles found in 100-400 Hz up to model order 50"
+        capsys.readouterr()
+        assert main(args) == 1
+        assert capsys.readouterr().err.strip() == f"error: {want}"
+        assert main([*args, "--json"]) == 1
+        assert json.loads(capsys.readouterr().out) == {"error": want}
+
+
 @pytest.mark.parametrize("scenario", ["T1", "T5"])
 def test_simulated_quantised_records_are_accepted(tmp_path, capsys, scenario):
     """The simulated thesis force is ~2 N on a 12-bit +-5 V card (about 17 codes): quantised,
