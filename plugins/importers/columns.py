@@ -16,7 +16,7 @@ from odsuite.api import ChannelInfo, SensorType, Systeminfo
 from odsuite.api import Excitation, open_project
 from odsuite_plugins.importers.lvm import read_lvm
 from odsuite_plugins.importers.rig_import import names_the_rig, onto_rig
-from odsuite_plugins.importers.tables import _listed
+from odsuite_plugins.importers.tables import _list, _listed
 
 G = 9.80665
 #: LabVIEW unit labels -> (sensor type, volts per SI unit of the stored value)
@@ -66,18 +66,24 @@ def operating_note(where: str) -> str:
 
 def import_lvm(project: str | Path, lvm_path: str | Path, name: str, force_channel: str | None = None, *,
                force_point: np.ndarray | None = None, force_dir: np.ndarray | None = None,
-               force_body: str | None = None) -> tuple[str, ...]:
+               force_body: str | None = None, units: str | list[str] | None = None) -> tuple[str, ...]:
     """Add a LabVIEW ``.lvm`` record to a project as experiment ``name``; returns notes for the user.
 
     On a project with a rig the columns are laid onto the rig's channels (by sensor name, else in
     order; :mod:`odsuite_plugins.importers.rig_import`) and the hammer's ``force_point`` (m, rig frame) and
     ``force_dir`` are required (``force_body`` when the point lies on two bodies); without a rig, or when the columns are not the rig's channels and
     no force point is given (a single-point test kept beside the rig's records, said in a note),
-    the columns are stored as they are."""
+    the columns are stored as they are. ``units`` replaces the file's unit labels (one for all, or one
+    per column), for a file whose labels are wrong (a load cell's column labelled g)."""
     d = read_lvm(lvm_path)
     d.check_complete()
-    return import_columns(project, lvm_path, name, d.channel_names, d.units, d.data, d.sampling_rate, force_channel,
-                          force_point=force_point, force_dir=force_dir, force_body=force_body)
+    labels, notes = list(d.units), ()
+    if units is not None:
+        labels = _list(units, len(d.channel_names), str(lvm_path), "units")
+        changed = [f"{c} {a or '(none)'} -> {b}" for c, a, b in zip(d.channel_names, d.units, labels) if a != b]
+        notes = (f"{lvm_path}: --units replaces the file's labels: {_listed(changed)}",) if changed else ()
+    return notes + import_columns(project, lvm_path, name, d.channel_names, labels, d.data, d.sampling_rate,
+                                  force_channel, force_point=force_point, force_dir=force_dir, force_body=force_body)
 
 
 def import_columns(project: str | Path, file: str | Path, name: str, names: list[str], units: list[str],

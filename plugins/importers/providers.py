@@ -60,13 +60,16 @@ class LvmImporter:
     description = ("LabVIEW Measurement (.lvm) text file, decimal point or comma; on a rig its columns go to the "
                    "rig's sensors by name, else in order")
     suffixes = (".lvm",)
-    options = (FORCE_CHANNEL, *ON_RIG)
+    options = (FORCE_CHANNEL, *ON_RIG,
+               ImportOption("units", "replaces the file's unit labels (a column mislabelled): m/s^2, g, N or V, one "
+                                     "for all or one per column, comma-separated"))
 
     def import_file(self, project, file, name, *, force_channel=None, force_point=None, force_dir=None,
-                    force_body=None) -> Imported:
+                    force_body=None, units=None) -> Imported:
         from odsuite_plugins.importers.columns import import_lvm
 
-        notes = import_lvm(project, file, name, force_channel, **_hammer(force_point, force_dir, force_body))
+        notes = import_lvm(project, file, name, force_channel, units=units,
+                           **_hammer(force_point, force_dir, force_body))
         return Imported(name, f"LabVIEW file {Path(file).name} as experiment {name!r}", tuple(notes))
 
 

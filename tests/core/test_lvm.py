@@ -136,3 +136,28 @@ def test_cli_import_lvm_frf_modes(real_data, tmp_path, capsys):
     assert "stored as an operating record" in capsys.readouterr().err
     assert main(["frf", str(proj), "--experiment", "lab"]) == 1
     assert "experiment 'lab' has no force channel" in capsys.readouterr().err
+
+
+def test_units_replace_a_mislabelled_lvm_column(real_data, tmp_path, capsys):
+    # the hammer column F of lvm_read's impact test is labelled g (its README: a labelling error,
+    # the values are newtons): refused as a force, and .lvm took no --units to say otherwise
+    import json
+
+    from odsuite.cli import main
+    from odsuite.store.project import open_project
+
+    lvm = real_data / "lvm_read_impacts" / "long_single_header_multi_ch.lvm"
+    p = tmp_path / "p.h5"
+    assert main(["new", str(p), "--rig", "none"]) == 0
+    assert main(["import", str(p), str(lvm), "--name", "bad", "--force-channel", "F"]) == 1
+    assert "is in 'g', a response, not a force" in capsys.readouterr().err
+    assert main(["import", str(p), str(lvm), "--name", "imp", "--force-channel", "F", "--units", "N,m/s^2,m/s^2"]) == 0
+    assert "--units replaces the file's labels: F g -> N" in capsys.readouterr().err
+    with open_project(p) as project:
+        e = project.experiment("imp")
+        assert e.excitation is not None and e.channel_names[e.excitation.force_channel] == "F"
+    assert main(["modes", str(p), "--experiment", "imp", "--json"]) == 0
+    f = np.array([m["frequency_hz"] for m in json.loads(capsys.readouterr().out)["modes"]])
+    # the README's own H1 peaks: 19.8 and 21.1 Hz (a close pair), 160.7 Hz, 340 Hz
+    for peak in (19.8, 21.1, 160.7, 340.0):
+        assert np.min(np.abs(f / peak - 1)) < 0.01, (peak, f)
