@@ -163,7 +163,8 @@ def builtin_importers() -> list:
                           "for rate, channel names and units"),
             TableImporter("mat", ".mat", "MATLAB .mat (v4-v7.3): a samples x channels array, with fs, channels and "
                           "units variables, a sidecar or options",
-                          (ImportOption("variable", "the .mat array to read (default: the only one)"),)),
+                          (ImportOption("variable", "the .mat array to read (default: the only one); several vectors "
+                                                    "of one length, comma-separated, one channel each"),)),
             TableImporter("tdms", ".tdms", "NI TDMS file (npTDMS): one group's channels with their unit_string and "
                           "wf_increment", (ImportOption("group", "the TDMS group to read (default: the only one)"),)),
             GeometryImporter()]

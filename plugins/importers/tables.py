@@ -595,10 +595,23 @@ def read_mat_columns(file: Path, explicit: dict) -> Columns:
         raise ConfigError(f"{where}: not a readable MATLAB .mat file: {_library_message(exc)}") from None
     numeric = {k: v for k, v in mat.items() if isinstance(v, np.ndarray) and v.dtype.kind in "fiu" and v.size > 1}
     variable = explicit.get("variable")
+    names = None
     if variable is not None:
-        if variable not in mat:
-            raise ConfigError(f"{where}: variable: no {variable!r} (variables: {_listed(list(mat)) or 'none'})")
-        data = mat[variable]
+        # several vectors of one length, one channel each (an analyser's export: force and response
+        # stored apart, Time_chan_1 and Time_chan_2), named after them
+        parts = [v.strip() for v in variable.split(",")]
+        for v in parts:
+            if v not in mat:
+                raise ConfigError(f"{where}: variable: no {v!r} (variables: {_listed(list(mat)) or 'none'})")
+        data = mat[parts[0]]
+        if len(parts) > 1:
+            columns = [np.asarray(mat[v]) for v in parts]
+            if any(c.dtype.kind not in "fiu" or c.squeeze().ndim != 1 for c in columns) \
+                    or len({c.size for c in columns}) != 1:
+                raise DimensionError(f"{where}: variable {variable!r}: several variables are read as one column "
+                                     f"each, so each must be a vector of real numbers of one length, got shapes "
+                                     f"{', '.join(str(c.shape) for c in columns)}")
+            data, names = np.column_stack([c.reshape(-1) for c in columns]), parts
     elif len(numeric) == 1:
         variable, data = next(iter(numeric.items()))
     else:
@@ -607,7 +620,7 @@ def read_mat_columns(file: Path, explicit: dict) -> Columns:
     if not isinstance(data, np.ndarray) or data.dtype.kind not in "fiu":
         raise ConfigError(f"{where}: variable {variable!r}: not an array of real numbers")
     fs = None if "sampling_rate" in explicit else _mat_rate(mat, where)
-    names = next((_mat_text(mat[k], where, k) for k in MAT_NAMES if k in mat), None)
+    names = names or next((_mat_text(mat[k], where, k) for k in MAT_NAMES if k in mat), None)
     units = next((_mat_text(mat[k], where, k) for k in MAT_UNITS if k in mat), None)
     return checked(f"{where}: variable {variable!r}", data, names, units, fs, explicit, may_transpose=True)
 

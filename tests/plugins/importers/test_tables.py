@@ -514,3 +514,25 @@ def test_a_folder_named_like_a_record_is_refused_as_a_folder(tmp_path, registrie
     create_project(tmp_path / "p.h5", rig=None).close()
     with pytest.raises(OdsuiteError, match=rf"^{re.escape(str(tmp_path / f'r.{fmt}'))}: a folder, not a file$"):
         _import(registries, tmp_path / "p.h5", tmp_path / f"r.{fmt}", rate=FS, units="g")
+
+
+def test_a_mat_files_vectors_read_together_as_one_record(tmp_path, capsys):
+    # an analyser's export keeps force and response apart (Time_chan_1, Time_chan_2), and --variable
+    # read one array: the impact test could not be imported as one
+    import json
+
+    from odsuite.cli import main
+
+    case1 = Path(__file__).resolve().parents[2] / "data" / "real" / "vibration_toolbox_frf" / "case1.mat"
+    p = tmp_path / "p.h5"
+    assert main(["new", str(p), "--rig", "none"]) == 0
+    assert main(["import", str(p), str(case1), "--name", "bad", "--variable", "Time_chan_1,Freq_domain",
+                 "--units", "N,m/s^2", "--rate", "1280"]) == 1
+    assert "each must be a vector of real numbers of one length, got shapes (4096, 1), (1601, 1)" in capsys.readouterr().err
+    assert main(["import", str(p), str(case1), "--name", "c1", "--variable", "Time_chan_1,Time_chan_2",
+                 "--units", "N,m/s^2", "--rate", "1280", "--force-channel", "Time_chan_1"]) == 0
+    assert "2 channels (Time_chan_1 [N], Time_chan_2 [m/s^2]) x 4096 samples at 1280 Hz" in capsys.readouterr().out
+    assert main(["modes", str(p), "--experiment", "c1", "--json"]) == 0
+    f = np.array([m["frequency_hz"] for m in json.loads(capsys.readouterr().out)["modes"]])
+    # vibration_toolbox's sdof_cf on the analyser's FRF: 212.0925 Hz (its README)
+    assert np.min(np.abs(f - 212.0925)) < 0.1, f
