@@ -273,6 +273,39 @@ def _tdms_bases(tmp: Path) -> tuple[bytes, ...]:
     return (path.read_bytes(),)
 
 
+REAL = Path(__file__).resolve().parents[1] / "data" / "real"
+
+
+def _read_lvm(path: Path) -> None:
+    from odsuite.store.project import create_project
+    from odsuite_plugins.importers.columns import import_lvm
+    from odsuite_plugins.importers.lvm import read_lvm
+
+    read_lvm(path).records()  # what `odsuite import` does not call: the split by Samples
+    project = path.with_name("lvm-import.h5")
+    project.unlink(missing_ok=True)
+    create_project(project, rig=None).close()
+    import_lvm(project, path, "e")
+
+
+def _lvm_bases(tmp: Path) -> tuple[bytes, ...]:
+    """LADISK's beam and lvm_read's files (decimal comma, X_Columns Multi, no Decimal_Separator
+    field), cut to 300 rows at most with Samples saying so (as the file's own header would)."""
+    out = []
+    for name in ("ladisk_beam_impact/acceleration.lvm", "lvm_read_impacts/long_single_header_multi_ch.lvm",
+                 "lvm_read_impacts/short.lvm", "lvm_read_impacts/multi_time_column.lvm",
+                 "lvm_read_impacts/no_decimal_separator.lvm"):
+        lines = (REAL / name).read_bytes().splitlines(keepends=True)
+        head = next(k for k, s in enumerate(lines) if s.startswith(b"X_Value")) + 1
+        rows = [r for r in lines[head:] if r.strip()][:300]
+        for k, s in enumerate(lines[:head]):
+            if s.startswith(b"Samples"):
+                cells = s.split(b"\t")
+                lines[k] = b"\t".join(cells[:1] + [str(len(rows)).encode() if c.strip() else c for c in cells[1:]])
+        out.append(b"".join(lines[:head] + rows))
+    return tuple(out)
+
+
 READERS = {
     "ctr": (_read_ctr, lambda tmp: _ctr_bases(), "x.CTR"),
     "dat": (_read_dat, lambda tmp: ("".join("\t".join(map(repr, r)) + "\n"
@@ -282,6 +315,7 @@ READERS = {
     "npy": (_read_table, _npy_bases, "x.npy"),
     "mat": (_read_table, _mat_bases, "x.mat"),
     "tdms": (_read_table, _tdms_bases, "x.tdms"),
+    "lvm": (_read_lvm, _lvm_bases, "x.lvm"),
     "project": (_read_project, lambda tmp: (_project_base(tmp),), "x.h5"),
     # format 1.0.0 kept text in HDF5's global heap: read first in a child process (~0.3 s a case)
     "project-1.0.0": (_read_project, lambda tmp: (FROZEN_1_0_0.read_bytes(),), "x.h5"),
