@@ -4,7 +4,7 @@ registered steps, and the thesis's Table E.2 chain of a Systeminfo channel (Ch. 
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 from odsuite.domain.errors import ConfigError
@@ -50,6 +50,12 @@ def _make(registry, spec: Mapping[str, Any], fs: float, where: str) -> list[Item
     return made
 
 
+def _one_line(value: Any) -> str:
+    """A value in a message: its repr on one line (an array's runs over several), cut short."""
+    text = " ".join(repr(value).split())
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
 def build_chain(specs: Sequence[Mapping[str, Any]], *, fs: float, registry,
                 where: str = "chain") -> Chain:
     """A chain from a list of ``{"step": name, ...params}`` (and ``{"tap": name}``) entries.
@@ -60,11 +66,17 @@ def build_chain(specs: Sequence[Mapping[str, Any]], *, fs: float, registry,
     """
     if not (isinstance(fs, (int, float)) and fs > 0):
         raise ConfigError(f"{where}: sampling rate must be > 0 Hz, got {fs!r}")
+    # a text or a single table is iterable too, and would be taken apart into wrong entries
+    if isinstance(specs, (str, bytes, Mapping)) or not isinstance(specs, Iterable):
+        raise ConfigError(f"build_chain: 'specs' must be a list of steps (tables with a 'step' or 'tap' entry), "
+                          f"got {_one_line(specs)}")
+    specs = list(specs)
+    for k, spec in enumerate(specs):
+        if not isinstance(spec, Mapping):
+            raise ConfigError(f"{where}[{k}]: expected a table {{'step': NAME, ...}}, got {_one_line(spec)}")
     items: list[Item] = []
     specs = [dict(s) for s in specs]
     for k, spec in enumerate(specs):
-        if not isinstance(spec, Mapping):
-            raise ConfigError(f"{where}[{k}]: expected a table {{'step': NAME, ...}}, got {spec!r}")
         items += _make(registry, spec, float(fs), f"{where}[{k}]")
     if not items or not isinstance(items[-1], Tap):
         items.append(Tap("output"))

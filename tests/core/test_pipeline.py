@@ -336,3 +336,18 @@ def test_cli_process(tmp_path, thesis_rig, capsys):
     assert "pulse: acceleration, displacement, force, velocity for channels 2, 3, 4" in out
     assert main(["process", str(tmp_path / "p.odsp"), "--experiment", "nope"]) == 1
     assert "no experiment" in capsys.readouterr().err.lower()
+
+
+@pytest.mark.parametrize(("specs", "expected"), [
+    (5, "build_chain: 'specs' must be a list of steps (tables with a 'step' or 'tap' entry), got 5"),
+    (None, "build_chain: 'specs' must be a list of steps (tables with a 'step' or 'tap' entry), got None"),
+    ("iir", "build_chain: 'specs' must be a list of steps (tables with a 'step' or 'tap' entry), got 'iir'"),
+    ({"step": "iir"}, "build_chain: 'specs' must be a list of steps (tables with a 'step' or 'tap' entry), got {'step': 'iir'}"),
+    ([{"step": "invert"}, 5], "chain[1]: expected a table {'step': NAME, ...}, got 5"),
+    (np.zeros((2, 40)), "chain[0]: expected a table {'step': NAME, ...}, got array(["
+                        + "0., " * 17 + "0...."),
+])
+def test_build_chain_refuses_what_is_no_list_of_tables(registries, specs, expected):
+    with pytest.raises(ConfigError) as info:
+        build_chain(specs, fs=FS, registry=registries.processing_steps)
+    assert str(info.value) == expected

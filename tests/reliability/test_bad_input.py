@@ -1034,6 +1034,8 @@ CASES: list[Case] = [
          call=lambda d: _api().spectral_matrix(np.ones((4, 4, 4)), 100.0, 4)),
     Case("api-process-workers-zero", "process_experiment with workers=0 (API; it ran on every core)", "process_experiment: 'workers' must be an integer of at least 1, got 0",
          call=lambda d: _on_project(d, lambda api, p: api.process_experiment(p, "e1", workers=0))),
+    Case("api-build-chain-number", "build_chain given the number 5 for its list of steps (API; TypeError)", "build_chain: 'specs' must be a list of steps (tables with a 'step' or 'tap' entry), got 5",
+         call=lambda d: _build_chain(5)),
     Case("api-raw-start-text", "e1's raw record read from row 'a' (API; it said the project file is damaged)", "Experiment.raw: 'start' must be an integer, got 'a'",
          call=lambda d: _on_project(d, lambda api, p: p.experiment("e1").raw("a"))),
     Case("api-compare-revision-number", "compare with revision=5 (API; AttributeError)", "compare: 'revision' must be a model revision (an entry of project.model_revisions() or current_revision(project)) or None for the current one, got 5",
@@ -1061,6 +1063,13 @@ def _api():
     from odsuite import api
 
     return api
+
+
+def _build_chain(specs):
+    from odsuite.contracts.plugins import registries
+    from odsuite.processing.chain_spec import build_chain
+
+    return build_chain(specs, fs=1000.0, registry=registries().processing_steps)
 
 
 def _noise_frf():
