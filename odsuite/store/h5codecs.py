@@ -146,9 +146,11 @@ def _expected(hint: Any) -> str:
     return {bool: "true or false", int: "an integer", str: "text"}.get(hint, "a number")
 
 
-def read_systeminfo(g: h5py.Group, refuse: Callable[[int, str, Any, str], Exception]) -> Systeminfo:
+def read_systeminfo(g: h5py.Group, refuse: Callable[[int, str, Any, str], Exception],
+                    refuse_rig: Callable[[str, Any, str], Exception]) -> Systeminfo:
     """The stored Systeminfo; a value of another type, outside its table's codes or a unit other
-    than its sensor type's is ``refuse(channel, field, value, expected)``, raised."""
+    than its sensor type's is ``refuse(channel, field, value, expected)``, raised, and one of the
+    rig's ``refuse_rig(field, value, expected)``."""
     table = g["channels"][()]
     column = {name: i for i, name in enumerate(table.dtype.names or ())}
     # a column added after the file was written is left out: its default
@@ -181,19 +183,43 @@ def read_systeminfo(g: h5py.Group, refuse: Callable[[int, str, Any, str], Except
         if "unit" in column and row[column["unit"]] != ch.unit.encode():
             raise refuse(k, "unit", h5text.readable(row[column["unit"]]), f"{ch.unit!r} (its sensor type's unit)")
         channels.append(ch)
-    rg = g["rig"]
-    opt = {n: float(rg[n][()]) for n in ("rx", "ry", "rz")}  # each dataset read once: a read costs more than the rest
-    opt = {n: None if math.isnan(v) else v for n, v in opt.items()}
-    rig = RigInfo(
-        use_in_gcc=bool(Attrs(rg)["use_in_gcc"]), use_in_ag=bool(Attrs(rg)["use_in_ag"]),
-        plot_from_corner=bool(Attrs(rg)["plot_from_corner"]),
-        plate_sizes=[tuple(float(x) for x in row) for row in rg["plate_sizes"][()]],
-        plate_origins=[tuple(float(x) for x in row) for row in rg["plate_origins"][()]],
-        coordinate_columns=[int(x) for x in rg["coordinate_columns"][()]],
-        nine_channels=[int(x) for x in rg["nine_channels"][()]],
-        **opt,
-    )
+    rig = _read_riginfo(g["rig"], refuse_rig)
     return Systeminfo(channels=channels, rig=rig)
+
+
+def _read_riginfo(rg: h5py.Group, refuse: Callable[[str, Any, str], Exception]) -> RigInfo:
+    """The rig rows of a stored Systeminfo as write_systeminfo writes them: flags, rows of x, y, z
+    in m, column indices and rx, ry, rz (NaN: not given)."""
+    def stored(n: str, in_attrs: bool) -> Any:
+        if n not in (rg.attrs if in_attrs else rg):
+            raise refuse(n, "(missing)", "a stored value")
+        return rg.attrs[n] if in_attrs else rg[n][()]
+
+    kw: dict[str, Any] = {}
+    for n in ("use_in_gcc", "use_in_ag", "plot_from_corner"):
+        v = stored(n, True)
+        # bool() would take any text or number: 'no' and 7 read as true
+        if not (isinstance(v, bool | np.bool_) or (isinstance(v, int | np.integer) and v in (0, 1))):
+            raise refuse(n, v, "true or false")
+        kw[n] = bool(v)
+    for n in ("plate_sizes", "plate_origins"):
+        v = stored(n, False)
+        if not (isinstance(v, np.ndarray) and v.dtype.kind in "fiu" and v.ndim == 2 and v.shape[1] == 3
+                and np.all(np.isfinite(v))):
+            raise refuse(n, v, "rows of 3 finite numbers (x, y, z in m)")
+        kw[n] = [tuple(float(x) for x in row) for row in v]
+    for n in ("coordinate_columns", "nine_channels"):
+        v = stored(n, False)
+        if not (isinstance(v, np.ndarray) and v.dtype.kind in "iu" and v.ndim == 1):
+            raise refuse(n, v, "a list of whole column numbers")
+        kw[n] = [int(x) for x in v]
+    for n in ("rx", "ry", "rz"):
+        v = stored(n, False)
+        if not (isinstance(v, float | np.floating | np.integer) and not isinstance(v, bool | np.bool_)
+                and not np.isinf(v)):
+            raise refuse(n, v, "a finite number (m) or NaN (not given)")
+        kw[n] = None if math.isnan(v) else float(v)
+    return RigInfo(**kw)
 
 
 # ----------------------------------------------------------------------------- rig, revisions, root

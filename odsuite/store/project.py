@@ -82,7 +82,7 @@ from odsuite.store.h5damage import open_h5, reading
 from odsuite.store.stored_values import (EXPERIMENT_UNITS, RATE_RANGE, RAW_MAX, as_number, as_vector,
                                           check_experiment, check_experiment_units, check_raw_block,
                                           check_parent, check_revision, check_systeminfo,
-                                          systeminfo_refusal)
+                                          revision_number, rig_refusal, systeminfo_refusal)
 from odsuite.store.project_format import (
     CHUNK_BYTES,
     FORMAT_VERSION,
@@ -297,7 +297,8 @@ class Experiment:
         # every format version keeps the record's rate on the experiment; a Systeminfo written
         # without one (row 7 left at 0 Hz, as API callers could) takes it from there
         self.systeminfo = read_systeminfo(
-            g["systeminfo"], lambda k, *bad: systeminfo_refusal(project.path, name, k, *bad)).with_rate(self.sampling_rate)
+            g["systeminfo"], lambda k, *bad: systeminfo_refusal(project.path, name, k, *bad),
+            lambda *bad: rig_refusal(project.path, name, *bad)).with_rate(self.sampling_rate)
         check_systeminfo(project.path, name, self.systeminfo.channels, self.n_channels)
 
     def _group(self) -> h5py.Group:
@@ -930,9 +931,10 @@ class Project:
         out = []
         keys = set(revs)
         for key, g in revs.items():
+            number = revision_number(self.path, key)  # before check_parent, which compares numbers
             a = Attrs(g)
             parent = check_parent(self.path, key, a["parent"], keys)
-            rev = {"revision": int(key), "model": h5text.text(a["model"]) or None,
+            rev = {"revision": number, "model": h5text.text(a["model"]) or None,
                    "effects": json.loads(h5text.text(a["effects"])),
                    "parameters": json.loads(h5text.text(a["parameters"])),
                    "metrics": json.loads(h5text.text(a["metrics"])),

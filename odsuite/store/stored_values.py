@@ -82,6 +82,18 @@ def systeminfo_refusal(path: Path, name: str, channel: int, field: str, value: A
     return _bad(path, f"experiment {name!r} systeminfo channel {channel}", field, value, expected)
 
 
+def revision_number(path: Path, key: str) -> int:
+    """A stored revision's number from its group's name (odsuite names them 0, 1, 2, ...)."""
+    if not (key.isascii() and key.isdigit() and str(int(key)) == key):
+        raise _bad(path, "models", "revisions", key, "revisions named by whole numbers 0, 1, 2, ...")
+    return int(key)
+
+
+def rig_refusal(path: Path, name: str, field: str, value: Any, expected: str) -> ProjectFileError:
+    """The error for a stored channel table's rig ``field`` (Table E.2 rows 21-33)."""
+    return _bad(path, f"experiment {name!r} systeminfo rig", field, value, expected)
+
+
 def check_systeminfo(path: Path, name: str, channels: list, n_channels: int) -> None:
     """The stored channel table: one channel per raw column, divisors (sensitivity and DAQ gain
     finite and not 0, the sensitivity within what any writer stores) and filter orders within the

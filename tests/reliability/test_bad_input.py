@@ -308,6 +308,16 @@ def _handmade(kind: str, command: str = "info") -> Callable[[Path], list[str]]:
                 f["rig"].attrs["definition_format"] = "yaml"
             elif kind == "own parent":
                 rev.attrs["parent"] = 0
+            elif kind == "rig rx text":
+                del e["systeminfo/rig/rx"]
+                e["systeminfo/rig"].create_dataset("rx", data=b"abc")
+            elif kind == "rig use_in_gcc text":
+                e["systeminfo/rig"].attrs["use_in_gcc"] = "no"
+            elif kind == "rig columns fractional":
+                del e["systeminfo/rig/coordinate_columns"]
+                e["systeminfo/rig"].create_dataset("coordinate_columns", data=[1.5, 2.0])
+            elif kind == "revision named abc":
+                f["models/revisions"].move("0", "abc")
             elif kind.startswith("raw as "):  # the record rewritten in another type, its attributes kept
                 attrs, raw = dict(e["raw"].attrs), e["raw"][()]
                 del e["raw"]
@@ -887,6 +897,14 @@ CASES: list[Case] = [
          argv=_handmade('rig yaml', 'info')),
     Case('stored-own-parent', 'history on a project whose revision 0 names itself as its parent', "{dir}/x.h5: model revision 0 field 'parent': expected -1 (none) or a stored revision before it (none), got 0",
          argv=_handmade('own parent', 'history')),
+    Case('stored-rig-rx-text', "info on a project whose channel table's rig field rx is the text 'abc'", "{dir}/x.h5: experiment 'e1' systeminfo rig field 'rx': expected a finite number (m) or NaN (not given), got b'abc'",
+         argv=_handmade('rig rx text', 'info')),
+    Case('stored-rig-use-in-gcc-text', "info on a project whose channel table's rig flag use_in_gcc is the text 'no' (read as true)", "{dir}/x.h5: experiment 'e1' systeminfo rig field 'use_in_gcc': expected true or false, got 'no'",
+         argv=_handmade('rig use_in_gcc text', 'info')),
+    Case('stored-rig-columns-fractional', "info on a project whose channel table's rig coordinate columns are 1.5 and 2.0 (read as 1 and 2)", "{dir}/x.h5: experiment 'e1' systeminfo rig field 'coordinate_columns': expected a list of whole column numbers, got [1.5, 2.0]",
+         argv=_handmade('rig columns fractional', 'info')),
+    Case('stored-revision-name', "info on a project whose revision 0 is renamed 'abc'", "{dir}/x.h5: models field 'revisions': expected revisions named by whole numbers 0, 1, 2, ..., got 'abc'",
+         argv=_handmade('revision named abc', 'info')),
     Case("lvm-underscore", ".lvm with data value `1_000` (Python reads 1000; LabVIEW writes no digit groups)", "{dir}/bad.lvm: line 20, column 2: '1_000' is not a number",
          **lvm(LVM_TEXT.replace("\t1,5\t", "\t1_000\t"))),
     Case("lvm-long-row", ".lvm with a row of 1,000,000 cells in a 2-channel file", "{dir}/bad.lvm: line 20: 1000000 cells, more than the 4 of 2 channel(s) and a comment",
