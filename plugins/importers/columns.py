@@ -16,7 +16,7 @@ from odsuite.api import ChannelInfo, SensorType, Systeminfo
 from odsuite.api import Excitation, open_project
 from odsuite_plugins.importers.lvm import read_lvm
 from odsuite_plugins.importers.rig_import import names_the_rig, onto_rig
-from odsuite_plugins.importers.tables import _list, _listed
+from odsuite_plugins.importers.tables import _list, _listed, check_names, check_values
 
 G = 9.80665
 #: LabVIEW unit labels -> (sensor type, volts per SI unit of the stored value)
@@ -93,6 +93,8 @@ def import_columns(project: str | Path, file: str | Path, name: str, names: list
     """Add a file's named columns (``data``: samples x columns in ``units``, at ``fs`` Hz) to a
     project as experiment ``name``, as :func:`import_lvm` says; returns notes for the user."""
     check_units(list(names), list(units), str(file))
+    check_names(str(file), list(names))
+    check_values(str(file), list(names), list(units), np.asarray(data, float))
     with open_project(project, "a") as p:
         on_rig = p.rig is not None and (force_point is not None or force_dir is not None
                                         or names_the_rig(p.rig, names))

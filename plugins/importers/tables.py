@@ -98,6 +98,28 @@ def _list(value, n: int, where: str, field: str) -> list[str]:
     return items
 
 
+def check_names(where: str, names: list[str]) -> None:
+    """One name per column, none given twice or empty."""
+    dup = sorted({c for c in names if names.count(c) > 1})
+    if dup or "" in names:
+        raise ConfigError(f"{where}: channels: name {(dup or [''])[0]!r} is given twice or empty")
+
+
+def check_values(where: str, names: list[str], units: list[str], a: np.ndarray) -> None:
+    """Every sample (samples x columns) a finite number within what a sensor reads, ``where`` the
+    file: else the project the record goes into was named, and the file not."""
+    bad = np.argwhere(~np.isfinite(a))
+    if bad.size:
+        i, k = bad[0]
+        raise ConfigError(f"{where}: channel {names[k]!r}: sample {i}: value {a[i, k]} is not a finite number")
+    big = np.argwhere(np.abs(a) > MAX_VALUE)
+    if big.size:
+        i, k = big[0]
+        unit = f" {units[k]}" if units[k] else ""
+        raise ConfigError(f"{where}: channel {names[k]!r}: sample {i}: value {a[i, k]:g}{unit} is beyond "
+                          f"{MAX_VALUE:g}{unit}, which no sensor reads")
+
+
 def checked(where: str, data, names, units, fs, explicit: dict, may_transpose: bool = False) -> Columns:
     """The columns checked: a 2-D array of finite numbers with two or more samples, one name and one
     known unit per column, a finite rate > 0; ``explicit`` (options, sidecar) fill and override.
@@ -122,9 +144,7 @@ def checked(where: str, data, names, units, fs, explicit: dict, may_transpose: b
     names = [f"ch{k + 1}" for k in range(n)] if names is None else _list(names, n, where, "channels")
     for k, c in enumerate(names):
         printable_name(f"{where}: channels: column {k + 1} name", c)
-    dup = sorted({c for c in names if names.count(c) > 1})
-    if dup or "" in names:
-        raise ConfigError(f"{where}: channels: name {(dup or [''])[0]!r} is given twice or empty")
+    check_names(where, names)
     units = explicit.get("units", units)
     if units is None:
         raise ConfigError(f"{where}: units: not given (channels {_listed(names)}); give --units or "
@@ -133,15 +153,7 @@ def checked(where: str, data, names, units, fs, explicit: dict, may_transpose: b
     for c, u in zip(names, units):
         if u.lower() not in KNOWN_UNITS:
             raise ConfigError(f"{where}: channel {c!r}: unit {u!r} is not one of m/s^2, g, N, V")
-    bad = np.argwhere(~np.isfinite(a))
-    if bad.size:
-        i, k = bad[0]
-        raise ConfigError(f"{where}: channel {names[k]!r}: sample {i}: value {a[i, k]} is not a finite number")
-    big = np.argwhere(np.abs(a) > MAX_VALUE)
-    if big.size:
-        i, k = big[0]
-        raise ConfigError(f"{where}: channel {names[k]!r}: sample {i}: value {a[i, k]:g} {units[k]} is beyond "
-                          f"{MAX_VALUE:g} {units[k]}, which no sensor reads")
+    check_values(where, names, units, a)
     fs = explicit.get("sampling_rate", fs)
     if fs is None:
         raise ConfigError(f"{where}: sampling_rate: not given; give --rate or a sidecar "

@@ -536,3 +536,24 @@ def test_a_mat_files_vectors_read_together_as_one_record(tmp_path, capsys):
     f = np.array([m["frequency_hz"] for m in json.loads(capsys.readouterr().out)["modes"]])
     # vibration_toolbox's sdof_cf on the analyser's FRF: 212.0925 Hz (its README)
     assert np.min(np.abs(f - 212.0925)) < 0.1, f
+
+
+@pytest.mark.parametrize("edit, message", [
+    (("0,537321", "inf"), "channel 'Excitation (Trigger)': sample 1: value inf is not a finite number"),
+    (("0,537321", "1e308"), "channel 'Excitation (Trigger)': sample 1: value 1e+308 Newtons is beyond 1e+12 Newtons"),
+    (("Response (Trigger)", "Excitation (Trigger)"), "channels: name 'Excitation (Trigger)' is given twice or empty"),
+])
+def test_an_lvm_s_bad_values_are_named_in_the_file(tmp_path, capsys, edit, message):
+    # the refusal named the project being written ("p.h5: experiment 'e': ..."), not the .lvm
+    from odsuite.cli import main
+
+    short = Path(__file__).resolve().parents[2] / "data" / "real" / "lvm_read_impacts" / "short.lvm"
+    bad = tmp_path / "bad.lvm"
+    bad.write_text(short.read_text(encoding="latin-1").replace(*edit, 1), encoding="latin-1")
+    p = tmp_path / "p.h5"
+    assert main(["new", str(p), "--rig", "none"]) == 0
+    capsys.readouterr()
+    assert main(["import", str(p), str(bad), "--name", "e"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err == f"error: {bad}: {message}" or err.startswith(f"error: {bad}: {message}"), err
+    assert len(err.splitlines()) == 1
