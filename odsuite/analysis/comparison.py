@@ -22,6 +22,7 @@ import scipy.signal
 import scipy.stats
 from threadpoolctl import threadpool_limits
 
+from odsuite.analysis import noise_colour
 from odsuite.analysis.noise_floor import FLOOR_TOLERANCE, NoiseFloor, estimate, on_grid, pooled_grid, welch
 from odsuite.analysis.prediction import (
     PreparedExperiment,
@@ -281,18 +282,25 @@ def pooled_error(exps: Sequence[PreparedExperiment], predictions: Sequence[np.nd
 
 
 def noise_floor(exps: Sequence[PreparedExperiment], model=None, *, spectra: bool = False,
-                colours: Mapping[str, Any] | None = None) -> NoiseFloor:
+                colours: Mapping[str, Any] | None = None,
+                tail_predictions: Sequence[np.ndarray] | None = None) -> NoiseFloor:
     """The calibrated noise floor (odsuite.analysis.noise_floor) of ``exps`` if ``model`` were
     right: it carries the force channel's noise to the sensors and its signals set the rounding
     error (without it, those parts are estimated from the records alone). ``model``: a
     RevisionModel, or a mapping of experiment name to that experiment's model. ``colours``: the
-    sensors' noise colours of these records where known (another floor's: NoiseFloor.colours)."""
+    sensors' noise colours of these records where known (another floor's: NoiseFloor.colours).
+    ``tail_predictions``: a model's predictions whose residual on the records' quiet tails tells
+    the colour instead (noise_floor.estimate's ``tail_residuals``), where no record has samples
+    before its hit to tell it."""
     if model is None:
         return estimate(exps, spectra=spectra, colours=colours)
     models = model if isinstance(model, Mapping) else {e.name: model.for_experiment(e.name) for e in exps}
     impulses = {e.name: impulse_response(models[e.name], e) for e in exps}
     noise = {e.name: sensor_noise(models[e.name], e) for e in exps}
-    return estimate(exps, impulses, noise, spectra=spectra, colours=colours)
+    residuals = None
+    if tail_predictions is not None and not any(noise_colour.has_pre_hit_lines(e) for e in exps):
+        residuals = {e.name: e.measured - p for e, p in zip(exps, tail_predictions)}
+    return estimate(exps, impulses, noise, spectra=spectra, colours=colours, tail_residuals=residuals)
 
 
 def noise_floor_error(exps: Sequence[PreparedExperiment], model=None) -> float:

@@ -67,6 +67,8 @@ class Colour:
     rise: float
     exponent: float
     excess: tuple[tuple[float, float, float], ...] = ()
+    # measured against the floor's own level (tail_excess), not against the lines' mean
+    floor_relative: bool = False
 
     def law(self, f: np.ndarray) -> np.ndarray:
         f = np.asarray(f, float)
@@ -90,15 +92,20 @@ def quiet_stretches(exp, shortest: int = MIN_SAMPLES) -> list[tuple[int, int]]:
     return [(a, b) for a, b in out if b - a >= shortest]
 
 
+def has_pre_hit_lines(exp) -> bool:
+    """Whether enough quiet samples precede the hit to tell the noise's colour (pre_hit_lines)."""
+    return int(exp.quiet_before) >= MIN_SAMPLES
+
+
 def pre_hit_lines(exp) -> tuple[np.ndarray, np.ndarray] | None:
     """Frequencies (Hz) and periodogram lines (lines x sensors) of the quiet samples before the
     hit of a PreparedExperiment (raw volts, less an offset, hum and a line fitted on them alone), over their
     mean between REFERENCE and TOP_FRACTION of the sampling rate (the same frequencies for every
     record, whatever its length; NaN where a sensor reads one code); None when fewer than
     MIN_SAMPLES precede the hit."""
-    end = int(exp.quiet_before)
-    if end < MIN_SAMPLES:
+    if not has_pre_hit_lines(exp):
         return None
+    end = int(exp.quiet_before)
     share = white_share(exp)
     x = np.asarray(exp.volts[:end], float)
     # samples that read one converter code (the noise below a code) tell nothing of the colour:
@@ -227,22 +234,33 @@ def shared_excess(sensors: Mapping[str, tuple[np.ndarray, np.ndarray, Colour]],
     sensors, and taken without a test their scatter lowered white-noise sensitivity: a softer
     mount's 20-40 Hz cell fell from 1.17x its limit to below it). Where the pooled lines hold it,
     each sensor's factor is its own lines' sum over its law's, at least the pooled one."""
+    return {name: tuple(v) for name, v in _band_excess(
+        {name: (f, r, law.law(f), np.zeros(len(f))) for name, (f, r, law) in sensors.items()}, bands).items()}
+
+
+def _band_excess(sensors: Mapping[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]],
+                 bands: Sequence[tuple[float, float]]) -> dict[str, list[tuple[float, float, float]]]:
+    """shared_excess's test and factors on lines ``got`` against an expectation in two parts, the
+    sensor's noise and the rest (name -> frequencies, got, noise, rest): a band is held where
+    2 sum(got / expected) over every sensor's lines in it passes chi-square at COLOUR_FALSE_ALARM
+    shared over the bands that hold lines; each sensor's factor on its noise there is what its
+    lines leave above the rest over its noise's part, at least the pooled ratio."""
     held = []
     for lo, hi in bands:
-        stat = dof = total = expected = 0.0
+        stat = dof = got_all = expected_all = 0.0
         own = {}
-        for name, (f, r, law) in sensors.items():
-            m = (f >= lo) & (f < hi) & np.isfinite(r)
+        for name, (f, got, noise, rest) in sensors.items():
+            m = (f >= lo) & (f < hi) & np.isfinite(got) & (noise + rest > 0)
             if not m.any():
                 continue
-            mu = law.law(f[m])
-            stat += 2.0 * float(np.sum(r[m] / mu))
+            stat += 2.0 * float(np.sum(got[m] / (noise[m] + rest[m])))
             dof += 2.0 * int(m.sum())
-            total += float(np.sum(r[m]))
-            expected += float(np.sum(mu))
-            own[name] = float(np.sum(r[m]) / np.sum(mu))
+            got_all += float(np.sum(got[m]))
+            expected_all += float(np.sum(noise[m] + rest[m]))
+            if np.sum(noise[m]) > 0:
+                own[name] = float((np.sum(got[m]) - np.sum(rest[m])) / np.sum(noise[m]))
         if dof:
-            held.append((lo, hi, stat, dof, total / expected, own))
+            held.append((lo, hi, stat, dof, got_all / expected_all, own))
     out: dict[str, list[tuple[float, float, float]]] = {}
     for lo, hi, stat, dof, pooled, own in held:
         if stat > scipy.stats.chi2.isf(COLOUR_FALSE_ALARM / len(held), dof):
@@ -250,7 +268,23 @@ def shared_excess(sensors: Mapping[str, tuple[np.ndarray, np.ndarray, Colour]],
                 factor = max(pooled, ratio)
                 if factor > 1.0:
                     out.setdefault(name, []).append((float(lo), float(hi), factor))
-    return {name: tuple(v) for name, v in out.items()}
+    return out
+
+
+def tail_excess(sensors: Mapping[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]],
+                bands: Sequence[tuple[float, float]]) -> dict[str, Colour]:
+    """Per sensor, the bands where a model's residual on the records' quiet tails holds more than the
+    floor expects there, as a colour measured against the floor's own level (``sensors``: name ->
+    the tails' lines (Hz), the residual's energy on each, and the floor's expected energy there:
+    its sensor-noise part and the rest, hum and the force channel's noise). For records with no
+    samples before their hit: the residual, not the records, as a mode still ringing in a tail is
+    the model's to predict; but a model error that lasts into the tails shows alike (a softer
+    mount's ringing), so only diagnose's verdict weighs it, where nothing explains the cells. Each
+    band is tested as shared_excess tests it (every sensor's lines pooled, residual over expected,
+    chi-square at COLOUR_FALSE_ALARM shared over the bands); where held, a sensor's factor on its
+    noise is what its lines leave above the rest over its noise's part, at least the pooled ratio."""
+    return {name: Colour(1.0, 0.0, 0.0, tuple(v), floor_relative=True)
+            for name, v in _band_excess(sensors, bands).items()}
 
 
 def by_sensor(exps: Sequence, bands: Sequence[tuple[float, float]] = ()) -> dict[str, Colour]:
@@ -300,6 +334,7 @@ def gains(colours: Mapping[str, Colour], exp, f: np.ndarray) -> np.ndarray | Non
     for j, s in enumerate(exp.sensors):
         c = colours.get(s.name)
         if c is not None:
-            out[:, j] = np.maximum(1.0, c.density(at) / np.mean(c.density(seen)))
+            level = 1.0 if c.floor_relative else np.mean(c.density(seen))
+            out[:, j] = np.maximum(1.0, c.density(at) / level)
     out[np.asarray(f) <= 0] = 1.0
     return out

@@ -445,9 +445,45 @@ def _coloured(flat: np.ndarray, colour: np.ndarray) -> np.ndarray:
     return out * flat.sum(axis=0) / np.where(out.sum(axis=0) > 0, out.sum(axis=0), np.inf)
 
 
+def _tail_colours(exps: Sequence, residuals: Mapping[str, np.ndarray],
+                  impulses: Mapping[str, np.ndarray] | None,
+                  sensor_noise: Mapping[str, Sequence[np.ndarray]] | None) -> dict[str, Any]:
+    """noise_colour.tail_excess of a model's ``residuals`` (experiment name -> samples x sensors) on
+    the records' quiet tails, against what the floor expects on them: the simulated sensors' noise
+    (else white at the quiet level), the fitted hum and drift, and the force channel's noise
+    through the model's impulse response."""
+    pooled: dict[str, list[list[np.ndarray]]] = {}
+    for e in exps:
+        a, b = int(e.quiet_tail), int(e.n_samples)
+        if not 0 <= a or b - a < 2 * RESOLVING_LINES + 1:
+            continue
+        f = np.fft.rfftfreq(b - a, 1.0 / e.fs)
+        got = line_energies(residuals[e.name][a:b])
+        simulated = (sensor_noise or {}).get(e.name) or []
+        if simulated:
+            noise = np.mean([line_energies(r[a:b]) for r in simulated], axis=0)
+        else:  # white at the quiet level: line_energies' expectation, 2 var inside, var at the ends
+            noise = np.tile(2.0 * np.asarray(e.noise_var, float), (len(f), 1))
+            noise[0] /= 2.0
+            if (b - a) % 2 == 0:
+                noise[-1] /= 2.0
+        rest = np.zeros_like(noise)
+        if e.disturbance is not None:
+            rest += line_energies(e.disturbance[a:b])
+        if impulses is not None and e.force_noise_energy > 0:
+            rest += e.force_noise_energy * line_energies(impulses[e.name][a:b])
+        for j, s in enumerate(e.sensors):
+            parts = pooled.setdefault(s.name, [[], [], [], []])
+            for k, v in enumerate((f[1:], got[1:, j], noise[1:, j], rest[1:, j])):
+                parts[k].append(v)
+    sensors = {name: tuple(np.concatenate(v) for v in parts) for name, parts in pooled.items()}
+    return noise_colour.tail_excess(sensors, band_edges(exps[0].fs, exps[0].n_samples)) if sensors else {}
+
+
 def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
              sensor_noise: Mapping[str, Sequence[np.ndarray]] | None = None, *, spectra: bool = False,
-             colours: Mapping[str, Any] | None = None) -> NoiseFloor:
+             colours: Mapping[str, Any] | None = None,
+             tail_residuals: Mapping[str, np.ndarray] | None = None) -> NoiseFloor:
     """The noise floor of ``exps`` (PreparedExperiments); ``impulses`` maps an experiment's name to
     its model's response to a unit force sample (odsuite.analysis.prediction.impulse_response), which
     carries the force channel's noise to every channel (without it that part is left out);
@@ -455,7 +491,11 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
     (odsuite.analysis.prediction.sensor_noise; without them: white noise and a uniform rounding error
     where the signal moves through the codes). ``spectra``: also the floor's Welch spectra, for
     peak and band tests. ``colours``: the sensors' noise colours of these records (a floor's of
-    the same records for another model: NoiseFloor.colours), found again where absent."""
+    the same records for another model: NoiseFloor.colours), found again where absent from the
+    samples before the hit. ``tail_residuals``: a model's residual (experiment name -> samples x
+    sensors) whose excess over the floor on the records' quiet tails is taken as the colour
+    instead (_tail_colours; for records with too few samples before their hit to tell it, where a
+    model error lasting into the tails reads alike: diagnose's verdict weighs it, no test does)."""
     energy: dict[str, dict[str, float]] = {}
     measured: dict[str, dict[str, float]] = {}
     parts: dict[str, dict[str, dict[str, float]]] = {}
@@ -464,7 +504,9 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
     counted: dict[str, np.ndarray] = {}
     coloured: dict[str, np.ndarray] = {}
     # the colour's excess is tested in the bands the residual is judged in
-    if colours is None:
+    if tail_residuals is not None and exps:
+        colours = _tail_colours(exps, tail_residuals, impulses, sensor_noise)
+    elif colours is None:
         colours = noise_colour.by_sensor(exps, band_edges(exps[0].fs, exps[0].n_samples) if exps else ())
     known = all(getattr(e, "quiet_tail", -1) >= 0 for e in exps)
     stretches = witnesses(exps) if known else None

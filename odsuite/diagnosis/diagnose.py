@@ -56,6 +56,7 @@ from odsuite.diagnosis.fitting import (
 from odsuite.analysis.modelrev import current_revision, revision_model
 from odsuite.analysis.prediction import PreparedExperiment, predict, prepare
 from odsuite.domain.simulation import load_nonlinear_loop
+from odsuite.analysis import noise_colour
 from odsuite.analysis import resolved as resolution
 from odsuite.analysis.noise_floor import FLOOR_TOLERANCE
 from odsuite.diagnosis.pool import JOBS, SMALL_JOB, TOKENS, InOrder, default_workers, forked_pool, worker_start  # noqa: F401
@@ -1231,6 +1232,20 @@ def _refine(job: Mapping[str, Any], name: str, candidates: Sequence[Candidate], 
     return cand
 
 
+def _held_by_tails(exps, base, before, res0):
+    """Where no record has samples before its hit to tell the noise's colour and nothing explains
+    the cells above the (white) floor: the baseline's residual resolved against the floor the
+    model's residual on the records' quiet tails shows (noise_floor.estimate's tail_residuals),
+    if no cell is above that one; else None. Nulls recorded from their hit under 1/f noise or a
+    floor's vibration read "unexplained" (2 and 5 of 12); the detection and the candidates' tests
+    keep the white floor, since a softer mount ringing into the tails raises the tails' floor
+    alike (10 N faults at 8-18x their noise then read "nothing to explain")."""
+    if res0 is None or any(noise_colour.has_pre_hit_lines(e) for e in exps):
+        return None
+    held = resolution.resolve(exps, before, noise_floor(exps, base, spectra=True, tail_predictions=before))
+    return None if held is None or held.detected() else held
+
+
 def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
     """The verdict (from the resolved residual where the floor has bands), the signature of what
     is left (after the best significant candidate, if any) and the message."""
@@ -1273,9 +1288,15 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
     modes = list(base.shared.modes().frequency_hz)
     if before is None:
         before = [predict(base.for_experiment(e.name), e) for e in exps]
+    held = _held_by_tails(exps, base, before, res0) if d.verdict == "unexplained" else None
+    if held is not None:
+        d.verdict = "nothing to explain"
     # the residuals' spectra the peaks took serve the signature
     sig_before = signature(exps, before, cmp.floor, d.residual_peaks, amplitude, res0,
                            cmp.residual_spectra if before is cmp.predictions else None)
+    if held is not None:
+        sig_before.unjudged, sig_before.cells = sig_before.cells, []
+        sig_before.strongest_cell, sig_before.tails_hold = held.strongest(), True
     rest = None
     if best is not None and d.verdict != "nothing to explain":
         spectra = residual_spectra(exps, after)

@@ -46,12 +46,15 @@ class Signature:
     # cells of bands no quiet sample shows, above the limit they would have were the noise white
     # there (Resolved.unjudged): not judged, and named
     unjudged: list[dict[str, Any]] = field(default_factory=list)
+    # the unjudged cells are above a white floor, and within the noise the records' quiet tails show
+    # (records that start at their hit: no samples before it tell the noise's colour)
+    tails_hold: bool = False
 
     def as_dict(self) -> dict[str, Any]:
         return {"bands": self.bands, "channels": self.channels, "experiments": self.experiments,
                 "peaks_hz": self.peaks_hz, "amplitude_dependent": self.amplitude_dependent,
                 "cells": self.cells, "strongest_cell_to_floor": self.strongest_cell,
-                "unjudged_cells": self.unjudged}
+                "unjudged_cells": self.unjudged, "unjudged_as_the_tails_hold": self.tails_hold}
 
 
 def signature(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFloor,
@@ -196,6 +199,16 @@ def message(verdict: str, baseline: float, floor: float, best, sig: Signature, r
         c = sig.cells[0]
         head += (f"; by channel and band, {c['channel']} in {c['experiment']} at {c['band_hz'][0]:g}-"
                  f"{c['band_hz'][1]:g} Hz is {c['residual_to_floor']:.3g}x the floor there")
+    if verdict == "nothing to explain" and sig.tails_hold and sig.unjudged:
+        c = sig.unjudged[0]
+        return (f"{head}; by channel and band, {c['channel']} in {c['experiment']} at {_band(c)} Hz is "
+                f"{c['residual_to_floor']:.3g}x the floor a white noise would leave there (limit {c['limit']:.3g}x), "
+                f"and no candidate effect removes a significant part of it. But the model's residual on the "
+                f"records' quiet tails holds as much there: a band of noise (a sensor's noise rising at low "
+                f"frequency, a floor's vibration) or a model error that lasts into the tails, which records that "
+                f"start at their hit cannot tell apart. Against the noise the tails show, no band of any channel "
+                f"exceeds its floor (the strongest is {sig.strongest_cell:.2f}x), so these data show nothing the "
+                f"model lacks that they can tell. {_record_before(c, 'judge those bands').capitalize()}")
     if verdict == "nothing to explain" and sig.strongest_cell is not None:
         if sig.unjudged:
             return (f"{head}; no band the noise is measured in exceeds what noise, hum and quantisation leave "

@@ -250,3 +250,52 @@ def test_a_noise_band_every_sensor_feels_raises_their_floor_in_its_band():
     assert np.median(with_excess) > 0.45 and np.median(with_excess) > 2.0 * np.median(law_only), (
         np.median(with_excess), np.median(law_only))
 
+
+
+def _tail_lines(rng, n_sensors: int, excess: float, rest: float = 0.0) -> dict:
+    """Four tails of 254 samples per sensor as tail_excess takes them: lines (Hz), the residual's
+    energy per line (exponential about its expectation), and the expectation's noise and rest
+    parts; ``excess`` times the noise at 25-50 Hz."""
+    f = np.fft.rfftfreq(254, 1.0 / FS)[1:]
+    noise = np.full(len(f), 2.0)
+    extra = np.where((f >= 25.0) & (f < 50.0), excess - 1.0, 0.0) * noise
+    out = {}
+    for i in range(n_sensors):
+        got = [rng.exponential(noise + extra + rest) for _ in range(4)]
+        out[f"s{i}"] = (np.tile(f, 4), np.concatenate(got), np.tile(noise, 4), np.full(4 * len(f), rest))
+    return out
+
+
+def test_a_white_residual_on_the_tails_shows_no_excess_at_the_promised_rate():
+    # every band's test at COLOUR_FALSE_ALARM shared over the bands: at most 1 % of 400 projects
+    # (binomial sd 0.5 %)
+    from odsuite.analysis.noise_floor import band_edges
+
+    rng = np.random.default_rng(21)
+    bands = band_edges(FS, 2048)
+    found = sum(bool(noise_colour.tail_excess(_tail_lines(rng, 18, 1.0, rest=1.0), bands)) for _ in range(400))
+    assert found <= 9, found
+
+
+def test_a_noise_band_on_the_tails_raises_each_sensors_noise_by_what_it_holds_above_the_rest():
+    # 10x the sensors' noise at 25-50 Hz, beside a hum and force-noise part as large as the noise:
+    # the factor on the noise is (got - rest) / noise, about 10, not got / (noise + rest), 5.5; the
+    # factor applies to the floor's level as it is (the floor's white level is the tails' own)
+    from odsuite.analysis.noise_floor import band_edges
+
+    rng = np.random.default_rng(22)
+    bands = band_edges(FS, 2048)
+    colours = noise_colour.tail_excess(_tail_lines(rng, 18, 10.0, rest=2.0), bands)
+    assert sorted(colours) == sorted(f"s{i}" for i in range(18))
+    factors = [f for c in colours.values() for lo, hi, f in c.excess if lo == 25.0]
+    assert len(factors) == 18 and 7.0 < np.median(factors) < 13.0, factors
+    assert all(lo >= 25.0 and hi <= 50.0 for c in colours.values() for lo, hi, _ in c.excess)
+
+    class Exp:
+        sensors = [type("S", (), {"name": "s0"})()]
+        quiet_before, quiet_tail, n_samples, fs = 0, 1794, 2048, FS
+
+    f = np.array([10.0, 30.0, 40.0, 400.0])
+    gains = noise_colour.gains(colours, Exp, f)[:, 0]
+    factor = dict(((lo, hi), g) for lo, hi, g in colours["s0"].excess)[(25.0, 50.0)]
+    assert gains == pytest.approx([1.0, factor, factor, 1.0])
