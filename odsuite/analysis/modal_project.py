@@ -190,9 +190,11 @@ def experiments_modes(
 
         record_length = None
         found = estimated(record_length)
-        lines = {f.frequency.size for f, _ in found}
-        if len(lines) > 1:  # each hit's window ends where its response has decayed: one common length
-            record_length = 2 * (min(lines) - 1)
+        # each hit's window ends where its record ends: one common length. Windows of 2m and 2m + 1
+        # samples give the same count of lines on other frequencies, so the lines are compared
+        lines = {(f.frequency.size, float(f.frequency[-1])) for f, _ in found}
+        if len(lines) > 1:
+            record_length = 2 * (min(size for size, _ in lines) - 1)
             found = estimated(record_length)
         references = {}
         for e in experiments:

@@ -97,3 +97,30 @@ def test_a_failing_matrix_fit_stores_nothing_and_a_passing_one_every_frf(roving,
                  "--max-order", "30", "--json"]) == 0
     with open_project(p) as proj:
         assert all("frf" in proj.derived_kinds(e) for e in ("hit1", "hit2"))
+
+
+def test_hits_whose_windows_differ_by_one_sample_make_one_matrix(tmp_path, capsys):
+    """Two records of one rate and length whose hits lie one sample apart: the windows to the
+    records' ends are 2m and 2m + 1 samples, the same count of lines on other frequencies, which
+    was refused as 'other frequency lines' (only the counts were compared)."""
+    p = tmp_path / "r.h5"
+    assert main(["new", str(p), "--rig", "none"]) == 0
+    chans = ([ChannelInfo(sensor_type=SensorType.LOADCELL, location="hammer", sampling_rate=FS, limit_high=1e3,
+                          limit_low=-1e3)]
+             + [ChannelInfo(sensor_type=SensorType.ACCELEROMETER, location=f"a{k + 1}", sampling_rate=FS,
+                            limit_high=1e4, limit_low=-1e4) for k in range(3)])
+    rng = np.random.default_rng(7)
+    f, a = mck.simulate(FS, 4.0, [(0.5, 0.004, 100.0)], input_dof=0)
+    data = np.column_stack([f, a])
+    data = data + 1e-5 * np.abs(data).max(axis=0) * rng.standard_normal(data.shape)
+    with open_project(p, "a") as proj:
+        for name, shift in (("late", 0), ("early", -1)):
+            proj.add_experiment(name, np.roll(data, shift, axis=0), sampling_rate=FS, systeminfo=Systeminfo(chans),
+                                excitation=Excitation(0, np.zeros(3), np.array([0.0, 0.0, 1.0])),
+                                channel_names=["hammer", "a1", "a2", "a3"])
+    capsys.readouterr()
+    assert main(["modes", str(p), "--experiment", "early", "--experiment", "late", "--fmin", "5", "--fmax", "200",
+                 "--max-order", "30", "--json"]) == 0, capsys.readouterr().err
+    doc = json.loads(capsys.readouterr().out)
+    lam, _ = mck.modes()
+    np.testing.assert_allclose([m["frequency_hz"] for m in doc["modes"]], np.abs(lam) / (2 * np.pi), rtol=1e-3)
