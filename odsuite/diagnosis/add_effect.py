@@ -293,8 +293,9 @@ def _warnings(name: str, effect, joint: Problem, res, model, exps, after, prefix
     edge = checks.at_records_edge(list(ranges.values()), own)
     for label in checks.implausible(effect, model, own, list(ranges.values())):
         p = ranges[label.split("/")[-1]]
-        out.append(f"{name}: {label} = {own[label]:.4g} {p.unit} " + (
-            f"stopped at the records' Nyquist frequency {p.upper:g} {p.unit}, above what they resolve: implausible"
+        unit = "" if p.unit in ("", "1") else f" {p.unit}"  # a ratio: '0.29 1' read as two numbers
+        out.append(f"{name}: {label} = {own[label]:.4g}{unit} " + (
+            f"stopped at the records' Nyquist frequency {p.upper:g}{unit}, above what they resolve: implausible"
             if label in edge else
             f"lies outside its physical range [{p.plausible[0]:.4g}, {p.plausible[1]:.4g}]: implausible"))
     if res is not None:

@@ -231,6 +231,6 @@ def text(rows: Sequence[Mapping[str, Any]]) -> str:
         parts.append(f"{r['label']} = {r['value'] / scale:.4g}{pm}{unit}{was}")
     if undetermined:
         some = ", ".join(r["label"] for r in undetermined[:2])
-        parts.append(f"{len(undetermined)} values not determined one by one ({some}"
+        parts.append(f"{len(undetermined)} {'value' if len(undetermined) == 1 else 'values'} not determined one by one ({some}"
                      f"{', ...' if len(undetermined) > 2 else ''}: the data fit a pattern of them alike)")
     return "; ".join(parts)
