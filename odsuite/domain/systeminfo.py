@@ -46,6 +46,8 @@ class Integration(IntEnum):
 #: these bounds a volt of noise would read as 1e9 units (or a whole signal as nothing)
 MIN_SENSITIVITY = 1e-9
 MAX_SENSITIVITY = 1e3
+#: per metre more: an eddy-current probe gives ~8e3 V/m (200 mV/mil), a capacitive one up to 1e7
+MAX_DISPLACEMENT_SENSITIVITY = 1e7
 #: Physical quantity and SI unit measured by each sensor type; its sensitivity is in V per this unit.
 SENSOR_UNITS: dict[SensorType, tuple[str, str]] = {
     SensorType.NONE: ("voltage", "V"),
@@ -221,9 +223,10 @@ def _validate_channel(ch: ChannelInfo, k: int, source: str | Path, n_samples: in
         kind = sensor_type.name.lower()
         raise ConfigError(f"{at(3)}: sensitivity must be > 0 on {'an' if kind[0] in 'aeiou' else 'a'} {kind} channel, "
                           f"got {ch.sensitivity!r} V/{ch.unit}")
-    if sensor_type is not SensorType.NONE and not MIN_SENSITIVITY <= abs(ch.sensitivity) <= MAX_SENSITIVITY:
+    top = MAX_DISPLACEMENT_SENSITIVITY if sensor_type is SensorType.PROXIMITY else MAX_SENSITIVITY
+    if sensor_type is not SensorType.NONE and not MIN_SENSITIVITY <= abs(ch.sensitivity) <= top:
         raise ConfigError(f"{at(3)}: sensitivity {ch.sensitivity!r} V/{ch.unit} is outside what any sensor has "
-                          f"({MIN_SENSITIVITY:g} to {MAX_SENSITIVITY:g} V/{ch.unit})")
+                          f"({MIN_SENSITIVITY:g} to {top:g} V/{ch.unit})")
     if not _finite(ch.daq_gain) or ch.daq_gain <= 0:
         raise ConfigError(f"{at(17)}: DAQ gain must be > 0, got {ch.daq_gain!r}")
     for row in (19, 20):

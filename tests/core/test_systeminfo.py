@@ -165,3 +165,15 @@ def test_for_rig_without_ctr_describes_the_sensors(thesis_rig, e3):
     assert si.rig.nine_channels == e3.rig.nine_channels
     assert (si.rig.rx, si.rig.ry, si.rig.rz) == pytest.approx((e3.rig.rx, e3.rig.ry, e3.rig.rz), rel=1e-12)
     assert len(Systeminfo.for_rig(rig, 20000.0, n_channels=12).channels) == 12
+
+
+def test_a_proximity_probe_may_give_volts_per_millimetre(e3):
+    # an eddy-current probe of 7.87 V/mm (200 mV/mil) is 7870 V/m: it was refused as beyond any
+    # sensor (the 1000 V per SI unit meant for accelerometers); a capacitive one gives up to 1e7
+    _bad(e3, 10, sensor_type=SensorType.PROXIMITY, sensitivity=7870.0).validate()
+    _bad(e3, 10, sensor_type=SensorType.PROXIMITY, sensitivity=1e7).validate()
+    with pytest.raises(ConfigError, match=r"row 3 .*channel 10: sensitivity 20000000\.0 V/m is outside what any sensor "
+                                          r"has \(1e-09 to 1e\+07 V/m\)"):
+        _bad(e3, 10, sensor_type=SensorType.PROXIMITY, sensitivity=2e7).validate()
+    with pytest.raises(ConfigError, match=r"channel 10: sensitivity 7870\.0 V/m/s\^2 is outside"):
+        _bad(e3, 10, sensitivity=7870.0).validate()  # an accelerometer keeps its bound
