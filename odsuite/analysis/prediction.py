@@ -388,7 +388,9 @@ def adc_steps(volts: np.ndarray, declared: float | None) -> tuple[np.ndarray, li
 
 def _force(exp, raw: np.ndarray, where: str, steps, lsb_v: float | None = None) -> ForceWindow:
     fch = exp.excitation.force_channel
-    channel = exp.systeminfo.channels[fch]
+    # without the load cell's own filters: the predictions pass the accelerometers' chains, which
+    # lack them (a 2 kHz low-pass on the force alone lagged every prediction)
+    channel = replace(exp.systeminfo.channels[fch], filters_on=0)
     fchain = chain_for_channel(channel, registry=steps, where=f"{where} channel {fch}")
     per_newton = abs(channel.sensitivity * channel.daq_gain) or 1.0
     step = float(adc_steps(raw[:, [fch]], lsb_v)[0][0])
