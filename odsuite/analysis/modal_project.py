@@ -88,10 +88,10 @@ def all_flagged(hits) -> str:
     return "" if any(h.accepted for h in hits) else hit_flags(hits)
 
 
-def flagged_note(flags: str) -> str:
-    """What a record whose every hit is flagged (``all_flagged``) is told when its modes are
-    identified from those hits all the same."""
-    return f"every hit is flagged ({flags}): its modes are identified from them anyway and may be biased"
+def flagged_note(flags: str, what: str = "modes are identified") -> str:
+    """What a record whose every hit is flagged (``all_flagged``) is told when its modes (or, with
+    ``what="FRFs are estimated"``, its FRFs) come from those hits all the same."""
+    return f"every hit is flagged ({flags}): its {what} from them anyway and may be biased"
 
 
 def experiment_frf(

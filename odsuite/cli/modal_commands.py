@@ -20,14 +20,19 @@ def frf_cmd(
     figure: Path = typer.Option(None, "--figure", help="Write magnitude, phase and coherence (.png, .svg, .pdf)."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
-    """FRFs over the accepted hammer hits of an experiment (stored as derived 'frf')."""
+    """FRFs over the accepted hammer hits of an experiment (stored as derived 'frf'); a record whose
+    every hit is flagged uses them all, with a note, as modes and compare do."""
     from odsuite.domain.errors import ConfigError, DimensionError
     from odsuite.analysis.frf import usable_band
-    from odsuite.analysis.modal_project import experiment_frf
+    from odsuite.analysis.modal_project import all_flagged, experiment_frf, flagged_note
     from odsuite.contracts.renderers import RenderRequest
 
     renderer = _figure_renderer("frf", figure, project, "--figure") if figure is not None else None
-    frf, hits = experiment_frf(project, experiment, estimator=estimator)
+    frf, hits = experiment_frf(project, experiment, estimator=estimator, flagged_too=True)
+    flagged = all_flagged(hits)
+    if flagged:
+        err_console.print(f"note: {project}: experiment {experiment!r}: {flagged_note(flagged, 'FRFs are estimated')}",
+                          highlight=False, soft_wrap=True)
     for h in hits if not as_json else ():
         state = "accepted" if h.accepted else "rejected: " + ", ".join(h.reasons)
         console.print(f"hit at sample {h.peak_index} ({h.peak_force:.4g} N): {state}", highlight=False)
@@ -47,6 +52,7 @@ def frf_cmd(
                      "usable_band_note": None if band is not None else usable,
                      "hits": [{"sample": int(h.peak_index), "peak_force_n": float(h.peak_force),
                                "accepted": bool(h.accepted), "reasons": list(h.reasons)} for h in hits],
+                     "flagged_hits": {experiment: flagged} if flagged else {},
                      "figure": None if figure is None else str(figure)})
         return
     averaged = "1 hit" if frf.n_averages == 1 else f"{frf.n_averages} hits averaged"

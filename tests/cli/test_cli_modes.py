@@ -66,11 +66,33 @@ def test_fit_band_of_the_readme_names_the_anti_resonance_pole(beam_project, caps
     assert "note: stable pole not taken as a mode: 1201.9" in captured.err
 
 
-def test_saturated_accelerometer_is_refused_in_one_line(beam_project, capsys):
+def test_frf_of_a_record_whose_every_hit_is_flagged_is_estimated_with_a_note(beam_project, capsys):
+    """camera.lvm's one hit is clipped: `frf` refused the record while `modes` and `compare` went on
+    with a note. It now estimates the FRFs from that hit, stores them and says so the same way;
+    |H| peaks at the three bending modes `modes` finds there (695.75, 1898.09, 3671.34 Hz)."""
+    from odsuite.store.project import open_project
+
     capsys.readouterr()
-    assert main(["frf", str(beam_project), "--experiment", "camera"]) == 1
-    err = capsys.readouterr().err.strip()
-    assert err == f"error: {beam_project}: experiment 'camera' has no acceptable hit ({CAMERA_FLAGS})"
+    assert main(["frf", str(beam_project), "--experiment", "camera", "--json"]) == 0
+    captured = capsys.readouterr()
+    doc = json.loads(captured.out)
+    assert doc["flagged_hits"] == {"camera": CAMERA_FLAGS} and doc["n_averages"] == 1
+    assert [h["accepted"] for h in doc["hits"]] == [False]
+    assert captured.err.strip() == (f"note: {beam_project}: experiment 'camera': every hit is flagged ({CAMERA_FLAGS}): "
+                                    "its FRFs are estimated from them anyway and may be biased")
+    with open_project(beam_project) as p:
+        d = p.read_derived("camera", "frf")
+    f, mag = d["frequency"], np.abs(d["H_real"][0] + 1j * d["H_imag"][0])
+    for mode in (695.75, 1898.09, 3671.34):
+        near = (f > mode - 50) & (f < mode + 50)
+        assert abs(f[near][np.argmax(mag[near])] - mode) <= f[1] - f[0]
+    # the text output says it too; a clean record has no note
+    assert main(["frf", str(beam_project), "--experiment", "camera"]) == 0
+    captured = capsys.readouterr()
+    assert "rejected: response channel 0 clipped/overloaded" in captured.out and "every hit is flagged" in captured.err
+    assert main(["frf", str(beam_project), "--experiment", "acceleration", "--json"]) == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["flagged_hits"] == {} and captured.err == ""
 
 
 def test_modes_of_a_record_whose_every_hit_is_flagged_are_identified_with_a_note(beam_project, capsys):
