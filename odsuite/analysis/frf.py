@@ -15,10 +15,14 @@ import numpy as np
 
 from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError, DimensionError
+from odsuite.domain.systeminfo import SENSOR_UNITS
 
 ESTIMATORS = ("H1", "H2", "Hv")
 #: units a force record may be in (the FRF's unit is the response's over it)
 FORCE_UNITS = ("N", "kN", "mN", "lbf")
+#: SI units a response record may be in: a sensor type's (the trend correction needs m/s^2 as
+#: such, and a g or mm/s would be stored as if SI) or a velocity's
+RESPONSE_UNITS = tuple(dict.fromkeys([unit for _, unit in SENSOR_UNITS.values()] + ["m/s"]))
 #: power of (i omega) that turns a receptance (displacement/force) into each FRF form
 FORM_POWER = {"receptance": 0, "mobility": 1, "accelerance": 2}
 #: an FRF line counts as determined by the record where the records' straight-line trends leak
@@ -148,7 +152,7 @@ def estimate_frf(
     if estimator not in ESTIMATORS:
         raise ConfigError(f"FRF estimator {estimator!r} is not one of {', '.join(ESTIMATORS)}")
     forces, responses = _hits(forces, responses)
-    _check_arguments(forces, responses, fs, window, force_unit)
+    _check_arguments(forces, responses, fs, window, force_unit, response_units)
     gff, gxx, gfx, count = spectra(forces, responses, window)
     n = np.asarray(forces[0]).shape[0]
     tiny = np.finfo(float).tiny
@@ -202,9 +206,11 @@ def _hits(forces: Any, responses: Any) -> tuple[Any, Any]:
     return ([forces], [responses]) if one else (list(forces), list(responses))
 
 
-def _check_arguments(forces: Any, responses: Any, fs: Any, window: Any, force_unit: Any) -> None:
+def _check_arguments(forces: Any, responses: Any, fs: Any, window: Any, force_unit: Any,
+                     response_units: Any = None) -> None:
     """estimate_frf's arguments before any spectrum: a rate of 0 divided by zero, a NaN one gave NaN
-    frequencies, a window of another length a broadcast error, any text was taken for a force unit."""
+    frequencies, a window of another length a broadcast error, any text was taken for a force unit,
+    a text of response units was split into letters and a number raised a TypeError."""
     for name, value in (("forces", forces), ("responses", responses)):
         if isinstance(value, str | bytes | Mapping) or not isinstance(value, Sequence | np.ndarray):
             arguments.refuse("estimate_frf", name, value, "a list of records, one per hit")
@@ -220,10 +226,15 @@ def _check_arguments(forces: Any, responses: Any, fs: Any, window: Any, force_un
                               f"shape {np.shape(f)}")
     if force_unit not in FORCE_UNITS:
         arguments.refuse("estimate_frf", "force_unit", force_unit, f"a force unit ({', '.join(FORCE_UNITS)})")
-    if window is None or not len(forces) or not len(responses):
+    outputs = np.shape(responses[0])[1] if np.ndim(responses[0]) == 2 else 1
+    if response_units is not None:
+        what = f"{outputs} SI units, one per response ({', '.join(RESPONSE_UNITS)})"
+        units = arguments.listed("estimate_frf", "response_units", response_units, what)
+        if len(units) != outputs or not all(isinstance(u, str) and u in RESPONSE_UNITS for u in units):
+            arguments.refuse("estimate_frf", "response_units", response_units, f"a list of {what}")
+    if window is None:
         return
     n = np.shape(forces[0])[0] if np.ndim(forces[0]) else 0
-    outputs = np.shape(responses[0])[1] if np.ndim(responses[0]) == 2 else 1
     try:
         shape = np.asarray(window, dtype=float).shape
     except (TypeError, ValueError):

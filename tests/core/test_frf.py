@@ -171,6 +171,20 @@ def test_bad_inputs_raise_one_line_errors():
         assess_hits(np.ones(10), np.ones((9, 2)), 100.0)
 
 
+def test_response_units_are_checked_in_one_line():
+    """A text was split into letters (five outputs took 'm/s^2' as five units), a number raised a
+    TypeError and a g was stored as if SI: each is refused naming estimate_frf and the value."""
+    one, three = [np.ones(8)], [np.ones((8, 3))]
+    expected = "a list of {} SI units, one per response (V, N, m, m/s^2, m/s)"
+    for responses, units, n in ((three, 5, 3), ([np.ones((8, 5))], "m/s^2", 5), (three, ["g"] * 3, 3),
+                                (three, ["m/s^2"] * 2, 3), (one, [None], 1), (one, {"a": "m"}, 1)):
+        with pytest.raises(ConfigError) as info:
+            estimate_frf(one, responses, 100.0, response_units=units)
+        assert str(info.value) == f"estimate_frf: 'response_units' must be {expected.format(n)}, got {units!r}"
+    frf = estimate_frf(one, three, 100.0, response_units=("m", "m/s", np.str_("V")))
+    assert frf.units == ["m/N", "(m/s)/N", "V/N"]
+
+
 def test_reference_simulation_agrees_with_scipy_lsim():
     from scipy import signal
 
