@@ -100,6 +100,7 @@ class _Block:
     names, the value and time rows and where each segment starts."""
 
     channel_header: dict[str, list[str]] = field(default_factory=dict)
+    header_lines: dict[str, int] = field(default_factory=dict)  # each field's line, for its errors
     names: list[str] | None = None
     rows: list[list[float]] = field(default_factory=list)
     times: list[list[float]] = field(default_factory=list)
@@ -203,6 +204,7 @@ def _data_block(path: Path, lines: list[str], start: int, sep: str, decimal: str
                 in_data = True
                 continue
             block.channel_header[fields[0]] = fields[1:]
+            block.header_lines[fields[0]] = lineno
             continue
         if fields[0] == "X_Value":
             block.names = [fields[c] for c in value_cols if c < len(fields)]
@@ -237,7 +239,7 @@ def _delta_x(path: Path, block: _Block, x_columns: str, decimal: str) -> list[fl
     """Each channel's sampling interval (s), checked against the sampling rates odsuite takes."""
     delta_x = []
     for k, s in enumerate(_per_channel(block, x_columns, "Delta_X", "1")):
-        dx = _number(path, decimal, s, 0, f"Delta_X of channel {k}")
+        dx = _number(path, decimal, s, block.header_lines.get("Delta_X", 0), f"Delta_X of channel {k}")
         if not np.isfinite(dx) or dx <= 0:
             raise ConfigError(f"{path}: field Delta_X of channel {k} is {s!r}; it must be > 0")
         if not MIN_RATE_HZ <= 1.0 / dx <= MAX_RATE_HZ:
@@ -249,7 +251,7 @@ def _delta_x(path: Path, block: _Block, x_columns: str, decimal: str) -> list[fl
 
 def _channels(path: Path, block: _Block, x_columns: str, decimal: str) -> dict:
     """The channels' names, units, intervals, X0 and declared sample counts (LvmData's fields)."""
-    x0 = [_number(path, decimal, s, 0, f"X0 of channel {k}")
+    x0 = [_number(path, decimal, s, block.header_lines.get("X0", 0), f"X0 of channel {k}")
           for k, s in enumerate(_per_channel(block, x_columns, "X0", "0"))]
     declared = []
     for s in _per_channel(block, x_columns, "Samples", "0"):

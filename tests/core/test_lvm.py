@@ -99,6 +99,11 @@ def test_segments_and_shared_time_column(tmp_path):
         (HEADER.replace("Tab", "Pipe"), "Separator has unknown value 'Pipe'"),
         (HEADER + _segment([("1", "x2")]), "line 15, column 3: 'x2' is not a number"),
         (HEADER + _segment([("1", "2")], dt="0"), "Delta_X of channel 0 is '0'"),
+        # a header field that is no number is named by its own line (it was "line 0")
+        (HEADER + _segment([("1", "2")], dt="1,0E-3x"), "bad.lvm: line 12, Delta_X of channel 0: '1,0E-3x' is not a number"),
+        (HEADER + _segment([("1", "2")]).replace("X0|0,0|0,0|", "X0|0,0|t0|"), "line 11, X0 of channel 1: 't0' is not a number"),
+        (HEADER + _segment([("1", "2"), ("3", "4")]) + "\n" + _segment([("5", "6")], dt="?"),
+         "line 22, Delta_X of channel 0: '?' is not a number"),
         (HEADER, "no channel header"),
     ],
 )
