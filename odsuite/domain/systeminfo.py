@@ -114,6 +114,13 @@ class RigInfo:
     nine_channels: list[int] = field(default_factory=list)
 
 
+def column_in_range(name: str, value: object, n_channels: int) -> bool:
+    """Whether ``value`` may be an entry of RigInfo's column list ``name``: a whole number from 0,
+    and for ``nine_channels`` (raw channels) below ``n_channels``."""
+    high = n_channels if name == "nine_channels" else math.inf
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool) and 0 <= value < high
+
+
 #: Table E.2 row labels, used to name the field in error messages.
 ROW_LABELS: dict[int, str] = {
     0: "sensor type", 1: "sensor location", 2: "serial number", 3: "sensitivity",
@@ -308,9 +315,12 @@ class Systeminfo:
         if nine and len(nine) != 9:
             raise ConfigError(f"{where(source, 33)}: expected 9 channels, got {len(nine)} ({nine})")
         for i, c in enumerate(nine):
-            if not isinstance(c, numbers.Integral) or not 0 <= c < len(self.channels):
+            if not column_in_range("nine_channels", c, len(self.channels)):
                 raise ConfigError(f"{where(source, 33, i)}: channel {c!r} is not one of the "
                                   f"{len(self.channels)} channels")
+        for i, c in enumerate(self.rig.coordinate_columns):  # the stored table refuses these too
+            if not column_in_range("coordinate_columns", c, len(self.channels)):
+                raise ConfigError(f"{where(source, 29, i)}: expected a column number of 0 or more, got {c!r}")
         for row, value in ((30, self.rig.rx), (31, self.rig.ry), (32, self.rig.rz)):
             if value is not None and (not _finite(value) or value <= 0):
                 raise ConfigError(f"{where(source, row, 0)}: must be > 0, got {value!r} m")

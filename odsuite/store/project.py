@@ -299,7 +299,7 @@ class Experiment:
         self.systeminfo = read_systeminfo(
             g["systeminfo"], lambda k, *bad: systeminfo_refusal(project.path, name, k, *bad),
             lambda *bad: rig_refusal(project.path, name, *bad)).with_rate(self.sampling_rate)
-        check_systeminfo(project.path, name, self.systeminfo.channels, self.n_channels)
+        check_systeminfo(project.path, name, self.systeminfo.channels, self.n_channels, self.systeminfo.rig)
 
     def _group(self) -> h5py.Group:
         return self._project._file()["experiments"][self.name]

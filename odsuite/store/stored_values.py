@@ -94,16 +94,24 @@ def rig_refusal(path: Path, name: str, field: str, value: Any, expected: str) ->
     return _bad(path, f"experiment {name!r} systeminfo rig", field, value, expected)
 
 
-def check_systeminfo(path: Path, name: str, channels: list, n_channels: int) -> None:
+def check_systeminfo(path: Path, name: str, channels: list, n_channels: int, rig: Any) -> None:
     """The stored channel table: one channel per raw column, divisors (sensitivity and DAQ gain
-    finite and not 0, the sensitivity within what any writer stores) and filter orders within the
-    writers' range (an order of 10^12 asked a filter design for terabytes)."""
+    finite and not 0, the sensitivity within what any writer stores), filter orders within the
+    writers' range (an order of 10^12 asked a filter design for terabytes) and the rig's column
+    lists within range."""
     from odsuite.domain.filter_kinds import MAX_FILTER_ORDER
     from odsuite.domain.rig import SENSITIVITY_RANGE
+    from odsuite.domain.systeminfo import column_in_range
 
     if len(channels) != n_channels:
         raise _bad(path, f"experiment {name!r}", "systeminfo.channels", len(channels),
                    f"{n_channels} rows (one per raw column)")
+    # as Systeminfo.validate: accepted here, they failed `process` later (or a .CTR written from them)
+    for field in ("coordinate_columns", "nine_channels"):
+        columns = getattr(rig, field)
+        if not all(column_in_range(field, c, n_channels) for c in columns):
+            raise rig_refusal(path, name, field, columns, f"channel numbers 0 to {n_channels - 1}"
+                              if field == "nine_channels" else "column numbers of 0 or more")
     # the widest writer's range: a rig file's V per SI unit, per micro-unit on a micro-units channel
     lowest, highest = 1e-6 * SENSITIVITY_RANGE[0], SENSITIVITY_RANGE[1]
     for k, ch in enumerate(channels):

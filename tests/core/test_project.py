@@ -47,7 +47,7 @@ def odd_systeminfo() -> Systeminfo:
     rig = RigInfo(use_in_gcc=True, use_in_ag=True, plate_sizes=[(0.1, 0.2, 0.03), (0.5, 0.5, 0.0254)],
                   plate_origins=[(0.0, 0.0, 0.0), (-0.25, -0.25, 0.03)], plot_from_corner=True,
                   coordinate_columns=[1, 4], rx=0.09846, ry=None, rz=0.0221,
-                  nine_channels=[2, 3, 4, 5, 6, 7, 8, 9, 10])
+                  nine_channels=[2, 1, 0, 2, 1, 0, 2, 1, 0])  # of its 3 channels
     return Systeminfo(chans, rig)
 
 

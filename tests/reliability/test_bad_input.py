@@ -316,6 +316,10 @@ def _handmade(kind: str, command: str = "info") -> Callable[[Path], list[str]]:
             elif kind == "rig columns fractional":
                 del e["systeminfo/rig/coordinate_columns"]
                 e["systeminfo/rig"].create_dataset("coordinate_columns", data=[1.5, 2.0])
+            elif kind.startswith("rig ") and kind.split()[1] in ("coordinate_columns", "nine_channels"):
+                _, n, values = kind.split(" ", 2)  # "rig FIELD v,v,...": the column list replaced
+                del e[f"systeminfo/rig/{n}"]
+                e["systeminfo/rig"].create_dataset(n, data=np.array([int(v) for v in values.split(",")]))
             elif kind == "revision named abc":
                 f["models/revisions"].move("0", "abc")
             elif kind.startswith("raw as "):  # the record rewritten in another type, its attributes kept
@@ -591,6 +595,7 @@ CASES: list[Case] = [
     Case("ctr-fractional-order", "filter order 2.5 on channel 6", "{dir}/bad.CTR: row 6 (filter order), channel 6: expected an integer, got '2.5'", argv=legacy(),
          files={"bad.CTR": ctr_with(6, 6, "2.5")}),
     Case("ctr-nine-channels", "row 33 lists 8 channels", '{dir}/bad.CTR: row 33 (nine-accelerometer channel assignment), channel 8: missing value', argv=legacy(), files={"bad.CTR": ctr_with(33, 8, "-")}),
+    Case("ctr-coordinate-column-negative", "row 29 (generalized coordinate columns) gives column -1 (accepted, and stored)", '{dir}/bad.CTR: row 29 (generalized coordinate columns), channel 0: expected a column number of 0 or more, got -1', argv=legacy(), files={"bad.CTR": ctr_with(29, 0, "-1")}),
     # Systeminfo checks, through the .CTR or the API
     Case("si-zero-sensitivity", "accelerometer channel 2 with sensitivity 0 mV/unit", '{dir}/bad.CTR: row 3 (sensitivity), channel 2: sensitivity must be > 0 on an accelerometer channel, got 0.0 V/m/s^2', argv=legacy(),
          files={"bad.CTR": ctr_with(3, 2, "0")}),
@@ -905,6 +910,10 @@ CASES: list[Case] = [
          argv=_handmade('rig use_in_gcc text', 'info')),
     Case('stored-rig-columns-fractional', "info on a project whose channel table's rig coordinate columns are 1.5 and 2.0 (read as 1 and 2)", "{dir}/x.h5: experiment 'e1' systeminfo rig field 'coordinate_columns': expected a list of whole column numbers, got [1.5, 2.0]",
          argv=_handmade('rig columns fractional', 'info')),
+    Case('stored-rig-columns-negative', "info on a project whose channel table's rig coordinate columns are -1 and 6", "{dir}/x.h5: experiment 'e1' systeminfo rig field 'coordinate_columns': expected column numbers of 0 or more, got [-1, 6]",
+         argv=_handmade('rig coordinate_columns -1,6', 'info')),
+    Case('stored-rig-nine-channels-range', "info on a project whose channel table's nine-accelerometer channels end with 11, of 11 channels (process refused it later)", "{dir}/x.h5: experiment 'e1' systeminfo rig field 'nine_channels': expected channel numbers 0 to 10, got [2, 3, 4, 5, 6, 7, 8, 9, 11]",
+         argv=_handmade('rig nine_channels 2,3,4,5,6,7,8,9,11', 'info')),
     Case('stored-revision-name', "info on a project whose revision 0 is renamed 'abc'", "{dir}/x.h5: models field 'revisions': expected revisions named by whole numbers 0, 1, 2, ..., got 'abc'",
          argv=_handmade('revision named abc', 'info')),
     Case("lvm-underscore", ".lvm with data value `1_000` (Python reads 1000; LabVIEW writes no digit groups)", "{dir}/bad.lvm: line 20, column 2: '1_000' is not a number",
