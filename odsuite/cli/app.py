@@ -241,13 +241,6 @@ def _rendered_doc(renderer, res) -> dict:
             "summary": res.summary, "notes": list(res.notes)}
 
 
-def check_workers(workers: int | None) -> None:
-    """--workers beyond 4 per core (as batch allows): each is a process, a million of them never start."""
-    most = 4 * (os.cpu_count() or 1)
-    if workers is not None and workers > most:
-        raise ConfigError(f"--workers: at most {most} processes (4 per core), got {workers}")
-
-
 def _figure_renderer(name: str, output: Path, project: Path, option: str):
     """The registered figure renderer ``name``, checked to write ``output`` (before any work)."""
     from odsuite.contracts.plugins import registries

@@ -6,9 +6,10 @@ from pathlib import Path
 
 import typer
 
+from odsuite.domain.arguments import check_workers
 from odsuite.domain.display import error_text
 
-from odsuite.cli.app import (_figure_renderer, _loop_progress, _modal_table, _print_json, app, check_workers, console,
+from odsuite.cli.app import (_figure_renderer, _loop_progress, _modal_table, _print_json, app, console,
                              console_width, err_console, paragraph, shown)
 
 

@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from odsuite.domain.errors import ConfigError
-from odsuite.cli.app import (_check_output, _loop_progress, _print_json, _rendered_doc, app, check_workers, console,
+from odsuite.cli.app import (_check_output, _loop_progress, _print_json, _rendered_doc, app, console,
                              err_console)
 
 
@@ -44,7 +44,6 @@ def render_cmd(
                "end": end, "fps": fps, "duration": duration, "mode": mode, "fmin": f_min, "fmax": f_max}
     # the renderer checks them too (for Python callers); here before the output and renderer are chosen
     options = check_render_options(options)
-    check_workers(workers)
     _check_output(output, project, "-o")
     if renderer_name is not None and figure is not None:
         raise ConfigError("--renderer and --figure both name the renderer: give one")

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
+from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError
 from odsuite.domain.textfiles import plain_number
 
@@ -180,6 +181,8 @@ def check_render_options(options: Mapping[str, Any]) -> dict[str, Any]:
                 raise ConfigError(f"{flag}: expected a whole number, got {_shown(value)}")
             if key == "workers" and value < 1:
                 raise ConfigError(f"--workers: at least 1 render process, got {value}")
+            if key == "workers":
+                arguments.check_workers(value)
             if key == "frame_step" and value < 1:
                 raise ConfigError(f"--frame-step: at least 1 sample per frame, got {value}")
         elif key in ("view", "reference") and not isinstance(value, str):

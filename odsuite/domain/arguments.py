@@ -6,11 +6,29 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 import re
 from collections.abc import Mapping, Sequence
 from typing import Any, NoReturn
 
 from odsuite.domain.errors import ConfigError
+
+
+#: worker processes a command or renderer may start per core (as batch allows): each is a
+#: process, and a million of them never start
+WORKERS_PER_CORE = 4
+
+
+def most_workers() -> int:
+    return WORKERS_PER_CORE * (os.cpu_count() or 1)
+
+
+def check_workers(workers: Any) -> None:
+    """A count of worker processes (``--workers``, a renderer's ``workers`` option) within
+    ``most_workers``, refused naming the option as the command line does (any caller's line)."""
+    most = most_workers()
+    if workers is not None and workers > most:
+        raise ConfigError(f"--workers: at most {most} processes ({WORKERS_PER_CORE} per core), got {workers}")
 
 
 def shown(value: Any) -> str:

@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError, OdsuiteError, ProjectLockedError
 
 #: statuses of a project's record, in the order the summary lists them
@@ -356,11 +357,12 @@ def run_batch(command: str, projects: Sequence[str | Path], *, scheduler: str | 
         raise ConfigError(f"run_batch: 'projects' is a list of project paths, got {projects!r}")
     options = dict(options or {})
     paths = _check_projects(command, projects, options)
-    most = 4 * (os.cpu_count() or 1)
+    most, per_core = arguments.most_workers(), arguments.WORKERS_PER_CORE
     if workers is not None and not (isinstance(workers, int) and not isinstance(workers, bool)):
-        raise ConfigError(f"run_batch: 'workers' must be an integer from 1 to {most} (4 per core), got {workers!r}")
+        raise ConfigError(f"run_batch: 'workers' must be an integer from 1 to {most} ({per_core} per core), "
+                          f"got {workers!r}")
     if workers is not None and not 1 <= workers <= most:
-        raise ConfigError(f"batch: --workers must be from 1 to {most} (4 per core), got {workers}")
+        raise ConfigError(f"batch: --workers must be from 1 to {most} ({per_core} per core), got {workers}")
     if scheduler is not None:
         scheduler = check_scheduler(scheduler)
     started = time.monotonic()

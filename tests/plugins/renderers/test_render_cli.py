@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import imageio_ffmpeg
@@ -143,6 +144,8 @@ API_REFUSALS = [  # (renderer, output, options, the one line; the same as `odsui
     ("movie", "m.mp4", {"duration": "6"}, "--duration: must be a finite number > 0, got '6'"),
     ("movie", "m.gif", {"frame_step": 0}, "--frame-step: at least 1 sample per frame, got 0"),
     ("movie", "m.gif", {"workers": 2.5}, "--workers: expected a whole number, got 2.5"),
+    # the per-core limit was the command line's alone
+    ("movie", "m.gif", {"workers": 10**6}, f"--workers: at most {4 * (os.cpu_count() or 1)} processes (4 per core), got 1000000"),
     ("movie", "m.gif", {"magnify": (1.0, -2.0)}, "--magnify: magnification factors must be finite numbers >= 0, got (1.0, -2.0)"),
     ("movie", "m.gif", {"magnify": "5"}, "--magnify: expected two numbers 'A,B', got '5'"),
     ("projection", "p.png", {"view": 5}, "--view: expected text, 'AZ,EL' or 'EYE[,THETA,PHI,PSI]', got 5"),
