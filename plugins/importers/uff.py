@@ -69,6 +69,7 @@ class UffFunction:
     ref_node: int = 0
     ref_dir: int = 0
     description: str = ""
+    unit_exponents: tuple[int, int] = (0, 0)  # record 8: the ordinate's length and force units exponents
 
     @property
     def is_time(self) -> bool:
@@ -120,6 +121,27 @@ class UffContent:
     modes: list[UffMode] = field(default_factory=list)
     length_factor: float = 1.0  # dataset 164: file length units per metre
     header: dict = field(default_factory=dict)  # dataset 151, as pyuff reads it
+    force_factor: float = 1.0  # dataset 164: file force units per newton
+    units_description: str = ""  # dataset 164's
+
+
+#: ordinate labels of values no length or force unit scales: UFF's "not specified", volts
+UNIT_FREE_LABELS = ("", "none", "v")
+
+
+def check_si_records(path: Path, content: UffContent, functions: list[UffFunction]) -> None:
+    """Refuse records (58) of a file whose units (164) are not SI: their values are in the file's
+    units (the SI value times the 164 factors to the record's exponents), while odsuite reads them
+    by their unit labels as SI. They are not converted: the labels name SI units all the same, and
+    writers often leave the exponents that would scale them at 0."""
+    lf, ff = content.length_factor, content.force_factor
+    if lf == 1.0 and ff == 1.0:
+        return
+    for f in functions:
+        if f.unit.strip().lower() not in UNIT_FREE_LABELS or any(f.unit_exponents):
+            raise ConfigError(f"{path}: dataset 164 gives the file's units as {content.units_description!r} "
+                              f"(length factor {lf:g}, force factor {ff:g} per SI unit): record {f.name!r} "
+                              f"({f.unit or 'NONE'}) would be read as SI; odsuite imports records in SI units only")
 
 
 def _rotation(origin, x_point, xz_point) -> np.ndarray:
@@ -163,7 +185,7 @@ def read_uff(path: str | Path) -> UffContent:
     _check_sets(path, sets)
     functions: list[UffFunction] = []
     modes: list[UffMode] = []
-    length_factor, header = 1.0, {}
+    length_factor, force_factor, units, header = 1.0, 1.0, "", {}
     nodes = None
     cs_rot: dict[int, np.ndarray] = {}
     cs_org: dict[int, np.ndarray] = {}
@@ -188,6 +210,8 @@ def read_uff(path: str | Path) -> UffContent:
                     ref_node=int(s.get("ref_node", 0)),
                     ref_dir=int(s.get("ref_dir", 0)),
                     description=str(s.get("id2", "")).strip(),
+                    unit_exponents=(int(s.get("ordinate_len_unit_exp", 0) or 0),
+                                    int(s.get("ordinate_force_unit_exp", 0) or 0)),
                 )
             )
         elif t in (15, 2411):
@@ -215,6 +239,8 @@ def read_uff(path: str | Path) -> UffContent:
                                  float(s.get("freq", np.nan)), float(s.get("modal_damp_vis", 0.0)), nums, values))
         elif t == 164:
             length_factor = float(s.get("length", 1.0)) or 1.0
+            force_factor = float(s.get("force", 1.0)) or 1.0
+            units = str(s.get("units_description", "")).strip()
         elif t == 151:
             header = {key: v for key, v in s.items() if key != "type"}
         elif t == 82:
@@ -237,7 +263,8 @@ def read_uff(path: str | Path) -> UffContent:
             cs_origin={c: o / length_factor for c, o in cs_org.items()},
             trace_lines=traces,
         )
-    return UffContent(functions, geometry, [int(s.get("type", 0)) for s in sets], modes, length_factor, header)
+    return UffContent(functions, geometry, [int(s.get("type", 0)) for s in sets], modes, length_factor, header,
+                      force_factor, units)
 
 
 def _check_sets(path: Path, sets: list[dict]) -> None:

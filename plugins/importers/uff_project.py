@@ -28,6 +28,7 @@ from odsuite_plugins.importers.uff import (
     UffFunction,
     UffGeometry,
     UffMode,
+    check_si_records,
     read_uff,
     time_function,
     write_uff,
@@ -115,6 +116,7 @@ def import_uff(project: str | Path, uff_path: str | Path, name: str, force_chann
         reason = "; ".join(skipped) or f"datasets {sorted(set(content.dataset_types))} hold no records, FRFs, modes or nodes"
         raise ConfigError(f"{uff_path}: nothing to import: {reason}")
     notes = tuple(f"{uff_path}: {s}: not imported" for s in skipped)
+    check_si_records(uff_path, content, records + frfs)
     if records:
         return _import_records(project, uff_path, name, content, records, frfs, force_channel, notes,
                                (force_point, force_dir, force_body))

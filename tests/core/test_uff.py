@@ -294,3 +294,57 @@ def test_a_uff_record_without_a_rig_in_a_unit_of_another_scale_is_refused(tmp_pa
 
     with open_project(tmp_path / "p.h5") as p:
         assert p.experiment_names() == []
+
+
+def _in_units_of(path, functions, code: int, description: str, length: float, force: float):
+    """``functions`` written by write_uff, its SI 164 set replaced by one of another unit system."""
+    write_uff(path.with_suffix(".si"), functions=functions, binary=False)
+    sets = pyuff.UFF(str(path.with_suffix(".si"))).read_sets()
+    assert sets[0]["type"] == 164
+    sets[0] = pyuff.prepare_164(units_code=code, units_description=description, temp_mode=2, length=length,
+                                force=force, temp=1.0, temp_offset=273.15, return_full_dict=True)
+    path.write_bytes(b"")
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")
+    return path
+
+
+@pytest.mark.parametrize("unit", ["m/s^2", "N", "g", "Pa", "m"])
+def test_records_of_a_file_in_other_units_than_si_are_refused(tmp_path, unit):
+    """164 says the values are in file units (SI times its factors: mm and mN here); they were read
+    as SI by their labels, 1000 times off. Refused, as a label of another scale is; the project is
+    left as it was."""
+    from odsuite.store.project import create_project, open_project
+    from odsuite_plugins.importers.uff_project import import_uff
+
+    data = np.array([0.5, 1.5, 0.1, 0.0])
+    uff = _in_units_of(tmp_path / "mm.uff", [time_function("acc", data, 1e-3, unit, node=1, direction=3)],
+                       5, "mm (milli newton)", 1000.0, 1000.0)
+    create_project(tmp_path / "p.h5", rig=None).close()
+    before = (tmp_path / "p.h5").read_bytes()
+    with pytest.raises(ConfigError) as info:
+        import_uff(tmp_path / "p.h5", uff, "e")
+    assert str(info.value) == (f"{uff}: dataset 164 gives the file's units as 'mm (milli newton)' (length factor "
+                               f"1000, force factor 1000 per SI unit): record 'acc' ({unit}) would be read as SI; "
+                               "odsuite imports records in SI units only")
+    assert (tmp_path / "p.h5").read_bytes() == before
+    with open_project(tmp_path / "p.h5") as p:
+        assert p.experiment_names() == []
+
+
+def test_in_other_units_only_volts_and_unitless_records_are_imported(tmp_path):
+    """Volts and UFF's NONE (exponents 0) mean the same in any unit system; an FRF is a record too,
+    and a 164 of factors 1 (SI, whatever its code) changes nothing."""
+    from odsuite.store.project import create_project
+    from odsuite_plugins.importers.uff_project import import_uff
+
+    data = np.array([0.5, 1.5, 0.1, 0.0])
+    create_project(tmp_path / "p.h5", rig=None).close()
+    uff = _in_units_of(tmp_path / "v.uff", [time_function("u", data, 1e-3, "V"), time_function("w", data, 1e-3, "")],
+                       2, "BG: Foot (pound f)", 3.28083989501312334, 2.24808943099710480e-01)
+    import_uff(tmp_path / "p.h5", uff, "volts")
+    frf = UffFunction("H", 4, np.array([0.0, 1.0, 2.0]), np.array([1, 2j, 3]), "m/s^2/N", "Hz", 1, 3, 1, 3)
+    uff = _in_units_of(tmp_path / "h.uff", [frf], 8, "GM: mm (kilogram f)", 1000.0, 1 / 9.80665)
+    with pytest.raises(ConfigError, match=r"factor 1000, force factor 0.101972 per SI unit\): record 'H' \(m/s\^2/N\)"):
+        import_uff(tmp_path / "p.h5", uff, "h")
+    uff = _in_units_of(tmp_path / "si.uff", [time_function("acc", data, 1e-3, "m/s^2")], 9, "US: user", 1.0, 1.0)
+    import_uff(tmp_path / "p.h5", uff, "si")

@@ -204,6 +204,19 @@ def _uff_without_rig(unit: str) -> Callable[[Path], list[str]]:
     return argv
 
 
+def _uff_in_mm(d: Path) -> list[str]:
+    """``import`` into r.h5 (no rig) of a UFF whose units set (164) is mm and mN, its record in m/s^2."""
+    import pyuff
+
+    argv = _uff_without_rig("m/s^2")(d)
+    sets = pyuff.UFF(str(d / "r.uff")).read_sets()
+    sets[0] = pyuff.prepare_164(units_code=5, units_description="mm (milli newton)", temp_mode=2, length=1000.0,
+                                force=1000.0, temp=1.0, temp_offset=273.15, return_full_dict=True)
+    (d / "r.uff").write_bytes(b"")
+    pyuff.UFF(str(d / "r.uff")).write_sets(sets, mode="add")
+    return argv
+
+
 def _full_disk_export(d: Path, free: int):
     """Export e1 as UFF while the output's disk reports ``free`` bytes free (API, patched disk_usage);
     nothing of the output may be left."""
@@ -635,6 +648,8 @@ CASES: list[Case] = [
          **lvm(LVM_TEXT.replace("Y_Unit_Label\tNewtons", "Y_Unit_Label\tmN"))),
     Case('uff-unit-prefix', 'UFF time record in `mg` imported into a project without a rig (stored as volts at scale 1)', "{dir}/r.uff: channel 'acc': unit 'mg' is not one of m/s^2, g, N, V (NONE, Pa, m, m/s kept as they are)",
          argv=_uff_without_rig('mg')),
+    Case('uff-units-mm', "UFF time record labelled m/s^2 in a file whose units set (164) is mm and mN (read as SI, 1000 times off)", "{dir}/r.uff: dataset 164 gives the file's units as 'mm (milli newton)' (length factor 1000, force factor 1000 per SI unit): record 'acc' (m/s^2) would be read as SI; odsuite imports records in SI units only",
+         argv=_uff_in_mm),
     Case("lvm-force-channel", "--force-channel names no channel of the file", "{dir}/bad.lvm: no channel 'Hammer'; channels are Force, Response", **lvm(LVM_TEXT, "--force-channel", "Hammer")),
     # UFF (API)
     Case("uff-missing", "UFF file that does not exist (API)", '{dir}/none.uff: UFF file not found', call=lambda d: _read_uff(d, "none.uff")),
