@@ -36,6 +36,9 @@ class ChannelChain:
     resonance_damping: float = 0.03
     aaf_order: int = 8
     aaf_cutoff_hz: float | None = 1000.0
+    # the low-pass's analog zeros, poles (rad/s) and gain where the rig declares another family than
+    # Butterworth (elliptic, Chebyshev, Bessel); None: a Butterworth of aaf_order at aaf_cutoff_hz
+    aaf_zpk: tuple[tuple[complex, ...], tuple[complex, ...], float] | None = None
     adc_bits: int = 12
     limit_low: float = -5.0  # V
     limit_high: float = 5.0  # V
@@ -86,7 +89,11 @@ class ChannelChain:
             wn, z = 2 * np.pi * self.resonance_hz, self.resonance_damping
             poles += [wn * (-z + 1j * np.sqrt(1 - z * z)), wn * (-z - 1j * np.sqrt(1 - z * z))]
             k *= wn * wn
-        if self.aaf_cutoff_hz is not None:
+        if self.aaf_cutoff_hz is not None and self.aaf_zpk is not None:
+            zeros += list(self.aaf_zpk[0])
+            poles += list(self.aaf_zpk[1])
+            k *= self.aaf_zpk[2]
+        elif self.aaf_cutoff_hz is not None:
             _, p, kb = scipy.signal.buttap(self.aaf_order)
             wc = 2 * np.pi * self.aaf_cutoff_hz
             poles += list(p * wc)
@@ -103,17 +110,28 @@ class ChannelChain:
         """Second-order sections of the analog chain, each section discretised with a first-order
         hold at ``fs`` (one high-order system would be ill-conditioned: poles span 0.1 Hz-54 kHz)."""
         z, p, k = self.analog_zpk()
-        sections: list[tuple[list, list]] = [([0.0], [pz]) for pz in p[: len(z)]]
-        rest = p[len(z):]
+        # the high-passes' zeros at 0, each with its pole (appended first); an elliptic low-pass's
+        # zeros on the imaginary axis, a conjugate pair with each of its pole pairs, highest first
+        at_zero = sum(1 for q in z if q == 0)
+        sections: list[tuple[list, list]] = [([0.0], [pz]) for pz in p[:at_zero]]
+        rest = p[at_zero:]
         upper = [q for q in rest if q.imag > 1e-9 * abs(q)]
         real = [q.real for q in rest if abs(q.imag) <= 1e-9 * abs(q)]
-        sections += [([], [q, np.conj(q)]) for q in upper]
+        zero_pairs = sorted((q for q in z if q != 0 and q.imag > 0), key=lambda q: -q.imag)
+        upper = sorted(upper, key=lambda q: -q.imag) if zero_pairs else upper
+        sections += [([zq, np.conj(zq)] if (zq := zero_pairs[i] if i < len(zero_pairs) else None) is not None
+                      else [], [q, np.conj(q)]) for i, q in enumerate(upper)]
         sections += [([], real[i:i + 2]) for i in range(0, len(real), 2)]
         rows = [_foh_section(tuple(complex(q) for q in zs), tuple(complex(q) for q in ps), float(fs))
                 for zs, ps in sections]
         sos = np.array(rows) if rows else np.array([[1.0, 0.0, 0.0, 1.0, 0.0, 0.0]])
-        # overall gain: product of the unit-DC-gain sections is 1 where k already includes them
-        scale = k / np.real(np.prod([(-q) for q in rest])) if len(rest) else k
+        # overall gain: each section's own (_foh_section: unit DC gain where it has no zeros, else 1)
+        # divided out of k, which holds them all
+        if zero_pairs:
+            own = [np.real(np.prod([-q for q in ps])) for zs, ps in sections if not zs]
+            scale = k / np.prod(own) if own else k
+        else:
+            scale = k / np.real(np.prod([(-q) for q in rest])) if len(rest) else k
         sos[0, :3] *= scale
         return sos
 

@@ -126,6 +126,9 @@ def default_chains(rig: Rig, systeminfo: Systeminfo, *, noise: float = 1.0,
         raise ConfigError(f"{rig.source or 'rig ' + repr(rig.name)} [acquisition] field 'anti_aliasing.order': the "
                           f"simulated DAQ models orders 1 to {MAX_AAF_ORDER}, got {aa.order}")
     filtered = {"aaf_order": aa.order, "aaf_cutoff_hz": aa.cutoff_hz} if aa is not None else {}
+    if aa is not None and aa.family != "butterworth":  # the declared family, as the model predicts through it
+        zf, pf, kf = aa.zpk()
+        filtered["aaf_zpk"] = (tuple(complex(q) for q in zf), tuple(complex(q) for q in pf), float(kf))
     chains: dict[int, ChannelChain] = {}
     for ch in range(rig.channel_count):
         info = systeminfo.channels[ch]
@@ -156,14 +159,6 @@ def default_chains(rig: Rig, systeminfo: Systeminfo, *, noise: float = 1.0,
         chain.validate(f"rig {rig.name!r} channel {ch}")
         chains[ch] = chain
     return chains
-
-
-def _front_end_notes(rig: Rig) -> list[str]:
-    aa = rig.acquisition.anti_aliasing if rig.acquisition is not None else None
-    if aa is not None and aa.family != "butterworth":
-        return [f"the simulated rig draws rig {rig.name!r}'s {aa.family} anti-aliasing filter as a Butterworth "
-                f"of order {aa.order} at {aa.cutoff_hz:g} Hz"]
-    return []
 
 
 def find_trigger(force_volts: np.ndarray, level: float, slope: str, start: int) -> int | None:
@@ -267,7 +262,6 @@ class SimulatedRig:
                    + (f" force_peak={force_peak:g}N" if force_peak is not None else "")
                    + (f" contact={contact_ms:g}ms" if contact_ms is not None else ""),
             clipped={ch: c for ch, c in clipped.items() if c},
-            notes=_front_end_notes(rig),
         )
         if progress:
             progress(WAITING, 0, n)
@@ -326,7 +320,7 @@ class SimulatedRig:
             chunks=_chunks(raw, settings.chunk_size, progress), n_samples=n, sampling_rate=fs, pretrigger=0,
             systeminfo=systeminfo, excitation=None, channel_names=names,
             source=f"daq_sim operating={load} {what} seed={seed} oversample={oversample}",
-            clipped=clipped, notes=_front_end_notes(rig),
+            clipped=clipped,
         )
 
     def _truth(self, rig: Rig, truth: Truth | None, effects: Sequence[tuple[str, Mapping[str, Any]]],
