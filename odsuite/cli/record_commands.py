@@ -140,10 +140,14 @@ def acquire_cmd(
     with open_project(project) as p:
         rig = p.rig
     acq = rig.acquisition if rig is not None else None
+    rig_pre = pretrigger is None and acq is not None and acq.pre_trigger is not None
     if rate is None or pretrigger is None:  # the rig's own settings, when its file states them
         rate = rate if rate is not None else (acq.sampling_rate if acq and acq.sampling_rate else 20_000.0)
-        pretrigger = pretrigger if pretrigger is not None else (
-            acq.pre_trigger if acq and acq.pre_trigger is not None else 512)
+        pretrigger = pretrigger if pretrigger is not None else (acq.pre_trigger if rig_pre else 512)
+    if rig_pre and 2 <= samples <= pretrigger:  # the settings' own check would not say where the number came from
+        raise ConfigError(f"--samples {samples} is not more than the {pretrigger} samples before the trigger that "
+                          f"rig {rig.name!r} sets ([acquisition] pre_trigger = {pretrigger}): pass --samples above "
+                          f"{pretrigger} (e.g. --samples {2 * pretrigger}) or --pretrigger below {samples}")
     settings = AcquisitionSettings(
         sampling_rate=rate, n_samples=samples, pretrigger=pretrigger, trigger_level=trigger_level,
         trigger_slope=trigger_slope, trigger_timeout=trigger_timeout,

@@ -217,6 +217,17 @@ def _uff_in_mm(d: Path) -> list[str]:
     return argv
 
 
+def _on_bench_rig(toml: str, *argv: str) -> Callable[[Path], list[str]]:
+    """A command line on r.h5, a new project on the bench rig with ``toml`` added to its file."""
+    def make(d: Path) -> list[str]:
+        from odsuite.store.project import create_project
+
+        (d / "rig.toml").write_text(RIG_TOML + toml)
+        create_project(d / "r.h5", str(d / "rig.toml")).close()
+        return [a.format(project=d / "r.h5") for a in argv]
+    return make
+
+
 def _full_disk_export(d: Path, free: int):
     """Export e1 as UFF while the output's disk reports ``free`` bytes free (API, patched disk_usage);
     nothing of the output may be left."""
@@ -672,6 +683,9 @@ CASES: list[Case] = [
          argv=lambda d: ["acquire", str(d / "p.h5"), "--daq", "sim", "--scenario", "T99", "--name", "new"]),
     Case("acquire-samples", "acquire --samples 0", "acquisition setting 'n_samples': must be an integer from 2 to 17179869184, got 0",
          argv=lambda d: ["acquire", str(d / "p.h5"), "--daq", "sim", "--samples", "0", "--name", "new"]),
+    Case("acquire-rig-pretrigger", "acquire with the default --samples 4096 on a rig whose file sets [acquisition] pre_trigger = 4096",
+         "--samples 4096 is not more than the 4096 samples before the trigger that rig 'bench' sets ([acquisition] pre_trigger = 4096): pass --samples above 4096 (e.g. --samples 8192) or --pretrigger below 4096",
+         argv=_on_bench_rig("[acquisition]\npre_trigger = 4096\n", "acquire", "{project}", "--name", "new")),
     Case("magnify-one-number", "render --magnify 5", "--magnify: expected two numbers 'A,B', got '5'",
          argv=lambda d: ["render", str(d / "p.h5"), "e1", "-o", str(d / "m.gif"), "--magnify", "5"]),
     Case("magnify-text", "render --magnify big,2", "--magnify: expected two numbers 'A,B', got 'big,2'",
