@@ -127,11 +127,22 @@ def read_force_point(value: str | Sequence[float], option: str = "--force-point"
     units = [m.group(2).lower() if m.group(2) else None for m in matches]
     if units[0] is None and units[1] is None and units[2] is not None:
         units = [units[2]] * 3
+    given = [u for u in units if u]
+    if given:  # a bare 0 is 0 in every unit
+        units = [u or (given[0] if _zero(m.group(1)) else None) for u, m in zip(units, matches)]
     if None in units and any(units):
-        raise ConfigError(f"{option}: give a unit on every number or on none (bare numbers are mm), got {value!r}")
+        raise ConfigError(f"{option}: give a unit on every number other than 0 or on none (bare numbers are mm), "
+                          f"got {value!r}")
     numbers = _three_numbers([m.group(1) for m in matches], option, shown=value)
     scale = np.array([LENGTH_UNITS[u or POINT_UNIT] for u in units])
-    return numbers * scale, units[0] is None
+    return numbers * scale, not given
+
+
+def _zero(text: str) -> bool:
+    try:
+        return plain_number(text.strip()) == 0
+    except ValueError:
+        return False
 
 
 def parse_force_point(value: str | Sequence[float]) -> np.ndarray:

@@ -52,7 +52,20 @@ def test_a_force_point_takes_units_and_bare_numbers_are_mm_echoed_back(capsys, p
 def test_a_unit_on_some_numbers_only_is_refused_in_one_line(capsys, project):
     code, _, err = run(capsys, "acquire", project, "--name", "a", "--force-point=200mm,150,75", "--force-dir=-z", *SHORT)
     assert code == 1 and len(err.strip().splitlines()) == 1
-    assert "--force-point: give a unit on every number or on none (bare numbers are mm), got '200mm,150,75'" in err
+    assert ("--force-point: give a unit on every number other than 0 or on none (bare numbers are mm), "
+            "got '200mm,150,75'") in err
+
+
+@pytest.mark.parametrize("written", ["200mm,0,75mm", "0.2m,-0,0.075m", "200mm,0.0mm,75mm"])
+def test_a_bare_zero_among_numbers_with_units_is_zero_in_their_unit(capsys, project, written):
+    code, out, err = run(capsys, "acquire", project, "--name", "a", f"--force-point={written}", "--force-dir=-z", *SHORT)
+    assert code == 0, err
+    np.testing.assert_allclose(stored_point(capsys, project, "a"), [0.2, 0.0, 0.075], rtol=1e-12, atol=0)
+    line = next(ln for ln in out.splitlines() if ln.startswith("force point"))
+    assert "read from bare numbers" not in line, line
+    # a bare number other than 0 keeps its refusal: 75 could be mm or m
+    code, _, err = run(capsys, "acquire", project, "--name", "b", "--force-point=200mm,0,75", "--force-dir=-z", *SHORT)
+    assert code == 1 and "give a unit on every number other than 0 or on none" in err, err
 
 
 def test_metres_written_as_bare_numbers_land_on_the_floor_and_are_refused(capsys, project):
