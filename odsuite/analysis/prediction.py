@@ -492,8 +492,13 @@ def prepare_experiment(project, name: str, exp=None) -> PreparedExperiment:
         # the samples just before the hit are left out (zero-phase filters ring backwards from it):
         # a record needs that many more before its trigger than it counts quiet
         guard = int(round(HIT_GUARD_S * exp.sampling_rate))
-        counted = (f"{before} quiet samples before the hit (fewer than {FEWEST_BEFORE}; of {trigger} before the "
-                   f"trigger, the last {1e3 * HIT_GUARD_S:g} ms are left out)")
+        guarded = f"the last {1e3 * HIT_GUARD_S:g} ms are left out"
+        if exp.pretrigger > 0:
+            counted = f"of {trigger} before the trigger, {guarded}"
+        else:  # the hit is found in the force, often a sample or two in: not samples recorded before the trigger
+            counted = "the record starts at its trigger, 0 samples before it" + (
+                f"; of the {trigger} before the hit the force shows, {guarded}" if trigger > guard else "")
+        counted = f"{before} quiet samples before the hit (fewer than {FEWEST_BEFORE}; {counted})"
         more = f"(record {FEWEST_BEFORE + guard} or more samples before the trigger)"
         notes.append(f"{where}: {counted}: the noise is measured on them alone, less surely, as the record's last "
                      f"samples still ring ({quiet.ringing_tail:.3g}x their variance) {more}"

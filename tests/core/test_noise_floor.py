@@ -592,3 +592,23 @@ def test_a_last_eighth_still_ringing_is_not_taken_for_noise(decay_s, rings):
         assert q.ringing_tail == pytest.approx(5000, rel=0.5) and not q.quiet[-1]
     else:
         assert q.ringing_tail is None and q.quiet[-n // 8:].all()
+
+
+def test_a_record_starting_at_its_trigger_is_said_to_hold_none_before_it(tmp_path):
+    # the hit found in the force at sample 1 of a record taken with no pre-trigger read "0 quiet
+    # samples before the hit (...; of 1 before the trigger ...)" where acquire had said 0
+    from odsuite.api import acquire, create_project, open_project, prepare, registries
+    from odsuite.contracts.daq import AcquisitionSettings
+
+    path = tmp_path / "p.h5"
+    with create_project(path):
+        pass
+    with open_project(path, "a") as p:
+        exp, _ = acquire(p, registries().daq_backends.get("sim"), "T2", AcquisitionSettings(n_samples=2048, pretrigger=0),
+                         scenario="T2", seed=1)
+        assert exp.pretrigger == 0
+    with open_project(path) as p:
+        (e,) = prepare(p)
+    notes = [n for n in e.notes if "before the hit" in n]
+    assert len(notes) == 1 and "0 quiet samples before the hit (fewer than 32; the record starts at its trigger, " \
+        "0 samples before it)" in notes[0], (e.trigger, notes)
