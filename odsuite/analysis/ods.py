@@ -127,7 +127,7 @@ def operating_shape(project, experiment: str, reference: str, frequency_hz: floa
         if disp:
             coordinates = harmonic_shapes(rig, disp, project.registries.coordinate_solvers, f"{where}: ODS")
         else:
-            notes.append(f"no response channel is one of rig {rig.name!r}'s accelerometers: no coordinates")
+            notes.append(f"no response channel is one of the accelerometers of rig {rig.name!r}: no coordinates")
     weak = [n for n, c in zip(names, coherence) if c < 0.5]
     if hammer:
         notes.append(f"a hammer record: the spectrum of the whole record ({fs / nper:.3g} Hz lines), one segment, "

@@ -703,7 +703,7 @@ def _force_channel(data: dict[str, Any], sensors: list[Sensor], where0: str) -> 
                           f"channel {forces[0].channel}")
     response = next((s for s in sensors if s.channel == declared and s not in forces), None)
     if declared is not None and response is not None:
-        raise ConfigError(f"{where0}: field 'force_channel' = {declared} is sensor {response.name!r}'s channel "
+        raise ConfigError(f"{where0}: field 'force_channel' = {declared} is the channel of sensor {response.name!r} "
                           "(the hammer needs a channel of its own)")
     return forces[0].channel if forces else declared
 

@@ -109,7 +109,7 @@ def import_columns(project: str | Path, file: str | Path, name: str, names: list
             raise ConfigError(f"{file}: --force-point/--force-dir/--force-body need a project with a rig geometry")
         notes: tuple[str, ...] = ()
         if p.rig is not None:  # e.g. a single-point beam test kept beside the rig's records
-            notes = (f"{file}: its columns ({_listed(list(names))}) are not rig {p.rig.name!r}'s channels: "
+            notes = (f"{file}: its columns ({_listed(list(names))}) are not the channels of rig {p.rig.name!r}: "
                      "stored as they are, without the rig's geometry",)
         fidx = force_index(list(names), list(units), force_channel, str(file))
         if fidx is None:

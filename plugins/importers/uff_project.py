@@ -174,7 +174,7 @@ def _import_records(project, uff_path: Path, name: str, content, records: list[U
     if any(v is not None for v in hammer):
         raise ConfigError(f"{uff_path}: --force-point/--force-dir/--force-body need a project with a rig geometry")
     if rig is not None:
-        notes += (f"{uff_path}: its records ({', '.join(names)}) are not rig {rig.name!r}'s channels (no UFF node, "
+        notes += (f"{uff_path}: its records ({', '.join(names)}) are not the channels of rig {rig.name!r} (no UFF node, "
                   "name or count matches): stored as they are, without the rig's geometry",)
     names = [n if n not in names[:k] else f"{n}#{k}" for k, n in enumerate(names)]
     if fidx is None:
@@ -277,8 +277,8 @@ def _import_onto_rig(project, rig: Rig, uff_path: Path, name: str, content, reco
         mapping, by_name = columns_to_channels(rig, names, where, None if fidx is None else names[fidx],
                                                "time record")
         if not by_name:
-            notes += (f"{where}: no record carries a sensor's UFF node or name: records taken as rig "
-                      f"{rig.name!r}'s channels 0-{rig.channel_count - 1} in order",)
+            notes += (f"{where}: no record carries a sensor's UFF node or name: records taken as the "
+                      f"channels 0-{rig.channel_count - 1} of rig {rig.name!r} in order",)
     if fidx is not None and (point is None or direction is None):  # the hammer's node in the file, if there
         hit = _node_point(content.geometry, records[fidx].rsp_node, records[fidx].rsp_dir)
         if hit is not None:

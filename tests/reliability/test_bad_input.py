@@ -870,7 +870,7 @@ CASES: list[Case] = [
          **new_rig(RIG_TOML.replace('axis = [0.0, 0.0, 1.0]', 'axis = [0.0, 0.0, 1.0]\nsensitivity = 1e308'))),
     Case("rig-sensitivity-tiny", "sensor sensitivity 1e-320 V/(m/s^2)", "{dir}/bad.toml: sensors[0] 'a1' field 'sensitivity': expected 1e-09 to 1e+09 V per SI unit, got 1e-320",
          **new_rig(RIG_TOML.replace('axis = [0.0, 0.0, 1.0]', 'axis = [0.0, 0.0, 1.0]\nsensitivity = 1e-320'))),
-    Case("rig-force-on-sensor", "force_channel 1, the accelerometer's channel", "{dir}/bad.toml: field 'force_channel' = 1 is sensor 'a1''s channel (the hammer needs a channel of its own)",
+    Case("rig-force-on-sensor", "force_channel 1, the accelerometer's channel", "{dir}/bad.toml: field 'force_channel' = 1 is the channel of sensor 'a1' (the hammer needs a channel of its own)",
          **new_rig(RIG_TOML.replace("force_channel = 0", "force_channel = 1"))),
     Case("rig-inertia-tiny", "inertia 1e-300 kg m^2 on the diagonal", "{dir}/bad.toml: body 'plate' field 'inertia': principal moment 1e-300 kg m^2, below 1e-15 (no body that carries a sensor is that small)",
          **new_rig(RIG_TOML.replace("[[0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]]", "[[1e-300, 0, 0], [0, 1e-300, 0], [0, 0, 1e-300]]"))),
