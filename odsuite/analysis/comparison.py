@@ -333,17 +333,31 @@ def _coordinates(rig: Rig, exp: PreparedExperiment, model, errors: bool = True) 
     return coords, rigidity
 
 
-def _tables(labels, sensor_names, band_num, band_den, channels, coords) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+def _worst_channels(channels: Mapping[str, float], floor: NoiseFloor, count: int = 3) -> list[dict[str, Any]]:
+    """The ``count`` channels whose error stands highest over their noise floor, each with its floor
+    (a perfect model's error) and that ratio. A channel holding noise alone (a y channel under a
+    blow along x) reads an error near 1 at a floor near 1: it says nothing of the model."""
+    rows = []
+    for n, v in channels.items():
+        fl = floor.error(channels=[n])
+        ratio = v / fl if fl > 0 else (float("inf") if v > 0 else float("nan"))
+        rows.append({"kind": "channel", "name": n, "error": v, "noise_floor": fl, "to_floor": ratio})
+    # NaN: no measured energy, nothing to rank (last); among equal ratios (no floor) the larger error first
+    rows.sort(key=lambda r: (bool(np.isnan(r["to_floor"])), -np.nan_to_num(r["to_floor"], nan=0.0, posinf=np.inf),
+                             -np.nan_to_num(r["error"], nan=-np.inf)))
+    return rows[:count]
+
+
+def _tables(labels, sensor_names, band_num, band_den, channels, coords, floor: NoiseFloor
+            ) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """The band table (each band's and channel's error and share of the measured energy) and the
-    worst channels, coordinates and bands."""
+    worst channels (by their error over their noise floor), coordinates and bands."""
     band_table = np.sqrt(band_num / np.where(band_den > 0, band_den, np.nan))
     band_share = band_den / np.nansum(band_den)
     bands = {"labels": labels, "channels": sensor_names,
              "error": [[None if not np.isfinite(v) else float(v) for v in row] for row in band_table],
              "energy_share": [[float(v) for v in row] for row in band_share]}
-    worst: list[dict[str, Any]] = []
-    for n, v in sorted(channels.items(), key=lambda kv: -kv[1])[:3]:
-        worst.append({"kind": "channel", "name": n, "error": v})
+    worst = _worst_channels(channels, floor)
     # NaN: the coordinate neither moved nor was predicted to (no error to rank)
     flat_coords = [(f"{en}/{b}/{c}", v) for en, bd in coords.items() for b, cd in bd.items() for c, v in cd.items()
                    if np.isfinite(v)]
@@ -432,7 +446,7 @@ def _compare(project, *, experiments, revision, prepared, resonances, figures, s
         band_den[:, at] += bshare * energy
     channels = {n: float(np.sqrt(chan_num[n] / chan_den[n])) if chan_den[n] > 0 else float("nan")
                 for n in chan_num}
-    bands, worst = _tables(labels, sensor_names, band_num, band_den, channels, coords) if tables else ({}, [])
+    bands, worst = _tables(labels, sensor_names, band_num, band_den, channels, coords, floor) if tables else ({}, [])
     modal = modal_notes = records = None
     if resonances:  # imported here: the fitting loop's comparisons (resonances=False) never load it
         from odsuite.analysis.modal_comparison import modal_records

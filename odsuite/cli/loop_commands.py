@@ -22,6 +22,7 @@ def compare_cmd(
     from rich.table import Table
 
     from odsuite.analysis.comparison import compare
+    from odsuite.analysis.noise_floor import FLOOR_TOLERANCE
     from odsuite.store.project import open_project
 
     with open_project(project) as p, _loop_progress() as bar:
@@ -47,11 +48,15 @@ def compare_cmd(
     table.add_row("all", *(error_text(result['experiments'][e]['error']) for e in experiments), error_text(result['error']),
                   style="bold")
     console.print(table)
-    worst = Table(title="where the model fails most")
-    for col in ("kind", "name", "error"):
+    worst = Table(title="where the model fails most",
+                  caption=f"channels ranked by their error over their noise floor; within {FLOOR_TOLERANCE:g}x of it "
+                          "a channel holds noise alone and tells nothing of the model")
+    for col in ("kind", "name", "error", "to floor"):
         worst.add_column(col)
     for w in result["worst"]:
-        worst.add_row(w["kind"], w["name"], error_text(w["error"]))
+        ratio = w.get("to_floor")
+        worst.add_row(w["kind"], w["name"], error_text(w["error"]), "" if ratio is None else
+                      f"{ratio:.2f}x" + (" (noise)" if ratio <= FLOOR_TOLERANCE else ""))
     console.print(worst)
     for peak in result["residual_peaks"]:
         where = "no model mode there" if peak["lacking"] else f"near the model's mode at {peak['model_mode_hz']:.0f} Hz"

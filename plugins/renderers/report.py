@@ -796,10 +796,12 @@ def _failures_section(doc: Mapping[str, Any], exps, preds: Mapping[str, np.ndarr
                           for n in names]
                          + [["all", *(_fmt(d["error"]) for d in experiments.values()), _fmt(doc["error"])]],
                          id="channel-errors", caption="error per channel and experiment (NRMSE, acceleration stage)")
-    worst = _table(["kind", "name", "error (NRMSE)", "share of the residual"],
+    worst = _table(["kind", "name", "error (NRMSE)", "share of the residual", "error over its noise floor"],
                    [[w["kind"], w["name"], _fmt(w["error"]),
-                     f"{100 * w['residual_share']:.1f} %" if "residual_share" in w else "–"] for w in doc["worst"]],
-                   id="worst", caption="worst channels, generalized coordinates and frequency bands")
+                     f"{100 * w['residual_share']:.1f} %" if "residual_share" in w else "–",
+                     f"{w['to_floor']:.2f}x" if "to_floor" in w else "–"] for w in doc["worst"]],
+                   id="worst", caption="worst channels (ranked by their error over their noise floor: near 1x a "
+                   "channel holds noise alone), generalized coordinates and frequency bands")
     bands = doc["bands"]
     band_err = np.array([[np.nan if v is None else v for v in row] for row in bands["error"]], dtype=float)
     heat_bands = _heatmap(band_err.T, bands["channels"], bands["labels"], tmp / "bands.png",

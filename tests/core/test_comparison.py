@@ -483,3 +483,34 @@ def test_coordinates_a_body_cannot_move_in_are_not_ranked(tmp_path, capsys):
     assert main(["compare", p]) == 0
     out = capsys.readouterr().out
     assert "e1/slab/z" in out and "slab/x" not in out and "slab/y" not in out and "nan" not in out
+
+
+def test_channels_at_their_noise_floor_do_not_top_where_the_model_fails(tmp_path, capsys):
+    """A tall cabinet (tests/data/rigs) hit along x, one foot softer than its model: its y channels
+    carry noise alone, error 1.0 at a floor of about 1, and topped 'where the model fails most'
+    above the x channels the soft foot moves (0.54 at a floor of 0.066). Channels are ranked by
+    their error over their floor."""
+    import json
+    from pathlib import Path
+
+    from odsuite.cli import main
+
+    rigs = Path(__file__).resolve().parents[1] / "data" / "rigs"
+    p = str(tmp_path / "c.h5")
+    assert main(["new", p, "--rig", str(rigs / "tall-cabinet.toml")]) == 0
+    assert main(["acquire", p, "--name", "hit30", "--force-point=300mm,0mm,1800mm", "--force-dir=-x",
+                 "--force-peak", "30", "--samples", "8192", "--seed", "1",
+                 "--truth", str(rigs / "tall-cabinet-soft-fr.toml")]) == 0
+    assert main(["process", p]) == 0
+    capsys.readouterr()
+    assert main(["compare", p, "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    channels = [w for w in doc["worst"] if w["kind"] == "channel"]
+    assert {"top_a_y", "tb_y"}.isdisjoint(w["name"] for w in channels), channels  # at their floor: noise alone
+    ratios = {w["name"]: doc["channels"][w["name"]] / w["noise_floor"] for w in channels}
+    assert [w["to_floor"] for w in channels] == pytest.approx(list(ratios.values()), rel=1e-12)
+    assert [w["to_floor"] for w in channels] == sorted((w["to_floor"] for w in channels), reverse=True)
+    assert {"top_a_x", "tb_x"} <= set(ratios) and min(ratios.values()) > 2.0, channels
+    assert main(["compare", p]) == 0
+    out = capsys.readouterr().out
+    assert "channels ranked by their error over their noise floor" in " ".join(out.split()), out
