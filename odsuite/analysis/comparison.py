@@ -455,6 +455,8 @@ def _compare(project, *, experiments, revision, prepared, resonances, figures, s
         modal, modal_notes, records = modal_records(project, [e.name for e in exps], rmodel.for_experiment,
                                                     frfs=figures)
     spectra = residual_spectra(exps, preds)
+    left_out = (project.rig.left_out_note({k for e in exps for k in e.columns}, "the comparison")
+                if project.rig is not None else None)
     return Comparison(
         error=pooled_error(exps, preds), noise_floor_error=floor.error(),
         revision=rev.get("revision"), experiments=per_exp, channels=channels, coordinates=coords,
@@ -463,5 +465,6 @@ def _compare(project, *, experiments, revision, prepared, resonances, figures, s
                **(frf_comparison(exps, preds, model_modes) if resonances else {})},
         residual_peaks=residual_peaks(exps, preds, modes_hz, floor, spectra=spectra), worst=worst, floor=floor,
         modal=modal, modal_notes=modal_notes, modal_records=records,
-        notes=[n for e in exps for n in e.notes], predictions=preds, residual_spectra=spectra,
+        notes=[n for e in exps for n in e.notes] + ([left_out] if left_out else []), predictions=preds,
+        residual_spectra=spectra,
     )

@@ -14,7 +14,7 @@ import math
 import os
 import stat
 import unicodedata
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -247,6 +247,18 @@ class Rig:
     def accelerometers(self) -> tuple[Sensor, ...]:
         """The sensors that measure acceleration (the ones a model predicts), in file order."""
         return tuple(s for s in self.sensors if s.quantity == "acceleration")
+
+    def left_out_note(self, used: Sequence[int], what: str) -> str | None:
+        """A line naming the sensors on a body that measure something other than acceleration (a
+        proximity probe's displacement) and are not among the channels ``used``: ``what`` (processing,
+        the comparison) takes accelerometers only. None when there are none."""
+        out = [s for s in self.sensors if s.body is not None and s.quantity != "acceleration" and s.channel not in used]
+        if not out:
+            return None
+        named = ", ".join(f"channel {s.channel} ({s.name}, {s.kind}: {s.quantity})" for s in out)
+        return (f"rig {self.name!r}: {named} {'is' if len(out) == 1 else 'are'} left out of {what}, which takes "
+                "accelerometers only; "
+                "`odsuite modes` reads such channels")
 
     def force_body(self, point, body: str | None = None) -> str | None:
         """The moving body a hammer hits at ``point`` (m): ``body`` when given (a moving body's

@@ -127,6 +127,8 @@ def process_experiment(project, name: str, *, chain: Sequence[Mapping[str, Any]]
                 bodies = _gencoords(project, name, exp, dsets, accel, regs, chunk, where, __version__)
                 summary["notes"] = bodies.pop("notes")
                 summary["bodies"] = bodies
+    left_out = project.rig.left_out_note(used, "processing") if project.rig is not None else None
+    summary["notes"] += [left_out] if left_out else []
     return summary
 
 

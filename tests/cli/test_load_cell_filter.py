@@ -30,3 +30,20 @@ def test_a_low_passed_load_cell_leaves_the_prediction_unfiltered(tmp_path, capsy
         "--force-dir=-0.3,0,-1", "--force-peak", "30", "--seed", "30")
     cmp = json.loads(run(capsys, "compare", p, "--json"))
     assert cmp["error"] < 1.5 * cmp["noise_floor_error"], (cmp["error"], cmp["noise_floor_error"])
+
+
+def test_a_proximity_probe_left_out_is_named_once(tmp_path, capsys):
+    # the bracket's eddy-current probe under its foot (channel 7, displacement) was neither processed
+    # nor compared, and nothing said so
+    p = tmp_path / "p.h5"
+    run(capsys, "new", p, "--rig", RIG)
+    for name in ("a", "b"):
+        run(capsys, "acquire", p, "--name", name, "--samples", "2048", "--force-point=30,20,100", "--force-dir=-z",
+            "--seed", "3")
+    assert main(["process", str(p)]) == 0
+    out, err = capsys.readouterr()
+    said = [ln for ln in err.splitlines() if "channel 7 (gap, proximity: displacement) is left out of processing" in ln]
+    assert len(said) == 1 and "every experiment" in said[0], err
+    assert main(["compare", str(p), "--json"]) == 0
+    notes = json.loads(capsys.readouterr().out)["notes"]
+    assert sum("channel 7 (gap, proximity: displacement) is left out of the comparison" in n for n in notes) == 1, notes
