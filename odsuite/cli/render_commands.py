@@ -17,7 +17,7 @@ def render_cmd(
     experiment: str = typer.Argument(..., help="Experiment name."),
     output: Path = typer.Option(..., "-o", "--output", help="Movie (.mp4, .gif) or figure (.png, .svg, .pdf)."),
     model: bool = typer.Option(False, "--model", help="Overlay the current model revision's motion (computed like `odsuite compare`)."),
-    magnify: str = typer.Option(None, "--magnify", help="H_t,H_r (default: largest corner motion = 15 % of the plate, at most 10 plates; 0 holds that motion still)."),
+    magnify: str = typer.Option(None, "--magnify", help="H_t,H_r (default: largest corner motion = 15 % of the plate, or the vibration's under a slower drift, which stays within a plate; at most 10 plates; 0 holds that motion still)."),
     view: str = typer.Option(None, "--view", help="Movie: AZ,EL degrees (EL -90 to 90). Projection: EYE[,THETA,PHI,PSI] (eye x|y|z). Angles -360 to 360."),
     figure: str = typer.Option(None, "--figure", help="A registered figure renderer (built in: overlay, projection, residuals; `odsuite plugins` lists all). Default: the movie renderer for the output's suffix."),
     workers: int = typer.Option(None, "--workers", help="Render processes for a movie (default: one per two cores)."),

@@ -69,23 +69,51 @@ def plate_scale(rig: Rig, bodies: list[str] | None = None) -> float:
     return max(sizes)
 
 
+#: With a slow drift under the vibration, the default lets the drift carry the plates this many
+#: plate sizes at most (the vibration is drawn at ``DEFAULT_EXCURSION`` where that allows).
+DRIFT_DRAWN = 1.0
+#: a slow part this many times the vibration's amplitude is a drift, not the motion to show
+DRIFT_RATIO = 2.0
+
+
+def _vibration(disp: np.ndarray) -> float:
+    """The amplitude of the oscillating part of corner displacements (samples x corners x 3): the
+    largest step from one sample to the next over the steps' frequency, 2 sin(w/2) per sample,
+    from the ratio of second to first differences. A slow drift (the high-pass filter's start
+    transient in displacements integrated from a record without pre-trigger) barely steps."""
+    first = np.diff(disp, axis=0)
+    second = np.diff(disp, 2, axis=0)
+    energy = float(np.sum(first**2))
+    if energy == 0.0 or second.size == 0:
+        return 0.0
+    per_sample = np.sqrt(float(np.sum(second**2)) / energy)  # 2 sin(w/2) of a sinusoid
+    return float(np.linalg.norm(first, axis=-1).max()) / per_sample if per_sample > 0 else 0.0
+
+
 def default_magnification(rig: Rig, *coord_sets: Mapping[str, np.ndarray],
                           excursion: float = DEFAULT_EXCURSION) -> tuple[float, float]:
     """(H_t, H_r), equal, so that the largest corner excursion is ``excursion`` x the plate size.
 
     The excursion is measured with the small-angle form (the magnified drawing uses finite
-    rotations, which are close for the 15 % default). No motion at all gives (1, 1).
+    rotations, which are close for the 15 % default). Where a slow drift exceeds the vibration
+    (``DRIFT_RATIO``), the vibration's amplitude sets it instead, as far as the drift stays within
+    ``DRIFT_DRAWN`` plate sizes: a record starting at its hit drew its drift at 15 % and its
+    vibration at a hundredth of the plate. No motion at all gives (1, 1).
     """
-    peak = 0.0
+    peak = vibration = 0.0
     for coords in coord_sets:
         for name, d in coords.items():
             body = rig.body(name)
             r = plate_corners(body.plate) - body.com
             disp = point_displacements(np.asarray(d, dtype=float), r, linear=True)
             peak = max(peak, float(np.linalg.norm(disp, axis=-1).max(initial=0.0)))
+            vibration = max(vibration, _vibration(disp))
     if peak == 0.0:
         return (1.0, 1.0)
-    h = excursion * plate_scale(rig, list(coord_sets[0])) / peak
+    scale = plate_scale(rig, list(coord_sets[0]))
+    h = excursion * scale / peak
+    if 0.0 < vibration and peak > DRIFT_RATIO * vibration:
+        h = max(h, min(excursion * scale / vibration, DRIFT_DRAWN * scale / peak))
     return (h, h)
 
 
