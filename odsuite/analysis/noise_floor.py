@@ -17,7 +17,8 @@ Four parts, each estimated from the record itself:
 - the force channel's noise through the model: the model is driven by the measured force, so the
   load cell's noise inside the force window reaches every predicted channel. Its expected energy is
   the window's noise energy times the energy of the model's response to a unit impulse (exact for
-  white noise in a window much shorter than the record).
+  white noise in a window much shorter than the record). A record that starts inside its hit adds
+  the force it missed before its first sample (prediction.force_window).
 
 ``NoiseFloor.error`` is then the contract's ``error`` of a perfect model; its spectrum (per channel
 and experiment) lets the residual's peaks and bands be tested against what noise alone gives.
