@@ -12,6 +12,7 @@ import numpy as np
 from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError
 from odsuite.domain.textfiles import plain_number
+from odsuite.store.stored_values import MAX_POINT_M
 
 
 @dataclass(frozen=True)
@@ -119,7 +120,7 @@ def read_force_point(value: str | Sequence[float], option: str = "--force-point"
     unit). Each number may carry its unit (``200mm,150mm,75mm``); a unit on the last number only
     applies to all three (``0.2,0.15,0.075m``)."""
     if not isinstance(value, str):
-        return _three_numbers(value, option) * LENGTH_UNITS[POINT_UNIT], True
+        return _near_origin(_three_numbers(value, option) * LENGTH_UNITS[POINT_UNIT], option, value), True
     parts = value.split(",")
     matches = [_LENGTH.fullmatch(part) for part in parts]
     if len(parts) != 3:
@@ -135,7 +136,13 @@ def read_force_point(value: str | Sequence[float], option: str = "--force-point"
                           f"got {value!r}")
     numbers = _three_numbers([m.group(1) for m in matches], option, shown=value)
     scale = np.array([LENGTH_UNITS[u or POINT_UNIT] for u in units])
-    return numbers * scale, not given
+    return _near_origin(numbers * scale, option, value), not given
+
+
+def _near_origin(point: np.ndarray, option: str, value) -> np.ndarray:
+    if np.any(np.abs(point) > MAX_POINT_M):  # 1e308m overflowed to inf in the distance to the bodies
+        raise ConfigError(f"{option}: expected a point within {MAX_POINT_M:g} m of the rig's origin, got {value!r}")
+    return point + 0.0  # no -0.0 shown
 
 
 def _zero(text: str) -> bool:

@@ -671,6 +671,7 @@ CASES: list[Case] = [
     Case("force-point-text", "--force-point=a,b,c", "--force-point: expected three numbers X,Y,Z, got 'a,b,c'", argv=legacy(ctr="good.CTR", point="a,b,c")),
     Case("force-point-nan", "--force-point=nan,0,0", "--force-point: expected finite numbers, got 'nan,0,0'", argv=legacy(ctr="good.CTR", point="nan,0,0")),
     Case("force-point-mixed-units", "--force-point=300mm,0,1800 (a unit on some numbers; a bare 0 is 0 in any unit, 1800 is not)", "--force-point: give a unit on every number other than 0 or on none (bare numbers are mm), got '300mm,0,1800'", argv=legacy(ctr="good.CTR", point="300mm,0,1800")),
+    Case("force-point-far", "acquire --force-point=1e308m,0,0 (overflowed: 'outside every body ... inf mm away' after numpy's warnings)", "--force-point: expected a point within 10000 m of the rig's origin, got '1e308m,0,0'", argv=lambda d: ["acquire", str(d / "p.h5"), "--name", "new", "--force-point=1e308m,0,0", "--force-dir=+z"]),
     Case("force-dir-zero", "--force-dir=0,0,0", "--force-dir: the zero vector '0,0,0' has no direction", argv=legacy(ctr="good.CTR", direction="0,0,0")),
     Case("force-dir-axis", "--force-dir=+w", "--force-dir: expected an axis +x, -x, +y, -y, +z, -z or three numbers dx,dy,dz, got '+w'", argv=legacy(ctr="good.CTR", direction="+w")),
     Case("experiment-exists", "--name of an experiment the project holds", "{dir}/p.h5: experiment 'e1' already exists; choose another name", argv=legacy(ctr="good.CTR", name="e1")),
