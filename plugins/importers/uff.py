@@ -238,8 +238,7 @@ def read_uff(path: str | Path) -> UffContent:
             modes.append(UffMode(str(s.get("id1", "")).strip(), int(s.get("mode_n", len(modes) + 1)),
                                  float(s.get("freq", np.nan)), float(s.get("modal_damp_vis", 0.0)), nums, values))
         elif t == 164:
-            length_factor = float(s.get("length", 1.0)) or 1.0
-            force_factor = float(s.get("force", 1.0)) or 1.0
+            length_factor, force_factor = (_units_factor(path, k, s, name) for name in ("length", "force"))
             units = str(s.get("units_description", "")).strip()
         elif t == 151:
             header = {key: v for key, v in s.items() if key != "type"}
@@ -265,6 +264,22 @@ def read_uff(path: str | Path) -> UffContent:
         )
     return UffContent(functions, geometry, [int(s.get("type", 0)) for s in sets], modes, length_factor, header,
                       force_factor, units)
+
+
+#: dataset 164 factors (file units per SI unit) of real units: a nanometre's 1e9 to a kilometre's
+#: 1e-3, a meganewton's 1e-6; beyond them coordinates are divided into overflow or nothing
+UNITS_FACTOR_RANGE = (1e-9, 1e9)
+
+
+def _units_factor(path: Path, index: int, s: dict, name: str) -> float:
+    """A 164 set's length or force factor; a negative one mirrored every node, NaN made them NaN."""
+    value = float(s.get(name, 1.0))
+    low, high = UNITS_FACTOR_RANGE
+    if not low <= value <= high:
+        raise ConfigError(f"{path}: dataset {index + 1} (164 units {str(s.get('units_description', '')).strip()!r}) "
+                          f"field {name!r}: expected a factor from {low:g} to {high:g} file units per SI unit, "
+                          f"got {value:g}")
+    return value
 
 
 def _check_sets(path: Path, sets: list[dict]) -> None:

@@ -204,16 +204,22 @@ def _uff_without_rig(unit: str) -> Callable[[Path], list[str]]:
     return argv
 
 
-def _uff_in_mm(d: Path) -> list[str]:
-    """``import`` into r.h5 (no rig) of a UFF whose units set (164) is mm and mN, its record in m/s^2."""
-    import pyuff
+def _uff_units(unit: str, description: str, length: float, force: float, nodes: bool = False) -> Callable[[Path], list[str]]:
+    """``import`` into r.h5 (no rig) of a UFF whose record is in ``unit`` and whose units set (164)
+    has these factors; with ``nodes``, a node set (15) of nodes 1 and 2 too."""
+    def argv(d: Path) -> list[str]:
+        import pyuff
 
-    argv = _uff_without_rig("m/s^2")(d)
-    sets = pyuff.UFF(str(d / "r.uff")).read_sets()
-    sets[0] = pyuff.prepare_164(units_code=5, units_description="mm (milli newton)", temp_mode=2, length=1000.0,
-                                force=1000.0, temp=1.0, temp_offset=273.15, return_full_dict=True)
-    (d / "r.uff").write_bytes(b"")
-    pyuff.UFF(str(d / "r.uff")).write_sets(sets, mode="add")
+        argv = _uff_without_rig(unit)(d)
+        sets = pyuff.UFF(str(d / "r.uff")).read_sets()
+        sets[0] = pyuff.prepare_164(units_code=5, units_description=description, temp_mode=2, length=length,
+                                    force=force, temp=1.0, temp_offset=273.15, return_full_dict=True)
+        if nodes:
+            sets.append(pyuff.prepare_15(node_nums=[1, 2], def_cs=[0, 0], disp_cs=[0, 0], color=[1, 1], x=[0.1, 0.2],
+                                         y=[0.0, 0.0], z=[0.0, 0.0], return_full_dict=True))
+        (d / "r.uff").write_bytes(b"")
+        pyuff.UFF(str(d / "r.uff")).write_sets(sets, mode="add")
+        return argv
     return argv
 
 
@@ -660,7 +666,11 @@ CASES: list[Case] = [
     Case('uff-unit-prefix', 'UFF time record in `mg` imported into a project without a rig (stored as volts at scale 1)', "{dir}/r.uff: channel 'acc': unit 'mg' is not one of m/s^2, g, N, V (NONE, Pa, m, m/s kept as they are)",
          argv=_uff_without_rig('mg')),
     Case('uff-units-mm', "UFF time record labelled m/s^2 in a file whose units set (164) is mm and mN (read as SI, 1000 times off)", "{dir}/r.uff: dataset 164 gives the file's units as 'mm (milli newton)' (length factor 1000, force factor 1000 per SI unit): record 'acc' (m/s^2) would be read as SI; odsuite imports records in SI units only",
-         argv=_uff_in_mm),
+         argv=_uff_units("m/s^2", "mm (milli newton)", 1000.0, 1000.0)),
+    Case("uff-units-negative", "UFF of a time record in V and nodes whose units set (164) has the length factor -1 (the nodes were stored mirrored)", "{dir}/r.uff: dataset 1 (164 units 'mirror') field 'length': expected a factor from 1e-09 to 1e+09 file units per SI unit, got -1",
+         argv=_uff_units("V", "mirror", -1.0, 1.0, nodes=True)),
+    Case("uff-units-nan", "UFF of a time record in V and nodes whose units set (164) has the length factor NaN (the nodes were stored as NaN)", "{dir}/r.uff: dataset 1 (164 units 'odd') field 'length': expected a factor from 1e-09 to 1e+09 file units per SI unit, got nan",
+         argv=_uff_units("V", "odd", float("nan"), 1.0, nodes=True)),
     Case("lvm-force-channel", "--force-channel names no channel of the file", "{dir}/bad.lvm: no channel 'Hammer'; channels are Force, Response", **lvm(LVM_TEXT, "--force-channel", "Hammer")),
     # UFF (API)
     Case("uff-missing", "UFF file that does not exist (API)", '{dir}/none.uff: UFF file not found', call=lambda d: _read_uff(d, "none.uff")),
