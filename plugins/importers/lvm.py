@@ -10,6 +10,7 @@ column may be empty.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -106,6 +107,12 @@ class _Block:
     times: list[list[float]] = field(default_factory=list)
     segment_starts: list[int] = field(default_factory=list)
     n_channels: int = 0
+    #: each segment's channel header, field lines, names and channel count, as it ended
+    segments: list[_Block] = field(default_factory=list)
+
+    def close_segment(self) -> None:
+        self.segments.append(_Block(dict(self.channel_header), dict(self.header_lines), self.names,
+                                    n_channels=self.n_channels))
 
 
 def _lines(path: Path) -> list[str]:
@@ -198,6 +205,7 @@ def _data_block(path: Path, lines: list[str], start: int, sep: str, decimal: str
         if not in_data or fields[0] == "Channels":
             if fields[0] == "Channels" and in_data:
                 in_data = False  # a new segment header
+                block.close_segment()
             if line.startswith(END_OF_HEADER):
                 value_cols, time_cols = _segment_columns(path, block, x_columns, lineno)
                 block.segment_starts.append(len(block.rows))
@@ -208,6 +216,7 @@ def _data_block(path: Path, lines: list[str], start: int, sep: str, decimal: str
             continue
         if fields[0] == "X_Value":
             block.names = [fields[c] for c in value_cols if c < len(fields)]
+            block.header_lines["X_Value"] = lineno
             continue
         # the channels' columns and one Comment column; more cells are no row LabVIEW wrote
         if len(fields) > value_cols[-1] + 2:
@@ -223,6 +232,7 @@ def _data_block(path: Path, lines: list[str], start: int, sep: str, decimal: str
         raise ConfigError(f"{path}: no channel header ({END_OF_HEADER} after 'Channels') found")
     if not block.rows:
         raise ConfigError(f"{path}: no data rows after the channel header")
+    block.close_segment()
     return block
 
 
@@ -246,6 +256,10 @@ def _delta_x(path: Path, block: _Block, x_columns: str, decimal: str) -> list[fl
             raise ConfigError(f"{path}: field Delta_X of channel {k} is {s!r} s, a sampling rate outside "
                               f"{MIN_RATE_HZ:g}..{MAX_RATE_HZ:g} Hz")
         delta_x.append(_snap_delta_x(s.replace(decimal, "."), dx))
+        if not math.isclose(delta_x[-1], delta_x[0], rel_tol=1e-9):  # one record has one rate
+            raise ConfigError(f"{path}: line {block.header_lines.get('Delta_X', 0)}, Delta_X of channel {k}: {s!r} s "
+                              f"differs from channel 0's {delta_x[0]:g} s; odsuite stores a record at one "
+                              "sampling rate")
     return delta_x
 
 
@@ -274,6 +288,22 @@ def read_lvm(path: str | Path) -> LvmData:
     header, start = _file_header(path, lines)
     sep, decimal, x_columns = _layout(path, header)
     block = _data_block(path, lines, start, sep, decimal, x_columns)
+    channels = _same_segments(path, block, x_columns, decimal)
     return LvmData(path=path, header=header, data=np.asarray(block.rows, dtype=float),
                    time=np.asarray(block.times, dtype=float) if block.times else None,
-                   segment_starts=block.segment_starts, **_channels(path, block, x_columns, decimal))
+                   segment_starts=block.segment_starts, **channels)
+
+
+def _same_segments(path: Path, block: _Block, x_columns: str, decimal: str) -> dict:
+    """The channels (``_channels``) of every segment, which must agree: the segments' rows are read
+    as one record (another rate, unit or channel order was read with the last segment's)."""
+    first = _channels(path, block.segments[0], x_columns, decimal)
+    for number, segment in enumerate(block.segments[1:], start=2):
+        later = _channels(path, segment, x_columns, decimal)
+        for key, header_field in (("channel_names", "X_Value"), ("units", "Y_Unit_Label"), ("delta_x", "Delta_X")):
+            if later[key] != first[key]:
+                what = "channel names (X_Value)" if key == "channel_names" else header_field
+                raise ConfigError(f"{path}: line {segment.header_lines.get(header_field, 0)}: segment {number}'s "
+                                  f"{what} {later[key]} differ from segment 1's {first[key]}; odsuite reads the "
+                                  "segments as one record")
+    return first

@@ -31,6 +31,9 @@ LVM_TEXT = (
     "X_Value\tForce\tResponse\tComment\n\t0,5\t1,0\n\t1,5\t2,0\n\t0,1\t-1,0\n\t0,0\t0,5\n"
 )
 
+#: LVM_TEXT's channel header and rows: a second segment
+LVM_SEGMENT = "\n" + LVM_TEXT[LVM_TEXT.index("Channels"):]
+
 RIG_TOML = """
 name = "bench"
 force_channel = 0
@@ -671,6 +674,14 @@ CASES: list[Case] = [
          argv=_uff_units("V", "mirror", -1.0, 1.0, nodes=True)),
     Case("uff-units-nan", "UFF of a time record in V and nodes whose units set (164) has the length factor NaN (the nodes were stored as NaN)", "{dir}/r.uff: dataset 1 (164 units 'odd') field 'length': expected a factor from 1e-09 to 1e+09 file units per SI unit, got nan",
          argv=_uff_units("V", "odd", float("nan"), 1.0, nodes=True)),
+    Case("lvm-channel-rates", ".lvm whose second channel's Delta_X is twice the first's (stored at the first's rate)", "{dir}/bad.lvm: line 16, Delta_X of channel 1: '2,0E-4' s differs from channel 0's 0.0001 s; odsuite stores a record at one sampling rate",
+         **lvm(LVM_TEXT.replace("1,0E-4\t1,0E-4", "1,0E-4\t2,0E-4"))),
+    Case("lvm-segment-rate", ".lvm whose second segment has Delta_X 2,0E-4 (both read at the last segment's rate)", "{dir}/bad.lvm: line 29: segment 2's Delta_X [0.0002, 0.0002] differ from segment 1's [0.0001, 0.0001]; odsuite reads the segments as one record",
+         **lvm(LVM_TEXT + LVM_SEGMENT.replace("1,0E-4\t1,0E-4", "2,0E-4\t2,0E-4"))),
+    Case("lvm-segment-order", ".lvm whose second segment lists Response before Force (its columns were read as the first's)", "{dir}/bad.lvm: line 31: segment 2's channel names (X_Value) ['Response', 'Force'] differ from segment 1's ['Force', 'Response']; odsuite reads the segments as one record",
+         **lvm(LVM_TEXT + LVM_SEGMENT.replace("Force\tResponse", "Response\tForce"))),
+    Case("lvm-segment-channels", ".lvm whose second segment has one channel (ValueError: inhomogeneous shape)", "{dir}/bad.lvm: line 31: segment 2's channel names (X_Value) ['Force'] differ from segment 1's ['Force', 'Response']; odsuite reads the segments as one record",
+         **lvm(LVM_TEXT + LVM_SEGMENT.replace("Channels\t2", "Channels\t1").replace("Force\tResponse", "Force"))),
     Case("lvm-force-channel", "--force-channel names no channel of the file", "{dir}/bad.lvm: no channel 'Hammer'; channels are Force, Response", **lvm(LVM_TEXT, "--force-channel", "Hammer")),
     # UFF (API)
     Case("uff-missing", "UFF file that does not exist (API)", '{dir}/none.uff: UFF file not found', call=lambda d: _read_uff(d, "none.uff")),
