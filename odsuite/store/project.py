@@ -296,6 +296,11 @@ class Experiment:
                                h5text.text(raw_attrs["units"]) if "units" in raw_attrs else None)
         # every format version keeps the record's rate on the experiment; a Systeminfo written
         # without one (row 7 left at 0 Hz, as API callers could) takes it from there
+        # every dataset of the table from its storage first, as the raw record: a column list of 10^8
+        # rows made by hand and never written took info minutes and gigabytes
+        if isinstance(g["systeminfo"], h5py.Group):
+            g["systeminfo"].visititems(lambda n, o: check_written(
+                o, f"{project.path}: experiment {name!r} field 'systeminfo/{n}'") if isinstance(o, h5py.Dataset) else None)
         self.systeminfo = read_systeminfo(
             g["systeminfo"], lambda k, *bad: systeminfo_refusal(project.path, name, k, *bad),
             lambda *bad: rig_refusal(project.path, name, *bad)).with_rate(self.sampling_rate)
@@ -805,6 +810,9 @@ class Project:
     def read_derived(self, experiment: str, kind: str) -> dict[str, np.ndarray]:
         """Every dataset of a derived group, read into memory."""
         g = self._derived_group(experiment, kind)
+        for n, ds in g.items():
+            if isinstance(ds, h5py.Dataset):
+                check_written(ds, f"{self.path}: experiment {experiment!r} derived {kind!r} field {n!r}")
         try:
             return {n: ds[()] for n, ds in g.items()}
         except OSError as exc:

@@ -226,6 +226,19 @@ def _uff_units(unit: str, description: str, length: float, force: float, nodes: 
     return argv
 
 
+def _unwritten_coordinates(d: Path) -> list[str]:
+    """``export-legacy --cod`` of e1 in processed.h5, its platform coordinates replaced by 10^9 rows never written."""
+    import h5py
+
+    with h5py.File(d / "processed.h5", "a") as f:
+        g = f["experiments/e1/derived/gencoords"]
+        attrs = dict(g["platform_at_g"].attrs)
+        del g["platform_at_g"]
+        g.create_dataset("platform_at_g", shape=(10**9, 6), dtype="f8")
+        g["platform_at_g"].attrs.update(attrs)
+    return ["export-legacy", str(d / "processed.h5"), "e1", "--cod", str(d / "out.COD")]
+
+
 def _on_bench_rig(toml: str, *argv: str) -> Callable[[Path], list[str]]:
     """A command line on r.h5, a new project on the bench rig with ``toml`` added to its file."""
     def make(d: Path) -> list[str]:
@@ -370,6 +383,9 @@ def _handmade(kind: str, command: str = "info") -> Callable[[Path], list[str]]:
             elif kind == "raw unwritten":  # 10^9 rows declared, no chunk written
                 del e["raw"]
                 e.create_dataset("raw", shape=(10**9, 11), dtype="f8", chunks=(4096, 11))
+            elif kind == "columns unwritten":  # 10^9 column numbers declared, none written
+                del e["systeminfo/rig/coordinate_columns"]
+                e["systeminfo/rig"].create_dataset("coordinate_columns", shape=(10**9,), dtype="i8")
             elif kind == "raw unwritten gzip":  # compressed chunks: their bytes say nothing, their count does
                 del e["raw"]
                 e.create_dataset("raw", shape=(10**9, 11), dtype="f8", chunks=(65536, 11), compression="gzip")
@@ -1069,6 +1085,10 @@ CASES: list[Case] = [
          argv=_handmade("raw group", "info")),
     Case("stored-raw-unwritten", "info on a project whose raw record declares 10^9 rows and stores none", "{dir}/x.h5: experiment 'e1' field 'raw': shape (1000000000, 11) of 88000000000 bytes, of which 0 are stored (not written by odsuite)",
          argv=_handmade("raw unwritten", "info")),
+    Case("stored-columns-unwritten", "info on a project whose channel table's coordinate columns declare 10^9 rows and store none (read as 8 GB of zeros)", "{dir}/x.h5: experiment 'e1' field 'systeminfo/rig/coordinate_columns': shape (1000000000,) of 8000000000 bytes, of which 0 are stored (not written by odsuite)",
+         argv=_handmade("columns unwritten", "info")),
+    Case("stored-derived-unwritten", "export-legacy --cod of a processed experiment whose coordinates declare 10^9 rows and store none (read as 48 GB of zeros)", "{dir}/processed.h5: experiment 'e1' derived 'gencoords' field 'platform_at_g': shape (1000000000, 6) of 48000000000 bytes, of which 0 are stored (not written by odsuite)",
+         argv=_unwritten_coordinates),
     Case("stored-raw-unwritten-gzip", "info on a project whose gzip-compressed raw record declares 10^9 rows and stores no chunk (info ran for minutes)", "{dir}/x.h5: experiment 'e1' field 'raw': shape (1000000000, 11) of 88000000000 bytes in 15259 chunks, of which 0 are stored (not written by odsuite)",
          argv=_handmade("raw unwritten gzip", "info")),
     Case("stored-raw-bomb", "compare on a project whose raw record is 10^6 x 11 zeros, gzip-compressed a thousandfold", "{dir}/x.h5: experiment 'e1' field 'raw': shape (1000000, 11) of 88000000 bytes stored in",
