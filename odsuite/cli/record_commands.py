@@ -116,7 +116,7 @@ def acquire_cmd(
                                "acquisition sampling_rate, else 20000 Hz)."),
     samples: int = typer.Option(4096, "--samples", help="Samples per channel."),
     pretrigger: int = typer.Option(None, "--pretrigger", help="Samples kept before the trigger (default: "
-                                   "the rig file's acquisition pre_trigger, else 512)."),
+                                   "the rig file's acquisition pre_trigger, else 512, at most half of --samples)."),
     trigger_level: float = typer.Option(1.0, "--trigger-level", help="Force trigger level, N."),
     trigger_slope: str = typer.Option("rising", "--trigger-slope", help="rising or falling."),
     trigger_timeout: float = typer.Option(10.0, "--trigger-timeout", help="Seconds to wait for the trigger."),
@@ -143,7 +143,9 @@ def acquire_cmd(
     rig_pre = pretrigger is None and acq is not None and acq.pre_trigger is not None
     if rate is None or pretrigger is None:  # the rig's own settings, when its file states them
         rate = rate if rate is not None else (acq.sampling_rate if acq and acq.sampling_rate else 20_000.0)
-        pretrigger = pretrigger if pretrigger is not None else (acq.pre_trigger if rig_pre else 512)
+        # 512, but never more than half the record: --samples 256 was refused for a pretrigger not given
+        pretrigger = pretrigger if pretrigger is not None else (acq.pre_trigger if rig_pre else
+                                                                max(0, min(512, samples // 2)))
     if rig_pre and 2 <= samples <= pretrigger:  # the settings' own check would not say where the number came from
         raise ConfigError(f"--samples {samples} is not more than the {pretrigger} samples before the trigger that "
                           f"rig {rig.name!r} sets ([acquisition] pre_trigger = {pretrigger}): pass --samples above "

@@ -490,3 +490,14 @@ def test_a_quoted_name_never_takes_a_possessive(capsys, tmp_path):
     found = [f"{path.relative_to(root)}:{n}" for folder in ("odsuite", "plugins") for path in (root / folder).rglob("*.py")
              for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1) if re.search(r"!r\}'s\b", line)]
     assert not found, found
+
+
+def test_a_short_record_takes_a_pretrigger_it_can_hold(capsys, tmp_path):
+    # --samples 256 on a rig whose file sets no pre_trigger was refused for the default 512 samples
+    # before the trigger, a number the user never gave
+    rig = Path(__file__).resolve().parents[1] / "data" / "rigs" / "undamped-block.toml"
+    (tmp_path / "rig.toml").write_text(rig.read_text(encoding="utf-8").replace("pre_trigger = 32\n", ""))
+    assert run(capsys, "new", tmp_path / "b.h5", "--rig", tmp_path / "rig.toml")[0] == 0
+    code, out, err = run(capsys, "acquire", tmp_path / "b.h5", "--name", "a", "--samples", "256")
+    assert code == 0, err
+    assert "256 samples x 10 channels at 512 Hz, 128 before the trigger" in out
