@@ -554,6 +554,7 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     errors a few 1e-13 apart between runs on several workers; decisions are not that fine)."""
     if workers is not None:
         arguments.whole("diagnose", "workers", workers, low=1)
+        arguments.check_workers(workers)  # as --workers: a million were forked from Python
     # -1 fitted all but the last candidate; text raised inside
     arguments.whole("diagnose", "full_fits", full_fits, low=1)
     # one BLAS thread throughout, not only around the candidates' work: the baseline, the ranking

@@ -1155,6 +1155,8 @@ CASES: list[Case] = [
          call=_render_api("projection", "p.png", {"view": 5})),
     Case("render-api-workers-huge", "movie renderer with options {\"workers\": 1000000} (API; only the command line held it to 4 per core)", "processes (4 per core), got 1000000",
          call=_render_api("movie", "m.gif", {"workers": 1000000})),
+    Case("api-diagnose-workers-huge", "diagnose with workers=1000000 (API; only the command line held it to 4 per core, and a fork context starts every process)", "processes (4 per core), got 1000000",
+         call=lambda d: _on_project(d, lambda api, p: api.diagnose(p, workers=1000000))),
     Case("render-api-options-list", "a RenderRequest whose options are a list (API)", "render options: expected a mapping of option names to values, got list",
          call=_render_api("movie", "m.gif", ["fps"])),
     Case("modes-at-empty", "modes --at '' (ran as if absent)", "--at '': expected comma-separated frequencies in Hz",
