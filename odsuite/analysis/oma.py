@@ -101,6 +101,9 @@ def ssi_cov(
         block_rows = max(int(np.ceil(max_order / n_out)) + 1, 20)
     if block_rows * n_out < max_order:
         raise ConfigError(f"SSI-cov: {block_rows} block rows x {n_out} outputs cannot hold model order {max_order}")
+    if y.shape[0] < 2 * block_rows:  # a lag as long as the record has no product to average: R / 0
+        raise DimensionError(f"SSI-cov: {y.shape[0]} samples hold no lags up to {2 * block_rows - 1} "
+                             f"({block_rows} block rows)")
     y = y - y.mean(axis=0)
     scale = np.maximum(y.std(axis=0), np.finfo(float).tiny)
     y = y / scale  # equal weight per output in the SVD; poles unchanged, shapes scaled back below

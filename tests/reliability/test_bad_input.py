@@ -480,6 +480,16 @@ def _imported(name: str, write: Callable[[Path], object], *options: str) -> Call
     return argv
 
 
+def _one_sine(d: Path) -> list[str]:
+    """``modes --output-only`` of r.h5 (no rig) holding one channel: 4096 samples of a 15.9 Hz sine at 1 kHz."""
+    from odsuite.store.project import create_project
+    from odsuite_plugins.importers.columns import import_columns
+
+    create_project(d / "r.h5", rig=None).close()
+    import_columns(d / "r.h5", d / "one.npy", "one", ["ch1"], ["g"], np.sin(0.1 * np.arange(4096.0))[:, None], 1000.0)
+    return ["modes", str(d / "r.h5"), "--experiment", "one", "--output-only"]
+
+
 def _npy(data) -> Callable[[Path], None]:
     return lambda path: np.save(path, data)
 
@@ -1115,6 +1125,8 @@ CASES: list[Case] = [
          argv=lambda d: ["modes", str(d / "p.h5"), "--experiment", "e1", "--output-only", "--max-order", "100000"]),
     Case("modes-output-only-order-slow", "modes --output-only --max-order 1000 (ran for half an hour)", "--max-order 1000: at most 400 (SSI-cov solves an eigenproblem per even order, its time grows with the order's fourth power)",
          argv=lambda d: ["modes", str(d / "p.h5"), "--experiment", "e1", "--output-only", "--max-order", "1000"]),
+    Case("modes-output-only-short-segments", "modes --output-only of one channel, 4096 samples of a sine at 1 kHz (its quarter segments, decimated, were shorter than the lags: numpy's LinAlgError 'SVD did not converge')", "{dir}/r.h5: experiment 'one': no stable pole in 0..19.5 Hz is confirmed as a mode",
+         argv=_one_sine),
     Case("modes-decimate-zero", "modes --output-only --decimate 0", "--decimate: a factor of at least 1, got 0",
          argv=lambda d: ["modes", str(d / "p.h5"), "--experiment", "e1", "--output-only", "--decimate", "0"]),
     Case("import-csv-name-newline", "CSV column name holding a line break inside quotes", "{dir}/r.csv: channels: column 1 name: expected printable text of at most 200 characters (no control, escape or bidirectional characters), got 'a\\nb'",
