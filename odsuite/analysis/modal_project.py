@@ -64,6 +64,9 @@ def hits_frf(exp, where: str, *, estimator: str = "H1", record_length: int | Non
     limits = _converter_ranges(exp, data)
     fidx = exp.excitation.force_channel
     outs = [k for k in range(exp.n_channels) if k != fidx]
+    if not outs:  # 'H1 FRFs of 0 channels' were stored
+        raise ConfigError(f"{where} holds its force channel {exp.channel_names[fidx]!r} alone: no response to "
+                          "estimate FRFs of")
     hits = assess_hits(data[:, fidx], data[:, outs], exp.sampling_rate, record_length=record_length,
                        force_limits=limits[fidx], response_limits=[limits[k] for k in outs])
     good = [h for h in hits if h.accepted] or (list(hits) if flagged_too else [])

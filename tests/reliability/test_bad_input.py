@@ -490,6 +490,18 @@ def _one_sine(d: Path) -> list[str]:
     return ["modes", str(d / "r.h5"), "--experiment", "one", "--output-only"]
 
 
+def _force_alone(d: Path) -> list[str]:
+    """``frf`` of r.h5 (no rig) holding one channel, a hammer's force in N."""
+    from odsuite.store.project import create_project
+    from odsuite_plugins.importers.columns import import_columns
+
+    create_project(d / "r.h5", rig=None).close()
+    force = np.zeros(100)
+    force[10] = 50.0
+    import_columns(d / "r.h5", d / "f.csv", "fo", ["hammer"], ["N"], force[:, None], 1000.0)
+    return ["frf", str(d / "r.h5"), "--experiment", "fo"]
+
+
 def _npy(data) -> Callable[[Path], None]:
     return lambda path: np.save(path, data)
 
@@ -1127,6 +1139,8 @@ CASES: list[Case] = [
          argv=lambda d: ["modes", str(d / "p.h5"), "--experiment", "e1", "--output-only", "--max-order", "1000"]),
     Case("modes-output-only-short-segments", "modes --output-only of one channel, 4096 samples of a sine at 1 kHz (its quarter segments, decimated, were shorter than the lags: numpy's LinAlgError 'SVD did not converge')", "{dir}/r.h5: experiment 'one': no stable pole in 0..19.5 Hz is confirmed as a mode",
          argv=_one_sine),
+    Case("frf-force-alone", "frf of a record holding a hammer's force channel alone (stored 'H1 FRFs of 0 channels')", "{dir}/r.h5: experiment 'fo' holds its force channel 'hammer' alone: no response to estimate FRFs of",
+         argv=_force_alone),
     Case("modes-decimate-zero", "modes --output-only --decimate 0", "--decimate: a factor of at least 1, got 0",
          argv=lambda d: ["modes", str(d / "p.h5"), "--experiment", "e1", "--output-only", "--decimate", "0"]),
     Case("import-csv-name-newline", "CSV column name holding a line break inside quotes", "{dir}/r.csv: channels: column 1 name: expected printable text of at most 200 characters (no control, escape or bidirectional characters), got 'a\\nb'",
