@@ -150,7 +150,9 @@ def default_chains(rig: Rig, systeminfo: Systeminfo, *, noise: float = 1.0,
             chain = replace(chain, **sensor_front)
         if filtered and (ch != rig.force_channel or aa.force_channel):
             chain = replace(chain, **filtered)
-        elif not filtered and chain.aaf_cutoff_hz is not None:
+        elif filtered:  # a force channel that bypasses the declared filter passes none: not the thesis's 1 kHz
+            chain = replace(chain, aaf_cutoff_hz=None)
+        elif chain.aaf_cutoff_hz is not None:
             chain = replace(chain, aaf_cutoff_hz=min(chain.aaf_cutoff_hz, ANTI_ALIAS_RATE_FRACTION * info.sampling_rate))
         if adc_bits is not None:
             chain = replace(chain, adc_bits=adc_bits)
