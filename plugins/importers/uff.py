@@ -176,10 +176,12 @@ def read_uff(path: str | Path) -> UffContent:
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read ({exc.strerror or exc})") from None
     pyuff = _pyuff()
+    uff = None
     try:
-        sets = pyuff.UFF(str(path)).read_sets()
+        uff = pyuff.UFF(str(path))
+        sets = uff.read_sets()
     except Exception as exc:  # pyuff raises bare Exceptions on malformed files
-        raise ConfigError(f"{path}: not a readable UFF file ({exc})") from exc
+        raise ConfigError(f"{path}: not a readable UFF file ({_unreadable_set(uff, types) or exc})") from exc
     sets = [sets] if isinstance(sets, dict) else sets
     uff_checks.check_types(path, types, sets)
     _check_sets(path, sets)
@@ -280,6 +282,17 @@ def _units_factor(path: Path, index: int, s: dict, name: str) -> float:
                           f"field {name!r}: expected a factor from {low:g} to {high:g} file units per SI unit, "
                           f"got {value:g}")
     return value
+
+
+def _unreadable_set(uff, types: list[int]) -> str:
+    """The first dataset pyuff cannot read and its reason ('dataset 1 (164): Error reading data-set
+    #164'): reading them all, it says only 'Error when reading data-set(s).'; "" when none is found."""
+    for k, kind in enumerate(types if uff is not None else ()):
+        try:
+            uff.read_sets(k)
+        except Exception as exc:
+            return f"dataset {k + 1} ({kind}): {exc.__context__ or exc}"
+    return ""
 
 
 def _check_sets(path: Path, sets: list[dict]) -> None:

@@ -239,6 +239,16 @@ def _unwritten_coordinates(d: Path) -> list[str]:
     return ["export-legacy", str(d / "processed.h5"), "e1", "--cod", str(d / "out.COD")]
 
 
+def _uff_units_cut(d: Path) -> list[str]:
+    """``import`` into r.h5 (no rig) of a UFF whose units set (164) ends after its description line."""
+    argv = _uff_without_rig("V")(d)
+    text = (d / "r.uff").read_bytes()
+    start = text.index(b"164")
+    line3 = text.index(b"\n", text.index(b"\n", start) + 1) + 1  # after the type and description lines
+    (d / "r.uff").write_bytes(text[:line3] + text[text.index(b"    -1", line3):])
+    return argv
+
+
 def _on_bench_rig(toml: str, *argv: str) -> Callable[[Path], list[str]]:
     """A command line on r.h5, a new project on the bench rig with ``toml`` added to its file."""
     def make(d: Path) -> list[str]:
@@ -708,6 +718,8 @@ CASES: list[Case] = [
          argv=_uff_without_rig('mg')),
     Case('uff-units-mm', "UFF time record labelled m/s^2 in a file whose units set (164) is mm and mN (read as SI, 1000 times off)", "{dir}/r.uff: dataset 164 gives the file's units as 'mm (milli newton)' (length factor 1000, force factor 1000 per SI unit): record 'acc' (m/s^2) would be read as SI; odsuite imports records in SI units only",
          argv=_uff_units("m/s^2", "mm (milli newton)", 1000.0, 1000.0)),
+    Case("uff-units-cut", "UFF whose units set (164) lacks its line of factors (it named no dataset: 'Error when reading data-set(s).')", "{dir}/r.uff: not a readable UFF file (dataset 1 (164): Error reading data-set #164)",
+         argv=_uff_units_cut),
     Case("uff-units-negative", "UFF of a time record in V and nodes whose units set (164) has the length factor -1 (the nodes were stored mirrored)", "{dir}/r.uff: dataset 1 (164 units 'mirror') field 'length': expected a factor from 1e-09 to 1e+09 file units per SI unit, got -1",
          argv=_uff_units("V", "mirror", -1.0, 1.0, nodes=True)),
     Case("uff-units-nan", "UFF of a time record in V and nodes whose units set (164) has the length factor NaN (the nodes were stored as NaN)", "{dir}/r.uff: dataset 1 (164 units 'odd') field 'length': expected a factor from 1e-09 to 1e+09 file units per SI unit, got nan",
