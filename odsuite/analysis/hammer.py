@@ -48,15 +48,18 @@ def _as_2d(responses: np.ndarray, n: int) -> np.ndarray:
 def find_hits(
     force: np.ndarray, *, threshold: float = 0.2, min_gap: int, pretrigger: int = 0
 ) -> list[int]:
-    """Sample of the force peak of every hit: a hit starts where |force - baseline| first exceeds
-    ``threshold`` x the largest excursion, and hits closer than ``min_gap`` samples merge into one
+    """Sample of the force peak of every hit: a hit starts where force - baseline, taken in the
+    sign of its largest excursion, first exceeds ``threshold`` x that excursion, and hits closer than ``min_gap`` samples merge into one
     (a close second impact is then a double hit of the first). The baseline is the median."""
     f = np.asarray(force, dtype=float)
     if f.ndim != 1 or f.size == 0:
         raise DimensionError(f"force must be a non-empty 1-D signal, got shape {f.shape}")
     if not 0 < threshold < 1:
         raise ConfigError(f"hit threshold {threshold} must lie between 0 and 1 (fraction of the peak)")
-    dev = np.abs(f - np.median(f))
+    signed = f - np.median(f)
+    # a hammer pushes one way: a filtered pulse's opposite lobe (an 8th-order 1 kHz low-pass rings
+    # for over a thousand samples at 1 MHz) is no second hit
+    dev = signed * (1.0 if signed.max() >= -signed.min() else -1.0)
     above = np.flatnonzero(dev > threshold * dev.max())
     peaks: list[int] = []
     last_start = -(10**18)

@@ -96,3 +96,20 @@ def test_per_channel_response_limits_in_assess_hits():
     assert hits[0].reasons == ("response channel 1 clipped/overloaded",)
     with pytest.raises(DimensionError, match="1 response limits for 2 response channels"):
         assess_hits(force, resp, FS, response_limits=[(-1.0, 1.0)])
+
+
+def test_a_filtered_pulses_opposite_lobe_is_no_second_hit():
+    # a 0.5 ms blow through an 8th-order 1 kHz low-pass recorded at 1 MHz rings for over a
+    # thousand samples: its negative lobe (40 % of the peak) was taken as a second, accepted hit,
+    # which cut both records to 863 samples (FRF lines 1.16 kHz apart)
+    import scipy.signal
+
+    from odsuite.analysis.hammer import find_hits
+
+    fs, n = 1e6, 65536
+    t = (np.arange(n) - 800) / fs
+    pulse = np.where((t >= 0) & (t <= 5e-4), np.sin(np.pi * np.clip(t, 0, 5e-4) / 5e-4), 0.0)
+    force = scipy.signal.sosfilt(scipy.signal.butter(8, 1000.0, fs=fs, output="sos"), pulse)
+    assert -force.min() > 0.2 * force.max()  # the lobe the threshold met
+    assert len(find_hits(force, min_gap=n // 64)) == 1
+    assert len(find_hits(-force, min_gap=n // 64)) == 1  # a load cell wired the other way
