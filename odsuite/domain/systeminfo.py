@@ -19,7 +19,7 @@ from pathlib import Path
 from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError, OdsuiteWarning
 from odsuite.domain.filter_kinds import MAX_FILTER_ORDER, FilterFamily, FilterType
-from odsuite.domain.rig import NINE_ROLES, Rig
+from odsuite.domain.rig import MAX_CHANNELS, NINE_ROLES, Rig
 from odsuite.domain.textfiles import read_text
 
 
@@ -114,10 +114,14 @@ class RigInfo:
     nine_channels: list[int] = field(default_factory=list)
 
 
+#: row 29's .COD columns: 6 per body, at most a body per channel (1e30 overflowed the store's integers)
+MAX_COORDINATE_COLUMN = 6 * MAX_CHANNELS - 1
+
+
 def column_in_range(name: str, value: object, n_channels: int) -> bool:
     """Whether ``value`` may be an entry of RigInfo's column list ``name``: a whole number from 0,
-    and for ``nine_channels`` (raw channels) below ``n_channels``."""
-    high = n_channels if name == "nine_channels" else math.inf
+    for ``nine_channels`` (raw channels) below ``n_channels``, else at most MAX_COORDINATE_COLUMN."""
+    high = n_channels if name == "nine_channels" else MAX_COORDINATE_COLUMN + 1
     return isinstance(value, numbers.Integral) and not isinstance(value, bool) and 0 <= value < high
 
 
@@ -320,7 +324,8 @@ class Systeminfo:
                                   f"{len(self.channels)} channels")
         for i, c in enumerate(self.rig.coordinate_columns):  # the stored table refuses these too
             if not column_in_range("coordinate_columns", c, len(self.channels)):
-                raise ConfigError(f"{where(source, 29, i)}: expected a column number of 0 or more, got {c!r}")
+                raise ConfigError(f"{where(source, 29, i)}: expected a column number from 0 to "
+                                  f"{MAX_COORDINATE_COLUMN}, got {c!r}")
         for row, value in ((30, self.rig.rx), (31, self.rig.ry), (32, self.rig.rz)):
             if value is not None and (not _finite(value) or value <= 0):
                 raise ConfigError(f"{where(source, row, 0)}: must be > 0, got {value!r} m")

@@ -101,7 +101,7 @@ def check_systeminfo(path: Path, name: str, channels: list, n_channels: int, rig
     lists within range."""
     from odsuite.domain.filter_kinds import MAX_FILTER_ORDER
     from odsuite.domain.rig import SENSITIVITY_RANGE
-    from odsuite.domain.systeminfo import column_in_range
+    from odsuite.domain.systeminfo import MAX_COORDINATE_COLUMN, column_in_range
 
     if len(channels) != n_channels:
         raise _bad(path, f"experiment {name!r}", "systeminfo.channels", len(channels),
@@ -111,7 +111,7 @@ def check_systeminfo(path: Path, name: str, channels: list, n_channels: int, rig
         columns = getattr(rig, field)
         if not all(column_in_range(field, c, n_channels) for c in columns):
             raise rig_refusal(path, name, field, columns, f"channel numbers 0 to {n_channels - 1}"
-                              if field == "nine_channels" else "column numbers of 0 or more")
+                              if field == "nine_channels" else f"column numbers from 0 to {MAX_COORDINATE_COLUMN}")
     # the widest writer's range: a rig file's V per SI unit, per micro-unit on a micro-units channel
     lowest, highest = 1e-6 * SENSITIVITY_RANGE[0], SENSITIVITY_RANGE[1]
     for k, ch in enumerate(channels):
