@@ -55,8 +55,8 @@ def _filter(where: str, value: Any) -> dict[str, Any]:
     for key in ("ripple_db", "attenuation_db"):
         if key in value:
             v = value[key]
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < 200:
-                raise ConfigError(f"{where}.{key}: expected dB in (0, 200), got {v!r}")
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < MAX_FILTER_DB:
+                raise ConfigError(f"{where}.{key}: expected dB in (0, {MAX_FILTER_DB:g}), got {v!r}")
             out[key] = float(v)
     if out["filter_family"] is FilterFamily.ELLIPTIC:
         check_ripple(where, out.get("ripple_db", DEFAULT_RIPPLE_DB), out.get("attenuation_db", DEFAULT_ATTENUATION_DB))
@@ -65,6 +65,10 @@ def _filter(where: str, value: Any) -> dict[str, Any]:
 
 #: the pass-band ripple and stop-band attenuation a filter table leaves out (Table E.2 rows 10-11's)
 DEFAULT_RIPPLE_DB, DEFAULT_ATTENUATION_DB = 0.1, 60.0
+
+
+#: a filter's ripple and attenuation lie below this (dB; 1e300 dB left scipy's elliptic design failing)
+MAX_FILTER_DB = 200.0
 
 
 def check_ripple(where: str, ripple_db: float, attenuation_db: float) -> None:
