@@ -23,7 +23,7 @@ import numpy as np
 
 from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError
-from odsuite.domain.rig_processing import check_ripple, parse_processing
+from odsuite.domain.rig_processing import FILTER_DB_TEXT, check_ripple, filter_db_ok, parse_processing
 
 #: Generalized coordinates of a body, in order (m, m, m, rad, rad, rad).
 COORDINATES = ("x", "y", "z", "theta", "phi", "psi")
@@ -682,6 +682,9 @@ def _acquisition(table: Any, where0: str) -> Acquisition | None:
             ripple_db=_number(f"{wa}.ripple_db", aa.get("ripple_db", 0.1), positive=True),
             attenuation_db=_number(f"{wa}.attenuation_db", aa.get("attenuation_db", 60.0), positive=True),
             force_channel=force)
+        for key in ("ripple_db", "attenuation_db"):
+            if not filter_db_ok(getattr(aa, key)):
+                raise ConfigError(f"{wa}.{key}: expected {FILTER_DB_TEXT}, got {getattr(aa, key)!r}")
         if family == "elliptic":
             check_ripple(wa, aa.ripple_db, aa.attenuation_db)
     damping = _number(f"{w} field 'sensor_resonance_damping'", table.get("sensor_resonance_damping", 0.03),

@@ -55,8 +55,8 @@ def _filter(where: str, value: Any) -> dict[str, Any]:
     for key in ("ripple_db", "attenuation_db"):
         if key in value:
             v = value[key]
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < MAX_FILTER_DB:
-                raise ConfigError(f"{where}.{key}: expected dB in (0, {MAX_FILTER_DB:g}), got {v!r}")
+            if not filter_db_ok(v):
+                raise ConfigError(f"{where}.{key}: expected {FILTER_DB_TEXT}, got {v!r}")
             out[key] = float(v)
     if out["filter_family"] is FilterFamily.ELLIPTIC:
         check_ripple(where, out.get("ripple_db", DEFAULT_RIPPLE_DB), out.get("attenuation_db", DEFAULT_ATTENUATION_DB))
@@ -67,8 +67,16 @@ def _filter(where: str, value: Any) -> dict[str, Any]:
 DEFAULT_RIPPLE_DB, DEFAULT_ATTENUATION_DB = 0.1, 60.0
 
 
-#: a filter's ripple and attenuation lie below this (dB; 1e300 dB left scipy's elliptic design failing)
-MAX_FILTER_DB = 200.0
+#: a filter's ripple and attenuation (dB): 1e300 left scipy's elliptic design failing, 1e-300 made
+#: an analog design's poles NaN
+FILTER_DB_RANGE = (1e-6, 200.0)
+FILTER_DB_TEXT = f"dB from {FILTER_DB_RANGE[0]:g} to below {FILTER_DB_RANGE[1]:g}"
+
+
+def filter_db_ok(value: Any) -> bool:
+    """Whether ``value`` may be a filter's ripple or attenuation (FILTER_DB_RANGE)."""
+    return (isinstance(value, (int, float)) and not isinstance(value, bool)
+            and FILTER_DB_RANGE[0] <= value < FILTER_DB_RANGE[1])
 
 
 def check_ripple(where: str, ripple_db: float, attenuation_db: float) -> None:

@@ -20,7 +20,7 @@ from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError, OdsuiteWarning
 from odsuite.domain.filter_kinds import MAX_FILTER_ORDER, FilterFamily, FilterType
 from odsuite.domain.rig import MAX_CHANNELS, NINE_ROLES, Rig
-from odsuite.domain.rig_processing import MAX_FILTER_DB, check_ripple
+from odsuite.domain.rig_processing import FILTER_DB_TEXT, check_ripple, filter_db_ok
 from odsuite.domain.textfiles import read_text
 
 
@@ -272,9 +272,8 @@ def _validate_channel(ch: ChannelInfo, k: int, source: str | Path, n_samples: in
         if family is FilterFamily.ELLIPTIC:
             for row in (10, 11):
                 value = getattr(ch, CHANNEL_FIELDS[row])
-                if not _finite(value) or not 0 < value < MAX_FILTER_DB:
-                    raise ConfigError(f"{at(row)}: an elliptic filter needs a value > 0 and below "
-                                      f"{MAX_FILTER_DB:g} dB, got {value!r}")
+                if not _finite(value) or not filter_db_ok(value):
+                    raise ConfigError(f"{at(row)}: an elliptic filter needs {FILTER_DB_TEXT}, got {value!r}")
             check_ripple(at(10), ch.ripple_db, ch.attenuation_db)
     start = _integer(ch.offset_start, at(15))
     length = _integer(ch.offset_length, at(16))

@@ -98,7 +98,7 @@ def _bad(si: Systeminfo, k: int, **changes) -> Systeminfo:
     (10, {"integration": 3}, r"row 4 \(integration\), channel 10: unknown code 3"),
     (10, {"filter_family": 2}, r"row 18 \(filter family\), channel 10: unknown code 2"),
     (10, {"filters_on": 9}, r"row 12 \(filter on/off\), channel 10: expected a bitmask 0\.\.7, got 9"),
-    (2, {"ripple_db": 0.0}, r"row 10 \(pass-band ripple\), channel 2: an elliptic filter needs a value > 0 and below 200 dB"),
+    (2, {"ripple_db": 0.0}, r"row 10 \(pass-band ripple\), channel 2: an elliptic filter needs dB from 1e-06 to below 200"),
     (2, {"integration_rule": "simpson"}, r"channel 2 field 'integration_rule'.*'simpson'"),
 ])
 def test_validation_names_file_row_channel_and_value(e3, k, changes, message):

@@ -679,7 +679,7 @@ CASES: list[Case] = [
     Case("ctr-coordinate-column-negative", "row 29 (generalized coordinate columns) gives column -1 (accepted, and stored)", '{dir}/bad.CTR: row 29 (generalized coordinate columns), channel 0: expected a column number from 0 to 24575, got -1', argv=legacy(), files={"bad.CTR": ctr_with(29, 0, "-1")}),
     # Systeminfo checks, through the .CTR or the API
     Case("ctr-coordinate-column-huge", "row 29 (generalized coordinate columns) gives column 1e30 (OverflowError: Python int too large to convert to C long)", '{dir}/bad.CTR: row 29 (generalized coordinate columns), channel 0: expected a column number from 0 to 24575, got 1000000000000000019884624838656', argv=legacy(), files={"bad.CTR": ctr_with(29, 0, "1e30")}),
-    Case("ctr-ripple-huge", "pass-band ripple 1e300 dB on elliptic channel 2 (process: ValueError 'attempt to get argmin of an empty sequence')", '{dir}/bad.CTR: row 10 (pass-band ripple), channel 2: an elliptic filter needs a value > 0 and below 200 dB, got 1e+300', argv=legacy(), files={"bad.CTR": ctr_with(10, 2, "1e300")}),
+    Case("ctr-ripple-huge", "pass-band ripple 1e300 dB on elliptic channel 2 (process: ValueError 'attempt to get argmin of an empty sequence')", '{dir}/bad.CTR: row 10 (pass-band ripple), channel 2: an elliptic filter needs dB from 1e-06 to below 200, got 1e+300', argv=legacy(), files={"bad.CTR": ctr_with(10, 2, "1e300")}),
     Case("ctr-ripple-above-attenuation", "pass-band ripple 70 dB above the stop-band attenuation 60 dB on elliptic channel 2 (process: scipy's 'Cannot design a filter')", '{dir}/bad.CTR: row 10 (pass-band ripple), channel 2: ripple_db 70 must be below attenuation_db 60', argv=legacy(), files={"bad.CTR": ctr_with(10, 2, "70")}),
     Case("si-zero-sensitivity", "accelerometer channel 2 with sensitivity 0 mV/unit", '{dir}/bad.CTR: row 3 (sensitivity), channel 2: sensitivity must be > 0 on an accelerometer channel, got 0.0 V/m/s^2', argv=legacy(),
          files={"bad.CTR": ctr_with(3, 2, "0")}),
@@ -783,6 +783,10 @@ CASES: list[Case] = [
     Case("not-a-project", "info on a text file", '{dir}/notes.h5: not an HDF5 file, so not an odsuite project', argv=lambda d: ["info", str(d / "notes.h5")],
          files={"notes.h5": "just notes\n"}),
     # rig definitions (TOML), through `odsuite new --rig FILE`
+    Case("rig-aa-attenuation-huge", "rig file whose elliptic anti-aliasing filter has attenuation_db 1e300 (scipy's 'Cannot design a filter')", "{dir}/bad.toml: acquisition field 'anti_aliasing'.attenuation_db: expected dB from 1e-06 to below 200, got 1e+300",
+         **new_rig(RIG_TOML + '[acquisition]\nanti_aliasing = { family = "elliptic", order = 8, cutoff_hz = 3000.0, attenuation_db = 1e300 }\n')),
+    Case("rig-aa-ripple-tiny", "rig file whose elliptic anti-aliasing filter has ripple_db 1e-300 (its poles NaN: a simulated hammer 'peaked near nan N')", "{dir}/bad.toml: acquisition field 'anti_aliasing'.ripple_db: expected dB from 1e-06 to below 200, got 1e-300",
+         **new_rig(RIG_TOML + '[acquisition]\nanti_aliasing = { family = "elliptic", order = 8, cutoff_hz = 3000.0, ripple_db = 1e-300 }\n')),
     Case("rig-iepe-corner", "rig file whose [acquisition] iepe_corner_hz is 1e300", "{dir}/bad.toml: acquisition field 'iepe_corner_hz': expected 0.0001 to 1e+08 Hz, got 1e+300",
          **new_rig(RIG_TOML + '[acquisition]\niepe_corner_hz = 1e300\n')),
     Case("rig-invalid-toml", "rig file with `name = ` and no value", '{dir}/bad.toml: not valid TOML: Invalid value (at line 1, column 8)', **new_rig('name = \n')),
