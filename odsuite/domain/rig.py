@@ -392,6 +392,15 @@ def _number(where: str, value: Any, *, positive: bool = False) -> float:
     return float(value)
 
 
+def _hz(where: str, value: Any, lowest: float = FREQUENCY_RANGE_HZ[0]) -> float:
+    """A frequency of a rig's front end: a corner of 1e300 Hz (or 1e-300) is accepted as a number
+    and breaks the discretisation (an anti-aliasing cut-off of 1e300 Hz overflowed)."""
+    v = _number(where, value, positive=True)
+    if not lowest <= v <= FREQUENCY_RANGE_HZ[1]:
+        raise ConfigError(f"{where}: expected {lowest:g} to {FREQUENCY_RANGE_HZ[1]:g} Hz, got {v!r}")
+    return v
+
+
 def _integer(where: str, value: Any, low: int, high: int) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
         raise ConfigError(f"{where}: expected an integer from {low} to {high}, got {value!r}")
@@ -639,15 +648,8 @@ def _acquisition(table: Any, where0: str) -> Acquisition | None:
         raise ConfigError(f"{w}: expected a table, got {table!r}")
     known_keys(w, table, ACQUISITION_KEYS)
 
-    def opt_number(key: str) -> float | None:
-        return None if table.get(key) is None else _number(f"{w} field {key!r}", table[key], positive=True)
-
     def opt_hz(key: str, lowest: float = FREQUENCY_RANGE_HZ[0]) -> float | None:
-        # a corner of 1e300 Hz (or 1e-300) is accepted as a number and breaks the sensor's discretisation
-        v = opt_number(key)
-        if v is not None and not lowest <= v <= FREQUENCY_RANGE_HZ[1]:
-            raise ConfigError(f"{w} field {key!r}: expected {lowest:g} to {FREQUENCY_RANGE_HZ[1]:g} Hz, got {v!r}")
-        return v
+        return None if table.get(key) is None else _hz(f"{w} field {key!r}", table[key], lowest)
 
     bits = table.get("adc_bits")
     if bits is not None:
@@ -678,7 +680,7 @@ def _acquisition(table: Any, where0: str) -> Acquisition | None:
             raise ConfigError(f"{wa}.force_channel: expected true or false, got {force!r}")
         aa = AntiAliasing(
             family=family, order=_integer(f"{wa}.order", aa.get("order"), 1, 16),
-            cutoff_hz=_number(f"{wa}.cutoff_hz", aa.get("cutoff_hz"), positive=True),
+            cutoff_hz=_hz(f"{wa}.cutoff_hz", aa.get("cutoff_hz")),
             ripple_db=_number(f"{wa}.ripple_db", aa.get("ripple_db", 0.1), positive=True),
             attenuation_db=_number(f"{wa}.attenuation_db", aa.get("attenuation_db", 60.0), positive=True),
             force_channel=force)

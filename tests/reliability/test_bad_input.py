@@ -787,6 +787,8 @@ CASES: list[Case] = [
          **new_rig(RIG_TOML + '[acquisition]\nanti_aliasing = { family = "elliptic", order = 8, cutoff_hz = 3000.0, attenuation_db = 1e300 }\n')),
     Case("rig-aa-ripple-tiny", "rig file whose elliptic anti-aliasing filter has ripple_db 1e-300 (its poles NaN: a simulated hammer 'peaked near nan N')", "{dir}/bad.toml: acquisition field 'anti_aliasing'.ripple_db: expected dB from 1e-06 to below 200, got 1e-300",
          **new_rig(RIG_TOML + '[acquisition]\nanti_aliasing = { family = "elliptic", order = 8, cutoff_hz = 3000.0, ripple_db = 1e-300 }\n')),
+    Case("rig-aa-cutoff-huge", "rig file whose anti-aliasing filter's cutoff_hz is 1e300 (acquire: OverflowError 'Numerical result out of range')", "{dir}/bad.toml: acquisition field 'anti_aliasing'.cutoff_hz: expected 0.0001 to 1e+08 Hz, got 1e+300",
+         **new_rig(RIG_TOML + '[acquisition]\nanti_aliasing = { family = "butterworth", order = 8, cutoff_hz = 1e300 }\n')),
     Case("rig-iepe-corner", "rig file whose [acquisition] iepe_corner_hz is 1e300", "{dir}/bad.toml: acquisition field 'iepe_corner_hz': expected 0.0001 to 1e+08 Hz, got 1e+300",
          **new_rig(RIG_TOML + '[acquisition]\niepe_corner_hz = 1e300\n')),
     Case("rig-invalid-toml", "rig file with `name = ` and no value", '{dir}/bad.toml: not valid TOML: Invalid value (at line 1, column 8)', **new_rig('name = \n')),
