@@ -625,7 +625,7 @@ def _diagnose(project, effects, experiments, full_fits, progress, prepared, work
     candidates = _ordered(candidates, pairs, exps, base, job)
     diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=job["noise"], revision=rev.get("revision"),
                           candidates=candidates, residual_peaks=job["peaks"], evaluations=evaluations,
-                          not_applicable=not_applicable, notes=[n for e in exps for n in e.notes] + weight_notes(exps),
+                          not_applicable=not_applicable, notes=list(cmp.notes) + weight_notes(exps),
                           other_families=[n for n in not_applicable if getattr(regs.effects.get(n), "structures", None)
                                           and not isinstance(base.shared.structure, regs.effects.get(n).structures)])
     _conclude(diagnosis, cmp, base, exps, before, res0)

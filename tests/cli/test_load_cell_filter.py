@@ -47,3 +47,13 @@ def test_a_proximity_probe_left_out_is_named_once(tmp_path, capsys):
     assert main(["compare", str(p), "--json"]) == 0
     notes = json.loads(capsys.readouterr().out)["notes"]
     assert sum("channel 7 (gap, proximity: displacement) is left out of the comparison" in n for n in notes) == 1, notes
+
+
+def test_diagnose_names_the_proximity_probe_it_leaves_out(tmp_path, capsys):
+    # compare said so and diagnose, which compares the same channels, did not
+    p = tmp_path / "p.h5"
+    run(capsys, "new", p, "--rig", RIG)
+    run(capsys, "acquire", p, "--name", "a", "--samples", "2048", "--force-point=30,20,100", "--force-dir=-z")
+    assert main(["diagnose", str(p), "--effect", "damping", "--json"]) == 0
+    notes = json.loads(capsys.readouterr().out)["notes"]
+    assert sum("channel 7 (gap, proximity: displacement) is left out of the comparison" in n for n in notes) == 1, notes
