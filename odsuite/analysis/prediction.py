@@ -7,8 +7,9 @@ both turned into generalized coordinates by the same solvers. Like is compared w
 
 from __future__ import annotations
 
+import contextlib
 import functools
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -658,16 +659,61 @@ def _coordinate_system(model, exp: PreparedExperiment):
     return StateSpace(st.A, np.vstack([np.zeros_like(bf), minv_bf]), st.A[st.n_dof:], minv_bf)
 
 
+#: linear simulations kept by their system, record and hold while a diagnosis runs
+#: (kept_simulations): its candidates and stages simulate one structure on one record again and
+#: again, each from a new model (the thesis bench: 244 of 912); None: none kept
+_SIMULATIONS: dict[tuple, np.ndarray] | None = None
+SIMULATIONS_BYTES_KEPT = 48e6
+_simulations_held = 0
+
+
+@contextlib.contextmanager
+def kept_simulations() -> Iterator[None]:
+    """Within it, _simulated keeps its simulations (read-only), the oldest going first beyond
+    SIMULATIONS_BYTES_KEPT: the same numbers as simulating again."""
+    global _SIMULATIONS, _simulations_held
+    outer = _SIMULATIONS
+    if outer is None:
+        _SIMULATIONS, _simulations_held = {}, 0
+    try:
+        yield
+    finally:
+        if outer is None:
+            _SIMULATIONS, _simulations_held = None, 0
+
+
+def _simulated(ss, exp: PreparedExperiment, hold: str) -> np.ndarray:
+    """``simulate_state_space(ss, exp.force, exp.fs, hold)``, kept within kept_simulations
+    (read-only there: its callers read it)."""
+    from odsuite.domain.simulation import simulate_state_space
+
+    global _simulations_held
+    kept = _SIMULATIONS
+    if kept is None:
+        return simulate_state_space(ss, exp.force, exp.fs, hold=hold)
+    u = exp.force
+    key = (ss.A.shape, ss.A.tobytes(), ss.B.shape, ss.B.tobytes(), ss.C.shape, ss.C.tobytes(), ss.D.shape,
+           ss.D.tobytes(), u.shape, u.dtype.str, u.tobytes(), exp.fs, hold)
+    got = kept.pop(key, None)
+    if got is None:
+        got = simulate_state_space(ss, u, exp.fs, hold=hold)
+        got.flags.writeable = False
+        _simulations_held += got.nbytes
+        while kept and _simulations_held > SIMULATIONS_BYTES_KEPT:
+            _simulations_held -= kept.pop(next(iter(kept))).nbytes
+    kept[key] = got  # the most recent last
+    return got
+
+
 def _coordinates(model, exp: PreparedExperiment, hold: str) -> np.ndarray:
     """The coordinates' accelerations (samples x coordinates), kept on ``exp`` for its structure."""
-    from odsuite.domain.simulation import simulate_nonlinear, simulate_state_space
+    from odsuite.domain.simulation import simulate_nonlinear
 
     st = model.structure
     key = _cache_key(model, exp, hold)
     if exp._cache is None or exp._cache[0] is not st or exp._cache[1] != key:
         if st.is_linear:
-            ss = _coordinate_system(model, exp)
-            exp._cache = (st, key, simulate_state_space(ss, exp.force, exp.fs, hold=hold))
+            exp._cache = (st, key, _simulated(_coordinate_system(model, exp), exp, hold))
         else:  # cubic springs: the response depends on the force's level
             bf, _ = model.input_matrices(_force_inputs(model, exp))
             exp._cache = (st, key, simulate_nonlinear(st, bf, exp.force, exp.fs, hold))
@@ -1249,13 +1295,12 @@ def flexible_mode_unit(model, exp: PreparedExperiment, frequency_hz: float, damp
     """flexible_mode_change of an uncoupled mode at ``frequency_hz`` and ``damping_ratio`` whose
     participation is 1 at the force and at every sensor (samples x sensors)."""
     from odsuite.domain.model import StateSpace
-    from odsuite.domain.simulation import simulate_state_space
 
     w = 2 * np.pi * frequency_hz
     rate = np.array([-w * w, -2 * damping_ratio * w])
     # q'' + 2 zeta w q' + w^2 q = F, its acceleration out
     sdof = StateSpace(np.array([[0.0, 1.0], rate]), np.array([[0.0], [1.0]]), rate[None, :], np.array([[1.0]]))
-    accel = simulate_state_space(sdof, exp.force, exp.fs, hold=HOLD)
+    accel = _simulated(sdof, exp, HOLD)
     return _digital_chain(exp, _analog_chain(model, exp, accel * np.ones((1, len(exp.sensors)))))
 
 

@@ -54,7 +54,7 @@ from odsuite.diagnosis.fitting import (
     with_force_noise,
 )
 from odsuite.analysis.modelrev import current_revision, revision_model
-from odsuite.analysis.prediction import PreparedExperiment, predict, prepare
+from odsuite.analysis.prediction import PreparedExperiment, kept_simulations, predict, prepare
 from odsuite.domain.simulation import load_nonlinear_loop
 from odsuite.analysis import noise_colour
 from odsuite.analysis import resolved as resolution
@@ -561,7 +561,7 @@ def diagnose(project, *, effects: Sequence[str] | None = None, experiments: Sequ
     # and the verdict multiply small matrices too, where a second thread spinning for a busy core
     # cost up to 5x the CPU (the two-body bench's verdict: 1.66 s against 0.55 s); and a product's
     # rounding may depend on the threads that share it
-    with threadpool_limits(1), _outliving_left_alone():
+    with threadpool_limits(1), _outliving_left_alone(), kept_simulations():
         return _diagnose(project, effects, experiments, full_fits, progress, prepared, workers)
 
 
