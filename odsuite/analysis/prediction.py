@@ -54,6 +54,11 @@ CACHED_COORDINATES = 36
 HOLD = "band"
 
 
+#: signals that one chain filters side by side (recursions.chain_columns_wide) from this many on:
+#: 2x faster on a linearised Jacobian's 31, slower on two
+WIDE_CHAIN_COLUMNS = 8
+
+
 @dataclass(frozen=True)
 class StageOperator:
     """A channel chain up to its first tap as one linear operator on physical signals: micro-units,
@@ -88,15 +93,19 @@ class StageOperator:
         sos = np.concatenate([s for s, _ in self.filters]) if self.filters else np.zeros((0, 6))
         return np.asarray(self.columns, dtype=np.int64), np.ascontiguousarray(sos, dtype=float)
 
-    def apply_into(self, x: np.ndarray, out: np.ndarray) -> None:
+    def apply_into(self, x: np.ndarray, out: np.ndarray, wide: bool = False) -> None:
         """``out[:, columns] = apply(x[:, columns])``, in one compiled pass where the filters are
-        causal (the same numbers: recursions.chain_columns)."""
+        causal (the same numbers: recursions.chain_columns; ``wide``: chain_columns_wide, for
+        many signals through one chain)."""
         # (apply's offset of a scaled copy is summed in that copy's memory order: left to it)
         if self._fused is None or x.dtype != float or (self.offset is not None and self.factor != 1.0):
             cols = list(self.columns)
             out[:, cols] = self.apply(x[:, cols])
             return
-        from odsuite.domain.recursions import chain_columns
+        from odsuite.domain.recursions import chain_columns, chain_columns_wide
+
+        if wide and len(self.columns) >= WIDE_CHAIN_COLUMNS:
+            chain_columns = chain_columns_wide
 
         cols, sos = self._fused
         offsets = np.zeros(len(cols))
@@ -767,7 +776,7 @@ def linearised_changes(model0, models: Sequence[Any], exp: PreparedExperiment, e
         op = next(o for o in exp.operators if j in o.columns)
         one = replace(exp, sensors=[exp.sensors[j]] * signals.shape[1],
                       operators=[replace(op, columns=tuple(range(signals.shape[1])))])
-        filtered = _digital_chain(one, _analog_chain(model0, one, signals.copy()))[::every]
+        filtered = _digital_chain(one, _analog_chain(model0, one, signals.copy(), wide=True), wide=True)[::every]
         # every model's change in one product, sensor by sensor: the nominal coordinates through
         # the rows' change, the coordinates' change through the rows
         weights = np.stack([np.vstack([(r[cols] - rows0[cols]).T, mat @ r[cols].T]) for r, mat in zip(rows, matrices)],
@@ -816,21 +825,22 @@ def cubic_change_predictions(model0, models: Sequence[Any], exp: PreparedExperim
     return out
 
 
-def _analog_chain(model, exp: PreparedExperiment, y: np.ndarray) -> np.ndarray:
+def _analog_chain(model, exp: PreparedExperiment, y: np.ndarray, wide: bool = False) -> np.ndarray:
     """The chain's parts between the structure and the converter on the sensors' accelerations
-    ``y`` (samples x sensors, changed in place): sensor dynamics, front end, sampling delays."""
+    ``y`` (samples x sensors, changed in place): sensor dynamics, front end, sampling delays
+    (``wide``: many signals through one chain, as _digital_chain's)."""
     from odsuite.domain.simulation import sampled_later
 
-    y = _sensor_side(model, exp, y)
+    y = _sensor_side(model, exp, y, wide)
     delays = [model.chain.delay.get(s.name, 0.0) for s in exp.sensors]
     if any(delays):
         y = sampled_later(y, exp.fs, delays)
     return y
 
 
-def _sensor_side(model, exp: PreparedExperiment, y: np.ndarray) -> np.ndarray:
+def _sensor_side(model, exp: PreparedExperiment, y: np.ndarray, wide: bool = False) -> np.ndarray:
     """The analog chain before the sampling delays (sensor dynamics, front end) on ``y`` (changed
-    in place)."""
+    in place; ``wide``: as _analog_chain's)."""
     chain = model.chain
     # the sensors' own dynamics in series, on their sampled signals (one small system per sensor:
     # identical sensors would make one big system's modes repeated and defective); sensors with
@@ -849,7 +859,7 @@ def _sensor_side(model, exp: PreparedExperiment, y: np.ndarray) -> np.ndarray:
         slow, fast = _split_front_end(chain.front_end, exp.fs)
         y = np.array(y, dtype=float, order="F")  # the order sosfilt(..., axis=0) returns
         if slow is not None:
-            sections_in_place(_analog_sos(slow, exp.fs), y)
+            sections_in_place(_analog_sos(slow, exp.fs), y, wide and y.shape[1] >= WIDE_CHAIN_COLUMNS)
         if fast is not None:
             y = _in_band(fast, exp.fs, y)
     return y
@@ -1226,7 +1236,7 @@ def predict_sharing(model, exp: PreparedExperiment) -> np.ndarray:
             op = next(o for o in exp.operators if cols[0] in o.columns)
             one = replace(exp, sensors=[exp.sensors[cols[0]]] * q.shape[1],
                           operators=[replace(op, columns=tuple(range(q.shape[1])))])
-            kept[key] = _digital_chain(one, _analog_chain(model, one, q.copy()))
+            kept[key] = _digital_chain(one, _analog_chain(model, one, q.copy(), wide=True), wide=True)
         _combined(kept[key], rows, cols, out, last.get(key))
         last[key] = (out, {rows[j].tobytes(): j for j in cols}, len(cols))
     out.flags.writeable = False  # its columns are taken again (last)
@@ -1301,16 +1311,18 @@ def flexible_mode_unit(model, exp: PreparedExperiment, frequency_hz: float, damp
     # q'' + 2 zeta w q' + w^2 q = F, its acceleration out
     sdof = StateSpace(np.array([[0.0, 1.0], rate]), np.array([[0.0], [1.0]]), rate[None, :], np.array([[1.0]]))
     accel = _simulated(sdof, exp, HOLD)
-    return _digital_chain(exp, _analog_chain(model, exp, accel * np.ones((1, len(exp.sensors)))))
+    return _digital_chain(exp, _analog_chain(model, exp, accel * np.ones((1, len(exp.sensors))), wide=True),
+                          wide=True)
 
 
-def _digital_chain(exp: PreparedExperiment, physical: np.ndarray) -> np.ndarray:
-    """Physical signals at the sensors through each channel's processing to the acceleration stage."""
+def _digital_chain(exp: PreparedExperiment, physical: np.ndarray, wide: bool = False) -> np.ndarray:
+    """Physical signals at the sensors through each channel's processing to the acceleration stage
+    (``wide``: many signals through one chain, a diagnosis's basis: StageOperator.apply_into)."""
     if exp.operators is None:
         return through_chain(exp, physical)[stage_names("acceleration")[0]]
     out = np.empty_like(physical)  # its memory order too: later sums over it add in that order
     for op in exp.operators:
-        op.apply_into(physical, out)
+        op.apply_into(physical, out, wide)
     return out
 
 

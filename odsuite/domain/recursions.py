@@ -37,12 +37,13 @@ def second_order_rows(num, den, zi, source, u, out):
             out[s, k], w0, w1 = _step(c0, c1, c2, e1, e2, v[k], w0, w1)
 
 
-def sections_in_place(sos, x):
+def sections_in_place(sos, x, wide: bool = False):
     """``x`` (samples x signals) through the second-order sections ``sos`` from rest, each column
     a signal, written back into ``x``: ``scipy.signal.sosfilt(sos, x, axis=0)`` (chain_columns on
-    every column, unscaled: times 1 and less 0 are exact)."""
+    every column, unscaled: times 1 and less 0 are exact; ``wide``: chain_columns_wide, the same
+    numbers, for many signals)."""
     m = x.shape[1]
-    chain_columns(x, np.arange(m), 1.0, np.zeros(m), sos, x)
+    (chain_columns_wide if wide else chain_columns)(x, np.arange(m), 1.0, np.zeros(m), sos, x)
 
 
 @compiled(nogil=True)
@@ -82,3 +83,29 @@ def first_order_rows(num, pole, zi, source, u, every, out):
             zim = b1i * x[k] - (ai * yr + ar * yi)
             if k % every == 0:
                 out[r, k // every] = complex(yr, yi)
+
+
+@compiled(nogil=True)
+def chain_columns_wide(x, cols, factor, offsets, sos, out):
+    """chain_columns with its columns side by side: each section's step runs over every column
+    at once (independent sums, which the processor overlaps; each column's operations and their
+    order unchanged, so the same numbers). Faster where many signals share one chain (a
+    linearised Jacobian's basis), no faster on a record's few channels."""
+    n, m, ns = x.shape[0], cols.shape[0], sos.shape[0]
+    z0 = np.zeros((ns, m))
+    z1 = np.zeros((ns, m))
+    cur = np.empty(m)
+    for k in range(n):
+        for i in range(m):
+            cur[i] = x[k, cols[i]] * factor - offsets[i]
+        for s in range(ns):
+            b0, b1, b2, a1, a2 = sos[s, 0], sos[s, 1], sos[s, 2], sos[s, 4], sos[s, 5]
+            w0, w1 = z0[s], z1[s]
+            for i in range(m):
+                x_cur = cur[i]
+                x_new = b0 * x_cur + w0[i]
+                w0[i] = b1 * x_cur - a1 * x_new + w1[i]
+                w1[i] = b2 * x_cur - a2 * x_new
+                cur[i] = x_new
+        for i in range(m):
+            out[k, cols[i]] = cur[i]

@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.signal
 
-from odsuite.domain.recursions import first_order_rows, second_order_rows, sections_in_place
+from odsuite.domain.recursions import (chain_columns, chain_columns_wide, first_order_rows, second_order_rows,
+                                        sections_in_place)
 
 
 def test_second_order_rows_are_lfilter_to_the_bit():
@@ -69,3 +70,19 @@ def test_a_chain_operator_in_one_pass_is_its_steps_to_the_bit():
                 y = scipy.signal.sosfilt(s, y, axis=0)
             assert np.array_equal(out[:, [1, 4, 5]], y)
             assert np.isnan(out[:, [0, 2, 3]]).all()  # other columns untouched
+
+
+def test_wide_chain_is_chain_columns_to_the_bit():
+    rng = np.random.default_rng(7)
+    sos = scipy.signal.butter(4, 0.3, output="sos")
+    for m, order in ((31, "C"), (12, "F"), (1, "C")):
+        x = np.asarray(rng.standard_normal((1500, m + 2)), order=order)
+        cols = np.arange(1, m + 1)
+        offsets = rng.standard_normal(m)
+        ref, out = np.zeros_like(x), np.zeros_like(x)
+        chain_columns(x, cols, 1.5, offsets, sos, ref)
+        chain_columns_wide(x, cols, 1.5, offsets, sos, out)
+        assert np.array_equal(out, ref)
+        inplace = x.copy(order=order)
+        sections_in_place(sos, inplace[:, 1:m + 1], wide=True)
+        assert np.array_equal(inplace[:, 1:m + 1], scipy.signal.sosfilt(sos, x[:, 1:m + 1], axis=0))
