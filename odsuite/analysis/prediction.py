@@ -670,9 +670,11 @@ def _coordinate_system(model, exp: PreparedExperiment):
 
 #: linear simulations kept by their system, record and hold while a diagnosis runs
 #: (kept_simulations): its candidates and stages simulate one structure on one record again and
-#: again, each from a new model (the thesis bench: 244 of 912); None: none kept
+#: again, each from a new model (the thesis bench: 239 of 907); None: none kept
 _SIMULATIONS: dict[tuple, np.ndarray] | None = None
-SIMULATIONS_BYTES_KEPT = 48e6
+#: the repeats are mostly of short heads: 4 MB keeps 214 of the thesis bench's 239 (48 MB: all),
+#: and more memory held costs a first diagnosis page faults (42,000 against 31,500 at 48 MB)
+SIMULATIONS_BYTES_KEPT = 4e6
 _simulations_held = 0
 
 
