@@ -681,8 +681,9 @@ _simulations_held = 0
 @contextlib.contextmanager
 def kept_simulations() -> Iterator[None]:
     """Within it, _simulated keeps its simulations (read-only), the oldest going first beyond
-    SIMULATIONS_BYTES_KEPT: the same numbers as simulating again."""
-    global _SIMULATIONS, _simulations_held
+    SIMULATIONS_BYTES_KEPT, and _predicted the predictions made from them: the same numbers as
+    simulating and predicting again."""
+    global _SIMULATIONS, _simulations_held, _predictions_held
     outer = _SIMULATIONS
     if outer is None:
         _SIMULATIONS, _simulations_held = {}, 0
@@ -690,7 +691,8 @@ def kept_simulations() -> Iterator[None]:
         yield
     finally:
         if outer is None:
-            _SIMULATIONS, _simulations_held = None, 0
+            _SIMULATIONS, _simulations_held, _predictions_held = None, 0, 0
+            _PREDICTIONS.clear()
 
 
 def _simulated(ss, exp: PreparedExperiment, hold: str) -> np.ndarray:
@@ -1213,7 +1215,7 @@ def predict_sharing(model, exp: PreparedExperiment) -> np.ndarray:
     st = model.structure
     if (not st.is_linear or st.n_dof > CACHED_COORDINATES or exp.operators is None or exp._cache is None
             or exp._cache[0] is not st or exp._cache[1] != _cache_key(model, exp)):
-        return predict(model, exp)
+        return _predicted(model, exp)
     chain = model.chain
     groups: dict[tuple, list[int]] = {}
     for op in exp.operators:
@@ -1243,6 +1245,41 @@ def predict_sharing(model, exp: PreparedExperiment) -> np.ndarray:
         last[key] = (out, {rows[j].tobytes(): j for j in cols}, len(cols))
     out.flags.writeable = False  # its columns are taken again (last)
     return out
+
+
+#: predict's numbers (read-only) by their simulation (kept_simulations'), sensor rows, analog
+#: chain and operators, while simulations are kept: a structure simulated again is put through
+#: the same chain again (a leave-one-out fold's first residual, a candidate's nominal point)
+_PREDICTIONS: dict[tuple, tuple] = {}
+PREDICTIONS_BYTES_KEPT = 4e6
+_predictions_held = 0
+
+
+def _predicted(model, exp: PreparedExperiment) -> np.ndarray:
+    """``predict(model, exp)`` (read-only), kept within kept_simulations for a linear structure of
+    few coordinates. Its simulation is asked for as predict asks (leaving ``exp`` as predict
+    leaves it), then its numbers are taken where the same simulation went through the same rows
+    and chain before."""
+    global _predictions_held
+    st = model.structure
+    if _SIMULATIONS is None or not st.is_linear or st.n_dof > CACHED_COORDINATES or exp.operators is None:
+        return predict(model, exp)
+    _force_inputs(model, exp)  # as simulate_sensors
+    rows = _sensor_rows(model, exp.sensors)
+    q = _coordinates(model, exp, HOLD)
+    chain = model.chain
+    key = (id(q), rows.shape, rows.tobytes(), chain.front_end, tuple(map(id, exp.operators)),
+           tuple((chain.sensor_dynamics(s.name), chain.delay.get(s.name, 0.0)) for s in exp.sensors))
+    got = _PREDICTIONS.pop(key, None)
+    if got is None or got[0] is not q or any(a is not b for a, b in zip(got[1], exp.operators)):
+        out = _digital_chain(exp, _analog_chain(model, exp, q @ rows.T))
+        out.flags.writeable = False
+        got = (q, tuple(exp.operators), out)
+        _predictions_held += out.nbytes
+        while _PREDICTIONS and _predictions_held > PREDICTIONS_BYTES_KEPT:
+            _predictions_held -= _PREDICTIONS.pop(next(iter(_PREDICTIONS)))[2].nbytes
+    _PREDICTIONS[key] = got  # the most recent last
+    return got[2]
 
 
 def _combined(filtered: np.ndarray, rows: np.ndarray, cols: list[int], out: np.ndarray, last) -> None:
