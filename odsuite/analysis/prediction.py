@@ -681,7 +681,7 @@ _simulations_held = 0
 @contextlib.contextmanager
 def kept_simulations() -> Iterator[None]:
     """Within it, _simulated keeps its simulations (read-only), the oldest going first beyond
-    SIMULATIONS_BYTES_KEPT, and _predicted the predictions made from them: the same numbers as
+    SIMULATIONS_BYTES_KEPT, and predict_kept the predictions made from them: the same numbers as
     simulating and predicting again."""
     global _SIMULATIONS, _simulations_held, _predictions_held
     outer = _SIMULATIONS
@@ -1215,7 +1215,7 @@ def predict_sharing(model, exp: PreparedExperiment) -> np.ndarray:
     st = model.structure
     if (not st.is_linear or st.n_dof > CACHED_COORDINATES or exp.operators is None or exp._cache is None
             or exp._cache[0] is not st or exp._cache[1] != _cache_key(model, exp)):
-        return _predicted(model, exp)
+        return predict_kept(model, exp)
     chain = model.chain
     groups: dict[tuple, list[int]] = {}
     for op in exp.operators:
@@ -1255,7 +1255,7 @@ PREDICTIONS_BYTES_KEPT = 4e6
 _predictions_held = 0
 
 
-def _predicted(model, exp: PreparedExperiment) -> np.ndarray:
+def predict_kept(model, exp: PreparedExperiment) -> np.ndarray:
     """``predict(model, exp)`` (read-only), kept within kept_simulations for a linear structure of
     few coordinates. Its simulation is asked for as predict asks (leaving ``exp`` as predict
     leaves it), then its numbers are taken where the same simulation went through the same rows

@@ -34,7 +34,7 @@ from odsuite.analysis.modelrev import RevisionModel
 from odsuite.analysis.noise_colour import quiet_stretches
 from odsuite.analysis.noise_floor import active_var
 from odsuite.analysis.prediction import (PreparedExperiment, cubic_change_predictions, flexible_mode_change,
-                                         flexible_mode_unit, linearised_changes, predict, predict_sharing,
+                                         flexible_mode_unit, linearised_changes, predict_kept, predict_sharing,
                                          simulate_together)
 
 #: fits start on short heads of the records (s after the hit), then the whole record: a frequency
@@ -299,7 +299,7 @@ class Problem:
         """The prediction without this effect (cached per experiment and the samples it covers: span)."""
         key = e.span
         if key not in self._base_predictions:
-            self._base_predictions[key] = predict(self.base.for_experiment(e.name), e)
+            self._base_predictions[key] = predict_kept(self.base.for_experiment(e.name), e)
         return self._base_predictions[key]
 
     def project(self, u: np.ndarray, exps: Sequence[PreparedExperiment] | None = None,
