@@ -206,7 +206,8 @@ def _peak(measured: np.ndarray) -> float:
     if got is None or got[0] is not measured:
         if len(_PEAKS) >= 64:
             _PEAKS.clear()
-        got = _PEAKS[id(measured)] = (measured, float(np.abs(measured).max()))
+        # the larger of the extremes: max |x| without an array of magnitudes (nan as nan)
+        got = _PEAKS[id(measured)] = (measured, float(np.maximum(measured.max(), -measured.min())))
     return got[1]
 
 
