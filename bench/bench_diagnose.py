@@ -112,6 +112,24 @@ signals, 1.2x on 7) and the modal recursion's coefficients kept per decompositio
 the baseline's evaluation more than diagnose, so the worth column rises although every command
 is faster.
 
+Round 50 (no change to the search; both benches' diagnose JSON the same to the bit): a diagnosis
+keeps its linear simulations by system, record and hold (prediction.kept_simulations, 4 MB: the
+thesis bench simulated 239 of 907 again, each from a new model; at 48 MB the memory held cost a
+forked first diagnosis 42,200 page faults against 31,500) and the predictions predict_sharing and
+the problems' base make from them (prediction.predict_kept: 1844 -> 1675 digital chains); a
+linearised Jacobian's basis, the sensor candidates' kept coordinate chains and an added mode's
+unit response are filtered side by side (recursions.chain_columns_wide: 2x on 31 signals; a
+record's own channels, the baseline's, keep chain_columns). Old and new code in turn at load 1-2,
+one process each, the median of the later diagnoses: thesis 1.402 -> 1.343 s CPU (12 each; an
+earlier sitting 1.399 -> 1.363), two-body 2.082 -> 2.036 s (9; 2.107 -> 1.974); a fresh process's
+first diagnosis thesis 1.77 -> 1.71 s. This bench, three sittings in turn, the least of three
+forked runs: thesis 252 / 265 / 269 -> 254 / 239 / 260 worth (1.59 / 1.62 / 1.66 -> 1.59 / 1.51 /
+1.60 s CPU), two-body CPU 2.42 / 2.21 / 2.39 -> 2.16 / 2.36 / 2.32 s. Looked at and not done: the
+E-independent part of the nonlinear set-up kept apart (3 of 8 thesis set-ups, about 5 ms); the
+noise floor's model-independent parts (the disturbance's Welch columns, its line energies, the
+witnesses) kept between the baseline's floor and the verdict's (under 1 %); a shared
+ThreadpoolController for compare's nested limit (1.7 ms).
+
 Measured in rounds 43-45 and not done (do not redo without a new reason):
 - the phase shifts of sampled_later kept per delay, so that a delay's Jacobian, moving one
   channel at a time, would transform the others' again: no gain (channel_delay's and scan_skew's
