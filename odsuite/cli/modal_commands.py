@@ -56,7 +56,8 @@ def frf_cmd(
                      "figure": None if figure is None else str(figure)})
         return
     averaged = "1 hit" if frf.n_averages == 1 else f"{frf.n_averages} hits averaged"
-    console.print(f"{estimator} FRFs of {len(frf.output_names)} channels, {averaged}, "
+    channels = "1 channel" if len(frf.output_names) == 1 else f"{len(frf.output_names)} channels"
+    console.print(f"{estimator} FRFs of {channels}, {averaged}, "
                   f"{frf.frequency.size} lines, {usable}", highlight=False)
     if figure is not None:
         console.print(f"wrote {figure}", highlight=False, soft_wrap=True)

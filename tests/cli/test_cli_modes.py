@@ -35,6 +35,7 @@ def test_default_modes_on_the_ladisk_beam(beam_project, tmp_path, capsys):
     assert main(["frf", str(beam_project), "--experiment", "acceleration", "--figure", str(tmp_path / "frf.png")]) == 0
     out = capsys.readouterr().out
     assert "hit at sample 36 (195.6 N): accepted" in out and "usable band 1.0-49" in out
+    assert "FRFs of 1 channel, 1 hit" in out, out  # it said "1 channels"
     stab = tmp_path / "stab.png"
     assert main(["modes", str(beam_project), "--experiment", "acceleration", "--json", "--figure", str(stab)]) == 0
     captured = capsys.readouterr()
