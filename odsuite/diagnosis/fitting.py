@@ -124,11 +124,46 @@ def weight_notes(exps: Sequence[PreparedExperiment]) -> list[str]:
     return out
 
 
-def heads(exps: Sequence[PreparedExperiment], stride: int = 1) -> list[list[PreparedExperiment]]:
-    """The experiments cut to each of HEADS_S after their hit, without their samples at rest before
+#: records longer than this many periods of the model's slowest mode, where HEADS_S hold less than
+#: HEAD_PERIODS of it, are reached through more heads, each HEAD_GROWTH times the one before, up to
+#: half the longest record: from a head of a fifth of a tall cabinet's 5.4 Hz rocking period
+#: straight to its 6 s of ringing (32 periods), the linearised steps of a one-foot-softer fit went
+#: astray (its error 16.5 at the nominal model, 13.4 after screening, 0.13 at the truth). The
+#: calibration's rigs (3-6 periods) and the thesis rig (4 periods of its slowest mode in 0.04 s)
+#: keep the two heads
+LONG_RECORD_PERIODS = 8.0
+HEAD_PERIODS = 2.0
+HEAD_GROWTH = 4.0
+
+
+def head_times(exps: Sequence[PreparedExperiment], slowest_hz: float | None = None) -> list[float]:
+    """The heads' lengths (s after the hit): HEADS_S, and more for records long in periods of the
+    slowest mode (``slowest_hz``; LONG_RECORD_PERIODS)."""
+    times = list(HEADS_S)
+    if slowest_hz and slowest_hz > 0 and slowest_hz * times[-1] < HEAD_PERIODS and exps:
+        longest = max((e.n_samples - e.trigger) / e.fs for e in exps)
+        if slowest_hz * longest > LONG_RECORD_PERIODS:
+            # from half a period of the slowest mode: shorter heads barely see it move
+            times = [0.5 / slowest_hz]
+            while times[-1] * HEAD_GROWTH < longest / 2:
+                times.append(times[-1] * HEAD_GROWTH)
+    return times
+
+
+def slowest_mode_hz(problem: Problem) -> float | None:
+    """The lowest non-zero natural frequency of the problem's base model (Hz), None without one."""
+    f = np.asarray(problem.base.shared.modes().frequency_hz, float)
+    f = f[f > 0]
+    return float(f.min()) if f.size else None
+
+
+def heads(exps: Sequence[PreparedExperiment], stride: int = 1, slowest_hz: float | None = None
+          ) -> list[list[PreparedExperiment]]:
+    """The experiments cut to each head_times after their hit, without their samples at rest before
     it (PreparedExperiment.resting_head: cut at a multiple of ``stride``, so a residual taken
     every ``stride`` samples keeps the whole head's samples), then whole."""
-    stages = [[e.resting_head(e.trigger + int(round(t * e.fs)), stride) for e in exps] for t in HEADS_S]
+    stages = [[e.resting_head(e.trigger + int(round(t * e.fs)), stride) for e in exps]
+              for t in head_times(exps, slowest_hz)]
     return stages + [list(exps)]
 
 
@@ -1198,9 +1233,8 @@ def _sweep_stage(problem: Problem, stages: list[list[PreparedExperiment]]) -> li
     model's slowest mode. A stiffness or a frequency shows once the response has turned; on a slow
     rig (an 11 Hz suspension) the shortest head is a ninth of a period, where a start that barely
     changes the head's error (a spring hardened a thousandfold) can look better than the right one."""
-    f = np.asarray(problem.base.shared.modes().frequency_hz, float)
-    f = f[f > 0]
-    need = 0.5 / float(f.min()) if f.size else 0.0
+    slowest = slowest_mode_hz(problem)
+    need = 0.5 / slowest if slowest else 0.0
     for stage in stages[:-1]:
         if all((e.n_samples - e.trigger) / e.fs >= need for e in stage):
             return stage
@@ -1344,7 +1378,7 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
     if best_fixed:
         problem = problem.derived(best_fixed)
     if problem.free:
-        stages = heads(problem.exps, problem.stride)
+        stages = heads(problem.exps, problem.stride, slowest_mode_hz(problem))
         first = stages[0]
         u0 = problem.zero()
         r0 = problem.residual(u0, first)
@@ -1731,7 +1765,8 @@ def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] 
     u = np.clip(u0, lo, hi)
     n = len(problem.free)
     root = np.sqrt(problem.pull) if problem.prior else None
-    stages = heads(exps or problem.exps, problem.stride) if continuation else [list(exps or problem.exps)]
+    stages = (heads(exps or problem.exps, problem.stride, slowest_mode_hz(problem)) if continuation
+              else [list(exps or problem.exps)])
     # the cost is half the strided sum of squares, which is about the whole one over the stride
     least = 0.5 * STALL_GAIN * problem.noise_scale / problem.stride if problem.noise_scale > 0 else 0.0
     least = max(least, short_of)
