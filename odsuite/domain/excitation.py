@@ -12,7 +12,11 @@ import numpy as np
 from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError
 from odsuite.domain.textfiles import plain_number
-from odsuite.store.stored_values import MAX_POINT_M
+
+
+#: a force point farther than this from the rig's origin (m) is no lab's: 1e300 m ran through every
+#: analysis as overflow warnings (read from a project or given on the command line)
+MAX_POINT_M = 1e4
 
 
 @dataclass(frozen=True)

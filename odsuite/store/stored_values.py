@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from odsuite.domain.errors import ProjectFileError
+from odsuite.domain.excitation import MAX_POINT_M
 
 #: sampling rates odsuite records and reads (as acquisition and .lvm import allow)
 RATE_RANGE = (0.1, 1e8)  # Hz
@@ -27,11 +28,6 @@ def _bad(path: Path, where: str, field: str, value: Any, expected: str) -> Proje
     shown = repr(value)
     shown = shown if len(shown) <= 120 else shown[:117] + "..."
     return ProjectFileError(f"{path}: {where} field {field!r}: expected {expected}, got {shown}")
-
-
-#: a stored force point farther than this from the rig's origin (m) is no lab's: 1e300 m ran
-#: through every analysis as overflow warnings
-MAX_POINT_M = 1e4
 
 
 def is_number(x: Any) -> bool:
