@@ -87,8 +87,6 @@ def modes_cmd(
     band: where the hammer's force spectrum and the coherence are usable), of one experiment or of
     the FRF matrix of several, or with --output-only from the responses alone (several experiments:
     the setups of a roving survey, merged through their reference channels)."""
-    import json
-
     from odsuite.analysis.modal_project import (all_flagged, experiment_modes, experiment_output_only_modes,
                                                 experiments_modes, flagged_note)
     from odsuite.contracts.renderers import RenderRequest
@@ -146,7 +144,7 @@ def modes_cmd(
             doc["references"] = references
         if not output_only:
             doc["flagged_hits"] = flagged
-        print(json.dumps(doc))
+        _print_json(doc)  # NaN and inf as null, as every --json
         return
     _print_modes(res, name)
     for path in (figure, mac_figure):

@@ -175,8 +175,6 @@ def model_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
 ) -> None:
     """The project's current model: revision, effects, parameters and modes (ascending)."""
-    import json
-
     from odsuite.analysis.modelrev import model_report
     from odsuite.cli.text_table import text_table
     from odsuite.store.project import open_project
@@ -184,7 +182,7 @@ def model_cmd(
     with open_project(project) as p:
         report = model_report(p)
     if as_json:
-        print(json.dumps(report))
+        _print_json(report)  # NaN and inf as null, as every --json
         return
     print(shown(f"model {report['model']!r}, revision {report['revision']}, effects: "
                 f"{', '.join(report['effects']) or 'none'}"))

@@ -501,3 +501,18 @@ def test_a_short_record_takes_a_pretrigger_it_can_hold(capsys, tmp_path):
     code, out, err = run(capsys, "acquire", tmp_path / "b.h5", "--name", "a", "--samples", "256")
     assert code == 0, err
     assert "256 samples x 10 channels at 512 Hz, 128 before the trigger" in out
+
+
+def test_model_and_modes_json_print_nan_as_null(capsys, tmp_path, monkeypatch):
+    # `model --json` and `modes --json` printed their documents with json.dumps directly: a NaN or
+    # inf would have made text no JSON parser reads (every other --json prints them as null)
+    import odsuite.analysis.modelrev as modelrev
+
+    rig = Path(__file__).resolve().parents[1] / "data" / "rigs" / "stiff-bracket.toml"
+    assert run(capsys, "new", tmp_path / "b.h5", "--rig", rig)[0] == 0
+    real = modelrev.model_report
+    monkeypatch.setattr(modelrev, "model_report", lambda p: {**real(p), "odd": [float("nan"), float("inf")]})
+    code, out, err = run(capsys, "model", tmp_path / "b.h5", "--json")
+    assert code == 0, err
+    assert json.loads(out)["odd"] == [None, None]
+    assert "NaN" not in out and "Infinity" not in out
