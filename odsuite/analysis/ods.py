@@ -24,6 +24,9 @@ from odsuite.domain.rig import COORDINATES
 
 #: default line spacing (Hz): resolves a 1 %-damped mode at 25 Hz (half-power width 0.5 Hz)
 RESOLUTION_HZ = 0.25
+#: below 25 Hz the lines are this fraction of the frequency asked: half the half-power width of a
+#: 1 %-damped mode there (a building's 1.88 Hz mode got 0.195 Hz lines and its ODS at 1.953 Hz)
+RELATIVE_RESOLUTION = 0.01
 #: at least this many Welch segments (Hann, half overlap), so that the cross-spectra are averages
 MIN_SEGMENTS = 8
 
@@ -66,10 +69,11 @@ class OperatingShape:
         }
 
 
-def segment_length(n_samples: int, fs: float) -> int:
-    """Welch segment: a power of two giving RESOLUTION_HZ lines or finer when the record holds
-    MIN_SEGMENTS of them, else the longest power of two that still gives MIN_SEGMENTS."""
-    want = 2 ** int(np.ceil(np.log2(fs / RESOLUTION_HZ)))
+def segment_length(n_samples: int, fs: float, frequency_hz: float) -> int:
+    """Welch segment: a power of two giving lines of RESOLUTION_HZ, or RELATIVE_RESOLUTION of
+    ``frequency_hz`` where that is finer, or finer still, when the record holds MIN_SEGMENTS of
+    them, else the longest power of two that still gives MIN_SEGMENTS."""
+    want = 2 ** int(np.ceil(np.log2(fs / min(RESOLUTION_HZ, RELATIVE_RESOLUTION * frequency_hz))))
     most = 2 ** int(np.floor(np.log2(max(2 * n_samples // (MIN_SEGMENTS + 1), 2))))
     return int(max(min(want, most), 2))
 
@@ -96,7 +100,7 @@ def operating_shape(project, experiment: str, reference: str, frequency_hz: floa
     # a hammer record holds its transient whole: one segment of the record's length, unwindowed,
     # gives lines fs / n (Welch segments of a 0.4 s record gave 10-20 Hz lines and cut the transient)
     hammer = exp.excitation is not None
-    nper = data.shape[0] if hammer else segment_length(data.shape[0], fs)
+    nper = data.shape[0] if hammer else segment_length(data.shape[0], fs, frequency_hz)
     if not hammer and data.shape[0] < 2 * nper:
         raise ConfigError(f"{where}: {data.shape[0]} samples are too few for an ODS (at least {2 * nper})")
     r = names.index(reference)

@@ -314,3 +314,23 @@ def test_ssi_and_efdd_damping_far_apart_are_said_to_be_uncertain(tmp_path, capsy
     assert main(["modes", str(p), "--experiment", "mps", "--output-only"]) == 0
     err = capsys.readouterr().err
     assert "SSI-cov's damping ratio 0.00108 and EFDD's 0.00462 lie" in err and "182.2" in err, err
+
+
+@pytest.mark.parametrize("mode, reference", [(0, "ch4"), (1, "ch1")])
+def test_palisaden_ods_at_a_mode_is_taken_at_that_mode(palisaden, capsys, mode, reference):
+    """`ods --at` a building's mode (1.88 and 2.42 Hz, 1.5 % damped): the line taken lies within
+    0.5 % of pyOMA2's SSI-cov frequency, and the shape has MAC >= 0.999 with pyOMA2's. The 0.25 Hz
+    default lines of a machine (0.195 Hz at 100 Hz) answered 1.88 with 1.953 Hz and 2.42 with 2.344
+    Hz (MAC 0.998)."""
+    from odsuite.analysis.modal import mac
+
+    project, ref = palisaden
+    theirs = ref["modes"]["SSIcov"]
+    f0 = theirs["frequency_hz"][mode]
+    capsys.readouterr()
+    assert main(["ods", str(project), "ambient", "--reference", reference, "--at", f"{f0:.3f}", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["frequency_hz"] == pytest.approx(f0, rel=0.005)
+    ours = np.array([complex(*doc["shape"][f"ch{c + 1}"]) for c in range(6)])
+    phi = np.array(theirs["shape"]["re"][mode]) + 1j * np.array(theirs["shape"]["im"][mode])
+    assert mac(ours[:, None], phi[:, None])[0, 0] >= 0.999
