@@ -127,6 +127,14 @@ def render_experiment(
 def _check_experiment(project, experiment: str) -> None:
     """A project with a rig to draw and the experiment named."""
     if project.rig is None:
+        from odsuite.api import project_geometry
+
+        geometry = project_geometry(project)
+        if geometry is not None:  # what can be drawn on it, not a claim that it is missing
+            raise ConfigError(f"{project.path}: the project has no rig (created with --rig none), whose plates a "
+                              f"record's motion is drawn on; on its geometry {geometry.name!r} `--renderer "
+                              "mode-shape --mode K` draws a mode and `--ods HZ --reference SENSOR` an operating "
+                              "deflection shape (docs/geometry.md)")
         raise ConfigError(f"{project.path}: the project has no rig geometry to draw (created with --rig none) "
                           "and no geometry of nodes and lines (docs/geometry.md)")
     if experiment not in project.experiment_names():

@@ -185,3 +185,12 @@ def test_a_shape_movies_gif_fallback_never_replaces_a_file_the_user_did_not_name
                            workers=1, progress=False)
     assert kept.read_bytes() == b"\x89HDF\r\n\x1a\n precious"
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted({"m.gif", kept.name})
+
+
+@pytest.mark.parametrize("output, options", [("m.mp4", []), ("m.png", ["--figure", "projection"])])
+def test_a_record_movie_without_a_rig_names_what_the_geometry_can_draw(mast, tmp_path, capsys, output, options):
+    # the refusal said the project had "no geometry of nodes and lines" when it had one
+    code, _, err = run(capsys, "render", mast, "rec", "-o", tmp_path / output, *options)
+    assert code == 1 and len(err.strip().splitlines()) == 1
+    assert "no geometry" not in err and "geometry 'geometry'" in err
+    assert "--renderer mode-shape --mode K" in err and "--ods HZ --reference SENSOR" in err
