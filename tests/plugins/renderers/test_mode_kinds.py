@@ -95,3 +95,22 @@ def test_a_stack_rocking_on_its_isolators_is_suspension_though_its_mounts_give()
     flags = suspension_modes(_model(rig))
     assert (ratio < 1.15).sum() == 5 and (ratio > 2.7).sum() == 11
     assert flags[ratio < 1.15].all() and not flags[ratio > 2.7].any() and flags.sum() == 6
+
+
+def test_report_lists_the_model_modes_a_record_can_see():
+    """The summary listed all 98 modes of the LADISK beam's finite elements, up to 2976048.7 Hz, for
+    records sampled at 50 kHz: now those up to the 25 kHz Nyquist frequency, and how many more."""
+    from types import SimpleNamespace
+
+    from odsuite.contracts.plugins import build_registries, default_manager
+    from odsuite.domain.rig import load_rig
+    from odsuite_plugins.renderers.report import _model_modes_words
+
+    beam = Path(__file__).resolve().parents[3] / "projects" / "rigs" / "ladisk-beam.toml"
+    model = _model(load_rig(beam, build_registries(default_manager()).sensor_types))
+    f = model.modes().frequency_hz
+    rmodel = SimpleNamespace(for_experiment=lambda name: model)
+    words = _model_modes_words(rmodel, [SimpleNamespace(name="hit", fs=50_000.0)], list(f))
+    listed, _, rest = words.partition(" (")
+    assert [float(v) for v in listed.split(", ")] == [round(v, 1) for v in f[f <= 25_000.0]]
+    assert rest == f"{np.sum(f > 25_000.0)} more above 25000 Hz, the records' Nyquist frequency)"
