@@ -95,6 +95,7 @@ _WHERE: dict[str, str] = {
     "error_text": "odsuite.domain.display",
     "fixed": "odsuite.domain.display",
     "per_unit": "odsuite.domain.display",
+    "rms_label": "odsuite.domain.display",
     "unit_text": "odsuite.domain.display",
     # text files and outputs (room checked before writing)
     "check_text_file": "odsuite.domain.textfiles",

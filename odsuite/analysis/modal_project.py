@@ -173,14 +173,14 @@ def experiment_modes(
 def experiments_modes(
     project: str | Path, experiments: list[str], *, f_band: tuple[float | None, float | None] | None = None,
     max_order: int = 50, frequencies: list[float] | None = None, flagged_too: bool = False,
-) -> tuple[ModalResult, np.ndarray, np.ndarray, dict[str, dict], dict[str, list]]:
+) -> tuple[ModalResult, np.ndarray, np.ndarray, dict[str, dict], dict[str, list], list[str]]:
     """Modes of an FRF matrix across experiments: a roving hammer (each experiment hits another
     point) or several references. Every experiment's FRFs (stored as its derived "frf" once the
     fit passed, all in one commit) on the same lines are stacked into one matrix whose rows are "output @ experiment", and fitted with
     one common denominator (LSCF, ``modal.identify_modes``); the default band is the overlap of the
     experiments' usable bands. Returns the modes (shapes per row), the frequency lines, the matrix
-    (rows x lines), each experiment's reference (force point in m, direction) and its hit list
-    (``flagged_too`` as in ``hits_frf``)."""
+    (rows x lines), each experiment's reference (force point in m, direction), its hit list
+    (``flagged_too`` as in ``hits_frf``) and each row's unit."""
     from odsuite.analysis.frf import usable_band
 
     if len(set(experiments)) != len(experiments):
@@ -228,7 +228,8 @@ def experiments_modes(
     with open_project(project, "a") as p:  # one commit: every experiment's FRFs
         for e, (frf, hits) in zip(experiments, found):
             _store_frf(p, e, frf, hits, "H1", record_length)
-    return res, first.frequency, H, references, {e: hits for e, (_, hits) in zip(experiments, found)}
+    return (res, first.frequency, H, references, {e: hits for e, (_, hits) in zip(experiments, found)},
+            [u for f in frfs for u in f.units])
 
 
 def experiment_output_only_modes(

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from odsuite.domain.display import fixed, unit_text
+from odsuite.domain.display import fixed, rms_label, unit_text
 from odsuite.domain.errors import ConfigError
 from odsuite.cli.app import _check_output, _figure_renderer, _print_json, _rendered_doc, app, console, err_console, shown
 
@@ -112,16 +112,16 @@ def modes_cmd(
         res, freq, spectrum, unit = experiment_output_only_modes(project, experiments[0], f_band=band,
                                                                  max_order=max_order, block_rows=block_rows,
                                                                  decimation=decimate)
-        background = f"rms amplitude spectral density of the outputs ({unit_text(unit)})"
+        background = f"rms amplitude spectral density of the outputs [{unit_text(unit)}]"
     elif len(experiments) > 1:
-        res, freq, spectrum, references, hits = experiments_modes(
+        res, freq, spectrum, references, hits, units = experiments_modes(
             project, experiments, f_band=band, max_order=max_order, frequencies=freqs, flagged_too=True)
-        background = "rms |H| of the FRF matrix (FRF units)"
+        background = rms_label("|H| of the FRF matrix", units)
     else:
         # a record whose every hit is flagged still has modes to show, as compare shows them: named below
         res, frf, hits[experiments[0]] = experiment_modes(project, experiments[0], f_band=band, max_order=max_order,
                                                           frequencies=freqs, flagged_too=True)
-        freq, spectrum, background = frf.frequency, frf.H, "rms |H| of the outputs (FRF units)"
+        freq, spectrum, background = frf.frequency, frf.H, rms_label("|H| of the outputs", frf.units)
     flagged = {e: f for e, h in hits.items() if (f := all_flagged(h))}
     for e, f in flagged.items():
         err_console.print(f"note: {project}: experiment {e!r}: {flagged_note(f)}", highlight=False, soft_wrap=True)

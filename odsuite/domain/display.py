@@ -18,6 +18,13 @@ def unit_text(unit: str) -> str:
     return unit
 
 
+def rms_label(what: str, units) -> str:
+    """An axis label for the rms over outputs: ``rms |H| of the outputs [(m/s²)/N]``; outputs in
+    different units share no unit, and the label names theirs."""
+    shown = sorted({unit_text(u) for u in units})
+    return f"rms {what} [{shown[0]}]" if len(shown) == 1 else f"rms {what} [units differ: {', '.join(shown)}]"
+
+
 def per_unit(numerator: str, unit: str) -> str:
     """``numerator`` per ``unit`` as printed, the unit in parentheses when it is itself a ratio:
     ``per_unit("V", "m/s^2")`` -> ``V/(m/s²)``."""

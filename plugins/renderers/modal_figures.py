@@ -37,7 +37,7 @@ def _save(fig, path: Path, dpi: int = 130):
 
 def stabilisation_figure(result, path: str | Path, *, freq: np.ndarray, H: np.ndarray,
                          title: str = "stabilisation diagram",
-                         background: str = "rms |H| of the outputs (FRF units)",
+                         background: str = "rms |H| of the outputs",
                          size: tuple[float, float] = (10, 6), dpi: int = 130, log_frequency: bool = False):
     """Poles per model order over the fit band (grey: new, blue: frequency stable, red: frequency
     and damping stable), the chosen modes as labelled lines with their stable-order counts, and

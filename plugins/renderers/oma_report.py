@@ -232,7 +232,7 @@ def oma_sections(project, tmp: Path, say: Callable[[str], None], notes: list[str
         tag = len(results)
         spectra.append(f"<h3>{_esc(n)}</h3>" + _singular_values_figure(project, n, res, tmp / f"sv-{tag}.png"))
         _draw(project, "stabilisation", n, tmp / f"stab-{tag}.png", modes=res, freq=freq, H=spectrum,
-              title=f"SSI-cov of {n}", background=f"rms amplitude spectral density of the outputs ({unit})")
+              title=f"SSI-cov of {n}", background=f"rms amplitude spectral density of the outputs [{unit_text(unit)}]")
         stab.append(f"<h3>{_esc(n)}</h3><p>Settings: {_esc(res.settings.describe())} (chosen from the record as "
                     "<code>odsuite modes --output-only</code> does).</p>"
                     + _img(tmp / f"stab-{tag}.png", f"{n}: SSI-cov poles per model order (grey: new, blue: "

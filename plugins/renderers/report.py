@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from odsuite.api import fixed, per_unit, unit_text, write_output
+from odsuite.api import fixed, per_unit, rms_label, unit_text, write_output
 from odsuite.api import ConfigError, check_diagnosis, check_text_file
 
 #: Movie: frame size (pixels), frames per second, about this many frames, this long after the hit.
@@ -703,6 +703,7 @@ def _stabilisation_html(project, rec, tag: str, tmp: Path) -> str:
         return ""
     _draw(project, "stabilisation", rec.experiment, tmp / f"stab-{tag}.png", modes=rec.modes,
           freq=rec.frf.frequency, H=rec.frf.H, title=f"{rec.experiment}: stabilisation diagram",
+          background=rms_label("|H| of the outputs", rec.frf.units),
           size=(PRINT_WIDTH_IN, 4.0), dpi=FIGURE_DPI, log_frequency=rec.modes.band_hz[1] > 10 * rec.modes.band_hz[0])
     return _img(tmp / f"stab-{tag}.png", f"{rec.experiment}: poles of every model order in the fit band (red: "
                 "frequency and damping stable), the chosen modes dashed, the rms FRF behind them")

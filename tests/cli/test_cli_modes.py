@@ -334,3 +334,21 @@ def test_palisaden_ods_at_a_mode_is_taken_at_that_mode(palisaden, capsys, mode, 
     ours = np.array([complex(*doc["shape"][f"ch{c + 1}"]) for c in range(6)])
     phi = np.array(theirs["shape"]["re"][mode]) + 1j * np.array(theirs["shape"]["im"][mode])
     assert mac(ours[:, None], phi[:, None])[0, 0] >= 0.999
+
+
+def test_the_stabilisation_diagram_gives_the_frf_unit(beam_project, tmp_path, capsys, monkeypatch):
+    """The rms FRF behind the poles is labelled with the FRF's unit, accelerance of the g-labelled
+    record in (m/s²)/N; it read "(FRF units)"."""
+    import odsuite_plugins.renderers.modal_figures as figures
+
+    labels = []
+
+    def drawn(*args, **kwargs):
+        fig = stabilisation_figure(*args, **kwargs)
+        labels.extend(a.get_ylabel() for a in fig.axes)
+        return fig
+
+    stabilisation_figure = figures.stabilisation_figure
+    monkeypatch.setattr(figures, "stabilisation_figure", drawn)
+    assert main(["modes", str(beam_project), "--experiment", "acceleration", "--figure", str(tmp_path / "s.png")]) == 0
+    assert labels == ["model order", "rms |H| of the outputs [(m/s²)/N]"]
