@@ -138,6 +138,8 @@ _WHERE: dict[str, str] = {
     "assess_hits": "odsuite.analysis.hammer",
     "pair_modes": "odsuite.analysis.modal",
     "PAIR_TOLERANCE": "odsuite.analysis.modal_comparison",
+    "identified_record": "odsuite.analysis.modal_comparison",
+    "RecordModes": "odsuite.analysis.modal_comparison",
     "frf_modes": "odsuite.analysis.modal_project",
     "ods_coordinates": "odsuite.analysis.modal_project",
     "ods_motion": "odsuite.analysis.modal_project",

@@ -63,6 +63,29 @@ def _shapes(model, rig, res, channel_of: dict[str, int], modes) -> tuple[np.ndar
     return res.shapes[keep], rows @ modes.shapes
 
 
+def identified_record(project, name: str, *, frfs: bool = True) -> tuple[FrfSet | None, object | None, list[str]]:
+    """Record ``name``'s hammer FRFs over its hits (every hit, with a note, where all are flagged)
+    and the modes identified from them as ``odsuite modes`` identifies them (the stored ones while
+    they hold), with notes; the modes None where they could not be identified (the note says why).
+    ``frfs=False``: a record with stored modes has no FRFs estimated (None)."""
+    exp = project.experiment(name)
+    notes: list[str] = []
+    frf = None
+    stored = None if frfs else stored_modes(project, exp)
+    try:
+        if stored is None:
+            frf, hits = hits_frf(exp, f"{project.path}: experiment {name!r}", flagged_too=True)
+            flagged = all_flagged(hits)
+        else:
+            flagged = stored.flagged
+        if flagged:
+            notes.append(f"{name}: {flagged_note(flagged)}")
+        # stored by `process` while the record is unchanged
+        return frf, (stored.modes() if stored is not None else identified_modes(project, exp, frf)), notes
+    except IDENTIFICATION_ERRORS as exc:  # ConfigError covers a record without a clean hit
+        return frf, None, notes + [f"{name}: measured modes not identified: {exc}"]
+
+
 def modal_records(project, experiments: Sequence[str], model_for, *, frfs: bool = True
                   ) -> tuple[list[dict[str, Any]], list[str], list[RecordModes]]:
     """Rows ``{"experiment", "measured_hz", "model_hz", "measured_zeta", "model_zeta", "mac"}`` for
@@ -78,20 +101,9 @@ def modal_records(project, experiments: Sequence[str], model_for, *, frfs: bool 
     rig = project.rig
     for name in experiments:
         exp = project.experiment(name)
-        frf = None
-        stored = None if frfs else stored_modes(project, exp)
-        try:
-            if stored is None:
-                frf, hits = hits_frf(exp, f"{project.path}: experiment {name!r}", flagged_too=True)
-                flagged = all_flagged(hits)
-            else:
-                flagged = stored.flagged
-            if flagged:
-                notes.append(f"{name}: {flagged_note(flagged)}")
-            # stored by `process` while the record is unchanged
-            res = stored.modes() if stored is not None else identified_modes(project, exp, frf)
-        except IDENTIFICATION_ERRORS as exc:  # ConfigError covers a record without a clean hit
-            notes.append(f"{name}: measured modes not identified: {exc}")
+        frf, res, said = identified_record(project, name, frfs=frfs)
+        notes += said
+        if res is None:
             if frf is not None:  # the FRFs are there to look at all the same
                 records.append(RecordModes(name, frf, _usable_band(frf), np.empty(0), np.empty(0), None))
             continue

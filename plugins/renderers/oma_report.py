@@ -1,12 +1,14 @@
 """The report of a project without a rig: operating (ambient) records of a structure, analysed from
-their responses alone. The records (channels, rate, length, units), the singular values of each
-record's PSD matrix with the EFDD peaks, the SSI-cov stabilisation diagram, the table of modes
-(SSI-cov against EFDD), the modes merged over setups that share reference channels, and the modes
-moving on the structure's geometry in the interactive 3-D view (``mode_view``).
+their responses alone, and hammer records, analysed from their FRFs. The records (channels, rate,
+length, units), the singular values of each operating record's PSD matrix with the EFDD peaks, the
+SSI-cov stabilisation diagram, the table of modes (SSI-cov against EFDD), the modes merged over
+setups that share reference channels; each hammer record's FRFs, stabilisation diagram and modes;
+and the modes moving on the structure's geometry in the interactive 3-D view (``mode_view``).
 
-Every number comes from ``odsuite modes --output-only`` (``experiment_output_only_modes``) and, for
-several setups, from the same merging as ``odsuite modes`` with several experiments: the page shows
-the modes those commands print.
+Every number comes from ``odsuite modes --output-only`` (``experiment_output_only_modes``), for
+several setups from the same merging as ``odsuite modes`` with several experiments, and for a
+hammer record from its FRFs as ``odsuite modes --experiment NAME`` fits them: the page shows the
+modes those commands print.
 """
 
 from __future__ import annotations
@@ -26,6 +28,8 @@ SINGULAR_VALUES = 3
 LEFT_OUT = ("Comparison with a model, the diagnosis of candidate effects, the error across model revisions "
             "and the movie with the model need a rig with its model and hammer records; this project has no "
             "rig, so they are left out.")
+#: what the records section calls each kind of record
+OPERATING, HAMMER = "operating (no force)", "hammer (force channel): modes from its FRFs"
 
 
 def _unit(unit: str | None) -> str:
@@ -38,6 +42,11 @@ def _records(project) -> list[str]:
     return [n for n in project.experiment_names() if project.experiment(n).excitation is None]
 
 
+def _hammer_records(project) -> list[str]:
+    """The hammer records: experiments with a force channel."""
+    return [n for n in project.experiment_names() if project.experiment(n).excitation is not None]
+
+
 def _records_section(project, names: list[str], geometry) -> str:
     from odsuite.api import physical, response_columns
 
@@ -48,7 +57,7 @@ def _records_section(project, names: list[str], geometry) -> str:
         exp, d = project.experiment(n), info[n]
         outs = response_columns(exp)
         units = sorted({_unit(exp.systeminfo.channels[k].unit) for k in outs})
-        kind = "operating (no force)" if n in names else "hammer (force channel): not analysed output-only"
+        kind = OPERATING if n in names else HAMMER
         rows.append([n, kind, d.get("source") or "–", len(outs), f"{exp.sampling_rate:g}", d["n_samples"],
                      f"{d['n_samples'] / exp.sampling_rate:.1f}", ", ".join(units)])
         data = physical(exp)
@@ -143,6 +152,47 @@ def _modes_table(name: str, res) -> str:
     return table + extra + unres
 
 
+def _hammer_section(project, name: str, tag: int, tmp: Path, notes: list[str]) -> tuple[object | None, str]:
+    """One hammer record: its FRFs over every response channel, its stabilisation diagram, its modes
+    (as ``odsuite modes --experiment NAME`` prints them) and their AutoMAC; the modes (None where
+    they could not be identified) and the HTML."""
+    from odsuite.api import RecordModes, identified_record, mac, mpc
+
+    from .report import _stabilisation_html
+
+    frf, res, said = identified_record(project, name)
+    notes += said
+    html = "".join(f"<p class='notes'>{_esc(n)}</p>" for n in said)
+    if frf is None:
+        return None, html
+    band = res.band_hz if res is not None else None
+    outputs = list(frf.output_names)
+    _draw(project, "frf", name, tmp / f"ema-frf-{tag}.png", frf=frf, f_range=band, band_hz=band, outputs=outputs,
+          title=f"record {name}", size=(PRINT_WIDTH_IN, 5.2), dpi=FIGURE_DPI)
+    html += _img(tmp / f"ema-frf-{tag}.png", f"{name}: FRF of each response channel to the hammer force (magnitude "
+                 "on log-log axes, phase where the coherence is good, coherence)"
+                 + (f" over the band the modes are fitted in, {band[0]:.0f}-{band[1]:.0f} Hz" if band else ""))
+    if res is None:
+        return None, html
+    measured = np.asarray(res.frequency_hz, dtype=float)
+    html += _stabilisation_html(project, RecordModes(name, frf, band, measured, np.empty(0), None, res), f"ema-{tag}",
+                                tmp)
+    rows = [[k + 1, f"{f:.2f}", f"{100 * z:.3f}", int(res.stable_orders[k]), f"{mpc(res.shapes[:, k]):.3f}"]
+            for k, (f, z) in enumerate(zip(res.frequency_hz, res.damping_ratio))]
+    html += _table(["mode", "f [Hz]", "damping [%]", "stable orders", "MPC"], rows, id=f"ema-modes-{name}",
+                   caption=f"{name}: modes identified from the hammer FRFs (LSCF, stable poles checked by FRF "
+                           "synthesis, as odsuite modes does)", empty=f"{name}: no mode identified in the band.")
+    if res.rejected:
+        html += "<p>Stable poles not taken as modes: " + "; ".join(_esc(r) for r in res.rejected) + ".</p>"
+    if len(outputs) > 1 and measured.size > 1:
+        labels = [f"{f:.1f} Hz" for f in measured]
+        _draw(project, "mac", name, tmp / f"ema-mac-{tag}.png", mac=mac(res.shapes, res.shapes), labels_a=labels,
+              labels_b=labels, title=f"{name}: AutoMAC of the modes", dpi=FIGURE_DPI)
+        html += _img(tmp / f"ema-mac-{tag}.png", f"{name}: MAC of every mode's shape at the response channels with "
+                     "every other's (near 0 off the diagonal: distinct modes)")
+    return res, html
+
+
 def _merged(project, results: dict) -> tuple[object | None, str]:
     """The setups merged through the channels they share, as ``odsuite modes`` with several
     experiments does, or None with the sentence saying why not."""
@@ -176,7 +226,7 @@ def _merged_section(merged) -> str:
                                  "deviation over them") + unpaired
 
 
-def _view_section(geometry, results: dict, merged) -> str:
+def _view_section(geometry, results: dict, merged, hammer: dict) -> str:
     from odsuite.api import mpc
 
     from .mode_view import geometry_modes, mode_label, mode_view_data, mode_view_html
@@ -186,6 +236,7 @@ def _view_section(geometry, results: dict, merged) -> str:
                 "FILE.toml --name geometry</code> adds one (docs/geometry.md).</p>")
     sets = [("merged OMA", "setups " + ", ".join(merged.setups), list(merged.channels), merged)] if merged else \
         [("OMA", n, list(r.output_names), r) for n, r in results.items()]
+    sets += [("EMA", n, list(r.output_names), r) for n, r in hammer.items() if r.frequency_hz.size]
     placed = set(geometry.channels)
     nodes = lines = fixed = sensors = None
     modes, skipped = [], []
@@ -210,14 +261,13 @@ def _view_section(geometry, results: dict, merged) -> str:
 def oma_sections(project, tmp: Path, say: Callable[[str], None], notes: list[str]
                  ) -> tuple[list[tuple[str, str, str]], int]:
     """The sections of a rig-less project's report (key, heading, html) and the number of modes
-    identified. Refuses a project with no operating record in one line."""
+    identified. Refuses a project with no record in one line."""
     from odsuite.api import experiment_output_only_modes, project_geometry
 
-    names = _records(project)
-    if not names:
-        raise ConfigError(f"{project.path}: the project has no rig and no operating record to analyse "
-                          f"(experiments: {', '.join(project.experiment_names()) or 'none'}); "
-                          "`odsuite import` adds a record (docs/importing.md)")
+    names, hammer_names = _records(project), _hammer_records(project)
+    if not names and not hammer_names:
+        raise ConfigError(f"{project.path}: the project has no rig and no record to analyse; "
+                          "`odsuite import` adds one (docs/importing.md)")
     geometry = project_geometry(project)
     results, spectra, stab, tables = {}, [], [], []
     for n in names:
@@ -241,22 +291,37 @@ def oma_sections(project, tmp: Path, say: Callable[[str], None], notes: list[str
         tables.append(f"<h3>{_esc(n)}</h3>" + _modes_table(n, res))
     merged, why = _merged(project, results)
     merged_html = _merged_section(merged) if merged is not None else why
+    hammer, hammer_html = {}, []
+    for tag, n in enumerate(hammer_names):
+        say(f"identifying the modes of {n} from its FRFs")
+        res, html = _hammer_section(project, n, tag, tmp, notes)
+        hammer_html.append(f"<h3>{_esc(n)}</h3>" + html)
+        if res is not None:
+            hammer[n] = res
     say("the 3-D view")
-    view = _view_section(geometry, results, merged)
-    count = len(merged.frequency_hz) if merged is not None else sum(len(r.frequency_hz) for r in results.values())
-    listed = "; ".join(f"{n}: " + ", ".join(f"{f:.3f}" for f in r.frequency_hz) + " Hz" for n, r in results.items())
-    summary = (f"<p>Project <b>{_esc(project.path.name)}</b>: {len(names)} operating record(s) analysed from their "
-               f"responses alone (SSI-cov, checked by EFDD); "
+    view = _view_section(geometry, results, merged, hammer)
+    count = (len(merged.frequency_hz) if merged is not None else sum(len(r.frequency_hz) for r in results.values())) \
+        + sum(len(r.frequency_hz) for r in hammer.values())
+    listed = "; ".join(f"{n}: " + ", ".join(f"{f:.3f}" for f in r.frequency_hz) + " Hz"
+                       for n, r in (results | hammer).items() if r.frequency_hz.size)
+    analysed = ([f"{len(names)} operating record(s) analysed from their responses alone (SSI-cov, checked by EFDD)"]
+                if names else []) + ([f"{len(hammer_names)} hammer record(s) analysed from their FRFs"]
+                                     if hammer_names else [])
+    summary = (f"<p>Project <b>{_esc(project.path.name)}</b>: {'; '.join(analysed)}; "
                + (f"geometry <b>{_esc(geometry.name)}</b> ({len(geometry.node_ids)} nodes, "
                   f"{len(geometry.sensors)} sensors)." if geometry is not None else "no geometry.")
                + f"</p><p id='oma-modes'>Modes: {_esc(listed) or 'none identified'}.</p><p>{_esc(LEFT_OUT)}</p>")
     sections = [("summary", "Summary", summary),
-                ("records", "Records", _records_section(project, names, geometry)),
-                ("spectra", "Spectra (FDD)", "".join(spectra) or "<p>No spectra: no record gave modes.</p>"),
-                ("stabilisation", "Stabilisation diagram (SSI-cov)", "".join(stab) or "<p>No diagram.</p>"),
-                ("modes", "Modes", "".join(tables)),
-                ("merged", "Setups merged", merged_html),
-                ("view3d", "Interactive 3-D view of the modes", view)]
+                ("records", "Records", _records_section(project, names, geometry))]
+    if names:
+        sections += [
+            ("spectra", "Spectra (FDD)", "".join(spectra) or "<p>No spectra: no record gave modes.</p>"),
+            ("stabilisation", "Stabilisation diagram (SSI-cov)", "".join(stab) or "<p>No diagram.</p>"),
+            ("modes", "Modes", "".join(tables)),
+            ("merged", "Setups merged", merged_html)]
+    if hammer_names:
+        sections.append(("hammer", "Hammer records: FRFs and modes", "".join(hammer_html)))
+    sections.append(("view3d", "Interactive 3-D view of the modes", view))
     return sections, count
 
 

@@ -116,7 +116,9 @@ class ReportRenderer:
                            run_diagnosis=opts.get("run_diagnosis", True), movie=opts.get("movie", True),
                            movie_experiment=opts.get("movie_experiment"), frf_channels=opts.get("frf_channels"),
                            progress=opts.get("on_stage"))
-        error = f"error {res.error:.4f}" if res.error == res.error else "output-only: no model"  # NaN: no rig
+        # NaN: no rig, so no model; a rig-less page of hammer records is not output-only
+        error = (f"error {res.error:.4f}" if res.error == res.error else
+                 "no rig: no model" if "hammer" in res.sections else "output-only: no model")
         return Rendered(res.path, f"{res.size_bytes / 2**20:.1f} MiB; {error}", tuple(res.notes))
 
 

@@ -201,3 +201,28 @@ def test_palisaden_report(tmp_path, capsys, real_data):
     code, out, _ = run(capsys, "modes", project, "--experiment", "ambient", "--output-only", "--json")
     assert code == 0
     np.testing.assert_allclose(f, [m["frequency_hz"] for m in json.loads(out)["modes"]], rtol=1e-4)
+
+
+def test_rigless_hammer_records_report_their_frfs_and_modes(tmp_path, capsys, real_data):
+    """The LADISK beam's impact record on a project without a rig: the page shows its FRFs, its
+    stabilisation diagram and its modes, the published four within 0.5 % in frequency and 30 % in
+    damping (the data's README), the same as `odsuite modes` prints. The report refused such a
+    project ("no operating record to analyse ... `odsuite import` adds a record")."""
+    published_hz = np.array([695.0, 1897.6, 2777.3, 3671.2])
+    published_zeta = np.array([0.0047, 0.0031, 0.0024, 0.0020])
+    project = tmp_path / "beam.h5"
+    assert run(capsys, "new", project, "--rig", "none")[0] == 0
+    assert run(capsys, "import", project, real_data / "ladisk_beam_impact" / "acceleration.lvm", "--name", "hit")[0] == 0
+    code, out, err = run(capsys, "report", project, "-o", tmp_path / "r.html", "--json")
+    assert code == 0, err
+    assert json.loads(out)["summary"].endswith("no rig: no model")
+    page = (tmp_path / "r.html").read_text()
+    rows = table(page, "ema-modes-hit")
+    f, zeta = np.array([float(r[1]) for r in rows]), np.array([float(r[2]) / 100 for r in rows])
+    np.testing.assert_allclose(f, published_hz, rtol=0.005)
+    np.testing.assert_allclose(zeta, published_zeta, rtol=0.30)
+    code, out, _ = run(capsys, "modes", project, "--experiment", "hit", "--json")
+    assert code == 0
+    printed = json.loads(out)["modes"]
+    np.testing.assert_allclose(f, [m["frequency_hz"] for m in printed], atol=0.005)
+    assert page.count("<img") >= 2 and "output-only" not in page.split("<h2>Summary</h2>")[1].split("</section>")[0]
