@@ -146,18 +146,22 @@ def checked(where: str, data, names, units, fs, explicit: dict, may_transpose: b
         printable_name(f"{where}: channels: column {k + 1} name", c)
     check_names(where, names)
     units = explicit.get("units", units)
+    fs = explicit.get("sampling_rate", fs)
+    sidecar = Path(where).with_suffix('.toml').name
+    if units is None and fs is None:  # both at once: the first try learns all a bare array lacks
+        raise ConfigError(f"{where}: units and sampling_rate: not given (channels {_listed(names)}); give --units "
+                          f"and --rate or a sidecar {sidecar} (units = \"m/s^2\" and sampling_rate = ... in Hz)")
     if units is None:
         raise ConfigError(f"{where}: units: not given (channels {_listed(names)}); give --units or "
-                          f"a sidecar {Path(where).with_suffix('.toml').name} (units = \"m/s^2\")")
+                          f"a sidecar {sidecar} (units = \"m/s^2\")")
     units = _list(units, n, where, "units")
     for c, u in zip(names, units):
         if u.lower() not in KNOWN_UNITS:
             raise ConfigError(f"{where}: channel {c!r}: unit {u!r} is not one of m/s^2, g, N, V")
     check_values(where, names, units, a)
-    fs = explicit.get("sampling_rate", fs)
     if fs is None:
-        raise ConfigError(f"{where}: sampling_rate: not given; give --rate or a sidecar "
-                          f"{Path(where).with_suffix('.toml').name} (sampling_rate = ... in Hz)")
+        raise ConfigError(f"{where}: sampling_rate: not given; give --rate or a sidecar {sidecar} "
+                          "(sampling_rate = ... in Hz)")
     try:
         if isinstance(fs, bool):
             raise TypeError(fs)

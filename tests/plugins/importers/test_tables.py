@@ -557,3 +557,23 @@ def test_an_lvm_s_bad_values_are_named_in_the_file(tmp_path, capsys, edit, messa
     err = capsys.readouterr().err.strip()
     assert err == f"error: {bad}: {message}" or err.startswith(f"error: {bad}: {message}"), err
     assert len(err.splitlines()) == 1
+
+
+def test_a_bare_array_names_units_and_rate_at_once(tmp_path, capsys):
+    # a .npy without a sidecar was refused for its units, and once they were given for its rate:
+    # two tries to learn what one line can say
+    from odsuite.cli import main
+
+    np.save(tmp_path / "walk.npy", DATA[:, :2])
+    p = tmp_path / "p.h5"
+    assert main(["new", str(p), "--rig", "none"]) == 0
+    capsys.readouterr()
+    npy = tmp_path / "walk.npy"
+    assert main(["import", str(p), str(npy), "--name", "walk"]) == 1
+    assert capsys.readouterr().err == (
+        f"error: {npy}: units and sampling_rate: not given (channels ch1, ch2); give --units and --rate or a sidecar "
+        "walk.toml (units = \"m/s^2\" and sampling_rate = ... in Hz)\n")
+    assert main(["import", str(p), str(npy), "--name", "walk", "--rate", "100"]) == 1
+    assert "units: not given (channels ch1, ch2); give --units or a sidecar walk.toml" in capsys.readouterr().err
+    with open_project(p) as project:
+        assert project.experiment_names() == []
