@@ -59,9 +59,13 @@ def force_index(names: list[str], units: list[str], force_channel: str | None, w
     return cand[0] if cand else None
 
 
-def operating_note(where: str) -> str:
-    return (f"{where}: no force channel (no column in N or named like a force): stored as an operating record, "
-            "responses only (`odsuite ods`, `odsuite modes --output-only`; --force-channel names a force column)")
+def operating_note(where: str, names: list[str], units: list[str]) -> str:
+    """The warning for a record stored as an operating record, naming its columns with their units:
+    a hammer column labelled in a response unit (lvm_read's impact test: F in g) shows there."""
+    columns = _listed([f"{n} [{u}]" for n, u in zip(names, units)])
+    return (f"{where}: no force channel among its columns ({columns}; none in N or named like a force): stored as "
+            "an operating record, responses only (`odsuite ods`, `odsuite modes --output-only`; --force-channel "
+            "names a force column)")
 
 
 def import_lvm(project: str | Path, lvm_path: str | Path, name: str, force_channel: str | None = None, *,
@@ -113,7 +117,7 @@ def import_columns(project: str | Path, file: str | Path, name: str, names: list
                      "stored as they are, without the rig's geometry",)
         fidx = force_index(list(names), list(units), force_channel, str(file))
         if fidx is None:
-            notes += (operating_note(str(file)),)
+            notes += (operating_note(str(file), list(names), list(units)),)
         # a file in engineering units holds no converter range: limits well above the peaks, so that
         # volt limits are never applied to g or N (clipping is then told by flat tops alone)
         limits = np.maximum(10.0, np.ceil(2 * np.abs(data).max(axis=0)))

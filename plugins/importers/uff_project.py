@@ -178,7 +178,7 @@ def _import_records(project, uff_path: Path, name: str, content, records: list[U
                   "name or count matches): stored as they are, without the rig's geometry",)
     names = [n if n not in names[:k] else f"{n}#{k}" for k, n in enumerate(names)]
     if fidx is None:
-        notes += (operating_note(str(uff_path)),)
+        notes += (operating_note(str(uff_path), names, units),)
     fs = _sampling_rate(dt)
     check_units(names, units, str(uff_path), kept=UFF_KEPT_UNITS)
     raw = np.column_stack([f.data for f in records]).astype(float)

@@ -166,3 +166,18 @@ def test_units_replace_a_mislabelled_lvm_column(real_data, tmp_path, capsys):
     # the README's own H1 peaks: 19.8 and 21.1 Hz (a close pair), 160.7 Hz, 340 Hz
     for peak in (19.8, 21.1, 160.7, 340.0):
         assert np.min(np.abs(f / peak - 1)) < 0.01, (peak, f)
+
+
+def test_an_operating_record_names_its_columns_and_units(real_data, tmp_path, capsys):
+    # lvm_read's impact test labels its hammer column F in g: stored as an operating record, the
+    # warning said only "no column in N or named like a force", and the label that caused it was
+    # nowhere on the screen
+    from odsuite.cli import main
+
+    lvm = real_data / "lvm_read_impacts" / "long_single_header_multi_ch.lvm"
+    p = tmp_path / "p.h5"
+    assert main(["new", str(p), "--rig", "none"]) == 0
+    capsys.readouterr()
+    assert main(["import", str(p), str(lvm), "--name", "ambient"]) == 0
+    assert (f"warning: {lvm}: no force channel among its columns (F [g], m_1 [m/s^2], m_2 [m/s^2]; none in N or "
+            "named like a force): stored as an operating record") in capsys.readouterr().err
