@@ -27,6 +27,12 @@ class Hit:
     accepted: bool
     reasons: tuple[str, ...]  # why it was rejected (empty when accepted)
     notes: tuple[str, ...] = ()  # warnings that do not reject it
+    #: its record does not fit in the data, or its peak is their last sample: never averaged, not
+    #: even where every hit is flagged (its record would be shorter than the others', its blow cut)
+    left_out: bool = False
+    #: what the data's ends did with this hit, one line with its time in s ("" when nothing): left
+    #: out, or every record cut short to fit it
+    data_end: str = ""
 
     @property
     def trigger(self) -> int:
@@ -218,7 +224,9 @@ def assess_hits(
     the response has not decayed below ``decay_limit`` x its peak at the record end (leakage: use
     an exponential window). Defaults: pretrigger 1 % of the record (at most the samples before the
     first hit; a given length the last hit's data miss by at most that: its record starts earlier);
-    records as long as the closest hits allow and the last hit's data reach. Limits
+    records as long as the closest hits allow and the last hit's data reach, unless those end
+    before half that length: that hit is then left out (``Hit.left_out``, as is a hit whose record
+    runs past the data or whose peak is their last sample; ``Hit.data_end`` says so). Limits
     are the converters' ranges in the signals' units (``is_clipped``); ``response_limits`` is one
     range for every response or one per response channel."""
     f = np.asarray(force, dtype=float)
@@ -237,11 +245,22 @@ def assess_hits(
     chosen_pretrigger = pretrigger is None
     if pretrigger is None:
         pretrigger = min(peaks[0], max((record_length or n) // 100, 1))
+    cut_short = ""
     if record_length is None:
-        # equal records for averaging: as long as the closest hits allow, and the last one fits
+        # equal records for averaging: as long as the closest hits allow, and the last one fits ...
         record_length = n - peaks[-1] + pretrigger
         if len(peaks) > 1:
-            record_length = min(record_length, int(np.diff(peaks).min()))
+            spacing = int(np.diff(peaks).min())
+            if 2 * record_length < spacing:
+                # ... unless the data end so soon after it that every record would lose more than half
+                # (its lines more than twice as far apart): it is left out instead
+                record_length = spacing
+            elif record_length < spacing:
+                cut_short = (f"every hit's record cut short to {record_length / fs:.4g} s by the data's end after "
+                             f"it (FRF lines {fs / record_length:.4g} Hz apart, not {fs / spacing:.4g} Hz)")
+        elif record_length < gap:  # shorter than find_hits lets two hits' records be
+            cut_short = (f"its record cut short to {record_length / fs:.4g} s by the data's end (FRF lines "
+                         f"{fs / record_length:.4g} Hz apart)")
     hits = []
     for p in peaks:
         start = p - pretrigger
@@ -252,12 +271,18 @@ def assess_hits(
             start, stop = start - (stop - n), n
         reasons: list[str] = []
         notes: list[str] = []
+        left_out = ""
         if start < 0 or stop > n:
-            reasons.append(f"record [{start}, {stop}) runs past the data (0..{n})")
+            edge = f"begin {p / fs:.4g} s before" if start < 0 else f"end {(n - p) / fs:.4g} s after"
+            left_out = f"left out: its {record_length / fs:.4g} s record runs past the data, which {edge} its peak"
         a, b = max(start, 0), min(stop, n)
         fseg = f[a:b]
         local_peak = p - a
         pw = pulse_width(fseg, local_peak)
+        if not left_out and p == n - 1:  # the force may still rise: the blow's spectrum is not in the data
+            left_out = "left out: its peak is the data's last sample (its blow is cut)"
+        if left_out:
+            reasons.append(left_out)
         if is_double_hit(fseg, local_peak, level=double_hit_level):
             reasons.append("double hit")
         if is_clipped(fseg, limits=force_limits):
@@ -271,6 +296,7 @@ def assess_hits(
                 ratio = tail.max() / max(np.abs(seg).max(), 1e-300)
                 if ratio > decay_limit:
                     notes.append(f"response channel {c} at {100 * ratio:.1f} % of its peak at record end")
+        said = left_out or (cut_short if p == peaks[-1] else "")
         hits.append(
             Hit(
                 start=start,
@@ -281,6 +307,8 @@ def assess_hits(
                 accepted=not reasons,
                 reasons=tuple(reasons),
                 notes=tuple(notes),
+                left_out=bool(left_out),
+                data_end=f"hit at {p / fs:.4g} s: {said}" if said else "",
             )
         )
     return hits

@@ -14,7 +14,7 @@ import numpy as np
 from odsuite.domain.errors import ConfigError
 from odsuite.analysis.frf import FrfSet
 from odsuite.analysis.modal import mac, pair_modes
-from odsuite.analysis.modal_project import all_flagged, flagged_note, hits_frf
+from odsuite.analysis.modal_project import all_flagged, data_end_notes, flagged_note, hits_frf
 from odsuite.analysis.stored_modes import IDENTIFICATION_ERRORS, identified_modes, stored_modes
 
 #: a model mode further than this (relative) from a measured one is not its partner: the model
@@ -75,9 +75,10 @@ def identified_record(project, name: str, *, frfs: bool = True) -> tuple[FrfSet 
     try:
         if stored is None:
             frf, hits = hits_frf(exp, f"{project.path}: experiment {name!r}", flagged_too=True)
-            flagged = all_flagged(hits)
+            flagged, data_end = all_flagged(hits), data_end_notes(hits)
         else:
-            flagged = stored.flagged
+            flagged, data_end = stored.flagged, stored.data_end
+        notes += [f"{name}: {note}" for note in data_end]
         if flagged:
             notes.append(f"{name}: {flagged_note(flagged)}")
         # stored by `process` while the record is unchanged

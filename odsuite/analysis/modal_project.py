@@ -53,11 +53,10 @@ def _converter_ranges(exp, data: np.ndarray) -> list[tuple[float, float] | None]
             for k, (c, s) in enumerate(zip(exp.systeminfo.channels, _scale(exp)))]
 
 
-def hits_frf(exp, where: str, *, estimator: str = "H1", record_length: int | None = None,
-             flagged_too: bool = False) -> tuple[FrfSet, list]:
-    """FRFs of every channel of an experiment (as read from a project) to its force channel over
-    its accepted hits, and the hit list; nothing is stored. ``flagged_too``: a record whose every
-    hit is flagged (clipped, double) uses them all rather than failing (the caller says so)."""
+def record_hits(exp, where: str, *, record_length: int | None = None) -> tuple[np.ndarray, list[int], list]:
+    """An experiment's data in SI units (samples x channels), its response columns (every channel
+    but the force channel) and its hits: ``assess_hits`` of those responses to the force, judged
+    against the converters' ranges."""
     if exp.excitation is None:
         raise ConfigError(f"{where} has no force channel")
     data = physical(exp)
@@ -69,7 +68,18 @@ def hits_frf(exp, where: str, *, estimator: str = "H1", record_length: int | Non
                           "estimate FRFs of")
     hits = assess_hits(data[:, fidx], data[:, outs], exp.sampling_rate, record_length=record_length,
                        force_limits=limits[fidx], response_limits=[limits[k] for k in outs])
-    good = [h for h in hits if h.accepted] or (list(hits) if flagged_too else [])
+    return data, outs, hits
+
+
+def hits_frf(exp, where: str, *, estimator: str = "H1", record_length: int | None = None,
+             flagged_too: bool = False) -> tuple[FrfSet, list]:
+    """FRFs of every channel of an experiment (as read from a project) to its force channel over
+    its accepted hits, and the hit list; nothing is stored. ``flagged_too``: a record whose every
+    hit is flagged (clipped, double) uses them all rather than failing (the caller says so)."""
+    data, outs, hits = record_hits(exp, where, record_length=record_length)
+    fidx = exp.excitation.force_channel
+    # a left-out hit's record is not one of the others' length, or lacks the end of its blow
+    good = [h for h in hits if h.accepted] or ([h for h in hits if not h.left_out] if flagged_too else [])
     if not good:
         raise ConfigError(f"{where} has no acceptable hit ({hit_flags(hits) or 'no hits found'})")
     units = [exp.systeminfo.channels[k].unit for k in outs]
@@ -84,6 +94,11 @@ def hits_frf(exp, where: str, *, estimator: str = "H1", record_length: int | Non
 def hit_flags(hits) -> str:
     """What the hammer checks found wrong with the rejected hits, in one line ("" when nothing)."""
     return "; ".join(f"hit at sample {h.peak_index}: {', '.join(h.reasons)}" for h in hits if not h.accepted)
+
+
+def data_end_notes(hits) -> list[str]:
+    """What the data's ends did with the hits (``Hit.data_end``): left out, or every record cut short."""
+    return [h.data_end for h in hits if h.data_end]
 
 
 def all_flagged(hits) -> str:

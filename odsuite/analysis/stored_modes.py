@@ -24,7 +24,7 @@ from threadpoolctl import threadpool_limits
 
 from odsuite.analysis.frf import FrfSet
 from odsuite.analysis.modal import ModalResult, StabilisationDiagram
-from odsuite.analysis.modal_project import all_flagged, frf_modes, hits_frf
+from odsuite.analysis.modal_project import all_flagged, data_end_notes, frf_modes, hits_frf, record_hits
 from odsuite.domain.errors import ConfigError, OdsuiteError
 from odsuite.domain.version import __version__
 from odsuite.store.project import DerivedArray
@@ -70,11 +70,13 @@ def identified_modes(project, exp, frf: FrfSet) -> ModalResult:
 
 @dataclass(frozen=True)
 class StoredModes:
-    """What ``process`` stored for a record: its modes or why they could not be identified, and
-    what the hammer checks found wrong with its hits when every hit was flagged ("" otherwise)."""
+    """What ``process`` stored for a record: its modes or why they could not be identified, what
+    the hammer checks found wrong with its hits when every hit was flagged ("" otherwise) and what
+    the data's end did with its hits (``modal_project.data_end_notes``)."""
 
     result: ModalResult | str
     flagged: str
+    data_end: tuple[str, ...] = ()
 
     def modes(self) -> ModalResult:
         """The modes; a stored failure raises a ConfigError with its message."""
@@ -83,32 +85,40 @@ class StoredModes:
         return self.result
 
 
-def store_record_modes(project, name: str) -> bool:
+def store_record_modes(project, name: str) -> list[str]:
     """Identify record ``name``'s modes and store them (or why they cannot be identified) as
-    ``KIND``. A record without a force channel or a hit has no hammer modes: nothing is stored
-    (``compare`` says why when it reads the record). Returns whether something was stored."""
+    ``KIND``. A record without a force channel or a usable hit has no hammer modes: nothing is
+    stored (``compare`` says why when it reads the record). Returns what the data's end did with
+    its hits (``modal_project.data_end_notes``), for the caller to say."""
+    where = f"{project.path}: experiment {name!r}"
     # one BLAS thread, as ``compare`` runs: the stored result is the one it would compute
     with threadpool_limits(1):
         try:
-            frf, hits = hits_frf(project.experiment(name), f"{project.path}: experiment {name!r}", flagged_too=True)
+            frf, hits = hits_frf(project.experiment(name), where, flagged_too=True)
         except OdsuiteError:
-            return False
+            try:  # a hit the data's end left out may be the only one: said all the same
+                return data_end_notes(record_hits(project.experiment(name), where)[2])
+            except OdsuiteError:
+                return []
         try:
             res = identify(frf)
         except IDENTIFICATION_ERRORS as exc:
             res = str(exc)
         except OdsuiteError:  # what compare does not note: left to it, as before
-            return False
+            return data_end_notes(hits)
     flagged = all_flagged(hits)
+    notes = data_end_notes(hits)
     if isinstance(res, str):
-        project.write_derived(name, KIND, {}, provenance=_provenance(), attrs={"failure": res, "flagged": flagged})
-        return True
+        project.write_derived(name, KIND, {}, provenance=_provenance(),
+                              attrs={"failure": res, "flagged": flagged, "data_end": json.dumps(notes)})
+        return notes
     project.write_derived(name, KIND, _arrays(res, frf), provenance=_provenance(),
-                          attrs={"failure": "", "flagged": flagged, "output_names": json.dumps(res.output_names),
+                          attrs={"failure": "", "flagged": flagged, "data_end": json.dumps(notes),
+                                 "output_names": json.dumps(res.output_names),
                                  "rejected": json.dumps(res.rejected),
                                  "band_hz": json.dumps(list(res.band_hz)),
                                  "diagram_band_hz": json.dumps(list(res.diagram.f_band))})
-    return True
+    return notes
 
 
 def _provenance() -> dict:
@@ -162,11 +172,12 @@ def stored_modes(project, exp) -> StoredModes | None:
         return None
     attrs = info["attrs"]
     flagged = str(attrs.get("flagged", ""))
-    if attrs.get("failure"):
-        return StoredModes(str(attrs["failure"]), flagged)
     where = f"{project.path}: experiment {name!r}: derived {KIND!r}"
     try:
-        return StoredModes(_decoded(project.read_derived(name, KIND), attrs), flagged)
+        data_end = tuple(str(n) for n in json.loads(attrs.get("data_end", "[]")))
+        if attrs.get("failure"):
+            return StoredModes(str(attrs["failure"]), flagged, data_end)
+        return StoredModes(_decoded(project.read_derived(name, KIND), attrs), flagged, data_end)
     except (KeyError, ValueError, TypeError) as exc:  # a group edited by hand or damaged: not modes
         raise ConfigError(f"{where}: cannot be read as modes ({type(exc).__name__}: {exc}); "
                           "run process again to store them anew") from None

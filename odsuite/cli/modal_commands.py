@@ -24,15 +24,14 @@ def frf_cmd(
     every hit is flagged uses them all, with a note, as modes and compare do."""
     from odsuite.domain.errors import ConfigError, DimensionError
     from odsuite.analysis.frf import usable_band
-    from odsuite.analysis.modal_project import all_flagged, experiment_frf, flagged_note
+    from odsuite.analysis.modal_project import all_flagged, data_end_notes, experiment_frf, flagged_note
     from odsuite.contracts.renderers import RenderRequest
 
     renderer = _figure_renderer("frf", figure, project, "--figure") if figure is not None else None
     frf, hits = experiment_frf(project, experiment, estimator=estimator, flagged_too=True)
     flagged = all_flagged(hits)
-    if flagged:
-        err_console.print(f"note: {project}: experiment {experiment!r}: {flagged_note(flagged, 'FRFs are estimated')}",
-                          highlight=False, soft_wrap=True)
+    for note in data_end_notes(hits) + ([flagged_note(flagged, "FRFs are estimated")] if flagged else []):
+        err_console.print(f"note: {project}: experiment {experiment!r}: {note}", highlight=False, soft_wrap=True)
     for h in hits if not as_json else ():
         state = "accepted" if h.accepted else "rejected: " + ", ".join(h.reasons)
         console.print(f"hit at sample {h.peak_index} ({h.peak_force:.4g} N): {state}", highlight=False)
@@ -87,8 +86,8 @@ def modes_cmd(
     band: where the hammer's force spectrum and the coherence are usable), of one experiment or of
     the FRF matrix of several, or with --output-only from the responses alone (several experiments:
     the setups of a roving survey, merged through their reference channels)."""
-    from odsuite.analysis.modal_project import (all_flagged, experiment_modes, experiment_output_only_modes,
-                                                experiments_modes, flagged_note)
+    from odsuite.analysis.modal_project import (all_flagged, data_end_notes, experiment_modes,
+                                                experiment_output_only_modes, experiments_modes, flagged_note)
     from odsuite.contracts.renderers import RenderRequest
 
     freqs = _modes_options(at, f_min, f_max, reference, output_only, len(experiments), block_rows, decimate, figure,
@@ -123,8 +122,9 @@ def modes_cmd(
                                                           frequencies=freqs, flagged_too=True)
         freq, spectrum, background = frf.frequency, frf.H, rms_label("|H| of the outputs", frf.units)
     flagged = {e: f for e, h in hits.items() if (f := all_flagged(h))}
-    for e, f in flagged.items():
-        err_console.print(f"note: {project}: experiment {e!r}: {flagged_note(f)}", highlight=False, soft_wrap=True)
+    for e, h in hits.items():
+        for note in data_end_notes(h) + ([flagged_note(flagged[e])] if e in flagged else []):
+            err_console.print(f"note: {project}: experiment {e!r}: {note}", highlight=False, soft_wrap=True)
     if figure is not None:
         drawers["stabilisation"].render(RenderRequest(project, name, figure, {
             "modes": res, "freq": freq, "H": spectrum, "title": f"stabilisation diagram of {name}",

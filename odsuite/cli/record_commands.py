@@ -62,7 +62,8 @@ def process_cmd(
                 summary = process_experiment(p, name, progress=lambda a, b, t=task: bar.update(t, completed=a,
                                                                                                 total=b))
                 bar.update(task, description=f"identifying the modes of {name}")
-                store_record_modes(p, name)  # `compare` reads them instead of identifying them again
+                # `compare` reads them instead of identifying them again
+                summary["notes"] += store_record_modes(p, name)
             if not corrected:
                 _ledger.done()
             doc["experiments"][name] = summary

@@ -324,3 +324,57 @@ def test_a_given_length_the_last_hit_misses_by_a_few_samples_starts_earlier():
         assert (np.abs(frf.H - exact) / np.abs(exact))[big].max() < 1e-2
     kept = assess_hits(f, a, FS, record_length=default.stop - default.start - 1, pretrigger=36)[0]
     assert not kept.accepted and "runs past the data" in kept.reasons[0]
+
+
+def _exact_within(frf, tolerance):
+    """|H - exact| / |exact| below ``tolerance`` on 5-200 Hz where |exact| > 1 % of its peak."""
+    exact = mck.accelerance(frf.frequency)
+    band = (frf.frequency > 5) & (frf.frequency < 200)
+    big = band[None, :] & (np.abs(exact) > 0.01 * np.abs(exact).max(axis=1, keepdims=True))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return (np.abs(frf.H - exact) / np.abs(exact))[big].max() < tolerance
+
+
+def test_a_hit_whose_blow_the_data_end_cuts_is_left_out_and_the_records_keep_their_length():
+    """Two blows 8 s apart and a third whose peak lies on the data's last samples: its record set
+    the length of all three (its pretrigger and a sample or two), 0.08 s records with lines 13 Hz
+    apart and no note. It is left out, and the others keep the 8 s their spacing allows."""
+    f, a = mck.simulate(FS, 16.5, [(0.5, 0.004, 100.0), (8.5, 0.004, 80.0), (16.5 - 0.003, 0.004, 90.0)])
+    hits = assess_hits(f, a, FS)
+    assert [h.accepted for h in hits] == [True, True, False] and hits[2].left_out
+    assert hits[2].peak_index >= f.size - 2
+    spacing = hits[2].peak_index - hits[1].peak_index  # a hair under 8 s: the closer pair
+    assert all(h.stop - h.start == spacing for h in hits[:2]) and spacing > 7.99 * FS
+    assert hits[2].data_end.startswith(f"hit at {hits[2].peak_index / FS:.4g} s: left out: ")
+    assert not hits[0].data_end and not hits[1].data_end
+    frf = estimate_frf([f[h.start:h.stop] for h in hits[:2]], [a[h.start:h.stop] for h in hits[:2]], FS)
+    assert frf.n_averages == 2 and _exact_within(frf, 1e-2)
+
+
+def test_a_last_hit_the_data_end_soon_after_cuts_every_record_short_and_says_so():
+    """Blows at 0.5, 8.5 and 14.5 s of 19 s: the last one's data reach 4.5 s, over half the 6 s its
+    spacing allows, so every record is cut to that (and its pretrigger) and the note gives the
+    lines' spacing."""
+    f, a = mck.simulate(FS, 19.0, [(0.5, 0.004, 100.0), (8.5, 0.004, 80.0), (14.5, 0.004, 90.0)])
+    hits = assess_hits(f, a, FS)
+    assert all(h.accepted and not h.left_out for h in hits) and hits[-1].stop == f.size
+    length = hits[-1].stop - hits[-1].start
+    assert all(h.stop - h.start == length for h in hits) and length == f.size - hits[-1].peak_index + hits[-1].trigger
+    assert hits[-1].data_end == (f"hit at {hits[-1].peak_index / FS:.4g} s: every hit's record cut short to "
+                                 f"{length / FS:.4g} s by the data's end after it (FRF lines {FS / length:.4g} Hz "
+                                 f"apart, not {FS / (hits[2].peak_index - hits[1].peak_index):.4g} Hz)")
+    assert not hits[0].data_end and not hits[1].data_end
+
+
+def test_a_single_hit_on_the_last_sample_is_left_out_and_one_near_it_cut_short():
+    f, a = mck.simulate(FS, 4.0, [(4.0 - 0.002, 0.004, 100.0)])  # its peak falls 1 ms after the last sample
+    (hit,) = assess_hits(f, a, FS)
+    assert hit.left_out and not hit.accepted and hit.peak_index == f.size - 1
+    assert hit.reasons == ("left out: its peak is the data's last sample (its blow is cut)",)
+    assert hit.data_end == f"hit at {(f.size - 1) / FS:.4g} s: {hit.reasons[0]}"
+    f, a = mck.simulate(FS, 4.0, [(4.0 - 0.01, 0.004, 100.0)])  # 8 ms of ringing after the blow
+    (hit,) = assess_hits(f, a, FS)
+    length = hit.stop - hit.start
+    assert hit.accepted and not hit.left_out and hit.stop == f.size and length < f.size // 64
+    assert hit.data_end == (f"hit at {hit.peak_index / FS:.4g} s: its record cut short to {length / FS:.4g} s by "
+                            f"the data's end (FRF lines {FS / length:.4g} Hz apart)")
