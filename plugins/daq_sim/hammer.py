@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from odsuite.api import ConfigError
+from odsuite_plugins.daq_sim.options import MAX_PEAK_N, MIN_PEAK_N
 
 
 #: contact times of real blows: a steel tip on steel 0.05 ms, a rubber-tipped sledge on a vehicle or
@@ -25,8 +26,9 @@ class Hit:
     def validate(self, where: str) -> None:
         if not (np.isfinite(self.time) and self.time >= 0):
             raise ConfigError(f"{where}: hit field 'time' must be >= 0 s, got {self.time!r}")
-        if not (np.isfinite(self.peak) and self.peak > 0):
-            raise ConfigError(f"{where}: hit field 'peak' must be > 0 N, got {self.peak!r}")
+        if not MIN_PEAK_N <= self.peak <= MAX_PEAK_N:  # NaN fails too
+            raise ConfigError(f"{where}: hit field 'peak' must be {MIN_PEAK_N:g}-{MAX_PEAK_N:g} N (a hammer's peak "
+                              f"force), got {self.peak!r}")
         if not MIN_CONTACT_S <= self.width <= MAX_CONTACT_S:
             raise ConfigError(f"{where}: hit field 'width' must be {1e3 * MIN_CONTACT_S:g}-{1e3 * MAX_CONTACT_S:g} ms "
                               f"(a blow's contact time), got {self.width!r} s")

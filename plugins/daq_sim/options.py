@@ -8,6 +8,9 @@ from odsuite.contracts.backend_options import BackendOption  # not .daq: registe
 MIN_ADC_BITS, MAX_ADC_BITS = 8, 32
 #: a thousand times the thesis's floor is a few volts of noise: beyond it the record is noise
 MAX_NOISE_SCALE = 1000.0
+#: peak forces hammers deliver (N): a miniature hammer's tap resolves a few mN; the heaviest drop
+#: weights (pavement and bridge testers) strike with a few hundred kN
+MIN_PEAK_N, MAX_PEAK_N = 1e-3, 1e6
 #: default rms of the ground's acceleration along each axis (m/s^2), white up to the simulator's
 #: rate: the thesis rig's horizontal accelerometers (+-2.5 m/s^2 ranges) then peak near a third of
 #: their range over 5 min, two hundred ADC codes rms above their noise
@@ -15,8 +18,9 @@ DEFAULT_BASE_RMS = 0.3
 
 OPTIONS = (BackendOption("scenario", str, None, "thesis test T1..T8 (default T1 when no force point is given)"),
            BackendOption("seed", int, 0, "random seed; one seed, one record"),
-           BackendOption("force_peak", float, None, "peak hammer force in N (default: the scenario's, "
-                                                    "else 20 N); several hits keep their ratios"),
+           BackendOption("force_peak", float, None, f"peak hammer force in N, {MIN_PEAK_N:g} to {MAX_PEAK_N:g} "
+                                                    "(default: the scenario's, else 20 N); several hits keep their "
+                                                    "ratios"),
            BackendOption("contact_ms", float, None, "the blow's contact time, ms (default: the scenario's, "
                          "else 0.5 ms; a hard tip 0.1-0.5 ms, a rubber tip or a sledge 2-20 ms)"),
            BackendOption("truth_rig", str, None, "a rig file the record comes from instead of the project's rig "

@@ -30,7 +30,8 @@ from odsuite_plugins.daq_sim.operating import (
     parse_operating,
     rotation_length,
 )
-from odsuite_plugins.daq_sim.options import MAX_ADC_BITS, MAX_NOISE_SCALE, MIN_ADC_BITS, OPTIONS
+from odsuite_plugins.daq_sim.options import (MAX_ADC_BITS, MAX_NOISE_SCALE, MAX_PEAK_N, MIN_ADC_BITS, MIN_PEAK_N,
+                                             OPTIONS)
 from odsuite_plugins.daq_sim.scenarios import SCENARIOS
 from odsuite_plugins.daq_sim.scenarios import scenario as get_scenario
 
@@ -418,8 +419,9 @@ def _scaled_hits(hits, sc, force_peak, contact_ms) -> list[Hit]:
     if not hits:
         raise ConfigError("simulator: at least one hit is needed")
     if force_peak is not None:
-        if not (np.isfinite(force_peak) and force_peak > 0):
-            raise ConfigError(f"--force-peak: must be > 0 N, got {force_peak!r}")
+        if not MIN_PEAK_N <= force_peak <= MAX_PEAK_N:  # NaN fails too
+            raise ConfigError(f"--force-peak: a hammer's peak force, {MIN_PEAK_N:g} to {MAX_PEAK_N:g} N, "
+                              f"got {force_peak!r}")
         top = max(h.peak for h in hits)
         hits = [replace(h, peak=h.peak * force_peak / top) for h in hits]
     if contact_ms is not None:

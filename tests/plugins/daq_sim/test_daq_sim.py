@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -186,8 +187,20 @@ def test_force_peak_scales_the_hits_and_their_impulse(sim, thesis_rig):
     area = raw[:, FORCE].sum() / rec.sampling_rate / volts_per_newton(rec)
     assert area == pytest.approx((2 / np.pi) * (24.0 * 0.8e-3 + 12.0 * 0.3e-3), rel=5e-3)
     assert "force_peak=24N" in rec.source
-    with pytest.raises(ConfigError, match="--force-peak: must be > 0 N"):
+    with pytest.raises(ConfigError, match="--force-peak: a hammer's peak force, 0.001 to 1e.06 N, got -1.0"):
         record(sim, thesis_rig, s, scenario="T8", force_peak=-1.0)
+
+
+@pytest.mark.parametrize("peak", [1e300, 2e6, 1e-300, 5e-4, float("nan")])
+def test_a_peak_force_no_hammer_delivers_is_refused(sim, thesis_rig, peak):
+    # 1e300 N was recorded: every accelerometer clipped at the ADC's limits
+    s = AcquisitionSettings(n_samples=2048, pretrigger=200)
+    got = re.escape(repr(peak))
+    with pytest.raises(ConfigError, match=rf"^--force-peak: a hammer's peak force, 0.001 to 1e\+06 N, got {got}$"):
+        record(sim, thesis_rig, s, force_peak=peak)
+    with pytest.raises(ConfigError, match=r"^simulator hit 1: hit field 'peak' must be 0.001-1e\+06 N \(a hammer's peak "
+                                          rf"force\), got {got}$"):
+        record(sim, thesis_rig, s, hits=[Hit(0.0, 20.0, 0.5e-3), Hit(0.05, peak, 0.5e-3)])
 
 
 def test_accelerometer_volts_follow_sign_sensitivity_gain(sim, thesis_rig):
