@@ -124,6 +124,12 @@ def _rig_with(tmp_path: Path, source: Path, old: str, new: str) -> Path:
     (TWO_BODY_RIG, "iepe_corner_hz = 0.5", "iepe_corner_hz = 0.5\nbogus = 3", ["acquisition: unknown field 'bogus'"]),
     (TWO_BODY_RIG, "adc_range = [-5.0, 5.0]", "adc_range = [-1e300, 1e300]",
      ["acquisition field 'adc_range': expected volts within +-1000 V"]),
+    (TWO_BODY_RIG, "adc_range = [-5.0, 5.0]", "adc_range = [-1e-300, 1e-300]",
+     ["acquisition field 'adc_range': expected volts within +-1000 V, high at least 0.001 V above low, "
+      "got [-1e-300, 1e-300]"]),
+    (TWO_BODY_RIG, "adc_range = [-5.0, 5.0]", "adc_range = [2.0, 2.0005]",
+     ["acquisition field 'adc_range': expected volts within +-1000 V, high at least 0.001 V above low, "
+      "got [2.0, 2.0005]"]),
     (BEAM_RIG, "damping_ratio = 0.005", 'damping_ratio = [0.01, "a"]',
      ["[beam] field 'damping_ratio': expected ratios in [0, 1), got [0.01, 'a']"]),
     (BEAM_RIG, "first_mode_hz = 695.0", "bending_stiffness = 1e300",
