@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from odsuite.domain import arguments
+from odsuite.domain.display import ascii_unit
 from odsuite.domain.errors import ConfigError, DimensionError
 from odsuite.domain.systeminfo import SENSOR_UNITS
 
@@ -148,11 +149,12 @@ def estimate_frf(
     as arrays, one hit's 1-D force or a 2-D array of hits: ``_hits``).
 
     H1 = Gfx/Gff (noise on the response), H2 = Gxx/Gxf (noise on the force), Hv the total-least-
-    squares estimate between them; coherence = |Gfx|^2/(Gff Gxx)."""
+    squares estimate between them; coherence = |Gfx|^2/(Gff Gxx). ``response_units``: one of
+    ``RESPONSE_UNITS`` per output, in any spelling ``display.ascii_unit`` reads (m/s2, m/s²)."""
     if estimator not in ESTIMATORS:
         raise ConfigError(f"FRF estimator {estimator!r} is not one of {', '.join(ESTIMATORS)}")
     forces, responses = _hits(forces, responses)
-    _check_arguments(forces, responses, fs, window, force_unit, response_units)
+    response_units = _check_arguments(forces, responses, fs, window, force_unit, response_units)
     gff, gxx, gfx, count = spectra(forces, responses, window)
     n = np.asarray(forces[0]).shape[0]
     tiny = np.finfo(float).tiny
@@ -207,10 +209,11 @@ def _hits(forces: Any, responses: Any) -> tuple[Any, Any]:
 
 
 def _check_arguments(forces: Any, responses: Any, fs: Any, window: Any, force_unit: Any,
-                     response_units: Any = None) -> None:
+                     response_units: Any = None) -> list[str] | None:
     """estimate_frf's arguments before any spectrum: a rate of 0 divided by zero, a NaN one gave NaN
     frequencies, a window of another length a broadcast error, any text was taken for a force unit,
-    a text of response units was split into letters and a number raised a TypeError."""
+    a text of response units was split into letters and a number raised a TypeError. Returns the
+    response units in their stored spelling (``display.ascii_unit``: m/s2, m/s**2, m/s² are m/s^2)."""
     for name, value in (("forces", forces), ("responses", responses)):
         if isinstance(value, str | bytes | Mapping) or not isinstance(value, Sequence | np.ndarray):
             arguments.refuse("estimate_frf", name, value, "a list of records, one per hit")
@@ -227,13 +230,15 @@ def _check_arguments(forces: Any, responses: Any, fs: Any, window: Any, force_un
     if force_unit not in FORCE_UNITS:
         arguments.refuse("estimate_frf", "force_unit", force_unit, f"a force unit ({', '.join(FORCE_UNITS)})")
     outputs = np.shape(responses[0])[1] if np.ndim(responses[0]) == 2 else 1
+    units = None
     if response_units is not None:
         what = f"{outputs} SI units, one per response ({', '.join(RESPONSE_UNITS)})"
-        units = arguments.listed("estimate_frf", "response_units", response_units, what)
-        if len(units) != outputs or not all(isinstance(u, str) and u in RESPONSE_UNITS for u in units):
+        listed = arguments.listed("estimate_frf", "response_units", response_units, what)
+        units = [ascii_unit(u) if isinstance(u, str) else u for u in listed]
+        if len(units) != outputs or not all(u in RESPONSE_UNITS for u in units):
             arguments.refuse("estimate_frf", "response_units", response_units, f"a list of {what}")
     if window is None:
-        return
+        return units
     n = np.shape(forces[0])[0] if np.ndim(forces[0]) else 0
     try:
         shape = np.asarray(window, dtype=float).shape
@@ -242,6 +247,7 @@ def _check_arguments(forces: Any, responses: Any, fs: Any, window: Any, force_un
     if shape not in ((n,), (n, 1 + outputs)):
         raise ConfigError(f"estimate_frf: 'window' must be {n} samples (or {n} x {1 + outputs}: the force's, then "
                           f"each response's), got {arguments.shown(window) if shape is None else f'shape {shape}'}")
+    return units
 
 
 #: The band ends where the hammer's force autospectrum has fallen this far below its low-frequency

@@ -2,11 +2,13 @@
 command line.
 
 Units are stored as ASCII (``m/s^2``, ``(m/s^2)/N``: what readers and writers of files exchange);
-what a user reads has superscripts (``m/s²``). A model error (pooled NRMSE) is printed with four
+what a user reads has superscripts (``m/s²``), and what a user writes is read back to ASCII. A model error (pooled NRMSE) is printed with four
 decimals wherever it appears, so the text and the figures beside it show the same number.
 """
 
 from __future__ import annotations
+
+import re
 
 _SUPERSCRIPTS = {"^2": "²", "^3": "³", "^-1": "⁻¹", "^-2": "⁻²"}
 
@@ -23,6 +25,15 @@ def rms_label(what: str, units) -> str:
     different units share no unit, and the label names theirs."""
     shown = sorted({unit_text(u) for u in units})
     return f"rms {what} [{shown[0]}]" if len(shown) == 1 else f"rms {what} [units differ: {', '.join(shown)}]"
+
+
+def ascii_unit(label: str) -> str:
+    """A unit as people write it, in the stored ASCII spelling (``unit_text`` read back): ``m/s²``,
+    ``m/s**2`` and ``m/s2`` -> ``m/s^2``; spaces around it dropped, anything else kept as written."""
+    text = label.strip().replace("**", "^")
+    for ascii_, shown in sorted(_SUPERSCRIPTS.items(), key=lambda kv: -len(kv[1])):
+        text = text.replace(shown, ascii_)
+    return re.sub(r"(?<=[A-Za-z])(\d)", r"^\1", text)  # a power written right after its unit: s2
 
 
 def per_unit(numerator: str, unit: str) -> str:

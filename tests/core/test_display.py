@@ -4,13 +4,22 @@ from __future__ import annotations
 
 import pytest
 
-from odsuite.domain.display import error_text, fixed, per_unit, unit_text
+from odsuite.domain.display import ascii_unit, error_text, fixed, per_unit, unit_text
 
 
 @pytest.mark.parametrize("stored, shown", [("m/s^2", "m/s²"), ("(m/s^2)/N", "(m/s²)/N"), ("kg m^2", "kg m²"),
                                            ("m^3", "m³"), ("N/m", "N/m"), ("1", "1")])
 def test_stored_units_print_with_superscripts(stored, shown):
     assert unit_text(stored) == shown
+
+
+@pytest.mark.parametrize("written, stored", [("m/s2", "m/s^2"), ("m/s^2", "m/s^2"), ("m/s**2", "m/s^2"),
+                                             ("m/s²", "m/s^2"), (" m/s² ", "m/s^2"), ("(m/s²)/N", "(m/s^2)/N"),
+                                             ("kg m2", "kg m^2"), ("s⁻¹", "s^-1"), ("m/s", "m/s"), ("V", "V"),
+                                             ("kN", "kN"), ("1", "1")])
+def test_units_as_people_write_them_read_back_to_the_stored_spelling(written, stored):
+    assert ascii_unit(written) == stored
+    assert ascii_unit(unit_text(stored)) == stored
 
 
 def test_a_sensitivity_per_ratio_unit_is_parenthesised():

@@ -185,6 +185,21 @@ def test_response_units_are_checked_in_one_line():
     assert frf.units == ["m/N", "(m/s)/N", "V/N"]
 
 
+@pytest.mark.parametrize("spelled", ["m/s2", "m/s**2", "m/s²", " m/s^2 "])
+def test_acceleration_units_are_read_in_their_usual_spellings(spelled):
+    """'m/s2' was refused (only 'm/s^2' passed); each spelling now gives the FRF and the
+    straight-line trend (kept for accelerations alone) that 'm/s^2' gives."""
+    t = np.arange(512) / 512.0
+    force = np.where(t < 0.009, 50.0, 0.0)  # 5 samples: no line of its spectrum is 0
+    acc = np.column_stack([np.exp(-4 * t) * np.sin(2 * np.pi * 30 * t) + 0.01 * t, np.zeros_like(t)])
+    want = estimate_frf([force], [acc], 512.0, response_units=["m/s^2", "m"])
+    frf = estimate_frf([force], [acc], 512.0, response_units=[spelled, "m"])
+    assert frf.units == ["(m/s^2)/N", "m/N"]
+    np.testing.assert_allclose(frf.H[0], np.fft.rfft(acc[:, 0]) / np.fft.rfft(force), rtol=1e-12)  # one hit: X/F
+    np.testing.assert_array_equal(frf.H, want.H)
+    assert np.abs(frf.trend[0]).max() > 0 and np.array_equal(frf.trend, want.trend)
+
+
 def test_reference_simulation_agrees_with_scipy_lsim():
     from scipy import signal
 
