@@ -21,6 +21,7 @@ import io
 import re
 import struct
 import tomllib
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -458,7 +459,7 @@ def _mat_rate(mat: dict, where: str) -> float | None:
 
 
 def _refuse_cut(file: Path, cut_of, kind: str) -> None:
-    """Refuse ``file`` in one line where ``cut_of`` (_mat_cut, _tdms_cut) finds it cut short: the
+    """Refuse ``file`` in one line where ``cut_of`` (_tdms_cut) finds it cut short: the
     readers take a file cut inside a tag or a lead-in for a shorter, whole one."""
     try:
         cut = cut_of(file)
@@ -473,39 +474,101 @@ def _refuse_cut(file: Path, cut_of, kind: str) -> None:
 MAT_HEADER = 128
 
 
-def _mat_cut(file: Path) -> str | None:
-    """How a v5-v7.2 .mat file stops short of what its variables' tags declare, or holds an element
-    scipy cannot read safely (None: neither, or of another version). scipy reads a file cut inside a
-    tag as if it ended before it (a file without its later variables)."""
+class _MatRefused(Exception):
+    """A .mat file cut short of what its tags declare, or holding an element scipy cannot read
+    safely; the message says which and where."""
+
+
+def _mat_order(f, size: int) -> str | None:
+    """The byte order ('<' or '>') of the v5-v7.2 .mat file open as ``f``; None for another version
+    (v4, v7.3: HDF5) or no .mat at all (scipy's read names it). Raises _MatRefused for a header cut
+    short."""
     from scipy.io.matlab import matfile_version
 
-    size = file.stat().st_size
-    with open(file, "rb") as f:
-        if f.read(6) == b"MATLAB" and size < MAT_HEADER:  # v5 or v7.3 (HDF5 behind this header)
-            return f"cut short at byte {size}: its header has {size} of its {MAT_HEADER} bytes"
-        f.seek(0)
-        try:
-            if matfile_version(f)[0] != 1:
-                return None
-        except Exception:  # noqa: BLE001 - not a .mat file at all: scipy's read names it
+    if f.read(6) == b"MATLAB" and size < MAT_HEADER:  # v5 or v7.3 (HDF5 behind this header)
+        raise _MatRefused(f"cut short at byte {size}: its header has {size} of its {MAT_HEADER} bytes")
+    f.seek(0)
+    try:
+        if matfile_version(f)[0] != 1:
             return None
-        order = "<" if f.seek(126) == 126 and f.read(2) == b"IM" else ">"
-        pos, k = MAT_HEADER, 1
-        while pos < size:
+    except Exception:  # noqa: BLE001 - not a .mat file at all: scipy's read names it
+        return None
+    return "<" if f.seek(126) == 126 and f.read(2) == b"IM" else ">"
+
+
+def _mat_variables(f, size: int, order: str) -> Iterator[io.BytesIO]:
+    """Each variable of the v5 .mat file open as ``f``, checked (``_mat_damage``), as a file of one
+    variable for scipy to read (the file's header, then the variable as stored, or a compressed one
+    decompressed: once, scipy reads the bytes the check saw). Raises _MatRefused where the file stops
+    short of what its tags declare (scipy reads a file cut inside a tag as if it ended before it:
+    without its later variables) or holds an element scipy cannot read safely."""
+    f.seek(0)
+    header = f.read(MAT_HEADER)
+    pos, k = MAT_HEADER, 1
+    while pos < size:
+        f.seek(pos)
+        tag = f.read(8)
+        if len(tag) < 8:
+            raise _MatRefused(f"cut short at byte {size}: variable {k}'s tag at byte {pos} has {len(tag)} of its 8 bytes")
+        kind, count = struct.unpack(order + "II", tag)
+        end = pos + 8 + count
+        if end > size:
+            raise _MatRefused(f"cut short at byte {size}: variable {k} at byte {pos} declares its data up to byte {end}")
+        damage = _mat_damage(f, pos, end, order)
+        one = io.BytesIO()
+        one.write(header)
+        if damage is None and kind == 15:
+            f.seek(pos + 8)
+            damage = _mat_inflated(f.read(count), one, order, f"variable {k} at byte {pos}")
+        elif damage is None:
             f.seek(pos)
-            tag = f.read(8)
-            if len(tag) < 8:
-                return f"cut short at byte {size}: variable {k}'s tag at byte {pos} has {len(tag)} of its 8 bytes"
-            kind, count = struct.unpack(order + "II", tag)
-            end = pos + 8 + count
-            if end > size:
-                return f"cut short at byte {size}: variable {k} at byte {pos} declares its data up to byte {end}"
-            damage = _mat_damage(f, pos, end, order)
-            if damage is not None:
-                return f"damaged: variable {k} at byte {pos}: {damage}"
-            pos = end + (-count % 8 if kind != 15 else 0)  # all but compressed ones padded to 8 bytes
-            k += 1
-    return None
+            _copied(f, one, end - pos)
+        if damage is not None:
+            raise _MatRefused(f"damaged: variable {k} at byte {pos}: {damage}")
+        one.seek(0)
+        yield one
+        pos = end + (-count % 8 if kind != 15 else 0)  # all but compressed ones padded to 8 bytes
+        k += 1
+
+
+#: bytes a variable is decompressed and copied by at a time (no second copy of it in memory)
+CHUNK = 1 << 20
+
+
+def _copied(f, out: io.BytesIO, count: int) -> None:
+    """``count`` bytes of ``f`` from where it stands onto ``out``."""
+    while count > 0:
+        chunk = f.read(min(count, CHUNK))
+        if not chunk:  # shortened since its size was read
+            raise _MatRefused(f"cut short at byte {f.tell()} while it was read")
+        count -= out.write(chunk)
+
+
+def _mat_inflated(data: bytes, out: io.BytesIO, order: str, where: str) -> str | None:
+    """A compressed variable's ``data`` decompressed onto the end of ``out`` and what is wrong with
+    the element they hold (None: nothing). They may expand to at most the memory free (a few kB of
+    zeros expand to gigabytes): beyond it _MatRefused names the variable (``where``)."""
+    import zlib
+
+    free = free_memory()
+    start = out.tell()
+    inflate = zlib.decompressobj()
+    try:
+        while data:
+            out.write(inflate.decompress(data, CHUNK))
+            data = inflate.unconsumed_tail
+            if free is not None and out.tell() - start > free:
+                raise _MatRefused(f"{where}: its compressed data expand beyond the {free / 2**20:.0f} MiB of "
+                                  "memory free")
+        out.write(inflate.flush())
+        if not inflate.eof:  # what zlib.decompress raises on a stream cut short
+            raise zlib.error("Error -5 while decompressing data: incomplete or truncated stream")
+    except zlib.error as exc:
+        return f"its compressed data cannot be decompressed ({exc})"
+    end = out.tell()
+    if end - start < 8:
+        return f"its compressed data hold {end - start} bytes, not an element"
+    return _mat_damage(out, start, end, order, 1)
 
 
 #: the data types of a v5 element's tag and their item sizes (None: elements inside; 8, 10 and 11
@@ -518,8 +581,6 @@ MAT_DEPTH = 64
 def _mat_damage(f, start: int, end: int, order: str, depth: int = 0) -> str | None:
     """What is wrong with the v5 element at byte ``start`` of stream ``f`` (the file, or a compressed
     variable's data) and the elements inside it, up to byte ``end``; None: nothing."""
-    import zlib
-
     if depth > MAT_DEPTH:
         return f"elements nested deeper than {MAT_DEPTH} levels"
     f.seek(start)
@@ -536,14 +597,7 @@ def _mat_damage(f, start: int, end: int, order: str, depth: int = 0) -> str | No
         return f"an element of data type {kind} of {count} bytes, not a whole number of {MAT_TYPES[kind]}-byte values"
     if start + 8 + (0 if small else count) > end:
         return f"an element of {count} bytes runs past the end of the element holding it"
-    if kind == 15:
-        try:
-            inner = zlib.decompress(f.read(count))
-        except zlib.error as exc:
-            return f"its compressed data cannot be decompressed ({exc})"
-        if len(inner) < 8:
-            return f"its compressed data hold {len(inner)} bytes, not an element"
-        return _mat_damage(io.BytesIO(inner), 0, len(inner), order, depth + 1)
+    # a compressed variable's own elements are checked once decompressed (``_mat_variables``)
     pos, stop = start + 8, start + 8 + count
     while kind == 14 and pos < stop:  # a matrix: its flags, dimensions, name and data, each an element
         if pos + 8 > stop:
@@ -557,28 +611,44 @@ def _mat_damage(f, start: int, end: int, order: str, depth: int = 0) -> str | No
     return None
 
 
+def _loadmat_checked(file: Path) -> dict:
+    """scipy.io.loadmat(file), a v5-v7.2 file's variables each checked first (``_mat_variables``)
+    and read from the bytes checked, each after the file's header as scipy's ``varmats_from_mat``
+    splits a file: a compressed variable is decompressed once, and one variable at a time."""
+    import scipy.io
+
+    size = file.stat().st_size
+    with open(file, "rb") as f:
+        order = _mat_order(f, size)
+        if order is None:
+            return scipy.io.loadmat(file)
+        variables: dict = {}
+        for one in _mat_variables(f, size, order):
+            variables.update(scipy.io.loadmat(one))
+        return variables
+
+
 def _loadmat_apart(file: Path) -> dict:
-    """scipy.io.loadmat(file) run in a forked child: scipy's compiled reader crashes the process on
-    some damaged files (a char array's dimensions past its data, a complex flag without imaginary
-    part), which is then refused naming the signal instead of ending odsuite without a word."""
+    """``_loadmat_checked(file)`` run in a forked child: scipy's compiled reader crashes the process
+    on some damaged files (a char array's dimensions past its data, a complex flag without imaginary
+    part), which is then refused naming the signal instead of ending odsuite without a word, and a
+    compressed variable expands in the child's memory, not odsuite's."""
     import os
     import pickle
     import signal
 
-    import scipy.io
-
     if not hasattr(os, "fork"):
-        return scipy.io.loadmat(file)
+        return _loadmat_checked(file)
     read_end, write_end = os.pipe()
     pid = os.fork()
     if pid == 0:  # the child: the variables or the exception, pickled, then out without cleanup
         os.close(read_end)
         try:
             try:
-                payload = pickle.dumps(("ok", scipy.io.loadmat(file)), protocol=pickle.HIGHEST_PROTOCOL)
+                payload = pickle.dumps(("ok", _loadmat_checked(file)), protocol=pickle.HIGHEST_PROTOCOL)
             except Exception as exc:  # noqa: BLE001 - sent to the parent, which decides
-                payload = pickle.dumps(("error", exc if isinstance(exc, NotImplementedError) else
-                                        ValueError(_library_message(exc))))
+                payload = pickle.dumps(("error", exc if isinstance(exc, NotImplementedError | _MatRefused | OSError)
+                                        else ValueError(_library_message(exc))))
             with os.fdopen(write_end, "wb") as out:
                 out.write(payload)
         finally:
@@ -602,9 +672,12 @@ def read_mat_columns(file: Path, explicit: dict) -> Columns:
     the file's only 2-D numeric array; ``fs``/``sampling_rate``, ``channels`` and ``units``
     variables when present."""
     where = str(file)
-    _refuse_cut(file, _mat_cut, "MATLAB .mat")
     try:
         mat = {k: v for k, v in _loadmat_apart(file).items() if not k.startswith("__")}
+    except _MatRefused as exc:
+        raise ConfigError(f"{where}: {exc}") from None
+    except OSError as exc:
+        raise ConfigError(f"{where}: not a readable MATLAB .mat file: {exc.strerror or exc}") from None
     except NotImplementedError:  # v7.3: HDF5
         mat = _mat73(file)
     except Exception as exc:  # noqa: BLE001 - scipy raises MatReadError, IndexError, ValueError... on a damaged file
