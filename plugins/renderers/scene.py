@@ -160,7 +160,7 @@ def title_and_label(plotter, size, style, title: str | None):
 
 
 #: the camera's margin around the plates, as a fraction of the largest plate: the magnified
-#: motion (15 %) and the axes and scale bar just outside the plates' corner
+#: motion (15 %) and the axes just outside the plates' corner
 AXES_ROOM = 0.2
 
 
@@ -177,6 +177,45 @@ def scale_bar_length(scale: float, magnify: float) -> tuple[float, float]:
     real = min((m * 10.0**e for e in (exponent - 1, exponent, exponent + 1) for m in (1.0, 2.0, 5.0)),
                key=lambda v: abs(np.log(v / target)))
     return float(real), float(real * magnify)
+
+
+#: the scale bar's thickness; the room between it and its name, and between both and anything drawn
+BAR_PX = 4
+BAR_GAP_PX = 4
+BAR_CLEARANCE_PX = 8
+#: a pixel further than this from the background (0-255, any channel) shows something drawn
+DRAWN_LEVELS = 8
+#: samples projected at once when measuring how far the moving parts travel on screen
+PROJECTION_CHUNK = 1 << 20
+
+
+def free_spot(occupied: np.ndarray, width: int, height: int) -> tuple[int, int]:
+    """Lower-left (column, row) of a ``width`` x ``height`` box in the mask ``occupied`` (rows from
+    the bottom) that covers the fewest occupied pixels, nearest a corner of the mask among equals
+    (the lower left first)."""
+    rows, cols = occupied.shape
+    ny, nx = rows - height + 1, cols - width + 1
+    if ny < 1 or nx < 1:  # larger than the room: from its lower left
+        return 0, 0
+    summed = np.zeros((rows + 1, cols + 1), dtype=np.int32)
+    summed[1:, 1:] = occupied.cumsum(0, dtype=np.int32).cumsum(1)
+    covered = (summed[height:, width:] - summed[:ny, width:] - summed[height:, :nx] + summed[:ny, :nx])
+    y, x = np.nonzero(covered == covered.min())  # row by row from the bottom: the lower left wins ties
+    distance = np.hypot(np.minimum(x, nx - 1 - x), np.minimum(y, ny - 1 - y))
+    best = int(np.argmin(distance))
+    return int(x[best]), int(y[best])
+
+
+def window_pixels(render_window, size: tuple[int, int]) -> np.ndarray:
+    """Render and read the window: (H, W, 3) uint8, rows from the bottom as OpenGL gives them."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
+
+    render_window.Render()
+    w, h = size
+    buf = vtkUnsignedCharArray()
+    render_window.GetPixelData(0, 0, w - 1, h - 1, 0, buf, 0)
+    return vtk_to_numpy(buf).reshape(h, w, 3)
 
 
 def _spot_label(names: list[str]) -> str:
@@ -266,12 +305,13 @@ class Scene:
         # translations drawn x0 (held still) have no ruler: any motion is a bar of no length
         self._magnify = magnify if scale_bar and magnify[0] > 0 else None
         self._towards_camera, self._up = view_direction(rig, *view), view_up(rig, *view)
-        self._decorations: list[np.ndarray] = []  # points of the axes and scale bar, kept in view
+        self._decorations: list[np.ndarray] = []  # points of the axes, kept in view
         # (text, dot series (n, 3), offset from the dot in pixels, its body's centre)
         self._sensor_labels: list[tuple[object, np.ndarray, np.ndarray, np.ndarray]] = []
         for k in range(2 if side else 1):
             self.plotter.subplot(0, k)
             self._static_plates(rig, set().union(*(c for c, _, v, _ in sets if v == k)), scale, ghost, solid, axes)
+        before = {id(a) for r in self.plotter.renderers for a in r.actors.values()}
         for c, colour, viewport, band in sets:
             self.plotter.subplot(0, viewport)
             for name, d in c.items():
@@ -284,12 +324,17 @@ class Scene:
             self._sensor_marks(rig, coords, magnify)
         if hammer is not None:
             self._hammer_arrow(rig, hammer, coords, magnify, scale)
+        # the plates, dots, names and arrow added since `before` move with the coordinates
+        self._moving_actors = [a for r in self.plotter.renderers for a in r.actors.values() if id(a) not in before]
         self._label = title_and_label(self.plotter, self.size, style, title)
         # pixels from the top the title and the frame's clock take (the clock's line is the lowest)
         self._title_px = self.size[1] - self._label.GetPosition()[1] + style.font_size
         self._legend(side, model_coords is not None, ghost, hammer is not None, sensors, corrected_coords is not None)
         self._camera(rig, coords, view, parallel, side)
         self._place_sensor_labels(rig, coords)
+        self._bar_pixels: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        if axes and self._magnify is not None:
+            self._scale_bars(rig, coords, scale)
 
     # -- construction ------------------------------------------------------------------------
     def _add_plate(self, pts: np.ndarray, colour, solid: bool, markers: bool, opacity: float = 1.0,
@@ -352,33 +397,115 @@ class Scene:
             self.plotter.add_point_labels(tips, ["x", "y", "z"], shape=None, show_points=False,
                                           font_size=self.style.font_size, text_color=self.style.text,
                                           always_visible=True)
-            if self._magnify is not None:
-                self._scale_bar(origin, scale)
 
-    def _scale_bar(self, origin: np.ndarray, scale: float) -> None:
-        """A bar across the picture beyond the axes whose drawn length is a round amount of motion (mm)
-        times the magnification: the reader's ruler for the plates' excursions (below the origin
-        its name was drawn across the z axis)."""
-        import pyvista as pv
+    def _scale_bars(self, rig: Rig, coords, scale: float) -> None:
+        """In each view, a bar whose length on screen is a round amount of motion (mm) magnified,
+        as drawn at the moving plates' centre, with its name under it: in the free spot nearest a
+        corner of the picture, clear of everything drawn in any frame. Placed once, so it stays put;
+        beside the axes, at a fixed offset, it lay across the still plates' outlines."""
+        from scipy.ndimage import maximum_filter
 
         real, drawn = scale_bar_length(scale, self._magnify[0])
-        # across the picture (along the rig's x it ran down across its own name in an oblique view)
-        up = np.asarray(self._up, float)
-        across = np.cross(-self._towards_camera, up)
-        across /= max(np.linalg.norm(across), 1e-12)
-        start = origin + 0.3 * scale * across
-        end = start + drawn * across
-        self.plotter.add_mesh(pv.Line(start, end), color=self.style.text, line_width=4.0, lighting=False)
-        label = pv.PolyData((start - 0.1 * scale * up)[None])  # its name under the bar, from its left end
-        self._decorations += [start, end, label.points[0]]
-        self.plotter.add_point_labels(label, [f"{_mm(real)} of motion (x{_times(self._magnify[0])})"], shape=None,
-                                      show_points=False, font_size=self.style.font_size - 1,
-                                      text_color=self.style.text, always_visible=True)
+        moving = np.concatenate([plate_corners(rig.body(n).plate) for n in coords])
+        centre = (moving.min(0) + moving.max(0)) / 2.0
+        still, travelling = self._drawn_masks()
+        w, h = self.size
+        # below the title and clock, above the progress bar, a text line from the sides
+        margin, clear = self.style.font_size, BAR_CLEARANCE_PX
+        bottom, top = max(4, h // 120) + margin, h - int(np.ceil(self._title_px))
+        for k, renderer in enumerate(self.plotter.renderers):
+            cam = renderer.GetActiveCamera()
+            across = np.cross(cam.GetDirectionOfProjection(), cam.GetViewUp())
+            across /= np.linalg.norm(across)
+            ends = self._display_points(renderer, [centre - drawn / 2 * across, centre + drawn / 2 * across])
+            length = float(np.linalg.norm(ends[1] - ends[0]))
+            reach = int(np.ceil(min(self._pixel_travel(renderer), w + h)))
+            occupied = still | (maximum_filter(travelling, 2 * reach + 1) if reach else travelling)
+            name = self._screen_text(f"{_mm(real)} of motion (x{_times(self._magnify[0])})", self.style.text)
+            renderer.add_actor(name, reset_camera=False, pickable=False)
+            box = self.text_box(name, k)  # at the position (0, 0)
+            width = int(np.ceil(max(length, box[1] - box[0])))
+            height = int(np.ceil(box[3] - box[2])) + BAR_GAP_PX + BAR_PX
+            # the box grown by the clearance on every side, within the view's part of the frame
+            vx0, _, vx1, _ = (np.array(renderer.GetViewport()) * [w, h, w, h]).round().astype(int)
+            x, y = free_spot(occupied[bottom:top, vx0 + margin:vx1 - margin], width + 2 * clear, height + 2 * clear)
+            x, y = x + vx0 + margin + clear, y + bottom + clear  # the box's lower left, display pixels
+            name.SetPosition(x - vx0 - box[0], y - box[2])  # a text actor sits in its view's pixels
+            bar_y = y + height - BAR_PX / 2.0
+            start, end = np.array([x, bar_y]), np.array([x + length, bar_y])
+            renderer.add_actor(self._bar_actor(start - [vx0, 0], end - [vx0, 0]), reset_camera=False, pickable=False)
+            self._bar_pixels.append((start, end, self.text_box(name, k) + np.array([vx0, vx0, 0, 0])))
+
+    def _bar_actor(self, start: np.ndarray, end: np.ndarray):
+        """The scale bar: a line between two pixels of its view, in the text's colour."""
+        from vtkmodules.vtkCommonCore import vtkPoints
+        from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
+        from vtkmodules.vtkRenderingCore import vtkActor2D, vtkPolyDataMapper2D
+
+        points = vtkPoints()
+        for p in (start, end):
+            points.InsertNextPoint(p[0], p[1], 0.0)
+        line = vtkCellArray()
+        line.InsertNextCell(2, [0, 1])
+        poly = vtkPolyData()
+        poly.SetPoints(points)
+        poly.SetLines(line)
+        mapper = vtkPolyDataMapper2D()
+        mapper.SetInputData(poly)
+        bar = vtkActor2D()
+        bar.SetMapper(mapper)
+        bar.GetProperty().SetColor(self.style.text)
+        bar.GetProperty().SetLineWidth(float(BAR_PX))
+        return bar
+
+    def scale_bar_pixels(self, k: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The scale bar's ends (x, y) and its name's box (xmin, xmax, ymin, ymax) in view ``k``,
+        in display pixels (y from the bottom)."""
+        return self._bar_pixels[k]
+
+    def _drawn_masks(self) -> tuple[np.ndarray, np.ndarray]:
+        """Pixels (rows from the bottom) where the still parts are drawn, and where the moving
+        parts are drawn at the first sample, each rendered alone."""
+        props = [a for r in self.plotter.renderers for a in r.actors.values()]
+        shown = {id(a): a.GetVisibility() for a in props}
+        moving = {id(a) for a in self._moving_actors}
+        background = np.asarray(self.style.background) * 255.0
+        low = np.clip(background - DRAWN_LEVELS, 0, 255).astype(np.uint8)
+        high = np.clip(background + DRAWN_LEVELS, 0, 255).astype(np.uint8)
+        masks = []
+        try:
+            for draw_moving in (False, True):
+                for a in props:
+                    a.SetVisibility(shown[id(a)] and (id(a) in moving) == draw_moving)
+                img = window_pixels(self.plotter.ren_win, self.size)
+                drawn = np.zeros(img.shape[:2], dtype=bool)
+                for c in range(3):  # plane by plane: 5 times faster than .any over the colour axis
+                    drawn |= (img[..., c] < low[c]) | (img[..., c] > high[c])
+                masks.append(drawn)
+        finally:
+            for a in props:
+                a.SetVisibility(shown[id(a)])
+        return masks[0], masks[1]
+
+    def _pixel_travel(self, renderer) -> float:
+        """The farthest (pixels, along x or y) any moving point gets in the record from where it
+        is drawn at the first sample (inf when one passes the camera); the names beside the dots
+        move with them."""
+        far = 0.0
+        for _, series in self._moving:
+            series = series.reshape(len(series), -1, 3)  # a dot's series is (n, 3)
+            first = self._display_points(renderer, series[0])
+            step = max(1, PROJECTION_CHUNK // series.shape[1])
+            for i in range(0, len(series), step):
+                xy = self._display_points(renderer, series[i:i + step]).reshape(-1, series.shape[1], 2)
+                far = max(far, float(np.abs(xy - first).max(initial=0.0)))
+                if not np.isfinite(far):
+                    return np.inf
+        return far
 
     def _sensor_marks(self, rig: Rig, coords, magnify) -> None:
         """A dot at every sensor position of a moving body, named (sensors sharing a spot share a label)."""
         import pyvista as pv
-        from vtkmodules.vtkRenderingCore import vtkTextActor
 
         spots: dict[tuple, list[str]] = {}
         for s in rig.sensors:
@@ -393,19 +520,27 @@ class Scene:
             self._moving.append((dot, series))
             # the name is screen text placed beside the dot each frame (_place_sensor_labels): a
             # label anchored on its point was drawn under the dot and across its neighbours'
-            text = vtkTextActor()
-            text.SetInput(_spot_label(names))
+            text = self._screen_text(_spot_label(names), self.style.sensor)
             prop = text.GetTextProperty()
-            prop.SetFontSize(self.style.font_size - 1)
-            prop.SetColor(self.style.sensor)
             prop.SetBold(True)
-            prop.SetFontFamilyToArial()
             prop.SetVerticalJustificationToCentered()
             # on a patch of the background: the plates' edges crossed the letters
             prop.SetBackgroundColor(self.style.background)
             prop.SetBackgroundOpacity(0.85)
             self.plotter.add_actor(text, reset_camera=False)
             self._sensor_labels.append((text, series, np.zeros(2), body.com))
+
+    def _screen_text(self, words: str, colour) -> "vtkTextActor":  # noqa: F821
+        """A text actor placed in pixels, one size below the frame's text."""
+        from vtkmodules.vtkRenderingCore import vtkTextActor
+
+        text = vtkTextActor()
+        text.SetInput(words)
+        prop = text.GetTextProperty()
+        prop.SetFontSize(self.style.font_size - 1)
+        prop.SetColor(colour)
+        prop.SetFontFamilyToArial()
+        return text
 
     def _hammer_arrow(self, rig: Rig, hammer: Hammer, coords, magnify, scale: float) -> None:
         """An arrow ending on the force point, red while in contact: half the hit body's plate long
@@ -468,15 +603,13 @@ class Scene:
 
     def _to_display(self, point: np.ndarray, k: int = 0) -> np.ndarray:
         """Pixel (x, y from the bottom left) of a world point in viewport ``k``."""
-        renderer = self.plotter.renderers[k]
-        renderer.SetWorldPoint(*point, 1.0)
-        renderer.WorldToDisplay()
-        return np.array(renderer.GetDisplayPoint()[:2])
+        return self._display_points(self.plotter.renderers[k], point)[0]
 
-    def text_box(self, text) -> np.ndarray:
-        """Pixel box (xmin, xmax, ymin, ymax; y from the bottom) a text actor covers where it is."""
+    def text_box(self, text, k: int = 0) -> np.ndarray:
+        """Pixel box (xmin, xmax, ymin, ymax; y from the bottom) a text actor covers where it is,
+        in view ``k``'s pixels."""
         box = np.zeros(4)
-        text.GetBoundingBox(self.plotter.renderers[0], box)  # relative to the actor's position
+        text.GetBoundingBox(self.plotter.renderers[k], box)  # relative to the actor's position
         x, y = text.GetPosition()
         return box + np.array([x, x, y, y])
 
@@ -526,7 +659,7 @@ class Scene:
         pad = AXES_ROOM * plate_scale(rig, list(coords))
         padded = bounds + np.array([-pad, pad] * 3)
         box = np.array([[x, y, z] for x in padded[:2] for y in padded[2:4] for z in padded[4:]])
-        if self._decorations:  # the axes and scale bar lie outside the plates' corner
+        if self._decorations:  # the axes lie outside the plates' corner
             box = np.concatenate([box, np.array(self._decorations)])
         direction = view_direction(rig, *view)
         for k in range(2 if side else 1):
@@ -540,8 +673,8 @@ class Scene:
             self.plotter.reset_camera(bounds=padded)
             # reset_camera fits the bounding sphere, which leaves a wide margin around a flat
             # rig: zoom until the padded box's projection just fills the viewport
-            # fill the viewport below the title, centred there: the axes and scale bar outside
-            # the plates' corner ran out of the frame's bottom edge while the top stayed empty
+            # fill the viewport below the title, centred there: the axes outside the plates'
+            # corner ran out of the frame's bottom edge while the top stayed empty
             below_title = 1.0 - 2.0 * self._title_px / self.size[1]
             for _ in range(2):
                 cam.zoom(1.0 / self._band_filled(self.plotter.renderers[k], box, (-0.95, below_title - 0.05)))
@@ -571,13 +704,22 @@ class Scene:
 
     @staticmethod
     def _view_points(renderer, points: np.ndarray) -> np.ndarray:
-        """View coordinates (-1 to 1 across the viewport) of world points."""
-        xy = []
-        for p in points:
-            renderer.SetWorldPoint(*p, 1.0)
-            renderer.WorldToView()
-            xy.append(renderer.GetViewPoint()[:2])
-        return np.array(xy)
+        """View coordinates (-1 to 1 across the viewport) of world points (k, 3), by the camera's
+        matrix as vtkRenderer.WorldToView applies it."""
+        m = renderer.GetActiveCamera().GetCompositeProjectionTransformMatrix(renderer.GetTiledAspectRatio(), 0, 1)
+        mat = np.array([[m.GetElement(i, j) for j in range(4)] for i in range(4)])
+        p = np.asarray(points, dtype=float).reshape(-1, 3)
+        h = p @ mat[:, :3].T + mat[:, 3]
+        return h[:, :2] / h[:, 3:]
+
+    @staticmethod
+    def _display_points(renderer, points: np.ndarray) -> np.ndarray:
+        """Display pixels (x, y from the window's bottom left) of world points (k, 3), as
+        vtkViewport.ViewToDisplay places view coordinates."""
+        x0, y0, x1, y1 = renderer.GetViewport()
+        w, h = renderer.GetRenderWindow().GetSize()
+        xy = Scene._view_points(renderer, points)
+        return (xy + 1.0) / 2.0 * np.array([w * (x1 - x0), h * (y1 - y0)]) + np.array([w * x0, h * y0])
 
     @staticmethod
     def _filled(renderer, points: np.ndarray) -> float:
@@ -609,9 +751,6 @@ class Scene:
 
         ``progress`` in [0, 1] draws a bar along the bottom edge of the frame.
         """
-        from vtkmodules.util.numpy_support import vtk_to_numpy
-        from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
-
         for poly, series in self._moving:
             poly.points[:] = series[index]
             poly.GetPoints().Modified()
@@ -625,12 +764,8 @@ class Scene:
             actor.GetProperty().SetColor(self.style.hammer if hit else self.style.ghost)
             actor.GetProperty().SetLineWidth(5.0 if hit else 2.0)
         self._label.SetInput(label or " ")
-        rw = self.plotter.ren_win
-        rw.Render()
         w, h = self.size
-        buf = vtkUnsignedCharArray()
-        rw.GetPixelData(0, 0, w - 1, h - 1, 0, buf, 0)
-        img = vtk_to_numpy(buf).reshape(h, w, 3)[::-1].copy()  # OpenGL rows run bottom-up
+        img = window_pixels(self.plotter.ren_win, self.size)[::-1].copy()  # OpenGL rows run bottom-up
         if progress is not None:
             bar = max(4, h // 120)
             img[h - bar:, :, :] = (np.asarray(self.style.background) * 255 * 0.85).astype(np.uint8)

@@ -246,14 +246,180 @@ def test_axes_and_scale_bar_lie_inside_the_frame_below_the_title(thesis_rig, vie
                   title="T6: measured motion\nslow motion; magnified")
     try:
         scene.frame(0, "t = 0 ms", progress=0.5)
-        points = world_to_pixel(scene.renderer(), scene._decorations, h)
+        axes = world_to_pixel(scene.renderer(), scene._decorations, h)
+        start, end, name = scene.scale_bar_pixels()
         clock_bottom = h - scene._label.GetPosition()[1]
     finally:
         scene.close()
-    assert len(points) == 7  # origin, three tips, the bar's ends and its name
+    assert len(axes) == 4  # origin and three tips
+    # the bar's ends and its name's corners, as image (column, row)
+    bar = np.array([start, end, *[(x, y) for x in name[:2] for y in name[2:]]]) * [1, -1] + [0, h]
+    points = np.concatenate([axes, bar])
     margin = scene.style.font_size
     assert (points[:, 0] > margin).all() and (points[:, 0] < w - margin).all(), points
     assert (points[:, 1] > clock_bottom + margin).all(), (points, clock_bottom)
     assert (points[:, 1] < h - max(4, h // 120) - margin).all(), points
     # a ruler one can read: at a tenth of the plate it was 15-18 pixels of 1280
     assert np.linalg.norm(points[5] - points[4]) > 0.1 * w, points
+
+
+def posed(body, d, magnify, points):
+    """Points fixed on ``body`` moved by ``d`` at G, magnified (scipy's rotation, R = Rz Ry Rx)."""
+    R = Rotation.from_euler("ZYX", magnify[1] * d[[5, 4, 3]]).as_matrix()
+    return body.com + magnify[0] * d[:3] + (np.asarray(points, float) - body.com) @ R.T
+
+
+def bar_and_name(img, style, below_row):
+    """The scale bar and its name found in a frame (image columns and rows, inclusive): the bar
+    is the only run of the text's colour at least 40 pixels long and 3 to 6 rows thick below
+    ``below_row`` (a line drawn across it leaves gaps of a few pixels, closed here); its name is
+    the text-coloured pixels in the two text lines under it."""
+    ink = np.all(np.abs(img.astype(int) - np.array(style.text) * 255) < 20, axis=-1)
+    ink[: below_row + 1] = False
+    labels, _ = ndimage.label(ndimage.binary_closing(ink, structure=np.ones((1, 9))))
+    bars = [b for b in ndimage.find_objects(labels)
+            if b[1].stop - b[1].start >= 40 and 3 <= b[0].stop - b[0].start <= 6]
+    assert len(bars) == 1, bars
+    rows, cols = bars[0]
+    bar = np.array([cols.start, cols.stop - 1, rows.start, rows.stop - 1])
+    left = max(0, cols.start - 2 * style.font_size)
+    r, c = np.nonzero(ink[rows.stop: rows.stop + 3 * style.font_size, left:])
+    name = np.array([c.min() + left, c.max() + left, r.min() + rows.stop, r.max() + rows.stop])
+    return bar, name
+
+
+def segment_points(a, b):
+    """Points every half pixel along the image segment a-b."""
+    n = int(np.ceil(2 * np.linalg.norm(np.asarray(b) - a))) + 1
+    return np.asarray(a) + np.linspace(0.0, 1.0, n)[:, None] * (np.asarray(b) - a)
+
+
+def inside(points, box, grow):
+    """Which image points (column, row) fall in ``box`` (columns, rows; inclusive) grown by ``grow``."""
+    p = np.asarray(points, float).reshape(-1, 2)
+    return ((p[:, 0] >= box[0] - grow) & (p[:, 0] <= box[1] + grow)
+            & (p[:, 1] >= box[2] - grow) & (p[:, 1] <= box[3] + grow))
+
+
+def overlap(a, b):
+    """Whether boxes (column min, max, row min, max; inclusive) share a pixel."""
+    return bool(a[0] <= b[1] and b[0] <= a[1] and a[2] <= b[3] and b[2] <= a[3])
+
+
+BAR_CASES = [("thesis-dynamometer", "platform", (60.0, 25.0)), ("thesis-dynamometer", "platform", (-35.0, 40.0)),
+             ("stiff-bracket", "bracket", (60.0, 25.0)), ("three-body-stand", "head", (150.0, 20.0))]
+
+
+def bar_rig(registries, name):
+    from pathlib import Path
+
+    from odsuite.domain.rig import load_rig
+
+    if name == "thesis-dynamometer":
+        return registries.rigs.get(name)
+    return load_rig(Path(__file__).resolve().parents[2] / "data" / "rigs" / f"{name}.toml", registries.sensor_types)
+
+
+@pytest.mark.parametrize("rig_name, moving, view", BAR_CASES)
+def test_scale_bar_and_its_name_cover_nothing_drawn(registries, rig_name, moving, view):
+    """In every frame the scale bar and its name, found in the picture, lie clear of every plate
+    edge (moving, at rest and still), sensor dot and name, the hammer's arrow, the axes and the
+    legend, projected by VTK's own transform; and they stay put from frame to frame. Beside the
+    axes they lay across the still base plate's outline (the demo's T6) and the bracket's bed."""
+    from odsuite.domain.rigidbody import plate_corners
+    from odsuite_plugins.renderers.scene import EDGES, Hammer, Scene
+
+    rig = bar_rig(registries, rig_name)
+    body = rig.body(moving)
+    d = np.stack([np.zeros(6), POSE, -POSE])
+    magnify = (0.15 * body.plate.size.max() / 2e-5,) * 2  # a plate-size motion of a fifth of a plate
+    point = body.plate.corner + body.plate.size * [0.5, 0.5, 1.0]
+    hammer = Hammer(moving, point, -np.asarray(rig.up, float), np.array([0.0, 10.0, 0.0]))
+    w, h = 1280, 720
+    scene = Scene(rig, {moving: d}, model_coords={moving: d}, magnify=magnify, view=view, hammer=hammer,
+                  title="T6: measured motion (blue) and the model's (orange band)\n160 times slower; magnified")
+    found = []
+    try:
+        for index in range(len(d)):
+            img = scene.frame(index, "t = +1.00 ms from the hit    hammer force 10.0 N", progress=0.5)
+            renderer = scene.renderer()
+            clock_bottom = h - scene._label.GetPosition()[1]
+            bar, name = bar_and_name(img, scene.style, int(clock_bottom))
+            found.append((bar, name))
+            edges = []
+            for b in rig.bodies:
+                if b.plate is None:
+                    continue
+                poses = [plate_corners(b.plate)] + ([posed(b, d[index], magnify, plate_corners(b.plate))]
+                                                     if b.name == moving else [])
+                for corners in poses:
+                    px = world_to_pixel(renderer, corners, h)
+                    edges += [(px[i], px[j]) for i, j in EDGES]
+            axes = world_to_pixel(renderer, scene._decorations, h)
+            edges += [(axes[0], tip) for tip in axes[1:]]
+            arrow = next(series for _, series in scene._moving if series.shape[1:] == (4, 3))[index]
+            a = world_to_pixel(renderer, arrow, h)
+            edges += [(a[0], a[1]), (a[1], a[2]), (a[1], a[3])]
+            points = np.concatenate([segment_points(p, q) for p, q in edges])
+            dots = world_to_pixel(renderer, posed(body, d[index], magnify,
+                                                  [s.position for s in rig.sensors if s.body == moving]), h)
+            # sensor names, axis letters (at their tips) and the legend: boxes in image rows
+            boxes = [np.array([x0, x1, h - y1, h - y0]) for x0, x1, y0, y1 in scene.sensor_label_boxes().values()]
+            boxes += [np.array([x - 2, x + scene.style.font_size, y - scene.style.font_size, y + 2]) for x, y in axes[1:]]
+            legend = scene.plotter.legend
+            (lx, ly), (lw, lh) = legend.GetPosition(), legend.GetPosition2()
+            boxes.append(np.array([lx * w, (lx + lw) * w, (1 - ly - lh) * h, (1 - ly) * h]))
+            for part in (bar, name):
+                assert not inside(points, part, 2.0).any(), (part, points[inside(points, part, 2.0)][:5])
+                assert not inside(dots, part, 6.0).any(), (part, dots)
+                for box in boxes:
+                    assert not overlap(part, box), (part, box)
+    finally:
+        scene.close()
+    assert all(np.array_equal(f[0], found[0][0]) and np.array_equal(f[1], found[0][1]) for f in found), found
+
+
+@pytest.mark.parametrize("parallel, view", [(False, (60.0, 25.0)), (False, (-35.0, 40.0)), (True, (150.0, 20.0))])
+def test_scale_bar_is_its_motion_as_drawn_at_the_moving_plates_centre(thesis_rig, parallel, view):
+    """The bar's length in the picture is the magnified round motion it names, projected across
+    the screen at the moving plate's centre (VTK's camera transform), to a pixel."""
+    from odsuite.domain.rigidbody import plate_corners
+    from odsuite_plugins.renderers.scene import Scene, _mm, scale_bar_length
+
+    h = 720
+    body = thesis_rig.body("platform")
+    scene = Scene(thesis_rig, {"platform": np.stack([np.zeros(6), POSE])}, magnify=H, view=view, parallel=parallel,
+                  size=(1280, h), title="T6")
+    try:
+        img = scene.frame(1, "t = 0 ms", progress=0.5)
+        bar, _ = bar_and_name(img, scene.style, int(h - scene._label.GetPosition()[1]))
+        cam = scene.renderer().GetActiveCamera()
+        across = np.cross(cam.GetDirectionOfProjection(), cam.GetViewUp())
+        real, drawn = scale_bar_length(float(body.plate.size.max()), H[0])
+        corners = plate_corners(body.plate)
+        centre = (corners.min(0) + corners.max(0)) / 2
+        ends = world_to_pixel(scene.renderer(), [centre, centre + drawn * across / np.linalg.norm(across)], h)
+        name = scene.scale_bar_pixels()[2]
+    finally:
+        scene.close()
+    assert real == pytest.approx(5e-5) and _mm(real) == "0.05 mm"  # 0.2 m of plate at x4000
+    assert bar[1] - bar[0] + 1 == pytest.approx(np.linalg.norm(ends[1] - ends[0]), abs=1.5)
+    assert name[1] - name[0] > 100  # "0.05 mm of motion (x4,000)" is there to read
+
+
+def test_free_spot_takes_the_corner_free_of_drawing():
+    """The box goes in the free corner nearest (lower left first); with no free corner, in the
+    free gap; with no gap at all, where it covers least."""
+    from odsuite_plugins.renderers.scene import free_spot
+
+    occupied = np.zeros((100, 200), dtype=bool)
+    assert free_spot(occupied, 30, 10) == (0, 0)
+    occupied[:20, :50] = True  # the lower left taken: the lower right is as near a corner
+    assert free_spot(occupied, 30, 10) == (170, 0)
+    occupied[:] = True
+    occupied[40:52, 100:140] = False  # a 40 x 12 hole
+    x, y = free_spot(occupied, 30, 10)
+    assert 100 <= x <= 110 and 40 <= y <= 42 and not occupied[y:y + 10, x:x + 30].any()
+    occupied[45, :] = True  # no room: the least covered spot, 30 pixels of a row
+    x, y = free_spot(occupied, 30, 10)
+    assert occupied[y:y + 10, x:x + 30].sum() == 30
