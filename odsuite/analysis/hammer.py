@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError, DimensionError
 
 
@@ -238,6 +239,12 @@ def assess_hits(
         raise DimensionError(f"{len(response_limits)} response limits for {r.shape[1]} response channels")
     if record_length is not None and record_length < 8:
         raise ConfigError(f"record length {record_length} samples is too short for a hit")
+    if pretrigger is not None:
+        arguments.whole("assess_hits", "pretrigger", pretrigger, 0)
+        # the record would end at or before the hit's peak (an IndexError followed)
+        if record_length is not None and pretrigger >= record_length:
+            raise ConfigError(f"assess_hits: pretrigger {pretrigger} samples leaves nothing of the "
+                              f"{record_length}-sample record after the hit's peak")
     gap = record_length if record_length is not None else max(n // 64, 8)
     peaks = find_hits(f, threshold=threshold, min_gap=gap)
     if not peaks:

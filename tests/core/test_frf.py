@@ -171,6 +171,19 @@ def test_bad_inputs_raise_one_line_errors():
         assess_hits(np.ones(10), np.ones((9, 2)), 100.0)
 
 
+def test_a_pretrigger_that_leaves_no_peak_in_the_record_is_refused_in_one_line(record):
+    # a pretrigger as long as the record cut each record before its peak: an IndexError in
+    # pulse_width; a negative one cut the record after the peak and read its force from the far end
+    f, a = record
+    with pytest.raises(ConfigError) as info:
+        assess_hits(f, a, FS, record_length=REC, pretrigger=REC)
+    assert str(info.value) == ("assess_hits: pretrigger 8192 samples leaves nothing of the 8192-sample record "
+                               "after the hit's peak")
+    with pytest.raises(ConfigError, match="'pretrigger' must be an integer of at least 0, got -5"):
+        assess_hits(f, a, FS, record_length=REC, pretrigger=-5)
+    assert [h.trigger for h in assess_hits(f, a, FS, record_length=REC, pretrigger=REC - 1)][:8] == [REC - 1] * 8
+
+
 def test_response_units_are_checked_in_one_line():
     """A text was split into letters (five outputs took 'm/s^2' as five units), a number raised a
     TypeError and a g was stored as if SI: each is refused naming estimate_frf and the value."""
