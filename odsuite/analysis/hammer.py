@@ -41,6 +41,11 @@ class Hit:
         return self.peak_index - self.start
 
 
+#: where a hit's pulse ends, as a share of the hit threshold: a quarter of it, 5 % of the record's
+#: largest excursion at the default threshold (``pulse_width``'s level for the largest hit)
+PULSE_END = 0.25
+
+
 def _as_2d(responses: np.ndarray, n: int) -> np.ndarray:
     r = np.asarray(responses, dtype=float)
     if r.ndim == 1:
@@ -55,9 +60,17 @@ def _as_2d(responses: np.ndarray, n: int) -> np.ndarray:
 def find_hits(
     force: np.ndarray, *, threshold: float = 0.2, min_gap: int, pretrigger: int = 0
 ) -> list[int]:
-    """Sample of the force peak of every hit: a hit starts where force - baseline, taken in the
-    sign of its largest excursion, first exceeds ``threshold`` x that excursion, and hits closer than ``min_gap`` samples merge into one
-    (a close second impact is then a double hit of the first). The baseline is the median."""
+    """Sample of the force peak of every hit (``hit_pulses``)."""
+    return [peak for _, peak, _ in hit_pulses(force, threshold=threshold, min_gap=min_gap)]
+
+
+def hit_pulses(force: np.ndarray, *, threshold: float = 0.2, min_gap: int) -> list[tuple[int, int, int]]:
+    """First sample, peak sample and one-past-last sample of every hit's pulse: a hit starts where
+    force - baseline, taken in the sign of its largest excursion, first exceeds ``threshold`` x that
+    excursion, and hits closer than ``min_gap`` samples merge into one (a close second impact is
+    then a double hit of the first). The baseline is the median. The pulse is the run of samples
+    around that crossing that stay above ``PULSE_END`` x the threshold (where the force is back
+    near zero); its largest sample is the peak, and the next hit starts after it."""
     f = np.asarray(force, dtype=float)
     if f.ndim != 1 or f.size == 0:
         raise DimensionError(f"force must be a non-empty 1-D signal, got shape {f.shape}")
@@ -67,16 +80,28 @@ def find_hits(
     # a hammer pushes one way: a filtered pulse's opposite lobe (an 8th-order 1 kHz low-pass rings
     # for over a thousand samples at 1 MHz) is no second hit
     dev = signed * (1.0 if signed.max() >= -signed.min() else -1.0)
-    above = np.flatnonzero(dev > threshold * dev.max())
-    peaks: list[int] = []
-    last_start = -(10**18)
-    for idx in above:
-        if idx - last_start >= min_gap:
-            last_start = int(idx)
-            # the peak lies within the pulse that starts here (search a short span after the crossing)
-            span = dev[idx : idx + max(min_gap // 4, 1)]
-            peaks.append(int(idx + np.argmax(span)))
-    return peaks
+    level = threshold * dev.max()
+    above = np.flatnonzero(dev > level)
+    # the pulse's own shape bounds the peak's search, not a count of samples: a soft tip's 5 ms blow
+    # sampled at 1 MHz peaks 2500 samples after it starts, while a bounce after the force came back
+    # near zero is a pulse of its own
+    near_zero = np.flatnonzero(dev <= PULSE_END * level)
+    pulses: list[tuple[int, int, int]] = []
+    i = 0
+    while i < above.size:
+        crossing = int(above[i])
+        a, b = _run_around(near_zero, crossing, f.size)
+        pulses.append((a, a + int(np.argmax(dev[a:b])), b))
+        i = int(np.searchsorted(above, max(b, crossing + min_gap)))
+    return pulses
+
+
+def _run_around(low: np.ndarray, at: int, n: int) -> tuple[int, int]:
+    """First and one-past-last sample of the run around ``at`` (itself included) that holds none of
+    the sorted sample indices ``low`` (where a signal of ``n`` samples is at or below a level)."""
+    k = int(np.searchsorted(low, at))
+    j = int(np.searchsorted(low, at, side="right"))
+    return (int(low[k - 1]) + 1 if k > 0 else 0), (int(low[j]) if j < low.size else n)
 
 
 def pulse_width(force: np.ndarray, peak: int, level: float = 0.05) -> tuple[int, int]:
@@ -84,14 +109,7 @@ def pulse_width(force: np.ndarray, peak: int, level: float = 0.05) -> tuple[int,
     x the peak excursion (baseline: the median of the signal)."""
     f = np.asarray(force, dtype=float)
     dev = np.abs(f - np.median(f))
-    lim = level * dev[peak]
-    a = peak
-    while a > 0 and dev[a - 1] > lim:
-        a -= 1
-    b = peak + 1
-    while b < f.size and dev[b] > lim:
-        b += 1
-    return a, b
+    return _run_around(np.flatnonzero(dev <= level * dev[peak]), peak, f.size)
 
 
 def is_double_hit(force: np.ndarray, peak: int, *, level: float = 0.25, guard: int = 2) -> bool:
@@ -246,9 +264,10 @@ def assess_hits(
             raise ConfigError(f"assess_hits: pretrigger {pretrigger} samples leaves nothing of the "
                               f"{record_length}-sample record after the hit's peak")
     gap = record_length if record_length is not None else max(n // 64, 8)
-    peaks = find_hits(f, threshold=threshold, min_gap=gap)
-    if not peaks:
+    pulses = hit_pulses(f, threshold=threshold, min_gap=gap)
+    if not pulses:
         return []
+    peaks = [peak for _, peak, _ in pulses]
     chosen_pretrigger = pretrigger is None
     if pretrigger is None:
         pretrigger = min(peaks[0], max((record_length or n) // 100, 1))
@@ -265,9 +284,14 @@ def assess_hits(
             elif record_length < spacing:
                 cut_short = (f"every hit's record cut short to {record_length / fs:.4g} s by the data's end after "
                              f"it (FRF lines {fs / record_length:.4g} Hz apart, not {fs / spacing:.4g} Hz)")
+            else:
+                record_length = spacing
         elif record_length < gap:  # shorter than find_hits lets two hits' records be
             cut_short = (f"its record cut short to {record_length / fs:.4g} s by the data's end (FRF lines "
                          f"{fs / record_length:.4g} Hz apart)")
+        # a broad pulse's peak lies late: after a quick one close behind, the records overlap
+        # rather than end before a peak or cut a pulse short
+        record_length = max(record_length, pretrigger + max(stop - peak for _, peak, stop in pulses))
     hits = []
     for p in peaks:
         start = p - pretrigger
