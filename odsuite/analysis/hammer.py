@@ -241,11 +241,12 @@ def assess_hits(
     """Split a record into hits and judge each: rejected for a double hit, a clipped or overloaded
     force or response channel, or a record cut short by the data's end; noted (not rejected) when
     the response has not decayed below ``decay_limit`` x its peak at the record end (leakage: use
-    an exponential window). Defaults: pretrigger 1 % of the record (at most the samples before the
-    first hit; a given length the last hit's data miss by at most that: its record starts earlier);
-    records as long as the closest hits allow and the last hit's data reach, unless those end
-    before half that length: that hit is then left out (``Hit.left_out``, as is a hit whose record
-    runs past the data or whose peak is their last sample; ``Hit.data_end`` says so). Limits
+    an exponential window). Defaults: pretrigger 1 % of the record, or the longest pulse's rise when
+    longer (at most the samples before the first hit; a given length the last hit's data miss by at
+    most that: its record starts earlier); records as long as the closest hits allow (to each
+    pulse's end at least) and the last hit's data reach, unless those end before half that length:
+    that hit is then left out (``Hit.left_out``, as is a hit whose record runs past the data or
+    whose peak is their last sample; ``Hit.data_end`` says so). Limits
     are the converters' ranges in the signals' units (``is_clipped``); ``response_limits`` is one
     range for every response or one per response channel."""
     f = np.asarray(force, dtype=float)
@@ -270,7 +271,12 @@ def assess_hits(
     peaks = [peak for _, peak, _ in pulses]
     chosen_pretrigger = pretrigger is None
     if pretrigger is None:
-        pretrigger = min(peaks[0], max((record_length or n) // 100, 1))
+        # a soft tip's blow at 1 MHz rises over more samples than 1 % of the record, which began on
+        # its rising edge: from the last near-zero sample before the pulse at least
+        rise = max(peak - first for first, peak, _ in pulses) + 1
+        pretrigger = min(peaks[0], max((record_length or n) // 100, rise))
+        if record_length is not None:
+            pretrigger = min(pretrigger, record_length - 1)
     cut_short = ""
     if record_length is None:
         # equal records for averaging: as long as the closest hits allow, and the last one fits ...

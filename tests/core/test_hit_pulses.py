@@ -105,3 +105,17 @@ def test_real_triggered_records_cut_to_their_own_length(real_data):
     assert [h.peak_index for h in default] == [h.peak_index for h in given] == [85, 8276]
     assert [h.peak_force for h in given] == [force[85], force[8276]] == pytest.approx([-18.032922, -17.268434])
     assert [(h.start, h.stop) for h in given] == [(4, 8196), (8192, 16384)]
+
+
+@pytest.mark.parametrize(("width_s", "record_length"), [(5e-3, None), (2e-3, None), (1e-3, 8192)])
+def test_a_record_holds_its_blows_whole_rise(width_s, record_length):
+    # at 1 MHz a 5 ms blow rises over 2500 samples, and 1 % of a 65536-sample record (655) began
+    # the record on its rising edge, at 0.92 of the peak: its force summed to 0.70 of the blow's
+    # impulse. Cut to 8192 samples, 1 % (81) began a 1 ms blow's record at 0.97 of its peak (0.63)
+    fs, n = 1e6, 65536
+    force = _half_sine(fs, n, 0.01, width_s, 20.0)
+    (hit,) = assess_hits(force, np.zeros(n), fs, record_length=record_length, decay_limit=None)
+    # from the last sample within 5 % of the peak: the foot below it carries 0.06 % of the impulse
+    assert force[hit.start] <= 1.0 < force[hit.start + 1]
+    impulse = 2 * 20.0 * width_s / np.pi  # N s of a half-sine
+    assert force[hit.start : hit.stop].sum() / fs == pytest.approx(impulse, rel=1e-3)
