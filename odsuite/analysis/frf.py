@@ -268,7 +268,9 @@ def usable_band(
 ) -> tuple[float, float]:
     """The band (Hz) where the measurement supports a modal fit: from the first line above 0 Hz up
     to where the force autospectrum (smoothed over 1 % of the lines) has dropped ``FORCE_DROP_DB``
-    below its low-frequency level (median over the lowest 5 % of the lines), narrowed to the
+    below its low-frequency level (median over the lowest 5 % of the lines); a spectrum that drops
+    within fewer lines (seen first with 3-line smoothing against the lowest 4 lines) is smoothed
+    over at most a tenth of them and its level taken over at most the lowest half. Narrowed to the
     lines whose coherence over ``n_averages`` hits gives a random error of at most
     ``MAX_RANDOM_ERROR`` (coherence of one hit is 1 by construction and says nothing)."""
     import scipy.ndimage
@@ -280,11 +282,14 @@ def usable_band(
     lo_i, hi_i = int(pos[0]), int(f.size - 1)
     width = max(3, f.size // 100) | 1  # odd, so the median filter is centred
     if force_autospectrum is not None:
-        gff = scipy.ndimage.median_filter(np.asarray(force_autospectrum, dtype=float), width, mode="nearest")
-        ref = np.median(gff[pos[: max(4, f.size // 20)]])
-        low = np.flatnonzero((gff < ref * 10 ** (-FORCE_DROP_DB / 10)) & (f > 0))
-        if low.size and ref > 0:
-            hi_i = min(hi_i, int(low[0]) - 1)
+        gff = np.asarray(force_autospectrum, dtype=float)
+        # a broad blow's spectrum can fall within the lowest 5 % of the lines (a 5 ms blow at 1 MHz:
+        # 10 dB down at 200 Hz of 500 kHz), and its level there and 1 % smoothing were the noise
+        # floor's: the band ran to 500 kHz. A first look on the finest windows finds the spectrum's
+        # own extent, and neither window spans more than a tenth (smoothing) or a half (level) of it
+        extent = _force_drop(f, gff, pos, 3, 4) - lo_i + 1
+        width = min(width, max(3, extent // 10) | 1)
+        hi_i = min(hi_i, _force_drop(f, gff, pos, width, min(max(4, f.size // 20), max(4, extent // 2))))
     if coherence is not None and n_averages > 1:
         coh = np.clip(np.asarray(coherence, dtype=float), 1e-12, 1.0)
         coh = coh[None, :] if coh.ndim == 1 else coh
@@ -301,6 +306,18 @@ def usable_band(
             f"no usable band: the force spectrum falls {FORCE_DROP_DB:g} dB or the coherence drops "
             f"below a {100 * MAX_RANDOM_ERROR:g} % random error within the first lines; give --fmin/--fmax")
     return float(f[lo_i]), float(f[hi_i])
+
+
+def _force_drop(frequency: np.ndarray, gff: np.ndarray, pos: np.ndarray, width: int, lowest: int) -> int:
+    """The last line before the force autospectrum, median-filtered over ``width`` lines, falls
+    ``FORCE_DROP_DB`` below its median over the ``lowest`` lines above 0 Hz (``pos``); the last
+    line when it never does."""
+    import scipy.ndimage
+
+    smooth = scipy.ndimage.median_filter(gff, width, mode="nearest")
+    ref = np.median(smooth[pos[:lowest]])
+    low = np.flatnonzero((smooth < ref * 10 ** (-FORCE_DROP_DB / 10)) & (frequency > 0))
+    return int(low[0]) - 1 if low.size and ref > 0 else frequency.size - 1
 
 
 def _group(unit: str) -> str:

@@ -128,26 +128,51 @@ def test_vibration_toolbox_case1_default_band(real_data):
     assert not ((res.frequency_hz > 40) & (res.frequency_hz < 200)).any()
 
 
-def test_usable_band_from_a_half_sine_force():
-    """The band ends where the force spectrum is 10 dB below its low-frequency level: for a
-    half-sine of duration T, |F(f)| = (2T/pi) |cos(pi f T)| / |1 - (2 f T)^2| (closed form)."""
+def _half_sine_edge(T: float) -> float:
+    """Where the spectrum of a half-sine of duration T is 10 dB below its level at 0 Hz, from
+    |F(f)| = (2T/pi) |cos(pi f T)| / |1 - (2 f T)^2| (closed form), below its first zero."""
     import scipy.optimize
-
-    fs, n, T = 10_000.0, 10_000, 2e-3
-    t = np.arange(n) / fs
-    force = np.where(t < T, np.sin(np.pi * t / T), 0.0)
-    gff = np.abs(np.fft.rfft(force)) ** 2
-    freq = np.fft.rfftfreq(n, 1 / fs)
 
     def level_db(fr):
         x = 2 * fr * T
         return 20 * np.log10(abs(np.cos(np.pi * fr * T)) / abs(1 - x * x)) if x != 1 else 20 * np.log10(np.pi / 4)
 
-    edge = scipy.optimize.brentq(lambda fr: level_db(fr) + 10.0, 1.0, 1.5 / T * 0.999)  # below the first zero
+    return scipy.optimize.brentq(lambda fr: level_db(fr) + 10.0, 1.0, 1.5 / T * 0.999)
+
+
+def test_usable_band_from_a_half_sine_force():
+    """The band ends where the force spectrum is 10 dB below its low-frequency level (closed form,
+    ``_half_sine_edge``)."""
+    fs, n, T = 10_000.0, 10_000, 2e-3
+    t = np.arange(n) / fs
+    force = np.where(t < T, np.sin(np.pi * t / T), 0.0)
+    gff = np.abs(np.fft.rfft(force)) ** 2
+    freq = np.fft.rfftfreq(n, 1 / fs)
+    edge = _half_sine_edge(T)
     lo, hi = usable_band(freq, gff)
     assert lo == freq[1]
     assert hi == pytest.approx(edge, abs=2 * (freq[1] + 0.01 * freq[-1]))  # the 1 % smoothing
     assert 505 < edge < 515  # 1.02/T for a half-sine of duration T
+
+
+@pytest.mark.parametrize(("fs", "T"), [(1e6, 5e-3), (1e6, 2e-3), (1e5, 5e-3), (2e4, 5e-3)])
+def test_usable_band_of_a_broad_blow_at_a_high_rate(fs, T):
+    """A soft tip's 2-5 ms blow in a 65536-sample record: its spectrum falls 10 dB within the
+    lowest 5 % of the lines (at 204 Hz for 5 ms; 5 % of the lines reach 25 kHz at 1 MHz), and the
+    level over them and the 1 % smoothing were the noise floor's: the 5 ms blow's band ran to
+    67.7 kHz at 1 MHz, 2.26 kHz at 100 kHz and 443 Hz at 20 kHz."""
+    n = 65536
+    t = np.arange(n) / fs - 0.01
+    force = 20.0 * np.where((t >= 0) & (t <= T), np.sin(np.pi * np.clip(t, 0, T) / T), 0.0)
+    force += 0.02 * np.random.default_rng(7).standard_normal(n)  # 0.1 % of the peak
+    (hit,) = assess_hits(force, np.zeros(n), fs, decay_limit=None)
+    frf = estimate_frf([force[hit.start : hit.stop]], [np.zeros(hit.stop - hit.start)], fs)
+    lo, hi = usable_band(frf.frequency, frf.force_autospectrum)
+    assert lo == frf.frequency[1]
+    # within 2 lines, or 3 %: the level is the median over the band's lower half, where a
+    # half-sine's spectrum falls by up to 2 dB (the edge then lies some 2 % late)
+    edge = _half_sine_edge(T)
+    assert hi == pytest.approx(edge, abs=max(2 * frf.frequency[1], 0.03 * edge))
 
 
 def test_usable_band_from_coherence():
