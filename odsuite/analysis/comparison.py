@@ -27,7 +27,7 @@ from odsuite.analysis.noise_floor import FLOOR_TOLERANCE, NoiseFloor, estimate, 
 from odsuite.analysis.prediction import (
     PreparedExperiment,
     coordinate_series,
-    impulse_response,
+    impulse_responses,
     predict,
     prepare,
     sensor_noise,
@@ -295,7 +295,7 @@ def noise_floor(exps: Sequence[PreparedExperiment], model=None, *, spectra: bool
     if model is None:
         return estimate(exps, spectra=spectra, colours=colours)
     models = model if isinstance(model, Mapping) else {e.name: model.for_experiment(e.name) for e in exps}
-    impulses = {e.name: impulse_response(models[e.name], e) for e in exps}
+    impulses = {e.name: impulse_responses(models[e.name], e) for e in exps}
     noise = {e.name: sensor_noise(models[e.name], e) for e in exps}
     residuals = None
     if tail_predictions is not None and not any(noise_colour.has_pre_hit_lines(e) for e in exps):

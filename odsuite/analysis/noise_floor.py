@@ -16,9 +16,11 @@ Four parts, each estimated from the record itself:
   converter's offset and noise the record tells;
 - the force channel's noise through the model: the model is driven by the measured force, so the
   load cell's noise inside the force window reaches every predicted channel. Its expected energy is
-  the window's noise energy times the energy of the model's response to a unit impulse (exact for
-  white noise in a window much shorter than the record). A record that starts inside its hit adds
-  the force it missed before its first sample (prediction.force_window).
+  the window's noise energy times the mean energy of the model's responses to unit force samples
+  over the window (prediction.impulse_responses; exact for white noise spread evenly over it): not
+  one unit's, as the prediction is not the same shifted where a record starts at its hit. A record
+  that starts inside its hit adds the force it missed before its first sample
+  (prediction.force_window).
 
 ``NoiseFloor.error`` is then the contract's ``error`` of a perfect model; its spectrum (per channel
 and experiment) lets the residual's peaks and bands be tested against what noise alone gives.
@@ -446,13 +448,20 @@ def _coloured(flat: np.ndarray, colour: np.ndarray) -> np.ndarray:
     return out * flat.sum(axis=0) / np.where(out.sum(axis=0) > 0, out.sum(axis=0), np.inf)
 
 
+def _units(impulses: np.ndarray) -> np.ndarray:
+    """An experiment's unit responses (prediction.impulse_responses) as units x samples x sensors: a
+    single response (samples x sensors) is one unit."""
+    h = np.asarray(impulses, float)
+    return h[None] if h.ndim == 2 else h
+
+
 def _tail_colours(exps: Sequence, residuals: Mapping[str, np.ndarray],
                   impulses: Mapping[str, np.ndarray] | None,
                   sensor_noise: Mapping[str, Sequence[np.ndarray]] | None) -> dict[str, Any]:
     """noise_colour.tail_excess of a model's ``residuals`` (experiment name -> samples x sensors) on
     the records' quiet tails, against what the floor expects on them: the simulated sensors' noise
     (else white at the quiet level), the fitted hum and drift, and the force channel's noise
-    through the model's impulse response."""
+    through the model's unit responses."""
     pooled: dict[str, list[list[np.ndarray]]] = {}
     for e in exps:
         a, b = int(e.quiet_tail), int(e.n_samples)
@@ -472,7 +481,7 @@ def _tail_colours(exps: Sequence, residuals: Mapping[str, np.ndarray],
         if e.disturbance is not None:
             rest += line_energies(e.disturbance[a:b])
         if impulses is not None and e.force_noise_energy > 0:
-            rest += e.force_noise_energy * line_energies(impulses[e.name][a:b])
+            rest += e.force_noise_energy * np.mean([line_energies(h[a:b]) for h in _units(impulses[e.name])], axis=0)
         for j, s in enumerate(e.sensors):
             parts = pooled.setdefault(s.name, [[], [], [], []])
             for k, v in enumerate((f[1:], got[1:, j], noise[1:, j], rest[1:, j])):
@@ -486,8 +495,9 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
              colours: Mapping[str, Any] | None = None,
              tail_residuals: Mapping[str, np.ndarray] | None = None) -> NoiseFloor:
     """The noise floor of ``exps`` (PreparedExperiments); ``impulses`` maps an experiment's name to
-    its model's response to a unit force sample (odsuite.analysis.prediction.impulse_response), which
-    carries the force channel's noise to every channel (without it that part is left out);
+    its model's responses to unit force samples over the force window (units x samples x sensors,
+    odsuite.analysis.prediction.impulse_responses; one response: samples x sensors), whose mean
+    energies carry the force channel's noise to every channel (without them that part is left out);
     ``sensor_noise`` to simulated realisations of the sensors' noise and rounding
     (odsuite.analysis.prediction.sensor_noise; without them: white noise and a uniform rounding error
     where the signal moves through the codes). ``spectra``: also the floor's Welch spectra, for
@@ -542,8 +552,8 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
         force_part = np.zeros(len(e.sensors))
         h = None
         if impulses is not None and e.force_noise_energy > 0:
-            h = impulses[e.name]
-            force_part = e.force_noise_energy * np.sum(h**2, axis=0)
+            h = _units(impulses[e.name])
+            force_part = e.force_noise_energy * np.mean(np.sum(h**2, axis=1), axis=0)
         total = broadband + hum + force_part
         energy[e.name] = {s.name: float(v) for s, v in zip(e.sensors, total)}
         measured[e.name] = {s.name: float(v) for s, v in zip(e.sensors, np.sum(e.measured**2, axis=0))}
@@ -552,7 +562,7 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
         if spectra:
             f = welch_frequencies(e.fs, n)
             # every part's spectrum in one call: Welch transforms each column alone
-            blocks = [*simulated, *(b for b in (e.disturbance, h) if b is not None)]
+            blocks = [*simulated, *([] if e.disturbance is None else [e.disturbance]), *([] if h is None else h)]
             spectra_of = iter(np.split(welch(np.concatenate(blocks, axis=1), e.fs, n)[1],
                                        np.cumsum([b.shape[1] for b in blocks])[:-1], axis=1) if blocks else [])
             if simulated:
@@ -565,7 +575,7 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
             if e.disturbance is not None:
                 psd = psd + next(spectra_of)
             if h is not None:
-                psd = psd + e.force_noise_energy * next(spectra_of)
+                psd = psd + e.force_noise_energy * np.mean([next(spectra_of) for _ in h], axis=0)
             specs[e.name] = (f, psd)
             # the expected energy per line of every part, scaled so that each sensor's lines add up
             # to its floor energy (the rounding's share where no realisation simulates it)
@@ -573,7 +583,7 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
             if e.disturbance is not None:
                 lines = lines + line_energies(e.disturbance)
             if h is not None:
-                lines = lines + e.force_noise_energy * line_energies(h)
+                lines = lines + e.force_noise_energy * np.mean([line_energies(u) for u in h], axis=0)
             sums = lines.sum(axis=0)
             to_total = np.where(sums > 0, total / np.where(sums > 0, sums, 1.0), 1.0)
             lines = lines * to_total
