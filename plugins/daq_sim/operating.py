@@ -12,7 +12,8 @@ import numpy as np
 import scipy  # scipy.signal loads on first use: fast `odsuite plugins`
 
 from odsuite.api import ConfigError
-from odsuite_plugins.daq_sim.options import DEFAULT_BASE_RMS  # noqa: F401 (this module's default, defined beside the option)
+# DEFAULT_BASE_RMS: this module's default, defined beside the option
+from odsuite_plugins.daq_sim.options import DEFAULT_BASE_RMS, MAX_PEAK_N, MIN_PEAK_N  # noqa: F401
 
 KINDS = ("random", "sweep", "unbalance", "base-random")
 #: kinds where the ground moves instead of a force acting at the force point
@@ -97,8 +98,9 @@ def operating_forces(load: OperatingLoad, n: int, fs: float, record_rate: float,
     """The load as (force record in N at the simulator's rate ``fs``, unit direction) pairs acting
     at the force point; ``direction`` is the force's line for random and sweep, the rotor's axis
     for unbalance. A sweep spans the band of a record at ``record_rate``."""
-    if not (np.isfinite(force_rms) and force_rms > 0):
-        raise ConfigError(f"--force-rms: must be > 0 N, got {force_rms!r}")
+    if not MIN_PEAK_N <= force_rms <= MAX_PEAK_N:  # NaN fails too
+        raise ConfigError(f"--force-rms: an operating load's rms force, {MIN_PEAK_N:g} to {MAX_PEAK_N:g} N, "
+                          f"got {force_rms!r}")
     t = np.arange(n) / fs
     d = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
     if load.kind == "random":  # white Gaussian at the simulator's rate: flat far beyond the record's band

@@ -9,7 +9,8 @@ MIN_ADC_BITS, MAX_ADC_BITS = 8, 32
 #: a thousand times the thesis's floor is a few volts of noise: beyond it the record is noise
 MAX_NOISE_SCALE = 1000.0
 #: peak forces hammers deliver (N): a miniature hammer's tap resolves a few mN; the heaviest drop
-#: weights (pavement and bridge testers) strike with a few hundred kN
+#: weights (pavement and bridge testers) strike with a few hundred kN. An operating load's rms
+#: force (--force-rms) is bounded alike: no running machine or shaker drives a rig harder
 MIN_PEAK_N, MAX_PEAK_N = 1e-3, 1e6
 #: default rms of the ground's acceleration along each axis (m/s^2), white up to the simulator's
 #: rate: the thesis rig's horizontal accelerometers (+-2.5 m/s^2 ranges) then peak near a third of
@@ -34,8 +35,8 @@ OPTIONS = (BackendOption("scenario", str, None, "thesis test T1..T8 (default T1 
                                                  "unbalance:HZ at the force point, or base-random: the ground "
                                                  "moving in all six directions (no force channel stored); default: none, "
                                                  "the hammer"),
-           BackendOption("force_rms", float, None, "operating: rms force in N (default 0.5 N; unbalance: the "
-                                                   "rotating force's magnitude)"),
+           BackendOption("force_rms", float, None, f"operating: rms force in N, {MIN_PEAK_N:g} to {MAX_PEAK_N:g} "
+                                                   "(default 0.5 N; unbalance: the rotating force's magnitude)"),
            BackendOption("base_rms", float, None, "base-random: rms ground acceleration in m/s^2 along each "
                                                   f"axis (default {DEFAULT_BASE_RMS:g} m/s^2); the rotations' rms is it "
                                                   "over the farthest accelerometer's distance from the rig origin"))

@@ -160,7 +160,13 @@ def test_operating_records_are_refused_where_a_force_is_needed(thesis_heave, cap
     (["--operating", "unbalance:fast"], "HZ must be the rotor's speed in Hz, got 'fast'"),
     (["--operating", "random:3"], "--operating random: takes no value"),
     (["--force-rms", "2"], "--force-rms sets an operating load: give --operating too"),
-    (["--operating", "random", "--force-rms", "-1"], "--force-rms: must be > 0 N, got -1.0"),
+    (["--operating", "random", "--force-rms", "-1"], "--force-rms: an operating load's rms force, 0.001 to 1e+06 N, "
+                                                     "got -1.0"),
+    # 1e300 N was recorded with every accelerometer clipped; 1e-300 N as ADC noise alone
+    (["--operating", "random", "--force-rms", "1e300"], "--force-rms: an operating load's rms force, 0.001 to 1e+06 N, "
+                                                        "got 1e+300"),
+    (["--operating", "unbalance:50", "--force-rms", "1e-300"], "--force-rms: an operating load's rms force, 0.001 to "
+                                                               "1e+06 N, got 1e-300"),
     (["--operating", "sweep", "--force-peak", "3"], "drop the hammer's hits, --force-peak and --contact-ms"),
     (["--operating", "base-random", "--force-rms", "1"], "the ground moves, no force acts; drop --force-rms"),
     (["--operating", "base-random", "--force-point=0,0,0", "--force-dir=+z"], "drop --force-rms, --force-point"),
