@@ -640,6 +640,13 @@ ADC_RANGE_MAX_V = 1e3
 #: the narrowest (V, high - low): a strain-gauge module's +-10 mV, NI multifunction cards' +-50 mV
 #: (a range of 1e-300 V clipped every simulated sample: the trigger never came)
 ADC_SPAN_MIN_V = 1e-3
+#: what an ADC input range (a rig's adc_range, a .CTR's DAQ limits) must be
+ADC_RANGE_TEXT = f"volts within +-{ADC_RANGE_MAX_V:g} V, high at least {ADC_SPAN_MIN_V:g} V above low"
+
+
+def adc_range_ok(low: float, high: float) -> bool:
+    """Whether [``low``, ``high``] V is a converter's input range (``ADC_RANGE_TEXT``)."""
+    return max(abs(low), abs(high)) <= ADC_RANGE_MAX_V and high - low >= ADC_SPAN_MIN_V
 
 
 def _acquisition(table: Any, where0: str) -> Acquisition | None:
@@ -664,9 +671,8 @@ def _acquisition(table: Any, where0: str) -> Acquisition | None:
         lo_hi = _vector(f"{w} field 'adc_range'", adc_range, 2)
         if not lo_hi[1] > lo_hi[0]:
             raise ConfigError(f"{w} field 'adc_range': expected [low, high] volts with high > low, got {adc_range!r}")
-        if max(abs(lo_hi[0]), abs(lo_hi[1])) > ADC_RANGE_MAX_V or lo_hi[1] - lo_hi[0] < ADC_SPAN_MIN_V:
-            raise ConfigError(f"{w} field 'adc_range': expected volts within +-{ADC_RANGE_MAX_V:g} V, high at least "
-                              f"{ADC_SPAN_MIN_V:g} V above low, got {adc_range!r}")
+        if not adc_range_ok(lo_hi[0], lo_hi[1]):
+            raise ConfigError(f"{w} field 'adc_range': expected {ADC_RANGE_TEXT}, got {adc_range!r}")
         adc_range = (float(lo_hi[0]), float(lo_hi[1]))
     pre = table.get("pre_trigger")
     if pre is not None:

@@ -19,7 +19,7 @@ from pathlib import Path
 from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError, OdsuiteWarning
 from odsuite.domain.filter_kinds import MAX_FILTER_ORDER, FilterFamily, FilterType
-from odsuite.domain.rig import MAX_CHANNELS, NINE_ROLES, Rig
+from odsuite.domain.rig import ADC_RANGE_MAX_V, ADC_RANGE_TEXT, MAX_CHANNELS, NINE_ROLES, Rig, adc_range_ok
 from odsuite.domain.rig_processing import FILTER_DB_TEXT, check_ripple, filter_db_ok
 from odsuite.domain.textfiles import read_text
 
@@ -585,6 +585,12 @@ def parse_ctr(text: str, source: str | Path = "systeminfo") -> Systeminfo:
                               f"{extra[0]!r} beyond them")
         rows[r] = rows[r] + [""] * (n - len(rows[r]))
     channels = [_channel([rows[r][k] for r in range(21)], k, source) for k in range(n)]
+    for k, ch in enumerate(channels):
+        # limits in the wrong order: Systeminfo.validate names them (row 20)
+        if ch.limit_low < ch.limit_high and not adc_range_ok(ch.limit_low, ch.limit_high):
+            row = 20 if abs(ch.limit_low) > ADC_RANGE_MAX_V >= abs(ch.limit_high) else 19  # else high, or the span
+            raise ConfigError(f"{where(source, row, k)}: DAQ limits {ch.limit_low!r} V to {ch.limit_high!r} V: "
+                              f"expected {ADC_RANGE_TEXT}")
     if len(rows) > N_ROWS:
         channels = [_extra(ch, [rows[r][k] if k < len(rows[r]) else "" for r in range(N_ROWS, len(rows))],
                            k, source) for k, ch in enumerate(channels)]

@@ -49,6 +49,8 @@ def test_whitespace_separated_ctr_reads_the_same():
 
 
 finite = st.floats(min_value=1e-6, max_value=1e6, allow_nan=False, allow_infinity=False)
+#: half the span of a .CTR's DAQ limits (rows 19-20): a converter's range, 1 mV to +-1000 V
+half_range = st.floats(min_value=5e-4, max_value=1e3, allow_nan=False, allow_infinity=False)
 
 
 @st.composite
@@ -63,7 +65,7 @@ def systeminfos(draw):
         ripple_db=draw(finite), attenuation_db=draw(finite), filters_on=draw(st.integers(0, 7)),
         invert=draw(st.booleans()), offset_start=draw(st.integers(0, 10**6)),
         offset_length=draw(st.integers(0, 10**6)), daq_gain=draw(finite),
-        limit_high=draw(finite), limit_low=-draw(finite),
+        limit_high=draw(half_range), limit_low=-draw(half_range),
     ) for _ in range(n)]
     vec = st.tuples(finite, finite, finite)
     plates = draw(st.lists(vec, max_size=3))
@@ -104,6 +106,12 @@ def _e3_text_with(row: int, col: int, cell: str) -> str:
     (6, 2, "7.5", r"row 6 \(filter order\), channel 2: expected an integer, got '7\.5'"),
     (33, 4, "-", r"row 33 \(nine-accelerometer channel assignment\), channel 4: missing value"),
     (23, 1, "-", r"row 23 \(plate widths\), channel 1: missing value"),
+    # 1e300 V was read, and a range under 1 mV (every sample of it counted as clipped)
+    (19, 0, "1e300", r"row 19 \(DAQ high limit\), channel 0: DAQ limits -5\.0 V to 1e\+300 V: expected volts "
+                     r"within \+-1000 V, high at least 0\.001 V above low$"),
+    (20, 0, "-1000.5", r"row 20 \(DAQ low limit\), channel 0: DAQ limits -1000\.5 V to 5\.0 V: expected volts"),
+    (20, 0, "4.9995", r"row 19 \(DAQ high limit\), channel 0: DAQ limits 4\.9995 V to 5\.0 V: expected volts "
+                      r"within \+-1000 V, high at least 0\.001 V above low$"),
 ])
 def test_bad_cells_name_row_channel_and_value(row, col, cell, message):
     with pytest.raises(ConfigError, match=message):
