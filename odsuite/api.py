@@ -57,6 +57,7 @@ _WHERE: dict[str, str] = {
     "parse_ctr": "odsuite.domain.systeminfo",
     "read_ctr": "odsuite.domain.systeminfo",
     "SensorType": "odsuite.domain.systeminfo",
+    "SENSOR_UNITS": "odsuite.domain.systeminfo",
     "Systeminfo": "odsuite.domain.systeminfo",
     "write_ctr": "odsuite.domain.systeminfo",
     # rigid-body kinematics (SI: m, rad; rig frame)
@@ -92,6 +93,7 @@ _WHERE: dict[str, str] = {
     "simulate_nonlinear": "odsuite.domain.simulation",
     "sampled_later": "odsuite.domain.simulation",
     # units and errors as printed for people (one style in pictures, report and command line)
+    "ascii_unit": "odsuite.domain.display",
     "error_text": "odsuite.domain.display",
     "fixed": "odsuite.domain.display",
     "per_unit": "odsuite.domain.display",

@@ -16,17 +16,7 @@ from odsuite.api import ChannelInfo, SensorType, Systeminfo
 from odsuite.api import Excitation, open_project
 from odsuite_plugins.importers.lvm import read_lvm
 from odsuite_plugins.importers.rig_import import names_the_rig, onto_rig
-from odsuite_plugins.importers.tables import _list, _listed, check_names, check_values
-
-G = 9.80665
-#: LabVIEW unit labels -> (sensor type, volts per SI unit of the stored value)
-UNITS = {
-    "n": (SensorType.LOADCELL, 1.0), "newtons": (SensorType.LOADCELL, 1.0),
-    "m/s^2": (SensorType.ACCELEROMETER, 1.0), "m/s2": (SensorType.ACCELEROMETER, 1.0),
-    "m/s²": (SensorType.ACCELEROMETER, 1.0),
-    "g": (SensorType.ACCELEROMETER, 1.0 / G), "volts": (SensorType.VOLTAGE, 1.0), "v": (SensorType.VOLTAGE, 1.0),
-    "volt": (SensorType.VOLTAGE, 1.0),
-}
+from odsuite_plugins.importers.tables import UNITS, _list, _listed, check_names, check_values, unit_key
 
 
 def check_units(names: list[str], units: list[str], where: str, kept: tuple[str, ...] = ()) -> None:
@@ -34,7 +24,7 @@ def check_units(names: list[str], units: list[str], where: str, kept: tuple[str,
     empty one is a column without a unit): 'mg', 'kN' or 'mm/s^2' stored as they are would be read
     at the wrong scale."""
     for n, u in zip(names, units):
-        if u.strip() and u.strip().lower() not in UNITS and u.strip().lower() not in [k.lower() for k in kept]:
+        if u.strip() and unit_key(u) not in UNITS and unit_key(u) not in [unit_key(k) for k in kept]:
             also = f" ({', '.join(kept)} kept as they are)" if kept else ""
             raise ConfigError(f"{where}: channel {n!r}: unit {u!r} is not one of m/s^2, g, N, V{also}")
 
@@ -47,12 +37,12 @@ def force_index(names: list[str], units: list[str], force_channel: str | None, w
         if force_channel not in names:
             raise ConfigError(f"{where}: no channel {force_channel!r}; channels are {_listed(names)}")
         k = names.index(force_channel)
-        stype = UNITS.get(units[k].strip().lower(), (SensorType.NONE, 1.0))[0]
+        stype = UNITS.get(unit_key(units[k]), (SensorType.NONE, 1.0))[0]
         if stype not in (SensorType.LOADCELL, SensorType.NONE, SensorType.VOLTAGE):
             raise ConfigError(f"{where}: --force-channel {force_channel!r} is in {units[k]!r}, a response, "
                               "not a force")
         return k
-    cand = [i for i, (n, u) in enumerate(zip(names, units)) if u.lower() in ("n", "newtons") or "force" in n.lower()]
+    cand = [i for i, (n, u) in enumerate(zip(names, units)) if unit_key(u) in ("n", "newtons") or "force" in n.lower()]
     if len(cand) > 1:
         raise ConfigError(f"{where}: cannot tell the force channel among {_listed([names[k] for k in cand])}; "
                           "give --force-channel")
@@ -123,7 +113,7 @@ def import_columns(project: str | Path, file: str | Path, name: str, names: list
         limits = np.maximum(10.0, np.ceil(2 * np.abs(data).max(axis=0)))
         channels = []
         for k, (n, u) in enumerate(zip(names, units)):
-            stype, sens = UNITS.get(u.strip().lower(), (SensorType.NONE, 1.0))
+            stype, sens = UNITS.get(unit_key(u), (SensorType.NONE, 1.0))
             if k == fidx:
                 stype, sens = SensorType.LOADCELL, 1.0  # force values are newtons (volts taken as N)
             channels.append(ChannelInfo(sensor_type=stype, location=n, sensitivity=sens, sampling_rate=fs,

@@ -17,13 +17,13 @@ import numpy as np
 from odsuite.api import ConfigError, DimensionError
 from odsuite.api import Excitation
 from odsuite.api import Rig
-from odsuite.api import SensorType, Systeminfo
+from odsuite.api import SENSOR_UNITS, SensorType, Systeminfo
+from odsuite_plugins.importers.tables import UNITS, unit_key
 
-G = 9.80665
-#: unit labels of a column in physical units -> (quantity, stored units per SI unit)
-PHYSICAL_UNITS = {"m/s^2": ("acceleration", 1.0), "m/s2": ("acceleration", 1.0), "m/s²": ("acceleration", 1.0),
-                  "g": ("acceleration", 1.0 / G), "n": ("force", 1.0), "newtons": ("force", 1.0)}
-VOLTS = ("v", "volts", "volt")
+#: UNITS of a column in physical units -> (quantity, stored units per SI unit); the others are volts
+PHYSICAL_UNITS = {u: (SENSOR_UNITS[kind][0], per_si) for u, (kind, per_si) in UNITS.items()
+                  if kind is not SensorType.VOLTAGE}
+VOLTS = tuple(u for u in UNITS if u not in PHYSICAL_UNITS)
 
 
 @dataclass(frozen=True)
@@ -104,7 +104,7 @@ def _force_column(rig: Rig, names: Sequence[str], units: Sequence[str]) -> str |
     column in N, else the one named like a force (docs/importing.md); None where none or several."""
     by_name = {name_key(s.name) for s in rig.sensors}
     free = [k for k, n in enumerate(names) if name_key(n) not in by_name]
-    in_newtons = [k for k in free if k < len(units) and PHYSICAL_UNITS.get(units[k].strip().lower(), ("",))[0] == "force"]
+    in_newtons = [k for k in free if k < len(units) and PHYSICAL_UNITS.get(unit_key(units[k]), ("",))[0] == "force"]
     named = [k for k in free if name_key(names[k]).startswith(FORCE_NAMES)]
     for found in (in_newtons, named):
         if len(found) == 1:
@@ -138,13 +138,13 @@ def onto_rig(rig: Rig, names: Sequence[str], units: Sequence[str], data: np.ndar
             raise ConfigError(f"{where}: no {what} is the force channel {rig.force_channel} of rig {rig.name!r}")
     if rig.systeminfo_file is None:  # else the rig's .CTR gives the sensitivities
         rig = _sensitivities_for(rig, {ch: k for k, ch in mapping.items()
-                                       if (units[k].strip().lower() if k < len(units) else "") in VOLTS + ("",)},
+                                       if (unit_key(units[k]) if k < len(units) else "") in VOLTS + ("",)},
                                  names, where, what)
     si = Systeminfo.for_rig(rig, fs)
     channels = list(si.channels)
     raw = np.zeros((data.shape[0], rig.channel_count))
     for k, ch in mapping.items():
-        unit = units[k].strip().lower() if k < len(units) else ""
+        unit = unit_key(units[k]) if k < len(units) else ""
         info = replace(channels[ch], daq_gain=1.0)  # the file's values are at the sensor
         if unit in PHYSICAL_UNITS:
             quantity, per_si = PHYSICAL_UNITS[unit]

@@ -11,7 +11,7 @@ What a file does not say comes from a sidecar ``FILE.toml`` beside it (the file'
     variable = "data"                            # .mat: the array to read
     group = "Measurements"                       # TDMS: the group to read
 
-Units: m/s^2 (m/s2, m/s²), g, N, V (see docs/importing.md).
+Units: m/s^2, g, N, V, in any spelling ``odsuite.api.ascii_unit`` reads (see docs/importing.md).
 """
 
 from __future__ import annotations
@@ -27,12 +27,25 @@ from pathlib import Path
 
 import numpy as np
 
-from odsuite.api import (MAX_CHANNELS, ConfigError, DimensionError, check_text_file, free_memory, plain_number,
-                         printable_name)
+from odsuite.api import (MAX_CHANNELS, ConfigError, DimensionError, SensorType, ascii_unit, check_text_file,
+                         free_memory, plain_number, printable_name)
 from odsuite.contracts.daq import MAX_RATE_HZ, MIN_RATE_HZ
 
-#: unit labels a column may carry (lower case); the importers store them as columns.UNITS says
-KNOWN_UNITS = ("m/s^2", "m/s2", "m/s²", "g", "n", "newtons", "v", "volts", "volt")
+G = 9.80665
+#: unit labels a column may carry, as ``unit_key`` spells them -> (sensor type, volts per SI unit of
+#: the stored value): every importer reads its columns' units here
+UNITS = {
+    "n": (SensorType.LOADCELL, 1.0), "newtons": (SensorType.LOADCELL, 1.0),
+    "m/s^2": (SensorType.ACCELEROMETER, 1.0), "g": (SensorType.ACCELEROMETER, 1.0 / G),
+    "volts": (SensorType.VOLTAGE, 1.0), "v": (SensorType.VOLTAGE, 1.0), "volt": (SensorType.VOLTAGE, 1.0),
+}
+
+
+def unit_key(label: str) -> str:
+    """A unit label as ``UNITS`` spells it: in the stored spelling (``ascii_unit``: m/s2, m/s**2 and
+    m/s² are m/s^2, as estimate_frf reads them), in lower case (N, n)."""
+    return ascii_unit(label).lower()
+
 SIDECAR_FIELDS = ("sampling_rate", "channels", "units", "variable", "group")
 #: .mat variables that give the rate (Hz), the channel names and their units
 MAT_RATE = ("fs", "Fs", "sampling_rate", "rate")
@@ -157,7 +170,7 @@ def checked(where: str, data, names, units, fs, explicit: dict, may_transpose: b
                           f"a sidecar {sidecar} (units = \"m/s^2\")")
     units = _list(units, n, where, "units")
     for c, u in zip(names, units):
-        if u.lower() not in KNOWN_UNITS:
+        if unit_key(u) not in UNITS:
             raise ConfigError(f"{where}: channel {c!r}: unit {u!r} is not one of m/s^2, g, N, V")
     check_values(where, names, units, a)
     if fs is None:

@@ -16,10 +16,11 @@ import numpy as np
 from odsuite.api import write_output
 from odsuite.api import ConfigError
 from odsuite.api import physical
-from odsuite_plugins.importers.columns import UNITS, check_units, force_index, operating_note
+from odsuite_plugins.importers.columns import check_units, force_index, operating_note
 from odsuite.api import DerivedArray, Excitation, Project, open_project
 from odsuite.api import Rig
 from odsuite_plugins.importers.rig_import import columns_to_channels, name_key, names_the_rig, onto_rig
+from odsuite_plugins.importers.tables import UNITS, unit_key
 from odsuite.api import CORNERS, plate_corners
 from odsuite.api import ChannelInfo, SensorType, Systeminfo
 from odsuite_plugins.importers.uff import (
@@ -186,7 +187,7 @@ def _import_records(project, uff_path: Path, name: str, content, records: list[U
     limits = np.maximum(10.0, np.ceil(2 * np.abs(raw).max(axis=0)))
     channels = []
     for k, (n, u) in enumerate(zip(names, units, strict=True)):
-        stype, sens = UNITS.get(u.strip().lower(), (SensorType.NONE, 1.0))
+        stype, sens = UNITS.get(unit_key(u), (SensorType.NONE, 1.0))
         if k == fidx:
             stype, sens = SensorType.LOADCELL, 1.0
         channels.append(ChannelInfo(sensor_type=stype, location=n, sensitivity=sens, sampling_rate=fs,

@@ -456,6 +456,33 @@ def test_a_known_unit_is_stored_in_si(tmp_path, registries, fmt, unit, si, senso
         assert exp.systeminfo.channels[0].sensor_type.name == sensor
 
 
+#: the spellings of m/s^2 estimate_frf reads (display.ascii_unit)
+ACCELERATION_SPELLINGS = ["m/s^2", "m/s2", "m/s**2", "m/s²", " m/s**2 "]
+
+
+@pytest.mark.parametrize("fmt", ["csv", "tdms", "lvm", "csv on the rig"])
+@pytest.mark.parametrize("unit", ACCELERATION_SPELLINGS)
+def test_every_spelling_estimate_frf_reads_is_imported(tmp_path, registries, fmt, unit):
+    # 'm/s**2' was refused as if it were no unit of m/s^2, g, N or V
+    from odsuite.analysis.frf import estimate_frf
+
+    frf = estimate_frf([np.r_[1.0, np.zeros(7)]], [np.ones((8, 1))], 100.0, response_units=[unit])
+    assert frf.units == ["(m/s^2)/N"]
+    if fmt == "csv on the rig":
+        file = tmp_path / "r.csv"
+        _write_csv(file, DATA[:, :2], ["m1_x", "m1_y"], [unit, "g"])
+    else:
+        file = _record_in(tmp_path, fmt, unit)
+    create_project(tmp_path / "p.h5", rig=str(RIG) if fmt == "csv on the rig" else None).close()
+    _import(registries, tmp_path / "p.h5", file)
+    with open_project(tmp_path / "p.h5") as p:
+        exp = p.experiment("rec")
+        k = next(s.channel for s in p.rig.sensors if s.name == "m1_x") if p.rig is not None else 0
+        assert exp.systeminfo.channels[k].sensor_type.name == "ACCELEROMETER"
+        expected = DATA[:, 0] if p.rig is not None else [0.5, 1.5, 0.1, 0.0]
+        assert np.allclose(physical(exp)[:, k], expected, rtol=1e-12, atol=0)
+
+
 @pytest.mark.parametrize("encoding", ["utf-8", "latin-1"])
 def test_an_lvm_file_in_utf8_or_the_code_page_gives_the_same_record(tmp_path, registries, encoding):
     # decoded as latin-1 only, a UTF-8 'm/s²' read as 'm/sÂ²' and was refused
