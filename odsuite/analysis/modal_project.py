@@ -46,6 +46,35 @@ def response_columns(exp) -> list[int]:
     return typed or rest
 
 
+def unrecorded_columns(exp, data: np.ndarray) -> list[int]:
+    """Channels ``exp`` does not hold (``data``: its samples): no sensor and every sample zero, as
+    an import stores the rig's channels its file has no column for."""
+    return [k for k, c in enumerate(exp.systeminfo.channels)
+            if c.sensor_type == SensorType.NONE and not np.any(data[:, k])]
+
+
+def unrecorded_note(project, name: str, frf: FrfSet) -> str | None:
+    """The line naming record ``name``'s channels its FRFs ``frf`` leave out as not recorded
+    (``unrecorded_columns``), by the rig's sensor on each; None when they leave none out."""
+    exp = project.experiment(name)
+    force = exp.excitation.force_channel if exp.excitation is not None else None
+    left = [k for k in range(exp.n_channels) if k != force and exp.channel_names[k] not in frf.output_names]
+    if not left:
+        return None
+    sensors = [project.rig.sensor_on_channel(k) if project.rig is not None else None for k in left]
+    named = ", ".join(s.name if s is not None else exp.channel_names[k] for k, s in zip(left, sensors))
+    one = len(left) == 1
+    return (f"{'channel' if one else 'channels'} {named} {'was' if one else 'were'} not recorded (the file imported has "
+            f"no column for {'it' if one else 'them'}; stored as zeros): no FRF is estimated for {'it' if one else 'them'}")
+
+
+def unrecorded_notes(project: str | Path, frfs: dict[str, FrfSet]) -> dict[str, str]:
+    """``unrecorded_note`` of each experiment whose FRFs ``frfs`` leave channels out."""
+    with open_project(project) as p:
+        notes = {e: unrecorded_note(p, e, frf) for e, frf in frfs.items()}
+    return {e: n for e, n in notes.items() if n}
+
+
 def _converter_ranges(exp, data: np.ndarray) -> list[tuple[float, float] | None]:
     """Each channel's converter range in the channel's SI units, None where unknown
     (``hammer.held_range``: the Systeminfo DAQ limits where the samples stay inside them)."""
@@ -55,14 +84,15 @@ def _converter_ranges(exp, data: np.ndarray) -> list[tuple[float, float] | None]
 
 def record_hits(exp, where: str, *, record_length: int | None = None) -> tuple[np.ndarray, list[int], list]:
     """An experiment's data in SI units (samples x channels), its response columns (every channel
-    but the force channel) and its hits: ``assess_hits`` of those responses to the force, judged
-    against the converters' ranges."""
+    but the force channel and those it does not hold: ``unrecorded_columns``) and its hits:
+    ``assess_hits`` of those responses to the force, judged against the converters' ranges."""
     if exp.excitation is None:
         raise ConfigError(f"{where} has no force channel")
     data = physical(exp)
     limits = _converter_ranges(exp, data)
     fidx = exp.excitation.force_channel
-    outs = [k for k in range(exp.n_channels) if k != fidx]
+    empty = unrecorded_columns(exp, data)
+    outs = [k for k in range(exp.n_channels) if k != fidx and k not in empty]
     if not outs:  # 'H1 FRFs of 0 channels' were stored
         raise ConfigError(f"{where} holds its force channel {exp.channel_names[fidx]!r} alone: no response to "
                           "estimate FRFs of")
@@ -188,14 +218,14 @@ def experiment_modes(
 def experiments_modes(
     project: str | Path, experiments: list[str], *, f_band: tuple[float | None, float | None] | None = None,
     max_order: int = 50, frequencies: list[float] | None = None, flagged_too: bool = False,
-) -> tuple[ModalResult, np.ndarray, np.ndarray, dict[str, dict], dict[str, list], list[str]]:
+) -> tuple[ModalResult, np.ndarray, np.ndarray, dict[str, dict], dict[str, list], dict[str, FrfSet]]:
     """Modes of an FRF matrix across experiments: a roving hammer (each experiment hits another
     point) or several references. Every experiment's FRFs (stored as its derived "frf" once the
     fit passed, all in one commit) on the same lines are stacked into one matrix whose rows are "output @ experiment", and fitted with
     one common denominator (LSCF, ``modal.identify_modes``); the default band is the overlap of the
     experiments' usable bands. Returns the modes (shapes per row), the frequency lines, the matrix
     (rows x lines), each experiment's reference (force point in m, direction), its hit list
-    (``flagged_too`` as in ``hits_frf``) and each row's unit."""
+    (``flagged_too`` as in ``hits_frf``) and its FRFs."""
     from odsuite.analysis.frf import usable_band
 
     if len(set(experiments)) != len(experiments):
@@ -244,7 +274,7 @@ def experiments_modes(
         for e, (frf, hits) in zip(experiments, found):
             _store_frf(p, e, frf, hits, "H1", record_length)
     return (res, first.frequency, H, references, {e: hits for e, (_, hits) in zip(experiments, found)},
-            [u for f in frfs for u in f.units])
+            dict(zip(experiments, frfs)))
 
 
 def experiment_output_only_modes(

@@ -24,13 +24,15 @@ def frf_cmd(
     every hit is flagged uses them all, with a note, as modes and compare do."""
     from odsuite.domain.errors import ConfigError, DimensionError
     from odsuite.analysis.frf import usable_band
-    from odsuite.analysis.modal_project import all_flagged, data_end_notes, experiment_frf, flagged_note
+    from odsuite.analysis.modal_project import (all_flagged, data_end_notes, experiment_frf, flagged_note,
+                                                unrecorded_notes)
     from odsuite.contracts.renderers import RenderRequest
 
     renderer = _figure_renderer("frf", figure, project, "--figure") if figure is not None else None
     frf, hits = experiment_frf(project, experiment, estimator=estimator, flagged_too=True)
     flagged = all_flagged(hits)
-    for note in data_end_notes(hits) + ([flagged_note(flagged, "FRFs are estimated")] if flagged else []):
+    for note in (data_end_notes(hits) + ([flagged_note(flagged, "FRFs are estimated")] if flagged else [])
+                 + list(unrecorded_notes(project, {experiment: frf}).values())):
         err_console.print(f"note: {project}: experiment {experiment!r}: {note}", highlight=False, soft_wrap=True)
     for h in hits if not as_json else ():
         state = "accepted" if h.accepted else "rejected: " + ", ".join(h.reasons)
@@ -87,7 +89,8 @@ def modes_cmd(
     the FRF matrix of several, or with --output-only from the responses alone (several experiments:
     the setups of a roving survey, merged through their reference channels)."""
     from odsuite.analysis.modal_project import (all_flagged, data_end_notes, experiment_modes,
-                                                experiment_output_only_modes, experiments_modes, flagged_note)
+                                                experiment_output_only_modes, experiments_modes, flagged_note,
+                                                unrecorded_notes)
     from odsuite.contracts.renderers import RenderRequest
 
     freqs = _modes_options(at, f_min, f_max, reference, output_only, len(experiments), block_rows, decimate, figure,
@@ -102,6 +105,7 @@ def modes_cmd(
                if path is not None}
     references = None
     hits = {}  # per experiment, for the FRF fits: those whose every hit is flagged are named
+    frfs = {}  # per experiment, for the FRF fits: the channels they leave out are named
     name = ", ".join(experiments)
     if output_only:
         if len(experiments) > 1:
@@ -113,17 +117,20 @@ def modes_cmd(
                                                                  decimation=decimate)
         background = f"rms amplitude spectral density of the outputs [{unit_text(unit)}]"
     elif len(experiments) > 1:
-        res, freq, spectrum, references, hits, units = experiments_modes(
+        res, freq, spectrum, references, hits, frfs = experiments_modes(
             project, experiments, f_band=band, max_order=max_order, frequencies=freqs, flagged_too=True)
-        background = rms_label("|H| of the FRF matrix", units)
+        background = rms_label("|H| of the FRF matrix", [u for f in frfs.values() for u in f.units])
     else:
         # a record whose every hit is flagged still has modes to show, as compare shows them: named below
         res, frf, hits[experiments[0]] = experiment_modes(project, experiments[0], f_band=band, max_order=max_order,
                                                           frequencies=freqs, flagged_too=True)
+        frfs[experiments[0]] = frf
         freq, spectrum, background = frf.frequency, frf.H, rms_label("|H| of the outputs", frf.units)
     flagged = {e: f for e, h in hits.items() if (f := all_flagged(h))}
+    unrecorded = unrecorded_notes(project, frfs)
     for e, h in hits.items():
-        for note in data_end_notes(h) + ([flagged_note(flagged[e])] if e in flagged else []):
+        for note in data_end_notes(h) + ([flagged_note(flagged[e])] if e in flagged else []) + (
+                [unrecorded[e]] if e in unrecorded else []):
             err_console.print(f"note: {project}: experiment {e!r}: {note}", highlight=False, soft_wrap=True)
     if figure is not None:
         drawers["stabilisation"].render(RenderRequest(project, name, figure, {

@@ -78,3 +78,26 @@ def test_output_only_modes_of_a_record_without_motion_say_so(tmp_path, capsys, c
     captured = capsys.readouterr()
     assert "no motion to identify modes from" in json.loads(captured.out)["error"]
     assert len(captured.err.strip().splitlines()) == 1
+
+
+UNRECORDED = "b1_x, b1_y, b1_z, b2_x, b2_y, b2_z, b3_x, b3_y, b3_z, m2_x, m2_y, m2_z, m3_x, m3_y, m3_z"
+
+
+def test_frfs_and_modes_hold_the_recorded_channels_and_name_the_rigs_others(tmp_path, capsys):
+    # the rig's 15 channels the file has no column for, stored as zeros, were 15 of the 18 FRFs
+    # listed and mode-shape entries
+    p = _project(tmp_path, 10240.0)
+    capsys.readouterr()
+    note = (f"experiment 'x': channels {UNRECORDED} were not recorded (the file imported has no column for them; "
+            "stored as zeros): no FRF is estimated for them")
+    assert main(["frf", str(p), "--experiment", "x", "--json"]) == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["channels"] == ["m1_x", "m1_y", "m1_z"]
+    assert captured.err.count(note) == 1, captured.err
+    assert main(["modes", str(p), "--experiment", "x", "--json"]) == 0
+    captured = capsys.readouterr()
+    shapes = [m["shape"] for m in json.loads(captured.out)["modes"]]
+    assert shapes and all(list(s) == ["m1_x", "m1_y", "m1_z"] for s in shapes)
+    # the made-up decay's amplitudes, 1 : 0.5 : 0.2
+    assert [abs(complex(*v)) for v in shapes[0].values()] == pytest.approx([1.0, 0.5, 0.2], rel=1e-6)
+    assert captured.err.count(note) == 1, captured.err
