@@ -23,11 +23,15 @@ class Hit:
     start: int
     stop: int
     peak_index: int  # absolute sample of the force peak
+    time: float  # s from the data's first sample to the force peak: how a hit is named
     peak_force: float
     pulse_width: int  # samples the main pulse stays above 5 % of its peak
     accepted: bool
     reasons: tuple[str, ...]  # why it was rejected (empty when accepted)
     notes: tuple[str, ...] = ()  # warnings that do not reject it
+    #: (response channel, its level at the record's end over its peak) where it has not decayed
+    #: below the limit: leakage, the notes' numbers
+    undecayed: tuple[tuple[int, float], ...] = ()
     #: its record does not fit in the data, or its peak is their last sample: never averaged, not
     #: even where every hit is flagged (its record would be shorter than the others', its blow cut)
     left_out: bool = False
@@ -44,6 +48,11 @@ class Hit:
 #: where a hit's pulse ends, as a share of the hit threshold: a quarter of it, 5 % of the record's
 #: largest excursion at the default threshold (``pulse_width``'s level for the largest hit)
 PULSE_END = 0.25
+
+
+def hit_name(time: float) -> str:
+    """A hit as every line names it: by its force peak's time (s)."""
+    return f"hit at {time:.4g} s"
 
 
 def _as_2d(responses: np.ndarray, n: int) -> np.ndarray:
@@ -240,15 +249,15 @@ def assess_hits(
 ) -> list[Hit]:
     """Split a record into hits and judge each: rejected for a double hit, a clipped or overloaded
     force or response channel, or a record cut short by the data's end; noted (not rejected) when
-    the response has not decayed below ``decay_limit`` x its peak at the record end (leakage: use
-    an exponential window). Defaults: pretrigger 1 % of the record, or the longest pulse's rise when
-    longer (at most the samples before the first hit; a given length the last hit's data miss by at
-    most that: its record starts earlier); records as long as the closest hits allow (to each
-    pulse's end at least) and the last hit's data reach, unless those end before half that length:
-    that hit is then left out (``Hit.left_out``, as is a hit whose record runs past the data or
-    whose peak is their last sample; ``Hit.data_end`` says so). Limits
-    are the converters' ranges in the signals' units (``is_clipped``); ``response_limits`` is one
-    range for every response or one per response channel."""
+    the response has not decayed below ``decay_limit`` x its peak at the record end, nor into its
+    noise (leakage: use an exponential window). Defaults: pretrigger 1 % of the record, or the
+    longest pulse's rise when longer (at most the samples before the first hit; a given length the
+    last hit's data miss by at most that: its record starts earlier); records as long as the closest
+    hits allow (to each pulse's end at least) and the last hit's data reach, unless those end before
+    half that length: that hit is then left out (``Hit.left_out``, as is a hit whose record runs
+    past the data or whose peak is their last sample; ``Hit.data_end`` says so). Limits are the
+    converters' ranges in the signals' units (``is_clipped``); ``response_limits`` is one range for
+    every response or one per response channel."""
     f = np.asarray(force, dtype=float)
     r = _as_2d(responses, f.size)
     n = f.size
@@ -298,6 +307,15 @@ def assess_hits(
         # a broad pulse's peak lies late: after a quick one close behind, the records overlap
         # rather than end before a peak or cut a pulse short
         record_length = max(record_length, pretrigger + max(stop - peak for _, peak, stop in pulses))
+    # each response's level and noise before the first blow (a pulse width before it starts): its
+    # median and rms about it. A record whose last tenth swings about its mean within twice that
+    # rms, or two converter codes, ends in noise, not ringing (a 12-bit thesis record's horizontal
+    # channels under a vertical blow end 1-3 codes off their level, 5-8 % of their peaks), or in a
+    # sensor's drift away from the level (the plate-and-motor rig's, 47 % of a peak after 4 s)
+    first, last = pulse_width(f, peaks[0])
+    quiet = r[: max(2 * first - last, 0)]
+    level = np.median(quiet, axis=0) if len(quiet) else None
+    noise = np.sqrt(np.mean((quiet - level) ** 2, axis=0)) if len(quiet) else np.zeros(r.shape[1])
     hits = []
     for p in peaks:
         start = p - pretrigger
@@ -307,7 +325,7 @@ def assess_hits(
             # a few samples: the record starts that much earlier, in the quiet before the hit
             start, stop = start - (stop - n), n
         reasons: list[str] = []
-        notes: list[str] = []
+        undecayed: list[tuple[int, float]] = []
         left_out = ""
         if start < 0 or stop > n:
             edge = f"begin {p / fs:.4g} s before" if start < 0 else f"end {(n - p) / fs:.4g} s after"
@@ -329,23 +347,29 @@ def assess_hits(
             if is_clipped(seg, limits=response_limits[c]):
                 reasons.append(f"response channel {c} clipped/overloaded")
             if decay_limit is not None and seg.size > 20:
-                tail = np.abs(seg[-max(seg.size // 50, 4) :] - np.median(seg[: max(local_peak, 1)]))
+                # the level: before the first blow, else the record's samples before its peak
+                base = level[c] if level is not None else np.median(seg[: max(local_peak, 1)])
+                tail = np.abs(seg[-max(seg.size // 50, 4) :] - base)
                 ratio = tail.max() / max(np.abs(seg).max(), 1e-300)
-                if ratio > decay_limit:
-                    notes.append(f"response channel {c} at {100 * ratio:.1f} % of its peak at record end")
+                swing = np.std(seg[-(seg.size // 10):])  # about its mean: a drift's offset is no ringing
+                if ratio > decay_limit and swing > 2 * max(noise[c], quantisation_step(seg)):
+                    undecayed.append((c, float(ratio)))
         said = left_out or (cut_short if p == peaks[-1] else "")
         hits.append(
             Hit(
                 start=start,
                 stop=stop,
                 peak_index=p,
+                time=p / fs,
                 peak_force=float(f[p]),
                 pulse_width=pw[1] - pw[0],
                 accepted=not reasons,
                 reasons=tuple(reasons),
-                notes=tuple(notes),
+                notes=tuple(f"response channel {c} at {100 * ratio:.1f} % of its peak at record end"
+                            for c, ratio in undecayed),
+                undecayed=tuple(undecayed),
                 left_out=bool(left_out),
-                data_end=f"hit at {p / fs:.4g} s: {said}" if said else "",
+                data_end=f"{hit_name(p / fs)}: {said}" if said else "",
             )
         )
     return hits

@@ -17,7 +17,7 @@ import numpy as np
 from odsuite.domain import arguments
 from odsuite.domain.errors import ConfigError, DimensionError
 from odsuite.analysis.frf import FrfSet, estimate_frf
-from odsuite.analysis.hammer import assess_hits, held_range
+from odsuite.analysis.hammer import assess_hits, held_range, hit_name
 from odsuite.analysis.modal import ModalResult, identify_modes
 from odsuite.store.project import DerivedArray, open_project
 from odsuite.domain.systeminfo import SensorType
@@ -108,8 +108,7 @@ def hits_frf(exp, where: str, *, estimator: str = "H1", record_length: int | Non
     hit is flagged (clipped, double) uses them all rather than failing (the caller says so)."""
     data, outs, hits = record_hits(exp, where, record_length=record_length)
     fidx = exp.excitation.force_channel
-    # a left-out hit's record is not one of the others' length, or lacks the end of its blow
-    good = [h for h in hits if h.accepted] or ([h for h in hits if not h.left_out] if flagged_too else [])
+    good = averaged(hits, flagged_too)
     if not good:
         raise ConfigError(f"{where} has no acceptable hit ({hit_flags(hits) or 'no hits found'})")
     units = [exp.systeminfo.channels[k].unit for k in outs]
@@ -121,9 +120,43 @@ def hits_frf(exp, where: str, *, estimator: str = "H1", record_length: int | Non
     return frf, hits
 
 
+def averaged(hits, flagged_too: bool = True) -> list:
+    """The hits whose records the FRFs average: the accepted ones, else (``flagged_too``) every one
+    whose record lies in the data and holds its whole blow (a left-out hit's is not one of the
+    others' length, or lacks the end of its blow)."""
+    return [h for h in hits if h.accepted] or ([h for h in hits if not h.left_out] if flagged_too else [])
+
+
 def hit_flags(hits) -> str:
     """What the hammer checks found wrong with the rejected hits, in one line ("" when nothing)."""
-    return "; ".join(f"hit at sample {h.peak_index}: {', '.join(h.reasons)}" for h in hits if not h.accepted)
+    return "; ".join(f"{hit_name(h.time)}: {', '.join(h.reasons)}" for h in hits if not h.accepted)
+
+
+def leakage_note(hits, output_names) -> str | None:
+    """A line naming the responses (``output_names``, in the order ``assess_hits`` had them) that
+    have not decayed by the end of the averaged hits' records (``Hit.undecayed``), each with the
+    most of its peak it kept there and the hits' times; None when every one decayed."""
+    worst: dict[int, float] = {}
+    times = []
+    for h in averaged(hits):
+        for c, ratio in h.undecayed:
+            worst[c] = max(worst.get(c, 0.0), ratio)
+        if h.undecayed:
+            times.append(f"{h.time:.4g}")
+    if not worst:
+        return None
+    levels = ", ".join(f"{output_names[c]} at {100 * r:.1f} %" for c, r in sorted(worst.items()))
+    several = len(times) > 1
+    return (f"{'hits' if several else 'hit'} at {', '.join(times)} s: still ringing at the end of "
+            f"{'their records' if several else 'its record'}: {levels} of {'its peak' if len(worst) == 1 else 'their peaks'} (leakage: the FRFs' peaks read wider, "
+            "as if more damped; record longer after each hit, or hit less often)")
+
+
+def hit_notes(hits, frf: FrfSet) -> list[str]:
+    """What a record's hits are told beside its FRFs ``frf``, each once: what the data's ends did
+    with them (``data_end_notes``) and its leakage (``leakage_note``)."""
+    leakage = leakage_note(hits, frf.output_names)
+    return data_end_notes(hits) + ([leakage] if leakage else [])
 
 
 def data_end_notes(hits) -> list[str]:

@@ -24,7 +24,7 @@ from threadpoolctl import threadpool_limits
 
 from odsuite.analysis.frf import FrfSet
 from odsuite.analysis.modal import ModalResult, StabilisationDiagram
-from odsuite.analysis.modal_project import all_flagged, data_end_notes, frf_modes, hits_frf, record_hits
+from odsuite.analysis.modal_project import all_flagged, data_end_notes, frf_modes, hit_notes, hits_frf, record_hits
 from odsuite.domain.errors import ConfigError, OdsuiteError
 from odsuite.domain.version import __version__
 from odsuite.store.project import DerivedArray
@@ -89,7 +89,7 @@ def store_record_modes(project, name: str) -> list[str]:
     """Identify record ``name``'s modes and store them (or why they cannot be identified) as
     ``KIND``. A record without a force channel or a usable hit has no hammer modes: nothing is
     stored (``compare`` says why when it reads the record). Returns what the data's end did with
-    its hits (``modal_project.data_end_notes``), for the caller to say."""
+    its hits and their leakage (``modal_project.hit_notes``), for the caller to say."""
     where = f"{project.path}: experiment {name!r}"
     # one BLAS thread, as ``compare`` runs: the stored result is the one it would compute
     with threadpool_limits(1):
@@ -105,20 +105,20 @@ def store_record_modes(project, name: str) -> list[str]:
         except IDENTIFICATION_ERRORS as exc:
             res = str(exc)
         except OdsuiteError:  # what compare does not note: left to it, as before
-            return data_end_notes(hits)
+            return hit_notes(hits, frf)
     flagged = all_flagged(hits)
     notes = data_end_notes(hits)
     if isinstance(res, str):
         project.write_derived(name, KIND, {}, provenance=_provenance(),
                               attrs={"failure": res, "flagged": flagged, "data_end": json.dumps(notes)})
-        return notes
+        return hit_notes(hits, frf)
     project.write_derived(name, KIND, _arrays(res, frf), provenance=_provenance(),
                           attrs={"failure": "", "flagged": flagged, "data_end": json.dumps(notes),
                                  "output_names": json.dumps(res.output_names),
                                  "rejected": json.dumps(res.rejected),
                                  "band_hz": json.dumps(list(res.band_hz)),
                                  "diagram_band_hz": json.dumps(list(res.diagram.f_band))})
-    return notes
+    return hit_notes(hits, frf)
 
 
 def _provenance() -> dict:

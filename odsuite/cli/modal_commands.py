@@ -24,19 +24,19 @@ def frf_cmd(
     every hit is flagged uses them all, with a note, as modes and compare do."""
     from odsuite.domain.errors import ConfigError, DimensionError
     from odsuite.analysis.frf import usable_band
-    from odsuite.analysis.modal_project import (all_flagged, data_end_notes, experiment_frf, flagged_note,
-                                                unrecorded_notes)
+    from odsuite.analysis.hammer import hit_name
+    from odsuite.analysis.modal_project import all_flagged, experiment_frf, flagged_note, hit_notes, unrecorded_notes
     from odsuite.contracts.renderers import RenderRequest
 
     renderer = _figure_renderer("frf", figure, project, "--figure") if figure is not None else None
     frf, hits = experiment_frf(project, experiment, estimator=estimator, flagged_too=True)
     flagged = all_flagged(hits)
-    for note in (data_end_notes(hits) + ([flagged_note(flagged, "FRFs are estimated")] if flagged else [])
+    for note in (hit_notes(hits, frf) + ([flagged_note(flagged, "FRFs are estimated")] if flagged else [])
                  + list(unrecorded_notes(project, {experiment: frf}).values())):
         err_console.print(f"note: {project}: experiment {experiment!r}: {note}", highlight=False, soft_wrap=True)
     for h in hits if not as_json else ():
         state = "accepted" if h.accepted else "rejected: " + ", ".join(h.reasons)
-        console.print(f"hit at sample {h.peak_index} ({h.peak_force:.4g} N): {state}", highlight=False)
+        console.print(f"{hit_name(h.time)} ({h.peak_force:.4g} N): {state}", highlight=False)
     try:
         band = usable_band(frf.frequency, frf.force_autospectrum, frf.coherence, frf.n_averages)
         usable = f"usable band {band[0]:.1f}-{band[1]:.1f} Hz"
@@ -51,7 +51,7 @@ def frf_cmd(
                      "resolution_hz": float(frf.frequency[1] - frf.frequency[0]) if frf.frequency.size > 1 else None,
                      "usable_band_hz": None if band is None else [float(band[0]), float(band[1])],
                      "usable_band_note": None if band is not None else usable,
-                     "hits": [{"sample": int(h.peak_index), "peak_force_n": float(h.peak_force),
+                     "hits": [{"sample": int(h.peak_index), "time_s": float(h.time), "peak_force_n": float(h.peak_force),
                                "accepted": bool(h.accepted), "reasons": list(h.reasons)} for h in hits],
                      "flagged_hits": {experiment: flagged} if flagged else {},
                      "figure": None if figure is None else str(figure)})
@@ -88,9 +88,8 @@ def modes_cmd(
     band: where the hammer's force spectrum and the coherence are usable), of one experiment or of
     the FRF matrix of several, or with --output-only from the responses alone (several experiments:
     the setups of a roving survey, merged through their reference channels)."""
-    from odsuite.analysis.modal_project import (all_flagged, data_end_notes, experiment_modes,
-                                                experiment_output_only_modes, experiments_modes, flagged_note,
-                                                unrecorded_notes)
+    from odsuite.analysis.modal_project import (all_flagged, experiment_modes, experiment_output_only_modes,
+                                                experiments_modes, flagged_note, hit_notes, unrecorded_notes)
     from odsuite.contracts.renderers import RenderRequest
 
     freqs = _modes_options(at, f_min, f_max, reference, output_only, len(experiments), block_rows, decimate, figure,
@@ -129,7 +128,7 @@ def modes_cmd(
     flagged = {e: f for e, h in hits.items() if (f := all_flagged(h))}
     unrecorded = unrecorded_notes(project, frfs)
     for e, h in hits.items():
-        for note in data_end_notes(h) + ([flagged_note(flagged[e])] if e in flagged else []) + (
+        for note in hit_notes(h, frfs[e]) + ([flagged_note(flagged[e])] if e in flagged else []) + (
                 [unrecorded[e]] if e in unrecorded else []):
             err_console.print(f"note: {project}: experiment {e!r}: {note}", highlight=False, soft_wrap=True)
     if figure is not None:

@@ -13,7 +13,8 @@ from odsuite.cli import main
 
 LADISK_F = np.array([695.0, 1897.6, 2777.3, 3671.2])  # README "Reference results" (published)
 LADISK_ZETA = np.array([0.0047, 0.0031, 0.0024, 0.0020])
-CAMERA_FLAGS = "hit at sample 35: response channel 0 clipped/overloaded"  # the hammer checks on camera.lvm
+#: the hammer checks on camera.lvm: its hit, at sample 35 of 50 kHz, named by its time
+CAMERA_FLAGS = "hit at 0.0007 s: response channel 0 clipped/overloaded"
 
 
 @pytest.fixture
@@ -34,7 +35,7 @@ def test_default_modes_on_the_ladisk_beam(beam_project, tmp_path, capsys):
     capsys.readouterr()
     assert main(["frf", str(beam_project), "--experiment", "acceleration", "--figure", str(tmp_path / "frf.png")]) == 0
     out = capsys.readouterr().out
-    assert "hit at sample 36 (195.6 N): accepted" in out and "usable band 1.0-49" in out
+    assert "hit at 0.00072 s (195.6 N): accepted" in out and "usable band 1.0-49" in out  # sample 36 of 50 kHz
     assert "FRFs of 1 channel, 1 hit" in out, out  # it said "1 channels"
     stab = tmp_path / "stab.png"
     assert main(["modes", str(beam_project), "--experiment", "acceleration", "--json", "--figure", str(stab)]) == 0

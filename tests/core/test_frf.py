@@ -406,3 +406,24 @@ def test_a_single_hit_on_the_last_sample_is_left_out_and_one_near_it_cut_short()
     assert hit.accepted and not hit.left_out and hit.stop == f.size and length < f.size // 64
     assert hit.data_end == (f"hit at {hit.peak_index / FS:.4g} s: its record cut short to {length / FS:.4g} s by "
                             f"the data's end (FRF lines {FS / length:.4g} Hz apart)")
+
+
+def test_leakage_is_a_tail_above_the_noise():
+    """A blow 0.5 s into a record, its responses' noise 3 % of their peaks: over 8 s they decay into
+    the noise, which the 1 % rule alone took for ringing at the record's end, as it took a sensor's
+    drift; cut at 0.8 s they still ring at 10-23 % of their peaks (12-20 % without the noise), and
+    are noted, drifting or not."""
+    for seconds, ringing in ((8.0, []), (0.8, [0, 1, 2])):
+        f, a = mck.simulate(FS, seconds, [(0.5, 0.004, 100.0)])
+        (clean,) = assess_hits(f, a, FS)
+        assert [c for c, _ in clean.undecayed] == ringing
+        for seed in range(5):
+            noisy = a + 0.03 * np.abs(a).max(axis=0) * np.random.default_rng(seed).standard_normal(a.shape)
+            (hit,) = assess_hits(f, noisy, FS)
+            assert [c for c, _ in hit.undecayed] == ringing, (seconds, seed, hit.undecayed)
+            assert all(0.10 < ratio < 0.24 for _, ratio in hit.undecayed)
+            assert len(hit.notes) == len(ringing)  # one per channel, as before
+            # a drift to 20 % of the peaks by the record's end
+            drift = np.linspace(0.0, 0.2, f.size)[:, None] * np.abs(a).max(axis=0)
+            (hit,) = assess_hits(f, noisy + drift, FS)
+            assert [c for c, _ in hit.undecayed] == ringing, (seconds, seed, hit.undecayed)
