@@ -402,7 +402,8 @@ def _compare(project, *, experiments, revision, prepared, resonances, figures, s
     rev = revision or current_revision(project)
     rmodel = revision_model(project, rev)
     say("reading the experiments")
-    exps = list(prepared) if prepared is not None else prepare(project, experiments)
+    silent: list[str] = []  # records without a signal, left out
+    exps = list(prepared) if prepared is not None else prepare(project, experiments, silent)
     say("predicting")
     preds = [predict(rmodel.for_experiment(e.name), e) for e in exps]
     model_modes = rmodel.shared.modes()
@@ -465,6 +466,6 @@ def _compare(project, *, experiments, revision, prepared, resonances, figures, s
                **(frf_comparison(exps, preds, model_modes) if resonances else {})},
         residual_peaks=residual_peaks(exps, preds, modes_hz, floor, spectra=spectra), worst=worst, floor=floor,
         modal=modal, modal_notes=modal_notes, modal_records=records,
-        notes=[n for e in exps for n in e.notes] + ([left_out] if left_out else []), predictions=preds,
+        notes=silent + [n for e in exps for n in e.notes] + ([left_out] if left_out else []), predictions=preds,
         residual_spectra=spectra,
     )

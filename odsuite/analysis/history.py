@@ -19,7 +19,7 @@ except ImportError:
     except ImportError:
         from hashlib import sha256
 
-from odsuite.domain.errors import ConfigError
+from odsuite.domain.errors import ConfigError, NoSignalError
 
 
 #: derived kinds no comparison reads: the FRFs `frf` and `modes` store again at every run (that
@@ -77,15 +77,16 @@ def history(project) -> dict[str, Any]:
     return {"current": project.current_revision, "revisions": out, "noise_floor_error": floor}
 
 
-def store_current_error(project) -> float | None:
+def store_current_error(project, left_out: list[str] | None = None) -> float | None:
     """Compare the current revision with the records and store its error and the noise floor,
     stamped (``process`` calls this after changing the records). Nothing is stored where nothing
-    can be compared (no rig, no revision, no record with a force)."""
+    can be compared (no rig, no revision, no record with a force and a signal). ``left_out`` gets
+    a line for each record left out as it holds no signal."""
     if project.rig is None or project.current_revision is None:
         return None
     from odsuite.analysis.comparison import compare
 
-    exps = _comparable(project)
+    exps = _comparable(project, left_out)
     if not exps:
         return None
     rev = next(r for r in project.model_revisions() if r["revision"] == project.current_revision)
@@ -96,15 +97,19 @@ def store_current_error(project) -> float | None:
     return result.error
 
 
-def _comparable(project) -> list:
+def _comparable(project, left_out: list[str] | None = None) -> list:
     """The experiments a model can be compared with; records it cannot be driven with (no force
-    point, not on the rig's channels) are left out of a summary rather than failing it."""
+    point, not on the rig's channels) or compared with (no signal: its line added to ``left_out``)
+    are left out of a summary rather than failing it."""
     from odsuite.analysis.prediction import prepare_experiment
 
     exps = []
     for name in project.experiment_names():
         try:
             exps.append(prepare_experiment(project, name))
+        except NoSignalError as exc:
+            if left_out is not None:
+                left_out.append(str(exc))
         except ConfigError:
             continue
     return exps

@@ -22,7 +22,7 @@ from threadpoolctl import threadpool_limits
 from odsuite.processing.chain_spec import chain_for_channel, stage_names
 from odsuite.processing.executor import run_array
 from odsuite.analysis.hammer import held_range, is_clipped
-from odsuite.domain.errors import ConfigError
+from odsuite.domain.errors import ConfigError, NoSignalError
 from odsuite.analysis.disturbances import disturbance_basis
 from odsuite.analysis.noise_floor import (
     FEWEST_BEFORE,
@@ -484,6 +484,12 @@ def prepare_experiment(project, name: str, exp=None) -> PreparedExperiment:
         units.append(("u" if ch.micro_units else "") + ch.unit)
     if not sensors:
         raise ConfigError(f"{where}: no accelerometer channel matches a sensor of rig {rig.name!r}")
+    # responses that each read one value throughout: the error, over their energy, is 0/0 (one
+    # such channel beside others is compared: a model that moves it is wrong)
+    if all(np.ptp(raw[:, k]) == 0 for k in columns):
+        raise NoSignalError(f"{where}: its responses hold no signal: {', '.join(s.name for s in sensors)} (channels "
+                            f"{', '.join(str(k) for k in columns)}) read one value in every sample, so the model "
+                            "has nothing to be compared with")
     clipped = [j for j, (k, ch) in enumerate(zip(columns, infos))
                if is_clipped(raw[:, k], limits=held_range(raw[:, k], ch.limit_low, ch.limit_high))]
     # a model cannot follow a signal the converter cut off: a clipped channel's residual is the
@@ -578,19 +584,29 @@ def prepare_experiment(project, name: str, exp=None) -> PreparedExperiment:
     )
 
 
-def prepare(project, experiments: Sequence[str] | None = None) -> list[PreparedExperiment]:
+def prepare(project, experiments: Sequence[str] | None = None, left_out: list[str] | None = None
+            ) -> list[PreparedExperiment]:
     """The named experiments, or every record with a hammer blow: operating records (no force
-    channel) cannot drive a model and are left out unless named."""
-    read = {}
+    channel) cannot drive a model and are left out unless named, as are records without a signal
+    (``NoSignalError``, whose lines are added to ``left_out``) unless every one is such."""
     if experiments:
-        names = list(experiments)
-    else:
-        read = {n: project.experiment(n) for n in project.experiment_names()}
-        names = [n for n, e in read.items() if e.excitation is not None]
+        return [prepare_experiment(project, n) for n in experiments]
+    read = {n: project.experiment(n) for n in project.experiment_names()}
+    names = [n for n, e in read.items() if e.excitation is not None]
     if not names:
         raise ConfigError(f"{project.path}: no hammer records to compare (import or acquire some first; "
                           "operating records have no force to drive a model)")
-    return [prepare_experiment(project, n, read.get(n)) for n in names]
+    exps, silent = [], []
+    for n in names:
+        try:
+            exps.append(prepare_experiment(project, n, read[n]))
+        except NoSignalError as exc:
+            silent.append(exc)
+    if not exps:
+        raise silent[0]
+    if left_out is not None:
+        left_out.extend(str(exc) for exc in silent)
+    return exps
 
 
 def _force_inputs(model, exp: PreparedExperiment) -> list:

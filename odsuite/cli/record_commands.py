@@ -49,7 +49,7 @@ def process_cmd(
                               highlight=False, soft_wrap=True)
         notes: dict[str, list[str]] = {}  # a note (the rig's layout) holds for many experiments: said once
         doc: dict = {"project": str(project), "experiments": {}, "corrected": {}, "revision": p.current_revision,
-                     "error": None}
+                     "error": None, "error_notes": []}
         say = (lambda *a, **k: None) if as_json else console.print
         _ledger.plan(project, names + ([f"{n} (corrected)" for n in names] if corrected else []))
         if corrected:
@@ -92,11 +92,13 @@ def process_cmd(
         # stored now, so that `info` and `history` read it instead of comparing again
         task = bar.add_task("comparing the current model revision with the records", total=None)
         try:
-            doc["error"] = store_current_error(p)
+            doc["error"] = store_current_error(p, doc["error_notes"])
         except OdsuiteError as exc:  # the records are processed all the same
             err_console.print(f"note: the current model revision's error was not stored: {exc}",
                               highlight=False, soft_wrap=True)
         bar.remove_task(task)
+        for note in doc["error_notes"]:  # records the error leaves out
+            err_console.print(f"note: {note}", highlight=False, soft_wrap=True)
     if as_json:
         _print_json(doc)
 

@@ -587,7 +587,8 @@ def _diagnose(project, effects, experiments, full_fits, progress, prepared, work
     regs = project.registries
     rev = current_revision(project)
     base = revision_model(project, rev)
-    exps = list(prepared) if prepared is not None else prepare(project, experiments)
+    silent: list[str] = []  # records without a signal, left out
+    exps = list(prepared) if prepared is not None else prepare(project, experiments, silent)
     names, refiners, not_applicable = _candidate_names(project, rev, base, effects)
     cmp, job, before, res0 = _baseline(project, rev, base, exps)
     # candidates go to forked processes, each with one BLAS thread (where the platform cannot fork,
@@ -625,7 +626,7 @@ def _diagnose(project, effects, experiments, full_fits, progress, prepared, work
     candidates = _ordered(candidates, pairs, exps, base, job)
     diagnosis = Diagnosis(baseline_error=cmp.error, noise_floor_error=job["noise"], revision=rev.get("revision"),
                           candidates=candidates, residual_peaks=job["peaks"], evaluations=evaluations,
-                          not_applicable=not_applicable, notes=list(cmp.notes) + weight_notes(exps),
+                          not_applicable=not_applicable, notes=silent + list(cmp.notes) + weight_notes(exps),
                           other_families=[n for n in not_applicable if getattr(regs.effects.get(n), "structures", None)
                                           and not isinstance(base.shared.structure, regs.effects.get(n).structures)])
     _conclude(diagnosis, cmp, base, exps, before, res0)

@@ -24,6 +24,11 @@ class NonPhysicalError(ConfigError):
     wrong, a fit's trial values are outside what the model can hold."""
 
 
+class NoSignalError(ConfigError):
+    """A record whose every response reads one value throughout: there is nothing to compare a
+    model with (a summary of several records leaves it out)."""
+
+
 class DimensionError(OdsuiteError, ValueError):
     """Arrays or channel lists do not have the shapes that belong together."""
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import shutil
 from pathlib import Path
 
@@ -101,3 +102,58 @@ def test_frfs_and_modes_hold_the_recorded_channels_and_name_the_rigs_others(tmp_
     # the made-up decay's amplitudes, 1 : 0.5 : 0.2
     assert [abs(complex(*v)) for v in shapes[0].values()] == pytest.approx([1.0, 0.5, 0.2], rel=1e-6)
     assert captured.err.count(note) == 1, captured.err
+
+
+def _import_silent(p: Path, tmp_path: Path, name: str):
+    """``_project``'s blow with zeros for every response."""
+    lines = ["hammer [N],m1_x [m/s^2],m1_y [m/s^2],m1_z [m/s^2]"]
+    lines += [f"{10.0 if 100 <= k < 103 else 0.0},0.0,0.0,0.0" for k in range(2048)]
+    (tmp_path / f"{name}.csv").write_text("\n".join(lines) + "\n")
+    assert main(["import", str(p), str(tmp_path / f"{name}.csv"), "--name", name, "--rate", "10240",
+                 "--force-point=100,50,250", "--force-dir=-z"]) == 0
+
+
+def _silent_line(p: Path, name: str) -> str:
+    return (f"{p}: experiment {name!r}: its responses hold no signal: m1_x, m1_y, m1_z (channels 10, 11, 12) read one "
+            "value in every sample, so the model has nothing to be compared with")
+
+
+def test_a_record_of_zero_responses_is_said_so_in_one_line(tmp_path, capsys):
+    # compare printed 'error nan (noise floor nan, infx)' and process 'the error was not stored'
+    rig = tmp_path / "rig.toml"
+    shutil.copy(RIG, rig)
+    p = tmp_path / "z.h5"
+    assert main(["new", str(p), "--rig", str(rig)]) == 0
+    _import_silent(p, tmp_path, "z")
+    capsys.readouterr()
+    assert main(["compare", str(p)]) == 1
+    captured = capsys.readouterr()
+    assert captured.err.strip() == f"error: {_silent_line(p, 'z')}" and captured.out == ""
+    assert main(["compare", str(p), "--json"]) == 1
+    assert json.loads(capsys.readouterr().out) == {"error": _silent_line(p, "z")}
+    assert main(["process", str(p), "--json"]) == 0
+    captured = capsys.readouterr()
+    doc = json.loads(captured.out)
+    assert doc["error"] is None and doc["error_notes"] == [_silent_line(p, "z")]
+    assert f"note: {_silent_line(p, 'z')}" in captured.err.splitlines() and "not stored" not in captured.err
+    assert main(["history", str(p)]) == 0
+    assert "nan" not in capsys.readouterr().out
+    assert main(["diagnose", str(p)]) == 1  # it ended on a fitted parameter of NaN
+    assert capsys.readouterr().err.strip() == f"error: {_silent_line(p, 'z')}"
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_a_record_of_zero_responses_is_left_out_of_the_others_comparison(tmp_path, capsys):
+    p = _project(tmp_path, 10240.0)
+    capsys.readouterr()
+    assert main(["compare", str(p), "--json"]) == 0
+    alone = json.loads(capsys.readouterr().out)
+    _import_silent(p, tmp_path, "z")
+    capsys.readouterr()
+    assert main(["compare", str(p), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert list(doc["experiments"]) == ["x"] and doc["error"] == pytest.approx(alone["error"], rel=1e-12)
+    assert _silent_line(p, "z") in doc["notes"]
+    assert main(["compare", str(p)]) == 0
+    out = capsys.readouterr().out
+    assert not re.search(r"\b(nan|inf)(x|\b)", out) and "hold no signal" in out
