@@ -18,7 +18,8 @@ Four parts, each estimated from the record itself:
   load cell's noise inside the force window reaches every predicted channel. Its expected energy is
   the window's noise energy times the mean energy of the model's responses to unit force samples
   over the window (prediction.impulse_responses; exact for white noise spread evenly over it): not
-  one unit's, as the prediction is not the same shifted where a record starts at its hit. A record
+  one unit's, as the prediction is not the same shifted where a record starts at its hit (with
+  quiet samples before the hit it is, and the unit at the trigger stands for them all). A record
   that starts inside its hit adds the force it missed before its first sample
   (prediction.force_window).
 

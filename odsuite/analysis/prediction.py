@@ -1011,12 +1011,13 @@ NOISE_UNITS = 32
 NOISE_UNIT_VALUES = 2**23
 
 
-def noise_units(exp: PreparedExperiment) -> np.ndarray:
+def noise_units(exp: PreparedExperiment, spread: bool = True) -> np.ndarray:
     """The samples of the force window (where the windowed force is not zero; the trigger without
     one) whose unit responses stand for the window's noise: each sample, or the middles of
-    NOISE_UNITS equal runs of them."""
+    NOISE_UNITS equal runs of them; without ``spread``, the trigger alone (a record with quiet
+    samples before its hit, whose window's unit responses are the trigger's shifted)."""
     window = np.flatnonzero(exp.force)
-    if not window.size:
+    if not window.size or not spread:
         return np.array([min(max(exp.trigger, 0), exp.n_samples - 1)])
     most = max(1, min(NOISE_UNITS, NOISE_UNIT_VALUES // max(1, exp.n_samples * len(exp.sensors))))
     if window.size <= most:
@@ -1024,7 +1025,7 @@ def noise_units(exp: PreparedExperiment) -> np.ndarray:
     return window[((np.arange(most) + 0.5) * window.size / most).astype(int)]
 
 
-def impulse_responses(model, exp: PreparedExperiment) -> np.ndarray:
+def impulse_responses(model, exp: PreparedExperiment, spread: bool = True) -> np.ndarray:
     """The model's predictions (acceleration stage), units x samples x sensors, for a unit force
     sample at each of noise_units' samples: how the force channel's noise in the window reaches
     each channel (odsuite.analysis.noise_floor averages their energies). One unit at the trigger
@@ -1036,7 +1037,7 @@ def impulse_responses(model, exp: PreparedExperiment) -> np.ndarray:
     in the band of the platform's modes (156-312 Hz) and 3-5x too large at 10-78 Hz, and a perfect
     model's residual read as a missing mode."""
     out = []
-    for k in noise_units(exp):
+    for k in noise_units(exp, spread):
         unit = np.zeros(exp.n_samples)
         unit[k] = 1.0
         out.append(predict(model, replace(exp, force=unit, _cache=None)))
