@@ -130,10 +130,15 @@ def weight_notes(exps: Sequence[PreparedExperiment]) -> list[str]:
 #: straight to its 6 s of ringing (32 periods), the linearised steps of a one-foot-softer fit went
 #: astray (its error 16.5 at the nominal model, 13.4 after screening, 0.13 at the truth). The
 #: calibration's rigs (3-6 periods) and the thesis rig (4 periods of its slowest mode in 0.04 s)
-#: keep the two heads
+#: keep the two heads. A mode damped out within LONG_RECORD_PERIODS periods (to RINGING_DECAY of
+#: its amplitude) does not make a record long (ringing_mode_hz): the LADISK beam's bounce on its
+#: foam blocks (16 Hz, 20 % damping: 5.5 periods) took its 0.01 s head, and its shear and rotary
+#: inertia (+2.3 % at 3.7 kHz) was not found from a first head of 30 ms (error 0.7644 -> 0.7636
+#: instead of 0.4850)
 LONG_RECORD_PERIODS = 8.0
 HEAD_PERIODS = 2.0
 HEAD_GROWTH = 4.0
+RINGING_DECAY = 1e-3
 
 
 def head_times(exps: Sequence[PreparedExperiment], slowest_hz: float | None = None) -> list[float]:
@@ -154,6 +159,18 @@ def slowest_mode_hz(problem: Problem) -> float | None:
     """The lowest non-zero natural frequency of the problem's base model (Hz), None without one."""
     f = np.asarray(problem.base.shared.modes().frequency_hz, float)
     f = f[f > 0]
+    return float(f.min()) if f.size else None
+
+
+def ringing_mode_hz(problem: Problem) -> float | None:
+    """The lowest non-zero natural frequency of the problem's base model whose mode rings for more
+    than LONG_RECORD_PERIODS periods before it decays to RINGING_DECAY of its amplitude (Hz; None
+    without one): the mode head_times reads a record's length in."""
+    modes = problem.base.shared.modes()
+    f, zeta = np.asarray(modes.frequency_hz, float), np.asarray(modes.damping_ratio, float)
+    with np.errstate(divide="ignore"):
+        periods = np.where(zeta > 0, -np.log(RINGING_DECAY) / (2 * np.pi * zeta), np.inf)
+    f = f[(f > 0) & ~(periods <= LONG_RECORD_PERIODS)]
     return float(f.min()) if f.size else None
 
 
@@ -1378,7 +1395,7 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
     if best_fixed:
         problem = problem.derived(best_fixed)
     if problem.free:
-        stages = heads(problem.exps, problem.stride, slowest_mode_hz(problem))
+        stages = heads(problem.exps, problem.stride, ringing_mode_hz(problem))
         first = stages[0]
         u0 = problem.zero()
         r0 = problem.residual(u0, first)
@@ -1765,7 +1782,7 @@ def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] 
     u = np.clip(u0, lo, hi)
     n = len(problem.free)
     root = np.sqrt(problem.pull) if problem.prior else None
-    stages = (heads(exps or problem.exps, problem.stride, slowest_mode_hz(problem)) if continuation
+    stages = (heads(exps or problem.exps, problem.stride, ringing_mode_hz(problem)) if continuation
               else [list(exps or problem.exps)])
     # the cost is half the strided sum of squares, which is about the whole one over the stride
     least = 0.5 * STALL_GAIN * problem.noise_scale / problem.stride if problem.noise_scale > 0 else 0.0
