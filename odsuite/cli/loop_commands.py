@@ -218,7 +218,8 @@ def add_effect_cmd(
             continue
         rows = entry.get("physical")
         if rows:  # the quantities that moved most, as stored; all of them in `odsuite model`
-            most = moved(rows, limit=6)
+            # none moved (a fit that stayed at the nominal values): the first as stored, not an empty line
+            most = moved(rows, limit=6) or list(rows[:6])
             rest = len(rows) - len(most)
             more = f" ({rest} more: `odsuite model {project}`)" if rest else ""
             console.print(f"{member}: {shown(physical_text(most))}{more}", highlight=False)

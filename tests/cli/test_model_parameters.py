@@ -157,3 +157,20 @@ def test_a_rising_trigger_at_a_negative_level_is_noted(capsys, tmp_path):
     assert main(["acquire", str(p), "--name", "T2", "--samples", "2048", "--trigger-level", "-1",
                  "--trigger-slope", "falling"]) == 0
     assert "note" not in capsys.readouterr().err
+
+
+def test_add_effect_that_stays_at_its_nominal_values_prints_them(capsys, tmp_path, monkeypatch):
+    # the LADISK beam's sensor mass fitted 0 g, its nominal: add-effect printed
+    # "beam-sensor-mass:  (1 more: `odsuite model copy.h5`)", an empty list and a count
+    from odsuite.diagnosis import add_effect
+
+    p = tmp_path / "p.h5"
+    run(capsys, "new", p)
+    row = {"label": "mass of each accelerometer", "value": 0.0, "unit": "g", "uncertainty": 0.18, "nominal": 0.0}
+    result = {"revision": 7, "previous_error": 0.3141, "error": 0.3141, "noise_floor_error": 0.0098,
+              "effects": [{"effect": "beam-sensor-mass", "values": {"mass": 0.0}, "physical": [row]}],
+              "warnings": [], "notes": []}
+    monkeypatch.setattr(add_effect, "add_effect", lambda project, name, progress=None: result)
+    out = run(capsys, "add-effect", p, "beam-sensor-mass")
+    line = next(ln for ln in out.splitlines() if ln.startswith("beam-sensor-mass:"))
+    assert "mass of each accelerometer = 0 ± 0.18 g" in line and "more" not in line, out
