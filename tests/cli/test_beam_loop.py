@@ -12,6 +12,7 @@ import pytest
 from odsuite.cli import main
 
 RIG = Path(__file__).resolve().parents[2] / "projects" / "rigs" / "ladisk-beam.toml"
+DOC = Path(__file__).resolve().parents[2] / "docs" / "beam.md"
 LADISK_F = np.array([695.0, 1897.6, 2777.3, 3671.2])  # README "Reference results" (published)
 LADISK_ZETA = np.array([0.0047, 0.0031, 0.0024, 0.0020])
 # free-free Euler-Bernoulli f2/f1 = (7.853205 / 4.730041)^2 (Blevins Table 8-1)
@@ -51,6 +52,28 @@ def test_compare_tables_the_measured_and_the_slender_beam_modes(beam, capsys):
     assert doc["error"] > 1.0 and doc["noise_floor_error"] < 0.01
 
 
+def doc_line(start: str) -> str:
+    """The first line of docs/beam.md that starts with ``start``."""
+    return next(ln for ln in DOC.read_text(encoding="utf-8").splitlines() if ln.startswith(start))
+
+
+def test_docs_beam_md_prints_what_compare_prints_on_the_slender_beam(beam, capsys):
+    # the page's first `compare` block: its header line and its modal table, cell by cell
+    doc = compare_json(capsys, beam)
+    assert doc_line("revision 0: error") == (f"revision 0: error {doc['error']:.4f} (noise floor "
+                                             f"{doc['noise_floor']:.4f}, {doc['residual_to_floor']:.2f}x)")
+    text = DOC.read_text(encoding="utf-8")
+    block = text[text.index("revision 0: error"):]
+    block = block[:block.index("```")]
+    table = [[c.strip() for c in ln.split("│")[1:-1]] for ln in block.splitlines() if ln.startswith("│ acceleration")]
+    rows = [r for r in doc["modal"] if r["experiment"] == "acceleration"]
+    assert len(table) == len(rows) == 4
+    for cells, r in zip(table, rows):
+        pct = lambda z: "-" if z is None else f"{100 * z:.3f}"
+        assert cells[1:3] == [f"{r['measured_hz']:.2f}", "-" if r["model_hz"] is None else f"{r['model_hz']:.2f}"]
+        assert [cells[4], cells[5]] == [pct(r["measured_zeta"]), pct(r["model_zeta"])]
+
+
 @pytest.mark.slow
 def test_the_loop_on_the_real_beam_and_its_validation_on_a_second_hit(beam, real_data, capsys):
     """add-effect through the command line, damping last and in the modal domain, then the second
@@ -59,10 +82,15 @@ def test_the_loop_on_the_real_beam_and_its_validation_on_a_second_hit(beam, real
                    "measured-modal-damping"):
         assert main(["add-effect", str(beam), effect]) == 0
     fitted = compare_json(capsys, beam)
+    # as docs/beam.md prints it
+    assert doc_line("revision 5: + measured-modal-damping; error").endswith(
+        f"-> {fitted['error']:.4f} (noise floor {fitted['noise_floor']:.4f})")
     lvm = real_data / "ladisk_beam_impact" / "camera.lvm"
     assert main(["import", str(beam), str(lvm), "--name", "camera", *HAMMER]) == 0
     validated = compare_json(capsys, beam)
     assert validated["revision"] == fitted["revision"]  # nothing refitted
+    assert (f"(revision 5: error {validated['error']:.4f} over both records; {fitted['error']:.4f} on the fitted "
+            "hit") in " ".join(DOC.read_text(encoding="utf-8").split())
     for record in ("acceleration", "camera"):
         rows = [r for r in validated["modal"] if r["experiment"] == record and r["model_hz"] is not None]
         bending = [r for r in rows if abs(r["measured_hz"] - 2777.3) > 50][:3]  # 2777 Hz is not bending
@@ -80,7 +108,7 @@ def test_the_loop_on_the_real_beam_and_its_validation_on_a_second_hit(beam, real
     # a Timoshenko beam whose thickness is 3-4 % of its length (r/L = h/(L sqrt 12))
     assert 0.03 < np.sqrt(12 * params["beam-shear-rotary"]["gyration_ratio_sq"]) < 0.045
     # with the measured damping the first mode's amplitude misfit shows in the time-domain error
-    # (docs/beam.md: 0.32 when the time-domain fit damped mode 1 at 3.4 %)
+    # (docs/beam.md: 0.4514, and 0.314 where the time-domain fit damped mode 1 at 1.06 %)
     assert fitted["error"] > 0.35
 
 
