@@ -9,7 +9,8 @@ import pytest
 
 from odsuite.domain.errors import ConfigError, DimensionError
 from odsuite.domain.rig import load_rig
-from odsuite_plugins.importers.rig_import import G, onto_rig
+from odsuite_plugins.importers.rig_import import onto_rig
+from odsuite_plugins.importers.tables import G
 from odsuite.domain.systeminfo import SensorType
 
 RIG = Path(__file__).resolve().parents[2] / "projects" / "rigs" / "two-body-machine.toml"

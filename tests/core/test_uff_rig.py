@@ -14,7 +14,7 @@ from odsuite.analysis.modal_project import physical
 from odsuite.contracts.plugins import registries
 from odsuite.store.project import create_project, open_project
 from odsuite.domain.rig import load_rig
-from odsuite_plugins.importers.rig_import import G
+from odsuite_plugins.importers.tables import G
 from odsuite_plugins.importers.uff import time_function, write_uff
 from odsuite_plugins.importers.uff_project import import_uff, rig_nodes
 
