@@ -152,8 +152,12 @@ def _describe_values(problem: Problem, values: Mapping[str, float | None], sds: 
     parts = []
     for _, f, v, sd in moved[:limit]:
         unit = "" if f.param.unit in ("1", "") else f" {f.param.unit}"
-        pm = f" ± {sd:.3g}" if sd is not None and np.isfinite(sd) else ""
-        parts.append(f"{f.label} = {v:.4g}{pm}{unit} (nominal {f.param.nominal:g})")
+        # a value held at an end of its search range has no spread: the linearisation that gives
+        # one is cut there (a tilt at -1.05 rad read "± 0.0108 rad")
+        edge = "lower" if v == f.param.lower else "upper" if v == f.param.upper else ""
+        pm = f" ± {sd:.3g}" if sd is not None and np.isfinite(sd) and not edge else ""
+        at = f", at the {edge} end of its range" if edge else ""
+        parts.append(f"{f.label} = {v:.4g}{pm}{unit} (nominal {f.param.nominal:g}{at})")
     for name, c in problem.fixed.items():
         parts.append(f"{name} = {c:g}")
     return "; ".join(parts)
