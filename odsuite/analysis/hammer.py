@@ -66,9 +66,7 @@ def _as_2d(responses: np.ndarray, n: int) -> np.ndarray:
     return r
 
 
-def find_hits(
-    force: np.ndarray, *, threshold: float = 0.2, min_gap: int, pretrigger: int = 0
-) -> list[int]:
+def find_hits(force: np.ndarray, *, threshold: float = 0.2, min_gap: int) -> list[int]:
     """Sample of the force peak of every hit (``hit_pulses``)."""
     return [peak for _, peak, _ in hit_pulses(force, threshold=threshold, min_gap=min_gap)]
 
