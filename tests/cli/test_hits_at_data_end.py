@@ -6,12 +6,11 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
 from pathlib import Path
 
 from odsuite.cli import main
+from tests.cli.test_partial_records import two_body_csv_project
 
-RIG = Path(__file__).resolve().parents[2] / "projects" / "rigs" / "two-body-machine.toml"
 RATE = 10240.0
 SAMPLES = 4096
 HITS = (300, 2300, SAMPLES - 1)  # peaks; the last on the record's last sample
@@ -20,19 +19,9 @@ NOTE = f"hit at {(SAMPLES - 1) / RATE:.4g} s: left out: its "
 
 def _project(tmp_path: Path) -> Path:
     """Three 10 N blows 7 samples long, each ringing at 326 Hz, on the two-body machine's m1."""
-    rig = tmp_path / "rig.toml"
-    shutil.copy(RIG, rig)
-    lines = ["hammer [N],m1_x [m/s^2],m1_y [m/s^2],m1_z [m/s^2]"]
-    for k in range(SAMPLES):
-        f = sum(10.0 * math.cos((k - h) * math.pi / 8) for h in HITS if abs(k - h) <= 3)
-        a = sum(math.exp(-(k - h) / 150) * math.sin((k - h) / 5) for h in HITS if k >= h)
-        lines.append(f"{f},{a},{0.5 * a},{0.2 * a}")
-    (tmp_path / "r.csv").write_text("\n".join(lines) + "\n")
-    p = tmp_path / "p.h5"
-    assert main(["new", str(p), "--rig", str(rig)]) == 0
-    assert main(["import", str(p), str(tmp_path / "r.csv"), "--name", "x", "--rate", f"{RATE:g}",
-                 "--force-point=100,50,250", "--force-dir=-z"]) == 0
-    return p
+    samples = [(sum(10.0 * math.cos((k - h) * math.pi / 8) for h in HITS if abs(k - h) <= 3),
+                sum(math.exp(-(k - h) / 150) * math.sin((k - h) / 5) for h in HITS if k >= h)) for k in range(SAMPLES)]
+    return two_body_csv_project(tmp_path, samples, RATE)
 
 
 def test_frf_process_and_compare_leave_out_a_hit_on_the_last_sample_and_say_so(tmp_path, capsys):

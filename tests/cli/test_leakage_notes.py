@@ -6,12 +6,11 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
 from pathlib import Path
 
 from odsuite.cli import main
+from tests.cli.test_partial_records import two_body_csv_project
 
-RIG = Path(__file__).resolve().parents[2] / "projects" / "rigs" / "two-body-machine.toml"
 RATE = 10240.0
 SAMPLES = 2048
 HIT = 100
@@ -27,20 +26,10 @@ NOTE = (f"hit at {HIT / RATE:.4g} s: still ringing at the end of its record: m1_
 def _project(tmp_path: Path) -> Path:
     """One 10 N blow 7 samples long on the two-body machine's m1, which rings at 256 Hz (crests
     every 20 samples) along x, y and z."""
-    rig = tmp_path / "rig.toml"
-    shutil.copy(RIG, rig)
-    lines = ["hammer [N],m1_x [m/s^2],m1_y [m/s^2],m1_z [m/s^2]"]
-    for k in range(SAMPLES):
-        f = 10.0 * math.cos((k - HIT) * math.pi / 8) if abs(k - HIT) <= 3 else 0.0
-        ring = math.sin((k - HIT) * math.pi / 20) if k >= HIT else 0.0
-        a = math.exp(-(k - HIT) / TAU) * ring if k >= HIT else 0.0
-        lines.append(f"{f},{a},{0.5 * a},{0.2 * a}")
-    (tmp_path / "r.csv").write_text("\n".join(lines) + "\n")
-    p = tmp_path / "p.h5"
-    assert main(["new", str(p), "--rig", str(rig)]) == 0
-    assert main(["import", str(p), str(tmp_path / "r.csv"), "--name", "x", "--rate", f"{RATE:g}",
-                 "--force-point=100,50,250", "--force-dir=-z"]) == 0
-    return p
+    samples = [(10.0 * math.cos((k - HIT) * math.pi / 8) if abs(k - HIT) <= 3 else 0.0,
+                math.exp(-(k - HIT) / TAU) * math.sin((k - HIT) * math.pi / 20) if k >= HIT else 0.0)
+               for k in range(SAMPLES)]
+    return two_body_csv_project(tmp_path, samples, RATE)
 
 
 def test_frf_modes_and_process_say_a_records_leakage_once(tmp_path, capsys):

@@ -20,19 +20,25 @@ from odsuite.cli import main
 RIG = Path(__file__).resolve().parents[2] / "projects" / "rigs" / "two-body-machine.toml"
 
 
-def _project(tmp_path: Path, rate: float) -> Path:
+def two_body_csv_project(tmp_path: Path, samples, rate: float) -> Path:
+    """A project on the two-body machine holding one CSV record ``x`` at ``rate``: per sample
+    (force N, acceleration m/s^2) the hammer and m1's x, y and z at 1, 0.5 and 0.2 of it."""
     rig = tmp_path / "rig.toml"
     shutil.copy(RIG, rig)
     lines = ["hammer [N],m1_x [m/s^2],m1_y [m/s^2],m1_z [m/s^2]"]
-    for k in range(2048):
-        a = math.exp(-(k - 100) / 300) * math.sin((k - 100) / 5) if k >= 100 else 0.0
-        lines.append(f"{10.0 if 100 <= k < 103 else 0.0},{a},{0.5 * a},{0.2 * a}")
+    lines += [f"{f},{a},{0.5 * a},{0.2 * a}" for f, a in samples]
     (tmp_path / "r.csv").write_text("\n".join(lines) + "\n")
     p = tmp_path / "p.h5"
     assert main(["new", str(p), "--rig", str(rig)]) == 0
     assert main(["import", str(p), str(tmp_path / "r.csv"), "--name", "x", "--rate", f"{rate:g}",
                  "--force-point=100,50,250", "--force-dir=-z"]) == 0
     return p
+
+
+def _project(tmp_path: Path, rate: float) -> Path:
+    samples = [(10.0 if 100 <= k < 103 else 0.0,
+                math.exp(-(k - 100) / 300) * math.sin((k - 100) / 5) if k >= 100 else 0.0) for k in range(2048)]
+    return two_body_csv_project(tmp_path, samples, rate)
 
 
 @pytest.mark.parametrize("rate", [10240.0, 1e7])
