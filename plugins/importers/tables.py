@@ -459,9 +459,21 @@ def _brief(value) -> str:
     return text if len(text) <= 80 else text[:77] + "..."
 
 
+#: a variable named as a rate in a longer name (the vibration toolbox's ``Time_Sample_Rate``)
+MAT_RATE_SUFFIX = re.compile(r"(?:^|_)(?:sample|sampling)_?rate$", re.IGNORECASE)
+
+
 def _mat_rate(mat: dict, where: str) -> float | None:
-    """The sampling rate a .mat file holds (Hz): one real number under one of MAT_RATE's names."""
-    for k in MAT_RATE:
+    """The sampling rate a .mat file holds (Hz): one real number under one of MAT_RATE's names, else
+    under the one variable whose name ends as a rate does (``Time_Sample_Rate``); several such
+    names are refused, as nothing tells which is the records'."""
+    names = [k for k in MAT_RATE if k in mat]
+    if not names:
+        names = [k for k in mat if not k.startswith("__") and MAT_RATE_SUFFIX.search(k)]
+        if len(names) > 1:
+            raise ConfigError(f"{where}: variables {', '.join(map(repr, sorted(names)))} each name a sampling "
+                              f"rate: give --rate")
+    for k in names:
         if k in mat:
             a = mat[k]
             if not isinstance(a, np.ndarray) or a.size != 1 or a.dtype.kind not in "fiu":

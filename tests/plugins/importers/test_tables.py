@@ -694,3 +694,25 @@ def test_a_bare_array_names_units_and_rate_at_once(tmp_path, capsys):
     assert "units: not given (channels ch1, ch2); give --units or a sidecar walk.toml" in capsys.readouterr().err
     with open_project(p) as project:
         assert project.experiment_names() == []
+
+
+def test_a_mat_files_rate_under_a_longer_name_is_read(tmp_path, capsys):
+    # the vibration toolbox's case1.mat holds its rate as Time_Sample_Rate = 1280 Hz (its README):
+    # it was refused for want of --rate
+    from scipy.io import savemat
+
+    from odsuite.cli import main
+
+    case1 = Path(__file__).resolve().parents[2] / "data" / "real" / "vibration_toolbox_frf" / "case1.mat"
+    p = tmp_path / "p.h5"
+    assert main(["new", str(p), "--rig", "none"]) == 0
+    capsys.readouterr()
+    assert main(["import", str(p), str(case1), "--name", "c1", "--variable", "Time_chan_1,Time_chan_2",
+                 "--units", "N,m/s^2"]) == 0
+    assert "x 4096 samples at 1280 Hz" in capsys.readouterr().out
+    # two names of a rate: nothing tells which is the records'
+    two = tmp_path / "two.mat"
+    savemat(two, {"x": np.zeros((64, 1)), "Time_Sample_Rate": 1280.0, "Freq_Sampling_Rate": 2.0})
+    assert main(["import", str(p), str(two), "--name", "t", "--units", "g"]) == 1
+    assert "variables 'Freq_Sampling_Rate', 'Time_Sample_Rate' each name a sampling rate: give --rate" in \
+        capsys.readouterr().err
