@@ -44,6 +44,7 @@ from odsuite.diagnosis.fitting import (
     effective_samples,
     fit,
     fit_windows,
+    off_the_bounds,
     force_noise_scores,
     records_band,
     refined,
@@ -283,6 +284,8 @@ def _fit_candidate(screened: Screened, exps, sse0: float, den: float, n_eff: flo
         res = fit(problem, screened.u0, continuation=False, target=target,
                   cannot_pass=cannot_pass if out_of_reach is None else out_of_reach)
         stopped, short = (False, res.target_stop) if out_of_reach is not None else (res.target_stop, False)
+        if not (stopped or short):
+            res = off_the_bounds(problem, res)
         checked = None
         if short and out_of_reach.passes and settle:
             # significance asks for a validated error below the baseline's too: where it is not
