@@ -1,5 +1,6 @@
 """The heads a fit starts on (fitting.head_times): 0.01 and 0.04 s after the hit, then longer ones
-from half a period of the slowest mode that rings on through records long in its periods. A mode
+from half a period of the slowest mode that rings on through records long in its periods, and
+shorter ones first from half a period of a mode that rings more than twice in 0.01 s. A mode
 damped out within a few periods (a beam's bounce on lossy foam) does not make a record long: the
 LADISK beam's shear and rotary inertia, a 2.3 % shift of its 3.7 kHz mode, was not found from a
 first head of 30 ms, half a period of its 16 Hz bounce (docs/beam.md)."""
@@ -27,7 +28,9 @@ def test_a_beam_bouncing_on_lossy_foam_keeps_the_short_heads():
     # thousandth), bending modes at 0.5 %; a 1 s record
     beam = problem([16.48, 24.87, 695.39, 1915.87], [0.2, 0.2, 0.005, 0.005])
     assert fitting.ringing_mode_hz(beam) == pytest.approx(695.39)
-    assert fitting.head_times([record(1.0)], fitting.ringing_mode_hz(beam)) == [0.01, 0.04]
+    # its first bending mode rings 7 times in 0.01 s: shorter heads from half its period come first
+    times = fitting.head_times([record(1.0)], fitting.ringing_mode_hz(beam))
+    assert times == pytest.approx([0.5 / 695.39, 2 / 695.39, 0.01, 0.04])
     # read from the slowest mode alone, the first head was 30 ms
     assert fitting.head_times([record(1.0)], fitting.slowest_mode_hz(beam))[0] == pytest.approx(0.5 / 16.48)
 
@@ -44,3 +47,14 @@ def test_undamped_and_rigid_modes():
     # an undamped mode rings for ever; a zero frequency (a free body) is no period at all
     assert fitting.ringing_mode_hz(problem([0.0, 3.0, 40.0], [0.0, 0.0, 0.01])) == 3.0
     assert fitting.ringing_mode_hz(problem([0.0, 10.0], [0.0, 0.5])) is None
+
+
+def test_a_stiff_bracket_starts_from_half_a_period():
+    # a 2 kg bracket on stiff pads (tests/data/rigs/stiff-bracket.toml): 306-832 Hz, 2-5 % damped;
+    # 0.01 s holds three periods of its slowest mode, where a mass 1.75 times the model's put the
+    # residual a cycle out of phase (tests/cli/test_stiff_rig_added_mass.py)
+    bracket = problem([305.7, 330.8, 550.0, 636.6, 808.1, 831.7], [0.0193, 0.0221, 0.0419, 0.03, 0.049, 0.0473])
+    times = fitting.head_times([record(0.32, 25_600.0)], fitting.ringing_mode_hz(bracket))
+    assert times == pytest.approx([0.5 / 305.7, 2 / 305.7, 0.01, 0.04])
+    # two periods in the first head are not yet too many: the thesis rig's 100 Hz keeps its heads
+    assert fitting.head_times([record(0.32, 25_600.0)], 200.0) == [0.01, 0.04]
