@@ -142,17 +142,23 @@ def weight_notes(exps: Sequence[PreparedExperiment]) -> list[str]:
 LONG_RECORD_PERIODS = 8.0
 HEAD_PERIODS = 2.0
 HEAD_GROWTH = 4.0
+#: the shortest head, in samples: a structure ringing near the Nyquist frequency gets no heads of a
+#: few samples, which hold the hit's first rise alone
+HEAD_SAMPLES = 16
 RINGING_DECAY = 1e-3
 
 
 def head_times(exps: Sequence[PreparedExperiment], slowest_hz: float | None = None) -> list[float]:
     """The heads' lengths (s after the hit): HEADS_S, and more for records long in periods of the
-    slowest mode (``slowest_hz``; LONG_RECORD_PERIODS)."""
+    slowest mode (``slowest_hz``; LONG_RECORD_PERIODS), or shorter ones first where HEADS_S[0]
+    holds more than HEAD_PERIODS of its periods (a stiff structure)."""
     times = list(HEADS_S)
     if slowest_hz and slowest_hz * times[0] > HEAD_PERIODS:
         # a stiff structure: from half a period of its slowest mode, where a frequency error of a
-        # quarter still leaves the residual linear in it
-        short = [0.5 / slowest_hz]
+        # quarter still leaves the residual linear in it, and never from fewer than HEAD_SAMPLES
+        short = [max(0.5 / slowest_hz, max((HEAD_SAMPLES / e.fs for e in exps), default=0.0))]
+        if short[0] * HEAD_GROWTH > times[0]:  # a head not much shorter than the first adds nothing
+            return times
         while short[-1] * HEAD_GROWTH < times[0]:
             short.append(short[-1] * HEAD_GROWTH)
         return short + times

@@ -58,3 +58,11 @@ def test_a_stiff_bracket_starts_from_half_a_period():
     assert times == pytest.approx([0.5 / 305.7, 2 / 305.7, 0.01, 0.04])
     # two periods in the first head are not yet too many: the thesis rig's 100 Hz keeps its heads
     assert fitting.head_times([record(0.32, 25_600.0)], 200.0) == [0.01, 0.04]
+
+
+def test_a_structure_ringing_near_nyquist_gets_no_heads_of_a_few_samples():
+    # 5 kHz at 25.6 kHz: half a period is 2.6 samples; the heads start at 16 samples (0.625 ms)
+    times = fitting.head_times([record(0.32, 25_600.0)], 5000.0)
+    assert times == pytest.approx([16 / 25_600.0, 64 / 25_600.0, 0.01, 0.04])
+    # at 2 kHz sampling 16 samples are 8 ms: a shorter head than 0.01 s would not add much
+    assert fitting.head_times([record(2.0, 2000.0)], 500.0) == [0.01, 0.04]
