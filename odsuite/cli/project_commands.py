@@ -118,10 +118,12 @@ def info_cmd(project: Path = typer.Argument(..., help="Project file."),
         _print_rig_layout(layout)
     rows = []
     for name, e in info["experiments"].items():
-        # one kind per column: a hammer record's force (N), else the largest response (a record's
-        # largest volts mixed forces and accelerations from row to row)
-        forces = {c: v for c, v in e["peak_volts"].items() if e["peak"][c][1] == "N"}
-        peak_channel = max(forces or e["peak_volts"], key=(forces or e["peak_volts"]).get)
+        # one kind per column: a hammer record's force (N), else its largest acceleration, both in
+        # SI (a column imported in g stores 2 for 19.6 m/s^2)
+        forces = {c: v for c, (v, unit) in e["peak"].items() if unit == "N"}
+        accelerations = {c: v for c, (v, unit) in e["peak"].items() if unit == "m/s^2"}
+        peaks = forces or accelerations or {c: v for c, (v, _unit) in e["peak"].items()}
+        peak_channel = max(peaks, key=peaks.get)
         clipped = ", ".join(f"{c} ({n})" for c, n in e["clipped_samples"].items())
         rows.append([name, str(len(e["channels"])), f"{e['sampling_rate']:g}", str(e["n_samples"]),
                      f"{e['duration']:.4g}", "{:.4g} {} ({})".format(*e["peak"][peak_channel], peak_channel),

@@ -1031,7 +1031,8 @@ class Project:
     @_reads()
     def info(self) -> dict[str, Any]:
         """A plain-dict summary: file attributes, rig, revisions and per experiment: channels,
-        sampling rate, samples, duration, peak |volts| per channel and clipped channels.
+        sampling rate, samples, duration, per channel its peak |value| in SI with its unit
+        ([value, unit]) and clipped channels.
 
         A channel is clipped when a sample lies within (limit_high - limit_low) / 2048 (one step of
         a 12-bit converter) of its Systeminfo DAQ limits (``clipping.scan``).
@@ -1051,8 +1052,8 @@ class Project:
             out["experiments"][name] = {
                 "channels": e.channel_names, "sampling_rate": e.sampling_rate, "n_samples": e.n_samples,
                 "duration": e.n_samples / e.sampling_rate, "pretrigger": e.pretrigger,
-                "peak_volts": dict(zip(e.channel_names, peak.tolist(), strict=True)),
-                # the same peaks in each channel's own unit (an imported m/s^2 record is not volts)
+                # in each channel's SI unit: an imported record's raw column is the file's m/s^2,
+                # g or N, not volts
                 "peak": {n: [float(v / abs(c.sensitivity * c.daq_gain)), c.unit]
                          for n, v, c in zip(e.channel_names, peak.tolist(), e.systeminfo.channels, strict=True)},
                 "clipped": [n for n, c in zip(e.channel_names, clipped, strict=True) if c],

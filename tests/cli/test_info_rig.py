@@ -1,9 +1,12 @@
-"""`odsuite info` lists a rig's bodies, springs and the coordinate solver each body gets."""
+"""`odsuite info` lists a rig's bodies, springs and the coordinate solver each body gets, and each
+record's peaks in their channels' units."""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
+
+import pytest
 
 from odsuite.cli import main
 
@@ -68,3 +71,21 @@ def test_info_lists_the_springs_rotational_stiffness(capsys, tmp_path):
     p2 = tmp_path / "q.h5"
     run(capsys, "new", p2, "--rig", RIG_FILE)
     assert "relative rotation" not in run(capsys, "info", p2)
+
+
+def test_info_gives_each_peak_in_its_channel_unit_for_an_imported_record(capsys, tmp_path):
+    """A CSV's columns are stored in the file's units (N, m/s^2, g): no peak of theirs is called
+    volts, each is in SI with its unit; the table's peak is the force's in N, and without a force
+    the largest acceleration in m/s^2 (2 g, not the 3 stored in the m/s^2 column)."""
+    (tmp_path / "r.csv").write_text("hammer [N],a [m/s^2],b [g]\n0,0,0\n12.5,-3,0.5\n1,0.25,-2\n0,0,0\n")
+    p = tmp_path / "p.h5"
+    run(capsys, "new", p, "--rig", "none")
+    run(capsys, "import", p, tmp_path / "r.csv", "--name", "x", "--rate", "1000")
+    (tmp_path / "o.csv").write_text("a [m/s^2],b [g]\n0,0\n-3,0.5\n0.25,-2\n0,0\n")
+    run(capsys, "import", p, tmp_path / "o.csv", "--name", "o", "--rate", "1000")
+    e = json.loads(run(capsys, "info", p, "--json"))["experiments"]["x"]
+    assert not [key for key in e if "volt" in key]
+    assert e["peak"]["hammer"] == [12.5, "N"] and e["peak"]["a"] == [3.0, "m/s^2"]
+    assert e["peak"]["b"][1] == "m/s^2" and e["peak"]["b"][0] == pytest.approx(2 * 9.80665, rel=1e-12)
+    rows = {line.split()[0]: line for line in run(capsys, "info", p).splitlines() if line[:2] in ("x ", "o ")}
+    assert "12.5 N (hammer)" in rows["x"] and "19.61 m/s^2 (b)" in rows["o"]

@@ -358,12 +358,13 @@ def test_command_is_added_and_runs(guide, tmp_path, monkeypatch, capsys, request
     assert cli.main(["lab-headroom", str(tmp_path / "p.h5"), "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     with open_project(tmp_path / "p.h5") as p:
-        info = p.info()["experiments"]["H1"]  # odsuite's own peak |V| per channel
-        limits = {n: (c.limit_low, c.limit_high) for n, c in zip(p.experiment("H1").channel_names,
-                                                                  p.experiment("H1").systeminfo.channels)}
-    assert set(doc["H1"]) == set(info["peak_volts"])
-    for channel, row in doc["H1"].items():
-        assert row["peak_v"] == pytest.approx(info["peak_volts"][channel], rel=1e-12)
+        info = p.info()["experiments"]["H1"]  # odsuite's own peak per channel, in SI
+        chains = dict(zip(p.experiment("H1").channel_names, p.experiment("H1").systeminfo.channels))
+        limits = {n: (c.limit_low, c.limit_high) for n, c in chains.items()}
+    assert set(doc["H1"]) == set(info["peak"])
+    for channel, row in doc["H1"].items():  # volts at the converter: through the sensitivity and the gain
+        volts = info["peak"][channel][0] * abs(chains[channel].sensitivity * chains[channel].daq_gain)
+        assert row["peak_v"] == pytest.approx(volts, rel=1e-12)
     # the 20 N hit through the load cell's V/N and the DAQ gain, against the +5 V limit
     low, high = limits["force"]
     assert doc["H1"]["force"]["of_range"] == pytest.approx(doc["H1"]["force"]["peak_v"] / high, rel=1e-12)

@@ -273,7 +273,9 @@ def test_info_peaks_and_clipping(tmp_path):
         info = p.info()
     e = info["experiments"]["e"]
     assert e["n_samples"] == 20_000 and e["duration"] == 10.0 and e["sampling_rate"] == 2000.0
-    assert np.allclose(list(e["peak_volts"].values()), np.abs(raw).max(axis=0), rtol=0, atol=0)
+    # 1 V per m/s^2 and a DAQ gain of 1: the raw peaks themselves, in m/s^2
+    assert np.allclose([v for v, _unit in e["peak"].values()], np.abs(raw).max(axis=0), rtol=0, atol=0)
+    assert {unit for _v, unit in e["peak"].values()} == {"m/s^2"}
     assert e["clipped"] == ["ch1", "ch2"] and e["clipped_samples"] == {"ch1": 1, "ch2": 1}
     assert info["rig"] is None and info["format_version"] == FORMAT_VERSION
 
