@@ -38,6 +38,8 @@ class Hit:
     #: what the data's ends did with this hit, one line with its time in s ("" when nothing): left
     #: out, or every record cut short to fit it
     data_end: str = ""
+    #: s from the force peak to its rebound's for a double hit, else None
+    double_hit_after: float | None = None
 
     @property
     def trigger(self) -> int:
@@ -124,11 +126,19 @@ def is_double_hit(force: np.ndarray, peak: int, *, level: float = 0.25, guard: i
     ``level`` x the peak (a second impact on the rebound). Excursions of the other sign are the
     anti-aliasing filter's ringing (about 30 % of the peak for a 0.5 ms blow through an 8th-order
     1 kHz low-pass, with a same-sign lobe of about 15 %), not a hammer: a hammer only pushes."""
+    return second_push(force, peak, level=level, guard=guard) is not None
+
+
+def second_push(force: np.ndarray, peak: int, *, level: float = 0.25, guard: int = 2) -> int | None:
+    """The sample of the largest same-way push after the main pulse when it makes a double hit
+    (``is_double_hit``), else None."""
     f = np.asarray(force, dtype=float)
     dev = f - np.median(f)
     _, end = pulse_width(f, peak)
     rest = dev[end + guard :] * np.sign(dev[peak])
-    return bool(rest.size and rest.max() > level * abs(dev[peak]))
+    if not (rest.size and rest.max() > level * abs(dev[peak])):
+        return None
+    return end + guard + int(np.argmax(rest))
 
 
 def quantisation_step(signal: np.ndarray) -> float:
@@ -336,8 +346,9 @@ def assess_hits(
             left_out = "left out: its peak is the data's last sample (its blow is cut)"
         if left_out:
             reasons.append(left_out)
-        if is_double_hit(fseg, local_peak, level=double_hit_level):
-            reasons.append("double hit")
+        rebound = second_push(fseg, local_peak, level=double_hit_level)
+        if rebound is not None:
+            reasons.append(f"double hit {1e3 * (rebound - local_peak) / fs:.3g} ms after its peak")
         if is_clipped(fseg, limits=force_limits):
             reasons.append("force clipped/overloaded")
         for c in range(r.shape[1]):
@@ -368,6 +379,7 @@ def assess_hits(
                 undecayed=tuple(undecayed),
                 left_out=bool(left_out),
                 data_end=f"{hit_name(p / fs)}: {said}" if said else "",
+                double_hit_after=None if rebound is None else (rebound - local_peak) / fs,
             )
         )
     return hits

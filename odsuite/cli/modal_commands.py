@@ -52,7 +52,8 @@ def frf_cmd(
                      "usable_band_hz": None if band is None else [float(band[0]), float(band[1])],
                      "usable_band_note": None if band is not None else usable,
                      "hits": [{"sample": int(h.peak_index), "time_s": float(h.time), "peak_force_n": float(h.peak_force),
-                               "accepted": bool(h.accepted), "reasons": list(h.reasons)} for h in hits],
+                               "accepted": bool(h.accepted), "reasons": list(h.reasons),
+                               "double_hit_after_s": h.double_hit_after} for h in hits],
                      "flagged_hits": {experiment: flagged} if flagged else {},
                      "figure": None if figure is None else str(figure)})
         return

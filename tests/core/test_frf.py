@@ -45,7 +45,10 @@ def test_hits_split_and_double_hit_rejected(record):
     hits = assess_hits(f, a, FS, record_length=REC, pretrigger=50)
     assert len(hits) == 9
     assert [h.accepted for h in hits] == [True] * 8 + [False]
-    assert hits[-1].reasons == ("double hit",)
+    # the rebound 8 ms after the blow: their top samples lie 9 samples apart at 1024 Hz (the peaks
+    # fall at 65640.4 and 65648.6 samples)
+    assert hits[-1].double_hit_after == 9 / FS
+    assert hits[-1].reasons == ("double hit 8.79 ms after its peak",)
     peaks = [h.peak_index for h in hits[:8]]
     np.testing.assert_allclose(np.diff(peaks), 8 * FS, atol=1)
     assert all(h.trigger == 50 and h.stop - h.start == REC for h in hits)

@@ -59,7 +59,9 @@ def test_a_bounce_is_a_double_hit_of_the_first_blow(fs, apart_s, bounce):
     (hit,) = assess_hits(force, np.zeros(n), fs, decay_limit=None)
     assert hit.peak_index == round((0.2 + width / 2) * fs)
     assert hit.peak_force == pytest.approx(100.0, rel=1e-3)
-    assert hit.reasons == ("double hit",)
+    # said in ms from peak to peak, as a user reads it (the samples apart were not said)
+    assert hit.double_hit_after == pytest.approx(width + apart_s, abs=0.5 / fs)
+    assert hit.reasons == (f"double hit {1e3 * (width + apart_s):.3g} ms after its peak",)
 
 
 def test_a_quick_blow_close_behind_a_broad_one_leaves_each_record_its_pulse():
