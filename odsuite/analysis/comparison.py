@@ -63,7 +63,7 @@ def band_errors(measured: np.ndarray, predicted: np.ndarray, fs: float,
         m, r = M[sel].sum(axis=0), R[sel].sum(axis=0)
         labels.append(f"{lo:g}-{hi:g} Hz")
         err.append(np.sqrt(r / np.where(m > 0, m, np.nan)))
-        share.append(m / np.where(total > 0, total, np.nan))
+        share.append(m / np.where(total > 0, total, 1.0))  # a column that never moves: no share anywhere
     return labels, np.array(err), np.array(share)
 
 
@@ -171,7 +171,7 @@ class Comparison:
     noise_floor_error: float
     revision: int | None
     experiments: dict[str, dict[str, Any]]
-    channels: dict[str, float]
+    channels: dict[str, float | None]  # None: the channel never moved in any record (no error of its own)
     coordinates: dict[str, dict[str, dict[str, float]]]
     bands: dict[str, Any]
     rigidity: dict[str, dict[str, Any]]
@@ -336,12 +336,14 @@ def _coordinates(rig: Rig, exp: PreparedExperiment, model, errors: bool = True) 
     return coords, rigidity
 
 
-def _worst_channels(channels: Mapping[str, float], floor: NoiseFloor, count: int = 3) -> list[dict[str, Any]]:
+def _worst_channels(channels: Mapping[str, float | None], floor: NoiseFloor, count: int = 3) -> list[dict[str, Any]]:
     """The ``count`` channels whose error stands highest over their noise floor, each with its floor
     (a perfect model's error) and that ratio. A channel holding noise alone (a y channel under a
     blow along x) reads an error near 1 at a floor near 1: it says nothing of the model."""
     rows = []
     for n, v in channels.items():
+        if v is None:  # it never moved: no error to rank
+            continue
         fl = floor.error(channels=[n])
         ratio = v / fl if fl > 0 else (float("inf") if v > 0 else float("nan"))
         rows.append({"kind": "channel", "name": n, "error": v, "noise_floor": fl, "to_floor": ratio})
@@ -424,15 +426,19 @@ def _compare(project, *, experiments, revision, prepared, resonances, figures, s
     band_num = band_den = None
     labels: list[str] = []
     sensor_names: list[str] = []
+    still: list[str] = []  # channels that never move beside live ones: compared, without an error of their own
     for e, p in zip(exps, preds):
         coords[e.name], rigidity[e.name] = _coordinates(project.rig, e, rmodel.for_experiment(e.name), coordinates)
+        still += [f"{project.path}: experiment {e.name!r}: channel {e.columns[j]} ({e.sensors[j].name}) never moves "
+                  "(one value in every sample): it has no error of its own (nothing measured to divide by), and the "
+                  "model's motion there counts in the record's error" for j in np.flatnonzero(~e.measured.any(axis=0))]
         if not tables:
             continue
         per_ch = nrmse(e.measured, p, axis=0)
         per_exp[e.name] = {
             "error": float(nrmse(e.measured, p)),
             "noise_floor_error": floor.error([e.name]),
-            "channels": {s.name: float(v) for s, v in zip(e.sensors, per_ch)},
+            "channels": {s.name: float(v) if np.isfinite(v) else None for s, v in zip(e.sensors, per_ch)},
             "trigger_sample": int(e.trigger),
         }
         for j, s in enumerate(e.sensors):
@@ -448,8 +454,7 @@ def _compare(project, *, experiments, revision, prepared, resonances, figures, s
         at = [sensor_names.index(s.name) for s in e.sensors]
         band_num[:, at] += (berr**2) * bshare * energy
         band_den[:, at] += bshare * energy
-    channels = {n: float(np.sqrt(chan_num[n] / chan_den[n])) if chan_den[n] > 0 else float("nan")
-                for n in chan_num}
+    channels = {n: float(np.sqrt(chan_num[n] / chan_den[n])) if chan_den[n] > 0 else None for n in chan_num}
     bands, worst = _tables(labels, sensor_names, band_num, band_den, channels, coords, floor) if tables else ({}, [])
     modal = modal_notes = records = None
     if resonances:  # imported here: the fitting loop's comparisons (resonances=False) never load it
@@ -469,6 +474,7 @@ def _compare(project, *, experiments, revision, prepared, resonances, figures, s
                **(frf_comparison(exps, preds, model_modes) if resonances else {})},
         residual_peaks=residual_peaks(exps, preds, modes_hz, floor, spectra=spectra), worst=worst, floor=floor,
         modal=modal, modal_notes=modal_notes, modal_records=records,
-        notes=silent + [n for e in exps for n in e.notes] + ([left_out] if left_out else []), predictions=preds,
+        notes=silent + [n for e in exps for n in e.notes] + still + ([left_out] if left_out else []),
+        predictions=preds,
         residual_spectra=spectra,
     )

@@ -41,10 +41,14 @@ def compare_cmd(
     for exp in experiments:
         table.add_column(shown(exp), justify="right")
     table.add_column("all", justify="right")
+
+    def cell(error):  # None: the channel never moved, which a note says
+        return "never moves" if error is None else error_text(error)
+
     for n in result["channels"]:  # "-": the channel is not compared in that experiment
-        table.add_row(shown(n), *(error_text(result['experiments'][e]['channels'][n])
+        table.add_row(shown(n), *(cell(result['experiments'][e]['channels'][n])
                                   if n in result["experiments"][e]["channels"] else "-"
-                                  for e in experiments), error_text(result['channels'][n]))
+                                  for e in experiments), cell(result['channels'][n]))
     table.add_row("all", *(error_text(result['experiments'][e]['error']) for e in experiments), error_text(result['error']),
                   style="bold")
     console.print(table)

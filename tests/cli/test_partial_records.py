@@ -163,3 +163,36 @@ def test_a_record_of_zero_responses_is_left_out_of_the_others_comparison(tmp_pat
     assert main(["compare", str(p)]) == 0
     out = capsys.readouterr().out
     assert not re.search(r"\b(nan|inf)(x|\b)", out) and "hold no signal" in out
+
+
+def _still_line(p: Path) -> str:
+    return (f"{p}: experiment 'x': channel 12 (m1_z) never moves (one value in every sample): it has no error of its "
+            "own (nothing measured to divide by), and the model's motion there counts in the record's error")
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_a_response_that_never_moves_beside_live_ones_is_named_once_and_has_no_error_of_its_own(tmp_path, capsys):
+    # compare printed nan as the channel's error, and its JSON (the API's as_dict) held NaN
+    import h5py
+
+    from odsuite.analysis.comparison import compare
+    from odsuite.store.project import open_project
+
+    p = _project(tmp_path, 10240.0)
+    with h5py.File(p, "r+") as f:  # m1_z's accelerometer reads 0 throughout, m1_x and m1_y ring
+        f["experiments/x/raw"][:, 12] = 0.0
+    assert main(["process", str(p)]) == 0
+    capsys.readouterr()
+    assert main(["compare", str(p), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["experiments"]["x"]["channels"]["m1_z"] is None and doc["channels"]["m1_z"] is None
+    assert doc["channels"]["m1_x"] == pytest.approx(doc["experiments"]["x"]["channels"]["m1_x"], rel=1e-12)
+    assert doc["channels"]["m1_x"] > 0.5  # a made-up decay the model does not hold
+    assert doc["notes"].count(_still_line(p)) == 1
+    assert [row[2] for row in doc["bands"]["energy_share"]] == [0.0] * len(doc["bands"]["labels"])
+    assert "m1_z" not in [w["name"] for w in doc["worst"]]
+    with open_project(p) as project:
+        json.dumps(compare(project).as_dict(), allow_nan=False)  # no NaN for a script to trip on
+    assert main(["compare", str(p)]) == 0
+    out = capsys.readouterr().out
+    assert not re.search(r"\bnan\b", out) and " ".join(out.split()).count(_still_line(p)) == 1
