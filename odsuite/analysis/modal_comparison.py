@@ -14,7 +14,7 @@ import numpy as np
 from odsuite.domain.errors import ConfigError
 from odsuite.analysis.frf import FrfSet
 from odsuite.analysis.modal import mac, pair_modes
-from odsuite.analysis.modal_project import all_flagged, data_end_notes, flagged_note, hits_frf
+from odsuite.analysis.modal_project import all_flagged, flagged_note, hit_notes, hits_frf
 from odsuite.analysis.stored_modes import IDENTIFICATION_ERRORS, identified_modes, stored_modes
 
 #: a model mode further than this (relative) from a measured one is not its partner: the model
@@ -66,7 +66,8 @@ def _shapes(model, rig, res, channel_of: dict[str, int], modes) -> tuple[np.ndar
 def identified_record(project, name: str, *, frfs: bool = True) -> tuple[FrfSet | None, object | None, list[str]]:
     """Record ``name``'s hammer FRFs over its hits (every hit, with a note, where all are flagged)
     and the modes identified from them as ``odsuite modes`` identifies them (the stored ones while
-    they hold), with notes; the modes None where they could not be identified (the note says why).
+    they hold), with notes (what its hits are told, ``modal_project.hit_notes``, as `frf`, `modes`
+    and `process` tell them); the modes None where they could not be identified (the note says why).
     ``frfs=False``: a record with stored modes has no FRFs estimated (None)."""
     exp = project.experiment(name)
     notes: list[str] = []
@@ -75,10 +76,10 @@ def identified_record(project, name: str, *, frfs: bool = True) -> tuple[FrfSet 
     try:
         if stored is None:
             frf, hits = hits_frf(exp, f"{project.path}: experiment {name!r}", flagged_too=True)
-            flagged, data_end = all_flagged(hits), data_end_notes(hits)
+            flagged, said = all_flagged(hits), hit_notes(hits, frf)
         else:
-            flagged, data_end = stored.flagged, stored.data_end
-        notes += [f"{name}: {note}" for note in data_end]
+            flagged, said = stored.flagged, stored.hit_notes
+        notes += [f"{name}: {note}" for note in said]
         if flagged:
             notes.append(f"{name}: {flagged_note(flagged)}")
         # stored by `process` while the record is unchanged

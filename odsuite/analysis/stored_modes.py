@@ -72,11 +72,11 @@ def identified_modes(project, exp, frf: FrfSet) -> ModalResult:
 class StoredModes:
     """What ``process`` stored for a record: its modes or why they could not be identified, what
     the hammer checks found wrong with its hits when every hit was flagged ("" otherwise) and what
-    the data's end did with its hits (``modal_project.data_end_notes``)."""
+    its hits are told (``modal_project.hit_notes``: the data's end, leakage)."""
 
     result: ModalResult | str
     flagged: str
-    data_end: tuple[str, ...] = ()
+    hit_notes: tuple[str, ...] = ()
 
     def modes(self) -> ModalResult:
         """The modes; a stored failure raises a ConfigError with its message."""
@@ -107,18 +107,18 @@ def store_record_modes(project, name: str) -> list[str]:
         except OdsuiteError:  # what compare does not note: left to it, as before
             return hit_notes(hits, frf)
     flagged = all_flagged(hits)
-    notes = data_end_notes(hits)
+    notes = hit_notes(hits, frf)
     if isinstance(res, str):
         project.write_derived(name, KIND, {}, provenance=_provenance(),
-                              attrs={"failure": res, "flagged": flagged, "data_end": json.dumps(notes)})
-        return hit_notes(hits, frf)
+                              attrs={"failure": res, "flagged": flagged, "hit_notes": json.dumps(notes)})
+        return notes
     project.write_derived(name, KIND, _arrays(res, frf), provenance=_provenance(),
-                          attrs={"failure": "", "flagged": flagged, "data_end": json.dumps(notes),
+                          attrs={"failure": "", "flagged": flagged, "hit_notes": json.dumps(notes),
                                  "output_names": json.dumps(res.output_names),
                                  "rejected": json.dumps(res.rejected),
                                  "band_hz": json.dumps(list(res.band_hz)),
                                  "diagram_band_hz": json.dumps(list(res.diagram.f_band))})
-    return hit_notes(hits, frf)
+    return notes
 
 
 def _provenance() -> dict:
@@ -174,10 +174,10 @@ def stored_modes(project, exp) -> StoredModes | None:
     flagged = str(attrs.get("flagged", ""))
     where = f"{project.path}: experiment {name!r}: derived {KIND!r}"
     try:
-        data_end = tuple(str(n) for n in json.loads(attrs.get("data_end", "[]")))
+        notes = tuple(str(n) for n in json.loads(attrs.get("hit_notes", "[]")))
         if attrs.get("failure"):
-            return StoredModes(str(attrs["failure"]), flagged, data_end)
-        return StoredModes(_decoded(project.read_derived(name, KIND), attrs), flagged, data_end)
+            return StoredModes(str(attrs["failure"]), flagged, notes)
+        return StoredModes(_decoded(project.read_derived(name, KIND), attrs), flagged, notes)
     except (KeyError, ValueError, TypeError) as exc:  # a group edited by hand or damaged: not modes
         raise ConfigError(f"{where}: cannot be read as modes ({type(exc).__name__}: {exc}); "
                           "run process again to store them anew") from None

@@ -1,6 +1,6 @@
 """A response still ringing at the end of its hit's record: assess_hits noted it for each hit, and
-no command printed it. frf, modes and process now say it once per record, naming the hits by their
-time and the channels with the most of their peak they kept."""
+no command printed it. frf, modes, process and compare now say it once per record, naming the hits
+by their time and the channels with the most of their peak they kept."""
 
 from __future__ import annotations
 
@@ -47,3 +47,19 @@ def test_frf_modes_and_process_say_a_records_leakage_once(tmp_path, capsys):
         f"note: {p}: experiment 'x': {NOTE}"]
     assert main(["process", str(p)]) == 0
     assert [line for line in capsys.readouterr().err.splitlines() if "ringing" in line] == [f"note (x): {NOTE}"]
+
+
+def test_compare_says_a_records_leakage_once_whether_its_modes_are_stored_or_not(tmp_path, capsys):
+    # frf, modes and process said it; compare, identifying the same record's modes, did not
+    p = _project(tmp_path)
+    for stored in (False, True):  # the modes compare identifies, then those process stored
+        if stored:
+            assert main(["process", str(p)]) == 0
+        capsys.readouterr()
+        assert main(["compare", str(p), "--json"]) == 0
+        doc = json.loads(capsys.readouterr().out)
+        assert [n for n in doc["modal_notes"] if "ringing" in n] == [f"x: {NOTE}"]
+        assert not [n for n in doc["notes"] if "ringing" in n]
+        assert main(["compare", str(p)]) == 0
+        out = " ".join(capsys.readouterr().out.split())  # its notes wrap at the terminal's width
+        assert out.count("still ringing") == 1 and f"x: {NOTE}" in out
