@@ -135,10 +135,12 @@ def weight_notes(exps: Sequence[PreparedExperiment]) -> list[str]:
 #: foam blocks (16 Hz, 20 % damping: 5.5 periods) took its 0.01 s head, and its shear and rotary
 #: inertia (+2.3 % at 3.7 kHz) was not found from a first head of 30 ms (error 0.7644 -> 0.7636
 #: instead of 0.4850)
-#: Where the first head holds more than HEAD_PERIODS periods of that mode, shorter heads come first,
-#: from half its period: a 2 kg bracket on stiff pads (306 Hz) with 1.5 kg added screened at mass
-#: scale 1.15 on its 0.01 s head (3 periods, the truth 1.75, the residual a cycle out of phase)
-#: and was not named; from 1.6 ms it reached 1.66
+#: Where the first head holds more than HEAD_PERIODS periods of the lowest mode of all (a stiff
+#: structure), shorter heads come first, from half its period: a 2 kg bracket on stiff pads (306 Hz)
+#: with 1.5 kg added screened at mass scale 1.15 on its 0.01 s head (3 periods, the truth 1.75, the
+#: residual a cycle out of phase) and was not named; from 1.6 ms it reached 1.66. A structure on soft
+#: supports keeps its heads whatever rings above them (the LADISK beam's 695 Hz bending over its 16 Hz
+#: bounce on foam; the thesis rig's 97-228 Hz, 15 % damped, with a 520 Hz plate mode fitted in)
 LONG_RECORD_PERIODS = 8.0
 HEAD_PERIODS = 2.0
 HEAD_GROWTH = 4.0
@@ -148,15 +150,17 @@ HEAD_SAMPLES = 16
 RINGING_DECAY = 1e-3
 
 
-def head_times(exps: Sequence[PreparedExperiment], slowest_hz: float | None = None) -> list[float]:
+def head_times(exps: Sequence[PreparedExperiment], slowest_hz: float | None = None,
+               lowest_hz: float | None = None) -> list[float]:
     """The heads' lengths (s after the hit): HEADS_S, and more for records long in periods of the
-    slowest mode (``slowest_hz``; LONG_RECORD_PERIODS), or shorter ones first where HEADS_S[0]
-    holds more than HEAD_PERIODS of its periods (a stiff structure)."""
+    slowest ringing mode (``slowest_hz``; LONG_RECORD_PERIODS), or shorter ones first where
+    HEADS_S[0] holds more than HEAD_PERIODS periods of the lowest mode of all (``lowest_hz``: a
+    stiff structure)."""
     times = list(HEADS_S)
-    if slowest_hz and slowest_hz * times[0] > HEAD_PERIODS:
-        # a stiff structure: from half a period of its slowest mode, where a frequency error of a
+    if lowest_hz and lowest_hz * times[0] > HEAD_PERIODS:
+        # a stiff structure: from half a period of its lowest mode, where a frequency error of a
         # quarter still leaves the residual linear in it, and never from fewer than HEAD_SAMPLES
-        short = [max(0.5 / slowest_hz, max((HEAD_SAMPLES / e.fs for e in exps), default=0.0))]
+        short = [max(0.5 / lowest_hz, max((HEAD_SAMPLES / e.fs for e in exps), default=0.0))]
         if short[0] * HEAD_GROWTH > times[0]:  # a head not much shorter than the first adds nothing
             return times
         while short[-1] * HEAD_GROWTH < times[0]:
@@ -191,13 +195,13 @@ def ringing_mode_hz(problem: Problem) -> float | None:
     return float(f.min()) if f.size else None
 
 
-def heads(exps: Sequence[PreparedExperiment], stride: int = 1, slowest_hz: float | None = None
-          ) -> list[list[PreparedExperiment]]:
+def heads(exps: Sequence[PreparedExperiment], stride: int = 1, slowest_hz: float | None = None,
+          lowest_hz: float | None = None) -> list[list[PreparedExperiment]]:
     """The experiments cut to each head_times after their hit, without their samples at rest before
     it (PreparedExperiment.resting_head: cut at a multiple of ``stride``, so a residual taken
     every ``stride`` samples keeps the whole head's samples), then whole."""
     stages = [[e.resting_head(e.trigger + int(round(t * e.fs)), stride) for e in exps]
-              for t in head_times(exps, slowest_hz)]
+              for t in head_times(exps, slowest_hz, lowest_hz)]
     return stages + [list(exps)]
 
 
@@ -1417,7 +1421,7 @@ def screen(problem: Problem, sse0: float, peaks_hz: Sequence[float]) -> Screened
     if best_fixed:
         problem = problem.derived(best_fixed)
     if problem.free:
-        stages = heads(problem.exps, problem.stride, ringing_mode_hz(problem))
+        stages = heads(problem.exps, problem.stride, ringing_mode_hz(problem), slowest_mode_hz(problem))
         first = stages[0]
         u0 = problem.zero()
         r0 = problem.residual(u0, first)
@@ -1843,7 +1847,7 @@ def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] 
     u = np.clip(u0, lo, hi)
     n = len(problem.free)
     root = np.sqrt(problem.pull) if problem.prior else None
-    stages = (heads(exps or problem.exps, problem.stride, ringing_mode_hz(problem)) if continuation
+    stages = (heads(exps or problem.exps, problem.stride, ringing_mode_hz(problem), slowest_mode_hz(problem)) if continuation
               else [list(exps or problem.exps)])
     # the cost is half the strided sum of squares, which is about the whole one over the stride
     least = 0.5 * STALL_GAIN * problem.noise_scale / problem.stride if problem.noise_scale > 0 else 0.0
