@@ -434,3 +434,105 @@ def skid_rig() -> RigBundle:
 
 
 RIGS["skid"] = skid_rig
+
+
+def gearbox_rig() -> RigBundle:
+    """A stiffly mounted drive, two rigid bodies: a 17 kg cast-iron right-angle gearbox housing
+    (0.32 x 0.24 x 0.22 m, its centre of mass low and a little off the box's centre, 0.85x a solid
+    box's inertia for the gears near its middle) bolted to a machine bed through four thin bonded
+    elastomer pads under its cast feet (15 mm with their steel plates; 40 MN/m in compression,
+    14 MN/m in shear with the bolt sleeves), and a 5 kg servo motor (0.20 x 0.12 x 0.12 m)
+    overhung from the gearbox's +x face on four elastomer flange bushings (80 MN/m along the
+    motor's axis, 25 MN/m across). Linear modes 208-1560 Hz, 1.5-3.9 % damping: the assembly
+    sliding on the pads' shear (across at 208 Hz, along at 221 Hz), the overhung motor bouncing at
+    311 Hz, the housing swaying with a twist at 317 Hz, bouncing at 491 Hz, rolling, yawing and
+    pitching at 742-1036 Hz, the motor on its bushings at 1451-1560 Hz. Sensors of
+    mixed sensitivity, 1 Hz IEPE corner: on the gearbox a 100 mV/g triaxial, a 500 mV/g z and a
+    100 mV/g y accelerometer and a 50 mV/g one on the cast chamfer of its -x top edge (its axis
+    50 degrees from vertical, in neither the x-z nor the y-z plane); on the motor a 50 mV/g
+    triaxial at its non-drive end, two 100 mV/g z at its flange end (one mounted upside down,
+    sign -1) and a 10 mV/g one pointing along -y. A load-cell hammer with a hard steel tip
+    (1.12 mV/N, 0.3 ms pulses, 50 N by default) on channel 0; a 24-bit +-10 V DAQ at 12800
+    samples/s (51.2 kHz / 4) behind an 8th-order 2.5 kHz Butterworth anti-aliasing filter
+    (-65 dB at the Nyquist frequency). The slowest mode is far above 20 Hz: the rig file keeps
+    the default processing chain. Frame: origin on the machine bed's top face under the centre
+    of the gearbox's footprint, x along the input shaft towards the motor, y across, z up.
+    Written from the rig format's description alone."""
+    g = 9.80665
+    ex, ey, ez = np.eye(3)
+    gb_size, gb_corner = (0.32, 0.24, 0.22), np.array([-0.16, -0.12, 0.015])  # on 15 mm pads
+    gb_top = gb_corner[2] + gb_size[2]
+    # the gear train sits low and towards the output side: centre of mass 25 mm below the box's centre
+    gearbox = RigidBody("gearbox", 17.0, np.array([-0.015, 0.01, 0.10]), 0.85 * box_inertia(17.0, gb_size),
+                        plate={"size": list(gb_size), "corner": gb_corner.tolist()})
+    # the motor's flange 10 mm off the gearbox's +x face (the bushings between), its axis at the
+    # input shaft's height (z = 0.13 m, y = 0.03 m); the stator makes it heavier towards the flange
+    m_size, m_corner = (0.20, 0.12, 0.12), np.array([0.17, -0.03, 0.07])
+    m_com = m_corner + np.array([0.085, 0.06, 0.06])
+    motor = RigidBody("motor", 5.0, m_com, box_inertia(5.0, m_size),
+                      plate={"size": list(m_size), "corner": m_corner.tolist()})
+    springs = []
+    for i, (sx, sy) in enumerate([(-1, -1), (1, -1), (1, 1), (-1, 1)]):
+        # feet cast on the housing's sides (15 mm outside its width); 1.9-3.8 % damping in the modes below 400 Hz
+        springs.append(Spring(f"pad{i + 1}", "gearbox", np.array([0.14 * sx, 0.135 * sy, 0.0075]),
+                              np.array([1.4e7, 1.4e7, 4.0e7]), np.array([650.0, 650.0, 600.0])))
+    for i, (sy, sz) in enumerate([(-1, -1), (1, -1), (1, 1), (-1, 1)]):
+        # a square bolt pattern 90 mm across around the motor's axis, in the gap between the faces
+        springs.append(Spring(f"bushing{i + 1}", "motor",
+                              np.array([0.165, m_com[1] + 0.045 * sy, m_com[2] + 0.045 * sz]),
+                              np.array([8.0e7, 2.5e7, 2.5e7]), np.array([200.0, 120.0, 120.0]), other="gearbox"))
+
+    accs: list[Accelerometer] = []
+    channel = 1
+
+    def triaxial(housing, body, point, sens):
+        nonlocal channel
+        for name, axis in zip("xyz", (ex, ey, ez)):
+            accs.append(Accelerometer(f"{housing}_{name}", channel, body, np.array(point, float), axis.copy(),
+                                      sens, triaxial=housing, iepe_corner_hz=1.0))
+            channel += 1
+
+    def single(name, body, point, axis, sens, sign=1.0):
+        nonlocal channel
+        accs.append(Accelerometer(name, channel, body, np.array(point, float), np.asarray(axis, float), sens,
+                                  sign=sign, iepe_corner_hz=1.0))
+        channel += 1
+
+    # gearbox: six independent directions spread over the housing (the smallest singular value of
+    # the sensors' rigid-body map 0.136 m/rad, as the other rigs' bodies of its size)
+    triaxial("gb", "gearbox", (0.13, -0.10, gb_top), 0.1 / g)  # top, at the +x -y corner
+    single("gb_z2", "gearbox", (0.13, 0.10, gb_top), ez, 0.5 / g)
+    single("gb_y2", "gearbox", (-0.12, gb_corner[1] + gb_size[1], 0.20), ey, 0.1 / g)  # on the +y face
+    # on the chamfer of the -x top edge: 50 degrees from vertical towards -x, turned 20 degrees towards +y
+    single("gb_chamfer", "gearbox", (gb_corner[0], 0.0, gb_top - 0.02),
+           _tilted_axis(50.0, [-np.cos(np.radians(20.0)), np.sin(np.radians(20.0)), 0.0]), 0.05 / g)
+    m_top = m_corner[2] + m_size[2]
+    triaxial("mot", "motor", (m_corner[0] + 0.18, m_com[1], m_top), 0.05 / g)  # at the non-drive end
+    single("mot_z2", "motor", (m_corner[0] + 0.02, m_com[1] + 0.055, m_top), ez, 0.1 / g)
+    # mounted upside down on a bracket under the flange: its output is negative along +z
+    single("mot_z3", "motor", (m_corner[0] + 0.02, m_com[1] - 0.055, m_corner[2]), ez, 0.1 / g, sign=-1.0)
+    # a 10 mV/g shock accelerometer on the -y face, pointing out
+    single("mot_y2", "motor", (m_corner[0] + 0.03, m_corner[1], m_top - 0.02), -ey, 0.01 / g)
+    hits = [
+        Hit("gearbox", np.array([-0.06, 0.05, gb_top]), -ez, 50.0, 0.3e-3),  # down on the top
+        Hit("gearbox", np.array([0.04, gb_corner[1], 0.14]), ey.copy(), 50.0, 0.3e-3),  # +y on the -y face
+        Hit("motor", np.array([m_corner[0] + m_size[0], m_com[1] + 0.01, 0.14]), -ex, 50.0, 0.3e-3),  # its end
+        Hit("motor", np.array([m_corner[0] + 0.13, m_corner[1] + 0.02, m_top]), -ez, 50.0, 0.3e-3),  # off its axis
+    ]
+    return RigBundle(
+        name="bed-gearbox",
+        description="A cast gearbox bolted to a machine bed through four stiff elastomer pads, a servo motor "
+                    "overhung on four flange bushings; mixed sensitivities, one accelerometer on a chamfer",
+        frame="origin on the machine bed's top under the gearbox's footprint centre; x along the input shaft "
+              "towards the motor, y across, z up",
+        structure=Structure([gearbox, motor], springs), accelerometers=accs,
+        force_sensor=ForceSensor("hammer", 0, 1.12e-3),
+        daq=Daq(sampling_rate=12800.0, n_samples=4096, pre_trigger=256, adc_bits=24, adc_range=(-10.0, 10.0),
+                aa_family="butter", aa_order=8, aa_cutoff_hz=2500.0),
+        hits=hits, spring_groups={"pads": [s.name for s in springs[:4]],
+                                  "bushings": [s.name for s in springs[4:]]},
+        up=ez,
+    )
+
+
+RIGS["gearbox"] = gearbox_rig
