@@ -108,7 +108,7 @@ def test_the_loop_on_the_real_beam_and_its_validation_on_a_second_hit(beam, real
     # a Timoshenko beam whose thickness is 3-4 % of its length (r/L = h/(L sqrt 12))
     assert 0.03 < np.sqrt(12 * params["beam-shear-rotary"]["gyration_ratio_sq"]) < 0.045
     # with the measured damping the first mode's amplitude misfit shows in the time-domain error
-    # (docs/beam.md: 0.4521, and 0.314 where the time-domain fit damped mode 1 at 1.12 %)
+    # (docs/beam.md: 0.4521, and 0.314 where the time-domain fit damped mode 1 at 1.03 %)
     assert fitted["error"] > 0.35
 
 
