@@ -202,8 +202,10 @@ def moved(rows: Sequence[Mapping[str, Any]], limit: int = 4) -> list[Mapping[str
         sd = r.get("uncertainty")
         return d / sd if sd else d / max(abs(r["nominal"]), 1e-300) * 1e3
     undetermined = [r for r in rows if r.get("determined", True) is False]
+    # to nine digits: two values of one parameter (a beam's radius of gyration and the height it
+    # means) score alike but for rounding, which flipped their order between runs
     out = sorted((r for r in rows if r["value"] != r["nominal"] and r.get("determined", True) is not False),
-                 key=score, reverse=True)
+                 key=lambda r: float(f"{score(r):.9g}"), reverse=True)
     return out[:limit] + undetermined
 
 
