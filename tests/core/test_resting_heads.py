@@ -117,9 +117,9 @@ def test_screening_on_resting_heads_reaches_the_same_errors(softer, monkeypatch)
     effects = ["stiffness", "mass_properties", "nonlinear_stiffness", "sensor_gain", "channel_delay"]
     rest = diagnose(project, effects=effects, prepared=[replace(e, _cache=None) for e in exps], workers=1)
 
-    def whole_heads(exps, stride=1, slowest_hz=None):
-        return ([[e.head(e.trigger + int(round(t * e.fs))) for e in exps] for t in fitting.head_times(exps, slowest_hz)]
-                + [list(exps)])
+    def whole_heads(exps, stride=1, slowest_hz=None, lowest_hz=None):
+        return ([[e.head(e.trigger + int(round(t * e.fs))) for e in exps]
+                 for t in fitting.head_times(exps, slowest_hz, lowest_hz)] + [list(exps)])
 
     monkeypatch.setattr(fitting, "heads", whole_heads)
     whole = diagnose(project, effects=effects, prepared=[replace(e, _cache=None) for e in exps], workers=1)
