@@ -130,6 +130,21 @@ noise floor's model-independent parts (the disturbance's Welch columns, its line
 witnesses) kept between the baseline's floor and the verdict's (under 1 %); a shared
 ThreadpoolController for compare's nested limit (1.7 ms).
 
+Round 51 (the search changed; the calibration was run again on it): screening repeats its first
+head's damped step while a step leaves less than half of the head's sum (fitting.HEAD_STEP_GAIN),
+made for a stiff structure's large changes. On the thesis bench the true candidate's screening then
+reaches the floor (0.0122 where it read 0.0755) and its full fit is short: 581 -> 591 evaluations,
+the stiffness fit 21 -> 7 worth, its screening 7 -> 11 (profile_diagnose_stages); the two-body
+bench's evaluations (701) and verdict the same. The nonlinear simulation's set-up writes each
+record's inputs into the kept array without whole-record temporaries (the same bits): the thesis
+bench's first set-up of its five whole records 49.5 -> 8.9 ms CPU. This code and the session's
+first (942fee7) in turn, four forked first diagnoses each (the bench's first_diagnosis), twice at
+load 0.0-0.6: thesis 1.56-1.61 / 1.56-1.61 s CPU against 1.60-1.65 / 1.60-1.74 (least worth 248 /
+257 against 255 / 254; a loaded sitting before, 241 / 254 against 266 / 256). This bench after it
+(load 0.0): thesis 256 worth (1.57 s CPU, the baseline 6.1 ms; runs 260, 265, 256), 1.1 s wall on
+two workers; two-body 218 (2.19 s, 10.0 ms), 1.7 s wall. The 250 target is met on the two-body
+bench and missed on the thesis bench in most sittings, by up to 3 %.
+
 Measured in rounds 43-45 and not done (do not redo without a new reason):
 - the phase shifts of sampled_later kept per delay, so that a delay's Jacobian, moving one
   channel at a time, would transform the others' again: no gain (channel_delay's and scan_skew's
