@@ -139,7 +139,7 @@ bench's evaluations (701) and verdict the same. The nonlinear simulation's set-u
 record's inputs into the kept array without whole-record temporaries (the same bits): the thesis
 bench's first set-up of its five whole records 49.5 -> 8.9 ms CPU. This code and the session's
 first (942fee7) in turn, four forked first diagnoses each (the bench's first_diagnosis), twice at
-load 0.0-0.6: thesis 1.56-1.61 / 1.56-1.61 s CPU against 1.60-1.65 / 1.60-1.74 (least worth 248 /
+load 0.0-0.6: thesis 1.56-1.62 / 1.56-1.61 s CPU against 1.60-1.65 / 1.60-1.74 (least worth 248 /
 257 against 255 / 254; a loaded sitting before, 241 / 254 against 266 / 256). This bench after it
 (load 0.0): thesis 256 worth (1.57 s CPU, the baseline 6.1 ms; runs 260, 265, 256), 1.1 s wall on
 two workers; two-body 218 (2.19 s, 10.0 ms), 1.7 s wall. The 250 target is met on the two-body
