@@ -1847,8 +1847,8 @@ def fit(problem: Problem, u0: np.ndarray, *, exps: Sequence[PreparedExperiment] 
     u = np.clip(u0, lo, hi)
     n = len(problem.free)
     root = np.sqrt(problem.pull) if problem.prior else None
-    stages = (heads(exps or problem.exps, problem.stride, ringing_mode_hz(problem), slowest_mode_hz(problem)) if continuation
-              else [list(exps or problem.exps)])
+    stages = (heads(exps or problem.exps, problem.stride, ringing_mode_hz(problem), slowest_mode_hz(problem))
+              if continuation else [list(exps or problem.exps)])
     # the cost is half the strided sum of squares, which is about the whole one over the stride
     least = 0.5 * STALL_GAIN * problem.noise_scale / problem.stride if problem.noise_scale > 0 else 0.0
     least = max(least, short_of)
