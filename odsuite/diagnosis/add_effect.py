@@ -22,6 +22,7 @@ from odsuite.diagnosis.fitting import (
     effective_samples,
     fit,
     fit_windows,
+    off_the_bounds,
     refined,
     screen,
     uncertainties,
@@ -142,7 +143,7 @@ def _add_effect(project, name: str, *, progress: Callable[[str, int, int], None]
         start = Problem(current, regs.effects.get(refines), windows, prior=prior, stride=stride, full=exps,
                         noise_scale=scale)
         s = screen(start, start.sse(start.zero()), peaks)
-        res = fit(s.problem, s.u0, continuation=False) if s.problem.free else None
+        res = off_the_bounds(s.problem, fit(s.problem, s.u0, continuation=False)) if s.problem.free else None
         problem, u0 = refined(s.problem, res.x if res is not None else s.problem.zero(), effect)
         return _add_on_top(project, rev, entries, name, effect, Screened(effect, problem.fixed, u0, 0.0, problem),
                            exps, before, progress)
@@ -243,7 +244,8 @@ def _add_on_top(project, rev, entries, name: str, effect, screened, exps, before
     problem = screened.problem
     if progress:
         progress(f"fitting {name}", 1, 3)
-    res = fit(problem, screened.u0, continuation=False) if problem.free else None
+    # as the diagnosis fits a candidate: off an implausible bound once (what it printed is what is stored)
+    res = off_the_bounds(problem, fit(problem, screened.u0, continuation=False)) if problem.free else None
     u = res.x if res is not None else problem.zero()
     nulls = np.zeros((len(problem.free), 0))
     if res is not None:
