@@ -47,24 +47,22 @@ def nrmse(measured: np.ndarray, predicted: np.ndarray, axis=None) -> np.ndarray 
     return np.sqrt(num / np.where(den > 0, den, np.nan))
 
 
-def band_errors(measured: np.ndarray, predicted: np.ndarray, fs: float,
-                edges: Sequence[float] = BAND_EDGES_HZ) -> tuple[list[str], np.ndarray, np.ndarray]:
-    """Per band and column: residual energy over measured energy (NRMSE in the band), and the band's
-    share of the measured energy. Parseval on the real FFT."""
+def band_energies(measured: np.ndarray, predicted: np.ndarray, fs: float,
+                  edges: Sequence[float] = BAND_EDGES_HZ) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """Per band and column: the measured energy and the residual's (Parseval on the real FFT),
+    bands x columns each. A column that never moves has a residual and no measured energy."""
     n = measured.shape[0]
     f = np.fft.rfftfreq(n, 1 / fs)
     M = np.abs(np.fft.rfft(measured, axis=0)) ** 2
     R = np.abs(np.fft.rfft(measured - predicted, axis=0)) ** 2
     edges = [e for e in edges if e < fs / 2] + [fs / 2]
-    labels, err, share = [], [], []
-    total = M.sum(axis=0)
+    labels, measured_e, residual_e = [], [], []
     for lo, hi in zip(edges[:-1], edges[1:]):
         sel = (f >= lo) & (f < hi) if hi < fs / 2 else (f >= lo)
-        m, r = M[sel].sum(axis=0), R[sel].sum(axis=0)
         labels.append(f"{lo:g}-{hi:g} Hz")
-        err.append(np.sqrt(r / np.where(m > 0, m, np.nan)))
-        share.append(m / np.where(total > 0, total, 1.0))  # a column that never moves: no share anywhere
-    return labels, np.array(err), np.array(share)
+        measured_e.append(M[sel].sum(axis=0))
+        residual_e.append(R[sel].sum(axis=0))
+    return labels, np.array(measured_e), np.array(residual_e)
 
 
 #: a residual peak is one the noise alone would reach with this probability over the whole spectrum
@@ -444,16 +442,16 @@ def _compare(project, *, experiments, revision, prepared, resonances, figures, s
         for j, s in enumerate(e.sensors):
             chan_num[s.name] = chan_num.get(s.name, 0.0) + float(np.sum((e.measured[:, j] - p[:, j]) ** 2))
             chan_den[s.name] = chan_den.get(s.name, 0.0) + float(np.sum(e.measured[:, j] ** 2))
-        labels, berr, bshare = band_errors(e.measured, p, e.fs)
-        energy = np.sum(e.measured**2, axis=0)
-        # residual energy per band and channel, summed by sensor (an experiment may leave one out)
+        # residual and measured energy per band and channel, summed by sensor (an experiment may
+        # leave one out); a channel that never moves adds its residual to the bands' pooled errors
+        labels, measured_e, residual_e = band_energies(e.measured, p, e.fs)
         if band_num is None:
             sensor_names = list(dict.fromkeys(s.name for x in exps for s in x.sensors))
             band_num = np.zeros((len(labels), len(sensor_names)))
             band_den = np.zeros_like(band_num)
         at = [sensor_names.index(s.name) for s in e.sensors]
-        band_num[:, at] += (berr**2) * bshare * energy
-        band_den[:, at] += bshare * energy
+        band_num[:, at] += residual_e
+        band_den[:, at] += measured_e
     channels = {n: float(np.sqrt(chan_num[n] / chan_den[n])) if chan_den[n] > 0 else None for n in chan_num}
     bands, worst = _tables(labels, sensor_names, band_num, band_den, channels, coords, floor) if tables else ({}, [])
     modal = modal_notes = records = None

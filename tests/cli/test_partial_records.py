@@ -13,6 +13,7 @@ import re
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from odsuite.cli import main
@@ -193,6 +194,23 @@ def test_a_response_that_never_moves_beside_live_ones_is_named_once_and_has_no_e
     assert "m1_z" not in [w["name"] for w in doc["worst"]]
     with open_project(p) as project:
         json.dumps(compare(project).as_dict(), allow_nan=False)  # no NaN for a script to trip on
+        # the pooled band errors count the still channel's residual, as the overall error does (they
+        # left it out): each band's residual over its measured energy, from the records' spectra
+        from odsuite.analysis.comparison import BAND_EDGES_HZ
+        from odsuite.analysis.prediction import prepare
+
+        cmp = compare(project)
+        (e,), (pred,) = prepare(project, None, []), cmp.predictions
+    f = np.fft.rfftfreq(e.n_samples, 1.0 / e.fs)
+    measured, residual = np.abs(np.fft.rfft(e.measured, axis=0)) ** 2, np.abs(np.fft.rfft(e.measured - pred, axis=0)) ** 2
+    still = [s.name for s in e.sensors].index("m1_z")
+    assert not e.measured[:, still].any() and residual[:, still].sum() > 1e-3 * residual.sum()  # the model moves there
+    edges = [x for x in BAND_EDGES_HZ if x < e.fs / 2] + [e.fs / 2]
+    for w in [w for w in cmp.worst if w["kind"] == "band"]:
+        lo, hi = (float(x) for x in w["name"].removesuffix(" Hz").split("-"))
+        sel = (f >= lo) & ((f < hi) if hi < edges[-1] else True)
+        assert w["error"] == pytest.approx(np.sqrt(residual[sel].sum() / measured[sel].sum()), rel=1e-9)
+        assert w["residual_share"] == pytest.approx(residual[sel].sum() / residual.sum(), rel=1e-9)
     assert main(["compare", str(p)]) == 0
     out = capsys.readouterr().out
     assert not re.search(r"\bnan\b", out) and " ".join(out.split()).count(_still_line(p)) == 1
