@@ -317,14 +317,16 @@ def by_sensor(exps: Sequence, bands: Sequence[tuple[float, float]] = ()) -> dict
     return out
 
 
-def gains(colours: Mapping[str, Colour], exp, f: np.ndarray) -> np.ndarray | None:
+def gains(colours: Mapping[str, Colour], exp, f: np.ndarray, longest: int | None = None) -> np.ndarray | None:
     """Per frequency ``f`` (Hz) and sensor of ``exp``, the factor on its white noise's density:
     the fitted density over its mean between the first line its longest quiet stretch shows and
     Nyquist (the quiet samples' variance is about that mean), at least one; None when every
-    sensor's noise is white."""
+    sensor's noise is white. ``longest``: the longest quiet stretch (samples) of the records the
+    colour was pooled over, where not ``exp``'s own."""
     if not any(s.name in colours for s in exp.sensors):
         return None
-    longest = max((b - a for a, b in quiet_stretches(exp)), default=exp.n_samples)
+    if longest is None:
+        longest = max((b - a for a, b in quiet_stretches(exp)), default=exp.n_samples)
     seen = np.fft.rfftfreq(longest, 1.0 / exp.fs)[1:]
     # below the first line any quiet stretch shows no band is judged: the law is not carried
     # there (a 1/f^2 law gave 2.5-5 Hz factors of 10-213, raising the floor's pooled energy,

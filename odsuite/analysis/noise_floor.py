@@ -522,6 +522,11 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
         colours = noise_colour.by_sensor(exps, band_edges(exps[0].fs, exps[0].n_samples) if exps else ())
     known = all(getattr(e, "quiet_tail", -1) >= 0 for e in exps)
     stretches = witnesses(exps) if known else None
+    # records that start at their hit: the colour is their tails' pooled (_tail_colours) and their
+    # bands are judged on every record's stretches (witnesses), so it is carried down as far in
+    # each record (else a 0.013 s tail left a 0.06 s one's 10-40 Hz colour unused beside it)
+    longest = None if any(noise_colour.has_pre_hit_lines(e) for e in exps) else max(
+        (b - a for e in exps for a, b in noise_colour.quiet_stretches(e)), default=None)
     for e in exps:
         n = e.n_samples
         white = np.asarray(e.noise_var, float)
@@ -534,7 +539,7 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
             broadband = white * n + n_active * (active_var(white, lsb) - white)
         # the sensors' noise rises at low frequency where the samples before the hit say so
         # (noise_colour): its expected energy per line, coloured, and the broadband energy with it
-        colour = noise_colour.gains(colours, e, np.fft.rfftfreq(n, 1.0 / e.fs))
+        colour = noise_colour.gains(colours, e, np.fft.rfftfreq(n, 1.0 / e.fs), longest)
         sensor_lines = None
         if spectra or colour is not None:
             if simulated:
@@ -569,10 +574,10 @@ def estimate(exps: Sequence, impulses: Mapping[str, np.ndarray] | None = None,
             if simulated:
                 psd = np.mean([next(spectra_of) for _ in simulated], axis=0)
                 if colour is not None:
-                    psd = psd * noise_colour.gains(colours, e, f)
+                    psd = psd * noise_colour.gains(colours, e, f, longest)
             else:  # one-sided density whose integral is the per-sample variance
                 flat = np.tile(broadband / n * 2.0 / e.fs, (len(f), 1))
-                psd = flat if colour is None else _coloured(flat, noise_colour.gains(colours, e, f))
+                psd = flat if colour is None else _coloured(flat, noise_colour.gains(colours, e, f, longest))
             if e.disturbance is not None:
                 psd = psd + next(spectra_of)
             if h is not None:

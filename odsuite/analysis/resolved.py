@@ -21,6 +21,7 @@ band's lines) when they are fewer than the floor's.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -29,7 +30,7 @@ import numpy as np
 import scipy.special
 import scipy.stats
 
-from odsuite.analysis.noise_floor import FLOOR_TOLERANCE, NoiseFloor, band_slices, line_energies
+from odsuite.analysis.noise_floor import FLOOR_TOLERANCE, RESOLVING_LINES, NoiseFloor, band_slices, line_energies
 
 #: probability that noise at the floor puts any cell of a comparison above its limit
 DETECTION_FALSE_ALARM = 0.01
@@ -107,6 +108,22 @@ class Resolved:
         """The largest sqrt(residual / floor) energy ratio of any judged cell (a finite limit)."""
         judged = [q[np.isfinite(lim)] for q, lim in zip(self.ratios(), self.limit)]
         return float(max((np.sqrt(np.max(q)) for q in judged if q.size), default=0.0))
+
+
+def judged_on_one_stretch(res: Resolved, stretches: Sequence[np.ndarray]) -> Resolved:
+    """``res`` with the bands no single quiet stretch resolves (``stretches``: each one's usable
+    lines, Hz, noise_floor.witnesses) not judged: their limits move to the unjudged ones. Lines
+    pooled over the records' tails judge a band none of them holds a period of: 0.05 s tails at
+    5120 Hz, one 20 Hz line each, measured a floor's vibration at 12.5-25 Hz as 5-20x weaker than
+    the 0.4 s records hold it (their first line takes most of a slow wave as a trend)."""
+    limit, unjudged = [], []
+    for bands, lim, was in zip(res.bands, res.limit, res.unjudged_limit or [None] * len(res.limit)):
+        shown = np.array([any(np.count_nonzero((lines >= lo) & (lines < hi)) >= RESOLVING_LINES
+                              for lines in stretches) for lo, hi in bands])
+        limit.append(np.where(shown[:, None], lim, np.inf))
+        moved = np.where(shown[:, None], np.inf, lim)
+        unjudged.append(moved if was is None else np.minimum(was, moved))
+    return dataclasses.replace(res, limit=limit, unjudged_limit=unjudged)
 
 
 def _per_band(e, prediction: np.ndarray, edges: Sequence[tuple[float, float]]) -> list[np.ndarray]:

@@ -49,12 +49,16 @@ class Signature:
     # the unjudged cells are above a white floor, and within the noise the records' quiet tails show
     # (records that start at their hit: no samples before it tell the noise's colour)
     tails_hold: bool = False
+    # ... and the unjudged cells lie in bands no single quiet tail holds two lines of: the tails
+    # cannot show the noise there (they hold less than a period of it)
+    tails_short: bool = False
 
     def as_dict(self) -> dict[str, Any]:
         return {"bands": self.bands, "channels": self.channels, "experiments": self.experiments,
                 "peaks_hz": self.peaks_hz, "amplitude_dependent": self.amplitude_dependent,
                 "cells": self.cells, "strongest_cell_to_floor": self.strongest_cell,
-                "unjudged_cells": self.unjudged, "unjudged_as_the_tails_hold": self.tails_hold}
+                "unjudged_cells": self.unjudged, "unjudged_as_the_tails_hold": self.tails_hold,
+                "unjudged_as_the_tails_are_short": self.tails_short}
 
 
 def signature(exps: Sequence, predictions: Sequence[np.ndarray], floor: NoiseFloor,
@@ -199,6 +203,17 @@ def message(verdict: str, baseline: float, floor: float, best, sig: Signature, r
         c = sig.cells[0]
         head += (f"; by channel and band, {c['channel']} in {c['experiment']} at {c['band_hz'][0]:g}-"
                  f"{c['band_hz'][1]:g} Hz is {c['residual_to_floor']:.3g}x the floor there")
+    if verdict == "nothing to explain" and sig.tails_short and sig.unjudged:
+        c = sig.unjudged[0]
+        return (f"{head}; by channel and band, {c['channel']} in {c['experiment']} at {_band(c)} Hz is "
+                f"{c['residual_to_floor']:.3g}x the floor the records' quiet tails show there (limit "
+                f"{c['limit']:.3g}x), and no candidate effect removes more of it than that noise allows. But "
+                f"no tail holds two lines of that band, so the tails cannot show the noise there: a band of noise "
+                f"(a floor's vibration, a sensor's noise rising at low frequency) and a model error read the same "
+                f"in records that start at their hit, and that band is not judged. Elsewhere no band of any "
+                f"channel exceeds the floor the tails show (the strongest is {sig.strongest_cell:.2f}x), so these "
+                f"data show nothing the model lacks that they can tell. "
+                f"{_record_before(c, 'judge that band').capitalize()}")
     if verdict == "nothing to explain" and sig.tails_hold and sig.unjudged:
         c = sig.unjudged[0]
         return (f"{head}; by channel and band, {c['channel']} in {c['experiment']} at {_band(c)} Hz is "

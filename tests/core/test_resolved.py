@@ -172,3 +172,29 @@ def test_the_residual_energies_alone_are_resolves_and_parsevals():
         assert a.sum(axis=0) == pytest.approx(np.sum(r**2, axis=0) - spec[0], rel=1e-12)
     assert resolved.residual_energies(exps, preds, NoiseFloor({}, {})) is None
 
+
+
+def test_a_band_no_single_stretch_holds_two_lines_of_is_not_judged_on_one_stretch():
+    # a sinusoid at 15 Hz in one channel: found in its band; stretches of 0.05 s (lines every 20 Hz)
+    # hold one line of 12.5-25 Hz each, so there it moves to the unjudged cells, limit and all; a
+    # stretch of 0.2 s (5 Hz lines) holds three, and keeps it judged
+    floor = _white_floor(SIGMA)
+    exps = _null(np.random.default_rng(7))
+    t = np.arange(N) / FS
+    for e in exps:
+        e.measured[:, 1] += 0.2 * np.sin(2 * np.pi * 15.0 * t)
+    zeros = [np.zeros((N, CHANNELS))] * EXPERIMENTS
+    res = resolved.resolve(exps, zeros, floor)
+    band = [i for i, (lo, hi) in enumerate(res.bands[0]) if lo <= 15.0 < hi][0]
+    assert res.detected() and {(c["channel"], c["band_hz"][0]) for c in res.cells()} == {("c1", res.bands[0][band][0])}
+    short = [np.arange(1, 10) * 20.0] * 4  # four tails of 0.05 s: 20, 40, ... Hz
+    moved = resolved.judged_on_one_stretch(res, short)
+    assert not moved.detected()
+    assert [c["channel"] for c in moved.unjudged()] == ["c1"] * EXPERIMENTS
+    for before, after, gone in zip(res.limit, moved.limit, moved.unjudged_limit):
+        assert np.all(np.isinf(after[band])) and np.array_equal(gone[band], before[band])
+        keep = np.arange(len(before)) != band
+        shown = np.array([np.count_nonzero((short[0] >= lo) & (short[0] < hi)) >= 2 for lo, hi in res.bands[0]])
+        assert np.array_equal(np.isfinite(after[:, 0]), shown) and np.array_equal(after[keep & shown], before[keep & shown])
+    long = [np.arange(1, 40) * 5.0]
+    assert resolved.judged_on_one_stretch(res, long).detected()
