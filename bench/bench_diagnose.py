@@ -23,7 +23,7 @@ seconds compare best across runs and wall times only on a quiet machine. A chang
 evaluation cheaper (the compiled recursions below) lowers the baseline as much as diagnose, and
 the worth column then rises although everything is faster.
 
-How it is measured since round 43: each rig's diagnosis runs RUNS times per number of workers,
+How it was measured in rounds 43-51: each rig's diagnosis runs RUNS times per number of workers,
 each in a process forked from the state the baseline left (the code loaded and the caches as the
 baseline's evaluations filled them: a first diagnosis, as a command's), and the least CPU and
 wall are judged, as the baseline's least round is; every run's CPU and worth are printed. The
@@ -144,6 +144,21 @@ load 0.0-0.6: thesis 1.56-1.62 / 1.56-1.61 s CPU against 1.60-1.65 / 1.60-1.74 (
 (load 0.0): thesis 256 worth (1.57 s CPU, the baseline 6.1 ms; runs 260, 265, 256), 1.1 s wall on
 two workers; two-body 218 (2.19 s, 10.0 ms), 1.7 s wall. The 250 target is met on the two-body
 bench and missed on the thesis bench in most sittings, by up to 3 %.
+
+Round 52 (no change to the search; the measure): each first diagnosis runs in a fresh interpreter
+that opens the project, prepares its records and measures the baseline itself, where it ran in a
+process forked from the bench's (``--fork`` still does). The forked child wrote to pages it shared
+with its parent, each a copy-on-write fault no command pays: 24,000 minor faults in a forked thesis
+diagnosis, and the same diagnosis read 1.66-1.69 s CPU forked against 1.44-1.55 s in the process
+that measured the baseline (three pairs in turn). The worth divides by the least baseline of the
+diagnoses' own processes: measured in the bench's process after the thesis rig's diagnoses, the
+two-body evaluation read 13.7-21.8 ms where a process of its own reads 10-12.5 ms, which flattered
+its worth. Three sittings at load 0.5-0.9, the least of three runs each: thesis 233 / 231 / 228
+worth (runs 228-276; 1.43-1.46 s CPU, the baseline 6.3 ms), two-body 240 / 234 / 215 (runs 215-253;
+2.12-2.40 s, 9.4-10.0 ms); forked in the same sitting, thesis 263 (1.74 s). Not in either: a command
+diagnosing cold (`odsuite diagnose`, nothing evaluated before in its process) spends 1.94-2.07 s CPU
+in diagnose on the thesis rig, of which 0.31 s imports diagnose makes lazily and 0.24 s loading five
+compiled recursions from numba's cache, besides preparing the records.
 
 Measured in rounds 43-45 and not done (do not redo without a new reason):
 - the phase shifts of sampled_later kept per delay, so that a delay's Jacobian, moving one
@@ -480,6 +495,7 @@ import json
 import math
 import os
 import resource
+import subprocess
 import sys
 import tempfile
 import time
@@ -552,10 +568,11 @@ def one_evaluation(project, exps, rounds: int = 5, reps: int = 10) -> tuple[floa
     return best_wall, best_cpu
 
 
-#: diagnoses timed per rig and number of workers, each in a process forked from the state the
-#: baseline left (a first diagnosis there, as a command's: the same work every time); the least
-#: is judged, as the baseline's least round is. On this kind of machine one diagnosis's CPU moved
-#: 1.6-2.8 s from run to run for the same work (thesis bench, load below 1.5), the baseline's 6.3-9.5 ms
+#: diagnoses timed per rig and number of workers, each in a fresh interpreter that loads the project
+#: and runs the baseline's evaluations first (a first diagnosis, as a command's: the same work every
+#: time); the least is judged, as the baseline's least round is. On this kind of machine one
+#: diagnosis's CPU moved 1.6-2.8 s from run to run for the same work (thesis bench, load below 1.5),
+#: the baseline's 6.3-9.5 ms
 RUNS = 3
 
 
@@ -571,11 +588,10 @@ def timed_diagnosis(p, exps, workers: int) -> dict:
             "after": float(top.error_after), "floor": float(d.noise_floor_error)}
 
 
-def first_diagnosis(p, exps, workers: int) -> dict:
-    """timed_diagnosis in a forked process: the caches and loaded code as they are here, and left
-    as they are for the next (without fork, on Windows: in this process, where its caches stay)."""
-    if not hasattr(os, "fork"):
-        return timed_diagnosis(p, exps, workers)
+def forked_diagnosis(p, exps, workers: int) -> dict:
+    """timed_diagnosis in a process forked from this one (the measure before round 52, ``--fork``):
+    the child writes to pages it shares with this process, each a copy-on-write fault no command
+    pays (24,000 on the thesis bench, 0.1-0.2 s of its CPU)."""
     read, write = os.pipe()
     pid = os.fork()
     if pid == 0:  # the child: diagnose, report, leave without running the parent's exit handlers
@@ -599,14 +615,43 @@ def first_diagnosis(p, exps, workers: int) -> dict:
     return json.loads(text)
 
 
-def run(path: Path, label: str, target: float, workers: tuple[int, ...]) -> None:
+def first_diagnosis(path: Path, workers: int) -> dict:
+    """timed_diagnosis of the project at ``path`` in a fresh interpreter, after it has prepared the
+    records and measured the baseline there (the code loaded and the caches filled by its
+    evaluations): a command's first diagnosis, with the baseline of its own process (``one``,
+    ``one_cpu``). The baseline measured in the bench's own process after the thesis rig's
+    diagnoses read the two-body evaluation at 13.7-21.8 ms where a process of its own reads 11-12.5."""
+    proc = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--first", str(path), str(workers)],
+                          capture_output=True, text=True)
+    if proc.returncode != 0 or not proc.stdout.strip():
+        lines = proc.stderr.strip().splitlines()
+        raise SystemExit(f"bench: a diagnosis failed in its process: {lines[-1] if lines else proc.returncode}")
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def _first_here(path: Path, workers: int) -> None:
+    """The fresh interpreter's part of first_diagnosis: one JSON line on stdout."""
+    with threadpool_limits(1), open_project(path) as p:
+        exps = prepare(p)
+        one, one_cpu = one_evaluation(p, exps)
+        print(json.dumps({**timed_diagnosis(p, exps, workers), "one": one, "one_cpu": one_cpu}))
+
+
+def run(path: Path, label: str, target: float, workers: tuple[int, ...], fork: bool = False) -> None:
     with open_project(path) as p:
         exps = prepare(p)
         one, one_cpu = one_evaluation(p, exps)
-        runs = {w: [first_diagnosis(p, exps, w) for _ in range(RUNS)] for w in workers}
+        if fork:
+            runs = {w: [forked_diagnosis(p, exps, w) for _ in range(RUNS)] for w in workers}
+    here = ""
+    if not fork:  # the project closed here: each interpreter opens it itself
+        runs = {w: [first_diagnosis(path, w) for _ in range(RUNS)] for w in workers}
+        here = f" (the least in the diagnoses' processes; here {1e3 * one_cpu:.1f} ms CPU)"
+        one = min(g["one"] for got in runs.values() for g in got)
+        one_cpu = min(g["one_cpu"] for got in runs.values() for g in got)
     n_eff = len(registries().effects.names())
     print(f"{label}: {len(exps)} experiments x {exps[0].n_samples} samples, {n_eff} effects registered")
-    print(f"  one evaluation (baseline) {1e3 * one:.1f} ms wall, {1e3 * one_cpu:.1f} ms CPU")
+    print(f"  one evaluation (baseline) {1e3 * one:.1f} ms wall, {1e3 * one_cpu:.1f} ms CPU{here}")
     for w, got in runs.items():
         wall, cpu = min(g["wall"] for g in got), min(g["cpu"] for g in got)
         cpus = ", ".join(f"{g['cpu']:.2f}" for g in got)
@@ -627,14 +672,18 @@ def run(path: Path, label: str, target: float, workers: tuple[int, ...]) -> None
 
 
 def main() -> None:
+    if sys.argv[1:2] == ["--first"]:
+        _first_here(Path(sys.argv[2]), int(sys.argv[3]))
+        return
+    fork = "--fork" in sys.argv[1:]  # each diagnosis in a process forked from this one, as before round 52
     # everything on one BLAS thread, as diagnose runs: a project simulated on two left OpenBLAS's
     # second thread spinning through the baseline, whose CPU then read 1.7x its wall time (15.7 ms
     # for 9.3 ms) and flattered the worth column by as much
     with tempfile.TemporaryDirectory() as tmp, threadpool_limits(1):
         thesis = make_project(Path(tmp) / "thesis.odsp", [("stiffness", CASES["stiffness"])])
-        run(thesis, "thesis rig", 3.0, (1, 2))
+        run(thesis, "thesis rig", 3.0, (1, 2), fork)
         machine = two_body_project(Path(tmp) / "two-body.odsp")
-        run(machine, "two-body machine", 5.0, (1, 2))
+        run(machine, "two-body machine", 5.0, (1, 2), fork)
 
 
 if __name__ == "__main__":
