@@ -185,6 +185,29 @@ def _unjudged(sig: Signature) -> str:
             f"that band is not judged. {_record_before(c, 'judge it').capitalize()}")
 
 
+def _tails_decided(head: str, sig: Signature) -> str:
+    """The words where the records' quiet tails decided "nothing to explain" (records that start
+    at their hit: diagnose._held_by_tails), on the strongest cell they left unjudged."""
+    c = sig.unjudged[0]
+    cell = f"{head}; by channel and band, {c['channel']} in {c['experiment']} at {_band(c)} Hz is {c['residual_to_floor']:.3g}x"
+    if sig.tails_short:
+        why = (f"{cell} the floor the records' quiet tails show there (limit {c['limit']:.3g}x), and no candidate "
+               f"effect removes more of it than that noise allows. But no tail holds two lines of that band, so the "
+               f"tails cannot show the noise there: a band of noise (a floor's vibration, a sensor's noise rising at "
+               f"low frequency) and a model error read the same in records that start at their hit, and that band "
+               f"is not judged. Elsewhere no band of any channel exceeds the floor the tails show")
+        bands = "judge that band"
+    else:
+        why = (f"{cell} the floor a white noise would leave there (limit {c['limit']:.3g}x), and no candidate effect "
+               f"removes a significant part of it. But the model's residual on the records' quiet tails holds as "
+               f"much there: a band of noise (a sensor's noise rising at low frequency, a floor's vibration) or a "
+               f"model error that lasts into the tails, which records that start at their hit cannot tell apart. "
+               f"Against the noise the tails show, no band of any channel exceeds its floor")
+        bands = "judge those bands"
+    return (f"{why} (the strongest is {sig.strongest_cell:.2f}x), so these data show nothing the model lacks that "
+            f"they can tell. {_record_before(c, bands).capitalize()}")
+
+
 def _band(cell: dict[str, Any]) -> str:
     lo, hi = cell["band_hz"]
     return f"{lo:g}-{hi:g}"
@@ -203,27 +226,8 @@ def message(verdict: str, baseline: float, floor: float, best, sig: Signature, r
         c = sig.cells[0]
         head += (f"; by channel and band, {c['channel']} in {c['experiment']} at {c['band_hz'][0]:g}-"
                  f"{c['band_hz'][1]:g} Hz is {c['residual_to_floor']:.3g}x the floor there")
-    if verdict == "nothing to explain" and sig.tails_short and sig.unjudged:
-        c = sig.unjudged[0]
-        return (f"{head}; by channel and band, {c['channel']} in {c['experiment']} at {_band(c)} Hz is "
-                f"{c['residual_to_floor']:.3g}x the floor the records' quiet tails show there (limit "
-                f"{c['limit']:.3g}x), and no candidate effect removes more of it than that noise allows. But "
-                f"no tail holds two lines of that band, so the tails cannot show the noise there: a band of noise "
-                f"(a floor's vibration, a sensor's noise rising at low frequency) and a model error read the same "
-                f"in records that start at their hit, and that band is not judged. Elsewhere no band of any "
-                f"channel exceeds the floor the tails show (the strongest is {sig.strongest_cell:.2f}x), so these "
-                f"data show nothing the model lacks that they can tell. "
-                f"{_record_before(c, 'judge that band').capitalize()}")
     if verdict == "nothing to explain" and sig.tails_hold and sig.unjudged:
-        c = sig.unjudged[0]
-        return (f"{head}; by channel and band, {c['channel']} in {c['experiment']} at {_band(c)} Hz is "
-                f"{c['residual_to_floor']:.3g}x the floor a white noise would leave there (limit {c['limit']:.3g}x), "
-                f"and no candidate effect removes a significant part of it. But the model's residual on the "
-                f"records' quiet tails holds as much there: a band of noise (a sensor's noise rising at low "
-                f"frequency, a floor's vibration) or a model error that lasts into the tails, which records that "
-                f"start at their hit cannot tell apart. Against the noise the tails show, no band of any channel "
-                f"exceeds its floor (the strongest is {sig.strongest_cell:.2f}x), so these data show nothing the "
-                f"model lacks that they can tell. {_record_before(c, 'judge those bands').capitalize()}")
+        return _tails_decided(head, sig)
     if verdict == "nothing to explain" and sig.strongest_cell is not None:
         if sig.unjudged:
             return (f"{head}; no band the noise is measured in exceeds what noise, hum and quantisation leave "
