@@ -6,6 +6,9 @@ from pathlib import Path
 
 import pytest
 
+# the shared command-line helper asserts like a test module does, its failures showing the values
+pytest.register_assert_rewrite("tests.cli.clirun")
+
 REPO = Path(__file__).resolve().parents[1]
 #: Real recordings from other labs, kept in the repository with their origin and licence
 #: (tests/data/real/README.md).

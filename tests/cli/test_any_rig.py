@@ -9,15 +9,9 @@ from pathlib import Path
 import numpy as np
 import scipy.linalg
 
-from odsuite.cli import main
+from tests.cli.clirun import run
 
 RIG = Path(__file__).resolve().parents[2] / "projects" / "rigs" / "two-body-machine.toml"
-
-
-def run(capsys, *args) -> tuple[int, str, str]:
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_two_body_rig_loads_with_its_springs_and_triaxials(registries):

@@ -8,17 +8,10 @@ import json
 
 import pytest
 
-from odsuite.cli import main
 from odsuite.analysis.noise_floor import FLOOR_TOLERANCE
+from tests.cli.clirun import run_ok as run
 
 pytestmark = pytest.mark.slow
-
-
-def run(capsys, *args) -> str:
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    assert code == 0, err
-    return out
 
 
 def _loop(capsys, tmp_path, case_name: str, seed: int):

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from odsuite import cli
-from odsuite.cli import main
 from odsuite_plugins.importers.legacy import read_cod, write_dat
 from odsuite.store.project import DerivedArray, open_project
+from tests.cli.clirun import run
 from tests.conftest import REPO
 from tests.core.test_legacy_import import legacy_volts
 from tests.core.test_systeminfo import TABLE_E3
@@ -24,12 +24,6 @@ RIG_TOML = REPO / "plugins" / "models" / "rigs" / "thesis-dynamometer.toml"
 def wide_console(monkeypatch):
     # one table row per line, whatever terminal the tests run in
     monkeypatch.setattr(cli.console, "width", 200)
-
-
-def run(capsys, *args) -> tuple[int, str, str]:
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture

@@ -10,17 +10,12 @@ import pytest
 from odsuite import cli
 from odsuite.cli import main
 from odsuite.domain.version import __version__
+from tests.cli.clirun import run
 
 
 @pytest.fixture(autouse=True)
 def wide_console(monkeypatch):
     monkeypatch.setattr(cli.console, "width", 200)
-
-
-def run(capsys, *args) -> tuple[int, str, str]:
-    code = main([str(a) for a in args])
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 def test_version_and_completion(capsys):

@@ -17,15 +17,9 @@ import json
 from pathlib import Path
 
 from odsuite.cli import main
+from tests.cli.clirun import run_ok as run
 
 RIG = Path(__file__).resolve().parents[1] / "data" / "rigs" / "undamped-block.toml"
-
-
-def run(capsys, *args) -> str:
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    assert code == 0, err
-    return out
 
 
 def test_an_undamped_null_has_nothing_to_explain(tmp_path, capsys):

@@ -8,15 +8,9 @@ from pathlib import Path
 
 import pytest
 
-from odsuite.cli import main
+from tests.cli.clirun import run
 
 RIG_FILE = Path(__file__).resolve().parents[2] / "projects" / "rigs" / "two-body-machine.toml"
-
-
-def run(capsys, *args) -> tuple[int, str, str]:
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture

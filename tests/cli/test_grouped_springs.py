@@ -10,18 +10,11 @@ from pathlib import Path
 
 import pytest
 
-from odsuite.cli import main
+from tests.cli.clirun import run_ok as run
 
 RIG = Path(__file__).resolve().parents[2] / "examples" / "rigs" / "plate-and-motor.toml"
 HITS = [("0,0,75", "-z"), ("250,150,75", "-z"), ("-250,-100,75", "-z"), ("0,200,60", "-y")]
 EFFECTS = ["stiffness", "spring_stiffness", "mass_properties"]
-
-
-def run(capsys, *args) -> str:
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    assert code == 0, err
-    return out
 
 
 def test_a_softer_mount_of_a_group_is_found_and_fixed(capsys, tmp_path):

@@ -8,16 +8,9 @@ from pathlib import Path
 
 import pytest
 
-from odsuite.cli import main
+from tests.cli.clirun import run_ok as run
 
 RIG_FILE = Path(__file__).resolve().parents[2] / "projects" / "rigs" / "two-body-machine.toml"
-
-
-def run(capsys, *args) -> str:
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    assert code == 0, err
-    return out
 
 
 def test_info_lists_bodies_springs_and_solvers(capsys, tmp_path):

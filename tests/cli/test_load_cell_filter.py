@@ -11,15 +11,9 @@ import json
 from pathlib import Path
 
 from odsuite.cli import main
+from tests.cli.clirun import run_ok as run
 
 RIG = Path(__file__).resolve().parents[1] / "data" / "rigs" / "stiff-bracket.toml"
-
-
-def run(capsys, *args) -> str:
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    assert code == 0, err
-    return out
 
 
 def test_a_low_passed_load_cell_leaves_the_prediction_unfiltered(tmp_path, capsys):

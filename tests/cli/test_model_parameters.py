@@ -8,13 +8,7 @@ import re
 import pytest
 
 from odsuite.cli import main
-
-
-def run(capsys, *args) -> str:
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    assert code == 0, err
-    return out
+from tests.cli.clirun import run_ok as run
 
 
 def damped_project(capsys, tmp_path):

@@ -13,16 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from odsuite.cli import main
+from tests.cli.clirun import run
 
 RIG = Path(__file__).resolve().parents[2] / "examples" / "rigs" / "plate-and-motor.toml"
 SHORT = ["--samples", "1024"]
-
-
-def run(capsys, *args) -> tuple[int, str, str]:
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture

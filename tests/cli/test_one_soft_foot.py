@@ -11,16 +11,9 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from odsuite.cli import main
+from tests.cli.clirun import run_ok as run
 
 RIGS = Path(__file__).resolve().parents[1] / "data" / "rigs"
-
-
-def run(capsys, *args) -> str:
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    assert code == 0, err
-    return out
 
 
 def test_one_softer_foot_of_a_group_is_found_and_explained(tmp_path, capsys):

@@ -11,19 +11,12 @@ from pathlib import Path
 
 import pytest
 
-from odsuite.cli import main
+from tests.cli.clirun import run_ok as run
 
 pytestmark = pytest.mark.slow
 RIGS = Path(__file__).resolve().parents[2] / "projects" / "rigs"
 #: the thesis rig and its Systeminfo ship once, with the models plugin that registers them
 PLUGIN_RIGS = Path(__file__).resolve().parents[2] / "plugins" / "models" / "rigs"
-
-
-def run(capsys, *args) -> str:
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    assert code == 0, err
-    return out
 
 
 def test_thesis_rig_stiffer_vertical_springs_are_found_and_fixed(capsys, tmp_path):

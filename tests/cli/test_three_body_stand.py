@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import scipy.linalg
 
-from odsuite.cli import main
+from tests.cli.clirun import run
 
 RIG = Path(__file__).resolve().parents[1] / "data" / "rigs" / "three-body-stand.toml"
 # the rig file's numbers: masses (kg), vertical stiffness and damping of each link of the chain
@@ -25,12 +25,6 @@ def chain(links: np.ndarray) -> np.ndarray:
     """The 3 x 3 matrix of springs (or dampers) ground - frame - pedestal - head."""
     a, b, c = links
     return np.array([[a + b, -b, 0.0], [-b, b + c, -c], [0.0, -c, c]])
-
-
-def run(capsys, *args) -> tuple[int, str, str]:
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_the_vertical_chain_is_three_of_the_models_modes(registries):

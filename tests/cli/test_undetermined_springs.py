@@ -10,18 +10,11 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from odsuite.cli import main
+from tests.cli.clirun import run_ok as run
 
 RIGS = Path(__file__).resolve().parents[1] / "data" / "rigs"
 HITS = [("h1", "-300mm,80mm,470mm", "-z"), ("h2", "-500mm,150mm,100mm", "+x"),
         ("h3", "300mm,100mm,300mm", "-y"), ("h4", "450mm,-200mm,150mm", "-z")]
-
-
-def run(capsys, *args) -> str:
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    assert code == 0, err
-    return out
 
 
 def test_only_what_the_data_determine_of_six_isolators_is_printed(capsys, tmp_path):
