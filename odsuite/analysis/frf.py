@@ -22,8 +22,8 @@ ESTIMATORS = ("H1", "H2", "Hv")
 #: units a force record may be in (the FRF's unit is the response's over it)
 FORCE_UNITS = ("N", "kN", "mN", "lbf")
 #: SI units a response record may be in: a sensor type's (the trend correction needs m/s^2 as
-#: such, and a g or mm/s would be stored as if SI) or a velocity's
-RESPONSE_UNITS = tuple(dict.fromkeys([unit for _, unit in SENSOR_UNITS.values()] + ["m/s"]))
+#: such, and a g or mm/s would be stored as if SI)
+RESPONSE_UNITS = tuple(dict.fromkeys(unit for _, unit in SENSOR_UNITS.values()))
 #: power of (i omega) that turns a receptance (displacement/force) into each FRF form
 FORM_POWER = {"receptance": 0, "mobility": 1, "accelerance": 2}
 #: an FRF line counts as determined by the record where the records' straight-line trends leak

@@ -32,9 +32,9 @@ def physical(exp) -> np.ndarray:
     return exp.raw() * _scale(exp)
 
 
-#: sensor types whose channels are structural responses (an open input, an auxiliary signal or a
-#: load cell is not)
-RESPONSE_TYPES = (SensorType.ACCELEROMETER, SensorType.PROXIMITY, SensorType.VOLTAGE)
+#: sensor types whose channels are structural responses (an open input, an auxiliary signal, a
+#: load cell or a sound pressure is not)
+RESPONSE_TYPES = (SensorType.ACCELEROMETER, SensorType.PROXIMITY, SensorType.VOLTAGE, SensorType.VELOCITY)
 
 
 def response_columns(exp) -> list[int]:

@@ -25,7 +25,8 @@ from odsuite.domain.textfiles import read_text
 
 
 class SensorType(IntEnum):
-    """Table E.2 row 0 (code 6, an auxiliary channel in Table E.3, is erratum 9)."""
+    """Table E.2 row 0 (code 6, an auxiliary channel in Table E.3, is erratum 9); 7 and 8 are
+    odsuite's, for records imported in m/s and Pa (no thesis sensor measures them)."""
 
     NONE = 0
     LOADCELL = 1
@@ -33,6 +34,8 @@ class SensorType(IntEnum):
     VOLTAGE = 3
     ACCELEROMETER = 4
     AUXILIARY = 6
+    VELOCITY = 7
+    PRESSURE = 8
 
 
 class Integration(IntEnum):
@@ -57,6 +60,8 @@ SENSOR_UNITS: dict[SensorType, tuple[str, str]] = {
     SensorType.VOLTAGE: ("voltage", "V"),
     SensorType.ACCELEROMETER: ("acceleration", "m/s^2"),
     SensorType.AUXILIARY: ("voltage", "V"),
+    SensorType.VELOCITY: ("velocity", "m/s"),
+    SensorType.PRESSURE: ("pressure", "Pa"),
 }
 
 

@@ -19,25 +19,25 @@ from odsuite_plugins.importers.rig_import import names_the_rig, onto_rig
 from odsuite_plugins.importers.tables import UNITS, _list, _listed, check_names, check_values, unit_key
 
 
-def check_units(names: list[str], units: list[str], where: str, kept: tuple[str, ...] = ()) -> None:
-    """Refuse a unit label none of UNITS nor ``kept`` (labels stored at scale 1 without a sensor; an
-    empty one is a column without a unit): 'mg', 'kN' or 'mm/s^2' stored as they are would be read
-    at the wrong scale."""
+def check_units(names: list[str], units: list[str], where: str) -> None:
+    """Refuse a unit label none of UNITS (an empty one is a column without a unit): 'mg', 'kN' or
+    'mm/s^2' stored as they are would be read at the wrong scale."""
     for n, u in zip(names, units):
-        if u.strip() and unit_key(u) not in UNITS and unit_key(u) not in [unit_key(k) for k in kept]:
-            also = f" ({', '.join(kept)} kept as they are)" if kept else ""
-            raise ConfigError(f"{where}: channel {n!r}: unit {u!r} is not one of m/s^2, g, N, V{also}")
+        if u.strip() and unit_key(u) not in UNITS:
+            raise ConfigError(f"{where}: channel {n!r}: unit {u!r} is not one of m/s^2, g, N, V")
 
 
-def force_index(names: list[str], units: list[str], force_channel: str | None, where: str) -> int | None:
+def force_index(names: list[str], units: list[str], force_channel: str | None, where: str,
+                table: dict = UNITS) -> int | None:
     """The force channel's column: ``force_channel`` (a column's name), else the one column in
     newtons or named like a force; None when no column is one (an operating record: responses
-    only). A column whose unit says it is a response is never taken as the force."""
+    only). A column whose unit (read in ``table``) says it measures something else is never taken
+    as the force."""
     if force_channel is not None:
         if force_channel not in names:
             raise ConfigError(f"{where}: no channel {force_channel!r}; channels are {_listed(names)}")
         k = names.index(force_channel)
-        stype = UNITS.get(unit_key(units[k]), (SensorType.NONE, 1.0))[0]
+        stype = table.get(unit_key(units[k]), (SensorType.NONE, 1.0))[0]
         if stype not in (SensorType.LOADCELL, SensorType.NONE, SensorType.VOLTAGE):
             raise ConfigError(f"{where}: --force-channel {force_channel!r} is in {units[k]!r}, a response, "
                               "not a force")

@@ -69,7 +69,8 @@ class UffFunction:
     ref_node: int = 0
     ref_dir: int = 0
     description: str = ""
-    unit_exponents: tuple[int, int] = (0, 0)  # record 8: the ordinate's length and force units exponents
+    unit_exponents: tuple[int, int] = (0, 0)  # record 9: the ordinate's length and force units exponents
+    dataset: int = 0  # its number in the file read (from 1), for messages; 0: not read from a file
 
     @property
     def is_time(self) -> bool:
@@ -214,6 +215,7 @@ def read_uff(path: str | Path) -> UffContent:
                     description=str(s.get("id2", "")).strip(),
                     unit_exponents=(int(s.get("ordinate_len_unit_exp", 0) or 0),
                                     int(s.get("ordinate_force_unit_exp", 0) or 0)),
+                    dataset=k + 1,
                 )
             )
         elif t in (15, 2411):

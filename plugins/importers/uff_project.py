@@ -16,7 +16,7 @@ import numpy as np
 from odsuite.api import write_output
 from odsuite.api import ConfigError
 from odsuite.api import physical
-from odsuite_plugins.importers.columns import check_units, force_index, operating_note
+from odsuite_plugins.importers.columns import force_index, operating_note
 from odsuite.api import DerivedArray, Excitation, Project, open_project
 from odsuite.api import Rig
 from odsuite_plugins.importers.rig_import import columns_to_channels, name_key, names_the_rig, onto_rig
@@ -36,9 +36,13 @@ from odsuite_plugins.importers.uff import (
 )
 from odsuite.api import __version__
 
-#: ordinate labels of a record stored as it is, at scale 1 without a sensor: UFF's "not specified"
-#: and SI units odsuite has no sensor type for (pyuff's samples record sound pressure in Pa)
-UFF_KEPT_UNITS = ("NONE", "Pa", "m", "m/s")
+#: ordinate units labels (record 9 field 6, as ``unit_key`` spells them) of a record stored
+#: without a rig -> (sensor type, V per SI unit): the other importers' and the SI units of records
+#: other tools write (pyuff's samples hold a microphone's pressure in Pa), each in its own quantity
+UFF_UNITS = UNITS | {"pa": (SensorType.PRESSURE, 1.0), "m": (SensorType.PROXIMITY, 1.0),
+                     "m/s": (SensorType.VELOCITY, 1.0)}
+#: UFF's "not specified": stored without a sensor
+UFF_UNSPECIFIED = ("", "none")
 
 #: Corners of a plate's top face (body z points down into the plate: z = 0 is the top) in drawing order.
 _TOP_FACE = ("FLL", "FRL", "RRL", "RLL")
@@ -160,7 +164,7 @@ def _import_records(project, uff_path: Path, name: str, content, records: list[U
                               f"record {first.name!r} every {dt!r} s")
         names.append(f.name if f.name and f.name != "NONE" else f"ch{k}")
     units = [f.unit for f in records]
-    fidx = force_index(names, units, force_channel, str(uff_path))
+    fidx = force_index(names, units, force_channel, str(uff_path), UFF_UNITS)
     if fidx is None:
         fidx = _reference_index(records, names, str(uff_path))
     with open_project(project) as p:
@@ -181,13 +185,12 @@ def _import_records(project, uff_path: Path, name: str, content, records: list[U
     if fidx is None:
         notes += (operating_note(str(uff_path), names, units),)
     fs = _sampling_rate(dt)
-    check_units(names, units, str(uff_path), kept=UFF_KEPT_UNITS)
+    kinds = _record_units(uff_path, records, UFF_UNITS, UFF_UNSPECIFIED, "m/s^2, g, N, V, Pa, m, m/s or NONE")
     raw = np.column_stack([f.data for f in records]).astype(float)
     # values in engineering units, not volts: converter limits well above the peaks, so no false clipping
     limits = np.maximum(10.0, np.ceil(2 * np.abs(raw).max(axis=0)))
     channels = []
-    for k, (n, u) in enumerate(zip(names, units, strict=True)):
-        stype, sens = UNITS.get(unit_key(u), (SensorType.NONE, 1.0))
+    for k, (n, (stype, sens)) in enumerate(zip(names, kinds, strict=True)):
         if k == fidx:
             stype, sens = SensorType.LOADCELL, 1.0
         channels.append(ChannelInfo(sensor_type=stype, location=n, sensitivity=sens, sampling_rate=fs,
@@ -204,6 +207,21 @@ def _import_records(project, uff_path: Path, name: str, content, records: list[U
             _store_frfs(p, name, frfs, uff_path)
     stored = f"{len(records)} time record{'s' * (len(records) > 1)} as experiment {name!r}"
     return stored + (f", {len(frfs)} FRFs" if frfs else ""), notes
+
+
+def _record_units(uff_path: Path, records: list[UffFunction], table: dict, unspecified: tuple[str, ...],
+                  listed: str) -> list[tuple[SensorType, float]]:
+    """Each record's (sensor type, V per SI unit) from its ordinate units label: in ``table``, or
+    without a sensor when ``unspecified``; another label is refused naming its dataset (a unit of
+    another scale, 'mg' or 'kN', stored at scale 1 would be read 1000 times off)."""
+    out = []
+    for f in records:
+        key = unit_key(f.unit)
+        if key not in table and key not in unspecified:
+            raise ConfigError(f"{uff_path}: dataset {f.dataset} (58 {f.name!r}) record 9 field 6 (ordinate units "
+                              f"label): {f.unit!r} is not one of {listed}")
+        out.append(table.get(key, (SensorType.NONE, 1.0)))
+    return out
 
 
 #: Dataset 58 record 7 holds the sampling interval with 6 significant digits (E13.5), so 1/5120 s
@@ -285,6 +303,8 @@ def _import_onto_rig(project, rig: Rig, uff_path: Path, name: str, content, reco
         if hit is not None:
             point = hit[0] if point is None else point
             direction = hit[1] if direction is None else direction
+    # the labels onto_rig reads (an empty one as volts), another refused naming its dataset
+    _record_units(uff_path, [records[k] for k in sorted(mapping)], UNITS, ("",), "m/s^2, g, N or V (on a rig)")
     data = np.column_stack([f.data for f in records]).astype(float) * signs
     rec = onto_rig(rig, names, [f.unit for f in records], data, fs, where, point, direction,
                    force_body=force_body, mapping=mapping, what="time record")

@@ -191,7 +191,7 @@ def test_response_units_are_checked_in_one_line():
     """A text was split into letters (five outputs took 'm/s^2' as five units), a number raised a
     TypeError and a g was stored as if SI: each is refused naming estimate_frf and the value."""
     one, three = [np.ones(8)], [np.ones((8, 3))]
-    expected = "a list of {} SI units, one per response (V, N, m, m/s^2, m/s)"
+    expected = "a list of {} SI units, one per response (V, N, m, m/s^2, m/s, Pa)"
     for responses, units, n in ((three, 5, 3), ([np.ones((8, 5))], "m/s^2", 5), (three, ["g"] * 3, 3),
                                 (three, ["m/s^2"] * 2, 3), (one, [None], 1), (one, {"a": "m"}, 1)):
         with pytest.raises(ConfigError) as info:

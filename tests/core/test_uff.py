@@ -278,7 +278,10 @@ def _imported_without_rig(tmp_path, unit: str):
                                               ("m/s^2", [0.5, 1.5, 0.1, 0.0], "ACCELEROMETER"),
                                               ("m/s²", [0.5, 1.5, 0.1, 0.0], "ACCELEROMETER"),
                                               ("N", [0.5, 1.5, 0.1, 0.0], "LOADCELL"),
-                                              ("Pa", [0.5, 1.5, 0.1, 0.0], "NONE")])
+                                              ("Pa", [0.5, 1.5, 0.1, 0.0], "PRESSURE"),
+                                              ("m", [0.5, 1.5, 0.1, 0.0], "PROXIMITY"),
+                                              ("m/s", [0.5, 1.5, 0.1, 0.0], "VELOCITY"),
+                                              ("NONE", [0.5, 1.5, 0.1, 0.0], "NONE")])
 def test_a_uff_record_without_a_rig_is_stored_in_si(tmp_path, unit, si, sensor):
     assert _imported_without_rig(tmp_path, unit) == (pytest.approx(si, rel=1e-15), sensor)
 
@@ -288,8 +291,8 @@ def test_a_uff_record_without_a_rig_in_a_unit_of_another_scale_is_refused(tmp_pa
     # stored as volts at scale 1 (no sensor): 1.5 mg read as 1.5 instead of 0.0147 m/s^2
     with pytest.raises(ConfigError) as info:
         _imported_without_rig(tmp_path, unit)
-    assert str(info.value) == (f"{tmp_path / 'r.uff'}: channel 'acc': unit {unit!r} is not one of m/s^2, g, N, V "
-                               "(NONE, Pa, m, m/s kept as they are)")
+    assert str(info.value) == (f"{tmp_path / 'r.uff'}: dataset 2 (58 'acc') record 9 field 6 (ordinate units label): "
+                               f"{unit!r} is not one of m/s^2, g, N, V, Pa, m, m/s or NONE")
     from odsuite.store.project import open_project
 
     with open_project(tmp_path / "p.h5") as p:
@@ -348,3 +351,90 @@ def test_in_other_units_only_volts_and_unitless_records_are_imported(tmp_path):
         import_uff(tmp_path / "p.h5", uff, "h")
     uff = _in_units_of(tmp_path / "si.uff", [time_function("acc", data, 1e-3, "m/s^2")], 9, "US: user", 1.0, 1.0)
     import_uff(tmp_path / "p.h5", uff, "si")
+
+
+def _pyuff_time_record(name: str, data: np.ndarray, dt: float, spec: int, exps: tuple[int, int], label: str,
+                       node: int) -> dict:
+    """A dataset 58 time record written by pyuff itself (record 9: specific data type, length and
+    force exponents, units label), not by odsuite's write_uff."""
+    return pyuff.prepare_58(
+        binary=0, id1=name, id2="NONE", id3="NONE", id4="NONE", id5="NONE", func_type=1, ver_num=0, load_case_id=0,
+        rsp_ent_name="NONE", rsp_node=node, rsp_dir=3, ref_ent_name="NONE", ref_node=0, ref_dir=0, ord_data_type=4,
+        num_pts=data.size, abscissa_spacing=1, abscissa_min=0.0, abscissa_inc=dt, z_axis_value=0.0,
+        abscissa_spec_data_type=17, abscissa_len_unit_exp=0, abscissa_force_unit_exp=0, abscissa_temp_unit_exp=0,
+        abscissa_axis_units_lab="s", ordinate_spec_data_type=spec, ordinate_len_unit_exp=exps[0],
+        ordinate_force_unit_exp=exps[1], ordinate_temp_unit_exp=0, ordinate_axis_units_lab=label,
+        orddenom_spec_data_type=0, orddenom_len_unit_exp=0, orddenom_force_unit_exp=0, orddenom_temp_unit_exp=0,
+        orddenom_axis_units_lab="NONE", z_axis_spec_data_type=0, z_axis_len_unit_exp=0, z_axis_force_unit_exp=0,
+        z_axis_temp_unit_exp=0, z_axis_axis_units_lab="NONE", data=data, x=np.arange(data.size) * dt,
+        return_full_dict=True)
+
+
+def _three_quantities(path, pressure_label: str = "Pa") -> dict[str, np.ndarray]:
+    """An acceleration (m/s^2), a force (N) and a microphone's pressure (Pa) in an SI file."""
+    t = np.arange(512) / 2048.0
+    arrays = {"acc": 3.25 * np.sin(2 * np.pi * 40 * t), "force": 120.0 * np.exp(-((t - 0.01) / 1e-3) ** 2),
+              "mic": 0.8125 * np.sin(2 * np.pi * 100 * t + 0.3)}
+    sets = [pyuff.prepare_164(units_code=1, units_description="SI", temp_mode=2, length=1.0, force=1.0, temp=1.0,
+                              temp_offset=273.15, return_full_dict=True),
+            _pyuff_time_record("acc", arrays["acc"], t[1], 12, (1, 0), "m/s^2", 1),
+            _pyuff_time_record("force", arrays["force"], t[1], 13, (0, 1), "N", 2),
+            _pyuff_time_record("mic", arrays["mic"], t[1], 15, (-2, 1), pressure_label, 3)]
+    path.write_bytes(b"")
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")
+    return arrays
+
+
+def test_each_record_keeps_its_quantity_and_si_unit(tmp_path, capsys):
+    """A microphone's record in Pa was stored as a channel without a sensor, which odsuite reports
+    in volts; each record keeps its quantity and SI unit (checked against the arrays pyuff wrote)."""
+    import json
+
+    from odsuite.analysis.modal_project import physical
+    from odsuite.cli import main
+    from odsuite.store.project import open_project
+
+    arrays = _three_quantities(tmp_path / "r.uff")
+    p = tmp_path / "p.h5"
+    assert main(["new", str(p), "--rig", "none"]) == 0
+    assert main(["import", str(p), str(tmp_path / "r.uff"), "--name", "e"]) == 0
+    capsys.readouterr()
+    assert main(["info", str(p), "--json"]) == 0
+    peak = json.loads(capsys.readouterr().out)["experiments"]["e"]["peak"]
+    units = {"acc": "m/s^2", "force": "N", "mic": "Pa"}
+    assert {n: u for n, (_, u) in peak.items()} == units
+    for n, a in arrays.items():
+        assert peak[n][0] == pytest.approx(np.abs(a).max(), rel=1e-10)
+    with open_project(p) as project:
+        exp = project.experiment("e")
+        assert [(c.quantity, c.unit) for c in exp.systeminfo.channels] == [
+            ("acceleration", "m/s^2"), ("force", "N"), ("pressure", "Pa")]
+        np.testing.assert_allclose(physical(exp), np.column_stack(list(arrays.values())), rtol=1e-11, atol=1e-13)
+
+
+def test_a_record_in_a_unit_odsuite_cannot_use_is_refused_in_one_line(tmp_path, capsys):
+    from odsuite.cli import main
+
+    _three_quantities(tmp_path / "r.uff", pressure_label="dB")
+    p = tmp_path / "p.h5"
+    assert main(["new", str(p), "--rig", "none"]) == 0
+    before = p.read_bytes()
+    capsys.readouterr()
+    assert main(["import", str(p), str(tmp_path / "r.uff"), "--name", "e"]) == 1
+    err = capsys.readouterr().err
+    assert err == (f"error: {tmp_path / 'r.uff'}: dataset 4 (58 'mic') record 9 field 6 (ordinate units label): "
+                   "'dB' is not one of m/s^2, g, N, V, Pa, m, m/s or NONE\n")
+    assert p.read_bytes() == before
+
+
+def test_a_pressure_record_is_not_taken_as_the_force(tmp_path, capsys):
+    # a record without a sensor could be named the force: the microphone's Pa was stored as N
+    from odsuite.cli import main
+
+    _three_quantities(tmp_path / "r.uff")
+    p = tmp_path / "p.h5"
+    assert main(["new", str(p), "--rig", "none"]) == 0
+    capsys.readouterr()
+    assert main(["import", str(p), str(tmp_path / "r.uff"), "--name", "e", "--force-channel", "mic"]) == 1
+    assert capsys.readouterr().err == (f"error: {tmp_path / 'r.uff'}: --force-channel 'mic' is in 'Pa', a response, "
+                                       "not a force\n")

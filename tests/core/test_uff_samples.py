@@ -54,6 +54,8 @@ def test_time_files_are_operating_records(samples, empty, capsys, stem):
         assert SensorType.LOADCELL not in [c.sensor_type for c in exp.systeminfo.channels]
         if first is not None:
             assert exp.raw()[0, 0] == pytest.approx(first, rel=1e-5, abs=1e-12)
+        if stem.startswith("Sample_UFF58"):  # a microphone's record: its unit label says Pa
+            assert exp.systeminfo.channels[0].unit == "Pa"
 
 
 def test_geometry_files_are_nodes(samples, empty, capsys):
