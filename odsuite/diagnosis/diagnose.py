@@ -1312,11 +1312,13 @@ def _conclude(d: Diagnosis, cmp, base, exps, before=None, res0=None) -> None:
         # a gain against the white floor where the tails' noise holds every cell is that noise's:
         # the model's residual has no excess left to take (a floor's vibration at 12.5-25 Hz, a
         # mode fitted to it "significant" in 2 of 12 nulls recorded from their hit)
+        held_where = ("every cell of the model's residual but in bands no tail holds two lines of" if short
+                      else "every cell of the model's residual")
         for c in d.candidates:
             if c.significant:
                 c.significant = False
-                c.evidence += ("; not significant against the noise the records' quiet tails show, which "
-                               "holds every cell of the model's residual")
+                c.evidence += (f"; not significant against the noise the records' quiet tails show, which "
+                               f"holds {held_where}")
     # the residuals' spectra the peaks took serve the signature
     sig_before = signature(exps, before, cmp.floor, d.residual_peaks, amplitude, res0,
                            cmp.residual_spectra if before is cmp.predictions else None)
