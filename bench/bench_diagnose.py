@@ -591,7 +591,9 @@ def timed_diagnosis(p, exps, workers: int) -> dict:
 def forked_diagnosis(p, exps, workers: int) -> dict:
     """timed_diagnosis in a process forked from this one (the measure before round 52, ``--fork``):
     the child writes to pages it shares with this process, each a copy-on-write fault no command
-    pays (24,000 on the thesis bench, 0.1-0.2 s of its CPU)."""
+    pays (24,000 on the thesis bench, 0.1-0.2 s of its CPU). Without fork: in this process."""
+    if not hasattr(os, "fork"):
+        return timed_diagnosis(p, exps, workers)
     read, write = os.pipe()
     pid = os.fork()
     if pid == 0:  # the child: diagnose, report, leave without running the parent's exit handlers
